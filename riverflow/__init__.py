@@ -1,0 +1,50 @@
+"""riverflow: real-time flowing rivers for 3-D games and simulators.
+
+A re-implementation of Proland's river plugin and of Yu et al., *Scalable Real-Time Animation
+of Rivers* (Eurographics 2009): a procedural, divergence-free velocity field computed locally
+from the river banks, wave sprites carried by screen-space particles, and a water surface
+blended from those sprites.
+
+Public API (SPEC §6)::
+
+    import riverflow as rf
+    graph = rf.load_graph(path)            # any Proland hydro-graph variant; raises rf.GraphError
+    rf.save_graph(graph, path)             # ASCII basic variant; load(save(g)) == g
+    scene = rf.default_scene(seed=0)       # built-in landscape: scene.graph, scene.terrain
+    field = rf.FlowField(graph, slip=1.0, search_radius_factor=5.0)
+    status, velocity = field.query(xy)     # (N,) uint8 FlowStatus, (N, 2) float32 [m/s]
+    psi = field.potential(xy)              # (N,) float64, NaN outside the water
+
+Names are imported lazily so that ``import riverflow`` stays cheap and never touches OpenGL.
+"""
+from __future__ import annotations
+
+from importlib import import_module
+from typing import Any
+
+from riverflow.components.status import FlowStatus
+from riverflow.hydro.graph import Area, Curve, CurveType, GraphError, HydroGraph
+
+__version__ = "0.1.0"
+
+_LAZY = {
+    "load_graph": "riverflow.hydro.io",
+    "save_graph": "riverflow.hydro.io",
+    "validate_graph": "riverflow.hydro.validate",
+    "ValidationIssue": "riverflow.hydro.validate",
+    "RiverNetworkBuilder": "riverflow.hydro.builder",
+    "FlowField": "riverflow.hydro.flow_field",
+    "default_scene": "riverflow.scenes.default",
+    "Scene": "riverflow.scenes.default",
+}
+
+__all__ = ["FlowStatus", "Area", "Curve", "CurveType", "GraphError", "HydroGraph", *_LAZY]
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'riverflow' has no attribute {name!r}")
+    value = getattr(import_module(module), name)
+    globals()[name] = value
+    return value
