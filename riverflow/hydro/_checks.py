@@ -1,0 +1,159 @@
+"""Property checks of a built hydro graph (reference §1.2 rules 1-7).
+
+:func:`graph_problems` returns a list of human-readable problems, empty when the graph has
+water on the left of every bank (its axis lies on its left, and exterior loops run
+counter-clockwise, island loops clockwise), equal ψ where banks meet, axes that cover their
+banks, continuous area loops, banks that do not cross and, when the branches are given, a ψ
+difference across each branch equal to its discharge with the larger ψ on the right.
+The builder runs it on everything it makes; the tests run it too.
+"""
+from __future__ import annotations
+
+import numpy as np
+import shapely
+from shapely.geometry import LineString, MultiLineString
+
+from riverflow.hydro.graph import HydroGraph
+
+
+def _signed_area(loop: np.ndarray) -> float:
+    x, y = loop[:, 0], loop[:, 1]
+    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
+
+
+def area_loop(graph: HydroGraph, area: int) -> np.ndarray:
+    """The closed polyline of an area (M, 2) [m], first point not repeated."""
+    parts = []
+    for c, o in graph.areas[area].curves:
+        v = graph.vertices(c)
+        parts.append((v[::-1] if o else v)[:-1])
+    return np.vstack(parts)
+
+
+def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6) -> list[str]:
+    """Check a builder-made graph. ``branches``: optional [(centre line (K, 2), widths (K,)
+    or None, discharge m²/s)] drawn downstream (widths may be omitted as a 2-tuple)."""
+    problems: list[str] = []
+    curves = graph.curves
+    banks = graph.banks()
+    for i in banks:
+        c = curves[i]
+        if not c.has_potential:
+            problems.append(f"bank {i} has no potential")
+        if not (0 <= c.river < len(curves)) or not curves[c.river].is_axis:
+            problems.append(f"bank {i} is not linked to an axis (river={c.river})")
+    # equal psi at nodes
+    for n, inc in enumerate(graph.incident_curves()):
+        values = {curves[c].potential for c in inc if curves[c].is_bank}
+        if len(values) > 1:
+            problems.append(f"node {n}: banks meeting there have different ψ {sorted(values)}")
+    # areas continuous and oriented (exterior CCW, islands CW)
+    for a, area in enumerate(graph.areas):
+        ends = []
+        for c, o in area.curves:
+            s, e = curves[c].start, curves[c].end
+            ends.append((e, s) if o else (s, e))
+        for k in range(len(ends)):
+            if ends[k][1] != ends[(k + 1) % len(ends)][0]:
+                problems.append(f"area {a}: curve {area.curves[k][0]} does not join the next one")
+                break
+    loops = [area_loop(graph, a) for a in range(len(graph.areas))]
+    polys = [shapely.Polygon(lp) for lp in loops if len(lp) >= 3]
+    for a, lp in enumerate(loops):
+        sa = _signed_area(lp)
+        inside_other = any(j != a and polys[j].contains(shapely.Point(lp[0])) and
+                           _signed_area(loops[j]) > 0 for j in range(len(polys)))
+        if sa > 0 and inside_other:
+            problems.append(f"area {a}: counter-clockwise loop inside another area")
+        if sa < 0 and not inside_other:
+            problems.append(f"area {a}: clockwise loop that is not an island (water on its right)")
+    # water on the left of every bank: a point just left of each segment is in the water
+    # described by the areas and a point just right is not; the linked axis lies on the left
+    # of every shore bank (island loops may straddle their axis: their test is the first one)
+    water = shapely.difference(shapely.union_all([p for p, lp in zip(polys, loops) if _signed_area(lp) > 0]),
+                               shapely.union_all([p for p, lp in zip(polys, loops) if _signed_area(lp) < 0]))
+    in_hole = {c for a, lp in enumerate(loops) if _signed_area(lp) < 0 for c, _ in graph.areas[a].curves}
+    for i in banks:
+        c = curves[i]
+        if not (0 <= c.river < len(curves)):
+            continue
+        v = graph.vertices(i)
+        d = np.diff(v, axis=0)
+        length = np.hypot(d[:, 0], d[:, 1])
+        ok = length > 1e-6
+        d, length = d[ok], length[ok]
+        mid = 0.5 * (v[:-1] + v[1:])[ok]
+        nrm = np.stack([-d[:, 1], d[:, 0]], axis=1) / length[:, None]
+        eps = np.minimum(0.1 * length, 0.05)[:, None]
+        left = shapely.contains_xy(water, *(mid + eps * nrm).T)
+        right = shapely.contains_xy(water, *(mid - eps * nrm).T)
+        if not left.all() or right.any():
+            problems.append(f"bank {i}: water is not on its left at {int((~left | right).sum())} of "
+                            f"{len(left)} segments")
+        axis = LineString(graph.vertices(c.river))
+        if i not in in_hole:
+            q = shapely.get_coordinates(shapely.shortest_line(shapely.points(mid), axis))[1::2]
+            to = q - mid
+            cross = d[:, 0] * to[:, 1] - d[:, 1] * to[:, 0]
+            bad = cross < -1e-9 * length * np.hypot(to[:, 0], to[:, 1])
+            if bad.any():
+                problems.append(f"bank {i}: its axis {c.river} lies on its right at {int(bad.sum())} "
+                                f"of {len(bad)} segments (water must be on the left)")
+        reach = float(shapely.distance(shapely.points(v), axis).max())
+        if reach > 0.5 * curves[c.river].width_m + 1e-6:
+            problems.append(f"bank {i}: {reach:.2f} m from axis {c.river}, which covers only "
+                            f"{0.5 * curves[c.river].width_m:.2f} m")
+    # no crossing banks (banks and closing segments may only touch at their end nodes)
+    lines = [graph.vertices(i) for i, c in enumerate(curves) if not c.is_axis]
+    if not MultiLineString([ln for ln in lines if len(ln) >= 2]).is_simple:
+        problems.append("banks or closing segments cross each other")
+    if branches:
+        problems += _discharge_problems(graph, branches, rel_tol)
+    return problems
+
+
+def _discharge_problems(graph: HydroGraph, branches, rel_tol: float) -> list[str]:
+    """ψ(right bank) − ψ(left bank) = discharge at the middle of every branch."""
+    problems = []
+    bank_ids = graph.banks()
+    lines = [LineString(graph.vertices(i)) for i in bank_ids]
+    tree = shapely.STRtree(lines)
+    for k, br in enumerate(branches):
+        line, q = np.asarray(br[0], dtype=float), br[-1]
+        widths = br[1] if len(br) == 3 else None
+        found = []
+        for f in (0.3, 0.5, 0.7):
+            o, n = _station(line, f)
+            psi = [_bank_psi(graph, bank_ids, lines, tree, o, sign * n, widths) for sign in (1.0, -1.0)]
+            if not np.isnan(psi).any():
+                found.append(psi[1] - psi[0])
+        if not found:
+            problems.append(f"branch {k}: no banks found across its middle")
+        for dpsi in found:
+            if not abs(dpsi - q) <= rel_tol * max(1.0, abs(q)):
+                problems.append(f"branch {k}: ψ(right) − ψ(left) = {dpsi:g}, discharge {q:g}")
+                break
+    return problems
+
+
+def _station(line: np.ndarray, fraction: float) -> tuple[np.ndarray, np.ndarray]:
+    """Point (2,) and unit left normal (2,) at an arc-length fraction of a polyline (K, 2)."""
+    seg = np.hypot(*np.diff(line, axis=0).T)
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    j = int(np.clip(np.searchsorted(s, fraction * s[-1], side="right") - 1, 0, len(seg) - 1))
+    u = (fraction * s[-1] - s[j]) / seg[j]
+    t = (line[j + 1] - line[j]) / seg[j]
+    return line[j] + u * (line[j + 1] - line[j]), np.array([-t[1], t[0]])
+
+
+def _bank_psi(graph, bank_ids, lines, tree, origin, direction, widths) -> float:
+    """ψ of the bank a ray from the centre line meets (the outer bank when widths are known:
+    the farthest hit within 1.25 half-widths, which skips free islands on the way)."""
+    reach = 1.25 * 0.5 * float(np.max(widths)) + 1.0 if widths is not None else 1e5
+    ray = LineString([origin, origin + direction * reach])
+    hits = tree.query(ray, predicate="intersects")
+    if len(hits) == 0:
+        return np.nan
+    dist = [shapely.distance(shapely.Point(origin), ray.intersection(lines[h])) for h in hits]
+    pick = hits[int(np.argmax(dist))] if widths is not None else hits[int(np.argmin(dist))]
+    return graph.curves[bank_ids[pick]].potential

@@ -1,0 +1,280 @@
+"""Hydro-graph assembly for :mod:`riverflow.hydro.builder`: ψ of the boundary pieces, axes,
+bank curves split by nearest axis, closing segments, nodes and areas (reference §1.2).
+
+The boundary pieces (stretches of water outline between closing segments, and whole island
+loops) are the nodes of a small graph whose edges are the branches: facing downstream,
+ψ(right piece) − ψ(left piece) = the branch's discharge. ψ is solved by breadth-first search
+from 0 on one piece, checked around every loop, and shifted so that its minimum is 0.
+"""
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+from shapely.geometry import LineString, Point
+
+from riverflow.hydro._strips import Piece, Ring
+from riverflow.hydro.graph import NO_CURVE, NO_POTENTIAL, Area, Curve, CurveType, GraphError, HydroGraph
+
+AXIS_WIDTH_FACTOR = 1.1
+"""Axis width = largest river width along it × this + AXIS_MARGIN_M (reference rule 1)."""
+AXIS_MARGIN_M = 1.0
+AXIS_SPLIT_RATIO = 0.25
+"""A branch's axis is split where its width differs from the axis start by more than this."""
+_STATIONS = (0.2, 0.35, 0.5, 0.65, 0.8)
+
+
+@dataclass
+class BranchGeometry:
+    """A branch after junction snapping: centre line (K, 2) and widths (K,) [m], discharge
+    [m²/s], start / end junction index (-1 = free end) and, once built, its strip polygon."""
+
+    name: str
+    centerline_m: np.ndarray
+    widths_m: np.ndarray
+    discharge_m2s: float
+    start_junction: int
+    end_junction: int
+    strip: shapely.Geometry | None = None
+
+    def station(self, fraction: float) -> tuple[np.ndarray, np.ndarray, float]:
+        """Point (2,), unit left normal (2,) and half-width [m] at an arc-length fraction."""
+        p = self.centerline_m
+        seg = np.hypot(*np.diff(p, axis=0).T)
+        s = np.concatenate([[0.0], np.cumsum(seg)])
+        target = fraction * s[-1]
+        k = int(np.clip(np.searchsorted(s, target, side="right") - 1, 0, len(seg) - 1))
+        u = (target - s[k]) / seg[k]
+        t = (p[k + 1] - p[k]) / seg[k]
+        h = 0.5 * ((1 - u) * self.widths_m[k] + u * self.widths_m[k + 1])
+        return p[k] + u * (p[k + 1] - p[k]), np.array([-t[1], t[0]]), h
+
+
+def _first_hit(origin: np.ndarray, direction: np.ndarray, reach_m: float,
+               lines: list, tree: shapely.STRtree) -> int:
+    """Index of the first of ``lines`` crossed by a ray, or the nearest one if none is."""
+    ray = LineString([origin, origin + direction * reach_m])
+    o = Point(origin)
+    hits = tree.query(ray, predicate="intersects")
+    if len(hits) == 0:
+        return int(tree.query_nearest(shapely.Point(origin + direction * reach_m))[0])
+    d = [shapely.distance(o, ray.intersection(lines[i])) for i in hits]
+    return int(hits[int(np.argmin(d))])
+
+
+def _branch_sides(geoms: list[BranchGeometry], pieces: list[Piece], island_of: dict[int, int]
+                  ) -> list[tuple[int, int]]:
+    """(left piece, right piece) of each branch, facing downstream (majority over stations)."""
+    ids = [i for i in range(len(pieces)) if i not in island_of]
+    lines = [pieces[i].line() for i in ids]
+    tree = shapely.STRtree(lines)
+    sides = []
+    for g in geoms:
+        votes: list[tuple[int, int]] = []
+        for f in _STATIONS:
+            p, n, h = g.station(f)
+            left = ids[_first_hit(p, n, 1.5 * h + 1.0, lines, tree)]
+            right = ids[_first_hit(p, -n, 1.5 * h + 1.0, lines, tree)]
+            votes.append((left, right))
+        best = max(set(votes), key=lambda v: (votes.count(v), -votes.index(v)))
+        if best[0] == best[1]:
+            raise GraphError(f"branch {g.name!r}: both of its banks belong to one continuous "
+                             f"shore; its strip probably overlaps another branch")
+        sides.append(best)
+    return sides
+
+
+def _solve_potentials(geoms, sides, pieces, island_of) -> np.ndarray:
+    """ψ of every non-island piece [m²/s], minimum 0 in each connected network."""
+    adj: dict[int, list[tuple[int, float, int]]] = {}
+    for b, (l, r) in enumerate(sides):
+        q = geoms[b].discharge_m2s
+        adj.setdefault(l, []).append((r, q, b))
+        adj.setdefault(r, []).append((l, -q, b))
+    psi = np.full(len(pieces), np.nan)
+    for i, piece in enumerate(pieces):
+        if i not in island_of and i not in adj:
+            x, y = piece.points.mean(axis=0)
+            raise GraphError(f"the water has a shore near ({x:.1f}, {y:.1f}) that no branch runs "
+                             f"along (a branch loops onto itself or branches overlap)")
+    for start in sorted(adj):
+        if not np.isnan(psi[start]):
+            continue
+        psi[start] = 0.0
+        component, queue = [start], deque([start])
+        while queue:
+            a = queue.popleft()
+            for c, dq, b in adj[a]:
+                if np.isnan(psi[c]):
+                    psi[c] = psi[a] + dq
+                    component.append(c)
+                    queue.append(c)
+                elif abs(psi[c] - psi[a] - dq) > 1e-6 * max(1.0, abs(dq)):
+                    raise GraphError(
+                        f"discharges are inconsistent around branch {geoms[b].name!r}: its banks "
+                        f"differ by {psi[c] - psi[a]:g} m²/s along another path, not {dq:g}")
+        psi[component] -= psi[component].min()
+    return psi
+
+
+def _island_potentials(geoms, sides, pieces, islands, island_of, psi) -> None:
+    """Fill ψ of the free islands (given, or the plug-flow estimate at the centroid)."""
+    for piece_index, k in sorted(island_of.items()):
+        outline = islands[k].outline
+        c = outline.centroid
+        dist = [shapely.distance(c, LineString(g.centerline_m)) for g in geoms]
+        inside = [i for i, g in enumerate(geoms) if g.strip is not None and g.strip.contains(c)]
+        b = min(inside or range(len(geoms)), key=lambda i: dist[i])
+        left, right = sides[b]
+        lo, hi = psi[left], psi[right]
+        if islands[k].potential is None:
+            dl = shapely.distance(c, pieces[left].line())
+            dr = shapely.distance(c, pieces[right].line())
+            psi[piece_index] = lo + (hi - lo) * dl / max(dl + dr, 1e-12)
+        else:
+            p = islands[k].potential
+            if not lo < p < hi:
+                raise GraphError(f"island {k}: potential {p:g} must lie strictly between the ψ of "
+                                 f"the banks of branch {geoms[b].name!r} ({lo:g} and {hi:g})")
+            psi[piece_index] = p
+
+
+def _axis_sections(g: BranchGeometry) -> list[tuple[np.ndarray, float]]:
+    """Split a branch's centre line where its width changes by more than AXIS_SPLIT_RATIO:
+    [(points (M, 2), largest width [m])]."""
+    w = g.widths_m
+    cuts, ref = [0], w[0]
+    for i in range(1, len(w) - 1):
+        if abs(w[i] / ref - 1.0) > AXIS_SPLIT_RATIO:
+            cuts.append(i)
+            ref = w[i]
+    cuts.append(len(w) - 1)
+    return [(g.centerline_m[a:b + 1], float(w[a:b + 1].max())) for a, b in zip(cuts[:-1], cuts[1:])]
+
+
+def _runs(labels: np.ndarray) -> list[tuple[int, int, int]]:
+    """Runs of equal values: [(first index, last index + 1, value)]."""
+    edges = np.flatnonzero(np.diff(labels)) + 1
+    bounds = np.concatenate([[0], edges, [len(labels)]])
+    return [(int(a), int(b), int(labels[a])) for a, b in zip(bounds[:-1], bounds[1:])]
+
+
+def _bank_runs(piece: Piece, axis_ids: list[int], axis_lines: list) -> list[tuple[np.ndarray, int]]:
+    """Split a piece where its nearest axis changes: [(points (M, 2), axis)]; a closed piece
+    with one axis stays one closed curve (its points repeat the first point at the end)."""
+    v = piece.points
+    seg_end = np.roll(v, -1, axis=0) if piece.closed else v[1:]
+    seg_start = v if piece.closed else v[:-1]
+    mid = shapely.points(0.5 * (seg_start + seg_end))
+    dist = np.stack([shapely.distance(mid, axis_lines[a]) for a in axis_ids], axis=1)
+    labels = np.asarray(axis_ids)[np.argmin(dist, axis=1)]
+    runs = _runs(labels)
+    if piece.closed:
+        if len(runs) == 1:
+            return [(np.vstack([v, v[:1]]), runs[0][2])]
+        shift = runs[-1][1] - runs[-1][0] if runs[-1][2] == runs[0][2] else 0
+        v = np.roll(v, shift, axis=0)
+        labels = np.roll(labels, shift)
+        runs = _runs(labels)
+        v = np.vstack([v, v[:1]])
+    return [(v[a:b + 1], lab) for a, b, lab in runs]
+
+
+class _Nodes:
+    """Deduplicated node list keyed by exact coordinates."""
+
+    def __init__(self) -> None:
+        self.index: dict[tuple[float, float], int] = {}
+        self.points: list[tuple[float, float]] = []
+
+    def __call__(self, p: np.ndarray) -> int:
+        key = (float(p[0]), float(p[1]))
+        if key not in self.index:
+            self.index[key] = len(self.points)
+            self.points.append(key)
+        return self.index[key]
+
+
+def assemble_graph(geoms: list[BranchGeometry], rings: list[Ring], pieces: list[Piece],
+                   islands: list, junctions: np.ndarray) -> HydroGraph:
+    """Make the hydro graph from the branches and the cut water outline."""
+    island_of: dict[int, int] = {}
+    for i, piece in enumerate(pieces):
+        if piece.closed and rings[piece.ring].hole:
+            hole = shapely.Polygon(piece.points)
+            for k, isl in enumerate(islands):
+                if hole.contains(isl.outline.representative_point()):
+                    island_of[i] = k
+    sides = _branch_sides(geoms, pieces, island_of)
+    psi = _solve_potentials(geoms, sides, pieces, island_of)
+    _island_potentials(geoms, sides, pieces, islands, island_of, psi)
+
+    nodes = _Nodes()
+    for p in junctions:
+        nodes(p)
+    axes: list[Curve] = []
+    axis_lines = []
+    axis_width = []
+    branch_axes: list[list[int]] = []
+    for g in geoms:
+        branch_axes.append([])
+        for pts, wmax in _axis_sections(g):
+            branch_axes[-1].append(len(axes))
+            axes.append(Curve(nodes(pts[0]), nodes(pts[-1]), pts[1:-1], np.zeros(len(pts) - 2, bool),
+                              type=CurveType.AXIS))
+            axis_lines.append(LineString(pts))
+            axis_width.append(AXIS_WIDTH_FACTOR * wmax + AXIS_MARGIN_M)
+
+    piece_axes: dict[int, set[int]] = {}
+    for b, (l, r) in enumerate(sides):
+        for pc in (l, r):
+            piece_axes.setdefault(pc, set()).update(branch_axes[b])
+    for pc, k in island_of.items():
+        c = islands[k].outline.centroid
+        b = min(range(len(geoms)), key=lambda i: shapely.distance(c, LineString(geoms[i].centerline_m)))
+        piece_axes[pc] = set(branch_axes[b])
+
+    banks: list[tuple[np.ndarray, int, float]] = []  # points, axis, psi
+    piece_banks: list[list[int]] = []
+    for i, piece in enumerate(pieces):
+        piece_banks.append([])
+        for pts, axis in _bank_runs(piece, sorted(piece_axes[i]), axis_lines):
+            piece_banks[-1].append(len(banks))
+            banks.append((pts, axis, float(psi[i])))
+            reach = float(shapely.distance(shapely.points(pts), axis_lines[axis]).max())
+            axis_width[axis] = max(axis_width[axis], 2.0 * reach * 1.001 + AXIS_MARGIN_M)
+    for a, w in zip(axes, axis_width):
+        a.width_m = w
+
+    curves: list[Curve] = list(axes)
+    areas: list[Area] = []
+    ring_curves: list[list[int]] = []
+    for ring in rings:
+        ring_curves.append([])
+        for kind, item in ring.items:
+            if kind == "closing":
+                ring_curves[-1].append(len(curves))
+                curves.append(Curve(nodes(item[0]), nodes(item[-1]), item[1:-1],
+                                    np.zeros(len(item) - 2, bool), width_m=0.0,
+                                    type=CurveType.CLOSING_SEGMENT, potential=NO_POTENTIAL,
+                                    river=NO_CURVE))
+            else:
+                ring_curves[-1].append(("piece", item))
+    bank_index = {}
+    for b, (pts, axis, value) in enumerate(banks):
+        bank_index[b] = len(curves)
+        curves.append(Curve(nodes(pts[0]), nodes(pts[-1]), pts[1:-1], np.zeros(len(pts) - 2, bool),
+                            width_m=axis_width[axis], type=CurveType.BANK, potential=value,
+                            river=axis))
+    for loop in ring_curves:
+        flat = []
+        for entry in loop:
+            if isinstance(entry, tuple):
+                flat.extend(bank_index[b] for b in piece_banks[entry[1]])
+            else:
+                flat.append(entry)
+        areas.append(Area([(c, 0) for c in flat]))
+    return HydroGraph(np.asarray(nodes.points).reshape(-1, 2), curves, areas,
+                      source="RiverNetworkBuilder")

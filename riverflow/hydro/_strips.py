@@ -1,0 +1,180 @@
+"""Strip geometry for :mod:`riverflow.hydro.builder`: branch strips, junction discs, the water
+polygon and its boundary rings cut into pieces at the closing segments.
+
+All polygon clipping is done by shapely (GEOS). A branch's strip is the union of one
+quadrilateral per centre-line segment (offset ±width/2 along the segment normal, the width
+interpolated linearly) and one bevel triangle per side at each interior vertex, so sharp bends
+and widths larger than the bend radius stay valid. Ends that meet a junction are extended a
+little into it and covered by a disc; free ends are cut flat (these cuts become the closing
+segments).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+from shapely.geometry import LineString, Point, Polygon
+from shapely.geometry.polygon import orient
+
+JUNCTION_EXTENSION = 0.05
+"""How far a strip is pushed into a junction, as a fraction of its half-width."""
+
+_DISC_SEGMENTS = 32
+"""Quarter-circle segments of a junction disc (chord error ≈ 3e-4 × radius)."""
+
+
+def _unit_normals(centerline_m: np.ndarray) -> np.ndarray:
+    """Left unit normals of the segments of a (K, 2) polyline, (K-1, 2)."""
+    d = np.diff(centerline_m, axis=0)
+    length = np.hypot(d[:, 0], d[:, 1])
+    return np.stack([-d[:, 1], d[:, 0]], axis=1) / length[:, None]
+
+
+def extend_ends(centerline_m: np.ndarray, widths_m: np.ndarray, extend_start: bool,
+                extend_end: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Push the junction ends of a centre line (K, 2) a little further along their tangents.
+
+    Returns the new (K', 2) centre line and (K',) widths [m].
+    """
+    pts, w = centerline_m, widths_m
+    if extend_start:
+        t = pts[0] - pts[1]
+        e = JUNCTION_EXTENSION * 0.5 * w[0]
+        pts = np.vstack([pts[0] + t / np.hypot(*t) * e, pts])
+        w = np.concatenate([[w[0]], w])
+    if extend_end:
+        t = pts[-1] - pts[-2]
+        e = JUNCTION_EXTENSION * 0.5 * w[-1]
+        pts = np.vstack([pts, pts[-1] + t / np.hypot(*t) * e])
+        w = np.concatenate([w, [w[-1]]])
+    return pts, w
+
+
+def strip_polygon(centerline_m: np.ndarray, widths_m: np.ndarray) -> shapely.Geometry:
+    """The water strip of one branch: centre line (K, 2) [m] offset by ±widths_m/2 (K,)."""
+    p = centerline_m
+    h = 0.5 * widths_m
+    n = _unit_normals(p)
+    a, b = p[:-1], p[1:]
+    ha, hb = h[:-1, None], h[1:, None]
+    quads = np.stack([a + n * ha, b + n * hb, b - n * hb, a - n * ha, a + n * ha], axis=1)
+    polys = list(shapely.polygons(quads))
+    if len(p) > 2:
+        c = p[1:-1]
+        hc = h[1:-1, None]
+        n0, n1 = n[:-1], n[1:]
+        turn = np.abs(n0[:, 0] * n1[:, 1] - n0[:, 1] * n1[:, 0])
+        keep = turn > 1e-9
+        for sign in (1.0, -1.0):
+            tri = np.stack([c, c + sign * n0 * hc, c + sign * n1 * hc, c], axis=1)[keep]
+            if len(tri):
+                polys.extend(shapely.polygons(tri))
+    return shapely.union_all(polys)
+
+
+def free_end_cut(centerline_m: np.ndarray, widths_m: np.ndarray, at_start: bool) -> np.ndarray:
+    """The flat cut across a free river end, (2, 2) [m]: the future closing segment's line."""
+    n = _unit_normals(centerline_m)
+    if at_start:
+        c, nn, h = centerline_m[0], n[0], 0.5 * widths_m[0]
+    else:
+        c, nn, h = centerline_m[-1], n[-1], 0.5 * widths_m[-1]
+    return np.array([c + nn * h, c - nn * h])
+
+
+def junction_disc(center_m: np.ndarray, half_widths_m: list[float]) -> Polygon:
+    """A disc covering the (extended) strip ends that meet at a junction."""
+    r = max(np.hypot(h, JUNCTION_EXTENSION * h) for h in half_widths_m) * 1.001
+    return Point(center_m).buffer(r, quad_segs=_DISC_SEGMENTS)
+
+
+def oriented_polygons(water: shapely.Geometry, simplify_m: float) -> list[Polygon]:
+    """The polygons of a (multi)polygon, exterior counter-clockwise and holes clockwise, so
+    that the water lies on the left of every ring traversal.
+
+    The outline is first simplified (Douglas-Peucker, ``simplify_m``) to drop the millimetre
+    notches left where the tapered segment quads of a strip meet.
+    """
+    water = shapely.simplify(water, simplify_m, preserve_topology=True)
+    water = shapely.remove_repeated_points(water, tolerance=1e-6)
+    if not water.is_valid:
+        water = shapely.make_valid(water)
+    parts = [g for g in getattr(water, "geoms", [water]) if isinstance(g, Polygon) and not g.is_empty]
+    parts.sort(key=lambda g: (-g.area, g.bounds))
+    return [orient(g, sign=1.0) for g in parts]
+
+
+@dataclass
+class Piece:
+    """A continuous stretch of one boundary ring between two closing segments (or a whole ring).
+
+    ``points`` (M, 2) [m] run in the ring direction (water on the left); a closed piece does
+    not repeat its first point.
+    """
+
+    ring: int
+    points: np.ndarray
+    closed: bool
+
+    def line(self) -> shapely.Geometry:
+        if self.closed:
+            return shapely.LinearRing(self.points)
+        return LineString(self.points)
+
+
+@dataclass
+class Ring:
+    """One boundary ring: ``items`` is the ring in order as ("piece", index) and ("closing",
+    (M, 2) points) entries; ``hole`` tells exterior from island loops."""
+
+    polygon: int
+    hole: bool
+    items: list
+
+
+def split_rings(polygons: list[Polygon], cuts: list[np.ndarray], eps_m: float
+                ) -> tuple[list[Ring], list[Piece]]:
+    """Cut every ring of ``polygons`` at the edges lying on one of the ``cuts`` ((2, 2) each).
+
+    Returns the rings (pieces and closing segments in ring order) and the pieces.
+    """
+    cut_lines = [LineString(c) for c in cuts]
+    rings: list[Ring] = []
+    pieces: list[Piece] = []
+    for ip, poly in enumerate(polygons):
+        for hole, lr in [(False, poly.exterior)] + [(True, r) for r in poly.interiors]:
+            v = np.asarray(lr.coords)[:-1]
+            m = len(v)
+            flagged = np.zeros(m, bool)
+            pts = shapely.points(v)
+            for cl in cut_lines:
+                near = shapely.distance(pts, cl) <= eps_m
+                flagged |= near & np.roll(near, -1)
+            ring = Ring(ip, hole, [])
+            if not flagged.any():
+                ring.items.append(("piece", len(pieces)))
+                pieces.append(Piece(len(rings), v.copy(), True))
+                rings.append(ring)
+                continue
+            if flagged.all():
+                raise ValueError("a boundary ring made only of closing segments")
+            # rotate so that edge 0 is the first edge of a closing run
+            starts = np.flatnonzero(flagged & ~np.roll(flagged, 1))
+            s0 = int(starts[0])
+            v = np.roll(v, -s0, axis=0)
+            flagged = np.roll(flagged, -s0)
+            i = 0
+            while i < m:
+                j = i
+                while j < m and flagged[j]:
+                    j += 1
+                ring.items.append(("closing", v[np.arange(i, j + 1) % m]))
+                k = j
+                while k < m and not flagged[k]:
+                    k += 1
+                ring.items.append(("piece", len(pieces)))
+                pieces.append(Piece(len(rings), v[np.arange(j, k + 1) % m], False))
+                i = k
+            rings.append(ring)
+    return rings, pieces
