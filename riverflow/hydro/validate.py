@@ -22,9 +22,11 @@ kind                   meaning
 ``area-gap``           an area loop that is not continuous (or has a bad curve reference)
 =====================  =====================================================================
 
-Unlinked island loops (like curve 9 of Proland's example) are *not* an issue: the flow field
-links them to the axis that covers them itself; only their orientation is checked (clockwise =
-water outside, on their left).
+A loop made only of banks (one curve with start == end, or a chain of banks end-to-start) is an
+island or obstacle: the water is outside, so it must run clockwise (rule 6; Proland's example
+island, curve 9, has signed area -915 m²). Its axis link, if any, is not used for the side test
+(an axis may run through an island). Unlinked islands are *not* an issue: the flow field links
+them to the axis that covers them itself.
 """
 from __future__ import annotations
 
@@ -154,9 +156,8 @@ class _Validator:
     def _sides(self) -> None:
         g = self.g
         banks = [i for i in g.banks() if i in self.poly]
-        unlinked = [i for i in banks if g.curves[i].river == NO_CURVE]
         in_loop: set[int] = set()
-        for loop in _loops(g, unlinked):
+        for loop in _loops(g, banks):  # bank-only loops are islands: water outside
             in_loop.update(loop)
             pts = np.vstack([self.poly[i][:-1] for i in loop])
             if _signed_area(pts) > 0:
@@ -306,17 +307,10 @@ def _signed_area(ring: np.ndarray) -> float:
 def _distances(points: np.ndarray, poly: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Distance from each of ``points`` (M, 2) to polyline ``poly`` (K, 2), and the nearest
     points on it: ((M,), (M, 2)) [m]."""
-    a, b = poly[:-1], poly[1:]
-    if len(a) == 0:
-        a = b = poly[:1]
-    ab = b - a
-    l2 = np.maximum((ab * ab).sum(axis=1), 1e-300)
-    t = np.clip(((points[:, None, :] - a[None]) * ab[None]).sum(axis=2) / l2, 0.0, 1.0)
-    q = a[None] + t[..., None] * ab[None]
-    d2 = ((points[:, None, :] - q) ** 2).sum(axis=2)
-    j = np.argmin(d2, axis=1)
-    rows = np.arange(len(points))
-    return np.sqrt(d2[rows, j]), q[rows, j]
+    line = LineString(poly)
+    pts = shapely.points(points)
+    near = shapely.line_interpolate_point(line, shapely.line_locate_point(line, pts))
+    return shapely.distance(pts, line), shapely.get_coordinates(near)
 
 
 def _left_fraction(bank: np.ndarray, axis: np.ndarray) -> float:
