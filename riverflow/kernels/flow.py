@@ -1,0 +1,693 @@
+"""Flow-field kernels: ψ from the banks (uncached), ψ lattices per flow tile, cached queries.
+
+Re-does Proland's ``HydroFlowTile`` (reference §2.3) with the corrections of SPEC §4:
+
+* ψ(p) = Σ wᵢ ψᵢ / Σ wᵢ, wᵢ = (R/dᵢ)^slip · f(clamp(1 − dᵢ/R, 0, 1)), f(t) = 6t⁵ − 15t⁴ + 10t³
+  (Yu et al. 2009; Proland's product form divided through, f clamped);
+* dᵢ is the distance to boundary i, where banks of equal ψ are merged into one boundary and the
+  signed nearest-segment distance uses Proland's vertex tie rule (positive wins);
+* the inside test takes the *nearest* axis that covers the point, not the first one found;
+* velocity = (−∂ψ/∂y, ∂ψ/∂x), the true curl of a Catmull-Rom bicubic interpolant of the ψ
+  lattice: continuous (C⁰) everywhere, exactly divergence-free inside each lattice cell.
+
+Network arrays (built by :mod:`riverflow.hydro.flow_network`), S segments, C curves, G ψ-groups,
+K connected components:
+
+    seg_ax, seg_ay, seg_bx, seg_by   (S,) float64   segment ends [m]; banks and caps have the
+                                                    water on their left (a → b)
+    curve_kind      (C,) int32    KIND_AXIS / KIND_BANK / KIND_CAP
+    curve_comp      (C,) int32    connected river network the curve belongs to
+    curve_group     (C,) int32    ψ-group of a bank (-1 otherwise)
+    curve_hw2       (C,) float64  squared half-width of an axis [m²] (0 otherwise)
+    curve_seg0/1    (C,) int32    the curve's segments are seg0 ≤ s < seg1
+    curve_bbox      (C, 4) float64 xmin, ymin, xmax, ymax [m]
+    curve_cutoff    (C,) float64  farther than this [m] the curve never matters
+    comp_radius     (K,) float64  search radius R of the component [m]
+    comp_group0/1   (K,) int32    the component's ψ-groups are group0 ≤ g < group1
+    group_psi       (G,) float64  ψ of each group [m²/s]
+
+No kernel allocates: scratch arrays come from the caller (:class:`FlowScratch`).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from riverflow.kernels._jit import JIT_OPTIONS
+
+KIND_AXIS = 0
+KIND_BANK = 1
+KIND_CAP = 2
+
+CELL_OUTSIDE = 0
+CELL_INSIDE = 1
+CELL_BOUNDARY = 2
+
+CELL_SEGMENTS = 4
+"""Boundary segments kept per boundary cell for the exact inside test of cached queries."""
+
+LATTICE_RING = 3
+"""Extra lattice points computed around a tile (extrapolation needs two, Catmull-Rom one)."""
+
+BLOCK = 8
+"""Lattice points per side of the blocks that share one pruned segment list."""
+
+STATUS_INSIDE = 1
+STATUS_OUTSIDE = 4
+STATUS_OUTSIDE_DOMAIN = 6
+STATUS_UNKNOWN = 0
+
+_TIE = 1e-4  # Proland's relative tolerance for "same distance" at a shared vertex
+
+
+# -- geometry helpers -------------------------------------------------------------------------
+
+
+@njit(inline="always", **JIT_OPTIONS)
+def _dist2(px, py, ax, ay, bx, by):
+    """Squared distance from p to segment ab."""
+    ex = bx - ax
+    ey = by - ay
+    l2 = ex * ex + ey * ey
+    t = 0.0
+    if l2 > 0.0:
+        t = ((px - ax) * ex + (py - ay) * ey) / l2
+        t = min(max(t, 0.0), 1.0)
+    qx = ax + t * ex - px
+    qy = ay + t * ey - py
+    return qx * qx + qy * qy
+
+
+@njit(inline="always", **JIT_OPTIONS)
+def _signed_dist2(px, py, ax, ay, bx, by):
+    """Squared distance from p to ab, negative when p is on the right of a → b (dry side)."""
+    d2 = _dist2(px, py, ax, ay, bx, by)
+    if (bx - ax) * (py - ay) - (by - ay) * (px - ax) < 0.0:
+        return -d2
+    return d2
+
+
+@njit(inline="always", **JIT_OPTIONS)
+def _nearer(cur, s):
+    """Keep the signed squared distance of smaller magnitude; at a tie, positive wins."""
+    a = abs(s)
+    b = abs(cur)
+    if a < b * (1.0 - _TIE):
+        return s
+    if a <= b * (1.0 + _TIE) and s > 0.0:
+        return s
+    return cur
+
+
+@njit(inline="always", **JIT_OPTIONS)
+def _segment_hits_box(ax, ay, bx, by, x0, y0, x1, y1):
+    """Liang-Barsky: does segment ab touch the box [x0, x1] × [y0, y1]?"""
+    t0 = 0.0
+    t1 = 1.0
+    dx = bx - ax
+    dy = by - ay
+    for k in range(4):
+        if k == 0:
+            p, q = -dx, ax - x0
+        elif k == 1:
+            p, q = dx, x1 - ax
+        elif k == 2:
+            p, q = -dy, ay - y0
+        else:
+            p, q = dy, y1 - ay
+        if p == 0.0:
+            if q < 0.0:
+                return False
+        else:
+            r = q / p
+            if p < 0.0:
+                if r > t1:
+                    return False
+                if r > t0:
+                    t0 = r
+            else:
+                if r < t0:
+                    return False
+                if r < t1:
+                    t1 = r
+    return True
+
+
+@njit(inline="always", **JIT_OPTIONS)
+def _box_point_dist2(px, py, x0, y0, x1, y1):
+    dx = max(x0 - px, 0.0, px - x1)
+    dy = max(y0 - py, 0.0, py - y1)
+    return dx * dx + dy * dy
+
+
+@njit(inline="always", **JIT_OPTIONS)
+def _segment_box_dist2(ax, ay, bx, by, x0, y0, x1, y1):
+    """Smallest squared distance between segment ab and the box."""
+    if _segment_hits_box(ax, ay, bx, by, x0, y0, x1, y1):
+        return 0.0
+    d = min(_box_point_dist2(ax, ay, x0, y0, x1, y1), _box_point_dist2(bx, by, x0, y0, x1, y1))
+    d = min(d, _dist2(x0, y0, ax, ay, bx, by))
+    d = min(d, _dist2(x1, y0, ax, ay, bx, by))
+    d = min(d, _dist2(x0, y1, ax, ay, bx, by))
+    return min(d, _dist2(x1, y1, ax, ay, bx, by))
+
+
+@njit(inline="always", **JIT_OPTIONS)
+def _segment_box_maxdist2(ax, ay, bx, by, x0, y0, x1, y1):
+    """Largest squared distance from a box point to segment ab (attained at a corner:
+    the distance to a convex set is a convex function)."""
+    d = max(_dist2(x0, y0, ax, ay, bx, by), _dist2(x1, y0, ax, ay, bx, by))
+    d = max(d, _dist2(x0, y1, ax, ay, bx, by))
+    return max(d, _dist2(x1, y1, ax, ay, bx, by))
+
+
+# -- pruned segment lists for a box -----------------------------------------------------------
+
+
+@njit(**JIT_OPTIONS)
+def gather_box_segments(
+    x0, y0, x1, y1,
+    seg_ax, seg_ay, seg_bx, seg_by,
+    curve_seg0, curve_seg1, curve_bbox, curve_cutoff,
+    blk_curve, blk_start, blk_count, blk_seg, tmp_d2,
+):
+    """Collect, per curve, the segments that can be that curve's nearest for some point of the box.
+
+    A segment is kept when its distance to the box is at most the smallest "farthest distance"
+    of the curve's segments (so each curve's nearest segment is kept for every box point) and at
+    most the curve's cutoff. Writes ``blk_curve[:n]``, ``blk_start``/``blk_count`` into
+    ``blk_seg``; ``tmp_d2`` is (S,) scratch. Returns n, the number of curves kept.
+    """
+    nb = 0
+    ns = 0
+    for c in range(curve_seg0.shape[0]):
+        cut = curve_cutoff[c]
+        cut2 = cut * cut
+        dx = max(curve_bbox[c, 0] - x1, 0.0, x0 - curve_bbox[c, 2])
+        dy = max(curve_bbox[c, 1] - y1, 0.0, y0 - curve_bbox[c, 3])
+        if dx * dx + dy * dy > cut2:
+            continue
+        upper = np.inf
+        for s in range(curve_seg0[c], curve_seg1[c]):
+            dmin = _segment_box_dist2(seg_ax[s], seg_ay[s], seg_bx[s], seg_by[s], x0, y0, x1, y1)
+            tmp_d2[s] = dmin
+            if dmin <= cut2:
+                dmax = _segment_box_maxdist2(seg_ax[s], seg_ay[s], seg_bx[s], seg_by[s],
+                                             x0, y0, x1, y1)
+                if dmax < upper:
+                    upper = dmax
+        limit = min(upper, cut2)
+        start = ns
+        for s in range(curve_seg0[c], curve_seg1[c]):
+            if tmp_d2[s] <= limit:
+                blk_seg[ns] = s
+                ns += 1
+        if ns > start:
+            blk_curve[nb] = c
+            blk_start[nb] = start
+            blk_count[nb] = ns - start
+            nb += 1
+    return nb
+
+
+# -- ψ at one point -----------------------------------------------------------------------------
+
+
+@njit(inline="always", **JIT_OPTIONS)
+def _fade(t):
+    t = min(max(t, 0.0), 1.0)
+    return t * t * t * (t * (t * 6.0 - 15.0) + 10.0)
+
+
+@njit(**JIT_OPTIONS)
+def potential_at(
+    px, py, nb, blk_curve, blk_start, blk_count, blk_seg,
+    seg_ax, seg_ay, seg_bx, seg_by,
+    curve_kind, curve_comp, curve_group, curve_hw2,
+    comp_radius, comp_group0, comp_group1, group_psi, slip, gval,
+):
+    """ψ at p [m²/s] from the pruned lists of a box containing p; NaN when p is not in the water.
+
+    ``gval`` is (G,) scratch for the merged signed squared distance of each ψ-group.
+    """
+    best = np.inf
+    axis = -1
+    for k in range(nb):
+        c = blk_curve[k]
+        if curve_kind[c] != KIND_AXIS:
+            continue
+        hw2 = curve_hw2[c]
+        for m in range(blk_start[k], blk_start[k] + blk_count[k]):
+            s = blk_seg[m]
+            d2 = _dist2(px, py, seg_ax[s], seg_ay[s], seg_bx[s], seg_by[s])
+            if d2 < hw2 and d2 < best:
+                best = d2
+                axis = c
+    if axis < 0:
+        return np.nan
+    comp = curve_comp[axis]
+    radius = comp_radius[comp]
+    width2 = 4.0 * curve_hw2[axis]  # sign tests only within one river width
+    g0 = comp_group0[comp]
+    g1 = comp_group1[comp]
+    for g in range(g0, g1):
+        gval[g] = np.inf
+    cap = np.inf
+    for k in range(nb):
+        c = blk_curve[k]
+        kind = curve_kind[c]
+        if kind == KIND_AXIS or curve_comp[c] != comp:
+            continue
+        cur = np.inf
+        if kind == KIND_BANK:
+            cur = gval[curve_group[c]]
+        else:
+            cur = cap
+        for m in range(blk_start[k], blk_start[k] + blk_count[k]):
+            s = blk_seg[m]
+            cur = _nearer(cur, _signed_dist2(px, py, seg_ax[s], seg_ay[s], seg_bx[s], seg_by[s]))
+        if kind == KIND_BANK:
+            gval[curve_group[c]] = cur
+        else:
+            cap = cur
+    if cap < 0.0 and -cap < width2:
+        return np.nan
+    count = 0
+    on_bank = -1
+    sw = 0.0
+    swp = 0.0
+    for g in range(g0, g1):
+        v = gval[g]
+        if v == np.inf:
+            continue
+        if v < 0.0 and -v < width2:
+            return np.nan
+        count += 1
+        d = math.sqrt(abs(v))
+        if d <= 1e-9 * radius:
+            on_bank = g
+            continue
+        f = _fade(1.0 - d / radius)
+        if f > 0.0:
+            if slip == 1.0:
+                w = f * (radius / d)
+            else:
+                w = f * math.exp(slip * math.log(radius / d))
+            sw += w
+            swp += w * group_psi[g]
+    if count < 2:
+        return np.nan
+    if on_bank >= 0:
+        return group_psi[on_bank]
+    if sw <= 0.0:
+        return np.nan
+    return swp / sw
+
+
+@njit(**JIT_OPTIONS)
+def evaluate_potential(
+    xy, out_psi,
+    seg_ax, seg_ay, seg_bx, seg_by,
+    curve_kind, curve_comp, curve_group, curve_hw2, curve_seg0, curve_seg1, curve_bbox,
+    curve_cutoff, comp_radius, comp_group0, comp_group1, group_psi, slip,
+    blk_curve, blk_start, blk_count, blk_seg, tmp_d2, gval,
+):
+    """Exact (uncached) ψ at each point of ``xy`` (N, 2) float64 into ``out_psi`` (N,) float64.
+
+    Slow path for tests and tools: each point gets its own pruned segment list.
+    """
+    for i in range(xy.shape[0]):
+        px = xy[i, 0]
+        py = xy[i, 1]
+        nb = gather_box_segments(px, py, px, py, seg_ax, seg_ay, seg_bx, seg_by,
+                                 curve_seg0, curve_seg1, curve_bbox, curve_cutoff,
+                                 blk_curve, blk_start, blk_count, blk_seg, tmp_d2)
+        out_psi[i] = potential_at(px, py, nb, blk_curve, blk_start, blk_count, blk_seg,
+                                  seg_ax, seg_ay, seg_bx, seg_by, curve_kind, curve_comp,
+                                  curve_group, curve_hw2, comp_radius, comp_group0, comp_group1,
+                                  group_psi, slip, gval)
+
+
+# -- flow tiles ---------------------------------------------------------------------------------
+
+
+@njit(**JIT_OPTIONS)
+def build_flow_tile(
+    origin_x, origin_y, spacing_m, n_cells, gi0, gj0,
+    seg_ax, seg_ay, seg_bx, seg_by,
+    curve_kind, curve_comp, curve_group, curve_hw2, curve_seg0, curve_seg1, curve_bbox,
+    curve_cutoff, comp_radius, comp_group0, comp_group1, group_psi, slip,
+    blk_curve, blk_start, blk_count, blk_seg, tmp_d2, gval, psi_full, inside_full,
+    out_psi, out_cell_status, out_cell_segments,
+):
+    """Fill one flow tile: its ψ lattice (with extrapolated ghosts) and per-cell inside data.
+
+    The tile has ``n_cells`` × ``n_cells`` lattice cells of ``spacing_m``; lattice point (a, b)
+    lies at ``origin + ((gi0 + a)·h, (gj0 + b)·h)``, so neighbouring tiles compute bitwise
+    equal values at shared points. Scratch ``psi_full``/``inside_full`` are (M, M) with
+    M = n_cells + 1 + 2·LATTICE_RING.
+
+    Outputs: ``out_psi`` (n+3, n+3) float64, lattice points −1 … n+1 (NaN far from water;
+    outside points next to the water hold ψ extrapolated linearly from the water side);
+    ``out_cell_status`` (n, n) uint8 CELL_*; ``out_cell_segments`` (n, n, CELL_SEGMENTS) int32,
+    for boundary cells the nearest bank / cap segments (−1 padded). Returns the number of
+    lattice points inside the water.
+    """
+    ring = LATTICE_RING
+    m = n_cells + 1 + 2 * ring
+    h = spacing_m
+    diag2 = 2.0 * h * h
+    n_inside = 0
+    best_d = np.empty(CELL_SEGMENTS)
+    out_cell_status[:, :] = 255
+    out_cell_segments[:, :, :] = -1
+    for bj in range(0, m, BLOCK):
+        for bi in range(0, m, BLOCK):
+            i_hi = min(bi + BLOCK, m)
+            j_hi = min(bj + BLOCK, m)
+            x0 = origin_x + (gi0 + bi - ring) * h
+            y0 = origin_y + (gj0 + bj - ring) * h
+            x1 = origin_x + (gi0 + min(i_hi, m - 1) - ring) * h
+            y1 = origin_y + (gj0 + min(j_hi, m - 1) - ring) * h
+            nb = gather_box_segments(x0, y0, x1, y1, seg_ax, seg_ay, seg_bx, seg_by,
+                                     curve_seg0, curve_seg1, curve_bbox, curve_cutoff,
+                                     blk_curve, blk_start, blk_count, blk_seg, tmp_d2)
+            for j in range(bj, j_hi):
+                py = origin_y + (gj0 + j - ring) * h
+                for i in range(bi, i_hi):
+                    px = origin_x + (gi0 + i - ring) * h
+                    psi = np.nan
+                    if nb > 0:
+                        psi = potential_at(px, py, nb, blk_curve, blk_start, blk_count, blk_seg,
+                                           seg_ax, seg_ay, seg_bx, seg_by, curve_kind,
+                                           curve_comp, curve_group, curve_hw2, comp_radius,
+                                           comp_group0, comp_group1, group_psi, slip, gval)
+                    psi_full[j, i] = psi
+                    inside_full[j, i] = not math.isnan(psi)
+                    if inside_full[j, i] and ring <= i < m - ring and ring <= j < m - ring:
+                        n_inside += 1
+            # boundary cells of this block: cells touched by a bank or cap segment
+            for j in range(max(bj, ring), min(j_hi, ring + n_cells)):
+                cy0 = origin_y + (gj0 + j - ring) * h
+                for i in range(max(bi, ring), min(i_hi, ring + n_cells)):
+                    cx0 = origin_x + (gi0 + i - ring) * h
+                    _collect_cell_segments(cx0, cy0, cx0 + h, cy0 + h, diag2, nb, blk_curve,
+                                           blk_start, blk_count, blk_seg, curve_kind,
+                                           seg_ax, seg_ay, seg_bx, seg_by,
+                                           out_cell_status, out_cell_segments, j - ring, i - ring,
+                                           best_d)
+    _classify_plain_cells(inside_full, n_cells, out_cell_status)
+    _extrapolate_ghosts(psi_full, inside_full, n_cells, out_psi)
+    return n_inside
+
+
+@njit(**JIT_OPTIONS)
+def _collect_cell_segments(cx0, cy0, cx1, cy1, diag2, nb, blk_curve, blk_start, blk_count,
+                           blk_seg, curve_kind, seg_ax, seg_ay, seg_bx, seg_by,
+                           out_cell_status, out_cell_segments, cj, ci, best_d):
+    """Mark the cell BOUNDARY when a bank/cap segment touches it, keeping its nearest segments
+    (``best_d`` is (CELL_SEGMENTS,) scratch)."""
+    best_d[:] = np.inf
+    touched = False
+    for k in range(nb):
+        c = blk_curve[k]
+        if curve_kind[c] == KIND_AXIS:
+            continue
+        for mm in range(blk_start[k], blk_start[k] + blk_count[k]):
+            s = blk_seg[mm]
+            d2 = _segment_box_dist2(seg_ax[s], seg_ay[s], seg_bx[s], seg_by[s], cx0, cy0, cx1, cy1)
+            if d2 > diag2:
+                continue
+            if d2 == 0.0:
+                touched = True
+            # insertion into the short sorted list
+            pos = CELL_SEGMENTS
+            while pos > 0 and d2 < best_d[pos - 1]:
+                pos -= 1
+            if pos < CELL_SEGMENTS:
+                for q in range(CELL_SEGMENTS - 1, pos, -1):
+                    best_d[q] = best_d[q - 1]
+                    out_cell_segments[cj, ci, q] = out_cell_segments[cj, ci, q - 1]
+                best_d[pos] = d2
+                out_cell_segments[cj, ci, pos] = s
+    if touched:
+        out_cell_status[cj, ci] = CELL_BOUNDARY
+    else:
+        out_cell_segments[cj, ci, :] = -1
+
+
+@njit(**JIT_OPTIONS)
+def _classify_plain_cells(inside_full, n_cells, out_cell_status):
+    """Cells no boundary touches take their corners' status (mixed corners: BOUNDARY, no list)."""
+    ring = LATTICE_RING
+    for j in range(n_cells):
+        for i in range(n_cells):
+            if out_cell_status[j, i] == CELL_BOUNDARY:
+                continue
+            a = ring + i
+            b = ring + j
+            n = (int(inside_full[b, a]) + int(inside_full[b, a + 1])
+                 + int(inside_full[b + 1, a]) + int(inside_full[b + 1, a + 1]))
+            if n == 4:
+                out_cell_status[j, i] = CELL_INSIDE
+            elif n == 0:
+                out_cell_status[j, i] = CELL_OUTSIDE
+            else:
+                out_cell_status[j, i] = CELL_BOUNDARY
+
+
+@njit(**JIT_OPTIONS)
+def _extrapolate_ghosts(psi_full, inside_full, n_cells, out_psi):
+    """Copy lattice points −1 … n+1; dry points next to the water get linear extrapolations."""
+    ring = LATTICE_RING
+    for sj in range(n_cells + 3):
+        b = sj + ring - 1
+        for si in range(n_cells + 3):
+            a = si + ring - 1
+            if inside_full[b, a]:
+                out_psi[sj, si] = psi_full[b, a]
+                continue
+            acc = 0.0
+            n2 = 0
+            acc1 = 0.0
+            n1 = 0
+            for d in range(4):
+                da = 1 if d == 0 else (-1 if d == 1 else 0)
+                db = 1 if d == 2 else (-1 if d == 3 else 0)
+                if inside_full[b + db, a + da]:
+                    if inside_full[b + 2 * db, a + 2 * da]:
+                        acc += 2.0 * psi_full[b + db, a + da] - psi_full[b + 2 * db, a + 2 * da]
+                        n2 += 1
+                    else:
+                        acc1 += psi_full[b + db, a + da]
+                        n1 += 1
+            if n2 > 0:
+                out_psi[sj, si] = acc / n2
+            elif n1 > 0:
+                out_psi[sj, si] = acc1 / n1
+            else:
+                out_psi[sj, si] = np.nan
+
+
+# -- cached queries -------------------------------------------------------------------------------
+
+
+@njit(inline="always", **JIT_OPTIONS)
+def _catmull_rom(t):
+    """Catmull-Rom weights and their derivatives at t ∈ [0, 1]."""
+    t2 = t * t
+    t3 = t2 * t
+    w0 = 0.5 * (-t3 + 2.0 * t2 - t)
+    w1 = 0.5 * (3.0 * t3 - 5.0 * t2 + 2.0)
+    w2 = 0.5 * (-3.0 * t3 + 4.0 * t2 + t)
+    w3 = 0.5 * (t3 - t2)
+    d0 = 0.5 * (-3.0 * t2 + 4.0 * t - 1.0)
+    d1 = 0.5 * (9.0 * t2 - 10.0 * t)
+    d2 = 0.5 * (-9.0 * t2 + 8.0 * t + 1.0)
+    d3 = 0.5 * (3.0 * t2 - 2.0 * t)
+    return w0, w1, w2, w3, d0, d1, d2, d3
+
+
+@njit(inline="always", **JIT_OPTIONS)
+def _locate(px, py, root_x, root_y, tile_size_m, tile_slots, n_cells):
+    """(slot, cell i, cell j, fx, fy) of p in the level whose tile table is ``tile_slots``.
+
+    slot = −2 outside the domain, −1 when the tile is not cached.
+    """
+    nt = tile_slots.shape[0]
+    u = (px - root_x) / tile_size_m
+    v = (py - root_y) / tile_size_m
+    if not (u >= 0.0 and v >= 0.0 and u <= nt and v <= nt):
+        return -2, 0, 0, 0.0, 0.0
+    tx = min(int(u), nt - 1)
+    ty = min(int(v), nt - 1)
+    slot = tile_slots[ty, tx]
+    fu = (u - tx) * n_cells
+    fv = (v - ty) * n_cells
+    ci = min(int(fu), n_cells - 1)
+    cj = min(int(fv), n_cells - 1)
+    return slot, ci, cj, fu - ci, fv - cj
+
+
+@njit(inline="always", **JIT_OPTIONS)
+def _boundary_inside(px, py, slot, ci, cj, fx, fy, cell_segments, psi_pool,
+                     seg_ax, seg_ay, seg_bx, seg_by):
+    """Exact inside test in a BOUNDARY cell: the sign of the nearest listed bank/cap segment.
+
+    Called only for boundary cells: the hot loops test the cell status inline (numba's
+    reference counting of array arguments makes a helper call per point several times slower).
+    """
+    cur = np.inf
+    for q in range(CELL_SEGMENTS):
+        s = cell_segments[slot, cj, ci, q]
+        if s < 0:
+            break
+        cur = _nearer(cur, _signed_dist2(px, py, seg_ax[s], seg_ay[s], seg_bx[s], seg_by[s]))
+    if cur != np.inf:
+        return cur >= 0.0
+    # mixed corners, no boundary segment: the nearest lattice corner decides
+    a = ci + 1 + (1 if fx >= 0.5 else 0)
+    b = cj + 1 + (1 if fy >= 0.5 else 0)
+    return not math.isnan(psi_pool[slot, b, a])
+
+
+@njit(inline="always", **JIT_OPTIONS)
+def _rows(w0, w1, w2, w3, a, b, c, d):
+    return w0 * a + w1 * b + w2 * c + w3 * d
+
+
+@njit(**JIT_OPTIONS)
+def _fill_stencil(patch):
+    """Fill NaNs of a 4×4 ψ stencil by linear extrapolation along rows, then columns.
+    Returns False if NaNs remain. (Rare: cells at the edge of the extrapolated ghosts.)"""
+    for sweep in range(2):
+        for r in range(4):
+            for q in range(4):
+                a, b = (r, q) if sweep == 0 else (q, r)
+                if not math.isnan(patch[a, b]):
+                    continue
+                step = 1 if (q if sweep == 0 else r) <= 1 else -1
+                if sweep == 0:
+                    v1, v2 = patch[a, b + step], patch[a, b + 2 * step]
+                else:
+                    v1, v2 = patch[a + step, b], patch[a + 2 * step, b]
+                if not math.isnan(v1):
+                    patch[a, b] = v1 if math.isnan(v2) else 2.0 * v1 - v2
+    for r in range(4):
+        for q in range(4):
+            if math.isnan(patch[r, q]):
+                return False
+    return True
+
+
+@njit(**JIT_OPTIONS)
+def query_velocity(
+    xy, root_x, root_y, tile_size_m, n_cells, tile_slots, psi_pool, cell_status,
+    cell_segments, slot_last_used, tick, seg_ax, seg_ay, seg_bx, seg_by, out_status, out_velocity,
+):
+    """Velocity [m/s] and FlowStatus at each point of ``xy`` (N, 2) from cached tiles.
+
+    ``tile_slots`` (T, T) int32 maps the tiles of one quadtree level to pool slots; the
+    slots used get ``slot_last_used[slot] = tick`` (LRU bookkeeping);
+    ``psi_pool`` (P, n+3, n+3) float64, ``cell_status`` (P, n, n) uint8, ``cell_segments``
+    (P, n, n, CELL_SEGMENTS) int32. Writes ``out_status`` (N,) uint8 and ``out_velocity``
+    (N, 2) float32 (zero unless INSIDE; never NaN). Returns the number of points whose tile
+    was not cached (status UNKNOWN).
+    """
+    h = tile_size_m / n_cells
+    inv_h = 1.0 / h
+    patch = np.empty((4, 4))
+    missing = 0
+    for k in range(xy.shape[0]):
+        px = xy[k, 0]
+        py = xy[k, 1]
+        out_velocity[k, 0] = 0.0
+        out_velocity[k, 1] = 0.0
+        slot, ci, cj, fx, fy = _locate(px, py, root_x, root_y, tile_size_m, tile_slots, n_cells)
+        if slot == -2:
+            out_status[k] = STATUS_OUTSIDE_DOMAIN
+            continue
+        if slot < 0:
+            out_status[k] = STATUS_UNKNOWN
+            missing += 1
+            continue
+        slot_last_used[slot] = tick
+        cell = cell_status[slot, cj, ci]
+        if cell == CELL_OUTSIDE or (cell == CELL_BOUNDARY and not _boundary_inside(
+                px, py, slot, ci, cj, fx, fy, cell_segments, psi_pool,
+                seg_ax, seg_ay, seg_bx, seg_by)):
+            out_status[k] = STATUS_OUTSIDE
+            continue
+        out_status[k] = STATUS_INSIDE
+        total = 0.0
+        for r in range(4):
+            for q in range(4):
+                val = psi_pool[slot, cj + r, ci + q]
+                patch[r, q] = val
+                total += val
+        if math.isnan(total) and not _fill_stencil(patch):
+            continue
+        wx0, wx1, wx2, wx3, dx0, dx1, dx2, dx3 = _catmull_rom(fx)
+        wy0, wy1, wy2, wy3, dy0, dy1, dy2, dy3 = _catmull_rom(fy)
+        # ∂ψ/∂x and ∂ψ/∂y of the bicubic, in lattice units, written out (no loops, no ifs)
+        r0w = _rows(wx0, wx1, wx2, wx3, patch[0, 0], patch[0, 1], patch[0, 2], patch[0, 3])
+        r1w = _rows(wx0, wx1, wx2, wx3, patch[1, 0], patch[1, 1], patch[1, 2], patch[1, 3])
+        r2w = _rows(wx0, wx1, wx2, wx3, patch[2, 0], patch[2, 1], patch[2, 2], patch[2, 3])
+        r3w = _rows(wx0, wx1, wx2, wx3, patch[3, 0], patch[3, 1], patch[3, 2], patch[3, 3])
+        r0d = _rows(dx0, dx1, dx2, dx3, patch[0, 0], patch[0, 1], patch[0, 2], patch[0, 3])
+        r1d = _rows(dx0, dx1, dx2, dx3, patch[1, 0], patch[1, 1], patch[1, 2], patch[1, 3])
+        r2d = _rows(dx0, dx1, dx2, dx3, patch[2, 0], patch[2, 1], patch[2, 2], patch[2, 3])
+        r3d = _rows(dx0, dx1, dx2, dx3, patch[3, 0], patch[3, 1], patch[3, 2], patch[3, 3])
+        gx = _rows(wy0, wy1, wy2, wy3, r0d, r1d, r2d, r3d)
+        gy = _rows(dy0, dy1, dy2, dy3, r0w, r1w, r2w, r3w)
+        vx = -gy * inv_h
+        vy = gx * inv_h
+        if math.isfinite(vx) and math.isfinite(vy):
+            out_velocity[k, 0] = vx
+            out_velocity[k, 1] = vy
+    return missing
+
+
+@njit(**JIT_OPTIONS)
+def sample_potential(
+    xy, root_x, root_y, tile_size_m, n_cells, tile_slots, psi_pool, cell_status,
+    cell_segments, slot_last_used, tick, seg_ax, seg_ay, seg_bx, seg_by, out_psi,
+):
+    """Interpolated ψ [m²/s] at each point of ``xy`` (N, 2) from cached tiles into ``out_psi``
+    (N,) float64: NaN outside the water, outside the domain or in an uncached tile."""
+    patch = np.empty((4, 4))
+    missing = 0
+    for k in range(xy.shape[0]):
+        px = xy[k, 0]
+        py = xy[k, 1]
+        out_psi[k] = np.nan
+        slot, ci, cj, fx, fy = _locate(px, py, root_x, root_y, tile_size_m, tile_slots, n_cells)
+        if slot < 0:
+            if slot == -1:
+                missing += 1
+            continue
+        slot_last_used[slot] = tick
+        cell = cell_status[slot, cj, ci]
+        if cell == CELL_OUTSIDE or (cell == CELL_BOUNDARY and not _boundary_inside(
+                px, py, slot, ci, cj, fx, fy, cell_segments, psi_pool,
+                seg_ax, seg_ay, seg_bx, seg_by)):
+            continue
+        total = 0.0
+        for r in range(4):
+            for q in range(4):
+                val = psi_pool[slot, cj + r, ci + q]
+                patch[r, q] = val
+                total += val
+        if math.isnan(total) and not _fill_stencil(patch):
+            continue
+        wx0, wx1, wx2, wx3, _, _, _, _ = _catmull_rom(fx)
+        wy0, wy1, wy2, wy3, _, _, _, _ = _catmull_rom(fy)
+        acc = _rows(wy0, wy1, wy2, wy3,
+                    _rows(wx0, wx1, wx2, wx3, patch[0, 0], patch[0, 1], patch[0, 2], patch[0, 3]),
+                    _rows(wx0, wx1, wx2, wx3, patch[1, 0], patch[1, 1], patch[1, 2], patch[1, 3]),
+                    _rows(wx0, wx1, wx2, wx3, patch[2, 0], patch[2, 1], patch[2, 2], patch[2, 3]),
+                    _rows(wx0, wx1, wx2, wx3, patch[3, 0], patch[3, 1], patch[3, 2], patch[3, 3]))
+        out_psi[k] = acc
+    return missing
