@@ -61,14 +61,14 @@ class _Reader:
                           f"expected {what}, got {got}")
 
     def int(self, what: str, lo: int = _INT32[0], hi: int = _INT32[1]) -> int:
-        at = self.pos
+        at = self.last = self.pos
         v = self._int(what, 4)
         if not lo <= v <= hi:
             raise self.fail(f"{what} in [{lo}, {hi}]", str(v), at)
         return v
 
     def long(self, what: str, lo: int, hi: int) -> int:
-        at = self.pos
+        at = self.last = self.pos
         v = self._int(what, 8)
         if not lo <= v <= hi:
             raise self.fail(f"{what} in [{lo}, {hi}]", str(v), at)
@@ -120,6 +120,7 @@ class _AsciiReader(_Reader):
         return v
 
     def float(self, what: str) -> float:
+        self.last = self.pos
         tok = self._next(what)
         v = float(tok) if _FLOAT_RE.fullmatch(tok) else None
         if v is None or not np.isfinite(v):
@@ -170,6 +171,7 @@ class _BinaryReader(_Reader):
         return self._unpack("<i" if size == 4 else "<q", size, f"{8 * size}-bit integer {what}")
 
     def float(self, what: str) -> float:
+        self.last = self.pos
         v = float(self._unpack("<f", 4, f"float32 {what}"))
         if not np.isfinite(v):
             raise self.fail(f"a finite float32 {what}", repr(v), self.pos - 4)
@@ -294,13 +296,13 @@ def _read_graph(r: _Reader, depth: int, params: tuple[int, ...] | None = None,
         size = r.int(f"vertex count of curve {i}", 2, 2 + r.remaining() // (3 * r.int_size))
         width = r.float(f"width of curve {i}")
         if width < 0:
-            raise r.fail(f"a width >= 0 for curve {i}", repr(width), r.pos - 1)
+            raise r.fail(f"a width >= 0 for curve {i}", repr(width), r.last)
         ctype = CurveType(r.int(f"type of curve {i} (0 AXIS, 1 CLOSING_SEGMENT, 2 BANK)", 0, 2))
         potential, river = NO_POTENTIAL, NO_CURVE
         if hydro:
             potential = r.float(f"potential of curve {i}")
             if ctype == CurveType.BANK and potential == NO_POTENTIAL:
-                raise r.fail(f"a potential for curve {i}, a BANK", "-1 (no potential)", r.pos - 1)
+                raise r.fail(f"a potential for curve {i}, a BANK", "-1 (no potential)", r.last)
             rivers.append((r.pos, r.int(f"river axis index of curve {i}", -1, n_curves - 1)))
         elif ctype == CurveType.BANK:
             raise r.fail(f"a potential for curve {i}, a BANK", "a file without potentials", at)
@@ -315,7 +317,7 @@ def _read_graph(r: _Reader, depth: int, params: tuple[int, ...] | None = None,
             r.skip(pp - 3, f"curve {i} vertex")
             if j >= 2 and ctrl[j - 2 : j + 1].all():
                 raise r.fail(f"at most two Bézier control vertices in a row in curve {i}",
-                             f"a third one (vertex {j + 1})", r.pos - 1)
+                             f"a third one (vertex {j + 1})", r.last)
         end = r.int(f"end node of curve {i}", 0, n_nodes - 1)
         r.skip(pe - 1, f"curve {i} end")
         r.int(f"area1 of curve {i}", -1)
@@ -401,7 +403,8 @@ class _Writer:
 
     def float(self, v: float) -> None:
         if self.binary:
-            f = np.float32(v)
+            with np.errstate(over="ignore"):
+                f = np.float32(v)
             if not np.isfinite(f):
                 raise GraphError(f"{v!r} does not fit a float32 (binary files store float32)")
             self._put(f.tobytes())
