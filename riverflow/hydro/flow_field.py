@@ -58,7 +58,7 @@ class FlowField:
         *,
         potential_delta_m: float | None = None,
         lattice_cells: int = 64,
-        cache_tiles: int = 512,
+        cache_tiles: int = 256,
         domain_m: tuple[float, float, float] | None = None,
         tolerance_m: float | None = None,
     ) -> None:
@@ -95,6 +95,7 @@ class FlowField:
         m = lattice_cells + 1 + 2 * kf.LATTICE_RING
         self._psi_full = np.empty((m, m))
         self._inside_full = np.zeros((m, m), np.bool_)
+        self._cell_d2 = np.empty((lattice_cells, lattice_cells, kf.CELL_SEGMENTS))
         self._blk_curve = np.empty(net.n_curves, np.int32)
         self._blk_start = np.empty(net.n_curves, np.int32)
         self._blk_count = np.empty(net.n_curves, np.int32)
@@ -260,7 +261,8 @@ class FlowField:
         inside = kf.build_flow_tile(
             t.root_x_m, t.root_y_m, h, n, tx * n, ty * n, *self.network.kernel_args(), self.slip,
             self._blk_curve, self._blk_start, self._blk_count, self._blk_seg, self._tmp_d2,
-            self._gval, self._psi_full, self._inside_full, t.psi[slot], t.cell_status[slot],
+            self._gval, self._psi_full, self._inside_full, self._cell_d2, t.psi[slot],
+            t.cell_status[slot],
             t.cell_segments[slot])
         t.inside_points[slot] = inside
         t.slot_key[slot] = (level, tx, ty)

@@ -339,7 +339,7 @@ def build_flow_tile(
     seg_ax, seg_ay, seg_bx, seg_by,
     curve_kind, curve_comp, curve_group, curve_hw2, curve_seg0, curve_seg1, curve_bbox,
     curve_cutoff, comp_radius, comp_group0, comp_group1, group_psi, slip,
-    blk_curve, blk_start, blk_count, blk_seg, tmp_d2, gval, psi_full, inside_full,
+    blk_curve, blk_start, blk_count, blk_seg, tmp_d2, gval, psi_full, inside_full, cell_d2,
     out_psi, out_cell_status, out_cell_segments,
 ):
     """Fill one flow tile: its ψ lattice (with extrapolated ghosts) and per-cell inside data.
@@ -347,7 +347,7 @@ def build_flow_tile(
     The tile has ``n_cells`` × ``n_cells`` lattice cells of ``spacing_m``; lattice point (a, b)
     lies at ``origin + ((gi0 + a)·h, (gj0 + b)·h)``, so neighbouring tiles compute bitwise
     equal values at shared points. Scratch ``psi_full``/``inside_full`` are (M, M) with
-    M = n_cells + 1 + 2·LATTICE_RING.
+    M = n_cells + 1 + 2·LATTICE_RING; ``cell_d2`` (n, n, CELL_SEGMENTS) float64.
 
     Outputs: ``out_psi`` (n+3, n+3) float64, lattice points −1 … n+1 (NaN far from water;
     outside points next to the water hold ψ extrapolated linearly from the water side);
@@ -360,7 +360,6 @@ def build_flow_tile(
     h = spacing_m
     diag2 = 2.0 * h * h
     n_inside = 0
-    best_d = np.empty(CELL_SEGMENTS)
     out_cell_status[:, :] = 255
     out_cell_segments[:, :, :] = -1
     for bj in range(0, m, BLOCK):
@@ -388,54 +387,59 @@ def build_flow_tile(
                     inside_full[j, i] = not math.isnan(psi)
                     if inside_full[j, i] and ring <= i < m - ring and ring <= j < m - ring:
                         n_inside += 1
-            # boundary cells of this block: cells touched by a bank or cap segment
-            for j in range(max(bj, ring), min(j_hi, ring + n_cells)):
-                cy0 = origin_y + (gj0 + j - ring) * h
-                for i in range(max(bi, ring), min(i_hi, ring + n_cells)):
-                    cx0 = origin_x + (gi0 + i - ring) * h
-                    _collect_cell_segments(cx0, cy0, cx0 + h, cy0 + h, diag2, nb, blk_curve,
-                                           blk_start, blk_count, blk_seg, curve_kind,
-                                           seg_ax, seg_ay, seg_bx, seg_by,
-                                           out_cell_status, out_cell_segments, j - ring, i - ring,
-                                           best_d)
+    _mark_boundary_cells(origin_x + gi0 * h, origin_y + gj0 * h, h, n_cells, seg_ax, seg_ay,
+                         seg_bx, seg_by, curve_kind, curve_seg0, curve_seg1, curve_bbox,
+                         cell_d2, out_cell_status, out_cell_segments)
     _classify_plain_cells(inside_full, n_cells, out_cell_status)
     _extrapolate_ghosts(psi_full, inside_full, n_cells, out_psi)
     return n_inside
 
 
 @njit(**JIT_OPTIONS)
-def _collect_cell_segments(cx0, cy0, cx1, cy1, diag2, nb, blk_curve, blk_start, blk_count,
-                           blk_seg, curve_kind, seg_ax, seg_ay, seg_bx, seg_by,
-                           out_cell_status, out_cell_segments, cj, ci, best_d):
-    """Mark the cell BOUNDARY when a bank/cap segment touches it, keeping its nearest segments
-    (``best_d`` is (CELL_SEGMENTS,) scratch)."""
-    best_d[:] = np.inf
-    touched = False
-    for k in range(nb):
-        c = blk_curve[k]
+def _mark_boundary_cells(x0, y0, h, n_cells, seg_ax, seg_ay, seg_bx, seg_by, curve_kind,
+                         curve_seg0, curve_seg1, curve_bbox, cell_d2, out_cell_status,
+                         out_cell_segments):
+    """Rasterise bank and cap segments onto the tile's cells.
+
+    A cell that a segment touches is BOUNDARY; every cell keeps (up to CELL_SEGMENTS) the
+    segments within one cell diagonal of it, nearest first: if any segment touches a cell, the
+    nearest boundary segment of each of its points is among those (it is within a diagonal).
+    """
+    diag = math.sqrt(2.0) * h
+    diag2 = 2.0 * h * h
+    x1 = x0 + n_cells * h
+    y1 = y0 + n_cells * h
+    cell_d2[:, :, :] = np.inf
+    for c in range(curve_kind.shape[0]):
         if curve_kind[c] == KIND_AXIS:
             continue
-        for mm in range(blk_start[k], blk_start[k] + blk_count[k]):
-            s = blk_seg[mm]
-            d2 = _segment_box_dist2(seg_ax[s], seg_ay[s], seg_bx[s], seg_by[s], cx0, cy0, cx1, cy1)
-            if d2 > diag2:
-                continue
-            if d2 == 0.0:
-                touched = True
-            # insertion into the short sorted list
-            pos = CELL_SEGMENTS
-            while pos > 0 and d2 < best_d[pos - 1]:
-                pos -= 1
-            if pos < CELL_SEGMENTS:
-                for q in range(CELL_SEGMENTS - 1, pos, -1):
-                    best_d[q] = best_d[q - 1]
-                    out_cell_segments[cj, ci, q] = out_cell_segments[cj, ci, q - 1]
-                best_d[pos] = d2
-                out_cell_segments[cj, ci, pos] = s
-    if touched:
-        out_cell_status[cj, ci] = CELL_BOUNDARY
-    else:
-        out_cell_segments[cj, ci, :] = -1
+        if (curve_bbox[c, 0] > x1 + diag or curve_bbox[c, 2] < x0 - diag
+                or curve_bbox[c, 1] > y1 + diag or curve_bbox[c, 3] < y0 - diag):
+            continue
+        for s in range(curve_seg0[c], curve_seg1[c]):
+            ax, ay, bx, by = seg_ax[s], seg_ay[s], seg_bx[s], seg_by[s]
+            i0 = max(int(math.floor((min(ax, bx) - diag - x0) / h)), 0)
+            i1 = min(int(math.floor((max(ax, bx) + diag - x0) / h)), n_cells - 1)
+            j0 = max(int(math.floor((min(ay, by) - diag - y0) / h)), 0)
+            j1 = min(int(math.floor((max(ay, by) + diag - y0) / h)), n_cells - 1)
+            for j in range(j0, j1 + 1):
+                cy0 = y0 + j * h
+                for i in range(i0, i1 + 1):
+                    cx0 = x0 + i * h
+                    d2 = _segment_box_dist2(ax, ay, bx, by, cx0, cy0, cx0 + h, cy0 + h)
+                    if d2 > diag2:
+                        continue
+                    if d2 == 0.0:
+                        out_cell_status[j, i] = CELL_BOUNDARY
+                    pos = CELL_SEGMENTS
+                    while pos > 0 and d2 < cell_d2[j, i, pos - 1]:
+                        pos -= 1
+                    if pos < CELL_SEGMENTS:
+                        for q in range(CELL_SEGMENTS - 1, pos, -1):
+                            cell_d2[j, i, q] = cell_d2[j, i, q - 1]
+                            out_cell_segments[j, i, q] = out_cell_segments[j, i, q - 1]
+                        cell_d2[j, i, pos] = d2
+                        out_cell_segments[j, i, pos] = s
 
 
 @njit(**JIT_OPTIONS)
