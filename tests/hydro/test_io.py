@@ -266,7 +266,7 @@ ASCII_CASES = [  # (id, change to the tiny channel's token list, fragment of the
     ("non-ascii token", _set(9, "\u00e9\u00e8"), "x of node 0"),
     ("glued tokens", _set(9, "0.0abc"), "'0.0abc'"),
     ("truncated", lambda t: t[:60], "curve count between 0 and 2"),
-    ("truncated in the area", lambda t: t[:96], "end of file"),
+    ("truncated before the last token", lambda t: t[:100], "end of file"),
 ]
 
 
