@@ -161,15 +161,36 @@ def _runs(labels: np.ndarray) -> list[tuple[int, int, int]]:
     return [(int(a), int(b), int(labels[a])) for a, b in zip(bounds[:-1], bounds[1:])]
 
 
-def _bank_runs(piece: Piece, axis_ids: list[int], axis_lines: list) -> list[tuple[np.ndarray, int]]:
+def _axis_cost(seg_start: np.ndarray, seg_end: np.ndarray, axis_ids: list[int],
+               axis_lines: list, use_side: bool) -> np.ndarray:
+    """(S, A) cost of linking each bank segment to each candidate axis: the distance from the
+    segment's midpoint, ×10 when the axis lies on the segment's right (water is on a bank's
+    left; not for islands, which may straddle their axis) and ×2 when the midpoint lies beyond
+    the axis' ends (its nearest point is an end node, as around junctions)."""
+    mid = 0.5 * (seg_start + seg_end)
+    d = seg_end - seg_start
+    pts = shapely.points(mid)
+    cost = np.empty((len(mid), len(axis_ids)))
+    for k, a in enumerate(axis_ids):
+        line = axis_lines[a]
+        q = shapely.get_coordinates(shapely.shortest_line(pts, line))[1::2]
+        to = q - mid
+        dist = np.hypot(to[:, 0], to[:, 1])
+        right = d[:, 0] * to[:, 1] - d[:, 1] * to[:, 0] < 0
+        s = shapely.line_locate_point(line, pts)
+        beyond = (s <= 1e-9) | (s >= line.length - 1e-9)
+        cost[:, k] = dist * (1.0 + beyond) * (1.0 + 9.0 * (right & use_side))
+    return cost
+
+
+def _bank_runs(piece: Piece, axis_ids: list[int], axis_lines: list, island: bool
+               ) -> list[tuple[np.ndarray, int]]:
     """Split a piece where its nearest axis changes: [(points (M, 2), axis)]; a closed piece
     with one axis stays one closed curve (its points repeat the first point at the end)."""
     v = piece.points
     seg_end = np.roll(v, -1, axis=0) if piece.closed else v[1:]
     seg_start = v if piece.closed else v[:-1]
-    mid = shapely.points(0.5 * (seg_start + seg_end))
-    dist = np.stack([shapely.distance(mid, axis_lines[a]) for a in axis_ids], axis=1)
-    labels = np.asarray(axis_ids)[np.argmin(dist, axis=1)]
+    labels = np.asarray(axis_ids)[np.argmin(_axis_cost(seg_start, seg_end, axis_ids, axis_lines, not island), axis=1)]
     runs = _runs(labels)
     if piece.closed:
         if len(runs) == 1:
@@ -240,7 +261,7 @@ def assemble_graph(geoms: list[BranchGeometry], rings: list[Ring], pieces: list[
     piece_banks: list[list[int]] = []
     for i, piece in enumerate(pieces):
         piece_banks.append([])
-        for pts, axis in _bank_runs(piece, sorted(piece_axes[i]), axis_lines):
+        for pts, axis in _bank_runs(piece, sorted(piece_axes[i]), axis_lines, i in island_of):
             piece_banks[-1].append(len(banks))
             banks.append((pts, axis, float(psi[i])))
             reach = float(shapely.distance(shapely.points(pts), axis_lines[axis]).max())

@@ -70,7 +70,19 @@ def strip_polygon(centerline_m: np.ndarray, widths_m: np.ndarray) -> shapely.Geo
             tri = np.stack([c, c + sign * n0 * hc, c + sign * n1 * hc, c], axis=1)[keep]
             if len(tri):
                 polys.extend(shapely.polygons(tri))
-    return shapely.union_all(polys)
+    return drop_slivers(shapely.union_all(polys), 1e-4 * float(widths_m.min()) ** 2)
+
+
+def drop_slivers(geom: shapely.Geometry, min_area_m2: float) -> shapely.Geometry:
+    """Remove the holes smaller than ``min_area_m2`` (slivers left between the pieces of a
+    union, where bevels meet quads in floating point)."""
+    parts = []
+    for g in getattr(geom, "geoms", [geom]):
+        if not isinstance(g, Polygon) or g.is_empty:
+            continue
+        holes = [r for r in g.interiors if shapely.Polygon(r).area >= min_area_m2]
+        parts.append(Polygon(g.exterior, holes) if len(holes) < len(g.interiors) else g)
+    return parts[0] if len(parts) == 1 else shapely.MultiPolygon(parts)
 
 
 def free_end_cut(centerline_m: np.ndarray, widths_m: np.ndarray, at_start: bool) -> np.ndarray:

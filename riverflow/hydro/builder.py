@@ -58,7 +58,7 @@ class RiverNetworkBuilder:
 
     ``tolerance_m`` is the Bézier flattening tolerance and the geometric epsilon [m].
     After :meth:`build`, ``discharges_m2s`` holds the resolved discharge of every branch
-    (in the order they were added).
+    (in the order they were added) and ``water_polygon`` the water (shapely, islands are holes).
     """
 
     def __init__(self, tolerance_m: float = 0.25) -> None:
@@ -68,6 +68,7 @@ class RiverNetworkBuilder:
         self._branches: list[_BranchInput] = []
         self._islands: list[_Island] = []
         self.discharges_m2s: list[float] = []
+        self.water_polygon: shapely.Geometry | None = None
 
     # -- input --------------------------------------------------------------------------
 
@@ -189,6 +190,7 @@ class RiverNetworkBuilder:
         if problems:
             raise GraphError("the network gives an invalid hydro graph: " + "; ".join(problems[:5]))
         self.discharges_m2s = list(discharges)
+        self.water_polygon = polygons[0] if len(polygons) == 1 else shapely.MultiPolygon(polygons)
         return graph
 
 
@@ -355,7 +357,8 @@ def _water(geoms: list[BranchGeometry], junctions: np.ndarray, islands: list[_Is
             if g.end_junction == j:
                 halves.append(0.5 * g.widths_m[-1])
         discs.append(_strips.junction_disc(p, halves))
-    river = shapely.union_all(strips + discs)
+    min_width = min(float(g.widths_m.min()) for g in geoms)
+    river = _strips.drop_slivers(shapely.union_all(strips + discs), 1e-4 * min_width ** 2)
     valid_islands = []
     for k, isl in enumerate(islands):
         if not river.contains(isl.outline) or isl.outline.distance(river.boundary) <= tolerance_m:

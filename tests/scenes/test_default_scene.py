@@ -1,0 +1,158 @@
+"""The built-in scene: deterministic, a plausible river network, water that flows downhill
+and never floats above the terrain or sinks below its bed."""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pytest
+import shapely
+
+from riverflow.hydro._checks import area_loop, graph_problems
+from riverflow.scenes.default import Scene, default_scene
+
+
+@pytest.fixture(scope="module")
+def scene() -> Scene:
+    t = time.perf_counter()
+    s = default_scene(seed=0)
+    print(f"\ndefault_scene(0) built in {time.perf_counter() - t:.2f} s")
+    return s
+
+
+def _length_m(line: np.ndarray) -> float:
+    return float(np.hypot(*np.diff(line, axis=0).T).sum())
+
+
+def _outward_shore_points(scene: Scene, offset_m: float) -> np.ndarray:
+    """Points offset_m outside the water, one per metre of shore, where nothing else is
+    within offset_m of them (so they are really 'just outside the banks')."""
+    pts = []
+    for poly in getattr(scene.water.polygon, "geoms", [scene.water.polygon]):
+        for ring in [poly.exterior, *poly.interiors]:
+            v = shapely.get_coordinates(shapely.segmentize(ring, 1.0))
+            d = np.diff(v, axis=0)
+            n = np.stack([d[:, 1], -d[:, 0]], axis=1) / np.hypot(*d.T)[:, None]  # right = land
+            pts.append(0.5 * (v[:-1] + v[1:]) + offset_m * n)
+    p = np.vstack(pts)
+    keep = ~scene.water.contains(p) & (scene.water.distance_to_shore(p) > 0.9 * offset_m)
+    x0, y0, x1, y1 = scene.bounds_m
+    keep &= (p[:, 0] > x0) & (p[:, 0] < x1) & (p[:, 1] > y0) & (p[:, 1] < y1)
+    return p[keep]
+
+
+def test_same_seed_gives_bitwise_same_scene(scene):
+    again = default_scene(seed=0)
+    assert np.array_equal(again.terrain.heights_m, scene.terrain.heights_m)
+    assert again.graph == scene.graph
+    assert np.array_equal(again.water.levels_m, scene.water.levels_m)
+    for a, b in zip(again.branches, scene.branches):
+        assert a.name == b.name and a.discharge_m2s == b.discharge_m2s
+        assert np.array_equal(a.centerline_m, b.centerline_m)
+        assert np.array_equal(a.widths_m, b.widths_m)
+
+
+def test_other_seed_gives_another_river(scene):
+    other = default_scene(seed=1)
+    a, b = scene.branch("main_upper").centerline_m, other.branch("main_upper").centerline_m
+    assert a.shape != b.shape or not np.allclose(a, b)
+    assert not np.array_equal(other.terrain.heights_m, scene.terrain.heights_m)
+    assert other.seed == 1 and not graph_problems(other.graph)
+
+
+def test_terrain_is_about_4_km_of_tiles(scene):
+    x0, y0, x1, y1 = scene.bounds_m
+    assert x1 - x0 >= 3500 and y1 - y0 >= 3500
+    t = scene.terrain
+    assert t.heights_m.dtype == np.float32 and np.isfinite(t.heights_m).all()
+    tx, ty = t.tile_count
+    assert tx * ty >= 4
+    heights, origin = t.tile(1, 2)
+    n = t.cells_per_tile
+    assert heights.shape == (n + 1, n + 1)
+    assert np.array_equal(origin, [x0 + t.tile_size_m, y0 + 2 * t.tile_size_m])
+    corner = origin + t.tile_size_m * np.array([1.0, 1.0])
+    assert t.height(corner[None])[0] == pytest.approx(float(heights[-1, -1]))
+
+
+def test_main_river_long_wide_and_widening(scene):
+    main = [b for b in scene.branches if b.kind == "main"]
+    assert sum(_length_m(b.centerline_m) for b in main) >= 3000.0
+    widths = np.concatenate([b.widths_m for b in main])
+    assert widths.min() >= 50.0 and widths.max() <= 150.0
+    assert np.all(np.diff(widths) >= 0) and widths[-1] > widths[0] + 50.0
+
+
+def test_tributary_joins_and_island_splits_the_flow(scene):
+    by_name = {b.name: b for b in scene.branches}
+    trib = [b for b in scene.branches if b.kind == "tributary"]
+    assert trib
+    for t in trib:  # a confluence: it ends where a main branch ends and another starts
+        ends_here = [b for b in scene.branches if b.end_junction == t.end_junction]
+        starts_here = [b for b in scene.branches if b.start_junction == t.end_junction]
+        assert len(ends_here) >= 2 and len(starts_here) == 1
+        assert np.allclose(t.centerline_m[-1], starts_here[0].centerline_m[0])
+    arms = [b for b in scene.branches if b.kind == "arm"]
+    assert len(arms) == 2 and arms[0].start_junction == arms[1].start_junction
+    assert arms[0].end_junction == arms[1].end_junction
+    assert sum(a.discharge_m2s for a in arms) == pytest.approx(by_name["main_middle"].discharge_m2s)
+    g = scene.graph
+    holes = [a for a in range(len(g.areas)) if shapely.Polygon(area_loop(g, a)).exterior.is_ccw is False]
+    assert len(holes) >= 2  # the island between the arms and the free island
+    assert len(scene.islands) >= 1
+
+
+def test_graph_is_valid_and_discharges_plausible(scene):
+    branches = [(b.centerline_m, b.widths_m, b.discharge_m2s) for b in scene.branches]
+    assert graph_problems(scene.graph, branches) == []
+    for b in scene.branches:
+        speed = b.discharge_m2s / float(np.mean(b.widths_m))
+        assert 0.4 <= speed <= 2.0, (b.name, speed)
+
+
+def test_water_only_goes_downhill(scene):
+    for b in scene.branches:
+        s, level = scene.water.profiles[b.name]
+        assert np.all(np.diff(level) <= 0), b.name
+    # surface queried along each centre line, away from junction zones
+    for b in scene.branches:
+        line = b.centerline_m
+        s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(line, axis=0).T))])
+        margin = 1.5 * float(np.max([x.widths_m.max() for x in scene.branches]))
+        keep = (s > margin) & (s < s[-1] - margin)
+        h = scene.water.height(line[keep])
+        assert np.isfinite(h).all(), b.name
+        assert np.all(np.diff(h) <= 1e-9), b.name
+    drop = scene.water.profiles["main_upper"][1][0] - scene.water.profiles["main_lower"][1][-1]
+    assert drop > 1.0
+
+
+def test_junction_levels_agree(scene):
+    for j in {b.end_junction for b in scene.branches if b.end_junction >= 0}:
+        levels = [scene.water.profiles[b.name][1][-1] for b in scene.branches if b.end_junction == j]
+        levels += [scene.water.profiles[b.name][1][0] for b in scene.branches if b.start_junction == j]
+        assert np.ptp(levels) == 0.0
+
+
+def test_banks_above_water_just_outside(scene):
+    offset = 2.0 * scene.terrain.cell_m
+    p = _outward_shore_points(scene, offset)
+    assert len(p) > 5000
+    ground = scene.terrain.height(p)
+    assert np.all(ground >= scene.water.level(p)), float((ground - scene.water.level(p)).min())
+
+
+def test_bed_below_water_inside(scene, rng):
+    x0, y0, x1, y1 = scene.water.polygon.bounds
+    p = rng.uniform([x0, y0], [x1, y1], size=(200_000, 2))
+    p = p[scene.water.contains(p)]
+    p = p[scene.water.distance_to_shore(p) > 2.0 * scene.terrain.cell_m]
+    assert len(p) > 1000
+    surface = scene.water.height(p)
+    assert np.all(scene.terrain.height(p) < surface)
+    depth = scene.water.depth(p)
+    assert np.all(depth > 0) and depth.max() < 6.0 and depth.max() > 2.0
+    assert np.allclose(scene.water.bed(p), surface - depth)
+    outside = rng.uniform([x0, y0], [x1, y1], size=(2000, 2))
+    outside = outside[~scene.water.contains(outside)]
+    assert np.isnan(scene.water.height(outside)).all()
