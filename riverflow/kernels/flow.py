@@ -572,7 +572,7 @@ def _fill_stencil(patch):
                 a, b = (r, q) if sweep == 0 else (q, r)
                 if not math.isnan(patch[a, b]):
                     continue
-                step = 1 if (q if sweep == 0 else r) <= 1 else -1
+                step = 1 if (b if sweep == 0 else a) <= 1 else -1  # towards the middle
                 if sweep == 0:
                     v1, v2 = patch[a, b + step], patch[a, b + 2 * step]
                 else:

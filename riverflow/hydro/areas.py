@@ -1,0 +1,30 @@
+"""The water of a hydro graph as polygons: its areas' loops, Bézier patches flattened.
+
+Proland fills the areas with the odd winding rule, so an island loop inside the water loop is a
+hole (reference §1.2 rule 6, §4.8). Used by tools, tests and (later) the water mesh.
+"""
+from __future__ import annotations
+
+import numpy as np
+import shapely
+
+from riverflow.hydro.graph import HydroGraph
+
+
+def area_ring(graph: HydroGraph, area: int, tolerance_m: float = 0.25) -> np.ndarray:
+    """The closed loop of ``graph.areas[area]``, (M, 2) float64 [m], first point not repeated."""
+    parts = []
+    for c, o in graph.areas[area].curves:
+        p = graph.polyline(c, tolerance_m)
+        parts.append((p[::-1] if o else p)[:-1])
+    return np.vstack(parts)
+
+
+def water_polygon(graph: HydroGraph, tolerance_m: float = 0.25) -> shapely.Geometry:
+    """The water: the symmetric difference of every area's polygon (odd winding rule)."""
+    water = shapely.Polygon()
+    for a in range(len(graph.areas)):
+        ring = area_ring(graph, a, tolerance_m)
+        if len(ring) >= 3:
+            water = shapely.symmetric_difference(water, shapely.make_valid(shapely.Polygon(ring)))
+    return water

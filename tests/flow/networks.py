@@ -1,0 +1,55 @@
+"""River networks built in the tests with the public builder (SPEC §1 "Author it")."""
+from __future__ import annotations
+
+import numpy as np
+
+from riverflow.hydro.builder import RiverNetworkBuilder
+
+
+def straight_channel():
+    """A 400 m straight channel, 40 m wide, flowing +x, discharge 40 m²/s (mean 1 m/s)."""
+    b = RiverNetworkBuilder()
+    b.add_branch([(0, 0), (400, 0)], 40.0, discharge_m2s=40.0, name="main")
+    return b.build(), b
+
+
+def bend_with_island():
+    """A 90° bend, 60 m wide, with a free island (an obstacle) in the middle of the bend."""
+    t = np.linspace(0, np.pi / 2, 40)
+    arc = np.c_[200 * np.sin(t), 200 * (1 - np.cos(t))]
+    line = np.vstack([[(-200, 0)], arc, [(200, 400)]])
+    b = RiverNetworkBuilder()
+    b.add_branch(line, 60.0, discharge_m2s=60.0, name="bend")
+    c = np.array([200 * np.sin(np.pi / 4), 200 * (1 - np.cos(np.pi / 4))])
+    ang = np.linspace(0, 2 * np.pi, 24, endpoint=False)
+    b.add_island(c + np.c_[9 * np.cos(ang), 9 * np.sin(ang)])
+    return b.build(), b
+
+
+def confluence():
+    """Two rivers (30 and 20 m²/s) joining into one 60 m wide."""
+    b = RiverNetworkBuilder()
+    b.add_branch([(-300, 150), (-150, 60), (0, 0)], 40.0, discharge_m2s=30.0, name="left")
+    b.add_branch([(-300, -160), (-140, -70), (0, 0)], 30.0, discharge_m2s=20.0, name="right")
+    b.add_branch([(0, 0), (200, 0), (400, 30)], 60.0, name="lower")
+    return b.build(), b
+
+
+def bifurcation():
+    """One river splitting into two arms around an island, which join again."""
+    b = RiverNetworkBuilder()
+    b.add_branch([(-300, 0), (0, 0)], 60.0, discharge_m2s=60.0, name="upper")
+    x = np.linspace(0, 350, 60)
+    bulge = np.sin(np.pi * x / 350) ** 0.7
+    b.add_branch(np.c_[x, 75 * bulge], 40.0, discharge_m2s=35.0, name="north")
+    b.add_branch(np.c_[x, -65 * bulge], 35.0, discharge_m2s=25.0, name="south")
+    b.add_branch([(350, 0), (650, 0)], 60.0, name="lower")
+    return b.build(), b
+
+
+NETWORKS = {
+    "straight": straight_channel,
+    "bend_island": bend_with_island,
+    "confluence": confluence,
+    "bifurcation": bifurcation,
+}
