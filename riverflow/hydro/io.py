@@ -20,6 +20,7 @@ Differences from Proland, all deliberate:
 """
 from __future__ import annotations
 
+import math
 import os
 import re
 import struct
@@ -60,19 +61,19 @@ class _Reader:
         return GraphError(f"{self.name}: {self.where(self.pos if at is None else at)}: "
                           f"expected {what}, got {got}")
 
-    def int(self, what: str, lo: int = _INT32[0], hi: int = _INT32[1]) -> int:
+    def int(self, what: str, lo: int = _INT32[0], hi: int = _INT32[1], size: int = 4) -> int:
+        """An int32 (``size`` 8: an int64 offset) in ``[lo, hi]``."""
         at = self.last = self.pos
-        v = self._int(what, 4)
+        v = self._int(what, size)
         if not lo <= v <= hi:
             raise self.fail(f"{what} in [{lo}, {hi}]", str(v), at)
         return v
 
     def long(self, what: str, lo: int, hi: int) -> int:
-        at = self.last = self.pos
-        v = self._int(what, 8)
-        if not lo <= v <= hi:
-            raise self.fail(f"{what} in [{lo}, {hi}]", str(v), at)
-        return v
+        return self.int(what, lo, hi, 8)
+
+    def remaining(self) -> int:
+        return self.limit - self.pos
 
     def count(self, what: str, unit: int) -> int:
         """A non-negative count of items each at least ``unit`` values long."""
@@ -123,12 +124,9 @@ class _AsciiReader(_Reader):
         self.last = self.pos
         tok = self._next(what)
         v = float(tok) if _FLOAT_RE.fullmatch(tok) else None
-        if v is None or not np.isfinite(v):
+        if v is None or not math.isfinite(v):
             raise self.fail(f"a finite number ({what})", _show(tok), self.pos - 1)
         return v
-
-    def remaining(self) -> int:
-        return self.limit - self.pos
 
     def tell(self) -> int:
         return self.starts[self.pos] if self.pos < len(self.starts) else len(self.data)
@@ -173,12 +171,9 @@ class _BinaryReader(_Reader):
     def float(self, what: str) -> float:
         self.last = self.pos
         v = float(self._unpack("<f", 4, f"float32 {what}"))
-        if not np.isfinite(v):
+        if not math.isfinite(v):
             raise self.fail(f"a finite float32 {what}", repr(v), self.pos - 4)
         return v
-
-    def remaining(self) -> int:
-        return self.limit - self.pos
 
     def tell(self) -> int:
         return self.pos
@@ -243,9 +238,11 @@ def _read_indexed(r: _Reader) -> HydroGraph:
     counts = [r.count(f"{k} count in the index", r.long_size // r.int_size)
               for k in ("node", "curve", "area", "subgraph")]
     offsets = [r.long("element offset", 0, index_at) for _ in range(sum(counts[:3]))]
-    sub_offsets = {}
+    sub_offsets: dict[int, int] = {}
     for _ in range(counts[3]):
-        a = r.int("subgraph area index", 0, counts[2] - 1)
+        a = r.int("subgraph area index (each area once)", 0, counts[2] - 1)
+        if a in sub_offsets:
+            raise r.fail("each area index once in the subgraph index", f"area {a} twice", r.last)
         sub_offsets[a] = r.long("subgraph offset", 0, index_at)
     if r.remaining():
         raise r.fail("end of file after the index", "more data (trailing garbage)")
@@ -275,11 +272,11 @@ def _read_graph(r: _Reader, depth: int, params: tuple[int, ...] | None = None,
                              f"it at byte {r.tell()}")
 
     n_nodes = counts[0] if counts else r.count("node count", 3 + pn - 2)
-    nodes = np.zeros((n_nodes, 2))
+    nodes = []
     node_links: list[tuple[int, int]] = []  # (token/byte position, curve index)
     for i in range(n_nodes):
         element("node", i)
-        nodes[i] = r.float(f"x of node {i}"), r.float(f"y of node {i}")
+        nodes.append((r.float(f"x of node {i}"), r.float(f"y of node {i}")))
         r.skip(pn - 2, f"node {i}")
         for _ in range(r.count(f"curve count of node {i}", 1)):
             node_links.append((r.pos, r.int(f"curve index in node {i}")))
@@ -309,15 +306,14 @@ def _read_graph(r: _Reader, depth: int, params: tuple[int, ...] | None = None,
         r.skip(pc - (5 if hydro else 3), f"curve {i}")
         start = r.int(f"start node of curve {i}", 0, n_nodes - 1)
         r.skip(pe - 1, f"curve {i} start")
-        pts = np.zeros((size - 2, 2))
-        ctrl = np.zeros(size - 2, bool)
-        for j in range(size - 2):
-            pts[j] = r.float(f"x of vertex {j + 1} of curve {i}"), r.float(f"y of vertex {j + 1}")
-            ctrl[j] = r.int(f"isControl flag (0/1) of vertex {j + 1} of curve {i}", 0, 1)
+        pts, ctrl = [], []
+        for j in range(1, size - 1):
+            pts.append((r.float(f"x of vertex {j} of curve {i}"), r.float(f"y of vertex {j}")))
+            ctrl.append(r.int(f"isControl flag (0/1) of vertex {j} of curve {i}", 0, 1))
             r.skip(pp - 3, f"curve {i} vertex")
-            if j >= 2 and ctrl[j - 2 : j + 1].all():
+            if ctrl[-3:] == [1, 1, 1]:
                 raise r.fail(f"at most two Bézier control vertices in a row in curve {i}",
-                             f"a third one (vertex {j + 1})", r.last)
+                             f"a third one (vertex {j})", r.last)
         end = r.int(f"end node of curve {i}", 0, n_nodes - 1)
         r.skip(pe - 1, f"curve {i} end")
         r.int(f"area1 of curve {i}", -1)
@@ -356,7 +352,7 @@ def _read_graph(r: _Reader, depth: int, params: tuple[int, ...] | None = None,
                 raise r.fail(f"the subgraph of area {i} at byte {sub_offsets[i]}",
                              f"it at byte {r.tell()}")
             areas[i].subgraph = _read_graph(r, depth + 1)
-    return HydroGraph(nodes, curves, areas)
+    return HydroGraph(np.array(nodes, dtype=np.float64).reshape(-1, 2), curves, areas)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -377,93 +373,73 @@ def save_graph(graph: HydroGraph, path: str | os.PathLike, *, binary: bool = Fal
     """
     _check_savable(graph, "graph")
     w = _Writer(binary)
-    w.int(1 if indexed else 0)
+    w.row("i", 1 if indexed else 0, newline=False)
     if indexed:
         _write_indexed(graph, w)
     else:
         _write_graph(graph, w)
-    Path(path).write_bytes(w.getvalue())
+    Path(path).write_bytes(b"".join(w.parts))
 
 
 class _Writer:
+    """Accumulates a file: ``row("iif", 1, 2, 3.5)`` writes int32 / int64 (``q``) / float32
+    values in binary, or tokens (ints, 10-wide int64, ``repr`` floats) on one ASCII line."""
+
     def __init__(self, binary: bool) -> None:
         self.binary = binary
         self.parts: list[bytes] = []
         self.size = 0
 
-    def _put(self, b: bytes) -> None:
-        self.parts.append(b)
-        self.size += len(b)
-
-    def int(self, v: int) -> None:
-        self._put(struct.pack("<i", v) if self.binary else b"%d " % v)
-
-    def long(self, v: int) -> None:
-        self._put(struct.pack("<q", v) if self.binary else b"%10d " % v)
-
-    def float(self, v: float) -> None:
+    def row(self, fmt: str, *values, newline: bool = True) -> None:
         if self.binary:
             with np.errstate(over="ignore"):
-                f = np.float32(v)
-            if not np.isfinite(f):
-                raise GraphError(f"{v!r} does not fit a float32 (binary files store float32)")
-            self._put(f.tobytes())
+                f32 = np.asarray([v for k, v in zip(fmt, values) if k == "f"], np.float32)
+            if not np.isfinite(f32).all():
+                bad = [v for k, v in zip(fmt, values) if k == "f"][int(np.argmin(np.isfinite(f32)))]
+                raise GraphError(f"{bad!r} does not fit a float32 (binary files store float32)")
+            b = struct.pack("<" + fmt, *[float(v) if k == "f" else int(v) for k, v in zip(fmt, values)])
         else:
-            self._put(repr(float(v)).encode() + b" ")
-
-    def sep(self) -> None:
-        """End of a line in ASCII (replaces the trailing space); nothing in binary."""
-        if not self.binary and self.parts and self.parts[-1].endswith(b" "):
-            self.parts[-1] = self.parts[-1][:-1] + b"\n"
-
-    def getvalue(self) -> bytes:
-        return b"".join(self.parts)
+            tok = {"i": lambda v: b"%d" % v, "q": lambda v: b"%10d" % v,
+                   "f": lambda v: repr(float(v)).encode()}
+            b = b" ".join(tok[k](v) for k, v in zip(fmt, values)) + (b"\n" if newline else b" ")
+        self.parts.append(b)
+        self.size += len(b)
 
 
 def _write_graph(g: HydroGraph, w: _Writer, offsets: list[int] | None = None,
                  sub_offsets: list[tuple[int, int]] | None = None) -> None:
-    """Basic layout without magic; with ``offsets`` the indexed body (no counts)."""
-    if offsets is None:
-        for p in _HYDRO_PARAMS:
-            w.int(p)
-        w.sep()
-    counted = offsets is None
-    if counted:
-        w.int(len(g.nodes)); w.sep()  # noqa: E702
-    for (x, y), inc in zip(g.nodes, g.incident_curves()):
-        if offsets is not None:
-            offsets.append(w.size)
-        w.float(x); w.float(y); w.int(len(inc))  # noqa: E702
-        for c in inc:
-            w.int(c)
-        w.sep()
-    adjacent: list[list[int]] = [[] for _ in g.curves]  # Proland area1/area2
+    """Basic layout without magic; with ``offsets`` the indexed body (no counts, the byte
+    offset of each element appended to ``offsets``, of each subgraph to ``sub_offsets``)."""
+    indexed = offsets is not None
+    if not indexed:
+        w.row("i" * 7, *_HYDRO_PARAMS)
+    adjacent: list[list[int]] = [[] for _ in g.curves]  # Proland's area1 / area2
     for k, area in enumerate(g.areas):
         for c, _ in area.curves:
             if k not in adjacent[c]:
                 adjacent[c].append(k)
-    if counted:
-        w.int(len(g.curves)); w.sep()  # noqa: E702
-    for i, c in enumerate(g.curves):
-        if offsets is not None:
-            offsets.append(w.size)
-        w.int(len(c.points) + 2); w.float(c.width_m); w.int(int(c.type))  # noqa: E702
-        w.float(c.potential); w.int(c.river); w.int(c.start)  # noqa: E702
-        for (x, y), k in zip(c.points, c.is_control):
-            w.float(x); w.float(y); w.int(int(k))  # noqa: E702
-        w.int(c.end)
-        for k in (adjacent[i] + [-1, -1])[:2]:
-            w.int(k)
-        w.int(c.parent); w.sep()  # noqa: E702
-    if counted:
-        w.int(len(g.areas)); w.sep()  # noqa: E702
-    for a in g.areas:
-        if offsets is not None:
-            offsets.append(w.size)
-        w.int(len(a.curves)); w.int(a.info); w.int(a.subgraph is not None)  # noqa: E702
-        for c, o in a.curves:
-            w.int(c); w.int(o)  # noqa: E702
-        w.int(a.parent); w.sep()  # noqa: E702
+    elements = [(len(g.nodes), [
+        ("ffi" + "i" * len(inc), (x, y, len(inc), *inc))
+        for (x, y), inc in zip(g.nodes, g.incident_curves())
+    ]), (len(g.curves), [
+        ("ififii" + "ffi" * len(c.points) + "iiii",
+         (len(c.points) + 2, c.width_m, int(c.type), c.potential, c.river, c.start,
+          *[v for (x, y), k in zip(c.points, c.is_control) for v in (x, y, int(k))],
+          c.end, *(adjacent[i] + [-1, -1])[:2], c.parent))
+        for i, c in enumerate(g.curves)
+    ]), (len(g.areas), [
+        ("iii" + "ii" * len(a.curves) + "i",
+         (len(a.curves), a.info, a.subgraph is not None, *[v for co in a.curves for v in co],
+          a.parent))
+        for a in g.areas
+    ])]
+    for count, rows in elements:
+        if not indexed:
+            w.row("i", count)
+        for fmt, values in rows:
+            if indexed:
+                offsets.append(w.size)
+            w.row(fmt, *values)
     for i, a in enumerate(g.areas):
         if a.subgraph is not None:
             if sub_offsets is not None:
@@ -472,67 +448,53 @@ def _write_graph(g: HydroGraph, w: _Writer, offsets: list[int] | None = None,
 
 
 def _write_indexed(g: HydroGraph, w: _Writer) -> None:
-    for p in _HYDRO_PARAMS:
-        w.int(p)
+    """Indexed layout (§1.5); the index offset is patched into its fixed-width field."""
+    w.row("i" * 7, *_HYDRO_PARAMS, newline=False)
     slot = len(w.parts)
-    w.long(0)
-    w.sep()
+    w.row("q", 0)
     offsets: list[int] = []
     subs: list[tuple[int, int]] = []
     _write_graph(g, w, offsets, subs)
     index_at = w.size
-    for n in (len(g.nodes), len(g.curves), len(g.areas), len(subs)):
-        w.int(n)
-    for off in offsets:
-        w.long(off)
-    for a, off in subs:
-        w.int(a); w.long(off)  # noqa: E702
-    w.sep()
-    patched = struct.pack("<q", index_at) if w.binary else b"%10d" % index_at
+    w.row("iiii" + "q" * len(offsets) + "iq" * len(subs), len(g.nodes), len(g.curves),
+          len(g.areas), len(subs), *offsets, *[v for sub in subs for v in sub])
     old = w.parts[slot]
-    w.parts[slot] = patched + old[len(patched):]
+    w.parts[slot] = struct.pack("<q", index_at) if w.binary else b"%10d\n" % index_at
     if len(w.parts[slot]) != len(old):
         raise GraphError(f"index offset {index_at} does not fit the 10-character ASCII field")
 
 
-def _check_savable(g: HydroGraph, what: str) -> None:
+def _check_savable(g: HydroGraph, what: str, depth: int = 0) -> None:
     """Refuse what :func:`load_graph` would refuse, so that a saved graph always loads back."""
     def bad(msg: str) -> GraphError:
         return GraphError(f"cannot save {what}: {msg}")
 
-    def int32(v: int, name: str) -> None:
-        if not _INT32[0] <= int(v) <= _INT32[1]:
-            raise bad(f"{name} = {v} does not fit an int32")
-
     n, m = len(g.nodes), len(g.curves)
+    if depth > _MAX_DEPTH:
+        raise bad(f"subgraphs nested more than {_MAX_DEPTH} deep")
     if not np.isfinite(g.nodes).all():
         raise bad(f"node {int(np.argwhere(~np.isfinite(g.nodes))[0, 0])} has a non-finite coordinate")
     for i, c in enumerate(g.curves):
-        if not (0 <= c.start < n and 0 <= c.end < n):
-            raise bad(f"curve {i} joins nodes {c.start}->{c.end}, not in [0, {n - 1}]")
-        if not np.isfinite(c.points).all() or not np.isfinite([c.width_m, c.potential]).all():
-            raise bad(f"curve {i} has a non-finite vertex, width or potential")
-        if c.width_m < 0:
-            raise bad(f"curve {i} has a negative width {c.width_m!r}")
-        if c.is_bank and c.potential == NO_POTENTIAL:
-            raise bad(f"curve {i} is a BANK without a potential")
-        if c.river != NO_CURVE and not (0 <= c.river < m and c.river != i and g.curves[c.river].is_axis):
-            raise bad(f"curve {i}'s river link {c.river} is not an axis of this graph")
         k = c.is_control.astype(int)
-        if len(k) >= 3 and (k[:-2] & k[1:-1] & k[2:]).any():
-            raise bad(f"curve {i} has more than two Bézier control vertices in a row")
-        if c.parent < -1:
-            raise bad(f"curve {i} has parent {c.parent} (< -1)")
-        int32(c.parent, f"parent of curve {i}")
+        river_ok = c.river == NO_CURVE or (0 <= c.river < m and c.river != i
+                                           and g.curves[c.river].is_axis)
+        for failed, problem in (
+            (not (0 <= c.start < n and 0 <= c.end < n), f"joins nodes {c.start}->{c.end}"),
+            (not np.isfinite([*c.points.ravel(), c.width_m, c.potential]).all(),
+             "has a non-finite vertex, width or potential"),
+            (c.width_m < 0, f"has a negative width {c.width_m!r}"),
+            (c.is_bank and c.potential == NO_POTENTIAL, "is a BANK without a potential"),
+            (not river_ok, f"has a river link {c.river} that is not an axis of this graph"),
+            (len(k) >= 3 and (k[:-2] & k[1:-1] & k[2:]).any(),
+             "has more than two Bézier control vertices in a row"),
+            (not -1 <= c.parent <= _INT32[1], f"has parent {c.parent}, not an int32 >= -1"),
+        ):
+            if failed:
+                raise bad(f"curve {i} {problem}")
     for i, a in enumerate(g.areas):
-        if not a.curves:
-            raise bad(f"area {i} has no curves")
-        for c, o in a.curves:
-            if not (0 <= c < m and o in (0, 1)):
-                raise bad(f"area {i} has (curve {c}, orientation {o}) out of range")
-        if a.parent < -1:
-            raise bad(f"area {i} has parent {a.parent} (< -1)")
-        int32(a.info, f"info of area {i}")
-        int32(a.parent, f"parent of area {i}")
+        if not a.curves or any(not (0 <= c < m and o in (0, 1)) for c, o in a.curves):
+            raise bad(f"area {i} has no curves or a bad (curve, orientation) in {a.curves}")
+        if not (-1 <= a.parent <= _INT32[1] and _INT32[0] <= a.info <= _INT32[1]):
+            raise bad(f"area {i} has parent {a.parent} / info {a.info} out of int32 (parent >= -1)")
         if a.subgraph is not None:
-            _check_savable(a.subgraph, f"{what} > subgraph of area {i}")
+            _check_savable(a.subgraph, f"{what} > subgraph of area {i}", depth + 1)
