@@ -62,7 +62,8 @@ def validate_graph(graph: HydroGraph, *, tolerance_m: float = 0.5) -> list[Valid
     Args:
         graph: the network, coordinates in metres.
         tolerance_m: slack [m] for the axis-coverage test (a bank vertex may lie up to
-            ``width/2 + tolerance_m`` from its axis) and for Bézier flattening.
+            ``width/2 + tolerance_m`` from its axis). Bézier patches are flattened to within
+            ``min(0.25, tolerance_m)`` (like :meth:`HydroGraph.polyline`).
 
     Returns:
         All issues found, in curve order per check; empty for a valid network.
@@ -124,7 +125,7 @@ class _Validator:
             if c.width_m < 0:
                 self.add(i, "bad-curve", f"negative width {c.width_m} m")
             try:
-                self.poly[i] = g.polyline(i, self.tol)
+                self.poly[i] = g.polyline(i, min(0.25, max(self.tol, 0.01)))
             except ValueError as e:
                 self.add(i, "bad-curve", str(e))
 
