@@ -56,7 +56,14 @@ def strip_polygon(centerline_m: np.ndarray, widths_m: np.ndarray) -> shapely.Geo
     p = centerline_m
     h = 0.5 * widths_m
     n = _unit_normals(p)
-    a, b = p[:-1], p[1:]
+    t = np.stack([n[:, 1], -n[:, 0]], axis=1)
+    # consecutive quads overlap by 2 ε at interior vertices: exactly shared edges computed
+    # from nearly equal normals would leave floating-point cracks in the union
+    eps = np.minimum(1e-3 * widths_m.min(), 0.01)
+    grow_a = np.full((len(p) - 1, 1), eps)
+    grow_b = np.full((len(p) - 1, 1), eps)
+    grow_a[0] = grow_b[-1] = 0.0  # the strip's own ends stay flat cuts
+    a, b = p[:-1] - t * grow_a, p[1:] + t * grow_b
     ha, hb = h[:-1, None], h[1:, None]
     quads = np.stack([a + n * ha, b + n * hb, b - n * hb, a - n * ha, a + n * ha], axis=1)
     polys = list(shapely.polygons(quads))

@@ -260,8 +260,8 @@ def _carve(axis_m: np.ndarray, water: WaterSurface, far_m: np.ndarray) -> np.nda
     grid farther away (KD-tree queries far from the data are slow)."""
     n = len(axis_m)
     coarse = _grid(axis_m[::COARSE])
-    centre_c, level_c, width_c = water.nearest(coarse)
-    shore = _upsample(water.distance_to_shore(coarse), n).ravel()
+    centre_c, level_c, width_c = water.nearest(coarse, stride=5)
+    shore = _upsample(np.maximum(centre_c - 0.5 * width_c, 0.0), n).ravel()  # exact near the river
     m = len(axis_m[::COARSE])
     level = _upsample(gaussian_filter(level_c.reshape(m, m), LEVEL_BLUR, mode="nearest"), n).ravel()
     width = _upsample(width_c, n).ravel()

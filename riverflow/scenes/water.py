@@ -99,35 +99,44 @@ class WaterSurface:
 
     def __post_init__(self) -> None:
         shapely.prepare(self.polygon)
-        self._centre_tree = cKDTree(self.samples_m)
+        self._decimated: dict[int, tuple] = {}
         edge = shapely.segmentize(self.polygon.boundary, self.boundary_spacing_m)
         self._boundary_tree = cKDTree(shapely.get_coordinates(edge))
         self._reach_m = 0.75 * float(self.widths_m.max()) + 2.0 * self.boundary_spacing_m
 
     # -- queries (all take xy (N, 2) [m] and return (N,) float64) -------------------------
 
-    def nearest(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def nearest(self, xy: np.ndarray, stride: int = 1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Distance to the nearest centre line [m], water level there and river width there,
-        projected onto the nearest segment of the branch so that levels vary continuously."""
+        projected onto the nearest segment of the branch so that levels vary continuously.
+
+        ``stride`` > 1 uses every stride-th sample only: coarser but much faster for points
+        far from the river (a KD-tree query far from its data visits many leaves).
+        """
         p = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
-        _, k = self._centre_tree.query(p, workers=-1)
-        n = len(self.samples_m)
+        if stride not in self._decimated:
+            sel = slice(None, None, stride)
+            self._decimated[stride] = (cKDTree(self.samples_m[sel]), self.samples_m[sel],
+                                       self.levels_m[sel], self.widths_m[sel], self.branch[sel])
+        tree, samples, levels, widths, branch = self._decimated[stride]
+        _, k = tree.query(p, workers=-1)
+        n = len(samples)
         best_d = np.full(len(p), np.inf)
         level = np.empty(len(p))
         width = np.empty(len(p))
         for a_off in (-1, 0):
             a = np.clip(k + a_off, 0, n - 2)
             b = a + 1
-            same = self.branch[a] == self.branch[b]
-            sa, sb = self.samples_m[a], self.samples_m[b]
+            same = branch[a] == branch[b]
+            sa, sb = samples[a], samples[b]
             ab = sb - sa
             t = np.clip(np.einsum("ij,ij->i", p - sa, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-12), 0, 1)
             t = np.where(same, t, np.where(a == k, 0.0, 1.0))
             d = np.hypot(*(sa + t[:, None] * ab - p).T)
             better = d < best_d
             best_d = np.where(better, d, best_d)
-            level = np.where(better, (1 - t) * self.levels_m[a] + t * self.levels_m[b], level)
-            width = np.where(better, (1 - t) * self.widths_m[a] + t * self.widths_m[b], width)
+            level = np.where(better, (1 - t) * levels[a] + t * levels[b], level)
+            width = np.where(better, (1 - t) * widths[a] + t * widths[b], width)
         return best_d, level, width
 
     def level(self, xy: np.ndarray) -> np.ndarray:

@@ -1,0 +1,253 @@
+"""RiverNetworkBuilder: hydro graphs from centre lines satisfy the Proland rules (reference
+§1.2): water on the left of every bank, right bank ψ larger facing downstream, ψ difference
+across a branch = its discharge, equal ψ at nodes, axes covering their banks, continuous
+areas, no crossing banks, islands as clockwise bank loops."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import shapely
+from shapely.geometry import LineString, Point
+
+from riverflow.hydro._checks import area_loop, graph_problems
+from riverflow.hydro.builder import RiverNetworkBuilder
+from riverflow.hydro.graph import CurveType, GraphError, HydroGraph
+
+
+def _signed_area(loop: np.ndarray) -> float:
+    x, y = loop[:, 0], loop[:, 1]
+    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
+
+
+def _bank_psi_near(graph: HydroGraph, xy) -> float:
+    """ψ of the bank curve nearest to a point."""
+    banks = graph.banks()
+    d = [LineString(graph.vertices(i)).distance(Point(xy)) for i in banks]
+    return graph.curves[banks[int(np.argmin(d))]].potential
+
+
+def _psi_across(graph: HydroGraph, line, width_m: float, fraction: float = 0.5) -> float:
+    """ψ(right bank) − ψ(left bank) at an arc-length fraction of a centre line drawn downstream."""
+    line = np.asarray(line, dtype=float)
+    s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(line, axis=0).T))])
+    j = int(np.clip(np.searchsorted(s, fraction * s[-1], side="right") - 1, 0, len(line) - 2))
+    u = (fraction * s[-1] - s[j]) / (s[j + 1] - s[j])
+    p = line[j] + u * (line[j + 1] - line[j])
+    t = (line[j + 1] - line[j]) / (s[j + 1] - s[j])
+    n = np.array([-t[1], t[0]])
+    return _bank_psi_near(graph, p - 0.5 * width_m * n) - _bank_psi_near(graph, p + 0.5 * width_m * n)
+
+
+def _check(graph: HydroGraph, branches) -> None:
+    """Every self-check property, plus independent checks of the areas and the axis side."""
+    assert graph_problems(graph, branches) == []
+    for i in graph.banks():  # the linked axis is on the left of every shore bank
+        c = graph.curves[i]
+        assert c.has_potential and graph.curves[c.river].type == CurveType.AXIS
+    signs = [np.sign(_signed_area(area_loop(graph, a))) for a in range(len(graph.areas))]
+    assert signs.count(1.0) >= 1  # every water polygon has a counter-clockwise shore loop
+    for n, inc in enumerate(graph.incident_curves()):
+        psi = {graph.curves[c].potential for c in inc if graph.curves[c].is_bank}
+        assert len(psi) <= 1, f"node {n}"
+    assert min(graph.curves[i].potential for i in graph.banks()) == 0.0
+    for line, widths, q in branches:
+        assert q > 0
+        w = float(np.min(widths))
+        for f in (0.3, 0.7):
+            assert _psi_across(graph, line, 0.98 * w, f) == pytest.approx(q, rel=1e-9)
+
+
+def test_straight_channel():
+    b = RiverNetworkBuilder()
+    b.add_branch([[0.0, 0.0], [100.0, 0.0]], 20.0, 50.0, name="channel")
+    g = b.build()
+    _check(g, [([[0, 0], [100, 0]], [20.0, 20.0], 50.0)])
+    types = [c.type for c in g.curves]
+    assert types.count(CurveType.AXIS) == 1 and types.count(CurveType.CLOSING_SEGMENT) == 2
+    assert types.count(CurveType.BANK) == 2 and len(g.areas) == 1
+    axis = g.curves[g.axes()[0]]
+    assert axis.width_m >= 1.1 * 20.0
+    right = _bank_psi_near(g, (50.0, -10.0))
+    left = _bank_psi_near(g, (50.0, 10.0))
+    assert (left, right) == (0.0, 50.0)  # facing +x the right bank (y < 0) has the larger ψ
+    for i in g.banks():
+        v = g.vertices(i)
+        d = v[-1] - v[0]
+        to_axis = np.array([50.0, 0.0]) - v[0]
+        assert d[0] * to_axis[1] - d[1] * to_axis[0] > 0  # axis (the water) on the left
+    for c in g.curves:
+        if c.type == CurveType.CLOSING_SEGMENT:
+            assert c.width_m == 0.0 and not c.has_potential
+    assert b.water_polygon.area == pytest.approx(2000.0, rel=1e-3)
+    assert b.discharges_m2s == [50.0]
+
+
+def test_building_twice_gives_equal_graphs():
+    def make():
+        b = RiverNetworkBuilder()
+        b.add_branch([[0, 0], [50, 20], [100, 0]], [20, 25, 30], 40.0)
+        return b.build()
+
+    assert make() == make()
+
+
+def test_bend_with_free_island():
+    th = np.linspace(0.0, np.pi / 2, 40)
+    line = np.c_[200 * np.cos(th), 200 * np.sin(th)]
+    b = RiverNetworkBuilder()
+    b.add_branch(line, np.linspace(40.0, 60.0, 40), 50.0)
+    ang = np.linspace(0, 2 * np.pi, 16, endpoint=False)
+    centre = 200.0 * np.array([np.cos(0.6), np.sin(0.6)])
+    b.add_island(centre + np.c_[6 * np.cos(ang), 12 * np.sin(ang)])
+    g = b.build()
+    _check(g, [(line, np.linspace(40.0, 60.0, 40), 50.0)])
+    holes = [a for a in range(len(g.areas)) if _signed_area(area_loop(g, a)) < 0]
+    assert len(holes) == 1  # the island: a clockwise loop, water on its left
+    island_psi = {g.curves[c].potential for c, _ in g.areas[holes[0]].curves}
+    assert len(island_psi) == 1
+    psi = island_psi.pop()
+    assert 0.0 < psi < 50.0 and psi == pytest.approx(25.0, rel=0.1)  # centred: about half
+    for c, _ in g.areas[holes[0]].curves:
+        assert g.curves[c].is_bank and g.curves[c].river in g.axes()
+
+
+def test_island_with_given_potential_and_bad_potential():
+    b = RiverNetworkBuilder()
+    b.add_branch([[0, 0], [100, 0]], 40.0, 80.0)
+    b.add_island([[40, 0], [60, 0], [50, 5]], potential=30.0)
+    g = b.build()
+    assert 30.0 in {g.curves[i].potential for i in g.banks()}
+    b = RiverNetworkBuilder()
+    b.add_branch([[0, 0], [100, 0]], 40.0, 80.0)
+    b.add_island([[40, 0], [60, 0], [50, 5]], potential=100.0)
+    with pytest.raises(GraphError, match="between"):
+        b.build()
+
+
+def test_confluence_sums_discharges():
+    up, trib, down = [[0, 0], [100, 0], [200, 10]], [[120, -150], [150, -60], [200, 10]], [[200, 10], [300, 0], [400, 20]]
+    b = RiverNetworkBuilder()
+    b.add_branch(up, 30.0, 60.0, name="up")
+    b.add_branch(trib, 20.0, 30.0, name="trib")
+    b.add_branch(down, 40.0, name="down")
+    g = b.build()
+    assert b.discharges_m2s == [60.0, 30.0, 90.0]
+    _check(g, [(up, [30.0], 60.0), (trib, [20.0], 30.0), (down, [40.0], 90.0)])
+    junction = [n for n, inc in enumerate(g.incident_curves())
+                if sum(g.curves[c].type == CurveType.AXIS for c in inc) == 3]
+    assert len(junction) == 1 and np.allclose(g.nodes[junction[0]], [200, 10])
+    assert len(g.areas) == 1 and sum(c.type == CurveType.CLOSING_SEGMENT for c in g.curves) == 3
+
+
+def test_confluence_with_bezier_tributary():
+    b = RiverNetworkBuilder(tolerance_m=0.1)
+    b.add_branch([[0, 0], [200, 0]], 40.0, 60.0)
+    b.add_branch([[0, -300], [50, -200], [150, -100], [200, 0]], [20.0, 24.0], 20.0, bezier=True)
+    b.add_branch([[200, 0], [400, 0]], [50.0, 60.0])
+    g = b.build()
+    assert b.discharges_m2s == [60.0, 20.0, 80.0]
+    assert graph_problems(g) == []
+    assert _psi_across(g, [[200, 0], [400, 0]], 48.0) == pytest.approx(80.0)
+
+
+def test_bifurcation_split_by_width_or_given():
+    b = RiverNetworkBuilder()
+    b.add_branch([[0, 0], [100, 0]], 40.0, 80.0)
+    b.add_branch([[100, 0], [200, 60]], 30.0)
+    b.add_branch([[100, 0], [200, -60]], 10.0)
+    g = b.build()
+    assert b.discharges_m2s == pytest.approx([80.0, 60.0, 20.0])
+    _check(g, [([[0, 0], [100, 0]], [40.0], 80.0), ([[100, 0], [200, 60]], [30.0], 60.0),
+               ([[100, 0], [200, -60]], [10.0], 20.0)])
+    b = RiverNetworkBuilder()
+    b.add_branch([[0, 0], [100, 0]], 40.0, 80.0)
+    b.add_branch([[100, 0], [200, 60]], 30.0, 50.0)
+    b.add_branch([[100, 0], [200, -60]], 20.0)
+    b.build()
+    assert b.discharges_m2s == pytest.approx([80.0, 50.0, 30.0])
+
+
+def test_bifurcation_that_rejoins_encloses_an_island():
+    up, left, right, down = ([[0, 0], [100, 0]], [[100, 0], [150, 30], [250, 30], [300, 0]],
+                             [[100, 0], [150, -30], [250, -30], [300, 0]], [[300, 0], [400, 0]])
+    b = RiverNetworkBuilder()
+    b.add_branch(up, 40.0, 80.0)
+    b.add_branch(left, 22.0)
+    b.add_branch(right, 18.0)
+    b.add_branch(down, 40.0)
+    g = b.build()
+    q = b.discharges_m2s
+    assert q == pytest.approx([80.0, 44.0, 36.0, 80.0])
+    _check(g, [(up, [40.0], 80.0), (left, [22.0], q[1]), (right, [18.0], q[2]), (down, [40.0], 80.0)])
+    holes = [a for a in range(len(g.areas)) if _signed_area(area_loop(g, a)) < 0]
+    assert len(holes) == 1
+    island_psi = {g.curves[c].potential for c, _ in g.areas[holes[0]].curves}
+    assert len(island_psi) == 1  # right bank of the left arm = left bank of the right arm
+    assert island_psi.pop() == pytest.approx(q[1])  # left shore ψ 0 + the left arm's discharge
+    assert shapely.Polygon(area_loop(g, holes[0])).contains(Point(200, 0))
+
+
+def test_axis_split_where_width_changes():
+    line = np.c_[np.linspace(0, 400, 9), np.zeros(9)]
+    widths = np.linspace(20.0, 60.0, 9)
+    b = RiverNetworkBuilder()
+    b.add_branch(line, widths, 30.0)
+    g = b.build()
+    axes = [g.curves[i] for i in g.axes()]
+    assert len(axes) >= 3
+    _check(g, [(line, widths, 30.0)])
+
+
+def test_separate_rivers_each_start_at_zero():
+    b = RiverNetworkBuilder()
+    b.add_branch([[0, 0], [200, 0]], 40.0, 80.0)
+    b.add_branch([[0, 200], [200, 200]], 30.0, 50.0)
+    g = b.build()
+    assert len(g.areas) == 2
+    assert sorted(g.curves[i].potential for i in g.banks()) == [0.0, 0.0, 50.0, 80.0]
+
+
+def test_sharp_corner_polyline():
+    line = [[0, 0], [100, 0], [100, 100]]
+    b = RiverNetworkBuilder()
+    b.add_branch(line, 30.0, 40.0)
+    _check(b.build(), [(line, [30.0], 40.0)])
+
+
+def _pair(b, first, second):
+    b.add_branch(*first)
+    b.add_branch(*second)
+
+
+@pytest.mark.parametrize("make, message", [
+    (lambda b: (b.add_branch([[0, 0], [100, 0]], 40, 80), b.add_branch([[100, 0], [200, 60]], 30, 50),
+                b.add_branch([[100, 0], [200, -60]], 20, 40)), "inflow 80 m²/s ≠ outflow 90"),
+    (lambda b: (b.add_branch([[0, 0], [100, 0]], 40, 80), b.add_branch([[100, -100], [100, 0]], 30, 50),
+                b.add_branch([[100, 0], [200, 0]], 40, 100)), "inflow 130 m²/s ≠ outflow 100"),
+    (lambda b: (b.add_branch([[0, 0], [100, 0]], 40, 80), b.add_branch([[100, 0], [200, 60]], 30, 80),
+                b.add_branch([[100, 0], [200, -60]], 20)), "leave nothing"),
+    (lambda b: _pair(b, ([[0, 0], [100, 0]], 40, 80), ([[120, 0], [200, 0]], 40)), "do not meet"),
+    (lambda b: _pair(b, ([[0, 0], [200, 0]], 40, 80), ([[100, -100], [100, 0]], 30, 50)), "overlap"),
+    (lambda b: _pair(b, ([[0, 0], [100, 0]], 40, 80), ([[100, 0], [100, 100], [0, 100], [0, 0]], 40)), "loop"),
+    (lambda b: _pair(b, ([[0, 0], [100, 0]], 40, 80), ([[0, 0], [-100, 0]], 40, 80)), "none ends there"),
+    (lambda b: b.add_branch([[0, 0], [100, 0]], 40), "give its discharge"),
+    (lambda b: b.add_branch([[0, 0], [200, 0]], [40, 0], 80), "positive"),
+    (lambda b: b.add_branch([[0, 0], [200, 0]], -5.0, 80), "positive"),
+    (lambda b: b.add_branch([[0, 0], [200, 0]], [40, 40, 40], 80), "one value per"),
+    (lambda b: b.add_branch([[0, 0], [np.nan, 0]], 40, 80), "not finite"),
+    (lambda b: b.add_branch([[0, 0]], 40, 80), "at least 2"),
+    (lambda b: b.add_branch([[0, 0], [0, 0]], 40, 80), "at least 2 distinct"),
+    (lambda b: b.add_branch([[0, 0], [100, 0]], 40, -1.0), "discharge must be a positive"),
+    (lambda b: b.add_branch([[0, 0], [1, 1], [2, 2], [3, 3], [4, 4]], 4, 8, bezier=True), "3·n"),
+    (lambda b: (b.add_branch([[0, 0], [100, 0]], 40, 80), b.add_island([[50, 30], [60, 30], [55, 40]])),
+     "strictly inside"),
+    (lambda b: (b.add_branch([[0, 0], [100, 0]], 40, 80), b.add_island([[50, 10], [60, 10], [55, 25]])),
+     "strictly inside"),
+    (lambda b: b.add_island([[0, 0], [1, 1], [1, 0], [0, 1]]), "simple polygon"),
+    (lambda b: None, "no branches"),
+])
+def test_bad_input_raises_graph_error(make, message):
+    b = RiverNetworkBuilder()
+    with pytest.raises(GraphError, match=message):
+        make(b)
+        b.build()
