@@ -100,8 +100,17 @@ class FlowField:
         self._blk_start = np.empty(net.n_curves, np.int32)
         self._blk_count = np.empty(net.n_curves, np.int32)
         self._blk_seg = np.empty(net.n_segments, np.int32)
+        self._blk_dmin2 = np.empty(net.n_curves)
         self._tmp_d2 = np.empty(net.n_segments)
         self._gval = np.empty(max(net.n_groups, 1))
+
+    @classmethod
+    def for_scene(cls, scene, slip: float = 1.0, search_radius_factor: float = 5.0,
+                  **options) -> FlowField:
+        """The flow of ``scene.graph`` with the quadtree root on the scene's square bounds."""
+        x0, y0, x1, y1 = scene.bounds_m
+        options.setdefault("domain_m", (x0, y0, max(x1 - x0, y1 - y0)))
+        return cls(scene.graph, slip, search_radius_factor, **options)
 
     # -- public queries ---------------------------------------------------------------------
 
@@ -144,12 +153,13 @@ class FlowField:
         args = (t.root_x_m, t.root_y_m, t.tile_size_m(lv), t.n_cells, t.slots[lv], t.psi,
                 t.cell_status, t.cell_segments, t.last_used, t.tick,
                 *self.network.geometry_args())
-        for idx in self._batches(pts, lv, None):
-            out = np.empty(len(idx))
-            kf.sample_potential(pts[idx], *args, out)
-            psi[idx] = out
-        outside = self.tile_of(pts, lv)[:, 0] < 0
-        psi[outside] = np.nan
+        if kf.sample_potential(pts, *args, psi):  # some tiles are not cached yet
+            missing = self.tile_of(pts, lv)[:, 0] >= 0
+            missing &= np.isnan(psi)
+            for idx in self._batches(pts, lv, np.flatnonzero(missing)):
+                out = np.empty(len(idx))
+                kf.sample_potential(pts[idx], *args, out)
+                psi[idx] = out
         return psi
 
     def exact_potential(self, xy: np.ndarray) -> np.ndarray:
@@ -158,8 +168,8 @@ class FlowField:
         psi = np.empty(len(pts))
         net = self.network
         kf.evaluate_potential(pts, psi, *net.kernel_args(), self.slip, self._blk_curve,
-                              self._blk_start, self._blk_count, self._blk_seg, self._tmp_d2,
-                              self._gval)
+                              self._blk_start, self._blk_count, self._blk_seg, self._blk_dmin2,
+                              self._tmp_d2, self._gval)
         return psi
 
     # -- tiles ---------------------------------------------------------------------------------
@@ -260,7 +270,8 @@ class FlowField:
         h = t.spacing_m(level)
         inside = kf.build_flow_tile(
             t.root_x_m, t.root_y_m, h, n, tx * n, ty * n, *self.network.kernel_args(), self.slip,
-            self._blk_curve, self._blk_start, self._blk_count, self._blk_seg, self._tmp_d2,
+            self._blk_curve, self._blk_start, self._blk_count, self._blk_seg, self._blk_dmin2,
+            self._tmp_d2,
             self._gval, self._psi_full, self._inside_full, self._cell_d2, t.psi[slot],
             t.cell_status[slot],
             t.cell_segments[slot])

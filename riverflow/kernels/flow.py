@@ -65,7 +65,7 @@ _TIE = 1e-4  # Proland's relative tolerance for "same distance" at a shared vert
 # -- geometry helpers -------------------------------------------------------------------------
 
 
-@njit(inline="always", **JIT_OPTIONS)
+@njit(**JIT_OPTIONS)
 def _dist2(px, py, ax, ay, bx, by):
     """Squared distance from p to segment ab."""
     ex = bx - ax
@@ -80,7 +80,7 @@ def _dist2(px, py, ax, ay, bx, by):
     return qx * qx + qy * qy
 
 
-@njit(inline="always", **JIT_OPTIONS)
+@njit(**JIT_OPTIONS)
 def _signed_dist2(px, py, ax, ay, bx, by):
     """Squared distance from p to ab, negative when p is on the right of a → b (dry side)."""
     d2 = _dist2(px, py, ax, ay, bx, by)
@@ -89,7 +89,7 @@ def _signed_dist2(px, py, ax, ay, bx, by):
     return d2
 
 
-@njit(inline="always", **JIT_OPTIONS)
+@njit(**JIT_OPTIONS)
 def _nearer(cur, s):
     """Keep the signed squared distance of smaller magnitude; at a tie, positive wins."""
     a = abs(s)
@@ -101,7 +101,7 @@ def _nearer(cur, s):
     return cur
 
 
-@njit(inline="always", **JIT_OPTIONS)
+@njit(**JIT_OPTIONS)
 def _segment_hits_box(ax, ay, bx, by, x0, y0, x1, y1):
     """Liang-Barsky: does segment ab touch the box [x0, x1] × [y0, y1]?"""
     t0 = 0.0
@@ -135,14 +135,14 @@ def _segment_hits_box(ax, ay, bx, by, x0, y0, x1, y1):
     return True
 
 
-@njit(inline="always", **JIT_OPTIONS)
+@njit(**JIT_OPTIONS)
 def _box_point_dist2(px, py, x0, y0, x1, y1):
     dx = max(x0 - px, 0.0, px - x1)
     dy = max(y0 - py, 0.0, py - y1)
     return dx * dx + dy * dy
 
 
-@njit(inline="always", **JIT_OPTIONS)
+@njit(**JIT_OPTIONS)
 def _segment_box_dist2(ax, ay, bx, by, x0, y0, x1, y1):
     """Smallest squared distance between segment ab and the box."""
     if _segment_hits_box(ax, ay, bx, by, x0, y0, x1, y1):
@@ -154,7 +154,7 @@ def _segment_box_dist2(ax, ay, bx, by, x0, y0, x1, y1):
     return min(d, _dist2(x1, y1, ax, ay, bx, by))
 
 
-@njit(inline="always", **JIT_OPTIONS)
+@njit(**JIT_OPTIONS)
 def _segment_box_maxdist2(ax, ay, bx, by, x0, y0, x1, y1):
     """Largest squared distance from a box point to segment ab (attained at a corner:
     the distance to a convex set is a convex function)."""
@@ -171,14 +171,15 @@ def gather_box_segments(
     x0, y0, x1, y1,
     seg_ax, seg_ay, seg_bx, seg_by,
     curve_seg0, curve_seg1, curve_bbox, curve_cutoff,
-    blk_curve, blk_start, blk_count, blk_seg, tmp_d2,
+    blk_curve, blk_start, blk_count, blk_seg, blk_dmin2, tmp_d2,
 ):
     """Collect, per curve, the segments that can be that curve's nearest for some point of the box.
 
     A segment is kept when its distance to the box is at most the smallest "farthest distance"
     of the curve's segments (so each curve's nearest segment is kept for every box point) and at
     most the curve's cutoff. Writes ``blk_curve[:n]``, ``blk_start``/``blk_count`` into
-    ``blk_seg``; ``tmp_d2`` is (S,) scratch. Returns n, the number of curves kept.
+    ``blk_seg`` and ``blk_dmin2``, the curve's smallest squared distance to the box (a lower
+    bound for every box point); ``tmp_d2`` is (S,) scratch. Returns n, the number of curves kept.
     """
     nb = 0
     ns = 0
@@ -200,11 +201,14 @@ def gather_box_segments(
                     upper = dmax
         limit = min(upper, cut2)
         start = ns
+        lower = np.inf
         for s in range(curve_seg0[c], curve_seg1[c]):
             if tmp_d2[s] <= limit:
                 blk_seg[ns] = s
                 ns += 1
+                lower = min(lower, tmp_d2[s])
         if ns > start:
+            blk_dmin2[nb] = lower
             blk_curve[nb] = c
             blk_start[nb] = start
             blk_count[nb] = ns - start
@@ -215,7 +219,7 @@ def gather_box_segments(
 # -- ψ at one point -----------------------------------------------------------------------------
 
 
-@njit(inline="always", **JIT_OPTIONS)
+@njit(**JIT_OPTIONS)
 def _fade(t):
     t = min(max(t, 0.0), 1.0)
     return t * t * t * (t * (t * 6.0 - 15.0) + 10.0)
@@ -223,7 +227,7 @@ def _fade(t):
 
 @njit(**JIT_OPTIONS)
 def potential_at(
-    px, py, nb, blk_curve, blk_start, blk_count, blk_seg,
+    px, py, nb, blk_curve, blk_start, blk_count, blk_seg, blk_dmin2,
     seg_ax, seg_ay, seg_bx, seg_by,
     curve_kind, curve_comp, curve_group, curve_hw2,
     comp_radius, comp_group0, comp_group1, group_psi, slip, gval,
@@ -265,6 +269,8 @@ def potential_at(
             cur = gval[curve_group[c]]
         else:
             cur = cap
+        if blk_dmin2[k] > abs(cur) * (1.0 + _TIE):  # no point of this curve can be nearer
+            continue
         for m in range(blk_start[k], blk_start[k] + blk_count[k]):
             s = blk_seg[m]
             cur = _nearer(cur, _signed_dist2(px, py, seg_ax[s], seg_ay[s], seg_bx[s], seg_by[s]))
@@ -312,7 +318,7 @@ def evaluate_potential(
     seg_ax, seg_ay, seg_bx, seg_by,
     curve_kind, curve_comp, curve_group, curve_hw2, curve_seg0, curve_seg1, curve_bbox,
     curve_cutoff, comp_radius, comp_group0, comp_group1, group_psi, slip,
-    blk_curve, blk_start, blk_count, blk_seg, tmp_d2, gval,
+    blk_curve, blk_start, blk_count, blk_seg, blk_dmin2, tmp_d2, gval,
 ):
     """Exact (uncached) ψ at each point of ``xy`` (N, 2) float64 into ``out_psi`` (N,) float64.
 
@@ -323,8 +329,8 @@ def evaluate_potential(
         py = xy[i, 1]
         nb = gather_box_segments(px, py, px, py, seg_ax, seg_ay, seg_bx, seg_by,
                                  curve_seg0, curve_seg1, curve_bbox, curve_cutoff,
-                                 blk_curve, blk_start, blk_count, blk_seg, tmp_d2)
-        out_psi[i] = potential_at(px, py, nb, blk_curve, blk_start, blk_count, blk_seg,
+                                 blk_curve, blk_start, blk_count, blk_seg, blk_dmin2, tmp_d2)
+        out_psi[i] = potential_at(px, py, nb, blk_curve, blk_start, blk_count, blk_seg, blk_dmin2,
                                   seg_ax, seg_ay, seg_bx, seg_by, curve_kind, curve_comp,
                                   curve_group, curve_hw2, comp_radius, comp_group0, comp_group1,
                                   group_psi, slip, gval)
@@ -339,7 +345,8 @@ def build_flow_tile(
     seg_ax, seg_ay, seg_bx, seg_by,
     curve_kind, curve_comp, curve_group, curve_hw2, curve_seg0, curve_seg1, curve_bbox,
     curve_cutoff, comp_radius, comp_group0, comp_group1, group_psi, slip,
-    blk_curve, blk_start, blk_count, blk_seg, tmp_d2, gval, psi_full, inside_full, cell_d2,
+    blk_curve, blk_start, blk_count, blk_seg, blk_dmin2, tmp_d2, gval, psi_full, inside_full,
+    cell_d2,
     out_psi, out_cell_status, out_cell_segments,
 ):
     """Fill one flow tile: its ψ lattice (with extrapolated ghosts) and per-cell inside data.
@@ -372,14 +379,14 @@ def build_flow_tile(
             y1 = origin_y + (gj0 + min(j_hi, m - 1) - ring) * h
             nb = gather_box_segments(x0, y0, x1, y1, seg_ax, seg_ay, seg_bx, seg_by,
                                      curve_seg0, curve_seg1, curve_bbox, curve_cutoff,
-                                     blk_curve, blk_start, blk_count, blk_seg, tmp_d2)
+                                     blk_curve, blk_start, blk_count, blk_seg, blk_dmin2, tmp_d2)
             for j in range(bj, j_hi):
                 py = origin_y + (gj0 + j - ring) * h
                 for i in range(bi, i_hi):
                     px = origin_x + (gi0 + i - ring) * h
                     psi = np.nan
                     if nb > 0:
-                        psi = potential_at(px, py, nb, blk_curve, blk_start, blk_count, blk_seg,
+                        psi = potential_at(px, py, nb, blk_curve, blk_start, blk_count, blk_seg, blk_dmin2,
                                            seg_ax, seg_ay, seg_bx, seg_by, curve_kind,
                                            curve_comp, curve_group, curve_hw2, comp_radius,
                                            comp_group0, comp_group1, group_psi, slip, gval)
@@ -498,7 +505,7 @@ def _extrapolate_ghosts(psi_full, inside_full, n_cells, out_psi):
 # -- cached queries -------------------------------------------------------------------------------
 
 
-@njit(inline="always", **JIT_OPTIONS)
+@njit(**JIT_OPTIONS)
 def _catmull_rom(t):
     """Catmull-Rom weights and their derivatives at t ∈ [0, 1]."""
     t2 = t * t
@@ -557,7 +564,7 @@ def _boundary_inside(px, py, slot, ci, cj, fx, fy, cell_segments, psi_pool,
     return not math.isnan(psi_pool[slot, b, a])
 
 
-@njit(inline="always", **JIT_OPTIONS)
+@njit(**JIT_OPTIONS)
 def _rows(w0, w1, w2, w3, a, b, c, d):
     return w0 * a + w1 * b + w2 * c + w3 * d
 
