@@ -199,7 +199,8 @@ def gather_box_segments(
                                              x0, y0, x1, y1)
                 if dmax < upper:
                     upper = dmax
-        limit = min(upper, cut2)
+        # a hair above the bound: the two distance paths may round differently (fastmath)
+        limit = min(upper * (1.0 + 1e-9) + 1e-12, cut2)
         start = ns
         lower = np.inf
         for s in range(curve_seg0[c], curve_seg1[c]):

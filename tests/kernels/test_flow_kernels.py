@@ -1,0 +1,133 @@
+"""Each flow kernel against its plain-numpy twin in tests/reference.py."""
+from __future__ import annotations
+
+import numpy as np
+import numpy.testing as npt
+import pytest
+import shapely
+
+import riverflow as rf
+from riverflow.kernels import flow as kf
+from tests import reference
+from tests.flow.networks import NETWORKS
+
+
+@pytest.fixture(scope="module", params=list(NETWORKS))
+def field(request):
+    graph, _ = NETWORKS[request.param]()
+    return rf.FlowField(graph, slip=1.3 if request.param == "confluence" else 1.0)
+
+
+def _sample(field, rng, n):
+    x0, y0, x1, y1 = field.graph.bounds()
+    return rng.uniform((x0 - 20, y0 - 20), (x1 + 20, y1 + 20), (n, 2))
+
+
+def test_evaluate_potential_matches_reference(field, rng):
+    pts = _sample(field, rng, 300)
+    got = field.exact_potential(pts)
+    want = reference.potential(field.network, pts, field.slip)
+    npt.assert_array_equal(np.isnan(got), np.isnan(want))
+    # the vertex tie rule accepts distances within 1e-4 of the nearest: which of two tied
+    # segments wins depends on pruning, so ψ may differ in the 5th digit
+    npt.assert_allclose(got, want, rtol=1e-4, atol=1e-4)
+    assert np.isfinite(got).sum() > 30
+
+
+def test_proland_potential_matches_reference(proland_graph_path, rng):
+    field = rf.FlowField(rf.load_graph(proland_graph_path), slip=1.3, search_radius_factor=20.0)
+    pts = _sample(field, rng, 300)
+    got = field.exact_potential(pts)
+    npt.assert_allclose(got, reference.potential(field.network, pts, 1.3), rtol=1e-4, atol=1e-4)
+
+
+def test_gather_box_segments_keeps_each_curves_nearest_segment(field, rng):
+    net = field.network
+    n = net.n_curves
+    blk = [np.empty(n, np.int32) for _ in range(3)]
+    seg = np.empty(net.n_segments, np.int32)
+    dmin = np.empty(n)
+    tmp = np.empty(net.n_segments)
+    a = np.c_[net.seg_ax, net.seg_ay]
+    b = np.c_[net.seg_bx, net.seg_by]
+    for p0 in _sample(field, rng, 30):
+        box = (p0[0], p0[1], p0[0] + 15.0, p0[1] + 11.0)
+        nb = kf.gather_box_segments(*box, *net.geometry_args(), net.curve_seg0, net.curve_seg1,
+                                    net.curve_bbox, net.curve_cutoff, *blk, seg, dmin, tmp)
+        kept = {blk[0][k]: seg[blk[1][k]:blk[1][k] + blk[2][k]] for k in range(nb)}
+        for p in rng.uniform(box[:2], box[2:], (10, 2)):
+            for c in range(n):
+                d = reference._dist2(p, a[net.curve_seg0[c]:net.curve_seg1[c]],
+                                     b[net.curve_seg0[c]:net.curve_seg1[c]])
+                if d.min() > net.curve_cutoff[c] ** 2:
+                    continue
+                assert c in kept
+                assert reference._dist2(p, a[kept[c]], b[kept[c]]).min() == d.min()
+
+
+def test_flow_tile_lattice_matches_reference(field):
+    t = field.tiles
+    lv = field.max_level
+    xy = np.array(field.network.polylines[0][len(field.network.polylines[0]) // 2])[None]
+    field.query(xy)
+    tx, ty = field.tile_of(xy, lv)[0]
+    slot = t.slots[lv][ty, tx]
+    ox, oy = t.tile_origin_m(lv, tx, ty)
+    h = t.spacing_m(lv)
+    idx = np.arange(-1, t.n_cells + 2)
+    gx, gy = np.meshgrid(ox + idx * h, oy + idx * h)
+    want = reference.potential(field.network, np.c_[gx.ravel(), gy.ravel()], field.slip)
+    got = t.psi[slot].ravel()
+    inside = np.isfinite(want)
+    assert inside.sum() > 50
+    npt.assert_allclose(got[inside], want[inside], rtol=1e-4, atol=1e-4)
+    # dry lattice points next to the water hold extrapolated values, far ones NaN
+    assert np.isnan(got[~inside]).sum() > 0 or inside.all()
+
+
+def test_query_velocity_matches_reference(field, rng):
+    t = field.tiles
+    lv = field.max_level
+    h = t.spacing_m(lv)
+    pts = _sample(field, rng, 3000)
+    status, vel = field.query(pts)
+    keys = field.tile_of(pts, lv)
+    checked = 0
+    for k in np.flatnonzero(status == rf.FlowStatus.INSIDE)[:300]:
+        tx, ty = keys[k]
+        slot = t.slots[lv][ty, tx]
+        ox, oy = t.tile_origin_m(lv, tx, ty)
+        i, j = int((pts[k, 0] - ox) / h), int((pts[k, 1] - oy) / h)
+        if np.isnan(t.psi[slot, j:j + 4, i:i + 4]).any():
+            continue  # stencil filled by local extrapolation: not the plain formula
+        want = reference.lattice_velocity(t.psi[slot], (ox, oy), h, pts[k:k + 1])
+        npt.assert_allclose(vel[k], want[0], rtol=1e-4, atol=1e-5)
+        checked += 1
+    assert checked > 50
+
+
+def test_boundary_cells_are_where_banks_cross(field):
+    t = field.tiles
+    lv = field.max_level
+    net = field.network
+    h = t.spacing_m(lv)
+    field.query(np.array(net.polylines[0]))
+    banks = shapely.MultiLineString([p for p, k in zip(net.polylines, net.curve_kind)
+                                     if k != kf.KIND_AXIS])
+    for slot in np.flatnonzero(t.slot_key[:, 0] == lv)[:4]:
+        _, tx, ty = t.slot_key[slot]
+        ox, oy = t.tile_origin_m(lv, tx, ty)
+        j, i = np.mgrid[0:t.n_cells, 0:t.n_cells]
+        cells = shapely.box(ox + i * h, oy + j * h, ox + (i + 1) * h, oy + (j + 1) * h)
+        crossed = shapely.intersects(cells, banks)
+        status = t.cell_status[slot]
+        assert np.all(status[crossed] == kf.CELL_BOUNDARY)
+        assert set(np.unique(status)) <= {kf.CELL_INSIDE, kf.CELL_OUTSIDE, kf.CELL_BOUNDARY}
+
+
+def test_no_nan_and_clear_status_for_bad_points(field):
+    bad = np.array([[np.nan, 0.0], [np.inf, 1.0], [-np.inf, np.nan], [1e300, -1e300]])
+    status, velocity = field.query(bad)
+    assert np.all(status == rf.FlowStatus.OUTSIDE_DOMAIN)
+    assert np.all(velocity == 0)
+    assert np.all(np.isnan(field.potential(bad)))
