@@ -25,7 +25,7 @@ class FlowTileCache:
     max_level: int
     capacity: int
 
-    psi: np.ndarray = field(init=False)            # (P, n+3, n+3) float64 ψ [m²/s], points −1…n+1
+    psi: np.ndarray = field(init=False)            # (P, n+3, n+3) float32 ψ [m²/s], points −1…n+1
     cell_status: np.ndarray = field(init=False)    # (P, n, n) uint8 CELL_*
     cell_segments: np.ndarray = field(init=False)  # (P, n, n, CELL_SEGMENTS) int32
     slot_key: np.ndarray = field(init=False)       # (P, 3) int32 level, tx, ty; level −1 = free
@@ -39,7 +39,7 @@ class FlowTileCache:
 
     def __post_init__(self) -> None:
         n, p = self.n_cells, self.capacity
-        self.psi = np.full((p, n + 3, n + 3), np.nan)
+        self.psi = np.full((p, n + 3, n + 3), np.nan, np.float32)
         self.cell_status = np.zeros((p, n, n), np.uint8)
         self.cell_segments = np.full((p, n, n, CELL_SEGMENTS), -1, np.int32)
         self.slot_key = np.full((p, 3), -1, np.int32)
