@@ -185,6 +185,15 @@ class FlowField:
         u[bad] = -1
         return u.astype(np.int64)
 
+    def level_for_spacing(self, spacing_m: float) -> int:
+        """The coarsest quadtree level whose lattice spacing is at most ``spacing_m`` [m]
+        (the finest level if none is): how a view picks coarser tiles far away."""
+        if not spacing_m > 0.0:
+            return self.max_level
+        t = self.tiles
+        level = math.ceil(math.log2(t.root_size_m / (t.n_cells * spacing_m)))
+        return int(min(max(level, 0), self.max_level))
+
     def ensure_tiles(self, level: int, keys: Iterable[tuple[int, int]]) -> int:
         """Make sure tiles (tx, ty) of ``level`` are cached (produced now if not); returns the
         number produced. Raises ValueError if more are asked at once than the cache holds."""

@@ -1,0 +1,96 @@
+"""The flow-tile quadtree: levels, the bounded cache, determinism, bad options."""
+from __future__ import annotations
+
+import numpy as np
+import numpy.testing as npt
+import pytest
+
+import riverflow as rf
+from riverflow.hydro.graph import Curve, CurveType, GraphError, HydroGraph
+from tests.flow.networks import bifurcation, confluence
+
+
+def _water_points(field, rng, n):
+    x0, y0, x1, y1 = field.graph.bounds()
+    pts = rng.uniform((x0, y0), (x1, y1), (20 * n, 2))
+    status, _ = field.query(pts)
+    return pts[status == rf.FlowStatus.INSIDE][:n]
+
+
+def test_every_level_carries_the_flow(rng):
+    graph, _ = confluence()
+    field = rf.FlowField(graph)
+    assert field.max_level >= 2
+    line = field.network.polylines[0]
+    mid = line[len(line) // 2][None]
+    speeds = []
+    for level in range(field.max_level + 1):
+        status, v = field.query(mid, level=level)
+        if field.tiles.spacing_m(level) < 10.0:
+            assert status[0] == rf.FlowStatus.INSIDE, level
+            speeds.append(float(np.hypot(*v[0])))
+    assert np.ptp(speeds) < 0.15 * np.mean(speeds)
+
+
+def test_level_for_spacing_picks_coarser_tiles_for_coarser_needs():
+    graph, _ = confluence()
+    field = rf.FlowField(graph)
+    fine = field.tiles.spacing_m(field.max_level)
+    assert field.level_for_spacing(fine) == field.max_level
+    assert field.level_for_spacing(fine * 4.0) == field.max_level - 2
+    assert field.level_for_spacing(1e9) == 0
+    assert field.level_for_spacing(fine / 100.0) == field.max_level
+    assert field.tiles.spacing_m(field.level_for_spacing(7.0)) <= 7.0
+
+
+def test_bounded_cache_gives_the_same_answers(rng):
+    graph, _ = bifurcation()
+    big = rf.FlowField(graph, cache_tiles=256)
+    small = rf.FlowField(graph, cache_tiles=3)
+    pts = _water_points(big, rng, 4000)
+    s1, v1 = big.query(pts)
+    s2, v2 = small.query(pts)
+    npt.assert_array_equal(s1, s2)
+    npt.assert_array_equal(v1, v2)
+    npt.assert_array_equal(big.potential(pts), small.potential(pts))
+    assert small.tiles.cached <= 3
+    assert small.tiles.evicted > 0
+    assert big.tiles.evicted == 0
+
+
+def test_tiles_are_reproducible_and_cleared():
+    graph, _ = confluence()
+    field = rf.FlowField(graph)
+    lv = field.max_level
+    field.ensure_tiles(lv, [(1, 1)])
+    slot = field.tiles.slots[lv][1, 1]
+    first = field.tiles.psi[slot].copy()
+    field.clear_tiles()
+    assert field.tiles.cached == 0
+    assert field.ensure_tiles(lv, [(1, 1)]) == 1
+    assert field.ensure_tiles(lv, [(1, 1)]) == 0
+    npt.assert_array_equal(field.tiles.psi[field.tiles.slots[lv][1, 1]], first)
+    with pytest.raises(ValueError):
+        field.ensure_tiles(lv, [(i, 0) for i in range(field.tiles.capacity + 1)])
+
+
+def test_bad_networks_and_options_are_refused():
+    nodes = [(0, 0), (100, 0), (0, -10), (100, -10)]
+    no_psi = HydroGraph(nodes, [Curve(0, 1, width_m=24, type=CurveType.AXIS),
+                                Curve(2, 3, width_m=24, type=CurveType.BANK, river=0)])
+    with pytest.raises(GraphError, match="curve 1 has no potential"):
+        rf.FlowField(no_psi)
+    bad_link = HydroGraph(nodes, [Curve(0, 1, width_m=24, type=CurveType.AXIS),
+                                  Curve(2, 3, width_m=24, type=CurveType.BANK, potential=1,
+                                        river=1)])
+    with pytest.raises(GraphError, match="links to curve 1"):
+        rf.FlowField(bad_link)
+    with pytest.raises(GraphError, match="no river axis"):
+        rf.FlowField(HydroGraph(nodes, [Curve(2, 3, type=CurveType.BANK, potential=0)]))
+    graph, _ = confluence()
+    for kwargs in ({"slip": 0.0}, {"slip": float("nan")}, {"search_radius_factor": -1.0},
+                   {"potential_delta_m": 0.0}, {"cache_tiles": 0}):
+        with pytest.raises(ValueError):
+            rf.FlowField(graph, **kwargs)
+    with pytest.raises(ValueError):
+        rf.FlowField(graph).query(np.zeros((1, 2)), level=99)
