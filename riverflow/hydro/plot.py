@@ -301,7 +301,7 @@ def _draw_flow(ax, mpl, xs, ys, u, v, inside, style, graph: HydroGraph) -> None:
     rim = [patheffects.Stroke(linewidth=1.8, foreground="black", alpha=0.45), patheffects.Normal()]
     widths = [graph.curves[a].width_m for a in graph.axes()]
     step = xs[1] - xs[0]
-    spacing = max(float(np.median(widths)) / 6.0, 2.0 * step)  # wanted line spacing [m]
+    spacing = max(float(np.median(widths)) / 7.0, 2.0 * step)  # wanted line spacing [m]
     if style == "arrows":
         k = max(1, round(1.5 * spacing / step))
         sl = (slice(k // 2, None, k), slice(k // 2, None, k))
@@ -315,14 +315,34 @@ def _draw_flow(ax, mpl, xs, ys, u, v, inside, style, graph: HydroGraph) -> None:
         q.set_path_effects(rim)
         return
     # NaN outside the water: streamplot masks it and ends lines there. Density 1 is a 30 × 30
-    # grid over the whole plot; aim for `spacing` (capped: streamplot steps in Python)
-    nan = np.nan
-    density = (float(np.clip((xs[-1] - xs[0]) / spacing / 30.0, 0.5, 8.0)),
-               float(np.clip((ys[-1] - ys[0]) / spacing / 30.0, 0.5, 8.0)))
-    lines = ax.streamplot(xs, ys, np.where(inside, u, nan), np.where(inside, v, nan),
-                          density=density, color="white", linewidth=0.7, arrowsize=0.8,
-                          minlength=0.04, zorder=2)
+    # grid over the whole plot; aim for `spacing`. Seeds only in the water, deepest first (lines
+    # centred in each river); streamplot's own seeding would try every land cell, slowly
+    density = (float(np.clip((xs[-1] - xs[0]) / spacing / 30.0, 0.5, 12.0)),
+               float(np.clip((ys[-1] - ys[0]) / spacing / 30.0, 0.5, 12.0)))
+    seeds = _seeds(xs, ys, inside, density)
+    if not len(seeds):
+        return
+    lines = ax.streamplot(xs, ys, np.where(inside, u, np.nan), np.where(inside, v, np.nan),
+                          density=density, start_points=seeds, color="white", linewidth=0.7,
+                          arrowsize=0.8, minlength=0.02, zorder=2)
     lines.lines.set_path_effects(rim)
+
+
+def _seeds(xs: np.ndarray, ys: np.ndarray, inside: np.ndarray,
+           density: tuple[float, float]) -> np.ndarray:
+    """Streamplot start points: the nodes of its density mask that lie in the water at least
+    1.5 samples from the edge, ordered from the deepest (farthest from any bank) outwards."""
+    from scipy.ndimage import distance_transform_edt
+
+    mx = np.linspace(xs[0], xs[-1], int(30 * density[0]))
+    my = np.linspace(ys[0], ys[-1], int(30 * density[1]))
+    depth = distance_transform_edt(inside)
+    ii = np.rint((mx - xs[0]) / (xs[1] - xs[0])).astype(np.int64)
+    jj = np.rint((my - ys[0]) / (ys[1] - ys[0])).astype(np.int64)
+    d = depth[np.ix_(jj, ii)]
+    j, i = np.nonzero(d >= 1.5)
+    order = np.argsort(-d[j, i], kind="stable")
+    return np.stack([mx[i[order]], my[j[order]]], axis=1)
 
 
 def _draw_curves(ax, mpl, graph: HydroGraph, lines: dict[int, np.ndarray]):

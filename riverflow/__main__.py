@@ -1,0 +1,216 @@
+"""The ``riverflow`` command line (SPEC §7): ``flowmap``, ``demo``, ``render``, ``profile``.
+
+Every subcommand's ``--help`` works without a display: nothing here imports pyglet, and the
+heavy modules (numba kernels, matplotlib, the default scene) load only when a command runs.
+
+    riverflow flowmap --scene rivers.graph --out out/flowmap.png
+    python -m riverflow demo --out out/demo
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+DISPLAY_MODES = ("none", "mesh", "coverage", "advected", "pre-advected", "non-advected",
+                 "grid", "particles", "velocities")
+"""Display / debug modes of the river drawing (SPEC §4 "Drawing"; Proland MeshDisplayType,
+reference §4.6): ground only, mesh only, particle coverage, per-pixel sprite blending,
+pre-advected texture, non-advected texture, sprite-grid cells, particles coloured by status,
+velocity arrows."""
+
+NOT_IMPLEMENTED = {"render": 3, "profile": 4}
+"""Subcommands specified in SPEC §7 whose engine does not exist yet → their tracking issue."""
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the command line; returns the exit status (0 ok, 1 failure, 2 usage / not yet)."""
+    parser = _parser()
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help()
+        return 2
+    return args.run(args)
+
+
+# -- parser -------------------------------------------------------------------------------------
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="riverflow",
+        description="Real-time flowing rivers (after Proland and Yu et al. 2009): flow "
+                    "pictures now; the boat demo, offscreen rendering and profiling are in "
+                    "progress.")
+    from riverflow import __version__
+
+    parser.add_argument("--version", action="version", version=f"riverflow {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+
+    p = sub.add_parser(
+        "flowmap", help="draw a river network and its flow into a PNG",
+        description="Draw a river network and its flow field into a PNG: water coloured by "
+                    "speed, streamlines, banks coloured and labelled by their stream function "
+                    "ψ, axes dashed, closing segments, and the terrain as a hillshade for the "
+                    "built-in scene. Needs matplotlib (pip install 'riverflow[plot]').")
+    _scene_args(p)
+    p.add_argument("--out", type=Path, default=Path("out/flowmap.png"), metavar="FILE.png",
+                   help="the picture to write (default: %(default)s)")
+    p.add_argument("--slip", type=_positive, default=1.0, metavar="S",
+                   help="exponent of the bank weights d^-S (default: %(default)s)")
+    p.add_argument("--radius-factor", type=_positive, default=5.0, metavar="F",
+                   help="search radius = F × the widest axis (default: %(default)s)")
+    p.add_argument("--size-px", type=int, default=1600, metavar="PX",
+                   help="width of the picture in pixels (default: %(default)s)")
+    p.add_argument("--arrows", action="store_true", help="draw arrows instead of streamlines")
+    p.set_defaults(run=_flowmap)
+
+    p = sub.add_parser(
+        "demo", help="the river demo (for now: a flow picture of the scene)",
+        description="The river demo. The interactive boat demo (window, particles, wave "
+                    "sprites) comes later; for now this draws the scene's river network and "
+                    "its flow into DIR/flow.png and prints where it wrote it.")
+    _scene_args(p)
+    p.add_argument("--headless", action="store_true",
+                   help="no window (the only mode for now)")
+    p.add_argument("--frames", type=_positive_int, default=1, metavar="N",
+                   help="frames of the scripted run (unused until the interactive demo lands)")
+    p.add_argument("--out", type=Path, default=Path("out/demo"), metavar="DIR",
+                   help="folder for the output (default: %(default)s)")
+    p.set_defaults(run=_demo)
+
+    p = sub.add_parser(
+        "render", help="render frames offscreen to a PNG (not implemented yet, issue #3)",
+        description="Render a scripted run offscreen and save the last frame. Not implemented "
+                    "yet (issue #3): exits with status 2.")
+    _scene_args(p)
+    p.add_argument("--size", type=_size, required=True, metavar="WxH",
+                   help="frame size in pixels, e.g. 1280x720")
+    p.add_argument("--frames", type=_positive_int, required=True, metavar="N",
+                   help="frames to run before saving")
+    p.add_argument("--mode", choices=DISPLAY_MODES, required=True,
+                   help="display mode: one of %(choices)s")
+    p.add_argument("--out", type=Path, required=True, metavar="FILE.png",
+                   help="the frame to write")
+    p.set_defaults(run=_not_implemented)
+
+    p = sub.add_parser(
+        "profile", help="time every system per frame (not implemented yet, issue #4)",
+        description="Run a scripted scene and print mean / p50 / p95 ms per system and "
+                    "particle counts. Not implemented yet (issue #4): exits with status 2.")
+    _scene_args(p)
+    p.add_argument("--size", type=_size, required=True, metavar="WxH",
+                   help="screen size in pixels, e.g. 1920x1080")
+    p.add_argument("--radius-px", type=_positive, required=True, metavar="R",
+                   help="Poisson-disk radius of the particles in pixels, e.g. 10")
+    p.add_argument("--frames", type=_positive_int, required=True, metavar="N",
+                   help="frames to time")
+    p.add_argument("--json", action="store_true", help="print the timings as JSON")
+    p.set_defaults(run=_not_implemented)
+    return parser
+
+
+def _scene_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--scene", type=Path, metavar="FILE",
+                   help="a Proland hydro-graph file (.graph); default: the built-in scene")
+    p.add_argument("--seed", type=int, default=0, metavar="N",
+                   help="seed of the built-in scene (default: %(default)s)")
+
+
+def _positive(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not value > 0.0 or value == float("inf"):
+        raise argparse.ArgumentTypeError(f"must be a positive number, got {text!r}")
+    return value
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {text!r}")
+    return value
+
+
+def _size(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected WxH such as 1280x720, got {text!r}") from None
+    if w < 1 or h < 1:
+        raise argparse.ArgumentTypeError(f"width and height must be positive, got {text!r}")
+    return w, h
+
+
+# -- commands -----------------------------------------------------------------------------------
+
+
+def _flowmap(args: argparse.Namespace) -> int:
+    return _draw(args, args.out, size_px=args.size_px, slip=args.slip,
+                 radius_factor=args.radius_factor, arrows=args.arrows)
+
+
+def _demo(args: argparse.Namespace) -> int:
+    print("riverflow demo: the interactive boat demo is not there yet; drawing the river "
+          "network and its flow instead.")
+    return _draw(args, args.out / "flow.png", size_px=1600)
+
+
+def _not_implemented(args: argparse.Namespace) -> int:
+    print(f"riverflow {args.command}: not implemented yet (issue #{NOT_IMPLEMENTED[args.command]})"
+          "; nothing was written.", file=sys.stderr)
+    return 2
+
+
+def _draw(args: argparse.Namespace, out: Path, *, size_px: int, slip: float = 1.0,
+          radius_factor: float = 5.0, arrows: bool = False) -> int:
+    scene, title = _load_scene(args)
+    if scene is None:
+        return 1
+    try:
+        from riverflow.hydro.flow_field import FlowField
+        from riverflow.hydro.plot import plot_flow
+
+        graph = getattr(scene, "graph", scene)
+        field = FlowField(graph, slip, radius_factor, cache_tiles=1024)
+        path = plot_flow(scene, out, field=field, size_px=size_px,
+                         style="arrows" if arrows else "streamlines",
+                         title=f"{title}: flow field (slip {slip:g}, search radius "
+                               f"{radius_factor:g} × widest axis)")
+    except (ImportError, ValueError, OSError) as exc:  # GraphError is a ValueError
+        print(f"riverflow {args.command}: {exc}", file=sys.stderr)
+        return 1
+    print(f"wrote {path.resolve()}")
+    return 0
+
+
+def _load_scene(args: argparse.Namespace) -> tuple[Any, str]:
+    """The graph of --scene, or the built-in scene of --seed; (None, message) after an error."""
+    from riverflow.hydro.graph import GraphError
+
+    if args.scene is not None:
+        from riverflow.hydro.io import load_graph
+
+        try:
+            return load_graph(args.scene), args.scene.name
+        except (GraphError, OSError) as exc:
+            print(f"riverflow {args.command}: cannot load {args.scene}: {exc}", file=sys.stderr)
+            return None, ""
+    try:
+        from riverflow.scenes.default import default_scene
+    except Exception as exc:  # the built-in scene is still being written: say so, don't crash
+        print(f"riverflow {args.command}: the built-in scene is not available "
+              f"({type(exc).__name__}: {exc}); pass a hydro-graph file with --scene FILE",
+              file=sys.stderr)
+        return None, ""
+    return default_scene(seed=args.seed), f"built-in scene, seed {args.seed}"
+
+
+if __name__ == "__main__":
+    sys.exit(main())
