@@ -99,7 +99,7 @@ def plot_flow(graph_or_scene: Any, out_png: str | Path, *, field: Any = None,
     water_path = _water_path(mpl, graph, lines, field)
     speed_img, vmax = _draw_speed(ax, mpl, speed, inside, (x0, y0, x1, y1), water_path)
     if inside.sum() >= 4:
-        _draw_flow(ax, mpl, xs, ys, u, v, inside, style, graph)
+        _draw_flow(ax, mpl, xs, ys, u, v, inside, style, graph, water_path)
     psi_norm, labels = _draw_curves(ax, mpl, graph, lines)
 
     cax = fig.add_subplot(gs[1, 0])
@@ -205,13 +205,9 @@ def _extent(graph: HydroGraph, lines: dict[int, np.ndarray]) -> tuple[float, flo
 
 def _level_for(field: Any, step_m: float) -> int | None:
     """The coarsest tile level whose ψ lattice is at least twice finer than the picture grid."""
-    tiles = getattr(field, "tiles", None)
-    if tiles is None:
-        return None
-    for level in range(field.max_level + 1):
-        if tiles.spacing_m(level) <= 0.5 * step_m:
-            return level
-    return field.max_level
+    if hasattr(field, "level_for_spacing"):
+        return field.level_for_spacing(0.5 * step_m)
+    return None
 
 
 def _draw_hillshade(ax, mpl, terrain, extent) -> None:
@@ -294,8 +290,9 @@ def _draw_speed(ax, mpl, speed, inside, extent, water_path):
     return img, vmax
 
 
-def _draw_flow(ax, mpl, xs, ys, u, v, inside, style, graph: HydroGraph) -> None:
-    """Streamlines (or arrows) of the INSIDE samples, white with a dark rim."""
+def _draw_flow(ax, mpl, xs, ys, u, v, inside, style, graph: HydroGraph, water_path) -> None:
+    """Streamlines (or arrows) of the INSIDE samples, white with a dark rim, clipped to the
+    water."""
     from matplotlib import patheffects
 
     rim = [patheffects.Stroke(linewidth=1.8, foreground="black", alpha=0.45), patheffects.Normal()]
@@ -313,6 +310,8 @@ def _draw_flow(ax, mpl, xs, ys, u, v, inside, style, graph: HydroGraph) -> None:
                       pivot="mid", zorder=2, units="dots", width=1.4, headwidth=3.5,
                       headlength=4.5, headaxislength=4.0)
         q.set_path_effects(rim)
+        if water_path is not None:
+            q.set_clip_path(mpl.patches.PathPatch(water_path, transform=ax.transData))
         return
     # NaN outside the water: streamplot masks it and ends lines there. Density 1 is a 30 × 30
     # grid over the whole plot; aim for `spacing`. Seeds only in the water, deepest first (lines
@@ -385,7 +384,7 @@ def _draw_curves(ax, mpl, graph: HydroGraph, lines: dict[int, np.ndarray]):
         handles.append(Line2D([], [], color="red", lw=2.5, label="bank WITHOUT ψ"))
     handles.append(mpl.patches.Patch(color=mpl.colormaps[SPEED_CMAP](0.6),
                                      label="water (colour: speed)"))
-    ax.legend(handles=handles, loc="lower right", fontsize=8, framealpha=0.85)
+    ax.legend(handles=handles, loc="best", fontsize=8, framealpha=0.85)
     return norm, labels
 
 

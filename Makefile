@@ -1,0 +1,52 @@
+# riverflow: `make demo`, `make test`. Works from a fresh clone: the first target that needs
+# Python creates $(VENV) with python3's venv module and installs the package with its test and
+# plot extras; it reinstalls when pyproject.toml changes.
+
+VENV ?= .venv
+PY := $(VENV)/bin/python
+PYTHON ?= python3
+
+# numba's on-disk cache does not notice edits of @njit helpers in other modules
+# (reference/ecosystem.md §3.1), so the cache folder is keyed on all kernel sources.
+KERNEL_HASH := $(shell $(PYTHON) -c "import glob, hashlib; print(hashlib.sha1(b''.join(open(f, 'rb').read() for f in sorted(glob.glob('riverflow/kernels/*.py')))).hexdigest()[:12])")
+export NUMBA_CACHE_DIR := $(CURDIR)/.numba_cache/$(KERNEL_HASH)
+
+.PHONY: help install demo test bench flowmap clean distclean
+
+help:
+	@echo "make demo      run the river demo (for now: draws the default scene's flow to out/demo/)"
+	@echo "make test      run the tests (headless)"
+	@echo "make bench     run every benchmarks/*.py"
+	@echo "make flowmap   draw the default scene's flow to out/flowmap.png"
+	@echo "make install   create $(VENV) and install riverflow[test,plot] (the others do it too)"
+	@echo "make clean     remove caches and outputs; make distclean also removes $(VENV)"
+
+$(VENV)/.installed: pyproject.toml
+	test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --upgrade pip
+	$(PY) -m pip install -e '.[test,plot]'
+	touch $@
+
+install: $(VENV)/.installed
+
+demo: $(VENV)/.installed
+	$(PY) -m riverflow demo
+
+test: $(VENV)/.installed
+	PYGLET_HEADLESS=1 $(PY) -m pytest -q
+
+bench: $(VENV)/.installed
+	@set -e; found=0; for f in benchmarks/*.py; do \
+		[ -e "$$f" ] || continue; found=1; \
+		echo "== $$f"; $(PY) "$$f"; \
+	done; [ $$found = 1 ] || echo "no benchmarks/*.py yet"
+
+flowmap: $(VENV)/.installed
+	$(PY) -m riverflow flowmap --out out/flowmap.png
+
+clean:
+	rm -rf .numba_cache .pytest_cache out build dist *.egg-info
+	find . -path ./$(VENV) -prune -o -name __pycache__ -type d -exec rm -rf {} +
+
+distclean: clean
+	rm -rf $(VENV)

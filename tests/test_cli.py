@@ -1,0 +1,186 @@
+"""The command line (SPEC §7) and the import rules it relies on: help without a display or
+pyglet, a real flow picture, honest "not implemented yet" stubs, and kernels that import
+neither pyglet nor esper."""
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+SUBCOMMANDS = ["flowmap", "demo", "render", "profile"]
+PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
+RENDER_ARGS = ["--size", "64x48", "--frames", "2", "--mode", "advected"]
+PROFILE_ARGS = ["--size", "64x48", "--radius-px", "10", "--frames", "2"]
+
+
+def run_cli(*args: str, cwd: Path | None = None, timeout: float = 300.0,
+            ) -> subprocess.CompletedProcess:
+    """``python -m riverflow ARGS`` with no display, headless pyglet, captured output."""
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    env["PYGLET_HEADLESS"] = "1"
+    env["MPLBACKEND"] = "Agg"
+    return subprocess.run([sys.executable, "-m", "riverflow", *args], cwd=cwd, env=env,
+                          capture_output=True, text=True, timeout=timeout)
+
+
+def run_python(code: str) -> subprocess.CompletedProcess:
+    env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    env["PYGLET_HEADLESS"] = "1"
+    return subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                          text=True, timeout=300)
+
+
+# -- help ------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("sub", [None, *SUBCOMMANDS])
+def test_help_works_without_a_display(sub):
+    result = run_cli(*([sub] if sub else []), "--help")
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.startswith("usage: riverflow"), result.stdout
+    for name in SUBCOMMANDS if sub is None else []:
+        assert name in result.stdout
+
+
+def test_help_of_every_subcommand_imports_no_pyglet():
+    code = (
+        "import sys\n"
+        "from riverflow.__main__ import main\n"
+        f"for sub in {SUBCOMMANDS!r}:\n"
+        "    try:\n"
+        "        main([sub, '--help'])\n"
+        "    except SystemExit as exc:\n"
+        "        assert exc.code == 0, (sub, exc.code)\n"
+        "bad = {'pyglet', 'esper', 'matplotlib', 'numba'} & set(sys.modules)\n"
+        "assert not bad, bad\n"
+    )
+    result = run_python(code)
+    assert result.returncode == 0, result.stderr
+
+
+def test_render_help_lists_the_display_modes():
+    from riverflow.__main__ import DISPLAY_MODES
+
+    out = run_cli("render", "--help").stdout
+    for mode in DISPLAY_MODES:
+        assert mode in out
+
+
+def test_console_script_is_installed():
+    script = Path(sys.executable).with_name("riverflow")
+    if not script.exists():
+        pytest.skip(f"no console script beside {sys.executable}")
+    env = {k: v for k, v in os.environ.items() if k != "DISPLAY"}
+    result = subprocess.run([str(script), "--help"], env=env, capture_output=True, text=True,
+                            timeout=120)
+    assert result.returncode == 0, result.stderr
+    assert "flowmap" in result.stdout
+
+
+# -- commands ----------------------------------------------------------------------------------
+
+
+def test_flowmap_writes_a_png(tiny_channel_path, tmp_path):
+    out = tmp_path / "tmp.png"
+    result = run_cli("flowmap", "--scene", str(tiny_channel_path), "--out", str(out))
+    assert result.returncode == 0, result.stderr
+    assert out.read_bytes()[:8] == PNG_SIGNATURE
+    assert out.stat().st_size > 10_000
+    assert str(out.resolve()) in result.stdout
+
+
+def test_flowmap_arrows_and_options(tiny_channel_path, tmp_path):
+    out = tmp_path / "arrows.png"
+    result = run_cli("flowmap", "--scene", str(tiny_channel_path), "--out", str(out),
+                     "--arrows", "--slip", "1.3", "--radius-factor", "3", "--size-px", "600")
+    assert result.returncode == 0, result.stderr
+    assert out.read_bytes()[:8] == PNG_SIGNATURE
+
+
+def test_demo_draws_the_flow_and_says_where(tiny_channel_path, tmp_path):
+    result = run_cli("demo", "--scene", str(tiny_channel_path), "--headless", "--frames", "3",
+                     "--out", str(tmp_path / "demo"))
+    assert result.returncode == 0, result.stderr
+    out = tmp_path / "demo" / "flow.png"
+    assert out.read_bytes()[:8] == PNG_SIGNATURE
+    assert f"wrote {out.resolve()}" in result.stdout
+
+
+@pytest.mark.parametrize("sub, args, issue", [("render", RENDER_ARGS, 3),
+                                              ("profile", PROFILE_ARGS, 4)])
+def test_unfinished_commands_exit_2_and_write_nothing(sub, args, issue, tmp_path):
+    extra = ["--out", str(tmp_path / "frame.png")] if sub == "render" else ["--json"]
+    result = run_cli(sub, *args, *extra, cwd=tmp_path)
+    assert result.returncode == 2
+    assert f"not implemented yet (issue #{issue})" in result.stderr
+    assert result.stdout == ""
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_unreadable_scene_is_a_clear_error(tmp_path):
+    bad = tmp_path / "bad.graph"
+    bad.write_text("this is not a graph\n")
+    result = run_cli("flowmap", "--scene", str(bad), "--out", str(tmp_path / "x.png"))
+    assert result.returncode == 1
+    assert str(bad) in result.stderr and "Traceback" not in result.stderr
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_bad_arguments_are_usage_errors():
+    assert run_cli("flowmap", "--slip", "-1").returncode == 2
+    assert run_cli("render", *RENDER_ARGS[:-1], "nonsense", "--out", "x.png").returncode == 2
+
+
+# -- plot_flow in process ------------------------------------------------------------------------
+
+
+def test_plot_flow_draws_a_scene_with_terrain(tiny_channel_path, tmp_path):
+    """A scene-like object (graph + terrain) gets a hillshade; the picture is written."""
+    pytest.importorskip("matplotlib")
+    from types import SimpleNamespace
+
+    from riverflow import load_graph
+    from riverflow.components.terrain import Terrain
+    from riverflow.hydro.plot import plot_flow
+
+    gx, gy = np.meshgrid(np.arange(65) * 2.0 - 14.0, np.arange(65) * 2.0 - 64.0)
+    heights = 0.002 * gy**2 + 0.01 * (100.0 - gx)  # a valley sloping down to +x
+    scene = SimpleNamespace(graph=load_graph(tiny_channel_path), seed=7,
+                            terrain=Terrain(heights, (-14.0, -64.0), 2.0, 32.0))
+    out = plot_flow(scene, tmp_path / "scene.png", size_px=500, style="arrows")
+    assert out == tmp_path / "scene.png"
+    assert out.read_bytes()[:8] == PNG_SIGNATURE
+
+
+def test_plot_flow_without_matplotlib_names_the_extra(tiny_channel_path, tmp_path):
+    code = (
+        "import sys\n"
+        "sys.modules['matplotlib'] = None\n"
+        "from riverflow import load_graph\n"
+        "from riverflow.hydro.plot import plot_flow\n"
+        "try:\n"
+        f"    plot_flow(load_graph({str(tiny_channel_path)!r}), {str(tmp_path / 'x.png')!r})\n"
+        "except ImportError as exc:\n"
+        "    print(exc)\n"
+        "else:\n"
+        "    raise SystemExit('no ImportError')\n"
+    )
+    result = run_python(code)
+    assert result.returncode == 0, result.stderr
+    assert "riverflow[plot]" in result.stdout
+
+
+# -- import rules ------------------------------------------------------------------------------
+
+
+def test_core_modules_import_neither_pyglet_nor_esper():
+    code = ("import sys, riverflow, riverflow.hydro.flow_field, riverflow.kernels.flow, "
+            "riverflow.hydro.plot, riverflow.__main__\n"
+            "bad = {'pyglet', 'esper'} & set(sys.modules)\n"
+            "assert not bad, bad\n")
+    result = run_python(code)
+    assert result.returncode == 0, result.stderr
