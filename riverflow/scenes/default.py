@@ -266,13 +266,13 @@ def _carve(axis_m: np.ndarray, water: WaterSurface, far_m: np.ndarray) -> np.nda
     level = _upsample(gaussian_filter(level_c.reshape(m, m), LEVEL_BLUR, mode="nearest"), n).ravel()
     width = _upsample(width_c, n).ravel()
     outside_strip = _upsample(centre_c - 0.5 * width_c, n).ravel()
-    near = np.flatnonzero(outside_strip < NEAR_M)
+    near = np.flatnonzero(outside_strip < NEAR_M + COARSE * (axis_m[1] - axis_m[0]))
     pts = _grid(axis_m)[near]
     shore_e = water.distance_to_shore(pts)
-    _, level_e, width_e = water.nearest(pts)
+    centre_e, level_e, width_e = water.nearest(pts)
     inside = np.zeros(n * n, bool)
     inside[near] = water.contains(pts, shore_e)
-    t = _smoothstep(0.5 * NEAR_M, NEAR_M, outside_strip[near])
+    t = _smoothstep(0.5 * NEAR_M, NEAR_M, centre_e - 0.5 * width_e)
     shore[near] = (1 - t) * shore_e + t * shore[near]
     level[near] = (1 - t) * level_e + t * level[near]
     width[near] = (1 - t) * width_e + t * width[near]
