@@ -32,6 +32,8 @@ class FlowTileCache:
     last_used: np.ndarray = field(init=False)      # (P,) int64 tick of the last use
     inside_points: np.ndarray = field(init=False)  # (P,) int32 lattice points in the water
     slots: list[np.ndarray] = field(init=False)    # per level: (2**l, 2**l) int32 slot or −1
+    slots_flat: np.ndarray = field(init=False)     # every level's table, level after level
+    level_offset: np.ndarray = field(init=False)   # (max_level + 2,) int64 start of each level
     tick: int = 0
     produced: int = 0
     """Tiles computed so far (cache misses)."""
@@ -45,7 +47,11 @@ class FlowTileCache:
         self.slot_key = np.full((p, 3), -1, np.int32)
         self.last_used = np.zeros(p, np.int64)
         self.inside_points = np.zeros(p, np.int32)
-        self.slots = [np.full((1 << lv, 1 << lv), -1, np.int32) for lv in range(self.max_level + 1)]
+        sizes = [1 << (2 * lv) for lv in range(self.max_level + 1)]
+        self.level_offset = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
+        self.slots_flat = np.full(int(self.level_offset[-1]), -1, np.int32)
+        self.slots = [self.slots_flat[self.level_offset[lv]:self.level_offset[lv + 1]]
+                      .reshape(1 << lv, 1 << lv) for lv in range(self.max_level + 1)]
 
     def tile_size_m(self, level: int) -> float:
         return self.root_size_m / (1 << level)

@@ -91,18 +91,7 @@ class FlowField:
         self.max_level = min(level, MAX_LEVEL)
         self.tiles = FlowTileCache(root_x, root_y, root_size, lattice_cells, self.max_level,
                                    cache_tiles)
-        net = self.network
-        m = lattice_cells + 1 + 2 * kf.LATTICE_RING
-        self._psi_full = np.empty((m, m))
-        self._inside_full = np.zeros((m, m), np.bool_)
-        self._cell_d2 = np.empty((lattice_cells, lattice_cells, kf.CELL_SEGMENTS))
-        self._blk_curve = np.empty(net.n_curves, np.int32)
-        self._blk_start = np.empty(net.n_curves, np.int32)
-        self._blk_count = np.empty(net.n_curves, np.int32)
-        self._blk_seg = np.empty(net.n_segments, np.int32)
-        self._blk_dmin2 = np.empty(net.n_curves)
-        self._tmp_d2 = np.empty(net.n_segments)
-        self._gval = np.empty(max(net.n_groups, 1))
+        self._builder = TileBuilder(self)
 
     @classmethod
     def for_scene(cls, scene, slip: float = 1.0, search_radius_factor: float = 5.0,
@@ -166,10 +155,8 @@ class FlowField:
         """ψ [m²/s] evaluated from the banks at each point, no lattice (slow; for tests/tools)."""
         pts = self._points(xy)
         psi = np.empty(len(pts))
-        net = self.network
-        kf.evaluate_potential(pts, psi, *net.kernel_args(), self.slip, self._blk_curve,
-                              self._blk_start, self._blk_count, self._blk_seg, self._blk_dmin2,
-                              self._tmp_d2, self._gval)
+        b = self._builder
+        kf.evaluate_potential(pts, psi, *self.network.kernel_args(), self.slip, *b.block_scratch())
         return psi
 
     # -- tiles ---------------------------------------------------------------------------------
@@ -275,16 +262,70 @@ class FlowField:
 
     def _produce(self, level: int, tx: int, ty: int, slot: int) -> None:
         t = self.tiles
-        n = t.n_cells
-        h = t.spacing_m(level)
-        inside = kf.build_flow_tile(
-            t.root_x_m, t.root_y_m, h, n, tx * n, ty * n, *self.network.kernel_args(), self.slip,
-            self._blk_curve, self._blk_start, self._blk_count, self._blk_seg, self._blk_dmin2,
-            self._tmp_d2,
-            self._gval, self._psi_full, self._inside_full, self._cell_d2, t.psi[slot],
-            t.cell_status[slot],
-            t.cell_segments[slot])
-        t.inside_points[slot] = inside
+        inside = self._builder.build(level, tx, ty, t.psi[slot], t.cell_status[slot],
+                                     t.cell_segments[slot])
+        self._register(level, tx, ty, slot, inside)
+
+    def install_tile(self, level: int, tx: int, ty: int, psi: np.ndarray, cell_status: np.ndarray,
+                     cell_segments: np.ndarray, inside_points: int) -> bool:
+        """Copy a tile built elsewhere (a worker thread's :class:`TileBuilder`) into the cache;
+        False if it is already there."""
+        t = self.tiles
+        if t.slots[level][ty, tx] >= 0:
+            return False
+        slot = self._free_slot()
+        t.psi[slot] = psi
+        t.cell_status[slot] = cell_status
+        t.cell_segments[slot] = cell_segments
+        self._register(level, tx, ty, slot, inside_points)
+        t.last_used[slot] = t.tick
+        return True
+
+    def _register(self, level: int, tx: int, ty: int, slot: int, inside_points: int) -> None:
+        t = self.tiles
+        t.inside_points[slot] = inside_points
         t.slot_key[slot] = (level, tx, ty)
         t.slots[level][ty, tx] = slot
         t.produced += 1
+
+
+class TileBuilder:
+    """Scratch arrays to build flow tiles of one field; one per thread (kernels release the GIL)."""
+
+    def __init__(self, field: FlowField) -> None:
+        self.field = field
+        net = field.network
+        n = field.tiles.n_cells
+        m = n + 1 + 2 * kf.LATTICE_RING
+        self.psi_full = np.empty((m, m))
+        self.inside_full = np.zeros((m, m), np.bool_)
+        self.cell_d2 = np.empty((n, n, kf.CELL_SEGMENTS))
+        self.blk_curve = np.empty(net.n_curves, np.int32)
+        self.blk_start = np.empty(net.n_curves, np.int32)
+        self.blk_count = np.empty(net.n_curves, np.int32)
+        self.blk_seg = np.empty(net.n_segments, np.int32)
+        self.blk_dmin2 = np.empty(net.n_curves)
+        self.tmp_d2 = np.empty(net.n_segments)
+        self.gval = np.empty(max(net.n_groups, 1))
+
+    def block_scratch(self) -> tuple:
+        return (self.blk_curve, self.blk_start, self.blk_count, self.blk_seg, self.blk_dmin2,
+                self.tmp_d2, self.gval)
+
+    def outputs(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Fresh (psi, cell_status, cell_segments) arrays for one tile."""
+        t = self.field.tiles
+        n = t.n_cells
+        return (np.empty((n + 3, n + 3), t.psi.dtype), np.empty((n, n), np.uint8),
+                np.empty((n, n, kf.CELL_SEGMENTS), np.int32))
+
+    def build(self, level: int, tx: int, ty: int, psi: np.ndarray, cell_status: np.ndarray,
+              cell_segments: np.ndarray) -> int:
+        """Fill tile (level, tx, ty) into the given arrays; returns its water lattice points."""
+        f = self.field
+        t = f.tiles
+        n = t.n_cells
+        return int(kf.build_flow_tile(
+            t.root_x_m, t.root_y_m, t.spacing_m(level), n, tx * n, ty * n,
+            *f.network.kernel_args(), f.slip, *self.block_scratch(), self.psi_full,
+            self.inside_full, self.cell_d2, psi, cell_status, cell_segments))

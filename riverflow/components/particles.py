@@ -1,0 +1,109 @@
+"""ParticlePool: the screen-space particles, a fixed-capacity structure of arrays.
+
+Particles are entities of a packed archetype (SPEC §3): each is a row (slot) with a stable id,
+and its components are the pool's columns, one group per Proland particle layer
+(reference §3.3): LifeCycle (birth time, intensity), Screen (screen position, fade reason),
+World (world position, velocity), Terrain (flow status, first-query flag), Random (sprite
+offset). Nothing is allocated per frame; a new particle takes the lowest free slot (Proland's
+``pack``), so live rows stay dense at the front and a slot is the particle's GPU row.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from enum import IntEnum
+
+import numpy as np
+
+from riverflow.components.status import FlowStatus
+
+
+class FadeReason(IntEnum):
+    """Why a particle is fading out (Proland ScreenParticleLayer reason, plus our own)."""
+
+    NONE = 0
+    AGE = 1
+    OUTSIDE_VIEWPORT = 2
+    POISSON_DISK = 3
+
+
+@dataclass(eq=False)
+class ParticlePool:
+    """Columns of every particle slot; ``alive`` says which slots hold a particle.
+
+    ``counters[0]`` is the next id to hand out, ``counters[1]`` the number of live particles
+    (arrays, so numba kernels can update them in place).
+    """
+
+    capacity: int
+    alive: np.ndarray = field(init=False)        # (C,) bool
+    ids: np.ndarray = field(init=False)          # (C,) int64 stable id, -1 for a free slot
+    counters: np.ndarray = field(init=False)     # (2,) int64 next id, live count
+    # LifeCycle
+    birth_s: np.ndarray = field(init=False)      # (C,) float64 clock time [s] (moved back when
+                                                 # a fade-out starts, so intensity never jumps)
+    intensity: np.ndarray = field(init=False)    # (C,) float32 in [0, 1]
+    # Screen
+    screen_px: np.ndarray = field(init=False)    # (C, 2) float32 [px], origin bottom-left
+    fade_reason: np.ndarray = field(init=False)  # (C,) uint8 FadeReason
+    # World
+    world_m: np.ndarray = field(init=False)      # (C, 3) float64 [m]
+    has_world: np.ndarray = field(init=False)    # (C,) bool: world_m is known
+    velocity_mps: np.ndarray = field(init=False)  # (C, 2) float32 [m/s]
+    # Terrain (flow)
+    status: np.ndarray = field(init=False)       # (C,) uint8 FlowStatus
+    first_query: np.ndarray = field(init=False)  # (C,) bool
+    # Random
+    offset_m: np.ndarray = field(init=False)     # (C, 2) float32 sprite texture offset [m]
+
+    def __post_init__(self) -> None:
+        c = int(self.capacity)
+        if c < 1:
+            raise ValueError(f"ParticlePool capacity must be ≥ 1, got {c}")
+        self.capacity = c
+        self.alive = np.zeros(c, np.bool_)
+        self.ids = np.full(c, -1, np.int64)
+        self.counters = np.zeros(2, np.int64)
+        self.birth_s = np.zeros(c, np.float64)
+        self.intensity = np.zeros(c, np.float32)
+        self.screen_px = np.zeros((c, 2), np.float32)
+        self.fade_reason = np.zeros(c, np.uint8)
+        self.world_m = np.zeros((c, 3), np.float64)
+        self.has_world = np.zeros(c, np.bool_)
+        self.velocity_mps = np.zeros((c, 2), np.float32)
+        self.status = np.full(c, FlowStatus.UNKNOWN, np.uint8)
+        self.first_query = np.zeros(c, np.bool_)
+        self.offset_m = np.zeros((c, 2), np.float32)
+
+    @property
+    def count(self) -> int:
+        """Live particles."""
+        return int(self.counters[1])
+
+    def clear(self) -> None:
+        """Drop every particle (Proland ParticleStorage::clear), e.g. when r changes."""
+        self.alive[:] = False
+        self.ids[:] = -1
+        self.counters[1] = 0
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """Every column by name (for snapshots and bit-identity tests)."""
+        names = ("alive", "ids", "counters", "birth_s", "intensity", "screen_px", "fade_reason",
+                 "world_m", "has_world", "velocity_mps", "status", "first_query", "offset_m")
+        return {n: getattr(self, n) for n in names}
+
+
+@dataclass(eq=False)
+class LiveParticles:
+    """A read-only view of the live particles (``world.particles``), copied out of the pool."""
+
+    ids: np.ndarray          # (N,) int64
+    screen_px: np.ndarray    # (N, 2) float32 [px]
+    world_m: np.ndarray      # (N, 3) float64 [m]
+    intensity: np.ndarray    # (N,) float32
+    status: np.ndarray       # (N,) uint8 FlowStatus
+    velocity_mps: np.ndarray  # (N, 2) float32 [m/s]
+    fading: np.ndarray       # (N,) bool: fading out
+    has_world: np.ndarray    # (N,) bool
+
+    def __len__(self) -> int:
+        return int(self.ids.shape[0])

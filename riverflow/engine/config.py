@@ -1,0 +1,129 @@
+"""RiverConfig: everything a designer may tune, with units in every name (one frozen dataclass).
+
+Proland's parameters (reference §2.2, §3.3, §3.6, §4) under clear names; defaults are the
+river1 example's unless a field's docstring says why another value is better here.
+Variants: ``dataclasses.replace(config, radius_px=5.0)``; environment overrides:
+``RiverConfig.from_env()`` reads ``RIVERFLOW_<FIELD>`` (e.g. ``RIVERFLOW_RADIUS_PX=5``).
+"""
+from __future__ import annotations
+
+import dataclasses
+import os
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True, slots=True)
+class RiverConfig:
+    """Tunable parameters of a river world. Units are part of each name."""
+
+    capacity: int = 16384
+    """Particle pool size (Proland ParticleStorage capacity; river1: 5000). A full 1920×1080
+    screen at r = 5 px needs about 0.87·W·H/(2r)² ≈ 18,000; at r = 10 px about 4,500."""
+
+    radius_px: float = 10.0
+    """Poisson-disk radius r of the screen-space particles [px] (Proland ScreenParticleLayer
+    radius; river1: 15). New particles are placed 2r from their neighbours."""
+
+    cull_radius_factor: float = 1.96
+    """A particle closer than this × r to an older one fades out (Proland: sqrt(3.84))."""
+
+    grid_cell_factor: float = 4.0
+    """Cell size of the screen neighbour grid, in units of r (Proland ParticleGrid: 4r)."""
+
+    offscreen_kill_factor: float = 2.0
+    """Particles outside the viewport fade out; beyond this × r outside it they die at once."""
+
+    fade_in_s: float = 2.0
+    """Seconds a new particle takes to reach full intensity (river1: 2 s)."""
+
+    active_s: float = 30.0
+    """Seconds at full intensity before fading out (river1: 30 s)."""
+
+    fade_out_s: float = 2.0
+    """Seconds a particle takes to vanish (river1: 2 s)."""
+
+    speed_factor: float = 1.0
+    """Multiplier on the flow velocity when advecting (Proland speedFactor; river1 uses 5 with
+    its half-curl velocity: ours is the true curl, so 1 moves particles at the real speed)."""
+
+    slip: float = 1.0
+    """Exponent p of the bank weights d^-p (Proland slip; river1: 1.3). 1 gives plug flow
+    between parallel banks."""
+
+    search_radius_factor: float = 5.0
+    """Search radius R = factor × the widest river of a network (Proland searchRadiusFactor;
+    its code default 1 makes every profile a peaked no-slip one, reference §2.5)."""
+
+    potential_delta_m: float | None = None
+    """ψ-lattice spacing of the finest flow tiles [m]; None: the narrowest river / 24."""
+
+    flow_tile_cache: int = 256
+    """Flow tiles kept in the cache."""
+
+    flow_tile_px: float = 2.0
+    """Wanted lattice spacing of the flow tile under a point, in screen pixels: tiles far away
+    are coarser (quadtree level chosen per tile from its distance to the camera)."""
+
+    tile_production: str = "background"
+    """"background": flow tiles are made by a worker thread, never stalling a frame (until a
+    tile is ready the coarser parent serves); "blocking": made in the frame that needs them
+    (deterministic: scripted runs and tests)."""
+
+    random_offset_min_m: tuple[float, float] = (-1.0, -1.0)
+    """Lower corner of the per-particle random sprite offset box [m] (Proland RandomParticleLayer
+    min; river1: -1)."""
+
+    random_offset_max_m: tuple[float, float] = (1.0, 1.0)
+    """Upper corner of the random sprite offset box [m]."""
+
+    max_step_s: float = 0.1
+    """Longest simulation step [s]: a longer frame (a hitch, a debugger pause) is clamped so
+    that particles never jump across a river."""
+
+    near_m: float = 0.5
+    """Camera near plane [m]."""
+
+    far_m: float = 20000.0
+    """Camera far plane [m]; rays longer than this see the sky."""
+
+    fov_y_deg: float = 50.0
+    """Vertical field of view of the default camera [degrees]."""
+
+    def __post_init__(self) -> None:
+        positive = ("capacity", "radius_px", "cull_radius_factor", "grid_cell_factor",
+                    "fade_in_s", "active_s", "fade_out_s", "search_radius_factor", "slip",
+                    "flow_tile_cache", "flow_tile_px", "max_step_s", "near_m", "far_m",
+                    "fov_y_deg")
+        for name in positive:
+            value = getattr(self, name)
+            if not (value > 0):
+                raise ValueError(f"RiverConfig.{name} must be positive, got {value!r}")
+        if self.speed_factor < 0:
+            raise ValueError(f"RiverConfig.speed_factor must be ≥ 0, got {self.speed_factor!r}")
+        if self.tile_production not in ("background", "blocking"):
+            raise ValueError("RiverConfig.tile_production must be 'background' or 'blocking', "
+                             f"got {self.tile_production!r}")
+        if self.far_m <= self.near_m:
+            raise ValueError("RiverConfig.far_m must exceed near_m")
+
+    @classmethod
+    def from_env(cls, prefix: str = "RIVERFLOW_", **overrides) -> RiverConfig:
+        """Defaults, overridden by ``<prefix><FIELD>`` environment variables, then ``overrides``."""
+        values = {}
+        for f in dataclasses.fields(cls):
+            raw = os.environ.get(prefix + f.name.upper())
+            if raw is None:
+                continue
+            default = f.default
+            if isinstance(default, bool):
+                values[f.name] = raw.strip().lower() in ("1", "true", "yes", "on")
+            elif isinstance(default, int):
+                values[f.name] = int(raw)
+            elif isinstance(default, float) or default is None:
+                values[f.name] = float(raw)
+            elif isinstance(default, tuple):
+                values[f.name] = tuple(float(v) for v in raw.split(","))
+            else:
+                values[f.name] = raw
+        values.update(overrides)
+        return cls(**values)
