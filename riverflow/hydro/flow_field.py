@@ -28,6 +28,8 @@ from riverflow.kernels import flow as kf
 MAX_LEVEL = 10
 """Deepest quadtree level (1024 × 1024 tiles)."""
 
+_NO_LEVELS = np.zeros(0, np.int8)
+
 
 class FlowField:
     """Velocity and stream function of a river network, from cached flow tiles.
@@ -120,9 +122,9 @@ class FlowField:
         velocity = np.empty((len(pts), 2), np.float32)
         t = self.tiles
         t.tick += 1
-        args = (t.root_x_m, t.root_y_m, t.tile_size_m(lv), t.n_cells, t.slots[lv], t.psi,
-                t.cell_status, t.cell_segments, t.last_used, t.tick,
-                *self.network.geometry_args())
+        args = (_NO_LEVELS, lv, 0, t.root_x_m, t.root_y_m, t.root_size_m, t.n_cells,
+                t.slots_flat, t.level_offset, t.psi, t.cell_status, t.cell_segments,
+                t.last_used, t.tick, *self.network.geometry_args())
         if kf.query_velocity(pts, *args, status, velocity):  # some tiles are not cached yet
             for idx in self._batches(pts, lv, np.flatnonzero(status == FlowStatus.UNKNOWN)):
                 s_out = np.empty(len(idx), np.uint8)
@@ -139,9 +141,9 @@ class FlowField:
         psi = np.empty(len(pts))
         t = self.tiles
         t.tick += 1
-        args = (t.root_x_m, t.root_y_m, t.tile_size_m(lv), t.n_cells, t.slots[lv], t.psi,
-                t.cell_status, t.cell_segments, t.last_used, t.tick,
-                *self.network.geometry_args())
+        args = (_NO_LEVELS, lv, 0, t.root_x_m, t.root_y_m, t.root_size_m, t.n_cells,
+                t.slots_flat, t.level_offset, t.psi, t.cell_status, t.cell_segments,
+                t.last_used, t.tick, *self.network.geometry_args())
         if kf.sample_potential(pts, *args, psi):  # some tiles are not cached yet
             missing = self.tile_of(pts, lv)[:, 0] >= 0
             missing &= np.isnan(psi)

@@ -523,24 +523,34 @@ def _catmull_rom(t):
 
 
 @njit(inline="always", **JIT_OPTIONS)
-def _locate(px, py, root_x, root_y, tile_size_m, tile_slots, n_cells):
-    """(slot, cell i, cell j, fx, fy) of p in the level whose tile table is ``tile_slots``.
+def _locate(px, py, root_x, root_y, root_size_m, n_cells, slots_flat, level_offset, level,
+            fallback):
+    """(slot, level, cell i, cell j, fx, fy) of p: the tile of ``level`` under p, or of up to
+    ``fallback`` coarser levels when that one is not cached.
 
-    slot = −2 outside the domain, −1 when the tile is not cached.
+    slot = −2 outside the domain, −1 when no such tile is cached.
     """
-    nt = tile_slots.shape[0]
-    u = (px - root_x) / tile_size_m
-    v = (py - root_y) / tile_size_m
-    if not (u >= 0.0 and v >= 0.0 and u <= nt and v <= nt):
-        return -2, 0, 0, 0.0, 0.0
-    tx = min(int(u), nt - 1)
-    ty = min(int(v), nt - 1)
-    slot = tile_slots[ty, tx]
-    fu = (u - tx) * n_cells
-    fv = (v - ty) * n_cells
-    ci = min(int(fu), n_cells - 1)
-    cj = min(int(fv), n_cells - 1)
-    return slot, ci, cj, fu - ci, fv - cj
+    u0 = (px - root_x) / root_size_m
+    v0 = (py - root_y) / root_size_m
+    if not (u0 >= 0.0 and v0 >= 0.0 and u0 <= 1.0 and v0 <= 1.0):
+        return -2, level, 0, 0, 0.0, 0.0
+    lv = level
+    while True:
+        nt = 1 << lv
+        u = u0 * nt
+        v = v0 * nt
+        tx = min(int(u), nt - 1)
+        ty = min(int(v), nt - 1)
+        slot = slots_flat[level_offset[lv] + ty * nt + tx]
+        if slot >= 0:
+            fu = (u - tx) * n_cells
+            fv = (v - ty) * n_cells
+            ci = min(int(fu), n_cells - 1)
+            cj = min(int(fv), n_cells - 1)
+            return slot, lv, ci, cj, fu - ci, fv - cj
+        if lv == 0 or level - lv >= fallback:
+            return -1, level, 0, 0, 0.0, 0.0
+        lv -= 1
 
 
 @njit(inline="always", **JIT_OPTIONS)
@@ -596,20 +606,21 @@ def _fill_stencil(patch):
 
 @njit(**JIT_OPTIONS)
 def query_velocity(
-    xy, root_x, root_y, tile_size_m, n_cells, tile_slots, psi_pool, cell_status,
-    cell_segments, slot_last_used, tick, seg_ax, seg_ay, seg_bx, seg_by, out_status, out_velocity,
+    xy, levels, level, fallback, root_x, root_y, root_size_m, n_cells, slots_flat, level_offset,
+    psi_pool, cell_status, cell_segments, slot_last_used, tick, seg_ax, seg_ay, seg_bx, seg_by,
+    out_status, out_velocity,
 ):
     """Velocity [m/s] and FlowStatus at each point of ``xy`` (N, 2) from cached tiles.
 
-    ``tile_slots`` (T, T) int32 maps the tiles of one quadtree level to pool slots; the
-    slots used get ``slot_last_used[slot] = tick`` (LRU bookkeeping);
-    ``psi_pool`` (P, n+3, n+3) float64, ``cell_status`` (P, n, n) uint8, ``cell_segments``
-    (P, n, n, CELL_SEGMENTS) int32. Writes ``out_status`` (N,) uint8 and ``out_velocity``
-    (N, 2) float32 (zero unless INSIDE; never NaN). Returns the number of points whose tile
-    was not cached (status UNKNOWN).
+    Point k uses the tiles of quadtree ``level`` (≥ 0), or of ``levels[k]`` when ``level`` < 0,
+    falling back on up to ``fallback`` coarser levels when that tile is not cached.
+    ``slots_flat`` maps the tiles of every level to pool slots (level l starts at
+    ``level_offset[l]``, row-major 2^l × 2^l); the slots used get ``slot_last_used[slot] = tick``
+    (LRU bookkeeping). ``psi_pool`` (P, n+3, n+3), ``cell_status`` (P, n, n) uint8,
+    ``cell_segments`` (P, n, n, CELL_SEGMENTS) int32. Writes ``out_status`` (N,) uint8 and
+    ``out_velocity`` (N, 2) float32 (zero unless INSIDE; never NaN). Returns the number of
+    points with no cached tile (status UNKNOWN).
     """
-    h = tile_size_m / n_cells
-    inv_h = 1.0 / h
     patch = np.empty((4, 4))
     missing = 0
     for k in range(xy.shape[0]):
@@ -617,7 +628,9 @@ def query_velocity(
         py = xy[k, 1]
         out_velocity[k, 0] = 0.0
         out_velocity[k, 1] = 0.0
-        slot, ci, cj, fx, fy = _locate(px, py, root_x, root_y, tile_size_m, tile_slots, n_cells)
+        slot, lv, ci, cj, fx, fy = _locate(px, py, root_x, root_y, root_size_m, n_cells,
+                                           slots_flat, level_offset,
+                                           level if level >= 0 else levels[k], fallback)
         if slot == -2:
             out_status[k] = STATUS_OUTSIDE_DOMAIN
             continue
@@ -654,6 +667,7 @@ def query_velocity(
         r3d = _rows(dx0, dx1, dx2, dx3, patch[3, 0], patch[3, 1], patch[3, 2], patch[3, 3])
         gx = _rows(wy0, wy1, wy2, wy3, r0d, r1d, r2d, r3d)
         gy = _rows(dy0, dy1, dy2, dy3, r0w, r1w, r2w, r3w)
+        inv_h = (1 << lv) * n_cells / root_size_m
         vx = -gy * inv_h
         vy = gx * inv_h
         if math.isfinite(vx) and math.isfinite(vy):
@@ -664,18 +678,22 @@ def query_velocity(
 
 @njit(**JIT_OPTIONS)
 def sample_potential(
-    xy, root_x, root_y, tile_size_m, n_cells, tile_slots, psi_pool, cell_status,
-    cell_segments, slot_last_used, tick, seg_ax, seg_ay, seg_bx, seg_by, out_psi,
+    xy, levels, level, fallback, root_x, root_y, root_size_m, n_cells, slots_flat, level_offset,
+    psi_pool, cell_status, cell_segments, slot_last_used, tick, seg_ax, seg_ay, seg_bx, seg_by,
+    out_psi,
 ):
     """Interpolated ψ [m²/s] at each point of ``xy`` (N, 2) from cached tiles into ``out_psi``
-    (N,) float64: NaN outside the water, outside the domain or in an uncached tile."""
+    (N,) float64: NaN outside the water, outside the domain or in an uncached tile. Levels as
+    in :func:`query_velocity`."""
     patch = np.empty((4, 4))
     missing = 0
     for k in range(xy.shape[0]):
         px = xy[k, 0]
         py = xy[k, 1]
         out_psi[k] = np.nan
-        slot, ci, cj, fx, fy = _locate(px, py, root_x, root_y, tile_size_m, tile_slots, n_cells)
+        slot, lv, ci, cj, fx, fy = _locate(px, py, root_x, root_y, root_size_m, n_cells,
+                                           slots_flat, level_offset,
+                                           level if level >= 0 else levels[k], fallback)
         if slot < 0:
             if slot == -1:
                 missing += 1

@@ -1,0 +1,111 @@
+"""FlowTileProducer: flow tiles made on demand, in a worker thread or in the frame.
+
+Re-does Proland's ``TileProducer`` scheduling for the flow (``UpdateRiversTask`` asks the tiles
+the camera sees; reference §3.4). In ``background`` mode a daemon thread builds the tiles
+(the numba kernels release the GIL, so it runs beside the frame on another core) and
+:meth:`collect` installs the finished ones at the start of a frame: no frame ever waits for a
+tile. In ``blocking`` mode :meth:`request` builds them at once: slower frames, but a scripted
+run is deterministic.
+"""
+from __future__ import annotations
+
+import queue
+import threading
+from collections.abc import Iterable
+
+from riverflow.hydro.flow_field import FlowField, TileBuilder
+
+TileKey = tuple[int, int, int]
+"""(level, tx, ty)."""
+
+
+class FlowTileProducer:
+    """Keeps the requested flow tiles of a :class:`FlowField` coming."""
+
+    def __init__(self, field: FlowField, mode: str = "background") -> None:
+        if mode not in ("background", "blocking"):
+            raise ValueError(f"mode must be 'background' or 'blocking', got {mode!r}")
+        self.field = field
+        self.mode = mode
+        self._pending: set[TileKey] = set()
+        self._todo: queue.Queue[TileKey | None] = queue.Queue()
+        self._done: queue.Queue[tuple] = queue.Queue()
+        self._thread: threading.Thread | None = None
+        self.requested = 0
+        """Tiles asked for (not yet cached) since the start."""
+
+    def request(self, keys: Iterable[TileKey]) -> int:
+        """Ask for tiles; returns how many were not cached yet. Cached ones are marked used."""
+        field = self.field
+        tiles = field.tiles
+        tiles.tick += 1
+        missing: list[TileKey] = []
+        for level, tx, ty in keys:
+            slot = tiles.slots[level][ty, tx]
+            if slot >= 0:
+                tiles.last_used[slot] = tiles.tick
+            elif (level, tx, ty) not in self._pending:
+                missing.append((level, tx, ty))
+        self.requested += len(missing)
+        if self.mode == "blocking":
+            by_level: dict[int, list[tuple[int, int]]] = {}
+            for level, tx, ty in missing:
+                by_level.setdefault(level, []).append((tx, ty))
+            for level, k in by_level.items():
+                for start in range(0, len(k), tiles.capacity):
+                    field.ensure_tiles(level, k[start:start + tiles.capacity])
+            return len(missing)
+        self._start()
+        for key in missing:
+            self._pending.add(key)
+            self._todo.put(key)
+        return len(missing)
+
+    def collect(self) -> int:
+        """Install the tiles the worker finished (main thread, start of a frame)."""
+        installed = 0
+        while True:
+            try:
+                key, arrays = self._done.get_nowait()
+            except queue.Empty:
+                return installed
+            self._pending.discard(key)
+            installed += self.field.install_tile(*key, *arrays)
+
+    @property
+    def pending(self) -> int:
+        return len(self._pending)
+
+    def wait(self, timeout_s: float = 30.0) -> None:
+        """Block until every requested tile is built and installed (tests, loading screens)."""
+        import time
+
+        end = time.perf_counter() + timeout_s
+        while self._pending and time.perf_counter() < end:
+            self.collect()
+            if self._pending:
+                time.sleep(0.001)
+        self.collect()
+
+    def close(self) -> None:
+        """Stop the worker thread."""
+        if self._thread is not None:
+            self._todo.put(None)
+            self._thread.join(timeout=5.0)
+            self._thread = None
+
+    def _start(self) -> None:
+        if self._thread is None:
+            self._thread = threading.Thread(target=self._work, name="riverflow-flow-tiles",
+                                            daemon=True)
+            self._thread.start()
+
+    def _work(self) -> None:
+        builder = TileBuilder(self.field)
+        while True:
+            key = self._todo.get()
+            if key is None:
+                return
+            psi, status, segments = builder.outputs()
+            inside = builder.build(*key, psi, status, segments)
+            self._done.put((key, (psi, status, segments, inside)))
