@@ -122,9 +122,9 @@ def _discharge_problems(graph: HydroGraph, branches, rel_tol: float) -> list[str
         line, q = np.asarray(br[0], dtype=float), br[-1]
         widths = br[1] if len(br) == 3 else None
         found = []
-        for f in (0.3, 0.5, 0.7):
-            o, n = _station(line, f)
-            psi = [_bank_psi(graph, bank_ids, lines, tree, o, sign * n, widths) for sign in (1.0, -1.0)]
+        for f in (0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8):
+            o, n, w = _station(line, f, widths)
+            psi = [_bank_psi(graph, bank_ids, lines, tree, o, sign * n, w) for sign in (1.0, -1.0)]
             if not np.isnan(psi).any():
                 found.append(psi[1] - psi[0])
         if not found:
@@ -136,24 +136,37 @@ def _discharge_problems(graph: HydroGraph, branches, rel_tol: float) -> list[str
     return problems
 
 
-def _station(line: np.ndarray, fraction: float) -> tuple[np.ndarray, np.ndarray]:
-    """Point (2,) and unit left normal (2,) at an arc-length fraction of a polyline (K, 2)."""
+def _station(line: np.ndarray, fraction: float, widths=None):
+    """Point (2,), unit left normal (2,) and width [m] (None if ``widths`` is None: scalar,
+    one value or one per point) at an arc-length fraction of a polyline (K, 2)."""
     seg = np.hypot(*np.diff(line, axis=0).T)
     s = np.concatenate([[0.0], np.cumsum(seg)])
     j = int(np.clip(np.searchsorted(s, fraction * s[-1], side="right") - 1, 0, len(seg) - 1))
     u = (fraction * s[-1] - s[j]) / seg[j]
     t = (line[j + 1] - line[j]) / seg[j]
-    return line[j] + u * (line[j + 1] - line[j]), np.array([-t[1], t[0]])
+    w = None
+    if widths is not None:
+        wa = np.broadcast_to(np.asarray(widths, dtype=float).reshape(-1), (len(line),)) \
+            if np.size(widths) == 1 else np.asarray(widths, dtype=float)
+        w = float((1 - u) * wa[j] + u * wa[j + 1])
+    return line[j] + u * (line[j + 1] - line[j]), np.array([-t[1], t[0]]), w
 
 
-def _bank_psi(graph, bank_ids, lines, tree, origin, direction, widths) -> float:
-    """ψ of the bank a ray from the centre line meets (the outer bank when widths are known:
-    the farthest hit within 1.25 half-widths, which skips free islands on the way)."""
-    reach = 1.25 * 0.5 * float(np.max(widths)) + 1.0 if widths is not None else 1e5
+def _bank_psi(graph, bank_ids, lines, tree, origin, direction, width) -> float:
+    """ψ of the bank a ray from the centre line meets, NaN if none is found. With the local
+    width known, only a bank between 0.75 and 1.25 half-widths counts (the farthest such
+    hit): nearer shores are islands in the stream; a station where the bank is elsewhere
+    (tight bends, junctions) gives NaN and is skipped."""
+    if width is None:
+        lo, reach = 0.0, 1e5
+    else:
+        lo, reach = 0.75 * 0.5 * width, 1.25 * 0.5 * width + 1.0
     ray = LineString([origin, origin + direction * reach])
     hits = tree.query(ray, predicate="intersects")
-    if len(hits) == 0:
+    dist = np.array([shapely.distance(shapely.Point(origin), ray.intersection(lines[h])) for h in hits])
+    ok = dist >= lo
+    if not ok.any():
         return np.nan
-    dist = [shapely.distance(shapely.Point(origin), ray.intersection(lines[h])) for h in hits]
-    pick = hits[int(np.argmax(dist))] if widths is not None else hits[int(np.argmin(dist))]
+    hits, dist = hits[ok], dist[ok]
+    pick = hits[int(np.argmax(dist))] if width is not None else hits[int(np.argmin(dist))]
     return graph.curves[bank_ids[pick]].potential

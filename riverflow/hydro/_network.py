@@ -80,8 +80,9 @@ def _branch_sides(geoms: list[BranchGeometry], pieces: list[Piece], island_of: d
             votes.append((left, right))
         best = max(set(votes), key=lambda v: (votes.count(v), -votes.index(v)))
         if best[0] == best[1]:
-            raise GraphError(f"branch {g.name!r}: both of its banks belong to one continuous "
-                             f"shore; its strip probably overlaps another branch")
+            raise GraphError(f"branch {g.name!r}: both of its banks are one continuous shore; "
+                             f"its strip overlaps itself or another branch (a bend tighter than "
+                             f"its width, or a branch that doubles back)")
         sides.append(best)
     return sides
 

@@ -20,6 +20,9 @@ from shapely.geometry.polygon import orient
 JUNCTION_EXTENSION = 0.05
 """How far a strip is pushed into a junction, as a fraction of its half-width."""
 
+MITER_LIMIT = 3.0
+"""Longest mitre, in half-widths, before a strip falls back to bevelled joins."""
+
 _DISC_SEGMENTS = 32
 """Quarter-circle segments of a junction disc (chord error ≈ 3e-4 × radius)."""
 
@@ -52,10 +55,33 @@ def extend_ends(centerline_m: np.ndarray, widths_m: np.ndarray, extend_start: bo
 
 
 def strip_polygon(centerline_m: np.ndarray, widths_m: np.ndarray) -> shapely.Geometry:
-    """The water strip of one branch: centre line (K, 2) [m] offset by ±widths_m/2 (K,)."""
+    """The water strip of one branch: centre line (K, 2) [m] offset by ±widths_m/2 (K,).
+
+    The two sides are offset polylines with mitred vertices when that makes a simple polygon
+    (smooth centre lines); where a bend is too tight for that (an offset side folds over
+    itself, or a mitre is longer than MITER_LIMIT half-widths), the strip is the union of
+    one quadrilateral per segment and bevel triangles at the vertices instead.
+    """
     p = centerline_m
     h = 0.5 * widths_m
     n = _unit_normals(p)
+    if len(p) > 2:
+        n0, n1 = n[:-1], n[1:]
+        one_plus_cos = 1.0 + np.einsum("ij,ij->i", n0, n1)
+        mitre_ok = one_plus_cos >= 2.0 / MITER_LIMIT ** 2
+    else:
+        mitre_ok = np.ones(0, bool)
+    if mitre_ok.all():
+        vn = np.vstack([n[:1], (n[:-1] + n[1:]) / one_plus_cos[:, None], n[-1:]]) if len(p) > 2 else np.vstack([n, n])
+        left, right = p + vn * h[:, None], p - vn * h[:, None]
+        poly = Polygon(np.vstack([left, right[::-1]]))
+        if poly.is_valid:
+            return poly
+    return _strip_union(p, h, n, widths_m)
+
+
+def _strip_union(p: np.ndarray, h: np.ndarray, n: np.ndarray, widths_m: np.ndarray) -> shapely.Geometry:
+    """Strip as a union of segment quads and vertex bevels (robust for any bend)."""
     t = np.stack([n[:, 1], -n[:, 0]], axis=1)
     # consecutive quads overlap by 2 ε at interior vertices: exactly shared edges computed
     # from nearly equal normals would leave floating-point cracks in the union
@@ -77,7 +103,9 @@ def strip_polygon(centerline_m: np.ndarray, widths_m: np.ndarray) -> shapely.Geo
             tri = np.stack([c, c + sign * n0 * hc, c + sign * n1 * hc, c], axis=1)[keep]
             if len(tri):
                 polys.extend(shapely.polygons(tri))
-    return drop_slivers(shapely.union_all(polys), 1e-4 * float(widths_m.min()) ** 2)
+    # a single strip has no holes: small ones are artefacts of tapered quads overlapping at
+    # jagged inner bends; a large one means the branch loops onto itself (the builder says so)
+    return drop_slivers(shapely.union_all(polys), 0.25 * float(widths_m.min()) ** 2)
 
 
 def drop_slivers(geom: shapely.Geometry, min_area_m2: float) -> shapely.Geometry:

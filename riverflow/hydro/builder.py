@@ -35,6 +35,8 @@ from riverflow.hydro._network import BranchGeometry, assemble_graph
 from riverflow.hydro.bezier import flatten_curve
 from riverflow.hydro.graph import GraphError, HydroGraph
 
+MAX_TURN_DEG = 135.0
+"""Sharpest turn of a centre line at one point; sharper ones fold the strip onto itself."""
 JOIN_FRACTION = 0.25
 """End points closer than this fraction of the narrower width are one junction."""
 
@@ -125,6 +127,14 @@ class RiverNetworkBuilder:
         line, widths = line[keep], widths[keep]
         if len(line) < 2:
             raise GraphError(f"branch {name!r}: needs at least 2 distinct points")
+        d = np.diff(line, axis=0)
+        turn = np.degrees(np.abs(np.arctan2(d[:-1, 0] * d[1:, 1] - d[:-1, 1] * d[1:, 0],
+                                            np.einsum("ij,ij->i", d[:-1], d[1:]))))
+        if len(turn) and turn.max() > MAX_TURN_DEG:
+            k = int(np.argmax(turn)) + 1
+            raise GraphError(f"branch {name!r} turns back on itself at ({line[k, 0]:.1f}, "
+                             f"{line[k, 1]:.1f}): a turn of {turn.max():.0f}° (at most "
+                             f"{MAX_TURN_DEG:.0f}° at one point; round the bend with more points)")
         self._branches.append(_BranchInput(name, line, widths, discharge_m2s))
         return index
 
@@ -333,11 +343,24 @@ def _water(geoms: list[BranchGeometry], junctions: np.ndarray, islands: list[_Is
                                       g.end_junction >= 0)
         strips.append(_strips.strip_polygon(line, w))
         g.strip = strips[-1]
+        if strips[-1].geom_type != "Polygon" or len(strips[-1].interiors):
+            x, y = strips[-1].representative_point().coords[0]
+            raise GraphError(f"branch {g.name!r} loops onto itself near ({x:.1f}, {y:.1f}): its "
+                             f"strip encloses land or falls apart; draw it as separate branches")
         if g.start_junction < 0:
             cuts.append(_strips.free_end_cut(g.centerline_m, g.widths_m, True))
         if g.end_junction < 0:
             cuts.append(_strips.free_end_cut(g.centerline_m, g.widths_m, False))
-    # strips may only overlap where their branches share a junction
+    discs = []
+    for j, p in enumerate(junctions):
+        halves = []
+        for g in geoms:
+            if g.start_junction == j:
+                halves.append(0.5 * g.widths_m[0])
+            if g.end_junction == j:
+                halves.append(0.5 * g.widths_m[-1])
+        discs.append(_strips.junction_disc(p, halves))
+    # strips may only overlap around a junction their branches share
     tree = shapely.STRtree(strips)
     for a, b in zip(*tree.query(strips, predicate="intersects")):
         if a >= b:
@@ -348,15 +371,13 @@ def _water(geoms: list[BranchGeometry], junctions: np.ndarray, islands: list[_Is
             raise GraphError(f"branches {ga.name!r} and {gb.name!r} overlap but do not meet at a "
                              f"junction (end points must coincide to join; split a branch where "
                              f"another one flows into it)")
-    discs = []
-    for j, p in enumerate(junctions):
-        halves = []
-        for g in geoms:
-            if g.start_junction == j:
-                halves.append(0.5 * g.widths_m[0])
-            if g.end_junction == j:
-                halves.append(0.5 * g.widths_m[-1])
-        discs.append(_strips.junction_disc(p, halves))
+        common = shapely.intersection(strips[a], strips[b])
+        near = shapely.union_all([discs[j] for j in sorted(shared)])
+        for part in getattr(common, "geoms", [common]):
+            if part.area > tolerance_m ** 2 and not part.intersects(near):
+                x, y = part.representative_point().coords[0]
+                raise GraphError(f"branches {ga.name!r} and {gb.name!r} overlap near ({x:.1f}, "
+                                 f"{y:.1f}), away from the junction they share")
     min_width = min(float(g.widths_m.min()) for g in geoms)
     river = _strips.drop_slivers(shapely.union_all(strips + discs), 1e-4 * min_width ** 2)
     valid_islands = []

@@ -245,6 +245,12 @@ def _pair(b, first, second):
      "strictly inside"),
     (lambda b: b.add_island([[0, 0], [1, 1], [1, 0], [0, 1]]), "simple polygon"),
     (lambda b: None, "no branches"),
+    (lambda b: (b.add_branch([[0, 0], [200, 0], [200, 100], [100, 100], [100, -100]], 30, 10), b.build()),
+     "loops onto itself"),
+    (lambda b: b.add_branch([[0, 0], [100, 0], [0, 5]], 30, 10), "turns back"),
+    (lambda b: (b.add_branch([[-400, 0], [0, 0]], 40, 10),
+                b.add_branch([[-300, 100], [-250, -60], [-100, -60], [0, 0]], 30, 5),
+                b.add_branch([[0, 0], [200, 0]], 40)), "away from the junction"),
 ])
 def test_bad_input_raises_graph_error(make, message):
     b = RiverNetworkBuilder()
