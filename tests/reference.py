@@ -107,3 +107,92 @@ def lattice_velocity(psi: np.ndarray, origin: tuple[float, float], h: float, xy:
         gy = dy[k] @ patch @ wx[k]
         out[k] = (-gy / h, gx / h)
     return out
+
+
+# -- raycast (riverflow.kernels.raycast) --------------------------------------------------------
+
+
+def surface_at(heights: np.ndarray, water: np.ndarray, gx: np.ndarray, gy: np.ndarray):
+    """Terrain and water (NaN where the cell has no wet corner) at grid coordinates (gx, gy)
+    inside the grid, (N,) each: bilinear per cell, a dry corner of a wet cell takes the mean
+    of the cell's wet corners."""
+    ny, nx = heights.shape
+    i = np.minimum(np.floor(gx).astype(int), nx - 2)
+    j = np.minimum(np.floor(gy).astype(int), ny - 2)
+    u, v = gx - i, gy - j
+    weights = [(1 - u) * (1 - v), u * (1 - v), (1 - u) * v, u * v]
+    corners = [(j, i), (j, i + 1), (j + 1, i), (j + 1, i + 1)]
+    h = np.stack([heights[c].astype(np.float64) for c in corners])
+    w = np.stack([water[c].astype(np.float64) for c in corners])
+    wet = ~np.isnan(w)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = np.nansum(w, axis=0) / wet.sum(0)
+    w = np.where(wet, w, mean)
+    terrain = sum(k * hk for k, hk in zip(weights, h))
+    level = sum(k * wk for k, wk in zip(weights, w))
+    return terrain, np.where(wet.any(0), level, np.nan)
+
+
+def height_pyramid(heights: np.ndarray, water: np.ndarray) -> np.ndarray:
+    """(M, 2) float32 max-mip pyramid, levels k = 1, 2, … until one node: per node of 2ᵏ × 2ᵏ
+    cells (x fastest), the lowest terrain and the highest terrain-or-water grid node of its
+    cells, computed straight from the nodes."""
+    ny, nx = heights.shape
+    top = np.fmax(heights, water)
+    cx, cy = max(nx - 1, 1), max(ny - 1, 1)
+    rows, k = [], 1
+    while True:
+        size = 1 << k
+        sx, sy = -(-cx // size), -(-cy // size)
+        for jj in range(sy):
+            for ii in range(sx):
+                nodes = (slice(jj * size, min(jj * size + size, ny - 1) + 1),
+                         slice(ii * size, min(ii * size + size, nx - 1) + 1))
+                rows.append((heights[nodes].min(), top[nodes].max()))
+        if sx == 1 and sy == 1:
+            return np.array(rows, np.float32)
+        k += 1
+
+
+def cast_rays_onto_heightfield(origins, directions, heights, water, origin_x, origin_y, cell_m,
+                               max_distance_m, step_m=0.02):
+    """Brute force: sample each ray every ``step_m`` up to ``max_distance_m``; the hit is the
+    first sample pair, both over the grid, going from above the surface max(terrain, water) to
+    on or below it, refined by bisection. Returns (xyz (N, 3), hit (N,) uint8: 0 sky, 1 land,
+    2 water, where water ≥ terrain at the hit)."""
+    ny, nx = heights.shape
+    n = len(origins)
+    xyz = np.array(origins, dtype=np.float64, copy=True)
+    hit = np.zeros(n, np.uint8)
+    s = np.arange(0.0, max_distance_m + step_m, step_m)
+
+    def f_of(o, d, t):
+        p = o + t[:, None] * d
+        gx = (p[:, 0] - origin_x) / cell_m
+        gy = (p[:, 1] - origin_y) / cell_m
+        inside = (gx >= 0) & (gx <= nx - 1) & (gy >= 0) & (gy <= ny - 1)
+        terrain, level = surface_at(heights, water, np.clip(gx, 0, nx - 1), np.clip(gy, 0, ny - 1))
+        return p[:, 2] - np.fmax(terrain, level), inside, terrain, level
+
+    for k in range(n):
+        d = np.asarray(directions[k], dtype=np.float64)
+        if not np.linalg.norm(d) > 0:
+            continue
+        d = d / np.linalg.norm(d)
+        o = np.asarray(origins[k], dtype=np.float64)
+        f, inside, _, _ = f_of(o, d, s)
+        cross = inside[:-1] & inside[1:] & (f[:-1] > 0) & (f[1:] <= 0)
+        if not cross.any():
+            continue
+        a = int(np.argmax(cross))
+        lo, hi = s[a], s[a + 1]
+        for _ in range(40):
+            mid = 0.5 * (lo + hi)
+            if f_of(o, d, np.array([mid]))[0][0] > 0:
+                lo = mid
+            else:
+                hi = mid
+        _, _, terrain, level = f_of(o, d, np.array([hi]))
+        xyz[k] = o + hi * d
+        hit[k] = 2 if level[0] >= terrain[0] else 1
+    return xyz, hit
