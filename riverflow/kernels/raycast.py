@@ -190,16 +190,20 @@ def _cast_ray(ox, oy, oz, dx, dy, dz, heights, water, origin_x, origin_y, cell_m
     out_xyz[r, 0] = 0.0
     out_xyz[r, 1] = 0.0
     out_xyz[r, 2] = 0.0
-    length = math.sqrt(dx * dx + dy * dy + dz * dz)
-    if not (math.isfinite(ox) and math.isfinite(oy) and math.isfinite(oz)
-            and math.isfinite(length)):
+    scale = max(abs(dx), abs(dy), abs(dz))  # so tiny or huge directions neither under- nor
+    if not (math.isfinite(ox) and math.isfinite(oy) and math.isfinite(oz)  # overflow
+            and math.isfinite(scale)):
         return HIT_NONE
     out_xyz[r, 0] = ox
     out_xyz[r, 1] = oy
     out_xyz[r, 2] = oz
     ny, nx = heights.shape
-    if length == 0.0 or not (max_d > 0.0) or nx < 2 or ny < 2 or not (cell_m > 0.0):
+    if scale == 0.0 or not (max_d > 0.0) or nx < 2 or ny < 2 or not (cell_m > 0.0):
         return HIT_NONE
+    dx /= scale
+    dy /= scale
+    dz /= scale
+    length = math.sqrt(dx * dx + dy * dy + dz * dz)
     dx /= length
     dy /= length
     dz /= length

@@ -244,10 +244,17 @@ def test_no_nan_for_degenerate_rays(rng):
     assert (hit[[2, 5, 6]] != HIT_NONE).all()
     nan_d = cast(o[:1], [(np.nan, 0.0, -1.0)], h, water, origin, cell)
     assert nan_d[1][0] == HIT_NONE
-    # Tiny components and huge ones: still finite.
+    # Tiny components and huge ones: still finite; the length of a direction does not matter.
     d2 = rng.normal(size=(200, 3)) * rng.choice([1e-300, 1.0, 1e200], (200, 3))
     o2, _ = random_rays(rng, 200, origin, cell, h.shape)
     cast(o2, d2, h, water, origin, cell)
+    d3 = rng.normal(size=(50, 3))
+    d3[:, 2] = -np.abs(d3[:, 2])
+    base = cast(o2[:50], d3, h, water, origin, cell)
+    for factor in (1e-300, 1e300):
+        scaled = cast(o2[:50], d3 * factor, h, water, origin, cell)
+        npt.assert_array_equal(scaled[1], base[1])
+        npt.assert_allclose(scaled[0], base[0], atol=1e-9)
 
 
 def test_water_is_hit_where_the_water_plane_is_above_the_terrain():
@@ -274,10 +281,10 @@ def test_pure_python_matches_jit(rng):
     cast_rays_onto_heightfield(o, d, h, water, *origin, cell, 1e3, want_xyz, want_hit, pyr)
     got_xyz, got_hit = np.zeros((40, 3)), np.zeros(40, np.uint8)
     py_pyr = np.empty_like(pyr)
-    raycast.fill_height_pyramid.py_func(h, water, py_pyr)
+    getattr(raycast.fill_height_pyramid, "py_func", raycast.fill_height_pyramid)(h, water, py_pyr)
     npt.assert_array_equal(py_pyr, pyr)
-    raycast.cast_rays_onto_heightfield.py_func(o, d, h, water, *origin, cell, 1e3, got_xyz,
-                                               got_hit, pyr)
+    kernel = getattr(raycast.cast_rays_onto_heightfield, "py_func", raycast.cast_rays_onto_heightfield)
+    kernel(o, d, h, water, *origin, cell, 1e3, got_xyz, got_hit, pyr)
     npt.assert_array_equal(got_hit, want_hit)
     npt.assert_allclose(got_xyz, want_xyz, atol=1e-9)
 
