@@ -38,6 +38,8 @@ COARSE = 8
 LEVEL_BLUR = 6.0
 """Far from the river the water level under the valley is blurred (σ in coarse cells) so that
 the valleys of reaches at different levels meet without steps."""
+LAND_LEVEL_BLUR = 4.0
+"""σ [cells] of the smoothing of the water level under the land near the river."""
 NEAR_M = 60.0
 """Within this distance outside a river's strip, fields are computed exactly per cell."""
 
@@ -261,12 +263,12 @@ def _carve(axis_m: np.ndarray, water: WaterSurface, far_m: np.ndarray) -> np.nda
     n = len(axis_m)
     coarse = _grid(axis_m[::COARSE])
     centre_c, level_c, width_c = water.nearest(coarse, stride=5)
-    shore = _upsample(np.maximum(centre_c - 0.5 * width_c, 0.0), n).ravel()  # exact near the river
+    shore = _upsample(water.distance_to_shore(coarse, stride=5), n).ravel()  # exact near the river
     m = len(axis_m[::COARSE])
     level = _upsample(gaussian_filter(level_c.reshape(m, m), LEVEL_BLUR, mode="nearest"), n).ravel()
     width = _upsample(width_c, n).ravel()
     outside_strip = _upsample(centre_c - 0.5 * width_c, n).ravel()
-    near = np.flatnonzero(outside_strip < NEAR_M + COARSE * (axis_m[1] - axis_m[0]))
+    near = np.flatnonzero(outside_strip < NEAR_M + 2 * COARSE * (axis_m[1] - axis_m[0]))
     pts = _grid(axis_m)[near]
     shore_e = water.distance_to_shore(pts)
     centre_e, level_e, width_e = water.nearest(pts)
@@ -276,7 +278,12 @@ def _carve(axis_m: np.ndarray, water: WaterSurface, far_m: np.ndarray) -> np.nda
     shore[near] = (1 - t) * shore_e + t * shore[near]
     level[near] = (1 - t) * level_e + t * level[near]
     width[near] = (1 - t) * width_e + t * width[near]
-    valley = level + 2.5 * (1.0 - np.exp(-shore / 12.0)) + 12.0 * (1.0 - np.exp(-shore / 250.0))
+    # the level under the land jumps where the nearest branch changes (around junctions):
+    # smoothed away from the shore, exact at the water's edge (banks stay above their water)
+    beta = _smoothstep(5.0, 25.0, shore)
+    level_land = gaussian_filter(level.reshape(n, n), LAND_LEVEL_BLUR, mode="nearest").ravel()
+    valley = ((1.0 - beta) * level + beta * level_land
+              + 2.5 * (1.0 - np.exp(-shore / 12.0)) + 12.0 * (1.0 - np.exp(-shore / 250.0)))
     alpha = _smoothstep(60.0, 400.0, shore)
     far = far_m.ravel()
     land = (1.0 - alpha) * valley + alpha * np.maximum(far, valley)

@@ -101,7 +101,7 @@ class WaterSurface:
         shapely.prepare(self.polygon)
         self._decimated: dict[int, tuple] = {}
         edge = shapely.segmentize(self.polygon.boundary, self.boundary_spacing_m)
-        self._boundary_tree = cKDTree(shapely.get_coordinates(edge))
+        self._boundary_trees = {1: cKDTree(shapely.get_coordinates(edge))}
         self._reach_m = 0.75 * float(self.widths_m.max()) + 2.0 * self.boundary_spacing_m
 
     # -- queries (all take xy (N, 2) [m] and return (N,) float64) -------------------------
@@ -143,9 +143,13 @@ class WaterSurface:
         """Water level of the nearest river point [m], defined everywhere."""
         return self.nearest(xy)[1]
 
-    def distance_to_shore(self, xy: np.ndarray) -> np.ndarray:
-        """Distance to the nearest bank or island shore [m] (unsigned)."""
-        d, _ = self._boundary_tree.query(np.asarray(xy, dtype=np.float64).reshape(-1, 2), workers=-1)
+    def distance_to_shore(self, xy: np.ndarray, stride: int = 1) -> np.ndarray:
+        """Distance to the nearest bank or island shore [m] (unsigned); ``stride`` > 1 uses
+        every stride-th shore sample only (faster far away, error up to stride × the shore
+        sample spacing)."""
+        if stride not in self._boundary_trees:
+            self._boundary_trees[stride] = cKDTree(self._boundary_trees[1].data[::stride])
+        d, _ = self._boundary_trees[stride].query(np.asarray(xy, dtype=np.float64).reshape(-1, 2), workers=-1)
         return d
 
     def contains(self, xy: np.ndarray, shore_m: np.ndarray | None = None) -> np.ndarray:
