@@ -94,6 +94,10 @@ class FlowField:
         self.tiles = FlowTileCache(root_x, root_y, root_size, lattice_cells, self.max_level,
                                    cache_tiles)
         self._builder = TileBuilder(self)
+        self.river_boxes = self.network.river_boxes()
+        t = self.tiles
+        kf.mark_dry_tiles(t.slots_flat, t.level_offset, self.max_level, t.root_x_m, t.root_y_m,
+                          t.root_size_m, self.river_boxes)
 
     @classmethod
     def for_scene(cls, scene, slip: float = 1.0, search_radius_factor: float = 5.0,
@@ -197,7 +201,7 @@ class FlowField:
         pinned = [table[ty, tx] for tx, ty in keys if table[ty, tx] >= 0]
         t.last_used[pinned] = t.tick
         for tx, ty in keys:
-            if table[ty, tx] >= 0:
+            if table[ty, tx] >= 0 or table[ty, tx] == kf.SLOT_DRY:
                 continue
             slot = self._free_slot()
             self._produce(level, tx, ty, slot)
@@ -208,8 +212,7 @@ class FlowField:
     def clear_tiles(self) -> None:
         """Drop every cached tile (e.g. after editing the graph or the options)."""
         t = self.tiles
-        for table in t.slots:
-            table[:] = -1
+        t.slots_flat[t.slots_flat >= 0] = kf.SLOT_MISSING
         t.slot_key[:] = -1
 
     # -- internals -----------------------------------------------------------------------------

@@ -62,6 +62,12 @@ class FlowNetwork:
     def n_groups(self) -> int:
         return int(self.group_psi.shape[0])
 
+    def river_boxes(self) -> np.ndarray:
+        """(A, 4) float64 xmin, ymin, xmax, ymax [m] of each axis's coverage (bbox ± half width)."""
+        axes = np.flatnonzero(self.curve_kind == KIND_AXIS)
+        hw = np.sqrt(self.curve_hw2[axes])[:, None]
+        return np.ascontiguousarray(self.curve_bbox[axes] + np.hstack([-hw, -hw, hw, hw]))
+
     def geometry_args(self) -> tuple:
         """The segment arrays, in kernel argument order."""
         return (self.seg_ax, self.seg_ay, self.seg_bx, self.seg_by)

@@ -14,6 +14,7 @@ import threading
 from collections.abc import Iterable
 
 from riverflow.hydro.flow_field import FlowField, TileBuilder
+from riverflow.kernels.flow import SLOT_MISSING
 
 TileKey = tuple[int, int, int]
 """(level, tx, ty)."""
@@ -44,7 +45,7 @@ class FlowTileProducer:
             slot = tiles.slots[level][ty, tx]
             if slot >= 0:
                 tiles.last_used[slot] = tiles.tick
-            elif (level, tx, ty) not in self._pending:
+            elif slot == SLOT_MISSING and (level, tx, ty) not in self._pending:
                 missing.append((level, tx, ty))
         self.requested += len(missing)
         if self.mode == "blocking":

@@ -34,14 +34,11 @@ STATUS_ON_SKY = 7
 
 
 @njit(**JIT_OPTIONS)
-def select_flow_queries(
-    alive, has_world, status, world_m, cam_x, cam_y, cam_z, rad_per_px, flow_tile_px,
-    root_size_m, n_cells, max_level, out_index, out_xy, out_level,
-):
+def select_flow_queries(alive, has_world, status, world_m, out_index, out_xy):
     """Gather the particles that ask the flow this frame (INSIDE, UNKNOWN or LEAVING, with a
-    world position) with the quadtree level their distance needs: the coarsest level whose
-    lattice spacing is at most ``flow_tile_px`` pixels there. Writes ``out_index`` (C,) int32,
-    ``out_xy`` (C, 2) float64 [m], ``out_level`` (C,) int8; returns their number."""
+    world position). Writes ``out_index`` (C,) int32 and ``out_xy`` (C, 2) float64 [m];
+    returns their number. (Each is answered from the finest cached flow tile under it: which
+    tiles are cached, at which level, is the view's choice: ``select_view_tiles``.)"""
     n = 0
     for i in range(alive.shape[0]):
         if not alive[i] or not has_world[i]:
@@ -49,18 +46,9 @@ def select_flow_queries(
         s = status[i]
         if s != STATUS_INSIDE and s != STATUS_UNKNOWN and s != STATUS_LEAVING:
             continue
-        dx = world_m[i, 0] - cam_x
-        dy = world_m[i, 1] - cam_y
-        dz = world_m[i, 2] - cam_z
-        spacing = flow_tile_px * rad_per_px * math.sqrt(dx * dx + dy * dy + dz * dz)
-        level = max_level
-        if spacing > 0.0:
-            want = math.ceil(math.log2(root_size_m / (n_cells * spacing)))
-            level = min(max(want, 0), max_level)
         out_index[n] = i
         out_xy[n, 0] = world_m[i, 0]
         out_xy[n, 1] = world_m[i, 1]
-        out_level[n] = level
         n += 1
     return n
 

@@ -54,6 +54,12 @@ LATTICE_RING = 3
 BLOCK = 8
 """Lattice points per side of the blocks that share one pruned segment list."""
 
+SLOT_MISSING = -1
+"""Tile table entry: the tile is not cached."""
+SLOT_OUTSIDE_DOMAIN = -2
+SLOT_DRY = -3
+"""Tile table entry: no river axis comes near this tile: every point of it is OUTSIDE."""
+
 STATUS_INSIDE = 1
 STATUS_OUTSIDE = 4
 STATUS_OUTSIDE_DOMAIN = 6
@@ -528,7 +534,8 @@ def _locate(px, py, root_x, root_y, root_size_m, n_cells, slots_flat, level_offs
     """(slot, level, cell i, cell j, fx, fy) of p: the tile of ``level`` under p, or of up to
     ``fallback`` coarser levels when that one is not cached.
 
-    slot = −2 outside the domain, −1 when no such tile is cached.
+    slot = SLOT_OUTSIDE_DOMAIN outside the domain, SLOT_MISSING when no such tile is cached,
+    SLOT_DRY when the tile (at any level tried) is known to hold no river.
     """
     u0 = (px - root_x) / root_size_m
     v0 = (py - root_y) / root_size_m
@@ -542,6 +549,8 @@ def _locate(px, py, root_x, root_y, root_size_m, n_cells, slots_flat, level_offs
         tx = min(int(u), nt - 1)
         ty = min(int(v), nt - 1)
         slot = slots_flat[level_offset[lv] + ty * nt + tx]
+        if slot == SLOT_DRY:
+            return slot, lv, 0, 0, 0.0, 0.0
         if slot >= 0:
             fu = (u - tx) * n_cells
             fv = (v - ty) * n_cells
@@ -631,8 +640,11 @@ def query_velocity(
         slot, lv, ci, cj, fx, fy = _locate(px, py, root_x, root_y, root_size_m, n_cells,
                                            slots_flat, level_offset,
                                            level if level >= 0 else levels[k], fallback)
-        if slot == -2:
+        if slot == SLOT_OUTSIDE_DOMAIN:
             out_status[k] = STATUS_OUTSIDE_DOMAIN
+            continue
+        if slot == SLOT_DRY:
+            out_status[k] = STATUS_OUTSIDE
             continue
         if slot < 0:
             out_status[k] = STATUS_UNKNOWN
@@ -695,7 +707,7 @@ def sample_potential(
                                            slots_flat, level_offset,
                                            level if level >= 0 else levels[k], fallback)
         if slot < 0:
-            if slot == -1:
+            if slot == SLOT_MISSING:
                 missing += 1
             continue
         slot_last_used[slot] = tick
@@ -721,3 +733,28 @@ def sample_potential(
                     _rows(wx0, wx1, wx2, wx3, patch[3, 0], patch[3, 1], patch[3, 2], patch[3, 3]))
         out_psi[k] = acc
     return missing
+
+
+@njit(**JIT_OPTIONS)
+def mark_dry_tiles(slots_flat, level_offset, max_level, root_x, root_y, root_size_m,
+                   river_boxes):
+    """Set SLOT_DRY for every tile of every level that no ``river_boxes`` (A, 4) [m] (axis
+    coverage boxes xmin, ymin, xmax, ymax) touches; returns how many."""
+    dry = 0
+    for lv in range(max_level + 1):
+        nt = 1 << lv
+        size = root_size_m / nt
+        for ty in range(nt):
+            y0 = root_y + ty * size
+            for tx in range(nt):
+                x0 = root_x + tx * size
+                wet = False
+                for a in range(river_boxes.shape[0]):
+                    if (river_boxes[a, 0] <= x0 + size and river_boxes[a, 2] >= x0
+                            and river_boxes[a, 1] <= y0 + size and river_boxes[a, 3] >= y0):
+                        wet = True
+                        break
+                if not wet:
+                    slots_flat[level_offset[lv] + ty * nt + tx] = SLOT_DRY
+                    dry += 1
+    return dry

@@ -13,9 +13,9 @@ lookup finds every neighbour within 4r):
   start when the screen is empty; a clean stop when the pool is full.
 
 Proland visits every particle each frame; here only the particles around *dirty* cells are
-candidates (cells that lost particles, are empty, hold fading particles, touch the viewport
-border, plus a rolling band of rows so that slow stretching is caught too). That keeps the cost
-proportional to what changes (docs/deviations.md).
+candidates (cells that lost particles, are empty, hold fading or crowded particles, plus a
+rolling band of rows so that slow stretching is caught too). That keeps the cost proportional
+to what changes (docs/deviations.md).
 """
 from __future__ import annotations
 
@@ -32,7 +32,7 @@ REASON_POISSON_DISK = 3
 STATUS_UNKNOWN = 0
 
 MAX_ARCS = 64
-ROLLING_BANDS = 8
+ROLLING_BANDS = 16
 """The rolling dirty band covers 1/ROLLING_BANDS of the grid rows each frame."""
 
 TWO_PI = 2.0 * math.pi
@@ -54,7 +54,8 @@ def cull_crowded_particles(
 
     ``cell_count`` (gw·gh,) int32 and ``cell_items`` (gw·gh, K) int32 are rebuilt;
     ``prev_count`` (gw·gh,) int32 holds last frame's counts and is updated; ``dirty`` (gw·gh,)
-    uint8 is written (1 = holes may be here). Returns the number faded out.
+    uint8 is written (bit 1: holes may be here; bit 4: the cell is empty, so its neighbours'
+    particles are candidates too). Returns the number faded out.
     """
     n_cells = gw * gh
     k_max = cell_items.shape[1]
@@ -73,8 +74,13 @@ def cull_crowded_particles(
             dirty[cy * gw + cx] = 1
             continue
         close = False
-        for ny in range(max(cy - 1, 0), min(cy + 2, gh)):
-            for nx in range(max(cx - 1, 0), min(cx + 2, gw)):
+        # only the (at most 2 × 2) cells the disc of radius cull_px overlaps
+        x0 = max(int(math.floor((x - cull_px) / cell_px)), 0)
+        x1 = min(int(math.floor((x + cull_px) / cell_px)), gw - 1)
+        y0 = max(int(math.floor((y - cull_px) / cell_px)), 0)
+        y1 = min(int(math.floor((y + cull_px) / cell_px)), gh - 1)
+        for ny in range(y0, y1 + 1):
+            for nx in range(x0, x1 + 1):
                 c = ny * gw + nx
                 for q in range(cell_count[c]):
                     j = cell_items[c, q]
@@ -100,8 +106,9 @@ def cull_crowded_particles(
     for cy in range(gh):
         for cx in range(gw):
             c = cy * gw + cx
-            if (cell_count[c] == 0 or cell_count[c] < prev_count[c] or cx == 0 or cy == 0
-                    or cx == gw - 1 or cy == gh - 1 or cy % ROLLING_BANDS == band):
+            if cell_count[c] == 0:
+                dirty[c] = 1 | 4  # a hole: its neighbours' particles border it
+            elif cell_count[c] < prev_count[c] or cy % ROLLING_BANDS == band:
                 dirty[c] = 1
             prev_count[c] = cell_count[c]
     return faded
@@ -199,9 +206,11 @@ def fill_poisson_holes(
                 any_accepted = True
             if not dirty[c] & 1:
                 continue
-            # the accepted particles of this cell and its neighbours border the hole
-            for ny in range(max(cy - 1, 0), min(cy + 2, gh)):
-                for nx in range(max(cx - 1, 0), min(cx + 2, gw)):
+            # the accepted particles of this cell border the hole; of an empty cell, those
+            # of its neighbours do
+            reach = 1 if dirty[c] & 4 else 0
+            for ny in range(max(cy - reach, 0), min(cy + reach + 1, gh)):
+                for nx in range(max(cx - reach, 0), min(cx + reach + 1, gw)):
                     d = ny * gw + nx
                     if dirty[d] & 2:
                         continue
@@ -251,19 +260,20 @@ def fill_poisson_holes(
         hi[0] = TWO_PI
         n_arcs = 1
         cx, cy = _cell_of(px, py, cell_px, gw, gh)
+        r4sq = r4 * r4
         for ny in range(max(cy - 1, 0), min(cy + 2, gh)):
             for nx in range(max(cx - 1, 0), min(cx + 2, gw)):
                 c = ny * gw + nx
                 for q in range(cell_count[c]):
+                    if n_arcs == 0:
+                        break
                     j = cell_items[c, q]
-                    if j == p:
-                        continue
                     dx = screen_px[j, 0] - px
                     dy = screen_px[j, 1] - py
-                    d = math.sqrt(dx * dx + dy * dy)
-                    if d < r4 and n_arcs > 0:
+                    d2 = dx * dx + dy * dy
+                    if j != p and d2 < r4sq:
                         n_arcs = _remove_wrapped(lo, hi, n_arcs, math.atan2(dy, dx),
-                                                 math.acos(max(d / r4, 0.0)))
+                                                 math.acos(math.sqrt(d2) / r4))
         while n_arcs > 0:
             a = int(np.random.random() * n_arcs)
             theta = lo[a] + (hi[a] - lo[a]) * np.random.random()

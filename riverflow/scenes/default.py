@@ -15,6 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+import shapely
 from scipy.ndimage import gaussian_filter
 from scipy.spatial import cKDTree
 
@@ -218,7 +219,8 @@ def _water_surface(branches: list[RiverBranch], base: Terrain, polygon) -> Water
     ground = [base.height(b.centerline_m) - FREEBOARD_M for b in branches]
     levels = monotone_profiles([b.centerline_m for b in branches], ground,
                                [b.start_junction for b in branches],
-                               [b.end_junction for b in branches], n_junctions, half_window=12)
+                               [b.end_junction for b in branches], n_junctions, half_window=12,
+                               caps_m=_junction_caps(branches))
     samples, lv, wd, index, profiles = [], [], [], [], {}
     for k, (b, z) in enumerate(zip(branches, levels)):
         s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(b.centerline_m, axis=0).T))])
@@ -228,8 +230,42 @@ def _water_surface(branches: list[RiverBranch], base: Terrain, polygon) -> Water
         lv.append(np.minimum.accumulate(zz))
         wd.append(ww)
         index.append(np.full(len(pts), k))
+    junctions = np.zeros((n_junctions, 2))
+    members: list[tuple[int, ...]] = []
+    for j in range(n_junctions):
+        members.append(tuple(k for k, b in enumerate(branches) if j in (b.start_junction, b.end_junction)))
+        b = branches[members[-1][0]]
+        junctions[j] = b.centerline_m[0] if b.start_junction == j else b.centerline_m[-1]
     return WaterSurface(np.vstack(samples), np.concatenate(lv), np.concatenate(wd),
-                        np.concatenate(index), polygon, profiles)
+                        np.concatenate(index), polygon, profiles, junctions, members)
+
+
+def _junction_caps(branches: list[RiverBranch]) -> list[tuple[float, float]]:
+    """Per branch, the lengths [m] from its start / end junction along which it lies within one
+    width of the other branches of that junction (at least their largest half-width): the
+    water there is kept at the junction height, so the surface has no step at the mouth."""
+    caps = []
+    for b in branches:
+        s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(b.centerline_m, axis=0).T))])
+        pts = shapely.points(b.centerline_m)
+        ends = []
+        for j, at_end in ((b.start_junction, False), (b.end_junction, True)):
+            others = [o for o in branches if o is not b and j >= 0 and j in (o.start_junction, o.end_junction)]
+            if not others:
+                ends.append(0.0)
+                continue
+            inside = np.zeros(len(s), bool)
+            for o in others:
+                # farther than one width from another centre line, no point of that
+                # branch's water is nearer to this one: the surface switches without a step
+                reach = float(o.widths_m.max()) + 0.1 * float(b.widths_m.max())
+                inside |= shapely.distance(pts, shapely.LineString(o.centerline_m)) < reach
+            from_j = (s[-1] - s) if at_end else s
+            outside = from_j[~inside]
+            cap = float(outside.min()) if len(outside) else float(s[-1])
+            ends.append(max(cap, max(0.5 * float(o.widths_m.max()) for o in others)))
+        caps.append((ends[0], ends[1]))
+    return caps
 
 
 def _smoothstep(e0: float, e1: float, x: np.ndarray) -> np.ndarray:

@@ -16,13 +16,16 @@ import numpy as np
 import shapely
 from scipy.spatial import cKDTree
 
+JUNCTION_BLEND = 1.25
+"""Levels are blended between the branches of a junction within this many (largest) widths."""
 MAX_JUNCTION_SLOPE = 0.01
 """Steepest descent [m/m] of a profile forced down to a lower junction level."""
 
 
 def monotone_profiles(samples: list[np.ndarray], ground_m: list[np.ndarray],
                       start_of: list[int], end_of: list[int], n_junctions: int,
-                      half_window: int) -> list[np.ndarray]:
+                      half_window: int, caps_m: list[tuple[float, float]] | None = None
+                      ) -> list[np.ndarray]:
     """Water levels along branches (listed upstream first).
 
     Args:
@@ -31,6 +34,9 @@ def monotone_profiles(samples: list[np.ndarray], ground_m: list[np.ndarray],
             freeboard wanted).
         start_of, end_of: junction index of each branch's start / end, -1 if free.
         half_window: box-smoothing half width [samples].
+        caps_m: per branch, (start, end) lengths [m] kept flat at the junction height (the
+            part of a branch that lies in the water of the other branches of its junction,
+            Proland's junction "cap"); none by default.
 
     Returns:
         per branch, (P,) non-increasing water level [m], equal at shared junctions.
@@ -46,10 +52,15 @@ def monotone_profiles(samples: list[np.ndarray], ground_m: list[np.ndarray],
     out = []
     for k, z in enumerate(raw):
         s = _arc_length(samples[k])
-        if end_of[k] >= 0:
-            target = junction[end_of[k]]
-            slope = max(MAX_JUNCTION_SLOPE, (z[0] - target) / max(s[-1], 1e-9))
-            z = np.minimum(z, target + slope * (s[-1] - s))
+        cap0, cap1 = caps_m[k] if caps_m is not None else (0.0, 0.0)
+        cap0 = min(cap0, 0.4 * s[-1]) if start_of[k] >= 0 else 0.0
+        cap1 = min(cap1, 0.4 * s[-1]) if end_of[k] >= 0 else 0.0
+        if end_of[k] >= 0:  # reach the junction height where the end cap begins
+            target, s_cap = junction[end_of[k]], s[-1] - cap1
+            slope = max(MAX_JUNCTION_SLOPE, (z[0] - target) / max(s_cap - cap0, 1e-9))
+            z = np.minimum(z, target + slope * np.maximum(s_cap - s, 0.0))
+        if start_of[k] >= 0:  # raw levels never exceed the start junction's: still monotone
+            z = np.where(s <= cap0, z[0], z)
         z = _box_smooth(z, half_window)
         out.append(np.maximum(np.minimum.accumulate(z), z[-1]))  # rounding must not move the end
     return out
@@ -86,7 +97,8 @@ class WaterSurface:
     centre-line samples of every branch with their water level, river width and branch index
     (samples of one branch are consecutive, upstream first); ``polygon`` is the water
     (shapely, islands are holes); ``profiles`` maps a branch name to its (s_m, level_m)
-    profile.
+    profile; ``junctions_m`` (J, 2) are the junction points and ``junction_branches`` the
+    branch indices meeting at each.
     """
 
     samples_m: np.ndarray
@@ -95,11 +107,14 @@ class WaterSurface:
     branch: np.ndarray
     polygon: shapely.Geometry
     profiles: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    junctions_m: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    junction_branches: list[tuple[int, ...]] = field(default_factory=list)
     boundary_spacing_m: float = 1.0
 
     def __post_init__(self) -> None:
         shapely.prepare(self.polygon)
-        self._decimated: dict[int, tuple] = {}
+        self._decimated: dict[int, _Samples] = {}
+        self._per_branch: dict[int, _Samples] = {}
         edge = shapely.segmentize(self.polygon.boundary, self.boundary_spacing_m)
         self._boundary_trees = {1: cKDTree(shapely.get_coordinates(edge))}
         self._reach_m = 0.75 * float(self.widths_m.max()) + 2.0 * self.boundary_spacing_m
@@ -109,35 +124,46 @@ class WaterSurface:
     def nearest(self, xy: np.ndarray, stride: int = 1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Distance to the nearest centre line [m], water level there and river width there,
         projected onto the nearest segment of the branch so that levels vary continuously.
+        Around junctions the levels and widths of the branches meeting there are blended by
+        distance, so the surface has no seam where the nearest branch changes.
 
-        ``stride`` > 1 uses every stride-th sample only: coarser but much faster for points
-        far from the river (a KD-tree query far from its data visits many leaves).
+        ``stride`` > 1 uses every stride-th sample only and no junction blending: coarser
+        but much faster for points far from the river (a KD-tree query far from its data
+        visits many leaves).
         """
         p = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
         if stride not in self._decimated:
             sel = slice(None, None, stride)
-            self._decimated[stride] = (cKDTree(self.samples_m[sel]), self.samples_m[sel],
-                                       self.levels_m[sel], self.widths_m[sel], self.branch[sel])
-        tree, samples, levels, widths, branch = self._decimated[stride]
-        _, k = tree.query(p, workers=-1)
-        n = len(samples)
-        best_d = np.full(len(p), np.inf)
-        level = np.empty(len(p))
-        width = np.empty(len(p))
-        for a_off in (-1, 0):
-            a = np.clip(k + a_off, 0, n - 2)
-            b = a + 1
-            same = branch[a] == branch[b]
-            sa, sb = samples[a], samples[b]
-            ab = sb - sa
-            t = np.clip(np.einsum("ij,ij->i", p - sa, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-12), 0, 1)
-            t = np.where(same, t, np.where(a == k, 0.0, 1.0))
-            d = np.hypot(*(sa + t[:, None] * ab - p).T)
-            better = d < best_d
-            best_d = np.where(better, d, best_d)
-            level = np.where(better, (1 - t) * levels[a] + t * levels[b], level)
-            width = np.where(better, (1 - t) * widths[a] + t * widths[b], width)
-        return best_d, level, width
+            self._decimated[stride] = _Samples(self.samples_m[sel], self.levels_m[sel],
+                                               self.widths_m[sel], self.branch[sel])
+        dist, level, width = self._decimated[stride].project(p)
+        if stride == 1:
+            for j, centre in enumerate(self.junctions_m):
+                self._blend_junction(p, j, centre, dist, level, width)
+        return dist, level, width
+
+    def _blend_junction(self, p, j, centre, dist, level, width) -> None:
+        """Blend levels / widths (in place) of the branches of junction j near it."""
+        members = self.junction_branches[j]
+        wmax = float(max(self.widths_m[self.branch == b].max() for b in members))
+        radius = JUNCTION_BLEND * wmax
+        r = np.hypot(*(p - centre).T)
+        idx = np.flatnonzero(r < radius)
+        if not len(idx):
+            return
+        per = []
+        for b in members:
+            if b not in self._per_branch:
+                sel = self.branch == b
+                self._per_branch[b] = _Samples(self.samples_m[sel], self.levels_m[sel],
+                                               self.widths_m[sel], self.branch[sel])
+            per.append(self._per_branch[b].project(p[idx]))
+        d = np.stack([x[0] for x in per])
+        w = np.clip(1.0 - (d - d.min(axis=0)) / (0.5 * wmax), 0.0, 1.0) ** 2
+        w /= w.sum(axis=0)
+        fade = 1.0 - _smoothstep(0.7 * radius, radius, r[idx])
+        level[idx] = (1 - fade) * level[idx] + fade * (w * np.stack([x[1] for x in per])).sum(axis=0)
+        width[idx] = (1 - fade) * width[idx] + fade * (w * np.stack([x[2] for x in per])).sum(axis=0)
 
     def level(self, xy: np.ndarray) -> np.ndarray:
         """Water level of the nearest river point [m], defined everywhere."""
@@ -176,6 +202,41 @@ class WaterSurface:
     def bed(self, xy: np.ndarray) -> np.ndarray:
         """River-bed altitude [m] in the water, NaN elsewhere."""
         return self.height(xy) - self.depth(xy)
+
+
+class _Samples:
+    """Centre-line samples with a KD-tree: nearest-segment projection of query points."""
+
+    def __init__(self, samples, levels, widths, branch) -> None:
+        self.samples, self.levels, self.widths, self.branch = samples, levels, widths, branch
+        self.tree = cKDTree(samples)
+
+    def project(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(distance, level, width) (N,) of the nearest point on the sampled centre lines."""
+        _, k = self.tree.query(p, workers=-1)
+        n = len(self.samples)
+        best_d = np.full(len(p), np.inf)
+        level = np.empty(len(p))
+        width = np.empty(len(p))
+        for a_off in (-1, 0):
+            a = np.clip(k + a_off, 0, max(n - 2, 0))
+            b = np.minimum(a + 1, n - 1)
+            same = self.branch[a] == self.branch[b]
+            sa, sb = self.samples[a], self.samples[b]
+            ab = sb - sa
+            t = np.clip(np.einsum("ij,ij->i", p - sa, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-12), 0, 1)
+            t = np.where(same, t, np.where(a == k, 0.0, 1.0))
+            d = np.hypot(*(sa + t[:, None] * ab - p).T)
+            better = d < best_d
+            best_d = np.where(better, d, best_d)
+            level = np.where(better, (1 - t) * self.levels[a] + t * self.levels[b], level)
+            width = np.where(better, (1 - t) * self.widths[a] + t * self.widths[b], width)
+        return best_d, level, width
+
+
+def _smoothstep(e0: float, e1: float, x: np.ndarray) -> np.ndarray:
+    t = np.clip((x - e0) / (e1 - e0), 0.0, 1.0)
+    return t * t * (3 - 2 * t)
 
 
 def bed_depth(shore_m: np.ndarray, width_m: np.ndarray) -> np.ndarray:

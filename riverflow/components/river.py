@@ -1,0 +1,132 @@
+"""Plain-data components of a river world besides the particle pool and the flow tiles."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from riverflow.hydro.flow_field import FlowField
+from riverflow.hydro.graph import HydroGraph
+from riverflow.hydro.tile_producer import FlowTileProducer
+
+
+@dataclass(eq=False)
+class RiverNode:
+    """A river network and what produces its flow (Proland: the rivers scene node)."""
+
+    graph: HydroGraph
+    field: FlowField
+    producer: FlowTileProducer
+
+
+@dataclass(eq=False)
+class FlowTile:
+    """A cached flow tile (one entity per cache slot in use)."""
+
+    level: int
+    tx: int
+    ty: int
+    slot: int
+
+
+@dataclass(eq=False)
+class TerrainTile:
+    """One square of the terrain heightfield (drawn as one mesh)."""
+
+    ix: int
+    iy: int
+    origin_m: tuple[float, float]
+    size_m: float
+
+
+@dataclass(eq=False)
+class SurfaceGrids:
+    """The ground and water heightfields on one grid, for ray casts and particle altitudes.
+
+    ``ground_m`` and ``water_m`` (ny, nx) float32 [m] (water NaN where dry) at
+    ``origin + (i, j) · cell_m``; ``z_min``/``z_max`` bound the surface [m].
+    """
+
+    ground_m: np.ndarray
+    water_m: np.ndarray
+    origin_x: float
+    origin_y: float
+    cell_m: float
+    z_min: float
+    z_max: float
+
+
+@dataclass(eq=False)
+class ScreenGrid:
+    """The screen neighbour grid of the Poisson maintenance and the per-frame scratch arrays.
+
+    Cells are ``cell_px`` ≈ 4r wide, ``gw`` × ``gh`` of them for the current viewport, each
+    holding up to K particle slots. Rebuilt (reallocated) only when the viewport or r changes.
+    """
+
+    capacity: int
+    width_px: int = 0
+    height_px: int = 0
+    cell_px: float = 1.0
+    gw: int = 1
+    gh: int = 1
+    per_cell: int = 32
+    cell_count: np.ndarray = field(default_factory=lambda: np.zeros(1, np.int32))
+    cell_items: np.ndarray = field(default_factory=lambda: np.zeros((1, 32), np.int32))
+    prev_count: np.ndarray = field(default_factory=lambda: np.zeros(1, np.int32))
+    dirty: np.ndarray = field(default_factory=lambda: np.zeros(1, np.uint8))
+    candidates: np.ndarray = field(init=False)     # (C,) int32 scratch
+    new_slots: np.ndarray = field(init=False)      # (C,) int32 particles placed this frame
+    n_new: int = 0
+    query_index: np.ndarray = field(init=False)    # (C,) int32 particles asking the flow
+    query_xy: np.ndarray = field(init=False)       # (C, 2) float64 [m]
+    query_status: np.ndarray = field(init=False)   # (C,) uint8
+    query_velocity: np.ndarray = field(init=False)  # (C, 2) float32 [m/s]
+
+    def __post_init__(self) -> None:
+        c = self.capacity
+        self.candidates = np.zeros(c, np.int32)
+        self.new_slots = np.zeros(c, np.int32)
+        self.query_index = np.zeros(c, np.int32)
+        self.query_xy = np.zeros((c, 2), np.float64)
+        self.query_status = np.zeros(c, np.uint8)
+        self.query_velocity = np.zeros((c, 2), np.float32)
+
+    def fit(self, width_px: int, height_px: int, cell_px: float) -> bool:
+        """Resize for a viewport; True if the grid was rebuilt (its contents are then empty)."""
+        if (width_px, height_px, cell_px) == (self.width_px, self.height_px, self.cell_px):
+            return False
+        self.width_px, self.height_px, self.cell_px = int(width_px), int(height_px), cell_px
+        self.gw = max(1, int(np.ceil(max(width_px, 1) / cell_px)))
+        self.gh = max(1, int(np.ceil(max(height_px, 1) / cell_px)))
+        n = self.gw * self.gh
+        self.cell_count = np.zeros(n, np.int32)
+        self.cell_items = np.zeros((n, self.per_cell), np.int32)
+        self.prev_count = np.zeros(n, np.int32)
+        self.dirty = np.zeros(n, np.uint8)
+        return True
+
+
+@dataclass
+class Clock:
+    """Simulation time: ``now_s`` [s] since the world started, frames stepped, and the
+    runtime controls a game toggles (pause the particles, flow speed factor)."""
+
+    now_s: float = 0.0
+    frame: int = 0
+    paused: bool = False
+    speed_factor: float = 1.0
+
+
+@dataclass(eq=False)
+class FrameView:
+    """The camera as the kernels need it this frame (filled by the camera system)."""
+
+    clip_from_world: np.ndarray = field(default_factory=lambda: np.eye(4))
+    world_from_clip: np.ndarray = field(default_factory=lambda: np.eye(4))
+    eye_m: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    width_px: int = 0
+    height_px: int = 0
+    rad_per_px: float = 0.0
+    """View angle of one pixel [rad]."""
+    revision: int = -1

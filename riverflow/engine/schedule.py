@@ -1,0 +1,34 @@
+"""The one ordered list of river systems (SPEC §3). Changing the order is a reviewed diff here.
+
+1. input / boat (the host game's, or the demo's: issue #5)   2. camera
+3. flow-tile production   4. advection   5. screen projection   6. life cycle
+7. Poisson-disk maintenance, then placement of the new particles
+8. wave-tile animation and 9. drawing (the drawing issue adds them; ``gl=True`` worlds only)
+"""
+from __future__ import annotations
+
+from riverflow.engine.system import System
+from riverflow.systems.advection import AdvectParticles
+from riverflow.systems.camera import UpdateCamera
+from riverflow.systems.flow_tiles import ProduceFlowTiles
+from riverflow.systems.lifecycle import AgeParticles
+from riverflow.systems.placement import PlaceNewParticles
+from riverflow.systems.poisson import MaintainPoissonDisk
+from riverflow.systems.screen import ProjectParticles
+
+SYSTEM_ORDER = (
+    "camera",
+    "flow_tiles",
+    "advection",
+    "screen",
+    "lifecycle",
+    "poisson",
+    "placement",
+)
+"""Names of the default systems, in frame order."""
+
+
+def default_systems() -> list[System]:
+    """A fresh instance of every default system, in frame order."""
+    return [UpdateCamera(), ProduceFlowTiles(), AdvectParticles(), ProjectParticles(),
+            AgeParticles(), MaintainPoissonDisk(), PlaceNewParticles()]

@@ -1,0 +1,26 @@
+"""System: the base of every per-frame system (one per file under riverflow/systems).
+
+A system is glue: it reads components and resources of its :class:`RiverWorld`, calls one or
+two kernels and writes back. Systems run in the one order of :func:`default_systems`; esper's
+processor priorities are not used (reference/aesthetics.md P7).
+"""
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, ClassVar
+
+if TYPE_CHECKING:
+    from riverflow.engine.world import RiverWorld
+
+
+class System:
+    """One step of the frame. Subclasses set ``name`` and implement :meth:`process`."""
+
+    name: ClassVar[str] = "system"
+    needs_gl: ClassVar[bool] = False
+    """Skipped by a world made with ``gl=False``."""
+
+    def process(self, world: RiverWorld, dt_s: float) -> None:
+        raise NotImplementedError
+
+    def close(self) -> None:
+        """Release what the system holds (threads, GPU objects)."""

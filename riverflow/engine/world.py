@@ -1,0 +1,209 @@
+"""RiverWorld: one esper world of rivers, its resources, its ordered systems and ``step``.
+
+Each RiverWorld owns its own esper world (``esper.switch_world``), so two river worlds — or a
+host game's own esper world — never see each other's entities: every call that touches esper
+switches to this world and back. Resources (the camera, the clock, the configuration, the
+scene, the surface grids, this frame's view) are singletons held in a typed dict, not entities
+(reference/aesthetics.md P5).
+
+Example::
+
+    world = RiverWorld(default_scene(seed=0), size=(640, 360), seed=0)
+    world.camera.look_at((0, -300, 120), (0, 0, 10))
+    for _ in range(60):
+        world.step(1 / 60)
+    print(len(world.particles), world.timings_ms)
+"""
+from __future__ import annotations
+
+import contextlib
+import math
+import time
+import uuid
+from collections.abc import Iterator
+from typing import Any, TypeVar
+
+import esper
+import numpy as np
+
+from riverflow.components.particles import LiveParticles, ParticlePool
+from riverflow.components.river import (Clock, FrameView, RiverNode, ScreenGrid, SurfaceGrids,
+                                        TerrainTile)
+from riverflow.engine.camera import Camera
+from riverflow.engine.config import RiverConfig
+from riverflow.engine.schedule import default_systems
+from riverflow.engine.system import System
+from riverflow.hydro.flow_field import FlowField
+from riverflow.hydro.tile_producer import FlowTileProducer
+
+T = TypeVar("T")
+
+
+class RiverWorld:
+    """A landscape with rivers, simulated (and, with ``gl=True``, drawn) frame by frame.
+
+    Args:
+        scene: what to simulate: ``scene.graph``, ``scene.terrain``, ``scene.water``,
+            ``scene.bounds_m`` (the built-in :func:`riverflow.default_scene` or your own).
+        size: viewport (W, H) [px].
+        gl: draw with OpenGL (offscreen unless a window is given later); False runs every
+            system but drawing with no OpenGL at all.
+        seed: seeds every random choice; the same seed and inputs give bit-identical pools.
+        config: :class:`RiverConfig`; default ``RiverConfig()``.
+        systems: the ordered systems; default :func:`riverflow.engine.schedule.default_systems`.
+    """
+
+    def __init__(self, scene: Any, size: tuple[int, int] = (640, 360), *, gl: bool = False,
+                 seed: int = 0, config: RiverConfig | None = None,
+                 systems: list[System] | None = None) -> None:
+        self.config = config if config is not None else RiverConfig()
+        self.gl = bool(gl)
+        self.seed = int(seed)
+        self.rng = np.random.default_rng(self.seed)
+        self.scene = scene
+        self.name = f"riverflow-{uuid.uuid4().hex}"
+        self.resources: dict[type, Any] = {}
+        self.timings_ms: dict[str, float] = {}
+        c = self.config
+        x0, y0, x1, y1 = scene.bounds_m
+        field = FlowField(scene.graph, c.slip, c.search_radius_factor,
+                          potential_delta_m=c.potential_delta_m, cache_tiles=c.flow_tile_cache,
+                          domain_m=(x0, y0, max(x1 - x0, y1 - y0)))
+        self.field = field
+        producer = FlowTileProducer(field, c.tile_production)
+        camera = Camera(position=(x0, y0, 100.0), target=(0.5 * (x0 + x1), 0.5 * (y0 + y1), 0.0),
+                        fov_y_deg=c.fov_y_deg, near_m=c.near_m, far_m=c.far_m,
+                        size_px=tuple(int(v) for v in size))
+        self.camera = camera
+        for resource in (camera, c, Clock(speed_factor=c.speed_factor), FrameView(),
+                         _surface_grids(scene)):
+            self.insert(resource)
+        with self.active():
+            self.river = esper.create_entity(RiverNode(scene.graph, field, producer),
+                                             ParticlePool(c.capacity), ScreenGrid(c.capacity))
+            terrain = scene.terrain
+            nx, ny = terrain.tile_count
+            for iy in range(ny):
+                for ix in range(nx):
+                    origin = terrain.origin_m + np.array([ix, iy]) * terrain.tile_size_m
+                    esper.create_entity(TerrainTile(ix, iy, (float(origin[0]), float(origin[1])),
+                                                    terrain.tile_size_m))
+        self.systems = systems if systems is not None else default_systems()
+        self.pool: ParticlePool = self.component(ParticlePool)
+
+    # -- resources -------------------------------------------------------------------------
+
+    def insert(self, resource: Any) -> None:
+        """Add or replace the resource of ``type(resource)``."""
+        self.resources[type(resource)] = resource
+
+    def resource(self, kind: type[T]) -> T:
+        return self.resources[kind]
+
+    def component(self, kind: type[T]) -> T:
+        """The river node's component of ``kind`` (e.g. :class:`ParticlePool`)."""
+        with self.active():
+            return esper.component_for_entity(self.river, kind)
+
+    @contextlib.contextmanager
+    def active(self) -> Iterator[None]:
+        """Make this world's esper context current for the block, then restore the caller's."""
+        previous = esper.current_world
+        esper.switch_world(self.name)
+        try:
+            yield
+        finally:
+            esper.switch_world(previous)
+
+    # -- running -----------------------------------------------------------------------------
+
+    @property
+    def clock(self) -> Clock:
+        return self.resource(Clock)
+
+    @property
+    def paused(self) -> bool:
+        """Particles frozen (they still age and fade)."""
+        return self.clock.paused
+
+    @paused.setter
+    def paused(self, value: bool) -> None:
+        self.clock.paused = bool(value)
+
+    @property
+    def speed_factor(self) -> float:
+        return self.clock.speed_factor
+
+    @speed_factor.setter
+    def speed_factor(self, value: float) -> None:
+        value = float(value)
+        if not (math.isfinite(value) and value >= 0.0):
+            raise ValueError(f"speed_factor must be a finite number ≥ 0, got {value!r}")
+        self.clock.speed_factor = value
+
+    def step(self, dt_s: float) -> None:
+        """Advance the world by ``dt_s`` seconds and run every system once, in order.
+
+        A negative, NaN or huge ``dt_s`` (a hitch) is clamped to [0, config.max_step_s].
+        """
+        dt = float(dt_s) if math.isfinite(dt_s) else 0.0
+        dt = min(max(dt, 0.0), self.config.max_step_s)
+        clock = self.clock
+        clock.now_s += dt
+        timings = self.timings_ms
+        with self.active():
+            esper.clear_dead_entities()
+            for system in self.systems:
+                if system.needs_gl and not self.gl:
+                    continue
+                t0 = time.perf_counter_ns()
+                system.process(self, dt)
+                timings[system.name] = (time.perf_counter_ns() - t0) * 1e-6
+        clock.frame += 1
+
+    @property
+    def particles(self) -> LiveParticles:
+        """A copy of the live particles (screen_px, world_m, intensity, status, …)."""
+        p = self.pool
+        live = np.flatnonzero(p.alive)
+        c = self.config
+        now = self.clock.now_s
+        fading = now - p.birth_s[live] >= c.fade_in_s + c.active_s
+        return LiveParticles(p.ids[live].copy(), p.screen_px[live].copy(),
+                             p.world_m[live].copy(), p.intensity[live].copy(),
+                             p.status[live].copy(), p.velocity_mps[live].copy(), fading,
+                             p.has_world[live].copy())
+
+    def render(self) -> np.ndarray:
+        """The current frame as (H, W, 4) uint8 (needs ``gl=True`` and the draw system)."""
+        if not self.gl:
+            raise RuntimeError("render() needs a world made with gl=True")
+        raise NotImplementedError("drawing comes with the drawing issue (#4)")
+
+    def close(self) -> None:
+        """Stop worker threads and release GPU objects; delete the esper world."""
+        for system in self.systems:
+            system.close()
+        with self.active():
+            for _, node in esper.get_component(RiverNode):
+                node.producer.close()
+        if esper.current_world != self.name and self.name in esper.list_worlds():
+            esper.delete_world(self.name)
+
+    def __enter__(self) -> RiverWorld:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def _surface_grids(scene) -> SurfaceGrids:
+    """Ground and water heightfields of the scene on the terrain grid."""
+    from riverflow.scenes.water_grid import water_level_grid
+
+    terrain = scene.terrain
+    ground = np.ascontiguousarray(terrain.heights_m, np.float32)
+    water = np.ascontiguousarray(water_level_grid(scene), np.float32)
+    top = float(np.nanmax(np.fmax(ground, np.nan_to_num(water, nan=-np.inf))))
+    return SurfaceGrids(ground, water, float(terrain.origin_m[0]), float(terrain.origin_m[1]),
+                        float(terrain.cell_m), float(np.min(ground)), top)

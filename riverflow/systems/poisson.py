@@ -1,0 +1,39 @@
+"""MaintainPoissonDisk: cull crowded particles, fill holes by boundary sampling
+(Proland ScreenParticleLayer removeOldParticles / addNewParticles)."""
+from __future__ import annotations
+
+import esper
+
+from riverflow.components.particles import ParticlePool
+from riverflow.components.river import Clock, FrameView, ScreenGrid
+from riverflow.engine.system import System
+from riverflow.kernels.poisson import cull_crowded_particles, fill_poisson_holes
+
+
+class MaintainPoissonDisk(System):
+    name = "poisson"
+
+    def __init__(self) -> None:
+        self.faded = self.added = 0
+
+    def process(self, world, dt_s: float) -> None:
+        view = world.resource(FrameView)
+        clock = world.resource(Clock)
+        c = world.config
+        r = c.radius_px
+        for _, (pool, grid) in esper.get_components(ParticlePool, ScreenGrid):
+            grid.fit(view.width_px, view.height_px, c.grid_cell_factor * r)
+            self.faded = cull_crowded_particles(
+                pool.alive, pool.screen_px, pool.birth_s, pool.fade_reason, pool.status,
+                clock.now_s, c.fade_in_s, c.active_s, c.fade_out_s, c.cull_radius_factor * r,
+                grid.cell_px, grid.gw, grid.gh, grid.cell_count, grid.cell_items,
+                grid.prev_count, grid.dirty, clock.frame)
+            seed = int(world.rng.integers(0, 2**31 - 1))
+            lo, hi = c.random_offset_min_m, c.random_offset_max_m
+            grid.n_new = self.added = fill_poisson_holes(
+                pool.alive, pool.ids, pool.counters, pool.birth_s, pool.intensity,
+                pool.screen_px, pool.fade_reason, pool.has_world, pool.velocity_mps, pool.status,
+                pool.first_query, pool.offset_m, clock.now_s, c.fade_in_s, c.active_s, r,
+                view.width_px, view.height_px, grid.cell_px, grid.gw, grid.gh, grid.cell_count,
+                grid.cell_items, grid.dirty, seed, lo[0], lo[1], hi[0], hi[1], grid.candidates,
+                grid.new_slots)
