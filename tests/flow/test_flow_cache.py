@@ -62,14 +62,16 @@ def test_tiles_are_reproducible_and_cleared():
     graph, _ = confluence()
     field = rf.FlowField(graph)
     lv = field.max_level
-    field.ensure_tiles(lv, [(1, 1)])
-    slot = field.tiles.slots[lv][1, 1]
+    line = field.network.polylines[0]
+    tx, ty = (int(v) for v in field.tile_of(line[len(line) // 2][None], lv)[0])
+    field.ensure_tiles(lv, [(tx, ty)])
+    slot = field.tiles.slots[lv][ty, tx]
     first = field.tiles.psi[slot].copy()
     field.clear_tiles()
     assert field.tiles.cached == 0
-    assert field.ensure_tiles(lv, [(1, 1)]) == 1
-    assert field.ensure_tiles(lv, [(1, 1)]) == 0
-    npt.assert_array_equal(field.tiles.psi[field.tiles.slots[lv][1, 1]], first)
+    assert field.ensure_tiles(lv, [(tx, ty)]) == 1
+    assert field.ensure_tiles(lv, [(tx, ty)]) == 0
+    npt.assert_array_equal(field.tiles.psi[field.tiles.slots[lv][ty, tx]], first)
     with pytest.raises(ValueError):
         field.ensure_tiles(lv, [(i, 0) for i in range(field.tiles.capacity + 1)])
 
@@ -94,3 +96,14 @@ def test_bad_networks_and_options_are_refused():
             rf.FlowField(graph, **kwargs)
     with pytest.raises(ValueError):
         rf.FlowField(graph).query(np.zeros((1, 2)), level=99)
+
+
+def test_dry_tiles_answer_outside_without_being_made():
+    graph, _ = confluence()
+    field = rf.FlowField(graph)
+    x0, y0, x1, y1 = field.graph.bounds()
+    far = np.array([[x0 - 0.4 * (x1 - x0) + 1.0, y1 + 0.3 * (y1 - y0)]])
+    status, velocity = field.query(far)
+    assert status[0] in (rf.FlowStatus.OUTSIDE, rf.FlowStatus.OUTSIDE_DOMAIN)
+    assert np.all(velocity == 0)
+    assert field.tiles.produced == 0
