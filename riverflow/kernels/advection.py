@@ -11,9 +11,11 @@ Re-does Proland's ``TerrainParticleLayer::moveParticles`` (reference §3.3):
 |                   | otherwise stop: OUTSIDE.                                              |
 | OUTSIDE           | no query; NEAR + removed if a neighbour is INSIDE.                    |
 
-then ``position += velocity · dt`` (explicit Euler). Unlike Proland, the particle's altitude
-follows the water surface (or the ground) under it, and a particle whose flow tile is not
-ready yet waits (no query, no move) instead of being treated as outside.
+Each frame the particles first move (``position += velocity · dt``, explicit Euler, with the
+velocity of their last query), then ask the flow at their new position, so a status always
+describes where the particle is now. Unlike Proland, the particle's altitude follows the water
+surface (or the ground) under it, new particles get their first answer when they are placed,
+and a particle whose flow tile is not ready yet waits instead of being treated as outside.
 """
 from __future__ import annotations
 
@@ -77,24 +79,51 @@ def _inside_neighbour(i, screen_px, status, alive, cell_px, gw, gh, cell_count, 
 
 
 @njit(**JIT_OPTIONS)
-def advance_particles(
-    alive, ids, counters, has_world, world_m, velocity_mps, status, first_query, screen_px,
-    n_query, query_index, query_status, query_velocity, dt_s,
-    cell_px, gw, gh, cell_count, cell_items, reach_px,
-    water_m, ground_m, grid_x, grid_y, grid_cell_m,
-):
-    """Run the status machine and move the particles ``dt_s`` seconds (speed factor included).
-
-    ``query_index[:n_query]`` are the particles that asked the flow, with the answers
-    ``query_status`` (N,) uint8 and ``query_velocity`` (N, 2) float32 [m/s]. The neighbour grid
-    (``cell_count``, ``cell_items``, cells of ``cell_px``) is last frame's Poisson grid.
-    ``water_m`` / ``ground_m`` (ny, nx) float32 are the water level (NaN where dry) and the
-    terrain height on a grid at (grid_x, grid_y) with ``grid_cell_m`` spacing: a moving
-    particle takes the water altitude (or the ground's where dry).
-    Returns (moved, removed, waiting).
-    """
+def move_particles(alive, has_world, world_m, velocity_mps, status, dt_s, water_m, ground_m,
+                   grid_x, grid_y, grid_cell_m):
+    """Explicit Euler step of the INSIDE and LEAVING particles with the velocity of their last
+    flow query, ``dt_s`` [s] (speed factor included). ``water_m`` / ``ground_m`` (ny, nx)
+    float32 are the water level (NaN where dry) and the terrain on a grid at (grid_x, grid_y)
+    with ``grid_cell_m`` spacing: a moved particle takes the water altitude (the ground's where
+    dry). Returns the number moved."""
     moved = 0
-    removed = 0
+    for i in range(alive.shape[0]):
+        if not alive[i] or not has_world[i]:
+            continue
+        if status[i] != STATUS_INSIDE and status[i] != STATUS_LEAVING:
+            continue
+        vx = velocity_mps[i, 0]
+        vy = velocity_mps[i, 1]
+        if vx == 0.0 and vy == 0.0:
+            continue
+        x = world_m[i, 0] + vx * dt_s
+        y = world_m[i, 1] + vy * dt_s
+        if not (math.isfinite(x) and math.isfinite(y)):
+            velocity_mps[i, 0] = 0.0
+            velocity_mps[i, 1] = 0.0
+            continue
+        world_m[i, 0] = x
+        world_m[i, 1] = y
+        z = _surface(x, y, water_m, ground_m, grid_x, grid_y, grid_cell_m)
+        if math.isfinite(z):
+            world_m[i, 2] = z
+        moved += 1
+    return moved
+
+
+@njit(**JIT_OPTIONS)
+def apply_flow_status(
+    alive, velocity_mps, status, first_query, screen_px,
+    n_query, query_index, query_status, query_velocity,
+    cell_px, gw, gh, cell_count, cell_items, reach_px,
+):
+    """The status machine, from the flow's answers at the particles' current positions.
+
+    ``query_index[:n_query]`` are the particles that asked, with the answers ``query_status``
+    (N,) uint8 and ``query_velocity`` (N, 2) float32 [m/s]. The neighbour grid (``cell_count``,
+    ``cell_items``, cells of ``cell_px``) is the last Poisson grid. Returns the number whose
+    flow tile is not ready (they wait, unchanged).
+    """
     waiting = 0
     for k in range(n_query):
         i = query_index[k]
@@ -117,38 +146,25 @@ def advance_particles(
             status[i] = STATUS_OUTSIDE
             velocity_mps[i, 0] = 0.0
             velocity_mps[i, 1] = 0.0
-            if _inside_neighbour(i, screen_px, status, alive, cell_px, gw, gh, cell_count,
-                                 cell_items, reach_px):
-                status[i] = STATUS_NEAR
-                free_particle(i, alive, ids, counters)
-                removed += 1
-                continue
         else:  # was INSIDE, now outside: coast on with the last velocity
             status[i] = STATUS_LEAVING
         first_query[i] = False
-        vx = velocity_mps[i, 0]
-        vy = velocity_mps[i, 1]
-        if vx != 0.0 or vy != 0.0:
-            x = world_m[i, 0] + vx * dt_s
-            y = world_m[i, 1] + vy * dt_s
-            if math.isfinite(x) and math.isfinite(y):
-                world_m[i, 0] = x
-                world_m[i, 1] = y
-                z = _surface(x, y, water_m, ground_m, grid_x, grid_y, grid_cell_m)
-                if math.isfinite(z):
-                    world_m[i, 2] = z
-                moved += 1
-            else:
-                velocity_mps[i, 0] = 0.0
-                velocity_mps[i, 1] = 0.0
-    # OUTSIDE particles next to the water give way, so new samples may land in the river
+    return waiting
+
+
+@njit(**JIT_OPTIONS)
+def remove_outside_near_water(alive, ids, counters, status, screen_px, cell_px, gw, gh,
+                              cell_count, cell_items, reach_px):
+    """OUTSIDE particles with an INSIDE neighbour on screen give way (NEAR, removed), so that
+    new samples may land in the river (Proland's NEAR rule). Returns the number removed."""
+    removed = 0
     for i in range(alive.shape[0]):
         if alive[i] and status[i] == STATUS_OUTSIDE and _inside_neighbour(
                 i, screen_px, status, alive, cell_px, gw, gh, cell_count, cell_items, reach_px):
             status[i] = STATUS_NEAR
             free_particle(i, alive, ids, counters)
             removed += 1
-    return moved, removed, waiting
+    return removed
 
 
 @njit(**JIT_OPTIONS)

@@ -72,3 +72,18 @@ def place_particles(slots, n, hit_xyz, hit_kind, world_m, has_world, status, fir
             has_world[i] = True
             status[i] = STATUS_UNKNOWN
     return sky
+
+
+@njit(**JIT_OPTIONS)
+def select_new_on_ground(slots, n, has_world, world_m, out_index, out_xy):
+    """The new particles of ``slots[:n]`` that landed (have a world position), with their
+    positions, for their first flow query. Returns their number."""
+    k = 0
+    for q in range(n):
+        i = slots[q]
+        if has_world[i]:
+            out_index[k] = i
+            out_xy[k, 0] = world_m[i, 0]
+            out_xy[k, 1] = world_m[i, 1]
+            k += 1
+    return k

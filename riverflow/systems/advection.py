@@ -7,13 +7,17 @@ import numpy as np
 from riverflow.components.particles import ParticlePool
 from riverflow.components.river import Clock, RiverNode, ScreenGrid, SurfaceGrids
 from riverflow.engine.system import System
-from riverflow.kernels.advection import advance_particles, select_flow_queries
+from riverflow.hydro.flow_field import FlowField
+from riverflow.kernels.advection import (apply_flow_status, move_particles,
+                                         remove_outside_near_water, select_flow_queries)
 from riverflow.kernels.flow import query_velocity
 
 _NO_LEVELS = np.zeros(0, np.int8)
 
 
 class AdvectParticles(System):
+    """Move, then ask the flow where the particles now are; OUTSIDE ones next to the river go."""
+
     name = "advection"
 
     def __init__(self) -> None:
@@ -23,23 +27,34 @@ class AdvectParticles(System):
         clock = world.resource(Clock)
         if clock.paused:
             return
-        grids = world.resource(SurfaceGrids)
-        config = world.config
+        g = world.resource(SurfaceGrids)
+        reach_px = world.config.grid_cell_factor * world.config.radius_px
         for _, (node, pool, grid) in esper.get_components(RiverNode, ParticlePool, ScreenGrid):
-            field = node.field
-            t = field.tiles
+            self.moved = move_particles(pool.alive, pool.has_world, pool.world_m,
+                                        pool.velocity_mps, pool.status,
+                                        dt_s * clock.speed_factor, g.water_m, g.ground_m,
+                                        g.origin_x, g.origin_y, g.cell_m)
             n = select_flow_queries(pool.alive, pool.has_world, pool.status, pool.world_m,
                                     grid.query_index, grid.query_xy)
-            t.tick += 1
-            query_velocity(grid.query_xy[:n], _NO_LEVELS, field.max_level, field.max_level,
-                           t.root_x_m, t.root_y_m, t.root_size_m, t.n_cells, t.slots_flat,
-                           t.level_offset, t.psi, t.cell_status, t.cell_segments, t.last_used,
-                           t.tick, *field.network.geometry_args(), grid.query_status[:n],
-                           grid.query_velocity[:n])
-            self.moved, self.removed, self.waiting = advance_particles(
-                pool.alive, pool.ids, pool.counters, pool.has_world, pool.world_m,
-                pool.velocity_mps, pool.status, pool.first_query, pool.screen_px, n,
-                grid.query_index, grid.query_status, grid.query_velocity,
-                dt_s * clock.speed_factor, grid.cell_px, grid.gw, grid.gh, grid.cell_count,
-                grid.cell_items, config.grid_cell_factor * config.radius_px, grids.water_m,
-                grids.ground_m, grids.origin_x, grids.origin_y, grids.cell_m)
+            self.waiting = ask_flow(node.field, pool, grid, n, reach_px)
+            self.removed = remove_outside_near_water(
+                pool.alive, pool.ids, pool.counters, pool.status, pool.screen_px, grid.cell_px,
+                grid.gw, grid.gh, grid.cell_count, grid.cell_items, reach_px)
+
+
+def ask_flow(field: FlowField, pool: ParticlePool, grid: ScreenGrid, n: int,
+             reach_px: float) -> int:
+    """Query the flow for particles ``grid.query_index[:n]`` at ``grid.query_xy[:n]`` (the
+    finest cached tile under each) and run the status machine; returns how many wait for a
+    tile."""
+    t = field.tiles
+    t.tick += 1
+    query_velocity(grid.query_xy[:n], _NO_LEVELS, field.max_level, field.max_level,
+                   t.root_x_m, t.root_y_m, t.root_size_m, t.n_cells, t.slots_flat,
+                   t.level_offset, t.psi, t.cell_status, t.cell_segments, t.last_used, t.tick,
+                   *field.network.geometry_args(), grid.query_status[:n],
+                   grid.query_velocity[:n])
+    return apply_flow_status(pool.alive, pool.velocity_mps, pool.status, pool.first_query,
+                             pool.screen_px, n, grid.query_index, grid.query_status,
+                             grid.query_velocity, grid.cell_px, grid.gw, grid.gh,
+                             grid.cell_count, grid.cell_items, reach_px)

@@ -6,9 +6,10 @@ import esper
 import numpy as np
 
 from riverflow.components.particles import ParticlePool
-from riverflow.components.river import FrameView, ScreenGrid, SurfaceGrids
+from riverflow.components.river import FrameView, RiverNode, ScreenGrid, SurfaceGrids
 from riverflow.engine.system import System
-from riverflow.kernels.placement import pixel_rays, place_particles
+from riverflow.systems.advection import ask_flow
+from riverflow.kernels.placement import pixel_rays, place_particles, select_new_on_ground
 from riverflow.kernels.raycast import cast_rays_onto_heightfield, height_pyramid
 
 
@@ -28,7 +29,7 @@ class PlaceNewParticles(System):
         grids = world.resource(SurfaceGrids)
         if self._blocks is None or self._blocks[0] != id(grids):
             self._blocks = (id(grids), height_pyramid(grids.ground_m, grids.water_m))
-        for _, (pool, grid) in esper.get_components(ParticlePool, ScreenGrid):
+        for _, (node, pool, grid) in esper.get_components(RiverNode, ParticlePool, ScreenGrid):
             if len(self._hit) != pool.capacity:
                 c = pool.capacity
                 self._origin = np.zeros((c, 3))
@@ -47,3 +48,8 @@ class PlaceNewParticles(System):
                                        self._hit[:n], self._blocks[1])
             self.sky = place_particles(grid.new_slots, n, self._hit_xyz, self._hit, pool.world_m,
                                        pool.has_world, pool.status, pool.first_query)
+            # their first flow answer now, so the frame ends with every status up to date
+            k = select_new_on_ground(grid.new_slots, n, pool.has_world, pool.world_m,
+                                     grid.query_index, grid.query_xy)
+            ask_flow(node.field, pool, grid, k,
+                     world.config.grid_cell_factor * world.config.radius_px)
