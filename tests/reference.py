@@ -196,3 +196,38 @@ def cast_rays_onto_heightfield(origins, directions, heights, water, origin_x, or
         xyz[k] = o + hi * d
         hit[k] = 2 if level[0] >= terrain[0] else 1
     return xyz, hit
+
+
+# -- particles ----------------------------------------------------------------------------------
+
+
+def intensity(age_s, fade_in_s, active_s, fade_out_s):
+    """Twin of ``intensity_at``: linear ramps in and out."""
+    age = np.asarray(age_s, float)
+    return np.clip(np.where(age < fade_in_s, age / fade_in_s,
+                            np.where(age < fade_in_s + active_s, 1.0,
+                                     1.0 - (age - fade_in_s - active_s) / fade_out_s)), 0.0, 1.0)
+
+
+def project(world_m, clip_from_world, width_px, height_px):
+    """Twin of the projection in ``project_particles``: (screen (N, 2), w (N,))."""
+    p = np.c_[world_m, np.ones(len(world_m))] @ clip_from_world.T
+    w = p[:, 3]
+    return (p[:, :2] / w[:, None] * 0.5 + 0.5) * (width_px, height_px), w
+
+
+def cull_in_slot_order(screen_px, keep_candidates, cull_px):
+    """Twin of ``cull_crowded_particles``: greedy in slot order, a candidate is accepted when no
+    accepted particle is closer than ``cull_px``. Returns the accepted slots."""
+    accepted = []
+    for i in np.flatnonzero(keep_candidates):
+        if all(np.hypot(*(screen_px[i] - screen_px[j])) >= cull_px for j in accepted):
+            accepted.append(i)
+    return np.array(accepted, int)
+
+
+def euler_move(world_m, velocity_mps, dt_s):
+    """Twin of ``move_particles`` in the plane: x, y += v·dt."""
+    out = np.array(world_m, float, copy=True)
+    out[:, :2] += velocity_mps * dt_s
+    return out

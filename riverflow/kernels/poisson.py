@@ -229,6 +229,8 @@ def fill_poisson_holes(
                 n_cand += 1
     n_new = 0
     if n_cand == 0:
+        if any_accepted:
+            return 0  # no hole anywhere
         x = np.random.random() * width_px
         y = np.random.random() * height_px
         i = _new_particle(alive, ids, counters, birth_s, intensity, screen_px, fade_reason,

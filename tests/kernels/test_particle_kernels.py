@@ -1,0 +1,227 @@
+"""Particle kernels against their numpy twins (tests/reference.py) and their properties."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import numpy.testing as npt
+
+from riverflow.components.particles import FadeReason, ParticlePool
+from riverflow.components.status import FlowStatus
+from riverflow.engine.camera import Camera
+from riverflow.kernels import advection as ka
+from riverflow.kernels import lifecycle as kl
+from riverflow.kernels import placement as kpl
+from riverflow.kernels import poisson as kp
+from riverflow.kernels import screen as ks
+from tests import reference
+
+FI, AC, FO = 2.0, 30.0, 2.0
+
+
+def _pool(rng, n, capacity=None, w=320, h=180):
+    pool = ParticlePool(capacity or n)
+    for _ in range(n):
+        kl.allocate_particle(pool.alive, pool.ids, pool.counters, 0)
+    pool.screen_px[:n] = rng.uniform((0, 0), (w, h), (n, 2))
+    pool.birth_s[:n] = rng.uniform(-40, 0, n)
+    return pool
+
+
+def test_allocation_takes_the_lowest_free_slot_and_ids_are_stable():
+    pool = ParticlePool(5)
+    slots = [kl.allocate_particle(pool.alive, pool.ids, pool.counters, 0) for _ in range(5)]
+    assert slots == [0, 1, 2, 3, 4]
+    assert kl.allocate_particle(pool.alive, pool.ids, pool.counters, 0) == -1
+    kl.free_particle(3, pool.alive, pool.ids, pool.counters)
+    kl.free_particle(1, pool.alive, pool.ids, pool.counters)
+    assert pool.count == 3
+    assert kl.allocate_particle(pool.alive, pool.ids, pool.counters, 0) == 1
+    assert pool.ids.tolist() == [0, 5, 2, -1, 4]
+
+
+def test_ageing_matches_reference(rng):
+    pool = _pool(rng, 400)
+    now = 3.0
+    age = now - pool.birth_s
+    removed = kl.age_particles(pool.alive, pool.ids, pool.counters, pool.birth_s, pool.intensity,
+                               now, FI, AC, FO)
+    dead = age >= FI + AC + FO
+    assert removed == dead.sum()
+    npt.assert_array_equal(pool.alive, ~dead)
+    npt.assert_allclose(pool.intensity[~dead], reference.intensity(age[~dead], FI, AC, FO),
+                        rtol=1e-6, atol=1e-6)
+    assert pool.intensity.min() >= 0 and pool.intensity.max() <= 1
+
+
+def test_fade_out_keeps_the_current_intensity():
+    birth = np.array([0.0, 0.0, 0.0])
+    for now, expect in ((1.0, 0.5), (10.0, 1.0)):
+        birth[:] = 0.0
+        assert kl.start_fade_out(0, birth, now, FI, AC, FO)
+        assert kl.intensity_at(now - birth[0], FI, AC, FO) == np.float64(expect)
+        assert not kl.start_fade_out(0, birth, now, FI, AC, FO)  # already fading
+        assert kl.intensity_at(now + 0.5 - birth[0], FI, AC, FO) < expect
+
+
+def test_projection_matches_reference_and_fades_or_kills_off_screen(rng):
+    cam = Camera(position=(0, -200, 100), target=(0, 0, 0), size_px=(320, 180))
+    m, _ = cam.matrices_for_kernels()
+    pool = _pool(rng, 500)
+    pool.birth_s[:] = 0.0
+    pool.world_m[:500] = rng.uniform((-400, -400, -10), (400, 400, 50), (500, 3))
+    pool.has_world[:500] = True
+    screen, w = reference.project(pool.world_m[:500], m, 320, 180)
+    killed, faded = ks.project_particles(
+        pool.alive, pool.ids, pool.counters, pool.has_world, pool.world_m, pool.screen_px,
+        pool.birth_s, pool.fade_reason, m, 320, 180, 20.0, 10.0, FI, AC, FO)
+    on = (w > 0) & np.all((screen >= 0) & (screen < (320, 180)), axis=1)
+    margin = (w > 0) & np.all((screen >= -20) & (screen < (340, 200)), axis=1)
+    npt.assert_array_equal(pool.alive[:500], margin)
+    assert killed == (~margin).sum() and faded == (margin & ~on).sum()
+    npt.assert_allclose(pool.screen_px[:500][margin], screen[margin], rtol=1e-4, atol=1e-3)
+    assert np.all(pool.fade_reason[:500][margin & ~on] == FadeReason.OUTSIDE_VIEWPORT)
+    # screen positions agree with the camera's own projection
+    mine, _, front = cam.world_to_screen(pool.world_m[:500][on])
+    npt.assert_allclose(pool.screen_px[:500][on], mine, atol=1e-3)
+
+
+def test_zero_viewport_kills_projected_particles_without_nan(rng):
+    pool = _pool(rng, 50)
+    pool.has_world[:50] = True
+    ks.project_particles(pool.alive, pool.ids, pool.counters, pool.has_world, pool.world_m,
+                         pool.screen_px, pool.birth_s, pool.fade_reason, np.eye(4), 0, 0, 20.0,
+                         0.0, FI, AC, FO)
+    assert pool.count == 0 and np.isfinite(pool.screen_px).all()
+
+
+def _grid(w, h, cell):
+    gw, gh = math.ceil(w / cell), math.ceil(h / cell)
+    return (gw, gh, np.zeros(gw * gh, np.int32), np.zeros((gw * gh, 32), np.int32),
+            np.zeros(gw * gh, np.int32), np.zeros(gw * gh, np.uint8))
+
+
+def test_cull_matches_reference(rng):
+    r = 6.0
+    pool = _pool(rng, 900)
+    pool.birth_s[:] = 0.0
+    pool.birth_s[::7] = -31.0  # some are fading out already
+    gw, gh, count, items, prev, dirty = _grid(320, 180, 4 * r)
+    keep = pool.alive & (1.0 - pool.birth_s < FI + AC)
+    want = reference.cull_in_slot_order(pool.screen_px, keep, 1.96 * r)
+    faded = kp.cull_crowded_particles(pool.alive, pool.screen_px, pool.birth_s, pool.fade_reason,
+                                      pool.status, 1.0, FI, AC, FO, 1.96 * r, 4 * r, gw, gh, count,
+                                      items, prev, dirty, 0)
+    got = np.sort(np.concatenate([items[c, :count[c]] for c in range(gw * gh)]))
+    npt.assert_array_equal(got, want)
+    assert faded == keep.sum() - len(want)
+    assert np.all(pool.fade_reason[np.setdiff1d(np.flatnonzero(keep), want)]
+                  == FadeReason.POISSON_DISK)
+
+
+def _fill(pool, r, w, h, seed=3, frames=1):
+    gw, gh, count, items, prev, dirty = _grid(w, h, 4 * r)
+    new = np.zeros(pool.capacity, np.int32)
+    cand = np.zeros(pool.capacity, np.int32)
+    total = 0
+    for f in range(frames):
+        kp.cull_crowded_particles(pool.alive, pool.screen_px, pool.birth_s, pool.fade_reason,
+                                  pool.status, 1.0, FI, AC, FO, 1.96 * r, 4 * r, gw, gh, count,
+                                  items, prev, dirty, f)
+        total += kp.fill_poisson_holes(
+            pool.alive, pool.ids, pool.counters, pool.birth_s, pool.intensity, pool.screen_px,
+            pool.fade_reason, pool.has_world, pool.velocity_mps, pool.status, pool.first_query,
+            pool.offset_m, 1.0, FI, AC, r, w, h, 4 * r, gw, gh, count, items, dirty, seed + f,
+            -1.0, -1.0, 1.0, 1.0, cand, new)
+    return total
+
+
+def test_fill_from_empty_screen_gives_a_poisson_disk(rng):
+    r, w, h = 5.0, 320, 180
+    pool = ParticlePool(4000)
+    n = _fill(pool, r, w, h, frames=20)
+    pts = pool.screen_px[pool.alive]
+    assert n == pool.count > 0
+    assert np.all((pts >= 0) & (pts < (w, h)))
+    from scipy.spatial import cKDTree
+
+    d, _ = cKDTree(pts).query(pts, k=2)
+    assert d[:, 1].min() >= 1.96 * r - 1e-3
+    density = len(pts) / (w * h / (2 * r) ** 2)
+    assert 0.87 * 0.85 < density < 0.87 * 1.15, density
+    # maximal: every pixel is within 2r (a little more at the border) of a particle
+    gx, gy = np.meshgrid(np.arange(0.5, w), np.arange(0.5, h))
+    gap, _ = cKDTree(pts).query(np.c_[gx.ravel(), gy.ravel()])
+    assert gap.max() < 3 * r
+    # new particles start invisible, uninitialised, with offsets in the box
+    assert np.all(pool.intensity[pool.alive] == 0)
+    assert np.all(pool.status[pool.alive] == FlowStatus.UNKNOWN)
+    assert np.all(np.abs(pool.offset_m[pool.alive]) <= 1.0)
+
+
+def test_fill_stops_cleanly_when_the_pool_is_full():
+    pool = ParticlePool(37)
+    n = _fill(pool, 5.0, 320, 180, frames=3)
+    assert n == 37 and pool.count == 37 and pool.alive.all()
+
+
+def test_fill_is_deterministic_for_a_seed():
+    a, b = ParticlePool(2000), ParticlePool(2000)
+    _fill(a, 5.0, 200, 100, seed=11, frames=5)
+    _fill(b, 5.0, 200, 100, seed=11, frames=5)
+    npt.assert_array_equal(a.screen_px, b.screen_px)
+    npt.assert_array_equal(a.offset_m, b.offset_m)
+
+
+def test_move_matches_reference(rng):
+    pool = _pool(rng, 300)
+    pool.has_world[:] = True
+    pool.world_m[:] = rng.uniform(0, 10, (300, 3))
+    pool.velocity_mps[:] = rng.uniform(-2, 2, (300, 2))
+    pool.status[:] = rng.choice([FlowStatus.INSIDE, FlowStatus.LEAVING, FlowStatus.OUTSIDE], 300)
+    moving = (pool.status == FlowStatus.INSIDE) | (pool.status == FlowStatus.LEAVING)
+    start = pool.world_m.copy()
+    want = reference.euler_move(pool.world_m, pool.velocity_mps, 0.25)
+    flat = np.zeros((3, 3), np.float32)
+    water = np.full((3, 3), np.nan, np.float32)
+    ka.move_particles(pool.alive, pool.has_world, pool.world_m, pool.velocity_mps, pool.status,
+                      0.25, water, flat, -100.0, -100.0, 100.0)
+    npt.assert_allclose(pool.world_m[moving, :2], want[moving, :2], rtol=1e-6)
+    npt.assert_array_equal(pool.world_m[~moving], start[~moving])
+    assert np.allclose(pool.world_m[moving, 2], 0.0)  # altitude follows the (flat) ground
+
+
+def test_status_machine():
+    pool = ParticlePool(6)
+    for _ in range(6):
+        kl.allocate_particle(pool.alive, pool.ids, pool.counters, 0)
+    S = FlowStatus
+    pool.status[:] = [S.UNKNOWN, S.UNKNOWN, S.INSIDE, S.INSIDE, S.LEAVING, S.LEAVING]
+    pool.first_query[:] = [True, True, False, False, False, False]
+    pool.velocity_mps[:] = 1.0
+    answers = np.array([S.INSIDE, S.OUTSIDE, S.INSIDE, S.OUTSIDE, S.INSIDE, S.OUTSIDE], np.uint8)
+    vel = np.full((6, 2), 2.0, np.float32)
+    gw, gh, count, items, _, _ = _grid(100, 100, 40)
+    waiting = ka.apply_flow_status(pool.alive, pool.velocity_mps, pool.status, pool.first_query,
+                                   pool.screen_px, 6, np.arange(6, dtype=np.int32), answers, vel,
+                                   40.0, gw, gh, count, items, 40.0)
+    assert waiting == 0
+    assert pool.status.tolist() == [S.INSIDE, S.OUTSIDE, S.INSIDE, S.LEAVING, S.INSIDE, S.OUTSIDE]
+    assert pool.velocity_mps[:, 0].tolist() == [2, 0, 2, 1, 2, 0]  # LEAVING keeps its velocity
+    assert not pool.first_query.any()
+    unknown = np.array([S.UNKNOWN], np.uint8)
+    pool.status[0] = S.INSIDE
+    assert ka.apply_flow_status(pool.alive, pool.velocity_mps, pool.status, pool.first_query,
+                                pool.screen_px, 1, np.zeros(1, np.int32), unknown, vel, 40.0, gw,
+                                gh, count, items, 40.0) == 1
+
+
+def test_pixel_rays_match_the_camera():
+    cam = Camera(position=(10, -50, 30), target=(0, 0, 0), size_px=(320, 180))
+    _, inv = cam.matrices_for_kernels()
+    screen = np.array([[0.5, 0.5], [160, 90], [319.5, 10]], np.float32)
+    origin = np.zeros((3, 3))
+    direction = np.zeros((3, 3))
+    kpl.pixel_rays(np.arange(3, dtype=np.int32), 3, screen, inv, 320, 180, origin, direction)
+    _, want = cam.screen_to_ray(screen.astype(float))
+    npt.assert_allclose(direction, want, atol=1e-6)
