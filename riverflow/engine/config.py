@@ -24,8 +24,15 @@ class RiverConfig:
     """Poisson-disk radius r of the screen-space particles [px] (Proland ScreenParticleLayer
     radius; river1: 15). New particles are placed 2r from their neighbours."""
 
-    cull_radius_factor: float = 1.96
-    """A particle closer than this × r to an older one fades out (Proland: sqrt(3.84))."""
+    cull_radius_factor: float = 1.9
+    """A particle closer than this × r to an accepted one fades out (Proland: sqrt(3.84) =
+    1.96, with new particles spawned 2r from all others)."""
+
+    spawn_gap_factor: float = 1.92
+    """New particles are placed 2r from a neighbour but need only this × r from all the others
+    (Proland: 2). A little under 2 keeps the density of a moving view nearer the Poisson disk's
+    0.87 per (2r)²: perspective stretches the particles apart between refills. Must not be
+    below ``cull_radius_factor``, or new particles would be culled at once."""
 
     grid_cell_factor: float = 4.0
     """Cell size of the screen neighbour grid, in units of r (Proland ParticleGrid: 4r)."""
@@ -90,9 +97,9 @@ class RiverConfig:
     """Vertical field of view of the default camera [degrees]."""
 
     def __post_init__(self) -> None:
-        positive = ("capacity", "radius_px", "cull_radius_factor", "grid_cell_factor",
-                    "fade_in_s", "active_s", "fade_out_s", "search_radius_factor", "slip",
-                    "flow_tile_cache", "flow_tile_px", "max_step_s", "near_m", "far_m",
+        positive = ("capacity", "radius_px", "cull_radius_factor", "spawn_gap_factor",
+                    "grid_cell_factor", "fade_in_s", "active_s", "fade_out_s",
+                    "search_radius_factor", "slip", "flow_tile_cache", "flow_tile_px", "max_step_s", "near_m", "far_m",
                     "fov_y_deg")
         for name in positive:
             value = getattr(self, name)
@@ -103,6 +110,8 @@ class RiverConfig:
         if self.tile_production not in ("background", "blocking"):
             raise ValueError("RiverConfig.tile_production must be 'background' or 'blocking', "
                              f"got {self.tile_production!r}")
+        if self.spawn_gap_factor < self.cull_radius_factor:
+            raise ValueError("RiverConfig.spawn_gap_factor must be ≥ cull_radius_factor")
         if self.far_m <= self.near_m:
             raise ValueError("RiverConfig.far_m must exceed near_m")
 

@@ -8,9 +8,10 @@ lookup finds every neighbour within 4r):
   neighbour closer than ``cull_px`` (≈ 1.96 r) fades out (reason POISSON_DISK); the others are
   accepted into the grid;
 * **fill** (Dunbar & Humphreys boundary sampling): a candidate P gets the arcs of directions in
-  which a point 2r away is at least 2r from every neighbour; new particles are placed at random
-  angles of those arcs (each removes ±π/3 around it) and become candidates; a uniform random
-  start when the screen is empty; a clean stop when the pool is full.
+  which a point 2r away is at least ``spawn_gap_px`` from every neighbour (Proland: 2r); new
+  particles are placed at random angles of those arcs (each blocks the angles that would bring
+  the next one closer than the gap: ±π/3 for a gap of 2r) and become candidates; a uniform
+  random start when the screen is empty; a clean stop when the pool is full.
 
 Proland visits every particle each frame; here only the particles around *dirty* cells are
 candidates (cells that lost particles, are empty, hold fading or crowded particles, plus a
@@ -48,14 +49,15 @@ def _cell_of(x, y, cell_px, gw, gh):
 @njit(**JIT_OPTIONS)
 def cull_crowded_particles(
     alive, screen_px, birth_s, fade_reason, status, now_s, fade_in_s, active_s, fade_out_s,
-    cull_px, cell_px, gw, gh, cell_count, cell_items, prev_count, dirty, frame,
+    cull_px, cell_px, gw, gh, cell_count, cell_items, prev_count, dirty, frame, sparse_below,
 ):
     """Rebuild the neighbour grid with the accepted particles; fade out the crowded ones.
 
     ``cell_count`` (gw·gh,) int32 and ``cell_items`` (gw·gh, K) int32 are rebuilt;
     ``prev_count`` (gw·gh,) int32 holds last frame's counts and is updated; ``dirty`` (gw·gh,)
-    uint8 is written (bit 1: holes may be here; bit 4: the cell is empty, so its neighbours'
-    particles are candidates too). Returns the number faded out.
+    uint8 is written (bit 1: holes may be here — the cell lost particles, holds fewer than
+    ``sparse_below``, or lies in this frame's rolling band; bit 4: the cell is empty, so its
+    neighbours' particles are candidates too). Returns the number faded out.
     """
     n_cells = gw * gh
     k_max = cell_items.shape[1]
@@ -108,7 +110,8 @@ def cull_crowded_particles(
             c = cy * gw + cx
             if cell_count[c] == 0:
                 dirty[c] = 1 | 4  # a hole: its neighbours' particles border it
-            elif cell_count[c] < prev_count[c] or cy % ROLLING_BANDS == band:
+            elif (cell_count[c] < prev_count[c] or cell_count[c] < sparse_below
+                  or cy % ROLLING_BANDS == band):
                 dirty[c] = 1
             prev_count[c] = cell_count[c]
     return faded
@@ -184,7 +187,7 @@ def _new_particle(alive, ids, counters, birth_s, intensity, screen_px, fade_reas
 def fill_poisson_holes(
     alive, ids, counters, birth_s, intensity, screen_px, fade_reason, has_world, velocity_mps,
     status, first_query, offset_m,
-    now_s, fade_in_s, active_s, radius_px, width_px, height_px, cell_px, gw, gh,
+    now_s, fade_in_s, active_s, radius_px, spawn_gap_px, width_px, height_px, cell_px, gw, gh,
     cell_count, cell_items, dirty, seed, off_lo_x, off_lo_y, off_hi_x, off_hi_y,
     candidates, new_slots,
 ):
@@ -249,8 +252,11 @@ def fill_poisson_holes(
         n_cand = 1
     lo = np.empty(MAX_ARCS)
     hi = np.empty(MAX_ARCS)
-    r2 = 2.0 * radius_px
-    r4 = 4.0 * radius_px
+    r2 = 2.0 * radius_px               # new particles are placed 2r from a candidate
+    gap = spawn_gap_px                 # and at least this far from every other particle
+    reach = r2 + gap
+    # a new particle at angle θ blocks θ ± this for the next ones around the same candidate
+    self_block = 2.0 * math.asin(min(gap / (2.0 * r2), 1.0))
     while n_cand > 0:
         k = int(np.random.random() * n_cand)
         p = candidates[k]
@@ -262,7 +268,7 @@ def fill_poisson_holes(
         hi[0] = TWO_PI
         n_arcs = 1
         cx, cy = _cell_of(px, py, cell_px, gw, gh)
-        r4sq = r4 * r4
+        reach_sq = reach * reach
         for ny in range(max(cy - 1, 0), min(cy + 2, gh)):
             for nx in range(max(cx - 1, 0), min(cx + 2, gw)):
                 c = ny * gw + nx
@@ -273,13 +279,16 @@ def fill_poisson_holes(
                     dx = screen_px[j, 0] - px
                     dy = screen_px[j, 1] - py
                     d2 = dx * dx + dy * dy
-                    if j != p and d2 < r4sq:
+                    if j != p and d2 < reach_sq:
+                        # |P + 2r·u − Q| < gap  ⇔  cos∠(u, PQ) > (4r² + d² − gap²) / (4r·d)
+                        d = math.sqrt(d2)
+                        cos_half = (r2 * r2 + d2 - gap * gap) / (2.0 * r2 * max(d, 1e-9))
                         n_arcs = _remove_wrapped(lo, hi, n_arcs, math.atan2(dy, dx),
-                                                 math.acos(math.sqrt(d2) / r4))
+                                                 math.acos(min(max(cos_half, -1.0), 1.0)))
         while n_arcs > 0:
             a = int(np.random.random() * n_arcs)
             theta = lo[a] + (hi[a] - lo[a]) * np.random.random()
-            n_arcs = _remove_wrapped(lo, hi, n_arcs, theta, math.pi / 3.0)
+            n_arcs = _remove_wrapped(lo, hi, n_arcs, theta, self_block)
             x = px + r2 * math.cos(theta)
             y = py + r2 * math.sin(theta)
             if not (0.0 <= x < width_px and 0.0 <= y < height_px):

@@ -13,6 +13,14 @@ from riverflow.kernels.poisson import cull_crowded_particles, fill_poisson_holes
 class MaintainPoissonDisk(System):
     name = "poisson"
 
+    SPARSE_FRACTION = 0.75
+    """A grid cell holding fewer than this fraction of the particles a Poisson disk puts there
+    (0.87 per (2r)²) is searched for holes every frame."""
+
+    @classmethod
+    def sparse_below(cls, cell_px: float, radius_px: float) -> int:
+        return int(cls.SPARSE_FRACTION * 0.87 * (cell_px / (2.0 * radius_px)) ** 2)
+
     def __init__(self) -> None:
         self.faded = self.added = 0
 
@@ -27,13 +35,14 @@ class MaintainPoissonDisk(System):
                 pool.alive, pool.screen_px, pool.birth_s, pool.fade_reason, pool.status,
                 clock.now_s, c.fade_in_s, c.active_s, c.fade_out_s, c.cull_radius_factor * r,
                 grid.cell_px, grid.gw, grid.gh, grid.cell_count, grid.cell_items,
-                grid.prev_count, grid.dirty, clock.frame)
+                grid.prev_count, grid.dirty, clock.frame, self.sparse_below(grid.cell_px, r))
             seed = int(world.rng.integers(0, 2**31 - 1))
             lo, hi = c.random_offset_min_m, c.random_offset_max_m
             grid.n_new = self.added = fill_poisson_holes(
                 pool.alive, pool.ids, pool.counters, pool.birth_s, pool.intensity,
                 pool.screen_px, pool.fade_reason, pool.has_world, pool.velocity_mps, pool.status,
                 pool.first_query, pool.offset_m, clock.now_s, c.fade_in_s, c.active_s, r,
+                c.spawn_gap_factor * r,
                 view.width_px, view.height_px, grid.cell_px, grid.gw, grid.gh, grid.cell_count,
                 grid.cell_items, grid.dirty, seed, lo[0], lo[1], hi[0], hi[1], grid.candidates,
                 grid.new_slots)

@@ -111,7 +111,7 @@ def test_cull_matches_reference(rng):
     want = reference.cull_in_slot_order(pool.screen_px, keep, 1.96 * r)
     faded = kp.cull_crowded_particles(pool.alive, pool.screen_px, pool.birth_s, pool.fade_reason,
                                       pool.status, 1.0, FI, AC, FO, 1.96 * r, 4 * r, gw, gh, count,
-                                      items, prev, dirty, 0)
+                                      items, prev, dirty, 0, 2)
     got = np.sort(np.concatenate([items[c, :count[c]] for c in range(gw * gh)]))
     npt.assert_array_equal(got, want)
     assert faded == keep.sum() - len(want)
@@ -127,11 +127,12 @@ def _fill(pool, r, w, h, seed=3, frames=1):
     for f in range(frames):
         kp.cull_crowded_particles(pool.alive, pool.screen_px, pool.birth_s, pool.fade_reason,
                                   pool.status, 1.0, FI, AC, FO, 1.96 * r, 4 * r, gw, gh, count,
-                                  items, prev, dirty, f)
+                                  items, prev, dirty, f, 2)
         total += kp.fill_poisson_holes(
             pool.alive, pool.ids, pool.counters, pool.birth_s, pool.intensity, pool.screen_px,
             pool.fade_reason, pool.has_world, pool.velocity_mps, pool.status, pool.first_query,
-            pool.offset_m, 1.0, FI, AC, r, w, h, 4 * r, gw, gh, count, items, dirty, seed + f,
+            pool.offset_m, 1.0, FI, AC, r, 2.0 * r, w, h, 4 * r, gw, gh, count, items, dirty,
+            seed + f,
             -1.0, -1.0, 1.0, 1.0, cand, new)
     return total
 

@@ -10,6 +10,7 @@ import shapely
 
 from riverflow.hydro._checks import area_loop, graph_problems
 from riverflow.scenes.default import Scene, default_scene
+from riverflow.scenes.water import JUNCTION_BLEND
 
 
 @pytest.fixture(scope="module")
@@ -122,9 +123,9 @@ def test_water_only_goes_downhill(scene):
     for b in scene.branches:
         line = b.centerline_m
         s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(line, axis=0).T))])
-        def margin(j: int) -> float:  # the junction zone, where another branch is nearer
+        def margin(j: int) -> float:  # the junction zone, where branch levels are blended
             near = [x for x in scene.branches if j >= 0 and j in (x.start_junction, x.end_junction)]
-            return max([float(x.widths_m.max()) for x in near], default=0.0)
+            return JUNCTION_BLEND * max([float(x.widths_m.max()) for x in near], default=0.0)
 
         keep = (s > margin(b.start_junction)) & (s < s[-1] - margin(b.end_junction))
         keep &= scene.water.contains(line)  # not on a free island
@@ -133,6 +134,16 @@ def test_water_only_goes_downhill(scene):
         assert np.all(np.diff(h) <= 1e-9), b.name
     drop = scene.water.profiles["main_upper"][1][0] - scene.water.profiles["main_lower"][1][-1]
     assert drop > 1.0
+
+
+def test_no_seam_in_the_water_at_junctions(scene):
+    """Where the nearest branch changes around a junction, the surface stays continuous."""
+    for j, centre in enumerate(scene.water.junctions_m):
+        ax = np.arange(-120.0, 120.0, 1.0)
+        gx, gy = np.meshgrid(ax, ax)
+        h = scene.water.height(np.c_[gx.ravel(), gy.ravel()] + centre).reshape(gx.shape)
+        step = max(np.nanmax(np.abs(np.diff(h, axis=0))), np.nanmax(np.abs(np.diff(h, axis=1))))
+        assert step < 0.1, (j, step)  # metres per metre
 
 
 def test_junction_levels_agree(scene):
