@@ -20,7 +20,7 @@ reference §4.6): ground only, mesh only, particle coverage, per-pixel sprite bl
 pre-advected texture, non-advected texture, sprite-grid cells, particles coloured by status,
 velocity arrows."""
 
-NOT_IMPLEMENTED = {"render": 3, "profile": 4}
+NOT_IMPLEMENTED = {"render": 4}
 """Subcommands specified in SPEC §7 whose engine does not exist yet → their tracking issue."""
 
 
@@ -96,9 +96,10 @@ def _parser() -> argparse.ArgumentParser:
     p.set_defaults(run=_not_implemented)
 
     p = sub.add_parser(
-        "profile", help="time every system per frame (not implemented yet, issue #4)",
-        description="Run a scripted scene and print mean / p50 / p95 ms per system and "
-                    "particle counts. Not implemented yet (issue #4): exits with status 2.")
+        "profile", help="time every system of a scripted camera flight (no drawing)",
+        description="Fly a chase camera down the scene's main river (particles, flow tiles, no "
+                    "drawing) and print mean / p50 / p95 ms per system and the particle "
+                    "count, or JSON. A graph file is put on a flat landscape.")
     _scene_args(p)
     p.add_argument("--size", type=_size, required=True, metavar="WxH",
                    help="screen size in pixels, e.g. 1920x1080")
@@ -107,7 +108,7 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--frames", type=_positive_int, required=True, metavar="N",
                    help="frames to time")
     p.add_argument("--json", action="store_true", help="print the timings as JSON")
-    p.set_defaults(run=_not_implemented)
+    p.set_defaults(run=_profile)
     return parser
 
 
@@ -160,6 +161,28 @@ def _demo(args: argparse.Namespace) -> int:
     print("riverflow demo: the interactive boat demo is not there yet; drawing the river "
           "network and its flow instead.")
     return _draw(args, args.out / "flow.png", size_px=1600)
+
+
+def _profile(args: argparse.Namespace) -> int:
+    import json
+
+    scene, title = _load_scene(args)
+    if scene is None:
+        return 1
+    from riverflow.engine.profiling import format_profile, profile_flight
+
+    if not hasattr(scene, "terrain"):  # a graph file: put it on a flat landscape
+        from riverflow.scenes.flat import flat_scene
+
+        scene = flat_scene(scene)
+    try:
+        result = profile_flight(scene, args.size, args.radius_px, args.frames)
+    except (ValueError, OSError) as exc:
+        print(f"riverflow profile: {exc}", file=sys.stderr)
+        return 1
+    result["scene"] = title
+    print(json.dumps(result, indent=2) if args.json else f"{title}\n{format_profile(result)}")
+    return 0
 
 
 def _not_implemented(args: argparse.Namespace) -> int:

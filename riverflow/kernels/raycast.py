@@ -183,7 +183,7 @@ def cast_rays_onto_heightfield(
 # -- one ray --------------------------------------------------------------------------------
 
 
-@njit(**JIT_OPTIONS)
+@njit(inline="always", **JIT_OPTIONS)  # array arguments: no NRT refcounting calls
 def _cast_ray(ox, oy, oz, dx, dy, dz, heights, water, origin_x, origin_y, cell_m, max_d,
               pyramid, offs, dims_x, levels, zmin, zmax, out_xyz, r):
     """Cast one ray; writes out_xyz[r] and returns the hit kind."""
@@ -295,7 +295,7 @@ def _cast_ray(ox, oy, oz, dx, dy, dz, heights, water, origin_x, origin_y, cell_m
     return HIT_NONE
 
 
-@njit(**JIT_OPTIONS)
+@njit(inline="always", **JIT_OPTIONS)  # array arguments: no NRT refcounting calls
 def _cross_cell(oz, dz, u0, v0, gdx, gdy, heights, water, i, j, t_in, t_out, above):
     """The ray over cell (i, j) from t_in (at cell coordinates u0, v0) to t_out.
     Returns (kind, distance of the hit from t_in, above at t_out)."""
@@ -377,7 +377,7 @@ def _exit_time(g0, gd, inv, lo, size):
     return np.inf
 
 
-@njit(**JIT_OPTIONS)
+@njit(inline="always", **JIT_OPTIONS)  # array arguments: no NRT refcounting calls
 def _cell_water(water, i, j):
     """Water levels at the corners of cell (i, j), dry corners filled with the mean of the
     wet ones. Returns (w00, w10, w01, w11, any wet)."""
@@ -402,7 +402,7 @@ def _cell_water(water, i, j):
     return w00, w10, w01, w11, True
 
 
-@njit(**JIT_OPTIONS)
+@njit(inline="always", **JIT_OPTIONS)  # array arguments: no NRT refcounting calls
 def _surface_at(heights, water, gx, gy):
     """(terrain, water or −inf) at grid coordinates (gx, gy) inside the grid."""
     ny, nx = heights.shape

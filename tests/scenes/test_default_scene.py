@@ -130,7 +130,7 @@ def test_water_only_goes_downhill(scene):
         keep = (s > margin(b.start_junction)) & (s < s[-1] - margin(b.end_junction))
         keep &= scene.water.contains(line)  # not on a free island
         h = scene.water.height(line[keep])
-        assert np.isfinite(h).all() and keep.sum() > 10, b.name
+        assert np.isfinite(h).all() and keep.sum() >= 3, b.name
         assert np.all(np.diff(h) <= 1e-9), b.name
     drop = scene.water.profiles["main_upper"][1][0] - scene.water.profiles["main_lower"][1][-1]
     assert drop > 1.0

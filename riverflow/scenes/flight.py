@@ -1,0 +1,51 @@
+"""A scripted camera flight over a scene: a chase view sliding down its main river.
+
+Used by ``riverflow profile``, the benchmarks and the tests, so all of them time the same
+thing. The main river is the default scene's "main" branches, or the longest axis of a graph.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+
+def main_centerline(scene) -> np.ndarray:
+    """(K, 2) [m] the river the flight follows, upstream first."""
+    main = [b.centerline_m for b in getattr(scene, "branches", []) if b.kind == "main"]
+    if main:
+        return np.vstack(main)
+    graph = scene.graph
+    axes = graph.axes()
+    lines = [graph.polyline(a) for a in axes]
+    return max(lines, key=lambda p: float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum()))
+
+
+def flight_pose(scene, frame: int, dt_s: float = 1 / 60, speed_mps: float = 12.0,
+                height_m: float = 70.0, behind_m: float = 140.0, start_m: float = 300.0,
+                line: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """(eye, target) [m] at ``frame``: the target slides down the river at ``speed_mps``, the
+    eye follows ``behind_m`` back along it and ``height_m`` above the water (wrapping around
+    at the river's end)."""
+    line = main_centerline(scene) if line is None else line
+    seg = np.linalg.norm(np.diff(line, axis=0), axis=1)
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    length = float(s[-1])
+    start = min(start_m, 0.5 * length)
+    dist = start + (speed_mps * dt_s * frame) % max(length - start, 1.0)
+    target_xy = np.array([np.interp(dist, s, line[:, 0]), np.interp(dist, s, line[:, 1])])
+    back = max(dist - behind_m, 0.0)
+    back_xy = np.array([np.interp(back, s, line[:, 0]), np.interp(back, s, line[:, 1])])
+    if np.allclose(back_xy, target_xy):
+        back_xy = target_xy - np.array([behind_m, 0.0])
+    level = float(scene.water.level(target_xy[None])[0])
+    return (np.array([back_xy[0], back_xy[1], level + height_m]),
+            np.array([target_xy[0], target_xy[1], level]))
+
+
+def fly(world, frames: int, start: int = 0, dt_s: float = 1 / 60, callback=None) -> None:
+    """Step ``world`` ``frames`` times along the flight; ``callback(frame, world)`` after each."""
+    line = main_centerline(world.scene)
+    for f in range(start, start + frames):
+        world.camera.look_at(*flight_pose(world.scene, f, dt_s, line=line))
+        world.step(dt_s)
+        if callback is not None:
+            callback(f, world)
