@@ -191,7 +191,8 @@ def _bank_runs(piece: Piece, axis_ids: list[int], axis_lines: list, island: bool
     v = piece.points
     seg_end = np.roll(v, -1, axis=0) if piece.closed else v[1:]
     seg_start = v if piece.closed else v[:-1]
-    labels = np.asarray(axis_ids)[np.argmin(_axis_cost(seg_start, seg_end, axis_ids, axis_lines, not island), axis=1)]
+    cost = _axis_cost(seg_start, seg_end, axis_ids, axis_lines, not island)
+    labels = np.asarray(axis_ids)[np.argmin(cost, axis=1)]
     runs = _runs(labels)
     if piece.closed:
         if len(runs) == 1:

@@ -72,7 +72,10 @@ def strip_polygon(centerline_m: np.ndarray, widths_m: np.ndarray) -> shapely.Geo
     else:
         mitre_ok = np.ones(0, bool)
     if mitre_ok.all():
-        vn = np.vstack([n[:1], (n[:-1] + n[1:]) / one_plus_cos[:, None], n[-1:]]) if len(p) > 2 else np.vstack([n, n])
+        if len(p) > 2:  # mitre vectors: n·m = 1 for both segments at a vertex
+            vn = np.vstack([n[:1], (n[:-1] + n[1:]) / one_plus_cos[:, None], n[-1:]])
+        else:
+            vn = np.vstack([n, n])
         left, right = p + vn * h[:, None], p - vn * h[:, None]
         poly = Polygon(np.vstack([left, right[::-1]]))
         if poly.is_valid:

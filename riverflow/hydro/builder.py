@@ -313,14 +313,16 @@ def _resolve_discharges(branches, order, start_j, end_j, junctions) -> list[floa
         given = {k: branches[k].discharge_m2s for k in outs if branches[k].discharge_m2s is not None}
         missing = [k for k in outs if k not in given]
         p = junctions[j]
-        where = (f"junction at ({p[0]:.1f}, {p[1]:.1f}) (in: {[branches[k].name for k in range(len(branches)) if end_j[k] == j]}, "
+        ins = [branches[k].name for k in range(len(branches)) if end_j[k] == j]
+        where = (f"junction at ({p[0]:.1f}, {p[1]:.1f}) (in: {ins}, "
                  f"out: {[branches[k].name for k in outs]})")
         rest = inflow - sum(given.values())
         tol = 1e-6 * max(1.0, inflow)
         if missing:
             if rest <= tol:
                 raise GraphError(f"{where}: outgoing discharges {sum(given.values()):g} m²/s leave "
-                                 f"nothing of the inflow {inflow:g} m²/s for {[branches[k].name for k in missing]}")
+                                 f"nothing of the inflow {inflow:g} m²/s for "
+                                 f"{[branches[k].name for k in missing]}")
             wsum = sum(branches[k].widths_m[0] for k in missing)
             for k in missing:
                 given[k] = rest * branches[k].widths_m[0] / wsum

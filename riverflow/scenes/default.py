@@ -202,7 +202,8 @@ def _bspline_weights(u: np.ndarray, n: int) -> np.ndarray:
     """(len(u), n) cubic B-spline interpolation matrix for lattice coordinates u."""
     i = np.floor(u).astype(np.int64)
     f = u - i
-    cols = [(1 - f) ** 3 / 6, (3 * f ** 3 - 6 * f ** 2 + 4) / 6, (-3 * f ** 3 + 3 * f ** 2 + 3 * f + 1) / 6, f ** 3 / 6]
+    cols = [(1 - f) ** 3 / 6, (3 * f ** 3 - 6 * f ** 2 + 4) / 6,
+            (-3 * f ** 3 + 3 * f ** 2 + 3 * f + 1) / 6, f ** 3 / 6]
     w = np.zeros((len(u), n))
     rows = np.arange(len(u))
     for k, c in enumerate(cols):
@@ -250,7 +251,8 @@ def _junction_caps(branches: list[RiverBranch]) -> list[tuple[float, float]]:
         pts = shapely.points(b.centerline_m)
         ends = []
         for j, at_end in ((b.start_junction, False), (b.end_junction, True)):
-            others = [o for o in branches if o is not b and j >= 0 and j in (o.start_junction, o.end_junction)]
+            others = [o for o in branches
+                      if o is not b and j >= 0 and j in (o.start_junction, o.end_junction)]
             if not others:
                 ends.append(0.0)
                 continue

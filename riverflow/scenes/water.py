@@ -224,7 +224,8 @@ class _Samples:
             same = self.branch[a] == self.branch[b]
             sa, sb = self.samples[a], self.samples[b]
             ab = sb - sa
-            t = np.clip(np.einsum("ij,ij->i", p - sa, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-12), 0, 1)
+            ab2 = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-12)
+            t = np.clip(np.einsum("ij,ij->i", p - sa, ab) / ab2, 0, 1)
             t = np.where(same, t, np.where(a == k, 0.0, 1.0))
             d = np.hypot(*(sa + t[:, None] * ab - p).T)
             better = d < best_d

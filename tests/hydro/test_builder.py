@@ -125,7 +125,8 @@ def test_island_with_given_potential_and_bad_potential():
 
 
 def test_confluence_sums_discharges():
-    up, trib, down = [[0, 0], [100, 0], [200, 10]], [[120, -150], [150, -60], [200, 10]], [[200, 10], [300, 0], [400, 20]]
+    up, trib = [[0, 0], [100, 0], [200, 10]], [[120, -150], [150, -60], [200, 10]]
+    down = [[200, 10], [300, 0], [400, 20]]
     b = RiverNetworkBuilder()
     b.add_branch(up, 30.0, 60.0, name="up")
     b.add_branch(trib, 20.0, 30.0, name="trib")
@@ -228,7 +229,8 @@ def _pair(b, first, second):
                 b.add_branch([[100, 0], [200, -60]], 20)), "leave nothing"),
     (lambda b: _pair(b, ([[0, 0], [100, 0]], 40, 80), ([[120, 0], [200, 0]], 40)), "do not meet"),
     (lambda b: _pair(b, ([[0, 0], [200, 0]], 40, 80), ([[100, -100], [100, 0]], 30, 50)), "overlap"),
-    (lambda b: _pair(b, ([[0, 0], [100, 0]], 40, 80), ([[100, 0], [100, 100], [0, 100], [0, 0]], 40)), "loop"),
+    (lambda b: _pair(b, ([[0, 0], [100, 0]], 40, 80),
+                     ([[100, 0], [100, 100], [0, 100], [0, 0]], 40)), "loop"),
     (lambda b: _pair(b, ([[0, 0], [100, 0]], 40, 80), ([[0, 0], [-100, 0]], 40, 80)), "none ends there"),
     (lambda b: b.add_branch([[0, 0], [100, 0]], 40), "give its discharge"),
     (lambda b: b.add_branch([[0, 0], [200, 0]], [40, 0], 80), "positive"),
