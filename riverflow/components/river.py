@@ -73,7 +73,8 @@ class ScreenGrid:
     per_cell: int = 32
     cell_count: np.ndarray = field(default_factory=lambda: np.zeros(1, np.int32))
     cell_items: np.ndarray = field(default_factory=lambda: np.zeros((1, 32), np.int32))
-    prev_count: np.ndarray = field(default_factory=lambda: np.zeros(1, np.int32))
+    removed_cells: np.ndarray = field(default_factory=lambda: np.zeros(1, np.uint8))
+    wet_cells: np.ndarray = field(default_factory=lambda: np.zeros(1, np.uint8))
     dirty: np.ndarray = field(default_factory=lambda: np.zeros(1, np.uint8))
     candidates: np.ndarray = field(init=False)     # (C,) int32 scratch
     new_slots: np.ndarray = field(init=False)      # (C,) int32 particles placed this frame
@@ -102,7 +103,8 @@ class ScreenGrid:
         n = self.gw * self.gh
         self.cell_count = np.zeros(n, np.int32)
         self.cell_items = np.zeros((n, self.per_cell), np.int32)
-        self.prev_count = np.zeros(n, np.int32)
+        self.removed_cells = np.zeros(n, np.uint8)
+        self.wet_cells = np.zeros(n, np.uint8)
         self.dirty = np.zeros(n, np.uint8)
         return True
 

@@ -154,15 +154,39 @@ def apply_flow_status(
 
 @njit(**JIT_OPTIONS)
 def remove_outside_near_water(alive, ids, counters, status, screen_px, cell_px, gw, gh,
-                              cell_count, cell_items, reach_px):
+                              cell_count, cell_items, reach_px, wet_cells, removed_cells,
+                              frame, every):
     """OUTSIDE particles with an INSIDE neighbour on screen give way (NEAR, removed), so that
-    new samples may land in the river (Proland's NEAR rule). Returns the number removed."""
+    new samples may land in the river (Proland's NEAR rule). A particle is looked at once
+    every ``every`` frames (staggered by id): a shore particle that lands on the land again is
+    not replaced at every frame (Proland churns the whole shore each frame). ``wet_cells``
+    (gw·gh,) uint8 is
+    scratch (cells of the grid holding an INSIDE particle); the cells of removed particles are
+    marked in ``removed_cells`` (gw·gh,) uint8 for the Poisson pass. Returns the number
+    removed."""
+    for c in range(gw * gh):
+        wet_cells[c] = 0
+        for q in range(cell_count[c]):
+            j = cell_items[c, q]
+            if alive[j] and status[j] == STATUS_INSIDE:
+                wet_cells[c] = 1
+                break
     removed = 0
     for i in range(alive.shape[0]):
-        if alive[i] and status[i] == STATUS_OUTSIDE and _inside_neighbour(
-                i, screen_px, status, alive, cell_px, gw, gh, cell_count, cell_items, reach_px):
+        if not alive[i] or status[i] != STATUS_OUTSIDE or (ids[i] + frame) % every != 0:
+            continue
+        cx = min(max(int(math.floor(screen_px[i, 0] / cell_px)), 0), gw - 1)
+        cy = min(max(int(math.floor(screen_px[i, 1] / cell_px)), 0), gh - 1)
+        near_wet = False
+        for ny in range(max(cy - 1, 0), min(cy + 2, gh)):
+            for nx in range(max(cx - 1, 0), min(cx + 2, gw)):
+                if wet_cells[ny * gw + nx]:
+                    near_wet = True
+        if near_wet and _inside_neighbour(i, screen_px, status, alive, cell_px, gw, gh,
+                                          cell_count, cell_items, reach_px):
             status[i] = STATUS_NEAR
             free_particle(i, alive, ids, counters)
+            removed_cells[cy * gw + cx] = 1
             removed += 1
     return removed
 

@@ -14,8 +14,9 @@ lookup finds every neighbour within 4r):
   random start when the screen is empty; a clean stop when the pool is full.
 
 Proland visits every particle each frame; here only the particles around *dirty* cells are
-candidates (cells that lost particles, are empty, hold fading or crowded particles, plus a
-rolling band of rows so that slow stretching is caught too). That keeps the cost proportional
+candidates (cells where particles were removed, cells that are empty or sparse, that hold
+fading or crowded particles, plus a rolling band of rows so that slow stretching is caught
+too). That keeps the cost proportional
 to what changes (docs/deviations.md).
 """
 from __future__ import annotations
@@ -49,13 +50,14 @@ def _cell_of(x, y, cell_px, gw, gh):
 @njit(**JIT_OPTIONS)
 def cull_crowded_particles(
     alive, screen_px, birth_s, fade_reason, status, now_s, fade_in_s, active_s, fade_out_s,
-    cull_px, cell_px, gw, gh, cell_count, cell_items, prev_count, dirty, frame, sparse_below,
+    cull_px, cell_px, gw, gh, cell_count, cell_items, removed_cells, dirty, frame, sparse_below,
 ):
     """Rebuild the neighbour grid with the accepted particles; fade out the crowded ones.
 
     ``cell_count`` (gw·gh,) int32 and ``cell_items`` (gw·gh, K) int32 are rebuilt;
-    ``prev_count`` (gw·gh,) int32 holds last frame's counts and is updated; ``dirty`` (gw·gh,)
-    uint8 is written (bit 1: holes may be here — the cell lost particles, holds fewer than
+    ``removed_cells`` (gw·gh,) uint8 marks cells where other systems removed particles since
+    the last pass (read, then cleared); ``dirty`` (gw·gh,)
+    uint8 is written (bit 1: holes may be here — particles were removed there, it holds fewer than
     ``sparse_below``, or lies in this frame's rolling band; bit 4: the cell is empty, so its
     neighbours' particles are candidates too). Returns the number faded out.
     """
@@ -110,10 +112,10 @@ def cull_crowded_particles(
             c = cy * gw + cx
             if cell_count[c] == 0:
                 dirty[c] = 1 | 4  # a hole: its neighbours' particles border it
-            elif (cell_count[c] < prev_count[c] or cell_count[c] < sparse_below
+            elif (removed_cells[c] or cell_count[c] < sparse_below
                   or cy % ROLLING_BANDS == band):
                 dirty[c] = 1
-            prev_count[c] = cell_count[c]
+            removed_cells[c] = 0
     return faded
 
 

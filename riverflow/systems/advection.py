@@ -14,6 +14,10 @@ from riverflow.kernels.flow import query_velocity
 
 _NO_LEVELS = np.zeros(0, np.int8)
 
+NEAR_CHECK_EVERY = 4
+"""An OUTSIDE particle is checked for INSIDE neighbours (and then replaced) every this many
+frames, staggered by id."""
+
 
 class AdvectParticles(System):
     """Move, then ask the flow where the particles now are; OUTSIDE ones next to the river go."""
@@ -39,7 +43,8 @@ class AdvectParticles(System):
             self.waiting = ask_flow(node.field, pool, grid, n, reach_px)
             self.removed = remove_outside_near_water(
                 pool.alive, pool.ids, pool.counters, pool.status, pool.screen_px, grid.cell_px,
-                grid.gw, grid.gh, grid.cell_count, grid.cell_items, reach_px)
+                grid.gw, grid.gh, grid.cell_count, grid.cell_items, reach_px, grid.wet_cells,
+                grid.removed_cells, clock.frame, NEAR_CHECK_EVERY)
 
 
 def ask_flow(field: FlowField, pool: ParticlePool, grid: ScreenGrid, n: int,

@@ -35,7 +35,7 @@ class MaintainPoissonDisk(System):
                 pool.alive, pool.screen_px, pool.birth_s, pool.fade_reason, pool.status,
                 clock.now_s, c.fade_in_s, c.active_s, c.fade_out_s, c.cull_radius_factor * r,
                 grid.cell_px, grid.gw, grid.gh, grid.cell_count, grid.cell_items,
-                grid.prev_count, grid.dirty, clock.frame, self.sparse_below(grid.cell_px, r))
+                grid.removed_cells, grid.dirty, clock.frame, self.sparse_below(grid.cell_px, r))
             seed = int(world.rng.integers(0, 2**31 - 1))
             lo, hi = c.random_offset_min_m, c.random_offset_max_m
             grid.n_new = self.added = fill_poisson_holes(

@@ -98,7 +98,7 @@ def test_zero_viewport_kills_projected_particles_without_nan(rng):
 def _grid(w, h, cell):
     gw, gh = math.ceil(w / cell), math.ceil(h / cell)
     return (gw, gh, np.zeros(gw * gh, np.int32), np.zeros((gw * gh, 32), np.int32),
-            np.zeros(gw * gh, np.int32), np.zeros(gw * gh, np.uint8))
+            np.zeros(gw * gh, np.uint8), np.zeros(gw * gh, np.uint8))
 
 
 def test_cull_matches_reference(rng):
