@@ -14,8 +14,8 @@ lookup finds every neighbour within 4r):
   random start when the screen is empty; a clean stop when the pool is full.
 
 Proland visits every particle each frame; here only the particles around *dirty* cells are
-candidates (cells where particles were removed, cells that are empty or sparse, that hold
-fading or crowded particles, plus a rolling band of rows so that slow stretching is caught
+candidates (cells where particles were removed, cells that are empty or sparse, where a fade
+began or a crowded particle was culled, plus a rolling band of rows so that slow stretching is caught
 too). That keeps the cost proportional
 to what changes (docs/deviations.md).
 """
@@ -49,7 +49,7 @@ def _cell_of(x, y, cell_px, gw, gh):
 
 @njit(**JIT_OPTIONS)
 def cull_crowded_particles(
-    alive, screen_px, birth_s, fade_reason, status, now_s, fade_in_s, active_s, fade_out_s,
+    alive, screen_px, birth_s, fade_reason, status, now_s, dt_s, fade_in_s, active_s, fade_out_s,
     cull_px, cell_px, gw, gh, cell_count, cell_items, removed_cells, dirty, frame, sparse_below,
 ):
     """Rebuild the neighbour grid with the accepted particles; fade out the crowded ones.
@@ -75,7 +75,8 @@ def cull_crowded_particles(
         y = screen_px[i, 1]
         cx, cy = _cell_of(x, y, cell_px, gw, gh)
         if is_fading_out(i, birth_s, now_s, fade_in_s, active_s):
-            dirty[cy * gw + cx] = 1
+            if now_s - birth_s[i] - fade_in_s - active_s <= dt_s:  # its fade began this frame
+                dirty[cy * gw + cx] = 1
             continue
         close = False
         # only the (at most 2 × 2) cells the disc of radius cull_px overlaps

@@ -33,7 +33,8 @@ class MaintainPoissonDisk(System):
             grid.fit(view.width_px, view.height_px, c.grid_cell_factor * r)
             self.faded = cull_crowded_particles(
                 pool.alive, pool.screen_px, pool.birth_s, pool.fade_reason, pool.status,
-                clock.now_s, c.fade_in_s, c.active_s, c.fade_out_s, c.cull_radius_factor * r,
+                clock.now_s, dt_s, c.fade_in_s, c.active_s, c.fade_out_s,
+                c.cull_radius_factor * r,
                 grid.cell_px, grid.gw, grid.gh, grid.cell_count, grid.cell_items,
                 grid.removed_cells, grid.dirty, clock.frame, self.sparse_below(grid.cell_px, r))
             seed = int(world.rng.integers(0, 2**31 - 1))

@@ -110,7 +110,8 @@ def test_cull_matches_reference(rng):
     keep = pool.alive & (1.0 - pool.birth_s < FI + AC)
     want = reference.cull_in_slot_order(pool.screen_px, keep, 1.96 * r)
     faded = kp.cull_crowded_particles(pool.alive, pool.screen_px, pool.birth_s, pool.fade_reason,
-                                      pool.status, 1.0, FI, AC, FO, 1.96 * r, 4 * r, gw, gh, count,
+                                      pool.status, 1.0, 1 / 60, FI, AC, FO, 1.96 * r, 4 * r, gw,
+                                      gh, count,
                                       items, prev, dirty, 0, 2)
     got = np.sort(np.concatenate([items[c, :count[c]] for c in range(gw * gh)]))
     npt.assert_array_equal(got, want)
@@ -126,7 +127,8 @@ def _fill(pool, r, w, h, seed=3, frames=1):
     total = 0
     for f in range(frames):
         kp.cull_crowded_particles(pool.alive, pool.screen_px, pool.birth_s, pool.fade_reason,
-                                  pool.status, 1.0, FI, AC, FO, 1.96 * r, 4 * r, gw, gh, count,
+                                  pool.status, 1.0, 1 / 60, FI, AC, FO, 1.96 * r, 4 * r, gw, gh,
+                                  count,
                                   items, prev, dirty, f, 2)
         total += kp.fill_poisson_holes(
             pool.alive, pool.ids, pool.counters, pool.birth_s, pool.intensity, pool.screen_px,
