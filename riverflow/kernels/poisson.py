@@ -165,6 +165,16 @@ def _remove_wrapped(lo, hi, n, centre, half):
 
 
 @njit(**JIT_OPTIONS)
+def _grid_insert(i, x, y, cell_px, gw, gh, cell_count, cell_items):
+    """Put particle i (at x, y) into its grid cell, if the cell has room."""
+    cx, cy = _cell_of(x, y, cell_px, gw, gh)
+    c = cy * gw + cx
+    if cell_count[c] < cell_items.shape[1]:
+        cell_items[c, cell_count[c]] = i
+        cell_count[c] += 1
+
+
+@njit(**JIT_OPTIONS)
 def _new_particle(alive, ids, counters, birth_s, intensity, screen_px, fade_reason, has_world,
                   velocity_mps, status, first_query, offset_m, x, y, now_s, off_lo_x, off_lo_y,
                   off_hi_x, off_hi_y):
@@ -202,7 +212,6 @@ def fill_poisson_holes(
     np.random.seed(seed)
     if width_px <= 0 or height_px <= 0:
         return 0
-    k_max = cell_items.shape[1]
     n_cand = 0
     any_accepted = False
     for cy in range(gh):
@@ -244,11 +253,7 @@ def fill_poisson_holes(
                           off_lo_x, off_lo_y, off_hi_x, off_hi_y)
         if i < 0:
             return 0
-        cx, cy = _cell_of(x, y, cell_px, gw, gh)
-        c = cy * gw + cx
-        if cell_count[c] < k_max:
-            cell_items[c, cell_count[c]] = i
-            cell_count[c] += 1
+        _grid_insert(i, x, y, cell_px, gw, gh, cell_count, cell_items)
         new_slots[n_new] = i
         n_new += 1
         candidates[0] = i
@@ -301,11 +306,7 @@ def fill_poisson_holes(
                               now_s, off_lo_x, off_lo_y, off_hi_x, off_hi_y)
             if i < 0:
                 return n_new  # the pool is full: stop cleanly
-            ncx, ncy = _cell_of(x, y, cell_px, gw, gh)
-            c = ncy * gw + ncx
-            if cell_count[c] < k_max:
-                cell_items[c, cell_count[c]] = i
-                cell_count[c] += 1
+            _grid_insert(i, x, y, cell_px, gw, gh, cell_count, cell_items)
             new_slots[n_new] = i
             n_new += 1
             candidates[n_cand] = i
