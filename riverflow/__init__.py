@@ -14,6 +14,9 @@ Public API (SPEC §6)::
     field = rf.FlowField(graph, slip=1.0, search_radius_factor=5.0)
     status, velocity = field.query(xy)     # (N,) uint8 FlowStatus, (N, 2) float32 [m/s]
     psi = field.potential(xy)              # (N,) float64, NaN outside the water
+    world = rf.RiverWorld(scene, size=(W, H), gl=False, seed=0)
+    world.camera.look_at(eye_xyz, target_xyz)
+    world.step(dt_s)                       # world.particles, world.timings_ms
 
 Names are imported lazily so that ``import riverflow`` stays cheap and never touches OpenGL.
 """
@@ -34,6 +37,8 @@ _LAZY = {
     "ValidationIssue": "riverflow.hydro.validate",
     "RiverNetworkBuilder": "riverflow.hydro.builder",
     "FlowField": "riverflow.hydro.flow_field",
+    "RiverWorld": "riverflow.engine.world",
+    "RiverConfig": "riverflow.engine.config",
     "default_scene": "riverflow.scenes.default",
     "Scene": "riverflow.scenes.default",
 }
