@@ -153,7 +153,8 @@ def cast_rays_onto_heightfield(
         raise ValueError("water and heights must have the same shape")
     if pyramid.shape[0] != pyramid_size(nx, ny):
         raise ValueError("pyramid does not belong to a grid of this shape")
-    # Level k of the pyramid: width dims[k], height dims[k + MAX_LEVELS], first row offs[k].
+    # Level k of the pyramid: dims_x[k] nodes per row, first row offs[k] (two tiny arrays per
+    # call, not per ray).
     cx = max(nx - 1, 1)
     cy = max(ny - 1, 1)
     levels = 1

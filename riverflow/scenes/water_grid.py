@@ -15,7 +15,9 @@ import shapely
 REACH_CELLS = math.sqrt(2.0)
 """Nodes this close to the water [cells] get a level: then every cell the water polygon touches
 has four wet corners, and the ray caster puts the shoreline where that water plane meets the
-terrain (banks rise above the water outside it), not on the cell grid."""
+terrain, not on the cell grid (default scene: within 0.6 m of the true bank at 4 m cells, since
+its banks rise above the water outside it). Where a scene's terrain outside the water lies below
+the water level, the water shows up to this far past the bank."""
 
 _BLOCK = 16  # candidate nodes are found per block of _BLOCK² cells first
 
