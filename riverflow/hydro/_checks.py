@@ -13,6 +13,7 @@ import numpy as np
 import shapely
 from shapely.geometry import LineString, MultiLineString
 
+from riverflow.hydro.areas import area_ring
 from riverflow.hydro.graph import HydroGraph
 
 
@@ -22,12 +23,9 @@ def _signed_area(loop: np.ndarray) -> float:
 
 
 def area_loop(graph: HydroGraph, area: int) -> np.ndarray:
-    """The closed polyline of an area (M, 2) [m], first point not repeated."""
-    parts = []
-    for c, o in graph.areas[area].curves:
-        v = graph.vertices(c)
-        parts.append((v[::-1] if o else v)[:-1])
-    return np.vstack(parts)
+    """The closed polyline of an area (M, 2) [m], first point not repeated (builder graphs
+    have no Bézier control points, so this is the raw vertex loop)."""
+    return area_ring(graph, area)
 
 
 def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6) -> list[str]:

@@ -372,7 +372,6 @@ def build_flow_tile(
     ring = LATTICE_RING
     m = n_cells + 1 + 2 * ring
     h = spacing_m
-    diag2 = 2.0 * h * h
     n_inside = 0
     out_cell_status[:, :] = 255
     out_cell_segments[:, :, :] = -1
