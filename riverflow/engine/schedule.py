@@ -2,8 +2,10 @@
 
 1. input / boat (the host game's, or the demo's: issue #5)   2. camera
 3. flow-tile production   4. advection   5. screen projection   6. life cycle
-7. Poisson-disk maintenance, then placement of the new particles
-8. wave-tile animation and 9. drawing (the drawing issue adds them; ``gl=True`` worlds only)
+7. Poisson-disk maintenance, then placement of the new particles   8. wave-tile animation
+9. drawing (``gl=True`` worlds only; it is the one "draw"-phase system: ``world.step`` runs
+   1–8, ``world.draw`` / ``world.render`` run 9, so a game may step at a fixed rate and draw
+   when it presents a frame)
 """
 from __future__ import annotations
 
@@ -15,6 +17,7 @@ from riverflow.systems.lifecycle import AgeParticles
 from riverflow.systems.placement import PlaceNewParticles
 from riverflow.systems.poisson import MaintainPoissonDisk
 from riverflow.systems.screen import ProjectParticles
+from riverflow.systems.waves import AnimateWaveTiles
 
 SYSTEM_ORDER = (
     "camera",
@@ -24,11 +27,19 @@ SYSTEM_ORDER = (
     "lifecycle",
     "poisson",
     "placement",
+    "waves",
+    "draw",
 )
 """Names of the default systems, in frame order."""
 
 
-def default_systems() -> list[System]:
-    """A fresh instance of every default system, in frame order."""
-    return [UpdateCamera(), ProduceFlowTiles(), AdvectParticles(), ProjectParticles(),
-            AgeParticles(), MaintainPoissonDisk(), PlaceNewParticles()]
+def default_systems(gl: bool = True) -> list[System]:
+    """A fresh instance of every default system, in frame order; ``gl=False`` leaves out the
+    draw system (and never imports OpenGL)."""
+    systems = [UpdateCamera(), ProduceFlowTiles(), AdvectParticles(), ProjectParticles(),
+               AgeParticles(), MaintainPoissonDisk(), PlaceNewParticles(), AnimateWaveTiles()]
+    if gl:
+        from riverflow.systems.draw import DrawRivers  # imports pyglet's GL: only when drawing
+
+        systems.append(DrawRivers())
+    return systems

@@ -18,6 +18,9 @@ class System:
     name: ClassVar[str] = "system"
     needs_gl: ClassVar[bool] = False
     """Skipped by a world made with ``gl=False``."""
+    phase: ClassVar[str] = "update"
+    """"update" systems run in :meth:`RiverWorld.step`; "draw" systems in
+    :meth:`RiverWorld.draw` (a game steps at its fixed rate and draws when it presents)."""
 
     def process(self, world: RiverWorld, dt_s: float) -> None:
         raise NotImplementedError

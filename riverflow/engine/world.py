@@ -26,6 +26,7 @@ from typing import Any, TypeVar
 import esper
 import numpy as np
 
+from riverflow.components.display import DisplaySettings
 from riverflow.components.particles import LiveParticles, ParticlePool
 from riverflow.components.river import (Clock, FrameView, RiverNode, ScreenGrid, SurfaceGrids,
                                         TerrainTile)
@@ -46,8 +47,9 @@ class RiverWorld:
         scene: what to simulate: ``scene.graph``, ``scene.terrain``, ``scene.water``,
             ``scene.bounds_m`` (the built-in :func:`riverflow.default_scene` or your own).
         size: viewport (W, H) [px].
-        gl: draw with OpenGL (offscreen unless a window is given later); False runs every
-            system but drawing with no OpenGL at all.
+        gl: draw with OpenGL: with the context current when the world is made (a host
+            game's window) or else a hidden offscreen one (EGL when there is no display);
+            False runs every system but drawing with no OpenGL at all.
         seed: seeds every random choice; the same seed and inputs give bit-identical pools.
         config: :class:`RiverConfig`; default ``RiverConfig()``.
         systems: the ordered systems; default :func:`riverflow.engine.schedule.default_systems`.
@@ -76,7 +78,7 @@ class RiverWorld:
                         size_px=tuple(int(v) for v in size))
         self.camera = camera
         for resource in (camera, c, Clock(speed_factor=c.speed_factor), FrameView(),
-                         _surface_grids(scene)):
+                         _surface_grids(scene), DisplaySettings()):
             self.insert(resource)
         with self.active():
             self.river = esper.create_entity(RiverNode(scene.graph, field, producer),
@@ -88,8 +90,18 @@ class RiverWorld:
                     origin = terrain.origin_m + np.array([ix, iy]) * terrain.tile_size_m
                     esper.create_entity(TerrainTile(ix, iy, (float(origin[0]), float(origin[1])),
                                                     terrain.tile_size_m))
-        self.systems = systems if systems is not None else default_systems()
+            if self.gl:
+                _add_wave_tiles(self.seed)
+        self.systems = systems if systems is not None else default_systems(self.gl)
         self.pool: ParticlePool = self.component(ParticlePool)
+        self.context = None
+        if self.gl:
+            from riverflow.engine import gl as gl_module  # pyglet's GL: only when drawing
+
+            self.context = gl_module.acquire_context()
+            for system in self.systems:
+                if hasattr(system, "attach"):
+                    system.attach(self.context)
 
     # -- resources -------------------------------------------------------------------------
 
@@ -154,12 +166,36 @@ class RiverWorld:
         with self.active():
             esper.clear_dead_entities()
             for system in self.systems:
-                if system.needs_gl and not self.gl:
+                if system.phase != "update" or (system.needs_gl and not self.gl):
                     continue
                 t0 = time.perf_counter_ns()
                 system.process(self, dt)
                 timings[system.name] = (time.perf_counter_ns() - t0) * 1e-6
         clock.frame += 1
+
+    @property
+    def display(self) -> DisplaySettings:
+        """What is drawn: mode, overlays, shading knobs (mutable)."""
+        return self.resource(DisplaySettings)
+
+    def draw(self) -> None:
+        """Run the draw systems: draw the current frame into the world's offscreen framebuffer
+        (CPU time in ``timings_ms["draw"]``). See :meth:`render` and :meth:`blit_to_window`."""
+        if not self.gl:
+            raise RuntimeError("drawing needs a world made with gl=True")
+        with self.active():
+            for system in self.systems:
+                if system.phase != "draw":
+                    continue
+                t0 = time.perf_counter_ns()
+                system.process(self, 0.0)
+                self.timings_ms[system.name] = (time.perf_counter_ns() - t0) * 1e-6
+
+    def _drawer(self):
+        for system in self.systems:
+            if hasattr(system, "read_rgba8"):
+                return system
+        raise RuntimeError("this world has no draw system")
 
     @property
     def particles(self) -> LiveParticles:
@@ -175,10 +211,19 @@ class RiverWorld:
                              p.has_world[live].copy())
 
     def render(self) -> np.ndarray:
-        """The current frame as (H, W, 4) uint8 (needs ``gl=True`` and the draw system)."""
+        """Draw the current frame and return it as (H, W, 4) uint8 RGBA, row 0 at the top
+        (needs ``gl=True``)."""
         if not self.gl:
             raise RuntimeError("render() needs a world made with gl=True")
-        raise NotImplementedError("drawing comes with the drawing issue (#4)")
+        self.draw()
+        return self._drawer().read_rgba8()
+
+    def blit_to_window(self, width_px: int | None = None, height_px: int | None = None) -> None:
+        """Copy the last drawn frame onto the current window's framebuffer (a host game calls
+        this in its ``on_draw`` after :meth:`draw`), scaled to ``width_px`` × ``height_px``
+        (default: the camera's viewport)."""
+        w, h = self.camera.size_px
+        self._drawer().blit_to_window(width_px or w, height_px or h)
 
     def close(self) -> None:
         """Stop worker threads and release GPU objects; delete the esper world."""
@@ -195,6 +240,16 @@ class RiverWorld:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+def _add_wave_tiles(seed: int) -> None:
+    """The three wave-tile entities (the display settings pick one to draw with)."""
+    from riverflow.components.waves import (animated_wave_tile, default_static_wave_tile,
+                                            perlin_wave_tile)
+
+    esper.create_entity(default_static_wave_tile())
+    esper.create_entity(perlin_wave_tile())
+    esper.create_entity(animated_wave_tile(seed=seed))
 
 
 def _surface_grids(scene) -> SurfaceGrids:

@@ -1,0 +1,92 @@
+"""What the draw system shows: the display mode, debug overlays and the shading knobs.
+
+A mutable resource of each world (``world.display``), toggled by games and the demo's keys.
+:class:`DisplayMode` keeps Proland's ``MeshDisplayType`` numbers (reference §4.6); the GLSL
+sees them as ``DISPLAY_MODE_*`` defines (:func:`riverflow.engine.gl.enum_defines`).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from enum import IntEnum
+
+from riverflow.components.waves import WaveKind
+
+
+class DisplayMode(IntEnum):
+    """How the water is drawn."""
+
+    NONE = 0
+    """Ground only: no water surface (the carved bed shows)."""
+    COVERAGE = 1
+    """Red = sprites covering the pixel / 16, green where none covers, blue where the cell's
+    list is full."""
+    ADVECTED = 5
+    """Per-pixel blending of the wave sprites carried by the particles (the paper's method)."""
+    PRE_ADVECTED = 6
+    """The same sum rasterised first, sprite by sprite, into a float target."""
+    NON_ADVECTED = 10
+    """The wave texture mapped in world space, not carried by the flow (for comparison)."""
+    MESH = 11
+    """The water mesh in one flat colour."""
+
+
+@dataclass
+class DisplaySettings:
+    """Mode, overlays and shading parameters of the drawing (mutable: games toggle them)."""
+
+    mode: DisplayMode = DisplayMode.ADVECTED
+    show_grid: bool = False
+    """Outline the sprite-indirection cells; full cells tinted green (Proland displayGrid)."""
+    show_particles: bool = False
+    """Particles as points coloured by flow status × intensity."""
+    show_velocities: bool = False
+    """An arrow per particle along its flow velocity."""
+    wave: WaveKind = WaveKind.ANIMATED
+    """Which wave tile the sprites sample."""
+    wave_slope_factor: float = 0.2
+    """Water normal = normalize(−slopes × this, 1); the tiles' slopes have RMS 1 (Proland
+    waveSlopeFactor, whose tiles were not normalised)."""
+    water_clarity_m: float = 2.5
+    """Depth [m] over which the bed's light falls to 1/e."""
+    fog_density_per_m: float = 1.0 / 6000.0
+    """Exponential distance fog [1/m]."""
+    arrow_s: float = 4.0
+    """Velocity arrows are this many seconds of travel long."""
+
+    def validate(self) -> None:
+        """Raise ValueError naming the field if a value is not usable."""
+        self.mode = DisplayMode(self.mode)
+        self.wave = WaveKind(self.wave)
+        for name in ("wave_slope_factor", "water_clarity_m", "fog_density_per_m", "arrow_s"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
+                raise ValueError(f"DisplaySettings.{name} must be a finite number ≥ 0, "
+                                 f"got {value!r}")
+
+
+MODE_NAMES: dict[str, dict[str, object]] = {
+    "none": {"mode": DisplayMode.NONE},
+    "mesh": {"mode": DisplayMode.MESH},
+    "coverage": {"mode": DisplayMode.COVERAGE},
+    "advected": {"mode": DisplayMode.ADVECTED},
+    "pre-advected": {"mode": DisplayMode.PRE_ADVECTED},
+    "non-advected": {"mode": DisplayMode.NON_ADVECTED},
+    "grid": {"mode": DisplayMode.ADVECTED, "show_grid": True},
+    "particles": {"mode": DisplayMode.ADVECTED, "show_particles": True},
+    "velocities": {"mode": DisplayMode.ADVECTED, "show_velocities": True},
+}
+"""The display-mode names of the command line and the demo (SPEC §4) → settings."""
+
+
+def settings_for(name: str, **overrides) -> DisplaySettings:
+    """Settings of a named display mode (a key of :data:`MODE_NAMES`)."""
+    try:
+        fields = dict(MODE_NAMES[name])
+    except KeyError:
+        raise ValueError(f"unknown display mode {name!r}; one of {', '.join(MODE_NAMES)}") \
+            from None
+    fields.update(overrides)
+    settings = DisplaySettings(**fields)
+    settings.validate()
+    return settings

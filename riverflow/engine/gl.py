@@ -1,0 +1,526 @@
+"""The OpenGL module: contexts, shader programs, textures, meshes, framebuffers, read-back.
+
+Every OpenGL call of riverflow lives here or in :mod:`riverflow.systems.draw` (pyglet 2.1,
+OpenGL 3.3 core; pyglet 3 moves most of these names, hence the pin ``<3``).
+
+* **Context**: a world made with ``gl=True`` draws with the OpenGL context current when it is
+  made (a host game's window), or else with one hidden offscreen context per process (EGL
+  pbuffer when there is no display: ``PYGLET_HEADLESS=1`` is set for you before pyglet's GL is
+  imported if ``DISPLAY`` and ``WAYLAND_DISPLAY`` are unset).
+* **Programs**: one file per program in ``riverflow/shaders`` (package data), its stages
+  between ``#ifdef VERTEX`` / ``#ifdef GEOMETRY`` / ``#ifdef FRAGMENT``; ``#include "x.glsl"``
+  pastes a shared file; Python enums become ``#define``s (:func:`enum_defines`), so numbers never
+  drift between Python, numba and GLSL. ``#line`` directives keep the driver's line numbers
+  those of the file, and compile errors are re-raised as :class:`ShaderError` naming
+  ``file.glsl:line``.
+* **Textures** are raw GL objects uploaded from C-contiguous numpy arrays
+  (``glTexSubImage2D`` straight from ``ndarray.ctypes.data``, reference/ecosystem.md §2.3);
+  integer textures use the ``*_INTEGER`` formats and NEAREST filtering.
+* **Framebuffer**: an RGBA8 colour texture and a depth texture; :meth:`Framebuffer.read_rgba8`
+  returns (H, W, 4) uint8 with row 0 at the top.
+"""
+from __future__ import annotations
+
+import ctypes
+import os
+import re
+import sys
+from dataclasses import dataclass
+from enum import IntEnum
+from importlib import resources
+
+import numpy as np
+
+if "pyglet.gl" not in sys.modules and not (os.environ.get("DISPLAY")
+                                           or os.environ.get("WAYLAND_DISPLAY")):
+    os.environ.setdefault("PYGLET_HEADLESS", "1")
+
+import pyglet  # noqa: E402
+
+if os.environ.get("PYGLET_HEADLESS", "").lower() in ("1", "true", "yes"):
+    pyglet.options["headless"] = True
+
+from pyglet import gl  # noqa: E402
+from pyglet.graphics.shader import Shader, ShaderException, ShaderProgram  # noqa: E402
+
+GLSL_VERSION = "#version 330 core"
+STAGES = {"VERTEX": "vertex", "GEOMETRY": "geometry", "FRAGMENT": "fragment"}
+
+
+class GLError(RuntimeError):
+    """An OpenGL error flag was raised (the message names the error and where it was checked)."""
+
+
+class ShaderError(RuntimeError):
+    """A shader program failed to compile or link; the message names ``file.glsl:line``."""
+
+
+_ERRORS = {gl.GL_INVALID_ENUM: "GL_INVALID_ENUM", gl.GL_INVALID_VALUE: "GL_INVALID_VALUE",
+           gl.GL_INVALID_OPERATION: "GL_INVALID_OPERATION",
+           gl.GL_INVALID_FRAMEBUFFER_OPERATION: "GL_INVALID_FRAMEBUFFER_OPERATION",
+           gl.GL_OUT_OF_MEMORY: "GL_OUT_OF_MEMORY"}
+
+
+def check_errors(where: str) -> None:
+    """Raise :class:`GLError` if OpenGL has raised error flags since the last check."""
+    found = []
+    for _ in range(16):
+        code = gl.glGetError()
+        if code == gl.GL_NO_ERROR:
+            break
+        found.append(_ERRORS.get(code, hex(code)))
+    if found:
+        raise GLError(f"OpenGL error(s) {', '.join(found)} at {where}")
+
+
+# -- contexts --------------------------------------------------------------------------------
+
+_offscreen_window = None
+
+
+def acquire_context():
+    """The context to draw with: the current one (a host's window) or the process's hidden
+    offscreen one, created on first use. Returns a pyglet ``Context``."""
+    global _offscreen_window
+    if gl.current_context is not None:
+        return gl.current_context
+    if _offscreen_window is None:
+        config = gl.Config(major_version=3, minor_version=3, forward_compatible=True,
+                           double_buffer=False, depth_size=24)
+        try:
+            _offscreen_window = pyglet.window.Window(width=16, height=16, visible=False,
+                                                     config=config)
+        except Exception as exc:  # no EGL / no display: say what would help
+            raise GLError("no OpenGL context could be created (set PYGLET_HEADLESS=1 for EGL "
+                          f"offscreen drawing, or run under a display): {exc}") from exc
+    _offscreen_window.switch_to()
+    return gl.current_context
+
+
+def make_current(context) -> None:
+    """Make ``context`` current if it is not."""
+    if gl.current_context is not context:
+        context.set_current()
+
+
+def renderer_name() -> str:
+    """The GL renderer string (e.g. ``llvmpipe (LLVM 15.0.6, 256 bits)``)."""
+    return gl.gl_info.get_renderer()
+
+
+# -- programs --------------------------------------------------------------------------------
+
+def enum_defines(*enums: type[IntEnum], prefix: str = "") -> dict[str, int]:
+    """``#define`` names for enum members: ``FlowStatus.INSIDE`` → ``FLOW_STATUS_INSIDE``."""
+    out = {}
+    for enum in enums:
+        stem = re.sub(r"(?<!^)(?=[A-Z])", "_", enum.__name__).upper()
+        for member in enum:
+            out[f"{prefix}{stem}_{member.name}"] = int(member)
+    return out
+
+
+def _read_shader(name: str, directory: str | os.PathLike | None = None) -> str:
+    """A shader file's text: from ``directory`` if it has the file, else the package's."""
+    if directory is not None:
+        path = os.path.join(directory, name)
+        if os.path.exists(path):
+            with open(path) as f:
+                return f.read()
+    try:
+        return resources.files("riverflow.shaders").joinpath(name).read_text()
+    except FileNotFoundError:
+        raise ShaderError(f"no shader file riverflow/shaders/{name}") from None
+
+
+_INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"\s*$')
+
+
+def _expand(name: str, files: list[str], directory=None) -> str:
+    """The file's text with includes pasted, framed by ``#line L S`` (S indexes ``files``)."""
+    if name in files:
+        raise ShaderError(f"{name} includes itself (via {' → '.join(files)})")
+    index = len(files)
+    files.append(name)
+    out = [f"#line 1 {index}"]
+    for number, line in enumerate(_read_shader(name, directory).splitlines(), start=1):
+        match = _INCLUDE.match(line)
+        if match:
+            out.append(_expand(match.group(1), files, directory))
+            out.append(f"#line {number + 1} {index}")
+        else:
+            out.append(line)
+    return "\n".join(out)
+
+
+def shader_sources(name: str, defines: dict[str, object] | None = None,
+                   directory: str | os.PathLike | None = None
+                   ) -> dict[str, tuple[str, list[str]]]:
+    """Sources per stage of program file ``name`` (e.g. ``"water.glsl"``, from ``directory``
+    or the package): {stage: (source, file names by #line source index)}."""
+    files: list[str] = []
+    body = _expand(name, files, directory)
+    head = [GLSL_VERSION] + [f"#define {k} {v}" for k, v in (defines or {}).items()]
+    text = _read_shader(name, directory)
+    out = {}
+    for macro, stage in STAGES.items():
+        if re.search(rf"^\s*#if(def\s+|\s+defined\s*\(\s*){macro}\b", text, re.M):
+            out[stage] = ("\n".join(head + [f"#define {macro} 1", body]) + "\n", files)
+    if "vertex" not in out or "fragment" not in out:
+        raise ShaderError(f"{name}: a program file needs #ifdef VERTEX and #ifdef FRAGMENT parts")
+    return out
+
+
+_LOG_LINE = re.compile(r"\b(\d+):(\d+)(\(\d+\))?")
+
+
+def _name_lines(log: str, files: list[str]) -> str:
+    """Rewrite the driver's ``S:L`` locations as ``file.glsl:L``."""
+    def sub(match: re.Match) -> str:
+        s = int(match.group(1))
+        return f"{files[s] if s < len(files) else s}:{match.group(2)}{match.group(3) or ''}"
+    return _LOG_LINE.sub(sub, log)
+
+
+class Program:
+    """A linked shader program (pyglet ``ShaderProgram``) with strict uniform setting."""
+
+    def __init__(self, name: str, defines: dict[str, object] | None = None,
+                 directory: str | os.PathLike | None = None) -> None:
+        self.name = name
+        shaders = []
+        for stage, (source, files) in shader_sources(name, defines, directory).items():
+            try:
+                shaders.append(Shader(source, stage))
+            except ShaderException as exc:
+                raise ShaderError(f"{name} ({stage} stage) failed to compile:\n"
+                                  f"{_name_lines(str(exc), files)}") from None
+        try:
+            self.program = ShaderProgram(*shaders)
+        except ShaderException as exc:
+            raise ShaderError(f"{name} failed to link:\n{exc}") from None
+        self.uniforms = frozenset(self.program.uniforms)
+
+    def use(self) -> None:
+        self.program.use()
+
+    def set(self, **values) -> None:
+        """Set uniforms by name; an unknown name raises :class:`ShaderError` (a typo, or a
+        uniform the compiler dropped because it does not change the output)."""
+        for key, value in values.items():
+            if key not in self.uniforms:
+                raise ShaderError(f"{self.name} has no active uniform {key!r}")
+            if isinstance(value, np.ndarray):
+                value = tuple(float(v) for v in value.ravel())
+            self.program[key] = value
+
+    def set_if_used(self, **values) -> None:
+        """Set the uniforms of ``values`` that this program uses; skip the others (shared
+        uniforms of an included file that a program does not need)."""
+        self.set(**{k: v for k, v in values.items() if k in self.uniforms})
+
+    def delete(self) -> None:
+        self.program.delete()
+
+
+# -- textures --------------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class TexFormat:
+    """Internal format, upload format and element type of a texture, and its numpy dtype and
+    channel count."""
+
+    internal: int
+    upload: int
+    gl_type: int
+    dtype: type
+    channels: int
+    integer: bool = False
+
+
+RGBA8 = TexFormat(gl.GL_RGBA8, gl.GL_RGBA, gl.GL_UNSIGNED_BYTE, np.uint8, 4)
+RGBA32F = TexFormat(gl.GL_RGBA32F, gl.GL_RGBA, gl.GL_FLOAT, np.float32, 4)
+RG32F = TexFormat(gl.GL_RG32F, gl.GL_RG, gl.GL_FLOAT, np.float32, 2)
+R32F = TexFormat(gl.GL_R32F, gl.GL_RED, gl.GL_FLOAT, np.float32, 1)
+RGBA32I = TexFormat(gl.GL_RGBA32I, gl.GL_RGBA_INTEGER, gl.GL_INT, np.int32, 4, integer=True)
+DEPTH24 = TexFormat(gl.GL_DEPTH_COMPONENT24, gl.GL_DEPTH_COMPONENT, gl.GL_FLOAT, np.float32, 1)
+
+
+SCRATCH_UNIT = 15
+"""Texture unit used to create, upload and read textures, so that doing so never replaces a
+texture bound for drawing on units 0–14."""
+
+
+def _bind_scratch(target: int, ident: int) -> None:
+    gl.glActiveTexture(gl.GL_TEXTURE0 + SCRATCH_UNIT)
+    gl.glBindTexture(target, ident)
+
+
+class Texture:
+    """A 2-D texture, or a 2-D array texture when ``layers`` is given.
+
+    Args:
+        size: (W, H) [texels].
+        fmt: a :class:`TexFormat`.
+        layers: None for ``GL_TEXTURE_2D``; else the layer count of a ``GL_TEXTURE_2D_ARRAY``.
+        levels: mip levels allocated (1 = none).
+        linear: LINEAR (trilinear with mips) filtering; integer formats are always NEAREST.
+        repeat: REPEAT wrapping, else CLAMP_TO_EDGE.
+    """
+
+    def __init__(self, size: tuple[int, int], fmt: TexFormat, *, layers: int | None = None,
+                 levels: int = 1, linear: bool = False, repeat: bool = False) -> None:
+        self.width, self.height = (max(1, int(v)) for v in size)
+        self.fmt, self.layers, self.levels = fmt, layers, levels
+        self.target = gl.GL_TEXTURE_2D if layers is None else gl.GL_TEXTURE_2D_ARRAY
+        ident = gl.GLuint()
+        gl.glGenTextures(1, ctypes.byref(ident))
+        self.id = ident.value
+        _bind_scratch(self.target, self.id)
+        for level in range(levels):
+            w, h = max(1, self.width >> level), max(1, self.height >> level)
+            if layers is None:
+                gl.glTexImage2D(self.target, level, fmt.internal, w, h, 0, fmt.upload,
+                                fmt.gl_type, None)
+            else:
+                gl.glTexImage3D(self.target, level, fmt.internal, w, h, layers, 0, fmt.upload,
+                                fmt.gl_type, None)
+        filt = gl.GL_LINEAR if linear and not fmt.integer else gl.GL_NEAREST
+        min_filt = (gl.GL_LINEAR_MIPMAP_LINEAR if levels > 1 else gl.GL_LINEAR) \
+            if filt == gl.GL_LINEAR else gl.GL_NEAREST
+        wrap = gl.GL_REPEAT if repeat else gl.GL_CLAMP_TO_EDGE
+        gl.glTexParameteri(self.target, gl.GL_TEXTURE_MIN_FILTER, min_filt)
+        gl.glTexParameteri(self.target, gl.GL_TEXTURE_MAG_FILTER, filt)
+        gl.glTexParameteri(self.target, gl.GL_TEXTURE_WRAP_S, wrap)
+        gl.glTexParameteri(self.target, gl.GL_TEXTURE_WRAP_T, wrap)
+        gl.glTexParameteri(self.target, gl.GL_TEXTURE_MAX_LEVEL, levels - 1)
+
+    def upload(self, data: np.ndarray, *, rows: int | None = None, level: int = 0,
+               layer: int | None = None) -> None:
+        """Write ``data`` ((H, W, C) or (H, W) for one channel) into the texture from row 0;
+        ``rows`` limits the upload to the first rows. For array textures ``layer`` picks one
+        layer, or ``data`` is (L, H, W, C) for all layers."""
+        data = np.ascontiguousarray(data, dtype=self.fmt.dtype)
+        w, h = max(1, self.width >> level), max(1, self.height >> level)
+        n = h if rows is None else min(int(rows), h)
+        if n <= 0:
+            return
+        _bind_scratch(self.target, self.id)
+        gl.glPixelStorei(gl.GL_UNPACK_ALIGNMENT, 1)
+        if self.layers is None:
+            _check_shape(data, (h, w), self.fmt.channels, n)
+            gl.glTexSubImage2D(self.target, level, 0, 0, w, n, self.fmt.upload,
+                               self.fmt.gl_type, data.ctypes.data)
+        else:
+            count = 1 if layer is not None else self.layers
+            if layer is None:
+                _check_shape(data[0], (h, w), self.fmt.channels, n)
+            else:
+                _check_shape(data, (h, w), self.fmt.channels, n)
+            gl.glTexSubImage3D(self.target, level, 0, 0, 0 if layer is None else layer, w, n,
+                               count, self.fmt.upload, self.fmt.gl_type, data.ctypes.data)
+
+    def bind(self, unit: int) -> None:
+        gl.glActiveTexture(gl.GL_TEXTURE0 + unit)
+        gl.glBindTexture(self.target, self.id)
+
+    def delete(self) -> None:
+        if self.id:
+            gl.glDeleteTextures(1, ctypes.byref(gl.GLuint(self.id)))
+            self.id = 0
+
+
+def _check_shape(data: np.ndarray, hw: tuple[int, int], channels: int, rows: int) -> None:
+    want = hw if channels == 1 else (*hw, channels)
+    got = data.shape if channels > 1 or data.ndim == 2 else data.shape[:2]
+    if got[1:] != want[1:] or got[0] < rows:
+        raise ValueError(f"texture upload of shape {data.shape} into {want}")
+
+
+def read_texture(texture: Texture, level: int = 0) -> np.ndarray:
+    """Read a 2-D texture back as (H, W, C) (or (H, W)) of its dtype, row 0 at the bottom."""
+    w, h = max(1, texture.width >> level), max(1, texture.height >> level)
+    c = texture.fmt.channels
+    out = np.empty((h, w, c) if c > 1 else (h, w), texture.fmt.dtype)
+    _bind_scratch(texture.target, texture.id)
+    gl.glPixelStorei(gl.GL_PACK_ALIGNMENT, 1)
+    gl.glGetTexImage(texture.target, level, texture.fmt.upload, texture.fmt.gl_type,
+                     out.ctypes.data)
+    return out
+
+
+# -- framebuffers ----------------------------------------------------------------------------
+
+class Framebuffer:
+    """Colour attachment(s) plus an optional depth texture (shared between framebuffers when
+    passed in)."""
+
+    def __init__(self, colour: list[Texture], depth: Texture | None = None) -> None:
+        ident = gl.GLuint()
+        gl.glGenFramebuffers(1, ctypes.byref(ident))
+        self.id = ident.value
+        self.colour, self.depth = colour, depth
+        self.width, self.height = colour[0].width, colour[0].height
+        gl.glBindFramebuffer(gl.GL_FRAMEBUFFER, self.id)
+        for i, tex in enumerate(colour):
+            gl.glFramebufferTexture2D(gl.GL_FRAMEBUFFER, gl.GL_COLOR_ATTACHMENT0 + i,
+                                      gl.GL_TEXTURE_2D, tex.id, 0)
+        if depth is not None:
+            gl.glFramebufferTexture2D(gl.GL_FRAMEBUFFER, gl.GL_DEPTH_ATTACHMENT,
+                                      gl.GL_TEXTURE_2D, depth.id, 0)
+        status = gl.glCheckFramebufferStatus(gl.GL_FRAMEBUFFER)
+        gl.glBindFramebuffer(gl.GL_FRAMEBUFFER, 0)
+        if status != gl.GL_FRAMEBUFFER_COMPLETE:
+            raise GLError(f"framebuffer incomplete: status {hex(status)}")
+
+    def bind(self) -> None:
+        gl.glBindFramebuffer(gl.GL_FRAMEBUFFER, self.id)
+        gl.glViewport(0, 0, self.width, self.height)
+
+    def read_rgba8(self, out: np.ndarray | None = None) -> np.ndarray:
+        """The first colour attachment as (H, W, 4) uint8, row 0 at the **top** (image order)."""
+        h, w = self.height, self.width
+        buf = np.empty((h, w, 4), np.uint8)
+        gl.glBindFramebuffer(gl.GL_READ_FRAMEBUFFER, self.id)
+        gl.glReadBuffer(gl.GL_COLOR_ATTACHMENT0)
+        gl.glPixelStorei(gl.GL_PACK_ALIGNMENT, 1)
+        gl.glReadPixels(0, 0, w, h, gl.GL_RGBA, gl.GL_UNSIGNED_BYTE, buf.ctypes.data)
+        gl.glBindFramebuffer(gl.GL_READ_FRAMEBUFFER, 0)
+        if out is None:
+            return buf[::-1].copy()
+        out[...] = buf[::-1]
+        return out
+
+    def delete(self) -> None:
+        if self.id:
+            gl.glDeleteFramebuffers(1, ctypes.byref(gl.GLuint(self.id)))
+            self.id = 0
+
+
+def blit_to_window(source: Framebuffer, width_px: int, height_px: int) -> None:
+    """Copy ``source``'s colour onto the window (framebuffer 0), scaled to its viewport."""
+    gl.glBindFramebuffer(gl.GL_READ_FRAMEBUFFER, source.id)
+    gl.glBindFramebuffer(gl.GL_DRAW_FRAMEBUFFER, 0)
+    gl.glBlitFramebuffer(0, 0, source.width, source.height, 0, 0, max(1, width_px),
+                         max(1, height_px), gl.GL_COLOR_BUFFER_BIT, gl.GL_LINEAR)
+    gl.glBindFramebuffer(gl.GL_FRAMEBUFFER, 0)
+
+
+def bind_default_framebuffer(width_px: int, height_px: int) -> None:
+    """Draw into the window (framebuffer 0) over a ``width`` × ``height`` viewport."""
+    gl.glBindFramebuffer(gl.GL_FRAMEBUFFER, 0)
+    gl.glViewport(0, 0, max(1, width_px), max(1, height_px))
+
+
+# -- meshes ----------------------------------------------------------------------------------
+
+class Mesh:
+    """A vertex array: float32 vertex attributes in one interleaved buffer, optional uint32
+    indices. ``attributes`` maps shader location → component count, in buffer order."""
+
+    def __init__(self, vertices: np.ndarray | None, attributes: dict[int, int],
+                 indices: np.ndarray | None = None) -> None:
+        ident = gl.GLuint()
+        gl.glGenVertexArrays(1, ctypes.byref(ident))
+        self.vao = ident.value
+        gl.glBindVertexArray(self.vao)
+        self.vbo = self.ebo = 0
+        self.vertex_count = 0
+        self.index_count = 0
+        if vertices is not None:
+            v = np.ascontiguousarray(vertices, np.float32)
+            self.vertex_count = v.shape[0]
+            self.vbo = _buffer(gl.GL_ARRAY_BUFFER, v)
+            stride = 4 * sum(attributes.values())
+            offset = 0
+            for location, count in attributes.items():
+                gl.glEnableVertexAttribArray(location)
+                gl.glVertexAttribPointer(location, count, gl.GL_FLOAT, gl.GL_FALSE, stride,
+                                         ctypes.c_void_p(offset))
+                offset += 4 * count
+        if indices is not None:
+            idx = np.ascontiguousarray(indices, np.uint32)
+            self.index_count = idx.size
+            self.ebo = _buffer(gl.GL_ELEMENT_ARRAY_BUFFER, idx)
+        gl.glBindVertexArray(0)
+
+    def draw(self, mode: int = gl.GL_TRIANGLES, count: int | None = None, first: int = 0,
+             base_vertex: int = 0) -> None:
+        """Draw ``count`` indices from index ``first`` (indexed meshes, with ``base_vertex``
+        added to every index), or ``count`` vertices from ``first`` (no indices; a mesh with
+        no vertex buffer draws attribute-less vertices for ``gl_VertexID`` shaders)."""
+        gl.glBindVertexArray(self.vao)
+        if self.ebo:
+            n = self.index_count if count is None else count
+            if n > 0:
+                gl.glDrawElementsBaseVertex(mode, n, gl.GL_UNSIGNED_INT,
+                                            ctypes.c_void_p(4 * first), base_vertex)
+        else:
+            n = self.vertex_count if count is None else count
+            if n > 0:
+                gl.glDrawArrays(mode, first, n)
+        gl.glBindVertexArray(0)
+
+    def delete(self) -> None:
+        for buf in (self.vbo, self.ebo):
+            if buf:
+                gl.glDeleteBuffers(1, ctypes.byref(gl.GLuint(buf)))
+        if self.vao:
+            gl.glDeleteVertexArrays(1, ctypes.byref(gl.GLuint(self.vao)))
+        self.vao = self.vbo = self.ebo = 0
+
+
+def _buffer(target: int, data: np.ndarray) -> int:
+    ident = gl.GLuint()
+    gl.glGenBuffers(1, ctypes.byref(ident))
+    gl.glBindBuffer(target, ident.value)
+    gl.glBufferData(target, data.nbytes, data.ctypes.data, gl.GL_STATIC_DRAW)
+    return ident.value
+
+
+# -- state -----------------------------------------------------------------------------------
+
+def clear(rgba: tuple[float, float, float, float] = (0, 0, 0, 0), depth: bool = True) -> None:
+    gl.glClearColor(*rgba)
+    gl.glClear(gl.GL_COLOR_BUFFER_BIT | (gl.GL_DEPTH_BUFFER_BIT if depth else 0))
+
+
+def set_depth(test: bool, write: bool = True) -> None:
+    (gl.glEnable if test else gl.glDisable)(gl.GL_DEPTH_TEST)
+    gl.glDepthFunc(gl.GL_LEQUAL)
+    gl.glDepthMask(gl.GL_TRUE if write else gl.GL_FALSE)
+
+
+BLEND_OFF, BLEND_ALPHA, BLEND_ADD, BLEND_WATER = range(4)
+
+
+def set_blend(kind: int) -> None:
+    """OFF; ALPHA (src·a + dst·(1−a)); ADD (src + dst); WATER (src + dst·src.a: the water
+    shader writes what it adds and how much of the bed drawn before shows through). Blending
+    never changes the target's alpha (the frame stays opaque)."""
+    if kind == BLEND_OFF:
+        gl.glDisable(gl.GL_BLEND)
+        return
+    gl.glEnable(gl.GL_BLEND)
+    gl.glBlendEquation(gl.GL_FUNC_ADD)
+    src, dst = {BLEND_ALPHA: (gl.GL_SRC_ALPHA, gl.GL_ONE_MINUS_SRC_ALPHA),
+                BLEND_ADD: (gl.GL_ONE, gl.GL_ONE),
+                BLEND_WATER: (gl.GL_ONE, gl.GL_SRC_ALPHA)}[kind]
+    gl.glBlendFuncSeparate(src, dst, gl.GL_ZERO, gl.GL_ONE)
+
+
+def set_cull(back: bool) -> None:
+    (gl.glEnable if back else gl.glDisable)(gl.GL_CULL_FACE)
+    gl.glCullFace(gl.GL_BACK)
+
+
+def enable_program_point_size() -> None:
+    gl.glEnable(gl.GL_PROGRAM_POINT_SIZE)
+
+
+def finish() -> None:
+    """Wait for the GPU (for timing)."""
+    gl.glFinish()
+
+
+POINTS, LINES, TRIANGLES = gl.GL_POINTS, gl.GL_LINES, gl.GL_TRIANGLES

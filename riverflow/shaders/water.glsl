@@ -1,0 +1,123 @@
+// The water surface: the water mesh at the water level, shaded from the wave slopes that the
+// display mode picks (sprite blending, pre-advected sums, plain texture, debug colours).
+// With POSITION_PASS defined it only writes the surface's world position (pre-advected mode).
+#include "common.glsl"
+uniform mat4 u_view_projection;
+
+#ifdef VERTEX
+layout(location = 0) in vec3 a_position;   // (x, y, water level) [m]
+out vec3 v_world;
+void main() {
+    v_world = a_position;
+    gl_Position = u_view_projection * vec4(a_position, 1.0);
+}
+#endif
+
+#ifdef FRAGMENT
+in vec3 v_world;
+out vec4 frag;
+
+#ifdef POSITION_PASS
+void main() {
+    frag = vec4(v_world, 1.0);
+}
+#else
+#include "surface.glsl"
+#include "wave.glsl"
+#include "params.glsl"
+
+uniform int u_mode;                 // DISPLAY_MODE_*
+uniform bool u_show_grid;
+uniform isampler2D u_grid;          // sprite lists: cell (cx, cy) = texels 4cx..4cx+3 of row cy
+uniform float u_grid_cell_px;
+uniform ivec2 u_grid_size;          // cells (gw, gh)
+uniform float u_sprite_radius_factor;
+uniform sampler2D u_accum;          // pre-advected sums (w·slope.x, w·slope.y, w², 1)
+uniform float u_slope_factor;
+uniform float u_clarity_m;
+
+// Blend the sprites listed in this pixel's cell: returns (A.x, A.y, B = sum w^2, covering).
+// full = the cell's list holds MAX_PER_CELL particles.
+vec4 blend_sprites(vec2 uv_dx, vec2 uv_dy, out bool full) {
+    ivec2 cell = clamp(ivec2(gl_FragCoord.xy / u_grid_cell_px), ivec2(0), u_grid_size - 1);
+    vec2 A = vec2(0.0);
+    float B = 0.0;
+    float covering = 0.0;
+    int listed = 0;
+    for (int t = 0; t < MAX_PER_CELL / 4; ++t) {
+        ivec4 ids = texelFetch(u_grid, ivec2(4 * cell.x + t, cell.y), 0);
+        for (int k = 0; k < 4; ++k) {
+            int id = ids[k];
+            if (id < 0) { t = MAX_PER_CELL; break; }
+            ++listed;
+            vec4 p0 = sprite_param(id, 0);
+            vec4 p1 = sprite_param(id, 1);
+            float s = length(gl_FragCoord.xy - p0.xy) / (p1.w * u_sprite_radius_factor);
+            if (s < 1.0) {
+                covering += 1.0;
+                if (u_mode == DISPLAY_MODE_ADVECTED) {
+                    vec2 uv = (v_world.xy - p0.zw + p1.xy) / u_wave_length_m;
+                    float w = fade5(1.0 - s) * fade5(p1.z);
+                    A += w * wave_slopes(uv, uv_dx, uv_dy);
+                    B += w * w;
+                }
+            }
+        }
+    }
+    full = listed >= MAX_PER_CELL;
+    return vec4(A, B, covering);
+}
+
+void main() {
+    vec2 uv0 = v_world.xy / u_wave_length_m;
+    vec2 uv_dx = dFdx(uv0), uv_dy = dFdy(uv0);
+    vec4 ground = surface_at(v_world.xy);
+    float depth_m = max(v_world.z - ground.r, 0.0);
+
+    if (u_mode == DISPLAY_MODE_MESH) {
+        frag = vec4(apply_fog(vec3(0.10, 0.35, 0.75), v_world), 0.0);
+        return;
+    }
+    bool full = false;
+    vec2 slopes = vec2(0.0);
+    bool found = false;
+    if (u_mode == DISPLAY_MODE_COVERAGE) {
+        vec4 b = blend_sprites(uv_dx, uv_dy, full);
+        frag = vec4(min(b.w / float(MAX_PER_CELL), 1.0), b.w == 0.0 ? 1.0 : 0.0,
+                    full ? 1.0 : 0.0, 0.0);
+        return;
+    } else if (u_mode == DISPLAY_MODE_ADVECTED) {
+        vec4 b = blend_sprites(uv_dx, uv_dy, full);
+        if (b.z > 0.0) { slopes = b.xy / sqrt(b.z); found = true; }
+    } else if (u_mode == DISPLAY_MODE_PRE_ADVECTED) {
+        vec4 a = texelFetch(u_accum, ivec2(gl_FragCoord.xy), 0);
+        if (a.z > 0.0) { slopes = a.xy / sqrt(a.z); found = true; }
+    }
+    if (!found) slopes = wave_slopes(uv0, uv_dx, uv_dy);   // non-advected, or no sprite here
+
+    // shading: Fresnel reflection of sky and sun, refraction of the bed drawn before
+    vec3 n = normalize(vec3(-slopes * u_slope_factor, 1.0));
+    vec3 v = normalize(u_eye_m - v_world);
+    float shore = smoothstep(0.0, 0.5, depth_m);            // soft shore: fade in over 0.5 m
+    float cos_v = max(dot(v, n), 0.0);
+    float fresnel = (0.02 + 0.98 * pow(1.0 - cos_v, 5.0)) * shore;
+    vec3 r = reflect(-v, n);
+    r.z = abs(r.z);
+    vec3 reflected = sky_colour(r);
+    vec3 h = normalize(v + u_sun_dir);
+    float spec = pow(max(dot(n, h), 0.0), 400.0) * 2.0 * shore;
+    float clarity = exp(-depth_m / max(u_clarity_m, 1e-3));
+    vec3 deep = vec3(0.03, 0.19, 0.22) * (0.4 + 0.6 * max(u_sun_dir.z, 0.0));
+    float fog = fog_amount(v_world);
+    vec3 added = fresnel * reflected + SUN_COLOUR * spec + (1.0 - fresnel) * (1.0 - clarity) * deep;
+    float through = (1.0 - fresnel) * clarity;             // share of the bed seen through
+    vec3 colour = (1.0 - fog) * added + fog * FOG_COLOUR * (1.0 - through);
+    if (u_show_grid) {
+        vec2 f = fract(gl_FragCoord.xy / u_grid_cell_px);
+        if (any(greaterThan(abs(f - 0.5), vec2(0.4)))) colour += vec3(0.2);
+        if (full) colour = mix(colour, vec3(0.0, 1.0, 0.0), 0.35);
+    }
+    frag = vec4(colour, through);
+}
+#endif
+#endif

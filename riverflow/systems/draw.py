@@ -1,0 +1,405 @@
+"""Draw the rivers: sky, terrain tiles, the water with its wave sprites, debug overlays.
+
+Per frame (reference §4; no one-frame latency: the tables are built from this frame's pool):
+
+1. the sprite tables from the particle pool (numba, :mod:`riverflow.kernels.sprites`): the
+   float32 parameter table and the integer indirection grid, uploaded to an RGBA32F and an
+   RGBA32I texture (only the rows in use);
+2. sky (one full-screen triangle), then the visible terrain tiles (frustum-culled, level of
+   detail by distance, skirts hide the cracks between levels);
+3. *pre-advected* mode only: the water's world position into a float target, then every
+   sprite as a quad adding (w·slope, w²) into a second float target;
+4. the water mesh at the water level, shaded per :class:`DisplayMode`, blended over the bed
+   drawn in step 2 (the shader writes what it adds and how much of the bed shows through);
+5. overlays: particles as points, velocity arrows.
+
+Everything is drawn into the world's own RGBA8 framebuffer (with a depth texture shared by
+the passes); :meth:`DrawRivers.blit_to_window` copies it to the window a host draws in.
+"""
+from __future__ import annotations
+
+import time
+from typing import TYPE_CHECKING
+
+import esper
+import numpy as np
+from scipy import ndimage
+
+from riverflow.components.display import DisplayMode, DisplaySettings
+from riverflow.components.river import SurfaceGrids
+from riverflow.components.status import FlowStatus
+from riverflow.components.waves import WaveTile
+from riverflow.engine import gl
+from riverflow.engine.system import System
+from riverflow.kernels.sprites import (MAX_PER_CELL, PARTICLES_PER_ROW, SPRITE_RADIUS_FACTOR,
+                                       TEXELS_PER_PARTICLE, build_sprite_grid,
+                                       empty_sprite_tables, fill_sprite_params,
+                                       sprite_grid_shape, slot_span)
+from riverflow.scenes.meshes import choose_levels, lod_indices, terrain_mesh, water_mesh
+
+if TYPE_CHECKING:
+    from riverflow.engine.world import RiverWorld
+
+SUN_DIRECTION = np.array([-0.45, -0.55, 0.70]) / np.linalg.norm([-0.45, -0.55, 0.70])
+"""Unit vector towards the sun (afternoon light from the south-west)."""
+LOD_TARGET_PX = 6.0
+"""Terrain tiles are drawn at full detail while a cell spans at least this many pixels."""
+DRY_LEVEL_M = -1.0e4
+"""Water level stored where no water is anywhere near (never shown)."""
+
+
+def shader_defines() -> dict[str, int]:
+    """The numbers the shaders share with Python and numba."""
+    defines = gl.enum_defines(FlowStatus, DisplayMode)
+    defines.update(MAX_PER_CELL=MAX_PER_CELL, PARTICLES_PER_ROW=PARTICLES_PER_ROW,
+                   TEXELS_PER_PARTICLE=TEXELS_PER_PARTICLE)
+    return defines
+
+
+def surface_texels(grids: SurfaceGrids) -> np.ndarray:
+    """(ny, nx, 4) float32: ground [m], water level [m] (dry nodes take the nearest wet node's
+    level, so it is smooth across the banks), wet flag, 0."""
+    ground = grids.ground_m
+    water = grids.water_m
+    wet = np.isfinite(water)
+    out = np.zeros((*ground.shape, 4), np.float32)
+    out[..., 0] = ground
+    if wet.any():
+        nearest = ndimage.distance_transform_edt(~wet, return_distances=False,
+                                                 return_indices=True)
+        out[..., 1] = water[tuple(nearest)]
+    else:
+        out[..., 1] = DRY_LEVEL_M
+    out[..., 2] = wet
+    return out
+
+
+class _Gpu:
+    """The world's GPU objects (made in the world's context on the first draw)."""
+
+    def __init__(self, world: RiverWorld) -> None:
+        defines = shader_defines()
+        self.programs = {
+            "sky": gl.Program("sky.glsl", defines),
+            "terrain": gl.Program("terrain.glsl", defines),
+            "water": gl.Program("water.glsl", defines),
+            "water_position": gl.Program("water.glsl", {**defines, "POSITION_PASS": 1}),
+            "sprites": gl.Program("sprites.glsl", defines),
+            "particles": gl.Program("particles.glsl", defines),
+            "arrows": gl.Program("arrows.glsl", defines),
+        }
+        scene = world.scene
+        terrain = scene.terrain
+        mesh = terrain_mesh(terrain)
+        self.terrain = mesh
+        n = mesh.cells_per_tile
+        lods = lod_indices(n)
+        self.lod_first = np.cumsum([0] + [idx.size for idx in lods[:-1]])
+        self.lod_count = [idx.size for idx in lods]
+        vertices = np.concatenate([mesh.positions, mesh.normals], axis=2).reshape(-1, 6)
+        self.terrain_mesh = gl.Mesh(vertices, {0: 3, 1: 3},
+                                    np.concatenate([idx.ravel() for idx in lods]))
+        water = water_mesh(scene)
+        self.water = water
+        self.water_mesh = gl.Mesh(water.positions, {0: 3}, water.indices.ravel())
+        self.empty = gl.Mesh(None, {})           # attribute-less draws (gl_VertexID)
+        grids = world.resource(SurfaceGrids)
+        texels = surface_texels(grids)
+        self.surface = gl.Texture(texels.shape[1::-1], gl.RGBA32F, linear=True)
+        self.surface.upload(texels)
+        self.surface_map = (grids.origin_x, grids.origin_y, 1.0 / grids.cell_m, 0.0)
+        self.waves: dict[int, tuple[int, gl.Texture]] = {}
+        self.size = (0, 0)
+        self.grid_shape = (1, 1, 1)
+        self.params = self.grid = None
+        self.params_cpu = self.counts_cpu = self.grid_cpu = None
+        self.targets: list = []
+        check = gl.check_errors
+        check("creating the river draw resources")
+
+    # -- sized resources --------------------------------------------------------------------
+
+    def fit(self, width: int, height: int, radius_px: float, capacity: int) -> None:
+        """(Re)make the framebuffers and sprite tables for a viewport and radius."""
+        width, height = max(1, width), max(1, height)
+        shape = sprite_grid_shape(width, height, radius_px)
+        if (width, height) != self.size:
+            for obj in self.targets:
+                obj.delete()
+            colour = gl.Texture((width, height), gl.RGBA8)
+            depth = gl.Texture((width, height), gl.DEPTH24)
+            position = gl.Texture((width, height), gl.RGBA32F)
+            accum = gl.Texture((width, height), gl.RGBA32F)
+            self.colour, self.depth, self.position, self.accum = colour, depth, position, accum
+            self.main_fb = gl.Framebuffer([colour], depth)
+            self.position_fb = gl.Framebuffer([position], depth)
+            self.accum_fb = gl.Framebuffer([accum])
+            self.targets = [self.main_fb, self.position_fb, self.accum_fb, colour, depth,
+                            position, accum]
+            self.size = (width, height)
+        if self.params_cpu is None or shape != self.grid_shape \
+                or self.params_cpu.shape[0] * PARTICLES_PER_ROW < capacity:
+            for tex in (self.params, self.grid):
+                if tex is not None:
+                    tex.delete()
+            _, gw, gh = shape
+            self.params_cpu, self.counts_cpu, self.grid_cpu = empty_sprite_tables(capacity,
+                                                                                  gw, gh)
+            rows = self.params_cpu.shape[0]
+            self.params = gl.Texture((PARTICLES_PER_ROW * TEXELS_PER_PARTICLE, rows),
+                                     gl.RGBA32F)
+            self.params.upload(self.params_cpu)
+            self.grid = gl.Texture((gw * MAX_PER_CELL // 4, gh), gl.RGBA32I)
+            self.grid.upload(self.grid_cpu.reshape(gh, -1, 4))
+            self.grid_shape = shape
+
+    def wave_texture(self, entity: int, tile: WaveTile) -> gl.Texture:
+        """The wave tile's array texture, (re)uploaded when its revision changes."""
+        known = self.waves.get(entity)
+        if known is not None and known[0] == tile.revision:
+            return known[1]
+        if known is not None:
+            known[1].delete()
+        levels = tile.levels
+        frames, size = levels[0].shape[0], levels[0].shape[1]
+        tex = gl.Texture((size, size), gl.RG32F, layers=frames, levels=len(levels),
+                         linear=True, repeat=True)
+        for k, level in enumerate(levels):
+            tex.upload(level, level=k)
+        self.waves[entity] = (tile.revision, tex)
+        return tex
+
+    def delete(self) -> None:
+        for program in self.programs.values():
+            program.delete()
+        for obj in [self.terrain_mesh, self.water_mesh, self.empty, self.surface,
+                    self.params, self.grid, *self.targets,
+                    *(tex for _, tex in self.waves.values())]:
+            if obj is not None:
+                obj.delete()
+        self.waves.clear()
+        self.targets = []
+
+
+class DrawRivers(System):
+    """Draws the world's current frame into its offscreen framebuffer (see the module doc).
+
+    ``last_tables_ms`` is the CPU time of the last frame's sprite tables (built and uploaded),
+    ``last_tiles`` the terrain tiles drawn.
+    """
+
+    name = "draw"
+    needs_gl = True
+    phase = "draw"
+
+    def __init__(self) -> None:
+        self.gpu: _Gpu | None = None
+        self.context = None
+        self.last_tables_ms = 0.0
+        self.last_tiles = 0
+        self.last_sprites = 0
+
+    def attach(self, context) -> None:
+        """Draw with this GL context (the world's)."""
+        self.context = context
+
+    def process(self, world: RiverWorld, dt_s: float) -> None:
+        if self.context is not None:
+            gl.make_current(self.context)
+        if self.gpu is None:
+            self.gpu = _Gpu(world)
+        gpu = self.gpu
+        settings: DisplaySettings = world.resource(DisplaySettings)
+        settings.validate()
+        camera = world.camera
+        width, height = camera.size_px
+        config = world.config
+        gpu.fit(width, height, config.radius_px, world.pool.capacity)
+        t0 = time.perf_counter_ns()
+        n_slots, rows = self._upload_tables(world, gpu)
+        self.last_tables_ms = (time.perf_counter_ns() - t0) * 1e-6
+
+        vp = camera.view_projection().ravel()
+        _, world_from_clip = camera.matrices_for_kernels()
+        shared = dict(u_eye_m=tuple(camera.position), u_sun_dir=tuple(SUN_DIRECTION),
+                      u_fog_density=float(settings.fog_density_per_m),
+                      u_view_projection=vp, u_viewport_px=(float(gpu.size[0]),
+                                                           float(gpu.size[1])),
+                      u_surface_map=gpu.surface_map)
+        wave_uniforms, wave_tex = self._wave(world, gpu, settings)
+
+        gpu.main_fb.bind()
+        gl.clear((0.0, 0.0, 0.0, 1.0))
+        gl.set_cull(False)
+        gl.set_blend(gl.BLEND_OFF)
+        # sky: depth test off, nothing written to depth
+        gl.set_depth(False, write=False)
+        sky = gpu.programs["sky"]
+        sky.use()
+        sky.set_if_used(**shared)
+        sky.set(u_world_from_clip=np.ascontiguousarray(world_from_clip.T, np.float32))
+        gpu.empty.draw(gl.TRIANGLES, count=3)
+        # terrain
+        gl.set_depth(True)
+        self._draw_terrain(world, gpu, shared)
+
+        mode = settings.mode
+        tables = dict(u_params=2, u_grid=3, u_sprite_radius_factor=SPRITE_RADIUS_FACTOR)
+        gpu.params.bind(2)
+        gpu.grid.bind(3)
+        wave_tex.bind(1)
+        gpu.surface.bind(0)
+        if mode == DisplayMode.PRE_ADVECTED:
+            self._pre_advect(gpu, shared, tables, wave_uniforms, n_slots)
+        if mode != DisplayMode.NONE:
+            water = gpu.programs["water"]
+            water.use()
+            water.set_if_used(**shared)
+            gpu.accum.bind(4)
+            water.set(u_surface=0, u_wave=1, u_accum=4, u_mode=int(mode),
+                      u_show_grid=bool(settings.show_grid), u_grid_cell_px=float(gpu.grid_shape[0]),
+                      u_grid_size=gpu.grid_shape[1:], u_slope_factor=settings.wave_slope_factor,
+                      u_clarity_m=settings.water_clarity_m, **tables, **wave_uniforms)
+            gl.set_blend(gl.BLEND_WATER)
+            gpu.water_mesh.draw()
+        gl.set_depth(False, write=False)
+        if settings.show_velocities and n_slots:
+            arrows = gpu.programs["arrows"]
+            arrows.use()
+            arrows.set_if_used(**shared)
+            arrows.set(u_params=2, u_arrow_s=float(settings.arrow_s))
+            gl.set_blend(gl.BLEND_ALPHA)
+            gpu.empty.draw(gl.LINES, count=6 * n_slots)
+        if settings.show_particles and n_slots:
+            points = gpu.programs["particles"]
+            points.use()
+            points.set(u_params=2, u_viewport_px=shared["u_viewport_px"])
+            gl.enable_program_point_size()
+            gl.set_blend(gl.BLEND_ADD)
+            gpu.empty.draw(gl.POINTS, count=n_slots)
+        gl.set_blend(gl.BLEND_OFF)
+        gl.set_depth(False)
+        del rows
+
+    # -- passes -----------------------------------------------------------------------------
+
+    def _upload_tables(self, world: RiverWorld, gpu: _Gpu) -> tuple[int, int]:
+        pool = world.pool
+        n_slots = int(slot_span(pool.alive))
+        rows = fill_sprite_params(pool.alive, pool.has_world, pool.screen_px, pool.world_m,
+                                  pool.offset_m, pool.intensity, pool.status,
+                                  pool.velocity_mps, float(world.config.radius_px), n_slots,
+                                  gpu.params_cpu)
+        cell_px, gw, gh = gpu.grid_shape
+        build_sprite_grid(pool.alive, pool.has_world, pool.screen_px, pool.intensity,
+                          pool.status, n_slots, SPRITE_RADIUS_FACTOR * world.config.radius_px,
+                          float(cell_px), gw, gh, gpu.counts_cpu, gpu.grid_cpu)
+        if rows:
+            gpu.params.upload(gpu.params_cpu, rows=rows)
+        gpu.grid.upload(gpu.grid_cpu.reshape(gh, gw * MAX_PER_CELL // 4, 4))
+        self.last_sprites = n_slots
+        return n_slots, rows
+
+    def _wave(self, world: RiverWorld, gpu: _Gpu, settings: DisplaySettings):
+        chosen = None
+        for entity, tile in esper.get_component(WaveTile):
+            if chosen is None or tile.kind == settings.wave:
+                chosen = (entity, tile)
+                if tile.kind == settings.wave:
+                    break
+        if chosen is None:
+            raise RuntimeError("no wave tile entity in the world")
+        entity, tile = chosen
+        tex = gpu.wave_texture(entity, tile)
+        a, b, blend = tile.frame_blend()
+        return dict(u_wave_frames=(int(a), int(b)), u_wave_blend=float(blend),
+                    u_wave_length_m=float(tile.wave_length_m)), tex
+
+    def _draw_terrain(self, world: RiverWorld, gpu: _Gpu, shared: dict) -> None:
+        camera = world.camera
+        mesh = gpu.terrain
+        visible = _boxes_in_view(mesh.bounds_m, camera.matrices_for_kernels()[0])
+        rad_per_px = np.radians(camera.fov_y_deg) / max(camera.size_px[1], 1)
+        cell_m = world.scene.terrain.cell_m
+        lod_m = cell_m / (LOD_TARGET_PX * max(rad_per_px, 1e-9))
+        levels = choose_levels(mesh.centres_m, camera.position, world.scene.terrain.tile_size_m,
+                               mesh.cells_per_tile, lod_m)
+        program = gpu.programs["terrain"]
+        program.use()
+        program.set_if_used(**shared)
+        program.set(u_surface=0)
+        gpu.surface.bind(0)
+        per_tile = mesh.vertices_per_tile
+        tiles = np.flatnonzero(visible)
+        for t in tiles:
+            level = int(levels[t])
+            gpu.terrain_mesh.draw(gl.TRIANGLES, count=gpu.lod_count[level],
+                                  first=int(gpu.lod_first[level]), base_vertex=int(t) * per_tile)
+        self.last_tiles = int(tiles.size)
+
+    def _pre_advect(self, gpu: _Gpu, shared: dict, tables: dict, wave_uniforms: dict,
+                    n_slots: int) -> None:
+        # the water's world position where it is visible (depth test against the terrain)
+        gpu.position_fb.bind()
+        gl.clear((0.0, 0.0, 0.0, 0.0), depth=False)
+        gl.set_depth(True, write=False)
+        program = gpu.programs["water_position"]
+        program.use()
+        program.set_if_used(**shared)
+        gpu.water_mesh.draw()
+        # the sprites, added up
+        gpu.accum_fb.bind()
+        gl.clear((0.0, 0.0, 0.0, 0.0), depth=False)
+        gl.set_depth(False, write=False)
+        if n_slots:
+            gpu.position.bind(5)
+            program = gpu.programs["sprites"]
+            program.use()
+            program.set_if_used(**shared)
+            program.set(u_water_position=5, u_wave=1, u_params=2,
+                        u_sprite_radius_factor=SPRITE_RADIUS_FACTOR, **wave_uniforms)
+            gl.set_blend(gl.BLEND_ADD)
+            gpu.empty.draw(gl.TRIANGLES, count=6 * n_slots)
+            gl.set_blend(gl.BLEND_OFF)
+        gpu.main_fb.bind()
+        gl.set_depth(True)
+
+    # -- output -----------------------------------------------------------------------------
+
+    def read_rgba8(self) -> np.ndarray:
+        """The last drawn frame as (H, W, 4) uint8, row 0 at the top."""
+        if self.gpu is None:
+            raise RuntimeError("nothing drawn yet")
+        if self.context is not None:
+            gl.make_current(self.context)
+        return self.gpu.main_fb.read_rgba8()
+
+    def blit_to_window(self, width_px: int, height_px: int) -> None:
+        """Copy the last drawn frame onto the current window."""
+        if self.gpu is None:
+            raise RuntimeError("nothing drawn yet")
+        gl.blit_to_window(self.gpu.main_fb, width_px, height_px)
+
+    def close(self) -> None:
+        if self.gpu is not None:
+            if self.context is not None:
+                gl.make_current(self.context)
+            self.gpu.delete()
+            self.gpu = None
+
+
+def _boxes_in_view(bounds_m: np.ndarray, clip_from_world: np.ndarray) -> np.ndarray:
+    """(T,) bool: the (T, 2, 3) boxes not wholly outside one clip plane."""
+    lo, hi = bounds_m[:, 0].astype(np.float64), bounds_m[:, 1].astype(np.float64)
+    corners = np.empty((len(lo), 8, 4))
+    for k in range(8):
+        corners[:, k, 0] = np.where(k & 1, hi[:, 0], lo[:, 0])
+        corners[:, k, 1] = np.where(k & 2, hi[:, 1], lo[:, 1])
+        corners[:, k, 2] = np.where(k & 4, hi[:, 2], lo[:, 2])
+    corners[:, :, 3] = 1.0
+    clip = corners @ clip_from_world.T
+    w = clip[..., 3]
+    outside = np.zeros(len(lo), bool)
+    for axis in range(3):
+        outside |= np.all(clip[..., axis] > w, axis=1) | np.all(clip[..., axis] < -w, axis=1)
+    return ~outside
