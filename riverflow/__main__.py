@@ -18,10 +18,9 @@ DISPLAY_MODES = ("none", "mesh", "coverage", "advected", "pre-advected", "non-ad
 """Display / debug modes of the river drawing (SPEC §4 "Drawing"; Proland MeshDisplayType,
 reference §4.6): ground only, mesh only, particle coverage, per-pixel sprite blending,
 pre-advected texture, non-advected texture, sprite-grid cells, particles coloured by status,
-velocity arrows."""
+velocity arrows. The same names as ``riverflow.components.display.MODE_NAMES`` (tested), kept
+here so that ``--help`` needs no numba import."""
 
-NOT_IMPLEMENTED = {"render": 4}
-"""Subcommands specified in SPEC §7 whose engine does not exist yet → their tracking issue."""
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -81,9 +80,11 @@ def _parser() -> argparse.ArgumentParser:
     p.set_defaults(run=_demo)
 
     p = sub.add_parser(
-        "render", help="render frames offscreen to a PNG (not implemented yet, issue #3)",
-        description="Render a scripted run offscreen and save the last frame. Not implemented "
-                    "yet (issue #3): exits with status 2.")
+        "render", help="render a scripted run offscreen and save its last frame as a PNG",
+        description="Fly the scripted chase camera down the scene's main river for N frames "
+                    "at 1/60 s (particles, flow tiles, wave sprites), draw the last frame with "
+                    "offscreen OpenGL (EGL when there is no display) in the given display mode "
+                    "and save it as a PNG. A graph file is put on a flat landscape.")
     _scene_args(p)
     p.add_argument("--size", type=_size, required=True, metavar="WxH",
                    help="frame size in pixels, e.g. 1280x720")
@@ -93,7 +94,10 @@ def _parser() -> argparse.ArgumentParser:
                    help="display mode: one of %(choices)s")
     p.add_argument("--out", type=Path, required=True, metavar="FILE.png",
                    help="the frame to write")
-    p.set_defaults(run=_not_implemented)
+    p.add_argument("--radius-px", type=_positive, default=None, metavar="R",
+                   help="Poisson-disk radius of the particles in pixels (default: "
+                        "RiverConfig's, 10)")
+    p.set_defaults(run=_render)
 
     p = sub.add_parser(
         "profile", help="time every system of a scripted camera flight (no drawing)",
@@ -185,10 +189,52 @@ def _profile(args: argparse.Namespace) -> int:
     return 0
 
 
-def _not_implemented(args: argparse.Namespace) -> int:
-    print(f"riverflow {args.command}: not implemented yet (issue #{NOT_IMPLEMENTED[args.command]})"
-          "; nothing was written.", file=sys.stderr)
-    return 2
+def _render(args: argparse.Namespace) -> int:
+    scene, title = _load_scene(args)
+    if scene is None:
+        return 1
+    import dataclasses
+
+    from riverflow.components.display import settings_for
+    from riverflow.engine.config import RiverConfig
+    from riverflow.engine.world import RiverWorld
+    from riverflow.scenes.flight import fly
+
+    if not hasattr(scene, "terrain"):
+        from riverflow.scenes.flat import flat_scene
+
+        scene = flat_scene(scene)
+    config = RiverConfig.from_env()
+    if args.radius_px is not None:
+        config = dataclasses.replace(config, radius_px=args.radius_px)
+    try:
+        world = RiverWorld(scene, size=args.size, gl=True, seed=args.seed, config=config)
+    except Exception as exc:  # no OpenGL context: say what would help
+        print(f"riverflow render: cannot draw: {exc}", file=sys.stderr)
+        return 1
+    with world:
+        for name, value in dataclasses.asdict(settings_for(args.mode)).items():
+            setattr(world.display, name, value)
+        fly(world, args.frames)
+        frame = world.render()
+    try:
+        path = save_png(frame, args.out)
+    except OSError as exc:
+        print(f"riverflow render: cannot write {args.out}: {exc}", file=sys.stderr)
+        return 1
+    print(f"wrote {path.resolve()} ({title}, {args.size[0]}x{args.size[1]}, mode {args.mode}, "
+          f"{args.frames} frames, {len(world.particles)} particles)")
+    return 0
+
+
+def save_png(frame, path: Path) -> Path:
+    """Write an (H, W, 4) uint8 frame as a PNG (Pillow), making its folder."""
+    from PIL import Image
+
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    Image.fromarray(frame, "RGBA").save(path)
+    return path
 
 
 def _draw(args: argparse.Namespace, out: Path, *, size_px: int, slip: float = 1.0,

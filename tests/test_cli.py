@@ -1,6 +1,6 @@
 """The command line (SPEC §7) and the import rules it relies on: help without a display or
-pyglet, a real flow picture, honest "not implemented yet" stubs, and kernels that import
-neither pyglet nor esper."""
+pyglet, a real flow picture, an offscreen render, and kernels that import neither pyglet nor
+esper."""
 from __future__ import annotations
 
 import os
@@ -110,12 +110,27 @@ def test_demo_draws_the_flow_and_says_where(tiny_channel_path, tmp_path):
     assert f"wrote {out.resolve()}" in result.stdout
 
 
-def test_render_is_not_there_yet_and_writes_nothing(tmp_path):
-    result = run_cli("render", *RENDER_ARGS, "--out", str(tmp_path / "frame.png"), cwd=tmp_path)
-    assert result.returncode == 2
-    assert "not implemented yet (issue #4)" in result.stderr
-    assert result.stdout == ""
-    assert list(tmp_path.iterdir()) == []
+@pytest.mark.gl
+def test_render_writes_the_frame_of_a_graph_file(tiny_channel_path, tmp_path):
+    out = tmp_path / "frames" / "frame.png"
+    result = run_cli("render", "--scene", str(tiny_channel_path), *RENDER_ARGS,
+                     "--radius-px", "4", "--out", str(out), cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert f"wrote {out.resolve()}" in result.stdout
+    from PIL import Image
+
+    with Image.open(out) as image:
+        assert image.size == (64, 48) and image.mode == "RGBA"
+        pixels = np.asarray(image)
+    assert (pixels[..., 3] == 255).all()      # an opaque frame
+    assert pixels[..., :3].std() > 1.0        # not one flat colour
+
+
+def test_display_mode_names_match_the_draw_settings():
+    from riverflow.__main__ import DISPLAY_MODES
+    from riverflow.components.display import MODE_NAMES
+
+    assert DISPLAY_MODES == tuple(MODE_NAMES)
 
 
 def test_profile_prints_per_system_timings_as_json(tiny_channel_path, tmp_path):
