@@ -152,3 +152,53 @@ def test_only_advected_water_depends_on_the_particles(world):
     # with no sprite the advected mode falls back to the same plain texture
     assert not np.array_equal(before["advected"], after["advected"])
     assert np.array_equal(after["advected"], after["non-advected"])
+
+
+def _image_shift(before: np.ndarray, after: np.ndarray) -> tuple[np.ndarray, float]:
+    """(dx, dy) [px, x right, y up] by which ``after`` is ``before`` moved (phase
+    correlation of the grey levels), and the correlation peak."""
+    a = before[..., :3].mean(axis=2)
+    b = after[..., :3].mean(axis=2)
+    spectrum = np.fft.fft2(b - b.mean()) * np.conj(np.fft.fft2(a - a.mean()))
+    corr = np.fft.ifft2(spectrum / (np.abs(spectrum) + 1e-9)).real
+    row, col = np.unravel_index(np.argmax(corr), corr.shape)
+    row = row if row < corr.shape[0] // 2 else row - corr.shape[0]
+    col = col if col < corr.shape[1] // 2 else col - corr.shape[1]
+    return np.array([col, -row], float), float(corr.max())
+
+
+def test_advected_waves_move_with_the_flow(gl_context):
+    """Seen from straight above, the wave pattern of the advected mode moves by the flow
+    velocity × time; the non-advected pattern stands still."""
+    from riverflow.components.waves import WaveKind
+    from riverflow.engine.world import RiverWorld
+    from riverflow.scenes.flight import flight_pose, main_centerline
+
+    scene = default_scene(seed=0)
+    world = RiverWorld(scene, size=(240, 136), gl=True, seed=0,
+                       config=RiverConfig(radius_px=4.0, tile_production="blocking"))
+    try:
+        world.display.wave = WaveKind.PERLIN          # a still texture: only advection moves it
+        _, target = flight_pose(scene, 600, line=main_centerline(scene))
+        height = 30.0
+        world.camera.look_at(target + (0.0, 0.0, height), target + (0.0, 1e-3, 0.0))
+        for _ in range(240):
+            world.step(1 / 60)
+        _, velocity = world.field.query(target[None, :2])
+        px_per_m = 136 / (2 * height * np.tan(np.radians(world.camera.fov_y_deg / 2)))
+        want = velocity[0] * 1.0 * px_per_m             # one second
+        assert np.linalg.norm(want) > 3.0
+        crop = (slice(38, 98), slice(80, 160))
+        shifts = {}
+        for mode in (DisplayMode.ADVECTED, DisplayMode.NON_ADVECTED):
+            world.display.mode = mode
+            before = world.render()[crop]
+            for _ in range(60):
+                world.step(1 / 60)
+            shifts[mode] = _image_shift(before, world.render()[crop])
+        moved, peak = shifts[DisplayMode.ADVECTED]
+        assert np.linalg.norm(moved - want) <= 1.5, (moved, want, peak)
+        still, _ = shifts[DisplayMode.NON_ADVECTED]
+        assert np.abs(still).max() == 0
+    finally:
+        world.close()
