@@ -173,6 +173,23 @@ class RiverWorld:
                 timings[system.name] = (time.perf_counter_ns() - t0) * 1e-6
         clock.frame += 1
 
+    def add_prop(self, shape: str, size_m: tuple[float, float, float],
+                 position_m=(0.0, 0.0, 0.0), yaw_rad: float = 0.0) -> int:
+        """Add a prop (``"boat"`` or ``"barrel"``, (length, width, height) [m]) drawn with the
+        river; returns its entity. Move it with :meth:`pose`."""
+        from riverflow.components.props import Pose, Prop
+
+        with self.active():
+            return esper.create_entity(Prop(shape, tuple(float(v) for v in size_m)),
+                                       Pose(np.array(position_m, np.float64), float(yaw_rad)))
+
+    def pose(self, entity: int):
+        """The :class:`~riverflow.components.props.Pose` of a prop entity (mutable)."""
+        from riverflow.components.props import Pose
+
+        with self.active():
+            return esper.component_for_entity(entity, Pose)
+
     @property
     def display(self) -> DisplaySettings:
         """What is drawn: mode, overlays, shading knobs (mutable)."""

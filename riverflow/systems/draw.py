@@ -6,7 +6,9 @@ Per frame (reference §4; no one-frame latency: the tables are built from this f
    float32 parameter table and the integer indirection grid, uploaded to an RGBA32F and an
    RGBA32I texture (only the rows in use);
 2. sky (one full-screen triangle), then the visible terrain tiles (frustum-culled, level of
-   detail by distance, skirts hide the cracks between levels);
+   detail by distance, skirts hide the cracks between levels), then the props (boats,
+   barrels: :mod:`riverflow.components.props`), so that the water is drawn over their
+   submerged part;
 3. *pre-advected* mode only: the water's world position into a float target, then every
    sprite as a quad adding (w·slope, w²) into a second float target;
 4. the water mesh at the water level, shaded per :class:`DisplayMode`, blended over the bed
@@ -26,6 +28,7 @@ import numpy as np
 from scipy import ndimage
 
 from riverflow.components.display import DisplayMode, DisplaySettings
+from riverflow.components.props import Pose, Prop
 from riverflow.components.river import SurfaceGrids
 from riverflow.components.status import FlowStatus
 from riverflow.components.waves import WaveTile
@@ -36,6 +39,7 @@ from riverflow.kernels.sprites import (MAX_PER_CELL, PARTICLES_PER_ROW, SPRITE_R
                                        empty_sprite_tables, fill_sprite_params,
                                        sprite_grid_shape, slot_span)
 from riverflow.scenes.meshes import choose_levels, lod_indices, terrain_mesh, water_mesh
+from riverflow.scenes.props import SHAPES
 
 if TYPE_CHECKING:
     from riverflow.engine.world import RiverWorld
@@ -87,7 +91,9 @@ class _Gpu:
             "sprites": gl.Program("sprites.glsl", defines),
             "particles": gl.Program("particles.glsl", defines),
             "arrows": gl.Program("arrows.glsl", defines),
+            "props": gl.Program("props.glsl", defines),
         }
+        self.prop_meshes: dict[tuple, gl.Mesh] = {}
         scene = world.scene
         terrain = scene.terrain
         mesh = terrain_mesh(terrain)
@@ -169,9 +175,29 @@ class _Gpu:
         self.waves[entity] = (tile.revision, tex)
         return tex
 
+    def prop_mesh(self, prop: Prop) -> gl.Mesh:
+        """The mesh of a prop's shape and size (made once per shape and size)."""
+        key = (prop.shape, tuple(float(v) for v in prop.size_m))
+        mesh = self.prop_meshes.get(key)
+        if mesh is None:
+            try:
+                build = SHAPES[prop.shape]
+            except KeyError:
+                raise ValueError(f"unknown prop shape {prop.shape!r}; one of "
+                                 f"{', '.join(SHAPES)}") from None
+            length, width, height = key[1]
+            rows = build(length, width, height) if prop.shape == "boat" else \
+                build(0.5 * width, length)
+            mesh = gl.Mesh(rows, {0: 3, 1: 3, 2: 3})
+            self.prop_meshes[key] = mesh
+        return mesh
+
     def delete(self) -> None:
         for program in self.programs.values():
             program.delete()
+        for mesh in self.prop_meshes.values():
+            mesh.delete()
+        self.prop_meshes.clear()
         for obj in [self.terrain_mesh, self.water_mesh, self.empty, self.surface,
                     self.params, self.grid, *self.targets,
                     *(tex for _, tex in self.waves.values())]:
@@ -242,6 +268,7 @@ class DrawRivers(System):
         # terrain
         gl.set_depth(True)
         self._draw_terrain(world, gpu, shared)
+        self._draw_props(gpu, shared)
 
         mode = settings.mode
         tables = dict(u_params=2, u_grid=3, u_sprite_radius_factor=SPRITE_RADIUS_FACTOR)
@@ -336,6 +363,22 @@ class DrawRivers(System):
             gpu.terrain_mesh.draw(gl.TRIANGLES, count=gpu.lod_count[level],
                                   first=int(gpu.lod_first[level]), base_vertex=int(t) * per_tile)
         self.last_tiles = int(tiles.size)
+
+    def _draw_props(self, gpu: _Gpu, shared: dict) -> None:
+        props = esper.get_components(Prop, Pose)
+        if not props:
+            return
+        program = gpu.programs["props"]
+        program.use()
+        program.set_if_used(**shared)
+        gl.set_cull(True)
+        for _, (prop, pose) in props:
+            model = pose.matrix()
+            if not np.isfinite(model).all():
+                continue                    # a bad pose is not drawn, never crashes a frame
+            program.set(u_model=np.ascontiguousarray(model.T, np.float32))
+            gpu.prop_mesh(prop).draw()
+        gl.set_cull(False)
 
     def _pre_advect(self, gpu: _Gpu, shared: dict, tables: dict, wave_uniforms: dict,
                     n_slots: int) -> None:
