@@ -1,0 +1,94 @@
+"""Keyboard input as data: which keys are held, which were pressed this frame, and scripts of
+key presses per frame that drive the demo without a window (tests, headless runs).
+
+Keys are named as pyglet names them (``pyglet.window.key.symbol_string``: ``"W"``, ``"UP"``,
+``"SPACE"``, ``"_1"``, ``"F2"``…), so a window and a script speak the same language.
+
+Script text, one event per line (``#`` starts a comment)::
+
+    0    W      down     # hold W from frame 0
+    240  W      up
+    300  _3     tap      # press and release 3 at frame 300
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+KINDS = ("down", "up", "tap")
+
+
+@dataclass
+class InputState:
+    """Keys held now, and keys pressed since the last :meth:`end_frame`."""
+
+    held: set[str] = field(default_factory=set)
+    pressed: list[str] = field(default_factory=list)
+
+    def key_down(self, name: str) -> None:
+        if name not in self.held:
+            self.pressed.append(name)
+        self.held.add(name)
+
+    def key_up(self, name: str) -> None:
+        self.held.discard(name)
+
+    def any_held(self, *names: str) -> bool:
+        return any(n in self.held for n in names)
+
+    def end_frame(self) -> None:
+        self.pressed.clear()
+
+
+@dataclass(frozen=True)
+class KeyEvent:
+    frame: int
+    key: str
+    kind: str  # "down", "up" or "tap"
+
+
+class KeyScript:
+    """Key events by frame, fed to an :class:`InputState` frame by frame."""
+
+    def __init__(self, events: list[KeyEvent] | list[tuple[int, str, str]] = ()) -> None:
+        parsed = []
+        for event in events:
+            e = event if isinstance(event, KeyEvent) else KeyEvent(int(event[0]), str(event[1]),
+                                                                   str(event[2]))
+            if e.kind not in KINDS:
+                raise ValueError(f"key event {e}: kind must be one of {', '.join(KINDS)}")
+            if e.frame < 0:
+                raise ValueError(f"key event {e}: frame must be ≥ 0")
+            parsed.append(e)
+        self.events = sorted(parsed, key=lambda e: e.frame)
+        self._releases: dict[int, list[str]] = {}
+
+    @classmethod
+    def from_text(cls, text: str, source: str = "<script>") -> KeyScript:
+        """Parse the module's script format; errors name the source and the line."""
+        events = []
+        for number, line in enumerate(text.splitlines(), start=1):
+            words = line.split("#", 1)[0].split()
+            if not words:
+                continue
+            if len(words) != 3 or not words[0].isdigit() or words[2] not in KINDS:
+                raise ValueError(f"{source}:{number}: expected 'FRAME KEY down|up|tap', "
+                                 f"got {line.strip()!r}")
+            events.append(KeyEvent(int(words[0]), words[1].upper(), words[2]))
+        return cls(events)
+
+    @property
+    def last_frame(self) -> int:
+        return self.events[-1].frame if self.events else 0
+
+    def feed(self, frame: int, state: InputState) -> None:
+        """Apply the events of ``frame`` (taps are released on the next frame)."""
+        for key in self._releases.pop(frame, []):
+            state.key_up(key)
+        for e in self.events:
+            if e.frame == frame:
+                if e.kind == "up":
+                    state.key_up(e.key)
+                else:
+                    state.key_down(e.key)
+                    if e.kind == "tap":
+                        self._releases.setdefault(frame + 1, []).append(e.key)
