@@ -52,6 +52,7 @@ vec4 blend_sprites(vec2 uv_dx, vec2 uv_dy, out bool full) {
             ++listed;
             vec4 p0 = sprite_param(id, 0);
             vec4 p1 = sprite_param(id, 1);
+            if (p1.z <= 0.0) continue;     // a slot written free (non-finite world position)
             float s = length(gl_FragCoord.xy - p0.xy) / (p1.w * u_sprite_radius_factor);
             if (s < 1.0) {
                 covering += 1.0;
