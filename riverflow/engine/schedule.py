@@ -1,6 +1,7 @@
 """The one ordered list of river systems (SPEC §3). Changing the order is a reviewed diff here.
 
-1. input / boat (the host game's, or the demo's: issue #5)   2. camera
+1. boats (``MoveBoats``: the boats' physics, and their hulls as obstacles in the flow; a host
+   game's input comes before ``world.step``)   2. camera
 3. flow-tile production   4. advection   5. screen projection   6. life cycle
 7. Poisson-disk maintenance, then placement of the new particles   8. wave-tile animation
 9. drawing (``gl=True`` worlds only; it is the one "draw"-phase system: ``world.step`` runs
@@ -11,6 +12,7 @@ from __future__ import annotations
 
 from riverflow.engine.system import System
 from riverflow.systems.advection import AdvectParticles
+from riverflow.systems.boat import MoveBoats
 from riverflow.systems.camera import UpdateCamera
 from riverflow.systems.flow_tiles import ProduceFlowTiles
 from riverflow.systems.lifecycle import AgeParticles
@@ -20,6 +22,7 @@ from riverflow.systems.screen import ProjectParticles
 from riverflow.systems.waves import AnimateWaveTiles
 
 SYSTEM_ORDER = (
+    "boat",
     "camera",
     "flow_tiles",
     "advection",
@@ -36,8 +39,9 @@ SYSTEM_ORDER = (
 def default_systems(gl: bool = True) -> list[System]:
     """A fresh instance of every default system, in frame order; ``gl=False`` leaves out the
     draw system (and never imports OpenGL)."""
-    systems = [UpdateCamera(), ProduceFlowTiles(), AdvectParticles(), ProjectParticles(),
-               AgeParticles(), MaintainPoissonDisk(), PlaceNewParticles(), AnimateWaveTiles()]
+    systems = [MoveBoats(), UpdateCamera(), ProduceFlowTiles(), AdvectParticles(),
+               ProjectParticles(), AgeParticles(), MaintainPoissonDisk(), PlaceNewParticles(),
+               AnimateWaveTiles()]
     if gl:
         from riverflow.systems.draw import DrawRivers  # imports pyglet's GL: only when drawing
 

@@ -190,6 +190,31 @@ class RiverWorld:
         with self.active():
             return esper.component_for_entity(entity, Pose)
 
+    def add_boat(self, position_m, heading_rad: float = 0.0, *, drawn: bool = True,
+                 **params) -> int:
+        """Add a boat on the water at ``position_m`` (2,) [m], bow towards ``heading_rad``;
+        ``params`` set fields of :class:`~riverflow.components.boat.Boat` (length_m, beam_m,
+        throttle, max_thrust_mps2…). The "boat" system (first in the frame) moves it with the
+        flow and its controls, keeps it in the water and bends the flow around it. ``drawn``
+        also gives it a "boat" prop whose pose follows it. Returns its entity.
+
+        Raises:
+            ValueError: an unknown or bad parameter, or the hull does not fit in the water.
+        """
+        from riverflow.systems.boat import boat_components
+
+        components = boat_components(self.scene, position_m, heading_rad, drawn=drawn, **params)
+        with self.active():
+            return esper.create_entity(*components)
+
+    def boat(self, entity: int):
+        """The :class:`~riverflow.components.boat.Boat` of a boat entity (mutable: write its
+        ``throttle`` and ``rudder``, read its position, heading, altitude, pitch, roll)."""
+        from riverflow.components.boat import Boat
+
+        with self.active():
+            return esper.component_for_entity(entity, Boat)
+
     @property
     def display(self) -> DisplaySettings:
         """What is drawn: mode, overlays, shading knobs (mutable)."""

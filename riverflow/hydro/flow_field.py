@@ -6,16 +6,21 @@ its curl. ψ is cached on lattices of flow tiles that form a quadtree over the d
 demand and kept in a bounded cache; the velocity is the curl of a C¹ bicubic interpolant of
 the lattice, so it is continuous within and across tiles and divergence-free.
 
+Moving obstacles (boats) are set each frame with :meth:`FlowField.set_obstacles`; every
+query then sees the flow go around them (:mod:`riverflow.kernels.obstacles`).
+
 Example::
 
     field = FlowField(graph, slip=1.0, search_radius_factor=5.0)
     status, velocity = field.query(xy)      # (N,) uint8 FlowStatus, (N, 2) float32 [m/s]
     psi = field.potential(xy)               # (N,) float64 [m²/s], NaN outside the water
+    field.set_obstacles([Obstacle((x, y), heading_rad=0.3, psi=field.potential([(x, y)])[0])])
 """
 from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Iterator
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -24,11 +29,41 @@ from riverflow.components.status import FlowStatus
 from riverflow.hydro.flow_network import FlowNetwork, build_flow_network
 from riverflow.hydro.graph import GraphError, HydroGraph
 from riverflow.kernels import flow as kf
+from riverflow.kernels import obstacles as ko
 
 MAX_LEVEL = 10
 """Deepest quadtree level (1024 × 1024 tiles)."""
 
 _NO_LEVELS = np.zeros(0, np.int8)
+_NO_OBSTACLES = np.zeros((0, ko.OBSTACLE_FIELDS))
+
+
+@dataclass(eq=False)
+class Obstacle:
+    """A moving hull in the flow: a capsule ``length_m`` long (tip to tip) and ``beam_m``
+    wide, centred at ``centre_m`` (2,) [m] along ``heading_rad`` (counter-clockwise from +x).
+
+    ``psi`` [m²/s] is the hull's stream-function value, normally the unobstructed ψ at its
+    centre (``field.potential(centre, exclude_obstacles=True)``); ``velocity_mps`` (2,) and
+    ``yaw_rate_rps`` its rigid motion (the water next to it moves with it); ``reach_m`` how far
+    from the hull the flow is bent (default 1.5 beams). See :mod:`riverflow.kernels.obstacles`.
+    """
+
+    centre_m: tuple[float, float]
+    heading_rad: float = 0.0
+    length_m: float = 8.0
+    beam_m: float = 3.0
+    psi: float = 0.0
+    velocity_mps: tuple[float, float] = (0.0, 0.0)
+    yaw_rate_rps: float = 0.0
+    reach_m: float | None = None
+
+    def row(self) -> np.ndarray:
+        """The obstacle as one (OBSTACLE_FIELDS,) float64 row (columns ``obstacles.OB_*``)."""
+        reach = self.reach_m if self.reach_m is not None else ko.DEFAULT_REACH_BEAMS * self.beam_m
+        return np.array([self.centre_m[0], self.centre_m[1], self.heading_rad, self.length_m,
+                         self.beam_m, self.psi, self.velocity_mps[0], self.velocity_mps[1],
+                         self.yaw_rate_rps, reach], np.float64)
 
 
 class FlowField:
@@ -98,6 +133,9 @@ class FlowField:
         t = self.tiles
         kf.mark_dry_tiles(t.slots_flat, t.level_offset, self.max_level, t.root_x_m, t.root_y_m,
                           t.root_size_m, self.river_boxes)
+        self._obstacle_sets: dict[str, np.ndarray] = {}
+        self.obstacles: np.ndarray = _NO_OBSTACLES
+        """(K, OBSTACLE_FIELDS) float64: every obstacle, set by set_obstacles (read-only)."""
 
     @classmethod
     def for_scene(cls, scene, slip: float = 1.0, search_radius_factor: float = 5.0,
@@ -109,16 +147,20 @@ class FlowField:
 
     # -- public queries ---------------------------------------------------------------------
 
-    def query(self, xy: np.ndarray, *, level: int | None = None) -> tuple[np.ndarray, np.ndarray]:
-        """Flow status and velocity at points.
+    def query(self, xy: np.ndarray, *, level: int | None = None,
+              exclude_obstacles: Iterable[int] | bool = ()) -> tuple[np.ndarray, np.ndarray]:
+        """Flow status and velocity at points, around the obstacles.
 
         Args:
             xy: (N, 2) positions [m].
             level: quadtree level of the tiles to use (default: the finest).
+            exclude_obstacles: rows of :attr:`obstacles` to leave out (a boat reading the flow
+                under itself), or True for the flow without any obstacle.
 
         Returns:
             status (N,) uint8 :class:`FlowStatus` (INSIDE, OUTSIDE or OUTSIDE_DOMAIN) and
-            velocity (N, 2) float32 [m/s], zero unless INSIDE, never NaN.
+            velocity (N, 2) float32 [m/s], zero unless INSIDE, never NaN. Inside an
+            obstacle's hull the water moves with the hull.
         """
         pts = self._points(xy)
         lv = self._level(level)
@@ -136,10 +178,16 @@ class FlowField:
                 kf.query_velocity(pts[idx], *args, s_out, v_out)
                 status[idx] = s_out
                 velocity[idx] = v_out
+        if len(self.obstacles) and exclude_obstacles is not True:
+            self.apply_obstacles(pts, status, velocity, level=lv, fallback=0,
+                                 exclude=exclude_obstacles)
         return status, velocity
 
-    def potential(self, xy: np.ndarray, *, level: int | None = None) -> np.ndarray:
-        """Interpolated stream function ψ [m²/s] at points (N, 2) [m]; NaN outside the water."""
+    def potential(self, xy: np.ndarray, *, level: int | None = None,
+                  exclude_obstacles: Iterable[int] | bool = ()) -> np.ndarray:
+        """Interpolated stream function ψ [m²/s] at points (N, 2) [m]; NaN outside the water.
+        With obstacles it is the modulated ψ' whose curl :meth:`query` returns
+        (``exclude_obstacles`` as there)."""
         pts = self._points(xy)
         lv = self._level(level)
         psi = np.empty(len(pts))
@@ -155,7 +203,96 @@ class FlowField:
                 out = np.empty(len(idx))
                 kf.sample_potential(pts[idx], *args, out)
                 psi[idx] = out
+        obstacles = self._obstacles_without(exclude_obstacles)
+        if len(obstacles):
+            status = np.where(np.isfinite(psi), kf.STATUS_INSIDE, kf.STATUS_OUTSIDE)
+            status = status.astype(np.uint8)
+            index = np.empty(len(pts), np.int64)
+            n = ko.select_obstacle_points(pts, status, obstacles, index)
+            if n:
+                sub = psi[index[:n]]
+                ko.apply_obstacles(pts, index, n, sub, obstacles, status,
+                                   np.zeros((len(pts), 2), np.float32))
+                psi[index[:n]] = sub
         return psi
+
+    # -- obstacles -----------------------------------------------------------------------------
+
+    def set_obstacles(self, obstacles: Iterable[Obstacle] | np.ndarray, *,
+                      key: str = "default") -> None:
+        """Replace the obstacles of set ``key`` (each owner keeps its own set: the boat system
+        uses "boats") with :class:`Obstacle` objects or a (K, OBSTACLE_FIELDS) float64 array
+        (columns ``kernels.obstacles.OB_*``). Call it whenever they move (every frame)."""
+        if isinstance(obstacles, np.ndarray):
+            rows = np.array(obstacles, np.float64, ndmin=2)
+            if rows.size == 0:
+                rows = _NO_OBSTACLES
+        else:
+            items = [o.row() for o in obstacles]
+            rows = np.stack(items) if items else _NO_OBSTACLES
+        if rows.ndim != 2 or rows.shape[1] != ko.OBSTACLE_FIELDS:
+            raise ValueError(f"obstacles must be (K, {ko.OBSTACLE_FIELDS}), got {rows.shape}")
+        if len(rows):
+            finite = np.isfinite(rows)
+            finite[:, ko.OB_PSI] = True                     # NaN ψ_o: a disabled obstacle
+            positive = rows[:, [ko.OB_LENGTH, ko.OB_BEAM, ko.OB_REACH]].min() > 0.0
+            if not (finite.all() and positive):
+                raise ValueError("obstacles need finite positions, headings and motions, and "
+                                 "positive length, beam and reach")
+        if len(rows):
+            self._obstacle_sets[key] = np.ascontiguousarray(rows)
+        else:
+            self._obstacle_sets.pop(key, None)
+        sets = list(self._obstacle_sets.values())
+        self.obstacles = np.concatenate(sets) if sets else _NO_OBSTACLES
+
+    def obstacle_rows(self, key: str = "default") -> range:
+        """The rows of :attr:`obstacles` that set ``key`` occupies (empty if none)."""
+        start = 0
+        for name, rows in self._obstacle_sets.items():
+            if name == key:
+                return range(start, start + len(rows))
+            start += len(rows)
+        return range(start, start)
+
+    def apply_obstacles(self, xy: np.ndarray, status: np.ndarray, velocity: np.ndarray, *,
+                        level: int, fallback: int = 0, levels: np.ndarray = _NO_LEVELS,
+                        exclude: Iterable[int] | bool = ()) -> int:
+        """Bend velocities already queried from the cached tiles around the obstacles, in place.
+
+        ``xy`` (N, 2) float64 [m], ``status`` (N,) uint8 and ``velocity`` (N, 2) float32 as
+        :func:`riverflow.kernels.flow.query_velocity` wrote them with the same ``levels``,
+        ``level`` and ``fallback`` (so ψ comes from the same tiles). Returns the number of
+        points changed; costs nothing when there are no obstacles.
+        """
+        obstacles = self._obstacles_without(exclude)
+        if not len(obstacles):
+            return 0
+        index = np.empty(len(xy), np.int64)
+        n = ko.select_obstacle_points(xy, status, obstacles, index)
+        if not n:
+            return 0
+        idx = index[:n]
+        pts = np.ascontiguousarray(xy[idx])
+        psi = np.empty(n)
+        t = self.tiles
+        kf.sample_potential(pts, levels[idx] if len(levels) else levels, level, fallback,
+                            t.root_x_m, t.root_y_m, t.root_size_m, t.n_cells, t.slots_flat,
+                            t.level_offset, t.psi, t.cell_status, t.cell_segments, t.last_used,
+                            t.tick, *self.network.geometry_args(), psi)
+        return int(ko.apply_obstacles(xy, index, n, psi, obstacles, status, velocity))
+
+    def _obstacles_without(self, exclude: Iterable[int] | bool) -> np.ndarray:
+        if exclude is True or not len(self.obstacles):
+            return _NO_OBSTACLES
+        if exclude is False:
+            return self.obstacles
+        drop = {int(i) for i in exclude}
+        if not drop:
+            return self.obstacles
+        if drop >= set(range(len(self.obstacles))):
+            return _NO_OBSTACLES
+        return np.delete(self.obstacles, sorted(drop), axis=0)
 
     def exact_potential(self, xy: np.ndarray) -> np.ndarray:
         """ψ [m²/s] evaluated from the banks at each point, no lattice (slow; for tests/tools)."""

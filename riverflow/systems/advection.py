@@ -50,8 +50,8 @@ class AdvectParticles(System):
 def ask_flow(field: FlowField, pool: ParticlePool, grid: ScreenGrid, n: int,
              reach_px: float) -> int:
     """Query the flow for particles ``grid.query_index[:n]`` at ``grid.query_xy[:n]`` (the
-    finest cached tile under each) and run the status machine; returns how many wait for a
-    tile."""
+    finest cached tile under each), bent around the field's obstacles (boats), and run the
+    status machine; returns how many wait for a tile."""
     t = field.tiles
     t.tick += 1
     query_velocity(grid.query_xy[:n], _NO_LEVELS, field.max_level, field.max_level,
@@ -59,6 +59,9 @@ def ask_flow(field: FlowField, pool: ParticlePool, grid: ScreenGrid, n: int,
                    t.level_offset, t.psi, t.cell_status, t.cell_segments, t.last_used, t.tick,
                    *field.network.geometry_args(), grid.query_status[:n],
                    grid.query_velocity[:n])
+    if len(field.obstacles):
+        field.apply_obstacles(grid.query_xy[:n], grid.query_status[:n], grid.query_velocity[:n],
+                              level=field.max_level, fallback=field.max_level)
     return apply_flow_status(pool.alive, pool.velocity_mps, pool.status, pool.first_query,
                              pool.screen_px, n, grid.query_index, grid.query_status,
                              grid.query_velocity, grid.cell_px, grid.gw, grid.gh,
