@@ -48,7 +48,7 @@ class Boat:
     flow_mps: np.ndarray = field(default_factory=_zeros2)
     """(2,) float64 flow velocity under the hull, without the boat's own wake [m/s]."""
     grounded: bool = False
-    """The hull touched a bank or an island shore in the last step."""
+    """The hull touches a bank or an island shore (within 5 cm) after the last step."""
 
     # -- hull ---------------------------------------------------------------------------------
     length_m: float = 8.0

@@ -49,7 +49,13 @@ BOATS_KEY = "boats"
 """The obstacle set of :meth:`FlowField.set_obstacles` that this system owns."""
 
 SKIN_M = 0.05
-"""A hull pushed off a shore ends this far from it [m]."""
+"""A hull closer than this to a shore [m] touches it (``Boat.grounded``) and is pushed back
+to this distance."""
+
+PUSH_MARGIN_M = 1e-4
+"""A push ends this much beyond ``SKIN_M``, so rounding never leaves the hull touching the
+same shore again (a boat pressing on a shore still moves in by more each step: it stays
+grounded)."""
 
 MAX_PUSHES = 4
 """Shore contacts resolved per step (the deepest first)."""
@@ -183,7 +189,7 @@ def keep_in_water(boat: Boat, shore: Shore, prev_position_m: np.ndarray,
     boat.grounded = False
     for push in range(MAX_PUSHES + 1):
         a, b = hull_axis(boat.position_m, boat.heading_rad, boat.length_m, boat.beam_m)
-        contact = shore.deepest_contact(a, b, radius)
+        contact = shore.deepest_contact(a, b, radius + SKIN_M)
         if contact is None:
             return
         boat.grounded = True
@@ -191,7 +197,7 @@ def keep_in_water(boat: Boat, shore: Shore, prev_position_m: np.ndarray,
         if dist < 1e-6 or push == MAX_PUSHES:
             break                       # the axis crossed the shore, or no way out: undo
         normal = (axis_pt - bank_pt) / dist     # from the shore into the water
-        boat.position_m = boat.position_m + normal * (radius + SKIN_M - dist)
+        boat.position_m = boat.position_m + normal * (radius + SKIN_M + PUSH_MARGIN_M - dist)
         into = float(boat.velocity_mps @ normal)
         if into < 0.0:
             boat.velocity_mps = boat.velocity_mps - into * normal
