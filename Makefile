@@ -14,7 +14,7 @@ export NUMBA_CACHE_DIR := $(CURDIR)/.numba_cache/$(KERNEL_HASH)
 .PHONY: help install demo test bench flowmap clean distclean
 
 help:
-	@echo "make demo      run the river demo (for now: draws the default scene's flow to out/demo/)"
+	@echo "make demo      play the boat demo (no display: renders its scripted run to out/demo/)"
 	@echo "make test      run the tests (headless)"
 	@echo "make bench     run every benchmarks/*.py"
 	@echo "make flowmap   draw the default scene's flow to out/flowmap.png"

@@ -41,6 +41,13 @@ _LAZY = {
     "RiverConfig": "riverflow.engine.config",
     "default_scene": "riverflow.scenes.default",
     "Scene": "riverflow.scenes.default",
+    "Obstacle": "riverflow.hydro.flow_field",
+    "Boat": "riverflow.components.boat",
+    "DisplayMode": "riverflow.components.display",
+    "DisplaySettings": "riverflow.components.display",
+    "WaveKind": "riverflow.components.waves",
+    "KeyScript": "riverflow.engine.controls",
+    "FixedStep": "riverflow.engine.game_loop",
 }
 
 __all__ = ["FlowStatus", "Area", "Curve", "CurveType", "GraphError", "HydroGraph", *_LAZY]

@@ -66,17 +66,25 @@ def _parser() -> argparse.ArgumentParser:
     p.set_defaults(run=_flowmap)
 
     p = sub.add_parser(
-        "demo", help="the river demo (for now: a flow picture of the scene)",
-        description="The river demo. The interactive boat demo (window, particles, wave "
-                    "sprites) comes later; for now this draws the scene's river network and "
-                    "its flow into DIR/flow.png and prints where it wrote it.")
+        "demo", help="the playable boat demo (or, with no display, its scripted run to PNGs)",
+        description="Play the boat demo in a window: the flow carries your boat, the water is "
+                    "drawn with wave sprites carried by the flow; H shows the keys. With "
+                    "--headless (or when there is no display) the scripted run is rendered "
+                    "offscreen to DIR/frame_NNNNN.png and DIR/demo.gif instead.")
     _scene_args(p)
     p.add_argument("--headless", action="store_true",
-                   help="no window (the only mode for now)")
-    p.add_argument("--frames", type=_positive_int, default=1, metavar="N",
-                   help="frames of the scripted run (unused until the interactive demo lands)")
+                   help="no window: render the scripted run to PNG frames and an animated GIF")
+    p.add_argument("--frames", type=_positive_int, default=None, metavar="N",
+                   help="frames to run (headless default: 600; windowed: until ESC)")
     p.add_argument("--out", type=Path, default=Path("out/demo"), metavar="DIR",
-                   help="folder for the output (default: %(default)s)")
+                   help="folder for the headless frames (default: %(default)s)")
+    p.add_argument("--size", type=_size, default=None, metavar="WxH",
+                   help="window / frame size (default: 1280x720 windowed, 640x360 headless)")
+    p.add_argument("--script", type=Path, default=None, metavar="FILE",
+                   help="key script for the headless run (lines 'FRAME KEY down|up|tap'); "
+                        "default: the built-in run")
+    p.add_argument("--every", type=_positive_int, default=10, metavar="K",
+                   help="headless: write every K-th frame (default: %(default)s)")
     p.set_defaults(run=_demo)
 
     p = sub.add_parser(
@@ -162,9 +170,48 @@ def _flowmap(args: argparse.Namespace) -> int:
 
 
 def _demo(args: argparse.Namespace) -> int:
-    print("riverflow demo: the interactive boat demo is not there yet; drawing the river "
-          "network and its flow instead.")
-    return _draw(args, args.out / "flow.png", size_px=1600)
+    import os
+
+    headless = args.headless
+    if not headless and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        print(f"riverflow demo: no display found (DISPLAY is not set); rendering the scripted "
+              f"run headless to {args.out}/ instead (PNG frames and demo.gif)")
+        headless = True
+    if headless:
+        os.environ["PYGLET_HEADLESS"] = "1"      # before anything imports pyglet's GL
+    scene, title = _load_scene(args)
+    if scene is None:
+        return 1
+    if not hasattr(scene, "terrain"):
+        from riverflow.scenes.flat import flat_scene
+
+        scene = flat_scene(scene)
+    from riverflow import demo
+
+    if headless:
+        script = None
+        if args.script is not None:
+            from riverflow.engine.controls import KeyScript
+
+            try:
+                script = KeyScript.from_text(args.script.read_text(), str(args.script))
+            except (OSError, ValueError) as exc:
+                print(f"riverflow demo: {exc}", file=sys.stderr)
+                return 1
+        try:
+            run = demo.run_headless(args.frames or 600, args.out, scene=scene,
+                                    size=args.size or (640, 360), seed=args.seed,
+                                    script=script, every=args.every)
+        except Exception as exc:  # no OpenGL at all: say so, don't dump a traceback
+            print(f"riverflow demo: cannot render headless: {exc}", file=sys.stderr)
+            return 1
+        print(f"wrote {len(run.frames)} frames to {args.out.resolve()}/ and "
+              f"{run.animation.resolve() if run.animation else 'no animation'} ({title})")
+        return 0
+    drawn = demo.run_window(scene=scene, size=args.size or (1280, 720), seed=args.seed,
+                            frames=args.frames)
+    print(f"riverflow demo: {drawn} frames drawn")
+    return 0
 
 
 def _profile(args: argparse.Namespace) -> int:

@@ -101,13 +101,35 @@ def test_flowmap_arrows_and_options(tiny_channel_path, tmp_path):
     assert out.read_bytes()[:8] == PNG_SIGNATURE
 
 
-def test_demo_draws_the_flow_and_says_where(tiny_channel_path, tmp_path):
-    result = run_cli("demo", "--scene", str(tiny_channel_path), "--headless", "--frames", "3",
-                     "--out", str(tmp_path / "demo"))
+@pytest.mark.gl
+def test_demo_headless_writes_frames_and_an_animation(tiny_channel_path, tmp_path):
+    result = run_cli("demo", "--scene", str(tiny_channel_path), "--headless", "--frames", "12",
+                     "--every", "5", "--size", "96x64", "--out", str(tmp_path / "demo"))
     assert result.returncode == 0, result.stderr
-    out = tmp_path / "demo" / "flow.png"
-    assert out.read_bytes()[:8] == PNG_SIGNATURE
-    assert f"wrote {out.resolve()}" in result.stdout
+    frames = sorted((tmp_path / "demo").glob("frame_*.png"))
+    assert [f.name for f in frames] == ["frame_00000.png", "frame_00005.png",
+                                        "frame_00010.png", "frame_00011.png"]
+    assert frames[0].read_bytes()[:8] == PNG_SIGNATURE
+    assert (tmp_path / "demo" / "demo.gif").read_bytes()[:6] == b"GIF89a"
+    assert f"to {(tmp_path / 'demo').resolve()}/" in result.stdout
+
+
+@pytest.mark.gl
+def test_demo_without_a_display_says_so_and_renders_headless(tiny_channel_path, tmp_path):
+    result = run_cli("demo", "--scene", str(tiny_channel_path), "--frames", "2",
+                     "--size", "64x48", "--out", str(tmp_path / "demo"))
+    assert result.returncode == 0, result.stderr
+    assert "no display found" in result.stdout
+    assert (tmp_path / "demo" / "frame_00001.png").exists()
+
+
+def test_demo_rejects_a_bad_script(tmp_path):
+    script = tmp_path / "keys.txt"
+    script.write_text("0 W down\nsoon W up\n")
+    result = run_cli("demo", "--headless", "--frames", "2", "--script", str(script),
+                     "--out", str(tmp_path / "demo"))
+    assert result.returncode == 1
+    assert "keys.txt:2" in result.stderr
 
 
 @pytest.mark.gl

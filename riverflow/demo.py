@@ -1,0 +1,382 @@
+"""The playable boat demo: a river world, the player's boat, cameras, keys and a HUD.
+
+:class:`BoatDemo` is the game without a window: it owns the :class:`RiverWorld`, the boat, the
+camera rigs and the input state, and steps at a fixed rate. :func:`run_window` puts it in a
+pyglet window (fixed-step loop, resize, vsync, HUD, help overlay); :func:`run_headless` feeds
+it a :class:`~riverflow.engine.controls.KeyScript` frame by frame and writes PNG frames and an
+animated GIF — what ``make demo`` does on a machine with no display, and what tests drive.
+
+Keys (pyglet names) — also shown by the help overlay (H):
+
+========================  ==============================================================
+W / S, UP / DOWN          throttle forward / back (free camera: fly forward / back)
+A / D, LEFT / RIGHT       rudder left / right (free camera: strafe)
+Q / E                     free camera: down / up; mouse drag turns it
+C                         chase camera ↔ free-fly camera
+1 … 6                     water: none, mesh, coverage, advected, pre-advected, non-advected
+G / P / V                 sprite grid / particles / velocity arrows on or off
+SPACE                     pause the particles
++ / −                     flow speed factor up / down
+T                         next wave tile (animated, Perlin, static)
+F2                        screenshot to PNG
+H, F1                     help overlay;  ESCAPE quits
+========================  ==============================================================
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from riverflow.components.display import DisplayMode
+from riverflow.components.waves import WaveKind
+from riverflow.engine.camera_rigs import ChaseCamera, FreeFlyCamera
+from riverflow.engine.config import RiverConfig
+from riverflow.engine.controls import InputState, KeyScript
+from riverflow.engine.game_loop import FixedStep
+from riverflow.engine.world import RiverWorld
+
+STEP_S = 1.0 / 60.0
+MODE_KEYS = {"_1": DisplayMode.NONE, "_2": DisplayMode.MESH, "_3": DisplayMode.COVERAGE,
+             "_4": DisplayMode.ADVECTED, "_5": DisplayMode.PRE_ADVECTED,
+             "_6": DisplayMode.NON_ADVECTED}
+HELP = """riverflow boat demo
+W/S or UP/DOWN   throttle        A/D or LEFT/RIGHT  rudder
+C  chase / free camera (free: WASD, Q/E, mouse drag)
+1-6  water: none, mesh, coverage, advected, pre-advected, non-advected
+G grid   P particles   V velocity arrows   T wave tile
+SPACE pause particles   +/- flow speed   F2 screenshot
+H help   ESC quit"""
+
+DEFAULT_SCRIPT = """# the scripted run of `riverflow demo --headless` (and of make demo with no display)
+0    W    down     # full throttle down the river
+150  D    down     # turn to starboard, towards the bank
+210  D    up
+300  A    down     # and back
+390  A    up
+420  _3   tap      # coverage view
+480  _4   tap      # advected wave sprites again
+480  P    tap      # particles on
+540  P    tap      # and off
+560  W    up       # drift with the flow
+"""
+
+
+@dataclass
+class Hud:
+    """What the HUD shows, refreshed every frame."""
+
+    fps: float = 0.0
+    particles: int = 0
+    timings_ms: dict[str, float] = field(default_factory=dict)
+    message: str = ""
+    message_until_s: float = 0.0
+
+    def lines(self, demo: BoatDemo) -> list[str]:
+        boat = demo.boat_state
+        speed = float(np.hypot(*boat.velocity_mps))
+        world = demo.world
+        mode = world.display.mode.name.lower().replace("_", "-")
+        total = sum(v for k, v in self.timings_ms.items() if k != "draw")
+        rate = f"{self.fps:5.1f} fps   " if self.fps > 0 else ""
+        out = [f"{rate}{self.particles} particles   "
+               f"{'PAUSED   ' if world.paused else ''}flow x{world.speed_factor:g}",
+               f"boat {speed:4.1f} m/s  throttle {boat.throttle:+.1f}  rudder {boat.rudder:+.1f}"
+               f"   camera {demo.camera_mode}   water {mode}",
+               f"simulation {total:.2f} ms: " + "  ".join(
+                   f"{k} {v:.2f}" for k, v in self.timings_ms.items() if k != "draw"),
+               f"draw {self.timings_ms.get('draw', 0.0):.2f} ms (CPU)   H: help"]
+        if self.message and time.monotonic() < self.message_until_s:
+            out.append(self.message)
+        return out
+
+
+class BoatDemo:
+    """The game, window-less: world, boat, camera rigs, input → actions, fixed steps.
+
+    Args:
+        scene: the landscape (default: :func:`riverflow.default_scene`).
+        size: viewport (W, H) [px].
+        seed: seeds the world.
+        config: the world's :class:`RiverConfig`.
+        gl: draw (the HUD, screenshots and headless frames need it).
+        screenshots: folder for F2 screenshots.
+    """
+
+    def __init__(self, scene=None, size=(1280, 720), *, seed: int = 0,
+                 config: RiverConfig | None = None, gl: bool = True,
+                 screenshots: Path = Path("out/screenshots")) -> None:
+        if scene is None:
+            from riverflow.scenes.default import default_scene
+
+            scene = default_scene(seed=seed)
+        self.scene = scene
+        self.world = RiverWorld(scene, size=size, gl=gl, seed=seed, config=config)
+        position, heading = _start_pose(scene)
+        self.boat = self.world.add_boat(position, heading_rad=heading)
+        self.chase = ChaseCamera()
+        self.free = FreeFlyCamera()         # placed at the chase view when switched to
+        self.camera_mode = "chase"
+        self.input = InputState()
+        self.loop = FixedStep(STEP_S)
+        self.frame = 0
+        self.hud = Hud()
+        self.show_help = False
+        self.quit_requested = False
+        self.screenshots = Path(screenshots)
+        self.screenshot_count = 0
+        self._place_chase(0.0)
+
+    @property
+    def boat_state(self):
+        """The boat's component (position, heading, velocity, throttle, rudder…)."""
+        return self.world.boat(self.boat)
+
+    # -- one fixed step ------------------------------------------------------------------------
+
+    def step(self, dt_s: float = STEP_S) -> None:
+        """Apply this frame's input, move the camera rig, step the world."""
+        self._apply_input(dt_s)
+        if self.camera_mode == "chase":
+            self._place_chase(dt_s)
+        else:
+            self.free.update(self.world.camera)
+        self.world.step(dt_s)
+        self.hud.particles = len(self.world.particles)
+        self.hud.timings_ms = dict(self.world.timings_ms)
+        self.input.end_frame()
+        self.frame += 1
+
+    def _place_chase(self, dt_s: float) -> None:
+        boat = self.boat_state
+        z = float(boat.altitude_m)
+        self.chase.update(self.world.camera, (*boat.position_m, z), float(boat.heading_rad),
+                          dt_s)
+
+    def _apply_input(self, dt_s: float) -> None:
+        inp = self.input
+        for key in inp.pressed:
+            self._action(key)
+        forward = float(inp.any_held("W", "UP")) - float(inp.any_held("S", "DOWN"))
+        side = float(inp.any_held("D", "RIGHT")) - float(inp.any_held("A", "LEFT"))
+        boat = self.boat_state
+        if self.camera_mode == "chase":
+            boat.throttle = forward
+            boat.rudder = -side              # rudder +1 turns to port (counter-clockwise)
+        else:
+            boat.throttle = boat.rudder = 0.0
+            up = float(inp.any_held("E")) - float(inp.any_held("Q"))
+            self.free.move(forward, side, up, dt_s)
+
+    def _action(self, key: str) -> None:
+        world, display = self.world, self.world.display
+        if key in MODE_KEYS:
+            display.mode = MODE_KEYS[key]
+        elif key == "G":
+            display.show_grid = not display.show_grid
+        elif key == "P":
+            display.show_particles = not display.show_particles
+        elif key == "V":
+            display.show_velocities = not display.show_velocities
+        elif key == "SPACE":
+            world.paused = not world.paused
+        elif key in ("PLUS", "EQUAL", "NUM_ADD"):
+            world.speed_factor = min(world.speed_factor * 1.5, 20.0)
+        elif key in ("MINUS", "NUM_SUBTRACT"):
+            world.speed_factor = max(world.speed_factor / 1.5, 0.05)
+        elif key == "T":
+            kinds = list(WaveKind)
+            display.wave = kinds[(kinds.index(display.wave) + 1) % len(kinds)]
+        elif key == "C":
+            if self.camera_mode == "chase":
+                cam = world.camera
+                self.free = FreeFlyCamera.from_view(cam.position, cam.target)
+                self.camera_mode = "free"
+            else:
+                self.camera_mode = "chase"
+        elif key in ("H", "F1"):
+            self.show_help = not self.show_help
+        elif key == "F2":
+            path = self.screenshot()
+            self.hud.message = f"screenshot: {path}"
+            self.hud.message_until_s = time.monotonic() + 3.0
+        elif key == "ESCAPE":
+            self.quit_requested = True
+
+    # -- output --------------------------------------------------------------------------------
+
+    def screenshot(self, path: Path | None = None) -> Path:
+        """Draw the current frame and write it as a PNG; returns the path."""
+        from riverflow.__main__ import save_png
+
+        if path is None:
+            self.screenshot_count += 1
+            path = self.screenshots / f"riverflow-{self.frame:06d}-{self.screenshot_count}.png"
+        return save_png(self.world.render(), path)
+
+    def close(self) -> None:
+        """Release the world (idempotent)."""
+        if self.world is not None:
+            self.world.close()
+            self.world = None
+
+
+def _start_pose(scene) -> tuple[np.ndarray, float]:
+    """A point a fifth of the way down the main river and the downstream heading there."""
+    from riverflow.scenes.flight import main_centerline
+
+    line = main_centerline(scene)
+    s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(line, axis=0).T))])
+    at = 0.2 * s[-1]
+    i = int(np.searchsorted(s, at))
+    p = np.array([np.interp(at, s, line[:, 0]), np.interp(at, s, line[:, 1])])
+    d = line[min(i + 1, len(line) - 1)] - line[max(i - 1, 0)]
+    return p, math.atan2(d[1], d[0])
+
+
+# -- headless ------------------------------------------------------------------------------------
+
+@dataclass
+class HeadlessRun:
+    """What :func:`run_headless` wrote and the boat's path (F, 3) (x, y [m], heading [rad])."""
+
+    frames: list[Path]
+    animation: Path | None
+    path: np.ndarray
+
+
+def run_headless(frames: int, out: Path, *, scene=None, size=(640, 360), seed: int = 0,
+                 script: KeyScript | None = None, every: int = 10,
+                 config: RiverConfig | None = None, hud: bool = True) -> HeadlessRun:
+    """Play ``frames`` fixed steps of the demo with ``script`` (default: the built-in run) and
+    no window; write every ``every``-th frame (and the last) as ``out/frame_NNNNN.png`` and all
+    of them as ``out/demo.gif``. Deterministic: flow tiles are made in the frame, so the same
+    seed and script give the same path and the same frames."""
+    from PIL import Image, ImageDraw
+
+    import dataclasses
+
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    config = dataclasses.replace(config or RiverConfig(), tile_production="blocking")
+    script = script if script is not None else KeyScript.from_text(DEFAULT_SCRIPT, "built-in")
+    demo = BoatDemo(scene, size, seed=seed, config=config, screenshots=out)
+    written, stills, path = [], [], []
+    try:
+        for f in range(frames):
+            script.feed(f, demo.input)
+            demo.step(STEP_S)
+            boat = demo.boat_state
+            path.append((*boat.position_m, boat.heading_rad))
+            if f % every == 0 or f == frames - 1:
+                image = Image.fromarray(demo.world.render(), "RGBA")
+                if hud:
+                    draw = ImageDraw.Draw(image)
+                    for k, line in enumerate(demo.hud.lines(demo)[:2]):
+                        draw.text((6, 4 + 12 * k), line, fill=(255, 255, 255, 255))
+                file = out / f"frame_{f:05d}.png"
+                image.save(file)
+                written.append(file)
+                stills.append(image.convert("RGB").resize((size[0] // 2, size[1] // 2)))
+    finally:
+        demo.close()
+    animation = None
+    if stills:
+        animation = out / "demo.gif"
+        stills[0].save(animation, save_all=True, append_images=stills[1:],
+                       duration=int(round(1000 * every * STEP_S)), loop=0)
+    return HeadlessRun(written, animation, np.asarray(path, np.float64))
+
+
+# -- window --------------------------------------------------------------------------------------
+
+def run_window(*, scene=None, size=(1280, 720), seed: int = 0, frames: int | None = None,
+               config: RiverConfig | None = None) -> int:
+    """Play in a pyglet window until ESCAPE or the window closes (or ``frames`` drawn
+    frames, for smoke tests). Returns the frames drawn."""
+    import pyglet
+    from pyglet.window import key as keys
+
+    gl_config = pyglet.gl.Config(double_buffer=True, depth_size=24, major_version=3,
+                                 minor_version=3, forward_compatible=True)
+    window = pyglet.window.Window(*size, caption="riverflow — boat demo", resizable=True,
+                                  vsync=True, config=gl_config)
+    demo = BoatDemo(scene, window.get_framebuffer_size(), seed=seed, config=config)
+    batch = pyglet.graphics.Batch()
+    hud = pyglet.text.Label("", x=10, y=window.height - 10, anchor_y="top", multiline=True,
+                            width=max(window.width - 20, 100), font_size=11, batch=batch,
+                            color=(255, 255, 255, 255))
+    help_label = pyglet.text.Label(HELP, x=10, y=10, anchor_y="bottom", multiline=True,
+                                   width=max(window.width - 20, 100), font_size=12,
+                                   color=(255, 255, 210, 255))
+    drawn = [0]
+    clock = {"last": time.perf_counter(), "fps": 0.0}
+
+    @window.event
+    def on_key_press(symbol, modifiers):
+        demo.input.key_down(keys.symbol_string(symbol))
+        return pyglet.event.EVENT_HANDLED  # ESCAPE quits through the demo, not pyglet
+
+    @window.event
+    def on_key_release(symbol, modifiers):
+        demo.input.key_up(keys.symbol_string(symbol))
+
+    @window.event
+    def on_mouse_drag(x, y, dx, dy, buttons, modifiers):
+        if demo.camera_mode == "free":
+            demo.free.turn(dx, dy)
+
+    @window.event
+    def on_resize(width, height):
+        fw, fh = window.get_framebuffer_size()
+        demo.world.camera.set_viewport(fw, fh)
+        hud.y, hud.width = height - 10, max(width - 20, 100)
+        help_label.width = max(width - 20, 100)
+
+    @window.event
+    def on_draw():
+        window.clear()
+        fw, fh = window.get_framebuffer_size()
+        if fw > 0 and fh > 0:
+            demo.world.draw()
+            demo.world.blit_to_window(fw, fh)
+        hud.text = "\n".join(demo.hud.lines(demo))
+        batch.draw()
+        if demo.show_help:
+            help_label.draw()
+        drawn[0] += 1
+        now = time.perf_counter()
+        dt = now - clock["last"]
+        clock["last"] = now
+        if dt > 0:
+            clock["fps"] = 0.9 * clock["fps"] + 0.1 / dt if clock["fps"] else 1.0 / dt
+        demo.hud.fps = clock["fps"]
+        if frames is not None and drawn[0] >= frames:
+            demo.quit_requested = True
+
+    def quit_game():
+        pyglet.clock.unschedule(tick)
+        demo.close()                  # GPU objects go while the window's context lives
+        window.close()
+        pyglet.app.exit()
+
+    @window.event
+    def on_close():
+        quit_game()
+        return pyglet.event.EVENT_HANDLED
+
+    def tick(dt):
+        for _ in range(demo.loop.advance(dt)):
+            demo.step(STEP_S)
+        if demo.quit_requested:
+            quit_game()
+
+    pyglet.clock.schedule(tick)
+    try:
+        pyglet.app.run(interval=0)
+    finally:
+        demo.close()
+    return drawn[0]
