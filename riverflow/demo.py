@@ -161,15 +161,15 @@ class BoatDemo:
         for key in inp.pressed:
             self._action(key)
         forward = float(inp.any_held("W", "UP")) - float(inp.any_held("S", "DOWN"))
-        side = float(inp.any_held("D", "RIGHT")) - float(inp.any_held("A", "LEFT"))
+        port = float(inp.any_held("A", "LEFT")) - float(inp.any_held("D", "RIGHT"))
         boat = self.boat_state
         if self.camera_mode == "chase":
             boat.throttle = forward
-            boat.rudder = -side              # rudder +1 turns to port (counter-clockwise)
+            boat.rudder = port               # rudder +1 turns to port (counter-clockwise)
         else:
             boat.throttle = boat.rudder = 0.0
             up = float(inp.any_held("E")) - float(inp.any_held("Q"))
-            self.free.move(forward, side, up, dt_s)
+            self.free.move(forward, -port, up, dt_s)
 
     def _action(self, key: str) -> None:
         world, display = self.world, self.world.display
