@@ -120,8 +120,7 @@ class _Gpu:
         self.params = self.grid = None
         self.params_cpu = self.counts_cpu = self.grid_cpu = None
         self.targets: list = []
-        check = gl.check_errors
-        check("creating the river draw resources")
+        gl.check_errors("creating the river draw resources")
 
     # -- sized resources --------------------------------------------------------------------
 
@@ -242,7 +241,7 @@ class DrawRivers(System):
         config = world.config
         gpu.fit(width, height, config.radius_px, world.pool.capacity)
         t0 = time.perf_counter_ns()
-        n_slots, rows = self._upload_tables(world, gpu)
+        n_slots = self._upload_tables(world, gpu)
         self.last_tables_ms = (time.perf_counter_ns() - t0) * 1e-6
 
         vp = camera.view_projection().ravel()
@@ -277,7 +276,7 @@ class DrawRivers(System):
         wave_tex.bind(1)
         gpu.surface.bind(0)
         if mode == DisplayMode.PRE_ADVECTED:
-            self._pre_advect(gpu, shared, tables, wave_uniforms, n_slots)
+            self._pre_advect(gpu, shared, wave_uniforms, n_slots)
         if mode != DisplayMode.NONE:
             water = gpu.programs["water"]
             water.use()
@@ -306,11 +305,11 @@ class DrawRivers(System):
             gpu.empty.draw(gl.POINTS, count=n_slots)
         gl.set_blend(gl.BLEND_OFF)
         gl.set_depth(False)
-        del rows
 
     # -- passes -----------------------------------------------------------------------------
 
-    def _upload_tables(self, world: RiverWorld, gpu: _Gpu) -> tuple[int, int]:
+    def _upload_tables(self, world: RiverWorld, gpu: _Gpu) -> int:
+        """Build this frame's sprite tables and upload them; returns the slots in use."""
         pool = world.pool
         n_slots = int(slot_span(pool.alive))
         rows = fill_sprite_params(pool.alive, pool.has_world, pool.screen_px, pool.world_m,
@@ -325,18 +324,14 @@ class DrawRivers(System):
             gpu.params.upload(gpu.params_cpu, rows=rows)
         gpu.grid.upload(gpu.grid_cpu.reshape(gh, gw * MAX_PER_CELL // 4, 4))
         self.last_sprites = n_slots
-        return n_slots, rows
+        return n_slots
 
     def _wave(self, world: RiverWorld, gpu: _Gpu, settings: DisplaySettings):
-        chosen = None
-        for entity, tile in esper.get_component(WaveTile):
-            if chosen is None or tile.kind == settings.wave:
-                chosen = (entity, tile)
-                if tile.kind == settings.wave:
-                    break
-        if chosen is None:
+        """Uniforms and texture of the wave tile the settings ask for (else the first one)."""
+        tiles = esper.get_component(WaveTile)
+        if not tiles:
             raise RuntimeError("no wave tile entity in the world")
-        entity, tile = chosen
+        entity, tile = next(((e, t) for e, t in tiles if t.kind == settings.wave), tiles[0])
         tex = gpu.wave_texture(entity, tile)
         a, b, blend = tile.frame_blend()
         return dict(u_wave_frames=(int(a), int(b)), u_wave_blend=float(blend),
@@ -380,7 +375,7 @@ class DrawRivers(System):
             gpu.prop_mesh(prop).draw()
         gl.set_cull(False)
 
-    def _pre_advect(self, gpu: _Gpu, shared: dict, tables: dict, wave_uniforms: dict,
+    def _pre_advect(self, gpu: _Gpu, shared: dict, wave_uniforms: dict,
                     n_slots: int) -> None:
         # the water's world position where it is visible (depth test against the terrain)
         gpu.position_fb.bind()
