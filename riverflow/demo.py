@@ -306,9 +306,12 @@ def run_window(*, scene=None, size=(1280, 720), seed: int = 0, frames: int | Non
                                   vsync=True, config=gl_config)
     demo = BoatDemo(scene, window.get_framebuffer_size(), seed=seed, config=config)
     batch = pyglet.graphics.Batch()
+    back, front = pyglet.graphics.Group(order=0), pyglet.graphics.Group(order=1)
+    shade = pyglet.shapes.Rectangle(0, window.height - 96, window.width, 96,
+                                    color=(0, 0, 0, 110), batch=batch, group=back)
     hud = pyglet.text.Label("", x=10, y=window.height - 10, anchor_y="top", multiline=True,
                             width=max(window.width - 20, 100), font_size=11, batch=batch,
-                            color=(255, 255, 255, 255))
+                            group=front, color=(255, 255, 255, 255))
     help_label = pyglet.text.Label(HELP, x=10, y=10, anchor_y="bottom", multiline=True,
                                    width=max(window.width - 20, 100), font_size=12,
                                    color=(255, 255, 210, 255))
@@ -334,6 +337,7 @@ def run_window(*, scene=None, size=(1280, 720), seed: int = 0, frames: int | Non
         fw, fh = window.get_framebuffer_size()
         demo.world.camera.set_viewport(fw, fh)
         hud.y, hud.width = height - 10, max(width - 20, 100)
+        shade.y, shade.width = height - 96, width
         help_label.width = max(width - 20, 100)
 
     @window.event
