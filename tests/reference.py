@@ -216,14 +216,38 @@ def project(world_m, clip_from_world, width_px, height_px):
     return (p[:, :2] / w[:, None] * 0.5 + 0.5) * (width_px, height_px), w
 
 
-def cull_in_slot_order(screen_px, keep_candidates, cull_px):
+def cull_in_slot_order(screen_px, keep_candidates, cull_px, cell_px=None, per_cell=None):
     """Twin of ``cull_crowded_particles``: greedy in slot order, a candidate is accepted when no
-    accepted particle is closer than ``cull_px``. Returns the accepted slots."""
+    accepted particle is closer than ``cull_px`` (and, given ``cell_px`` and ``per_cell``,
+    when its grid cell holds fewer than ``per_cell`` accepted ones). Returns the accepted
+    slots."""
     accepted = []
+    held: dict[tuple[int, int], int] = {}
     for i in np.flatnonzero(keep_candidates):
-        if all(np.hypot(*(screen_px[i] - screen_px[j])) >= cull_px for j in accepted):
-            accepted.append(i)
+        if not all(np.hypot(*(screen_px[i] - screen_px[j])) >= cull_px for j in accepted):
+            continue
+        if per_cell is not None:
+            cell = tuple(np.floor(screen_px[i] / cell_px).astype(int))
+            if held.get(cell, 0) >= per_cell:
+                continue
+            held[cell] = held.get(cell, 0) + 1
+        accepted.append(i)
     return np.array(accepted, int)
+
+
+def blocked_directions(radius_px, gap_px, cell_px, n, bins=64):
+    """Twin of ``blocked_direction_table``: (n, n, bins) bool, entry [iy, ix, k] true when every
+    corner of the square [ix·cell − n·cell/2, …) × [iy·cell − n·cell/2, …) is closer than the
+    gap (less a 10⁻⁶ relative margin on its square) to both ends of the arc
+    [k, k + 1)·2π/bins of the circle of radius 2r."""
+    theta = 2 * np.pi * np.arange(bins + 1) / bins
+    ends = 2 * radius_px * np.c_[np.cos(theta), np.sin(theta)]          # (bins + 1, 2)
+    edges = np.arange(n + 1) * cell_px - 0.5 * n * cell_px
+    cx, cy = np.meshgrid(edges, edges)                                   # corner grid
+    d2 = ((cx[..., None] - ends[:, 0]) ** 2 + (cy[..., None] - ends[:, 1]) ** 2)
+    near = d2 < gap_px**2 * (1 - 1e-6)                                   # (n+1, n+1, bins+1)
+    corners = near[:-1, :-1] & near[1:, :-1] & near[:-1, 1:] & near[1:, 1:]
+    return corners[..., :-1] & corners[..., 1:]
 
 
 def euler_move(world_m, velocity_mps, dt_s):

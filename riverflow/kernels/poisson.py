@@ -27,7 +27,7 @@ import numpy as np
 from numba import njit
 
 from riverflow.kernels._jit import JIT_OPTIONS
-from riverflow.kernels.lifecycle import allocate_particle, is_fading_out, start_fade_out
+from riverflow.kernels.lifecycle import allocate_particle
 
 REASON_OUTSIDE_VIEWPORT = 2
 REASON_POISSON_DISK = 3
@@ -38,6 +38,12 @@ ROLLING_BANDS = 16
 """The rolling dirty band covers 1/ROLLING_BANDS of the grid rows each frame."""
 
 TWO_PI = 2.0 * math.pi
+
+DIRECTION_BINS = 64
+"""Directions of the blocked-direction table: bit k of an entry is [k, k + 1) · 2π/64."""
+ALL_DIRECTIONS = np.uint64(0xFFFFFFFFFFFFFFFF)
+TABLE_CELLS_PER_R = 16
+"""Cells of the blocked-direction table per radius r (r/16 px squares)."""
 
 
 @njit(**JIT_OPTIONS)
@@ -50,47 +56,204 @@ def _cell_of(x, y, cell_px, gw, gh):
 @njit(**JIT_OPTIONS)
 def cull_crowded_particles(
     alive, screen_px, birth_s, fade_reason, status, now_s, dt_s, fade_in_s, active_s, fade_out_s,
-    cull_px, cell_px, gw, gh, cell_count, cell_items, removed_cells, dirty, frame, sparse_below,
+    cull_px, cell_px, gw, gh, cell_count, cell_items, cell_xy, removed_cells, dirty, frame,
+    sparse_below,
 ):
     """Rebuild the neighbour grid with the accepted particles; fade out the crowded ones.
 
-    ``cell_count`` (gw·gh,) int32 and ``cell_items`` (gw·gh, K) int32 are rebuilt;
-    ``removed_cells`` (gw·gh,) uint8 marks cells where other systems removed particles since
-    the last pass (read, then cleared); ``dirty`` (gw·gh,)
-    uint8 is written (bit 1: holes may be here — particles were removed there, it holds fewer than
-    ``sparse_below``, or lies in this frame's rolling band; bit 4: the cell is empty, so its
-    neighbours' particles are candidates too). Returns the number faded out.
+    ``cell_count`` (gw·gh,) int32, ``cell_items`` (gw·gh, K) int32 (slots, ascending in each
+    cell) and ``cell_xy`` (gw·gh, K, 2) float32 (their screen positions, a copy kept next to
+    the slots for the neighbour scans) are rebuilt; ``removed_cells`` (gw·gh,) uint8 marks
+    cells where other systems removed particles since the last pass (read, then cleared);
+    ``dirty`` (gw·gh,) uint8 is written (bit 1: holes may be here — particles were removed
+    there, it holds fewer than ``sparse_below``, or lies in this frame's rolling band; bit 4:
+    the cell is empty, so its neighbours' particles are candidates too). Returns the number
+    faded out.
+
+    The result is the greedy pass in slot order (a particle is accepted when no accepted one
+    is closer than ``cull_px``), found without visiting the particles in slot order: a
+    counting sort by cell, one scan of each particle's neighbourhood in cell order to find
+    the few that have a neighbour that close, and the greedy pass over those alone.
     """
     n_cells = gw * gh
     k_max = cell_items.shape[1]
+    cap = alive.shape[0]
     for c in range(n_cells):
         cell_count[c] = 0
         dirty[c] = 0
+    fade_at = fade_in_s + active_s
+    # 1. cell of each steady (not fading) particle; fades that began this frame dirty theirs
+    cell_of = np.empty(cap, np.int32)
+    start = np.zeros(n_cells + 1, np.int32)
+    for i in range(cap):
+        cell_of[i] = -1
+        if not alive[i]:
+            continue
+        cx = min(max(int(math.floor(screen_px[i, 0] / cell_px)), 0), gw - 1)
+        cy = min(max(int(math.floor(screen_px[i, 1] / cell_px)), 0), gh - 1)
+        c = cy * gw + cx
+        age = now_s - birth_s[i]
+        if age >= fade_at:  # fading out already
+            if age - fade_at < 0.5 * dt_s:  # its fade began this frame (not the last one)
+                dirty[c] = 1
+            continue
+        cell_of[i] = c
+        start[c + 1] += 1
+    crowded_cell = False
+    for c in range(n_cells):
+        if start[c + 1] > k_max:
+            crowded_cell = True
+        start[c + 1] += start[c]
+    n = start[n_cells]
+    # 2. counting sort: slots ascending within each cell
+    slot = np.empty(n, np.int32)
+    xy = np.empty((n, 2), np.float32)
+    fill = start[:n_cells].copy()
+    for i in range(cap):
+        c = cell_of[i]
+        if c < 0:
+            continue
+        k = fill[c]
+        fill[c] = k + 1
+        slot[k] = i
+        xy[k, 0] = screen_px[i, 0]
+        xy[k, 1] = screen_px[i, 1]
+    if crowded_cell:  # which come first decides which a full cell keeps: the plain pass
+        faded = _greedy_in_slot_order(
+            alive, screen_px, birth_s, fade_reason, now_s, fade_in_s, active_s, fade_out_s,
+            cull_px, cell_px, gw, gh, cell_count, cell_items, cell_xy, cell_of, dirty)
+    else:
+        faded = _cull_sorted(screen_px, birth_s, fade_reason, now_s, fade_in_s, active_s,
+                             fade_out_s, cull_px, cell_px, gw, gh, cell_count, cell_items,
+                             cell_xy, start, slot, xy, dirty)
+    band = frame % ROLLING_BANDS
+    for cy in range(gh):
+        in_band = cy % ROLLING_BANDS == band
+        for cx in range(gw):
+            c = cy * gw + cx
+            if cell_count[c] == 0:
+                dirty[c] = 1 | 4  # a hole: its neighbours' particles border it
+            elif removed_cells[c] or cell_count[c] < sparse_below or in_band:
+                dirty[c] = 1
+            removed_cells[c] = 0
+    return faded
+
+
+@njit(**JIT_OPTIONS)
+def _cull_sorted(screen_px, birth_s, fade_reason, now_s, fade_in_s, active_s, fade_out_s,
+                 cull_px, cell_px, gw, gh, cell_count, cell_items, cell_xy, start, slot, xy,
+                 dirty):
+    """Steps 3–5 of the cull on the particles sorted by cell (``start``, ``slot``, ``xy``)."""
+    cap = birth_s.shape[0]
+    fade_at = fade_in_s + active_s
     cull2 = cull_px * cull_px
+    # 3. which particles have a steady neighbour closer than cull_px (usually a few): each
+    # pair once, a particle against the later ones of its cell and its right neighbour (one
+    # run of the sorted array) and the 3 cells below (another); cull_px < cell_px. At a row's
+    # end these runs take in cells of the next row too: farther, they change nothing.
+    close = np.zeros(cap, np.uint8)
+    n = start[gw * gh]
+    for c in range(gw * gh):
+        e1 = start[min(c + 2, gw * gh)]
+        b2 = start[min(c + gw - 1, gw * gh)]
+        e2 = start[min(c + gw + 2, gw * gh)]
+        for k in range(start[c], start[c + 1]):
+            x = xy[k, 0]
+            y = xy[k, 1]
+            for m in range(k + 1, e1):
+                dx = xy[m, 0] - x
+                dy = xy[m, 1] - y
+                if dx * dx + dy * dy < cull2:
+                    close[slot[k]] = 1
+                    close[slot[m]] = 1
+            for m in range(b2, e2):
+                dx = xy[m, 0] - x
+                dy = xy[m, 1] - y
+                if dx * dx + dy * dy < cull2:
+                    close[slot[k]] = 1
+                    close[slot[m]] = 1
+    n_close = 0
+    for k in range(n):
+        n_close += close[slot[k]]
+    # 4. the greedy pass in slot order over those: one is rejected (2) when a lower slot that
+    # was accepted is closer than cull_px; every other particle is accepted
+    if n_close > 0:
+        order = np.empty(n_close, np.int32)
+        m = 0
+        for i in range(cap):
+            if close[i]:
+                order[m] = i
+                m += 1
+        for o in range(n_close):
+            i = order[o]
+            x = screen_px[i, 0]
+            y = screen_px[i, 1]
+            x0 = max(int(math.floor((x - cull_px) / cell_px)), 0)
+            x1 = min(int(math.floor((x + cull_px) / cell_px)), gw - 1)
+            y0 = max(int(math.floor((y - cull_px) / cell_px)), 0)
+            y1 = min(int(math.floor((y + cull_px) / cell_px)), gh - 1)
+            for ny in range(y0, y1 + 1):
+                for k in range(start[ny * gw + x0], start[ny * gw + x1 + 1]):
+                    j = slot[k]
+                    if j >= i or close[j] == 2:  # a later slot, or rejected itself
+                        continue
+                    dx = xy[k, 0] - x
+                    dy = xy[k, 1] - y
+                    if dx * dx + dy * dy < cull2:
+                        close[i] = 2
+                        break
+                if close[i] == 2:
+                    break
+    # 5. the grid of the accepted ones (no cell is over its capacity); the rejected fade out
+    faded = 0
+    for c in range(gw * gh):
+        for k in range(start[c], start[c + 1]):
+            i = slot[k]
+            if close[i] != 2:
+                q = cell_count[c]
+                cell_items[c, q] = i
+                cell_xy[c, q, 0] = xy[k, 0]
+                cell_xy[c, q, 1] = xy[k, 1]
+                cell_count[c] = q + 1
+                continue
+            age = now_s - birth_s[i]
+            level = max(age / fade_in_s, 0.0) if age < fade_in_s else 1.0
+            birth_s[i] = now_s - (fade_at + (1.0 - level) * fade_out_s)  # start_fade_out
+            fade_reason[i] = REASON_POISSON_DISK
+            faded += 1
+            dirty[c] = 1
+    return faded
+
+
+@njit(**JIT_OPTIONS)
+def _greedy_in_slot_order(alive, screen_px, birth_s, fade_reason, now_s, fade_in_s, active_s,
+                          fade_out_s, cull_px, cell_px, gw, gh, cell_count, cell_items, cell_xy,
+                          cell_of, dirty):
+    """The plain greedy cull in slot order (when a cell holds more steady particles than it
+    can keep, which order they come in decides which are kept)."""
+    k_max = cell_items.shape[1]
+    fade_at = fade_in_s + active_s
+    cull2 = cull_px * cull_px
+    for c in range(gw * gh):
+        cell_count[c] = 0
     faded = 0
     for i in range(alive.shape[0]):
-        if not alive[i]:
+        c = cell_of[i]
+        if c < 0:
             continue
         x = screen_px[i, 0]
         y = screen_px[i, 1]
-        cx, cy = _cell_of(x, y, cell_px, gw, gh)
-        if is_fading_out(i, birth_s, now_s, fade_in_s, active_s):
-            if now_s - birth_s[i] - fade_in_s - active_s <= dt_s:  # its fade began this frame
-                dirty[cy * gw + cx] = 1
-            continue
         close = False
-        # only the (at most 2 × 2) cells the disc of radius cull_px overlaps
         x0 = max(int(math.floor((x - cull_px) / cell_px)), 0)
         x1 = min(int(math.floor((x + cull_px) / cell_px)), gw - 1)
         y0 = max(int(math.floor((y - cull_px) / cell_px)), 0)
         y1 = min(int(math.floor((y + cull_px) / cell_px)), gh - 1)
         for ny in range(y0, y1 + 1):
             for nx in range(x0, x1 + 1):
-                c = ny * gw + nx
-                for q in range(cell_count[c]):
-                    j = cell_items[c, q]
-                    dx = screen_px[j, 0] - x
-                    dy = screen_px[j, 1] - y
+                d = ny * gw + nx
+                for q in range(cell_count[d]):
+                    dx = cell_xy[d, q, 0] - x
+                    dy = cell_xy[d, q, 1] - y
                     if dx * dx + dy * dy < cull2:
                         close = True
                         break
@@ -98,29 +261,74 @@ def cull_crowded_particles(
                     break
             if close:
                 break
-        c = cy * gw + cx
         if close or cell_count[c] >= k_max:
-            if start_fade_out(i, birth_s, now_s, fade_in_s, active_s, fade_out_s):
-                fade_reason[i] = REASON_POISSON_DISK
-                faded += 1
+            age = now_s - birth_s[i]
+            level = max(age / fade_in_s, 0.0) if age < fade_in_s else 1.0
+            birth_s[i] = now_s - (fade_at + (1.0 - level) * fade_out_s)  # start_fade_out
+            fade_reason[i] = REASON_POISSON_DISK
+            faded += 1
             dirty[c] = 1
             continue
-        cell_items[c, cell_count[c]] = i
-        cell_count[c] += 1
-    band = frame % ROLLING_BANDS
-    for cy in range(gh):
-        for cx in range(gw):
-            c = cy * gw + cx
-            if cell_count[c] == 0:
-                dirty[c] = 1 | 4  # a hole: its neighbours' particles border it
-            elif (removed_cells[c] or cell_count[c] < sparse_below
-                  or cy % ROLLING_BANDS == band):
-                dirty[c] = 1
-            removed_cells[c] = 0
+        q = cell_count[c]
+        cell_items[c, q] = i
+        cell_xy[c, q, 0] = x
+        cell_xy[c, q, 1] = y
+        cell_count[c] = q + 1
     return faded
 
 
 @njit(**JIT_OPTIONS)
+def blocked_direction_table(radius_px, spawn_gap_px, cell_px, out):
+    """Which directions around a candidate P a neighbour Q surely blocks, by where Q is.
+
+    ``out`` (n, n) uint64 is written: entry [iy, ix] covers Q − P in the square
+    [ix·cell − n·cell/2, (ix + 1)·cell − n·cell/2) × (the same in y) [px]; its bit k is set
+    when, for every Q of the square and every direction θ of [k, k + 1)·2π/64, the point
+    P + 2r·(cos θ, sin θ) is closer than the gap to Q (with a 10⁻⁶ relative margin, so no
+    rounding of the exact arcs can leave such a direction free). The farthest pair of a
+    square and an arc of that size is a corner of one and an end of the other, so 4 × 2
+    distances decide a bit. n·cell must exceed 2·(2r + gap). Returns n.
+    """
+    n = out.shape[0]
+    r2 = 2.0 * radius_px
+    g2 = spawn_gap_px * spawn_gap_px * (1.0 - 1e-6)
+    half = 0.5 * n * cell_px
+    ax = np.empty(DIRECTION_BINS + 1)
+    ay = np.empty(DIRECTION_BINS + 1)
+    for k in range(DIRECTION_BINS + 1):
+        theta = TWO_PI * k / DIRECTION_BINS
+        ax[k] = r2 * math.cos(theta)
+        ay[k] = r2 * math.sin(theta)
+    for iy in range(n):
+        for ix in range(n):
+            bits = np.uint64(0)
+            for k in range(DIRECTION_BINS):
+                ok = True
+                for e in range(k, k + 2):
+                    for corner in range(4):
+                        sx = (ix + (corner & 1)) * cell_px - half
+                        sy = (iy + (corner >> 1)) * cell_px - half
+                        dx = ax[e] - sx
+                        dy = ay[e] - sy
+                        if not dx * dx + dy * dy < g2:
+                            ok = False
+                if ok:
+                    bits |= np.uint64(1) << np.uint64(k)
+            out[iy, ix] = bits
+    return n
+
+
+def direction_table(radius_px: float, spawn_gap_px: float) -> tuple[np.ndarray, float]:
+    """(table, cell_px): :func:`blocked_direction_table` for a radius and a gap, with cells
+    of r/16 px, large enough for every neighbour within 2r + gap."""
+    cell = radius_px / TABLE_CELLS_PER_R
+    n = 2 * int(math.ceil((2.0 * radius_px + spawn_gap_px) / cell)) + 2
+    out = np.zeros((n, n), np.uint64)
+    blocked_direction_table(radius_px, spawn_gap_px, cell, out)
+    return out, cell
+
+
+@njit(inline="always", **JIT_OPTIONS)
 def _remove_arc(lo, hi, n, a, b):
     """Remove [a, b) (0 ≤ a < b ≤ 2π) from the free arcs lo[:n], hi[:n]; returns the new n."""
     out = n
@@ -151,12 +359,16 @@ def _remove_arc(lo, hi, n, a, b):
     return out
 
 
-@njit(**JIT_OPTIONS)
+@njit(inline="always", **JIT_OPTIONS)
 def _remove_wrapped(lo, hi, n, centre, half):
     """Remove the arc centre ± half (radians, any centre) from the free arcs."""
     if half >= math.pi:
         return 0
-    a = (centre - half) % TWO_PI
+    a = centre - half  # (centre − half) mod 2π, for centre − half in (−4π, 4π): ± 2π is exact
+    while a < 0.0:
+        a += TWO_PI
+    while a >= TWO_PI:
+        a -= TWO_PI
     b = a + 2.0 * half
     if b <= TWO_PI:
         return _remove_arc(lo, hi, n, a, b)
@@ -165,20 +377,24 @@ def _remove_wrapped(lo, hi, n, centre, half):
 
 
 @njit(**JIT_OPTIONS)
-def _grid_insert(i, x, y, cell_px, gw, gh, cell_count, cell_items):
+def _grid_insert(i, x, y, cell_px, gw, gh, cell_count, cell_items, cell_xy):
     """Put particle i (at x, y) into its grid cell, if the cell has room."""
     cx, cy = _cell_of(x, y, cell_px, gw, gh)
     c = cy * gw + cx
-    if cell_count[c] < cell_items.shape[1]:
-        cell_items[c, cell_count[c]] = i
-        cell_count[c] += 1
+    q = cell_count[c]
+    if q < cell_items.shape[1]:
+        cell_items[c, q] = i
+        cell_xy[c, q, 0] = x
+        cell_xy[c, q, 1] = y
+        cell_count[c] = q + 1
 
 
 @njit(**JIT_OPTIONS)
 def _new_particle(alive, ids, counters, birth_s, intensity, screen_px, fade_reason, has_world,
                   velocity_mps, status, first_query, offset_m, x, y, now_s, off_lo_x, off_lo_y,
-                  off_hi_x, off_hi_y):
-    i = allocate_particle(alive, ids, counters, 0)
+                  off_hi_x, off_hi_y, first_free):
+    """A new particle at (x, y) in the lowest free slot (none below ``first_free``)."""
+    i = allocate_particle(alive, ids, counters, first_free)
     if i < 0:
         return -1
     birth_s[i] = now_s
@@ -201,13 +417,16 @@ def fill_poisson_holes(
     alive, ids, counters, birth_s, intensity, screen_px, fade_reason, has_world, velocity_mps,
     status, first_query, offset_m,
     now_s, fade_in_s, active_s, radius_px, spawn_gap_px, width_px, height_px, cell_px, gw, gh,
-    cell_count, cell_items, dirty, seed, off_lo_x, off_lo_y, off_hi_x, off_hi_y,
-    candidates, new_slots,
+    cell_count, cell_items, cell_xy, dirty, seed, off_lo_x, off_lo_y, off_hi_x, off_hi_y,
+    candidates, new_slots, blocked, blocked_cell_px,
 ):
     """Fill the holes of the Poisson disk around dirty cells by boundary sampling.
 
     Writes the slots of the new particles into ``new_slots`` (C,) int32 and returns their
     number (they still need a world position). ``candidates`` is (C,) int32 scratch.
+    ``blocked`` (n, n) uint64 is :func:`blocked_direction_table` for this radius and gap, with
+    cells of ``blocked_cell_px``: a candidate whose neighbours surely block every direction
+    (most of them, where the disk is whole) is rejected from it, without trigonometry.
     """
     np.random.seed(seed)
     if width_px <= 0 or height_px <= 0:
@@ -250,10 +469,10 @@ def fill_poisson_holes(
         y = np.random.random() * height_px
         i = _new_particle(alive, ids, counters, birth_s, intensity, screen_px, fade_reason,
                           has_world, velocity_mps, status, first_query, offset_m, x, y, now_s,
-                          off_lo_x, off_lo_y, off_hi_x, off_hi_y)
+                          off_lo_x, off_lo_y, off_hi_x, off_hi_y, 0)
         if i < 0:
             return 0
-        _grid_insert(i, x, y, cell_px, gw, gh, cell_count, cell_items)
+        _grid_insert(i, x, y, cell_px, gw, gh, cell_count, cell_items, cell_xy)
         new_slots[n_new] = i
         n_new += 1
         candidates[0] = i
@@ -265,6 +484,14 @@ def fill_poisson_holes(
     reach = r2 + gap
     # a new particle at angle θ blocks θ ± this for the next ones around the same candidate
     self_block = 2.0 * math.asin(min(gap / (2.0 * r2), 1.0))
+    reach_sq = reach * reach
+    t_inv = 1.0 / blocked_cell_px
+    t_half = 0.5 * blocked.shape[0] * blocked_cell_px
+    t_last = blocked.shape[0] - 1
+    first_free = 0
+    nb_dx = np.empty(9 * cell_items.shape[1] + 1, np.float32)
+    nb_dy = np.empty(9 * cell_items.shape[1] + 1, np.float32)
+    nb_d2 = np.empty(9 * cell_items.shape[1] + 1, np.float32)
     while n_cand > 0:
         k = int(np.random.random() * n_cand)
         p = candidates[k]
@@ -272,27 +499,45 @@ def fill_poisson_holes(
         candidates[k] = candidates[n_cand]
         px = screen_px[p, 0]
         py = screen_px[p, 1]
+        cx, cy = _cell_of(px, py, cell_px, gw, gh)
+        x_lo = max(cx - 1, 0)
+        x_hi = min(cx + 2, gw)
+        # one scan of the 3 × 3 cells: the neighbours within reach (in grid order), and the
+        # directions they surely block, from the table (branch-free: an entry for a square
+        # out of reach is 0, and so is the one of P itself); all of them blocked means no
+        # arc is left (the exact arcs below would find none)
+        mask = np.uint64(0)
+        n_nb = 0
+        for ny in range(max(cy - 1, 0), min(cy + 2, gh)):
+            for nx in range(x_lo, x_hi):
+                c = ny * gw + nx
+                for q in range(cell_count[c]):
+                    dx = cell_xy[c, q, 0] - px
+                    dy = cell_xy[c, q, 1] - py
+                    d2 = dx * dx + dy * dy
+                    ix = min(max(int((dx + t_half) * t_inv), 0), t_last)
+                    iy = min(max(int((dy + t_half) * t_inv), 0), t_last)
+                    mask |= blocked[iy, ix]
+                    nb_dx[n_nb] = dx
+                    nb_dy[n_nb] = dy
+                    nb_d2[n_nb] = d2
+                    n_nb += (d2 < reach_sq) & (d2 > 0.0)  # (d2 = 0: P itself)
+        if mask == ALL_DIRECTIONS:
+            continue
         lo[0] = 0.0
         hi[0] = TWO_PI
         n_arcs = 1
-        cx, cy = _cell_of(px, py, cell_px, gw, gh)
-        reach_sq = reach * reach
-        for ny in range(max(cy - 1, 0), min(cy + 2, gh)):
-            for nx in range(max(cx - 1, 0), min(cx + 2, gw)):
-                c = ny * gw + nx
-                for q in range(cell_count[c]):
-                    if n_arcs == 0:
-                        break
-                    j = cell_items[c, q]
-                    dx = screen_px[j, 0] - px
-                    dy = screen_px[j, 1] - py
-                    d2 = dx * dx + dy * dy
-                    if j != p and d2 < reach_sq:
-                        # |P + 2r·u − Q| < gap  ⇔  cos∠(u, PQ) > (4r² + d² − gap²) / (4r·d)
-                        d = math.sqrt(d2)
-                        cos_half = (r2 * r2 + d2 - gap * gap) / (2.0 * r2 * max(d, 1e-9))
-                        n_arcs = _remove_wrapped(lo, hi, n_arcs, math.atan2(dy, dx),
-                                                 math.acos(min(max(cos_half, -1.0), 1.0)))
+        for m in range(n_nb):
+            if n_arcs == 0:
+                break
+            dx = nb_dx[m]
+            dy = nb_dy[m]
+            d2 = nb_d2[m]
+            # |P + 2r·u − Q| < gap  ⇔  cos∠(u, PQ) > (4r² + d² − gap²) / (4r·d)
+            d = math.sqrt(d2)
+            cos_half = (r2 * r2 + d2 - gap * gap) / (2.0 * r2 * max(d, 1e-9))
+            n_arcs = _remove_wrapped(lo, hi, n_arcs, math.atan2(dy, dx),
+                                     math.acos(min(max(cos_half, -1.0), 1.0)))
         while n_arcs > 0:
             a = int(np.random.random() * n_arcs)
             theta = lo[a] + (hi[a] - lo[a]) * np.random.random()
@@ -303,10 +548,11 @@ def fill_poisson_holes(
                 continue
             i = _new_particle(alive, ids, counters, birth_s, intensity, screen_px, fade_reason,
                               has_world, velocity_mps, status, first_query, offset_m, x, y,
-                              now_s, off_lo_x, off_lo_y, off_hi_x, off_hi_y)
+                              now_s, off_lo_x, off_lo_y, off_hi_x, off_hi_y, first_free)
             if i < 0:
                 return n_new  # the pool is full: stop cleanly
-            _grid_insert(i, x, y, cell_px, gw, gh, cell_count, cell_items)
+            first_free = i + 1  # slots are only taken during the fill: none frees below
+            _grid_insert(i, x, y, cell_px, gw, gh, cell_count, cell_items, cell_xy)
             new_slots[n_new] = i
             n_new += 1
             candidates[n_cand] = i

@@ -109,10 +109,11 @@ def test_cull_matches_reference(rng):
     gw, gh, count, items, prev, dirty = _grid(320, 180, 4 * r)
     keep = pool.alive & (1.0 - pool.birth_s < FI + AC)
     want = reference.cull_in_slot_order(pool.screen_px, keep, 1.96 * r)
+    xy = np.zeros((*items.shape, 2), np.float32)
     faded = kp.cull_crowded_particles(pool.alive, pool.screen_px, pool.birth_s, pool.fade_reason,
                                       pool.status, 1.0, 1 / 60, FI, AC, FO, 1.96 * r, 4 * r, gw,
                                       gh, count,
-                                      items, prev, dirty, 0, 2)
+                                      items, xy, prev, dirty, 0, 2)
     got = np.sort(np.concatenate([items[c, :count[c]] for c in range(gw * gh)]))
     npt.assert_array_equal(got, want)
     assert faded == keep.sum() - len(want)
@@ -120,8 +121,76 @@ def test_cull_matches_reference(rng):
                   == FadeReason.POISSON_DISK)
 
 
+def test_cull_keeps_the_slot_order_when_cells_overflow(rng):
+    r = 6.0
+    pool = _pool(rng, 900)
+    pool.birth_s[:] = 0.0
+    gw, gh, count, items, prev, dirty = _grid(320, 180, 4 * r)
+    items = np.zeros((gw * gh, 3), np.int32)  # room for 3: some cells overflow
+    xy = np.zeros((*items.shape, 2), np.float32)
+    want = reference.cull_in_slot_order(pool.screen_px, pool.alive, 1.5 * r, 4 * r, 3)
+    kp.cull_crowded_particles(pool.alive, pool.screen_px, pool.birth_s, pool.fade_reason,
+                              pool.status, 1.0, 1 / 60, FI, AC, FO, 1.5 * r, 4 * r, gw, gh, count,
+                              items, xy, prev, dirty, 0, 2)
+    got = np.concatenate([items[c, :count[c]] for c in range(gw * gh)])
+    npt.assert_array_equal(np.sort(got), want)
+    rows = np.concatenate([xy[c, :count[c]] for c in range(gw * gh)])
+    npt.assert_array_equal(rows, pool.screen_px[got])  # positions kept next to the slots
+
+
+def test_blocked_direction_table_matches_reference_and_is_sound(rng):
+    r, gap = 5.0, 1.92 * 5.0
+    table, cell = kp.direction_table(r, gap)
+    n = table.shape[0]
+    assert n * cell > 2 * (2 * r + gap)
+    want = reference.blocked_directions(r, gap, cell, n)
+    bits = (table[..., None] >> np.arange(64, dtype=np.uint64)) & np.uint64(1)
+    npt.assert_array_equal(bits.astype(bool), want)
+    # sound: a set bit means the whole arc is blocked for any neighbour in the square
+    q = rng.uniform(-2 * r - gap, 2 * r + gap, (20000, 2))
+    theta = rng.uniform(0, 2 * np.pi, 20000)
+    ix = ((q + 0.5 * n * cell) / cell).astype(int)
+    k = (theta / (2 * np.pi / 64)).astype(int)
+    blocked = want[ix[:, 1], ix[:, 0], k]
+    assert blocked.sum() > 1000
+    p = 2 * r * np.c_[np.cos(theta), np.sin(theta)]
+    assert np.all(np.hypot(*(p - q).T)[blocked] < gap)
+
+
+def test_fill_pre_test_changes_nothing():
+    """The table only skips candidates that have no free arc: with an empty table (every
+    candidate takes the exact arcs) the fill places the same particles."""
+    pools = [ParticlePool(3000) for _ in range(2)]
+    for pool, empty in zip(pools, (False, True)):
+        r, w, h = 5.0, 240, 160
+        gw, gh, count, items, prev, dirty = _grid(w, h, 4 * r)
+        xy = np.zeros((*items.shape, 2), np.float32)
+        table, table_cell = kp.direction_table(r, 1.92 * r)
+        if empty:
+            table[:] = 0
+        new = np.zeros(pool.capacity, np.int32)
+        cand = np.zeros(pool.capacity, np.int32)
+        for f in range(12):
+            pool.screen_px[pool.alive] *= 1.01  # stretch: holes open between frames
+            kp.cull_crowded_particles(pool.alive, pool.screen_px, pool.birth_s,
+                                      pool.fade_reason, pool.status, 1.0, 1 / 60, FI, AC, FO,
+                                      1.9 * r, 4 * r, gw, gh, count, items, xy, prev, dirty, f,
+                                      2)
+            kp.fill_poisson_holes(
+                pool.alive, pool.ids, pool.counters, pool.birth_s, pool.intensity,
+                pool.screen_px, pool.fade_reason, pool.has_world, pool.velocity_mps,
+                pool.status, pool.first_query, pool.offset_m, 1.0, FI, AC, r, 1.92 * r, w, h,
+                4 * r, gw, gh, count, items, xy, dirty, 5 + f, -1.0, -1.0, 1.0, 1.0, cand, new,
+                table, table_cell)
+    assert pools[0].count > 300
+    npt.assert_array_equal(pools[0].screen_px, pools[1].screen_px)
+    npt.assert_array_equal(pools[0].alive, pools[1].alive)
+
+
 def _fill(pool, r, w, h, seed=3, frames=1):
     gw, gh, count, items, prev, dirty = _grid(w, h, 4 * r)
+    xy = np.zeros((*items.shape, 2), np.float32)
+    table, table_cell = kp.direction_table(r, 2.0 * r)
     new = np.zeros(pool.capacity, np.int32)
     cand = np.zeros(pool.capacity, np.int32)
     total = 0
@@ -129,13 +198,13 @@ def _fill(pool, r, w, h, seed=3, frames=1):
         kp.cull_crowded_particles(pool.alive, pool.screen_px, pool.birth_s, pool.fade_reason,
                                   pool.status, 1.0, 1 / 60, FI, AC, FO, 1.96 * r, 4 * r, gw, gh,
                                   count,
-                                  items, prev, dirty, f, 2)
+                                  items, xy, prev, dirty, f, 2)
         total += kp.fill_poisson_holes(
             pool.alive, pool.ids, pool.counters, pool.birth_s, pool.intensity, pool.screen_px,
             pool.fade_reason, pool.has_world, pool.velocity_mps, pool.status, pool.first_query,
-            pool.offset_m, 1.0, FI, AC, r, 2.0 * r, w, h, 4 * r, gw, gh, count, items, dirty,
+            pool.offset_m, 1.0, FI, AC, r, 2.0 * r, w, h, 4 * r, gw, gh, count, items, xy, dirty,
             seed + f,
-            -1.0, -1.0, 1.0, 1.0, cand, new)
+            -1.0, -1.0, 1.0, 1.0, cand, new, table, table_cell)
     return total
 
 
