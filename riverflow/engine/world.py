@@ -225,6 +225,8 @@ class RiverWorld:
         (CPU time in ``timings_ms["draw"]``). See :meth:`render` and :meth:`blit_to_window`."""
         if not self.gl:
             raise RuntimeError("drawing needs a world made with gl=True")
+        if self.camera.is_empty:
+            return
         with self.active():
             for system in self.systems:
                 if system.phase != "draw":
@@ -257,6 +259,9 @@ class RiverWorld:
         (needs ``gl=True``)."""
         if not self.gl:
             raise RuntimeError("render() needs a world made with gl=True")
+        if self.camera.is_empty:                    # a minimised window: nothing to draw
+            w, h = self.camera.size_px
+            return np.zeros((h, w, 4), np.uint8)
         self.draw()
         return self._drawer().read_rgba8()
 

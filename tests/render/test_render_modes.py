@@ -202,3 +202,23 @@ def test_advected_waves_move_with_the_flow(gl_context):
         assert np.abs(still).max() == 0
     finally:
         world.close()
+
+
+def test_resize_and_a_zero_size_viewport_never_break_a_frame(gl_context):
+    from riverflow.engine.world import RiverWorld
+    world = RiverWorld(default_scene(seed=0), size=(64, 48), gl=True, seed=0,
+                       config=RiverConfig(radius_px=4.0, tile_production="blocking"))
+    try:
+        fly(world, 5)
+        assert world.render().shape == (48, 64, 4)
+        world.camera.set_viewport(0, 0)             # minimised
+        world.step(1 / 60)
+        assert world.render().shape == (0, 0, 4)
+        world.camera.set_viewport(96, 40)           # restored, another shape
+        fly(world, 3, start=5)
+        frame = world.render()
+        assert frame.shape == (40, 96, 4) and (frame[..., 3] == 255).all()
+        assert frame[..., :3].std() > 5.0
+        assert np.isfinite(world.pool.world_m[world.pool.alive]).all()
+    finally:
+        world.close()
