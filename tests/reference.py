@@ -255,3 +255,91 @@ def euler_move(world_m, velocity_mps, dt_s):
     out = np.array(world_m, float, copy=True)
     out[:, :2] += velocity_mps * dt_s
     return out
+
+
+def _within(points, x, y, reach):
+    """Rows of points (N, 2) closer than reach to (x, y) (float32 arithmetic, as the kernels)."""
+    d = points.astype(np.float32) - np.array([x, y], np.float32)
+    return (d * d).sum(1) < reach * reach
+
+
+def may_see_water(x, y, level, world_from_clip, width, height, wet, grid_x, grid_y, cell):
+    """Twin of ``_may_see_water``: the pixel's ray where it crosses ``level``, by a wet node?"""
+    ndc = np.array([2 * x / max(width, 1) - 1, 2 * y / max(height, 1) - 1])
+    near = world_from_clip @ np.r_[ndc, -1.0, 1.0]
+    far = world_from_clip @ np.r_[ndc, 1.0, 1.0]
+    if near[3] == 0 or far[3] == 0:
+        return True
+    a, b = near[:3] / near[3], far[:3] / far[3]
+    if not a[2] > level:
+        return True
+    if not b[2] - a[2] < 0:
+        return False
+    p = a + (level - a[2]) / (b[2] - a[2]) * (b - a)
+    g = (p[:2] - (grid_x, grid_y)) / cell
+    rows, cols = wet.shape
+    if not (g[0] >= 0 and g[1] >= 0 and g[0] < cols - 1 and g[1] < rows - 1):
+        return False
+    i, j = int(g[0]), int(g[1])
+    return bool(wet[j:j + 2, i:i + 2].any())
+
+
+def check_outside_near_water(alive, ids, status, screen_px, world_m, items, frame, probe_every,
+                             replace_every, n_probes, probe_px, reach_px, cover_px, width,
+                             height, world_from_clip, wet, grid_x, grid_y, cell, seed):
+    """Twin of ``check_outside_near_water`` over the particles ``items`` (those in the grid):
+    the OUTSIDE particles with an INSIDE one of ``items`` within reach, looked at when
+    (id + frame) % probe_every == 0 in slot order: replaced when also % replace_every == 0, else
+    their probes (RandomState(seed) draws φ then ρ per probe) that are on screen, uncovered by
+    INSIDE/LEAVING items and may see water at the level of the first INSIDE neighbour in grid
+    order ``items``. Returns (removed slots, probes (P, 2))."""
+    rs = np.random.RandomState(seed)
+    items = np.asarray(items)
+    inside = items[(status[items] == 1) & alive[items]]
+    carriers = items[((status[items] == 1) | (status[items] == 2)) & alive[items]]
+    removed, probes = [], []
+    for i in range(len(alive)):
+        if not alive[i] or status[i] != 4 or (ids[i] + frame) % probe_every:
+            continue
+        near = inside[(inside != i) & _within(screen_px[inside], *screen_px[i], reach_px)]
+        if not len(near):
+            continue
+        if (ids[i] + frame) % replace_every == 0:
+            removed.append(i)
+            continue
+        for _ in range(n_probes):
+            phi = 2 * np.pi * rs.random_sample()
+            rho = probe_px * np.sqrt(rs.random_sample())
+            x = screen_px[i, 0] + rho * np.cos(phi)
+            y = screen_px[i, 1] + rho * np.sin(phi)
+            if not (0 <= x < width and 0 <= y < height):
+                continue
+            if _within(screen_px[carriers], x, y, cover_px).any():
+                continue
+            if may_see_water(x, y, world_m[near[0], 2], world_from_clip, width, height, wet,
+                             grid_x, grid_y, cell):
+                probes.append((x, y))
+    return np.array(removed, int), np.array(probes, float).reshape(-1, 2)
+
+
+def place_at_seen_water(alive, status, screen_px, birth_s, now_s, fade_at, items, probes, hit,
+                        flow_status, gap_px):
+    """Twin of ``place_at_seen_water``'s choices: for each probe in order that saw water in the
+    flow, the steady ``items`` closer than the gap give way unless one is INSIDE, LEAVING or
+    UNKNOWN or a particle placed before is that close. Returns (placed probe rows, removed
+    slots)."""
+    alive = alive.copy()
+    placed, removed = [], []
+    for k, (x, y) in enumerate(probes):
+        if hit[k] != 2 or flow_status[k] != 1:
+            continue
+        if placed and _within(probes[placed], x, y, gap_px).any():
+            continue
+        live = items[alive[items] & (now_s - birth_s[items] < fade_at)]
+        close = live[_within(screen_px[live], x, y, gap_px)]
+        if np.isin(status[close], (0, 1, 2)).any():
+            continue
+        alive[close] = False
+        removed.extend(close.tolist())
+        placed.append(k)
+    return np.array(placed, int), np.array(removed, int)

@@ -21,10 +21,11 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 from numba import njit
 
 from riverflow.kernels._jit import JIT_OPTIONS
-from riverflow.kernels.lifecycle import free_particle
+from riverflow.kernels.lifecycle import allocate_particle, free_particle
 
 STATUS_UNKNOWN = 0
 STATUS_INSIDE = 1
@@ -33,6 +34,8 @@ STATUS_NEAR = 3
 STATUS_OUTSIDE = 4
 STATUS_OUTSIDE_DOMAIN = 6
 STATUS_ON_SKY = 7
+HIT_WATER = 2
+"""riverflow.kernels.raycast.HIT_WATER"""
 
 
 @njit(**JIT_OPTIONS)
@@ -55,7 +58,7 @@ def select_flow_queries(alive, has_world, status, world_m, out_index, out_xy):
     return n
 
 
-@njit(**JIT_OPTIONS)
+@njit(inline="always", **JIT_OPTIONS)
 def _inside_neighbour(i, screen_px, status, alive, cell_px, gw, gh, cell_count, cell_items,
                       reach_px):
     """Is a live INSIDE particle within ``reach_px`` of particle i on screen (last frame's grid)?"""
@@ -152,18 +155,113 @@ def apply_flow_status(
     return waiting
 
 
+@njit(inline="always", **JIT_OPTIONS)
+def _inside_within(i, screen_px, status, alive, cell_px, gw, gh, cell_count, cell_items,
+                   reach_px):
+    """A live INSIDE particle within ``reach_px`` of particle i on screen (the first found in
+    the grid), or −1."""
+    x = screen_px[i, 0]
+    y = screen_px[i, 1]
+    cx = min(max(int(math.floor(x / cell_px)), 0), gw - 1)
+    cy = min(max(int(math.floor(y / cell_px)), 0), gh - 1)
+    r2 = reach_px * reach_px
+    for ny in range(max(cy - 1, 0), min(cy + 2, gh)):
+        for nx in range(max(cx - 1, 0), min(cx + 2, gw)):
+            c = ny * gw + nx
+            for q in range(cell_count[c]):
+                j = cell_items[c, q]
+                if j == i or not alive[j] or status[j] != STATUS_INSIDE:
+                    continue
+                dx = screen_px[j, 0] - x
+                dy = screen_px[j, 1] - y
+                if dx * dx + dy * dy < r2:
+                    return j
+    return -1
+
+
+@njit(inline="always", **JIT_OPTIONS)
+def _covered(x, y, screen_px, status, alive, cell_px, gw, gh, cell_count, cell_items,
+             cover_px):
+    """Is an INSIDE or LEAVING particle closer than ``cover_px`` (< cell_px) to (x, y)?"""
+    cx = min(max(int(math.floor(x / cell_px)), 0), gw - 1)
+    cy = min(max(int(math.floor(y / cell_px)), 0), gh - 1)
+    r2 = cover_px * cover_px
+    for ny in range(max(cy - 1, 0), min(cy + 2, gh)):
+        for nx in range(max(cx - 1, 0), min(cx + 2, gw)):
+            c = ny * gw + nx
+            for q in range(cell_count[c]):
+                j = cell_items[c, q]
+                s = status[j]
+                if (s == STATUS_INSIDE or s == STATUS_LEAVING) and alive[j]:
+                    dx = screen_px[j, 0] - x
+                    dy = screen_px[j, 1] - y
+                    if dx * dx + dy * dy < r2:
+                        return True
+    return False
+
+
+@njit(inline="always", **JIT_OPTIONS)
+def _may_see_water(x, y, level_m, world_from_clip, width_px, height_px, wet_nodes, grid_x,
+                   grid_y, grid_cell_m):
+    """Could the ray of pixel (x, y) end on water at ``level_m``? Where it crosses that level
+    must be by a wet node of ``wet_nodes`` (ny, nx) uint8 (dilated): a ray that sees water at
+    that level crosses it right there. True when it cannot tell (the eye below that level)."""
+    m = world_from_clip
+    nx_ = 2.0 * x / max(width_px, 1) - 1.0
+    ny_ = 2.0 * y / max(height_px, 1) - 1.0
+    w0 = m[3, 0] * nx_ + m[3, 1] * ny_ - m[3, 2] + m[3, 3]
+    w1 = m[3, 0] * nx_ + m[3, 1] * ny_ + m[3, 2] + m[3, 3]
+    if w0 == 0.0 or w1 == 0.0:
+        return True
+    ax = (m[0, 0] * nx_ + m[0, 1] * ny_ - m[0, 2] + m[0, 3]) / w0
+    ay = (m[1, 0] * nx_ + m[1, 1] * ny_ - m[1, 2] + m[1, 3]) / w0
+    az = (m[2, 0] * nx_ + m[2, 1] * ny_ - m[2, 2] + m[2, 3]) / w0
+    dz = (m[2, 0] * nx_ + m[2, 1] * ny_ + m[2, 2] + m[2, 3]) / w1 - az
+    if not (az > level_m):
+        return True  # the eye at or below that level: cannot tell
+    if not (dz < 0.0):
+        return False  # the ray never comes down to it
+    t = (level_m - az) / dz
+    bx = (m[0, 0] * nx_ + m[0, 1] * ny_ + m[0, 2] + m[0, 3]) / w1
+    by = (m[1, 0] * nx_ + m[1, 1] * ny_ + m[1, 2] + m[1, 3]) / w1
+    gx = (ax + t * (bx - ax) - grid_x) / grid_cell_m
+    gy = (ay + t * (by - ay) - grid_y) / grid_cell_m
+    rows, cols = wet_nodes.shape
+    if not (gx >= 0.0 and gy >= 0.0 and gx < cols - 1 and gy < rows - 1):
+        return False
+    i = int(gx)
+    j = int(gy)
+    return (wet_nodes[j, i] | wet_nodes[j, i + 1] | wet_nodes[j + 1, i]
+            | wet_nodes[j + 1, i + 1]) != 0
+
+
 @njit(**JIT_OPTIONS)
-def remove_outside_near_water(alive, ids, counters, status, screen_px, cell_px, gw, gh,
-                              cell_count, cell_items, reach_px, wet_cells, removed_cells,
-                              frame, every):
-    """OUTSIDE particles with an INSIDE neighbour on screen give way (NEAR, removed), so that
-    new samples may land in the river (Proland's NEAR rule). A particle is looked at once
-    every ``every`` frames (staggered by id): a shore particle that lands on the land again is
-    not replaced at every frame (Proland churns the whole shore each frame). ``wet_cells``
-    (gw·gh,) uint8 is
-    scratch (cells of the grid holding an INSIDE particle); the cells of removed particles are
-    marked in ``removed_cells`` (gw·gh,) uint8 for the Poisson pass. Returns the number
-    removed."""
+def check_outside_near_water(
+    alive, ids, counters, status, screen_px, world_m, cell_px, gw, gh, cell_count, cell_items,
+    reach_px, wet_cells, removed_cells, frame, probe_every, replace_every, n_probes, probe_px,
+    cover_px, width_px, height_px, world_from_clip, wet_nodes, grid_x, grid_y, grid_cell_m,
+    seed, out_xy,
+):
+    """Proland's NEAR rule, made cheap: where should an OUTSIDE particle near the river give
+    way so that the river gets particles?
+
+    An OUTSIDE particle with an INSIDE one within ``reach_px`` on screen (last frame's grid;
+    looked at once every ``probe_every`` frames, staggered by id, and only near grid cells
+    holding an INSIDE particle: ``wet_cells`` (gw·gh,) uint8 is scratch):
+
+    * once every ``replace_every`` frames it gives way (NEAR, removed; its cell marked in
+      ``removed_cells``), as Proland replaces it every frame: the refill may land on water,
+      and freshly packed shores keep the Poisson disk dense;
+    * the other times it *probes*: ``n_probes`` random points within ``probe_px`` of it (seeded
+      by ``seed``), kept when on screen, farther than ``cover_px`` from every INSIDE or
+      LEAVING particle, and where the pixel's ray may see water at the INSIDE neighbour's
+      level (:func:`_may_see_water`). They go to ``out_xy`` (P, 2) float32: their rays are
+      cast next, and a probe that sees water gets a particle (:func:`place_at_seen_water`).
+
+    ``world_from_clip`` is the inverse view-projection the screen positions were projected
+    with. Returns (removed, probes).
+    """
+    np.random.seed(seed)
     for c in range(gw * gh):
         wet_cells[c] = 0
         for q in range(cell_count[c]):
@@ -172,8 +270,9 @@ def remove_outside_near_water(alive, ids, counters, status, screen_px, cell_px, 
                 wet_cells[c] = 1
                 break
     removed = 0
+    n = 0
     for i in range(alive.shape[0]):
-        if not alive[i] or status[i] != STATUS_OUTSIDE or (ids[i] + frame) % every != 0:
+        if not alive[i] or status[i] != STATUS_OUTSIDE or (ids[i] + frame) % probe_every != 0:
             continue
         cx = min(max(int(math.floor(screen_px[i, 0] / cell_px)), 0), gw - 1)
         cy = min(max(int(math.floor(screen_px[i, 1] / cell_px)), 0), gh - 1)
@@ -182,16 +281,131 @@ def remove_outside_near_water(alive, ids, counters, status, screen_px, cell_px, 
             for nx in range(max(cx - 1, 0), min(cx + 2, gw)):
                 if wet_cells[ny * gw + nx]:
                     near_wet = True
-        if near_wet and _inside_neighbour(i, screen_px, status, alive, cell_px, gw, gh,
-                                          cell_count, cell_items, reach_px):
+        if not near_wet:
+            continue
+        j = _inside_within(i, screen_px, status, alive, cell_px, gw, gh, cell_count,
+                           cell_items, reach_px)
+        if j < 0:
+            continue
+        if (ids[i] + frame) % replace_every == 0:
             status[i] = STATUS_NEAR
             free_particle(i, alive, ids, counters)
             removed_cells[cy * gw + cx] = 1
             removed += 1
-    return removed
+            continue
+        level = world_m[j, 2]
+        for _ in range(n_probes):
+            phi = 2.0 * math.pi * np.random.random()
+            rho = probe_px * math.sqrt(np.random.random())
+            x = screen_px[i, 0] + rho * math.cos(phi)
+            y = screen_px[i, 1] + rho * math.sin(phi)
+            if not (0.0 <= x < width_px and 0.0 <= y < height_px):
+                continue
+            if _covered(x, y, screen_px, status, alive, cell_px, gw, gh, cell_count, cell_items,
+                        cover_px):
+                continue
+            if not _may_see_water(x, y, level, world_from_clip, width_px, height_px, wet_nodes,
+                                  grid_x, grid_y, grid_cell_m):
+                continue
+            out_xy[n, 0] = x
+            out_xy[n, 1] = y
+            n += 1
+    return removed, n
 
 
 @njit(**JIT_OPTIONS)
+def place_at_seen_water(
+    alive, ids, counters, birth_s, intensity, screen_px, fade_reason, has_world, world_m,
+    velocity_mps, status, first_query, offset_m, now_s, fade_in_s, active_s, gap_px, cell_px,
+    gw, gh, cell_count, cell_items, n, probe_xy, hit, hit_xyz, flow_status, flow_velocity,
+    removed_cells, seed, off_lo_x, off_lo_y, off_hi_x, off_hi_y, new_slots,
+):
+    """A new particle at each probe ``probe_xy[:n]`` whose ray hit water (``hit`` HIT_WATER, at
+    ``hit_xyz``) inside the flow (``flow_status`` INSIDE, ``flow_velocity``): the steady
+    particles closer than ``gap_px`` to it give way (NEAR, removed, cells marked in
+    ``removed_cells``) unless one of them is in the water (INSIDE, LEAVING) or still waiting
+    for its flow tile (UNKNOWN), or a particle placed here this frame is that close; then the
+    probe is skipped. The new particle starts INSIDE with the flow's velocity, fading in, a
+    random sprite offset (seeded by ``seed``). Writes ``new_slots`` and returns
+    (placed, removed)."""
+    np.random.seed(seed)
+    gap2 = gap_px * gap_px
+    fade_at = fade_in_s + active_s
+    placed = 0
+    removed = 0
+    first_free = 0
+    for k in range(n):
+        if hit[k] != HIT_WATER or flow_status[k] != STATUS_INSIDE:
+            continue
+        x = probe_xy[k, 0]
+        y = probe_xy[k, 1]
+        ok = True
+        for m in range(placed):
+            j = new_slots[m]
+            dx = screen_px[j, 0] - x
+            dy = screen_px[j, 1] - y
+            if dx * dx + dy * dy < gap2:
+                ok = False
+                break
+        if not ok:
+            continue
+        cx = min(max(int(math.floor(x / cell_px)), 0), gw - 1)
+        cy = min(max(int(math.floor(y / cell_px)), 0), gh - 1)
+        for ny in range(max(cy - 1, 0), min(cy + 2, gh)):
+            for nx in range(max(cx - 1, 0), min(cx + 2, gw)):
+                c = ny * gw + nx
+                for q in range(cell_count[c]):
+                    j = cell_items[c, q]
+                    s = status[j]
+                    if not alive[j] or now_s - birth_s[j] >= fade_at:
+                        continue
+                    if s != STATUS_INSIDE and s != STATUS_LEAVING and s != STATUS_UNKNOWN:
+                        continue
+                    dx = screen_px[j, 0] - x
+                    dy = screen_px[j, 1] - y
+                    if dx * dx + dy * dy < gap2:
+                        ok = False
+        if not ok:
+            continue
+        for ny in range(max(cy - 1, 0), min(cy + 2, gh)):
+            for nx in range(max(cx - 1, 0), min(cx + 2, gw)):
+                c = ny * gw + nx
+                for q in range(cell_count[c]):
+                    j = cell_items[c, q]
+                    if not alive[j] or now_s - birth_s[j] >= fade_at:
+                        continue
+                    dx = screen_px[j, 0] - x
+                    dy = screen_px[j, 1] - y
+                    if dx * dx + dy * dy < gap2:
+                        status[j] = STATUS_NEAR
+                        free_particle(j, alive, ids, counters)
+                        removed_cells[c] = 1
+                        removed += 1
+        i = allocate_particle(alive, ids, counters, first_free)
+        if i < 0:
+            break  # the pool is full
+        first_free = i + 1
+        birth_s[i] = now_s
+        intensity[i] = 0.0
+        screen_px[i, 0] = x
+        screen_px[i, 1] = y
+        fade_reason[i] = 0
+        has_world[i] = True
+        world_m[i, 0] = hit_xyz[k, 0]
+        world_m[i, 1] = hit_xyz[k, 1]
+        world_m[i, 2] = hit_xyz[k, 2]
+        velocity_mps[i, 0] = flow_velocity[k, 0]
+        velocity_mps[i, 1] = flow_velocity[k, 1]
+        status[i] = STATUS_INSIDE
+        first_query[i] = False
+        offset_m[i, 0] = off_lo_x + (off_hi_x - off_lo_x) * np.random.random()
+        offset_m[i, 1] = off_lo_y + (off_hi_y - off_lo_y) * np.random.random()
+        new_slots[placed] = i
+        placed += 1
+    return placed, removed
+
+
+@njit(inline="always", **JIT_OPTIONS)
 def _bilinear(grid, gx, gy):
     ny, nx = grid.shape
     if not (gx >= 0.0 and gy >= 0.0 and gx <= nx - 1 and gy <= ny - 1):
@@ -204,7 +418,7 @@ def _bilinear(grid, gx, gy):
             + v * ((1.0 - u) * grid[j + 1, i] + u * grid[j + 1, i + 1]))
 
 
-@njit(**JIT_OPTIONS)
+@njit(inline="always", **JIT_OPTIONS)
 def _surface(x, y, water_m, ground_m, grid_x, grid_y, grid_cell_m):
     """Water altitude at (x, y) [m]; the ground's where the water grid has no value."""
     gx = (x - grid_x) / grid_cell_m

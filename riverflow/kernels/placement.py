@@ -43,7 +43,7 @@ def pixel_rays(slots, n, screen_px, world_from_clip, width_px, height_px, out_or
         out_dir[k, 2] = dz / norm
 
 
-@njit(**JIT_OPTIONS)
+@njit(inline="always", **JIT_OPTIONS)
 def _unproject(m, x, y, z):
     wx = m[0, 0] * x + m[0, 1] * y + m[0, 2] * z + m[0, 3]
     wy = m[1, 0] * x + m[1, 1] * y + m[1, 2] * z + m[1, 3]

@@ -376,7 +376,7 @@ def _remove_wrapped(lo, hi, n, centre, half):
     return _remove_arc(lo, hi, n, 0.0, b - TWO_PI)
 
 
-@njit(**JIT_OPTIONS)
+@njit(inline="always", **JIT_OPTIONS)
 def _grid_insert(i, x, y, cell_px, gw, gh, cell_count, cell_items, cell_xy):
     """Put particle i (at x, y) into its grid cell, if the cell has room."""
     cx, cy = _cell_of(x, y, cell_px, gw, gh)
@@ -389,7 +389,7 @@ def _grid_insert(i, x, y, cell_px, gw, gh, cell_count, cell_items, cell_xy):
         cell_count[c] = q + 1
 
 
-@njit(**JIT_OPTIONS)
+@njit(inline="always", **JIT_OPTIONS)
 def _new_particle(alive, ids, counters, birth_s, intensity, screen_px, fade_reason, has_world,
                   velocity_mps, status, first_query, offset_m, x, y, now_s, off_lo_x, off_lo_y,
                   off_hi_x, off_hi_y, first_free):

@@ -1,35 +1,71 @@
 """AdvectParticles: carry the particles along the flow (Proland TerrainParticleLayer)."""
 from __future__ import annotations
 
+import weakref
+
 import esper
 import numpy as np
+from scipy import ndimage
 
 from riverflow.components.particles import ParticlePool
-from riverflow.components.river import Clock, RiverNode, ScreenGrid, SurfaceGrids
+from riverflow.components.river import Clock, FrameView, RiverNode, ScreenGrid, SurfaceGrids
 from riverflow.engine.system import System
 from riverflow.hydro.flow_field import FlowField
-from riverflow.kernels.advection import (apply_flow_status, move_particles,
-                                         remove_outside_near_water, select_flow_queries)
+from riverflow.kernels.advection import (HIT_WATER, apply_flow_status, check_outside_near_water,
+                                         move_particles, place_at_seen_water,
+                                         select_flow_queries)
 from riverflow.kernels.flow import query_velocity
+from riverflow.kernels.placement import pixel_rays
+from riverflow.kernels.raycast import cast_rays_onto_heightfield, height_pyramid
 
 _NO_LEVELS = np.zeros(0, np.int8)
 
 NEAR_CHECK_EVERY = 4
-"""An OUTSIDE particle is checked for INSIDE neighbours (and then replaced) every this many
-frames, staggered by id."""
+"""An OUTSIDE particle next to the river is looked at every this many frames, staggered by id:
+it probes for uncovered water near it (:data:`NEAR_PROBES` points)."""
+NEAR_REPLACE_EVERY = 16
+"""… and every this many frames it is replaced (Proland replaces it every frame)."""
+NEAR_PROBES = 4
+"""Random points probed around it, within :data:`NEAR_PROBE_REACH` · r."""
+NEAR_PROBE_REACH = 2.5
+NEAR_COVER = 2.0
+"""A probe point closer than this · r to an INSIDE or LEAVING particle is covered."""
+WET_DILATION = 2
+"""Grid nodes by which the wet nodes are grown for the probes' water pre-test."""
+
+_SURFACE_CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def surface_tables(grids: SurfaceGrids) -> tuple[np.ndarray, np.ndarray]:
+    """(height pyramid, wet nodes) of a :class:`SurfaceGrids`, made once and shared: the max-mip
+    pyramid of :func:`riverflow.kernels.raycast.height_pyramid`, and (ny, nx) uint8 nodes where
+    the water is at or above the ground, grown by :data:`WET_DILATION` nodes."""
+    tables = _SURFACE_CACHE.get(grids)
+    if tables is None:
+        wet = grids.water_m >= grids.ground_m  # NaN (dry) compares False
+        wet = ndimage.binary_dilation(wet, iterations=WET_DILATION)
+        tables = (height_pyramid(grids.ground_m, grids.water_m), wet.astype(np.uint8))
+        _SURFACE_CACHE[grids] = tables
+    return tables
 
 
 class AdvectParticles(System):
-    """Move, then ask the flow where the particles now are; OUTSIDE ones next to the river go."""
+    """Move, then ask the flow where the particles now are; OUTSIDE ones next to the river
+    probe for water that no particle covers, and give way to it."""
 
     name = "advection"
 
     def __init__(self) -> None:
-        self.moved = self.removed = self.waiting = 0
+        self.moved = self.removed = self.waiting = self.probes = self.placed = 0
+        self._view_inverse: np.ndarray | None = None
+        self._probe_xy = np.zeros((0, 2), np.float32)
+        self._rows = np.zeros(0, np.int32)
 
     def process(self, world, dt_s: float) -> None:
         clock = world.resource(Clock)
+        view = world.resource(FrameView)
         if clock.paused:
+            self._view_inverse = view.world_from_clip.copy()
             return
         g = world.resource(SurfaceGrids)
         reach_px = world.config.grid_cell_factor * world.config.radius_px
@@ -41,10 +77,76 @@ class AdvectParticles(System):
             n = select_flow_queries(pool.alive, pool.has_world, pool.status, pool.world_m,
                                     grid.query_index, grid.query_xy)
             self.waiting = ask_flow(node.field, pool, grid, n, reach_px)
-            self.removed = remove_outside_near_water(
-                pool.alive, pool.ids, pool.counters, pool.status, pool.screen_px, grid.cell_px,
-                grid.gw, grid.gh, grid.cell_count, grid.cell_items, reach_px, grid.wet_cells,
-                grid.removed_cells, clock.frame, NEAR_CHECK_EVERY)
+            self._near_water(world, node.field, pool, grid, g, reach_px)
+        # the screen positions the next frame starts from were projected with this view
+        self._view_inverse = view.world_from_clip.copy()
+
+    def _near_water(self, world, field: FlowField, pool: ParticlePool, grid: ScreenGrid,
+                    g: SurfaceGrids, reach_px: float) -> None:
+        """The NEAR rule (:func:`check_outside_near_water`), then a particle at each probe
+        that sees uncovered water inside the flow (:func:`place_at_seen_water`)."""
+        c = world.config
+        r = c.radius_px
+        view = world.resource(FrameView)
+        clock = world.resource(Clock)
+        inverse = self._view_inverse if self._view_inverse is not None else view.world_from_clip
+        pyramid, wet = surface_tables(g)
+        if len(self._probe_xy) < pool.capacity * NEAR_PROBES:
+            self._probe_xy = np.zeros((pool.capacity * NEAR_PROBES, 2), np.float32)
+        self.removed, n = check_outside_near_water(
+            pool.alive, pool.ids, pool.counters, pool.status, pool.screen_px, pool.world_m,
+            grid.cell_px, grid.gw, grid.gh, grid.cell_count, grid.cell_items, reach_px,
+            grid.wet_cells, grid.removed_cells, clock.frame, NEAR_CHECK_EVERY,
+            NEAR_REPLACE_EVERY, NEAR_PROBES, NEAR_PROBE_REACH * r, NEAR_COVER * r,
+            view.width_px, view.height_px, inverse, wet, g.origin_x, g.origin_y, g.cell_m,
+            int(world.rng.integers(0, 2**31 - 1)), self._probe_xy)
+        self.probes = n
+        self.placed = 0
+        if n == 0:
+            return
+        if len(self._rows) < n:
+            self._rows = np.arange(max(n, 2 * len(self._rows)), dtype=np.int32)
+        origin = np.empty((n, 3))
+        direction = np.empty((n, 3))
+        pixel_rays(self._rows, n, self._probe_xy, inverse, view.width_px, view.height_px,
+                   origin, direction)
+        hit_xyz = np.empty((n, 3))
+        hit = np.empty(n, np.uint8)
+        cast_rays_onto_heightfield(origin, direction, g.ground_m, g.water_m, g.origin_x,
+                                   g.origin_y, g.cell_m, c.far_m, hit_xyz, hit, pyramid)
+        water = np.flatnonzero(hit == HIT_WATER)
+        if not len(water):
+            return
+        xy = np.ascontiguousarray(hit_xyz[water, :2])
+        status = np.empty(len(water), np.uint8)
+        velocity = np.empty((len(water), 2), np.float32)
+        query_flow(field, xy, status, velocity)
+        lo, hi = c.random_offset_min_m, c.random_offset_max_m
+        self.placed, removed = place_at_seen_water(
+            pool.alive, pool.ids, pool.counters, pool.birth_s, pool.intensity, pool.screen_px,
+            pool.fade_reason, pool.has_world, pool.world_m, pool.velocity_mps, pool.status,
+            pool.first_query, pool.offset_m, clock.now_s, c.fade_in_s, c.active_s,
+            c.spawn_gap_factor * r, grid.cell_px, grid.gw, grid.gh, grid.cell_count,
+            grid.cell_items, len(water), self._probe_xy[water], hit[water], hit_xyz[water],
+            status, velocity, grid.removed_cells, int(world.rng.integers(0, 2**31 - 1)),
+            lo[0], lo[1], hi[0], hi[1], grid.new_slots)
+        self.removed += removed
+
+
+def query_flow(field: FlowField, xy: np.ndarray, status: np.ndarray,
+               velocity: np.ndarray) -> None:
+    """Flow status (N,) uint8 and velocity (N, 2) float32 [m/s] at ``xy`` (N, 2) float64 [m]
+    from the finest cached tile under each point, bent around the field's obstacles."""
+    t = field.tiles
+    t.tick += 1
+    n = len(xy)
+    query_velocity(xy, _NO_LEVELS, field.max_level, field.max_level,
+                   t.root_x_m, t.root_y_m, t.root_size_m, t.n_cells, t.slots_flat,
+                   t.level_offset, t.psi, t.cell_status, t.cell_segments, t.last_used, t.tick,
+                   *field.network.geometry_args(), status[:n], velocity[:n])
+    if len(field.obstacles):
+        field.apply_obstacles(xy, status, velocity, level=field.max_level,
+                              fallback=field.max_level)
 
 
 def ask_flow(field: FlowField, pool: ParticlePool, grid: ScreenGrid, n: int,
@@ -52,16 +154,7 @@ def ask_flow(field: FlowField, pool: ParticlePool, grid: ScreenGrid, n: int,
     """Query the flow for particles ``grid.query_index[:n]`` at ``grid.query_xy[:n]`` (the
     finest cached tile under each), bent around the field's obstacles (boats), and run the
     status machine; returns how many wait for a tile."""
-    t = field.tiles
-    t.tick += 1
-    query_velocity(grid.query_xy[:n], _NO_LEVELS, field.max_level, field.max_level,
-                   t.root_x_m, t.root_y_m, t.root_size_m, t.n_cells, t.slots_flat,
-                   t.level_offset, t.psi, t.cell_status, t.cell_segments, t.last_used, t.tick,
-                   *field.network.geometry_args(), grid.query_status[:n],
-                   grid.query_velocity[:n])
-    if len(field.obstacles):
-        field.apply_obstacles(grid.query_xy[:n], grid.query_status[:n], grid.query_velocity[:n],
-                              level=field.max_level, fallback=field.max_level)
+    query_flow(field, grid.query_xy[:n], grid.query_status[:n], grid.query_velocity[:n])
     return apply_flow_status(pool.alive, pool.velocity_mps, pool.status, pool.first_query,
                              pool.screen_px, n, grid.query_index, grid.query_status,
                              grid.query_velocity, grid.cell_px, grid.gw, grid.gh,

@@ -8,16 +8,15 @@ import numpy as np
 from riverflow.components.particles import ParticlePool
 from riverflow.components.river import FrameView, RiverNode, ScreenGrid, SurfaceGrids
 from riverflow.engine.system import System
-from riverflow.systems.advection import ask_flow
 from riverflow.kernels.placement import pixel_rays, place_particles, select_new_on_ground
-from riverflow.kernels.raycast import cast_rays_onto_heightfield, height_pyramid
+from riverflow.kernels.raycast import cast_rays_onto_heightfield
+from riverflow.systems.advection import ask_flow, surface_tables
 
 
 class PlaceNewParticles(System):
     name = "placement"
 
     def __init__(self) -> None:
-        self._blocks: tuple[int, np.ndarray] | None = None
         self._origin = np.zeros((0, 3))
         self._dir = np.zeros((0, 3))
         self._hit_xyz = np.zeros((0, 3))
@@ -27,8 +26,7 @@ class PlaceNewParticles(System):
     def process(self, world, dt_s: float) -> None:
         view = world.resource(FrameView)
         grids = world.resource(SurfaceGrids)
-        if self._blocks is None or self._blocks[0] != id(grids):
-            self._blocks = (id(grids), height_pyramid(grids.ground_m, grids.water_m))
+        pyramid = surface_tables(grids)[0]
         for _, (node, pool, grid) in esper.get_components(RiverNode, ParticlePool, ScreenGrid):
             if len(self._hit) != pool.capacity:
                 c = pool.capacity
@@ -45,7 +43,7 @@ class PlaceNewParticles(System):
             cast_rays_onto_heightfield(self._origin[:n], self._dir[:n], grids.ground_m,
                                        grids.water_m, grids.origin_x, grids.origin_y,
                                        grids.cell_m, world.config.far_m, self._hit_xyz[:n],
-                                       self._hit[:n], self._blocks[1])
+                                       self._hit[:n], pyramid)
             self.sky = place_particles(grid.new_slots, n, self._hit_xyz, self._hit, pool.world_m,
                                        pool.has_world, pool.status, pool.first_query)
             # their first flow answer now, so the frame ends with every status up to date

@@ -297,3 +297,109 @@ def test_pixel_rays_match_the_camera():
     kpl.pixel_rays(np.arange(3, dtype=np.int32), 3, screen, inv, 320, 180, origin, direction)
     _, want = cam.screen_to_ray(screen.astype(float))
     npt.assert_allclose(direction, want, atol=1e-6)
+
+
+def _river_view(rng, r=5.0, w=320, h=180, n=700):
+    """A camera over a flat valley with a 80 m wide river along y (water level 0), particles
+    at random pixels, INSIDE over the river and OUTSIDE beside it, in a neighbour grid."""
+    cam = Camera(position=(30, -260, 120), target=(0, 0, 0), size_px=(w, h))
+    _, inv = cam.matrices_for_kernels()
+    pool = ParticlePool(n + 400)
+    for _ in range(n):
+        kl.allocate_particle(pool.alive, pool.ids, pool.counters, 0)
+    pool.screen_px[:n] = rng.uniform((0, 0), (w, h), (n, 2))
+    origin, direction = cam.screen_to_ray(pool.screen_px[:n].astype(float))
+    t = -origin[:, 2] / direction[:, 2]
+    pool.world_m[:n] = origin + t[:, None] * direction
+    pool.has_world[:n] = True
+    river = np.abs(pool.world_m[:n, 0]) < 40
+    pool.status[:n] = np.where(river, FlowStatus.INSIDE, FlowStatus.OUTSIDE)
+    pool.status[:n][rng.random(n) < 0.05] = FlowStatus.LEAVING
+    gx = np.arange(-400, 401, 10.0)
+    wet = (np.abs(gx)[None, :] < 40) & np.ones((len(gx), 1), bool)
+    gw, gh, count, items, removed, _ = _grid(w, h, 4 * r)
+    cells = (np.floor(pool.screen_px[:n, 1] / (4 * r)) * gw
+             + np.floor(pool.screen_px[:n, 0] / (4 * r))).astype(int)
+    for i in np.argsort(cells, kind="stable"):
+        items[cells[i], count[cells[i]]] = i
+        count[cells[i]] += 1
+    order = np.concatenate([items[c, :count[c]] for c in range(gw * gh)])
+    return pool, inv, wet.astype(np.uint8), (gw, gh, count, items, removed), order
+
+
+def test_near_water_check_matches_reference(rng):
+    r, w, h = 5.0, 320, 180
+    pool, inv, wet, (gw, gh, count, items, removed_cells), order = _river_view(rng)
+    before = pool.alive.copy()
+    args = (pool.alive, pool.ids, pool.counters, pool.status, pool.screen_px, pool.world_m,
+            4 * r, gw, gh, count, items, 4 * r, np.zeros(gw * gh, np.uint8), removed_cells)
+    for frame in range(4):
+        want_removed, want_probes = reference.check_outside_near_water(
+            pool.alive, pool.ids, pool.status, pool.screen_px, pool.world_m, order, frame, 2, 4,
+            3, 2.5 * r, 4 * r, 2 * r, w, h, inv, wet, -400.0, -400.0, 10.0, 17 + frame)
+        out = np.zeros((4000, 2), np.float32)
+        alive = pool.alive.copy()
+        n_removed, n = ka.check_outside_near_water(
+            *args, frame, 2, 4, 3, 2.5 * r, 2 * r, w, h, inv, wet, -400.0, -400.0, 10.0,
+            17 + frame, out)
+        npt.assert_array_equal(np.flatnonzero(alive & ~pool.alive), want_removed)
+        assert n_removed == len(want_removed)
+        npt.assert_allclose(out[:n], want_probes, atol=1e-4)
+    assert (before & ~pool.alive).sum() > 3  # some were replaced
+    assert np.all(pool.status[before & ~pool.alive] == FlowStatus.NEAR)
+
+
+def test_near_water_probes_are_uncovered_and_by_the_river(rng):
+    r = 5.0
+    pool, inv, wet, (gw, gh, count, items, removed_cells), order = _river_view(rng, n=250)
+    out = np.zeros((8000, 2), np.float32)
+    _, n = ka.check_outside_near_water(
+        pool.alive, pool.ids, pool.counters, pool.status, pool.screen_px, pool.world_m, 4 * r,
+        gw, gh, count, items, 4 * r, np.zeros(gw * gh, np.uint8), removed_cells, 0, 1, 10**9,
+        32, 2.5 * r, 2 * r, 320, 180, inv, wet, -400.0, -400.0, 10.0, 5, out)
+    assert n > 5
+    carriers = pool.screen_px[(pool.status == FlowStatus.INSIDE)
+                              | (pool.status == FlowStatus.LEAVING)]
+    from scipy.spatial import cKDTree
+
+    gap, _ = cKDTree(carriers).query(out[:n])
+    assert gap.min() >= 2 * r - 1e-3
+    cam = Camera(position=(30, -260, 120), target=(0, 0, 0), size_px=(320, 180))
+    origin, direction = cam.screen_to_ray(out[:n].astype(float))
+    x = origin[:, 0] - origin[:, 2] / direction[:, 2] * direction[:, 0]
+    assert np.all(np.abs(x) < 40 + 10)  # within a cell of a wet node
+
+
+def test_place_at_seen_water_matches_reference(rng):
+    r = 5.0
+    pool, inv, wet, (gw, gh, count, items, removed_cells), order = _river_view(rng, n=500)
+    pool.status[pool.status == FlowStatus.INSIDE] = FlowStatus.OUTSIDE  # a dry river to fill
+    pool.status[:20] = FlowStatus.UNKNOWN
+    pool.birth_s[:] = 0.0
+    pool.birth_s[20:40] = -40.0  # fading: not in the way
+    probes = rng.uniform((0, 0), (320, 180), (200, 2)).astype(np.float32)
+    hit = rng.choice(np.array([1, 2], np.uint8), 200, p=(0.3, 0.7))
+    flow = rng.choice(np.array([FlowStatus.INSIDE, FlowStatus.OUTSIDE], np.uint8), 200,
+                      p=(0.8, 0.2))
+    want_rows, want_removed = reference.place_at_seen_water(
+        pool.alive, pool.status, pool.screen_px, pool.birth_s, 1.0, FI + AC, order, probes,
+        hit, flow, 1.92 * r)
+    before = pool.alive.copy()
+    ids = pool.ids.copy()
+    new = np.zeros(pool.capacity, np.int32)
+    xyz = rng.uniform(-5, 5, (200, 3))
+    vel = rng.uniform(-1, 1, (200, 2)).astype(np.float32)
+    placed, removed = ka.place_at_seen_water(
+        pool.alive, pool.ids, pool.counters, pool.birth_s, pool.intensity, pool.screen_px,
+        pool.fade_reason, pool.has_world, pool.world_m, pool.velocity_mps, pool.status,
+        pool.first_query, pool.offset_m, 1.0, FI, AC, 1.92 * r, 4 * r, gw, gh, count, items,
+        200, probes, hit, xyz, flow, vel, removed_cells, 3, -1.0, -1.0, 1.0, 1.0, new)
+    assert placed == len(want_rows) > 10 and removed == len(want_removed)
+    gone = before & (~pool.alive | (pool.ids != ids))  # (a freed slot may take a new one)
+    npt.assert_array_equal(np.flatnonzero(gone), np.sort(want_removed))
+    slots = new[:placed]
+    npt.assert_array_equal(pool.screen_px[slots], probes[want_rows])
+    npt.assert_array_equal(pool.world_m[slots], xyz[want_rows])
+    assert np.all(pool.status[slots] == FlowStatus.INSIDE) and pool.has_world[slots].all()
+    assert not pool.first_query[slots].any()
+    npt.assert_array_equal(pool.velocity_mps[slots], vel[want_rows])
