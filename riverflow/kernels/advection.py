@@ -262,30 +262,64 @@ def check_outside_near_water(
     with. Returns (removed, probes).
     """
     np.random.seed(seed)
-    for c in range(gw * gh):
-        wet_cells[c] = 0
+    # the grid's INSIDE and LEAVING particles, by cell (in grid order): positions, level, kind
+    n_cells = gw * gh
+    start = np.zeros(n_cells + 1, np.int32)
+    for c in range(n_cells):
         for q in range(cell_count[c]):
             j = cell_items[c, q]
-            if alive[j] and status[j] == STATUS_INSIDE:
-                wet_cells[c] = 1
-                break
+            if alive[j] and (status[j] == STATUS_INSIDE or status[j] == STATUS_LEAVING):
+                start[c + 1] += 1
+    for c in range(n_cells):
+        start[c + 1] += start[c]
+    wx = np.empty(start[n_cells], np.float32)
+    wy = np.empty(start[n_cells], np.float32)
+    wz = np.empty(start[n_cells])
+    inside = np.empty(start[n_cells], np.uint8)
+    for c in range(n_cells):
+        wet_cells[c] = 0
+        k = start[c]
+        for q in range(cell_count[c]):
+            j = cell_items[c, q]
+            if alive[j] and (status[j] == STATUS_INSIDE or status[j] == STATUS_LEAVING):
+                wx[k] = screen_px[j, 0]
+                wy[k] = screen_px[j, 1]
+                wz[k] = world_m[j, 2]
+                inside[k] = status[j] == STATUS_INSIDE
+                wet_cells[c] |= inside[k]
+                k += 1
+    reach2 = reach_px * reach_px
+    cover2 = cover_px * cover_px
     removed = 0
     n = 0
     for i in range(alive.shape[0]):
         if not alive[i] or status[i] != STATUS_OUTSIDE or (ids[i] + frame) % probe_every != 0:
             continue
-        cx = min(max(int(math.floor(screen_px[i, 0] / cell_px)), 0), gw - 1)
-        cy = min(max(int(math.floor(screen_px[i, 1] / cell_px)), 0), gh - 1)
+        x = screen_px[i, 0]
+        y = screen_px[i, 1]
+        cx = min(max(int(math.floor(x / cell_px)), 0), gw - 1)
+        cy = min(max(int(math.floor(y / cell_px)), 0), gh - 1)
+        x0 = max(cx - 1, 0)
+        x1 = min(cx + 1, gw - 1)
         near_wet = False
         for ny in range(max(cy - 1, 0), min(cy + 2, gh)):
-            for nx in range(max(cx - 1, 0), min(cx + 2, gw)):
+            for nx in range(x0, x1 + 1):
                 if wet_cells[ny * gw + nx]:
                     near_wet = True
         if not near_wet:
             continue
-        j = _inside_within(i, screen_px, status, alive, cell_px, gw, gh, cell_count,
-                           cell_items, reach_px)
-        if j < 0:
+        # the first INSIDE particle within reach, in grid order (reach ≤ cell_px)
+        level = math.nan
+        for ny in range(max(cy - 1, 0), min(cy + 2, gh)):
+            for k in range(start[ny * gw + x0], start[ny * gw + x1 + 1]):
+                dx = wx[k] - x
+                dy = wy[k] - y
+                if inside[k] and dx * dx + dy * dy < reach2:
+                    level = wz[k]
+                    break
+            if level == level:
+                break
+        if level != level:
             continue
         if (ids[i] + frame) % replace_every == 0:
             status[i] = STATUS_NEAR
@@ -293,22 +327,35 @@ def check_outside_near_water(
             removed_cells[cy * gw + cx] = 1
             removed += 1
             continue
-        level = world_m[j, 2]
         for _ in range(n_probes):
             phi = 2.0 * math.pi * np.random.random()
             rho = probe_px * math.sqrt(np.random.random())
-            x = screen_px[i, 0] + rho * math.cos(phi)
-            y = screen_px[i, 1] + rho * math.sin(phi)
-            if not (0.0 <= x < width_px and 0.0 <= y < height_px):
+            px = x + rho * math.cos(phi)
+            py = y + rho * math.sin(phi)
+            if not (0.0 <= px < width_px and 0.0 <= py < height_px):
                 continue
-            if _covered(x, y, screen_px, status, alive, cell_px, gw, gh, cell_count, cell_items,
-                        cover_px):
+            # covered: an INSIDE or LEAVING particle closer than cover_px (≤ cell_px)
+            pcx = min(max(int(math.floor(px / cell_px)), 0), gw - 1)
+            pcy = min(max(int(math.floor(py / cell_px)), 0), gh - 1)
+            px0 = max(pcx - 1, 0)
+            px1 = min(pcx + 1, gw - 1)
+            covered = False
+            for ny in range(max(pcy - 1, 0), min(pcy + 2, gh)):
+                for k in range(start[ny * gw + px0], start[ny * gw + px1 + 1]):
+                    dx = wx[k] - px
+                    dy = wy[k] - py
+                    if dx * dx + dy * dy < cover2:
+                        covered = True
+                        break
+                if covered:
+                    break
+            if covered:
                 continue
-            if not _may_see_water(x, y, level, world_from_clip, width_px, height_px, wet_nodes,
-                                  grid_x, grid_y, grid_cell_m):
+            if not _may_see_water(px, py, level, world_from_clip, width_px, height_px,
+                                  wet_nodes, grid_x, grid_y, grid_cell_m):
                 continue
-            out_xy[n, 0] = x
-            out_xy[n, 1] = y
+            out_xy[n, 0] = px
+            out_xy[n, 1] = py
             n += 1
     return removed, n
 

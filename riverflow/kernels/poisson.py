@@ -42,6 +42,9 @@ TWO_PI = 2.0 * math.pi
 DIRECTION_BINS = 64
 """Directions of the blocked-direction table: bit k of an entry is [k, k + 1) · 2π/64."""
 ALL_DIRECTIONS = np.uint64(0xFFFFFFFFFFFFFFFF)
+_SCAN_DX = (0, 0, 0, -1, 1, -1, 1, -1, 1)
+_SCAN_DY = (0, -1, 1, 0, 0, -1, -1, 1, 1)
+"""The 3 × 3 cells around a candidate's, its own and the nearest first."""
 TABLE_CELLS_PER_R = 16
 """Cells of the blocked-direction table per radius r (r/16 px squares)."""
 
@@ -56,14 +59,15 @@ def _cell_of(x, y, cell_px, gw, gh):
 @njit(**JIT_OPTIONS)
 def cull_crowded_particles(
     alive, screen_px, birth_s, fade_reason, status, now_s, dt_s, fade_in_s, active_s, fade_out_s,
-    cull_px, cell_px, gw, gh, cell_count, cell_items, cell_xy, removed_cells, dirty, frame,
-    sparse_below,
+    cull_px, cell_px, gw, gh, cell_count, cell_items, acc_start, acc_slot, acc_xy,
+    removed_cells, dirty, frame, sparse_below,
 ):
     """Rebuild the neighbour grid with the accepted particles; fade out the crowded ones.
 
-    ``cell_count`` (gw·gh,) int32, ``cell_items`` (gw·gh, K) int32 (slots, ascending in each
-    cell) and ``cell_xy`` (gw·gh, K, 2) float32 (their screen positions, a copy kept next to
-    the slots for the neighbour scans) are rebuilt; ``removed_cells`` (gw·gh,) uint8 marks
+    ``cell_count`` (gw·gh,) int32 and ``cell_items`` (gw·gh, K) int32 are rebuilt, and the same compactly for the fill's scans: the accepted
+    particles of cell c are rows ``acc_start[c]`` … ``acc_start[c + 1]`` (gw·gh + 1,) int32 of
+    ``acc_slot`` (C,) int32 and ``acc_xy`` (C, 2) float32 (their screen positions);
+    ``removed_cells`` (gw·gh,) uint8 marks
     cells where other systems removed particles since the last pass (read, then cleared);
     ``dirty`` (gw·gh,) uint8 is written (bit 1: holes may be here — particles were removed
     there, it holds fewer than ``sparse_below``, or lies in this frame's rolling band; bit 4:
@@ -72,7 +76,7 @@ def cull_crowded_particles(
 
     The result is the greedy pass in slot order (a particle is accepted when no accepted one
     is closer than ``cull_px``), found without visiting the particles in slot order: a
-    counting sort by cell, one scan of each particle's neighbourhood in cell order to find
+    counting sort by half cells, one scan of each pair of neighbours in that order to find
     the few that have a neighbour that close, and the greedy pass over those alone.
     """
     n_cells = gw * gh
@@ -82,50 +86,75 @@ def cull_crowded_particles(
         cell_count[c] = 0
         dirty[c] = 0
     fade_at = fade_in_s + active_s
-    # 1. cell of each steady (not fading) particle; fades that began this frame dirty theirs
+    # 1. fine cell (half a cell when that is ≥ cull_px) of each steady (not fading) particle;
+    # its cell is the fine one's halved (floor(x / (c/2)) // 2 = floor(x / c) exactly). Fades
+    # that began this frame dirty their cell.
+    sub = 2 if 0.5 * cell_px >= cull_px else 1
+    half = cell_px / sub
+    fw = sub * gw
+    n_fine = fw * sub * gh
     cell_of = np.empty(cap, np.int32)
-    start = np.zeros(n_cells + 1, np.int32)
+    start = np.zeros(n_fine + 1, np.int32)
     for i in range(cap):
         cell_of[i] = -1
         if not alive[i]:
             continue
-        cx = min(max(int(math.floor(screen_px[i, 0] / cell_px)), 0), gw - 1)
-        cy = min(max(int(math.floor(screen_px[i, 1] / cell_px)), 0), gh - 1)
-        c = cy * gw + cx
+        fx = min(max(int(math.floor(screen_px[i, 0] / half)), 0), fw - 1)
+        fy = min(max(int(math.floor(screen_px[i, 1] / half)), 0), sub * gh - 1)
         age = now_s - birth_s[i]
         if age >= fade_at:  # fading out already
             if age - fade_at < 0.5 * dt_s:  # its fade began this frame (not the last one)
-                dirty[c] = 1
+                dirty[(fy // sub) * gw + fx // sub] = 1
             continue
-        cell_of[i] = c
-        start[c + 1] += 1
-    crowded_cell = False
+        f = fy * fw + fx
+        cell_of[i] = f
+        start[f + 1] += 1
+    for f in range(n_fine):
+        start[f + 1] += start[f]
+    crowded_cell = not (half >= cull_px)  # (the pair scan below needs half ≥ cull_px)
     for c in range(n_cells):
-        if start[c + 1] > k_max:
+        f = sub * (c // gw) * fw + sub * (c % gw)
+        held = 0
+        for run in range(sub):
+            held += start[f + run * fw + sub] - start[f + run * fw]
+        if held > k_max:
             crowded_cell = True
-        start[c + 1] += start[c]
-    n = start[n_cells]
-    # 2. counting sort: slots ascending within each cell
+    n = start[n_fine]
+    # 2. counting sort by fine cell: slots ascending within each
     slot = np.empty(n, np.int32)
     xy = np.empty((n, 2), np.float32)
-    fill = start[:n_cells].copy()
+    fill = start[:n_fine].copy()
     for i in range(cap):
-        c = cell_of[i]
-        if c < 0:
+        f = cell_of[i]
+        if f < 0:
             continue
-        k = fill[c]
-        fill[c] = k + 1
+        k = fill[f]
+        fill[f] = k + 1
         slot[k] = i
         xy[k, 0] = screen_px[i, 0]
         xy[k, 1] = screen_px[i, 1]
     if crowded_cell:  # which come first decides which a full cell keeps: the plain pass
+        for i in range(cap):
+            f = cell_of[i]
+            if f >= 0:
+                cell_of[i] = ((f // fw) // sub) * gw + (f % fw) // sub
         faded = _greedy_in_slot_order(
             alive, screen_px, birth_s, fade_reason, now_s, fade_in_s, active_s, fade_out_s,
-            cull_px, cell_px, gw, gh, cell_count, cell_items, cell_xy, cell_of, dirty)
+            cull_px, cell_px, gw, gh, cell_count, cell_items, cell_of, dirty)
+        acc_start[0] = 0
+        for c in range(n_cells):
+            k = acc_start[c]
+            for q in range(cell_count[c]):
+                i = cell_items[c, q]
+                acc_slot[k] = i
+                acc_xy[k, 0] = screen_px[i, 0]
+                acc_xy[k, 1] = screen_px[i, 1]
+                k += 1
+            acc_start[c + 1] = k
     else:
-        faded = _cull_sorted(screen_px, birth_s, fade_reason, now_s, fade_in_s, active_s,
-                             fade_out_s, cull_px, cell_px, gw, gh, cell_count, cell_items,
-                             cell_xy, start, slot, xy, dirty)
+        faded = _cull_sorted(birth_s, fade_reason, now_s, fade_in_s, active_s, fade_out_s,
+                             cull_px, half, sub, gw, gh, cell_count, cell_items, acc_start,
+                             acc_slot, acc_xy, start, slot, xy, dirty)
     band = frame % ROLLING_BANDS
     for cy in range(gh):
         in_band = cy % ROLLING_BANDS == band
@@ -140,95 +169,108 @@ def cull_crowded_particles(
 
 
 @njit(**JIT_OPTIONS)
-def _cull_sorted(screen_px, birth_s, fade_reason, now_s, fade_in_s, active_s, fade_out_s,
-                 cull_px, cell_px, gw, gh, cell_count, cell_items, cell_xy, start, slot, xy,
-                 dirty):
-    """Steps 3–5 of the cull on the particles sorted by cell (``start``, ``slot``, ``xy``)."""
-    cap = birth_s.shape[0]
+def _cull_sorted(birth_s, fade_reason, now_s, fade_in_s, active_s, fade_out_s, cull_px, half,
+                 sub, gw, gh, cell_count, cell_items, acc_start, acc_slot, acc_xy, start, slot,
+                 xy, dirty):
+    """Steps 3–5 of the cull on the particles sorted by fine cell (``start``, ``slot``,
+    ``xy``; fine cells of ``half`` = cell_px / ``sub`` ≥ cull_px, sub·gw a row)."""
     fade_at = fade_in_s + active_s
     cull2 = cull_px * cull_px
+    fw = sub * gw
+    fh = sub * gh
+    n_fine = fw * fh
+    n = start[n_fine]
     # 3. which particles have a steady neighbour closer than cull_px (usually a few): each
-    # pair once, a particle against the later ones of its cell and its right neighbour (one
-    # run of the sorted array) and the 3 cells below (another); cull_px < cell_px. At a row's
-    # end these runs take in cells of the next row too: farther, they change nothing.
-    close = np.zeros(cap, np.uint8)
-    n = start[gw * gh]
-    for c in range(gw * gh):
-        e1 = start[min(c + 2, gw * gh)]
-        b2 = start[min(c + gw - 1, gw * gh)]
-        e2 = start[min(c + gw + 2, gw * gh)]
-        for k in range(start[c], start[c + 1]):
+    # pair once, a particle against the later ones of its fine cell and its right neighbour
+    # (one run of the sorted array) and the 3 fine cells below (another). At a row's end these
+    # runs take in cells of the next row too: farther than cull_px, they change nothing.
+    close = np.zeros(n, np.uint8)
+    n_close = 0
+    for f in range(n_fine):
+        e1 = start[min(f + 2, n_fine)]
+        b2 = start[min(f + fw - 1, n_fine)]
+        e2 = start[min(f + fw + 2, n_fine)]
+        for k in range(start[f], start[f + 1]):
             x = xy[k, 0]
             y = xy[k, 1]
             for m in range(k + 1, e1):
                 dx = xy[m, 0] - x
                 dy = xy[m, 1] - y
                 if dx * dx + dy * dy < cull2:
-                    close[slot[k]] = 1
-                    close[slot[m]] = 1
+                    close[k] = 1
+                    close[m] = 1
+                    n_close += 1
             for m in range(b2, e2):
                 dx = xy[m, 0] - x
                 dy = xy[m, 1] - y
                 if dx * dx + dy * dy < cull2:
-                    close[slot[k]] = 1
-                    close[slot[m]] = 1
-    n_close = 0
-    for k in range(n):
-        n_close += close[slot[k]]
+                    close[k] = 1
+                    close[m] = 1
+                    n_close += 1
     # 4. the greedy pass in slot order over those: one is rejected (2) when a lower slot that
     # was accepted is closer than cull_px; every other particle is accepted
     if n_close > 0:
-        order = np.empty(n_close, np.int32)
-        m = 0
-        for i in range(cap):
-            if close[i]:
-                order[m] = i
-                m += 1
-        for o in range(n_close):
-            i = order[o]
-            x = screen_px[i, 0]
-            y = screen_px[i, 1]
-            x0 = max(int(math.floor((x - cull_px) / cell_px)), 0)
-            x1 = min(int(math.floor((x + cull_px) / cell_px)), gw - 1)
-            y0 = max(int(math.floor((y - cull_px) / cell_px)), 0)
-            y1 = min(int(math.floor((y + cull_px) / cell_px)), gh - 1)
-            for ny in range(y0, y1 + 1):
-                for k in range(start[ny * gw + x0], start[ny * gw + x1 + 1]):
-                    j = slot[k]
-                    if j >= i or close[j] == 2:  # a later slot, or rejected itself
-                        continue
-                    dx = xy[k, 0] - x
-                    dy = xy[k, 1] - y
-                    if dx * dx + dy * dy < cull2:
-                        close[i] = 2
-                        break
-                if close[i] == 2:
-                    break
-    # 5. the grid of the accepted ones (no cell is over its capacity); the rejected fade out
-    faded = 0
-    for c in range(gw * gh):
-        for k in range(start[c], start[c + 1]):
+        order = np.empty(n, np.int32)
+        n_order = 0
+        for k in range(n):
+            if close[k]:
+                order[n_order] = k
+                n_order += 1
+        by_slot = np.argsort(slot[order[:n_order]])
+        for o in range(n_order):
+            k = order[by_slot[o]]
             i = slot[k]
-            if close[i] != 2:
-                q = cell_count[c]
-                cell_items[c, q] = i
-                cell_xy[c, q, 0] = xy[k, 0]
-                cell_xy[c, q, 1] = xy[k, 1]
-                cell_count[c] = q + 1
-                continue
-            age = now_s - birth_s[i]
-            level = max(age / fade_in_s, 0.0) if age < fade_in_s else 1.0
-            birth_s[i] = now_s - (fade_at + (1.0 - level) * fade_out_s)  # start_fade_out
-            fade_reason[i] = REASON_POISSON_DISK
-            faded += 1
-            dirty[c] = 1
+            x = xy[k, 0]
+            y = xy[k, 1]
+            x0 = max(int(math.floor((x - cull_px) / half)), 0)
+            x1 = min(int(math.floor((x + cull_px) / half)), fw - 1)
+            y0 = max(int(math.floor((y - cull_px) / half)), 0)
+            y1 = min(int(math.floor((y + cull_px) / half)), fh - 1)
+            for ny in range(y0, y1 + 1):
+                for m in range(start[ny * fw + x0], start[ny * fw + x1 + 1]):
+                    if slot[m] >= i or close[m] == 2:  # a later slot, or rejected itself
+                        continue
+                    dx = xy[m, 0] - x
+                    dy = xy[m, 1] - y
+                    if dx * dx + dy * dy < cull2:
+                        close[k] = 2
+                        break
+                if close[k] == 2:
+                    break
+    # 5. the grid of the accepted ones (no cell is over its capacity): a cell's sub × sub fine
+    # cells, sub runs; the rejected fade out
+    faded = 0
+    a = 0
+    for c in range(gw * gh):
+        acc_start[c] = a
+        f0 = sub * (c // gw) * fw + sub * (c % gw)
+        for run in range(sub):
+            f = f0 + run * fw
+            for k in range(start[f], start[f + sub]):
+                i = slot[k]
+                if close[k] != 2:
+                    q = cell_count[c]
+                    cell_items[c, q] = i
+                    cell_count[c] = q + 1
+                    acc_slot[a] = i
+                    acc_xy[a, 0] = xy[k, 0]
+                    acc_xy[a, 1] = xy[k, 1]
+                    a += 1
+                    continue
+                age = now_s - birth_s[i]
+                level = max(age / fade_in_s, 0.0) if age < fade_in_s else 1.0
+                birth_s[i] = now_s - (fade_at + (1.0 - level) * fade_out_s)  # start_fade_out
+                fade_reason[i] = REASON_POISSON_DISK
+                faded += 1
+                dirty[c] = 1
+    acc_start[gw * gh] = a
     return faded
 
 
 @njit(**JIT_OPTIONS)
 def _greedy_in_slot_order(alive, screen_px, birth_s, fade_reason, now_s, fade_in_s, active_s,
-                          fade_out_s, cull_px, cell_px, gw, gh, cell_count, cell_items, cell_xy,
-                          cell_of, dirty):
+                          fade_out_s, cull_px, cell_px, gw, gh, cell_count, cell_items, cell_of,
+                          dirty):
     """The plain greedy cull in slot order (when a cell holds more steady particles than it
     can keep, which order they come in decides which are kept)."""
     k_max = cell_items.shape[1]
@@ -252,8 +294,8 @@ def _greedy_in_slot_order(alive, screen_px, birth_s, fade_reason, now_s, fade_in
             for nx in range(x0, x1 + 1):
                 d = ny * gw + nx
                 for q in range(cell_count[d]):
-                    dx = cell_xy[d, q, 0] - x
-                    dy = cell_xy[d, q, 1] - y
+                    dx = screen_px[cell_items[d, q], 0] - x
+                    dy = screen_px[cell_items[d, q], 1] - y
                     if dx * dx + dy * dy < cull2:
                         close = True
                         break
@@ -271,8 +313,6 @@ def _greedy_in_slot_order(alive, screen_px, birth_s, fade_reason, now_s, fade_in
             continue
         q = cell_count[c]
         cell_items[c, q] = i
-        cell_xy[c, q, 0] = x
-        cell_xy[c, q, 1] = y
         cell_count[c] = q + 1
     return faded
 
@@ -377,16 +417,21 @@ def _remove_wrapped(lo, hi, n, centre, half):
 
 
 @njit(inline="always", **JIT_OPTIONS)
-def _grid_insert(i, x, y, cell_px, gw, gh, cell_count, cell_items, cell_xy):
-    """Put particle i (at x, y) into its grid cell, if the cell has room."""
+def _grid_insert(i, x, y, cell_px, gw, gh, cell_count, cell_items, new_head, new_next, new_xy,
+                 n_new):
+    """Put new particle i (at x, y), the fill's n_new-th, into its grid cell if the cell has
+    room, and into the list of the fill's new particles of that cell (``new_head`` per cell,
+    ``new_next`` and ``new_xy`` per new particle)."""
     cx, cy = _cell_of(x, y, cell_px, gw, gh)
     c = cy * gw + cx
     q = cell_count[c]
     if q < cell_items.shape[1]:
         cell_items[c, q] = i
-        cell_xy[c, q, 0] = x
-        cell_xy[c, q, 1] = y
         cell_count[c] = q + 1
+    new_xy[n_new, 0] = x
+    new_xy[n_new, 1] = y
+    new_next[n_new] = new_head[c]
+    new_head[c] = n_new
 
 
 @njit(inline="always", **JIT_OPTIONS)
@@ -417,27 +462,29 @@ def fill_poisson_holes(
     alive, ids, counters, birth_s, intensity, screen_px, fade_reason, has_world, velocity_mps,
     status, first_query, offset_m,
     now_s, fade_in_s, active_s, radius_px, spawn_gap_px, width_px, height_px, cell_px, gw, gh,
-    cell_count, cell_items, cell_xy, dirty, seed, off_lo_x, off_lo_y, off_hi_x, off_hi_y,
-    candidates, new_slots, blocked, blocked_cell_px,
+    cell_count, cell_items, acc_start, acc_slot, acc_xy, dirty, seed, off_lo_x, off_lo_y,
+    off_hi_x, off_hi_y, candidates, new_slots, blocked, blocked_cell_px,
 ):
     """Fill the holes of the Poisson disk around dirty cells by boundary sampling.
 
-    Writes the slots of the new particles into ``new_slots`` (C,) int32 and returns their
-    number (they still need a world position). ``candidates`` is (C,) int32 scratch.
-    ``blocked`` (n, n) uint64 is :func:`blocked_direction_table` for this radius and gap, with
-    cells of ``blocked_cell_px``: a candidate whose neighbours surely block every direction
-    (most of them, where the disk is whole) is rejected from it, without trigonometry.
+    ``acc_start``, ``acc_slot``, ``acc_xy`` are the accepted particles by cell, as
+    :func:`cull_crowded_particles` wrote them (the new ones go into the grid,
+    ``cell_count``/``cell_items``, too). Writes the slots of the new particles into
+    ``new_slots`` (C,) int32 and returns their number (they still need a world position).
+    ``candidates`` is (C,) int32 scratch. ``blocked`` (n, n) uint64 is
+    :func:`blocked_direction_table` for this radius and gap, with cells of
+    ``blocked_cell_px``: a candidate whose neighbours surely block every direction (most of
+    them, where the disk is whole) is rejected from it, without trigonometry.
     """
     np.random.seed(seed)
     if width_px <= 0 or height_px <= 0:
         return 0
+    n_cells = gw * gh
     n_cand = 0
-    any_accepted = False
+    any_accepted = acc_start[n_cells] > 0
     for cy in range(gh):
         for cx in range(gw):
             c = cy * gw + cx
-            if cell_count[c] > 0:
-                any_accepted = True
             if not dirty[c] & 1:
                 continue
             # the accepted particles of this cell border the hole; of an empty cell, those
@@ -448,10 +495,9 @@ def fill_poisson_holes(
                     d = ny * gw + nx
                     if dirty[d] & 2:
                         continue
-                    for q in range(cell_count[d]):
-                        j = cell_items[d, q]
-                        if 0.0 <= screen_px[j, 0] < width_px and 0.0 <= screen_px[j, 1] < height_px:
-                            candidates[n_cand] = j
+                    for k in range(acc_start[d], acc_start[d + 1]):
+                        if 0.0 <= acc_xy[k, 0] < width_px and 0.0 <= acc_xy[k, 1] < height_px:
+                            candidates[n_cand] = acc_slot[k]
                             n_cand += 1
                     dirty[d] |= 2  # its particles are queued already
     if not any_accepted:
@@ -461,6 +507,10 @@ def fill_poisson_holes(
                     and 0.0 <= screen_px[i, 0] < width_px and 0.0 <= screen_px[i, 1] < height_px):
                 candidates[n_cand] = i
                 n_cand += 1
+    # the new particles by cell (a list per cell), next to the accepted ones' rows
+    new_head = np.full(n_cells, -1, np.int32)
+    new_next = np.empty(alive.shape[0], np.int32)
+    new_xy = np.empty((alive.shape[0], 2), np.float32)
     n_new = 0
     if n_cand == 0:
         if any_accepted:
@@ -472,7 +522,8 @@ def fill_poisson_holes(
                           off_lo_x, off_lo_y, off_hi_x, off_hi_y, 0)
         if i < 0:
             return 0
-        _grid_insert(i, x, y, cell_px, gw, gh, cell_count, cell_items, cell_xy)
+        _grid_insert(i, screen_px[i, 0], screen_px[i, 1], cell_px, gw, gh, cell_count,
+                     cell_items, new_head, new_next, new_xy, n_new)
         new_slots[n_new] = i
         n_new += 1
         candidates[0] = i
@@ -482,16 +533,17 @@ def fill_poisson_holes(
     r2 = 2.0 * radius_px               # new particles are placed 2r from a candidate
     gap = spawn_gap_px                 # and at least this far from every other particle
     reach = r2 + gap
+    reach_sq = reach * reach
     # a new particle at angle θ blocks θ ± this for the next ones around the same candidate
     self_block = 2.0 * math.asin(min(gap / (2.0 * r2), 1.0))
-    reach_sq = reach * reach
     t_inv = 1.0 / blocked_cell_px
     t_half = 0.5 * blocked.shape[0] * blocked_cell_px
     t_last = blocked.shape[0] - 1
     first_free = 0
-    nb_dx = np.empty(9 * cell_items.shape[1] + 1, np.float32)
-    nb_dy = np.empty(9 * cell_items.shape[1] + 1, np.float32)
-    nb_d2 = np.empty(9 * cell_items.shape[1] + 1, np.float32)
+    k_max = 9 * cell_items.shape[1] + 1
+    nb_dx = np.empty(k_max, np.float32)
+    nb_dy = np.empty(k_max, np.float32)
+    nb_d2 = np.empty(k_max, np.float32)
     while n_cand > 0:
         k = int(np.random.random() * n_cand)
         p = candidates[k]
@@ -502,28 +554,54 @@ def fill_poisson_holes(
         cx, cy = _cell_of(px, py, cell_px, gw, gh)
         x_lo = max(cx - 1, 0)
         x_hi = min(cx + 2, gw)
-        # one scan of the 3 × 3 cells: the neighbours within reach (in grid order), and the
-        # directions they surely block, from the table (branch-free: an entry for a square
-        # out of reach is 0, and so is the one of P itself); all of them blocked means no
-        # arc is left (the exact arcs below would find none)
+        # pre-test: the directions each neighbour surely blocks, from the table (branch-free:
+        # an entry for a square out of reach is 0, and so is the one of P itself), rows of
+        # cells nearest first; all of them blocked means no arc is left (the exact arcs
+        # below would find none): most candidates stop here
         mask = np.uint64(0)
+        for o in range(3):
+            ny = cy if o == 0 else (cy - 1 if o == 1 else cy + 1)
+            if ny < 0 or ny >= gh:
+                continue
+            row = ny * gw
+            for m in range(acc_start[row + x_lo], acc_start[row + x_hi]):
+                ix = min(max(int((acc_xy[m, 0] - px + t_half) * t_inv), 0), t_last)
+                iy = min(max(int((acc_xy[m, 1] - py + t_half) * t_inv), 0), t_last)
+                mask |= blocked[iy, ix]
+            for nx in range(x_lo, x_hi):
+                m = new_head[row + nx]
+                while m >= 0:
+                    ix = min(max(int((new_xy[m, 0] - px + t_half) * t_inv), 0), t_last)
+                    iy = min(max(int((new_xy[m, 1] - py + t_half) * t_inv), 0), t_last)
+                    mask |= blocked[iy, ix]
+                    m = new_next[m]
+            if mask == ALL_DIRECTIONS:
+                break
+        if mask == ALL_DIRECTIONS:
+            continue
+        # the neighbours within reach, for the exact arcs
         n_nb = 0
         for ny in range(max(cy - 1, 0), min(cy + 2, gh)):
+            row = ny * gw
+            for m in range(acc_start[row + x_lo], acc_start[row + x_hi]):
+                dx = acc_xy[m, 0] - px
+                dy = acc_xy[m, 1] - py
+                d2 = dx * dx + dy * dy
+                nb_dx[n_nb] = dx
+                nb_dy[n_nb] = dy
+                nb_d2[n_nb] = d2
+                n_nb += (d2 < reach_sq) & (d2 > 0.0)  # (d2 = 0: P itself)
             for nx in range(x_lo, x_hi):
-                c = ny * gw + nx
-                for q in range(cell_count[c]):
-                    dx = cell_xy[c, q, 0] - px
-                    dy = cell_xy[c, q, 1] - py
+                m = new_head[row + nx]
+                while m >= 0:
+                    dx = new_xy[m, 0] - px
+                    dy = new_xy[m, 1] - py
                     d2 = dx * dx + dy * dy
-                    ix = min(max(int((dx + t_half) * t_inv), 0), t_last)
-                    iy = min(max(int((dy + t_half) * t_inv), 0), t_last)
-                    mask |= blocked[iy, ix]
                     nb_dx[n_nb] = dx
                     nb_dy[n_nb] = dy
                     nb_d2[n_nb] = d2
-                    n_nb += (d2 < reach_sq) & (d2 > 0.0)  # (d2 = 0: P itself)
-        if mask == ALL_DIRECTIONS:
-            continue
+                    n_nb += (d2 < reach_sq) & (d2 > 0.0)
+                    m = new_next[m]
         lo[0] = 0.0
         hi[0] = TWO_PI
         n_arcs = 1
@@ -552,7 +630,8 @@ def fill_poisson_holes(
             if i < 0:
                 return n_new  # the pool is full: stop cleanly
             first_free = i + 1  # slots are only taken during the fill: none frees below
-            _grid_insert(i, x, y, cell_px, gw, gh, cell_count, cell_items, cell_xy)
+            _grid_insert(i, screen_px[i, 0], screen_px[i, 1], cell_px, gw, gh, cell_count,
+                         cell_items, new_head, new_next, new_xy, n_new)
             new_slots[n_new] = i
             n_new += 1
             candidates[n_cand] = i

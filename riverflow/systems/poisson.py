@@ -25,17 +25,19 @@ class MaintainPoissonDisk(System):
 
     def __init__(self) -> None:
         self.faded = self.added = 0
-        self._cell_xy = np.zeros((1, 1, 2), np.float32)
+        self._acc = (np.zeros(2, np.int32), np.zeros(1, np.int32), np.zeros((1, 2), np.float32))
         self._table: tuple[float, float, np.ndarray, float] | None = None
 
-    def _scratch(self, grid: ScreenGrid, radius_px: float, gap_px: float):
-        """The positions kept next to the grid's slots, and the blocked-direction table."""
-        shape = (*grid.cell_items.shape, 2)
-        if self._cell_xy.shape != shape:
-            self._cell_xy = np.zeros(shape, np.float32)
+    def _scratch(self, pool: ParticlePool, grid: ScreenGrid, radius_px: float, gap_px: float):
+        """The accepted particles by cell, compact (start, slot, xy), and the
+        blocked-direction table."""
+        if len(self._acc[0]) != grid.gw * grid.gh + 1 or len(self._acc[1]) != pool.capacity:
+            self._acc = (np.zeros(grid.gw * grid.gh + 1, np.int32),
+                         np.zeros(pool.capacity, np.int32),
+                         np.zeros((pool.capacity, 2), np.float32))
         if self._table is None or self._table[:2] != (radius_px, gap_px):
             self._table = (radius_px, gap_px, *direction_table(radius_px, gap_px))
-        return self._cell_xy, self._table[2], self._table[3]
+        return self._acc, self._table[2], self._table[3]
 
     def process(self, world, dt_s: float) -> None:
         view = world.resource(FrameView)
@@ -45,12 +47,12 @@ class MaintainPoissonDisk(System):
         for _, (pool, grid) in esper.get_components(ParticlePool, ScreenGrid):
             grid.fit(view.width_px, view.height_px, c.grid_cell_factor * r)
             gap = c.spawn_gap_factor * r
-            cell_xy, table, table_cell_px = self._scratch(grid, r, gap)
+            acc, table, table_cell_px = self._scratch(pool, grid, r, gap)
             self.faded = cull_crowded_particles(
                 pool.alive, pool.screen_px, pool.birth_s, pool.fade_reason, pool.status,
                 clock.now_s, dt_s, c.fade_in_s, c.active_s, c.fade_out_s,
                 c.cull_radius_factor * r,
-                grid.cell_px, grid.gw, grid.gh, grid.cell_count, grid.cell_items, cell_xy,
+                grid.cell_px, grid.gw, grid.gh, grid.cell_count, grid.cell_items, *acc,
                 grid.removed_cells, grid.dirty, clock.frame, self.sparse_below(grid.cell_px, r))
             seed = int(world.rng.integers(0, 2**31 - 1))
             lo, hi = c.random_offset_min_m, c.random_offset_max_m
@@ -59,5 +61,5 @@ class MaintainPoissonDisk(System):
                 pool.screen_px, pool.fade_reason, pool.has_world, pool.velocity_mps, pool.status,
                 pool.first_query, pool.offset_m, clock.now_s, c.fade_in_s, c.active_s, r, gap,
                 view.width_px, view.height_px, grid.cell_px, grid.gw, grid.gh, grid.cell_count,
-                grid.cell_items, cell_xy, grid.dirty, seed, lo[0], lo[1], hi[0], hi[1],
+                grid.cell_items, *acc, grid.dirty, seed, lo[0], lo[1], hi[0], hi[1],
                 grid.candidates, grid.new_slots, table, table_cell_px)

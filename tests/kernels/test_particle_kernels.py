@@ -5,6 +5,7 @@ import math
 
 import numpy as np
 import numpy.testing as npt
+import pytest
 
 from riverflow.components.particles import FadeReason, ParticlePool
 from riverflow.components.status import FlowStatus
@@ -101,19 +102,24 @@ def _grid(w, h, cell):
             np.zeros(gw * gh, np.uint8), np.zeros(gw * gh, np.uint8))
 
 
-def test_cull_matches_reference(rng):
+@pytest.mark.parametrize("cell_r", [4.0, 3.0, 1.5])  # half cells; whole cells; plain pass
+def test_cull_matches_reference(rng, cell_r):
     r = 6.0
     pool = _pool(rng, 900)
     pool.birth_s[:] = 0.0
     pool.birth_s[::7] = -31.0  # some are fading out already
-    gw, gh, count, items, prev, dirty = _grid(320, 180, 4 * r)
+    gw, gh, count, items, prev, dirty = _grid(320, 180, cell_r * r)
     keep = pool.alive & (1.0 - pool.birth_s < FI + AC)
     want = reference.cull_in_slot_order(pool.screen_px, keep, 1.96 * r)
-    xy = np.zeros((*items.shape, 2), np.float32)
+    acc = (np.zeros(gw * gh + 1, np.int32), np.zeros(pool.capacity, np.int32),
+           np.zeros((pool.capacity, 2), np.float32))
     faded = kp.cull_crowded_particles(pool.alive, pool.screen_px, pool.birth_s, pool.fade_reason,
-                                      pool.status, 1.0, 1 / 60, FI, AC, FO, 1.96 * r, 4 * r, gw,
-                                      gh, count,
-                                      items, xy, prev, dirty, 0, 2)
+                                      pool.status, 1.0, 1 / 60, FI, AC, FO, 1.96 * r,
+                                      cell_r * r, gw, gh, count,
+                                      items, *acc, prev, dirty, 0, 2)
+    start, slots, xy = acc
+    npt.assert_array_equal(np.sort(slots[:start[-1]]), want)  # the same, compact
+    npt.assert_array_equal(xy[:start[-1]], pool.screen_px[slots[:start[-1]]])
     got = np.sort(np.concatenate([items[c, :count[c]] for c in range(gw * gh)]))
     npt.assert_array_equal(got, want)
     assert faded == keep.sum() - len(want)
@@ -127,15 +133,17 @@ def test_cull_keeps_the_slot_order_when_cells_overflow(rng):
     pool.birth_s[:] = 0.0
     gw, gh, count, items, prev, dirty = _grid(320, 180, 4 * r)
     items = np.zeros((gw * gh, 3), np.int32)  # room for 3: some cells overflow
-    xy = np.zeros((*items.shape, 2), np.float32)
+    acc = (np.zeros(gw * gh + 1, np.int32), np.zeros(pool.capacity, np.int32),
+           np.zeros((pool.capacity, 2), np.float32))
     want = reference.cull_in_slot_order(pool.screen_px, pool.alive, 1.5 * r, 4 * r, 3)
     kp.cull_crowded_particles(pool.alive, pool.screen_px, pool.birth_s, pool.fade_reason,
                               pool.status, 1.0, 1 / 60, FI, AC, FO, 1.5 * r, 4 * r, gw, gh, count,
-                              items, xy, prev, dirty, 0, 2)
+                              items, *acc, prev, dirty, 0, 2)
     got = np.concatenate([items[c, :count[c]] for c in range(gw * gh)])
     npt.assert_array_equal(np.sort(got), want)
-    rows = np.concatenate([xy[c, :count[c]] for c in range(gw * gh)])
-    npt.assert_array_equal(rows, pool.screen_px[got])  # positions kept next to the slots
+    start, slots, xy = acc
+    npt.assert_array_equal(slots[:start[-1]], got)  # the same rows, compact, with positions
+    npt.assert_array_equal(xy[:start[-1]], pool.screen_px[got])
 
 
 def test_blocked_direction_table_matches_reference_and_is_sound(rng):
@@ -164,7 +172,8 @@ def test_fill_pre_test_changes_nothing():
     for pool, empty in zip(pools, (False, True)):
         r, w, h = 5.0, 240, 160
         gw, gh, count, items, prev, dirty = _grid(w, h, 4 * r)
-        xy = np.zeros((*items.shape, 2), np.float32)
+        acc = (np.zeros(gw * gh + 1, np.int32), np.zeros(pool.capacity, np.int32),
+               np.zeros((pool.capacity, 2), np.float32))
         table, table_cell = kp.direction_table(r, 1.92 * r)
         if empty:
             table[:] = 0
@@ -174,14 +183,14 @@ def test_fill_pre_test_changes_nothing():
             pool.screen_px[pool.alive] *= 1.01  # stretch: holes open between frames
             kp.cull_crowded_particles(pool.alive, pool.screen_px, pool.birth_s,
                                       pool.fade_reason, pool.status, 1.0, 1 / 60, FI, AC, FO,
-                                      1.9 * r, 4 * r, gw, gh, count, items, xy, prev, dirty, f,
-                                      2)
+                                      1.9 * r, 4 * r, gw, gh, count, items, *acc, prev, dirty,
+                                      f, 2)
             kp.fill_poisson_holes(
                 pool.alive, pool.ids, pool.counters, pool.birth_s, pool.intensity,
                 pool.screen_px, pool.fade_reason, pool.has_world, pool.velocity_mps,
                 pool.status, pool.first_query, pool.offset_m, 1.0, FI, AC, r, 1.92 * r, w, h,
-                4 * r, gw, gh, count, items, xy, dirty, 5 + f, -1.0, -1.0, 1.0, 1.0, cand, new,
-                table, table_cell)
+                4 * r, gw, gh, count, items, *acc, dirty, 5 + f, -1.0, -1.0, 1.0, 1.0, cand,
+                new, table, table_cell)
     assert pools[0].count > 300
     npt.assert_array_equal(pools[0].screen_px, pools[1].screen_px)
     npt.assert_array_equal(pools[0].alive, pools[1].alive)
@@ -189,7 +198,8 @@ def test_fill_pre_test_changes_nothing():
 
 def _fill(pool, r, w, h, seed=3, frames=1):
     gw, gh, count, items, prev, dirty = _grid(w, h, 4 * r)
-    xy = np.zeros((*items.shape, 2), np.float32)
+    acc = (np.zeros(gw * gh + 1, np.int32), np.zeros(pool.capacity, np.int32),
+           np.zeros((pool.capacity, 2), np.float32))
     table, table_cell = kp.direction_table(r, 2.0 * r)
     new = np.zeros(pool.capacity, np.int32)
     cand = np.zeros(pool.capacity, np.int32)
@@ -198,11 +208,11 @@ def _fill(pool, r, w, h, seed=3, frames=1):
         kp.cull_crowded_particles(pool.alive, pool.screen_px, pool.birth_s, pool.fade_reason,
                                   pool.status, 1.0, 1 / 60, FI, AC, FO, 1.96 * r, 4 * r, gw, gh,
                                   count,
-                                  items, xy, prev, dirty, f, 2)
+                                  items, *acc, prev, dirty, f, 2)
         total += kp.fill_poisson_holes(
             pool.alive, pool.ids, pool.counters, pool.birth_s, pool.intensity, pool.screen_px,
             pool.fade_reason, pool.has_world, pool.velocity_mps, pool.status, pool.first_query,
-            pool.offset_m, 1.0, FI, AC, r, 2.0 * r, w, h, 4 * r, gw, gh, count, items, xy, dirty,
+            pool.offset_m, 1.0, FI, AC, r, 2.0 * r, w, h, 4 * r, gw, gh, count, items, *acc, dirty,
             seed + f,
             -1.0, -1.0, 1.0, 1.0, cand, new, table, table_cell)
     return total
