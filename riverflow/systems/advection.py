@@ -23,7 +23,7 @@ _NO_LEVELS = np.zeros(0, np.int8)
 NEAR_CHECK_EVERY = 4
 """An OUTSIDE particle next to the river is looked at every this many frames, staggered by id:
 it probes for uncovered water near it (:data:`NEAR_PROBES` points)."""
-NEAR_REPLACE_EVERY = 16
+NEAR_REPLACE_EVERY = 8
 """… and every this many frames it is replaced (Proland replaces it every frame)."""
 NEAR_PROBES = 4
 """Random points probed around it, within :data:`NEAR_PROBE_REACH` · r."""
