@@ -30,6 +30,8 @@ NEAR_PROBES = 4
 NEAR_PROBE_REACH = 2.5
 NEAR_COVER = 2.0
 """A probe point closer than this · r to an INSIDE or LEAVING particle is covered."""
+ALTITUDE_EVERY = 4
+"""A moving particle's altitude is looked up again every this many frames, staggered."""
 WET_DILATION = 2
 """Grid nodes by which the wet nodes are grown for the probes' water pre-test."""
 
@@ -73,7 +75,8 @@ class AdvectParticles(System):
             self.moved = move_particles(pool.alive, pool.has_world, pool.world_m,
                                         pool.velocity_mps, pool.status,
                                         dt_s * clock.speed_factor, g.water_m, g.ground_m,
-                                        g.origin_x, g.origin_y, g.cell_m)
+                                        g.origin_x, g.origin_y, g.cell_m, clock.frame,
+                                        ALTITUDE_EVERY)
             n = select_flow_queries(pool.alive, pool.has_world, pool.status, pool.world_m,
                                     grid.query_index, grid.query_xy)
             self.waiting = ask_flow(node.field, pool, grid, n, reach_px)

@@ -267,10 +267,15 @@ def test_move_matches_reference(rng):
     flat = np.zeros((3, 3), np.float32)
     water = np.full((3, 3), np.nan, np.float32)
     ka.move_particles(pool.alive, pool.has_world, pool.world_m, pool.velocity_mps, pool.status,
-                      0.25, water, flat, -100.0, -100.0, 100.0)
+                      0.25, water, flat, -100.0, -100.0, 100.0, 0, 1)
     npt.assert_allclose(pool.world_m[moving, :2], want[moving, :2], rtol=1e-6)
     npt.assert_array_equal(pool.world_m[~moving], start[~moving])
     assert np.allclose(pool.world_m[moving, 2], 0.0)  # altitude follows the (flat) ground
+    ka.move_particles(pool.alive, pool.has_world, pool.world_m, pool.velocity_mps, pool.status,
+                      0.25, water, flat + 1, -100.0, -100.0, 100.0, 1, 4)
+    looked_up = moving & ((np.arange(pool.capacity) + 1) % 4 == 0)
+    assert np.allclose(pool.world_m[looked_up, 2], 1.0)  # every 4th frame, by slot
+    assert np.allclose(pool.world_m[moving & ~looked_up, 2], 0.0)
 
 
 def test_status_machine():
