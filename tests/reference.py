@@ -287,9 +287,9 @@ def may_see_water(x, y, level, world_from_clip, width, height, wet, grid_x, grid
 def check_outside_near_water(alive, ids, status, screen_px, world_m, items, frame, probe_every,
                              replace_every, n_probes, probe_px, reach_px, cover_px, width,
                              height, world_from_clip, wet, grid_x, grid_y, cell, seed):
-    """Twin of ``check_outside_near_water`` over the particles ``items`` (those in the grid):
-    the OUTSIDE particles with an INSIDE one of ``items`` within reach, looked at when
-    (id + frame) % probe_every == 0 in slot order: replaced when also % replace_every == 0, else
+    """Twin of ``check_outside_near_water`` over the particles ``items`` (those in the grid, in
+    grid order): the OUTSIDE ones with an INSIDE one of ``items`` within reach, looked at when
+    (id + frame) % probe_every == 0, in that order: replaced when also % replace_every == 0, else
     their probes (RandomState(seed) draws φ then ρ per probe) that are on screen, uncovered by
     INSIDE/LEAVING items and may see water at the level of the first INSIDE neighbour in grid
     order ``items``. Returns (removed slots, probes (P, 2))."""
@@ -298,7 +298,7 @@ def check_outside_near_water(alive, ids, status, screen_px, world_m, items, fram
     inside = items[(status[items] == 1) & alive[items]]
     carriers = items[((status[items] == 1) | (status[items] == 2)) & alive[items]]
     removed, probes = [], []
-    for i in range(len(alive)):
+    for i in items:
         if not alive[i] or status[i] != 4 or (ids[i] + frame) % probe_every:
             continue
         near = inside[(inside != i) & _within(screen_px[inside], *screen_px[i], reach_px)]

@@ -248,9 +248,9 @@ def check_outside_near_water(
     """Proland's NEAR rule, made cheap: where should an OUTSIDE particle near the river give
     way so that the river gets particles?
 
-    An OUTSIDE particle with an INSIDE one within ``reach_px`` on screen (last frame's grid;
-    looked at once every ``probe_every`` frames, staggered by id, and only near grid cells
-    holding an INSIDE particle: ``wet_cells`` (gw·gh,) uint8 is scratch):
+    An OUTSIDE particle of the grid (last frame's) with an INSIDE one within ``reach_px`` on
+    screen, looked at once every ``probe_every`` frames (staggered by id), in grid order, only
+    in cells next to one holding an INSIDE particle (``wet_cells`` (gw·gh,) uint8 is scratch):
 
     * once every ``replace_every`` frames it gives way (NEAR, removed; its cell marked in
       ``removed_cells``), as Proland replaces it every frame: the refill may land on water,
@@ -295,13 +295,11 @@ def check_outside_near_water(
     cover2 = cover_px * cover_px
     removed = 0
     n = 0
-    for i in range(alive.shape[0]):
-        if not alive[i] or status[i] != STATUS_OUTSIDE or (ids[i] + frame) % probe_every != 0:
-            continue
-        x = screen_px[i, 0]
-        y = screen_px[i, 1]
-        cx = min(max(int(math.floor(x / cell_px)), 0), gw - 1)
-        cy = min(max(int(math.floor(y / cell_px)), 0), gh - 1)
+    # the grid's OUTSIDE particles in cells next to a wet one (the others have no INSIDE one
+    # within reach), in grid order
+    for c in range(n_cells):
+        cy = c // gw
+        cx = c - cy * gw
         x0 = max(cx - 1, 0)
         x1 = min(cx + 1, gw - 1)
         near_wet = False
@@ -311,55 +309,62 @@ def check_outside_near_water(
                     near_wet = True
         if not near_wet:
             continue
-        # the first INSIDE particle within reach, in grid order (reach ≤ cell_px)
-        level = math.nan
-        for ny in range(max(cy - 1, 0), min(cy + 2, gh)):
-            for k in range(start[ny * gw + x0], start[ny * gw + x1 + 1]):
-                dx = wx[k] - x
-                dy = wy[k] - y
-                if inside[k] and dx * dx + dy * dy < reach2:
-                    level = wz[k]
-                    break
-            if level == level:
-                break
-        if level != level:
-            continue
-        if (ids[i] + frame) % replace_every == 0:
-            status[i] = STATUS_NEAR
-            free_particle(i, alive, ids, counters)
-            removed_cells[cy * gw + cx] = 1
-            removed += 1
-            continue
-        for _ in range(n_probes):
-            phi = 2.0 * math.pi * np.random.random()
-            rho = probe_px * math.sqrt(np.random.random())
-            px = x + rho * math.cos(phi)
-            py = y + rho * math.sin(phi)
-            if not (0.0 <= px < width_px and 0.0 <= py < height_px):
+        for q in range(cell_count[c]):
+            i = cell_items[c, q]
+            if (not alive[i] or status[i] != STATUS_OUTSIDE
+                    or (ids[i] + frame) % probe_every != 0):
                 continue
-            # covered: an INSIDE or LEAVING particle closer than cover_px (≤ cell_px)
-            pcx = min(max(int(math.floor(px / cell_px)), 0), gw - 1)
-            pcy = min(max(int(math.floor(py / cell_px)), 0), gh - 1)
-            px0 = max(pcx - 1, 0)
-            px1 = min(pcx + 1, gw - 1)
-            covered = False
-            for ny in range(max(pcy - 1, 0), min(pcy + 2, gh)):
-                for k in range(start[ny * gw + px0], start[ny * gw + px1 + 1]):
-                    dx = wx[k] - px
-                    dy = wy[k] - py
-                    if dx * dx + dy * dy < cover2:
-                        covered = True
+            x = screen_px[i, 0]
+            y = screen_px[i, 1]
+            # the first INSIDE particle within reach, in grid order (reach ≤ cell_px)
+            level = math.nan
+            for ny in range(max(cy - 1, 0), min(cy + 2, gh)):
+                for k in range(start[ny * gw + x0], start[ny * gw + x1 + 1]):
+                    dx = wx[k] - x
+                    dy = wy[k] - y
+                    if inside[k] and dx * dx + dy * dy < reach2:
+                        level = wz[k]
+                        break
+                if level == level:
+                    break
+            if level != level:
+                continue
+            if (ids[i] + frame) % replace_every == 0:
+                status[i] = STATUS_NEAR
+                free_particle(i, alive, ids, counters)
+                removed_cells[c] = 1
+                removed += 1
+                continue
+            for _ in range(n_probes):
+                phi = 2.0 * math.pi * np.random.random()
+                rho = probe_px * math.sqrt(np.random.random())
+                px = x + rho * math.cos(phi)
+                py = y + rho * math.sin(phi)
+                if not (0.0 <= px < width_px and 0.0 <= py < height_px):
+                    continue
+                # covered: an INSIDE or LEAVING particle closer than cover_px (≤ cell_px)
+                pcx = min(max(int(math.floor(px / cell_px)), 0), gw - 1)
+                pcy = min(max(int(math.floor(py / cell_px)), 0), gh - 1)
+                px0 = max(pcx - 1, 0)
+                px1 = min(pcx + 1, gw - 1)
+                covered = False
+                for ny in range(max(pcy - 1, 0), min(pcy + 2, gh)):
+                    for k in range(start[ny * gw + px0], start[ny * gw + px1 + 1]):
+                        dx = wx[k] - px
+                        dy = wy[k] - py
+                        if dx * dx + dy * dy < cover2:
+                            covered = True
+                            break
+                    if covered:
                         break
                 if covered:
-                    break
-            if covered:
-                continue
-            if not _may_see_water(px, py, level, world_from_clip, width_px, height_px,
-                                  wet_nodes, grid_x, grid_y, grid_cell_m):
-                continue
-            out_xy[n, 0] = px
-            out_xy[n, 1] = py
-            n += 1
+                    continue
+                if not _may_see_water(px, py, level, world_from_clip, width_px, height_px,
+                                      wet_nodes, grid_x, grid_y, grid_cell_m):
+                    continue
+                out_xy[n, 0] = px
+                out_xy[n, 1] = py
+                n += 1
     return removed, n
 
 
