@@ -264,6 +264,8 @@ def _render(args: argparse.Namespace) -> int:
             setattr(world.display, name, value)
         fly(world, args.frames)
         frame = world.render()
+    from riverflow.images import save_png
+
     try:
         path = save_png(frame, args.out)
     except OSError as exc:
@@ -272,16 +274,6 @@ def _render(args: argparse.Namespace) -> int:
     print(f"wrote {path.resolve()} ({title}, {args.size[0]}x{args.size[1]}, mode {args.mode}, "
           f"{args.frames} frames, {len(world.particles)} particles)")
     return 0
-
-
-def save_png(frame, path: Path) -> Path:
-    """Write an (H, W, 4) uint8 frame as a PNG (Pillow), making its folder."""
-    from PIL import Image
-
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    Image.fromarray(frame, "RGBA").save(path)
-    return path
 
 
 def _draw(args: argparse.Namespace, out: Path, *, size_px: int, slip: float = 1.0,

@@ -210,7 +210,7 @@ class BoatDemo:
 
     def screenshot(self, path: Path | None = None) -> Path:
         """Draw the current frame and write it as a PNG; returns the path."""
-        from riverflow.__main__ import save_png
+        from riverflow.images import save_png
 
         if path is None:
             self.screenshot_count += 1
@@ -255,9 +255,9 @@ def run_headless(frames: int, out: Path, *, scene=None, size=(640, 360), seed: i
     no window; write every ``every``-th frame (and the last) as ``out/frame_NNNNN.png`` and all
     of them as ``out/demo.gif``. Deterministic: flow tiles are made in the frame, so the same
     seed and script give the same path and the same frames."""
-    from PIL import Image, ImageDraw
-
     import dataclasses
+
+    from PIL import Image, ImageDraw
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
