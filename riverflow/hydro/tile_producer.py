@@ -13,8 +13,10 @@ import queue
 import threading
 from collections.abc import Iterable
 
+import numpy as np
+
 from riverflow.hydro.flow_field import FlowField, TileBuilder
-from riverflow.kernels.flow import SLOT_MISSING
+from riverflow.kernels.view_tiles import mark_tiles_used
 
 TileKey = tuple[int, int, int]
 """(level, tx, ty)."""
@@ -32,21 +34,24 @@ class FlowTileProducer:
         self._todo: queue.Queue[TileKey | None] = queue.Queue()
         self._done: queue.Queue[tuple] = queue.Queue()
         self._thread: threading.Thread | None = None
+        self._missing = np.empty((0, 3), np.int32)
         self.requested = 0
         """Tiles asked for (not yet cached) since the start."""
 
-    def request(self, keys: Iterable[TileKey]) -> int:
-        """Ask for tiles; returns how many were not cached yet. Cached ones are marked used."""
+    def request(self, keys: Iterable[TileKey] | np.ndarray) -> int:
+        """Ask for tiles, (level, tx, ty) each (an (N, 3) int array is fastest: the frame's
+        view asks for every visible tile each frame); returns how many were not cached yet.
+        Cached ones are marked used."""
         field = self.field
         tiles = field.tiles
         tiles.tick += 1
-        missing: list[TileKey] = []
-        for level, tx, ty in keys:
-            slot = tiles.slots[level][ty, tx]
-            if slot >= 0:
-                tiles.last_used[slot] = tiles.tick
-            elif slot == SLOT_MISSING and (level, tx, ty) not in self._pending:
-                missing.append((level, tx, ty))
+        keys = np.ascontiguousarray(np.asarray(keys, np.int32).reshape(-1, 3))
+        if len(self._missing) < len(keys):
+            self._missing = np.empty((len(keys), 3), np.int32)
+        m = mark_tiles_used(keys, len(keys), tiles.slots_flat, tiles.level_offset,
+                            tiles.last_used, tiles.tick, self._missing)
+        missing: list[TileKey] = [key for key in map(tuple, self._missing[:m].tolist())
+                                  if key not in self._pending]
         self.requested += len(missing)
         if self.mode == "blocking":
             by_level: dict[int, list[tuple[int, int]]] = {}

@@ -88,3 +88,25 @@ def select_view_tiles(
             stack[top, 2] = 2 * ty + (child >> 1)
             top += 1
     return n
+
+
+@njit(**JIT_OPTIONS)
+def mark_tiles_used(keys, n, slots_flat, level_offset, last_used, tick, out_missing):
+    """Of the tiles ``keys[:n]`` (K, 3) int32 (level, tx, ty): stamp the cached ones used at
+    ``tick`` (``last_used`` (P,) int64 by slot) and copy the ones not cached (slot
+    SLOT_MISSING, −1; dry tiles are known and never missing) to ``out_missing`` (K, 3) int32;
+    returns how many are missing. ``slots_flat`` / ``level_offset`` are the cache's slot
+    tables, level after level (row-major 2**level × 2**level each)."""
+    m = 0
+    for k in range(n):
+        level = keys[k, 0]
+        side = 1 << level
+        slot = slots_flat[level_offset[level] + keys[k, 2] * side + keys[k, 1]]
+        if slot >= 0:
+            last_used[slot] = tick
+        elif slot == -1:
+            out_missing[m, 0] = level
+            out_missing[m, 1] = keys[k, 1]
+            out_missing[m, 2] = keys[k, 2]
+            m += 1
+    return m

@@ -39,7 +39,7 @@ class ProduceFlowTiles(System):
                     field.max_level, grids.z_min, grids.z_max, field.river_boxes,
                     self._keys)
             self.visible = int(n)
-            node.producer.request(map(tuple, self._keys[:n].tolist()))
+            node.producer.request(self._keys[:n])
             self._sync_entities(tiles)
 
     def _sync_entities(self, tiles) -> None:
