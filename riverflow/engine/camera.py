@@ -233,14 +233,29 @@ class Camera:
         cached = self._kernel_matrices
         if cached is not None and cached[0] == self.revision:
             return cached[1], cached[2]
-        # the same matrices as pyrr's look_at (the view_matrix method), built from the basis
-        # look_at already has: per frame, pyrr's generic np.cross path costs ~60 µs
-        r, u, f, e = self._right, self._screen_up, self._forward, self._position
-        view = np.array([[r[0], r[1], r[2], -(r @ e)], [u[0], u[1], u[2], -(u @ e)],
-                         [-f[0], -f[1], -f[2], f @ e], [0.0, 0.0, 0.0, 1.0]])
-        proj = np.ascontiguousarray(self.projection_matrix(np.float64).T)
-        m = np.ascontiguousarray(proj @ view)
-        inv = np.ascontiguousarray(np.linalg.inv(m))
+        # the same matrices as pyrr's look_at and perspective projection (view_matrix,
+        # projection_matrix: pinned by the tests), written out in plain floats from the basis
+        # look_at already has, with the inverse in closed form (V⁻¹ = [Rᵀ | e], P⁻¹ is
+        # sparse): a frame's camera then costs a few µs, not ~60 µs of small numpy calls
+        (r0, r1, r2), (u0, u1, u2) = self._right.tolist(), self._screen_up.tolist()
+        (f0, f1, f2), (e0, e1, e2) = self._forward.tolist(), self._position.tolist()
+        sy = 1.0 / math.tan(math.radians(self._fov_y_deg) * 0.5)
+        sx = sy / self.aspect
+        near, far = self._near_m, self._far_m
+        a = (far + near) / (near - far)
+        b = 2.0 * far * near / (near - far)
+        re = r0 * e0 + r1 * e1 + r2 * e2
+        ue = u0 * e0 + u1 * e1 + u2 * e2
+        fe = f0 * e0 + f1 * e1 + f2 * e2
+        m = np.array([[sx * r0, sx * r1, sx * r2, -sx * re],
+                      [sy * u0, sy * u1, sy * u2, -sy * ue],
+                      [-a * f0, -a * f1, -a * f2, a * fe + b],
+                      [f0, f1, f2, -fe]])
+        ab = a / b
+        inv = np.array([[r0 / sx, u0 / sy, e0 / b, f0 + ab * e0],
+                        [r1 / sx, u1 / sy, e1 / b, f1 + ab * e1],
+                        [r2 / sx, u2 / sy, e2 / b, f2 + ab * e2],
+                        [0.0, 0.0, 1.0 / b, ab]])
         self._kernel_matrices = (self.revision, m, inv)
         return m, inv
 
