@@ -263,63 +263,53 @@ def _within(points, x, y, reach):
     return (d * d).sum(1) < reach * reach
 
 
-def may_see_water(x, y, level, world_from_clip, width, height, wet, grid_x, grid_y, cell):
-    """Twin of ``_may_see_water``: the pixel's ray where it crosses ``level``, by a wet node?"""
-    ndc = np.array([2 * x / max(width, 1) - 1, 2 * y / max(height, 1) - 1])
-    near = world_from_clip @ np.r_[ndc, -1.0, 1.0]
-    far = world_from_clip @ np.r_[ndc, 1.0, 1.0]
-    if near[3] == 0 or far[3] == 0:
-        return True
-    a, b = near[:3] / near[3], far[:3] / far[3]
-    if not a[2] > level:
-        return True
-    if not b[2] - a[2] < 0:
-        return False
-    p = a + (level - a[2]) / (b[2] - a[2]) * (b - a)
-    g = (p[:2] - (grid_x, grid_y)) / cell
-    rows, cols = wet.shape
-    if not (g[0] >= 0 and g[1] >= 0 and g[0] < cols - 1 and g[1] < rows - 1):
-        return False
-    i, j = int(g[0]), int(g[1])
-    return bool(wet[j:j + 2, i:i + 2].any())
+def water_hint(x, y, targets, water, grid_x, grid_y, cell):
+    """Twin of ``_water_hint``: (x, y, level) of the deep-water node ``targets`` names for the
+    grid node nearest (x, y), or None."""
+    rows, cols = water.shape
+    i, j = int(np.floor((x - grid_x) / cell + 0.5)), int(np.floor((y - grid_y) / cell + 0.5))
+    if not (0 <= i < cols and 0 <= j < rows) or targets[j * cols + i] < 0:
+        return None
+    tj, ti = divmod(int(targets[j * cols + i]), cols)
+    return grid_x + ti * cell, grid_y + tj * cell, float(water[tj, ti])
 
 
 def check_outside_near_water(alive, ids, status, screen_px, world_m, items, frame, probe_every,
-                             replace_every, n_probes, probe_px, reach_px, cover_px, width,
-                             height, world_from_clip, wet, grid_x, grid_y, cell, seed):
+                             replace_every, reach_px, cover_px, width, height, clip_from_world,
+                             targets, water, grid_x, grid_y, cell):
     """Twin of ``check_outside_near_water`` over the particles ``items`` (those in the grid, in
-    grid order): the OUTSIDE ones with an INSIDE one of ``items`` within reach, looked at when
-    (id + frame) % probe_every == 0, in that order: replaced when also % replace_every == 0, else
-    their probes (RandomState(seed) draws φ then ρ per probe) that are on screen, uncovered by
-    INSIDE/LEAVING items and may see water at the level of the first INSIDE neighbour in grid
-    order ``items``. Returns (removed slots, probes (P, 2))."""
-    rs = np.random.RandomState(seed)
+    grid order): the OUTSIDE ones looked at when (id + frame) % probe_every == 0, in that
+    order: replaced when an INSIDE one of ``items`` is within reach and also % replace_every
+    == 0, else their water hint projected, kept when within reach of it, on screen and farther
+    than ``cover_px`` from the INSIDE/LEAVING items. Returns (removed slots, probes (P, 2),
+    owners (P,))."""
     items = np.asarray(items)
     inside = items[(status[items] == 1) & alive[items]]
     carriers = items[((status[items] == 1) | (status[items] == 2)) & alive[items]]
-    removed, probes = [], []
+    removed, probes, owners = [], [], []
     for i in items:
         if not alive[i] or status[i] != 4 or (ids[i] + frame) % probe_every:
             continue
         near = inside[(inside != i) & _within(screen_px[inside], *screen_px[i], reach_px)]
-        if not len(near):
-            continue
-        if (ids[i] + frame) % replace_every == 0:
+        if len(near) and (ids[i] + frame) % replace_every == 0:
             removed.append(i)
             continue
-        for _ in range(n_probes):
-            phi = 2 * np.pi * rs.random_sample()
-            rho = probe_px * np.sqrt(rs.random_sample())
-            x = screen_px[i, 0] + rho * np.cos(phi)
-            y = screen_px[i, 1] + rho * np.sin(phi)
-            if not (0 <= x < width and 0 <= y < height):
-                continue
-            if _within(screen_px[carriers], x, y, cover_px).any():
-                continue
-            if may_see_water(x, y, world_m[near[0], 2], world_from_clip, width, height, wet,
-                             grid_x, grid_y, cell):
-                probes.append((x, y))
-    return np.array(removed, int), np.array(probes, float).reshape(-1, 2)
+        hint = water_hint(world_m[i, 0], world_m[i, 1], targets, water, grid_x, grid_y, cell)
+        if hint is None:
+            continue
+        clip = clip_from_world @ np.r_[hint, 1.0]
+        if not clip[3] > 1e-9:
+            continue
+        q = (clip[:2] / clip[3] * 0.5 + 0.5) * (width, height)
+        if np.hypot(*(q - screen_px[i])) >= reach_px or not (0 <= q[0] < width
+                                                             and 0 <= q[1] < height):
+            continue
+        if (np.hypot(*(screen_px[carriers] - q).T) < cover_px).any():
+            continue
+        probes.append(q)
+        owners.append(i)
+    return (np.array(removed, int), np.array(probes, float).reshape(-1, 2),
+            np.array(owners, int))
 
 
 def place_at_seen_water(alive, status, screen_px, birth_s, now_s, fade_at, items, probes, hit,

@@ -52,6 +52,10 @@ class ParticlePool:
     # Terrain (flow)
     status: np.ndarray = field(init=False)       # (C,) uint8 FlowStatus
     first_query: np.ndarray = field(init=False)  # (C,) bool
+    water_hint_m: np.ndarray = field(init=False)  # (C, 3) float32 nearest deep water to an
+                                                 # OUTSIDE particle (x, y, level) [m]; x = inf:
+                                                 # none (kernels.advection.check_outside_near_water)
+    hint_id: np.ndarray = field(init=False)      # (C,) int64 id whose hint water_hint_m holds
     # Random
     offset_m: np.ndarray = field(init=False)     # (C, 2) float32 sprite texture offset [m]
 
@@ -72,6 +76,8 @@ class ParticlePool:
         self.velocity_mps = np.zeros((c, 2), np.float32)
         self.status = np.full(c, FlowStatus.UNKNOWN, np.uint8)
         self.first_query = np.zeros(c, np.bool_)
+        self.water_hint_m = np.zeros((c, 3), np.float32)
+        self.hint_id = np.full(c, -1, np.int64)
         self.offset_m = np.zeros((c, 2), np.float32)
 
     @property
@@ -88,7 +94,8 @@ class ParticlePool:
     def columns(self) -> dict[str, np.ndarray]:
         """Every column by name (for snapshots and bit-identity tests)."""
         names = ("alive", "ids", "counters", "birth_s", "intensity", "screen_px", "fade_reason",
-                 "world_m", "has_world", "velocity_mps", "status", "first_query", "offset_m")
+                 "world_m", "has_world", "velocity_mps", "status", "first_query", "water_hint_m",
+                 "hint_id", "offset_m")
         return {n: getattr(self, n) for n in names}
 
 

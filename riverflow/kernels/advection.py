@@ -88,9 +88,9 @@ def move_particles(alive, has_world, world_m, velocity_mps, status, dt_s, water_
     flow query, ``dt_s`` [s] (speed factor included). ``water_m`` / ``ground_m`` (ny, nx)
     float32 are the water level (NaN where dry) and the terrain on a grid at (grid_x, grid_y)
     with ``grid_cell_m`` spacing: a moved particle takes the water altitude (the ground's where
-    dry) once every ``z_every`` frames, staggered by slot (the lookups miss the cache; in
-    those frames the level under a particle moves by a fraction of a millimetre). Returns the
-    number moved."""
+    dry) once every ``z_every`` frames (a power of two), staggered by slot (the lookups miss
+    the cache; in those frames the level under a particle moves by a fraction of a
+    millimetre). Returns the number moved."""
     moved = 0
     for i in range(alive.shape[0]):
         if not alive[i] or not has_world[i]:
@@ -109,7 +109,7 @@ def move_particles(alive, has_world, world_m, velocity_mps, status, dt_s, water_
             continue
         world_m[i, 0] = x
         world_m[i, 1] = y
-        if (i + frame) % z_every == 0:
+        if (i + frame) & (z_every - 1) == 0:
             z = _surface(x, y, water_m, ground_m, grid_x, grid_y, grid_cell_m)
             if math.isfinite(z):
                 world_m[i, 2] = z
@@ -159,113 +159,62 @@ def apply_flow_status(
 
 
 @njit(inline="always", **JIT_OPTIONS)
-def _inside_within(i, screen_px, status, alive, cell_px, gw, gh, cell_count, cell_items,
-                   reach_px):
-    """A live INSIDE particle within ``reach_px`` of particle i on screen (the first found in
-    the grid), or −1."""
-    x = screen_px[i, 0]
-    y = screen_px[i, 1]
-    cx = min(max(int(math.floor(x / cell_px)), 0), gw - 1)
-    cy = min(max(int(math.floor(y / cell_px)), 0), gh - 1)
-    r2 = reach_px * reach_px
-    for ny in range(max(cy - 1, 0), min(cy + 2, gh)):
-        for nx in range(max(cx - 1, 0), min(cx + 2, gw)):
-            c = ny * gw + nx
-            for q in range(cell_count[c]):
-                j = cell_items[c, q]
-                if j == i or not alive[j] or status[j] != STATUS_INSIDE:
-                    continue
-                dx = screen_px[j, 0] - x
-                dy = screen_px[j, 1] - y
-                if dx * dx + dy * dy < r2:
-                    return j
-    return -1
-
-
-@njit(inline="always", **JIT_OPTIONS)
-def _covered(x, y, screen_px, status, alive, cell_px, gw, gh, cell_count, cell_items,
-             cover_px):
-    """Is an INSIDE or LEAVING particle closer than ``cover_px`` (< cell_px) to (x, y)?"""
-    cx = min(max(int(math.floor(x / cell_px)), 0), gw - 1)
-    cy = min(max(int(math.floor(y / cell_px)), 0), gh - 1)
-    r2 = cover_px * cover_px
-    for ny in range(max(cy - 1, 0), min(cy + 2, gh)):
-        for nx in range(max(cx - 1, 0), min(cx + 2, gw)):
-            c = ny * gw + nx
-            for q in range(cell_count[c]):
-                j = cell_items[c, q]
-                s = status[j]
-                if (s == STATUS_INSIDE or s == STATUS_LEAVING) and alive[j]:
-                    dx = screen_px[j, 0] - x
-                    dy = screen_px[j, 1] - y
-                    if dx * dx + dy * dy < r2:
-                        return True
-    return False
-
-
-@njit(inline="always", **JIT_OPTIONS)
-def _may_see_water(x, y, level_m, world_from_clip, width_px, height_px, wet_nodes, grid_x,
-                   grid_y, grid_cell_m):
-    """Could the ray of pixel (x, y) end on water at ``level_m``? Where it crosses that level
-    must be by a wet node of ``wet_nodes`` (ny, nx) uint8 (dilated): a ray that sees water at
-    that level crosses it right there. True when it cannot tell (the eye below that level)."""
-    m = world_from_clip
-    nx_ = 2.0 * x / max(width_px, 1) - 1.0
-    ny_ = 2.0 * y / max(height_px, 1) - 1.0
-    w0 = m[3, 0] * nx_ + m[3, 1] * ny_ - m[3, 2] + m[3, 3]
-    w1 = m[3, 0] * nx_ + m[3, 1] * ny_ + m[3, 2] + m[3, 3]
-    if w0 == 0.0 or w1 == 0.0:
-        return True
-    ax = (m[0, 0] * nx_ + m[0, 1] * ny_ - m[0, 2] + m[0, 3]) / w0
-    ay = (m[1, 0] * nx_ + m[1, 1] * ny_ - m[1, 2] + m[1, 3]) / w0
-    az = (m[2, 0] * nx_ + m[2, 1] * ny_ - m[2, 2] + m[2, 3]) / w0
-    dz = (m[2, 0] * nx_ + m[2, 1] * ny_ + m[2, 2] + m[2, 3]) / w1 - az
-    if not (az > level_m):
-        return True  # the eye at or below that level: cannot tell
-    if not (dz < 0.0):
-        return False  # the ray never comes down to it
-    t = (level_m - az) / dz
-    bx = (m[0, 0] * nx_ + m[0, 1] * ny_ + m[0, 2] + m[0, 3]) / w1
-    by = (m[1, 0] * nx_ + m[1, 1] * ny_ + m[1, 2] + m[1, 3]) / w1
-    gx = (ax + t * (bx - ax) - grid_x) / grid_cell_m
-    gy = (ay + t * (by - ay) - grid_y) / grid_cell_m
-    rows, cols = wet_nodes.shape
-    if not (gx >= 0.0 and gy >= 0.0 and gx < cols - 1 and gy < rows - 1):
-        return False
-    i = int(gx)
-    j = int(gy)
-    return (wet_nodes[j, i] | wet_nodes[j, i + 1] | wet_nodes[j + 1, i]
-            | wet_nodes[j + 1, i + 1]) != 0
+def _water_hint(x, y, water_target, water_m, grid_x, grid_y, grid_cell_m, out, k):
+    """Write into ``out[k]`` the nearest deep-water node to (x, y) [m] (x, y, water level),
+    from ``water_target`` (ny·nx,) int32 (per grid node, the flat index of its nearest deep
+    water node, −1 when there is none); x = +inf when there is none or (x, y) is off the
+    grid."""
+    rows, cols = water_m.shape
+    i = int(math.floor((x - grid_x) / grid_cell_m + 0.5))
+    j = int(math.floor((y - grid_y) / grid_cell_m + 0.5))
+    t = -1
+    if 0 <= i < cols and 0 <= j < rows:
+        t = water_target[j * cols + i]
+    if t < 0:
+        out[k, 0] = math.inf
+        out[k, 1] = 0.0
+        out[k, 2] = 0.0
+        return
+    tj = t // cols
+    ti = t - tj * cols
+    out[k, 0] = grid_x + ti * grid_cell_m
+    out[k, 1] = grid_y + tj * grid_cell_m
+    out[k, 2] = water_m[tj, ti]
 
 
 @njit(**JIT_OPTIONS)
 def check_outside_near_water(
-    alive, ids, counters, status, screen_px, world_m, cell_px, gw, gh, cell_count, cell_items,
-    reach_px, wet_cells, removed_cells, frame, probe_every, replace_every, n_probes, probe_px,
-    cover_px, width_px, height_px, world_from_clip, wet_nodes, grid_x, grid_y, grid_cell_m,
-    seed, out_xy,
+    alive, ids, counters, status, screen_px, world_m, water_hint_m, hint_id, cell_px, gw, gh,
+    cell_count, cell_items, reach_px, wet_cells, removed_cells, frame, probe_every,
+    replace_every, cover_px, width_px, height_px, clip_from_world, water_target, water_m,
+    grid_x, grid_y, grid_cell_m, out_xy, out_owner,
 ):
-    """Proland's NEAR rule, made cheap: where should an OUTSIDE particle near the river give
-    way so that the river gets particles?
+    """Where should the river get particles that it has not? Proland's NEAR rule, plus probes
+    guided by where the water is in the world.
 
-    An OUTSIDE particle of the grid (last frame's) with an INSIDE one within ``reach_px`` on
-    screen, looked at once every ``probe_every`` frames (staggered by id), in grid order, only
-    in cells next to one holding an INSIDE particle (``wet_cells`` (gw·gh,) uint8 is scratch):
+    Each OUTSIDE particle of the grid (last frame's) is looked at once every ``probe_every``
+    frames (staggered by id; ``probe_every`` and ``replace_every`` are powers of two), in grid
+    order:
 
-    * once every ``replace_every`` frames it gives way (NEAR, removed; its cell marked in
+    * when an INSIDE particle lies within ``reach_px`` on screen and (id + frame) %
+      ``replace_every`` == 0, it gives way (NEAR, removed; its cell marked in
       ``removed_cells``), as Proland replaces it every frame: the refill may land on water,
-      and freshly packed shores keep the Poisson disk dense;
-    * the other times it *probes*: ``n_probes`` random points within ``probe_px`` of it (seeded
-      by ``seed``), kept when on screen, farther than ``cover_px`` from every INSIDE or
-      LEAVING particle, and where the pixel's ray may see water at the INSIDE neighbour's
-      level (:func:`_may_see_water`). They go to ``out_xy`` (P, 2) float32: their rays are
+      and freshly packed shores keep the Poisson disk dense (``wet_cells`` (gw·gh,) uint8 is
+      scratch: cells holding an INSIDE particle);
+    * otherwise it *probes* its water hint: the deep-water node nearest to it in the world
+      (``water_hint_m`` (C, 3) float32 x, y, level [m], found once per particle from
+      ``water_target`` and kept while ``hint_id`` equals its id: an OUTSIDE particle never
+      moves; x = +inf: none). Projected with ``clip_from_world`` (the view the screen
+      positions were projected with), a hint on screen within ``reach_px`` of the particle and
+      farther than ``cover_px`` from every INSIDE or LEAVING particle is a probe: its ray is
       cast next, and a probe that sees water gets a particle (:func:`place_at_seen_water`).
+      This finds water that no particle has landed on, however thin it looks from here
+      (a far river seen at a grazing angle), with no INSIDE particle nearby.
 
-    ``world_from_clip`` is the inverse view-projection the screen positions were projected
-    with. Returns (removed, probes).
+    Probes go to ``out_xy`` (P, 2) float32 and their particle's slot to ``out_owner`` (P,)
+    int32. Returns (removed, probes).
     """
-    np.random.seed(seed)
-    # the grid's INSIDE and LEAVING particles, by cell (in grid order): positions, level, kind
+    # the grid's INSIDE and LEAVING particles, by cell (in grid order): positions, kind
     n_cells = gw * gh
     start = np.zeros(n_cells + 1, np.int32)
     for c in range(n_cells):
@@ -277,7 +226,6 @@ def check_outside_near_water(
         start[c + 1] += start[c]
     wx = np.empty(start[n_cells], np.float32)
     wy = np.empty(start[n_cells], np.float32)
-    wz = np.empty(start[n_cells])
     inside = np.empty(start[n_cells], np.uint8)
     for c in range(n_cells):
         wet_cells[c] = 0
@@ -287,16 +235,16 @@ def check_outside_near_water(
             if alive[j] and (status[j] == STATUS_INSIDE or status[j] == STATUS_LEAVING):
                 wx[k] = screen_px[j, 0]
                 wy[k] = screen_px[j, 1]
-                wz[k] = world_m[j, 2]
                 inside[k] = status[j] == STATUS_INSIDE
                 wet_cells[c] |= inside[k]
                 k += 1
     reach2 = reach_px * reach_px
     cover2 = cover_px * cover_px
+    m = clip_from_world
     removed = 0
     n = 0
-    # the grid's OUTSIDE particles in cells next to a wet one (the others have no INSIDE one
-    # within reach), in grid order
+    probe_mask = probe_every - 1  # powers of two: no integer division per particle
+    replace_mask = replace_every - 1
     for c in range(n_cells):
         cy = c // gw
         cx = c - cy * gw
@@ -307,64 +255,72 @@ def check_outside_near_water(
             for nx in range(x0, x1 + 1):
                 if wet_cells[ny * gw + nx]:
                     near_wet = True
-        if not near_wet:
-            continue
         for q in range(cell_count[c]):
             i = cell_items[c, q]
             if (not alive[i] or status[i] != STATUS_OUTSIDE
-                    or (ids[i] + frame) % probe_every != 0):
+                    or (ids[i] + frame) & probe_mask != 0):
                 continue
             x = screen_px[i, 0]
             y = screen_px[i, 1]
-            # the first INSIDE particle within reach, in grid order (reach ≤ cell_px)
-            level = math.nan
-            for ny in range(max(cy - 1, 0), min(cy + 2, gh)):
-                for k in range(start[ny * gw + x0], start[ny * gw + x1 + 1]):
-                    dx = wx[k] - x
-                    dy = wy[k] - y
-                    if inside[k] and dx * dx + dy * dy < reach2:
-                        level = wz[k]
-                        break
-                if level == level:
-                    break
-            if level != level:
-                continue
-            if (ids[i] + frame) % replace_every == 0:
-                status[i] = STATUS_NEAR
-                free_particle(i, alive, ids, counters)
-                removed_cells[c] = 1
-                removed += 1
-                continue
-            for _ in range(n_probes):
-                phi = 2.0 * math.pi * np.random.random()
-                rho = probe_px * math.sqrt(np.random.random())
-                px = x + rho * math.cos(phi)
-                py = y + rho * math.sin(phi)
-                if not (0.0 <= px < width_px and 0.0 <= py < height_px):
-                    continue
-                # covered: an INSIDE or LEAVING particle closer than cover_px (≤ cell_px)
-                pcx = min(max(int(math.floor(px / cell_px)), 0), gw - 1)
-                pcy = min(max(int(math.floor(py / cell_px)), 0), gh - 1)
-                px0 = max(pcx - 1, 0)
-                px1 = min(pcx + 1, gw - 1)
-                covered = False
-                for ny in range(max(pcy - 1, 0), min(pcy + 2, gh)):
-                    for k in range(start[ny * gw + px0], start[ny * gw + px1 + 1]):
-                        dx = wx[k] - px
-                        dy = wy[k] - py
-                        if dx * dx + dy * dy < cover2:
-                            covered = True
+            if near_wet and (ids[i] + frame) & replace_mask == 0:
+                # an INSIDE particle within reach (reach ≤ cell_px): give way
+                found = False
+                for ny in range(max(cy - 1, 0), min(cy + 2, gh)):
+                    for k in range(start[ny * gw + x0], start[ny * gw + x1 + 1]):
+                        dx = wx[k] - x
+                        dy = wy[k] - y
+                        if inside[k] and dx * dx + dy * dy < reach2:
+                            found = True
                             break
-                    if covered:
+                    if found:
+                        break
+                if found:
+                    status[i] = STATUS_NEAR
+                    free_particle(i, alive, ids, counters)
+                    removed_cells[c] = 1
+                    removed += 1
+                    continue
+            if hint_id[i] != ids[i]:
+                _water_hint(world_m[i, 0], world_m[i, 1], water_target, water_m, grid_x,
+                            grid_y, grid_cell_m, water_hint_m, i)
+                hint_id[i] = ids[i]
+            hx = water_hint_m[i, 0]
+            if not hx < math.inf:
+                continue
+            hy = water_hint_m[i, 1]
+            hz = water_hint_m[i, 2]
+            cw = m[3, 0] * hx + m[3, 1] * hy + m[3, 2] * hz + m[3, 3]
+            if not cw > 1e-9:
+                continue
+            px = ((m[0, 0] * hx + m[0, 1] * hy + m[0, 2] * hz + m[0, 3]) / cw * 0.5
+                  + 0.5) * width_px
+            py = ((m[1, 0] * hx + m[1, 1] * hy + m[1, 2] * hz + m[1, 3]) / cw * 0.5
+                  + 0.5) * height_px
+            if (px - x) * (px - x) + (py - y) * (py - y) >= reach2:
+                continue
+            if not (0.0 <= px < width_px and 0.0 <= py < height_px):
+                continue
+            # covered: an INSIDE or LEAVING particle closer than cover_px (≤ cell_px)
+            pcx = min(max(int(math.floor(px / cell_px)), 0), gw - 1)
+            pcy = min(max(int(math.floor(py / cell_px)), 0), gh - 1)
+            px0 = max(pcx - 1, 0)
+            px1 = min(pcx + 1, gw - 1)
+            covered = False
+            for ny in range(max(pcy - 1, 0), min(pcy + 2, gh)):
+                for k in range(start[ny * gw + px0], start[ny * gw + px1 + 1]):
+                    dx = wx[k] - px
+                    dy = wy[k] - py
+                    if dx * dx + dy * dy < cover2:
+                        covered = True
                         break
                 if covered:
-                    continue
-                if not _may_see_water(px, py, level, world_from_clip, width_px, height_px,
-                                      wet_nodes, grid_x, grid_y, grid_cell_m):
-                    continue
-                out_xy[n, 0] = px
-                out_xy[n, 1] = py
-                n += 1
+                    break
+            if covered:
+                continue
+            out_xy[n, 0] = px
+            out_xy[n, 1] = py
+            out_owner[n] = i
+            n += 1
     return removed, n
 
 

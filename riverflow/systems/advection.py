@@ -9,6 +9,7 @@ from scipy import ndimage
 
 from riverflow.components.particles import ParticlePool
 from riverflow.components.river import Clock, FrameView, RiverNode, ScreenGrid, SurfaceGrids
+from riverflow.components.status import FlowStatus
 from riverflow.engine.system import System
 from riverflow.hydro.flow_field import FlowField
 from riverflow.kernels.advection import (HIT_WATER, apply_flow_status, check_outside_near_water,
@@ -21,32 +22,44 @@ from riverflow.kernels.raycast import cast_rays_onto_heightfield, height_pyramid
 _NO_LEVELS = np.zeros(0, np.int8)
 
 NEAR_CHECK_EVERY = 4
-"""An OUTSIDE particle next to the river is looked at every this many frames, staggered by id:
-it probes for uncovered water near it (:data:`NEAR_PROBES` points)."""
+"""An OUTSIDE particle is looked at every this many frames, staggered by id: it probes its
+water hint (the deep water nearest to it in the world) when that is on screen nearby and no
+particle covers it."""
 NEAR_REPLACE_EVERY = 8
-"""… and every this many frames it is replaced (Proland replaces it every frame)."""
-NEAR_PROBES = 4
-"""Random points probed around it, within :data:`NEAR_PROBE_REACH` · r."""
-NEAR_PROBE_REACH = 2.5
+"""… and every this many frames one with an INSIDE particle nearby is replaced instead
+(Proland replaces it every frame)."""
 NEAR_COVER = 2.0
 """A probe point closer than this · r to an INSIDE or LEAVING particle is covered."""
 ALTITUDE_EVERY = 4
 """A moving particle's altitude is looked up again every this many frames, staggered."""
-WET_DILATION = 2
-"""Grid nodes by which the wet nodes are grown for the probes' water pre-test."""
+DEEP_WATER_NODES = 1
+"""Water hints point this many grid nodes inside the water (not at the bank's edge), where
+the river is wide enough to keep any."""
+
+for _every in (NEAR_CHECK_EVERY, NEAR_REPLACE_EVERY, ALTITUDE_EVERY):
+    assert _every > 0 and _every & (_every - 1) == 0, "the kernels stagger by bit masks"
 
 _SURFACE_CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def surface_tables(grids: SurfaceGrids) -> tuple[np.ndarray, np.ndarray]:
-    """(height pyramid, wet nodes) of a :class:`SurfaceGrids`, made once and shared: the max-mip
-    pyramid of :func:`riverflow.kernels.raycast.height_pyramid`, and (ny, nx) uint8 nodes where
-    the water is at or above the ground, grown by :data:`WET_DILATION` nodes."""
+    """(height pyramid, water targets) of a :class:`SurfaceGrids`, made once and shared: the
+    max-mip pyramid of :func:`riverflow.kernels.raycast.height_pyramid`, and (ny·nx,) int32
+    per grid node the flat index of the nearest deep-water node (wet, at least
+    :data:`DEEP_WATER_NODES` from dry land; any wet node where none is that deep; −1 everywhere
+    when there is no water), from scipy's exact Euclidean distance transform."""
     tables = _SURFACE_CACHE.get(grids)
     if tables is None:
         wet = grids.water_m >= grids.ground_m  # NaN (dry) compares False
-        wet = ndimage.binary_dilation(wet, iterations=WET_DILATION)
-        tables = (height_pyramid(grids.ground_m, grids.water_m), wet.astype(np.uint8))
+        deep = ndimage.binary_erosion(wet, iterations=DEEP_WATER_NODES, border_value=1)
+        if not deep.any():
+            deep = wet
+        if deep.any():
+            _, (jj, ii) = ndimage.distance_transform_edt(~deep, return_indices=True)
+            targets = (jj * wet.shape[1] + ii).astype(np.int32).ravel()
+        else:
+            targets = np.full(wet.size, -1, np.int32)
+        tables = (height_pyramid(grids.ground_m, grids.water_m), targets)
         _SURFACE_CACHE[grids] = tables
     return tables
 
@@ -59,15 +72,16 @@ class AdvectParticles(System):
 
     def __init__(self) -> None:
         self.moved = self.removed = self.waiting = self.probes = self.placed = 0
-        self._view_inverse: np.ndarray | None = None
+        self._view: tuple[np.ndarray, np.ndarray] | None = None
         self._probe_xy = np.zeros((0, 2), np.float32)
+        self._owner = np.zeros(0, np.int32)
         self._rows = np.zeros(0, np.int32)
 
     def process(self, world, dt_s: float) -> None:
         clock = world.resource(Clock)
         view = world.resource(FrameView)
         if clock.paused:
-            self._view_inverse = view.world_from_clip.copy()
+            self._view = (view.clip_from_world.copy(), view.world_from_clip.copy())
             return
         g = world.resource(SurfaceGrids)
         reach_px = world.config.grid_cell_factor * world.config.radius_px
@@ -82,27 +96,29 @@ class AdvectParticles(System):
             self.waiting = ask_flow(node.field, pool, grid, n, reach_px)
             self._near_water(world, node.field, pool, grid, g, reach_px)
         # the screen positions the next frame starts from were projected with this view
-        self._view_inverse = view.world_from_clip.copy()
+        self._view = (view.clip_from_world.copy(), view.world_from_clip.copy())
 
     def _near_water(self, world, field: FlowField, pool: ParticlePool, grid: ScreenGrid,
                     g: SurfaceGrids, reach_px: float) -> None:
-        """The NEAR rule (:func:`check_outside_near_water`), then a particle at each probe
-        that sees uncovered water inside the flow (:func:`place_at_seen_water`)."""
+        """The NEAR rule and the water-hint probes (:func:`check_outside_near_water`), then a
+        particle at each probe that sees uncovered water inside the flow
+        (:func:`place_at_seen_water`); a particle whose hint did not is not asked again."""
         c = world.config
         r = c.radius_px
         view = world.resource(FrameView)
         clock = world.resource(Clock)
-        inverse = self._view_inverse if self._view_inverse is not None else view.world_from_clip
-        pyramid, wet = surface_tables(g)
-        if len(self._probe_xy) < pool.capacity * NEAR_PROBES:
-            self._probe_xy = np.zeros((pool.capacity * NEAR_PROBES, 2), np.float32)
+        forward, inverse = self._view or (view.clip_from_world, view.world_from_clip)
+        pyramid, targets = surface_tables(g)
+        if len(self._probe_xy) < pool.capacity:
+            self._probe_xy = np.zeros((pool.capacity, 2), np.float32)
+            self._owner = np.zeros(pool.capacity, np.int32)
         self.removed, n = check_outside_near_water(
             pool.alive, pool.ids, pool.counters, pool.status, pool.screen_px, pool.world_m,
-            grid.cell_px, grid.gw, grid.gh, grid.cell_count, grid.cell_items, reach_px,
-            grid.wet_cells, grid.removed_cells, clock.frame, NEAR_CHECK_EVERY,
-            NEAR_REPLACE_EVERY, NEAR_PROBES, NEAR_PROBE_REACH * r, NEAR_COVER * r,
-            view.width_px, view.height_px, inverse, wet, g.origin_x, g.origin_y, g.cell_m,
-            int(world.rng.integers(0, 2**31 - 1)), self._probe_xy)
+            pool.water_hint_m, pool.hint_id, grid.cell_px, grid.gw, grid.gh, grid.cell_count,
+            grid.cell_items, reach_px, grid.wet_cells, grid.removed_cells, clock.frame,
+            NEAR_CHECK_EVERY, NEAR_REPLACE_EVERY, NEAR_COVER * r, view.width_px,
+            view.height_px, forward, targets, g.water_m, g.origin_x, g.origin_y, g.cell_m,
+            self._probe_xy, self._owner)
         self.probes = n
         self.placed = 0
         if n == 0:
@@ -118,12 +134,16 @@ class AdvectParticles(System):
         cast_rays_onto_heightfield(origin, direction, g.ground_m, g.water_m, g.origin_x,
                                    g.origin_y, g.cell_m, c.far_m, hit_xyz, hit, pyramid)
         water = np.flatnonzero(hit == HIT_WATER)
+        flow_status = np.zeros(len(water), np.uint8)
+        velocity = np.empty((len(water), 2), np.float32)
+        if len(water):
+            query_flow(field, np.ascontiguousarray(hit_xyz[water, :2]), flow_status, velocity)
+        seen = np.zeros(n, bool)
+        seen[water[flow_status == FlowStatus.INSIDE]] = True
+        missed = self._owner[:n][~seen]
+        pool.water_hint_m[missed, 0] = np.inf  # hidden from here, or not in the river
         if not len(water):
             return
-        xy = np.ascontiguousarray(hit_xyz[water, :2])
-        status = np.empty(len(water), np.uint8)
-        velocity = np.empty((len(water), 2), np.float32)
-        query_flow(field, xy, status, velocity)
         lo, hi = c.random_offset_min_m, c.random_offset_max_m
         self.placed, removed = place_at_seen_water(
             pool.alive, pool.ids, pool.counters, pool.birth_s, pool.intensity, pool.screen_px,
@@ -131,7 +151,7 @@ class AdvectParticles(System):
             pool.first_query, pool.offset_m, clock.now_s, c.fade_in_s, c.active_s,
             c.spawn_gap_factor * r, grid.cell_px, grid.gw, grid.gh, grid.cell_count,
             grid.cell_items, len(water), self._probe_xy[water], hit[water], hit_xyz[water],
-            status, velocity, grid.removed_cells, int(world.rng.integers(0, 2**31 - 1)),
+            flow_status, velocity, grid.removed_cells, int(world.rng.integers(0, 2**31 - 1)),
             lo[0], lo[1], hi[0], hi[1], grid.new_slots)
         self.removed += removed
 

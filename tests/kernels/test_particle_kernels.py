@@ -8,6 +8,7 @@ import numpy.testing as npt
 import pytest
 
 from riverflow.components.particles import FadeReason, ParticlePool
+from riverflow.components.river import SurfaceGrids
 from riverflow.components.status import FlowStatus
 from riverflow.engine.camera import Camera
 from riverflow.kernels import advection as ka
@@ -15,6 +16,7 @@ from riverflow.kernels import lifecycle as kl
 from riverflow.kernels import placement as kpl
 from riverflow.kernels import poisson as kp
 from riverflow.kernels import screen as ks
+from riverflow.systems.advection import surface_tables
 from tests import reference
 
 FI, AC, FO = 2.0, 30.0, 2.0
@@ -316,9 +318,10 @@ def test_pixel_rays_match_the_camera():
 
 def _river_view(rng, r=5.0, w=320, h=180, n=700):
     """A camera over a flat valley with a 80 m wide river along y (water level 0), particles
-    at random pixels, INSIDE over the river and OUTSIDE beside it, in a neighbour grid."""
+    at random pixels, INSIDE over the river and OUTSIDE beside it, in a neighbour grid; the
+    valley's surface grids (10 m nodes) and their water targets."""
     cam = Camera(position=(30, -260, 120), target=(0, 0, 0), size_px=(w, h))
-    _, inv = cam.matrices_for_kernels()
+    fwd, inv = cam.matrices_for_kernels()
     pool = ParticlePool(n + 400)
     for _ in range(n):
         kl.allocate_particle(pool.alive, pool.ids, pool.counters, 0)
@@ -331,7 +334,9 @@ def _river_view(rng, r=5.0, w=320, h=180, n=700):
     pool.status[:n] = np.where(river, FlowStatus.INSIDE, FlowStatus.OUTSIDE)
     pool.status[:n][rng.random(n) < 0.05] = FlowStatus.LEAVING
     gx = np.arange(-400, 401, 10.0)
-    wet = (np.abs(gx)[None, :] < 40) & np.ones((len(gx), 1), bool)
+    ground = np.zeros((len(gx), len(gx)), np.float32)
+    water = np.where(np.abs(gx)[None, :] < 40, 0.0, np.nan).astype(np.float32) + ground
+    grids = SurfaceGrids(ground, water, -400.0, -400.0, 10.0, 0.0, 0.0)
     gw, gh, count, items, removed, _ = _grid(w, h, 4 * r)
     cells = (np.floor(pool.screen_px[:n, 1] / (4 * r)) * gw
              + np.floor(pool.screen_px[:n, 0] / (4 * r))).astype(int)
@@ -339,55 +344,90 @@ def _river_view(rng, r=5.0, w=320, h=180, n=700):
         items[cells[i], count[cells[i]]] = i
         count[cells[i]] += 1
     order = np.concatenate([items[c, :count[c]] for c in range(gw * gh)])
-    return pool, inv, wet.astype(np.uint8), (gw, gh, count, items, removed), order
+    return pool, (fwd, inv), grids, (gw, gh, count, items, removed), order
+
+
+def test_water_targets_name_the_nearest_deep_water_node():
+    gx = np.arange(-400, 401, 10.0)
+    ground = np.zeros((len(gx), len(gx)), np.float32)
+    water = np.where(np.abs(gx)[None, :] < 40, 0.0, np.nan).astype(np.float32) + ground
+    _, targets = surface_tables(SurfaceGrids(ground, water, -400.0, -400.0, 10.0, 0.0, 0.0))
+    rows, cols = np.divmod(targets.reshape(ground.shape), len(gx))
+    # one node in from the banks (|x| ≤ 30 m: the wet nodes are |x| ≤ 30 here, 40 is dry)
+    npt.assert_array_equal(rows, np.arange(len(gx))[:, None] + 0 * rows)
+    want = np.clip(gx, -20.0, 20.0)
+    npt.assert_array_equal(gx[cols], np.broadcast_to(want, cols.shape))
+    dry = SurfaceGrids(ground, np.full_like(water, np.nan), -400.0, -400.0, 10.0, 0.0, 0.0)
+    assert np.all(surface_tables(dry)[1] == -1)
+
+
+def _near_args(pool, grid, r, w, h):
+    gw, gh, count, items, removed_cells = grid
+    return (pool.alive, pool.ids, pool.counters, pool.status, pool.screen_px, pool.world_m,
+            pool.water_hint_m, pool.hint_id, 4 * r, gw, gh, count, items, 4 * r,
+            np.zeros(gw * gh, np.uint8), removed_cells)
 
 
 def test_near_water_check_matches_reference(rng):
     r, w, h = 5.0, 320, 180
-    pool, inv, wet, (gw, gh, count, items, removed_cells), order = _river_view(rng)
+    pool, (fwd, inv), grids, grid, order = _river_view(rng)
+    _, targets = surface_tables(grids)
     before = pool.alive.copy()
-    args = (pool.alive, pool.ids, pool.counters, pool.status, pool.screen_px, pool.world_m,
-            4 * r, gw, gh, count, items, 4 * r, np.zeros(gw * gh, np.uint8), removed_cells)
     for frame in range(4):
-        want_removed, want_probes = reference.check_outside_near_water(
+        want_removed, want_probes, want_owners = reference.check_outside_near_water(
             pool.alive, pool.ids, pool.status, pool.screen_px, pool.world_m, order, frame, 2, 4,
-            3, 2.5 * r, 4 * r, 2 * r, w, h, inv, wet, -400.0, -400.0, 10.0, 17 + frame)
+            4 * r, 2 * r, w, h, fwd, targets, grids.water_m, -400.0, -400.0, 10.0)
         out = np.zeros((4000, 2), np.float32)
+        owner = np.zeros(4000, np.int32)
         alive = pool.alive.copy()
         n_removed, n = ka.check_outside_near_water(
-            *args, frame, 2, 4, 3, 2.5 * r, 2 * r, w, h, inv, wet, -400.0, -400.0, 10.0,
-            17 + frame, out)
+            *_near_args(pool, grid, r, w, h), frame, 2, 4, 2 * r, w, h, fwd, targets,
+            grids.water_m, -400.0, -400.0, 10.0, out, owner)
         npt.assert_array_equal(np.flatnonzero(alive & ~pool.alive), np.sort(want_removed))
         assert n_removed == len(want_removed)
-        npt.assert_allclose(out[:n], want_probes, atol=1e-4)
+        npt.assert_allclose(out[:n], want_probes, atol=1e-3)
+        npt.assert_array_equal(owner[:n], want_owners)
     assert (before & ~pool.alive).sum() > 3  # some were replaced
     assert np.all(pool.status[before & ~pool.alive] == FlowStatus.NEAR)
 
 
-def test_near_water_probes_are_uncovered_and_by_the_river(rng):
-    r = 5.0
-    pool, inv, wet, (gw, gh, count, items, removed_cells), order = _river_view(rng, n=250)
+def test_near_water_probes_find_the_river_with_no_particle_on_it(rng):
+    """The water hints lead to the river even when no particle is INSIDE (a thin far river
+    that every particle missed): each probe is on screen, uncovered, and its pixel sees the
+    deep water; a hint is found once per particle and kept."""
+    r, w, h = 5.0, 320, 180
+    pool, (fwd, inv), grids, grid, order = _river_view(rng, n=250)
+    pool.status[pool.alive] = FlowStatus.OUTSIDE  # nobody landed on the river
+    _, targets = surface_tables(grids)
     out = np.zeros((8000, 2), np.float32)
+    owner = np.zeros(8000, np.int32)
     _, n = ka.check_outside_near_water(
-        pool.alive, pool.ids, pool.counters, pool.status, pool.screen_px, pool.world_m, 4 * r,
-        gw, gh, count, items, 4 * r, np.zeros(gw * gh, np.uint8), removed_cells, 0, 1, 10**9,
-        32, 2.5 * r, 2 * r, 320, 180, inv, wet, -400.0, -400.0, 10.0, 5, out)
+        *_near_args(pool, grid, r, w, h), 0, 1, 2**30, 2 * r, w, h, fwd, targets,
+        grids.water_m, -400.0, -400.0, 10.0, out, owner)
     assert n > 5
-    carriers = pool.screen_px[(pool.status == FlowStatus.INSIDE)
-                              | (pool.status == FlowStatus.LEAVING)]
-    from scipy.spatial import cKDTree
-
-    gap, _ = cKDTree(carriers).query(out[:n])
-    assert gap.min() >= 2 * r - 1e-3
-    cam = Camera(position=(30, -260, 120), target=(0, 0, 0), size_px=(320, 180))
+    cam = Camera(position=(30, -260, 120), target=(0, 0, 0), size_px=(w, h))
     origin, direction = cam.screen_to_ray(out[:n].astype(float))
     x = origin[:, 0] - origin[:, 2] / direction[:, 2] * direction[:, 0]
-    assert np.all(np.abs(x) < 40 + 10)  # within a cell of a wet node
+    assert np.all(np.abs(x) <= 20 + 0.1)  # on the deep water (the hint nodes)
+    d = np.hypot(*(out[:n] - pool.screen_px[owner[:n]]).T)
+    assert np.all(d < 4 * r)
+    assert np.all(pool.hint_id[owner[:n]] == pool.ids[owner[:n]])
+    # a hint given up (x = inf) is not probed again; a new particle in the slot gets its own
+    pool.water_hint_m[owner[:n], 0] = np.inf
+    _, n2 = ka.check_outside_near_water(
+        *_near_args(pool, grid, r, w, h), 0, 1, 2**30, 2 * r, w, h, fwd, targets,
+        grids.water_m, -400.0, -400.0, 10.0, out, owner)
+    assert n2 == 0
+    pool.ids[pool.alive] += 1000
+    _, n3 = ka.check_outside_near_water(
+        *_near_args(pool, grid, r, w, h), 0, 1, 2**30, 2 * r, w, h, fwd, targets,
+        grids.water_m, -400.0, -400.0, 10.0, out, owner)
+    assert n3 == n
 
 
 def test_place_at_seen_water_matches_reference(rng):
     r = 5.0
-    pool, inv, wet, (gw, gh, count, items, removed_cells), order = _river_view(rng, n=500)
+    pool, _, _, (gw, gh, count, items, removed_cells), order = _river_view(rng, n=500)
     pool.status[pool.status == FlowStatus.INSIDE] = FlowStatus.OUTSIDE  # a dry river to fill
     pool.status[:20] = FlowStatus.UNKNOWN
     pool.birth_s[:] = 0.0
