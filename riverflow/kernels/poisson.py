@@ -47,6 +47,11 @@ _SCAN_DY = (0, -1, 1, 0, 0, -1, -1, 1, 1)
 """The 3 × 3 cells around a candidate's, its own and the nearest first."""
 TABLE_CELLS_PER_R = 16
 """Cells of the blocked-direction table per radius r (r/16 px squares)."""
+_BIN_COS = np.cos(TWO_PI * np.arange(DIRECTION_BINS + 1) / DIRECTION_BINS)
+_BIN_SIN = np.sin(TWO_PI * np.arange(DIRECTION_BINS + 1) / DIRECTION_BINS)
+"""cos, sin of the direction bins' ends (bin k is [k, k + 1) · 2π/64)."""
+_EDGE_MARGIN = 1e-6
+"""Relative margin [of 2r] by which a bin's ends must lie off screen to count as blocked."""
 
 
 @njit(**JIT_OPTIONS)
@@ -112,13 +117,14 @@ def cull_crowded_particles(
     for f in range(n_fine):
         start[f + 1] += start[f]
     crowded_cell = not (half >= cull_px)  # (the pair scan below needs half ≥ cull_px)
-    for c in range(n_cells):
-        f = sub * (c // gw) * fw + sub * (c % gw)
-        held = 0
-        for run in range(sub):
-            held += start[f + run * fw + sub] - start[f + run * fw]
-        if held > k_max:
-            crowded_cell = True
+    for cy in range(gh):
+        for cx in range(gw):
+            f = sub * cy * fw + sub * cx
+            held = 0
+            for run in range(sub):
+                held += start[f + run * fw + sub] - start[f + run * fw]
+            if held > k_max:
+                crowded_cell = True
     n = start[n_fine]
     # 2. counting sort by fine cell: slots ascending within each
     slot = np.empty(n, np.int32)
@@ -243,7 +249,8 @@ def _cull_sorted(birth_s, fade_reason, now_s, fade_in_s, active_s, fade_out_s, c
     a = 0
     for c in range(gw * gh):
         acc_start[c] = a
-        f0 = sub * (c // gw) * fw + sub * (c % gw)
+        cy = c // gw  # (one division a cell)
+        f0 = sub * cy * fw + sub * (c - cy * gw)
         for run in range(sub):
             f = f0 + run * fw
             for k in range(start[f], start[f + sub]):
@@ -417,6 +424,39 @@ def _remove_wrapped(lo, hi, n, centre, half):
 
 
 @njit(inline="always", **JIT_OPTIONS)
+def _offscreen_bits(px, py, r2, width_px, height_px):
+    """The direction bins in which P + r2·(cos θ, sin θ) is off screen for every θ of the bin
+    (both ends beyond the same edge: the extremes of cos and sin are bin ends, so that holds
+    for the whole bin), as a 64-bit mask."""
+    m = _EDGE_MARGIN * r2
+    bits = np.uint64(0)
+    for k in range(DIRECTION_BINS):
+        xa = px + r2 * _BIN_COS[k]
+        xb = px + r2 * _BIN_COS[k + 1]
+        ya = py + r2 * _BIN_SIN[k]
+        yb = py + r2 * _BIN_SIN[k + 1]
+        if ((xa < -m and xb < -m) or (ya < -m and yb < -m) or (xa >= width_px + m
+                and xb >= width_px + m) or (ya >= height_px + m and yb >= height_px + m)):
+            bits |= np.uint64(1) << np.uint64(k)
+    return bits
+
+
+@njit(inline="always", **JIT_OPTIONS)
+def _remove_offscreen(lo, hi, n, px, py, r2, width_px, height_px):
+    """Remove from the free arcs the directions θ in which P + r2·(cos θ, sin θ) leaves the
+    screen [0, W) × [0, H), edge by edge; returns the new n."""
+    if px < r2:  # x + r2 cos θ < 0 ⇔ θ within acos(x / r2) of π
+        n = _remove_wrapped(lo, hi, n, math.pi, math.acos(px / r2))
+    if width_px - px <= r2:  # x + r2 cos θ ≥ W ⇔ θ within acos((W − x) / r2) of 0
+        n = _remove_wrapped(lo, hi, n, 0.0, math.acos((width_px - px) / r2))
+    if py < r2:
+        n = _remove_wrapped(lo, hi, n, 1.5 * math.pi, math.acos(py / r2))
+    if height_px - py <= r2:
+        n = _remove_wrapped(lo, hi, n, 0.5 * math.pi, math.acos((height_px - py) / r2))
+    return n
+
+
+@njit(inline="always", **JIT_OPTIONS)
 def _grid_insert(i, x, y, cell_px, gw, gh, cell_count, cell_items, new_head, new_next, new_xy,
                  n_new):
     """Put new particle i (at x, y), the fill's n_new-th, into its grid cell if the cell has
@@ -554,11 +594,14 @@ def fill_poisson_holes(
         cx, cy = _cell_of(px, py, cell_px, gw, gh)
         x_lo = max(cx - 1, 0)
         x_hi = min(cx + 2, gw)
+        near_edge = px < r2 or py < r2 or width_px - px <= r2 or height_px - py <= r2
         # pre-test: the directions each neighbour surely blocks, from the table (branch-free:
         # an entry for a square out of reach is 0, and so is the one of P itself), rows of
-        # cells nearest first; all of them blocked means no arc is left (the exact arcs
-        # below would find none): most candidates stop here
+        # cells nearest first, and those that leave the screen; all of them blocked means no
+        # arc is left (the exact arcs below would find none): most candidates stop here
         mask = np.uint64(0)
+        if near_edge:
+            mask = _offscreen_bits(px, py, r2, width_px, height_px)
         for o in range(3):
             ny = cy if o == 0 else (cy - 1 if o == 1 else cy + 1)
             if ny < 0 or ny >= gh:
@@ -605,6 +648,8 @@ def fill_poisson_holes(
         lo[0] = 0.0
         hi[0] = TWO_PI
         n_arcs = 1
+        if near_edge:
+            n_arcs = _remove_offscreen(lo, hi, n_arcs, px, py, r2, width_px, height_px)
         for m in range(n_nb):
             if n_arcs == 0:
                 break
