@@ -263,38 +263,52 @@ def _within(points, x, y, reach):
     return (d * d).sum(1) < reach * reach
 
 
-def water_hint(x, y, targets, water, grid_x, grid_y, cell):
-    """Twin of ``_water_hint``: (x, y, level) of the deep-water node ``targets`` names for the
-    grid node nearest (x, y), or None."""
+def water_hint(x, y, screen_xy, eye_xy, clip_from_world, width, height, targets, water,
+               grid_x, grid_y, cell, track=(0.0, -0.03, 0.03, -0.1, 0.1, -0.3, 0.3, 1.0)):
+    """Twin of ``_water_hint``: of the deep-water nodes ``targets`` names for the grid nodes
+    nearest the points (x, y) + f · ((x, y) − eye) of the ray's ground track, the (x, y,
+    level) that projects nearest ``screen_xy`` (the first of equals), or None."""
     rows, cols = water.shape
-    i, j = int(np.floor((x - grid_x) / cell + 0.5)), int(np.floor((y - grid_y) / cell + 0.5))
-    if not (0 <= i < cols and 0 <= j < rows) or targets[j * cols + i] < 0:
-        return None
-    tj, ti = divmod(int(targets[j * cols + i]), cols)
-    return grid_x + ti * cell, grid_y + tj * cell, float(water[tj, ti])
-
-
-def check_outside_near_water(alive, ids, status, screen_px, world_m, items, frame, probe_every,
-                             replace_every, reach_px, cover_px, width, height, clip_from_world,
-                             targets, water, grid_x, grid_y, cell):
-    """Twin of ``check_outside_near_water`` over the particles ``items`` (those in the grid, in
-    grid order): the OUTSIDE ones looked at when (id + frame) % probe_every == 0, in that
-    order: replaced when an INSIDE one of ``items`` is within reach and also % replace_every
-    == 0, else their water hint projected, kept when within reach of it, on screen and farther
-    than ``cover_px`` from the INSIDE/LEAVING items. Returns (removed slots, probes (P, 2),
-    owners (P,))."""
-    items = np.asarray(items)
-    inside = items[(status[items] == 1) & alive[items]]
-    carriers = items[((status[items] == 1) | (status[items] == 2)) & alive[items]]
-    removed, probes, owners = [], [], []
-    for i in items:
-        if not alive[i] or status[i] != 4 or (ids[i] + frame) % probe_every:
+    best, hint = np.inf, None
+    for f in track:
+        px, py = x + f * (x - eye_xy[0]), y + f * (y - eye_xy[1])
+        i, j = int(np.floor((px - grid_x) / cell + 0.5)), int(np.floor((py - grid_y) / cell + 0.5))
+        if not (0 <= i < cols and 0 <= j < rows) or targets[j * cols + i] < 0:
             continue
-        near = inside[(inside != i) & _within(screen_px[inside], *screen_px[i], reach_px)]
-        if len(near) and (ids[i] + frame) % replace_every == 0:
+        tj, ti = divmod(int(targets[j * cols + i]), cols)
+        h = np.array([grid_x + ti * cell, grid_y + tj * cell, float(water[tj, ti])])
+        clip = clip_from_world @ np.r_[h, 1.0]
+        if not clip[3] > 1e-9:
+            continue
+        d = np.sum(((clip[:2] / clip[3] * 0.5 + 0.5) * (width, height) - screen_xy) ** 2)
+        if d < best:
+            best, hint = d, h
+    return hint
+
+
+def check_outside_near_water(alive, ids, status, screen_px, world_m, birth_s, now_s, fade_at,
+                             frame, probe_every, replace_every, reach_px, cover_px, width,
+                             height, clip_from_world, eye_xy, targets, water, grid_x, grid_y,
+                             cell):
+    """Twin of ``check_outside_near_water``: the steady OUTSIDE particles whose slot + frame
+    is a multiple of probe_every, in slot order: replaced when a live INSIDE one is within
+    reach and slot + frame is also a multiple of replace_every, else their water hint
+    projected, kept when within reach of it, on screen and farther than ``cover_px`` from
+    every live INSIDE/LEAVING particle. Returns (removed slots, probes (P, 2), owners (P,))."""
+    slots = np.arange(len(alive))
+    inside = slots[(status == 1) & alive]
+    carriers = slots[((status == 1) | (status == 2)) & alive]
+    removed, probes, owners = [], [], []
+    for i in slots:
+        if (not alive[i] or status[i] != 4 or now_s - birth_s[i] >= fade_at
+                or (i + frame) % probe_every):
+            continue
+        if ((i + frame) % replace_every == 0
+                and _within(screen_px[inside], *screen_px[i], reach_px).any()):
             removed.append(i)
             continue
-        hint = water_hint(world_m[i, 0], world_m[i, 1], targets, water, grid_x, grid_y, cell)
+        hint = water_hint(world_m[i, 0], world_m[i, 1], screen_px[i], eye_xy, clip_from_world,
+                          width, height, targets, water, grid_x, grid_y, cell)
         if hint is None:
             continue
         clip = clip_from_world @ np.r_[hint, 1.0]

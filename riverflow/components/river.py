@@ -74,7 +74,6 @@ class ScreenGrid:
     cell_count: np.ndarray = field(default_factory=lambda: np.zeros(1, np.int32))
     cell_items: np.ndarray = field(default_factory=lambda: np.zeros((1, 32), np.int32))
     removed_cells: np.ndarray = field(default_factory=lambda: np.zeros(1, np.uint8))
-    wet_cells: np.ndarray = field(default_factory=lambda: np.zeros(1, np.uint8))
     dirty: np.ndarray = field(default_factory=lambda: np.zeros(1, np.uint8))
     candidates: np.ndarray = field(init=False)     # (C,) int32 scratch
     new_slots: np.ndarray = field(init=False)      # (C,) int32 particles placed this frame
@@ -104,7 +103,6 @@ class ScreenGrid:
         self.cell_count = np.zeros(n, np.int32)
         self.cell_items = np.zeros((n, self.per_cell), np.int32)
         self.removed_cells = np.zeros(n, np.uint8)
-        self.wet_cells = np.zeros(n, np.uint8)
         self.dirty = np.zeros(n, np.uint8)
         return True
 

@@ -158,169 +158,196 @@ def apply_flow_status(
     return waiting
 
 
+HINT_TRACK = np.array([0.0, -0.03, 0.03, -0.1, 0.1, -0.3, 0.3, 1.0])
+"""Where the water hint of a land particle is looked for: the nearest deep water to points
+of its ray's ground track, at these fractions of its horizontal distance from the eye
+beyond (+) or before (−) it; the one that projects nearest the particle wins. Seen at a
+grazing angle, the water a few pixels from the particle lies far along its line of sight,
+not next to it in the world."""
+
+
 @njit(inline="always", **JIT_OPTIONS)
-def _water_hint(x, y, water_target, water_m, grid_x, grid_y, grid_cell_m, out, k):
-    """Write into ``out[k]`` the nearest deep-water node to (x, y) [m] (x, y, water level),
-    from ``water_target`` (ny·nx,) int32 (per grid node, the flat index of its nearest deep
-    water node, −1 when there is none); x = +inf when there is none or (x, y) is off the
-    grid."""
+def _water_hint(x, y, sx, sy, eye_x, eye_y, m, width_px, height_px, water_target, water_m,
+                grid_x, grid_y, grid_cell_m, out, k):
+    """Write into ``out[k]`` the water hint (x, y, level) [m] of a land particle at world
+    (x, y) and screen (sx, sy): of the deep-water nodes nearest to the points of
+    :data:`HINT_TRACK` (``water_target`` (ny·nx,) int32: per grid node, the flat index of its
+    nearest deep-water node, −1 when there is none), the one whose projection by
+    ``m`` (clip from world) lies nearest (sx, sy); x = +inf when there is none."""
     rows, cols = water_m.shape
-    i = int(math.floor((x - grid_x) / grid_cell_m + 0.5))
-    j = int(math.floor((y - grid_y) / grid_cell_m + 0.5))
-    t = -1
-    if 0 <= i < cols and 0 <= j < rows:
+    dx = x - eye_x
+    dy = y - eye_y
+    best = math.inf
+    out[k, 0] = math.inf
+    out[k, 1] = 0.0
+    out[k, 2] = 0.0
+    last = -1
+    for s in range(HINT_TRACK.shape[0]):
+        f = HINT_TRACK[s]
+        i = int(math.floor((x + f * dx - grid_x) / grid_cell_m + 0.5))
+        j = int(math.floor((y + f * dy - grid_y) / grid_cell_m + 0.5))
+        if not (0 <= i < cols and 0 <= j < rows):
+            continue
         t = water_target[j * cols + i]
-    if t < 0:
-        out[k, 0] = math.inf
-        out[k, 1] = 0.0
-        out[k, 2] = 0.0
-        return
-    tj = t // cols
-    ti = t - tj * cols
-    out[k, 0] = grid_x + ti * grid_cell_m
-    out[k, 1] = grid_y + tj * grid_cell_m
-    out[k, 2] = water_m[tj, ti]
+        if t < 0 or t == last:
+            continue
+        last = t
+        tj = t // cols
+        ti = t - tj * cols
+        hx = grid_x + ti * grid_cell_m
+        hy = grid_y + tj * grid_cell_m
+        hz = water_m[tj, ti]
+        cw = m[3, 0] * hx + m[3, 1] * hy + m[3, 2] * hz + m[3, 3]
+        if not cw > 1e-9:
+            continue
+        px = ((m[0, 0] * hx + m[0, 1] * hy + m[0, 2] * hz + m[0, 3]) / cw * 0.5
+              + 0.5) * width_px
+        py = ((m[1, 0] * hx + m[1, 1] * hy + m[1, 2] * hz + m[1, 3]) / cw * 0.5
+              + 0.5) * height_px
+        d = (px - sx) * (px - sx) + (py - sy) * (py - sy)
+        if d < best:
+            best = d
+            out[k, 0] = hx
+            out[k, 1] = hy
+            out[k, 2] = hz
 
 
 @njit(**JIT_OPTIONS)
 def check_outside_near_water(
-    alive, ids, counters, status, screen_px, world_m, water_hint_m, hint_id, cell_px, gw, gh,
-    cell_count, cell_items, reach_px, wet_cells, removed_cells, frame, probe_every,
-    replace_every, cover_px, width_px, height_px, clip_from_world, water_target, water_m,
+    alive, ids, counters, status, screen_px, world_m, birth_s, water_hint_m, hint_id, now_s,
+    fade_at_s, cell_px, gw, gh, reach_px, removed_cells, frame, probe_every, replace_every,
+    cover_px, width_px, height_px, clip_from_world, eye_x, eye_y, water_target, water_m,
     grid_x, grid_y, grid_cell_m, out_xy, out_owner,
 ):
     """Where should the river get particles that it has not? Proland's NEAR rule, plus probes
     guided by where the water is in the world.
 
-    Each OUTSIDE particle of the grid (last frame's) is looked at once every ``probe_every``
-    frames (staggered by id; ``probe_every`` and ``replace_every`` are powers of two), in grid
-    order:
+    Each steady (age below ``fade_at_s``) OUTSIDE particle is looked at once every
+    ``probe_every`` frames, staggered by slot (slots ≡ −frame mod ``probe_every``;
+    ``probe_every`` and ``replace_every`` are powers of two), in slot order:
 
-    * when an INSIDE particle lies within ``reach_px`` on screen and (id + frame) %
-      ``replace_every`` == 0, it gives way (NEAR, removed; its cell marked in
-      ``removed_cells``), as Proland replaces it every frame: the refill may land on water,
-      and freshly packed shores keep the Poisson disk dense (``wet_cells`` (gw·gh,) uint8 is
-      scratch: cells holding an INSIDE particle);
-    * otherwise it *probes* its water hint: the deep-water node nearest to it in the world
-      (``water_hint_m`` (C, 3) float32 x, y, level [m], found once per particle from
-      ``water_target`` and kept while ``hint_id`` equals its id: an OUTSIDE particle never
-      moves; x = +inf: none). Projected with ``clip_from_world`` (the view the screen
+    * when an INSIDE particle lies within ``reach_px`` (≤ ``cell_px``) on screen and
+      (slot + frame) % ``replace_every`` == 0, it gives way (NEAR, removed; its cell, of
+      ``cell_px`` in a ``gw`` × ``gh`` grid, marked in ``removed_cells``), as Proland replaces
+      it every frame: the refill may land on water, and freshly packed shores keep the Poisson
+      disk dense;
+    * otherwise it *probes* its water hint: deep water near its line of sight from the eye
+      at (``eye_x``, ``eye_y``) (:func:`_water_hint`; ``water_hint_m`` (C, 3) float32 x, y,
+      level [m], found once per particle from ``water_target`` and kept while ``hint_id``
+      equals its id: an OUTSIDE particle never moves; x = +inf: none). Projected with ``clip_from_world`` (the view the screen
       positions were projected with), a hint on screen within ``reach_px`` of the particle and
-      farther than ``cover_px`` from every INSIDE or LEAVING particle is a probe: its ray is
-      cast next, and a probe that sees water gets a particle (:func:`place_at_seen_water`).
-      This finds water that no particle has landed on, however thin it looks from here
-      (a far river seen at a grazing angle), with no INSIDE particle nearby.
+      farther than ``cover_px`` (≤ ``cell_px``) from every live INSIDE or LEAVING particle is
+      a probe: its ray is cast next, and a probe that sees water gets a particle
+      (:func:`place_at_seen_water`). This finds water that no particle has landed on, with no
+      INSIDE particle nearby.
 
     Probes go to ``out_xy`` (P, 2) float32 and their particle's slot to ``out_owner`` (P,)
     int32. Returns (removed, probes).
     """
-    # the grid's INSIDE and LEAVING particles, by cell (in grid order): positions, kind
+    cap = alive.shape[0]
     n_cells = gw * gh
+    # the live INSIDE and LEAVING particles by cell (a counting sort in slot order)
+    cell_of = np.empty(cap, np.int32)
     start = np.zeros(n_cells + 1, np.int32)
-    for c in range(n_cells):
-        for q in range(cell_count[c]):
-            j = cell_items[c, q]
-            if alive[j] and (status[j] == STATUS_INSIDE or status[j] == STATUS_LEAVING):
-                start[c + 1] += 1
+    for i in range(cap):
+        c = -1
+        if alive[i] and (status[i] == STATUS_INSIDE or status[i] == STATUS_LEAVING):
+            cx = min(max(int(math.floor(screen_px[i, 0] / cell_px)), 0), gw - 1)
+            cy = min(max(int(math.floor(screen_px[i, 1] / cell_px)), 0), gh - 1)
+            c = cy * gw + cx
+            start[c + 1] += 1
+        cell_of[i] = c
     for c in range(n_cells):
         start[c + 1] += start[c]
-    wx = np.empty(start[n_cells], np.float32)
-    wy = np.empty(start[n_cells], np.float32)
-    inside = np.empty(start[n_cells], np.uint8)
-    for c in range(n_cells):
-        wet_cells[c] = 0
-        k = start[c]
-        for q in range(cell_count[c]):
-            j = cell_items[c, q]
-            if alive[j] and (status[j] == STATUS_INSIDE or status[j] == STATUS_LEAVING):
-                wx[k] = screen_px[j, 0]
-                wy[k] = screen_px[j, 1]
-                inside[k] = status[j] == STATUS_INSIDE
-                wet_cells[c] |= inside[k]
-                k += 1
+    n_wet = start[n_cells]
+    wx = np.empty(n_wet, np.float32)
+    wy = np.empty(n_wet, np.float32)
+    inside = np.empty(n_wet, np.uint8)
+    fill = start[:n_cells].copy()
+    for i in range(cap):
+        c = cell_of[i]
+        if c >= 0:
+            k = fill[c]
+            fill[c] = k + 1
+            wx[k] = screen_px[i, 0]
+            wy[k] = screen_px[i, 1]
+            inside[k] = status[i] == STATUS_INSIDE
     reach2 = reach_px * reach_px
     cover2 = cover_px * cover_px
     m = clip_from_world
+    replace_mask = replace_every - 1
     removed = 0
     n = 0
-    probe_mask = probe_every - 1  # powers of two: no integer division per particle
-    replace_mask = replace_every - 1
-    for c in range(n_cells):
-        cy = c // gw
-        cx = c - cy * gw
-        x0 = max(cx - 1, 0)
-        x1 = min(cx + 1, gw - 1)
-        near_wet = False
-        for ny in range(max(cy - 1, 0), min(cy + 2, gh)):
-            for nx in range(x0, x1 + 1):
-                if wet_cells[ny * gw + nx]:
-                    near_wet = True
-        for q in range(cell_count[c]):
-            i = cell_items[c, q]
-            if (not alive[i] or status[i] != STATUS_OUTSIDE
-                    or (ids[i] + frame) & probe_mask != 0):
-                continue
-            x = screen_px[i, 0]
-            y = screen_px[i, 1]
-            if near_wet and (ids[i] + frame) & replace_mask == 0:
-                # an INSIDE particle within reach (reach ≤ cell_px): give way
-                found = False
-                for ny in range(max(cy - 1, 0), min(cy + 2, gh)):
-                    for k in range(start[ny * gw + x0], start[ny * gw + x1 + 1]):
-                        dx = wx[k] - x
-                        dy = wy[k] - y
-                        if inside[k] and dx * dx + dy * dy < reach2:
-                            found = True
-                            break
-                    if found:
+    first = (probe_every - (frame & (probe_every - 1))) & (probe_every - 1)
+    for i in range(first, cap, probe_every):
+        if not alive[i] or status[i] != STATUS_OUTSIDE or now_s - birth_s[i] >= fade_at_s:
+            continue
+        x = screen_px[i, 0]
+        y = screen_px[i, 1]
+        if (i + frame) & replace_mask == 0:
+            # an INSIDE particle within reach: give way
+            cx = min(max(int(math.floor(x / cell_px)), 0), gw - 1)
+            cy = min(max(int(math.floor(y / cell_px)), 0), gh - 1)
+            x0 = max(cx - 1, 0)
+            x1 = min(cx + 1, gw - 1)
+            found = False
+            for ny in range(max(cy - 1, 0), min(cy + 2, gh)):
+                for k in range(start[ny * gw + x0], start[ny * gw + x1 + 1]):
+                    dx = wx[k] - x
+                    dy = wy[k] - y
+                    if inside[k] and dx * dx + dy * dy < reach2:
+                        found = True
                         break
                 if found:
-                    status[i] = STATUS_NEAR
-                    free_particle(i, alive, ids, counters)
-                    removed_cells[c] = 1
-                    removed += 1
-                    continue
-            if hint_id[i] != ids[i]:
-                _water_hint(world_m[i, 0], world_m[i, 1], water_target, water_m, grid_x,
-                            grid_y, grid_cell_m, water_hint_m, i)
-                hint_id[i] = ids[i]
-            hx = water_hint_m[i, 0]
-            if not hx < math.inf:
+                    break
+            if found:
+                status[i] = STATUS_NEAR
+                free_particle(i, alive, ids, counters)
+                removed_cells[cy * gw + cx] = 1
+                removed += 1
                 continue
-            hy = water_hint_m[i, 1]
-            hz = water_hint_m[i, 2]
-            cw = m[3, 0] * hx + m[3, 1] * hy + m[3, 2] * hz + m[3, 3]
-            if not cw > 1e-9:
-                continue
-            px = ((m[0, 0] * hx + m[0, 1] * hy + m[0, 2] * hz + m[0, 3]) / cw * 0.5
-                  + 0.5) * width_px
-            py = ((m[1, 0] * hx + m[1, 1] * hy + m[1, 2] * hz + m[1, 3]) / cw * 0.5
-                  + 0.5) * height_px
-            if (px - x) * (px - x) + (py - y) * (py - y) >= reach2:
-                continue
-            if not (0.0 <= px < width_px and 0.0 <= py < height_px):
-                continue
-            # covered: an INSIDE or LEAVING particle closer than cover_px (≤ cell_px)
-            pcx = min(max(int(math.floor(px / cell_px)), 0), gw - 1)
-            pcy = min(max(int(math.floor(py / cell_px)), 0), gh - 1)
-            px0 = max(pcx - 1, 0)
-            px1 = min(pcx + 1, gw - 1)
-            covered = False
-            for ny in range(max(pcy - 1, 0), min(pcy + 2, gh)):
-                for k in range(start[ny * gw + px0], start[ny * gw + px1 + 1]):
-                    dx = wx[k] - px
-                    dy = wy[k] - py
-                    if dx * dx + dy * dy < cover2:
-                        covered = True
-                        break
-                if covered:
+        if hint_id[i] != ids[i]:
+            _water_hint(world_m[i, 0], world_m[i, 1], x, y, eye_x, eye_y, m, width_px,
+                        height_px, water_target, water_m, grid_x, grid_y, grid_cell_m,
+                        water_hint_m, i)
+            hint_id[i] = ids[i]
+        hx = water_hint_m[i, 0]
+        if not hx < math.inf:
+            continue
+        hy = water_hint_m[i, 1]
+        hz = water_hint_m[i, 2]
+        cw = m[3, 0] * hx + m[3, 1] * hy + m[3, 2] * hz + m[3, 3]
+        if not cw > 1e-9:
+            continue
+        px = ((m[0, 0] * hx + m[0, 1] * hy + m[0, 2] * hz + m[0, 3]) / cw * 0.5
+              + 0.5) * width_px
+        py = ((m[1, 0] * hx + m[1, 1] * hy + m[1, 2] * hz + m[1, 3]) / cw * 0.5
+              + 0.5) * height_px
+        if (px - x) * (px - x) + (py - y) * (py - y) >= reach2:
+            continue
+        if not (0.0 <= px < width_px and 0.0 <= py < height_px):
+            continue
+        # covered: an INSIDE or LEAVING particle closer than cover_px
+        pcx = min(max(int(math.floor(px / cell_px)), 0), gw - 1)
+        pcy = min(max(int(math.floor(py / cell_px)), 0), gh - 1)
+        px0 = max(pcx - 1, 0)
+        px1 = min(pcx + 1, gw - 1)
+        covered = False
+        for ny in range(max(pcy - 1, 0), min(pcy + 2, gh)):
+            for k in range(start[ny * gw + px0], start[ny * gw + px1 + 1]):
+                dx = wx[k] - px
+                dy = wy[k] - py
+                if dx * dx + dy * dy < cover2:
+                    covered = True
                     break
             if covered:
-                continue
-            out_xy[n, 0] = px
-            out_xy[n, 1] = py
-            out_owner[n] = i
-            n += 1
+                break
+        if covered:
+            continue
+        out_xy[n, 0] = px
+        out_xy[n, 1] = py
+        out_owner[n] = i
+        n += 1
     return removed, n
 
 

@@ -34,8 +34,10 @@ REASON_POISSON_DISK = 3
 STATUS_UNKNOWN = 0
 
 MAX_ARCS = 64
-ROLLING_BANDS = 16
+ROLLING_BANDS = 32
 """The rolling dirty band covers 1/ROLLING_BANDS of the grid rows each frame."""
+SPARSE_EVERY = 4
+"""A sparse cell is searched for holes every this many frames (a power of two)."""
 
 TWO_PI = 2.0 * math.pi
 
@@ -69,15 +71,16 @@ def cull_crowded_particles(
 ):
     """Rebuild the neighbour grid with the accepted particles; fade out the crowded ones.
 
-    ``cell_count`` (gw·gh,) int32 and ``cell_items`` (gw·gh, K) int32 are rebuilt, and the same compactly for the fill's scans: the accepted
-    particles of cell c are rows ``acc_start[c]`` … ``acc_start[c + 1]`` (gw·gh + 1,) int32 of
-    ``acc_slot`` (C,) int32 and ``acc_xy`` (C, 2) float32 (their screen positions);
-    ``removed_cells`` (gw·gh,) uint8 marks
+    ``cell_count`` (gw·gh,) int32 and ``cell_items`` (gw·gh, K) int32 are rebuilt, and the
+    same compactly for the fill's scans: the accepted particles of cell c are rows
+    ``acc_start[c]`` … ``acc_start[c + 1]`` (gw·gh + 1,) int32 of ``acc_slot`` (C,) int32 and
+    ``acc_xy`` (C, 2) float32 (their screen positions); ``removed_cells`` (gw·gh,) uint8 marks
     cells where other systems removed particles since the last pass (read, then cleared);
     ``dirty`` (gw·gh,) uint8 is written (bit 1: holes may be here — particles were removed
-    there, it holds fewer than ``sparse_below``, or lies in this frame's rolling band; bit 4:
-    the cell is empty, so its neighbours' particles are candidates too). Returns the number
-    faded out.
+    there, it holds fewer than ``sparse_below`` (looked at every :data:`SPARSE_EVERY` frames,
+    staggered: most such cells are sparse by chance and stay so), or lies in this frame's
+    rolling band; bit 4: the cell is empty, so its neighbours' particles are candidates too).
+    Returns the number faded out.
 
     The result is the greedy pass in slot order (a particle is accepted when no accepted one
     is closer than ``cull_px``), found without visiting the particles in slot order: a
@@ -168,7 +171,8 @@ def cull_crowded_particles(
             c = cy * gw + cx
             if cell_count[c] == 0:
                 dirty[c] = 1 | 4  # a hole: its neighbours' particles border it
-            elif removed_cells[c] or cell_count[c] < sparse_below or in_band:
+            elif (removed_cells[c] or in_band or (cell_count[c] < sparse_below
+                                                  and (c + frame) & (SPARSE_EVERY - 1) == 0)):
                 dirty[c] = 1
             removed_cells[c] = 0
     return faded

@@ -22,10 +22,10 @@ from riverflow.kernels.raycast import cast_rays_onto_heightfield, height_pyramid
 _NO_LEVELS = np.zeros(0, np.int8)
 
 NEAR_CHECK_EVERY = 4
-"""An OUTSIDE particle is looked at every this many frames, staggered by id: it probes its
+"""An OUTSIDE particle is looked at every this many frames, staggered by slot: it probes its
 water hint (the deep water nearest to it in the world) when that is on screen nearby and no
 particle covers it."""
-NEAR_REPLACE_EVERY = 8
+NEAR_REPLACE_EVERY = 16
 """… and every this many frames one with an INSIDE particle nearby is replaced instead
 (Proland replaces it every frame)."""
 NEAR_COVER = 2.0
@@ -114,11 +114,11 @@ class AdvectParticles(System):
             self._owner = np.zeros(pool.capacity, np.int32)
         self.removed, n = check_outside_near_water(
             pool.alive, pool.ids, pool.counters, pool.status, pool.screen_px, pool.world_m,
-            pool.water_hint_m, pool.hint_id, grid.cell_px, grid.gw, grid.gh, grid.cell_count,
-            grid.cell_items, reach_px, grid.wet_cells, grid.removed_cells, clock.frame,
+            pool.birth_s, pool.water_hint_m, pool.hint_id, clock.now_s, c.fade_in_s + c.active_s,
+            grid.cell_px, grid.gw, grid.gh, reach_px, grid.removed_cells, clock.frame,
             NEAR_CHECK_EVERY, NEAR_REPLACE_EVERY, NEAR_COVER * r, view.width_px,
-            view.height_px, forward, targets, g.water_m, g.origin_x, g.origin_y, g.cell_m,
-            self._probe_xy, self._owner)
+            view.height_px, forward, view.eye_m[0], view.eye_m[1], targets, g.water_m,
+            g.origin_x, g.origin_y, g.cell_m, self._probe_xy, self._owner)
         self.probes = n
         self.placed = 0
         if n == 0:

@@ -361,27 +361,30 @@ def test_water_targets_name_the_nearest_deep_water_node():
     assert np.all(surface_tables(dry)[1] == -1)
 
 
-def _near_args(pool, grid, r, w, h):
-    gw, gh, count, items, removed_cells = grid
+def _near_args(pool, grid, r):
+    gw, gh, _, _, removed_cells = grid
     return (pool.alive, pool.ids, pool.counters, pool.status, pool.screen_px, pool.world_m,
-            pool.water_hint_m, pool.hint_id, 4 * r, gw, gh, count, items, 4 * r,
-            np.zeros(gw * gh, np.uint8), removed_cells)
+            pool.birth_s, pool.water_hint_m, pool.hint_id, 1.0, FI + AC, 4 * r, gw, gh, 4 * r,
+            removed_cells)
 
 
 def test_near_water_check_matches_reference(rng):
     r, w, h = 5.0, 320, 180
     pool, (fwd, inv), grids, grid, order = _river_view(rng)
     _, targets = surface_tables(grids)
+    pool.birth_s[:] = 0.0
+    pool.birth_s[rng.random(pool.capacity) < 0.1] = -40.0  # fading: not looked at
     before = pool.alive.copy()
     for frame in range(4):
         want_removed, want_probes, want_owners = reference.check_outside_near_water(
-            pool.alive, pool.ids, pool.status, pool.screen_px, pool.world_m, order, frame, 2, 4,
-            4 * r, 2 * r, w, h, fwd, targets, grids.water_m, -400.0, -400.0, 10.0)
+            pool.alive, pool.ids, pool.status, pool.screen_px, pool.world_m, pool.birth_s, 1.0,
+            FI + AC, frame, 2, 4, 4 * r, 2 * r, w, h, fwd, (30.0, -260.0), targets,
+            grids.water_m, -400.0, -400.0, 10.0)
         out = np.zeros((4000, 2), np.float32)
         owner = np.zeros(4000, np.int32)
         alive = pool.alive.copy()
         n_removed, n = ka.check_outside_near_water(
-            *_near_args(pool, grid, r, w, h), frame, 2, 4, 2 * r, w, h, fwd, targets,
+            *_near_args(pool, grid, r), frame, 2, 4, 2 * r, w, h, fwd, 30.0, -260.0, targets,
             grids.water_m, -400.0, -400.0, 10.0, out, owner)
         npt.assert_array_equal(np.flatnonzero(alive & ~pool.alive), np.sort(want_removed))
         assert n_removed == len(want_removed)
@@ -402,7 +405,7 @@ def test_near_water_probes_find_the_river_with_no_particle_on_it(rng):
     out = np.zeros((8000, 2), np.float32)
     owner = np.zeros(8000, np.int32)
     _, n = ka.check_outside_near_water(
-        *_near_args(pool, grid, r, w, h), 0, 1, 2**30, 2 * r, w, h, fwd, targets,
+        *_near_args(pool, grid, r), 0, 1, 2**30, 2 * r, w, h, fwd, 30.0, -260.0, targets,
         grids.water_m, -400.0, -400.0, 10.0, out, owner)
     assert n > 5
     cam = Camera(position=(30, -260, 120), target=(0, 0, 0), size_px=(w, h))
@@ -415,12 +418,12 @@ def test_near_water_probes_find_the_river_with_no_particle_on_it(rng):
     # a hint given up (x = inf) is not probed again; a new particle in the slot gets its own
     pool.water_hint_m[owner[:n], 0] = np.inf
     _, n2 = ka.check_outside_near_water(
-        *_near_args(pool, grid, r, w, h), 0, 1, 2**30, 2 * r, w, h, fwd, targets,
+        *_near_args(pool, grid, r), 0, 1, 2**30, 2 * r, w, h, fwd, 30.0, -260.0, targets,
         grids.water_m, -400.0, -400.0, 10.0, out, owner)
     assert n2 == 0
     pool.ids[pool.alive] += 1000
     _, n3 = ka.check_outside_near_water(
-        *_near_args(pool, grid, r, w, h), 0, 1, 2**30, 2 * r, w, h, fwd, targets,
+        *_near_args(pool, grid, r), 0, 1, 2**30, 2 * r, w, h, fwd, 30.0, -260.0, targets,
         grids.water_m, -400.0, -400.0, 10.0, out, owner)
     assert n3 == n
 
