@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import queue
 import threading
+from collections import deque
 from collections.abc import Iterable
 
 import numpy as np
@@ -32,7 +33,7 @@ class FlowTileProducer:
         self.mode = mode
         self._pending: set[TileKey] = set()
         self._todo: queue.Queue[TileKey | None] = queue.Queue()
-        self._done: queue.Queue[tuple] = queue.Queue()
+        self._done: deque[tuple] = deque()  # appends and pops are atomic: no lock, no raise
         self._thread: threading.Thread | None = None
         self._missing = np.empty((0, 3), np.int32)
         self.requested = 0
@@ -70,13 +71,11 @@ class FlowTileProducer:
     def collect(self) -> int:
         """Install the tiles the worker finished (main thread, start of a frame)."""
         installed = 0
-        while True:
-            try:
-                key, arrays = self._done.get_nowait()
-            except queue.Empty:
-                return installed
+        while self._done:
+            key, arrays = self._done.popleft()
             self._pending.discard(key)
             installed += self.field.install_tile(*key, *arrays)
+        return installed
 
     @property
     def pending(self) -> int:
@@ -114,4 +113,4 @@ class FlowTileProducer:
                 return
             psi, status, segments = builder.outputs()
             inside = builder.build(*key, psi, status, segments)
-            self._done.put((key, (psi, status, segments, inside)))
+            self._done.append((key, (psi, status, segments, inside)))

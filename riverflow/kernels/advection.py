@@ -38,26 +38,6 @@ HIT_WATER = 2
 """riverflow.kernels.raycast.HIT_WATER"""
 
 
-@njit(**JIT_OPTIONS)
-def select_flow_queries(alive, has_world, status, world_m, out_index, out_xy):
-    """Gather the particles that ask the flow this frame (INSIDE, UNKNOWN or LEAVING, with a
-    world position). Writes ``out_index`` (C,) int32 and ``out_xy`` (C, 2) float64 [m];
-    returns their number. (Each is answered from the finest cached flow tile under it: which
-    tiles are cached, at which level, is the view's choice: ``select_view_tiles``.)"""
-    n = 0
-    for i in range(alive.shape[0]):
-        if not alive[i] or not has_world[i]:
-            continue
-        s = status[i]
-        if s != STATUS_INSIDE and s != STATUS_UNKNOWN and s != STATUS_LEAVING:
-            continue
-        out_index[n] = i
-        out_xy[n, 0] = world_m[i, 0]
-        out_xy[n, 1] = world_m[i, 1]
-        n += 1
-    return n
-
-
 @njit(inline="always", **JIT_OPTIONS)
 def _inside_neighbour(i, screen_px, status, alive, cell_px, gw, gh, cell_count, cell_items,
                       reach_px):
@@ -83,38 +63,59 @@ def _inside_neighbour(i, screen_px, status, alive, cell_px, gw, gh, cell_count, 
 
 @njit(**JIT_OPTIONS)
 def move_particles(alive, has_world, world_m, velocity_mps, status, dt_s, water_m, ground_m,
-                   grid_x, grid_y, grid_cell_m, frame, z_every):
+                   grid_x, grid_y, grid_cell_m, frame, z_every, out_index, out_xy):
     """Explicit Euler step of the INSIDE and LEAVING particles with the velocity of their last
-    flow query, ``dt_s`` [s] (speed factor included). ``water_m`` / ``ground_m`` (ny, nx)
-    float32 are the water level (NaN where dry) and the terrain on a grid at (grid_x, grid_y)
-    with ``grid_cell_m`` spacing: a moved particle takes the water altitude (the ground's where
-    dry) once every ``z_every`` frames (a power of two), staggered by slot (the lookups miss
-    the cache; in those frames the level under a particle moves by a fraction of a
-    millimetre). Returns the number moved."""
+    flow query, ``dt_s`` [s] (speed factor included), and the list of the particles that ask
+    the flow this frame, in the same pass.
+
+    ``water_m`` / ``ground_m`` (ny, nx) float32 are the water level (NaN where dry) and the
+    terrain on a grid at (grid_x, grid_y) with ``grid_cell_m`` spacing: a moved particle takes
+    the water altitude (the ground's where dry) once every ``z_every`` frames (a power of
+    two), staggered by slot (the lookups miss the cache; in those frames the level under a
+    particle moves by a fraction of a millimetre). The particles that ask the flow (INSIDE,
+    UNKNOWN or LEAVING, with a world position) go to ``out_index`` (C,) int32 and, at their
+    new positions, ``out_xy`` (C, 2) float64 [m]; each is answered from the finest cached flow
+    tile under it (which tiles are cached, at which level, is the view's choice:
+    ``select_view_tiles``). Returns (moved, asking).
+    """
     moved = 0
+    n = 0
     for i in range(alive.shape[0]):
         if not alive[i] or not has_world[i]:
             continue
-        if status[i] != STATUS_INSIDE and status[i] != STATUS_LEAVING:
+        s = status[i]
+        if s != STATUS_INSIDE and s != STATUS_LEAVING:
+            if s == STATUS_UNKNOWN:
+                out_index[n] = i
+                out_xy[n, 0] = world_m[i, 0]
+                out_xy[n, 1] = world_m[i, 1]
+                n += 1
             continue
+        x = world_m[i, 0]
+        y = world_m[i, 1]
         vx = velocity_mps[i, 0]
         vy = velocity_mps[i, 1]
-        if vx == 0.0 and vy == 0.0:
-            continue
-        x = world_m[i, 0] + vx * dt_s
-        y = world_m[i, 1] + vy * dt_s
-        if not (math.isfinite(x) and math.isfinite(y)):
-            velocity_mps[i, 0] = 0.0
-            velocity_mps[i, 1] = 0.0
-            continue
-        world_m[i, 0] = x
-        world_m[i, 1] = y
-        if (i + frame) & (z_every - 1) == 0:
-            z = _surface(x, y, water_m, ground_m, grid_x, grid_y, grid_cell_m)
-            if math.isfinite(z):
-                world_m[i, 2] = z
-        moved += 1
-    return moved
+        if vx != 0.0 or vy != 0.0:
+            nx = x + vx * dt_s
+            ny = y + vy * dt_s
+            if math.isfinite(nx) and math.isfinite(ny):
+                x = nx
+                y = ny
+                world_m[i, 0] = x
+                world_m[i, 1] = y
+                if (i + frame) & (z_every - 1) == 0:
+                    z = _surface(x, y, water_m, ground_m, grid_x, grid_y, grid_cell_m)
+                    if math.isfinite(z):
+                        world_m[i, 2] = z
+                moved += 1
+            else:
+                velocity_mps[i, 0] = 0.0
+                velocity_mps[i, 1] = 0.0
+        out_index[n] = i
+        out_xy[n, 0] = x
+        out_xy[n, 1] = y
+        n += 1
+    return moved, n
 
 
 @njit(**JIT_OPTIONS)

@@ -13,8 +13,7 @@ from riverflow.components.status import FlowStatus
 from riverflow.engine.system import System
 from riverflow.hydro.flow_field import FlowField
 from riverflow.kernels.advection import (HIT_WATER, apply_flow_status, check_outside_near_water,
-                                         move_particles, place_at_seen_water,
-                                         select_flow_queries)
+                                         move_particles, place_at_seen_water)
 from riverflow.kernels.flow import query_velocity
 from riverflow.kernels.placement import pixel_rays
 from riverflow.kernels.raycast import cast_rays_onto_heightfield, height_pyramid
@@ -86,13 +85,10 @@ class AdvectParticles(System):
         g = world.resource(SurfaceGrids)
         reach_px = world.config.grid_cell_factor * world.config.radius_px
         for _, (node, pool, grid) in esper.get_components(RiverNode, ParticlePool, ScreenGrid):
-            self.moved = move_particles(pool.alive, pool.has_world, pool.world_m,
-                                        pool.velocity_mps, pool.status,
-                                        dt_s * clock.speed_factor, g.water_m, g.ground_m,
-                                        g.origin_x, g.origin_y, g.cell_m, clock.frame,
-                                        ALTITUDE_EVERY)
-            n = select_flow_queries(pool.alive, pool.has_world, pool.status, pool.world_m,
-                                    grid.query_index, grid.query_xy)
+            self.moved, n = move_particles(
+                pool.alive, pool.has_world, pool.world_m, pool.velocity_mps, pool.status,
+                dt_s * clock.speed_factor, g.water_m, g.ground_m, g.origin_x, g.origin_y,
+                g.cell_m, clock.frame, ALTITUDE_EVERY, grid.query_index, grid.query_xy)
             self.waiting = ask_flow(node.field, pool, grid, n, reach_px)
             self._near_water(world, node.field, pool, grid, g, reach_px)
         # the screen positions the next frame starts from were projected with this view

@@ -260,21 +260,32 @@ def test_fill_is_deterministic_for_a_seed():
 def test_move_matches_reference(rng):
     pool = _pool(rng, 300)
     pool.has_world[:] = True
+    pool.has_world[rng.random(300) < 0.1] = False
     pool.world_m[:] = rng.uniform(0, 10, (300, 3))
     pool.velocity_mps[:] = rng.uniform(-2, 2, (300, 2))
-    pool.status[:] = rng.choice([FlowStatus.INSIDE, FlowStatus.LEAVING, FlowStatus.OUTSIDE], 300)
-    moving = (pool.status == FlowStatus.INSIDE) | (pool.status == FlowStatus.LEAVING)
+    pool.status[:] = rng.choice([FlowStatus.INSIDE, FlowStatus.LEAVING, FlowStatus.OUTSIDE,
+                                 FlowStatus.UNKNOWN, FlowStatus.ON_SKY], 300)
+    live = pool.alive & pool.has_world
+    moving = live & ((pool.status == FlowStatus.INSIDE) | (pool.status == FlowStatus.LEAVING))
+    asking = moving | (live & (pool.status == FlowStatus.UNKNOWN))
     start = pool.world_m.copy()
     want = reference.euler_move(pool.world_m, pool.velocity_mps, 0.25)
     flat = np.zeros((3, 3), np.float32)
     water = np.full((3, 3), np.nan, np.float32)
-    ka.move_particles(pool.alive, pool.has_world, pool.world_m, pool.velocity_mps, pool.status,
-                      0.25, water, flat, -100.0, -100.0, 100.0, 0, 1)
+    index = np.zeros(300, np.int32)
+    xy = np.zeros((300, 2))
+    moved, n = ka.move_particles(pool.alive, pool.has_world, pool.world_m, pool.velocity_mps,
+                                 pool.status, 0.25, water, flat, -100.0, -100.0, 100.0, 0, 1,
+                                 index, xy)
+    assert moved == moving.sum()
     npt.assert_allclose(pool.world_m[moving, :2], want[moving, :2], rtol=1e-6)
     npt.assert_array_equal(pool.world_m[~moving], start[~moving])
     assert np.allclose(pool.world_m[moving, 2], 0.0)  # altitude follows the (flat) ground
+    # the particles that ask the flow, in slot order, at their new positions
+    npt.assert_array_equal(index[:n], np.flatnonzero(asking))
+    npt.assert_array_equal(xy[:n], pool.world_m[asking, :2])
     ka.move_particles(pool.alive, pool.has_world, pool.world_m, pool.velocity_mps, pool.status,
-                      0.25, water, flat + 1, -100.0, -100.0, 100.0, 1, 4)
+                      0.25, water, flat + 1, -100.0, -100.0, 100.0, 1, 4, index, xy)
     looked_up = moving & ((np.arange(pool.capacity) + 1) % 4 == 0)
     assert np.allclose(pool.world_m[looked_up, 2], 1.0)  # every 4th frame, by slot
     assert np.allclose(pool.world_m[moving & ~looked_up, 2], 0.0)
