@@ -250,6 +250,21 @@ def blocked_directions(radius_px, gap_px, cell_px, n, bins=64):
     return corners[..., :-1] & corners[..., 1:]
 
 
+def touched_directions(radius_px, gap_px, cell_px, n, bins=64):
+    """Twin of ``blocked_direction_table``'s ``out_touched``: (n, n, bins) bool, entry
+    [iy, ix, k] true when the square's centre is within gap + ρ + σ of the middle of the arc
+    [k, k + 1)·2π/bins (ρ: the arc's farthest point from its middle, σ: the square's half
+    diagonal)."""
+    mid = 2 * np.pi * (np.arange(bins) + 0.5) / bins
+    arc = 2 * radius_px * np.c_[np.cos(mid), np.sin(mid)]                 # (bins, 2)
+    centres = (np.arange(n) + 0.5) * cell_px - 0.5 * n * cell_px
+    cx, cy = np.meshgrid(centres, centres)
+    d2 = (cx[..., None] - arc[:, 0]) ** 2 + (cy[..., None] - arc[:, 1]) ** 2
+    rho = 4 * radius_px * np.sin(0.25 * 2 * np.pi / bins)
+    reach = gap_px * (1 + 1e-6) + rho + cell_px * np.sqrt(0.5)
+    return d2 < reach**2
+
+
 def euler_move(world_m, velocity_mps, dt_s):
     """Twin of ``move_particles`` in the plane: x, y += v·dt."""
     out = np.array(world_m, float, copy=True)

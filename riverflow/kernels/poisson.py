@@ -360,8 +360,9 @@ def _greedy_in_slot_order(alive, screen_px, birth_s, fade_reason, now_s, fade_in
 
 
 @njit(**JIT_OPTIONS)
-def blocked_direction_table(radius_px, spawn_gap_px, cell_px, out):
-    """Which directions around a candidate P a neighbour Q surely blocks, by where Q is.
+def blocked_direction_table(radius_px, spawn_gap_px, cell_px, out, out_touched):
+    """Which directions around a candidate P a neighbour Q surely blocks, and which it may
+    block, by where Q is.
 
     ``out`` (n, n) uint64 is written: entry [iy, ix] covers Q − P in the square
     [ix·cell − n·cell/2, (ix + 1)·cell − n·cell/2) × (the same in y) [px]; its bit k is set
@@ -369,7 +370,10 @@ def blocked_direction_table(radius_px, spawn_gap_px, cell_px, out):
     P + 2r·(cos θ, sin θ) is closer than the gap to Q (with a 10⁻⁶ relative margin, so no
     rounding of the exact arcs can leave such a direction free). The farthest pair of a
     square and an arc of that size is a corner of one and an end of the other, so 4 × 2
-    distances decide a bit. n·cell must exceed 2·(2r + gap). Returns n.
+    distances decide a bit. ``out_touched`` (n, n) uint64 gets the bins where *some* Q of the
+    square may block *some* θ (a lower bound of their distance, from the arc's middle and the
+    square's centre, is under the gap): a neighbour blocks nothing outside them. n·cell must
+    exceed 2·(2r + gap). Returns n.
     """
     n = out.shape[0]
     r2 = 2.0 * radius_px
@@ -381,9 +385,15 @@ def blocked_direction_table(radius_px, spawn_gap_px, cell_px, out):
         theta = TWO_PI * k / DIRECTION_BINS
         ax[k] = r2 * math.cos(theta)
         ay[k] = r2 * math.sin(theta)
+    # every point of a bin's arc lies within rho of its middle, every point of a square within
+    # sigma of its centre
+    rho = 2.0 * r2 * math.sin(0.25 * TWO_PI / DIRECTION_BINS)
+    sigma = cell_px * math.sqrt(0.5)
+    reach = spawn_gap_px * (1.0 + 1e-6) + rho + sigma
     for iy in range(n):
         for ix in range(n):
             bits = np.uint64(0)
+            touched = np.uint64(0)
             for k in range(DIRECTION_BINS):
                 ok = True
                 for e in range(k, k + 2):
@@ -396,18 +406,26 @@ def blocked_direction_table(radius_px, spawn_gap_px, cell_px, out):
                             ok = False
                 if ok:
                     bits |= np.uint64(1) << np.uint64(k)
+                mid = TWO_PI * (k + 0.5) / DIRECTION_BINS
+                dx = r2 * math.cos(mid) - ((ix + 0.5) * cell_px - half)
+                dy = r2 * math.sin(mid) - ((iy + 0.5) * cell_px - half)
+                if dx * dx + dy * dy < reach * reach:
+                    touched |= np.uint64(1) << np.uint64(k)
             out[iy, ix] = bits
+            out_touched[iy, ix] = touched
     return n
 
 
-def direction_table(radius_px: float, spawn_gap_px: float) -> tuple[np.ndarray, float]:
-    """(table, cell_px): :func:`blocked_direction_table` for a radius and a gap, with cells
-    of r/16 px, large enough for every neighbour within 2r + gap."""
+def direction_table(radius_px: float,
+                    spawn_gap_px: float) -> tuple[np.ndarray, np.ndarray, float]:
+    """(blocked, touched, cell_px): :func:`blocked_direction_table` for a radius and a gap,
+    with cells of r/16 px, large enough for every neighbour within 2r + gap."""
     cell = radius_px / TABLE_CELLS_PER_R
     n = 2 * int(math.ceil((2.0 * radius_px + spawn_gap_px) / cell)) + 2
     out = np.zeros((n, n), np.uint64)
-    blocked_direction_table(radius_px, spawn_gap_px, cell, out)
-    return out, cell
+    touched = np.zeros((n, n), np.uint64)
+    blocked_direction_table(radius_px, spawn_gap_px, cell, out, touched)
+    return out, touched, cell
 
 
 @njit(inline="always", **JIT_OPTIONS)
@@ -492,6 +510,26 @@ def _remove_offscreen(lo, hi, n, px, py, r2, width_px, height_px):
 
 
 @njit(inline="always", **JIT_OPTIONS)
+def _block_mask(mask, row, a, b, acc_start, acc_xy, new_head, new_next, new_xy, px, py, t_half,
+                t_inv, t_last, blocked):
+    """``mask`` or-ed with the blocked-direction table entries of the particles of cells
+    [a, b) of grid row ``row`` (its first cell's index): the accepted ones and the fill's new
+    ones."""
+    for m in range(acc_start[row + a], acc_start[row + b]):
+        ix = min(max(int((acc_xy[m, 0] - px + t_half) * t_inv), 0), t_last)
+        iy = min(max(int((acc_xy[m, 1] - py + t_half) * t_inv), 0), t_last)
+        mask |= blocked[iy, ix]
+    for nx in range(a, b):
+        m = new_head[row + nx]
+        while m >= 0:
+            ix = min(max(int((new_xy[m, 0] - px + t_half) * t_inv), 0), t_last)
+            iy = min(max(int((new_xy[m, 1] - py + t_half) * t_inv), 0), t_last)
+            mask |= blocked[iy, ix]
+            m = new_next[m]
+    return mask
+
+
+@njit(inline="always", **JIT_OPTIONS)
 def _grid_insert(i, x, y, cell_px, gw, gh, cell_count, cell_items, new_head, new_next, new_xy,
                  n_new):
     """Put new particle i (at x, y), the fill's n_new-th, into its grid cell if the cell has
@@ -538,7 +576,7 @@ def fill_poisson_holes(
     status, first_query, offset_m,
     now_s, fade_in_s, active_s, radius_px, spawn_gap_px, width_px, height_px, cell_px, gw, gh,
     cell_count, cell_items, acc_start, acc_slot, acc_xy, dirty, seed, off_lo_x, off_lo_y,
-    off_hi_x, off_hi_y, candidates, new_slots, blocked, blocked_cell_px,
+    off_hi_x, off_hi_y, candidates, new_slots, blocked, touched, blocked_cell_px,
 ):
     """Fill the holes of the Poisson disk around dirty cells by boundary sampling.
 
@@ -546,10 +584,12 @@ def fill_poisson_holes(
     :func:`cull_crowded_particles` wrote them (the new ones go into the grid,
     ``cell_count``/``cell_items``, too). Writes the slots of the new particles into
     ``new_slots`` (C,) int32 and returns their number (they still need a world position).
-    ``candidates`` is (C,) int32 scratch. ``blocked`` (n, n) uint64 is
-    :func:`blocked_direction_table` for this radius and gap, with cells of
+    ``candidates`` is (C,) int32 scratch. ``blocked`` and ``touched`` (n, n) uint64 are
+    :func:`blocked_direction_table`'s for this radius and gap, with cells of
     ``blocked_cell_px``: a candidate whose neighbours surely block every direction (most of
-    them, where the disk is whole) is rejected from it, without trigonometry.
+    them, where the disk is whole) is rejected from ``blocked``, without trigonometry; for
+    the others the exact arcs start from the bins left free, and a neighbour whose
+    ``touched`` bins miss all of those is skipped.
     """
     np.random.seed(seed)
     if width_px <= 0 or height_px <= 0:
@@ -631,30 +671,35 @@ def fill_poisson_holes(
         x_hi = min(cx + 2, gw)
         near_edge = px < r2 or py < r2 or width_px - px <= r2 or height_px - py <= r2
         # pre-test: the directions each neighbour surely blocks, from the table (branch-free:
-        # an entry for a square out of reach is 0, and so is the one of P itself), rows of
-        # cells nearest first, and those that leave the screen; all of them blocked means no
-        # arc is left (the exact arcs below would find none): most candidates stop here
+        # an entry for a square out of reach is 0, and so is the one of P itself), and those
+        # that leave the screen; all of them blocked means no arc is left (the exact arcs
+        # below would find none): most candidates stop here, most of them after the 2 × 2
+        # cells nearest P (every neighbour within 2r of P is there)
         mask = np.uint64(0)
         if near_edge:
             mask = _offscreen_bits(px, py, r2, width_px, height_px)
-        for o in range(3):
-            ny = cy if o == 0 else (cy - 1 if o == 1 else cy + 1)
-            if ny < 0 or ny >= gh:
-                continue
-            row = ny * gw
-            for m in range(acc_start[row + x_lo], acc_start[row + x_hi]):
-                ix = min(max(int((acc_xy[m, 0] - px + t_half) * t_inv), 0), t_last)
-                iy = min(max(int((acc_xy[m, 1] - py + t_half) * t_inv), 0), t_last)
-                mask |= blocked[iy, ix]
-            for nx in range(x_lo, x_hi):
-                m = new_head[row + nx]
-                while m >= 0:
-                    ix = min(max(int((new_xy[m, 0] - px + t_half) * t_inv), 0), t_last)
-                    iy = min(max(int((new_xy[m, 1] - py + t_half) * t_inv), 0), t_last)
-                    mask |= blocked[iy, ix]
-                    m = new_next[m]
-            if mask == ALL_DIRECTIONS:
-                break
+        qx = 1 if px >= (cx + 0.5) * cell_px else -1
+        qy = 1 if py >= (cy + 0.5) * cell_px else -1
+        a = min(max(min(cx, cx + qx), 0), gw - 1)
+        b = min(max(cx, cx + qx), gw - 1) + 1
+        mask = _block_mask(mask, cy * gw, a, b, acc_start, acc_xy, new_head, new_next, new_xy,
+                           px, py, t_half, t_inv, t_last, blocked)
+        if 0 <= cy + qy < gh:
+            mask = _block_mask(mask, (cy + qy) * gw, a, b, acc_start, acc_xy, new_head,
+                               new_next, new_xy, px, py, t_half, t_inv, t_last, blocked)
+        if mask != ALL_DIRECTIONS:
+            if 0 <= cy - qy < gh:
+                mask = _block_mask(mask, (cy - qy) * gw, x_lo, x_hi, acc_start, acc_xy,
+                                   new_head, new_next, new_xy, px, py, t_half, t_inv, t_last,
+                                   blocked)
+            if 0 <= cx - qx < gw:
+                mask = _block_mask(mask, cy * gw, cx - qx, cx - qx + 1, acc_start, acc_xy,
+                                   new_head, new_next, new_xy, px, py, t_half, t_inv, t_last,
+                                   blocked)
+                if 0 <= cy + qy < gh:
+                    mask = _block_mask(mask, (cy + qy) * gw, cx - qx, cx - qx + 1, acc_start,
+                                       acc_xy, new_head, new_next, new_xy, px, py, t_half,
+                                       t_inv, t_last, blocked)
         if mask == ALL_DIRECTIONS:
             continue
         # the neighbours within reach, for the exact arcs
@@ -680,9 +725,21 @@ def fill_poisson_holes(
                     nb_d2[n_nb] = d2
                     n_nb += (d2 < reach_sq) & (d2 > 0.0)
                     m = new_next[m]
-        lo[0] = 0.0
-        hi[0] = TWO_PI
-        n_arcs = 1
+        # the free arcs start as the bins the pre-test left free (the others are surely
+        # blocked), and only the neighbours that may block one of those take the exact arcs
+        free = ~mask
+        n_arcs = 0
+        k = 0
+        while k < DIRECTION_BINS:
+            if (free >> np.uint64(k)) & np.uint64(1):
+                first = k
+                while k < DIRECTION_BINS and (free >> np.uint64(k)) & np.uint64(1):
+                    k += 1
+                lo[n_arcs] = TWO_PI * first / DIRECTION_BINS
+                hi[n_arcs] = TWO_PI * k / DIRECTION_BINS
+                n_arcs += 1
+            else:
+                k += 1
         if near_edge:
             n_arcs = _remove_offscreen(lo, hi, n_arcs, px, py, r2, width_px, height_px)
         for m in range(n_nb):
@@ -690,6 +747,10 @@ def fill_poisson_holes(
                 break
             dx = nb_dx[m]
             dy = nb_dy[m]
+            ix = min(max(int((dx + t_half) * t_inv), 0), t_last)
+            iy = min(max(int((dy + t_half) * t_inv), 0), t_last)
+            if touched[iy, ix] & free == 0:
+                continue
             d2 = nb_d2[m]
             # |P + 2r·u − Q| < gap  ⇔  cos∠(u, PQ) > (4r² + d² − gap²) / (4r·d)
             d = math.sqrt(d2)

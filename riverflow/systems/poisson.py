@@ -26,18 +26,18 @@ class MaintainPoissonDisk(System):
     def __init__(self) -> None:
         self.faded = self.added = 0
         self._acc = (np.zeros(2, np.int32), np.zeros(1, np.int32), np.zeros((1, 2), np.float32))
-        self._table: tuple[float, float, np.ndarray, float] | None = None
+        self._table: tuple[float, float, np.ndarray, np.ndarray, float] | None = None
 
     def _scratch(self, pool: ParticlePool, grid: ScreenGrid, radius_px: float, gap_px: float):
         """The accepted particles by cell, compact (start, slot, xy), and the
-        blocked-direction table."""
+        direction tables (blocked, touched, cell_px)."""
         if len(self._acc[0]) != grid.gw * grid.gh + 1 or len(self._acc[1]) != pool.capacity:
             self._acc = (np.zeros(grid.gw * grid.gh + 1, np.int32),
                          np.zeros(pool.capacity, np.int32),
                          np.zeros((pool.capacity, 2), np.float32))
         if self._table is None or self._table[:2] != (radius_px, gap_px):
             self._table = (radius_px, gap_px, *direction_table(radius_px, gap_px))
-        return self._acc, self._table[2], self._table[3]
+        return self._acc, self._table[2:]
 
     def process(self, world, dt_s: float) -> None:
         view = world.resource(FrameView)
@@ -47,7 +47,7 @@ class MaintainPoissonDisk(System):
         for _, (pool, grid) in esper.get_components(ParticlePool, ScreenGrid):
             grid.fit(view.width_px, view.height_px, c.grid_cell_factor * r)
             gap = c.spawn_gap_factor * r
-            acc, table, table_cell_px = self._scratch(pool, grid, r, gap)
+            acc, tables = self._scratch(pool, grid, r, gap)
             self.faded = cull_crowded_particles(
                 pool.alive, pool.screen_px, pool.birth_s, pool.fade_reason, pool.status,
                 clock.now_s, dt_s, c.fade_in_s, c.active_s, c.fade_out_s,
@@ -62,4 +62,4 @@ class MaintainPoissonDisk(System):
                 pool.first_query, pool.offset_m, clock.now_s, c.fade_in_s, c.active_s, r, gap,
                 view.width_px, view.height_px, grid.cell_px, grid.gw, grid.gh, grid.cell_count,
                 grid.cell_items, *acc, grid.dirty, seed, lo[0], lo[1], hi[0], hi[1],
-                grid.candidates, grid.new_slots, table, table_cell_px)
+                grid.candidates, grid.new_slots, *tables)
