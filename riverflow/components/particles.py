@@ -30,14 +30,17 @@ class FadeReason(IntEnum):
 class ParticlePool:
     """Columns of every particle slot; ``alive`` says which slots hold a particle.
 
-    ``counters[0]`` is the next id to hand out, ``counters[1]`` the number of live particles
-    (arrays, so numba kernels can update them in place).
+    ``counters[0]`` is the next id to hand out, ``counters[1]`` the number of live particles,
+    ``counters[2]`` a slot bound: no slot at or above it is alive, so passes over the pool stop
+    there (raised by each allocation, lowered by the life-cycle pass; with the lowest free
+    slot always taken it sits near the live count, ~60 % of a 1.5× capacity). An array, so
+    numba kernels can update them in place.
     """
 
     capacity: int
     alive: np.ndarray = field(init=False)        # (C,) bool
     ids: np.ndarray = field(init=False)          # (C,) int64 stable id, -1 for a free slot
-    counters: np.ndarray = field(init=False)     # (2,) int64 next id, live count
+    counters: np.ndarray = field(init=False)     # (3,) int64 next id, live count, slot bound
     # LifeCycle
     birth_s: np.ndarray = field(init=False)      # (C,) float64 clock time [s] (moved back when
                                                  # a fade-out starts, so intensity never jumps)
@@ -66,7 +69,7 @@ class ParticlePool:
         self.capacity = c
         self.alive = np.zeros(c, np.bool_)
         self.ids = np.full(c, -1, np.int64)
-        self.counters = np.zeros(2, np.int64)
+        self.counters = np.zeros(3, np.int64)
         self.birth_s = np.zeros(c, np.float64)
         self.intensity = np.zeros(c, np.float32)
         self.screen_px = np.zeros((c, 2), np.float32)
@@ -90,6 +93,7 @@ class ParticlePool:
         self.alive[:] = False
         self.ids[:] = -1
         self.counters[1] = 0
+        self.counters[2] = 0
 
     def columns(self) -> dict[str, np.ndarray]:
         """Every column by name (for snapshots and bit-identity tests)."""

@@ -62,11 +62,11 @@ def _inside_neighbour(i, screen_px, status, alive, cell_px, gw, gh, cell_count, 
 
 
 @njit(**JIT_OPTIONS)
-def move_particles(alive, has_world, world_m, velocity_mps, status, dt_s, water_m, ground_m,
-                   grid_x, grid_y, grid_cell_m, frame, z_every, out_index, out_xy):
+def move_particles(n_slots, alive, has_world, world_m, velocity_mps, status, dt_s, water_m,
+                   ground_m, grid_x, grid_y, grid_cell_m, frame, z_every, out_index, out_xy):
     """Explicit Euler step of the INSIDE and LEAVING particles with the velocity of their last
     flow query, ``dt_s`` [s] (speed factor included), and the list of the particles that ask
-    the flow this frame, in the same pass.
+    the flow this frame, in the same pass over slots [0, ``n_slots``) (the pool's slot bound).
 
     ``water_m`` / ``ground_m`` (ny, nx) float32 are the water level (NaN where dry) and the
     terrain on a grid at (grid_x, grid_y) with ``grid_cell_m`` spacing: a moved particle takes
@@ -80,7 +80,7 @@ def move_particles(alive, has_world, world_m, velocity_mps, status, dt_s, water_
     """
     moved = 0
     n = 0
-    for i in range(alive.shape[0]):
+    for i in range(min(n_slots, alive.shape[0])):
         if not alive[i] or not has_world[i]:
             continue
         s = status[i]
@@ -245,7 +245,7 @@ def check_outside_near_water(
     Probes go to ``out_xy`` (P, 2) float32 and their particle's slot to ``out_owner`` (P,)
     int32. Returns (removed, probes).
     """
-    cap = alive.shape[0]
+    cap = min(counters[2], alive.shape[0])  # (no live slot beyond the pool's slot bound)
     n_cells = gw * gh
     # the live INSIDE and LEAVING particles by cell (a counting sort in slot order)
     cell_of = np.empty(cap, np.int32)

@@ -51,13 +51,16 @@ def free_particle(i, alive, ids, counters):
 
 @njit(**JIT_OPTIONS)
 def allocate_particle(alive, ids, counters, start):
-    """Lowest free slot at or after ``start``, marked alive with a new id; −1 if the pool is full."""
+    """Lowest free slot at or after ``start``, marked alive with a new id; −1 if the pool is full.
+    ``counters`` (3,) int64: next id, live count, slot bound (every live slot is below it)."""
     for i in range(start, alive.shape[0]):
         if not alive[i]:
             alive[i] = True
             ids[i] = counters[0]
             counters[0] += 1
             counters[1] += 1
+            if i >= counters[2]:
+                counters[2] = i + 1
             return i
     return -1
 
@@ -66,11 +69,13 @@ def allocate_particle(alive, ids, counters, start):
 def age_particles(alive, ids, counters, birth_s, intensity, now_s, fade_in_s, active_s,
                   fade_out_s):
     """Update every live particle's intensity at clock ``now_s`` [s]; free those whose life is
-    over. ``alive`` (C,) bool, ``ids`` (C,) int64, ``counters`` (2,) int64, ``birth_s`` (C,)
-    float64 [s], ``intensity`` (C,) float32. Returns the number removed."""
+    over. ``alive`` (C,) bool, ``ids`` (C,) int64, ``counters`` (3,) int64 (its slot bound is
+    lowered to the last live slot + 1), ``birth_s`` (C,) float64 [s], ``intensity`` (C,)
+    float32. Returns the number removed."""
     removed = 0
     total = fade_in_s + active_s + fade_out_s
-    for i in range(alive.shape[0]):
+    last = -1
+    for i in range(min(counters[2], alive.shape[0])):
         if not alive[i]:
             continue
         age = now_s - birth_s[i]
@@ -79,4 +84,6 @@ def age_particles(alive, ids, counters, birth_s, intensity, now_s, fade_in_s, ac
             removed += 1
             continue
         intensity[i] = intensity_at(age, fade_in_s, active_s, fade_out_s)
+        last = i
+    counters[2] = last + 1
     return removed

@@ -74,7 +74,7 @@ def _cell_of(x, y, cell_px, gw, gh):
 def cull_crowded_particles(
     alive, screen_px, birth_s, fade_reason, status, now_s, dt_s, fade_in_s, active_s, fade_out_s,
     cull_px, cell_px, gw, gh, cell_count, cell_items, acc_start, acc_slot, acc_xy,
-    removed_cells, dirty, frame, sparse_below,
+    removed_cells, dirty, frame, sparse_below, n_slots,
 ):
     """Rebuild the neighbour grid with the accepted particles; fade out the crowded ones.
 
@@ -87,7 +87,8 @@ def cull_crowded_particles(
     there, it holds fewer than ``sparse_below`` (looked at every :data:`SPARSE_EVERY` frames,
     staggered: most such cells are sparse by chance and stay so), or lies in this frame's
     rolling band; bit 4: the cell is empty, so its neighbours' particles are candidates too).
-    Returns the number faded out.
+    Returns the number faded out. Slots from ``n_slots`` on are not alive (the pool's slot
+    bound).
 
     The result is the greedy pass in slot order (a particle is accepted when no accepted one
     is closer than ``cull_px``), found without visiting the particles in slot order: a
@@ -96,7 +97,7 @@ def cull_crowded_particles(
     """
     n_cells = gw * gh
     k_max = cell_items.shape[1]
-    cap = alive.shape[0]
+    cap = min(n_slots, alive.shape[0])  # the pool's slot bound: no live slot beyond it
     for c in range(n_cells):
         cell_count[c] = 0
         dirty[c] = 0
@@ -321,7 +322,7 @@ def _greedy_in_slot_order(alive, screen_px, birth_s, fade_reason, now_s, fade_in
     for c in range(gw * gh):
         cell_count[c] = 0
     faded = 0
-    for i in range(alive.shape[0]):
+    for i in range(cell_of.shape[0]):
         c = cell_of[i]
         if c < 0:
             continue

@@ -29,7 +29,7 @@ def project_particles(
     killed = 0
     faded = 0
     m = clip_from_world
-    for i in range(alive.shape[0]):
+    for i in range(min(counters[2], alive.shape[0])):  # (no live slot beyond the bound)
         if not alive[i] or not has_world[i]:
             continue
         x = world_m[i, 0]

@@ -86,7 +86,7 @@ class AdvectParticles(System):
         reach_px = world.config.grid_cell_factor * world.config.radius_px
         for _, (node, pool, grid) in esper.get_components(RiverNode, ParticlePool, ScreenGrid):
             self.moved, n = move_particles(
-                pool.alive, pool.has_world, pool.world_m, pool.velocity_mps, pool.status,
+                int(pool.counters[2]), pool.alive, pool.has_world, pool.world_m, pool.velocity_mps, pool.status,
                 dt_s * clock.speed_factor, g.water_m, g.ground_m, g.origin_x, g.origin_y,
                 g.cell_m, clock.frame, ALTITUDE_EVERY, grid.query_index, grid.query_xy)
             self.waiting = ask_flow(node.field, pool, grid, n, reach_px)

@@ -53,7 +53,8 @@ class MaintainPoissonDisk(System):
                 clock.now_s, dt_s, c.fade_in_s, c.active_s, c.fade_out_s,
                 c.cull_radius_factor * r,
                 grid.cell_px, grid.gw, grid.gh, grid.cell_count, grid.cell_items, *acc,
-                grid.removed_cells, grid.dirty, clock.frame, self.sparse_below(grid.cell_px, r))
+                grid.removed_cells, grid.dirty, clock.frame, self.sparse_below(grid.cell_px, r),
+                int(pool.counters[2]))
             seed = int(world.rng.integers(0, 2**31 - 1))
             lo, hi = c.random_offset_min_m, c.random_offset_max_m
             grid.n_new = self.added = fill_poisson_holes(

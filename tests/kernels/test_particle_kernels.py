@@ -43,6 +43,26 @@ def test_allocation_takes_the_lowest_free_slot_and_ids_are_stable():
     assert pool.ids.tolist() == [0, 5, 2, -1, 4]
 
 
+def test_the_slot_bound_covers_every_live_slot(rng):
+    """Passes over the pool stop at counters[2]: allocations raise it, the life-cycle pass
+    lowers it to the last live slot + 1, and no live slot is ever at or beyond it."""
+    pool = ParticlePool(64)
+    pool.birth_s[:] = 0.0
+    for step in range(200):
+        if rng.random() < 0.6:
+            kl.allocate_particle(pool.alive, pool.ids, pool.counters, 0)
+        live = np.flatnonzero(pool.alive)
+        if len(live) and rng.random() < 0.4:
+            kl.free_particle(rng.choice(live), pool.alive, pool.ids, pool.counters)
+        if step % 10 == 0:
+            kl.age_particles(pool.alive, pool.ids, pool.counters, pool.birth_s, pool.intensity,
+                             1.0, FI, AC, FO)
+            live = np.flatnonzero(pool.alive)
+            assert pool.counters[2] == (live[-1] + 1 if len(live) else 0)
+        assert not pool.alive[pool.counters[2]:].any()
+    assert pool.counters[2] > 10
+
+
 def test_ageing_matches_reference(rng):
     pool = _pool(rng, 400)
     now = 3.0
@@ -118,7 +138,7 @@ def test_cull_matches_reference(rng, cell_r):
     faded = kp.cull_crowded_particles(pool.alive, pool.screen_px, pool.birth_s, pool.fade_reason,
                                       pool.status, 1.0, 1 / 60, FI, AC, FO, 1.96 * r,
                                       cell_r * r, gw, gh, count,
-                                      items, *acc, prev, dirty, 0, 2)
+                                      items, *acc, prev, dirty, 0, 2, pool.counters[2])
     start, slots, xy = acc
     npt.assert_array_equal(np.sort(slots[:start[-1]]), want)  # the same, compact
     npt.assert_array_equal(xy[:start[-1]], pool.screen_px[slots[:start[-1]]])
@@ -140,7 +160,7 @@ def test_cull_keeps_the_slot_order_when_cells_overflow(rng):
     want = reference.cull_in_slot_order(pool.screen_px, pool.alive, 1.5 * r, 4 * r, 3)
     kp.cull_crowded_particles(pool.alive, pool.screen_px, pool.birth_s, pool.fade_reason,
                               pool.status, 1.0, 1 / 60, FI, AC, FO, 1.5 * r, 4 * r, gw, gh, count,
-                              items, *acc, prev, dirty, 0, 2)
+                              items, *acc, prev, dirty, 0, 2, pool.counters[2])
     got = np.concatenate([items[c, :count[c]] for c in range(gw * gh)])
     npt.assert_array_equal(np.sort(got), want)
     start, slots, xy = acc
@@ -199,7 +219,7 @@ def test_fill_shortcuts_give_the_same_disk():
             kp.cull_crowded_particles(pool.alive, pool.screen_px, pool.birth_s,
                                       pool.fade_reason, pool.status, 1.0, 1 / 60, FI, AC, FO,
                                       1.9 * r, 4 * r, gw, gh, count, items, *acc, prev, dirty,
-                                      f, 2)
+                                      f, 2, pool.counters[2])
             kp.fill_poisson_holes(
                 pool.alive, pool.ids, pool.counters, pool.birth_s, pool.intensity,
                 pool.screen_px, pool.fade_reason, pool.has_world, pool.velocity_mps,
@@ -229,7 +249,7 @@ def _fill(pool, r, w, h, seed=3, frames=1):
         kp.cull_crowded_particles(pool.alive, pool.screen_px, pool.birth_s, pool.fade_reason,
                                   pool.status, 1.0, 1 / 60, FI, AC, FO, 1.96 * r, 4 * r, gw, gh,
                                   count,
-                                  items, *acc, prev, dirty, f, 2)
+                                  items, *acc, prev, dirty, f, 2, pool.counters[2])
         total += kp.fill_poisson_holes(
             pool.alive, pool.ids, pool.counters, pool.birth_s, pool.intensity, pool.screen_px,
             pool.fade_reason, pool.has_world, pool.velocity_mps, pool.status, pool.first_query,
@@ -293,9 +313,9 @@ def test_move_matches_reference(rng):
     water = np.full((3, 3), np.nan, np.float32)
     index = np.zeros(300, np.int32)
     xy = np.zeros((300, 2))
-    moved, n = ka.move_particles(pool.alive, pool.has_world, pool.world_m, pool.velocity_mps,
-                                 pool.status, 0.25, water, flat, -100.0, -100.0, 100.0, 0, 1,
-                                 index, xy)
+    moved, n = ka.move_particles(pool.counters[2], pool.alive, pool.has_world, pool.world_m,
+                                 pool.velocity_mps, pool.status, 0.25, water, flat, -100.0,
+                                 -100.0, 100.0, 0, 1, index, xy)
     assert moved == moving.sum()
     npt.assert_allclose(pool.world_m[moving, :2], want[moving, :2], rtol=1e-6)
     npt.assert_array_equal(pool.world_m[~moving], start[~moving])
@@ -303,8 +323,9 @@ def test_move_matches_reference(rng):
     # the particles that ask the flow, in slot order, at their new positions
     npt.assert_array_equal(index[:n], np.flatnonzero(asking))
     npt.assert_array_equal(xy[:n], pool.world_m[asking, :2])
-    ka.move_particles(pool.alive, pool.has_world, pool.world_m, pool.velocity_mps, pool.status,
-                      0.25, water, flat + 1, -100.0, -100.0, 100.0, 1, 4, index, xy)
+    ka.move_particles(pool.counters[2], pool.alive, pool.has_world, pool.world_m,
+                      pool.velocity_mps, pool.status, 0.25, water, flat + 1, -100.0, -100.0,
+                      100.0, 1, 4, index, xy)
     looked_up = moving & ((np.arange(pool.capacity) + 1) % 4 == 0)
     assert np.allclose(pool.world_m[looked_up, 2], 1.0)  # every 4th frame, by slot
     assert np.allclose(pool.world_m[moving & ~looked_up, 2], 0.0)
