@@ -171,11 +171,11 @@ class FlowField:
         args = (_NO_LEVELS, lv, 0, t.root_x_m, t.root_y_m, t.root_size_m, t.n_cells,
                 t.slots_flat, t.level_offset, t.psi, t.cell_status, t.cell_segments,
                 t.last_used, t.tick, *self.network.geometry_args())
-        if kf.query_velocity(pts, *args, status, velocity):  # some tiles are not cached yet
+        if kf.query_velocity(pts, *args, len(pts), status, velocity):  # some tiles not cached
             for idx in self._batches(pts, lv, np.flatnonzero(status == FlowStatus.UNKNOWN)):
                 s_out = np.empty(len(idx), np.uint8)
                 v_out = np.empty((len(idx), 2), np.float32)
-                kf.query_velocity(pts[idx], *args, s_out, v_out)
+                kf.query_velocity(pts[idx], *args, len(idx), s_out, v_out)
                 status[idx] = s_out
                 velocity[idx] = v_out
         if len(self.obstacles) and exclude_obstacles is not True:

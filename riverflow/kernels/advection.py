@@ -63,7 +63,8 @@ def _inside_neighbour(i, screen_px, status, alive, cell_px, gw, gh, cell_count, 
 
 @njit(**JIT_OPTIONS)
 def move_particles(n_slots, alive, has_world, world_m, velocity_mps, status, dt_s, water_m,
-                   ground_m, grid_x, grid_y, grid_cell_m, frame, z_every, out_index, out_xy):
+                   ground_m, grid_x, grid_y, grid_cell_m, frame, z_every, velocity_every,
+                   always_box, out_index, out_xy):
     """Explicit Euler step of the INSIDE and LEAVING particles with the velocity of their last
     flow query, ``dt_s`` [s] (speed factor included), and the list of the particles that ask
     the flow this frame, in the same pass over slots [0, ``n_slots``) (the pool's slot bound).
@@ -72,14 +73,23 @@ def move_particles(n_slots, alive, has_world, world_m, velocity_mps, status, dt_
     terrain on a grid at (grid_x, grid_y) with ``grid_cell_m`` spacing: a moved particle takes
     the water altitude (the ground's where dry) once every ``z_every`` frames (a power of
     two), staggered by slot (the lookups miss the cache; in those frames the level under a
-    particle moves by a fraction of a millimetre). The particles that ask the flow (INSIDE,
-    UNKNOWN or LEAVING, with a world position) go to ``out_index`` (C,) int32 and, at their
-    new positions, ``out_xy`` (C, 2) float64 [m]; each is answered from the finest cached flow
-    tile under it (which tiles are cached, at which level, is the view's choice:
-    ``select_view_tiles``). Returns (moved, asking).
+    particle moves by a fraction of a millimetre).
+
+    The particles that ask the flow (INSIDE, UNKNOWN or LEAVING, with a world position) go to
+    ``out_index`` (C,) int32 and, at their new positions, ``out_xy`` (C, 2) float64 [m]: first
+    the ``n_velocity`` that need a velocity (UNKNOWN, LEAVING, and INSIDE ones once every
+    ``velocity_every`` frames (a power of two), staggered by slot, or always inside
+    ``always_box`` (4,) [m] xmin, ymin, xmax, ymax: moving obstacles), then from the end of
+    the arrays backwards the ``n_status`` INSIDE ones that ask only whether they are still
+    inside (the velocity field changes over metres, they over centimetres a frame). Each is
+    answered from the finest cached flow tile under it (which tiles are cached, at which
+    level, is the view's choice: ``select_view_tiles``). Returns (moved, n_velocity,
+    n_status).
     """
     moved = 0
     n = 0
+    n_status = 0
+    last = out_index.shape[0] - 1
     for i in range(min(n_slots, alive.shape[0])):
         if not alive[i] or not has_world[i]:
             continue
@@ -111,23 +121,31 @@ def move_particles(n_slots, alive, has_world, world_m, velocity_mps, status, dt_
             else:
                 velocity_mps[i, 0] = 0.0
                 velocity_mps[i, 1] = 0.0
-        out_index[n] = i
-        out_xy[n, 0] = x
-        out_xy[n, 1] = y
-        n += 1
-    return moved, n
+        if (s == STATUS_INSIDE and (i + frame) & (velocity_every - 1) != 0
+                and not (always_box[0] <= x <= always_box[2]
+                         and always_box[1] <= y <= always_box[3])):
+            k = last - n_status
+            n_status += 1
+        else:
+            k = n
+            n += 1
+        out_index[k] = i
+        out_xy[k, 0] = x
+        out_xy[k, 1] = y
+    return moved, n, n_status
 
 
 @njit(**JIT_OPTIONS)
 def apply_flow_status(
     alive, velocity_mps, status, first_query, screen_px,
-    n_query, query_index, query_status, query_velocity,
+    n_query, query_index, query_status, query_velocity, keep_velocity_from,
     cell_px, gw, gh, cell_count, cell_items, reach_px,
 ):
     """The status machine, from the flow's answers at the particles' current positions.
 
     ``query_index[:n_query]`` are the particles that asked, with the answers ``query_status``
-    (N,) uint8 and ``query_velocity`` (N, 2) float32 [m/s]. The neighbour grid (``cell_count``,
+    (N,) uint8 and ``query_velocity`` (N, 2) float32 [m/s]; those from ``keep_velocity_from``
+    on asked for their status alone and keep their velocity. The neighbour grid (``cell_count``,
     ``cell_items``, cells of ``cell_px``) is the last Poisson grid. Returns the number whose
     flow tile is not ready (they wait, unchanged).
     """
@@ -141,8 +159,9 @@ def apply_flow_status(
             continue
         if qs == STATUS_INSIDE:
             status[i] = STATUS_INSIDE
-            velocity_mps[i, 0] = query_velocity[k, 0]
-            velocity_mps[i, 1] = query_velocity[k, 1]
+            if k < keep_velocity_from:
+                velocity_mps[i, 0] = query_velocity[k, 0]
+                velocity_mps[i, 1] = query_velocity[k, 1]
         elif s == STATUS_LEAVING:
             if not _inside_neighbour(i, screen_px, status, alive, cell_px, gw, gh, cell_count,
                                      cell_items, reach_px):

@@ -616,9 +616,10 @@ def _fill_stencil(patch):
 def query_velocity(
     xy, levels, level, fallback, root_x, root_y, root_size_m, n_cells, slots_flat, level_offset,
     psi_pool, cell_status, cell_segments, slot_last_used, tick, seg_ax, seg_ay, seg_bx, seg_by,
-    out_status, out_velocity,
+    n_velocity, out_status, out_velocity,
 ):
-    """Velocity [m/s] and FlowStatus at each point of ``xy`` (N, 2) from cached tiles.
+    """Velocity [m/s] and FlowStatus at each point of ``xy`` (N, 2) from cached tiles; the
+    points from ``n_velocity`` on get their status alone (no ψ stencil read, velocity 0).
 
     Point k uses the tiles of quadtree ``level`` (≥ 0), or of ``levels[k]`` when ``level`` < 0,
     falling back on up to ``fallback`` coarser levels when that tile is not cached.
@@ -657,6 +658,8 @@ def query_velocity(
             out_status[k] = STATUS_OUTSIDE
             continue
         out_status[k] = STATUS_INSIDE
+        if k >= n_velocity:
+            continue
         total = 0.0
         for r in range(4):
             for q in range(4):

@@ -15,10 +15,12 @@ from riverflow.hydro.flow_field import FlowField
 from riverflow.kernels.advection import (HIT_WATER, apply_flow_status, check_outside_near_water,
                                          move_particles, place_at_seen_water)
 from riverflow.kernels.flow import query_velocity
+from riverflow.kernels.obstacles import OB_BEAM, OB_LENGTH, OB_REACH, OB_X, OB_Y
 from riverflow.kernels.placement import pixel_rays
 from riverflow.kernels.raycast import cast_rays_onto_heightfield, height_pyramid
 
 _NO_LEVELS = np.zeros(0, np.int8)
+_NO_BOX = np.array([np.inf, np.inf, -np.inf, -np.inf])
 
 NEAR_CHECK_EVERY = 4
 """An OUTSIDE particle is looked at every this many frames, staggered by slot: it probes its
@@ -31,11 +33,15 @@ NEAR_COVER = 2.0
 """A probe point closer than this · r to an INSIDE or LEAVING particle is covered."""
 ALTITUDE_EVERY = 4
 """A moving particle's altitude is looked up again every this many frames, staggered."""
+VELOCITY_EVERY = 2
+"""An INSIDE particle asks the flow for its velocity every this many frames, staggered (and
+every frame near a moving obstacle); the other frames it asks only whether it is still
+inside (docs/deviations.md)."""
 DEEP_WATER_NODES = 1
 """Water hints point this many grid nodes inside the water (not at the bank's edge), where
 the river is wide enough to keep any."""
 
-for _every in (NEAR_CHECK_EVERY, NEAR_REPLACE_EVERY, ALTITUDE_EVERY):
+for _every in (NEAR_CHECK_EVERY, NEAR_REPLACE_EVERY, ALTITUDE_EVERY, VELOCITY_EVERY):
     assert _every > 0 and _every & (_every - 1) == 0, "the kernels stagger by bit masks"
 
 _SURFACE_CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
@@ -85,11 +91,19 @@ class AdvectParticles(System):
         g = world.resource(SurfaceGrids)
         reach_px = world.config.grid_cell_factor * world.config.radius_px
         for _, (node, pool, grid) in esper.get_components(RiverNode, ParticlePool, ScreenGrid):
-            self.moved, n = move_particles(
-                int(pool.counters[2]), pool.alive, pool.has_world, pool.world_m, pool.velocity_mps, pool.status,
-                dt_s * clock.speed_factor, g.water_m, g.ground_m, g.origin_x, g.origin_y,
-                g.cell_m, clock.frame, ALTITUDE_EVERY, grid.query_index, grid.query_xy)
-            self.waiting = ask_flow(node.field, pool, grid, n, reach_px)
+            cap = len(grid.query_index)
+            self.moved, n_velocity, n_status = move_particles(
+                int(pool.counters[2]), pool.alive, pool.has_world, pool.world_m,
+                pool.velocity_mps, pool.status, dt_s * clock.speed_factor, g.water_m,
+                g.ground_m, g.origin_x, g.origin_y, g.cell_m, clock.frame, ALTITUDE_EVERY,
+                VELOCITY_EVERY, always_velocity_box(node.field), grid.query_index,
+                grid.query_xy)
+            if n_status:  # the status-only askers, listed from the end, after the others
+                tail = slice(cap - n_status, cap)
+                grid.query_index[n_velocity:n_velocity + n_status] = grid.query_index[tail][::-1]
+                grid.query_xy[n_velocity:n_velocity + n_status] = grid.query_xy[tail][::-1]
+            self.waiting = ask_flow(node.field, pool, grid, n_velocity + n_status, reach_px,
+                                    n_velocity)
             self._near_water(world, node.field, pool, grid, g, reach_px)
         # the screen positions the next frame starts from were projected with this view
         self._view = (view.clip_from_world.copy(), view.world_from_clip.copy())
@@ -152,29 +166,46 @@ class AdvectParticles(System):
         self.removed += removed
 
 
-def query_flow(field: FlowField, xy: np.ndarray, status: np.ndarray,
-               velocity: np.ndarray) -> None:
+def always_velocity_box(field: FlowField) -> np.ndarray:
+    """(4,) [m] xmin, ymin, xmax, ymax around every obstacle's influence (empty when there is
+    none): particles there get a velocity every frame, as the hulls move."""
+    obstacles = field.obstacles
+    if not len(obstacles):
+        return _NO_BOX
+    half = (0.5 * np.maximum(obstacles[:, OB_LENGTH], obstacles[:, OB_BEAM])
+            + obstacles[:, OB_REACH])
+    x, y = obstacles[:, OB_X], obstacles[:, OB_Y]
+    return np.array([(x - half).min(), (y - half).min(), (x + half).max(), (y + half).max()])
+
+
+def query_flow(field: FlowField, xy: np.ndarray, status: np.ndarray, velocity: np.ndarray,
+               n_velocity: int | None = None) -> None:
     """Flow status (N,) uint8 and velocity (N, 2) float32 [m/s] at ``xy`` (N, 2) float64 [m]
-    from the finest cached tile under each point, bent around the field's obstacles."""
+    from the finest cached tile under each, bent around the field's obstacles; the points from
+    ``n_velocity`` on get their status alone."""
     t = field.tiles
     t.tick += 1
     n = len(xy)
+    n_velocity = n if n_velocity is None else n_velocity
     query_velocity(xy, _NO_LEVELS, field.max_level, field.max_level,
                    t.root_x_m, t.root_y_m, t.root_size_m, t.n_cells, t.slots_flat,
                    t.level_offset, t.psi, t.cell_status, t.cell_segments, t.last_used, t.tick,
-                   *field.network.geometry_args(), status[:n], velocity[:n])
-    if len(field.obstacles):
-        field.apply_obstacles(xy, status, velocity, level=field.max_level,
-                              fallback=field.max_level)
+                   *field.network.geometry_args(), n_velocity, status[:n], velocity[:n])
+    if len(field.obstacles) and n_velocity:
+        field.apply_obstacles(xy[:n_velocity], status[:n_velocity], velocity[:n_velocity],
+                              level=field.max_level, fallback=field.max_level)
 
 
 def ask_flow(field: FlowField, pool: ParticlePool, grid: ScreenGrid, n: int,
-             reach_px: float) -> int:
+             reach_px: float, n_velocity: int | None = None) -> int:
     """Query the flow for particles ``grid.query_index[:n]`` at ``grid.query_xy[:n]`` (the
     finest cached tile under each), bent around the field's obstacles (boats), and run the
-    status machine; returns how many wait for a tile."""
-    query_flow(field, grid.query_xy[:n], grid.query_status[:n], grid.query_velocity[:n])
+    status machine; those from ``n_velocity`` on ask for their status alone and keep their
+    velocity. Returns how many wait for a tile."""
+    n_velocity = n if n_velocity is None else n_velocity
+    query_flow(field, grid.query_xy[:n], grid.query_status[:n], grid.query_velocity[:n],
+               n_velocity)
     return apply_flow_status(pool.alive, pool.velocity_mps, pool.status, pool.first_query,
                              pool.screen_px, n, grid.query_index, grid.query_status,
-                             grid.query_velocity, grid.cell_px, grid.gw, grid.gh,
+                             grid.query_velocity, n_velocity, grid.cell_px, grid.gw, grid.gh,
                              grid.cell_count, grid.cell_items, reach_px)

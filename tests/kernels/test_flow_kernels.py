@@ -104,6 +104,18 @@ def test_query_velocity_matches_reference(field, rng):
         npt.assert_allclose(vel[k], want[0], rtol=1e-4, atol=1e-5)
         checked += 1
     assert checked > 50
+    # the points from n_velocity on get the same status and no velocity
+    from riverflow.kernels.flow import query_velocity
+    half = len(pts) // 2
+    s2 = np.empty(len(pts), np.uint8)
+    v2 = np.full((len(pts), 2), 9.0, np.float32)
+    query_velocity(np.ascontiguousarray(pts), np.zeros(0, np.int8), lv, lv, t.root_x_m,
+                   t.root_y_m, t.root_size_m, t.n_cells, t.slots_flat, t.level_offset, t.psi,
+                   t.cell_status, t.cell_segments, t.last_used, t.tick,
+                   *field.network.geometry_args(), half, s2, v2)
+    npt.assert_array_equal(s2, status)
+    npt.assert_array_equal(v2[:half], vel[:half])
+    assert np.all(v2[half:] == 0.0)
 
 
 def test_boundary_cells_are_where_banks_cross(field):

@@ -313,19 +313,34 @@ def test_move_matches_reference(rng):
     water = np.full((3, 3), np.nan, np.float32)
     index = np.zeros(300, np.int32)
     xy = np.zeros((300, 2))
-    moved, n = ka.move_particles(pool.counters[2], pool.alive, pool.has_world, pool.world_m,
-                                 pool.velocity_mps, pool.status, 0.25, water, flat, -100.0,
-                                 -100.0, 100.0, 0, 1, index, xy)
-    assert moved == moving.sum()
+    no_box = np.array([np.inf, np.inf, -np.inf, -np.inf])
+    moved, n, n_status = ka.move_particles(
+        pool.counters[2], pool.alive, pool.has_world, pool.world_m, pool.velocity_mps,
+        pool.status, 0.25, water, flat, -100.0, -100.0, 100.0, 0, 1, 1, no_box, index, xy)
+    assert moved == moving.sum() and n_status == 0
     npt.assert_allclose(pool.world_m[moving, :2], want[moving, :2], rtol=1e-6)
     npt.assert_array_equal(pool.world_m[~moving], start[~moving])
     assert np.allclose(pool.world_m[moving, 2], 0.0)  # altitude follows the (flat) ground
     # the particles that ask the flow, in slot order, at their new positions
     npt.assert_array_equal(index[:n], np.flatnonzero(asking))
     npt.assert_array_equal(xy[:n], pool.world_m[asking, :2])
+    # every 2nd frame, staggered by slot, an INSIDE particle asks for its status alone (listed
+    # from the end), except inside the box (moving obstacles)
+    box = np.array([0.0, 0.0, 5.0, 5.0])
+    _, n, n_status = ka.move_particles(
+        pool.counters[2], pool.alive, pool.has_world, pool.world_m, pool.velocity_mps,
+        pool.status, 0.25, water, flat, -100.0, -100.0, 100.0, 1, 1, 2, box, index, xy)
+    slots = np.arange(pool.capacity)
+    in_box = np.all((pool.world_m[:, :2] >= 0) & (pool.world_m[:, :2] <= 5), axis=1)
+    quiet = asking & (pool.status == FlowStatus.INSIDE) & ((slots + 1) % 2 == 1) & ~in_box
+    npt.assert_array_equal(index[:n], np.flatnonzero(asking & ~quiet))
+    npt.assert_array_equal(index[300 - n_status:][::-1], np.flatnonzero(quiet))
+    npt.assert_array_equal(xy[300 - n_status:][::-1], pool.world_m[quiet, :2])
+    assert n_status > 20 and n + n_status == asking.sum()
+    pool.world_m[:, 2] = 0.0
     ka.move_particles(pool.counters[2], pool.alive, pool.has_world, pool.world_m,
                       pool.velocity_mps, pool.status, 0.25, water, flat + 1, -100.0, -100.0,
-                      100.0, 1, 4, index, xy)
+                      100.0, 1, 4, 1, no_box, index, xy)
     looked_up = moving & ((np.arange(pool.capacity) + 1) % 4 == 0)
     assert np.allclose(pool.world_m[looked_up, 2], 1.0)  # every 4th frame, by slot
     assert np.allclose(pool.world_m[moving & ~looked_up, 2], 0.0)
@@ -344,7 +359,7 @@ def test_status_machine():
     gw, gh, count, items, _, _ = _grid(100, 100, 40)
     waiting = ka.apply_flow_status(pool.alive, pool.velocity_mps, pool.status, pool.first_query,
                                    pool.screen_px, 6, np.arange(6, dtype=np.int32), answers, vel,
-                                   40.0, gw, gh, count, items, 40.0)
+                                   6, 40.0, gw, gh, count, items, 40.0)
     assert waiting == 0
     assert pool.status.tolist() == [S.INSIDE, S.OUTSIDE, S.INSIDE, S.LEAVING, S.INSIDE, S.OUTSIDE]
     assert pool.velocity_mps[:, 0].tolist() == [2, 0, 2, 1, 2, 0]  # LEAVING keeps its velocity
@@ -352,8 +367,17 @@ def test_status_machine():
     unknown = np.array([S.UNKNOWN], np.uint8)
     pool.status[0] = S.INSIDE
     assert ka.apply_flow_status(pool.alive, pool.velocity_mps, pool.status, pool.first_query,
-                                pool.screen_px, 1, np.zeros(1, np.int32), unknown, vel, 40.0, gw,
-                                gh, count, items, 40.0) == 1
+                                pool.screen_px, 1, np.zeros(1, np.int32), unknown, vel, 1, 40.0,
+                                gw, gh, count, items, 40.0) == 1
+    # a status-only answer (from keep_velocity_from on) keeps the velocity, INSIDE or leaving
+    pool.status[2:4] = S.INSIDE
+    pool.velocity_mps[2:4] = 3.0
+    ka.apply_flow_status(pool.alive, pool.velocity_mps, pool.status, pool.first_query,
+                         pool.screen_px, 2, np.array([2, 3], np.int32),
+                         np.array([S.INSIDE, S.OUTSIDE], np.uint8), vel, 0, 40.0, gw, gh, count,
+                         items, 40.0)
+    assert pool.status[2:4].tolist() == [S.INSIDE, S.LEAVING]
+    assert pool.velocity_mps[2:4, 0].tolist() == [3, 3]
 
 
 def test_pixel_rays_match_the_camera():
