@@ -302,17 +302,19 @@ def water_hint(x, y, screen_xy, eye_xy, clip_from_world, width, height, targets,
 
 
 def check_outside_near_water(alive, ids, status, screen_px, world_m, birth_s, now_s, fade_at,
-                             frame, probe_every, replace_every, reach_px, cover_px, width,
+                             items, frame, probe_every, replace_every, reach_px, cover_px, width,
                              height, clip_from_world, eye_xy, targets, water, grid_x, grid_y,
                              cell):
     """Twin of ``check_outside_near_water``: the steady OUTSIDE particles whose slot + frame
-    is a multiple of probe_every, in slot order: replaced when a live INSIDE one is within
-    reach and slot + frame is also a multiple of replace_every, else their water hint
-    projected, kept when within reach of it, on screen and farther than ``cover_px`` from
-    every live INSIDE/LEAVING particle. Returns (removed slots, probes (P, 2), owners (P,))."""
+    is a multiple of probe_every, in slot order: replaced when a live INSIDE one of ``items``
+    (the accepted particles) is within reach and slot + frame is also a multiple of
+    replace_every, else their water hint projected, kept when within reach of it, on screen
+    and farther than ``cover_px`` from every live INSIDE/LEAVING one of ``items``. Returns
+    (removed slots, probes (P, 2), owners (P,))."""
     slots = np.arange(len(alive))
-    inside = slots[(status == 1) & alive]
-    carriers = slots[((status == 1) | (status == 2)) & alive]
+    items = np.asarray(items)
+    inside = items[(status[items] == 1) & alive[items]]
+    carriers = items[((status[items] == 1) | (status[items] == 2)) & alive[items]]
     removed, probes, owners = [], [], []
     for i in slots:
         if (not alive[i] or status[i] != 4 or now_s - birth_s[i] >= fade_at

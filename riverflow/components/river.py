@@ -75,6 +75,13 @@ class ScreenGrid:
     cell_items: np.ndarray = field(default_factory=lambda: np.zeros((1, 32), np.int32))
     removed_cells: np.ndarray = field(default_factory=lambda: np.zeros(1, np.uint8))
     dirty: np.ndarray = field(default_factory=lambda: np.zeros(1, np.uint8))
+    # the accepted particles by cell, compact (the cull writes them): rows acc_start[c] …
+    # acc_start[c + 1] of acc_slot (C,) int32 and acc_xy (C, 2) float32 [px]; carrier_cells
+    # (gw·gh,) uint8 bit 1: an INSIDE one among them, bit 2: an INSIDE or LEAVING one
+    acc_start: np.ndarray = field(default_factory=lambda: np.zeros(2, np.int32))
+    carrier_cells: np.ndarray = field(default_factory=lambda: np.zeros(1, np.uint8))
+    acc_slot: np.ndarray = field(init=False)
+    acc_xy: np.ndarray = field(init=False)
     candidates: np.ndarray = field(init=False)     # (C,) int32 scratch
     new_slots: np.ndarray = field(init=False)      # (C,) int32 particles placed this frame
     n_new: int = 0
@@ -91,6 +98,8 @@ class ScreenGrid:
         self.query_xy = np.zeros((c, 2), np.float64)
         self.query_status = np.zeros(c, np.uint8)
         self.query_velocity = np.zeros((c, 2), np.float32)
+        self.acc_slot = np.zeros(c, np.int32)
+        self.acc_xy = np.zeros((c, 2), np.float32)
 
     def fit(self, width_px: int, height_px: int, cell_px: float) -> bool:
         """Resize for a viewport; True if the grid was rebuilt (its contents are then empty)."""
@@ -104,6 +113,8 @@ class ScreenGrid:
         self.cell_items = np.zeros((n, self.per_cell), np.int32)
         self.removed_cells = np.zeros(n, np.uint8)
         self.dirty = np.zeros(n, np.uint8)
+        self.acc_start = np.zeros(n + 1, np.int32)
+        self.carrier_cells = np.zeros(n, np.uint8)
         return True
 
 

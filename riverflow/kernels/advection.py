@@ -235,63 +235,42 @@ def _water_hint(x, y, sx, sy, eye_x, eye_y, m, width_px, height_px, water_target
 @njit(**JIT_OPTIONS)
 def check_outside_near_water(
     alive, ids, counters, status, screen_px, world_m, birth_s, water_hint_m, hint_id, now_s,
-    fade_at_s, cell_px, gw, gh, reach_px, removed_cells, frame, probe_every, replace_every,
-    cover_px, width_px, height_px, clip_from_world, eye_x, eye_y, water_target, water_m,
-    grid_x, grid_y, grid_cell_m, out_xy, out_owner,
+    fade_at_s, cell_px, gw, gh, acc_start, acc_slot, acc_xy, carrier_cells, reach_px,
+    removed_cells, frame, probe_every, replace_every, cover_px, width_px, height_px,
+    clip_from_world, eye_x, eye_y, water_target, water_m, grid_x, grid_y, grid_cell_m, out_xy,
+    out_owner,
 ):
     """Where should the river get particles that it has not? Proland's NEAR rule, plus probes
     guided by where the water is in the world.
+
+    The river's particles here are those the last Poisson pass accepted, by cell of
+    ``cell_px`` in a ``gw`` × ``gh`` grid (rows ``acc_start[c]`` … ``acc_start[c + 1]`` of
+    ``acc_slot`` and ``acc_xy``, their screen positions, which the screen positions still are),
+    with their status now; ``carrier_cells`` (bit 1: an INSIDE one, bit 2: an INSIDE or
+    LEAVING one, as that pass saw them) prunes the cells to look in.
 
     Each steady (age below ``fade_at_s``) OUTSIDE particle is looked at once every
     ``probe_every`` frames, staggered by slot (slots ≡ −frame mod ``probe_every``;
     ``probe_every`` and ``replace_every`` are powers of two), in slot order:
 
     * when an INSIDE particle lies within ``reach_px`` (≤ ``cell_px``) on screen and
-      (slot + frame) % ``replace_every`` == 0, it gives way (NEAR, removed; its cell, of
-      ``cell_px`` in a ``gw`` × ``gh`` grid, marked in ``removed_cells``), as Proland replaces
-      it every frame: the refill may land on water, and freshly packed shores keep the Poisson
-      disk dense;
+      (slot + frame) % ``replace_every`` == 0, it gives way (NEAR, removed; its cell marked in
+      ``removed_cells``), as Proland replaces it every frame: the refill may land on water,
+      and freshly packed shores keep the Poisson disk dense;
     * otherwise it *probes* its water hint: deep water near its line of sight from the eye
       at (``eye_x``, ``eye_y``) (:func:`_water_hint`; ``water_hint_m`` (C, 3) float32 x, y,
       level [m], found once per particle from ``water_target`` and kept while ``hint_id``
-      equals its id: an OUTSIDE particle never moves; x = +inf: none). Projected with ``clip_from_world`` (the view the screen
-      positions were projected with), a hint on screen within ``reach_px`` of the particle and
-      farther than ``cover_px`` (≤ ``cell_px``) from every live INSIDE or LEAVING particle is
-      a probe: its ray is cast next, and a probe that sees water gets a particle
-      (:func:`place_at_seen_water`). This finds water that no particle has landed on, with no
-      INSIDE particle nearby.
+      equals its id: an OUTSIDE particle never moves; x = +inf: none). Projected with
+      ``clip_from_world`` (the view the screen positions were projected with), a hint on
+      screen within ``reach_px`` of the particle and farther than ``cover_px`` (≤
+      ``cell_px``) from every INSIDE or LEAVING particle is a probe: its ray is cast next,
+      and a probe that sees water gets a particle (:func:`place_at_seen_water`). This finds
+      water that no particle has landed on, with no INSIDE particle nearby.
 
     Probes go to ``out_xy`` (P, 2) float32 and their particle's slot to ``out_owner`` (P,)
     int32. Returns (removed, probes).
     """
     cap = min(counters[2], alive.shape[0])  # (no live slot beyond the pool's slot bound)
-    n_cells = gw * gh
-    # the live INSIDE and LEAVING particles by cell (a counting sort in slot order)
-    cell_of = np.empty(cap, np.int32)
-    start = np.zeros(n_cells + 1, np.int32)
-    for i in range(cap):
-        c = -1
-        if alive[i] and (status[i] == STATUS_INSIDE or status[i] == STATUS_LEAVING):
-            cx = min(max(int(math.floor(screen_px[i, 0] / cell_px)), 0), gw - 1)
-            cy = min(max(int(math.floor(screen_px[i, 1] / cell_px)), 0), gh - 1)
-            c = cy * gw + cx
-            start[c + 1] += 1
-        cell_of[i] = c
-    for c in range(n_cells):
-        start[c + 1] += start[c]
-    n_wet = start[n_cells]
-    wx = np.empty(n_wet, np.float32)
-    wy = np.empty(n_wet, np.float32)
-    inside = np.empty(n_wet, np.uint8)
-    fill = start[:n_cells].copy()
-    for i in range(cap):
-        c = cell_of[i]
-        if c >= 0:
-            k = fill[c]
-            fill[c] = k + 1
-            wx[k] = screen_px[i, 0]
-            wy[k] = screen_px[i, 1]
-            inside[k] = status[i] == STATUS_INSIDE
     reach2 = reach_px * reach_px
     cover2 = cover_px * cover_px
     m = clip_from_world
@@ -308,15 +287,20 @@ def check_outside_near_water(
             # an INSIDE particle within reach: give way
             cx = min(max(int(math.floor(x / cell_px)), 0), gw - 1)
             cy = min(max(int(math.floor(y / cell_px)), 0), gh - 1)
-            x0 = max(cx - 1, 0)
-            x1 = min(cx + 1, gw - 1)
             found = False
             for ny in range(max(cy - 1, 0), min(cy + 2, gh)):
-                for k in range(start[ny * gw + x0], start[ny * gw + x1 + 1]):
-                    dx = wx[k] - x
-                    dy = wy[k] - y
-                    if inside[k] and dx * dx + dy * dy < reach2:
-                        found = True
+                for nx in range(max(cx - 1, 0), min(cx + 2, gw)):
+                    c = ny * gw + nx
+                    if not carrier_cells[c] & 1:
+                        continue
+                    for k in range(acc_start[c], acc_start[c + 1]):
+                        j = acc_slot[k]
+                        dx = acc_xy[k, 0] - x
+                        dy = acc_xy[k, 1] - y
+                        if status[j] == STATUS_INSIDE and alive[j] and dx * dx + dy * dy < reach2:
+                            found = True
+                            break
+                    if found:
                         break
                 if found:
                     break
@@ -350,15 +334,20 @@ def check_outside_near_water(
         # covered: an INSIDE or LEAVING particle closer than cover_px
         pcx = min(max(int(math.floor(px / cell_px)), 0), gw - 1)
         pcy = min(max(int(math.floor(py / cell_px)), 0), gh - 1)
-        px0 = max(pcx - 1, 0)
-        px1 = min(pcx + 1, gw - 1)
         covered = False
         for ny in range(max(pcy - 1, 0), min(pcy + 2, gh)):
-            for k in range(start[ny * gw + px0], start[ny * gw + px1 + 1]):
-                dx = wx[k] - px
-                dy = wy[k] - py
-                if dx * dx + dy * dy < cover2:
-                    covered = True
+            for nx in range(max(pcx - 1, 0), min(pcx + 2, gw)):
+                c = ny * gw + nx
+                if not carrier_cells[c] & 2:
+                    continue
+                for k in range(acc_start[c], acc_start[c + 1]):
+                    s = status[acc_slot[k]]
+                    dx = acc_xy[k, 0] - px
+                    dy = acc_xy[k, 1] - py
+                    if (s == STATUS_INSIDE or s == STATUS_LEAVING) and dx * dx + dy * dy < cover2:
+                        covered = True
+                        break
+                if covered:
                     break
             if covered:
                 break

@@ -15,9 +15,8 @@ lookup finds every neighbour within 4r):
 
 Proland visits every particle each frame; here only the particles around *dirty* cells are
 candidates (cells where particles were removed, cells that are empty or sparse, where a fade
-began or a crowded particle was culled, plus a rolling band of rows so that slow stretching is caught
-too). That keeps the cost proportional
-to what changes (docs/deviations.md).
+began or a crowded particle was culled, plus a rolling band of rows so that slow stretching is
+caught too). That keeps the cost proportional to what changes (docs/deviations.md).
 """
 from __future__ import annotations
 
@@ -32,6 +31,8 @@ from riverflow.kernels.lifecycle import allocate_particle
 REASON_OUTSIDE_VIEWPORT = 2
 REASON_POISSON_DISK = 3
 STATUS_UNKNOWN = 0
+STATUS_INSIDE = 1
+STATUS_LEAVING = 2
 
 MAX_ARCS = 64
 ROLLING_BANDS = 32
@@ -74,7 +75,7 @@ def _cell_of(x, y, cell_px, gw, gh):
 def cull_crowded_particles(
     alive, screen_px, birth_s, fade_reason, status, now_s, dt_s, fade_in_s, active_s, fade_out_s,
     cull_px, cell_px, gw, gh, cell_count, cell_items, acc_start, acc_slot, acc_xy,
-    removed_cells, dirty, frame, sparse_below, n_slots,
+    removed_cells, dirty, carrier_cells, frame, sparse_below, n_slots,
 ):
     """Rebuild the neighbour grid with the accepted particles; fade out the crowded ones.
 
@@ -87,8 +88,10 @@ def cull_crowded_particles(
     there, it holds fewer than ``sparse_below`` (looked at every :data:`SPARSE_EVERY` frames,
     staggered: most such cells are sparse by chance and stay so), or lies in this frame's
     rolling band; bit 4: the cell is empty, so its neighbours' particles are candidates too).
-    Returns the number faded out. Slots from ``n_slots`` on are not alive (the pool's slot
-    bound).
+    ``carrier_cells`` (gw·gh,) uint8 is written: bit 1 when the cell's accepted particles
+    include an INSIDE one (``status``), bit 2 an INSIDE or LEAVING one (the NEAR check's
+    pruning). Returns the number faded out. Slots from ``n_slots`` on are not alive (the
+    pool's slot bound).
 
     The result is the greedy pass in slot order (a particle is accepted when no accepted one
     is closer than ``cull_px``), found without visiting the particles in slot order: a
@@ -175,6 +178,16 @@ def cull_crowded_particles(
         faded = _cull_sorted(birth_s, fade_reason, now_s, fade_in_s, active_s, fade_out_s,
                              cull_px, half, sub, gw, gh, cell_count, cell_items, acc_start,
                              acc_slot, acc_xy, start, slot, xy, fine, dirty)
+    for c in range(n_cells):
+        flags = 0
+        for k in range(acc_start[c], acc_start[c + 1]):
+            s = status[acc_slot[k]]
+            if s == STATUS_INSIDE:
+                flags = 3
+                break
+            if s == STATUS_LEAVING:
+                flags = 2
+        carrier_cells[c] = flags
     band = frame % ROLLING_BANDS
     for cy in range(gh):
         in_band = cy % ROLLING_BANDS == band

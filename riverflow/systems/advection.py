@@ -125,10 +125,11 @@ class AdvectParticles(System):
         self.removed, n = check_outside_near_water(
             pool.alive, pool.ids, pool.counters, pool.status, pool.screen_px, pool.world_m,
             pool.birth_s, pool.water_hint_m, pool.hint_id, clock.now_s, c.fade_in_s + c.active_s,
-            grid.cell_px, grid.gw, grid.gh, reach_px, grid.removed_cells, clock.frame,
-            NEAR_CHECK_EVERY, NEAR_REPLACE_EVERY, NEAR_COVER * r, view.width_px,
-            view.height_px, forward, view.eye_m[0], view.eye_m[1], targets, g.water_m,
-            g.origin_x, g.origin_y, g.cell_m, self._probe_xy, self._owner)
+            grid.cell_px, grid.gw, grid.gh, grid.acc_start, grid.acc_slot, grid.acc_xy,
+            grid.carrier_cells, reach_px, grid.removed_cells, clock.frame, NEAR_CHECK_EVERY,
+            NEAR_REPLACE_EVERY, NEAR_COVER * r, view.width_px, view.height_px, forward,
+            view.eye_m[0], view.eye_m[1], targets, g.water_m, g.origin_x, g.origin_y, g.cell_m,
+            self._probe_xy, self._owner)
         self.probes = n
         self.placed = 0
         if n == 0:

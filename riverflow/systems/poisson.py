@@ -25,19 +25,13 @@ class MaintainPoissonDisk(System):
 
     def __init__(self) -> None:
         self.faded = self.added = 0
-        self._acc = (np.zeros(2, np.int32), np.zeros(1, np.int32), np.zeros((1, 2), np.float32))
         self._table: tuple[float, float, np.ndarray, np.ndarray, float] | None = None
 
-    def _scratch(self, pool: ParticlePool, grid: ScreenGrid, radius_px: float, gap_px: float):
-        """The accepted particles by cell, compact (start, slot, xy), and the
-        direction tables (blocked, touched, cell_px)."""
-        if len(self._acc[0]) != grid.gw * grid.gh + 1 or len(self._acc[1]) != pool.capacity:
-            self._acc = (np.zeros(grid.gw * grid.gh + 1, np.int32),
-                         np.zeros(pool.capacity, np.int32),
-                         np.zeros((pool.capacity, 2), np.float32))
+    def _tables(self, radius_px: float, gap_px: float) -> tuple:
+        """The direction tables (blocked, touched, cell_px) for this radius and gap."""
         if self._table is None or self._table[:2] != (radius_px, gap_px):
             self._table = (radius_px, gap_px, *direction_table(radius_px, gap_px))
-        return self._acc, self._table[2:]
+        return self._table[2:]
 
     def process(self, world, dt_s: float) -> None:
         view = world.resource(FrameView)
@@ -47,13 +41,15 @@ class MaintainPoissonDisk(System):
         for _, (pool, grid) in esper.get_components(ParticlePool, ScreenGrid):
             grid.fit(view.width_px, view.height_px, c.grid_cell_factor * r)
             gap = c.spawn_gap_factor * r
-            acc, tables = self._scratch(pool, grid, r, gap)
+            acc = (grid.acc_start, grid.acc_slot, grid.acc_xy)
+            tables = self._tables(r, gap)
             self.faded = cull_crowded_particles(
                 pool.alive, pool.screen_px, pool.birth_s, pool.fade_reason, pool.status,
                 clock.now_s, dt_s, c.fade_in_s, c.active_s, c.fade_out_s,
                 c.cull_radius_factor * r,
                 grid.cell_px, grid.gw, grid.gh, grid.cell_count, grid.cell_items, *acc,
-                grid.removed_cells, grid.dirty, clock.frame, self.sparse_below(grid.cell_px, r),
+                grid.removed_cells, grid.dirty, grid.carrier_cells, clock.frame,
+                self.sparse_below(grid.cell_px, r),
                 int(pool.counters[2]))
             seed = int(world.rng.integers(0, 2**31 - 1))
             lo, hi = c.random_offset_min_m, c.random_offset_max_m

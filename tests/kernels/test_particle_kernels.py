@@ -131,17 +131,29 @@ def test_cull_matches_reference(rng, cell_r):
     pool.birth_s[:] = 0.0
     pool.birth_s[::7] = -31.0  # some are fading out already
     gw, gh, count, items, prev, dirty = _grid(320, 180, cell_r * r)
+    carriers = np.zeros(gw * gh, np.uint8)
     keep = pool.alive & (1.0 - pool.birth_s < FI + AC)
     want = reference.cull_in_slot_order(pool.screen_px, keep, 1.96 * r)
+    pool.status[:] = rng.choice(np.array([FlowStatus.INSIDE, FlowStatus.LEAVING,
+                                          FlowStatus.OUTSIDE, FlowStatus.OUTSIDE,
+                                          FlowStatus.OUTSIDE, FlowStatus.OUTSIDE], np.uint8),
+                                pool.capacity)
     acc = (np.zeros(gw * gh + 1, np.int32), np.zeros(pool.capacity, np.int32),
            np.zeros((pool.capacity, 2), np.float32))
     faded = kp.cull_crowded_particles(pool.alive, pool.screen_px, pool.birth_s, pool.fade_reason,
                                       pool.status, 1.0, 1 / 60, FI, AC, FO, 1.96 * r,
                                       cell_r * r, gw, gh, count,
-                                      items, *acc, prev, dirty, 0, 2, pool.counters[2])
+                                      items, *acc, prev, dirty, carriers, 0, 2, pool.counters[2])
     start, slots, xy = acc
     npt.assert_array_equal(np.sort(slots[:start[-1]]), want)  # the same, compact
     npt.assert_array_equal(xy[:start[-1]], pool.screen_px[slots[:start[-1]]])
+    # the carrier flags of each cell's accepted particles: 1 INSIDE, 2 INSIDE or LEAVING
+    s = pool.status[slots[:start[-1]]]
+    for c in range(gw * gh):
+        cs = s[start[c]:start[c + 1]]
+        want_flags = (1 if (cs == FlowStatus.INSIDE).any() else 0) | (
+            2 if ((cs == FlowStatus.INSIDE) | (cs == FlowStatus.LEAVING)).any() else 0)
+        assert carriers[c] == want_flags
     got = np.sort(np.concatenate([items[c, :count[c]] for c in range(gw * gh)]))
     npt.assert_array_equal(got, want)
     assert faded == keep.sum() - len(want)
@@ -154,13 +166,14 @@ def test_cull_keeps_the_slot_order_when_cells_overflow(rng):
     pool = _pool(rng, 900)
     pool.birth_s[:] = 0.0
     gw, gh, count, items, prev, dirty = _grid(320, 180, 4 * r)
+    carriers = np.zeros(gw * gh, np.uint8)
     items = np.zeros((gw * gh, 3), np.int32)  # room for 3: some cells overflow
     acc = (np.zeros(gw * gh + 1, np.int32), np.zeros(pool.capacity, np.int32),
            np.zeros((pool.capacity, 2), np.float32))
     want = reference.cull_in_slot_order(pool.screen_px, pool.alive, 1.5 * r, 4 * r, 3)
     kp.cull_crowded_particles(pool.alive, pool.screen_px, pool.birth_s, pool.fade_reason,
                               pool.status, 1.0, 1 / 60, FI, AC, FO, 1.5 * r, 4 * r, gw, gh, count,
-                              items, *acc, prev, dirty, 0, 2, pool.counters[2])
+                              items, *acc, prev, dirty, carriers, 0, 2, pool.counters[2])
     got = np.concatenate([items[c, :count[c]] for c in range(gw * gh)])
     npt.assert_array_equal(np.sort(got), want)
     start, slots, xy = acc
@@ -206,6 +219,7 @@ def test_fill_shortcuts_give_the_same_disk():
     r, w, h, gap = 5.0, 240, 160, 1.92 * 5.0
     for pool, shortcuts in zip(pools, (True, False)):
         gw, gh, count, items, prev, dirty = _grid(w, h, 4 * r)
+        carriers = np.zeros(gw * gh, np.uint8)
         acc = (np.zeros(gw * gh + 1, np.int32), np.zeros(pool.capacity, np.int32),
                np.zeros((pool.capacity, 2), np.float32))
         table, touched, table_cell = kp.direction_table(r, gap)
@@ -219,7 +233,7 @@ def test_fill_shortcuts_give_the_same_disk():
             kp.cull_crowded_particles(pool.alive, pool.screen_px, pool.birth_s,
                                       pool.fade_reason, pool.status, 1.0, 1 / 60, FI, AC, FO,
                                       1.9 * r, 4 * r, gw, gh, count, items, *acc, prev, dirty,
-                                      f, 2, pool.counters[2])
+                                      carriers, f, 2, pool.counters[2])
             kp.fill_poisson_holes(
                 pool.alive, pool.ids, pool.counters, pool.birth_s, pool.intensity,
                 pool.screen_px, pool.fade_reason, pool.has_world, pool.velocity_mps,
@@ -239,6 +253,7 @@ def test_fill_shortcuts_give_the_same_disk():
 
 def _fill(pool, r, w, h, seed=3, frames=1):
     gw, gh, count, items, prev, dirty = _grid(w, h, 4 * r)
+    carriers = np.zeros(gw * gh, np.uint8)
     acc = (np.zeros(gw * gh + 1, np.int32), np.zeros(pool.capacity, np.int32),
            np.zeros((pool.capacity, 2), np.float32))
     table, touched, table_cell = kp.direction_table(r, 2.0 * r)
@@ -249,7 +264,7 @@ def _fill(pool, r, w, h, seed=3, frames=1):
         kp.cull_crowded_particles(pool.alive, pool.screen_px, pool.birth_s, pool.fade_reason,
                                   pool.status, 1.0, 1 / 60, FI, AC, FO, 1.96 * r, 4 * r, gw, gh,
                                   count,
-                                  items, *acc, prev, dirty, f, 2, pool.counters[2])
+                                  items, *acc, prev, dirty, carriers, f, 2, pool.counters[2])
         total += kp.fill_poisson_holes(
             pool.alive, pool.ids, pool.counters, pool.birth_s, pool.intensity, pool.screen_px,
             pool.fade_reason, pool.has_world, pool.velocity_mps, pool.status, pool.first_query,
@@ -437,10 +452,20 @@ def test_water_targets_name_the_nearest_deep_water_node():
 
 
 def _near_args(pool, grid, r):
-    gw, gh, _, _, removed_cells = grid
+    """The NEAR check's arguments up to ``removed_cells``: the grid's particles as the cull's
+    accepted ones (compact by cell) with their carrier flags."""
+    gw, gh, count, items, removed_cells = grid
+    start = np.r_[0, np.cumsum(count)].astype(np.int32)
+    slots = np.concatenate([items[c, :count[c]] for c in range(gw * gh)]).astype(np.int32)
+    s = pool.status[slots]
+    flags = np.zeros(gw * gh, np.uint8)
+    for c in range(gw * gh):
+        cs = s[start[c]:start[c + 1]]
+        flags[c] = 3 if (cs == FlowStatus.INSIDE).any() else (
+            2 if (cs == FlowStatus.LEAVING).any() else 0)
     return (pool.alive, pool.ids, pool.counters, pool.status, pool.screen_px, pool.world_m,
-            pool.birth_s, pool.water_hint_m, pool.hint_id, 1.0, FI + AC, 4 * r, gw, gh, 4 * r,
-            removed_cells)
+            pool.birth_s, pool.water_hint_m, pool.hint_id, 1.0, FI + AC, 4 * r, gw, gh, start,
+            slots, pool.screen_px[slots].copy(), flags, 4 * r, removed_cells)
 
 
 def test_near_water_check_matches_reference(rng):
@@ -453,7 +478,7 @@ def test_near_water_check_matches_reference(rng):
     for frame in range(4):
         want_removed, want_probes, want_owners = reference.check_outside_near_water(
             pool.alive, pool.ids, pool.status, pool.screen_px, pool.world_m, pool.birth_s, 1.0,
-            FI + AC, frame, 2, 4, 4 * r, 2 * r, w, h, fwd, (30.0, -260.0), targets,
+            FI + AC, order, frame, 2, 4, 4 * r, 2 * r, w, h, fwd, (30.0, -260.0), targets,
             grids.water_m, -400.0, -400.0, 10.0)
         out = np.zeros((4000, 2), np.float32)
         owner = np.zeros(4000, np.int32)
