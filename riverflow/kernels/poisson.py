@@ -167,27 +167,22 @@ def cull_crowded_particles(
         acc_start[0] = 0
         for c in range(n_cells):
             k = acc_start[c]
+            flags = 0
             for q in range(cell_count[c]):
                 i = cell_items[c, q]
                 acc_slot[k] = i
                 acc_xy[k, 0] = screen_px[i, 0]
                 acc_xy[k, 1] = screen_px[i, 1]
                 k += 1
+                s = status[i]
+                flags |= 3 if s == STATUS_INSIDE else (2 if s == STATUS_LEAVING else 0)
             acc_start[c + 1] = k
+            carrier_cells[c] = flags
     else:
-        faded = _cull_sorted(birth_s, fade_reason, now_s, fade_in_s, active_s, fade_out_s,
-                             cull_px, half, sub, gw, gh, cell_count, cell_items, acc_start,
-                             acc_slot, acc_xy, start, slot, xy, fine, dirty)
-    for c in range(n_cells):
-        flags = 0
-        for k in range(acc_start[c], acc_start[c + 1]):
-            s = status[acc_slot[k]]
-            if s == STATUS_INSIDE:
-                flags = 3
-                break
-            if s == STATUS_LEAVING:
-                flags = 2
-        carrier_cells[c] = flags
+        faded = _cull_sorted(birth_s, fade_reason, status, now_s, fade_in_s, active_s,
+                             fade_out_s, cull_px, half, sub, gw, gh, cell_count, cell_items,
+                             acc_start, acc_slot, acc_xy, carrier_cells, start, slot, xy, fine,
+                             dirty)
     band = frame % ROLLING_BANDS
     for cy in range(gh):
         in_band = cy % ROLLING_BANDS == band
@@ -203,12 +198,12 @@ def cull_crowded_particles(
 
 
 @njit(**JIT_OPTIONS)
-def _cull_sorted(birth_s, fade_reason, now_s, fade_in_s, active_s, fade_out_s, cull_px, half,
-                 sub, gw, gh, cell_count, cell_items, acc_start, acc_slot, acc_xy, start, slot,
-                 xy, fine, dirty):
+def _cull_sorted(birth_s, fade_reason, status, now_s, fade_in_s, active_s, fade_out_s, cull_px,
+                 half, sub, gw, gh, cell_count, cell_items, acc_start, acc_slot, acc_xy,
+                 carrier_cells, start, slot, xy, fine, dirty):
     """Steps 3–5 of the cull on the particles sorted by fine cell (``start``, ``slot``,
     ``xy`` with far rows past the end, ``fine`` the cell of each; fine cells of ``half`` =
-    cell_px / ``sub`` ≥ cull_px, sub·gw a row)."""
+    cell_px / ``sub`` ≥ cull_px, sub·gw a row); the carrier flags of the cells too."""
     fade_at = fade_in_s + active_s
     cull2 = cull_px * cull_px
     fw = sub * gw
@@ -300,18 +295,21 @@ def _cull_sorted(birth_s, fade_reason, now_s, fade_in_s, active_s, fade_out_s, c
         acc_start[c] = a
         cy = c // gw  # (one division a cell)
         f0 = sub * cy * fw + sub * (c - cy * gw)
+        q = 0
+        flags = 0
         for run in range(sub):
             f = f0 + run * fw
             for k in range(start[f], start[f + sub]):
                 i = slot[k]
                 if close[k] != 2:
-                    q = cell_count[c]
                     cell_items[c, q] = i
-                    cell_count[c] = q + 1
+                    q += 1
                     acc_slot[a] = i
                     acc_xy[a, 0] = xy[k, 0]
                     acc_xy[a, 1] = xy[k, 1]
                     a += 1
+                    s = status[i]
+                    flags |= 3 if s == STATUS_INSIDE else (2 if s == STATUS_LEAVING else 0)
                     continue
                 age = now_s - birth_s[i]
                 level = max(age / fade_in_s, 0.0) if age < fade_in_s else 1.0
@@ -319,6 +317,8 @@ def _cull_sorted(birth_s, fade_reason, now_s, fade_in_s, active_s, fade_out_s, c
                 fade_reason[i] = REASON_POISSON_DISK
                 faded += 1
                 dirty[c] = 1
+        cell_count[c] = q
+        carrier_cells[c] = flags
     acc_start[gw * gh] = a
     return faded
 

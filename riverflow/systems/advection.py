@@ -33,7 +33,7 @@ NEAR_COVER = 2.0
 """A probe point closer than this · r to an INSIDE or LEAVING particle is covered."""
 ALTITUDE_EVERY = 4
 """A moving particle's altitude is looked up again every this many frames, staggered."""
-VELOCITY_EVERY = 2
+VELOCITY_EVERY = 4
 """An INSIDE particle asks the flow for its velocity every this many frames, staggered (and
 every frame near a moving obstacle); the other frames it asks only whether it is still
 inside (docs/deviations.md)."""
