@@ -278,20 +278,19 @@ def _within(points, x, y, reach):
     return (d * d).sum(1) < reach * reach
 
 
-def water_hint(x, y, screen_xy, eye_xy, clip_from_world, width, height, targets, water,
-               grid_x, grid_y, cell, track=(0.0, -0.03, 0.03, -0.1, 0.1, -0.3, 0.3, 1.0)):
-    """Twin of ``_water_hint``: of the deep-water nodes ``targets`` names for the grid nodes
-    nearest the points (x, y) + f · ((x, y) − eye) of the ray's ground track, the (x, y,
-    level) that projects nearest ``screen_xy`` (the first of equals), or None."""
-    rows, cols = water.shape
+def water_hint(x, y, screen_xy, eye_xy, clip_from_world, width, height, hints, grid_x, grid_y,
+               cell, track=(0.0, -0.03, 0.03, -0.1, 0.1, -0.3, 0.3, 1.0)):
+    """Twin of ``_water_hint``: of the hints (x, y, level) of the hint grid nodes nearest the
+    points (x, y) + f · ((x, y) − eye) of the ray's ground track, the one that projects
+    nearest ``screen_xy`` (the first of equals), or None."""
+    rows, cols = hints.shape[:2]
     best, hint = np.inf, None
     for f in track:
         px, py = x + f * (x - eye_xy[0]), y + f * (y - eye_xy[1])
         i, j = int(np.floor((px - grid_x) / cell + 0.5)), int(np.floor((py - grid_y) / cell + 0.5))
-        if not (0 <= i < cols and 0 <= j < rows) or targets[j * cols + i] < 0:
+        if not (0 <= i < cols and 0 <= j < rows) or not hints[j, i, 0] < np.inf:
             continue
-        tj, ti = divmod(int(targets[j * cols + i]), cols)
-        h = np.array([grid_x + ti * cell, grid_y + tj * cell, float(water[tj, ti])])
+        h = hints[j, i].astype(float)
         clip = clip_from_world @ np.r_[h, 1.0]
         if not clip[3] > 1e-9:
             continue
@@ -303,8 +302,7 @@ def water_hint(x, y, screen_xy, eye_xy, clip_from_world, width, height, targets,
 
 def check_outside_near_water(alive, ids, status, screen_px, world_m, birth_s, now_s, fade_at,
                              items, frame, probe_every, replace_every, reach_px, cover_px, width,
-                             height, clip_from_world, eye_xy, targets, water, grid_x, grid_y,
-                             cell):
+                             height, clip_from_world, eye_xy, hints, grid_x, grid_y, cell):
     """Twin of ``check_outside_near_water``: the steady OUTSIDE particles whose slot + frame
     is a multiple of probe_every, in slot order: replaced when a live INSIDE one of ``items``
     (the accepted particles) is within reach and slot + frame is also a multiple of
@@ -325,7 +323,7 @@ def check_outside_near_water(alive, ids, status, screen_px, world_m, birth_s, no
             removed.append(i)
             continue
         hint = water_hint(world_m[i, 0], world_m[i, 1], screen_px[i], eye_xy, clip_from_world,
-                          width, height, targets, water, grid_x, grid_y, cell)
+                          width, height, hints, grid_x, grid_y, cell)
         if hint is None:
             continue
         clip = clip_from_world @ np.r_[hint, 1.0]

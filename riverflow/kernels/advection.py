@@ -187,14 +187,16 @@ not next to it in the world."""
 
 
 @njit(inline="always", **JIT_OPTIONS)
-def _water_hint(x, y, sx, sy, eye_x, eye_y, m, width_px, height_px, water_target, water_m,
-                grid_x, grid_y, grid_cell_m, out, k):
+def _water_hint(x, y, sx, sy, eye_x, eye_y, m, width_px, height_px, hints, grid_x, grid_y,
+                hint_cell_m, out, k):
     """Write into ``out[k]`` the water hint (x, y, level) [m] of a land particle at world
     (x, y) and screen (sx, sy): of the deep-water nodes nearest to the points of
-    :data:`HINT_TRACK` (``water_target`` (ny·nx,) int32: per grid node, the flat index of its
-    nearest deep-water node, −1 when there is none), the one whose projection by
-    ``m`` (clip from world) lies nearest (sx, sy); x = +inf when there is none."""
-    rows, cols = water_m.shape
+    :data:`HINT_TRACK` (``hints`` (ny, nx, 3) float32: per node, ``hint_cell_m`` apart from
+    (grid_x, grid_y), the nearest deep-water node's x, y, level; x = +inf: none), the one
+    whose projection by ``m`` (clip from world) lies nearest (sx, sy); x = +inf when there is
+    none."""
+    rows = hints.shape[0]
+    cols = hints.shape[1]
     dx = x - eye_x
     dy = y - eye_y
     best = math.inf
@@ -204,19 +206,17 @@ def _water_hint(x, y, sx, sy, eye_x, eye_y, m, width_px, height_px, water_target
     last = -1
     for s in range(HINT_TRACK.shape[0]):
         f = HINT_TRACK[s]
-        i = int(math.floor((x + f * dx - grid_x) / grid_cell_m + 0.5))
-        j = int(math.floor((y + f * dy - grid_y) / grid_cell_m + 0.5))
+        i = int(math.floor((x + f * dx - grid_x) / hint_cell_m + 0.5))
+        j = int(math.floor((y + f * dy - grid_y) / hint_cell_m + 0.5))
         if not (0 <= i < cols and 0 <= j < rows):
             continue
-        t = water_target[j * cols + i]
-        if t < 0 or t == last:
+        t = j * cols + i
+        if t == last or not hints[j, i, 0] < math.inf:
             continue
         last = t
-        tj = t // cols
-        ti = t - tj * cols
-        hx = grid_x + ti * grid_cell_m
-        hy = grid_y + tj * grid_cell_m
-        hz = water_m[tj, ti]
+        hx = hints[j, i, 0]
+        hy = hints[j, i, 1]
+        hz = hints[j, i, 2]
         cw = m[3, 0] * hx + m[3, 1] * hy + m[3, 2] * hz + m[3, 3]
         if not cw > 1e-9:
             continue
@@ -237,8 +237,7 @@ def check_outside_near_water(
     alive, ids, counters, status, screen_px, world_m, birth_s, water_hint_m, hint_id, now_s,
     fade_at_s, cell_px, gw, gh, acc_start, acc_slot, acc_xy, carrier_cells, reach_px,
     removed_cells, frame, probe_every, replace_every, cover_px, width_px, height_px,
-    clip_from_world, eye_x, eye_y, water_target, water_m, grid_x, grid_y, grid_cell_m, out_xy,
-    out_owner,
+    clip_from_world, eye_x, eye_y, hints, grid_x, grid_y, hint_cell_m, out_xy, out_owner,
 ):
     """Where should the river get particles that it has not? Proland's NEAR rule, plus probes
     guided by where the water is in the world.
@@ -259,8 +258,8 @@ def check_outside_near_water(
       and freshly packed shores keep the Poisson disk dense;
     * otherwise it *probes* its water hint: deep water near its line of sight from the eye
       at (``eye_x``, ``eye_y``) (:func:`_water_hint`; ``water_hint_m`` (C, 3) float32 x, y,
-      level [m], found once per particle from ``water_target`` and kept while ``hint_id``
-      equals its id: an OUTSIDE particle never moves; x = +inf: none). Projected with
+      level [m], found once per particle from ``hints`` and kept while ``hint_id`` equals
+      its id: an OUTSIDE particle never moves; x = +inf: none). Projected with
       ``clip_from_world`` (the view the screen positions were projected with), a hint on
       screen within ``reach_px`` of the particle and farther than ``cover_px`` (≤
       ``cell_px``) from every INSIDE or LEAVING particle is a probe: its ray is cast next,
@@ -312,8 +311,7 @@ def check_outside_near_water(
                 continue
         if hint_id[i] != ids[i]:
             _water_hint(world_m[i, 0], world_m[i, 1], x, y, eye_x, eye_y, m, width_px,
-                        height_px, water_target, water_m, grid_x, grid_y, grid_cell_m,
-                        water_hint_m, i)
+                        height_px, hints, grid_x, grid_y, hint_cell_m, water_hint_m, i)
             hint_id[i] = ids[i]
         hx = water_hint_m[i, 0]
         if not hx < math.inf:

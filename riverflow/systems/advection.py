@@ -40,6 +40,9 @@ inside (docs/deviations.md)."""
 DEEP_WATER_NODES = 1
 """Water hints point this many grid nodes inside the water (not at the bank's edge), where
 the river is wide enough to keep any."""
+HINT_STRIDE = 8
+"""The water hint grid keeps every this many surface grid nodes (32 m on the default scene's
+4 m grid)."""
 
 for _every in (NEAR_CHECK_EVERY, NEAR_REPLACE_EVERY, ALTITUDE_EVERY, VELOCITY_EVERY):
     assert _every > 0 and _every & (_every - 1) == 0, "the kernels stagger by bit masks"
@@ -47,24 +50,46 @@ for _every in (NEAR_CHECK_EVERY, NEAR_REPLACE_EVERY, ALTITUDE_EVERY, VELOCITY_EV
 _SURFACE_CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
-def surface_tables(grids: SurfaceGrids) -> tuple[np.ndarray, np.ndarray]:
-    """(height pyramid, water targets) of a :class:`SurfaceGrids`, made once and shared: the
-    max-mip pyramid of :func:`riverflow.kernels.raycast.height_pyramid`, and (ny·nx,) int32
-    per grid node the flat index of the nearest deep-water node (wet, at least
-    :data:`DEEP_WATER_NODES` from dry land; any wet node where none is that deep; −1 everywhere
-    when there is no water), from scipy's exact Euclidean distance transform."""
+def deep_water_targets(grids: SurfaceGrids) -> np.ndarray:
+    """(ny, nx) int32: per grid node the flat index of the nearest deep-water node (wet, at
+    least :data:`DEEP_WATER_NODES` from dry land; any wet node where none is that deep; −1
+    everywhere when there is no water), from scipy's exact Euclidean distance transform."""
+    wet = grids.water_m >= grids.ground_m  # NaN (dry) compares False
+    deep = ndimage.binary_erosion(wet, iterations=DEEP_WATER_NODES, border_value=1)
+    if not deep.any():
+        deep = wet
+    if not deep.any():
+        return np.full(wet.shape, -1, np.int32)
+    _, (jj, ii) = ndimage.distance_transform_edt(~deep, return_indices=True)
+    return (jj * wet.shape[1] + ii).astype(np.int32)
+
+
+def water_hint_grid(grids: SurfaceGrids) -> tuple[np.ndarray, float]:
+    """(hints, cell_m): every :data:`HINT_STRIDE`-th node of the surface grid, the nearest
+    deep-water node's x, y and water level [m] (x = +inf: none), (ny', nx', 3) float32 with
+    nodes ``cell_m`` apart from the grid's origin. Small enough to stay in cache: the land
+    particles' water hints look it up at 8 points each (the full table is 4 MB and each
+    lookup missed the cache)."""
+    targets = deep_water_targets(grids)
+    s = HINT_STRIDE
+    rows = np.minimum(np.arange(0, targets.shape[0] + s - 1, s), targets.shape[0] - 1)
+    cols = np.minimum(np.arange(0, targets.shape[1] + s - 1, s), targets.shape[1] - 1)
+    t = targets[np.ix_(rows, cols)]
+    tj, ti = np.divmod(np.maximum(t, 0), targets.shape[1])
+    hints = np.empty(t.shape + (3,), np.float32)
+    hints[..., 0] = np.where(t >= 0, grids.origin_x + ti * grids.cell_m, np.inf)
+    hints[..., 1] = grids.origin_y + tj * grids.cell_m
+    hints[..., 2] = grids.water_m[tj, ti]
+    return hints, grids.cell_m * s
+
+
+def surface_tables(grids: SurfaceGrids) -> tuple[np.ndarray, np.ndarray, float]:
+    """(height pyramid, water hint grid, its cell [m]) of a :class:`SurfaceGrids`, made once
+    and shared: the max-mip pyramid of :func:`riverflow.kernels.raycast.height_pyramid` and
+    :func:`water_hint_grid`."""
     tables = _SURFACE_CACHE.get(grids)
     if tables is None:
-        wet = grids.water_m >= grids.ground_m  # NaN (dry) compares False
-        deep = ndimage.binary_erosion(wet, iterations=DEEP_WATER_NODES, border_value=1)
-        if not deep.any():
-            deep = wet
-        if deep.any():
-            _, (jj, ii) = ndimage.distance_transform_edt(~deep, return_indices=True)
-            targets = (jj * wet.shape[1] + ii).astype(np.int32).ravel()
-        else:
-            targets = np.full(wet.size, -1, np.int32)
-        tables = (height_pyramid(grids.ground_m, grids.water_m), targets)
+        tables = (height_pyramid(grids.ground_m, grids.water_m), *water_hint_grid(grids))
         _SURFACE_CACHE[grids] = tables
     return tables
 
@@ -118,7 +143,7 @@ class AdvectParticles(System):
         view = world.resource(FrameView)
         clock = world.resource(Clock)
         forward, inverse = self._view or (view.clip_from_world, view.world_from_clip)
-        pyramid, targets = surface_tables(g)
+        pyramid, hints, hint_cell_m = surface_tables(g)
         if len(self._probe_xy) < pool.capacity:
             self._probe_xy = np.zeros((pool.capacity, 2), np.float32)
             self._owner = np.zeros(pool.capacity, np.int32)
@@ -128,7 +153,7 @@ class AdvectParticles(System):
             grid.cell_px, grid.gw, grid.gh, grid.acc_start, grid.acc_slot, grid.acc_xy,
             grid.carrier_cells, reach_px, grid.removed_cells, clock.frame, NEAR_CHECK_EVERY,
             NEAR_REPLACE_EVERY, NEAR_COVER * r, view.width_px, view.height_px, forward,
-            view.eye_m[0], view.eye_m[1], targets, g.water_m, g.origin_x, g.origin_y, g.cell_m,
+            view.eye_m[0], view.eye_m[1], hints, g.origin_x, g.origin_y, hint_cell_m,
             self._probe_xy, self._owner)
         self.probes = n
         self.placed = 0

@@ -16,7 +16,7 @@ from riverflow.kernels import lifecycle as kl
 from riverflow.kernels import placement as kpl
 from riverflow.kernels import poisson as kp
 from riverflow.kernels import screen as ks
-from riverflow.systems.advection import surface_tables
+from riverflow.systems.advection import deep_water_targets, surface_tables
 from tests import reference
 
 FI, AC, FO = 2.0, 30.0, 2.0
@@ -441,14 +441,21 @@ def test_water_targets_name_the_nearest_deep_water_node():
     gx = np.arange(-400, 401, 10.0)
     ground = np.zeros((len(gx), len(gx)), np.float32)
     water = np.where(np.abs(gx)[None, :] < 40, 0.0, np.nan).astype(np.float32) + ground
-    _, targets = surface_tables(SurfaceGrids(ground, water, -400.0, -400.0, 10.0, 0.0, 0.0))
-    rows, cols = np.divmod(targets.reshape(ground.shape), len(gx))
+    grids = SurfaceGrids(ground, water, -400.0, -400.0, 10.0, 0.0, 0.0)
+    rows, cols = np.divmod(deep_water_targets(grids), len(gx))
     # one node in from the banks (|x| ≤ 30 m: the wet nodes are |x| ≤ 30 here, 40 is dry)
     npt.assert_array_equal(rows, np.arange(len(gx))[:, None] + 0 * rows)
-    want = np.clip(gx, -20.0, 20.0)
-    npt.assert_array_equal(gx[cols], np.broadcast_to(want, cols.shape))
+    npt.assert_array_equal(gx[cols], np.broadcast_to(np.clip(gx, -20.0, 20.0), cols.shape))
+    # the hint grid: every 8th node, the nearest deep node's x, y, level
+    _, hints, cell = surface_tables(grids)
+    assert cell == 80.0 and hints.shape == (11, 11, 3)
+    node = np.arange(0, 81, 8).clip(max=80) * 10.0 - 400.0
+    npt.assert_array_equal(hints[..., 0], np.broadcast_to(np.clip(node, -20, 20), (11, 11)))
+    npt.assert_array_equal(hints[..., 1], np.broadcast_to(node[:, None], (11, 11)))
+    assert np.all(hints[..., 2] == 0.0)
     dry = SurfaceGrids(ground, np.full_like(water, np.nan), -400.0, -400.0, 10.0, 0.0, 0.0)
-    assert np.all(surface_tables(dry)[1] == -1)
+    assert np.all(deep_water_targets(dry) == -1)
+    assert np.all(surface_tables(dry)[1][..., 0] == np.inf)
 
 
 def _near_args(pool, grid, r):
@@ -471,21 +478,21 @@ def _near_args(pool, grid, r):
 def test_near_water_check_matches_reference(rng):
     r, w, h = 5.0, 320, 180
     pool, (fwd, inv), grids, grid, order = _river_view(rng)
-    _, targets = surface_tables(grids)
+    _, hints, hint_cell = surface_tables(grids)
     pool.birth_s[:] = 0.0
     pool.birth_s[rng.random(pool.capacity) < 0.1] = -40.0  # fading: not looked at
     before = pool.alive.copy()
     for frame in range(4):
         want_removed, want_probes, want_owners = reference.check_outside_near_water(
             pool.alive, pool.ids, pool.status, pool.screen_px, pool.world_m, pool.birth_s, 1.0,
-            FI + AC, order, frame, 2, 4, 4 * r, 2 * r, w, h, fwd, (30.0, -260.0), targets,
-            grids.water_m, -400.0, -400.0, 10.0)
+            FI + AC, order, frame, 2, 4, 4 * r, 2 * r, w, h, fwd, (30.0, -260.0), hints,
+            -400.0, -400.0, hint_cell)
         out = np.zeros((4000, 2), np.float32)
         owner = np.zeros(4000, np.int32)
         alive = pool.alive.copy()
         n_removed, n = ka.check_outside_near_water(
-            *_near_args(pool, grid, r), frame, 2, 4, 2 * r, w, h, fwd, 30.0, -260.0, targets,
-            grids.water_m, -400.0, -400.0, 10.0, out, owner)
+            *_near_args(pool, grid, r), frame, 2, 4, 2 * r, w, h, fwd, 30.0, -260.0, hints,
+            -400.0, -400.0, hint_cell, out, owner)
         npt.assert_array_equal(np.flatnonzero(alive & ~pool.alive), np.sort(want_removed))
         assert n_removed == len(want_removed)
         npt.assert_allclose(out[:n], want_probes, atol=1e-3)
@@ -501,12 +508,12 @@ def test_near_water_probes_find_the_river_with_no_particle_on_it(rng):
     r, w, h = 5.0, 320, 180
     pool, (fwd, inv), grids, grid, order = _river_view(rng, n=250)
     pool.status[pool.alive] = FlowStatus.OUTSIDE  # nobody landed on the river
-    _, targets = surface_tables(grids)
+    _, hints, hint_cell = surface_tables(grids)
     out = np.zeros((8000, 2), np.float32)
     owner = np.zeros(8000, np.int32)
     _, n = ka.check_outside_near_water(
-        *_near_args(pool, grid, r), 0, 1, 2**30, 2 * r, w, h, fwd, 30.0, -260.0, targets,
-        grids.water_m, -400.0, -400.0, 10.0, out, owner)
+        *_near_args(pool, grid, r), 0, 1, 2**30, 2 * r, w, h, fwd, 30.0, -260.0, hints,
+        -400.0, -400.0, hint_cell, out, owner)
     assert n > 5
     cam = Camera(position=(30, -260, 120), target=(0, 0, 0), size_px=(w, h))
     origin, direction = cam.screen_to_ray(out[:n].astype(float))
@@ -518,13 +525,13 @@ def test_near_water_probes_find_the_river_with_no_particle_on_it(rng):
     # a hint given up (x = inf) is not probed again; a new particle in the slot gets its own
     pool.water_hint_m[owner[:n], 0] = np.inf
     _, n2 = ka.check_outside_near_water(
-        *_near_args(pool, grid, r), 0, 1, 2**30, 2 * r, w, h, fwd, 30.0, -260.0, targets,
-        grids.water_m, -400.0, -400.0, 10.0, out, owner)
+        *_near_args(pool, grid, r), 0, 1, 2**30, 2 * r, w, h, fwd, 30.0, -260.0, hints,
+        -400.0, -400.0, hint_cell, out, owner)
     assert n2 == 0
     pool.ids[pool.alive] += 1000
     _, n3 = ka.check_outside_near_water(
-        *_near_args(pool, grid, r), 0, 1, 2**30, 2 * r, w, h, fwd, 30.0, -260.0, targets,
-        grids.water_m, -400.0, -400.0, 10.0, out, owner)
+        *_near_args(pool, grid, r), 0, 1, 2**30, 2 * r, w, h, fwd, 30.0, -260.0, hints,
+        -400.0, -400.0, hint_cell, out, owner)
     assert n3 == n
 
 
