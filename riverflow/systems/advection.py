@@ -22,7 +22,7 @@ from riverflow.kernels.raycast import cast_rays_onto_heightfield, height_pyramid
 _NO_LEVELS = np.zeros(0, np.int8)
 _NO_BOX = np.array([np.inf, np.inf, -np.inf, -np.inf])
 
-NEAR_CHECK_EVERY = 4
+NEAR_CHECK_EVERY = 8
 """An OUTSIDE particle is looked at every this many frames, staggered by slot: it probes its
 water hint (the deep water nearest to it in the world) when that is on screen nearby and no
 particle covers it."""
