@@ -72,8 +72,8 @@ def move_particles(n_slots, alive, has_world, world_m, velocity_mps, status, dt_
     ``water_m`` / ``ground_m`` (ny, nx) float32 are the water level (NaN where dry) and the
     terrain on a grid at (grid_x, grid_y) with ``grid_cell_m`` spacing: a moved particle takes
     the water altitude (the ground's where dry) once every ``z_every`` frames (a power of
-    two), staggered by slot (the lookups miss the cache; in those frames the level under a
-    particle moves by a fraction of a millimetre).
+    two), staggered by slot (the lookups miss the cache; over 16 frames the level under a
+    particle changes by at most 1.6 cm in the test flight, against a 0.25 m bound).
 
     The particles that ask the flow (INSIDE, UNKNOWN or LEAVING, with a world position) go to
     ``out_index`` (C,) int32 and, at their new positions, ``out_xy`` (C, 2) float64 [m]: first

@@ -31,7 +31,7 @@ NEAR_REPLACE_EVERY = 16
 (Proland replaces it every frame)."""
 NEAR_COVER = 2.0
 """A probe point closer than this · r to an INSIDE or LEAVING particle is covered."""
-ALTITUDE_EVERY = 4
+ALTITUDE_EVERY = 16
 """A moving particle's altitude is looked up again every this many frames, staggered."""
 VELOCITY_EVERY = 4
 """An INSIDE particle asks the flow for its velocity every this many frames, staggered (and
