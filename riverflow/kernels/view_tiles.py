@@ -40,11 +40,13 @@ def _box_outside_frustum(m, x0, y0, x1, y1, z0, z1):
 @njit(**JIT_OPTIONS)
 def select_view_tiles(
     clip_from_world, cam_x, cam_y, cam_z, rad_per_px, flow_tile_px, root_x, root_y,
-    root_size_m, n_cells, max_level, z_min, z_max, river_boxes, out_keys,
+    root_size_m, n_cells, max_level, z_min, z_max, slots_flat, level_offset, out_keys,
 ):
     """Fill ``out_keys`` (K, 3) int32 with (level, tx, ty) of the visible river tiles; returns
-    their number (at most K: the walk stops there). ``river_boxes`` (A, 4) float64 are the
-    xmin, ymin, xmax, ymax [m] of every axis's coverage."""
+    their number (at most K: the walk stops there). A tile holds no river when its slot in
+    ``slots_flat`` (every level's table, level l from ``level_offset[l]``, row-major) is
+    SLOT_DRY (−3: ``riverflow.kernels.flow.mark_dry_tiles`` marked it from every axis's
+    coverage box when the field was made)."""
     stack = np.empty((4 * (max_level + 1) + 4, 3), np.int64)
     stack[0, 0] = 0
     stack[0, 1] = 0
@@ -61,12 +63,7 @@ def select_view_tiles(
         y0 = root_y + ty * size
         x1 = x0 + size
         y1 = y0 + size
-        wet = False
-        for a in range(river_boxes.shape[0]):
-            if (river_boxes[a, 0] <= x1 and river_boxes[a, 2] >= x0
-                    and river_boxes[a, 1] <= y1 and river_boxes[a, 3] >= y0):
-                wet = True
-                break
+        wet = slots_flat[level_offset[level] + ty * (1 << level) + tx] != -3
         if not wet or _box_outside_frustum(clip_from_world, x0, y0, x1, y1, z_min, z_max):
             continue
         dx = max(x0 - cam_x, 0.0, cam_x - x1)

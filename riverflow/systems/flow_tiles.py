@@ -36,8 +36,8 @@ class ProduceFlowTiles(System):
                 n = select_view_tiles(
                     view.clip_from_world, *view.eye_m, view.rad_per_px, config.flow_tile_px,
                     tiles.root_x_m, tiles.root_y_m, tiles.root_size_m, tiles.n_cells,
-                    field.max_level, grids.z_min, grids.z_max, field.river_boxes,
-                    self._keys)
+                    field.max_level, grids.z_min, grids.z_max, tiles.slots_flat,
+                    tiles.level_offset, self._keys)
             self.visible = int(n)
             node.producer.request(self._keys[:n])
             self._sync_entities(tiles)
