@@ -26,7 +26,7 @@ NEAR_CHECK_EVERY = 8
 """An OUTSIDE particle is looked at every this many frames, staggered by slot: it probes its
 water hint (the deep water nearest to it in the world) when that is on screen nearby and no
 particle covers it."""
-NEAR_REPLACE_EVERY = 16
+NEAR_REPLACE_EVERY = 32
 """… and every this many frames one with an INSIDE particle nearby is replaced instead
 (Proland replaces it every frame)."""
 NEAR_COVER = 2.0
