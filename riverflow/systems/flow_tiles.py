@@ -18,6 +18,7 @@ class ProduceFlowTiles(System):
         self._keys = np.zeros((0, 3), np.int32)
         self._seen = (-1, -1)
         self._entities: dict[int, int] = {}  # slot → entity
+        self._synced = np.zeros((0, 3), np.int32)  # the slot keys the entities stand for
         self.visible = 0
         """Tiles in view at the last frame."""
 
@@ -43,16 +44,19 @@ class ProduceFlowTiles(System):
             self._sync_entities(tiles)
 
     def _sync_entities(self, tiles) -> None:
+        """One FlowTile entity per cached tile: the slots whose key changed since the last
+        sync get their entity replaced (a few a second, not every slot each time)."""
         if (tiles.produced, tiles.evicted) == self._seen:
             return
         self._seen = (tiles.produced, tiles.evicted)
-        used = {int(s) for s in np.flatnonzero(tiles.slot_key[:, 0] >= 0)}
-        for slot, ent in list(self._entities.items()):
-            tile = esper.try_component(ent, FlowTile)
-            key = tuple(int(v) for v in tiles.slot_key[slot])
-            if slot not in used or tile is None or (tile.level, tile.tx, tile.ty) != key:
+        if self._synced.shape != tiles.slot_key.shape:
+            self._synced = np.full_like(tiles.slot_key, -1)
+        changed = np.flatnonzero((tiles.slot_key != self._synced).any(axis=1))
+        for slot in changed.tolist():
+            ent = self._entities.pop(slot, None)
+            if ent is not None:
                 esper.delete_entity(ent)
-                del self._entities[slot]
-        for slot in used - set(self._entities):
-            level, tx, ty = (int(v) for v in tiles.slot_key[slot])
-            self._entities[slot] = esper.create_entity(FlowTile(level, tx, ty, slot))
+            level, tx, ty = tiles.slot_key[slot].tolist()
+            if level >= 0:
+                self._entities[slot] = esper.create_entity(FlowTile(level, tx, ty, slot))
+        self._synced[changed] = tiles.slot_key[changed]

@@ -253,6 +253,20 @@ def test_background_tile_production_fills_in(scene):
     world.close()
 
 
+def test_flow_tile_entities_follow_the_cache(flight):
+    """One FlowTile entity per cached tile, with its key and slot, after 1,000 frames of
+    tiles made and evicted."""
+    from riverflow.components.river import FlowTile
+
+    world = flight["world"]
+    tiles = world.field.tiles
+    with world.active():
+        got = sorted((t.slot, t.level, t.tx, t.ty) for _, t in esper.get_component(FlowTile))
+    want = sorted((int(s), *(int(v) for v in tiles.slot_key[s]))
+                  for s in np.flatnonzero(tiles.slot_key[:, 0] >= 0))
+    assert got == want and len(want) > 10
+
+
 def test_config_is_validated_and_reads_the_environment(monkeypatch):
     with pytest.raises(ValueError, match="radius_px"):
         RiverConfig(radius_px=0)
