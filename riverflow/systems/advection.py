@@ -24,8 +24,8 @@ _NO_BOX = np.array([np.inf, np.inf, -np.inf, -np.inf])
 
 NEAR_CHECK_EVERY = 8
 """An OUTSIDE particle is looked at every this many frames, staggered by slot: it probes its
-water hint (the deep water nearest to it in the world) when that is on screen nearby and no
-particle covers it."""
+water hint (deep water near its line of sight) when that is on screen nearby and no particle
+covers it."""
 NEAR_REPLACE_EVERY = 32
 """… and every this many frames one with an INSIDE particle nearby is replaced instead
 (Proland replaces it every frame)."""
