@@ -232,6 +232,30 @@ def _water_hint(x, y, sx, sy, eye_x, eye_y, m, width_px, height_px, hints, grid_
             out[k, 2] = hz
 
 
+@njit(inline="always", **JIT_OPTIONS)
+def _carrier_near(x, y, radius2, inside_only, cell_px, gw, gh, acc_start, acc_slot, acc_xy,
+                  carrier_cells, status, alive):
+    """Is a live INSIDE (``inside_only``) or INSIDE-or-LEAVING particle of the accepted ones
+    (by cell, pruned by ``carrier_cells``) closer to (x, y) than √``radius2`` (≤ ``cell_px``)?"""
+    bit = 1 if inside_only else 2
+    cx = min(max(int(math.floor(x / cell_px)), 0), gw - 1)
+    cy = min(max(int(math.floor(y / cell_px)), 0), gh - 1)
+    for ny in range(max(cy - 1, 0), min(cy + 2, gh)):
+        for nx in range(max(cx - 1, 0), min(cx + 2, gw)):
+            c = ny * gw + nx
+            if not carrier_cells[c] & bit:
+                continue
+            for k in range(acc_start[c], acc_start[c + 1]):
+                j = acc_slot[k]
+                st = status[j]
+                carrier = st == STATUS_INSIDE or (st == STATUS_LEAVING and not inside_only)
+                dx = acc_xy[k, 0] - x
+                dy = acc_xy[k, 1] - y
+                if carrier and alive[j] and dx * dx + dy * dy < radius2:
+                    return True
+    return False
+
+
 @njit(**JIT_OPTIONS)
 def check_outside_near_water(
     alive, ids, counters, status, screen_px, world_m, birth_s, water_hint_m, hint_id, now_s,
@@ -284,26 +308,10 @@ def check_outside_near_water(
         y = screen_px[i, 1]
         if (i + frame) & replace_mask == 0:
             # an INSIDE particle within reach: give way
-            cx = min(max(int(math.floor(x / cell_px)), 0), gw - 1)
-            cy = min(max(int(math.floor(y / cell_px)), 0), gh - 1)
-            found = False
-            for ny in range(max(cy - 1, 0), min(cy + 2, gh)):
-                for nx in range(max(cx - 1, 0), min(cx + 2, gw)):
-                    c = ny * gw + nx
-                    if not carrier_cells[c] & 1:
-                        continue
-                    for k in range(acc_start[c], acc_start[c + 1]):
-                        j = acc_slot[k]
-                        dx = acc_xy[k, 0] - x
-                        dy = acc_xy[k, 1] - y
-                        if status[j] == STATUS_INSIDE and alive[j] and dx * dx + dy * dy < reach2:
-                            found = True
-                            break
-                    if found:
-                        break
-                if found:
-                    break
-            if found:
+            if _carrier_near(x, y, reach2, True, cell_px, gw, gh, acc_start, acc_slot, acc_xy,
+                             carrier_cells, status, alive):
+                cx = min(max(int(math.floor(x / cell_px)), 0), gw - 1)
+                cy = min(max(int(math.floor(y / cell_px)), 0), gh - 1)
                 status[i] = STATUS_NEAR
                 free_particle(i, alive, ids, counters)
                 removed_cells[cy * gw + cx] = 1
@@ -329,28 +337,9 @@ def check_outside_near_water(
             continue
         if not (0.0 <= px < width_px and 0.0 <= py < height_px):
             continue
-        # covered: an INSIDE or LEAVING particle closer than cover_px
-        pcx = min(max(int(math.floor(px / cell_px)), 0), gw - 1)
-        pcy = min(max(int(math.floor(py / cell_px)), 0), gh - 1)
-        covered = False
-        for ny in range(max(pcy - 1, 0), min(pcy + 2, gh)):
-            for nx in range(max(pcx - 1, 0), min(pcx + 2, gw)):
-                c = ny * gw + nx
-                if not carrier_cells[c] & 2:
-                    continue
-                for k in range(acc_start[c], acc_start[c + 1]):
-                    s = status[acc_slot[k]]
-                    dx = acc_xy[k, 0] - px
-                    dy = acc_xy[k, 1] - py
-                    if (s == STATUS_INSIDE or s == STATUS_LEAVING) and dx * dx + dy * dy < cover2:
-                        covered = True
-                        break
-                if covered:
-                    break
-            if covered:
-                break
-        if covered:
-            continue
+        if _carrier_near(px, py, cover2, False, cell_px, gw, gh, acc_start, acc_slot, acc_xy,
+                         carrier_cells, status, alive):
+            continue  # covered: an INSIDE or LEAVING particle closer than cover_px
         out_xy[n, 0] = px
         out_xy[n, 1] = py
         out_owner[n] = i
