@@ -178,6 +178,18 @@ def apply_flow_status(
     return waiting
 
 
+@njit(inline="always", **JIT_OPTIONS)
+def _to_screen(m, x, y, z, width_px, height_px):
+    """(screen x, screen y [px], in front of the eye) of world point (x, y, z) [m] through the
+    column-vector clip-from-world matrix ``m`` (as ``project_particles``)."""
+    cw = m[3, 0] * x + m[3, 1] * y + m[3, 2] * z + m[3, 3]
+    if not cw > 1e-9:
+        return 0.0, 0.0, False
+    px = ((m[0, 0] * x + m[0, 1] * y + m[0, 2] * z + m[0, 3]) / cw * 0.5 + 0.5) * width_px
+    py = ((m[1, 0] * x + m[1, 1] * y + m[1, 2] * z + m[1, 3]) / cw * 0.5 + 0.5) * height_px
+    return px, py, True
+
+
 HINT_TRACK = np.array([0.0, -0.03, 0.03, -0.1, 0.1, -0.3, 0.3, 1.0])
 """Where the water hint of a land particle is looked for: the nearest deep water to points
 of its ray's ground track, at these fractions of its horizontal distance from the eye
@@ -217,13 +229,9 @@ def _water_hint(x, y, sx, sy, eye_x, eye_y, m, width_px, height_px, hints, grid_
         hx = hints[j, i, 0]
         hy = hints[j, i, 1]
         hz = hints[j, i, 2]
-        cw = m[3, 0] * hx + m[3, 1] * hy + m[3, 2] * hz + m[3, 3]
-        if not cw > 1e-9:
+        px, py, in_front = _to_screen(m, hx, hy, hz, width_px, height_px)
+        if not in_front:
             continue
-        px = ((m[0, 0] * hx + m[0, 1] * hy + m[0, 2] * hz + m[0, 3]) / cw * 0.5
-              + 0.5) * width_px
-        py = ((m[1, 0] * hx + m[1, 1] * hy + m[1, 2] * hz + m[1, 3]) / cw * 0.5
-              + 0.5) * height_px
         d = (px - sx) * (px - sx) + (py - sy) * (py - sy)
         if d < best:
             best = d
@@ -324,15 +332,10 @@ def check_outside_near_water(
         hx = water_hint_m[i, 0]
         if not hx < math.inf:
             continue
-        hy = water_hint_m[i, 1]
-        hz = water_hint_m[i, 2]
-        cw = m[3, 0] * hx + m[3, 1] * hy + m[3, 2] * hz + m[3, 3]
-        if not cw > 1e-9:
+        px, py, in_front = _to_screen(m, hx, water_hint_m[i, 1], water_hint_m[i, 2], width_px,
+                                      height_px)
+        if not in_front:
             continue
-        px = ((m[0, 0] * hx + m[0, 1] * hy + m[0, 2] * hz + m[0, 3]) / cw * 0.5
-              + 0.5) * width_px
-        py = ((m[1, 0] * hx + m[1, 1] * hy + m[1, 2] * hz + m[1, 3]) / cw * 0.5
-              + 0.5) * height_px
         if (px - x) * (px - x) + (py - y) * (py - y) >= reach2:
             continue
         if not (0.0 <= px < width_px and 0.0 <= py < height_px):
