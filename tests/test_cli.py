@@ -162,7 +162,7 @@ def test_profile_prints_per_system_timings_as_json(tiny_channel_path, tmp_path):
                      cwd=tmp_path)
     assert result.returncode == 0, result.stderr
     data = json.loads(result.stdout)
-    assert set(data["systems"]) == {"boat", "camera", "flow_tiles", "advection", "screen",
+    assert set(data["systems"]) == {"boat", "camera", "tiles", "advection", "screen",
                                     "lifecycle", "poisson", "placement", "waves"}
     for stats in [*data["systems"].values(), data["total"]]:
         assert 0 <= stats["p50_ms"] <= stats["p95_ms"] + 1e-9

@@ -1,69 +1,118 @@
-"""FlowTileCache: the flow tiles of a quadtree over the terrain, in one fixed-capacity pool.
+"""FlowTiles: the flow tiles of a quadtree over the river network (plain data).
 
-Plain data (Proland: the ``ObjectTileStorage`` of a ``HydroFlowProducer``). A tile at level ``l``
-covers a square of side ``root_size_m / 2**l`` and holds an ``n × n``-cell ψ lattice; tiles live
-in pool slots, and ``slots[l]`` maps tile (tx, ty) of level ``l`` to its slot (−1: not cached).
+Proland: the ``ObjectTileStorage`` of a ``HydroFlowProducer``. A tile at level ``l`` covers a
+square of side ``root_size_m / 2**l`` and holds an ``n × n``-cell ψ lattice. The tiles are the
+"flow" kind of the tile framework (:mod:`riverflow.tiles`): they live in the flow pool of a
+:class:`~riverflow.tiles.cache.TileCache` (shared with every other kind in a river world, under
+its memory budget), found through the pool's tile table; ``wet`` holds every tile an axis comes
+near, at every level (any other tile is dry: all OUTSIDE, never made). The quadtree has no
+depth limit: its finest level follows from the lattice spacing the narrowest river needs.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
-from riverflow.kernels.flow import CELL_SEGMENTS
+from riverflow.kernels.flow import CELL_SEGMENTS, CachedTiles
+from riverflow.tiles.cache import FieldSpec, TileCache, TilePool
+from riverflow.tiles.quadtree import Quadtree
+from riverflow.tiles.table import TileTable, tile_code
+
+FLOW_KIND = "flow"
+
+
+def flow_fields(n_cells: int) -> dict[str, FieldSpec]:
+    """The per-tile arrays of a flow tile with ``n_cells`` lattice cells per side."""
+    n = int(n_cells)
+    return {"psi": FieldSpec((n + 3, n + 3), np.float32, np.nan),         # points −1 … n+1
+            "cell_status": FieldSpec((n, n), np.uint8, 0),                 # CELL_*
+            "cell_segments": FieldSpec((n, n, CELL_SEGMENTS), np.int32, -1),
+            "inside_points": FieldSpec((), np.int32, 0)}                   # lattice points in water
 
 
 @dataclass(eq=False)
-class FlowTileCache:
-    """A bounded pool of flow tiles with least-recently-used eviction."""
+class FlowTiles:
+    """The flow kind's quadtree, pool and dry/wet marks."""
 
-    root_x_m: float
-    root_y_m: float
-    root_size_m: float
+    quadtree: Quadtree
     n_cells: int
     """Lattice cells per tile side."""
     max_level: int
-    capacity: int
-
-    psi: np.ndarray = field(init=False)            # (P, n+3, n+3) float32 ψ [m²/s], points −1…n+1
-    cell_status: np.ndarray = field(init=False)    # (P, n, n) uint8 CELL_*
-    cell_segments: np.ndarray = field(init=False)  # (P, n, n, CELL_SEGMENTS) int32
-    slot_key: np.ndarray = field(init=False)       # (P, 3) int32 level, tx, ty; level −1 = free
-    last_used: np.ndarray = field(init=False)      # (P,) int64 tick of the last use
-    inside_points: np.ndarray = field(init=False)  # (P,) int32 lattice points in the water
-    slots: list[np.ndarray] = field(init=False)    # per level: (2**l, 2**l) int32 slot or −1
-    slots_flat: np.ndarray = field(init=False)     # every level's table, level after level
-    level_offset: np.ndarray = field(init=False)   # (max_level + 2,) int64 start of each level
-    tick: int = 0
-    produced: int = 0
-    """Tiles computed so far (cache misses)."""
-    evicted: int = 0
+    cache: TileCache
+    wet: TileTable
 
     def __post_init__(self) -> None:
-        n, p = self.n_cells, self.capacity
-        self.psi = np.full((p, n + 3, n + 3), np.nan, np.float32)
-        self.cell_status = np.zeros((p, n, n), np.uint8)
-        self.cell_segments = np.full((p, n, n, CELL_SEGMENTS), -1, np.int32)
-        self.slot_key = np.full((p, 3), -1, np.int32)
-        self.last_used = np.zeros(p, np.int64)
-        self.inside_points = np.zeros(p, np.int32)
-        sizes = [1 << (2 * lv) for lv in range(self.max_level + 1)]
-        self.level_offset = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
-        self.slots_flat = np.full(int(self.level_offset[-1]), -1, np.int32)
-        self.slots = [self.slots_flat[self.level_offset[lv]:self.level_offset[lv + 1]]
-                      .reshape(1 << lv, 1 << lv) for lv in range(self.max_level + 1)]
+        self.pool: TilePool = self.cache.pool(FLOW_KIND, flow_fields(self.n_cells))
+
+    # -- geometry -----------------------------------------------------------------------------
+
+    @property
+    def root_x_m(self) -> float:
+        return self.quadtree.root_x_m
+
+    @property
+    def root_y_m(self) -> float:
+        return self.quadtree.root_y_m
+
+    @property
+    def root_size_m(self) -> float:
+        return self.quadtree.root_size_m
 
     def tile_size_m(self, level: int) -> float:
-        return self.root_size_m / (1 << level)
+        return self.quadtree.tile_size_m(level)
 
     def spacing_m(self, level: int) -> float:
         """Lattice spacing h [m] of a tile at ``level``."""
-        return self.tile_size_m(level) / self.n_cells
+        return self.quadtree.cell_m(level, self.n_cells)
 
     def tile_origin_m(self, level: int, tx: int, ty: int) -> tuple[float, float]:
-        size = self.tile_size_m(level)
-        return self.root_x_m + tx * size, self.root_y_m + ty * size
+        return self.quadtree.tile_origin_m(level, tx, ty)
+
+    # -- residency ----------------------------------------------------------------------------
+
+    def slot_of(self, level: int, tx: int, ty: int) -> int:
+        """The pool slot of a cached tile, −1 if it is not cached."""
+        return self.pool.slot(tile_code(level, tx, ty))
+
+    def is_wet(self, level: int, tx: int, ty: int) -> bool:
+        """False when no river axis comes near the tile (it is never made)."""
+        return tile_code(level, tx, ty) in self.wet
+
+    @property
+    def psi(self) -> np.ndarray:
+        return self.pool.arrays["psi"]
+
+    @property
+    def cell_status(self) -> np.ndarray:
+        return self.pool.arrays["cell_status"]
+
+    @property
+    def cell_segments(self) -> np.ndarray:
+        return self.pool.arrays["cell_segments"]
 
     @property
     def cached(self) -> int:
-        return int((self.slot_key[:, 0] >= 0).sum())
+        return len(self.pool)
+
+    @property
+    def produced(self) -> int:
+        """Tiles installed so far (cache misses)."""
+        return self.pool.installed
+
+    @property
+    def evicted(self) -> int:
+        return self.pool.evicted
+
+    @property
+    def capacity(self) -> int:
+        """How many flow tiles the cache's budget holds."""
+        return max(1, self.cache.budget_bytes // self.pool.tile_bytes)
+
+    def view(self) -> CachedTiles:
+        """The tiles as the query kernels read them (rebuilt per call: the pool may grow)."""
+        p = self.pool
+        return CachedTiles(self.quadtree.root_x_m, self.quadtree.root_y_m,
+                           self.quadtree.root_size_m, self.n_cells, p.table.keys,
+                           p.table.values, self.wet.keys, self.wet.values, p.arrays["psi"],
+                           p.arrays["cell_status"], p.arrays["cell_segments"], p.last_used)

@@ -7,22 +7,24 @@ import numpy as np
 
 from riverflow.hydro.flow_field import FlowField
 from riverflow.hydro.graph import HydroGraph
-from riverflow.hydro.tile_producer import FlowTileProducer
+from riverflow.tiles.cache import TileCache
+from riverflow.tiles.scheduler import TileScheduler
 
 
 @dataclass(eq=False)
 class RiverNode:
-    """A river network and what produces its flow (Proland: the rivers scene node)."""
+    """A river network and its flow (Proland: the rivers scene node)."""
 
     graph: HydroGraph
     field: FlowField
-    producer: FlowTileProducer
 
 
 @dataclass(eq=False)
-class FlowTile:
-    """A cached flow tile (one entity per cache slot in use)."""
+class Tile:
+    """A resident tile of any kind ("flow", "height", …): one entity per tile in the cache,
+    with its quadtree key and its slot in the kind's pool."""
 
+    kind: str
     level: int
     tx: int
     ty: int
@@ -30,13 +32,12 @@ class FlowTile:
 
 
 @dataclass(eq=False)
-class TerrainTile:
-    """One square of the terrain heightfield (drawn as one mesh)."""
+class Tiles:
+    """The world's tile framework (a resource): one cache under one memory budget, and the
+    scheduler that makes the tiles the view needs (SPEC §8)."""
 
-    ix: int
-    iy: int
-    origin_m: tuple[float, float]
-    size_m: float
+    cache: TileCache
+    scheduler: TileScheduler
 
 
 @dataclass(eq=False)

@@ -64,17 +64,19 @@ class RiverConfig:
     potential_delta_m: float | None = None
     """ψ-lattice spacing of the finest flow tiles [m]; None: the narrowest river / 24."""
 
-    flow_tile_cache: int = 256
-    """Flow tiles kept in the cache."""
+    tile_cache_mb: float = 256.0
+    """Memory budget of the tile cache [MiB], shared by every kind of tile (flow, terrain,
+    water, meshes, particle tables): least recently used tiles are evicted beyond it (the
+    tiles the current view uses always stay)."""
 
     flow_tile_px: float = 2.0
     """Wanted lattice spacing of the flow tile under a point, in screen pixels: tiles far away
     are coarser (quadtree level chosen per tile from its distance to the camera)."""
 
     tile_production: str = "background"
-    """"background": flow tiles are made by a worker thread, never stalling a frame (until a
-    tile is ready the coarser parent serves); "blocking": made in the frame that needs them
-    (deterministic: scripted runs and tests)."""
+    """"background": tiles of every kind are made by a worker thread, never stalling a frame
+    (until a tile is ready its coarser parent serves); "blocking": made in the frame that
+    needs them (deterministic: scripted runs and tests)."""
 
     random_offset_min_m: tuple[float, float] = (-1.0, -1.0)
     """Lower corner of the per-particle random sprite offset box [m] (Proland RandomParticleLayer
@@ -99,7 +101,7 @@ class RiverConfig:
     def __post_init__(self) -> None:
         positive = ("capacity", "radius_px", "cull_radius_factor", "spawn_gap_factor",
                     "grid_cell_factor", "fade_in_s", "active_s", "fade_out_s",
-                    "search_radius_factor", "slip", "flow_tile_cache", "flow_tile_px", "max_step_s", "near_m", "far_m",
+                    "search_radius_factor", "slip", "tile_cache_mb", "flow_tile_px", "max_step_s", "near_m", "far_m",
                     "fov_y_deg")
         for name in positive:
             value = getattr(self, name)

@@ -2,7 +2,7 @@
 
 1. boats (``MoveBoats``: the boats' physics, and their hulls as obstacles in the flow; a host
    game's input comes before ``world.step``)   2. camera
-3. flow-tile production   4. advection   5. screen projection   6. life cycle
+3. tile production (every kind: flow, terrain, water, meshes, particle tables)   4. advection   5. screen projection   6. life cycle
 7. Poisson-disk maintenance, then placement of the new particles   8. wave-tile animation
 9. drawing (``gl=True`` worlds only; it is the one "draw"-phase system: ``world.step`` runs
    1–8, ``world.draw`` / ``world.render`` run 9, so a game may step at a fixed rate and draw
@@ -14,17 +14,17 @@ from riverflow.engine.system import System
 from riverflow.systems.advection import AdvectParticles
 from riverflow.systems.boat import MoveBoats
 from riverflow.systems.camera import UpdateCamera
-from riverflow.systems.flow_tiles import ProduceFlowTiles
 from riverflow.systems.lifecycle import AgeParticles
 from riverflow.systems.placement import PlaceNewParticles
 from riverflow.systems.poisson import MaintainPoissonDisk
 from riverflow.systems.screen import ProjectParticles
+from riverflow.systems.tiles import ProduceTiles
 from riverflow.systems.waves import AnimateWaveTiles
 
 SYSTEM_ORDER = (
     "boat",
     "camera",
-    "flow_tiles",
+    "tiles",
     "advection",
     "screen",
     "lifecycle",
@@ -39,7 +39,7 @@ SYSTEM_ORDER = (
 def default_systems(gl: bool = True) -> list[System]:
     """A fresh instance of every default system, in frame order; ``gl=False`` leaves out the
     draw system (and never imports OpenGL)."""
-    systems = [MoveBoats(), UpdateCamera(), ProduceFlowTiles(), AdvectParticles(),
+    systems = [MoveBoats(), UpdateCamera(), ProduceTiles(), AdvectParticles(),
                ProjectParticles(), AgeParticles(), MaintainPoissonDisk(), PlaceNewParticles(),
                AnimateWaveTiles()]
     if gl:

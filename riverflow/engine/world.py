@@ -28,14 +28,15 @@ import numpy as np
 
 from riverflow.components.display import DisplaySettings
 from riverflow.components.particles import LiveParticles, ParticlePool
-from riverflow.components.river import (Clock, FrameView, RiverNode, ScreenGrid, SurfaceGrids,
-                                        TerrainTile)
+from riverflow.components.river import Clock, FrameView, RiverNode, ScreenGrid, SurfaceGrids, Tiles
 from riverflow.engine.camera import Camera
 from riverflow.engine.config import RiverConfig
 from riverflow.engine.schedule import default_systems
 from riverflow.engine.system import System
 from riverflow.hydro.flow_field import FlowField
-from riverflow.hydro.tile_producer import FlowTileProducer
+from riverflow.hydro.tile_producer import FlowProducer
+from riverflow.tiles.cache import TileCache
+from riverflow.tiles.scheduler import TileScheduler
 
 T = TypeVar("T")
 
@@ -68,28 +69,22 @@ class RiverWorld:
         self.timings_ms: dict[str, float] = {}
         c = self.config
         x0, y0, x1, y1 = scene.bounds_m
+        cache = TileCache(int(c.tile_cache_mb * (1 << 20)))
         field = FlowField(scene.graph, c.slip, c.search_radius_factor,
-                          potential_delta_m=c.potential_delta_m, cache_tiles=c.flow_tile_cache,
+                          potential_delta_m=c.potential_delta_m, cache=cache,
                           domain_m=(x0, y0, max(x1 - x0, y1 - y0)))
         self.field = field
-        producer = FlowTileProducer(field, c.tile_production)
+        self.tiles = Tiles(cache, TileScheduler(cache, [FlowProducer(field)], c.tile_production))
         camera = Camera(position=(x0, y0, 100.0), target=(0.5 * (x0 + x1), 0.5 * (y0 + y1), 0.0),
                         fov_y_deg=c.fov_y_deg, near_m=c.near_m, far_m=c.far_m,
                         size_px=tuple(int(v) for v in size))
         self.camera = camera
         for resource in (camera, c, Clock(speed_factor=c.speed_factor), FrameView(),
-                         _surface_grids(scene), DisplaySettings()):
+                         _surface_grids(scene), DisplaySettings(), self.tiles):
             self.insert(resource)
         with self.active():
-            self.river = esper.create_entity(RiverNode(scene.graph, field, producer),
+            self.river = esper.create_entity(RiverNode(scene.graph, field),
                                              ParticlePool(c.capacity), ScreenGrid(c.capacity))
-            terrain = scene.terrain
-            nx, ny = terrain.tile_count
-            for iy in range(ny):
-                for ix in range(nx):
-                    origin = terrain.origin_m + np.array([ix, iy]) * terrain.tile_size_m
-                    esper.create_entity(TerrainTile(ix, iy, (float(origin[0]), float(origin[1])),
-                                                    terrain.tile_size_m))
             if self.gl:
                 _add_wave_tiles(self.seed)
         self.systems = systems if systems is not None else default_systems(self.gl)
@@ -276,9 +271,7 @@ class RiverWorld:
         """Stop worker threads and release GPU objects; delete the esper world."""
         for system in self.systems:
             system.close()
-        with self.active():
-            for _, node in esper.get_component(RiverNode):
-                node.producer.close()
+        self.tiles.scheduler.close()
         if esper.current_world != self.name and self.name in esper.list_worlds():
             esper.delete_world(self.name)
 

@@ -24,15 +24,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from riverflow.components.flow_tiles import FlowTileCache
+from riverflow.components.flow_tiles import FLOW_KIND, FlowTiles, flow_fields
 from riverflow.components.status import FlowStatus
 from riverflow.hydro.flow_network import FlowNetwork, build_flow_network
 from riverflow.hydro.graph import GraphError, HydroGraph
 from riverflow.kernels import flow as kf
 from riverflow.kernels import obstacles as ko
-
-MAX_LEVEL = 10
-"""Deepest quadtree level (1024 × 1024 tiles)."""
+from riverflow.kernels.flow import Segments
+from riverflow.tiles.cache import TileCache
+from riverflow.tiles.coverage import coverage_table
+from riverflow.tiles.quadtree import Quadtree
+from riverflow.tiles.table import tile_code
 
 _NO_LEVELS = np.zeros(0, np.int8)
 _NO_OBSTACLES = np.zeros((0, ko.OBSTACLE_FIELDS))
@@ -78,9 +80,15 @@ class FlowField:
         potential_delta_m: wanted ψ-lattice spacing of the finest tiles [m] (Proland
             ``potentialDelta``); default: the narrowest axis width / 24.
         lattice_cells: lattice cells per tile side (Proland ``displayTileSize``, 192 there).
-        cache_tiles: capacity of the tile cache.
+        cache_tiles: how many flow tiles a field's own cache holds (its byte budget); unused
+            when ``cache`` is given.
         domain_m: (xmin, ymin, size) of the root square; default: the graph's bounds, padded.
         tolerance_m: Bézier flattening tolerance; default: the narrowest width / 200.
+        cache: the :class:`~riverflow.tiles.cache.TileCache` to keep the tiles in (a river
+            world shares one between every kind of tile); default: a cache of its own.
+
+    The quadtree's finest level follows from the domain and ``potential_delta_m`` (no fixed
+    limit), so a 1000 km network has the same finest lattice as a 4 km one.
 
     Raises:
         GraphError: the graph cannot carry a flow (see :func:`build_flow_network`).
@@ -98,6 +106,7 @@ class FlowField:
         cache_tiles: int = 256,
         domain_m: tuple[float, float, float] | None = None,
         tolerance_m: float | None = None,
+        cache: TileCache | None = None,
     ) -> None:
         for label, value in (("slip", slip), ("search_radius_factor", search_radius_factor)):
             if not (math.isfinite(value) and value > 0.0):
@@ -122,17 +131,20 @@ class FlowField:
             size = max(x1 - x0, y1 - y0) + 2.0 * pad
             domain_m = (0.5 * (x0 + x1) - 0.5 * size, 0.5 * (y0 + y1) - 0.5 * size, size)
         root_x, root_y, root_size = (float(v) for v in domain_m)
-        if not (root_size > 0.0 and math.isfinite(root_x) and math.isfinite(root_y)):
+        if not (root_size > 0.0 and math.isfinite(root_x) and math.isfinite(root_y)
+                and math.isfinite(root_size)):
             raise ValueError(f"FlowField: bad domain {domain_m!r}")
-        level = max(0, math.ceil(math.log2(root_size / (lattice_cells * delta))))
-        self.max_level = min(level, MAX_LEVEL)
-        self.tiles = FlowTileCache(root_x, root_y, root_size, lattice_cells, self.max_level,
-                                   cache_tiles)
-        self._builder = TileBuilder(self)
+        quadtree = Quadtree(root_x, root_y, root_size)
+        self.max_level = quadtree.level_for_cell(delta, lattice_cells)
+        if cache is None:
+            tile_bytes = sum(f.nbytes for f in flow_fields(lattice_cells).values())
+            cache = TileCache(cache_tiles * tile_bytes)
         self.river_boxes = self.network.river_boxes()
-        t = self.tiles
-        kf.mark_dry_tiles(t.slots_flat, t.level_offset, self.max_level, t.root_x_m, t.root_y_m,
-                          t.root_size_m, self.river_boxes)
+        self.tiles = FlowTiles(quadtree, lattice_cells, self.max_level, cache,
+                               coverage_table(quadtree, self.network.axis_segments(),
+                                              self.network.axis_half_widths(), self.max_level))
+        self.segments = Segments(*self.network.geometry_args())
+        self._builder = TileBuilder(self)
         self._obstacle_sets: dict[str, np.ndarray] = {}
         self.obstacles: np.ndarray = _NO_OBSTACLES
         """(K, OBSTACLE_FIELDS) float64: every obstacle, set by set_obstacles (read-only)."""
@@ -166,16 +178,14 @@ class FlowField:
         lv = self._level(level)
         status = np.empty(len(pts), np.uint8)
         velocity = np.empty((len(pts), 2), np.float32)
-        t = self.tiles
-        t.tick += 1
-        args = (_NO_LEVELS, lv, 0, t.root_x_m, t.root_y_m, t.root_size_m, t.n_cells,
-                t.slots_flat, t.level_offset, t.psi, t.cell_status, t.cell_segments,
-                t.last_used, t.tick, *self.network.geometry_args())
-        if kf.query_velocity(pts, *args, len(pts), status, velocity):  # some tiles not cached
+        tick = self.tiles.cache.next_tick()
+        if kf.query_velocity(pts, _NO_LEVELS, lv, 0, self.tiles.view(), tick, self.segments,
+                             len(pts), status, velocity):  # some tiles are not cached
             for idx in self._batches(pts, lv, np.flatnonzero(status == FlowStatus.UNKNOWN)):
                 s_out = np.empty(len(idx), np.uint8)
                 v_out = np.empty((len(idx), 2), np.float32)
-                kf.query_velocity(pts[idx], *args, len(idx), s_out, v_out)
+                kf.query_velocity(pts[idx], _NO_LEVELS, lv, 0, self.tiles.view(),
+                                  self.tiles.cache.tick, self.segments, len(idx), s_out, v_out)
                 status[idx] = s_out
                 velocity[idx] = v_out
         if len(self.obstacles) and exclude_obstacles is not True:
@@ -191,17 +201,15 @@ class FlowField:
         pts = self._points(xy)
         lv = self._level(level)
         psi = np.empty(len(pts))
-        t = self.tiles
-        t.tick += 1
-        args = (_NO_LEVELS, lv, 0, t.root_x_m, t.root_y_m, t.root_size_m, t.n_cells,
-                t.slots_flat, t.level_offset, t.psi, t.cell_status, t.cell_segments,
-                t.last_used, t.tick, *self.network.geometry_args())
-        if kf.sample_potential(pts, *args, psi):  # some tiles are not cached yet
+        tick = self.tiles.cache.next_tick()
+        if kf.sample_potential(pts, _NO_LEVELS, lv, 0, self.tiles.view(), tick, self.segments,
+                               psi):  # some tiles are not cached yet
             missing = self.tile_of(pts, lv)[:, 0] >= 0
             missing &= np.isnan(psi)
             for idx in self._batches(pts, lv, np.flatnonzero(missing)):
                 out = np.empty(len(idx))
-                kf.sample_potential(pts[idx], *args, out)
+                kf.sample_potential(pts[idx], _NO_LEVELS, lv, 0, self.tiles.view(),
+                                    self.tiles.cache.tick, self.segments, out)
                 psi[idx] = out
         obstacles = self._obstacles_without(exclude_obstacles)
         if len(obstacles):
@@ -275,11 +283,8 @@ class FlowField:
         idx = index[:n]
         pts = np.ascontiguousarray(xy[idx])
         psi = np.empty(n)
-        t = self.tiles
         kf.sample_potential(pts, levels[idx] if len(levels) else levels, level, fallback,
-                            t.root_x_m, t.root_y_m, t.root_size_m, t.n_cells, t.slots_flat,
-                            t.level_offset, t.psi, t.cell_status, t.cell_segments, t.last_used,
-                            t.tick, *self.network.geometry_args(), psi)
+                            self.tiles.view(), self.tiles.cache.tick, self.segments, psi)
         return int(ko.apply_obstacles(xy, index, n, psi, obstacles, status, velocity))
 
     def _obstacles_without(self, exclude: Iterable[int] | bool) -> np.ndarray:
@@ -328,29 +333,22 @@ class FlowField:
         """Make sure tiles (tx, ty) of ``level`` are cached (produced now if not); returns the
         number produced. Raises ValueError if more are asked at once than the cache holds."""
         keys = list(dict.fromkeys((int(x), int(y)) for x, y in keys))
-        if len(keys) > self.tiles.capacity:
-            raise ValueError(f"{len(keys)} tiles asked at once; the cache holds "
-                             f"{self.tiles.capacity}")
         t = self.tiles
-        t.tick += 1
-        table = t.slots[level]
+        if len(keys) > t.capacity:
+            raise ValueError(f"{len(keys)} tiles asked at once; the cache holds {t.capacity}")
+        tick = t.cache.next_tick()
+        codes = [tile_code(level, tx, ty) for tx, ty in keys]
+        missing = set(t.pool.mark_used(np.array(codes, np.int64), tick).tolist())
         made = 0
-        pinned = [table[ty, tx] for tx, ty in keys if table[ty, tx] >= 0]
-        t.last_used[pinned] = t.tick
-        for tx, ty in keys:
-            if table[ty, tx] >= 0 or table[ty, tx] == kf.SLOT_DRY:
-                continue
-            slot = self._free_slot()
-            self._produce(level, tx, ty, slot)
-            t.last_used[slot] = t.tick
-            made += 1
+        for code, (tx, ty) in zip(codes, keys):
+            if code in missing and t.is_wet(level, tx, ty):
+                t.cache.install(FLOW_KIND, code, self._builder.make(level, tx, ty))
+                made += 1
         return made
 
     def clear_tiles(self) -> None:
         """Drop every cached tile (e.g. after editing the graph or the options)."""
-        t = self.tiles
-        t.slots_flat[t.slots_flat >= 0] = kf.SLOT_MISSING
-        t.slot_key[:] = -1
+        self.tiles.pool.clear()
 
     # -- internals -----------------------------------------------------------------------------
 
@@ -387,49 +385,6 @@ class FlowField:
             self.ensure_tiles(level, [(int(k % n), int(k // n)) for k in batch])
             yield index if len(unique) <= cap else index[np.isin(flat, batch)]
 
-    def _free_slot(self) -> int:
-        t = self.tiles
-        free = np.flatnonzero(t.slot_key[:, 0] < 0)
-        if len(free):
-            return int(free[0])
-        candidates = np.flatnonzero(t.last_used < t.tick)
-        if not len(candidates):
-            raise RuntimeError("flow tile cache is full of tiles in use")
-        slot = int(candidates[np.argmin(t.last_used[candidates])])
-        lv, tx, ty = t.slot_key[slot]
-        t.slots[lv][ty, tx] = -1
-        t.slot_key[slot] = -1
-        t.evicted += 1
-        return slot
-
-    def _produce(self, level: int, tx: int, ty: int, slot: int) -> None:
-        t = self.tiles
-        inside = self._builder.build(level, tx, ty, t.psi[slot], t.cell_status[slot],
-                                     t.cell_segments[slot])
-        self._register(level, tx, ty, slot, inside)
-
-    def install_tile(self, level: int, tx: int, ty: int, psi: np.ndarray, cell_status: np.ndarray,
-                     cell_segments: np.ndarray, inside_points: int) -> bool:
-        """Copy a tile built elsewhere (a worker thread's :class:`TileBuilder`) into the cache;
-        False if it is already there."""
-        t = self.tiles
-        if t.slots[level][ty, tx] >= 0:
-            return False
-        slot = self._free_slot()
-        t.psi[slot] = psi
-        t.cell_status[slot] = cell_status
-        t.cell_segments[slot] = cell_segments
-        self._register(level, tx, ty, slot, inside_points)
-        t.last_used[slot] = t.tick
-        return True
-
-    def _register(self, level: int, tx: int, ty: int, slot: int, inside_points: int) -> None:
-        t = self.tiles
-        t.inside_points[slot] = inside_points
-        t.slot_key[slot] = (level, tx, ty)
-        t.slots[level][ty, tx] = slot
-        t.produced += 1
-
 
 class TileBuilder:
     """Scratch arrays to build flow tiles of one field; one per thread (kernels release the GIL)."""
@@ -454,12 +409,15 @@ class TileBuilder:
         return (self.blk_curve, self.blk_start, self.blk_count, self.blk_seg, self.blk_dmin2,
                 self.tmp_d2, self.gval)
 
-    def outputs(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Fresh (psi, cell_status, cell_segments) arrays for one tile."""
-        t = self.field.tiles
-        n = t.n_cells
-        return (np.empty((n + 3, n + 3), t.psi.dtype), np.empty((n, n), np.uint8),
-                np.empty((n, n, kf.CELL_SEGMENTS), np.int32))
+    def make(self, level: int, tx: int, ty: int) -> dict[str, np.ndarray]:
+        """Tile (level, tx, ty) in fresh arrays, as the flow pool stores it."""
+        n = self.field.tiles.n_cells
+        psi = np.empty((n + 3, n + 3), np.float32)
+        status = np.empty((n, n), np.uint8)
+        segments = np.empty((n, n, kf.CELL_SEGMENTS), np.int32)
+        inside = self.build(level, tx, ty, psi, status, segments)
+        return {"psi": psi, "cell_status": status, "cell_segments": segments,
+                "inside_points": np.int32(inside)}
 
     def build(self, level: int, tx: int, ty: int, psi: np.ndarray, cell_status: np.ndarray,
               cell_segments: np.ndarray) -> int:

@@ -68,6 +68,19 @@ class FlowNetwork:
         hw = np.sqrt(self.curve_hw2[axes])[:, None]
         return np.ascontiguousarray(self.curve_bbox[axes] + np.hstack([-hw, -hw, hw, hw]))
 
+    def axis_segments(self) -> np.ndarray:
+        """(S, 4) float64 [m] ax, ay, bx, by of every axis segment."""
+        rows = [np.stack([self.seg_ax[a:b], self.seg_ay[a:b], self.seg_bx[a:b], self.seg_by[a:b]],
+                         1) for c, (a, b) in enumerate(zip(self.curve_seg0, self.curve_seg1))
+                if self.curve_kind[c] == KIND_AXIS]
+        return np.concatenate(rows) if rows else np.zeros((0, 4))
+
+    def axis_half_widths(self) -> np.ndarray:
+        """(S,) float64 [m] the half width of the axis of each of :meth:`axis_segments`."""
+        axes = np.flatnonzero(self.curve_kind == KIND_AXIS)
+        counts = self.curve_seg1[axes] - self.curve_seg0[axes]
+        return np.repeat(np.sqrt(self.curve_hw2[axes]), counts)
+
     def geometry_args(self) -> tuple:
         """The segment arrays, in kernel argument order."""
         return (self.seg_ax, self.seg_ay, self.seg_bx, self.seg_by)

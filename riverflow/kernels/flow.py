@@ -31,11 +31,13 @@ No kernel allocates: scratch arrays come from the caller (:class:`FlowScratch`).
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
 
 from riverflow.kernels._jit import JIT_OPTIONS
+from riverflow.kernels.tile_table import table_find, tile_code
 
 KIND_AXIS = 0
 KIND_BANK = 1
@@ -527,19 +529,54 @@ def _catmull_rom(t):
     return w0, w1, w2, w3, d0, d1, d2, d3
 
 
+class CachedTiles(NamedTuple):
+    """The flow tiles as the query kernels read them (built by ``FlowTiles.view()``).
+
+    The quadtree root (``root_x``, ``root_y`` [m], side ``root_size`` [m]) and ``n_cells``
+    lattice cells per tile side; ``keys``/``values`` the tile table (code → pool slot,
+    :mod:`riverflow.kernels.tile_table`); ``wet_keys``/``wet_values`` the tiles an axis comes
+    near (any other tile is dry: all OUTSIDE); the pool's columns ``psi`` (P, n+3, n+3) float32
+    (lattice points −1 … n+1), ``cell_status`` (P, n, n) uint8, ``cell_segments``
+    (P, n, n, CELL_SEGMENTS) int32 and ``last_used`` (P,) int64 (LRU stamps).
+    """
+
+    root_x: float
+    root_y: float
+    root_size: float
+    n_cells: int
+    keys: np.ndarray
+    values: np.ndarray
+    wet_keys: np.ndarray
+    wet_values: np.ndarray
+    psi: np.ndarray
+    cell_status: np.ndarray
+    cell_segments: np.ndarray
+    last_used: np.ndarray
+
+
+class Segments(NamedTuple):
+    """The network's segments (S,) float64 [m]: a → b; banks and caps have the water on their
+    left."""
+
+    ax: np.ndarray
+    ay: np.ndarray
+    bx: np.ndarray
+    by: np.ndarray
+
+
 @njit(inline="always", **JIT_OPTIONS)
-def _locate(px, py, root_x, root_y, root_size_m, n_cells, slots_flat, level_offset, level,
-            fallback):
-    """(slot, level, cell i, cell j, fx, fy) of p: the tile of ``level`` under p, or of up to
-    ``fallback`` coarser levels when that one is not cached.
+def _locate(px, py, tiles, level, fallback):
+    """(slot, level, cell i, cell j, fx, fy) of p: the cached tile of ``level`` under p, or of
+    up to ``fallback`` coarser levels when that one is not cached.
 
     slot = SLOT_OUTSIDE_DOMAIN outside the domain, SLOT_MISSING when no such tile is cached,
     SLOT_DRY when the tile (at any level tried) is known to hold no river.
     """
-    u0 = (px - root_x) / root_size_m
-    v0 = (py - root_y) / root_size_m
+    u0 = (px - tiles.root_x) / tiles.root_size
+    v0 = (py - tiles.root_y) / tiles.root_size
     if not (u0 >= 0.0 and v0 >= 0.0 and u0 <= 1.0 and v0 <= 1.0):
         return -2, level, 0, 0, 0.0, 0.0
+    n_cells = tiles.n_cells
     lv = level
     while True:
         nt = 1 << lv
@@ -547,23 +584,23 @@ def _locate(px, py, root_x, root_y, root_size_m, n_cells, slots_flat, level_offs
         v = v0 * nt
         tx = min(int(u), nt - 1)
         ty = min(int(v), nt - 1)
-        slot = slots_flat[level_offset[lv] + ty * nt + tx]
-        if slot == SLOT_DRY:
-            return slot, lv, 0, 0, 0.0, 0.0
+        code = tile_code(lv, tx, ty)
+        slot = table_find(tiles.keys, tiles.values, code)
         if slot >= 0:
             fu = (u - tx) * n_cells
             fv = (v - ty) * n_cells
             ci = min(int(fu), n_cells - 1)
             cj = min(int(fv), n_cells - 1)
             return slot, lv, ci, cj, fu - ci, fv - cj
+        if table_find(tiles.wet_keys, tiles.wet_values, code) < 0:
+            return SLOT_DRY, lv, 0, 0, 0.0, 0.0
         if lv == 0 or level - lv >= fallback:
             return -1, level, 0, 0, 0.0, 0.0
         lv -= 1
 
 
 @njit(inline="always", **JIT_OPTIONS)
-def _boundary_inside(px, py, slot, ci, cj, fx, fy, cell_segments, psi_pool,
-                     seg_ax, seg_ay, seg_bx, seg_by):
+def _boundary_inside(px, py, slot, ci, cj, fx, fy, cell_segments, psi_pool, segs):
     """Exact inside test in a BOUNDARY cell: the sign of the nearest listed bank/cap segment.
 
     Called only for boundary cells: the hot loops test the cell status inline (numba's
@@ -574,7 +611,7 @@ def _boundary_inside(px, py, slot, ci, cj, fx, fy, cell_segments, psi_pool,
         s = cell_segments[slot, cj, ci, q]
         if s < 0:
             break
-        cur = _nearer(cur, _signed_dist2(px, py, seg_ax[s], seg_ay[s], seg_bx[s], seg_by[s]))
+        cur = _nearer(cur, _signed_dist2(px, py, segs.ax[s], segs.ay[s], segs.bx[s], segs.by[s]))
     if cur != np.inf:
         return cur >= 0.0
     # mixed corners, no boundary segment: the nearest lattice corner decides
@@ -613,33 +650,55 @@ def _fill_stencil(patch):
 
 
 @njit(**JIT_OPTIONS)
-def query_velocity(
-    xy, levels, level, fallback, root_x, root_y, root_size_m, n_cells, slots_flat, level_offset,
-    psi_pool, cell_status, cell_segments, slot_last_used, tick, seg_ax, seg_ay, seg_bx, seg_by,
-    n_velocity, out_status, out_velocity,
-):
-    """Velocity [m/s] and FlowStatus at each point of ``xy`` (N, 2) from cached tiles; the
-    points from ``n_velocity`` on get their status alone (no ψ stencil read, velocity 0).
+def query_velocity(xy, levels, level, fallback, tiles, tick, segs, n_velocity, out_status,
+                   out_velocity):
+    """Velocity [m/s] and FlowStatus at each point of ``xy`` (N, 2) from cached tiles
+    (:class:`CachedTiles`); the points from ``n_velocity`` on get their status alone (no ψ
+    stencil read, velocity 0).
 
     Point k uses the tiles of quadtree ``level`` (≥ 0), or of ``levels[k]`` when ``level`` < 0,
-    falling back on up to ``fallback`` coarser levels when that tile is not cached.
-    ``slots_flat`` maps the tiles of every level to pool slots (level l starts at
-    ``level_offset[l]``, row-major 2^l × 2^l); the slots used get ``slot_last_used[slot] = tick``
-    (LRU bookkeeping). ``psi_pool`` (P, n+3, n+3), ``cell_status`` (P, n, n) uint8,
-    ``cell_segments`` (P, n, n, CELL_SEGMENTS) int32. Writes ``out_status`` (N,) uint8 and
-    ``out_velocity`` (N, 2) float32 (zero unless INSIDE; never NaN). Returns the number of
-    points with no cached tile (status UNKNOWN).
+    falling back on up to ``fallback`` coarser levels when that tile is not cached. The slots
+    used get ``tiles.last_used[slot] = tick`` (LRU bookkeeping). ``segs``: the network's
+    :class:`Segments`. Writes ``out_status`` (N,) uint8 and ``out_velocity`` (N, 2) float32
+    (zero unless INSIDE; never NaN). Returns the number of points with no cached tile (status
+    UNKNOWN).
     """
     patch = np.empty((4, 4))
     missing = 0
+    psi_pool = tiles.psi
+    cell_status = tiles.cell_status
+    last_used = tiles.last_used
+    inv_root = 1.0 / tiles.root_size
+    memo_code = np.int64(-1)
+    memo = (0, 0)
     for k in range(xy.shape[0]):
         px = xy[k, 0]
         py = xy[k, 1]
         out_velocity[k, 0] = 0.0
         out_velocity[k, 1] = 0.0
-        slot, lv, ci, cj, fx, fy = _locate(px, py, root_x, root_y, root_size_m, n_cells,
-                                           slots_flat, level_offset,
-                                           level if level >= 0 else levels[k], fallback)
+        want = level if level >= 0 else np.int64(levels[k])
+        # consecutive points mostly share a tile: skip the table when this one is the last one
+        u0 = (px - tiles.root_x) * inv_root
+        v0 = (py - tiles.root_y) * inv_root
+        code = np.int64(-2)
+        if u0 >= 0.0 and v0 >= 0.0 and u0 <= 1.0 and v0 <= 1.0:
+            nt = 1 << want
+            code = tile_code(want, min(int(u0 * nt), nt - 1), min(int(v0 * nt), nt - 1))
+        if code == memo_code and code >= 0:
+            slot, lv = memo
+            nt = 1 << lv
+            u = u0 * nt
+            v = v0 * nt
+            fu = (u - min(int(u), nt - 1)) * tiles.n_cells
+            fv = (v - min(int(v), nt - 1)) * tiles.n_cells
+            ci = min(int(fu), tiles.n_cells - 1)
+            cj = min(int(fv), tiles.n_cells - 1)
+            fx = fu - ci
+            fy = fv - cj
+        else:
+            slot, lv, ci, cj, fx, fy = _locate(px, py, tiles, want, fallback)
+            memo_code = code
+            memo = (slot, lv)
         if slot == SLOT_OUTSIDE_DOMAIN:
             out_status[k] = STATUS_OUTSIDE_DOMAIN
             continue
@@ -650,11 +709,10 @@ def query_velocity(
             out_status[k] = STATUS_UNKNOWN
             missing += 1
             continue
-        slot_last_used[slot] = tick
+        last_used[slot] = tick
         cell = cell_status[slot, cj, ci]
         if cell == CELL_OUTSIDE or (cell == CELL_BOUNDARY and not _boundary_inside(
-                px, py, slot, ci, cj, fx, fy, cell_segments, psi_pool,
-                seg_ax, seg_ay, seg_bx, seg_by)):
+                px, py, slot, ci, cj, fx, fy, tiles.cell_segments, psi_pool, segs)):
             out_status[k] = STATUS_OUTSIDE
             continue
         out_status[k] = STATUS_INSIDE
@@ -681,7 +739,7 @@ def query_velocity(
         r3d = _rows(dx0, dx1, dx2, dx3, patch[3, 0], patch[3, 1], patch[3, 2], patch[3, 3])
         gx = _rows(wy0, wy1, wy2, wy3, r0d, r1d, r2d, r3d)
         gy = _rows(dy0, dy1, dy2, dy3, r0w, r1w, r2w, r3w)
-        inv_h = (1 << lv) * n_cells / root_size_m
+        inv_h = (1 << lv) * tiles.n_cells * inv_root
         vx = -gy * inv_h
         vy = gx * inv_h
         if math.isfinite(vx) and math.isfinite(vy):
@@ -691,32 +749,27 @@ def query_velocity(
 
 
 @njit(**JIT_OPTIONS)
-def sample_potential(
-    xy, levels, level, fallback, root_x, root_y, root_size_m, n_cells, slots_flat, level_offset,
-    psi_pool, cell_status, cell_segments, slot_last_used, tick, seg_ax, seg_ay, seg_bx, seg_by,
-    out_psi,
-):
+def sample_potential(xy, levels, level, fallback, tiles, tick, segs, out_psi):
     """Interpolated ψ [m²/s] at each point of ``xy`` (N, 2) from cached tiles into ``out_psi``
-    (N,) float64: NaN outside the water, outside the domain or in an uncached tile. Levels as
-    in :func:`query_velocity`."""
+    (N,) float64: NaN outside the water, outside the domain or in an uncached tile. Levels and
+    arguments as in :func:`query_velocity`. Returns the number of points with no cached tile."""
     patch = np.empty((4, 4))
     missing = 0
+    psi_pool = tiles.psi
     for k in range(xy.shape[0]):
         px = xy[k, 0]
         py = xy[k, 1]
         out_psi[k] = np.nan
-        slot, lv, ci, cj, fx, fy = _locate(px, py, root_x, root_y, root_size_m, n_cells,
-                                           slots_flat, level_offset,
-                                           level if level >= 0 else levels[k], fallback)
+        slot, lv, ci, cj, fx, fy = _locate(px, py, tiles, level if level >= 0 else levels[k],
+                                           fallback)
         if slot < 0:
             if slot == SLOT_MISSING:
                 missing += 1
             continue
-        slot_last_used[slot] = tick
-        cell = cell_status[slot, cj, ci]
+        tiles.last_used[slot] = tick
+        cell = tiles.cell_status[slot, cj, ci]
         if cell == CELL_OUTSIDE or (cell == CELL_BOUNDARY and not _boundary_inside(
-                px, py, slot, ci, cj, fx, fy, cell_segments, psi_pool,
-                seg_ax, seg_ay, seg_bx, seg_by)):
+                px, py, slot, ci, cj, fx, fy, tiles.cell_segments, psi_pool, segs)):
             continue
         total = 0.0
         for r in range(4):
@@ -735,28 +788,3 @@ def sample_potential(
                     _rows(wx0, wx1, wx2, wx3, patch[3, 0], patch[3, 1], patch[3, 2], patch[3, 3]))
         out_psi[k] = acc
     return missing
-
-
-@njit(**JIT_OPTIONS)
-def mark_dry_tiles(slots_flat, level_offset, max_level, root_x, root_y, root_size_m,
-                   river_boxes):
-    """Set SLOT_DRY for every tile of every level that no ``river_boxes`` (A, 4) [m] (axis
-    coverage boxes xmin, ymin, xmax, ymax) touches; returns how many."""
-    dry = 0
-    for lv in range(max_level + 1):
-        nt = 1 << lv
-        size = root_size_m / nt
-        for ty in range(nt):
-            y0 = root_y + ty * size
-            for tx in range(nt):
-                x0 = root_x + tx * size
-                wet = False
-                for a in range(river_boxes.shape[0]):
-                    if (river_boxes[a, 0] <= x0 + size and river_boxes[a, 2] >= x0
-                            and river_boxes[a, 1] <= y0 + size and river_boxes[a, 3] >= y0):
-                        wet = True
-                        break
-                if not wet:
-                    slots_flat[level_offset[lv] + ty * nt + tx] = SLOT_DRY
-                    dry += 1
-    return dry

@@ -209,14 +209,10 @@ def query_flow(field: FlowField, xy: np.ndarray, status: np.ndarray, velocity: n
     """Flow status (N,) uint8 and velocity (N, 2) float32 [m/s] at ``xy`` (N, 2) float64 [m]
     from the finest cached tile under each, bent around the field's obstacles; the points from
     ``n_velocity`` on get their status alone."""
-    t = field.tiles
-    t.tick += 1
     n = len(xy)
     n_velocity = n if n_velocity is None else n_velocity
-    query_velocity(xy, _NO_LEVELS, field.max_level, field.max_level,
-                   t.root_x_m, t.root_y_m, t.root_size_m, t.n_cells, t.slots_flat,
-                   t.level_offset, t.psi, t.cell_status, t.cell_segments, t.last_used, t.tick,
-                   *field.network.geometry_args(), n_velocity, status[:n], velocity[:n])
+    query_velocity(xy, _NO_LEVELS, field.max_level, field.max_level, field.tiles.view(),
+                   field.tiles.cache.tick, field.segments, n_velocity, status[:n], velocity[:n])
     if len(field.obstacles) and n_velocity:
         field.apply_obstacles(xy[:n_velocity], status[:n_velocity], velocity[:n_velocity],
                               level=field.max_level, fallback=field.max_level)

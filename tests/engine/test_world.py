@@ -232,7 +232,7 @@ def test_worlds_do_not_see_each_others_entities(scene):
 
 def test_system_order_is_the_one_list():
     assert [s.name for s in default_systems()] == list(SYSTEM_ORDER)
-    assert SYSTEM_ORDER == ("boat", "camera", "flow_tiles", "advection", "screen", "lifecycle",
+    assert SYSTEM_ORDER == ("boat", "camera", "tiles", "advection", "screen", "lifecycle",
                             "poisson", "placement", "waves", "draw")
     assert [s.name for s in default_systems(gl=False)] == list(SYSTEM_ORDER[:-1])
     assert [s.phase for s in default_systems()] == ["update"] * 9 + ["draw"]
@@ -242,10 +242,7 @@ def test_background_tile_production_fills_in(scene):
     world = RiverWorld(scene, size=(W, H), config=RiverConfig(radius_px=R), seed=0)
     world.camera.look_at(*flight_pose(scene, 0))
     world.step(1 / 60)
-    from riverflow.components.river import RiverNode
-
-    node = world.component(RiverNode)
-    node.producer.wait()
+    assert world.tiles.scheduler.wait()
     for _ in range(30):
         world.step(1 / 60)
     assert world.field.tiles.cached > 0
@@ -253,18 +250,19 @@ def test_background_tile_production_fills_in(scene):
     world.close()
 
 
-def test_flow_tile_entities_follow_the_cache(flight):
-    """One FlowTile entity per cached tile, with its key and slot, after 1,000 frames of
-    tiles made and evicted."""
-    from riverflow.components.river import FlowTile
+def test_tile_entities_follow_the_cache(flight):
+    """One Tile entity per resident tile of every kind, with its key and slot, after 1,000
+    frames of tiles made and evicted."""
+    from riverflow.components.river import Tile
+    from riverflow.tiles.table import tile_code
 
     world = flight["world"]
-    tiles = world.field.tiles
     with world.active():
-        got = sorted((t.slot, t.level, t.tx, t.ty) for _, t in esper.get_component(FlowTile))
-    want = sorted((int(s), *(int(v) for v in tiles.slot_key[s]))
-                  for s in np.flatnonzero(tiles.slot_key[:, 0] >= 0))
-    assert got == want and len(want) > 10
+        got = sorted((t.kind, t.slot, t.level, t.tx, t.ty)
+                     for _, t in esper.get_component(Tile))
+    want = sorted((kind, pool.slot(tile_code(*key)), *key)
+                  for kind, pool in world.tiles.cache.pools.items() for key in pool.keys())
+    assert got == want and sum(1 for g in got if g[0] == "flow") > 10
 
 
 def test_config_is_validated_and_reads_the_environment(monkeypatch):

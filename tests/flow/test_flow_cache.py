@@ -65,13 +65,13 @@ def test_tiles_are_reproducible_and_cleared():
     line = field.network.polylines[0]
     tx, ty = (int(v) for v in field.tile_of(line[len(line) // 2][None], lv)[0])
     field.ensure_tiles(lv, [(tx, ty)])
-    slot = field.tiles.slots[lv][ty, tx]
+    slot = field.tiles.slot_of(lv, tx, ty)
     first = field.tiles.psi[slot].copy()
     field.clear_tiles()
     assert field.tiles.cached == 0
     assert field.ensure_tiles(lv, [(tx, ty)]) == 1
     assert field.ensure_tiles(lv, [(tx, ty)]) == 0
-    npt.assert_array_equal(field.tiles.psi[field.tiles.slots[lv][ty, tx]], first)
+    npt.assert_array_equal(field.tiles.psi[field.tiles.slot_of(lv, tx, ty)], first)
     with pytest.raises(ValueError):
         field.ensure_tiles(lv, [(i, 0) for i in range(field.tiles.capacity + 1)])
 

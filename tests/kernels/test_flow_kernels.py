@@ -71,7 +71,7 @@ def test_flow_tile_lattice_matches_reference(field):
     xy = np.array(field.network.polylines[0][len(field.network.polylines[0]) // 2])[None]
     field.query(xy)
     tx, ty = field.tile_of(xy, lv)[0]
-    slot = t.slots[lv][ty, tx]
+    slot = t.slot_of(lv, tx, ty)
     ox, oy = t.tile_origin_m(lv, tx, ty)
     h = t.spacing_m(lv)
     idx = np.arange(-1, t.n_cells + 2)
@@ -95,7 +95,7 @@ def test_query_velocity_matches_reference(field, rng):
     checked = 0
     for k in np.flatnonzero(status == rf.FlowStatus.INSIDE)[:300]:
         tx, ty = keys[k]
-        slot = t.slots[lv][ty, tx]
+        slot = t.slot_of(lv, tx, ty)
         ox, oy = t.tile_origin_m(lv, tx, ty)
         i, j = int((pts[k, 0] - ox) / h), int((pts[k, 1] - oy) / h)
         if np.isnan(t.psi[slot, j:j + 4, i:i + 4]).any():
@@ -109,10 +109,8 @@ def test_query_velocity_matches_reference(field, rng):
     half = len(pts) // 2
     s2 = np.empty(len(pts), np.uint8)
     v2 = np.full((len(pts), 2), 9.0, np.float32)
-    query_velocity(np.ascontiguousarray(pts), np.zeros(0, np.int8), lv, lv, t.root_x_m,
-                   t.root_y_m, t.root_size_m, t.n_cells, t.slots_flat, t.level_offset, t.psi,
-                   t.cell_status, t.cell_segments, t.last_used, t.tick,
-                   *field.network.geometry_args(), half, s2, v2)
+    query_velocity(np.ascontiguousarray(pts), np.zeros(0, np.int8), lv, lv, t.view(),
+                   t.cache.tick, field.segments, half, s2, v2)
     npt.assert_array_equal(s2, status)
     npt.assert_array_equal(v2[:half], vel[:half])
     assert np.all(v2[half:] == 0.0)
@@ -126,8 +124,8 @@ def test_boundary_cells_are_where_banks_cross(field):
     field.query(np.array(net.polylines[0]))
     banks = shapely.MultiLineString([p for p, k in zip(net.polylines, net.curve_kind)
                                      if k != kf.KIND_AXIS])
-    for slot in np.flatnonzero(t.slot_key[:, 0] == lv)[:4]:
-        _, tx, ty = t.slot_key[slot]
+    for level, tx, ty in [k for k in t.pool.keys() if k[0] == lv][:4]:
+        slot = t.slot_of(level, tx, ty)
         ox, oy = t.tile_origin_m(lv, tx, ty)
         j, i = np.mgrid[0:t.n_cells, 0:t.n_cells]
         cells = shapely.box(ox + i * h, oy + j * h, ox + (i + 1) * h, oy + (j + 1) * h)

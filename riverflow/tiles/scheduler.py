@@ -1,0 +1,339 @@
+"""Producers and the TileScheduler: tiles made on demand, in a worker thread or at once.
+
+Re-does Proland's ``TileProducer`` + ``Scheduler`` (reference §2.2, §3.4) for every kind of
+tile (SPEC §8). A :class:`Producer` makes the tiles of one kind from their key alone, possibly
+reading tiles of other kinds (its :meth:`~Producer.dependencies`: the same key or its parent),
+so a tile's content depends only on its key and the sources, never on what was made or evicted
+before. The :class:`TileScheduler` takes requests (the tiles a frame needs), produces missing
+dependencies first, and installs results into the :class:`~riverflow.tiles.cache.TileCache`:
+
+* ``"background"``: one daemon worker thread produces (numba kernels and shapely release the
+  GIL, so it runs beside the frame on another core); :meth:`TileScheduler.collect` installs
+  finished tiles at the start of a frame. A frame never waits: what is missing is read at a
+  coarser level by whoever needs it. Coarse levels are made first; requests that no frame has
+  repeated for ``stale_frames`` are dropped unmade (a fast flight leaves no backlog).
+* ``"blocking"``: :meth:`TileScheduler.request` produces and installs at once (scripted runs and
+  tests are deterministic).
+
+A resident dependency is pinned (never evicted) until the tile that reads it is installed.
+A producer that raises does not crash the frame: the error is kept in ``errors`` and that tile
+is not asked for again.
+"""
+from __future__ import annotations
+
+import itertools
+import queue
+import threading
+import time
+import weakref
+from collections import deque
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from riverflow.tiles.cache import FieldSpec, TileCache
+from riverflow.tiles.quadtree import TileKey
+from riverflow.tiles.table import code_key, codes as codes_of, tile_code
+
+Dep = tuple[str, TileKey]
+
+
+class Producer:
+    """Makes the tiles of one kind. Subclasses set ``kind`` and ``fields`` (per-tile arrays
+    that kernels read; None: one Python object per tile) and implement :meth:`produce`."""
+
+    kind: str = "tile"
+    fields: Mapping[str, FieldSpec] | None = None
+    max_level: int = 0
+    """Deepest level this kind is made at."""
+
+    def dependencies(self, key: TileKey) -> Sequence[Dep]:
+        """Tiles of other kinds this tile is made from (same key or its parent)."""
+        return ()
+
+    def is_empty(self, key: TileKey) -> bool:
+        """True when the tile is known to hold nothing (it is never made; readers treat it as
+        empty, not as missing)."""
+        return False
+
+    def produce(self, key: TileKey, deps: Mapping[Dep, Any]) -> Any:
+        """The tile's content: for array kinds a mapping or tuple of arrays in ``fields``
+        order, else any object. Must depend only on ``key``, ``deps`` and the sources. Runs in
+        the worker thread in background mode."""
+        raise NotImplementedError
+
+    def nbytes(self, data: Any) -> int:
+        """Bytes an object tile holds (array kinds: from their fields)."""
+        return 0
+
+
+@dataclass(eq=False)
+class _Job:
+    kind: str
+    key: TileKey
+    code: int
+    resident: dict = field(default_factory=dict)   # dep → (pool, slot, data view), pinned
+    awaited: list = field(default_factory=list)    # deps being produced by earlier jobs
+
+
+class TileScheduler:
+    """Requests, production and installation of tiles of every kind (module docstring)."""
+
+    def __init__(self, cache: TileCache, producers: Iterable[Producer] = (),
+                 mode: str = "background", stale_frames: int = 30) -> None:
+        if mode not in ("background", "blocking"):
+            raise ValueError(f"mode must be 'background' or 'blocking', got {mode!r}")
+        self.cache = cache
+        self.mode = mode
+        self.stale_frames = int(stale_frames)
+        self.frame = 0
+        """Calls of :meth:`collect` so far (one a frame)."""
+        self.producers: dict[str, Producer] = {}
+        self.errors: list[str] = []
+        self.requested = 0
+        """Tiles queued or produced since the start."""
+        self._pending: set[tuple[str, int]] = set()
+        self._failed: set[tuple[str, int]] = set()
+        self._wanted: dict[tuple[str, int], int] = {}
+        self._queue: queue.PriorityQueue = queue.PriorityQueue()
+        self._seq = itertools.count()
+        self._done: deque = deque()
+        self._fresh: dict[tuple[str, int], Any] = {}
+        self._awaiting: dict[tuple[str, int], int] = {}
+        self._lock = threading.Lock()
+        self._thread: threading.Thread | None = None
+        for producer in producers:
+            self.add(producer)
+
+    def add(self, producer: Producer) -> None:
+        """Register the producer of a kind (and make its pool)."""
+        if producer.kind in self.producers:
+            raise ValueError(f"a producer of {producer.kind!r} tiles is already registered")
+        self.producers[producer.kind] = producer
+        self.cache.pool(producer.kind, producer.fields)
+
+    # -- requests --------------------------------------------------------------------------
+
+    def request(self, kind: str, keys: np.ndarray | Iterable[TileKey]) -> int:
+        """Ask for tiles of ``kind`` ((K, 3) (level, tx, ty) rows; the frame asks for every
+        tile it needs every frame). Resident ones are marked used; the others are queued
+        (background) or made now (blocking), their dependencies first. Returns how many were
+        queued or made."""
+        pool = self.cache.pools[kind]
+        codes = codes_of(keys)
+        missing = pool.mark_used(codes, self.cache.tick)
+        started = 0
+        producer = self.producers[kind]
+        for code in missing.tolist():
+            item = (kind, code)
+            self._wanted[item] = self.frame
+            if item in self._pending or item in self._failed:
+                continue
+            key = code_key(code)
+            if producer.is_empty(key):
+                continue
+            started += self._start(kind, key, code)
+        return started
+
+    def _start(self, kind: str, key: TileKey, code: int) -> int:
+        """Queue (or make) one missing tile, its missing dependencies first."""
+        if self.mode == "blocking":
+            self._make_now(kind, key, code)
+            return 1
+        job = _Job(kind, key, code)
+        started = 1
+        for dep in self.producers[kind].dependencies(key):
+            dkind, dkey = dep
+            dcode = tile_code(*dkey)
+            dpool = self.cache.pools[dkind]
+            slot = dpool.slot(dcode)
+            if slot >= 0:
+                dpool.pins[slot] += 1
+                dpool.last_used[slot] = self.cache.tick
+                job.resident[dep] = (dpool, slot, dpool.tile(slot))
+                continue
+            if self.producers[dkind].is_empty(dkey):
+                job.resident[dep] = (None, -1, None)
+                continue
+            if (dkind, dcode) in self._failed:
+                self._unpin(job)
+                self._failed.add((kind, code))
+                self.errors.append(f"{kind} tile {key}: its {dkind} tile {dkey} failed")
+                return 0
+            if (dkind, dcode) not in self._pending:
+                self._wanted[(dkind, dcode)] = self.frame
+                started += self._start(dkind, dkey, dcode)
+            with self._lock:
+                self._awaiting[(dkind, dcode)] = self._awaiting.get((dkind, dcode), 0) + 1
+            job.awaited.append(dep)
+        self._pending.add((kind, code))
+        self.requested += 1
+        self._ensure_thread()
+        self._queue.put((key[0], next(self._seq), job))
+        return started
+
+    def _make_now(self, kind: str, key: TileKey, code: int) -> None:
+        """Blocking mode: make the dependencies that are not resident, then the tile; install."""
+        deps: dict[Dep, Any] = {}
+        pinned = []
+        for dep in self.producers[kind].dependencies(key):
+            dkind, dkey = dep
+            dcode = tile_code(*dkey)
+            dpool = self.cache.pools[dkind]
+            if self.producers[dkind].is_empty(dkey):
+                deps[dep] = None
+                continue
+            if dpool.slot(dcode) < 0:
+                self._make_now(dkind, dkey, dcode)
+            slot = dpool.slot(dcode)
+            if slot < 0:                                # it failed
+                self._failed.add((kind, code))
+                return
+            dpool.pins[slot] += 1
+            dpool.last_used[slot] = self.cache.tick
+            pinned.append((dpool, slot))
+            deps[dep] = dpool.tile(slot)
+        try:
+            data = self.producers[kind].produce(key, deps)
+        except Exception as exc:  # a bad source value must not crash the frame
+            self._record_failure(kind, key, code, exc)
+            data = None
+        for dpool, slot in pinned:
+            dpool.pins[slot] = max(dpool.pins[slot] - 1, 0)
+        self.requested += 1
+        if data is not None:
+            self.cache.install(kind, code, data, self.producers[kind].nbytes(data))
+
+    # -- worker and installation -----------------------------------------------------------------
+
+    def _ensure_thread(self) -> None:
+        if self._thread is None:
+            self._thread = threading.Thread(target=_work, args=(weakref.ref(self), self._queue),
+                                            name="riverflow-tiles", daemon=True)
+            self._thread.start()
+
+    def _run(self, job: _Job) -> None:
+        """Worker side: make one queued tile (or drop it if no frame wants it any more)."""
+        item = (job.kind, job.code)
+        stale = self.frame - self._wanted.get(item, -10**9) > self.stale_frames
+        with self._lock:
+            awaited_by_others = self._awaiting.get(item, 0) > 0
+        if stale and not awaited_by_others:
+            self._release_awaited(job)
+            self._done.append((job, None, None))
+            return
+        deps: dict[Dep, Any] = {dep: view for dep, (_, _, view) in job.resident.items()}
+        error = None
+        with self._lock:
+            for dep in job.awaited:
+                dcode = tile_code(*dep[1])
+                data = self._fresh.get((dep[0], dcode))
+                if data is None:
+                    error = RuntimeError(f"its {dep[0]} tile {dep[1]} was not made")
+                deps[dep] = data
+        data = None
+        if error is None:
+            try:
+                data = self.producers[job.kind].produce(job.key, deps)
+            except Exception as exc:  # reported on the main thread by collect()
+                error = exc
+        if data is not None:
+            with self._lock:
+                self._fresh[item] = data
+        self._release_awaited(job)
+        self._done.append((job, data, error))
+
+    def _release_awaited(self, job: _Job) -> None:
+        with self._lock:
+            for dep in job.awaited:
+                k = (dep[0], tile_code(*dep[1]))
+                self._awaiting[k] = self._awaiting.get(k, 1) - 1
+                if self._awaiting[k] <= 0:
+                    del self._awaiting[k]
+
+    def collect(self) -> int:
+        """Install the tiles the worker finished (main thread, start of a frame); returns how
+        many were installed."""
+        self.frame += 1
+        return self._install()
+
+    def _install(self) -> int:
+        installed = 0
+        while self._done:
+            job, data, error = self._done.popleft()
+            item = (job.kind, job.code)
+            self._pending.discard(item)
+            self._unpin(job)
+            if error is not None:
+                self._record_failure(job.kind, job.key, job.code, error)
+            elif data is not None:
+                pool = self.cache.pools[job.kind]
+                if job.code not in pool:
+                    pool.store(job.code, data, self.producers[job.kind].nbytes(data),
+                               self.cache.tick)
+                    installed += 1
+        if installed:
+            self.cache.evict_to_budget()
+        with self._lock:
+            for item in [k for k in self._fresh if k not in self._pending
+                         and self._awaiting.get(k, 0) == 0]:
+                del self._fresh[item]
+        if len(self._wanted) > 4 * len(self._pending) + 4096:
+            old = self.frame - self.stale_frames
+            self._wanted = {k: f for k, f in self._wanted.items()
+                            if f >= old or k in self._pending}
+        return installed
+
+    def _unpin(self, job: _Job) -> None:
+        for pool, slot, _ in job.resident.values():
+            if pool is not None:
+                pool.pins[slot] = max(pool.pins[slot] - 1, 0)
+        job.resident = {}
+
+    def _record_failure(self, kind: str, key: TileKey, code: int, exc: BaseException) -> None:
+        self._failed.add((kind, code))
+        if len(self.errors) < 100:
+            self.errors.append(f"{kind} tile {key}: {type(exc).__name__}: {exc}")
+
+    @property
+    def pending(self) -> int:
+        return len(self._pending)
+
+    def wait(self, timeout_s: float = 60.0) -> bool:
+        """Block until every queued tile is made and installed (tests, loading screens).
+        Returns False on timeout."""
+        end = time.perf_counter() + timeout_s
+        while self._pending and time.perf_counter() < end:
+            self._install()
+            if self._pending:
+                time.sleep(0.001)
+        self._install()
+        return not self._pending
+
+    def close(self) -> None:
+        """Stop the worker thread (queued tiles are dropped)."""
+        if self._thread is not None:
+            self._queue.put((-1, -1, None))
+            self._thread.join(timeout=10.0)
+            self._thread = None
+
+
+def _work(ref: weakref.ref, jobs: queue.PriorityQueue) -> None:
+    """The worker loop. It holds the scheduler only while making a tile, so a scheduler
+    nobody uses any more is collected (and its thread ends)."""
+    while True:
+        try:
+            _, _, job = jobs.get(timeout=1.0)
+        except queue.Empty:
+            if ref() is None:
+                return
+            continue
+        if job is None:
+            return
+        scheduler = ref()
+        if scheduler is None:
+            return
+        scheduler._run(job)
+        del scheduler

@@ -1,0 +1,164 @@
+"""The scheduler: dependencies first, blocking and background production, identical results
+whatever the cache size or the order tiles are asked in, failures that never crash a frame."""
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+import pytest
+
+from riverflow.tiles.cache import FieldSpec, TileCache
+from riverflow.tiles.quadtree import Quadtree, parent
+from riverflow.tiles.scheduler import Producer, TileScheduler
+from riverflow.tiles.table import tile_code
+
+N = 8
+
+
+class Heights(Producer):
+    kind = "h"
+    fields = {"z": FieldSpec((N + 1, N + 1), np.float64, np.nan)}
+
+    def __init__(self) -> None:
+        self.quadtree = Quadtree(0.0, 0.0, 1024.0)
+        self.made = 0
+        self.threads: set[str] = set()
+
+    def produce(self, key, deps):
+        self.made += 1
+        self.threads.add(threading.current_thread().name)
+        x, y = self.quadtree.node_coords(*key, N)
+        return {"z": np.sin(x[None, :] / 37.0) + np.cos(y[:, None] / 53.0)}
+
+
+class Slopes(Producer):
+    """Reads the height tile of the same key and of its parent."""
+
+    kind = "s"
+    fields = {"dz": FieldSpec((N + 1, N + 1), np.float64, np.nan)}
+
+    def dependencies(self, key):
+        up = parent(key)
+        return [("h", key)] + ([("h", up)] if up else [])
+
+    def is_empty(self, key):
+        return key == (1, 1, 1)
+
+    def produce(self, key, deps):
+        z = deps[("h", key)]["z"]
+        up = parent(key)
+        base = 0.0 if up is None else float(deps[("h", up)]["z"][0, 0])
+        return {"dz": np.gradient(z, axis=1) + base}
+
+
+class Broken(Producer):
+    kind = "b"
+
+    def produce(self, key, deps):
+        raise FloatingPointError("a NaN in the source")
+
+
+def _keys(level: int) -> np.ndarray:
+    side = 1 << level
+    j, i = np.mgrid[0:side, 0:side]
+    return np.stack([np.full(side * side, level), i.ravel(), j.ravel()], 1)
+
+
+def _run(budget_bytes: int, mode: str, order: np.ndarray) -> dict:
+    cache = TileCache(budget_bytes)
+    sched = TileScheduler(cache, [Heights(), Slopes()], mode)
+    out = {}
+    for key in order:
+        cache.next_tick()
+        sched.request("s", key[None])
+        assert sched.wait(10.0)
+        pool = cache.pools["s"]
+        got = pool.get(tile_code(*key))
+        if tuple(key) == (1, 1, 1):
+            assert got is None  # empty: never made
+            continue
+        out[tuple(key)] = got["dz"].copy()
+    sched.close()
+    return out
+
+
+def test_dependencies_are_made_first_and_results_do_not_depend_on_history():
+    keys = np.concatenate([_keys(0), _keys(1), _keys(2), _keys(3)])
+    tile = Heights().fields["z"].nbytes
+    unbounded = _run(1 << 30, "blocking", keys)
+    rng = np.random.default_rng(1)
+    shuffled = keys[rng.permutation(len(keys))]
+    tiny = _run(3 * tile, "blocking", shuffled)          # tiles evicted and made again
+    background = _run(1 << 30, "background", shuffled[::-1])
+    assert unbounded.keys() == tiny.keys() == background.keys()
+    for key, value in unbounded.items():
+        assert np.array_equal(value, tiny[key]) and np.array_equal(value, background[key]), key
+
+
+def test_background_mode_makes_tiles_in_the_worker_and_installs_in_collect():
+    cache = TileCache(1 << 30)
+    heights = Heights()
+    sched = TileScheduler(cache, [heights, Slopes()], "background")
+    assert sched.request("s", _keys(2)) > 16        # slope tiles and their height tiles
+    assert len(cache.pools["s"]) == 0                 # nothing installed before a collect
+    assert sched.wait(10.0)
+    assert len(cache.pools["s"]) == 16 and len(cache.pools["h"]) == 16 + 4
+    assert heights.threads == {"riverflow-tiles"}
+    assert sched.request("s", _keys(2)) == 0          # resident: nothing more to do
+    assert cache.pools["h"].pins.sum() == 0           # dependencies unpinned once used
+    sched.close()
+
+
+def test_requests_no_frame_repeats_are_dropped_unmade():
+    cache = TileCache(1 << 30)
+    heights = Heights()
+    sched = TileScheduler(cache, [heights], "background", stale_frames=2)
+    gate = threading.Event()
+    original = heights.produce
+
+    def slow(key, deps):
+        gate.wait(5.0)
+        return original(key, deps)
+
+    heights.produce = slow
+    sched.request("h", _keys(3))                      # 64 queued, the worker waits on the first
+    for _ in range(5):
+        sched.collect()                               # frames that no longer ask for them
+    gate.set()
+    assert sched.wait(10.0)
+    assert heights.made < 8
+    sched.close()
+
+
+def test_a_failing_producer_is_reported_not_raised_and_not_retried():
+    cache = TileCache(1 << 30)
+    for mode in ("blocking", "background"):
+        sched = TileScheduler(cache if mode == "blocking" else TileCache(1 << 20), [Broken()], mode)
+        sched.request("b", [(0, 0, 0)])
+        assert sched.wait(5.0)
+        assert len(sched.errors) == 1 and "FloatingPointError" in sched.errors[0]
+        assert "(0, 0, 0)" in sched.errors[0]
+        assert sched.request("b", [(0, 0, 0)]) == 0
+        sched.close()
+
+
+def test_the_worker_ends_when_the_scheduler_is_dropped():
+    import gc
+    import time
+
+    sched = TileScheduler(TileCache(1 << 20), [Heights()], "background")
+    sched.request("h", [(0, 0, 0)])
+    sched.wait(5.0)
+    thread = sched._thread
+    del sched
+    gc.collect()
+    thread.join(timeout=5.0)
+    assert not thread.is_alive()
+    time.sleep(0)
+
+
+def test_bad_mode_and_duplicate_kinds_are_refused():
+    with pytest.raises(ValueError, match="mode"):
+        TileScheduler(TileCache(1 << 20), [], "sometimes")
+    with pytest.raises(ValueError, match="already"):
+        TileScheduler(TileCache(1 << 20), [Heights(), Heights()])
