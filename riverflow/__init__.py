@@ -11,6 +11,8 @@ Public API (SPEC §6)::
     graph = rf.load_graph(path)            # any Proland hydro-graph variant; raises rf.GraphError
     rf.save_graph(graph, path)             # ASCII basic variant; load(save(g)) == g
     scene = rf.default_scene(seed=0)       # built-in landscape: scene.graph, scene.terrain
+    scene = rf.default_scene(seed=0, size_km=200.0)    # a much larger one, streamed
+    scene = rf.landscape(graph, terrain=None, seed=0)  # any network, on hills or your terrain
     field = rf.FlowField(graph, slip=1.0, search_radius_factor=5.0)
     status, velocity = field.query(xy)     # (N,) uint8 FlowStatus, (N, 2) float32 [m/s]
     psi = field.potential(xy)              # (N,) float64, NaN outside the water
@@ -41,6 +43,8 @@ _LAZY = {
     "RiverConfig": "riverflow.engine.config",
     "default_scene": "riverflow.scenes.default",
     "Scene": "riverflow.scenes.default",
+    "landscape": "riverflow.scenes.landscape",
+    "Landscape": "riverflow.scenes.landscape",
     "Obstacle": "riverflow.hydro.flow_field",
     "Boat": "riverflow.components.boat",
     "DisplayMode": "riverflow.components.display",

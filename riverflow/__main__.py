@@ -182,10 +182,6 @@ def _demo(args: argparse.Namespace) -> int:
     scene, title = _load_scene(args)
     if scene is None:
         return 1
-    if not hasattr(scene, "terrain"):
-        from riverflow.scenes.flat import flat_scene
-
-        scene = flat_scene(scene)
     from riverflow import demo
 
     if headless:
@@ -222,10 +218,6 @@ def _profile(args: argparse.Namespace) -> int:
         return 1
     from riverflow.engine.profiling import format_profile, profile_flight
 
-    if not hasattr(scene, "terrain"):  # a graph file: put it on a flat landscape
-        from riverflow.scenes.flat import flat_scene
-
-        scene = flat_scene(scene)
     try:
         result = profile_flight(scene, args.size, args.radius_px, args.frames)
     except (ValueError, OSError) as exc:
@@ -247,10 +239,6 @@ def _render(args: argparse.Namespace) -> int:
     from riverflow.engine.world import RiverWorld
     from riverflow.scenes.flight import fly
 
-    if not hasattr(scene, "terrain"):
-        from riverflow.scenes.flat import flat_scene
-
-        scene = flat_scene(scene)
     config = RiverConfig.from_env()
     if args.radius_px is not None:
         config = dataclasses.replace(config, radius_px=args.radius_px)
@@ -299,14 +287,16 @@ def _draw(args: argparse.Namespace, out: Path, *, size_px: int, slip: float = 1.
 
 
 def _load_scene(args: argparse.Namespace) -> tuple[Any, str]:
-    """The graph of --scene, or the built-in scene of --seed; (None, message) after an error."""
+    """The landscape of --scene (a graph file on procedural hills, :func:`landscape`), or the
+    built-in scene of --seed; (None, message) after an error."""
     from riverflow.hydro.graph import GraphError
 
     if args.scene is not None:
         from riverflow.hydro.io import load_graph
+        from riverflow.scenes.landscape import landscape
 
         try:
-            return load_graph(args.scene), args.scene.name
+            return landscape(load_graph(args.scene), seed=args.seed), args.scene.name
         except (GraphError, OSError) as exc:
             print(f"riverflow {args.command}: cannot load {args.scene}: {exc}", file=sys.stderr)
             return None, ""

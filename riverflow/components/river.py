@@ -7,6 +7,7 @@ import numpy as np
 
 from riverflow.hydro.flow_field import FlowField
 from riverflow.hydro.graph import HydroGraph
+from riverflow.kernels.surface_tiles import SurfaceTiles
 from riverflow.tiles.cache import TileCache
 from riverflow.tiles.scheduler import TileScheduler
 
@@ -41,20 +42,20 @@ class Tiles:
 
 
 @dataclass(eq=False)
-class SurfaceGrids:
-    """The ground and water heightfields on one grid, for ray casts and particle altitudes.
+class TerrainView:
+    """The terrain tiles of this frame's view (a resource the tiles system fills each frame).
 
-    ``ground_m`` and ``water_m`` (ny, nx) float32 [m] (water NaN where dry) at
-    ``origin + (i, j) · cell_m``; ``z_min``/``z_max`` bound the surface [m].
+    ``cut`` (L, 3) int32: the leaves (level, tx, ty) of the quadtree the view needs (near
+    ones fine, far ones coarse); ``surface``: what the particle kernels read of them
+    (:class:`~riverflow.kernels.surface_tiles.SurfaceTiles`: ray casts, altitudes, water
+    hints), None before the first frame; ``z_min``/``z_max`` [m] bound every terrain and water
+    height of the scene.
     """
 
-    ground_m: np.ndarray
-    water_m: np.ndarray
-    origin_x: float
-    origin_y: float
-    cell_m: float
-    z_min: float
-    z_max: float
+    cut: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), np.int32))
+    surface: SurfaceTiles | None = None
+    z_min: float = 0.0
+    z_max: float = 0.0
 
 
 @dataclass(eq=False)

@@ -73,6 +73,10 @@ class RiverConfig:
     """Wanted lattice spacing of the flow tile under a point, in screen pixels: tiles far away
     are coarser (quadtree level chosen per tile from its distance to the camera)."""
 
+    terrain_tile_px: float = 6.0
+    """Wanted terrain node spacing in screen pixels: the terrain tiles (and the particles'
+    surface tables) are chosen per tile from its distance to the camera, coarser far away."""
+
     tile_production: str = "background"
     """"background": tiles of every kind are made by a worker thread, never stalling a frame
     (until a tile is ready its coarser parent serves); "blocking": made in the frame that
@@ -101,7 +105,7 @@ class RiverConfig:
     def __post_init__(self) -> None:
         positive = ("capacity", "radius_px", "cull_radius_factor", "spawn_gap_factor",
                     "grid_cell_factor", "fade_in_s", "active_s", "fade_out_s",
-                    "search_radius_factor", "slip", "tile_cache_mb", "flow_tile_px", "max_step_s", "near_m", "far_m",
+                    "search_radius_factor", "slip", "tile_cache_mb", "flow_tile_px", "terrain_tile_px", "max_step_s", "near_m", "far_m",
                     "fov_y_deg")
         for name in positive:
             value = getattr(self, name)

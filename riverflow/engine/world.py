@@ -28,13 +28,14 @@ import numpy as np
 
 from riverflow.components.display import DisplaySettings
 from riverflow.components.particles import LiveParticles, ParticlePool
-from riverflow.components.river import Clock, FrameView, RiverNode, ScreenGrid, SurfaceGrids, Tiles
+from riverflow.components.river import Clock, FrameView, RiverNode, ScreenGrid, TerrainView, Tiles
 from riverflow.engine.camera import Camera
 from riverflow.engine.config import RiverConfig
 from riverflow.engine.schedule import default_systems
 from riverflow.engine.system import System
 from riverflow.hydro.flow_field import FlowField
 from riverflow.hydro.tile_producer import FlowProducer
+from riverflow.scenes.tile_kinds import terrain_producers
 from riverflow.tiles.cache import TileCache
 from riverflow.tiles.scheduler import TileScheduler
 
@@ -68,19 +69,25 @@ class RiverWorld:
         self.resources: dict[type, Any] = {}
         self.timings_ms: dict[str, float] = {}
         c = self.config
+        if not hasattr(scene, "quadtree"):
+            raise TypeError("RiverWorld needs a streamed landscape (riverflow.default_scene(), "
+                            f"riverflow.landscape(graph, …)), not a {type(scene).__name__}")
+        q = scene.quadtree
         x0, y0, x1, y1 = scene.bounds_m
         cache = TileCache(int(c.tile_cache_mb * (1 << 20)))
         field = FlowField(scene.graph, c.slip, c.search_radius_factor,
                           potential_delta_m=c.potential_delta_m, cache=cache,
-                          domain_m=(x0, y0, max(x1 - x0, y1 - y0)))
+                          domain_m=(q.root_x_m, q.root_y_m, q.root_size_m))
         self.field = field
-        self.tiles = Tiles(cache, TileScheduler(cache, [FlowProducer(field)], c.tile_production))
+        producers = [*terrain_producers(scene), FlowProducer(field)]
+        self.tiles = Tiles(cache, TileScheduler(cache, producers, c.tile_production))
         camera = Camera(position=(x0, y0, 100.0), target=(0.5 * (x0 + x1), 0.5 * (y0 + y1), 0.0),
                         fov_y_deg=c.fov_y_deg, near_m=c.near_m, far_m=c.far_m,
                         size_px=tuple(int(v) for v in size))
         self.camera = camera
-        for resource in (camera, c, Clock(speed_factor=c.speed_factor), FrameView(),
-                         _surface_grids(scene), DisplaySettings(), self.tiles):
+        terrain = TerrainView(z_min=float(scene.z_range_m[0]), z_max=float(scene.z_range_m[1]))
+        for resource in (camera, c, Clock(speed_factor=c.speed_factor), FrameView(), terrain,
+                         DisplaySettings(), self.tiles):
             self.insert(resource)
         with self.active():
             self.river = esper.create_entity(RiverNode(scene.graph, field),
@@ -290,15 +297,3 @@ def _add_wave_tiles(seed: int) -> None:
     esper.create_entity(default_static_wave_tile())
     esper.create_entity(perlin_wave_tile())
     esper.create_entity(animated_wave_tile(seed=seed))
-
-
-def _surface_grids(scene) -> SurfaceGrids:
-    """Ground and water heightfields of the scene on the terrain grid."""
-    from riverflow.scenes.water_grid import water_level_grid
-
-    terrain = scene.terrain
-    ground = np.ascontiguousarray(terrain.heights_m, np.float32)
-    water = np.ascontiguousarray(water_level_grid(scene), np.float32)
-    top = float(np.nanmax(np.fmax(ground, np.nan_to_num(water, nan=-np.inf))))
-    return SurfaceGrids(ground, water, float(terrain.origin_m[0]), float(terrain.origin_m[1]),
-                        float(terrain.cell_m), float(np.min(ground)), top)

@@ -210,26 +210,23 @@ def _level_for(field: Any, step_m: float) -> int | None:
     return None
 
 
-def _draw_hillshade(ax, mpl, terrain, extent) -> None:
+def _draw_hillshade(ax, mpl, terrain, extent, max_side: int = 768) -> None:
+    """The terrain under the picture as a pale hillshade, sampled from ``terrain.height``
+    (a streamed terrain has no whole-map array) on a grid of at most max_side² points."""
     x0, y0, x1, y1 = extent
-    h = np.asarray(terrain.heights_m, dtype=np.float64)
-    cell = float(terrain.cell_m)
-    ox, oy = (float(c) for c in terrain.origin_m)
-    i0 = max(int(math.floor((x0 - ox) / cell)) - 1, 0)
-    j0 = max(int(math.floor((y0 - oy) / cell)) - 1, 0)
-    i1 = min(int(math.ceil((x1 - ox) / cell)) + 2, h.shape[1])
-    j1 = min(int(math.ceil((y1 - oy) / cell)) + 2, h.shape[0])
-    if i1 - i0 < 2 or j1 - j0 < 2:
-        return
-    sub = h[j0:j1, i0:i1]
+    cell = max(float(terrain.cell_m), max(x1 - x0, y1 - y0) / max_side)
+    nx = max(int(math.ceil((x1 - x0) / cell)) + 1, 2)
+    ny = max(int(math.ceil((y1 - y0) / cell)) + 1, 2)
+    gx, gy = np.meshgrid(x0 + np.arange(nx) * cell, y0 + np.arange(ny) * cell)
+    sub = np.asarray(terrain.height(np.c_[gx.ravel(), gy.ravel()]), np.float64).reshape(ny, nx)
     light = mpl.colors.LightSource(azdeg=315, altdeg=40)
     # hillshade wants row 0 at the top (north); our rows grow northwards
     shade = light.hillshade(sub[::-1], vert_exag=2.0, dx=cell, dy=cell)[::-1]
     rgb = mpl.colormaps["gist_earth"](mpl.colors.Normalize(sub.min(), sub.max())(sub))[..., :3]
     rgb = 0.55 + 0.45 * (0.35 * rgb + 0.65 * shade[..., None])  # pale: the water is the subject
     ax.imshow(rgb, origin="lower", interpolation="bilinear", zorder=0,
-              extent=(ox + (i0 - 0.5) * cell, ox + (i1 - 0.5) * cell,
-                      oy + (j0 - 0.5) * cell, oy + (j1 - 0.5) * cell))
+              extent=(x0 - 0.5 * cell, x0 + (nx - 0.5) * cell,
+                      y0 - 0.5 * cell, y0 + (ny - 0.5) * cell))
 
 
 def _water_path(mpl, graph: HydroGraph, lines: dict[int, np.ndarray], field: Any):

@@ -26,6 +26,7 @@ from numba import njit
 
 from riverflow.kernels._jit import JIT_OPTIONS
 from riverflow.kernels.lifecycle import allocate_particle, free_particle
+from riverflow.kernels.surface_tiles import hint_at, surface_altitude
 
 STATUS_UNKNOWN = 0
 STATUS_INSIDE = 1
@@ -62,18 +63,17 @@ def _inside_neighbour(i, screen_px, status, alive, cell_px, gw, gh, cell_count, 
 
 
 @njit(**JIT_OPTIONS)
-def move_particles(n_slots, alive, has_world, world_m, velocity_mps, status, dt_s, water_m,
-                   ground_m, grid_x, grid_y, grid_cell_m, frame, z_every, velocity_every,
-                   always_box, out_index, out_xy):
+def move_particles(n_slots, alive, has_world, world_m, velocity_mps, status, dt_s, surface,
+                   frame, z_every, velocity_every, always_box, out_index, out_xy):
     """Explicit Euler step of the INSIDE and LEAVING particles with the velocity of their last
     flow query, ``dt_s`` [s] (speed factor included), and the list of the particles that ask
     the flow this frame, in the same pass over slots [0, ``n_slots``) (the pool's slot bound).
 
-    ``water_m`` / ``ground_m`` (ny, nx) float32 are the water level (NaN where dry) and the
-    terrain on a grid at (grid_x, grid_y) with ``grid_cell_m`` spacing: a moved particle takes
-    the water altitude (the ground's where dry) once every ``z_every`` frames (a power of
-    two), staggered by slot (the lookups miss the cache; over 16 frames the level under a
-    particle changes by at most 1.6 cm in the test flight, against a 0.25 m bound).
+    ``surface`` is the view's :class:`~riverflow.kernels.surface_tiles.SurfaceTiles`: a moved
+    particle takes the water altitude (the ground's where dry) once every ``z_every`` frames
+    (a power of two), staggered by slot (the lookups miss the cache; over 16 frames the level
+    under a particle changes by at most 1.6 cm in the test flight, against a 0.25 m bound);
+    where no tile is there yet it keeps its altitude.
 
     The particles that ask the flow (INSIDE, UNKNOWN or LEAVING, with a world position) go to
     ``out_index`` (C,) int32 and, at their new positions, ``out_xy`` (C, 2) float64 [m]: first
@@ -114,7 +114,7 @@ def move_particles(n_slots, alive, has_world, world_m, velocity_mps, status, dt_
                 world_m[i, 0] = x
                 world_m[i, 1] = y
                 if (i + frame) & (z_every - 1) == 0:
-                    z = _surface(x, y, water_m, ground_m, grid_x, grid_y, grid_cell_m)
+                    z = surface_altitude(surface, x, y)
                     if math.isfinite(z):
                         world_m[i, 2] = z
                 moved += 1
@@ -199,16 +199,15 @@ not next to it in the world."""
 
 
 @njit(inline="always", **JIT_OPTIONS)
-def _water_hint(x, y, sx, sy, eye_x, eye_y, m, width_px, height_px, hints, grid_x, grid_y,
-                hint_cell_m, out, k):
+def _water_hint(x, y, sx, sy, eye_x, eye_y, m, width_px, height_px, surface, out, k):
     """Write into ``out[k]`` the water hint (x, y, level) [m] of a land particle at world
-    (x, y) and screen (sx, sy): of the deep-water nodes nearest to the points of
-    :data:`HINT_TRACK` (``hints`` (ny, nx, 3) float32: per node, ``hint_cell_m`` apart from
-    (grid_x, grid_y), the nearest deep-water node's x, y, level; x = +inf: none), the one
-    whose projection by ``m`` (clip from world) lies nearest (sx, sy); x = +inf when there is
-    none."""
-    rows = hints.shape[0]
-    cols = hints.shape[1]
+    (x, y) and screen (sx, sy): of the hints (deep water near a hint node: the view's hints
+    tiles, :class:`~riverflow.kernels.surface_tiles.SurfaceTiles`) at the nodes nearest the
+    points of :data:`HINT_TRACK`, the one whose projection by ``m`` (clip from world) lies
+    nearest (sx, sy); x = +inf when there is none. Returns False when a track point had no
+    hints tile yet (the hint is then to be looked for again later)."""
+    hints = surface.hints
+    complete = True
     dx = x - eye_x
     dy = y - eye_y
     best = math.inf
@@ -218,17 +217,17 @@ def _water_hint(x, y, sx, sy, eye_x, eye_y, m, width_px, height_px, hints, grid_
     last = -1
     for s in range(HINT_TRACK.shape[0]):
         f = HINT_TRACK[s]
-        i = int(math.floor((x + f * dx - grid_x) / hint_cell_m + 0.5))
-        j = int(math.floor((y + f * dy - grid_y) / hint_cell_m + 0.5))
-        if not (0 <= i < cols and 0 <= j < rows):
+        slot, j, i = hint_at(surface, x + f * dx, y + f * dy)
+        if slot < 0:
+            complete = False
             continue
-        t = j * cols + i
-        if t == last or not hints[j, i, 0] < math.inf:
+        t = (slot * hints.shape[1] + j) * hints.shape[2] + i
+        if t == last or not hints[slot, j, i, 0] < math.inf:
             continue
         last = t
-        hx = hints[j, i, 0]
-        hy = hints[j, i, 1]
-        hz = hints[j, i, 2]
+        hx = hints[slot, j, i, 0]
+        hy = hints[slot, j, i, 1]
+        hz = hints[slot, j, i, 2]
         px, py, in_front = _to_screen(m, hx, hy, hz, width_px, height_px)
         if not in_front:
             continue
@@ -238,6 +237,7 @@ def _water_hint(x, y, sx, sy, eye_x, eye_y, m, width_px, height_px, hints, grid_
             out[k, 0] = hx
             out[k, 1] = hy
             out[k, 2] = hz
+    return complete
 
 
 @njit(inline="always", **JIT_OPTIONS)
@@ -269,7 +269,7 @@ def check_outside_near_water(
     alive, ids, counters, status, screen_px, world_m, birth_s, water_hint_m, hint_id, now_s,
     fade_at_s, cell_px, gw, gh, acc_start, acc_slot, acc_xy, carrier_cells, reach_px,
     removed_cells, frame, probe_every, replace_every, cover_px, width_px, height_px,
-    clip_from_world, eye_x, eye_y, hints, grid_x, grid_y, hint_cell_m, out_xy, out_owner,
+    clip_from_world, eye_x, eye_y, surface, out_xy, out_owner,
 ):
     """Where should the river get particles that it has not? Proland's NEAR rule, plus probes
     guided by where the water is in the world.
@@ -290,8 +290,8 @@ def check_outside_near_water(
       and freshly packed shores keep the Poisson disk dense;
     * otherwise it *probes* its water hint: deep water near its line of sight from the eye
       at (``eye_x``, ``eye_y``) (:func:`_water_hint`; ``water_hint_m`` (C, 3) float32 x, y,
-      level [m], found once per particle from ``hints`` and kept while ``hint_id`` equals
-      its id: an OUTSIDE particle never moves; x = +inf: none). Projected with
+      level [m], found once per particle from the hints tiles of ``surface`` and kept while
+      ``hint_id`` equals its id: an OUTSIDE particle never moves; x = +inf: none). Projected with
       ``clip_from_world`` (the view the screen positions were projected with), a hint on
       screen within ``reach_px`` of the particle and farther than ``cover_px`` (≤
       ``cell_px``) from every INSIDE or LEAVING particle is a probe: its ray is cast next,
@@ -326,9 +326,9 @@ def check_outside_near_water(
                 removed += 1
                 continue
         if hint_id[i] != ids[i]:
-            _water_hint(world_m[i, 0], world_m[i, 1], x, y, eye_x, eye_y, m, width_px,
-                        height_px, hints, grid_x, grid_y, hint_cell_m, water_hint_m, i)
-            hint_id[i] = ids[i]
+            if _water_hint(world_m[i, 0], world_m[i, 1], x, y, eye_x, eye_y, m, width_px,
+                           height_px, surface, water_hint_m, i):
+                hint_id[i] = ids[i]
         hx = water_hint_m[i, 0]
         if not hx < math.inf:
             continue
@@ -440,27 +440,3 @@ def place_at_seen_water(
         new_slots[placed] = i
         placed += 1
     return placed, removed
-
-
-@njit(inline="always", **JIT_OPTIONS)
-def _bilinear(grid, gx, gy):
-    ny, nx = grid.shape
-    if not (gx >= 0.0 and gy >= 0.0 and gx <= nx - 1 and gy <= ny - 1):
-        return math.nan
-    i = min(int(gx), nx - 2)
-    j = min(int(gy), ny - 2)
-    u = gx - i
-    v = gy - j
-    return ((1.0 - v) * ((1.0 - u) * grid[j, i] + u * grid[j, i + 1])
-            + v * ((1.0 - u) * grid[j + 1, i] + u * grid[j + 1, i + 1]))
-
-
-@njit(inline="always", **JIT_OPTIONS)
-def _surface(x, y, water_m, ground_m, grid_x, grid_y, grid_cell_m):
-    """Water altitude at (x, y) [m]; the ground's where the water grid has no value."""
-    gx = (x - grid_x) / grid_cell_m
-    gy = (y - grid_y) / grid_cell_m
-    z = _bilinear(water_m, gx, gy)
-    if math.isfinite(z):
-        return z
-    return _bilinear(ground_m, gx, gy)

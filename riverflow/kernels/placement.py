@@ -13,6 +13,7 @@ import math
 from numba import njit
 
 from riverflow.kernels._jit import JIT_OPTIONS
+from riverflow.kernels.lifecycle import free_particle
 
 STATUS_UNKNOWN = 0
 STATUS_ON_SKY = 7
@@ -87,3 +88,18 @@ def select_new_on_ground(slots, n, has_world, world_m, out_index, out_xy):
             out_xy[k, 1] = world_m[i, 1]
             k += 1
     return k
+
+
+@njit(**JIT_OPTIONS)
+def drop_unseen(slots, n, hit_kind, unknown, alive, ids, counters, has_world):
+    """Free the new particles of ``slots[:n]`` whose ray met a part of the view with no
+    surface tile yet (``hit_kind == unknown``): where they land is not known, so they are not
+    placed (the Poisson fill tries again once the tile is there). Returns how many."""
+    dropped = 0
+    for k in range(n):
+        if hit_kind[k] == unknown:
+            i = slots[k]
+            has_world[i] = False
+            free_particle(i, alive, ids, counters)
+            dropped += 1
+    return dropped

@@ -226,6 +226,24 @@ def _cast_ray(ox, oy, oz, dx, dy, dz, heights, water, origin_x, origin_y, cell_m
     if not ok or not (t0 < t1):
         return HIT_NONE
 
+    kind, _ = _walk_grid(ox, oy, oz, dx, dy, dz, heights, water, origin_x, origin_y, cell_m,
+                         pyramid, offs, dims_x, levels, zmin, zmax, t0, t1, -1, out_xyz, r)
+    return kind
+
+
+@njit(inline="always", **JIT_OPTIONS)
+def _walk_grid(ox, oy, oz, dx, dy, dz, heights, water, origin_x, origin_y, cell_m, pyramid,
+               offs, dims_x, levels, zmin, zmax, t0, t1, above_in, out_xyz, r):
+    """The max-mip walk of one grid along the unit ray (o, d) over [t0, t1] (a stretch inside
+    the grid's box; t is the distance along the ray [m]). ``above_in``: whether the ray is
+    above the surface at t0 (1), below it (0), or not known (−1: found here). On a hit writes
+    out_xyz[r]. Returns (kind, above at t1): a caller that walks several grids one after the
+    other (:mod:`riverflow.kernels.raycast_tiles`) carries ``above`` from one to the next."""
+    ny, nx = heights.shape
+    gx0 = (ox - origin_x) / cell_m
+    gy0 = (oy - origin_y) / cell_m
+    gdx = dx / cell_m
+    gdy = dy / cell_m
     ncx = nx - 1
     ncy = ny - 1
     inv_x = 1.0 / gdx if gdx != 0.0 else 0.0
@@ -235,9 +253,11 @@ def _cast_ray(ox, oy, oz, dx, dy, dz, heights, water, origin_x, origin_y, cell_m
     # Start above or below the surface? Above the top of a pyramid node holding the start is
     # enough, and the walk can start on the finest such level.
     z_start = oz + dz * t0
-    above = z_start > zmax
     k = levels
-    if not above and z_start >= zmin:
+    above = above_in == 1
+    if above_in < 0:
+        above = z_start > zmax
+    if above_in < 0 and not above and z_start >= zmin:
         for level in range(1, levels + 1):
             if z_start > pyramid[offs[level] + (j >> level) * dims_x[level] + (i >> level), 1]:
                 above = True
@@ -269,7 +289,7 @@ def _cast_ray(ox, oy, oz, dx, dy, dz, heights, water, origin_x, origin_y, cell_m
                     out_xyz[r, 0] = ox + dx * t_hit
                     out_xyz[r, 1] = oy + dy * t_hit
                     out_xyz[r, 2] = oz + dz * t_hit
-                    return kind
+                    return kind, False
             else:
                 node = offs[k] + (j >> k) * dims_x[k] + (i >> k)
                 za = oz + dz * t
@@ -281,7 +301,7 @@ def _cast_ray(ox, oy, oz, dx, dy, dz, heights, water, origin_x, origin_y, cell_m
                     continue
                 # else: still under the ground all through this node
         if t_out >= t1:
-            return HIT_NONE
+            return HIT_NONE, above
         # Leave the node through the face the ray reaches first (both at a corner); the
         # other index stays in the node's range and never moves backwards.
         if tx <= ty:
@@ -295,11 +315,11 @@ def _cast_ray(ox, oy, oz, dx, dy, dz, heights, water, origin_x, origin_y, cell_m
             j_new = min(max(int(math.floor(gy0 + gdy * t_out)), lo_j), lo_j + size - 1)
             j = max(j, j_new) if gdy > 0.0 else min(j, j_new)
         if i < 0 or i >= ncx or j < 0 or j >= ncy:
-            return HIT_NONE
+            return HIT_NONE, above
         t = max(t, t_out)
         if k < levels:
             k += 1
-    return HIT_NONE
+    return HIT_NONE, above
 
 
 @njit(inline="always", **JIT_OPTIONS)

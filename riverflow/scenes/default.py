@@ -1,86 +1,100 @@
-"""The built-in landscape: about 4 km of seeded procedural terrain around a river network.
+"""The built-in landscapes: seeded procedural terrain around a river network, of any size.
 
-``default_scene(seed)`` lays out a meandering main river (west to east, about 4.5 km, 55 m
-wide at its source widening to 150 m at its mouth), a tributary joining it (confluence), an
-island splitting it (a bifurcation that re-joins) and a small free island further down; the
-:class:`~riverflow.hydro.builder.RiverNetworkBuilder` turns them into the hydro graph. The
-terrain is designed around the river: a regional slope, a valley around the main river and
-noise give a base ground; water profiles follow it downhill (running minimum, smoothing,
-junctions pinned: :mod:`riverflow.scenes.water`); the final heightfield is the river bed
-inside the water, banks that rise from the water line outside, blending into noise hills far
-away. Same seed → bitwise the same scene.
+``default_scene(seed)`` lays out (:mod:`riverflow.scenes.layout`) a meandering main river
+(west to east, about 4.5 km, 55 m wide at its source widening to 150 m at its mouth), a
+tributary joining it (confluence), an island splitting it (a bifurcation that re-joins) and a
+small free island further down, on a 4 km square. ``default_scene(seed, size_km=500)`` makes
+a world of that size: a main river across it with tributaries (and theirs) reaching the whole
+square, islands along the way. The :class:`~riverflow.hydro.builder.RiverNetworkBuilder`
+turns the layout into the hydro graph.
+
+The ground is designed around the river and evaluated point by point (a
+:class:`DefaultGround` height source): a regional slope down to the east, a valley along the
+main river, seeded fBm noise calmer near the river, and hills. Water profiles follow the ground
+downhill (:mod:`riverflow.scenes.water`); the rivers are carved in per point
+(:mod:`riverflow.scenes.carving`). The result is a streamed
+:class:`~riverflow.scenes.landscape.Landscape`: no whole-map array is made, and the river world
+makes tiles of it where the camera looks. Same seed → bitwise the same scene.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import numpy as np
-import shapely
-from scipy.ndimage import gaussian_filter
 from scipy.spatial import cKDTree
 
-from riverflow.components.terrain import Terrain
 from riverflow.hydro.builder import RiverNetworkBuilder
-from riverflow.hydro.graph import HydroGraph
-from riverflow.scenes.water import WaterSurface, bed_depth, monotone_profiles, resample
+from riverflow.scenes.carving import Carving
+from riverflow.scenes.landscape import (DEFAULT_CELL_M, CarvedTerrain, Landscape, water_surface,
+                                        z_range)
+from riverflow.scenes.layout import DEFAULT_SIZE_M, RiverBranch, layout
+from riverflow.scenes.sources import FbmSource, HeightSource
+from riverflow.tiles.quadtree import Quadtree
 
-HALF_SIZE_M = 2048.0
-"""The terrain covers [-HALF_SIZE_M, HALF_SIZE_M]² [m]."""
-CELL_M = 4.0
+__all__ = ["DefaultGround", "RiverBranch", "Scene", "default_scene"]
+
+HALF_SIZE_M = 0.5 * DEFAULT_SIZE_M
+"""The 4 km scene covers [-HALF_SIZE_M, HALF_SIZE_M]² [m]."""
+CELL_M = DEFAULT_CELL_M
 TILE_M = 256.0
-PROFILE_SPACING_M = 10.0
-"""Centre-line sample spacing of the branches and of their water profiles [m]."""
-SURFACE_SPACING_M = 2.0
-"""Centre-line sample spacing of the water-surface lookup [m]."""
-FREEBOARD_M = 1.5
-"""Water profiles are sampled this far below the base ground."""
-COARSE = 8
-"""Fields far from the river are computed every COARSE cells and interpolated."""
-LEVEL_BLUR = 6.0
-"""Far from the river the water level under the valley is blurred (σ in coarse cells) so that
-the valleys of reaches at different levels meet without steps."""
-LAND_LEVEL_BLUR = 4.0
-"""σ [cells] of the smoothing of the water level under the land near the river."""
-NEAR_M = 60.0
-"""Within this distance outside a river's strip, fields are computed exactly per cell."""
+"""Side of the finest terrain tiles [m] (64 cells of CELL_M)."""
+VALLEY_REACH_M = 1500.0
+"""The main river's valley shapes the ground this far from its centre line."""
+REGIONAL_DROP_M = 16.4
+"""How much lower the east edge is than the west edge on the 4 km scene (0.004 m/m); larger
+worlds fall at most 400 m across."""
+
+Scene = Landscape
+"""The built-in scenes are landscapes (kept as a name of the public API)."""
 
 
-@dataclass(eq=False)
-class RiverBranch:
-    """One branch as laid out: centre line (K, 2) [m] drawn downstream, widths (K,) [m],
-    discharge [m²/s] (resolved by the builder), kind "main" / "tributary" / "arm", and the
-    junction indices of its start and end (-1 = free end)."""
+class DefaultGround(HeightSource):
+    """The ground of the built-in scenes [m], before the rivers are carved in:
+    ``30 + slope·(half − x) + 0.03·min(d, 1500) + calm(d)·noise + hills`` with d the distance
+    to the main river's centre line [m] (``calm`` quietens the noise along the river) and the
+    hills optional (the water profiles are sampled on the ground without them)."""
 
-    name: str
-    centerline_m: np.ndarray
-    widths_m: np.ndarray
-    discharge_m2s: float | None
-    kind: str
-    start_junction: int
-    end_junction: int
+    def __init__(self, main_line_m: np.ndarray, size_m: float, noise_seed: int, hills_seed: int,
+                 hills: bool = True) -> None:
+        self._tree = cKDTree(np.asarray(main_line_m, np.float64))
+        self.half_m = 0.5 * float(size_m)
+        self.slope = min(REGIONAL_DROP_M / DEFAULT_SIZE_M, 400.0 / float(size_m))
+        self._noise = FbmSource(noise_seed, ((700.0, 6.0), (220.0, 2.5), (70.0, 0.8)))
+        self._hills = FbmSource(hills_seed, ((900.0, 0.8), (350.0, 0.3))) if hills else None
+        lo, hi = self._noise.z_range_m
+        top = 30.0 + self.slope * 2.0 * self.half_m + 0.03 * VALLEY_REACH_M + hi
+        if self._hills is not None:
+            top += 28.0 * (0.5 + 0.5 * self._hills.z_range_m[1])
+        self.z_range_m = (30.0 + lo, top)
+        self.hills = self._hills is not None
+
+    def without_hills(self) -> DefaultGround:
+        ground = object.__new__(DefaultGround)
+        ground.__dict__.update(self.__dict__)
+        ground._hills = None
+        ground.hills = False
+        return ground
+
+    def heights(self, x_m, y_m) -> np.ndarray:
+        x, y = np.broadcast_arrays(np.asarray(x_m, np.float64), np.asarray(y_m, np.float64))
+        p = np.stack([x.ravel(), y.ravel()], axis=1)
+        valley, _ = self._tree.query(p, distance_upper_bound=VALLEY_REACH_M, workers=1)
+        valley = np.minimum(valley, VALLEY_REACH_M)
+        t = np.clip(valley / 600.0, 0.0, 1.0)
+        calm = 0.3 + 0.7 * t * t * (3 - 2 * t)
+        z = (30.0 + self.slope * (self.half_m - p[:, 0]) + 0.03 * valley
+             + calm * self._noise.heights(p[:, 0], p[:, 1]))
+        if self._hills is not None:
+            z += 28.0 * np.clip(0.5 + 0.5 * self._hills.heights(p[:, 0], p[:, 1]), 0.0, None)
+        return z.reshape(x.shape)
 
 
-@dataclass(eq=False)
-class Scene:
-    """A landscape with rivers: hydro graph, terrain, water surface, bounds (xmin, ymin,
-    xmax, ymax) [m], seed, branches (upstream first) and free island outlines (M, 2)."""
-
-    graph: HydroGraph
-    terrain: Terrain
-    water: WaterSurface
-    bounds_m: tuple[float, float, float, float]
-    seed: int
-    branches: list[RiverBranch]
-    islands: list[np.ndarray] = field(default_factory=list)
-
-    def branch(self, name: str) -> RiverBranch:
-        return next(b for b in self.branches if b.name == name)
-
-
-def default_scene(seed: int = 0) -> Scene:
-    """Build the default scene for ``seed`` (deterministic; about a second)."""
+def default_scene(seed: int = 0, size_km: float = 4.0) -> Landscape:
+    """The built-in scene for ``seed`` on a ``size_km`` square (deterministic; the 4 km one in
+    about a second, larger ones in seconds: only the network is made up front)."""
+    size_m = DEFAULT_SIZE_M if abs(size_km - 4.0) < 1e-9 else 1000.0 * float(size_km)
+    if not size_m >= 500.0:
+        raise ValueError(f"default_scene: size_km must be at least 0.5, got {size_km!r}")
     rng = np.random.default_rng(seed)
-    branches, islands = _layout(rng)
+    branches, islands = layout(rng, size_m)
     builder = RiverNetworkBuilder(tolerance_m=0.25)
     for b in branches:
         builder.add_branch(b.centerline_m, b.widths_m, b.discharge_m2s, name=b.name)
@@ -89,240 +103,15 @@ def default_scene(seed: int = 0) -> Scene:
     graph = builder.build()
     for b, q in zip(branches, builder.discharges_m2s):
         b.discharge_m2s = q
-
-    axis = np.arange(-HALF_SIZE_M, HALF_SIZE_M + 0.5 * CELL_M, CELL_M)
-    gx, gy = np.meshgrid(axis, axis)
+    noise_seed, hills_seed = (int(v) for v in rng.integers(0, 2**62, size=2))
     main = np.vstack([b.centerline_m for b in branches if b.kind == "main"])
-    coarse = axis[::COARSE]
-    valley_m = _upsample(cKDTree(main).query(_grid(coarse), workers=-1)[0], len(axis))
-    calm = 0.3 + 0.7 * _smoothstep(0.0, 600.0, valley_m)  # less noise along the main river
-    base = (30.0 + 0.004 * (HALF_SIZE_M - gx) + 0.03 * np.minimum(valley_m, 1500.0)
-            + calm * _fbm(rng, axis, [(700.0, 6.0), (220.0, 2.5), (70.0, 0.8)]))
-    hills = 28.0 * np.clip(0.5 + 0.5 * _fbm(rng, axis, [(900.0, 0.8), (350.0, 0.3)]), 0.0, None)
-    base_terrain = Terrain(base, (-HALF_SIZE_M, -HALF_SIZE_M), CELL_M, TILE_M)
-
-    water = _water_surface(branches, base_terrain, builder.water_polygon)
-    heights = _carve(axis, water, base + hills)
-    terrain = Terrain(heights, (-HALF_SIZE_M, -HALF_SIZE_M), CELL_M, TILE_M)
-    return Scene(graph, terrain, water, terrain.bounds_m, int(seed), branches, islands)
-
-
-# -- layout -------------------------------------------------------------------------------
-
-
-def _layout(rng: np.random.Generator) -> tuple[list[RiverBranch], list[np.ndarray]]:
-    """Main river (split at the junctions), tributary, island arms and a free island."""
-    x = np.linspace(-2000.0, 2000.0, 4001)
-    a1, l1, p1 = rng.uniform(170, 250), rng.uniform(1300, 1800), rng.uniform(0, 2 * np.pi)
-    a2, l2, p2 = rng.uniform(60, 130), rng.uniform(2800, 4200), rng.uniform(0, 2 * np.pi)
-    y = rng.uniform(-300, 300) + a1 * np.sin(2 * np.pi * x / l1 + p1) + a2 * np.sin(2 * np.pi * x / l2 + p2)
-    main, = resample(np.stack([x, y], axis=1), PROFILE_SPACING_M)
-    s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(main, axis=0).T))])
-    width = 55.0 + 95.0 * s / s[-1]
-    tangent = np.gradient(main, axis=0)
-    tangent /= np.hypot(*tangent.T)[:, None]
-    normal = np.stack([-tangent[:, 1], tangent[:, 0]], axis=1)
-
-    def at(fraction: float) -> int:
-        return int(np.searchsorted(s, fraction * s[-1]))
-
-    ic = at(rng.uniform(0.22, 0.32))
-    ib1 = at(rng.uniform(0.5, 0.58))
-    ib2 = int(np.searchsorted(s, s[ib1] + rng.uniform(380, 520)))
-    q_main = 55.0 * rng.uniform(0.9, 1.2)
-    branches = [RiverBranch("main_upper", main[:ic + 1], width[:ic + 1], q_main, "main", -1, 0)]
-    branches.append(_tributary(rng, main, width, tangent[ic], normal[ic], ic))
-    branches.append(RiverBranch("main_middle", main[ic:ib1 + 1], width[ic:ib1 + 1], None, "main", 0, 1))
-    seg = slice(ib1, ib2 + 1)
-    t = (s[seg] - s[ib1]) / (s[ib2] - s[ib1])
-    ease = np.clip(np.minimum(t, 1 - t) / 0.45, 0.0, 1.0)
-    bump = 1.0 - (1.0 - ease) ** 2
-    half_island = rng.uniform(22, 35)
-    for name, side, share in (("arm_left", 1.0, 0.62), ("arm_right", -1.0, 0.5)):
-        w = share * width[seg]
-        pts = main[seg] + side * normal[seg] * ((half_island + 0.5 * w.max()) * bump)[:, None]
-        branches.append(RiverBranch(name, pts, w, None, "arm", 1, 2))
-    branches.append(RiverBranch("main_lower", main[ib2:], width[ib2:], None, "main", 2, -1))
-
-    k = at(rng.uniform(0.8, 0.9))
-    center = main[k] + normal[k] * rng.uniform(-0.12, 0.12) * width[k]
-    ang = np.linspace(0, 2 * np.pi, 24, endpoint=False)
-    ax, bx = rng.uniform(25, 45), rng.uniform(8, 14)
-    outline = (center + np.outer(ax * np.cos(ang), tangent[k]) + np.outer(bx * np.sin(ang), normal[k]))
-    return branches, [outline]
-
-
-def _tributary(rng, main, width, t_c, n_c, ic) -> RiverBranch:
-    """A tributary reaching the main river at sample ``ic`` from a random side, clear of the
-    main river elsewhere and inside the terrain (re-drawn until it is)."""
-    c = main[ic]
-    tree = cKDTree(main)
-    for _ in range(64):
-        side = rng.choice([-1.0, 1.0])
-        alpha, beta = np.radians(rng.uniform(35, 55)), np.radians(rng.uniform(10, 35))
-        length = rng.uniform(1100, 1500)
-        d_end = t_c * np.cos(alpha) - side * n_c * np.sin(alpha)
-        gamma = alpha + beta
-        p0 = c + length * (-np.cos(gamma) * t_c + side * np.sin(gamma) * n_c)
-        p2 = c - d_end * 0.35 * length
-        chord = p2 - p0
-        perp = np.array([-chord[1], chord[0]]) / np.hypot(*chord)
-        p1 = p0 + 0.33 * chord + perp * rng.uniform(-150, 150)
-        u = np.linspace(0.0, 1.0, 400)[:, None]
-        curve = ((1 - u) ** 3 * p0 + 3 * (1 - u) ** 2 * u * p1 + 3 * (1 - u) * u ** 2 * p2 + u ** 3 * c)
-        pts, = resample(curve, PROFILE_SPACING_M)
-        pts[-1] = c
-        w_end = rng.uniform(40, 50)
-        widths = np.linspace(35.0, w_end, len(pts))
-        q = float(widths.mean() * rng.uniform(0.7, 1.0))
-        if np.abs(pts).max() > 1990.0:
-            continue
-        st = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(pts, axis=0).T))])
-        far = st < st[-1] - 250.0
-        d, j = tree.query(pts[far])
-        if np.all(d > 0.5 * width[j] + 0.5 * widths[far] + 60.0):
-            return RiverBranch("tributary", pts, widths, q, "tributary", -1, 0)
-    raise RuntimeError("could not lay out a tributary clear of the main river")
-
-
-def _fbm(rng: np.random.Generator, axis_m: np.ndarray, octaves: list[tuple[float, float]]) -> np.ndarray:
-    """Sum of cubic B-spline value-noise octaves [(feature size m, amplitude m)] on the square
-    grid ``axis_m`` × ``axis_m``; (n, n) float64."""
-    total = np.zeros((len(axis_m), len(axis_m)))
-    for scale, amplitude in octaves:
-        u = (axis_m - axis_m[0]) / scale + 1.0
-        n = int(np.floor(u.max())) + 4
-        lattice = rng.standard_normal((n, n))
-        w = _bspline_weights(u, n)
-        total += amplitude * (w @ lattice @ w.T)
-    return total
-
-
-def _bspline_weights(u: np.ndarray, n: int) -> np.ndarray:
-    """(len(u), n) cubic B-spline interpolation matrix for lattice coordinates u."""
-    i = np.floor(u).astype(np.int64)
-    f = u - i
-    cols = [(1 - f) ** 3 / 6, (3 * f ** 3 - 6 * f ** 2 + 4) / 6,
-            (-3 * f ** 3 + 3 * f ** 2 + 3 * f + 1) / 6, f ** 3 / 6]
-    w = np.zeros((len(u), n))
-    rows = np.arange(len(u))
-    for k, c in enumerate(cols):
-        np.add.at(w, (rows, i - 1 + k), c)
-    return w
-
-
-# -- water and terrain --------------------------------------------------------------------
-
-
-def _water_surface(branches: list[RiverBranch], base: Terrain, polygon) -> WaterSurface:
-    """Monotone water profiles of the branches on the base ground, as a WaterSurface."""
-    n_junctions = 1 + max(max(b.start_junction, b.end_junction) for b in branches)
-    ground = [base.height(b.centerline_m) - FREEBOARD_M for b in branches]
-    levels = monotone_profiles([b.centerline_m for b in branches], ground,
-                               [b.start_junction for b in branches],
-                               [b.end_junction for b in branches], n_junctions, half_window=12,
-                               caps_m=_junction_caps(branches))
-    samples, lv, wd, index, profiles = [], [], [], [], {}
-    for k, (b, z) in enumerate(zip(branches, levels)):
-        s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(b.centerline_m, axis=0).T))])
-        profiles[b.name] = (s, z)
-        pts, zz, ww = resample(b.centerline_m, SURFACE_SPACING_M, z, b.widths_m)
-        samples.append(pts)
-        lv.append(np.minimum.accumulate(zz))
-        wd.append(ww)
-        index.append(np.full(len(pts), k))
-    junctions = np.zeros((n_junctions, 2))
-    members: list[tuple[int, ...]] = []
-    for j in range(n_junctions):
-        members.append(tuple(k for k, b in enumerate(branches) if j in (b.start_junction, b.end_junction)))
-        b = branches[members[-1][0]]
-        junctions[j] = b.centerline_m[0] if b.start_junction == j else b.centerline_m[-1]
-    return WaterSurface(np.vstack(samples), np.concatenate(lv), np.concatenate(wd),
-                        np.concatenate(index), polygon, profiles, junctions, members)
-
-
-def _junction_caps(branches: list[RiverBranch]) -> list[tuple[float, float]]:
-    """Per branch, the lengths [m] from its start / end junction along which it lies within one
-    width of the other branches of that junction (at least their largest half-width): the
-    water there is kept at the junction height, so the surface has no step at the mouth."""
-    caps = []
-    for b in branches:
-        s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(b.centerline_m, axis=0).T))])
-        pts = shapely.points(b.centerline_m)
-        ends = []
-        for j, at_end in ((b.start_junction, False), (b.end_junction, True)):
-            others = [o for o in branches
-                      if o is not b and j >= 0 and j in (o.start_junction, o.end_junction)]
-            if not others:
-                ends.append(0.0)
-                continue
-            inside = np.zeros(len(s), bool)
-            for o in others:
-                # farther than one width from another centre line, no point of that
-                # branch's water is nearer to this one: the surface switches without a step
-                reach = float(o.widths_m.max()) + 0.1 * float(b.widths_m.max())
-                inside |= shapely.distance(pts, shapely.LineString(o.centerline_m)) < reach
-            from_j = (s[-1] - s) if at_end else s
-            outside = from_j[~inside]
-            cap = float(outside.min()) if len(outside) else float(s[-1])
-            ends.append(max(cap, max(0.5 * float(o.widths_m.max()) for o in others)))
-        caps.append((ends[0], ends[1]))
-    return caps
-
-
-def _smoothstep(e0: float, e1: float, x: np.ndarray) -> np.ndarray:
-    t = np.clip((x - e0) / (e1 - e0), 0.0, 1.0)
-    return t * t * (3 - 2 * t)
-
-
-def _grid(axis_m: np.ndarray) -> np.ndarray:
-    """Points (n², 2) of the square grid axis_m × axis_m, x fastest."""
-    gx, gy = np.meshgrid(axis_m, axis_m)
-    return np.stack([gx.ravel(), gy.ravel()], axis=1)
-
-
-def _upsample(values: np.ndarray, n: int) -> np.ndarray:
-    """Bilinear upsampling of a coarse square field (m², values every COARSE cells) to (n, n)."""
-    m = int(round(np.sqrt(values.size)))
-    u = np.arange(n) / COARSE
-    i = np.minimum(u.astype(np.int64), m - 2)
-    f = u - i
-    w = np.zeros((n, m))
-    w[np.arange(n), i] = 1 - f
-    w[np.arange(n), i + 1] = f
-    return w @ values.reshape(m, m) @ w.T
-
-
-def _carve(axis_m: np.ndarray, water: WaterSurface, far_m: np.ndarray) -> np.ndarray:
-    """Terrain heights (n, n) [m] on the grid axis_m²: river bed in the water, banks rising
-    from the water line (always above the water level outside it), ``far_m`` (n, n) away
-    from the river. Fields are exact per cell near the river, interpolated from a coarse
-    grid farther away (KD-tree queries far from the data are slow)."""
-    n = len(axis_m)
-    coarse = _grid(axis_m[::COARSE])
-    centre_c, level_c, width_c = water.nearest(coarse, stride=5)
-    shore = _upsample(water.distance_to_shore(coarse, stride=5), n).ravel()  # exact near the river
-    m = len(axis_m[::COARSE])
-    level = _upsample(gaussian_filter(level_c.reshape(m, m), LEVEL_BLUR, mode="nearest"), n).ravel()
-    width = _upsample(width_c, n).ravel()
-    outside_strip = _upsample(centre_c - 0.5 * width_c, n).ravel()
-    near = np.flatnonzero(outside_strip < NEAR_M + 2 * COARSE * (axis_m[1] - axis_m[0]))
-    pts = _grid(axis_m)[near]
-    shore_e = water.distance_to_shore(pts)
-    centre_e, level_e, width_e = water.nearest(pts)
-    inside = np.zeros(n * n, bool)
-    inside[near] = water.contains(pts, shore_e)
-    t = _smoothstep(0.5 * NEAR_M, NEAR_M, centre_e - 0.5 * width_e)
-    shore[near] = (1 - t) * shore_e + t * shore[near]
-    level[near] = (1 - t) * level_e + t * level[near]
-    width[near] = (1 - t) * width_e + t * width[near]
-    # the level under the land jumps where the nearest branch changes (around junctions):
-    # smoothed away from the shore, exact at the water's edge (banks stay above their water)
-    beta = _smoothstep(5.0, 25.0, shore)
-    level_land = gaussian_filter(level.reshape(n, n), LAND_LEVEL_BLUR, mode="nearest").ravel()
-    valley = ((1.0 - beta) * level + beta * level_land
-              + 2.5 * (1.0 - np.exp(-shore / 12.0)) + 12.0 * (1.0 - np.exp(-shore / 250.0)))
-    alpha = _smoothstep(60.0, 400.0, shore)
-    far = far_m.ravel()
-    land = (1.0 - alpha) * valley + alpha * np.maximum(far, valley)
-    return np.where(inside, level - bed_depth(shore, width), land).reshape(n, n)
+    ground = DefaultGround(main, size_m, noise_seed, hills_seed)
+    base = ground.without_hills()
+    water = water_surface(branches, lambda xy: base.heights(xy[:, 0], xy[:, 1]),
+                          builder.water_polygon)
+    half = 0.5 * size_m
+    quadtree = Quadtree(-half, -half, size_m)
+    carving = Carving()
+    terrain = CarvedTerrain(ground, water, carving, quadtree, CELL_M)
+    return Landscape(graph, terrain, water, quadtree.bounds_m, int(seed), branches, islands,
+                     z_range(ground, water, carving))

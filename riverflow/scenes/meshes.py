@@ -271,6 +271,73 @@ def choose_levels(tile_centres: np.ndarray, eye: np.ndarray, tile_size_m: float,
     return np.clip(np.ceil(np.log2(ratio)), 0, level_count(n) - 1).astype(np.int64)
 
 
+# -- one tile of the streamed terrain --------------------------------------------------------
+
+
+@dataclass(eq=False)
+class TerrainTileMesh:
+    """One streamed terrain tile as drawn: ``vertices`` (V, 7) float32 (x, y, z [m], unit
+    normal, the water level seen from there [m]) in the layout of the module docstring (grid
+    samples, then the skirt), ``skirt_m`` [m], ``bounds_m`` (2, 3) float32 (min, max corner,
+    skirt included)."""
+
+    vertices: np.ndarray
+    skirt_m: float
+    bounds_m: np.ndarray
+
+    @property
+    def nbytes(self) -> int:
+        return int(self.vertices.nbytes + self.bounds_m.nbytes)
+
+
+def tile_terrain_mesh(z_ring: np.ndarray, x0_m: float, y0_m: float, cell_m: float,
+                      level_m: np.ndarray) -> TerrainTileMesh:
+    """The mesh of one n-cell terrain tile from its heights with a one-node ring
+    ``z_ring`` (n + 3, n + 3) [m] (row = y; the ring gives central-difference normals that
+    agree with the neighbours'), its corner and node spacing [m] and ``level_m`` (n + 1, n + 1)
+    the water level seen from each node. The skirt hangs as deep as the largest crack any
+    coarser neighbour can leave along its border (:func:`tile_skirt_m`)."""
+    z = np.asarray(z_ring, np.float64)
+    n = z.shape[0] - 3
+    side = n + 1
+    inner = z[1:-1, 1:-1]
+    dz_dx = (z[1:-1, 2:] - z[1:-1, :-2]) / (2.0 * cell_m)
+    dz_dy = (z[2:, 1:-1] - z[:-2, 1:-1]) / (2.0 * cell_m)
+    normal = np.stack([-dz_dx, -dz_dy, np.ones_like(dz_dx)], axis=-1)
+    normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
+    skirt = tile_skirt_m(inner, cell_m)
+    bi, bj = border_loop(n)
+    grid_j, grid_i = np.divmod(np.arange(side * side), side)
+    vj, vi = np.concatenate([grid_j, bj]), np.concatenate([grid_i, bi])
+    out = np.empty((len(vi), 7), np.float32)
+    out[:, 0] = x0_m + vi * cell_m
+    out[:, 1] = y0_m + vj * cell_m
+    out[:, 2] = inner[vj, vi]
+    out[side * side:, 2] -= skirt
+    out[:, 3:6] = normal[vj, vi]
+    out[:, 6] = np.asarray(level_m)[vj, vi]
+    bounds = np.array([[x0_m, y0_m, min(inner.min(), inner[bj, bi].min() - skirt)],
+                       [x0_m + n * cell_m, y0_m + n * cell_m, inner.max()]], np.float32)
+    return TerrainTileMesh(out, float(skirt), bounds)
+
+
+def tile_skirt_m(heights: np.ndarray, cell_m: float) -> float:
+    """How deep a tile's skirt must hang [m]: the largest gap between its border, as drawn,
+    and the same border drawn by a neighbour 1 … log2(n) levels coarser (the coarser one's
+    nodes are every 2^k-th of this one's, the same heights: the gap is exact), and at least
+    MIN_SKIRT_CELLS cells."""
+    h = np.asarray(heights, np.float64)
+    n = h.shape[0] - 1
+    edges = np.stack([h[0, :], h[-1, :], h[:, 0], h[:, -1]])
+    return float(max(_lod_gap(edges, n).max(), MIN_SKIRT_CELLS * cell_m))
+
+
+def tile_indices(n: int) -> np.ndarray:
+    """Triangle indices (K, 3) uint32 of an n-cell tile at full detail, skirt included (the
+    same for every tile: one index buffer serves them all)."""
+    return lod_indices(n, 1)[0]
+
+
 # -- water --------------------------------------------------------------------------------
 
 
@@ -310,9 +377,15 @@ def water_mesh(scene, cell_m: float = WATER_CELL_M) -> WaterMesh:
     Returns:
         the :class:`WaterMesh` (default scene at 8 m: 11.8k vertices, 20.4k triangles, 0.4 MB).
     """
-    polygon = scene.water.polygon
+    return triangulate_water(scene.water.polygon, scene.terrain.origin_m, cell_m,
+                             scene.water.level)
+
+
+def triangulate_water(polygon, origin_m, cell_m: float, level) -> WaterMesh:
+    """:func:`water_mesh` of any polygon (a tile's piece of the water, say) on the grid of
+    ``cell_m`` cells through ``origin_m``, vertices at ``level(xy)`` [m]."""
     cell = float(cell_m)
-    origin = np.asarray(scene.terrain.origin_m, np.float64)
+    origin = np.asarray(origin_m, np.float64)
     if polygon.is_empty:
         return WaterMesh(np.zeros((0, 3), np.float32), np.zeros((0, 3), np.uint32), 0.0, cell)
     x0, y0, x1, y1 = polygon.bounds
@@ -326,8 +399,9 @@ def water_mesh(scene, cell_m: float = WATER_CELL_M) -> WaterMesh:
     centre = corner + (np.stack([ci.ravel(), cj.ravel()], 1) + 0.5) * cell
     inside = np.zeros(nx * ny, bool)
     rest = np.flatnonzero(~edge)
-    shapely.prepare(polygon)
-    inside[rest] = shapely.contains_xy(polygon, centre[rest, 0], centre[rest, 1])
+    if len(rest):
+        shapely.prepare(polygon)  # no-op when it already is
+        inside[rest] = shapely.contains_xy(polygon, centre[rest, 0], centre[rest, 1])
 
     full = np.flatnonzero(inside)
     lo = corner + np.stack([full % nx, full // nx], 1) * cell
@@ -368,7 +442,7 @@ def water_mesh(scene, cell_m: float = WATER_CELL_M) -> WaterMesh:
     renumber = np.cumsum(used) - 1
     positions = np.empty((int(used.sum()), 3), np.float32)
     positions[:, :2] = xy[used]
-    positions[:, 2] = scene.water.level(positions[:, :2].astype(np.float64))
+    positions[:, 2] = level(positions[:, :2].astype(np.float64))
     return WaterMesh(positions, renumber[indices].astype(np.uint32),
                      0.5 * float(np.abs(cross).sum()), cell)
 

@@ -10,6 +10,7 @@ deepest mid-stream and shallow at the banks.
 """
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -20,6 +21,16 @@ JUNCTION_BLEND = 1.25
 """Levels are blended between the branches of a junction within this many (largest) widths."""
 MAX_JUNCTION_SLOPE = 0.01
 """Steepest descent [m/m] of a profile forced down to a lower junction level."""
+LAND_LEVEL_STRIDE = 5
+"""The level under the land is blended from every LAND_LEVEL_STRIDE-th centre-line sample…"""
+LAND_LEVEL_NEIGHBOURS = 24
+"""… the LAND_LEVEL_NEIGHBOURS nearest of them, weighted down to 0 at the farthest one."""
+
+
+def _workers() -> int:
+    """KD-tree query threads: all cores on the main thread, one in a tile worker (which runs
+    beside the frame: it must not take the frame's core)."""
+    return -1 if threading.current_thread() is threading.main_thread() else 1
 
 
 def monotone_profiles(samples: list[np.ndarray], ground_m: list[np.ndarray],
@@ -113,6 +124,10 @@ class WaterSurface:
 
     def __post_init__(self) -> None:
         shapely.prepare(self.polygon)
+        self._local = threading.local()
+        self._junction_radius = np.array([
+            JUNCTION_BLEND * float(max(self.widths_m[self.branch == b].max() for b in members))
+            for members in self.junction_branches]) if len(self.junction_branches) else np.zeros(0)
         self._decimated: dict[int, _Samples] = {}
         self._per_branch: dict[int, _Samples] = {}
         edge = shapely.segmentize(self.polygon.boundary, self.boundary_spacing_m)
@@ -137,16 +152,31 @@ class WaterSurface:
             self._decimated[stride] = _Samples(self.samples_m[sel], self.levels_m[sel],
                                                self.widths_m[sel], self.branch[sel])
         dist, level, width = self._decimated[stride].project(p)
-        if stride == 1:
-            for j, centre in enumerate(self.junctions_m):
-                self._blend_junction(p, j, centre, dist, level, width)
+        if stride == 1 and len(p) and len(self.junctions_m):
+            lo, hi = p.min(axis=0), p.max(axis=0)
+            c, r = self.junctions_m, self._junction_radius
+            near = np.flatnonzero(np.all((c + r[:, None] >= lo) & (c - r[:, None] <= hi), axis=1))
+            for j in near.tolist():
+                self._blend_junction(p, j, self.junctions_m[j], dist, level, width)
         return dist, level, width
+
+    def nearest_sample(self, xy: np.ndarray, stride: int = 5) -> tuple[np.ndarray, np.ndarray]:
+        """The nearest of every stride-th centre-line sample (N, 2) [m] and the river width
+        there (N,) [m]."""
+        p = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+        if stride not in self._decimated:
+            sel = slice(None, None, stride)
+            self._decimated[stride] = _Samples(self.samples_m[sel], self.levels_m[sel],
+                                               self.widths_m[sel], self.branch[sel])
+        samples = self._decimated[stride]
+        _, k = samples.tree.query(p, workers=_workers())
+        return samples.samples[k], samples.widths[k]
 
     def _blend_junction(self, p, j, centre, dist, level, width) -> None:
         """Blend levels / widths (in place) of the branches of junction j near it."""
         members = self.junction_branches[j]
-        wmax = float(max(self.widths_m[self.branch == b].max() for b in members))
-        radius = JUNCTION_BLEND * wmax
+        radius = float(self._junction_radius[j])
+        wmax = radius / JUNCTION_BLEND
         r = np.hypot(*(p - centre).T)
         idx = np.flatnonzero(r < radius)
         if not len(idx):
@@ -169,14 +199,38 @@ class WaterSurface:
         """Water level of the nearest river point [m], defined everywhere."""
         return self.nearest(xy)[1]
 
-    def distance_to_shore(self, xy: np.ndarray, stride: int = 1) -> np.ndarray:
+    def distance_to_shore(self, xy: np.ndarray, stride: int = 1,
+                          upper_bound_m: float = np.inf) -> np.ndarray:
         """Distance to the nearest bank or island shore [m] (unsigned); ``stride`` > 1 uses
         every stride-th shore sample only (faster far away, error up to stride × the shore
-        sample spacing)."""
+        sample spacing); beyond ``upper_bound_m`` it is inf (much faster far away)."""
         if stride not in self._boundary_trees:
             self._boundary_trees[stride] = cKDTree(self._boundary_trees[1].data[::stride])
-        d, _ = self._boundary_trees[stride].query(np.asarray(xy, dtype=np.float64).reshape(-1, 2), workers=-1)
+        d, _ = self._boundary_trees[stride].query(np.asarray(xy, dtype=np.float64).reshape(-1, 2),
+                                                  distance_upper_bound=upper_bound_m,
+                                                  workers=_workers())
         return d
+
+    def land_level(self, xy: np.ndarray) -> np.ndarray:
+        """The water level seen from the land [m], (N,): the levels of the
+        LAND_LEVEL_NEIGHBOURS nearest centre-line samples (every LAND_LEVEL_STRIDE-th one),
+        weighted by (1 − (d − d_nearest) / (d_farthest − d_nearest))². Continuous everywhere
+        (a neighbour enters or leaves the set with weight 0), smooth across the place where the
+        nearest branch changes, pointwise (a tile needs nothing around it)."""
+        p = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+        stride = LAND_LEVEL_STRIDE
+        if -stride not in self._decimated:
+            sel = slice(None, None, stride)
+            self._decimated[-stride] = _Samples(self.samples_m[sel], self.levels_m[sel],
+                                                self.widths_m[sel], self.branch[sel])
+        samples = self._decimated[-stride]
+        k = min(LAND_LEVEL_NEIGHBOURS, len(samples.samples))
+        if k < 2:
+            return np.full(len(p), float(samples.levels[0]) if k else 0.0)
+        d, idx = samples.tree.query(p, k=k, workers=_workers())
+        span = np.maximum(d[:, -1:] - d[:, :1], 1e-9)
+        w = (1.0 - (d - d[:, :1]) / span) ** 2
+        return (w * samples.levels[idx]).sum(axis=1) / w.sum(axis=1)
 
     def contains(self, xy: np.ndarray, shore_m: np.ndarray | None = None) -> np.ndarray:
         """(N,) bool: points in the water. ``shore_m``: distance_to_shore(xy) if known."""
@@ -184,8 +238,19 @@ class WaterSurface:
         d = self.distance_to_shore(p) if shore_m is None else shore_m
         near = d < self._reach_m
         inside = np.zeros(len(p), bool)
-        inside[near] = shapely.contains_xy(self.polygon, p[near, 0], p[near, 1])
+        inside[near] = shapely.contains_xy(self._thread_polygon(), p[near, 0], p[near, 1])
         return inside
+
+    def _thread_polygon(self) -> shapely.Geometry:
+        """The polygon, prepared; a copy of its own for each other thread (GEOS prepared
+        geometries build their index lazily and are not safe to share between threads)."""
+        if threading.current_thread() is threading.main_thread():
+            return self.polygon
+        polygon = getattr(self._local, "polygon", None)
+        if polygon is None:
+            polygon = self._local.polygon = shapely.from_wkb(shapely.to_wkb(self.polygon))
+            shapely.prepare(polygon)
+        return polygon
 
     def height(self, xy: np.ndarray) -> np.ndarray:
         """Water surface altitude [m] at points in the water, NaN elsewhere."""
@@ -213,7 +278,7 @@ class _Samples:
 
     def project(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(distance, level, width) (N,) of the nearest point on the sampled centre lines."""
-        _, k = self.tree.query(p, workers=-1)
+        _, k = self.tree.query(p, workers=_workers())
         n = len(self.samples)
         best_d = np.full(len(p), np.inf)
         level = np.empty(len(p))

@@ -1,23 +1,26 @@
-// Terrain tiles: lit ground coloured by slope, height above the water and wetness.
+// Terrain tiles: lit ground coloured by slope and by its height above the nearest water.
 #include "common.glsl"
 uniform mat4 u_view_projection;
 
 #ifdef VERTEX
 layout(location = 0) in vec3 a_position;   // [m]
 layout(location = 1) in vec3 a_normal;
+layout(location = 2) in float a_level;     // water level seen from here [m] (-1e4: none near)
 out vec3 v_world;
 out vec3 v_normal;
+out float v_level;
 void main() {
     v_world = a_position;
     v_normal = a_normal;
+    v_level = a_level;
     gl_Position = u_view_projection * vec4(a_position, 1.0);
 }
 #endif
 
 #ifdef FRAGMENT
-#include "surface.glsl"
 in vec3 v_world;
 in vec3 v_normal;
+in float v_level;
 out vec4 frag;
 
 float hash(vec2 p) {
@@ -33,9 +36,8 @@ float value_noise(vec2 p) {
 
 void main() {
     vec3 n = normalize(v_normal);
-    vec4 s = surface_at(v_world.xy);
-    float above_m = v_world.z - s.g;           // height above the (nearest) water level
-    float wet = s.b;
+    float above_m = v_world.z - v_level;       // height above the (nearest) water level
+    float wet = step(-1000.0, v_level);        // a river near: shores and bed by height
     float patch = value_noise(v_world.xy / 37.0) * 0.6 + value_noise(v_world.xy / 9.0) * 0.4;
     vec3 grass = mix(vec3(0.26, 0.38, 0.15), vec3(0.38, 0.44, 0.20), patch);
     vec3 rock = mix(vec3(0.42, 0.40, 0.36), vec3(0.52, 0.49, 0.44), patch);

@@ -6,15 +6,19 @@ uniform mat4 u_view_projection;
 
 #ifdef VERTEX
 layout(location = 0) in vec3 a_position;   // (x, y, water level) [m]
+layout(location = 1) in float a_ground;    // the terrain (river bed) under it [m]
 out vec3 v_world;
+out float v_ground;
 void main() {
     v_world = a_position;
+    v_ground = a_ground;
     gl_Position = u_view_projection * vec4(a_position, 1.0);
 }
 #endif
 
 #ifdef FRAGMENT
 in vec3 v_world;
+in float v_ground;
 out vec4 frag;
 
 #ifdef POSITION_PASS
@@ -22,7 +26,6 @@ void main() {
     frag = vec4(v_world, 1.0);
 }
 #else
-#include "surface.glsl"
 #include "wave.glsl"
 #include "params.glsl"
 
@@ -72,8 +75,7 @@ vec4 blend_sprites(vec2 uv_dx, vec2 uv_dy, out bool full) {
 void main() {
     vec2 uv0 = v_world.xy / u_wave_length_m;
     vec2 uv_dx = dFdx(uv0), uv_dy = dFdy(uv0);
-    vec4 ground = surface_at(v_world.xy);
-    float depth_m = max(v_world.z - ground.r, 0.0);
+    float depth_m = max(v_world.z - v_ground, 0.0);
 
     if (u_mode == DISPLAY_MODE_MESH) {
         frag = vec4(apply_fog(vec3(0.10, 0.35, 0.75), v_world), 0.0);

@@ -1,14 +1,11 @@
 """AdvectParticles: carry the particles along the flow (Proland TerrainParticleLayer)."""
 from __future__ import annotations
 
-import weakref
-
 import esper
 import numpy as np
-from scipy import ndimage
 
 from riverflow.components.particles import ParticlePool
-from riverflow.components.river import Clock, FrameView, RiverNode, ScreenGrid, SurfaceGrids
+from riverflow.components.river import Clock, FrameView, RiverNode, ScreenGrid, TerrainView
 from riverflow.components.status import FlowStatus
 from riverflow.engine.system import System
 from riverflow.hydro.flow_field import FlowField
@@ -17,7 +14,7 @@ from riverflow.kernels.advection import (HIT_WATER, apply_flow_status, check_out
 from riverflow.kernels.flow import query_velocity
 from riverflow.kernels.obstacles import OB_BEAM, OB_LENGTH, OB_REACH, OB_X, OB_Y
 from riverflow.kernels.placement import pixel_rays
-from riverflow.kernels.raycast import cast_rays_onto_heightfield, height_pyramid
+from riverflow.kernels.raycast_tiles import cast_rays_onto_tiles
 
 _NO_LEVELS = np.zeros(0, np.int8)
 _NO_BOX = np.array([np.inf, np.inf, -np.inf, -np.inf])
@@ -37,61 +34,9 @@ VELOCITY_EVERY = 4
 """An INSIDE particle asks the flow for its velocity every this many frames, staggered (and
 every frame near a moving obstacle); the other frames it asks only whether it is still
 inside (docs/deviations.md)."""
-DEEP_WATER_NODES = 1
-"""Water hints point this many grid nodes inside the water (not at the bank's edge), where
-the river is wide enough to keep any."""
-HINT_STRIDE = 8
-"""The water hint grid keeps every this many surface grid nodes (32 m on the default scene's
-4 m grid)."""
 
 for _every in (NEAR_CHECK_EVERY, NEAR_REPLACE_EVERY, ALTITUDE_EVERY, VELOCITY_EVERY):
     assert _every > 0 and _every & (_every - 1) == 0, "the kernels stagger by bit masks"
-
-_SURFACE_CACHE: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
-
-
-def deep_water_targets(grids: SurfaceGrids) -> np.ndarray:
-    """(ny, nx) int32: per grid node the flat index of the nearest deep-water node (wet, at
-    least :data:`DEEP_WATER_NODES` from dry land; any wet node where none is that deep; −1
-    everywhere when there is no water), from scipy's exact Euclidean distance transform."""
-    wet = grids.water_m >= grids.ground_m  # NaN (dry) compares False
-    deep = ndimage.binary_erosion(wet, iterations=DEEP_WATER_NODES, border_value=1)
-    if not deep.any():
-        deep = wet
-    if not deep.any():
-        return np.full(wet.shape, -1, np.int32)
-    _, (jj, ii) = ndimage.distance_transform_edt(~deep, return_indices=True)
-    return (jj * wet.shape[1] + ii).astype(np.int32)
-
-
-def water_hint_grid(grids: SurfaceGrids) -> tuple[np.ndarray, float]:
-    """(hints, cell_m): every :data:`HINT_STRIDE`-th node of the surface grid, the nearest
-    deep-water node's x, y and water level [m] (x = +inf: none), (ny', nx', 3) float32 with
-    nodes ``cell_m`` apart from the grid's origin. Small enough to stay in cache: the land
-    particles' water hints look it up at 8 points each (the full table is 4 MB and each
-    lookup missed the cache)."""
-    targets = deep_water_targets(grids)
-    s = HINT_STRIDE
-    rows = np.minimum(np.arange(0, targets.shape[0] + s - 1, s), targets.shape[0] - 1)
-    cols = np.minimum(np.arange(0, targets.shape[1] + s - 1, s), targets.shape[1] - 1)
-    t = targets[np.ix_(rows, cols)]
-    tj, ti = np.divmod(np.maximum(t, 0), targets.shape[1])
-    hints = np.empty(t.shape + (3,), np.float32)
-    hints[..., 0] = np.where(t >= 0, grids.origin_x + ti * grids.cell_m, np.inf)
-    hints[..., 1] = grids.origin_y + tj * grids.cell_m
-    hints[..., 2] = grids.water_m[tj, ti]
-    return hints, grids.cell_m * s
-
-
-def surface_tables(grids: SurfaceGrids) -> tuple[np.ndarray, np.ndarray, float]:
-    """(height pyramid, water hint grid, its cell [m]) of a :class:`SurfaceGrids`, made once
-    and shared: the max-mip pyramid of :func:`riverflow.kernels.raycast.height_pyramid` and
-    :func:`water_hint_grid`."""
-    tables = _SURFACE_CACHE.get(grids)
-    if tables is None:
-        tables = (height_pyramid(grids.ground_m, grids.water_m), *water_hint_grid(grids))
-        _SURFACE_CACHE[grids] = tables
-    return tables
 
 
 class AdvectParticles(System):
@@ -113,14 +58,16 @@ class AdvectParticles(System):
         if clock.paused:
             self._view = (view.clip_from_world.copy(), view.world_from_clip.copy())
             return
-        g = world.resource(SurfaceGrids)
+        surface = world.resource(TerrainView).surface
+        if surface is None:
+            return
         reach_px = world.config.grid_cell_factor * world.config.radius_px
         for _, (node, pool, grid) in esper.get_components(RiverNode, ParticlePool, ScreenGrid):
             cap = len(grid.query_index)
             self.moved, n_velocity, n_status = move_particles(
                 int(pool.counters[2]), pool.alive, pool.has_world, pool.world_m,
-                pool.velocity_mps, pool.status, dt_s * clock.speed_factor, g.water_m,
-                g.ground_m, g.origin_x, g.origin_y, g.cell_m, clock.frame, ALTITUDE_EVERY,
+                pool.velocity_mps, pool.status, dt_s * clock.speed_factor, surface, clock.frame,
+                ALTITUDE_EVERY,
                 VELOCITY_EVERY, always_velocity_box(node.field), grid.query_index,
                 grid.query_xy)
             if n_status:  # the status-only askers, listed from the end, after the others
@@ -129,12 +76,12 @@ class AdvectParticles(System):
                 grid.query_xy[n_velocity:n_velocity + n_status] = grid.query_xy[tail][::-1]
             self.waiting = ask_flow(node.field, pool, grid, n_velocity + n_status, reach_px,
                                     n_velocity)
-            self._near_water(world, node.field, pool, grid, g, reach_px)
+            self._near_water(world, node.field, pool, grid, surface, reach_px)
         # the screen positions the next frame starts from were projected with this view
         self._view = (view.clip_from_world.copy(), view.world_from_clip.copy())
 
     def _near_water(self, world, field: FlowField, pool: ParticlePool, grid: ScreenGrid,
-                    g: SurfaceGrids, reach_px: float) -> None:
+                    surface, reach_px: float) -> None:
         """The NEAR rule and the water-hint probes (:func:`check_outside_near_water`), then a
         particle at each probe that sees uncovered water inside the flow
         (:func:`place_at_seen_water`); a particle whose hint did not is not asked again."""
@@ -143,7 +90,6 @@ class AdvectParticles(System):
         view = world.resource(FrameView)
         clock = world.resource(Clock)
         forward, inverse = self._view or (view.clip_from_world, view.world_from_clip)
-        pyramid, hints, hint_cell_m = surface_tables(g)
         if len(self._probe_xy) < pool.capacity:
             self._probe_xy = np.zeros((pool.capacity, 2), np.float32)
             self._owner = np.zeros(pool.capacity, np.int32)
@@ -153,8 +99,7 @@ class AdvectParticles(System):
             grid.cell_px, grid.gw, grid.gh, grid.acc_start, grid.acc_slot, grid.acc_xy,
             grid.carrier_cells, reach_px, grid.removed_cells, clock.frame, NEAR_CHECK_EVERY,
             NEAR_REPLACE_EVERY, NEAR_COVER * r, view.width_px, view.height_px, forward,
-            view.eye_m[0], view.eye_m[1], hints, g.origin_x, g.origin_y, hint_cell_m,
-            self._probe_xy, self._owner)
+            view.eye_m[0], view.eye_m[1], surface, self._probe_xy, self._owner)
         self.probes = n
         self.placed = 0
         if n == 0:
@@ -167,8 +112,7 @@ class AdvectParticles(System):
                    origin, direction)
         hit_xyz = np.empty((n, 3))
         hit = np.empty(n, np.uint8)
-        cast_rays_onto_heightfield(origin, direction, g.ground_m, g.water_m, g.origin_x,
-                                   g.origin_y, g.cell_m, c.far_m, hit_xyz, hit, pyramid)
+        cast_rays_onto_tiles(origin, direction, surface, c.far_m, hit_xyz, hit)
         water = np.flatnonzero(hit == HIT_WATER)
         flow_status = np.zeros(len(water), np.uint8)
         velocity = np.empty((len(water), 2), np.float32)

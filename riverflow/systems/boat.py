@@ -20,9 +20,9 @@ Each step, for each :class:`~riverflow.components.boat.Boat`:
 4. **Floating**: altitude = water level under the hull + a small bob; pitch and roll follow
    the water-level gradient under the hull, plus trim with speed, a lean into turns and a
    small oscillation growing with speed — all functions of the world clock (deterministic).
-   The level is the world's water grid (:class:`SurfaceGrids`: ``scene.water.level`` on the
-   terrain grid, what the particles ride on), bilinear: ``scene.water.level`` itself costs
-   about a millisecond a call.
+   The level is read from the view's surface tiles (:class:`TerrainView`, what the particles
+   ride on), bilinear: ``scene.water.level`` itself costs about a millisecond a call (it
+   serves where no tile is made yet).
 5. **Obstacle**: the hull goes into the flow (``FlowField.set_obstacles(..., key="boats")``)
    with its velocity, yaw rate and ψ_o = the unobstructed ψ at its centre, so that
    ``FlowField.query`` and the particles (advection runs later in the frame) go around it.
@@ -40,10 +40,11 @@ import shapely
 
 from riverflow.components.boat import Boat
 from riverflow.components.props import Pose, Prop
-from riverflow.components.river import SurfaceGrids
+from riverflow.components.river import TerrainView
 from riverflow.components.status import FlowStatus
 from riverflow.engine.system import System
 from riverflow.kernels import obstacles as ko
+from riverflow.kernels.surface_tiles import water_level_at
 
 BOATS_KEY = "boats"
 """The obstacle set of :meth:`FlowField.set_obstacles` that this system owns."""
@@ -88,7 +89,7 @@ class MoveBoats(System):
         shore = self._shores.get(id(polygon))
         if shore is None:
             shore = self._shores[id(polygon)] = Shore(polygon)
-        grids = world.resource(SurfaceGrids)
+        surface = world.resource(TerrainView).surface
         now_s = world.clock.now_s
         start = field.obstacle_rows(BOATS_KEY).start
         rows = np.empty((len(boats), ko.OBSTACLE_FIELDS))
@@ -101,7 +102,7 @@ class MoveBoats(System):
                 prev = (boat.position_m.copy(), boat.heading_rad)
                 integrate(boat, flow, flow_yaw, dt_s)
                 keep_in_water(boat, shore, *prev)
-            float_on_water(boat, grids, world.scene.water, flow, now_s)
+            float_on_water(boat, surface, world.scene.water, flow, now_s)
             rows[i] = obstacle_row(boat, field)
             poses[entity] = (boat.position_m.copy(), boat.heading_rad)
             pose = esper.try_component(entity, Pose)
@@ -207,8 +208,7 @@ def keep_in_water(boat: Boat, shore: Shore, prev_position_m: np.ndarray,
     boat.yaw_rate_rps = 0.0
 
 
-def float_on_water(boat: Boat, grids: SurfaceGrids, water, flow_mps: np.ndarray,
-                   now_s: float) -> None:
+def float_on_water(boat: Boat, surface, water, flow_mps: np.ndarray, now_s: float) -> None:
     """Altitude, pitch and roll (module docstring, 4)."""
     fx, fy = math.cos(boat.heading_rad), math.sin(boat.heading_rad)
     half_l = 0.4 * boat.length_m
@@ -216,7 +216,7 @@ def float_on_water(boat: Boat, grids: SurfaceGrids, water, flow_mps: np.ndarray,
     x, y = boat.position_m
     pts = [(x, y), (x + half_l * fx, y + half_l * fy), (x - half_l * fx, y - half_l * fy),
            (x - half_b * fy, y + half_b * fx), (x + half_b * fy, y - half_b * fx)]
-    z = surface_levels(grids, pts)
+    z = surface_levels(surface, pts)
     if not all(map(math.isfinite, z)):
         z = [float(v) for v in water.level(np.array(pts))]
     vx, vy = boat.velocity_mps
@@ -366,22 +366,13 @@ def _crosses(a, b, p, q) -> np.ndarray:
     return ((orient(a, b, p) * orient(a, b, q) < 0) & (orient(p, q, a) * orient(p, q, b) < 0))
 
 
-def surface_levels(grids: SurfaceGrids, pts) -> list[float]:
-    """Water level [m] at a few points [(x, y), …] [m], bilinear on the world's water grid
-    (NaN where a corner is dry)."""
-    water = grids.water_m
-    ny, nx = water.shape
-    out = []
-    for x, y in pts:                               # a handful of points: plain Python
-        gx = (x - grids.origin_x) / grids.cell_m
-        gy = (y - grids.origin_y) / grids.cell_m
-        i = min(max(math.floor(gx), 0), nx - 2) if math.isfinite(gx) else 0
-        j = min(max(math.floor(gy), 0), ny - 2) if math.isfinite(gy) else 0
-        fx = min(max(gx - i, 0.0), 1.0)
-        fy = min(max(gy - j, 0.0), 1.0)
-        out.append((float(water[j, i]) * (1 - fx) + float(water[j, i + 1]) * fx) * (1 - fy)
-                   + (float(water[j + 1, i]) * (1 - fx) + float(water[j + 1, i + 1]) * fx) * fy)
-    return out
+def surface_levels(surface, pts) -> list[float]:
+    """Water level [m] at a few points [(x, y), …] [m], bilinear on the view's surface tiles
+    (:class:`~riverflow.kernels.surface_tiles.SurfaceTiles`; NaN where a corner is dry, where
+    no tile is made yet, or with no view yet)."""
+    if surface is None:
+        return [math.nan] * len(pts)
+    return [float(water_level_at(surface, float(x), float(y))) for x, y in pts]
 
 
 def _unit(value: float) -> float:

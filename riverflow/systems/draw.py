@@ -5,18 +5,23 @@ Per frame (reference §4; no one-frame latency: the tables are built from this f
 1. the sprite tables from the particle pool (numba, :mod:`riverflow.kernels.sprites`): the
    float32 parameter table and the integer indirection grid, uploaded to an RGBA32F and an
    RGBA32I texture (only the rows in use);
-2. sky (one full-screen triangle), then the visible terrain tiles (frustum-culled, level of
-   detail by distance, skirts hide the cracks between levels), then the props (boats,
+2. sky (one full-screen triangle), then the terrain tiles of the view's cut (the tile system
+   picks them: level of detail by distance; skirts hide the cracks between levels; a tile not
+   made yet is stood in for by its finest resident ancestor), then the props (boats,
    barrels: :mod:`riverflow.components.props`), so that the water is drawn over their
    submerged part;
 3. *pre-advected* mode only: the water's world position into a float target, then every
    sprite as a quad adding (w·slope, w²) into a second float target;
-4. the water mesh at the water level, shaded per :class:`DisplayMode`, blended over the bed
-   drawn in step 2 (the shader writes what it adds and how much of the bed shows through);
+4. the water mesh tiles of the cut at the water level, shaded per :class:`DisplayMode`,
+   blended over the bed drawn in step 2 (the shader writes what it adds and how much of the bed
+   shows through);
 5. overlays: particles as points, velocity arrows.
 
 Everything is drawn into the world's own RGBA8 framebuffer (with a depth texture shared by
 the passes); :meth:`DrawRivers.blit_to_window` copies it to the window a host draws in.
+
+GPU objects follow the tile cache: a terrain or water tile is uploaded when it is first drawn
+and its buffers are released when the cache evicts it (:meth:`_Gpu.sync_tiles`).
 """
 from __future__ import annotations
 
@@ -25,11 +30,9 @@ from typing import TYPE_CHECKING
 
 import esper
 import numpy as np
-from scipy import ndimage
-
 from riverflow.components.display import DisplayMode, DisplaySettings
 from riverflow.components.props import Pose, Prop
-from riverflow.components.river import SurfaceGrids
+from riverflow.components.river import TerrainView, Tiles
 from riverflow.components.status import FlowStatus
 from riverflow.components.waves import WaveTile
 from riverflow.engine import gl
@@ -38,18 +41,17 @@ from riverflow.kernels.sprites import (MAX_PER_CELL, PARTICLES_PER_ROW, SPRITE_R
                                        TEXELS_PER_PARTICLE, build_sprite_grid,
                                        empty_sprite_tables, fill_sprite_params,
                                        sprite_grid_shape, slot_span)
-from riverflow.scenes.meshes import choose_levels, lod_indices, terrain_mesh, water_mesh
+from riverflow.scenes.meshes import tile_indices
 from riverflow.scenes.props import SHAPES
+from riverflow.scenes.tile_kinds import TERRAIN_MESH, WATER_MESH
+from riverflow.tiles.cut import standins
+from riverflow.tiles.table import codes
 
 if TYPE_CHECKING:
     from riverflow.engine.world import RiverWorld
 
 SUN_DIRECTION = np.array([-0.45, -0.55, 0.70]) / np.linalg.norm([-0.45, -0.55, 0.70])
 """Unit vector towards the sun (afternoon light from the south-west)."""
-LOD_TARGET_PX = 6.0
-"""Terrain tiles are drawn at full detail while a cell spans at least this many pixels."""
-DRY_LEVEL_M = -1.0e4
-"""Water level stored where no water is anywhere near (never shown)."""
 
 
 def shader_defines() -> dict[str, int]:
@@ -58,24 +60,6 @@ def shader_defines() -> dict[str, int]:
     defines.update(MAX_PER_CELL=MAX_PER_CELL, PARTICLES_PER_ROW=PARTICLES_PER_ROW,
                    TEXELS_PER_PARTICLE=TEXELS_PER_PARTICLE)
     return defines
-
-
-def surface_texels(grids: SurfaceGrids) -> np.ndarray:
-    """(ny, nx, 4) float32: ground [m], water level [m] (dry nodes take the nearest wet node's
-    level, so it is smooth across the banks), wet flag, 0."""
-    ground = grids.ground_m
-    water = grids.water_m
-    wet = np.isfinite(water)
-    out = np.zeros((*ground.shape, 4), np.float32)
-    out[..., 0] = ground
-    if wet.any():
-        nearest = ndimage.distance_transform_edt(~wet, return_distances=False,
-                                                 return_indices=True)
-        out[..., 1] = water[tuple(nearest)]
-    else:
-        out[..., 1] = DRY_LEVEL_M
-    out[..., 2] = wet
-    return out
 
 
 class _Gpu:
@@ -94,26 +78,9 @@ class _Gpu:
             "props": gl.Program("props.glsl", defines),
         }
         self.prop_meshes: dict[tuple, gl.Mesh] = {}
-        scene = world.scene
-        terrain = scene.terrain
-        mesh = terrain_mesh(terrain)
-        self.terrain = mesh
-        n = mesh.cells_per_tile
-        lods = lod_indices(n)
-        self.lod_first = np.cumsum([0] + [idx.size for idx in lods[:-1]])
-        self.lod_count = [idx.size for idx in lods]
-        vertices = np.concatenate([mesh.positions, mesh.normals], axis=2).reshape(-1, 6)
-        self.terrain_mesh = gl.Mesh(vertices, {0: 3, 1: 3},
-                                    np.concatenate([idx.ravel() for idx in lods]))
-        water = water_mesh(scene)
-        self.water = water
-        self.water_mesh = gl.Mesh(water.positions, {0: 3}, water.indices.ravel())
+        self.terrain_indices = tile_indices(world.scene.terrain.tile_cells).ravel()
+        self.tile_meshes: dict[str, dict[int, gl.Mesh]] = {TERRAIN_MESH: {}, WATER_MESH: {}}
         self.empty = gl.Mesh(None, {})           # attribute-less draws (gl_VertexID)
-        grids = world.resource(SurfaceGrids)
-        texels = surface_texels(grids)
-        self.surface = gl.Texture(texels.shape[1::-1], gl.RGBA32F, linear=True)
-        self.surface.upload(texels)
-        self.surface_map = (grids.origin_x, grids.origin_y, 1.0 / grids.cell_m, 0.0)
         self.waves: dict[int, tuple[int, gl.Texture]] = {}
         self.size = (0, 0)
         self.grid_shape = (1, 1, 1)
@@ -158,6 +125,34 @@ class _Gpu:
             self.grid.upload(self.grid_cpu.reshape(gh, -1, 4))
             self.grid_shape = shape
 
+    def sync_tiles(self, tiles: Tiles, kind: str, keys: np.ndarray) -> list[gl.Mesh]:
+        """The GPU meshes of the tiles ``keys`` of ``kind`` (uploaded now if new), and the
+        release of every GPU mesh whose tile left the cache."""
+        pool = tiles.cache.pools[kind]
+        meshes = self.tile_meshes[kind]
+        for code in [c for c in meshes if c not in pool]:
+            meshes.pop(code).delete()
+        out = []
+        for code in codes(keys).tolist():
+            mesh = meshes.get(code)
+            if mesh is None:
+                data = pool.get(code)
+                if data is None:
+                    continue
+                mesh = meshes[code] = self._upload(kind, data)
+            if mesh is not None:
+                out.append(mesh)
+        return out
+
+    def _upload(self, kind: str, data) -> gl.Mesh | None:
+        if kind == TERRAIN_MESH:
+            return gl.Mesh(data.vertices, {0: 3, 1: 3, 2: 1}, self.terrain_indices)
+        mesh, ground = data
+        if not len(mesh.indices):
+            return None
+        vertices = np.concatenate([mesh.positions, ground[:, None]], axis=1)
+        return gl.Mesh(vertices, {0: 3, 1: 1}, mesh.indices.ravel())
+
     def wave_texture(self, entity: int, tile: WaveTile) -> gl.Texture:
         """The wave tile's array texture, (re)uploaded when its revision changes."""
         known = self.waves.get(entity)
@@ -197,8 +192,12 @@ class _Gpu:
         for mesh in self.prop_meshes.values():
             mesh.delete()
         self.prop_meshes.clear()
-        for obj in [self.terrain_mesh, self.water_mesh, self.empty, self.surface,
-                    self.params, self.grid, *self.targets,
+        for meshes in self.tile_meshes.values():
+            for mesh in meshes.values():
+                if mesh is not None:
+                    mesh.delete()
+            meshes.clear()
+        for obj in [self.empty, self.params, self.grid, *self.targets,
                     *(tex for _, tex in self.waves.values())]:
             if obj is not None:
                 obj.delete()
@@ -221,6 +220,7 @@ class DrawRivers(System):
         self.gpu: _Gpu | None = None
         self.context = None
         self.last_tables_ms = 0.0
+        self._terrain_meshes: list = []
         self.last_tiles = 0
         self.last_sprites = 0
 
@@ -249,9 +249,9 @@ class DrawRivers(System):
         shared = dict(u_eye_m=tuple(camera.position), u_sun_dir=tuple(SUN_DIRECTION),
                       u_fog_density=float(settings.fog_density_per_m),
                       u_view_projection=vp, u_viewport_px=(float(gpu.size[0]),
-                                                           float(gpu.size[1])),
-                      u_surface_map=gpu.surface_map)
+                                                           float(gpu.size[1])))
         wave_uniforms, wave_tex = self._wave(world, gpu, settings)
+        water_meshes = self._tile_meshes(world, gpu)
 
         gpu.main_fb.bind()
         gl.clear((0.0, 0.0, 0.0, 1.0))
@@ -274,20 +274,20 @@ class DrawRivers(System):
         gpu.params.bind(2)
         gpu.grid.bind(3)
         wave_tex.bind(1)
-        gpu.surface.bind(0)
         if mode == DisplayMode.PRE_ADVECTED:
-            self._pre_advect(gpu, shared, wave_uniforms, n_slots)
+            self._pre_advect(gpu, shared, wave_uniforms, n_slots, water_meshes)
         if mode != DisplayMode.NONE:
             water = gpu.programs["water"]
             water.use()
             water.set_if_used(**shared)
             gpu.accum.bind(4)
-            water.set(u_surface=0, u_wave=1, u_accum=4, u_mode=int(mode),
+            water.set(u_wave=1, u_accum=4, u_mode=int(mode),
                       u_show_grid=bool(settings.show_grid), u_grid_cell_px=float(gpu.grid_shape[0]),
                       u_grid_size=gpu.grid_shape[1:], u_slope_factor=settings.wave_slope_factor,
                       u_clarity_m=settings.water_clarity_m, **tables, **wave_uniforms)
             gl.set_blend(gl.BLEND_WATER)
-            gpu.water_mesh.draw()
+            for mesh in water_meshes:
+                mesh.draw()
         gl.set_depth(False, write=False)
         if settings.show_velocities and n_slots:
             arrows = gpu.programs["arrows"]
@@ -337,27 +337,25 @@ class DrawRivers(System):
         return dict(u_wave_frames=(int(a), int(b)), u_wave_blend=float(blend),
                     u_wave_length_m=float(tile.wave_length_m)), tex
 
+    def _tile_meshes(self, world: RiverWorld, gpu: _Gpu) -> list:
+        """Sync the GPU tile meshes with the cache; keep this frame's terrain meshes (for
+        :meth:`_draw_terrain`) and return its water meshes (see the module docstring)."""
+        tiles = world.resource(Tiles)
+        cut = world.resource(TerrainView).cut
+        water = tiles.scheduler.producers[WATER_MESH]
+        dry = np.fromiter((water.is_empty(tuple(k)) for k in cut.tolist()), bool, len(cut))
+        self._terrain_meshes = gpu.sync_tiles(tiles, TERRAIN_MESH,
+                                              standins(cut, tiles.cache.pools[TERRAIN_MESH]))
+        return gpu.sync_tiles(tiles, WATER_MESH,
+                              standins(cut, tiles.cache.pools[WATER_MESH], skip=dry))
+
     def _draw_terrain(self, world: RiverWorld, gpu: _Gpu, shared: dict) -> None:
-        camera = world.camera
-        mesh = gpu.terrain
-        visible = _boxes_in_view(mesh.bounds_m, camera.matrices_for_kernels()[0])
-        rad_per_px = np.radians(camera.fov_y_deg) / max(camera.size_px[1], 1)
-        cell_m = world.scene.terrain.cell_m
-        lod_m = cell_m / (LOD_TARGET_PX * max(rad_per_px, 1e-9))
-        levels = choose_levels(mesh.centres_m, camera.position, world.scene.terrain.tile_size_m,
-                               mesh.cells_per_tile, lod_m)
         program = gpu.programs["terrain"]
         program.use()
         program.set_if_used(**shared)
-        program.set(u_surface=0)
-        gpu.surface.bind(0)
-        per_tile = mesh.vertices_per_tile
-        tiles = np.flatnonzero(visible)
-        for t in tiles:
-            level = int(levels[t])
-            gpu.terrain_mesh.draw(gl.TRIANGLES, count=gpu.lod_count[level],
-                                  first=int(gpu.lod_first[level]), base_vertex=int(t) * per_tile)
-        self.last_tiles = int(tiles.size)
+        for mesh in self._terrain_meshes:
+            mesh.draw()
+        self.last_tiles = len(self._terrain_meshes)
 
     def _draw_props(self, gpu: _Gpu, shared: dict) -> None:
         props = esper.get_components(Prop, Pose)
@@ -376,7 +374,7 @@ class DrawRivers(System):
         gl.set_cull(False)
 
     def _pre_advect(self, gpu: _Gpu, shared: dict, wave_uniforms: dict,
-                    n_slots: int) -> None:
+                    n_slots: int, water_meshes: list) -> None:
         # the water's world position where it is visible (depth test against the terrain)
         gpu.position_fb.bind()
         gl.clear((0.0, 0.0, 0.0, 0.0), depth=False)
@@ -384,7 +382,8 @@ class DrawRivers(System):
         program = gpu.programs["water_position"]
         program.use()
         program.set_if_used(**shared)
-        gpu.water_mesh.draw()
+        for mesh in water_meshes:
+            mesh.draw()
         # the sprites, added up
         gpu.accum_fb.bind()
         gl.clear((0.0, 0.0, 0.0, 0.0), depth=False)
@@ -424,20 +423,3 @@ class DrawRivers(System):
                 gl.make_current(self.context)
             self.gpu.delete()
             self.gpu = None
-
-
-def _boxes_in_view(bounds_m: np.ndarray, clip_from_world: np.ndarray) -> np.ndarray:
-    """(T,) bool: the (T, 2, 3) boxes not wholly outside one clip plane."""
-    lo, hi = bounds_m[:, 0].astype(np.float64), bounds_m[:, 1].astype(np.float64)
-    corners = np.empty((len(lo), 8, 4))
-    for k in range(8):
-        corners[:, k, 0] = np.where(k & 1, hi[:, 0], lo[:, 0])
-        corners[:, k, 1] = np.where(k & 2, hi[:, 1], lo[:, 1])
-        corners[:, k, 2] = np.where(k & 4, hi[:, 2], lo[:, 2])
-    corners[:, :, 3] = 1.0
-    clip = corners @ clip_from_world.T
-    w = clip[..., 3]
-    outside = np.zeros(len(lo), bool)
-    for axis in range(3):
-        outside |= np.all(clip[..., axis] > w, axis=1) | np.all(clip[..., axis] < -w, axis=1)
-    return ~outside

@@ -1,20 +1,31 @@
 """ProduceTiles: the tiles of every kind the camera needs, at the level its distance needs
-(Proland UpdateRiversTask and the terrain's level of detail). Finished tiles are installed
-first; tiles that left the view are no longer marked used, so the cache's LRU releases them
-under its budget; one :class:`~riverflow.components.river.Tile` entity per resident tile."""
+(Proland UpdateRiversTask and the terrain's level of detail; SPEC §8).
+
+Each frame: install what the worker finished; walk the quadtree for the terrain's cut (the
+leaves the view needs: node spacing ≤ ``terrain_tile_px`` pixels) and for the flow's (lattice
+spacing ≤ ``flow_tile_px``, river tiles only); ask the scheduler for every kind on them (the
+resident ones are marked used, so the cache's LRU releases what left the view); publish the
+frame's :class:`~riverflow.components.river.TerrainView` (the cut, and the surface the particle
+kernels read, with resident ancestors standing in for tiles not made yet); keep one
+:class:`~riverflow.components.river.Tile` entity per resident tile.
+"""
 from __future__ import annotations
 
 import esper
 import numpy as np
 
 from riverflow.components.flow_tiles import FLOW_KIND
-from riverflow.components.river import FrameView, RiverNode, SurfaceGrids, Tile, Tiles
+from riverflow.components.river import FrameView, RiverNode, TerrainView, Tile, Tiles
 from riverflow.engine.system import System
+from riverflow.kernels.surface_tiles import SurfaceTiles, leaf_standins
 from riverflow.kernels.view_tiles import select_view_tiles
-from riverflow.tiles.table import code_key
+from riverflow.scenes.tile_kinds import HINT_CELLS, HINTS, RAYCAST, TERRAIN_KINDS
+from riverflow.tiles.table import TileTable, code_key, codes
 
 MAX_VIEW_TILES = 4096
-"""At most this many tiles of one kind are asked for a frame."""
+"""At most this many tiles of one cut are asked for a frame."""
+_ALL_KEYS = np.zeros(0, np.int64)     # an empty filter: every tile is a candidate
+_ALL_VALUES = np.zeros(0, np.int32)
 
 
 class ProduceTiles(System):
@@ -22,6 +33,8 @@ class ProduceTiles(System):
 
     def __init__(self) -> None:
         self._keys = np.zeros((MAX_VIEW_TILES, 3), np.int32)
+        self._cut = np.zeros((MAX_VIEW_TILES, 3), np.int32)
+        self._cut_table = TileTable(2 * MAX_VIEW_TILES)
         self._entities: dict[tuple[str, int], int] = {}  # (kind, slot) → entity
         self._synced: dict[str, tuple[int, np.ndarray]] = {}  # kind → (revision, slot codes)
         self.visible: dict[str, int] = {}
@@ -30,22 +43,61 @@ class ProduceTiles(System):
     def process(self, world, dt_s: float) -> None:
         tiles = world.resource(Tiles)
         view = world.resource(FrameView)
-        grids = world.resource(SurfaceGrids)
+        terrain = world.resource(TerrainView)
         config = world.config
         tiles.cache.next_tick()
         tiles.scheduler.collect()
+        seen = view.width_px > 0 and view.height_px > 0
+        q = world.scene.quadtree
+        n_cut = 0
+        if seen:
+            n_cut = select_view_tiles(
+                view.clip_from_world, *view.eye_m, view.rad_per_px, config.terrain_tile_px,
+                q.root_x_m, q.root_y_m, q.root_size_m, world.scene.terrain.tile_cells,
+                world.scene.terrain.max_level, terrain.z_min, terrain.z_max, _ALL_KEYS,
+                _ALL_VALUES, self._cut)
+            for kind in TERRAIN_KINDS:
+                tiles.scheduler.request(kind, self._cut[:n_cut])
+        self.visible["terrain"] = int(n_cut)
         for _, node in esper.get_component(RiverNode):
             field = node.field
             t = field.tiles
             n = 0
-            if view.width_px > 0 and view.height_px > 0:
+            if seen:
                 n = select_view_tiles(
                     view.clip_from_world, *view.eye_m, view.rad_per_px, config.flow_tile_px,
                     t.root_x_m, t.root_y_m, t.root_size_m, t.n_cells, field.max_level,
-                    grids.z_min, grids.z_max, t.wet.keys, t.wet.values, self._keys)
+                    terrain.z_min, terrain.z_max, t.wet.keys, t.wet.values, self._keys)
             self.visible[FLOW_KIND] = int(n)
             tiles.scheduler.request(FLOW_KIND, self._keys[:n])
+        terrain.cut = self._cut[:n_cut].copy()
+        terrain.surface = self._surface(world, tiles, terrain)
         self._sync_entities(tiles)
+
+    def _surface(self, world, tiles: Tiles, terrain: TerrainView) -> SurfaceTiles:
+        """The particle kernels' view of this frame's cut (module docstring)."""
+        cut = terrain.cut
+        table = self._cut_table
+        table.clear()
+        table.set_many(codes(cut), np.arange(len(cut), dtype=np.int32))
+        raycast = tiles.cache.pools[RAYCAST]
+        hints = tiles.cache.pools[HINTS]
+        leaf_slot = np.empty(len(cut), np.int32)
+        leaf_key = np.zeros((len(cut), 3), np.int32)
+        hint_slot = np.empty(len(cut), np.int32)
+        hint_key = np.zeros((len(cut), 3), np.int32)
+        leaf_standins(cut, len(cut), raycast.table.keys, raycast.table.values, leaf_slot,
+                      leaf_key)
+        leaf_standins(cut, len(cut), hints.table.keys, hints.table.values, hint_slot, hint_key)
+        for pool, slots in ((raycast, leaf_slot), (hints, hint_slot)):
+            used = slots[slots >= 0]
+            pool.last_used[used] = tiles.cache.tick  # stand-ins stay while they stand in
+        q = world.scene.quadtree
+        return SurfaceTiles(
+            q.root_x_m, q.root_y_m, q.root_size_m, world.scene.terrain.tile_cells, table.keys,
+            table.values, int(cut[:, 0].max()) if len(cut) else 0, leaf_slot, leaf_key,
+            raycast.arrays["ground"], raycast.arrays["water"], raycast.arrays["pyramid"],
+            terrain.z_min, terrain.z_max, hint_slot, hint_key, hints.arrays["hints"], HINT_CELLS)
 
     def _sync_entities(self, tiles: Tiles) -> None:
         """One Tile entity per resident tile: the slots whose code changed since the last sync
@@ -54,15 +106,16 @@ class ProduceTiles(System):
             revision, synced = self._synced.get(kind, (-1, np.zeros(0, np.int64)))
             if revision == pool.revision:
                 continue
-            codes = pool.slot_code
-            if len(synced) != len(codes):
-                synced = np.concatenate([synced, np.full(len(codes) - len(synced), -1, np.int64)])
-            for slot in np.flatnonzero(codes != synced).tolist():
+            slot_codes = pool.slot_code
+            if len(synced) != len(slot_codes):
+                synced = np.concatenate([synced, np.full(len(slot_codes) - len(synced), -1,
+                                                         np.int64)])
+            for slot in np.flatnonzero(slot_codes != synced).tolist():
                 ent = self._entities.pop((kind, slot), None)
                 if ent is not None:
                     esper.delete_entity(ent)
-                code = int(codes[slot])
+                code = int(slot_codes[slot])
                 if code >= 0:
                     self._entities[(kind, slot)] = esper.create_entity(
                         Tile(kind, *code_key(code), slot))
-            self._synced[kind] = (pool.revision, codes.copy())
+            self._synced[kind] = (pool.revision, slot_codes.copy())

@@ -1,0 +1,439 @@
+"""Landscape: a river network on a height source, streamed as tiles (SPEC §8).
+
+Nothing here is allocated per unit of map area. A landscape is
+
+* a **height source** (:mod:`riverflow.scenes.sources`: seeded noise, a callable, an array or a
+  memory-mapped file), sampled point by point;
+* the **water** of the network (:class:`~riverflow.scenes.water.WaterSurface`): a water level
+  profile along each branch, made once per network (sampled from the source along the centre
+  lines, made monotone downhill, equal at junctions), KD-trees of the centre lines and shores,
+  the water polygon;
+* the **carving** (:mod:`riverflow.scenes.carving`) that turns both into the terrain heights at
+  any point: :attr:`Landscape.terrain` ``.height(xy)``.
+
+The tile kinds that the world streams (heights, water levels, meshes, the particles' tables;
+:mod:`riverflow.scenes.tile_kinds`) sample these functions on the nodes of their tiles, so
+tiles agree bitwise at shared nodes, whatever their level and whatever was made before.
+
+:func:`landscape` makes one for any hydro graph (the command line's ``--scene FILE``);
+:func:`riverflow.scenes.default.default_scene` makes the built-in ones.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+import shapely
+from scipy.spatial import cKDTree
+
+from riverflow.hydro.areas import water_polygon
+from riverflow.hydro.graph import GraphError, HydroGraph
+from riverflow.scenes.carving import Carving, carve
+from riverflow.scenes.layout import RiverBranch
+from riverflow.scenes.sources import FbmSource, HeightSource, as_height_source
+from riverflow.scenes.water import WaterSurface, bed_depth, monotone_profiles, resample
+from riverflow.tiles.quadtree import Quadtree
+
+TILE_CELLS = 64
+"""Cells per side of a terrain tile (all terrain kinds)."""
+DEFAULT_CELL_M = 4.0
+"""Node spacing of the finest terrain tiles [m] unless the network or the source needs finer."""
+PROFILE_SPACING_M = 10.0
+"""Centre-line sample spacing of the water profiles [m]."""
+SURFACE_SPACING_M = 2.0
+"""Centre-line sample spacing of the water-surface lookup [m]."""
+FREEBOARD_M = 1.5
+"""Water profiles are sampled this far below the ground."""
+PROFILE_HALF_WINDOW = 12
+"""Box-smoothing half window of the profiles [samples]."""
+
+
+@dataclass(eq=False)
+class CarvedTerrain:
+    """The terrain of a landscape: the source with the rivers carved in, at any point.
+
+    ``height(xy)`` [m] is pointwise (:func:`riverflow.scenes.carving.carve`); ``cell_m`` is the
+    node spacing of the finest tiles, ``tile_size_m`` their side; ``origin_m`` the quadtree
+    root's corner.
+    """
+
+    source: HeightSource
+    water: WaterSurface
+    carving: Carving
+    quadtree: Quadtree
+    cell_m: float
+    tile_cells: int = TILE_CELLS
+
+    def height(self, xy: np.ndarray) -> np.ndarray:
+        """Terrain altitude [m] at points (N, 2) [m], (N,) float64."""
+        p = np.asarray(xy, np.float64).reshape(-1, 2)
+        return carve(self.water, p, self.source.heights(p[:, 0], p[:, 1]), self.carving,
+                     (self.quadtree.root_x_m, self.quadtree.root_y_m))
+
+    @property
+    def tile_size_m(self) -> float:
+        return self.cell_m * self.tile_cells
+
+    @property
+    def origin_m(self) -> np.ndarray:
+        return np.array([self.quadtree.root_x_m, self.quadtree.root_y_m])
+
+    @property
+    def bounds_m(self) -> tuple[float, float, float, float]:
+        return self.quadtree.bounds_m
+
+    @property
+    def max_level(self) -> int:
+        """The finest tile level (node spacing ≤ cell_m)."""
+        return self.quadtree.level_for_cell(self.cell_m, self.tile_cells)
+
+    def grid(self, x0_m: float, y0_m: float, cell_m: float, nx: int, ny: int) -> np.ndarray:
+        """Heights (ny, nx) float32 [m] at ``(x0 + i·cell, y0 + j·cell)`` (tools, tests)."""
+        gx, gy = np.meshgrid(x0_m + np.arange(nx) * cell_m, y0_m + np.arange(ny) * cell_m)
+        return self.height(np.c_[gx.ravel(), gy.ravel()]).reshape(ny, nx).astype(np.float32)
+
+
+@dataclass(eq=False)
+class Landscape:
+    """A streamed scene (module docstring): ``graph``, ``terrain`` (:class:`CarvedTerrain`),
+    ``water`` (:class:`WaterSurface`), ``bounds_m`` (the quadtree root square), ``seed``,
+    ``branches`` (upstream first), free island outlines and ``z_range_m`` (bounds of every
+    terrain and water height)."""
+
+    graph: HydroGraph
+    terrain: CarvedTerrain
+    water: WaterSurface
+    bounds_m: tuple[float, float, float, float]
+    seed: int
+    branches: list[RiverBranch]
+    islands: list[np.ndarray] = field(default_factory=list)
+    z_range_m: tuple[float, float] = (0.0, 0.0)
+
+    def branch(self, name: str) -> RiverBranch:
+        return next(b for b in self.branches if b.name == name)
+
+    @property
+    def quadtree(self) -> Quadtree:
+        return self.terrain.quadtree
+
+
+def z_range(source: HeightSource, water: WaterSurface, carving: Carving) -> tuple[float, float]:
+    """Conservative bounds [m] of the carved terrain and the water."""
+    lo, hi = source.z_range_m
+    deepest = float(np.max(bed_depth(np.inf, water.widths_m))) if len(water.widths_m) else 0.0
+    levels = water.levels_m
+    lo = min(lo, float(levels.min()) - deepest - 1.0)
+    hi = max(hi, float(levels.max()) + carving.bank_rise_m + carving.valley_rise_m + 1.0)
+    return lo, hi
+
+
+# -- water surfaces ------------------------------------------------------------------------------
+
+
+def water_surface(branches: list[RiverBranch],
+                  ground: Callable[[np.ndarray], np.ndarray] | list[np.ndarray],
+                  polygon) -> WaterSurface:
+    """Monotone water profiles of the branches (listed upstream first) on the ground [m]
+    (``ground(xy)`` of the uncarved terrain, or its values at each branch's centre-line
+    points) lowered by FREEBOARD_M, as a :class:`WaterSurface`."""
+    n_junctions = 1 + max(max(b.start_junction, b.end_junction) for b in branches)
+    along = ground if isinstance(ground, list) else [ground(b.centerline_m) for b in branches]
+    sampled = [np.asarray(z, np.float64) - FREEBOARD_M for z in along]
+    levels = monotone_profiles([b.centerline_m for b in branches], sampled,
+                               [b.start_junction for b in branches],
+                               [b.end_junction for b in branches], max(n_junctions, 0),
+                               half_window=PROFILE_HALF_WINDOW, caps_m=junction_caps(branches))
+    samples, lv, wd, index, profiles = [], [], [], [], {}
+    for k, (b, z) in enumerate(zip(branches, levels)):
+        s = _arc(b.centerline_m)
+        profiles[b.name] = (s, z)
+        pts, zz, ww = resample(b.centerline_m, SURFACE_SPACING_M, z, b.widths_m)
+        samples.append(pts)
+        lv.append(np.minimum.accumulate(zz))
+        wd.append(ww)
+        index.append(np.full(len(pts), k))
+    junctions = np.zeros((max(n_junctions, 0), 2))
+    members: list[tuple[int, ...]] = []
+    for j in range(max(n_junctions, 0)):
+        members.append(tuple(k for k, b in enumerate(branches)
+                             if j in (b.start_junction, b.end_junction)))
+        b = branches[members[-1][0]]
+        junctions[j] = b.centerline_m[0] if b.start_junction == j else b.centerline_m[-1]
+    return WaterSurface(np.vstack(samples), np.concatenate(lv), np.concatenate(wd),
+                        np.concatenate(index), polygon, profiles, junctions, members)
+
+
+def junction_caps(branches: list[RiverBranch]) -> list[tuple[float, float]]:
+    """Per branch, the lengths [m] from its start / end junction along which it lies within one
+    width of the other branches of that junction (at least their largest half-width): the
+    water there is kept at the junction height, so the surface has no step at the mouth."""
+    caps = []
+    lines = [shapely.LineString(b.centerline_m) for b in branches]
+    for b in branches:
+        s = _arc(b.centerline_m)
+        pts = shapely.points(b.centerline_m)
+        ends = []
+        for j, at_end in ((b.start_junction, False), (b.end_junction, True)):
+            others = [k for k, o in enumerate(branches)
+                      if o is not b and j >= 0 and j in (o.start_junction, o.end_junction)]
+            if not others:
+                ends.append(0.0)
+                continue
+            inside = np.zeros(len(s), bool)
+            for k in others:
+                # farther than one width from another centre line, no point of that
+                # branch's water is nearer to this one: the surface switches without a step
+                reach = float(branches[k].widths_m.max()) + 0.1 * float(b.widths_m.max())
+                inside |= shapely.distance(pts, lines[k]) < reach
+            from_j = (s[-1] - s) if at_end else s
+            outside = from_j[~inside]
+            cap = float(outside.min()) if len(outside) else float(s[-1])
+            ends.append(max(cap, max(0.5 * float(branches[k].widths_m.max()) for k in others)))
+        caps.append((ends[0], ends[1]))
+    return caps
+
+
+def _arc(points: np.ndarray) -> np.ndarray:
+    return np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(points, axis=0).T))])
+
+
+# -- any hydro graph -----------------------------------------------------------------------------
+
+
+def landscape(graph: HydroGraph, terrain=None, *, seed: int = 0, cell_m: float | None = None,
+              origin_m: tuple[float, float] | None = None, source_cell_m: float | None = None,
+              carving: Carving | None = None, pad_m: float | None = None) -> Landscape:
+    """A streamed landscape around any river network.
+
+    Args:
+        graph: the river network (a graph file, the builder's output, …).
+        terrain: None for procedural hills around the network (seeded), or a height source
+            (:func:`riverflow.scenes.sources.as_height_source`: a callable
+            ``heights(x_m, y_m) -> z_m`` on arrays, an array or ``.npy`` path with
+            ``origin_m`` and ``source_cell_m``, a :class:`HeightSource`).
+        seed: seeds the procedural hills.
+        cell_m: node spacing of the finest terrain tiles [m]; default 4 m, finer for narrow
+            rivers (a quarter of the narrowest river's width, at least 0.5 m) or a finer source.
+        carving: how the rivers are carved (default: :class:`Carving` on procedural hills,
+            :meth:`Carving.measured` on a given terrain).
+        pad_m: land around the network's bounds [m]; default a quarter of their size (at
+            least 512 m).
+
+    Raises:
+        GraphError: the graph has no river axis, or its water cannot be made.
+    """
+    axes = graph.axes()
+    if not axes:
+        raise GraphError(f"{graph.source or 'graph'}: no river axis to make a landscape around")
+    polygon = water_polygon(graph)
+    if polygon.is_empty:
+        raise GraphError(f"{graph.source or 'graph'}: its areas hold no water")
+    branches = branches_of_graph(graph, polygon)
+    x0, y0, x1, y1 = graph.bounds()
+    if pad_m is None:
+        pad_m = max(0.25 * max(x1 - x0, y1 - y0), 512.0)
+    quadtree = Quadtree.around((x0, y0, x1, y1), pad_m=pad_m)
+    source = as_height_source(terrain, origin_m=origin_m, cell_m=source_cell_m)
+    narrowest = min(float(b.widths_m.min()) for b in branches)
+    if cell_m is None:
+        cell_m = min(DEFAULT_CELL_M, max(0.25 * narrowest, 0.5))
+        if source is not None and source.cell_m:
+            cell_m = min(cell_m, max(source.cell_m, 0.5))
+    if source is None:
+        water = water_surface(branches, _synthetic_ground(branches), polygon)
+        source = valley_source(water, seed)
+        carving = carving or Carving()
+    else:
+        water = water_surface(branches, lambda xy: source.heights(xy[:, 0], xy[:, 1]), polygon)
+        carving = carving or Carving.measured()
+    terrain_ = CarvedTerrain(source, water, carving, quadtree, float(cell_m))
+    return Landscape(graph, terrain_, water, quadtree.bounds_m, int(seed), branches, [],
+                     z_range(source, water, carving))
+
+
+def branches_of_graph(graph: HydroGraph, polygon) -> list[RiverBranch]:
+    """The graph's axes as branches, upstream first: each axis oriented downstream (facing
+    downstream the right bank has the larger ψ), chained through nodes where one axis ends
+    and one starts; widths from the distance to the shore (at most the axis width)."""
+    axes = graph.axes()
+    lines = {a: graph.polyline(a) for a in axes}
+    ends = {}
+    for a in axes:
+        c = graph.curves[a]
+        if _flows_backwards(graph, a, lines[a]):
+            lines[a] = lines[a][::-1].copy()
+            ends[a] = (c.end, c.start)
+        else:
+            ends[a] = (c.start, c.end)
+    into: dict[int, list[int]] = {}
+    out_of: dict[int, list[int]] = {}
+    for a, (s, e) in ends.items():
+        out_of.setdefault(s, []).append(a)
+        into.setdefault(e, []).append(a)
+
+    def passes(node: int) -> bool:
+        return len(into.get(node, [])) == 1 and len(out_of.get(node, [])) == 1
+
+    chains, seen = [], set()
+    for a in axes:
+        if a in seen or passes(ends[a][0]):
+            continue
+        chain = [a]
+        seen.add(a)
+        while passes(ends[chain[-1]][1]):
+            nxt = out_of[ends[chain[-1]][1]][0]
+            if nxt in seen:
+                break
+            chain.append(nxt)
+            seen.add(nxt)
+        chains.append(chain)
+    for a in axes:  # a loop of pass-through nodes only
+        if a not in seen:
+            chains.append([a])
+            seen.add(a)
+    junction_of: dict[int, int] = {}
+    for node in sorted(set(into) | set(out_of)):
+        if not passes(node) and len(into.get(node, [])) + len(out_of.get(node, [])) >= 2:
+            junction_of[node] = len(junction_of)
+    boundary = cKDTree(shapely.get_coordinates(shapely.segmentize(polygon.boundary, 1.0)))
+    branches = []
+    for chain in chains:
+        pts = np.vstack([lines[chain[0]]] + [lines[a][1:] for a in chain[1:]])
+        keep = np.concatenate([[True], np.any(np.diff(pts, axis=0) != 0.0, axis=1)])
+        pts, = resample(pts[keep], PROFILE_SPACING_M)
+        axis_w = max(graph.curves[a].width_m for a in chain)
+        shore, _ = boundary.query(pts)
+        widths = np.clip(2.0 * shore, 0.2 * axis_w, axis_w)
+        branches.append(RiverBranch(f"axis_{chain[0]}", pts, widths, None, "main",
+                                    junction_of.get(ends[chain[0]][0], -1),
+                                    junction_of.get(ends[chain[-1]][1], -1)))
+    return _upstream_first(branches)
+
+
+def _flows_backwards(graph: HydroGraph, axis: int, line: np.ndarray) -> bool:
+    """True when the axis is drawn upstream: its right-hand banks have the smaller ψ."""
+    left, right = [], []
+    tangents = np.diff(line, axis=0)
+    for i, c in enumerate(graph.curves):
+        if not (c.is_bank and c.river == axis and c.has_potential):
+            continue
+        p = graph.polyline(i)
+        mid = p[len(p) // 2]
+        d = np.hypot(*(line[:-1] - mid).T)
+        k = int(np.argmin(d))
+        k = min(k, len(tangents) - 1)
+        side = tangents[k, 0] * (mid[1] - line[k, 1]) - tangents[k, 1] * (mid[0] - line[k, 0])
+        (left if side > 0 else right).append(c.potential)
+    if not left or not right:
+        return False
+    return float(np.mean(right)) < float(np.mean(left))
+
+
+def _upstream_first(branches: list[RiverBranch]) -> list[RiverBranch]:
+    """Branches ordered so that every branch comes after all that end where it starts
+    (cycles, which bad data may hold, are broken where found)."""
+    done: list[RiverBranch] = []
+    left = list(branches)
+    while left:
+        ready = [b for b in left if b.start_junction < 0
+                 or all(o.end_junction != b.start_junction or o in done for o in branches)]
+        if not ready:
+            ready = [left[0]]
+        for b in ready:
+            done.append(b)
+            left.remove(b)
+    return done
+
+
+# -- procedural hills around any network -----------------------------------------------------------
+
+
+RIVER_SLOPE = 0.0005
+"""Slope [m/m] of the synthetic river profiles of a network placed on procedural hills."""
+
+
+def _synthetic_ground(branches: list[RiverBranch]) -> list[np.ndarray]:
+    """Ground along each branch [m] for a network with no terrain: 20 m plus RIVER_SLOPE
+    times the flow distance to the nearest outlet (every river goes downhill, junctions
+    agree)."""
+    to_outlet: dict[int, float] = {}   # junction → shortest flow distance to an outlet [m]
+    remaining: dict[int, float] = {}   # branch → the same from its start
+    for _ in range(len(branches) + 1):
+        changed = False
+        for i, b in enumerate(branches):
+            below = 0.0 if b.end_junction < 0 else to_outlet.get(b.end_junction, math.inf)
+            start = float(_arc(b.centerline_m)[-1]) + below
+            if start < remaining.get(i, math.inf):
+                remaining[i] = start
+                changed = True
+            if b.start_junction >= 0 and start < to_outlet.get(b.start_junction, math.inf):
+                to_outlet[b.start_junction] = start
+                changed = True
+        if not changed:
+            break
+    out = []
+    for i, b in enumerate(branches):
+        s = _arc(b.centerline_m)
+        total = remaining.get(i, math.inf)
+        total = total if math.isfinite(total) else float(s[-1])
+        out.append(20.0 + FREEBOARD_M + RIVER_SLOPE * (total - s))
+    return out
+
+
+@dataclass(eq=False)
+class ValleySource(HeightSource):
+    """Procedural hills around a river network: a smooth surface through the network's water
+    levels (control points every ~500 m of river, the K nearest weighted by
+    (1 − d/d_K)²), ``rise_m`` above them, plus seeded fBm hills that fade in away from the
+    rivers (their distance from the same control points). Pointwise and seeded."""
+
+    control_xy: np.ndarray
+    control_z: np.ndarray
+    seed: int
+    rise_m: float = 12.0
+    hills_m: float = 28.0
+    neighbours: int = 8
+
+    def __post_init__(self) -> None:
+        self._tree = cKDTree(self.control_xy)
+        self._hills = FbmSource(self.seed, ((900.0, 0.8), (350.0, 0.3)))
+        self._relief = FbmSource(self.seed + 1, ((700.0, 6.0), (220.0, 2.5), (70.0, 0.8)))
+        k = min(self.neighbours, len(self.control_xy))
+        self._k = k
+        amp = self.hills_m * 1.5 + self._relief.z_range_m[1]
+        self.z_range_m = (float(self.control_z.min()) - self._relief.z_range_m[1],
+                          float(self.control_z.max()) + self.rise_m + amp)
+        self.cell_m = None
+        self.bounds_m = None
+
+    def heights(self, x_m, y_m) -> np.ndarray:
+        x, y = np.broadcast_arrays(np.asarray(x_m, np.float64), np.asarray(y_m, np.float64))
+        p = np.stack([x.ravel(), y.ravel()], axis=1)
+        if self._k >= 2:
+            d, idx = self._tree.query(p, k=self._k, workers=1)
+            span = np.maximum(d[:, -1:], 1e-9)
+            w = (1.0 - d / span) ** 2 + 1e-12
+            base = (w * self.control_z[idx]).sum(axis=1) / w.sum(axis=1)
+            near = d[:, 0]
+        else:
+            base = np.full(len(p), float(self.control_z[0]))
+            near = np.hypot(*(p - self.control_xy[0]).T)
+        fade = np.clip(near / 1500.0, 0.0, 1.0)
+        hills = self.hills_m * np.clip(0.5 + 0.5 * self._hills.heights(p[:, 0], p[:, 1]), 0.0,
+                                       None)
+        relief = (0.3 + 0.7 * fade) * self._relief.heights(p[:, 0], p[:, 1])
+        return (base + self.rise_m * fade + hills * fade + relief).reshape(x.shape)
+
+
+def valley_source(water: WaterSurface, seed: int, spacing_m: float = 500.0) -> ValleySource:
+    """A :class:`ValleySource` through the water levels of ``water``'s centre-line samples,
+    one every ``spacing_m`` of river."""
+    step = max(1, int(round(spacing_m / SURFACE_SPACING_M)))
+    keep = np.zeros(len(water.samples_m), bool)
+    keep[::step] = True
+    starts = np.flatnonzero(np.diff(water.branch, prepend=-1) != 0)
+    keep[starts] = True
+    keep[np.append(starts[1:] - 1, len(keep) - 1)] = True
+    return ValleySource(water.samples_m[keep].copy(), water.levels_m[keep].copy(), int(seed))

@@ -1,0 +1,296 @@
+"""The tile kinds of a landscape: producers for the tile framework (SPEC §8).
+
+Every kind samples the landscape's pointwise functions (:mod:`riverflow.scenes.landscape`) on
+the nodes of its tile (:meth:`Quadtree.node_coords`: shared nodes are bitwise the same points,
+so neighbours and parents agree there), so a tile depends only on its key:
+
+==============  =========================================================  ====================
+kind            content                                                    made from
+==============  =========================================================  ====================
+height          carved terrain heights, (n+3)² nodes (a ring for normals)   the source + rivers
+water           water level at wet nodes (NaN dry) and the level seen       the river network
+                from every node
+raycast         ground, water and their max-mip pyramid: what particle     height, water
+                rays, altitudes and the NEAR rule read
+hints           per (h+1)² nodes, deep water near them (x, y, level)       the river network
+terrain_mesh    vertices (position, normal, water level), skirt, bounds    height, water
+water_mesh      the water polygon's piece in the tile, triangulated        the river network
+==============  =========================================================  ====================
+
+n = 64 cells per terrain tile; the finest level has the landscape's ``cell_m`` between nodes.
+"""
+from __future__ import annotations
+
+import math
+import threading
+from collections import OrderedDict
+from collections.abc import Mapping
+
+import numpy as np
+import shapely
+
+from riverflow.kernels.raycast import fill_height_pyramid, pyramid_size
+from riverflow.scenes.landscape import Landscape
+from riverflow.scenes.meshes import TerrainTileMesh, WaterMesh, tile_terrain_mesh, triangulate_water
+from riverflow.tiles.cache import FieldSpec
+from riverflow.tiles.coverage import coverage_table
+from riverflow.tiles.quadtree import Quadtree, TileKey
+from riverflow.tiles.scheduler import Producer
+from riverflow.tiles.table import tile_code
+
+HEIGHT = "height"
+WATER = "water"
+RAYCAST = "raycast"
+HINTS = "hints"
+TERRAIN_MESH = "terrain_mesh"
+WATER_MESH = "water_mesh"
+TERRAIN_KINDS = (HEIGHT, WATER, RAYCAST, HINTS, TERRAIN_MESH, WATER_MESH)
+"""Every terrain kind, dependencies first (the order the view asks for them)."""
+
+HINT_CELLS = 8
+"""Hint nodes per tile side − 1 (32 m apart on 256 m tiles)."""
+DRY_LEVEL_M = -1.0e4
+"""The level 'seen' from land farther than LEVEL_REACH_M from any shore (never shown)."""
+LEVEL_REACH_M = 200.0
+WET_REACH_CELLS = math.sqrt(2.0)
+"""Nodes this close to the water [cells] get a water level: every cell the water touches then
+has four wet corners, and rays put the shoreline where the water plane meets the terrain,
+not on the cell grid."""
+DEEP_M = 4.0
+"""Water hints point this far inside the water from its edge (where the river is wide enough
+to keep any)."""
+WATER_MESH_CELLS = 32
+"""Grid cells per tile side of the water mesh (8 m on the finest 256 m tiles)."""
+
+
+class LandscapeTiles:
+    """What every terrain producer of one landscape shares: the quadtree, the tile size, the
+    tiles the water comes near, and the water polygon cut per tile."""
+
+    def __init__(self, scene: Landscape, n: int | None = None) -> None:
+        self.scene = scene
+        self.quadtree: Quadtree = scene.quadtree
+        self.n = int(n or scene.terrain.tile_cells)
+        self.max_level = scene.terrain.max_level
+        water = scene.water
+        boundary = shapely.get_coordinates(shapely.get_rings(shapely.get_parts(water.polygon)),
+                                           return_index=True)
+        xy, ring = boundary
+        same = ring[1:] == ring[:-1]
+        segs = np.concatenate([xy[:-1][same], xy[1:][same]], axis=1)
+        reach = WET_REACH_CELLS * self.quadtree.cell_m(self.max_level, self.n) + 1.0
+        centre = np.concatenate([water.samples_m[:-1], water.samples_m[1:]], axis=1)
+        centre = centre[water.branch[:-1] == water.branch[1:]]
+        radius = np.concatenate([np.full(len(segs), reach),
+                                 0.5 * water.widths_m[:-1][water.branch[:-1] == water.branch[1:]]
+                                 + reach])
+        self.water_cover = coverage_table(self.quadtree, np.concatenate([segs, centre]), radius,
+                                          self.max_level)
+        self.pieces = PolygonPieces(water.polygon, self.quadtree)
+
+    def has_water(self, key: TileKey) -> bool:
+        """False when no water comes within reach of the tile."""
+        return tile_code(*key) in self.water_cover
+
+    def nodes(self, key: TileKey, n: int, ring: int = 0) -> np.ndarray:
+        """(m², 2) float64 [m] node positions of the tile, m = n + 1 + 2·ring, x fastest."""
+        x, y = self.quadtree.node_coords(*key, n, ring)
+        gx, gy = np.meshgrid(x, y)
+        return np.stack([gx.ravel(), gy.ravel()], axis=1)
+
+
+class PolygonPieces:
+    """The water polygon cut to tiles, each piece cut from its parent's (cached, least
+    recently used pieces dropped): a tile costs the size of its neighbourhood's water, not of
+    the whole network's."""
+
+    def __init__(self, polygon, quadtree: Quadtree, keep: int = 256) -> None:
+        self.polygon = polygon
+        self.quadtree = quadtree
+        self.keep = keep
+        self._pieces: OrderedDict[TileKey, object] = OrderedDict()
+        self._lock = threading.Lock()
+
+    def piece(self, key: TileKey):
+        """The water in tile ``key`` (a shapely geometry, maybe empty)."""
+        with self._lock:
+            return self._piece(key)
+
+    def _piece(self, key: TileKey):
+        got = self._pieces.get(key)
+        if got is not None:
+            self._pieces.move_to_end(key)
+            return got
+        level, tx, ty = key
+        parent = self.polygon if level == 0 else self._piece((level - 1, tx >> 1, ty >> 1))
+        box = shapely.box(*self.quadtree.tile_box_m(level, tx, ty))
+        piece = parent if parent.is_empty else shapely.intersection(parent, box)
+        self._pieces[key] = piece
+        while len(self._pieces) > self.keep:
+            self._pieces.popitem(last=False)
+        return piece
+
+
+class TerrainProducer(Producer):
+    """Base of the landscape's producers."""
+
+    def __init__(self, tiles: LandscapeTiles) -> None:
+        self.tiles = tiles
+        self.scene = tiles.scene
+        self.max_level = tiles.max_level
+
+
+class HeightProducer(TerrainProducer):
+    """Carved terrain heights at the tile's nodes and a one-node ring (float32)."""
+
+    kind = HEIGHT
+
+    def __init__(self, tiles: LandscapeTiles) -> None:
+        super().__init__(tiles)
+        n = tiles.n
+        self.fields = {"z": FieldSpec((n + 3, n + 3), np.float32, np.nan)}
+
+    def produce(self, key: TileKey, deps: Mapping) -> dict:
+        n = self.tiles.n
+        z = self.scene.terrain.height(self.tiles.nodes(key, n, ring=1))
+        return {"z": z.reshape(n + 3, n + 3).astype(np.float32)}
+
+
+class WaterProducer(TerrainProducer):
+    """``level``: the water level at wet nodes (within WET_REACH_CELLS of the water), NaN on
+    dry ones; ``level_seen``: the level of the nearest river from every node within
+    LEVEL_REACH_M of a shore (DRY_LEVEL_M beyond), which the terrain is shaded against."""
+
+    kind = WATER
+
+    def __init__(self, tiles: LandscapeTiles) -> None:
+        super().__init__(tiles)
+        n = tiles.n
+        self.fields = {"level": FieldSpec((n + 1, n + 1), np.float32, np.nan),
+                       "level_seen": FieldSpec((n + 1, n + 1), np.float32, DRY_LEVEL_M)}
+
+    def produce(self, key: TileKey, deps: Mapping) -> dict:
+        n = self.tiles.n
+        water = self.scene.water
+        p = self.tiles.nodes(key, n)
+        level = np.full(len(p), np.nan, np.float32)
+        seen = np.full(len(p), DRY_LEVEL_M, np.float32)
+        shore = water.distance_to_shore(p, upper_bound_m=LEVEL_REACH_M)
+        near = np.flatnonzero(np.isfinite(shore))
+        if len(near):
+            value = water.nearest(p[near])[1]
+            seen[near] = value
+            reach = WET_REACH_CELLS * self.tiles.quadtree.cell_m(key[0], n)
+            wet = (shore[near] < reach) | water.contains(p[near], shore[near])
+            level[near[wet]] = value[wet]
+        return {"level": level.reshape(n + 1, n + 1), "level_seen": seen.reshape(n + 1, n + 1)}
+
+
+class RaycastProducer(TerrainProducer):
+    """The particles' view of a tile: ground and water at its nodes and their max-mip
+    pyramid (:func:`riverflow.kernels.raycast.fill_height_pyramid`)."""
+
+    kind = RAYCAST
+
+    def __init__(self, tiles: LandscapeTiles) -> None:
+        super().__init__(tiles)
+        n = tiles.n
+        self.fields = {"ground": FieldSpec((n + 1, n + 1), np.float32, np.nan),
+                       "water": FieldSpec((n + 1, n + 1), np.float32, np.nan),
+                       "pyramid": FieldSpec((int(pyramid_size(n + 1, n + 1)), 2), np.float32,
+                                            np.nan)}
+
+    def dependencies(self, key: TileKey):
+        return [(HEIGHT, key), (WATER, key)]
+
+    def produce(self, key: TileKey, deps: Mapping) -> dict:
+        ground = np.ascontiguousarray(deps[(HEIGHT, key)]["z"][1:-1, 1:-1])
+        water = np.ascontiguousarray(deps[(WATER, key)]["level"])
+        pyramid = np.empty(self.fields["pyramid"].shape, np.float32)
+        fill_height_pyramid(ground, water, pyramid)
+        return {"ground": ground, "water": water, "pyramid": pyramid}
+
+
+class HintsProducer(TerrainProducer):
+    """Water hints: at (h+1)² nodes of the tile, deep water near them — the node itself when
+    it lies DEEP_M inside the water, else the point DEEP_M inside the bank on the way from
+    the nearest centre-line point towards the node (x, y, level [m]; x = +inf: none)."""
+
+    kind = HINTS
+
+    def __init__(self, tiles: LandscapeTiles) -> None:
+        super().__init__(tiles)
+        self.fields = {"hints": FieldSpec((HINT_CELLS + 1, HINT_CELLS + 1, 3), np.float32,
+                                          np.inf)}
+
+    def produce(self, key: TileKey, deps: Mapping) -> dict:
+        water = self.scene.water
+        p = self.tiles.nodes(key, HINT_CELLS)
+        centre, width = water.nearest_sample(p)
+        away = p - centre
+        length = np.hypot(*away.T)
+        reach = np.clip(0.5 * width - DEEP_M, 0.0, None)
+        step = np.where(length > 1e-9, np.minimum(length, reach) / np.maximum(length, 1e-9), 0.0)
+        hint = centre + away * step[:, None]
+        shore = water.distance_to_shore(p)
+        deep = water.contains(p, shore) & (shore >= DEEP_M)
+        hint[deep] = p[deep]
+        ok = water.contains(hint)
+        hint[~ok] = centre[~ok]
+        ok |= water.contains(hint)
+        out = np.full((len(p), 3), np.inf, np.float32)
+        out[ok, :2] = hint[ok]
+        out[ok, 2] = water.level(hint[ok]) if ok.any() else 0.0
+        return {"hints": out.reshape(HINT_CELLS + 1, HINT_CELLS + 1, 3)}
+
+
+class TerrainMeshProducer(TerrainProducer):
+    """The terrain tile's mesh (:func:`riverflow.scenes.meshes.tile_terrain_mesh`); the draw
+    system uploads it and releases the GPU buffers when the tile leaves the cache."""
+
+    kind = TERRAIN_MESH
+
+    def dependencies(self, key: TileKey):
+        return [(HEIGHT, key), (WATER, key)]
+
+    def produce(self, key: TileKey, deps: Mapping) -> TerrainTileMesh:
+        q = self.tiles.quadtree
+        x0, y0 = q.tile_origin_m(*key)
+        return tile_terrain_mesh(deps[(HEIGHT, key)]["z"], x0, y0, q.cell_m(key[0], self.tiles.n),
+                                 deps[(WATER, key)]["level_seen"])
+
+    def nbytes(self, data: TerrainTileMesh) -> int:
+        return data.nbytes
+
+
+class WaterMeshProducer(TerrainProducer):
+    """The water in the tile, triangulated on a grid of WATER_MESH_CELLS cells per side
+    (:func:`riverflow.scenes.meshes.triangulate_water`), with the terrain height under each
+    vertex (for the water's depth): ``(mesh, ground (V,) float32)``."""
+
+    kind = WATER_MESH
+
+    def is_empty(self, key: TileKey) -> bool:
+        return not self.tiles.has_water(key)
+
+    def produce(self, key: TileKey, deps: Mapping) -> tuple[WaterMesh, np.ndarray]:
+        q = self.tiles.quadtree
+        piece = self.tiles.pieces.piece(key)
+        cell = q.tile_size_m(key[0]) / WATER_MESH_CELLS
+        if piece.is_empty or piece.area <= 0.0:
+            mesh = WaterMesh(np.zeros((0, 3), np.float32), np.zeros((0, 3), np.uint32), 0.0, cell)
+            return mesh, np.zeros(0, np.float32)
+        mesh = triangulate_water(piece, q.tile_origin_m(*key), cell, self.scene.water.level)
+        ground = self.scene.terrain.height(mesh.positions[:, :2].astype(np.float64))
+        return mesh, ground.astype(np.float32)
+
+    def nbytes(self, data) -> int:
+        mesh, ground = data
+        return int(mesh.positions.nbytes + mesh.indices.nbytes + ground.nbytes)
+
+
+def terrain_producers(scene: Landscape) -> list[Producer]:
+    """The producers of every terrain kind of ``scene`` (TERRAIN_KINDS order)."""
+    tiles = LandscapeTiles(scene)
+    return [HeightProducer(tiles), WaterProducer(tiles), RaycastProducer(tiles),
+            HintsProducer(tiles), TerrainMeshProducer(tiles), WaterMeshProducer(tiles)]
