@@ -105,11 +105,12 @@ class HostGame:
         esper.add_processor(HostLogic(self.rivers))
         esper.switch_world(previous)
         self.frames = 0
+        self._aim_camera()
+        self.rivers.load_view()          # RIVERS: the first view's tiles (the level's loading)
 
-    def update(self, dt_s: float) -> None:
+    def _aim_camera(self) -> None:
         previous = esper.current_world
         esper.switch_world(HOST_WORLD)
-        esper.process(dt_s)
         orbit = esper.component_for_entity(self.camera, Orbit)
         barrel = esper.component_for_entity(self.barrel, Floating)
         esper.switch_world(previous)
@@ -117,6 +118,13 @@ class HostGame:
         eye = centre + np.array([orbit.radius_m * math.cos(orbit.angle_rad),
                                  orbit.radius_m * math.sin(orbit.angle_rad), orbit.height_m])
         self.rivers.camera.look_at(eye, centre)
+
+    def update(self, dt_s: float) -> None:
+        previous = esper.current_world
+        esper.switch_world(HOST_WORLD)
+        esper.process(dt_s)
+        esper.switch_world(previous)
+        self._aim_camera()
         self.rivers.step(dt_s)                                             # RIVERS: step
         self.frames += 1
 

@@ -175,6 +175,24 @@ class RiverWorld:
                 timings[system.name] = (time.perf_counter_ns() - t0) * 1e-6
         clock.frame += 1
 
+    def load_view(self, timeout_s: float = 120.0) -> bool:
+        """Make every tile the current camera view needs, now (a loading screen: before a
+        scripted run, after a teleport). Runs the camera and tile systems with no time passing
+        and waits for the scheduler, until no tile of the view is missing. Returns False if
+        that took longer than ``timeout_s``."""
+        names = ("camera", "tiles")
+        scheduler = self.tiles.scheduler
+        end = time.perf_counter() + timeout_s
+        with self.active():
+            while True:
+                for system in self.systems:
+                    if system.name in names:
+                        system.process(self, 0.0)
+                if scheduler.pending == 0:
+                    return True
+                if not scheduler.wait(max(end - time.perf_counter(), 0.0)):
+                    return False
+
     def add_prop(self, shape: str, size_m: tuple[float, float, float],
                  position_m=(0.0, 0.0, 0.0), yaw_rad: float = 0.0) -> int:
         """Add a prop (``"boat"`` or ``"barrel"``, (length, width, height) [m]) drawn with the

@@ -2,9 +2,24 @@
 
 fastmath without ``nnan``/``ninf`` so kernels may still test for NaN and infinity.
 ``cache=True`` writes to ``NUMBA_CACHE_DIR`` (the Makefile sets it to ``.numba_cache``).
+
+Test finiteness with :func:`is_finite`, never ``math.isfinite``: under these flags (the pair
+``nsz`` + ``reassoc``, numba 0.68 / LLVM 20) ``math.isfinite`` of a *computed* value, e.g. a
+bilinear blend of a NaN corner, is compiled to True for NaN; ``math.isnan`` and
+``math.isinf`` stay exact (``tests/kernels/test_jit_options.py``).
 """
 from __future__ import annotations
+
+import math
+
+from numba import njit
 
 FASTMATH = {"nsz", "arcp", "contract", "afn", "reassoc"}  # numba wants a set, not a frozenset
 JIT_OPTIONS = dict(cache=True, nogil=True, fastmath=FASTMATH, error_model="numpy")
 """Options for every entry kernel and helper."""
+
+
+@njit(inline="always", **JIT_OPTIONS)
+def is_finite(x):
+    """x is neither NaN nor ±inf (what ``math.isfinite`` should say; module docstring)."""
+    return not (math.isnan(x) or math.isinf(x))

@@ -24,9 +24,9 @@ import math
 import numpy as np
 from numba import njit
 
-from riverflow.kernels._jit import JIT_OPTIONS
+from riverflow.kernels._jit import JIT_OPTIONS, is_finite
 from riverflow.kernels.lifecycle import allocate_particle, free_particle
-from riverflow.kernels.surface_tiles import hint_at, surface_altitude
+from riverflow.kernels.surface_tiles import NO_TILE_YET, hint_at, surface_altitude
 
 STATUS_UNKNOWN = 0
 STATUS_INSIDE = 1
@@ -108,14 +108,14 @@ def move_particles(n_slots, alive, has_world, world_m, velocity_mps, status, dt_
         if vx != 0.0 or vy != 0.0:
             nx = x + vx * dt_s
             ny = y + vy * dt_s
-            if math.isfinite(nx) and math.isfinite(ny):
+            if is_finite(nx) and is_finite(ny):
                 x = nx
                 y = ny
                 world_m[i, 0] = x
                 world_m[i, 1] = y
                 if (i + frame) & (z_every - 1) == 0:
                     z = surface_altitude(surface, x, y)
-                    if math.isfinite(z):
+                    if is_finite(z):
                         world_m[i, 2] = z
                 moved += 1
             else:
@@ -204,8 +204,9 @@ def _water_hint(x, y, sx, sy, eye_x, eye_y, m, width_px, height_px, surface, out
     (x, y) and screen (sx, sy): of the hints (deep water near a hint node: the view's hints
     tiles, :class:`~riverflow.kernels.surface_tiles.SurfaceTiles`) at the nodes nearest the
     points of :data:`HINT_TRACK`, the one whose projection by ``m`` (clip from world) lies
-    nearest (sx, sy); x = +inf when there is none. Returns False when a track point had no
-    hints tile yet (the hint is then to be looked for again later)."""
+    nearest (sx, sy); x = +inf when there is none. Returns False when a track point lies in a
+    leaf of the view whose hints tile is not made yet (the hint is looked for again later);
+    points outside the view's leaves have no hints and never will."""
     hints = surface.hints
     complete = True
     dx = x - eye_x
@@ -219,7 +220,7 @@ def _water_hint(x, y, sx, sy, eye_x, eye_y, m, width_px, height_px, surface, out
         f = HINT_TRACK[s]
         slot, j, i = hint_at(surface, x + f * dx, y + f * dy)
         if slot < 0:
-            complete = False
+            complete = complete and slot != NO_TILE_YET
             continue
         t = (slot * hints.shape[1] + j) * hints.shape[2] + i
         if t == last or not hints[slot, j, i, 0] < math.inf:

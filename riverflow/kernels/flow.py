@@ -36,7 +36,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from riverflow.kernels._jit import JIT_OPTIONS
+from riverflow.kernels._jit import JIT_OPTIONS, is_finite
 from riverflow.kernels.tile_table import table_find, tile_code
 
 KIND_AXIS = 0
@@ -742,7 +742,7 @@ def query_velocity(xy, levels, level, fallback, tiles, tick, segs, n_velocity, o
         inv_h = (1 << lv) * tiles.n_cells * inv_root
         vx = -gy * inv_h
         vy = gx * inv_h
-        if math.isfinite(vx) and math.isfinite(vy):
+        if is_finite(vx) and is_finite(vy):
             out_velocity[k, 0] = vx
             out_velocity[k, 1] = vy
     return missing

@@ -45,7 +45,7 @@ import math
 
 from numba import njit
 
-from riverflow.kernels._jit import JIT_OPTIONS
+from riverflow.kernels._jit import JIT_OPTIONS, is_finite
 
 OB_X = 0
 """Hull centre x [m]."""
@@ -128,7 +128,7 @@ def apply_obstacles(xy, index, n, psi, obstacles, out_status, out_velocity):
     for q in range(n):
         k = index[q]
         p = psi[q]
-        if out_status[k] != STATUS_INSIDE or not math.isfinite(p):
+        if out_status[k] != STATUS_INSIDE or not is_finite(p):
             continue
         px = xy[k, 0]
         py = xy[k, 1]
@@ -137,7 +137,7 @@ def apply_obstacles(xy, index, n, psi, obstacles, out_status, out_velocity):
         touched = False
         for j in range(obstacles.shape[0]):
             psi_o = obstacles[j, OB_PSI]
-            if not math.isfinite(psi_o):
+            if not is_finite(psi_o):
                 continue
             ax, ay, bx, by, r, reach = _hull_axis(obstacles, j)
             ex = bx - ax
@@ -180,7 +180,7 @@ def apply_obstacles(xy, index, n, psi, obstacles, out_status, out_velocity):
             p = psi_r + psi_o + delta * g
         if touched:
             psi[q] = p
-            if math.isfinite(vx) and math.isfinite(vy):
+            if is_finite(vx) and is_finite(vy):
                 out_velocity[k, 0] = vx
                 out_velocity[k, 1] = vy
             changed += 1

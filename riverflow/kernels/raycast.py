@@ -41,7 +41,7 @@ import math
 import numpy as np
 from numba import njit
 
-from riverflow.kernels._jit import JIT_OPTIONS
+from riverflow.kernels._jit import JIT_OPTIONS, is_finite
 
 HIT_NONE = 0
 """Sky: nothing within the distance, or the ray misses the grid."""
@@ -195,8 +195,8 @@ def _cast_ray(ox, oy, oz, dx, dy, dz, heights, water, origin_x, origin_y, cell_m
     out_xyz[r, 1] = 0.0
     out_xyz[r, 2] = 0.0
     scale = max(abs(dx), abs(dy), abs(dz))  # so tiny or huge directions neither under- nor
-    if not (math.isfinite(ox) and math.isfinite(oy) and math.isfinite(oz)  # overflow
-            and math.isfinite(scale)):
+    if not (is_finite(ox) and is_finite(oy) and is_finite(oz)  # overflow
+            and is_finite(scale)):
         return HIT_NONE
     out_xyz[r, 0] = ox
     out_xyz[r, 1] = oy

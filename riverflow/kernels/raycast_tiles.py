@@ -24,7 +24,7 @@ import math
 import numpy as np
 from numba import njit
 
-from riverflow.kernels._jit import JIT_OPTIONS
+from riverflow.kernels._jit import JIT_OPTIONS, is_finite
 from riverflow.kernels.raycast import HIT_NONE, _clip_slab, _walk_grid
 from riverflow.kernels.surface_tiles import NO_LEAF, find_leaf
 
@@ -83,8 +83,8 @@ def _cast_ray_tiles(ox, oy, oz, dx, dy, dz, view, max_d, offs, dims_x, levels, o
     out_xyz[r, 1] = 0.0
     out_xyz[r, 2] = 0.0
     scale = max(abs(dx), abs(dy), abs(dz))
-    if not (math.isfinite(ox) and math.isfinite(oy) and math.isfinite(oz)
-            and math.isfinite(scale)):
+    if not (is_finite(ox) and is_finite(oy) and is_finite(oz)
+            and is_finite(scale)):
         return HIT_NONE
     out_xyz[r, 0] = ox
     out_xyz[r, 1] = oy

@@ -46,7 +46,7 @@ import numpy as np
 from numba import njit
 
 from riverflow.components.status import FlowStatus
-from riverflow.kernels._jit import JIT_OPTIONS
+from riverflow.kernels._jit import JIT_OPTIONS, is_finite
 
 PARTICLES_PER_ROW = 256
 """Particle slots per row of the parameter table."""
@@ -74,11 +74,11 @@ def sprite_grid_shape(width_px: float, height_px: float, radius_px: float) -> tu
     for a zero or non-finite radius), ``gw = ⌈W / cell⌉``, ``gh = ⌈H / cell⌉``, at least 1
     each (a zero-size viewport gets a 1 × 1 grid)."""
     r = float(radius_px)
-    cell = math.floor(r) if math.isfinite(r) and r >= 1.0 else 1
+    cell = math.floor(r) if is_finite(r) and r >= 1.0 else 1
     w = float(width_px)
     h = float(height_px)
-    w = w if math.isfinite(w) and w > 0 else 0.0
-    h = h if math.isfinite(h) and h > 0 else 0.0
+    w = w if is_finite(w) and w > 0 else 0.0
+    h = h if is_finite(h) and h > 0 else 0.0
     gw = max(1, math.ceil(w / cell))
     gh = max(1, math.ceil(h / cell))
     return cell, gw, gh
@@ -119,7 +119,7 @@ def _write_free_slot(out, row, t):
 
 @njit(**JIT_OPTIONS)
 def _finite_or_zero(v):
-    return v if math.isfinite(v) else np.float32(0.0)
+    return v if is_finite(v) else np.float32(0.0)
 
 
 @njit(**JIT_OPTIONS)
@@ -154,8 +154,8 @@ def fill_sprite_params(alive, has_world, screen_px, world_m, offset_m, intensity
             wy = np.float32(world_m[i, 1])
             wz = np.float32(world_m[i, 2])
             level = np.float32(intensity[i])
-            if (math.isfinite(sx) and math.isfinite(sy) and math.isfinite(wx)
-                    and math.isfinite(wy) and math.isfinite(wz) and math.isfinite(level)):
+            if (is_finite(sx) and is_finite(sy) and is_finite(wx)
+                    and is_finite(wy) and is_finite(wz) and is_finite(level)):
                 out[row, t, 0] = sx
                 out[row, t, 1] = sy
                 out[row, t, 2] = wx
@@ -211,7 +211,7 @@ def build_sprite_grid(alive, has_world, screen_px, intensity, status, n_slots, s
     radius = np.float64(sprite_radius_px)
     cell = np.float64(cell_px)
     n = 0
-    if radius > 0 and cell > 0 and math.isfinite(radius) and math.isfinite(cell):
+    if radius > 0 and cell > 0 and is_finite(radius) and is_finite(cell):
         n = max(min(n_slots, alive.shape[0], has_world.shape[0], screen_px.shape[0],
                     intensity.shape[0], status.shape[0]), 0)
     r2 = radius * radius
@@ -232,7 +232,7 @@ def build_sprite_grid(alive, has_world, screen_px, intensity, status, n_slots, s
             continue
         px = np.float64(screen_px[i, 0])
         py = np.float64(screen_px[i, 1])
-        if not (math.isfinite(px) and math.isfinite(py)):
+        if not (is_finite(px) and is_finite(py)):
             continue
         y_lo = (py - radius) / cell
         y_hi = (py + radius) / cell

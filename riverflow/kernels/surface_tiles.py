@@ -21,7 +21,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from riverflow.kernels._jit import JIT_OPTIONS
+from riverflow.kernels._jit import JIT_OPTIONS, is_finite
 from riverflow.kernels.tile_table import table_find, tile_code
 
 NO_LEAF = -1
@@ -182,23 +182,29 @@ def surface_altitude(view, x, y):
     w = view.water
     z = ((1.0 - fv) * ((1.0 - fu) * w[slot, j, i] + fu * w[slot, j, i + 1])
          + fv * ((1.0 - fu) * w[slot, j + 1, i] + fu * w[slot, j + 1, i + 1]))
-    if math.isfinite(z):
+    if is_finite(z):
         return z
     g = view.ground
     return ((1.0 - fv) * ((1.0 - fu) * g[slot, j, i] + fu * g[slot, j, i + 1])
             + fv * ((1.0 - fu) * g[slot, j + 1, i] + fu * g[slot, j + 1, i + 1]))
 
 
+NO_TILE_YET = -2
+"""Slot of :func:`hint_at` where the point is in a leaf whose tile is not made yet (−1: the
+point is in no leaf of the view, so none will come)."""
+
+
 @njit(inline="always", **JIT_OPTIONS)
 def hint_at(view, x, y):
     """(slot, j, i) of the hint node nearest (x, y) in the hints tile of the leaf holding it;
-    slot −1 where there is none yet."""
+    slot NO_LEAF (−1) where the point is in no leaf of the view, NO_TILE_YET (−2) where its
+    leaf has no hints tile yet."""
     leaf = locate_leaf(view, x, y)
     if leaf < 0:
-        return -1, 0, 0
+        return NO_LEAF, 0, 0
     slot = view.hint_slot[leaf]
     if slot < 0:
-        return -1, 0, 0
+        return NO_TILE_YET, 0, 0
     h = view.hint_cells
     x0, y0, cell = tile_frame(view, view.hint_key[leaf, 0], view.hint_key[leaf, 1],
                               view.hint_key[leaf, 2], h)
@@ -229,3 +235,32 @@ def water_level_at(view, x, y):
     w = view.water
     return ((1.0 - fv) * ((1.0 - fu) * w[slot, j, i] + fu * w[slot, j, i + 1])
             + fv * ((1.0 - fu) * w[slot, j + 1, i] + fu * w[slot, j + 1, i + 1]))
+
+
+def one_tile_surface(ground: np.ndarray, water: np.ndarray, origin_x: float, origin_y: float,
+                     cell_m: float, hints: np.ndarray | None = None) -> SurfaceTiles:
+    """A :class:`SurfaceTiles` whose cut is one tile: a square grid of (n + 1)² nodes
+    ``cell_m`` apart from (``origin_x``, ``origin_y``) (ground [m]; water level [m], NaN where
+    dry), with ``hints`` (h + 1, h + 1, 3) float32 over the same square (None: no hints). For
+    tests and tools that have one heightfield, not a landscape's tiles."""
+    from riverflow.kernels.raycast import height_pyramid
+    from riverflow.tiles.table import TileTable, tile_code
+
+    ground = np.ascontiguousarray(ground, np.float32)
+    water = np.ascontiguousarray(water, np.float32)
+    if ground.ndim != 2 or ground.shape[0] != ground.shape[1] or ground.shape != water.shape:
+        raise ValueError(f"one_tile_surface needs two equal square grids, got {ground.shape} "
+                         f"and {water.shape}")
+    n = ground.shape[0] - 1
+    if hints is None:
+        hints = np.full((2, 2, 3), np.inf, np.float32)
+    hints = np.ascontiguousarray(hints, np.float32)
+    table = TileTable(4)
+    table.set(tile_code(0, 0, 0), 0)
+    key = np.zeros((1, 3), np.int32)
+    finite = np.concatenate([ground.ravel(), water[np.isfinite(water)]])
+    return SurfaceTiles(
+        float(origin_x), float(origin_y), float(n * cell_m), n, table.keys, table.values, 0,
+        np.zeros(1, np.int32), key, ground[None], water[None],
+        height_pyramid(ground, water)[None], float(finite.min()), float(finite.max()),
+        np.zeros(1, np.int32), key.copy(), hints[None], hints.shape[0] - 1)

@@ -41,11 +41,16 @@ def flight_pose(scene, frame: int, dt_s: float = 1 / 60, speed_mps: float = 12.0
             np.array([target_xy[0], target_xy[1], level]))
 
 
-def fly(world, frames: int, start: int = 0, dt_s: float = 1 / 60, callback=None) -> None:
-    """Step ``world`` ``frames`` times along the flight; ``callback(frame, world)`` after each."""
+def fly(world, frames: int, start: int = 0, dt_s: float = 1 / 60, callback=None,
+        load: bool = True) -> None:
+    """Step ``world`` ``frames`` times along the flight; ``callback(frame, world)`` after each.
+    With ``load`` the tiles of the first view are made before the first step
+    (:meth:`RiverWorld.load_view`): a scripted run starts on a complete view."""
     line = main_centerline(world.scene)
     for f in range(start, start + frames):
         world.camera.look_at(*flight_pose(world.scene, f, dt_s, line=line))
+        if load and f == start:
+            world.load_view()
         world.step(dt_s)
         if callback is not None:
             callback(f, world)

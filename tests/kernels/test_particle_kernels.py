@@ -8,7 +8,6 @@ import numpy.testing as npt
 import pytest
 
 from riverflow.components.particles import FadeReason, ParticlePool
-from riverflow.components.river import SurfaceGrids
 from riverflow.components.status import FlowStatus
 from riverflow.engine.camera import Camera
 from riverflow.kernels import advection as ka
@@ -16,7 +15,7 @@ from riverflow.kernels import lifecycle as kl
 from riverflow.kernels import placement as kpl
 from riverflow.kernels import poisson as kp
 from riverflow.kernels import screen as ks
-from riverflow.systems.advection import deep_water_targets, surface_tables
+from riverflow.kernels.surface_tiles import one_tile_surface
 from tests import reference
 
 FI, AC, FO = 2.0, 30.0, 2.0
@@ -326,12 +325,13 @@ def test_move_matches_reference(rng):
     want = reference.euler_move(pool.world_m, pool.velocity_mps, 0.25)
     flat = np.zeros((3, 3), np.float32)
     water = np.full((3, 3), np.nan, np.float32)
+    surface = one_tile_surface(flat, water, -100.0, -100.0, 100.0)
     index = np.zeros(300, np.int32)
     xy = np.zeros((300, 2))
     no_box = np.array([np.inf, np.inf, -np.inf, -np.inf])
     moved, n, n_status = ka.move_particles(
         pool.counters[2], pool.alive, pool.has_world, pool.world_m, pool.velocity_mps,
-        pool.status, 0.25, water, flat, -100.0, -100.0, 100.0, 0, 1, 1, no_box, index, xy)
+        pool.status, 0.25, surface, 0, 1, 1, no_box, index, xy)
     assert moved == moving.sum() and n_status == 0
     npt.assert_allclose(pool.world_m[moving, :2], want[moving, :2], rtol=1e-6)
     npt.assert_array_equal(pool.world_m[~moving], start[~moving])
@@ -344,7 +344,7 @@ def test_move_matches_reference(rng):
     box = np.array([0.0, 0.0, 5.0, 5.0])
     _, n, n_status = ka.move_particles(
         pool.counters[2], pool.alive, pool.has_world, pool.world_m, pool.velocity_mps,
-        pool.status, 0.25, water, flat, -100.0, -100.0, 100.0, 1, 1, 2, box, index, xy)
+        pool.status, 0.25, surface, 1, 1, 2, box, index, xy)
     slots = np.arange(pool.capacity)
     in_box = np.all((pool.world_m[:, :2] >= 0) & (pool.world_m[:, :2] <= 5), axis=1)
     quiet = asking & (pool.status == FlowStatus.INSIDE) & ((slots + 1) % 2 == 1) & ~in_box
@@ -354,8 +354,9 @@ def test_move_matches_reference(rng):
     assert n_status > 20 and n + n_status == asking.sum()
     pool.world_m[:, 2] = 0.0
     ka.move_particles(pool.counters[2], pool.alive, pool.has_world, pool.world_m,
-                      pool.velocity_mps, pool.status, 0.25, water, flat + 1, -100.0, -100.0,
-                      100.0, 1, 4, 1, no_box, index, xy)
+                      pool.velocity_mps, pool.status, 0.25,
+                      one_tile_surface(flat + 1, water, -100.0, -100.0, 100.0), 1, 4, 1, no_box,
+                      index, xy)
     looked_up = moving & ((np.arange(pool.capacity) + 1) % 4 == 0)
     assert np.allclose(pool.world_m[looked_up, 2], 1.0)  # every 4th frame, by slot
     assert np.allclose(pool.world_m[moving & ~looked_up, 2], 0.0)
@@ -409,7 +410,8 @@ def test_pixel_rays_match_the_camera():
 def _river_view(rng, r=5.0, w=320, h=180, n=700):
     """A camera over a flat valley with a 80 m wide river along y (water level 0), particles
     at random pixels, INSIDE over the river and OUTSIDE beside it, in a neighbour grid; the
-    valley's surface grids (10 m nodes) and their water targets."""
+    valley's surface as one tile (10 m nodes) with its water hints (every 80 m: the deep
+    water nearest each hint node, |x| ≤ 20 m)."""
     cam = Camera(position=(30, -260, 120), target=(0, 0, 0), size_px=(w, h))
     fwd, inv = cam.matrices_for_kernels()
     pool = ParticlePool(n + 400)
@@ -426,7 +428,7 @@ def _river_view(rng, r=5.0, w=320, h=180, n=700):
     gx = np.arange(-400, 401, 10.0)
     ground = np.zeros((len(gx), len(gx)), np.float32)
     water = np.where(np.abs(gx)[None, :] < 40, 0.0, np.nan).astype(np.float32) + ground
-    grids = SurfaceGrids(ground, water, -400.0, -400.0, 10.0, 0.0, 0.0)
+    grids = one_tile_surface(ground, water, -400.0, -400.0, 10.0, _valley_hints())
     gw, gh, count, items, removed, _ = _grid(w, h, 4 * r)
     cells = (np.floor(pool.screen_px[:n, 1] / (4 * r)) * gw
              + np.floor(pool.screen_px[:n, 0] / (4 * r))).astype(int)
@@ -437,25 +439,31 @@ def _river_view(rng, r=5.0, w=320, h=180, n=700):
     return pool, (fwd, inv), grids, (gw, gh, count, items, removed), order
 
 
-def test_water_targets_name_the_nearest_deep_water_node():
+def _valley_hints() -> np.ndarray:
+    """(11, 11, 3): the flat valley's hints every 80 m from (-400, -400): deep water nearest
+    the node (x clipped to ±20 m, the same y, level 0)."""
+    node = np.arange(-400.0, 401.0, 80.0)
+    hints = np.zeros((11, 11, 3), np.float32)
+    hints[..., 0] = np.clip(node, -20, 20)[None, :]
+    hints[..., 1] = node[:, None]
+    return hints
+
+
+def test_one_tile_surface_serves_the_kernels():
     gx = np.arange(-400, 401, 10.0)
     ground = np.zeros((len(gx), len(gx)), np.float32)
     water = np.where(np.abs(gx)[None, :] < 40, 0.0, np.nan).astype(np.float32) + ground
-    grids = SurfaceGrids(ground, water, -400.0, -400.0, 10.0, 0.0, 0.0)
-    rows, cols = np.divmod(deep_water_targets(grids), len(gx))
-    # one node in from the banks (|x| ≤ 30 m: the wet nodes are |x| ≤ 30 here, 40 is dry)
-    npt.assert_array_equal(rows, np.arange(len(gx))[:, None] + 0 * rows)
-    npt.assert_array_equal(gx[cols], np.broadcast_to(np.clip(gx, -20.0, 20.0), cols.shape))
-    # the hint grid: every 8th node, the nearest deep node's x, y, level
-    _, hints, cell = surface_tables(grids)
-    assert cell == 80.0 and hints.shape == (11, 11, 3)
-    node = np.arange(0, 81, 8).clip(max=80) * 10.0 - 400.0
-    npt.assert_array_equal(hints[..., 0], np.broadcast_to(np.clip(node, -20, 20), (11, 11)))
-    npt.assert_array_equal(hints[..., 1], np.broadcast_to(node[:, None], (11, 11)))
-    assert np.all(hints[..., 2] == 0.0)
-    dry = SurfaceGrids(ground, np.full_like(water, np.nan), -400.0, -400.0, 10.0, 0.0, 0.0)
-    assert np.all(deep_water_targets(dry) == -1)
-    assert np.all(surface_tables(dry)[1][..., 0] == np.inf)
+    s = one_tile_surface(ground, water, -400.0, -400.0, 10.0, _valley_hints())
+    assert s.n == 80 and s.root_size == 800.0 and s.hint_cells == 10
+    from riverflow.kernels.surface_tiles import hint_at, sample_surface, surface_altitude
+    assert sample_surface(s, 0.0, 0.0) == (0.0, 0.0, True)
+    g, w, found = sample_surface(s, 100.0, 5.0)
+    assert found and g == 0.0 and math.isnan(w)
+    assert not sample_surface(s, 500.0, 0.0)[2]            # outside the tile
+    assert surface_altitude(s, 100.0, 0.0) == 0.0
+    assert hint_at(s, 30.0, 35.0) == (0, 5, 5)              # nearest hint node (0, 0)
+    with pytest.raises(ValueError):
+        one_tile_surface(ground[:, :-1], water[:, :-1], 0.0, 0.0, 1.0)
 
 
 def _near_args(pool, grid, r):
@@ -478,7 +486,7 @@ def _near_args(pool, grid, r):
 def test_near_water_check_matches_reference(rng):
     r, w, h = 5.0, 320, 180
     pool, (fwd, inv), grids, grid, order = _river_view(rng)
-    _, hints, hint_cell = surface_tables(grids)
+    hints, hint_cell = _valley_hints(), 80.0
     pool.birth_s[:] = 0.0
     pool.birth_s[rng.random(pool.capacity) < 0.1] = -40.0  # fading: not looked at
     before = pool.alive.copy()
@@ -491,8 +499,8 @@ def test_near_water_check_matches_reference(rng):
         owner = np.zeros(4000, np.int32)
         alive = pool.alive.copy()
         n_removed, n = ka.check_outside_near_water(
-            *_near_args(pool, grid, r), frame, 2, 4, 2 * r, w, h, fwd, 30.0, -260.0, hints,
-            -400.0, -400.0, hint_cell, out, owner)
+            *_near_args(pool, grid, r), frame, 2, 4, 2 * r, w, h, fwd, 30.0, -260.0, grids, out,
+            owner)
         npt.assert_array_equal(np.flatnonzero(alive & ~pool.alive), np.sort(want_removed))
         assert n_removed == len(want_removed)
         npt.assert_allclose(out[:n], want_probes, atol=1e-3)
@@ -508,12 +516,10 @@ def test_near_water_probes_find_the_river_with_no_particle_on_it(rng):
     r, w, h = 5.0, 320, 180
     pool, (fwd, inv), grids, grid, order = _river_view(rng, n=250)
     pool.status[pool.alive] = FlowStatus.OUTSIDE  # nobody landed on the river
-    _, hints, hint_cell = surface_tables(grids)
     out = np.zeros((8000, 2), np.float32)
     owner = np.zeros(8000, np.int32)
     _, n = ka.check_outside_near_water(
-        *_near_args(pool, grid, r), 0, 1, 2**30, 2 * r, w, h, fwd, 30.0, -260.0, hints,
-        -400.0, -400.0, hint_cell, out, owner)
+        *_near_args(pool, grid, r), 0, 1, 2**30, 2 * r, w, h, fwd, 30.0, -260.0, grids, out, owner)
     assert n > 5
     cam = Camera(position=(30, -260, 120), target=(0, 0, 0), size_px=(w, h))
     origin, direction = cam.screen_to_ray(out[:n].astype(float))
@@ -525,13 +531,11 @@ def test_near_water_probes_find_the_river_with_no_particle_on_it(rng):
     # a hint given up (x = inf) is not probed again; a new particle in the slot gets its own
     pool.water_hint_m[owner[:n], 0] = np.inf
     _, n2 = ka.check_outside_near_water(
-        *_near_args(pool, grid, r), 0, 1, 2**30, 2 * r, w, h, fwd, 30.0, -260.0, hints,
-        -400.0, -400.0, hint_cell, out, owner)
+        *_near_args(pool, grid, r), 0, 1, 2**30, 2 * r, w, h, fwd, 30.0, -260.0, grids, out, owner)
     assert n2 == 0
     pool.ids[pool.alive] += 1000
     _, n3 = ka.check_outside_near_water(
-        *_near_args(pool, grid, r), 0, 1, 2**30, 2 * r, w, h, fwd, 30.0, -260.0, hints,
-        -400.0, -400.0, hint_cell, out, owner)
+        *_near_args(pool, grid, r), 0, 1, 2**30, 2 * r, w, h, fwd, 30.0, -260.0, grids, out, owner)
     assert n3 == n
 
 
@@ -568,3 +572,25 @@ def test_place_at_seen_water_matches_reference(rng):
     assert np.all(pool.status[slots] == FlowStatus.INSIDE) and pool.has_world[slots].all()
     assert not pool.first_query[slots].any()
     npt.assert_array_equal(pool.velocity_mps[slots], vel[want_rows])
+
+
+def test_a_hint_is_looked_for_again_while_its_tile_is_not_made(rng):
+    """A land particle whose hint track crosses a leaf with no hints tile yet finds no hint
+    and keeps none (hint_id unset), so it looks again once the tile is there."""
+    r, w, h = 5.0, 320, 180
+    pool, (fwd, inv), grids, grid, order = _river_view(rng, n=250)
+    pool.status[pool.alive] = FlowStatus.OUTSIDE
+    waiting = grids._replace(hint_slot=np.full(1, -1, np.int32))
+    out = np.zeros((8000, 2), np.float32)
+    owner = np.zeros(8000, np.int32)
+    _, n = ka.check_outside_near_water(
+        *_near_args(pool, grid, r), 0, 1, 2**30, 2 * r, w, h, fwd, 30.0, -260.0, waiting, out,
+        owner)
+    assert n == 0
+    on_tile = pool.alive & np.all(np.abs(pool.world_m[:, :2]) < 400.0, axis=1)
+    assert on_tile.sum() > 100
+    assert not np.any(pool.hint_id[on_tile] == pool.ids[on_tile])
+    _, n = ka.check_outside_near_water(
+        *_near_args(pool, grid, r), 0, 1, 2**30, 2 * r, w, h, fwd, 30.0, -260.0, grids, out,
+        owner)
+    assert n > 5                                       # the tile came: hints, probes

@@ -293,30 +293,35 @@ def test_pure_python_matches_jit(rng):
 
 
 @pytest.fixture(scope="module")
-def scene_grids():
+def scene():
     from riverflow.scenes.default import default_scene
-    from riverflow.scenes.water_grid import water_level_grid
-    scene = default_scene(seed=0)
-    water = water_level_grid(scene)
-    return scene, water, height_pyramid(scene.terrain.heights_m, water)
+    return default_scene(seed=0)
 
 
-def test_water_level_grid(scene_grids):
-    from riverflow.scenes.water_grid import REACH_CELLS
-    scene, water, _ = scene_grids
-    t = scene.terrain
-    assert water.shape == t.heights_m.shape and water.dtype == np.float32
-    ny, nx = water.shape
-    jj, ii = np.mgrid[0:ny:3, 0:nx:3]
-    xy = t.origin_m + t.cell_m * np.column_stack([ii.ravel(), jj.ravel()])
-    w = water[jj.ravel(), ii.ravel()]
-    inside = scene.water.contains(xy)
-    assert inside.sum() > 1000
-    assert np.isfinite(w[inside]).all()                       # water everywhere in the river
-    npt.assert_allclose(w[np.isfinite(w)], scene.water.level(xy[np.isfinite(w)]), atol=1e-4)
-    shore = scene.water.distance_to_shore(xy)
-    assert np.isnan(w[~inside & (shore > REACH_CELLS * t.cell_m + 1.0)]).all()
-    assert np.isfinite(w[~inside]).sum() > 0                  # reaches a little past the banks
+def test_water_tiles_hold_the_level_in_and_near_the_river(scene):
+    """The water tiles the rays read: the scene's level at every node in the river, and a
+    little past the banks (so the shore is where the water plane meets the terrain), NaN
+    farther out."""
+    from riverflow.scenes.tile_kinds import WET_REACH_CELLS, LandscapeTiles, WaterProducer
+    tiles = LandscapeTiles(scene)
+    producer = WaterProducer(tiles)
+    level = tiles.max_level
+    keys = [k for k in scene.quadtree.tiles_in_box(level, (-600, -600, 600, 600)).tolist()
+            if tiles.has_water(tuple(k))][:6]
+    assert len(keys) >= 4
+    cell = scene.quadtree.cell_m(level, tiles.n)
+    inside_total = 0
+    for key in keys:
+        w = producer.produce(tuple(key), {})["level"].ravel()
+        assert w.dtype == np.float32
+        xy = tiles.nodes(tuple(key), tiles.n)
+        inside = scene.water.contains(xy)
+        inside_total += inside.sum()
+        assert np.isfinite(w[inside]).all()                   # water everywhere in the river
+        npt.assert_allclose(w[np.isfinite(w)], scene.water.level(xy[np.isfinite(w)]), atol=1e-4)
+        shore = scene.water.distance_to_shore(xy)
+        assert np.isnan(w[~inside & (shore > WET_REACH_CELLS * cell + 1.0)]).all()
+    assert inside_total > 1000
 
 
 def _camera_over_river(scene, above_m, ahead_m, size=(160, 90)):
@@ -331,20 +336,36 @@ def _camera_over_river(scene, above_m, ahead_m, size=(160, 90)):
 
 
 @pytest.mark.parametrize("ahead_m", [20.0, 150.0])
-def test_default_scene_rays_find_the_river(scene_grids, ahead_m):
-    scene, water, pyramid = scene_grids
+def test_default_scene_rays_find_the_river(scene, ahead_m):
+    """Rays cast onto the surface tiles of a real frame's view (the cut of the quadtree the
+    camera needs, tiles made at the level their distance needs)."""
+    from riverflow.components.river import TerrainView
+    from riverflow.engine.config import RiverConfig
+    from riverflow.engine.world import RiverWorld
+    from riverflow.kernels.raycast_tiles import cast_rays_onto_tiles
     t = scene.terrain
     cam = _camera_over_river(scene, 30.0, ahead_m)
+    world = RiverWorld(scene, size=cam.size_px,
+                       config=RiverConfig(tile_production="blocking", fov_y_deg=60.0))
+    world.camera.look_at(cam.position, cam.target)
+    world.step(1 / 60)
+    surface = world.resource(TerrainView).surface
+    world.close()
+    assert surface.cut_keys is not None and (surface.leaf_slot >= 0).all()
     px = np.stack(np.meshgrid(np.arange(0.5, 160, 2.0), np.arange(0.5, 90, 2.0)), -1).reshape(-1, 2)
     origins, directions = cam.screen_to_ray(px)
     xyz, hit = np.empty_like(origins), np.empty(len(origins), np.uint8)
-    cast_rays_onto_heightfield(origins, directions, t.heights_m, water, *t.origin_m, t.cell_m,
-                               1e4, xyz, hit, pyramid)
+    cast_rays_onto_tiles(origins, directions, surface, 1e4, xyz, hit)
     some = hit != HIT_NONE
     assert (hit == HIT_WATER).sum() > 200
-    # Hits lie on the surface that was hit.
+    # Hits lie on the surface that was hit: the tiles' (sampled at the level the distance
+    # needs), within a few cm of the scene's exact terrain and water.
+    from riverflow.kernels.surface_tiles import sample_surface
     land, wet = hit == HIT_LAND, hit == HIT_WATER
-    npt.assert_allclose(xyz[land, 2], t.height(xyz[land, :2]), atol=1e-3)
+    on = np.array([sample_surface(surface, x, y)[:2] for x, y in xyz[:, :2]])
+    npt.assert_allclose(xyz[land, 2], on[land, 0], atol=1e-3)
+    npt.assert_allclose(xyz[wet, 2], on[wet, 1], atol=1e-3)
+    assert np.percentile(np.abs(xyz[land, 2] - t.height(xyz[land, :2])), 90) < 0.1
     npt.assert_allclose(xyz[wet, 2], scene.water.level(xyz[wet, :2]), atol=0.02)
     # Water where the scene says water, except within a metre of the banks.
     contains = scene.water.contains(xyz[some, :2])

@@ -46,9 +46,15 @@ def _outward_shore_points(scene: Scene, offset_m: float) -> tuple[np.ndarray, np
     return p[keep], q[keep]
 
 
+def _sample(scene: Scene) -> np.ndarray:
+    """Terrain heights on a 40 m grid over the whole scene (the terrain is a function)."""
+    x0, y0, x1, y1 = scene.bounds_m
+    return scene.terrain.grid(x0, y0, 40.0, int((x1 - x0) // 40) + 1, int((y1 - y0) // 40) + 1)
+
+
 def test_same_seed_gives_bitwise_same_scene(scene):
     again = default_scene(seed=0)
-    assert np.array_equal(again.terrain.heights_m, scene.terrain.heights_m)
+    assert np.array_equal(_sample(again), _sample(scene))
     assert again.graph == scene.graph
     assert np.array_equal(again.water.levels_m, scene.water.levels_m)
     for a, b in zip(again.branches, scene.branches):
@@ -61,23 +67,28 @@ def test_other_seed_gives_another_river(scene):
     other = default_scene(seed=1)
     a, b = scene.branch("main_upper").centerline_m, other.branch("main_upper").centerline_m
     assert a.shape != b.shape or not np.allclose(a, b)
-    assert not np.array_equal(other.terrain.heights_m, scene.terrain.heights_m)
+    assert not np.array_equal(_sample(other), _sample(scene))
     assert other.seed == 1 and not graph_problems(other.graph)
 
 
 def test_terrain_is_about_4_km_of_tiles(scene):
+    """A 4 km quadtree whose finest height tiles are 256 m (64 cells of 4 m), sampled from the
+    terrain function at their nodes (bitwise: a tile is the function, not a resampling)."""
+    from riverflow.scenes.tile_kinds import HeightProducer, LandscapeTiles
     x0, y0, x1, y1 = scene.bounds_m
     assert x1 - x0 >= 3500 and y1 - y0 >= 3500
     t = scene.terrain
-    assert t.heights_m.dtype == np.float32 and np.isfinite(t.heights_m).all()
-    tx, ty = t.tile_count
-    assert tx * ty >= 4
-    heights, origin = t.tile(1, 2)
-    n = t.cells_per_tile
-    assert heights.shape == (n + 1, n + 1)
+    assert t.tile_size_m == 256.0 and t.max_level == 4
+    q = scene.quadtree
+    assert q.tile_size_m(t.max_level) == t.tile_size_m and q.cell_m(t.max_level, 64) == 4.0
+    tiles = LandscapeTiles(scene)
+    z = HeightProducer(tiles).produce((4, 1, 2), {})["z"]
+    assert z.dtype == np.float32 and z.shape == (67, 67) and np.isfinite(z).all()
+    origin = np.array(q.tile_origin_m(4, 1, 2))
     assert np.array_equal(origin, [x0 + t.tile_size_m, y0 + 2 * t.tile_size_m])
     corner = origin + t.tile_size_m * np.array([1.0, 1.0])
-    assert t.height(corner[None])[0] == pytest.approx(float(heights[-1, -1]))
+    assert np.float32(t.height(corner[None])[0]) == z[-2, -2]     # the ring is one node wide
+    assert np.isfinite(_sample(scene)).all()
 
 
 def test_main_river_long_wide_and_widening(scene):
