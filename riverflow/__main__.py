@@ -92,7 +92,8 @@ def _parser() -> argparse.ArgumentParser:
         description="Fly the scripted chase camera down the scene's main river for N frames "
                     "at 1/60 s (particles, flow tiles, wave sprites), draw the last frame with "
                     "offscreen OpenGL (EGL when there is no display) in the given display mode "
-                    "and save it as a PNG. A graph file is put on a flat landscape.")
+                    "and save it as a PNG. A graph file is put on procedural hills with its rivers "
+                    "carved in (riverflow.landscape).")
     _scene_args(p)
     p.add_argument("--size", type=_size, required=True, metavar="WxH",
                    help="frame size in pixels, e.g. 1280x720")
@@ -111,7 +112,7 @@ def _parser() -> argparse.ArgumentParser:
         "profile", help="time every system of a scripted camera flight (no drawing)",
         description="Fly a chase camera down the scene's main river (particles, flow tiles, no "
                     "drawing) and print mean / p50 / p95 ms per system and the particle "
-                    "count, or JSON. A graph file is put on a flat landscape.")
+                    "count, or JSON. A graph file is put on procedural hills (riverflow.landscape).")
     _scene_args(p)
     p.add_argument("--size", type=_size, required=True, metavar="WxH",
                    help="screen size in pixels, e.g. 1920x1080")

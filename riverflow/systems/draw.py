@@ -62,6 +62,10 @@ def shader_defines() -> dict[str, int]:
     return defines
 
 
+_NOTHING = object()
+"""A tile uploaded with nothing to draw."""
+
+
 class _Gpu:
     """The world's GPU objects (made in the world's context on the first draw)."""
 
@@ -127,11 +131,14 @@ class _Gpu:
 
     def sync_tiles(self, tiles: Tiles, kind: str, keys: np.ndarray) -> list[gl.Mesh]:
         """The GPU meshes of the tiles ``keys`` of ``kind`` (uploaded now if new), and the
-        release of every GPU mesh whose tile left the cache."""
+        release of every GPU mesh whose tile left the cache. A tile with nothing to draw (a
+        water tile whose piece has no triangle) is remembered as such, not looked at again."""
         pool = tiles.cache.pools[kind]
         meshes = self.tile_meshes[kind]
         for code in [c for c in meshes if c not in pool]:
-            meshes.pop(code).delete()
+            mesh = meshes.pop(code)
+            if mesh is not _NOTHING:
+                mesh.delete()
         out = []
         for code in codes(keys).tolist():
             mesh = meshes.get(code)
@@ -139,8 +146,8 @@ class _Gpu:
                 data = pool.get(code)
                 if data is None:
                     continue
-                mesh = meshes[code] = self._upload(kind, data)
-            if mesh is not None:
+                mesh = meshes[code] = self._upload(kind, data) or _NOTHING
+            if mesh is not _NOTHING:
                 out.append(mesh)
         return out
 
@@ -194,7 +201,7 @@ class _Gpu:
         self.prop_meshes.clear()
         for meshes in self.tile_meshes.values():
             for mesh in meshes.values():
-                if mesh is not None:
+                if mesh is not _NOTHING:
                     mesh.delete()
             meshes.clear()
         for obj in [self.empty, self.params, self.grid, *self.targets,

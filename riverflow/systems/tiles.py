@@ -3,8 +3,10 @@
 
 Each frame: install what the worker finished; walk the quadtree for the terrain's cut (the
 leaves the view needs: node spacing ≤ ``terrain_tile_px`` pixels) and for the flow's (lattice
-spacing ≤ ``flow_tile_px``, river tiles only); ask the scheduler for every kind on them (the
-resident ones are marked used, so the cache's LRU releases what left the view); publish the
+spacing ≤ ``flow_tile_px``, river tiles only); ask the scheduler for every terrain kind on the
+cut's leaves and their ancestors (coarse first: a missing leaf is stood in for by its parent)
+and for flow tiles on the flow cut (the resident ones are marked used, so the cache's LRU
+releases what left the view); publish the
 frame's :class:`~riverflow.components.river.TerrainView` (the cut, and the surface the particle
 kernels read, with resident ancestors standing in for tiles not made yet); keep one
 :class:`~riverflow.components.river.Tile` entity per resident tile.
@@ -20,6 +22,7 @@ from riverflow.engine.system import System
 from riverflow.kernels.surface_tiles import SurfaceTiles, leaf_standins
 from riverflow.kernels.view_tiles import select_view_tiles
 from riverflow.scenes.tile_kinds import HINT_CELLS, HINTS, RAYCAST, TERRAIN_KINDS
+from riverflow.tiles.coverage import with_ancestors
 from riverflow.tiles.table import TileTable, code_key, codes
 
 MAX_VIEW_TILES = 4096
@@ -35,6 +38,8 @@ class ProduceTiles(System):
         self._keys = np.zeros((MAX_VIEW_TILES, 3), np.int32)
         self._cut = np.zeros((MAX_VIEW_TILES, 3), np.int32)
         self._cut_table = TileTable(2 * MAX_VIEW_TILES)
+        self._ancestors = np.zeros((0, 3), np.int32)
+        self._ancestors_of = b""
         self._entities: dict[tuple[str, int], int] = {}  # (kind, slot) → entity
         self._synced: dict[str, tuple[int, np.ndarray]] = {}  # kind → (revision, slot codes)
         self.visible: dict[str, int] = {}
@@ -56,8 +61,9 @@ class ProduceTiles(System):
                 q.root_x_m, q.root_y_m, q.root_size_m, world.scene.terrain.tile_cells,
                 world.scene.terrain.max_level, terrain.z_min, terrain.z_max, _ALL_KEYS,
                 _ALL_VALUES, self._cut)
+            wanted = self._with_ancestors(self._cut[:n_cut])
             for kind in TERRAIN_KINDS:
-                tiles.scheduler.request(kind, self._cut[:n_cut])
+                tiles.scheduler.request(kind, wanted)
         self.visible["terrain"] = int(n_cut)
         for _, node in esper.get_component(RiverNode):
             field = node.field
@@ -73,6 +79,20 @@ class ProduceTiles(System):
         terrain.cut = self._cut[:n_cut].copy()
         terrain.surface = self._surface(world, tiles, terrain)
         self._sync_entities(tiles)
+
+    def _with_ancestors(self, cut: np.ndarray) -> np.ndarray:
+        """The cut's leaves and every tile above them, coarse first (Proland keeps the whole
+        quadtree down to the cut): a leaf not made yet is drawn and queried at its parent's
+        level, and the scheduler makes coarse tiles first, so the view is never empty and
+        fills in from coarse to fine. Recomputed only when the cut changes."""
+        key = cut.tobytes()
+        if key != self._ancestors_of:
+            code = with_ancestors(codes(cut), int(cut[:, 0].max()) if len(cut) else 0)
+            mask = (1 << 28) - 1
+            self._ancestors = np.stack([code >> 56, code & mask, (code >> 28) & mask],
+                                       axis=1).astype(np.int32)
+            self._ancestors_of = key
+        return self._ancestors
 
     def _surface(self, world, tiles: Tiles, terrain: TerrainView) -> SurfaceTiles:
         """The particle kernels' view of this frame's cut (module docstring)."""
