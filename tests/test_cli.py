@@ -194,13 +194,14 @@ def test_plot_flow_draws_a_scene_with_terrain(tiny_channel_path, tmp_path):
     from types import SimpleNamespace
 
     from riverflow import load_graph
-    from riverflow.components.terrain import Terrain
     from riverflow.hydro.plot import plot_flow
+    from riverflow.scenes.sources import as_height_source
 
     gx, gy = np.meshgrid(np.arange(65) * 2.0 - 14.0, np.arange(65) * 2.0 - 64.0)
     heights = 0.002 * gy**2 + 0.01 * (100.0 - gx)  # a valley sloping down to +x
-    scene = SimpleNamespace(graph=load_graph(tiny_channel_path), seed=7,
-                            terrain=Terrain(heights, (-14.0, -64.0), 2.0, 32.0))
+    source = as_height_source(heights, origin_m=(-14.0, -64.0), cell_m=2.0)
+    terrain = SimpleNamespace(cell_m=2.0, height=lambda xy: source.heights(xy[:, 0], xy[:, 1]))
+    scene = SimpleNamespace(graph=load_graph(tiny_channel_path), seed=7, terrain=terrain)
     out = plot_flow(scene, tmp_path / "scene.png", size_px=500, style="arrows")
     assert out == tmp_path / "scene.png"
     assert out.read_bytes()[:8] == PNG_SIGNATURE

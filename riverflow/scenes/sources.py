@@ -19,7 +19,6 @@ from pathlib import Path
 
 import numpy as np
 
-from riverflow.components.terrain import Terrain
 from riverflow.kernels.noise import LATTICE_MAX, NOISE_VARIANCE, fbm
 
 FULL_SCAN_CELLS = 1 << 24
@@ -244,7 +243,7 @@ class CallableSource(HeightSource):
 
 class ArraySource(HeightSource):
     """Bilinear heights from a grid: ``array[j, i]`` is the altitude [m] at
-    ``origin_m + (i, j) · cell_m`` (row = y, as :class:`riverflow.components.terrain.Terrain`).
+    ``origin_m + (i, j) · cell_m`` (row = y).
 
     ``array``: a 2-D real ndarray, an ``np.memmap``, or the path of a ``.npy`` file (opened
     with ``np.load(mmap_mode="r")``, never read whole). ``origin_m`` (x, y) [m] finite,
@@ -387,7 +386,6 @@ def as_height_source(terrain, *, origin_m=None, cell_m=None) -> HeightSource | N
     """The :class:`HeightSource` for what a user passes as terrain.
 
     - None → None; a HeightSource → itself;
-    - a :class:`~riverflow.components.terrain.Terrain` → ArraySource of its grid;
     - an ndarray / np.memmap, or a str / Path of a ``.npy`` file → :class:`ArraySource`
       (``origin_m`` (x, y) [m] and ``cell_m`` [m] required);
     - a str / Path of a ``.tif`` / ``.tiff`` raster → NotImplementedError (needs the GIS extra);
@@ -397,8 +395,6 @@ def as_height_source(terrain, *, origin_m=None, cell_m=None) -> HeightSource | N
     """
     if terrain is None or isinstance(terrain, HeightSource):
         return terrain
-    if isinstance(terrain, Terrain):
-        return ArraySource(terrain.heights_m, terrain.origin_m, terrain.cell_m)
     if isinstance(terrain, (str, Path)):
         suffix = Path(terrain).suffix.lower()
         if suffix in RASTER_SUFFIXES:
@@ -417,5 +413,5 @@ def as_height_source(terrain, *, origin_m=None, cell_m=None) -> HeightSource | N
     if callable(terrain):
         return CallableSource(terrain)
     raise TypeError(f"as_height_source: cannot make a height source of {type(terrain).__name__}; "
-                    "accepted: None, a HeightSource, a Terrain, a 2-D ndarray / np.memmap or .npy path "
+                    "accepted: None, a HeightSource, a 2-D ndarray / np.memmap or .npy path "
                     "(with origin_m and cell_m), or a callable fn(x_m, y_m) -> z_m")

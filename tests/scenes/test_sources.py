@@ -8,7 +8,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from riverflow.components.terrain import Terrain
 from riverflow.kernels import noise
 from riverflow.scenes import sources
 from riverflow.scenes.sources import (ArraySource, CallableSource, FbmSource, HeightSource,
@@ -442,10 +441,11 @@ def test_as_height_source_dispatch(grid, tmp_path):
         assert isinstance(loaded.array, np.memmap) and loaded.path == Path(path)
     memmap = np.load(path, mmap_mode="r")
     assert as_height_source(memmap, origin_m=ORIGIN, cell_m=CELL).array is memmap
-    terrain = Terrain(grid[:33, :33], ORIGIN, CELL, 32 * CELL)
-    from_terrain = as_height_source(terrain)
+    window = as_height_source(grid[:33, :33], origin_m=ORIGIN, cell_m=CELL)  # same nodes
+    assert isinstance(window, ArraySource) and window.bounds_m == (-100.0, 250.0, 28.0, 378.0)
     xy = np.array([[-98.3, 251.7], [-10.0, 300.0], [20.1, 377.9]])
-    np.testing.assert_allclose(from_terrain.heights(xy[:, 0], xy[:, 1]), terrain.height(xy), atol=1e-9)
+    np.testing.assert_allclose(window.heights(xy[:, 0], xy[:, 1]),
+                               array.heights(xy[:, 0], xy[:, 1]), atol=1e-9)
 
 
 def test_as_height_source_errors(grid):
