@@ -28,7 +28,8 @@ def flow_fields(n_cells: int) -> dict[str, FieldSpec]:
     return {"psi": FieldSpec((n + 3, n + 3), np.float32, np.nan),         # points −1 … n+1
             "cell_status": FieldSpec((n, n), np.uint8, 0),                 # CELL_*
             "cell_segments": FieldSpec((n, n, CELL_SEGMENTS), np.int32, -1),
-            "inside_points": FieldSpec((), np.int32, 0)}                   # lattice points in water
+            "inside_points": FieldSpec((), np.int32, 0),                   # lattice points in water
+            "in_cut": FieldSpec((), np.uint8, 0)}     # a leaf of this frame's flow cut (tiles system)
 
 
 @dataclass(eq=False)
@@ -115,4 +116,5 @@ class FlowTiles:
         return CachedTiles(self.quadtree.root_x_m, self.quadtree.root_y_m,
                            self.quadtree.root_size_m, self.n_cells, p.table.keys,
                            p.table.values, self.wet.keys, self.wet.values, p.arrays["psi"],
-                           p.arrays["cell_status"], p.arrays["cell_segments"], p.last_used)
+                           p.arrays["cell_status"], p.arrays["cell_segments"], p.last_used,
+                           p.arrays["in_cut"])

@@ -417,7 +417,7 @@ class TileBuilder:
         segments = np.empty((n, n, kf.CELL_SEGMENTS), np.int32)
         inside = self.build(level, tx, ty, psi, status, segments)
         return {"psi": psi, "cell_status": status, "cell_segments": segments,
-                "inside_points": np.int32(inside)}
+                "inside_points": np.int32(inside), "in_cut": np.uint8(0)}
 
     def build(self, level: int, tx: int, ty: int, psi: np.ndarray, cell_status: np.ndarray,
               cell_segments: np.ndarray) -> int:

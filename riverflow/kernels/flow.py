@@ -46,6 +46,17 @@ KIND_CAP = 2
 CELL_OUTSIDE = 0
 CELL_INSIDE = 1
 CELL_BOUNDARY = 2
+CELL_CROWDED = 4
+"""Flag on a BOUNDARY cell whose list of CELL_SEGMENTS nearest segments overflowed (coarse
+tiles: cells of tens of metres meet more bank segments than the list holds), so the exact
+inside test may miss a point's nearest segment: a query reading such a cell of a tile coarser
+than the level it asked for (fallback) that is not a leaf of this frame's flow cut (so it only
+stands in for a late tile) answers UNKNOWN, and the particle waits for its tile
+(docs/deviations.md P10). A tile the view chose answers: its cells are ≤ ``flow_tile_px``
+pixels on screen. The cell's kind is
+``status & CELL_KIND``."""
+CELL_KIND = 3
+_CELL_UNSET = 128
 
 CELL_SEGMENTS = 4
 """Boundary segments kept per boundary cell for the exact inside test of cached queries."""
@@ -367,7 +378,7 @@ def build_flow_tile(
 
     Outputs: ``out_psi`` (n+3, n+3) float64, lattice points −1 … n+1 (NaN far from water;
     outside points next to the water hold ψ extrapolated linearly from the water side);
-    ``out_cell_status`` (n, n) uint8 CELL_*; ``out_cell_segments`` (n, n, CELL_SEGMENTS) int32,
+    ``out_cell_status`` (n, n) uint8 CELL_* (BOUNDARY possibly with the CELL_CROWDED flag); ``out_cell_segments`` (n, n, CELL_SEGMENTS) int32,
     for boundary cells the nearest bank / cap segments (−1 padded). Returns the number of
     lattice points inside the water.
     """
@@ -375,7 +386,7 @@ def build_flow_tile(
     m = n_cells + 1 + 2 * ring
     h = spacing_m
     n_inside = 0
-    out_cell_status[:, :] = 255
+    out_cell_status[:, :] = _CELL_UNSET
     out_cell_segments[:, :, :] = -1
     for bj in range(0, m, BLOCK):
         for bi in range(0, m, BLOCK):
@@ -418,7 +429,8 @@ def _mark_boundary_cells(x0, y0, h, n_cells, seg_ax, seg_ay, seg_bx, seg_by, cur
 
     A cell that a segment touches is BOUNDARY; every cell keeps (up to CELL_SEGMENTS) the
     segments within one cell diagonal of it, nearest first: if any segment touches a cell, the
-    nearest boundary segment of each of its points is among those (it is within a diagonal).
+    nearest boundary segment of each of its points is among those (it is within a diagonal),
+    unless more than CELL_SEGMENTS were that near: the cell is then flagged CELL_CROWDED.
     """
     diag = math.sqrt(2.0) * h
     diag2 = 2.0 * h * h
@@ -445,10 +457,13 @@ def _mark_boundary_cells(x0, y0, h, n_cells, seg_ax, seg_ay, seg_bx, seg_by, cur
                     if d2 > diag2:
                         continue
                     if d2 == 0.0:
-                        out_cell_status[j, i] = CELL_BOUNDARY
+                        out_cell_status[j, i] = CELL_BOUNDARY | (out_cell_status[j, i]
+                                                                 & CELL_CROWDED)
                     pos = CELL_SEGMENTS
                     while pos > 0 and d2 < cell_d2[j, i, pos - 1]:
                         pos -= 1
+                    if pos == CELL_SEGMENTS or cell_d2[j, i, CELL_SEGMENTS - 1] < np.inf:
+                        out_cell_status[j, i] |= CELL_CROWDED   # one is left out
                     if pos < CELL_SEGMENTS:
                         for q in range(CELL_SEGMENTS - 1, pos, -1):
                             cell_d2[j, i, q] = cell_d2[j, i, q - 1]
@@ -459,11 +474,13 @@ def _mark_boundary_cells(x0, y0, h, n_cells, seg_ax, seg_ay, seg_bx, seg_by, cur
 
 @njit(**JIT_OPTIONS)
 def _classify_plain_cells(inside_full, n_cells, out_cell_status):
-    """Cells no boundary touches take their corners' status (mixed corners: BOUNDARY, no list)."""
+    """Cells no boundary touches take their corners' status (mixed corners: BOUNDARY, no list;
+    all agreeing: exact, whatever was left out of the list)."""
     ring = LATTICE_RING
     for j in range(n_cells):
         for i in range(n_cells):
-            if out_cell_status[j, i] == CELL_BOUNDARY:
+            crowded = out_cell_status[j, i] & CELL_CROWDED
+            if out_cell_status[j, i] & CELL_KIND == CELL_BOUNDARY:
                 continue
             a = ring + i
             b = ring + j
@@ -474,7 +491,7 @@ def _classify_plain_cells(inside_full, n_cells, out_cell_status):
             elif n == 0:
                 out_cell_status[j, i] = CELL_OUTSIDE
             else:
-                out_cell_status[j, i] = CELL_BOUNDARY
+                out_cell_status[j, i] = CELL_BOUNDARY | crowded
 
 
 @njit(**JIT_OPTIONS)
@@ -537,7 +554,9 @@ class CachedTiles(NamedTuple):
     :mod:`riverflow.kernels.tile_table`); ``wet_keys``/``wet_values`` the tiles an axis comes
     near (any other tile is dry: all OUTSIDE); the pool's columns ``psi`` (P, n+3, n+3) float32
     (lattice points −1 … n+1), ``cell_status`` (P, n, n) uint8, ``cell_segments``
-    (P, n, n, CELL_SEGMENTS) int32 and ``last_used`` (P,) int64 (LRU stamps).
+    (P, n, n, CELL_SEGMENTS) int32, ``last_used`` (P,) int64 (LRU stamps) and ``in_cut`` (P,)
+    uint8 (1: a leaf of this frame's flow cut, set by the tile system; a tile read with
+    ``fallback`` > 0 that is not one stands in for a late tile).
     """
 
     root_x: float
@@ -552,6 +571,7 @@ class CachedTiles(NamedTuple):
     cell_status: np.ndarray
     cell_segments: np.ndarray
     last_used: np.ndarray
+    in_cut: np.ndarray
 
 
 class Segments(NamedTuple):
@@ -711,6 +731,11 @@ def query_velocity(xy, levels, level, fallback, tiles, tick, segs, n_velocity, o
             continue
         last_used[slot] = tick
         cell = cell_status[slot, cj, ci]
+        if cell & CELL_CROWDED and lv < want and tiles.in_cut[slot] == 0:
+            out_status[k] = STATUS_UNKNOWN   # a stand-in too coarse here: wait for the tile
+            missing += 1
+            continue
+        cell &= CELL_KIND
         if cell == CELL_OUTSIDE or (cell == CELL_BOUNDARY and not _boundary_inside(
                 px, py, slot, ci, cj, fx, fy, tiles.cell_segments, psi_pool, segs)):
             out_status[k] = STATUS_OUTSIDE
@@ -768,6 +793,11 @@ def sample_potential(xy, levels, level, fallback, tiles, tick, segs, out_psi):
             continue
         tiles.last_used[slot] = tick
         cell = tiles.cell_status[slot, cj, ci]
+        if cell & CELL_CROWDED and lv < (level if level >= 0 else levels[k]) \
+                and tiles.in_cut[slot] == 0:
+            missing += 1
+            continue
+        cell &= CELL_KIND
         if cell == CELL_OUTSIDE or (cell == CELL_BOUNDARY and not _boundary_inside(
                 px, py, slot, ci, cj, fx, fy, tiles.cell_segments, psi_pool, segs)):
             continue

@@ -131,8 +131,66 @@ def test_boundary_cells_are_where_banks_cross(field):
         cells = shapely.box(ox + i * h, oy + j * h, ox + (i + 1) * h, oy + (j + 1) * h)
         crossed = shapely.intersects(cells, banks)
         status = t.cell_status[slot]
-        assert np.all(status[crossed] == kf.CELL_BOUNDARY)
-        assert set(np.unique(status)) <= {kf.CELL_INSIDE, kf.CELL_OUTSIDE, kf.CELL_BOUNDARY}
+        assert np.all(status[crossed] & kf.CELL_KIND == kf.CELL_BOUNDARY)
+        assert set(np.unique(status & kf.CELL_KIND)) <= {kf.CELL_INSIDE, kf.CELL_OUTSIDE,
+                                                         kf.CELL_BOUNDARY}
+
+
+@pytest.fixture(scope="module")
+def scene_field():
+    return rf.FlowField(rf.default_scene(seed=0).graph)
+
+
+def test_crowded_coarse_cells_are_flagged_and_stand_ins_wait(scene_field):
+    """At a coarse level a cell meets more bank segments than its list keeps: it is flagged
+    CELL_CROWDED, exactly where more than CELL_SEGMENTS segments come within a cell diagonal.
+    A particle query (fallback > 0) reading such a cell of a tile that is not a leaf of the
+    frame's flow cut (a stand-in for a late tile) answers UNKNOWN; the same tile as a leaf of
+    the cut answers, and FlowField.query (fallback 0) always answers."""
+    field = scene_field
+    t = field.tiles
+    net = field.network
+    pts = np.array(net.polylines[0], np.float64)
+    lv = 0
+    status, _ = field.query(pts, level=lv)
+    slot = t.slot_of(lv, 0, 0)
+    assert slot >= 0
+    cells = t.cell_status[slot]
+    crowded = (cells & kf.CELL_CROWDED) != 0
+    assert crowded.any(), "a 4 km root tile's cells are tens of metres: some are crowded"
+    assert np.all(cells[crowded] & kf.CELL_KIND == kf.CELL_BOUNDARY)
+    # the flag is right: count segments within a diagonal of each flagged / unflagged cell
+    h = t.spacing_m(lv)
+    ox, oy = t.tile_origin_m(lv, 0, 0)
+    seg = field.segments
+    bank = np.ones(len(seg.ax), bool)
+    lines = shapely.linestrings(np.stack([np.c_[seg.ax, seg.ay], np.c_[seg.bx, seg.by]], 1))
+    for j, i in list(zip(*np.nonzero(crowded)))[:5]:
+        box = shapely.box(ox + i * h, oy + j * h, ox + (i + 1) * h, oy + (j + 1) * h)
+        near = shapely.distance(lines, box) <= np.sqrt(2.0) * h
+        assert near.sum() > kf.CELL_SEGMENTS
+    # points in crowded cells of the root tile
+    jj, ii = np.nonzero(crowded)
+    xy = np.c_[ox + (ii + 0.5) * h, oy + (jj + 0.5) * h]
+    s = np.empty(len(xy), np.uint8)
+    v = np.empty((len(xy), 2), np.float32)
+    only_root = t.view()._replace(keys=t.view().keys.copy(), values=t.view().values.copy())
+    from riverflow.tiles.table import TileTable, tile_code
+    table = TileTable(4)
+    table.set(tile_code(0, 0, 0), slot)
+    only_root = only_root._replace(keys=table.keys, values=table.values)
+    t.pool.arrays["in_cut"][:] = 0
+    only_root = only_root._replace(in_cut=t.pool.arrays["in_cut"])
+    missing = kf.query_velocity(xy, np.zeros(0, np.int8), field.max_level, field.max_level,
+                                only_root, t.cache.tick, field.segments, len(xy), s, v)
+    assert missing == len(xy) and np.all(s == rf.FlowStatus.UNKNOWN)
+    t.pool.arrays["in_cut"][slot] = 1                   # the root is the view's own leaf
+    missing = kf.query_velocity(xy, np.zeros(0, np.int8), field.max_level, field.max_level,
+                                only_root, t.cache.tick, field.segments, len(xy), s, v)
+    assert missing == 0 and np.all(s != rf.FlowStatus.UNKNOWN)
+    t.pool.arrays["in_cut"][slot] = 0
+    status, _ = field.query(xy, level=0)                # no fallback: always answers
+    assert np.all(status != rf.FlowStatus.UNKNOWN)
 
 
 def test_no_nan_and_clear_status_for_bad_points(field):
