@@ -184,10 +184,14 @@ class RiverWorld:
         scheduler = self.tiles.scheduler
         end = time.perf_counter() + timeout_s
         with self.active():
+            first = True
             while True:
                 for system in self.systems:
                     if system.name in names:
                         system.process(self, 0.0)
+                if first:                  # what earlier views asked for is not waited for
+                    scheduler.forget_unrequested()
+                    first = False
                 if scheduler.pending == 0:
                     return True
                 if not scheduler.wait(max(end - time.perf_counter(), 0.0)):

@@ -297,6 +297,17 @@ class TileScheduler:
         if len(self.errors) < 100:
             self.errors.append(f"{kind} tile {key}: {type(exc).__name__}: {exc}")
 
+    def forget_unrequested(self) -> int:
+        """Let the worker drop, unmade, every queued tile that the latest frame did not ask
+        for (after a teleport or a fast flight: :meth:`wait` then makes only what the current
+        view needs). Returns how many were let go."""
+        dropped = 0
+        for item in list(self._pending):
+            if self._wanted.get(item, -10**9) != self.frame:
+                self._wanted[item] = -10**9
+                dropped += 1
+        return dropped
+
     @property
     def pending(self) -> int:
         return len(self._pending)

@@ -162,3 +162,29 @@ def test_bad_mode_and_duplicate_kinds_are_refused():
         TileScheduler(TileCache(1 << 20), [], "sometimes")
     with pytest.raises(ValueError, match="already"):
         TileScheduler(TileCache(1 << 20), [Heights(), Heights()])
+
+
+def test_forget_unrequested_lets_wait_make_only_the_latest_frame_s_tiles():
+    """After a teleport: the requests of earlier frames are let go, the latest frame's are
+    made (a loading screen waits for the current view only)."""
+    cache = TileCache(1 << 30)
+    heights = Heights()
+    sched = TileScheduler(cache, [heights], "background", stale_frames=1000)
+    gate = threading.Event()
+    original = heights.produce
+
+    def slow(key, deps):
+        gate.wait(5.0)
+        return original(key, deps)
+
+    heights.produce = slow
+    sched.request("h", _keys(3))                      # the old view: 64 tiles
+    sched.collect()
+    new = np.array([[1, 0, 0], [1, 1, 0]])
+    sched.request("h", new)                           # the new view, this frame
+    assert sched.forget_unrequested() >= 60
+    gate.set()
+    assert sched.wait(10.0)
+    assert heights.made <= 4                          # the new view (+ the one in the worker)
+    assert all(tile_code(*k) in cache.pools["h"] for k in new.tolist())
+    sched.close()
