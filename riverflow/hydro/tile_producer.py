@@ -11,6 +11,8 @@ import threading
 from collections.abc import Mapping
 from typing import Any
 
+import numpy as np
+
 from riverflow.components.flow_tiles import FLOW_KIND, flow_fields
 from riverflow.hydro.flow_field import FlowField, TileBuilder
 from riverflow.tiles.quadtree import TileKey
@@ -30,6 +32,9 @@ class FlowProducer(Producer):
 
     def is_empty(self, key: TileKey) -> bool:
         return not self.field.tiles.is_wet(*key)
+
+    def empty_mask(self, codes: np.ndarray) -> np.ndarray:
+        return self.field.tiles.wet.find_many(codes) < 0
 
     def produce(self, key: TileKey, deps: Mapping) -> Any:
         builder = getattr(self._local, "builder", None)

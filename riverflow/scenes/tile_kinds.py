@@ -318,6 +318,9 @@ class WaterMeshProducer(TerrainProducer):
     def is_empty(self, key: TileKey) -> bool:
         return not self.tiles.has_water(key)
 
+    def empty_mask(self, codes: np.ndarray) -> np.ndarray:
+        return self.tiles.water_cover.find_many(codes) < 0
+
     def produce(self, key: TileKey, deps: Mapping) -> tuple[WaterMesh, np.ndarray]:
         q = self.tiles.quadtree
         piece = self.tiles.pieces.piece(key)

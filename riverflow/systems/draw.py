@@ -349,8 +349,7 @@ class DrawRivers(System):
         :meth:`_draw_terrain`) and return its water meshes (see the module docstring)."""
         tiles = world.resource(Tiles)
         cut = world.resource(TerrainView).cut
-        water = tiles.scheduler.producers[WATER_MESH]
-        dry = np.fromiter((water.is_empty(tuple(k)) for k in cut.tolist()), bool, len(cut))
+        dry = tiles.scheduler.producers[WATER_MESH].empty_mask(codes(cut))
         self._terrain_meshes = gpu.sync_tiles(tiles, TERRAIN_MESH,
                                               standins(cut, tiles.cache.pools[TERRAIN_MESH]))
         return gpu.sync_tiles(tiles, WATER_MESH,

@@ -58,6 +58,8 @@ class TilePool:
         self.evicted = 0
         self.revision = 0
         """Changes on every install and release (systems sync against it)."""
+        self.grown = -1
+        """Times the pool grew after it was made."""
         self._free: list[int] = []
         self._grow(max(int(capacity), 1))
 
@@ -155,10 +157,15 @@ class TilePool:
         return missing[:m]
 
     def _grow(self, capacity: int) -> None:
+        """Room for ``capacity`` tiles. New slots are not filled (a free slot is never read:
+        kernels reach slots through the table) and their memory is only committed when a tile
+        is stored there (``np.zeros``: pages mapped on first write), so a pool can be made as
+        large as the budget allows without costing RSS; growing later copies every array,
+        which in a frame is a stall (TileCache.pool sizes pools up front)."""
         old = self.capacity
         if self.fields is not None:
             for name, spec in self.fields.items():
-                arr = np.full((capacity, *spec.shape), spec.fill, spec.dtype)
+                arr = np.zeros((capacity, *spec.shape), spec.dtype)
                 if old:
                     arr[:old] = self.arrays[name]
                 self.arrays[name] = arr
@@ -170,6 +177,7 @@ class TilePool:
         self._free.extend(range(capacity - 1, old - 1, -1))  # lowest slot first
         self.capacity = capacity
         self.revision += 1
+        self.grown += 1
 
     def __getattr__(self, name: str) -> np.ndarray:
         arrays = self.__dict__.get("arrays")
@@ -185,6 +193,10 @@ class TilePool:
                    + self.table.nbytes + 28 * self.capacity)
 
 
+MAX_PREALLOCATED = 4096
+"""Most slots a pool is made with (tiles of one kind past that grow the pool)."""
+
+
 class TileCache:
     """The pools of every tile kind under one byte budget (module docstring)."""
 
@@ -196,10 +208,17 @@ class TileCache:
         self.tick = 1
 
     def pool(self, kind: str, fields: Mapping[str, FieldSpec] | None = None,
-             capacity: int = 8) -> TilePool:
-        """The pool of ``kind`` (made on first use with ``fields``)."""
+             capacity: int | None = None) -> TilePool:
+        """The pool of ``kind`` (made on first use with ``fields``). Array kinds get room for
+        as many tiles as the budget holds (at most MAX_PREALLOCATED; the memory is committed
+        only as tiles arrive), so a pool does not grow, copying every array, in a frame."""
         pool = self.pools.get(kind)
         if pool is None:
+            if capacity is None:
+                capacity = 8
+                if fields:
+                    tile = sum(f.nbytes for f in fields.values())
+                    capacity = min(self.budget_bytes // max(tile, 1) + 16, MAX_PREALLOCATED)
             pool = self.pools[kind] = TilePool(kind, fields, capacity)
         return pool
 

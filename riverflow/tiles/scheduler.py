@@ -58,6 +58,12 @@ class Producer:
         empty, not as missing)."""
         return False
 
+    def empty_mask(self, codes: np.ndarray) -> np.ndarray:
+        """(K,) bool: :meth:`is_empty` of each tile code (override with a vectorised test:
+        the scheduler asks it every frame for the tiles a view needs that are not resident)."""
+        return np.fromiter((self.is_empty(code_key(c)) for c in codes.tolist()), bool,
+                           len(codes))
+
     def produce(self, key: TileKey, deps: Mapping[Dep, Any]) -> Any:
         """The tile's content: for array kinds a mapping or tuple of arrays in ``fields``
         order, else any object. Must depend only on ``key``, ``deps`` and the sources. Runs in
@@ -101,7 +107,7 @@ class TileScheduler:
         self._seq = itertools.count()
         self._done: deque = deque()
         self._fresh: dict[tuple[str, int], Any] = {}
-        self._awaiting: dict[tuple[str, int], int] = {}
+        self._awaiting: dict[tuple[str, int], set] = {}   # dep → the jobs waiting for it
         self._lock = threading.Lock()
         self._thread: threading.Thread | None = None
         for producer in producers:
@@ -126,15 +132,14 @@ class TileScheduler:
         missing = pool.mark_used(codes, self.cache.tick)
         started = 0
         producer = self.producers[kind]
+        if len(missing):
+            missing = missing[~producer.empty_mask(missing)]
         for code in missing.tolist():
             item = (kind, code)
             self._wanted[item] = self.frame
             if item in self._pending or item in self._failed:
                 continue
-            key = code_key(code)
-            if producer.is_empty(key):
-                continue
-            started += self._start(kind, key, code)
+            started += self._start(kind, code_key(code), code)
         return started
 
     def _start(self, kind: str, key: TileKey, code: int) -> int:
@@ -166,7 +171,7 @@ class TileScheduler:
                 self._wanted[(dkind, dcode)] = self.frame
                 started += self._start(dkind, dkey, dcode)
             with self._lock:
-                self._awaiting[(dkind, dcode)] = self._awaiting.get((dkind, dcode), 0) + 1
+                self._awaiting.setdefault((dkind, dcode), set()).add((kind, code))
             job.awaited.append(dep)
         self._pending.add((kind, code))
         self.requested += 1
@@ -215,24 +220,33 @@ class TileScheduler:
             self._thread.start()
 
     def _run(self, job: _Job) -> None:
-        """Worker side: make one queued tile (or drop it if no frame wants it any more)."""
+        """Worker side: make one queued tile (or drop it if no frame wants it any more, nor
+        any wanted tile that waits for it)."""
         item = (job.kind, job.code)
-        stale = self.frame - self._wanted.get(item, -10**9) > self.stale_frames
         with self._lock:
-            awaited_by_others = self._awaiting.get(item, 0) > 0
-        if stale and not awaited_by_others:
+            needed = self._is_wanted(item) or any(
+                self._is_wanted(w) for w in self._awaiting.get(item, ()))
+        if not needed:
             self._release_awaited(job)
             self._done.append((job, None, None))
             return
         deps: dict[Dep, Any] = {dep: view for dep, (_, _, view) in job.resident.items()}
         error = None
+        dropped = False
         with self._lock:
             for dep in job.awaited:
                 dcode = tile_code(*dep[1])
                 data = self._fresh.get((dep[0], dcode))
                 if data is None:
-                    error = RuntimeError(f"its {dep[0]} tile {dep[1]} was not made")
+                    if (dep[0], dcode) in self._failed:
+                        error = RuntimeError(f"its {dep[0]} tile {dep[1]} was not made")
+                    else:
+                        dropped = True      # let go as stale: asked again, made again
                 deps[dep] = data
+        if dropped and error is None:
+            self._release_awaited(job)
+            self._done.append((job, None, None))
+            return
         data = None
         if error is None:
             try:
@@ -245,13 +259,19 @@ class TileScheduler:
         self._release_awaited(job)
         self._done.append((job, data, error))
 
+    def _is_wanted(self, item) -> bool:
+        return self.frame - self._wanted.get(item, -10**9) <= self.stale_frames
+
     def _release_awaited(self, job: _Job) -> None:
         with self._lock:
+            item = (job.kind, job.code)
             for dep in job.awaited:
                 k = (dep[0], tile_code(*dep[1]))
-                self._awaiting[k] = self._awaiting.get(k, 1) - 1
-                if self._awaiting[k] <= 0:
-                    del self._awaiting[k]
+                waiting = self._awaiting.get(k)
+                if waiting is not None:
+                    waiting.discard(item)
+                    if not waiting:
+                        del self._awaiting[k]
 
     def collect(self) -> int:
         """Install the tiles the worker finished (main thread, start of a frame); returns how
@@ -278,7 +298,7 @@ class TileScheduler:
             self.cache.evict_to_budget()
         with self._lock:
             for item in [k for k in self._fresh if k not in self._pending
-                         and self._awaiting.get(k, 0) == 0]:
+                         and not self._awaiting.get(k)]:
                 del self._fresh[item]
         if len(self._wanted) > 4 * len(self._pending) + 4096:
             old = self.frame - self.stale_frames

@@ -188,3 +188,64 @@ def test_forget_unrequested_lets_wait_make_only_the_latest_frame_s_tiles():
     assert heights.made <= 4                          # the new view (+ the one in the worker)
     assert all(tile_code(*k) in cache.pools["h"] for k in new.tolist())
     sched.close()
+
+
+class _Base(Producer):
+    kind = "base"
+    fields = {"z": FieldSpec((4,), np.float64, 0.0)}
+
+    def __init__(self, gate: threading.Event) -> None:
+        self.gate = gate
+        self.made = 0
+
+    def produce(self, key, deps):
+        self.gate.wait(5.0)
+        self.made += 1
+        return {"z": np.full(4, float(key[1]))}
+
+
+class _Top(Producer):
+    kind = "top"
+    fields = {"z": FieldSpec((4,), np.float64, 0.0)}
+
+    def __init__(self) -> None:
+        self.made = 0
+
+    def dependencies(self, key):
+        return [("base", key)]
+
+    def produce(self, key, deps):
+        self.made += 1
+        return {"z": deps[("base", key)]["z"] + 1.0}
+
+
+def test_the_dependencies_of_stale_requests_are_not_made_and_come_back_when_asked():
+    """A dependency is made only while a tile that waits for it is still wanted: after a fast
+    flight the worker does not make the heights of views long passed. A tile dropped that way
+    is not failed: asked for again, it is made (its dependency first)."""
+    gate = threading.Event()
+    base, top = _Base(gate), _Top()
+    cache = TileCache(1 << 30)
+    sched = TileScheduler(cache, [base, top], "background", stale_frames=30)
+    keys = np.array([[7, i, 0] for i in range(100)])
+    sched.request("top", keys)
+    for _ in range(40):
+        sched.collect()                               # 40 frames that ask for something else
+    gate.set()
+    assert sched.wait(20.0)
+    assert base.made <= 2 and top.made == 0 and not sched.errors
+    sched.request("top", keys[:3])                    # the view comes back
+    assert sched.wait(20.0)
+    assert top.made == 3 and not sched.errors
+    assert cache.pools["top"].get(tile_code(7, 2, 0))["z"][0] == 3.0
+    sched.close()
+
+
+def test_pools_are_made_for_the_budget_and_do_not_grow_under_it():
+    cache = TileCache(1 << 20)
+    heights = Heights()
+    sched = TileScheduler(cache, [heights], "blocking")
+    pool = cache.pools["h"]
+    assert pool.capacity >= (1 << 20) // pool.tile_bytes
+    sched.request("h", _keys(4))                      # 256 tiles of 648 B: under the budget
+    assert pool.grown == 0 and len(pool) == 256
