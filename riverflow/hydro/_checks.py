@@ -15,6 +15,7 @@ from shapely.geometry import LineString, MultiLineString
 
 from riverflow.hydro.areas import area_ring
 from riverflow.hydro.graph import HydroGraph
+from riverflow.hydro.nearest import PolylineIndex
 
 
 def _signed_area(loop: np.ndarray) -> float:
@@ -71,6 +72,7 @@ def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6) -
     water = shapely.difference(shapely.union_all([p for p, lp in zip(polys, loops) if _signed_area(lp) > 0]),
                                shapely.union_all([p for p, lp in zip(polys, loops) if _signed_area(lp) < 0]))
     in_hole = {c for a, lp in enumerate(loops) if _signed_area(lp) < 0 for c, _ in graph.areas[a].curves}
+    axes: dict[int, PolylineIndex] = {}
     for i in banks:
         c = curves[i]
         if not (0 <= c.river < len(curves)):
@@ -88,19 +90,24 @@ def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6) -
         if not left.all() or right.any():
             problems.append(f"bank {i}: water is not on its left at {int((~left | right).sum())} of "
                             f"{len(left)} segments")
-        axis = LineString(graph.vertices(c.river))
-        if i not in in_hole:
-            q = shapely.get_coordinates(shapely.shortest_line(shapely.points(mid), axis))[1::2]
+        axis = axes.get(c.river)
+        if axis is None:
+            axis = axes[c.river] = PolylineIndex(graph.vertices(c.river))
+        covers = 0.5 * curves[c.river].width_m + 1e-6
+        if i not in in_hole:   # (segments farther than the axis covers fail the reach test)
+            _, q, _ = axis.nearest(mid, covers)
             to = q - mid
             cross = d[:, 0] * to[:, 1] - d[:, 1] * to[:, 0]
-            bad = cross < -1e-9 * length * np.hypot(to[:, 0], to[:, 1])
+            with np.errstate(invalid="ignore"):
+                bad = cross < -1e-9 * length * np.hypot(to[:, 0], to[:, 1])
             if bad.any():
                 problems.append(f"bank {i}: its axis {c.river} lies on its right at {int(bad.sum())} "
                                 f"of {len(bad)} segments (water must be on the left)")
-        reach = float(shapely.distance(shapely.points(v), axis).max())
-        if reach > 0.5 * curves[c.river].width_m + 1e-6:
-            problems.append(f"bank {i}: {reach:.2f} m from axis {c.river}, which covers only "
-                            f"{0.5 * curves[c.river].width_m:.2f} m")
+        far = axis.nearest(v, covers)[0]
+        if not np.isfinite(far).all():
+            problems.append(f"bank {i}: {int((~np.isfinite(far)).sum())} of its {len(v)} points "
+                            f"lie farther from axis {c.river} than the "
+                            f"{0.5 * curves[c.river].width_m:.2f} m it covers")
     # no crossing banks (banks and closing segments may only touch at their end nodes)
     lines = [graph.vertices(i) for i, c in enumerate(curves) if not c.is_axis]
     if not MultiLineString([ln for ln in lines if len(ln) >= 2]).is_simple:

@@ -17,6 +17,7 @@ from shapely.geometry import LineString, Point
 
 from riverflow.hydro._strips import Piece, Ring
 from riverflow.hydro.graph import NO_CURVE, NO_POTENTIAL, Area, Curve, CurveType, GraphError, HydroGraph
+from riverflow.hydro.nearest import PolylineIndex
 
 AXIS_WIDTH_FACTOR = 1.1
 """Axis width = largest river width along it × this + AXIS_MARGIN_M (reference rule 1)."""
@@ -163,35 +164,46 @@ def _runs(labels: np.ndarray) -> list[tuple[int, int, int]]:
 
 
 def _axis_cost(seg_start: np.ndarray, seg_end: np.ndarray, axis_ids: list[int],
-               axis_lines: list, use_side: bool) -> np.ndarray:
+               axis_index: list[PolylineIndex], use_side: bool,
+               reach_m: float | None = None) -> np.ndarray:
     """(S, A) cost of linking each bank segment to each candidate axis: the distance from the
     segment's midpoint, ×10 when the axis lies on the segment's right (water is on a bank's
     left; not for islands, which may straddle their axis) and ×2 when the midpoint lies beyond
-    the axis' ends (its nearest point is an end node, as around junctions)."""
+    the axis' ends (its nearest point is an end node, as around junctions). Axes farther than
+    ``reach_m`` from a midpoint cost inf (a far query is then almost free); a segment whose
+    best cost is over ``reach_m`` is looked at again without it (exactly as unbounded)."""
     mid = 0.5 * (seg_start + seg_end)
     d = seg_end - seg_start
-    pts = shapely.points(mid)
     cost = np.empty((len(mid), len(axis_ids)))
     for k, a in enumerate(axis_ids):
-        line = axis_lines[a]
-        q = shapely.get_coordinates(shapely.shortest_line(pts, line))[1::2]
-        to = q - mid
-        dist = np.hypot(to[:, 0], to[:, 1])
-        right = d[:, 0] * to[:, 1] - d[:, 1] * to[:, 0] < 0
-        s = shapely.line_locate_point(line, pts)
-        beyond = (s <= 1e-9) | (s >= line.length - 1e-9)
-        cost[:, k] = dist * (1.0 + beyond) * (1.0 + 9.0 * (right & use_side))
+        cost[:, k] = _cost_to(mid, d, axis_index[a], use_side, reach_m)
+    # an axis beyond reach costs at least reach_m: only rows whose best cost is within it are
+    # sure of their choice (the side and end factors can make a near axis cost more)
+    lost = ~(cost.min(axis=1) <= reach_m) if reach_m is not None else np.zeros(len(mid), bool)
+    if lost.any():
+        for k, a in enumerate(axis_ids):
+            cost[lost, k] = _cost_to(mid[lost], d[lost], axis_index[a], use_side, None)
     return cost
 
 
-def _bank_runs(piece: Piece, axis_ids: list[int], axis_lines: list, island: bool
-               ) -> list[tuple[np.ndarray, int]]:
+def _cost_to(mid: np.ndarray, d: np.ndarray, index: PolylineIndex, use_side: bool,
+             reach_m: float | None) -> np.ndarray:
+    dist, q, s = index.nearest(mid, reach_m)
+    to = q - mid
+    with np.errstate(invalid="ignore"):
+        right = d[:, 0] * to[:, 1] - d[:, 1] * to[:, 0] < 0
+        beyond = (s <= 1e-9) | (s >= index.length - 1e-9)
+    return dist * (1.0 + beyond) * (1.0 + 9.0 * (right & use_side))
+
+
+def _bank_runs(piece: Piece, axis_ids: list[int], axis_index: list[PolylineIndex],
+               island: bool, reach_m: float | None = None) -> list[tuple[np.ndarray, int]]:
     """Split a piece where its nearest axis changes: [(points (M, 2), axis)]; a closed piece
     with one axis stays one closed curve (its points repeat the first point at the end)."""
     v = piece.points
     seg_end = np.roll(v, -1, axis=0) if piece.closed else v[1:]
     seg_start = v if piece.closed else v[:-1]
-    cost = _axis_cost(seg_start, seg_end, axis_ids, axis_lines, not island)
+    cost = _axis_cost(seg_start, seg_end, axis_ids, axis_index, not island, reach_m)
     labels = np.asarray(axis_ids)[np.argmin(cost, axis=1)]
     runs = _runs(labels)
     if piece.closed:
@@ -261,12 +273,17 @@ def assemble_graph(geoms: list[BranchGeometry], rings: list[Ring], pieces: list[
 
     banks: list[tuple[np.ndarray, int, float]] = []  # points, axis, psi
     piece_banks: list[list[int]] = []
+    axis_index = [PolylineIndex.of(line) for line in axis_lines]
     for i, piece in enumerate(pieces):
         piece_banks.append([])
-        for pts, axis in _bank_runs(piece, sorted(piece_axes[i]), axis_lines, i in island_of):
+        candidates = sorted(piece_axes[i])
+        # a bank's own axis is within half its width (axis widths include a margin): rows
+        # whose best cost is over this are looked at again unbounded (_axis_cost)
+        reach = 0.75 * max(axis_width[a] for a in candidates) + 50.0
+        for pts, axis in _bank_runs(piece, candidates, axis_index, i in island_of, reach):
             piece_banks[-1].append(len(banks))
             banks.append((pts, axis, float(psi[i])))
-            reach = float(shapely.distance(shapely.points(pts), axis_lines[axis]).max())
+            reach = float(axis_index[axis].distance(pts).max())
             axis_width[axis] = max(axis_width[axis], 2.0 * reach * 1.001 + AXIS_MARGIN_M)
     for a, w in zip(axes, axis_width):
         a.width_m = w

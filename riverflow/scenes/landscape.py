@@ -30,6 +30,7 @@ from scipy.spatial import cKDTree
 
 from riverflow.hydro.areas import water_polygon
 from riverflow.hydro.graph import GraphError, HydroGraph
+from riverflow.hydro.nearest import PolylineIndex
 from riverflow.scenes.carving import Carving, carve
 from riverflow.scenes.layout import RiverBranch
 from riverflow.scenes.sources import FbmSource, HeightSource, as_height_source
@@ -170,10 +171,9 @@ def junction_caps(branches: list[RiverBranch]) -> list[tuple[float, float]]:
     width of the other branches of that junction (at least their largest half-width): the
     water there is kept at the junction height, so the surface has no step at the mouth."""
     caps = []
-    lines = [shapely.LineString(b.centerline_m) for b in branches]
+    lines: dict[int, PolylineIndex] = {}      # the branches that meet another, indexed once
     for b in branches:
         s = _arc(b.centerline_m)
-        pts = shapely.points(b.centerline_m)
         ends = []
         for j, at_end in ((b.start_junction, False), (b.end_junction, True)):
             others = [k for k, o in enumerate(branches)
@@ -186,7 +186,9 @@ def junction_caps(branches: list[RiverBranch]) -> list[tuple[float, float]]:
                 # farther than one width from another centre line, no point of that
                 # branch's water is nearer to this one: the surface switches without a step
                 reach = float(branches[k].widths_m.max()) + 0.1 * float(b.widths_m.max())
-                inside |= shapely.distance(pts, lines[k]) < reach
+                if k not in lines:
+                    lines[k] = PolylineIndex(branches[k].centerline_m)
+                inside |= lines[k].nearest(b.centerline_m, reach)[0] < reach
             from_j = (s[-1] - s) if at_end else s
             outside = from_j[~inside]
             cap = float(outside.min()) if len(outside) else float(s[-1])
