@@ -107,3 +107,25 @@ def test_dry_tiles_answer_outside_without_being_made():
     assert status[0] in (rf.FlowStatus.OUTSIDE, rf.FlowStatus.OUTSIDE_DOMAIN)
     assert np.all(velocity == 0)
     assert field.tiles.produced == 0
+
+
+def test_the_finest_lattice_does_not_depend_on_the_domain_s_size(rng):
+    """No fixed level limit: the same network in a 4 km and a 1000 km domain gets the same
+    finest lattice (spacing ≤ the narrowest width / 24), the quadtree is deeper instead, and
+    the flow there is the same."""
+    graph, _ = confluence()
+    x0, y0, x1, y1 = graph.bounds()
+    small = rf.FlowField(graph, domain_m=(x0 - 1000.0, y0 - 1000.0, 4000.0))
+    large = rf.FlowField(graph, domain_m=(x0 - 500_000.0, y0 - 500_000.0, 1_000_000.0))
+    fine_small = small.tiles.spacing_m(small.max_level)
+    fine_large = large.tiles.spacing_m(large.max_level)
+    narrowest = min(graph.curves[a].width_m for a in graph.axes())
+    assert fine_small <= narrowest / 24.0 and fine_large <= narrowest / 24.0
+    assert 0.5 < fine_large / fine_small <= 2.0
+    assert large.max_level - small.max_level >= 7               # 250× the side: ~8 levels more
+    pts = _water_points(small, rng, 200)
+    s_small, v_small = small.query(pts)
+    s_large, v_large = large.query(pts)
+    npt.assert_array_equal(s_small, s_large)
+    speed = np.hypot(*v_small.T)
+    assert np.abs(v_large - v_small).max() < 0.05 * speed.max()
