@@ -15,8 +15,13 @@ import math
 from numba import njit
 
 FASTMATH = {"nsz", "arcp", "contract", "afn", "reassoc"}  # numba wants a set, not a frozenset
-JIT_OPTIONS = dict(cache=True, nogil=True, fastmath=FASTMATH, error_model="numpy")
-"""Options for every entry kernel and helper."""
+JIT_OPTIONS = dict(cache=True, nogil=False, fastmath=FASTMATH, error_model="numpy")
+"""Options for every entry kernel and helper. The frame's kernels keep the GIL: one that
+released it would let the tile worker take it, and getting it back can cost up to the
+interpreter's switch interval (5 ms) per call."""
+WORKER_JIT_OPTIONS = dict(JIT_OPTIONS, nogil=True)
+"""Options of the kernels the tile worker runs (tile production): they release the GIL, so
+the frame goes on meanwhile."""
 
 
 @njit(inline="always", **JIT_OPTIONS)

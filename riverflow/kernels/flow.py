@@ -36,7 +36,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from riverflow.kernels._jit import JIT_OPTIONS, is_finite
+from riverflow.kernels._jit import JIT_OPTIONS, WORKER_JIT_OPTIONS, is_finite
 from riverflow.kernels.tile_table import table_find, tile_code
 
 KIND_AXIS = 0
@@ -359,7 +359,7 @@ def evaluate_potential(
 # -- flow tiles ---------------------------------------------------------------------------------
 
 
-@njit(**JIT_OPTIONS)
+@njit(**WORKER_JIT_OPTIONS)
 def build_flow_tile(
     origin_x, origin_y, spacing_m, n_cells, gi0, gj0,
     seg_ax, seg_ay, seg_bx, seg_by,

@@ -41,7 +41,7 @@ import math
 import numpy as np
 from numba import njit
 
-from riverflow.kernels._jit import JIT_OPTIONS, is_finite
+from riverflow.kernels._jit import JIT_OPTIONS, WORKER_JIT_OPTIONS, is_finite
 
 HIT_NONE = 0
 """Sky: nothing within the distance, or the ray misses the grid."""
@@ -76,7 +76,7 @@ def pyramid_size(nx, ny):
         k += 1
 
 
-@njit(**JIT_OPTIONS)
+@njit(**WORKER_JIT_OPTIONS)
 def fill_height_pyramid(
     heights,  # (ny, nx) float32  terrain altitude at the nodes [m]
     water,    # (ny, nx) float32  water level at the nodes [m], NaN where dry

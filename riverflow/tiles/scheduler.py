@@ -35,9 +35,14 @@ import numpy as np
 
 from riverflow.tiles.cache import FieldSpec, TileCache
 from riverflow.tiles.quadtree import TileKey
-from riverflow.tiles.table import code_key, codes as codes_of, tile_code
+from riverflow.kernels.tile_table import NOT_FOUND
+from riverflow.tiles.table import TileTable, code_key, codes as codes_of, tile_code
 
 Dep = tuple[str, TileKey]
+_PENDING = 1
+_FAILED = 2
+_LONG_AGO = -(1 << 30)
+"""A wanted-frame stamp no frame is near (the tile is let go)."""
 
 
 class Producer:
@@ -94,6 +99,8 @@ class TileScheduler:
         self.cache = cache
         self.mode = mode
         self.stale_frames = int(stale_frames)
+        self.max_starts = 16
+        """Background mode: at most this many new tiles of a kind are queued a frame."""
         self.frame = 0
         """Calls of :meth:`collect` so far (one a frame)."""
         self.producers: dict[str, Producer] = {}
@@ -102,7 +109,11 @@ class TileScheduler:
         """Tiles queued or produced since the start."""
         self._pending: set[tuple[str, int]] = set()
         self._failed: set[tuple[str, int]] = set()
-        self._wanted: dict[tuple[str, int], int] = {}
+        self._wanted: dict[str, TileTable] = {}
+        """Per kind, code → the last frame that asked for the tile (numba tables: a frame asks
+        for hundreds of missing tiles during a flight; the worker reads them under _lock)."""
+        self._state: dict[str, TileTable] = {}
+        """Per kind, code → PENDING or FAILED (mirrors _pending and _failed for numba)."""
         self._queue: queue.PriorityQueue = queue.PriorityQueue()
         self._seq = itertools.count()
         self._done: deque = deque()
@@ -119,6 +130,8 @@ class TileScheduler:
             raise ValueError(f"a producer of {producer.kind!r} tiles is already registered")
         self.producers[producer.kind] = producer
         self.cache.pool(producer.kind, producer.fields)
+        self._wanted[producer.kind] = TileTable(1024)
+        self._state[producer.kind] = TileTable(1024)
 
     # -- requests --------------------------------------------------------------------------
 
@@ -134,11 +147,16 @@ class TileScheduler:
         producer = self.producers[kind]
         if len(missing):
             missing = missing[~producer.empty_mask(missing)]
-        for code in missing.tolist():
-            item = (kind, code)
-            self._wanted[item] = self.frame
-            if item in self._pending or item in self._failed:
-                continue
+        if not len(missing):
+            return 0
+        with self._lock:
+            self._wanted[kind].set_many(missing, self.frame)
+        new = missing[self._state[kind].find_many(missing) < 0]   # neither pending nor failed
+        if self.mode == "background" and len(new) > self.max_starts:
+            # the worker makes tens of tiles a second: more would go stale unmade, and the
+            # view asks again next frame; coarse first, so the view fills from coarse to fine
+            new = new[np.argsort(new >> 56, kind="stable")[:self.max_starts]]
+        for code in new.tolist():
             started += self._start(kind, code_key(code), code)
         return started
 
@@ -164,16 +182,17 @@ class TileScheduler:
                 continue
             if (dkind, dcode) in self._failed:
                 self._unpin(job)
-                self._failed.add((kind, code))
+                self._set_failed(kind, code)
                 self.errors.append(f"{kind} tile {key}: its {dkind} tile {dkey} failed")
                 return 0
             if (dkind, dcode) not in self._pending:
-                self._wanted[(dkind, dcode)] = self.frame
+                self._stamp_wanted(dkind, dcode, self.frame)
                 started += self._start(dkind, dkey, dcode)
             with self._lock:
                 self._awaiting.setdefault((dkind, dcode), set()).add((kind, code))
             job.awaited.append(dep)
         self._pending.add((kind, code))
+        self._state[kind].set(code, _PENDING)
         self.requested += 1
         self._ensure_thread()
         self._queue.put((key[0], next(self._seq), job))
@@ -194,7 +213,7 @@ class TileScheduler:
                 self._make_now(dkind, dkey, dcode)
             slot = dpool.slot(dcode)
             if slot < 0:                                # it failed
-                self._failed.add((kind, code))
+                self._set_failed(kind, code)
                 return
             dpool.pins[slot] += 1
             dpool.last_used[slot] = self.cache.tick
@@ -260,7 +279,18 @@ class TileScheduler:
         self._done.append((job, data, error))
 
     def _is_wanted(self, item) -> bool:
-        return self.frame - self._wanted.get(item, -10**9) <= self.stale_frames
+        """(under _lock) Some frame asked for ``item`` within stale_frames."""
+        kind, code = item
+        frame = self._wanted[kind].get(code)
+        return frame != NOT_FOUND and self.frame - frame <= self.stale_frames
+
+    def _stamp_wanted(self, kind: str, code: int, frame: int) -> None:
+        with self._lock:
+            self._wanted[kind].set(code, frame)
+
+    def _set_failed(self, kind: str, code: int) -> None:
+        self._failed.add((kind, code))
+        self._state[kind].set(code, _FAILED)
 
     def _release_awaited(self, job: _Job) -> None:
         with self._lock:
@@ -285,6 +315,8 @@ class TileScheduler:
             job, data, error = self._done.popleft()
             item = (job.kind, job.code)
             self._pending.discard(item)
+            if item not in self._failed:
+                self._state[job.kind].pop(job.code)
             self._unpin(job)
             if error is not None:
                 self._record_failure(job.kind, job.key, job.code, error)
@@ -300,10 +332,17 @@ class TileScheduler:
             for item in [k for k in self._fresh if k not in self._pending
                          and not self._awaiting.get(k)]:
                 del self._fresh[item]
-        if len(self._wanted) > 4 * len(self._pending) + 4096:
+        if self.frame % 256 == 0:              # forget what no frame asked for in a while
             old = self.frame - self.stale_frames
-            self._wanted = {k: f for k, f in self._wanted.items()
-                            if f >= old or k in self._pending}
+            with self._lock:
+                for kind, table in self._wanted.items():
+                    if len(table) > 4 * len(self._pending) + 4096:
+                        keep = [(c, f) for c, f in table.items()
+                                if f >= old or (kind, c) in self._pending]
+                        table.clear()
+                        if keep:
+                            c, f = np.array(keep, np.int64).T
+                            table.set_many(c, f.astype(np.int32))
         return installed
 
     def _unpin(self, job: _Job) -> None:
@@ -313,7 +352,7 @@ class TileScheduler:
         job.resident = {}
 
     def _record_failure(self, kind: str, key: TileKey, code: int, exc: BaseException) -> None:
-        self._failed.add((kind, code))
+        self._set_failed(kind, code)
         if len(self.errors) < 100:
             self.errors.append(f"{kind} tile {key}: {type(exc).__name__}: {exc}")
 
@@ -322,10 +361,11 @@ class TileScheduler:
         for (after a teleport or a fast flight: :meth:`wait` then makes only what the current
         view needs). Returns how many were let go."""
         dropped = 0
-        for item in list(self._pending):
-            if self._wanted.get(item, -10**9) != self.frame:
-                self._wanted[item] = -10**9
-                dropped += 1
+        with self._lock:
+            for kind, code in list(self._pending):
+                if self._wanted[kind].get(code) != self.frame:
+                    self._wanted[kind].set(code, _LONG_AGO)
+                    dropped += 1
         return dropped
 
     @property

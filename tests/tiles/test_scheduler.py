@@ -10,7 +10,7 @@ import pytest
 from riverflow.tiles.cache import FieldSpec, TileCache
 from riverflow.tiles.quadtree import Quadtree, parent
 from riverflow.tiles.scheduler import Producer, TileScheduler
-from riverflow.tiles.table import tile_code
+from riverflow.tiles.table import code_key, tile_code
 
 N = 8
 
@@ -170,6 +170,7 @@ def test_forget_unrequested_lets_wait_make_only_the_latest_frame_s_tiles():
     cache = TileCache(1 << 30)
     heights = Heights()
     sched = TileScheduler(cache, [heights], "background", stale_frames=1000)
+    sched.max_starts = 1000
     gate = threading.Event()
     original = heights.produce
 
@@ -249,3 +250,23 @@ def test_pools_are_made_for_the_budget_and_do_not_grow_under_it():
     assert pool.capacity >= (1 << 20) // pool.tile_bytes
     sched.request("h", _keys(4))                      # 256 tiles of 648 B: under the budget
     assert pool.grown == 0 and len(pool) == 256
+
+
+def test_a_frame_queues_a_bounded_number_of_new_tiles_coarse_first():
+    """Background mode: at most max_starts new tiles of a kind are queued a frame (the worker
+    makes tens a second; the view asks again next frame), the coarsest first."""
+    cache = TileCache(1 << 30)
+    heights = Heights()
+    sched = TileScheduler(cache, [heights], "background")
+    gate = threading.Event()
+    original = heights.produce
+    heights.produce = lambda key, deps: (gate.wait(5.0), original(key, deps))[1]
+    keys = np.concatenate([_keys(3), [[1, 0, 0], [2, 1, 1]]])   # 64 fine, 2 coarse, last
+    assert sched.request("h", keys) == sched.max_starts == 16
+    queued = sorted(k[0] for (kind, code) in sched._pending for k in [code_key(code)])
+    assert queued[:2] == [1, 2]                       # the coarse ones made it in
+    sched.collect()
+    assert sched.request("h", keys) == 16             # the next frame: 16 more
+    gate.set()
+    assert sched.wait(10.0)
+    sched.close()
