@@ -165,14 +165,19 @@ class RiverWorld:
         clock = self.clock
         clock.now_s += dt
         timings = self.timings_ms
-        with self.active():
-            esper.clear_dead_entities()
-            for system in self.systems:
-                if system.phase != "update" or (system.needs_gl and not self.gl):
-                    continue
-                t0 = time.perf_counter_ns()
-                system.process(self, dt)
-                timings[system.name] = (time.perf_counter_ns() - t0) * 1e-6
+        scheduler = self.tiles.scheduler
+        scheduler.frame_begins()
+        try:
+            with self.active():
+                esper.clear_dead_entities()
+                for system in self.systems:
+                    if system.phase != "update" or (system.needs_gl and not self.gl):
+                        continue
+                    t0 = time.perf_counter_ns()
+                    system.process(self, dt)
+                    timings[system.name] = (time.perf_counter_ns() - t0) * 1e-6
+        finally:
+            scheduler.frame_ends()
         clock.frame += 1
 
     def load_view(self, timeout_s: float = 120.0) -> bool:

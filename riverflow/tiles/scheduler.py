@@ -42,6 +42,9 @@ Dep = tuple[str, TileKey]
 _PENDING = 1
 _FAILED = 2
 _LONG_AGO = -(1 << 30)
+IDLE_WAIT_S = 0.02
+"""Longest a worker waits for the frame to end before starting a tile (a host that steps
+back to back, with no idle time, still gets tiles made)."""
 """A wanted-frame stamp no frame is near (the tile is let go)."""
 
 
@@ -120,6 +123,8 @@ class TileScheduler:
         self._fresh: dict[tuple[str, int], Any] = {}
         self._awaiting: dict[tuple[str, int], set] = {}   # dep → the jobs waiting for it
         self._lock = threading.Lock()
+        self._idle = threading.Event()     # set between frames: the worker starts jobs then
+        self._idle.set()
         self._thread: threading.Thread | None = None
         for producer in producers:
             self.add(producer)
@@ -303,6 +308,15 @@ class TileScheduler:
                     if not waiting:
                         del self._awaiting[k]
 
+    def frame_begins(self) -> None:
+        """The frame starts: the worker finishes the tile in hand but starts no other until
+        :meth:`frame_ends` (or for IDLE_WAIT_S at most), so it runs in the frame's idle time
+        rather than taking the interpreter from the frame at every switch interval."""
+        self._idle.clear()
+
+    def frame_ends(self) -> None:
+        self._idle.set()
+
     def collect(self) -> int:
         """Install the tiles the worker finished (main thread, start of a frame); returns how
         many were installed."""
@@ -403,6 +417,12 @@ def _work(ref: weakref.ref, jobs: queue.PriorityQueue) -> None:
             continue
         if job is None:
             return
+        scheduler = ref()
+        if scheduler is None:
+            return
+        idle = scheduler._idle
+        del scheduler
+        idle.wait(IDLE_WAIT_S)
         scheduler = ref()
         if scheduler is None:
             return
