@@ -194,23 +194,10 @@ def _cast_ray(ox, oy, oz, dx, dy, dz, heights, water, origin_x, origin_y, cell_m
     out_xyz[r, 0] = 0.0
     out_xyz[r, 1] = 0.0
     out_xyz[r, 2] = 0.0
-    scale = max(abs(dx), abs(dy), abs(dz))  # so tiny or huge directions neither under- nor
-    if not (is_finite(ox) and is_finite(oy) and is_finite(oz)  # overflow
-            and is_finite(scale)):
-        return HIT_NONE
-    out_xyz[r, 0] = ox
-    out_xyz[r, 1] = oy
-    out_xyz[r, 2] = oz
+    dx, dy, dz, ok = _ray_start(ox, oy, oz, dx, dy, dz, max_d, out_xyz, r)
     ny, nx = heights.shape
-    if scale == 0.0 or not (max_d > 0.0) or nx < 2 or ny < 2 or not (cell_m > 0.0):
+    if not ok or nx < 2 or ny < 2 or not (cell_m > 0.0):
         return HIT_NONE
-    dx /= scale
-    dy /= scale
-    dz /= scale
-    length = math.sqrt(dx * dx + dy * dy + dz * dz)
-    dx /= length
-    dy /= length
-    dz /= length
     # Grid coordinates: node (i, j) at (i, j), cell (i, j) between nodes i … i+1, j … j+1;
     # t is the distance along the ray [m].
     gx0 = (ox - origin_x) / cell_m
@@ -229,6 +216,26 @@ def _cast_ray(ox, oy, oz, dx, dy, dz, heights, water, origin_x, origin_y, cell_m
     kind, _ = _walk_grid(ox, oy, oz, dx, dy, dz, heights, water, origin_x, origin_y, cell_m,
                          pyramid, offs, dims_x, levels, zmin, zmax, t0, t1, -1, out_xyz, r)
     return kind
+
+
+@njit(inline="always", **JIT_OPTIONS)
+def _ray_start(ox, oy, oz, dx, dy, dz, max_d, out_xyz, r):
+    """The unit direction of a ray, and whether it can hit anything: out_xyz[r] is set to the
+    origin (left 0 for a non-finite one, never NaN). The direction is scaled by its largest
+    component first, so tiny or huge directions neither under- nor overflow."""
+    scale = max(abs(dx), abs(dy), abs(dz))
+    if not (is_finite(ox) and is_finite(oy) and is_finite(oz) and is_finite(scale)):
+        return 0.0, 0.0, 1.0, False
+    out_xyz[r, 0] = ox
+    out_xyz[r, 1] = oy
+    out_xyz[r, 2] = oz
+    if scale == 0.0 or not (max_d > 0.0):
+        return 0.0, 0.0, 1.0, False
+    dx /= scale
+    dy /= scale
+    dz /= scale
+    length = math.sqrt(dx * dx + dy * dy + dz * dz)
+    return dx / length, dy / length, dz / length, True
 
 
 @njit(inline="always", **JIT_OPTIONS)

@@ -24,8 +24,8 @@ import math
 import numpy as np
 from numba import njit
 
-from riverflow.kernels._jit import JIT_OPTIONS, is_finite
-from riverflow.kernels.raycast import HIT_NONE, _clip_slab, _walk_grid
+from riverflow.kernels._jit import JIT_OPTIONS
+from riverflow.kernels.raycast import HIT_NONE, _clip_slab, _ray_start, _walk_grid
 from riverflow.kernels.surface_tiles import NO_LEAF, find_leaf
 
 HIT_UNKNOWN = 3
@@ -82,22 +82,9 @@ def _cast_ray_tiles(ox, oy, oz, dx, dy, dz, view, max_d, offs, dims_x, levels, o
     out_xyz[r, 0] = 0.0
     out_xyz[r, 1] = 0.0
     out_xyz[r, 2] = 0.0
-    scale = max(abs(dx), abs(dy), abs(dz))
-    if not (is_finite(ox) and is_finite(oy) and is_finite(oz)
-            and is_finite(scale)):
+    dx, dy, dz, ok = _ray_start(ox, oy, oz, dx, dy, dz, max_d, out_xyz, r)
+    if not ok or view.cut_keys.shape[0] == 0:
         return HIT_NONE
-    out_xyz[r, 0] = ox
-    out_xyz[r, 1] = oy
-    out_xyz[r, 2] = oz
-    if scale == 0.0 or not (max_d > 0.0) or view.cut_keys.shape[0] == 0:
-        return HIT_NONE
-    dx /= scale
-    dy /= scale
-    dz /= scale
-    length = math.sqrt(dx * dx + dy * dy + dz * dz)
-    dx /= length
-    dy /= length
-    dz /= length
     x0 = view.root_x
     y0 = view.root_y
     side = view.root_size

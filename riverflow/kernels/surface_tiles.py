@@ -101,16 +101,16 @@ def tile_frame(view, level, tx, ty, n):
     return view.root_x + tx * size, view.root_y + ty * size, size / n
 
 
-@njit(**JIT_OPTIONS)
-def sample_surface(view, x, y):
-    """(ground [m], water level [m] or NaN where dry, found) at (x, y), bilinear over the
-    raycast tile of the leaf holding it; found is False where no tile is there yet."""
+@njit(inline="always", **JIT_OPTIONS)
+def _tile_cell(view, x, y):
+    """(slot, i, j, fu, fv): the raycast tile under (x, y) (slot −1: none yet) and the cell of
+    its grid holding the point, with the point's position in the cell."""
     leaf = locate_leaf(view, x, y)
     if leaf < 0:
-        return 0.0, np.nan, False
+        return -1, 0, 0, 0.0, 0.0
     slot = view.leaf_slot[leaf]
     if slot < 0:
-        return 0.0, np.nan, False
+        return -1, 0, 0, 0.0, 0.0
     n = view.n
     x0, y0, cell = tile_frame(view, view.leaf_key[leaf, 0], view.leaf_key[leaf, 1],
                               view.leaf_key[leaf, 2], n)
@@ -118,11 +118,25 @@ def sample_surface(view, x, y):
     gy = min(max((y - y0) / cell, 0.0), float(n))
     i = min(int(gx), n - 1)
     j = min(int(gy), n - 1)
-    fu = gx - i
-    fv = gy - j
-    g = view.ground
-    ground = ((1.0 - fv) * ((1.0 - fu) * g[slot, j, i] + fu * g[slot, j, i + 1])
-              + fv * ((1.0 - fu) * g[slot, j + 1, i] + fu * g[slot, j + 1, i + 1]))
+    return slot, i, j, gx - i, gy - j
+
+
+@njit(inline="always", **JIT_OPTIONS)
+def _bilinear(grid, slot, i, j, fu, fv):
+    """Bilinear blend of the four nodes of cell (i, j) of ``grid[slot]`` (NaN if one is)."""
+    return ((1.0 - fv) * ((1.0 - fu) * grid[slot, j, i] + fu * grid[slot, j, i + 1])
+            + fv * ((1.0 - fu) * grid[slot, j + 1, i] + fu * grid[slot, j + 1, i + 1]))
+
+
+@njit(**JIT_OPTIONS)
+def sample_surface(view, x, y):
+    """(ground [m], water level [m] or NaN where dry, found) at (x, y), bilinear over the
+    raycast tile of the leaf holding it; found is False where no tile is there yet. The water
+    blends its wet corners only (the level at the shore, not NaN)."""
+    slot, i, j, fu, fv = _tile_cell(view, x, y)
+    if slot < 0:
+        return 0.0, np.nan, False
+    ground = _bilinear(view.ground, slot, i, j, fu, fv)
     w = view.water
     total = 0.0
     weight = 0.0
@@ -164,29 +178,13 @@ def leaf_standins(leaf_keys, n_leaves, pool_keys, pool_values, out_slot, out_key
 def surface_altitude(view, x, y):
     """Altitude [m] a particle at (x, y) rides at: the water level, bilinear, where the four
     nodes around it are wet, else the ground; NaN where no tile is there yet."""
-    leaf = locate_leaf(view, x, y)
-    if leaf < 0:
-        return np.nan
-    slot = view.leaf_slot[leaf]
+    slot, i, j, fu, fv = _tile_cell(view, x, y)
     if slot < 0:
         return np.nan
-    n = view.n
-    x0, y0, cell = tile_frame(view, view.leaf_key[leaf, 0], view.leaf_key[leaf, 1],
-                              view.leaf_key[leaf, 2], n)
-    gx = min(max((x - x0) / cell, 0.0), float(n))
-    gy = min(max((y - y0) / cell, 0.0), float(n))
-    i = min(int(gx), n - 1)
-    j = min(int(gy), n - 1)
-    fu = gx - i
-    fv = gy - j
-    w = view.water
-    z = ((1.0 - fv) * ((1.0 - fu) * w[slot, j, i] + fu * w[slot, j, i + 1])
-         + fv * ((1.0 - fu) * w[slot, j + 1, i] + fu * w[slot, j + 1, i + 1]))
+    z = _bilinear(view.water, slot, i, j, fu, fv)
     if is_finite(z):
         return z
-    g = view.ground
-    return ((1.0 - fv) * ((1.0 - fu) * g[slot, j, i] + fu * g[slot, j, i + 1])
-            + fv * ((1.0 - fu) * g[slot, j + 1, i] + fu * g[slot, j + 1, i + 1]))
+    return _bilinear(view.ground, slot, i, j, fu, fv)
 
 
 NO_TILE_YET = -2
@@ -217,24 +215,10 @@ def hint_at(view, x, y):
 def water_level_at(view, x, y):
     """Water level [m] at (x, y), bilinear, where the four nodes around it are wet; NaN where
     they are not or no tile is there yet."""
-    leaf = locate_leaf(view, x, y)
-    if leaf < 0:
-        return np.nan
-    slot = view.leaf_slot[leaf]
+    slot, i, j, fu, fv = _tile_cell(view, x, y)
     if slot < 0:
         return np.nan
-    n = view.n
-    x0, y0, cell = tile_frame(view, view.leaf_key[leaf, 0], view.leaf_key[leaf, 1],
-                              view.leaf_key[leaf, 2], n)
-    gx = min(max((x - x0) / cell, 0.0), float(n))
-    gy = min(max((y - y0) / cell, 0.0), float(n))
-    i = min(int(gx), n - 1)
-    j = min(int(gy), n - 1)
-    fu = gx - i
-    fv = gy - j
-    w = view.water
-    return ((1.0 - fv) * ((1.0 - fu) * w[slot, j, i] + fu * w[slot, j, i + 1])
-            + fv * ((1.0 - fu) * w[slot, j + 1, i] + fu * w[slot, j + 1, i + 1]))
+    return _bilinear(view.water, slot, i, j, fu, fv)
 
 
 def one_tile_surface(ground: np.ndarray, water: np.ndarray, origin_x: float, origin_y: float,
