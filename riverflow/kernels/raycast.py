@@ -76,6 +76,24 @@ def pyramid_size(nx, ny):
         k += 1
 
 
+@njit(**JIT_OPTIONS)
+def pyramid_layout(nx, ny):
+    """(offs, dims_x, levels) of the max-mip pyramid of an (ny, nx)-node grid: level k has
+    dims_x[k] nodes per row, its first row at offs[k] (k = 1 … levels)."""
+    cx = max(nx - 1, 1)
+    cy = max(ny - 1, 1)
+    levels = 1
+    while (cx + (1 << levels) - 1) >> levels > 1 or (cy + (1 << levels) - 1) >> levels > 1:
+        levels += 1
+    offs = np.zeros(levels + 1, np.int64)
+    dims_x = np.ones(levels + 1, np.int64)
+    for k in range(1, levels + 1):
+        dims_x[k] = (cx + (1 << k) - 1) >> k
+        if k < levels:
+            offs[k + 1] = offs[k] + dims_x[k] * ((cy + (1 << k) - 1) >> k)
+    return offs, dims_x, levels
+
+
 @njit(**WORKER_JIT_OPTIONS)
 def fill_height_pyramid(
     heights,  # (ny, nx) float32  terrain altitude at the nodes [m]
@@ -153,19 +171,7 @@ def cast_rays_onto_heightfield(
         raise ValueError("water and heights must have the same shape")
     if pyramid.shape[0] != pyramid_size(nx, ny):
         raise ValueError("pyramid does not belong to a grid of this shape")
-    # Level k of the pyramid: dims_x[k] nodes per row, first row offs[k] (two tiny arrays per
-    # call, not per ray).
-    cx = max(nx - 1, 1)
-    cy = max(ny - 1, 1)
-    levels = 1
-    while (cx + (1 << levels) - 1) >> levels > 1 or (cy + (1 << levels) - 1) >> levels > 1:
-        levels += 1
-    offs = np.zeros(levels + 1, np.int64)
-    dims_x = np.ones(levels + 1, np.int64)
-    for k in range(1, levels + 1):
-        dims_x[k] = (cx + (1 << k) - 1) >> k
-        if k < levels:
-            offs[k + 1] = offs[k] + dims_x[k] * ((cy + (1 << k) - 1) >> k)
+    offs, dims_x, levels = pyramid_layout(nx, ny)  # two tiny arrays per call, not per ray
     top = offs[levels]
     zmin = np.float64(pyramid[top, 0])
     zmax = np.float64(pyramid[top, 1])

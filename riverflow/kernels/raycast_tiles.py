@@ -25,7 +25,7 @@ import numpy as np
 from numba import njit
 
 from riverflow.kernels._jit import JIT_OPTIONS
-from riverflow.kernels.raycast import HIT_NONE, _clip_slab, _ray_start, _walk_grid
+from riverflow.kernels.raycast import HIT_NONE, _clip_slab, _ray_start, _walk_grid, pyramid_layout
 from riverflow.kernels.surface_tiles import NO_LEAF, find_leaf
 
 HIT_UNKNOWN = 3
@@ -34,23 +34,6 @@ HIT_UNKNOWN = 3
 _NUDGE = 1e-7
 """Step past a leaf's exit face, as a fraction of that leaf's side (so the next lookup lands in
 the neighbour whatever the rounding on the face)."""
-
-
-@njit(**JIT_OPTIONS)
-def pyramid_layout(n_nodes):
-    """(offs, dims_x, levels) of the max-mip pyramid of one (n_nodes)² tile grid, as
-    :func:`riverflow.kernels.raycast.cast_rays_onto_heightfield` lays it out."""
-    c = max(n_nodes - 1, 1)
-    levels = 1
-    while (c + (1 << levels) - 1) >> levels > 1:
-        levels += 1
-    offs = np.zeros(levels + 1, np.int64)
-    dims_x = np.ones(levels + 1, np.int64)
-    for k in range(1, levels + 1):
-        dims_x[k] = (c + (1 << k) - 1) >> k
-        if k < levels:
-            offs[k + 1] = offs[k] + dims_x[k] * dims_x[k]
-    return offs, dims_x, levels
 
 
 @njit(**JIT_OPTIONS)
@@ -65,7 +48,7 @@ def cast_rays_onto_tiles(
 ):
     """First crossing of each ray into the surface of the view's tiles (module docstring).
     Returns the number of land or water hits."""
-    offs, dims_x, levels = pyramid_layout(surface.n + 1)
+    offs, dims_x, levels = pyramid_layout(surface.n + 1, surface.n + 1)
     hits = 0
     for r in range(origins.shape[0]):
         kind = _cast_ray_tiles(origins[r, 0], origins[r, 1], origins[r, 2], directions[r, 0],
