@@ -5,7 +5,10 @@ picked with :func:`~riverflow.scenes.layout.size_for_network_length` and correct
 network is within 10 % of the wanted length), each measured in its own process (so RSS is that
 world's alone) pinned to one core with NUMBA_NUM_THREADS=1 (the tile worker thread shares it):
 
-* make: seconds to make the landscape (``default_scene``) and the world (``RiverWorld``);
+* make: seconds to make the landscape (``default_scene``) and the world (``RiverWorld``); a
+  network whose square is smaller than ``--land-km`` (20 km) is put on that much procedural
+  land (``rf.landscape(graph, pad_m=…)``), so that its view is as full of terrain as the larger
+  worlds' and the steady frames compare like with like (``--land-km 0``: the bare square);
 * RSS (VmRSS) after the numba warm-up (a tiny world, made and closed: the baseline), after
   making, after the flight, and the peak (VmHWM);
 * warm-up: frames and seconds from the first step until no tile of the view is pending after
@@ -178,6 +181,17 @@ def measure(length_km: float, args) -> dict:
     res["size_km"] = size_km
     res["network_km"] = network_length_m(scene.branches) / 1000.0
     res["branches"] = len(scene.branches)
+    line = main_centerline(scene)
+    if size_km < args.land_km:
+        # a network smaller than the view: on args.land_km of procedural land around it
+        # (rf.landscape), so its view is as full of terrain as the larger worlds'; the flight
+        # still follows its main river
+        t0 = time.perf_counter()
+        scene = rf.landscape(scene.graph, seed=args.seed,
+                             pad_m=0.5 * (args.land_km - size_km) * 1000.0)
+        res["landscape_s"] += time.perf_counter() - t0
+        x0, _, x1, _ = scene.bounds_m
+        res["land_km"] = (x1 - x0) / 1000.0
     res["rss_landscape_mb"] = _rss_mb()
     w, h = args.size
     config = rf.RiverConfig(radius_px=args.radius, tile_production="background",
@@ -190,7 +204,6 @@ def measure(length_km: float, args) -> dict:
     res["rss_peak_made_mb"] = _status_kb()["VmHWM"] / 1024.0
     scheduler = world.tiles.scheduler
     cache = world.tiles.cache
-    line = main_centerline(scene)
     pacer = _Pacer(args.pace)
 
     def pose(frame: int):
@@ -323,6 +336,7 @@ def format_table(results: list[dict], args) -> str:
         ("network km", lambda r: f"{r['network_km']:.1f}"),
         ("square km", lambda r: f"{r['size_km']:.2f}"),
         ("branches", lambda r: f"{r['branches']}"),
+        ("land km", lambda r: f"{r.get('land_km', r['size_km']):.1f}"),
         ("landscape s", lambda r: f"{r['landscape_s']:.2f}"),
         ("world s", lambda r: f"{r['world_s']:.2f}"),
         ("RSS base MB", lambda r: f"{r['rss_baseline_mb']:.0f}"),
@@ -412,6 +426,9 @@ def parse(argv: list[str] | None):
     parser.add_argument("--no-pace", dest="pace", action="store_false",
                         help="step as fast as possible instead of at 60 fps")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--land-km", type=float, default=20.0,
+                        help="a network on a square smaller than this is put on this much "
+                             "procedural land (rf.landscape), so its view is full; 0: as made")
     parser.add_argument("--switch-interval", type=float, default=None,
                         help="sys.setswitchinterval in the child [s] (Python's default 0.005: "
                              "how long the tile worker may hold the GIL against a frame)")
