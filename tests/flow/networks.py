@@ -53,3 +53,18 @@ NETWORKS = {
     "confluence": confluence,
     "bifurcation": bifurcation,
 }
+
+
+def bending_confluence():
+    """A bending main river, a tributary joining it half way (a confluence), on no round
+    coordinates (the landscapes of the tile seam and tile ray-cast tests)."""
+    import riverflow as rf
+    b = rf.RiverNetworkBuilder(tolerance_m=0.25)
+    x = np.linspace(0.0, 1200.0, 25)
+    main = np.c_[x, 80.0 * np.sin(x / 200.0)]
+    b.add_branch(main[:13], [30.0] * 13, 20.0, name="upper")
+    trib = np.c_[np.linspace(600.0, main[12, 0], 10), np.linspace(-400.0, main[12, 1], 10)]
+    b.add_branch(trib, 18.0, 10.0, name="trib")
+    b.add_branch(main[12:], np.linspace(40.0, 50.0, 13), name="lower")
+    return b.build()
+

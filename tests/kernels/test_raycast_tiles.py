@@ -18,6 +18,7 @@ from riverflow.scenes.tile_kinds import HINT_CELLS, RAYCAST, terrain_producers
 from riverflow.tiles.cache import TileCache
 from riverflow.tiles.scheduler import TileScheduler
 from riverflow.tiles.table import TileTable, codes
+from tests.flow.networks import bending_confluence
 
 BLOCK = 4
 """The region is BLOCK × BLOCK tiles of the finest level (2 × 2 of the next, 1 of the one
@@ -25,14 +26,7 @@ after)."""
 
 
 def _network_graph():
-    b = rf.RiverNetworkBuilder(tolerance_m=0.25)
-    x = np.linspace(0.0, 1200.0, 25)
-    main = np.c_[x, 80.0 * np.sin(x / 200.0)]
-    b.add_branch(main[:13], [30.0] * 13, 20.0, name="upper")
-    trib = np.c_[np.linspace(600.0, main[12, 0], 10), np.linspace(-400.0, main[12, 1], 10)]
-    b.add_branch(trib, 18.0, 10.0, name="trib")
-    b.add_branch(main[12:], np.linspace(40.0, 50.0, 13), name="lower")
-    return b.build()
+    return bending_confluence()
 
 
 class Region:

@@ -22,6 +22,7 @@ from riverflow.tiles.cache import TileCache
 from riverflow.tiles.quadtree import Quadtree, children, parent
 from riverflow.tiles.scheduler import TileScheduler
 from riverflow.tiles.table import tile_code
+from tests.flow.networks import bending_confluence
 
 MAX_PAIRS = 10
 """Same-level neighbour pairs with water checked per (level, axis); a few dry ones besides."""
@@ -29,16 +30,7 @@ DRY_PAIRS = 3
 
 
 def _network_graph():
-    """A bending main river, a tributary joining it half way (a confluence), on no round
-    coordinates."""
-    b = rf.RiverNetworkBuilder(tolerance_m=0.25)
-    x = np.linspace(0.0, 1200.0, 25)
-    main = np.c_[x, 80.0 * np.sin(x / 200.0)]
-    b.add_branch(main[:13], [30.0] * 13, 20.0, name="upper")
-    trib = np.c_[np.linspace(600.0, main[12, 0], 10), np.linspace(-400.0, main[12, 1], 10)]
-    b.add_branch(trib, 18.0, 10.0, name="trib")
-    b.add_branch(main[12:], np.linspace(40.0, 50.0, 13), name="lower")
-    return b.build()
+    return bending_confluence()
 
 
 class Made:
