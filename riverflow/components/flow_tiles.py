@@ -17,7 +17,7 @@ import numpy as np
 from riverflow.kernels.flow import CELL_SEGMENTS, CachedTiles
 from riverflow.tiles.cache import FieldSpec, TileCache, TilePool
 from riverflow.tiles.quadtree import Quadtree
-from riverflow.tiles.table import TileTable, tile_code
+from riverflow.tiles.table import TileTable, codes, tile_code
 
 FLOW_KIND = "flow"
 
@@ -109,6 +109,15 @@ class FlowTiles:
     def capacity(self) -> int:
         """How many flow tiles the cache's budget holds."""
         return max(1, self.cache.budget_bytes // self.pool.tile_bytes)
+
+    def mark_cut(self, keys: np.ndarray) -> None:
+        """Mark the resident tiles of ``keys`` (K, 3) as this frame's flow cut (``in_cut``: a
+        tile read in their place only stands in for a late one; kernels/flow.py
+        CELL_CROWDED)."""
+        in_cut = self.pool.arrays["in_cut"]
+        in_cut[:] = 0
+        slots = self.pool.table.find_many(codes(keys))
+        in_cut[slots[slots >= 0]] = 1
 
     def view(self) -> CachedTiles:
         """The tiles as the query kernels read them (rebuilt per call: the pool may grow)."""

@@ -76,11 +76,7 @@ class ProduceTiles(System):
                     terrain.z_min, terrain.z_max, t.wet.keys, t.wet.values, self._keys)
             self.visible[FLOW_KIND] = int(n)
             tiles.scheduler.request(FLOW_KIND, self._keys[:n])
-            pool = tiles.cache.pools[FLOW_KIND]
-            in_cut = pool.arrays["in_cut"]
-            in_cut[:] = 0
-            slots = pool.table.find_many(codes(self._keys[:n]))
-            in_cut[slots[slots >= 0]] = 1
+            t.mark_cut(self._keys[:n])
         terrain.cut = self._cut[:n_cut].copy()
         terrain.surface = self._surface(world, tiles, terrain)
         self._sync_entities(tiles)

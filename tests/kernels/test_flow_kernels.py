@@ -159,11 +159,10 @@ def test_crowded_coarse_cells_are_flagged_and_stand_ins_wait(scene_field):
     crowded = (cells & kf.CELL_CROWDED) != 0
     assert crowded.any(), "a 4 km root tile's cells are tens of metres: some are crowded"
     assert np.all(cells[crowded] & kf.CELL_KIND == kf.CELL_BOUNDARY)
-    # the flag is right: count segments within a diagonal of each flagged / unflagged cell
+    # the flag is right: more than CELL_SEGMENTS segments within a diagonal of a flagged cell
     h = t.spacing_m(lv)
     ox, oy = t.tile_origin_m(lv, 0, 0)
     seg = field.segments
-    bank = np.ones(len(seg.ax), bool)
     lines = shapely.linestrings(np.stack([np.c_[seg.ax, seg.ay], np.c_[seg.bx, seg.by]], 1))
     for j, i in list(zip(*np.nonzero(crowded)))[:5]:
         box = shapely.box(ox + i * h, oy + j * h, ox + (i + 1) * h, oy + (j + 1) * h)
@@ -174,13 +173,11 @@ def test_crowded_coarse_cells_are_flagged_and_stand_ins_wait(scene_field):
     xy = np.c_[ox + (ii + 0.5) * h, oy + (jj + 0.5) * h]
     s = np.empty(len(xy), np.uint8)
     v = np.empty((len(xy), 2), np.float32)
-    only_root = t.view()._replace(keys=t.view().keys.copy(), values=t.view().values.copy())
     from riverflow.tiles.table import TileTable, tile_code
-    table = TileTable(4)
+    table = TileTable(4)                                # only the root tile is resident
     table.set(tile_code(0, 0, 0), slot)
-    only_root = only_root._replace(keys=table.keys, values=table.values)
     t.pool.arrays["in_cut"][:] = 0
-    only_root = only_root._replace(in_cut=t.pool.arrays["in_cut"])
+    only_root = t.view()._replace(keys=table.keys, values=table.values)
     missing = kf.query_velocity(xy, np.zeros(0, np.int8), field.max_level, field.max_level,
                                 only_root, t.cache.tick, field.segments, len(xy), s, v)
     assert missing == len(xy) and np.all(s == rf.FlowStatus.UNKNOWN)

@@ -109,18 +109,24 @@ def test_background_mode_makes_tiles_in_the_worker_and_installs_in_collect():
     sched.close()
 
 
+def _hold(producer) -> threading.Event:
+    """Make ``producer`` wait for the returned event before each tile (a busy worker)."""
+    gate = threading.Event()
+    original = producer.produce
+
+    def held(key, deps):
+        gate.wait(5.0)
+        return original(key, deps)
+
+    producer.produce = held
+    return gate
+
+
 def test_requests_no_frame_repeats_are_dropped_unmade():
     cache = TileCache(1 << 30)
     heights = Heights()
     sched = TileScheduler(cache, [heights], "background", stale_frames=2)
-    gate = threading.Event()
-    original = heights.produce
-
-    def slow(key, deps):
-        gate.wait(5.0)
-        return original(key, deps)
-
-    heights.produce = slow
+    gate = _hold(heights)
     sched.request("h", _keys(3))                      # 64 queued, the worker waits on the first
     for _ in range(5):
         sched.collect()                               # frames that no longer ask for them
@@ -171,14 +177,7 @@ def test_forget_unrequested_lets_wait_make_only_the_latest_frame_s_tiles():
     heights = Heights()
     sched = TileScheduler(cache, [heights], "background", stale_frames=1000)
     sched.max_starts = 1000
-    gate = threading.Event()
-    original = heights.produce
-
-    def slow(key, deps):
-        gate.wait(5.0)
-        return original(key, deps)
-
-    heights.produce = slow
+    gate = _hold(heights)
     sched.request("h", _keys(3))                      # the old view: 64 tiles
     sched.collect()
     new = np.array([[1, 0, 0], [1, 1, 0]])
@@ -258,9 +257,7 @@ def test_a_frame_queues_a_bounded_number_of_new_tiles_coarse_first():
     cache = TileCache(1 << 30)
     heights = Heights()
     sched = TileScheduler(cache, [heights], "background")
-    gate = threading.Event()
-    original = heights.produce
-    heights.produce = lambda key, deps: (gate.wait(5.0), original(key, deps))[1]
+    gate = _hold(heights)
     keys = np.concatenate([_keys(3), [[1, 0, 0], [2, 1, 1]]])   # 64 fine, 2 coarse, last
     assert sched.request("h", keys) == sched.max_starts == 16
     queued = sorted(k[0] for (kind, code) in sched._pending for k in [code_key(code)])
