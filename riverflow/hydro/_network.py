@@ -5,6 +5,11 @@ The boundary pieces (stretches of water outline between closing segments, and wh
 loops) are the nodes of a small graph whose edges are the branches: facing downstream,
 ψ(right piece) − ψ(left piece) = the branch's discharge. ψ is solved by breadth-first search
 from 0 on one piece, checked around every loop, and shifted so that its minimum is 0.
+
+Lateral inflow (``inlets``: surplus discharge entering at a junction) cuts the two banks of the
+junction's outgoing branch with a short closing segment each (an inlet across from the
+junction); the pieces on both sides of an inlet are tied by ψ(downstream) − ψ(upstream) =
+−surplus/2 on the left bank, +surplus/2 on the right one.
 """
 from __future__ import annotations
 
@@ -25,6 +30,9 @@ AXIS_MARGIN_M = 1.0
 AXIS_SPLIT_RATIO = 0.25
 """A branch's axis is split where its width differs from the axis start by more than this."""
 _STATIONS = (0.2, 0.35, 0.5, 0.65, 0.8)
+INLET_WIDTH_FRACTION = 0.25
+"""Length of a lateral-inflow inlet cut into a bank, as a fraction of the river's width (at most
+a tenth of the shorter branch at its junction, so it stays across from the junction)."""
 
 
 @dataclass
@@ -88,13 +96,17 @@ def _branch_sides(geoms: list[BranchGeometry], pieces: list[Piece], island_of: d
     return sides
 
 
-def _solve_potentials(geoms, sides, pieces, island_of) -> np.ndarray:
-    """ψ of every non-island piece [m²/s], minimum 0 in each connected network."""
+def _solve_potentials(geoms, sides, pieces, island_of, ties=()) -> np.ndarray:
+    """ψ of every non-island piece [m²/s], minimum 0 in each connected network; ``ties``
+    (upstream piece, downstream piece, ψ step [m²/s], junction point) across inlets."""
     adj: dict[int, list[tuple[int, float, int]]] = {}
     for b, (l, r) in enumerate(sides):
         q = geoms[b].discharge_m2s
         adj.setdefault(l, []).append((r, q, b))
         adj.setdefault(r, []).append((l, -q, b))
+    for k, (up, down, step, _) in enumerate(ties):
+        adj.setdefault(up, []).append((down, step, -1 - k))
+        adj.setdefault(down, []).append((up, -step, -1 - k))
     psi = np.full(len(pieces), np.nan)
     for i, piece in enumerate(pieces):
         if i not in island_of and i not in adj:
@@ -114,11 +126,98 @@ def _solve_potentials(geoms, sides, pieces, island_of) -> np.ndarray:
                     component.append(c)
                     queue.append(c)
                 elif abs(psi[c] - psi[a] - dq) > 1e-6 * max(1.0, abs(dq)):
+                    what = (f"branch {geoms[b].name!r}: its banks" if b >= 0 else
+                            "the lateral inflow at ({:.1f}, {:.1f}): the banks beside its "
+                            "inlet".format(*ties[-1 - b][3]))
                     raise GraphError(
-                        f"discharges are inconsistent around branch {geoms[b].name!r}: its banks "
+                        f"discharges are inconsistent around {what} "
                         f"differ by {psi[c] - psi[a]:g} m²/s along another path, not {dq:g}")
         psi[component] -= psi[component].min()
     return psi
+
+
+def _cut_inlets(geoms: list[BranchGeometry], sides, rings: list[Ring], pieces: list[Piece],
+                island_of: dict[int, int], junctions: np.ndarray, inlets: dict[int, float]):
+    """Cut an inlet into both banks of the outgoing branch of every junction with lateral
+    inflow; returns the new sides and the ψ ties across the inlets (module docstring)."""
+    family: dict[int, list[int]] = {}   # piece → the pieces it has been cut into
+    cut_ids = []                        # (inlet id, junction, side sign, surplus)
+    for j, surplus in sorted(inlets.items()):
+        outs = [b for b, g in enumerate(geoms) if g.start_junction == j]
+        ins = [b for b, g in enumerate(geoms) if g.end_junction == j]
+        b = outs[0]
+        p = junctions[j]
+        width = 2.0 * geoms[b].station(0.0)[2]
+        shortest = min(_length(geoms[k].centerline_m) for k in outs + ins)
+        length = min(INLET_WIDTH_FRACTION * width, 0.1 * shortest)
+        for pc, sign in ((sides[b][0], -0.5), (sides[b][1], 0.5)):
+            if pieces[pc].closed or pc in island_of:
+                raise GraphError(f"lateral inflow at ({p[0]:.1f}, {p[1]:.1f}) into branch "
+                                 f"{geoms[b].name!r}: its bank there is an island's shore "
+                                 "(give the branch the inflow's discharge)")
+            members = family.setdefault(pc, [pc])
+            target = min(members, key=lambda m: shapely.distance(pieces[m].line(), Point(p)))
+            new = _cut_piece(rings, pieces, target, p, length, len(cut_ids))
+            members.append(new)
+            cut_ids.append((j, sign, surplus))
+    sides = _branch_sides(geoms, pieces, island_of)
+    down = {}
+    for b, (l, r) in enumerate(sides):
+        down.setdefault(geoms[b].start_junction, set()).update((l, r))
+    ties = []
+    for ring in rings:
+        n = len(ring.items)
+        for k, (kind, item) in enumerate(ring.items):
+            if kind != "inlet":
+                continue
+            j, sign, surplus = cut_ids[item[0]]
+            before, after = ring.items[(k - 1) % n][1], ring.items[(k + 1) % n][1]
+            if after in down.get(j, ()):
+                up, dn = before, after
+            elif before in down.get(j, ()):
+                up, dn = after, before
+            else:
+                p = junctions[j]
+                raise GraphError(f"lateral inflow at ({p[0]:.1f}, {p[1]:.1f}): no bank of the "
+                                 f"branch leaving there lies beside its inlet (a branch shorter "
+                                 f"than its width?)")
+            ties.append((up, dn, sign * surplus, tuple(junctions[j])))
+            ring.items[k] = ("closing", item[1])
+    return sides, ties
+
+
+def _length(line: np.ndarray) -> float:
+    return float(np.hypot(*np.diff(line, axis=0).T).sum())
+
+
+def _cut_piece(rings: list[Ring], pieces: list[Piece], pc: int, point: np.ndarray,
+               length_m: float, inlet_id: int) -> int:
+    """Cut an open piece around its point nearest ``point`` with an inlet ``length_m`` long:
+    the piece keeps the part before it, a new piece (returned) holds the part after it, and
+    the piece's ring gets ("inlet", (id, points)) between them."""
+    v = pieces[pc].points
+    s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(v, axis=0).T))])
+    index = PolylineIndex(v)
+    sc = float(index.nearest(np.asarray(point, np.float64)[None])[2][0])
+    half = min(0.5 * length_m, 0.2 * s[-1])
+    margin = 0.01 * s[-1]                      # both parts keep some length
+    sa = float(np.clip(sc - half, margin, s[-1] - margin - 2.0 * half))
+    sb = sa + 2.0 * half
+
+    def at(t: float) -> np.ndarray:
+        return np.array([np.interp(t, s, v[:, 0]), np.interp(t, s, v[:, 1])])
+
+    inner = (s > sa) & (s < sb)
+    first = np.vstack([v[s < sa], at(sa)])
+    inlet = np.vstack([at(sa), v[inner], at(sb)])
+    second = np.vstack([at(sb), v[s > sb]])
+    ring = rings[pieces[pc].ring]
+    k = ring.items.index(("piece", pc))
+    new = len(pieces)
+    pieces[pc] = Piece(pieces[pc].ring, first, False)
+    pieces.append(Piece(pieces[pc].ring, second, False))
+    ring.items[k:k + 1] = [("piece", pc), ("inlet", (inlet_id, inlet)), ("piece", new)]
+    return new
 
 
 def _island_potentials(geoms, sides, pieces, islands, island_of, psi) -> None:
@@ -233,8 +332,10 @@ class _Nodes:
 
 
 def assemble_graph(geoms: list[BranchGeometry], rings: list[Ring], pieces: list[Piece],
-                   islands: list, junctions: np.ndarray) -> HydroGraph:
-    """Make the hydro graph from the branches and the cut water outline."""
+                   islands: list, junctions: np.ndarray, inlets: dict[int, float] | None = None
+                   ) -> HydroGraph:
+    """Make the hydro graph from the branches and the cut water outline; ``inlets``: lateral
+    inflow [m²/s] per junction (module docstring)."""
     island_of: dict[int, int] = {}
     for i, piece in enumerate(pieces):
         if piece.closed and rings[piece.ring].hole:
@@ -243,7 +344,10 @@ def assemble_graph(geoms: list[BranchGeometry], rings: list[Ring], pieces: list[
                 if hole.contains(isl.outline.representative_point()):
                     island_of[i] = k
     sides = _branch_sides(geoms, pieces, island_of)
-    psi = _solve_potentials(geoms, sides, pieces, island_of)
+    ties: list = []
+    if inlets:
+        sides, ties = _cut_inlets(geoms, sides, rings, pieces, island_of, junctions, inlets)
+    psi = _solve_potentials(geoms, sides, pieces, island_of, ties)
     _island_potentials(geoms, sides, pieces, islands, island_of, psi)
 
     nodes = _Nodes()
@@ -270,6 +374,14 @@ def assemble_graph(geoms: list[BranchGeometry], rings: list[Ring], pieces: list[
         c = islands[k].outline.centroid
         b = min(range(len(geoms)), key=lambda i: shapely.distance(c, LineString(geoms[i].centerline_m)))
         piece_axes[pc] = set(branch_axes[b])
+    # a bank beside an inlet may reach past it (the nearest point to the junction is not
+    # always straight across): it may link to the axes on either side of the inlet
+    extra: dict[int, set[int]] = {}
+    for up, dn, _, _ in ties:
+        extra.setdefault(up, set()).update(piece_axes.get(dn, ()))
+        extra.setdefault(dn, set()).update(piece_axes.get(up, ()))
+    for a, more in extra.items():
+        piece_axes[a] = piece_axes.get(a, set()) | more
 
     banks: list[tuple[np.ndarray, int, float]] = []  # points, axis, psi
     piece_banks: list[list[int]] = []

@@ -16,6 +16,11 @@ confluence (several branches end where one starts) or a bifurcation (one ends wh
 start). Discharge [m²/s, per unit depth] must be given for source branches; it is summed at
 confluences and, at a bifurcation, taken from the outgoing branches that give one, the rest
 being split in proportion to their widths. A bifurcation that re-joins encloses an island.
+With ``lateral_inflow=True`` a branch that is the only one leaving its junction may be given a
+discharge larger than the inflow (real rivers gain water along their course from hillslopes,
+springs and streams too small to be mapped): the surplus enters through a short closing
+segment (an *inlet*) cut into each bank across from the junction, half on each side, so ψ
+stays constant along every bank curve and the discharge grows downstream.
 
 Geometry: each branch is a strip (centre line ± width/2), the water is the union of the strips
 minus the islands (shapely), oriented so that water lies on the left of every ring. The rings
@@ -59,18 +64,26 @@ class RiverNetworkBuilder:
     """Collects branches and islands; :meth:`build` makes the :class:`HydroGraph`.
 
     ``tolerance_m`` is the Bézier flattening tolerance and the geometric epsilon [m].
-    After :meth:`build`, ``discharges_m2s`` holds the resolved discharge of every branch
-    (in the order they were added) and ``water_polygon`` the water (shapely, islands are holes).
+    ``lateral_inflow``: a branch leaving a junction alone may carry more than its inflow (the
+    module docstring). After :meth:`build`, ``discharges_m2s`` holds the resolved discharge of
+    every branch (in the order they were added), ``inlets_m2s`` the lateral inflow [m²/s] at
+    each junction point that has one, and ``water_polygon`` the water (shapely, islands are
+    holes). ``crs`` (WKT or ``EPSG:n``, None when unknown) is copied onto the built graph;
+    ``water_levels`` likewise (see :attr:`HydroGraph.water_levels`).
     """
 
-    def __init__(self, tolerance_m: float = 0.25) -> None:
+    def __init__(self, tolerance_m: float = 0.25, *, lateral_inflow: bool = False) -> None:
         if not (np.isfinite(tolerance_m) and tolerance_m > 0):
             raise GraphError(f"tolerance_m must be a positive number, got {tolerance_m!r}")
         self.tolerance_m = float(tolerance_m)
+        self.lateral_inflow = bool(lateral_inflow)
         self._branches: list[_BranchInput] = []
         self._islands: list[_Island] = []
         self.discharges_m2s: list[float] = []
+        self.inlets_m2s: list[tuple[tuple[float, float], float]] = []
         self.water_polygon: shapely.Geometry | None = None
+        self.crs: str | None = None
+        self.water_levels = None
 
     # -- input --------------------------------------------------------------------------
 
@@ -186,7 +199,8 @@ class RiverNetworkBuilder:
                     for b in self._branches]
         start_j, end_j, junctions = _find_junctions(branches)
         order = _topological_order(branches, start_j, end_j, junctions)
-        discharges = _resolve_discharges(branches, order, start_j, end_j, junctions)
+        discharges, inlets = _resolve_discharges(branches, order, start_j, end_j, junctions,
+                                                 self.lateral_inflow)
         geoms = [BranchGeometry(b.name, b.centerline_m, b.widths_m, q, sj, ej)
                  for b, q, sj, ej in zip(branches, discharges, start_j, end_j)]
         polygons, cuts, islands = _water(geoms, junctions, self._islands, self.tolerance_m)
@@ -195,12 +209,16 @@ class RiverNetworkBuilder:
             rings, pieces = _strips.split_rings(polygons, cuts, eps)
         except ValueError as exc:
             raise GraphError(f"cannot cut the water outline at the river ends: {exc}") from None
-        graph = assemble_graph(geoms, rings, pieces, islands, junctions)
+        graph = assemble_graph(geoms, rings, pieces, islands, junctions, inlets)
         problems = graph_problems(graph, [(g.centerline_m, g.widths_m, g.discharge_m2s) for g in geoms])
         if problems:
             raise GraphError("the network gives an invalid hydro graph: " + "; ".join(problems[:5]))
         self.discharges_m2s = list(discharges)
+        self.inlets_m2s = [((float(junctions[j][0]), float(junctions[j][1])), s)
+                           for j, s in sorted(inlets.items())]
         self.water_polygon = polygons[0] if len(polygons) == 1 else shapely.MultiPolygon(polygons)
+        graph.crs = self.crs
+        graph.water_levels = self.water_levels
         return graph
 
 
@@ -295,9 +313,12 @@ def _topological_order(branches, start_j, end_j, junctions) -> list[int]:
     return order
 
 
-def _resolve_discharges(branches, order, start_j, end_j, junctions) -> list[float]:
-    """Discharge of every branch [m²/s] (sources given, sums at confluences, splits)."""
+def _resolve_discharges(branches, order, start_j, end_j, junctions, lateral: bool = False
+                        ) -> tuple[list[float], dict[int, float]]:
+    """Discharge of every branch [m²/s] (sources given, sums at confluences, splits) and the
+    lateral inflow [m²/s] per junction that has one (only with ``lateral``)."""
     q: list[float | None] = [None] * len(branches)
+    inlets: dict[int, float] = {}
     for i in order:
         if q[i] is not None:
             continue
@@ -326,11 +347,13 @@ def _resolve_discharges(branches, order, start_j, end_j, junctions) -> list[floa
             wsum = sum(branches[k].widths_m[0] for k in missing)
             for k in missing:
                 given[k] = rest * branches[k].widths_m[0] / wsum
+        elif lateral and len(outs) == 1 and rest < -tol:
+            inlets[j] = -rest
         elif abs(rest) > tol:
             raise GraphError(f"{where}: inflow {inflow:g} m²/s ≠ outflow {sum(given.values()):g} m²/s")
         for k, v in given.items():
             q[k] = v
-    return [float(v) for v in q]
+    return [float(v) for v in q], inlets
 
 
 # -- water polygon ------------------------------------------------------------------------

@@ -15,6 +15,7 @@ Identifiers are indices in the lists, as in the file formats. Curve/area adjacen
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from enum import IntEnum
 
@@ -144,6 +145,14 @@ class HydroGraph:
     areas: list[Area] = field(default_factory=list)
     source: str | None = None
     """Where it came from (file path or builder); not part of equality."""
+    crs: str | None = None
+    """The coordinate reference system of the coordinates (WKT or ``EPSG:n``) when known, e.g.
+    from GIS data (:func:`riverflow.read_rivers`); not part of equality, not saved in graph
+    files."""
+    water_levels: Callable[[np.ndarray], np.ndarray] | None = None
+    """Optional water level [m] at points (N, 2) [m] near the rivers, given by the data (GIS
+    bed elevations); :func:`riverflow.landscape` then follows it instead of the terrain. Not
+    part of equality, not saved in graph files."""
 
     def __post_init__(self) -> None:
         self.nodes = np.asarray(self.nodes, dtype=np.float64).reshape(-1, 2)
