@@ -18,6 +18,10 @@ OpenGL 3.3 core; pyglet 3 moves most of these names, hence the pin ``<3``).
   integer textures use the ``*_INTEGER`` formats and NEAREST filtering.
 * **Framebuffer**: an RGBA8 colour texture and a depth texture; :meth:`Framebuffer.read_rgba8`
   returns (H, W, 4) uint8 with row 0 at the top.
+* **Lifetimes**: every object remembers the context it was made in and ``delete()`` goes
+  through that context (pyglet's deferred deletion): at once when it is current on the main
+  thread, else when it is next made current (a world's finalizer may run anywhere, and never
+  switches contexts under a host); nothing when the context is gone (its objects went with it).
 """
 from __future__ import annotations
 
@@ -95,6 +99,22 @@ def acquire_context():
                           f"offscreen drawing, or run under a display): {exc}") from exc
     _offscreen_window.switch_to()
     return gl.current_context
+
+
+def context_alive(context) -> bool:
+    """``context`` is still attached to its window or pbuffer (not destroyed)."""
+    return context is not None and getattr(context, "canvas", None) is not None
+
+
+def _discard(context, kind: str, ident: int) -> None:
+    """Delete GL object ``ident`` (``kind``: texture, buffer, vao, framebuffer) of ``context``
+    now if that is safe, else when the context is next current; nothing if it is gone."""
+    if not ident or not context_alive(context):
+        return
+    try:
+        getattr(context, f"delete_{kind}")(ident)
+    except (AttributeError, ImportError, TypeError):  # no context current; interpreter exit
+        pass
 
 
 def make_current(context) -> None:
@@ -220,7 +240,9 @@ class Program:
         self.set(**{k: v for k, v in values.items() if k in self.uniforms})
 
     def delete(self) -> None:
-        self.program.delete()
+        """Let the program go: pyglet deletes it through the context it was made in (at once
+        when that context's objects are current on the main thread, else later)."""
+        self.program = None
 
 
 # -- textures --------------------------------------------------------------------------------
@@ -276,6 +298,7 @@ class Texture:
         ident = gl.GLuint()
         gl.glGenTextures(1, ctypes.byref(ident))
         self.id = ident.value
+        self.context = gl.current_context
         _bind_scratch(self.target, self.id)
         for level in range(levels):
             w, h = max(1, self.width >> level), max(1, self.height >> level)
@@ -325,9 +348,8 @@ class Texture:
         gl.glBindTexture(self.target, self.id)
 
     def delete(self) -> None:
-        if self.id:
-            gl.glDeleteTextures(1, ctypes.byref(gl.GLuint(self.id)))
-            self.id = 0
+        _discard(self.context, "texture", self.id)
+        self.id = 0
 
 
 def _check_shape(data: np.ndarray, hw: tuple[int, int], channels: int, rows: int) -> None:
@@ -359,6 +381,7 @@ class Framebuffer:
         ident = gl.GLuint()
         gl.glGenFramebuffers(1, ctypes.byref(ident))
         self.id = ident.value
+        self.context = gl.current_context
         self.colour, self.depth = colour, depth
         self.width, self.height = colour[0].width, colour[0].height
         gl.glBindFramebuffer(gl.GL_FRAMEBUFFER, self.id)
@@ -392,9 +415,8 @@ class Framebuffer:
         return out
 
     def delete(self) -> None:
-        if self.id:
-            gl.glDeleteFramebuffers(1, ctypes.byref(gl.GLuint(self.id)))
-            self.id = 0
+        _discard(self.context, "framebuffer", self.id)
+        self.id = 0
 
 
 def blit_to_window(source: Framebuffer, width_px: int, height_px: int) -> None:
@@ -423,6 +445,7 @@ class Mesh:
         ident = gl.GLuint()
         gl.glGenVertexArrays(1, ctypes.byref(ident))
         self.vao = ident.value
+        self.context = gl.current_context
         gl.glBindVertexArray(self.vao)
         self.vbo = self.ebo = 0
         self.vertex_count = 0
@@ -463,10 +486,8 @@ class Mesh:
 
     def delete(self) -> None:
         for buf in (self.vbo, self.ebo):
-            if buf:
-                gl.glDeleteBuffers(1, ctypes.byref(gl.GLuint(buf)))
-        if self.vao:
-            gl.glDeleteVertexArrays(1, ctypes.byref(gl.GLuint(self.vao)))
+            _discard(self.context, "buffer", buf)
+        _discard(self.context, "vao", self.vao)
         self.vao = self.vbo = self.ebo = 0
 
 

@@ -2,7 +2,11 @@
 
 Each RiverWorld owns its own esper world (``esper.switch_world``), so two river worlds — or a
 host game's own esper world — never see each other's entities: every call that touches esper
-switches to this world and back. Resources (the camera, the clock, the configuration, the
+switches to this world and back. What a world owns outside itself (that esper world in esper's
+module-level registry, the tile worker thread, GPU objects) is released by :meth:`close`, by
+the end of a ``with`` block, or, for a world simply dropped, by a finalizer when it is
+collected: nothing that outlives the world (esper's registry, the worker thread, the finalizer)
+holds a reference to it. Resources (the camera, the clock, the configuration, the
 scene, the surface grids, this frame's view) are singletons held in a typed dict, not entities
 (reference/aesthetics.md P5).
 
@@ -20,6 +24,7 @@ import contextlib
 import math
 import time
 import uuid
+import weakref
 from collections.abc import Iterator
 from typing import Any, TypeVar
 
@@ -81,6 +86,9 @@ class RiverWorld:
         self.field = field
         producers = [*terrain_producers(scene), FlowProducer(field)]
         self.tiles = Tiles(cache, TileScheduler(cache, producers, c.tile_production))
+        self._owned = _Owned(self.name, self.tiles.scheduler)
+        self._finalizer = weakref.finalize(self, _release, self._owned)
+        self._finalizer.atexit = False     # at exit the worker is a daemon, GL may be gone
         camera = Camera(position=(x0, y0, 100.0), target=(0.5 * (x0 + x1), 0.5 * (y0 + y1), 0.0),
                         fov_y_deg=c.fov_y_deg, near_m=c.near_m, far_m=c.far_m,
                         size_px=tuple(int(v) for v in size))
@@ -104,6 +112,15 @@ class RiverWorld:
             for system in self.systems:
                 if hasattr(system, "attach"):
                     system.attach(self.context)
+
+    @property
+    def systems(self) -> list[System]:
+        """The ordered systems (replace the list to run others; :meth:`close` closes them)."""
+        return self._owned.systems
+
+    @systems.setter
+    def systems(self, value: list[System]) -> None:
+        self._owned.systems = value
 
     # -- resources -------------------------------------------------------------------------
 
@@ -302,18 +319,43 @@ class RiverWorld:
         self._drawer().blit_to_window(width_px or w, height_px or h)
 
     def close(self) -> None:
-        """Stop worker threads and release GPU objects; delete the esper world."""
-        for system in self.systems:
-            system.close()
-        self.tiles.scheduler.close()
-        if esper.current_world != self.name and self.name in esper.list_worlds():
-            esper.delete_world(self.name)
+        """Stop the tile worker thread, release GPU objects (while their OpenGL context lives)
+        and delete the esper world. Idempotent; a world dropped without it does the same
+        when it is collected."""
+        self._finalizer()
 
     def __enter__(self) -> RiverWorld:
         return self
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+class _Owned:
+    """What a world owns outside itself, released by :func:`_release`. Holds no reference to
+    the world (the world's finalizer holds this), so a dropped world is collected."""
+
+    __slots__ = ("name", "scheduler", "systems")
+
+    def __init__(self, name: str, scheduler: TileScheduler) -> None:
+        self.name = name
+        self.scheduler = scheduler
+        self.systems: list[System] = []
+
+
+def _release(owned: _Owned) -> None:
+    """Close the systems (GPU objects), stop the tile worker, delete the esper world (from
+    esper's module-level registry, which otherwise keeps every entity, pool and tile cache
+    of the world alive). Runs once: from :meth:`RiverWorld.close` or the world's finalizer."""
+    try:
+        for system in owned.systems:
+            system.close()
+    finally:
+        owned.scheduler.close()
+        name = owned.name
+        # the active context cannot be deleted (only if the host switched to it by hand)
+        if esper.current_world != name and name in esper.list_worlds():
+            esper.delete_world(name)
 
 
 def _add_wave_tiles(seed: int) -> None:

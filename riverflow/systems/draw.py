@@ -424,8 +424,8 @@ class DrawRivers(System):
         gl.blit_to_window(self.gpu.main_fb, width_px, height_px)
 
     def close(self) -> None:
+        """Release the GPU objects through their context, without making it current (a
+        world's finalizer must not switch contexts under a host: :mod:`riverflow.engine.gl`)."""
         if self.gpu is not None:
-            if self.context is not None:
-                gl.make_current(self.context)
             self.gpu.delete()
             self.gpu = None

@@ -398,11 +398,13 @@ class TileScheduler:
         return not self._pending
 
     def close(self) -> None:
-        """Stop the worker thread (queued tiles are dropped)."""
-        if self._thread is not None:
+        """Stop the worker thread (queued tiles are dropped). Safe from any thread, the
+        worker's own included (a world's finalizer may run where the collector ran)."""
+        thread, self._thread = self._thread, None
+        if thread is not None:
             self._queue.put((-1, -1, None))
-            self._thread.join(timeout=10.0)
-            self._thread = None
+            if thread is not threading.current_thread():
+                thread.join(timeout=10.0)
 
 
 def _work(ref: weakref.ref, jobs: queue.PriorityQueue) -> None:
