@@ -13,8 +13,11 @@ world's alone) pinned to one core with NUMBA_NUM_THREADS=1 (the tile worker thre
   making, after the flight, and the peak (VmHWM);
 * warm-up: frames and seconds from the first step until no tile of the view is pending after
   a step (the view's tiles are all made), at the flight's first view;
-* steady: p50/p95 of ``world.step``'s wall time (and of the sum of ``world.timings_ms``) at that
-  fixed view once it is covered;
+* steady: p50/p95 of ``world.step``'s wall time (and of the sum of ``world.timings_ms``) at a
+  fixed view once it is covered, like for like: the flight's camera rule over a source stream
+  about 20 m wide (``--reach-width-m``; every procedural world has them), so that every world's
+  screen shows the same kind of reach; also at the flight's first view, whose screen holds
+  more water the wider the main river (it widens with the network it drains);
 * flight: the scripted chase view (:func:`~riverflow.scenes.flight.flight_pose`) at 200 m/s with
   background tile production: p50/p99/max step wall time, tiles made and evicted, scheduler
   backlog (max and at the end), tiles still pinned, RSS after it;
@@ -165,6 +168,70 @@ def _jit_warmup(args) -> float:
     return time.perf_counter() - t0
 
 
+def _source_reach(scene, main_line, width_m: float) -> tuple[np.ndarray, dict]:
+    """The centre line of the source stream (a branch with a free upstream end) whose width
+    300 m below its source is closest to ``width_m`` (the flight's camera rule then gives the
+    same view of it in every world: 70 m above, 140 m behind); ties: the longest. Worlds
+    without branches (a graph's landscape): the main line. Returns (line, description)."""
+    best = None
+    for b in getattr(scene, "branches", []):
+        if b.start_junction != -1:
+            continue
+        line = b.centerline_m
+        s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(line, axis=0), axis=1))])
+        at = min(300.0, 0.5 * s[-1])
+        w = float(np.interp(at, s, b.widths_m))
+        rank = (abs(w - width_m), -s[-1])
+        if best is None or rank < best[0]:
+            best = (rank, line, {"branch": b.name, "kind": b.kind, "width_m": w,
+                                 "length_m": float(s[-1])})
+    if best is None:
+        return main_line, {"branch": "main line", "width_m": float("nan")}
+    return best[1], best[2]
+
+
+def _steady(world, args, pacer, pose) -> dict:
+    """Step at the fixed view ``pose`` until its tiles are made (at most args.warmup_timeout),
+    then ``args.steady_frames`` timed steps: wall and per-system p50/p95, particles by
+    status, the view's tile counts."""
+    from riverflow.kernels.advection import STATUS_INSIDE
+
+    scheduler = world.tiles.scheduler
+    world.camera.look_at(*pose)
+    t0 = time.perf_counter()
+    pacer.next = t0
+    covered = False
+    while time.perf_counter() - t0 < args.warmup_timeout:
+        _timed_step(world)
+        if scheduler.pending == 0:
+            covered = True
+            break
+        pacer.wait()
+    for _ in range(30):   # the particles settle on the view
+        _timed_step(world)
+        pacer.wait()
+    walls, sums, pend, counts, inside, per_system = [], [], 0, [], [], {}
+    pacer.next = time.perf_counter()
+    for _ in range(args.steady_frames):
+        wall, total = _timed_step(world)
+        for name, ms in world.timings_ms.items():
+            per_system.setdefault(name, []).append(ms)
+        walls.append(wall)
+        sums.append(total)
+        pend = max(pend, scheduler.pending)
+        counts.append(world.pool.count)
+        pool = world.pool
+        inside.append(int(np.count_nonzero(pool.alive & (pool.status == STATUS_INSIDE))))
+        pacer.wait()
+    producer = next((s for s in world.systems if s.name == "tiles"), None)
+    return {"covered": covered, "frame_ms": _stats(walls), "systems_ms": _stats(sums),
+            "max_pending": pend, "particles_mean": float(np.mean(counts)),
+            "inside_mean": float(np.mean(inside)),
+            "view_tiles": dict(getattr(producer, "visible", {})),
+            "system_p50_ms": {k: float(np.median(v)) for k, v in per_system.items()},
+            "resident_tiles": int(sum(s["tiles"] for s in world.tiles.cache.stats().values()))}
+
+
 def measure(length_km: float, args) -> dict:
     """Every figure of one network size (runs in the child process)."""
     import riverflow as rf
@@ -182,6 +249,7 @@ def measure(length_km: float, args) -> dict:
     res["network_km"] = network_length_m(scene.branches) / 1000.0
     res["branches"] = len(scene.branches)
     line = main_centerline(scene)
+    layout = scene   # its branches (a padded landscape has only the graph)
     if size_km < args.land_km:
         # a network smaller than the view: on args.land_km of procedural land around it
         # (rf.landscape), so its view is as full of terrain as the larger worlds'; the flight
@@ -226,24 +294,14 @@ def measure(length_km: float, args) -> dict:
                          "s": time.perf_counter() - t0, "tiles_made": scheduler.requested,
                          "frame_ms": _stats(walls)}
 
-        # steady: the same view, covered
-        walls, sums, pend, counts, per_system = [], [], 0, [], {}
-        pacer.next = time.perf_counter()
-        for _ in range(args.steady_frames):
-            wall, total = _timed_step(world)
-            for name, ms in world.timings_ms.items():
-                per_system.setdefault(name, []).append(ms)
-            walls.append(wall)
-            sums.append(total)
-            pend = max(pend, scheduler.pending)
-            counts.append(world.pool.count)
-            pacer.wait()
-        producer = next((s for s in world.systems if s.name == "tiles"), None)
-        res["steady"] = {"frame_ms": _stats(walls), "systems_ms": _stats(sums),
-                         "max_pending": pend, "particles_mean": float(np.mean(counts)),
-                         "view_tiles": dict(getattr(producer, "visible", {})),
-                         "system_p50_ms": {k: float(np.median(v)) for k, v in per_system.items()},
-                         "resident_tiles": int(sum(s["tiles"] for s in cache.stats().values()))}
+        # steady, at two fixed views once covered: the flight's first view (its screen holds
+        # more water the wider the main river, which grows with the network) and a reach that
+        # looks the same in every world (a source stream: like for like)
+        res["steady_flight_view"] = _steady(world, args, pacer, pose(0))
+        reach, res["steady_reach"] = _source_reach(layout, line, args.reach_width_m)
+        res["steady"] = _steady(world, args, pacer, flight_pose(
+            scene, 0, 1 / FPS, speed_mps=args.speed, line=reach))
+        res["steady"]["reach"] = res["steady_reach"]
 
         # flight: 200 m/s down the main river, background production
         frames = round(args.flight_s * FPS)
@@ -345,12 +403,18 @@ def format_table(results: list[dict], args) -> str:
         ("warm-up frames", lambda r: f"{r['warmup']['frames']}" + ("" if r["warmup"]["covered"] else "!")),
         ("warm-up s", lambda r: f"{r['warmup']['s']:.2f}"),
         ("warm-up tiles", lambda r: f"{r['warmup']['tiles_made']}"),
+        ("reach (width m)", lambda r: "{branch} ({width_m:.0f})".format(**r["steady_reach"])),
         ("steady p50 ms", lambda r: f"{r['steady']['frame_ms']['p50']:.2f}"),
         ("steady p95 ms", lambda r: f"{r['steady']['frame_ms']['p95']:.2f}"),
         ("steady sys p50", lambda r: f"{r['steady']['systems_ms']['p50']:.2f}"),
         ("steady pending", lambda r: f"{r['steady']['max_pending']}"),
         ("view tiles t/f", lambda r: "{terrain}/{flow}".format(**r["steady"]["view_tiles"])),
         ("particles", lambda r: f"{r['steady']['particles_mean']:.0f}"),
+        ("INSIDE", lambda r: f"{r['steady']['inside_mean']:.0f}"),
+        ("flight-view p50", lambda r: f"{r['steady_flight_view']['frame_ms']['p50']:.2f}"),
+        ("  its t/f tiles", lambda r: "{terrain}/{flow}".format(
+            **r["steady_flight_view"]["view_tiles"])),
+        ("  its INSIDE", lambda r: f"{r['steady_flight_view']['inside_mean']:.0f}"),
         ("flight p50 ms", lambda r: f"{r['flight']['frame_ms']['p50']:.2f}"),
         ("flight p99 ms", lambda r: f"{r['flight']['frame_ms']['p99']:.2f}"),
         ("flight max ms", lambda r: f"{r['flight']['frame_ms']['max']:.1f}"),
@@ -419,6 +483,9 @@ def parse(argv: list[str] | None):
                         help="simulated seconds of flight (default 60; --quick: 10)")
     parser.add_argument("--speed", type=float, default=200.0, help="flight speed [m/s]")
     parser.add_argument("--steady-frames", type=int, default=300)
+    parser.add_argument("--reach-width-m", type=float, default=20.0,
+                        help="the like-for-like steady view looks down the source stream "
+                             "closest to this wide (every procedural world has 20 m sources)")
     parser.add_argument("--size", type=lambda s: tuple(int(v) for v in s.lower().split("x")),
                         default=(1920, 1080), help="viewport WxH [px]")
     parser.add_argument("--radius", type=float, default=10.0, help="particle radius r [px]")

@@ -45,6 +45,8 @@ class FlowTiles:
 
     def __post_init__(self) -> None:
         self.pool: TilePool = self.cache.pool(FLOW_KIND, flow_fields(self.n_cells))
+        self.cut_level = -1
+        """The deepest level of this frame's flow cut (:meth:`mark_cut`), −1 before any."""
 
     # -- geometry -----------------------------------------------------------------------------
 
@@ -118,6 +120,15 @@ class FlowTiles:
         in_cut[:] = 0
         slots = self.pool.table.find_many(codes(keys))
         in_cut[slots[slots >= 0]] = 1
+        self.cut_level = int(keys[:, 0].max()) if len(keys) else -1
+
+    @property
+    def query_level(self) -> int:
+        """The level a frame's queries start from, falling back on coarser tiles: the deepest
+        of the cut when one is marked (a lookup then costs as many table probes as the view
+        has levels, not as many as the quadtree, which is deeper the larger the map), else
+        the finest level."""
+        return self.cut_level if self.cut_level >= 0 else self.max_level
 
     def view(self) -> CachedTiles:
         """The tiles as the query kernels read them (rebuilt per call: the pool may grow)."""

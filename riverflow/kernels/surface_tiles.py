@@ -10,8 +10,10 @@ and water heights at the tile's (n + 1)² nodes and their max-mip pyramid) and o
 tile; when a leaf's own tile is not made yet, the finest resident ancestor's stands in (its key
 is in ``leaf_key``), and −1 means no data (the kernels then report UNKNOWN).
 
-Locating the leaf under a point walks the quadtree down from the root (at most
-``max_level + 1`` table lookups); a point in no leaf (outside the view's tiles) has none.
+Locating the leaf under a point walks the quadtree down from the cut's coarsest leaf level to
+its deepest (at most ``max_level − min_level + 1`` table lookups: a number the view sets, not
+the map, whose quadtree is deeper the larger it is); a point in no leaf (outside the view's
+tiles) has none.
 """
 from __future__ import annotations
 
@@ -34,7 +36,7 @@ class SurfaceTiles(NamedTuple):
     tiles have ``n`` cells per side (nodes i = 0 … n at ``origin + i · size / n``).
 
     The cut: ``cut_keys``/``cut_values`` a tile table from a leaf's code to its index l;
-    ``max_level`` the deepest leaf level. Per leaf l: ``leaf_slot[l]`` the raycast pool slot
+    ``min_level``/``max_level`` the coarsest and the deepest leaf level. Per leaf l: ``leaf_slot[l]`` the raycast pool slot
     used (−1: none yet) and ``leaf_key[l]`` (level, tx, ty) of that tile (the leaf's own, or
     an ancestor's standing in); ``hint_slot[l]`` / ``hint_key[l]`` likewise for the hints.
 
@@ -55,6 +57,7 @@ class SurfaceTiles(NamedTuple):
     n: int
     cut_keys: np.ndarray
     cut_values: np.ndarray
+    min_level: int
     max_level: int
     leaf_slot: np.ndarray
     leaf_key: np.ndarray
@@ -78,7 +81,7 @@ def find_leaf(view, x, y):
     v = (y - view.root_y) / view.root_size
     if not (u >= 0.0 and v >= 0.0 and u <= 1.0 and v <= 1.0):
         return NO_LEAF, 0, 0, 0
-    for level in range(view.max_level + 1):
+    for level in range(view.min_level, view.max_level + 1):
         side = 1 << level
         tx = min(int(u * side), side - 1)
         ty = min(int(v * side), side - 1)
@@ -244,7 +247,7 @@ def one_tile_surface(ground: np.ndarray, water: np.ndarray, origin_x: float, ori
     key = np.zeros((1, 3), np.int32)
     finite = np.concatenate([ground.ravel(), water[np.isfinite(water)]])
     return SurfaceTiles(
-        float(origin_x), float(origin_y), float(n * cell_m), n, table.keys, table.values, 0,
+        float(origin_x), float(origin_y), float(n * cell_m), n, table.keys, table.values, 0, 0,
         np.zeros(1, np.int32), key, ground[None], water[None],
         height_pyramid(ground, water)[None], float(finite.min()), float(finite.max()),
         np.zeros(1, np.int32), key.copy(), hints[None], hints.shape[0] - 1)

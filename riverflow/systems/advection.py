@@ -151,15 +151,17 @@ def always_velocity_box(field: FlowField) -> np.ndarray:
 def query_flow(field: FlowField, xy: np.ndarray, status: np.ndarray, velocity: np.ndarray,
                n_velocity: int | None = None) -> None:
     """Flow status (N,) uint8 and velocity (N, 2) float32 [m/s] at ``xy`` (N, 2) float64 [m]
-    from the finest cached tile under each, bent around the field's obstacles; the points from
+    from the finest cached tile under each no finer than the frame's flow cut
+    (``FlowTiles.query_level``), bent around the field's obstacles; the points from
     ``n_velocity`` on get their status alone."""
     n = len(xy)
     n_velocity = n if n_velocity is None else n_velocity
-    query_velocity(xy, _NO_LEVELS, field.max_level, field.max_level, field.tiles.view(),
-                   field.tiles.cache.tick, field.segments, n_velocity, status[:n], velocity[:n])
+    level = field.tiles.query_level
+    query_velocity(xy, _NO_LEVELS, level, level, field.tiles.view(), field.tiles.cache.tick,
+                   field.segments, n_velocity, status[:n], velocity[:n])
     if len(field.obstacles) and n_velocity:
         field.apply_obstacles(xy[:n_velocity], status[:n_velocity], velocity[:n_velocity],
-                              level=field.max_level, fallback=field.max_level)
+                              level=level, fallback=level)
 
 
 def ask_flow(field: FlowField, pool: ParticlePool, grid: ScreenGrid, n: int,

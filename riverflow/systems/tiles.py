@@ -116,7 +116,8 @@ class ProduceTiles(System):
         q = world.scene.quadtree
         return SurfaceTiles(
             q.root_x_m, q.root_y_m, q.root_size_m, world.scene.terrain.tile_cells, table.keys,
-            table.values, int(cut[:, 0].max()) if len(cut) else 0, leaf_slot, leaf_key,
+            table.values, int(cut[:, 0].min()) if len(cut) else 0,
+            int(cut[:, 0].max()) if len(cut) else 0, leaf_slot, leaf_key,
             raycast.arrays["ground"], raycast.arrays["water"], raycast.arrays["pyramid"],
             terrain.z_min, terrain.z_max, hint_slot, hint_key, hints.arrays["hints"], HINT_CELLS)
 

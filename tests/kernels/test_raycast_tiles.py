@@ -101,7 +101,7 @@ class Region:
         zlo, zhi = (self.z_lo, self.z_hi) if z is None else z
         return SurfaceTiles(
             self.q.root_x_m, self.q.root_y_m, self.q.root_size_m, self.n, cut.keys,
-            cut.values, int(leaves[:, 0].max()), slot, key, self.pool.arrays["ground"],
+            cut.values, int(leaves[:, 0].min()), int(leaves[:, 0].max()), slot, key, self.pool.arrays["ground"],
             self.pool.arrays["water"], self.pool.arrays["pyramid"], float(zlo), float(zhi),
             np.full(len(leaves), -1, np.int32), np.zeros((len(leaves), 3), np.int32),
             np.full((1, HINT_CELLS + 1, HINT_CELLS + 1, 3), np.inf, np.float32), HINT_CELLS)
