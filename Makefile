@@ -1,6 +1,6 @@
 # riverflow: `make demo`, `make test`. Works from a fresh clone: the first target that needs
-# Python creates $(VENV) with python3's venv module and installs the package with its test and
-# plot extras; it reinstalls when pyproject.toml changes.
+# Python creates $(VENV) with python3's venv module and installs the package with its test,
+# plot and gis extras; it reinstalls when pyproject.toml changes.
 
 VENV ?= .venv
 PY := $(VENV)/bin/python
@@ -18,13 +18,13 @@ help:
 	@echo "make test      run the tests (headless)"
 	@echo "make bench     run every benchmarks/*.py"
 	@echo "make flowmap   draw the default scene's flow to out/flowmap.png"
-	@echo "make install   create $(VENV) and install riverflow[test,plot] (the others do it too)"
+	@echo "make install   create $(VENV) and install riverflow[test,plot,gis] (the others do it too)"
 	@echo "make clean     remove caches and outputs; make distclean also removes $(VENV)"
 
 $(VENV)/.installed: pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --upgrade pip
-	$(PY) -m pip install -e '.[test,plot]'
+	$(PY) -m pip install -e '.[test,plot,gis]'
 	touch $@
 
 install: $(VENV)/.installed

@@ -19,6 +19,8 @@ Public API (SPEC §6)::
     world = rf.RiverWorld(scene, size=(W, H), gl=False, seed=0)
     world.camera.look_at(eye_xyz, target_xyz)
     world.step(dt_s)                       # world.particles, world.timings_ms
+    builder = rf.read_rivers(path)         # GIS stream lines → RiverNetworkBuilder (riverflow[gis])
+    rf.bake_flow_map(scene, region_m, cell_m, "flow.png")   # flow-map PNG + flow.json
 
 Names are imported lazily so that ``import riverflow`` stays cheap and never touches OpenGL.
 """
@@ -52,6 +54,8 @@ _LAZY = {
     "WaveKind": "riverflow.components.waves",
     "KeyScript": "riverflow.engine.controls",
     "FixedStep": "riverflow.engine.game_loop",
+    "read_rivers": "riverflow.gis.rivers",
+    "bake_flow_map": "riverflow.gis.bake",
 }
 
 __all__ = ["FlowStatus", "Area", "Curve", "CurveType", "GraphError", "HydroGraph", *_LAZY]

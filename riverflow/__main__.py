@@ -122,12 +122,18 @@ def _parser() -> argparse.ArgumentParser:
                    help="frames to time")
     p.add_argument("--json", action="store_true", help="print the timings as JSON")
     p.set_defaults(run=_profile)
+
+    from riverflow.gis.cli import add_bake_command
+
+    add_bake_command(sub, _scene_args, _positive)
     return parser
 
 
 def _scene_args(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--scene", type=Path, metavar="FILE",
-                   help="a Proland hydro-graph file (.graph); default: the built-in scene")
+    from riverflow.gis.cli import SCENE_HELP, add_scene_options
+
+    p.add_argument("--scene", type=Path, metavar="FILE", help=SCENE_HELP)
+    add_scene_options(p)
     p.add_argument("--seed", type=int, default=0, metavar="N",
                    help="seed of the built-in scene (default: %(default)s)")
 
@@ -293,12 +299,12 @@ def _load_scene(args: argparse.Namespace) -> tuple[Any, str]:
     from riverflow.hydro.graph import GraphError
 
     if args.scene is not None:
-        from riverflow.hydro.io import load_graph
+        from riverflow.gis.cli import scene_graph
         from riverflow.scenes.landscape import landscape
 
-        try:
-            return landscape(load_graph(args.scene), seed=args.seed), args.scene.name
-        except (GraphError, OSError) as exc:
+        try:    # a graph file or GIS lines, on --terrain or procedural hills
+            return landscape(scene_graph(args), args.terrain, seed=args.seed), args.scene.name
+        except (GraphError, OSError, ImportError) as exc:
             print(f"riverflow {args.command}: cannot load {args.scene}: {exc}", file=sys.stderr)
             return None, ""
     try:

@@ -213,8 +213,11 @@ def landscape(graph: HydroGraph, terrain=None, *, seed: int = 0, cell_m: float |
         graph: the river network (a graph file, the builder's output, …).
         terrain: None for procedural hills around the network (seeded), or a height source
             (:func:`riverflow.scenes.sources.as_height_source`: a callable
-            ``heights(x_m, y_m) -> z_m`` on arrays, an array or ``.npy`` path with
-            ``origin_m`` and ``source_cell_m``, a :class:`HeightSource`).
+            ``heights(x_m, y_m) -> z_m`` on arrays, an array, ``.npy`` or 16-bit ``.png``
+            path with ``origin_m`` and ``source_cell_m``, a GeoTIFF path (riverflow[gis];
+            reprojected to ``graph.crs`` when that differs), a :class:`HeightSource`).
+            Where the graph has ``water_levels`` (GIS bed elevations) the water follows
+            them, else the terrain.
         seed: seeds the procedural hills.
         cell_m: node spacing of the finest terrain tiles [m]; default 4 m, finer for narrow
             rivers (a quarter of the narrowest river's width, at least 0.5 m) or a finer source.
@@ -237,18 +240,21 @@ def landscape(graph: HydroGraph, terrain=None, *, seed: int = 0, cell_m: float |
     if pad_m is None:
         pad_m = max(0.25 * max(x1 - x0, y1 - y0), 512.0)
     quadtree = Quadtree.around((x0, y0, x1, y1), pad_m=pad_m)
-    source = as_height_source(terrain, origin_m=origin_m, cell_m=source_cell_m)
+    source = as_height_source(terrain, origin_m=origin_m, cell_m=source_cell_m, crs=graph.crs)
     narrowest = min(float(b.widths_m.min()) for b in branches)
     if cell_m is None:
         cell_m = min(DEFAULT_CELL_M, max(0.25 * narrowest, 0.5))
         if source is not None and source.cell_m:
             cell_m = min(cell_m, max(source.cell_m, 0.5))
+    given = graph.water_levels
     if source is None:
-        water = water_surface(branches, _synthetic_ground(branches), polygon)
+        water = water_surface(branches, _synthetic_ground(branches) if given is None
+                              else lambda xy: given(xy) + FREEBOARD_M, polygon)
         source = valley_source(water, seed)
         carving = carving or Carving()
     else:
-        water = water_surface(branches, lambda xy: source.heights(xy[:, 0], xy[:, 1]), polygon)
+        water = water_surface(branches, (lambda xy: source.heights(xy[:, 0], xy[:, 1]))
+                              if given is None else lambda xy: given(xy) + FREEBOARD_M, polygon)
         carving = carving or Carving.measured()
     terrain_ = CarvedTerrain(source, water, carving, quadtree, float(cell_m))
     return Landscape(graph, terrain_, water, quadtree.bounds_m, int(seed), branches, [],

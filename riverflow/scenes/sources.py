@@ -8,7 +8,8 @@ whatever batch, order or array shape the point comes in.
 - :class:`CallableSource`: any pointwise function ``fn(x_m, y_m) -> z_m``.
 - :class:`ArraySource`: a heightfield array (in memory, ``np.memmap`` or a ``.npy`` file),
   read one window per batch, so a raster larger than memory works with small tiles.
-- :func:`as_height_source`: turns what a user passes as "terrain" into a source.
+- :func:`as_height_source`: turns what a user passes as "terrain" into a source (GeoTIFF and
+  16-bit PNG files through :mod:`riverflow.gis.rasters`).
 """
 from __future__ import annotations
 
@@ -40,7 +41,8 @@ ESTIMATE_PAD = 0.5
 """The estimate's extent is widened by this fraction of its size on each side, and its height
 range by this fraction of its span (plus ESTIMATE_PAD_M) on each side."""
 ESTIMATE_PAD_M = 1.0
-RASTER_SUFFIXES = (".tif", ".tiff")
+RASTER_SUFFIXES = (".tif", ".tiff", ".vrt", ".asc", ".img")
+"""Elevation rasters read by rasterio (:class:`riverflow.gis.rasters.RasterSource`)."""
 _ROW_BLOCK_CELLS = 1 << 20
 
 
@@ -382,13 +384,17 @@ def _open_npy(path: Path) -> np.ndarray:
     return np.load(path, mmap_mode="r", allow_pickle=False)
 
 
-def as_height_source(terrain, *, origin_m=None, cell_m=None) -> HeightSource | None:
+def as_height_source(terrain, *, origin_m=None, cell_m=None, crs=None) -> HeightSource | None:
     """The :class:`HeightSource` for what a user passes as terrain.
 
     - None → None; a HeightSource → itself;
     - an ndarray / np.memmap, or a str / Path of a ``.npy`` file → :class:`ArraySource`
       (``origin_m`` (x, y) [m] and ``cell_m`` [m] required);
-    - a str / Path of a ``.tif`` / ``.tiff`` raster → NotImplementedError (needs the GIS extra);
+    - a str / Path of a ``.tif`` / ``.tiff`` (any of RASTER_SUFFIXES) raster →
+      :class:`riverflow.gis.rasters.RasterSource` (riverflow[gis]; reprojected on the fly to
+      ``crs`` when given and different from the raster's);
+    - a str / Path of a 16-bit ``.png`` heightmap → :class:`riverflow.gis.rasters.PngHeightSource`
+      (``origin_m`` of its south-west corner and ``cell_m`` required; values in metres);
     - any other callable → :class:`CallableSource` (height range estimated, see there).
 
     Other str / Path suffixes raise ValueError, anything else TypeError.
@@ -398,12 +404,21 @@ def as_height_source(terrain, *, origin_m=None, cell_m=None) -> HeightSource | N
     if isinstance(terrain, (str, Path)):
         suffix = Path(terrain).suffix.lower()
         if suffix in RASTER_SUFFIXES:
-            raise NotImplementedError(f"raster file {str(terrain)!r}: reading {suffix} files needs the "
-                                      "optional GIS extra (riverflow[gis]), which is not available yet; "
-                                      "convert it to a .npy array")
+            from riverflow.gis.rasters import RasterSource
+
+            return RasterSource(terrain, crs=crs)
+        if suffix == ".png":
+            from riverflow.gis.rasters import PngHeightSource
+
+            missing = [n for n, v in (("origin_m", origin_m), ("cell_m", cell_m)) if v is None]
+            if missing:
+                raise ValueError(f"as_height_source: a PNG heightmap needs {' and '.join(missing)} "
+                                 "(origin_m = (x, y) [m] of its south-west corner, cell_m = "
+                                 "spacing [m])")
+            return PngHeightSource(terrain, origin_m, cell_m)
         if suffix != ".npy":
             raise ValueError(f"terrain file {str(terrain)!r}: unsupported suffix {suffix!r} "
-                             f"(accepted: .npy; raster {', '.join(RASTER_SUFFIXES)} need riverflow[gis])")
+                             f"(accepted: .npy, .png, rasters {', '.join(RASTER_SUFFIXES)})")
     if isinstance(terrain, (str, Path, np.ndarray)):
         missing = [n for n, v in (("origin_m", origin_m), ("cell_m", cell_m)) if v is None]
         if missing:

@@ -453,12 +453,15 @@ def test_as_height_source_errors(grid):
         as_height_source(grid)
     with pytest.raises(ValueError, match="cell_m"):
         as_height_source("dem.npy", origin_m=ORIGIN)
-    with pytest.raises(NotImplementedError, match=r"riverflow\[gis\]"):
+    # rasters go to riverflow.gis.rasters: a missing file, or the missing extra, is named
+    with pytest.raises((FileNotFoundError, ImportError), match=r"dem.tif|riverflow\[gis\]"):
         as_height_source("dem.tif", origin_m=ORIGIN, cell_m=CELL)
-    with pytest.raises(NotImplementedError, match=r"riverflow\[gis\]"):
+    with pytest.raises((FileNotFoundError, ImportError), match=r"DEM.TIFF|riverflow\[gis\]"):
         as_height_source(Path("DEM.TIFF"))
-    with pytest.raises(ValueError, match="unsupported suffix '.png'"):
-        as_height_source("dem.png", origin_m=ORIGIN, cell_m=CELL)
+    with pytest.raises(ValueError, match="cell_m"):
+        as_height_source("dem.png", origin_m=ORIGIN)
+    with pytest.raises(ValueError, match="unsupported suffix '.bmp'"):
+        as_height_source("dem.bmp", origin_m=ORIGIN, cell_m=CELL)
     with pytest.raises(TypeError, match="accepted"):
         as_height_source([[1.0, 2.0], [3.0, 4.0]])
     with pytest.raises(TypeError, match="accepted"):

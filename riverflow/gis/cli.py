@@ -1,0 +1,95 @@
+"""The command line's GIS parts (``riverflow/__main__.py`` calls these): ``--scene`` with GIS
+stream lines, ``--layer``, ``--terrain`` and the ``bake`` subcommand.
+
+Nothing heavy is imported here at import time (``--help`` stays free of numba and pyglet).
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+
+def add_scene_options(p: argparse.ArgumentParser) -> None:
+    """``--layer`` and ``--terrain`` beside every ``--scene``."""
+    p.add_argument("--layer", default=None, metavar="NAME",
+                   help="the layer of a GIS --scene file that holds several (default: its "
+                        "line layer)")
+    p.add_argument("--terrain", type=Path, default=None, metavar="DEM.tif",
+                   help="an elevation raster (GeoTIFF, riverflow[gis]) under --scene's rivers, "
+                        "reprojected to their CRS (default: procedural hills)")
+
+
+SCENE_HELP = ("a Proland hydro-graph file (.graph) or GIS stream lines (.shp, .gpkg, .geojson, "
+              ".json: riverflow.read_rivers, needs riverflow[gis]); default: the built-in scene")
+
+
+def scene_graph(args: argparse.Namespace):
+    """The hydro graph of ``--scene``: GIS lines through :func:`~riverflow.read_rivers`
+    (``--layer``), anything else as a Proland graph file."""
+    from riverflow.gis.rivers import is_gis_path
+
+    if is_gis_path(args.scene):
+        from riverflow.gis.rivers import read_rivers
+
+        return read_rivers(args.scene, layer=getattr(args, "layer", None)).build()
+    from riverflow.hydro.io import load_graph
+
+    return load_graph(args.scene)
+
+
+def add_bake_command(sub, scene_args, positive) -> None:
+    """The ``bake`` subcommand (SPEC §7)."""
+    p = sub.add_parser(
+        "bake", help="bake the flow of a region into a flow-map PNG (+ JSON) for other engines",
+        description="Sample the flow at every pixel centre of a region and write a flow map "
+                    "as flow-map shaders read it (Waterways, Unity, Unreal): RG = 0.5 + v / "
+                    "(2 max_speed) (x east, y north), B = water / land, A = distance to the "
+                    "nearest bank / max_distance; rows north-up. A JSON file beside it (same "
+                    "name, .json) holds origin_m, cell_m, size_px, max_speed_mps, the encoding "
+                    "and the CRS.")
+    scene_args(p)
+    p.add_argument("--region", type=_region, default=None, metavar="X0,Y0,X1,Y1",
+                   help="the region [m] in the scene's coordinates (default: the network's "
+                        "bounds)")
+    p.add_argument("--cell-m", type=positive, default=None, metavar="C",
+                   help="pixel size [m] (default: the region's longer side / 1024)")
+    p.add_argument("--out", type=Path, default=Path("out/flow.png"), metavar="FILE.png",
+                   help="the flow map to write (default: %(default)s; the JSON goes beside it)")
+    p.add_argument("--16bit", dest="bits16", action="store_true",
+                   help="16 bits a channel (needs pypng: pip install 'riverflow[gis]')")
+    p.add_argument("--max-speed", type=positive, default=None, metavar="MPS",
+                   help="speed [m/s] of R, G = 0 or full (default: the fastest water in the map)")
+    p.set_defaults(run=run_bake)
+
+
+def run_bake(args: argparse.Namespace) -> int:
+    from riverflow.__main__ import _load_scene
+
+    scene, title = _load_scene(args)
+    if scene is None:
+        return 1
+    from riverflow.gis.bake import bake_flow_map
+
+    try:
+        result = bake_flow_map(scene, args.region, args.cell_m, args.out,
+                               bits=16 if args.bits16 else 8, max_speed_mps=args.max_speed)
+    except (ImportError, ValueError, OSError) as exc:
+        print(f"riverflow bake: {exc}", file=sys.stderr)
+        return 1
+    w, h = result.size_px
+    print(f"wrote {result.image.resolve()} and {result.sidecar.name} ({title}: {w}x{h} px of "
+          f"{result.cell_m:g} m from ({result.origin_m[0]:.1f}, {result.origin_m[1]:.1f}), "
+          f"max speed {result.max_speed_mps:.3g} m/s, {result.water_fraction:.1%} water, "
+          f"{result.seconds:.1f} s)")
+    return 0
+
+
+def _region(text: str) -> tuple[float, float, float, float]:
+    try:
+        x0, y0, x1, y1 = (float(v) for v in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected X0,Y0,X1,Y1 in metres, got {text!r}") from None
+    if not (x1 > x0 and y1 > y0):
+        raise argparse.ArgumentTypeError(f"need X0 < X1 and Y0 < Y1, got {text!r}")
+    return x0, y0, x1, y1
