@@ -157,7 +157,9 @@ def _cut_inlets(geoms: list[BranchGeometry], sides, rings: list[Ring], pieces: l
                                  "(give the branch the inflow's discharge)")
             members = family.setdefault(pc, [pc])
             target = min(members, key=lambda m: shapely.distance(pieces[m].line(), Point(p)))
-            new = _cut_piece(rings, pieces, target, p, length, len(cut_ids))
+            new = _cut_piece(rings, pieces, target, p, length, len(cut_ids),
+                             straight_m=AXIS_WIDTH_FACTOR * width + AXIS_MARGIN_M,
+                             shift_m=0.15 * shortest)
             members.append(new)
             cut_ids.append((j, sign, surplus))
     sides = _branch_sides(geoms, pieces, island_of)
@@ -191,16 +193,35 @@ def _length(line: np.ndarray) -> float:
 
 
 def _cut_piece(rings: list[Ring], pieces: list[Piece], pc: int, point: np.ndarray,
-               length_m: float, inlet_id: int) -> int:
-    """Cut an open piece around its point nearest ``point`` with an inlet ``length_m`` long:
+               length_m: float, inlet_id: int, straight_m: float = 0.0,
+               shift_m: float = 0.0) -> int:
+    """Cut an open piece near its point nearest ``point`` with an inlet ``length_m`` long:
     the piece keeps the part before it, a new piece (returned) holds the part after it, and
-    the piece's ring gets ("inlet", (id, points)) between them."""
+    the piece's ring gets ("inlet", (id, points)) between them.
+
+    The inlet is a closing segment, and the flow's inside test takes the side of the nearest
+    closing segment from its line (reference V9): so it is put on a straight stretch of the
+    bank, ``straight_m`` of straight bank on both sides of it (then no water point within
+    that reach lies across its line's extension), the one nearest the junction within
+    ``shift_m`` of it; else as straight as can be found there."""
     v = pieces[pc].points
-    s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(v, axis=0).T))])
+    seg = np.hypot(*np.diff(v, axis=0).T)
+    s = np.concatenate([[0.0], np.cumsum(seg)])
     index = PolylineIndex(v)
     sc = float(index.nearest(np.asarray(point, np.float64)[None])[2][0])
     half = min(0.5 * length_m, 0.2 * s[-1])
     margin = 0.01 * s[-1]                      # both parts keep some length
+    lo = np.maximum(s[:-1] + min(straight_m, seg.max()), margin)   # where inlet centres
+    hi = np.minimum(s[1:] - min(straight_m, seg.max()), s[-1] - margin)   # keep the margin
+    fits = lo + half <= hi - half
+    centre = np.clip(sc, lo + half, hi - half)
+    near = fits & (np.abs(centre - sc) <= shift_m)
+    if near.any():
+        k = int(np.argmin(np.where(near, np.abs(centre - sc), np.inf)))
+        sc = float(centre[k])
+    else:   # no straight stretch long enough near the junction: the longest segment there
+        k = int(np.argmax(np.where(np.abs(np.clip(sc, s[:-1], s[1:]) - sc) <= shift_m, seg, 0)))
+        sc = float(np.clip(sc, s[k] + half, s[k + 1] - half)) if seg[k] > 2 * half else sc
     sa = float(np.clip(sc - half, margin, s[-1] - margin - 2.0 * half))
     sb = sa + 2.0 * half
 

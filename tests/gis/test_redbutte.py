@@ -1,0 +1,107 @@
+"""The Red Butte Creek example (../shared/data/gis/redbutte, a TauDEM-style stream network in
+NAD83 / UTM 12N): every link is water, the flow along every centre line runs downstream,
+discharge grows downstream, the axes are as long as the links, and it flows in a world."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import shapely
+
+import riverflow as rf
+from tests.gis.conftest import along, pyogrio
+
+pytestmark = pytest.mark.data
+
+
+@pytest.fixture(scope="module")
+def imported(request):
+    from tests.gis.conftest import REDBUTTE
+
+    if not REDBUTTE.exists():
+        pytest.skip(f"shared data absent: {REDBUTTE}")
+    builder = rf.read_rivers(REDBUTTE)
+    graph = builder.build()
+    _, _, wkb, columns = pyogrio.raw.read(str(REDBUTTE))
+    lines = [shapely.get_coordinates(g) for g in shapely.from_wkb(wkb)]
+    return builder, graph, lines, columns, rf.FlowField(graph)
+
+
+def test_every_link_is_water_with_its_flow_running_downstream(imported):
+    builder, graph, lines, _, field = imported
+    assert rf.validate_graph(graph) == []
+    assert len(builder.report.links) == len(lines) == 12
+    for k, line in enumerate(lines):
+        pts, tangent = along(line, step=2.0)
+        status, velocity = field.query(pts)
+        assert (status == rf.FlowStatus.INSIDE).all(), \
+            f"link {k}: {(status != rf.FlowStatus.INSIDE).sum()} of {len(pts)} points dry"
+        downstream = np.einsum("ij,ij->i", velocity, tangent)
+        assert (downstream > 0).all(), f"link {k}: {(downstream <= 0).sum()} points flow back"
+
+
+def test_discharge_grows_downstream(imported):
+    builder, graph, lines, columns, field = imported
+    grid_id, to_link, area = columns[0], columns[2], columns[3]
+    # walk the chain from the top (the link no other flows into) to the outlet (ToLink 0)
+    by_id = {int(g): k for k, g in enumerate(grid_id)}
+    top = next(k for k in range(len(lines)) if int(grid_id[k]) not in set(to_link.astype(int)))
+    chain = [top]
+    while int(to_link[chain[-1]]) != 0:
+        chain.append(by_id[int(to_link[chain[-1]])])
+    assert len(chain) == len(lines)
+    assert np.all(np.diff(area[chain]) > 0)          # the data: the drainage area grows
+    given = np.array(builder.discharges_m2s)[chain]
+    assert np.all(np.diff(given) > 0)                  # so does the discharge built
+    # and the flow carries it: ψ across the middle of each link
+    carried = []
+    for k in chain:
+        mid, tangent = along(lines[k], step=1.0)
+        i = len(mid) // 2
+        normal = np.array([-tangent[i, 1], tangent[i, 0]])
+        half = 0.5 * builder.report.links[k].width_m
+        s = np.linspace(-1.5 * half, 1.5 * half, 301)
+        psi = field.potential(mid[i] + s[:, None] * normal)
+        carried.append(np.nanmax(psi) - np.nanmin(psi))
+    carried = np.array(carried)
+    np.testing.assert_allclose(carried, given, rtol=0.03)
+    assert np.all(np.diff(carried) > 0)
+
+
+def test_axes_are_as_long_as_the_links(imported):
+    _, graph, lines, _, _ = imported
+    links_m = sum(float(np.hypot(*np.diff(p, axis=0).T).sum()) for p in lines)
+    axes_m = sum(float(np.hypot(*np.diff(graph.polyline(a), axis=0).T).sum()) for a in graph.axes())
+    assert axes_m == pytest.approx(links_m, rel=0.02)
+
+
+def test_the_import_says_what_it_derived(imported):
+    builder, graph, *_ = imported
+    report = builder.report
+    assert "EPSG:26912" in str(report)
+    assert graph.crs is not None and builder.crs == graph.crs
+    assert report.derived["discharge"] == {"hydraulic geometry of the drainage area": 12}
+    assert report.derived["width_m"] == {"hydraulic geometry of the discharge": 12}
+    assert any("usarea_km2" in n for n in report.notes)
+    assert graph.water_levels is not None
+
+
+def test_it_flows_in_a_world(imported):
+    _, graph, lines, _, _ = imported
+    scene = rf.landscape(graph)
+    # the water follows the bed elevations of the data (uselev_m / dselev_m), downhill
+    top, bottom = lines[0][0], lines[1][-1]
+    levels = scene.water.level(np.array([top, bottom]))
+    assert 1880.0 < levels[0] < 1910.0 and 1630.0 < levels[1] < 1645.0
+    assert np.all(np.diff(scene.water.levels_m[scene.water.branch == 0]) <= 0)
+    world = rf.RiverWorld(scene, size=(160, 90), gl=False, seed=0,
+                          config=rf.RiverConfig(radius_px=6, tile_production="blocking"))
+    with world:
+        p = lines[5][len(lines[5]) // 2]
+        z = float(graph.water_levels(p[None])[0])
+        world.camera.look_at((p[0] - 8.0, p[1] - 8.0, z + 6.0), (p[0], p[1], z))
+        for _ in range(20):
+            world.step(1 / 30)
+        particles = world.particles
+        inside = particles.status == rf.FlowStatus.INSIDE
+        assert inside.sum() > 10
+        assert np.isfinite(particles.world_m).all()
