@@ -7,7 +7,7 @@ the host's fixed-step update, draw it and copy it to the window in ``on_draw``, 
 flow where gameplay needs it (``rivers.field.query``).
 
     python demos/embed.py                          # a window
-    python demos/embed.py --headless --frames 120  # no window (offscreen OpenGL), for tests
+    python demos/embed.py --headless --frames 120 --out out/embed.png   # no window (offscreen)
 """
 from __future__ import annotations
 
@@ -154,7 +154,8 @@ def _river_point(scene, fraction: float) -> np.ndarray:
 
 def run(frames: int | None, seed: int = 0, headless: bool = False,
         size: tuple[int, int] = (960, 540), out: str | None = None) -> HostGame:
-    """Run the host game for ``frames`` steps (None: until the window closes)."""
+    """Run the host game for ``frames`` steps (None: until the window closes); headless, write
+    the last frame to the PNG file ``out`` if given."""
     if headless:
         game = HostGame(size, seed)
         for _ in range(frames or 60):
@@ -162,8 +163,8 @@ def run(frames: int | None, seed: int = 0, headless: bool = False,
         if out:
             from PIL import Image
 
-            os.makedirs(out, exist_ok=True)
-            Image.fromarray(game.rivers.render()).save(os.path.join(out, "embed.png"))
+            os.makedirs(os.path.dirname(os.path.abspath(out)), exist_ok=True)
+            Image.fromarray(game.rivers.render()).save(out, format="PNG")
         return game
 
     import pyglet
@@ -206,14 +207,20 @@ def run(frames: int | None, seed: int = 0, headless: bool = False,
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--headless", action="store_true", help="no window (offscreen)")
-    parser.add_argument("--frames", type=int, default=None, help="steps to run")
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--out", default=None, help="headless: write the last frame here")
+    parser.add_argument("--frames", type=int, default=None,
+                        help="steps to run (headless default: 60; windowed: until closed)")
+    parser.add_argument("--seed", type=int, default=0, help="seed of the built-in scene")
+    parser.add_argument("--out", default=None, metavar="FILE.png",
+                        help="headless: write the last frame to this PNG file")
     args = parser.parse_args(argv)
+    if args.out is not None and (args.out.endswith(("/", os.sep)) or os.path.isdir(args.out)):
+        parser.error(f"--out takes a file name (e.g. {os.path.join(args.out, 'embed.png')}), "
+                     f"not the folder {args.out!r}")
     game = run(args.frames, args.seed, args.headless, out=args.out)
     barrel = game.entity(game.barrel, Floating)
     print(f"{game.frames} frames; barrel at ({barrel.position_m[0]:.1f}, "
-          f"{barrel.position_m[1]:.1f}) m; score ticks {game.entity(game.score, Score).ticks}")
+          f"{barrel.position_m[1]:.1f}) m; score ticks {game.entity(game.score, Score).ticks}"
+          + (f"; wrote {os.path.abspath(args.out)}" if args.out and args.headless else ""))
     game.close()
     return 0
 

@@ -1,15 +1,19 @@
-"""The ``riverflow`` command line (SPEC §7): ``flowmap``, ``demo``, ``render``, ``profile``.
+"""The ``riverflow`` command line (SPEC §7): ``demo``, ``render``, ``profile``, ``flowmap``.
 
 Every subcommand's ``--help`` works without a display: nothing here imports pyglet, and the
 heavy modules (numba kernels, matplotlib, the default scene) load only when a command runs.
+Every option has a default, so a bare ``riverflow render`` or ``riverflow profile`` runs on the
+built-in scene and says what it did.
 
+    riverflow render                                  # → out/render.png
     riverflow flowmap --scene rivers.graph --out out/flowmap.png
-    python -m riverflow demo --out out/demo
+    python -m riverflow demo --headless --out out/demo
 """
 from __future__ import annotations
 
 import argparse
 import sys
+import time
 from pathlib import Path
 from typing import Any
 
@@ -24,7 +28,7 @@ here so that ``--help`` needs no numba import."""
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the command line; returns the exit status (0 ok, 1 failure, 2 usage / not yet)."""
+    """Run the command line; returns the exit status (0 ok, 1 failure, 2 usage)."""
     parser = _parser()
     args = parser.parse_args(argv)
     if args.command is None:
@@ -39,9 +43,12 @@ def main(argv: list[str] | None = None) -> int:
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="riverflow",
-        description="Real-time flowing rivers (after Proland and Yu et al. 2009): flow "
-                    "pictures now; the boat demo, offscreen rendering and profiling are in "
-                    "progress.")
+        description="Real-time flowing rivers for 3-D games (after Proland and Yu et al. "
+                    "2009): the playable boat demo, offscreen frames of a scripted flight, "
+                    "per-system timings and pictures of a river network's flow. Every option "
+                    "has a default: try 'riverflow render' or 'riverflow demo'.",
+        epilog="'riverflow COMMAND --help' tells more. With no display, drawing goes through "
+               "EGL offscreen (Mesa's llvmpipe works with no GPU).")
     from riverflow import __version__
 
     parser.add_argument("--version", action="version", version=f"riverflow {__version__}")
@@ -54,8 +61,8 @@ def _parser() -> argparse.ArgumentParser:
                     "ψ, axes dashed, closing segments, and the terrain as a hillshade for the "
                     "built-in scene. Needs matplotlib (pip install 'riverflow[plot]').")
     _scene_args(p)
-    p.add_argument("--out", type=Path, default=Path("out/flowmap.png"), metavar="FILE.png",
-                   help="the picture to write (default: %(default)s)")
+    p.add_argument("--out", type=_file, default=Path("out/flowmap.png"), metavar="FILE.png",
+                   help="the picture to write, a file (default: %(default)s)")
     p.add_argument("--slip", type=_positive, default=1.0, metavar="S",
                    help="exponent of the bank weights d^-S (default: %(default)s)")
     p.add_argument("--radius-factor", type=_positive, default=5.0, metavar="F",
@@ -76,33 +83,38 @@ def _parser() -> argparse.ArgumentParser:
                    help="no window: render the scripted run to PNG frames and an animated GIF")
     p.add_argument("--frames", type=_positive_int, default=None, metavar="N",
                    help="frames to run (headless default: 600; windowed: until ESC)")
-    p.add_argument("--out", type=Path, default=Path("out/demo"), metavar="DIR",
-                   help="folder for the headless frames (default: %(default)s)")
+    p.add_argument("--out", type=_folder, default=Path("out/demo"), metavar="DIR",
+                   help="headless: the folder for frame_NNNNN.png and demo.gif (default: "
+                        "%(default)s)")
     p.add_argument("--size", type=_size, default=None, metavar="WxH",
                    help="window / frame size (default: 1280x720 windowed, 640x360 headless)")
     p.add_argument("--script", type=Path, default=None, metavar="FILE",
-                   help="key script for the headless run (lines 'FRAME KEY down|up|tap'); "
-                        "default: the built-in run")
+                   help="key script for the headless run: lines 'FRAME KEY down|up|tap' "
+                        "(e.g. '0 W down', '420 3 tap'; '#' starts a comment; keys as on the "
+                        "keyboard: W, A, S, D, UP, LEFT, 1-6, G, P, V, T, C, SPACE, +, -, "
+                        "F2…); default: the built-in run")
     p.add_argument("--every", type=_positive_int, default=10, metavar="K",
                    help="headless: write every K-th frame (default: %(default)s)")
     p.set_defaults(run=_demo)
 
     p = sub.add_parser(
-        "render", help="render a scripted run offscreen and save its last frame as a PNG",
+        "render", help="render a scripted flight offscreen and save its last frame as a PNG",
         description="Fly the scripted chase camera down the scene's main river for N frames "
                     "at 1/60 s (particles, flow tiles, wave sprites), draw the last frame with "
                     "offscreen OpenGL (EGL when there is no display) in the given display mode "
                     "and save it as a PNG. A graph file is put on procedural hills with its rivers "
-                    "carved in (riverflow.landscape).")
+                    "carved in (riverflow.landscape). With no options: the built-in scene, "
+                    "1280x720, 240 frames, advected wave sprites, out/render.png.")
     _scene_args(p)
-    p.add_argument("--size", type=_size, required=True, metavar="WxH",
-                   help="frame size in pixels, e.g. 1280x720")
-    p.add_argument("--frames", type=_positive_int, required=True, metavar="N",
-                   help="frames to run before saving")
-    p.add_argument("--mode", choices=DISPLAY_MODES, required=True,
-                   help="display mode: one of %(choices)s")
-    p.add_argument("--out", type=Path, required=True, metavar="FILE.png",
-                   help="the frame to write")
+    p.add_argument("--size", type=_size, default=(1280, 720), metavar="WxH",
+                   help="frame size in pixels (default: 1280x720)")
+    p.add_argument("--frames", type=_positive_int, default=240, metavar="N",
+                   help="frames to run before saving (default: %(default)s, 4 s of flight)")
+    p.add_argument("--mode", choices=DISPLAY_MODES, default="advected",
+                   help="display mode: one of %(choices)s (default: %(default)s; the README "
+                        "says what each colour of the debug modes means)")
+    p.add_argument("--out", type=_png_file, default=Path("out/render.png"), metavar="FILE.png",
+                   help="the frame to write, a .png file (default: %(default)s)")
     p.add_argument("--radius-px", type=_positive, default=None, metavar="R",
                    help="Poisson-disk radius of the particles in pixels (default: "
                         "RiverConfig's, 10)")
@@ -112,14 +124,17 @@ def _parser() -> argparse.ArgumentParser:
         "profile", help="time every system of a scripted camera flight (no drawing)",
         description="Fly a chase camera down the scene's main river (particles, flow tiles, no "
                     "drawing) and print mean / p50 / p95 ms per system and the particle "
-                    "count, or JSON. A graph file is put on procedural hills (riverflow.landscape).")
+                    "count, or JSON. A graph file is put on procedural hills "
+                    "(riverflow.landscape). With no options: the built-in scene at 1920x1080, "
+                    "r = 10 px, 300 frames "
+                    "timed after 60 of warm-up (the design's performance case).")
     _scene_args(p)
-    p.add_argument("--size", type=_size, required=True, metavar="WxH",
-                   help="screen size in pixels, e.g. 1920x1080")
-    p.add_argument("--radius-px", type=_positive, required=True, metavar="R",
-                   help="Poisson-disk radius of the particles in pixels, e.g. 10")
-    p.add_argument("--frames", type=_positive_int, required=True, metavar="N",
-                   help="frames to time")
+    p.add_argument("--size", type=_size, default=(1920, 1080), metavar="WxH",
+                   help="screen size in pixels (default: 1920x1080)")
+    p.add_argument("--radius-px", type=_positive, default=10.0, metavar="R",
+                   help="Poisson-disk radius of the particles in pixels (default: 10)")
+    p.add_argument("--frames", type=_positive_int, default=300, metavar="N",
+                   help="frames to time, after 60 frames of warm-up (default: %(default)s)")
     p.add_argument("--json", action="store_true", help="print the timings as JSON")
     p.set_defaults(run=_profile)
 
@@ -156,6 +171,29 @@ def _positive_int(text: str) -> int:
     if value < 1:
         raise argparse.ArgumentTypeError(f"must be at least 1, got {text!r}")
     return value
+
+
+def _file(text: str) -> Path:
+    """An output file's path: not a folder (``--out`` says FILE where it means one)."""
+    path = Path(text)
+    if text.endswith(("/", "\\")) or path.is_dir():
+        raise argparse.ArgumentTypeError(f"expected a file name, got the folder {text!r} "
+                                         f"(e.g. {str(path / 'frame.png')!r})")
+    return path
+
+
+def _folder(text: str) -> Path:
+    path = Path(text)
+    if path.exists() and not path.is_dir():
+        raise argparse.ArgumentTypeError(f"expected a folder, got the file {text!r}")
+    return path
+
+
+def _png_file(text: str) -> Path:
+    path = _file(text)
+    if path.suffix.lower() != ".png":
+        raise argparse.ArgumentTypeError(f"expected a .png file name, got {text!r}")
+    return path
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -197,7 +235,8 @@ def _demo(args: argparse.Namespace) -> int:
             from riverflow.engine.controls import KeyScript
 
             try:
-                script = KeyScript.from_text(args.script.read_text(), str(args.script))
+                script = KeyScript.from_text(args.script.read_text(), str(args.script),
+                                             keys=demo.KEYS)
             except (OSError, ValueError) as exc:
                 print(f"riverflow demo: {exc}", file=sys.stderr)
                 return 1
@@ -225,13 +264,22 @@ def _profile(args: argparse.Namespace) -> int:
         return 1
     from riverflow.engine.profiling import format_profile, profile_flight
 
+    w, h = args.size
+    if not args.json:
+        print(f"riverflow profile: {title}, {w}x{h}, r = {args.radius_px:g} px: a chase camera "
+              f"down the main river, 60 frames of warm-up then {args.frames} timed "
+              f"(no drawing)…", flush=True)
+    start = time.perf_counter()
     try:
         result = profile_flight(scene, args.size, args.radius_px, args.frames)
     except (ValueError, OSError) as exc:
         print(f"riverflow profile: {exc}", file=sys.stderr)
         return 1
     result["scene"] = title
-    print(json.dumps(result, indent=2) if args.json else f"{title}\n{format_profile(result)}")
+    if args.json:
+        print(json.dumps(result, indent=2))
+    else:
+        print(f"{format_profile(result)}\n({time.perf_counter() - start:.1f} s)")
     return 0
 
 
@@ -241,7 +289,7 @@ def _render(args: argparse.Namespace) -> int:
         return 1
     import dataclasses
 
-    from riverflow.components.display import settings_for
+    from riverflow.components.display import legend, settings_for
     from riverflow.engine.config import RiverConfig
     from riverflow.engine.world import RiverWorld
     from riverflow.scenes.flight import fly
@@ -249,6 +297,10 @@ def _render(args: argparse.Namespace) -> int:
     config = RiverConfig.from_env()
     if args.radius_px is not None:
         config = dataclasses.replace(config, radius_px=args.radius_px)
+    w, h = args.size
+    print(f"riverflow render: {title}, {w}x{h}, {args.frames} frames of the chase flight, "
+          f"mode {args.mode}…", flush=True)
+    start = time.perf_counter()
     try:
         world = RiverWorld(scene, size=args.size, gl=True, seed=args.seed, config=config)
     except Exception as exc:  # no OpenGL context: say what would help
@@ -259,6 +311,8 @@ def _render(args: argparse.Namespace) -> int:
             setattr(world.display, name, value)
         fly(world, args.frames)
         frame = world.render()
+        particles = len(world.particles)
+        entries = legend(world.display)
     from riverflow.images import save_png
 
     try:
@@ -266,8 +320,10 @@ def _render(args: argparse.Namespace) -> int:
     except OSError as exc:
         print(f"riverflow render: cannot write {args.out}: {exc}", file=sys.stderr)
         return 1
-    print(f"wrote {path.resolve()} ({title}, {args.size[0]}x{args.size[1]}, mode {args.mode}, "
-          f"{args.frames} frames, {len(world.particles)} particles)")
+    print(f"wrote {path.resolve()} ({title}, {w}x{h}, mode {args.mode}, {args.frames} "
+          f"frames, {particles} particles, {time.perf_counter() - start:.1f} s)")
+    if any(colour is not None for colour, _ in entries):      # a debug mode: its colours
+        print("colours: " + "\n         ".join(text for _, text in entries))
     return 0
 
 
@@ -307,13 +363,8 @@ def _load_scene(args: argparse.Namespace) -> tuple[Any, str]:
         except (GraphError, OSError, ImportError) as exc:
             print(f"riverflow {args.command}: cannot load {args.scene}: {exc}", file=sys.stderr)
             return None, ""
-    try:
-        from riverflow.scenes.default import default_scene
-    except Exception as exc:  # the built-in scene is still being written: say so, don't crash
-        print(f"riverflow {args.command}: the built-in scene is not available "
-              f"({type(exc).__name__}: {exc}); pass a hydro-graph file with --scene FILE",
-              file=sys.stderr)
-        return None, ""
+    from riverflow.scenes.default import default_scene
+
     return default_scene(seed=args.seed), f"built-in scene, seed {args.seed}"
 
 

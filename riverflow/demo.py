@@ -5,6 +5,8 @@ camera rigs and the input state, and steps at a fixed rate. :func:`run_window` p
 pyglet window (fixed-step loop, resize, vsync, HUD, help overlay); :func:`run_headless` feeds
 it a :class:`~riverflow.engine.controls.KeyScript` frame by frame and writes PNG frames and an
 animated GIF — what ``make demo`` does on a machine with no display, and what tests drive.
+The HUD (fps, ms a frame, particles, ms per system, and a legend of the colours of the debug
+mode on screen: :func:`riverflow.components.display.legend`) is on both.
 
 Keys (pyglet names) — also shown by the help overlay (H):
 
@@ -31,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-from riverflow.components.display import DisplayMode
+from riverflow.components.display import DisplayMode, legend
 from riverflow.components.waves import WaveKind
 from riverflow.engine.camera_rigs import ChaseCamera, FreeFlyCamera
 from riverflow.engine.config import RiverConfig
@@ -43,6 +45,10 @@ STEP_S = 1.0 / 60.0
 MODE_KEYS = {"_1": DisplayMode.NONE, "_2": DisplayMode.MESH, "_3": DisplayMode.COVERAGE,
              "_4": DisplayMode.ADVECTED, "_5": DisplayMode.PRE_ADVECTED,
              "_6": DisplayMode.NON_ADVECTED}
+KEYS = frozenset({"W", "S", "A", "D", "UP", "DOWN", "LEFT", "RIGHT", "Q", "E", "C", *MODE_KEYS,
+                  "G", "P", "V", "T", "SPACE", "PLUS", "EQUAL", "NUM_ADD", "MINUS",
+                  "NUM_SUBTRACT", "H", "F1", "F2", "ESCAPE"})
+"""The keys the demo reacts to (pyglet names); a key script naming another is an error."""
 HELP = """riverflow boat demo
 W/S or UP/DOWN   throttle        A/D or LEFT/RIGHT  rudder
 C  chase / free camera (free: WASD, Q/E, mouse drag)
@@ -51,14 +57,14 @@ G grid   P particles   V velocity arrows   T wave tile
 SPACE pause particles   +/- flow speed   F2 screenshot
 H help   ESC quit"""
 
-DEFAULT_SCRIPT = """# the scripted run of `riverflow demo --headless` (and of make demo with no display)
+DEFAULT_SCRIPT = """# the scripted run of `riverflow demo --headless` (make demo with no display)
 0    W    down     # full throttle down the river
 150  D    down     # turn to starboard, towards the bank
 210  D    up
 300  A    down     # and back
 390  A    up
-420  _3   tap      # coverage view
-480  _4   tap      # advected wave sprites again
+420  3    tap      # coverage view
+480  4    tap      # advected wave sprites again
 480  P    tap      # particles on
 540  P    tap      # and off
 560  W    up       # drift with the flow
@@ -70,6 +76,8 @@ class Hud:
     """What the HUD shows, refreshed every frame."""
 
     fps: float = 0.0
+    frame_ms: float = 0.0
+    """Wall time of a frame (window: between draws; headless: step + draw + read-back)."""
     particles: int = 0
     timings_ms: dict[str, float] = field(default_factory=dict)
     message: str = ""
@@ -79,9 +87,14 @@ class Hud:
         boat = demo.boat_state
         speed = float(np.hypot(*boat.velocity_mps))
         world = demo.world
-        mode = world.display.mode.name.lower().replace("_", "-")
+        display = world.display
+        mode = display.mode.name.lower().replace("_", "-")
+        mode += "".join(f" + {name}" for name, on in (("grid", display.show_grid),
+                                                       ("particles", display.show_particles),
+                                                       ("arrows", display.show_velocities))
+                        if on)
         total = sum(v for k, v in self.timings_ms.items() if k != "draw")
-        rate = f"{self.fps:5.1f} fps   " if self.fps > 0 else ""
+        rate = f"{self.fps:5.1f} fps {self.frame_ms:5.1f} ms   " if self.fps > 0 else ""
         out = [f"{rate}{self.particles} particles   "
                f"{'PAUSED   ' if world.paused else ''}flow x{world.speed_factor:g}",
                f"boat {speed:4.1f} m/s  throttle {boat.throttle:+.1f}  rudder {boat.rudder:+.1f}"
@@ -92,6 +105,11 @@ class Hud:
         if self.message and time.monotonic() < self.message_until_s:
             out.append(self.message)
         return out
+
+    @staticmethod
+    def legend(demo: BoatDemo) -> list[tuple[tuple[int, int, int] | None, str]]:
+        """What the colours on screen mean: (8-bit RGB swatch or None, text) per line."""
+        return legend(demo.world.display)
 
 
 class BoatDemo:
@@ -241,11 +259,43 @@ def _start_pose(scene) -> tuple[np.ndarray, float]:
 
 @dataclass
 class HeadlessRun:
-    """What :func:`run_headless` wrote and the boat's path (F, 3) (x, y [m], heading [rad])."""
+    """What :func:`run_headless` wrote, the boat's path (F, 3) (x, y [m], heading [rad]) and
+    the HUD's lines on the last frame written."""
 
     frames: list[Path]
     animation: Path | None
     path: np.ndarray
+    hud: list[str] = field(default_factory=list)
+
+
+def draw_hud(image, lines: list[str], entries: list) -> None:
+    """Write the HUD's ``lines`` (top left) and the colour legend ``entries`` (bottom left,
+    a swatch per colour) onto a PIL RGBA ``image``, on translucent panels."""
+    from PIL import Image, ImageDraw, ImageFont
+
+    font = ImageFont.load_default(size=10)
+    step = 12
+    panel = Image.new("RGBA", image.size, (0, 0, 0, 0))
+    shade = ImageDraw.Draw(panel)
+
+    def box(x0, y0, texts, pad):
+        if texts:
+            w = max(shade.textlength(t, font=font) for t in texts) + pad + 8
+            shade.rectangle((x0 - 4, y0 - 3, x0 + w, y0 + step * len(texts) + 1),
+                            fill=(0, 0, 0, 110))
+    box(6, 4, lines, 0)
+    y_legend = image.size[1] - 6 - step * len(entries)
+    box(6, y_legend, [t for _, t in entries], 14)
+    image.alpha_composite(panel)
+    draw = ImageDraw.Draw(image)
+    for k, line in enumerate(lines):
+        draw.text((6, 4 + step * k), line, fill=(255, 255, 255, 255), font=font)
+    for k, (colour, text) in enumerate(entries):
+        y = y_legend + step * k
+        if colour is not None:
+            draw.rectangle((6, y + 2, 14, y + 10), fill=(*colour, 255),
+                           outline=(255, 255, 255, 160))
+        draw.text((20, y), text, fill=(255, 255, 255, 255), font=font)
 
 
 def run_headless(frames: int, out: Path, *, scene=None, size=(640, 360), seed: int = 0,
@@ -253,30 +303,38 @@ def run_headless(frames: int, out: Path, *, scene=None, size=(640, 360), seed: i
                  config: RiverConfig | None = None, hud: bool = True) -> HeadlessRun:
     """Play ``frames`` fixed steps of the demo with ``script`` (default: the built-in run) and
     no window; write every ``every``-th frame (and the last) as ``out/frame_NNNNN.png`` and all
-    of them as ``out/demo.gif``. Deterministic: flow tiles are made in the frame, so the same
-    seed and script give the same path and the same frames."""
+    of them as ``out/demo.gif``, with the HUD (``hud``: fps and ms of the frame as measured
+    here — step, draw and read-back —, particles, ms per system, the colour legend).
+    Deterministic: flow tiles are made in the frame, so the same seed and script give the same
+    path and, but for the HUD's measured times (``hud=False``), the same frames."""
     import dataclasses
 
-    from PIL import Image, ImageDraw
+    from PIL import Image
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     config = dataclasses.replace(config or RiverConfig(), tile_production="blocking")
     script = script if script is not None else KeyScript.from_text(DEFAULT_SCRIPT, "built-in")
     demo = BoatDemo(scene, size, seed=seed, config=config, screenshots=out)
-    written, stills, path = [], [], []
+    written, stills, path, lines = [], [], [], []
     try:
         for f in range(frames):
             script.feed(f, demo.input)
+            t0 = time.perf_counter()
             demo.step(STEP_S)
+            step_ms = (time.perf_counter() - t0) * 1e3
             boat = demo.boat_state
             path.append((*boat.position_m, boat.heading_rad))
             if f % every == 0 or f == frames - 1:
+                t0 = time.perf_counter()
                 image = Image.fromarray(demo.world.render(), "RGBA")
+                frame_ms = step_ms + (time.perf_counter() - t0) * 1e3
+                demo.hud.frame_ms = frame_ms
+                demo.hud.fps = 1e3 / max(frame_ms, 1e-3)
+                demo.hud.timings_ms = dict(demo.world.timings_ms)   # with this frame's draw
                 if hud:
-                    draw = ImageDraw.Draw(image)
-                    for k, line in enumerate(demo.hud.lines(demo)[:2]):
-                        draw.text((6, 4 + 12 * k), line, fill=(255, 255, 255, 255))
+                    lines = demo.hud.lines(demo)
+                    draw_hud(image, lines, demo.hud.legend(demo))
                 file = out / f"frame_{f:05d}.png"
                 image.save(file)
                 written.append(file)
@@ -288,7 +346,7 @@ def run_headless(frames: int, out: Path, *, scene=None, size=(640, 360), seed: i
         animation = out / "demo.gif"
         stills[0].save(animation, save_all=True, append_images=stills[1:],
                        duration=int(round(1000 * every * STEP_S)), loop=0)
-    return HeadlessRun(written, animation, np.asarray(path, np.float64))
+    return HeadlessRun(written, animation, np.asarray(path, np.float64), lines)
 
 
 # -- window --------------------------------------------------------------------------------------
@@ -315,6 +373,7 @@ def run_window(*, scene=None, size=(1280, 720), seed: int = 0, frames: int | Non
     help_label = pyglet.text.Label(HELP, x=10, y=10, anchor_y="bottom", multiline=True,
                                    width=max(window.width - 20, 100), font_size=12,
                                    color=(255, 255, 210, 255))
+    legend_panel = _WindowLegend()
     drawn = [0]
     clock = {"last": time.perf_counter(), "fps": 0.0}
 
@@ -348,9 +407,13 @@ def run_window(*, scene=None, size=(1280, 720), seed: int = 0, frames: int | Non
             demo.world.draw()
             demo.world.blit_to_window(fw, fh)
         hud.text = "\n".join(demo.hud.lines(demo))
+        shade.height = hud.content_height + 16        # the lines wrap in a narrow window
+        shade.y = window.height - shade.height
         batch.draw()
         if demo.show_help:
             help_label.draw()
+        else:
+            legend_panel.draw(demo.hud.legend(demo))
         drawn[0] += 1
         now = time.perf_counter()
         dt = now - clock["last"]
@@ -358,6 +421,7 @@ def run_window(*, scene=None, size=(1280, 720), seed: int = 0, frames: int | Non
         if dt > 0:
             clock["fps"] = 0.9 * clock["fps"] + 0.1 / dt if clock["fps"] else 1.0 / dt
         demo.hud.fps = clock["fps"]
+        demo.hud.frame_ms = 1e3 / clock["fps"] if clock["fps"] > 0 else 0.0
         if frames is not None and drawn[0] >= frames:
             demo.quit_requested = True
 
@@ -384,3 +448,41 @@ def run_window(*, scene=None, size=(1280, 720), seed: int = 0, frames: int | Non
     finally:
         demo.close()
     return drawn[0]
+
+
+class _WindowLegend:
+    """The colour legend of the window's HUD (bottom left): a swatch and a label per line,
+    remade when the lines change (a key switched the mode or an overlay)."""
+
+    LINE_PX = 17
+
+    def __init__(self) -> None:
+        self.entries: list = []
+        self.batch = None
+        self.items: list = []
+
+    def draw(self, entries: list) -> None:
+        if entries != self.entries:
+            self._build(entries)
+        if self.batch is not None:
+            self.batch.draw()
+
+    def _build(self, entries: list) -> None:
+        import pyglet
+
+        self.entries = list(entries)
+        self.batch = pyglet.graphics.Batch()
+        back, front = pyglet.graphics.Group(order=0), pyglet.graphics.Group(order=1)
+        n = len(entries)
+        labels = [pyglet.text.Label(text, x=30, y=10 + self.LINE_PX * (n - 1 - k) + 1,
+                                    font_size=10, color=(255, 255, 255, 255), batch=self.batch,
+                                    group=front) for k, (_, text) in enumerate(entries)]
+        width = max((label.content_width for label in labels), default=0) + 30
+        self.items = [*labels, pyglet.shapes.Rectangle(4, 5, width, self.LINE_PX * n + 6,
+                                                       color=(0, 0, 0, 110), batch=self.batch,
+                                                       group=back)]
+        for k, (colour, _) in enumerate(entries):
+            if colour is not None:
+                self.items.append(pyglet.shapes.Rectangle(
+                    12, 10 + self.LINE_PX * (n - 1 - k) + 2, 11, 11, color=(*colour, 255),
+                    batch=self.batch, group=front))

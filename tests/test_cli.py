@@ -62,6 +62,22 @@ def test_help_of_every_subcommand_imports_no_pyglet():
     assert result.returncode == 0, result.stderr
 
 
+def test_help_texts_are_current():
+    for sub in [None, *SUBCOMMANDS]:
+        out = run_cli(*([sub] if sub else []), "--help").stdout
+        assert "in progress" not in out and "not yet" not in out, (sub, out)
+
+
+def test_render_and_profile_have_defaults_for_every_option():
+    from riverflow.__main__ import _parser
+
+    render = _parser().parse_args(["render"])
+    assert (render.size, render.frames, render.mode, render.out) == \
+        ((1280, 720), 240, "advected", Path("out/render.png"))
+    profile = _parser().parse_args(["profile"])
+    assert (profile.size, profile.radius_px, profile.frames) == ((1920, 1080), 10.0, 300)
+
+
 def test_render_help_lists_the_display_modes():
     from riverflow.__main__ import DISPLAY_MODES
 
@@ -130,6 +146,66 @@ def test_demo_rejects_a_bad_script(tmp_path):
                      "--out", str(tmp_path / "demo"))
     assert result.returncode == 1
     assert "keys.txt:2" in result.stderr
+
+
+def test_demo_rejects_an_unknown_key_with_its_line(tmp_path):
+    script = tmp_path / "keys.txt"
+    script.write_text("# a comment\n0 W down\n10 3 tap\n20 X tap\n")
+    result = run_cli("demo", "--headless", "--frames", "2", "--script", str(script),
+                     "--out", str(tmp_path / "demo"))
+    assert result.returncode == 1
+    assert "keys.txt:4: unknown key 'X'" in result.stderr, result.stderr
+    assert "Traceback" not in result.stderr and not (tmp_path / "demo").exists()
+
+
+def test_out_means_a_file_where_it_says_file(tmp_path):
+    folder = tmp_path / "frames"
+    folder.mkdir()
+    for args in (["render", "--out", str(folder)], ["render", "--out", f"{tmp_path}/new/"],
+                 ["flowmap", "--out", str(folder)]):
+        result = run_cli(*args)
+        assert result.returncode == 2 and "expected a file name" in result.stderr, args
+    result = run_cli("render", "--out", str(tmp_path / "frame.jpg"))
+    assert result.returncode == 2 and "expected a .png file name" in result.stderr
+    (tmp_path / "file").write_text("")
+    result = run_cli("demo", "--headless", "--out", str(tmp_path / "file"))
+    assert result.returncode == 2 and "expected a folder" in result.stderr
+    assert list(folder.iterdir()) == []
+
+
+@pytest.mark.gl
+@pytest.mark.slow
+def test_bare_render_runs_on_the_defaults_and_says_what_it_did(tmp_path):
+    result = run_cli("render", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    out = tmp_path / "out" / "render.png"
+    from PIL import Image
+
+    with Image.open(out) as image:
+        assert image.size == (1280, 720)
+    said = result.stdout
+    for what in ("built-in scene, seed 0", "1280x720", "240 frames", "mode advected",
+                 f"wrote {out.resolve()}", "particles"):
+        assert what in said, (what, said)
+
+
+@pytest.mark.gl
+def test_render_of_a_debug_mode_prints_its_legend(tiny_channel_path, tmp_path):
+    out = tmp_path / "coverage.png"
+    result = run_cli("render", "--scene", str(tiny_channel_path), "--size", "64x48",
+                     "--frames", "2", "--mode", "coverage", "--out", str(out))
+    assert result.returncode == 0, result.stderr
+    assert "colours: red:" in result.stdout and "magenta:" in result.stdout
+
+
+def test_profile_defaults_all_but_frames(tiny_channel_path, tmp_path):
+    import json
+
+    result = run_cli("profile", "--scene", str(tiny_channel_path), "--frames", "3", "--json",
+                     cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    data = json.loads(result.stdout)
+    assert data["size"] == [1920, 1080] and data["radius_px"] == 10.0 and data["frames"] == 3
 
 
 @pytest.mark.gl

@@ -24,7 +24,7 @@ SCRIPT = KeyScript.from_text("""
     0   W  down
     100 D  down
     160 D  up
-    170 _3 tap
+    170 3  tap
     200 P  tap
 """)
 
@@ -40,7 +40,8 @@ def test_same_seed_and_script_give_the_same_path_and_frames(scene, tmp_path):
 
     from riverflow.demo import run_headless
     runs = [run_headless(240, tmp_path / f"run{k}", scene=scene, size=(160, 96), seed=3,
-                         script=KeyScript(SCRIPT.events), every=80) for k in range(2)]
+                         script=KeyScript(SCRIPT.events), every=80, hud=False)
+            for k in range(2)]     # the HUD shows measured times: frames equal without it
     a, b = runs
     assert np.array_equal(a.path, b.path)
     assert len(a.frames) == len(b.frames) == 4       # frames 0, 80, 160 and 239 (the last)
@@ -52,6 +53,61 @@ def test_same_seed_and_script_give_the_same_path_and_frames(scene, tmp_path):
     assert a.animation is not None and a.animation.stat().st_size > 0
 
 
+@pytest.mark.gl
+def test_headless_frames_carry_a_hud_with_fps_ms_and_the_legend(scene, tmp_path):
+    from PIL import Image
+
+    from riverflow.demo import run_headless
+    script = KeyScript.from_text("0 3 tap")               # coverage: a legend with colours
+    kwargs = dict(scene=scene, size=(320, 180), seed=0, every=10)
+    bare = run_headless(2, tmp_path / "bare", script=KeyScript(script.events), hud=False,
+                        **kwargs)
+    run = run_headless(2, tmp_path / "hud", script=script, **kwargs)
+    top = run.hud[0].split()
+    assert top[1] == "fps" and top[3] == "ms" and float(top[0]) > 0 and float(top[2]) > 0
+    assert "water coverage" in run.hud[1] and run.hud[2].startswith("simulation ")
+    assert run.hud[3].startswith("draw ")
+    with_hud = np.asarray(Image.open(run.frames[-1]), np.int16)
+    without = np.asarray(Image.open(bare.frames[-1]), np.int16)
+    changed = np.abs(with_hud - without).max(axis=2) > 0
+    assert changed[:40, :100].mean() > 0.05                # the HUD, top left
+    assert changed[-50:, :100].mean() > 0.05               # the legend, bottom left
+    assert not changed[60:120, 200:].any()                 # the picture itself is untouched
+
+
+def test_the_legend_names_every_colour_the_debug_shaders_draw():
+    """The HUD's and README's legend (components.display) against the shaders' colours."""
+    import re
+
+    from riverflow.components.display import legend, settings_for
+    from riverflow.components.status import FlowStatus
+
+    shaders = REPO / "riverflow" / "shaders"
+
+    def swatches(name):
+        return {c for c, _ in legend(settings_for(name)) if c is not None}
+
+    def rgb(text):
+        return tuple(round(255 * float(v)) for v in text.split(","))
+
+    particles = (shaders / "particles.glsl").read_text()
+    drawn = {m[0]: rgb(m[1]) for m in re.findall(
+        r"FLOW_STATUS_(\w+)\) c = vec3\(([^)]*)\)", particles)}
+    drawn = {k: v * 3 if len(v) == 1 else v for k, v in drawn.items()}   # vec3(1.0)
+    assert set(drawn) == {s.name for s in FlowStatus} - {"UNKNOWN"}
+    assert set(drawn.values()) <= swatches("particles")
+    arrows = (shaders / "arrows.glsl").read_text()
+    ends = re.search(r"mix\(vec3\(([^)]*)\), vec3\(([^)]*)\)", arrows).groups()
+    assert {rgb(e) for e in ends} <= swatches("velocities")
+    water = (shaders / "water.glsl").read_text()
+    assert "vec3(0.10, 0.35, 0.75)" in water and (26, 89, 191) in swatches("mesh")
+    coverage = [t for _, t in legend(settings_for("coverage"))]
+    for word in ("red", "green", "blue", "magenta"):
+        assert any(t.startswith(word) for t in coverage), word
+    for name in ("none", "advected", "pre-advected", "non-advected", "grid"):
+        assert legend(settings_for(name)), name
+
+
 def test_keys_drive_the_boat_and_the_display(scene):
     from riverflow.demo import BoatDemo
     demo = BoatDemo(scene, (96, 64), seed=0, gl=False,
@@ -60,7 +116,7 @@ def test_keys_drive_the_boat_and_the_display(scene):
         script = KeyScript.from_text("""
             0 W down
             0 LEFT down
-            1 _2 tap
+            1 2 tap
             2 G tap
             3 SPACE tap
             4 EQUAL tap
@@ -128,12 +184,17 @@ def test_embed_runs_headless_and_leaves_the_host_entities_alone():
 @pytest.mark.gl
 def test_embed_command_line_runs_headless(tmp_path):
     env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
+    out = tmp_path / "shots" / "x.png"
     result = subprocess.run([sys.executable, str(REPO / "demos" / "embed.py"), "--headless",
-                             "--frames", "5", "--seed", "1", "--out", str(tmp_path)], env=env,
+                             "--frames", "5", "--seed", "1", "--out", str(out)], env=env,
                             capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stderr
-    assert "5 frames; barrel at" in result.stdout
-    assert (tmp_path / "embed.png").exists()
+    assert "5 frames; barrel at" in result.stdout and f"wrote {out}" in result.stdout
+    assert out.is_file() and out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    folder = subprocess.run([sys.executable, str(REPO / "demos" / "embed.py"), "--headless",
+                             "--frames", "1", "--out", str(tmp_path)], env=env,
+                            capture_output=True, text=True, timeout=300)
+    assert folder.returncode == 2 and "takes a file name" in folder.stderr
 
 
 @pytest.fixture

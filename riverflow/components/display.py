@@ -78,6 +78,71 @@ MODE_NAMES: dict[str, dict[str, object]] = {
 }
 """The display-mode names of the command line and the demo (SPEC §4) → settings."""
 
+Colour = tuple[int, int, int]
+
+
+def _rgb(r: float, g: float, b: float) -> Colour:
+    """A shader's colour (0–1) as 8-bit RGB."""
+    return (round(255 * r), round(255 * g), round(255 * b))
+
+
+MODE_LEGENDS: dict[DisplayMode, list[tuple[Colour | None, str]]] = {
+    DisplayMode.NONE: [(None, "water off: the carved river bed and the ground")],
+    DisplayMode.MESH: [(_rgb(0.10, 0.35, 0.75), "the water mesh in one flat colour")],
+    DisplayMode.COVERAGE: [
+        (_rgb(1, 0, 0), "red: wave sprites covering the pixel, brighter = more (full at 16)"),
+        (_rgb(0, 1, 0), "green: water no sprite covers (a hole in the particles)"),
+        (_rgb(0, 0, 1), "blue: the pixel's grid cell lists 16 sprites, its most (full)"),
+        (_rgb(1, 0, 1), "magenta: covered and in a full cell (red + blue)"),
+    ],
+    DisplayMode.ADVECTED: [(None, "wave sprites carried by the flow, blended per pixel")],
+    DisplayMode.PRE_ADVECTED: [(None, "the same sprites, summed first into a float target")],
+    DisplayMode.NON_ADVECTED: [(None, "the wave texture fixed in the world, not carried")],
+}
+"""What each water mode's colours mean (``water.glsl``; the HUD and the README show it)."""
+
+GRID_LEGEND: list[tuple[Colour | None, str]] = [
+    (_rgb(0.8, 0.8, 0.8), "light lines: cells of the sprite grid (each lists up to 16)"),
+    (_rgb(0, 1, 0), "green tint: a full cell (sprites beyond 16 are left out)"),
+]
+"""The sprite-grid overlay (``water.glsl``, ``u_show_grid``)."""
+
+PARTICLE_LEGEND: list[tuple[Colour | None, str]] = [
+    (_rgb(0, 0, 1), "blue: in the water (inside)"),
+    (_rgb(0, 1, 0), "green: leaving the water, still drifting"),
+    (_rgb(0, 0.5, 0.5), "teal: near, giving way to one inside"),
+    (_rgb(1, 0, 0), "red: outside the water, stopped"),
+    (_rgb(0.5, 0, 0.5), "purple: leaving the flow's domain"),
+    (_rgb(1, 1, 0), "yellow: outside the flow's domain"),
+    (_rgb(1, 1, 1), "white: on the sky"),
+    (None, "dimmer = fading in or out; added to the picture: red on grass looks orange"),
+]
+"""Particles coloured by :class:`~riverflow.components.status.FlowStatus` × intensity
+(``particles.glsl``)."""
+
+ARROW_LEGEND: list[tuple[Colour | None, str]] = [
+    (_rgb(1, 1, 0.3), "arrows: the flow at each particle, {arrow_s:g} s of travel; yellow slow"),
+    (_rgb(1, 0.25, 0.1), "orange-red: 2 m/s or faster"),
+]
+"""Velocity arrows (``arrows.glsl``)."""
+
+
+_SHADED = (DisplayMode.ADVECTED, DisplayMode.PRE_ADVECTED, DisplayMode.NON_ADVECTED)
+
+
+def legend(settings: DisplaySettings) -> list[tuple[Colour | None, str]]:
+    """What the colours of the current drawing mean: (8-bit RGB or None, text) per line, the
+    water mode first, then each overlay that is on."""
+    mode = DisplayMode(settings.mode)
+    out = list(MODE_LEGENDS[mode])
+    if settings.show_grid and mode in _SHADED:       # mesh and coverage colours stay plain
+        out += GRID_LEGEND if mode == DisplayMode.ADVECTED else GRID_LEGEND[:1]
+    if settings.show_particles:
+        out += PARTICLE_LEGEND
+    if settings.show_velocities:
+        out += [(c, t.format(arrow_s=settings.arrow_s)) for c, t in ARROW_LEGEND]
+    return out
+
 
 def settings_for(name: str, **overrides) -> DisplaySettings:
     """Settings of a named display mode (a key of :data:`MODE_NAMES`)."""

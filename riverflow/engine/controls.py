@@ -2,19 +2,32 @@
 key presses per frame that drive the demo without a window (tests, headless runs).
 
 Keys are named as pyglet names them (``pyglet.window.key.symbol_string``: ``"W"``, ``"UP"``,
-``"SPACE"``, ``"_1"``, ``"F2"``…), so a window and a script speak the same language.
+``"SPACE"``, ``"_1"``, ``"F2"``…), so a window and a script speak the same language. A script
+may also write a key as it is on the keyboard: ``3`` for pyglet's ``_3``, ``+`` / ``-`` for
+``PLUS`` / ``MINUS``, ``ESC`` for ``ESCAPE``; letters in either case.
 
 Script text, one event per line (``#`` starts a comment)::
 
     0    W      down     # hold W from frame 0
     240  W      up
-    300  _3     tap      # press and release 3 at frame 300
+    300  3      tap      # press and release 3 at frame 300
 """
 from __future__ import annotations
 
+from collections.abc import Collection
 from dataclasses import dataclass, field
 
 KINDS = ("down", "up", "tap")
+ALIASES = {"+": "PLUS", "-": "MINUS", "=": "EQUAL", "ESC": "ESCAPE", "RETURN": "ENTER"}
+"""Keys a script may write as on the keyboard → pyglet's names (digits too: ``3`` → ``_3``)."""
+
+
+def key_name(word: str) -> str:
+    """pyglet's name of a key as a script writes it (``3`` → ``_3``, ``w`` → ``W``)."""
+    name = word.upper()
+    if len(name) == 1 and name.isdigit():
+        return f"_{name}"
+    return ALIASES.get(name, name)
 
 
 @dataclass
@@ -63,8 +76,11 @@ class KeyScript:
         self._releases: dict[int, list[str]] = {}
 
     @classmethod
-    def from_text(cls, text: str, source: str = "<script>") -> KeyScript:
-        """Parse the module's script format; errors name the source and the line."""
+    def from_text(cls, text: str, source: str = "<script>",
+                  keys: Collection[str] | None = None) -> KeyScript:
+        """Parse the module's script format; errors name the source and the line. ``keys``:
+        the pyglet names a game reacts to; any other key is an error (a typo would otherwise
+        do nothing, silently)."""
         events = []
         for number, line in enumerate(text.splitlines(), start=1):
             words = line.split("#", 1)[0].split()
@@ -73,7 +89,11 @@ class KeyScript:
             if len(words) != 3 or not words[0].isdigit() or words[2] not in KINDS:
                 raise ValueError(f"{source}:{number}: expected 'FRAME KEY down|up|tap', "
                                  f"got {line.strip()!r}")
-            events.append(KeyEvent(int(words[0]), words[1].upper(), words[2]))
+            key = key_name(words[1])
+            if keys is not None and key not in keys:
+                raise ValueError(f"{source}:{number}: unknown key {words[1]!r}; keys: "
+                                 f"{', '.join(_spoken(k) for k in keys)}")
+            events.append(KeyEvent(int(words[0]), key, words[2]))
         return cls(events)
 
     @property
@@ -92,3 +112,8 @@ class KeyScript:
                     state.key_down(e.key)
                     if e.kind == "tap":
                         self._releases.setdefault(frame + 1, []).append(e.key)
+
+
+def _spoken(name: str) -> str:
+    """A pyglet key name as a script may write it (``_3`` → ``3``)."""
+    return name[1:] if len(name) == 2 and name[0] == "_" and name[1].isdigit() else name

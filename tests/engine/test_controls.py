@@ -61,6 +61,21 @@ def test_key_script_errors_name_the_line():
         KeyScript([(0, "W", "hold")])
 
 
+def test_key_script_takes_keys_as_written_on_the_keyboard():
+    script = KeyScript.from_text("0 3 tap\n1 _4 tap\n2 + tap\n3 - tap\n4 esc tap\n5 w down\n")
+    assert [e.key for e in script.events] == ["_3", "_4", "PLUS", "MINUS", "ESCAPE", "W"]
+
+
+def test_key_script_rejects_a_key_the_game_does_not_know_naming_the_line():
+    keys = {"W", "_3"}
+    assert [e.key for e in KeyScript.from_text("0 W down\n1 3 tap", keys=keys).events] == \
+        ["W", "_3"]
+    with pytest.raises(ValueError) as info:
+        KeyScript.from_text("0 W down\n\n# now\n7 Z tap\n", "keys.txt", keys=keys)
+    message = str(info.value)
+    assert message.startswith("keys.txt:4: unknown key 'Z'") and "3" in message
+
+
 def test_pressing_a_held_key_is_one_press():
     state = InputState()
     state.key_down("A")
