@@ -6,18 +6,17 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 PYTHON ?= python3
 
-# numba's on-disk cache does not notice edits of @njit helpers in other modules
-# (reference/ecosystem.md §3.1), so the cache folder is keyed on all kernel sources.
-KERNEL_HASH := $(shell $(PYTHON) -c "import glob, hashlib; print(hashlib.sha1(b''.join(open(f, 'rb').read() for f in sorted(glob.glob('riverflow/kernels/*.py')))).hexdigest()[:12])")
-export NUMBA_CACHE_DIR := $(CURDIR)/.numba_cache/$(KERNEL_HASH)
+# Compiled kernels are kept by the package itself, in a per-user folder keyed by the sources
+# they are compiled from (riverflow/kernels/_cache.py); an explicit NUMBA_CACHE_DIR is honoured.
 
-.PHONY: help install demo test bench flowmap clean distclean
+.PHONY: help install demo test bench flowmap kernel-signatures clean distclean
 
 help:
 	@echo "make demo      play the boat demo (no display: renders its scripted run to out/demo/)"
 	@echo "make test      run the tests (headless)"
 	@echo "make bench     run every benchmarks/*.py"
 	@echo "make flowmap   draw the default scene's flow to out/flowmap.png"
+	@echo "make kernel-signatures   record the kernels' argument types for the warm-up"
 	@echo "make install   create $(VENV) and install riverflow[test,plot,gis] (the others do it too)"
 	@echo "make clean     remove caches and outputs; make distclean also removes $(VENV)"
 
@@ -43,6 +42,9 @@ bench: $(VENV)/.installed
 
 flowmap: $(VENV)/.installed
 	$(PY) -m riverflow flowmap --out out/flowmap.png
+
+kernel-signatures: $(VENV)/.installed
+	$(PY) tools/record_kernel_signatures.py
 
 clean:
 	rm -rf .numba_cache .pytest_cache out build dist *.egg-info

@@ -362,6 +362,12 @@ def run_window(*, scene=None, size=(1280, 720), seed: int = 0, frames: int | Non
                                  minor_version=3, forward_compatible=True)
     window = pyglet.window.Window(*size, caption="riverflow — boat demo", resizable=True,
                                   vsync=True, config=gl_config)
+    from riverflow.engine.loading import compile_with_loading_screen
+
+    if compile_with_loading_screen(window, ("scene", "world", "draw"),
+                                   title="riverflow — boat demo").closed:
+        window.close()                # closed while the kernels compiled
+        return 0
     demo = BoatDemo(scene, window.get_framebuffer_size(), seed=seed, config=config)
     batch = pyglet.graphics.Batch()
     back, front = pyglet.graphics.Group(order=0), pyglet.graphics.Group(order=1)

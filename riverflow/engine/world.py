@@ -40,6 +40,7 @@ from riverflow.engine.schedule import default_systems
 from riverflow.engine.system import System
 from riverflow.hydro.flow_field import FlowField
 from riverflow.hydro.tile_producer import FlowProducer
+from riverflow.kernels.warmup import compile_kernels
 from riverflow.scenes.tile_kinds import terrain_producers
 from riverflow.tiles.cache import TileCache
 from riverflow.tiles.scheduler import TileScheduler
@@ -77,6 +78,9 @@ class RiverWorld:
         if not hasattr(scene, "quadtree"):
             raise TypeError("RiverWorld needs a streamed landscape (riverflow.default_scene(), "
                             f"riverflow.landscape(graph, …)), not a {type(scene).__name__}")
+        # the kernels' machine code before the first frame (a progress line on stderr while a
+        # cold cache compiles; a host's loading screen calls compile_kernels itself first)
+        compile_kernels(*(("world", "draw") if self.gl else ("world",)))
         q = scene.quadtree
         x0, y0, x1, y1 = scene.bounds_m
         cache = TileCache(int(c.tile_cache_mb * (1 << 20)))

@@ -31,6 +31,7 @@ from riverflow.hydro.graph import GraphError, HydroGraph
 from riverflow.kernels import flow as kf
 from riverflow.kernels import obstacles as ko
 from riverflow.kernels.flow import Segments
+from riverflow.kernels.warmup import compile_kernels
 from riverflow.tiles.cache import TileCache
 from riverflow.tiles.coverage import coverage_table
 from riverflow.tiles.quadtree import Quadtree
@@ -116,6 +117,7 @@ class FlowField:
         axes = graph.axes()
         if not axes:
             raise GraphError(f"{graph.source or 'graph'}: no river axis to carry a flow")
+        compile_kernels("field")          # before the first query; says so while compiling
         min_width = min(graph.curves[a].width_m for a in axes)
         self.graph = graph
         self.slip = float(slip)

@@ -1,0 +1,180 @@
+"""Argument types of riverflow's kernels per group, for the warm-up
+(:mod:`riverflow.kernels.warmup`).
+
+Written by ``tools/record_kernel_signatures.py`` (numba 0.68.1, Python 3.11.7): do
+not edit; run ``make kernel-signatures`` after changing a kernel's arguments.
+"""
+
+SIGNATURES = {
+    'field': {
+        'noise.fbm': [
+            "(A(float64, 1, 'C'), A(float64, 1, 'C'), uint64, A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'))",
+        ],
+        'tile_table.table_insert_many': [
+            "(A(int64, 1, 'C'), A(int32, 1, 'C'), A(int64, 1, 'C'), A(int64, 1, 'C'), A(int32, 1, 'C'))",
+        ],
+        'flow.query_velocity': [
+            "(A(float64, 2, 'C'), A(int8, 1, 'C'), int64, int64, Named(riverflow.kernels.flow.CachedTiles, (float64, float64, float64, int64, A(int64, 1, 'C'), A(int32, 1, 'C'), A(int64, 1, 'C'), A(int32, 1, 'C'), A(float32, 3, 'C'), A(uint8, 3, 'C'), A(int32, 4, 'C'), A(int64, 1, 'C'), A(uint8, 1, 'C'), )), int64, Named(riverflow.kernels.flow.Segments, (A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), )), int64, A(uint8, 1, 'C'), A(float32, 2, 'C'))",
+        ],
+        'tile_table.mark_used': [
+            "(A(int64, 1, 'C'), A(int32, 1, 'C'), A(int64, 1, 'C'), int64, A(int64, 1, 'C'), int64, A(int64, 1, 'C'))",
+        ],
+        'tile_table.table_find': [
+            "(A(int64, 1, 'C'), A(int32, 1, 'C'), int64)",
+        ],
+        'flow.build_flow_tile': [
+            "(float64, float64, float64, int64, int64, int64, A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), A(int32, 1, 'C'), A(int32, 1, 'C'), A(int32, 1, 'C'), A(float64, 1, 'C'), A(int32, 1, 'C'), A(int32, 1, 'C'), A(float64, 2, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), A(int32, 1, 'C'), A(int32, 1, 'C'), A(float64, 1, 'C'), float64, A(int32, 1, 'C'), A(int32, 1, 'C'), A(int32, 1, 'C'), A(int32, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 2, 'C'), A(bool, 2, 'C'), A(float64, 3, 'C'), A(float32, 2, 'C'), A(uint8, 2, 'C'), A(int32, 3, 'C'))",
+        ],
+        'tile_table.table_insert': [
+            "(A(int64, 1, 'C'), A(int32, 1, 'C'), A(int64, 1, 'C'), int64, int32)",
+        ],
+        'flow.sample_potential': [
+            "(A(float64, 2, 'C'), A(int8, 1, 'C'), int64, int64, Named(riverflow.kernels.flow.CachedTiles, (float64, float64, float64, int64, A(int64, 1, 'C'), A(int32, 1, 'C'), A(int64, 1, 'C'), A(int32, 1, 'C'), A(float32, 3, 'C'), A(uint8, 3, 'C'), A(int32, 4, 'C'), A(int64, 1, 'C'), A(uint8, 1, 'C'), )), int64, Named(riverflow.kernels.flow.Segments, (A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), )), A(float64, 1, 'C'))",
+        ],
+    },
+    'scene': {
+        'noise.fbm': [
+            "(A(float64, 1, 'C'), A(float64, 1, 'C'), uint64, A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'))",
+        ],
+    },
+    'world': {
+        'noise.fbm': [
+            "(A(float64, 1, 'C'), A(float64, 1, 'C'), uint64, A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'))",
+        ],
+        'tile_table.table_insert_many': [
+            "(A(int64, 1, 'C'), A(int32, 1, 'C'), A(int64, 1, 'C'), A(int64, 1, 'C'), A(int32, 1, 'C'))",
+            "(A(int64, 1, 'C'), A(int32, 1, 'C'), A(int64, 1, 'C'), A(int64, 1, 'C'), A(int32, 1, 'C', readonly=True))",
+        ],
+        'flow.query_velocity': [
+            "(A(float64, 2, 'C'), A(int8, 1, 'C'), int64, int64, Named(riverflow.kernels.flow.CachedTiles, (float64, float64, float64, int64, A(int64, 1, 'C'), A(int32, 1, 'C'), A(int64, 1, 'C'), A(int32, 1, 'C'), A(float32, 3, 'C'), A(uint8, 3, 'C'), A(int32, 4, 'C'), A(int64, 1, 'C'), A(uint8, 1, 'C'), )), int64, Named(riverflow.kernels.flow.Segments, (A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), )), int64, A(uint8, 1, 'C'), A(float32, 2, 'C'))",
+        ],
+        'tile_table.mark_used': [
+            "(A(int64, 1, 'C'), A(int32, 1, 'C'), A(int64, 1, 'C'), int64, A(int64, 1, 'C'), int64, A(int64, 1, 'C'))",
+        ],
+        'tile_table.table_find': [
+            "(A(int64, 1, 'C'), A(int32, 1, 'C'), int64)",
+        ],
+        'flow.build_flow_tile': [
+            "(float64, float64, float64, int64, int64, int64, A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), A(int32, 1, 'C'), A(int32, 1, 'C'), A(int32, 1, 'C'), A(float64, 1, 'C'), A(int32, 1, 'C'), A(int32, 1, 'C'), A(float64, 2, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), A(int32, 1, 'C'), A(int32, 1, 'C'), A(float64, 1, 'C'), float64, A(int32, 1, 'C'), A(int32, 1, 'C'), A(int32, 1, 'C'), A(int32, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 2, 'C'), A(bool, 2, 'C'), A(float64, 3, 'C'), A(float32, 2, 'C'), A(uint8, 2, 'C'), A(int32, 3, 'C'))",
+        ],
+        'tile_table.table_insert': [
+            "(A(int64, 1, 'C'), A(int32, 1, 'C'), A(int64, 1, 'C'), int64, int32)",
+        ],
+        'flow.sample_potential': [
+            "(A(float64, 2, 'C'), A(int8, 1, 'C'), int64, int64, Named(riverflow.kernels.flow.CachedTiles, (float64, float64, float64, int64, A(int64, 1, 'C'), A(int32, 1, 'C'), A(int64, 1, 'C'), A(int32, 1, 'C'), A(float32, 3, 'C'), A(uint8, 3, 'C'), A(int32, 4, 'C'), A(int64, 1, 'C'), A(uint8, 1, 'C'), )), int64, Named(riverflow.kernels.flow.Segments, (A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), )), A(float64, 1, 'C'))",
+        ],
+        'raycast.pyramid_size': [
+            '(int64, int64)',
+        ],
+        'view_tiles.select_view_tiles': [
+            "(A(float64, 2, 'C'), float64, float64, float64, float64, float64, float64, float64, float64, int64, int64, float64, float64, A(int64, 1, 'C'), A(int32, 1, 'C'), A(int32, 2, 'C'))",
+        ],
+        'tile_table.codes_of': [
+            "(A(int64, 2, 'C'), A(int64, 1, 'C'))",
+        ],
+        'tile_table.table_find_many': [
+            "(A(int64, 1, 'C'), A(int32, 1, 'C'), A(int64, 1, 'C'), A(int32, 1, 'C'))",
+        ],
+        'raycast.fill_height_pyramid': [
+            "(A(float32, 2, 'C'), A(float32, 2, 'C'), A(float32, 2, 'C'))",
+        ],
+        'tile_table.table_rehash': [
+            "(A(int64, 1, 'C'), A(int32, 1, 'C'), A(int64, 1, 'C'), A(int32, 1, 'C'), A(int64, 1, 'C'))",
+        ],
+        'surface_tiles.leaf_standins': [
+            "(A(int32, 2, 'C'), int64, A(int64, 1, 'C'), A(int32, 1, 'C'), A(int32, 1, 'C'), A(int32, 2, 'C'))",
+        ],
+        'advection.move_particles': [
+            "(int64, A(bool, 1, 'C'), A(bool, 1, 'C'), A(float64, 2, 'C'), A(float32, 2, 'C'), A(uint8, 1, 'C'), float64, Named(riverflow.kernels.surface_tiles.SurfaceTiles, (float64, float64, float64, int64, A(int64, 1, 'C'), A(int32, 1, 'C'), int64, int64, A(int32, 1, 'C'), A(int32, 2, 'C'), A(float32, 3, 'C'), A(float32, 3, 'C'), A(float32, 3, 'C'), float64, float64, A(int32, 1, 'C'), A(int32, 2, 'C'), A(float32, 4, 'C'), int64, )), int64, int64, int64, A(float64, 1, 'C'), A(int32, 1, 'C'), A(float64, 2, 'C'))",
+        ],
+        'advection.apply_flow_status': [
+            "(A(bool, 1, 'C'), A(float32, 2, 'C'), A(uint8, 1, 'C'), A(bool, 1, 'C'), A(float32, 2, 'C'), int64, A(int32, 1, 'C'), A(uint8, 1, 'C'), A(float32, 2, 'C'), int64, float64, int64, int64, A(int32, 1, 'C'), A(int32, 2, 'C'), float64)",
+        ],
+        'advection.check_outside_near_water': [
+            "(A(bool, 1, 'C'), A(int64, 1, 'C'), A(int64, 1, 'C'), A(uint8, 1, 'C'), A(float32, 2, 'C'), A(float64, 2, 'C'), A(float64, 1, 'C'), A(float32, 2, 'C'), A(int64, 1, 'C'), float64, float64, float64, int64, int64, A(int32, 1, 'C'), A(int32, 1, 'C'), A(float32, 2, 'C'), A(uint8, 1, 'C'), float64, A(uint8, 1, 'C'), int64, int64, int64, float64, int64, int64, A(float64, 2, 'C'), float64, float64, Named(riverflow.kernels.surface_tiles.SurfaceTiles, (float64, float64, float64, int64, A(int64, 1, 'C'), A(int32, 1, 'C'), int64, int64, A(int32, 1, 'C'), A(int32, 2, 'C'), A(float32, 3, 'C'), A(float32, 3, 'C'), A(float32, 3, 'C'), float64, float64, A(int32, 1, 'C'), A(int32, 2, 'C'), A(float32, 4, 'C'), int64, )), A(float32, 2, 'C'), A(int32, 1, 'C'))",
+        ],
+        'screen.project_particles': [
+            "(A(bool, 1, 'C'), A(int64, 1, 'C'), A(int64, 1, 'C'), A(bool, 1, 'C'), A(float64, 2, 'C'), A(float32, 2, 'C'), A(float64, 1, 'C'), A(uint8, 1, 'C'), A(float64, 2, 'C'), int64, int64, float64, float64, float64, float64, float64)",
+        ],
+        'lifecycle.age_particles': [
+            "(A(bool, 1, 'C'), A(int64, 1, 'C'), A(int64, 1, 'C'), A(float64, 1, 'C'), A(float32, 1, 'C'), float64, float64, float64, float64)",
+        ],
+        'poisson.blocked_direction_table': [
+            "(float64, float64, float64, A(uint64, 2, 'C'), A(uint64, 2, 'C'))",
+        ],
+        'poisson.cull_crowded_particles': [
+            "(A(bool, 1, 'C'), A(float32, 2, 'C'), A(float64, 1, 'C'), A(uint8, 1, 'C'), A(uint8, 1, 'C'), float64, float64, float64, float64, float64, float64, float64, int64, int64, A(int32, 1, 'C'), A(int32, 2, 'C'), A(int32, 1, 'C'), A(int32, 1, 'C'), A(float32, 2, 'C'), A(uint8, 1, 'C'), A(uint8, 1, 'C'), A(uint8, 1, 'C'), int64, int64, int64)",
+        ],
+        'poisson.fill_poisson_holes': [
+            "(A(bool, 1, 'C'), A(int64, 1, 'C'), A(int64, 1, 'C'), A(float64, 1, 'C'), A(float32, 1, 'C'), A(float32, 2, 'C'), A(uint8, 1, 'C'), A(bool, 1, 'C'), A(float32, 2, 'C'), A(uint8, 1, 'C'), A(bool, 1, 'C'), A(float32, 2, 'C'), float64, float64, float64, float64, float64, int64, int64, float64, int64, int64, A(int32, 1, 'C'), A(int32, 2, 'C'), A(int32, 1, 'C'), A(int32, 1, 'C'), A(float32, 2, 'C'), A(uint8, 1, 'C'), int64, float64, float64, float64, float64, A(int32, 1, 'C'), A(int32, 1, 'C'), A(uint64, 2, 'C'), A(uint64, 2, 'C'), float64)",
+        ],
+        'placement.pixel_rays': [
+            "(A(int32, 1, 'C'), int64, A(float32, 2, 'C'), A(float64, 2, 'C'), int64, int64, A(float64, 2, 'C'), A(float64, 2, 'C'))",
+        ],
+        'raycast_tiles.cast_rays_onto_tiles': [
+            "(A(float64, 2, 'C'), A(float64, 2, 'C'), Named(riverflow.kernels.surface_tiles.SurfaceTiles, (float64, float64, float64, int64, A(int64, 1, 'C'), A(int32, 1, 'C'), int64, int64, A(int32, 1, 'C'), A(int32, 2, 'C'), A(float32, 3, 'C'), A(float32, 3, 'C'), A(float32, 3, 'C'), float64, float64, A(int32, 1, 'C'), A(int32, 2, 'C'), A(float32, 4, 'C'), int64, )), float64, A(float64, 2, 'C'), A(uint8, 1, 'C'))",
+        ],
+        'placement.place_particles': [
+            "(A(int32, 1, 'C'), int64, A(float64, 2, 'C'), A(uint8, 1, 'C'), A(float64, 2, 'C'), A(bool, 1, 'C'), A(uint8, 1, 'C'), A(bool, 1, 'C'))",
+        ],
+        'placement.drop_unseen': [
+            "(A(int32, 1, 'C'), int64, A(uint8, 1, 'C'), int64, A(bool, 1, 'C'), A(int64, 1, 'C'), A(int64, 1, 'C'), A(bool, 1, 'C'))",
+        ],
+        'placement.select_new_on_ground': [
+            "(A(int32, 1, 'C'), int64, A(bool, 1, 'C'), A(float64, 2, 'C'), A(int32, 1, 'C'), A(float64, 2, 'C'))",
+        ],
+        'advection.place_at_seen_water': [
+            "(A(bool, 1, 'C'), A(int64, 1, 'C'), A(int64, 1, 'C'), A(float64, 1, 'C'), A(float32, 1, 'C'), A(float32, 2, 'C'), A(uint8, 1, 'C'), A(bool, 1, 'C'), A(float64, 2, 'C'), A(float32, 2, 'C'), A(uint8, 1, 'C'), A(bool, 1, 'C'), A(float32, 2, 'C'), float64, float64, float64, float64, float64, int64, int64, A(int32, 1, 'C'), A(int32, 2, 'C'), int64, A(float32, 2, 'C'), A(uint8, 1, 'C'), A(float64, 2, 'C'), A(uint8, 1, 'C'), A(float32, 2, 'C'), A(uint8, 1, 'C'), int64, float64, float64, float64, float64, A(int32, 1, 'C'))",
+        ],
+        'tile_table.table_remove': [
+            "(A(int64, 1, 'C'), A(int32, 1, 'C'), A(int64, 1, 'C'), int64)",
+        ],
+        'surface_tiles.water_level_at': [
+            "(Named(riverflow.kernels.surface_tiles.SurfaceTiles, (float64, float64, float64, int64, A(int64, 1, 'C'), A(int32, 1, 'C'), int64, int64, A(int32, 1, 'C'), A(int32, 2, 'C'), A(float32, 3, 'C'), A(float32, 3, 'C'), A(float32, 3, 'C'), float64, float64, A(int32, 1, 'C'), A(int32, 2, 'C'), A(float32, 4, 'C'), int64, )), float64, float64)",
+        ],
+        'obstacles.select_obstacle_points': [
+            "(A(float64, 2, 'C'), A(uint8, 1, 'C'), A(float64, 2, 'C'), A(int64, 1, 'C'))",
+        ],
+        'obstacles.apply_obstacles': [
+            "(A(float64, 2, 'C'), A(int64, 1, 'C'), int64, A(float64, 1, 'C'), A(float64, 2, 'C'), A(uint8, 1, 'C'), A(float32, 2, 'C'))",
+        ],
+    },
+    'draw': {
+        'waves.ripple_heights': [
+            "(int64, A(float64, 2, 'C'))",
+        ],
+        'waves.slopes_from_heights': [
+            "(A(float64, 3, 'C'), float64)",
+        ],
+        'waves.downsample_2x2': [
+            "(A(float64, 4, 'C'),)",
+        ],
+        'waves.permutation': [
+            '(int64,)',
+        ],
+        'waves.gradients_2d': [
+            '()',
+        ],
+        'waves.perlin_tile_2d': [
+            "(int64, int64, int64, A(int64, 1, 'C'), A(float64, 2, 'C'))",
+        ],
+        'waves.gradients_3d': [
+            '()',
+        ],
+        'waves.perlin_frames_3d': [
+            "(int64, A(float64, 1, 'C'), int64, int64, int64, A(int64, 1, 'C'), A(float64, 2, 'C'))",
+        ],
+        '_jit.is_finite': [
+            '(float64,)',
+        ],
+        'sprites.slot_span': [
+            "(A(bool, 1, 'C'),)",
+        ],
+        'sprites.fill_sprite_params': [
+            "(A(bool, 1, 'C'), A(bool, 1, 'C'), A(float32, 2, 'C'), A(float64, 2, 'C'), A(float32, 2, 'C'), A(float32, 1, 'C'), A(uint8, 1, 'C'), A(float32, 2, 'C'), float64, int64, A(float32, 3, 'C'))",
+        ],
+        'sprites.build_sprite_grid': [
+            "(A(bool, 1, 'C'), A(bool, 1, 'C'), A(float32, 2, 'C'), A(float32, 1, 'C'), A(uint8, 1, 'C'), int64, float64, float64, int64, int64, A(int32, 1, 'C'), A(int32, 2, 'C'))",
+        ],
+    },
+}

@@ -1,0 +1,242 @@
+"""Compiled kernels managed by the package (issue #13): one keyed cache folder per user, a
+second process compiles nothing, an edited helper is compiled again, the warm-up's progress
+line shows on a cold cache only, and the recorded signatures match the kernels.
+
+Processes run with their own NUMBA_CACHE_DIR (a temporary folder) and compile one or two tiny
+kernels, so these tests stay cheap; the slow one warms the whole world group."""
+from __future__ import annotations
+
+import inspect
+import json
+import os
+import shutil
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+from riverflow.kernels import _cache, warmup
+from riverflow.kernels._signatures import SIGNATURES
+
+REPO = Path(__file__).resolve().parents[2]
+KERNELS = REPO / "riverflow" / "kernels"
+
+
+def run(code: str, cache: Path, cwd: Path = REPO, **env_extra) -> dict:
+    """Run ``code`` in a fresh interpreter with ``cache`` as NUMBA_CACHE_DIR; its last stdout
+    line is JSON. Adds "stderr" to the answer."""
+    env = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_")}
+    env.update(NUMBA_CACHE_DIR=str(cache), PYTHONPATH=str(cwd), **env_extra)
+    result = subprocess.run([sys.executable, "-c", textwrap.dedent(code)], cwd=cwd, env=env,
+                            capture_output=True, text=True, timeout=300, check=False)
+    assert result.returncode == 0, result.stderr[-3000:]
+    answer = json.loads(result.stdout.strip().splitlines()[-1])
+    answer["stderr"] = result.stderr
+    return answer
+
+
+CALL_INTENSITY = """
+    import json
+    from riverflow.kernels.warmup import CompileCounter
+    with CompileCounter() as counter:
+        from riverflow.kernels import lifecycle
+        value = lifecycle.intensity_at(0.5, 1.0, 2.0, 1.0)
+    print(json.dumps({"compiled": counter.compiled, "value": value,
+                      "folder": lifecycle.intensity_at._cache._cache_path}))
+"""
+
+
+def test_a_second_process_compiles_nothing(tmp_path):
+    first = run(CALL_INTENSITY, tmp_path)
+    second = run(CALL_INTENSITY, tmp_path)
+    assert first["compiled"] == ["lifecycle.intensity_at"]
+    assert second["compiled"] == []
+    assert second["value"] == first["value"] == pytest.approx(0.5)
+    folder = Path(first["folder"])
+    assert folder.parent == tmp_path / "riverflow"        # NUMBA_CACHE_DIR is honoured …
+    assert folder.name == f"lifecycle-{_cache.module_key(str(KERNELS / 'lifecycle.py'))}"
+    assert any(folder.glob("lifecycle.intensity_at-*.nbi"))   # … inside a keyed folder
+
+
+PROBE = """
+    from numba import njit
+
+    from riverflow.kernels._jit import JIT_OPTIONS
+    from riverflow.kernels.probe_helper import helper
+
+
+    @njit(**JIT_OPTIONS)
+    def entry(x):
+        return helper(x) * 2.0
+"""
+HELPER = """
+    from numba import njit
+
+    from riverflow.kernels._jit import JIT_OPTIONS
+
+    OFFSET = {offset}
+
+
+    @njit(**JIT_OPTIONS)
+    def helper(x):
+        return x + OFFSET
+"""
+CALL_PROBE = """
+    import json
+    from riverflow.kernels.warmup import CompileCounter
+    with CompileCounter() as counter:
+        from riverflow.kernels.probe import entry
+        value = entry(1.0)
+    print(json.dumps({"compiled": counter.compiled, "value": value}))
+"""
+
+
+def test_editing_a_helper_in_another_module_compiles_its_caller_again(tmp_path):
+    """numba's own cache would answer 4.0 after the edit (its key is the caller's file only:
+    reference/ecosystem.md §3.1); the keyed folders answer 202.0."""
+    package = tmp_path / "src"
+    shutil.copytree(REPO / "riverflow", package / "riverflow",
+                    ignore=shutil.ignore_patterns("__pycache__"))
+    kernels = package / "riverflow" / "kernels"
+    (kernels / "probe.py").write_text(textwrap.dedent(PROBE))
+    (kernels / "probe_helper.py").write_text(textwrap.dedent(HELPER).format(offset=1.0))
+    cache = tmp_path / "cache"
+
+    first = run(CALL_PROBE, cache, cwd=package)
+    again = run(CALL_PROBE, cache, cwd=package)
+    (kernels / "probe_helper.py").write_text(textwrap.dedent(HELPER).format(offset=100.0))
+    edited = run(CALL_PROBE, cache, cwd=package)
+
+    assert (first["value"], again["value"], edited["value"]) == (4.0, 4.0, 202.0)
+    assert set(first["compiled"]) == {"probe.entry", "probe_helper.helper"}
+    assert again["compiled"] == []
+    assert "probe.entry" in edited["compiled"]
+    folders = sorted(p.name.rpartition("-")[0] for p in (cache / "riverflow").iterdir())
+    assert folders.count("probe") == 2        # the old key's folder is kept (KEEP = 3) …
+
+
+def test_a_modules_key_covers_what_it_imports():
+    closure = {Path(p).relative_to(REPO).as_posix()
+               for p in _cache.source_closure(str(KERNELS / "advection.py"))}
+    assert {"riverflow/kernels/advection.py", "riverflow/kernels/lifecycle.py",
+            "riverflow/kernels/surface_tiles.py", "riverflow/kernels/_jit.py"} <= closure
+    sprites = {Path(p).name for p in _cache.source_closure(str(KERNELS / "sprites.py"))}
+    assert "status.py" in sprites             # FlowStatus values are frozen into the code
+    noise = {Path(p).name for p in _cache.source_closure(str(KERNELS / "noise.py"))}
+    assert "flow.py" not in noise             # an unrelated edit keeps noise's machine code
+    assert _cache.kernel_folder(REPO / "riverflow" / "engine" / "world.py") is None
+
+
+def test_old_folders_are_pruned(tmp_path):
+    root = tmp_path / "riverflow"
+    for k in range(5):
+        folder = root / f"flow-{k:016x}"
+        folder.mkdir(parents=True)
+        os.utime(folder, (1000 + k, 1000 + k))
+    (root / "noise-0000000000000000").mkdir()
+    removed = _cache.prune(root / f"flow-{4:016x}", keep=3)
+    assert sorted(p.name for p in removed) == [f"flow-{k:016x}" for k in (0, 1)]
+    assert sorted(p.name for p in root.iterdir()) == [
+        *(f"flow-{k:016x}" for k in (2, 3, 4)), "noise-0000000000000000"]
+
+
+def test_the_platform_folder_is_used_without_numba_cache_dir(tmp_path):
+    env = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_")}
+    env.update(XDG_CACHE_HOME=str(tmp_path), HOME=str(tmp_path))
+    code = "from riverflow.kernels import _cache; print(_cache.cache_root())"
+    result = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                            text=True, cwd=REPO, timeout=120, check=False)
+    assert result.returncode == 0, result.stderr
+    root = Path(result.stdout.strip())
+    if sys.platform.startswith("linux"):
+        assert root == tmp_path / "riverflow" / "kernels"
+    else:
+        assert root.parts[-1] == "kernels" and str(tmp_path) in str(root)
+
+
+WARM_INTENSITY = """
+    import json
+    from riverflow.kernels.warmup import compile_entries
+    report = compile_entries([("lifecycle.intensity_at",
+                               "(float64, float64, float64, float64)")])
+    print(json.dumps({"compiled": report.compiled, "failed": report.failed}))
+"""
+
+
+def test_the_progress_line_shows_on_a_cold_cache_only(tmp_path):
+    cold = run(WARM_INTENSITY, tmp_path)
+    warm = run(WARM_INTENSITY, tmp_path)
+    assert cold["compiled"] == ["lifecycle.intensity_at"] and not cold["failed"]
+    assert "compiling riverflow kernels for this machine, first run only: 0/1" in cold["stderr"]
+    assert "1/1" in cold["stderr"]
+    assert warm["compiled"] == [] and not warm["failed"]
+    assert warmup.MESSAGE not in warm["stderr"]
+
+
+def test_terminal_progress_rewrites_its_line_on_a_terminal():
+    class Tty:
+        def __init__(self):
+            self.text = ""
+
+        def isatty(self):
+            return True
+
+        def write(self, text):
+            self.text += text
+
+        def flush(self):
+            pass
+
+    stream = Tty()
+    progress = warmup.TerminalProgress(stream)
+    progress.update(0, 3, False)
+    assert stream.text == ""                       # loading from the cache says nothing
+    progress.update(0, 3, True)
+    progress.update(1, 3, False)
+    progress.update(3, 3, False)
+    progress.finish()
+    lines = stream.text.split("\r")
+    assert lines[1:4] == [f"{warmup.MESSAGE}: {k}/3" for k in (0, 1, 3)]
+    assert stream.text.endswith("s)\n") and stream.text.count("\n") == 1
+
+
+def test_recorded_signatures_match_the_kernels():
+    """Every recorded kernel exists, takes as many arguments as recorded, and its types read
+    back (tools/record_kernel_signatures.py --check redoes the recording)."""
+    assert set(SIGNATURES) == set(warmup.GROUPS)
+    for name, sig in warmup.entries():
+        kernel = warmup.dispatcher_of(name)
+        types = warmup.decode_signature(sig)
+        params = inspect.signature(kernel.py_func).parameters
+        assert len(types) == len(params), name
+        assert warmup.encode_signature(types) == sig
+
+
+@pytest.mark.slow
+def test_the_warm_up_covers_a_world_and_a_second_process_compiles_nothing(tmp_path):
+    """A world group warm-up on a cold cache, then frames with a boat in view: the frames
+    compile nothing; a second process compiles nothing at all and prints no progress."""
+    code = """
+        import json, riverflow as rf
+        from riverflow.demo import BoatDemo
+        from riverflow.kernels.warmup import CompileCounter, compile_kernels
+        report = compile_kernels("world")
+        with CompileCounter() as counter:
+            demo = BoatDemo(None, (160, 90), gl=False,
+                            config=rf.RiverConfig(tile_production="blocking"))
+            demo.input.key_down("W")
+            for _ in range(10):
+                demo.step()
+            demo.close()
+        print(json.dumps({"warm_up": report.compiled, "failed": report.failed,
+                          "frames": counter.compiled}))
+    """
+    cold = run(code, tmp_path)
+    warm = run(code, tmp_path)
+    assert cold["warm_up"] and not cold["failed"]
+    assert cold["frames"] == []
+    assert warmup.MESSAGE in cold["stderr"]
+    assert warm["warm_up"] == [] and warm["frames"] == []
+    assert warmup.MESSAGE not in warm["stderr"]
