@@ -302,7 +302,9 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
     specs = {k: _attribute_spec(k, v, names, where, report) for k, v in keys.items()}
     flip = _reverse_spec(reverse, names, where)
 
-    raw = _lines(shapely.from_wkb(wkb), fids, attrs_of, where)
+    with np.errstate(invalid="ignore"):      # NaN coordinates are reported below
+        geoms = shapely.from_wkb(wkb)
+    raw = _lines(geoms, fids, attrs_of, where)
     source_crs = crs if crs is not None else meta.get("crs")
     xy, crs_out, crs_note = _project(np.vstack([p for _, _, p in raw]), source_crs, where,
                                      [(fids[k], attrs_of(k), len(p)) for k, _, p in raw])
@@ -744,7 +746,15 @@ def _order(links: list[_Link]) -> list[int]:
 
 def _plan(links: list[_Link], geometry: HydraulicGeometry, specs: dict, report: RiverImport):
     """Per link: (width [m], ψ discharge [m²/s], Q [m³/s], width from, discharge from,
-    lateral inflow [m²/s]) — the module docstring's rules."""
+    lateral inflow [m²/s]) — the module docstring's rules.
+
+    Two discharges are carried downstream: the volume Q [m³/s], which adds up at confluences
+    and sets the widths (w = a·Q^b), and the ψ discharge q the builder conserves (sources
+    and lateral inflow converted at their own depth, q = Q / D(Q); along a chain q stays
+    q(Q)). Below a confluence q is the sum of the inflows' q, more than q(ΣQ) (D grows with
+    Q): the 2-D flow, which has no depth, runs faster there than Leopold & Maddock's
+    v ∝ Q^0.1 (by about √2 where two equal rivers meet).
+    """
     order = _order(links)
     ins: dict[int, list[int]] = {}
     outs: dict[int, list[int]] = {}
@@ -753,64 +763,64 @@ def _plan(links: list[_Link], geometry: HydraulicGeometry, specs: dict, report: 
             ins.setdefault(lk.end, []).append(i)
         if lk.start >= 0:
             outs.setdefault(lk.start, []).append(i)
-    own: list[tuple[float | None, str]] = [_own_estimate(lk, geometry) for lk in links]
-    strahler = _strahler(links, order, ins)
+    own = [_own_estimate(lk, geometry) for lk in links]     # (Q, q, how) or None
+    volume = [0.0] * len(links)
     psi = [0.0] * len(links)
     braid: list[frozenset] = [frozenset()] * len(links)
     lateral = [0.0] * len(links)
     source = [""] * len(links)
     for i in order:
         lk = links[i]
-        est, how = own[i]
         upstream = ins.get(lk.start, []) if lk.start >= 0 else []
         siblings = outs.get(lk.start, [i]) if lk.start >= 0 else [i]
         if not upstream:
-            if est is None:
-                est, how = (geometry.psi(geometry.discharge_of_width(geometry.default_width_m)),
-                            f"default (a source {geometry.default_width_m:g} m wide)")
-            psi[i], source[i] = est, how
+            if own[i] is None:
+                q3 = geometry.discharge_of_width(geometry.default_width_m)
+                own[i] = (q3, geometry.psi(q3),
+                          f"default (a source {geometry.default_width_m:g} m wide)")
+            volume[i], psi[i], source[i] = own[i]
             continue
-        inflow = sum(psi[k] for k in upstream)
+        q_in, psi_in = sum(volume[k] for k in upstream), sum(psi[k] for k in upstream)
         labels = frozenset().union(*(braid[k] for k in upstream))
         closed = {lab[0] for lab in labels
                   if any(o[0] == lab[0] and o != lab for o in labels)}
         labels = frozenset(lab for lab in labels if lab[0] not in closed)
         if len(siblings) > 1:
-            weights = [own[k][0] for k in siblings]
+            weights = [None if own[k] is None else own[k][0] for k in siblings]
             if any(w is None for w in weights):
                 weights = [1.0] * len(siblings)
             share = weights[siblings.index(i)] / sum(weights)
-            psi[i] = inflow * share
+            volume[i], psi[i] = q_in * share, psi_in * share
             source[i] = f"split of the inflow at a bifurcation ({share:.0%})"
             braid[i] = labels | {(lk.start, i)}
             continue
         braid[i] = labels
-        if est is not None and est > inflow * (1 + 1e-9) and not labels:
-            psi[i], lateral[i] = est, est - inflow
-            source[i] = how
+        if own[i] is not None and own[i][0] > q_in * (1 + 1e-9) and not labels:
+            volume[i], source[i] = own[i][0], own[i][2]
+            lateral[i] = max(0.0, own[i][1] - geometry.psi(q_in)) if q_in > 0 else own[i][1]
+            psi[i] = psi_in + lateral[i]
         else:
-            psi[i] = inflow
-            source[i] = "sum of the inflows" + (f" (its own estimate, {how}, is smaller)"
-                                                if est is not None and est < inflow * (1 - 1e-9)
-                                                else "")
+            volume[i], psi[i] = q_in, psi_in
+            smaller = own[i] is not None and own[i][0] < q_in * (1 - 1e-9)
+            source[i] = "sum of the inflows" + (f" (its own estimate, {own[i][2]}, is smaller)"
+                                                if smaller else "")
     plan = []
     for i, lk in enumerate(links):
-        q3 = geometry.volume(psi[i])
         w0, w1 = lk.values["width_m"]
         given = [w for w in (w0, w1) if math.isfinite(w) and w > 0]
         if given:
             width, wfrom = float(np.mean(given)), "given"
         else:
-            width, wfrom = geometry.width(q3), "hydraulic geometry of the discharge"
+            width, wfrom = geometry.width(volume[i]), "hydraulic geometry of the discharge"
         if width < MIN_WIDTH_M:
             width, wfrom = MIN_WIDTH_M, wfrom + f", raised to {MIN_WIDTH_M:g} m"
-        plan.append((width, psi[i], q3, wfrom, source[i], lateral[i]))
-    report.derived["strahler_order_max"] = int(max(strahler)) if strahler else 0
+        plan.append((width, psi[i], volume[i], wfrom, source[i], lateral[i]))
     return plan
 
 
-def _own_estimate(link: _Link, g: HydraulicGeometry) -> tuple[float | None, str]:
-    """The link's own ψ discharge [m²/s] from its values (first rule that applies)."""
+def _own_estimate(link: _Link, g: HydraulicGeometry) -> tuple[float, float, str] | None:
+    """The link's own (volume discharge [m³/s], ψ discharge [m²/s], how) from its values
+    (the first rule that applies), or None."""
     v = link.values
 
     def last(key: str) -> float:
@@ -819,30 +829,22 @@ def _own_estimate(link: _Link, g: HydraulicGeometry) -> tuple[float | None, str]
 
     q2, q3 = last("discharge_m2s"), last("discharge_m3s")
     if math.isfinite(q2) and q2 > 0:
-        return q2, "given (ψ discharge)"
+        return g.volume(q2), q2, "given (ψ discharge)"
     if math.isfinite(q3) and q3 > 0:
-        return g.psi(q3), "given (volume discharge)"
+        return q3, g.psi(q3), "given (volume discharge)"
     w = last("width_m")
     if math.isfinite(w) and w > 0:
-        return g.psi(g.discharge_of_width(w)), "hydraulic geometry of the given width"
+        q3 = g.discharge_of_width(w)
+        return q3, g.psi(q3), "hydraulic geometry of the given width"
     a = last("drainage_area_km2")
     if math.isfinite(a) and a > 0:
-        return g.psi(g.discharge_of_area(a)), "hydraulic geometry of the drainage area"
+        q3 = g.discharge_of_area(a)
+        return q3, g.psi(q3), "hydraulic geometry of the drainage area"
     o = last("stream_order")
     if math.isfinite(o) and o >= 1:
-        return (g.psi(g.discharge_of_area(g.area_of_order(o))),
-                "hydraulic geometry of the stream order")
-    return None, ""
-
-
-def _strahler(links: list[_Link], order: list[int], ins: dict[int, list[int]]) -> list[int]:
-    out = [1] * len(links)
-    for i in order:
-        up = [out[k] for k in ins.get(links[i].start, [])] if links[i].start >= 0 else []
-        if up:
-            top = max(up)
-            out[i] = top + 1 if up.count(top) > 1 else top
-    return out
+        q3 = g.discharge_of_area(g.area_of_order(o))
+        return q3, g.psi(q3), "hydraulic geometry of the stream order"
+    return None
 
 
 def _merge_close_junctions(links, plan, geometry, specs, report):

@@ -2,6 +2,8 @@
 Butte example. The whole folder is skipped when the ``gis`` extra is not installed."""
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 import shapely
@@ -53,7 +55,7 @@ def polyline(*points, step=10.0):
     """A polyline through ``points`` [m] with vertices about every ``step`` metres."""
     pts = np.asarray(points, float)
     out = [pts[:1]]
-    for a, b in zip(pts[:-1], pts[1:]):
+    for a, b in itertools.pairwise(pts):
         n = max(1, int(np.ceil(np.hypot(*(b - a)) / step)))
         t = np.linspace(0.0, 1.0, n + 1)[1:, None]
         out.append(a + t * (b - a))

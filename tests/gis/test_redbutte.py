@@ -40,7 +40,7 @@ def test_every_link_is_water_with_its_flow_running_downstream(imported):
 
 
 def test_discharge_grows_downstream(imported):
-    builder, graph, lines, columns, field = imported
+    builder, _, lines, columns, field = imported
     grid_id, to_link, area = columns[0], columns[2], columns[3]
     # walk the chain from the top (the link no other flows into) to the outlet (ToLink 0)
     by_id = {int(g): k for k, g in enumerate(grid_id)}
@@ -85,6 +85,7 @@ def test_the_import_says_what_it_derived(imported):
     assert graph.water_levels is not None
 
 
+@pytest.mark.slow
 def test_it_flows_in_a_world(imported):
     _, graph, lines, _, _ = imported
     scene = rf.landscape(graph)
