@@ -116,7 +116,8 @@ def bake_flow_map(field_or_scene, region_m=None, cell_m: float | None = None,
     n = (1 << bits) - 1
     dtype = np.uint8 if bits == 8 else np.uint16
     rgba = np.empty((nx * ny, 4), dtype)
-    rgba[:, :2] = np.clip(np.rint(n * (0.5 + velocity / (2.0 * max_speed_mps))), 0, n)
+    rgba[:, :2] = np.clip(np.rint(n * (0.5 + velocity.astype(np.float64) / (2.0 * max_speed_mps))),
+                          0, n)
     rgba[:, 2] = np.where(water, n, 0)
     rgba[:, 3] = np.clip(np.rint(n * np.minimum(distance / max_distance_m, 1.0)), 0, n)
     image = rgba.reshape(ny, nx, 4)
