@@ -21,6 +21,7 @@ Example::
 from __future__ import annotations
 
 import contextlib
+import gc
 import math
 import time
 import uuid
@@ -204,8 +205,9 @@ class RiverWorld:
     def load_view(self, timeout_s: float = 120.0) -> bool:
         """Make every tile the current camera view needs, now (a loading screen: before a
         scripted run, after a teleport). Runs the camera and tile systems with no time passing
-        and waits for the scheduler, until no tile of the view is missing. Returns False if
-        that took longer than ``timeout_s``."""
+        and waits for the scheduler, until no tile of the view is missing; then, with
+        ``config.freeze_gc_on_load``, the garbage collector is told to leave what is alive now
+        alone. Returns False if that took longer than ``timeout_s``."""
         names = ("camera", "tiles")
         scheduler = self.tiles.scheduler
         end = time.perf_counter() + timeout_s
@@ -219,9 +221,14 @@ class RiverWorld:
                     scheduler.forget_unrequested()
                     first = False
                 if scheduler.pending == 0:
-                    return True
+                    break
                 if not scheduler.wait(max(end - time.perf_counter(), 0.0)):
                     return False
+        if self.config.freeze_gc_on_load:
+            gc.unfreeze()
+            gc.collect()
+            gc.freeze()
+        return True
 
     def add_prop(self, shape: str, size_m: tuple[float, float, float],
                  position_m=(0.0, 0.0, 0.0), yaw_rad: float = 0.0) -> int:

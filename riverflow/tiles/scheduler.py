@@ -22,7 +22,9 @@ is not asked for again.
 from __future__ import annotations
 
 import itertools
+import os
 import queue
+import sys
 import threading
 import time
 import weakref
@@ -46,6 +48,8 @@ IDLE_WAIT_S = 0.02
 """Longest a worker waits for the frame to end before starting a tile (a host that steps
 back to back, with no idle time, still gets tiles made)."""
 """A wanted-frame stamp no frame is near (the tile is let go)."""
+WORKER_NICE = int(os.environ.get("RIVERFLOW_WORKER_NICE", "19"))
+"""The tile worker thread's nice value (19: the lowest priority; 0 keeps the frame's)."""
 
 
 class Producer:
@@ -407,9 +411,24 @@ class TileScheduler:
                 thread.join(timeout=10.0)
 
 
+def _lower_priority() -> None:
+    """Run the calling thread at WORKER_NICE (Linux, where a thread has a priority of its
+    own; elsewhere nothing): on a core it shares with the frame, the frame's thread runs first
+    whenever both could (a nogil tile kernel takes only the frame's idle time)."""
+    if not sys.platform.startswith("linux") or WORKER_NICE <= 0:
+        return
+    tid = threading.get_native_id()
+    try:
+        os.setpriority(os.PRIO_PROCESS, tid, max(os.getpriority(os.PRIO_PROCESS, tid),
+                                                 WORKER_NICE))
+    except OSError:   # not allowed here: the worker keeps the frame's priority
+        pass
+
+
 def _work(ref: weakref.ref, jobs: queue.PriorityQueue) -> None:
-    """The worker loop. It holds the scheduler only while making a tile, so a scheduler
-    nobody uses any more is collected (and its thread ends)."""
+    """The worker loop, at a low CPU priority. It holds the scheduler only while making a
+    tile, so a scheduler nobody uses any more is collected (and its thread ends)."""
+    _lower_priority()
     while True:
         try:
             _, _, job = jobs.get(timeout=1.0)

@@ -380,3 +380,48 @@ def test_closed_world_ends_its_worker_and_releases_its_tiles():
     del world
     gc.collect()
     assert cache() is None, "the tile cache outlived its closed world"
+
+
+# -- what keeps a flight smooth on a core the worker shares ------------------------------------
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="a thread's own nice: Linux")
+def test_the_tile_worker_runs_at_a_lower_priority_than_the_frame():
+    from riverflow.tiles.scheduler import WORKER_NICE
+
+    scene = rf.default_scene(seed=0)
+    world = rf.RiverWorld(scene, size=(160, 90), gl=False, seed=0,
+                          config=RiverConfig(tile_production="background"))
+    try:
+        world.camera.look_at(*flight_pose(scene, 0))
+        world.step(FRAME_S)
+        worker = next(t for t in threading.enumerate() if t.name == "riverflow-tiles")
+        for _ in range(100):      # the worker sets its own priority as it starts
+            nice = os.getpriority(os.PRIO_PROCESS, worker.native_id)
+            if nice >= WORKER_NICE:
+                break
+            time.sleep(0.01)
+        assert nice == max(WORKER_NICE, os.getpriority(os.PRIO_PROCESS, 0))
+        assert os.getpriority(os.PRIO_PROCESS, threading.get_native_id()) < nice
+    finally:
+        world.close()
+
+
+@pytest.mark.parametrize("freeze", [True, False])
+def test_loading_a_view_freezes_the_collector_only_when_asked(freeze):
+    scene = rf.default_scene(seed=0)
+    gc.unfreeze()
+    world = rf.RiverWorld(scene, size=(160, 90), gl=False, seed=0,
+                          config=RiverConfig(freeze_gc_on_load=freeze))
+    try:
+        world.camera.look_at(*flight_pose(scene, 0))
+        assert world.load_view(60.0)
+        frozen = gc.get_freeze_count()
+        assert (frozen > 0) == freeze
+        if freeze:     # what the world holds is left out of collections
+            assert frozen > 1000
+        world.load_view(60.0)       # a second load unfreezes, collects and freezes again
+        assert (gc.get_freeze_count() > 0) == freeze
+    finally:
+        world.close()
+        gc.unfreeze()
