@@ -38,8 +38,13 @@ difference across the river (per unit depth): Q / depth.
 
 Coordinates: lon/lat (any geographic CRS) and projected data in feet are projected to the UTM
 zone pyproj picks for the data (an azimuthal equidistant projection centred on the data where
-no UTM zone fits); projected data in metres keeps its CRS. ``builder.crs`` and the graph's
-``crs`` hold it (WKT), so results can be mapped back.
+no UTM zone fits); projected data in metres keeps its CRS. Far from the CRS's origin (more
+than AUTO_ORIGIN_M, as UTM northings always are) the coordinates are moved near 0 by a round
+``origin_m`` (the data's centre to the kilometre), and the CRS's false easting and northing
+with them: its projection and datum are the file's, only its origin moves. Drawing works in
+float32, which resolves 0.5 m at 4 500 km (the graph's coordinates would be its mesh vertices
+and particle positions). ``builder.crs`` and the graph's ``crs`` hold the CRS (WKT), so
+results can be mapped back; ``builder.report.origin_m`` the shift.
 
 Bad input raises :class:`~riverflow.GraphError` (a missing file :class:`FileNotFoundError`)
 naming the file, the layer, the feature (its id and attribute values) and what is wrong;
@@ -73,6 +78,8 @@ SIMPLIFY_WIDTHS = 0.05
 SIMPLIFY_MAX_M), so dense digitising does not cost strips and banks."""
 SIMPLIFY_MAX_M = 2.0
 LEVEL_SPACING_M = 5.0
+AUTO_ORIGIN_M = 100_000.0
+"""``origin_m="auto"`` moves coordinates farther than this [m] from 0 near 0 (module docstring)."""
 """Spacing [m] of the water-level samples along the links (elevation attributes)."""
 
 KNOWN_ATTRIBUTES: dict[str, tuple] = {
@@ -187,6 +194,8 @@ class RiverImport:
     """What was changed: snapped ends, split lines, merged junctions, dropped links, …"""
     attributes: dict[str, dict[str, Any]] = field(default_factory=dict)
     """Attribute values of every feature, by branch name (for error messages)."""
+    origin_m: tuple[float, float] = (0.0, 0.0)
+    """What was subtracted from the projected coordinates [m] (``read_rivers(origin_m=)``)."""
 
     def __str__(self) -> str:
         lines = [f"{self.path} (layer {self.layer!r}): {self.features} features -> "
@@ -238,7 +247,8 @@ class _Link:
 
 def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge_m2s=None,
                 drainage_area_km2=None, elevation_m=None, crs=None, discharge_m3s=None,
-                stream_order=None, reverse=None, snap_m: float = DEFAULT_SNAP_M,
+                stream_order=None, reverse=None, origin_m="auto",
+                snap_m: float = DEFAULT_SNAP_M,
                 geometry: HydraulicGeometry = DEFAULT_GEOMETRY,
                 tolerance_m: float = 0.25) -> GisRiverBuilder:
     """Stream centre lines from a GIS file as a filled river-network builder.
@@ -259,6 +269,9 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
         discharge_m3s: volume discharge Q [m³/s] (mean annual flow): attribute or number.
         stream_order: Strahler order: attribute or number.
         reverse: attribute whose true values mark lines drawn upstream, or True (all are).
+        origin_m: (x, y) [m] subtracted from the (projected) coordinates, None for none, or
+            "auto": the data's centre rounded to 1 km when it lies more than AUTO_ORIGIN_M
+            from 0 (the module docstring); the CRS's false origin moves with it.
         snap_m: ends (and ends and lines) closer than this [m] are joined.
         geometry: the hydraulic-geometry laws and constants (:class:`HydraulicGeometry`).
         tolerance_m: the builder's tolerance [m].
@@ -309,6 +322,14 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
     xy, crs_out, crs_note = _project(np.vstack([p for _, _, p in raw]), source_crs, where,
                                      [(fids[k], attrs_of(k), len(p)) for k, _, p in raw])
     report.source_crs = _wkt(source_crs)
+    offset = _origin(origin_m, xy, where)
+    if offset is not None:
+        xy = xy - offset
+        report.origin_m = (float(offset[0]), float(offset[1]))
+        crs_out, moved = _moved_crs(crs_out, offset)
+        crs_note += (f"; coordinates moved by −({offset[0]:.0f}, {offset[1]:.0f}) m"
+                     + (" (the CRS's false origin with them)" if moved else
+                        "" if crs_out is None else " (the CRS could not say so: add them back)"))
     report.crs = crs_out
     report.derived["coordinates"] = crs_note
 
@@ -505,6 +526,60 @@ def _project(xy: np.ndarray, source, where: str, features) -> tuple[np.ndarray, 
     if bad.any():
         _raise_at(bad, features, where, xy, f"cannot be projected to {_short_crs(dst)}")
     return out, dst.to_wkt(), f"projected from {_short_crs(src)} to {_short_crs(dst)}"
+
+
+def _origin(origin_m, xy: np.ndarray, where: str) -> np.ndarray | None:
+    """The shift [m] to subtract from the coordinates, or None."""
+    if origin_m is None:
+        return None
+    if isinstance(origin_m, str):
+        if origin_m != "auto":
+            raise GraphError(f"{where}: origin_m must be 'auto', None or (x, y), got {origin_m!r}")
+        lo, hi = xy.min(axis=0), xy.max(axis=0)
+        if max(np.abs(lo).max(), np.abs(hi).max()) <= AUTO_ORIGIN_M:
+            return None
+        return np.round(0.5 * (lo + hi) / 1000.0) * 1000.0
+    try:
+        offset = np.array([float(v) for v in origin_m])
+    except (TypeError, ValueError):
+        raise GraphError(f"{where}: origin_m must be 'auto', None or (x, y), got "
+                         f"{origin_m!r}") from None
+    if offset.shape != (2,) or not np.isfinite(offset).all():
+        raise GraphError(f"{where}: origin_m must be two finite numbers, got {origin_m!r}")
+    return offset if offset.any() else None
+
+
+def _moved_crs(crs_wkt: str | None, offset: np.ndarray) -> tuple[str | None, bool]:
+    """The CRS with its false easting and northing lowered by ``offset`` [m] (WKT), and
+    whether that could be done (a projection with metre false easting / northing)."""
+    if crs_wkt is None:
+        return None, False
+    pyproj = require("pyproj", "moving a CRS's origin")
+    from pyproj.crs import CoordinateOperation, ProjectedCRS
+
+    crs = pyproj.CRS.from_wkt(crs_wkt)
+    op = crs.coordinate_operation
+    if op is None:
+        return crs_wkt, False
+    data = op.to_json_dict()
+    done = set()
+    for param in data.get("parameters", []):
+        name = param.get("name", "").lower()
+        unit = param.get("unit", "metre")
+        unit = unit.get("name", "") if isinstance(unit, dict) else str(unit)
+        if unit not in ("metre", "meter"):
+            continue
+        for axis, key in ((0, "easting"), (1, "northing")):
+            if key in name and axis not in done:
+                param["value"] = float(param["value"]) - float(offset[axis])
+                done.add(axis)
+    if done != {0, 1}:
+        return crs_wkt, False
+    moved = ProjectedCRS(conversion=CoordinateOperation.from_json_dict(data),
+                         geodetic_crs=crs.geodetic_crs,
+                         name=f"{crs.name} (false origin moved by -{offset[0]:.0f}, "
+                              f"-{offset[1]:.0f} m)")
+    return moved.to_wkt(), True
 
 
 def _raise_at(bad: np.ndarray, features, where: str, xy: np.ndarray, what: str):

@@ -20,7 +20,7 @@ def river(tmp_path_factory):
              polyline((0, 0), (150, -40), (300, 0))]
     path = write_lines(tmp_path_factory.mktemp("bake") / "river.gpkg", lines,
                        {"W": np.array([24.0, 18.0, 36.0])})
-    graph = rf.read_rivers(path, width_m="W").build()
+    graph = rf.read_rivers(path, origin_m=None, width_m="W").build()
     return graph, rf.FlowField(graph)
 
 
@@ -88,8 +88,7 @@ def test_the_command_line_bakes_a_gis_scene(tmp_path, capsys):
 
     lines = [polyline((-200, 0), (200, 0))]
     net = write_lines(tmp_path / "one.geojson", lines, {"width_m": np.array([20.0])})
-    x0, y0 = ORIGIN - (220.0, 40.0)
-    region = f"--region={x0},{y0},{x0 + 440.0},{y0 + 80.0}"
+    region = "--region=-220,-40,220,40"    # read with origin_m="auto": moved by ORIGIN
     out = tmp_path / "flow.png"
     assert main(["bake", "--scene", str(net), region, "--cell-m", "2", "--out", str(out),
                  "--16bit"]) == 0

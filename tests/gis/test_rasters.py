@@ -134,7 +134,7 @@ def test_a_16bit_png_heightmap_is_north_up(tmp_path):
 def test_a_landscape_on_a_dem(tmp_path):
     lines = [polyline((-250, 0), (250, 0))]
     net = write_lines(tmp_path / "river.gpkg", lines, {"W": np.array([12.0])})
-    graph = rf.read_rivers(net, width_m="W").build()
+    graph = rf.read_rivers(net, origin_m=None, width_m="W").build()
     dem = write_dem(tmp_path / "dem.tif", nx=400, ny=400, west=ORIGIN[0] - 400.0,
                     north=ORIGIN[1] + 400.0)
     scene = rf.landscape(graph, terrain=dem, pad_m=100.0)

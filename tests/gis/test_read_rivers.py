@@ -48,7 +48,7 @@ def test_a_confluence_in_every_format(tmp_path, suffix, lonlat, widths):
     if widths:
         attrs["W"] = np.array([20.0, 30.0, 45.0])
     path = write_lines(tmp_path / f"net{suffix}", lines, attrs, lonlat=lonlat)
-    builder = rf.read_rivers(path, width_m="W" if widths else None, drainage_area_km2="area_km2")
+    builder = rf.read_rivers(path, origin_m=None, width_m="W" if widths else None, drainage_area_km2="area_km2")
     graph = builder.build()
     assert rf.validate_graph(graph) == []
     # the coordinates: projected data keeps its CRS; lon/lat is projected to the UTM zone
@@ -76,7 +76,7 @@ def test_near_miss_and_t_junctions_are_joined(tmp_path):
     side = polyline((700, 600), (700, 30.4))   # ends 0.4 m off the main river's middle
     path = write_lines(tmp_path / "near.gpkg", [*lines, side],
                        {"W": np.array([20.0, 30.0, 45.0, 10.0])})
-    builder = rf.read_rivers(path, width_m="W")
+    builder = rf.read_rivers(path, origin_m=None, width_m="W")
     graph = builder.build()
     assert rf.validate_graph(graph) == []
     notes = " ".join(builder.report.notes)
@@ -89,7 +89,7 @@ def test_a_1m_stream_joins_a_100m_river(tmp_path):
     river = polyline((-2000, 0), (0, 0), (2000, 0), step=50.0)
     stream = polyline((0, 1500), (0, 0), step=5.0)        # ends on the river's middle
     path = write_lines(tmp_path / "mouth.shp", [river, stream], {"W": np.array([100.0, 1.0])})
-    builder = rf.read_rivers(path, width_m="W")
+    builder = rf.read_rivers(path, origin_m=None, width_m="W")
     graph = builder.build()
     assert rf.validate_graph(graph) == []
     widths = {lk.name: lk.width_m for lk in builder.report.links}
@@ -110,7 +110,7 @@ def test_a_braided_reach_flows_around_its_islands(tmp_path):
              polyline((1000, 0), (2000, 0))]
     area = np.array([100.0, 30.0, 40.0, 30.0, 140.0])
     path = write_lines(tmp_path / "braid.geojson", lines, {"A": area})
-    builder = rf.read_rivers(path, drainage_area_km2="A")
+    builder = rf.read_rivers(path, origin_m=None, drainage_area_km2="A")
     graph = builder.build()
     assert rf.validate_graph(graph) == []
     assert len(graph.areas) == 3                # the water and two islands
@@ -129,7 +129,7 @@ def test_an_island_with_no_attributes_at_all(tmp_path):
              polyline((0, 0), (400, -120), (800, 0)),
              polyline((800, 0), (1600, 0))]
     path = write_lines(tmp_path / "island.shp", lines)
-    builder = rf.read_rivers(path)
+    builder = rf.read_rivers(path, origin_m=None)
     graph = builder.build()
     assert rf.validate_graph(graph) == []
     report = builder.report
@@ -163,7 +163,7 @@ def comb(n_teeth=24, spacing=120.0, tooth=300.0):
 def test_many_junctions_and_links_a_few_metres_long(tmp_path):
     lines = comb()
     path = write_lines(tmp_path / "comb.gpkg", lines, layer="streams")
-    builder = rf.read_rivers(path)
+    builder = rf.read_rivers(path, origin_m=None)
     graph = builder.build()
     assert rf.validate_graph(graph) == []
     notes = " ".join(builder.report.notes)
@@ -177,7 +177,7 @@ def test_many_junctions_and_links_a_few_metres_long(tmp_path):
 def test_stream_order_gives_widths(tmp_path):
     lines = confluence()
     path = write_lines(tmp_path / "orders.geojson", lines, {"strmOrder": np.array([1, 2, 3])})
-    builder = rf.read_rivers(path)             # strmOrder is a known name (TauDEM)
+    builder = rf.read_rivers(path, origin_m=None)             # strmOrder is a known name (TauDEM)
     builder.build()
     w = [lk.width_m for lk in builder.report.links]
     assert w[0] < w[1] < w[2]
@@ -189,7 +189,7 @@ def test_lines_drawn_upstream_are_turned_by_an_attribute(tmp_path):
     lines = confluence()
     flipped = [lines[0], lines[1][::-1], lines[2][::-1]]
     path = write_lines(tmp_path / "rev.gpkg", flipped, {"up": np.array([0, 1, 1])})
-    graph = rf.read_rivers(path, reverse="up", width_m=25.0).build()
+    graph = rf.read_rivers(path, origin_m=None, reverse="up", width_m=25.0).build()
     check_flows_downstream(graph, lines)
 
 
@@ -200,7 +200,7 @@ def test_multilinestrings_and_bed_elevations(tmp_path):
     path = write_lines(tmp_path / "multi.geojson", None,
                        {"z_up": np.array([120.0, 100.0]), "z_dn": np.array([100.0, 90.0])},
                        geoms=geoms)
-    builder = rf.read_rivers(path, elevation_m=("z_up", "z_dn"), width_m=20.0)
+    builder = rf.read_rivers(path, origin_m=None, elevation_m=("z_up", "z_dn"), width_m=20.0)
     graph = builder.build()
     assert [lk.name for lk in builder.report.links] == ["feature 0 part 0", "feature 0 part 1",
                                                         "feature 1"]
@@ -211,3 +211,22 @@ def test_multilinestrings_and_bed_elevations(tmp_path):
     scene = rf.landscape(graph)
     z = scene.water.level(np.array([lines[0][5], lines[2][-5]]) + ORIGIN)
     assert 100.0 < z[0] < 121.0 and 89.0 < z[1] < 95.0
+
+
+def test_far_coordinates_move_near_zero_with_the_crs(tmp_path):
+    """UTM northings are millions of metres: drawing in float32 would resolve 0.5 m there."""
+    lines = confluence()
+    path = write_lines(tmp_path / "far.gpkg", lines, {"W": np.array([20.0, 30.0, 45.0])})
+    builder = rf.read_rivers(path, width_m="W")
+    graph = builder.build()
+    assert builder.report.origin_m == (500_000.0, 5_000_000.0)
+    x0, y0, x1, y1 = graph.bounds()
+    assert max(abs(x0), abs(y0), abs(x1), abs(y1)) < 2_000.0
+    back = pyproj.Transformer.from_crs(pyproj.CRS.from_wkt(graph.crs), UTM, always_xy=True)
+    np.testing.assert_allclose(np.column_stack(back.transform(*graph.nodes.T)),
+                               graph.nodes + ORIGIN, atol=1e-6)
+    check_flows_downstream(graph, [p - ORIGIN for p in lines])
+    near = rf.read_rivers(path, width_m="W", origin_m=(499_000.0, 5_000_000.0))
+    assert near.report.origin_m == (499_000.0, 5_000_000.0)
+    with pytest.raises(rf.GraphError, match="origin_m must be"):
+        rf.read_rivers(path, origin_m="centre")

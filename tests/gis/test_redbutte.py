@@ -8,7 +8,7 @@ import pytest
 import shapely
 
 import riverflow as rf
-from tests.gis.conftest import along, pyogrio
+from tests.gis.conftest import along, pyogrio, pyproj
 
 pytestmark = pytest.mark.data
 
@@ -22,7 +22,8 @@ def imported(request):
     builder = rf.read_rivers(REDBUTTE)
     graph = builder.build()
     _, _, wkb, columns = pyogrio.raw.read(str(REDBUTTE))
-    lines = [shapely.get_coordinates(g) for g in shapely.from_wkb(wkb)]
+    # the graph's coordinates are the file's less a round origin (float32 drawing)
+    lines = [shapely.get_coordinates(g) - builder.report.origin_m for g in shapely.from_wkb(wkb)]
     return builder, graph, lines, columns, rf.FlowField(graph)
 
 
@@ -75,9 +76,13 @@ def test_axes_are_as_long_as_the_links(imported):
 
 
 def test_the_import_says_what_it_derived(imported):
-    builder, graph, *_ = imported
+    builder, graph, lines, *_ = imported
     report = builder.report
-    assert "EPSG:26912" in str(report)
+    assert "EPSG:26912" in str(report) and report.origin_m == (433000.0, 4516000.0)
+    back = pyproj.Transformer.from_crs(pyproj.CRS.from_wkt(graph.crs), "EPSG:26912",
+                                       always_xy=True)
+    x, y = back.transform(*lines[0][0])
+    np.testing.assert_allclose([x, y], lines[0][0] + report.origin_m, atol=1e-6)
     assert graph.crs is not None and builder.crs == graph.crs
     assert report.derived["discharge"] == {"hydraulic geometry of the drainage area": 12}
     assert report.derived["width_m"] == {"hydraulic geometry of the discharge": 12}
