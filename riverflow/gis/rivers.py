@@ -219,14 +219,17 @@ class GisRiverBuilder(RiverNetworkBuilder):
         return self.report.derived
 
     def build(self):
+        """Make the hydro graph (``graph.source``: the GIS file); errors name the features."""
         try:
-            return super().build()
+            graph = super().build()
         except GraphError as exc:
             text = str(exc)
             named = [n for n in self.report.attributes if f"'{n}'" in text]
             where = "; ".join(f"{n} = {_attrs_text(self.report.attributes[n])}" for n in named)
             raise GraphError(f"{self.report.path} (layer {self.report.layer!r}): {text}"
                              + (f" [{where}]" if where else "")) from None
+        graph.source = self.report.path
+        return graph
 
 
 # -- reading -------------------------------------------------------------------------------------
