@@ -297,11 +297,12 @@ def measure(length_km: float, args) -> dict:
         # steady, at two fixed views once covered: the flight's first view (its screen holds
         # more water the wider the main river, which grows with the network) and a reach that
         # looks the same in every world (a source stream: like for like)
-        res["steady_flight_view"] = _steady(world, args, pacer, pose(0))
         reach, res["steady_reach"] = _source_reach(layout, line, args.reach_width_m)
         res["steady"] = _steady(world, args, pacer, flight_pose(
             scene, 0, 1 / FPS, speed_mps=args.speed, line=reach))
         res["steady"]["reach"] = res["steady_reach"]
+        res["steady_flight_view"] = _steady(world, args, pacer, pose(0))   # last: the flight
+        # starts from it with the screen full of particles
 
         # flight: 200 m/s down the main river, background production, after a loading screen
         # at its first view as a host shows one (RiverWorld.load_view: with the default

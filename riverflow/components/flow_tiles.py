@@ -112,13 +112,13 @@ class FlowTiles:
         """How many flow tiles the cache's budget holds."""
         return max(1, self.cache.budget_bytes // self.pool.tile_bytes)
 
-    def mark_cut(self, keys: np.ndarray) -> None:
-        """Mark the resident tiles of ``keys`` (K, 3) as this frame's flow cut (``in_cut``: a
-        tile read in their place only stands in for a late one; kernels/flow.py
-        CELL_CROWDED)."""
+    def mark_cut(self, keys: np.ndarray, key_codes: np.ndarray | None = None) -> None:
+        """Mark the resident tiles of ``keys`` (K, 3) (their codes ``key_codes`` if known) as
+        this frame's flow cut (``in_cut``: a tile read in their place only stands in for a
+        late one; kernels/flow.py CELL_CROWDED)."""
         in_cut = self.pool.arrays["in_cut"]
         in_cut[:] = 0
-        slots = self.pool.table.find_many(codes(keys))
+        slots = self.pool.table.find_many(codes(keys) if key_codes is None else key_codes)
         in_cut[slots[slots >= 0]] = 1
         self.cut_level = int(keys[:, 0].max()) if len(keys) else -1
 

@@ -40,6 +40,7 @@ class ProduceTiles(System):
         self._cut_table = TileTable(2 * MAX_VIEW_TILES)
         self._ancestors = np.zeros((0, 3), np.int32)
         self._ancestors_of = b""
+        self._ancestor_codes = np.zeros(0, np.int64)
         self._entities: dict[tuple[str, int], int] = {}  # (kind, slot) → entity
         self._synced: dict[str, tuple[int, np.ndarray]] = {}  # kind → (revision, slot codes)
         self.visible: dict[str, int] = {}
@@ -63,7 +64,7 @@ class ProduceTiles(System):
                 _ALL_VALUES, self._cut)
             wanted = self._with_ancestors(self._cut[:n_cut])
             for kind in TERRAIN_KINDS:
-                tiles.scheduler.request(kind, wanted)
+                tiles.scheduler.request(kind, wanted, self._ancestor_codes)
         self.visible["terrain"] = int(n_cut)
         for _, node in esper.get_component(RiverNode):
             field = node.field
@@ -75,8 +76,9 @@ class ProduceTiles(System):
                     t.root_x_m, t.root_y_m, t.root_size_m, t.n_cells, field.max_level,
                     terrain.z_min, terrain.z_max, t.wet.keys, t.wet.values, self._keys)
             self.visible[FLOW_KIND] = int(n)
-            tiles.scheduler.request(FLOW_KIND, self._keys[:n])
-            t.mark_cut(self._keys[:n])
+            flow_codes = codes(self._keys[:n])
+            tiles.scheduler.request(FLOW_KIND, self._keys[:n], flow_codes)
+            t.mark_cut(self._keys[:n], flow_codes)
         terrain.cut = self._cut[:n_cut].copy()
         terrain.surface = self._surface(world, tiles, terrain)
         self._sync_entities(tiles)
@@ -92,6 +94,7 @@ class ProduceTiles(System):
             mask = (1 << 28) - 1
             self._ancestors = np.stack([code >> 56, code & mask, (code >> 28) & mask],
                                        axis=1).astype(np.int32)
+            self._ancestor_codes = np.ascontiguousarray(code, np.int64)
             self._ancestors_of = key
         return self._ancestors
 

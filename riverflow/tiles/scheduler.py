@@ -144,13 +144,15 @@ class TileScheduler:
 
     # -- requests --------------------------------------------------------------------------
 
-    def request(self, kind: str, keys: np.ndarray | Iterable[TileKey]) -> int:
-        """Ask for tiles of ``kind`` ((K, 3) (level, tx, ty) rows; the frame asks for every
-        tile it needs every frame). Resident ones are marked used; the others are queued
-        (background) or made now (blocking), their dependencies first. Returns how many were
-        queued or made."""
+    def request(self, kind: str, keys: np.ndarray | Iterable[TileKey],
+                codes: np.ndarray | None = None) -> int:
+        """Ask for tiles of ``kind`` ((K, 3) (level, tx, ty) rows, or their (K,) int64
+        ``codes`` when the caller has them: a frame asks for the same tiles of several kinds;
+        the frame asks for every tile it needs every frame). Resident ones are marked used;
+        the others are queued (background) or made now (blocking), their dependencies first.
+        Returns how many were queued or made."""
         pool = self.cache.pools[kind]
-        codes = codes_of(keys)
+        codes = codes_of(keys) if codes is None else codes
         missing = pool.mark_used(codes, self.cache.tick)
         started = 0
         producer = self.producers[kind]
