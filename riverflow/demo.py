@@ -134,7 +134,8 @@ class BoatDemo:
         self.scene = scene
         self.world = RiverWorld(scene, size=size, gl=gl, seed=seed, config=config)
         position, heading = _start_pose(scene)
-        self.boat = self.world.add_boat(position, heading_rad=heading)
+        self.boat = self.world.add_boat(position, heading_rad=heading,
+                                        **_boat_size(scene, position))
         self.chase = ChaseCamera()
         self.free = FreeFlyCamera()         # placed at the chase view when switched to
         self.camera_mode = "chase"
@@ -252,7 +253,45 @@ def _start_pose(scene) -> tuple[np.ndarray, float]:
     i = int(np.searchsorted(s, at))
     p = np.array([np.interp(at, s, line[:, 0]), np.interp(at, s, line[:, 1])])
     d = line[min(i + 1, len(line) - 1)] - line[max(i - 1, 0)]
-    return p, math.atan2(d[1], d[0])
+    return _onto_axis(scene, p, math.atan2(d[1], d[0]))
+
+
+def _onto_axis(scene, p: np.ndarray, heading: float) -> tuple[np.ndarray, float]:
+    """``p`` moved onto the nearest river axis of the scene's graph: the flight's centre line
+    is resampled every 10 m, which on a narrow winding creek (GIS data) cuts its corners onto
+    the banks. The heading is kept, turned to the axis' direction there."""
+    from riverflow.hydro.nearest import PolylineIndex
+
+    graph = getattr(scene, "graph", None)
+    if graph is None or not graph.axes():
+        return p, heading
+    best = None
+    for a in graph.axes():
+        index = PolylineIndex(graph.polyline(a))
+        dist, q, arc = index.nearest(p[None])
+        if best is None or dist[0] < best[0]:
+            best = (dist[0], q[0], index, arc[0])
+    _, q, index, arc = best
+    k = int(np.clip(np.searchsorted(index.s0, arc, side="right") - 1, 0, len(index.d) - 1))
+    t = index.d[k]
+    along = math.atan2(t[1], t[0])
+    if math.cos(along - heading) < 0:      # the axis may be drawn upstream
+        along += math.pi
+    return q, along
+
+
+def _boat_size(scene, position: np.ndarray) -> dict[str, float]:
+    """The boat's size on the scene's river at ``position``: the Boat's default (8 × 3 m), or
+    smaller where the river is narrower than three beams (a creek from GIS data is 2 m wide):
+    beam a third of the width, the hull as long as it is in proportion."""
+    water = getattr(scene, "water", None)
+    if water is None:
+        return {}
+    width = float(water.nearest(np.asarray(position, np.float64).reshape(1, 2))[2][0])
+    beam = width / 3.0
+    if not (np.isfinite(beam) and beam < 3.0):
+        return {}
+    return {"beam_m": beam, "length_m": 8.0 * beam / 3.0}
 
 
 # -- headless ------------------------------------------------------------------------------------

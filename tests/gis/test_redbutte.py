@@ -111,3 +111,27 @@ def test_it_flows_in_a_world(imported):
         inside = particles.status == rf.FlowStatus.INSIDE
         assert inside.sum() > 10
         assert np.isfinite(particles.world_m).all()
+
+
+@pytest.mark.slow
+def test_the_boat_demo_floats_down_red_butte(imported):
+    """The demo's boat, sized to the creek (2 m wide: its beam a third of that), starts on the
+    water and the flow carries it downstream (no throttle)."""
+    from riverflow.demo import BoatDemo
+
+    _, graph, _, _, field = imported
+    demo = BoatDemo(rf.landscape(graph), size=(160, 90), gl=False,
+                    config=rf.RiverConfig(radius_px=8, tile_production="blocking"))
+    try:
+        boat = demo.boat_state
+        assert boat.beam_m < 1.0 and boat.length_m < 3.0
+        start = boat.position_m.copy()
+        for _ in range(120):
+            demo.step()
+        moved = boat.position_m - start
+        status, velocity = field.query(start[None])
+        assert status[0] == rf.FlowStatus.INSIDE
+        assert float(moved @ velocity[0]) > 0.0          # downstream, with the flow
+        assert field.query(boat.position_m[None])[0][0] == rf.FlowStatus.INSIDE
+    finally:
+        demo.close()
