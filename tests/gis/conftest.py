@@ -1,5 +1,6 @@
 """Shared helpers of the GIS tests: networks written by the tests in each format, the Red
-Butte example. The whole folder is skipped when the ``gis`` extra is not installed."""
+Butte example. Every module skips itself when the ``gis`` extra is not installed
+(:func:`require_gis`)."""
 from __future__ import annotations
 
 import itertools
@@ -10,8 +11,14 @@ import shapely
 
 from tests.conftest import SHARED_DATA
 
-pyogrio = pytest.importorskip("pyogrio", reason="the gis extra (pip install 'riverflow[gis]')")
-pyproj = pytest.importorskip("pyproj", reason="the gis extra (pip install 'riverflow[gis]')")
+GIS_EXTRA = "the gis extra (pip install 'riverflow[gis]')"
+
+
+def require_gis():
+    """Skip the calling test module when the gis extra is absent; returns (pyogrio, pyproj).
+    (Each module calls it: a skip raised while importing a conftest stops the whole run.)"""
+    return (pytest.importorskip("pyogrio", reason=GIS_EXTRA),
+            pytest.importorskip("pyproj", reason=GIS_EXTRA))
 
 REDBUTTE = SHARED_DATA / "gis" / "redbutte" / "a001_network.shp"
 UTM = "EPSG:32633"
@@ -33,6 +40,9 @@ def write_lines(path, lines, attrs=None, *, crs=UTM, lonlat=False, layer=None, g
     attribute columns ``attrs`` {name: values} to ``path`` (driver from the suffix). With
     ``lonlat`` the coordinates are converted to WGS 84 lon/lat and written so. ``geoms``:
     shapely geometries written as they are instead. Returns the path."""
+    import pyogrio.raw
+    import pyproj
+
     if geoms is None:
         geoms = [shapely.LineString(np.asarray(p, float) + ORIGIN) for p in lines]
     if lonlat:

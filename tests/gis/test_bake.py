@@ -10,7 +10,9 @@ import pytest
 
 import riverflow as rf
 from riverflow.gis.bake import bank_distance, decode_flow_map, pixel_centres
-from tests.gis.conftest import ORIGIN, polyline, write_lines
+from tests.gis.conftest import ORIGIN, polyline, require_gis, write_lines
+
+require_gis()
 
 
 @pytest.fixture(scope="module")

@@ -5,7 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tests.gis.conftest import polyline, write_lines
+from tests.gis.conftest import polyline, require_gis, write_lines
+
+require_gis()
 from tests.test_cli import PNG_SIGNATURE, run_cli, run_python
 
 

@@ -9,7 +9,9 @@ import pytest
 import shapely
 
 import riverflow as rf
-from tests.gis.conftest import ORIGIN, polyline, write_lines
+from tests.gis.conftest import ORIGIN, polyline, require_gis, write_lines
+
+require_gis()
 
 LINES = [polyline((-600, 300), (0, 0)), polyline((-600, -300), (0, 0)),
          polyline((0, 0), (800, 0))]

@@ -7,7 +7,9 @@ import pytest
 
 import riverflow as rf
 from riverflow.gis.rasters import BLOCK_CELLS, PngHeightSource, RasterSource
-from tests.gis.conftest import ORIGIN, UTM, polyline, write_lines
+from tests.gis.conftest import ORIGIN, UTM, polyline, require_gis, write_lines
+
+require_gis()
 
 rasterio = pytest.importorskip("rasterio")
 png = pytest.importorskip("png")

@@ -13,7 +13,9 @@ import shapely
 
 import riverflow as rf
 from riverflow.gis.rivers import HydraulicGeometry
-from tests.gis.conftest import ORIGIN, UTM, along, polyline, pyproj, write_lines
+from tests.gis.conftest import ORIGIN, UTM, along, polyline, require_gis, write_lines
+
+_, pyproj = require_gis()
 
 INSIDE = rf.FlowStatus.INSIDE
 

@@ -8,7 +8,9 @@ import pytest
 import shapely
 
 import riverflow as rf
-from tests.gis.conftest import along, pyogrio, pyproj
+from tests.gis.conftest import along, require_gis
+
+pyogrio, pyproj = require_gis()
 
 pytestmark = pytest.mark.data
 
