@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tests.gis.conftest import polyline, require_gis, write_lines
+from tests.gis.conftest import ORIGIN, polyline, require_gis, write_lines
 
 require_gis()
 from tests.test_cli import PNG_SIGNATURE, run_cli, run_python
@@ -33,7 +33,7 @@ def test_flowmap_draws_a_geopackage(tmp_path, capsys):
                       {"W": np.array([30.0])}, layer="rivers")
     out = tmp_path / "map.png"
     assert main(["flowmap", "--scene", str(net), "--layer", "rivers", "--out", str(out),
-                 "--size-px", "300"]) == 0
+                 "--size-px", "600"]) == 0
     assert out.read_bytes().startswith(PNG_SIGNATURE)
     assert main(["flowmap", "--scene", str(net), "--layer", "lakes", "--out", str(out)]) == 1
     assert "no layer 'lakes'" in capsys.readouterr().err
@@ -46,3 +46,25 @@ def test_profile_runs_on_red_butte(redbutte):
                      "--frames", "2")
     assert result.returncode == 0, result.stderr
     assert "a001_network.shp" in result.stdout
+
+
+def test_a_scene_on_a_dem_from_the_command_line(tmp_path, capsys):
+    """--terrain: the DEM (UTM 33N) under rivers whose coordinates were moved near 0 (their
+    CRS's false origin with them): the raster is warped to the rivers' CRS."""
+    pytest.importorskip("rasterio")
+    from riverflow.__main__ import _load_scene, _parser
+    from riverflow.gis.rasters import RasterSource
+    from tests.gis.test_rasters import plane, write_dem
+
+    net = write_lines(tmp_path / "net.gpkg", [polyline((-250, 0), (250, 0))],
+                      {"W": np.array([12.0])}, layer="streams")
+    dem = write_dem(tmp_path / "dem.tif", nx=400, ny=400, west=ORIGIN[0] - 400.0,
+                    north=ORIGIN[1] + 400.0)
+    args = _parser().parse_args(["bake", "--scene", str(net), "--layer", "streams",
+                                 "--terrain", str(dem)])
+    scene, title = _load_scene(args)
+    assert title == "net.gpkg" and isinstance(scene.terrain.source, RasterSource)
+    assert scene.terrain.source.reprojected
+    far = np.array([[-200.0, 350.0], [100.0, -350.0]])        # moved coordinates
+    np.testing.assert_allclose(scene.terrain.height(far),
+                               plane(far[:, 0] + ORIGIN[0], far[:, 1] + ORIGIN[1]), atol=0.01)
