@@ -19,6 +19,7 @@ Example::
 from __future__ import annotations
 
 import math
+import weakref
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 
@@ -392,8 +393,8 @@ class TileBuilder:
     """Scratch arrays to build flow tiles of one field; one per thread (kernels release the GIL)."""
 
     def __init__(self, field: FlowField) -> None:
-        self.field = field
-        net = field.network
+        self.field = weakref.proxy(field)   # the field holds its own builder: no cycle, so a
+        net = field.network                 # dropped world's tiles go with its last reference
         n = field.tiles.n_cells
         m = n + 1 + 2 * kf.LATTICE_RING
         self.psi_full = np.empty((m, m))

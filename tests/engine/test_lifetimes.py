@@ -72,9 +72,11 @@ def test_a_dropped_world_is_freed_at_once_and_releases_its_thread_and_esper_worl
         assert [t.name for t in workers] == ["riverflow-tiles"]
         assert world.name in esper.list_worlds()
         ref = weakref.ref(world)
+        cache = weakref.ref(world.tiles.cache)
         assert sys.getrefcount(world) == 2, gc.get_referrers(world)
         del world
         assert ref() is None, "a reference cycle holds the world"
+        assert cache() is None, "a reference cycle holds the world's tiles"
         assert not workers[0].is_alive(), "the worker outlived its world"
         assert _our_esper_worlds() == esper_before, "esper still holds the dropped world"
     finally:
@@ -93,12 +95,27 @@ def test_fifty_dropped_worlds_give_back_their_threads_and_memory(scene):
     esper_before = _our_esper_worlds()
     for _ in range(WORLDS):
         _background_world(scene)          # made, stepped and dropped without close()
-    gc.collect()                          # (a world's flow field is in a cycle of its own)
+    gc.collect()
     assert _settle(threads) == threads, [t.name for t in threading.enumerate()]
     assert not _workers()
     assert _our_esper_worlds() == esper_before
     grown = _rss_mb() - rss
     assert grown < 50.0, f"RSS grew {grown:.0f} MB over {WORLDS} dropped worlds"
+
+
+def test_a_world_dropped_after_a_loading_screen_is_freed_at_once(scene):
+    """load_view freezes what is alive for the collector (RiverConfig.freeze_gc_on_load):
+    a world dropped after it is still freed, by reference counting alone."""
+    world = rf.RiverWorld(scene, size=(160, 90), gl=False, seed=0)
+    try:
+        world.camera.look_at(*flight_pose(scene, 0))
+        assert world.load_view(60.0)
+        assert gc.get_freeze_count() > 0
+        ref, cache = weakref.ref(world), weakref.ref(world.tiles.cache)
+        del world
+        assert ref() is None and cache() is None
+    finally:
+        gc.unfreeze()
 
 
 def test_with_block_and_close_release_everything_once(scene):
