@@ -4,10 +4,11 @@ The warm-up (:func:`riverflow.kernels.warmup.compile_kernels`) compiles each ker
 the first frame with the types recorded here. Run this after changing a kernel's arguments
 (``make kernel-signatures``); ``--check`` says whether the file is current (exit 1 if not).
 
-Each group's workload runs in a fresh process with the warm-up off; every first call of a
-riverflow kernel from Python (not a helper compiled for another kernel) is recorded with its
-argument types, whether numba compiles it or loads it from the cache (a warm cache makes this
-fast). ``draw`` keeps only what drawing adds to ``world``.
+Each group's workload runs in a fresh process with the warm-up off, twice: on a new cache
+(the compile time of each kernel, for the warm-up's order) and again on that now warm cache,
+where every first call of a riverflow kernel from Python (not a helper compiled for another
+kernel) is recorded with its argument types. ``draw`` keeps only what drawing adds to
+``world``. About three minutes on the 2-core machine.
 
     python tools/record_kernel_signatures.py [--check] [--groups world,draw]
 """
@@ -18,7 +19,9 @@ import json
 import os
 import subprocess
 import sys
+import tempfile
 import threading
+import time
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
@@ -30,17 +33,30 @@ SUBTRACT = {"draw": ("world",)}
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--check", action="store_true", help="compare, do not write")
+    parser.add_argument("--cache", default=None, metavar="DIR",
+                        help="NUMBA_CACHE_DIR of the workloads (default: a new temporary one, "
+                             "so that the compile times recorded for ordering are cold ones)")
     parser.add_argument("--workload", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.workload:
         return _record(args.workload)
-    recorded = {g: _run(g) for g in GROUPS}
+    if args.cache is None:
+        temp = tempfile.TemporaryDirectory(prefix="riverflow-record-")
+        args.cache = temp.name
+    # first pass: compile times (cold when the cache is new); second pass, on the now warm
+    # cache: the signatures (a kernel that Python calls but that the first pass compiled
+    # earlier as another kernel's helper is only seen when it loads from the cache)
+    costs: dict[str, float] = {}
+    for g in GROUPS:
+        for name, seconds in _run(g, args.cache)["costs"].items():
+            costs.setdefault(name, seconds)
+    recorded = {g: _run(g, args.cache)["signatures"] for g in GROUPS}
     for group, others in SUBTRACT.items():
         drop = {(k, s) for o in others for k, sigs in recorded[o].items() for s in sigs}
         recorded[group] = {k: [s for s in sigs if (k, s) not in drop]
                            for k, sigs in recorded[group].items()}
         recorded[group] = {k: v for k, v in recorded[group].items() if v}
-    text = _render(recorded)
+    text = _render(recorded, costs)
     if args.check:
         current = OUT.read_text() if OUT.exists() else ""
         if _body(current) != _body(text):
@@ -54,8 +70,8 @@ def main() -> int:
     return 0
 
 
-def _run(group: str) -> dict[str, list[str]]:
-    env = dict(os.environ, PYGLET_HEADLESS="1")
+def _run(group: str, cache: str) -> dict:
+    env = dict(os.environ, PYGLET_HEADLESS="1", NUMBA_CACHE_DIR=cache)
     proc = subprocess.run([sys.executable, __file__, "--workload", group], env=env, cwd=REPO,
                           capture_output=True, text=True, check=False)
     if proc.returncode != 0:
@@ -65,10 +81,11 @@ def _run(group: str) -> dict[str, list[str]]:
 
 
 def _body(text: str) -> str:
-    return text[text.find("SIGNATURES"):]
+    """The signatures (not the comment, not the compile times, which vary run to run)."""
+    return text[text.find("SIGNATURES"):text.find("COSTS")]
 
 
-def _render(recorded: dict[str, dict[str, list[str]]]) -> str:
+def _render(recorded: dict[str, dict[str, list[str]]], costs: dict[str, float]) -> str:
     import numba
 
     lines = ['"""Argument types of riverflow\'s kernels per group, for the warm-up',
@@ -85,6 +102,10 @@ def _render(recorded: dict[str, dict[str, list[str]]]) -> str:
             lines.append("        ],")
         lines.append("    },")
     lines.append("}")
+    lines += ["", "# seconds to compile each kernel on a cold cache when recorded (the warm-up starts",
+              "# the costliest first, so that side-by-side compiling ends together)", "COSTS = {"]
+    lines += [f"    {k!r}: {v:.2f}," for k, v in sorted(costs.items(), key=lambda kv: -kv[1])]
+    lines.append("}")
     return "\n".join(lines) + "\n"
 
 
@@ -98,6 +119,7 @@ def _record(group: str) -> int:
 
     warmup._recording = True               # the warm-up must not call the kernels first
     found: dict[str, list[str]] = {}
+    costs: dict[str, float] = {}
     depth = threading.local()
     original = Dispatcher.compile
 
@@ -106,6 +128,7 @@ def _record(group: str) -> int:
         args = tuple(sigutils.normalize_signature(sig)[0])
         first = level == 0 and warmup.is_riverflow_kernel(self) and args not in self.overloads
         depth.n = level + 1
+        started = time.perf_counter()
         try:
             result = original(self, sig)
         finally:
@@ -113,6 +136,7 @@ def _record(group: str) -> int:
         if first:
             f = self.py_func
             name = f"{f.__module__.rpartition('.')[2]}.{f.__name__}"
+            costs[name] = max(costs.get(name, 0.0), time.perf_counter() - started)
             try:
                 text = warmup.encode_signature(args)
             except TypeError as exc:
@@ -124,7 +148,7 @@ def _record(group: str) -> int:
 
     Dispatcher.compile = compile
     WORKLOADS[group]()
-    print(json.dumps(found))
+    print(json.dumps({"signatures": found, "costs": costs}))
     return 0
 
 

@@ -25,17 +25,23 @@ numba compiles it at its first call, as it would without a warm-up.
 """
 from __future__ import annotations
 
+import contextlib
 import importlib
+import json
+import os
 import sys
 import threading
 import time
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import IO, Any
 
 GROUPS = ("field", "scene", "world", "draw")
 MESSAGE = "compiling riverflow kernels for this machine, first run only"
 
+_KERNELS = __spec__.parent if __spec__ is not None else __name__.rpartition(".")[0]
+"""``riverflow.kernels`` (also when this module runs as ``-m …warmup --worker``)."""
 _lock = threading.RLock()
 _warm: set[tuple[str, str]] = set()
 """(kernel, signature) pairs this process has compiled or loaded already."""
@@ -119,7 +125,7 @@ class TerminalProgress(CompileProgress):
 def is_riverflow_kernel(dispatcher: Any) -> bool:
     """A numba dispatcher of a function in ``riverflow/kernels``."""
     module = getattr(getattr(dispatcher, "py_func", None), "__module__", "") or ""
-    return module.startswith(__name__.rpartition(".")[0] + ".")
+    return module.startswith(_KERNELS + ".")
 
 
 class CompileCounter:
@@ -175,19 +181,35 @@ class WarmUp:
 
 
 def compile_kernels(*groups: str, progress: CompileProgress | Sequence[CompileProgress] | str
-                    | None = "auto") -> WarmUp:
+                    | None = "auto", jobs: int | None = None) -> WarmUp:
     """Compile or load the kernels of ``groups`` (module docstring; default: all) with their
     recorded signatures, before a run calls them. ``progress``: ``"auto"`` prints the line
     to stderr when something is compiled; a :class:`CompileProgress` (or several) to draw it
-    yourself; None for silence. Pairs done before in this process are skipped, so calling it
-    again is free. With ``NUMBA_DISABLE_JIT=1`` it does nothing."""
-    return compile_entries(entries(*groups), progress=progress)
+    yourself; None for silence. ``jobs``: processes that compile side by side on a cold cache
+    (default: :func:`default_jobs`; 1 compiles here, in this process). Pairs done before in
+    this process are skipped, so calling it again is free. With ``NUMBA_DISABLE_JIT=1`` it
+    does nothing."""
+    return compile_entries(entries(*groups), progress=progress, jobs=jobs)
+
+
+def default_jobs() -> int:
+    """Compiling processes on a cold cache: ``RIVERFLOW_COMPILE_JOBS``, else one per CPU core
+    up to 8 (each takes a few hundred MB while it compiles)."""
+    text = os.environ.get("RIVERFLOW_COMPILE_JOBS", "")
+    if text.strip().isdigit() and int(text) > 0:
+        return int(text)
+    return max(1, min(os.cpu_count() or 1, 8))
 
 
 def compile_entries(pairs: Iterable[tuple[str, str]],
-                    progress: CompileProgress | Sequence[CompileProgress] | str | None = "auto"
-                    ) -> WarmUp:
-    """:func:`compile_kernels` for given (``"module.function"``, signature text) pairs."""
+                    progress: CompileProgress | Sequence[CompileProgress] | str | None = "auto",
+                    jobs: int | None = None) -> WarmUp:
+    """:func:`compile_kernels` for given (``"module.function"``, signature text) pairs.
+
+    What the cache holds is loaded first; what it does not is compiled, costliest first (the
+    recorded compile times), by ``jobs`` worker processes into the shared cache, then loaded
+    here. This process stays light meanwhile (a window keeps drawing). A pair a worker could
+    not do is compiled here."""
     start = time.perf_counter()
     todo = [pair for pair in pairs if pair not in _warm]
     report = WarmUp()
@@ -201,26 +223,44 @@ def compile_entries(pairs: Iterable[tuple[str, str]],
         progress = [progress]
     done = [0]
 
-    def started() -> None:                 # a kernel is being compiled: say so now
+    def tell(compiling: bool = False) -> None:
         for p in progress:
-            p.update(done[0], len(todo), True)
+            p.update(done[0], len(todo), compiling)
 
-    with _lock, CompileCounter(on_start=started) as counter:
-        for p in progress:
-            p.update(0, len(todo), False)
-        for name, sig in todo:
-            if (name, sig) not in _warm:
-                error = _compile_one(name, sig)
+    with _lock, CompileCounter(on_start=lambda: tell(True)) as counter:
+        tell()
+        misses = []
+        for pair in todo:
+            if _load_cached(*pair):
+                done[0] += 1
+                tell()
+            else:
+                misses.append(pair)
+        if misses:
+            tell(True)
+            misses.sort(key=lambda pair: -_cost(pair[0]))
+            workers = min(jobs if jobs is not None else default_jobs(), len(misses))
+            if workers > 1:
+                def one_done(result: dict) -> None:
+                    done[0] += 1
+                    report.compiled.extend(result.get("compiled", []))
+                    tell(True)
+
+                finished = _compile_in_workers(misses, workers, one_done)
+            else:
+                finished = set()
+            for pair in misses:
+                error = _compile_one(*pair)     # loads what a worker made, else compiles
                 if error:
-                    report.failed.append((name, sig, error))
-                _warm.add((name, sig))
-            done[0] += 1
-            for p in progress:
-                p.update(done[0], len(todo), False)
+                    report.failed.append((*pair, error))
+                if pair not in finished:
+                    done[0] += 1
+                    tell()
+        _warm.update(todo)
         for p in progress:
             p.finish()
     report.kernels = len(todo)
-    report.compiled = counter.compiled
+    report.compiled.extend(counter.compiled)
     report.seconds = time.perf_counter() - start
     return report
 
@@ -244,8 +284,7 @@ def entries(*groups: str) -> list[tuple[str, str]]:
 def dispatcher_of(name: str) -> Any:
     """The dispatcher of ``"module.function"`` in ``riverflow.kernels``."""
     module, _, function = name.rpartition(".")
-    package = __name__.rpartition(".")[0]
-    return getattr(importlib.import_module(f"{package}.{module}"), function)
+    return getattr(importlib.import_module(f"{_KERNELS}.{module}"), function)
 
 
 def _compile_one(name: str, sig: str) -> str:
@@ -258,6 +297,179 @@ def _compile_one(name: str, sig: str) -> str:
     except Exception as exc:  # noqa: BLE001 - a stale record must never stop a run
         return f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
     return ""
+
+
+def _load_cached(name: str, sig: str) -> bool:
+    """Load one recorded signature's machine code if the cache has it (never compiles);
+    whether it is there now. Mirrors numba's ``Dispatcher.compile`` up to its cache load; any
+    surprise (another numba) answers False, and the pair is compiled the usual way."""
+    try:
+        from numba.core.compiler_lock import global_compiler_lock
+
+        dispatcher = dispatcher_of(name)
+        if not hasattr(dispatcher, "_cache"):
+            return True                     # not a dispatcher (NUMBA_DISABLE_JIT)
+        args = decode_signature(sig)
+        with global_compiler_lock:
+            if dispatcher.overloads.get(args) is not None:
+                return True
+            cres = dispatcher._cache.load_overload(args, dispatcher.targetctx)
+            if cres is None:
+                return False
+            if not cres.objectmode:
+                dispatcher.targetctx.insert_user_function(cres.entry_point, cres.fndesc,
+                                                          [cres.library])
+            dispatcher.add_overload(cres)
+            return True
+    except Exception:  # noqa: BLE001 - compile it the public way instead
+        return False
+
+
+def _cost(name: str) -> float:
+    """Recorded seconds to compile ``name`` cold (1 when not recorded)."""
+    from riverflow.kernels import _signatures
+
+    return getattr(_signatures, "COSTS", {}).get(name, 1.0)
+
+
+# -- worker processes ----------------------------------------------------------------------------
+
+_PREFIX = "riverflow-warmup "
+
+
+def _compile_in_workers(pairs: list[tuple[str, str]], workers: int, one_done) -> set:
+    """Compile ``pairs`` in ``workers`` processes (each takes the next pair when it is free);
+    ``one_done(result)`` after each. Returns the pairs they did; an empty set when no process
+    could be started (a frozen application, no interpreter)."""
+    import queue
+    import subprocess
+
+    from numba.core import config
+
+    if getattr(sys, "frozen", False) or not sys.executable:
+        return set()
+    env = dict(os.environ)
+    if config.CACHE_DIR:
+        env["NUMBA_CACHE_DIR"] = str(config.CACHE_DIR)
+    root = str(Path(__file__).resolve().parents[2])
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (root, env.get("PYTHONPATH", "")) if p)
+    todo: queue.Queue = queue.Queue()
+    for pair in pairs:
+        todo.put(pair)
+    finished: set = set()
+    guard = threading.Lock()
+
+    def drive() -> None:
+        try:
+            proc = subprocess.Popen([sys.executable, "-m", f"{_KERNELS}.warmup", "--worker"],
+                                    env=env,
+                                    stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                    stderr=subprocess.DEVNULL, text=True, bufsize=1)
+        except OSError:
+            return
+        try:
+            while True:
+                try:
+                    pair = todo.get_nowait()
+                except queue.Empty:
+                    break
+                proc.stdin.write(json.dumps(pair) + "\n")
+                proc.stdin.flush()
+                result = None
+                for line in proc.stdout:
+                    if line.startswith(_PREFIX):
+                        result = json.loads(line[len(_PREFIX):])
+                        break
+                if result is None:          # the worker died: the pair is compiled here
+                    break
+                with guard:
+                    if not result.get("error"):
+                        finished.add(pair)
+                    one_done(result)
+        except (OSError, ValueError):
+            pass
+        finally:
+            try:
+                proc.stdin.close()
+            except OSError:
+                pass
+            proc.wait()
+
+    threads = [threading.Thread(target=drive, name=f"riverflow-compile-{k}", daemon=True)
+               for k in range(workers)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    return finished
+
+
+def _worker_main() -> int:
+    """A worker process: compile the pairs read from stdin (JSON lines), one answer line each."""
+    _lock_cache_files()
+    for line in sys.stdin:
+        name, sig = json.loads(line)
+        with CompileCounter() as counter:
+            error = _compile_one(name, sig)
+        answer = {"name": name, "error": error, "compiled": counter.compiled}
+        sys.stdout.write(_PREFIX + json.dumps(answer) + "\n")
+        sys.stdout.flush()
+    return 0
+
+
+def _lock_cache_files() -> None:
+    """Workers compile side by side, and two of them may add different signatures of one
+    helper to its index at the same moment: numba's read-modify-write of the index could then
+    point a signature at the other's machine code. Each save and load of a cache folder holds
+    that folder's lock file here."""
+    from numba.core.caching import IndexDataCacheFile
+
+    save, load = IndexDataCacheFile.save, IndexDataCacheFile.load
+
+    def locked_save(self, key, data):
+        with _folder_lock(self._cache_path):
+            return save(self, key, data)
+
+    def locked_load(self, key):
+        with _folder_lock(self._cache_path):
+            return load(self, key)
+
+    IndexDataCacheFile.save, IndexDataCacheFile.load = locked_save, locked_load
+
+
+@contextlib.contextmanager
+def _folder_lock(folder: str):
+    path = os.path.join(folder, ".lock")
+    try:
+        f = open(path, "a+b")  # noqa: SIM115 - held for the block
+    except OSError:
+        yield
+        return
+    try:
+        if os.name == "nt":
+            import msvcrt
+
+            while True:
+                try:
+                    msvcrt.locking(f.fileno(), msvcrt.LK_LOCK, 1)
+                    break
+                except OSError:
+                    continue
+            try:
+                yield
+            finally:
+                f.seek(0)
+                msvcrt.locking(f.fileno(), msvcrt.LK_UNLCK, 1)
+        else:
+            import fcntl
+
+            fcntl.flock(f.fileno(), fcntl.LOCK_EX)
+            try:
+                yield
+            finally:
+                fcntl.flock(f.fileno(), fcntl.LOCK_UN)
+    finally:
+        f.close()
 
 
 def _jit_disabled() -> bool:
@@ -329,3 +541,7 @@ def _named_modules(text: str) -> list[str]:
         dotted = part.split(",", 1)[0].strip()
         out.append(dotted.rpartition(".")[0])
     return out
+
+
+if __name__ == "__main__" and "--worker" in sys.argv[1:]:
+    sys.exit(_worker_main())

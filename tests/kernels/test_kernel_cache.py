@@ -156,22 +156,29 @@ def test_the_platform_folder_is_used_without_numba_cache_dir(tmp_path):
         assert root.parts[-1] == "kernels" and str(tmp_path) in str(root)
 
 
-WARM_INTENSITY = """
+WARM_TWO = """
     import json
-    from riverflow.kernels.warmup import compile_entries
-    report = compile_entries([("lifecycle.intensity_at",
-                               "(float64, float64, float64, float64)")])
-    print(json.dumps({"compiled": report.compiled, "failed": report.failed}))
+    from riverflow.kernels.warmup import CompileCounter, compile_entries, entries
+    pairs = [p for p in entries("world") if p[0] in ("lifecycle.age_particles",
+                                                     "tile_table.codes_of")]
+    with CompileCounter() as here:
+        report = compile_entries(pairs, jobs={jobs})
+    print(json.dumps({{"compiled": sorted(report.compiled), "here": here.compiled,
+                      "failed": report.failed, "pairs": len(pairs)}}))
 """
 
 
-def test_the_progress_line_shows_on_a_cold_cache_only(tmp_path):
-    cold = run(WARM_INTENSITY, tmp_path)
-    warm = run(WARM_INTENSITY, tmp_path)
-    assert cold["compiled"] == ["lifecycle.intensity_at"] and not cold["failed"]
-    assert "compiling riverflow kernels for this machine, first run only: 0/1" in cold["stderr"]
-    assert "1/1" in cold["stderr"]
-    assert warm["compiled"] == [] and not warm["failed"]
+@pytest.mark.parametrize("jobs", [1, 2])
+def test_the_progress_line_shows_on_a_cold_cache_only(tmp_path, jobs):
+    """jobs=2: two worker processes compile, this one only loads their machine code."""
+    cold = run(WARM_TWO.format(jobs=jobs), tmp_path)
+    warm = run(WARM_TWO.format(jobs=jobs), tmp_path)
+    assert cold["pairs"] == 2 and not cold["failed"]
+    assert {"lifecycle.age_particles", "tile_table.codes_of"} <= set(cold["compiled"])
+    assert sorted(cold["here"]) == ([] if jobs == 2 else cold["compiled"])
+    assert f"{warmup.MESSAGE}: 0/2" in cold["stderr"]
+    assert f"{warmup.MESSAGE}: 2/2" in cold["stderr"]
+    assert warm["compiled"] == [] and warm["here"] == [] and not warm["failed"]
     assert warmup.MESSAGE not in warm["stderr"]
 
 
