@@ -80,6 +80,8 @@ def _command(args: list[str], wait_for: str | None):
     """A ``riverflow`` command; with ``wait_for`` the time until that file appears (the
     process is then stopped), else until it exits."""
     def run(cache: str, out: Path) -> tuple[float, str]:
+        if wait_for is not None:
+            (out / wait_for).unlink(missing_ok=True)        # from the run before
         start = time.perf_counter()
         proc = subprocess.Popen([sys.executable, "-m", "riverflow", *args], env=_env(cache),
                                 cwd=out, stdout=subprocess.PIPE, stderr=subprocess.PIPE,

@@ -8,6 +8,7 @@ Variants: ``dataclasses.replace(config, radius_px=5.0)``; environment overrides:
 from __future__ import annotations
 
 import dataclasses
+import numbers
 import os
 from dataclasses import dataclass
 
@@ -110,6 +111,13 @@ class RiverConfig:
     """Vertical field of view of the default camera [degrees]."""
 
     def __post_init__(self) -> None:
+        # an int where a float is meant (RiverConfig(radius_px=8)) reaches the kernels as an
+        # int and numba compiles them again for it (~25 s cold for the Poisson fill): floats
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            if isinstance(f.default, float) and isinstance(value, numbers.Integral) \
+                    and not isinstance(value, bool):
+                object.__setattr__(self, f.name, float(value))
         positive = ("capacity", "radius_px", "cull_radius_factor", "spawn_gap_factor",
                     "grid_cell_factor", "fade_in_s", "active_s", "fade_out_s",
                     "search_radius_factor", "slip", "tile_cache_mb", "flow_tile_px", "terrain_tile_px", "max_step_s", "near_m", "far_m",

@@ -339,8 +339,9 @@ _PREFIX = "riverflow-warmup "
 
 def _compile_in_workers(pairs: list[tuple[str, str]], workers: int, one_done) -> set:
     """Compile ``pairs`` in ``workers`` processes (each takes the next pair when it is free);
-    ``one_done(result)`` after each. Returns the pairs they did; an empty set when no process
-    could be started (a frozen application, no interpreter)."""
+    ``one_done(result)`` after each. Returns the pairs they answered (with or without an
+    error); an empty set when no process could be started (a frozen application, no
+    interpreter)."""
     import queue
     import subprocess
 
@@ -383,8 +384,7 @@ def _compile_in_workers(pairs: list[tuple[str, str]], workers: int, one_done) ->
                 if result is None:          # the worker died: the pair is compiled here
                     break
                 with guard:
-                    if not result.get("error"):
-                        finished.add(pair)
+                    finished.add(pair)
                     one_done(result)
         except (OSError, ValueError):
             pass
@@ -528,7 +528,7 @@ def decode_signature(text: str, namespace: dict[str, Any] | None = None) -> tupl
     for name in ("bool", "int8", "int16", "int32", "int64", "uint8", "uint16", "uint32",
                  "uint64", "float32", "float64", "complex64", "complex128"):
         env[name] = getattr(types, "boolean" if name == "bool" else name)
-    env["riverflow"] = importlib.import_module(__name__.partition(".")[0])
+    env["riverflow"] = importlib.import_module(_KERNELS.partition(".")[0])
     for module in _named_modules(text):
         importlib.import_module(module)
     return tuple(eval(text, {"__builtins__": {}}, env))  # our own recorded text

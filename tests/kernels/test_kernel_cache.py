@@ -159,7 +159,7 @@ def test_the_platform_folder_is_used_without_numba_cache_dir(tmp_path):
 WARM_TWO = """
     import json
     from riverflow.kernels.warmup import CompileCounter, compile_entries, entries
-    pairs = [p for p in entries("world") if p[0] in ("lifecycle.age_particles",
+    pairs = [p for p in entries("world") if p[0] in ("surface_tiles.water_level_at",
                                                      "tile_table.codes_of")]
     with CompileCounter() as here:
         report = compile_entries(pairs, jobs={jobs})
@@ -170,11 +170,12 @@ WARM_TWO = """
 
 @pytest.mark.parametrize("jobs", [1, 2])
 def test_the_progress_line_shows_on_a_cold_cache_only(tmp_path, jobs):
-    """jobs=2: two worker processes compile, this one only loads their machine code."""
+    """jobs=2: two worker processes compile, this one only loads their machine code (one
+    signature names a NamedTuple class, which the workers must find)."""
     cold = run(WARM_TWO.format(jobs=jobs), tmp_path)
     warm = run(WARM_TWO.format(jobs=jobs), tmp_path)
     assert cold["pairs"] == 2 and not cold["failed"]
-    assert {"lifecycle.age_particles", "tile_table.codes_of"} <= set(cold["compiled"])
+    assert {"surface_tiles.water_level_at", "tile_table.codes_of"} <= set(cold["compiled"])
     assert sorted(cold["here"]) == ([] if jobs == 2 else cold["compiled"])
     assert f"{warmup.MESSAGE}: 0/2" in cold["stderr"]
     assert f"{warmup.MESSAGE}: 2/2" in cold["stderr"]
@@ -221,6 +222,14 @@ def test_recorded_signatures_match_the_kernels():
         assert warmup.encode_signature(types) == sig
 
 
+def test_config_keeps_floats_so_kernels_are_not_compiled_again_for_ints():
+    import riverflow as rf
+
+    config = rf.RiverConfig(radius_px=8, fade_in_s=1, capacity=100)
+    assert type(config.radius_px) is float and type(config.fade_in_s) is float
+    assert type(config.capacity) is int
+
+
 @pytest.mark.slow
 def test_the_warm_up_covers_a_world_and_a_second_process_compiles_nothing(tmp_path):
     """A world group warm-up on a cold cache, then frames with a boat in view: the frames
@@ -231,8 +240,8 @@ def test_the_warm_up_covers_a_world_and_a_second_process_compiles_nothing(tmp_pa
         from riverflow.kernels.warmup import CompileCounter, compile_kernels
         report = compile_kernels("world")
         with CompileCounter() as counter:
-            demo = BoatDemo(None, (160, 90), gl=False,
-                            config=rf.RiverConfig(tile_production="blocking"))
+            config = rf.RiverConfig(radius_px=8, tile_production="blocking")  # an int r
+            demo = BoatDemo(None, (160, 90), gl=False, config=config)
             demo.input.key_down("W")
             for _ in range(10):
                 demo.step()
