@@ -1,7 +1,8 @@
 """A scripted camera flight over a scene: a chase view sliding down its main river.
 
 Used by ``riverflow profile``, the benchmarks and the tests, so all of them time the same
-thing. The main river is the default scene's "main" branches, or the longest axis of a graph.
+thing. The main river is the scene's "main" branches (a landscape made from a graph marks the
+longest path down its network so), or the longest axis of a graph.
 """
 from __future__ import annotations
 

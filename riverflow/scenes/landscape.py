@@ -310,14 +310,41 @@ def branches_of_graph(graph: HydroGraph, polygon) -> list[RiverBranch]:
     for chain in chains:
         pts = np.vstack([lines[chain[0]]] + [lines[a][1:] for a in chain[1:]])
         keep = np.concatenate([[True], np.any(np.diff(pts, axis=0) != 0.0, axis=1)])
-        pts, = resample(pts[keep], PROFILE_SPACING_M)
+        narrowest = min(graph.curves[a].width_m for a in chain)
+        # no coarser than the river is wide: a 2 m creek's bends are not cut onto its banks
+        pts, = resample(pts[keep], min(PROFILE_SPACING_M, max(narrowest, 0.5)))
         axis_w = max(graph.curves[a].width_m for a in chain)
         shore, _ = boundary.query(pts)
         widths = np.clip(2.0 * shore, 0.2 * axis_w, axis_w)
-        branches.append(RiverBranch(f"axis_{chain[0]}", pts, widths, None, "main",
+        branches.append(RiverBranch(f"axis_{chain[0]}", pts, widths, None, "tributary",
                                     junction_of.get(ends[chain[0]][0], -1),
                                     junction_of.get(ends[chain[-1]][1], -1)))
-    return _upstream_first(branches)
+    branches = _upstream_first(branches)
+    for b in _longest_path(branches):
+        b.kind = "main"
+    return branches
+
+
+def _longest_path(branches: list[RiverBranch]) -> list[RiverBranch]:
+    """The branches (ordered upstream first) of the longest path down the network, each
+    joining the next at a junction: the main river the flight follows."""
+    best: dict[int, tuple[float, int]] = {}   # branch → (length of the longest path ending
+    ending_at: dict[int, list[int]] = {}       # with it, the branch before it or −1)
+    for k, b in enumerate(branches):
+        own = float(np.linalg.norm(np.diff(b.centerline_m, axis=0), axis=1).sum())
+        before = max(((best[j][0], j) for j in ending_at.get(b.start_junction, ())
+                      if b.start_junction >= 0), default=(0.0, -1))
+        best[k] = (before[0] + own, before[1])
+        if b.end_junction >= 0:
+            ending_at.setdefault(b.end_junction, []).append(k)
+    if not best:
+        return []
+    k = max(best, key=lambda j: best[j][0])
+    path = []
+    while k >= 0:
+        path.append(branches[k])
+        k = best[k][1]
+    return path[::-1]
 
 
 def _flows_backwards(graph: HydroGraph, axis: int, line: np.ndarray) -> bool:

@@ -1,0 +1,41 @@
+"""rf.landscape on a graph: the branches it derives from the graph's axes."""
+from __future__ import annotations
+
+import numpy as np
+import shapely
+
+import riverflow as rf
+from riverflow.scenes.flight import main_centerline
+from riverflow.scenes.layout import network_length_m
+
+
+def test_a_graphs_main_river_is_its_longest_path_and_never_jumps():
+    scene = rf.default_scene(seed=0)
+    land = rf.landscape(scene.graph, seed=0)
+    main = [b for b in land.branches if b.kind == "main"]
+    others = [b for b in land.branches if b.kind != "main"]
+    assert main and others                     # the tributary and the island arms are not
+    for up, down in zip(main, main[1:]):       # one after the other, junction to junction
+        assert up.end_junction >= 0 and up.end_junction == down.start_junction
+    line = main_centerline(land)
+    steps = np.linalg.norm(np.diff(line, axis=0), axis=1)
+    assert steps.max() <= 10.0 + 1e-6, steps.max()     # no jump between branches
+    # the built-in scene's main river runs across its 4 km: so does the graph's longest path
+    assert network_length_m(main) > 3500.0
+    assert np.linalg.norm(line[-1] - line[0]) > 2000.0
+
+
+def test_a_narrow_creek_is_resampled_finer_than_it_is_wide():
+    b = rf.RiverNetworkBuilder()
+    t = np.linspace(0.0, 4.0 * np.pi, 400)
+    xy = np.c_[10.0 * t, 12.0 * np.sin(t)]    # a creek bending every ~30 m (radius 8 m)
+    b.add_branch(xy, widths_m=2.0, discharge_m2s=1.0, name="creek")
+    graph = b.build()
+    width = max(c.width_m for c in graph.curves)          # the axis's, as the graph holds it
+    land = rf.landscape(graph, seed=0)
+    (branch,) = land.branches
+    steps = np.linalg.norm(np.diff(branch.centerline_m, axis=0), axis=1)
+    assert steps.max() <= width + 1e-6
+    # its bends are kept: the resampled line stays well inside the creek
+    off = shapely.distance(shapely.LineString(xy), shapely.points(branch.centerline_m))
+    assert off.max() < 0.1 * width, off.max()
