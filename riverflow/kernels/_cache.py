@@ -49,7 +49,10 @@ def cache_root() -> Path:
 
     if config.CACHE_DIR:
         return Path(config.CACHE_DIR).expanduser() / _PACKAGE
-    home = Path.home()
+    try:
+        home = Path.home()
+    except (RuntimeError, KeyError):      # no home folder (a service account, a container)
+        return _fallback_root()
     if sys.platform == "win32":
         local = os.environ.get("LOCALAPPDATA")
         return (Path(local) if local else home / "AppData" / "Local") / _PACKAGE / "Cache" \
@@ -224,7 +227,10 @@ def _locator_class():
 
         @classmethod
         def from_function(cls, py_func, py_file):
-            folder = kernel_folder(py_file)
+            try:
+                folder = kernel_folder(py_file)
+            except Exception:  # noqa: BLE001 - no home, a zipped install: numba's own then
+                return None
             if folder is None:
                 return None
             for candidate in (folder, _fallback_root() / folder.name):
