@@ -13,6 +13,7 @@ import shutil
 import subprocess
 import sys
 import textwrap
+import time
 from pathlib import Path
 
 import pytest
@@ -256,3 +257,55 @@ def test_the_warm_up_covers_a_world_and_a_second_process_compiles_nothing(tmp_pa
     assert warmup.MESSAGE in cold["stderr"]
     assert warm["warm_up"] == [] and warm["frames"] == []
     assert warmup.MESSAGE not in warm["stderr"]
+
+
+# -- the loading screen (a real window under Xvfb) -------------------------------------------------
+
+LOADING = """
+    import json
+    import numpy as np
+    import pyglet
+    from riverflow.engine.loading import compile_with_loading_screen
+
+    window = pyglet.window.Window(320, 180, caption="loading")
+    shots = []
+
+    def shot(dt):
+        window.dispatch_event("on_draw")
+        buffer = pyglet.image.get_buffer_manager().get_color_buffer().get_image_data()
+        rgba = np.frombuffer(buffer.get_data("RGBA", 320 * 4), np.uint8)
+        shots.append(int((rgba.reshape(-1, 4)[:, :3].max(axis=1) > 150).sum()))
+
+    pyglet.clock.schedule_interval(shot, 0.2)
+    loading = compile_with_loading_screen(window, ("scene",))
+    window.close()
+    print(json.dumps({**loading.__dict__, "bright_pixels": shots}))
+"""
+
+
+@pytest.fixture
+def xvfb():
+    """A virtual X display; skipped where Xvfb is missing."""
+    binary = shutil.which("Xvfb")
+    if binary is None:
+        pytest.skip("Xvfb is not installed (apt-get install xvfb)")
+    display = f":{80 + os.getpid() % 9}"
+    proc = subprocess.Popen([binary, display, "-screen", "0", "640x480x24", "-nolisten", "tcp"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    time.sleep(1.0)
+    if proc.poll() is not None:
+        pytest.skip("Xvfb did not start")
+    yield display
+    proc.terminate()
+    proc.wait(timeout=10)
+
+
+@pytest.mark.gl
+def test_the_loading_screen_keeps_drawing_while_kernels_compile(xvfb, tmp_path):
+    """The scene group (the terrain noise, ~2 s cold) compiles in a thread while the window
+    draws the progress line: frames keep coming, none late by a second."""
+    loading = run(LOADING, tmp_path, DISPLAY=xvfb, PYGLET_HEADLESS="")
+    assert not loading["closed"]
+    assert loading["frames"] >= 5 and loading["longest_s"] < 1.0, loading
+    assert max(loading["bright_pixels"], default=0) > 50         # the text is drawn
+    assert warmup.MESSAGE in loading["stderr"]
