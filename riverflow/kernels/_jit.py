@@ -1,7 +1,8 @@
 """The one place where numba options are chosen (no ``fastmath=`` anywhere else).
 
 fastmath without ``nnan``/``ninf`` so kernels may still test for NaN and infinity.
-``cache=True`` writes to ``NUMBA_CACHE_DIR`` (the Makefile sets it to ``.numba_cache``).
+``cache=True`` keeps the machine code in a per-user folder keyed by the sources
+(:mod:`riverflow.kernels._cache`).
 
 Test finiteness with :func:`is_finite`, never ``math.isfinite``: under these flags (the pair
 ``nsz`` + ``reassoc``, numba 0.68 / LLVM 20) ``math.isfinite`` of a *computed* value, e.g. a
