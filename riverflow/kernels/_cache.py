@@ -26,11 +26,13 @@ command line, a demo, ``import riverflow`` in a script, the tests).
 from __future__ import annotations
 
 import ast
+import contextlib
 import hashlib
 import os
 import shutil
 import sys
 import tempfile
+import time
 from functools import cache, lru_cache
 from pathlib import Path
 
@@ -174,6 +176,7 @@ def _prepare(folder: Path) -> bool:
     except OSError:
         return False
     _made.add(key)
+    _made_roots.add(str(folder.parent))
     if new:
         prune(folder)
     return True
@@ -253,9 +256,10 @@ _installed = None
 
 
 def install() -> None:
-    """Put riverflow's kernel locator in front of numba's (idempotent). Only functions of
-    ``riverflow/kernels/*.py`` are affected; the user's own ``cache=True`` functions keep
-    numba's locators, and ``NUMBA_CACHE_LOCATOR_CLASSES`` still overrides everything."""
+    """Put riverflow's kernel locator in front of numba's, and lock riverflow's folders around
+    numba's index updates (idempotent). Only functions of ``riverflow/kernels/*.py`` are
+    affected; the user's own ``cache=True`` functions keep numba's locators, and
+    ``NUMBA_CACHE_LOCATOR_CLASSES`` still overrides everything."""
     global _installed
     if _installed is not None:
         return
@@ -264,3 +268,77 @@ def install() -> None:
     impl = getattr(caching, "CacheImpl", None) or caching._CacheImpl
     _installed = _locator_class()
     impl._locator_classes.insert(0, _installed)
+    _lock_index_updates(caching)
+
+
+def _lock_index_updates(caching) -> None:
+    """Processes compiling at the same time (the warm-up's workers, two programs started
+    together) may add different signatures of one helper to its index at once: numba's
+    read-modify-write of the index could then name one data file for both, and a signature
+    would load the other's machine code. Saves and loads in riverflow's folders hold the
+    folder's lock file."""
+    cls = getattr(caching, "IndexDataCacheFile", None)
+    if cls is None or not hasattr(cls, "save") or not hasattr(cls, "load"):
+        return
+    save, load = cls.save, cls.load
+
+    def locked_save(self, key, data):
+        with _folder_lock(getattr(self, "_cache_path", "")):
+            return save(self, key, data)
+
+    def locked_load(self, key):
+        with _folder_lock(getattr(self, "_cache_path", "")):
+            return load(self, key)
+
+    cls.save, cls.load = locked_save, locked_load
+
+
+@contextlib.contextmanager
+def _folder_lock(folder: str, wait_s: float = 60.0):
+    """Hold ``folder/.lock`` (only riverflow's kernel folders; others pass through). Gives up
+    waiting after ``wait_s`` (a lock left by a killed process on a system without advisory
+    locks): numba's writes stay atomic, only the index merge is unguarded then."""
+    if not folder or str(_made_root(folder)) not in _made_roots:
+        yield
+        return
+    try:
+        f = open(os.path.join(folder, ".lock"), "a+b")  # noqa: SIM115 - held for the block
+    except OSError:
+        yield
+        return
+    try:
+        if os.name == "nt":
+            import msvcrt
+
+            end = time.monotonic() + wait_s
+            locked = False
+            while not locked and time.monotonic() < end:
+                try:
+                    msvcrt.locking(f.fileno(), msvcrt.LK_LOCK, 1)   # retries for ~10 s itself
+                    locked = True
+                except OSError:
+                    pass
+            try:
+                yield
+            finally:
+                if locked:
+                    f.seek(0)
+                    msvcrt.locking(f.fileno(), msvcrt.LK_UNLCK, 1)
+        else:
+            import fcntl
+
+            fcntl.flock(f.fileno(), fcntl.LOCK_EX)
+            try:
+                yield
+            finally:
+                fcntl.flock(f.fileno(), fcntl.LOCK_UN)
+    finally:
+        f.close()
+
+
+_made_roots: set[str] = set()
+"""Parents of the kernel folders this process uses (where the locks apply)."""
+
+
+def _made_root(folder: str | os.PathLike) -> Path:
+    return Path(folder).parent

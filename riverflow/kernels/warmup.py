@@ -25,7 +25,6 @@ numba compiles it at its first call, as it would without a warm-up.
 """
 from __future__ import annotations
 
-import contextlib
 import importlib
 import json
 import os
@@ -405,8 +404,9 @@ def _compile_in_workers(pairs: list[tuple[str, str]], workers: int, one_done) ->
 
 
 def _worker_main() -> int:
-    """A worker process: compile the pairs read from stdin (JSON lines), one answer line each."""
-    _lock_cache_files()
+    """A worker process: compile the pairs read from stdin (JSON lines), one answer line each.
+    (Workers compile side by side; the cache folders' locks, :mod:`._cache`, keep their
+    writes to one helper's index apart.)"""
     for line in sys.stdin:
         name, sig = json.loads(line)
         with CompileCounter() as counter:
@@ -415,61 +415,6 @@ def _worker_main() -> int:
         sys.stdout.write(_PREFIX + json.dumps(answer) + "\n")
         sys.stdout.flush()
     return 0
-
-
-def _lock_cache_files() -> None:
-    """Workers compile side by side, and two of them may add different signatures of one
-    helper to its index at the same moment: numba's read-modify-write of the index could then
-    point a signature at the other's machine code. Each save and load of a cache folder holds
-    that folder's lock file here."""
-    from numba.core.caching import IndexDataCacheFile
-
-    save, load = IndexDataCacheFile.save, IndexDataCacheFile.load
-
-    def locked_save(self, key, data):
-        with _folder_lock(self._cache_path):
-            return save(self, key, data)
-
-    def locked_load(self, key):
-        with _folder_lock(self._cache_path):
-            return load(self, key)
-
-    IndexDataCacheFile.save, IndexDataCacheFile.load = locked_save, locked_load
-
-
-@contextlib.contextmanager
-def _folder_lock(folder: str):
-    path = os.path.join(folder, ".lock")
-    try:
-        f = open(path, "a+b")  # noqa: SIM115 - held for the block
-    except OSError:
-        yield
-        return
-    try:
-        if os.name == "nt":
-            import msvcrt
-
-            while True:
-                try:
-                    msvcrt.locking(f.fileno(), msvcrt.LK_LOCK, 1)
-                    break
-                except OSError:
-                    continue
-            try:
-                yield
-            finally:
-                f.seek(0)
-                msvcrt.locking(f.fileno(), msvcrt.LK_UNLCK, 1)
-        else:
-            import fcntl
-
-            fcntl.flock(f.fileno(), fcntl.LOCK_EX)
-            try:
-                yield
-            finally:
-                fcntl.flock(f.fileno(), fcntl.LOCK_UN)
-    finally:
-        f.close()
 
 
 def _jit_disabled() -> bool:
