@@ -7,11 +7,15 @@ silent terminal. :func:`compile_kernels` does it up front instead, kernel by ker
 argument types the run will call them with (:mod:`riverflow.kernels._signatures`, recorded
 from real runs by ``tools/record_kernel_signatures.py``), and says how far it is::
 
-    compiling riverflow kernels for this machine, first run only: 12/31
+    compiling riverflow kernels for this machine, first run only: 12/46
 
 The line appears only when something is really compiled (a cold cache); loading machine code
-from a warm cache says nothing. Kernels are grouped by what a run does, so a run compiles only
-what it calls:
+from a warm cache says nothing. What the cache lacks is compiled by worker processes side by
+side (one per core, up to 8), while this process stays free to draw a loading screen
+(:mod:`riverflow.engine.loading`). :class:`riverflow.RiverWorld` and
+:class:`riverflow.FlowField` call it when they are made; a host game with its own loading
+screen calls it first with its own :class:`CompileProgress`. Kernels are grouped by what a run
+does, so a run compiles only what it calls:
 
 =========  =====================================================================================
 ``field``  :class:`riverflow.FlowField` (velocity and ψ queries, flow tiles)
