@@ -81,7 +81,8 @@ def compile_with_loading_screen(window, groups: Sequence[str], *, title: str = "
         line.draw()
         return pyglet.event.EVENT_HANDLED
 
-    window.push_handlers(on_close=on_close, on_draw=on_draw)
+    window.set_handlers()   # a base frame first: popping ours must not leave pyglet's stack
+    window.push_handlers(on_close=on_close, on_draw=on_draw)   # empty (window.event fails)
     start = last = time.perf_counter()
     frames, longest = 0, 0.0
     try:
@@ -97,7 +98,7 @@ def compile_with_loading_screen(window, groups: Sequence[str], *, title: str = "
             frames, longest, last = frames + 1, max(longest, now - last), now
             done.wait(max(0.0, FRAME_S - (time.perf_counter() - now)))
     finally:
-        window.remove_handlers(on_close=on_close, on_draw=on_draw)
+        window.pop_handlers()
     if errors:
         raise errors[0]
     return Loading(closed[0], frames, longest, time.perf_counter() - start)

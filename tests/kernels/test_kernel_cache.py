@@ -278,6 +278,11 @@ LOADING = """
 
     pyglet.clock.schedule_interval(shot, 0.2)
     loading = compile_with_loading_screen(window, ("scene",))
+
+    @window.event                   # the window takes its game's handlers afterwards
+    def on_draw():
+        window.clear()
+
     window.close()
     print(json.dumps({**loading.__dict__, "bright_pixels": shots}))
 """
