@@ -61,7 +61,8 @@ class TileTable:
     def set_many(self, codes_: np.ndarray, values: np.ndarray | int) -> None:
         """Store ``codes_[k] → values[k]`` (one value for all if scalar)."""
         codes_ = np.ascontiguousarray(codes_, np.int64)
-        vals = np.ascontiguousarray(np.broadcast_to(np.asarray(values, np.int32), codes_.shape))
+        vals = np.empty(codes_.shape, np.int32)   # writable: a read-only broadcast view would
+        vals[...] = values                         # be another signature for numba to compile
         done = 0
         while done < len(codes_):
             done += int(kt.table_insert_many(self.keys, self.values, self.meta, codes_[done:],
