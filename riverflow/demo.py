@@ -20,6 +20,7 @@ G / P / V                 sprite grid / particles / velocity arrows on or off
 SPACE                     pause the particles
 + / −                     flow speed factor up / down
 T                         next wave tile (animated, Perlin, static)
+R                         rain on / off (streaks, ripple rings on the water)
 F2                        screenshot to PNG
 H, F1                     help overlay;  ESCAPE quits
 ========================  ==============================================================
@@ -42,18 +43,20 @@ from riverflow.engine.game_loop import FixedStep
 from riverflow.engine.world import RiverWorld
 
 STEP_S = 1.0 / 60.0
+RAIN_DROPS_PER_S = 3000.0
+"""The demo's rain (key R): new drops a second in the view."""
 MODE_KEYS = {"_1": DisplayMode.NONE, "_2": DisplayMode.MESH, "_3": DisplayMode.COVERAGE,
              "_4": DisplayMode.ADVECTED, "_5": DisplayMode.PRE_ADVECTED,
              "_6": DisplayMode.NON_ADVECTED}
 KEYS = frozenset({"W", "S", "A", "D", "UP", "DOWN", "LEFT", "RIGHT", "Q", "E", "C", *MODE_KEYS,
-                  "G", "P", "V", "T", "SPACE", "PLUS", "EQUAL", "NUM_ADD", "MINUS",
+                  "G", "P", "V", "T", "R", "SPACE", "PLUS", "EQUAL", "NUM_ADD", "MINUS",
                   "NUM_SUBTRACT", "H", "F1", "F2", "ESCAPE"})
 """The keys the demo reacts to (pyglet names); a key script naming another is an error."""
 HELP = """riverflow boat demo
 W/S or UP/DOWN   throttle        A/D or LEFT/RIGHT  rudder
 C  chase / free camera (free: WASD, Q/E, mouse drag)
 1-6  water: none, mesh, coverage, advected, pre-advected, non-advected
-G grid   P particles   V velocity arrows   T wave tile
+G grid   P particles   V velocity arrows   T wave tile   R rain
 SPACE pause particles   +/- flow speed   F2 screenshot
 H help   ESC quit"""
 
@@ -96,7 +99,8 @@ class Hud:
         total = sum(v for k, v in self.timings_ms.items() if k != "draw")
         rate = f"{self.fps:5.1f} fps {self.frame_ms:5.1f} ms   " if self.fps > 0 else ""
         out = [f"{rate}{self.particles} particles   "
-               f"{'PAUSED   ' if world.paused else ''}flow x{world.speed_factor:g}",
+               f"{'PAUSED   ' if world.paused else ''}flow x{world.speed_factor:g}"
+               f"{f'   rain {len(world.rain_drops)} drops (R)' if demo.raining else ''}",
                f"boat {speed:4.1f} m/s  throttle {boat.throttle:+.1f}  rudder {boat.rudder:+.1f}"
                f"   camera {demo.camera_mode}   water {mode}",
                f"simulation {total:.2f} ms: " + "  ".join(
@@ -144,6 +148,7 @@ class BoatDemo:
         self.frame = 0
         self.hud = Hud()
         self.show_help = False
+        self.raining = False
         self.quit_requested = False
         self.screenshots = Path(screenshots)
         self.screenshot_count = 0
@@ -206,6 +211,9 @@ class BoatDemo:
             world.speed_factor = min(world.speed_factor * 1.5, 20.0)
         elif key in ("MINUS", "NUM_SUBTRACT"):
             world.speed_factor = max(world.speed_factor / 1.5, 0.05)
+        elif key == "R":
+            self.raining = not self.raining
+            world.set_rain(RAIN_DROPS_PER_S if self.raining else 0.0)
         elif key == "T":
             kinds = list(WaveKind)
             display.wave = kinds[(kinds.index(display.wave) + 1) % len(kinds)]

@@ -4,6 +4,8 @@
    game's input comes before ``world.step``)   2. camera
 3. tile production (every kind: flow, terrain, water, meshes, particle tables)   4. advection   5. screen projection   6. life cycle
 7. Poisson-disk maintenance, then placement of the new particles   8. wave-tile animation
+8b. rain (seed 002: drops born in the view, falling, dying on the surface; it reads this
+   frame's camera and surface tiles)
 9. drawing (``gl=True`` worlds only; it is the one "draw"-phase system: ``world.step`` runs
    1–8, ``world.draw`` / ``world.render`` run 9, so a game may step at a fixed rate and draw
    when it presents a frame)
@@ -17,6 +19,7 @@ from riverflow.systems.camera import UpdateCamera
 from riverflow.systems.lifecycle import AgeParticles
 from riverflow.systems.placement import PlaceNewParticles
 from riverflow.systems.poisson import MaintainPoissonDisk
+from riverflow.systems.rain import MakeRain
 from riverflow.systems.screen import ProjectParticles
 from riverflow.systems.tiles import ProduceTiles
 from riverflow.systems.waves import AnimateWaveTiles
@@ -31,6 +34,7 @@ SYSTEM_ORDER = (
     "poisson",
     "placement",
     "waves",
+    "rain",
     "draw",
 )
 """Names of the default systems, in frame order."""
@@ -41,7 +45,7 @@ def default_systems(gl: bool = True) -> list[System]:
     draw system (and never imports OpenGL)."""
     systems = [MoveBoats(), UpdateCamera(), ProduceTiles(), AdvectParticles(),
                ProjectParticles(), AgeParticles(), MaintainPoissonDisk(), PlaceNewParticles(),
-               AnimateWaveTiles()]
+               AnimateWaveTiles(), MakeRain()]
     if gl:
         from riverflow.systems.draw import DrawRivers  # imports pyglet's GL: only when drawing
 

@@ -34,6 +34,7 @@ import numpy as np
 
 from riverflow.components.display import DisplaySettings
 from riverflow.components.particles import LiveParticles, ParticlePool
+from riverflow.components.rain import Rain
 from riverflow.components.river import Clock, FrameView, RiverNode, ScreenGrid, TerrainView, Tiles
 from riverflow.engine.camera import Camera
 from riverflow.engine.config import RiverConfig
@@ -100,7 +101,7 @@ class RiverWorld:
         self.camera = camera
         terrain = TerrainView(z_min=float(scene.z_range_m[0]), z_max=float(scene.z_range_m[1]))
         for resource in (camera, c, Clock(speed_factor=c.speed_factor), FrameView(), terrain,
-                         DisplaySettings(), self.tiles):
+                         DisplaySettings(), self.tiles, Rain(seed=self.seed)):
             self.insert(resource)
         with self.active():
             self.river = esper.create_entity(RiverNode(scene.graph, field),
@@ -271,6 +272,30 @@ class RiverWorld:
 
         with self.active():
             return esper.component_for_entity(entity, Boat)
+
+    def set_rain(self, drops_per_s: float, variance: float = 0.1,
+                 wind_mps: tuple[float, float] = (0.0, 0.0)) -> None:
+        """Rain (seed 002; the "rain" system): ``drops_per_s`` new drops a second in the
+        view volume around the camera; each frame makes mean + rand[−1, 1] · variance · mean
+        of them, mean = drops_per_s · dt (``variance`` is relative: 0.1 = ±10 %); they fall
+        with a constant acceleration, carried by the wind ``wind_mps`` (vx, vy) [m/s], and die
+        on the ground or the water (ripple rings there) or out of view. ``set_rain(0)`` stops
+        the rain at once: every drop and ripple is removed. See :attr:`rain_drops`."""
+        values = (float(drops_per_s), float(variance), *(float(v) for v in wind_mps))
+        if len(values) != 4 or not all(math.isfinite(v) for v in values) \
+                or values[0] < 0.0 or values[1] < 0.0:
+            raise ValueError("set_rain needs drops_per_s ≥ 0, variance ≥ 0 and a finite "
+                             f"wind (vx, vy), got {drops_per_s!r}, {variance!r}, {wind_mps!r}")
+        rain = self.resource(Rain)
+        rain.drops_per_s, rain.variance, rain.wind_mps = values[0], values[1], values[2:]
+        if values[0] == 0.0:
+            rain.clear()
+
+    @property
+    def rain_drops(self) -> np.ndarray:
+        """A copy of the live rain drops' positions, (N, 3) float64 [m]."""
+        drops = self.resource(Rain).drops
+        return drops.position[:int(drops.counts[0])].copy()
 
     @property
     def display(self) -> DisplaySettings:

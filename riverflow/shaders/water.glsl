@@ -28,6 +28,7 @@ void main() {
 #else
 #include "wave.glsl"
 #include "params.glsl"
+#include "ripples.glsl"
 
 uniform int u_mode;                 // DISPLAY_MODE_*
 uniform bool u_show_grid;
@@ -99,7 +100,10 @@ void main() {
     if (!found) slopes = wave_slopes(uv0, uv_dx, uv_dy);   // non-advected, or no sprite here
 
     // shading: Fresnel reflection of sky and sun, refraction of the bed drawn before
-    vec3 n = normalize(vec3(-slopes * u_slope_factor, 1.0));
+    vec2 tilt = slopes * u_slope_factor;
+    if (u_ripple_count > 0)                                 // rain: rings where drops land
+        tilt += ripple_slopes(v_world.xy, max(length(dFdx(v_world.xy)), length(dFdy(v_world.xy))));
+    vec3 n = normalize(vec3(-tilt, 1.0));
     vec3 v = normalize(u_eye_m - v_world);
     float shore = smoothstep(0.0, 0.5, depth_m);            // soft shore: fade in over 0.5 m
     float cos_v = max(dot(v, n), 0.0);

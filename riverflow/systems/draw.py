@@ -15,7 +15,10 @@ Per frame (reference §4; no one-frame latency: the tables are built from this f
 4. the water mesh tiles of the cut at the water level, shaded per :class:`DisplayMode`,
    blended over the bed drawn in step 2 (the shader writes what it adds and how much of the bed
    shows through);
-5. overlays: particles as points, velocity arrows.
+5. rain (:mod:`riverflow.systems.rain`): the drops as short streaks along their velocity
+   (GL lines, depth-tested against the land and alpha-blended), and in step 4 ripple rings
+   around the recent hits on the water, added to the water's slopes (none without rain);
+6. overlays: particles as points, velocity arrows.
 
 Everything is drawn into the world's own RGBA8 framebuffer (with a depth texture shared by
 the passes); :meth:`DrawRivers.blit_to_window` copies it to the window a host draws in.
@@ -32,6 +35,7 @@ import esper
 import numpy as np
 from riverflow.components.display import DisplayMode, DisplaySettings
 from riverflow.components.props import Pose, Prop
+from riverflow.components.rain import RIPPLE_RING, Rain
 from riverflow.components.river import TerrainView, Tiles
 from riverflow.components.status import FlowStatus
 from riverflow.components.waves import WaveTile
@@ -58,9 +62,12 @@ def shader_defines() -> dict[str, int]:
     """The numbers the shaders share with Python and numba."""
     defines = gl.enum_defines(FlowStatus, DisplayMode)
     defines.update(MAX_PER_CELL=MAX_PER_CELL, PARTICLES_PER_ROW=PARTICLES_PER_ROW,
-                   TEXELS_PER_PARTICLE=TEXELS_PER_PARTICLE)
+                   TEXELS_PER_PARTICLE=TEXELS_PER_PARTICLE, DROPS_PER_ROW=DROPS_PER_ROW)
     return defines
 
+
+DROPS_PER_ROW = 1024
+"""Rain drops per row of the drop table (two RGBA32F texels each: position, velocity)."""
 
 _NOTHING = object()
 """A tile uploaded with nothing to draw."""
@@ -80,7 +87,12 @@ class _Gpu:
             "particles": gl.Program("particles.glsl", defines),
             "arrows": gl.Program("arrows.glsl", defines),
             "props": gl.Program("props.glsl", defines),
+            "rain": gl.Program("rain.glsl", defines),
         }
+        self.drops = self.drops_cpu = None
+        self.ripples_cpu = np.zeros((1, RIPPLE_RING, 4), np.float32)
+        self.ripples = gl.Texture((RIPPLE_RING, 1), gl.RGBA32F)
+        self.ripples.upload(self.ripples_cpu)
         self.prop_meshes: dict[tuple, gl.Mesh] = {}
         self.terrain_indices = tile_indices(world.scene.terrain.tile_cells).ravel()
         self.tile_meshes: dict[str, dict[int, gl.Mesh]] = {TERRAIN_MESH: {}, WATER_MESH: {}}
@@ -204,7 +216,7 @@ class _Gpu:
                 if mesh is not _NOTHING:
                     mesh.delete()
             meshes.clear()
-        for obj in [self.empty, self.params, self.grid, *self.targets,
+        for obj in [self.empty, self.params, self.grid, self.drops, self.ripples, *self.targets,
                     *(tex for _, tex in self.waves.values())]:
             if obj is not None:
                 obj.delete()
@@ -258,6 +270,8 @@ class DrawRivers(System):
                       u_view_projection=vp, u_viewport_px=(float(gpu.size[0]),
                                                            float(gpu.size[1])))
         wave_uniforms, wave_tex = self._wave(world, gpu, settings)
+        rain = world.resources.get(Rain)
+        ripple_uniforms = self._upload_ripples(world, gpu, rain)
         water_meshes = self._tile_meshes(world, gpu)
 
         gpu.main_fb.bind()
@@ -291,10 +305,12 @@ class DrawRivers(System):
             water.set(u_wave=1, u_accum=4, u_mode=int(mode),
                       u_show_grid=bool(settings.show_grid), u_grid_cell_px=float(gpu.grid_shape[0]),
                       u_grid_size=gpu.grid_shape[1:], u_slope_factor=settings.wave_slope_factor,
-                      u_clarity_m=settings.water_clarity_m, **tables, **wave_uniforms)
+                      u_clarity_m=settings.water_clarity_m, **tables, **wave_uniforms,
+                      **ripple_uniforms)
             gl.set_blend(gl.BLEND_WATER)
             for mesh in water_meshes:
                 mesh.draw()
+        self._draw_rain(gpu, rain, shared)
         gl.set_depth(False, write=False)
         if settings.show_velocities and n_slots:
             arrows = gpu.programs["arrows"]
@@ -332,6 +348,51 @@ class DrawRivers(System):
         gpu.grid.upload(gpu.grid_cpu.reshape(gh, gw * MAX_PER_CELL // 4, 4))
         self.last_sprites = n_slots
         return n_slots
+
+    def _upload_ripples(self, world: RiverWorld, gpu: _Gpu, rain: Rain | None) -> dict:
+        """The water shader's ripple uniforms; the ripple table uploaded (only with rain:
+        without, u_ripple_count = 0 and the water is drawn as before)."""
+        count = 0
+        life = 1.0
+        if rain is not None:
+            hits = rain.drops.hits
+            life = float(rain.ripple_life_s)
+            age = world.clock.now_s - hits[:, 3]
+            if ((age >= 0.0) & (age < life)).any():
+                table = gpu.ripples_cpu[0]
+                table[:, :3] = hits[:, :3]
+                table[:, 3] = np.where(np.isfinite(age), age, -1.0)
+                gpu.ripples.upload(gpu.ripples_cpu)
+                count = len(hits)
+        gpu.ripples.bind(6)
+        return {"u_ripples": 6, "u_ripple_count": count, "u_ripple_life_s": life}
+
+    def _draw_rain(self, gpu: _Gpu, rain: Rain | None, shared: dict) -> None:
+        """The live drops as streaks (depth-tested, not written; alpha-blended)."""
+        n = 0 if rain is None else rain.count
+        if n == 0:
+            return
+        rows = -(-n // DROPS_PER_ROW)
+        if gpu.drops_cpu is None or gpu.drops_cpu.shape[0] < rows:
+            if gpu.drops is not None:
+                gpu.drops.delete()
+            total = -(-rain.drops.position.shape[0] // DROPS_PER_ROW)
+            gpu.drops_cpu = np.zeros((total, DROPS_PER_ROW, 2, 4), np.float32)
+            gpu.drops = gl.Texture((2 * DROPS_PER_ROW, total), gl.RGBA32F)
+        flat = gpu.drops_cpu.reshape(-1, 2, 4)
+        flat[:n, 0, :3] = rain.drops.position[:n]
+        flat[:n, 1, :3] = rain.drops.velocity[:n]
+        gpu.drops.upload(gpu.drops_cpu.reshape(gpu.drops_cpu.shape[0], 2 * DROPS_PER_ROW, 4),
+                         rows=rows)
+        gpu.drops.bind(7)
+        program = gpu.programs["rain"]
+        program.use()
+        program.set_if_used(**shared)
+        program.set(u_drops=7, u_streak_s=float(rain.streak_s))
+        gl.set_depth(True, write=False)
+        gl.set_blend(gl.BLEND_ALPHA)
+        gpu.empty.draw(gl.LINES, count=2 * n)
+        gl.set_blend(gl.BLEND_OFF)
 
     def _wave(self, world: RiverWorld, gpu: _Gpu, settings: DisplaySettings):
         """Uniforms and texture of the wave tile the settings ask for (else the first one)."""
