@@ -238,8 +238,12 @@ def test_profile_prints_per_system_timings_as_json(tiny_channel_path, tmp_path):
                      cwd=tmp_path)
     assert result.returncode == 0, result.stderr
     data = json.loads(result.stdout)
+    from riverflow.engine.schedule import SYSTEM_ORDER
+
+    # every update system is timed (drawing is not: profile steps gl=False worlds)
     assert set(data["systems"]) == {"boat", "camera", "tiles", "advection", "screen",
-                                    "lifecycle", "poisson", "placement", "waves"}
+                                    "lifecycle", "poisson", "placement", "waves", "rain"}
+    assert set(data["systems"]) == set(SYSTEM_ORDER) - {"draw"}
     for stats in [*data["systems"].values(), data["total"]]:
         assert 0 <= stats["p50_ms"] <= stats["p95_ms"] + 1e-9
     assert data["particles"]["mean"] > 0 and data["size"] == [64, 48]

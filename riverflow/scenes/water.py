@@ -206,9 +206,18 @@ class WaterSurface:
         sample spacing); beyond ``upper_bound_m`` it is inf (much faster far away)."""
         if stride not in self._boundary_trees:
             self._boundary_trees[stride] = cKDTree(self._boundary_trees[1].data[::stride])
-        d, _ = self._boundary_trees[stride].query(np.asarray(xy, dtype=np.float64).reshape(-1, 2),
-                                                  distance_upper_bound=upper_bound_m,
-                                                  workers=_workers())
+        tree = self._boundary_trees[stride]
+        p = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+        if np.isfinite(upper_bound_m) and len(p) > 1:
+            # a batch far from every shore (most terrain tiles of a big world): one query
+            # from its box's centre tells (exact: every point is within half the box's
+            # diagonal of it), not one per point
+            lo, hi = p.min(axis=0), p.max(axis=0)
+            reach = upper_bound_m + 0.5 * float(np.hypot(*(hi - lo)))
+            if np.isfinite(reach) and not np.isfinite(
+                    tree.query(0.5 * (lo + hi), distance_upper_bound=reach)[0]):
+                return np.full(len(p), np.inf)
+        d, _ = tree.query(p, distance_upper_bound=upper_bound_m, workers=_workers())
         return d
 
     def land_level(self, xy: np.ndarray) -> np.ndarray:
