@@ -197,6 +197,8 @@ def _world() -> None:
         config = dataclasses.replace(rf.RiverConfig(), tile_production=production)
         with rf.RiverWorld(scene, size=(320, 180), seed=0, config=config) as world:
             fly(world, 20)
+            world.set_rain(1000.0)                 # the rain kernels (key R in the demo)
+            fly(world, 10, start=20, load=False)
             world.field.query(world.particles.world_m[:, :2])
     _boat_run(scene, gl=False)
 
