@@ -4,10 +4,8 @@ from __future__ import annotations
 
 import importlib.util
 import os
-import shutil
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import esper
@@ -196,22 +194,6 @@ def test_embed_command_line_runs_headless(tmp_path):
                             capture_output=True, text=True, timeout=300)
     assert folder.returncode == 2 and "takes a file name" in folder.stderr
 
-
-@pytest.fixture
-def xvfb():
-    """A virtual X display (Xvfb) for the windowed demo; skipped where Xvfb is missing."""
-    binary = shutil.which("Xvfb")
-    if binary is None:
-        pytest.skip("Xvfb is not installed (apt-get install xvfb)")
-    display = f":{90 + os.getpid() % 9}"
-    proc = subprocess.Popen([binary, display, "-screen", "0", "640x480x24", "-nolisten", "tcp"],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    time.sleep(1.0)
-    if proc.poll() is not None:
-        pytest.skip("Xvfb did not start")
-    yield display
-    proc.terminate()
-    proc.wait(timeout=10)
 
 
 def test_windowed_demo_starts_runs_and_quits_under_xvfb(xvfb, tmp_path):

@@ -29,13 +29,11 @@ import numpy as np
 
 from riverflow.gis import require
 from riverflow.scenes.sources import (
-    EXACT_MARGIN,
     FULL_SCAN_CELLS,
-    SUBSAMPLE_MARGIN,
-    SUBSAMPLE_MARGIN_M,
     ArraySource,
     HeightSource,
     _points,
+    padded_range,
 )
 
 BLOCK_CELLS = 512
@@ -128,11 +126,7 @@ class RasterSource(HeightSource):
         if not valid.size:
             raise ValueError(f"{self.path}: no valid cell (all are no-data = {self.nodata})")
         lo, hi = float(valid.min()), float(valid.max())
-        if stride == 1:
-            pad = EXACT_MARGIN * (1.0 + max(abs(lo), abs(hi)))
-        else:
-            pad = SUBSAMPLE_MARGIN * (hi - lo) + SUBSAMPLE_MARGIN_M
-        return lo - pad, hi + pad, lo
+        return padded_range(lo, hi, stride)
 
     def heights(self, x_m, y_m) -> np.ndarray:
         shape, x, y = _points(x_m, y_m, f"RasterSource({self.path.name})")

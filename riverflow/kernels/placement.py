@@ -28,8 +28,8 @@ def pixel_rays(slots, n, screen_px, world_from_clip, width_px, height_px, out_or
         i = slots[k]
         nx = 2.0 * screen_px[i, 0] / max(width_px, 1) - 1.0
         ny = 2.0 * screen_px[i, 1] / max(height_px, 1) - 1.0
-        near = _unproject(m, nx, ny, -1.0)
-        far = _unproject(m, nx, ny, 1.0)
+        near = unproject(m, nx, ny, -1.0)
+        far = unproject(m, nx, ny, 1.0)
         dx = far[0] - near[0]
         dy = far[1] - near[1]
         dz = far[2] - near[2]
@@ -45,7 +45,8 @@ def pixel_rays(slots, n, screen_px, world_from_clip, width_px, height_px, out_or
 
 
 @njit(inline="always", **JIT_OPTIONS)
-def _unproject(m, x, y, z):
+def unproject(m, x, y, z):
+    """World point of NDC (x, y, z) through the clip → world matrix ``m``."""
     wx = m[0, 0] * x + m[0, 1] * y + m[0, 2] * z + m[0, 3]
     wy = m[1, 0] * x + m[1, 1] * y + m[1, 2] * z + m[1, 3]
     wz = m[2, 0] * x + m[2, 1] * y + m[2, 2] * z + m[2, 3]

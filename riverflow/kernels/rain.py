@@ -32,6 +32,7 @@ import numpy as np
 from numba import njit
 
 from riverflow.kernels._jit import JIT_OPTIONS, is_finite
+from riverflow.kernels.placement import unproject
 from riverflow.kernels.surface_tiles import sample_surface
 
 SPAWN_TRIES = 8
@@ -106,16 +107,6 @@ def _surface_top(surface, x, y):
     return ground, np.nan, True
 
 
-@njit(inline="always", **JIT_OPTIONS)
-def _unproject(inv, nx, ny, nz):
-    """World point of NDC (nx, ny, nz) through the clip → world matrix ``inv``."""
-    x = inv[0, 0] * nx + inv[0, 1] * ny + inv[0, 2] * nz + inv[0, 3]
-    y = inv[1, 0] * nx + inv[1, 1] * ny + inv[1, 2] * nz + inv[1, 3]
-    z = inv[2, 0] * nx + inv[2, 1] * ny + inv[2, 2] * nz + inv[2, 3]
-    w = inv[3, 0] * nx + inv[3, 1] * ny + inv[3, 2] * nz + inv[3, 3]
-    return x / w, y / w, z / w
-
-
 @njit(**JIT_OPTIONS)
 def step_rain(drops, n_new, randoms, dt_s, now_s, fall_mps, gravity_mps2, wind_x, wind_y,
               clip_from_world, world_from_clip, eye, half_box_m, surface, has_surface,
@@ -182,7 +173,7 @@ def step_rain(drops, n_new, randoms, dt_s, now_s, fall_mps, gravity_mps2, wind_x
     # new drops, in the view volume ∩ the box, above the surface
     inv = world_from_clip
     ex, ey, ez = eye[0], eye[1], eye[2]
-    fx, fy, fz = _unproject(inv, 0.0, 0.0, -1.0)
+    fx, fy, fz = unproject(inv, 0.0, 0.0, -1.0)
     fx -= ex
     fy -= ey
     fz -= ez
@@ -206,7 +197,7 @@ def step_rain(drops, n_new, randoms, dt_s, now_s, fall_mps, gravity_mps2, wind_x
                 nx = 2.0 * r[0] - 1.0
                 ny = 2.0 * r[1] - 1.0
                 d = (n3 + r[2] * (f3 - n3)) ** (1.0 / 3.0)    # forward distance, pdf ∝ d²
-                px, py, pz = _unproject(inv, nx, ny, -1.0)    # on the near plane
+                px, py, pz = unproject(inv, nx, ny, -1.0)    # on the near plane
                 rx, ry, rz = px - ex, py - ey, pz - ez
                 along = rx * fx + ry * fy + rz * fz
                 if not along > 0.0:

@@ -32,6 +32,19 @@ SUBSAMPLE_MARGIN_M = 1.0
 EXACT_MARGIN = 1e-9
 """A height range read from every value is widened by this fraction of (1 m + its largest
 |z|) on each side, for the rounding of bilinear interpolation."""
+
+
+def padded_range(lo: float, hi: float, stride: int) -> tuple[float, float, float]:
+    """(z_min, z_max, lo) of a height range read as (``lo``, ``hi``) from every
+    ``stride``-th row and column: widened by EXACT_MARGIN when every value was read, by
+    SUBSAMPLE_MARGIN (+ SUBSAMPLE_MARGIN_M) when only a subsample was."""
+    if stride == 1:
+        pad = EXACT_MARGIN * (1.0 + max(abs(lo), abs(hi)))
+    else:
+        pad = SUBSAMPLE_MARGIN * (hi - lo) + SUBSAMPLE_MARGIN_M
+    return lo - pad, hi + pad, lo
+
+
 ESTIMATE_GRID = 129
 """A :class:`CallableSource` estimates its height range from ESTIMATE_GRID² samples."""
 DEFAULT_ESTIMATE_EXTENT_M = (-4096.0, -4096.0, 4096.0, 4096.0)
@@ -333,11 +346,7 @@ class ArraySource(HeightSource):
             scope = "" if stride == 1 else f" (every {stride}th row and column sampled)"
             raise ValueError(f"ArraySource{where}: no valid cell{scope}: all are NaN, infinite "
                              f"or nodata={self.nodata}")
-        if stride == 1:
-            pad = EXACT_MARGIN * (1.0 + max(abs(lo), abs(hi)))
-        else:
-            pad = SUBSAMPLE_MARGIN * (hi - lo) + SUBSAMPLE_MARGIN_M
-        return lo - pad, hi + pad, lo
+        return padded_range(lo, hi, stride)
 
     def heights(self, x_m, y_m) -> np.ndarray:
         shape, x, y = _points(x_m, y_m, "ArraySource.heights")

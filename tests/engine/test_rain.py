@@ -15,6 +15,7 @@ from riverflow.kernels.rain import SPAWN_TRIES, drops_this_frame, empty_drops, s
 from riverflow.kernels.surface_tiles import one_tile_surface, surface_altitude
 from riverflow.scenes.default import default_scene
 from riverflow.scenes.flight import main_centerline
+from tests.engine.flight import river_view
 
 DT = 1 / 60
 
@@ -24,24 +25,12 @@ def scene():
     return default_scene(seed=0)
 
 
-def _river_view(scene, height_m=4.0, back_m=12.0):
-    """(eye, target) a few metres above the middle of the main river, looking downstream."""
-    line = main_centerline(scene)
-    k = len(line) // 2
-    p = line[k]
-    d = line[k + 3] - p
-    d = d / np.linalg.norm(d)
-    level = float(scene.water.level(p[None])[0])
-    return ((p[0] - back_m * d[0], p[1] - back_m * d[1], level + height_m),
-            (p[0] + 5 * d[0], p[1] + 5 * d[1], level))
-
-
 @pytest.fixture(scope="module")
 def world(scene):
     from riverflow.engine.world import RiverWorld
     w = RiverWorld(scene, size=(160, 90), gl=False, seed=0,
                    config=RiverConfig(tile_production="blocking"))
-    w.camera.look_at(*_river_view(scene))
+    w.camera.look_at(*river_view(scene))
     w.load_view()
     yield w
     w.close()
@@ -68,7 +57,7 @@ def test_new_drops_per_frame_within_mean_plus_minus_variance(rate, variance):
 def test_world_makes_the_asked_number_of_drops_in_an_open_view(scene):
     """Looking at the sky from above the land, every asked drop is born, within mean ± var."""
     from riverflow.engine.world import RiverWorld
-    eye, target = _river_view(scene, height_m=30.0)
+    eye, target = river_view(scene, height_m=30.0)
     with RiverWorld(scene, size=(160, 90), gl=False, seed=3,
                     config=RiverConfig(tile_production="blocking")) as w:
         w.camera.look_at(eye, (target[0], target[1], eye[2] + 5.0))
@@ -136,7 +125,7 @@ def test_drops_live_only_in_the_camera_box_and_view(world, scene):
         w = clip[:, 3:4]
         assert (np.abs(clip[:, :3]) <= w + 1e-9).all()
     world.set_rain(0)
-    world.camera.look_at(*_river_view(scene))
+    world.camera.look_at(*river_view(scene))
     world.load_view()
 
 

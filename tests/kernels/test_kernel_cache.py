@@ -13,7 +13,6 @@ import shutil
 import subprocess
 import sys
 import textwrap
-import time
 from pathlib import Path
 
 import pytest
@@ -287,22 +286,6 @@ LOADING = """
     print(json.dumps({**loading.__dict__, "bright_pixels": shots}))
 """
 
-
-@pytest.fixture
-def xvfb():
-    """A virtual X display; skipped where Xvfb is missing."""
-    binary = shutil.which("Xvfb")
-    if binary is None:
-        pytest.skip("Xvfb is not installed (apt-get install xvfb)")
-    display = f":{80 + os.getpid() % 9}"
-    proc = subprocess.Popen([binary, display, "-screen", "0", "640x480x24", "-nolisten", "tcp"],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    time.sleep(1.0)
-    if proc.poll() is not None:
-        pytest.skip("Xvfb did not start")
-    yield display
-    proc.terminate()
-    proc.wait(timeout=10)
 
 
 @pytest.mark.gl

@@ -10,7 +10,7 @@ from riverflow.components.display import DisplayMode
 from riverflow.components.rain import Rain
 from riverflow.engine.config import RiverConfig
 from riverflow.scenes.default import default_scene
-from riverflow.scenes.flight import main_centerline
+from tests.engine.flight import river_view
 
 pytestmark = pytest.mark.gl
 W, H = 160, 90
@@ -20,16 +20,13 @@ W, H = 160, 90
 def setup(gl_context):
     from riverflow.engine.world import RiverWorld
     scene = default_scene(seed=0)
-    line = main_centerline(scene)
-    k = len(line) // 2
-    p = line[k]
-    d = line[k + 3] - p
-    d = d / np.linalg.norm(d)
-    level = float(scene.water.level(p[None])[0])
+    eye, target = river_view(scene, height_m=4.0, back_m=12.0)
+    p, level = np.asarray(target[:2]), float(target[2])
+    d = (p - np.asarray(eye[:2])) / np.linalg.norm(p - np.asarray(eye[:2]))
+    p = p - 5 * d                                    # the river point the view is built on
     w = RiverWorld(scene, size=(W, H), gl=True, seed=0,
                    config=RiverConfig(tile_production="blocking"))
-    w.camera.look_at((p[0] - 12 * d[0], p[1] - 12 * d[1], level + 4),
-                     (p[0] + 5 * d[0], p[1] + 5 * d[1], level))
+    w.camera.look_at(eye, target)
     w.load_view()
     for _ in range(10):
         w.step(1 / 60)
