@@ -18,11 +18,11 @@ from pathlib import Path
 from typing import Any
 
 DISPLAY_MODES = ("none", "mesh", "coverage", "advected", "pre-advected", "non-advected",
-                 "grid", "particles", "velocities")
+                 "foam", "grid", "particles", "velocities")
 """Display / debug modes of the river drawing (SPEC §4 "Drawing"; Proland MeshDisplayType,
 reference §4.6): ground only, mesh only, particle coverage, per-pixel sprite blending,
-pre-advected texture, non-advected texture, sprite-grid cells, particles coloured by status,
-velocity arrows. The same names as ``riverflow.components.display.MODE_NAMES`` (tested), kept
+pre-advected texture, non-advected texture, the particles' foam alone, sprite-grid cells,
+particles coloured by status, velocity arrows. The same names as ``riverflow.components.display.MODE_NAMES`` (tested), kept
 here so that ``--help`` needs no numba import."""
 
 

@@ -15,7 +15,8 @@ W / S, UP / DOWN          throttle forward / back (free camera: fly forward / ba
 A / D, LEFT / RIGHT       rudder left / right (free camera: strafe)
 Q / E                     free camera: down / up; mouse drag turns it
 C                         chase camera ↔ free-fly camera
-1 … 6                     water: none, mesh, coverage, advected, pre-advected, non-advected
+1 … 7                     water: none, mesh, coverage, advected, pre-advected, non-advected,
+                          foam
 G / P / V                 sprite grid / particles / velocity arrows on or off
 SPACE                     pause the particles
 + / −                     flow speed factor up / down
@@ -47,7 +48,7 @@ RAIN_DROPS_PER_S = 3000.0
 """The demo's rain (key R): new drops a second in the view."""
 MODE_KEYS = {"_1": DisplayMode.NONE, "_2": DisplayMode.MESH, "_3": DisplayMode.COVERAGE,
              "_4": DisplayMode.ADVECTED, "_5": DisplayMode.PRE_ADVECTED,
-             "_6": DisplayMode.NON_ADVECTED}
+             "_6": DisplayMode.NON_ADVECTED, "_7": DisplayMode.FOAM}
 KEYS = frozenset({"W", "S", "A", "D", "UP", "DOWN", "LEFT", "RIGHT", "Q", "E", "C", *MODE_KEYS,
                   "G", "P", "V", "T", "R", "SPACE", "PLUS", "EQUAL", "NUM_ADD", "MINUS",
                   "NUM_SUBTRACT", "H", "F1", "F2", "ESCAPE"})
@@ -55,7 +56,7 @@ KEYS = frozenset({"W", "S", "A", "D", "UP", "DOWN", "LEFT", "RIGHT", "Q", "E", "
 HELP = """riverflow boat demo
 W/S or UP/DOWN   throttle        A/D or LEFT/RIGHT  rudder
 C  chase / free camera (free: WASD, Q/E, mouse drag)
-1-6  water: none, mesh, coverage, advected, pre-advected, non-advected
+1-7  water: none, mesh, coverage, advected, pre-advected, non-advected, foam
 G grid   P particles   V velocity arrows   T wave tile   R rain
 SPACE pause particles   +/- flow speed   F2 screenshot
 H help   ESC quit"""

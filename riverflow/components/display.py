@@ -29,6 +29,8 @@ class DisplayMode(IntEnum):
     """The wave texture mapped in world space, not carried by the flow (for comparison)."""
     MESH = 11
     """The water mesh in one flat colour."""
+    FOAM = 12
+    """The foam the particles carry, alone: its amount blended like the sprites (ours)."""
 
 
 @dataclass
@@ -72,6 +74,7 @@ MODE_NAMES: dict[str, dict[str, object]] = {
     "advected": {"mode": DisplayMode.ADVECTED},
     "pre-advected": {"mode": DisplayMode.PRE_ADVECTED},
     "non-advected": {"mode": DisplayMode.NON_ADVECTED},
+    "foam": {"mode": DisplayMode.FOAM},
     "grid": {"mode": DisplayMode.ADVECTED, "show_grid": True},
     "particles": {"mode": DisplayMode.ADVECTED, "show_particles": True},
     "velocities": {"mode": DisplayMode.ADVECTED, "show_velocities": True},
@@ -98,6 +101,10 @@ MODE_LEGENDS: dict[DisplayMode, list[tuple[Colour | None, str]]] = {
     DisplayMode.ADVECTED: [(None, "wave sprites carried by the flow, blended per pixel")],
     DisplayMode.PRE_ADVECTED: [(None, "the same sprites, summed first into a float target")],
     DisplayMode.NON_ADVECTED: [(None, "the wave texture fixed in the world, not carried")],
+    DisplayMode.FOAM: [
+        (_rgb(1, 1, 1), "white: foam 1, the most a particle carries (blended like the sprites)"),
+        (_rgb(0.02, 0.05, 0.16), "dark blue: no foam; grey between"),
+    ],
 }
 """What each water mode's colours mean (``water.glsl``; the HUD and the README show it)."""
 

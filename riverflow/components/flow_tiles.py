@@ -28,6 +28,7 @@ def flow_fields(n_cells: int) -> dict[str, FieldSpec]:
     return {"psi": FieldSpec((n + 3, n + 3), np.float32, np.nan),         # points −1 … n+1
             "cell_status": FieldSpec((n, n), np.uint8, 0),                 # CELL_*
             "cell_segments": FieldSpec((n, n, CELL_SEGMENTS), np.int32, -1),
+            "shore": FieldSpec((n + 3, n + 3), np.float32, 0.0),          # to the nearest bank [m]
             "inside_points": FieldSpec((), np.int32, 0),                   # lattice points in water
             "in_cut": FieldSpec((), np.uint8, 0)}     # a leaf of this frame's flow cut (tiles system)
 
@@ -93,6 +94,12 @@ class FlowTiles:
     @property
     def cell_segments(self) -> np.ndarray:
         return self.pool.arrays["cell_segments"]
+
+    @property
+    def shore(self) -> np.ndarray:
+        """(P, n+3, n+3) float32: distance to the nearest bank or island shore [m] at each
+        tile's lattice points −1 … n+1 (0 where dry)."""
+        return self.pool.arrays["shore"]
 
     @property
     def cached(self) -> int:

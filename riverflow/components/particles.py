@@ -4,8 +4,9 @@ Particles are entities of a packed archetype (SPEC §3): each is a row (slot) wi
 and its components are the pool's columns, one group per Proland particle layer
 (reference §3.3): LifeCycle (birth time, intensity), Screen (screen position, fade reason),
 World (world position, velocity), Terrain (flow status, first-query flag), Random (sprite
-offset). Nothing is allocated per frame; a new particle takes the lowest free slot (Proland's
-``pack``), so live rows stay dense at the front and a slot is the particle's GPU row.
+offset), and ours, Foam (the foam it carries). Nothing is allocated per frame; a new particle
+takes the lowest free slot (Proland's ``pack``), so live rows stay dense at the front and a
+slot is the particle's GPU row.
 """
 from __future__ import annotations
 
@@ -61,6 +62,12 @@ class ParticlePool:
     hint_id: np.ndarray = field(init=False)      # (C,) int64 id whose hint water_hint_m holds
     # Random
     offset_m: np.ndarray = field(init=False)     # (C, 2) float32 sprite texture offset [m]
+    # Foam (kernels/foam.py)
+    foam: np.ndarray = field(init=False)         # (C,) float32 foam amount in [0, 1]
+    foam_flow: np.ndarray = field(init=False)    # (C,) float32 the river's part of its target
+    foam_shore: np.ndarray = field(init=False)   # (C,) float32 its closeness to a shore
+    foam_near: np.ndarray = field(init=False)    # (C,) float32 … to a hull or its wash
+    foam_id: np.ndarray = field(init=False)      # (C,) int64 id whose foam the slot holds
 
     def __post_init__(self) -> None:
         c = int(self.capacity)
@@ -82,6 +89,11 @@ class ParticlePool:
         self.water_hint_m = np.zeros((c, 3), np.float32)
         self.hint_id = np.full(c, -1, np.int64)
         self.offset_m = np.zeros((c, 2), np.float32)
+        self.foam = np.zeros(c, np.float32)
+        self.foam_flow = np.zeros(c, np.float32)
+        self.foam_shore = np.zeros(c, np.float32)
+        self.foam_near = np.zeros(c, np.float32)
+        self.foam_id = np.full(c, -1, np.int64)
 
     @property
     def count(self) -> int:
@@ -99,7 +111,8 @@ class ParticlePool:
         """Every column by name (for snapshots and bit-identity tests)."""
         names = ("alive", "ids", "counters", "birth_s", "intensity", "screen_px", "fade_reason",
                  "world_m", "has_world", "velocity_mps", "status", "first_query", "water_hint_m",
-                 "hint_id", "offset_m")
+                 "hint_id", "offset_m", "foam", "foam_flow", "foam_shore", "foam_near",
+                 "foam_id")
         return {n: getattr(self, n) for n in names}
 
 
@@ -115,6 +128,8 @@ class LiveParticles:
     velocity_mps: np.ndarray  # (N, 2) float32 [m/s]
     fading: np.ndarray       # (N,) bool: fading out
     has_world: np.ndarray    # (N,) bool
+    foam: np.ndarray = field(default_factory=lambda: np.zeros(0, np.float32))
+    """(N,) float32 foam amount in [0, 1] (:mod:`riverflow.kernels.foam`)."""
 
     def __len__(self) -> int:
         return int(self.ids.shape[0])

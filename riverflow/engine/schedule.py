@@ -1,9 +1,12 @@
 """The one ordered list of river systems (SPEC §3). Changing the order is a reviewed diff here.
 
 1. boats (``MoveBoats``: the boats' physics, and their hulls as obstacles in the flow; a host
-   game's input comes before ``world.step``)   2. camera
+   game's input comes before ``world.step``)   1b. wakes (each boat's trail through the water,
+   packed for the foam and the water shader)   2. camera
 3. tile production (every kind: flow, terrain, water, meshes, particle tables)   4. advection   5. screen projection   6. life cycle
-7. Poisson-disk maintenance, then placement of the new particles   8. wave-tile animation
+7. Poisson-disk maintenance, then placement of the new particles   7b. foam (each particle's
+   foam from the flow, shores, hulls and wakes: it reads where they are now, new ones included)
+8. wave-tile animation
 8b. rain (seed 002: drops born in the view, falling, dying on the surface; it reads this
    frame's camera and surface tiles)
 9. drawing (``gl=True`` worlds only; it is the one "draw"-phase system: ``world.step`` runs
@@ -16,16 +19,19 @@ from riverflow.engine.system import System
 from riverflow.systems.advection import AdvectParticles
 from riverflow.systems.boat import MoveBoats
 from riverflow.systems.camera import UpdateCamera
+from riverflow.systems.foam import UpdateFoam
 from riverflow.systems.lifecycle import AgeParticles
 from riverflow.systems.placement import PlaceNewParticles
 from riverflow.systems.poisson import MaintainPoissonDisk
 from riverflow.systems.rain import MakeRain
 from riverflow.systems.screen import ProjectParticles
 from riverflow.systems.tiles import ProduceTiles
+from riverflow.systems.wake import UpdateWakes
 from riverflow.systems.waves import AnimateWaveTiles
 
 SYSTEM_ORDER = (
     "boat",
+    "wake",
     "camera",
     "tiles",
     "advection",
@@ -33,6 +39,7 @@ SYSTEM_ORDER = (
     "lifecycle",
     "poisson",
     "placement",
+    "foam",
     "waves",
     "rain",
     "draw",
@@ -43,9 +50,9 @@ SYSTEM_ORDER = (
 def default_systems(gl: bool = True) -> list[System]:
     """A fresh instance of every default system, in frame order; ``gl=False`` leaves out the
     draw system (and never imports OpenGL)."""
-    systems = [MoveBoats(), UpdateCamera(), ProduceTiles(), AdvectParticles(),
+    systems = [MoveBoats(), UpdateWakes(), UpdateCamera(), ProduceTiles(), AdvectParticles(),
                ProjectParticles(), AgeParticles(), MaintainPoissonDisk(), PlaceNewParticles(),
-               AnimateWaveTiles(), MakeRain()]
+               UpdateFoam(), AnimateWaveTiles(), MakeRain()]
     if gl:
         from riverflow.systems.draw import DrawRivers  # imports pyglet's GL: only when drawing
 

@@ -33,9 +33,11 @@ import esper
 import numpy as np
 
 from riverflow.components.display import DisplaySettings
+from riverflow.components.foam import FoamSettings
 from riverflow.components.particles import LiveParticles, ParticlePool
 from riverflow.components.rain import Rain
 from riverflow.components.river import Clock, FrameView, RiverNode, ScreenGrid, TerrainView, Tiles
+from riverflow.components.wake import Wakes
 from riverflow.engine.camera import Camera
 from riverflow.engine.config import RiverConfig
 from riverflow.engine.schedule import default_systems
@@ -101,7 +103,8 @@ class RiverWorld:
         self.camera = camera
         terrain = TerrainView(z_min=float(scene.z_range_m[0]), z_max=float(scene.z_range_m[1]))
         for resource in (camera, c, Clock(speed_factor=c.speed_factor), FrameView(), terrain,
-                         DisplaySettings(), self.tiles, Rain(seed=self.seed)):
+                         DisplaySettings(), self.tiles, Rain(seed=self.seed), FoamSettings(),
+                         Wakes()):
             self.insert(resource)
         with self.active():
             self.river = esper.create_entity(RiverNode(scene.graph, field),
@@ -253,17 +256,34 @@ class RiverWorld:
         """Add a boat on the water at ``position_m`` (2,) [m], bow towards ``heading_rad``;
         ``params`` set fields of :class:`~riverflow.components.boat.Boat` (length_m, beam_m,
         throttle, max_thrust_mps2…). The "boat" system (first in the frame) moves it with the
-        flow and its controls, keeps it in the water and bends the flow around it. ``drawn``
-        also gives it a "boat" prop whose pose follows it. Returns its entity.
+        flow and its controls, keeps it in the water and bends the flow around it; its
+        :class:`~riverflow.components.wake.Wake` (:meth:`wake`) leaves a Kelvin wake and a
+        foam trail behind it when it moves through the water. ``drawn`` also gives it a
+        "boat" prop whose pose follows it. Returns its entity.
 
         Raises:
             ValueError: an unknown or bad parameter, or the hull does not fit in the water.
         """
+        from riverflow.components.wake import Wake
         from riverflow.systems.boat import boat_components
 
         components = boat_components(self.scene, position_m, heading_rad, drawn=drawn, **params)
         with self.active():
-            return esper.create_entity(*components)
+            return esper.create_entity(*components, Wake())
+
+    def wake(self, entity: int):
+        """The :class:`~riverflow.components.wake.Wake` of a boat entity (mutable: its wave
+        slope, foam, minimum speed, life; its trail)."""
+        from riverflow.components.wake import Wake
+
+        with self.active():
+            return esper.component_for_entity(entity, Wake)
+
+    @property
+    def foam(self) -> FoamSettings:
+        """The knobs of the particles' foam (mutable; ``world.particles.foam`` is each live
+        particle's amount)."""
+        return self.resource(FoamSettings)
 
     def boat(self, entity: int):
         """The :class:`~riverflow.components.boat.Boat` of a boat entity (mutable: write its
@@ -334,7 +354,9 @@ class RiverWorld:
         return LiveParticles(p.ids[live].copy(), p.screen_px[live].copy(),
                              p.world_m[live].copy(), p.intensity[live].copy(),
                              p.status[live].copy(), p.velocity_mps[live].copy(), fading,
-                             p.has_world[live].copy())
+                             p.has_world[live].copy(),
+                             np.where(p.foam_id[live] == p.ids[live], p.foam[live], 0.0)
+                             .astype(np.float32))
 
     def render(self) -> np.ndarray:
         """Draw the current frame and return it as (H, W, 4) uint8 RGBA, row 0 at the top

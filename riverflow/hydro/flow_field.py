@@ -227,6 +227,35 @@ class FlowField:
                 psi[index[:n]] = sub
         return psi
 
+    def shore_distance(self, xy: np.ndarray, *, level: int | None = None) -> np.ndarray:
+        """Distance [m] from points (N, 2) [m] to the nearest bank or island shore (moving
+        obstacles not included), bilinear on the tiles' distance lattice (exact at lattice
+        points, within a lattice spacing near a bank); NaN outside the water. The "distance
+        map" that foam reads (:mod:`riverflow.kernels.foam`); gameplay may steer by it."""
+        pts = self._points(xy)
+        lv = self._level(level)
+        status = np.empty(len(pts), np.uint8)
+        velocity = np.empty((len(pts), 2), np.float32)
+        details = np.empty((len(pts), 5))
+        tick = self.tiles.cache.next_tick()
+        if kf.query_velocity(pts, _NO_LEVELS, lv, 0, self.tiles.view(), tick, self.segments,
+                             0, status, velocity):  # some tiles are not cached
+            known = status != FlowStatus.UNKNOWN
+            kf.sample_flow_details(pts, lv, 0, self.tiles.view(), self.tiles.shore, details)
+            for idx in self._batches(pts, lv, np.flatnonzero(~known)):
+                sub = np.ascontiguousarray(pts[idx])
+                s_out = np.empty(len(idx), np.uint8)
+                d_out = np.empty((len(idx), 5))
+                view = self.tiles.view()
+                kf.query_velocity(sub, _NO_LEVELS, lv, 0, view, self.tiles.cache.tick,
+                                  self.segments, 0, s_out, np.empty((len(idx), 2), np.float32))
+                kf.sample_flow_details(sub, lv, 0, view, self.tiles.shore, d_out)
+                status[idx] = s_out
+                details[idx] = d_out
+        else:
+            kf.sample_flow_details(pts, lv, 0, self.tiles.view(), self.tiles.shore, details)
+        return np.where(status == FlowStatus.INSIDE, np.maximum(details[:, 0], 0.0), np.nan)
+
     # -- obstacles -----------------------------------------------------------------------------
 
     def set_obstacles(self, obstacles: Iterable[Obstacle] | np.ndarray, *,
@@ -418,17 +447,21 @@ class TileBuilder:
         psi = np.empty((n + 3, n + 3), np.float32)
         status = np.empty((n, n), np.uint8)
         segments = np.empty((n, n, kf.CELL_SEGMENTS), np.int32)
-        inside = self.build(level, tx, ty, psi, status, segments)
-        return {"psi": psi, "cell_status": status, "cell_segments": segments,
+        shore = np.empty((n + 3, n + 3), np.float32)
+        inside = self.build(level, tx, ty, psi, status, segments, shore)
+        return {"psi": psi, "cell_status": status, "cell_segments": segments, "shore": shore,
                 "inside_points": np.int32(inside), "in_cut": np.uint8(0)}
 
     def build(self, level: int, tx: int, ty: int, psi: np.ndarray, cell_status: np.ndarray,
-              cell_segments: np.ndarray) -> int:
-        """Fill tile (level, tx, ty) into the given arrays; returns its water lattice points."""
+              cell_segments: np.ndarray, shore: np.ndarray | None = None) -> int:
+        """Fill tile (level, tx, ty) into the given arrays (``shore``: the distance to the
+        nearest bank at the lattice points, or None); returns its water lattice points."""
         f = self.field
         t = f.tiles
         n = t.n_cells
+        if shore is None:
+            shore = np.empty((n + 3, n + 3), np.float32)
         return int(kf.build_flow_tile(
             t.root_x_m, t.root_y_m, t.spacing_m(level), n, tx * n, ty * n,
             *f.network.kernel_args(), f.slip, *self.block_scratch(), self.psi_full,
-            self.inside_full, self.cell_d2, psi, cell_status, cell_segments))
+            self.inside_full, self.cell_d2, psi, cell_status, cell_segments, shore))

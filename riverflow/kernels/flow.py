@@ -256,6 +256,22 @@ def potential_at(
 
     ``gval`` is (G,) scratch for the merged signed squared distance of each ψ-group.
     """
+    return potential_and_shore_at(px, py, nb, blk_curve, blk_start, blk_count, blk_seg,
+                                  blk_dmin2, seg_ax, seg_ay, seg_bx, seg_by, curve_kind,
+                                  curve_comp, curve_group, curve_hw2, comp_radius, comp_group0,
+                                  comp_group1, group_psi, slip, gval)[0]
+
+
+@njit(**JIT_OPTIONS)
+def potential_and_shore_at(
+    px, py, nb, blk_curve, blk_start, blk_count, blk_seg, blk_dmin2,
+    seg_ax, seg_ay, seg_bx, seg_by,
+    curve_kind, curve_comp, curve_group, curve_hw2,
+    comp_radius, comp_group0, comp_group1, group_psi, slip, gval,
+):
+    """(ψ [m²/s], squared distance to the nearest bank [m²]) at p, as :func:`potential_at`;
+    the distance is to the nearest bank or island shore of p's river network (the ψ-groups'
+    nearest segments, which the weighting finds anyway), inf where p is not in the water."""
     best = np.inf
     axis = -1
     for k in range(nb):
@@ -270,7 +286,7 @@ def potential_at(
                 best = d2
                 axis = c
     if axis < 0:
-        return np.nan
+        return np.nan, np.inf
     comp = curve_comp[axis]
     radius = comp_radius[comp]
     width2 = 4.0 * curve_hw2[axis]  # sign tests only within one river width
@@ -299,8 +315,9 @@ def potential_at(
         else:
             cap = cur
     if cap < 0.0 and -cap < width2:
-        return np.nan
+        return np.nan, np.inf
     count = 0
+    near2 = np.inf
     on_bank = -1
     sw = 0.0
     swp = 0.0
@@ -309,8 +326,9 @@ def potential_at(
         if v == np.inf:
             continue
         if v < 0.0 and -v < width2:
-            return np.nan
+            return np.nan, np.inf
         count += 1
+        near2 = min(near2, abs(v))
         d = math.sqrt(abs(v))
         if d <= 1e-9 * radius:
             on_bank = g
@@ -324,12 +342,12 @@ def potential_at(
             sw += w
             swp += w * group_psi[g]
     if count < 2:
-        return np.nan
+        return np.nan, np.inf
     if on_bank >= 0:
-        return group_psi[on_bank]
+        return group_psi[on_bank], 0.0
     if sw <= 0.0:
-        return np.nan
-    return swp / sw
+        return np.nan, np.inf
+    return swp / sw, near2
 
 
 @njit(**JIT_OPTIONS)
@@ -367,9 +385,10 @@ def build_flow_tile(
     curve_cutoff, comp_radius, comp_group0, comp_group1, group_psi, slip,
     blk_curve, blk_start, blk_count, blk_seg, blk_dmin2, tmp_d2, gval, psi_full, inside_full,
     cell_d2,
-    out_psi, out_cell_status, out_cell_segments,
+    out_psi, out_cell_status, out_cell_segments, out_shore,
 ):
-    """Fill one flow tile: its ψ lattice (with extrapolated ghosts) and per-cell inside data.
+    """Fill one flow tile: its ψ lattice (with extrapolated ghosts), per-cell inside data and
+    the distance to the nearest bank or island shore at its lattice points.
 
     The tile has ``n_cells`` × ``n_cells`` lattice cells of ``spacing_m``; lattice point (a, b)
     lies at ``origin + ((gi0 + a)·h, (gj0 + b)·h)``, so neighbouring tiles compute bitwise
@@ -379,8 +398,11 @@ def build_flow_tile(
     Outputs: ``out_psi`` (n+3, n+3) float64, lattice points −1 … n+1 (NaN far from water;
     outside points next to the water hold ψ extrapolated linearly from the water side);
     ``out_cell_status`` (n, n) uint8 CELL_* (BOUNDARY possibly with the CELL_CROWDED flag); ``out_cell_segments`` (n, n, CELL_SEGMENTS) int32,
-    for boundary cells the nearest bank / cap segments (−1 padded). Returns the number of
-    lattice points inside the water.
+    for boundary cells the nearest bank / cap segments (−1 padded); ``out_shore`` (n+3, n+3)
+    float32, lattice points −1 … n+1: the distance [m] to the nearest bank or island shore
+    (found by the ψ weighting anyway: :func:`potential_and_shore_at`), 0 at dry points, so
+    that a bilinear blend falls to about 0 at the bank. Returns the number of lattice points
+    inside the water.
     """
     ring = LATTICE_RING
     m = n_cells + 1 + 2 * ring
@@ -404,13 +426,20 @@ def build_flow_tile(
                 for i in range(bi, i_hi):
                     px = origin_x + (gi0 + i - ring) * h
                     psi = np.nan
+                    near2 = np.inf
                     if nb > 0:
-                        psi = potential_at(px, py, nb, blk_curve, blk_start, blk_count, blk_seg, blk_dmin2,
-                                           seg_ax, seg_ay, seg_bx, seg_by, curve_kind,
-                                           curve_comp, curve_group, curve_hw2, comp_radius,
-                                           comp_group0, comp_group1, group_psi, slip, gval)
+                        psi, near2 = potential_and_shore_at(
+                            px, py, nb, blk_curve, blk_start, blk_count, blk_seg, blk_dmin2,
+                            seg_ax, seg_ay, seg_bx, seg_by, curve_kind, curve_comp,
+                            curve_group, curve_hw2, comp_radius, comp_group0, comp_group1,
+                            group_psi, slip, gval)
                     psi_full[j, i] = psi
                     inside_full[j, i] = not math.isnan(psi)
+                    sj = j - ring + 1          # lattice points −1 … n+1 are kept
+                    si = i - ring + 1
+                    if 0 <= sj <= n_cells + 2 and 0 <= si <= n_cells + 2:
+                        out_shore[sj, si] = (math.sqrt(near2) if inside_full[j, i]
+                                             and near2 < np.inf else 0.0)
                     if inside_full[j, i] and ring <= i < m - ring and ring <= j < m - ring:
                         n_inside += 1
     _mark_boundary_cells(origin_x + gi0 * h, origin_y + gj0 * h, h, n_cells, seg_ax, seg_ay,
@@ -817,4 +846,95 @@ def sample_potential(xy, levels, level, fallback, tiles, tick, segs, out_psi):
                     _rows(wx0, wx1, wx2, wx3, patch[2, 0], patch[2, 1], patch[2, 2], patch[2, 3]),
                     _rows(wx0, wx1, wx2, wx3, patch[3, 0], patch[3, 1], patch[3, 2], patch[3, 3]))
         out_psi[k] = acc
+    return missing
+
+
+# -- what foam reads of the flow: banks, strain, vorticity --------------------------------------
+
+
+@njit(**JIT_OPTIONS)
+def _catmull_rom_dd(t):
+    """Second derivatives of the Catmull-Rom weights at t ∈ [0, 1]."""
+    return 2.0 - 3.0 * t, 9.0 * t - 5.0, 4.0 - 9.0 * t, 3.0 * t - 1.0
+
+
+@njit(inline="always", **JIT_OPTIONS)
+def flow_details_at(px, py, tiles, level, fallback, shore_pool, patch):
+    """What the flow knows at p besides its velocity, from the cached tile under it (level
+    ``level``, up to ``fallback`` coarser levels when that one is not cached): returns
+    (found, shore [m], ∂shore/∂x, ∂shore/∂y, strain [1/s], vorticity [1/s]).
+
+    ``shore`` is the bilinear blend of the tile's distance lattice (``shore_pool``, the flow
+    pool's "shore" column: distance to the nearest bank or island shore, 0 at dry lattice
+    points) with its gradient; strain is the principal strain rate of the velocity, √(ψ_xy² +
+    ¼(ψ_xx − ψ_yy)²), vorticity ψ_xx + ψ_yy, from the second derivatives of the ψ bicubic
+    (piecewise linear: the interpolant is C¹). ``patch`` is (4, 4) float64 scratch. found is
+    False where no tile is cached, outside the domain or in a dry tile; a point in a tile but
+    outside the water gets what the lattice extrapolates (the caller knows its status).
+    """
+    slot, lv, ci, cj, fx, fy = _locate(px, py, tiles, level, fallback)
+    if slot < 0:
+        return False, 0.0, 0.0, 0.0, 0.0, 0.0
+    inv_h = (1 << lv) * tiles.n_cells / tiles.root_size
+    s00 = shore_pool[slot, cj + 1, ci + 1]
+    s10 = shore_pool[slot, cj + 1, ci + 2]
+    s01 = shore_pool[slot, cj + 2, ci + 1]
+    s11 = shore_pool[slot, cj + 2, ci + 2]
+    shore = ((1.0 - fy) * ((1.0 - fx) * s00 + fx * s10) + fy * ((1.0 - fx) * s01 + fx * s11))
+    sx = ((1.0 - fy) * (s10 - s00) + fy * (s11 - s01)) * inv_h
+    sy = ((1.0 - fx) * (s01 - s00) + fx * (s11 - s10)) * inv_h
+    total = 0.0
+    for r in range(4):
+        for q in range(4):
+            val = tiles.psi[slot, cj + r, ci + q]
+            patch[r, q] = val
+            total += val
+    if math.isnan(total) and not _fill_stencil(patch):
+        return True, shore, sx, sy, 0.0, 0.0
+    wx0, wx1, wx2, wx3, dx0, dx1, dx2, dx3 = _catmull_rom(fx)
+    wy0, wy1, wy2, wy3, dy0, dy1, dy2, dy3 = _catmull_rom(fy)
+    ex0, ex1, ex2, ex3 = _catmull_rom_dd(fx)
+    ey0, ey1, ey2, ey3 = _catmull_rom_dd(fy)
+    pxx = 0.0      # Σ over rows of (row weight) · (the row's x-derivative of that order)
+    pyy = 0.0
+    pxy = 0.0
+    for r in range(4):
+        a, b, c, d = patch[r, 0], patch[r, 1], patch[r, 2], patch[r, 3]
+        wy = wy0 if r == 0 else (wy1 if r == 1 else (wy2 if r == 2 else wy3))
+        dy = dy0 if r == 0 else (dy1 if r == 1 else (dy2 if r == 2 else dy3))
+        ey = ey0 if r == 0 else (ey1 if r == 1 else (ey2 if r == 2 else ey3))
+        pxx += wy * _rows(ex0, ex1, ex2, ex3, a, b, c, d)
+        pyy += ey * _rows(wx0, wx1, wx2, wx3, a, b, c, d)
+        pxy += dy * _rows(dx0, dx1, dx2, dx3, a, b, c, d)
+    h2 = inv_h * inv_h
+    pxx *= h2
+    pyy *= h2
+    pxy *= h2
+    strain = math.sqrt(pxy * pxy + 0.25 * (pxx - pyy) * (pxx - pyy))
+    vorticity = pxx + pyy
+    if not (is_finite(strain) and is_finite(vorticity)):
+        return True, shore, sx, sy, 0.0, 0.0
+    return True, shore, sx, sy, strain, vorticity
+
+
+@njit(**JIT_OPTIONS)
+def sample_flow_details(xy, level, fallback, tiles, shore_pool, out):
+    """:func:`flow_details_at` at each point of ``xy`` (N, 2) float64 [m] into ``out`` (N, 5)
+    float64: shore [m], ∂shore/∂x, ∂shore/∂y, strain [1/s], vorticity [1/s]; NaN rows where
+    no tile answers. Returns the number of points with no tile."""
+    patch = np.empty((4, 4))
+    missing = 0
+    for k in range(xy.shape[0]):
+        found, shore, sx, sy, strain, vort = flow_details_at(xy[k, 0], xy[k, 1], tiles, level,
+                                                             fallback, shore_pool, patch)
+        if not found:
+            missing += 1
+            for c in range(5):
+                out[k, c] = np.nan
+            continue
+        out[k, 0] = shore
+        out[k, 1] = sx
+        out[k, 2] = sy
+        out[k, 3] = strain
+        out[k, 4] = vort
     return missing

@@ -105,15 +105,15 @@ def tile_frame(view, level, tx, ty, n):
 
 
 @njit(inline="always", **JIT_OPTIONS)
-def _tile_cell(view, x, y):
-    """(slot, i, j, fu, fv): the raycast tile under (x, y) (slot −1: none yet) and the cell of
-    its grid holding the point, with the point's position in the cell."""
+def _tile_cell_sized(view, x, y):
+    """(slot, i, j, fu, fv, cell [m]): the raycast tile under (x, y) (slot −1: none yet), the
+    cell of its grid holding the point, the point's position in the cell and the cell's side."""
     leaf = locate_leaf(view, x, y)
     if leaf < 0:
-        return -1, 0, 0, 0.0, 0.0
+        return -1, 0, 0, 0.0, 0.0, 1.0
     slot = view.leaf_slot[leaf]
     if slot < 0:
-        return -1, 0, 0, 0.0, 0.0
+        return -1, 0, 0, 0.0, 0.0, 1.0
     n = view.n
     x0, y0, cell = tile_frame(view, view.leaf_key[leaf, 0], view.leaf_key[leaf, 1],
                               view.leaf_key[leaf, 2], n)
@@ -121,7 +121,15 @@ def _tile_cell(view, x, y):
     gy = min(max((y - y0) / cell, 0.0), float(n))
     i = min(int(gx), n - 1)
     j = min(int(gy), n - 1)
-    return slot, i, j, gx - i, gy - j
+    return slot, i, j, gx - i, gy - j, cell
+
+
+@njit(inline="always", **JIT_OPTIONS)
+def _tile_cell(view, x, y):
+    """(slot, i, j, fu, fv): the raycast tile under (x, y) (slot −1: none yet) and the cell of
+    its grid holding the point, with the point's position in the cell."""
+    slot, i, j, fu, fv, _ = _tile_cell_sized(view, x, y)
+    return slot, i, j, fu, fv
 
 
 @njit(inline="always", **JIT_OPTIONS)
@@ -222,6 +230,26 @@ def water_level_at(view, x, y):
     if slot < 0:
         return np.nan
     return _bilinear(view.water, slot, i, j, fu, fv)
+
+
+@njit(inline="always", **JIT_OPTIONS)
+def water_slope_at(view, x, y):
+    """(∂level/∂x, ∂level/∂y) of the water surface at (x, y): the gradient of the bilinear
+    water level over the raycast tile's cell holding the point; (0, 0) where a corner of the
+    cell is dry or no tile is there yet."""
+    slot, i, j, fu, fv, cell = _tile_cell_sized(view, x, y)
+    if slot < 0:
+        return 0.0, 0.0
+    w = view.water
+    z00 = w[slot, j, i]
+    z10 = w[slot, j, i + 1]
+    z01 = w[slot, j + 1, i]
+    z11 = w[slot, j + 1, i + 1]
+    if math.isnan(z00 + z10 + z01 + z11):
+        return 0.0, 0.0
+    gx = ((1.0 - fv) * (z10 - z00) + fv * (z11 - z01)) / cell
+    gy = ((1.0 - fu) * (z01 - z00) + fu * (z11 - z10)) / cell
+    return gx, gy
 
 
 def one_tile_surface(ground: np.ndarray, water: np.ndarray, origin_x: float, origin_y: float,

@@ -29,6 +29,8 @@ void main() {
 #include "wave.glsl"
 #include "params.glsl"
 #include "ripples.glsl"
+#include "foam.glsl"
+#include "wake.glsl"
 
 uniform int u_mode;                 // DISPLAY_MODE_*
 uniform bool u_show_grid;
@@ -41,13 +43,18 @@ uniform float u_slope_factor;
 uniform float u_clarity_m;
 
 // Blend the sprites listed in this pixel's cell: returns (A.x, A.y, B = sum w^2, covering).
-// full = the cell's list holds MAX_PER_CELL particles.
-vec4 blend_sprites(vec2 uv_dx, vec2 uv_dy, out bool full) {
+// full = the cell's list holds MAX_PER_CELL particles. foam (advected and foam modes): the
+// sprites' foam amount (weighted mean) and their lace patterns blended (foam.glsl).
+vec4 blend_sprites(vec2 uv_dx, vec2 uv_dy, out bool full, out vec2 foam) {
     ivec2 cell = clamp(ivec2(gl_FragCoord.xy / u_grid_cell_px), ivec2(0), u_grid_size - 1);
     vec2 A = vec2(0.0);
     float B = 0.0;
     float covering = 0.0;
     int listed = 0;
+    // foam: sum w, sum w f, sum w (lace - 0.5) and its sum w^2; the lace's uv derivatives
+    vec4 F = vec4(0.0);
+    float scale = u_wave_length_m / u_foam_scale_m;
+    vec2 fuv_dx = uv_dx * scale, fuv_dy = uv_dy * scale;
     for (int t = 0; t < MAX_PER_CELL / 4; ++t) {
         ivec4 ids = texelFetch(u_grid, ivec2(4 * cell.x + t, cell.y), 0);
         for (int k = 0; k < 4; ++k) {
@@ -60,16 +67,24 @@ vec4 blend_sprites(vec2 uv_dx, vec2 uv_dy, out bool full) {
             float s = length(gl_FragCoord.xy - p0.xy) / (p1.w * u_sprite_radius_factor);
             if (s < 1.0) {
                 covering += 1.0;
-                if (u_mode == DISPLAY_MODE_ADVECTED) {
+                if (u_mode == DISPLAY_MODE_ADVECTED || u_mode == DISPLAY_MODE_FOAM) {
                     vec2 uv = (v_world.xy - p0.zw + p1.xy) / u_wave_length_m;
                     float w = fade5(1.0 - s) * fade5(p1.z);
+                    float f = sprite_foam(id);
+                    F.xy += w * vec2(1.0, f);
+                    if (u_mode == DISPLAY_MODE_FOAM) continue;
                     A += w * wave_slopes(uv, uv_dx, uv_dy);
                     B += w * w;
+                    if (f > FOAM_MIN) {
+                        F.z += w * (foam_lace(uv * scale, fuv_dx, fuv_dy) - 0.5);
+                        F.w += w * w;
+                    }
                 }
             }
         }
     }
     full = listed >= MAX_PER_CELL;
+    foam = vec2(F.x > 0.0 ? F.y / F.x : 0.0, 0.5 + (F.w > 0.0 ? F.z / sqrt(F.w) : 0.0));
     return vec4(A, B, covering);
 }
 
@@ -85,13 +100,18 @@ void main() {
     bool full = false;
     vec2 slopes = vec2(0.0);
     bool found = false;
+    vec2 foam = vec2(0.0, 0.5);                            // amount, lace (foam.glsl)
     if (u_mode == DISPLAY_MODE_COVERAGE) {
-        vec4 b = blend_sprites(uv_dx, uv_dy, full);
+        vec4 b = blend_sprites(uv_dx, uv_dy, full, foam);
         frag = vec4(min(b.w / float(MAX_PER_CELL), 1.0), b.w == 0.0 ? 1.0 : 0.0,
                     full ? 1.0 : 0.0, 0.0);
         return;
+    } else if (u_mode == DISPLAY_MODE_FOAM) {              // the foam amount alone
+        blend_sprites(uv_dx, uv_dy, full, foam);
+        frag = vec4(mix(vec3(0.02, 0.05, 0.16), vec3(1.0), foam.x), 0.0);
+        return;
     } else if (u_mode == DISPLAY_MODE_ADVECTED) {
-        vec4 b = blend_sprites(uv_dx, uv_dy, full);
+        vec4 b = blend_sprites(uv_dx, uv_dy, full, foam);
         if (b.z > 0.0) { slopes = b.xy / sqrt(b.z); found = true; }
     } else if (u_mode == DISPLAY_MODE_PRE_ADVECTED) {
         vec4 a = texelFetch(u_accum, ivec2(gl_FragCoord.xy), 0);
@@ -101,8 +121,11 @@ void main() {
 
     // shading: Fresnel reflection of sky and sun, refraction of the bed drawn before
     vec2 tilt = slopes * u_slope_factor;
+    float px_m = max(length(dFdx(v_world.xy)), length(dFdy(v_world.xy)));
     if (u_ripple_count > 0)                                 // rain: rings where drops land
-        tilt += ripple_slopes(v_world.xy, max(length(dFdx(v_world.xy)), length(dFdy(v_world.xy))));
+        tilt += ripple_slopes(v_world.xy, px_m);
+    if (u_wake_count > 0)                                   // boats: Kelvin wakes
+        tilt += wake_slopes(v_world.xy, px_m);
     vec3 n = normalize(vec3(-tilt, 1.0));
     vec3 v = normalize(u_eye_m - v_world);
     float shore = smoothstep(0.0, 0.5, depth_m);            // soft shore: fade in over 0.5 m
@@ -118,6 +141,13 @@ void main() {
     float fog = fog_amount(v_world);
     vec3 added = fresnel * reflected + SUN_COLOUR * spec + (1.0 - fresnel) * (1.0 - clarity) * deep;
     float through = (1.0 - fresnel) * clarity;             // share of the bed seen through
+    float amount = u_mode == DISPLAY_MODE_ADVECTED
+                 ? max(foam.x, shoreline_foam(depth_m, foam.x)) : 0.0;
+    float cover = foam_cover(amount, foam.y, uv_dx * (u_wave_length_m / u_foam_scale_m),
+                             uv_dy * (u_wave_length_m / u_foam_scale_m))
+                * smoothstep(0.0, 0.06, depth_m);
+    added = mix(added, foam_colour(n), cover);              // foam: opaque, matte
+    through *= 1.0 - cover;
     vec3 colour = (1.0 - fog) * added + fog * FOG_COLOUR * (1.0 - through);
     if (u_show_grid) {
         vec2 f = fract(gl_FragCoord.xy / u_grid_cell_px);

@@ -18,6 +18,9 @@ Per frame (reference §4; no one-frame latency: the tables are built from this f
 5. rain (:mod:`riverflow.systems.rain`): the drops as short streaks along their velocity
    (GL lines, depth-tested against the land and alpha-blended), and in step 4 ripple rings
    around the recent hits on the water, added to the water's slopes (none without rain);
+   foam and wakes in step 4 too: each particle's foam (an R32F table beside the parameter
+   table) blended through the sprite weights with a lace texture, and every boat's Kelvin
+   wake added to the slopes (the wake table, :class:`~riverflow.components.wake.Wakes`);
 6. overlays: particles as points, velocity arrows.
 
 Everything is drawn into the world's own RGBA8 framebuffer (with a depth texture shared by
@@ -34,6 +37,8 @@ from typing import TYPE_CHECKING
 import esper
 import numpy as np
 from riverflow.components.display import DisplayMode, DisplaySettings
+from riverflow.components.foam import FoamSettings
+from riverflow.components.wake import MAX_WAKES, TRAIL_POINTS, Wakes
 from riverflow.components.props import Pose, Prop
 from riverflow.components.rain import RIPPLE_RING, Rain
 from riverflow.components.river import TerrainView, Tiles
@@ -41,6 +46,8 @@ from riverflow.components.status import FlowStatus
 from riverflow.components.waves import WaveTile
 from riverflow.engine import gl
 from riverflow.engine.system import System
+from riverflow.kernels.foam import foam_pattern, mip_chain
+from riverflow.kernels.wake import wake_texture
 from riverflow.kernels.sprites import (MAX_PER_CELL, PARTICLES_PER_ROW, SPRITE_RADIUS_FACTOR,
                                        TEXELS_PER_PARTICLE, build_sprite_grid,
                                        empty_sprite_tables, fill_sprite_params,
@@ -62,7 +69,8 @@ def shader_defines() -> dict[str, int]:
     """The numbers the shaders share with Python and numba."""
     defines = gl.enum_defines(FlowStatus, DisplayMode)
     defines.update(MAX_PER_CELL=MAX_PER_CELL, PARTICLES_PER_ROW=PARTICLES_PER_ROW,
-                   TEXELS_PER_PARTICLE=TEXELS_PER_PARTICLE, DROPS_PER_ROW=DROPS_PER_ROW)
+                   TEXELS_PER_PARTICLE=TEXELS_PER_PARTICLE, DROPS_PER_ROW=DROPS_PER_ROW,
+                   TRAIL_POINTS=TRAIL_POINTS)
     return defines
 
 
@@ -71,6 +79,13 @@ DROPS_PER_ROW = 1024
 
 _NOTHING = object()
 """A tile uploaded with nothing to draw."""
+
+# -- foam and wakes (issue 12 items 1, 2) ---------------------------------------------------------
+FOAM_UNIT, FOAM_PATTERN_UNIT, WAKES_UNIT = 12, 11, 13
+"""Texture units of the foam table, the foam lace pattern and the wake table."""
+FOAM_PATTERN_PX = 256
+FOAM_SCALE_M = 3.0
+"""World size of one period of the foam lace pattern [m] (in each sprite's frame)."""
 
 
 class _Gpu:
@@ -93,6 +108,14 @@ class _Gpu:
         self.ripples_cpu = np.zeros((1, RIPPLE_RING, 4), np.float32)
         self.ripples = gl.Texture((RIPPLE_RING, 1), gl.RGBA32F)
         self.ripples.upload(self.ripples_cpu)
+        levels = mip_chain(foam_pattern(FOAM_PATTERN_PX, seed=world.seed))
+        self.foam_pattern = gl.Texture((FOAM_PATTERN_PX, FOAM_PATTERN_PX), gl.RG32F,
+                                       levels=len(levels), linear=True, repeat=True)
+        for k, level in enumerate(levels):
+            self.foam_pattern.upload(level, level=k)
+        self.foam = self.foam_cpu = None
+        self.wakes_cpu = np.zeros((MAX_WAKES, 1 + 2 * TRAIL_POINTS, 4), np.float32)
+        self.wakes = gl.Texture((1 + 2 * TRAIL_POINTS, MAX_WAKES), gl.RGBA32F)
         self.prop_meshes: dict[tuple, gl.Mesh] = {}
         self.terrain_indices = tile_indices(world.scene.terrain.tile_cells).ravel()
         self.tile_meshes: dict[str, dict[int, gl.Mesh]] = {TERRAIN_MESH: {}, WATER_MESH: {}}
@@ -127,7 +150,7 @@ class _Gpu:
             self.size = (width, height)
         if self.params_cpu is None or shape != self.grid_shape \
                 or self.params_cpu.shape[0] * PARTICLES_PER_ROW < capacity:
-            for tex in (self.params, self.grid):
+            for tex in (self.params, self.grid, self.foam):
                 if tex is not None:
                     tex.delete()
             _, gw, gh = shape
@@ -137,6 +160,9 @@ class _Gpu:
             self.params = gl.Texture((PARTICLES_PER_ROW * TEXELS_PER_PARTICLE, rows),
                                      gl.RGBA32F)
             self.params.upload(self.params_cpu)
+            self.foam_cpu = np.zeros((rows, PARTICLES_PER_ROW), np.float32)
+            self.foam = gl.Texture((PARTICLES_PER_ROW, rows), gl.R32F)
+            self.foam.upload(self.foam_cpu)
             self.grid = gl.Texture((gw * MAX_PER_CELL // 4, gh), gl.RGBA32I)
             self.grid.upload(self.grid_cpu.reshape(gh, -1, 4))
             self.grid_shape = shape
@@ -217,7 +243,8 @@ class _Gpu:
                     mesh.delete()
             meshes.clear()
         for obj in [self.empty, self.params, self.grid, self.drops, self.ripples, *self.targets,
-                    *(tex for _, tex in self.waves.values())]:
+                    *(tex for _, tex in self.waves.values()), self.foam, self.foam_pattern,
+                    self.wakes]:
             if obj is not None:
                 obj.delete()
         self.waves.clear()
@@ -272,6 +299,7 @@ class DrawRivers(System):
         wave_uniforms, wave_tex = self._wave(world, gpu, settings)
         rain = world.resources.get(Rain)
         ripple_uniforms = self._upload_ripples(world, gpu, rain)
+        foam_uniforms = self._upload_foam_and_wakes(world, gpu)
         water_meshes = self._tile_meshes(world, gpu)
 
         gpu.main_fb.bind()
@@ -306,7 +334,7 @@ class DrawRivers(System):
                       u_show_grid=bool(settings.show_grid), u_grid_cell_px=float(gpu.grid_shape[0]),
                       u_grid_size=gpu.grid_shape[1:], u_slope_factor=settings.wave_slope_factor,
                       u_clarity_m=settings.water_clarity_m, **tables, **wave_uniforms,
-                      **ripple_uniforms)
+                      **ripple_uniforms, **foam_uniforms)
             gl.set_blend(gl.BLEND_WATER)
             for mesh in water_meshes:
                 mesh.draw()
@@ -345,6 +373,10 @@ class DrawRivers(System):
                           float(cell_px), gw, gh, gpu.counts_cpu, gpu.grid_cpu)
         if rows:
             gpu.params.upload(gpu.params_cpu, rows=rows)
+            foam = gpu.foam_cpu.reshape(-1)        # each slot's foam, beside the table
+            foam[:n_slots] = pool.foam[:n_slots]
+            foam[n_slots:rows * PARTICLES_PER_ROW] = 0.0
+            gpu.foam.upload(gpu.foam_cpu, rows=rows)
         gpu.grid.upload(gpu.grid_cpu.reshape(gh, gw * MAX_PER_CELL // 4, 4))
         self.last_sprites = n_slots
         return n_slots
@@ -366,6 +398,24 @@ class DrawRivers(System):
                 count = len(hits)
         gpu.ripples.bind(6)
         return {"u_ripples": 6, "u_ripple_count": count, "u_ripple_life_s": life}
+
+    def _upload_foam_and_wakes(self, world: RiverWorld, gpu: _Gpu) -> dict:
+        """The water shader's foam and wake uniforms; the wake table uploaded (the first
+        MAX_WAKES boats of :class:`Wakes`, nearest the camera; none: u_wake_count = 0)."""
+        wakes = world.resources.get(Wakes)
+        count = 0 if wakes is None else min(wakes.count, MAX_WAKES)
+        foam = world.resources.get(FoamSettings)
+        shoreline = float(foam.shoreline) if foam is not None and foam.enabled else 0.0
+        if count:
+            wake_texture(wakes.table[:count], gpu.wakes_cpu)
+            gpu.wakes.upload(gpu.wakes_cpu, rows=count)
+        gpu.foam.bind(FOAM_UNIT)
+        gpu.foam_pattern.bind(FOAM_PATTERN_UNIT)
+        gpu.wakes.bind(WAKES_UNIT)
+        return {"u_foam": FOAM_UNIT, "u_foam_pattern": FOAM_PATTERN_UNIT,
+                "u_foam_scale_m": FOAM_SCALE_M, "u_foam_size_px": float(FOAM_PATTERN_PX),
+                "u_time_s": float(world.clock.now_s % 3600.0), "u_wakes": WAKES_UNIT,
+                "u_wake_count": count, "u_shoreline": shoreline}
 
     def _draw_rain(self, gpu: _Gpu, rain: Rain | None, shared: dict) -> None:
         """The live drops as streaks (depth-tested, not written; alpha-blended)."""
