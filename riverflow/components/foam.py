@@ -10,8 +10,8 @@ flow field and the tiles already know, per particle (:mod:`riverflow.kernels.foa
 * **steepness** ∈ [0, 1]: the water surface's slope (the water-level tiles), from 0 at
   ``steep_from`` (a lowland river) to 1 at ``steep_full`` (a mountain stream, rapids);
 * **distance** ∈ [0, 1]: closeness to what the water runs along or past — banks and island
-  shores (the flow tiles' distance lattice, e^(−d / ``shore_m``), stronger where the water is
-  fast), moving hulls (within ``hull_beams`` beams, by their speed through the water) and
+  shores (the flow tiles' distance lattice, ``shore`` · e^(−d / ``shore_m``), stronger where
+  the water is fast), moving hulls (within ``hull_beams`` beams, by their speed through the water) and
   the wash behind them (their wake trails, ``Wake``, up to ``wash_s`` old);
 * **pressure** ∈ [0, 1]: the water running into a shore (island noses, outer bends, the tip
   of a bifurcation) at ``impinge_mps``, or turning sharply (the strain rate of the velocity
@@ -39,9 +39,13 @@ class FoamSettings:
     """k₂: weight of the closeness to shores, hulls and wakes (``flow_distance``)."""
     pressure: float = 0.6
     """k₃: weight of the strain × speed term (``flow_pressure``)."""
-    shore_m: float = 3.5
+    shore: float = 0.6
+    """Closeness to a shore at the bank itself where the water runs at ``speed_mps``: the
+    particles' shore foam is broad and soft (they are metres apart; the waterline's own thin
+    line is ``shoreline``)."""
+    shore_m: float = 5.0
     """Shore foam falls off as e^(−distance / shore_m) from the bank [m]."""
-    shore_calm: float = 0.5
+    shore_calm: float = 0.35
     """Shore foam where the water is still, as a fraction of that where it runs at
     ``speed_mps`` (a lazy bank gathers less)."""
     steep_from: float = 0.01

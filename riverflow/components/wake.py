@@ -37,7 +37,7 @@ class Wake:
     ``RiverWorld.add_boat`` gives every boat one; ``world.wake(entity)`` returns it to tune.
     """
 
-    wave_slope: float = 0.3
+    wave_slope: float = 0.5
     """Peak slope of the Kelvin waves just behind the boat at full strength (the water's own
     wave sprites have an RMS slope of ``DisplaySettings.wave_slope_factor``, 0.2)."""
     foam: float = 1.0

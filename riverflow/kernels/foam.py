@@ -9,8 +9,8 @@ foam the slot holds, so a new particle in a reused slot is seen). :func:`update_
 * **steepness**: the water surface's slope from the view's water-level tiles, 0 below
   ``steep_from`` (a lowland river), 1 from ``steep_full`` (a mountain stream, rapids);
 * **distance**: the closeness to what the water runs along or past, the largest of
-  - shores: e^(−d / shore_m) × (shore_calm + (1 − shore_calm)·speed), d the distance to the
-    nearest bank or island shore from the flow tiles' distance lattice
+  - shores: shore × e^(−d / shore_m) × (shore_calm + (1 − shore_calm)·speed), d the distance
+    to the nearest bank or island shore from the flow tiles' distance lattice
     (:func:`riverflow.kernels.flow.flow_details_at`),
   - hulls: (1 − d / (hull_beams·beam))² × min(U / hull_speed, 1) × the hull's foam knob, d
     the distance to the capsule hull, U its speed through the water,
@@ -65,6 +65,7 @@ class FoamParams(NamedTuple):
     k_steepness: float
     k_distance: float
     k_pressure: float
+    shore: float
     shore_m: float
     shore_calm: float
     steep_from: float
@@ -143,7 +144,7 @@ def flow_terms(x, y, vx, vy, params, flow, surface, patch):
     pressure = 0.0
     if found and is_finite(shore):
         d = max(shore, 0.0)
-        shore_c = math.exp(-d / params.shore_m) * (
+        shore_c = params.shore * math.exp(-d / params.shore_m) * (
             params.shore_calm + (1.0 - params.shore_calm) * speed)
         approach = -(vx * sx + vy * sy)            # [m/s] towards the nearest shore
         impinge = _unit(approach / params.impinge_mps) * math.exp(-d / (2.0 * params.shore_m))
@@ -452,8 +453,8 @@ def update_foam(n_slots, alive, ids, has_world, world_m, velocity_mps, status, s
             continue
         s = status[i]
         if not (has_world[i] and (s == STATUS_INSIDE or s == STATUS_LEAVING)):
-            if foam_id[i] != -1:   # not drawn; back in the water it starts afresh (inherits)
-                foam[i] = 0.0
+            if foam_id[i] != -1 or foam[i] != 0.0:   # not drawn; back in the water it
+                foam[i] = 0.0                         # starts afresh (inherits)
                 foam_id[i] = -1
             continue
         if foam_id[i] != ids[i]:

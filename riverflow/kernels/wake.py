@@ -133,7 +133,7 @@ def wake_texture(table: np.ndarray, out: np.ndarray) -> int:
         out[i, 1 + k:1 + 2 * k] = rows[:, 4:8]
         if used.any():
             xy = rows[used][:, :2]
-            reach = float(rows[used][:, TR_ARC].max()) * WEDGE_HALF_WIDTH + 1.0
+            reach = 1.1 * float(rows[used][:, TR_ARC].max()) * WEDGE_HALF_WIDTH + 1.0
             out[i, 0, :2] = xy.min(axis=0) - reach
             out[i, 0, 2:] = xy.max(axis=0) + reach
         else:

@@ -74,14 +74,14 @@ vec2 wake_slopes(vec2 p, float px_m) {
         float strength = mix(a2.x, q2.x, sb);
         if (strength <= 0.0 || U < 0.3 || X <= 0.0) continue;
         float r = abs(Y) / X;
-        if (r > 1.04 * WAKE_CUSP) continue;
+        if (r > 1.06 * WAKE_CUSP) continue;
         float k0 = WAKE_G / (U * U);
         float amp = a2.w * strength * smoothstep(0.0, 4.0, X)
                   * inversesqrt(1.0 + X * k0 / 6.2831853 * 0.5)
-                  * (1.0 - smoothstep(0.96 * WAKE_CUSP, 1.04 * WAKE_CUSP, r));
+                  * (1.0 - smoothstep(0.88 * WAKE_CUSP, 1.06 * WAKE_CUSP, r));
         float rr = min(r, WAKE_CUSP);
         float D = sqrt(max(X * X - 8.0 * Y * Y, 0.0));
-        float cusp = 1.0 + 1.2 * exp(-pow((WAKE_CUSP - rr) / (0.12 * WAKE_CUSP), 2.0));
+        float cusp = 1.0 + 0.8 * exp(-pow((WAKE_CUSP - rr) / (0.18 * WAKE_CUSP), 2.0));
         vec2 w = WAKE_TRANSVERSE * kelvin_wave(-2.0 * Y / (X + D), X, Y, k0, px_m);
         if (abs(Y) > 1e-3)
             w += smoothstep(0.0, 0.5 * WAKE_CUSP, r)

@@ -44,7 +44,8 @@ uniform float u_clarity_m;
 
 // Blend the sprites listed in this pixel's cell: returns (A.x, A.y, B = sum w^2, covering).
 // full = the cell's list holds MAX_PER_CELL particles. foam (advected and foam modes): the
-// sprites' foam amount (weighted mean) and their lace patterns blended (foam.glsl).
+// sprites' foam amount (weighted mean) and their lace patterns blended (foam.glsl; -1 where
+// no sprite with foam covers the pixel).
 vec4 blend_sprites(vec2 uv_dx, vec2 uv_dy, out bool full, out vec2 foam) {
     ivec2 cell = clamp(ivec2(gl_FragCoord.xy / u_grid_cell_px), ivec2(0), u_grid_size - 1);
     vec2 A = vec2(0.0);
@@ -84,7 +85,7 @@ vec4 blend_sprites(vec2 uv_dx, vec2 uv_dy, out bool full, out vec2 foam) {
         }
     }
     full = listed >= MAX_PER_CELL;
-    foam = vec2(F.x > 0.0 ? F.y / F.x : 0.0, 0.5 + (F.w > 0.0 ? F.z / sqrt(F.w) : 0.0));
+    foam = vec2(F.x > 0.0 ? F.y / F.x : 0.0, F.w > 0.0 ? 0.5 + F.z / sqrt(F.w) : -1.0);
     return vec4(A, B, covering);
 }
 
@@ -100,7 +101,7 @@ void main() {
     bool full = false;
     vec2 slopes = vec2(0.0);
     bool found = false;
-    vec2 foam = vec2(0.0, 0.5);                            // amount, lace (foam.glsl)
+    vec2 foam = vec2(0.0, -1.0);                           // amount, lace (foam.glsl)
     if (u_mode == DISPLAY_MODE_COVERAGE) {
         vec4 b = blend_sprites(uv_dx, uv_dy, full, foam);
         frag = vec4(min(b.w / float(MAX_PER_CELL), 1.0), b.w == 0.0 ? 1.0 : 0.0,
@@ -141,11 +142,14 @@ void main() {
     float fog = fog_amount(v_world);
     vec3 added = fresnel * reflected + SUN_COLOUR * spec + (1.0 - fresnel) * (1.0 - clarity) * deep;
     float through = (1.0 - fresnel) * clarity;             // share of the bed seen through
-    float amount = u_mode == DISPLAY_MODE_ADVECTED
-                 ? max(foam.x, shoreline_foam(depth_m, foam.x)) : 0.0;
-    float cover = foam_cover(amount, foam.y, uv_dx * (u_wave_length_m / u_foam_scale_m),
-                             uv_dy * (u_wave_length_m / u_foam_scale_m))
-                * smoothstep(0.0, 0.06, depth_m);
+    // foam: the particles' (advected mode) and the waterline's; where no sprite brought its
+    // lace, the lace fixed in the world (as the waves are then)
+    float amount = max(foam.x, shoreline_foam(depth_m, foam.x));
+    vec2 fuv = uv0 * (u_wave_length_m / u_foam_scale_m);
+    vec2 fuv_dx = uv_dx * (u_wave_length_m / u_foam_scale_m);
+    vec2 fuv_dy = uv_dy * (u_wave_length_m / u_foam_scale_m);
+    float lace = foam.y >= 0.0 || amount <= 0.0 ? foam.y : foam_lace(fuv, fuv_dx, fuv_dy);
+    float cover = foam_cover(amount, lace, fuv_dx, fuv_dy) * smoothstep(0.0, 0.06, depth_m);
     added = mix(added, foam_colour(n), cover);              // foam: opaque, matte
     through *= 1.0 - cover;
     vec3 colour = (1.0 - fog) * added + fog * FOG_COLOUR * (1.0 - through);

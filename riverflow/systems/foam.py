@@ -90,7 +90,7 @@ class UpdateFoam(System):
 def foam_params(s: FoamSettings) -> FoamParams:
     """The kernel's view of the settings."""
     return FoamParams(float(s.base), float(s.steepness), float(s.distance), float(s.pressure),
-                      float(s.shore_m), float(s.shore_calm), float(s.steep_from),
+                      float(s.shore), float(s.shore_m), float(s.shore_calm), float(s.steep_from),
                       float(s.steep_full), float(s.speed_mps), float(s.impinge_mps),
                       float(s.strain_ps), float(s.hull_beams), float(s.hull_speed_mps),
                       float(s.wash_s), float(s.rise_s), float(s.decay_s))

@@ -70,7 +70,7 @@ def wake_slopes(points, table, count, px_m):
         used = trail[:, TR_ARC] >= 0.0
         if not used.any():
             continue
-        reach = trail[used, TR_ARC].max() * CUSP + 1.0
+        reach = 1.1 * trail[used, TR_ARC].max() * CUSP + 1.0
         lo = trail[used][:, [TR_X, TR_Y]].min(axis=0) - reach
         hi = trail[used][:, [TR_X, TR_Y]].max(axis=0) + reach
         for i, p in enumerate(pts):
@@ -80,15 +80,15 @@ def wake_slopes(points, table, count, px_m):
             if strength <= 0.0 or U < 0.3 or X <= 0.0:
                 continue
             r = abs(Y) / X
-            if r > 1.04 * CUSP:
+            if r > 1.06 * CUSP:
                 continue
             k0 = G / (U * U)
             amp = (slope * strength * _smoothstep(0.0, 4.0, X)
                    / math.sqrt(1.0 + X * k0 / (2.0 * math.pi) * 0.5)
-                   * (1.0 - _smoothstep(0.96 * CUSP, 1.04 * CUSP, r)))
+                   * (1.0 - _smoothstep(0.88 * CUSP, 1.06 * CUSP, r)))
             rr = min(r, CUSP)
             D = math.sqrt(max(X * X - 8.0 * Y * Y, 0.0))
-            cusp = 1.0 + 1.2 * math.exp(-((CUSP - rr) / (0.12 * CUSP)) ** 2)
+            cusp = 1.0 + 0.8 * math.exp(-((CUSP - rr) / (0.18 * CUSP)) ** 2)
             w = TRANSVERSE * _wave(-2.0 * Y / (X + D), X, Y, k0, px[i])
             if abs(Y) > 1e-3:
                 w = w + _smoothstep(0.0, 0.5 * CUSP, r) * _wave(-(X + D) / (4.0 * Y), X, Y, k0,
