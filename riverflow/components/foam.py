@@ -70,8 +70,8 @@ class FoamSettings:
     """Time constant [s] of foam growing toward a higher target."""
     decay_s: float = 15.0
     """Time constant [s] of foam fading toward a lower one (long: streaks downstream)."""
-    shoreline: float = 0.6
-    """Foam drawn along the waterline itself, per pixel where the water is under 0.8 m deep
+    shoreline: float = 0.8
+    """Foam drawn along the waterline itself, per pixel where the water is under 1.2 m deep
     (the particles are metres apart), × 0.55 … 1 as the particles there carry foam; 0: none.
     A drawing knob (the water shader reads it); ``world.particles.foam`` is not affected."""
     enabled: bool = True

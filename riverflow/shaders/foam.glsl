@@ -43,7 +43,7 @@ float foam_cover(float f, float t, vec2 duv_dx, vec2 duv_dy) {
 // the water is under SHORELINE_DEPTH_M deep, u_shoreline strong, more where the particles
 // there carry foam (f: their blended amount).
 uniform float u_shoreline;
-const float SHORELINE_DEPTH_M = 0.8;
+const float SHORELINE_DEPTH_M = 1.2;
 float shoreline_foam(float depth_m, float f) {
     return u_shoreline * (1.0 - smoothstep(0.0, SHORELINE_DEPTH_M, depth_m))
          * (0.55 + 0.45 * smoothstep(0.0, 0.35, f));

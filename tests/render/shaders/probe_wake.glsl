@@ -1,0 +1,19 @@
+// Test probe: wake_slopes (wake.glsl) at one world point per pixel: u_points (RGBA32F) holds
+// x, y [m] and a pixel's size [m] for each pixel of the target.
+#include "wake.glsl"
+uniform sampler2D u_points;
+
+#ifdef VERTEX
+void main() {
+    vec2 p = vec2(float((gl_VertexID << 1) & 2), float(gl_VertexID & 2)) * 2.0 - 1.0;
+    gl_Position = vec4(p, 0.0, 1.0);
+}
+#endif
+
+#ifdef FRAGMENT
+out vec4 frag;
+void main() {
+    vec4 q = texelFetch(u_points, ivec2(gl_FragCoord.xy), 0);
+    frag = vec4(wake_slopes(q.xy, q.z), 0.0, 1.0);
+}
+#endif
