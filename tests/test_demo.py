@@ -99,10 +99,14 @@ def test_the_legend_names_every_colour_the_debug_shaders_draw():
     assert {rgb(e) for e in ends} <= swatches("velocities")
     water = (shaders / "water.glsl").read_text()
     assert "vec3(0.10, 0.35, 0.75)" in water and (26, 89, 191) in swatches("mesh")
+    dark, white = re.search(r"DISPLAY_MODE_FOAM\).*?mix\(vec3\(([^)]*)\), vec3\(([^)]*)\)",
+                            water, re.S).groups()
+    assert {rgb(dark), rgb(white) * 3 if len(rgb(white)) == 1 else rgb(white)} \
+        <= swatches("foam")
     coverage = [t for _, t in legend(settings_for("coverage"))]
     for word in ("red", "green", "blue", "magenta"):
         assert any(t.startswith(word) for t in coverage), word
-    for name in ("none", "advected", "pre-advected", "non-advected", "grid"):
+    for name in ("none", "advected", "pre-advected", "non-advected", "grid", "foam"):
         assert legend(settings_for(name)), name
 
 

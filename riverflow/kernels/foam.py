@@ -156,33 +156,71 @@ def flow_terms(x, y, vx, vy, params, flow, surface, patch):
     return steep, _unit(shore_c), _unit(pressure)
 
 
-@njit(inline="always", **JIT_OPTIONS)
-def hull_closeness(px, py, hulls, hull_beams, hull_speed_mps):
-    """Max over hulls of (1 − d / (hull_beams·beam))² × min(U / hull_speed, 1) × foam knob,
-    d ≥ 0 the distance from p to the capsule hull (0 inside)."""
-    best = 0.0
+HC_AX, HC_AY, HC_EX, HC_EY, HC_INV_E2, HC_RADIUS, HC_REACH, HC_GAIN, HC_BOUND2 = range(9)
+HULL_CAPSULE_FIELDS = 9
+"""Columns of the hull table (:func:`hull_capsules`): the capsule's axis start and direction
+[m], 1/|e|², its radius and the foam's reach [m], its gain (speed factor × foam knob), and
+the squared radius of a circle around it beyond which its foam is 0 [m²]."""
+
+
+@njit(**JIT_OPTIONS)
+def hull_capsules(hulls, hull_beams, hull_speed_mps, out):
+    """The hulls (H, HULL_FIELDS) as capsules for :func:`hull_closeness` into ``out`` (≥ H,
+    HULL_CAPSULE_FIELDS); returns how many (a hull with a non-finite value or no reach is
+    left out)."""
+    n = 0
     for h in range(hulls.shape[0]):
         beam = hulls[h, HL_BEAM]
         reach = hull_beams * beam
-        if not reach > 0.0:
-            continue
-        cx = hulls[h, HL_X]
-        cy = hulls[h, HL_Y]
-        half = 0.5 * hulls[h, HL_LENGTH]
-        dx = px - cx
-        dy = py - cy
-        if not dx * dx + dy * dy < (half + reach) * (half + reach):
-            continue
         r = 0.5 * beam
+        half = 0.5 * hulls[h, HL_LENGTH]
         arm = max(half - r, 0.0)
         hx = arm * math.cos(hulls[h, HL_HEADING])
         hy = arm * math.sin(hulls[h, HL_HEADING])
-        d, _ = _segment_distance(px, py, cx - hx, cy - hy, cx + hx, cy + hy)
-        d = max(d - r, 0.0)
+        gain = _unit(hulls[h, HL_SPEED] / hull_speed_mps) * hulls[h, HL_FOAM]
+        values = (hulls[h, HL_X], hulls[h, HL_Y], hx, hy, reach, gain)
+        ok = reach > 0.0 and gain > 0.0
+        for v in values:
+            ok = ok and is_finite(v)
+        if not ok:
+            continue
+        out[n, HC_AX] = hulls[h, HL_X] - hx
+        out[n, HC_AY] = hulls[h, HL_Y] - hy
+        out[n, HC_EX] = 2.0 * hx
+        out[n, HC_EY] = 2.0 * hy
+        out[n, HC_INV_E2] = 1.0 / (4.0 * (hx * hx + hy * hy)) if arm > 0.0 else 0.0
+        out[n, HC_RADIUS] = r
+        out[n, HC_REACH] = reach
+        out[n, HC_GAIN] = gain
+        out[n, HC_BOUND2] = (half + reach) * (half + reach)
+        n += 1
+    return n
+
+
+@njit(inline="always", **JIT_OPTIONS)
+def hull_closeness(px, py, caps, n_caps):
+    """Max over the hull capsules (``caps[:n_caps]``, :func:`hull_capsules`) of
+    (1 − d / reach)² × gain, d ≥ 0 the distance from p to the capsule (0 inside): the gain
+    is min(U / hull_speed, 1) × the foam knob, U the hull's speed through the water."""
+    best = 0.0
+    for h in range(n_caps):
+        rx = px - caps[h, HC_AX]
+        ry = py - caps[h, HC_AY]
+        ex = caps[h, HC_EX]
+        ey = caps[h, HC_EY]
+        cx = rx - 0.5 * ex
+        cy = ry - 0.5 * ey
+        if not cx * cx + cy * cy < caps[h, HC_BOUND2]:
+            continue
+        t = min(max((rx * ex + ry * ey) * caps[h, HC_INV_E2], 0.0), 1.0)
+        dx = rx - t * ex
+        dy = ry - t * ey
+        d = max(math.sqrt(dx * dx + dy * dy) - caps[h, HC_RADIUS], 0.0)
+        reach = caps[h, HC_REACH]
         if d >= reach:
             continue
         c = 1.0 - d / reach
-        c = c * c * _unit(hulls[h, HL_SPEED] / hull_speed_mps) * hulls[h, HL_FOAM]
+        c = c * c * caps[h, HC_GAIN]
         if c > best:
             best = c
     return best
@@ -309,13 +347,26 @@ def moving_box(hulls, hull_beams, wash, n_wash, out):
         out[3] = max(out[3], wash[k, WS_Y1])
 
 
-@njit(inline="always", **JIT_OPTIONS)
-def moving_closeness(x, y, hulls, params, wash, n_wash):
-    """Closeness of (x, y) [m] to the hulls and the wash behind them, in [0, 1]."""
-    c = hull_closeness(x, y, hulls, params.hull_beams, params.hull_speed_mps)
+@njit(**JIT_OPTIONS)
+def moving_closeness(x, y, caps, n_caps, wash, n_wash, wash_s):
+    """Closeness of (x, y) [m] to the hulls (:func:`hull_capsules`) and the wash behind them
+    (:func:`wash_segments`), in [0, 1]."""
+    c = hull_closeness(x, y, caps, n_caps)
     if n_wash:
-        c = max(c, wash_closeness(x, y, wash, n_wash, params.wash_s))
+        c = max(c, wash_closeness(x, y, wash, n_wash, wash_s))
     return _unit(c)
+
+
+@njit(**JIT_OPTIONS)
+def moving_sources(sources, params):
+    """(capsules, their number, wash segments, their number) of the frame's hulls and wash
+    (:func:`hull_capsules`, :func:`wash_segments`)."""
+    hulls = sources.hulls
+    caps = np.empty((hulls.shape[0], HULL_CAPSULE_FIELDS))
+    n_caps = hull_capsules(hulls, params.hull_beams, params.hull_speed_mps, caps)
+    wash = np.empty((hulls.shape[0] * max(sources.trails.shape[1] - 1, 0), WASH_FIELDS))
+    n_wash = wash_segments(hulls, sources.trails, params.wash_s, wash)
+    return caps, n_caps, wash, n_wash
 
 
 @njit(**JIT_OPTIONS)
@@ -325,10 +376,8 @@ def foam_target(x, y, vx, vy, params, flow, surface, sources, patch):
     kernel keeps the river's terms and the wash table between calls). Returns (target,
     steepness, distance, pressure)."""
     steep, shore_c, pressure = flow_terms(x, y, vx, vy, params, flow, surface, patch)
-    wash = np.empty((sources.hulls.shape[0] * max(sources.trails.shape[1] - 1, 0),
-                     WASH_FIELDS))
-    n_wash = wash_segments(sources.hulls, sources.trails, params.wash_s, wash)
-    distance = max(shore_c, moving_closeness(x, y, sources.hulls, params, wash, n_wash))
+    caps, n_caps, wash, n_wash = moving_sources(sources, params)
+    distance = max(shore_c, moving_closeness(x, y, caps, n_caps, wash, n_wash, params.wash_s))
     target = _unit(params.base + params.k_steepness * steep + params.k_distance * distance
                    + params.k_pressure * pressure)
     return target, steep, distance, pressure
@@ -437,10 +486,12 @@ def update_foam(n_slots, alive, ids, has_world, world_m, velocity_mps, status, s
     every = max(every // 2, 1)             # in visits (one every two frames)
     near_every = max(near_every // 2, 1)
     hulls = sources.hulls
-    wash = np.empty((hulls.shape[0] * max(sources.trails.shape[1] - 1, 0), WASH_FIELDS))
-    n_wash = wash_segments(hulls, sources.trails, params.wash_s, wash)
+    caps, n_caps, wash, n_wash = moving_sources(sources, params)
     box = np.empty(4)
     moving_box(hulls, params.hull_beams, wash, n_wash, box)
+    bx0, by0, bx1, by1 = box[0], box[1], box[2], box[3]
+    wash_s = params.wash_s
+    k_distance = params.k_distance
     patch = np.empty((4, 4))
     dt = 2.0 * dt_s if is_finite(dt_s) and dt_s > 0.0 else 0.0
     rise = 1.0 - math.exp(-dt / params.rise_s)
@@ -467,17 +518,19 @@ def update_foam(n_slots, alive, ids, has_world, world_m, velocity_mps, status, s
             computed += 1
         x = world_m[i, 0]
         y = world_m[i, 1]
-        if not (box[0] <= x <= box[2] and box[1] <= y <= box[3]):
-            foam_near[i] = 0.0
+        near = foam_near[i]
+        if not (bx0 <= x <= bx1 and by0 <= y <= by1):
+            if near != 0.0:
+                near = 0.0
+                foam_near[i] = near
         elif (i + visit) & (near_every - 1) == 0:
-            foam_near[i] = moving_closeness(x, y, hulls, params, wash, n_wash)
+            near = moving_closeness(x, y, caps, n_caps, wash, n_wash, wash_s)
+            foam_near[i] = near
             moved += 1
-        target = _unit(foam_flow[i] + params.k_distance * max(foam_shore[i], foam_near[i]))
+        target = _unit(foam_flow[i] + k_distance * max(foam_shore[i], near))
         f = foam[i]
-        if not is_finite(f):
-            f = 0.0
         f += (target - f) * (rise if target > f else decay)
-        foam[i] = _unit(f)
+        foam[i] = _unit(f)              # a NaN that got in goes back to 0
     for k in range(n_new):     # new particles: their neighbours' foam, else their own
         i = scratch[k]
         if inherit_foam(i, screen_px, foam, foam_flow, foam_shore, foam_near, foam_id, ids,
@@ -485,8 +538,8 @@ def update_foam(n_slots, alive, ids, has_world, world_m, velocity_mps, status, s
             continue
         _river_terms(i, params, flow, surface, patch, world_m, velocity_mps, foam_flow,
                      foam_shore)
-        foam_near[i] = moving_closeness(world_m[i, 0], world_m[i, 1], hulls, params, wash,
-                                        n_wash)
+        foam_near[i] = moving_closeness(world_m[i, 0], world_m[i, 1], caps, n_caps, wash,
+                                        n_wash, wash_s)
         computed += 1
         foam[i] = _unit(foam_flow[i] + params.k_distance * max(foam_shore[i], foam_near[i]))
     for k in range(n_new):

@@ -34,9 +34,10 @@ RIVER_EVERY = 64
 frames, staggered by slot: they follow the river, along which a particle moves about a metre
 meanwhile at 1 m/s (the shore foam band is metres wide; the foam itself is relaxed every
 frame)."""
-NEAR_EVERY = 4
+NEAR_EVERY = 8
 """… and its closeness to a hull or its wash every this many frames when it is near one (a
-boat at full speed moves half a metre meanwhile; hull foam reaches 1.5 beams)."""
+boat at full speed moves a metre meanwhile; hull foam reaches 1.5 beams, and grows with a
+time constant of 0.3 s anyway)."""
 assert all(k & (k - 1) == 0 for k in (RIVER_EVERY, NEAR_EVERY)), "the kernel staggers by bit masks"
 
 _NO_TRAILS = np.zeros((0, 2, TR_FIELDS), np.float32)

@@ -142,18 +142,20 @@ def test_moving_terms_match_the_twin():
     hulls, trails = _boat_trail(6.0)
     rng = np.random.default_rng(6)
     pts = hulls[0, :2] + rng.uniform((-60, -20), (15, 20), (3000, 2))
-    wash = np.empty((47, kfoam.WASH_FIELDS))
-    n_wash = kfoam.wash_segments(hulls, trails, params.wash_s, wash)
-    assert n_wash >= 4
-    got = np.array([kfoam.moving_closeness(x, y, hulls, params, wash, n_wash) for x, y in pts])
+    caps, n_caps, wash, n_wash = kfoam.moving_sources(kfoam.FoamSources(hulls, trails), params)
+    assert n_wash >= 4 and n_caps == 1
+    got = np.array([kfoam.moving_closeness(x, y, caps, n_caps, wash, n_wash, params.wash_s)
+                    for x, y in pts])
     want = np.array([ref.moving_closeness(x, y, hulls, trails, params) for x, y in pts])
     npt.assert_allclose(got, want, atol=1e-9)
     assert got.max() > 0.9 and (got == 0).mean() > 0.5
     # a still boat makes no foam at all
     still_hulls, still = _boat_trail(0.0)
-    n = kfoam.wash_segments(still_hulls, still, params.wash_s, wash)
-    assert n == 0
-    assert max(kfoam.moving_closeness(x, y, still_hulls, params, wash, n) for x, y in pts) == 0
+    caps, n_caps, wash, n_wash = kfoam.moving_sources(kfoam.FoamSources(still_hulls, still),
+                                                      params)
+    assert n_caps == 0 and n_wash == 0
+    assert max(kfoam.moving_closeness(x, y, caps, n_caps, wash, n_wash, params.wash_s)
+               for x, y in pts) == 0
 
 
 # -- one frame against the twin --------------------------------------------------------------------
