@@ -41,7 +41,7 @@ vec2 wake_slopes(vec2 p, float px_m) {
         // the trail point nearest p: segment jb (points jb - 1, jb) at fraction sb
         vec4 a = texelFetch(u_wakes, ivec2(1, b), 0);
         float best = 1e30, sb = 0.0;
-        int jb = 0;
+        int jb = 0, last = 0;
         vec2 back = vec2(0.0), dv = vec2(0.0);
         for (int j = 1; j < TRAIL_POINTS; ++j) {
             vec4 q = texelFetch(u_wakes, ivec2(1 + j, b), 0);
@@ -61,6 +61,7 @@ vec2 wake_slopes(vec2 p, float px_m) {
                 }
             }
             a = q;
+            last = j;
         }
         if (jb == 0) continue;
         vec4 a1 = texelFetch(u_wakes, ivec2(jb, b), 0);
@@ -76,7 +77,11 @@ vec2 wake_slopes(vec2 p, float px_m) {
         float r = abs(Y) / X;
         if (r > 1.06 * WAKE_CUSP) continue;
         float k0 = WAKE_G / (U * U);
+        // past the trail's oldest point the wake fades out over half a wavelength (else the
+        // distance to that point would draw rings around it)
+        float past = jb == last && sb >= 1.0 ? max(dot(dv, back), 0.0) : 0.0;
         float amp = a2.w * strength * smoothstep(0.0, 4.0, X)
+                  * (1.0 - smoothstep(0.0, 3.14159265 / k0, past))
                   * inversesqrt(1.0 + X * k0 / 6.2831853 * 0.5)
                   * (1.0 - smoothstep(0.88 * WAKE_CUSP, 1.06 * WAKE_CUSP, r));
         float rr = min(r, WAKE_CUSP);

@@ -30,17 +30,20 @@ def _wave(t, X, Y, k0, px_m):
 
 
 def nearest_on_trail(p, trail):
-    """(X, Y, U, strength, back (2,), port (2,), slope) at the trail point nearest p:
+    """(X, Y, U, strength, back (2,), port (2,), slope, past) at the trail point nearest p:
     distance along the trail from the bow, signed distance (+ to port of the boat's motion),
-    speed, strength and wave slope there, and the unit vectors behind the boat and to its
-    port (the first segment wins a tie, as in the shader)."""
+    speed, strength and wave slope there, the unit vectors behind the boat and to its port,
+    and how far p lies beyond the trail's oldest point (0 unless that is the nearest; the
+    first segment wins a tie, as in the shader)."""
     best = math.inf
-    out = (0.0, 0.0, 0.0, 0.0, np.zeros(2), np.zeros(2), 0.0)
+    out = (0.0, 0.0, 0.0, 0.0, np.zeros(2), np.zeros(2), 0.0, 0.0, 0)
     a = trail[0]
+    last = 0
     for j in range(1, len(trail)):
         q = trail[j]
         if q[TR_ARC] < 0.0:
             break
+        last = j
         e = q[[TR_X, TR_Y]] - a[[TR_X, TR_Y]]
         len2 = float(e @ e)
         if len2 > 1e-8:
@@ -52,10 +55,12 @@ def nearest_on_trail(p, trail):
                 u = e / math.sqrt(len2)
                 port = np.array([u[1], -u[0]])
                 mix = lambda c: (1 - s) * a[c] + s * q[c]   # noqa: E731
+                past = max(float(d @ u), 0.0) if s >= 1.0 else 0.0
                 out = (mix(TR_ARC), float(d @ port), mix(TR_SPEED), mix(TR_STRENGTH), u, port,
-                       mix(TR_SLOPE))
+                       mix(TR_SLOPE), past, j)
         a = q
-    return out
+    *values, past, segment = out
+    return (*values, past if segment == last else 0.0)
 
 
 def wake_slopes(points, table, count, px_m):
@@ -76,7 +81,7 @@ def wake_slopes(points, table, count, px_m):
         for i, p in enumerate(pts):
             if (p < lo).any() or (p > hi).any():
                 continue
-            X, Y, U, strength, back, port, slope = nearest_on_trail(p, trail)
+            X, Y, U, strength, back, port, slope, past = nearest_on_trail(p, trail)
             if strength <= 0.0 or U < 0.3 or X <= 0.0:
                 continue
             r = abs(Y) / X
@@ -84,6 +89,7 @@ def wake_slopes(points, table, count, px_m):
                 continue
             k0 = G / (U * U)
             amp = (slope * strength * _smoothstep(0.0, 4.0, X)
+                   * (1.0 - _smoothstep(0.0, math.pi / k0, past))
                    / math.sqrt(1.0 + X * k0 / (2.0 * math.pi) * 0.5)
                    * (1.0 - _smoothstep(0.88 * CUSP, 1.06 * CUSP, r)))
             rr = min(r, CUSP)
