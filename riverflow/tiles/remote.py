@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import multiprocessing
 import os
+import signal
 import sys
 from collections.abc import Mapping
 from typing import Any
@@ -98,6 +99,7 @@ def _serve(producers: Mapping[str, Any], conn, parent_end, nice: int) -> None:
     global IN_WORKER_PROCESS
     IN_WORKER_PROCESS = True
     parent_end.close()     # the world's end of the pipe: EOF here once the world's is closed
+    signal.signal(signal.SIGINT, signal.SIG_IGN)   # Ctrl-C is the host's to handle; it ends us
     if nice > 0:
         try:
             os.setpriority(os.PRIO_PROCESS, 0, max(os.getpriority(os.PRIO_PROCESS, 0), nice))
