@@ -96,6 +96,7 @@ class RiverWorld:
         self._owned = _Owned(self.name, self.tiles.scheduler)
         self._finalizer = weakref.finalize(self, _release, self._owned)
         self._finalizer.atexit = False     # at exit the worker is a daemon, GL may be gone
+        self.tiles.scheduler.start()       # forked here, not in the first frame
         camera = Camera(position=(x0, y0, 100.0), target=(0.5 * (x0 + x1), 0.5 * (y0 + y1), 0.0),
                         fov_y_deg=c.fov_y_deg, near_m=c.near_m, far_m=c.far_m,
                         size_px=tuple(int(v) for v in size))

@@ -255,6 +255,12 @@ class TileScheduler:
 
     # -- worker and installation -----------------------------------------------------------------
 
+    def start(self) -> None:
+        """Background mode: start the worker (and fork its process) now rather than at the
+        first request, in a frame (a world does it while it is made). Blocking mode: nothing."""
+        if self.mode == "background":
+            self._ensure_thread()
+
     def _ensure_thread(self) -> None:
         if self._thread is None:
             if self.worker == "process" and self._process is None:
