@@ -26,6 +26,7 @@ import multiprocessing
 import os
 import signal
 import sys
+import warnings
 from collections.abc import Mapping
 from typing import Any
 
@@ -51,7 +52,11 @@ class ProducerProcess:
         here, there = ctx.Pipe()
         self._process = ctx.Process(target=_serve, args=(dict(producers), there, here, nice),
                                     name="riverflow-tiles", daemon=True)
-        self._process.start()
+        with warnings.catch_warnings():
+            # Python ≥ 3.12 warns on any fork beside other threads (a host's, a previous
+            # world's worker): the child runs only the producers, on locks it alone takes
+            warnings.filterwarnings("ignore", r".*multi-threaded.*fork", DeprecationWarning)
+            self._process.start()
         there.close()
         self._conn = here
 
