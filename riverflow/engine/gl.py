@@ -347,6 +347,11 @@ class Texture:
         gl.glActiveTexture(gl.GL_TEXTURE0 + unit)
         gl.glBindTexture(self.target, self.id)
 
+    def generate_mipmaps(self) -> None:
+        """Fill levels 1… from level 0 (a texture drawn into, e.g. the reflection)."""
+        _bind_scratch(self.target, self.id)
+        gl.glGenerateMipmap(self.target)
+
     def delete(self) -> None:
         _discard(self.context, "texture", self.id)
         self.id = 0
@@ -530,9 +535,23 @@ def set_blend(kind: int) -> None:
     gl.glBlendFuncSeparate(src, dst, gl.GL_ZERO, gl.GL_ONE)
 
 
-def set_cull(back: bool) -> None:
+def mip_levels(width: int, height: int) -> int:
+    """Levels of a full mip chain down to 1 × 1."""
+    return max(int(width), int(height), 1).bit_length()
+
+
+def set_cull(back: bool, mirrored: bool = False) -> None:
+    """Cull back faces (or not). ``mirrored``: the geometry is drawn through a mirror, which
+    turns counter-clockwise front faces clockwise (the planar reflection pass)."""
     (gl.glEnable if back else gl.glDisable)(gl.GL_CULL_FACE)
     gl.glCullFace(gl.GL_BACK)
+    gl.glFrontFace(gl.GL_CW if mirrored else gl.GL_CCW)
+
+
+def set_clip_distance(on: bool) -> None:
+    """Clip against the plane the vertex shaders write to ``gl_ClipDistance[0]`` (the
+    reflection pass drops what is under the water), or not."""
+    (gl.glEnable if on else gl.glDisable)(gl.GL_CLIP_DISTANCE0)
 
 
 def enable_program_point_size() -> None:

@@ -14,6 +14,7 @@ void main() {
     v_normal = a_normal;
     v_level = a_level;
     gl_Position = u_view_projection * vec4(a_position, 1.0);
+    gl_ClipDistance[0] = a_position.z - a_level;   // reflection pass: the bed under the water is cut
 }
 #endif
 

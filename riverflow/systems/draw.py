@@ -47,6 +47,8 @@ from riverflow.kernels.sprites import (MAX_PER_CELL, PARTICLES_PER_ROW, SPRITE_R
                                        sprite_grid_shape, slot_span)
 from riverflow.scenes.meshes import tile_indices
 from riverflow.scenes.props import SHAPES
+from riverflow.scenes.reflection import (MIN_EYE_HEIGHT_M, mirror_level,
+                                         mirrored_view_projection, reflection_size)
 from riverflow.scenes.tile_kinds import TERRAIN_MESH, WATER_MESH
 from riverflow.tiles.cut import standins
 from riverflow.tiles.table import codes
@@ -68,6 +70,9 @@ def shader_defines() -> dict[str, int]:
 
 DROPS_PER_ROW = 1024
 """Rain drops per row of the drop table (two RGBA32F texels each: position, velocity)."""
+
+_SHADED_MODES = (DisplayMode.ADVECTED, DisplayMode.PRE_ADVECTED, DisplayMode.NON_ADVECTED)
+"""The water modes shaded with reflections (the others draw debug colours)."""
 
 _NOTHING = object()
 """A tile uploaded with nothing to draw."""
@@ -103,6 +108,7 @@ class _Gpu:
         self.params = self.grid = None
         self.params_cpu = self.counts_cpu = self.grid_cpu = None
         self.targets: list = []
+        self.reflection = _Reflection()
         gl.check_errors("creating the river draw resources")
 
     # -- sized resources --------------------------------------------------------------------
@@ -222,7 +228,42 @@ class _Gpu:
                 obj.delete()
         self.waves.clear()
         self.targets = []
+        self.reflection.delete()
 
+
+# -- reflections (issue 12 item 3) -----------------------------------------------------------
+
+REFLECTION_UNIT, REFLECTION_DEPTH_UNIT = 10, 11
+"""Texture units of the reflection's colour and depth while the water is drawn."""
+
+
+class _Reflection:
+    """The planar reflection's render target (colour + depth at a reduced resolution), made
+    on first use and remade when the viewport or the scale changes."""
+
+    def __init__(self) -> None:
+        self.size = (0, 0)
+        self.colour = self.depth = self.fb = None
+
+    def fit(self, width: int, height: int, scale: float) -> None:
+        size = reflection_size(width, height, scale)
+        if size == self.size:
+            return
+        self.delete()
+        self.colour = gl.Texture(size, gl.RGBA8, levels=gl.mip_levels(*size), linear=True)
+        self.depth = gl.Texture(size, gl.DEPTH24)
+        self.fb = gl.Framebuffer([self.colour], self.depth)
+        self.size = size
+
+    def delete(self) -> None:
+        for obj in (self.fb, self.colour, self.depth):
+            if obj is not None:
+                obj.delete()
+        self.colour = self.depth = self.fb = None
+        self.size = (0, 0)
+
+
+# -- the draw system ---------------------------------------------------------------------------
 
 class DrawRivers(System):
     """Draws the world's current frame into its offscreen framebuffer (see the module doc).
@@ -238,6 +279,8 @@ class DrawRivers(System):
     def __init__(self) -> None:
         self.gpu: _Gpu | None = None
         self.context = None
+        self.last_mirror_level_m: float | None = None
+        """The reflection's mirror height [m] in the last frame (None: no reflection)."""
         self.last_tables_ms = 0.0
         self._terrain_meshes: list = []
         self.last_tiles = 0
@@ -273,6 +316,8 @@ class DrawRivers(System):
         rain = world.resources.get(Rain)
         ripple_uniforms = self._upload_ripples(world, gpu, rain)
         water_meshes = self._tile_meshes(world, gpu)
+        reflection_uniforms = self._draw_reflection(world, gpu, settings, shared,
+                                                    world_from_clip)
 
         gpu.main_fb.bind()
         gl.clear((0.0, 0.0, 0.0, 1.0))
@@ -307,6 +352,7 @@ class DrawRivers(System):
                       u_grid_size=gpu.grid_shape[1:], u_slope_factor=settings.wave_slope_factor,
                       u_clarity_m=settings.water_clarity_m, **tables, **wave_uniforms,
                       **ripple_uniforms)
+            water.set_if_used(**reflection_uniforms)
             gl.set_blend(gl.BLEND_WATER)
             for mesh in water_meshes:
                 mesh.draw()
@@ -424,21 +470,75 @@ class DrawRivers(System):
             mesh.draw()
         self.last_tiles = len(self._terrain_meshes)
 
-    def _draw_props(self, gpu: _Gpu, shared: dict) -> None:
+    def _draw_props(self, gpu: _Gpu, shared: dict, mirrored: bool = False) -> None:
+        """Every prop; ``mirrored``: in the reflection pass (winding turned, each prop cut
+        at its waterline)."""
         props = esper.get_components(Prop, Pose)
         if not props:
             return
         program = gpu.programs["props"]
         program.use()
         program.set_if_used(**shared)
-        gl.set_cull(True)
+        gl.set_cull(True, mirrored=mirrored)
         for _, (prop, pose) in props:
             model = pose.matrix()
             if not np.isfinite(model).all():
                 continue                    # a bad pose is not drawn, never crashes a frame
             program.set(u_model=np.ascontiguousarray(model.T, np.float32))
+            if mirrored:
+                program.set(u_clip_level_m=float(pose.position_m[2]))
             gpu.prop_mesh(prop).draw()
         gl.set_cull(False)
+
+    # -- reflections (issue 12 item 3) ------------------------------------------------------
+
+    def _draw_reflection(self, world: RiverWorld, gpu: _Gpu, settings: DisplaySettings,
+                         shared: dict, world_from_clip: np.ndarray) -> dict:
+        """The planar reflection pass (``shaders/reflection.glsl``): terrain and props mirrored
+        in the water level nearest the camera, cut at their water level, into the reflection
+        target; returns the water shader's reflection uniforms (``u_reflect`` false, and no
+        pass, when reflections are off, the water mode is not shaded, or the eye is not above
+        the mirror)."""
+        off = {"u_reflect": False, "u_reflection": REFLECTION_UNIT,
+               "u_reflection_depth": REFLECTION_DEPTH_UNIT}
+        self.last_mirror_level_m = None
+        if not settings.reflections or settings.mode not in _SHADED_MODES:
+            return off
+        eye = world.camera.position
+        pool = world.pool
+        water = pool.world_m[pool.alive & pool.has_world]
+        level = mirror_level(eye, water) if len(water) else self._fallback_level(world, eye)
+        if level is None or not eye[2] > level + MIN_EYE_HEIGHT_M:
+            return off
+        self.last_mirror_level_m = level
+        reflection = gpu.reflection
+        reflection.fit(*gpu.size, settings.reflection_scale)
+        mirrored_eye = (float(eye[0]), float(eye[1]), 2.0 * level - float(eye[2]))
+        vp = mirrored_view_projection(world.camera.view_projection(np.float64), level)
+        mirrored = {**shared, "u_view_projection": vp.ravel(), "u_eye_m": mirrored_eye,
+                    "u_fog_density": 0.0}          # fogged in the water shader, over the ray
+        reflection.fb.bind()
+        gl.clear((0.0, 0.0, 0.0, 0.0))             # alpha 0: the sky (drawn by the water)
+        gl.set_blend(gl.BLEND_OFF)
+        gl.set_depth(True)
+        gl.set_clip_distance(True)
+        self._draw_terrain(world, gpu, mirrored)
+        self._draw_props(gpu, mirrored, mirrored=True)
+        gl.set_clip_distance(False)
+        reflection.colour.generate_mipmaps()        # blurred levels for rough water
+        reflection.colour.bind(REFLECTION_UNIT)
+        reflection.depth.bind(REFLECTION_DEPTH_UNIT)
+        return {**off, "u_reflect": True, "u_mirror_level_m": float(level),
+                "u_world_from_clip": np.ascontiguousarray(world_from_clip.T, np.float32),
+                "u_reflection_distortion": float(settings.reflection_distortion)}
+
+    @staticmethod
+    def _fallback_level(world: RiverWorld, eye: np.ndarray) -> float | None:
+        """The water level at the river point nearest the eye (no particles yet)."""
+        water = getattr(world.scene, "water", None)
+        if water is None:
+            return None
+        return float(water.level(np.asarray(eye[:2], np.float64).reshape(1, 2))[0])
 
     def _pre_advect(self, gpu: _Gpu, shared: dict, wave_uniforms: dict,
                     n_slots: int, water_meshes: list) -> None:
