@@ -424,6 +424,16 @@ class Framebuffer:
         self.id = 0
 
 
+def blit(source: Framebuffer, target: Framebuffer, depth: bool = False) -> None:
+    """Copy ``source``'s colour (and depth) into ``target`` (same size: no filtering)."""
+    gl.glBindFramebuffer(gl.GL_READ_FRAMEBUFFER, source.id)
+    gl.glBindFramebuffer(gl.GL_DRAW_FRAMEBUFFER, target.id)
+    mask = gl.GL_COLOR_BUFFER_BIT | (gl.GL_DEPTH_BUFFER_BIT if depth else 0)
+    gl.glBlitFramebuffer(0, 0, source.width, source.height, 0, 0, target.width, target.height,
+                         mask, gl.GL_NEAREST)
+    gl.glBindFramebuffer(gl.GL_FRAMEBUFFER, 0)
+
+
 def blit_to_window(source: Framebuffer, width_px: int, height_px: int) -> None:
     """Copy ``source``'s colour onto the window (framebuffer 0), scaled to its viewport."""
     gl.glBindFramebuffer(gl.GL_READ_FRAMEBUFFER, source.id)

@@ -4,17 +4,18 @@ Banks, props and sky are reflected in the water by a *planar reflection* (issue 
 the choice and its measurements: ``docs/deviations.md``, ``docs/performance.md``): the land and
 the props are drawn once more, mirrored in the horizontal plane z = L, into a texture the
 water shader samples. A river's level falls along its course, so one plane is exact only
-where the water is at L; L is taken where it matters most, at the visible water nearest the
-camera (:func:`mirror_level`), and the water shader corrects every pixel for its own level
+where the water is at L; L is taken where it matters most, at the river nearest the camera
+(:func:`mirror_level`), and the water shader corrects every pixel for its own level
 (``shaders/reflection.glsl``).
 """
 from __future__ import annotations
 
 import numpy as np
 
-NEAREST_SAMPLES = 16
-"""The mirror's height is the median level of this many visible water points nearest the
-camera (one stray particle does not move it)."""
+TERRAIN_STRIDE = 2
+"""The reflection draws the terrain tiles through every TERRAIN_STRIDE-th node (a quarter of
+the triangles: on a software renderer the terrain's triangles, not its pixels, are most of
+the pass's cost; the reflection is at a reduced resolution and blurred by the waves)."""
 MIN_EYE_HEIGHT_M = 0.05
 """No reflection is drawn when the eye is less than this above the mirror (at or under the
 water: the surface seen from below shows no mirror image of the land)."""
@@ -36,20 +37,19 @@ def mirrored_view_projection(view_projection: np.ndarray, level_m: float) -> np.
     return (mirror_matrix(level_m) @ np.asarray(view_projection, np.float64)).astype(np.float32)
 
 
-def mirror_level(eye_m, water_m: np.ndarray, fallback_m: float | None = None) -> float | None:
-    """The mirror's height [m]: the median level (z) of the :data:`NEAREST_SAMPLES` points of
-    ``water_m`` (N, 3) [m] (points on the visible water: the particles) nearest ``eye_m``;
-    ``fallback_m`` when there are none (no water in view yet). Non-finite points are ignored;
-    None when nothing is known."""
+def mirror_level(water, eye_m) -> float | None:
+    """The mirror's height [m]: the level of the river nearest the eye (``water`` a
+    :class:`~riverflow.scenes.water.WaterSurface`, or None: no reflection). Where the water
+    is seen nearest, the mirror is exact; elsewhere the water shader corrects each pixel for
+    its own level, so this choice only has to be close. It depends on the camera alone, not
+    on the particles: the frame stays a function of the view."""
+    if water is None:
+        return None
     eye = np.asarray(eye_m, np.float64).reshape(3)
-    pts = np.asarray(water_m, np.float64).reshape(-1, 3)
-    pts = pts[np.isfinite(pts).all(axis=1)]
-    if len(pts) == 0:
-        return None if fallback_m is None or not np.isfinite(fallback_m) else float(fallback_m)
-    d2 = ((pts - eye) ** 2).sum(axis=1)
-    k = min(NEAREST_SAMPLES, len(pts))
-    near = np.argpartition(d2, k - 1)[:k] if k < len(pts) else np.arange(len(pts))
-    return float(np.median(pts[near, 2]))
+    if not np.isfinite(eye).all():
+        return None
+    level = float(water.level(eye[None, :2])[0])
+    return level if np.isfinite(level) else None
 
 
 def reflection_size(width_px: int, height_px: int, scale: float) -> tuple[int, int]:

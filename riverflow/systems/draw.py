@@ -47,7 +47,7 @@ from riverflow.kernels.sprites import (MAX_PER_CELL, PARTICLES_PER_ROW, SPRITE_R
                                        sprite_grid_shape, slot_span)
 from riverflow.scenes.meshes import tile_indices
 from riverflow.scenes.props import SHAPES
-from riverflow.scenes.reflection import (MIN_EYE_HEIGHT_M, mirror_level,
+from riverflow.scenes.reflection import (MIN_EYE_HEIGHT_M, TERRAIN_STRIDE, mirror_level,
                                          mirrored_view_projection, reflection_size)
 from riverflow.scenes.tile_kinds import TERRAIN_MESH, WATER_MESH
 from riverflow.tiles.cut import standins
@@ -99,7 +99,13 @@ class _Gpu:
         self.ripples = gl.Texture((RIPPLE_RING, 1), gl.RGBA32F)
         self.ripples.upload(self.ripples_cpu)
         self.prop_meshes: dict[tuple, gl.Mesh] = {}
-        self.terrain_indices = tile_indices(world.scene.terrain.tile_cells).ravel()
+        # every terrain tile's indices: the full mesh, then the reflection's coarser one
+        cells = world.scene.terrain.tile_cells
+        full = tile_indices(cells).ravel()
+        coarse = tile_indices(cells, TERRAIN_STRIDE if cells % TERRAIN_STRIDE == 0 else 1)
+        self.terrain_indices = np.concatenate([full, coarse.ravel()])
+        self.terrain_ranges = {"full": (len(full), 0), "coarse": (coarse.size, len(full))}
+        """(count, first) of each mesh in the terrain tiles' index buffer."""
         self.tile_meshes: dict[str, dict[int, gl.Mesh]] = {TERRAIN_MESH: {}, WATER_MESH: {}}
         self.empty = gl.Mesh(None, {})           # attribute-less draws (gl_VertexID)
         self.waves: dict[int, tuple[int, gl.Texture]] = {}
@@ -281,6 +287,7 @@ class DrawRivers(System):
         self.context = None
         self.last_mirror_level_m: float | None = None
         """The reflection's mirror height [m] in the last frame (None: no reflection)."""
+        self._mirror_for: tuple[int, float | None] = (-1, None)
         self.last_tables_ms = 0.0
         self._terrain_meshes: list = []
         self.last_tiles = 0
@@ -311,7 +318,8 @@ class DrawRivers(System):
         shared = dict(u_eye_m=tuple(camera.position), u_sun_dir=tuple(SUN_DIRECTION),
                       u_fog_density=float(settings.fog_density_per_m),
                       u_view_projection=vp, u_viewport_px=(float(gpu.size[0]),
-                                                           float(gpu.size[1])))
+                                                           float(gpu.size[1])),
+                      u_clip_water=0.0)   # gl_ClipDistance is honoured even when disabled
         wave_uniforms, wave_tex = self._wave(world, gpu, settings)
         rain = world.resources.get(Rain)
         ripple_uniforms = self._upload_ripples(world, gpu, rain)
@@ -462,13 +470,18 @@ class DrawRivers(System):
         return gpu.sync_tiles(tiles, WATER_MESH,
                               standins(cut, tiles.cache.pools[WATER_MESH], skip=dry))
 
-    def _draw_terrain(self, world: RiverWorld, gpu: _Gpu, shared: dict) -> None:
+    def _draw_terrain(self, world: RiverWorld, gpu: _Gpu, shared: dict,
+                      detail: str = "full") -> None:
+        """This frame's terrain tiles, through all their nodes (``detail`` "full") or the
+        reflection's coarser mesh ("coarse")."""
         program = gpu.programs["terrain"]
         program.use()
         program.set_if_used(**shared)
+        count, first = gpu.terrain_ranges[detail]
         for mesh in self._terrain_meshes:
-            mesh.draw()
-        self.last_tiles = len(self._terrain_meshes)
+            mesh.draw(count=count, first=first)
+        if detail == "full":
+            self.last_tiles = len(self._terrain_meshes)
 
     def _draw_props(self, gpu: _Gpu, shared: dict, mirrored: bool = False) -> None:
         """Every prop; ``mirrored``: in the reflection pass (winding turned, each prop cut
@@ -504,10 +517,12 @@ class DrawRivers(System):
         self.last_mirror_level_m = None
         if not settings.reflections or settings.mode not in _SHADED_MODES:
             return off
-        eye = world.camera.position
-        pool = world.pool
-        water = pool.world_m[pool.alive & pool.has_world]
-        level = mirror_level(eye, water) if len(water) else self._fallback_level(world, eye)
+        camera = world.camera
+        eye = camera.position
+        if self._mirror_for[0] != camera.revision:  # a KD-tree query: once per view
+            self._mirror_for = (camera.revision,
+                                mirror_level(getattr(world.scene, "water", None), eye))
+        level = self._mirror_for[1]
         if level is None or not eye[2] > level + MIN_EYE_HEIGHT_M:
             return off
         self.last_mirror_level_m = level
@@ -516,13 +531,14 @@ class DrawRivers(System):
         mirrored_eye = (float(eye[0]), float(eye[1]), 2.0 * level - float(eye[2]))
         vp = mirrored_view_projection(world.camera.view_projection(np.float64), level)
         mirrored = {**shared, "u_view_projection": vp.ravel(), "u_eye_m": mirrored_eye,
-                    "u_fog_density": 0.0}          # fogged in the water shader, over the ray
+                    "u_fog_density": 0.0,          # fogged in the water shader, over the ray
+                    "u_clip_water": 1.0}
         reflection.fb.bind()
         gl.clear((0.0, 0.0, 0.0, 0.0))             # alpha 0: the sky (drawn by the water)
         gl.set_blend(gl.BLEND_OFF)
         gl.set_depth(True)
         gl.set_clip_distance(True)
-        self._draw_terrain(world, gpu, mirrored)
+        self._draw_terrain(world, gpu, mirrored, "coarse")
         self._draw_props(gpu, mirrored, mirrored=True)
         gl.set_clip_distance(False)
         reflection.colour.generate_mipmaps()        # blurred levels for rough water
@@ -531,14 +547,6 @@ class DrawRivers(System):
         return {**off, "u_reflect": True, "u_mirror_level_m": float(level),
                 "u_world_from_clip": np.ascontiguousarray(world_from_clip.T, np.float32),
                 "u_reflection_distortion": float(settings.reflection_distortion)}
-
-    @staticmethod
-    def _fallback_level(world: RiverWorld, eye: np.ndarray) -> float | None:
-        """The water level at the river point nearest the eye (no particles yet)."""
-        water = getattr(world.scene, "water", None)
-        if water is None:
-            return None
-        return float(water.level(np.asarray(eye[:2], np.float64).reshape(1, 2))[0])
 
     def _pre_advect(self, gpu: _Gpu, shared: dict, wave_uniforms: dict,
                     n_slots: int, water_meshes: list) -> None:

@@ -156,18 +156,19 @@ def test_the_mirror_follows_the_local_water_level(world, shore_view, frames, mon
     real = draw_module.mirror_level
     monkeypatch.setattr(draw_module, "mirror_level",
                         lambda *a, **k: real(*a, **k) + offset_m)
-    _, _, barrel, heading = shore_view
+    eye, target, barrel, heading = shore_view
+    world.camera.look_at(eye, target)                # a new view: the mirror is chosen again
     empty = _render(world, reflection_distortion=0.0)
     entity = world.add_prop("barrel", BARREL_M, barrel, yaw_rad=heading)
     try:
         shifted = _render(world, reflection_distortion=0.0)
-        drawer = world._drawer()
-        assert drawer.last_mirror_level_m == pytest.approx(real(
-            world.camera.position, world.pool.world_m[world.pool.alive & world.pool.has_world])
-            + offset_m)
+        assert world._drawer().last_mirror_level_m == pytest.approx(
+            real(world.scene.water, eye) + offset_m)
     finally:
         with world.active():
             esper.delete_entity(entity, immediate=True)
+        monkeypatch.undo()
+        world.camera.look_at(eye, target)
     water = frames["water"]
     want = (np.abs(frames["flat"] - frames["empty_flat"]).sum(axis=2) > 24) & water
     got = (np.abs(shifted - empty).sum(axis=2) > 24) & water
