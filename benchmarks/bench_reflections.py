@@ -141,8 +141,9 @@ def run_case(scene, size, frames: int, warmup: int, ssr: bool) -> dict:
         probe.delete()
     world.close()
     out = {k: _median(v) for k, v in rows.items()}
-    out.update(size=list(size), frames=frames, pass_ms=_median(split), mirrored=mirrored,
-               renderer=gl.renderer_name())
+    out.update({f"{k}_min": float(np.min(v)) for k, v in rows.items() if len(v)})
+    out.update(size=list(size), frames=frames, pass_ms=_median(split),
+               pass_min=float(np.min(split)), mirrored=mirrored, renderer=gl.renderer_name())
     return out
 
 
@@ -161,12 +162,15 @@ def main(argv: list[str] | None = None) -> list[dict]:
         r = run_case(scene, size, args.frames, args.warmup, not args.no_ssr)
         results.append(r)
         if not args.json:
-            print(f"{size[0]}x{size[1]}: frame off {r['frame_off']:.1f} ms, on "
-                  f"{r['frame_on']:.1f} ms, cost p50 {r['cost']:.1f} ms (pass "
-                  f"{r['pass_ms']:.1f} ms, water march {r['cost'] - r['pass_ms']:.1f} ms); "
-                  f"CPU {r['cpu_off']:.2f} → {r['cpu_on']:.2f} ms; screen-space probe "
-                  f"{r['ssr']:.1f} ms; {r['mirrored']}/{r['frames']} frames mirrored "
-                  f"[{r['renderer']}]", flush=True)
+            print(f"{size[0]}x{size[1]}: frame off p50 {r['frame_off']:.1f} (min "
+                  f"{r['frame_off_min']:.1f}) ms, on {r['frame_on']:.1f} (min "
+                  f"{r['frame_on_min']:.1f}) ms; cost p50 {r['cost']:.1f} ms, min-to-min "
+                  f"{r['frame_on_min'] - r['frame_off_min']:.1f} ms; pass p50 "
+                  f"{r['pass_ms']:.1f} (min {r['pass_min']:.1f}) ms; draw CPU "
+                  f"{r['cpu_off']:.1f} → {r['cpu_on']:.1f} ms; screen-space probe p50 "
+                  f"{r['ssr']:.1f} (min {r.get('ssr_min', float('nan')):.1f}) ms; "
+                  f"{r['mirrored']}/{r['frames']} frames mirrored [{r['renderer']}]",
+                  flush=True)
     if args.json:
         print(json.dumps(results, indent=2))
     return results

@@ -256,7 +256,9 @@ class _Reflection:
         if size == self.size:
             return
         self.delete()
-        self.colour = gl.Texture(size, gl.RGBA8, levels=gl.mip_levels(*size), linear=True)
+        # half floats: the mip levels' coverage (alpha) keeps a one-texel prop, which the
+        # march's early out (no coverage near the ray: the sky) relies on
+        self.colour = gl.Texture(size, gl.RGBA16F, levels=gl.mip_levels(*size), linear=True)
         self.depth = gl.Texture(size, gl.DEPTH24)
         self.fb = gl.Framebuffer([self.colour], self.depth)
         self.size = size
