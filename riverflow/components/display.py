@@ -61,7 +61,7 @@ class DisplaySettings:
     reflection_scale: float = 0.5
     """Size of the reflection texture as a fraction of the viewport's (0 < scale ≤ 1); the
     wave distortion blurs it anyway, and its cost falls with the square of it."""
-    reflection_distortion: float = 0.15
+    reflection_distortion: float = 0.1
     """How far the wave normal bends the reflected rays (1: as the water normal says; 0: a
     flat mirror)."""
 
