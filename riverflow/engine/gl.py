@@ -561,7 +561,9 @@ def set_cull(back: bool, mirrored: bool = False) -> None:
 
 def set_clip_distance(on: bool) -> None:
     """Clip against the plane the vertex shaders write to ``gl_ClipDistance[0]`` (the
-    reflection pass drops what is under the water), or not."""
+    reflection pass drops what is under the water), or not. Mesa's llvmpipe clips by
+    ``gl_ClipDistance`` even while this is off, so a shader that writes it must write a
+    positive distance when it does not mean to clip (``u_clip_water`` in terrain.glsl)."""
     (gl.glEnable if on else gl.glDisable)(gl.GL_CLIP_DISTANCE0)
 
 

@@ -55,6 +55,7 @@ vec3 mirror_image(vec2 uv) {
 // direction moves between neighbouring pixels (rough water: the mip level then averages what
 // the waves show, instead of one speckled sample per pixel).
 vec3 reflected_scene(vec3 p, vec3 v, vec3 n, vec3 sky) {
+    if (!u_reflect) return sky;        // a uniform: the derivatives below stay in uniform flow
     vec3 nd = normalize(vec3(n.xy * u_reflection_distortion, n.z));
     vec3 r = reflect(-v, nd);
     r.z = abs(r.z);            // bent down into the water: up again off the next wave (as the sky)
@@ -69,7 +70,7 @@ vec3 reflected_scene(vec3 p, vec3 v, vec3 n, vec3 sky) {
                       REFLECTION_MAX_LOD);
     // none seen from under the surface, nor along a ray turning back towards the camera
     // (nothing the mirrored view holds: looking straight down, the sky above the camera)
-    if (!u_reflect || u_eye_m.z <= p.z + 1e-3 || c_o.w <= 1e-4 || c_d.w <= 1e-4) return sky;
+    if (u_eye_m.z <= p.z + 1e-3 || c_o.w <= 1e-4 || c_d.w <= 1e-4) return sky;
 
     vec3 ndc_o = c_o.xyz / c_o.w;
     float t0 = REFLECTION_NEAR_M;

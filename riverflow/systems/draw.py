@@ -20,6 +20,14 @@ Per frame (reference §4; no one-frame latency: the tables are built from this f
    around the recent hits on the water, added to the water's slopes (none without rain);
 6. overlays: particles as points, velocity arrows.
 
+Reflections (issue 12 item 3; :attr:`DisplaySettings.reflections`, shaded water modes, the eye
+above the water), before step 2: the terrain tiles (through every 2nd node) and the props
+drawn mirrored in the level of the river nearest the camera, each cut at its own water
+level, into a reduced-resolution colour + depth target with mip levels
+(:mod:`riverflow.scenes.reflection`); in step 4 the water shader follows each pixel's
+wave-bent reflected ray through it and Fresnel-weights what it finds over the sky
+(``shaders/reflection.glsl``).
+
 Everything is drawn into the world's own RGBA8 framebuffer (with a depth texture shared by
 the passes); :meth:`DrawRivers.blit_to_window` copies it to the window a host draws in.
 
