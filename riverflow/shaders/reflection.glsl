@@ -30,6 +30,7 @@ const float REFLECTION_STRIDE = 3.0;   // texels between steps (fewer when the s
 const int REFLECTION_REFINE = 3;       // bisection steps after the march
 const float REFLECTION_NEAR_M = 0.25;  // the march starts this far from the water
 const float REFLECTION_MISS_TEXELS = 1.5;  // a ray passing farther from a surface misses it
+const float REFLECTION_FAINT = 0.05;  // Fresnel weight under which the land fades out
 const float REFLECTION_EDGE = 0.03;    // fade out over this share of the screen at its edges
 const float REFLECTION_MAX_LOD = 4.0;  // blur rough water over at most 16 texels
 
@@ -50,11 +51,13 @@ vec3 mirror_image(vec2 uv) {
 
 // The radiance reflected towards the eye by water point p (unit view vector v towards the
 // eye, wave normal n): the reflected land and props over `sky` (the sky along the reflected
-// ray), fogged over the reflected ray's length (the water shader fogs the rest). Call it in
+// ray), fogged over the reflected ray's length (the water shader fogs the rest). `weight` is
+// the Fresnel factor the caller applies: under REFLECTION_FAINT (water seen from well above)
+// the land would change the pixel by a level or two of 255 and is not looked for. Call it in
 // uniform control flow: the texture's level of detail comes from how far the reflected ray's
 // direction moves between neighbouring pixels (rough water: the mip level then averages what
 // the waves show, instead of one speckled sample per pixel).
-vec3 reflected_scene(vec3 p, vec3 v, vec3 n, vec3 sky) {
+vec3 reflected_scene(vec3 p, vec3 v, vec3 n, vec3 sky, float weight) {
     if (!u_reflect) return sky;        // a uniform: the derivatives below stay in uniform flow
     vec3 nd = normalize(vec3(n.xy * u_reflection_distortion, n.z));
     vec3 r = reflect(-v, nd);
@@ -70,7 +73,8 @@ vec3 reflected_scene(vec3 p, vec3 v, vec3 n, vec3 sky) {
                       REFLECTION_MAX_LOD);
     // none seen from under the surface, nor along a ray turning back towards the camera
     // (nothing the mirrored view holds: looking straight down, the sky above the camera)
-    if (u_eye_m.z <= p.z + 1e-3 || c_o.w <= 1e-4 || c_d.w <= 1e-4) return sky;
+    float shown = smoothstep(0.5 * REFLECTION_FAINT, REFLECTION_FAINT, weight);
+    if (shown <= 0.0 || u_eye_m.z <= p.z + 1e-3 || c_o.w <= 1e-4 || c_d.w <= 1e-4) return sky;
 
     vec3 ndc_o = c_o.xyz / c_o.w;
     float t0 = REFLECTION_NEAR_M;
@@ -110,7 +114,7 @@ vec3 reflected_scene(vec3 p, vec3 v, vec3 n, vec3 sky) {
     vec2 uv = mix(a, ndc_d, f_hit).xy * 0.5 + 0.5;
     vec2 edge = min(uv, 1.0 - uv) / REFLECTION_EDGE;
     float inside = clamp(min(edge.x, edge.y), 0.0, 1.0);
-    vec4 c = textureLod(u_reflection, clamp(uv, 0.0, 1.0), lod) * inside;
+    vec4 c = textureLod(u_reflection, clamp(uv, 0.0, 1.0), lod) * (inside * shown);
     float fog = 1.0 - exp(-t * u_fog_density);
     return sky * (1.0 - c.a) + mix(c.rgb, FOG_COLOUR * c.a, fog);
 }
