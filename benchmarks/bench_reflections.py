@@ -165,7 +165,8 @@ def run_case(scene, size, frames: int, warmup: int, ssr: bool, scale: float = 0.
     out = {k: _median(v) for k, v in rows.items()}
     out.update({f"{k}_min": float(np.min(v)) for k, v in rows.items() if len(v)})
     out.update(size=list(size), scale=scale, frames=frames, pass_ms=_median(split),
-               pass_min=float(np.min(split)), pass_work=_median(split_cpu), mirrored=mirrored, renderer=gl.renderer_name())
+               pass_min=float(np.min(split)), pass_work=_median(split_cpu), mirrored=mirrored,
+               renderer=gl.renderer_name())
     return out
 
 
@@ -186,9 +187,10 @@ def main(argv: list[str] | None = None) -> list[dict]:
         r = run_case(scene, size, args.frames, args.warmup, not args.no_ssr, args.scale)
         results.append(r)
         if not args.json:
-            print(f"{size[0]}x{size[1]} scale {args.scale:g}: frame off p50 {r['frame_off']:.1f} (min "
-                  f"{r['frame_off_min']:.1f}) ms, on {r['frame_on']:.1f} (min "
-                  f"{r['frame_on_min']:.1f}) ms; cost p50 {r['cost']:.1f} ms, min-to-min "
+            print(f"{size[0]}x{size[1]} scale {args.scale:g}: frame off p50 "
+                  f"{r['frame_off']:.1f} (min {r['frame_off_min']:.1f}) ms, on "
+                  f"{r['frame_on']:.1f} (min {r['frame_on_min']:.1f}) ms; cost p50 "
+                  f"{r['cost']:.1f} ms, min-to-min "
                   f"{r['frame_on_min'] - r['frame_off_min']:.1f} ms; pass p50 "
                   f"{r['pass_ms']:.1f} (min {r['pass_min']:.1f}) ms; draw CPU "
                   f"{r['cpu_off']:.1f} → {r['cpu_on']:.1f} ms; screen-space probe p50 "
