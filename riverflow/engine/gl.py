@@ -262,6 +262,7 @@ class TexFormat:
 
 RGBA8 = TexFormat(gl.GL_RGBA8, gl.GL_RGBA, gl.GL_UNSIGNED_BYTE, np.uint8, 4)
 RGBA32F = TexFormat(gl.GL_RGBA32F, gl.GL_RGBA, gl.GL_FLOAT, np.float32, 4)
+RGBA16F = TexFormat(gl.GL_RGBA16F, gl.GL_RGBA, gl.GL_FLOAT, np.float32, 4)
 RG32F = TexFormat(gl.GL_RG32F, gl.GL_RG, gl.GL_FLOAT, np.float32, 2)
 R32F = TexFormat(gl.GL_R32F, gl.GL_RED, gl.GL_FLOAT, np.float32, 1)
 RGBA32I = TexFormat(gl.GL_RGBA32I, gl.GL_RGBA_INTEGER, gl.GL_INT, np.int32, 4, integer=True)
@@ -347,6 +348,11 @@ class Texture:
         gl.glActiveTexture(gl.GL_TEXTURE0 + unit)
         gl.glBindTexture(self.target, self.id)
 
+    def generate_mipmaps(self) -> None:
+        """Fill levels 1… from level 0 (a texture drawn into, e.g. the reflection)."""
+        _bind_scratch(self.target, self.id)
+        gl.glGenerateMipmap(self.target)
+
     def delete(self) -> None:
         _discard(self.context, "texture", self.id)
         self.id = 0
@@ -417,6 +423,16 @@ class Framebuffer:
     def delete(self) -> None:
         _discard(self.context, "framebuffer", self.id)
         self.id = 0
+
+
+def blit(source: Framebuffer, target: Framebuffer, depth: bool = False) -> None:
+    """Copy ``source``'s colour (and depth) into ``target`` (same size: no filtering)."""
+    gl.glBindFramebuffer(gl.GL_READ_FRAMEBUFFER, source.id)
+    gl.glBindFramebuffer(gl.GL_DRAW_FRAMEBUFFER, target.id)
+    mask = gl.GL_COLOR_BUFFER_BIT | (gl.GL_DEPTH_BUFFER_BIT if depth else 0)
+    gl.glBlitFramebuffer(0, 0, source.width, source.height, 0, 0, target.width, target.height,
+                         mask, gl.GL_NEAREST)
+    gl.glBindFramebuffer(gl.GL_FRAMEBUFFER, 0)
 
 
 def blit_to_window(source: Framebuffer, width_px: int, height_px: int) -> None:
@@ -530,9 +546,25 @@ def set_blend(kind: int) -> None:
     gl.glBlendFuncSeparate(src, dst, gl.GL_ZERO, gl.GL_ONE)
 
 
-def set_cull(back: bool) -> None:
+def mip_levels(width: int, height: int) -> int:
+    """Levels of a full mip chain down to 1 × 1."""
+    return max(int(width), int(height), 1).bit_length()
+
+
+def set_cull(back: bool, mirrored: bool = False) -> None:
+    """Cull back faces (or not). ``mirrored``: the geometry is drawn through a mirror, which
+    turns counter-clockwise front faces clockwise (the planar reflection pass)."""
     (gl.glEnable if back else gl.glDisable)(gl.GL_CULL_FACE)
     gl.glCullFace(gl.GL_BACK)
+    gl.glFrontFace(gl.GL_CW if mirrored else gl.GL_CCW)
+
+
+def set_clip_distance(on: bool) -> None:
+    """Clip against the plane the vertex shaders write to ``gl_ClipDistance[0]`` (the
+    reflection pass drops what is under the water), or not. Mesa's llvmpipe clips by
+    ``gl_ClipDistance`` even while this is off, so a shader that writes it must write a
+    positive distance when it does not mean to clip (``u_clip_water`` in terrain.glsl)."""
+    (gl.glEnable if on else gl.glDisable)(gl.GL_CLIP_DISTANCE0)
 
 
 def enable_program_point_size() -> None:

@@ -140,20 +140,24 @@ def _lod_gap(edges: np.ndarray, n: int) -> np.ndarray:
     return (hi - lo).max(axis=-1)
 
 
-def tile_indices(n: int) -> np.ndarray:
+def tile_indices(n: int, stride: int = 1) -> np.ndarray:
     """Triangle indices (K, 3) uint32 of an n-cell tile, the same for every tile (one index
     buffer serves them all): first the 2n² grid triangles (two per cell, the diagonal from
     (i, j) to (i + 1, j + 1)), counter-clockwise seen from +z, then the 8n skirt triangles
-    (two per border segment), facing outward."""
+    (two per border segment), facing outward. ``stride`` > 1 (dividing n) uses every
+    stride-th node only, a coarser mesh of the same vertices (stride² fewer triangles; the
+    reflection pass draws it)."""
     side = n + 1
-    g = np.arange(n)
+    if stride < 1 or n % stride:
+        raise ValueError(f"stride {stride} must divide the tile's {n} cells")
+    g = np.arange(0, n, stride)
     jj, ii = np.meshgrid(g, g, indexing="ij")
     a = (jj * side + ii).ravel()  # (i, j)
-    b, c, d = a + 1, a + side + 1, a + side  # (i+1, j), (i+1, j+1), (i, j+1)
+    b, c, d = a + stride, a + stride * (side + 1), a + stride * side  # the cell's corners
     grid = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
     bi, bj = border_loop(n)
-    k0 = np.arange(4 * n)
-    k1 = (k0 + 1) % (4 * n)
+    k0 = np.arange(0, 4 * n, stride)
+    k1 = (k0 + stride) % (4 * n)
     t0, t1 = bj[k0] * side + bi[k0], bj[k1] * side + bi[k1]
     b0, b1 = side * side + k0, side * side + k1
     skirt = np.concatenate([np.stack([t0, b0, b1], 1), np.stack([t0, b1, t1], 1)])

@@ -3,6 +3,8 @@
 #include "common.glsl"
 uniform mat4 u_view_projection;
 uniform mat4 u_model;
+uniform float u_clip_water;     // 1: the reflection pass, cut what is under the waterline...
+uniform float u_clip_level_m;   // ... at this height [m]
 
 #ifdef VERTEX
 layout(location = 0) in vec3 a_position;   // model frame [m]
@@ -17,6 +19,7 @@ void main() {
     v_normal = mat3(u_model) * a_normal;
     v_colour = a_colour;
     gl_Position = u_view_projection * world;
+    gl_ClipDistance[0] = u_clip_water > 0.0 ? world.z - u_clip_level_m : 1.0;
 }
 #endif
 

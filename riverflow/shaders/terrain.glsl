@@ -1,6 +1,7 @@
 // Terrain tiles: lit ground coloured by slope and by its height above the nearest water.
 #include "common.glsl"
 uniform mat4 u_view_projection;
+uniform float u_clip_water;    // 1: the reflection pass, cut what is under the water level
 
 #ifdef VERTEX
 layout(location = 0) in vec3 a_position;   // [m]
@@ -14,6 +15,7 @@ void main() {
     v_normal = a_normal;
     v_level = a_level;
     gl_Position = u_view_projection * vec4(a_position, 1.0);
+    gl_ClipDistance[0] = u_clip_water > 0.0 ? a_position.z - a_level : 1.0;
 }
 #endif
 

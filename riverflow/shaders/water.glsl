@@ -29,6 +29,7 @@ void main() {
 #include "wave.glsl"
 #include "params.glsl"
 #include "ripples.glsl"
+#include "reflection.glsl"
 
 uniform int u_mode;                 // DISPLAY_MODE_*
 uniform bool u_show_grid;
@@ -110,7 +111,7 @@ void main() {
     float fresnel = (0.02 + 0.98 * pow(1.0 - cos_v, 5.0)) * shore;
     vec3 r = reflect(-v, n);
     r.z = abs(r.z);
-    vec3 reflected = sky_colour(r);
+    vec3 reflected = reflected_scene(v_world, v, n, sky_colour(r), fresnel);  // + banks, props
     vec3 h = normalize(v + u_sun_dir);
     float spec = pow(max(dot(n, h), 0.0), 400.0) * 2.0 * shore;
     float clarity = exp(-depth_m / max(u_clarity_m, 1e-3));

@@ -20,6 +20,14 @@ Per frame (reference §4; no one-frame latency: the tables are built from this f
    around the recent hits on the water, added to the water's slopes (none without rain);
 6. overlays: particles as points, velocity arrows.
 
+Reflections (issue 12 item 3; :attr:`DisplaySettings.reflections`, shaded water modes, the eye
+above the water), before step 2: the terrain tiles (through every 2nd node) and the props
+drawn mirrored in the level of the river nearest the camera, each cut at its own water
+level, into a reduced-resolution colour + depth target with mip levels
+(:mod:`riverflow.scenes.reflection`); in step 4 the water shader follows each pixel's
+wave-bent reflected ray through it and Fresnel-weights what it finds over the sky
+(``shaders/reflection.glsl``).
+
 Everything is drawn into the world's own RGBA8 framebuffer (with a depth texture shared by
 the passes); :meth:`DrawRivers.blit_to_window` copies it to the window a host draws in.
 
@@ -47,6 +55,8 @@ from riverflow.kernels.sprites import (MAX_PER_CELL, PARTICLES_PER_ROW, SPRITE_R
                                        sprite_grid_shape, slot_span)
 from riverflow.scenes.meshes import tile_indices
 from riverflow.scenes.props import SHAPES
+from riverflow.scenes.reflection import (MIN_EYE_HEIGHT_M, TERRAIN_STRIDE, mirror_level,
+                                         mirrored_view_projection, reflection_size)
 from riverflow.scenes.tile_kinds import TERRAIN_MESH, WATER_MESH
 from riverflow.tiles.cut import standins
 from riverflow.tiles.table import codes
@@ -68,6 +78,9 @@ def shader_defines() -> dict[str, int]:
 
 DROPS_PER_ROW = 1024
 """Rain drops per row of the drop table (two RGBA32F texels each: position, velocity)."""
+
+_SHADED_MODES = (DisplayMode.ADVECTED, DisplayMode.PRE_ADVECTED, DisplayMode.NON_ADVECTED)
+"""The water modes shaded with reflections (the others draw debug colours)."""
 
 _NOTHING = object()
 """A tile uploaded with nothing to draw."""
@@ -94,7 +107,13 @@ class _Gpu:
         self.ripples = gl.Texture((RIPPLE_RING, 1), gl.RGBA32F)
         self.ripples.upload(self.ripples_cpu)
         self.prop_meshes: dict[tuple, gl.Mesh] = {}
-        self.terrain_indices = tile_indices(world.scene.terrain.tile_cells).ravel()
+        # every terrain tile's indices: the full mesh, then the reflection's coarser one
+        cells = world.scene.terrain.tile_cells
+        full = tile_indices(cells).ravel()
+        coarse = tile_indices(cells, TERRAIN_STRIDE if cells % TERRAIN_STRIDE == 0 else 1)
+        self.terrain_indices = np.concatenate([full, coarse.ravel()])
+        self.terrain_ranges = {"full": (len(full), 0), "coarse": (coarse.size, len(full))}
+        """(count, first) of each mesh in the terrain tiles' index buffer."""
         self.tile_meshes: dict[str, dict[int, gl.Mesh]] = {TERRAIN_MESH: {}, WATER_MESH: {}}
         self.empty = gl.Mesh(None, {})           # attribute-less draws (gl_VertexID)
         self.waves: dict[int, tuple[int, gl.Texture]] = {}
@@ -103,6 +122,7 @@ class _Gpu:
         self.params = self.grid = None
         self.params_cpu = self.counts_cpu = self.grid_cpu = None
         self.targets: list = []
+        self.reflection = _Reflection()
         gl.check_errors("creating the river draw resources")
 
     # -- sized resources --------------------------------------------------------------------
@@ -222,7 +242,44 @@ class _Gpu:
                 obj.delete()
         self.waves.clear()
         self.targets = []
+        self.reflection.delete()
 
+
+# -- reflections (issue 12 item 3) -----------------------------------------------------------
+
+REFLECTION_UNIT, REFLECTION_DEPTH_UNIT = 10, 11
+"""Texture units of the reflection's colour and depth while the water is drawn."""
+
+
+class _Reflection:
+    """The planar reflection's render target (colour + depth at a reduced resolution), made
+    on first use and remade when the viewport or the scale changes."""
+
+    def __init__(self) -> None:
+        self.size = (0, 0)
+        self.colour = self.depth = self.fb = None
+
+    def fit(self, width: int, height: int, scale: float) -> None:
+        size = reflection_size(width, height, scale)
+        if size == self.size:
+            return
+        self.delete()
+        # half floats: the mip levels' coverage (alpha) keeps a one-texel prop, which the
+        # march's early out (no coverage near the ray: the sky) relies on
+        self.colour = gl.Texture(size, gl.RGBA16F, levels=gl.mip_levels(*size), linear=True)
+        self.depth = gl.Texture(size, gl.DEPTH24)
+        self.fb = gl.Framebuffer([self.colour], self.depth)
+        self.size = size
+
+    def delete(self) -> None:
+        for obj in (self.fb, self.colour, self.depth):
+            if obj is not None:
+                obj.delete()
+        self.colour = self.depth = self.fb = None
+        self.size = (0, 0)
+
+
+# -- the draw system ---------------------------------------------------------------------------
 
 class DrawRivers(System):
     """Draws the world's current frame into its offscreen framebuffer (see the module doc).
@@ -238,6 +295,9 @@ class DrawRivers(System):
     def __init__(self) -> None:
         self.gpu: _Gpu | None = None
         self.context = None
+        self.last_mirror_level_m: float | None = None
+        """The reflection's mirror height [m] in the last frame (None: no reflection)."""
+        self._mirror_for: tuple[int, float | None] = (-1, None)
         self.last_tables_ms = 0.0
         self._terrain_meshes: list = []
         self.last_tiles = 0
@@ -268,11 +328,14 @@ class DrawRivers(System):
         shared = dict(u_eye_m=tuple(camera.position), u_sun_dir=tuple(SUN_DIRECTION),
                       u_fog_density=float(settings.fog_density_per_m),
                       u_view_projection=vp, u_viewport_px=(float(gpu.size[0]),
-                                                           float(gpu.size[1])))
+                                                           float(gpu.size[1])),
+                      u_clip_water=0.0)   # gl_ClipDistance is honoured even when disabled
         wave_uniforms, wave_tex = self._wave(world, gpu, settings)
         rain = world.resources.get(Rain)
         ripple_uniforms = self._upload_ripples(world, gpu, rain)
         water_meshes = self._tile_meshes(world, gpu)
+        reflection_uniforms = self._draw_reflection(world, gpu, settings, shared,
+                                                    world_from_clip)
 
         gpu.main_fb.bind()
         gl.clear((0.0, 0.0, 0.0, 1.0))
@@ -307,6 +370,7 @@ class DrawRivers(System):
                       u_grid_size=gpu.grid_shape[1:], u_slope_factor=settings.wave_slope_factor,
                       u_clarity_m=settings.water_clarity_m, **tables, **wave_uniforms,
                       **ripple_uniforms)
+            water.set_if_used(**reflection_uniforms)
             gl.set_blend(gl.BLEND_WATER)
             for mesh in water_meshes:
                 mesh.draw()
@@ -416,29 +480,83 @@ class DrawRivers(System):
         return gpu.sync_tiles(tiles, WATER_MESH,
                               standins(cut, tiles.cache.pools[WATER_MESH], skip=dry))
 
-    def _draw_terrain(self, world: RiverWorld, gpu: _Gpu, shared: dict) -> None:
+    def _draw_terrain(self, world: RiverWorld, gpu: _Gpu, shared: dict,
+                      detail: str = "full") -> None:
+        """This frame's terrain tiles, through all their nodes (``detail`` "full") or the
+        reflection's coarser mesh ("coarse")."""
         program = gpu.programs["terrain"]
         program.use()
         program.set_if_used(**shared)
+        count, first = gpu.terrain_ranges[detail]
         for mesh in self._terrain_meshes:
-            mesh.draw()
-        self.last_tiles = len(self._terrain_meshes)
+            mesh.draw(count=count, first=first)
+        if detail == "full":
+            self.last_tiles = len(self._terrain_meshes)
 
-    def _draw_props(self, gpu: _Gpu, shared: dict) -> None:
+    def _draw_props(self, gpu: _Gpu, shared: dict, mirrored: bool = False) -> None:
+        """Every prop; ``mirrored``: in the reflection pass (winding turned, each prop cut
+        at its waterline)."""
         props = esper.get_components(Prop, Pose)
         if not props:
             return
         program = gpu.programs["props"]
         program.use()
         program.set_if_used(**shared)
-        gl.set_cull(True)
+        gl.set_cull(True, mirrored=mirrored)
         for _, (prop, pose) in props:
             model = pose.matrix()
             if not np.isfinite(model).all():
                 continue                    # a bad pose is not drawn, never crashes a frame
             program.set(u_model=np.ascontiguousarray(model.T, np.float32))
+            if mirrored:
+                program.set(u_clip_level_m=float(pose.position_m[2]))
             gpu.prop_mesh(prop).draw()
         gl.set_cull(False)
+
+    # -- reflections (issue 12 item 3) ------------------------------------------------------
+
+    def _draw_reflection(self, world: RiverWorld, gpu: _Gpu, settings: DisplaySettings,
+                         shared: dict, world_from_clip: np.ndarray) -> dict:
+        """The planar reflection pass (``shaders/reflection.glsl``): terrain and props mirrored
+        in the water level nearest the camera, cut at their water level, into the reflection
+        target; returns the water shader's reflection uniforms (``u_reflect`` false, and no
+        pass, when reflections are off, the water mode is not shaded, or the eye is not above
+        the mirror)."""
+        off = {"u_reflect": False, "u_reflection": REFLECTION_UNIT,
+               "u_reflection_depth": REFLECTION_DEPTH_UNIT}
+        self.last_mirror_level_m = None
+        if not settings.reflections or settings.mode not in _SHADED_MODES:
+            return off
+        camera = world.camera
+        eye = camera.position
+        if self._mirror_for[0] != camera.revision:  # a KD-tree query: once per view
+            self._mirror_for = (camera.revision,
+                                mirror_level(getattr(world.scene, "water", None), eye))
+        level = self._mirror_for[1]
+        if level is None or not eye[2] > level + MIN_EYE_HEIGHT_M:
+            return off
+        self.last_mirror_level_m = level
+        reflection = gpu.reflection
+        reflection.fit(*gpu.size, settings.reflection_scale)
+        mirrored_eye = (float(eye[0]), float(eye[1]), 2.0 * level - float(eye[2]))
+        vp = mirrored_view_projection(world.camera.view_projection(np.float64), level)
+        mirrored = {**shared, "u_view_projection": vp.ravel(), "u_eye_m": mirrored_eye,
+                    "u_fog_density": 0.0,          # fogged in the water shader, over the ray
+                    "u_clip_water": 1.0}
+        reflection.fb.bind()
+        gl.clear((0.0, 0.0, 0.0, 0.0))             # alpha 0: the sky (drawn by the water)
+        gl.set_blend(gl.BLEND_OFF)
+        gl.set_depth(True)
+        gl.set_clip_distance(True)
+        self._draw_terrain(world, gpu, mirrored, "coarse")
+        self._draw_props(gpu, mirrored, mirrored=True)
+        gl.set_clip_distance(False)
+        reflection.colour.generate_mipmaps()        # blurred levels for rough water
+        reflection.colour.bind(REFLECTION_UNIT)
+        reflection.depth.bind(REFLECTION_DEPTH_UNIT)
+        return {**off, "u_reflect": True, "u_mirror_level_m": float(level),
+                "u_world_from_clip": np.ascontiguousarray(world_from_clip.T, np.float32),
+                "u_reflection_distortion": float(settings.reflection_distortion)}
 
     def _pre_advect(self, gpu: _Gpu, shared: dict, wave_uniforms: dict,
                     n_slots: int, water_meshes: list) -> None:

@@ -310,22 +310,28 @@ def test_flat_terrain_gets_the_minimum_skirt():
     np.testing.assert_array_equal(mesh.bounds_m, [[100.0, -50.0, -5.0], [164.0, 14.0, 3.0]])
 
 
-@pytest.mark.parametrize("n", [8, 12, 64])
-def test_tile_indices_tile_the_tile_exactly_once_with_outward_skirts(n, rng):
+@pytest.mark.parametrize("n, stride", [(8, 1), (12, 1), (64, 1), (8, 2), (64, 2), (64, 4)])
+def test_tile_indices_tile_the_tile_exactly_once_with_outward_skirts(n, stride, rng):
+    """Also through every stride-th node only (the reflection's coarser mesh of the same
+    vertices): the same ground, the same skirt, stride² fewer triangles."""
     side = n + 1
-    idx = tile_indices(n)
-    assert idx.dtype == np.uint32 and idx.shape == (2 * n * n + 8 * n, 3)
-    assert idx.max() == side * side + 4 * n - 1
+    idx = tile_indices(n, stride)
+    m = n // stride
+    assert idx.dtype == np.uint32 and idx.shape == (2 * m * m + 8 * m, 3)
+    assert idx.max() == side * side + 4 * n - stride
+    used = np.unique(idx)
+    grid_used = used[used < side * side]
+    assert (grid_used // side % stride == 0).all() and (grid_used % side % stride == 0).all()
     xy = np.stack(np.meshgrid(np.arange(side), np.arange(side)), -1).reshape(-1, 2).astype(np.float64)
     bi, bj = border_loop(n)
     xy = np.vstack([xy, np.stack([bi, bj], 1)])
-    grid, skirt = idx[:2 * n * n], idx[2 * n * n:]
+    grid, skirt = idx[:2 * m * m], idx[2 * m * m:]
     assert (grid < side * side).all()
     t = xy[grid]
     area = _cross(t[:, 0], t[:, 1], t[:, 2])
     assert (area > 0).all() and 0.5 * area.sum() == pytest.approx(n * n)
     pts = rng.uniform(0, n, size=(2000, 2))
-    assert (_cover_counts(pts, t, np.zeros(2), 1.0) == 1).all()
+    assert (_cover_counts(pts, t, np.zeros(2), float(stride)) == 1).all()
     # skirts: each quad joins two neighbouring border samples to their copies, facing outward
     assert ((skirt >= side * side).sum(axis=1) >= 1).all()
     assert all(len(row[row < side * side]) in (1, 2) for row in skirt)
@@ -337,6 +343,11 @@ def test_tile_indices_tile_the_tile_exactly_once_with_outward_skirts(n, rng):
     assert (np.einsum("ij,ij->i", normal[:, :2], outward) > 0).all()
     assert np.abs(normal[:, 2]).max() == 0
     assert 0.5 * np.linalg.norm(normal, axis=1).sum() == pytest.approx(4 * n)  # 1 deep, 4n round
+
+
+def test_tile_indices_refuse_a_stride_that_does_not_divide_the_tile():
+    with pytest.raises(ValueError, match="stride"):
+        tile_indices(12, 5)
 
 
 # -- water ---------------------------------------------------------------------------------
