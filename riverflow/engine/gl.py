@@ -265,6 +265,7 @@ RGBA32F = TexFormat(gl.GL_RGBA32F, gl.GL_RGBA, gl.GL_FLOAT, np.float32, 4)
 RG32F = TexFormat(gl.GL_RG32F, gl.GL_RG, gl.GL_FLOAT, np.float32, 2)
 R32F = TexFormat(gl.GL_R32F, gl.GL_RED, gl.GL_FLOAT, np.float32, 1)
 RGBA32I = TexFormat(gl.GL_RGBA32I, gl.GL_RGBA_INTEGER, gl.GL_INT, np.int32, 4, integer=True)
+R32I = TexFormat(gl.GL_R32I, gl.GL_RED_INTEGER, gl.GL_INT, np.int32, 1, integer=True)
 DEPTH24 = TexFormat(gl.GL_DEPTH_COMPONENT24, gl.GL_DEPTH_COMPONENT, gl.GL_FLOAT, np.float32, 1)
 
 

@@ -3,8 +3,8 @@
 Per frame (reference §4; no one-frame latency: the tables are built from this frame's pool):
 
 1. the sprite tables from the particle pool (numba, :mod:`riverflow.kernels.sprites`): the
-   float32 parameter table and the integer indirection grid, uploaded to an RGBA32F and an
-   RGBA32I texture (only the rows in use);
+   float32 sprite table (sorted by screen cell) and the sprite grid (each cell's first entry),
+   uploaded to an RGBA32F texture (only the rows in use) and an R32I texture;
 2. sky (one full-screen triangle), then the terrain tiles of the view's cut (the tile system
    picks them: level of detail by distance; skirts hide the cracks between levels; a tile not
    made yet is stood in for by its finest resident ancestor), then the props (boats,
@@ -41,10 +41,10 @@ from riverflow.components.status import FlowStatus
 from riverflow.components.waves import WaveTile
 from riverflow.engine import gl
 from riverflow.engine.system import System
-from riverflow.kernels.sprites import (MAX_PER_CELL, PARTICLES_PER_ROW, SPRITE_RADIUS_FACTOR,
-                                       TEXELS_PER_PARTICLE, build_sprite_grid,
-                                       empty_sprite_tables, fill_sprite_params,
-                                       sprite_grid_shape, slot_span)
+from riverflow.kernels.sprites import (COVERAGE_FULL, MAX_CANDIDATES, PARTICLES_PER_ROW,
+                                       SPRITE_RADIUS_FACTOR, TEXELS_PER_PARTICLE,
+                                       build_sprite_tables, empty_sprite_tables, grid_texels,
+                                       slot_span, sprite_grid, sprite_source)
 from riverflow.scenes.meshes import tile_indices
 from riverflow.scenes.props import SHAPES
 from riverflow.scenes.tile_kinds import TERRAIN_MESH, WATER_MESH
@@ -61,7 +61,8 @@ SUN_DIRECTION = np.array([-0.45, -0.55, 0.70]) / np.linalg.norm([-0.45, -0.55, 0
 def shader_defines() -> dict[str, int]:
     """The numbers the shaders share with Python and numba."""
     defines = gl.enum_defines(FlowStatus, DisplayMode)
-    defines.update(MAX_PER_CELL=MAX_PER_CELL, PARTICLES_PER_ROW=PARTICLES_PER_ROW,
+    defines.update(COVERAGE_FULL=COVERAGE_FULL, MAX_CANDIDATES=MAX_CANDIDATES,
+                   PARTICLES_PER_ROW=PARTICLES_PER_ROW,
                    TEXELS_PER_PARTICLE=TEXELS_PER_PARTICLE, DROPS_PER_ROW=DROPS_PER_ROW)
     return defines
 
@@ -99,9 +100,9 @@ class _Gpu:
         self.empty = gl.Mesh(None, {})           # attribute-less draws (gl_VertexID)
         self.waves: dict[int, tuple[int, gl.Texture]] = {}
         self.size = (0, 0)
-        self.grid_shape = (1, 1, 1)
+        self.grid_shape = None
         self.params = self.grid = None
-        self.params_cpu = self.counts_cpu = self.grid_cpu = None
+        self.params_cpu = self.cells_cpu = self.scratch = None
         self.targets: list = []
         gl.check_errors("creating the river draw resources")
 
@@ -110,7 +111,7 @@ class _Gpu:
     def fit(self, width: int, height: int, radius_px: float, capacity: int) -> None:
         """(Re)make the framebuffers and sprite tables for a viewport and radius."""
         width, height = max(1, width), max(1, height)
-        shape = sprite_grid_shape(width, height, radius_px)
+        shape = sprite_grid(width, height, radius_px)
         if (width, height) != self.size:
             for obj in self.targets:
                 obj.delete()
@@ -130,15 +131,14 @@ class _Gpu:
             for tex in (self.params, self.grid):
                 if tex is not None:
                     tex.delete()
-            _, gw, gh = shape
-            self.params_cpu, self.counts_cpu, self.grid_cpu = empty_sprite_tables(capacity,
-                                                                                  gw, gh)
+            self.params_cpu, self.cells_cpu, self.scratch = empty_sprite_tables(capacity,
+                                                                                shape)
             rows = self.params_cpu.shape[0]
             self.params = gl.Texture((PARTICLES_PER_ROW * TEXELS_PER_PARTICLE, rows),
                                      gl.RGBA32F)
             self.params.upload(self.params_cpu)
-            self.grid = gl.Texture((gw * MAX_PER_CELL // 4, gh), gl.RGBA32I)
-            self.grid.upload(self.grid_cpu.reshape(gh, -1, 4))
+            self.grid = gl.Texture((shape.gw + 1, shape.gh), gl.R32I)
+            self.grid.upload(grid_texels(self.cells_cpu, shape))
             self.grid_shape = shape
 
     def sync_tiles(self, tiles: Tiles, kind: str, keys: np.ndarray) -> list[gl.Mesh]:
@@ -260,7 +260,7 @@ class DrawRivers(System):
         config = world.config
         gpu.fit(width, height, config.radius_px, world.pool.capacity)
         t0 = time.perf_counter_ns()
-        n_slots = self._upload_tables(world, gpu)
+        n_drawn, n_entries = self._upload_tables(world, gpu)
         self.last_tables_ms = (time.perf_counter_ns() - t0) * 1e-6
 
         vp = camera.view_projection().ravel()
@@ -291,20 +291,23 @@ class DrawRivers(System):
         self._draw_props(gpu, shared)
 
         mode = settings.mode
-        tables = dict(u_params=2, u_grid=3, u_sprite_radius_factor=SPRITE_RADIUS_FACTOR)
+        grid = gpu.grid_shape
+        tables = dict(u_params=2, u_grid=3, u_grid_cell_px=(grid.cell_w, grid.cell_h),
+                      u_grid_margin=(grid.margin_x, grid.margin_y), u_grid_size=(grid.gw, grid.gh),
+                      u_sprite_radius_px=float(SPRITE_RADIUS_FACTOR * config.radius_px))
         gpu.params.bind(2)
         gpu.grid.bind(3)
         wave_tex.bind(1)
         if mode == DisplayMode.PRE_ADVECTED:
-            self._pre_advect(gpu, shared, wave_uniforms, n_slots, water_meshes)
+            self._pre_advect(gpu, shared, wave_uniforms, n_drawn, water_meshes)
         if mode != DisplayMode.NONE:
             water = gpu.programs["water"]
             water.use()
             water.set_if_used(**shared)
             gpu.accum.bind(4)
             water.set(u_wave=1, u_accum=4, u_mode=int(mode),
-                      u_show_grid=bool(settings.show_grid), u_grid_cell_px=float(gpu.grid_shape[0]),
-                      u_grid_size=gpu.grid_shape[1:], u_slope_factor=settings.wave_slope_factor,
+                      u_show_grid=bool(settings.show_grid),
+                      u_slope_factor=settings.wave_slope_factor,
                       u_clarity_m=settings.water_clarity_m, **tables, **wave_uniforms,
                       **ripple_uniforms)
             gl.set_blend(gl.BLEND_WATER)
@@ -312,42 +315,37 @@ class DrawRivers(System):
                 mesh.draw()
         self._draw_rain(gpu, rain, shared)
         gl.set_depth(False, write=False)
-        if settings.show_velocities and n_slots:
+        if settings.show_velocities and n_entries:
             arrows = gpu.programs["arrows"]
             arrows.use()
             arrows.set_if_used(**shared)
             arrows.set(u_params=2, u_arrow_s=float(settings.arrow_s))
             gl.set_blend(gl.BLEND_ALPHA)
-            gpu.empty.draw(gl.LINES, count=6 * n_slots)
-        if settings.show_particles and n_slots:
+            gpu.empty.draw(gl.LINES, count=6 * n_entries)
+        if settings.show_particles and n_entries:
             points = gpu.programs["particles"]
             points.use()
             points.set(u_params=2, u_viewport_px=shared["u_viewport_px"])
             gl.enable_program_point_size()
             gl.set_blend(gl.BLEND_ADD)
-            gpu.empty.draw(gl.POINTS, count=n_slots)
+            gpu.empty.draw(gl.POINTS, count=n_entries)
         gl.set_blend(gl.BLEND_OFF)
         gl.set_depth(False)
 
     # -- passes -----------------------------------------------------------------------------
 
-    def _upload_tables(self, world: RiverWorld, gpu: _Gpu) -> int:
-        """Build this frame's sprite tables and upload them; returns the slots in use."""
+    def _upload_tables(self, world: RiverWorld, gpu: _Gpu) -> tuple[int, int]:
+        """Build this frame's sprite tables and upload them (the sprite table's rows in use,
+        the whole grid); returns (entries drawn on the water, all entries)."""
         pool = world.pool
-        n_slots = int(slot_span(pool.alive))
-        rows = fill_sprite_params(pool.alive, pool.has_world, pool.screen_px, pool.world_m,
-                                  pool.offset_m, pool.intensity, pool.status,
-                                  pool.velocity_mps, float(world.config.radius_px), n_slots,
-                                  gpu.params_cpu)
-        cell_px, gw, gh = gpu.grid_shape
-        build_sprite_grid(pool.alive, pool.has_world, pool.screen_px, pool.intensity,
-                          pool.status, n_slots, SPRITE_RADIUS_FACTOR * world.config.radius_px,
-                          float(cell_px), gw, gh, gpu.counts_cpu, gpu.grid_cpu)
+        n_drawn, n_entries, rows = build_sprite_tables(
+            sprite_source(pool), float(world.config.radius_px), slot_span(pool.alive),
+            gpu.grid_shape, gpu.params_cpu, gpu.cells_cpu, gpu.scratch)
         if rows:
             gpu.params.upload(gpu.params_cpu, rows=rows)
-        gpu.grid.upload(gpu.grid_cpu.reshape(gh, gw * MAX_PER_CELL // 4, 4))
-        self.last_sprites = n_slots
-        return n_slots
+        gpu.grid.upload(grid_texels(gpu.cells_cpu, gpu.grid_shape))
+        self.last_sprites = int(n_drawn)
+        return int(n_drawn), int(n_entries)
 
     def _upload_ripples(self, world: RiverWorld, gpu: _Gpu, rain: Rain | None) -> dict:
         """The water shader's ripple uniforms; the ripple table uploaded (only with rain:
@@ -441,7 +439,7 @@ class DrawRivers(System):
         gl.set_cull(False)
 
     def _pre_advect(self, gpu: _Gpu, shared: dict, wave_uniforms: dict,
-                    n_slots: int, water_meshes: list) -> None:
+                    n_drawn: int, water_meshes: list) -> None:
         # the water's world position where it is visible (depth test against the terrain)
         gpu.position_fb.bind()
         gl.clear((0.0, 0.0, 0.0, 0.0), depth=False)
@@ -455,7 +453,7 @@ class DrawRivers(System):
         gpu.accum_fb.bind()
         gl.clear((0.0, 0.0, 0.0, 0.0), depth=False)
         gl.set_depth(False, write=False)
-        if n_slots:
+        if n_drawn:
             gpu.position.bind(5)
             program = gpu.programs["sprites"]
             program.use()
@@ -463,7 +461,7 @@ class DrawRivers(System):
             program.set(u_water_position=5, u_wave=1, u_params=2,
                         u_sprite_radius_factor=SPRITE_RADIUS_FACTOR, **wave_uniforms)
             gl.set_blend(gl.BLEND_ADD)
-            gpu.empty.draw(gl.TRIANGLES, count=6 * n_slots)
+            gpu.empty.draw(gl.TRIANGLES, count=6 * n_drawn)
             gl.set_blend(gl.BLEND_OFF)
         gpu.main_fb.bind()
         gl.set_depth(True)
