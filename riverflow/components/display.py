@@ -37,8 +37,7 @@ class DisplaySettings:
 
     mode: DisplayMode = DisplayMode.ADVECTED
     show_grid: bool = False
-    """Outline the sprite-grid cells; pixels that left sprites out tinted green (Proland
-    displayGrid tinted its full cells)."""
+    """Outline the sprite-indirection cells; full cells tinted green (Proland displayGrid)."""
     show_particles: bool = False
     """Particles as points coloured by flow status × intensity."""
     show_velocities: bool = False
@@ -93,8 +92,8 @@ MODE_LEGENDS: dict[DisplayMode, list[tuple[Colour | None, str]]] = {
     DisplayMode.COVERAGE: [
         (_rgb(1, 0, 0), "red: wave sprites covering the pixel, brighter = more (full at 16)"),
         (_rgb(0, 1, 0), "green: water no sprite covers (a hole in the particles)"),
-        (_rgb(0, 0, 1), "blue: more sprites near the pixel than it looks at (some left out)"),
-        (_rgb(1, 0, 1), "magenta: covered, some sprites left out (red + blue)"),
+        (_rgb(0, 0, 1), "blue: the pixel's grid cell lists 16 sprites, its most (full)"),
+        (_rgb(1, 0, 1), "magenta: covered and in a full cell (red + blue)"),
     ],
     DisplayMode.ADVECTED: [(None, "wave sprites carried by the flow, blended per pixel")],
     DisplayMode.PRE_ADVECTED: [(None, "the same sprites, summed first into a float target")],
@@ -103,8 +102,8 @@ MODE_LEGENDS: dict[DisplayMode, list[tuple[Colour | None, str]]] = {
 """What each water mode's colours mean (``water.glsl``; the HUD and the README show it)."""
 
 GRID_LEGEND: list[tuple[Colour | None, str]] = [
-    (_rgb(0.8, 0.8, 0.8), "light lines: cells of the sprite grid (sprites sorted by cell)"),
-    (_rgb(0, 1, 0), "green tint: more sprites near the pixel than it looks at (some left out)"),
+    (_rgb(0.8, 0.8, 0.8), "light lines: cells of the sprite grid (each lists up to 16)"),
+    (_rgb(0, 1, 0), "green tint: a full cell (sprites beyond 16 are left out)"),
 ]
 """The sprite-grid overlay (``water.glsl``, ``u_show_grid``)."""
 

@@ -1,10 +1,13 @@
-"""The GPU tables of the per-pixel sprite blending, rebuilt on the CPU each frame.
+"""The GPU tables of the per-pixel sprite blending: the CPU sorts, the GPU lists.
 
-Re-does the two tables of Proland's ``DrawRiversTask`` (reference §4.2–4.3) in a form that
-costs the CPU one counting sort instead of inserting every sprite in every cell it touches;
-another module uploads them to textures and the water fragment shader reads them:
+Re-does the two tables of Proland's ``DrawRiversTask`` (reference §4.2–4.3). Proland filled
+the sprite indirection grid on the CPU, every sprite into every cell its disc touches (~40 cells
+of r px each, ~6× the particles); here the CPU only sorts the sprites by screen bin (one
+counting sort, :func:`build_sprite_tables`) and a GPU pass (``sprite_lists.glsl``) gathers each
+grid cell's list from the bins around it. What the CPU uploads is the sprite table (the rows in
+use) and 4 bytes a bin, not the 64 bytes a cell of the grid:
 
-* **sprite table** (RGBA32F, ``PARTICLES_PER_ROW`` sprites a row, ``TEXELS_PER_PARTICLE``
+* **sprite table** (RGBA32F, ``PARTICLES_PER_ROW`` entries a row, ``TEXELS_PER_PARTICLE``
   texels each): entry ``e`` is at row ``e // 256``, texels ``3·(e % 256) + 0..2``:
 
   ====== ============ ============ ============ ============
@@ -17,33 +20,33 @@ another module uploads them to textures and the water fragment shader reads them
 
   The entries are the particles with a usable position (alive, with a world position, finite
   screen, world and intensity values after the cast to float32), in this order: first the
-  ``n_drawn`` *drawn* ones (INSIDE or LEAVING, intensity > 0, centre in the sprite grid below:
-  the sprites of the water), sorted by grid cell (row-major) and by slot within a cell; then
-  the other usable ones (for the particle and arrow overlays), in slot order. Entries after
-  the last, up to the end of its row, are free (all zeros but status = −1), so that whole rows
-  can be uploaded. Proland kept one row per slot in RGBA16F (~0.25 m steps at 300 m); 256 a row
-  keep the texture within GL size limits for any pool, and RGBA32F keeps world positions to
-  ≤ 1 mm steps within ±8 km. The layout is written in one place (``_write_entry``) and read in
-  one (``params.glsl``): a value per sprite more is a texel more (``TEXELS_PER_PARTICLE``).
+  ``n_drawn`` *drawn* ones (INSIDE or LEAVING, intensity > 0, centre in a bin: the sprites of
+  the water), sorted by bin (row-major) and by slot within a bin; then the other usable ones
+  (for the particle and arrow overlays), in slot order. Entries after the last, up to the end
+  of its row, are free (all zeros but status = −1), so that whole rows can be uploaded. Proland
+  kept one row per slot in RGBA16F (~0.25 m steps at 300 m); 256 a row keep the texture within
+  GL size limits for any pool, and RGBA32F keeps world positions to ≤ 1 mm steps within ±8 km.
+  The layout is written in one place (``_write_entry``) and read in one (``params.glsl``): a
+  value per sprite more is a texel more (``TEXELS_PER_PARTICLE``).
 
-* **sprite grid** (R32I, ``gw + 1`` × ``gh``): screen cells of ``cell_w`` × ``cell_h`` pixels,
-  with ``margin_x``, ``margin_y`` cells more on each side (drawn sprites whose centre is off
-  screen but whose disc reaches into it); cell (cx, cy) covers x in
-  [(cx − margin_x)·cell_w, (cx − margin_x + 1)·cell_w), likewise y, row 0 at the bottom (like
-  ``gl_FragCoord``). Texel (cx, cy) holds the first entry of cell (cx, cy), texel (gw, cy) the
-  end of row cy's entries: the drawn sprites whose centres lie in cells cx0..cx1 of row cy are
-  the entries [grid[cy, cx0], grid[cy, cx1 + 1]) (one range: the table is sorted row-major).
+* **sprite bins** (R32I, ``bw + 1`` × ``bh``, :class:`SpriteBins`): screen bins of ``bin_w`` ×
+  ``bin_h`` px, with ``margin_x``, ``margin_y`` bins more beyond each screen edge (sprites whose
+  centre is off screen but whose disc reaches into it); bin (bx, by) covers x in
+  [(bx − margin_x)·bin_w, (bx − margin_x + 1)·bin_w), likewise y, row 0 at the bottom (like
+  ``gl_FragCoord``). Texel (bx, by) holds the bin's first entry, texel (bw, by) the end of row
+  by's entries: the drawn sprites whose centres lie in bins bx0..bx1 of row by are the entries
+  [bins[by, bx0], bins[by, bx1 + 1]) (one range: the table is sorted row-major).
 
-A pixel finds the sprites that cover it (disc of radius ``SPRITE_RADIUS_FACTOR``·r around
-their centre) by visiting the cell rows within that radius and, in each, the range of the
-cells that the disc's chord at that row meets (``sprites.glsl``'s ``sprite_rows`` /
-``sprite_range``). Proland inserted each sprite in every cell its disc touches, up to 16 a
-cell, and the CPU paid per touched cell (~40 at Proland-like cells of r, ~6× the particles):
-here it pays per particle, every covering sprite is found (no cap of 16), and what the upload
-carries is the sprite table plus 4 bytes a cell. Cells of ``CELL_W_FACTOR``·r ×
-``CELL_H_FACTOR``·r px (``sprite_grid``): wide rows cost the shader fewer range look-ups (two
-texel fetches a row, ~3 rows), narrow columns fewer candidates tested (~12 centres a pixel,
-~6 of them covering; Poisson disk ~0.87 particles per (2r)²).
+* **sprite grid** (made on the GPU: RGBA32I, 4 layers of gw × gh, ``sprite_grid_shape``):
+  screen cells of r px; cell (cx, cy) lists in layers 0..3 of texel (cx, cy) up to
+  ``MAX_PER_CELL`` (16) entries of the sprite table whose sprite disc (radius
+  ``SPRITE_RADIUS_FACTOR``·r) meets the cell, then ``NO_PARTICLE`` (−1); a cell that more
+  sprites meet keeps the 16 brightest. The water shader's per-pixel loop reads it as Proland's
+  did. Cells of r px, where Proland used r/2: particles sit ~2.14 r apart (Poisson disk, ~0.87
+  per (2r)²); a cell of side c is touched by every sprite whose centre lies within 3r of it, an
+  area c² + 4·c·3r + π(3r)² = 41.3 r² for c = r, so ~9 sprites on average, safely under 16.
+  An integer cell lets the shader find its cell exactly: ``ivec2(gl_FragCoord.xy) / cell``
+  (pixel centres are at i + 0.5, as in ``screen_px``), clamped to the grid.
 """
 from __future__ import annotations
 
@@ -63,17 +66,14 @@ TEXELS_PER_PARTICLE = 3
 SPRITE_RADIUS_FACTOR = 3.0
 """Sprite disc radius in units of the particle radius r (Proland ``riverParticleRadiusFactor``)."""
 NO_PARTICLE = -1
-"""The status written into a free entry of the sprite table."""
-CELL_W_FACTOR = 1.0
-"""Sprite grid cell width in units of r (at least 1 px)."""
-CELL_H_FACTOR = 3.0
-"""Sprite grid cell height in units of r (at least 1 px)."""
-MAX_CANDIDATES = 128
-"""Sprite centres a pixel looks at, at most (~12 in a Poisson disk of radius r; the bound only
-keeps a pathological pile of particles from stalling the GPU: the coverage and grid modes
-show where it was reached)."""
-COVERAGE_FULL = 16
-"""The coverage mode's red is the covering sprites / this (Proland's 16 a cell)."""
+"""The grid's list terminator, and the status written into a free entry of the sprite table."""
+MAX_PER_CELL = 16
+"""Sprite table entries a grid cell lists (4 RGBA32I layers)."""
+BIN_W_FACTOR = 1.0
+"""Sprite bin width in units of r (at least 1 px)."""
+BIN_H_FACTOR = 3.0
+"""Sprite bin height in units of r (at least 1 px): a grid cell of r px gathers from ~4 bin
+rows, one range of entries each."""
 
 STATUS_INSIDE = int(FlowStatus.INSIDE)
 STATUS_LEAVING = int(FlowStatus.LEAVING)
@@ -104,42 +104,58 @@ def sprite_source(pool) -> SpriteSource:
                         pool.intensity, pool.status, pool.velocity_mps)
 
 
-class SpriteGrid(NamedTuple):
-    """Shape of the sprite grid: cells of ``cell_w`` × ``cell_h`` px, ``margin_x``,
-    ``margin_y`` cells beyond each screen edge, ``gw`` × ``gh`` cells in all (margins
-    included); the R32I texture is (gw + 1) × gh."""
+class SpriteBins(NamedTuple):
+    """Shape of the sprite bins: bins of ``bin_w`` × ``bin_h`` px, ``margin_x``, ``margin_y``
+    bins beyond each screen edge, ``bw`` × ``bh`` bins in all (margins included); the R32I
+    texture is (bw + 1) × bh."""
 
-    cell_w: int
-    cell_h: int
+    bin_w: int
+    bin_h: int
     margin_x: int
     margin_y: int
-    gw: int
-    gh: int
+    bw: int
+    bh: int
 
 
-def _cell_side(factor: float, radius_px: float) -> int:
-    return max(1, math.floor(factor * radius_px)) if is_finite(radius_px) else 1
+def _side(factor: float, radius_px: float) -> int:
+    return max(1, math.floor(factor * radius_px))
 
 
-def sprite_grid(width_px: float, height_px: float, radius_px: float) -> SpriteGrid:
-    """The sprite grid of a ``width_px`` × ``height_px`` viewport and particle radius
-    ``radius_px`` (sprites are 3r): cells of ⌊``CELL_W_FACTOR``·r⌋ × ⌊``CELL_H_FACTOR``·r⌋
-    px (at least 1 px each; 1 px for a non-finite radius), margins of ⌈3r / cell⌉ + 1 cells,
-    ``gw = ⌈W / cell_w⌉ + 2·margin_x`` (likewise ``gh``); a zero-size viewport has no screen
-    cells, only margins."""
+def sprite_grid_shape(width_px: float, height_px: float, radius_px: float) -> tuple[int, int, int]:
+    """(cell_px, gw, gh) of the sprite grid for a ``width_px`` × ``height_px`` viewport
+    and particle radius ``radius_px`` (sprites are 3r): cells of ⌊r⌋ px (at least 1 px; 1 px
+    for a zero or non-finite radius), ``gw = ⌈W / cell⌉``, ``gh = ⌈H / cell⌉``, at least 1
+    each (a zero-size viewport gets a 1 × 1 grid)."""
     r = float(radius_px)
-    r = r if is_finite(r) and r > 0 else 0.0
-    cell_w = _cell_side(CELL_W_FACTOR, r)
-    cell_h = _cell_side(CELL_H_FACTOR, r)
-    reach = SPRITE_RADIUS_FACTOR * r
-    margin_x = math.ceil(reach / cell_w) + 1
-    margin_y = math.ceil(reach / cell_h) + 1
+    cell = math.floor(r) if is_finite(r) and r >= 1.0 else 1
     w = float(width_px)
     h = float(height_px)
     w = w if is_finite(w) and w > 0 else 0.0
     h = h if is_finite(h) and h > 0 else 0.0
-    return SpriteGrid(cell_w, cell_h, margin_x, margin_y,
-                      math.ceil(w / cell_w) + 2 * margin_x, math.ceil(h / cell_h) + 2 * margin_y)
+    gw = max(1, math.ceil(w / cell))
+    gh = max(1, math.ceil(h / cell))
+    return cell, gw, gh
+
+
+def sprite_bins(width_px: float, height_px: float, radius_px: float) -> SpriteBins:
+    """The sprite bins of a ``width_px`` × ``height_px`` viewport and particle radius
+    ``radius_px`` (sprites are 3r): bins of ⌊``BIN_W_FACTOR``·r⌋ × ⌊``BIN_H_FACTOR``·r⌋ px (at
+    least 1 px each; a non-finite or negative radius counts as 0), margins of ⌈3r / bin⌉ + 1
+    bins, ``bw = ⌈W / bin_w⌉ + 2·margin_x`` (likewise ``bh``); a zero-size viewport has no
+    screen bins, only margins."""
+    r = float(radius_px)
+    r = r if is_finite(r) and r > 0 else 0.0
+    bin_w = _side(BIN_W_FACTOR, r)
+    bin_h = _side(BIN_H_FACTOR, r)
+    reach = SPRITE_RADIUS_FACTOR * r
+    margin_x = math.ceil(reach / bin_w) + 1
+    margin_y = math.ceil(reach / bin_h) + 1
+    w = float(width_px)
+    h = float(height_px)
+    w = w if is_finite(w) and w > 0 else 0.0
+    h = h if is_finite(h) and h > 0 else 0.0
+    return SpriteBins(bin_w, bin_h, margin_x, margin_y,
+                      math.ceil(w / bin_w) + 2 * margin_x, math.ceil(h / bin_h) + 2 * margin_y)
 
 
 def param_table_rows(n_entries: int) -> int:
@@ -147,22 +163,22 @@ def param_table_rows(n_entries: int) -> int:
     return (max(int(n_entries), 0) + PARTICLES_PER_ROW - 1) // PARTICLES_PER_ROW
 
 
-def empty_sprite_tables(capacity: int, grid: SpriteGrid) -> tuple[np.ndarray, np.ndarray,
+def empty_sprite_tables(capacity: int, bins: SpriteBins) -> tuple[np.ndarray, np.ndarray,
                                                                   np.ndarray]:
-    """Allocate (params, cells, scratch) for a pool of ``capacity`` slots and ``grid``:
-    params (rows, 768, 4) float32 zeros (at least one row); cells (gh·(gw + 1) + 2,) int32
-    zeros, whose first gh·(gw + 1) values are the grid texture ((gh, gw + 1) row-major:
-    :func:`grid_texels`); scratch (capacity,) int32 (each slot's cell while the tables are
+    """Allocate (params, starts, scratch) for a pool of ``capacity`` slots and ``bins``:
+    params (rows, 768, 4) float32 zeros (at least one row); starts (bh·(bw + 1) + 2,) int32
+    zeros, whose first bh·(bw + 1) values are the bins texture ((bh, bw + 1) row-major:
+    :func:`bin_texels`); scratch (capacity,) int32 (each slot's bin while the tables are
     built)."""
     rows = max(param_table_rows(capacity), 1)
     params = np.zeros((rows, _TEXELS_PER_ROW, 4), np.float32)
-    cells = np.zeros(grid.gh * (grid.gw + 1) + 2, np.int32)
-    return params, cells, np.zeros(max(int(capacity), 1), np.int32)
+    starts = np.zeros(bins.bh * (bins.bw + 1) + 2, np.int32)
+    return params, starts, np.zeros(max(int(capacity), 1), np.int32)
 
 
-def grid_texels(cells: np.ndarray, grid: SpriteGrid) -> np.ndarray:
-    """The (gh, gw + 1) grid texture held by ``cells`` (a view)."""
-    return cells[:grid.gh * (grid.gw + 1)].reshape(grid.gh, grid.gw + 1)
+def bin_texels(starts: np.ndarray, bins: SpriteBins) -> np.ndarray:
+    """The (bh, bw + 1) bins texture held by ``starts`` (a view)."""
+    return starts[:bins.bh * (bins.bw + 1)].reshape(bins.bh, bins.bw + 1)
 
 
 @njit(**JIT_OPTIONS)
@@ -220,23 +236,23 @@ def _usable(src, i):
 
 
 @njit(**JIT_OPTIONS)
-def build_sprite_tables(src, radius_px, n_slots, grid, params, cells, scratch):
-    """Write this frame's sprite table ``params`` and sprite grid ``cells`` (module docstring)
+def build_sprite_tables(src, radius_px, n_slots, bins, params, starts, scratch):
+    """Write this frame's sprite table ``params`` and bin starts ``starts`` (module docstring)
     from slots [0, ``n_slots``) of ``src`` (a :class:`SpriteSource`).
 
-    ``radius_px`` r [px] (written into every entry; non-finite → 0); ``grid`` a
-    :class:`SpriteGrid`; ``params`` (rows, 768, 4) float32; ``cells`` (≥ gh·(gw + 1) + 2,)
-    int32 (:func:`empty_sprite_tables`; texel (cx, cy) is ``cells[cy·(gw + 1) + cx]``);
+    ``radius_px`` r [px] (written into every entry; non-finite → 0); ``bins`` a
+    :class:`SpriteBins`; ``params`` (rows, 768, 4) float32; ``starts`` (≥ bh·(bw + 1) + 2,)
+    int32 (:func:`empty_sprite_tables`; texel (bx, by) is ``starts[by·(bw + 1) + bx]``);
     ``scratch`` (≥ n_slots,) int32. ``n_slots`` is clamped to the columns and to ``scratch``;
-    entries beyond ``params``' rows are dropped (undrawn ones first), the grid clamped to them.
-    A non-positive cell size or a non-positive or non-finite radius draws nothing (every
-    usable entry goes to the tail). Returns (n_drawn, n_entries, rows): the drawn entries
+    entries beyond ``params``' rows are dropped (undrawn ones first), the bins clamped to them.
+    A non-positive bin size or a non-positive or non-finite radius draws nothing (every usable
+    entry goes to the tail). Returns (n_drawn, n_entries, rows): the drawn entries
     [0, n_drawn), all entries [0, n_entries), the table rows written (whole rows, the last one
     padded with free entries).
 
-    One counting sort: each slot's cell, the cells' starts (an exclusive prefix sum, kept
-    one place ahead so that the scatter's cursors end as the starts), the entries scattered
-    in slot order (stable).
+    One stable counting sort: each slot's bin; the bins' starts (a prefix sum kept one place
+    ahead, so that the scatter's cursors end as the starts); the entries scattered in slot
+    order. Two passes over the slots and one over the bins: no per-cell work.
     """
     n = min(n_slots, src.alive.shape[0], src.has_world.shape[0], src.screen_px.shape[0],
             src.world_m.shape[0], src.offset_m.shape[0], src.intensity.shape[0],
@@ -245,21 +261,21 @@ def build_sprite_tables(src, radius_px, n_slots, grid, params, cells, scratch):
     capacity = params.shape[0] * PARTICLES_PER_ROW
     if params.shape[1] < _TEXELS_PER_ROW or params.shape[2] < 4:
         capacity = 0
-    gw = grid.gw
-    gh = grid.gh
-    stride = gw + 1
-    size = gh * stride
-    if gw <= 0 or gh <= 0 or cells.shape[0] < size + 2:
-        gw = gh = stride = size = 0
+    bw = bins.bw
+    bh = bins.bh
+    stride = bw + 1
+    size = bh * stride
+    if bw <= 0 or bh <= 0 or starts.shape[0] < size + 2:
+        bw = bh = stride = size = 0
     radius = np.float64(radius_px)
     r = _finite_or_zero(np.float32(radius_px))
-    cw = np.float64(grid.cell_w)
-    ch = np.float64(grid.cell_h)
-    drawing = size > 0 and cw > 0 and ch > 0 and radius > 0 and is_finite(radius)
-    for k in range(min(cells.shape[0], size + 2)):
-        cells[k] = 0
+    bin_w = np.float64(bins.bin_w)
+    bin_h = np.float64(bins.bin_h)
+    drawing = size > 0 and bin_w > 0 and bin_h > 0 and radius > 0 and is_finite(radius)
+    for k in range(min(starts.shape[0], size + 2)):
+        starts[k] = 0
 
-    # 1. each slot's cell (≥ 0: drawn; −1: not usable; −2: usable, not drawn); counts at k + 2
+    # 1. each slot's bin (≥ 0: drawn; −1: not usable; −2: usable, not drawn); counts at k + 2
     n_usable = 0
     for i in range(n):
         if not _usable(src, i):
@@ -272,35 +288,35 @@ def build_sprite_tables(src, radius_px, n_slots, grid, params, cells, scratch):
         s = src.status[i]
         if (s != STATUS_INSIDE and s != STATUS_LEAVING) or not src.intensity[i] > 0:
             continue
-        fx = math.floor(np.float64(np.float32(src.screen_px[i, 0])) / cw) + grid.margin_x
-        fy = math.floor(np.float64(np.float32(src.screen_px[i, 1])) / ch) + grid.margin_y
-        if fx < 0 or fy < 0 or fx >= gw or fy >= gh:
+        fx = math.floor(np.float64(np.float32(src.screen_px[i, 0])) / bin_w) + bins.margin_x
+        fy = math.floor(np.float64(np.float32(src.screen_px[i, 1])) / bin_h) + bins.margin_y
+        if fx < 0 or fy < 0 or fx >= bw or fy >= bh:
             continue
         k = int(fy) * stride + int(fx)
         scratch[i] = k
-        cells[k + 2] += 1
-    # 2. cells[k + 1] = start of cell k (row ends, never counted, get the next row's start)
+        starts[k + 2] += 1
+    # 2. starts[k + 1] = first entry of bin k (row ends, never counted, get the next row's)
     for k in range(2, size + 2):
-        cells[k] += cells[k - 1]
-    n_drawn = cells[size + 1] if size > 0 else 0
-    # 3. scatter: drawn entries by cell, then the others; cursors cells[k + 1] end as the
-    #    starts of cell k + 1, so that cells[k] is the start of cell k
+        starts[k] += starts[k - 1]
+    n_drawn = starts[size + 1] if size > 0 else 0
+    # 3. scatter: drawn entries by bin, then the others; the cursors starts[k + 1] end as the
+    #    first entries of bin k + 1, so that starts[k] is the first entry of bin k
     tail = n_drawn
     for i in range(n):
         k = scratch[i]
         if k == -1:
             continue
         if k >= 0:
-            e = cells[k + 1]
-            cells[k + 1] = e + 1
+            e = starts[k + 1]
+            starts[k + 1] = e + 1
         else:
             e = tail
             tail += 1
         if e < capacity:
             _write_entry(params, e, src, i, r)
-    if n_drawn > capacity:      # a table too small for the pool: the grid stops at its end
+    if n_drawn > capacity:      # a table too small for the pool: the bins stop at its end
         for k in range(size):
-            cells[k] = min(cells[k], capacity)
+            starts[k] = min(starts[k], capacity)
     n_entries = min(n_usable, capacity)
     n_drawn = min(n_drawn, capacity)
     rows = (n_entries + PARTICLES_PER_ROW - 1) // PARTICLES_PER_ROW

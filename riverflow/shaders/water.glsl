@@ -29,36 +29,38 @@ void main() {
 #include "wave.glsl"
 #include "params.glsl"
 #include "ripples.glsl"
-#include "sprite_grid.glsl"
 
 uniform int u_mode;                 // DISPLAY_MODE_*
 uniform bool u_show_grid;
+uniform isampler2DArray u_grid;     // sprite lists: cell (cx, cy) = texel (cx, cy) of layers 0..3
+uniform float u_grid_cell_px;
+uniform ivec2 u_grid_size;          // cells (gw, gh)
+uniform float u_sprite_radius_factor;
 uniform sampler2D u_accum;          // pre-advected sums (w·slope.x, w·slope.y, w², 1)
 uniform float u_slope_factor;
 uniform float u_clarity_m;
 
-// Blend the sprites that cover this pixel: returns (A.x, A.y, B = sum w^2, covering).
-// full = the pixel had more than MAX_CANDIDATES sprite centres near it (the rest were skipped).
+// Blend the sprites listed in this pixel's cell: returns (A.x, A.y, B = sum w^2, covering).
+// full = the cell's list holds MAX_PER_CELL particles.
 vec4 blend_sprites(vec2 uv_dx, vec2 uv_dy, out bool full) {
-    vec2 st = gl_FragCoord.xy;
+    ivec2 cell = clamp(ivec2(gl_FragCoord.xy / u_grid_cell_px), ivec2(0), u_grid_size - 1);
     vec2 A = vec2(0.0);
     float B = 0.0;
     float covering = 0.0;
-    int budget = MAX_CANDIDATES;
-    full = false;
-    ivec2 rows = sprite_rows(st);
-    for (int cy = rows.x; cy <= rows.y; ++cy) {
-        ivec2 range = sprite_range(st, cy);
-        int end = min(range.y, range.x + budget);
-        full = full || end < range.y;
-        budget -= max(end - range.x, 0);
-        for (int id = range.x; id < end; ++id) {
+    int listed = 0;
+    for (int t = 0; t < MAX_PER_CELL / 4; ++t) {
+        ivec4 ids = texelFetch(u_grid, ivec3(cell, t), 0);
+        for (int k = 0; k < 4; ++k) {
+            int id = ids[k];
+            if (id < 0) { t = MAX_PER_CELL; break; }
+            ++listed;
             vec4 p0 = sprite_param(id, 0);
-            float s = length(st - p0.xy) / u_sprite_radius_px;
+            vec4 p1 = sprite_param(id, 1);
+            if (p1.z <= 0.0) continue;     // a slot written free (non-finite world position)
+            float s = length(gl_FragCoord.xy - p0.xy) / (p1.w * u_sprite_radius_factor);
             if (s < 1.0) {
                 covering += 1.0;
                 if (u_mode == DISPLAY_MODE_ADVECTED) {
-                    vec4 p1 = sprite_param(id, 1);
                     vec2 uv = (v_world.xy - p0.zw + p1.xy) / u_wave_length_m;
                     float w = fade5(1.0 - s) * fade5(p1.z);
                     A += w * wave_slopes(uv, uv_dx, uv_dy);
@@ -67,6 +69,7 @@ vec4 blend_sprites(vec2 uv_dx, vec2 uv_dy, out bool full) {
             }
         }
     }
+    full = listed >= MAX_PER_CELL;
     return vec4(A, B, covering);
 }
 
@@ -84,7 +87,7 @@ void main() {
     bool found = false;
     if (u_mode == DISPLAY_MODE_COVERAGE) {
         vec4 b = blend_sprites(uv_dx, uv_dy, full);
-        frag = vec4(min(b.w / float(COVERAGE_FULL), 1.0), b.w == 0.0 ? 1.0 : 0.0,
+        frag = vec4(min(b.w / float(MAX_PER_CELL), 1.0), b.w == 0.0 ? 1.0 : 0.0,
                     full ? 1.0 : 0.0, 0.0);
         return;
     } else if (u_mode == DISPLAY_MODE_ADVECTED) {
@@ -117,8 +120,8 @@ void main() {
     float through = (1.0 - fresnel) * clarity;             // share of the bed seen through
     vec3 colour = (1.0 - fog) * added + fog * FOG_COLOUR * (1.0 - through);
     if (u_show_grid) {
-        ivec2 f = ivec2(gl_FragCoord.xy) % u_grid_cell_px;     // cell borders: 1 px lines
-        if (any(equal(f, ivec2(0)))) colour += vec3(0.2);
+        vec2 f = fract(gl_FragCoord.xy / u_grid_cell_px);
+        if (any(greaterThan(abs(f - 0.5), vec2(0.4)))) colour += vec3(0.2);
         if (full) colour = mix(colour, vec3(0.0, 1.0, 0.0), 0.35);
     }
     frag = vec4(colour, through);

@@ -3,8 +3,10 @@
 Per frame (reference §4; no one-frame latency: the tables are built from this frame's pool):
 
 1. the sprite tables from the particle pool (numba, :mod:`riverflow.kernels.sprites`): the
-   float32 sprite table (sorted by screen cell) and the sprite grid (each cell's first entry),
-   uploaded to an RGBA32F texture (only the rows in use) and an R32I texture;
+   float32 sprite table, sorted by screen bin, and each bin's first entry, uploaded to an
+   RGBA32F texture (only the rows in use) and an R32I texture; then, in the modes that blend
+   sprites per pixel, the sprite grid made from them on the GPU (``sprite_lists.glsl``: each
+   cell of r px lists up to 16 sprites, in an RGBA32I array texture);
 2. sky (one full-screen triangle), then the terrain tiles of the view's cut (the tile system
    picks them: level of detail by distance; skirts hide the cracks between levels; a tile not
    made yet is stood in for by its finest resident ancestor), then the props (boats,
@@ -41,10 +43,10 @@ from riverflow.components.status import FlowStatus
 from riverflow.components.waves import WaveTile
 from riverflow.engine import gl
 from riverflow.engine.system import System
-from riverflow.kernels.sprites import (COVERAGE_FULL, MAX_CANDIDATES, PARTICLES_PER_ROW,
-                                       SPRITE_RADIUS_FACTOR, TEXELS_PER_PARTICLE,
-                                       build_sprite_tables, empty_sprite_tables, grid_texels,
-                                       slot_span, sprite_grid, sprite_source)
+from riverflow.kernels.sprites import (MAX_PER_CELL, NO_PARTICLE, PARTICLES_PER_ROW,
+                                       SPRITE_RADIUS_FACTOR, TEXELS_PER_PARTICLE, bin_texels,
+                                       build_sprite_tables, empty_sprite_tables, slot_span,
+                                       sprite_bins, sprite_grid_shape, sprite_source)
 from riverflow.scenes.meshes import tile_indices
 from riverflow.scenes.props import SHAPES
 from riverflow.scenes.tile_kinds import TERRAIN_MESH, WATER_MESH
@@ -61,7 +63,7 @@ SUN_DIRECTION = np.array([-0.45, -0.55, 0.70]) / np.linalg.norm([-0.45, -0.55, 0
 def shader_defines() -> dict[str, int]:
     """The numbers the shaders share with Python and numba."""
     defines = gl.enum_defines(FlowStatus, DisplayMode)
-    defines.update(COVERAGE_FULL=COVERAGE_FULL, MAX_CANDIDATES=MAX_CANDIDATES,
+    defines.update(MAX_PER_CELL=MAX_PER_CELL, NO_PARTICLE=NO_PARTICLE,
                    PARTICLES_PER_ROW=PARTICLES_PER_ROW,
                    TEXELS_PER_PARTICLE=TEXELS_PER_PARTICLE, DROPS_PER_ROW=DROPS_PER_ROW)
     return defines
@@ -85,6 +87,7 @@ class _Gpu:
             "water": gl.Program("water.glsl", defines),
             "water_position": gl.Program("water.glsl", {**defines, "POSITION_PASS": 1}),
             "sprites": gl.Program("sprites.glsl", defines),
+            "sprite_lists": gl.Program("sprite_lists.glsl", defines),
             "particles": gl.Program("particles.glsl", defines),
             "arrows": gl.Program("arrows.glsl", defines),
             "props": gl.Program("props.glsl", defines),
@@ -100,9 +103,10 @@ class _Gpu:
         self.empty = gl.Mesh(None, {})           # attribute-less draws (gl_VertexID)
         self.waves: dict[int, tuple[int, gl.Texture]] = {}
         self.size = (0, 0)
-        self.grid_shape = None
-        self.params = self.grid = None
-        self.params_cpu = self.cells_cpu = self.scratch = None
+        self.grid_shape = (1, 1, 1)
+        self.bins_shape = None
+        self.params = self.bins = self.grid = self.grid_fb = None
+        self.params_cpu = self.starts_cpu = self.scratch = None
         self.targets: list = []
         gl.check_errors("creating the river draw resources")
 
@@ -111,7 +115,7 @@ class _Gpu:
     def fit(self, width: int, height: int, radius_px: float, capacity: int) -> None:
         """(Re)make the framebuffers and sprite tables for a viewport and radius."""
         width, height = max(1, width), max(1, height)
-        shape = sprite_grid(width, height, radius_px)
+        bins = sprite_bins(width, height, radius_px)
         if (width, height) != self.size:
             for obj in self.targets:
                 obj.delete()
@@ -126,19 +130,29 @@ class _Gpu:
             self.targets = [self.main_fb, self.position_fb, self.accum_fb, colour, depth,
                             position, accum]
             self.size = (width, height)
-        if self.params_cpu is None or shape != self.grid_shape \
+        if self.params_cpu is None or bins != self.bins_shape \
                 or self.params_cpu.shape[0] * PARTICLES_PER_ROW < capacity:
-            for tex in (self.params, self.grid):
+            for tex in (self.params, self.bins):
                 if tex is not None:
                     tex.delete()
-            self.params_cpu, self.cells_cpu, self.scratch = empty_sprite_tables(capacity,
-                                                                                shape)
+            self.params_cpu, self.starts_cpu, self.scratch = empty_sprite_tables(capacity, bins)
             rows = self.params_cpu.shape[0]
             self.params = gl.Texture((PARTICLES_PER_ROW * TEXELS_PER_PARTICLE, rows),
                                      gl.RGBA32F)
             self.params.upload(self.params_cpu)
-            self.grid = gl.Texture((shape.gw + 1, shape.gh), gl.R32I)
-            self.grid.upload(grid_texels(self.cells_cpu, shape))
+            self.bins = gl.Texture((bins.bw + 1, bins.bh), gl.R32I)
+            self.bins.upload(bin_texels(self.starts_cpu, bins))
+            self.bins_shape = bins
+        shape = sprite_grid_shape(width, height, radius_px)
+        if self.grid is None or shape != self.grid_shape:
+            for obj in (self.grid_fb, self.grid):
+                if obj is not None:
+                    obj.delete()
+            _, gw, gh = shape
+            layers = MAX_PER_CELL // 4
+            self.grid = gl.Texture((gw, gh), gl.RGBA32I, layers=layers)
+            self.grid.upload(np.full((layers, gh, gw, 4), NO_PARTICLE, np.int32))
+            self.grid_fb = gl.Framebuffer([(self.grid, k) for k in range(layers)])
             self.grid_shape = shape
 
     def sync_tiles(self, tiles: Tiles, kind: str, keys: np.ndarray) -> list[gl.Mesh]:
@@ -216,7 +230,8 @@ class _Gpu:
                 if mesh is not _NOTHING:
                     mesh.delete()
             meshes.clear()
-        for obj in [self.empty, self.params, self.grid, self.drops, self.ripples, *self.targets,
+        for obj in [self.empty, self.params, self.bins, self.grid_fb, self.grid, self.drops,
+                    self.ripples, *self.targets,
                     *(tex for _, tex in self.waves.values())]:
             if obj is not None:
                 obj.delete()
@@ -261,6 +276,8 @@ class DrawRivers(System):
         gpu.fit(width, height, config.radius_px, world.pool.capacity)
         t0 = time.perf_counter_ns()
         n_drawn, n_entries = self._upload_tables(world, gpu)
+        if settings.mode in (DisplayMode.ADVECTED, DisplayMode.COVERAGE):
+            self._make_grid(gpu, config.radius_px)
         self.last_tables_ms = (time.perf_counter_ns() - t0) * 1e-6
 
         vp = camera.view_projection().ravel()
@@ -291,10 +308,7 @@ class DrawRivers(System):
         self._draw_props(gpu, shared)
 
         mode = settings.mode
-        grid = gpu.grid_shape
-        tables = dict(u_params=2, u_grid=3, u_grid_cell_px=(grid.cell_w, grid.cell_h),
-                      u_grid_margin=(grid.margin_x, grid.margin_y), u_grid_size=(grid.gw, grid.gh),
-                      u_sprite_radius_px=float(SPRITE_RADIUS_FACTOR * config.radius_px))
+        tables = dict(u_params=2, u_grid=3, u_sprite_radius_factor=SPRITE_RADIUS_FACTOR)
         gpu.params.bind(2)
         gpu.grid.bind(3)
         wave_tex.bind(1)
@@ -306,8 +320,8 @@ class DrawRivers(System):
             water.set_if_used(**shared)
             gpu.accum.bind(4)
             water.set(u_wave=1, u_accum=4, u_mode=int(mode),
-                      u_show_grid=bool(settings.show_grid),
-                      u_slope_factor=settings.wave_slope_factor,
+                      u_show_grid=bool(settings.show_grid), u_grid_cell_px=float(gpu.grid_shape[0]),
+                      u_grid_size=gpu.grid_shape[1:], u_slope_factor=settings.wave_slope_factor,
                       u_clarity_m=settings.water_clarity_m, **tables, **wave_uniforms,
                       **ripple_uniforms)
             gl.set_blend(gl.BLEND_WATER)
@@ -335,17 +349,34 @@ class DrawRivers(System):
     # -- passes -----------------------------------------------------------------------------
 
     def _upload_tables(self, world: RiverWorld, gpu: _Gpu) -> tuple[int, int]:
-        """Build this frame's sprite tables and upload them (the sprite table's rows in use,
-        the whole grid); returns (entries drawn on the water, all entries)."""
+        """Build this frame's sprite table and bins and upload them (the table's rows in use,
+        all the bins); returns (entries drawn on the water, all entries)."""
         pool = world.pool
         n_drawn, n_entries, rows = build_sprite_tables(
             sprite_source(pool), float(world.config.radius_px), slot_span(pool.alive),
-            gpu.grid_shape, gpu.params_cpu, gpu.cells_cpu, gpu.scratch)
+            gpu.bins_shape, gpu.params_cpu, gpu.starts_cpu, gpu.scratch)
         if rows:
             gpu.params.upload(gpu.params_cpu, rows=rows)
-        gpu.grid.upload(grid_texels(gpu.cells_cpu, gpu.grid_shape))
+        gpu.bins.upload(bin_texels(gpu.starts_cpu, gpu.bins_shape))
         self.last_sprites = int(n_drawn)
         return int(n_drawn), int(n_entries)
+
+    def _make_grid(self, gpu: _Gpu, radius_px: float) -> None:
+        """The sprite grid from the sprite table and bins: one fragment a cell
+        (``sprite_lists.glsl``) into the four layers of ``gpu.grid``."""
+        bins = gpu.bins_shape
+        gpu.grid_fb.bind()
+        gl.set_depth(False, write=False)
+        gl.set_blend(gl.BLEND_OFF)
+        gpu.params.bind(2)
+        gpu.bins.bind(8)
+        program = gpu.programs["sprite_lists"]
+        program.use()
+        program.set(u_params=2, u_bins=8, u_bin_px=(bins.bin_w, bins.bin_h),
+                    u_bin_margin=(bins.margin_x, bins.margin_y), u_bin_count=(bins.bw, bins.bh),
+                    u_sprite_radius_px=float(SPRITE_RADIUS_FACTOR * radius_px),
+                    u_cell_px=int(gpu.grid_shape[0]))
+        gpu.empty.draw(gl.TRIANGLES, count=3)
 
     def _upload_ripples(self, world: RiverWorld, gpu: _Gpu, rain: Rain | None) -> dict:
         """The water shader's ripple uniforms; the ripple table uploaded (only with rain:
