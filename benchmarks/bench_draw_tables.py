@@ -6,7 +6,8 @@ radius r (a jittered grid of spacing 2r·1.07, the band of the screen nearest it
 mid-line: a river across the view), in random slot order (as in a running pool, whose slots
 are reused in no spatial order) and, for comparison, in row-major screen order (the best case
 for the caches); a ``drawn`` share of them INSIDE (the rest NEAR or OUTSIDE: in the table for
-the overlays, not sorted into bins): 1.0 is the worst case, ~0.25 what the chase flight shows.
+the particle and arrow overlays, not sorted into bins; left out with the overlays off): 1.0 is
+the worst case, ~0.25 what the chase flight shows.
 Prints the median of ``--runs`` calls of ``build_sprite_tables`` after warm-up, the bytes a
 frame uploads (whole table rows + the bins) and a same-size memory copy of those bytes (a
 floor on what handing them to the driver costs). Issue target (issue 12, item 6): the CPU side
@@ -52,7 +53,7 @@ def poisson_like_screen(rng, width: int, height: int, radius: float, count: int)
 
 
 def run_case(size: tuple[int, int], radius: float, count: int, runs: int,
-             slot_order: str = "random", drawn: float = 1.0) -> dict:
+             slot_order: str = "random", drawn: float = 1.0, with_tail: bool = True) -> dict:
     from riverflow.components.particles import ParticlePool
     from riverflow.components.status import FlowStatus
     from riverflow.kernels import sprites as ks
@@ -79,7 +80,8 @@ def run_case(size: tuple[int, int], radius: float, count: int, runs: int,
     n_slots = ks.slot_span(pool.alive)
 
     def build():
-        return ks.build_sprite_tables(src, radius, n_slots, bins, params, starts, scratch)
+        return ks.build_sprite_tables(src, radius, n_slots, bins, params, starts, scratch,
+                                      with_tail)
 
     n_drawn, n_entries, rows = build()
     table_bytes = rows * params.shape[1] * params.shape[2] * params.itemsize
@@ -95,6 +97,7 @@ def run_case(size: tuple[int, int], radius: float, count: int, runs: int,
     return {
         "size_px": [width, height], "radius_px": radius, "particles": n,
         "slot_order": slot_order, "drawn_share": drawn, "drawn": int(n_drawn),
+        "with_tail": with_tail,
         "bins": list(bins), "table_rows": int(rows),
         "build_sprite_tables_ms": median_ms(build, runs),
         "table_bytes": int(table_bytes), "bins_bytes": int(bins_bytes),
@@ -107,8 +110,9 @@ def format_case(r: dict) -> str:
     (w, h) = r["size_px"]
     bin_w, bin_h, _, _, bw, bh = r["bins"]
     head = (f"{w}×{h}, r = {r['radius_px']:g} px: {r['particles']} particles "
-            f"({r['slot_order']} slot order, {r['drawn']} drawn), bins {bin_w}×{bin_h} px → "
-            f"{bw}×{bh}")
+            f"({r['slot_order']} slot order, {r['drawn']} drawn, "
+            f"{'all in the table' if r['with_tail'] else 'only those in the table'}), "
+            f"bins {bin_w}×{bin_h} px → {bw}×{bh}")
     build = (f"  build_sprite_tables  {r['build_sprite_tables_ms']:.3f} ms  "
              f"({r['table_rows']} rows, {r['table_bytes'] / 1024:.0f} KiB + bins "
              f"{r['bins_bytes'] / 1024:.0f} KiB; memcpy of it {r['memcpy_upload_bytes_ms']:.3f} ms)")
@@ -120,9 +124,10 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
     parser.add_argument("--runs", type=int, default=200)
     args = parser.parse_args(argv)
-    results = [run_case(size, radius, count, args.runs, order, drawn)
+    results = [run_case(size, radius, count, args.runs, order, drawn, tail)
                for size, radius, count in CASES
-               for order, drawn in (("random", 1.0), ("random", 0.25), ("row-major", 1.0))]
+               for order, drawn, tail in (("random", 1.0, True), ("row-major", 1.0, True),
+                                          ("random", 0.25, True), ("random", 0.25, False))]
     if args.json:
         print(json.dumps(results, indent=2))
     else:

@@ -239,15 +239,16 @@ def _usable(src, i):
 
 
 @njit(**JIT_OPTIONS)
-def build_sprite_tables(src, radius_px, n_slots, bins, params, starts, scratch):
+def build_sprite_tables(src, radius_px, n_slots, bins, params, starts, scratch, with_tail):
     """Write this frame's sprite table ``params`` and bin starts ``starts`` (module docstring)
-    from slots [0, ``n_slots``) of ``src`` (a :class:`SpriteSource`).
+    from slots [0, ``n_slots``) of ``src`` (a :class:`SpriteSource`); with ``with_tail`` False
+    the table ends after the drawn entries (nothing draws the others: no overlay is on).
 
     ``radius_px`` r [px] (written into every entry; non-finite → 0); ``bins`` a
     :class:`SpriteBins`; ``params`` (rows, 768, 4) float32; ``starts`` (≥ bh·(bw + 1) + 2,)
     int32 (:func:`empty_sprite_tables`; texel (bx, by) is ``starts[by·(bw + 1) + bx]``);
     ``scratch`` (≥ n_slots,) int32. ``n_slots`` is clamped to the columns and to ``scratch``;
-    entries beyond ``params``' rows are dropped (undrawn ones first), the bins clamped to them.
+    entries beyond ``params``' rows are dropped (the tail first), the bins clamped to them.
     A non-positive bin size or a non-positive or non-finite radius draws nothing (every usable
     entry goes to the tail). Returns (n_drawn, n_entries, rows): the drawn entries
     [0, n_drawn), all entries [0, n_entries), the table rows written (whole rows, the last one
@@ -278,18 +279,18 @@ def build_sprite_tables(src, radius_px, n_slots, bins, params, starts, scratch):
     for k in range(min(starts.shape[0], size + 2)):
         starts[k] = 0
 
-    # 1. each slot's bin (≥ 0: drawn; −1: not usable; −2: usable, not drawn); counts at k + 2
+    # 1. each slot's bin (≥ 0: drawn; −2: the tail; −1: neither); counts at k + 2
     n_usable = 0
     for i in range(n):
-        if not _usable(src, i):
-            scratch[i] = -1
-            continue
-        n_usable += 1
-        scratch[i] = -2
-        if not drawing:
-            continue
+        scratch[i] = -1
         s = src.status[i]
-        if (s != STATUS_INSIDE and s != STATUS_LEAVING) or not src.intensity[i] > 0:
+        drawn = drawing and (s == STATUS_INSIDE or s == STATUS_LEAVING) and src.intensity[i] > 0
+        if not (drawn or with_tail) or not _usable(src, i):
+            continue                    # (the cheap tests first: ~3/4 of a pool is not drawn)
+        n_usable += 1
+        if with_tail:
+            scratch[i] = -2
+        if not drawn:
             continue
         qx = np.float64(np.float32(src.screen_px[i, 0])) / bin_w  # in bins from the screen's
         qy = np.float64(np.float32(src.screen_px[i, 1])) / bin_h  # corner; beyond the margins:
@@ -305,7 +306,7 @@ def build_sprite_tables(src, radius_px, n_slots, bins, params, starts, scratch):
     n_drawn = starts[size + 1] if size > 0 else 0
     # 3. scatter: drawn entries by bin, then the others; the cursors starts[k + 1] end as the
     #    first entries of bin k + 1, so that starts[k] is the first entry of bin k
-    tail = n_drawn
+    rest = n_drawn
     for i in range(n):
         k = scratch[i]
         if k == -1:
@@ -314,13 +315,15 @@ def build_sprite_tables(src, radius_px, n_slots, bins, params, starts, scratch):
             e = starts[k + 1]
             starts[k + 1] = e + 1
         else:
-            e = tail
-            tail += 1
+            e = rest
+            rest += 1
         if e < capacity:
             _write_entry(params, e, src, i, r)
     if n_drawn > capacity:      # a table too small for the pool: the bins stop at its end
         for k in range(size):
             starts[k] = min(starts[k], capacity)
+    if not with_tail:
+        n_usable = n_drawn
     n_entries = min(n_usable, capacity)
     n_drawn = min(n_drawn, capacity)
     rows = (n_entries + PARTICLES_PER_ROW - 1) // PARTICLES_PER_ROW

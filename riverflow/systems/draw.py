@@ -100,6 +100,7 @@ class _Gpu:
         self.prop_meshes: dict[tuple, gl.Mesh] = {}
         self.terrain_indices = tile_indices(world.scene.terrain.tile_cells).ravel()
         self.tile_meshes: dict[str, dict[int, gl.Mesh]] = {TERRAIN_MESH: {}, WATER_MESH: {}}
+        self.released: dict[str, tuple[int, int]] = {}   # per kind: (pool, its releases) seen
         self.empty = gl.Mesh(None, {})           # attribute-less draws (gl_VertexID)
         self.waves: dict[int, tuple[int, gl.Texture]] = {}
         self.size = (0, 0)
@@ -161,10 +162,13 @@ class _Gpu:
         water tile whose piece has no triangle) is remembered as such, not looked at again."""
         pool = tiles.cache.pools[kind]
         meshes = self.tile_meshes[kind]
-        for code in [c for c in meshes if c not in pool]:
-            mesh = meshes.pop(code)
-            if mesh is not _NOTHING:
-                mesh.delete()
+        released = (id(pool), pool.evicted)     # a tile leaves the cache only by release()
+        if self.released.get(kind) != released:
+            for code in [c for c in meshes if c not in pool]:
+                mesh = meshes.pop(code)
+                if mesh is not _NOTHING:
+                    mesh.delete()
+            self.released[kind] = released
         out = []
         for code in codes(keys).tolist():
             mesh = meshes.get(code)
@@ -275,13 +279,14 @@ class DrawRivers(System):
         config = world.config
         gpu.fit(width, height, config.radius_px, world.pool.capacity)
         t0 = time.perf_counter_ns()
-        n_drawn, n_entries = self._upload_tables(world, gpu)
+        n_drawn, n_entries = self._upload_tables(
+            world, gpu, settings.show_particles or settings.show_velocities)
         if settings.mode in (DisplayMode.ADVECTED, DisplayMode.COVERAGE):
             self._make_grid(gpu, config.radius_px)
         self.last_tables_ms = (time.perf_counter_ns() - t0) * 1e-6
 
-        vp = camera.view_projection().ravel()
-        _, world_from_clip = camera.matrices_for_kernels()
+        clip_from_world, world_from_clip = camera.matrices_for_kernels()
+        vp = clip_from_world.T.ravel()          # pyrr's view_projection, in closed form
         shared = dict(u_eye_m=tuple(camera.position), u_sun_dir=tuple(SUN_DIRECTION),
                       u_fog_density=float(settings.fog_density_per_m),
                       u_view_projection=vp, u_viewport_px=(float(gpu.size[0]),
@@ -348,13 +353,15 @@ class DrawRivers(System):
 
     # -- passes -----------------------------------------------------------------------------
 
-    def _upload_tables(self, world: RiverWorld, gpu: _Gpu) -> tuple[int, int]:
+    def _upload_tables(self, world: RiverWorld, gpu: _Gpu, overlays: bool) -> tuple[int, int]:
         """Build this frame's sprite table and bins and upload them (the table's rows in use,
-        all the bins); returns (entries drawn on the water, all entries)."""
+        all the bins); returns (entries drawn on the water, all entries). The particles that
+        are not drawn on the water are in the table only for ``overlays`` (the particle points
+        and velocity arrows): ~3/4 of the pool in a chase view."""
         pool = world.pool
         n_drawn, n_entries, rows = build_sprite_tables(
             sprite_source(pool), float(world.config.radius_px), slot_span(pool.alive),
-            gpu.bins_shape, gpu.params_cpu, gpu.starts_cpu, gpu.scratch)
+            gpu.bins_shape, gpu.params_cpu, gpu.starts_cpu, gpu.scratch, bool(overlays))
         if rows:
             gpu.params.upload(gpu.params_cpu, rows=rows)
         gpu.bins.upload(bin_texels(gpu.starts_cpu, gpu.bins_shape))

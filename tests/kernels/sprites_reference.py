@@ -38,7 +38,7 @@ def sprite_entries(alive, has_world, screen_px, world_m, offset_m, intensity, st
 
 
 def build_sprite_tables(alive, has_world, screen_px, world_m, offset_m, intensity, status,
-                        velocity_mps, radius_px, n_slots, bins, capacity_rows):
+                        velocity_mps, radius_px, n_slots, bins, capacity_rows, with_tail=True):
     """Twin of ``build_sprite_tables`` (sorting by Python's stable sort, not counting):
     (table (rows·256, 3, 4) float32, starts (bh, bw + 1) int32, n_drawn, n_entries, rows)."""
     n = max(min(n_slots, len(alive)), 0)
@@ -62,7 +62,7 @@ def build_sprite_tables(alive, has_world, screen_px, world_m, offset_m, intensit
         key[inside] = (by[inside] * (bw + 1) + bx[inside]).astype(np.int64)
     first = np.flatnonzero(key >= 0)
     first = first[np.argsort(key[first], kind="stable")]
-    rest = np.flatnonzero(usable & (key < 0))
+    rest = np.flatnonzero(usable & (key < 0)) if with_tail else np.zeros(0, np.int64)
     order = np.concatenate([first, rest])[:capacity]
     n_entries = len(order)
     rows = -(-n_entries // PER_ROW)

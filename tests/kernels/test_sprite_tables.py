@@ -39,28 +39,29 @@ def _poisson_like(rng, pool: ParticlePool, r: float, w: float, h: float, margin:
     return n
 
 
-def _build(pool, radius, n_slots, bins, rows=None, fill=7.0):
+def _build(pool, radius, n_slots, bins, rows=None, fill=7.0, with_tail=True):
     params, starts, scratch = ks.empty_sprite_tables(pool.capacity, bins)
     if rows is not None:                            # a table shorter than the pool
         params = np.zeros((rows, *params.shape[1:]), np.float32)
     params[...] = fill
     starts[...] = -9
     n_drawn, n_entries, n_rows = ks.build_sprite_tables(ks.sprite_source(pool), radius, n_slots,
-                                                        bins, params, starts, scratch)
+                                                        bins, params, starts, scratch, with_tail)
     return params, ks.bin_texels(starts, bins), int(n_drawn), int(n_entries), int(n_rows)
 
 
-def _build_ref(pool, radius, n_slots, bins, rows):
+def _build_ref(pool, radius, n_slots, bins, rows, with_tail=True):
     return ref.build_sprite_tables(pool.alive, pool.has_world, pool.screen_px, pool.world_m,
                                    pool.offset_m, pool.intensity, pool.status, pool.velocity_mps,
-                                   radius, n_slots, bins, rows)
+                                   radius, n_slots, bins, rows, with_tail)
 
 
-def _check_against_reference(pool, radius, n_slots, bins, rows=None):
-    params, starts, n_drawn, n_entries, n_rows = _build(pool, radius, n_slots, bins, rows)
+def _check_against_reference(pool, radius, n_slots, bins, rows=None, with_tail=True):
+    params, starts, n_drawn, n_entries, n_rows = _build(pool, radius, n_slots, bins, rows,
+                                                        with_tail=with_tail)
     cap_rows = params.shape[0]
-    table, want_starts, want_drawn, want_entries, want_rows = _build_ref(pool, radius, n_slots,
-                                                                         bins, cap_rows)
+    table, want_starts, want_drawn, want_entries, want_rows = _build_ref(
+        pool, radius, n_slots, bins, cap_rows, with_tail)
     assert (n_drawn, n_entries, n_rows) == (want_drawn, want_entries, want_rows)
     got = params[:n_rows].reshape(-1, ks.TEXELS_PER_PARTICLE, 4)
     npt.assert_array_equal(got, table)
@@ -173,13 +174,29 @@ def test_tables_match_reference_on_random_pools(rng):
     for radius, size in ((2.5, (300, 200)), (3.0, (120, 90)), (7.0, (300, 200))):
         bins = ks.sprite_bins(*size, radius)
         for n_slots in (0, 1, 255, 256, 257, n, pool.capacity, pool.capacity + 99, -5):
-            _check_against_reference(pool, radius, n_slots, bins)
+            for with_tail in (True, False):
+                _check_against_reference(pool, radius, n_slots, bins, with_tail=with_tail)
     # a table shorter than the pool: the tail goes first, the bins stop at its end
     bins = ks.sprite_bins(300, 200, 3.0)
     for rows in (1, 2):
         _, starts, n_drawn, n_entries, _ = _check_against_reference(pool, 3.0, pool.capacity,
                                                                     bins, rows=rows)
         assert n_entries == rows * 256 and starts.max() == n_drawn <= n_entries
+
+
+def test_without_the_tail_the_table_ends_after_the_drawn_entries(rng):
+    pool = ParticlePool(2000)
+    n = _poisson_like(rng, pool, 3.0, 300, 200, margin=12.0)
+    pool.status[:n] = rng.choice([FlowStatus.INSIDE, FlowStatus.NEAR, FlowStatus.OUTSIDE], n)
+    bins = ks.sprite_bins(300, 200, 3.0)
+    full = _build(pool, 3.0, n, bins)
+    short = _build(pool, 3.0, n, bins, with_tail=False)
+    n_drawn = full[2]
+    assert 0 < n_drawn < full[3] and short[2] == short[3] == n_drawn
+    assert short[4] == ks.param_table_rows(n_drawn) < full[4]
+    npt.assert_array_equal(short[0].reshape(-1, 3, 4)[:n_drawn],
+                           full[0].reshape(-1, 3, 4)[:n_drawn])
+    npt.assert_array_equal(short[1], full[1])
 
 
 def test_no_radius_or_bins_draws_nothing_but_keeps_the_overlays(rng):

@@ -147,7 +147,7 @@ def _tables(src, radius, width, height):
     bins = sprite_bins(width, height, radius)
     params, starts, scratch = empty_sprite_tables(len(src.alive), bins)
     n_drawn, n_entries, rows = build_sprite_tables(src, radius, len(src.alive), bins, params,
-                                                   starts, scratch)
+                                                   starts, scratch, True)
     return bins, params, bin_texels(starts, bins), int(n_drawn), int(n_entries), int(rows)
 
 
