@@ -246,8 +246,10 @@ class _Gpu:
 class DrawRivers(System):
     """Draws the world's current frame into its offscreen framebuffer (see the module doc).
 
-    ``last_tables_ms`` is the CPU time of the last frame's sprite tables (built and uploaded),
-    ``last_tiles`` the terrain tiles drawn.
+    ``last_tables_ms`` is the CPU time of the last frame's sprite tables (built, uploaded, and
+    the pass that makes the sprite grid from them submitted), ``last_sprites`` the sprites it
+    drew on the water (INSIDE or LEAVING, within reach of the screen), ``last_tiles`` the
+    terrain tiles drawn.
     """
 
     name = "draw"
