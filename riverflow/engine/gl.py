@@ -266,6 +266,7 @@ RGBA16F = TexFormat(gl.GL_RGBA16F, gl.GL_RGBA, gl.GL_FLOAT, np.float32, 4)
 RG32F = TexFormat(gl.GL_RG32F, gl.GL_RG, gl.GL_FLOAT, np.float32, 2)
 R32F = TexFormat(gl.GL_R32F, gl.GL_RED, gl.GL_FLOAT, np.float32, 1)
 RGBA32I = TexFormat(gl.GL_RGBA32I, gl.GL_RGBA_INTEGER, gl.GL_INT, np.int32, 4, integer=True)
+R32I = TexFormat(gl.GL_R32I, gl.GL_RED_INTEGER, gl.GL_INT, np.int32, 1, integer=True)
 DEPTH24 = TexFormat(gl.GL_DEPTH_COMPONENT24, gl.GL_DEPTH_COMPONENT, gl.GL_FLOAT, np.float32, 1)
 
 
@@ -366,10 +367,14 @@ def _check_shape(data: np.ndarray, hw: tuple[int, int], channels: int, rows: int
 
 
 def read_texture(texture: Texture, level: int = 0) -> np.ndarray:
-    """Read a 2-D texture back as (H, W, C) (or (H, W)) of its dtype, row 0 at the bottom."""
+    """Read a texture back as (H, W, C) (or (H, W)) of its dtype, row 0 at the bottom; an
+    array texture as (L, H, W, C) (or (L, H, W))."""
     w, h = max(1, texture.width >> level), max(1, texture.height >> level)
     c = texture.fmt.channels
-    out = np.empty((h, w, c) if c > 1 else (h, w), texture.fmt.dtype)
+    shape = (h, w, c) if c > 1 else (h, w)
+    if texture.layers is not None:
+        shape = (texture.layers, *shape)
+    out = np.empty(shape, texture.fmt.dtype)
     _bind_scratch(texture.target, texture.id)
     gl.glPixelStorei(gl.GL_PACK_ALIGNMENT, 1)
     gl.glGetTexImage(texture.target, level, texture.fmt.upload, texture.fmt.gl_type,
@@ -381,19 +386,31 @@ def read_texture(texture: Texture, level: int = 0) -> np.ndarray:
 
 class Framebuffer:
     """Colour attachment(s) plus an optional depth texture (shared between framebuffers when
-    passed in)."""
+    passed in). A colour attachment is a 2-D texture or a (array texture, layer) pair; with
+    several, fragment output ``location = i`` goes to attachment i."""
 
-    def __init__(self, colour: list[Texture], depth: Texture | None = None) -> None:
+    def __init__(self, colour: list[Texture | tuple[Texture, int]],
+                 depth: Texture | None = None) -> None:
         ident = gl.GLuint()
         gl.glGenFramebuffers(1, ctypes.byref(ident))
         self.id = ident.value
         self.context = gl.current_context
         self.colour, self.depth = colour, depth
-        self.width, self.height = colour[0].width, colour[0].height
+        first = colour[0][0] if isinstance(colour[0], tuple) else colour[0]
+        self.width, self.height = first.width, first.height
         gl.glBindFramebuffer(gl.GL_FRAMEBUFFER, self.id)
-        for i, tex in enumerate(colour):
-            gl.glFramebufferTexture2D(gl.GL_FRAMEBUFFER, gl.GL_COLOR_ATTACHMENT0 + i,
-                                      gl.GL_TEXTURE_2D, tex.id, 0)
+        for i, attachment in enumerate(colour):
+            if isinstance(attachment, tuple):
+                tex, layer = attachment
+                gl.glFramebufferTextureLayer(gl.GL_FRAMEBUFFER, gl.GL_COLOR_ATTACHMENT0 + i,
+                                             tex.id, 0, layer)
+            else:
+                gl.glFramebufferTexture2D(gl.GL_FRAMEBUFFER, gl.GL_COLOR_ATTACHMENT0 + i,
+                                          gl.GL_TEXTURE_2D, attachment.id, 0)
+        if len(colour) > 1:
+            buffers = (gl.GLenum * len(colour))(*(gl.GL_COLOR_ATTACHMENT0 + i
+                                                  for i in range(len(colour))))
+            gl.glDrawBuffers(len(colour), buffers)
         if depth is not None:
             gl.glFramebufferTexture2D(gl.GL_FRAMEBUFFER, gl.GL_DEPTH_ATTACHMENT,
                                       gl.GL_TEXTURE_2D, depth.id, 0)
@@ -518,7 +535,11 @@ def _buffer(target: int, data: np.ndarray) -> int:
 # -- state -----------------------------------------------------------------------------------
 
 def clear(rgba: tuple[float, float, float, float] = (0, 0, 0, 0), depth: bool = True) -> None:
+    """Clear the bound framebuffer's colour (and depth: glClear obeys the depth mask, so depth
+    writes are turned on first and stay on)."""
     gl.glClearColor(*rgba)
+    if depth:
+        gl.glDepthMask(gl.GL_TRUE)
     gl.glClear(gl.GL_COLOR_BUFFER_BIT | (gl.GL_DEPTH_BUFFER_BIT if depth else 0))
 
 

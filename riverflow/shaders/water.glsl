@@ -33,7 +33,7 @@ void main() {
 
 uniform int u_mode;                 // DISPLAY_MODE_*
 uniform bool u_show_grid;
-uniform isampler2D u_grid;          // sprite lists: cell (cx, cy) = texels 4cx..4cx+3 of row cy
+uniform isampler2DArray u_grid;     // sprite lists: cell (cx, cy) = texel (cx, cy) of layers 0..3
 uniform float u_grid_cell_px;
 uniform ivec2 u_grid_size;          // cells (gw, gh)
 uniform float u_sprite_radius_factor;
@@ -50,7 +50,7 @@ vec4 blend_sprites(vec2 uv_dx, vec2 uv_dy, out bool full) {
     float covering = 0.0;
     int listed = 0;
     for (int t = 0; t < MAX_PER_CELL / 4; ++t) {
-        ivec4 ids = texelFetch(u_grid, ivec2(4 * cell.x + t, cell.y), 0);
+        ivec4 ids = texelFetch(u_grid, ivec3(cell, t), 0);
         for (int k = 0; k < 4; ++k) {
             int id = ids[k];
             if (id < 0) { t = MAX_PER_CELL; break; }

@@ -3,8 +3,10 @@
 Per frame (reference §4; no one-frame latency: the tables are built from this frame's pool):
 
 1. the sprite tables from the particle pool (numba, :mod:`riverflow.kernels.sprites`): the
-   float32 parameter table and the integer indirection grid, uploaded to an RGBA32F and an
-   RGBA32I texture (only the rows in use);
+   float32 sprite table, sorted by screen bin, and each bin's first entry, uploaded to an
+   RGBA32F texture (only the rows in use) and an R32I texture; then, in the modes that blend
+   sprites per pixel, the sprite grid made from them on the GPU (``sprite_lists.glsl``: each
+   cell of r px lists up to 16 sprites, in an RGBA32I array texture);
 2. sky (one full-screen triangle), then the terrain tiles of the view's cut (the tile system
    picks them: level of detail by distance; skirts hide the cracks between levels; a tile not
    made yet is stood in for by its finest resident ancestor), then the props (boats,
@@ -49,10 +51,10 @@ from riverflow.components.status import FlowStatus
 from riverflow.components.waves import WaveTile
 from riverflow.engine import gl
 from riverflow.engine.system import System
-from riverflow.kernels.sprites import (MAX_PER_CELL, PARTICLES_PER_ROW, SPRITE_RADIUS_FACTOR,
-                                       TEXELS_PER_PARTICLE, build_sprite_grid,
-                                       empty_sprite_tables, fill_sprite_params,
-                                       sprite_grid_shape, slot_span)
+from riverflow.kernels.sprites import (MAX_PER_CELL, NO_PARTICLE, PARTICLES_PER_ROW,
+                                       SPRITE_RADIUS_FACTOR, TEXELS_PER_PARTICLE, bin_texels,
+                                       build_sprite_tables, empty_sprite_tables, slot_span,
+                                       sprite_bins, sprite_grid_shape, sprite_source)
 from riverflow.scenes.meshes import tile_indices
 from riverflow.scenes.props import SHAPES
 from riverflow.scenes.reflection import (MIN_EYE_HEIGHT_M, TERRAIN_STRIDE, mirror_level,
@@ -71,7 +73,8 @@ SUN_DIRECTION = np.array([-0.45, -0.55, 0.70]) / np.linalg.norm([-0.45, -0.55, 0
 def shader_defines() -> dict[str, int]:
     """The numbers the shaders share with Python and numba."""
     defines = gl.enum_defines(FlowStatus, DisplayMode)
-    defines.update(MAX_PER_CELL=MAX_PER_CELL, PARTICLES_PER_ROW=PARTICLES_PER_ROW,
+    defines.update(MAX_PER_CELL=MAX_PER_CELL, NO_PARTICLE=NO_PARTICLE,
+                   PARTICLES_PER_ROW=PARTICLES_PER_ROW,
                    TEXELS_PER_PARTICLE=TEXELS_PER_PARTICLE, DROPS_PER_ROW=DROPS_PER_ROW)
     return defines
 
@@ -97,6 +100,7 @@ class _Gpu:
             "water": gl.Program("water.glsl", defines),
             "water_position": gl.Program("water.glsl", {**defines, "POSITION_PASS": 1}),
             "sprites": gl.Program("sprites.glsl", defines),
+            "sprite_lists": gl.Program("sprite_lists.glsl", defines),
             "particles": gl.Program("particles.glsl", defines),
             "arrows": gl.Program("arrows.glsl", defines),
             "props": gl.Program("props.glsl", defines),
@@ -115,12 +119,14 @@ class _Gpu:
         self.terrain_ranges = {"full": (len(full), 0), "coarse": (coarse.size, len(full))}
         """(count, first) of each mesh in the terrain tiles' index buffer."""
         self.tile_meshes: dict[str, dict[int, gl.Mesh]] = {TERRAIN_MESH: {}, WATER_MESH: {}}
+        self.released: dict[str, tuple[int, int]] = {}   # per kind: (pool, its releases) seen
         self.empty = gl.Mesh(None, {})           # attribute-less draws (gl_VertexID)
         self.waves: dict[int, tuple[int, gl.Texture]] = {}
         self.size = (0, 0)
         self.grid_shape = (1, 1, 1)
-        self.params = self.grid = None
-        self.params_cpu = self.counts_cpu = self.grid_cpu = None
+        self.bins_shape = None
+        self.params = self.bins = self.grid = self.grid_fb = None
+        self.params_cpu = self.starts_cpu = self.scratch = None
         self.targets: list = []
         self.reflection = _Reflection()
         gl.check_errors("creating the river draw resources")
@@ -130,7 +136,7 @@ class _Gpu:
     def fit(self, width: int, height: int, radius_px: float, capacity: int) -> None:
         """(Re)make the framebuffers and sprite tables for a viewport and radius."""
         width, height = max(1, width), max(1, height)
-        shape = sprite_grid_shape(width, height, radius_px)
+        bins = sprite_bins(width, height, radius_px)
         if (width, height) != self.size:
             for obj in self.targets:
                 obj.delete()
@@ -145,20 +151,29 @@ class _Gpu:
             self.targets = [self.main_fb, self.position_fb, self.accum_fb, colour, depth,
                             position, accum]
             self.size = (width, height)
-        if self.params_cpu is None or shape != self.grid_shape \
+        if self.params_cpu is None or bins != self.bins_shape \
                 or self.params_cpu.shape[0] * PARTICLES_PER_ROW < capacity:
-            for tex in (self.params, self.grid):
+            for tex in (self.params, self.bins):
                 if tex is not None:
                     tex.delete()
-            _, gw, gh = shape
-            self.params_cpu, self.counts_cpu, self.grid_cpu = empty_sprite_tables(capacity,
-                                                                                  gw, gh)
+            self.params_cpu, self.starts_cpu, self.scratch = empty_sprite_tables(capacity, bins)
             rows = self.params_cpu.shape[0]
             self.params = gl.Texture((PARTICLES_PER_ROW * TEXELS_PER_PARTICLE, rows),
                                      gl.RGBA32F)
             self.params.upload(self.params_cpu)
-            self.grid = gl.Texture((gw * MAX_PER_CELL // 4, gh), gl.RGBA32I)
-            self.grid.upload(self.grid_cpu.reshape(gh, -1, 4))
+            self.bins = gl.Texture((bins.bw + 1, bins.bh), gl.R32I)
+            self.bins.upload(bin_texels(self.starts_cpu, bins))
+            self.bins_shape = bins
+        shape = sprite_grid_shape(width, height, radius_px)
+        if self.grid is None or shape != self.grid_shape:
+            for obj in (self.grid_fb, self.grid):
+                if obj is not None:
+                    obj.delete()
+            _, gw, gh = shape
+            layers = MAX_PER_CELL // 4
+            self.grid = gl.Texture((gw, gh), gl.RGBA32I, layers=layers)
+            self.grid.upload(np.full((layers, gh, gw, 4), NO_PARTICLE, np.int32))
+            self.grid_fb = gl.Framebuffer([(self.grid, k) for k in range(layers)])
             self.grid_shape = shape
 
     def sync_tiles(self, tiles: Tiles, kind: str, keys: np.ndarray) -> list[gl.Mesh]:
@@ -167,10 +182,13 @@ class _Gpu:
         water tile whose piece has no triangle) is remembered as such, not looked at again."""
         pool = tiles.cache.pools[kind]
         meshes = self.tile_meshes[kind]
-        for code in [c for c in meshes if c not in pool]:
-            mesh = meshes.pop(code)
-            if mesh is not _NOTHING:
-                mesh.delete()
+        released = (id(pool), pool.evicted)     # a tile leaves the cache only by release()
+        if self.released.get(kind) != released:
+            for code in [c for c in meshes if c not in pool]:
+                mesh = meshes.pop(code)
+                if mesh is not _NOTHING:
+                    mesh.delete()
+            self.released[kind] = released
         out = []
         for code in codes(keys).tolist():
             mesh = meshes.get(code)
@@ -236,7 +254,8 @@ class _Gpu:
                 if mesh is not _NOTHING:
                     mesh.delete()
             meshes.clear()
-        for obj in [self.empty, self.params, self.grid, self.drops, self.ripples, *self.targets,
+        for obj in [self.empty, self.params, self.bins, self.grid_fb, self.grid, self.drops,
+                    self.ripples, *self.targets,
                     *(tex for _, tex in self.waves.values())]:
             if obj is not None:
                 obj.delete()
@@ -284,8 +303,10 @@ class _Reflection:
 class DrawRivers(System):
     """Draws the world's current frame into its offscreen framebuffer (see the module doc).
 
-    ``last_tables_ms`` is the CPU time of the last frame's sprite tables (built and uploaded),
-    ``last_tiles`` the terrain tiles drawn.
+    ``last_tables_ms`` is the CPU time of the last frame's sprite tables (built, uploaded, and
+    the pass that makes the sprite grid from them submitted), ``last_sprites`` the sprites it
+    drew on the water (INSIDE or LEAVING, within reach of the screen), ``last_tiles`` the
+    terrain tiles drawn.
     """
 
     name = "draw"
@@ -320,11 +341,14 @@ class DrawRivers(System):
         config = world.config
         gpu.fit(width, height, config.radius_px, world.pool.capacity)
         t0 = time.perf_counter_ns()
-        n_slots = self._upload_tables(world, gpu)
+        n_drawn, n_entries = self._upload_tables(
+            world, gpu, settings.show_particles or settings.show_velocities)
+        if settings.mode in (DisplayMode.ADVECTED, DisplayMode.COVERAGE):
+            self._make_grid(gpu, config.radius_px)
         self.last_tables_ms = (time.perf_counter_ns() - t0) * 1e-6
 
-        vp = camera.view_projection().ravel()
-        _, world_from_clip = camera.matrices_for_kernels()
+        clip_from_world, world_from_clip = camera.matrices_for_kernels()
+        vp = clip_from_world.T.ravel()          # pyrr's view_projection, in closed form
         shared = dict(u_eye_m=tuple(camera.position), u_sun_dir=tuple(SUN_DIRECTION),
                       u_fog_density=float(settings.fog_density_per_m),
                       u_view_projection=vp, u_viewport_px=(float(gpu.size[0]),
@@ -359,7 +383,7 @@ class DrawRivers(System):
         gpu.grid.bind(3)
         wave_tex.bind(1)
         if mode == DisplayMode.PRE_ADVECTED:
-            self._pre_advect(gpu, shared, wave_uniforms, n_slots, water_meshes)
+            self._pre_advect(gpu, shared, wave_uniforms, n_drawn, water_meshes)
         if mode != DisplayMode.NONE:
             water = gpu.programs["water"]
             water.use()
@@ -376,42 +400,56 @@ class DrawRivers(System):
                 mesh.draw()
         self._draw_rain(gpu, rain, shared)
         gl.set_depth(False, write=False)
-        if settings.show_velocities and n_slots:
+        if settings.show_velocities and n_entries:
             arrows = gpu.programs["arrows"]
             arrows.use()
             arrows.set_if_used(**shared)
             arrows.set(u_params=2, u_arrow_s=float(settings.arrow_s))
             gl.set_blend(gl.BLEND_ALPHA)
-            gpu.empty.draw(gl.LINES, count=6 * n_slots)
-        if settings.show_particles and n_slots:
+            gpu.empty.draw(gl.LINES, count=6 * n_entries)
+        if settings.show_particles and n_entries:
             points = gpu.programs["particles"]
             points.use()
             points.set(u_params=2, u_viewport_px=shared["u_viewport_px"])
             gl.enable_program_point_size()
             gl.set_blend(gl.BLEND_ADD)
-            gpu.empty.draw(gl.POINTS, count=n_slots)
+            gpu.empty.draw(gl.POINTS, count=n_entries)
         gl.set_blend(gl.BLEND_OFF)
         gl.set_depth(False)
 
     # -- passes -----------------------------------------------------------------------------
 
-    def _upload_tables(self, world: RiverWorld, gpu: _Gpu) -> int:
-        """Build this frame's sprite tables and upload them; returns the slots in use."""
+    def _upload_tables(self, world: RiverWorld, gpu: _Gpu, overlays: bool) -> tuple[int, int]:
+        """Build this frame's sprite table and bins and upload them (the table's rows in use,
+        all the bins); returns (entries drawn on the water, all entries). The particles that
+        are not drawn on the water are in the table only for ``overlays`` (the particle points
+        and velocity arrows): ~3/4 of the pool in a chase view."""
         pool = world.pool
-        n_slots = int(slot_span(pool.alive))
-        rows = fill_sprite_params(pool.alive, pool.has_world, pool.screen_px, pool.world_m,
-                                  pool.offset_m, pool.intensity, pool.status,
-                                  pool.velocity_mps, float(world.config.radius_px), n_slots,
-                                  gpu.params_cpu)
-        cell_px, gw, gh = gpu.grid_shape
-        build_sprite_grid(pool.alive, pool.has_world, pool.screen_px, pool.intensity,
-                          pool.status, n_slots, SPRITE_RADIUS_FACTOR * world.config.radius_px,
-                          float(cell_px), gw, gh, gpu.counts_cpu, gpu.grid_cpu)
+        n_drawn, n_entries, rows = build_sprite_tables(
+            sprite_source(pool), float(world.config.radius_px), slot_span(pool.alive),
+            gpu.bins_shape, gpu.params_cpu, gpu.starts_cpu, gpu.scratch, bool(overlays))
         if rows:
             gpu.params.upload(gpu.params_cpu, rows=rows)
-        gpu.grid.upload(gpu.grid_cpu.reshape(gh, gw * MAX_PER_CELL // 4, 4))
-        self.last_sprites = n_slots
-        return n_slots
+        gpu.bins.upload(bin_texels(gpu.starts_cpu, gpu.bins_shape))
+        self.last_sprites = int(n_drawn)
+        return int(n_drawn), int(n_entries)
+
+    def _make_grid(self, gpu: _Gpu, radius_px: float) -> None:
+        """The sprite grid from the sprite table and bins: one fragment a cell
+        (``sprite_lists.glsl``) into the four layers of ``gpu.grid``."""
+        bins = gpu.bins_shape
+        gpu.grid_fb.bind()
+        gl.set_depth(False, write=False)
+        gl.set_blend(gl.BLEND_OFF)
+        gpu.params.bind(2)
+        gpu.bins.bind(8)
+        program = gpu.programs["sprite_lists"]
+        program.use()
+        program.set(u_params=2, u_bins=8, u_bin_px=(bins.bin_w, bins.bin_h),
+                    u_bin_margin=(bins.margin_x, bins.margin_y), u_bin_count=(bins.bw, bins.bh),
+                    u_sprite_radius_px=float(SPRITE_RADIUS_FACTOR * radius_px),
+                    u_cell_px=int(gpu.grid_shape[0]))
+        gpu.empty.draw(gl.TRIANGLES, count=3)
 
     def _upload_ripples(self, world: RiverWorld, gpu: _Gpu, rain: Rain | None) -> dict:
         """The water shader's ripple uniforms; the ripple table uploaded (only with rain:
@@ -559,7 +597,7 @@ class DrawRivers(System):
                 "u_reflection_distortion": float(settings.reflection_distortion)}
 
     def _pre_advect(self, gpu: _Gpu, shared: dict, wave_uniforms: dict,
-                    n_slots: int, water_meshes: list) -> None:
+                    n_drawn: int, water_meshes: list) -> None:
         # the water's world position where it is visible (depth test against the terrain)
         gpu.position_fb.bind()
         gl.clear((0.0, 0.0, 0.0, 0.0), depth=False)
@@ -573,7 +611,7 @@ class DrawRivers(System):
         gpu.accum_fb.bind()
         gl.clear((0.0, 0.0, 0.0, 0.0), depth=False)
         gl.set_depth(False, write=False)
-        if n_slots:
+        if n_drawn:
             gpu.position.bind(5)
             program = gpu.programs["sprites"]
             program.use()
@@ -581,7 +619,7 @@ class DrawRivers(System):
             program.set(u_water_position=5, u_wave=1, u_params=2,
                         u_sprite_radius_factor=SPRITE_RADIUS_FACTOR, **wave_uniforms)
             gl.set_blend(gl.BLEND_ADD)
-            gpu.empty.draw(gl.TRIANGLES, count=6 * n_slots)
+            gpu.empty.draw(gl.TRIANGLES, count=6 * n_drawn)
             gl.set_blend(gl.BLEND_OFF)
         gpu.main_fb.bind()
         gl.set_depth(True)
