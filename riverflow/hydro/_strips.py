@@ -228,3 +228,57 @@ def split_rings(polygons: list[Polygon], cuts: list[np.ndarray], eps_m: float
                 i = k
             rings.append(ring)
     return rings, pieces
+
+
+# -- junction fillets ---------------------------------------------------------------------
+
+FILLET_QUAD_SEGS = 32
+"""Segments per quarter circle of a fillet arc (2.8° of turn per segment)."""
+FILLET_OVERLAP_M = 1e-3
+"""The pieces of water a fillet adds are grown this much before they are added."""
+
+
+def round_junction(river: shapely.Geometry, center_m: np.ndarray, radius_m: float,
+                   reach_m: float, keep_out: shapely.Geometry | None = None) -> shapely.Geometry:
+    """Round the corners of the water outline ``river`` around one junction.
+
+    Where two branches' banks meet at a junction their strips leave a sharp corner: a point of
+    land between them, or a notch where a narrower strip meets the junction disc (the disc
+    only widens the water: every such corner turns the outline away from the water). Inside
+    ``reach_m`` of ``center_m`` the outline is replaced by its morphological closing with a
+    disc of radius ``radius_m``: every point of land sharper than that is cut back to an arc
+    of that radius, tangent to both banks. Straight banks, outer bends and inner bends gentler
+    than the radius are left alone. Only whole changes are taken: each connected piece of
+    water the closing adds is applied if it lies within ``reach_m`` of the junction, away from
+    ``keep_out`` (the closing segments of free river ends, which must stay straight cuts), and
+    is thicker than the arcs' own chord error (the buffers' rounding along gentle bends).
+
+    Returns the new water geometry (the old one when nothing is rounded).
+    """
+    center = Point(center_m)
+    window = center.buffer(reach_m + 3.0 * radius_m, quad_segs=FILLET_QUAD_SEGS)
+    local = shapely.intersection(river, window)
+    if local.is_empty:
+        return river
+    rounded = local.buffer(radius_m, quad_segs=FILLET_QUAD_SEGS).buffer(
+        -radius_m, quad_segs=FILLET_QUAD_SEGS)
+    inner = center.buffer(reach_m, quad_segs=FILLET_QUAD_SEGS)
+    # a chord of an arc of radius r misses it by r·(1 − cos(Δ/2)), Δ = 90°/quad_segs: thinner
+    # differences are the buffers' own rounding along straight banks and gentle bends
+    thin = 4.0 * radius_m * (1.0 - np.cos(np.pi / (4.0 * FILLET_QUAD_SEGS)))
+    added = []
+    changed = shapely.difference(rounded, local)
+    for part in getattr(changed, "geoms", [changed]):
+        if not isinstance(part, Polygon) or part.is_empty:
+            continue
+        if not inner.contains(part) or part.buffer(-thin).is_empty:
+            continue
+        if keep_out is not None and part.distance(keep_out) < 2.0 * radius_m:
+            continue
+        added.append(part)
+    if not added:
+        return river
+    # each piece shares an edge with the outline up to rounding: grown by FILLET_OVERLAP_M it
+    # overlaps it instead (an overlay of two nearly equal edges can leave a needle between)
+    grown = shapely.buffer(shapely.union_all(added), FILLET_OVERLAP_M, join_style="mitre")
+    return shapely.union(river, grown)
