@@ -55,6 +55,9 @@ JOIN_FRACTION = 0.25
 FILLET_FRACTION = 0.5
 """Default radius of the arcs that round the points of land at a junction, as a fraction of
 the narrowest width there (``RiverNetworkBuilder(fillet_fraction=...)``; 0: sharp corners)."""
+FILLET_EXTENT = 1.5
+"""What a fillet cuts off a point of land fits in a circle of this many radii; slimmer points
+get smaller arcs (:func:`_round_junctions`)."""
 FILLET_REACH_WIDTHS = 5.0
 """Corners are rounded within this many of the widest branch's widths from a junction."""
 
@@ -379,33 +382,37 @@ def _resolve_discharges(branches, order, start_j, end_j, junctions, lateral: boo
 # -- water polygon ------------------------------------------------------------------------
 
 
-def _round_junctions(river, geoms: list[BranchGeometry], junctions: np.ndarray, cuts: list,
-                     fraction: float, sliver_m2: float):
-    """The water with the corners at every junction rounded (:func:`_strips.round_junction`):
-    arcs of ``fraction`` × the narrowest width there. A rounding that would change the water's
-    topology (join two shores across a narrow neck of land, drop an island) is tried again at
-    half the radius, then left out."""
+def _round_junctions(river, parts: list, geoms: list[BranchGeometry], junctions: np.ndarray,
+                     cuts: list, fraction: float, sliver_m2: float):
+    """The water with the corners at every junction rounded (:func:`_strips.fillet_pieces`):
+    arcs of radius r = ``fraction`` × the narrowest width there; slim points of land (the tip
+    of a slim island between two arms), which that arc would cut far back, get arcs of half
+    or a quarter of r, whichever first cuts off no more than fits in a circle of
+    FILLET_EXTENT radii r. Each junction works on the water near it, made from the strips and
+    discs (``parts``) there, so the cost does not grow with the network; the pieces join the
+    whole water once at the end (left out if that changed the water's topology)."""
     keep_out = shapely.MultiLineString([c for c in cuts]) if cuts else None
+    tree = shapely.STRtree(parts)
+    pieces = []
     for j, p in enumerate(junctions):
         widths = [w for g in geoms for w, at in ((g.widths_m[0], g.start_junction),
                                                  (g.widths_m[-1], g.end_junction)) if at == j]
         radius = fraction * min(widths)
-        for _ in range(2):
-            rounded = _strips.drop_slivers(
-                _strips.round_junction(river, p, radius, FILLET_REACH_WIDTHS * max(widths),
-                                       keep_out), sliver_m2)
-            if _topology(rounded) == _topology(river):
-                river = rounded
-                break
-            radius *= 0.5
-    return river
-
-
-def _topology(geom) -> list[int]:
-    """Holes per polygon of a (multi)polygon, largest polygon first."""
-    parts = [g for g in getattr(geom, "geoms", [geom]) if isinstance(g, shapely.Polygon)]
-    parts.sort(key=lambda g: -g.area)
-    return [len(g.interiors) for g in parts]
+        reach = FILLET_REACH_WIDTHS * max(widths)
+        window = shapely.Point(p).buffer(reach + 3.0 * radius, quad_segs=_strips.FILLET_QUAD_SEGS)
+        near = [parts[i] for i in tree.query(window, predicate="intersects")]
+        local = _strips.drop_slivers(shapely.intersection(shapely.union_all(near), window),
+                                     sliver_m2)
+        for scale in (1.0, 0.5, 0.25):
+            added = _strips.fillet_pieces(local, p, scale * radius, reach, keep_out,
+                                          FILLET_EXTENT * radius)
+            if added:
+                local = shapely.union_all([local, *added])
+                pieces += added
+    if not pieces:
+        return river
+    rounded = _strips.drop_slivers(shapely.union_all([river, *pieces]), sliver_m2)
+    return rounded if _strips.topology(rounded) == _strips.topology(river) else river
 
 
 def _water(geoms: list[BranchGeometry], junctions: np.ndarray, islands: list[_Island],
@@ -455,8 +462,8 @@ def _water(geoms: list[BranchGeometry], junctions: np.ndarray, islands: list[_Is
     min_width = min(float(g.widths_m.min()) for g in geoms)
     river = _strips.drop_slivers(shapely.union_all(strips + discs), 1e-4 * min_width ** 2)
     if fillet_fraction > 0.0:
-        river = _round_junctions(river, geoms, junctions, cuts, fillet_fraction,
-                                 1e-4 * min_width ** 2)
+        river = _round_junctions(river, strips + discs, geoms, junctions, cuts,
+                                 fillet_fraction, 1e-4 * min_width ** 2)
     valid_islands = []
     for k, isl in enumerate(islands):
         if not river.contains(isl.outline) or isl.outline.distance(river.boundary) <= tolerance_m:
