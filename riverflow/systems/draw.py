@@ -201,7 +201,7 @@ class _Gpu:
             length, width, height = key[1]
             rows = build(length, width, height) if prop.shape == "boat" else \
                 build(0.5 * width, length)
-            mesh = gl.Mesh(rows, {0: 3, 1: 3, 2: 3})
+            mesh = gl.Mesh(rows, {0: 3, 1: 3, 2: 3, 3: 1})   # position, normal, colour, gloss
             self.prop_meshes[key] = mesh
         return mesh
 
