@@ -45,6 +45,9 @@ from riverflow.kernels.sprites import (MAX_PER_CELL, PARTICLES_PER_ROW, SPRITE_R
                                        TEXELS_PER_PARTICLE, build_sprite_grid,
                                        empty_sprite_tables, fill_sprite_params,
                                        sprite_grid_shape, slot_span)
+from riverflow.scenes.ground_texture import GRADIENT_SCALE as GROUND_GRADIENT_SCALE
+from riverflow.scenes.ground_texture import TEXELS as GROUND_TEXELS
+from riverflow.scenes.ground_texture import ground_texture
 from riverflow.scenes.meshes import tile_indices
 from riverflow.scenes.props import SHAPES
 from riverflow.scenes.tile_kinds import TERRAIN_MESH, WATER_MESH
@@ -62,9 +65,13 @@ def shader_defines() -> dict[str, int]:
     """The numbers the shaders share with Python and numba."""
     defines = gl.enum_defines(FlowStatus, DisplayMode)
     defines.update(MAX_PER_CELL=MAX_PER_CELL, PARTICLES_PER_ROW=PARTICLES_PER_ROW,
-                   TEXELS_PER_PARTICLE=TEXELS_PER_PARTICLE, DROPS_PER_ROW=DROPS_PER_ROW)
+                   TEXELS_PER_PARTICLE=TEXELS_PER_PARTICLE, DROPS_PER_ROW=DROPS_PER_ROW,
+                   GROUND_TEXELS=GROUND_TEXELS, GROUND_GRADIENT_SCALE=GROUND_GRADIENT_SCALE)
     return defines
 
+
+GROUND_UNIT = 8
+"""Texture unit of the ground's detail texture (:mod:`riverflow.scenes.ground_texture`)."""
 
 DROPS_PER_ROW = 1024
 """Rain drops per row of the drop table (two RGBA32F texels each: position, velocity)."""
@@ -94,6 +101,11 @@ class _Gpu:
         self.ripples = gl.Texture((RIPPLE_RING, 1), gl.RGBA32F)
         self.ripples.upload(self.ripples_cpu)
         self.prop_meshes: dict[tuple, gl.Mesh] = {}
+        levels = ground_texture()
+        self.ground = gl.Texture(levels[0].shape[:2], gl.RGBA8, levels=len(levels),
+                                 linear=True, repeat=True)
+        for k, level in enumerate(levels):
+            self.ground.upload(level, level=k)
         self.terrain_indices = tile_indices(world.scene.terrain.tile_cells).ravel()
         self.tile_meshes: dict[str, dict[int, gl.Mesh]] = {TERRAIN_MESH: {}, WATER_MESH: {}}
         self.empty = gl.Mesh(None, {})           # attribute-less draws (gl_VertexID)
@@ -165,7 +177,10 @@ class _Gpu:
 
     def _upload(self, kind: str, data) -> gl.Mesh | None:
         if kind == TERRAIN_MESH:
-            return gl.Mesh(data.vertices, {0: 3, 1: 3, 2: 1}, self.terrain_indices)
+            # position, normal, water level seen, distance to the shore
+            mesh = gl.Mesh(data.vertices, {0: 3, 1: 3, 2: 1, 3: 1}, self.terrain_indices)
+            mesh.centre_m = data.bounds_m.mean(axis=0)     # drawn near to far (early depth test)
+            return mesh
         mesh, ground = data
         if not len(mesh.indices):
             return None
@@ -216,7 +231,8 @@ class _Gpu:
                 if mesh is not _NOTHING:
                     mesh.delete()
             meshes.clear()
-        for obj in [self.empty, self.params, self.grid, self.drops, self.ripples, *self.targets,
+        for obj in [self.empty, self.params, self.grid, self.drops, self.ripples, self.ground,
+                    *self.targets,
                     *(tex for _, tex in self.waves.values())]:
             if obj is not None:
                 obj.delete()
@@ -420,7 +436,12 @@ class DrawRivers(System):
         program = gpu.programs["terrain"]
         program.use()
         program.set_if_used(**shared)
-        for mesh in self._terrain_meshes:
+        gpu.ground.bind(GROUND_UNIT)
+        program.set_if_used(u_ground=GROUND_UNIT)
+        eye = np.asarray(world.camera.position, np.float64)
+        # near to far: the depth test then rejects hidden ground before it is shaded
+        for mesh in sorted(self._terrain_meshes,
+                           key=lambda m: float(np.sum((m.centre_m - eye) ** 2))):
             mesh.draw()
         self.last_tiles = len(self._terrain_meshes)
 
