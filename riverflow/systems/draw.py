@@ -45,9 +45,6 @@ from riverflow.kernels.sprites import (MAX_PER_CELL, PARTICLES_PER_ROW, SPRITE_R
                                        TEXELS_PER_PARTICLE, build_sprite_grid,
                                        empty_sprite_tables, fill_sprite_params,
                                        sprite_grid_shape, slot_span)
-from riverflow.scenes.ground_texture import GRADIENT_SCALE as GROUND_GRADIENT_SCALE
-from riverflow.scenes.ground_texture import TEXELS as GROUND_TEXELS
-from riverflow.scenes.ground_texture import ground_texture
 from riverflow.scenes.meshes import tile_indices
 from riverflow.scenes.props import SHAPES
 from riverflow.scenes.tile_kinds import TERRAIN_MESH, WATER_MESH
@@ -65,13 +62,9 @@ def shader_defines() -> dict[str, int]:
     """The numbers the shaders share with Python and numba."""
     defines = gl.enum_defines(FlowStatus, DisplayMode)
     defines.update(MAX_PER_CELL=MAX_PER_CELL, PARTICLES_PER_ROW=PARTICLES_PER_ROW,
-                   TEXELS_PER_PARTICLE=TEXELS_PER_PARTICLE, DROPS_PER_ROW=DROPS_PER_ROW,
-                   GROUND_TEXELS=GROUND_TEXELS, GROUND_GRADIENT_SCALE=GROUND_GRADIENT_SCALE)
+                   TEXELS_PER_PARTICLE=TEXELS_PER_PARTICLE, DROPS_PER_ROW=DROPS_PER_ROW)
     return defines
 
-
-GROUND_UNIT = 8
-"""Texture unit of the ground's detail texture (:mod:`riverflow.scenes.ground_texture`)."""
 
 DROPS_PER_ROW = 1024
 """Rain drops per row of the drop table (two RGBA32F texels each: position, velocity)."""
@@ -101,11 +94,6 @@ class _Gpu:
         self.ripples = gl.Texture((RIPPLE_RING, 1), gl.RGBA32F)
         self.ripples.upload(self.ripples_cpu)
         self.prop_meshes: dict[tuple, gl.Mesh] = {}
-        levels = ground_texture()
-        self.ground = gl.Texture(levels[0].shape[:2], gl.RGBA8, levels=len(levels),
-                                 linear=True, repeat=True)
-        for k, level in enumerate(levels):
-            self.ground.upload(level, level=k)
         self.terrain_indices = tile_indices(world.scene.terrain.tile_cells).ravel()
         self.tile_meshes: dict[str, dict[int, gl.Mesh]] = {TERRAIN_MESH: {}, WATER_MESH: {}}
         self.empty = gl.Mesh(None, {})           # attribute-less draws (gl_VertexID)
@@ -231,8 +219,7 @@ class _Gpu:
                 if mesh is not _NOTHING:
                     mesh.delete()
             meshes.clear()
-        for obj in [self.empty, self.params, self.grid, self.drops, self.ripples, self.ground,
-                    *self.targets,
+        for obj in [self.empty, self.params, self.grid, self.drops, self.ripples, *self.targets,
                     *(tex for _, tex in self.waves.values())]:
             if obj is not None:
                 obj.delete()
@@ -436,8 +423,6 @@ class DrawRivers(System):
         program = gpu.programs["terrain"]
         program.use()
         program.set_if_used(**shared)
-        gpu.ground.bind(GROUND_UNIT)
-        program.set_if_used(u_ground=GROUND_UNIT)
         eye = np.asarray(world.camera.position, np.float64)
         # near to far: the depth test then rejects hidden ground before it is shaded
         for mesh in sorted(self._terrain_meshes,
