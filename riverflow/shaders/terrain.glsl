@@ -108,8 +108,8 @@ const vec3 ROCK_DARK = vec3(0.36, 0.35, 0.33);
 const vec3 ROCK_LIGHT = vec3(0.58, 0.55, 0.50);
 const vec3 SAND_DRY = vec3(0.72, 0.65, 0.49);
 const vec3 SAND_WET = vec3(0.40, 0.35, 0.26);
-const vec3 SILT = vec3(0.40, 0.37, 0.29);
-const vec3 BED_SAND = vec3(0.60, 0.54, 0.40);
+const vec3 SILT = vec3(0.34, 0.32, 0.25);
+const vec3 BED_SAND = vec3(0.50, 0.45, 0.34);
 
 void main() {
     vec3 n0 = normalize(v_normal);
@@ -176,7 +176,7 @@ void main() {
         albedo = mix(albedo, bed, under);
         relief = mix(relief, 0.5 * relief + 0.2 * stone * grain_d.yz, under);
     }
-    albedo = mix(albedo, albedo * 0.58, wet * (1.0 - under));   // wet ground is darker
+    albedo = mix(albedo, albedo * 0.5, wet * (1.0 - under));    // wet ground is darker
 
     // light: the relief bumps the normal; wet ground shines
     vec3 n = normalize(n0 - vec3(relief, 0.0));
