@@ -144,7 +144,10 @@ void main() {
     // rock where the ground is steep (its edge broken by the patches): layered, cracked
     float rock = smoothstep(0.16, 0.28, slope + (patches - 0.5) * 0.12);
     {   // (no noise of its own: a software rasteriser runs every branch)
-        float strata = 0.5 + 0.5 * sin(v_world.z * 3.1 + detail * 6.0 + grain * 1.5);
+        // layers 4 m apart, bent by the detail, faded where they come closer than 12 pixels
+        // (how fast the height changes across the screen: a cliff seen from afar)
+        float layers = clamp((4.0 / max(fwidth(v_world.z), 1e-3) - 6.0) / 6.0, 0.0, 1.0);
+        float strata = 0.5 + 0.5 * layers * sin(6.2832 * fract(v_world.z * 0.25) + detail * 5.0);
         vec3 stone = mix(ROCK_DARK, ROCK_LIGHT, clamp(detail * 0.8 + strata * 0.4 - 0.1, 0.0, 1.0));
         albedo = mix(albedo, stone * (0.8 + 0.4 * grain), rock);
         relief = mix(relief, 1.2 * detail_d.yz + 0.3 * grain_d.yz, rock);
