@@ -203,7 +203,10 @@ class _Gpu:
 
     def _upload(self, kind: str, data) -> gl.Mesh | None:
         if kind == TERRAIN_MESH:
-            return gl.Mesh(data.vertices, {0: 3, 1: 3, 2: 1}, self.terrain_indices)
+            # position, normal, water level seen, distance to the shore
+            mesh = gl.Mesh(data.vertices, {0: 3, 1: 3, 2: 1, 3: 1}, self.terrain_indices)
+            mesh.centre_m = data.bounds_m.mean(axis=0)     # drawn near to far (early depth test)
+            return mesh
         mesh, ground = data
         if not len(mesh.indices):
             return None
@@ -239,7 +242,7 @@ class _Gpu:
             length, width, height = key[1]
             rows = build(length, width, height) if prop.shape == "boat" else \
                 build(0.5 * width, length)
-            mesh = gl.Mesh(rows, {0: 3, 1: 3, 2: 3})
+            mesh = gl.Mesh(rows, {0: 3, 1: 3, 2: 3, 3: 1})   # position, normal, colour, gloss
             self.prop_meshes[key] = mesh
         return mesh
 
@@ -526,7 +529,10 @@ class DrawRivers(System):
         program.use()
         program.set_if_used(**shared)
         count, first = gpu.terrain_ranges[detail]
-        for mesh in self._terrain_meshes:
+        eye = np.asarray(world.camera.position, np.float64)
+        # near to far: the depth test then rejects hidden ground before it is shaded
+        for mesh in sorted(self._terrain_meshes,
+                           key=lambda m: float(np.sum((m.centre_m - eye) ** 2))):
             mesh.draw(count=count, first=first)
         if detail == "full":
             self.last_tiles = len(self._terrain_meshes)

@@ -335,7 +335,9 @@ def test_a_late_tile_never_gives_a_wrong_status_at_its_parents_level():
     waited = 0
     for level in range(field.max_level):
         pool.clear()
-        field.query(xy, level=level)                # only this level resident, none in the cut
+        # only this level resident (the tiles under the shore and the far points: a far
+        # point inland may lie in a tile no shore point falls in), none in the cut
+        field.query(np.vstack([xy, far]), level=level)
         assert {k[0] for k in pool.keys()} == {level}
         pool.arrays["in_cut"][:] = 0
         status = np.empty(len(xy), np.uint8)
