@@ -3,14 +3,16 @@
 For river networks of 1, 10, 100 and 1000 km (procedural ``default_scene`` worlds, the size
 picked with :func:`~riverflow.scenes.layout.size_for_network_length` and corrected until the
 network is within 10 % of the wanted length), each measured in its own process (so RSS is that
-world's alone) pinned to one core with NUMBA_NUM_THREADS=1 (the tile worker thread shares it):
+world's alone) pinned to one core with NUMBA_NUM_THREADS=1 (the tile worker, a forked process by default, ``--tile-worker
+thread`` a thread, shares it):
 
 * make: seconds to make the landscape (``default_scene``) and the world (``RiverWorld``); a
   network whose square is smaller than ``--land-km`` (20 km) is put on that much procedural
   land (``rf.landscape(graph, pad_m=…)``), so that its view is as full of terrain as the larger
   worlds' and the steady frames compare like with like (``--land-km 0``: the bare square);
 * RSS (VmRSS) after the numba warm-up (a tiny world, made and closed: the baseline), after
-  making, after the flight, and the peak (VmHWM);
+  making, after the flight (plus the tile process's private memory: what it holds that the
+  world's process does not), and the peak (VmHWM);
 * warm-up: frames and seconds from the first step until no tile of the view is pending after
   a step (the view's tiles are all made), at the flight's first view;
 * steady: p50/p95 of ``world.step``'s wall time (and of the sum of ``world.timings_ms``) at a
@@ -72,6 +74,24 @@ def _status_kb() -> dict[str, int]:
 
 def _rss_mb() -> float:
     return _status_kb()["VmRSS"] / 1024.0
+
+
+def _private_mb(pid: int | None) -> float:
+    """Memory [MB] only process ``pid`` holds (Private_Clean + Private_Dirty: the tile
+    process's own pages; those it still shares with the world's, copy-on-write, are counted
+    once, in the world's RSS); 0 without one."""
+    if pid is None:
+        return 0.0
+    kb = 0
+    try:
+        with open(f"/proc/{pid}/smaps_rollup") as f:
+            for line in f:
+                key, _, value = line.partition(":")
+                if key in ("Private_Clean", "Private_Dirty"):
+                    kb += int(value.split()[0])
+    except OSError:
+        return 0.0
+    return kb / 1024.0
 
 
 def _stats(values, percentiles=(50, 95, 99)) -> dict:
@@ -263,7 +283,7 @@ def measure(length_km: float, args) -> dict:
     res["rss_landscape_mb"] = _rss_mb()
     w, h = args.size
     config = rf.RiverConfig(radius_px=args.radius, tile_production="background",
-                            capacity=max(1024, int(1.5 * 0.87 * w * h / (2 * args.radius) ** 2)))
+                            tile_worker=args.tile_worker, capacity=max(1024, int(1.5 * 0.87 * w * h / (2 * args.radius) ** 2)))
     t0 = time.perf_counter()
     world = rf.RiverWorld(scene, size=(w, h), gl=False, seed=args.seed, config=config)
     res["world_s"] = time.perf_counter() - t0
@@ -343,7 +363,11 @@ def measure(length_km: float, args) -> dict:
             "cache_allocated_mb": cache.allocated_bytes / 2**20,
             "pinned_tiles": int(sum(int(np.count_nonzero(p.pins)) for p in cache.pools.values())),
             "errors": len(scheduler.errors), "first_errors": scheduler.errors[:3]}
-        res["rss_after_flight_mb"] = _rss_mb()
+        res["rss_world_after_flight_mb"] = _rss_mb()
+        res["rss_worker_private_mb"] = _private_mb(scheduler.worker_pid)
+        res["rss_after_flight_mb"] = res["rss_world_after_flight_mb"] + \
+            res["rss_worker_private_mb"]
+        res["tile_worker"] = scheduler.worker
 
         # drain: stop at the flight's last view until nothing is pending (the backlog's
         # stale requests are dropped as the worker reaches them)
@@ -437,6 +461,7 @@ def format_table(results: list[dict], args) -> str:
         ("tile errors", lambda r: f"{r['flight']['errors']}"
          + ("+" if r["flight"]["errors"] >= 100 else "")),
         ("RSS flight MB", lambda r: f"{r['rss_after_flight_mb']:.0f}"),
+        ("of it tile process", lambda r: f"{r.get('rss_worker_private_mb', 0.0):.0f}"),
         ("RSS peak MB", lambda r: f"{r['rss_peak_mb']:.0f}"),
     ]
     ok = [r for r in results if "error" not in r]
@@ -503,6 +528,9 @@ def parse(argv: list[str] | None):
     parser.add_argument("--land-km", type=float, default=20.0,
                         help="a network on a square smaller than this is put on this much "
                              "procedural land (rf.landscape), so its view is full; 0: as made")
+    parser.add_argument("--tile-worker", choices=("process", "thread"), default="process",
+                        help="RiverConfig.tile_worker: tiles made in a forked process (default) "
+                             "or in the worker thread")
     parser.add_argument("--switch-interval", type=float, default=None,
                         help="sys.setswitchinterval in the child [s] (Python's default 0.005: "
                              "how long the tile worker may hold the GIL against a frame)")

@@ -118,6 +118,9 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--radius-px", type=_positive, default=None, metavar="R",
                    help="Poisson-disk radius of the particles in pixels (default: "
                         "RiverConfig's, 10)")
+    p.add_argument("--no-reflections", dest="reflections", action="store_false",
+                   help="reflect the sky alone, not the banks and the boats (no reflection "
+                        "pass; DisplaySettings.reflections)")
     p.set_defaults(run=_render)
 
     p = sub.add_parser(
@@ -309,6 +312,7 @@ def _render(args: argparse.Namespace) -> int:
     with world:
         for name, value in dataclasses.asdict(settings_for(args.mode)).items():
             setattr(world.display, name, value)
+        world.display.reflections = args.reflections
         fly(world, args.frames)
         frame = world.render()
         particles = len(world.particles)

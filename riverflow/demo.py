@@ -22,6 +22,7 @@ SPACE                     pause the particles
 + / −                     flow speed factor up / down
 T                         next wave tile (animated, Perlin, static)
 R                         rain on / off (streaks, ripple rings on the water)
+M                         reflections of the banks, boat and props on / off
 F2                        screenshot to PNG
 H, F1                     help overlay;  ESCAPE quits
 ========================  ==============================================================
@@ -50,14 +51,14 @@ MODE_KEYS = {"_1": DisplayMode.NONE, "_2": DisplayMode.MESH, "_3": DisplayMode.C
              "_4": DisplayMode.ADVECTED, "_5": DisplayMode.PRE_ADVECTED,
              "_6": DisplayMode.NON_ADVECTED, "_7": DisplayMode.FOAM}
 KEYS = frozenset({"W", "S", "A", "D", "UP", "DOWN", "LEFT", "RIGHT", "Q", "E", "C", *MODE_KEYS,
-                  "G", "P", "V", "T", "R", "SPACE", "PLUS", "EQUAL", "NUM_ADD", "MINUS",
+                  "G", "P", "V", "T", "R", "M", "SPACE", "PLUS", "EQUAL", "NUM_ADD", "MINUS",
                   "NUM_SUBTRACT", "H", "F1", "F2", "ESCAPE"})
 """The keys the demo reacts to (pyglet names); a key script naming another is an error."""
 HELP = """riverflow boat demo
 W/S or UP/DOWN   throttle        A/D or LEFT/RIGHT  rudder
 C  chase / free camera (free: WASD, Q/E, mouse drag)
 1-7  water: none, mesh, coverage, advected, pre-advected, non-advected, foam
-G grid   P particles   V velocity arrows   T wave tile   R rain
+G grid   P particles   V velocity arrows   T wave tile   R rain   M reflections
 SPACE pause particles   +/- flow speed   F2 screenshot
 H help   ESC quit"""
 
@@ -97,6 +98,8 @@ class Hud:
                                                        ("particles", display.show_particles),
                                                        ("arrows", display.show_velocities))
                         if on)
+        if not display.reflections:
+            mode += " (no reflections)"
         total = sum(v for k, v in self.timings_ms.items() if k != "draw")
         rate = f"{self.fps:5.1f} fps {self.frame_ms:5.1f} ms   " if self.fps > 0 else ""
         out = [f"{rate}{self.particles} particles   "
@@ -215,6 +218,8 @@ class BoatDemo:
         elif key == "R":
             self.raining = not self.raining
             world.set_rain(RAIN_DROPS_PER_S if self.raining else 0.0)
+        elif key == "M":
+            display.reflections = not display.reflections
         elif key == "T":
             kinds = list(WaveKind)
             display.wave = kinds[(kinds.index(display.wave) + 1) % len(kinds)]

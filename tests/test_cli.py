@@ -74,6 +74,8 @@ def test_render_and_profile_have_defaults_for_every_option():
     render = _parser().parse_args(["render"])
     assert (render.size, render.frames, render.mode, render.out) == \
         ((1280, 720), 240, "advected", Path("out/render.png"))
+    assert render.reflections and not _parser().parse_args(["render", "--no-reflections"]
+                                                           ).reflections
     profile = _parser().parse_args(["profile"])
     assert (profile.size, profile.radius_px, profile.frames) == ((1920, 1080), 10.0, 300)
 

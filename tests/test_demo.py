@@ -143,6 +143,24 @@ def test_keys_drive_the_boat_and_the_display(scene):
         demo.close()
 
 
+def test_key_m_turns_the_reflections_off_and_on(scene):
+    from riverflow.demo import HELP, BoatDemo
+    demo = BoatDemo(scene, (96, 64), seed=0, gl=False,
+                    config=RiverConfig(tile_production="blocking"))
+    try:
+        assert demo.world.display.reflections               # on by default
+        script = KeyScript.from_text("0 M tap\n2 M tap")
+        seen = []
+        for frame in range(4):
+            script.feed(frame, demo.input)
+            demo.step()
+            seen.append(demo.world.display.reflections)
+        assert seen == [False, False, True, True]
+        assert "M reflections" in HELP
+    finally:
+        demo.close()
+
+
 def _load_embed():
     spec = importlib.util.spec_from_file_location("embed_example", REPO / "demos" / "embed.py")
     module = importlib.util.module_from_spec(spec)

@@ -55,16 +55,32 @@ class DisplaySettings:
     """Exponential distance fog [1/m]."""
     arrow_s: float = 4.0
     """Velocity arrows are this many seconds of travel long."""
+    # -- reflections (issue 12 item 3) --
+    reflections: bool = True
+    """Banks, props and sky mirrored in the water (a planar reflection pass at the level of
+    the water nearest the camera, corrected per pixel for the river's slope); False: the sky
+    alone is reflected, as before, and the pass is skipped."""
+    reflection_scale: float = 0.5
+    """Size of the reflection texture as a fraction of the viewport's (0 < scale ≤ 1); the
+    wave distortion blurs it anyway, and its cost falls with the square of it."""
+    reflection_distortion: float = 0.1
+    """How far the wave normal bends the reflected rays (1: as the water normal says; 0: a
+    flat mirror)."""
 
     def validate(self) -> None:
         """Raise ValueError naming the field if a value is not usable."""
         self.mode = DisplayMode(self.mode)
         self.wave = WaveKind(self.wave)
-        for name in ("wave_slope_factor", "water_clarity_m", "fog_density_per_m", "arrow_s"):
+        for name in ("wave_slope_factor", "water_clarity_m", "fog_density_per_m", "arrow_s",
+                     "reflection_distortion"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
                 raise ValueError(f"DisplaySettings.{name} must be a finite number ≥ 0, "
                                  f"got {value!r}")
+        scale = self.reflection_scale
+        if not (isinstance(scale, (int, float)) and math.isfinite(scale) and 0 < scale <= 1):
+            raise ValueError(f"DisplaySettings.reflection_scale must be in (0, 1], got {scale!r}")
+        self.reflections = bool(self.reflections)
 
 
 MODE_NAMES: dict[str, dict[str, object]] = {

@@ -90,6 +90,12 @@ class RiverConfig:
     (until a tile is ready its coarser parent serves); "blocking": made in the frame that
     needs them (deterministic: scripted runs and tests)."""
 
+    tile_worker: str = "process"
+    """Where "background" tiles are made: "process" (a forked process, Linux; elsewhere the
+    thread): the producers' Python and numpy never hold the frame's interpreter lock, so a
+    fast flight has no lock stalls; "thread": the worker thread itself (a height source that
+    cannot be used from a forked process: a callable holding a socket or a GPU context)."""
+
     random_offset_min_m: tuple[float, float] = (-1.0, -1.0)
     """Lower corner of the per-particle random sprite offset box [m] (Proland RandomParticleLayer
     min; river1: -1)."""
@@ -131,6 +137,9 @@ class RiverConfig:
         if self.tile_production not in ("background", "blocking"):
             raise ValueError("RiverConfig.tile_production must be 'background' or 'blocking', "
                              f"got {self.tile_production!r}")
+        if self.tile_worker not in ("process", "thread"):
+            raise ValueError("RiverConfig.tile_worker must be 'process' or 'thread', "
+                             f"got {self.tile_worker!r}")
         if self.spawn_gap_factor < self.cull_radius_factor:
             raise ValueError("RiverConfig.spawn_gap_factor must be ≥ cull_radius_factor")
         if self.far_m <= self.near_m:

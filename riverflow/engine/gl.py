@@ -262,9 +262,11 @@ class TexFormat:
 
 RGBA8 = TexFormat(gl.GL_RGBA8, gl.GL_RGBA, gl.GL_UNSIGNED_BYTE, np.uint8, 4)
 RGBA32F = TexFormat(gl.GL_RGBA32F, gl.GL_RGBA, gl.GL_FLOAT, np.float32, 4)
+RGBA16F = TexFormat(gl.GL_RGBA16F, gl.GL_RGBA, gl.GL_FLOAT, np.float32, 4)
 RG32F = TexFormat(gl.GL_RG32F, gl.GL_RG, gl.GL_FLOAT, np.float32, 2)
 R32F = TexFormat(gl.GL_R32F, gl.GL_RED, gl.GL_FLOAT, np.float32, 1)
 RGBA32I = TexFormat(gl.GL_RGBA32I, gl.GL_RGBA_INTEGER, gl.GL_INT, np.int32, 4, integer=True)
+R32I = TexFormat(gl.GL_R32I, gl.GL_RED_INTEGER, gl.GL_INT, np.int32, 1, integer=True)
 DEPTH24 = TexFormat(gl.GL_DEPTH_COMPONENT24, gl.GL_DEPTH_COMPONENT, gl.GL_FLOAT, np.float32, 1)
 
 
@@ -347,6 +349,11 @@ class Texture:
         gl.glActiveTexture(gl.GL_TEXTURE0 + unit)
         gl.glBindTexture(self.target, self.id)
 
+    def generate_mipmaps(self) -> None:
+        """Fill levels 1… from level 0 (a texture drawn into, e.g. the reflection)."""
+        _bind_scratch(self.target, self.id)
+        gl.glGenerateMipmap(self.target)
+
     def delete(self) -> None:
         _discard(self.context, "texture", self.id)
         self.id = 0
@@ -360,10 +367,14 @@ def _check_shape(data: np.ndarray, hw: tuple[int, int], channels: int, rows: int
 
 
 def read_texture(texture: Texture, level: int = 0) -> np.ndarray:
-    """Read a 2-D texture back as (H, W, C) (or (H, W)) of its dtype, row 0 at the bottom."""
+    """Read a texture back as (H, W, C) (or (H, W)) of its dtype, row 0 at the bottom; an
+    array texture as (L, H, W, C) (or (L, H, W))."""
     w, h = max(1, texture.width >> level), max(1, texture.height >> level)
     c = texture.fmt.channels
-    out = np.empty((h, w, c) if c > 1 else (h, w), texture.fmt.dtype)
+    shape = (h, w, c) if c > 1 else (h, w)
+    if texture.layers is not None:
+        shape = (texture.layers, *shape)
+    out = np.empty(shape, texture.fmt.dtype)
     _bind_scratch(texture.target, texture.id)
     gl.glPixelStorei(gl.GL_PACK_ALIGNMENT, 1)
     gl.glGetTexImage(texture.target, level, texture.fmt.upload, texture.fmt.gl_type,
@@ -375,19 +386,31 @@ def read_texture(texture: Texture, level: int = 0) -> np.ndarray:
 
 class Framebuffer:
     """Colour attachment(s) plus an optional depth texture (shared between framebuffers when
-    passed in)."""
+    passed in). A colour attachment is a 2-D texture or a (array texture, layer) pair; with
+    several, fragment output ``location = i`` goes to attachment i."""
 
-    def __init__(self, colour: list[Texture], depth: Texture | None = None) -> None:
+    def __init__(self, colour: list[Texture | tuple[Texture, int]],
+                 depth: Texture | None = None) -> None:
         ident = gl.GLuint()
         gl.glGenFramebuffers(1, ctypes.byref(ident))
         self.id = ident.value
         self.context = gl.current_context
         self.colour, self.depth = colour, depth
-        self.width, self.height = colour[0].width, colour[0].height
+        first = colour[0][0] if isinstance(colour[0], tuple) else colour[0]
+        self.width, self.height = first.width, first.height
         gl.glBindFramebuffer(gl.GL_FRAMEBUFFER, self.id)
-        for i, tex in enumerate(colour):
-            gl.glFramebufferTexture2D(gl.GL_FRAMEBUFFER, gl.GL_COLOR_ATTACHMENT0 + i,
-                                      gl.GL_TEXTURE_2D, tex.id, 0)
+        for i, attachment in enumerate(colour):
+            if isinstance(attachment, tuple):
+                tex, layer = attachment
+                gl.glFramebufferTextureLayer(gl.GL_FRAMEBUFFER, gl.GL_COLOR_ATTACHMENT0 + i,
+                                             tex.id, 0, layer)
+            else:
+                gl.glFramebufferTexture2D(gl.GL_FRAMEBUFFER, gl.GL_COLOR_ATTACHMENT0 + i,
+                                          gl.GL_TEXTURE_2D, attachment.id, 0)
+        if len(colour) > 1:
+            buffers = (gl.GLenum * len(colour))(*(gl.GL_COLOR_ATTACHMENT0 + i
+                                                  for i in range(len(colour))))
+            gl.glDrawBuffers(len(colour), buffers)
         if depth is not None:
             gl.glFramebufferTexture2D(gl.GL_FRAMEBUFFER, gl.GL_DEPTH_ATTACHMENT,
                                       gl.GL_TEXTURE_2D, depth.id, 0)
@@ -417,6 +440,16 @@ class Framebuffer:
     def delete(self) -> None:
         _discard(self.context, "framebuffer", self.id)
         self.id = 0
+
+
+def blit(source: Framebuffer, target: Framebuffer, depth: bool = False) -> None:
+    """Copy ``source``'s colour (and depth) into ``target`` (same size: no filtering)."""
+    gl.glBindFramebuffer(gl.GL_READ_FRAMEBUFFER, source.id)
+    gl.glBindFramebuffer(gl.GL_DRAW_FRAMEBUFFER, target.id)
+    mask = gl.GL_COLOR_BUFFER_BIT | (gl.GL_DEPTH_BUFFER_BIT if depth else 0)
+    gl.glBlitFramebuffer(0, 0, source.width, source.height, 0, 0, target.width, target.height,
+                         mask, gl.GL_NEAREST)
+    gl.glBindFramebuffer(gl.GL_FRAMEBUFFER, 0)
 
 
 def blit_to_window(source: Framebuffer, width_px: int, height_px: int) -> None:
@@ -502,7 +535,11 @@ def _buffer(target: int, data: np.ndarray) -> int:
 # -- state -----------------------------------------------------------------------------------
 
 def clear(rgba: tuple[float, float, float, float] = (0, 0, 0, 0), depth: bool = True) -> None:
+    """Clear the bound framebuffer's colour (and depth: glClear obeys the depth mask, so depth
+    writes are turned on first and stay on)."""
     gl.glClearColor(*rgba)
+    if depth:
+        gl.glDepthMask(gl.GL_TRUE)
     gl.glClear(gl.GL_COLOR_BUFFER_BIT | (gl.GL_DEPTH_BUFFER_BIT if depth else 0))
 
 
@@ -530,9 +567,25 @@ def set_blend(kind: int) -> None:
     gl.glBlendFuncSeparate(src, dst, gl.GL_ZERO, gl.GL_ONE)
 
 
-def set_cull(back: bool) -> None:
+def mip_levels(width: int, height: int) -> int:
+    """Levels of a full mip chain down to 1 × 1."""
+    return max(int(width), int(height), 1).bit_length()
+
+
+def set_cull(back: bool, mirrored: bool = False) -> None:
+    """Cull back faces (or not). ``mirrored``: the geometry is drawn through a mirror, which
+    turns counter-clockwise front faces clockwise (the planar reflection pass)."""
     (gl.glEnable if back else gl.glDisable)(gl.GL_CULL_FACE)
     gl.glCullFace(gl.GL_BACK)
+    gl.glFrontFace(gl.GL_CW if mirrored else gl.GL_CCW)
+
+
+def set_clip_distance(on: bool) -> None:
+    """Clip against the plane the vertex shaders write to ``gl_ClipDistance[0]`` (the
+    reflection pass drops what is under the water), or not. Mesa's llvmpipe clips by
+    ``gl_ClipDistance`` even while this is off, so a shader that writes it must write a
+    positive distance when it does not mean to clip (``u_clip_water`` in terrain.glsl)."""
+    (gl.glEnable if on else gl.glDisable)(gl.GL_CLIP_DISTANCE0)
 
 
 def enable_program_point_size() -> None:

@@ -93,10 +93,12 @@ class RiverWorld:
                           domain_m=(q.root_x_m, q.root_y_m, q.root_size_m))
         self.field = field
         producers = [*terrain_producers(scene), FlowProducer(field)]
-        self.tiles = Tiles(cache, TileScheduler(cache, producers, c.tile_production))
+        self.tiles = Tiles(cache, TileScheduler(cache, producers, c.tile_production,
+                                                   worker=c.tile_worker))
         self._owned = _Owned(self.name, self.tiles.scheduler)
         self._finalizer = weakref.finalize(self, _release, self._owned)
         self._finalizer.atexit = False     # at exit the worker is a daemon, GL may be gone
+        self.tiles.scheduler.start()       # forked here, not in the first frame
         camera = Camera(position=(x0, y0, 100.0), target=(0.5 * (x0 + x1), 0.5 * (y0 + y1), 0.0),
                         fov_y_deg=c.fov_y_deg, near_m=c.near_m, far_m=c.far_m,
                         size_px=tuple(int(v) for v in size))
@@ -211,7 +213,11 @@ class RiverWorld:
         scripted run, after a teleport). Runs the camera and tile systems with no time passing
         and waits for the scheduler, until no tile of the view is missing; then, with
         ``config.freeze_gc_on_load``, the garbage collector is told to leave what is alive now
-        alone. Returns False if that took longer than ``timeout_s``."""
+        alone. Returns False if that took longer than ``timeout_s``.
+
+        Once the view's tiles are made, the update systems run once more with no time passing,
+        so that the particles' first Poisson fill of the screen (tens of milliseconds at
+        1080p) happens here, on the loading screen, not in the first frame."""
         names = ("camera", "tiles")
         scheduler = self.tiles.scheduler
         end = time.perf_counter() + timeout_s
@@ -228,6 +234,9 @@ class RiverWorld:
                     break
                 if not scheduler.wait(max(end - time.perf_counter(), 0.0)):
                     return False
+            for system in self.systems:     # the screen's particles: seeded with no time passing
+                if system.phase == "update" and not (system.needs_gl and not self.gl):
+                    system.process(self, 0.0)
         if self.config.freeze_gc_on_load:
             gc.unfreeze()
             gc.collect()

@@ -228,3 +228,70 @@ def split_rings(polygons: list[Polygon], cuts: list[np.ndarray], eps_m: float
                 i = k
             rings.append(ring)
     return rings, pieces
+
+
+# -- junction fillets ---------------------------------------------------------------------
+
+FILLET_QUAD_SEGS = 32
+"""Segments per quarter circle of a fillet arc (2.8° of turn per segment)."""
+FILLET_OVERLAP_M = 1e-3
+"""The pieces of water a fillet adds are grown this much before they are added."""
+
+
+def fillet_pieces(local: shapely.Geometry, center_m: np.ndarray, radius_m: float,
+                  reach_m: float, keep_out: shapely.Geometry | None = None,
+                  extent_m: float | None = None) -> list[Polygon]:
+    """The pieces of water that round the corners of the water outline around one junction.
+
+    Where two branches' banks meet at a junction their strips leave a sharp corner: a point of
+    land between them, or a notch where a narrower strip meets the junction disc (the disc
+    only widens the water: every such corner turns the outline away from the water). The
+    morphological closing of the water with a disc of radius ``radius_m`` cuts every point of
+    land sharper than that back to an arc of that radius, tangent to both banks; straight
+    banks, outer bends and inner bends gentler than the radius are left alone.
+
+    ``local`` is the water within ``reach_m + 3·radius_m`` of ``center_m`` (the closing is
+    exact within ``reach_m``). Each connected piece of water the closing adds is returned if it
+    lies within ``reach_m``, away from ``keep_out`` (the closing segments of free river ends,
+    which must stay straight cuts), is thicker than the arcs' own chord error (the buffers'
+    rounding along gentle bends), fits in a circle of radius ``extent_m`` (default two radii:
+    a point of land of 28° or more; a slimmer one would be eaten far back) and leaves the
+    water's topology as it was (it neither joins two shores nor fills an island). Each is
+    grown by FILLET_OVERLAP_M: it shares an edge with the outline up to rounding, and an
+    overlay of two nearly equal edges can leave a needle between them; grown, it overlaps.
+    """
+    if local.is_empty:
+        return []
+    rounded = local.buffer(radius_m, quad_segs=FILLET_QUAD_SEGS).buffer(
+        -radius_m, quad_segs=FILLET_QUAD_SEGS)
+    inner = Point(center_m).buffer(reach_m, quad_segs=FILLET_QUAD_SEGS)
+    # a chord of an arc of radius r misses it by r·(1 − cos(Δ/2)), Δ = 90°/quad_segs: thinner
+    # differences are the buffers' own rounding along straight banks and gentle bends (their
+    # areas are under r²·Δ³/8; a corner that turns by 12° leaves r²·(tan 6° − π/30))
+    half = 0.5 * np.pi / (2.0 * FILLET_QUAD_SEGS)
+    thin = 4.0 * radius_m * (1.0 - np.cos(half))
+    small = 4.0 * radius_m ** 2 * (2.0 * half) ** 3
+    shape = topology(local)
+    out = []
+    changed = shapely.difference(rounded, local)
+    for part in getattr(changed, "geoms", [changed]):
+        if not isinstance(part, Polygon) or part.area < small:
+            continue
+        if not inner.contains(part) or part.buffer(-thin).is_empty:
+            continue
+        if keep_out is not None and part.distance(keep_out) < 2.0 * radius_m:
+            continue
+        if shapely.minimum_bounding_radius(part) > (extent_m or 2.0 * radius_m):
+            continue        # a slim point of land: its rounding would eat it far back
+        part = shapely.buffer(part, FILLET_OVERLAP_M, join_style="mitre")
+        if topology(shapely.union(local, part)) != shape:
+            continue        # it joins two shores across a neck of land, or fills an island
+        out.append(part)
+    return out
+
+
+def topology(geom: shapely.Geometry) -> list[int]:
+    """Holes per polygon of a (multi)polygon, largest polygon first."""
+    parts = [g for g in getattr(geom, "geoms", [geom]) if isinstance(g, Polygon) and not g.is_empty]
+    parts.sort(key=lambda g: -g.area)
+    return [len(g.interiors) for g in parts]

@@ -26,6 +26,14 @@ Geometry: each branch is a strip (centre line ± width/2), the water is the unio
 minus the islands (shapely), oriented so that water lies on the left of every ring. The rings
 are cut at the flat ends of free river ends (closing segments); each remaining boundary piece
 gets one ψ from the discharges (facing downstream, right bank ψ − left bank ψ = discharge).
+
+Junction corners are rounded: where the banks of two branches meet, the union of the strips
+has a sharp point of land (and notches where a narrower strip meets the junction disc). Near
+each junction the outline is replaced by its morphological closing: every corner of land
+sharper than an arc of radius ``fillet_fraction`` × the narrowest width there (default half of
+it) becomes that arc, tangent to both banks; the rest of the outline is untouched. The rounded
+outline is an ordinary stretch of its piece: it carries the piece's ψ like the rest of the
+bank, so the flow follows the arc (``tests/hydro/test_fillets.py``).
 """
 from __future__ import annotations
 
@@ -44,6 +52,14 @@ MAX_TURN_DEG = 135.0
 """Sharpest turn of a centre line at one point; sharper ones fold the strip onto itself."""
 JOIN_FRACTION = 0.25
 """End points closer than this fraction of the narrower width are one junction."""
+FILLET_FRACTION = 0.5
+"""Default radius of the arcs that round the points of land at a junction, as a fraction of
+the narrowest width there (``RiverNetworkBuilder(fillet_fraction=...)``; 0: sharp corners)."""
+FILLET_EXTENT = 1.5
+"""What a fillet cuts off a point of land fits in a circle of this many radii; slimmer points
+get smaller arcs (:func:`_round_junctions`)."""
+FILLET_REACH_WIDTHS = 5.0
+"""Corners are rounded within this many of the widest branch's widths from a junction."""
 
 
 @dataclass
@@ -65,18 +81,24 @@ class RiverNetworkBuilder:
 
     ``tolerance_m`` is the Bézier flattening tolerance and the geometric epsilon [m].
     ``lateral_inflow``: a branch leaving a junction alone may carry more than its inflow (the
-    module docstring). After :meth:`build`, ``discharges_m2s`` holds the resolved discharge of
+    module docstring). ``fillet_fraction``: the corners where banks meet at a junction are
+    rounded with arcs of this fraction of the narrowest width there (module docstring; 0
+    leaves them sharp). After :meth:`build`, ``discharges_m2s`` holds the resolved discharge of
     every branch (in the order they were added), ``inlets_m2s`` the lateral inflow [m²/s] at
     each junction point that has one, and ``water_polygon`` the water (shapely, islands are
     holes). ``crs`` (WKT or ``EPSG:n``, None when unknown) is copied onto the built graph;
     ``water_levels`` likewise (see :attr:`HydroGraph.water_levels`).
     """
 
-    def __init__(self, tolerance_m: float = 0.25, *, lateral_inflow: bool = False) -> None:
+    def __init__(self, tolerance_m: float = 0.25, *, lateral_inflow: bool = False,
+                 fillet_fraction: float = FILLET_FRACTION) -> None:
         if not (np.isfinite(tolerance_m) and tolerance_m > 0):
             raise GraphError(f"tolerance_m must be a positive number, got {tolerance_m!r}")
+        if not (np.isfinite(fillet_fraction) and 0.0 <= fillet_fraction <= 1.0):
+            raise GraphError(f"fillet_fraction must lie in [0, 1], got {fillet_fraction!r}")
         self.tolerance_m = float(tolerance_m)
         self.lateral_inflow = bool(lateral_inflow)
+        self.fillet_fraction = float(fillet_fraction)
         self._branches: list[_BranchInput] = []
         self._islands: list[_Island] = []
         self.discharges_m2s: list[float] = []
@@ -203,7 +225,8 @@ class RiverNetworkBuilder:
                                                  self.lateral_inflow)
         geoms = [BranchGeometry(b.name, b.centerline_m, b.widths_m, q, sj, ej)
                  for b, q, sj, ej in zip(branches, discharges, start_j, end_j)]
-        polygons, cuts, islands = _water(geoms, junctions, self._islands, self.tolerance_m)
+        polygons, cuts, islands = _water(geoms, junctions, self._islands, self.tolerance_m,
+                                         self.fillet_fraction)
         eps = max(1e-3, 1e-3 * self.tolerance_m)
         try:
             rings, pieces = _strips.split_rings(polygons, cuts, eps)
@@ -359,8 +382,41 @@ def _resolve_discharges(branches, order, start_j, end_j, junctions, lateral: boo
 # -- water polygon ------------------------------------------------------------------------
 
 
+def _round_junctions(river, parts: list, geoms: list[BranchGeometry], junctions: np.ndarray,
+                     cuts: list, fraction: float, sliver_m2: float):
+    """The water with the corners at every junction rounded (:func:`_strips.fillet_pieces`):
+    arcs of radius r = ``fraction`` × the narrowest width there; slim points of land (the tip
+    of a slim island between two arms), which that arc would cut far back, get arcs of half
+    or a quarter of r, whichever first cuts off no more than fits in a circle of
+    FILLET_EXTENT radii r. Each junction works on the water near it, made from the strips and
+    discs (``parts``) there, so the cost does not grow with the network; the pieces join the
+    whole water once at the end (left out if that changed the water's topology)."""
+    keep_out = shapely.MultiLineString([c for c in cuts]) if cuts else None
+    tree = shapely.STRtree(parts)
+    pieces = []
+    for j, p in enumerate(junctions):
+        widths = [w for g in geoms for w, at in ((g.widths_m[0], g.start_junction),
+                                                 (g.widths_m[-1], g.end_junction)) if at == j]
+        radius = fraction * min(widths)
+        reach = FILLET_REACH_WIDTHS * max(widths)
+        window = shapely.Point(p).buffer(reach + 3.0 * radius, quad_segs=_strips.FILLET_QUAD_SEGS)
+        near = [parts[i] for i in tree.query(window, predicate="intersects")]
+        local = _strips.drop_slivers(shapely.intersection(shapely.union_all(near), window),
+                                     sliver_m2)
+        for scale in (1.0, 0.5, 0.25):
+            added = _strips.fillet_pieces(local, p, scale * radius, reach, keep_out,
+                                          FILLET_EXTENT * radius)
+            if added:
+                local = shapely.union_all([local, *added])
+                pieces += added
+    if not pieces:
+        return river
+    rounded = _strips.drop_slivers(shapely.union_all([river, *pieces]), sliver_m2)
+    return rounded if _strips.topology(rounded) == _strips.topology(river) else river
+
+
 def _water(geoms: list[BranchGeometry], junctions: np.ndarray, islands: list[_Island],
-           tolerance_m: float):
+           tolerance_m: float, fillet_fraction: float = FILLET_FRACTION):
     """Oriented water polygons, free-end cuts and validated islands."""
     strips, cuts = [], []
     for g in geoms:
@@ -405,6 +461,9 @@ def _water(geoms: list[BranchGeometry], junctions: np.ndarray, islands: list[_Is
                                  f"{y:.1f}), away from the junction they share")
     min_width = min(float(g.widths_m.min()) for g in geoms)
     river = _strips.drop_slivers(shapely.union_all(strips + discs), 1e-4 * min_width ** 2)
+    if fillet_fraction > 0.0:
+        river = _round_junctions(river, strips + discs, geoms, junctions, cuts,
+                                 fillet_fraction, 1e-4 * min_width ** 2)
     valid_islands = []
     for k, isl in enumerate(islands):
         if not river.contains(isl.outline) or isl.outline.distance(river.boundary) <= tolerance_m:

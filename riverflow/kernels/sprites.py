@@ -1,10 +1,14 @@
-"""The GPU tables of the per-pixel sprite blending, rebuilt on the CPU each frame.
+"""The GPU tables of the per-pixel sprite blending: the CPU sorts, the GPU lists.
 
-Re-does the two tables of Proland's ``DrawRiversTask`` (reference §4.2–4.3); another module
-uploads them to textures and the water fragment shader reads them:
+Re-does the two tables of Proland's ``DrawRiversTask`` (reference §4.2–4.3). Proland filled
+the sprite indirection grid on the CPU, every sprite into every cell its disc touches (~40 cells
+of r px each, ~6× the particles); here the CPU only sorts the sprites by screen bin (one
+counting sort, :func:`build_sprite_tables`) and a GPU pass (``sprite_lists.glsl``) gathers each
+grid cell's list from the bins around it. What the CPU uploads is the sprite table (the rows in
+use) and 4 bytes a bin, not the 64 bytes a cell of the grid:
 
-* **sprite parameter table** (RGBA32F, ``PARTICLES_PER_ROW`` particles a row, 3 texels each):
-  particle slot ``i`` is at row ``i // 256``, texels ``3·(i % 256) + 0..2``:
+* **sprite table** (RGBA32F, ``PARTICLES_PER_ROW`` entries a row, ``TEXELS_PER_PARTICLE``
+  texels each): entry ``e`` is at row ``e // 256``, texels ``4·(e % 256) + 0..3``:
 
   ====== ============ ============ ============ ============
   texel  R            G            B            A
@@ -12,35 +16,43 @@ uploads them to textures and the water fragment shader reads them:
   0      screen x px  screen y px  world x m    world y m
   1      offset x m   offset y m   intensity    r px (not ×3)
   2      status       velocity x   velocity y   world z m
+  3      foam 0…1     0            0            0
   ====== ============ ============ ============ ============
 
-  A free slot (not alive, no world position, or a non-finite screen/world/intensity value)
-  is all zeros but status = −1: intensity 0 gives it weight f(0) = 0 in the blend.
-  Proland used one row per slot and RGBA16F (~0.25 m steps at 300 m); 256 slots a row keep
-  the texture within GL size limits for any pool, and RGBA32F keeps world positions to
-  ≤ 1 mm steps within ±8 km.
+  The entries are the particles with a usable position (alive, with a world position, finite
+  screen, world and intensity values after the cast to float32), in this order: first the
+  ``n_drawn`` *drawn* ones (INSIDE or LEAVING, intensity > 0, centre in a bin: the sprites of
+  the water), sorted by bin (row-major) and by slot within a bin; then the other usable ones
+  (for the particle and arrow overlays), in slot order. Entries after the last, up to the end
+  of its row, are free (all zeros but status = −1), so that whole rows can be uploaded. Proland
+  kept one row per slot in RGBA16F (~0.25 m steps at 300 m); 256 a row keep the texture within
+  GL size limits for any pool, and RGBA32F keeps world positions to ≤ 1 mm steps within ±8 km.
+  The layout is written in one place (``_write_entry``) and read in one (``params.glsl``): a
+  value per sprite more is a texel more (``TEXELS_PER_PARTICLE``).
 
-* **sprite indirection grid** (RGBA32I): screen cells of ``cell_px`` pixels, cell row 0 at
-  the bottom (like ``gl_FragCoord``); cell (cx, cy) is texels 4cx..4cx+3 of row cy, i.e. 16
-  int32 particle slots ``grid[cy, 16cx + k]``, in slot order, ended by ``NO_PARTICLE`` (−1)
-  when there are fewer than ``MAX_PER_CELL`` (later entries are stale). The (gh, 16·gw)
-  int32 array is the texture's memory as it is (row 0 first). Each drawable particle
-  (alive, with a world position, INSIDE or LEAVING, intensity > 0) is in every cell its
-  sprite disc (radius ``SPRITE_RADIUS_FACTOR``·r) touches; a full cell keeps the 16
-  brightest.
+* **sprite bins** (R32I, ``bw + 1`` × ``bh``, :class:`SpriteBins`): screen bins of ``bin_w`` ×
+  ``bin_h`` px, with ``margin_x``, ``margin_y`` bins more beyond each screen edge (sprites whose
+  centre is off screen but whose disc reaches into it); bin (bx, by) covers x in
+  [(bx − margin_x)·bin_w, (bx − margin_x + 1)·bin_w), likewise y, row 0 at the bottom (like
+  ``gl_FragCoord``). Texel (bx, by) holds the bin's first entry, texel (bw, by) the end of row
+  by's entries: the drawn sprites whose centres lie in bins bx0..bx1 of row by are the entries
+  [bins[by, bx0], bins[by, bx1 + 1]) (one range: the table is sorted row-major).
 
-Cell size (``sprite_grid_shape``): ⌊r⌋ px, where Proland used r/2. Particles sit ~2.14 r
-apart (Poisson disk, ~0.87 per (2r)²); a cell of side c is touched by every sprite whose
-centre lies within 3r of it, an area c² + 4·c·3r + π(3r)² = 41.3 r² for c = r, so ~9
-sprites on average, safely under 16 (benchmarks/bench_draw_tables.py: 8 a cell, none full).
-Cells of r/2 would hold ~7.5 but be 4× as many (4× the bytes to build and upload: 5.3 MB
-instead of 1.3 MB at 1920×1080, r = 10 px). An integer cell lets the shader find its cell
-exactly: ``ivec2(gl_FragCoord.xy) / cell`` (pixel centres are at i + 0.5, as in
-``screen_px``), clamped to the grid.
+* **sprite grid** (made on the GPU: RGBA32I, 4 layers of gw × gh, ``sprite_grid_shape``):
+  screen cells of r px; cell (cx, cy) lists in layers 0..3 of texel (cx, cy) up to
+  ``MAX_PER_CELL`` (16) entries of the sprite table whose sprite disc (radius
+  ``SPRITE_RADIUS_FACTOR``·r) meets the cell, then ``NO_PARTICLE`` (−1); a cell that more
+  sprites meet keeps the 16 brightest. The water shader's per-pixel loop reads it as Proland's
+  did. Cells of r px, where Proland used r/2: particles sit ~2.14 r apart (Poisson disk, ~0.87
+  per (2r)²); a cell of side c is touched by every sprite whose centre lies within 3r of it, an
+  area c² + 4·c·3r + π(3r)² = 41.3 r² for c = r, so ~9 sprites on average, safely under 16.
+  An integer cell lets the shader find its cell exactly: ``ivec2(gl_FragCoord.xy) / cell``
+  (pixel centres are at i + 0.5, as in ``screen_px``), clamped to the grid.
 """
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -49,27 +61,72 @@ from riverflow.components.status import FlowStatus
 from riverflow.kernels._jit import JIT_OPTIONS, is_finite
 
 PARTICLES_PER_ROW = 256
-"""Particle slots per row of the parameter table."""
-TEXELS_PER_PARTICLE = 3
-"""RGBA texels per particle in the parameter table."""
-MAX_PER_CELL = 16
-"""Particle slots per grid cell (4 RGBA32I texels)."""
+"""Sprite entries per row of the sprite table."""
+TEXELS_PER_PARTICLE = 4
+"""RGBA texels per entry of the sprite table."""
 SPRITE_RADIUS_FACTOR = 3.0
 """Sprite disc radius in units of the particle radius r (Proland ``riverParticleRadiusFactor``)."""
 NO_PARTICLE = -1
-"""Grid terminator, and the status written into a free slot of the parameter table."""
+"""The grid's list terminator, and the status written into a free entry of the sprite table."""
+MAX_PER_CELL = 16
+"""Sprite table entries a grid cell lists (4 RGBA32I layers)."""
+BIN_W_FACTOR = 1.0
+"""Sprite bin width in units of r (at least 1 px)."""
+BIN_H_FACTOR = 7.0
+"""Sprite bin height in units of r (at least 1 px): the sprites that may meet a grid cell of
+r px lie within 7r of rows, so a cell gathers from 2 or 3 bin rows, one range of entries each
+(bins of r × 3r, 2r × 2r or r × r cost the GPU pass 10–70 % more on llvmpipe)."""
 
 STATUS_INSIDE = int(FlowStatus.INSIDE)
 STATUS_LEAVING = int(FlowStatus.LEAVING)
-GRID_BAND_ROWS = 8
-"""Cell rows filled together by ``build_sprite_grid`` (keeps the written cells in cache)."""
 _TEXELS_PER_ROW = PARTICLES_PER_ROW * TEXELS_PER_PARTICLE
-_U_PER_CELL = np.uint64(MAX_PER_CELL)
-_U_ONE = np.uint64(1)
+
+
+class SpriteSource(NamedTuple):
+    """The particle pool's columns that the sprite table is made of (capacity C).
+
+    ``alive``, ``has_world`` (C,) bool; ``screen_px`` (C, 2) float32 [px], origin bottom-left;
+    ``world_m`` (C, 3) float64 [m]; ``offset_m`` (C, 2) float32 [m]; ``intensity`` (C,)
+    float32; ``status`` (C,) uint8 FlowStatus; ``velocity_mps`` (C, 2) float32 [m/s];
+    ``foam`` (C,) float32 in [0, 1] (:mod:`riverflow.kernels.foam`).
+    """
+
+    alive: np.ndarray
+    has_world: np.ndarray
+    screen_px: np.ndarray
+    world_m: np.ndarray
+    offset_m: np.ndarray
+    intensity: np.ndarray
+    status: np.ndarray
+    velocity_mps: np.ndarray
+    foam: np.ndarray
+
+
+def sprite_source(pool) -> SpriteSource:
+    """The :class:`SpriteSource` of a :class:`~riverflow.components.particles.ParticlePool`."""
+    return SpriteSource(pool.alive, pool.has_world, pool.screen_px, pool.world_m, pool.offset_m,
+                        pool.intensity, pool.status, pool.velocity_mps, pool.foam)
+
+
+class SpriteBins(NamedTuple):
+    """Shape of the sprite bins: bins of ``bin_w`` × ``bin_h`` px, ``margin_x``, ``margin_y``
+    bins beyond each screen edge, ``bw`` × ``bh`` bins in all (margins included); the R32I
+    texture is (bw + 1) × bh."""
+
+    bin_w: int
+    bin_h: int
+    margin_x: int
+    margin_y: int
+    bw: int
+    bh: int
+
+
+def _side(factor: float, radius_px: float) -> int:
+    return max(1, math.floor(factor * radius_px))
 
 
 def sprite_grid_shape(width_px: float, height_px: float, radius_px: float) -> tuple[int, int, int]:
-    """(cell_px, gw, gh) of the indirection grid for a ``width_px`` × ``height_px`` viewport
+    """(cell_px, gw, gh) of the sprite grid for a ``width_px`` × ``height_px`` viewport
     and particle radius ``radius_px`` (sprites are 3r): cells of ⌊r⌋ px (at least 1 px; 1 px
     for a zero or non-finite radius), ``gw = ⌈W / cell⌉``, ``gh = ⌈H / cell⌉``, at least 1
     each (a zero-size viewport gets a 1 × 1 grid)."""
@@ -84,20 +141,48 @@ def sprite_grid_shape(width_px: float, height_px: float, radius_px: float) -> tu
     return cell, gw, gh
 
 
-def param_table_rows(n_slots: int) -> int:
-    """Rows of the parameter table holding ``n_slots`` particle slots (0 for none)."""
-    return (max(int(n_slots), 0) + PARTICLES_PER_ROW - 1) // PARTICLES_PER_ROW
+def sprite_bins(width_px: float, height_px: float, radius_px: float) -> SpriteBins:
+    """The sprite bins of a ``width_px`` × ``height_px`` viewport and particle radius
+    ``radius_px`` (sprites are 3r): bins of ⌊``BIN_W_FACTOR``·r⌋ × ⌊``BIN_H_FACTOR``·r⌋ px
+    (at least 1 px each; a non-finite or negative radius counts as 0), margins of ⌈3r / bin⌉ + 1
+    bins, ``bw = ⌈W / bin_w⌉ + 2·margin_x`` (likewise ``bh``); a zero-size viewport has no
+    screen bins, only margins."""
+    r = float(radius_px)
+    r = r if is_finite(r) and r > 0 else 0.0
+    bin_w = _side(BIN_W_FACTOR, r)
+    bin_h = _side(BIN_H_FACTOR, r)
+    reach = SPRITE_RADIUS_FACTOR * r
+    margin_x = math.ceil(reach / bin_w) + 1
+    margin_y = math.ceil(reach / bin_h) + 1
+    w = float(width_px)
+    h = float(height_px)
+    w = w if is_finite(w) and w > 0 else 0.0
+    h = h if is_finite(h) and h > 0 else 0.0
+    return SpriteBins(bin_w, bin_h, margin_x, margin_y,
+                      math.ceil(w / bin_w) + 2 * margin_x, math.ceil(h / bin_h) + 2 * margin_y)
 
 
-def empty_sprite_tables(capacity: int, gw: int,
-                        gh: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Allocate (params, counts, grid) for a pool of ``capacity`` slots and a gw × gh grid:
-    params (rows, 768, 4) float32 zeros, counts (gh·gw,) int32, grid (gh, 16·gw) int32 of −1."""
+def param_table_rows(n_entries: int) -> int:
+    """Rows of the sprite table holding ``n_entries`` entries (0 for none)."""
+    return (max(int(n_entries), 0) + PARTICLES_PER_ROW - 1) // PARTICLES_PER_ROW
+
+
+def empty_sprite_tables(capacity: int, bins: SpriteBins) -> tuple[np.ndarray, np.ndarray,
+                                                                  np.ndarray]:
+    """Allocate (params, starts, scratch) for a pool of ``capacity`` slots and ``bins``:
+    params (rows, 1024, 4) float32 zeros (at least one row); starts (bh·(bw + 1) + 2,) int32
+    zeros, whose first bh·(bw + 1) values are the bins texture ((bh, bw + 1) row-major:
+    :func:`bin_texels`); scratch (capacity,) int32 (each slot's bin while the tables are
+    built)."""
     rows = max(param_table_rows(capacity), 1)
     params = np.zeros((rows, _TEXELS_PER_ROW, 4), np.float32)
-    counts = np.zeros(gh * gw, np.int32)
-    grid = np.full((gh, gw * MAX_PER_CELL), NO_PARTICLE, np.int32)
-    return params, counts, grid
+    starts = np.zeros(bins.bh * (bins.bw + 1) + 2, np.int32)
+    return params, starts, np.zeros(max(int(capacity), 1), np.int32)
+
+
+def bin_texels(starts: np.ndarray, bins: SpriteBins) -> np.ndarray:
+    """The (bh, bw + 1) bins texture held by ``starts`` (a view)."""
+    return starts[:bins.bh * (bins.bw + 1)].reshape(bins.bh, bins.bw + 1)
 
 
 @njit(**JIT_OPTIONS)
@@ -109,204 +194,148 @@ def slot_span(alive):
     return 0
 
 
-@njit(**JIT_OPTIONS)
-def _write_free_slot(out, row, t):
+@njit(inline="always", **JIT_OPTIONS)
+def _finite_or_zero(v):
+    return v if is_finite(v) else np.float32(0.0)
+
+
+@njit(inline="always", **JIT_OPTIONS)
+def _write_free(out, e):
+    row = e // PARTICLES_PER_ROW
+    t = (e % PARTICLES_PER_ROW) * TEXELS_PER_PARTICLE
     for k in range(TEXELS_PER_PARTICLE):
         for c in range(4):
             out[row, t + k, c] = 0.0
     out[row, t + 2, 0] = NO_PARTICLE
 
 
-@njit(**JIT_OPTIONS)
-def _finite_or_zero(v):
-    return v if is_finite(v) else np.float32(0.0)
+@njit(inline="always", **JIT_OPTIONS)
+def _write_entry(out, e, src, i, r):
+    """Entry ``e`` of the table ``out`` from slot ``i`` of ``src`` (usable: see ``_usable``)."""
+    row = e // PARTICLES_PER_ROW
+    t = (e % PARTICLES_PER_ROW) * TEXELS_PER_PARTICLE
+    out[row, t, 0] = np.float32(src.screen_px[i, 0])
+    out[row, t, 1] = np.float32(src.screen_px[i, 1])
+    out[row, t, 2] = np.float32(src.world_m[i, 0])
+    out[row, t, 3] = np.float32(src.world_m[i, 1])
+    out[row, t + 1, 0] = _finite_or_zero(np.float32(src.offset_m[i, 0]))
+    out[row, t + 1, 1] = _finite_or_zero(np.float32(src.offset_m[i, 1]))
+    out[row, t + 1, 2] = np.float32(src.intensity[i])
+    out[row, t + 1, 3] = r
+    out[row, t + 2, 0] = np.float32(src.status[i])
+    out[row, t + 2, 1] = _finite_or_zero(np.float32(src.velocity_mps[i, 0]))
+    out[row, t + 2, 2] = _finite_or_zero(np.float32(src.velocity_mps[i, 1]))
+    out[row, t + 2, 3] = np.float32(src.world_m[i, 2])
+    foam = np.float32(src.foam[i])
+    out[row, t + 3, 0] = min(max(foam, np.float32(0.0)), np.float32(1.0)) if is_finite(foam) \
+        else np.float32(0.0)
+    out[row, t + 3, 1] = 0.0
+    out[row, t + 3, 2] = 0.0
+    out[row, t + 3, 3] = 0.0
+
+
+@njit(inline="always", **JIT_OPTIONS)
+def _usable(src, i):
+    """Slot ``i`` holds a particle with finite float32 screen, world and intensity values."""
+    if not (src.alive[i] and src.has_world[i]):
+        return False
+    return (is_finite(np.float32(src.screen_px[i, 0]))
+            and is_finite(np.float32(src.screen_px[i, 1]))
+            and is_finite(np.float32(src.world_m[i, 0]))
+            and is_finite(np.float32(src.world_m[i, 1]))
+            and is_finite(np.float32(src.world_m[i, 2]))
+            and is_finite(np.float32(src.intensity[i])))
 
 
 @njit(**JIT_OPTIONS)
-def fill_sprite_params(alive, has_world, screen_px, world_m, offset_m, intensity, status,
-                       velocity_mps, radius_px, n_slots, out):
-    """Write particle slots [0, n_slots) into the parameter table ``out``.
+def build_sprite_tables(src, radius_px, n_slots, bins, params, starts, scratch, with_tail):
+    """Write this frame's sprite table ``params`` and bin starts ``starts`` (module docstring)
+    from slots [0, ``n_slots``) of ``src`` (a :class:`SpriteSource`); with ``with_tail`` False
+    the table ends after the drawn entries (nothing draws the others: no overlay is on).
 
-    ``alive``, ``has_world`` (C,) bool; ``screen_px`` (C, 2) float32 [px]; ``world_m`` (C, 3)
-    float64 [m]; ``offset_m`` (C, 2) float32 [m]; ``intensity`` (C,) float32; ``status`` (C,)
-    uint8 FlowStatus; ``velocity_mps`` (C, 2) float32 [m/s]; ``radius_px`` r [px] (scalar);
-    ``out`` (rows, 768, 4) float32. Layout in the module docstring. Slots that are not alive,
-    have no world position, or a non-finite screen, world or intensity value (after the cast
-    to float32) are written free; a non-finite offset, velocity or radius is written 0.
-    ``n_slots`` is clamped to the arrays; slots after it up to the end of the last row written
-    are written free too, so whole rows can be uploaded. Returns the number of rows written.
+    ``radius_px`` r [px] (written into every entry; non-finite → 0); ``bins`` a
+    :class:`SpriteBins`; ``params`` (rows, 1024, 4) float32; ``starts`` (≥ bh·(bw + 1) + 2,)
+    int32 (:func:`empty_sprite_tables`; texel (bx, by) is ``starts[by·(bw + 1) + bx]``);
+    ``scratch`` (≥ n_slots,) int32. ``n_slots`` is clamped to the columns and to ``scratch``;
+    entries beyond ``params``' rows are dropped (the tail first), the bins clamped to them.
+    A non-positive bin size or a non-positive or non-finite radius draws nothing (every usable
+    entry goes to the tail). Returns (n_drawn, n_entries, rows): the drawn entries
+    [0, n_drawn), all entries [0, n_entries), the table rows written (whole rows, the last one
+    padded with free entries).
+
+    One stable counting sort: each slot's bin; the bins' starts (a prefix sum kept one place
+    ahead, so that the scatter's cursors end as the starts); the entries scattered in slot
+    order. Two passes over the slots and one over the bins: no per-cell work.
     """
-    n = min(n_slots, alive.shape[0], has_world.shape[0], screen_px.shape[0], world_m.shape[0],
-            offset_m.shape[0], intensity.shape[0], status.shape[0], velocity_mps.shape[0],
-            out.shape[0] * PARTICLES_PER_ROW)
-    if out.shape[1] < _TEXELS_PER_ROW or out.shape[2] < 4:
-        n = 0
+    n = min(n_slots, src.alive.shape[0], src.has_world.shape[0], src.screen_px.shape[0],
+            src.world_m.shape[0], src.offset_m.shape[0], src.intensity.shape[0],
+            src.status.shape[0], src.velocity_mps.shape[0], scratch.shape[0])
     n = max(n, 0)
-    rows = (n + PARTICLES_PER_ROW - 1) // PARTICLES_PER_ROW
+    capacity = params.shape[0] * PARTICLES_PER_ROW
+    if params.shape[1] < _TEXELS_PER_ROW or params.shape[2] < 4:
+        capacity = 0
+    bw = bins.bw
+    bh = bins.bh
+    stride = bw + 1
+    size = bh * stride
+    if bw <= 0 or bh <= 0 or starts.shape[0] < size + 2:
+        bw = bh = stride = size = 0
+    radius = np.float64(radius_px)
     r = _finite_or_zero(np.float32(radius_px))
-    for i in range(rows * PARTICLES_PER_ROW):
-        row = i // PARTICLES_PER_ROW
-        t = (i % PARTICLES_PER_ROW) * TEXELS_PER_PARTICLE
-        if i < n and alive[i] and has_world[i]:
-            sx = np.float32(screen_px[i, 0])
-            sy = np.float32(screen_px[i, 1])
-            wx = np.float32(world_m[i, 0])
-            wy = np.float32(world_m[i, 1])
-            wz = np.float32(world_m[i, 2])
-            level = np.float32(intensity[i])
-            if (is_finite(sx) and is_finite(sy) and is_finite(wx)
-                    and is_finite(wy) and is_finite(wz) and is_finite(level)):
-                out[row, t, 0] = sx
-                out[row, t, 1] = sy
-                out[row, t, 2] = wx
-                out[row, t, 3] = wy
-                out[row, t + 1, 0] = _finite_or_zero(np.float32(offset_m[i, 0]))
-                out[row, t + 1, 1] = _finite_or_zero(np.float32(offset_m[i, 1]))
-                out[row, t + 1, 2] = level
-                out[row, t + 1, 3] = r
-                out[row, t + 2, 0] = np.float32(status[i])
-                out[row, t + 2, 1] = _finite_or_zero(np.float32(velocity_mps[i, 0]))
-                out[row, t + 2, 2] = _finite_or_zero(np.float32(velocity_mps[i, 1]))
-                out[row, t + 2, 3] = wz
-                continue
-        _write_free_slot(out, row, t)
-    return rows
+    bin_w = np.float64(bins.bin_w)
+    bin_h = np.float64(bins.bin_h)
+    drawing = size > 0 and bin_w > 0 and bin_h > 0 and radius > 0 and is_finite(radius)
+    for k in range(min(starts.shape[0], size + 2)):
+        starts[k] = 0
 
-
-@njit(**JIT_OPTIONS)
-def build_sprite_grid(alive, has_world, screen_px, intensity, status, n_slots, sprite_radius_px,
-                      cell_px, gw, gh, counts, grid):
-    """Rebuild the sprite indirection grid from particle slots [0, n_slots).
-
-    ``alive``, ``has_world`` (C,) bool; ``screen_px`` (C, 2) float32 [px], origin bottom-left;
-    ``intensity`` (C,) float32; ``status`` (C,) uint8 FlowStatus; ``sprite_radius_px`` the
-    sprite radius 3r [px]; ``cell_px`` the cell side [px]; ``counts`` (≥ gh·gw,) int32, gets
-    each cell's entry count (cell cy·gw + cx); ``grid`` (≥ gh, ≥ 16·gw) int32, C-contiguous.
-    Particles alive, with a world position, INSIDE or LEAVING, with intensity > 0 and a finite
-    screen position go, in slot order, into every cell whose rectangle [cx·cell, (cx+1)·cell)
-    × [cy·cell, (cy+1)·cell) meets their disc of radius ``sprite_radius_px`` (exact
-    disc–rectangle test: dx² ≤ R² − dy², dx and dy the distances from the centre to the
-    cell's column and row); a full cell swaps its first dimmest entry for a strictly brighter
-    particle. Cells with fewer than 16 entries get NO_PARTICLE after the last; later entries
-    are left as they were. A non-positive or non-finite radius or cell inserts nothing.
-    Returns the number of full cells.
-
-    Work goes band by band (``GRID_BAND_ROWS`` cell rows, each band's particles in slot order)
-    so that the cells being written stay in cache: the pool's slot order is spatially random,
-    and a plain pass over the slots costs ~1.6× as much at r = 10 px and 2× at r = 5 px.
-    """
-    gh = min(gh, grid.shape[0])
-    gw = min(gw, grid.shape[1] // MAX_PER_CELL)
-    if gw <= 0 or gh <= 0:
-        return 0
-    gh = min(gh, counts.shape[0] // gw)
-    if gh <= 0:
-        return 0
-    for c in range(gw * gh):
-        counts[c] = 0
-    flat = grid.reshape(grid.size)
-    # unsigned cell and entry indices: no negative-index wrap-around in the inner loop
-    row_stride = np.uint64(grid.shape[1])
-    cells_per_row = np.uint64(gw)
-    radius = np.float64(sprite_radius_px)
-    cell = np.float64(cell_px)
-    n = 0
-    if radius > 0 and cell > 0 and is_finite(radius) and is_finite(cell):
-        n = max(min(n_slots, alive.shape[0], has_world.shape[0], screen_px.shape[0],
-                    intensity.shape[0], status.shape[0]), 0)
-    r2 = radius * radius
-    n_bands = (gh + GRID_BAND_ROWS - 1) // GRID_BAND_ROWS
-
-    # 1. the bands each drawable slot touches; members per band, in slot order
-    first_band = np.empty(n, np.int32)  # −1: not drawn
-    last_band = np.empty(n, np.int32)
-    band_end = np.zeros(n_bands + 1, np.int64)
+    # 1. each slot's bin (≥ 0: drawn; −2: the tail; −1: neither); counts at k + 2
+    n_usable = 0
     for i in range(n):
-        first_band[i] = -1
-        if not (alive[i] and has_world[i]):
+        scratch[i] = -1
+        s = src.status[i]
+        drawn = drawing and (s == STATUS_INSIDE or s == STATUS_LEAVING) and src.intensity[i] > 0
+        if not (drawn or with_tail) or not _usable(src, i):
+            continue                    # (the cheap tests first: ~3/4 of a pool is not drawn)
+        n_usable += 1
+        if with_tail:
+            scratch[i] = -2
+        if not drawn:
             continue
-        s = status[i]
-        if s != STATUS_INSIDE and s != STATUS_LEAVING:
+        qx = np.float64(np.float32(src.screen_px[i, 0])) / bin_w  # in bins from the screen's
+        qy = np.float64(np.float32(src.screen_px[i, 1])) / bin_h  # corner; beyond the margins:
+        if not (-bins.margin_x <= qx < bw - bins.margin_x                   # never on screen
+                and -bins.margin_y <= qy < bh - bins.margin_y):
             continue
-        if not intensity[i] > 0:
-            continue
-        px = np.float64(screen_px[i, 0])
-        py = np.float64(screen_px[i, 1])
-        if not (is_finite(px) and is_finite(py)):
-            continue
-        y_lo = (py - radius) / cell
-        y_hi = (py + radius) / cell
-        if (px + radius) / cell < 0 or y_hi < 0 or (px - radius) / cell >= gw or y_lo >= gh:
-            continue
-        b0 = int(max(y_lo, 0.0)) // GRID_BAND_ROWS
-        b1 = int(min(y_hi, gh - 1.0)) // GRID_BAND_ROWS
-        first_band[i] = b0
-        last_band[i] = b1
-        for b in range(b0, b1 + 1):
-            band_end[b + 1] += 1
-    for b in range(n_bands):
-        band_end[b + 1] += band_end[b]
-    members = np.empty(band_end[n_bands], np.int32)
+        k = (int(math.floor(qy)) + bins.margin_y) * stride + int(math.floor(qx)) + bins.margin_x
+        scratch[i] = k
+        starts[k + 2] += 1
+    # 2. starts[k + 1] = first entry of bin k (row ends, never counted, get the next row's)
+    for k in range(2, size + 2):
+        starts[k] += starts[k - 1]
+    n_drawn = starts[size + 1] if size > 0 else 0
+    # 3. scatter: drawn entries by bin, then the others; the cursors starts[k + 1] end as the
+    #    first entries of bin k + 1, so that starts[k] is the first entry of bin k
+    rest = n_drawn
     for i in range(n):
-        if first_band[i] < 0:
+        k = scratch[i]
+        if k == -1:
             continue
-        for b in range(first_band[i], last_band[i] + 1):
-            members[band_end[b]] = i
-            band_end[b] += 1  # ends as the end of band b, which starts at band_end[b - 1]
-
-    # 2. insert band by band
-    dxx = np.empty(gw, np.float64)  # squared distance to each column of the particle's box
-    start = 0
-    for band in range(n_bands):
-        row_lo = band * GRID_BAND_ROWS
-        row_hi = min(row_lo + GRID_BAND_ROWS, gh) - 1
-        for p in range(start, band_end[band]):
-            i = members[p]
-            slot = np.int32(i)
-            level = intensity[i]
-            px = np.float64(screen_px[i, 0])
-            py = np.float64(screen_px[i, 1])
-            cx0 = int(max((px - radius) / cell, 0.0))
-            n_cols = int(min((px + radius) / cell, gw - 1.0)) - cx0 + 1
-            cy0 = max(int(max((py - radius) / cell, 0.0)), row_lo)
-            cy1 = min(int(min((py + radius) / cell, gh - 1.0)), row_hi)
-            for q in range(n_cols):
-                x0 = (cx0 + q) * cell
-                dx = max(x0 - px, px - (x0 + cell), 0.0)
-                dxx[q] = dx * dx
-            for cy in range(cy0, cy1 + 1):
-                y0 = cy * cell
-                dy = max(y0 - py, py - (y0 + cell), 0.0)
-                lim = r2 - dy * dy
-                c = np.uint64(cy) * cells_per_row + np.uint64(cx0)
-                g = np.uint64(cy) * row_stride + np.uint64(cx0) * _U_PER_CELL
-                for q in range(n_cols):
-                    inside = dxx[q] <= lim
-                    k = counts[c]
-                    if k < MAX_PER_CELL:
-                        flat[g + np.uint64(k)] = slot  # harmless past the count if outside
-                        counts[c] = k + inside
-                    elif inside:  # full: replace the first dimmest if strictly brighter
-                        dimmest = np.uint64(0)
-                        dimmest_level = intensity[flat[g]]
-                        for j in range(1, MAX_PER_CELL):
-                            v = intensity[flat[g + np.uint64(j)]]
-                            if v < dimmest_level:
-                                dimmest = np.uint64(j)
-                                dimmest_level = v
-                        if level > dimmest_level:
-                            flat[g + dimmest] = slot
-                    c += _U_ONE
-                    g += _U_PER_CELL
-        start = band_end[band]
-
-    # 3. terminators
-    full = 0
-    for cy in range(gh):
-        for cx in range(gw):
-            k = counts[cy * gw + cx]
-            if k < MAX_PER_CELL:
-                grid[cy, cx * MAX_PER_CELL + k] = NO_PARTICLE
-            else:
-                full += 1
-    return full
+        if k >= 0:
+            e = starts[k + 1]
+            starts[k + 1] = e + 1
+        else:
+            e = rest
+            rest += 1
+        if e < capacity:
+            _write_entry(params, e, src, i, r)
+    if n_drawn > capacity:      # a table too small for the pool: the bins stop at its end
+        for k in range(size):
+            starts[k] = min(starts[k], capacity)
+    if not with_tail:
+        n_usable = n_drawn
+    n_entries = min(n_usable, capacity)
+    n_drawn = min(n_drawn, capacity)
+    rows = (n_entries + PARTICLES_PER_ROW - 1) // PARTICLES_PER_ROW
+    for e in range(n_entries, rows * PARTICLES_PER_ROW):
+        _write_free(params, e)
+    return n_drawn, n_entries, rows

@@ -9,7 +9,8 @@ serves all tiles. Its ``V = (n + 1)² + 4n`` vertices are
 * ``j * (n + 1) + i`` (0 ≤ i, j ≤ n): the grid sample at the tile's node (i, j), at
   ``(x0 + i·cell, y0 + j·cell)`` with the height tile's height there (row-major, row = y);
 * ``(n + 1)² + k`` (0 ≤ k < 4n): the skirt copy of border vertex ``k`` of the tile's border
-  loop, ``skirt_m`` lower, same normal. The loop runs counter-clockwise seen from above,
+  loop, ``skirt_m`` lower, same normal and distance to the shore, its water level ``skirt_m``
+  lower too (shaded as its top: where a crack shows the skirt, it looks like the ground). The loop runs counter-clockwise seen from above,
   starting at the corner (0, 0): along j = 0 (i = 0 … n-1), up i = n (j = 0 … n-1), back along
   j = n (i = n … 1), down i = 0 (j = n … 1) (:func:`border_loop`).
 
@@ -69,10 +70,10 @@ def border_loop(n: int) -> tuple[np.ndarray, np.ndarray]:
 
 @dataclass(eq=False)
 class TerrainTileMesh:
-    """One streamed terrain tile as drawn: ``vertices`` (V, 7) float32 (x, y, z [m], unit
-    normal, the water level seen from there [m]) in the layout of the module docstring (grid
-    samples, then the skirt), ``skirt_m`` [m], ``bounds_m`` (2, 3) float32 (min, max corner,
-    skirt included)."""
+    """One streamed terrain tile as drawn: ``vertices`` (V, 8) float32 (x, y, z [m], unit
+    normal, the water level seen from there [m], the distance to the shore [m], negative in
+    the water) in the layout of the module docstring (grid samples, then the skirt),
+    ``skirt_m`` [m], ``bounds_m`` (2, 3) float32 (min, max corner, skirt included)."""
 
     vertices: np.ndarray
     skirt_m: float
@@ -84,14 +85,16 @@ class TerrainTileMesh:
 
 
 def tile_terrain_mesh(z_ring: np.ndarray, x0_m: float, y0_m: float, cell_m: float,
-                      level_m: np.ndarray, dip_m: float = 0.0) -> TerrainTileMesh:
+                      level_m: np.ndarray, dip_m: float = 0.0,
+                      shore_m: np.ndarray | None = None) -> TerrainTileMesh:
     """The mesh of one n-cell terrain tile from its heights with a one-node ring
     ``z_ring`` (n + 3, n + 3) [m] (row = y; the ring gives central-difference normals that
-    agree with the neighbours'), its corner and node spacing [m] and ``level_m`` (n + 1, n + 1)
-    the water level seen from each node. The skirt hangs as deep as the largest crack any
-    coarser neighbour can leave along its border (:func:`tile_skirt_m`), and at least
-    ``dip_m``: how far a finer neighbour's border dips below this one between its nodes
-    (:func:`riverflow.scenes.tile_kinds.border_dip_m`)."""
+    agree with the neighbours'), its corner and node spacing [m], ``level_m`` (n + 1, n + 1)
+    the water level seen from each node and ``shore_m`` (n + 1, n + 1) each node's distance to
+    the shore [m], negative in the water (None: far from every shore, 200 m). The skirt hangs
+    as deep as the largest crack any coarser neighbour can leave along its border
+    (:func:`tile_skirt_m`), and at least ``dip_m``: how far a finer neighbour's border dips
+    below this one between its nodes (:func:`riverflow.scenes.tile_kinds.border_dip_m`)."""
     z = np.asarray(z_ring, np.float64)
     n = z.shape[0] - 3
     side = n + 1
@@ -104,13 +107,15 @@ def tile_terrain_mesh(z_ring: np.ndarray, x0_m: float, y0_m: float, cell_m: floa
     bi, bj = border_loop(n)
     grid_j, grid_i = np.divmod(np.arange(side * side), side)
     vj, vi = np.concatenate([grid_j, bj]), np.concatenate([grid_i, bi])
-    out = np.empty((len(vi), 7), np.float32)
+    out = np.empty((len(vi), 8), np.float32)
     out[:, 0] = x0_m + vi * cell_m
     out[:, 1] = y0_m + vj * cell_m
     out[:, 2] = inner[vj, vi]
     out[side * side:, 2] -= skirt
     out[:, 3:6] = normal[vj, vi]
     out[:, 6] = np.asarray(level_m)[vj, vi]
+    out[side * side:, 6] -= skirt         # a skirt is shaded as its top: as high above the water
+    out[:, 7] = 200.0 if shore_m is None else np.asarray(shore_m)[vj, vi]
     bounds = np.array([[x0_m, y0_m, min(inner.min(), inner[bj, bi].min() - skirt)],
                        [x0_m + n * cell_m, y0_m + n * cell_m, inner.max()]], np.float32)
     return TerrainTileMesh(out, float(skirt), bounds)
@@ -140,20 +145,24 @@ def _lod_gap(edges: np.ndarray, n: int) -> np.ndarray:
     return (hi - lo).max(axis=-1)
 
 
-def tile_indices(n: int) -> np.ndarray:
+def tile_indices(n: int, stride: int = 1) -> np.ndarray:
     """Triangle indices (K, 3) uint32 of an n-cell tile, the same for every tile (one index
     buffer serves them all): first the 2n² grid triangles (two per cell, the diagonal from
     (i, j) to (i + 1, j + 1)), counter-clockwise seen from +z, then the 8n skirt triangles
-    (two per border segment), facing outward."""
+    (two per border segment), facing outward. ``stride`` > 1 (dividing n) uses every
+    stride-th node only, a coarser mesh of the same vertices (stride² fewer triangles; the
+    reflection pass draws it)."""
     side = n + 1
-    g = np.arange(n)
+    if stride < 1 or n % stride:
+        raise ValueError(f"stride {stride} must divide the tile's {n} cells")
+    g = np.arange(0, n, stride)
     jj, ii = np.meshgrid(g, g, indexing="ij")
     a = (jj * side + ii).ravel()  # (i, j)
-    b, c, d = a + 1, a + side + 1, a + side  # (i+1, j), (i+1, j+1), (i, j+1)
+    b, c, d = a + stride, a + stride * (side + 1), a + stride * side  # the cell's corners
     grid = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
     bi, bj = border_loop(n)
-    k0 = np.arange(4 * n)
-    k1 = (k0 + 1) % (4 * n)
+    k0 = np.arange(0, 4 * n, stride)
+    k1 = (k0 + stride) % (4 * n)
     t0, t1 = bj[k0] * side + bi[k0], bj[k1] * side + bi[k1]
     b0, b1 = side * side + k0, side * side + k1
     skirt = np.concatenate([np.stack([t0, b0, b1], 1), np.stack([t0, b1, t1], 1)])

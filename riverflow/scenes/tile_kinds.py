@@ -8,12 +8,13 @@ so neighbours and parents agree there), so a tile depends only on its key:
 kind            content                                                    made from
 ==============  =========================================================  ====================
 height          carved terrain heights, (n+3)² nodes (a ring for normals)   the source + rivers
-water           water level at wet nodes (NaN dry) and the level seen       the river network
-                from every node
+water           water level at wet nodes (NaN dry), the level seen from     the river network
+                every node and its signed distance to the shore
 raycast         ground, water and their max-mip pyramid: what particle     height, water
                 rays, altitudes and the NEAR rule read
 hints           per (h+1)² nodes, deep water near them (x, y, level)       the river network
-terrain_mesh    vertices (position, normal, water level), skirt, bounds    height, water
+terrain_mesh    vertices (position, normal, water level, shore distance),   height, water
+                skirt, bounds
 water_mesh      the water polygon's piece in the tile, triangulated        the river network
 ==============  =========================================================  ====================
 
@@ -203,7 +204,9 @@ def border_dip_m(height, quadtree: Quadtree, key: TileKey, n: int, z: np.ndarray
 class WaterProducer(TerrainProducer):
     """``level``: the water level at wet nodes (within WET_REACH_CELLS of the water), NaN on
     dry ones; ``level_seen``: the level of the nearest river from every node within
-    LEVEL_REACH_M of a shore (DRY_LEVEL_M beyond), which the terrain is shaded against."""
+    LEVEL_REACH_M of a shore (DRY_LEVEL_M beyond) and ``shore``: the node's distance to the
+    nearest shore [m], negative in the water, LEVEL_REACH_M beyond it: what the terrain is
+    shaded by (wet and dry sand, the bed)."""
 
     kind = WATER
 
@@ -211,7 +214,8 @@ class WaterProducer(TerrainProducer):
         super().__init__(tiles)
         n = tiles.n
         self.fields = {"level": FieldSpec((n + 1, n + 1), np.float32, np.nan),
-                       "level_seen": FieldSpec((n + 1, n + 1), np.float32, DRY_LEVEL_M)}
+                       "level_seen": FieldSpec((n + 1, n + 1), np.float32, DRY_LEVEL_M),
+                       "shore": FieldSpec((n + 1, n + 1), np.float32, LEVEL_REACH_M)}
 
     def produce(self, key: TileKey, deps: Mapping) -> dict:
         n = self.tiles.n
@@ -219,15 +223,20 @@ class WaterProducer(TerrainProducer):
         p = self.tiles.nodes(key, n)
         level = np.full(len(p), np.nan, np.float32)
         seen = np.full(len(p), DRY_LEVEL_M, np.float32)
+        signed = np.full(len(p), LEVEL_REACH_M, np.float32)
         shore = water.distance_to_shore(p, upper_bound_m=LEVEL_REACH_M)
         near = np.flatnonzero(np.isfinite(shore))
         if len(near):
             value = water.nearest(p[near])[1]
             seen[near] = value
             reach = WET_REACH_CELLS * self.tiles.quadtree.cell_m(key[0], n)
-            wet = (shore[near] < reach) | water.contains(p[near], shore[near])
+            inside = water.contains(p[near], shore[near])
+            wet = (shore[near] < reach) | inside
             level[near[wet]] = value[wet]
-        return {"level": level.reshape(n + 1, n + 1), "level_seen": seen.reshape(n + 1, n + 1)}
+            signed[near] = np.where(inside, -shore[near], shore[near])
+        side = (n + 1, n + 1)
+        return {"level": level.reshape(side), "level_seen": seen.reshape(side),
+                "shore": signed.reshape(side)}
 
 
 class RaycastProducer(TerrainProducer):
@@ -301,8 +310,10 @@ class TerrainMeshProducer(TerrainProducer):
         q = self.tiles.quadtree
         x0, y0 = q.tile_origin_m(*key)
         height = deps[(HEIGHT, key)]
+        water = deps[(WATER, key)]
         return tile_terrain_mesh(height["z"], x0, y0, q.cell_m(key[0], self.tiles.n),
-                                 deps[(WATER, key)]["level_seen"], dip_m=float(height["dip"][0]))
+                                 water["level_seen"], dip_m=float(height["dip"][0]),
+                                 shore_m=water["shore"])
 
     def nbytes(self, data: TerrainTileMesh) -> int:
         return data.nbytes

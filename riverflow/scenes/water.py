@@ -17,6 +17,8 @@ import numpy as np
 import shapely
 from scipy.spatial import cKDTree
 
+from riverflow.tiles import remote
+
 JUNCTION_BLEND = 1.25
 """Levels are blended between the branches of a junction within this many (largest) widths."""
 MAX_JUNCTION_SLOPE = 0.01
@@ -28,9 +30,11 @@ LAND_LEVEL_NEIGHBOURS = 24
 
 
 def _workers() -> int:
-    """KD-tree query threads: all cores on the main thread, one in a tile worker (which runs
-    beside the frame: it must not take the frame's core)."""
-    return -1 if threading.current_thread() is threading.main_thread() else 1
+    """KD-tree query threads: all cores on the main thread, one in a tile worker thread or
+    process (which runs beside the frame: it must not take the frame's core)."""
+    if remote.IN_WORKER_PROCESS or threading.current_thread() is not threading.main_thread():
+        return 1
+    return -1
 
 
 def monotone_profiles(samples: list[np.ndarray], ground_m: list[np.ndarray],

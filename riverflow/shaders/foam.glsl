@@ -1,10 +1,9 @@
 // Foam on the water, carried by the particles (riverflow.kernels.foam): each particle's foam
-// amount is blended through the same sprite weights as the wave slopes (water.glsl), and so
-// is a lace pattern sampled in each sprite's own frame, so the foam's texture moves with the
-// water. The foam table (R32F): particle slot i at texel (i % PARTICLES_PER_ROW,
-// i / PARTICLES_PER_ROW). The pattern (RG, mipmapped, periodic): values spread evenly over
-// [0, 1]; channel g slides slowly over channel r (the foam churns).
-uniform sampler2D u_foam;
+// amount (texel 3 of its sprite entry, params.glsl) is blended through the same sprite
+// weights as the wave slopes (water.glsl), and so is a lace pattern sampled in each sprite's
+// own frame, so the foam's texture moves with the water. The pattern (RG, mipmapped,
+// periodic): values spread evenly over [0, 1]; channel g slides slowly over channel r (the
+// foam churns).
 uniform sampler2D u_foam_pattern;
 uniform float u_foam_scale_m;       // world size of one period of the pattern [m]
 uniform float u_foam_size_px;       // texels of one period (level 0)
@@ -13,8 +12,8 @@ uniform float u_time_s;
 const vec3 FOAM_ALBEDO = vec3(0.93, 0.96, 0.98);
 const float FOAM_MIN = 0.02;        // a sprite with less foam samples no pattern
 
-float sprite_foam(int slot) {
-    return texelFetch(u_foam, ivec2(slot % PARTICLES_PER_ROW, slot / PARTICLES_PER_ROW), 0).r;
+float sprite_foam(int entry) {
+    return sprite_param(entry, 3).x;
 }
 
 // The pattern at uv (pattern periods) with its screen derivatives.

@@ -29,12 +29,13 @@ void main() {
 #include "wave.glsl"
 #include "params.glsl"
 #include "ripples.glsl"
+#include "reflection.glsl"
 #include "foam.glsl"
 #include "wake.glsl"
 
 uniform int u_mode;                 // DISPLAY_MODE_*
 uniform bool u_show_grid;
-uniform isampler2D u_grid;          // sprite lists: cell (cx, cy) = texels 4cx..4cx+3 of row cy
+uniform isampler2DArray u_grid;     // sprite lists: cell (cx, cy) = texel (cx, cy) of layers 0..3
 uniform float u_grid_cell_px;
 uniform ivec2 u_grid_size;          // cells (gw, gh)
 uniform float u_sprite_radius_factor;
@@ -57,7 +58,7 @@ vec4 blend_sprites(vec2 uv_dx, vec2 uv_dy, out bool full, out vec2 foam) {
     float scale = u_wave_length_m / u_foam_scale_m;
     vec2 fuv_dx = uv_dx * scale, fuv_dy = uv_dy * scale;
     for (int t = 0; t < MAX_PER_CELL / 4; ++t) {
-        ivec4 ids = texelFetch(u_grid, ivec2(4 * cell.x + t, cell.y), 0);
+        ivec4 ids = texelFetch(u_grid, ivec3(cell, t), 0);
         for (int k = 0; k < 4; ++k) {
             int id = ids[k];
             if (id < 0) { t = MAX_PER_CELL; break; }
@@ -134,7 +135,7 @@ void main() {
     float fresnel = (0.02 + 0.98 * pow(1.0 - cos_v, 5.0)) * shore;
     vec3 r = reflect(-v, n);
     r.z = abs(r.z);
-    vec3 reflected = sky_colour(r);
+    vec3 reflected = reflected_scene(v_world, v, n, sky_colour(r), fresnel);  // + banks, props
     vec3 h = normalize(v + u_sun_dir);
     float spec = pow(max(dot(n, h), 0.0), 400.0) * 2.0 * shore;
     float clarity = exp(-depth_m / max(u_clarity_m, 1e-3));

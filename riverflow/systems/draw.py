@@ -3,8 +3,10 @@
 Per frame (reference §4; no one-frame latency: the tables are built from this frame's pool):
 
 1. the sprite tables from the particle pool (numba, :mod:`riverflow.kernels.sprites`): the
-   float32 parameter table and the integer indirection grid, uploaded to an RGBA32F and an
-   RGBA32I texture (only the rows in use);
+   float32 sprite table, sorted by screen bin, and each bin's first entry, uploaded to an
+   RGBA32F texture (only the rows in use) and an R32I texture; then, in the modes that blend
+   sprites per pixel, the sprite grid made from them on the GPU (``sprite_lists.glsl``: each
+   cell of r px lists up to 16 sprites, in an RGBA32I array texture);
 2. sky (one full-screen triangle), then the terrain tiles of the view's cut (the tile system
    picks them: level of detail by distance; skirts hide the cracks between levels; a tile not
    made yet is stood in for by its finest resident ancestor), then the props (boats,
@@ -18,10 +20,19 @@ Per frame (reference §4; no one-frame latency: the tables are built from this f
 5. rain (:mod:`riverflow.systems.rain`): the drops as short streaks along their velocity
    (GL lines, depth-tested against the land and alpha-blended), and in step 4 ripple rings
    around the recent hits on the water, added to the water's slopes (none without rain);
-   foam and wakes in step 4 too: each particle's foam (an R32F table beside the parameter
-   table) blended through the sprite weights with a lace texture, and every boat's Kelvin
-   wake added to the slopes (the wake table, :class:`~riverflow.components.wake.Wakes`);
+   foam and wakes in step 4 too: each particle's foam (texel 3 of its sprite entry) blended
+   through the sprite weights with a lace texture, the waterline's foam from the depth, and
+   every boat's Kelvin wake added to the slopes (the wake table,
+   :class:`~riverflow.components.wake.Wakes`);
 6. overlays: particles as points, velocity arrows.
+
+Reflections (issue 12 item 3; :attr:`DisplaySettings.reflections`, shaded water modes, the eye
+above the water), before step 2: the terrain tiles (through every 2nd node) and the props
+drawn mirrored in the level of the river nearest the camera, each cut at its own water
+level, into a reduced-resolution colour + depth target with mip levels
+(:mod:`riverflow.scenes.reflection`); in step 4 the water shader follows each pixel's
+wave-bent reflected ray through it and Fresnel-weights what it finds over the sky
+(``shaders/reflection.glsl``).
 
 Everything is drawn into the world's own RGBA8 framebuffer (with a depth texture shared by
 the passes); :meth:`DrawRivers.blit_to_window` copies it to the window a host draws in.
@@ -48,12 +59,14 @@ from riverflow.engine import gl
 from riverflow.engine.system import System
 from riverflow.kernels.foam import foam_pattern, mip_chain
 from riverflow.kernels.wake import wake_texture
-from riverflow.kernels.sprites import (MAX_PER_CELL, PARTICLES_PER_ROW, SPRITE_RADIUS_FACTOR,
-                                       TEXELS_PER_PARTICLE, build_sprite_grid,
-                                       empty_sprite_tables, fill_sprite_params,
-                                       sprite_grid_shape, slot_span)
+from riverflow.kernels.sprites import (MAX_PER_CELL, NO_PARTICLE, PARTICLES_PER_ROW,
+                                       SPRITE_RADIUS_FACTOR, TEXELS_PER_PARTICLE, bin_texels,
+                                       build_sprite_tables, empty_sprite_tables, slot_span,
+                                       sprite_bins, sprite_grid_shape, sprite_source)
 from riverflow.scenes.meshes import tile_indices
 from riverflow.scenes.props import SHAPES
+from riverflow.scenes.reflection import (MIN_EYE_HEIGHT_M, TERRAIN_STRIDE, mirror_level,
+                                         mirrored_view_projection, reflection_size)
 from riverflow.scenes.tile_kinds import TERRAIN_MESH, WATER_MESH
 from riverflow.tiles.cut import standins
 from riverflow.tiles.table import codes
@@ -68,7 +81,8 @@ SUN_DIRECTION = np.array([-0.45, -0.55, 0.70]) / np.linalg.norm([-0.45, -0.55, 0
 def shader_defines() -> dict[str, int]:
     """The numbers the shaders share with Python and numba."""
     defines = gl.enum_defines(FlowStatus, DisplayMode)
-    defines.update(MAX_PER_CELL=MAX_PER_CELL, PARTICLES_PER_ROW=PARTICLES_PER_ROW,
+    defines.update(MAX_PER_CELL=MAX_PER_CELL, NO_PARTICLE=NO_PARTICLE,
+                   PARTICLES_PER_ROW=PARTICLES_PER_ROW,
                    TEXELS_PER_PARTICLE=TEXELS_PER_PARTICLE, DROPS_PER_ROW=DROPS_PER_ROW,
                    TRAIL_POINTS=TRAIL_POINTS)
     return defines
@@ -77,15 +91,17 @@ def shader_defines() -> dict[str, int]:
 DROPS_PER_ROW = 1024
 """Rain drops per row of the drop table (two RGBA32F texels each: position, velocity)."""
 
+_SHADED_MODES = (DisplayMode.ADVECTED, DisplayMode.PRE_ADVECTED, DisplayMode.NON_ADVECTED)
+"""The water modes shaded with reflections (the others draw debug colours)."""
+
 _NOTHING = object()
 """A tile uploaded with nothing to draw."""
 
-# -- foam and wakes (issue 12 items 1, 2) ---------------------------------------------------------
-FOAM_UNIT, FOAM_PATTERN_UNIT, WAKES_UNIT = 12, 11, 13
-"""Texture units of the foam table, the foam lace pattern and the wake table."""
+FOAM_PATTERN_UNIT, WAKES_UNIT = 12, 13
+"""Texture units of the foam's lace pattern and the wake table (issue 12 items 1, 2)."""
 FOAM_PATTERN_PX = 256
 FOAM_SCALE_M = 3.0
-"""World size of one period of the foam lace pattern [m] (in each sprite's frame)."""
+"""World size of one period of the foam's lace pattern [m] (in each sprite's frame)."""
 
 
 class _Gpu:
@@ -99,6 +115,7 @@ class _Gpu:
             "water": gl.Program("water.glsl", defines),
             "water_position": gl.Program("water.glsl", {**defines, "POSITION_PASS": 1}),
             "sprites": gl.Program("sprites.glsl", defines),
+            "sprite_lists": gl.Program("sprite_lists.glsl", defines),
             "particles": gl.Program("particles.glsl", defines),
             "arrows": gl.Program("arrows.glsl", defines),
             "props": gl.Program("props.glsl", defines),
@@ -113,19 +130,27 @@ class _Gpu:
                                        levels=len(levels), linear=True, repeat=True)
         for k, level in enumerate(levels):
             self.foam_pattern.upload(level, level=k)
-        self.foam = self.foam_cpu = None
         self.wakes_cpu = np.zeros((MAX_WAKES, 1 + 2 * TRAIL_POINTS, 4), np.float32)
         self.wakes = gl.Texture((1 + 2 * TRAIL_POINTS, MAX_WAKES), gl.RGBA32F)
         self.prop_meshes: dict[tuple, gl.Mesh] = {}
-        self.terrain_indices = tile_indices(world.scene.terrain.tile_cells).ravel()
+        # every terrain tile's indices: the full mesh, then the reflection's coarser one
+        cells = world.scene.terrain.tile_cells
+        full = tile_indices(cells).ravel()
+        coarse = tile_indices(cells, TERRAIN_STRIDE if cells % TERRAIN_STRIDE == 0 else 1)
+        self.terrain_indices = np.concatenate([full, coarse.ravel()])
+        self.terrain_ranges = {"full": (len(full), 0), "coarse": (coarse.size, len(full))}
+        """(count, first) of each mesh in the terrain tiles' index buffer."""
         self.tile_meshes: dict[str, dict[int, gl.Mesh]] = {TERRAIN_MESH: {}, WATER_MESH: {}}
+        self.released: dict[str, tuple[int, int]] = {}   # per kind: (pool, its releases) seen
         self.empty = gl.Mesh(None, {})           # attribute-less draws (gl_VertexID)
         self.waves: dict[int, tuple[int, gl.Texture]] = {}
         self.size = (0, 0)
         self.grid_shape = (1, 1, 1)
-        self.params = self.grid = None
-        self.params_cpu = self.counts_cpu = self.grid_cpu = None
+        self.bins_shape = None
+        self.params = self.bins = self.grid = self.grid_fb = None
+        self.params_cpu = self.starts_cpu = self.scratch = None
         self.targets: list = []
+        self.reflection = _Reflection()
         gl.check_errors("creating the river draw resources")
 
     # -- sized resources --------------------------------------------------------------------
@@ -133,7 +158,7 @@ class _Gpu:
     def fit(self, width: int, height: int, radius_px: float, capacity: int) -> None:
         """(Re)make the framebuffers and sprite tables for a viewport and radius."""
         width, height = max(1, width), max(1, height)
-        shape = sprite_grid_shape(width, height, radius_px)
+        bins = sprite_bins(width, height, radius_px)
         if (width, height) != self.size:
             for obj in self.targets:
                 obj.delete()
@@ -148,23 +173,29 @@ class _Gpu:
             self.targets = [self.main_fb, self.position_fb, self.accum_fb, colour, depth,
                             position, accum]
             self.size = (width, height)
-        if self.params_cpu is None or shape != self.grid_shape \
+        if self.params_cpu is None or bins != self.bins_shape \
                 or self.params_cpu.shape[0] * PARTICLES_PER_ROW < capacity:
-            for tex in (self.params, self.grid, self.foam):
+            for tex in (self.params, self.bins):
                 if tex is not None:
                     tex.delete()
-            _, gw, gh = shape
-            self.params_cpu, self.counts_cpu, self.grid_cpu = empty_sprite_tables(capacity,
-                                                                                  gw, gh)
+            self.params_cpu, self.starts_cpu, self.scratch = empty_sprite_tables(capacity, bins)
             rows = self.params_cpu.shape[0]
             self.params = gl.Texture((PARTICLES_PER_ROW * TEXELS_PER_PARTICLE, rows),
                                      gl.RGBA32F)
             self.params.upload(self.params_cpu)
-            self.foam_cpu = np.zeros((rows, PARTICLES_PER_ROW), np.float32)
-            self.foam = gl.Texture((PARTICLES_PER_ROW, rows), gl.R32F)
-            self.foam.upload(self.foam_cpu)
-            self.grid = gl.Texture((gw * MAX_PER_CELL // 4, gh), gl.RGBA32I)
-            self.grid.upload(self.grid_cpu.reshape(gh, -1, 4))
+            self.bins = gl.Texture((bins.bw + 1, bins.bh), gl.R32I)
+            self.bins.upload(bin_texels(self.starts_cpu, bins))
+            self.bins_shape = bins
+        shape = sprite_grid_shape(width, height, radius_px)
+        if self.grid is None or shape != self.grid_shape:
+            for obj in (self.grid_fb, self.grid):
+                if obj is not None:
+                    obj.delete()
+            _, gw, gh = shape
+            layers = MAX_PER_CELL // 4
+            self.grid = gl.Texture((gw, gh), gl.RGBA32I, layers=layers)
+            self.grid.upload(np.full((layers, gh, gw, 4), NO_PARTICLE, np.int32))
+            self.grid_fb = gl.Framebuffer([(self.grid, k) for k in range(layers)])
             self.grid_shape = shape
 
     def sync_tiles(self, tiles: Tiles, kind: str, keys: np.ndarray) -> list[gl.Mesh]:
@@ -173,10 +204,13 @@ class _Gpu:
         water tile whose piece has no triangle) is remembered as such, not looked at again."""
         pool = tiles.cache.pools[kind]
         meshes = self.tile_meshes[kind]
-        for code in [c for c in meshes if c not in pool]:
-            mesh = meshes.pop(code)
-            if mesh is not _NOTHING:
-                mesh.delete()
+        released = (id(pool), pool.evicted)     # a tile leaves the cache only by release()
+        if self.released.get(kind) != released:
+            for code in [c for c in meshes if c not in pool]:
+                mesh = meshes.pop(code)
+                if mesh is not _NOTHING:
+                    mesh.delete()
+            self.released[kind] = released
         out = []
         for code in codes(keys).tolist():
             mesh = meshes.get(code)
@@ -191,7 +225,10 @@ class _Gpu:
 
     def _upload(self, kind: str, data) -> gl.Mesh | None:
         if kind == TERRAIN_MESH:
-            return gl.Mesh(data.vertices, {0: 3, 1: 3, 2: 1}, self.terrain_indices)
+            # position, normal, water level seen, distance to the shore
+            mesh = gl.Mesh(data.vertices, {0: 3, 1: 3, 2: 1, 3: 1}, self.terrain_indices)
+            mesh.centre_m = data.bounds_m.mean(axis=0)     # drawn near to far (early depth test)
+            return mesh
         mesh, ground = data
         if not len(mesh.indices):
             return None
@@ -227,7 +264,7 @@ class _Gpu:
             length, width, height = key[1]
             rows = build(length, width, height) if prop.shape == "boat" else \
                 build(0.5 * width, length)
-            mesh = gl.Mesh(rows, {0: 3, 1: 3, 2: 3})
+            mesh = gl.Mesh(rows, {0: 3, 1: 3, 2: 3, 3: 1})   # position, normal, colour, gloss
             self.prop_meshes[key] = mesh
         return mesh
 
@@ -242,20 +279,59 @@ class _Gpu:
                 if mesh is not _NOTHING:
                     mesh.delete()
             meshes.clear()
-        for obj in [self.empty, self.params, self.grid, self.drops, self.ripples, *self.targets,
-                    *(tex for _, tex in self.waves.values()), self.foam, self.foam_pattern,
-                    self.wakes]:
+        for obj in [self.empty, self.params, self.bins, self.grid_fb, self.grid, self.drops,
+                    self.ripples, self.foam_pattern, self.wakes, *self.targets,
+                    *(tex for _, tex in self.waves.values())]:
             if obj is not None:
                 obj.delete()
         self.waves.clear()
         self.targets = []
+        self.reflection.delete()
 
+
+# -- reflections (issue 12 item 3) -----------------------------------------------------------
+
+REFLECTION_UNIT, REFLECTION_DEPTH_UNIT = 10, 11
+"""Texture units of the reflection's colour and depth while the water is drawn."""
+
+
+class _Reflection:
+    """The planar reflection's render target (colour + depth at a reduced resolution), made
+    on first use and remade when the viewport or the scale changes."""
+
+    def __init__(self) -> None:
+        self.size = (0, 0)
+        self.colour = self.depth = self.fb = None
+
+    def fit(self, width: int, height: int, scale: float) -> None:
+        size = reflection_size(width, height, scale)
+        if size == self.size:
+            return
+        self.delete()
+        # half floats: the mip levels' coverage (alpha) keeps a one-texel prop, which the
+        # march's early out (no coverage near the ray: the sky) relies on
+        self.colour = gl.Texture(size, gl.RGBA16F, levels=gl.mip_levels(*size), linear=True)
+        self.depth = gl.Texture(size, gl.DEPTH24)
+        self.fb = gl.Framebuffer([self.colour], self.depth)
+        self.size = size
+
+    def delete(self) -> None:
+        for obj in (self.fb, self.colour, self.depth):
+            if obj is not None:
+                obj.delete()
+        self.colour = self.depth = self.fb = None
+        self.size = (0, 0)
+
+
+# -- the draw system ---------------------------------------------------------------------------
 
 class DrawRivers(System):
     """Draws the world's current frame into its offscreen framebuffer (see the module doc).
 
-    ``last_tables_ms`` is the CPU time of the last frame's sprite tables (built and uploaded),
-    ``last_tiles`` the terrain tiles drawn.
+    ``last_tables_ms`` is the CPU time of the last frame's sprite tables (built, uploaded, and
+    the pass that makes the sprite grid from them submitted), ``last_sprites`` the sprites it
+    drew on the water (INSIDE or LEAVING, within reach of the screen), ``last_tiles`` the
+    terrain tiles drawn.
     """
 
     name = "draw"
@@ -265,6 +341,9 @@ class DrawRivers(System):
     def __init__(self) -> None:
         self.gpu: _Gpu | None = None
         self.context = None
+        self.last_mirror_level_m: float | None = None
+        """The reflection's mirror height [m] in the last frame (None: no reflection)."""
+        self._mirror_for: tuple[int, float | None] = (-1, None)
         self.last_tables_ms = 0.0
         self._terrain_meshes: list = []
         self.last_tiles = 0
@@ -287,20 +366,26 @@ class DrawRivers(System):
         config = world.config
         gpu.fit(width, height, config.radius_px, world.pool.capacity)
         t0 = time.perf_counter_ns()
-        n_slots = self._upload_tables(world, gpu)
+        n_drawn, n_entries = self._upload_tables(
+            world, gpu, settings.show_particles or settings.show_velocities)
+        if settings.mode in (DisplayMode.ADVECTED, DisplayMode.COVERAGE):
+            self._make_grid(gpu, config.radius_px)
         self.last_tables_ms = (time.perf_counter_ns() - t0) * 1e-6
 
-        vp = camera.view_projection().ravel()
-        _, world_from_clip = camera.matrices_for_kernels()
+        clip_from_world, world_from_clip = camera.matrices_for_kernels()
+        vp = clip_from_world.T.ravel()          # pyrr's view_projection, in closed form
         shared = dict(u_eye_m=tuple(camera.position), u_sun_dir=tuple(SUN_DIRECTION),
                       u_fog_density=float(settings.fog_density_per_m),
                       u_view_projection=vp, u_viewport_px=(float(gpu.size[0]),
-                                                           float(gpu.size[1])))
+                                                           float(gpu.size[1])),
+                      u_clip_water=0.0)   # gl_ClipDistance is honoured even when disabled
         wave_uniforms, wave_tex = self._wave(world, gpu, settings)
         rain = world.resources.get(Rain)
         ripple_uniforms = self._upload_ripples(world, gpu, rain)
         foam_uniforms = self._upload_foam_and_wakes(world, gpu)
         water_meshes = self._tile_meshes(world, gpu)
+        reflection_uniforms = self._draw_reflection(world, gpu, settings, shared,
+                                                    world_from_clip)
 
         gpu.main_fb.bind()
         gl.clear((0.0, 0.0, 0.0, 1.0))
@@ -324,7 +409,7 @@ class DrawRivers(System):
         gpu.grid.bind(3)
         wave_tex.bind(1)
         if mode == DisplayMode.PRE_ADVECTED:
-            self._pre_advect(gpu, shared, wave_uniforms, n_slots, water_meshes)
+            self._pre_advect(gpu, shared, wave_uniforms, n_drawn, water_meshes)
         if mode != DisplayMode.NONE:
             water = gpu.programs["water"]
             water.use()
@@ -335,51 +420,62 @@ class DrawRivers(System):
                       u_grid_size=gpu.grid_shape[1:], u_slope_factor=settings.wave_slope_factor,
                       u_clarity_m=settings.water_clarity_m, **tables, **wave_uniforms,
                       **ripple_uniforms, **foam_uniforms)
+            water.set_if_used(**reflection_uniforms)
             gl.set_blend(gl.BLEND_WATER)
             for mesh in water_meshes:
                 mesh.draw()
         self._draw_rain(gpu, rain, shared)
         gl.set_depth(False, write=False)
-        if settings.show_velocities and n_slots:
+        if settings.show_velocities and n_entries:
             arrows = gpu.programs["arrows"]
             arrows.use()
             arrows.set_if_used(**shared)
             arrows.set(u_params=2, u_arrow_s=float(settings.arrow_s))
             gl.set_blend(gl.BLEND_ALPHA)
-            gpu.empty.draw(gl.LINES, count=6 * n_slots)
-        if settings.show_particles and n_slots:
+            gpu.empty.draw(gl.LINES, count=6 * n_entries)
+        if settings.show_particles and n_entries:
             points = gpu.programs["particles"]
             points.use()
             points.set(u_params=2, u_viewport_px=shared["u_viewport_px"])
             gl.enable_program_point_size()
             gl.set_blend(gl.BLEND_ADD)
-            gpu.empty.draw(gl.POINTS, count=n_slots)
+            gpu.empty.draw(gl.POINTS, count=n_entries)
         gl.set_blend(gl.BLEND_OFF)
         gl.set_depth(False)
 
     # -- passes -----------------------------------------------------------------------------
 
-    def _upload_tables(self, world: RiverWorld, gpu: _Gpu) -> int:
-        """Build this frame's sprite tables and upload them; returns the slots in use."""
+    def _upload_tables(self, world: RiverWorld, gpu: _Gpu, overlays: bool) -> tuple[int, int]:
+        """Build this frame's sprite table and bins and upload them (the table's rows in use,
+        all the bins); returns (entries drawn on the water, all entries). The particles that
+        are not drawn on the water are in the table only for ``overlays`` (the particle points
+        and velocity arrows): ~3/4 of the pool in a chase view."""
         pool = world.pool
-        n_slots = int(slot_span(pool.alive))
-        rows = fill_sprite_params(pool.alive, pool.has_world, pool.screen_px, pool.world_m,
-                                  pool.offset_m, pool.intensity, pool.status,
-                                  pool.velocity_mps, float(world.config.radius_px), n_slots,
-                                  gpu.params_cpu)
-        cell_px, gw, gh = gpu.grid_shape
-        build_sprite_grid(pool.alive, pool.has_world, pool.screen_px, pool.intensity,
-                          pool.status, n_slots, SPRITE_RADIUS_FACTOR * world.config.radius_px,
-                          float(cell_px), gw, gh, gpu.counts_cpu, gpu.grid_cpu)
+        n_drawn, n_entries, rows = build_sprite_tables(
+            sprite_source(pool), float(world.config.radius_px), slot_span(pool.alive),
+            gpu.bins_shape, gpu.params_cpu, gpu.starts_cpu, gpu.scratch, bool(overlays))
         if rows:
             gpu.params.upload(gpu.params_cpu, rows=rows)
-            foam = gpu.foam_cpu.reshape(-1)        # each slot's foam, beside the table
-            foam[:n_slots] = pool.foam[:n_slots]
-            foam[n_slots:rows * PARTICLES_PER_ROW] = 0.0
-            gpu.foam.upload(gpu.foam_cpu, rows=rows)
-        gpu.grid.upload(gpu.grid_cpu.reshape(gh, gw * MAX_PER_CELL // 4, 4))
-        self.last_sprites = n_slots
-        return n_slots
+        gpu.bins.upload(bin_texels(gpu.starts_cpu, gpu.bins_shape))
+        self.last_sprites = int(n_drawn)
+        return int(n_drawn), int(n_entries)
+
+    def _make_grid(self, gpu: _Gpu, radius_px: float) -> None:
+        """The sprite grid from the sprite table and bins: one fragment a cell
+        (``sprite_lists.glsl``) into the four layers of ``gpu.grid``."""
+        bins = gpu.bins_shape
+        gpu.grid_fb.bind()
+        gl.set_depth(False, write=False)
+        gl.set_blend(gl.BLEND_OFF)
+        gpu.params.bind(2)
+        gpu.bins.bind(8)
+        program = gpu.programs["sprite_lists"]
+        program.use()
+        program.set(u_params=2, u_bins=8, u_bin_px=(bins.bin_w, bins.bin_h),
+                    u_bin_margin=(bins.margin_x, bins.margin_y), u_bin_count=(bins.bw, bins.bh),
+                    u_sprite_radius_px=float(SPRITE_RADIUS_FACTOR * radius_px),
+                    u_cell_px=int(gpu.grid_shape[0]))
+        gpu.empty.draw(gl.TRIANGLES, count=3)
 
     def _upload_ripples(self, world: RiverWorld, gpu: _Gpu, rain: Rain | None) -> dict:
         """The water shader's ripple uniforms; the ripple table uploaded (only with rain:
@@ -404,16 +500,15 @@ class DrawRivers(System):
         MAX_WAKES boats of :class:`Wakes`, nearest the camera; none: u_wake_count = 0)."""
         wakes = world.resources.get(Wakes)
         count = 0 if wakes is None else min(wakes.count, MAX_WAKES)
-        foam = world.resources.get(FoamSettings)
-        shoreline = float(foam.shoreline) if foam is not None and foam.enabled else 0.0
         if count:
             wake_texture(wakes.table[:count], gpu.wakes_cpu)
             gpu.wakes.upload(gpu.wakes_cpu, rows=count)
-        gpu.foam.bind(FOAM_UNIT)
+        foam = world.resources.get(FoamSettings)
+        shoreline = float(foam.shoreline) if foam is not None and foam.enabled else 0.0
         gpu.foam_pattern.bind(FOAM_PATTERN_UNIT)
         gpu.wakes.bind(WAKES_UNIT)
-        return {"u_foam": FOAM_UNIT, "u_foam_pattern": FOAM_PATTERN_UNIT,
-                "u_foam_scale_m": FOAM_SCALE_M, "u_foam_size_px": float(FOAM_PATTERN_PX),
+        return {"u_foam_pattern": FOAM_PATTERN_UNIT, "u_foam_scale_m": FOAM_SCALE_M,
+                "u_foam_size_px": float(FOAM_PATTERN_PX),
                 "u_time_s": float(world.clock.now_s % 3600.0), "u_wakes": WAKES_UNIT,
                 "u_wake_count": count, "u_shoreline": shoreline}
 
@@ -466,32 +561,89 @@ class DrawRivers(System):
         return gpu.sync_tiles(tiles, WATER_MESH,
                               standins(cut, tiles.cache.pools[WATER_MESH], skip=dry))
 
-    def _draw_terrain(self, world: RiverWorld, gpu: _Gpu, shared: dict) -> None:
+    def _draw_terrain(self, world: RiverWorld, gpu: _Gpu, shared: dict,
+                      detail: str = "full") -> None:
+        """This frame's terrain tiles, through all their nodes (``detail`` "full") or the
+        reflection's coarser mesh ("coarse")."""
         program = gpu.programs["terrain"]
         program.use()
         program.set_if_used(**shared)
-        for mesh in self._terrain_meshes:
-            mesh.draw()
-        self.last_tiles = len(self._terrain_meshes)
+        count, first = gpu.terrain_ranges[detail]
+        eye = np.asarray(world.camera.position, np.float64)
+        # near to far: the depth test then rejects hidden ground before it is shaded
+        for mesh in sorted(self._terrain_meshes,
+                           key=lambda m: float(np.sum((m.centre_m - eye) ** 2))):
+            mesh.draw(count=count, first=first)
+        if detail == "full":
+            self.last_tiles = len(self._terrain_meshes)
 
-    def _draw_props(self, gpu: _Gpu, shared: dict) -> None:
+    def _draw_props(self, gpu: _Gpu, shared: dict, mirrored: bool = False) -> None:
+        """Every prop; ``mirrored``: in the reflection pass (winding turned, each prop cut
+        at its waterline)."""
         props = esper.get_components(Prop, Pose)
         if not props:
             return
         program = gpu.programs["props"]
         program.use()
         program.set_if_used(**shared)
-        gl.set_cull(True)
+        gl.set_cull(True, mirrored=mirrored)
         for _, (prop, pose) in props:
             model = pose.matrix()
             if not np.isfinite(model).all():
                 continue                    # a bad pose is not drawn, never crashes a frame
             program.set(u_model=np.ascontiguousarray(model.T, np.float32))
+            if mirrored:
+                program.set(u_clip_level_m=float(pose.position_m[2]))
             gpu.prop_mesh(prop).draw()
         gl.set_cull(False)
 
+    # -- reflections (issue 12 item 3) ------------------------------------------------------
+
+    def _draw_reflection(self, world: RiverWorld, gpu: _Gpu, settings: DisplaySettings,
+                         shared: dict, world_from_clip: np.ndarray) -> dict:
+        """The planar reflection pass (``shaders/reflection.glsl``): terrain and props mirrored
+        in the water level nearest the camera, cut at their water level, into the reflection
+        target; returns the water shader's reflection uniforms (``u_reflect`` false, and no
+        pass, when reflections are off, the water mode is not shaded, or the eye is not above
+        the mirror)."""
+        off = {"u_reflect": False, "u_reflection": REFLECTION_UNIT,
+               "u_reflection_depth": REFLECTION_DEPTH_UNIT}
+        self.last_mirror_level_m = None
+        if not settings.reflections or settings.mode not in _SHADED_MODES:
+            return off
+        camera = world.camera
+        eye = camera.position
+        if self._mirror_for[0] != camera.revision:  # a KD-tree query: once per view
+            self._mirror_for = (camera.revision,
+                                mirror_level(getattr(world.scene, "water", None), eye))
+        level = self._mirror_for[1]
+        if level is None or not eye[2] > level + MIN_EYE_HEIGHT_M:
+            return off
+        self.last_mirror_level_m = level
+        reflection = gpu.reflection
+        reflection.fit(*gpu.size, settings.reflection_scale)
+        mirrored_eye = (float(eye[0]), float(eye[1]), 2.0 * level - float(eye[2]))
+        vp = mirrored_view_projection(world.camera.view_projection(np.float64), level)
+        mirrored = {**shared, "u_view_projection": vp.ravel(), "u_eye_m": mirrored_eye,
+                    "u_fog_density": 0.0,          # fogged in the water shader, over the ray
+                    "u_clip_water": 1.0}
+        reflection.fb.bind()
+        gl.clear((0.0, 0.0, 0.0, 0.0))             # alpha 0: the sky (drawn by the water)
+        gl.set_blend(gl.BLEND_OFF)
+        gl.set_depth(True)
+        gl.set_clip_distance(True)
+        self._draw_terrain(world, gpu, mirrored, "coarse")
+        self._draw_props(gpu, mirrored, mirrored=True)
+        gl.set_clip_distance(False)
+        reflection.colour.generate_mipmaps()        # blurred levels for rough water
+        reflection.colour.bind(REFLECTION_UNIT)
+        reflection.depth.bind(REFLECTION_DEPTH_UNIT)
+        return {**off, "u_reflect": True, "u_mirror_level_m": float(level),
+                "u_world_from_clip": np.ascontiguousarray(world_from_clip.T, np.float32),
+                "u_reflection_distortion": float(settings.reflection_distortion)}
+
     def _pre_advect(self, gpu: _Gpu, shared: dict, wave_uniforms: dict,
-                    n_slots: int, water_meshes: list) -> None:
+                    n_drawn: int, water_meshes: list) -> None:
         # the water's world position where it is visible (depth test against the terrain)
         gpu.position_fb.bind()
         gl.clear((0.0, 0.0, 0.0, 0.0), depth=False)
@@ -505,7 +657,7 @@ class DrawRivers(System):
         gpu.accum_fb.bind()
         gl.clear((0.0, 0.0, 0.0, 0.0), depth=False)
         gl.set_depth(False, write=False)
-        if n_slots:
+        if n_drawn:
             gpu.position.bind(5)
             program = gpu.programs["sprites"]
             program.use()
@@ -513,7 +665,7 @@ class DrawRivers(System):
             program.set(u_water_position=5, u_wave=1, u_params=2,
                         u_sprite_radius_factor=SPRITE_RADIUS_FACTOR, **wave_uniforms)
             gl.set_blend(gl.BLEND_ADD)
-            gpu.empty.draw(gl.TRIANGLES, count=6 * n_slots)
+            gpu.empty.draw(gl.TRIANGLES, count=6 * n_drawn)
             gl.set_blend(gl.BLEND_OFF)
         gpu.main_fb.bind()
         gl.set_depth(True)

@@ -12,6 +12,8 @@ import numpy as np
 from riverflow.kernels.surface_tiles import leaf_standins
 from riverflow.tiles.cache import TilePool
 
+_MASK = (1 << 28) - 1
+
 
 def standins(cut: np.ndarray, pool: TilePool, skip: np.ndarray | None = None) -> np.ndarray:
     """(K, 3) int32 keys of the tiles of ``pool`` to use for the leaves ``cut`` (L, 3): each
@@ -24,16 +26,17 @@ def standins(cut: np.ndarray, pool: TilePool, skip: np.ndarray | None = None) ->
     keep = slot >= 0
     if skip is not None:
         keep &= ~skip
-    found = np.unique(key[keep], axis=0)
-    if not len(found):
-        return found
-    level = found[:, 0].astype(np.int64)
-    code = (level << 56) | (found[:, 2].astype(np.int64) << 28) | found[:, 1]
-    have = set(code.tolist())
-    covered = np.zeros(len(found), bool)
-    for up in range(1, int(level.max()) + 1):
-        lv = level - up
-        ok = lv >= 0
-        anc = (lv << 56) | ((found[:, 2].astype(np.int64) >> up) << 28) | (found[:, 1] >> up)
-        covered |= ok & np.fromiter((int(a) in have for a in anc), bool, len(anc))
-    return found[~covered]
+    k = key[keep].astype(np.int64)
+    # the distinct tiles, one int64 each, in (level, tx, ty) order: (level, tx, ty) < 2^(8, 28, 28)
+    tiles = np.unique((k[:, 0] << 56) | (k[:, 1] << 28) | k[:, 2])
+    if not len(tiles):
+        return np.zeros((0, 3), np.int32)
+    level, tx, ty = tiles >> 56, (tiles >> 28) & _MASK, tiles & _MASK
+    covered = np.zeros(len(tiles), bool)
+    for coarse in np.unique(level)[:-1].tolist():          # each level some tile is finer than
+        finer = level > coarse
+        up = level[finer] - coarse
+        ancestor = (coarse << 56) | ((tx[finer] >> up) << 28) | (ty[finer] >> up)
+        at = np.minimum(np.searchsorted(tiles, ancestor), len(tiles) - 1)
+        covered[finer] |= tiles[at] == ancestor
+    return np.stack([level, tx, ty], axis=1)[~covered].astype(np.int32)

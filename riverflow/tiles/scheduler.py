@@ -8,8 +8,10 @@ before. The :class:`TileScheduler` takes requests (the tiles a frame needs), pro
 dependencies first, and installs results into the :class:`~riverflow.tiles.cache.TileCache`:
 
 * ``"background"``: one daemon worker thread produces (numba kernels and shapely release the
-  GIL, so it runs beside the frame on another core); :meth:`TileScheduler.collect` installs
-  finished tiles at the start of a frame. A frame never waits: what is missing is read at a
+  GIL, so it runs beside the frame on another core) — or, with ``worker="process"``, hands
+  each tile to a forked :class:`~riverflow.tiles.remote.ProducerProcess` and waits for it
+  without the interpreter lock, so the producers' Python glue never delays a frame;
+  :meth:`TileScheduler.collect` installs finished tiles at the start of a frame. A frame never waits: what is missing is read at a
   coarser level by whoever needs it. Coarse levels are made first; requests that no frame has
   repeated for ``stale_frames`` are dropped unmade (a fast flight leaves no backlog).
 * ``"blocking"``: :meth:`TileScheduler.request` produces and installs at once (scripted runs and
@@ -36,8 +38,9 @@ from typing import Any
 import numpy as np
 
 from riverflow.tiles.cache import FieldSpec, TileCache
-from riverflow.tiles.quadtree import TileKey
 from riverflow.kernels.tile_table import NOT_FOUND
+from riverflow.tiles.quadtree import TileKey
+from riverflow.tiles.remote import ProducerProcess, TileProcessError, fork_available
 from riverflow.tiles.table import TileTable, code_key, codes as codes_of, tile_code
 
 Dep = tuple[str, TileKey]
@@ -100,11 +103,18 @@ class TileScheduler:
     """Requests, production and installation of tiles of every kind (module docstring)."""
 
     def __init__(self, cache: TileCache, producers: Iterable[Producer] = (),
-                 mode: str = "background", stale_frames: int = 30) -> None:
+                 mode: str = "background", stale_frames: int = 30,
+                 worker: str = "thread") -> None:
         if mode not in ("background", "blocking"):
             raise ValueError(f"mode must be 'background' or 'blocking', got {mode!r}")
+        if worker not in ("thread", "process"):
+            raise ValueError(f"worker must be 'thread' or 'process', got {worker!r}")
         self.cache = cache
         self.mode = mode
+        self.worker = worker if worker == "thread" or fork_available() else "thread"
+        """Where background tiles are made: "thread" (the worker thread itself) or "process"
+        (a forked :class:`ProducerProcess` the worker thread hands them to; asked for where
+        ``fork`` is not available, the thread)."""
         self.stale_frames = int(stale_frames)
         self.max_starts = 16
         """Background mode: at most this many new tiles of a kind are queued a frame."""
@@ -130,6 +140,8 @@ class TileScheduler:
         self._idle = threading.Event()     # set between frames: the worker starts jobs then
         self._idle.set()
         self._thread: threading.Thread | None = None
+        self._process: ProducerProcess | None = None
+        self._process_kinds: frozenset[str] = frozenset()
         for producer in producers:
             self.add(producer)
 
@@ -243,8 +255,18 @@ class TileScheduler:
 
     # -- worker and installation -----------------------------------------------------------------
 
+    def start(self) -> None:
+        """Background mode: start the worker (and fork its process) now rather than at the
+        first request, in a frame (a world does it while it is made). Blocking mode: nothing."""
+        if self.mode == "background":
+            self._ensure_thread()
+
     def _ensure_thread(self) -> None:
         if self._thread is None:
+            if self.worker == "process" and self._process is None:
+                # forked before the worker thread starts: the child has no lock it holds
+                self._process = ProducerProcess(self.producers, WORKER_NICE)
+                self._process_kinds = frozenset(self.producers)
             self._thread = threading.Thread(target=_work, args=(weakref.ref(self), self._queue),
                                             name="riverflow-tiles", daemon=True)
             self._thread.start()
@@ -280,7 +302,7 @@ class TileScheduler:
         data = None
         if error is None:
             try:
-                data = self.producers[job.kind].produce(job.key, deps)
+                data = self._produce(job.kind, job.key, deps)
             except Exception as exc:  # reported on the main thread by collect()
                 error = exc
         if data is not None:
@@ -288,6 +310,29 @@ class TileScheduler:
                 self._fresh[item] = data
         self._release_awaited(job)
         self._done.append((job, data, error))
+
+    def _produce(self, kind: str, key: TileKey, deps: dict) -> Any:
+        """Worker side: the tile, from the worker process if there is one (a producer added
+        after it was forked, or a process that died, makes it here)."""
+        process = self._process
+        if process is not None and kind in self._process_kinds:
+            try:
+                return process.produce(kind, key, deps)
+            except TileProcessError:
+                raise
+            except (EOFError, OSError, ValueError) as exc:
+                if self._process is process:       # not closed meanwhile: it died
+                    self._process = None
+                    self.errors.append(f"the tile process ended ({type(exc).__name__}: {exc}); "
+                                       "tiles are made in the worker thread from now on")
+                    process.close(timeout_s=0.5)
+        return self.producers[kind].produce(key, deps)
+
+    @property
+    def worker_pid(self) -> int | None:
+        """The tile process's id while there is one (its memory is the world's too)."""
+        process = self._process
+        return process.pid if process is not None and process.alive else None
 
     def _is_wanted(self, item) -> bool:
         """(under _lock) Some frame asked for ``item`` within stale_frames."""
@@ -404,13 +449,16 @@ class TileScheduler:
         return not self._pending
 
     def close(self) -> None:
-        """Stop the worker thread (queued tiles are dropped). Safe from any thread, the
-        worker's own included (a world's finalizer may run where the collector ran)."""
+        """Stop the worker thread and process (queued tiles are dropped). Safe from any thread,
+        the worker's own included (a world's finalizer may run where the collector ran)."""
         thread, self._thread = self._thread, None
         if thread is not None:
             self._queue.put((-1, -1, None))
             if thread is not threading.current_thread():
                 thread.join(timeout=10.0)
+        process, self._process = self._process, None
+        if process is not None:
+            process.close()
 
 
 def _lower_priority() -> None:

@@ -1,9 +1,10 @@
-"""Lifetimes: a RiverWorld dropped without close() gives back its tile worker thread, its esper
+"""Lifetimes: a RiverWorld dropped without close() gives back its tile worker thread and process, its esper
 world (esper's module-level registry held every entity, pool and tile cache of it) and its
 memory; ``with`` and close() still work; GPU objects go with the world (tests/render)."""
 from __future__ import annotations
 
 import gc
+import multiprocessing
 import os
 import sys
 import threading
@@ -73,11 +74,15 @@ def test_a_dropped_world_is_freed_at_once_and_releases_its_thread_and_esper_worl
         assert world.name in esper.list_worlds()
         ref = weakref.ref(world)
         cache = weakref.ref(world.tiles.cache)
+        pid = world.tiles.scheduler.worker_pid
+        assert pid is not None or world.tiles.scheduler.worker == "thread"
         assert sys.getrefcount(world) == 2, gc.get_referrers(world)
         del world
         assert ref() is None, "a reference cycle holds the world"
         assert cache() is None, "a reference cycle holds the world's tiles"
         assert not workers[0].is_alive(), "the worker outlived its world"
+        assert pid not in {p.pid for p in multiprocessing.active_children()}, \
+            "the tile process outlived its world"
         assert _our_esper_worlds() == esper_before, "esper still holds the dropped world"
     finally:
         if enabled:
@@ -91,6 +96,7 @@ def test_fifty_dropped_worlds_give_back_their_threads_and_memory(scene):
     _background_world(scene)              # one-time costs: imports, kernels, scene tables
     gc.collect()
     threads = _settle(threading.active_count() - len(_workers()))
+    processes = len(multiprocessing.active_children())
     rss = _rss_mb()
     esper_before = _our_esper_worlds()
     for _ in range(WORLDS):
@@ -98,6 +104,7 @@ def test_fifty_dropped_worlds_give_back_their_threads_and_memory(scene):
     gc.collect()
     assert _settle(threads) == threads, [t.name for t in threading.enumerate()]
     assert not _workers()
+    assert len(multiprocessing.active_children()) == processes
     assert _our_esper_worlds() == esper_before
     grown = _rss_mb() - rss
     assert grown < 50.0, f"RSS grew {grown:.0f} MB over {WORLDS} dropped worlds"

@@ -335,7 +335,9 @@ def test_a_late_tile_never_gives_a_wrong_status_at_its_parents_level():
     waited = 0
     for level in range(field.max_level):
         pool.clear()
-        field.query(xy, level=level)                # only this level resident, none in the cut
+        # only this level resident (the tiles under the shore and the far points: a far
+        # point inland may lie in a tile no shore point falls in), none in the cut
+        field.query(np.vstack([xy, far]), level=level)
         assert {k[0] for k in pool.keys()} == {level}
         pool.arrays["in_cut"][:] = 0
         status = np.empty(len(xy), np.uint8)
@@ -403,6 +405,13 @@ def test_the_tile_worker_runs_at_a_lower_priority_than_the_frame():
             time.sleep(0.01)
         assert nice == max(WORKER_NICE, os.getpriority(os.PRIO_PROCESS, 0))
         assert os.getpriority(os.PRIO_PROCESS, threading.get_native_id()) < nice
+        pid = world.tiles.scheduler.worker_pid     # the tile process (RiverConfig.tile_worker)
+        if pid is not None:
+            for _ in range(100):
+                if os.getpriority(os.PRIO_PROCESS, pid) >= WORKER_NICE:
+                    break
+                time.sleep(0.01)
+            assert os.getpriority(os.PRIO_PROCESS, pid) == nice
     finally:
         world.close()
 
@@ -425,3 +434,24 @@ def test_loading_a_view_freezes_the_collector_only_when_asked(freeze):
     finally:
         world.close()
         gc.unfreeze()
+
+
+def test_loading_a_view_seeds_the_screen_s_particles_with_no_time_passing():
+    """The first Poisson fill of an empty screen happens on the loading screen: after
+    load_view the screen holds its particles, and no time or frame has passed."""
+    scene = rf.default_scene(seed=0)
+    world = rf.RiverWorld(scene, size=(320, 180), gl=False, seed=0,
+                          config=RiverConfig(radius_px=5.0))
+    try:
+        world.camera.look_at(*flight_pose(scene, 0))
+        assert len(world.particles) == 0
+        assert world.load_view(60.0)
+        seeded = len(world.particles)
+        assert world.clock.now_s == 0.0 and world.clock.frame == 0
+        assert (world.particles.intensity >= 0).all()
+        for f in range(1, 11):
+            world.camera.look_at(*flight_pose(scene, f))
+            world.step(FRAME_S)
+        assert seeded >= 0.8 * len(world.particles) > 100
+    finally:
+        world.close()

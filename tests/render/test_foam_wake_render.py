@@ -175,34 +175,28 @@ def test_the_kelvin_wedge_shows_behind_a_moving_boat_and_not_a_still_one(boat_wo
 def test_foam_is_whiter_near_the_hull_and_the_foam_mode_shows_it(boat_world):
     world, boat, entity = boat_world
     _drive(world, boat, 300, 1.0)
-    from tests.render.test_rain_render import _water_mask
-    water = _water_mask(world)
-    m, _ = world.camera.matrices_for_kernels()
-    # pixels near the boat's stern and wash (a disc on screen behind the hull)
+    ys, xs, xy = _water_points(world, float(boat.altitude_m))
     f = np.array([math.cos(boat.heading_rad), math.sin(boat.heading_rad)])
-    behind = np.array([*(boat.position_m - 0.9 * boat.length_m * f), boat.altitude_m, 1.0])
-    c = m @ behind
-    sx, sy = (c[0] / c[3] * 0.5 + 0.5) * W, (1 - (c[1] / c[3] * 0.5 + 0.5)) * H
-    ys, xs = np.mgrid[0:H, 0:W]
-    wash = water & (np.hypot(xs - sx, ys - sy) < 10)
-    assert wash.sum() > 30
-    with_foam = world.render()
-    world.foam.enabled = False
-    world.step(1 / 60)
-    without = world.render()
-    world.foam.enabled = True
-    for _ in range(4):
-        world.step(1 / 60)
-    gain = _grey(with_foam)[wash].mean() - _grey(without)[wash].mean()
-    assert gain > 25.0, gain                  # visibly whiter (of 255)
+    rel = xy - boat.position_m
+    behind = -(rel @ f)
+    across = np.abs(rel @ np.array([-f[1], f[0]]))
+    wash = (behind > 0.6 * boat.length_m) & (behind < 3.0 * boat.length_m) \
+        & (across < 0.8 * boat.beam_m)
+    far = (across > 15.0) & (behind > -20.0) & (behind < 40.0)
+    assert wash.sum() > 20 and far.sum() > 100
+    with_foam = _grey(world.render())[ys, xs]
     world.display.mode = DisplayMode.FOAM
     try:
-        shown = _grey(world.render())
+        shown = _grey(world.render())[ys, xs]
     finally:
         world.display.mode = DisplayMode.ADVECTED
-    far = water & (np.hypot(xs - sx, ys - sy) > 60)
-    assert far.sum() > 100
-    assert shown[wash].mean() > shown[far].mean() + 25.0
+    assert shown[wash].mean() > shown[far].mean() + 40.0
+    world.foam.enabled = False
+    world.step(1 / 60)
+    without = _grey(world.render())[ys, xs]
+    world.foam.enabled = True
+    gain = with_foam[wash].mean() - without[wash].mean()
+    assert gain > 25.0, gain                  # visibly whiter (of 255)
 
 
 def _water_points(world, level_m):

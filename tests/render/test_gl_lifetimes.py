@@ -19,11 +19,14 @@ def _names(world) -> dict[str, list[int]]:
     gpu = drawer.gpu
     meshes = [m for kind in gpu.tile_meshes.values() for m in kind.values()
               if hasattr(m, "vao")]
+    reflection = gpu.reflection
     return {"texture": [t.id for t in (gpu.colour, gpu.depth, gpu.position, gpu.accum,
-                                       gpu.params, gpu.grid)],
+                                       gpu.params, gpu.grid, reflection.colour,
+                                       reflection.depth)],
             "buffer": [m.vbo for m in meshes],
             "vao": [m.vao for m in meshes],
-            "framebuffer": [gpu.main_fb.id, gpu.position_fb.id, gpu.accum_fb.id],
+            "framebuffer": [gpu.main_fb.id, gpu.position_fb.id, gpu.accum_fb.id,
+                            reflection.fb.id],
             "program": [p.program.id for p in gpu.programs.values()]}
 
 

@@ -1,5 +1,6 @@
 """The GL module on a real offscreen context: programs, #line error mapping, enum defines,
-exact uploads and read-backs, and the sprite tables as the shaders read them."""
+exact uploads and read-backs, the sprite tables as the shaders read them, and the sprite grid
+that the GPU makes from them."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -9,9 +10,11 @@ import pytest
 
 from riverflow.components.display import DisplayMode
 from riverflow.components.status import FlowStatus
-from riverflow.kernels.sprites import (MAX_PER_CELL, PARTICLES_PER_ROW, TEXELS_PER_PARTICLE,
-                                       build_sprite_grid, empty_sprite_tables,
-                                       fill_sprite_params)
+from riverflow.kernels.sprites import (PARTICLES_PER_ROW, SPRITE_RADIUS_FACTOR,
+                                       TEXELS_PER_PARTICLE, SpriteSource, bin_texels,
+                                       build_sprite_tables, empty_sprite_tables, sprite_bins,
+                                       sprite_grid_shape)
+from tests.kernels import sprites_reference as ref
 
 pytestmark = pytest.mark.gl
 PROBES = Path(__file__).parent / "shaders"
@@ -73,7 +76,7 @@ def test_check_errors_raises_on_a_gl_error(gl_context):
     gl.check_errors("cleared")
 
 
-@pytest.mark.parametrize("fmt_name", ["RGBA32F", "RGBA32I", "RGBA8", "R32F"])
+@pytest.mark.parametrize("fmt_name", ["RGBA32F", "RGBA32I", "RGBA8", "R32F", "R32I"])
 def test_texture_round_trip_is_exact(gl_context, fmt_name, rng):
     from riverflow.engine import gl
     fmt = getattr(gl, fmt_name)
@@ -116,8 +119,7 @@ def _probe(program, what: int, width: int, height: int):
     fb.bind()
     gl.clear((0, 0, 0, 0), depth=False)
     program.use()
-    program.set(u_what=what, u_params=2, u_grid=3, u_width=width) if what < 3 else \
-        program.set(u_what=what, u_grid=3)
+    program.set(u_what=what, u_params=2, u_bins=3, u_width=width)
     empty = gl.Mesh(None, {})
     empty.draw(gl.TRIANGLES, count=3)
     out = gl.read_texture(target)
@@ -137,46 +139,123 @@ def _particles(rng, n, width, height, radius):
     intensity = rng.random(n).astype(np.float32)
     status = rng.choice([FlowStatus.INSIDE, FlowStatus.LEAVING, FlowStatus.OUTSIDE], n)
     velocity = rng.normal(0, 1, (n, 2)).astype(np.float32)
-    return alive, has_world, screen, world, offset, intensity, status.astype(np.uint8), velocity
+    foam = rng.random(n).astype(np.float32)
+    return SpriteSource(alive, has_world, screen, world, offset, intensity,
+                        status.astype(np.uint8), velocity, foam)
 
 
-def test_parameter_table_upload_reads_back_exactly_in_glsl(gl_context, rng):
+def _tables(src, radius, width, height):
+    bins = sprite_bins(width, height, radius)
+    params, starts, scratch = empty_sprite_tables(len(src.alive), bins)
+    n_drawn, n_entries, rows = build_sprite_tables(src, radius, len(src.alive), bins, params,
+                                                   starts, scratch, True)
+    return bins, params, bin_texels(starts, bins), int(n_drawn), int(n_entries), int(rows)
+
+
+def test_sprite_table_upload_reads_back_exactly_in_glsl(gl_context, rng):
     from riverflow.engine import gl
     from riverflow.systems.draw import shader_defines
-    n = 700                                    # three texture rows of 256 slots
-    cols = _particles(rng, n, 64, 48, 4.0)
-    params, _, _ = empty_sprite_tables(1024, 4, 4)
-    rows = fill_sprite_params(*cols, 4.0, n, params)
-    assert rows == 3
+    n = 700                                    # 600 entries: three texture rows of 256
+    _, params, bins_texels, _, n_entries, rows = _tables(_particles(rng, n, 64, 48, 4.0), 4.0,
+                                                         64, 48)
+    assert rows == 3 and n_entries > 512
     tex = gl.Texture((PARTICLES_PER_ROW * TEXELS_PER_PARTICLE, params.shape[0]), gl.RGBA32F)
     tex.upload(params, rows=rows)
     tex.bind(2)
+    bins = gl.Texture(bins_texels.shape[::-1], gl.R32I)
+    bins.upload(bins_texels)
+    bins.bind(3)
     program = gl.Program("probe_tables.glsl", shader_defines(), directory=PROBES)
-    width, height = 64, 11                     # 704 slots probed
+    width, height = 64, 11                     # 704 entries probed
     for texel in range(3):
-        got = _probe(program, texel, width, height).reshape(-1, 4)[:n]
+        got = _probe(program, texel, width, height).reshape(-1, 4)[:n_entries]
         want = params.reshape(-1, PARTICLES_PER_ROW, TEXELS_PER_PARTICLE, 4)[:, :, texel]
-        assert np.array_equal(got, want.reshape(-1, 4)[:n]), f"texel {texel}"
-    program.delete()
-    tex.delete()
+        assert np.array_equal(got, want.reshape(-1, 4)[:n_entries]), f"texel {texel}"
+    h, w = bins_texels.shape
+    got = _probe(program, 3, w, h)[..., 0]
+    assert np.array_equal(got.astype(np.int64), bins_texels.astype(np.int64))
+    for obj in (program, tex, bins):
+        obj.delete()
 
 
-def test_indirection_grid_upload_reads_back_exactly_in_glsl(gl_context, rng):
+def _gpu_grid(params, bins_texels, bins, radius, width, height):
+    """The sprite grid as the draw system makes it (sprite_lists.glsl), read back."""
     from riverflow.engine import gl
     from riverflow.systems.draw import shader_defines
-    gw, gh, cell = 5, 4, 4.0
-    n = 40                                     # some cells full, some with a terminator
-    cols = _particles(rng, n, gw * cell, gh * cell, 2.0)
-    alive, has_world, screen, _, _, intensity, status, _ = cols
-    _, counts, grid = empty_sprite_tables(n, gw, gh)
-    build_sprite_grid(alive, has_world, screen, intensity, status, n, 6.0, cell, gw, gh,
-                      counts, grid)
-    tex = gl.Texture((gw * MAX_PER_CELL // 4, gh), gl.RGBA32I)
-    tex.upload(grid.reshape(gh, -1, 4))
-    tex.bind(3)
-    program = gl.Program("probe_tables.glsl", shader_defines(), directory=PROBES)
-    got = _probe(program, 3, gw * MAX_PER_CELL, gh)[..., 0]
-    assert np.array_equal(got.astype(np.int64), grid.astype(np.int64))
-    assert (grid == -1).any() and (grid >= 0).any()
-    program.delete()
-    tex.delete()
+    cell, gw, gh = sprite_grid_shape(width, height, radius)
+    table = gl.Texture((PARTICLES_PER_ROW * TEXELS_PER_PARTICLE, params.shape[0]), gl.RGBA32F)
+    table.upload(params)
+    table.bind(2)
+    starts = gl.Texture(bins_texels.shape[::-1], gl.R32I)
+    starts.upload(bins_texels)
+    starts.bind(8)
+    grid = gl.Texture((gw, gh), gl.RGBA32I, layers=4)
+    fb = gl.Framebuffer([(grid, k) for k in range(4)])
+    fb.bind()
+    program = gl.Program("sprite_lists.glsl", shader_defines())
+    program.use()
+    program.set(u_params=2, u_bins=8, u_bin_px=(bins.bin_w, bins.bin_h),
+                u_bin_margin=(bins.margin_x, bins.margin_y), u_bin_count=(bins.bw, bins.bh),
+                u_sprite_radius_px=SPRITE_RADIUS_FACTOR * radius, u_cell_px=cell)
+    empty = gl.Mesh(None, {})
+    empty.draw(gl.TRIANGLES, count=3)
+    out = gl.read_texture(grid)
+    for obj in (empty, fb, grid, starts, table, program):
+        obj.delete()
+    gl.check_errors("sprite grid")
+    return out, cell, gw, gh
+
+
+def _entries_as_pool(params, n_drawn):
+    """The drawn entries of a sprite table as the columns the grid's twin takes."""
+    table = params.reshape(-1, TEXELS_PER_PARTICLE, 4)[:n_drawn]
+    yes = np.ones(n_drawn, bool)
+    return (yes, yes, table[:, 0, :2].copy(), table[:, 1, 2].copy(),
+            table[:, 2, 0].astype(np.uint8))
+
+
+@pytest.mark.parametrize("radius, width, height, n", [(2.0, 20, 16, 40), (4.0, 96, 64, 400),
+                                                      (3.0, 61, 37, 300)])
+def test_the_gpu_sprite_grid_lists_every_sprite_meeting_each_cell(gl_context, rng, radius, width,
+                                                                  height, n):
+    src = _particles(rng, n, width, height, radius)
+    src.screen_px[:] = rng.uniform(-4 * radius, (width + 4 * radius, height + 4 * radius), (n, 2))
+    bins, params, bins_texels, n_drawn, _, _ = _tables(src, radius, width, height)
+    layers, cell, gw, gh = _gpu_grid(params, bins_texels, bins, radius, width, height)
+    got = ref.grid_lists(layers)
+    cols = _entries_as_pool(params, n_drawn)
+    want, full = ref.build_sprite_grid(*cols, n_drawn, SPRITE_RADIUS_FACTOR * radius, float(cell),
+                                       gw, gh)
+    assert n_drawn > 20 and any(len(c) > 1 for c in want)
+    for c, (g, w) in enumerate(zip(got, want)):
+        assert len(g) == len(set(g)), c
+        if len(w) < 16:                                  # not full: exactly the same sprites
+            assert sorted(g) == sorted(w), c
+        else:                                            # full: the 16 brightest
+            levels = cols[3]
+            assert len(g) == 16 and sorted(levels[g]) == sorted(levels[w]), c
+    assert full == sum(len(g) == 16 for g in got)
+
+
+def test_a_full_cell_keeps_the_brightest_sprites(gl_context, rng):
+    n, width, height, radius = 60, 24, 24, 2.0
+    src = _particles(rng, n, width, height, radius)
+    src.alive[:] = True
+    src.status[:] = FlowStatus.INSIDE
+    src.screen_px[:] = rng.uniform(10.0, 14.0, (n, 2))    # all over the middle cells
+    src.intensity[:] = rng.permutation(np.linspace(0.02, 1.0, n)).astype(np.float32)
+    bins, params, bins_texels, n_drawn, _, _ = _tables(src, radius, width, height)
+    layers, cell, gw, gh = _gpu_grid(params, bins_texels, bins, radius, width, height)
+    got = ref.grid_lists(layers)
+    levels = params.reshape(-1, TEXELS_PER_PARTICLE, 4)[:n_drawn, 1, 2]
+    centres = params.reshape(-1, TEXELS_PER_PARTICLE, 4)[:n_drawn, 0, :2].astype(np.float64)
+    full = 0
+    for c, g in enumerate(got):
+        cy, cx = divmod(c, gw)
+        lo = np.array([cx, cy], float) * cell
+        d = np.maximum(np.maximum(lo - centres, centres - lo - cell), 0.0)
+        meeting = np.flatnonzero((d ** 2).sum(axis=1) <= (SPRITE_RADIUS_FACTOR * radius) ** 2)
+        brightest = meeting[np.argsort(-levels[meeting], kind="stable")][:16]
+        assert sorted(g) == sorted(brightest.tolist()), c
+        full += len(meeting) > 16
+    assert n_drawn == n and full >= 4

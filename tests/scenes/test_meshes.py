@@ -84,9 +84,9 @@ class Made:
         return self._get("water_mesh", key, lambda k: self.water_mesh_p.produce(k, {}))
 
     def grid(self, key) -> np.ndarray:
-        """(n + 1, n + 1, 7) float32 grid vertices of the tile's mesh (row = y)."""
+        """(n + 1, n + 1, 8) float32 grid vertices of the tile's mesh (row = y)."""
         side = self.n + 1
-        return self.terrain_tile(key).vertices[:side * side].reshape(side, side, 7)
+        return self.terrain_tile(key).vertices[:side * side].reshape(side, side, 8)
 
     def holes(self, key) -> int:
         piece = self.tiles.pieces.piece(key)
@@ -169,13 +169,19 @@ def test_border_loop_is_ccw_and_visits_every_border_sample_once():
 
 def test_terrain_tile_vertices_are_the_height_tiles_nodes(made, fine):
     """Grid vertices: the node positions, the height tile's heights there (exactly), the water
-    level seen from there; the box holds the tile and its skirt."""
+    level seen from there and the distance to the shore (negative in the water: where the
+    carved ground lies below the water level); the box holds the tile and its skirt."""
     n, side = made.n, made.n + 1
     mesh = made.terrain_tile(fine)
-    assert mesh.vertices.shape == (side * side + 4 * n, 7) and mesh.vertices.dtype == np.float32
+    assert mesh.vertices.shape == (side * side + 4 * n, 8) and mesh.vertices.dtype == np.float32
     grid = made.grid(fine)
     np.testing.assert_array_equal(grid[..., 2], made.height(fine)[1:-1, 1:-1])
     np.testing.assert_array_equal(grid[..., 6], made.water(fine)["level_seen"])
+    np.testing.assert_array_equal(grid[..., 7], made.water(fine)["shore"])
+    shore = grid[..., 7]
+    assert (shore < 0).any() and (shore > 0).any()               # the tile holds a shore
+    assert (grid[..., 2][shore < -2.0] < grid[..., 6][shore < -2.0]).all()   # bed under water
+    assert (grid[..., 2][shore > 2.0] > grid[..., 6][shore > 2.0]).all()     # banks above it
     x, y = made.quadtree.node_coords(*fine, n)
     np.testing.assert_allclose(grid[..., 0], np.broadcast_to(x[None, :], (side, side)), rtol=0, atol=1e-3)
     np.testing.assert_allclose(grid[..., 1], np.broadcast_to(y[:, None], (side, side)), rtol=0, atol=1e-3)
@@ -215,8 +221,10 @@ def test_skirt_hangs_below_the_border_with_its_normal(made, fine):
     bi, bj = border_loop(n)
     top = mesh.vertices[bj * side + bi]
     skirt = mesh.vertices[side * side:]
-    np.testing.assert_array_equal(skirt[:, [0, 1, 3, 4, 5, 6]], top[:, [0, 1, 3, 4, 5, 6]])
+    np.testing.assert_array_equal(skirt[:, [0, 1, 3, 4, 5, 7]], top[:, [0, 1, 3, 4, 5, 7]])
     np.testing.assert_allclose(top[:, 2] - skirt[:, 2], mesh.skirt_m, rtol=0, atol=1e-4)
+    # as high above the water as its top (shaded alike where a crack shows it)
+    np.testing.assert_allclose(top[:, 6] - skirt[:, 6], mesh.skirt_m, rtol=0, atol=2e-3)
     # at least the crack any coarser neighbour leaves (:func:`tile_skirt_m`)
     assert mesh.skirt_m >= tile_skirt_m(made.height(fine)[1:-1, 1:-1], made.quadtree.cell_m(fine[0], n))
 
@@ -287,7 +295,7 @@ def test_skirt_covers_the_crack_to_coarser_neighbours_on_bumpy_ground(rng):
         k = np.arange(-1, n + 2) * s
         z = heights[np.ix_(cy * n * s + k + o, cx * n * s + k + o)]
         mesh = tile_terrain_mesh(z, cx * n * s * cell, cy * n * s * cell, s * cell, level_seen)
-        return mesh, mesh.vertices[:(n + 1) ** 2].reshape(n + 1, n + 1, 7)
+        return mesh, mesh.vertices[:(n + 1) ** 2].reshape(n + 1, n + 1, 8)
 
     fine_mesh, fine_grid = tile(0, 15, 15)
     largest, seen = 0.0, []
@@ -310,22 +318,28 @@ def test_flat_terrain_gets_the_minimum_skirt():
     np.testing.assert_array_equal(mesh.bounds_m, [[100.0, -50.0, -5.0], [164.0, 14.0, 3.0]])
 
 
-@pytest.mark.parametrize("n", [8, 12, 64])
-def test_tile_indices_tile_the_tile_exactly_once_with_outward_skirts(n, rng):
+@pytest.mark.parametrize("n, stride", [(8, 1), (12, 1), (64, 1), (8, 2), (64, 2), (64, 4)])
+def test_tile_indices_tile_the_tile_exactly_once_with_outward_skirts(n, stride, rng):
+    """Also through every stride-th node only (the reflection's coarser mesh of the same
+    vertices): the same ground, the same skirt, stride² fewer triangles."""
     side = n + 1
-    idx = tile_indices(n)
-    assert idx.dtype == np.uint32 and idx.shape == (2 * n * n + 8 * n, 3)
-    assert idx.max() == side * side + 4 * n - 1
+    idx = tile_indices(n, stride)
+    m = n // stride
+    assert idx.dtype == np.uint32 and idx.shape == (2 * m * m + 8 * m, 3)
+    assert idx.max() == side * side + 4 * n - stride
+    used = np.unique(idx)
+    grid_used = used[used < side * side]
+    assert (grid_used // side % stride == 0).all() and (grid_used % side % stride == 0).all()
     xy = np.stack(np.meshgrid(np.arange(side), np.arange(side)), -1).reshape(-1, 2).astype(np.float64)
     bi, bj = border_loop(n)
     xy = np.vstack([xy, np.stack([bi, bj], 1)])
-    grid, skirt = idx[:2 * n * n], idx[2 * n * n:]
+    grid, skirt = idx[:2 * m * m], idx[2 * m * m:]
     assert (grid < side * side).all()
     t = xy[grid]
     area = _cross(t[:, 0], t[:, 1], t[:, 2])
     assert (area > 0).all() and 0.5 * area.sum() == pytest.approx(n * n)
     pts = rng.uniform(0, n, size=(2000, 2))
-    assert (_cover_counts(pts, t, np.zeros(2), 1.0) == 1).all()
+    assert (_cover_counts(pts, t, np.zeros(2), float(stride)) == 1).all()
     # skirts: each quad joins two neighbouring border samples to their copies, facing outward
     assert ((skirt >= side * side).sum(axis=1) >= 1).all()
     assert all(len(row[row < side * side]) in (1, 2) for row in skirt)
@@ -337,6 +351,11 @@ def test_tile_indices_tile_the_tile_exactly_once_with_outward_skirts(n, rng):
     assert (np.einsum("ij,ij->i", normal[:, :2], outward) > 0).all()
     assert np.abs(normal[:, 2]).max() == 0
     assert 0.5 * np.linalg.norm(normal, axis=1).sum() == pytest.approx(4 * n)  # 1 deep, 4n round
+
+
+def test_tile_indices_refuse_a_stride_that_does_not_divide_the_tile():
+    with pytest.raises(ValueError, match="stride"):
+        tile_indices(12, 5)
 
 
 # -- water ---------------------------------------------------------------------------------

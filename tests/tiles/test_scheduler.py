@@ -267,3 +267,104 @@ def test_a_frame_queues_a_bounded_number_of_new_tiles_coarse_first():
     gate.set()
     assert sched.wait(10.0)
     sched.close()
+
+
+# -- the worker process (RiverConfig.tile_worker = "process") ------------------------------------
+
+needs_fork = pytest.mark.skipif(not __import__("riverflow.tiles.remote", fromlist=["x"])
+                                .fork_available(), reason="a forked tile process: Linux")
+
+
+class WhereMade(Producer):
+    """Records in its tile which process made it."""
+
+    kind = "p"
+    fields = {"pid": FieldSpec((1,), np.int64, 0), "z": FieldSpec((N + 1, N + 1), np.float64,
+                                                                    np.nan)}
+
+    def dependencies(self, key):
+        return [("h", key)]
+
+    def produce(self, key, deps):
+        import os
+
+        return {"pid": np.array([os.getpid()]), "z": deps[("h", key)]["z"] * 2.0}
+
+
+@needs_fork
+def test_a_worker_process_makes_the_same_tiles_as_the_thread_and_the_frame_process_none():
+    import os
+
+    keys = np.concatenate([_keys(0), _keys(1), _keys(2), _keys(3)])
+    made = {}
+    for worker in ("thread", "process"):
+        cache = TileCache(1 << 30)
+        heights = Heights()
+        sched = TileScheduler(cache, [heights, WhereMade()], "background", worker=worker)
+        sched.max_starts = 1000
+        sched.request("p", keys)
+        assert sched.wait(20.0)
+        pool = cache.pools["p"]
+        made[worker] = {k: pool.get(tile_code(*k))["z"].copy() for k in map(tuple, keys)}
+        pids = {int(pool.get(tile_code(*k))["pid"][0]) for k in map(tuple, keys)}
+        pid = sched.worker_pid
+        if worker == "process":
+            assert pid is not None and pids == {pid} and pid != os.getpid()
+            assert heights.made == 0          # this process's producer made nothing
+        else:
+            assert pid is None and pids == {os.getpid()} and heights.made == len(keys)
+        sched.close()
+    for key, z in made["thread"].items():
+        assert np.array_equal(z, made["process"][key]), key
+
+
+@needs_fork
+def test_a_producer_error_in_the_process_is_reported_and_the_process_keeps_working():
+    sched = TileScheduler(TileCache(1 << 20), [Broken(), Heights()], "background",
+                          worker="process")
+    sched.request("b", [(0, 0, 0)])
+    sched.request("h", [(0, 0, 0)])
+    assert sched.wait(10.0)
+    assert len(sched.errors) == 1 and "FloatingPointError" in sched.errors[0]
+    assert "(0, 0, 0)" in sched.errors[0] and "a NaN in the source" in sched.errors[0]
+    assert tile_code(0, 0, 0) in sched.cache.pools["h"]
+    assert sched.worker_pid is not None
+    sched.close()
+
+
+@needs_fork
+def test_a_killed_process_is_reported_and_the_thread_makes_the_rest():
+    import os
+    import signal
+
+    cache = TileCache(1 << 20)
+    sched = TileScheduler(cache, [Heights()], "background", worker="process")
+    sched.request("h", [(0, 0, 0)])
+    assert sched.wait(10.0)
+    pid = sched.worker_pid
+    os.kill(pid, signal.SIGKILL)
+    sched.request("h", _keys(1))
+    assert sched.wait(10.0)
+    assert all(tile_code(*k) in cache.pools["h"] for k in _keys(1).tolist())
+    assert any("tile process ended" in e for e in sched.errors), sched.errors
+    assert sched.worker_pid is None
+    sched.close()
+
+
+@needs_fork
+def test_closing_the_scheduler_ends_its_process():
+    import multiprocessing
+
+    sched = TileScheduler(TileCache(1 << 20), [Heights()], "background", worker="process")
+    sched.request("h", [(0, 0, 0)])
+    assert sched.wait(10.0)
+    pid = sched.worker_pid
+    assert pid in {p.pid for p in multiprocessing.active_children()}
+    sched.close()
+    assert pid not in {p.pid for p in multiprocessing.active_children()}
+    sched.close()                                      # idempotent
+
+
+def test_a_bad_worker_is_refused():
+    with pytest.raises(ValueError, match="worker"):
+        TileScheduler(TileCache(1 << 20), [], "background", worker="fiber")

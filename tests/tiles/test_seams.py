@@ -65,9 +65,9 @@ class Made:
         return self.get(HEIGHT, key)["z"]
 
     def grid_vertices(self, key) -> np.ndarray:
-        """(n+1, n+1, 7) float32 grid vertices of the terrain mesh (row = y)."""
+        """(n+1, n+1, 8) float32 grid vertices of the terrain mesh (row = y)."""
         side = self.n + 1
-        return self.get(TERRAIN_MESH, key)["vertices"][:side * side].reshape(side, side, 7)
+        return self.get(TERRAIN_MESH, key)["vertices"][:side * side].reshape(side, side, 8)
 
     def level_tiles(self, level: int) -> list[tuple[int, int, int]]:
         side = 1 << level
@@ -176,7 +176,7 @@ def test_water_levels_and_their_gaps_agree_across_borders(made, axis):
     for level in _levels(made):
         for a, b in made.pairs(level, axis):
             wa, wb = made.get(WATER, a), made.get(WATER, b)
-            for name in ("level", "level_seen"):
+            for name in ("level", "level_seen", "shore"):
                 assert np.array_equal(_bits(_border(wa[name], axis, n)),
                                       _bits(_border(wb[name], axis, 0))), (name, a, b)
             line = _border(wa["level"], axis, n)
@@ -247,6 +247,7 @@ def test_mesh_vertices_are_the_tiles_heights_and_levels(made):
         z = made.heights(a).astype(np.float64)
         assert np.array_equal(_bits(v[..., 2]), _bits(z[1:-1, 1:-1]))
         assert np.array_equal(_bits(v[..., 6]), _bits(made.get(WATER, a)["level_seen"]))
+        assert np.array_equal(_bits(v[..., 7]), _bits(made.get(WATER, a)["shore"]))
         cell = made.quadtree.cell_m(a[0], n)
         dzdx = (z[1:-1, 2:] - z[1:-1, :-2]) / (2.0 * cell)
         dzdy = (z[2:, 1:-1] - z[:-2, 1:-1]) / (2.0 * cell)
@@ -289,8 +290,9 @@ def test_water_levels_of_a_parent_and_its_children_agree(made):
         for up, kid in made.family(level):
             wc, wp = made.get(WATER, kid), made.get(WATER, up)
             rows, cols = _quadrant(kid, n)
-            assert np.array_equal(_bits(wc["level_seen"][::2, ::2]),
-                                  _bits(wp["level_seen"][rows, cols])), (up, kid)
+            for name in ("level_seen", "shore"):
+                assert np.array_equal(_bits(wc[name][::2, ::2]),
+                                      _bits(wp[name][rows, cols])), (name, up, kid)
             lc, lp = wc["level"][::2, ::2], wp["level"][rows, cols]
             wet_c, wet_p = np.isfinite(lc), np.isfinite(lp)
             assert not (wet_c & ~wet_p).any(), (up, kid)
@@ -410,7 +412,7 @@ def test_tile_skirt_covers_any_coarser_neighbour_on_rough_ground():
     fine = (level, 13, 9)
     mesh = _synthetic_mesh(q, fine, n)
     side = n + 1
-    grid = mesh.vertices[:side * side].reshape(side, side, 7)
+    grid = mesh.vertices[:side * side].reshape(side, side, 8)
     largest = 0.0
     for up in range(1, level_count(n)):
         s = 1 << up
@@ -421,7 +423,7 @@ def test_tile_skirt_covers_any_coarser_neighbour_on_rough_ground():
             if (coarse[1], coarse[2]) == (fine[1] >> up, fine[2] >> up):
                 continue
             cm = _synthetic_mesh(q, coarse, n)
-            cg = cm.vertices[:side * side].reshape(side, side, 7)
+            cg = cm.vertices[:side * side].reshape(side, side, 8)
             along = fine[2] if axis == 0 else fine[1]
             off = (along % s) * n // s
             hf = _border(grid, axis, n if forward else 0)[:, 2].astype(np.float64)
@@ -478,8 +480,8 @@ def test_a_ravine_under_a_coarse_border_is_covered():
 
     mf, mc = mesh(fine), mesh(coarse)
     side = n + 1
-    hf = mf.vertices[:side * side].reshape(side, side, 7)[:, 0, 2]     # fine west border
-    hc = mc.vertices[:side * side].reshape(side, side, 7)[:, n, 2]     # coarse east border
+    hf = mf.vertices[:side * side].reshape(side, side, 8)[:, 0, 2]     # fine west border
+    hc = mc.vertices[:side * side].reshape(side, side, 8)[:, n, 2]     # coarse east border
     off = (fine[2] % 2) * n // 2
     hc = hc[off:off + n // 2 + 1].astype(np.float64)
     drawn = np.repeat(hc, 2)[: n + 1]

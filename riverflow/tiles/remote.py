@@ -1,0 +1,131 @@
+"""ProducerProcess: tiles made in a forked process, so that making them never holds the
+frame's interpreter lock (SPEC §8, the open-worlds issue's flight target).
+
+A worker *thread* shares the interpreter lock with the frame: a nogil kernel runs beside the
+frame, but the producers' Python, numpy, shapely and scipy glue holds the lock, and a frame
+that wants it back waits up to a switch interval (5 ms) at any call — at 1000 km that was the
+flight's p99 (3× its p50). A worker *process* has its own interpreter: the frame only ever
+waits for the scheduler's bookkeeping (a job sent, a tile received: tens of microseconds).
+
+The process is forked from the world's, so it starts with the producers and everything they
+read (the landscape, the flow network, the sources; no pickling, nothing built twice) and its
+memory is shared copy-on-write until either side writes. A job is ``(kind, key, deps)``, deps
+being copies of the dependency tiles the scheduler holds; the answer is the tile, or the
+producer's error as text. Producers are pure functions of their key, the sources and their
+dependencies (:class:`~riverflow.tiles.scheduler.Producer`), so a tile made there is the tile
+the thread would have made, bit for bit. The process runs at the worker's low priority and
+ends when the scheduler closes, when its pipe closes (the world's process ended) or at exit.
+
+Forking needs the ``fork`` start method (Linux; macOS and Windows keep the thread). A height
+source that cannot be used from a forked process (a callable holding a socket, a GPU) needs
+``RiverConfig(tile_worker="thread")``.
+"""
+from __future__ import annotations
+
+import multiprocessing
+import os
+import signal
+import sys
+import warnings
+from collections.abc import Mapping
+from typing import Any
+
+IN_WORKER_PROCESS = False
+"""True inside a tile worker process (its main thread is a worker, not a frame's)."""
+
+
+def fork_available() -> bool:
+    """Whether tiles can be made in a forked process here (Linux: the ``fork`` start method,
+    safe beside the threads a world runs)."""
+    return sys.platform.startswith("linux") and "fork" in multiprocessing.get_all_start_methods()
+
+
+class TileProcessError(RuntimeError):
+    """A producer raised in the worker process (the message names its type and text)."""
+
+
+class ProducerProcess:
+    """One forked process that makes tiles with ``producers`` (module docstring)."""
+
+    def __init__(self, producers: Mapping[str, Any], nice: int = 19) -> None:
+        ctx = multiprocessing.get_context("fork")
+        here, there = ctx.Pipe()
+        self._process = ctx.Process(target=_serve, args=(dict(producers), there, here, nice),
+                                    name="riverflow-tiles", daemon=True)
+        with warnings.catch_warnings():
+            # Python ≥ 3.12 warns on any fork beside other threads (a host's, a previous
+            # world's worker): the child runs only the producers, on locks it alone takes
+            warnings.filterwarnings("ignore", r".*multi-threaded.*fork", DeprecationWarning)
+            self._process.start()
+        there.close()
+        self._conn = here
+
+    @property
+    def pid(self) -> int | None:
+        return self._process.pid
+
+    @property
+    def alive(self) -> bool:
+        return self._conn is not None and self._process.is_alive()
+
+    def produce(self, kind: str, key: tuple[int, int, int], deps: Mapping) -> Any:
+        """Make one tile there (blocks this thread, not the interpreter: the pipe's read
+        releases the lock). Raises :class:`TileProcessError` for a producer's error and
+        ``EOFError``/``OSError`` when the process is gone."""
+        conn = self._conn
+        if conn is None:
+            raise EOFError("the tile process was closed")
+        conn.send((kind, key, dict(deps)))
+        ok, value = conn.recv()
+        if not ok:
+            raise TileProcessError(value)
+        return value
+
+    def close(self, timeout_s: float = 5.0) -> None:
+        """End the process (idempotent; safe from any thread)."""
+        conn, self._conn = self._conn, None
+        if conn is not None:
+            try:
+                conn.send(None)
+            except (OSError, ValueError):
+                pass
+            conn.close()
+        process = self._process
+        if process.pid is None:
+            return
+        process.join(timeout_s)
+        if process.is_alive():
+            process.kill()
+            process.join(timeout_s)
+
+
+def _serve(producers: Mapping[str, Any], conn, parent_end, nice: int) -> None:
+    """The process's loop: jobs in, tiles out, until told to stop or the pipe closes."""
+    global IN_WORKER_PROCESS
+    IN_WORKER_PROCESS = True
+    parent_end.close()     # the world's end of the pipe: EOF here once the world's is closed
+    signal.signal(signal.SIGINT, signal.SIG_IGN)   # Ctrl-C is the host's to handle; it ends us
+    if nice > 0:
+        try:
+            os.setpriority(os.PRIO_PROCESS, 0, max(os.getpriority(os.PRIO_PROCESS, 0), nice))
+        except OSError:
+            pass
+    while True:
+        try:
+            job = conn.recv()
+        except (EOFError, OSError):
+            return
+        if job is None:
+            return
+        kind, key, deps = job
+        try:
+            answer = (True, producers[kind].produce(key, deps))
+        except Exception as exc:  # noqa: BLE001 - reported to the scheduler, which records it
+            answer = (False, f"{type(exc).__name__}: {exc}")
+        try:
+            conn.send(answer)
+        except (OSError, ValueError, EOFError):
+            return
+        except Exception as exc:  # noqa: BLE001 - a tile that cannot be pickled: said so
+            conn.send((False, f"{kind} tile {key} cannot be sent back: "
+                              f"{type(exc).__name__}: {exc}"))

@@ -1,0 +1,229 @@
+"""Reflections (issue 12 item 3), drawn offscreen: a bright prop by the water shows up in the
+water below it, mirrored, and not with reflections off; the mirror follows the local water
+level whatever height the reflection pass mirrors at; no garbage when the camera is under the
+water or looks straight down; resizing and the resolution scale remake the target."""
+from __future__ import annotations
+
+import esper
+import numpy as np
+import pytest
+
+import riverflow.systems.draw as draw_module
+from riverflow.components.display import DisplayMode, DisplaySettings
+from riverflow.engine.config import RiverConfig
+from riverflow.scenes.default import default_scene
+from riverflow.scenes.flight import main_centerline
+from riverflow.scenes.reflection import reflection_size
+
+pytestmark = pytest.mark.gl
+W, H = 200, 120
+BARREL_M = (5.0, 2.4, 2.4)          # length, width (diameter), height: lying along the shore
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return default_scene(seed=0)
+
+
+@pytest.fixture(scope="module")
+def shore_view(scene):
+    """A low camera in the river looking across at its bank, and a barrel at the shore there
+    (half in the water, lying along it): (eye, target, barrel position, heading)."""
+    water = scene.water
+    line = main_centerline(scene)
+    k = len(line) // 2
+    p = line[k]
+    d = (line[k + 3] - p) / np.linalg.norm(line[k + 3] - p)
+    side = np.array([-d[1], d[0]])
+    t = 0.0
+    while water.contains((p + (t + 0.5) * side)[None])[0]:
+        t += 0.5
+    shore = p + t * side
+    level = float(water.level(shore[None])[0])
+    barrel = np.array([*(shore - 0.6 * side), level])
+    eye = (*(shore - 20.0 * side), level + 2.0)
+    return eye, (*shore, level + 0.5), barrel, float(np.arctan2(d[1], d[0]))
+
+
+@pytest.fixture(scope="module")
+def world(gl_context, scene, shore_view):
+    from riverflow.engine.world import RiverWorld
+    eye, target, _, _ = shore_view
+    w = RiverWorld(scene, size=(W, H), gl=True, seed=0,
+                   config=RiverConfig(tile_production="blocking"))
+    w.camera.look_at(eye, target)
+    w.load_view()
+    for _ in range(10):
+        w.step(1 / 60)
+    yield w
+    w.close()
+
+
+def _render(world, **settings) -> np.ndarray:
+    from riverflow.engine import gl
+    display = world.display
+    saved = {k: getattr(display, k) for k in settings}
+    for k, v in settings.items():
+        setattr(display, k, v)
+    try:
+        frame = world.render()
+        gl.check_errors(f"rendering with {settings}")
+    finally:
+        for k, v in saved.items():
+            setattr(display, k, v)
+    return frame[..., :3].astype(np.int32)
+
+
+@pytest.fixture(scope="module")
+def frames(world, shore_view):
+    """Frames with and without the barrel, reflections on and off, and the water mask."""
+    _, _, barrel, heading = shore_view
+    out = {"empty_on": _render(world), "empty_off": _render(world, reflections=False),
+           "empty_flat": _render(world, reflection_distortion=0.0),
+           "mesh": _render(world, mode=DisplayMode.MESH),
+           "ground": _render(world, mode=DisplayMode.NONE)}
+    entity = world.add_prop("barrel", BARREL_M, barrel, yaw_rad=heading)
+    out["on"] = _render(world)
+    out["off"] = _render(world, reflections=False)
+    out["flat"] = _render(world, reflection_distortion=0.0)
+    with world.active():
+        esper.delete_entity(entity, immediate=True)
+    out["water"] = (out["mesh"] != out["ground"]).any(axis=2)
+    out["prop"] = (out["off"] != out["empty_off"]).any(axis=2)
+    return out
+
+
+def _waterline_row(world, shore_view) -> float:
+    """The image row of the barrel's waterline (its centre at the water level)."""
+    _, _, barrel, _ = shore_view
+    screen, _, _ = world.camera.world_to_screen(np.asarray(barrel, np.float64)[None])
+    return H - float(screen[0, 1])
+
+
+def test_a_bright_prop_by_the_water_shows_in_the_water_below_it(frames, world, shore_view):
+    prop, water = frames["prop"], frames["water"]
+    assert prop.sum() > 80, "the barrel is not in view"
+    rows, cols = np.nonzero(prop)
+    left, right = cols.min(), cols.max()
+    waterline = _waterline_row(world, shore_view)
+    height = waterline - rows.min()                          # the barrel above the water
+    assert height > 3
+    # what the barrel adds to the picture with reflections on, in the water under it
+    gain = np.abs(frames["on"] - frames["empty_on"]).sum(axis=2) > 24
+    below = np.zeros_like(water)                             # the waves bend it a little
+    below[int(waterline) + 1:, max(left - 4, 0):right + 5] = True
+    reflected = gain & water & below
+    assert reflected.sum() > 0.5 * prop.sum(), (reflected.sum(), prop.sum())
+    # ... and nowhere else: not above the barrel, not in the water beside it
+    assert not (gain & ~prop & ~below).any()
+    # the reflection has the prop's hue (wood: red over blue), unlike the water around it
+    wood = frames["on"][prop]
+    assert (wood[:, 0] - wood[:, 2]).mean() > 40
+    was = frames["empty_on"][reflected]
+    now = frames["on"][reflected]
+    assert (now[:, 0] - now[:, 2]).mean() > (was[:, 0] - was[:, 2]).mean() + 15
+
+
+def test_the_reflection_is_the_prop_mirrored_in_its_waterline(frames, world, shore_view):
+    """With a flat mirror (no wave distortion), the rows the barrel adds to the water are its
+    own rows turned upside down about its waterline."""
+    prop = frames["prop"]
+    waterline = _waterline_row(world, shore_view)
+    gain = (np.abs(frames["flat"] - frames["empty_flat"]).sum(axis=2) > 24) & frames["water"]
+    rows = np.arange(H)
+    mirrored_rows = np.round(2 * waterline - rows).astype(int)
+    expected = np.zeros_like(prop)
+    ok = (mirrored_rows >= 0) & (mirrored_rows < H)
+    expected[mirrored_rows[ok]] = prop[rows[ok]]
+    expected &= frames["water"]
+    assert expected.sum() > 20
+    overlap = (gain & expected).sum() / max((gain | expected).sum(), 1)
+    assert overlap > 0.5, overlap
+
+
+def test_off_with_reflections_disabled(frames):
+    """Reflections off: the barrel changes its own pixels only, none of the water's."""
+    changed = (frames["off"] != frames["empty_off"]).any(axis=2)
+    assert changed.sum() > 80
+    assert not (changed & frames["water"] & ~frames["prop"]).any()
+
+
+@pytest.mark.parametrize("offset_m", [-0.6, 0.6])
+def test_the_mirror_follows_the_local_water_level(world, shore_view, frames, monkeypatch,
+                                                   offset_m):
+    """Mirroring at a height other than the water's (a sloping river seen from elsewhere)
+    still puts the reflection where the water's own mirror shows it."""
+    real = draw_module.mirror_level
+    monkeypatch.setattr(draw_module, "mirror_level",
+                        lambda *a, **k: real(*a, **k) + offset_m)
+    eye, target, barrel, heading = shore_view
+    world.camera.look_at(eye, target)                # a new view: the mirror is chosen again
+    empty = _render(world, reflection_distortion=0.0)
+    entity = world.add_prop("barrel", BARREL_M, barrel, yaw_rad=heading)
+    try:
+        shifted = _render(world, reflection_distortion=0.0)
+        assert world._drawer().last_mirror_level_m == pytest.approx(
+            real(world.scene.water, eye) + offset_m)
+    finally:
+        with world.active():
+            esper.delete_entity(entity, immediate=True)
+        monkeypatch.undo()
+        world.camera.look_at(eye, target)
+    water = frames["water"]
+    want = (np.abs(frames["flat"] - frames["empty_flat"]).sum(axis=2) > 24) & water
+    got = (np.abs(shifted - empty).sum(axis=2) > 24) & water
+    overlap = (got & want).sum() / max((got | want).sum(), 1)
+    assert overlap > 0.6, overlap
+
+
+def test_camera_under_the_water_draws_the_sky_reflection_only(world, shore_view):
+    eye, target, _, _ = shore_view
+    try:
+        world.camera.look_at((eye[0], eye[1], eye[2] - 2.6), (target[0], target[1],
+                                                               target[2] + 1.0))
+        on = _render(world)
+        assert world._drawer().last_mirror_level_m is None
+        off = _render(world, reflections=False)
+        assert np.array_equal(on, off)
+    finally:
+        world.camera.look_at(eye, target)
+
+
+def test_looking_straight_down_draws_no_garbage(world, shore_view):
+    eye, target, _, _ = shore_view
+    try:
+        world.camera.look_at((eye[0], eye[1], eye[2] + 20.0), (eye[0], eye[1], eye[2] - 2.0))
+        world.step(1 / 60)
+        on = _render(world)
+        assert world._drawer().last_mirror_level_m is not None
+        off = _render(world, reflections=False)
+        assert on.min(axis=2).max() > 0 and (on.sum(axis=2) > 30).all()  # no black holes
+        assert np.abs(on - off).mean() < 8.0                # nothing above to mirror: sky
+    finally:
+        world.camera.look_at(eye, target)
+        world.step(1 / 60)
+
+
+def test_resizing_and_the_resolution_scale_remake_the_target(world, shore_view):
+    gpu = world._drawer().gpu
+    assert gpu.reflection.size == reflection_size(W, H, DisplaySettings().reflection_scale)
+    try:
+        world.camera.set_viewport(150, 90)
+        world.step(1 / 60)
+        frame = _render(world, reflection_scale=1.0)
+        assert frame.shape == (90, 150, 3)
+        assert gpu.reflection.size == (150, 90)
+        frame = _render(world, reflection_scale=0.25)
+        assert gpu.reflection.size == reflection_size(150, 90, 0.25)
+        assert (frame.sum(axis=2) > 30).all()
+    finally:
+        world.camera.set_viewport(W, H)
+        world.step(1 / 60)
+
+
+def test_bad_reflection_settings_are_refused():
+    for value in (0.0, 1.5, float("nan")):
+        with pytest.raises(ValueError, match="reflection_scale"):
+            DisplaySettings(reflection_scale=value).validate()
+    with pytest.raises(ValueError, match="reflection_distortion"):
+        DisplaySettings(reflection_distortion=-1.0).validate()

@@ -1,0 +1,51 @@
+"""The planar reflection's mirror (riverflow.scenes.reflection, no GL): the mirrored camera
+draws every point where the camera sees its mirror image; the mirror sits at the level of
+the river nearest the eye; the texture's size follows the viewport and the scale."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from riverflow.engine.camera import Camera
+from riverflow.scenes.reflection import (mirror_level, mirror_matrix, mirrored_view_projection,
+                                         reflection_size)
+
+
+def _clip(vp_row: np.ndarray, points: np.ndarray) -> np.ndarray:
+    homogeneous = np.concatenate([points, np.ones((len(points), 1))], axis=1)
+    c = homogeneous @ vp_row.astype(np.float64)
+    return c[:, :3] / c[:, 3:]
+
+
+@pytest.mark.parametrize("level", [0.0, 37.5, -12.0])
+def test_the_mirrored_camera_draws_each_point_where_its_mirror_image_is_seen(level, rng):
+    camera = Camera((10.0, -40.0, level + 8.0), (30.0, 50.0, level), size_px=(320, 180))
+    vp = camera.view_projection(np.float64)
+    mirrored = mirrored_view_projection(vp, level)
+    points = rng.uniform((-50, 0, level), (80, 120, level + 30), size=(200, 3))
+    images = points * (1, 1, -1) + (0, 0, 2 * level)
+    np.testing.assert_allclose(_clip(mirrored, points), _clip(vp, images), atol=1e-4)
+    m = mirror_matrix(level)
+    np.testing.assert_allclose(m @ m, np.eye(4))                 # a mirror twice: nothing
+    np.testing.assert_allclose((np.array([[1.0, 2.0, level, 1.0]]) @ m)[0, 2], level)
+
+
+class _Water:
+    """A river whose level falls 1 m per 100 m eastwards."""
+
+    def level(self, xy):
+        return 50.0 - 0.01 * np.asarray(xy, np.float64)[:, 0]
+
+
+def test_the_mirror_sits_at_the_level_of_the_river_nearest_the_eye():
+    assert mirror_level(_Water(), (200.0, 5.0, 60.0)) == pytest.approx(48.0)
+    assert mirror_level(_Water(), (-100.0, 0.0, 0.0)) == pytest.approx(51.0)
+    assert mirror_level(None, (0.0, 0.0, 10.0)) is None             # a scene with no water
+    assert mirror_level(_Water(), (np.nan, 0.0, 10.0)) is None       # a bad eye: no mirror
+
+
+def test_the_reflection_texture_follows_the_viewport_and_the_scale():
+    assert reflection_size(1920, 1080, 0.5) == (960, 540)
+    assert reflection_size(641, 361, 0.5) == (320, 180)
+    assert reflection_size(1, 1, 0.25) == (1, 1)
+    assert reflection_size(0, 0, 1.0) == (1, 1)

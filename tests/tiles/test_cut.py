@@ -1,0 +1,57 @@
+"""standins (tiles/cut.py) against a plain twin, on random cuts over random pools."""
+from __future__ import annotations
+
+import numpy as np
+
+from riverflow.tiles.cache import TilePool
+from riverflow.tiles.cut import standins
+from riverflow.tiles.table import codes
+
+
+def _standins_twin(cut, pool, skip=None) -> np.ndarray:
+    """Each leaf's own tile or its finest resident ancestor (none for a skipped leaf or one
+    with none), distinct, without those another listed tile contains; (level, tx, ty) order."""
+    resident = set(pool.codes().tolist())
+    found = set()
+    for k, (level, tx, ty) in enumerate(np.asarray(cut).tolist()):
+        if skip is not None and skip[k]:
+            continue
+        while level >= 0:
+            if int(codes(np.array([[level, tx, ty]]))[0]) in resident:
+                found.add((level, tx, ty))
+                break
+            level, tx, ty = level - 1, tx >> 1, ty >> 1
+    kept = [t for t in found
+            if not any((t[0] - u, t[1] >> u, t[2] >> u) in found for u in range(1, t[0] + 1))]
+    return np.array(sorted(kept), np.int32).reshape(-1, 3)
+
+
+def _random_case(rng, depth: int):
+    leaves = set()
+    while len(leaves) < 40:                     # random leaves of a quadtree of some depth
+        level = int(rng.integers(2, depth + 1))
+        leaves.add((level, int(rng.integers(0, 2 ** level)), int(rng.integers(0, 2 ** level))))
+    cut = np.array(sorted(leaves), np.int32)
+    pool = TilePool("t", capacity=8)
+    for level, tx, ty in cut.tolist():          # each leaf's tile or an ancestor, or nothing
+        up = int(rng.integers(0, level + 2))
+        if up <= level:
+            pool.store(int(codes(np.array([[level - up, tx >> up, ty >> up]]))[0]), object(), 1)
+    return cut, pool
+
+
+def test_standins_match_the_twin(rng):
+    for depth in (3, 6, 12, 20):
+        for _ in range(20):
+            cut, pool = _random_case(rng, depth)
+            skip = rng.random(len(cut)) < 0.2
+            for s in (None, skip):
+                got = standins(cut, pool, s)
+                assert got.dtype == np.int32 and got.shape[1:] == (3,)
+                np.testing.assert_array_equal(got, _standins_twin(cut, pool, s))
+
+
+def test_standins_of_nothing():
+    pool = TilePool("t", capacity=8)
+    assert standins(np.zeros((0, 3), np.int32), pool).shape == (0, 3)
+    assert standins(np.array([[3, 1, 2]], np.int32), pool).shape == (0, 3)
