@@ -6,8 +6,8 @@ Run: ``python tools/foam_images.py [--out docs/images]``. The demo's boat at 65 
 * ``foam-wake-chase.png``: a chase camera behind and above the boat: the wash's foam carried
   away behind the stern, the Kelvin wake's first crests along the cusp lines;
 * ``foam-mode.png``: the same view in the "foam" display mode (the foam amount alone);
-* ``kelvin-wake.png``: the wake alone (the sprites' waves turned down to 0.05, no foam) from
-  behind and to the side, higher up;
+* ``kelvin-wake.png``: the wake (the sprites' own waves turned down to 0.05 so that the
+  wake's stand out) from behind and to the side, higher up: the V and its breaking crests;
 * ``foam-banks.png`` / ``foam-banks-mode.png``: a junction seen from 40 m up: foam along the
   banks and the island's shore, the waterline's own line, streaks off the corners.
 """
@@ -30,13 +30,17 @@ from riverflow.images import save_png  # noqa: E402
 SIZE = (640, 360)
 
 
-def _look(world, boat, back_m: float, side_m: float, up_m: float, ahead_m: float) -> None:
-    f = np.array([math.cos(boat.heading_rad), math.sin(boat.heading_rad)])
-    s = np.array([-f[1], f[0]])
-    c = np.array([*boat.position_m, boat.altitude_m])
-    world.camera.look_at(c + np.array([*(-back_m * f + side_m * s), up_m]),
-                         c + np.array([*(ahead_m * f), 0.0]))
-    world.step(1 / 60)
+def _look(world, boat, back_m: float, side_m: float, up_m: float, ahead_m: float,
+          frames: int = 150) -> None:
+    """Follow the boat for ``frames`` from this camera (the particles a new view needs fade
+    in over two seconds)."""
+    for _ in range(frames):
+        f = np.array([math.cos(boat.heading_rad), math.sin(boat.heading_rad)])
+        s = np.array([-f[1], f[0]])
+        c = np.array([*boat.position_m, boat.altitude_m])
+        world.camera.look_at(c + np.array([*(-back_m * f + side_m * s), up_m]),
+                             c + np.array([*(ahead_m * f), 0.0]))
+        world.step(1 / 60)
 
 
 def boat_pictures(out: Path) -> None:
@@ -51,14 +55,13 @@ def boat_pictures(out: Path) -> None:
             boat.rudder = 0.45 if 240 < frame < 320 else 0.0
             demo._place_chase(1 / 60)
             world.step(1 / 60)
-        _look(world, boat, 24.0, 0.0, 10.0, 8.0)
+        _look(world, boat, 24.0, 0.0, 10.0, 8.0, frames=30)
         save_png(world.render(), out / "foam-wake-chase.png")
         world.display.mode = DisplayMode.FOAM
         save_png(world.render(), out / "foam-mode.png")
         world.display.mode = DisplayMode.ADVECTED
         world.display.wave_slope_factor = 0.05
-        world.foam.enabled = False
-        _look(world, boat, 34.0, 26.0, 20.0, -14.0)
+        _look(world, boat, 30.0, 22.0, 14.0, -12.0)
         save_png(world.render(), out / "kelvin-wake.png")
     finally:
         demo.close()

@@ -27,8 +27,9 @@ speed = min(|v| / speed_mps, 1). Every frame the foam relaxes toward the target,
 shore, an island's nose or in a boat's wash is carried downstream by the particles as a
 streak (older wake foam is what the particles carry, not the trail). A new particle starts
 with the mean foam of its established neighbours on screen (weighted like the sprites), or at
-its target when it has none, so refilling the screen never punches holes in a streak (its
-own terms follow on its staggered schedule).
+its target when it has none (then with the boats' whole trails as foam sources, not only
+their wash: what particles there would carry after a camera cut), so refilling the screen
+never punches holes in a streak (its own terms follow on its staggered schedule).
 Particles out of the water have no foam. Nothing here is NaN: every input is checked.
 """
 from __future__ import annotations
@@ -52,6 +53,8 @@ HL_X, HL_Y, HL_HEADING, HL_LENGTH, HL_BEAM, HL_SPEED, HL_FOAM, HL_TRAIL = range(
 [m], speed through the water [m/s], foam knob (× its hull and wash foam), row of its trail
 in ``trails`` (−1: none)."""
 HULL_FIELDS = 8
+TRAIL_ALL_S = 1.0e9
+"""``wash_s`` that takes a trail's every segment (:func:`wash_segments`)."""
 STERN_FROM_BOW = 0.9
 """The wash's foam is full this many hull lengths behind the point the trail follows (the
 bow: 0.4 L forward of the centre, :mod:`riverflow.systems.wake`), at the stern; it ramps in
@@ -531,6 +534,8 @@ def update_foam(n_slots, alive, ids, has_world, world_m, velocity_mps, status, s
         f = foam[i]
         f += (target - f) * (rise if target > f else decay)
         foam[i] = _unit(f)              # a NaN that got in goes back to 0
+    trail = np.empty((0, WASH_FIELDS))
+    n_trail = -1
     for k in range(n_new):     # new particles: their neighbours' foam, else their own
         i = scratch[k]
         if inherit_foam(i, screen_px, foam, foam_flow, foam_shore, foam_near, foam_id, ids,
@@ -538,10 +543,18 @@ def update_foam(n_slots, alive, ids, has_world, world_m, velocity_mps, status, s
             continue
         _river_terms(i, params, flow, surface, patch, world_m, velocity_mps, foam_flow,
                      foam_shore)
-        foam_near[i] = moving_closeness(world_m[i, 0], world_m[i, 1], caps, n_caps, wash,
-                                        n_wash, wash_s)
+        x = world_m[i, 0]
+        y = world_m[i, 1]
+        foam_near[i] = moving_closeness(x, y, caps, n_caps, wash, n_wash, wash_s)
         computed += 1
-        foam[i] = _unit(foam_flow[i] + params.k_distance * max(foam_shore[i], foam_near[i]))
+        # one with no neighbour (the view cut to new water) starts with the foam the particles
+        # there would carry: that of the boats' whole trails, not only their wash
+        if n_trail < 0:
+            trail = np.empty((wash.shape[0], WASH_FIELDS))
+            n_trail = wash_segments(hulls, sources.trails, TRAIL_ALL_S, trail)
+        along = wash_closeness(x, y, trail, n_trail, TRAIL_ALL_S) if n_trail else 0.0
+        foam[i] = _unit(foam_flow[i] + params.k_distance * max(foam_shore[i], foam_near[i],
+                                                               along))
     for k in range(n_new):
         i = scratch[k]
         foam_id[i] = ids[i]

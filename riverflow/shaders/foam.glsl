@@ -42,6 +42,7 @@ float foam_cover(float f, float t, vec2 duv_dx, vec2 duv_dy) {
 // the water is under SHORELINE_DEPTH_M deep, u_shoreline strong, more where the particles
 // there carry foam (f: their blended amount).
 uniform float u_shoreline;
+uniform float u_crest_foam;         // 1: the wakes' breaking crests make foam (0: foam off)
 const float SHORELINE_DEPTH_M = 1.2;
 float shoreline_foam(float depth_m, float f) {
     return u_shoreline * (1.0 - smoothstep(0.0, SHORELINE_DEPTH_M, depth_m))

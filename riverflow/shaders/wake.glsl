@@ -32,9 +32,13 @@ vec2 kelvin_wave(float t, float X, float Y, float k0, float px_m) {
     return visible * sin(phase) * vec2(1.0, t) / sqrt(c2);
 }
 
-// d(height)/d(x, y) of every boat's Kelvin wake at world point p (px_m as above).
-vec2 wake_slopes(vec2 p, float px_m) {
+// d(height)/d(x, y) of every boat's Kelvin wake at world point p (px_m as above); crest: the
+// foam of its breaking crests, where the wake is steeper than WAKE_BREAK (the cusp lines next
+// to a fast boat).
+const float WAKE_BREAK = 0.35;
+vec2 wake_slopes(vec2 p, float px_m, out float crest) {
     vec2 total = vec2(0.0);
+    crest = 0.0;
     for (int b = 0; b < u_wake_count; ++b) {
         vec4 box = texelFetch(u_wakes, ivec2(0, b), 0);
         if (p.x < box.x || p.y < box.y || p.x > box.z || p.y > box.w) continue;
@@ -93,6 +97,7 @@ vec2 wake_slopes(vec2 p, float px_m) {
                * kelvin_wave(-(X + D) / (4.0 * Y), X, Y, k0, px_m);
         w *= amp * cusp;
         total += w.x * back + w.y * port;
+        crest = max(crest, strength * smoothstep(WAKE_BREAK, 2.0 * WAKE_BREAK, length(w)));
     }
     return total;
 }

@@ -126,8 +126,9 @@ void main() {
     float px_m = max(length(dFdx(v_world.xy)), length(dFdy(v_world.xy)));
     if (u_ripple_count > 0)                                 // rain: rings where drops land
         tilt += ripple_slopes(v_world.xy, px_m);
-    if (u_wake_count > 0)                                   // boats: Kelvin wakes
-        tilt += wake_slopes(v_world.xy, px_m);
+    float crest = 0.0;                                      // boats: Kelvin wakes
+    if (u_wake_count > 0)
+        tilt += wake_slopes(v_world.xy, px_m, crest);
     vec3 n = normalize(vec3(-tilt, 1.0));
     vec3 v = normalize(u_eye_m - v_world);
     float shore = smoothstep(0.0, 0.5, depth_m);            // soft shore: fade in over 0.5 m
@@ -143,9 +144,10 @@ void main() {
     float fog = fog_amount(v_world);
     vec3 added = fresnel * reflected + SUN_COLOUR * spec + (1.0 - fresnel) * (1.0 - clarity) * deep;
     float through = (1.0 - fresnel) * clarity;             // share of the bed seen through
-    // foam: the particles' (advected mode) and the waterline's; where no sprite brought its
+    // foam: the particles' (advected mode), the waterline's and the wakes' breaking crests;
+    // where no sprite brought its
     // lace, the lace fixed in the world (as the waves are then)
-    float amount = max(foam.x, shoreline_foam(depth_m, foam.x));
+    float amount = max(max(foam.x, shoreline_foam(depth_m, foam.x)), u_crest_foam * crest);
     vec2 fuv = uv0 * (u_wave_length_m / u_foam_scale_m);
     vec2 fuv_dx = uv_dx * (u_wave_length_m / u_foam_scale_m);
     vec2 fuv_dy = uv_dy * (u_wave_length_m / u_foam_scale_m);

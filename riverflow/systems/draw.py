@@ -510,7 +510,8 @@ class DrawRivers(System):
         return {"u_foam_pattern": FOAM_PATTERN_UNIT, "u_foam_scale_m": FOAM_SCALE_M,
                 "u_foam_size_px": float(FOAM_PATTERN_PX),
                 "u_time_s": float(world.clock.now_s % 3600.0), "u_wakes": WAKES_UNIT,
-                "u_wake_count": count, "u_shoreline": shoreline}
+                "u_wake_count": count, "u_shoreline": shoreline,
+                "u_crest_foam": 1.0 if foam is not None and foam.enabled else 0.0}
 
     def _draw_rain(self, gpu: _Gpu, rain: Rain | None, shared: dict) -> None:
         """The live drops as streaks (depth-tested, not written; alpha-blended)."""

@@ -179,8 +179,10 @@ def update_foam(pool, n_slots, river_terms, hulls, trails, p, radius_px, dt_s, f
             continue
         terms(i)
         pool.foam_near[i] = moving_closeness(*pool.world_m[i, :2], hulls, trails, p)
+        whole = wash_closeness(*pool.world_m[i, :2], hulls, trails, p._replace(wash_s=1.0e9)) \
+            if len(hulls) else 0.0
         pool.foam[i] = unit(pool.foam_flow[i] + p.k_distance * max(pool.foam_shore[i],
-                                                                  pool.foam_near[i]))
+                                                                  pool.foam_near[i], whole))
     for i in new:
         pool.foam_id[i] = pool.ids[i]
 

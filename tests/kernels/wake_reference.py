@@ -63,9 +63,13 @@ def nearest_on_trail(p, trail):
     return (*values, past if segment == last else 0.0)
 
 
-def wake_slopes(points, table, count, px_m):
+BREAK = 0.35
+
+
+def wake_slopes(points, table, count, px_m, crest=None):
     """d(height)/d(x, y) (N, 2) of the wakes of ``table[:count]`` (B, K, TR_FIELDS) at
-    ``points`` (N, 2) [m]; ``px_m`` (N,) or a scalar: a pixel's size there [m]."""
+    ``points`` (N, 2) [m]; ``px_m`` (N,) or a scalar: a pixel's size there [m]. ``crest`` (N,)
+    if given gets the breaking crests' foam."""
     pts = np.asarray(points, np.float64).reshape(-1, 2)
     px = np.broadcast_to(np.asarray(px_m, np.float64), (len(pts),))
     tab = np.asarray(table, np.float64)
@@ -101,4 +105,7 @@ def wake_slopes(points, table, count, px_m):
                                                                 px[i])
             w = w * amp * cusp
             out[i] += w[0] * back + w[1] * port
+            if crest is not None:
+                crest[i] = max(crest[i], strength * _smoothstep(BREAK, 2 * BREAK,
+                                                                float(np.hypot(*w))))
     return out

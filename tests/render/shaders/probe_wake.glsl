@@ -1,4 +1,4 @@
-// Test probe: wake_slopes (wake.glsl) at one world point per pixel: u_points (RGBA32F) holds
+// Test probe: wake_slopes (wake.glsl) and its crest foam at one world point per pixel: u_points (RGBA32F) holds
 // x, y [m] and a pixel's size [m] for each pixel of the target.
 #include "wake.glsl"
 uniform sampler2D u_points;
@@ -14,6 +14,8 @@ void main() {
 out vec4 frag;
 void main() {
     vec4 q = texelFetch(u_points, ivec2(gl_FragCoord.xy), 0);
-    frag = vec4(wake_slopes(q.xy, q.z), 0.0, 1.0);
+    float crest;
+    vec2 s = wake_slopes(q.xy, q.z, crest);
+    frag = vec4(s, crest, 1.0);
 }
 #endif
