@@ -7,10 +7,10 @@ Run: ``make bench`` or ``python benchmarks/bench_foam.py [--json] [--frames N]``
   systems' milliseconds a frame (wall clock, as the HUD shows them) and the foam kernel's
   own CPU time (``time.thread_time``: a loaded machine's waits left out), with the particles
   it looked at;
-* drawing (OpenGL; Mesa's llvmpipe on a machine with no GPU): the same view at 640×360,
-  ms per drawn and read-back frame with foam and the wake on, and with each off (the foam
-  off: ``FoamSettings.enabled``; the wake off: the wake's slope knob at 0), so the water
-  shader's share of each shows.
+* drawing (OpenGL; Mesa's llvmpipe on a machine with no GPU): the same view at 640×360 (or
+  ``--draw-size``), the CPU work of a drawn and read-back frame with foam and the wake on,
+  and with each off (the foam off: ``FoamSettings.enabled``; the wake off: no boat in the
+  wake table), so the water shader's share of each shows.
 
 Figures go to docs/performance.md; no test asserts on them.
 """
@@ -90,35 +90,34 @@ def simulation(frames: int) -> dict[str, float]:
 
 
 def drawing(frames: int, size=(640, 360)) -> dict[str, float]:
-    world, boat, entity = _world(size, gl=True, radius_px=6.0)
+    """CPU work (this process's CPU time: every llvmpipe thread's work) of a drawn and read
+    back frame in four cases, interleaved frame by frame so that a loaded machine's drift
+    falls on all alike: foam and the wake on, the wake off, the foam off, both off."""
+    from riverflow.components.wake import Wakes
+
+    world, boat, entity = _world(size, gl=True, radius_px=10.0)
     for _ in range(300):
         _chase(world, boat)
         world.step(1 / 60)
-    wake = world.wake(entity)
-
-    def per_frame() -> float:
-        world.render()
-        times = []
-        for _ in range(frames):
-            t0 = time.perf_counter()
-            world.render()
-            times.append(time.perf_counter() - t0)
-        return float(np.median(times) * 1e3)
-
-    out = {"draw_ms_foam_and_wake": per_frame()}
-    wake.wave_slope = 0.0                    # the shader still walks the trail: set count 0
-    from riverflow.components.wake import Wakes
     wakes = world.resource(Wakes)
-    saved = (wakes.table, wakes.hulls)
-    wakes.table, wakes.hulls = wakes.table[:0], wakes.hulls[:0]
-    out["draw_ms_foam_no_wake"] = per_frame()
-    world.foam.enabled = False
-    world.step(0.0)
-    out["draw_ms_no_foam_no_wake"] = per_frame()
-    wakes.table, wakes.hulls = saved
-    out["draw_ms_wake_no_foam"] = per_frame()
-    out["draw_size"] = f"{size[0]}x{size[1]}"
+    table, hulls = wakes.table, wakes.hulls
+    cases = {"foam_and_wake": (True, True), "foam_no_wake": (True, False),
+             "wake_no_foam": (False, True), "no_foam_no_wake": (False, False)}
+    cpu: dict[str, list[float]] = {k: [] for k in cases}
+    for k, (foam, wake) in cases.items():       # first draws (shader variants, uploads)
+        world.foam.enabled = foam
+        world.render()
+    for _ in range(frames):
+        for k, (foam, wake) in cases.items():
+            world.foam.enabled = foam
+            world.foam.shoreline = 0.8 if foam else 0.0
+            wakes.table, wakes.hulls = (table, hulls) if wake else (table[:0], hulls[:0])
+            t0 = time.process_time()
+            world.render()
+            cpu[k].append(time.process_time() - t0)
     world.close()
+    out = {f"draw_cpu_ms_{k}": float(np.median(v) * 1e3) for k, v in cpu.items()}
+    out["draw_size"] = f"{size[0]}x{size[1]}"
     return out
 
 
@@ -127,11 +126,14 @@ def main(argv: list[str] | None = None) -> dict:
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
     parser.add_argument("--frames", type=int, default=600)
     parser.add_argument("--draw-frames", type=int, default=30)
+    parser.add_argument("--draw-size", default="640x360", help="WxH of the drawn frames")
     parser.add_argument("--no-draw", action="store_true", help="simulation figures only")
+    parser.add_argument("--no-sim", action="store_true", help="drawing figures only")
     args = parser.parse_args(argv)
-    results = simulation(args.frames)
+    results = {} if args.no_sim else simulation(args.frames)
     if not args.no_draw:
-        results.update(drawing(args.draw_frames))
+        w, h = (int(v) for v in args.draw_size.split("x"))
+        results.update(drawing(args.draw_frames, (w, h)))
     if args.json:
         print(json.dumps(results, indent=2))
     else:

@@ -19,6 +19,8 @@ Public API (SPEC §6)::
     world = rf.RiverWorld(scene, size=(W, H), gl=False, seed=0)
     world.camera.look_at(eye_xyz, target_xyz)
     world.step(dt_s)                       # world.particles, world.timings_ms
+    world.particles.foam                   # (N,) each live particle's foam in [0, 1]
+    world.foam; world.wake(boat_entity)    # the foam's knobs (FoamSettings), a boat's Wake
     builder = rf.read_rivers(path)         # GIS stream lines → RiverNetworkBuilder (riverflow[gis])
     rf.bake_flow_map(scene, region_m, cell_m, "flow.png")   # flow-map PNG + flow.json
 
@@ -49,6 +51,8 @@ _LAZY = {
     "Landscape": "riverflow.scenes.landscape",
     "Obstacle": "riverflow.hydro.flow_field",
     "Boat": "riverflow.components.boat",
+    "Wake": "riverflow.components.wake",
+    "FoamSettings": "riverflow.components.foam",
     "DisplayMode": "riverflow.components.display",
     "DisplaySettings": "riverflow.components.display",
     "WaveKind": "riverflow.components.waves",
