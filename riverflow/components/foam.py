@@ -11,8 +11,8 @@ flow field and the tiles already know, per particle (:mod:`riverflow.kernels.foa
   ``steep_from`` (a lowland river) to 1 at ``steep_full`` (a mountain stream, rapids);
 * **distance** ∈ [0, 1]: closeness to what the water runs along or past — banks and island
   shores (the flow tiles' distance lattice, ``shore`` · e^(−d / ``shore_m``), stronger where
-  the water is fast), moving hulls (within ``hull_beams`` beams, by their speed through the water) and
-  the wash behind them (their wake trails, ``Wake``, up to ``wash_s`` old);
+  the water is fast), moving hulls (within ``hull_beams`` beams, by their speed through the
+  water) and the wash behind them (their wake trails, ``Wake``, up to ``wash_s`` old);
 * **pressure** ∈ [0, 1]: the water running into a shore (island noses, outer bends, the tip
   of a bifurcation) at ``impinge_mps``, or turning sharply (the strain rate of the velocity
   beyond a quarter of ``strain_ps``, × the speed / ``speed_mps``).

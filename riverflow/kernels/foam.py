@@ -386,7 +386,7 @@ def foam_target(x, y, vx, vy, params, flow, surface, sources, patch):
     return target, steep, distance, pressure
 
 
-# -- new particles ----------------------------------------------------------------------------------
+# -- new particles ------------------------------------------------------------------------------
 
 @njit(inline="always", **JIT_OPTIONS)
 def _fade5(t):

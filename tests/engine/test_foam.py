@@ -129,7 +129,8 @@ def test_a_foam_patch_moves_downstream_with_the_particles(scene):
         still = np.isin(pool.ids, ids) & pool.alive
         assert still.sum() >= 5
         assert pool.foam[still].min() > 0.9
-        moved = pool.world_m[still, :2].mean(axis=0) - start[np.isin(ids, pool.ids[still])].mean(axis=0)
+        kept = np.isin(ids, pool.ids[still])
+        moved = pool.world_m[still, :2].mean(axis=0) - start[kept].mean(axis=0)
         assert moved @ flow / np.linalg.norm(flow) > 0.7 * seconds * np.linalg.norm(flow)
         # and the patch as a whole (foam-weighted) moved downstream with them
         shift = _foam_centroid(world) - before

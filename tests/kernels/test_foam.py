@@ -113,7 +113,7 @@ def test_strain_and_vorticity_are_the_velocity_gradient_s(channel):
     assert strain.max() > 0.02                      # the test sees some shear
 
 
-# -- the terms and the target against the twin ------------------------------------------------------
+# -- the terms and the target against the twin --------------------------------------------------
 
 def test_flow_terms_match_the_twin(channel):
     field, surface = channel

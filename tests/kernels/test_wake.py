@@ -9,7 +9,7 @@ import numpy as np
 import numpy.testing as npt
 import pytest
 
-from riverflow.kernels.wake import (TP_SPEED, TP_TIME, TP_X, TP_Y, TR_AGE, TR_ARC, TR_FIELDS,
+from riverflow.kernels.wake import (TP_TIME, TP_X, TP_Y, TR_AGE, TR_ARC, TR_FIELDS,
                                     TR_HALF_WIDTH, TR_SLOPE, TR_STRENGTH, TR_X, TR_Y,
                                     WEDGE_HALF_WIDTH, advance_trail, pack_trail, wake_texture)
 from tests.kernels.wake_reference import CUSP, G, wake_slopes
@@ -82,7 +82,7 @@ def test_wake_texture_packs_points_and_a_box_around_the_wedge():
     assert box[3] > table[0, :count, TR_Y].max() + reach
 
 
-# -- the Kelvin pattern (the shader's twin) ---------------------------------------------------------
+# -- the Kelvin pattern (the shader's twin) ------------------------------------------------------
 
 def _grid(table, count, half_len=None):
     """Points around the trail's straight part, with their (X, Y) behind the bow."""

@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from riverflow.components.display import DisplayMode
-from riverflow.components.wake import MAX_WAKES, TRAIL_POINTS, Wakes
+from riverflow.components.wake import MAX_WAKES, TRAIL_POINTS
 from riverflow.engine.config import RiverConfig
-from riverflow.kernels.wake import TR_ARC, TR_FIELDS, advance_trail, pack_trail, wake_texture
+from riverflow.kernels.wake import TR_FIELDS, advance_trail, pack_trail, wake_texture
 from riverflow.scenes.default import default_scene
 from tests.engine.test_foam import _start
 from tests.kernels.wake_reference import CUSP, wake_slopes
