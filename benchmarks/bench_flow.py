@@ -88,10 +88,11 @@ def main(argv: list[str] | None = None) -> dict:
         field.ensure_tiles(lv, keys)
 
     rate = best_rate(produce, len(keys) * m, repeat=3)
-    slots = tiles.slots[lv][[k[1] for k in keys], [k[0] for k in keys]]
+    slots = np.array([tiles.slot_of(lv, tx, ty) for tx, ty in keys])
+    slots = slots[slots >= 0]
     results["water_tiles"] = len(keys)
     results["uncached_lattice_points_per_s"] = rate
-    results["uncached_water_points_per_s"] = rate * tiles.inside_points[slots].sum() / (len(keys) * m)
+    results["uncached_water_points_per_s"] = rate * tiles.pool.arrays["inside_points"][slots].sum() / (len(keys) * m)
     results["tile_build_ms"] = 1e3 * len(keys) * m / rate / len(keys)
 
     rng = np.random.default_rng(0)

@@ -273,21 +273,18 @@ class TileCache:
                                 & (pool.pins == 0))
             if len(ok):
                 rows.append(np.stack([pool.last_used[ok], np.full(len(ok), k),
-                                      pool.slot_code[ok], ok], 1))
+                                      pool.slot_code[ok], ok, pool.slot_bytes[ok]], 1))
         if not rows:
             return 0
         cand = np.concatenate(rows)
         cand = cand[np.lexsort((cand[:, 2], cand[:, 1], cand[:, 0]))]
+        # the shortest prefix that frees the excess (a big world has tens of thousands of
+        # candidates: only the evicted ones are visited in Python)
+        n = int(np.searchsorted(np.cumsum(cand[:, 4]), excess)) + 1
         pools = list(self.pools.values())
-        evicted = 0
-        for _, k, _, slot in cand.tolist():
-            if excess <= 0:
-                break
-            pool = pools[int(k)]
-            excess -= int(pool.slot_bytes[slot])
-            pool.release(int(slot))
-            evicted += 1
-        return evicted
+        for _, k, _, slot, _ in cand[:n].tolist():
+            pools[k].release(slot)
+        return min(n, len(cand))
 
     def clear(self) -> None:
         for pool in self.pools.values():
