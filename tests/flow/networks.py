@@ -68,3 +68,15 @@ def bending_confluence():
     b.add_branch(main[12:], np.linspace(40.0, 50.0, 13), name="lower")
     return b.build()
 
+
+
+def divergence_and_gradient(field, pts: np.ndarray, eps: float) -> tuple[np.ndarray, np.ndarray]:
+    """Central differences of ``field.query`` at ``pts`` with step ``eps`` [m]: (divergence
+    (N,), largest velocity-gradient component (N,)), both [1/s]."""
+    _, vxp = field.query(pts + (eps, 0))
+    _, vxm = field.query(pts - (eps, 0))
+    _, vyp = field.query(pts + (0, eps))
+    _, vym = field.query(pts - (0, eps))
+    div = (vxp[:, 0] - vxm[:, 0] + vyp[:, 1] - vym[:, 1]) / (2 * eps)
+    grad = np.abs(np.c_[vxp - vxm, vyp - vym]).max(1) / (2 * eps)
+    return div, grad

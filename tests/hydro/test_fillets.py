@@ -12,6 +12,7 @@ import shapely
 import riverflow as rf
 from riverflow.hydro.builder import RiverNetworkBuilder
 from riverflow.scenes.layout import DEFAULT_SIZE_M, layout
+from tests.flow.networks import divergence_and_gradient
 
 LEFT_IN = [(-300, 150), (-150, 60), (0, 0)]
 RIGHT_IN = [(-300, -160), (-140, -70), (0, 0)]
@@ -254,10 +255,5 @@ def test_flux_and_divergence_around_the_rounded_confluence(confluence_flow, rng)
     pts = rng.uniform((x0, y0), (x1, y1), (4000, 2))
     pts = pts[shapely.contains_xy(zone, pts[:, 0], pts[:, 1])][:300]
     eps = 0.05 * h
-    _, vxp = field.query(pts + (eps, 0))
-    _, vxm = field.query(pts - (eps, 0))
-    _, vyp = field.query(pts + (0, eps))
-    _, vym = field.query(pts - (0, eps))
-    div = (vxp[:, 0] - vxm[:, 0] + vyp[:, 1] - vym[:, 1]) / (2 * eps)
-    grad = np.abs(np.c_[vxp - vxm, vyp - vym]).max(1) / (2 * eps)
+    div, grad = divergence_and_gradient(field, pts, eps)
     assert np.max(np.abs(div)) < 0.05 * (np.median(grad) + 1e-9)
