@@ -70,16 +70,21 @@ def touched_codes(quadtree: Quadtree, segments_m: np.ndarray, radius_m: np.ndarr
     return np.unique(np.concatenate(out)) if out else np.zeros(0, np.int64)
 
 
-def with_ancestors(codes_finest: np.ndarray, level: int) -> np.ndarray:
-    """The codes and every ancestor's code, down to level 0 (sorted, unique)."""
-    out = [codes_finest]
-    c = codes_finest
-    for lv in range(level, 0, -1):
-        tx = c & ((1 << 28) - 1)
-        ty = (c >> 28) & ((1 << 28) - 1)
-        c = np.unique((np.int64(lv - 1) << 56) | ((ty >> 1) << 28) | (tx >> 1))
-        out.append(c)
-    return np.unique(np.concatenate(out))
+def with_ancestors(codes: np.ndarray, level: int | None = None) -> np.ndarray:
+    """The codes and every ancestor's code, up to level 0 (sorted, unique). The codes may be
+    of mixed levels (a view's cut): each one's ancestors are taken from its own level.
+    ``level`` (the deepest level among them) is accepted for callers that know it; it is
+    not needed."""
+    c = np.unique(np.asarray(codes, np.int64))
+    if not len(c):
+        return c
+    mask = np.int64((1 << 28) - 1)
+    lv = c >> 56
+    tx, ty = c & mask, (c >> 28) & mask
+    up = np.arange(int(lv.max()) + 1, dtype=np.int64)[None, :]   # 0: the code itself
+    alv = lv[:, None] - up
+    anc = (alv << 56) | ((ty[:, None] >> up) << 28) | (tx[:, None] >> up)
+    return np.unique(anc[alv >= 0])
 
 
 def coverage_table(quadtree: Quadtree, segments_m: np.ndarray, radius_m, level: int

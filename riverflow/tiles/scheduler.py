@@ -47,6 +47,10 @@ Dep = tuple[str, TileKey]
 _PENDING = 1
 _FAILED = 2
 _LONG_AGO = -(1 << 30)
+INSTALL_BUDGET_S = 0.0004
+"""Default :attr:`TileScheduler.install_budget_s`: a frame copies at most ~0.4 ms of finished
+tiles into the pools (a burst of a dozen tiles arriving together would otherwise cost a
+millisecond or more in one frame; at 1000 km they come ~2 a frame on average)."""
 IDLE_WAIT_S = 0.02
 """Longest a worker waits for the frame to end before starting a tile (a host that steps
 back to back, with no idle time, still gets tiles made)."""
@@ -75,7 +79,11 @@ class Producer:
 
     def empty_mask(self, codes: np.ndarray) -> np.ndarray:
         """(K,) bool: :meth:`is_empty` of each tile code (override with a vectorised test:
-        the scheduler asks it every frame for the tiles a view needs that are not resident)."""
+        the scheduler asks it every frame for the tiles a view needs that are not resident).
+        A producer that does not override :meth:`is_empty` has no empty tile: no per-code
+        Python call (at 1000 km a flight's frame asks this of hundreds of missing tiles)."""
+        if type(self).is_empty is Producer.is_empty:
+            return np.zeros(len(codes), bool)
         return np.fromiter((self.is_empty(code_key(c)) for c in codes.tolist()), bool,
                            len(codes))
 
@@ -118,6 +126,9 @@ class TileScheduler:
         self.stale_frames = int(stale_frames)
         self.max_starts = 16
         """Background mode: at most this many new tiles of a kind are queued a frame."""
+        self.install_budget_s = INSTALL_BUDGET_S
+        """Background mode: :meth:`collect` stops installing finished tiles once it has spent
+        this long in a frame (at least one is installed); the rest wait for the next frame."""
         self.frame = 0
         """Calls of :meth:`collect` so far (one a frame)."""
         self.producers: dict[str, Producer] = {}
@@ -372,11 +383,16 @@ class TileScheduler:
         """Install the tiles the worker finished (main thread, start of a frame); returns how
         many were installed."""
         self.frame += 1
-        return self._install()
+        return self._install(self.install_budget_s)
 
-    def _install(self) -> int:
+    def _install(self, budget_s: float | None = None) -> int:
+        """Install what the worker finished: all of it, or (``budget_s``) until that long
+        has been spent (at least one tile)."""
         installed = 0
+        end = None if budget_s is None else time.perf_counter() + budget_s
         while self._done:
+            if end is not None and installed and time.perf_counter() > end:
+                break
             job, data, error = self._done.popleft()
             item = (job.kind, job.code)
             self._pending.discard(item)

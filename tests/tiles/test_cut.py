@@ -55,3 +55,28 @@ def test_standins_of_nothing():
     pool = TilePool("t", capacity=8)
     assert standins(np.zeros((0, 3), np.int32), pool).shape == (0, 3)
     assert standins(np.array([[3, 1, 2]], np.int32), pool).shape == (0, 3)
+
+
+def test_with_ancestors_of_a_mixed_level_cut_is_exactly_the_keys_parents_chains(rng):
+    """A view's cut holds leaves of many levels; each one's ancestors are taken from its own
+    level (no tile that is not above some leaf: they were made, for nothing, near the map's
+    origin corner)."""
+    from riverflow.tiles.coverage import with_ancestors
+    from riverflow.tiles.quadtree import parent
+    from riverflow.tiles.table import code_key, codes
+
+    levels = rng.integers(0, 15, 200)
+    keys = np.stack([levels, rng.integers(0, 1 << levels), rng.integers(0, 1 << levels)], 1)
+    twin = set()
+    for key in map(tuple, keys.tolist()):
+        while key is not None:
+            twin.add(key)
+            key = parent(key)
+    got = with_ancestors(codes(keys.astype(np.int32)))
+    assert [code_key(int(c)) for c in got] == sorted(twin, key=lambda k: tile_code_of(k))
+    assert len(with_ancestors(np.zeros(0, np.int64))) == 0
+
+
+def tile_code_of(key):
+    from riverflow.tiles.table import tile_code
+    return tile_code(*key)

@@ -368,3 +368,35 @@ def test_closing_the_scheduler_ends_its_process():
 def test_a_bad_worker_is_refused():
     with pytest.raises(ValueError, match="worker"):
         TileScheduler(TileCache(1 << 20), [], "background", worker="fiber")
+
+
+def test_collect_installs_within_its_time_budget_and_the_rest_next_frame():
+    """A burst of finished tiles is installed over several frames (at least one a frame),
+    never lost; wait() installs all at once."""
+    cache = TileCache(1 << 30)
+    sched = TileScheduler(cache, [Heights()], "background")
+    sched.max_starts = 1000
+    keys = _keys(3)
+    sched.request("h", keys)
+    while len(sched._done) < len(keys):                # every tile made, none installed
+        threading.Event().wait(0.005)
+    sched.install_budget_s = 0.0
+    assert sched.collect() == 1 and len(cache.pools["h"]) == 1
+    assert sched.collect() == 1 and sched.pending == len(keys) - 2
+    sched.install_budget_s = 1.0
+    assert sched.collect() == len(keys) - 2 and sched.pending == 0
+    sched.close()
+    again = TileScheduler(TileCache(1 << 30), [Heights()], "background")
+    again.max_starts = 1000
+    again.install_budget_s = 0.0
+    again.request("h", keys)
+    assert again.wait(10.0) and len(again.cache.pools["h"]) == len(keys)
+    again.close()
+
+
+def test_a_producer_without_empty_tiles_says_so_without_a_call_per_code():
+    codes = np.array([tile_code(3, i, i) for i in range(8)], np.int64)
+    assert not Heights().empty_mask(codes).any() and len(Heights().empty_mask(codes)) == 8
+    slopes = Slopes()                                  # overrides is_empty: asked per code
+    assert slopes.empty_mask(np.array([tile_code(1, 1, 1), tile_code(1, 0, 1)])).tolist() == [
+        True, False]
