@@ -218,9 +218,17 @@ class RiverWorld:
         Once the view's tiles are made, the update systems run once more with no time passing,
         so that the particles' first Poisson fill of the screen (tens of milliseconds at
         1080p) happens here, on the loading screen, not in the first frame."""
-        names = ("camera", "tiles")
         scheduler = self.tiles.scheduler
         end = time.perf_counter() + timeout_s
+        starts = scheduler.max_starts
+        scheduler.max_starts = 1 << 30      # no frame to keep short: queue the whole view
+        try:
+            return self._load_view(scheduler, end)
+        finally:
+            scheduler.max_starts = starts
+
+    def _load_view(self, scheduler, end: float) -> bool:
+        names = ("camera", "tiles")
         with self.active():
             first = True
             while True:

@@ -277,7 +277,7 @@ class TileCache:
         if not rows:
             return 0
         cand = np.concatenate(rows)
-        cand = cand[np.lexsort((cand[:, 2], cand[:, 1], cand[:, 0]))]
+        cand = _oldest_first(cand, excess)
         # the shortest prefix that frees the excess (a big world has tens of thousands of
         # candidates: only the evicted ones are visited in Python)
         n = int(np.searchsorted(np.cumsum(cand[:, 4]), excess)) + 1
@@ -294,3 +294,21 @@ class TileCache:
         """Per kind: resident tiles, resident bytes, installed and evicted so far."""
         return {kind: {"tiles": len(p), "bytes": p.resident_bytes, "installed": p.installed,
                        "evicted": p.evicted} for kind, p in self.pools.items()}
+
+
+def _oldest_first(cand: np.ndarray, excess: int) -> np.ndarray:
+    """The eviction candidates (rows: last use, kind, code, slot, bytes) that come first in
+    (last use, kind, code) order, sorted, at least enough of them to free ``excess`` bytes
+    (all of them when they do not). The same prefix as sorting them all, without sorting tens
+    of thousands of rows to evict one or two: the rows used no later than the k-th oldest are
+    picked in linear time (``k`` from the mean tile size, doubled until they free enough) and
+    only those are sorted."""
+    used = cand[:, 0]
+    k = min(len(cand), 4 * int(excess // max(int(cand[:, 4].mean()), 1)) + 16)
+    while k < len(cand):
+        last = used[np.argpartition(used, k - 1)[k - 1]]
+        head = cand[used <= last]
+        if int(head[:, 4].sum()) >= excess:
+            return head[np.lexsort((head[:, 2], head[:, 1], head[:, 0]))]
+        k = min(len(cand), 2 * k)
+    return cand[np.lexsort((cand[:, 2], cand[:, 1], cand[:, 0]))]

@@ -47,6 +47,12 @@ Dep = tuple[str, TileKey]
 _PENDING = 1
 _FAILED = 2
 _LONG_AGO = -(1 << 30)
+MAX_STARTS = 6
+"""Default :attr:`TileScheduler.max_starts`: 6 new tiles of each kind a frame (360 a second
+a kind) is still far more than the worker makes (60-110 tiles a second of all kinds at
+1000 km), so the queue never runs dry; queuing more only made work for the frame (a job and
+its dependencies set up in Python) for tiles that went stale unmade (half of those queued in
+a 200 m/s flight with 16)."""
 INSTALL_BUDGET_S = 0.0004
 """Default :attr:`TileScheduler.install_budget_s`: a frame copies at most ~0.4 ms of finished
 tiles into the pools (a burst of a dozen tiles arriving together would otherwise cost a
@@ -124,7 +130,7 @@ class TileScheduler:
         (a forked :class:`ProducerProcess` the worker thread hands them to; asked for where
         ``fork`` is not available, the thread)."""
         self.stale_frames = int(stale_frames)
-        self.max_starts = 16
+        self.max_starts = MAX_STARTS
         """Background mode: at most this many new tiles of a kind are queued a frame."""
         self.install_budget_s = INSTALL_BUDGET_S
         """Background mode: :meth:`collect` stops installing finished tiles once it has spent

@@ -65,3 +65,22 @@ def test_tiles_used_now_and_pinned_tiles_stay_over_budget():
 def test_bad_budget_is_refused():
     with pytest.raises(ValueError, match="budget"):
         TileCache(0)
+
+
+def test_eviction_picks_the_same_tiles_in_the_same_order_as_sorting_every_candidate():
+    """_oldest_first sorts only the oldest candidates; what it evicts (the shortest prefix
+    that frees the excess) is what sorting them all gives, ties in last use included."""
+    from riverflow.tiles.cache import _oldest_first
+
+    rng = np.random.default_rng(7)
+    for trial in range(200):
+        n = int(rng.integers(1, 3000))
+        cand = np.stack([rng.integers(0, rng.integers(1, 60), n), rng.integers(0, 7, n),
+                         rng.permutation(10 * n)[:n], np.arange(n),
+                         rng.integers(1, 5000, n)], 1).astype(np.int64)
+        excess = int(rng.integers(1, int(cand[:, 4].sum()) + 5000))
+        full = cand[np.lexsort((cand[:, 2], cand[:, 1], cand[:, 0]))]
+        got = _oldest_first(cand, excess)
+        k = int(np.searchsorted(np.cumsum(full[:, 4]), excess)) + 1
+        assert np.array_equal(got[:k], full[:k]), trial
+        assert int(got[:k, 4].sum()) >= min(excess, int(cand[:, 4].sum()))

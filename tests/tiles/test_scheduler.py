@@ -99,6 +99,7 @@ def test_background_mode_makes_tiles_in_the_worker_and_installs_in_collect():
     cache = TileCache(1 << 30)
     heights = Heights()
     sched = TileScheduler(cache, [heights, Slopes()], "background")
+    sched.max_starts = 16
     assert sched.request("s", _keys(2)) > 16        # slope tiles and their height tiles
     assert len(cache.pools["s"]) == 0                 # nothing installed before a collect
     assert sched.wait(10.0)
@@ -259,6 +260,7 @@ def test_a_frame_queues_a_bounded_number_of_new_tiles_coarse_first():
     sched = TileScheduler(cache, [heights], "background")
     gate = _hold(heights)
     keys = np.concatenate([_keys(3), [[1, 0, 0], [2, 1, 1]]])   # 64 fine, 2 coarse, last
+    sched.max_starts = 16
     assert sched.request("h", keys) == sched.max_starts == 16
     queued = sorted(k[0] for (kind, code) in sched._pending for k in [code_key(code)])
     assert queued[:2] == [1, 2]                       # the coarse ones made it in
