@@ -96,6 +96,13 @@ class RiverConfig:
     fast flight has no lock stalls; "thread": the worker thread itself (a height source that
     cannot be used from a forked process: a callable holding a socket or a GPU context)."""
 
+    tile_process_pause: bool | str = "auto"
+    """With ``tile_worker="process"``: stop the tile process while a frame runs (SIGSTOP at the
+    frame's start, SIGCONT at its end) so it never takes the frame's core for a scheduler
+    tick. "auto": only when this process may use one core (it then shares that core with the
+    frame; a paced host leaves it the rest of the frame time) and the host left it 2 ms idle
+    since the last frame; True: whenever it was left 2 ms; False: never."""
+
     random_offset_min_m: tuple[float, float] = (-1.0, -1.0)
     """Lower corner of the per-particle random sprite offset box [m] (Proland RandomParticleLayer
     min; river1: -1)."""
@@ -137,6 +144,9 @@ class RiverConfig:
         if self.tile_production not in ("background", "blocking"):
             raise ValueError("RiverConfig.tile_production must be 'background' or 'blocking', "
                              f"got {self.tile_production!r}")
+        if self.tile_process_pause not in (True, False, "auto"):
+            raise ValueError("RiverConfig.tile_process_pause must be True, False or 'auto', "
+                             f"got {self.tile_process_pause!r}")
         if self.tile_worker not in ("process", "thread"):
             raise ValueError("RiverConfig.tile_worker must be 'process' or 'thread', "
                              f"got {self.tile_worker!r}")

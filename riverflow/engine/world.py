@@ -94,7 +94,8 @@ class RiverWorld:
         self.field = field
         producers = [*terrain_producers(scene), FlowProducer(field)]
         self.tiles = Tiles(cache, TileScheduler(cache, producers, c.tile_production,
-                                                   worker=c.tile_worker))
+                                                   worker=c.tile_worker,
+                                                   pause_in_frames=c.tile_process_pause))
         self._owned = _Owned(self.name, self.tiles.scheduler)
         self._finalizer = weakref.finalize(self, _release, self._owned)
         self._finalizer.atexit = False     # at exit the worker is a daemon, GL may be gone

@@ -22,13 +22,27 @@ source that cannot be used from a forked process (a callable holding a socket, a
 """
 from __future__ import annotations
 
+import atexit
 import multiprocessing
 import os
 import signal
 import sys
 import warnings
+import weakref
 from collections.abc import Mapping
 from typing import Any
+
+_PAUSED: weakref.WeakSet = weakref.WeakSet()
+"""Processes paused now (a frame that raised past its end, a scheduler dropped mid-frame):
+resumed at exit, before multiprocessing joins its daemon children (a stopped child would
+never end, and the interpreter would wait for it for ever)."""
+
+
+@atexit.register
+def _resume_paused() -> None:
+    for process in list(_PAUSED):
+        process.resume()
+
 
 IN_WORKER_PROCESS = False
 """True inside a tile worker process (its main thread is a worker, not a frame's)."""
@@ -64,6 +78,24 @@ class ProducerProcess:
     def pid(self) -> int | None:
         return self._process.pid
 
+    def pause(self) -> None:
+        """Stop the process where it is (SIGSTOP: a tile half made waits, nothing is lost)
+        until :meth:`resume`; the world's frame then has its core to itself."""
+        _PAUSED.add(self)
+        self._signal(signal.SIGSTOP)
+
+    def resume(self) -> None:
+        self._signal(signal.SIGCONT)
+        _PAUSED.discard(self)
+
+    def _signal(self, signum: int) -> None:
+        pid = self._process.pid
+        if pid is not None and self._conn is not None:
+            try:
+                os.kill(pid, signum)
+            except OSError:   # gone: produce() finds out and says so
+                pass
+
     @property
     def alive(self) -> bool:
         return self._conn is not None and self._process.is_alive()
@@ -83,6 +115,7 @@ class ProducerProcess:
 
     def close(self, timeout_s: float = 5.0) -> None:
         """End the process (idempotent; safe from any thread)."""
+        self.resume()                       # a paused process could not read the goodbye
         conn, self._conn = self._conn, None
         if conn is not None:
             try:
@@ -105,6 +138,7 @@ def _serve(producers: Mapping[str, Any], conn, parent_end, nice: int) -> None:
     IN_WORKER_PROCESS = True
     parent_end.close()     # the world's end of the pipe: EOF here once the world's is closed
     signal.signal(signal.SIGINT, signal.SIG_IGN)   # Ctrl-C is the host's to handle; it ends us
+    _die_with_parent()     # a world's process killed while this one is paused: not left stopped
     if nice > 0:
         try:
             os.setpriority(os.PRIO_PROCESS, 0, max(os.getpriority(os.PRIO_PROCESS, 0), nice))
@@ -129,3 +163,18 @@ def _serve(producers: Mapping[str, Any], conn, parent_end, nice: int) -> None:
         except Exception as exc:  # noqa: BLE001 - a tile that cannot be pickled: said so
             conn.send((False, f"{kind} tile {key} cannot be sent back: "
                               f"{type(exc).__name__}: {exc}"))
+
+
+def _die_with_parent() -> None:
+    """Linux: SIGKILL this process when the thread that forked it ends (``prctl
+    PR_SET_PDEATHSIG``); a paused (stopped) process would otherwise outlive a world's process
+    that was killed mid-frame, since it reads no EOF while stopped."""
+    if not sys.platform.startswith("linux"):
+        return
+    try:
+        import ctypes
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(1, signal.SIGKILL, 0, 0, 0)     # PR_SET_PDEATHSIG = 1
+    except (OSError, AttributeError):
+        pass

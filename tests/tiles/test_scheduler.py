@@ -2,6 +2,8 @@
 whatever the cache size or the order tiles are asked in, failures that never crash a frame."""
 from __future__ import annotations
 
+import multiprocessing
+import os
 import threading
 
 import numpy as np
@@ -295,7 +297,6 @@ class WhereMade(Producer):
 
 @needs_fork
 def test_a_worker_process_makes_the_same_tiles_as_the_thread_and_the_frame_process_none():
-    import os
 
     keys = np.concatenate([_keys(0), _keys(1), _keys(2), _keys(3)])
     made = {}
@@ -336,7 +337,6 @@ def test_a_producer_error_in_the_process_is_reported_and_the_process_keeps_worki
 
 @needs_fork
 def test_a_killed_process_is_reported_and_the_thread_makes_the_rest():
-    import os
     import signal
 
     cache = TileCache(1 << 20)
@@ -355,7 +355,6 @@ def test_a_killed_process_is_reported_and_the_thread_makes_the_rest():
 
 @needs_fork
 def test_closing_the_scheduler_ends_its_process():
-    import multiprocessing
 
     sched = TileScheduler(TileCache(1 << 20), [Heights()], "background", worker="process")
     sched.request("h", [(0, 0, 0)])
@@ -402,3 +401,61 @@ def test_a_producer_without_empty_tiles_says_so_without_a_call_per_code():
     slopes = Slopes()                                  # overrides is_empty: asked per code
     assert slopes.empty_mask(np.array([tile_code(1, 1, 1), tile_code(1, 0, 1)])).tolist() == [
         True, False]
+
+
+def _state(pid: int) -> str:
+    """The process's state letter (T: stopped)."""
+    with open(f"/proc/{pid}/stat") as f:
+        return f.read().rsplit(")", 1)[1].split()[0]
+
+
+@needs_fork
+def test_the_tile_process_is_paused_in_frames_on_one_core_and_tiles_are_still_made():
+    """pause_in_frames: stopped from frame_begins to frame_ends (never given the frame's core),
+    only after an idle gap, only on one core with "auto"; tiles come out identical; a paused
+    process still closes."""
+    import time
+
+    cache = TileCache(1 << 30)
+    sched = TileScheduler(cache, [Heights()], "background", worker="process",
+                          pause_in_frames=True)
+    sched.max_starts = 1000
+    sched.request("h", _keys(2))
+    assert sched.wait(20.0)
+    pid = sched.worker_pid
+    time.sleep(0.005)                                   # the host left the process idle time
+    sched.frame_begins()
+    deadline = time.perf_counter() + 2.0
+    while _state(pid) != "T" and time.perf_counter() < deadline:
+        time.sleep(0.001)
+    assert _state(pid) == "T"
+    sched.request("h", _keys(3))                        # asked in the frame: made after it
+    sched.frame_ends()
+    assert _state(pid) != "T"
+    assert sched.wait(20.0) and len(cache.pools["h"]) == 16 + 64
+    sched.frame_ends()
+    sched.frame_begins()                                # no idle gap: left running
+    assert not sched._paused and _state(pid) != "T"
+    sched.frame_ends()
+    time.sleep(0.005)
+    sched.frame_begins()
+    sched.close()                                       # closes a paused process too
+    assert pid not in {p.pid for p in multiprocessing.active_children()}
+    sched.frame_ends()
+
+    auto = TileScheduler(TileCache(1 << 30), [Heights()], "background", worker="process")
+    auto.request("h", [(0, 0, 0)])
+    assert auto.wait(20.0)
+    cores = os.sched_getaffinity(0)
+    try:
+        for allowed, paused in ((cores, len(cores) == 1), ({min(cores)}, True)):
+            os.sched_setaffinity(0, allowed)
+            time.sleep(0.005)
+            auto.frame_begins()
+            assert auto._paused == paused
+            auto.frame_ends()
+    finally:
+        os.sched_setaffinity(0, cores)
+    auto.close()
+    with pytest.raises(ValueError, match="pause_in_frames"):
+        TileScheduler(TileCache(1 << 20), [], "background", pause_in_frames="sometimes")
