@@ -432,11 +432,14 @@ def measure(length_km: float, args) -> dict:
         walls_a, cpus_a = np.asarray(walls), np.asarray(cpus)
         slow = walls_a >= np.percentile(walls_a, 99) if frames else walls_a > 0
         waits_a = np.asarray(waits, float).reshape(-1, 3)
-        # frames that waited over 0.5 ms for the core while the machine's kdamond ran at least
-        # half that long, and the world's own tasks did not: time the machine took, not the
-        # world (their p99 is reported beside the wall time's, never in its place)
-        kept_off = (waits_a[:, 0] > 0.5) & (waits_a[:, 2] >= 0.5 * waits_a[:, 0]) & \
-            (waits_a[:, 1] < 0.5 * waits_a[:, 0])
+        # the frame's wait: its wall time less its thread's CPU time (the schedstat run-queue
+        # delay also counts waits outside the timed step); frames that waited over 0.5 ms
+        # while the world's own tile process and worker ran less than half that: time the
+        # machine took (its kdamond, or the VM's host: nothing here ran), not the world. Their
+        # p99 is reported beside the wall time's, never in its place.
+        wait_a = walls_a - cpus_a
+        kept_off = (wait_a > 0.5) & (waits_a[:, 1] < 0.5 * wait_a)
+        kdamond = kept_off & (waits_a[:, 2] >= 0.5 * wait_a)
         res["flight"] = {
             "frames": frames, "wall_s": time.perf_counter() - t0,
             "distance_km": args.speed * frames / FPS / 1000.0,
@@ -452,11 +455,10 @@ def measure(length_km: float, args) -> dict:
                             "faults": float(np.mean(np.asarray(faults)[slow])) if slow.any() else 0.0,
                             "gc_passes": int(np.asarray(gcs)[slow].sum())},
             "faults_per_frame": float(np.mean(faults)) if faults else 0.0,
-            "waited_ms": _stats(waits_a[:, 0]),
-            "waited_over_1ms": int(np.sum(waits_a[:, 0] > 1.0)),
-            "waited_world_tasks_ran_ms": float(waits_a[waits_a[:, 0] > 1.0, 1].sum()),
-            "waited_others_ran_ms": float(waits_a[waits_a[:, 0] > 1.0, 2].sum()),
+            "waited_over_0.5ms": int(np.sum(wait_a > 0.5)),
+            "waited_world_tasks_ran": int(np.sum((wait_a > 0.5) & ~kept_off)),
             "kept_off_by_machine": int(kept_off.sum()),
+            "kept_off_by_kdamond": int(kdamond.sum()),
             "frame_ms_not_kept_off": _stats(walls_a[~kept_off]),
             "gc_passes": int(sum(gcs)),
             "tiles_made": int(sum(s["installed"] - made0.get(k, 0) for k, s in stats.items())),
@@ -556,9 +558,11 @@ def format_table(results: list[dict], args) -> str:
         ("flight max ms", lambda r: f"{r['flight']['frame_ms']['max']:.1f}"),
         ("frames > 50 ms", lambda r: f"{r['flight']['frames_over_50ms']}"),
         ("flight cpu p50/99", lambda r: "{p50:.2f}/{p99:.2f}".format(**r["flight"]["cpu_ms"])),
-        ("waited > 1 ms", lambda r: f"{r['flight']['waited_over_1ms']}"),
-        ("  kdamond's", lambda r: f"{r['flight']['kept_off_by_machine']}"),
-        ("p99 w/o those", lambda r: f"{r['flight']['frame_ms_not_kept_off']['p99']:.2f}"),
+        ("waited > 0.5 ms", lambda r: f"{r['flight']['waited_over_0.5ms']}"),
+        ("  world's tasks", lambda r: f"{r['flight']['waited_world_tasks_ran']}"),
+        ("  machine's", lambda r: "{kept_off_by_machine} ({kept_off_by_kdamond} kdamond)".format(
+            **r["flight"])),
+        ("p99 w/o machine's", lambda r: f"{r['flight']['frame_ms_not_kept_off']['p99']:.2f}"),
         ("tiles p99 ms", lambda r: f"{r['flight']['tiles_ms']['p99']:.2f}"),
         ("tiles made", lambda r: f"{r['flight']['tiles_made']}"),
         ("tiles queued", lambda r: f"{r['flight']['tiles_queued']}"),
@@ -613,7 +617,7 @@ def check_targets(results: list[dict]) -> list[str]:
     if kept and big["flight"]["kept_off_by_machine"]:
         checks.insert(4, (
             f"  the same without the {big['flight']['kept_off_by_machine']} frames the "
-            f"machine's kdamond kept off the core: p99/p50 = {kept['p99'] / kept['p50']:.2f}",
+            f"machine kept off the core: p99/p50 = {kept['p99'] / kept['p50']:.2f}",
             kept["p99"] <= TARGETS["p99_over_p50"] * kept["p50"], "≤ 2"))
     return [f"targets at {big['network_km_wanted']:g} km (indicative on a shared machine):"] + [
         f"  [{'ok' if good else 'MISS'}] {what} (target {target})" for what, good, target in checks]
