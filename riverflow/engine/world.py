@@ -279,7 +279,7 @@ class RiverWorld:
             ValueError: an unknown or bad parameter, or the hull does not fit in the water.
         """
         from riverflow.components.wake import Wake
-        from riverflow.systems.boat import boat_components
+        from riverflow.physics.boat import boat_components
 
         components = boat_components(self.scene, position_m, heading_rad, drawn=drawn, **params)
         with self.active():
