@@ -236,8 +236,12 @@ def test_display_mode_names_match_the_draw_settings():
 def test_the_engine_imports_no_system():
     """The systems import the engine (their System base), not the other way round: importing
     every engine module loads no riverflow.systems module (the world asks for the default
-    list when it is made: riverflow/systems/schedule.py)."""
-    code = ("import pkgutil, sys, riverflow.engine\n"
+    list when it is made: riverflow/systems/schedule.py). The boat's physics sits below both."""
+    code = ("import pkgutil, sys, riverflow.physics.boat\n"
+            "bad = sorted(n for n in sys.modules if n.startswith(('riverflow.engine', "
+            "'riverflow.systems', 'esper')))\n"
+            "assert not bad, bad\n"
+            "import riverflow.engine\n"
             "for m in pkgutil.iter_modules(riverflow.engine.__path__, 'riverflow.engine.'):\n"
             "    __import__(m.name)\n"
             "assert 'riverflow.engine.world' in sys.modules\n"
