@@ -44,6 +44,7 @@ from riverflow.engine.system import System
 from riverflow.hydro.flow_field import FlowField
 from riverflow.hydro.tile_producer import FlowProducer
 from riverflow.kernels.warmup import compile_kernels
+from riverflow.physics.boat import boat_components
 from riverflow.scenes.tile_kinds import terrain_producers
 from riverflow.tiles.cache import TileCache
 from riverflow.tiles.scheduler import TileScheduler
@@ -279,7 +280,6 @@ class RiverWorld:
             ValueError: an unknown or bad parameter, or the hull does not fit in the water.
         """
         from riverflow.components.wake import Wake
-        from riverflow.physics.boat import boat_components
 
         components = boat_components(self.scene, position_m, heading_rad, drawn=drawn, **params)
         with self.active():
