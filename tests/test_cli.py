@@ -233,6 +233,24 @@ def test_display_mode_names_match_the_draw_settings():
     assert DISPLAY_MODES == tuple(MODE_NAMES)
 
 
+def test_the_engine_imports_no_system():
+    """The systems import the engine (their System base), not the other way round: importing
+    every engine module loads no riverflow.systems module (the world asks for the default
+    list when it is made: riverflow/systems/schedule.py). The boat's physics sits below both."""
+    code = ("import pkgutil, sys, riverflow.physics.boat\n"
+            "bad = sorted(n for n in sys.modules if n.startswith(('riverflow.engine', "
+            "'riverflow.systems', 'esper')))\n"
+            "assert not bad, bad\n"
+            "import riverflow.engine\n"
+            "for m in pkgutil.iter_modules(riverflow.engine.__path__, 'riverflow.engine.'):\n"
+            "    __import__(m.name)\n"
+            "assert 'riverflow.engine.world' in sys.modules\n"
+            "bad = sorted(n for n in sys.modules if n.startswith('riverflow.systems'))\n"
+            "assert not bad, bad\n")
+    result = run_python(code)
+    assert result.returncode == 0, result.stderr
+
+
 def test_profile_prints_per_system_timings_as_json(tiny_channel_path, tmp_path):
     import json
 
@@ -240,7 +258,7 @@ def test_profile_prints_per_system_timings_as_json(tiny_channel_path, tmp_path):
                      cwd=tmp_path)
     assert result.returncode == 0, result.stderr
     data = json.loads(result.stdout)
-    from riverflow.engine.schedule import SYSTEM_ORDER
+    from riverflow.systems.schedule import SYSTEM_ORDER
 
     # every update system is timed (drawing is not: profile steps gl=False worlds)
     assert set(data["systems"]) == {"boat", "wake", "camera", "tiles", "advection", "screen",

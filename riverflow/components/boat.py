@@ -1,6 +1,7 @@
 """Boat: the player's (or an AI's) boat on the river — plain data, moved by the "boat" system.
 
-Gameplay writes ``throttle`` and ``rudder``; :class:`riverflow.systems.boat.MoveBoats` reads the
+Gameplay writes ``throttle`` and ``rudder``; each frame the "boat" system
+(:class:`riverflow.systems.boat.MoveBoats`, its physics :mod:`riverflow.physics.boat`) reads the
 flow under the hull, integrates the motion, keeps the hull in the water, floats it on the
 surface and puts it into the flow as a moving obstacle. Everything else here is its state
 (read it to draw, to chase it with a camera, for a HUD) and its tunables.

@@ -1,8 +1,9 @@
 """System: the base of every per-frame system (one per file under riverflow/systems).
 
 A system is glue: it reads components and resources of its :class:`RiverWorld`, calls one or
-two kernels and writes back. Systems run in the one order of :func:`default_systems`; esper's
-processor priorities are not used (reference/aesthetics.md P7).
+two kernels and writes back. Systems run in the one order of
+:func:`riverflow.systems.schedule.default_systems`; esper's processor priorities are not used
+(reference/aesthetics.md P7).
 """
 from __future__ import annotations
 

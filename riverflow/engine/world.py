@@ -40,11 +40,11 @@ from riverflow.components.river import Clock, FrameView, RiverNode, ScreenGrid, 
 from riverflow.components.wake import Wakes
 from riverflow.engine.camera import Camera
 from riverflow.engine.config import RiverConfig
-from riverflow.engine.schedule import default_systems
 from riverflow.engine.system import System
 from riverflow.hydro.flow_field import FlowField
 from riverflow.hydro.tile_producer import FlowProducer
 from riverflow.kernels.warmup import compile_kernels
+from riverflow.physics.boat import boat_components
 from riverflow.scenes.tile_kinds import terrain_producers
 from riverflow.tiles.cache import TileCache
 from riverflow.tiles.scheduler import TileScheduler
@@ -64,7 +64,7 @@ class RiverWorld:
             False runs every system but drawing with no OpenGL at all.
         seed: seeds every random choice; the same seed and inputs give bit-identical pools.
         config: :class:`RiverConfig`; default ``RiverConfig()``.
-        systems: the ordered systems; default :func:`riverflow.engine.schedule.default_systems`.
+        systems: the ordered systems; default :func:`riverflow.systems.schedule.default_systems`.
     """
 
     def __init__(self, scene: Any, size: tuple[int, int] = (640, 360), *, gl: bool = False,
@@ -114,7 +114,13 @@ class RiverWorld:
                                              ParticlePool(c.capacity), ScreenGrid(c.capacity))
             if self.gl:
                 _add_wave_tiles(self.seed)
-        self.systems = systems if systems is not None else default_systems(self.gl)
+        if systems is None:
+            # the one place the engine reaches up to the systems, when it is made, not when
+            # it is imported: the systems import the engine (riverflow/systems/schedule.py)
+            from riverflow.systems.schedule import default_systems
+
+            systems = default_systems(self.gl)
+        self.systems = systems
         self.pool: ParticlePool = self.component(ParticlePool)
         self.context = None
         if self.gl:
@@ -283,7 +289,6 @@ class RiverWorld:
             ValueError: an unknown or bad parameter, or the hull does not fit in the water.
         """
         from riverflow.components.wake import Wake
-        from riverflow.systems.boat import boat_components
 
         components = boat_components(self.scene, position_m, heading_rad, drawn=drawn, **params)
         with self.active():

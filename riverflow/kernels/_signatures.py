@@ -98,13 +98,13 @@ SIGNATURES = {
         'lifecycle.age_particles': [
             "(A(bool, 1, 'C'), A(int64, 1, 'C'), A(int64, 1, 'C'), A(float64, 1, 'C'), A(float32, 1, 'C'), float64, float64, float64, float64)",
         ],
-        'poisson.blocked_direction_table': [
+        'poisson_fill.blocked_direction_table': [
             "(float64, float64, float64, A(uint64, 2, 'C'), A(uint64, 2, 'C'))",
         ],
-        'poisson.cull_crowded_particles': [
+        'poisson_cull.cull_crowded_particles': [
             "(A(bool, 1, 'C'), A(float32, 2, 'C'), A(float64, 1, 'C'), A(uint8, 1, 'C'), A(uint8, 1, 'C'), float64, float64, float64, float64, float64, float64, float64, int64, int64, A(int32, 1, 'C'), A(int32, 2, 'C'), A(int32, 1, 'C'), A(int32, 1, 'C'), A(float32, 2, 'C'), A(uint8, 1, 'C'), A(uint8, 1, 'C'), A(uint8, 1, 'C'), int64, int64, int64)",
         ],
-        'poisson.fill_poisson_holes': [
+        'poisson_fill.fill_poisson_holes': [
             "(A(bool, 1, 'C'), A(int64, 1, 'C'), A(int64, 1, 'C'), A(float64, 1, 'C'), A(float32, 1, 'C'), A(float32, 2, 'C'), A(uint8, 1, 'C'), A(bool, 1, 'C'), A(float32, 2, 'C'), A(uint8, 1, 'C'), A(bool, 1, 'C'), A(float32, 2, 'C'), float64, float64, float64, float64, float64, int64, int64, float64, int64, int64, A(int32, 1, 'C'), A(int32, 2, 'C'), A(int32, 1, 'C'), A(int32, 1, 'C'), A(float32, 2, 'C'), A(uint8, 1, 'C'), int64, float64, float64, float64, float64, A(int32, 1, 'C'), A(int32, 1, 'C'), A(uint64, 2, 'C'), A(uint64, 2, 'C'), float64)",
         ],
         'placement.pixel_rays': [
@@ -195,8 +195,8 @@ SIGNATURES = {
 COSTS = {
     'foam.update_foam': 16.29,
     'raycast_tiles.cast_rays_onto_tiles': 7.84,
-    'poisson.fill_poisson_holes': 5.24,
-    'poisson.cull_crowded_particles': 4.31,
+    'poisson_fill.fill_poisson_holes': 5.24,
+    'poisson_cull.cull_crowded_particles': 4.31,
     'flow.build_flow_tile': 3.38,
     'advection.check_outside_near_water': 2.39,
     'rain.step_rain': 2.10,
@@ -218,7 +218,7 @@ COSTS = {
     'wake.advance_trail': 0.34,
     'placement.pixel_rays': 0.32,
     'waves.permutation': 0.29,
-    'poisson.blocked_direction_table': 0.29,
+    'poisson_fill.blocked_direction_table': 0.29,
     'tile_table.table_insert_many': 0.28,
     'waves.ripple_heights': 0.26,
     'waves.slopes_from_heights': 0.24,

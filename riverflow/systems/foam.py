@@ -24,7 +24,7 @@ from riverflow.kernels.foam import (HL_FOAM, HL_SPEED, HL_TRAIL, HULL_FIELDS, Fo
                                     FoamParams, FoamSources, ScreenNeighbours, update_foam)
 from riverflow.kernels.sprites import SPRITE_RADIUS_FACTOR
 from riverflow.kernels.wake import TR_FIELDS
-from riverflow.systems.boat import BOATS_KEY
+from riverflow.physics.boat import BOATS_KEY
 
 if TYPE_CHECKING:
     from riverflow.engine.world import RiverWorld

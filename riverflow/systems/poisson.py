@@ -8,8 +8,8 @@ import numpy as np
 from riverflow.components.particles import ParticlePool
 from riverflow.components.river import Clock, FrameView, ScreenGrid
 from riverflow.engine.system import System
-from riverflow.kernels.poisson import (cull_crowded_particles, direction_table,
-                                       fill_poisson_holes)
+from riverflow.kernels.poisson_cull import cull_crowded_particles
+from riverflow.kernels.poisson_fill import direction_table, fill_poisson_holes
 
 
 class MaintainPoissonDisk(System):

@@ -15,8 +15,9 @@ from riverflow.components.props import Pose
 from riverflow.components.status import FlowStatus
 from riverflow.engine.config import RiverConfig
 from riverflow.kernels import obstacles as ko
+from riverflow.physics.hull import hull_axis, hull_outline
 from riverflow.scenes.flight import main_centerline
-from riverflow.systems.boat import MoveBoats, hull_axis, hull_outline
+from riverflow.systems.boat import MoveBoats
 
 DT = 1 / 60
 

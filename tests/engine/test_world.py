@@ -11,10 +11,10 @@ import riverflow as rf
 from riverflow.components.river import TerrainView
 from riverflow.components.status import FlowStatus
 from riverflow.engine.config import RiverConfig
-from riverflow.engine.schedule import SYSTEM_ORDER, default_systems
 from riverflow.engine.world import RiverWorld
 from riverflow.kernels.raycast import HIT_WATER
 from riverflow.kernels.raycast_tiles import cast_rays_onto_tiles
+from riverflow.systems.schedule import SYSTEM_ORDER, default_systems
 from tests.engine.flight import fly, flight_pose, make_world
 
 R = 5.0

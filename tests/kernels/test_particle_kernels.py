@@ -13,7 +13,8 @@ from riverflow.engine.camera import Camera
 from riverflow.kernels import advection as ka
 from riverflow.kernels import lifecycle as kl
 from riverflow.kernels import placement as kpl
-from riverflow.kernels import poisson as kp
+from riverflow.kernels import poisson_cull as kc
+from riverflow.kernels import poisson_fill as kf
 from riverflow.kernels import screen as ks
 from riverflow.kernels.surface_tiles import one_tile_surface
 from tests import reference
@@ -139,7 +140,7 @@ def test_cull_matches_reference(rng, cell_r):
                                 pool.capacity)
     acc = (np.zeros(gw * gh + 1, np.int32), np.zeros(pool.capacity, np.int32),
            np.zeros((pool.capacity, 2), np.float32))
-    faded = kp.cull_crowded_particles(pool.alive, pool.screen_px, pool.birth_s, pool.fade_reason,
+    faded = kc.cull_crowded_particles(pool.alive, pool.screen_px, pool.birth_s, pool.fade_reason,
                                       pool.status, 1.0, 1 / 60, FI, AC, FO, 1.96 * r,
                                       cell_r * r, gw, gh, count,
                                       items, *acc, prev, dirty, carriers, 0, 2, pool.counters[2])
@@ -170,7 +171,7 @@ def test_cull_keeps_the_slot_order_when_cells_overflow(rng):
     acc = (np.zeros(gw * gh + 1, np.int32), np.zeros(pool.capacity, np.int32),
            np.zeros((pool.capacity, 2), np.float32))
     want = reference.cull_in_slot_order(pool.screen_px, pool.alive, 1.5 * r, 4 * r, 3)
-    kp.cull_crowded_particles(pool.alive, pool.screen_px, pool.birth_s, pool.fade_reason,
+    kc.cull_crowded_particles(pool.alive, pool.screen_px, pool.birth_s, pool.fade_reason,
                               pool.status, 1.0, 1 / 60, FI, AC, FO, 1.5 * r, 4 * r, gw, gh, count,
                               items, *acc, prev, dirty, carriers, 0, 2, pool.counters[2])
     got = np.concatenate([items[c, :count[c]] for c in range(gw * gh)])
@@ -182,7 +183,7 @@ def test_cull_keeps_the_slot_order_when_cells_overflow(rng):
 
 def test_blocked_direction_table_matches_reference_and_is_sound(rng):
     r, gap = 5.0, 1.92 * 5.0
-    table, touched, cell = kp.direction_table(r, gap)
+    table, touched, cell = kf.direction_table(r, gap)
     n = table.shape[0]
     assert n * cell > 2 * (2 * r + gap)
     want = reference.blocked_directions(r, gap, cell, n)
@@ -221,7 +222,7 @@ def test_fill_shortcuts_give_the_same_disk():
         carriers = np.zeros(gw * gh, np.uint8)
         acc = (np.zeros(gw * gh + 1, np.int32), np.zeros(pool.capacity, np.int32),
                np.zeros((pool.capacity, 2), np.float32))
-        table, touched, table_cell = kp.direction_table(r, gap)
+        table, touched, table_cell = kf.direction_table(r, gap)
         if not shortcuts:
             table[:] = 0
             touched[:] = ~np.uint64(0)
@@ -229,11 +230,11 @@ def test_fill_shortcuts_give_the_same_disk():
         cand = np.zeros(pool.capacity, np.int32)
         for f in range(12):
             pool.screen_px[pool.alive] *= 1.01  # stretch: holes open between frames
-            kp.cull_crowded_particles(pool.alive, pool.screen_px, pool.birth_s,
+            kc.cull_crowded_particles(pool.alive, pool.screen_px, pool.birth_s,
                                       pool.fade_reason, pool.status, 1.0, 1 / 60, FI, AC, FO,
                                       1.9 * r, 4 * r, gw, gh, count, items, *acc, prev, dirty,
                                       carriers, f, 2, pool.counters[2])
-            kp.fill_poisson_holes(
+            kf.fill_poisson_holes(
                 pool.alive, pool.ids, pool.counters, pool.birth_s, pool.intensity,
                 pool.screen_px, pool.fade_reason, pool.has_world, pool.velocity_mps,
                 pool.status, pool.first_query, pool.offset_m, 1.0, FI, AC, r, gap, w, h,
@@ -255,16 +256,16 @@ def _fill(pool, r, w, h, seed=3, frames=1):
     carriers = np.zeros(gw * gh, np.uint8)
     acc = (np.zeros(gw * gh + 1, np.int32), np.zeros(pool.capacity, np.int32),
            np.zeros((pool.capacity, 2), np.float32))
-    table, touched, table_cell = kp.direction_table(r, 2.0 * r)
+    table, touched, table_cell = kf.direction_table(r, 2.0 * r)
     new = np.zeros(pool.capacity, np.int32)
     cand = np.zeros(pool.capacity, np.int32)
     total = 0
     for f in range(frames):
-        kp.cull_crowded_particles(pool.alive, pool.screen_px, pool.birth_s, pool.fade_reason,
+        kc.cull_crowded_particles(pool.alive, pool.screen_px, pool.birth_s, pool.fade_reason,
                                   pool.status, 1.0, 1 / 60, FI, AC, FO, 1.96 * r, 4 * r, gw, gh,
                                   count,
                                   items, *acc, prev, dirty, carriers, f, 2, pool.counters[2])
-        total += kp.fill_poisson_holes(
+        total += kf.fill_poisson_holes(
             pool.alive, pool.ids, pool.counters, pool.birth_s, pool.intensity, pool.screen_px,
             pool.fade_reason, pool.has_world, pool.velocity_mps, pool.status, pool.first_query,
             pool.offset_m, 1.0, FI, AC, r, 2.0 * r, w, h, 4 * r, gw, gh, count, items, *acc, dirty,

@@ -12,6 +12,11 @@
 9. drawing (``gl=True`` worlds only; it is the one "draw"-phase system: ``world.step`` runs
    1–8, ``world.draw`` / ``world.render`` run 9, so a game may step at a fixed rate and draw
    when it presents a frame)
+
+The list lives with the systems, not in the engine: every system imports the engine's
+:class:`~riverflow.engine.system.System`, so an engine module that imported this list would
+close a circle. :class:`~riverflow.engine.world.RiverWorld` runs the systems it is given and
+asks for :func:`default_systems` only when it is given none.
 """
 from __future__ import annotations
 
