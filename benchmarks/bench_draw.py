@@ -44,7 +44,8 @@ import numpy as np  # noqa: E402
 CASES = (((1920, 1080), 5.0, "advected"), ((1920, 1080), 5.0, "pre-advected"),
          ((1920, 1080), 10.0, "advected"), ((1920, 1080), 10.0, "pre-advected"),
          ((640, 360), 10.0, "advected"))
-DRAW_CALLS = ("glDrawArrays", "glDrawElementsBaseVertex", "glClear")
+DRAW_CALLS = ("glDrawArrays", "glDrawElementsBaseVertex", "glMultiDrawElementsBaseVertex",
+              "glClear", "glGenerateMipmap")
 
 
 class _ThreadClock:

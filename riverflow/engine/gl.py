@@ -487,13 +487,7 @@ class Mesh:
             v = np.ascontiguousarray(vertices, np.float32)
             self.vertex_count = v.shape[0]
             self.vbo = _buffer(gl.GL_ARRAY_BUFFER, v)
-            stride = 4 * sum(attributes.values())
-            offset = 0
-            for location, count in attributes.items():
-                gl.glEnableVertexAttribArray(location)
-                gl.glVertexAttribPointer(location, count, gl.GL_FLOAT, gl.GL_FALSE, stride,
-                                         ctypes.c_void_p(offset))
-                offset += 4 * count
+            _point_attributes(attributes)
         if indices is not None:
             idx = np.ascontiguousarray(indices, np.uint32)
             self.index_count = idx.size
@@ -524,12 +518,163 @@ class Mesh:
         self.vao = self.vbo = self.ebo = 0
 
 
-def _buffer(target: int, data: np.ndarray) -> int:
+def _buffer(target: int, data: np.ndarray | None, nbytes: int | None = None) -> int:
+    """A new buffer object bound to ``target``, filled with ``data`` (or ``nbytes`` left
+    undefined)."""
     ident = gl.GLuint()
     gl.glGenBuffers(1, ctypes.byref(ident))
     gl.glBindBuffer(target, ident.value)
-    gl.glBufferData(target, data.nbytes, data.ctypes.data, gl.GL_STATIC_DRAW)
+    if data is None:
+        gl.glBufferData(target, int(nbytes), None, gl.GL_STATIC_DRAW)
+    else:
+        gl.glBufferData(target, data.nbytes, data.ctypes.data, gl.GL_STATIC_DRAW)
     return ident.value
+
+
+def _point_attributes(attributes: dict[int, int]) -> None:
+    """Interleaved float32 attributes of the bound GL_ARRAY_BUFFER into the bound VAO."""
+    stride = 4 * sum(attributes.values())
+    offset = 0
+    for location, count in attributes.items():
+        gl.glEnableVertexAttribArray(location)
+        gl.glVertexAttribPointer(location, count, gl.GL_FLOAT, gl.GL_FALSE, stride,
+                                 ctypes.c_void_p(offset))
+        offset += 4 * count
+
+
+class SlotArena:
+    """Meshes of one shape in shared GPU buffers, any set of them drawn with one call.
+
+    Every mesh has ``slot_vertices`` vertices of one interleaved float32 layout
+    (``attributes``: shader location → component count) and is drawn with the same
+    ``indices`` (uint32, relative to its first vertex), or a range of them: the terrain tiles.
+    The vertices live in *slots* of one vertex buffer (slot ``s`` holds vertices
+    ``s·V … (s + 1)·V − 1``), the indices once in one index buffer, both in one vertex array.
+    :meth:`alloc` hands out a free slot (the buffer doubles when none is free, the old
+    slots' data copied on the GPU), :meth:`upload` writes a mesh into it
+    (``glBufferSubData``), :meth:`free` gives slots back, :meth:`draw` draws a list of slots in
+    its order with one ``glMultiDrawElementsBaseVertex`` (OpenGL 3.2 core): the same picture
+    as drawing them one by one.
+    """
+
+    def __init__(self, slot_vertices: int, attributes: dict[int, int], indices: np.ndarray,
+                 capacity: int = 64) -> None:
+        self.slot_vertices = int(slot_vertices)
+        self.attributes = dict(attributes)
+        self.slot_bytes = self.slot_vertices * 4 * sum(self.attributes.values())
+        self.context = gl.current_context
+        ident = gl.GLuint()
+        gl.glGenVertexArrays(1, ctypes.byref(ident))
+        self.vao = ident.value
+        gl.glBindVertexArray(self.vao)
+        idx = np.ascontiguousarray(indices, np.uint32).ravel()
+        self.index_count = idx.size
+        self.ebo = _buffer(gl.GL_ELEMENT_ARRAY_BUFFER, idx)    # kept in the VAO's state
+        gl.glBindVertexArray(0)
+        self.vbo = 0
+        self.capacity = 0
+        self.used = np.zeros(0, bool)
+        """Which slots are allocated."""
+        self.grown = -1
+        """Times the vertex buffer grew after it was made."""
+        self._free: list[int] = []
+        self._grow(max(1, int(capacity)))
+        self._arrays(64)
+
+    def __len__(self) -> int:
+        """Slots in use."""
+        return self.capacity - len(self._free)
+
+    def alloc(self) -> int:
+        """A free slot: the last one given back, else the lowest never used (the buffer
+        doubles when none is free)."""
+        if not self._free:
+            self._grow(2 * self.capacity)
+        slot = self._free.pop()
+        self.used[slot] = True
+        return slot
+
+    def free(self, slots) -> None:
+        """Give slots back (their data stays until a new mesh is uploaded there)."""
+        for slot in np.asarray(slots, np.int64).reshape(-1).tolist():
+            if not 0 <= slot < self.capacity or not self.used[slot]:
+                raise ValueError(f"slot {slot} is not in use")
+            self.used[slot] = False
+            self._free.append(slot)
+
+    def upload(self, slot: int, vertices: np.ndarray) -> None:
+        """Write a mesh's (V, C) vertices into ``slot``."""
+        v = np.ascontiguousarray(vertices, np.float32)
+        if v.nbytes != self.slot_bytes:
+            raise ValueError(f"a slot holds {self.slot_bytes} bytes of vertices, "
+                             f"got {v.shape} ({v.nbytes} bytes)")
+        if not 0 <= slot < self.capacity or not self.used[slot]:
+            raise ValueError(f"slot {slot} is not in use")
+        gl.glBindBuffer(gl.GL_ARRAY_BUFFER, self.vbo)
+        gl.glBufferSubData(gl.GL_ARRAY_BUFFER, slot * self.slot_bytes, self.slot_bytes,
+                           v.ctypes.data)
+
+    def read(self, slot: int) -> np.ndarray:
+        """A slot's vertices as stored on the GPU, (V, C) float32 (for tests)."""
+        out = np.empty((self.slot_vertices, sum(self.attributes.values())), np.float32)
+        gl.glBindBuffer(gl.GL_ARRAY_BUFFER, self.vbo)
+        gl.glGetBufferSubData(gl.GL_ARRAY_BUFFER, slot * self.slot_bytes, self.slot_bytes,
+                              out.ctypes.data)
+        return out
+
+    def draw(self, slots: np.ndarray, count: int | None = None, first: int = 0,
+             mode: int = gl.GL_TRIANGLES) -> None:
+        """Draw the meshes in ``slots`` (in that order), each through ``count`` indices from
+        index ``first`` (default: all), with one multi-draw call."""
+        n = len(slots)
+        count = self.index_count if count is None else int(count)
+        if n == 0 or count <= 0:
+            return
+        if n > len(self._base):
+            self._arrays(2 * n)
+        np.multiply(slots, self.slot_vertices, out=self._base[:n], casting="unsafe")
+        self._counts[:n] = count
+        self._offsets[:n] = 4 * int(first)
+        gl.glBindVertexArray(self.vao)
+        gl.glMultiDrawElementsBaseVertex(mode, self._counts_p, gl.GL_UNSIGNED_INT,
+                                         self._offsets.ctypes.data, n, self._base_p)
+        gl.glBindVertexArray(0)
+
+    def _arrays(self, n: int) -> None:
+        """The multi-draw's arrays (counts, index offsets in bytes, base vertices) for up to
+        ``n`` meshes, and ctypes pointers to them made once."""
+        self._counts = np.zeros(n, np.int32)
+        self._offsets = np.zeros(n, np.intp)
+        self._base = np.zeros(n, np.int32)
+        self._counts_p = self._counts.ctypes.data_as(ctypes.POINTER(gl.GLsizei))
+        self._base_p = self._base.ctypes.data_as(ctypes.POINTER(gl.GLint))
+
+    def _grow(self, capacity: int) -> None:
+        old, old_capacity = self.vbo, self.capacity
+        if capacity * self.slot_vertices >= 2 ** 31:
+            raise ValueError(f"{capacity} slots of {self.slot_vertices} vertices are past "
+                             "a 32-bit base vertex")
+        self.vbo = _buffer(gl.GL_ARRAY_BUFFER, None, capacity * self.slot_bytes)
+        if old:
+            gl.glBindBuffer(gl.GL_COPY_READ_BUFFER, old)
+            gl.glCopyBufferSubData(gl.GL_COPY_READ_BUFFER, gl.GL_ARRAY_BUFFER, 0, 0,
+                                   old_capacity * self.slot_bytes)
+            gl.glBindBuffer(gl.GL_COPY_READ_BUFFER, 0)
+            _discard(self.context, "buffer", old)
+        gl.glBindVertexArray(self.vao)
+        gl.glBindBuffer(gl.GL_ARRAY_BUFFER, self.vbo)
+        _point_attributes(self.attributes)
+        gl.glBindVertexArray(0)
+        self.used = np.concatenate([self.used, np.zeros(capacity - old_capacity, bool)])
+        self._free[:0] = range(capacity - 1, old_capacity - 1, -1)   # below the given back
+        self.capacity = capacity
+        self.grown += 1
+
+    def delete(self) -> None:
+        for buf in (self.vbo, self.ebo):
+            _discard(self.context, "buffer", buf)
+        _discard(self.context, "vao", self.vao)
+        self.vao = self.vbo = self.ebo = 0
 
 
 # -- state -----------------------------------------------------------------------------------

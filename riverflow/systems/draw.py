@@ -38,11 +38,16 @@ Everything is drawn into the world's own RGBA8 framebuffer (with a depth texture
 the passes); :meth:`DrawRivers.blit_to_window` copies it to the window a host draws in.
 
 GPU objects follow the tile cache: a terrain or water tile is uploaded when it is first drawn
-and its buffers are released when the cache evicts it (:meth:`_Gpu.sync_tiles`).
+and released when the cache evicts it (:class:`_TerrainTiles`, :class:`_WaterTiles`). Every
+terrain tile has the same vertex count and the same triangles, so all of them share GPU
+buffers (a :class:`~riverflow.engine.gl.SlotArena`: one vertex buffer of fixed-size slots, one
+index buffer holding the full and the reflection's coarse index ranges, one vertex array), and
+a pass draws all of a frame's terrain tiles, near to far, with one multi-draw call.
 """
 from __future__ import annotations
 
 import time
+import weakref
 from typing import TYPE_CHECKING
 
 import esper
@@ -68,7 +73,8 @@ from riverflow.scenes.props import SHAPES
 from riverflow.scenes.reflection import (MIN_EYE_HEIGHT_M, TERRAIN_STRIDE, mirror_level,
                                          mirrored_view_projection, reflection_size)
 from riverflow.scenes.tile_kinds import TERRAIN_MESH, WATER_MESH
-from riverflow.tiles.cut import standins
+from riverflow.tiles.cache import TilePool
+from riverflow.tiles.cut import Standins, standin_tiles
 from riverflow.tiles.table import codes
 
 if TYPE_CHECKING:
@@ -96,6 +102,10 @@ _SHADED_MODES = (DisplayMode.ADVECTED, DisplayMode.PRE_ADVECTED, DisplayMode.NON
 
 _NOTHING = object()
 """A tile uploaded with nothing to draw."""
+
+TERRAIN_SLOTS = 128
+"""Terrain tiles the GPU arena has room for at first (it doubles when full; a 1080p view's cut
+is ~80-110 tiles)."""
 
 FOAM_PATTERN_UNIT, WAKES_UNIT = 12, 13
 """Texture units of the foam's lace pattern and the wake table (issue 12 items 1, 2)."""
@@ -133,15 +143,8 @@ class _Gpu:
         self.wakes_cpu = np.zeros((MAX_WAKES, 1 + 2 * TRAIL_POINTS, 4), np.float32)
         self.wakes = gl.Texture((1 + 2 * TRAIL_POINTS, MAX_WAKES), gl.RGBA32F)
         self.prop_meshes: dict[tuple, gl.Mesh] = {}
-        # every terrain tile's indices: the full mesh, then the reflection's coarser one
-        cells = world.scene.terrain.tile_cells
-        full = tile_indices(cells).ravel()
-        coarse = tile_indices(cells, TERRAIN_STRIDE if cells % TERRAIN_STRIDE == 0 else 1)
-        self.terrain_indices = np.concatenate([full, coarse.ravel()])
-        self.terrain_ranges = {"full": (len(full), 0), "coarse": (coarse.size, len(full))}
-        """(count, first) of each mesh in the terrain tiles' index buffer."""
-        self.tile_meshes: dict[str, dict[int, gl.Mesh]] = {TERRAIN_MESH: {}, WATER_MESH: {}}
-        self.released: dict[str, tuple[int, int]] = {}   # per kind: (pool, its releases) seen
+        self.terrain = _TerrainTiles(world.scene.terrain.tile_cells)
+        self.water = _WaterTiles()
         self.empty = gl.Mesh(None, {})           # attribute-less draws (gl_VertexID)
         self.waves: dict[int, tuple[int, gl.Texture]] = {}
         self.size = (0, 0)
@@ -198,42 +201,9 @@ class _Gpu:
             self.grid_fb = gl.Framebuffer([(self.grid, k) for k in range(layers)])
             self.grid_shape = shape
 
-    def sync_tiles(self, tiles: Tiles, kind: str, keys: np.ndarray) -> list[gl.Mesh]:
-        """The GPU meshes of the tiles ``keys`` of ``kind`` (uploaded now if new), and the
-        release of every GPU mesh whose tile left the cache. A tile with nothing to draw (a
-        water tile whose piece has no triangle) is remembered as such, not looked at again."""
-        pool = tiles.cache.pools[kind]
-        meshes = self.tile_meshes[kind]
-        released = (id(pool), pool.evicted)     # a tile leaves the cache only by release()
-        if self.released.get(kind) != released:
-            for code in [c for c in meshes if c not in pool]:
-                mesh = meshes.pop(code)
-                if mesh is not _NOTHING:
-                    mesh.delete()
-            self.released[kind] = released
-        out = []
-        for code in codes(keys).tolist():
-            mesh = meshes.get(code)
-            if mesh is None:
-                data = pool.get(code)
-                if data is None:
-                    continue
-                mesh = meshes[code] = self._upload(kind, data) or _NOTHING
-            if mesh is not _NOTHING:
-                out.append(mesh)
-        return out
-
-    def _upload(self, kind: str, data) -> gl.Mesh | None:
-        if kind == TERRAIN_MESH:
-            # position, normal, water level seen, distance to the shore
-            mesh = gl.Mesh(data.vertices, {0: 3, 1: 3, 2: 1, 3: 1}, self.terrain_indices)
-            mesh.centre_m = data.bounds_m.mean(axis=0)     # drawn near to far (early depth test)
-            return mesh
-        mesh, ground = data
-        if not len(mesh.indices):
-            return None
-        vertices = np.concatenate([mesh.positions, ground[:, None]], axis=1)
-        return gl.Mesh(vertices, {0: 3, 1: 1}, mesh.indices.ravel())
+    def resident_codes(self, kind: str) -> set[int]:
+        """Codes of the tiles of ``kind`` that have GPU data now."""
+        return (self.terrain if kind == TERRAIN_MESH else self.water).codes()
 
     def wave_texture(self, entity: int, tile: WaveTile) -> gl.Texture:
         """The wave tile's array texture, (re)uploaded when its revision changes."""
@@ -274,11 +244,8 @@ class _Gpu:
         for mesh in self.prop_meshes.values():
             mesh.delete()
         self.prop_meshes.clear()
-        for meshes in self.tile_meshes.values():
-            for mesh in meshes.values():
-                if mesh is not _NOTHING:
-                    mesh.delete()
-            meshes.clear()
+        self.terrain.delete()
+        self.water.delete()
         for obj in [self.empty, self.params, self.bins, self.grid_fb, self.grid, self.drops,
                     self.ripples, self.foam_pattern, self.wakes, *self.targets,
                     *(tex for _, tex in self.waves.values())]:
@@ -287,6 +254,145 @@ class _Gpu:
         self.waves.clear()
         self.targets = []
         self.reflection.delete()
+
+
+# -- tiles on the GPU --------------------------------------------------------------------------
+
+class _PoolSync:
+    """What of a tile pool is on the GPU, by pool slot: ``code_of`` the code of the tile whose
+    data was uploaded for that slot (−1: none). A pool slot whose tile was released (or
+    replaced) is found by comparing with the pool's own ``slot_code`` after an eviction."""
+
+    def __init__(self) -> None:
+        self.pool = lambda: None              # a weak reference to the pool synced with
+        self.evicted = -1
+        self.code_of = np.zeros(0, np.int64)
+
+    def stale(self, pool: TilePool) -> np.ndarray:
+        """Pool slots whose GPU data belongs to a tile the pool no longer holds there (all of
+        them when the pool is another one); they are marked empty, the caller frees them.
+        Makes room for the pool's slots."""
+        if self.pool() is not pool:
+            gone = np.flatnonzero(self.code_of >= 0)
+            self.code_of[:] = -1
+            self.pool, self.evicted = weakref.ref(pool), pool.evicted
+        elif pool.evicted != self.evicted:     # a tile leaves its pool only by release()
+            n = min(len(self.code_of), len(pool.slot_code))
+            gone = np.flatnonzero((self.code_of[:n] >= 0)
+                                  & (self.code_of[:n] != pool.slot_code[:n]))
+            self.code_of[gone] = -1
+            self.evicted = pool.evicted
+        else:
+            gone = np.zeros(0, np.intp)
+        if len(self.code_of) < pool.capacity:
+            self._grow(pool.capacity)
+        return gone
+
+    def missing(self, tiles: Standins) -> np.ndarray:
+        """Indices into ``tiles`` of those whose data is not on the GPU yet."""
+        return np.flatnonzero(self.code_of[tiles.slots] != tiles.codes)
+
+    def _grow(self, n: int) -> None:
+        self.code_of = np.concatenate([self.code_of,
+                                       np.full(n - len(self.code_of), -1, np.int64)])
+
+    def codes(self) -> set[int]:
+        return set(self.code_of[self.code_of >= 0].tolist())
+
+
+class _TerrainTiles(_PoolSync):
+    """The terrain tiles on the GPU: each in a slot of one :class:`~riverflow.engine.gl.SlotArena`
+    (``arena_slot`` by pool slot), its centre kept for the near-to-far order. The index buffer
+    holds every tile's triangles (:func:`~riverflow.scenes.meshes.tile_indices`) twice: the
+    full mesh, then the reflection's coarser one (every TERRAIN_STRIDE-th node)."""
+
+    def __init__(self, cells: int) -> None:
+        super().__init__()
+        full = tile_indices(cells).ravel()
+        coarse = tile_indices(cells, TERRAIN_STRIDE if cells % TERRAIN_STRIDE == 0 else 1)
+        self.ranges = {"full": (len(full), 0), "coarse": (coarse.size, len(full))}
+        """(count, first) of each mesh in the index buffer."""
+        # position, normal, water level seen, distance to the shore
+        self.arena = gl.SlotArena((cells + 1) ** 2 + 4 * cells, {0: 3, 1: 3, 2: 1, 3: 1},
+                                  np.concatenate([full, coarse.ravel()]), TERRAIN_SLOTS)
+        self.arena_slot = np.zeros(0, np.int32)
+        self.centre = np.zeros((0, 3))
+
+    def sync(self, pool: TilePool, tiles: Standins) -> tuple[np.ndarray, np.ndarray]:
+        """Arena slots (K,) and centres (K, 3) [m] of ``tiles``, uploaded now if new; the
+        slots of tiles the pool released are given back."""
+        gone = self.stale(pool)
+        if len(gone):
+            self.arena.free(self.arena_slot[gone])
+            self.arena_slot[gone] = -1
+        for k in self.missing(tiles).tolist():
+            slot = int(tiles.slots[k])
+            data = pool.tile(slot)
+            if self.arena_slot[slot] < 0:
+                self.arena_slot[slot] = self.arena.alloc()
+            self.arena.upload(int(self.arena_slot[slot]), data.vertices)
+            self.centre[slot] = data.bounds_m.mean(axis=0)
+            self.code_of[slot] = tiles.codes[k]
+        return self.arena_slot[tiles.slots], self.centre[tiles.slots]
+
+    def _grow(self, n: int) -> None:
+        old = len(self.code_of)
+        super()._grow(n)
+        self.arena_slot = np.concatenate([self.arena_slot, np.full(n - old, -1, np.int32)])
+        self.centre = np.concatenate([self.centre, np.zeros((n - old, 3))])
+
+    def delete(self) -> None:
+        self.arena.delete()
+        self.code_of[:] = -1
+        self.arena_slot[:] = -1
+
+
+class _WaterTiles(_PoolSync):
+    """The water tiles on the GPU: one :class:`~riverflow.engine.gl.Mesh` each (their sizes
+    differ), by pool slot; a tile with no triangle is remembered as such."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.meshes: list = []
+
+    def sync(self, pool: TilePool, tiles: Standins) -> list[gl.Mesh]:
+        """The meshes of ``tiles`` with something to draw, uploaded now if new; those of tiles
+        the pool released are deleted."""
+        for slot in self.stale(pool).tolist():
+            self._drop(slot)
+        for k in self.missing(tiles).tolist():
+            slot = int(tiles.slots[k])
+            self._drop(slot)
+            self.meshes[slot] = self._upload(pool.tile(slot))
+            self.code_of[slot] = tiles.codes[k]
+        meshes = self.meshes
+        return [m for m in map(meshes.__getitem__, tiles.slots.tolist()) if m is not _NOTHING]
+
+    @staticmethod
+    def _upload(data):
+        mesh, ground = data
+        if not len(mesh.indices):
+            return _NOTHING
+        vertices = np.concatenate([mesh.positions, ground[:, None]], axis=1)
+        return gl.Mesh(vertices, {0: 3, 1: 1}, mesh.indices.ravel())
+
+    def _drop(self, slot: int) -> None:
+        mesh = self.meshes[slot]
+        if mesh is not None and mesh is not _NOTHING:
+            mesh.delete()
+        self.meshes[slot] = None
+
+    def _grow(self, n: int) -> None:
+        self.meshes.extend([None] * (n - len(self.code_of)))
+        super()._grow(n)
+
+    def all_meshes(self) -> list[gl.Mesh]:
+        return [m for m in self.meshes if m is not None and m is not _NOTHING]
+
+    def delete(self) -> None:
+        for slot in range(len(self.meshes)):
+            self._drop(slot)
+        self.code_of[:] = -1
 
 
 # -- reflections (issue 12 item 3) -----------------------------------------------------------
@@ -345,7 +451,7 @@ class DrawRivers(System):
         """The reflection's mirror height [m] in the last frame (None: no reflection)."""
         self._mirror_for: tuple[int, float | None] = (-1, None)
         self.last_tables_ms = 0.0
-        self._terrain_meshes: list = []
+        self._terrain_slots = np.zeros(0, np.int32)   # this frame's, near to far
         self.last_tiles = 0
         self.last_sprites = 0
 
@@ -552,31 +658,32 @@ class DrawRivers(System):
                     u_wave_length_m=float(tile.wave_length_m)), tex
 
     def _tile_meshes(self, world: RiverWorld, gpu: _Gpu) -> list:
-        """Sync the GPU tile meshes with the cache; keep this frame's terrain meshes (for
-        :meth:`_draw_terrain`) and return its water meshes (see the module docstring)."""
+        """Sync the GPU tiles with the cache; keep this frame's terrain tiles' arena slots,
+        near to far (for :meth:`_draw_terrain`), and return its water meshes (see the module
+        docstring)."""
         tiles = world.resource(Tiles)
         cut = world.resource(TerrainView).cut
+        pools = tiles.cache.pools
         dry = tiles.scheduler.producers[WATER_MESH].empty_mask(codes(cut))
-        self._terrain_meshes = gpu.sync_tiles(tiles, TERRAIN_MESH,
-                                              standins(cut, tiles.cache.pools[TERRAIN_MESH]))
-        return gpu.sync_tiles(tiles, WATER_MESH,
-                              standins(cut, tiles.cache.pools[WATER_MESH], skip=dry))
+        slots, centres = gpu.terrain.sync(pools[TERRAIN_MESH],
+                                          standin_tiles(cut, pools[TERRAIN_MESH]))
+        # near to far: the depth test then rejects hidden ground before it is shaded
+        d = centres - np.asarray(world.camera.position, np.float64)
+        d *= d
+        self._terrain_slots = slots[np.argsort(d.sum(axis=1), kind="stable")]
+        return gpu.water.sync(pools[WATER_MESH], standin_tiles(cut, pools[WATER_MESH], skip=dry))
 
     def _draw_terrain(self, world: RiverWorld, gpu: _Gpu, shared: dict,
                       detail: str = "full") -> None:
         """This frame's terrain tiles, through all their nodes (``detail`` "full") or the
-        reflection's coarser mesh ("coarse")."""
+        reflection's coarser mesh ("coarse"), near to far, in one multi-draw."""
         program = gpu.programs["terrain"]
         program.use()
         program.set_if_used(**shared)
-        count, first = gpu.terrain_ranges[detail]
-        eye = np.asarray(world.camera.position, np.float64)
-        # near to far: the depth test then rejects hidden ground before it is shaded
-        for mesh in sorted(self._terrain_meshes,
-                           key=lambda m: float(np.sum((m.centre_m - eye) ** 2))):
-            mesh.draw(count=count, first=first)
+        count, first = gpu.terrain.ranges[detail]
+        gpu.terrain.arena.draw(self._terrain_slots, count, first)
         if detail == "full":
-            self.last_tiles = len(self._terrain_meshes)
+            self.last_tiles = len(self._terrain_slots)
 
     def _draw_props(self, gpu: _Gpu, shared: dict, mirrored: bool = False) -> None:
         """Every prop; ``mirrored``: in the reflection pass (winding turned, each prop cut

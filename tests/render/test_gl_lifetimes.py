@@ -17,14 +17,14 @@ def _names(world) -> dict[str, list[int]]:
     """The GL names of a drawn world's objects, by kind."""
     drawer = next(s for s in world.systems if s.name == "draw")
     gpu = drawer.gpu
-    meshes = [m for kind in gpu.tile_meshes.values() for m in kind.values()
-              if hasattr(m, "vao")]
+    meshes = gpu.water.all_meshes()
+    arena = gpu.terrain.arena             # the terrain tiles' shared buffers
     reflection = gpu.reflection
     return {"texture": [t.id for t in (gpu.colour, gpu.depth, gpu.position, gpu.accum,
                                        gpu.params, gpu.grid, reflection.colour,
                                        reflection.depth)],
-            "buffer": [m.vbo for m in meshes],
-            "vao": [m.vao for m in meshes],
+            "buffer": [m.vbo for m in meshes] + [arena.vbo, arena.ebo],
+            "vao": [m.vao for m in meshes] + [arena.vao],
             "framebuffer": [gpu.main_fb.id, gpu.position_fb.id, gpu.accum_fb.id,
                             reflection.fb.id],
             "program": [p.program.id for p in gpu.programs.values()]}
