@@ -542,6 +542,51 @@ def _point_attributes(attributes: dict[int, int]) -> None:
         offset += 4 * count
 
 
+class _MultiDraw:
+    """The arrays of a ``glMultiDrawElementsBaseVertex`` call (index counts, index offsets in
+    bytes, base vertices), kept between calls with their ctypes pointers made once."""
+
+    def __init__(self, n: int = 64) -> None:
+        self._fit(n)
+
+    def _fit(self, n: int) -> None:
+        self.counts = np.zeros(n, np.int32)
+        self.offsets = np.zeros(n, np.intp)
+        self.base = np.zeros(n, np.int32)
+        self._counts_p = self.counts.ctypes.data_as(ctypes.POINTER(gl.GLsizei))
+        self._base_p = self.base.ctypes.data_as(ctypes.POINTER(gl.GLint))
+
+    def room(self, n: int) -> None:
+        """Room for ``n`` draws."""
+        if n > len(self.counts):
+            self._fit(2 * n)
+
+    def call(self, vao: int, mode: int, n: int) -> None:
+        """Draw the first ``n`` entries of the arrays through ``vao``."""
+        gl.glBindVertexArray(vao)
+        gl.glMultiDrawElementsBaseVertex(mode, self._counts_p, gl.GL_UNSIGNED_INT,
+                                         self.offsets.ctypes.data, n, self._base_p)
+        gl.glBindVertexArray(0)
+
+
+def _grown_buffer(target: int, old: int, old_bytes: int, new_bytes: int, context) -> int:
+    """A new buffer of ``new_bytes`` bound to ``target`` holding ``old``'s first
+    ``old_bytes`` (copied on the GPU); ``old`` is deleted."""
+    ident = _buffer(target, None, new_bytes)
+    if old:
+        gl.glBindBuffer(gl.GL_COPY_READ_BUFFER, old)
+        gl.glCopyBufferSubData(gl.GL_COPY_READ_BUFFER, target, 0, 0, old_bytes)
+        gl.glBindBuffer(gl.GL_COPY_READ_BUFFER, 0)
+        _discard(context, "buffer", old)
+    return ident
+
+
+def _read_buffer(target: int, ident: int, offset: int, out: np.ndarray) -> np.ndarray:
+    gl.glBindBuffer(target, ident)
+    gl.glGetBufferSubData(target, offset, out.nbytes, out.ctypes.data)
+    return out
+
+
 class SlotArena:
     """Meshes of one shape in shared GPU buffers, any set of them drawn with one call.
 
@@ -578,8 +623,8 @@ class SlotArena:
         self.grown = -1
         """Times the vertex buffer grew after it was made."""
         self._free: list[int] = []
+        self._draws = _MultiDraw()
         self._grow(max(1, int(capacity)))
-        self._arrays(64)
 
     def __len__(self) -> int:
         """Slots in use."""
@@ -617,10 +662,7 @@ class SlotArena:
     def read(self, slot: int) -> np.ndarray:
         """A slot's vertices as stored on the GPU, (V, C) float32 (for tests)."""
         out = np.empty((self.slot_vertices, sum(self.attributes.values())), np.float32)
-        gl.glBindBuffer(gl.GL_ARRAY_BUFFER, self.vbo)
-        gl.glGetBufferSubData(gl.GL_ARRAY_BUFFER, slot * self.slot_bytes, self.slot_bytes,
-                              out.ctypes.data)
-        return out
+        return _read_buffer(gl.GL_ARRAY_BUFFER, self.vbo, slot * self.slot_bytes, out)
 
     def draw(self, slots: np.ndarray, count: int | None = None, first: int = 0,
              mode: int = gl.GL_TRIANGLES) -> None:
@@ -630,44 +672,199 @@ class SlotArena:
         count = self.index_count if count is None else int(count)
         if n == 0 or count <= 0:
             return
-        if n > len(self._base):
-            self._arrays(2 * n)
-        np.multiply(slots, self.slot_vertices, out=self._base[:n], casting="unsafe")
-        self._counts[:n] = count
-        self._offsets[:n] = 4 * int(first)
-        gl.glBindVertexArray(self.vao)
-        gl.glMultiDrawElementsBaseVertex(mode, self._counts_p, gl.GL_UNSIGNED_INT,
-                                         self._offsets.ctypes.data, n, self._base_p)
-        gl.glBindVertexArray(0)
-
-    def _arrays(self, n: int) -> None:
-        """The multi-draw's arrays (counts, index offsets in bytes, base vertices) for up to
-        ``n`` meshes, and ctypes pointers to them made once."""
-        self._counts = np.zeros(n, np.int32)
-        self._offsets = np.zeros(n, np.intp)
-        self._base = np.zeros(n, np.int32)
-        self._counts_p = self._counts.ctypes.data_as(ctypes.POINTER(gl.GLsizei))
-        self._base_p = self._base.ctypes.data_as(ctypes.POINTER(gl.GLint))
+        draws = self._draws
+        draws.room(n)
+        np.multiply(slots, self.slot_vertices, out=draws.base[:n], casting="unsafe")
+        draws.counts[:n] = count
+        draws.offsets[:n] = 4 * int(first)
+        draws.call(self.vao, mode, n)
 
     def _grow(self, capacity: int) -> None:
-        old, old_capacity = self.vbo, self.capacity
         if capacity * self.slot_vertices >= 2 ** 31:
             raise ValueError(f"{capacity} slots of {self.slot_vertices} vertices are past "
                              "a 32-bit base vertex")
-        self.vbo = _buffer(gl.GL_ARRAY_BUFFER, None, capacity * self.slot_bytes)
-        if old:
-            gl.glBindBuffer(gl.GL_COPY_READ_BUFFER, old)
-            gl.glCopyBufferSubData(gl.GL_COPY_READ_BUFFER, gl.GL_ARRAY_BUFFER, 0, 0,
-                                   old_capacity * self.slot_bytes)
-            gl.glBindBuffer(gl.GL_COPY_READ_BUFFER, 0)
-            _discard(self.context, "buffer", old)
+        old = self.capacity
+        self.vbo = _grown_buffer(gl.GL_ARRAY_BUFFER, self.vbo, old * self.slot_bytes,
+                                 capacity * self.slot_bytes, self.context)
         gl.glBindVertexArray(self.vao)
         gl.glBindBuffer(gl.GL_ARRAY_BUFFER, self.vbo)
         _point_attributes(self.attributes)
         gl.glBindVertexArray(0)
-        self.used = np.concatenate([self.used, np.zeros(capacity - old_capacity, bool)])
-        self._free[:0] = range(capacity - 1, old_capacity - 1, -1)   # below the given back
+        self.used = np.concatenate([self.used, np.zeros(capacity - old, bool)])
+        self._free[:0] = range(capacity - 1, old - 1, -1)   # below the ones given back
         self.capacity = capacity
+        self.grown += 1
+
+    def delete(self) -> None:
+        for buf in (self.vbo, self.ebo):
+            _discard(self.context, "buffer", buf)
+        _discard(self.context, "vao", self.vao)
+        self.vao = self.vbo = self.ebo = 0
+
+
+class RangeAllocator:
+    """First-fit ranges of a buffer of ``size`` units (no GL): :meth:`alloc` returns the start
+    of the first free run long enough (or −1), :meth:`free` gives a range back (merged with
+    free neighbours), :meth:`grow` adds room at the end."""
+
+    def __init__(self, size: int) -> None:
+        self.size = int(size)
+        self.runs: list[list[int]] = [[0, self.size]] if self.size else []
+        """Free runs [start, length], by start, none touching another."""
+
+    def alloc(self, n: int) -> int:
+        if n <= 0:
+            raise ValueError(f"a range of {n} units")
+        for k, run in enumerate(self.runs):
+            if run[1] >= n:
+                start = run[0]
+                run[0] += n
+                run[1] -= n
+                if not run[1]:
+                    del self.runs[k]
+                return start
+        return -1
+
+    def free(self, start: int, n: int) -> None:
+        if n <= 0 or start < 0 or start + n > self.size:
+            raise ValueError(f"range ({start}, {n}) is outside the buffer of {self.size}")
+        runs = self.runs
+        k = 0
+        while k < len(runs) and runs[k][0] < start:
+            k += 1
+        if (k and runs[k - 1][0] + runs[k - 1][1] > start) \
+                or (k < len(runs) and start + n > runs[k][0]):
+            raise ValueError(f"range ({start}, {n}) is free already")
+        if k and runs[k - 1][0] + runs[k - 1][1] == start:
+            runs[k - 1][1] += n
+            if k < len(runs) and start + n == runs[k][0]:
+                runs[k - 1][1] += runs[k][1]
+                del runs[k]
+        elif k < len(runs) and start + n == runs[k][0]:
+            runs[k][0] = start
+            runs[k][1] += n
+        else:
+            runs.insert(k, [start, n])
+
+    def grow(self, size: int) -> None:
+        """Room up to ``size`` units."""
+        if size > self.size:
+            self.runs.append([self.size, size - self.size])
+            if len(self.runs) > 1 and self.runs[-2][0] + self.runs[-2][1] == self.size:
+                self.runs[-2][1] += self.runs.pop()[1]
+            self.size = int(size)
+
+    @property
+    def free_units(self) -> int:
+        return sum(n for _, n in self.runs)
+
+
+class MeshArena:
+    """Indexed meshes of any size in one vertex buffer and one index buffer (one vertex
+    array), any set of them drawn with one ``glMultiDrawElementsBaseVertex``: the water tiles.
+
+    :meth:`add` places a mesh's vertices and its indices (uint32, relative to its first
+    vertex) in the first free run of each buffer that holds them (a buffer doubles, its data
+    copied on the GPU, when none does) and returns where: (first vertex, first index);
+    :meth:`remove` gives both runs back. Buffers only grow (freed runs are reused, never
+    compacted).
+    """
+
+    def __init__(self, attributes: dict[int, int], vertices: int = 1 << 16,
+                 indices: int = 1 << 18) -> None:
+        self.attributes = dict(attributes)
+        self.vertex_bytes = 4 * sum(self.attributes.values())
+        self.context = gl.current_context
+        ident = gl.GLuint()
+        gl.glGenVertexArrays(1, ctypes.byref(ident))
+        self.vao = ident.value
+        self.vbo = self.ebo = 0
+        self.vertices = RangeAllocator(0)
+        self.indices = RangeAllocator(0)
+        self.meshes = 0
+        self.grown = 0
+        """Times a buffer grew after they were made."""
+        self._draws = _MultiDraw()
+        self._grow_vertices(max(1, int(vertices)))
+        self._grow_indices(max(1, int(indices)))
+        self.grown = 0
+
+    def __len__(self) -> int:
+        """Meshes held."""
+        return self.meshes
+
+    def add(self, vertices: np.ndarray, indices: np.ndarray) -> tuple[int, int]:
+        """Upload a mesh; returns its (first vertex, first index)."""
+        v = np.ascontiguousarray(vertices, np.float32)
+        idx = np.ascontiguousarray(indices, np.uint32).ravel()
+        if v.ndim != 2 or v.shape[1] * 4 != self.vertex_bytes or not len(v) or not idx.size:
+            raise ValueError(f"a mesh of {v.shape} vertices and {idx.size} indices")
+        v0 = self.vertices.alloc(len(v))
+        while v0 < 0:
+            self._grow_vertices(2 * self.vertices.size)
+            v0 = self.vertices.alloc(len(v))
+        i0 = self.indices.alloc(idx.size)
+        while i0 < 0:
+            self._grow_indices(2 * self.indices.size)
+            i0 = self.indices.alloc(idx.size)
+        gl.glBindBuffer(gl.GL_ARRAY_BUFFER, self.vbo)
+        gl.glBufferSubData(gl.GL_ARRAY_BUFFER, v0 * self.vertex_bytes, v.nbytes, v.ctypes.data)
+        gl.glBindBuffer(gl.GL_COPY_WRITE_BUFFER, self.ebo)   # not the VAO's element binding
+        gl.glBufferSubData(gl.GL_COPY_WRITE_BUFFER, 4 * i0, idx.nbytes, idx.ctypes.data)
+        gl.glBindBuffer(gl.GL_COPY_WRITE_BUFFER, 0)
+        self.meshes += 1
+        return v0, i0
+
+    def remove(self, first_vertex: int, vertex_count: int, first_index: int,
+               index_count: int) -> None:
+        """Give a mesh's runs back."""
+        self.vertices.free(first_vertex, vertex_count)
+        self.indices.free(first_index, index_count)
+        self.meshes -= 1
+
+    def read(self, first_vertex: int, vertex_count: int, first_index: int,
+             index_count: int) -> tuple[np.ndarray, np.ndarray]:
+        """A mesh's vertices and indices as stored on the GPU (for tests)."""
+        v = np.empty((vertex_count, self.vertex_bytes // 4), np.float32)
+        i = np.empty(index_count, np.uint32)
+        return (_read_buffer(gl.GL_ARRAY_BUFFER, self.vbo, first_vertex * self.vertex_bytes, v),
+                _read_buffer(gl.GL_COPY_READ_BUFFER, self.ebo, 4 * first_index, i))
+
+    def draw(self, first_index: np.ndarray, index_count: np.ndarray,
+             first_vertex: np.ndarray, mode: int = gl.GL_TRIANGLES) -> None:
+        """Draw meshes, given by their first index, index count and first vertex (arrays, in
+        drawing order), with one multi-draw call."""
+        n = len(first_index)
+        if n == 0:
+            return
+        draws = self._draws
+        draws.room(n)
+        np.multiply(first_index, 4, out=draws.offsets[:n], casting="unsafe")
+        draws.counts[:n] = index_count
+        draws.base[:n] = first_vertex
+        draws.call(self.vao, mode, n)
+
+    def _grow_vertices(self, size: int) -> None:
+        if size >= 2 ** 31:
+            raise ValueError(f"{size} vertices are past a 32-bit base vertex")
+        self.vbo = _grown_buffer(gl.GL_ARRAY_BUFFER, self.vbo,
+                                 self.vertices.size * self.vertex_bytes,
+                                 size * self.vertex_bytes, self.context)
+        gl.glBindVertexArray(self.vao)
+        gl.glBindBuffer(gl.GL_ARRAY_BUFFER, self.vbo)
+        _point_attributes(self.attributes)
+        gl.glBindVertexArray(0)
+        self.vertices.grow(size)
+        self.grown += 1
+
+    def _grow_indices(self, size: int) -> None:
+        self.ebo = _grown_buffer(gl.GL_COPY_WRITE_BUFFER, self.ebo, 4 * self.indices.size,
+                                 4 * size, self.context)
+        gl.glBindBuffer(gl.GL_COPY_WRITE_BUFFER, 0)
+        gl.glBindVertexArray(self.vao)
+        gl.glBindBuffer(gl.GL_ELEMENT_ARRAY_BUFFER, self.ebo)
+        gl.glBindVertexArray(0)
+        self.indices.grow(size)
         self.grown += 1
 
     def delete(self) -> None:

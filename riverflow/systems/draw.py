@@ -100,9 +100,6 @@ DROPS_PER_ROW = 1024
 _SHADED_MODES = (DisplayMode.ADVECTED, DisplayMode.PRE_ADVECTED, DisplayMode.NON_ADVECTED)
 """The water modes shaded with reflections (the others draw debug colours)."""
 
-_NOTHING = object()
-"""A tile uploaded with nothing to draw."""
-
 TERRAIN_SLOTS = 128
 """Terrain tiles the GPU arena has room for at first (it doubles when full; a 1080p view's cut
 is ~80-110 tiles)."""
@@ -348,51 +345,65 @@ class _TerrainTiles(_PoolSync):
 
 
 class _WaterTiles(_PoolSync):
-    """The water tiles on the GPU: one :class:`~riverflow.engine.gl.Mesh` each (their sizes
-    differ), by pool slot; a tile with no triangle is remembered as such."""
+    """The water tiles on the GPU: their meshes (of any size) in one
+    :class:`~riverflow.engine.gl.MeshArena`; by pool slot, where (first vertex, vertex count,
+    first index, index count; no index: a tile with nothing to draw, remembered as such)."""
 
     def __init__(self) -> None:
         super().__init__()
-        self.meshes: list = []
+        self.arena = gl.MeshArena({0: 3, 1: 1})      # position, ground height
+        self.where = np.zeros((0, 4), np.int64)
 
-    def sync(self, pool: TilePool, tiles: Standins) -> list[gl.Mesh]:
-        """The meshes of ``tiles`` with something to draw, uploaded now if new; those of tiles
-        the pool released are deleted."""
+    def sync(self, pool: TilePool, tiles: Standins) -> list[_WaterBatch]:
+        """This frame's water tiles with something to draw (one batch, drawn with one call;
+        none: an empty list), uploaded now if new; those of tiles the pool released are
+        given back."""
         for slot in self.stale(pool).tolist():
             self._drop(slot)
         for k in self.missing(tiles).tolist():
             slot = int(tiles.slots[k])
             self._drop(slot)
-            self.meshes[slot] = self._upload(pool.tile(slot))
+            mesh, ground = pool.tile(slot)
+            if len(mesh.indices):
+                vertices = np.concatenate([mesh.positions, ground[:, None]], axis=1)
+                v0, i0 = self.arena.add(vertices, mesh.indices)
+                self.where[slot] = v0, len(vertices), i0, mesh.indices.size
             self.code_of[slot] = tiles.codes[k]
-        meshes = self.meshes
-        return [m for m in map(meshes.__getitem__, tiles.slots.tolist()) if m is not _NOTHING]
-
-    @staticmethod
-    def _upload(data):
-        mesh, ground = data
-        if not len(mesh.indices):
-            return _NOTHING
-        vertices = np.concatenate([mesh.positions, ground[:, None]], axis=1)
-        return gl.Mesh(vertices, {0: 3, 1: 1}, mesh.indices.ravel())
+        where = self.where[tiles.slots]
+        where = where[where[:, 3] > 0]
+        return [_WaterBatch(self.arena, where)] if len(where) else []
 
     def _drop(self, slot: int) -> None:
-        mesh = self.meshes[slot]
-        if mesh is not None and mesh is not _NOTHING:
-            mesh.delete()
-        self.meshes[slot] = None
+        if self.where[slot, 3] > 0:
+            self.arena.remove(*self.where[slot].tolist())
+        self.where[slot] = 0
 
     def _grow(self, n: int) -> None:
-        self.meshes.extend([None] * (n - len(self.code_of)))
+        self.where = np.concatenate([self.where, np.zeros((n - len(self.code_of), 4), np.int64)])
         super()._grow(n)
 
-    def all_meshes(self) -> list[gl.Mesh]:
-        return [m for m in self.meshes if m is not None and m is not _NOTHING]
-
     def delete(self) -> None:
-        for slot in range(len(self.meshes)):
-            self._drop(slot)
+        self.arena.delete()
         self.code_of[:] = -1
+        self.where[:] = 0
+
+
+class _WaterBatch:
+    """A frame's water tiles: ``where`` (K, 4) (first vertex, vertex count, first index,
+    index count) in the arena, in drawing order; :meth:`draw` draws them with one call."""
+
+    def __init__(self, arena: gl.MeshArena, where: np.ndarray) -> None:
+        self.arena = arena
+        self.where = where
+        self.first_index = np.ascontiguousarray(where[:, 2])
+        self.index_count = np.ascontiguousarray(where[:, 3])
+        self.first_vertex = np.ascontiguousarray(where[:, 0])
+
+    def __len__(self) -> int:
+        return len(self.where)
+
+    def draw(self) -> None:
+        self.arena.draw(self.first_index, self.index_count, self.first_vertex)
 
 
 # -- reflections (issue 12 item 3) -----------------------------------------------------------
@@ -659,8 +670,8 @@ class DrawRivers(System):
 
     def _tile_meshes(self, world: RiverWorld, gpu: _Gpu) -> list:
         """Sync the GPU tiles with the cache; keep this frame's terrain tiles' arena slots,
-        near to far (for :meth:`_draw_terrain`), and return its water meshes (see the module
-        docstring)."""
+        near to far (for :meth:`_draw_terrain`), and return its water tiles (a list of one
+        batch, drawn with one call, or none; see the module docstring)."""
         tiles = world.resource(Tiles)
         cut = world.resource(TerrainView).cut
         pools = tiles.cache.pools
