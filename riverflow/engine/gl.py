@@ -202,6 +202,21 @@ def _name_lines(log: str, files: list[str]) -> str:
     return _LOG_LINE.sub(sub, log)
 
 
+_NEVER = object()
+
+
+def _same_key(value):
+    """What tells a uniform value from another: arrays by their bytes, a zero float (or a
+    tuple holding one) by its text, so that −0.0 is not taken for 0.0."""
+    if isinstance(value, np.ndarray):
+        return value.dtype.str, value.shape, value.tobytes()
+    if isinstance(value, (float, np.floating)):
+        return value if value else repr(value)
+    if isinstance(value, tuple) and 0.0 in value:
+        return repr(value)
+    return value
+
+
 class Program:
     """A linked shader program (pyglet ``ShaderProgram``) with strict uniform setting."""
 
@@ -220,24 +235,33 @@ class Program:
         except ShaderException as exc:
             raise ShaderError(f"{name} failed to link:\n{exc}") from None
         self.uniforms = frozenset(self.program.uniforms)
+        self._sent: dict[str, object] = {}       # uniform → what was last sent (_same_key)
 
     def use(self) -> None:
         self.program.use()
 
     def set(self, **values) -> None:
         """Set uniforms by name; an unknown name raises :class:`ShaderError` (a typo, or a
-        uniform the compiler dropped because it does not change the output)."""
+        uniform the compiler dropped because it does not change the output). A value equal
+        to the one last set (bit for bit) is not sent again: a program keeps its uniforms,
+        and every uniform of riverflow's programs is set through here."""
+        sent = self._sent
         for key, value in values.items():
             if key not in self.uniforms:
                 raise ShaderError(f"{self.name} has no active uniform {key!r}")
+            same = _same_key(value)
+            if sent.get(key, _NEVER) == same:
+                continue
             if isinstance(value, np.ndarray):
-                value = tuple(float(v) for v in value.ravel())
+                value = value.ravel().tolist()
             self.program[key] = value
+            sent[key] = same
 
     def set_if_used(self, **values) -> None:
         """Set the uniforms of ``values`` that this program uses; skip the others (shared
         uniforms of an included file that a program does not need)."""
-        self.set(**{k: v for k, v in values.items() if k in self.uniforms})
+        uniforms = self.uniforms
+        self.set(**{k: v for k, v in values.items() if k in uniforms})
 
     def delete(self) -> None:
         """Let the program go: pyglet deletes it through the context it was made in (at once

@@ -48,7 +48,9 @@ def mirror_level(water, eye_m) -> float | None:
     eye = np.asarray(eye_m, np.float64).reshape(3)
     if not np.isfinite(eye).all():
         return None
-    level = float(water.level(eye[None, :2])[0])
+    level_at = getattr(water, "level_at", None)      # one point without numpy's overhead
+    level = float(level_at(eye[0], eye[1]) if level_at is not None
+                  else water.level(eye[None, :2])[0])
     return level if np.isfinite(level) else None
 
 

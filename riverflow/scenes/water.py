@@ -10,6 +10,7 @@ deepest mid-stream and shallow at the banks.
 """
 from __future__ import annotations
 
+import math
 import threading
 from dataclasses import dataclass, field
 
@@ -203,6 +204,27 @@ class WaterSurface:
         """Water level of the nearest river point [m], defined everywhere."""
         return self.nearest(xy)[1]
 
+    def level_at(self, x: float, y: float) -> float:
+        """:meth:`level` of the one point (x, y) [m]: the same number, in Python floats
+        where numpy's cost per call would be most of the work (the reflection's mirror
+        level, every frame: 30 µs in place of 200-400). Near a junction (blended levels),
+        or if the point is not finite, it is :meth:`level` itself."""
+        x, y = float(x), float(y)
+        boxes = self.__dict__.get("_junction_boxes")
+        if boxes is None:
+            c, r = self.junctions_m, self._junction_radius
+            boxes = self._junction_boxes = [
+                (lx, hx, ly, hy) for (lx, ly), (hx, hy)
+                in zip((c - r[:, None]).tolist(), (c + r[:, None]).tolist())]
+        near = any(hx >= x and lx <= x and hy >= y and ly <= y for lx, hx, ly, hy in boxes)
+        if near or not (math.isfinite(x) and math.isfinite(y)):
+            return float(self.level(np.array([[x, y]]))[0])
+        if 1 not in self._decimated:
+            self._decimated[1] = _Samples(self.samples_m, self.levels_m, self.widths_m,
+                                          self.branch)
+        level = self._decimated[1].level_one(x, y)
+        return float(self.level(np.array([[x, y]]))[0]) if level is None else level
+
     def distance_to_shore(self, xy: np.ndarray, stride: int = 1,
                           upper_bound_m: float = np.inf) -> np.ndarray:
         """Distance to the nearest bank or island shore [m] (unsigned); ``stride`` > 1 uses
@@ -288,6 +310,33 @@ class _Samples:
     def __init__(self, samples, levels, widths, branch) -> None:
         self.samples, self.levels, self.widths, self.branch = samples, levels, widths, branch
         self.tree = cKDTree(samples)
+
+    def level_one(self, x: float, y: float) -> float | None:
+        """The level of :meth:`project` for one point, the same arithmetic in Python floats
+        (None where :meth:`project` would leave it undefined: no finite distance)."""
+        rows = self.__dict__.get("_rows")
+        if rows is None:
+            rows = self._rows = (self.samples.tolist(), self.levels.tolist(),
+                                 self.branch.tolist())
+        samples, levels, branch = rows
+        _, k = self.tree.query((x, y))
+        k = int(k)
+        n = len(samples)
+        best_d, level = math.inf, None
+        for a_off in (-1, 0):
+            a = min(max(k + a_off, 0), max(n - 2, 0))
+            b = min(a + 1, n - 1)
+            (sax, say), (sbx, sby) = samples[a], samples[b]
+            abx, aby = sbx - sax, sby - say
+            ab2 = max(abx * abx + aby * aby, 1e-12)
+            t = min(max(((x - sax) * abx + (y - say) * aby) / ab2, 0.0), 1.0)
+            if branch[a] != branch[b]:
+                t = 0.0 if a == k else 1.0
+            d = float(np.hypot(sax + t * abx - x, say + t * aby - y))
+            if d < best_d:
+                best_d = d
+                level = (1 - t) * levels[a] + t * levels[b]
+        return level
 
     def project(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(distance, level, width) (N,) of the nearest point on the sampled centre lines."""
