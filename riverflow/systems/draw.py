@@ -463,6 +463,7 @@ class DrawRivers(System):
         self._mirror_for: tuple[int, float | None] = (-1, None)
         self.last_tables_ms = 0.0
         self._terrain_slots = np.zeros(0, np.int32)   # this frame's, near to far
+        self._tiles_for = None        # (pools and revisions, cut, what _tile_meshes found)
         self.last_tiles = 0
         self.last_sprites = 0
 
@@ -502,7 +503,7 @@ class DrawRivers(System):
         foam_uniforms = self._upload_foam_and_wakes(world, gpu)
         water_meshes = self._tile_meshes(world, gpu)
         reflection_uniforms = self._draw_reflection(world, gpu, settings, shared,
-                                                    world_from_clip)
+                                                    clip_from_world, world_from_clip)
 
         gpu.main_fb.bind()
         gl.clear((0.0, 0.0, 0.0, 1.0))
@@ -675,14 +676,23 @@ class DrawRivers(System):
         tiles = world.resource(Tiles)
         cut = world.resource(TerrainView).cut
         pools = tiles.cache.pools
-        dry = tiles.scheduler.producers[WATER_MESH].empty_mask(codes(cut))
-        slots, centres = gpu.terrain.sync(pools[TERRAIN_MESH],
-                                          standin_tiles(cut, pools[TERRAIN_MESH]))
+        terrain, water = pools[TERRAIN_MESH], pools[WATER_MESH]
+        # the same cut over the same resident tiles (no install, no release since: the pools'
+        # revisions) draws the same tiles: most frames
+        key = (gpu, terrain, terrain.revision, water, water.revision)
+        last = self._tiles_for
+        if last is not None and last[0] == key and np.array_equal(last[1], cut):
+            slots, centres, batches = last[2]
+        else:
+            dry = tiles.scheduler.producers[WATER_MESH].empty_mask(codes(cut))
+            slots, centres = gpu.terrain.sync(terrain, standin_tiles(cut, terrain))
+            batches = gpu.water.sync(water, standin_tiles(cut, water, skip=dry))
+            self._tiles_for = (key, cut, (slots, centres, batches))
         # near to far: the depth test then rejects hidden ground before it is shaded
         d = centres - np.asarray(world.camera.position, np.float64)
         d *= d
         self._terrain_slots = slots[np.argsort(d.sum(axis=1), kind="stable")]
-        return gpu.water.sync(pools[WATER_MESH], standin_tiles(cut, pools[WATER_MESH], skip=dry))
+        return batches
 
     def _draw_terrain(self, world: RiverWorld, gpu: _Gpu, shared: dict,
                       detail: str = "full") -> None:
@@ -719,7 +729,8 @@ class DrawRivers(System):
     # -- reflections (issue 12 item 3) ------------------------------------------------------
 
     def _draw_reflection(self, world: RiverWorld, gpu: _Gpu, settings: DisplaySettings,
-                         shared: dict, world_from_clip: np.ndarray) -> dict:
+                         shared: dict, clip_from_world: np.ndarray,
+                         world_from_clip: np.ndarray) -> dict:
         """The planar reflection pass (``shaders/reflection.glsl``): terrain and props mirrored
         in the water level nearest the camera, cut at their water level, into the reflection
         target; returns the water shader's reflection uniforms (``u_reflect`` false, and no
@@ -742,7 +753,9 @@ class DrawRivers(System):
         reflection = gpu.reflection
         reflection.fit(*gpu.size, settings.reflection_scale)
         mirrored_eye = (float(eye[0]), float(eye[1]), 2.0 * level - float(eye[2]))
-        vp = mirrored_view_projection(world.camera.view_projection(np.float64), level)
+        # the frame's own world → clip matrix (pyrr's view_projection in closed form, as the
+        # main pass draws with), mirrored
+        vp = mirrored_view_projection(clip_from_world.T, level)
         mirrored = {**shared, "u_view_projection": vp.ravel(), "u_eye_m": mirrored_eye,
                     "u_fog_density": 0.0,          # fogged in the water shader, over the ray
                     "u_clip_water": 1.0}
@@ -808,6 +821,7 @@ class DrawRivers(System):
     def close(self) -> None:
         """Release the GPU objects through their context, without making it current (a
         world's finalizer must not switch contexts under a host: :mod:`riverflow.engine.gl`)."""
+        self._tiles_for = None
         if self.gpu is not None:
             self.gpu.delete()
             self.gpu = None
