@@ -18,6 +18,7 @@ import numpy as np
 import shapely
 from scipy.spatial import cKDTree
 
+from riverflow.kernels.centre_line import nearest_level
 from riverflow.tiles import remote
 
 JUNCTION_BLEND = 1.25
@@ -205,10 +206,11 @@ class WaterSurface:
         return self.nearest(xy)[1]
 
     def level_at(self, x: float, y: float) -> float:
-        """:meth:`level` of the one point (x, y) [m]: the same number, in Python floats
-        where numpy's cost per call would be most of the work (the reflection's mirror
-        level, every frame: 30 µs in place of 200-400). Near a junction (blended levels),
-        or if the point is not finite, it is :meth:`level` itself."""
+        """:meth:`level` of the one point (x, y) [m]: the same number, found without a
+        KD-tree query and numpy's cost per call (the reflection's mirror level, every
+        frame: :func:`riverflow.kernels.centre_line.nearest_level`). Near a junction
+        (blended levels), where two samples tie for nearest, or if the point is not finite,
+        it is :meth:`level` itself."""
         x, y = float(x), float(y)
         boxes = self.__dict__.get("_junction_boxes")
         if boxes is None:
@@ -216,14 +218,17 @@ class WaterSurface:
             boxes = self._junction_boxes = [
                 (lx, hx, ly, hy) for (lx, ly), (hx, hy)
                 in zip((c - r[:, None]).tolist(), (c + r[:, None]).tolist())]
-        near = any(hx >= x and lx <= x and hy >= y and ly <= y for lx, hx, ly, hy in boxes)
-        if near or not (math.isfinite(x) and math.isfinite(y)):
-            return float(self.level(np.array([[x, y]]))[0])
-        if 1 not in self._decimated:
-            self._decimated[1] = _Samples(self.samples_m, self.levels_m, self.widths_m,
-                                          self.branch)
-        level = self._decimated[1].level_one(x, y)
-        return float(self.level(np.array([[x, y]]))[0]) if level is None else level
+        if not any(hx >= x and lx <= x and hy >= y and ly <= y for lx, hx, ly, hy in boxes) \
+                and math.isfinite(x) and math.isfinite(y):
+            rows = self.__dict__.get("_rows")
+            if rows is None:
+                rows = self._rows = (np.ascontiguousarray(self.samples_m, np.float64),
+                                     np.ascontiguousarray(self.levels_m, np.float64),
+                                     np.ascontiguousarray(self.branch, np.int64))
+            level = nearest_level(*rows, x, y)
+            if level == level:
+                return level
+        return float(self.level(np.array([[x, y]]))[0])
 
     def distance_to_shore(self, xy: np.ndarray, stride: int = 1,
                           upper_bound_m: float = np.inf) -> np.ndarray:
@@ -310,33 +315,6 @@ class _Samples:
     def __init__(self, samples, levels, widths, branch) -> None:
         self.samples, self.levels, self.widths, self.branch = samples, levels, widths, branch
         self.tree = cKDTree(samples)
-
-    def level_one(self, x: float, y: float) -> float | None:
-        """The level of :meth:`project` for one point, the same arithmetic in Python floats
-        (None where :meth:`project` would leave it undefined: no finite distance)."""
-        rows = self.__dict__.get("_rows")
-        if rows is None:
-            rows = self._rows = (self.samples.tolist(), self.levels.tolist(),
-                                 self.branch.tolist())
-        samples, levels, branch = rows
-        _, k = self.tree.query((x, y))
-        k = int(k)
-        n = len(samples)
-        best_d, level = math.inf, None
-        for a_off in (-1, 0):
-            a = min(max(k + a_off, 0), max(n - 2, 0))
-            b = min(a + 1, n - 1)
-            (sax, say), (sbx, sby) = samples[a], samples[b]
-            abx, aby = sbx - sax, sby - say
-            ab2 = max(abx * abx + aby * aby, 1e-12)
-            t = min(max(((x - sax) * abx + (y - say) * aby) / ab2, 0.0), 1.0)
-            if branch[a] != branch[b]:
-                t = 0.0 if a == k else 1.0
-            d = float(np.hypot(sax + t * abx - x, say + t * aby - y))
-            if d < best_d:
-                best_d = d
-                level = (1 - t) * levels[a] + t * levels[b]
-        return level
 
     def project(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(distance, level, width) (N,) of the nearest point on the sampled centre lines."""
