@@ -44,7 +44,10 @@ import pyglet  # noqa: E402
 if os.environ.get("PYGLET_HEADLESS", "").lower() in ("1", "true", "yes"):
     pyglet.options["headless"] = True
 
-from pyglet import gl  # noqa: E402
+import pyglet.gl  # noqa: E402
+
+gl = sys.modules["pyglet.gl"]   # the module itself: ``pyglet.gl`` may be pyglet's lazy proxy,
+#                                 which costs a Python call for every GL name looked up
 from pyglet.graphics.shader import Shader, ShaderException, ShaderProgram  # noqa: E402
 
 GLSL_VERSION = "#version 330 core"
