@@ -248,23 +248,33 @@ class Program:
         uniform the compiler dropped because it does not change the output). A value equal
         to the one last set (bit for bit) is not sent again: a program keeps its uniforms,
         and every uniform of riverflow's programs is set through here."""
-        sent = self._sent
+        self._send(values, True)
+
+    def set_if_used(self, **values) -> None:
+        """Set the uniforms of ``values`` that this program uses; skip the others (shared
+        uniforms of an included file that a program does not need)."""
+        self._send(values, False)
+
+    def _send(self, values: dict, strict: bool) -> None:
+        uniforms, sent = self.uniforms, self._sent
         for key, value in values.items():
-            if key not in self.uniforms:
-                raise ShaderError(f"{self.name} has no active uniform {key!r}")
-            same = _same_key(value)
+            if key not in uniforms:
+                if strict:
+                    raise ShaderError(f"{self.name} has no active uniform {key!r}")
+                continue
+            kind = type(value)
+            if kind is int or kind is bool:
+                same = value
+            elif kind is float:
+                same = value if value else repr(value)       # -0.0 is not 0.0
+            else:
+                same = _same_key(value)
             if sent.get(key, _NEVER) == same:
                 continue
             if isinstance(value, np.ndarray):
                 value = value.ravel().tolist()
             self.program[key] = value
             sent[key] = same
-
-    def set_if_used(self, **values) -> None:
-        """Set the uniforms of ``values`` that this program uses; skip the others (shared
-        uniforms of an included file that a program does not need)."""
-        uniforms = self.uniforms
-        self.set(**{k: v for k, v in values.items() if k in uniforms})
 
     def delete(self) -> None:
         """Let the program go: pyglet deletes it through the context it was made in (at once
