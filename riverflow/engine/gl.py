@@ -265,6 +265,8 @@ class Program:
             kind = type(value)
             if kind is int or kind is bool:
                 same = value
+            elif kind is tuple:
+                same = value if 0.0 not in value else repr(value)
             elif kind is float:
                 same = value if value else repr(value)       # -0.0 is not 0.0
             else:

@@ -82,6 +82,7 @@ if TYPE_CHECKING:
 
 SUN_DIRECTION = np.array([-0.45, -0.55, 0.70]) / np.linalg.norm([-0.45, -0.55, 0.70])
 """Unit vector towards the sun (afternoon light from the south-west)."""
+_SUN = tuple(SUN_DIRECTION.tolist())
 
 
 def shader_defines() -> dict[str, int]:
@@ -119,6 +120,9 @@ class _Gpu:
         self.programs = {
             "sky": gl.Program("sky.glsl", defines),
             "terrain": gl.Program("terrain.glsl", defines),
+            # the same for the reflection pass: each keeps its own uniforms (those of the
+            # mirrored view are not sent again and again, twice a frame)
+            "terrain_reflection": gl.Program("terrain.glsl", defines),
             "water": gl.Program("water.glsl", defines),
             "water_position": gl.Program("water.glsl", {**defines, "POSITION_PASS": 1}),
             "sprites": gl.Program("sprites.glsl", defines),
@@ -145,6 +149,7 @@ class _Gpu:
         self.empty = gl.Mesh(None, {})           # attribute-less draws (gl_VertexID)
         self.waves: dict[int, tuple[int, gl.Texture]] = {}
         self.size = (0, 0)
+        self.fitted = None              # the arguments of the last fit()
         self.grid_shape = (1, 1, 1)
         self.bins_shape = None
         self.params = self.bins = self.grid = self.grid_fb = None
@@ -157,6 +162,9 @@ class _Gpu:
 
     def fit(self, width: int, height: int, radius_px: float, capacity: int) -> None:
         """(Re)make the framebuffers and sprite tables for a viewport and radius."""
+        fitted = (width, height, radius_px, capacity)
+        if fitted == self.fitted:
+            return                      # every frame but the first after a change
         width, height = max(1, width), max(1, height)
         bins = sprite_bins(width, height, radius_px)
         if (width, height) != self.size:
@@ -197,6 +205,7 @@ class _Gpu:
             self.grid.upload(np.full((layers, gh, gw, 4), NO_PARTICLE, np.int32))
             self.grid_fb = gl.Framebuffer([(self.grid, k) for k in range(layers)])
             self.grid_shape = shape
+        self.fitted = fitted
 
     def resident_codes(self, kind: str) -> set[int]:
         """Codes of the tiles of ``kind`` that have GPU data now."""
@@ -492,7 +501,7 @@ class DrawRivers(System):
 
         clip_from_world, world_from_clip = camera.matrices_for_kernels()
         vp = clip_from_world.T.ravel()          # pyrr's view_projection, in closed form
-        shared = dict(u_eye_m=tuple(camera.position), u_sun_dir=tuple(SUN_DIRECTION),
+        shared = dict(u_eye_m=tuple(camera.position.tolist()), u_sun_dir=_SUN,
                       u_fog_density=float(settings.fog_density_per_m),
                       u_view_projection=vp, u_viewport_px=(float(gpu.size[0]),
                                                            float(gpu.size[1])),
@@ -697,8 +706,9 @@ class DrawRivers(System):
     def _draw_terrain(self, world: RiverWorld, gpu: _Gpu, shared: dict,
                       detail: str = "full") -> None:
         """This frame's terrain tiles, through all their nodes (``detail`` "full") or the
-        reflection's coarser mesh ("coarse"), near to far, in one multi-draw."""
-        program = gpu.programs["terrain"]
+        reflection's coarser mesh ("coarse", with the reflection's own program object), near
+        to far, in one multi-draw."""
+        program = gpu.programs["terrain" if detail == "full" else "terrain_reflection"]
         program.use()
         program.set_if_used(**shared)
         count, first = gpu.terrain.ranges[detail]
