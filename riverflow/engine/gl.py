@@ -335,6 +335,7 @@ class Texture:
                  levels: int = 1, linear: bool = False, repeat: bool = False) -> None:
         self.width, self.height = (max(1, int(v)) for v in size)
         self.fmt, self.layers, self.levels = fmt, layers, levels
+        self._last_upload: tuple[np.ndarray, int] | None = None
         self.target = gl.GL_TEXTURE_2D if layers is None else gl.GL_TEXTURE_2D_ARRAY
         ident = gl.GLuint()
         gl.glGenTextures(1, ctypes.byref(ident))
@@ -374,7 +375,7 @@ class Texture:
         if self.layers is None:
             _check_shape(data, (h, w), self.fmt.channels, n)
             gl.glTexSubImage2D(self.target, level, 0, 0, w, n, self.fmt.upload,
-                               self.fmt.gl_type, data.ctypes.data)
+                               self.fmt.gl_type, self._address(data))
         else:
             count = 1 if layer is not None else self.layers
             if layer is None:
@@ -382,7 +383,18 @@ class Texture:
             else:
                 _check_shape(data, (h, w), self.fmt.channels, n)
             gl.glTexSubImage3D(self.target, level, 0, 0, 0 if layer is None else layer, w, n,
-                               count, self.fmt.upload, self.fmt.gl_type, data.ctypes.data)
+                               count, self.fmt.upload, self.fmt.gl_type, self._address(data))
+
+    def _address(self, data: np.ndarray) -> int:
+        """``data.ctypes.data``, kept for the array uploaded last (the same array every frame:
+        numpy makes a ctypes object for each ``.ctypes``); the reference kept pins its
+        memory."""
+        last = self._last_upload
+        if last is not None and last[0] is data:
+            return last[1]
+        address = data.ctypes.data
+        self._last_upload = (data, address)
+        return address
 
     def bind(self, unit: int) -> None:
         gl.glActiveTexture(gl.GL_TEXTURE0 + unit)
@@ -594,6 +606,7 @@ class _MultiDraw:
         self.base = np.zeros(n, np.int32)
         self._counts_p = self.counts.ctypes.data_as(ctypes.POINTER(gl.GLsizei))
         self._base_p = self.base.ctypes.data_as(ctypes.POINTER(gl.GLint))
+        self._offsets_p = self.offsets.ctypes.data
 
     def room(self, n: int) -> None:
         """Room for ``n`` draws."""
@@ -604,7 +617,7 @@ class _MultiDraw:
         """Draw the first ``n`` entries of the arrays through ``vao``."""
         gl.glBindVertexArray(vao)
         gl.glMultiDrawElementsBaseVertex(mode, self._counts_p, gl.GL_UNSIGNED_INT,
-                                         self.offsets.ctypes.data, n, self._base_p)
+                                         self._offsets_p, n, self._base_p)
         gl.glBindVertexArray(0)
 
 
