@@ -428,19 +428,23 @@ class _Reflection:
 
     def __init__(self) -> None:
         self.size = (0, 0)
+        self.fitted = None                      # the arguments of the last fit()
         self.colour = self.depth = self.fb = None
 
     def fit(self, width: int, height: int, scale: float) -> None:
+        if (width, height, scale) == self.fitted:
+            return                      # every frame but the first after a change
         size = reflection_size(width, height, scale)
-        if size == self.size:
-            return
-        self.delete()
-        # half floats: the mip levels' coverage (alpha) keeps a one-texel prop, which the
-        # march's early out (no coverage near the ray: the sky) relies on
-        self.colour = gl.Texture(size, gl.RGBA16F, levels=gl.mip_levels(*size), linear=True)
-        self.depth = gl.Texture(size, gl.DEPTH24)
-        self.fb = gl.Framebuffer([self.colour], self.depth)
-        self.size = size
+        if size != self.size:
+            self.delete()
+            # half floats: the mip levels' coverage (alpha) keeps a one-texel prop, which the
+            # march's early out (no coverage near the ray: the sky) relies on
+            self.colour = gl.Texture(size, gl.RGBA16F, levels=gl.mip_levels(*size),
+                                     linear=True)
+            self.depth = gl.Texture(size, gl.DEPTH24)
+            self.fb = gl.Framebuffer([self.colour], self.depth)
+            self.size = size
+        self.fitted = (width, height, scale)
 
     def delete(self) -> None:
         for obj in (self.fb, self.colour, self.depth):
@@ -448,6 +452,7 @@ class _Reflection:
                 obj.delete()
         self.colour = self.depth = self.fb = None
         self.size = (0, 0)
+        self.fitted = None
 
 
 # -- the draw system ---------------------------------------------------------------------------
@@ -693,7 +698,8 @@ class DrawRivers(System):
         # revisions) draws the same tiles: most frames
         key = (gpu, terrain, terrain.revision, water, water.revision)
         last = self._tiles_for
-        if last is not None and last[0] == key and np.array_equal(last[1], cut):
+        if last is not None and last[0] == key and last[1].shape == cut.shape \
+                and last[1].tobytes() == cut.tobytes():
             slots, centres, batches = last[2]
         else:
             dry = tiles.scheduler.producers[WATER_MESH].empty_mask(codes(cut))
