@@ -18,6 +18,10 @@ OpenGL 3.3 core; pyglet 3 moves most of these names, hence the pin ``<3``).
   integer textures use the ``*_INTEGER`` formats and NEAREST filtering.
 * **Framebuffer**: an RGBA8 colour texture and a depth texture; :meth:`Framebuffer.read_rgba8`
   returns (H, W, 4) uint8 with row 0 at the top.
+* **Meshes**: :class:`Mesh` owns its buffers; many meshes share buffers in a
+  :class:`SlotArena` (all of one size and index pattern: the terrain tiles) or a
+  :class:`MeshArena` (any size: the water tiles), which draw any set of them with one
+  ``glMultiDrawElementsBaseVertex`` (OpenGL 3.2 core).
 * **Lifetimes**: every object remembers the context it was made in and ``delete()`` goes
   through that context (pyglet's deferred deletion): at once when it is current on the main
   thread, else when it is next made current (a world's finalizer may run anywhere, and never
