@@ -11,13 +11,15 @@ GL call):
 * **tables**: ``DrawRivers.last_tables_ms`` (thread CPU time, below), the sprite table and bins built (numba) and
   uploaded, and the GPU pass that makes the sprite grid from them submitted (advected and
   coverage modes only);
-* **draw CPU**: ``world.timings_ms["draw"]`` (likewise), the whole draw system, with the GL *draw* and
-  *clear* calls made no-ops (their number is counted). On Mesa's llvmpipe (no GPU) those calls
-  are where the rendering itself runs on the CPU: vertex shading and binning inside the call,
-  rasterisation when a later call needs the result (or in llvmpipe's threads, which then
-  compete with this one for the machine's two cores). A GPU driver returns from a draw call
-  in microseconds. Every other GL call (state, uniforms, texture uploads) is made for real;
-  the framebuffers are made in an untimed first frame that draws for real;
+* **draw CPU**: ``world.timings_ms["draw"]`` (likewise), the whole draw system, with the GL calls
+  that render made no-ops (draws, multi-draws, clears and mipmap generation; their number is
+  counted). On Mesa's llvmpipe (no GPU) those calls are where the rendering itself runs on the
+  CPU: vertex shading and binning inside the call, rasterisation when a later call needs the
+  result (or in llvmpipe's threads, which then compete with this one for the machine's two
+  cores; in this thread when the process is pinned to one core: the reflection's mip chain
+  alone was 2.8 ms a frame at 1920×1080). A GPU driver returns from such a call in
+  microseconds. Every other GL call (state, uniforms, buffer and texture uploads) is made for
+  real; the framebuffers are made in an untimed first frame that draws for real;
 * with ``--frame-times``: the whole frame on llvmpipe, ``glFinish`` included (reported, not a
   target: software rendering is 10–100× slower than any GPU), and, with ``LP_NUM_THREADS=0``
   set before the GL context exists, llvmpipe's work as this thread's CPU time (a steadier
@@ -44,7 +46,8 @@ import numpy as np  # noqa: E402
 CASES = (((1920, 1080), 5.0, "advected"), ((1920, 1080), 5.0, "pre-advected"),
          ((1920, 1080), 10.0, "advected"), ((1920, 1080), 10.0, "pre-advected"),
          ((640, 360), 10.0, "advected"))
-DRAW_CALLS = ("glDrawArrays", "glDrawElementsBaseVertex", "glClear")
+DRAW_CALLS = ("glDrawArrays", "glDrawElementsBaseVertex", "glMultiDrawElementsBaseVertex",
+              "glClear", "glGenerateMipmap")
 
 
 class _ThreadClock:

@@ -18,6 +18,10 @@ OpenGL 3.3 core; pyglet 3 moves most of these names, hence the pin ``<3``).
   integer textures use the ``*_INTEGER`` formats and NEAREST filtering.
 * **Framebuffer**: an RGBA8 colour texture and a depth texture; :meth:`Framebuffer.read_rgba8`
   returns (H, W, 4) uint8 with row 0 at the top.
+* **Meshes**: :class:`Mesh` owns its buffers; many meshes share buffers in a
+  :class:`SlotArena` (all of one size and index pattern: the terrain tiles) or a
+  :class:`MeshArena` (any size: the water tiles), which draw any set of them with one
+  ``glMultiDrawElementsBaseVertex`` (OpenGL 3.2 core).
 * **Lifetimes**: every object remembers the context it was made in and ``delete()`` goes
   through that context (pyglet's deferred deletion): at once when it is current on the main
   thread, else when it is next made current (a world's finalizer may run anywhere, and never
@@ -44,7 +48,10 @@ import pyglet  # noqa: E402
 if os.environ.get("PYGLET_HEADLESS", "").lower() in ("1", "true", "yes"):
     pyglet.options["headless"] = True
 
-from pyglet import gl  # noqa: E402
+import pyglet.gl  # noqa: E402
+
+gl = sys.modules["pyglet.gl"]   # the module itself: ``pyglet.gl`` may be pyglet's lazy proxy,
+#                                 which costs a Python call for every GL name looked up
 from pyglet.graphics.shader import Shader, ShaderException, ShaderProgram  # noqa: E402
 
 GLSL_VERSION = "#version 330 core"
@@ -202,6 +209,21 @@ def _name_lines(log: str, files: list[str]) -> str:
     return _LOG_LINE.sub(sub, log)
 
 
+_NEVER = object()
+
+
+def _same_key(value):
+    """What tells a uniform value from another: arrays by their bytes, a zero float (or a
+    tuple holding one) by its text, so that −0.0 is not taken for 0.0."""
+    if isinstance(value, np.ndarray):
+        return value.dtype.str, value.shape, value.tobytes()
+    if isinstance(value, (float, np.floating)):
+        return value if value else repr(value)
+    if isinstance(value, tuple) and 0.0 in value:
+        return repr(value)
+    return value
+
+
 class Program:
     """A linked shader program (pyglet ``ShaderProgram``) with strict uniform setting."""
 
@@ -220,24 +242,45 @@ class Program:
         except ShaderException as exc:
             raise ShaderError(f"{name} failed to link:\n{exc}") from None
         self.uniforms = frozenset(self.program.uniforms)
+        self._sent: dict[str, object] = {}       # uniform → what was last sent (_same_key)
 
     def use(self) -> None:
         self.program.use()
 
     def set(self, **values) -> None:
         """Set uniforms by name; an unknown name raises :class:`ShaderError` (a typo, or a
-        uniform the compiler dropped because it does not change the output)."""
-        for key, value in values.items():
-            if key not in self.uniforms:
-                raise ShaderError(f"{self.name} has no active uniform {key!r}")
-            if isinstance(value, np.ndarray):
-                value = tuple(float(v) for v in value.ravel())
-            self.program[key] = value
+        uniform the compiler dropped because it does not change the output). A value equal
+        to the one last set (bit for bit) is not sent again: a program keeps its uniforms,
+        and every uniform of riverflow's programs is set through here."""
+        self._send(values, True)
 
     def set_if_used(self, **values) -> None:
         """Set the uniforms of ``values`` that this program uses; skip the others (shared
         uniforms of an included file that a program does not need)."""
-        self.set(**{k: v for k, v in values.items() if k in self.uniforms})
+        self._send(values, False)
+
+    def _send(self, values: dict, strict: bool) -> None:
+        uniforms, sent = self.uniforms, self._sent
+        for key, value in values.items():
+            if key not in uniforms:
+                if strict:
+                    raise ShaderError(f"{self.name} has no active uniform {key!r}")
+                continue
+            kind = type(value)
+            if kind is int or kind is bool:
+                same = value
+            elif kind is tuple:
+                same = value if 0.0 not in value else repr(value)
+            elif kind is float:
+                same = value if value else repr(value)       # -0.0 is not 0.0
+            else:
+                same = _same_key(value)
+            if sent.get(key, _NEVER) == same:
+                continue
+            if isinstance(value, np.ndarray):
+                value = value.ravel().tolist()
+            self.program[key] = value
+            sent[key] = same
 
     def delete(self) -> None:
         """Let the program go: pyglet deletes it through the context it was made in (at once
@@ -296,6 +339,7 @@ class Texture:
                  levels: int = 1, linear: bool = False, repeat: bool = False) -> None:
         self.width, self.height = (max(1, int(v)) for v in size)
         self.fmt, self.layers, self.levels = fmt, layers, levels
+        self._last_upload: tuple[np.ndarray, int] | None = None
         self.target = gl.GL_TEXTURE_2D if layers is None else gl.GL_TEXTURE_2D_ARRAY
         ident = gl.GLuint()
         gl.glGenTextures(1, ctypes.byref(ident))
@@ -335,7 +379,7 @@ class Texture:
         if self.layers is None:
             _check_shape(data, (h, w), self.fmt.channels, n)
             gl.glTexSubImage2D(self.target, level, 0, 0, w, n, self.fmt.upload,
-                               self.fmt.gl_type, data.ctypes.data)
+                               self.fmt.gl_type, self._address(data))
         else:
             count = 1 if layer is not None else self.layers
             if layer is None:
@@ -343,7 +387,18 @@ class Texture:
             else:
                 _check_shape(data, (h, w), self.fmt.channels, n)
             gl.glTexSubImage3D(self.target, level, 0, 0, 0 if layer is None else layer, w, n,
-                               count, self.fmt.upload, self.fmt.gl_type, data.ctypes.data)
+                               count, self.fmt.upload, self.fmt.gl_type, self._address(data))
+
+    def _address(self, data: np.ndarray) -> int:
+        """``data.ctypes.data``, kept for the array uploaded last (the same array every frame:
+        numpy makes a ctypes object for each ``.ctypes``); the reference kept pins its
+        memory."""
+        last = self._last_upload
+        if last is not None and last[0] is data:
+            return last[1]
+        address = data.ctypes.data
+        self._last_upload = (data, address)
+        return address
 
     def bind(self, unit: int) -> None:
         gl.glActiveTexture(gl.GL_TEXTURE0 + unit)
@@ -487,13 +542,7 @@ class Mesh:
             v = np.ascontiguousarray(vertices, np.float32)
             self.vertex_count = v.shape[0]
             self.vbo = _buffer(gl.GL_ARRAY_BUFFER, v)
-            stride = 4 * sum(attributes.values())
-            offset = 0
-            for location, count in attributes.items():
-                gl.glEnableVertexAttribArray(location)
-                gl.glVertexAttribPointer(location, count, gl.GL_FLOAT, gl.GL_FALSE, stride,
-                                         ctypes.c_void_p(offset))
-                offset += 4 * count
+            _point_attributes(attributes)
         if indices is not None:
             idx = np.ascontiguousarray(indices, np.uint32)
             self.index_count = idx.size
@@ -524,12 +573,361 @@ class Mesh:
         self.vao = self.vbo = self.ebo = 0
 
 
-def _buffer(target: int, data: np.ndarray) -> int:
+def _buffer(target: int, data: np.ndarray | None, nbytes: int | None = None) -> int:
+    """A new buffer object bound to ``target``, filled with ``data`` (or ``nbytes`` left
+    undefined)."""
     ident = gl.GLuint()
     gl.glGenBuffers(1, ctypes.byref(ident))
     gl.glBindBuffer(target, ident.value)
-    gl.glBufferData(target, data.nbytes, data.ctypes.data, gl.GL_STATIC_DRAW)
+    if data is None:
+        gl.glBufferData(target, int(nbytes), None, gl.GL_STATIC_DRAW)
+    else:
+        gl.glBufferData(target, data.nbytes, data.ctypes.data, gl.GL_STATIC_DRAW)
     return ident.value
+
+
+def _point_attributes(attributes: dict[int, int]) -> None:
+    """Interleaved float32 attributes of the bound GL_ARRAY_BUFFER into the bound VAO."""
+    stride = 4 * sum(attributes.values())
+    offset = 0
+    for location, count in attributes.items():
+        gl.glEnableVertexAttribArray(location)
+        gl.glVertexAttribPointer(location, count, gl.GL_FLOAT, gl.GL_FALSE, stride,
+                                 ctypes.c_void_p(offset))
+        offset += 4 * count
+
+
+class _MultiDraw:
+    """The arrays of a ``glMultiDrawElementsBaseVertex`` call (index counts, index offsets in
+    bytes, base vertices), kept between calls with their ctypes pointers made once."""
+
+    def __init__(self, n: int = 64) -> None:
+        self._fit(n)
+
+    def _fit(self, n: int) -> None:
+        self.counts = np.zeros(n, np.int32)
+        self.offsets = np.zeros(n, np.intp)
+        self.base = np.zeros(n, np.int32)
+        self._counts_p = self.counts.ctypes.data_as(ctypes.POINTER(gl.GLsizei))
+        self._base_p = self.base.ctypes.data_as(ctypes.POINTER(gl.GLint))
+        self._offsets_p = self.offsets.ctypes.data
+
+    def room(self, n: int) -> None:
+        """Room for ``n`` draws."""
+        if n > len(self.counts):
+            self._fit(2 * n)
+
+    def call(self, vao: int, mode: int, n: int) -> None:
+        """Draw the first ``n`` entries of the arrays through ``vao``."""
+        gl.glBindVertexArray(vao)
+        gl.glMultiDrawElementsBaseVertex(mode, self._counts_p, gl.GL_UNSIGNED_INT,
+                                         self._offsets_p, n, self._base_p)
+        gl.glBindVertexArray(0)
+
+
+def _grown_buffer(target: int, old: int, old_bytes: int, new_bytes: int, context) -> int:
+    """A new buffer of ``new_bytes`` bound to ``target`` holding ``old``'s first
+    ``old_bytes`` (copied on the GPU); ``old`` is deleted."""
+    ident = _buffer(target, None, new_bytes)
+    if old:
+        gl.glBindBuffer(gl.GL_COPY_READ_BUFFER, old)
+        gl.glCopyBufferSubData(gl.GL_COPY_READ_BUFFER, target, 0, 0, old_bytes)
+        gl.glBindBuffer(gl.GL_COPY_READ_BUFFER, 0)
+        _discard(context, "buffer", old)
+    return ident
+
+
+def _read_buffer(target: int, ident: int, offset: int, out: np.ndarray) -> np.ndarray:
+    gl.glBindBuffer(target, ident)
+    gl.glGetBufferSubData(target, offset, out.nbytes, out.ctypes.data)
+    return out
+
+
+class SlotArena:
+    """Meshes of one shape in shared GPU buffers, any set of them drawn with one call.
+
+    Every mesh has ``slot_vertices`` vertices of one interleaved float32 layout
+    (``attributes``: shader location → component count) and is drawn with the same
+    ``indices`` (uint32, relative to its first vertex), or a range of them: the terrain tiles.
+    The vertices live in *slots* of one vertex buffer (slot ``s`` holds vertices
+    ``s·V … (s + 1)·V − 1``), the indices once in one index buffer, both in one vertex array.
+    :meth:`alloc` hands out a free slot (the buffer doubles when none is free, the old
+    slots' data copied on the GPU), :meth:`upload` writes a mesh into it
+    (``glBufferSubData``), :meth:`free` gives slots back, :meth:`draw` draws a list of slots in
+    its order with one ``glMultiDrawElementsBaseVertex`` (OpenGL 3.2 core): the same picture
+    as drawing them one by one.
+    """
+
+    def __init__(self, slot_vertices: int, attributes: dict[int, int], indices: np.ndarray,
+                 capacity: int = 64) -> None:
+        self.slot_vertices = int(slot_vertices)
+        self.attributes = dict(attributes)
+        self.slot_bytes = self.slot_vertices * 4 * sum(self.attributes.values())
+        self.context = gl.current_context
+        ident = gl.GLuint()
+        gl.glGenVertexArrays(1, ctypes.byref(ident))
+        self.vao = ident.value
+        gl.glBindVertexArray(self.vao)
+        idx = np.ascontiguousarray(indices, np.uint32).ravel()
+        self.index_count = idx.size
+        self.ebo = _buffer(gl.GL_ELEMENT_ARRAY_BUFFER, idx)    # kept in the VAO's state
+        gl.glBindVertexArray(0)
+        self.vbo = 0
+        self.capacity = 0
+        self.used = np.zeros(0, bool)
+        """Which slots are allocated."""
+        self.grown = -1
+        """Times the vertex buffer grew after it was made."""
+        self._free: list[int] = []
+        self._draws = _MultiDraw()
+        self._grow(max(1, int(capacity)))
+
+    def __len__(self) -> int:
+        """Slots in use."""
+        return self.capacity - len(self._free)
+
+    def alloc(self) -> int:
+        """A free slot: the last one given back, else the lowest never used (the buffer
+        doubles when none is free)."""
+        if not self._free:
+            self._grow(2 * self.capacity)
+        slot = self._free.pop()
+        self.used[slot] = True
+        return slot
+
+    def free(self, slots) -> None:
+        """Give slots back (their data stays until a new mesh is uploaded there)."""
+        for slot in np.asarray(slots, np.int64).reshape(-1).tolist():
+            if not 0 <= slot < self.capacity or not self.used[slot]:
+                raise ValueError(f"slot {slot} is not in use")
+            self.used[slot] = False
+            self._free.append(slot)
+
+    def upload(self, slot: int, vertices: np.ndarray) -> None:
+        """Write a mesh's (V, C) vertices into ``slot``."""
+        v = np.ascontiguousarray(vertices, np.float32)
+        if v.nbytes != self.slot_bytes:
+            raise ValueError(f"a slot holds {self.slot_bytes} bytes of vertices, "
+                             f"got {v.shape} ({v.nbytes} bytes)")
+        if not 0 <= slot < self.capacity or not self.used[slot]:
+            raise ValueError(f"slot {slot} is not in use")
+        gl.glBindBuffer(gl.GL_ARRAY_BUFFER, self.vbo)
+        gl.glBufferSubData(gl.GL_ARRAY_BUFFER, slot * self.slot_bytes, self.slot_bytes,
+                           v.ctypes.data)
+
+    def read(self, slot: int) -> np.ndarray:
+        """A slot's vertices as stored on the GPU, (V, C) float32 (for tests)."""
+        out = np.empty((self.slot_vertices, sum(self.attributes.values())), np.float32)
+        return _read_buffer(gl.GL_ARRAY_BUFFER, self.vbo, slot * self.slot_bytes, out)
+
+    def draw(self, slots: np.ndarray, count: int | None = None, first: int = 0,
+             mode: int = gl.GL_TRIANGLES) -> None:
+        """Draw the meshes in ``slots`` (in that order), each through ``count`` indices from
+        index ``first`` (default: all), with one multi-draw call."""
+        n = len(slots)
+        count = self.index_count if count is None else int(count)
+        if n == 0 or count <= 0:
+            return
+        draws = self._draws
+        draws.room(n)
+        np.multiply(slots, self.slot_vertices, out=draws.base[:n], casting="unsafe")
+        draws.counts[:n] = count
+        draws.offsets[:n] = 4 * int(first)
+        draws.call(self.vao, mode, n)
+
+    def _grow(self, capacity: int) -> None:
+        if capacity * self.slot_vertices >= 2 ** 31:
+            raise ValueError(f"{capacity} slots of {self.slot_vertices} vertices are past "
+                             "a 32-bit base vertex")
+        old = self.capacity
+        self.vbo = _grown_buffer(gl.GL_ARRAY_BUFFER, self.vbo, old * self.slot_bytes,
+                                 capacity * self.slot_bytes, self.context)
+        gl.glBindVertexArray(self.vao)
+        gl.glBindBuffer(gl.GL_ARRAY_BUFFER, self.vbo)
+        _point_attributes(self.attributes)
+        gl.glBindVertexArray(0)
+        self.used = np.concatenate([self.used, np.zeros(capacity - old, bool)])
+        self._free[:0] = range(capacity - 1, old - 1, -1)   # below the ones given back
+        self.capacity = capacity
+        self.grown += 1
+
+    def delete(self) -> None:
+        for buf in (self.vbo, self.ebo):
+            _discard(self.context, "buffer", buf)
+        _discard(self.context, "vao", self.vao)
+        self.vao = self.vbo = self.ebo = 0
+
+
+class RangeAllocator:
+    """First-fit ranges of a buffer of ``size`` units (no GL): :meth:`alloc` returns the start
+    of the first free run long enough (or −1), :meth:`free` gives a range back (merged with
+    free neighbours), :meth:`grow` adds room at the end."""
+
+    def __init__(self, size: int) -> None:
+        self.size = int(size)
+        self.runs: list[list[int]] = [[0, self.size]] if self.size else []
+        """Free runs [start, length], by start, none touching another."""
+
+    def alloc(self, n: int) -> int:
+        if n <= 0:
+            raise ValueError(f"a range of {n} units")
+        for k, run in enumerate(self.runs):
+            if run[1] >= n:
+                start = run[0]
+                run[0] += n
+                run[1] -= n
+                if not run[1]:
+                    del self.runs[k]
+                return start
+        return -1
+
+    def free(self, start: int, n: int) -> None:
+        if n <= 0 or start < 0 or start + n > self.size:
+            raise ValueError(f"range ({start}, {n}) is outside the buffer of {self.size}")
+        runs = self.runs
+        k = 0
+        while k < len(runs) and runs[k][0] < start:
+            k += 1
+        if (k and runs[k - 1][0] + runs[k - 1][1] > start) \
+                or (k < len(runs) and start + n > runs[k][0]):
+            raise ValueError(f"range ({start}, {n}) is free already")
+        if k and runs[k - 1][0] + runs[k - 1][1] == start:
+            runs[k - 1][1] += n
+            if k < len(runs) and start + n == runs[k][0]:
+                runs[k - 1][1] += runs[k][1]
+                del runs[k]
+        elif k < len(runs) and start + n == runs[k][0]:
+            runs[k][0] = start
+            runs[k][1] += n
+        else:
+            runs.insert(k, [start, n])
+
+    def grow(self, size: int) -> None:
+        """Room up to ``size`` units."""
+        if size > self.size:
+            self.runs.append([self.size, size - self.size])
+            if len(self.runs) > 1 and self.runs[-2][0] + self.runs[-2][1] == self.size:
+                self.runs[-2][1] += self.runs.pop()[1]
+            self.size = int(size)
+
+    @property
+    def free_units(self) -> int:
+        return sum(n for _, n in self.runs)
+
+
+class MeshArena:
+    """Indexed meshes of any size in one vertex buffer and one index buffer (one vertex
+    array), any set of them drawn with one ``glMultiDrawElementsBaseVertex``: the water tiles.
+
+    :meth:`add` places a mesh's vertices and its indices (uint32, relative to its first
+    vertex) in the first free run of each buffer that holds them (a buffer doubles, its data
+    copied on the GPU, when none does) and returns where: (first vertex, first index);
+    :meth:`remove` gives both runs back. Buffers only grow (freed runs are reused, never
+    compacted).
+    """
+
+    def __init__(self, attributes: dict[int, int], vertices: int = 1 << 16,
+                 indices: int = 1 << 18) -> None:
+        self.attributes = dict(attributes)
+        self.vertex_bytes = 4 * sum(self.attributes.values())
+        self.context = gl.current_context
+        ident = gl.GLuint()
+        gl.glGenVertexArrays(1, ctypes.byref(ident))
+        self.vao = ident.value
+        self.vbo = self.ebo = 0
+        self.vertices = RangeAllocator(0)
+        self.indices = RangeAllocator(0)
+        self.meshes = 0
+        self.grown = 0
+        """Times a buffer grew after they were made."""
+        self._draws = _MultiDraw()
+        self._grow_vertices(max(1, int(vertices)))
+        self._grow_indices(max(1, int(indices)))
+        self.grown = 0
+
+    def __len__(self) -> int:
+        """Meshes held."""
+        return self.meshes
+
+    def add(self, vertices: np.ndarray, indices: np.ndarray) -> tuple[int, int]:
+        """Upload a mesh; returns its (first vertex, first index)."""
+        v = np.ascontiguousarray(vertices, np.float32)
+        idx = np.ascontiguousarray(indices, np.uint32).ravel()
+        if v.ndim != 2 or v.shape[1] * 4 != self.vertex_bytes or not len(v) or not idx.size:
+            raise ValueError(f"a mesh of {v.shape} vertices and {idx.size} indices")
+        v0 = self.vertices.alloc(len(v))
+        while v0 < 0:
+            self._grow_vertices(2 * self.vertices.size)
+            v0 = self.vertices.alloc(len(v))
+        i0 = self.indices.alloc(idx.size)
+        while i0 < 0:
+            self._grow_indices(2 * self.indices.size)
+            i0 = self.indices.alloc(idx.size)
+        gl.glBindBuffer(gl.GL_ARRAY_BUFFER, self.vbo)
+        gl.glBufferSubData(gl.GL_ARRAY_BUFFER, v0 * self.vertex_bytes, v.nbytes, v.ctypes.data)
+        gl.glBindBuffer(gl.GL_COPY_WRITE_BUFFER, self.ebo)   # not the VAO's element binding
+        gl.glBufferSubData(gl.GL_COPY_WRITE_BUFFER, 4 * i0, idx.nbytes, idx.ctypes.data)
+        gl.glBindBuffer(gl.GL_COPY_WRITE_BUFFER, 0)
+        self.meshes += 1
+        return v0, i0
+
+    def remove(self, first_vertex: int, vertex_count: int, first_index: int,
+               index_count: int) -> None:
+        """Give a mesh's runs back."""
+        self.vertices.free(first_vertex, vertex_count)
+        self.indices.free(first_index, index_count)
+        self.meshes -= 1
+
+    def read(self, first_vertex: int, vertex_count: int, first_index: int,
+             index_count: int) -> tuple[np.ndarray, np.ndarray]:
+        """A mesh's vertices and indices as stored on the GPU (for tests)."""
+        v = np.empty((vertex_count, self.vertex_bytes // 4), np.float32)
+        i = np.empty(index_count, np.uint32)
+        return (_read_buffer(gl.GL_ARRAY_BUFFER, self.vbo, first_vertex * self.vertex_bytes, v),
+                _read_buffer(gl.GL_COPY_READ_BUFFER, self.ebo, 4 * first_index, i))
+
+    def draw(self, first_index: np.ndarray, index_count: np.ndarray,
+             first_vertex: np.ndarray, mode: int = gl.GL_TRIANGLES) -> None:
+        """Draw meshes, given by their first index, index count and first vertex (arrays, in
+        drawing order), with one multi-draw call."""
+        n = len(first_index)
+        if n == 0:
+            return
+        draws = self._draws
+        draws.room(n)
+        np.multiply(first_index, 4, out=draws.offsets[:n], casting="unsafe")
+        draws.counts[:n] = index_count
+        draws.base[:n] = first_vertex
+        draws.call(self.vao, mode, n)
+
+    def _grow_vertices(self, size: int) -> None:
+        if size >= 2 ** 31:
+            raise ValueError(f"{size} vertices are past a 32-bit base vertex")
+        self.vbo = _grown_buffer(gl.GL_ARRAY_BUFFER, self.vbo,
+                                 self.vertices.size * self.vertex_bytes,
+                                 size * self.vertex_bytes, self.context)
+        gl.glBindVertexArray(self.vao)
+        gl.glBindBuffer(gl.GL_ARRAY_BUFFER, self.vbo)
+        _point_attributes(self.attributes)
+        gl.glBindVertexArray(0)
+        self.vertices.grow(size)
+        self.grown += 1
+
+    def _grow_indices(self, size: int) -> None:
+        self.ebo = _grown_buffer(gl.GL_COPY_WRITE_BUFFER, self.ebo, 4 * self.indices.size,
+                                 4 * size, self.context)
+        gl.glBindBuffer(gl.GL_COPY_WRITE_BUFFER, 0)
+        gl.glBindVertexArray(self.vao)
+        gl.glBindBuffer(gl.GL_ELEMENT_ARRAY_BUFFER, self.ebo)
+        gl.glBindVertexArray(0)
+        self.indices.grow(size)
+        self.grown += 1
+
+    def delete(self) -> None:
+        for buf in (self.vbo, self.ebo):
+            _discard(self.context, "buffer", buf)
+        _discard(self.context, "vao", self.vao)
+        self.vao = self.vbo = self.ebo = 0
 
 
 # -- state -----------------------------------------------------------------------------------

@@ -20,6 +20,9 @@ JIT_OPTIONS = dict(cache=True, nogil=False, fastmath=FASTMATH, error_model="nump
 """Options for every entry kernel and helper. The frame's kernels keep the GIL: one that
 released it would let the tile worker take it, and getting it back can cost up to the
 interpreter's switch interval (5 ms) per call."""
+EXACT_JIT_OPTIONS = dict(JIT_OPTIONS, fastmath=False)
+"""Options of a kernel that must give numpy's numbers bit for bit (no contraction into fused
+multiply-adds, no reassociation)."""
 WORKER_JIT_OPTIONS = dict(JIT_OPTIONS, nogil=True)
 """Options of the kernels the tile worker runs (tile production): they release the GIL, so
 the frame goes on meanwhile."""

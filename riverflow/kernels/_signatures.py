@@ -187,6 +187,12 @@ SIGNATURES = {
         'sprites.build_sprite_tables': [
             "(Named(riverflow.kernels.sprites.SpriteSource, (A(bool, 1, 'C'), A(bool, 1, 'C'), A(float32, 2, 'C'), A(float64, 2, 'C'), A(float32, 2, 'C'), A(float32, 1, 'C'), A(uint8, 1, 'C'), A(float32, 2, 'C'), A(float32, 1, 'C'), )), float64, int64, Named(riverflow.kernels.sprites.SpriteBins, (int64, int64, int64, int64, int64, int64, )), A(float32, 3, 'C'), A(int32, 1, 'C'), A(int32, 1, 'C'), bool)",
         ],
+        'tile_cut.cut_standins': [
+            "(A(int32, 2, 'C'), int64, A(int64, 1, 'C'), A(int32, 1, 'C'), A(bool, 1, 'C'), A(int32, 2, 'C'), A(int32, 1, 'C'), A(int64, 1, 'C'))",
+        ],
+        'centre_line.nearest_level': [
+            "(A(float64, 2, 'C'), A(float64, 1, 'C'), A(int64, 1, 'C'), float64, float64)",
+        ],
     },
 }
 
@@ -201,6 +207,7 @@ COSTS = {
     'advection.check_outside_near_water': 2.39,
     'rain.step_rain': 2.10,
     'flow.query_velocity': 1.96,
+    'tile_cut.cut_standins': 1.39,
     'advection.move_particles': 1.36,
     'sprites.build_sprite_tables': 1.31,
     'noise.fbm': 1.09,
@@ -217,6 +224,7 @@ COSTS = {
     'advection.apply_flow_status': 0.38,
     'wake.advance_trail': 0.34,
     'placement.pixel_rays': 0.32,
+    'centre_line.nearest_level': 0.30,
     'waves.permutation': 0.29,
     'poisson_fill.blocked_direction_table': 0.29,
     'tile_table.table_insert_many': 0.28,

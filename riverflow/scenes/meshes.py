@@ -1,6 +1,7 @@
 """Triangle meshes of the streamed world's tiles for the draw system (SPEC §8). Plain numpy,
-no GL: the draw system uploads these arrays as they are, one mesh per resident tile, and frees
-it when the tile leaves the cache. Nothing here spans the whole map.
+no GL: the draw system uploads these arrays as they are, into shared GPU buffers (a slot per
+terrain tile, a run per water tile), and gives the room back when the tile leaves the cache.
+Nothing here spans the whole map.
 
 **Terrain** (:func:`tile_terrain_mesh`, :func:`tile_indices`). Every terrain tile has n cells
 per side (its quadtree level sets their size) and the same vertex layout, so one index buffer

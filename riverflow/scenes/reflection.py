@@ -10,6 +10,8 @@ where the water is at L; L is taken where it matters most, at the river nearest 
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 TERRAIN_STRIDE = 2
@@ -33,8 +35,20 @@ def mirror_matrix(level_m: float) -> np.ndarray:
 
 def mirrored_view_projection(view_projection: np.ndarray, level_m: float) -> np.ndarray:
     """World → clip of the mirrored pass (row-vector layout, float32): a point is drawn where
-    the camera sees its mirror image, so the reflection texture lines up with the frame."""
-    return (mirror_matrix(level_m) @ np.asarray(view_projection, np.float64)).astype(np.float32)
+    the camera sees its mirror image, so the reflection texture lines up with the frame.
+
+    ``mirror_matrix(level_m) @ view_projection`` written out (every frame: a 4 × 4 product
+    through numpy costs more than the rest of the pass's setup): rows 0 and 1 as they are,
+    row 2 negated, row 3 plus 2L × row 2; + 0.0 makes every zero +0.0, as the product's sums
+    do."""
+    vp = np.asarray(view_projection, np.float64)
+    out = np.empty((4, 4))
+    out[:2] = vp[:2]
+    np.negative(vp[2], out=out[2])
+    np.multiply(vp[2], 2.0 * float(level_m), out=out[3])
+    out[3] += vp[3]
+    out += 0.0
+    return out.astype(np.float32)
 
 
 def mirror_level(water, eye_m) -> float | None:
@@ -45,11 +59,13 @@ def mirror_level(water, eye_m) -> float | None:
     on the particles: the frame stays a function of the view."""
     if water is None:
         return None
-    eye = np.asarray(eye_m, np.float64).reshape(3)
-    if not np.isfinite(eye).all():
+    x, y, z = (float(v) for v in np.asarray(eye_m, np.float64).reshape(3).tolist())
+    if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(z)):
         return None
-    level = float(water.level(eye[None, :2])[0])
-    return level if np.isfinite(level) else None
+    level_at = getattr(water, "level_at", None)      # one point without numpy's overhead
+    level = float(level_at(x, y) if level_at is not None
+                  else water.level(np.array([[x, y]]))[0])
+    return level if math.isfinite(level) else None
 
 
 def reflection_size(width_px: int, height_px: int, scale: float) -> tuple[int, int]:

@@ -10,6 +10,7 @@ deepest mid-stream and shallow at the banks.
 """
 from __future__ import annotations
 
+import math
 import threading
 from dataclasses import dataclass, field
 
@@ -17,6 +18,7 @@ import numpy as np
 import shapely
 from scipy.spatial import cKDTree
 
+from riverflow.kernels.centre_line import nearest_level
 from riverflow.tiles import remote
 
 JUNCTION_BLEND = 1.25
@@ -202,6 +204,31 @@ class WaterSurface:
     def level(self, xy: np.ndarray) -> np.ndarray:
         """Water level of the nearest river point [m], defined everywhere."""
         return self.nearest(xy)[1]
+
+    def level_at(self, x: float, y: float) -> float:
+        """:meth:`level` of the one point (x, y) [m]: the same number, found without a
+        KD-tree query and numpy's cost per call (the reflection's mirror level, every
+        frame: :func:`riverflow.kernels.centre_line.nearest_level`). Near a junction
+        (blended levels), where two samples tie for nearest, or if the point is not finite,
+        it is :meth:`level` itself."""
+        x, y = float(x), float(y)
+        boxes = self.__dict__.get("_junction_boxes")
+        if boxes is None:
+            c, r = self.junctions_m, self._junction_radius
+            boxes = self._junction_boxes = [
+                (lx, hx, ly, hy) for (lx, ly), (hx, hy)
+                in zip((c - r[:, None]).tolist(), (c + r[:, None]).tolist())]
+        if not any(hx >= x and lx <= x and hy >= y and ly <= y for lx, hx, ly, hy in boxes) \
+                and math.isfinite(x) and math.isfinite(y):
+            rows = self.__dict__.get("_rows")
+            if rows is None:
+                rows = self._rows = (np.ascontiguousarray(self.samples_m, np.float64),
+                                     np.ascontiguousarray(self.levels_m, np.float64),
+                                     np.ascontiguousarray(self.branch, np.int64))
+            level = nearest_level(*rows, x, y)
+            if level == level:
+                return level
+        return float(self.level(np.array([[x, y]]))[0])
 
     def distance_to_shore(self, xy: np.ndarray, stride: int = 1,
                           upper_bound_m: float = np.inf) -> np.ndarray:

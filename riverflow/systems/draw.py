@@ -38,11 +38,16 @@ Everything is drawn into the world's own RGBA8 framebuffer (with a depth texture
 the passes); :meth:`DrawRivers.blit_to_window` copies it to the window a host draws in.
 
 GPU objects follow the tile cache: a terrain or water tile is uploaded when it is first drawn
-and its buffers are released when the cache evicts it (:meth:`_Gpu.sync_tiles`).
+and released when the cache evicts it (:class:`_TerrainTiles`, :class:`_WaterTiles`). Every
+terrain tile has the same vertex count and the same triangles, so all of them share GPU
+buffers (a :class:`~riverflow.engine.gl.SlotArena`: one vertex buffer of fixed-size slots, one
+index buffer holding the full and the reflection's coarse index ranges, one vertex array), and
+a pass draws all of a frame's terrain tiles, near to far, with one multi-draw call.
 """
 from __future__ import annotations
 
 import time
+import weakref
 from typing import TYPE_CHECKING
 
 import esper
@@ -68,7 +73,8 @@ from riverflow.scenes.props import SHAPES
 from riverflow.scenes.reflection import (MIN_EYE_HEIGHT_M, TERRAIN_STRIDE, mirror_level,
                                          mirrored_view_projection, reflection_size)
 from riverflow.scenes.tile_kinds import TERRAIN_MESH, WATER_MESH
-from riverflow.tiles.cut import standins
+from riverflow.tiles.cache import TilePool
+from riverflow.tiles.cut import Standins, standin_tiles
 from riverflow.tiles.table import codes
 
 if TYPE_CHECKING:
@@ -76,6 +82,7 @@ if TYPE_CHECKING:
 
 SUN_DIRECTION = np.array([-0.45, -0.55, 0.70]) / np.linalg.norm([-0.45, -0.55, 0.70])
 """Unit vector towards the sun (afternoon light from the south-west)."""
+_SUN = tuple(SUN_DIRECTION.tolist())
 
 
 def shader_defines() -> dict[str, int]:
@@ -94,8 +101,9 @@ DROPS_PER_ROW = 1024
 _SHADED_MODES = (DisplayMode.ADVECTED, DisplayMode.PRE_ADVECTED, DisplayMode.NON_ADVECTED)
 """The water modes shaded with reflections (the others draw debug colours)."""
 
-_NOTHING = object()
-"""A tile uploaded with nothing to draw."""
+TERRAIN_SLOTS = 128
+"""Terrain tiles the GPU arena has room for at first (it doubles when full; a 1080p view's cut
+is ~80-110 tiles)."""
 
 FOAM_PATTERN_UNIT, WAKES_UNIT = 12, 13
 """Texture units of the foam's lace pattern and the wake table (issue 12 items 1, 2)."""
@@ -112,6 +120,9 @@ class _Gpu:
         self.programs = {
             "sky": gl.Program("sky.glsl", defines),
             "terrain": gl.Program("terrain.glsl", defines),
+            # the same for the reflection pass: each keeps its own uniforms (those of the
+            # mirrored view are not sent again and again, twice a frame)
+            "terrain_reflection": gl.Program("terrain.glsl", defines),
             "water": gl.Program("water.glsl", defines),
             "water_position": gl.Program("water.glsl", {**defines, "POSITION_PASS": 1}),
             "sprites": gl.Program("sprites.glsl", defines),
@@ -133,18 +144,12 @@ class _Gpu:
         self.wakes_cpu = np.zeros((MAX_WAKES, 1 + 2 * TRAIL_POINTS, 4), np.float32)
         self.wakes = gl.Texture((1 + 2 * TRAIL_POINTS, MAX_WAKES), gl.RGBA32F)
         self.prop_meshes: dict[tuple, gl.Mesh] = {}
-        # every terrain tile's indices: the full mesh, then the reflection's coarser one
-        cells = world.scene.terrain.tile_cells
-        full = tile_indices(cells).ravel()
-        coarse = tile_indices(cells, TERRAIN_STRIDE if cells % TERRAIN_STRIDE == 0 else 1)
-        self.terrain_indices = np.concatenate([full, coarse.ravel()])
-        self.terrain_ranges = {"full": (len(full), 0), "coarse": (coarse.size, len(full))}
-        """(count, first) of each mesh in the terrain tiles' index buffer."""
-        self.tile_meshes: dict[str, dict[int, gl.Mesh]] = {TERRAIN_MESH: {}, WATER_MESH: {}}
-        self.released: dict[str, tuple[int, int]] = {}   # per kind: (pool, its releases) seen
+        self.terrain = _TerrainTiles(world.scene.terrain.tile_cells)
+        self.water = _WaterTiles()
         self.empty = gl.Mesh(None, {})           # attribute-less draws (gl_VertexID)
         self.waves: dict[int, tuple[int, gl.Texture]] = {}
         self.size = (0, 0)
+        self.fitted = None              # the arguments of the last fit()
         self.grid_shape = (1, 1, 1)
         self.bins_shape = None
         self.params = self.bins = self.grid = self.grid_fb = None
@@ -157,6 +162,9 @@ class _Gpu:
 
     def fit(self, width: int, height: int, radius_px: float, capacity: int) -> None:
         """(Re)make the framebuffers and sprite tables for a viewport and radius."""
+        fitted = (width, height, radius_px, capacity)
+        if fitted == self.fitted:
+            return                      # every frame but the first after a change
         width, height = max(1, width), max(1, height)
         bins = sprite_bins(width, height, radius_px)
         if (width, height) != self.size:
@@ -184,7 +192,8 @@ class _Gpu:
                                      gl.RGBA32F)
             self.params.upload(self.params_cpu)
             self.bins = gl.Texture((bins.bw + 1, bins.bh), gl.R32I)
-            self.bins.upload(bin_texels(self.starts_cpu, bins))
+            self.bins_view = bin_texels(self.starts_cpu, bins)   # the texture's texels
+            self.bins.upload(self.bins_view)
             self.bins_shape = bins
         shape = sprite_grid_shape(width, height, radius_px)
         if self.grid is None or shape != self.grid_shape:
@@ -197,43 +206,11 @@ class _Gpu:
             self.grid.upload(np.full((layers, gh, gw, 4), NO_PARTICLE, np.int32))
             self.grid_fb = gl.Framebuffer([(self.grid, k) for k in range(layers)])
             self.grid_shape = shape
+        self.fitted = fitted
 
-    def sync_tiles(self, tiles: Tiles, kind: str, keys: np.ndarray) -> list[gl.Mesh]:
-        """The GPU meshes of the tiles ``keys`` of ``kind`` (uploaded now if new), and the
-        release of every GPU mesh whose tile left the cache. A tile with nothing to draw (a
-        water tile whose piece has no triangle) is remembered as such, not looked at again."""
-        pool = tiles.cache.pools[kind]
-        meshes = self.tile_meshes[kind]
-        released = (id(pool), pool.evicted)     # a tile leaves the cache only by release()
-        if self.released.get(kind) != released:
-            for code in [c for c in meshes if c not in pool]:
-                mesh = meshes.pop(code)
-                if mesh is not _NOTHING:
-                    mesh.delete()
-            self.released[kind] = released
-        out = []
-        for code in codes(keys).tolist():
-            mesh = meshes.get(code)
-            if mesh is None:
-                data = pool.get(code)
-                if data is None:
-                    continue
-                mesh = meshes[code] = self._upload(kind, data) or _NOTHING
-            if mesh is not _NOTHING:
-                out.append(mesh)
-        return out
-
-    def _upload(self, kind: str, data) -> gl.Mesh | None:
-        if kind == TERRAIN_MESH:
-            # position, normal, water level seen, distance to the shore
-            mesh = gl.Mesh(data.vertices, {0: 3, 1: 3, 2: 1, 3: 1}, self.terrain_indices)
-            mesh.centre_m = data.bounds_m.mean(axis=0)     # drawn near to far (early depth test)
-            return mesh
-        mesh, ground = data
-        if not len(mesh.indices):
-            return None
-        vertices = np.concatenate([mesh.positions, ground[:, None]], axis=1)
-        return gl.Mesh(vertices, {0: 3, 1: 1}, mesh.indices.ravel())
+    def resident_codes(self, kind: str) -> set[int]:
+        """Codes of the tiles of ``kind`` that have GPU data now."""
+        return (self.terrain if kind == TERRAIN_MESH else self.water).codes()
 
     def wave_texture(self, entity: int, tile: WaveTile) -> gl.Texture:
         """The wave tile's array texture, (re)uploaded when its revision changes."""
@@ -274,11 +251,8 @@ class _Gpu:
         for mesh in self.prop_meshes.values():
             mesh.delete()
         self.prop_meshes.clear()
-        for meshes in self.tile_meshes.values():
-            for mesh in meshes.values():
-                if mesh is not _NOTHING:
-                    mesh.delete()
-            meshes.clear()
+        self.terrain.delete()
+        self.water.delete()
         for obj in [self.empty, self.params, self.bins, self.grid_fb, self.grid, self.drops,
                     self.ripples, self.foam_pattern, self.wakes, *self.targets,
                     *(tex for _, tex in self.waves.values())]:
@@ -287,6 +261,159 @@ class _Gpu:
         self.waves.clear()
         self.targets = []
         self.reflection.delete()
+
+
+# -- tiles on the GPU --------------------------------------------------------------------------
+
+class _PoolSync:
+    """What of a tile pool is on the GPU, by pool slot: ``code_of`` the code of the tile whose
+    data was uploaded for that slot (−1: none). A pool slot whose tile was released (or
+    replaced) is found by comparing with the pool's own ``slot_code`` after an eviction."""
+
+    def __init__(self) -> None:
+        self.pool = lambda: None              # a weak reference to the pool synced with
+        self.evicted = -1
+        self.code_of = np.zeros(0, np.int64)
+
+    def stale(self, pool: TilePool) -> np.ndarray:
+        """Pool slots whose GPU data belongs to a tile the pool no longer holds there (all of
+        them when the pool is another one); they are marked empty, the caller frees them.
+        Makes room for the pool's slots."""
+        if self.pool() is not pool:
+            gone = np.flatnonzero(self.code_of >= 0)
+            self.code_of[:] = -1
+            self.pool, self.evicted = weakref.ref(pool), pool.evicted
+        elif pool.evicted != self.evicted:     # a tile leaves its pool only by release()
+            n = min(len(self.code_of), len(pool.slot_code))
+            gone = np.flatnonzero((self.code_of[:n] >= 0)
+                                  & (self.code_of[:n] != pool.slot_code[:n]))
+            self.code_of[gone] = -1
+            self.evicted = pool.evicted
+        else:
+            gone = np.zeros(0, np.intp)
+        if len(self.code_of) < pool.capacity:
+            self._grow(pool.capacity)
+        return gone
+
+    def missing(self, tiles: Standins) -> np.ndarray:
+        """Indices into ``tiles`` of those whose data is not on the GPU yet."""
+        return np.flatnonzero(self.code_of[tiles.slots] != tiles.codes)
+
+    def _grow(self, n: int) -> None:
+        self.code_of = np.concatenate([self.code_of,
+                                       np.full(n - len(self.code_of), -1, np.int64)])
+
+    def codes(self) -> set[int]:
+        return set(self.code_of[self.code_of >= 0].tolist())
+
+
+class _TerrainTiles(_PoolSync):
+    """The terrain tiles on the GPU: each in a slot of one :class:`~riverflow.engine.gl.SlotArena`
+    (``arena_slot`` by pool slot), its centre kept for the near-to-far order. The index buffer
+    holds every tile's triangles (:func:`~riverflow.scenes.meshes.tile_indices`) twice: the
+    full mesh, then the reflection's coarser one (every TERRAIN_STRIDE-th node)."""
+
+    def __init__(self, cells: int) -> None:
+        super().__init__()
+        full = tile_indices(cells).ravel()
+        coarse = tile_indices(cells, TERRAIN_STRIDE if cells % TERRAIN_STRIDE == 0 else 1)
+        self.ranges = {"full": (len(full), 0), "coarse": (coarse.size, len(full))}
+        """(count, first) of each mesh in the index buffer."""
+        # position, normal, water level seen, distance to the shore
+        self.arena = gl.SlotArena((cells + 1) ** 2 + 4 * cells, {0: 3, 1: 3, 2: 1, 3: 1},
+                                  np.concatenate([full, coarse.ravel()]), TERRAIN_SLOTS)
+        self.arena_slot = np.zeros(0, np.int32)
+        self.centre = np.zeros((0, 3))
+
+    def sync(self, pool: TilePool, tiles: Standins) -> tuple[np.ndarray, np.ndarray]:
+        """Arena slots (K,) and centres (K, 3) [m] of ``tiles``, uploaded now if new; the
+        slots of tiles the pool released are given back."""
+        gone = self.stale(pool)
+        if len(gone):
+            self.arena.free(self.arena_slot[gone])
+            self.arena_slot[gone] = -1
+        for k in self.missing(tiles).tolist():
+            slot = int(tiles.slots[k])
+            data = pool.tile(slot)
+            if self.arena_slot[slot] < 0:
+                self.arena_slot[slot] = self.arena.alloc()
+            self.arena.upload(int(self.arena_slot[slot]), data.vertices)
+            self.centre[slot] = data.bounds_m.mean(axis=0)
+            self.code_of[slot] = tiles.codes[k]
+        return self.arena_slot[tiles.slots], self.centre[tiles.slots]
+
+    def _grow(self, n: int) -> None:
+        old = len(self.code_of)
+        super()._grow(n)
+        self.arena_slot = np.concatenate([self.arena_slot, np.full(n - old, -1, np.int32)])
+        self.centre = np.concatenate([self.centre, np.zeros((n - old, 3))])
+
+    def delete(self) -> None:
+        self.arena.delete()
+        self.code_of[:] = -1
+        self.arena_slot[:] = -1
+
+
+class _WaterTiles(_PoolSync):
+    """The water tiles on the GPU: their meshes (of any size) in one
+    :class:`~riverflow.engine.gl.MeshArena`; by pool slot, where (first vertex, vertex count,
+    first index, index count; no index: a tile with nothing to draw, remembered as such)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.arena = gl.MeshArena({0: 3, 1: 1})      # position, ground height
+        self.where = np.zeros((0, 4), np.int64)
+
+    def sync(self, pool: TilePool, tiles: Standins) -> list[_WaterBatch]:
+        """This frame's water tiles with something to draw (one batch, drawn with one call;
+        none: an empty list), uploaded now if new; those of tiles the pool released are
+        given back."""
+        for slot in self.stale(pool).tolist():
+            self._drop(slot)
+        for k in self.missing(tiles).tolist():
+            slot = int(tiles.slots[k])
+            self._drop(slot)
+            mesh, ground = pool.tile(slot)
+            if len(mesh.indices):
+                vertices = np.concatenate([mesh.positions, ground[:, None]], axis=1)
+                v0, i0 = self.arena.add(vertices, mesh.indices)
+                self.where[slot] = v0, len(vertices), i0, mesh.indices.size
+            self.code_of[slot] = tiles.codes[k]
+        where = self.where[tiles.slots]
+        where = where[where[:, 3] > 0]
+        return [_WaterBatch(self.arena, where)] if len(where) else []
+
+    def _drop(self, slot: int) -> None:
+        if self.where[slot, 3] > 0:
+            self.arena.remove(*self.where[slot].tolist())
+        self.where[slot] = 0
+
+    def _grow(self, n: int) -> None:
+        self.where = np.concatenate([self.where, np.zeros((n - len(self.code_of), 4), np.int64)])
+        super()._grow(n)
+
+    def delete(self) -> None:
+        self.arena.delete()
+        self.code_of[:] = -1
+        self.where[:] = 0
+
+
+class _WaterBatch:
+    """A frame's water tiles: ``where`` (K, 4) (first vertex, vertex count, first index,
+    index count) in the arena, in drawing order; :meth:`draw` draws them with one call."""
+
+    def __init__(self, arena: gl.MeshArena, where: np.ndarray) -> None:
+        self.arena = arena
+        self.where = where
+        self.first_index = np.ascontiguousarray(where[:, 2])
+        self.index_count = np.ascontiguousarray(where[:, 3])
+        self.first_vertex = np.ascontiguousarray(where[:, 0])
+
+    def __len__(self) -> int:
+        return len(self.where)
+
+    def draw(self) -> None:
+        self.arena.draw(self.first_index, self.index_count, self.first_vertex)
 
 
 # -- reflections (issue 12 item 3) -----------------------------------------------------------
@@ -301,19 +428,23 @@ class _Reflection:
 
     def __init__(self) -> None:
         self.size = (0, 0)
+        self.fitted = None                      # the arguments of the last fit()
         self.colour = self.depth = self.fb = None
 
     def fit(self, width: int, height: int, scale: float) -> None:
+        if (width, height, scale) == self.fitted:
+            return                      # every frame but the first after a change
         size = reflection_size(width, height, scale)
-        if size == self.size:
-            return
-        self.delete()
-        # half floats: the mip levels' coverage (alpha) keeps a one-texel prop, which the
-        # march's early out (no coverage near the ray: the sky) relies on
-        self.colour = gl.Texture(size, gl.RGBA16F, levels=gl.mip_levels(*size), linear=True)
-        self.depth = gl.Texture(size, gl.DEPTH24)
-        self.fb = gl.Framebuffer([self.colour], self.depth)
-        self.size = size
+        if size != self.size:
+            self.delete()
+            # half floats: the mip levels' coverage (alpha) keeps a one-texel prop, which the
+            # march's early out (no coverage near the ray: the sky) relies on
+            self.colour = gl.Texture(size, gl.RGBA16F, levels=gl.mip_levels(*size),
+                                     linear=True)
+            self.depth = gl.Texture(size, gl.DEPTH24)
+            self.fb = gl.Framebuffer([self.colour], self.depth)
+            self.size = size
+        self.fitted = (width, height, scale)
 
     def delete(self) -> None:
         for obj in (self.fb, self.colour, self.depth):
@@ -321,6 +452,7 @@ class _Reflection:
                 obj.delete()
         self.colour = self.depth = self.fb = None
         self.size = (0, 0)
+        self.fitted = None
 
 
 # -- the draw system ---------------------------------------------------------------------------
@@ -345,7 +477,8 @@ class DrawRivers(System):
         """The reflection's mirror height [m] in the last frame (None: no reflection)."""
         self._mirror_for: tuple[int, float | None] = (-1, None)
         self.last_tables_ms = 0.0
-        self._terrain_meshes: list = []
+        self._terrain_slots = np.zeros(0, np.int32)   # this frame's, near to far
+        self._tiles_for = None        # (pools and revisions, cut, what _tile_meshes found)
         self.last_tiles = 0
         self.last_sprites = 0
 
@@ -374,7 +507,7 @@ class DrawRivers(System):
 
         clip_from_world, world_from_clip = camera.matrices_for_kernels()
         vp = clip_from_world.T.ravel()          # pyrr's view_projection, in closed form
-        shared = dict(u_eye_m=tuple(camera.position), u_sun_dir=tuple(SUN_DIRECTION),
+        shared = dict(u_eye_m=tuple(camera.position.tolist()), u_sun_dir=_SUN,
                       u_fog_density=float(settings.fog_density_per_m),
                       u_view_projection=vp, u_viewport_px=(float(gpu.size[0]),
                                                            float(gpu.size[1])),
@@ -385,7 +518,7 @@ class DrawRivers(System):
         foam_uniforms = self._upload_foam_and_wakes(world, gpu)
         water_meshes = self._tile_meshes(world, gpu)
         reflection_uniforms = self._draw_reflection(world, gpu, settings, shared,
-                                                    world_from_clip)
+                                                    clip_from_world, world_from_clip)
 
         gpu.main_fb.bind()
         gl.clear((0.0, 0.0, 0.0, 1.0))
@@ -456,7 +589,7 @@ class DrawRivers(System):
             gpu.bins_shape, gpu.params_cpu, gpu.starts_cpu, gpu.scratch, bool(overlays))
         if rows:
             gpu.params.upload(gpu.params_cpu, rows=rows)
-        gpu.bins.upload(bin_texels(gpu.starts_cpu, gpu.bins_shape))
+        gpu.bins.upload(gpu.bins_view)
         self.last_sprites = int(n_drawn)
         return int(n_drawn), int(n_entries)
 
@@ -485,8 +618,10 @@ class DrawRivers(System):
         if rain is not None:
             hits = rain.drops.hits
             life = float(rain.ripple_life_s)
-            age = world.clock.now_s - hits[:, 3]
-            if ((age >= 0.0) & (age < life)).any():
+            now = world.clock.now_s
+            # any hit with 0 ≤ age < life (64 of them: in Python floats, cheaper than numpy)
+            if any(0.0 <= now - t < life for t in hits[:, 3].tolist()):
+                age = now - hits[:, 3]
                 table = gpu.ripples_cpu[0]
                 table[:, :3] = hits[:, :3]
                 table[:, 3] = np.where(np.isfinite(age), age, -1.0)
@@ -552,31 +687,43 @@ class DrawRivers(System):
                     u_wave_length_m=float(tile.wave_length_m)), tex
 
     def _tile_meshes(self, world: RiverWorld, gpu: _Gpu) -> list:
-        """Sync the GPU tile meshes with the cache; keep this frame's terrain meshes (for
-        :meth:`_draw_terrain`) and return its water meshes (see the module docstring)."""
+        """Sync the GPU tiles with the cache; keep this frame's terrain tiles' arena slots,
+        near to far (for :meth:`_draw_terrain`), and return its water tiles (a list of one
+        batch, drawn with one call, or none; see the module docstring)."""
         tiles = world.resource(Tiles)
         cut = world.resource(TerrainView).cut
-        dry = tiles.scheduler.producers[WATER_MESH].empty_mask(codes(cut))
-        self._terrain_meshes = gpu.sync_tiles(tiles, TERRAIN_MESH,
-                                              standins(cut, tiles.cache.pools[TERRAIN_MESH]))
-        return gpu.sync_tiles(tiles, WATER_MESH,
-                              standins(cut, tiles.cache.pools[WATER_MESH], skip=dry))
+        pools = tiles.cache.pools
+        terrain, water = pools[TERRAIN_MESH], pools[WATER_MESH]
+        # the same cut over the same resident tiles (no install, no release since: the pools'
+        # revisions) draws the same tiles: most frames
+        key = (gpu, terrain, terrain.revision, water, water.revision)
+        last = self._tiles_for
+        if last is not None and last[0] == key and last[1].shape == cut.shape \
+                and last[1].tobytes() == cut.tobytes():
+            slots, centres, batches = last[2]
+        else:
+            dry = tiles.scheduler.producers[WATER_MESH].empty_mask(codes(cut))
+            slots, centres = gpu.terrain.sync(terrain, standin_tiles(cut, terrain))
+            batches = gpu.water.sync(water, standin_tiles(cut, water, skip=dry))
+            self._tiles_for = (key, cut, (slots, centres, batches))
+        # near to far: the depth test then rejects hidden ground before it is shaded
+        d = centres - np.asarray(world.camera.position, np.float64)
+        d *= d
+        self._terrain_slots = slots[np.argsort(d.sum(axis=1), kind="stable")]
+        return batches
 
     def _draw_terrain(self, world: RiverWorld, gpu: _Gpu, shared: dict,
                       detail: str = "full") -> None:
         """This frame's terrain tiles, through all their nodes (``detail`` "full") or the
-        reflection's coarser mesh ("coarse")."""
-        program = gpu.programs["terrain"]
+        reflection's coarser mesh ("coarse", with the reflection's own program object), near
+        to far, in one multi-draw."""
+        program = gpu.programs["terrain" if detail == "full" else "terrain_reflection"]
         program.use()
         program.set_if_used(**shared)
-        count, first = gpu.terrain_ranges[detail]
-        eye = np.asarray(world.camera.position, np.float64)
-        # near to far: the depth test then rejects hidden ground before it is shaded
-        for mesh in sorted(self._terrain_meshes,
-                           key=lambda m: float(np.sum((m.centre_m - eye) ** 2))):
-            mesh.draw(count=count, first=first)
+        count, first = gpu.terrain.ranges[detail]
+        gpu.terrain.arena.draw(self._terrain_slots, count, first)
         if detail == "full":
-            self.last_tiles = len(self._terrain_meshes)
+            self.last_tiles = len(self._terrain_slots)
 
     def _draw_props(self, gpu: _Gpu, shared: dict, mirrored: bool = False) -> None:
         """Every prop; ``mirrored``: in the reflection pass (winding turned, each prop cut
@@ -601,7 +748,8 @@ class DrawRivers(System):
     # -- reflections (issue 12 item 3) ------------------------------------------------------
 
     def _draw_reflection(self, world: RiverWorld, gpu: _Gpu, settings: DisplaySettings,
-                         shared: dict, world_from_clip: np.ndarray) -> dict:
+                         shared: dict, clip_from_world: np.ndarray,
+                         world_from_clip: np.ndarray) -> dict:
         """The planar reflection pass (``shaders/reflection.glsl``): terrain and props mirrored
         in the water level nearest the camera, cut at their water level, into the reflection
         target; returns the water shader's reflection uniforms (``u_reflect`` false, and no
@@ -624,7 +772,9 @@ class DrawRivers(System):
         reflection = gpu.reflection
         reflection.fit(*gpu.size, settings.reflection_scale)
         mirrored_eye = (float(eye[0]), float(eye[1]), 2.0 * level - float(eye[2]))
-        vp = mirrored_view_projection(world.camera.view_projection(np.float64), level)
+        # the frame's own world → clip matrix (pyrr's view_projection in closed form, as the
+        # main pass draws with), mirrored
+        vp = mirrored_view_projection(clip_from_world.T, level)
         mirrored = {**shared, "u_view_projection": vp.ravel(), "u_eye_m": mirrored_eye,
                     "u_fog_density": 0.0,          # fogged in the water shader, over the ray
                     "u_clip_water": 1.0}
@@ -690,6 +840,7 @@ class DrawRivers(System):
     def close(self) -> None:
         """Release the GPU objects through their context, without making it current (a
         world's finalizer must not switch contexts under a host: :mod:`riverflow.engine.gl`)."""
+        self._tiles_for = None
         if self.gpu is not None:
             self.gpu.delete()
             self.gpu = None

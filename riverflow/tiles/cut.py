@@ -7,36 +7,41 @@ view is coarser there until the tiles arrive, never empty, never doubled.
 """
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
-from riverflow.kernels.surface_tiles import leaf_standins
+from riverflow.kernels.tile_cut import cut_standins
 from riverflow.tiles.cache import TilePool
 
-_MASK = (1 << 28) - 1
+
+class Standins(NamedTuple):
+    """The tiles to draw (K of them, in (level, tx, ty) order): ``keys`` (K, 3) int32,
+    their pool ``slots`` (K,) int32 and ``codes`` (K,) int64."""
+
+    keys: np.ndarray
+    slots: np.ndarray
+    codes: np.ndarray
+
+
+def standin_tiles(cut: np.ndarray, pool: TilePool, skip: np.ndarray | None = None) -> Standins:
+    """The tiles of ``pool`` to use for the leaves ``cut`` (L, 3): each leaf's own tile or its
+    finest resident ancestor, none for leaves with none or marked in ``skip`` (L,) bool (e.g.
+    known empty), and no tile that another one listed contains (one numba pass,
+    :func:`riverflow.kernels.tile_cut.cut_standins`)."""
+    cut = np.ascontiguousarray(cut, np.int32).reshape(-1, 3)
+    n = len(cut)
+    skip = np.zeros(n, np.bool_) if skip is None else np.ascontiguousarray(skip, np.bool_)
+    if skip.shape != (n,):
+        raise ValueError(f"skip has shape {skip.shape}, the cut {n} leaves")
+    keys = np.empty((n, 3), np.int32)
+    slots = np.empty(n, np.int32)
+    codes = np.empty(n, np.int64)
+    m = cut_standins(cut, n, pool.table.keys, pool.table.values, skip, keys, slots, codes)
+    return Standins(keys[:m], slots[:m], codes[:m])
 
 
 def standins(cut: np.ndarray, pool: TilePool, skip: np.ndarray | None = None) -> np.ndarray:
-    """(K, 3) int32 keys of the tiles of ``pool`` to use for the leaves ``cut`` (L, 3): each
-    leaf's own tile or its finest resident ancestor, none for leaves with none or marked in
-    ``skip`` (L,) bool (e.g. known empty), and no tile that another one listed contains."""
-    cut = np.ascontiguousarray(cut, np.int32).reshape(-1, 3)
-    slot = np.empty(len(cut), np.int32)
-    key = np.zeros((len(cut), 3), np.int32)
-    leaf_standins(cut, len(cut), pool.table.keys, pool.table.values, slot, key)
-    keep = slot >= 0
-    if skip is not None:
-        keep &= ~skip
-    k = key[keep].astype(np.int64)
-    # the distinct tiles, one int64 each, in (level, tx, ty) order: (level, tx, ty) < 2^(8, 28, 28)
-    tiles = np.unique((k[:, 0] << 56) | (k[:, 1] << 28) | k[:, 2])
-    if not len(tiles):
-        return np.zeros((0, 3), np.int32)
-    level, tx, ty = tiles >> 56, (tiles >> 28) & _MASK, tiles & _MASK
-    covered = np.zeros(len(tiles), bool)
-    for coarse in np.unique(level)[:-1].tolist():          # each level some tile is finer than
-        finer = level > coarse
-        up = level[finer] - coarse
-        ancestor = (coarse << 56) | ((tx[finer] >> up) << 28) | (ty[finer] >> up)
-        at = np.minimum(np.searchsorted(tiles, ancestor), len(tiles) - 1)
-        covered[finer] |= tiles[at] == ancestor
-    return np.stack([level, tx, ty], axis=1)[~covered].astype(np.int32)
+    """(K, 3) int32 keys of the tiles of ``pool`` to use for the leaves ``cut`` (L, 3)
+    (:func:`standin_tiles`)."""
+    return standin_tiles(cut, pool, skip).keys

@@ -17,14 +17,13 @@ def _names(world) -> dict[str, list[int]]:
     """The GL names of a drawn world's objects, by kind."""
     drawer = next(s for s in world.systems if s.name == "draw")
     gpu = drawer.gpu
-    meshes = [m for kind in gpu.tile_meshes.values() for m in kind.values()
-              if hasattr(m, "vao")]
+    arenas = [gpu.terrain.arena, gpu.water.arena]      # the tiles' shared buffers
     reflection = gpu.reflection
     return {"texture": [t.id for t in (gpu.colour, gpu.depth, gpu.position, gpu.accum,
                                        gpu.params, gpu.grid, reflection.colour,
                                        reflection.depth)],
-            "buffer": [m.vbo for m in meshes],
-            "vao": [m.vao for m in meshes],
+            "buffer": [b for a in arenas for b in (a.vbo, a.ebo)],
+            "vao": [a.vao for a in arenas],
             "framebuffer": [gpu.main_fb.id, gpu.position_fb.id, gpu.accum_fb.id,
                             reflection.fb.id],
             "program": [p.program.id for p in gpu.programs.values()]}
@@ -49,7 +48,9 @@ def test_a_dropped_drawn_world_deletes_its_gpu_objects(gl_context):
         world.step(1 / 60)
     world.render()
     names = _names(world)
-    assert names["buffer"], "no tile mesh was uploaded"
+    gpu = next(s for s in world.systems if s.name == "draw").gpu
+    assert len(gpu.terrain.arena) and len(gpu.water.arena), "no tile mesh was uploaded"
+    del gpu
     assert all(_alive(names)[kind] == len(ids) for kind, ids in names.items())
     ref = weakref.ref(world)
     del world

@@ -38,13 +38,15 @@ def test_gpu_meshes_follow_the_tile_cache(gl_context):
             tiles = world.tiles
             for kind in (TERRAIN_MESH, WATER_MESH):
                 pool = tiles.cache.pools[kind]
-                on_gpu = set(gpu.tile_meshes[kind])
+                on_gpu = gpu.resident_codes(kind)
                 assert on_gpu <= set(pool.codes().tolist()), kind     # released with its tile
                 most = max(most, len(on_gpu))
             released += tiles.cache.pools[TERRAIN_MESH].evicted
             # what was drawn is the view's cut: its terrain tiles are all on the GPU
             cut = world.resource(TerrainView).cut
-            assert set(codes(cut).tolist()) <= set(gpu.tile_meshes[TERRAIN_MESH])
+            assert set(codes(cut).tolist()) <= gpu.resident_codes(TERRAIN_MESH)
+            arena = gpu.terrain.arena                  # one slot per terrain tile on the GPU
+            assert len(arena) == len(gpu.resident_codes(TERRAIN_MESH))
             assert _drawer(world).last_tiles == len(cut)
         assert released > 0                            # the small cache did evict
         assert most < 400
@@ -92,7 +94,7 @@ def test_closing_the_world_releases_every_tile_mesh(gl_context):
     world.step(1 / 60)
     world.render()
     gpu = _drawer(world).gpu
-    meshes = [m for kind in gpu.tile_meshes.values() for m in kind.values() if hasattr(m, 'vao')]
-    assert meshes
+    arenas = [gpu.terrain.arena, gpu.water.arena]    # every tile's GPU data is in these
+    assert all(len(arena) for arena in arenas)
     world.close()
-    assert all(m.vao == 0 and m.vbo == 0 for m in meshes)
+    assert all(arena.vao == arena.vbo == arena.ebo == 0 for arena in arenas)

@@ -49,3 +49,35 @@ def test_the_reflection_texture_follows_the_viewport_and_the_scale():
     assert reflection_size(641, 361, 0.5) == (320, 180)
     assert reflection_size(1, 1, 0.25) == (1, 1)
     assert reflection_size(0, 0, 1.0) == (1, 1)
+
+
+def test_the_level_of_one_point_is_the_vectorised_level_bit_for_bit(rng):
+    """WaterSurface.level_at (the mirror's level, in Python floats) against level(): around
+    the centre lines, at the samples themselves, far away, near the junctions (blended)."""
+    from riverflow.scenes.default import default_scene
+    water = default_scene(seed=0).water
+    samples = water.samples_m
+    lo, hi = samples.min(axis=0) - 300.0, samples.max(axis=0) + 300.0
+    junctions = np.repeat(water.junctions_m, 200, axis=0)
+    points = np.concatenate([
+        samples[rng.integers(0, len(samples), 3000)] + rng.normal(0.0, 30.0, (3000, 2)),
+        samples[rng.integers(0, len(samples), 500)],
+        rng.uniform(lo, hi, (500, 2)),
+        junctions + rng.normal(0.0, 20.0, junctions.shape)])
+    want = water.level(points)
+    got = np.array([water.level_at(x, y) for x, y in points.tolist()])
+    np.testing.assert_array_equal(got, want)
+    assert mirror_level(water, (*points[0], 500.0)) == want[0]
+
+
+def test_the_mirrored_matrix_is_the_mirror_times_the_view_projection(rng):
+    """mirrored_view_projection writes the product out: the same float32 numbers."""
+    for k in range(300):
+        eye = rng.uniform((-3000, -3000, 1), (3000, 3000, 300))
+        camera = Camera(eye, eye + rng.normal(0.0, 100.0, 3), size_px=(1920, 1080))
+        vp = camera.view_projection(np.float64) if k % 2 else camera.matrices_for_kernels()[0].T
+        level = float(rng.uniform(-50, 150)) if k % 3 else float(rng.integers(-5, 100))
+        want = (mirror_matrix(level) @ vp).astype(np.float32)
+        got = mirrored_view_projection(vp, level)
+        assert got.dtype == np.float32 and got.shape == (4, 4)
+        np.testing.assert_array_equal(got, want)

@@ -1,10 +1,11 @@
-"""standins (tiles/cut.py) against a plain twin, on random cuts over random pools."""
+"""standins (tiles/cut.py) against a plain twin, on random cuts over random pools; the pool
+slots and codes that come with them."""
 from __future__ import annotations
 
 import numpy as np
 
 from riverflow.tiles.cache import TilePool
-from riverflow.tiles.cut import standins
+from riverflow.tiles.cut import standin_tiles, standins
 from riverflow.tiles.table import codes
 
 
@@ -55,6 +56,23 @@ def test_standins_of_nothing():
     pool = TilePool("t", capacity=8)
     assert standins(np.zeros((0, 3), np.int32), pool).shape == (0, 3)
     assert standins(np.array([[3, 1, 2]], np.int32), pool).shape == (0, 3)
+
+
+def test_standin_slots_and_codes_are_those_of_the_keys(rng):
+    for depth in (3, 12):
+        for _ in range(10):
+            cut, pool = _random_case(rng, depth)
+            for _ in range(3):          # some tiles released: slots freed and reused
+                victims = [c for c in pool.codes().tolist() if rng.random() < 0.3]
+                for c in victims:
+                    pool.release(pool.slot(c))
+                for c in victims[: len(victims) // 2]:
+                    pool.store(c, object(), 1)
+                got = standin_tiles(cut, pool)
+                np.testing.assert_array_equal(got.keys, _standins_twin(cut, pool))
+                np.testing.assert_array_equal(got.codes, codes(got.keys))
+                assert got.slots.tolist() == [pool.slot(c) for c in got.codes.tolist()]
+                assert (got.slots >= 0).all()
 
 
 def test_with_ancestors_of_a_mixed_level_cut_is_exactly_the_keys_parents_chains(rng):

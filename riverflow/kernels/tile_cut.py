@@ -1,0 +1,98 @@
+"""What to draw for a cut of the quadtree (:func:`riverflow.tiles.cut.standins`), in one pass.
+
+For each leaf of a cut: its own resident tile, or its finest resident ancestor; then the
+distinct tiles in (level, tx, ty) order, less every tile that another one listed contains (an
+ancestor stands in for leaves around it: its descendants are not drawn too).
+"""
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from riverflow.kernels._jit import JIT_OPTIONS
+from riverflow.kernels.tile_table import table_find, tile_code
+
+_MASK = (1 << 28) - 1
+
+
+@njit(inline="always", **JIT_OPTIONS)
+def _order_key(level, tx, ty):
+    """(level, tx, ty) as one int64 that sorts in that order (tile codes put ty before tx)."""
+    return (np.int64(level) << 56) | (np.int64(tx) << 28) | np.int64(ty)
+
+
+@njit(inline="always", **JIT_OPTIONS)
+def _listed(sorted_keys, n, key):
+    """``key`` is in ``sorted_keys[:n]`` (binary search)."""
+    lo, hi = 0, n
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if sorted_keys[mid] < key:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo < n and sorted_keys[lo] == key
+
+
+@njit(**JIT_OPTIONS)
+def cut_standins(leaf_keys, n_leaves, pool_keys, pool_values, skip, out_key, out_slot,
+                 out_code):
+    """The tiles to draw for the leaves ``leaf_keys[:n_leaves]`` (L, 3) of a cut, from a pool's
+    table (``pool_keys``, ``pool_values``: code → slot): leaves marked in ``skip`` (L,) bool
+    are left out, the others give their own tile or their finest resident ancestor (none if
+    none is resident); the distinct tiles, in (level, tx, ty) order, less those another listed
+    tile contains. Writes each tile's key (level, tx, ty), pool slot and code into
+    ``out_key`` (L, 3), ``out_slot`` (L,), ``out_code`` (L,); returns how many."""
+    found = np.empty(n_leaves, np.int64)
+    slot_of = np.empty(n_leaves, np.int32)
+    m = 0
+    for k in range(n_leaves):
+        if skip[k]:
+            continue
+        level = np.int64(leaf_keys[k, 0])
+        tx = np.int64(leaf_keys[k, 1])
+        ty = np.int64(leaf_keys[k, 2])
+        while level >= 0:
+            slot = table_find(pool_keys, pool_values, tile_code(level, tx, ty))
+            if slot >= 0:
+                found[m] = _order_key(level, tx, ty)
+                slot_of[m] = slot
+                m += 1
+                break
+            level -= 1
+            tx >>= 1
+            ty >>= 1
+    if m == 0:
+        return 0
+    order = np.argsort(found[:m])
+    tiles = np.empty(m, np.int64)
+    slots = np.empty(m, np.int32)
+    u = 0
+    for i in order:
+        if u == 0 or found[i] != tiles[u - 1]:
+            tiles[u] = found[i]
+            slots[u] = slot_of[i]
+            u += 1
+    coarsest = tiles[0] >> 56
+    out = 0
+    for i in range(u):
+        level = tiles[i] >> 56
+        tx = (tiles[i] >> 28) & _MASK
+        ty = tiles[i] & _MASK
+        covered = False
+        up, ax, ay = level - 1, tx >> 1, ty >> 1
+        while up >= coarsest:
+            if _listed(tiles, u, _order_key(up, ax, ay)):
+                covered = True
+                break
+            up -= 1
+            ax >>= 1
+            ay >>= 1
+        if not covered:
+            out_key[out, 0] = level
+            out_key[out, 1] = tx
+            out_key[out, 2] = ty
+            out_slot[out] = slots[i]
+            out_code[out] = tile_code(level, tx, ty)
+            out += 1
+    return out
