@@ -932,6 +932,34 @@ class MeshArena:
 
 # -- state -----------------------------------------------------------------------------------
 
+class GpuTimer:
+    """The GPU's own time for the GL commands issued between :meth:`begin` and :meth:`end`
+    (a ``GL_TIME_ELAPSED`` query: core since OpenGL 3.3). :meth:`result_ms` waits until the
+    GPU has run them. One timer measures one span at a time."""
+
+    def __init__(self) -> None:
+        ident = gl.GLuint()
+        gl.glGenQueries(1, ctypes.byref(ident))
+        self.query = ident.value
+        self.context = gl.current_context
+
+    def begin(self) -> None:
+        gl.glBeginQuery(gl.GL_TIME_ELAPSED, self.query)
+
+    def end(self) -> None:
+        gl.glEndQuery(gl.GL_TIME_ELAPSED)
+
+    def result_ms(self) -> float:
+        ns = ctypes.c_uint64()
+        gl.glGetQueryObjectui64v(self.query, gl.GL_QUERY_RESULT, ctypes.byref(ns))
+        return ns.value * 1e-6
+
+    def delete(self) -> None:
+        if self.query and gl.current_context is self.context:
+            gl.glDeleteQueries(1, ctypes.byref(gl.GLuint(self.query)))
+        self.query = 0
+
+
 def clear(rgba: tuple[float, float, float, float] = (0, 0, 0, 0), depth: bool = True) -> None:
     """Clear the bound framebuffer's colour (and depth: glClear obeys the depth mask, so depth
     writes are turned on first and stay on)."""

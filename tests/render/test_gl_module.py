@@ -259,3 +259,33 @@ def test_a_full_cell_keeps_the_brightest_sprites(gl_context, rng):
         assert sorted(g) == sorted(brightest.tolist()), c
         full += len(meeting) > 16
     assert n_drawn == n and full >= 4
+
+
+def test_the_gpu_timer_times_the_work_between_begin_and_end(gl_context):
+    """GpuTimer (bench_gpu.py's GPU frame time): a span with many full-screen fills takes the
+    GPU longer than an empty one, and both read back as finite non-negative milliseconds."""
+    from riverflow.engine import gl
+    from riverflow.engine.gl import gl as raw
+
+    colour = gl.Texture((512, 512), gl.RGBA8)
+    fb = gl.Framebuffer([colour])
+    fb.bind()
+    timer = gl.GpuTimer()
+    try:
+        timer.begin()
+        timer.end()
+        empty = timer.result_ms()
+        timer.begin()
+        for k in range(200):
+            gl.clear((k / 200.0, 0.5, 0.25, 1.0), depth=False)
+        fb.read_rgba8()                              # the clears are done within the span
+        timer.end()
+        busy = timer.result_ms()
+        assert np.isfinite([empty, busy]).all() and 0.0 <= empty < busy
+        assert raw.glIsQuery(timer.query)
+    finally:
+        query = timer.query
+        timer.delete()
+        assert timer.query == 0 and not raw.glIsQuery(query)
+        fb.delete()
+        colour.delete()
