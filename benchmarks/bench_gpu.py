@@ -15,7 +15,8 @@ software rendering. On a real GPU run it where the device tool lends one, with
 that has the NVIDIA driver but no GL loader). Figures go to docs/performance.md.
 
 Run: ``python benchmarks/bench_gpu.py [--sizes 1920x1080 3840x2160] [--modes all]
-[--frames 60] [--warmup 60] [--json out.json]``.
+[--frames 60] [--warmup 60] [--json out.json]`` (on a software renderer, without ``--sizes``,
+640×360 only: ``make bench`` runs it too).
 """
 from __future__ import annotations
 
@@ -76,7 +77,9 @@ def main(argv: list[str] | None = None) -> list[dict]:
 
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--sizes", nargs="+", default=["1920x1080", "3840x2160"])
+    parser.add_argument("--sizes", nargs="+", default=None,
+                        help="viewports WxH (default 1920x1080 3840x2160 on a GPU; on a "
+                             "software renderer, where those take minutes a mode, 640x360)")
     parser.add_argument("--modes", nargs="+", default=["all"],
                         help=f"display modes ({', '.join(MODE_NAMES)}) or all")
     parser.add_argument("--radius", type=float, default=10.0, help="particle radius r [px]")
@@ -86,7 +89,17 @@ def main(argv: list[str] | None = None) -> list[dict]:
     args = parser.parse_args(argv)
     import riverflow as rf
 
+    from riverflow.engine import gl
+
     modes = list(MODE_NAMES) if args.modes == ["all"] else args.modes
+    if args.sizes is None:
+        gl.acquire_context()
+        software = any(name in gl.renderer_name().lower()
+                       for name in ("llvmpipe", "softpipe", "swrast"))
+        args.sizes = ["640x360"] if software else ["1920x1080", "3840x2160"]
+        if software:
+            print(f"software renderer ({gl.renderer_name()}): 640x360 only (--sizes to ask "
+                  "for more)")
     sizes = [tuple(int(v) for v in s.lower().split("x")) for s in args.sizes]
     scene = rf.default_scene(seed=0)
     results = []
