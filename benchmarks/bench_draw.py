@@ -91,7 +91,10 @@ class _NoDraw:
             module.time = time
 
 
-def run_case(scene, size, radius, mode, frames: int, warmup: int, frame_times: bool) -> dict:
+def drawn_world(scene, size, radius, mode: str, warmup: int):
+    """A drawing world on ``scene`` in display mode ``mode`` (blocking tiles), flown
+    ``warmup`` frames along the chase flight and drawn once (programs, framebuffers, tile
+    buffers and textures made), the GPU idle (bench_gpu.py uses it too)."""
     import riverflow as rf
     from riverflow.components.display import settings_for
     from riverflow.engine import gl
@@ -102,8 +105,16 @@ def run_case(scene, size, radius, mode, frames: int, warmup: int, frame_times: b
     for key, value in vars(settings_for(mode)).items():
         setattr(world.display, key, value)
     fly(world, warmup)
-    world.draw()                       # first draw: programs, framebuffers, meshes, textures
+    world.draw()
     gl.finish()
+    return world
+
+
+def run_case(scene, size, radius, mode, frames: int, warmup: int, frame_times: bool) -> dict:
+    from riverflow.engine import gl
+    from riverflow.scenes.flight import fly
+
+    world = drawn_world(scene, size, radius, mode, warmup)
     drawer = world._drawer()
     tables, cpu, calls, frame, thread = [], [], [], [], []
     for i in range(frames):

@@ -32,18 +32,11 @@ import numpy as np  # noqa: E402
 
 
 def run_case(scene, size, radius, mode, frames: int, warmup: int) -> dict:
-    import riverflow as rf
-    from riverflow.components.display import settings_for
+    from bench_draw import drawn_world
     from riverflow.engine import gl
     from riverflow.scenes.flight import fly
 
-    world = rf.RiverWorld(scene, size=size, gl=True, seed=0,
-                          config=rf.RiverConfig(radius_px=radius, tile_production="blocking"))
-    for key, value in vars(settings_for(mode)).items():
-        setattr(world.display, key, value)
-    fly(world, warmup)
-    world.draw()                      # first draw: programs, framebuffers, meshes, textures
-    gl.finish()
+    world = drawn_world(scene, size, radius, mode, warmup)
     timer = gl.GpuTimer()
     gpu, frame, cpu = [], [], []
     for i in range(frames):

@@ -567,10 +567,16 @@ class Mesh:
         gl.glBindVertexArray(0)
 
     def delete(self) -> None:
-        for buf in (self.vbo, self.ebo):
-            _discard(self.context, "buffer", buf)
-        _discard(self.context, "vao", self.vao)
-        self.vao = self.vbo = self.ebo = 0
+        _delete_vertex_array(self)
+
+
+def _delete_vertex_array(obj) -> None:
+    """Release a Mesh's or an arena's vertex array and its two buffers (through their own
+    context) and zero their names."""
+    for buf in (obj.vbo, obj.ebo):
+        _discard(obj.context, "buffer", buf)
+    _discard(obj.context, "vao", obj.vao)
+    obj.vao = obj.vbo = obj.ebo = 0
 
 
 def _buffer(target: int, data: np.ndarray | None, nbytes: int | None = None) -> int:
@@ -752,10 +758,7 @@ class SlotArena:
         self.grown += 1
 
     def delete(self) -> None:
-        for buf in (self.vbo, self.ebo):
-            _discard(self.context, "buffer", buf)
-        _discard(self.context, "vao", self.vao)
-        self.vao = self.vbo = self.ebo = 0
+        _delete_vertex_array(self)
 
 
 class RangeAllocator:
@@ -924,10 +927,7 @@ class MeshArena:
         self.grown += 1
 
     def delete(self) -> None:
-        for buf in (self.vbo, self.ebo):
-            _discard(self.context, "buffer", buf)
-        _discard(self.context, "vao", self.vao)
-        self.vao = self.vbo = self.ebo = 0
+        _delete_vertex_array(self)
 
 
 # -- state -----------------------------------------------------------------------------------
