@@ -32,6 +32,8 @@ def flatten_curve(vertices: np.ndarray, is_control: np.ndarray, tolerance_m: flo
         return v.reshape(0, 2)
     if ctrl[0] or ctrl[-1]:
         raise ValueError("a curve cannot start or end on a Bézier control vertex")
+    if not ctrl.any():                      # a plain polyline (every builder-made curve)
+        return v.copy()
     tol2 = max(float(tolerance_m), 1e-6) ** 2
     out = [v[0]]
     i = 0
