@@ -90,7 +90,7 @@ class ProduceTiles(System):
         fills in from coarse to fine. Recomputed only when the cut changes."""
         key = cut.tobytes()
         if key != self._ancestors_of:
-            code = with_ancestors(codes(cut), int(cut[:, 0].max()) if len(cut) else 0)
+            code = with_ancestors(codes(cut))
             mask = (1 << 28) - 1
             self._ancestors = np.stack([code >> 56, code & mask, (code >> 28) & mask],
                                        axis=1).astype(np.int32)

@@ -70,11 +70,9 @@ def touched_codes(quadtree: Quadtree, segments_m: np.ndarray, radius_m: np.ndarr
     return np.unique(np.concatenate(out)) if out else np.zeros(0, np.int64)
 
 
-def with_ancestors(codes: np.ndarray, level: int | None = None) -> np.ndarray:
+def with_ancestors(codes: np.ndarray) -> np.ndarray:
     """The codes and every ancestor's code, up to level 0 (sorted, unique). The codes may be
-    of mixed levels (a view's cut): each one's ancestors are taken from its own level.
-    ``level`` (the deepest level among them) is accepted for callers that know it; it is
-    not needed."""
+    of mixed levels (a view's cut): each one's ancestors are taken from its own level."""
     c = np.unique(np.asarray(codes, np.int64))
     if not len(c):
         return c
@@ -90,7 +88,7 @@ def with_ancestors(codes: np.ndarray, level: int | None = None) -> np.ndarray:
 def coverage_table(quadtree: Quadtree, segments_m: np.ndarray, radius_m, level: int
                    ) -> TileTable:
     """A table holding (value 1) every tile of levels 0 … ``level`` that the capsules touch."""
-    codes = with_ancestors(touched_codes(quadtree, segments_m, radius_m, level), level)
+    codes = with_ancestors(touched_codes(quadtree, segments_m, radius_m, level))
     table = TileTable(len(codes))
     table.set_many(codes, 1)
     return table

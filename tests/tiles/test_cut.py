@@ -81,7 +81,7 @@ def test_with_ancestors_of_a_mixed_level_cut_is_exactly_the_keys_parents_chains(
     origin corner)."""
     from riverflow.tiles.coverage import with_ancestors
     from riverflow.tiles.quadtree import parent
-    from riverflow.tiles.table import code_key, codes
+    from riverflow.tiles.table import code_key, codes, tile_code
 
     levels = rng.integers(0, 15, 200)
     keys = np.stack([levels, rng.integers(0, 1 << levels), rng.integers(0, 1 << levels)], 1)
@@ -91,10 +91,5 @@ def test_with_ancestors_of_a_mixed_level_cut_is_exactly_the_keys_parents_chains(
             twin.add(key)
             key = parent(key)
     got = with_ancestors(codes(keys.astype(np.int32)))
-    assert [code_key(int(c)) for c in got] == sorted(twin, key=lambda k: tile_code_of(k))
+    assert [code_key(int(c)) for c in got] == sorted(twin, key=lambda k: tile_code(*k))
     assert len(with_ancestors(np.zeros(0, np.int64))) == 0
-
-
-def tile_code_of(key):
-    from riverflow.tiles.table import tile_code
-    return tile_code(*key)
