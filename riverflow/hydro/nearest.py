@@ -3,13 +3,18 @@
 ``shapely.shortest_line`` / ``shapely.distance`` / ``line_locate_point`` from a point to a
 whole LineString visit every vertex of the line: for the banks of a 400 km river against its
 40,000-vertex axis that is 10⁹ vertex visits (the 1000 km world took 140 s to build). A
-:class:`PolylineIndex` puts the line's segments in a shapely STRtree once and answers the
-same questions exactly, through each point's nearest segment.
+:class:`PolylineIndex` puts the line's segments in a box hierarchy once
+(:mod:`riverflow.kernels.polyline`) and answers the same questions exactly, through each
+point's nearest segment (of equally near ones, the first). It answered through a shapely
+STRtree before: the same numbers, but 1.8 million queries of the 1000 km builder spent 4.1 s
+there (1.2 s of it making shapely points), 0.2 s in the kernel.
 """
 from __future__ import annotations
 
 import numpy as np
 import shapely
+
+from riverflow.kernels.polyline import nearest_segments, segment_boxes
 
 
 class PolylineIndex:
@@ -28,7 +33,7 @@ class PolylineIndex:
         self.s0 = np.concatenate([[0.0], np.cumsum(seg_len)[:-1]])
         self.seg_len = seg_len
         self.length = float(seg_len.sum())
-        self.tree = shapely.STRtree(shapely.linestrings(np.stack([p[:-1], p[1:]], axis=1)))
+        self.boxes = segment_boxes(self.a, self.d)
 
     @classmethod
     def of(cls, line) -> PolylineIndex:
@@ -43,10 +48,9 @@ class PolylineIndex:
         xy = np.asarray(xy, np.float64).reshape(-1, 2)
         if not len(xy):
             return np.zeros(0), np.zeros((0, 2)), np.zeros(0)
-        idx = self.tree.query_nearest(shapely.points(xy), all_matches=False,
-                                      max_distance=max_distance)
-        seg = np.full(len(xy), -1, np.int64)
-        seg[idx[0]] = idx[1]
+        seg = np.empty(len(xy), np.int64)
+        limit = np.inf if max_distance is None else float(max_distance) ** 2
+        nearest_segments(self.a, self.d, self.boxes, np.ascontiguousarray(xy), limit, seg)
         found = seg >= 0
         seg = np.maximum(seg, 0)
         a, d = self.a[seg], self.d[seg]

@@ -1,0 +1,121 @@
+"""Each query point's nearest segment of one polyline, through a box hierarchy over its
+consecutive segments (:class:`riverflow.hydro.nearest.PolylineIndex`).
+
+A polyline's consecutive segments lie side by side, so runs of them make tight boxes without
+sorting: leaves of :data:`LEAF` consecutive segments, and a complete binary tree (heap order,
+node ``i``'s children ``2i + 1`` and ``2i + 2``) whose node boxes bound consecutive runs of
+leaves. A query walks it depth first, nearer child first, and skips every box farther than
+the best segment so far (or than ``max_distance``): O(log n) box tests and a few leaves for a
+point near the line, a handful of box tests for one far from it.
+
+The winner is the segment whose nearest point is nearest, in the same floating-point
+operations as :meth:`~riverflow.hydro.nearest.PolylineIndex.nearest` computes that point
+(exact options: no fused multiply-adds); of equally near segments, the first. Boxes equal to
+the best distance are still searched, so the answer does not depend on the visiting order.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from riverflow.kernels._jit import EXACT_JIT_OPTIONS
+
+LEAF = 8
+"""Consecutive segments in one leaf box."""
+
+
+def segment_boxes(a: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """The box hierarchy (2P − 1, 4) [x0, y0, x1, y1] of segments from ``a`` (n, 2) by ``d``
+    (n, 2): P ≥ 1 leaves (a power of two) of :data:`LEAF` consecutive segments; boxes of
+    missing leaves are empty (x0 = +inf, x1 = −inf: never searched)."""
+    n = len(a)
+    leaves = max(1, -(-n // LEAF))
+    p = 1 << (leaves - 1).bit_length()
+    lo = np.minimum(a, a + d)
+    hi = np.maximum(a, a + d)
+    pad = p * LEAF - n
+    lo = np.concatenate([lo, np.full((pad, 2), np.inf)]).reshape(p, LEAF, 2).min(axis=1)
+    hi = np.concatenate([hi, np.full((pad, 2), -np.inf)]).reshape(p, LEAF, 2).max(axis=1)
+    boxes = np.empty((2 * p - 1, 4))
+    level = np.concatenate([lo, hi], axis=1)
+    start = p - 1
+    boxes[start:] = level
+    while start > 0:
+        level = np.concatenate([np.minimum(level[0::2, :2], level[1::2, :2]),
+                                np.maximum(level[0::2, 2:], level[1::2, 2:])], axis=1)
+        start = (start - 1) // 2
+        boxes[start:start + len(level)] = level
+    return boxes
+
+
+@njit(inline="always", **EXACT_JIT_OPTIONS)
+def _box_d2(boxes, node, x, y):
+    """Squared distance from (x, y) to a node's box (inf for an empty box)."""
+    x0 = boxes[node, 0]
+    if x0 > boxes[node, 2]:
+        return math.inf
+    dx = max(x0 - x, 0.0, x - boxes[node, 2])
+    dy = max(boxes[node, 1] - y, 0.0, y - boxes[node, 3])
+    return dx * dx + dy * dy
+
+
+@njit(**EXACT_JIT_OPTIONS)
+def nearest_segments(a, d, boxes, xy, max_d2, out):
+    """``out[i]``: the segment (of ``a`` (n, 2) + t·``d`` (n, 2), t in [0, 1]) nearest to
+    ``xy[i]``, or −1 where none is within ``max_d2`` [m²] (inf: no limit). ``boxes`` from
+    :func:`segment_boxes`."""
+    n = a.shape[0]
+    first_leaf = (boxes.shape[0] + 1) // 2 - 1
+    stack = np.empty(128, np.int64)
+    stack_d2 = np.empty(128)
+    for i in range(xy.shape[0]):
+        x = xy[i, 0]
+        y = xy[i, 1]
+        best = max_d2
+        best_seg = -1
+        top = 0
+        stack[0] = 0
+        stack_d2[0] = _box_d2(boxes, 0, x, y)
+        top = 1
+        while top > 0:
+            top -= 1
+            node = stack[top]
+            if stack_d2[top] > best:
+                continue
+            if node >= first_leaf:
+                j0 = (node - first_leaf) * LEAF
+                for j in range(j0, min(j0 + LEAF, n)):
+                    ax = a[j, 0]
+                    ay = a[j, 1]
+                    dx = d[j, 0]
+                    dy = d[j, 1]
+                    dd = dx * dx + dy * dy
+                    t = 0.0
+                    if dd > 0.0:
+                        t = ((x - ax) * dx + (y - ay) * dy) / dd
+                    t = min(max(t, 0.0), 1.0)
+                    qx = ax + t * dx - x
+                    qy = ay + t * dy - y
+                    d2 = qx * qx + qy * qy
+                    if d2 < best or (d2 == best and (best_seg < 0 or j < best_seg)):
+                        best = d2
+                        best_seg = j
+                continue
+            c0 = 2 * node + 1
+            c1 = c0 + 1
+            d0 = _box_d2(boxes, c0, x, y)
+            d1 = _box_d2(boxes, c1, x, y)
+            if d0 <= d1:    # the nearer child on top, searched first
+                stack[top] = c1
+                stack_d2[top] = d1
+                stack[top + 1] = c0
+                stack_d2[top + 1] = d0
+            else:
+                stack[top] = c0
+                stack_d2[top] = d0
+                stack[top + 1] = c1
+                stack_d2[top + 1] = d1
+            top += 2
+        out[i] = best_seg
