@@ -243,6 +243,16 @@ class Program:
             raise ShaderError(f"{name} failed to link:\n{exc}") from None
         self.uniforms = frozenset(self.program.uniforms)
         self._sent: dict[str, object] = {}       # uniform → what was last sent (_same_key)
+        # pyglet's setter of each uniform: what ``program[name] = value`` calls, without its
+        # lookups (pyglet 2.1 keeps its uniform objects in ``_uniforms``)
+        objects = getattr(self.program, "_uniforms", None) or {}
+        self._setters = {name: (objects[name].set if hasattr(objects.get(name), "set")
+                                else self._item_setter(name)) for name in self.uniforms}
+
+    def _item_setter(self, name: str):
+        def setter(value) -> None:
+            self.program[name] = value
+        return setter
 
     def use(self) -> None:
         self.program.use()
@@ -260,9 +270,10 @@ class Program:
         self._send(values, False)
 
     def _send(self, values: dict, strict: bool) -> None:
-        uniforms, sent = self.uniforms, self._sent
+        setters, sent = self._setters, self._sent
         for key, value in values.items():
-            if key not in uniforms:
+            setter = setters.get(key)
+            if setter is None:
                 if strict:
                     raise ShaderError(f"{self.name} has no active uniform {key!r}")
                 continue
@@ -277,9 +288,10 @@ class Program:
                 same = _same_key(value)
             if sent.get(key, _NEVER) == same:
                 continue
-            if isinstance(value, np.ndarray):
-                value = value.ravel().tolist()
-            self.program[key] = value
+            try:
+                setter(value.ravel().tolist() if isinstance(value, np.ndarray) else value)
+            except gl.GLException as exc:
+                raise ShaderException(exc) from exc
             sent[key] = same
 
     def delete(self) -> None:

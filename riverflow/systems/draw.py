@@ -112,6 +112,12 @@ FOAM_SCALE_M = 3.0
 """World size of one period of the foam's lace pattern [m] (in each sprite's frame)."""
 
 
+PARAMS_UNIT, GRID_UNIT, WAVE_UNIT, ACCUM_UNIT, WATER_POSITION_UNIT = 2, 3, 1, 4, 5
+RIPPLES_UNIT, DROPS_UNIT, BINS_UNIT = 6, 7, 8
+"""Texture units of the sprite table, sprite grid, wave tile, pre-advected sums, water
+position, ripple table, rain drops and sprite bins."""
+
+
 class _Gpu:
     """The world's GPU objects (made in the world's context on the first draw)."""
 
@@ -132,6 +138,11 @@ class _Gpu:
             "props": gl.Program("props.glsl", defines),
             "rain": gl.Program("rain.glsl", defines),
         }
+        # the uniforms that never change (texture units, constants), set once: not checked
+        # again every frame
+        for program in self.programs.values():
+            program.set_if_used(**_CONSTANT_UNIFORMS)
+        self.grid_uniforms = None       # what the sprite-lists program's were set for
         self.drops = self.drops_cpu = None
         self.ripples_cpu = np.zeros((1, RIPPLE_RING, 4), np.float32)
         self.ripples = gl.Texture((RIPPLE_RING, 1), gl.RGBA32F)
@@ -455,6 +466,16 @@ class _Reflection:
         self.fitted = None
 
 
+_CONSTANT_UNIFORMS = dict(
+    u_params=PARAMS_UNIT, u_grid=GRID_UNIT, u_wave=WAVE_UNIT, u_accum=ACCUM_UNIT,
+    u_water_position=WATER_POSITION_UNIT, u_ripples=RIPPLES_UNIT, u_drops=DROPS_UNIT,
+    u_bins=BINS_UNIT, u_foam_pattern=FOAM_PATTERN_UNIT, u_wakes=WAKES_UNIT,
+    u_reflection=REFLECTION_UNIT, u_reflection_depth=REFLECTION_DEPTH_UNIT,
+    u_sprite_radius_factor=SPRITE_RADIUS_FACTOR, u_foam_scale_m=FOAM_SCALE_M,
+    u_foam_size_px=float(FOAM_PATTERN_PX))
+"""The uniforms every program that uses them gets once, when it is made."""
+
+
 # -- the draw system ---------------------------------------------------------------------------
 
 class DrawRivers(System):
@@ -537,22 +558,21 @@ class DrawRivers(System):
         self._draw_props(gpu, shared)
 
         mode = settings.mode
-        tables = dict(u_params=2, u_grid=3, u_sprite_radius_factor=SPRITE_RADIUS_FACTOR)
-        gpu.params.bind(2)
-        gpu.grid.bind(3)
-        wave_tex.bind(1)
+        gpu.params.bind(PARAMS_UNIT)
+        gpu.grid.bind(GRID_UNIT)
+        wave_tex.bind(WAVE_UNIT)
         if mode == DisplayMode.PRE_ADVECTED:
             self._pre_advect(gpu, shared, wave_uniforms, n_drawn, water_meshes)
         if mode != DisplayMode.NONE:
             water = gpu.programs["water"]
             water.use()
             water.set_if_used(**shared)
-            gpu.accum.bind(4)
-            water.set(u_wave=1, u_accum=4, u_mode=int(mode),
-                      u_show_grid=bool(settings.show_grid), u_grid_cell_px=float(gpu.grid_shape[0]),
-                      u_grid_size=gpu.grid_shape[1:], u_slope_factor=settings.wave_slope_factor,
-                      u_clarity_m=settings.water_clarity_m, **tables, **wave_uniforms,
-                      **ripple_uniforms, **foam_uniforms)
+            gpu.accum.bind(ACCUM_UNIT)
+            water.set(u_mode=int(mode), u_show_grid=bool(settings.show_grid),
+                      u_grid_cell_px=float(gpu.grid_shape[0]), u_grid_size=gpu.grid_shape[1:],
+                      u_slope_factor=settings.wave_slope_factor,
+                      u_clarity_m=settings.water_clarity_m, **wave_uniforms, **ripple_uniforms,
+                      **foam_uniforms)
             water.set_if_used(**reflection_uniforms)
             gl.set_blend(gl.BLEND_WATER)
             for mesh in water_meshes:
@@ -563,13 +583,13 @@ class DrawRivers(System):
             arrows = gpu.programs["arrows"]
             arrows.use()
             arrows.set_if_used(**shared)
-            arrows.set(u_params=2, u_arrow_s=float(settings.arrow_s))
+            arrows.set(u_arrow_s=float(settings.arrow_s))
             gl.set_blend(gl.BLEND_ALPHA)
             gpu.empty.draw(gl.LINES, count=6 * n_entries)
         if settings.show_particles and n_entries:
             points = gpu.programs["particles"]
             points.use()
-            points.set(u_params=2, u_viewport_px=shared["u_viewport_px"])
+            points.set(u_viewport_px=shared["u_viewport_px"])
             gl.enable_program_point_size()
             gl.set_blend(gl.BLEND_ADD)
             gpu.empty.draw(gl.POINTS, count=n_entries)
@@ -600,14 +620,18 @@ class DrawRivers(System):
         gpu.grid_fb.bind()
         gl.set_depth(False, write=False)
         gl.set_blend(gl.BLEND_OFF)
-        gpu.params.bind(2)
-        gpu.bins.bind(8)
+        gpu.params.bind(PARAMS_UNIT)
+        gpu.bins.bind(BINS_UNIT)
         program = gpu.programs["sprite_lists"]
         program.use()
-        program.set(u_params=2, u_bins=8, u_bin_px=(bins.bin_w, bins.bin_h),
-                    u_bin_margin=(bins.margin_x, bins.margin_y), u_bin_count=(bins.bw, bins.bh),
-                    u_sprite_radius_px=float(SPRITE_RADIUS_FACTOR * radius_px),
-                    u_cell_px=int(gpu.grid_shape[0]))
+        fitted = (bins, gpu.grid_shape, radius_px)
+        if gpu.grid_uniforms != fitted:          # (the viewport or the radius changed)
+            program.set(u_bin_px=(bins.bin_w, bins.bin_h),
+                        u_bin_margin=(bins.margin_x, bins.margin_y),
+                        u_bin_count=(bins.bw, bins.bh),
+                        u_sprite_radius_px=float(SPRITE_RADIUS_FACTOR * radius_px),
+                        u_cell_px=int(gpu.grid_shape[0]))
+            gpu.grid_uniforms = fitted
         gpu.empty.draw(gl.TRIANGLES, count=3)
 
     def _upload_ripples(self, world: RiverWorld, gpu: _Gpu, rain: Rain | None) -> dict:
@@ -627,8 +651,8 @@ class DrawRivers(System):
                 table[:, 3] = np.where(np.isfinite(age), age, -1.0)
                 gpu.ripples.upload(gpu.ripples_cpu)
                 count = len(hits)
-        gpu.ripples.bind(6)
-        return {"u_ripples": 6, "u_ripple_count": count, "u_ripple_life_s": life}
+        gpu.ripples.bind(RIPPLES_UNIT)
+        return {"u_ripple_count": count, "u_ripple_life_s": life}
 
     def _upload_foam_and_wakes(self, world: RiverWorld, gpu: _Gpu) -> dict:
         """The water shader's foam and wake uniforms; the wake table uploaded (the first
@@ -642,10 +666,8 @@ class DrawRivers(System):
         shoreline = float(foam.shoreline) if foam is not None and foam.enabled else 0.0
         gpu.foam_pattern.bind(FOAM_PATTERN_UNIT)
         gpu.wakes.bind(WAKES_UNIT)
-        return {"u_foam_pattern": FOAM_PATTERN_UNIT, "u_foam_scale_m": FOAM_SCALE_M,
-                "u_foam_size_px": float(FOAM_PATTERN_PX),
-                "u_time_s": float(world.clock.now_s % 3600.0), "u_wakes": WAKES_UNIT,
-                "u_wake_count": count, "u_shoreline": shoreline,
+        return {"u_time_s": float(world.clock.now_s % 3600.0), "u_wake_count": count,
+                "u_shoreline": shoreline,
                 "u_crest_foam": 1.0 if foam is not None and foam.enabled else 0.0}
 
     def _draw_rain(self, gpu: _Gpu, rain: Rain | None, shared: dict) -> None:
@@ -665,11 +687,11 @@ class DrawRivers(System):
         flat[:n, 1, :3] = rain.drops.velocity[:n]
         gpu.drops.upload(gpu.drops_cpu.reshape(gpu.drops_cpu.shape[0], 2 * DROPS_PER_ROW, 4),
                          rows=rows)
-        gpu.drops.bind(7)
+        gpu.drops.bind(DROPS_UNIT)
         program = gpu.programs["rain"]
         program.use()
         program.set_if_used(**shared)
-        program.set(u_drops=7, u_streak_s=float(rain.streak_s))
+        program.set(u_streak_s=float(rain.streak_s))
         gl.set_depth(True, write=False)
         gl.set_blend(gl.BLEND_ALPHA)
         gpu.empty.draw(gl.LINES, count=2 * n)
@@ -755,8 +777,7 @@ class DrawRivers(System):
         target; returns the water shader's reflection uniforms (``u_reflect`` false, and no
         pass, when reflections are off, the water mode is not shaded, or the eye is not above
         the mirror)."""
-        off = {"u_reflect": False, "u_reflection": REFLECTION_UNIT,
-               "u_reflection_depth": REFLECTION_DEPTH_UNIT}
+        off = {"u_reflect": False}
         self.last_mirror_level_m = None
         if not settings.reflections or settings.mode not in _SHADED_MODES:
             return off
@@ -809,12 +830,11 @@ class DrawRivers(System):
         gl.clear((0.0, 0.0, 0.0, 0.0), depth=False)
         gl.set_depth(False, write=False)
         if n_drawn:
-            gpu.position.bind(5)
+            gpu.position.bind(WATER_POSITION_UNIT)
             program = gpu.programs["sprites"]
             program.use()
             program.set_if_used(**shared)
-            program.set(u_water_position=5, u_wave=1, u_params=2,
-                        u_sprite_radius_factor=SPRITE_RADIUS_FACTOR, **wave_uniforms)
+            program.set(**wave_uniforms)
             gl.set_blend(gl.BLEND_ADD)
             gpu.empty.draw(gl.TRIANGLES, count=6 * n_drawn)
             gl.set_blend(gl.BLEND_OFF)
