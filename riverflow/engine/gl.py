@@ -211,6 +211,10 @@ def _name_lines(log: str, files: list[str]) -> str:
 
 _NEVER = object()
 
+VIEW_BLOCK = "View"
+"""The uniform block every program shares (``shaders/common.glsl``), filled from a
+:class:`UniformBuffer`."""
+
 
 def _same_key(value):
     """What tells a uniform value from another: arrays by their bytes, a zero float (or a
@@ -242,6 +246,10 @@ class Program:
         except ShaderException as exc:
             raise ShaderError(f"{name} failed to link:\n{exc}") from None
         self.uniforms = frozenset(self.program.uniforms)
+        block = getattr(self.program, "uniform_blocks", {}).get(VIEW_BLOCK)
+        self.view_binding = None if block is None else int(block.binding)
+        """The binding point of the program's view block (None: it uses none). pyglet gives a
+        block name the same binding point in every program of a context."""
         self._sent: dict[str, object] = {}       # uniform → what was last sent (_same_key)
         # pyglet's setter of each uniform: what ``program[name] = value`` calls, without its
         # lookups (pyglet 2.1 keeps its uniform objects in ``_uniforms``)
@@ -940,6 +948,39 @@ class MeshArena:
 
     def delete(self) -> None:
         _delete_vertex_array(self)
+
+
+class UniformBuffer:
+    """``count`` copies of a uniform block of ``floats`` float32 values in one buffer: ``data``
+    (count, stride) float32 is written into the buffer whole by :meth:`write` (one call), and
+    copy k is bound to a block's binding point by :meth:`bind` (each copy starts at a
+    multiple of ``GL_UNIFORM_BUFFER_OFFSET_ALIGNMENT``)."""
+
+    def __init__(self, floats: int, count: int) -> None:
+        align = gl.GLint()
+        gl.glGetIntegerv(gl.GL_UNIFORM_BUFFER_OFFSET_ALIGNMENT, ctypes.byref(align))
+        step = max(16, int(align.value))
+        self.block_bytes = 4 * int(floats)
+        self.stride_bytes = -(-self.block_bytes // step) * step
+        self.data = np.zeros((int(count), self.stride_bytes // 4), np.float32)
+        self.context = gl.current_context
+        self.id = _buffer(gl.GL_UNIFORM_BUFFER, self.data)
+        gl.glBindBuffer(gl.GL_UNIFORM_BUFFER, 0)
+        self._address = self.data.ctypes.data
+
+    def write(self) -> None:
+        """Copy ``data`` into the buffer."""
+        gl.glBindBuffer(gl.GL_UNIFORM_BUFFER, self.id)
+        gl.glBufferSubData(gl.GL_UNIFORM_BUFFER, 0, self.data.nbytes, self._address)
+
+    def bind(self, copy: int, binding: int) -> None:
+        """Bind copy ``copy`` to the uniform block binding point ``binding``."""
+        gl.glBindBufferRange(gl.GL_UNIFORM_BUFFER, binding, self.id, copy * self.stride_bytes,
+                             self.block_bytes)
+
+    def delete(self) -> None:
+        _discard(self.context, "buffer", self.id)
+        self.id = 0
 
 
 # -- state -----------------------------------------------------------------------------------

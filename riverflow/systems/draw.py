@@ -95,6 +95,26 @@ def shader_defines() -> dict[str, int]:
     return defines
 
 
+VIEW_FLOATS = 44
+"""Floats of the view block (``shaders/common.glsl``: 168 bytes of std140, padded to 176)."""
+
+
+def pack_view(out: np.ndarray, view_projection, world_from_clip, eye_m, fog_density: float,
+              clip_water: float, viewport_px) -> None:
+    """Write the view block of ``shaders/common.glsl`` (std140) into ``out`` (≥ VIEW_FLOATS
+    float32): world → clip and clip → world as GL's column-major 4 × 4 (16 values each: the
+    transposes of the row-vector matrices, raveled), the eye [m], the fog density, the sun's
+    direction, ``clip_water`` (1: cut what is under the water) and the viewport [px], each
+    cast to float32 as a ``glUniform*f`` call would."""
+    out[0:16] = view_projection
+    out[16:32] = world_from_clip
+    out[32:35] = eye_m
+    out[35] = fog_density
+    out[36:39] = _SUN
+    out[39] = clip_water
+    out[40:42] = viewport_px
+
+
 DROPS_PER_ROW = 1024
 """Rain drops per row of the drop table (two RGBA32F texels each: position, velocity)."""
 
@@ -142,6 +162,12 @@ class _Gpu:
         # again every frame
         for program in self.programs.values():
             program.set_if_used(**_CONSTANT_UNIFORMS)
+        bindings = {p.view_binding for p in self.programs.values()} - {None}
+        if len(bindings) != 1:
+            raise gl.GLError(f"the programs' view blocks have binding points {bindings}")
+        self.view_binding = bindings.pop()
+        self.view = gl.UniformBuffer(VIEW_FLOATS, 2)
+        """The view block: copy 0 for the frame's passes, 1 for the mirrored reflection pass."""
         self.grid_uniforms = None       # what the sprite-lists program's were set for
         self.drops = self.drops_cpu = None
         self.ripples_cpu = np.zeros((1, RIPPLE_RING, 4), np.float32)
@@ -264,7 +290,8 @@ class _Gpu:
         self.prop_meshes.clear()
         self.terrain.delete()
         self.water.delete()
-        for obj in [self.empty, self.params, self.bins, self.grid_fb, self.grid, self.drops,
+        for obj in [self.empty, self.view, self.params, self.bins, self.grid_fb, self.grid,
+                    self.drops,
                     self.ripples, self.foam_pattern, self.wakes, *self.targets,
                     *(tex for _, tex in self.waves.values())]:
             if obj is not None:
@@ -527,19 +554,21 @@ class DrawRivers(System):
         self.last_tables_ms = (time.perf_counter_ns() - t0) * 1e-6
 
         clip_from_world, world_from_clip = camera.matrices_for_kernels()
-        vp = clip_from_world.T.ravel()          # pyrr's view_projection, in closed form
-        shared = dict(u_eye_m=tuple(camera.position.tolist()), u_sun_dir=_SUN,
-                      u_fog_density=float(settings.fog_density_per_m),
-                      u_view_projection=vp, u_viewport_px=(float(gpu.size[0]),
-                                                           float(gpu.size[1])),
-                      u_clip_water=0.0)   # gl_ClipDistance is honoured even when disabled
+        # the view block, for every program (the mirrored copy: _draw_reflection)
+        pack_view(gpu.view.data[0], clip_from_world.T.ravel(),   # pyrr's view_projection,
+                  world_from_clip.T.ravel(), camera.position,    # in closed form
+                  float(settings.fog_density_per_m),
+                  0.0,                  # gl_ClipDistance is honoured even when disabled
+                  (float(gpu.size[0]), float(gpu.size[1])))
         wave_uniforms, wave_tex = self._wave(world, gpu, settings)
         rain = world.resources.get(Rain)
         ripple_uniforms = self._upload_ripples(world, gpu, rain)
         foam_uniforms = self._upload_foam_and_wakes(world, gpu)
         water_meshes = self._tile_meshes(world, gpu)
-        reflection_uniforms = self._draw_reflection(world, gpu, settings, shared,
-                                                    clip_from_world, world_from_clip)
+        reflection_uniforms = self._draw_reflection(world, gpu, settings, clip_from_world)
+        if not reflection_uniforms["u_reflect"]:
+            gpu.view.write()                    # (else written for the reflection pass)
+        gpu.view.bind(0, gpu.view_binding)
 
         gpu.main_fb.bind()
         gl.clear((0.0, 0.0, 0.0, 1.0))
@@ -549,24 +578,21 @@ class DrawRivers(System):
         gl.set_depth(False, write=False)
         sky = gpu.programs["sky"]
         sky.use()
-        sky.set_if_used(**shared)
-        sky.set(u_world_from_clip=np.ascontiguousarray(world_from_clip.T, np.float32))
         gpu.empty.draw(gl.TRIANGLES, count=3)
         # terrain
         gl.set_depth(True)
-        self._draw_terrain(world, gpu, shared)
-        self._draw_props(gpu, shared)
+        self._draw_terrain(world, gpu)
+        self._draw_props(gpu)
 
         mode = settings.mode
         gpu.params.bind(PARAMS_UNIT)
         gpu.grid.bind(GRID_UNIT)
         wave_tex.bind(WAVE_UNIT)
         if mode == DisplayMode.PRE_ADVECTED:
-            self._pre_advect(gpu, shared, wave_uniforms, n_drawn, water_meshes)
+            self._pre_advect(gpu, wave_uniforms, n_drawn, water_meshes)
         if mode != DisplayMode.NONE:
             water = gpu.programs["water"]
             water.use()
-            water.set_if_used(**shared)
             gpu.accum.bind(ACCUM_UNIT)
             water.set(u_mode=int(mode), u_show_grid=bool(settings.show_grid),
                       u_grid_cell_px=float(gpu.grid_shape[0]), u_grid_size=gpu.grid_shape[1:],
@@ -577,19 +603,17 @@ class DrawRivers(System):
             gl.set_blend(gl.BLEND_WATER)
             for mesh in water_meshes:
                 mesh.draw()
-        self._draw_rain(gpu, rain, shared)
+        self._draw_rain(gpu, rain)
         gl.set_depth(False, write=False)
         if settings.show_velocities and n_entries:
             arrows = gpu.programs["arrows"]
             arrows.use()
-            arrows.set_if_used(**shared)
             arrows.set(u_arrow_s=float(settings.arrow_s))
             gl.set_blend(gl.BLEND_ALPHA)
             gpu.empty.draw(gl.LINES, count=6 * n_entries)
         if settings.show_particles and n_entries:
             points = gpu.programs["particles"]
             points.use()
-            points.set(u_viewport_px=shared["u_viewport_px"])
             gl.enable_program_point_size()
             gl.set_blend(gl.BLEND_ADD)
             gpu.empty.draw(gl.POINTS, count=n_entries)
@@ -670,7 +694,7 @@ class DrawRivers(System):
                 "u_shoreline": shoreline,
                 "u_crest_foam": 1.0 if foam is not None and foam.enabled else 0.0}
 
-    def _draw_rain(self, gpu: _Gpu, rain: Rain | None, shared: dict) -> None:
+    def _draw_rain(self, gpu: _Gpu, rain: Rain | None) -> None:
         """The live drops as streaks (depth-tested, not written; alpha-blended)."""
         n = 0 if rain is None else rain.count
         if n == 0:
@@ -690,7 +714,6 @@ class DrawRivers(System):
         gpu.drops.bind(DROPS_UNIT)
         program = gpu.programs["rain"]
         program.use()
-        program.set_if_used(**shared)
         program.set(u_streak_s=float(rain.streak_s))
         gl.set_depth(True, write=False)
         gl.set_blend(gl.BLEND_ALPHA)
@@ -734,20 +757,18 @@ class DrawRivers(System):
         self._terrain_slots = slots[np.argsort(d.sum(axis=1), kind="stable")]
         return batches
 
-    def _draw_terrain(self, world: RiverWorld, gpu: _Gpu, shared: dict,
-                      detail: str = "full") -> None:
+    def _draw_terrain(self, world: RiverWorld, gpu: _Gpu, detail: str = "full") -> None:
         """This frame's terrain tiles, through all their nodes (``detail`` "full") or the
         reflection's coarser mesh ("coarse", with the reflection's own program object), near
         to far, in one multi-draw."""
         program = gpu.programs["terrain" if detail == "full" else "terrain_reflection"]
         program.use()
-        program.set_if_used(**shared)
         count, first = gpu.terrain.ranges[detail]
         gpu.terrain.arena.draw(self._terrain_slots, count, first)
         if detail == "full":
             self.last_tiles = len(self._terrain_slots)
 
-    def _draw_props(self, gpu: _Gpu, shared: dict, mirrored: bool = False) -> None:
+    def _draw_props(self, gpu: _Gpu, mirrored: bool = False) -> None:
         """Every prop; ``mirrored``: in the reflection pass (winding turned, each prop cut
         at its waterline)."""
         props = esper.get_components(Prop, Pose)
@@ -755,7 +776,6 @@ class DrawRivers(System):
             return
         program = gpu.programs["props"]
         program.use()
-        program.set_if_used(**shared)
         gl.set_cull(True, mirrored=mirrored)
         for _, (prop, pose) in props:
             model = pose.matrix()
@@ -770,13 +790,13 @@ class DrawRivers(System):
     # -- reflections (issue 12 item 3) ------------------------------------------------------
 
     def _draw_reflection(self, world: RiverWorld, gpu: _Gpu, settings: DisplaySettings,
-                         shared: dict, clip_from_world: np.ndarray,
-                         world_from_clip: np.ndarray) -> dict:
+                         clip_from_world: np.ndarray) -> dict:
         """The planar reflection pass (``shaders/reflection.glsl``): terrain and props mirrored
         in the water level nearest the camera, cut at their water level, into the reflection
         target; returns the water shader's reflection uniforms (``u_reflect`` false, and no
         pass, when reflections are off, the water mode is not shaded, or the eye is not above
-        the mirror)."""
+        the mirror). With a pass, the view block is written (its copy 0 packed by the caller,
+        copy 1 the mirrored view, bound for the pass)."""
         off = {"u_reflect": False}
         self.last_mirror_level_m = None
         if not settings.reflections or settings.mode not in _SHADED_MODES:
@@ -796,25 +816,27 @@ class DrawRivers(System):
         # the frame's own world → clip matrix (pyrr's view_projection in closed form, as the
         # main pass draws with), mirrored
         vp = mirrored_view_projection(clip_from_world.T, level)
-        mirrored = {**shared, "u_view_projection": vp.ravel(), "u_eye_m": mirrored_eye,
-                    "u_fog_density": 0.0,          # fogged in the water shader, over the ray
-                    "u_clip_water": 1.0}
+        view = gpu.view.data
+        pack_view(view[1], vp.ravel(), view[0, 16:32], mirrored_eye,
+                  0.0,                      # fogged in the water shader, over the ray
+                  1.0, view[0, 40:42])
+        gpu.view.write()
+        gpu.view.bind(1, gpu.view_binding)
         reflection.fb.bind()
         gl.clear((0.0, 0.0, 0.0, 0.0))             # alpha 0: the sky (drawn by the water)
         gl.set_blend(gl.BLEND_OFF)
         gl.set_depth(True)
         gl.set_clip_distance(True)
-        self._draw_terrain(world, gpu, mirrored, "coarse")
-        self._draw_props(gpu, mirrored, mirrored=True)
+        self._draw_terrain(world, gpu, "coarse")
+        self._draw_props(gpu, mirrored=True)
         gl.set_clip_distance(False)
         reflection.colour.generate_mipmaps()        # blurred levels for rough water
         reflection.colour.bind(REFLECTION_UNIT)
         reflection.depth.bind(REFLECTION_DEPTH_UNIT)
-        return {**off, "u_reflect": True, "u_mirror_level_m": float(level),
-                "u_world_from_clip": np.ascontiguousarray(world_from_clip.T, np.float32),
+        return {"u_reflect": True, "u_mirror_level_m": float(level),
                 "u_reflection_distortion": float(settings.reflection_distortion)}
 
-    def _pre_advect(self, gpu: _Gpu, shared: dict, wave_uniforms: dict,
+    def _pre_advect(self, gpu: _Gpu, wave_uniforms: dict,
                     n_drawn: int, water_meshes: list) -> None:
         # the water's world position where it is visible (depth test against the terrain)
         gpu.position_fb.bind()
@@ -822,7 +844,6 @@ class DrawRivers(System):
         gl.set_depth(True, write=False)
         program = gpu.programs["water_position"]
         program.use()
-        program.set_if_used(**shared)
         for mesh in water_meshes:
             mesh.draw()
         # the sprites, added up
@@ -833,7 +854,6 @@ class DrawRivers(System):
             gpu.position.bind(WATER_POSITION_UNIT)
             program = gpu.programs["sprites"]
             program.use()
-            program.set_if_used(**shared)
             program.set(**wave_uniforms)
             gl.set_blend(gl.BLEND_ADD)
             gpu.empty.draw(gl.TRIANGLES, count=6 * n_drawn)
