@@ -52,7 +52,16 @@ import pyglet.gl  # noqa: E402
 
 gl = sys.modules["pyglet.gl"]   # the module itself: ``pyglet.gl`` may be pyglet's lazy proxy,
 #                                 which costs a Python call for every GL name looked up
+from pyglet.graphics import shader as _pyglet_shader  # noqa: E402
 from pyglet.graphics.shader import Shader, ShaderException, ShaderProgram  # noqa: E402
+
+# pyglet 2.1 has no setter for the buffer texture samplers (GL_TEXTURE_BUFFER, core since
+# OpenGL 3.1; its ShaderProgram fails on a program that has one): a texture unit, like a 2-D
+# sampler's
+for _kind in (gl.GL_SAMPLER_BUFFER, gl.GL_INT_SAMPLER_BUFFER,
+              gl.GL_UNSIGNED_INT_SAMPLER_BUFFER):
+    _pyglet_shader._uniform_setters.setdefault(
+        _kind, _pyglet_shader._uniform_setters[gl.GL_SAMPLER_2D])
 
 GLSL_VERSION = "#version 330 core"
 STAGES = {"VERTEX": "vertex", "GEOMETRY": "geometry", "FRAGMENT": "fragment"}
@@ -432,6 +441,99 @@ class Texture:
     def delete(self) -> None:
         _discard(self.context, "texture", self.id)
         self.id = 0
+
+
+class BufferTexture:
+    """A buffer texture (``GL_TEXTURE_BUFFER``, core since OpenGL 3.1): ``texels`` texels of
+    ``fmt`` in a buffer object, read in GLSL with ``texelFetch(samplerBuffer, i)`` (an
+    ``isamplerBuffer`` for integer formats). :meth:`write` copies an array's first bytes in
+    (``glBufferSubData``); :meth:`map` hands out the buffer's memory itself as a numpy array
+    to be filled (write only: its old contents are discarded) until :meth:`unmap`: no copy of
+    the data on the CPU, where a texture upload copies it once more (the sprite table).
+    Raises :class:`GLError` past the driver's ``GL_MAX_TEXTURE_BUFFER_SIZE`` (at least 65536
+    texels; 2^27 and more on desktop GPUs and Mesa)."""
+
+    def __init__(self, texels: int, fmt: TexFormat) -> None:
+        limit = gl.GLint()
+        gl.glGetIntegerv(gl.GL_MAX_TEXTURE_BUFFER_SIZE, ctypes.byref(limit))
+        self.texels = max(1, int(texels))
+        if self.texels > limit.value:
+            raise GLError(f"a buffer texture of {self.texels} texels is past this driver's "
+                          f"GL_MAX_TEXTURE_BUFFER_SIZE ({limit.value})")
+        self.fmt = fmt
+        self.target = gl.GL_TEXTURE_BUFFER
+        self.nbytes = self.texels * fmt.channels * np.dtype(fmt.dtype).itemsize
+        self.context = gl.current_context
+        self.buffer = _buffer(gl.GL_TEXTURE_BUFFER, None, self.nbytes)
+        gl.glBindBuffer(gl.GL_TEXTURE_BUFFER, 0)
+        ident = gl.GLuint()
+        gl.glGenTextures(1, ctypes.byref(ident))
+        self.id = ident.value
+        _bind_scratch(self.target, self.id)
+        gl.glTexBuffer(self.target, fmt.internal, self.buffer)
+        self._mapped: tuple[int, np.ndarray] | None = None     # (address, the array on it)
+        self._last_write: tuple[np.ndarray, int] | None = None
+
+    def write(self, data: np.ndarray, nbytes: int | None = None) -> None:
+        """Copy the first ``nbytes`` (default: all) of C-contiguous ``data`` into the buffer
+        from its start."""
+        n = data.nbytes if nbytes is None else min(int(nbytes), data.nbytes)
+        if n > self.nbytes or not data.flags.c_contiguous:
+            raise ValueError(f"{n} bytes into a buffer texture of {self.nbytes}")
+        if n <= 0:
+            return
+        last = self._last_write
+        if last is None or last[0] is not data:     # the same array every frame
+            last = self._last_write = (data, data.ctypes.data)
+        gl.glBindBuffer(gl.GL_COPY_WRITE_BUFFER, self.buffer)
+        gl.glBufferSubData(gl.GL_COPY_WRITE_BUFFER, 0, n, last[1])
+        gl.glBindBuffer(gl.GL_COPY_WRITE_BUFFER, 0)
+
+    def map(self, shape: tuple[int, ...]) -> np.ndarray:
+        """The buffer's memory as a C-contiguous array of ``shape`` (of the format's dtype, at
+        most the buffer's bytes), for writing only; valid until :meth:`unmap`."""
+        dtype = np.dtype(self.fmt.dtype)
+        count = int(np.prod(shape))
+        if count * dtype.itemsize > self.nbytes:
+            raise ValueError(f"{shape} of {dtype} is past a buffer texture of {self.nbytes} "
+                             "bytes")
+        gl.glBindBuffer(gl.GL_COPY_WRITE_BUFFER, self.buffer)
+        address = gl.glMapBufferRange(gl.GL_COPY_WRITE_BUFFER, 0, self.nbytes,
+                                      gl.GL_MAP_WRITE_BIT | gl.GL_MAP_INVALIDATE_BUFFER_BIT)
+        gl.glBindBuffer(gl.GL_COPY_WRITE_BUFFER, 0)
+        if not address:
+            raise GLError("glMapBufferRange of a buffer texture failed")
+        mapped = self._mapped                       # the driver often hands out the same
+        if mapped is None or mapped[0] != address or mapped[1].shape != tuple(shape):
+            c_array = (ctypes.c_byte * (count * dtype.itemsize)).from_address(address)
+            mapped = self._mapped = (address, np.frombuffer(c_array, dtype).reshape(shape))
+        return mapped[1]
+
+    def unmap(self) -> bool:
+        """End the mapping (the array :meth:`map` gave must not be used after); False if the
+        driver lost the data meanwhile (the GL spec allows it, e.g. on a mode switch: the
+        buffer's contents are then undefined until written again)."""
+        gl.glBindBuffer(gl.GL_COPY_WRITE_BUFFER, self.buffer)
+        ok = gl.glUnmapBuffer(gl.GL_COPY_WRITE_BUFFER)
+        gl.glBindBuffer(gl.GL_COPY_WRITE_BUFFER, 0)
+        return bool(ok)
+
+    def read(self) -> np.ndarray:
+        """The whole buffer as (texels, channels) of the format's dtype (for tests)."""
+        out = np.empty((self.texels, self.fmt.channels), self.fmt.dtype)
+        _read_buffer(gl.GL_COPY_READ_BUFFER, self.buffer, 0, out)
+        gl.glBindBuffer(gl.GL_COPY_READ_BUFFER, 0)
+        return out
+
+    def bind(self, unit: int) -> None:
+        gl.glActiveTexture(gl.GL_TEXTURE0 + unit)
+        gl.glBindTexture(self.target, self.id)
+
+    def delete(self) -> None:
+        _discard(self.context, "texture", self.id)
+        _discard(self.context, "buffer", self.buffer)
+        self.id = self.buffer = 0
+        self._mapped = self._last_write = None
 
 
 def _check_shape(data: np.ndarray, hw: tuple[int, int], channels: int, rows: int) -> None:
