@@ -446,12 +446,10 @@ class Texture:
 class BufferTexture:
     """A buffer texture (``GL_TEXTURE_BUFFER``, core since OpenGL 3.1): ``texels`` texels of
     ``fmt`` in a buffer object, read in GLSL with ``texelFetch(samplerBuffer, i)`` (an
-    ``isamplerBuffer`` for integer formats). :meth:`write` copies an array's first bytes in
-    (``glBufferSubData``); :meth:`map` hands out the buffer's memory itself as a numpy array
-    to be filled (write only: its old contents are discarded) until :meth:`unmap`: no copy of
-    the data on the CPU, where a texture upload copies it once more (the sprite table).
-    Raises :class:`GLError` past the driver's ``GL_MAX_TEXTURE_BUFFER_SIZE`` (at least 65536
-    texels; 2^27 and more on desktop GPUs and Mesa)."""
+    ``isamplerBuffer`` for integer formats): a plain copy of the bytes when written
+    (:meth:`write`, ``glBufferSubData``), no texture layout or row pitch. Raises
+    :class:`GLError` past the driver's ``GL_MAX_TEXTURE_BUFFER_SIZE`` (at least 65536 texels;
+    2^27 and more on desktop GPUs and Mesa)."""
 
     def __init__(self, texels: int, fmt: TexFormat) -> None:
         limit = gl.GLint()
@@ -471,7 +469,6 @@ class BufferTexture:
         self.id = ident.value
         _bind_scratch(self.target, self.id)
         gl.glTexBuffer(self.target, fmt.internal, self.buffer)
-        self._mapped: tuple[int, np.ndarray] | None = None     # (address, the array on it)
         self._last_write: tuple[np.ndarray, int] | None = None
 
     def write(self, data: np.ndarray, nbytes: int | None = None) -> None:
@@ -489,35 +486,6 @@ class BufferTexture:
         gl.glBufferSubData(gl.GL_COPY_WRITE_BUFFER, 0, n, last[1])
         gl.glBindBuffer(gl.GL_COPY_WRITE_BUFFER, 0)
 
-    def map(self, shape: tuple[int, ...]) -> np.ndarray:
-        """The buffer's memory as a C-contiguous array of ``shape`` (of the format's dtype, at
-        most the buffer's bytes), for writing only; valid until :meth:`unmap`."""
-        dtype = np.dtype(self.fmt.dtype)
-        count = int(np.prod(shape))
-        if count * dtype.itemsize > self.nbytes:
-            raise ValueError(f"{shape} of {dtype} is past a buffer texture of {self.nbytes} "
-                             "bytes")
-        gl.glBindBuffer(gl.GL_COPY_WRITE_BUFFER, self.buffer)
-        address = gl.glMapBufferRange(gl.GL_COPY_WRITE_BUFFER, 0, self.nbytes,
-                                      gl.GL_MAP_WRITE_BIT | gl.GL_MAP_INVALIDATE_BUFFER_BIT)
-        gl.glBindBuffer(gl.GL_COPY_WRITE_BUFFER, 0)
-        if not address:
-            raise GLError("glMapBufferRange of a buffer texture failed")
-        mapped = self._mapped                       # the driver often hands out the same
-        if mapped is None or mapped[0] != address or mapped[1].shape != tuple(shape):
-            c_array = (ctypes.c_byte * (count * dtype.itemsize)).from_address(address)
-            mapped = self._mapped = (address, np.frombuffer(c_array, dtype).reshape(shape))
-        return mapped[1]
-
-    def unmap(self) -> bool:
-        """End the mapping (the array :meth:`map` gave must not be used after); False if the
-        driver lost the data meanwhile (the GL spec allows it, e.g. on a mode switch: the
-        buffer's contents are then undefined until written again)."""
-        gl.glBindBuffer(gl.GL_COPY_WRITE_BUFFER, self.buffer)
-        ok = gl.glUnmapBuffer(gl.GL_COPY_WRITE_BUFFER)
-        gl.glBindBuffer(gl.GL_COPY_WRITE_BUFFER, 0)
-        return bool(ok)
-
     def read(self) -> np.ndarray:
         """The whole buffer as (texels, channels) of the format's dtype (for tests)."""
         out = np.empty((self.texels, self.fmt.channels), self.fmt.dtype)
@@ -533,7 +501,7 @@ class BufferTexture:
         _discard(self.context, "texture", self.id)
         _discard(self.context, "buffer", self.buffer)
         self.id = self.buffer = 0
-        self._mapped = self._last_write = None
+        self._last_write = None
 
 
 def _check_shape(data: np.ndarray, hw: tuple[int, int], channels: int, rows: int) -> None:

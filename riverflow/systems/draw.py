@@ -3,9 +3,8 @@
 Per frame (reference §4; no one-frame latency: the tables are built from this frame's pool):
 
 1. the sprite tables from the particle pool (numba, :mod:`riverflow.kernels.sprites`): the
-   float32 sprite table, sorted by screen bin, written by the kernel straight into an RGBA32F
-   buffer texture's memory (mapped), and each bin's first entry, copied into an R32I buffer
-   texture; then, in the modes that blend
+   float32 sprite table, sorted by screen bin, and each bin's first entry, copied into an
+   RGBA32F buffer texture (only the rows in use) and an R32I one; then, in the modes that blend
    sprites per pixel, the sprite grid made from them on the GPU (``sprite_lists.glsl``: each
    cell of r px lists up to 16 sprites, in an RGBA32I array texture);
 2. sky (one full-screen triangle), then the terrain tiles of the view's cut (the tile system
@@ -192,7 +191,6 @@ class _Gpu:
         self.bins_shape = None
         self.params = self.bins = self.grid = self.grid_fb = None
         self.params_cpu = self.starts_cpu = self.scratch = None
-        self.params_shape = (0,)
         self.targets: list = []
         self.reflection = _Reflection()
         gl.check_errors("creating the river draw resources")
@@ -220,18 +218,14 @@ class _Gpu:
             self.targets = [self.main_fb, self.position_fb, self.accum_fb, colour, depth,
                             position, accum]
             self.size = (width, height)
-        if self.params is None or bins != self.bins_shape \
-                or self.params_shape[0] * PARTICLES_PER_ROW < capacity:
+        if self.params_cpu is None or bins != self.bins_shape \
+                or self.params_cpu.shape[0] * PARTICLES_PER_ROW < capacity:
             for tex in (self.params, self.bins):
                 if tex is not None:
                     tex.delete()
-            # the sprite table is written by the kernel straight into the buffer texture's
-            # memory (mapped), the bins (read and written while the kernel sorts) copied in
             self.params_cpu, self.starts_cpu, self.scratch = empty_sprite_tables(capacity, bins)
-            self.params_shape = self.params_cpu.shape
             self.params = gl.BufferTexture(self.params_cpu.size // 4, gl.RGBA32F)
             self.params.write(self.params_cpu)
-            self.params_cpu = None          # (only the buffer's memory holds the table)
             self.bins_view = bin_texels(self.starts_cpu, bins)   # the texture's texels
             self.bins = gl.BufferTexture(self.bins_view.size, gl.R32I)
             self.bins.write(self.bins_view)
@@ -627,18 +621,16 @@ class DrawRivers(System):
     # -- passes -----------------------------------------------------------------------------
 
     def _upload_tables(self, world: RiverWorld, gpu: _Gpu, overlays: bool) -> tuple[int, int]:
-        """Build this frame's sprite table, straight into its buffer texture's memory (mapped:
-        no copy of it on the CPU), and the bins, copied into theirs; returns (entries drawn on the water, all entries). The particles that
+        """Build this frame's sprite table and bins and copy them into their buffer textures
+        (the table's rows in use, all the bins); returns (entries drawn on the water, all entries). The particles that
         are not drawn on the water are in the table only for ``overlays`` (the particle points
         and velocity arrows): ~3/4 of the pool in a chase view."""
         pool = world.pool
-        table = gpu.params.map(gpu.params_shape)
-        try:
-            n_drawn, n_entries, _ = build_sprite_tables(
-                sprite_source(pool), float(world.config.radius_px), slot_span(pool.alive),
-                gpu.bins_shape, table, gpu.starts_cpu, gpu.scratch, bool(overlays))
-        finally:
-            gpu.params.unmap()
+        n_drawn, n_entries, rows = build_sprite_tables(
+            sprite_source(pool), float(world.config.radius_px), slot_span(pool.alive),
+            gpu.bins_shape, gpu.params_cpu, gpu.starts_cpu, gpu.scratch, bool(overlays))
+        if rows:
+            gpu.params.write(gpu.params_cpu, rows * gpu.params_cpu[0].nbytes)
         gpu.bins.write(gpu.bins_view)
         self.last_sprites = int(n_drawn)
         return int(n_drawn), int(n_entries)
