@@ -63,6 +63,7 @@ from riverflow.components.waves import WaveTile
 from riverflow.engine import gl
 from riverflow.engine.system import System
 from riverflow.kernels.foam import foam_pattern, mip_chain
+from riverflow.kernels.tile_cut import near_to_far
 from riverflow.kernels.wake import wake_texture
 from riverflow.kernels.sprites import (MAX_PER_CELL, NO_PARTICLE, PARTICLES_PER_ROW,
                                        SPRITE_RADIUS_FACTOR, TEXELS_PER_PARTICLE, bin_texels,
@@ -99,20 +100,16 @@ VIEW_FLOATS = 44
 """Floats of the view block (``shaders/common.glsl``: 168 bytes of std140, padded to 176)."""
 
 
-def pack_view(out: np.ndarray, view_projection, world_from_clip, eye_m, fog_density: float,
-              clip_water: float, viewport_px) -> None:
+def pack_view(out: np.ndarray, view_projection: np.ndarray, world_from_clip: np.ndarray,
+              eye_m: np.ndarray, fog_density: float, clip_water: float,
+              viewport_px: tuple[float, float]) -> None:
     """Write the view block of ``shaders/common.glsl`` (std140) into ``out`` (≥ VIEW_FLOATS
-    float32): world → clip and clip → world as GL's column-major 4 × 4 (16 values each: the
-    transposes of the row-vector matrices, raveled), the eye [m], the fog density, the sun's
-    direction, ``clip_water`` (1: cut what is under the water) and the viewport [px], each
-    cast to float32 as a ``glUniform*f`` call would."""
-    out[0:16] = view_projection
-    out[16:32] = world_from_clip
-    out[32:35] = eye_m
-    out[35] = fog_density
-    out[36:39] = _SUN
-    out[39] = clip_water
-    out[40:42] = viewport_px
+    float32): world → clip and clip → world as GL's column-major 4 × 4 ((16,) arrays: the
+    transposes of the row-vector matrices, raveled), the eye [m] ((3,) array), the fog
+    density, the sun's direction, ``clip_water`` (1: cut what is under the water) and the
+    viewport [px], each cast to float32 as a ``glUniform*f`` call would (one assignment)."""
+    out[:42] = [*view_projection.tolist(), *world_from_clip.tolist(), *eye_m.tolist(),
+                fog_density, *_SUN, clip_water, *viewport_px]
 
 
 DROPS_PER_ROW = 1024
@@ -750,9 +747,8 @@ class DrawRivers(System):
             batches = gpu.water.sync(water, standin_tiles(cut, water, skip=dry))
             self._tiles_for = (key, cut, (slots, centres, batches))
         # near to far: the depth test then rejects hidden ground before it is shaded
-        d = centres - np.asarray(world.camera.position, np.float64)
-        d *= d
-        self._terrain_slots = slots[np.argsort(d.sum(axis=1), kind="stable")]
+        self._terrain_slots = order = np.empty_like(slots)
+        near_to_far(slots, centres, np.asarray(world.camera.position, np.float64), order)
         return batches
 
     def _draw_terrain(self, world: RiverWorld, gpu: _Gpu, detail: str = "full") -> None:
@@ -814,10 +810,11 @@ class DrawRivers(System):
         # the frame's own world → clip matrix (pyrr's view_projection in closed form, as the
         # main pass draws with), mirrored
         vp = mirrored_view_projection(clip_from_world.T, level)
-        view = gpu.view.data
-        pack_view(view[1], vp.ravel(), view[0, 16:32], mirrored_eye,
-                  0.0,                      # fogged in the water shader, over the ray
-                  1.0, view[0, 40:42])
+        view = gpu.view.data                # copy 1: copy 0 (pack_view) but for
+        view[1] = view[0]
+        view[1, :16] = vp.ravel()           # the mirrored world → clip
+        view[1, 32:36] = (*mirrored_eye, 0.0)   # the eye; no fog: fogged in the water shader,
+        view[1, 39] = 1.0                   # over the ray; cut what is under the water
         gpu.view.write()
         gpu.view.bind(1, gpu.view_binding)
         reflection.fb.bind()
