@@ -1083,19 +1083,53 @@ class GpuTimer:
         self.query = 0
 
 
+_state: dict[str, object] = {}
+"""The depth, blend and cull state the setters below last set in ``_state_context``: a setter
+makes no GL call for a part that is already so (a frame sets the same state again and again,
+~a dozen calls a frame). Nothing else in riverflow sets these; a host may between frames, so
+the draw system calls :func:`forget_state` at the start of each."""
+_state_context = [None]
+
+
+def forget_state() -> None:
+    """Forget what the setters know of the current context's state: their next calls make
+    every GL call again."""
+    _state.clear()
+    _state_context[0] = gl.current_context
+
+
+def _known() -> dict[str, object]:
+    """The state known of the current context (none if another context is current now)."""
+    if _state_context[0] is not gl.current_context:
+        forget_state()
+    return _state
+
+
 def clear(rgba: tuple[float, float, float, float] = (0, 0, 0, 0), depth: bool = True) -> None:
     """Clear the bound framebuffer's colour (and depth: glClear obeys the depth mask, so depth
     writes are turned on first and stay on)."""
     gl.glClearColor(*rgba)
     if depth:
-        gl.glDepthMask(gl.GL_TRUE)
+        state = _known()
+        if state.get("depth_write") is not True:
+            gl.glDepthMask(gl.GL_TRUE)
+            state["depth_write"] = True
     gl.glClear(gl.GL_COLOR_BUFFER_BIT | (gl.GL_DEPTH_BUFFER_BIT if depth else 0))
 
 
 def set_depth(test: bool, write: bool = True) -> None:
-    (gl.glEnable if test else gl.glDisable)(gl.GL_DEPTH_TEST)
-    gl.glDepthFunc(gl.GL_LEQUAL)
-    gl.glDepthMask(gl.GL_TRUE if write else gl.GL_FALSE)
+    """Depth test (GL_LEQUAL) on or off, depth writes on or off."""
+    state = _known()
+    test, write = bool(test), bool(write)
+    if state.get("depth_test") is not test:
+        (gl.glEnable if test else gl.glDisable)(gl.GL_DEPTH_TEST)
+        state["depth_test"] = test
+    if "depth_func" not in state:
+        gl.glDepthFunc(gl.GL_LEQUAL)
+        state["depth_func"] = gl.GL_LEQUAL
+    if state.get("depth_write") is not write:
+        gl.glDepthMask(gl.GL_TRUE if write else gl.GL_FALSE)
+        state["depth_write"] = write
 
 
 BLEND_OFF, BLEND_ALPHA, BLEND_ADD, BLEND_WATER = range(4)
@@ -1105,15 +1139,18 @@ def set_blend(kind: int) -> None:
     """OFF; ALPHA (src·a + dst·(1−a)); ADD (src + dst); WATER (src + dst·src.a: the water
     shader writes what it adds and how much of the bed drawn before shows through). Blending
     never changes the target's alpha (the frame stays opaque)."""
-    if kind == BLEND_OFF:
-        gl.glDisable(gl.GL_BLEND)
-        return
-    gl.glEnable(gl.GL_BLEND)
-    gl.glBlendEquation(gl.GL_FUNC_ADD)
-    src, dst = {BLEND_ALPHA: (gl.GL_SRC_ALPHA, gl.GL_ONE_MINUS_SRC_ALPHA),
-                BLEND_ADD: (gl.GL_ONE, gl.GL_ONE),
-                BLEND_WATER: (gl.GL_ONE, gl.GL_SRC_ALPHA)}[kind]
-    gl.glBlendFuncSeparate(src, dst, gl.GL_ZERO, gl.GL_ONE)
+    state = _known()
+    on = kind != BLEND_OFF
+    if on and state.get("blend_func") != kind:
+        src, dst = {BLEND_ALPHA: (gl.GL_SRC_ALPHA, gl.GL_ONE_MINUS_SRC_ALPHA),
+                    BLEND_ADD: (gl.GL_ONE, gl.GL_ONE),
+                    BLEND_WATER: (gl.GL_ONE, gl.GL_SRC_ALPHA)}[kind]
+        gl.glBlendEquation(gl.GL_FUNC_ADD)
+        gl.glBlendFuncSeparate(src, dst, gl.GL_ZERO, gl.GL_ONE)
+        state["blend_func"] = kind
+    if state.get("blend") is not on:
+        (gl.glEnable if on else gl.glDisable)(gl.GL_BLEND)
+        state["blend"] = on
 
 
 def mip_levels(width: int, height: int) -> int:
@@ -1124,9 +1161,17 @@ def mip_levels(width: int, height: int) -> int:
 def set_cull(back: bool, mirrored: bool = False) -> None:
     """Cull back faces (or not). ``mirrored``: the geometry is drawn through a mirror, which
     turns counter-clockwise front faces clockwise (the planar reflection pass)."""
-    (gl.glEnable if back else gl.glDisable)(gl.GL_CULL_FACE)
-    gl.glCullFace(gl.GL_BACK)
-    gl.glFrontFace(gl.GL_CW if mirrored else gl.GL_CCW)
+    state = _known()
+    back, front = bool(back), gl.GL_CW if mirrored else gl.GL_CCW
+    if state.get("cull") is not back:
+        (gl.glEnable if back else gl.glDisable)(gl.GL_CULL_FACE)
+        state["cull"] = back
+    if "cull_face" not in state:
+        gl.glCullFace(gl.GL_BACK)
+        state["cull_face"] = gl.GL_BACK
+    if state.get("front_face") != front:
+        gl.glFrontFace(front)
+        state["front_face"] = front
 
 
 def set_clip_distance(on: bool) -> None:

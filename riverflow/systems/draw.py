@@ -532,6 +532,7 @@ class DrawRivers(System):
     def process(self, world: RiverWorld, dt_s: float) -> None:
         if self.context is not None:
             gl.make_current(self.context)
+        gl.forget_state()                       # (a host may have changed it since)
         if self.gpu is None:
             self.gpu = _Gpu(world)
         gpu = self.gpu
