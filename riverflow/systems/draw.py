@@ -286,8 +286,7 @@ class _Gpu:
         self.terrain.delete()
         self.water.delete()
         for obj in [self.empty, self.view, self.params, self.bins, self.grid_fb, self.grid,
-                    self.drops,
-                    self.ripples, self.foam_pattern, self.wakes, *self.targets,
+                    self.drops, self.ripples, self.foam_pattern, self.wakes, *self.targets,
                     *(tex for _, tex in self.waves.values())]:
             if obj is not None:
                 obj.delete()
@@ -620,9 +619,10 @@ class DrawRivers(System):
 
     def _upload_tables(self, world: RiverWorld, gpu: _Gpu, overlays: bool) -> tuple[int, int]:
         """Build this frame's sprite table and bins and copy them into their buffer textures
-        (the table's rows in use, all the bins); returns (entries drawn on the water, all entries). The particles that
-        are not drawn on the water are in the table only for ``overlays`` (the particle points
-        and velocity arrows): ~3/4 of the pool in a chase view."""
+        (the table's rows in use, all the bins); returns (entries drawn on the water, all
+        entries). The particles that are not drawn on the water are in the table only for
+        ``overlays`` (the particle points and velocity arrows): ~3/4 of the pool in a chase
+        view."""
         pool = world.pool
         n_drawn, n_entries, rows = build_sprite_tables(
             sprite_source(pool), float(world.config.radius_px), slot_span(pool.alive),
