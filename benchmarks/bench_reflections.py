@@ -74,8 +74,6 @@ class SsrProbe:
         """Wall and CPU milliseconds of the copy and the marching pass, finished."""
         from riverflow.engine import gl
         gpu = drawer.gpu
-        camera = world.camera
-        _, world_from_clip = camera.matrices_for_kernels()
         gl.finish()
         t0 = _clock()
         gl.blit(gpu.main_fb, self.fb, depth=True)
@@ -84,9 +82,7 @@ class SsrProbe:
         self.depth.bind(13)
         program = self.program
         program.use()
-        program.set(u_view_projection=camera.view_projection().ravel(),
-                    u_eye_m=tuple(camera.position), u_colour=12, u_depth=13,
-                    u_world_from_clip=np.ascontiguousarray(world_from_clip.T, np.float32))
+        program.set(u_colour=12, u_depth=13)   # the view block: as the frame left it
         gl.set_depth(True, write=False)
         gl.set_blend(gl.BLEND_ALPHA)
         for mesh in drawer._tile_meshes(world, gpu):

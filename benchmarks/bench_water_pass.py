@@ -53,11 +53,7 @@ def main(argv: list[str] | None = None) -> dict:
     gl.finish()
     drawer = world._drawer()
     gpu = drawer.gpu
-    camera = world.camera
-    clip_from_world, _ = camera.matrices_for_kernels()
-    shared = dict(u_eye_m=tuple(camera.position), u_sun_dir=(0.3, 0.3, 0.9),
-                  u_fog_density=1 / 6000, u_view_projection=clip_from_world.T.ravel(),
-                  u_viewport_px=(float(size[0]), float(size[1])))
+    # the view block stays as the frame drawn above left it (the same camera)
     with world.active():
         waves, wave_tex = drawer._wave(world, gpu, world.display)
         ripples = drawer._upload_ripples(world, gpu, None)
@@ -73,7 +69,6 @@ def main(argv: list[str] | None = None) -> dict:
         gpu.accum.bind(4)
         program = gpu.programs["water"]
         program.use()
-        program.set_if_used(**shared)
         program.set(u_wave=1, u_params=2, u_grid=3, u_accum=4, u_mode=int(mode),
                     u_show_grid=False, u_slope_factor=0.2, u_clarity_m=2.5,
                     u_sprite_radius_factor=SPRITE_RADIUS_FACTOR,
@@ -85,7 +80,7 @@ def main(argv: list[str] | None = None) -> dict:
     def splat() -> None:
         gpu.params.bind(2)
         wave_tex.bind(1)
-        drawer._pre_advect(gpu, shared, waves, drawer.last_sprites, meshes)
+        drawer._pre_advect(gpu, waves, drawer.last_sprites, meshes)
         water(DisplayMode.PRE_ADVECTED)
 
     variants = {

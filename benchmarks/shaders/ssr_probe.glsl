@@ -4,8 +4,6 @@
 // the march of riverflow/shaders/reflection.glsl (even steps on screen, bisection, hit
 // validation; no early out: the frame has no sky-only mip chain), and blends the colour found.
 #include "common.glsl"
-uniform mat4 u_view_projection;
-uniform mat4 u_world_from_clip;
 uniform sampler2D u_colour;
 uniform sampler2D u_depth;
 

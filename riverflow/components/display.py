@@ -69,8 +69,10 @@ class DisplaySettings:
 
     def validate(self) -> None:
         """Raise ValueError naming the field if a value is not usable."""
-        self.mode = DisplayMode(self.mode)
-        self.wave = WaveKind(self.wave)
+        if type(self.mode) is not DisplayMode:      # (every frame: no enum call when it is)
+            self.mode = DisplayMode(self.mode)
+        if type(self.wave) is not WaveKind:
+            self.wave = WaveKind(self.wave)
         for name in ("wave_slope_factor", "water_clarity_m", "fog_density_per_m", "arrow_s",
                      "reflection_distortion"):
             value = getattr(self, name)
@@ -80,7 +82,8 @@ class DisplaySettings:
         scale = self.reflection_scale
         if not (isinstance(scale, (int, float)) and math.isfinite(scale) and 0 < scale <= 1):
             raise ValueError(f"DisplaySettings.reflection_scale must be in (0, 1], got {scale!r}")
-        self.reflections = bool(self.reflections)
+        if type(self.reflections) is not bool:
+            self.reflections = bool(self.reflections)
 
 
 MODE_NAMES: dict[str, dict[str, object]] = {

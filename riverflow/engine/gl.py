@@ -52,7 +52,16 @@ import pyglet.gl  # noqa: E402
 
 gl = sys.modules["pyglet.gl"]   # the module itself: ``pyglet.gl`` may be pyglet's lazy proxy,
 #                                 which costs a Python call for every GL name looked up
+from pyglet.graphics import shader as _pyglet_shader  # noqa: E402
 from pyglet.graphics.shader import Shader, ShaderException, ShaderProgram  # noqa: E402
+
+# pyglet 2.1 has no setter for the buffer texture samplers (GL_TEXTURE_BUFFER, core since
+# OpenGL 3.1; its ShaderProgram fails on a program that has one): a texture unit, like a 2-D
+# sampler's
+for _kind in (gl.GL_SAMPLER_BUFFER, gl.GL_INT_SAMPLER_BUFFER,
+              gl.GL_UNSIGNED_INT_SAMPLER_BUFFER):
+    _pyglet_shader._uniform_setters.setdefault(
+        _kind, _pyglet_shader._uniform_setters[gl.GL_SAMPLER_2D])
 
 GLSL_VERSION = "#version 330 core"
 STAGES = {"VERTEX": "vertex", "GEOMETRY": "geometry", "FRAGMENT": "fragment"}
@@ -211,6 +220,10 @@ def _name_lines(log: str, files: list[str]) -> str:
 
 _NEVER = object()
 
+VIEW_BLOCK = "View"
+"""The uniform block every program shares (``shaders/common.glsl``), filled from a
+:class:`UniformBuffer`."""
+
 
 def _same_key(value):
     """What tells a uniform value from another: arrays by their bytes, a zero float (or a
@@ -242,7 +255,21 @@ class Program:
         except ShaderException as exc:
             raise ShaderError(f"{name} failed to link:\n{exc}") from None
         self.uniforms = frozenset(self.program.uniforms)
+        block = getattr(self.program, "uniform_blocks", {}).get(VIEW_BLOCK)
+        self.view_binding = None if block is None else int(block.binding)
+        """The binding point of the program's view block (None: it uses none). pyglet gives a
+        block name the same binding point in every program of a context."""
         self._sent: dict[str, object] = {}       # uniform → what was last sent (_same_key)
+        # pyglet's setter of each uniform: what ``program[name] = value`` calls, without its
+        # lookups (pyglet 2.1 keeps its uniform objects in ``_uniforms``)
+        objects = getattr(self.program, "_uniforms", None) or {}
+        self._setters = {name: (objects[name].set if hasattr(objects.get(name), "set")
+                                else self._item_setter(name)) for name in self.uniforms}
+
+    def _item_setter(self, name: str):
+        def setter(value) -> None:
+            self.program[name] = value
+        return setter
 
     def use(self) -> None:
         self.program.use()
@@ -260,9 +287,10 @@ class Program:
         self._send(values, False)
 
     def _send(self, values: dict, strict: bool) -> None:
-        uniforms, sent = self.uniforms, self._sent
+        setters, sent = self._setters, self._sent
         for key, value in values.items():
-            if key not in uniforms:
+            setter = setters.get(key)
+            if setter is None:
                 if strict:
                     raise ShaderError(f"{self.name} has no active uniform {key!r}")
                 continue
@@ -277,9 +305,10 @@ class Program:
                 same = _same_key(value)
             if sent.get(key, _NEVER) == same:
                 continue
-            if isinstance(value, np.ndarray):
-                value = value.ravel().tolist()
-            self.program[key] = value
+            try:
+                setter(value.ravel().tolist() if isinstance(value, np.ndarray) else value)
+            except gl.GLException as exc:
+                raise ShaderException(exc) from exc
             sent[key] = same
 
     def delete(self) -> None:
@@ -412,6 +441,67 @@ class Texture:
     def delete(self) -> None:
         _discard(self.context, "texture", self.id)
         self.id = 0
+
+
+class BufferTexture:
+    """A buffer texture (``GL_TEXTURE_BUFFER``, core since OpenGL 3.1): ``texels`` texels of
+    ``fmt`` in a buffer object, read in GLSL with ``texelFetch(samplerBuffer, i)`` (an
+    ``isamplerBuffer`` for integer formats): a plain copy of the bytes when written
+    (:meth:`write`, ``glBufferSubData``), no texture layout or row pitch. Raises
+    :class:`GLError` past the driver's ``GL_MAX_TEXTURE_BUFFER_SIZE`` (at least 65536 texels;
+    2^27 and more on desktop GPUs and Mesa)."""
+
+    def __init__(self, texels: int, fmt: TexFormat) -> None:
+        limit = gl.GLint()
+        gl.glGetIntegerv(gl.GL_MAX_TEXTURE_BUFFER_SIZE, ctypes.byref(limit))
+        self.texels = max(1, int(texels))
+        if self.texels > limit.value:
+            raise GLError(f"a buffer texture of {self.texels} texels is past this driver's "
+                          f"GL_MAX_TEXTURE_BUFFER_SIZE ({limit.value})")
+        self.fmt = fmt
+        self.target = gl.GL_TEXTURE_BUFFER
+        self.nbytes = self.texels * fmt.channels * np.dtype(fmt.dtype).itemsize
+        self.context = gl.current_context
+        self.buffer = _buffer(gl.GL_TEXTURE_BUFFER, None, self.nbytes)
+        gl.glBindBuffer(gl.GL_TEXTURE_BUFFER, 0)
+        ident = gl.GLuint()
+        gl.glGenTextures(1, ctypes.byref(ident))
+        self.id = ident.value
+        _bind_scratch(self.target, self.id)
+        gl.glTexBuffer(self.target, fmt.internal, self.buffer)
+        self._last_write: tuple[np.ndarray, int] | None = None
+
+    def write(self, data: np.ndarray, nbytes: int | None = None) -> None:
+        """Copy the first ``nbytes`` (default: all) of C-contiguous ``data`` into the buffer
+        from its start."""
+        n = data.nbytes if nbytes is None else min(int(nbytes), data.nbytes)
+        if n > self.nbytes or not data.flags.c_contiguous:
+            raise ValueError(f"{n} bytes into a buffer texture of {self.nbytes}")
+        if n <= 0:
+            return
+        last = self._last_write
+        if last is None or last[0] is not data:     # the same array every frame
+            last = self._last_write = (data, data.ctypes.data)
+        gl.glBindBuffer(gl.GL_COPY_WRITE_BUFFER, self.buffer)
+        gl.glBufferSubData(gl.GL_COPY_WRITE_BUFFER, 0, n, last[1])
+        gl.glBindBuffer(gl.GL_COPY_WRITE_BUFFER, 0)
+
+    def read(self) -> np.ndarray:
+        """The whole buffer as (texels, channels) of the format's dtype (for tests)."""
+        out = np.empty((self.texels, self.fmt.channels), self.fmt.dtype)
+        _read_buffer(gl.GL_COPY_READ_BUFFER, self.buffer, 0, out)
+        gl.glBindBuffer(gl.GL_COPY_READ_BUFFER, 0)
+        return out
+
+    def bind(self, unit: int) -> None:
+        gl.glActiveTexture(gl.GL_TEXTURE0 + unit)
+        gl.glBindTexture(self.target, self.id)
+
+    def delete(self) -> None:
+        _discard(self.context, "texture", self.id)
+        _discard(self.context, "buffer", self.buffer)
+        self.id = self.buffer = 0
+        self._last_write = None
 
 
 def _check_shape(data: np.ndarray, hw: tuple[int, int], channels: int, rows: int) -> None:
@@ -930,6 +1020,39 @@ class MeshArena:
         _delete_vertex_array(self)
 
 
+class UniformBuffer:
+    """``count`` copies of a uniform block of ``floats`` float32 values in one buffer: ``data``
+    (count, stride) float32 is written into the buffer whole by :meth:`write` (one call), and
+    copy k is bound to a block's binding point by :meth:`bind` (each copy starts at a
+    multiple of ``GL_UNIFORM_BUFFER_OFFSET_ALIGNMENT``)."""
+
+    def __init__(self, floats: int, count: int) -> None:
+        align = gl.GLint()
+        gl.glGetIntegerv(gl.GL_UNIFORM_BUFFER_OFFSET_ALIGNMENT, ctypes.byref(align))
+        step = max(16, int(align.value))
+        self.block_bytes = 4 * int(floats)
+        self.stride_bytes = -(-self.block_bytes // step) * step
+        self.data = np.zeros((int(count), self.stride_bytes // 4), np.float32)
+        self.context = gl.current_context
+        self.id = _buffer(gl.GL_UNIFORM_BUFFER, self.data)
+        gl.glBindBuffer(gl.GL_UNIFORM_BUFFER, 0)
+        self._address = self.data.ctypes.data
+
+    def write(self) -> None:
+        """Copy ``data`` into the buffer."""
+        gl.glBindBuffer(gl.GL_UNIFORM_BUFFER, self.id)
+        gl.glBufferSubData(gl.GL_UNIFORM_BUFFER, 0, self.data.nbytes, self._address)
+
+    def bind(self, copy: int, binding: int) -> None:
+        """Bind copy ``copy`` to the uniform block binding point ``binding``."""
+        gl.glBindBufferRange(gl.GL_UNIFORM_BUFFER, binding, self.id, copy * self.stride_bytes,
+                             self.block_bytes)
+
+    def delete(self) -> None:
+        _discard(self.context, "buffer", self.id)
+        self.id = 0
+
+
 # -- state -----------------------------------------------------------------------------------
 
 class GpuTimer:
@@ -960,19 +1083,53 @@ class GpuTimer:
         self.query = 0
 
 
+_state: dict[str, object] = {}
+"""The depth, blend and cull state the setters below last set in ``_state_context``: a setter
+makes no GL call for a part that is already so (a frame sets the same state again and again,
+~a dozen calls a frame). Nothing else in riverflow sets these; a host may between frames, so
+the draw system calls :func:`forget_state` at the start of each."""
+_state_context = [None]
+
+
+def forget_state() -> None:
+    """Forget what the setters know of the current context's state: their next calls make
+    every GL call again."""
+    _state.clear()
+    _state_context[0] = gl.current_context
+
+
+def _known() -> dict[str, object]:
+    """The state known of the current context (none if another context is current now)."""
+    if _state_context[0] is not gl.current_context:
+        forget_state()
+    return _state
+
+
 def clear(rgba: tuple[float, float, float, float] = (0, 0, 0, 0), depth: bool = True) -> None:
     """Clear the bound framebuffer's colour (and depth: glClear obeys the depth mask, so depth
     writes are turned on first and stay on)."""
     gl.glClearColor(*rgba)
     if depth:
-        gl.glDepthMask(gl.GL_TRUE)
+        state = _known()
+        if state.get("depth_write") is not True:
+            gl.glDepthMask(gl.GL_TRUE)
+            state["depth_write"] = True
     gl.glClear(gl.GL_COLOR_BUFFER_BIT | (gl.GL_DEPTH_BUFFER_BIT if depth else 0))
 
 
 def set_depth(test: bool, write: bool = True) -> None:
-    (gl.glEnable if test else gl.glDisable)(gl.GL_DEPTH_TEST)
-    gl.glDepthFunc(gl.GL_LEQUAL)
-    gl.glDepthMask(gl.GL_TRUE if write else gl.GL_FALSE)
+    """Depth test (GL_LEQUAL) on or off, depth writes on or off."""
+    state = _known()
+    test, write = bool(test), bool(write)
+    if state.get("depth_test") is not test:
+        (gl.glEnable if test else gl.glDisable)(gl.GL_DEPTH_TEST)
+        state["depth_test"] = test
+    if "depth_func" not in state:
+        gl.glDepthFunc(gl.GL_LEQUAL)
+        state["depth_func"] = gl.GL_LEQUAL
+    if state.get("depth_write") is not write:
+        gl.glDepthMask(gl.GL_TRUE if write else gl.GL_FALSE)
+        state["depth_write"] = write
 
 
 BLEND_OFF, BLEND_ALPHA, BLEND_ADD, BLEND_WATER = range(4)
@@ -982,15 +1139,18 @@ def set_blend(kind: int) -> None:
     """OFF; ALPHA (src·a + dst·(1−a)); ADD (src + dst); WATER (src + dst·src.a: the water
     shader writes what it adds and how much of the bed drawn before shows through). Blending
     never changes the target's alpha (the frame stays opaque)."""
-    if kind == BLEND_OFF:
-        gl.glDisable(gl.GL_BLEND)
-        return
-    gl.glEnable(gl.GL_BLEND)
-    gl.glBlendEquation(gl.GL_FUNC_ADD)
-    src, dst = {BLEND_ALPHA: (gl.GL_SRC_ALPHA, gl.GL_ONE_MINUS_SRC_ALPHA),
-                BLEND_ADD: (gl.GL_ONE, gl.GL_ONE),
-                BLEND_WATER: (gl.GL_ONE, gl.GL_SRC_ALPHA)}[kind]
-    gl.glBlendFuncSeparate(src, dst, gl.GL_ZERO, gl.GL_ONE)
+    state = _known()
+    on = kind != BLEND_OFF
+    if on and state.get("blend_func") != kind:
+        src, dst = {BLEND_ALPHA: (gl.GL_SRC_ALPHA, gl.GL_ONE_MINUS_SRC_ALPHA),
+                    BLEND_ADD: (gl.GL_ONE, gl.GL_ONE),
+                    BLEND_WATER: (gl.GL_ONE, gl.GL_SRC_ALPHA)}[kind]
+        gl.glBlendEquation(gl.GL_FUNC_ADD)
+        gl.glBlendFuncSeparate(src, dst, gl.GL_ZERO, gl.GL_ONE)
+        state["blend_func"] = kind
+    if state.get("blend") is not on:
+        (gl.glEnable if on else gl.glDisable)(gl.GL_BLEND)
+        state["blend"] = on
 
 
 def mip_levels(width: int, height: int) -> int:
@@ -1001,9 +1161,17 @@ def mip_levels(width: int, height: int) -> int:
 def set_cull(back: bool, mirrored: bool = False) -> None:
     """Cull back faces (or not). ``mirrored``: the geometry is drawn through a mirror, which
     turns counter-clockwise front faces clockwise (the planar reflection pass)."""
-    (gl.glEnable if back else gl.glDisable)(gl.GL_CULL_FACE)
-    gl.glCullFace(gl.GL_BACK)
-    gl.glFrontFace(gl.GL_CW if mirrored else gl.GL_CCW)
+    state = _known()
+    back, front = bool(back), gl.GL_CW if mirrored else gl.GL_CCW
+    if state.get("cull") is not back:
+        (gl.glEnable if back else gl.glDisable)(gl.GL_CULL_FACE)
+        state["cull"] = back
+    if "cull_face" not in state:
+        gl.glCullFace(gl.GL_BACK)
+        state["cull_face"] = gl.GL_BACK
+    if state.get("front_face") != front:
+        gl.glFrontFace(front)
+        state["front_face"] = front
 
 
 def set_clip_distance(on: bool) -> None:

@@ -172,12 +172,12 @@ def empty_sprite_tables(capacity: int, bins: SpriteBins) -> tuple[np.ndarray, np
     """Allocate (params, starts, scratch) for a pool of ``capacity`` slots and ``bins``:
     params (rows, 1024, 4) float32 zeros (at least one row); starts (bh·(bw + 1) + 2,) int32
     zeros, whose first bh·(bw + 1) values are the bins texture ((bh, bw + 1) row-major:
-    :func:`bin_texels`); scratch (capacity,) int32 (each slot's bin while the tables are
-    built)."""
+    :func:`bin_texels`); scratch (2·capacity,) int32 (the slots that get an entry and their
+    bins while the tables are built)."""
     rows = max(param_table_rows(capacity), 1)
     params = np.zeros((rows, _TEXELS_PER_ROW, 4), np.float32)
     starts = np.zeros(bins.bh * (bins.bw + 1) + 2, np.int32)
-    return params, starts, np.zeros(max(int(capacity), 1), np.int32)
+    return params, starts, np.zeros(2 * max(int(capacity), 1), np.int32)
 
 
 def bin_texels(starts: np.ndarray, bins: SpriteBins) -> np.ndarray:
@@ -256,20 +256,24 @@ def build_sprite_tables(src, radius_px, n_slots, bins, params, starts, scratch, 
     ``radius_px`` r [px] (written into every entry; non-finite → 0); ``bins`` a
     :class:`SpriteBins`; ``params`` (rows, 1024, 4) float32; ``starts`` (≥ bh·(bw + 1) + 2,)
     int32 (:func:`empty_sprite_tables`; texel (bx, by) is ``starts[by·(bw + 1) + bx]``);
-    ``scratch`` (≥ n_slots,) int32. ``n_slots`` is clamped to the columns and to ``scratch``;
+    ``scratch`` (≥ 2·n_slots,) int32. ``n_slots`` is clamped to the columns and to half of
+    ``scratch``;
     entries beyond ``params``' rows are dropped (the tail first), the bins clamped to them.
     A non-positive bin size or a non-positive or non-finite radius draws nothing (every usable
     entry goes to the tail). Returns (n_drawn, n_entries, rows): the drawn entries
     [0, n_drawn), all entries [0, n_entries), the table rows written (whole rows, the last one
     padded with free entries).
 
-    One stable counting sort: each slot's bin; the bins' starts (a prefix sum kept one place
-    ahead, so that the scatter's cursors end as the starts); the entries scattered in slot
-    order. Two passes over the slots and one over the bins: no per-cell work.
+    One stable counting sort: the slots that get an entry listed in slot order with their
+    bins (``scratch``: the slots, then the bins; −2: the tail); the bins' starts (a prefix sum
+    kept one place ahead, so that the scatter's cursors end as the starts); the listed entries
+    scattered. One pass over the slots, one over the bins and one over the list (without
+    overlays ~1/4 of the pool: the scatter does not go over the slots again); no per-cell
+    work.
     """
     n = min(n_slots, src.alive.shape[0], src.has_world.shape[0], src.screen_px.shape[0],
             src.world_m.shape[0], src.offset_m.shape[0], src.intensity.shape[0],
-            src.status.shape[0], src.velocity_mps.shape[0], scratch.shape[0])
+            src.status.shape[0], src.velocity_mps.shape[0], scratch.shape[0] // 2)
     n = max(n, 0)
     capacity = params.shape[0] * PARTICLES_PER_ROW
     if params.shape[1] < _TEXELS_PER_ROW or params.shape[2] < 4:
@@ -287,28 +291,32 @@ def build_sprite_tables(src, radius_px, n_slots, bins, params, starts, scratch, 
     drawing = size > 0 and bin_w > 0 and bin_h > 0 and radius > 0 and is_finite(radius)
     for k in range(min(starts.shape[0], size + 2)):
         starts[k] = 0
+    listed = scratch[:n]                # the slots that get an entry, in slot order
+    keys = scratch[n:2 * n]             # and their bins (−2: the tail); counts at k + 2
 
-    # 1. each slot's bin (≥ 0: drawn; −2: the tail; −1: neither); counts at k + 2
+    # 1. the slots that get an entry, with their bins
+    m = 0
     n_usable = 0
     for i in range(n):
-        scratch[i] = -1
         s = src.status[i]
         drawn = drawing and (s == STATUS_INSIDE or s == STATUS_LEAVING) and src.intensity[i] > 0
         if not (drawn or with_tail) or not _usable(src, i):
             continue                    # (the cheap tests first: ~3/4 of a pool is not drawn)
         n_usable += 1
-        if with_tail:
-            scratch[i] = -2
-        if not drawn:
-            continue
-        qx = np.float64(np.float32(src.screen_px[i, 0])) / bin_w  # in bins from the screen's
-        qy = np.float64(np.float32(src.screen_px[i, 1])) / bin_h  # corner; beyond the margins:
-        if not (-bins.margin_x <= qx < bw - bins.margin_x                   # never on screen
-                and -bins.margin_y <= qy < bh - bins.margin_y):
-            continue
-        k = (int(math.floor(qy)) + bins.margin_y) * stride + int(math.floor(qx)) + bins.margin_x
-        scratch[i] = k
-        starts[k + 2] += 1
+        k = -2
+        if drawn:
+            qx = np.float64(np.float32(src.screen_px[i, 0])) / bin_w  # in bins from the
+            qy = np.float64(np.float32(src.screen_px[i, 1])) / bin_h  # screen's corner; beyond
+            if (-bins.margin_x <= qx < bw - bins.margin_x             # the margins: never on
+                    and -bins.margin_y <= qy < bh - bins.margin_y):   # screen
+                k = ((int(math.floor(qy)) + bins.margin_y) * stride
+                     + int(math.floor(qx)) + bins.margin_x)
+                starts[k + 2] += 1
+            elif not with_tail:
+                continue
+        listed[m] = i
+        keys[m] = k
+        m += 1
     # 2. starts[k + 1] = first entry of bin k (row ends, never counted, get the next row's)
     for k in range(2, size + 2):
         starts[k] += starts[k - 1]
@@ -316,10 +324,8 @@ def build_sprite_tables(src, radius_px, n_slots, bins, params, starts, scratch, 
     # 3. scatter: drawn entries by bin, then the others; the cursors starts[k + 1] end as the
     #    first entries of bin k + 1, so that starts[k] is the first entry of bin k
     rest = n_drawn
-    for i in range(n):
-        k = scratch[i]
-        if k == -1:
-            continue
+    for j in range(m):
+        k = keys[j]
         if k >= 0:
             e = starts[k + 1]
             starts[k + 1] = e + 1
@@ -327,7 +333,7 @@ def build_sprite_tables(src, radius_px, n_slots, bins, params, starts, scratch, 
             e = rest
             rest += 1
         if e < capacity:
-            _write_entry(params, e, src, i, r)
+            _write_entry(params, e, src, listed[j], r)
     if n_drawn > capacity:      # a table too small for the pool: the bins stop at its end
         for k in range(size):
             starts[k] = min(starts[k], capacity)

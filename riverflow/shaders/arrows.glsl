@@ -1,8 +1,7 @@
 // Velocity arrows: per particle with a world position, a shaft from the particle along its
 // flow velocity (u_arrow_s seconds of travel) and two head strokes, as 3 line segments.
+#include "common.glsl"
 #include "params.glsl"
-uniform mat4 u_view_projection;
-uniform vec2 u_viewport_px;
 uniform float u_arrow_s;
 
 #ifdef VERTEX

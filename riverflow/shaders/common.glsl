@@ -1,9 +1,19 @@
 // Shared by the programs: smooth fade, sky, sun and fog. Numbers that Python also uses arrive
 // as #defines (riverflow.engine.gl.enum_defines): FLOW_STATUS_*, DISPLAY_MODE_*, ...
 
-uniform vec3 u_eye_m;          // camera position [m]
-uniform vec3 u_sun_dir;        // unit vector towards the sun
-uniform float u_fog_density;   // exponential fog [1/m]
+// The view: one uniform block (std140) for every program, written once a frame for the main
+// passes and once for the reflection's mirrored one and bound before each (the offsets are
+// those that riverflow.systems.draw.pack_view writes; include this file once a program).
+layout(std140) uniform View {
+    mat4 u_view_projection;    // world -> clip                              offset   0
+    mat4 u_world_from_clip;    // the camera's clip -> world                 offset  64
+    vec3 u_eye_m;              // camera position [m]                        offset 128
+    float u_fog_density;       // exponential fog [1/m]                      offset 140
+    vec3 u_sun_dir;            // unit vector towards the sun                offset 144
+    float u_clip_water;        // 1: the reflection pass, cut what is under  offset 156
+                               // the water (terrain, props)
+    vec2 u_viewport_px;        // the target's size [px]                     offset 160
+};
 
 const vec3 SUN_COLOUR = vec3(1.0, 0.93, 0.80);
 const vec3 FOG_COLOUR = vec3(0.72, 0.79, 0.87);

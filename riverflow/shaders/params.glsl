@@ -1,17 +1,15 @@
-// The sprite table (RGBA32F, kernels/sprites.py): entry e at row e / PARTICLES_PER_ROW,
-// texels TEXELS_PER_PARTICLE * (e % PARTICLES_PER_ROW) + 0..3:
+// The sprite table (RGBA32F, kernels/sprites.py), a buffer texture: entry e at texels
+// TEXELS_PER_PARTICLE * e + 0..3 (the kernel's rows of PARTICLES_PER_ROW entries, end to end):
 //   0: screen x [px], screen y [px], world x [m], world y [m]
 //   1: offset x [m], offset y [m], intensity, r [px]
 //   2: flow status (-1: free entry), velocity x [m/s], velocity y [m/s], world z [m]
 //   3: foam in [0, 1], 0, 0, 0
 // The sprites drawn on the water come first (sorted by screen bin: sprite_bins.glsl), then the
 // other particles when an overlay shows them.
-uniform sampler2D u_params;
+uniform samplerBuffer u_params;
 
 vec4 sprite_param(int entry, int texel) {
-    ivec2 at = ivec2(TEXELS_PER_PARTICLE * (entry % PARTICLES_PER_ROW) + texel,
-                     entry / PARTICLES_PER_ROW);
-    return texelFetch(u_params, at, 0);
+    return texelFetch(u_params, TEXELS_PER_PARTICLE * entry + texel);
 }
 
 bool sprite_drawn(float status, float intensity) {

@@ -1,7 +1,7 @@
 // Particles as round points of size r at their screen positions, coloured by flow status
 // × intensity (Proland's colours; NEAR always full), drawn additively.
+#include "common.glsl"
 #include "params.glsl"
-uniform vec2 u_viewport_px;
 
 #ifdef VERTEX
 out vec3 v_colour;

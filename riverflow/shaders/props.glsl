@@ -2,10 +2,8 @@
 // sky, glossy surfaces (paint, glass) mirroring the sky with a Fresnel weight and showing the
 // sun's highlight, fogged like the terrain.
 #include "common.glsl"
-uniform mat4 u_view_projection;
 uniform mat4 u_model;
-uniform float u_clip_water;     // 1: the reflection pass, cut what is under the waterline...
-uniform float u_clip_level_m;   // ... at this height [m]
+uniform float u_clip_level_m;   // the reflection pass (u_clip_water): the waterline [m]
 
 #ifdef VERTEX
 layout(location = 0) in vec3 a_position;   // model frame [m]

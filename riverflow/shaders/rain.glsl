@@ -2,7 +2,6 @@
 // GL_LINES pair per drop from gl_VertexID. The drop table (RGBA32F): drop i at row
 // i / DROPS_PER_ROW, texels 2 * (i % DROPS_PER_ROW) + 0: position [m], + 1: velocity [m/s].
 #include "common.glsl"
-uniform mat4 u_view_projection;
 uniform sampler2D u_drops;
 uniform float u_streak_s;           // a streak is the path of the last u_streak_s seconds
 

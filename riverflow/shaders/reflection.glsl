@@ -22,7 +22,6 @@ uniform bool u_reflect;                // a reflection was drawn this frame
 uniform sampler2D u_reflection;        // premultiplied RGB, alpha = covered (LINEAR, mips)
 uniform sampler2D u_reflection_depth;  // depth of the mirrored pass (NEAREST)
 uniform float u_mirror_level_m;        // L [m]
-uniform mat4 u_world_from_clip;        // the camera's clip → world
 uniform float u_reflection_distortion; // 1: rays bent by the wave normal; 0: flat mirror
 
 const int REFLECTION_MAX_STEPS = 12;   // march steps at most

@@ -1,6 +1,5 @@
 // Sky behind everything: one full-screen triangle, the radiance along each pixel's ray.
 #include "common.glsl"
-uniform mat4 u_world_from_clip;
 
 #ifdef VERTEX
 out vec2 v_ndc;

@@ -1,9 +1,9 @@
 // The sprite bins (kernels/sprites.py): the sprite table's drawn entries sorted by screen bin,
-// row-major; texel (bx, by) of u_bins is the first entry of bin (bx, by), texel (bw, by) the
-// end of row by. The sprites that may meet a screen rectangle are found row by row: the bin
+// row-major; texel (bx, by) of u_bins (a buffer texture of bh rows of bw + 1, texel
+// by * (bw + 1) + bx) is the first entry of bin (bx, by), texel (bw, by) the end of row by. The sprites that may meet a screen rectangle are found row by row: the bin
 // rows within the sprite radius of it and, in each, one range of entries (the bins that the
 // rectangle grown by the radius meets at that row's height).
-uniform isampler2D u_bins;          // R32I, (bw + 1) x bh
+uniform isamplerBuffer u_bins;      // R32I, (bw + 1) x bh
 uniform ivec2 u_bin_px;             // bin width, height [px]
 uniform ivec2 u_bin_margin;         // bins left of / below the screen
 uniform ivec2 u_bin_count;          // bins (bw, bh), margins included
@@ -33,6 +33,6 @@ ivec2 bin_range(vec2 lo, vec2 hi, int by) {
     float half_chord = sqrt(max(reach * reach - dy * dy, 0.0)) + BIN_SLACK_PX;
     int first = clamp(int(floor((lo.x - half_chord) / w)) + u_bin_margin.x, 0, u_bin_count.x - 1);
     int last = clamp(int(floor((hi.x + half_chord) / w)) + u_bin_margin.x, 0, u_bin_count.x - 1);
-    return ivec2(texelFetch(u_bins, ivec2(first, by), 0).r,
-                 texelFetch(u_bins, ivec2(last + 1, by), 0).r);
+    int row = by * (u_bin_count.x + 1);
+    return ivec2(texelFetch(u_bins, row + first).r, texelFetch(u_bins, row + last + 1).r);
 }

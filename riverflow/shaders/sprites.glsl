@@ -3,7 +3,6 @@
 // (additive blending). The water shader then divides by sqrt(sum w²).
 #include "common.glsl"
 #include "params.glsl"
-uniform vec2 u_viewport_px;
 uniform float u_sprite_radius_factor;
 
 #ifdef VERTEX

@@ -15,9 +15,6 @@
 // a shader runs (masked), so the materials share these lookups rather than branch to their
 // own.
 #include "common.glsl"
-uniform mat4 u_view_projection;
-uniform float u_clip_water;    // 1: the reflection pass, cut what is under the water level
-uniform vec2 u_viewport_px;
 
 #ifdef VERTEX
 layout(location = 0) in vec3 a_position;   // [m]

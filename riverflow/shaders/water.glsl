@@ -2,7 +2,6 @@
 // display mode picks (sprite blending, pre-advected sums, plain texture, debug colours).
 // With POSITION_PASS defined it only writes the surface's world position (pre-advected mode).
 #include "common.glsl"
-uniform mat4 u_view_projection;
 
 #ifdef VERTEX
 layout(location = 0) in vec3 a_position;   // (x, y, water level) [m]

@@ -3,8 +3,8 @@
 Per frame (reference §4; no one-frame latency: the tables are built from this frame's pool):
 
 1. the sprite tables from the particle pool (numba, :mod:`riverflow.kernels.sprites`): the
-   float32 sprite table, sorted by screen bin, and each bin's first entry, uploaded to an
-   RGBA32F texture (only the rows in use) and an R32I texture; then, in the modes that blend
+   float32 sprite table, sorted by screen bin, and each bin's first entry, copied into an
+   RGBA32F buffer texture (only the rows in use) and an R32I one; then, in the modes that blend
    sprites per pixel, the sprite grid made from them on the GPU (``sprite_lists.glsl``: each
    cell of r px lists up to 16 sprites, in an RGBA32I array texture);
 2. sky (one full-screen triangle), then the terrain tiles of the view's cut (the tile system
@@ -63,6 +63,7 @@ from riverflow.components.waves import WaveTile
 from riverflow.engine import gl
 from riverflow.engine.system import System
 from riverflow.kernels.foam import foam_pattern, mip_chain
+from riverflow.kernels.tile_cut import near_to_far
 from riverflow.kernels.wake import wake_texture
 from riverflow.kernels.sprites import (MAX_PER_CELL, NO_PARTICLE, PARTICLES_PER_ROW,
                                        SPRITE_RADIUS_FACTOR, TEXELS_PER_PARTICLE, bin_texels,
@@ -95,6 +96,22 @@ def shader_defines() -> dict[str, int]:
     return defines
 
 
+VIEW_FLOATS = 44
+"""Floats of the view block (``shaders/common.glsl``: 168 bytes of std140, padded to 176)."""
+
+
+def pack_view(out: np.ndarray, view_projection: np.ndarray, world_from_clip: np.ndarray,
+              eye_m: np.ndarray, fog_density: float, clip_water: float,
+              viewport_px: tuple[float, float]) -> None:
+    """Write the view block of ``shaders/common.glsl`` (std140) into ``out`` (≥ VIEW_FLOATS
+    float32): world → clip and clip → world as GL's column-major 4 × 4 ((16,) arrays: the
+    transposes of the row-vector matrices, raveled), the eye [m] ((3,) array), the fog
+    density, the sun's direction, ``clip_water`` (1: cut what is under the water) and the
+    viewport [px], each cast to float32 as a ``glUniform*f`` call would (one assignment)."""
+    out[:42] = [*view_projection.tolist(), *world_from_clip.tolist(), *eye_m.tolist(),
+                fog_density, *_SUN, clip_water, *viewport_px]
+
+
 DROPS_PER_ROW = 1024
 """Rain drops per row of the drop table (two RGBA32F texels each: position, velocity)."""
 
@@ -110,6 +127,12 @@ FOAM_PATTERN_UNIT, WAKES_UNIT = 12, 13
 FOAM_PATTERN_PX = 256
 FOAM_SCALE_M = 3.0
 """World size of one period of the foam's lace pattern [m] (in each sprite's frame)."""
+
+
+PARAMS_UNIT, GRID_UNIT, WAVE_UNIT, ACCUM_UNIT, WATER_POSITION_UNIT = 2, 3, 1, 4, 5
+RIPPLES_UNIT, DROPS_UNIT, BINS_UNIT = 6, 7, 8
+"""Texture units of the sprite table, sprite grid, wave tile, pre-advected sums, water
+position, ripple table, rain drops and sprite bins."""
 
 
 class _Gpu:
@@ -132,6 +155,17 @@ class _Gpu:
             "props": gl.Program("props.glsl", defines),
             "rain": gl.Program("rain.glsl", defines),
         }
+        # the uniforms that never change (texture units, constants), set once: not checked
+        # again every frame
+        for program in self.programs.values():
+            program.set_if_used(**_CONSTANT_UNIFORMS)
+        bindings = {p.view_binding for p in self.programs.values()} - {None}
+        if len(bindings) != 1:
+            raise gl.GLError(f"the programs' view blocks have binding points {bindings}")
+        self.view_binding = bindings.pop()
+        self.view = gl.UniformBuffer(VIEW_FLOATS, 2)
+        """The view block: copy 0 for the frame's passes, 1 for the mirrored reflection pass."""
+        self.grid_uniforms = None       # what the sprite-lists program's were set for
         self.drops = self.drops_cpu = None
         self.ripples_cpu = np.zeros((1, RIPPLE_RING, 4), np.float32)
         self.ripples = gl.Texture((RIPPLE_RING, 1), gl.RGBA32F)
@@ -187,13 +221,11 @@ class _Gpu:
                 if tex is not None:
                     tex.delete()
             self.params_cpu, self.starts_cpu, self.scratch = empty_sprite_tables(capacity, bins)
-            rows = self.params_cpu.shape[0]
-            self.params = gl.Texture((PARTICLES_PER_ROW * TEXELS_PER_PARTICLE, rows),
-                                     gl.RGBA32F)
-            self.params.upload(self.params_cpu)
-            self.bins = gl.Texture((bins.bw + 1, bins.bh), gl.R32I)
+            self.params = gl.BufferTexture(self.params_cpu.size // 4, gl.RGBA32F)
+            self.params.write(self.params_cpu)
             self.bins_view = bin_texels(self.starts_cpu, bins)   # the texture's texels
-            self.bins.upload(self.bins_view)
+            self.bins = gl.BufferTexture(self.bins_view.size, gl.R32I)
+            self.bins.write(self.bins_view)
             self.bins_shape = bins
         shape = sprite_grid_shape(width, height, radius_px)
         if self.grid is None or shape != self.grid_shape:
@@ -253,8 +285,8 @@ class _Gpu:
         self.prop_meshes.clear()
         self.terrain.delete()
         self.water.delete()
-        for obj in [self.empty, self.params, self.bins, self.grid_fb, self.grid, self.drops,
-                    self.ripples, self.foam_pattern, self.wakes, *self.targets,
+        for obj in [self.empty, self.view, self.params, self.bins, self.grid_fb, self.grid,
+                    self.drops, self.ripples, self.foam_pattern, self.wakes, *self.targets,
                     *(tex for _, tex in self.waves.values())]:
             if obj is not None:
                 obj.delete()
@@ -455,6 +487,16 @@ class _Reflection:
         self.fitted = None
 
 
+_CONSTANT_UNIFORMS = dict(
+    u_params=PARAMS_UNIT, u_grid=GRID_UNIT, u_wave=WAVE_UNIT, u_accum=ACCUM_UNIT,
+    u_water_position=WATER_POSITION_UNIT, u_ripples=RIPPLES_UNIT, u_drops=DROPS_UNIT,
+    u_bins=BINS_UNIT, u_foam_pattern=FOAM_PATTERN_UNIT, u_wakes=WAKES_UNIT,
+    u_reflection=REFLECTION_UNIT, u_reflection_depth=REFLECTION_DEPTH_UNIT,
+    u_sprite_radius_factor=SPRITE_RADIUS_FACTOR, u_foam_scale_m=FOAM_SCALE_M,
+    u_foam_size_px=float(FOAM_PATTERN_PX))
+"""The uniforms every program that uses them gets once, when it is made."""
+
+
 # -- the draw system ---------------------------------------------------------------------------
 
 class DrawRivers(System):
@@ -489,6 +531,7 @@ class DrawRivers(System):
     def process(self, world: RiverWorld, dt_s: float) -> None:
         if self.context is not None:
             gl.make_current(self.context)
+        gl.forget_state()                       # (a host may have changed it since)
         if self.gpu is None:
             self.gpu = _Gpu(world)
         gpu = self.gpu
@@ -506,19 +549,21 @@ class DrawRivers(System):
         self.last_tables_ms = (time.perf_counter_ns() - t0) * 1e-6
 
         clip_from_world, world_from_clip = camera.matrices_for_kernels()
-        vp = clip_from_world.T.ravel()          # pyrr's view_projection, in closed form
-        shared = dict(u_eye_m=tuple(camera.position.tolist()), u_sun_dir=_SUN,
-                      u_fog_density=float(settings.fog_density_per_m),
-                      u_view_projection=vp, u_viewport_px=(float(gpu.size[0]),
-                                                           float(gpu.size[1])),
-                      u_clip_water=0.0)   # gl_ClipDistance is honoured even when disabled
+        # the view block, for every program (the mirrored copy: _draw_reflection)
+        pack_view(gpu.view.data[0], clip_from_world.T.ravel(),   # pyrr's view_projection,
+                  world_from_clip.T.ravel(), camera.position,    # in closed form
+                  float(settings.fog_density_per_m),
+                  0.0,                  # gl_ClipDistance is honoured even when disabled
+                  (float(gpu.size[0]), float(gpu.size[1])))
         wave_uniforms, wave_tex = self._wave(world, gpu, settings)
         rain = world.resources.get(Rain)
         ripple_uniforms = self._upload_ripples(world, gpu, rain)
         foam_uniforms = self._upload_foam_and_wakes(world, gpu)
         water_meshes = self._tile_meshes(world, gpu)
-        reflection_uniforms = self._draw_reflection(world, gpu, settings, shared,
-                                                    clip_from_world, world_from_clip)
+        reflection_uniforms = self._draw_reflection(world, gpu, settings, clip_from_world)
+        if not reflection_uniforms["u_reflect"]:
+            gpu.view.write()                    # (else written for the reflection pass)
+        gpu.view.bind(0, gpu.view_binding)
 
         gpu.main_fb.bind()
         gl.clear((0.0, 0.0, 0.0, 1.0))
@@ -528,48 +573,42 @@ class DrawRivers(System):
         gl.set_depth(False, write=False)
         sky = gpu.programs["sky"]
         sky.use()
-        sky.set_if_used(**shared)
-        sky.set(u_world_from_clip=np.ascontiguousarray(world_from_clip.T, np.float32))
         gpu.empty.draw(gl.TRIANGLES, count=3)
         # terrain
         gl.set_depth(True)
-        self._draw_terrain(world, gpu, shared)
-        self._draw_props(gpu, shared)
+        self._draw_terrain(world, gpu)
+        self._draw_props(gpu)
 
         mode = settings.mode
-        tables = dict(u_params=2, u_grid=3, u_sprite_radius_factor=SPRITE_RADIUS_FACTOR)
-        gpu.params.bind(2)
-        gpu.grid.bind(3)
-        wave_tex.bind(1)
+        gpu.params.bind(PARAMS_UNIT)
+        gpu.grid.bind(GRID_UNIT)
+        wave_tex.bind(WAVE_UNIT)
         if mode == DisplayMode.PRE_ADVECTED:
-            self._pre_advect(gpu, shared, wave_uniforms, n_drawn, water_meshes)
+            self._pre_advect(gpu, wave_uniforms, n_drawn, water_meshes)
         if mode != DisplayMode.NONE:
             water = gpu.programs["water"]
             water.use()
-            water.set_if_used(**shared)
-            gpu.accum.bind(4)
-            water.set(u_wave=1, u_accum=4, u_mode=int(mode),
-                      u_show_grid=bool(settings.show_grid), u_grid_cell_px=float(gpu.grid_shape[0]),
-                      u_grid_size=gpu.grid_shape[1:], u_slope_factor=settings.wave_slope_factor,
-                      u_clarity_m=settings.water_clarity_m, **tables, **wave_uniforms,
-                      **ripple_uniforms, **foam_uniforms)
+            gpu.accum.bind(ACCUM_UNIT)
+            water.set(u_mode=int(mode), u_show_grid=bool(settings.show_grid),
+                      u_grid_cell_px=float(gpu.grid_shape[0]), u_grid_size=gpu.grid_shape[1:],
+                      u_slope_factor=settings.wave_slope_factor,
+                      u_clarity_m=settings.water_clarity_m, **wave_uniforms, **ripple_uniforms,
+                      **foam_uniforms)
             water.set_if_used(**reflection_uniforms)
             gl.set_blend(gl.BLEND_WATER)
             for mesh in water_meshes:
                 mesh.draw()
-        self._draw_rain(gpu, rain, shared)
+        self._draw_rain(gpu, rain)
         gl.set_depth(False, write=False)
         if settings.show_velocities and n_entries:
             arrows = gpu.programs["arrows"]
             arrows.use()
-            arrows.set_if_used(**shared)
-            arrows.set(u_params=2, u_arrow_s=float(settings.arrow_s))
+            arrows.set(u_arrow_s=float(settings.arrow_s))
             gl.set_blend(gl.BLEND_ALPHA)
             gpu.empty.draw(gl.LINES, count=6 * n_entries)
         if settings.show_particles and n_entries:
             points = gpu.programs["particles"]
             points.use()
-            points.set(u_params=2, u_viewport_px=shared["u_viewport_px"])
             gl.enable_program_point_size()
             gl.set_blend(gl.BLEND_ADD)
             gpu.empty.draw(gl.POINTS, count=n_entries)
@@ -579,17 +618,18 @@ class DrawRivers(System):
     # -- passes -----------------------------------------------------------------------------
 
     def _upload_tables(self, world: RiverWorld, gpu: _Gpu, overlays: bool) -> tuple[int, int]:
-        """Build this frame's sprite table and bins and upload them (the table's rows in use,
-        all the bins); returns (entries drawn on the water, all entries). The particles that
-        are not drawn on the water are in the table only for ``overlays`` (the particle points
-        and velocity arrows): ~3/4 of the pool in a chase view."""
+        """Build this frame's sprite table and bins and copy them into their buffer textures
+        (the table's rows in use, all the bins); returns (entries drawn on the water, all
+        entries). The particles that are not drawn on the water are in the table only for
+        ``overlays`` (the particle points and velocity arrows): ~3/4 of the pool in a chase
+        view."""
         pool = world.pool
         n_drawn, n_entries, rows = build_sprite_tables(
             sprite_source(pool), float(world.config.radius_px), slot_span(pool.alive),
             gpu.bins_shape, gpu.params_cpu, gpu.starts_cpu, gpu.scratch, bool(overlays))
         if rows:
-            gpu.params.upload(gpu.params_cpu, rows=rows)
-        gpu.bins.upload(gpu.bins_view)
+            gpu.params.write(gpu.params_cpu, rows * gpu.params_cpu[0].nbytes)
+        gpu.bins.write(gpu.bins_view)
         self.last_sprites = int(n_drawn)
         return int(n_drawn), int(n_entries)
 
@@ -600,14 +640,18 @@ class DrawRivers(System):
         gpu.grid_fb.bind()
         gl.set_depth(False, write=False)
         gl.set_blend(gl.BLEND_OFF)
-        gpu.params.bind(2)
-        gpu.bins.bind(8)
+        gpu.params.bind(PARAMS_UNIT)
+        gpu.bins.bind(BINS_UNIT)
         program = gpu.programs["sprite_lists"]
         program.use()
-        program.set(u_params=2, u_bins=8, u_bin_px=(bins.bin_w, bins.bin_h),
-                    u_bin_margin=(bins.margin_x, bins.margin_y), u_bin_count=(bins.bw, bins.bh),
-                    u_sprite_radius_px=float(SPRITE_RADIUS_FACTOR * radius_px),
-                    u_cell_px=int(gpu.grid_shape[0]))
+        fitted = (bins, gpu.grid_shape, radius_px)
+        if gpu.grid_uniforms != fitted:          # (the viewport or the radius changed)
+            program.set(u_bin_px=(bins.bin_w, bins.bin_h),
+                        u_bin_margin=(bins.margin_x, bins.margin_y),
+                        u_bin_count=(bins.bw, bins.bh),
+                        u_sprite_radius_px=float(SPRITE_RADIUS_FACTOR * radius_px),
+                        u_cell_px=int(gpu.grid_shape[0]))
+            gpu.grid_uniforms = fitted
         gpu.empty.draw(gl.TRIANGLES, count=3)
 
     def _upload_ripples(self, world: RiverWorld, gpu: _Gpu, rain: Rain | None) -> dict:
@@ -627,8 +671,8 @@ class DrawRivers(System):
                 table[:, 3] = np.where(np.isfinite(age), age, -1.0)
                 gpu.ripples.upload(gpu.ripples_cpu)
                 count = len(hits)
-        gpu.ripples.bind(6)
-        return {"u_ripples": 6, "u_ripple_count": count, "u_ripple_life_s": life}
+        gpu.ripples.bind(RIPPLES_UNIT)
+        return {"u_ripple_count": count, "u_ripple_life_s": life}
 
     def _upload_foam_and_wakes(self, world: RiverWorld, gpu: _Gpu) -> dict:
         """The water shader's foam and wake uniforms; the wake table uploaded (the first
@@ -642,13 +686,11 @@ class DrawRivers(System):
         shoreline = float(foam.shoreline) if foam is not None and foam.enabled else 0.0
         gpu.foam_pattern.bind(FOAM_PATTERN_UNIT)
         gpu.wakes.bind(WAKES_UNIT)
-        return {"u_foam_pattern": FOAM_PATTERN_UNIT, "u_foam_scale_m": FOAM_SCALE_M,
-                "u_foam_size_px": float(FOAM_PATTERN_PX),
-                "u_time_s": float(world.clock.now_s % 3600.0), "u_wakes": WAKES_UNIT,
-                "u_wake_count": count, "u_shoreline": shoreline,
+        return {"u_time_s": float(world.clock.now_s % 3600.0), "u_wake_count": count,
+                "u_shoreline": shoreline,
                 "u_crest_foam": 1.0 if foam is not None and foam.enabled else 0.0}
 
-    def _draw_rain(self, gpu: _Gpu, rain: Rain | None, shared: dict) -> None:
+    def _draw_rain(self, gpu: _Gpu, rain: Rain | None) -> None:
         """The live drops as streaks (depth-tested, not written; alpha-blended)."""
         n = 0 if rain is None else rain.count
         if n == 0:
@@ -665,11 +707,10 @@ class DrawRivers(System):
         flat[:n, 1, :3] = rain.drops.velocity[:n]
         gpu.drops.upload(gpu.drops_cpu.reshape(gpu.drops_cpu.shape[0], 2 * DROPS_PER_ROW, 4),
                          rows=rows)
-        gpu.drops.bind(7)
+        gpu.drops.bind(DROPS_UNIT)
         program = gpu.programs["rain"]
         program.use()
-        program.set_if_used(**shared)
-        program.set(u_drops=7, u_streak_s=float(rain.streak_s))
+        program.set(u_streak_s=float(rain.streak_s))
         gl.set_depth(True, write=False)
         gl.set_blend(gl.BLEND_ALPHA)
         gpu.empty.draw(gl.LINES, count=2 * n)
@@ -707,25 +748,22 @@ class DrawRivers(System):
             batches = gpu.water.sync(water, standin_tiles(cut, water, skip=dry))
             self._tiles_for = (key, cut, (slots, centres, batches))
         # near to far: the depth test then rejects hidden ground before it is shaded
-        d = centres - np.asarray(world.camera.position, np.float64)
-        d *= d
-        self._terrain_slots = slots[np.argsort(d.sum(axis=1), kind="stable")]
+        self._terrain_slots = order = np.empty_like(slots)
+        near_to_far(slots, centres, np.asarray(world.camera.position, np.float64), order)
         return batches
 
-    def _draw_terrain(self, world: RiverWorld, gpu: _Gpu, shared: dict,
-                      detail: str = "full") -> None:
+    def _draw_terrain(self, world: RiverWorld, gpu: _Gpu, detail: str = "full") -> None:
         """This frame's terrain tiles, through all their nodes (``detail`` "full") or the
         reflection's coarser mesh ("coarse", with the reflection's own program object), near
         to far, in one multi-draw."""
         program = gpu.programs["terrain" if detail == "full" else "terrain_reflection"]
         program.use()
-        program.set_if_used(**shared)
         count, first = gpu.terrain.ranges[detail]
         gpu.terrain.arena.draw(self._terrain_slots, count, first)
         if detail == "full":
             self.last_tiles = len(self._terrain_slots)
 
-    def _draw_props(self, gpu: _Gpu, shared: dict, mirrored: bool = False) -> None:
+    def _draw_props(self, gpu: _Gpu, mirrored: bool = False) -> None:
         """Every prop; ``mirrored``: in the reflection pass (winding turned, each prop cut
         at its waterline)."""
         props = esper.get_components(Prop, Pose)
@@ -733,7 +771,6 @@ class DrawRivers(System):
             return
         program = gpu.programs["props"]
         program.use()
-        program.set_if_used(**shared)
         gl.set_cull(True, mirrored=mirrored)
         for _, (prop, pose) in props:
             model = pose.matrix()
@@ -748,15 +785,14 @@ class DrawRivers(System):
     # -- reflections (issue 12 item 3) ------------------------------------------------------
 
     def _draw_reflection(self, world: RiverWorld, gpu: _Gpu, settings: DisplaySettings,
-                         shared: dict, clip_from_world: np.ndarray,
-                         world_from_clip: np.ndarray) -> dict:
+                         clip_from_world: np.ndarray) -> dict:
         """The planar reflection pass (``shaders/reflection.glsl``): terrain and props mirrored
         in the water level nearest the camera, cut at their water level, into the reflection
         target; returns the water shader's reflection uniforms (``u_reflect`` false, and no
         pass, when reflections are off, the water mode is not shaded, or the eye is not above
-        the mirror)."""
-        off = {"u_reflect": False, "u_reflection": REFLECTION_UNIT,
-               "u_reflection_depth": REFLECTION_DEPTH_UNIT}
+        the mirror). With a pass, the view block is written (its copy 0 packed by the caller,
+        copy 1 the mirrored view, bound for the pass)."""
+        off = {"u_reflect": False}
         self.last_mirror_level_m = None
         if not settings.reflections or settings.mode not in _SHADED_MODES:
             return off
@@ -775,25 +811,28 @@ class DrawRivers(System):
         # the frame's own world → clip matrix (pyrr's view_projection in closed form, as the
         # main pass draws with), mirrored
         vp = mirrored_view_projection(clip_from_world.T, level)
-        mirrored = {**shared, "u_view_projection": vp.ravel(), "u_eye_m": mirrored_eye,
-                    "u_fog_density": 0.0,          # fogged in the water shader, over the ray
-                    "u_clip_water": 1.0}
+        view = gpu.view.data                # copy 1: copy 0 (pack_view) but for
+        view[1] = view[0]
+        view[1, :16] = vp.ravel()           # the mirrored world → clip
+        view[1, 32:36] = (*mirrored_eye, 0.0)   # the eye; no fog: fogged in the water shader,
+        view[1, 39] = 1.0                   # over the ray; cut what is under the water
+        gpu.view.write()
+        gpu.view.bind(1, gpu.view_binding)
         reflection.fb.bind()
         gl.clear((0.0, 0.0, 0.0, 0.0))             # alpha 0: the sky (drawn by the water)
         gl.set_blend(gl.BLEND_OFF)
         gl.set_depth(True)
         gl.set_clip_distance(True)
-        self._draw_terrain(world, gpu, mirrored, "coarse")
-        self._draw_props(gpu, mirrored, mirrored=True)
+        self._draw_terrain(world, gpu, "coarse")
+        self._draw_props(gpu, mirrored=True)
         gl.set_clip_distance(False)
         reflection.colour.generate_mipmaps()        # blurred levels for rough water
         reflection.colour.bind(REFLECTION_UNIT)
         reflection.depth.bind(REFLECTION_DEPTH_UNIT)
-        return {**off, "u_reflect": True, "u_mirror_level_m": float(level),
-                "u_world_from_clip": np.ascontiguousarray(world_from_clip.T, np.float32),
+        return {"u_reflect": True, "u_mirror_level_m": float(level),
                 "u_reflection_distortion": float(settings.reflection_distortion)}
 
-    def _pre_advect(self, gpu: _Gpu, shared: dict, wave_uniforms: dict,
+    def _pre_advect(self, gpu: _Gpu, wave_uniforms: dict,
                     n_drawn: int, water_meshes: list) -> None:
         # the water's world position where it is visible (depth test against the terrain)
         gpu.position_fb.bind()
@@ -801,7 +840,6 @@ class DrawRivers(System):
         gl.set_depth(True, write=False)
         program = gpu.programs["water_position"]
         program.use()
-        program.set_if_used(**shared)
         for mesh in water_meshes:
             mesh.draw()
         # the sprites, added up
@@ -809,12 +847,10 @@ class DrawRivers(System):
         gl.clear((0.0, 0.0, 0.0, 0.0), depth=False)
         gl.set_depth(False, write=False)
         if n_drawn:
-            gpu.position.bind(5)
+            gpu.position.bind(WATER_POSITION_UNIT)
             program = gpu.programs["sprites"]
             program.use()
-            program.set_if_used(**shared)
-            program.set(u_water_position=5, u_wave=1, u_params=2,
-                        u_sprite_radius_factor=SPRITE_RADIUS_FACTOR, **wave_uniforms)
+            program.set(**wave_uniforms)
             gl.set_blend(gl.BLEND_ADD)
             gpu.empty.draw(gl.TRIANGLES, count=6 * n_drawn)
             gl.set_blend(gl.BLEND_OFF)

@@ -113,7 +113,7 @@ def test_helpers():
     params, starts, scratch = ks.empty_sprite_tables(300, bins)
     assert params.shape == (2, 256 * ks.TEXELS_PER_PARTICLE, 4) and params.dtype == np.float32
     assert starts.shape == (3 * 6 + 2,) and starts.dtype == np.int32
-    assert scratch.shape == (300,) and scratch.dtype == np.int32
+    assert scratch.shape == (600,) and scratch.dtype == np.int32
     assert ks.bin_texels(starts, bins).shape == (3, 6)
     assert np.shares_memory(ks.bin_texels(starts, bins), starts)
 

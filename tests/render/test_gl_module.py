@@ -159,11 +159,12 @@ def test_sprite_table_upload_reads_back_exactly_in_glsl(gl_context, rng):
     _, params, bins_texels, _, n_entries, rows = _tables(_particles(rng, n, 64, 48, 4.0), 4.0,
                                                          64, 48)
     assert rows == 3 and n_entries > 512
-    tex = gl.Texture((PARTICLES_PER_ROW * TEXELS_PER_PARTICLE, params.shape[0]), gl.RGBA32F)
-    tex.upload(params, rows=rows)
+    tex = gl.BufferTexture(PARTICLES_PER_ROW * TEXELS_PER_PARTICLE * params.shape[0],
+                           gl.RGBA32F)
+    tex.write(params, rows * params[0].nbytes)         # the rows in use, as drawing does
     tex.bind(2)
-    bins = gl.Texture(bins_texels.shape[::-1], gl.R32I)
-    bins.upload(bins_texels)
+    bins = gl.BufferTexture(bins_texels.size, gl.R32I)
+    bins.write(np.ascontiguousarray(bins_texels))
     bins.bind(3)
     program = gl.Program("probe_tables.glsl", shader_defines(), directory=PROBES)
     width, height = 64, 11                     # 704 entries probed
@@ -183,11 +184,12 @@ def _gpu_grid(params, bins_texels, bins, radius, width, height):
     from riverflow.engine import gl
     from riverflow.systems.draw import shader_defines
     cell, gw, gh = sprite_grid_shape(width, height, radius)
-    table = gl.Texture((PARTICLES_PER_ROW * TEXELS_PER_PARTICLE, params.shape[0]), gl.RGBA32F)
-    table.upload(params)
+    table = gl.BufferTexture(PARTICLES_PER_ROW * TEXELS_PER_PARTICLE * params.shape[0],
+                             gl.RGBA32F)
+    table.write(params)
     table.bind(2)
-    starts = gl.Texture(bins_texels.shape[::-1], gl.R32I)
-    starts.upload(bins_texels)
+    starts = gl.BufferTexture(bins_texels.size, gl.R32I)
+    starts.write(np.ascontiguousarray(bins_texels))
     starts.bind(8)
     grid = gl.Texture((gw, gh), gl.RGBA32I, layers=4)
     fb = gl.Framebuffer([(grid, k) for k in range(4)])

@@ -50,7 +50,7 @@ def test_the_grid_of_a_real_frame_matches_its_twin(world):
     drawer = world._drawer()
     gpu = drawer.gpu
     n = drawer.last_sprites
-    table = gpu.params_cpu.reshape(-1, TEXELS_PER_PARTICLE, 4)[:n]
+    table = gpu.params.read().reshape(-1, TEXELS_PER_PARTICLE, 4)[:n]
     cell, gw, gh = gpu.grid_shape
     yes = np.ones(n, bool)
     want, _ = ref.build_sprite_grid(yes, yes, table[:, 0, :2], table[:, 1, 2],

@@ -93,3 +93,26 @@ def test_with_ancestors_of_a_mixed_level_cut_is_exactly_the_keys_parents_chains(
     got = with_ancestors(codes(keys.astype(np.int32)))
     assert [code_key(int(c)) for c in got] == sorted(twin, key=lambda k: tile_code(*k))
     assert len(with_ancestors(np.zeros(0, np.int64))) == 0
+
+
+def test_near_to_far_is_numpys_stable_argsort_of_the_same_distances():
+    """The draw system's tile order (kernels.tile_cut.near_to_far) against its numpy twin,
+    bit for bit: random centres, with repeated ones and ties in distance (kept in their
+    given order), and centres far from the origin."""
+    from riverflow.kernels.tile_cut import near_to_far
+    rng = np.random.default_rng(7)
+    for k in (0, 1, 2, 40, 300):
+        centres = rng.normal(0.0, 2000.0, (k, 3)) + rng.choice([0.0, 3.0e5], (k, 1))
+        if k > 2:
+            centres[rng.integers(0, k, k // 3)] = centres[0]          # ties
+            centres[1] = 2 * rng.normal(0.0, 1.0, 3)                  # and a mirror image:
+        eye = rng.normal(0.0, 2000.0, 3)
+        if k > 2:
+            centres[2] = 2 * eye - centres[1]                          # the same distance
+        slots = rng.permutation(4 * k + 1)[:k].astype(np.int32)
+        d = centres - eye
+        d *= d
+        want = slots[np.argsort(d.sum(axis=1), kind="stable")]
+        got = np.full(k, -1, np.int32)
+        near_to_far(slots, np.ascontiguousarray(centres), eye, got)
+        assert np.array_equal(got, want), k
