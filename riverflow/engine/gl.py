@@ -1105,6 +1105,13 @@ def _known() -> dict[str, object]:
     return _state
 
 
+def _enable(state: dict[str, object], key: str, cap: int, on: bool) -> None:
+    """glEnable or glDisable ``cap`` unless ``state[key]`` says it already is so."""
+    if state.get(key) is not on:
+        (gl.glEnable if on else gl.glDisable)(cap)
+        state[key] = on
+
+
 def clear(rgba: tuple[float, float, float, float] = (0, 0, 0, 0), depth: bool = True) -> None:
     """Clear the bound framebuffer's colour (and depth: glClear obeys the depth mask, so depth
     writes are turned on first and stay on)."""
@@ -1121,9 +1128,7 @@ def set_depth(test: bool, write: bool = True) -> None:
     """Depth test (GL_LEQUAL) on or off, depth writes on or off."""
     state = _known()
     test, write = bool(test), bool(write)
-    if state.get("depth_test") is not test:
-        (gl.glEnable if test else gl.glDisable)(gl.GL_DEPTH_TEST)
-        state["depth_test"] = test
+    _enable(state, "depth_test", gl.GL_DEPTH_TEST, test)
     if "depth_func" not in state:
         gl.glDepthFunc(gl.GL_LEQUAL)
         state["depth_func"] = gl.GL_LEQUAL
@@ -1148,9 +1153,7 @@ def set_blend(kind: int) -> None:
         gl.glBlendEquation(gl.GL_FUNC_ADD)
         gl.glBlendFuncSeparate(src, dst, gl.GL_ZERO, gl.GL_ONE)
         state["blend_func"] = kind
-    if state.get("blend") is not on:
-        (gl.glEnable if on else gl.glDisable)(gl.GL_BLEND)
-        state["blend"] = on
+    _enable(state, "blend", gl.GL_BLEND, on)
 
 
 def mip_levels(width: int, height: int) -> int:
@@ -1163,9 +1166,7 @@ def set_cull(back: bool, mirrored: bool = False) -> None:
     turns counter-clockwise front faces clockwise (the planar reflection pass)."""
     state = _known()
     back, front = bool(back), gl.GL_CW if mirrored else gl.GL_CCW
-    if state.get("cull") is not back:
-        (gl.glEnable if back else gl.glDisable)(gl.GL_CULL_FACE)
-        state["cull"] = back
+    _enable(state, "cull", gl.GL_CULL_FACE, back)
     if "cull_face" not in state:
         gl.glCullFace(gl.GL_BACK)
         state["cull_face"] = gl.GL_BACK
