@@ -165,7 +165,6 @@ class _Gpu:
         self.view_binding = bindings.pop()
         self.view = gl.UniformBuffer(VIEW_FLOATS, 2)
         """The view block: copy 0 for the frame's passes, 1 for the mirrored reflection pass."""
-        self.grid_uniforms = None       # what the sprite-lists program's were set for
         self.drops = self.drops_cpu = None
         self.ripples_cpu = np.zeros((1, RIPPLE_RING, 4), np.float32)
         self.ripples = gl.Texture((RIPPLE_RING, 1), gl.RGBA32F)
@@ -644,14 +643,10 @@ class DrawRivers(System):
         gpu.bins.bind(BINS_UNIT)
         program = gpu.programs["sprite_lists"]
         program.use()
-        fitted = (bins, gpu.grid_shape, radius_px)
-        if gpu.grid_uniforms != fitted:          # (the viewport or the radius changed)
-            program.set(u_bin_px=(bins.bin_w, bins.bin_h),
-                        u_bin_margin=(bins.margin_x, bins.margin_y),
-                        u_bin_count=(bins.bw, bins.bh),
-                        u_sprite_radius_px=float(SPRITE_RADIUS_FACTOR * radius_px),
-                        u_cell_px=int(gpu.grid_shape[0]))
-            gpu.grid_uniforms = fitted
+        program.set(u_bin_px=(bins.bin_w, bins.bin_h),       # sent only when changed
+                    u_bin_margin=(bins.margin_x, bins.margin_y), u_bin_count=(bins.bw, bins.bh),
+                    u_sprite_radius_px=float(SPRITE_RADIUS_FACTOR * radius_px),
+                    u_cell_px=int(gpu.grid_shape[0]))
         gpu.empty.draw(gl.TRIANGLES, count=3)
 
     def _upload_ripples(self, world: RiverWorld, gpu: _Gpu, rain: Rain | None) -> dict:
