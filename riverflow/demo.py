@@ -415,13 +415,19 @@ def run_window(*, scene=None, size=(1280, 720), seed: int = 0, frames: int | Non
                                  minor_version=3, forward_compatible=True)
     window = pyglet.window.Window(*size, caption="riverflow — boat demo", resizable=True,
                                   vsync=True, config=gl_config)
-    from riverflow.engine.loading import compile_with_loading_screen
+    import dataclasses
+
+    from riverflow.engine.loading import compile_with_loading_screen, show_message
 
     if compile_with_loading_screen(window, ("scene", "world", "draw"),
                                    title="riverflow — boat demo").closed:
         window.close()                # closed while the kernels compiled
         return 0
+    # a player steers live: a frame never waits for a tile (the scripted headless run waits)
+    config = dataclasses.replace(config or RiverConfig(), deterministic=False)
+    show_message(window, "riverflow — boat demo", "making the river's first view…")
     demo = BoatDemo(scene, window.get_framebuffer_size(), seed=seed, config=config)
+    demo.world.load_view()          # the first drawn frame has its tiles and its particles
     batch = pyglet.graphics.Batch()
     back, front = pyglet.graphics.Group(order=0), pyglet.graphics.Group(order=1)
     shade = pyglet.shapes.Rectangle(0, window.height - 96, window.width, 96,

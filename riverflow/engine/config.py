@@ -90,6 +90,15 @@ class RiverConfig:
     (until a tile is ready its coarser parent serves); "blocking": made in the frame that
     needs them (deterministic: scripted runs and tests)."""
 
+    deterministic: bool = True
+    """Every frame waits until the tiles it asked for are made (by the worker, in
+    "background" production), so a run's result depends only on the scene, seed, camera
+    script and frame times, never on the machine's load or when a tile arrived: scripted and
+    headless runs, tests, replays. False: a frame never waits; a tile not made yet is stood in
+    for by its coarser parent, so a fast flight never hitches but what particles do near such
+    a tile depends on timing (an interactive game that prefers smoothness; the windowed demo
+    uses it)."""
+
     tile_worker: str = "process"
     """Where "background" tiles are made: "process" (a forked process, Linux; elsewhere the
     thread): the producers' Python and numpy never hold the frame's interpreter lock, so a

@@ -104,6 +104,21 @@ def compile_with_loading_screen(window, groups: Sequence[str], *, title: str = "
     return Loading(closed[0], frames, longest, time.perf_counter() - start)
 
 
+def show_message(window, title: str, text: str) -> None:
+    """Draw one loading-screen frame (``title`` over ``text``) and show it: it stays on the
+    window while the caller works in this thread (making the first view's tiles)."""
+    import pyglet
+
+    window.switch_to()
+    window.dispatch_events()
+    window.clear()
+    for label_text, size, dy, colour in ((title, 24, 24, (235, 240, 245, 255)),
+                                         (text, 12, -16, (190, 205, 215, 255))):
+        pyglet.text.Label(label_text, font_size=size, anchor_x="center", anchor_y="center",
+                          x=window.width // 2, y=window.height // 2 + dy, color=colour).draw()
+    window.flip()
+
+
 def _loading_text(progress: CompileProgress) -> str:
     dots = "." * (1 + int(time.monotonic() * 3) % 3)
     return f"loading{dots}"

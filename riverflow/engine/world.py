@@ -45,6 +45,7 @@ from riverflow.hydro.flow_field import FlowField
 from riverflow.hydro.tile_producer import FlowProducer
 from riverflow.kernels.warmup import compile_kernels
 from riverflow.physics.boat import boat_components
+from riverflow.scenes.flight import default_view
 from riverflow.scenes.tile_kinds import terrain_producers
 from riverflow.tiles.cache import TileCache
 from riverflow.tiles.scheduler import TileScheduler
@@ -78,6 +79,7 @@ class RiverWorld:
         self.name = f"riverflow-{uuid.uuid4().hex}"
         self.resources: dict[type, Any] = {}
         self.timings_ms: dict[str, float] = {}
+        self._view_loaded = False
         c = self.config
         if not hasattr(scene, "quadtree"):
             raise TypeError("RiverWorld needs a streamed landscape (riverflow.default_scene(), "
@@ -86,7 +88,6 @@ class RiverWorld:
         # cold cache compiles; a host's loading screen calls compile_kernels itself first)
         compile_kernels(*(("world", "draw") if self.gl else ("world",)))
         q = scene.quadtree
-        x0, y0, x1, y1 = scene.bounds_m
         cache = TileCache(int(c.tile_cache_mb * (1 << 20)))
         field = FlowField(scene.graph, c.slip, c.search_radius_factor,
                           potential_delta_m=c.potential_delta_m, cache=cache,
@@ -100,8 +101,8 @@ class RiverWorld:
         self._finalizer = weakref.finalize(self, _release, self._owned)
         self._finalizer.atexit = False     # at exit the worker is a daemon, GL may be gone
         self.tiles.scheduler.start()       # forked here, not in the first frame
-        camera = Camera(position=(x0, y0, 100.0), target=(0.5 * (x0 + x1), 0.5 * (y0 + y1), 0.0),
-                        fov_y_deg=c.fov_y_deg, near_m=c.near_m, far_m=c.far_m,
+        eye, target = default_view(scene)     # on the scene's main river
+        camera = Camera(position=tuple(eye.tolist()), target=tuple(target.tolist()), fov_y_deg=c.fov_y_deg, near_m=c.near_m, far_m=c.far_m,
                         size_px=tuple(int(v) for v in size))
         self.camera = camera
         terrain = TerrainView(z_min=float(scene.z_range_m[0]), z_max=float(scene.z_range_m[1]))
@@ -252,6 +253,7 @@ class RiverWorld:
             for system in self.systems:     # the screen's particles: seeded with no time passing
                 if system.phase == "update" and not (system.needs_gl and not self.gl):
                     system.process(self, 0.0)
+        self._view_loaded = True
         if self.config.freeze_gc_on_load:
             gc.unfreeze()
             gc.collect()
@@ -352,6 +354,8 @@ class RiverWorld:
             raise RuntimeError("drawing needs a world made with gl=True")
         if self.camera.is_empty:
             return
+        if self.clock.frame == 0 and not self._view_loaded:
+            self.load_view()       # drawn before any step: the view's tiles first, not fog
         with self.active():
             for system in self.systems:
                 if system.phase != "draw":

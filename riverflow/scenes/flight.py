@@ -20,6 +20,31 @@ def main_centerline(scene) -> np.ndarray:
     return max(lines, key=lambda p: float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum()))
 
 
+def main_width_m(scene) -> float:
+    """The typical width [m] of the river the flight follows (the median of its widths)."""
+    widths = [np.asarray(b.widths_m, float).ravel() for b in getattr(scene, "branches", [])
+              if b.kind == "main"]
+    if not widths:
+        graph = scene.graph
+        widths = [np.array([graph.curves[a].width_m for a in graph.axes()], float)]
+    w = np.concatenate(widths) if widths else np.zeros(0)
+    w = w[np.isfinite(w) & (w > 0)]
+    return float(np.median(w)) if len(w) else 20.0
+
+
+def default_view(scene) -> tuple[np.ndarray, np.ndarray]:
+    """(eye, target) [m] a new world looks from: the scene's ``default_view`` (a pair or a
+    callable giving one) when it has one, else the flight's first view scaled to its main
+    river: 0.3 of its width above the water and 0.6 behind a point 300 m down it, so the
+    river fills most of the frame whether it is a 2 m creek or a 200 m river."""
+    view = getattr(scene, "default_view", None)
+    if view is not None:
+        eye, target = view() if callable(view) else view
+        return np.asarray(eye, float), np.asarray(target, float)
+    width = main_width_m(scene)
+    return flight_pose(scene, 0, height_m=max(0.3 * width, 3.0), behind_m=max(0.6 * width, 6.0))
+
+
 def flight_pose(scene, frame: int, dt_s: float = 1 / 60, speed_mps: float = 12.0,
                 height_m: float = 70.0, behind_m: float = 140.0, start_m: float = 300.0,
                 line: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:

@@ -6,7 +6,9 @@ leaves the view needs: node spacing ≤ ``terrain_tile_px`` pixels) and for the 
 spacing ≤ ``flow_tile_px``, river tiles only); ask the scheduler for every terrain kind on the
 cut's leaves and their ancestors (coarse first: a missing leaf is stood in for by its parent)
 and for flow tiles on the flow cut (the resident ones are marked used, so the cache's LRU
-releases what left the view); publish the
+releases what left the view); with ``RiverConfig.deterministic`` (the default) wait until
+every tile asked for is made (:meth:`~riverflow.tiles.scheduler.TileScheduler.complete`), so
+that no frame reads a stand-in that depends on when the worker ran; publish the
 frame's :class:`~riverflow.components.river.TerrainView` (the cut, and the surface the particle
 kernels read, with resident ancestors standing in for tiles not made yet); keep one
 :class:`~riverflow.components.river.Tile` entity per resident tile.
@@ -29,6 +31,7 @@ MAX_VIEW_TILES = 4096
 """At most this many tiles of one cut are asked for a frame."""
 _ALL_KEYS = np.zeros(0, np.int64)     # an empty filter: every tile is a candidate
 _ALL_VALUES = np.zeros(0, np.int32)
+_NO_CODES = np.zeros(0, np.int64)
 
 
 class ProduceTiles(System):
@@ -66,6 +69,8 @@ class ProduceTiles(System):
             for kind in TERRAIN_KINDS:
                 tiles.scheduler.request(kind, wanted, self._ancestor_codes)
         self.visible["terrain"] = int(n_cut)
+        wanted = [(kind, self._ancestor_codes if seen else _NO_CODES) for kind in TERRAIN_KINDS]
+        flow_cuts = []
         for _, node in esper.get_component(RiverNode):
             field = node.field
             t = field.tiles
@@ -76,9 +81,17 @@ class ProduceTiles(System):
                     t.root_x_m, t.root_y_m, t.root_size_m, t.n_cells, field.max_level,
                     terrain.z_min, terrain.z_max, t.wet.keys, t.wet.values, self._keys)
             self.visible[FLOW_KIND] = int(n)
-            flow_codes = codes(self._keys[:n])
-            tiles.scheduler.request(FLOW_KIND, self._keys[:n], flow_codes)
-            t.mark_cut(self._keys[:n], flow_codes)
+            flow_keys = self._keys[:n].copy()
+            flow_codes = codes(flow_keys)
+            tiles.scheduler.request(FLOW_KIND, flow_keys, flow_codes)
+            wanted.append((FLOW_KIND, flow_codes))
+            flow_cuts.append((t, flow_keys, flow_codes))
+        if config.deterministic:
+            # every tile this frame asked for is read as made, never as a stand-in for a late
+            # one: what the frame computes does not depend on when the worker made it
+            tiles.scheduler.complete(wanted)
+        for t, flow_keys, flow_codes in flow_cuts:
+            t.mark_cut(flow_keys, flow_codes)
         terrain.cut = self._cut[:n_cut].copy()
         terrain.surface = self._surface(world, tiles, terrain)
         self._sync_entities(tiles)

@@ -14,8 +14,12 @@ dependencies first, and installs results into the :class:`~riverflow.tiles.cache
   :meth:`TileScheduler.collect` installs finished tiles at the start of a frame. A frame never waits: what is missing is read at a
   coarser level by whoever needs it. Coarse levels are made first; requests that no frame has
   repeated for ``stale_frames`` are dropped unmade (a fast flight leaves no backlog).
-* ``"blocking"``: :meth:`TileScheduler.request` produces and installs at once (scripted runs and
-  tests are deterministic).
+* ``"blocking"``: :meth:`TileScheduler.request` produces and installs at once.
+
+Either way a frame can ask for its tiles to be *complete* (:meth:`TileScheduler.complete`: the
+world does, with ``RiverConfig.deterministic``, the default): every tile it asked for is made
+before the frame reads any, the ones the worker has not finished in the frame itself, so the
+worker changes *when* and *where* a tile is made, never *what* a frame computes.
 
 A resident dependency is pinned (never evicted) until the tile that reads it is installed.
 A producer that raises does not crash the frame: the error is kept in ``errors`` and that tile
@@ -419,6 +423,40 @@ class TileScheduler:
         elif not self.pause_in_frames:
             return False
         return time.perf_counter() - self._idle_since >= PAUSE_MIN_IDLE_S
+
+    def complete(self, wanted: Iterable[tuple[str, np.ndarray]]) -> int:
+        """Make every tile of ``wanted`` ((kind, (K,) codes) pairs: what this frame asked
+        for) resident before returning: what the worker finished is installed, and every tile
+        still missing (not known empty, not failed) is made here and now, its dependencies
+        first, as blocking production would; the worker lets its own queued copy go. Returns
+        how many tiles were made here.
+
+        This is what makes a world deterministic in background mode: what a frame reads is
+        the same tiles whatever the machine's load and whenever the worker ran; only where and
+        when the work is done changes. The tiles are made in the frame's own thread, at its
+        priority: a frame that waited for the worker would wait for a nice-19 process, which a
+        busy machine starves (seconds a tile)."""
+        self._install()
+        made = 0
+        for kind, codes in wanted:
+            codes = np.ascontiguousarray(codes, np.int64)
+            if not len(codes):
+                continue
+            pool = self.cache.pools[kind]
+            missing = codes[pool.table.find_many(codes) < 0]
+            if not len(missing):
+                continue
+            missing = missing[~self.producers[kind].empty_mask(missing)]
+            missing = missing[self._state[kind].find_many(missing) != _FAILED]
+            for code in missing.tolist():
+                if pool.slot(code) >= 0 or (kind, code) in self._failed:
+                    continue                   # made meanwhile, as another tile's dependency
+                if (kind, code) in self._pending:
+                    with self._lock:           # the worker drops its copy unless another needs it
+                        self._wanted[kind].set(code, _LONG_AGO)
+                self._make_now(kind, code_key(code), code)
+                made += 1
+        return made
 
     def collect(self) -> int:
         """Install the tiles the worker finished (main thread, start of a frame); returns how
