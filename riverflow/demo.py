@@ -30,6 +30,7 @@ H, F1                     help overlay;  ESCAPE quits
 from __future__ import annotations
 
 import math
+import re
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -321,6 +322,25 @@ class HeadlessRun:
     hud: list[str] = field(default_factory=list)
 
 
+def fit_lines(lines: list[str], width_px: float, measure) -> list[str]:
+    """The HUD's ``lines`` wrapped to ``width_px`` (``measure(text)`` gives a text's width in
+    pixels): a line breaks between its fields (runs of two or more spaces), then between
+    words; continuation lines are indented. A narrow window shows every field."""
+    out: list[str] = []
+    for text in lines:
+        line = ""
+        for field_ in re.split(r" {2,}", text.strip()):
+            for part in ([field_] if measure(field_) <= width_px else field_.split(" ")):
+                trial = f"{line}   {part}" if line.strip() else f"{line}{part}"
+                if line.strip() and measure(trial) > width_px:
+                    out.append(line)
+                    line = "  " + part
+                else:
+                    line = trial
+        out.append(line)
+    return out
+
+
 def draw_hud(image, lines: list[str], entries: list) -> None:
     """Write the HUD's ``lines`` (top left) and the colour legend ``entries`` (bottom left,
     a swatch per colour) onto a PIL RGBA ``image``, on translucent panels."""
@@ -330,6 +350,7 @@ def draw_hud(image, lines: list[str], entries: list) -> None:
     step = 12
     panel = Image.new("RGBA", image.size, (0, 0, 0, 0))
     shade = ImageDraw.Draw(panel)
+    lines = fit_lines(lines, image.size[0] - 16, lambda t: shade.textlength(t, font=font))
 
     def box(x0, y0, texts, pad):
         if texts:

@@ -70,7 +70,33 @@ def test_headless_frames_carry_a_hud_with_fps_ms_and_the_legend(scene, tmp_path)
     changed = np.abs(with_hud - without).max(axis=2) > 0
     assert changed[:40, :100].mean() > 0.05                # the HUD, top left
     assert changed[-50:, :100].mean() > 0.05               # the legend, bottom left
-    assert not changed[60:120, 200:].any()                 # the picture itself is untouched
+    assert not changed[108:120, 200:].any()   # the picture between them is untouched (the HUD
+    # wraps to 8 lines at 320 px: test_every_hud_line_fits_a_640_px_frame)
+
+
+def test_every_hud_line_fits_a_640_px_frame():
+    """The HUD of a real frame, with every system timed, is wrapped between its fields so
+    that no line leaves a 640 px frame (nor a 320 px one); nothing of it is lost."""
+    from PIL import Image, ImageDraw, ImageFont
+
+    from riverflow.demo import BoatDemo, Hud, fit_lines
+    demo = BoatDemo(None, (160, 90), gl=False)
+    try:
+        demo.step()
+        demo.raining = True
+        hud = Hud(fps=59.9, frame_ms=16.7, particles=12345,
+                  timings_ms={**demo.world.timings_ms, "draw": 1.23})
+        lines = hud.lines(demo)
+    finally:
+        demo.close()
+    font = ImageFont.load_default(size=10)
+    draw = ImageDraw.Draw(Image.new("RGBA", (8, 8)))
+    measure = lambda t: draw.textlength(t, font=font)   # noqa: E731
+    assert max(measure(t) for t in lines) > 624          # the system line did not fit
+    for width in (624, 304):
+        fitted = fit_lines(lines, width, measure)
+        assert max(measure(t) for t in fitted) <= width
+        assert " ".join(" ".join(fitted).split()) == " ".join(" ".join(lines).split())
 
 
 def test_the_legend_names_every_colour_the_debug_shaders_draw():
