@@ -88,8 +88,8 @@ def _grid(table, count, half_len=None):
     """Points around the trail's straight part, with their (X, Y) behind the bow."""
     bow = table[0, 0, :2].astype(float)
     length = float(table[0, count - 1, TR_ARC]) if half_len is None else half_len
-    xs = np.linspace(-5.0, length, 200)
-    ys = np.linspace(-0.6 * length, 0.6 * length, 160)
+    xs = np.linspace(-5.0, length, 100)       # the twin is plain Python: 8,000 points
+    ys = np.linspace(-0.6 * length, 0.6 * length, 80)
     X, Y = np.meshgrid(xs, ys)
     pts = np.stack([bow[0] - X.ravel(), bow[1] + Y.ravel()], 1)   # the boat goes +x
     return pts, X.ravel(), Y.ravel()
@@ -109,7 +109,7 @@ def test_a_moving_boat_s_wake_lies_in_the_kelvin_wedge(speed):
     assert np.var(s[inside], axis=0).sum() > 1e-3        # waves inside it
     # the cusp lines at ±19.47° carry the highest waves: per distance behind, the steepest
     # slope lies near them
-    for x in np.unique(X[behind])[20::40]:
+    for x in np.unique(X[behind])[10::20]:
         row = (X == x)
         k = np.argmax(slope[row])
         assert 0.6 * CUSP < r[row][k] < 1.06 * CUSP
