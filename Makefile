@@ -31,8 +31,11 @@ install: $(VENV)/.installed
 demo: $(VENV)/.installed
 	$(PY) -m riverflow demo
 
+# one test worker per core (pytest-xdist); TEST_WORKERS=0 runs them in this process
+TEST_WORKERS ?= auto
+
 test: $(VENV)/.installed
-	PYGLET_HEADLESS=1 $(PY) -m pytest -q
+	PYGLET_HEADLESS=1 $(PY) -m pytest -q -n $(TEST_WORKERS) --dist loadgroup
 
 bench: $(VENV)/.installed
 	@set -e; found=0; for f in benchmarks/*.py; do \

@@ -495,6 +495,9 @@ def run_window(*, scene=None, size=(1280, 720), seed: int = 0, frames: int | Non
             help_label.draw()
         else:
             legend_panel.draw(demo.hud.legend(demo))
+        if drawn[0] == 0:         # the loading screen made the first view: water, particles
+            print(f"riverflow demo: first frame drawn with {demo.world.pool.alive.sum()} "
+                  "particles", flush=True)
         drawn[0] += 1
         now = time.perf_counter()
         dt = now - clock["last"]

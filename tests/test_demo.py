@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib.util
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -254,3 +255,5 @@ def test_windowed_demo_starts_runs_and_quits_under_xvfb(xvfb, tmp_path):
     assert result.returncode == 0, result.stderr[-3000:]
     assert "riverflow demo: 90 frames drawn" in result.stdout
     assert "no display" not in result.stdout
+    first = re.search(r"first frame drawn with (\d+) particles", result.stdout)
+    assert first and int(first.group(1)) > 20       # not a frame of fog: its view was loaded

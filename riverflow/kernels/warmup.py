@@ -66,11 +66,22 @@ class CompileProgress:
         self.compiling = False
         self.finished = False
         self.started_s = time.perf_counter()
+        self.work = Work()
+        """The kernels' recorded compile costs: what is done, what is running since when."""
+
+    @property
+    def fraction(self) -> float:
+        """How far the warm-up is, weighted by each kernel's recorded compile time, counting
+        the kernels being compiled now by the time they have taken (so a window's line
+        moves every second or so even while one costly kernel compiles)."""
+        return self.work.fraction()
 
     @property
     def text(self) -> str:
         """The progress line, or "" while nothing is being compiled."""
-        return f"{MESSAGE}: {self.done}/{self.total}" if self.compiling else ""
+        if not self.compiling:
+            return ""
+        return f"{MESSAGE}: {100 * self.fraction:.0f} % ({self.done}/{self.total})"
 
     def update(self, done: int, total: int, compiling: bool) -> None:
         self.done, self.total = done, total
@@ -78,6 +89,47 @@ class CompileProgress:
 
     def finish(self) -> None:
         self.finished = True
+
+
+class Work:
+    """The warm-up's work weighted by the recorded compile cost of each kernel (seconds on
+    the recording machine, :data:`riverflow.kernels._signatures.COSTS`): the progress of a
+    cold compile is the cost done plus, for each kernel being compiled, the time it has run
+    (up to 90 % of its cost, scaled to this machine's pace so far), over the total cost."""
+
+    def __init__(self) -> None:
+        self.total = 0.0
+        self.done = 0.0
+        self.running: dict[Any, tuple[float, float]] = {}   # key → (start [s], cost [s])
+        self._lock = threading.Lock()
+        self._pace = 1.0          # this machine's seconds per recorded second (learnt)
+        self._timed = [0.0, 0.0]  # recorded, measured seconds of the kernels finished
+
+    def plan(self, costs: Iterable[float]) -> None:
+        with self._lock:
+            self.total += sum(costs)
+
+    def start(self, key: Any, cost: float) -> None:
+        with self._lock:
+            self.running[key] = (time.perf_counter(), cost)
+
+    def finish(self, key: Any, cost: float) -> None:
+        with self._lock:
+            started = self.running.pop(key, None)
+            self.done += cost
+            if started is not None and cost > 0:
+                self._timed[0] += cost
+                self._timed[1] += time.perf_counter() - started[0]
+                self._pace = max(self._timed[1] / self._timed[0], 1e-3)
+
+    def fraction(self) -> float:
+        with self._lock:
+            if self.total <= 0.0:
+                return 0.0
+            now = time.perf_counter()
+            running = sum(min((now - t0) / self._pace, 0.9 * cost)
+                          for t0, cost in self.running.values())
+            return min((self.done + running) / self.total, 1.0)
 
 
 class TerminalProgress(CompileProgress):
@@ -230,6 +282,14 @@ def compile_entries(pairs: Iterable[tuple[str, str]],
         for p in progress:
             p.update(done[0], len(todo), compiling)
 
+    def started(pair) -> None:
+        for p in progress:
+            p.work.start(pair, _cost(pair[0]))
+
+    def finished_one(pair) -> None:
+        for p in progress:
+            p.work.finish(pair, _cost(pair[0]))
+
     with _lock, CompileCounter(on_start=lambda: tell(True)) as counter:
         tell()
         misses = []
@@ -240,24 +300,30 @@ def compile_entries(pairs: Iterable[tuple[str, str]],
             else:
                 misses.append(pair)
         if misses:
+            for p in progress:
+                p.work.plan(_cost(pair[0]) for pair in misses)
             tell(True)
             misses.sort(key=lambda pair: -_cost(pair[0]))
             workers = min(jobs if jobs is not None else default_jobs(), len(misses))
             if workers > 1:
-                def one_done(result: dict) -> None:
+                def one_done(pair, result: dict) -> None:
                     done[0] += 1
+                    finished_one(pair)
                     report.compiled.extend(result.get("compiled", []))
                     tell(True)
 
-                finished = _compile_in_workers(misses, workers, one_done)
+                finished = _compile_in_workers(misses, workers, one_done, started)
             else:
                 finished = set()
             for pair in misses:
+                if pair not in finished:
+                    started(pair)
                 error = _compile_one(*pair)     # loads what a worker made, else compiles
                 if error:
                     report.failed.append((*pair, error))
                 if pair not in finished:
                     done[0] += 1
+                    finished_one(pair)
                     tell()
         _warm.update(todo)
         for p in progress:
@@ -340,9 +406,11 @@ def _cost(name: str) -> float:
 _PREFIX = "riverflow-warmup "
 
 
-def _compile_in_workers(pairs: list[tuple[str, str]], workers: int, one_done) -> set:
+def _compile_in_workers(pairs: list[tuple[str, str]], workers: int, one_done,
+                        one_started=None) -> set:
     """Compile ``pairs`` in ``workers`` processes (each takes the next pair when it is free);
-    ``one_done(result)`` after each. Returns the pairs they answered (with or without an
+    ``one_started(pair)`` as a worker takes it, ``one_done(pair, result)`` after each.
+    Returns the pairs they answered (with or without an
     error); an empty set when no process could be started (a frozen application, no
     interpreter)."""
     import queue
@@ -377,6 +445,8 @@ def _compile_in_workers(pairs: list[tuple[str, str]], workers: int, one_done) ->
                     pair = todo.get_nowait()
                 except queue.Empty:
                     break
+                if one_started is not None:
+                    one_started(pair)
                 proc.stdin.write(json.dumps(pair) + "\n")
                 proc.stdin.flush()
                 result = None
@@ -388,7 +458,7 @@ def _compile_in_workers(pairs: list[tuple[str, str]], workers: int, one_done) ->
                     break
                 with guard:
                     finished.add(pair)
-                    one_done(result)
+                    one_done(pair, result)
         except (OSError, ValueError):
             pass
         finally:

@@ -177,8 +177,8 @@ def test_the_progress_line_shows_on_a_cold_cache_only(tmp_path, jobs):
     assert cold["pairs"] == 2 and not cold["failed"]
     assert {"surface_tiles.water_level_at", "tile_table.codes_of"} <= set(cold["compiled"])
     assert sorted(cold["here"]) == ([] if jobs == 2 else cold["compiled"])
-    assert f"{warmup.MESSAGE}: 0/2" in cold["stderr"]
-    assert f"{warmup.MESSAGE}: 2/2" in cold["stderr"]
+    assert f"{warmup.MESSAGE}: 0 % (0/2)" in cold["stderr"]
+    assert f"{warmup.MESSAGE}: 100 % (2/2)" in cold["stderr"]
     assert warm["compiled"] == [] and warm["here"] == [] and not warm["failed"]
     assert warmup.MESSAGE not in warm["stderr"]
 
@@ -206,8 +206,35 @@ def test_terminal_progress_rewrites_its_line_on_a_terminal():
     progress.update(3, 3, False)
     progress.finish()
     lines = stream.text.split("\r")
-    assert lines[1:4] == [f"{warmup.MESSAGE}: {k}/3" for k in (0, 1, 3)]
+    assert lines[1:4] == [f"{warmup.MESSAGE}: 0 % ({k}/3)" for k in (0, 1, 3)]
     assert stream.text.endswith("s)\n") and stream.text.count("\n") == 1
+
+
+def test_the_progress_is_weighted_by_cost_and_moves_while_a_kernel_compiles():
+    """A window's line must not sit at 7/53 for two thirds of the compile: the fraction
+    weighs each kernel by its recorded cost and counts the time a running one has taken."""
+    import time
+
+    work = warmup.Work()
+    work.plan([0.2, 0.2, 0.01])
+    assert work.fraction() == 0.0
+    work.start("big", 0.2)
+    first = work.fraction()
+    time.sleep(0.05)
+    moving = work.fraction()
+    assert 0.0 <= first < moving < 0.9 * 0.2 / 0.41 + 1e-9     # moves, capped below its cost
+    time.sleep(0.25)
+    assert work.fraction() == pytest.approx(0.9 * 0.2 / 0.41)   # never past 90 % of it
+    work.finish("big", 0.2)
+    assert work.fraction() == pytest.approx(0.2 / 0.41)         # one costly kernel: ~half
+    work.finish("small", 0.01)
+    work.start("other", 0.2)
+    work.finish("other", 0.2)
+    assert work.fraction() == pytest.approx(1.0)
+    progress = warmup.CompileProgress()
+    progress.work = work
+    progress.update(3, 3, True)
+    assert progress.text == f"{warmup.MESSAGE}: 100 % (3/3)"
 
 
 def test_recorded_signatures_match_the_kernels():
