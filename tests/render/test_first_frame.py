@@ -1,0 +1,25 @@
+"""Never a frame of fog (issue #29 item 5): a world drawn before it was ever stepped makes
+its view's tiles and particles first, and a new world looks at its river."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import riverflow as rf
+
+pytestmark = pytest.mark.gl
+
+
+def test_render_before_any_step_shows_the_river(gl_context):
+    scene = rf.default_scene(seed=0)
+    with rf.RiverWorld(scene, size=(160, 90), gl=True, seed=0) as world:
+        frame = world.render()                   # no camera call, no step, no load_view
+        assert world.tiles.scheduler.pending == 0
+        p = world.particles
+        assert len(p) > 20 and np.mean(p.status == rf.FlowStatus.INSIDE) >= 0.5
+        world.display.mode = rf.DisplayMode.COVERAGE   # water: red covered, green not yet
+        covered = world.render()                  # (new particles fade in over fade_in_s)
+    assert frame[..., :3].std() > 10                       # not a frame of haze
+    r, g, b = (covered[..., k].astype(int) for k in range(3))
+    water = ((r > 2 * g) & (r > 60)) | ((g > 2 * r) & (g > 2 * b) & (g > 200))
+    assert water.mean() > 0.3                              # the river fills the view
