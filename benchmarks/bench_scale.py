@@ -346,10 +346,10 @@ def measure(length_km: float, args) -> dict:
         res["land_km"] = (x1 - x0) / 1000.0
     res["rss_landscape_mb"] = _rss_mb()
     w, h = args.size
-    # a game's flight: a frame never waits for a tile (deterministic=False; the default
-    # waits, which a flight into new tiles would feel as hitches)
+    # a game's flight: a frame never waits for a tile (deterministic=False) unless
+    # --deterministic (the default world: the frame makes the tiles the worker has not)
     config = rf.RiverConfig(radius_px=args.radius, tile_production="background",
-                            deterministic=False, tile_worker=args.tile_worker, capacity=max(1024, int(1.5 * 0.87 * w * h / (2 * args.radius) ** 2)))
+                            deterministic=args.deterministic, tile_worker=args.tile_worker, capacity=max(1024, int(1.5 * 0.87 * w * h / (2 * args.radius) ** 2)))
     t0 = time.perf_counter()
     world = rf.RiverWorld(scene, size=(w, h), gl=False, seed=args.seed, config=config)
     res["world_s"] = time.perf_counter() - t0
@@ -666,6 +666,9 @@ def parse(argv: list[str] | None):
     parser.add_argument("--tile-worker", choices=("process", "thread"), default="process",
                         help="RiverConfig.tile_worker: tiles made in a forked process (default) "
                              "or in the worker thread")
+    parser.add_argument("--deterministic", action="store_true",
+                        help="fly a deterministic world (RiverConfig's default: each frame "
+                             "makes the tiles it asked for that the worker has not made)")
     parser.add_argument("--switch-interval", type=float, default=None,
                         help="sys.setswitchinterval in the child [s] (Python's default 0.005: "
                              "how long the tile worker may hold the GIL against a frame)")

@@ -32,7 +32,8 @@ def scene():
 
 def _background_world(scene, frames: int = 4) -> rf.RiverWorld:
     world = rf.RiverWorld(scene, size=(160, 90), gl=False, seed=0,
-                          config=RiverConfig(tile_production="background"))
+                          config=RiverConfig(tile_production="background",
+                                             deterministic=False))
     for f in range(frames):
         world.camera.look_at(*flight_pose(scene, f))
         world.step(FRAME_S)

@@ -268,7 +268,8 @@ def test_late_tiles_never_stall_a_frame_nor_leave_a_wrong_status(late_scene):
     branch: the frames go on while tiles are late, and after every frame no particle has a
     NaN, and every INSIDE particle is in the water."""
     scene = late_scene
-    config = RiverConfig(radius_px=R, tile_production="background", tile_cache_mb=LATE_CACHE_MB)
+    config = RiverConfig(radius_px=R, tile_production="background", tile_cache_mb=LATE_CACHE_MB,
+                         deterministic=False)     # the frames must not wait: a game's flight
     oracle = _oracle(scene, config)
     rec = {"nan": [], "inside": [], "not_water": [], "stale": [], "waiting": 0}
     pending = []
@@ -366,7 +367,8 @@ def test_closed_world_ends_its_worker_and_releases_its_tiles():
     before = set(threading.enumerate())
     n_before = threading.active_count()
     world = rf.RiverWorld(scene, size=(160, 90), gl=False, seed=0,
-                          config=RiverConfig(tile_production="background"))
+                          config=RiverConfig(tile_production="background",
+                                             deterministic=False))
     for f in range(5):
         world.camera.look_at(*flight_pose(scene, f))
         world.step(FRAME_S)
@@ -393,7 +395,8 @@ def test_the_tile_worker_runs_at_a_lower_priority_than_the_frame():
 
     scene = rf.default_scene(seed=0)
     world = rf.RiverWorld(scene, size=(160, 90), gl=False, seed=0,
-                          config=RiverConfig(tile_production="background"))
+                          config=RiverConfig(tile_production="background",
+                                             deterministic=False))
     try:
         world.camera.look_at(*flight_pose(scene, 0))
         world.step(FRAME_S)
