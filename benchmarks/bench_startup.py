@@ -38,7 +38,7 @@ PARTICLES = """
     import time, riverflow as rf
     scene = rf.default_scene(seed=0)
     world = rf.RiverWorld(scene, size=(640, 360), seed=0, config=rf.RiverConfig(radius_px=8))
-    world.camera.look_at((-1700, -420, 110), (-1550, -250, 40))
+    world.camera.look_at((-1770, -130, 75), (-1715, -110, 45))
     world.step(1 / 60)
     print("FIRST", time.perf_counter())
 """
@@ -46,7 +46,7 @@ DRAWN = """
     import time, riverflow as rf
     scene = rf.default_scene(seed=0)
     world = rf.RiverWorld(scene, size=(640, 360), gl=True, seed=0)
-    world.camera.look_at((-1700, -420, 110), (-1550, -250, 40))
+    world.camera.look_at((-1770, -130, 75), (-1715, -110, 45))
     world.step(1 / 60)
     frame = world.render()
     print("FIRST", time.perf_counter())
