@@ -69,7 +69,10 @@ class ProduceTiles(System):
             for kind in TERRAIN_KINDS:
                 tiles.scheduler.request(kind, wanted, self._ancestor_codes)
         self.visible["terrain"] = int(n_cut)
-        wanted = [(kind, self._ancestor_codes if seen else _NO_CODES) for kind in TERRAIN_KINDS]
+        # what the frame reads: the cut's leaves (with every leaf made, no ancestor stands in;
+        # the ancestors stay queued for the worker, a leaf's producer makes what it needs)
+        leaves = codes(self._cut[:n_cut]) if seen else _NO_CODES
+        wanted = [(kind, leaves) for kind in TERRAIN_KINDS]
         flow_cuts = []
         for _, node in esper.get_component(RiverNode):
             field = node.field

