@@ -102,8 +102,8 @@ class RiverWorld:
         self._finalizer.atexit = False     # at exit the worker is a daemon, GL may be gone
         self.tiles.scheduler.start()       # forked here, not in the first frame
         eye, target = default_view(scene)     # on the scene's main river
-        camera = Camera(position=tuple(eye.tolist()), target=tuple(target.tolist()), fov_y_deg=c.fov_y_deg, near_m=c.near_m, far_m=c.far_m,
-                        size_px=tuple(int(v) for v in size))
+        camera = Camera(position=tuple(eye.tolist()), target=tuple(target.tolist()),
+                        fov_y_deg=c.fov_y_deg, near_m=c.near_m, far_m=c.far_m, size_px=tuple(int(v) for v in size))
         self.camera = camera
         terrain = TerrainView(z_min=float(scene.z_range_m[0]), z_max=float(scene.z_range_m[1]))
         for resource in (camera, c, Clock(speed_factor=c.speed_factor), FrameView(), terrain,
@@ -349,7 +349,9 @@ class RiverWorld:
 
     def draw(self) -> None:
         """Run the draw systems: draw the current frame into the world's offscreen framebuffer
-        (CPU time in ``timings_ms["draw"]``). See :meth:`render` and :meth:`blit_to_window`."""
+        (CPU time in ``timings_ms["draw"]``). Drawn before the world was ever stepped or
+        loaded, it makes the view's tiles and particles first (:meth:`load_view`): never a
+        frame of fog. See :meth:`render` and :meth:`blit_to_window`."""
         if not self.gl:
             raise RuntimeError("drawing needs a world made with gl=True")
         if self.camera.is_empty:

@@ -6,9 +6,10 @@ leaves the view needs: node spacing ≤ ``terrain_tile_px`` pixels) and for the 
 spacing ≤ ``flow_tile_px``, river tiles only); ask the scheduler for every terrain kind on the
 cut's leaves and their ancestors (coarse first: a missing leaf is stood in for by its parent)
 and for flow tiles on the flow cut (the resident ones are marked used, so the cache's LRU
-releases what left the view); with ``RiverConfig.deterministic`` (the default) wait until
-every tile asked for is made (:meth:`~riverflow.tiles.scheduler.TileScheduler.complete`), so
-that no frame reads a stand-in that depends on when the worker ran; publish the
+releases what left the view); with ``RiverConfig.deterministic`` (the default) make every
+leaf of both cuts the worker has not made yet, in the frame
+(:meth:`~riverflow.tiles.scheduler.TileScheduler.complete`), so that no frame reads a
+stand-in that depends on when the worker ran; publish the
 frame's :class:`~riverflow.components.river.TerrainView` (the cut, and the surface the particle
 kernels read, with resident ancestors standing in for tiles not made yet); keep one
 :class:`~riverflow.components.river.Tile` entity per resident tile.
