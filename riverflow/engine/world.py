@@ -103,7 +103,8 @@ class RiverWorld:
         self.tiles.scheduler.start()       # forked here, not in the first frame
         eye, target = default_view(scene)     # on the scene's main river
         camera = Camera(position=tuple(eye.tolist()), target=tuple(target.tolist()),
-                        fov_y_deg=c.fov_y_deg, near_m=c.near_m, far_m=c.far_m, size_px=tuple(int(v) for v in size))
+                        fov_y_deg=c.fov_y_deg, near_m=c.near_m, far_m=c.far_m,
+                        size_px=tuple(int(v) for v in size))
         self.camera = camera
         terrain = TerrainView(z_min=float(scene.z_range_m[0]), z_max=float(scene.z_range_m[1]))
         for resource in (camera, c, Clock(speed_factor=c.speed_factor), FrameView(), terrain,
