@@ -61,6 +61,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 import shapely
+import shapely.errors
 import shapely.ops
 from scipy.spatial import cKDTree
 
@@ -75,6 +76,12 @@ DEFAULT_SNAP_M = 1.0
 DUPLICATE_SNAPS = 3.0
 """Lines within this many ``snap_m`` of each other everywhere (Hausdorff) are one line drawn
 twice: the second is left out."""
+ANGLE_PER_TURN = 1.0
+"""Where no attribute tells, an outlet that needs one more line turned must fit the rule that
+tributaries join at acute angles better by this much (sum of cosines at the junctions)."""
+TIE_CANDIDATES = 8
+"""Outlets that the drawing cannot tell apart (as many lines to turn) are compared by their
+junction angles, at most this many per piece of network."""
 NARROW_TRIES = 3
 """How many times ``build()`` narrows channels that lie closer than their widths and tries
 again (:func:`_narrow_branches`)."""
@@ -390,9 +397,8 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
     specs = {k: _attribute_spec(k, v, names, where, report) for k, v in keys.items()}
     flip = _reverse_spec(reverse, names, where)
 
-    with np.errstate(invalid="ignore"):      # NaN coordinates are reported below
-        geoms = shapely.from_wkb(wkb)
-    raw = _lines(geoms, fids, attrs_of, where, report)
+    geoms, invalid = _from_wkb(wkb)
+    raw = _lines(geoms, fids, attrs_of, where, report, invalid)
     source_crs = crs if crs is not None else meta.get("crs")
     xy, crs_out, crs_note = _project(np.vstack([p for _, _, p, _ in raw]), source_crs, where,
                                      [(fids[k], attrs_of(k), len(p)) for k, _, p, _ in raw])
@@ -559,7 +565,25 @@ def _values(spec, table, k: int, name: str, attrs: dict, where: str,
 
 
 
-def _lines(geoms, fids, attrs_of, where: str, report: RiverImport
+def _from_wkb(wkb) -> tuple[list, dict[int, str]]:
+    """Shapely geometries of the features, and why those that GEOS refuses are None (a line
+    of one vertex, …)."""
+    with np.errstate(invalid="ignore"):      # NaN coordinates are reported later
+        try:
+            return list(shapely.from_wkb(wkb)), {}
+        except shapely.errors.GEOSException:
+            pass
+        geoms, invalid = [], {}
+        for k, item in enumerate(wkb):
+            try:
+                geoms.append(shapely.from_wkb(item))
+            except shapely.errors.GEOSException as exc:
+                geoms.append(None)
+                invalid[k] = str(exc).split(": ", 1)[-1].strip()
+    return geoms, invalid
+
+
+def _lines(geoms, fids, attrs_of, where: str, report: RiverImport, invalid=None
            ) -> list[tuple[int, int | None, np.ndarray, tuple[float, float]]]:
     """(feature index, part or None, coordinates (K, 2), Z at its ends) of every line.
 
@@ -579,7 +603,8 @@ def _lines(geoms, fids, attrs_of, where: str, report: RiverImport
     for k, g in enumerate(geoms):
         label = f"feature {fids[k]}"
         if g is None or g.is_empty:
-            problem(k, label, "has no geometry: left out")
+            problem(k, label, f"is not a valid geometry ({invalid[k]}): left out"
+                    if invalid and k in invalid else "has no geometry: left out")
             continue
         kind = g.geom_type
         if kind in ("LineString", "LinearRing"):
@@ -605,8 +630,9 @@ def _lines(geoms, fids, attrs_of, where: str, report: RiverImport
             name = label + ('' if part is None else f' part {part}')
             if bad.any():
                 i = int(np.flatnonzero(bad)[0])
-                what = (f"vertex {i} has non-finite coordinates {tuple(c[i])}: "
-                        f"{int(bad.sum())} such vertices left out")
+                what = (f"has non-finite coordinates at vertex {i} "
+                        f"{tuple(float(v) for v in c[i])}: {int(bad.sum())} such vertices "
+                        "left out")
                 problem(k, name, what)
                 c3, c = c3[~bad], c[~bad]
                 if len(c) < 2:
@@ -1285,68 +1311,116 @@ def _direct(links: list[_Link], report: RiverImport) -> list[_Link]:
             has_z[i] = True
             low[u[i]] = min(low[u[i]], z0)
             low[v[i]] = min(low[v[i]], z1)
-    flips, adj = _flip_counts(u, v, n_nodes)
+    drawn = [lk.name.split(" piece ")[0] for lk in links]     # one drawing: a line's pieces
+    pieces = {}
+    for name in drawn:
+        pieces[name] = pieces.get(name, 0) + 1
+    flips = _flip_counts(u, v, n_nodes, np.array([1.0 / pieces[n] for n in drawn]))
     outs = np.bincount(u, minlength=n_nodes)
     ins = np.bincount(v, minlength=n_nodes)
     in_cycle = _cycle_nodes(u, v, n_nodes)
-    outlets, how = [], {}
-    for comp in np.unique(label[u]):
-        members = np.flatnonzero(label == comp)
-        mine = np.flatnonzero(label[u] == comp)
+    node_groups = _groups(label)
+    link_groups = _groups(label[u])
+    ends_dir = [(_unit(lk.points[1] - lk.points[0]), _unit(lk.points[-1] - lk.points[-2]))
+                for lk in links]
+    outlets: dict[int, int] = {}
+    how: dict[int, str] = {}
+    for comp, mine in link_groups.items():
+        members = node_groups[comp]
         junction = members[(ins[members] + outs[members]) >= 2]
         sinks = members[(ins[members] > 0) & (outs[members] == 0)]
         consistent = (len(sinks) == 1 and not in_cycle[members].any()
                       and (ins[junction] > 0).all() and (outs[junction] > 0).all())
-        degree = ins[members] + outs[members]
-        # ties: fewest lines turned, then a free end, then a sink as drawn
-        tie = np.lexsort((-(ins[members] > 0).astype(int), degree, flips[members]))
         if has_area[mine].sum() * 2 > len(mine):
-            best = np.lexsort((tie.argsort(), -area[members]))[0]
-            why = "the drainage areas" if np.isfinite(
-                [lk.values.get("drainage_area_km2", (math.nan,))[0] for lk in
-                 (links[i] for i in mine)]).any() else "the stream orders"
+            evidence = -area[members]
+            why = ("the drainage areas" if any(math.isfinite(
+                links[i].values.get("drainage_area_km2", (math.nan,))[0]) for i in mine)
+                   else "the stream orders")
         elif has_z[mine].sum() * 2 > len(mine):
-            best = np.lexsort((tie.argsort(), low[members]))[0]
-            why = "the elevations"
-        elif consistent:
-            continue
+            evidence, why = low[members], "the elevations"
+        elif len(junction) == 0:
+            continue                     # one line alone: as drawn
         else:
-            best = tie[0]
-            why = "the topology: one outlet per piece of the network"
-        outlets.append(members[best])
-        how[int(comp)] = why
+            evidence, why = np.zeros(len(members)), "the topology: one outlet per piece"
+        # then: fewest lines turned, a free end, a sink as drawn
+        degree = ins[members] + outs[members]
+        # an outlet at a junction only where the lines drawn there all end there (clipped data)
+        evidence = np.where((degree > 1) & (outs[members] > 0), np.inf, evidence)
+        rank = np.lexsort((-(ins[members] > 0).astype(int), degree, flips[members], evidence))
+        same = evidence[rank] == evidence[rank[0]]
+        tied = rank[: max(1, int(same.sum()))][:TIE_CANDIDATES]
+        best = members[tied[0]]
+        if len(tied) > 1 and len(junction):
+            # the drawing against the geometry: tributaries join their river at acute angles
+            sub = adjacency[members][:, members]
+            local = {int(n): k for k, n in enumerate(members)}
+            lu = np.array([local[int(x)] for x in u[mine]])
+            lv = np.array([local[int(x)] for x in v[mine]])
+            scores = [_junction_angles(dijkstra(sub, directed=False, indices=int(t)), lu, lv,
+                                       [ends_dir[i] for i in mine])
+                      - ANGLE_PER_TURN * flips[members[t]] for t in tied]
+            best = members[tied[int(np.argmax(scores))]]
+        if consistent and not np.isfinite(evidence).any() and best in sinks:
+            continue
+        outlets[comp] = int(best)
+        how[comp] = why
     if not outlets:
         return links
-    dist = dijkstra(adjacency, directed=False, indices=outlets, min_only=True)
-    turned = 0
+    dist = dijkstra(adjacency, directed=False, indices=list(outlets.values()), min_only=True)
     for i, lk in enumerate(links):
         comp = int(label[u[i]])
         if comp not in how or lk.fixed:
             continue
         if dist[u[i]] < dist[v[i]] - 1e-9:
-            x, y = node_xy[outlets[list(how).index(comp)]]
+            x, y = node_xy[outlets[comp]]
             report.repair(lk.name, lk.fid, lk.attrs,
                           f"drawn upstream (by {how[comp]}; its piece of the network drains "
                           f"to ({x:.1f}, {y:.1f})): turned")
             _turn(lk)
-            turned += 1
     return links
 
 
-def _flip_counts(u: np.ndarray, v: np.ndarray, n_nodes: int):
+def _groups(label: np.ndarray) -> dict[int, np.ndarray]:
+    """Indices of ``label``'s entries by value (O(n log n))."""
+    order = np.argsort(label, kind="stable")
+    values, first = np.unique(label[order], return_index=True)
+    return {int(v): g for v, g in zip(values, np.split(order, first[1:]))}
+
+
+def _unit(d: np.ndarray) -> np.ndarray:
+    return d / max(float(np.hypot(*d)), 1e-12)
+
+
+def _junction_angles(dist: np.ndarray, u: np.ndarray, v: np.ndarray, dirs) -> float:
+    """How well an orientation (every line towards smaller ``dist``) fits the rule that rivers
+    join at acute angles: the sum over junctions of the cosine between each inflow's last
+    direction and each outflow's first direction."""
+    inflow: dict[int, list[np.ndarray]] = {}
+    outflow: dict[int, list[np.ndarray]] = {}
+    for a, b, (first, last) in zip(u.tolist(), v.tolist(), dirs):
+        if dist[a] < dist[b]:            # flows b → a: drawn upstream
+            a, b, first, last = b, a, -last, -first
+        outflow.setdefault(a, []).append(first)
+        inflow.setdefault(b, []).append(last)
+    return float(sum(np.dot(i, o) for n in inflow if n in outflow
+                     for i in inflow[n] for o in outflow[n]))
+
+
+def _flip_counts(u: np.ndarray, v: np.ndarray, n_nodes: int, weight: np.ndarray) -> np.ndarray:
     """For every node: how many lines of a spanning tree of its piece point away from it
-    (the lines to turn if it were the outlet), by rerooting in O(n)."""
-    adj: dict[int, list[tuple[int, int]]] = {}
-    for i, (a, b) in enumerate(zip(u.tolist(), v.tolist())):
-        adj.setdefault(a, []).append((b, +1))     # drawn a → b
-        adj.setdefault(b, []).append((a, -1))
-    flips = np.zeros(n_nodes, np.int64)
+    (the lines to turn if it were the outlet; a line split in k pieces counts 1/k a piece),
+    by rerooting in O(n)."""
+    adj: dict[int, list[tuple[int, float]]] = {}
+    for a, b, w in zip(u.tolist(), v.tolist(), weight.tolist()):
+        adj.setdefault(a, []).append((b, w))      # drawn a → b
+        adj.setdefault(b, []).append((a, -w))
+    flips = np.zeros(n_nodes)
     seen = np.zeros(n_nodes, bool)
     for root in adj:
         if seen[root]:
             continue
         seen[root] = True
-        order, parent_dir, queue, count = [root], {}, [root], 0
+        order, parent_dir, queue, count = [root], {}, [root], 0.0
         while queue:
             nxt = []
             for a in queue:
@@ -1354,15 +1428,15 @@ def _flip_counts(u: np.ndarray, v: np.ndarray, n_nodes: int):
                     if not seen[b]:
                         seen[b] = True
                         parent_dir[b] = (a, d)    # d=+1: drawn parent → child (away from root)
-                        count += d > 0
+                        count += max(d, 0.0)
                         order.append(b)
                         nxt.append(b)
             queue = nxt
         flips[root] = count
         for b in order[1:]:
             a, d = parent_dir[b]
-            flips[b] = flips[a] + (1 if d < 0 else -1)
-    return flips, adj
+            flips[b] = flips[a] - d
+    return flips
 
 
 def _cycle_nodes(u: np.ndarray, v: np.ndarray, n_nodes: int) -> np.ndarray:

@@ -46,7 +46,7 @@ def test_braid_arms_closer_than_their_width_are_narrowed(tmp_path):
                         "W": np.array([50.0, 40.0, 40.0, 60.0])})
     with pytest.raises(rf.GraphError, match=r"arms.gpkg \(layer 'arms'\)"):
         rf.read_rivers(path, width_m="W", strict=True).build()      # today's behaviour
-    builder = rf.read_rivers(path, width_m="W")
+    builder = rf.read_rivers(path, origin_m=None, width_m="W")
     graph = built(builder)
     for feature in ("feature 2", "feature 3"):                      # GeoPackage ids from 1
         (what,) = repairs_of(builder, feature)
@@ -60,7 +60,7 @@ def test_braid_arms_closer_than_their_width_are_narrowed(tmp_path):
 def test_neighbouring_rivers_closer_than_their_width(tmp_path):
     lines = [polyline((0, 0), (1000, 0)), polyline((0, 30), (1000, 30))]
     path = write_lines(tmp_path / "pair.shp", lines, {"W": np.array([50.0, 50.0])})
-    builder = rf.read_rivers(path, width_m="W")
+    builder = rf.read_rivers(path, origin_m=None, width_m="W")
     graph = built(builder)
     assert all("narrowed" in w for w in repairs_of(builder, "feature 0") + repairs_of(
         builder, "feature 1"))
@@ -104,7 +104,7 @@ def test_lines_drawn_upstream_found_from_the_topology(tmp_path):
                                                                         dtype=object)})
     builder = rf.read_rivers(path, origin_m=None)
     graph = built(builder)
-    assert [r.feature for r in builder.report.repairs] == ["feature 1"]
+    assert [r.feature for r in builder.report.repairs] == ["feature 1"]   # (ids from 1)
     assert "drawn upstream (by the topology" in builder.report.repairs[0].what
     check_flows_downstream(graph, lines)
 
@@ -112,8 +112,10 @@ def test_lines_drawn_upstream_found_from_the_topology(tmp_path):
 def test_lines_drawn_upstream_found_from_drainage_areas(tmp_path):
     lines = confluence()
     drawn = [lines[0], lines[1][::-1], lines[2][::-1]]     # only the north one as drawn
-    path = write_lines(tmp_path / "area.geojson", drawn, {"A": np.array([50.0, 80.0, 140.0])})
-    builder = rf.read_rivers(path, origin_m=None, drainage_area_km2="A")
+    # areas at both ends: (upstream, downstream) as drawn
+    path = write_lines(tmp_path / "area.geojson", drawn, {"up": np.array([5.0, 80.0, 140.0]),
+                                                          "dn": np.array([50.0, 8.0, 130.0])})
+    builder = rf.read_rivers(path, origin_m=None, drainage_area_km2=("up", "dn"))
     graph = built(builder)
     assert sorted(r.feature for r in builder.report.repairs) == ["feature 1", "feature 2"]
     assert all("the drainage areas" in r.what for r in builder.report.repairs)
@@ -164,13 +166,36 @@ def test_duplicates_empty_lines_and_multilinestrings(tmp_path):
     check_flows_downstream(graph, lines)
 
 
-def test_one_vertex_lines_z_and_m_coordinates_and_non_lines(tmp_path):
+def test_z_and_m_coordinates(tmp_path):
+    import struct
+
+    import pyogrio.raw
+
+    lines = confluence()
+
+    def zm_wkb(p, z0, z1):        # an ISO WKB LineString ZM (type 3002), x y z m per vertex
+        z = np.linspace(z0, z1, len(p))
+        m = np.arange(len(p), dtype=float)
+        body = np.column_stack([p + ORIGIN, z, m]).astype("<f8").tobytes()
+        return struct.pack("<BII", 1, 3002, len(p)) + body
+
+    path = tmp_path / "zm.gpkg"
+    pyogrio.raw.write(str(path), np.array([zm_wkb(p, 100.0 - 10 * k, 90.0 - 10 * k)
+                                           for k, p in enumerate(lines)], dtype=object),
+                      [np.array([1, 2, 3])], ["k"], driver="GPKG", crs=UTM,
+                      geometry_type="Unknown")
+    builder = rf.read_rivers(path, origin_m=None, width_m=25.0)
+    assert builder.report.repairs == []
+    check_flows_downstream(built(builder), lines)
+
+
+def test_one_vertex_lines_and_non_lines(tmp_path):
     lines = confluence()
     lonlat = pyproj.Transformer.from_crs(UTM, "EPSG:4326", always_xy=True)
 
     def coords(p, zm=True):
         lon, lat = lonlat.transform(*(p + ORIGIN).T)
-        return [[x, y, 100.0, 7.0] if zm else [x, y] for x, y in zip(lon, lat)]
+        return [[x, y, 100.0] if zm else [x, y] for x, y in zip(lon, lat)]
 
     features = [{"type": "Feature", "properties": {"k": k},
                  "geometry": {"type": "LineString", "coordinates": coords(p)}}
@@ -264,7 +289,7 @@ def test_unusable_input_names_file_and_layer_and_writes_nothing(tmp_path, case):
         with np.errstate(invalid="ignore"):
             geoms = [shapely.LineString([(np.nan, np.nan), (np.nan, np.nan)])] * 2
         path = write_lines(data / "nan.gpkg", None, {"n": np.array([1, 2])}, geoms=geoms)
-        expect = r"nan.gpkg \(layer 'nan'\): no usable line: feature 1: vertex 0 has non-finite"
+        expect = r"nan.gpkg \(layer 'nan'\): no usable line: feature 1 has non-finite"
     before = sorted(p.name for p in tmp_path.rglob("*"))
     with pytest.raises(rf.GraphError, match=expect):
         rf.read_rivers(path)
