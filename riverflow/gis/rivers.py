@@ -69,7 +69,7 @@ from riverflow.gis import require
 from riverflow.hydro.builder import MAX_TURN_DEG, RiverNetworkBuilder
 from riverflow.hydro.graph import GraphError
 
-SUFFIXES = (".shp", ".gpkg", ".geojson", ".json")
+SUFFIXES = (".shp", ".gpkg", ".geojson", ".json", ".osm", ".pbf")
 """File suffixes :func:`read_rivers` takes (the command line's ``--scene`` sends these here)."""
 DEFAULT_SNAP_M = 1.0
 """End points (and end points and lines) closer than this [m] are joined."""
@@ -101,6 +101,10 @@ LEVEL_SPACING_M = 5.0
 AUTO_ORIGIN_M = 100_000.0
 """``origin_m="auto"`` moves coordinates farther than this [m] from 0 near 0 (module docstring)."""
 """Spacing [m] of the water-level samples along the links (elevation attributes)."""
+
+OSM_WATERWAYS = ("river", "stream", "canal", "ditch", "drain")
+"""The OpenStreetMap ``waterway=*`` values read as river centre lines (other ways are left
+out, and the report says which)."""
 
 KNOWN_ATTRIBUTES: dict[str, tuple] = {
     "width_m": ("width_m",),
@@ -236,6 +240,9 @@ class RiverImport:
     """Every defect of the data that was repaired, with the feature it touched."""
     strict: bool = False
     """``read_rivers(strict=True)``: the first defect raises instead of being repaired."""
+    optional: set[str] = field(default_factory=set)
+    """Attributes that are often absent (OSM's ``width`` tag): a missing value there is no
+    defect and is not reported."""
 
     def repair(self, feature: str, fid: int | None, attributes: dict[str, Any] | None,
                what: str) -> None:
@@ -375,7 +382,8 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
         raise FileNotFoundError(f"GIS file not found: {where}")
     if path.is_file() and path.stat().st_size == 0:
         raise GraphError(f"{where}: the file is empty")
-    layer_name = _pick_layer(pyogrio, path, layer)
+    osm = _is_osm(path)
+    layer_name = "lines" if osm and layer is None else _pick_layer(pyogrio, path, layer)
     where = f"{path} (layer {layer_name!r})"
     try:
         meta, fids, wkb, columns = pyogrio.raw.read(str(path), layer=layer_name, return_fids=True)
@@ -383,14 +391,23 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
         raise GraphError(f"{where}: cannot read it: {exc}") from None
     names = [str(n) for n in meta["fields"]]
     table = {n: columns[k] for k, n in enumerate(names)}
+    osm_notes: list[str] = []
+    if osm:
+        fids, wkb, table, names, osm_notes = _osm_waterways(fids, wkb, table, names, where)
+        if width_m is None:
+            width_m = "width"
     if len(fids) == 0:
-        raise GraphError(f"{where}: no features (an empty layer)")
+        raise GraphError(f"{where}: no features (an empty layer)"
+                         + (f"; {osm_notes[0]}" if osm_notes else ""))
     fids = np.asarray(fids, np.int64)
 
     def attrs_of(k: int) -> dict[str, Any]:
         return {n: _plain(table[n][k]) for n in names}
 
     report = RiverImport(str(path), layer_name, len(fids), None, None, strict=bool(strict))
+    report.notes += osm_notes
+    if osm:
+        report.optional.add("width")
     keys = {"width_m": width_m, "discharge_m2s": discharge_m2s, "discharge_m3s": discharge_m3s,
             "drainage_area_km2": drainage_area_km2, "stream_order": stream_order,
             "elevation_m": elevation_m}
@@ -428,7 +445,8 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
             p, z = p[::-1], (z[1], z[0])
             values = {key: (v[1], v[0]) for key, v in values.items()}
         link = _Link(name, int(fids[k]), np.ascontiguousarray(p), attrs, values)
-        link.z, link.fixed = z, users
+        link.z = z
+        link.fixed = users or osm or (flip is not None)   # the user's word, or OSM's rule
         links.append(link)
     links = _clean(links, report)
     if not links:
@@ -455,6 +473,65 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
     if specs["elevation_m"] is not None:
         builder.water_levels = _water_levels(links, plan, geometry, report)
     return builder
+
+
+def _is_osm(path: Path) -> bool:
+    name = path.name.lower()
+    return name.endswith(".osm") or name.endswith(".osm.pbf") or name.endswith(".pbf")
+
+
+def _osm_waterways(fids, wkb, table: dict, names: list[str], where: str):
+    """The ways of an OSM ``lines`` layer (GDAL's OSM driver) tagged ``waterway=`` one of
+    OSM_WATERWAYS, with a numeric ``width`` column from the ``width`` tag (metres; NaN where
+    absent or unreadable); and a note on the ways left out."""
+    if "waterway" not in table:
+        raise GraphError(f"{where}: no 'waterway' attribute: not an OpenStreetMap lines layer "
+                         f"(its attributes: {names})")
+    kind = np.array([None if w is None else str(w) for w in table["waterway"]], dtype=object)
+    keep = np.array([k in OSM_WATERWAYS for k in kind], dtype=bool)
+    other = table.get("other_tags", np.full(len(kind), None, dtype=object))
+    width = np.array([_osm_width(_hstore(t).get("width")) for t in other])
+    left: dict[str, int] = {}
+    for k in kind[~keep]:
+        label = f"waterway={k}" if k is not None else "not a waterway"
+        left[label] = left.get(label, 0) + 1
+    notes = []
+    if left:
+        ids = [str(table["osm_id"][i]) if "osm_id" in table else str(fids[i])
+               for i in np.flatnonzero(~keep)[:8]]
+        notes.append(f"OpenStreetMap: {int((~keep).sum())} ways left out (not waterway="
+                     f"{'|'.join(OSM_WATERWAYS)}): "
+                     + ", ".join(f"{k} ×{n}" for k, n in sorted(left.items()))
+                     + f"; ways {', '.join(ids)}{', …' if (~keep).sum() > 8 else ''}")
+    table = {n: np.asarray(v)[keep] for n, v in table.items()}
+    table["width"] = width[keep]
+    names = [*names, "width"] if "width" not in names else names
+    return np.asarray(fids)[keep], np.asarray(wkb, dtype=object)[keep], table, names, notes
+
+
+def _hstore(text) -> dict[str, str]:
+    """GDAL's ``other_tags`` (``"k"=>"v","k2"=>"v2"``) as a dict."""
+    if not text:
+        return {}
+    out = {}
+    for part in str(text).split('","'):
+        k, sep, v = part.strip('"').partition('"=>"')
+        if sep:
+            out[k] = v
+    return out
+
+
+def _osm_width(text) -> float:
+    """An OSM ``width`` tag in metres ("12", "12 m", "7.5", "40'"): NaN when unreadable."""
+    if text is None:
+        return math.nan
+    t = str(text).strip().lower().replace(",", ".")
+    try:
+        if t.endswith("'") or t.endswith("ft"):
+            return float(t.rstrip("'ft ").strip()) * 0.3048
+        return float(t.removesuffix("m").strip())
+    except ValueError:
+        return math.nan
 
 
 def _pick_layer(pyogrio, path: Path, layer) -> str:
@@ -556,7 +633,9 @@ def _values(spec, table, k: int, name: str, attrs: dict, where: str,
                    f"{v:g} is not positive" if v <= 0 and key != "elevation_m" else None)
             if why is not None:
                 v = math.nan
-        if why is not None and report is not None and attr not in told:
+        if why is not None and report is not None and attr not in told and not (
+                raw is None or (isinstance(raw, float) and math.isnan(raw))
+                and attr in report.optional):
             told.add(attr)
             report.repair(name, fid, attrs, f"attribute {attr!r}: {why}; not used (the link "
                                             "falls back to the next rule)")
