@@ -99,6 +99,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--sub-km", type=float, default=4.0)
     parser.add_argument("--bake-km", type=float, default=2.0)
     parser.add_argument("--bake-cell-m", type=float, default=2.0)
+    parser.add_argument("--copies", type=int, default=1,
+                        help="disjoint copies of the network side by side (scaling in links)")
+    parser.add_argument("--read-build-only", action="store_true",
+                        help="time read + build only (no validate, landscape, flow, bake)")
     parser.add_argument("--json", type=Path, default=None)
     args = parser.parse_args(argv)
     if hasattr(os, "sched_setaffinity"):
@@ -109,7 +113,10 @@ def main(argv: list[str] | None = None) -> int:
 
     import riverflow as rf
 
-    lines, areas = network(args.main_km, args.spacing_km, args.trib_km, args.sub_km)
+    one, one_areas = network(args.main_km, args.spacing_km, args.trib_km, args.sub_km)
+    span = 2.0 * (args.trib_km + args.sub_km) * 1000.0 + 5000.0
+    lines = [p + (0.0, k * span) for k in range(args.copies) for p in one]
+    areas = np.tile(one_areas, args.copies)
     length_km = sum(float(np.hypot(*np.diff(p, axis=0).T).sum()) for p in lines) / 1000.0
     out: dict = {"features": len(lines), "network_km": round(length_km, 1),
                  "vertices": int(sum(len(p) for p in lines))}
@@ -129,6 +136,15 @@ def main(argv: list[str] | None = None) -> int:
     out["build_s"] = time.perf_counter() - t
     out["read_and_build_s"] = out["read_s"] + out["build_s"]
     out["links"] = len(builder.report.links)
+    out["repairs"] = len(builder.report.repairs)
+    out["s_per_1000_links"] = out["read_and_build_s"] / out["links"] * 1000.0
+    out["s_per_1000_km"] = out["read_and_build_s"] / length_km * 1000.0
+    if args.read_build_only:
+        print(json.dumps({k: round(v, 3) if isinstance(v, float) else v
+                          for k, v in out.items()}, indent=2))
+        if args.json:
+            args.json.write_text(json.dumps(out, indent=2))
+        return 0
     out["curves"] = len(graph.curves)
     widths = [lk.width_m for lk in builder.report.links]
     out["width_m"] = [round(min(widths), 2), round(max(widths), 2)]
