@@ -88,6 +88,11 @@ again (:func:`_narrow_branches`)."""
 NARROW_GAP = 0.8
 """Narrowed channels fill this fraction of the gap between their centre lines (the rest is
 land), shared in proportion to their widths."""
+GRID_TURN_DEG = 30.0
+GRID_TURN_SHARE = 0.3
+"""A line is grid-traced (a staircase, :func:`_smooth_grid_traced`) when its vertices lie
+closer together than half its width and at least GRID_TURN_SHARE of them turn by
+GRID_TURN_DEG or more."""
 CONTINUATION_WIDTHS = 2.0
 """The outlet added where rivers meet at the edge of clipped data (nothing leaves the
 junction) is this many times the widest inflow's width long."""
@@ -464,12 +469,19 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
     builder.report = report
     builder.crs = crs_out
     for link, (width, q, q3, wfrom, qfrom, lateral) in zip(links, plan):
+        smooth = _smooth_grid_traced(link.points, width)
+        if smooth is not None:
+            link.points, shift, turn = smooth
+            report.repair(link.name, link.fid, link.attrs,
+                          f"grid-traced (vertices closer than its width {width:.1f} m, turns "
+                          f"of up to {turn:.0f}°): smoothed at the scale of its width (the "
+                          f"centre line moved by at most {shift:.1f} m)")
         line = _simplify(link.points, width)
         builder.add_branch(line, width, discharge_m2s=q, name=link.name)
         report.links.append(ImportedLink(link.name, link.fid, width, q, q3, wfrom, qfrom, lateral))
         report.attributes[link.name] = link.attrs
     _summarise(report)
-    report.derived["length_m"] = round(sum(_length(lk.points) for lk in links), 1)
+    report.derived["length_m"] = round(sum(_length(lk.points) for lk in links if not lk.added), 1)
     if specs["elevation_m"] is not None:
         builder.water_levels = _water_levels(links, plan, geometry, report)
     return builder
@@ -1104,6 +1116,41 @@ def _move_end(p: np.ndarray, target: np.ndarray, at_start: bool) -> np.ndarray:
 
 def _length(p: np.ndarray) -> float:
     return float(np.hypot(*np.diff(p, axis=0).T).sum())
+
+
+def _smooth_grid_traced(p: np.ndarray, width_m: float):
+    """A line traced along a grid (vertices closer together than the river is wide, most of
+    them turning by GRID_TURN_DEG or more: a staircase) smoothed at the scale of its width:
+    resampled every quarter width, a Gaussian of half a width along it (ends pinned), each
+    point moved by at most half a width. Returns (points, largest shift [m], sharpest turn
+    before [°]) or None for a line that is not grid-traced."""
+    if len(p) < 5:
+        return None
+    seg = np.hypot(*np.diff(p, axis=0).T)
+    d = np.diff(p, axis=0)
+    turn = np.degrees(np.abs(np.arctan2(d[:-1, 0] * d[1:, 1] - d[:-1, 1] * d[1:, 0],
+                                        np.einsum("ij,ij->i", d[:-1], d[1:]))))
+    if np.median(seg) >= 0.5 * width_m or (turn >= GRID_TURN_DEG).mean() < GRID_TURN_SHARE:
+        return None
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    step = 0.25 * width_m
+    n = max(int(np.ceil(s[-1] / step)), 2)
+    t = np.linspace(0.0, s[-1], n + 1)
+    q = np.column_stack([np.interp(t, s, p[:, 0]), np.interp(t, s, p[:, 1])])
+    sigma = 2.0                                   # samples: half a width
+    k = np.arange(-3 * int(sigma), 3 * int(sigma) + 1)
+    kernel = np.exp(-0.5 * (k / sigma) ** 2)
+    kernel /= kernel.sum()
+    half = len(k) // 2
+    padded = np.pad(q, ((half, half), (0, 0)), mode="reflect", reflect_type="odd")
+    smooth = np.column_stack([np.convolve(padded[:, i], kernel, mode="valid") for i in (0, 1)])
+    shift = smooth - q
+    size = np.hypot(*shift.T)
+    cap = 0.5 * width_m
+    smooth = q + shift * np.minimum(1.0, cap / np.maximum(size, 1e-12))[:, None]
+    smooth[0], smooth[-1] = p[0], p[-1]
+    moved = float(shapely.hausdorff_distance(shapely.LineString(smooth), shapely.LineString(p)))
+    return smooth, min(moved, cap), float(turn.max())
 
 
 def _simplify(p: np.ndarray, width_m: float) -> np.ndarray:

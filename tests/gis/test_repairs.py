@@ -350,3 +350,29 @@ def test_a_valid_network_with_random_defects_reads_back_the_same(tmp_path, seed)
         ahead += int(((status == rf.FlowStatus.INSIDE)
                       & (np.einsum("ij,ij->i", velocity, tangent) > 0)).sum())
     assert ahead >= 0.95 * inside and inside > 0
+
+
+def test_a_grid_traced_line_is_smoothed_within_half_its_width(tmp_path):
+    """A meandering river 30 m wide traced along 5 m DEM cells: a staircase of 45° and 90°
+    turns."""
+    x = np.linspace(0.0, 1200.0, 4000)
+    cells = np.round(np.column_stack([x, 80.0 * np.sin(2 * np.pi * x / 600.0)]) / 5.0)
+    steps = [cells[0]]
+    for c in cells[1:]:
+        while np.abs(c - steps[-1]).max() > 0:             # 8-connected, one cell at a time
+            steps.append(steps[-1] + np.sign(c - steps[-1]))
+    stair = 5.0 * np.array(steps)
+    path = write_lines(tmp_path / "grid.shp", [stair], {"W": np.array([30.0])})
+    builder = rf.read_rivers(path, origin_m=None, width_m="W")
+    graph = built(builder)
+    (what,) = repairs_of(builder, "feature 0")
+    assert "grid-traced" in what and "smoothed" in what
+    source = shapely.LineString(stair + ORIGIN)
+    for axis in graph.axes():
+        line = graph.vertices(axis)
+        # never farther than half the width from the line as traced
+        assert shapely.distance(shapely.points(line), source).max() <= 15.0 + 1e-6
+        pts, tangent = along(line, step=5.0)         # its direction every cell
+        turn = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", tangent[:-1], tangent[1:]),
+                                            -1.0, 1.0)))
+        assert turn.max() < 30.0                       # no staircase of 45° turns left
