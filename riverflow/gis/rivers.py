@@ -1642,20 +1642,28 @@ def _cut_crossings(links: list[_Link], plan, crossings, geometry: HydraulicGeome
     """Two lines that cross without a shared vertex (a canal over a river, a culvert) make
     no junction: the narrower one is cut where it crosses the wider one's water (its part
     above ends there, its part below starts there with the same discharge)."""
-    def member(name: str, x: np.ndarray) -> int | None:
+    width = {id(lk): p[0] for lk, p in zip(links, plan)}
+    volume = {id(lk): p[2] for lk, p in zip(links, plan)}
+    family: dict[str, list[_Link]] = {}          # crossing name → the links made from it
+    names = {n for a, b, _ in crossings for n in (a, b)}
+    for lk in links:
+        if lk.name in names:
+            family.setdefault(lk.name, []).append(lk)
+    replaced: dict[int, list[_Link]] = {}
+
+    def member(name: str, x: np.ndarray) -> _Link | None:
         """The link (of those made from the line ``name``) that passes through ``x``."""
-        near = [(shapely.distance(shapely.LineString(lk.points), shapely.Point(x)), i)
-                for i, lk in enumerate(links) if lk.name == name or lk.name.startswith(name + " ")]
+        near = [(shapely.distance(shapely.LineString(lk.points), shapely.Point(x)), k)
+                for k, lk in enumerate(family.get(name, []))]
         best = min(near, default=None)
-        return best[1] if best is not None and best[0] < 1e-3 else None
+        return family[name][best[1]] if best is not None and best[0] < 1e-3 else None
 
     for name_a, name_b, x in crossings:
         a, b = member(name_a, x), member(name_b, x)
-        if a is None or b is None or a == b:
+        if a is None or b is None or a is b:
             continue
-        narrow, wide = (a, b) if plan[a][0] <= plan[b][0] else (b, a)
-        lk, other = links[narrow], links[wide]
-        w_n, w_o = plan[narrow][0], plan[wide][0]
+        lk, other = (a, b) if width[id(a)] <= width[id(b)] else (b, a)
+        w_n, w_o = width[id(lk)], width[id(other)]
         line = shapely.LineString(lk.points)
         zone = shapely.buffer(shapely.LineString(other.points), 0.5 * w_o + 0.75 * w_n)
         s_x = line.project(shapely.Point(x))
@@ -1664,8 +1672,7 @@ def _cut_crossings(links: list[_Link], plan, crossings, geometry: HydraulicGeome
         before = max([h for h in hits if h < s_x], default=0.0)
         after = min([h for h in hits if h > s_x], default=line.length)
         pieces = []
-        total = line.length
-        for k, (s0, s1) in enumerate(((0.0, before), (after, total))):
+        for k, (s0, s1) in enumerate(((0.0, before), (after, line.length))):
             if s1 - s0 < max(w_n, 1e-3):
                 continue
             part = shapely.get_coordinates(shapely.ops.substring(line, s0, s1))
@@ -1674,15 +1681,25 @@ def _cut_crossings(links: list[_Link], plan, crossings, geometry: HydraulicGeome
                           start=lk.start if k == 0 else -1, end=-1 if k == 0 else lk.end)
             piece.fixed = True
             if k == 1 and not math.isfinite(lk.values["discharge_m2s"][1]):
-                piece.values["discharge_m3s"] = (plan[narrow][2], plan[narrow][2])
+                piece.values["discharge_m3s"] = (volume[id(lk)], volume[id(lk)])
+            width[id(piece)], volume[id(piece)] = w_n, volume[id(lk)]
             pieces.append(piece)
         report.repair(lk.name, lk.fid, lk.attrs,
                       f"crosses {other.name} at ({x[0]:.1f}, {x[1]:.1f}) without a shared "
                       f"vertex (a culvert or aqueduct: no junction): cut out where it crosses "
                       f"the other's water ({after - before:.0f} m)")
-        links = links[:narrow] + pieces + links[narrow + 1:]
-        plan = _plan(links, geometry, specs, report)
-    return links, plan
+        replaced[id(lk)] = pieces
+        for name, members in family.items():
+            if any(m is lk for m in members):
+                family[name] = [m for m in members if m is not lk] + pieces
+
+    def expand(lk: _Link) -> list[_Link]:
+        return [q for p in replaced[id(lk)] for q in expand(p)] if id(lk) in replaced else [lk]
+
+    if not replaced:
+        return links, plan
+    links = [q for lk in links for q in expand(lk)]
+    return links, _plan(links, geometry, specs, report)
 
 
 def _narrow_branches(branches, report: RiverImport, attempt: int) -> bool:
