@@ -1164,28 +1164,31 @@ def _simplify(p: np.ndarray, width_m: float) -> np.ndarray:
 
 
 def _order(links: list[_Link]) -> list[int]:
-    """Links upstream first (GraphError naming the links of a cycle)."""
+    """Links upstream first (GraphError naming the links of a cycle); O(n) (Kahn)."""
     ins: dict[int, list[int]] = {}
+    outs: dict[int, list[int]] = {}
     for i, lk in enumerate(links):
         if lk.end >= 0:
             ins.setdefault(lk.end, []).append(i)
-    done = [False] * len(links)
+        if lk.start >= 0:
+            outs.setdefault(lk.start, []).append(i)
+    waiting = [len(ins.get(lk.start, [])) if lk.start >= 0 else 0 for lk in links]
+    ready = [i for i in range(len(links)) if waiting[i] == 0]
     order: list[int] = []
-    pending = list(range(len(links)))
-    while pending:
-        rest = []
-        for i in pending:
-            j = links[i].start
-            if j < 0 or all(done[k] for k in ins.get(j, [])):
-                done[i] = True
-                order.append(i)
-            else:
-                rest.append(i)
-        if len(rest) == len(pending):
-            names = [links[i].name for i in rest[:6]]
-            raise GraphError(f"links {names} form a loop that flows back into itself (a line "
-                             f"drawn upstream? see read_rivers' reverse=)")
-        pending = rest
+    while ready:
+        nxt = []
+        for i in ready:
+            order.append(i)
+            for k in outs.get(links[i].end, []) if links[i].end >= 0 else ():
+                waiting[k] -= 1
+                if waiting[k] == 0:
+                    nxt.append(k)
+        ready = sorted(nxt)
+    if len(order) < len(links):
+        done = set(order)
+        names = [links[i].name for i in range(len(links)) if i not in done][:6]
+        raise GraphError(f"links {names} form a loop that flows back into itself (a line "
+                         f"drawn upstream? see read_rivers' reverse=)")
     return order
 
 
