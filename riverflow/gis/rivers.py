@@ -1234,7 +1234,11 @@ def _plan(links: list[_Link], geometry: HydraulicGeometry, specs: dict, report: 
                   if any(o[0] == lab[0] and o != lab for o in labels)}
         labels = frozenset(lab for lab in labels if lab[0] not in closed)
         if len(siblings) > 1:
-            weights = [None if own[k] is None else own[k][0] for k in siblings]
+            given = [_given_width(links[k]) for k in siblings]
+            if all(w is not None for w in given):      # arms of given widths: by width
+                weights = given
+            else:                                      # else by their own estimates
+                weights = [None if own[k] is None else own[k][0] for k in siblings]
             if any(w is None for w in weights):
                 weights = [1.0] * len(siblings)
             share = weights[siblings.index(i)] / sum(weights)
@@ -1264,6 +1268,12 @@ def _plan(links: list[_Link], geometry: HydraulicGeometry, specs: dict, report: 
             width, wfrom = MIN_WIDTH_M, wfrom + f", raised to {MIN_WIDTH_M:g} m"
         plan.append((width, psi[i], volume[i], wfrom, source[i], lateral[i]))
     return plan
+
+
+def _given_width(link: _Link) -> float | None:
+    """The link's given width [m] (the mean of its ends' values), or None."""
+    given = [w for w in link.values["width_m"] if math.isfinite(w) and w > 0]
+    return float(np.mean(given)) if given else None
 
 
 def _own_estimate(link: _Link, g: HydraulicGeometry) -> tuple[float, float, str] | None:

@@ -376,3 +376,16 @@ def test_a_grid_traced_line_is_smoothed_within_half_its_width(tmp_path):
         turn = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", tangent[:-1], tangent[1:]),
                                             -1.0, 1.0)))
         assert turn.max() < 30.0                       # no staircase of 45° turns left
+
+
+def test_a_braid_splits_its_flow_by_the_arms_widths(tmp_path):
+    lines = [polyline((-800, 0), (0, 0)),
+             polyline((0, 0), (400, 150), (800, 0)),
+             polyline((0, 0), (400, -150), (800, 0)),
+             polyline((800, 0), (1600, 0))]
+    path = write_lines(tmp_path / "split.geojson", lines, {"W": np.array([45.0, 30.0, 15.0,
+                                                                          45.0])})
+    builder = rf.read_rivers(path, origin_m=None, width_m="W")
+    check_flows_downstream(built(builder), lines, skip_m=3.0)
+    q = builder.discharges_m2s
+    assert q[1] == pytest.approx(2.0 * q[2]) and q[1] + q[2] == pytest.approx(q[0])
