@@ -1,6 +1,7 @@
 """Real river networks from GIS line data: :func:`read_rivers` (``rf.read_rivers``).
 
-Stream centre lines come from a shapefile, GeoPackage or GeoJSON file (read by pyogrio/GDAL),
+Stream centre lines come from a shapefile, GeoPackage, GeoJSON or OpenStreetMap file (read by
+pyogrio/GDAL),
 one feature per link (a LineString; each part of a MultiLineString is a link). The builder
 that comes back is filled and may take more branches before ``build()``::
 
@@ -45,6 +46,21 @@ with them: its projection and datum are the file's, only its origin moves. Drawi
 float32, which resolves 0.5 m at 4 500 km (the graph's coordinates would be its mesh vertices
 and particle positions). ``builder.crs`` and the graph's ``crs`` hold the CRS (WKT), so
 results can be mapped back; ``builder.report.origin_m`` the shift.
+
+Repairs (``strict=False``, the default): real data is repaired as it comes and every repair
+is a :class:`Repair` in ``builder.report.repairs`` naming the feature (id and attributes) and
+what was done: features that are not lines, non-finite vertices, zero-length lines and
+duplicates are left out; lines drawn upstream are turned (:func:`_direct`: one outlet per
+connected piece, found from drainage areas or stream orders, elevations, else the drawing and
+the junction angles); rivers that meet where nothing leaves (clipped data) get a short
+outlet; lines crossing without a shared vertex are cut where the narrower crosses the wider
+one's water (no junction); grid-traced lines are smoothed at the scale of their width;
+attribute values that are text, NaN or ≤ 0 are not used (the next rule applies); and
+``build()`` narrows channels that lie closer together than their widths where the network
+cannot be built otherwise. ``strict=True``: lines are taken as drawn and the first defect
+raises :class:`~riverflow.GraphError` naming the file, layer, feature and attributes.
+OpenStreetMap files (``.osm``, ``.osm.pbf``) give their ``waterway=`` ways
+(:data:`OSM_WATERWAYS`), drawn downstream, with their ``width`` tag.
 
 Bad input raises :class:`~riverflow.GraphError` (a missing file :class:`FileNotFoundError`)
 naming the file, the layer, the feature (its id and attribute values) and what is wrong;
