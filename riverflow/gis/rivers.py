@@ -1,9 +1,8 @@
 """Real river networks from GIS line data: :func:`read_rivers` (``rf.read_rivers``).
 
-Stream centre lines come from a shapefile, GeoPackage, GeoJSON or OpenStreetMap file (read by
-pyogrio/GDAL), one feature per link (a LineString; each part of a MultiLineString is a link). The
-builder
-that comes back is filled and may take more branches before ``build()``::
+Stream centre lines come from a shapefile, GeoPackage, GeoJSON or OpenStreetMap file (read
+by pyogrio/GDAL), one feature per link (a LineString; each part of a MultiLineString is a
+link). The builder that comes back is filled and may take more branches before ``build()``::
 
     builder = rf.read_rivers("a001_network.shp", drainage_area_km2="usarea_km2",
                              elevation_m=("uselev_m", "dselev_m"))
