@@ -21,7 +21,8 @@ def add_scene_options(p: argparse.ArgumentParser) -> None:
 
 
 SCENE_HELP = ("a Proland hydro-graph file (.graph) or GIS stream lines (.shp, .gpkg, .geojson, "
-              ".json: riverflow.read_rivers, needs riverflow[gis]); default: the built-in scene")
+              ".json, OpenStreetMap .osm / .osm.pbf: riverflow.read_rivers, needs "
+              "riverflow[gis]); default: the built-in scene")
 
 
 def scene_graph(args: argparse.Namespace):
