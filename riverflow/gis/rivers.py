@@ -1420,9 +1420,13 @@ def _direct(links: list[_Link], report: RiverImport) -> list[_Link]:
 
     Per piece, the outlet is the node (junction or free end) with the largest drainage area
     (or stream order) at it when most links give one; else the lowest (Z coordinates or
-    elevation attributes) when most give one; else the node that needs the fewest lines
-    turned (a piece already drawn with one outlet and no junction left without inflow or
-    outflow is kept as it is). Every line then flows towards the outlet along the shortest
+    elevation attributes) when most give one; else from the drawing: the node that needs the
+    fewest lines turned (a line split in pieces counts once), less ANGLE_PER_TURN for each
+    unit of fit to the rule that tributaries join at acute angles (:func:`_junction_angles`),
+    among the TIE_CANDIDATES best (a piece already drawn with one outlet and no junction left
+    without inflow or outflow is kept as it is unless the angles say otherwise); an outlet at
+    a junction only where every line drawn there ends there. Every line then flows towards the
+    outlet along the shortest
     path (so both arms of a braid run from its bifurcation to its confluence); lines given
     by ``reverse=`` are never turned. Each turned line is a reported repair."""
     from scipy.sparse import coo_matrix
