@@ -1,8 +1,8 @@
 """Real river networks from GIS line data: :func:`read_rivers` (``rf.read_rivers``).
 
-Stream centre lines come from a shapefile, GeoPackage or GeoJSON file (read by pyogrio/GDAL),
-one feature per link (a LineString; each part of a MultiLineString is a link). The builder
-that comes back is filled and may take more branches before ``build()``::
+Stream centre lines come from a shapefile, GeoPackage, GeoJSON or OpenStreetMap file (read
+by pyogrio/GDAL), one feature per link (a LineString; each part of a MultiLineString is a
+link). The builder that comes back is filled and may take more branches before ``build()``::
 
     builder = rf.read_rivers("a001_network.shp", drainage_area_km2="usarea_km2",
                              elevation_m=("uselev_m", "dselev_m"))
@@ -46,6 +46,21 @@ float32, which resolves 0.5 m at 4 500 km (the graph's coordinates would be its 
 and particle positions). ``builder.crs`` and the graph's ``crs`` hold the CRS (WKT), so
 results can be mapped back; ``builder.report.origin_m`` the shift.
 
+Repairs (``strict=False``, the default): real data is repaired as it comes and every repair
+is a :class:`Repair` in ``builder.report.repairs`` naming the feature (id and attributes) and
+what was done: features that are not lines, non-finite vertices, zero-length lines and
+duplicates are left out; lines drawn upstream are turned (:func:`_direct`: one outlet per
+connected piece, found from drainage areas or stream orders, elevations, else the drawing and
+the junction angles); rivers that meet where nothing leaves (clipped data) get a short
+outlet; lines crossing without a shared vertex are cut where the narrower crosses the wider
+one's water (no junction); grid-traced lines are smoothed at the scale of their width;
+attribute values that are text, NaN or ≤ 0 are not used (the next rule applies); and
+``build()`` narrows channels that lie closer together than their widths where the network
+cannot be built otherwise. ``strict=True``: lines are taken as drawn and the first defect
+raises :class:`~riverflow.GraphError` naming the file, layer, feature and attributes.
+OpenStreetMap files (``.osm``, ``.osm.pbf``) give their ``waterway=`` ways
+(:data:`OSM_WATERWAYS`), drawn downstream, with their ``width`` tag.
+
 Bad input raises :class:`~riverflow.GraphError` (a missing file :class:`FileNotFoundError`)
 naming the file, the layer, the feature (its id and attribute values) and what is wrong;
 nothing is half-built. Errors of ``build()`` name the features too.
@@ -61,16 +76,41 @@ from typing import Any, NamedTuple
 
 import numpy as np
 import shapely
+import shapely.errors
+import shapely.ops
 from scipy.spatial import cKDTree
 
 from riverflow.gis import require
 from riverflow.hydro.builder import MAX_TURN_DEG, RiverNetworkBuilder
 from riverflow.hydro.graph import GraphError
 
-SUFFIXES = (".shp", ".gpkg", ".geojson", ".json")
+SUFFIXES = (".shp", ".gpkg", ".geojson", ".json", ".osm", ".pbf")
 """File suffixes :func:`read_rivers` takes (the command line's ``--scene`` sends these here)."""
 DEFAULT_SNAP_M = 1.0
 """End points (and end points and lines) closer than this [m] are joined."""
+DUPLICATE_SNAPS = 3.0
+"""Lines within this many ``snap_m`` of each other everywhere (Hausdorff) are one line drawn
+twice: the second is left out."""
+ANGLE_PER_TURN = 1.0
+"""Where no attribute tells, an outlet that needs one more line turned must fit the rule that
+tributaries join at acute angles better by this much (sum of cosines at the junctions)."""
+TIE_CANDIDATES = 8
+"""Outlets that the drawing cannot tell apart (as many lines to turn) are compared by their
+junction angles, at most this many per piece of network."""
+NARROW_TRIES = 3
+"""How many times ``build()`` narrows channels that lie closer than their widths and tries
+again (:func:`_narrow_branches`)."""
+NARROW_GAP = 0.8
+"""Narrowed channels fill this fraction of the gap between their centre lines (the rest is
+land), shared in proportion to their widths."""
+GRID_TURN_DEG = 30.0
+GRID_TURN_SHARE = 0.3
+"""A line is grid-traced (a staircase, :func:`_smooth_grid_traced`) when its vertices lie
+closer together than half its width and at least GRID_TURN_SHARE of them turn by
+GRID_TURN_DEG or more."""
+CONTINUATION_WIDTHS = 2.0
+"""The outlet added where rivers meet at the edge of clipped data (nothing leaves the
+junction) is this many times the widest inflow's width long."""
 MIN_WIDTH_M = 0.5
 """Narrowest river made [m] (the flow lattice is a 24th of the narrowest width)."""
 SIMPLIFY_WIDTHS = 0.05
@@ -81,6 +121,10 @@ LEVEL_SPACING_M = 5.0
 AUTO_ORIGIN_M = 100_000.0
 """``origin_m="auto"`` moves coordinates farther than this [m] from 0 near 0 (module docstring)."""
 """Spacing [m] of the water-level samples along the links (elevation attributes)."""
+
+OSM_WATERWAYS = ("river", "stream", "canal", "ditch", "drain")
+"""The OpenStreetMap ``waterway=*`` values read as river centre lines (other ways are left
+out, and the report says which)."""
 
 KNOWN_ATTRIBUTES: dict[str, tuple] = {
     "width_m": ("width_m",),
@@ -161,6 +205,22 @@ class HydraulicGeometry(NamedTuple):
 DEFAULT_GEOMETRY = HydraulicGeometry()
 
 
+class Repair(NamedTuple):
+    """One defect of the data that :func:`read_rivers` repaired (``builder.report.repairs``)."""
+
+    feature: str
+    """The feature (or branch) it touched: ``feature <fid>`` (+ ``part k``, ``piece k``)."""
+    fid: int | None
+    """Its feature id (None for a repair that names no single feature)."""
+    attributes: dict[str, Any]
+    """Its attribute values."""
+    what: str
+    """What was wrong and what was done."""
+
+    def __str__(self) -> str:
+        return f"{self.feature}: {self.what} [{_attrs_text(self.attributes)}]"
+
+
 class ImportedLink(NamedTuple):
     """One link as it went into the builder (``builder.report.links``)."""
 
@@ -196,6 +256,28 @@ class RiverImport:
     """Attribute values of every feature, by branch name (for error messages)."""
     origin_m: tuple[float, float] = (0.0, 0.0)
     """What was subtracted from the projected coordinates [m] (``read_rivers(origin_m=)``)."""
+    repairs: list[Repair] = field(default_factory=list)
+    """Every defect of the data that was repaired, with the feature it touched."""
+    strict: bool = False
+    """``read_rivers(strict=True)``: the first defect raises instead of being repaired."""
+    optional: set[str] = field(default_factory=set)
+    """Attributes that are often absent (OSM's ``width`` tag): a missing value there is no
+    defect and is not reported."""
+
+    def repair(self, feature: str, fid: int | None, attributes: dict[str, Any] | None,
+               what: str) -> None:
+        """Record a repair; in strict mode raise :class:`GraphError` naming the file, layer,
+        feature and attributes instead."""
+        attributes = attributes or {}
+        if self.strict:
+            raise GraphError(f"{self.path} (layer {self.layer!r}): {feature}: {what} "
+                             f"[{_attrs_text(attributes)}] (strict=True: no repairs)")
+        self.repairs.append(Repair(feature, fid, dict(attributes), what))
+
+    @property
+    def length_m(self) -> float:
+        """Total length [m] of the links' centre lines as built (``read_rivers``)."""
+        return float(self.derived.get("length_m", 0.0))
 
     def __str__(self) -> str:
         lines = [f"{self.path} (layer {self.layer!r}): {self.features} features -> "
@@ -204,6 +286,8 @@ class RiverImport:
                     if self.source_crs and self.source_crs != self.crs else "")]
         lines += [f"  {k}: {v}" for k, v in self.derived.items()]
         lines += [f"  note: {n}" for n in self.notes]
+        lines.append(f"  repairs: {len(self.repairs)}" if self.repairs else "  repairs: none")
+        lines += [f"  repair: {r}" for r in self.repairs]
         return "\n".join(lines)
 
 
@@ -219,17 +303,30 @@ class GisRiverBuilder(RiverNetworkBuilder):
         return self.report.derived
 
     def build(self):
-        """Make the hydro graph (``graph.source``: the GIS file); errors name the features."""
-        try:
-            graph = super().build()
-        except GraphError as exc:
-            text = str(exc)
-            named = [n for n in self.report.attributes if f"'{n}'" in text]
-            where = "; ".join(f"{n} = {_attrs_text(self.report.attributes[n])}" for n in named)
-            raise GraphError(f"{self.report.path} (layer {self.report.layer!r}): {text}"
-                             + (f" [{where}]" if where else "")) from None
+        """Make the hydro graph (``graph.source``: the GIS file); errors name the features.
+
+        Where it fails because channels lie closer together than their widths (two arms of
+        a braid converging at an acute angle, neighbouring rivers, a bend tighter than the
+        river is wide), the widths narrow there and it tries again (up to NARROW_TRIES
+        times, a reported repair per branch; not in strict mode)."""
+        for attempt in range(NARROW_TRIES + 1):
+            try:
+                graph = super().build()
+                break
+            except GraphError as exc:
+                if self.report.strict or attempt == NARROW_TRIES or not _narrow_branches(
+                        self._branches, self.report, attempt):
+                    self._raise_named(exc)
         graph.source = self.report.path
         return graph
+
+    def _raise_named(self, exc: GraphError):
+        """Raise ``exc`` again with the file, the layer and the named features' attributes."""
+        text = str(exc)
+        named = [n for n in self.report.attributes if f"'{n}'" in text]
+        where = "; ".join(f"{n} = {_attrs_text(self.report.attributes[n])}" for n in named)
+        raise GraphError(f"{self.report.path} (layer {self.report.layer!r}): {text}"
+                         + (f" [{where}]" if where else "")) from None
 
 
 # -- reading -------------------------------------------------------------------------------------
@@ -246,6 +343,12 @@ class _Link:
     values: dict[str, tuple[float, float]]   # keyword → (value at start, value at end), NaN = none
     start: int = -1
     end: int = -1
+    z: tuple[float, float] = (math.nan, math.nan)
+    """Z of its first and last vertex (NaN when the file has none)."""
+    fixed: bool = False
+    """Its direction was set by the user (``reverse=``): never turned."""
+    added: bool = False
+    """Made by a repair (a continuation at a clipped outlet), not read from the file."""
 
 
 def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge_m2s=None,
@@ -253,7 +356,7 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
                 stream_order=None, reverse=None, origin_m="auto",
                 snap_m: float = DEFAULT_SNAP_M,
                 geometry: HydraulicGeometry = DEFAULT_GEOMETRY,
-                tolerance_m: float = 0.25) -> GisRiverBuilder:
+                tolerance_m: float = 0.25, strict: bool = False) -> GisRiverBuilder:
     """Stream centre lines from a GIS file as a filled river-network builder.
 
     Args:
@@ -278,6 +381,9 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
         snap_m: ends (and ends and lines) closer than this [m] are joined.
         geometry: the hydraulic-geometry laws and constants (:class:`HydraulicGeometry`).
         tolerance_m: the builder's tolerance [m].
+        strict: False (default): defects of real data (module docstring, "Repairs") are
+            repaired and listed in ``builder.report.repairs``; True: the first one raises
+            :class:`GraphError` naming the file, layer, feature and attributes.
 
     Returns:
         A :class:`GisRiverBuilder` (a :class:`~riverflow.RiverNetworkBuilder` with lateral
@@ -296,7 +402,8 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
         raise FileNotFoundError(f"GIS file not found: {where}")
     if path.is_file() and path.stat().st_size == 0:
         raise GraphError(f"{where}: the file is empty")
-    layer_name = _pick_layer(pyogrio, path, layer)
+    osm = _is_osm(path)
+    layer_name = "lines" if osm and layer is None else _pick_layer(pyogrio, path, layer)
     where = f"{path} (layer {layer_name!r})"
     try:
         meta, fids, wkb, columns = pyogrio.raw.read(str(path), layer=layer_name, return_fids=True)
@@ -304,26 +411,34 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
         raise GraphError(f"{where}: cannot read it: {exc}") from None
     names = [str(n) for n in meta["fields"]]
     table = {n: columns[k] for k, n in enumerate(names)}
+    osm_notes: list[str] = []
+    if osm:
+        fids, wkb, table, names, osm_notes = _osm_waterways(fids, wkb, table, names, where)
+        if width_m is None:
+            width_m = "width"
     if len(fids) == 0:
-        raise GraphError(f"{where}: no features (an empty layer)")
+        raise GraphError(f"{where}: no features (an empty layer)"
+                         + (f"; {osm_notes[0]}" if osm_notes else ""))
     fids = np.asarray(fids, np.int64)
 
     def attrs_of(k: int) -> dict[str, Any]:
         return {n: _plain(table[n][k]) for n in names}
 
-    report = RiverImport(str(path), layer_name, len(fids), None, None)
+    report = RiverImport(str(path), layer_name, len(fids), None, None, strict=bool(strict))
+    report.notes += osm_notes
+    if osm:
+        report.optional.add("width")
     keys = {"width_m": width_m, "discharge_m2s": discharge_m2s, "discharge_m3s": discharge_m3s,
             "drainage_area_km2": drainage_area_km2, "stream_order": stream_order,
             "elevation_m": elevation_m}
     specs = {k: _attribute_spec(k, v, names, where, report) for k, v in keys.items()}
     flip = _reverse_spec(reverse, names, where)
 
-    with np.errstate(invalid="ignore"):      # NaN coordinates are reported below
-        geoms = shapely.from_wkb(wkb)
-    raw = _lines(geoms, fids, attrs_of, where)
+    geoms, invalid = _from_wkb(wkb)
+    raw = _lines(geoms, fids, attrs_of, where, report, invalid)
     source_crs = crs if crs is not None else meta.get("crs")
-    xy, crs_out, crs_note = _project(np.vstack([p for _, _, p in raw]), source_crs, where,
-                                     [(fids[k], attrs_of(k), len(p)) for k, _, p in raw])
+    xy, crs_out, crs_note = _project(np.vstack([p for _, _, p, _ in raw]), source_crs, where,
+                                     [(fids[k], attrs_of(k), len(p)) for k, _, p, _ in raw])
     report.source_crs = _wkt(source_crs)
     offset = _origin(origin_m, xy, where)
     if offset is not None:
@@ -338,35 +453,112 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
 
     links: list[_Link] = []
     at = 0
-    for k, part, pts in raw:
+    for k, part, pts, z in raw:
         p = xy[at:at + len(pts)]
         at += len(pts)
         name = f"feature {fids[k]}" + (f" part {part}" if part is not None else "")
         attrs = attrs_of(k)
-        values = {key: _values(spec, table, k, name, attrs, where) for key, spec in specs.items()}
-        if flip is not None and _truthy(flip if isinstance(flip, bool) else table[flip][k]):
-            p = p[::-1]
+        values = {key: _values(spec, table, k, name, attrs, where, report, int(fids[k]), key)
+                  for key, spec in specs.items()}
+        users = flip is not None and _truthy(flip if isinstance(flip, bool) else table[flip][k])
+        if users:
+            p, z = p[::-1], (z[1], z[0])
             values = {key: (v[1], v[0]) for key, v in values.items()}
-        links.append(_Link(name, int(fids[k]), np.ascontiguousarray(p), attrs, values))
+        link = _Link(name, int(fids[k]), np.ascontiguousarray(p), attrs, values)
+        link.z = z
+        link.fixed = users or osm or (flip is not None)   # the user's word, or OSM's rule
+        links.append(link)
     links = _clean(links, report)
     if not links:
         raise GraphError(f"{where}: no line with two distinct points")
-    links = _topology(links, snap_m, report)
+    links = _drop_duplicates(links, snap_m, report)
+    links, crossings = _topology(links, snap_m, report)
+    links = _direct(links, report)
     plan = _plan(links, geometry, specs, report)
+    links, plan = _close_clipped_ends(links, plan, geometry, specs, report)
     links, plan = _merge_close_junctions(links, plan, geometry, specs, report)
+    if crossings:
+        links, plan = _cut_crossings(links, plan, crossings, geometry, specs, report)
 
     builder = GisRiverBuilder(tolerance_m, lateral_inflow=True)
     builder.report = report
     builder.crs = crs_out
     for link, (width, q, q3, wfrom, qfrom, lateral) in zip(links, plan):
+        smooth = _smooth_grid_traced(link.points, width)
+        if smooth is not None:
+            link.points, shift, turn = smooth
+            report.repair(link.name, link.fid, link.attrs,
+                          f"grid-traced (vertices closer than its width {width:.1f} m, turns "
+                          f"of up to {turn:.0f}°): smoothed at the scale of its width (the "
+                          f"centre line moved by at most {shift:.1f} m)")
         line = _simplify(link.points, width)
         builder.add_branch(line, width, discharge_m2s=q, name=link.name)
         report.links.append(ImportedLink(link.name, link.fid, width, q, q3, wfrom, qfrom, lateral))
         report.attributes[link.name] = link.attrs
     _summarise(report)
+    report.derived["length_m"] = round(sum(_length(lk.points) for lk in links if not lk.added), 1)
     if specs["elevation_m"] is not None:
         builder.water_levels = _water_levels(links, plan, geometry, report)
     return builder
+
+
+def _is_osm(path: Path) -> bool:
+    name = path.name.lower()
+    return name.endswith(".osm") or name.endswith(".osm.pbf") or name.endswith(".pbf")
+
+
+def _osm_waterways(fids, wkb, table: dict, names: list[str], where: str):
+    """The ways of an OSM ``lines`` layer (GDAL's OSM driver) tagged ``waterway=`` one of
+    OSM_WATERWAYS, with a numeric ``width`` column from the ``width`` tag (metres; NaN where
+    absent or unreadable); and a note on the ways left out."""
+    if "waterway" not in table:
+        raise GraphError(f"{where}: no 'waterway' attribute: not an OpenStreetMap lines layer "
+                         f"(its attributes: {names})")
+    kind = np.array([None if w is None else str(w) for w in table["waterway"]], dtype=object)
+    keep = np.array([k in OSM_WATERWAYS for k in kind], dtype=bool)
+    other = table.get("other_tags", np.full(len(kind), None, dtype=object))
+    width = np.array([_osm_width(_hstore(t).get("width")) for t in other])
+    left: dict[str, int] = {}
+    for k in kind[~keep]:
+        label = f"waterway={k}" if k is not None else "not a waterway"
+        left[label] = left.get(label, 0) + 1
+    notes = []
+    if left:
+        ids = [str(table["osm_id"][i]) if "osm_id" in table else str(fids[i])
+               for i in np.flatnonzero(~keep)[:8]]
+        notes.append(f"OpenStreetMap: {int((~keep).sum())} ways left out (not waterway="
+                     f"{'|'.join(OSM_WATERWAYS)}): "
+                     + ", ".join(f"{k} ×{n}" for k, n in sorted(left.items()))
+                     + f"; ways {', '.join(ids)}{', …' if (~keep).sum() > 8 else ''}")
+    table = {n: np.asarray(v)[keep] for n, v in table.items()}
+    table["width"] = width[keep]
+    names = [*names, "width"] if "width" not in names else names
+    return np.asarray(fids)[keep], np.asarray(wkb, dtype=object)[keep], table, names, notes
+
+
+def _hstore(text) -> dict[str, str]:
+    """GDAL's ``other_tags`` (``"k"=>"v","k2"=>"v2"``) as a dict."""
+    if not text:
+        return {}
+    out = {}
+    for part in str(text).split('","'):
+        k, sep, v = part.strip('"').partition('"=>"')
+        if sep:
+            out[k] = v
+    return out
+
+
+def _osm_width(text) -> float:
+    """An OSM ``width`` tag in metres ("12", "12 m", "7.5", "40'"): NaN when unreadable."""
+    if text is None:
+        return math.nan
+    t = str(text).strip().lower().replace(",", ".")
+    try:
+        if t.endswith("'") or t.endswith("ft"):
+            return float(t.rstrip("'ft ").strip()) * 0.3048
+        return float(t.removesuffix("m").strip())
+    except ValueError:
+        return math.nan
 
 
 def _pick_layer(pyogrio, path: Path, layer) -> str:
@@ -442,51 +634,120 @@ def _reverse_spec(reverse, names: list[str], where: str):
     return reverse
 
 
-def _values(spec, table, k: int, name: str, attrs: dict, where: str) -> tuple[float, float]:
-    """(value at the link's start, at its end) of one keyword; NaN where not given."""
+def _values(spec, table, k: int, name: str, attrs: dict, where: str,
+            report: RiverImport | None = None, fid: int | None = None,
+            key: str = "") -> tuple[float, float]:
+    """(value at the link's start, at its end) of one keyword; NaN where not given. Text,
+    NaN, and (but for elevations) values ≤ 0 are reported repairs and become NaN: the link
+    falls back to the next rule."""
     if spec is None:
         return (math.nan, math.nan)
     if isinstance(spec, float):
         return (spec, spec)
     pair = spec if isinstance(spec, tuple) else (spec, spec)
-    out = []
+    out, told = [], set()
     for attr in pair:
         raw = table[attr][k]
         try:
             v = math.nan if raw is None else float(raw)
         except (TypeError, ValueError):
-            raise GraphError(f"{where}: {name}: attribute {attr!r} = {raw!r} is not a number "
-                             f"[{_attrs_text(attrs)}]") from None
+            if report is None or report.strict:
+                raise GraphError(f"{where}: {name}: attribute {attr!r} = {raw!r} is not a number "
+                                 f"[{_attrs_text(attrs)}]") from None
+            v, why = math.nan, f"{raw!r} is not a number"
+        else:
+            why = ("missing (NaN)" if not math.isfinite(v) else
+                   f"{v:g} is not positive" if v <= 0 and key != "elevation_m" else None)
+            if why is not None:
+                v = math.nan
+        if why is not None and report is not None and attr not in told and not (
+                raw is None or (isinstance(raw, float) and math.isnan(raw))
+                and attr in report.optional):
+            told.add(attr)
+            report.repair(name, fid, attrs, f"attribute {attr!r}: {why}; not used (the link "
+                                            "falls back to the next rule)")
         out.append(v)
     return (out[0], out[1])
 
 
-def _lines(geoms, fids, attrs_of, where: str) -> list[tuple[int, int | None, np.ndarray]]:
-    """(feature index, part or None, coordinates (K, 2)) of every line; GraphError for a
-    feature that is not a line or has non-finite coordinates."""
-    out = []
+
+def _from_wkb(wkb) -> tuple[list, dict[int, str]]:
+    """Shapely geometries of the features, and why those that GEOS refuses are None (a line
+    of one vertex, …)."""
+    with np.errstate(invalid="ignore"):      # NaN coordinates are reported later
+        try:
+            return list(shapely.from_wkb(wkb)), {}
+        except shapely.errors.GEOSException:
+            pass
+        geoms, invalid = [], {}
+        for k, item in enumerate(wkb):
+            try:
+                geoms.append(shapely.from_wkb(item))
+            except shapely.errors.GEOSException as exc:
+                geoms.append(None)
+                invalid[k] = str(exc).split(": ", 1)[-1].strip()
+    return geoms, invalid
+
+
+def _lines(geoms, fids, attrs_of, where: str, report: RiverImport, invalid=None
+           ) -> list[tuple[int, int | None, np.ndarray, tuple[float, float]]]:
+    """(feature index, part or None, coordinates (K, 2), Z at its ends) of every line.
+
+    A feature with no geometry or one that is not a line, and non-finite vertices, are
+    repairs (left out, reported; in strict mode GraphError); GraphError when no line is left.
+    """
+    out, first_problem = [], None
+
+    def problem(k: int, label: str, what: str) -> None:
+        nonlocal first_problem
+        text = f"{where}: {label} {what} [{_attrs_text(attrs_of(k))}]"
+        first_problem = first_problem or text
+        if report.strict:
+            raise GraphError(text)
+        report.repair(label, int(fids[k]), attrs_of(k), what)
+
     for k, g in enumerate(geoms):
-        label = f"{where}: feature {fids[k]}"
+        label = f"feature {fids[k]}"
         if g is None or g.is_empty:
-            raise GraphError(f"{label} has no geometry [{_attrs_text(attrs_of(k))}]")
+            problem(k, label, f"is not a valid geometry ({invalid[k]}): left out"
+                    if invalid and k in invalid else "has no geometry: left out")
+            continue
         kind = g.geom_type
         if kind in ("LineString", "LinearRing"):
             parts = [(None, g)]
         elif kind == "MultiLineString":
             parts = [(i, p) for i, p in enumerate(g.geoms) if not p.is_empty]
             parts = parts if len(parts) > 1 else [(None, parts[0][1])]
+        elif kind == "GeometryCollection" and any(
+                p.geom_type in ("LineString", "MultiLineString") for p in g.geoms):
+            lines = [q for p in g.geoms for q in getattr(p, "geoms", [p])
+                     if q.geom_type == "LineString" and not q.is_empty]
+            parts = [(i, q) for i, q in enumerate(lines)]
+            problem(k, label, f"is a GeometryCollection: its {len(lines)} lines kept, the "
+                              "rest left out")
         else:
-            raise GraphError(f"{label} is a {kind}, not a line (stream centre lines must be "
-                             f"LineString or MultiLineString) [{_attrs_text(attrs_of(k))}]")
+            problem(k, label, f"is a {kind}, not a line (stream centre lines must be "
+                              "LineString or MultiLineString): left out")
+            continue
         for part, line in parts:
-            c = shapely.get_coordinates(line)
+            c3 = shapely.get_coordinates(line, include_z=True)
+            c = np.ascontiguousarray(c3[:, :2])
             bad = ~np.isfinite(c).all(axis=1)
+            name = label + ('' if part is None else f' part {part}')
             if bad.any():
                 i = int(np.flatnonzero(bad)[0])
-                raise GraphError(f"{label}{'' if part is None else f' part {part}'}: vertex {i} "
-                                 f"has non-finite coordinates {tuple(c[i])} "
-                                 f"[{_attrs_text(attrs_of(k))}]")
-            out.append((k, part, c))
+                what = (f"has non-finite coordinates at vertex {i} "
+                        f"{tuple(float(v) for v in c[i])}: {int(bad.sum())} such vertices "
+                        "left out")
+                problem(k, name, what)
+                c3, c = c3[~bad], c[~bad]
+                if len(c) < 2:
+                    continue
+            out.append((k, part, c, (float(c3[0, 2]), float(c3[-1, 2]))))
+    if not out:
+        raise GraphError(f"{where}: no usable line"
+                         + (f": {first_problem.removeprefix(where + ': ')}" if first_problem
+                            else ""))
     return out
 
 
@@ -654,7 +915,8 @@ def _clean(links: list[_Link], report: RiverImport) -> list[_Link]:
         keep = np.concatenate([[True], np.any(np.abs(np.diff(p, axis=0)) > 1e-9, axis=1)])
         p = p[keep]
         if len(p) < 2:
-            report.notes.append(f"{link.name}: dropped (a line of zero length)")
+            report.repair(link.name, link.fid, link.attrs,
+                          "a line of zero length (one distinct vertex): left out")
             continue
         p, n = _drop_spikes(p)
         spikes += n
@@ -679,9 +941,12 @@ def _drop_spikes(p: np.ndarray) -> tuple[np.ndarray, int]:
     return p, dropped
 
 
-def _topology(links: list[_Link], snap_m: float, report: RiverImport) -> list[_Link]:
-    """Split lines where another line's end lies on them, then snap the ends into junctions
-    (``link.start`` / ``link.end``: junction index, -1 for a free end)."""
+def _topology(links: list[_Link], snap_m: float, report: RiverImport
+              ) -> tuple[list[_Link], list[tuple[str, str, np.ndarray]]]:
+    """Split lines where another line's end lies on them, and two lines where they cross at
+    a vertex of both; then snap the ends into junctions (``link.start`` / ``link.end``:
+    junction index, -1 for a free end). Returns the links and the crossings without a shared
+    vertex (name, name, point): no junction there (:func:`_cut_crossings`)."""
     if not (math.isfinite(snap_m) and snap_m >= 0):
         raise GraphError(f"{report.path}: snap_m must be a number ≥ 0, got {snap_m!r}")
     lines = [shapely.LineString(lk.points) for lk in links]
@@ -708,6 +973,7 @@ def _topology(links: list[_Link], snap_m: float, report: RiverImport) -> list[_L
         report.notes.append(f"{len(cuts)} lines split where {sum(map(len, cuts.values()))} "
                             f"other lines end on them (within {snap_m:g} m)")
         links = out
+    links, crossings = _crossings(links, snap_m, report)
     ends = np.array([[lk.points[0], lk.points[-1]] for lk in links]).reshape(-1, 2)
     parent = np.arange(len(ends))
 
@@ -733,8 +999,14 @@ def _topology(links: list[_Link], snap_m: float, report: RiverImport) -> list[_L
             continue
         if len({m // 2 for m in members}) < len(members):
             lk = links[members[0] // 2]
-            raise GraphError(f"{report.path}: {lk.name}: its two ends meet (a closed loop of "
-                             f"one line) [{_attrs_text(lk.attrs)}]")
+            if report.strict:
+                raise GraphError(f"{report.path}: {lk.name}: its two ends meet (a closed loop "
+                                 f"of one line) [{_attrs_text(lk.attrs)}]")
+            loops = {m // 2 for m in members if sum(1 for n in members if n // 2 == m // 2) > 1}
+            for i in loops:
+                report.repair(links[i].name, links[i].fid, links[i].attrs,
+                              "its two ends meet (a closed loop of one line): cut in two halves")
+            return _topology(_halve(links, loops), snap_m, report)
         centre = ends[members].mean(axis=0)
         for m in members:
             lk = links[m // 2]
@@ -748,7 +1020,78 @@ def _topology(links: list[_Link], snap_m: float, report: RiverImport) -> list[_L
     if snapped:
         report.notes.append(f"{snapped} line ends moved by up to {snap_m:g} m to meet "
                             "(near-miss junctions)")
-    return links
+    return links, crossings
+
+
+def _halve(links: list[_Link], which: set[int]) -> list[_Link]:
+    out = []
+    for i, lk in enumerate(links):
+        out.extend(_split(lk, [0.5 * _length(lk.points)]) if i in which else [lk])
+    return out
+
+
+def _crossings(links: list[_Link], snap_m: float, report: RiverImport):
+    """Lines that cross: where the crossing is a vertex of both, both are split there (a
+    junction); elsewhere (a canal over a river, a culvert) no junction is made and the
+    crossing is returned for :func:`_cut_crossings`."""
+    lines = _geoms([lk.points for lk in links])
+    tree = shapely.STRtree(lines)
+    a_idx, b_idx = tree.query(lines, predicate="intersects")
+    tol = max(snap_m, 1e-9)
+    cuts: dict[int, list[float]] = {}
+    crossings = []
+    for a, b in zip(a_idx, b_idx):
+        if a >= b:
+            continue
+        inter = shapely.intersection(lines[a], lines[b])
+        for x in shapely.get_coordinates(inter):
+            ends = []
+            for i in (a, b):
+                p = links[i].points
+                ends.append(min(np.hypot(*(p[0] - x)), np.hypot(*(p[-1] - x))) <= tol)
+            if any(ends):
+                continue          # an end on the other line: split or snapped already
+            va = np.hypot(*(links[a].points - x).T).min() <= 1e-6
+            vb = np.hypot(*(links[b].points - x).T).min() <= 1e-6
+            if va and vb:
+                cuts.setdefault(int(a), []).append(float(lines[a].project(shapely.Point(x))))
+                cuts.setdefault(int(b), []).append(float(lines[b].project(shapely.Point(x))))
+            else:
+                crossings.append((links[a].name, links[b].name, x.copy()))
+    if cuts:
+        out = []
+        for i, lk in enumerate(links):
+            out.extend(_split(lk, sorted(set(cuts[i]))) if i in cuts else [lk])
+        report.notes.append(f"{len(cuts)} lines split where they cross at a shared vertex "
+                            "(a junction)")
+        links = out
+    return links, crossings
+
+
+def _drop_duplicates(links: list[_Link], snap_m: float, report: RiverImport) -> list[_Link]:
+    """Leave out lines that repeat another (either direction): a Hausdorff distance under
+    DUPLICATE_SNAPS × ``snap_m`` and lengths within 5 %; the first one read is kept."""
+    if len(links) < 2:
+        return links
+    tol = max(DUPLICATE_SNAPS * snap_m, 1e-6)
+    lines = _geoms([lk.points for lk in links])
+    lengths = shapely.length(lines)
+    tree = shapely.STRtree(lines)
+    a_idx, b_idx = tree.query(lines, predicate="dwithin", distance=tol)
+    gone: set[int] = set()
+    for a, b in sorted(zip(a_idx.tolist(), b_idx.tolist())):
+        if a >= b or a in gone or b in gone:
+            continue
+        if abs(lengths[a] - lengths[b]) > 0.05 * max(lengths[a], lengths[b]) + tol:
+            continue
+        if shapely.hausdorff_distance(lines[a], lines[b]) <= tol:
+            gone.add(b)
+            same = (np.array_equal(links[a].points, links[b].points)
+                    or np.array_equal(links[a].points, links[b].points[::-1]))
+            report.repair(links[b].name, links[b].fid, links[b].attrs,
+                          f"{'an exact' if same else 'a near'} duplicate of {links[a].name} "
+                          f"(within {tol:g} m): left out")
+    return [lk for i, lk in enumerate(links) if i not in gone]
 
 
 def _split(link: _Link, at: list[float]) -> list[_Link]:
@@ -763,8 +1106,12 @@ def _split(link: _Link, at: list[float]) -> list[_Link]:
         pb = np.array([np.interp(b, s, p[:, 0]), np.interp(b, s, p[:, 1])])
         values = {key: (v0 + (v1 - v0) * a / s[-1], v0 + (v1 - v0) * b / s[-1])
                   for key, (v0, v1) in link.values.items()}
-        out.append(_Link(f"{link.name} piece {k}", link.fid, np.vstack([pa, inner, pb]),
-                         link.attrs, values))
+        piece = _Link(f"{link.name} piece {k}", link.fid, np.vstack([pa, inner, pb]),
+                      link.attrs, values)
+        z0, z1 = link.z
+        piece.z = (z0 + (z1 - z0) * a / s[-1], z0 + (z1 - z0) * b / s[-1])
+        piece.fixed = link.fixed
+        out.append(piece)
     return out
 
 
@@ -786,6 +1133,41 @@ def _length(p: np.ndarray) -> float:
     return float(np.hypot(*np.diff(p, axis=0).T).sum())
 
 
+def _smooth_grid_traced(p: np.ndarray, width_m: float):
+    """A line traced along a grid (vertices closer together than the river is wide, most of
+    them turning by GRID_TURN_DEG or more: a staircase) smoothed at the scale of its width:
+    resampled every quarter width, a Gaussian of half a width along it (ends pinned), each
+    point moved by at most half a width. Returns (points, largest shift [m], sharpest turn
+    before [°]) or None for a line that is not grid-traced."""
+    if len(p) < 5:
+        return None
+    seg = np.hypot(*np.diff(p, axis=0).T)
+    d = np.diff(p, axis=0)
+    turn = np.degrees(np.abs(np.arctan2(d[:-1, 0] * d[1:, 1] - d[:-1, 1] * d[1:, 0],
+                                        np.einsum("ij,ij->i", d[:-1], d[1:]))))
+    if np.median(seg) >= 0.5 * width_m or (turn >= GRID_TURN_DEG).mean() < GRID_TURN_SHARE:
+        return None
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    step = 0.25 * width_m
+    n = max(int(np.ceil(s[-1] / step)), 2)
+    t = np.linspace(0.0, s[-1], n + 1)
+    q = np.column_stack([np.interp(t, s, p[:, 0]), np.interp(t, s, p[:, 1])])
+    sigma = 2.0                                   # samples: half a width
+    k = np.arange(-3 * int(sigma), 3 * int(sigma) + 1)
+    kernel = np.exp(-0.5 * (k / sigma) ** 2)
+    kernel /= kernel.sum()
+    half = len(k) // 2
+    padded = np.pad(q, ((half, half), (0, 0)), mode="reflect", reflect_type="odd")
+    smooth = np.column_stack([np.convolve(padded[:, i], kernel, mode="valid") for i in (0, 1)])
+    shift = smooth - q
+    size = np.hypot(*shift.T)
+    cap = 0.5 * width_m
+    smooth = q + shift * np.minimum(1.0, cap / np.maximum(size, 1e-12))[:, None]
+    smooth[0], smooth[-1] = p[0], p[-1]
+    moved = float(shapely.hausdorff_distance(shapely.LineString(smooth), shapely.LineString(p)))
+    return smooth, min(moved, cap), float(turn.max())
+
+
 def _simplify(p: np.ndarray, width_m: float) -> np.ndarray:
     tol = min(SIMPLIFY_WIDTHS * width_m, SIMPLIFY_MAX_M)
     if len(p) <= 2 or tol <= 0:
@@ -797,28 +1179,31 @@ def _simplify(p: np.ndarray, width_m: float) -> np.ndarray:
 
 
 def _order(links: list[_Link]) -> list[int]:
-    """Links upstream first (GraphError naming the links of a cycle)."""
+    """Links upstream first (GraphError naming the links of a cycle); O(n) (Kahn)."""
     ins: dict[int, list[int]] = {}
+    outs: dict[int, list[int]] = {}
     for i, lk in enumerate(links):
         if lk.end >= 0:
             ins.setdefault(lk.end, []).append(i)
-    done = [False] * len(links)
+        if lk.start >= 0:
+            outs.setdefault(lk.start, []).append(i)
+    waiting = [len(ins.get(lk.start, [])) if lk.start >= 0 else 0 for lk in links]
+    ready = [i for i in range(len(links)) if waiting[i] == 0]
     order: list[int] = []
-    pending = list(range(len(links)))
-    while pending:
-        rest = []
-        for i in pending:
-            j = links[i].start
-            if j < 0 or all(done[k] for k in ins.get(j, [])):
-                done[i] = True
-                order.append(i)
-            else:
-                rest.append(i)
-        if len(rest) == len(pending):
-            names = [links[i].name for i in rest[:6]]
-            raise GraphError(f"links {names} form a loop that flows back into itself (a line "
-                             f"drawn upstream? see read_rivers' reverse=)")
-        pending = rest
+    while ready:
+        nxt = []
+        for i in ready:
+            order.append(i)
+            for k in outs.get(links[i].end, []) if links[i].end >= 0 else ():
+                waiting[k] -= 1
+                if waiting[k] == 0:
+                    nxt.append(k)
+        ready = sorted(nxt)
+    if len(order) < len(links):
+        done = set(order)
+        names = [links[i].name for i in range(len(links)) if i not in done][:6]
+        raise GraphError(f"links {names} form a loop that flows back into itself (a line "
+                         f"drawn upstream? see read_rivers' reverse=)")
     return order
 
 
@@ -864,7 +1249,11 @@ def _plan(links: list[_Link], geometry: HydraulicGeometry, specs: dict, report: 
                   if any(o[0] == lab[0] and o != lab for o in labels)}
         labels = frozenset(lab for lab in labels if lab[0] not in closed)
         if len(siblings) > 1:
-            weights = [None if own[k] is None else own[k][0] for k in siblings]
+            given = [_given_width(links[k]) for k in siblings]
+            if all(w is not None for w in given):      # arms of given widths: by width
+                weights = given
+            else:                                      # else by their own estimates
+                weights = [None if own[k] is None else own[k][0] for k in siblings]
             if any(w is None for w in weights):
                 weights = [1.0] * len(siblings)
             share = weights[siblings.index(i)] / sum(weights)
@@ -894,6 +1283,12 @@ def _plan(links: list[_Link], geometry: HydraulicGeometry, specs: dict, report: 
             width, wfrom = MIN_WIDTH_M, wfrom + f", raised to {MIN_WIDTH_M:g} m"
         plan.append((width, psi[i], volume[i], wfrom, source[i], lateral[i]))
     return plan
+
+
+def _given_width(link: _Link) -> float | None:
+    """The link's given width [m] (the mean of its ends' values), or None."""
+    given = [w for w in link.values["width_m"] if math.isfinite(w) and w > 0]
+    return float(np.mean(given)) if given else None
 
 
 def _own_estimate(link: _Link, g: HydraulicGeometry) -> tuple[float, float, str] | None:
@@ -1008,6 +1403,412 @@ def _summarise(report: RiverImport) -> None:
     inflow = sum(lk.lateral_m2s for lk in report.links)
     if inflow:
         report.derived["lateral_inflow_m2s"] = round(inflow, 6)
+
+
+# -- repairs: direction, clipped ends, crossings, close channels ----------------------------------
+
+
+def _turn(link: _Link) -> None:
+    link.points = np.ascontiguousarray(link.points[::-1])
+    link.values = {key: (v[1], v[0]) for key, v in link.values.items()}
+    link.z = (link.z[1], link.z[0])
+    link.start, link.end = link.end, link.start
+
+
+def _direct(links: list[_Link], report: RiverImport) -> list[_Link]:
+    """Turn lines drawn upstream: each connected piece of the network drains to one outlet.
+
+    Per piece, the outlet is the node (junction or free end) with the largest drainage area
+    (or stream order) at it when most links give one; else the lowest (Z coordinates or
+    elevation attributes) when most give one; else from the drawing: the node that needs the
+    fewest lines turned (a line split in pieces counts once), less ANGLE_PER_TURN for each
+    unit of fit to the rule that tributaries join at acute angles (:func:`_junction_angles`),
+    among the TIE_CANDIDATES best (a piece already drawn with one outlet and no junction left
+    without inflow or outflow is kept as it is unless the angles say otherwise); an outlet at
+    a junction only where every line drawn there ends there. Every line then flows towards the
+    outlet along the shortest
+    path (so both arms of a braid run from its bifurcation to its confluence); lines given
+    by ``reverse=`` are never turned. Each turned line is a reported repair."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components, dijkstra
+
+    n_links = len(links)
+    if n_links == 0 or report.strict:      # strict: as drawn (errors come from the topology)
+        return links
+    n_junctions = 1 + max(max(lk.start, lk.end) for lk in links)
+    u = np.array([lk.start if lk.start >= 0 else n_junctions + 2 * i
+                  for i, lk in enumerate(links)])
+    v = np.array([lk.end if lk.end >= 0 else n_junctions + 2 * i + 1
+                  for i, lk in enumerate(links)])
+    n_nodes = n_junctions + 2 * n_links
+    lengths = np.array([max(_length(lk.points), 1e-6) for lk in links])
+    adjacency = coo_matrix((lengths, (u, v)), shape=(n_nodes, n_nodes)).tocsr()
+    _, label = connected_components(adjacency, directed=False)
+    node_xy = np.zeros((n_nodes, 2))
+    node_xy[u] = [lk.points[0] for lk in links]
+    node_xy[v] = [lk.points[-1] for lk in links]
+    # evidence at the nodes: drainage area (or order) and elevation at each link end
+    area = np.full(n_nodes, -np.inf)
+    low = np.full(n_nodes, np.inf)
+    has_area = np.zeros(n_links, bool)
+    has_z = np.zeros(n_links, bool)
+    for i, lk in enumerate(links):
+        a0, a1 = lk.values.get("drainage_area_km2", (math.nan, math.nan))
+        if not (math.isfinite(a0) or math.isfinite(a1)):
+            a0, a1 = lk.values.get("stream_order", (math.nan, math.nan))
+        if math.isfinite(a0) or math.isfinite(a1):
+            has_area[i] = True
+            a0 = a0 if math.isfinite(a0) else a1
+            a1 = a1 if math.isfinite(a1) else a0
+            area[u[i]] = max(area[u[i]], a0)
+            area[v[i]] = max(area[v[i]], a1)
+        z0, z1 = lk.z
+        if not (math.isfinite(z0) and math.isfinite(z1)):
+            z0, z1 = lk.values.get("elevation_m", (math.nan, math.nan))
+        if math.isfinite(z0) and math.isfinite(z1) and z0 != z1:
+            has_z[i] = True
+            low[u[i]] = min(low[u[i]], z0)
+            low[v[i]] = min(low[v[i]], z1)
+    drawn = [lk.name.split(" piece ")[0] for lk in links]     # one drawing: a line's pieces
+    pieces = {}
+    for name in drawn:
+        pieces[name] = pieces.get(name, 0) + 1
+    flips = _flip_counts(u, v, n_nodes, np.array([1.0 / pieces[n] for n in drawn]))
+    outs = np.bincount(u, minlength=n_nodes)
+    ins = np.bincount(v, minlength=n_nodes)
+    in_cycle = _cycle_nodes(u, v, n_nodes)
+    node_groups = _groups(label)
+    link_groups = _groups(label[u])
+    ends_dir = [(_unit(lk.points[1] - lk.points[0]), _unit(lk.points[-1] - lk.points[-2]))
+                for lk in links]
+    outlets: dict[int, int] = {}
+    how: dict[int, str] = {}
+    for comp, mine in link_groups.items():
+        members = node_groups[comp]
+        junction = members[(ins[members] + outs[members]) >= 2]
+        sinks = members[(ins[members] > 0) & (outs[members] == 0)]
+        consistent = (len(sinks) == 1 and not in_cycle[members].any()
+                      and (ins[junction] > 0).all() and (outs[junction] > 0).all())
+        if has_area[mine].sum() * 2 > len(mine):
+            evidence = -area[members]
+            why = ("the drainage areas" if any(math.isfinite(
+                links[i].values.get("drainage_area_km2", (math.nan,))[0]) for i in mine)
+                   else "the stream orders")
+        elif has_z[mine].sum() * 2 > len(mine):
+            evidence, why = low[members], "the elevations"
+        elif len(junction) == 0:
+            continue                     # one line alone: as drawn
+        else:
+            evidence, why = np.zeros(len(members)), "the topology: one outlet per piece"
+        # then: fewest lines turned, a free end, a sink as drawn
+        degree = ins[members] + outs[members]
+        # an outlet at a junction only where the lines drawn there all end there (clipped data)
+        evidence = np.where((degree > 1) & (outs[members] > 0), np.inf, evidence)
+        rank = np.lexsort((-(ins[members] > 0).astype(int), degree, flips[members], evidence))
+        same = evidence[rank] == evidence[rank[0]]
+        tied = rank[: max(1, int(same.sum()))][:TIE_CANDIDATES]
+        best = members[tied[0]]
+        if len(tied) > 1 and len(junction):
+            # the drawing against the geometry: tributaries join their river at acute angles
+            sub = adjacency[members][:, members]
+            local = {int(n): k for k, n in enumerate(members)}
+            lu = np.array([local[int(x)] for x in u[mine]])
+            lv = np.array([local[int(x)] for x in v[mine]])
+            scores = [_junction_angles(dijkstra(sub, directed=False, indices=int(t)), lu, lv,
+                                       [ends_dir[i] for i in mine])
+                      - ANGLE_PER_TURN * flips[members[t]] for t in tied]
+            best = members[tied[int(np.argmax(scores))]]
+        if consistent and not np.isfinite(evidence).any() and best in sinks:
+            continue
+        outlets[comp] = int(best)
+        how[comp] = why
+    if not outlets:
+        return links
+    dist = dijkstra(adjacency, directed=False, indices=list(outlets.values()), min_only=True)
+    for i, lk in enumerate(links):
+        comp = int(label[u[i]])
+        if comp not in how or lk.fixed:
+            continue
+        if dist[u[i]] < dist[v[i]] - 1e-9:
+            x, y = node_xy[outlets[comp]]
+            report.repair(lk.name, lk.fid, lk.attrs,
+                          f"drawn upstream (by {how[comp]}; its piece of the network drains "
+                          f"to ({x:.1f}, {y:.1f})): turned")
+            _turn(lk)
+    return links
+
+
+def _groups(label: np.ndarray) -> dict[int, np.ndarray]:
+    """Indices of ``label``'s entries by value (O(n log n))."""
+    order = np.argsort(label, kind="stable")
+    values, first = np.unique(label[order], return_index=True)
+    return {int(v): g for v, g in zip(values, np.split(order, first[1:]))}
+
+
+def _unit(d: np.ndarray) -> np.ndarray:
+    return d / max(float(np.hypot(*d)), 1e-12)
+
+
+def _junction_angles(dist: np.ndarray, u: np.ndarray, v: np.ndarray, dirs) -> float:
+    """How well an orientation (every line towards smaller ``dist``) fits the rule that rivers
+    join at acute angles: the sum over junctions of the cosine between each inflow's last
+    direction and each outflow's first direction."""
+    inflow: dict[int, list[np.ndarray]] = {}
+    outflow: dict[int, list[np.ndarray]] = {}
+    for a, b, (first, last) in zip(u.tolist(), v.tolist(), dirs):
+        if dist[a] < dist[b]:            # flows b → a: drawn upstream
+            a, b, first, last = b, a, -last, -first
+        outflow.setdefault(a, []).append(first)
+        inflow.setdefault(b, []).append(last)
+    return float(sum(np.dot(i, o) for n in inflow if n in outflow
+                     for i in inflow[n] for o in outflow[n]))
+
+
+def _flip_counts(u: np.ndarray, v: np.ndarray, n_nodes: int, weight: np.ndarray) -> np.ndarray:
+    """For every node: how many lines of a spanning tree of its piece point away from it
+    (the lines to turn if it were the outlet; a line split in k pieces counts 1/k a piece),
+    by rerooting in O(n)."""
+    adj: dict[int, list[tuple[int, float]]] = {}
+    for a, b, w in zip(u.tolist(), v.tolist(), weight.tolist()):
+        adj.setdefault(a, []).append((b, w))      # drawn a → b
+        adj.setdefault(b, []).append((a, -w))
+    flips = np.zeros(n_nodes)
+    seen = np.zeros(n_nodes, bool)
+    for root in adj:
+        if seen[root]:
+            continue
+        seen[root] = True
+        order, parent_dir, queue, count = [root], {}, [root], 0.0
+        while queue:
+            nxt = []
+            for a in queue:
+                for b, d in adj[a]:
+                    if not seen[b]:
+                        seen[b] = True
+                        parent_dir[b] = (a, d)    # d=+1: drawn parent → child (away from root)
+                        count += max(d, 0.0)
+                        order.append(b)
+                        nxt.append(b)
+            queue = nxt
+        flips[root] = count
+        for b in order[1:]:
+            a, d = parent_dir[b]
+            flips[b] = flips[a] - d
+    return flips
+
+
+def _cycle_nodes(u: np.ndarray, v: np.ndarray, n_nodes: int) -> np.ndarray:
+    """Nodes on a directed cycle (or downstream of one): those Kahn's algorithm never frees."""
+    ins = np.bincount(v, minlength=n_nodes)
+    out_edges: dict[int, list[int]] = {}
+    for a, b in zip(u.tolist(), v.tolist()):
+        out_edges.setdefault(a, []).append(b)
+    free = [n for n in range(n_nodes) if ins[n] == 0]
+    done = np.zeros(n_nodes, bool)
+    while free:
+        a = free.pop()
+        done[a] = True
+        for b in out_edges.get(a, ()):
+            ins[b] -= 1
+            if ins[b] == 0:
+                free.append(b)
+    return ~done
+
+
+def _close_clipped_ends(links: list[_Link], plan, geometry: HydraulicGeometry, specs,
+                        report: RiverImport):
+    """Where rivers meet and nothing leaves (the data was clipped there) add a short outlet
+    (CONTINUATION_WIDTHS × the widest inflow long, along their mean direction); where rivers
+    leave a junction that nothing enters, a short inflow. Returns the links and their plan."""
+    ins: dict[int, list[int]] = {}
+    outs: dict[int, list[int]] = {}
+    for i, lk in enumerate(links):
+        if lk.end >= 0:
+            ins.setdefault(lk.end, []).append(i)
+        if lk.start >= 0:
+            outs.setdefault(lk.start, []).append(i)
+    added = []
+    for j in sorted(set(ins) | set(outs)):
+        into, out_of = ins.get(j, []), outs.get(j, [])
+        if into and out_of:
+            continue
+        group = into or out_of
+        at_end = bool(into)
+        p = links[group[0]].points[-1 if at_end else 0]
+        dirs = []
+        for i in group:
+            q = links[i].points
+            d = (q[-1] - q[-2]) if at_end else (q[1] - q[0])
+            dirs.append(d / max(np.hypot(*d), 1e-12))
+        d = np.mean(dirs, axis=0)
+        if np.hypot(*d) < 1e-6:      # inflows from opposite sides: go across them
+            d = np.array([-dirs[0][1], dirs[0][0]])
+        d /= np.hypot(*d)
+        width = max(plan[i][0] for i in group)
+        q3 = sum(plan[i][2] for i in group)
+        length = CONTINUATION_WIDTHS * max(width, geometry.width(q3))
+        line = np.array([p, p + d * length]) if at_end else np.array([p - d * length, p])
+        names = [links[i].name for i in group]
+        lead = links[group[0]]
+        values = {key: (math.nan, math.nan) for key in lead.values}
+        if not at_end:
+            values["discharge_m3s"] = (q3, q3)
+        link = _Link(f"outlet of {names[0]}" if at_end else f"inflow of {names[0]}", -1, line,
+                     {}, values, start=j if at_end else -1, end=-1 if at_end else j)
+        link.added = True
+        report.repair(lead.name, lead.fid, lead.attrs,
+                      (f"{' and '.join(names)} end at ({p[0]:.1f}, {p[1]:.1f}) where nothing "
+                       f"leaves (the data is clipped there): an outlet {length:.0f} m long "
+                       "added" if at_end else
+                       f"{' and '.join(names)} start at ({p[0]:.1f}, {p[1]:.1f}) where nothing "
+                       f"enters: an inflow {length:.0f} m long added"))
+        added.append(link)
+    if not added:
+        return links, plan
+    links = links + added
+    return links, _plan(links, geometry, specs, report)
+
+
+def _cut_crossings(links: list[_Link], plan, crossings, geometry: HydraulicGeometry, specs,
+                   report: RiverImport):
+    """Two lines that cross without a shared vertex (a canal over a river, a culvert) make
+    no junction: the narrower one is cut where it crosses the wider one's water (its part
+    above ends there, its part below starts there with the same discharge)."""
+    width = {id(lk): p[0] for lk, p in zip(links, plan)}
+    volume = {id(lk): p[2] for lk, p in zip(links, plan)}
+    family: dict[str, list[_Link]] = {}          # crossing name → the links made from it
+    names = {n for a, b, _ in crossings for n in (a, b)}
+    for lk in links:
+        if lk.name in names:
+            family.setdefault(lk.name, []).append(lk)
+    replaced: dict[int, list[_Link]] = {}
+
+    def member(name: str, x: np.ndarray) -> _Link | None:
+        """The link (of those made from the line ``name``) that passes through ``x``."""
+        near = [(shapely.distance(shapely.LineString(lk.points), shapely.Point(x)), k)
+                for k, lk in enumerate(family.get(name, []))]
+        best = min(near, default=None)
+        return family[name][best[1]] if best is not None and best[0] < 1e-3 else None
+
+    for name_a, name_b, x in crossings:
+        a, b = member(name_a, x), member(name_b, x)
+        if a is None or b is None or a is b:
+            continue
+        lk, other = (a, b) if width[id(a)] <= width[id(b)] else (b, a)
+        w_n, w_o = width[id(lk)], width[id(other)]
+        line = shapely.LineString(lk.points)
+        zone = shapely.buffer(shapely.LineString(other.points), 0.5 * w_o + 0.75 * w_n)
+        s_x = line.project(shapely.Point(x))
+        hits = [line.project(shapely.Point(c)) for c in
+                shapely.get_coordinates(shapely.intersection(line, zone.boundary))]
+        before = max([h for h in hits if h < s_x], default=0.0)
+        after = min([h for h in hits if h > s_x], default=line.length)
+        pieces = []
+        for k, (s0, s1) in enumerate(((0.0, before), (after, line.length))):
+            if s1 - s0 < max(w_n, 1e-3):
+                continue
+            part = shapely.get_coordinates(shapely.ops.substring(line, s0, s1))
+            piece = _Link(f"{lk.name} {'above' if k == 0 else 'below'} the crossing", lk.fid,
+                          part, lk.attrs, dict(lk.values),
+                          start=lk.start if k == 0 else -1, end=-1 if k == 0 else lk.end)
+            piece.fixed = True
+            if k == 1 and not math.isfinite(lk.values["discharge_m2s"][1]):
+                piece.values["discharge_m3s"] = (volume[id(lk)], volume[id(lk)])
+            width[id(piece)], volume[id(piece)] = w_n, volume[id(lk)]
+            pieces.append(piece)
+        report.repair(lk.name, lk.fid, lk.attrs,
+                      f"crosses {other.name} at ({x[0]:.1f}, {x[1]:.1f}) without a shared "
+                      f"vertex (a culvert or aqueduct: no junction): cut out where it crosses "
+                      f"the other's water ({after - before:.0f} m)")
+        replaced[id(lk)] = pieces
+        for name, members in family.items():
+            if any(m is lk for m in members):
+                family[name] = [m for m in members if m is not lk] + pieces
+
+    def expand(lk: _Link) -> list[_Link]:
+        return [q for p in replaced[id(lk)] for q in expand(p)] if id(lk) in replaced else [lk]
+
+    if not replaced:
+        return links, plan
+    links = [q for lk in links for q in expand(lk)]
+    return links, _plan(links, geometry, specs, report)
+
+
+def _narrow_branches(branches, report: RiverImport, attempt: int) -> bool:
+    """Narrow the branches of a builder where they lie closer to another branch than their
+    widths allow (for :meth:`GisRiverBuilder.build`): each vertex (lines densified to a
+    quarter of their width) farther than the junction disc (shrinking with ``attempt``) from a
+    junction the two share, whose distance d to the other's centre line is less than half
+    the sum of their widths, gets the width NARROW_GAP · d · w / (w + w_other). Returns
+    whether any width changed; each narrowed branch is a reported repair."""
+    if len(branches) < 2:
+        return False
+    for b in branches:
+        b.centerline_m, b.widths_m = _densify(b.centerline_m, b.widths_m,
+                                              max(0.25 * float(b.widths_m.min()), 0.05))
+    lines = _geoms([b.centerline_m for b in branches])
+    widest = np.array([float(b.widths_m.max()) for b in branches])
+    tree = shapely.STRtree(lines)
+    a_idx, b_idx = tree.query(lines, predicate="dwithin", distance=0.5 * (widest + widest.max()))
+    disc = (1.0, 0.6, 0.3, 0.15)[min(attempt, 3)]
+    fids = {lk.name: lk.fid for lk in report.links}
+    changed = {}
+    for a, b in zip(a_idx.tolist(), b_idx.tolist()):
+        if a == b:
+            continue
+        ba, bb = branches[a], branches[b]
+        pts = ba.centerline_m
+        points = shapely.points(pts)
+        d = shapely.distance(points, lines[b])
+        w = ba.widths_m
+        close = d < 0.5 * (w + widest[b])
+        if not close.any():
+            continue
+        nearest = shapely.get_coordinates(shapely.line_interpolate_point(
+            lines[b], shapely.line_locate_point(lines[b], points)))
+        for pa, wa in ((ba.centerline_m[0], ba.widths_m[0]), (ba.centerline_m[-1], ba.widths_m[-1])):
+            for pb, wb in ((bb.centerline_m[0], bb.widths_m[0]),
+                           (bb.centerline_m[-1], bb.widths_m[-1])):
+                if np.hypot(*(pa - pb)) <= 0.25 * min(wa, wb) + 1e-6:   # a shared junction
+                    # near it, or close to the other only around it: the junction's shape
+                    reach = disc * 0.5 * max(wa, wb)
+                    close &= ((np.hypot(*(pts - pa).T) > reach)
+                              & (np.hypot(*(nearest - pa).T) > 2.0 * reach))
+        if not close.any():
+            continue
+        limit = NARROW_GAP * d * w / (w + widest[b])
+        new = np.where(close, np.maximum(np.minimum(w, limit), MIN_WIDTH_M * 0.5), w)
+        if (new < w - 1e-9).any():
+            before = changed.get(a, (float(w.max()), set(), math.inf))
+            changed[a] = (before[0], before[1] | {bb.name}, min(before[2], float(d[close].min())))
+            ba.widths_m = new
+    for a, (w0, others, gap) in changed.items():
+        b = branches[a]
+        seg = np.hypot(*np.diff(b.centerline_m, axis=0).T)
+        narrow = b.widths_m < w0 - 1e-9
+        stretch = float(seg[narrow[:-1] | narrow[1:]].sum())
+        report.repair(b.name, fids.get(b.name), report.attributes.get(b.name, {}),
+                      f"runs closer to {', '.join(sorted(others))} than their widths allow "
+                      f"({gap:.1f} m between centre lines at the closest): narrowed from "
+                      f"{w0:.1f} m to {float(b.widths_m.min()):.1f} m over {stretch:.0f} m")
+    return bool(changed)
+
+
+def _geoms(lines) -> np.ndarray:
+    """LineStrings (an object array) of polylines of any lengths."""
+    out = np.empty(len(lines), dtype=object)
+    out[:] = [shapely.LineString(p) for p in lines]
+    return out
+
+
+def _densify(line: np.ndarray, widths: np.ndarray, step: float) -> tuple[np.ndarray, np.ndarray]:
+    """A polyline with vertices at most ``step`` apart, widths interpolated along it."""
+    s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(line, axis=0).T))])
+    if s[-1] <= 0 or np.diff(s).max() <= step:
+        return line, widths
+    t = np.unique(np.concatenate([s, np.arange(0.0, s[-1], step)]))
+    return (np.column_stack([np.interp(t, s, line[:, 0]), np.interp(t, s, line[:, 1])]),
+            np.interp(t, s, widths))
 
 
 # -- water levels --------------------------------------------------------------------------------

@@ -142,9 +142,14 @@ def _cut_inlets(geoms: list[BranchGeometry], sides, rings: list[Ring], pieces: l
     inflow; returns the new sides and the ψ ties across the inlets (module docstring)."""
     family: dict[int, list[int]] = {}   # piece → the pieces it has been cut into
     cut_ids = []                        # (inlet id, junction, side sign, surplus)
+    outs_of: dict[int, list[int]] = {}
+    ins_of: dict[int, list[int]] = {}
+    for b, g in enumerate(geoms):
+        outs_of.setdefault(g.start_junction, []).append(b)
+        ins_of.setdefault(g.end_junction, []).append(b)
     for j, surplus in sorted(inlets.items()):
-        outs = [b for b, g in enumerate(geoms) if g.start_junction == j]
-        ins = [b for b, g in enumerate(geoms) if g.end_junction == j]
+        outs = outs_of.get(j, [])
+        ins = ins_of.get(j, [])
         b = outs[0]
         p = junctions[j]
         width = 2.0 * geoms[b].station(0.0)[2]

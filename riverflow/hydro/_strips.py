@@ -190,6 +190,8 @@ def split_rings(polygons: list[Polygon], cuts: list[np.ndarray], eps_m: float
     Returns the rings (pieces and closing segments in ring order) and the pieces.
     """
     cut_lines = [LineString(c) for c in cuts]
+    tree = shapely.STRtree(cut_lines)
+    n_cuts = max(len(cut_lines), 1)
     rings: list[Ring] = []
     pieces: list[Piece] = []
     for ip, poly in enumerate(polygons):
@@ -197,10 +199,12 @@ def split_rings(polygons: list[Polygon], cuts: list[np.ndarray], eps_m: float
             v = np.asarray(lr.coords)[:-1]
             m = len(v)
             flagged = np.zeros(m, bool)
-            pts = shapely.points(v)
-            for cl in cut_lines:
-                near = shapely.distance(pts, cl) <= eps_m
-                flagged |= near & np.roll(near, -1)
+            if cut_lines:
+                # edge i lies on a cut when both its vertices lie within eps of the same cut
+                p, c = tree.query(shapely.points(v), predicate="dwithin", distance=eps_m)
+                code = p.astype(np.int64) * n_cuts + c
+                after = ((p + 1) % m).astype(np.int64) * n_cuts + c
+                flagged[p[np.isin(after, code)]] = True
             ring = Ring(ip, hole, [])
             if not flagged.any():
                 ring.items.append(("piece", len(pieces)))

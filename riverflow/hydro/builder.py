@@ -41,6 +41,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
+from scipy.spatial import cKDTree
 
 from riverflow.hydro import _strips
 from riverflow.hydro._checks import graph_problems
@@ -266,21 +267,23 @@ def _find_junctions(branches: list[_BranchInput]):
             a = parent[a]
         return a
 
-    for a in range(len(ends)):
-        for c in range(a + 1, len(ends)):
-            ia, ea, pa, wa = ends[a]
-            ic, ec, pc, wc = ends[c]
-            d = float(np.hypot(*(pa - pc)))
-            if d <= JOIN_FRACTION * min(wa, wc):
-                if ia == ic:
-                    raise GraphError(f"branch {branches[ia].name!r} starts and ends at the same point")
-                parent[root(a)] = root(c)
-            elif d < 0.5 * (wa + wc) and ia != ic:
-                which = ["start", "end"]
-                raise GraphError(
-                    f"branches {branches[ia].name!r} and {branches[ic].name!r} do not meet: the "
-                    f"{which[ea]} of one is {d:.2f} m from the {which[ec]} of the other; end points "
-                    f"must coincide within {JOIN_FRACTION * min(wa, wc):.2f} m to join")
+    points = np.array([e[2] for e in ends])
+    reach = max(float(e[3]) for e in ends)       # no pair farther apart than this matters
+    pairs = sorted(cKDTree(points).query_pairs(reach, output_type="set"))
+    for a, c in pairs:
+        ia, ea, pa, wa = ends[a]
+        ic, ec, pc, wc = ends[c]
+        d = float(np.hypot(*(pa - pc)))
+        if d <= JOIN_FRACTION * min(wa, wc):
+            if ia == ic:
+                raise GraphError(f"branch {branches[ia].name!r} starts and ends at the same point")
+            parent[root(a)] = root(c)
+        elif d < 0.5 * (wa + wc) and ia != ic:
+            which = ["start", "end"]
+            raise GraphError(
+                f"branches {branches[ia].name!r} and {branches[ic].name!r} do not meet: the "
+                f"{which[ea]} of one is {d:.2f} m from the {which[ec]} of the other; end points "
+                f"must coincide within {JOIN_FRACTION * min(wa, wc):.2f} m to join")
     groups: dict[int, list[int]] = {}
     for a in range(len(ends)):
         groups.setdefault(root(a), []).append(a)
@@ -307,11 +310,24 @@ def _find_junctions(branches: list[_BranchInput]):
     return start_j, end_j, np.asarray(points).reshape(-1, 2)
 
 
+def _by_junction(start_j, end_j) -> tuple[dict[int, list[int]], dict[int, list[int]]]:
+    """Branches ending at / starting from each junction (in branch order)."""
+    ins: dict[int, list[int]] = {}
+    outs: dict[int, list[int]] = {}
+    for i, (s, e) in enumerate(zip(start_j, end_j)):
+        if e >= 0:
+            ins.setdefault(e, []).append(i)
+        if s >= 0:
+            outs.setdefault(s, []).append(i)
+    return ins, outs
+
+
 def _topological_order(branches, start_j, end_j, junctions) -> list[int]:
     """Branches ordered upstream first; raises on junctions without in- or outflow or cycles."""
+    ins_of, outs_of = _by_junction(start_j, end_j)
     for j, p in enumerate(junctions):
-        ins = [i for i in range(len(branches)) if end_j[i] == j]
-        outs = [i for i in range(len(branches)) if start_j[i] == j]
+        ins = ins_of.get(j, [])
+        outs = outs_of.get(j, [])
         where = f"junction at ({p[0]:.1f}, {p[1]:.1f})"
         if not ins:
             raise GraphError(f"{where}: branches {[branches[i].name for i in outs]} all start there "
@@ -319,20 +335,26 @@ def _topological_order(branches, start_j, end_j, junctions) -> list[int]:
         if not outs:
             raise GraphError(f"{where}: branches {[branches[i].name for i in ins]} all end there but "
                              f"none starts there (inflow ≠ outflow 0)")
-    order, done = [], [False] * len(branches)
-    while len(order) < len(branches):
-        progress = False
-        for i in range(len(branches)):
-            if done[i]:
-                continue
-            j = start_j[i]
-            if j < 0 or all(done[k] for k in range(len(branches)) if end_j[k] == j):
-                done[i] = True
-                order.append(i)
-                progress = True
-        if not progress:
-            names = [branches[i].name for i in range(len(branches)) if not done[i]]
-            raise GraphError(f"branches {names} form a loop that flows back into itself")
+    # Kahn's algorithm over the branches: a branch is ready when all those ending at its
+    # start junction are done (the same order as repeated passes, in O(n))
+    waiting = [len(ins_of.get(start_j[i], [])) if start_j[i] >= 0 else 0
+               for i in range(len(branches))]
+    ready = [i for i in range(len(branches)) if waiting[i] == 0]
+    order: list[int] = []
+    while ready:
+        nxt = []
+        for i in ready:
+            order.append(i)
+            if end_j[i] >= 0:
+                for k in outs_of.get(end_j[i], []):
+                    waiting[k] -= 1
+                    if waiting[k] == 0:
+                        nxt.append(k)
+        ready = sorted(nxt)
+    if len(order) < len(branches):
+        done = set(order)
+        names = [branches[i].name for i in range(len(branches)) if i not in done]
+        raise GraphError(f"branches {names} form a loop that flows back into itself")
     return order
 
 
@@ -342,6 +364,7 @@ def _resolve_discharges(branches, order, start_j, end_j, junctions, lateral: boo
     lateral inflow [m²/s] per junction that has one (only with ``lateral``)."""
     q: list[float | None] = [None] * len(branches)
     inlets: dict[int, float] = {}
+    ins_of, outs_of = _by_junction(start_j, end_j)
     for i in order:
         if q[i] is not None:
             continue
@@ -352,12 +375,12 @@ def _resolve_discharges(branches, order, start_j, end_j, junctions, lateral: boo
                                  f"junction): give its discharge_m2s")
             q[i] = branches[i].discharge_m2s
             continue
-        inflow = sum(q[k] for k in range(len(branches)) if end_j[k] == j)
-        outs = [k for k in range(len(branches)) if start_j[k] == j]
+        inflow = sum(q[k] for k in ins_of.get(j, []))
+        outs = outs_of.get(j, [])
         given = {k: branches[k].discharge_m2s for k in outs if branches[k].discharge_m2s is not None}
         missing = [k for k in outs if k not in given]
         p = junctions[j]
-        ins = [branches[k].name for k in range(len(branches)) if end_j[k] == j]
+        ins = [branches[k].name for k in ins_of.get(j, [])]
         where = (f"junction at ({p[0]:.1f}, {p[1]:.1f}) (in: {ins}, "
                  f"out: {[branches[k].name for k in outs]})")
         rest = inflow - sum(given.values())
@@ -394,9 +417,13 @@ def _round_junctions(river, parts: list, geoms: list[BranchGeometry], junctions:
     keep_out = shapely.MultiLineString([c for c in cuts]) if cuts else None
     tree = shapely.STRtree(parts)
     pieces = []
+    at_junction: dict[int, list[float]] = {}
+    for g in geoms:
+        for w, at in ((g.widths_m[0], g.start_junction), (g.widths_m[-1], g.end_junction)):
+            if at >= 0:
+                at_junction.setdefault(at, []).append(w)
     for j, p in enumerate(junctions):
-        widths = [w for g in geoms for w, at in ((g.widths_m[0], g.start_junction),
-                                                 (g.widths_m[-1], g.end_junction)) if at == j]
+        widths = at_junction[j]
         radius = fraction * min(widths)
         reach = FILLET_REACH_WIDTHS * max(widths)
         window = shapely.Point(p).buffer(reach + 3.0 * radius, quad_segs=_strips.FILLET_QUAD_SEGS)
@@ -433,14 +460,14 @@ def _water(geoms: list[BranchGeometry], junctions: np.ndarray, islands: list[_Is
         if g.end_junction < 0:
             cuts.append(_strips.free_end_cut(g.centerline_m, g.widths_m, False))
     discs = []
+    halves_at: dict[int, list[float]] = {}
+    for g in geoms:
+        if g.start_junction >= 0:
+            halves_at.setdefault(g.start_junction, []).append(0.5 * g.widths_m[0])
+        if g.end_junction >= 0:
+            halves_at.setdefault(g.end_junction, []).append(0.5 * g.widths_m[-1])
     for j, p in enumerate(junctions):
-        halves = []
-        for g in geoms:
-            if g.start_junction == j:
-                halves.append(0.5 * g.widths_m[0])
-            if g.end_junction == j:
-                halves.append(0.5 * g.widths_m[-1])
-        discs.append(_strips.junction_disc(p, halves))
+        discs.append(_strips.junction_disc(p, halves_at.get(j, [])))
     # strips may only overlap around a junction their branches share
     tree = shapely.STRtree(strips)
     for a, b in zip(*tree.query(strips, predicate="intersects")):

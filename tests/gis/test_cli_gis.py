@@ -68,3 +68,27 @@ def test_a_scene_on_a_dem_from_the_command_line(tmp_path, capsys):
     far = np.array([[-200.0, 350.0], [100.0, -350.0]])        # moved coordinates
     np.testing.assert_allclose(scene.terrain.height(far),
                                plane(far[:, 0] + ORIGIN[0], far[:, 1] + ORIGIN[1]), atol=0.01)
+
+
+def test_check_prints_the_report_and_fails_only_on_unusable_data(tmp_path, capsys):
+    import shapely
+
+    from riverflow.__main__ import main
+
+    lines = [polyline((-600, 300), (0, 0)), polyline((0, 0), (-600, -300)),   # drawn upstream
+             polyline((0, 0), (800, 0)), polyline((0, 0), (800, 0))]        # twice
+    net = write_lines(tmp_path / "net.geojson", lines, {"name": np.array(["a", "b", "c", "d"],
+                                                                         dtype=object)})
+    assert main(["check", str(net)]) == 0
+    out = capsys.readouterr().out
+    assert "net.geojson (layer 'net'): 4 features -> 3 links" in out
+    assert "repair: feature 1: drawn upstream" in out and "name='b'" in out
+    assert "repair: feature 3: an exact duplicate of feature 2" in out
+    assert "usable: 3 links, 2.142 km of river, 2 repairs" in out
+    assert main(["check", str(net), "--strict"]) == 1      # strict: the defect is an error
+    assert "net.geojson (layer 'net'): feature 3: an exact duplicate" in capsys.readouterr().err
+    points = write_lines(tmp_path / "points.gpkg", None, {"n": np.array([1])},
+                         geoms=[shapely.Point(ORIGIN)])
+    assert main(["check", str(points)]) == 1
+    err = capsys.readouterr().err
+    assert "points.gpkg (layer 'points'): no usable line: feature 1 is a Point" in err

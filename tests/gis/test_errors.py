@@ -38,10 +38,14 @@ def test_a_point_among_the_lines(tmp_path):
     geoms[1] = shapely.Point(ORIGIN + (-600, -300))
     path = write_lines(tmp_path / "mixed.geojson", None, ATTRS, geoms=geoms)
     with pytest.raises(rf.GraphError) as err:
-        rf.read_rivers(path)
+        rf.read_rivers(path, strict=True)
     message = str(err.value)
     for part in ("mixed.geojson", "feature 1", "is a Point, not a line", "name='south'", "W=25"):
         assert part in message, message
+    # not strict: left out, and the report says so
+    (repair,) = rf.read_rivers(path).report.repairs
+    assert repair.feature == "feature 1" and "is a Point" in repair.what
+    assert repair.attributes == {"name": "south", "W": 25.0}
 
 
 def test_a_polygon_layer(tmp_path):
@@ -73,10 +77,12 @@ def test_nan_coordinates(tmp_path):
         geoms = [shapely.LineString(p + ORIGIN) for p in LINES[:2]] + [shapely.LineString(line)]
         path = write_lines(tmp_path / "nan.gpkg", None, ATTRS, geoms=geoms)
     with pytest.raises(rf.GraphError) as err:
-        rf.read_rivers(path)
+        rf.read_rivers(path, strict=True)
     message = str(err.value)
     for part in ("nan.gpkg", "feature 3", "vertex 4", "non-finite", "name='main'"):
         assert part in message, message
+    (repair,) = rf.read_rivers(path).report.repairs       # not strict: the vertex left out
+    assert repair.feature == "feature 3" and "vertex 4" in repair.what
 
 
 def test_unknown_attributes(tmp_path):
@@ -91,7 +97,7 @@ def test_unknown_attributes(tmp_path):
         rf.read_rivers(path, elevation_m=("W", "dn"))
     with pytest.raises(rf.GraphError, match=r"feature 1: attribute 'name' = 'north' is not a "
                                             r"number"):   # (GeoPackage ids start at 1)
-        rf.read_rivers(path, width_m="name")
+        rf.read_rivers(path, width_m="name", strict=True)
     with pytest.raises(rf.GraphError, match="width_m=-3.0 must be a positive number"):
         rf.read_rivers(path, width_m=-3.0)
 
@@ -115,7 +121,7 @@ def test_build_errors_name_the_features(tmp_path):
     path = write_lines(tmp_path / "overlap.shp", lines,
                        {"name": np.array(["left", "right"], dtype=object),
                         "W": np.array([50.0, 50.0])})
-    builder = rf.read_rivers(path, width_m="W")
+    builder = rf.read_rivers(path, width_m="W", strict=True)   # (not strict: narrowed)
     with pytest.raises(rf.GraphError) as err:
         builder.build()
     message = str(err.value)
@@ -127,7 +133,7 @@ def test_a_loop_that_flows_into_itself(tmp_path):
     lines = [polyline((0, 0), (500, 0), (500, 500)), polyline((500, 500), (0, 500), (0, 0))]
     path = write_lines(tmp_path / "loop.geojson", lines)
     with pytest.raises(rf.GraphError, match="loop that flows back into itself"):
-        rf.read_rivers(path)
+        rf.read_rivers(path, strict=True)
 
 
 def test_missing_extra_is_named(monkeypatch, tmp_path):

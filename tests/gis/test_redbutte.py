@@ -33,6 +33,7 @@ def test_every_link_is_water_with_its_flow_running_downstream(imported):
     builder, graph, lines, _, field = imported
     assert rf.validate_graph(graph) == []
     assert len(builder.report.links) == len(lines) == 12
+    assert builder.report.repairs == []          # clean data: nothing repaired
     for k, line in enumerate(lines):
         pts, tangent = along(line, step=2.0)
         status, velocity = field.query(pts)

@@ -1,0 +1,78 @@
+"""OpenStreetMap (issue 21, item 2): ``rf.read_rivers("x.osm")`` reads the ``lines`` layer of
+GDAL's OSM driver: ``waterway=river|stream|canal|ditch|drain`` ways, their ``width`` tag, OSM's
+rule that waterways are drawn downstream; the ways left out are reported. The ``.osm`` XML is
+written by the test."""
+from __future__ import annotations
+
+import numpy as np
+import pyproj
+import pytest
+
+import riverflow as rf
+from tests.gis.conftest import ORIGIN, UTM, along, polyline, require_gis
+
+require_gis()
+
+
+def write_osm(path, ways):
+    """ways: [(id, points (K, 2) [m] relative to ORIGIN in UTM 33N, {tag: value})]; points
+    that coincide become one shared node."""
+    to = pyproj.Transformer.from_crs(UTM, "EPSG:4326", always_xy=True)
+    nodes, xml_ways = {}, []
+    for wid, pts, tags in ways:
+        refs = []
+        for p in np.asarray(pts, float):
+            key = (round(p[0], 3), round(p[1], 3))
+            if key not in nodes:
+                nodes[key] = len(nodes) + 1
+            refs.append(nodes[key])
+        body = "".join(f'<nd ref="{r}"/>' for r in refs)
+        body += "".join(f'<tag k="{k}" v="{v}"/>' for k, v in tags.items())
+        xml_ways.append(f'<way id="{wid}" version="1">{body}</way>')
+    xml_nodes = []
+    for (x, y), nid in nodes.items():
+        lon, lat = to.transform(x + ORIGIN[0], y + ORIGIN[1])
+        xml_nodes.append(f'<node id="{nid}" lat="{lat:.9f}" lon="{lon:.9f}" version="1"/>')
+    path.write_text('<?xml version="1.0" encoding="UTF-8"?>\n<osm version="0.6">\n'
+                    + "\n".join(xml_nodes + xml_ways) + "\n</osm>\n")
+    return path
+
+
+def test_waterways_of_an_osm_file(tmp_path):
+    river = polyline((-1000, 0), (0, 0), (1000, 100), step=100.0)
+    stream = polyline((-300, 700), (-100, 300), (0, 0), step=100.0)     # joins at a river node
+    ditch = polyline((600, -500), (300, -100), step=100.0)               # ends in the fields
+    road = polyline((-800, -400), (-800, 400), step=100.0)               # crosses the river
+    bank = polyline((-1000, 30), (1000, 130), step=200.0)
+    path = write_osm(tmp_path / "area.osm", [
+        (101, river, {"waterway": "river", "width": "25", "name": "Big"}),
+        (102, stream, {"waterway": "stream"}),
+        (103, ditch, {"waterway": "ditch", "width": "2 m"}),
+        (104, road, {"highway": "residential"}),
+        (105, bank, {"waterway": "riverbank"})])
+    builder = rf.read_rivers(path)
+    graph = builder.build()
+    assert rf.validate_graph(graph) == []
+    report = builder.report
+    assert report.layer == "lines" and report.features == 3
+    (left,) = [n for n in report.notes if n.startswith("OpenStreetMap")]
+    assert "2 ways left out" in left and "waterway=riverbank ×1" in left
+    assert "not a waterway ×1" in left and "104" in left and "105" in left
+    widths = {lk.name: lk.width_m for lk in report.links}
+    assert widths["feature 101 piece 0"] == widths["feature 101 piece 1"] == 25.0
+    assert widths["feature 103"] == 2.0
+    assert report.repairs == []           # OSM ways are drawn downstream: nothing turned
+    field = rf.FlowField(graph)
+    for line in (river, stream[:-3]):
+        pts, tangent = along(line + ORIGIN - report.origin_m, step=5.0, skip_m=20.0)
+        status, velocity = field.query(pts)
+        assert (status == rf.FlowStatus.INSIDE).all()
+        assert (np.einsum("ij,ij->i", velocity, tangent) > 0).all()
+
+
+def test_an_osm_file_without_waterways(tmp_path):
+    path = write_osm(tmp_path / "roads.osm",
+                     [(1, polyline((0, 0), (500, 0)), {"highway": "primary"})])
+    with pytest.raises(rf.GraphError, match=r"roads.osm \(layer 'lines'\): no features.*"
+                                            r"1 ways left out"):
+        rf.read_rivers(path)

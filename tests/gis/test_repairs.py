@@ -1,0 +1,391 @@
+"""Real data as it comes (issue 21): ``rf.read_rivers`` repairs what real stream networks get
+wrong, names the feature it touched in ``builder.report.repairs``, and the network builds and
+validates; ``strict=True`` raises at the first defect instead. Each defect is written by the
+test into a small file (shapefile, GeoPackage, GeoJSON)."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+import shapely
+
+import riverflow as rf
+from tests.gis.conftest import ORIGIN, UTM, along, polyline, require_gis, write_lines
+from tests.gis.test_read_rivers import check_flows_downstream, confluence
+
+_, pyproj = require_gis()
+
+
+def repairs_of(builder, feature: str) -> list[str]:
+    """What the report says was done to ``feature`` (its repairs' texts)."""
+    return [r.what for r in builder.report.repairs if r.feature == feature]
+
+
+def built(builder):
+    graph = builder.build()
+    assert rf.validate_graph(graph) == []
+    return graph
+
+
+# -- channels closer than their width --------------------------------------------------------
+
+
+def braid_arms():
+    """A river splitting into two 40 m arms that converge at an acute angle and run 12 - 24 m
+    apart for their last 200 m (the issue's 720-link network, feature 149)."""
+    return [polyline((-500, 0), (0, 0)),
+            polyline((0, 0), (60, 40), (100, 12), (250, 6), (300, 0)),
+            polyline((0, 0), (60, -40), (100, -12), (250, -6), (300, 0)),
+            polyline((300, 0), (900, 0))]
+
+
+def test_braid_arms_closer_than_their_width_are_narrowed(tmp_path):
+    path = write_lines(tmp_path / "arms.gpkg", braid_arms(),
+                       {"name": np.array(["up", "left", "right", "down"], dtype=object),
+                        "W": np.array([50.0, 40.0, 40.0, 60.0])})
+    with pytest.raises(rf.GraphError, match=r"arms.gpkg \(layer 'arms'\)"):
+        rf.read_rivers(path, width_m="W", strict=True).build()      # today's behaviour
+    builder = rf.read_rivers(path, origin_m=None, width_m="W")
+    graph = built(builder)
+    for feature in ("feature 2", "feature 3"):                      # GeoPackage ids from 1
+        (what,) = repairs_of(builder, feature)
+        assert "narrowed from 40.0 m" in what, what
+    assert not repairs_of(builder, "feature 1") and not repairs_of(builder, "feature 4")
+    text = str(builder.report)
+    assert "repair: feature 2" in text and "name='left'" in text
+    check_flows_downstream(graph, braid_arms(), skip_m=3.0)
+
+
+def test_neighbouring_rivers_closer_than_their_width(tmp_path):
+    lines = [polyline((0, 0), (1000, 0)), polyline((0, 30), (1000, 30))]
+    path = write_lines(tmp_path / "pair.shp", lines, {"W": np.array([50.0, 50.0])})
+    builder = rf.read_rivers(path, origin_m=None, width_m="W")
+    graph = built(builder)
+    assert all("narrowed" in w for w in repairs_of(builder, "feature 0") + repairs_of(
+        builder, "feature 1"))
+    check_flows_downstream(graph, lines, skip_m=3.0)
+
+
+# -- clipped networks --------------------------------------------------------------------------
+
+
+def test_an_outlet_where_two_rivers_meet_and_nothing_leaves(tmp_path):
+    """NHDPlus cut where its river joins a larger one: two rivers end at the outlet."""
+    lines = confluence()[:2]
+    path = write_lines(tmp_path / "cut.geojson", lines, {"A": np.array([50.0, 80.0])},
+                       lonlat=True)
+    builder = rf.read_rivers(path, origin_m=None, drainage_area_km2="A")
+    graph = built(builder)
+    (what,) = [r.what for r in builder.report.repairs]
+    assert "feature 0 and feature 1 end at" in what and "outlet" in what
+    check_flows_downstream(graph, lines)
+    with pytest.raises(rf.GraphError, match=r"cut.geojson.*feature 0.*strict=True"):
+        rf.read_rivers(path, origin_m=None, drainage_area_km2="A", strict=True)
+
+
+def test_disconnected_pieces_and_rivers_entering_from_outside(tmp_path):
+    east = [p + (5000.0, 0.0) for p in confluence()]
+    lines = [*confluence(), *east, polyline((0, 2000), (1500, 2500))]
+    path = write_lines(tmp_path / "pieces.shp", lines)
+    builder = rf.read_rivers(path, origin_m=None)
+    graph = built(builder)
+    assert builder.report.repairs == []
+    check_flows_downstream(graph, lines)
+
+
+# -- direction ---------------------------------------------------------------------------------
+
+
+def test_lines_drawn_upstream_found_from_the_topology(tmp_path):
+    lines = confluence()
+    drawn = [lines[0][::-1], lines[1], lines[2]]
+    path = write_lines(tmp_path / "topo.gpkg", drawn, {"name": np.array(["n", "s", "m"],
+                                                                        dtype=object)})
+    builder = rf.read_rivers(path, origin_m=None)
+    graph = built(builder)
+    assert [r.feature for r in builder.report.repairs] == ["feature 1"]   # (ids from 1)
+    assert "drawn upstream (by the topology" in builder.report.repairs[0].what
+    check_flows_downstream(graph, lines)
+
+
+def test_lines_drawn_upstream_found_from_drainage_areas(tmp_path):
+    lines = confluence()
+    drawn = [lines[0], lines[1][::-1], lines[2][::-1]]     # only the north one as drawn
+    # areas at both ends: (upstream, downstream) as drawn
+    path = write_lines(tmp_path / "area.geojson", drawn, {"up": np.array([5.0, 80.0, 140.0]),
+                                                          "dn": np.array([50.0, 8.0, 130.0])})
+    builder = rf.read_rivers(path, origin_m=None, drainage_area_km2=("up", "dn"))
+    graph = built(builder)
+    assert sorted(r.feature for r in builder.report.repairs) == ["feature 1", "feature 2"]
+    assert all("the drainage areas" in r.what for r in builder.report.repairs)
+    check_flows_downstream(graph, lines)
+
+
+def test_lines_drawn_upstream_found_from_z_and_elevation_attributes(tmp_path):
+    line = polyline((0, 0), (800, 100))
+    z = np.linspace(100.0, 80.0, len(line))          # falls along the river
+    up = shapely.LineString(np.column_stack([line[::-1] + ORIGIN, z[::-1]]))  # drawn upstream
+    path = write_lines(tmp_path / "z.gpkg", None, {"n": np.array([1])}, geoms=[up])
+    builder = rf.read_rivers(path, origin_m=None, width_m=20.0)
+    graph = built(builder)
+    (what,) = repairs_of(builder, "feature 1")
+    assert "the elevations" in what
+    check_flows_downstream(graph, [line])
+    path = write_lines(tmp_path / "elev.shp", [line[::-1]],
+                       {"up_m": np.array([80.0]), "dn_m": np.array([100.0])})
+    builder = rf.read_rivers(path, origin_m=None, width_m=20.0, elevation_m=("up_m", "dn_m"))
+    check_flows_downstream(built(builder), [line])
+    assert "the elevations" in repairs_of(builder, "feature 0")[0]
+    # the user's word stands: reverse= marks lines that are never turned
+    kept = rf.read_rivers(path, origin_m=None, width_m=20.0, elevation_m=("up_m", "dn_m"),
+                          reverse=True)
+    assert kept.report.repairs == []
+
+
+# -- messy features ----------------------------------------------------------------------------
+
+
+def test_duplicates_empty_lines_and_multilinestrings(tmp_path):
+    lines = confluence()
+    near = lines[2][::-1] + (0.0, 0.4)                      # the main river again, reversed
+    geoms = [shapely.MultiLineString([lines[0] + ORIGIN, lines[1] + ORIGIN]),
+             shapely.LineString(lines[2] + ORIGIN),
+             shapely.LineString(lines[2] + ORIGIN),          # an exact duplicate
+             shapely.LineString(near + ORIGIN),               # a near one
+             shapely.LineString([ORIGIN + (50, 50), ORIGIN + (50, 50)])]   # zero length
+    path = write_lines(tmp_path / "messy.geojson", None,
+                       {"name": np.array(["tribs", "main", "again", "near", "dot"], dtype=object)},
+                       geoms=geoms)
+    builder = rf.read_rivers(path, origin_m=None, width_m=25.0)
+    graph = built(builder)
+    assert "an exact duplicate of feature 1" in repairs_of(builder, "feature 2")[0]
+    assert "a near duplicate of feature 1" in repairs_of(builder, "feature 3")[0]
+    assert "zero length" in repairs_of(builder, "feature 4")[0]
+    assert len(builder.report.links) == 3
+    check_flows_downstream(graph, lines)
+
+
+def test_z_and_m_coordinates(tmp_path):
+    import struct
+
+    import pyogrio.raw
+
+    lines = confluence()
+
+    def zm_wkb(p, z0, z1):        # an ISO WKB LineString ZM (type 3002), x y z m per vertex
+        z = np.linspace(z0, z1, len(p))
+        m = np.arange(len(p), dtype=float)
+        body = np.column_stack([p + ORIGIN, z, m]).astype("<f8").tobytes()
+        return struct.pack("<BII", 1, 3002, len(p)) + body
+
+    path = tmp_path / "zm.gpkg"
+    pyogrio.raw.write(str(path), np.array([zm_wkb(p, 100.0 - 10 * k, 90.0 - 10 * k)
+                                           for k, p in enumerate(lines)], dtype=object),
+                      [np.array([1, 2, 3])], ["k"], driver="GPKG", crs=UTM,
+                      geometry_type="Unknown")
+    builder = rf.read_rivers(path, origin_m=None, width_m=25.0)
+    assert builder.report.repairs == []
+    check_flows_downstream(built(builder), lines)
+
+
+def test_one_vertex_lines_and_non_lines(tmp_path):
+    lines = confluence()
+    lonlat = pyproj.Transformer.from_crs(UTM, "EPSG:4326", always_xy=True)
+
+    def coords(p, zm=True):
+        lon, lat = lonlat.transform(*(p + ORIGIN).T)
+        return [[x, y, 100.0] if zm else [x, y] for x, y in zip(lon, lat)]
+
+    features = [{"type": "Feature", "properties": {"k": k},
+                 "geometry": {"type": "LineString", "coordinates": coords(p)}}
+                for k, p in enumerate(lines)]
+    features.append({"type": "Feature", "properties": {"k": 3},
+                     "geometry": {"type": "LineString", "coordinates": coords(lines[0][:1])}})
+    features.append({"type": "Feature", "properties": {"k": 4},
+                     "geometry": {"type": "Point", "coordinates": coords(lines[0][:1])[0]}})
+    features.append({"type": "Feature", "properties": {"k": 5}, "geometry": None})
+    path = tmp_path / "zm.geojson"
+    path.write_text(json.dumps({"type": "FeatureCollection", "features": features}))
+    builder = rf.read_rivers(path, width_m=25.0)
+    graph = built(builder)
+    named = {r.feature: r.what for r in builder.report.repairs}
+    assert set(named) == {"feature 3", "feature 4", "feature 5"}, named
+    assert "is a Point" in named["feature 4"] and "no geometry" in named["feature 5"]
+    with pytest.raises(rf.GraphError, match=r"zm.geojson \(layer 'zm'\): feature 3.*k=3"):
+        rf.read_rivers(path, width_m=25.0, strict=True)
+    x0, y0, *_ = graph.bounds()
+    assert abs(x0) < 5000 and abs(y0) < 5000              # moved near 0, in UTM metres
+
+
+def test_crossings_without_a_shared_vertex_are_no_junction(tmp_path):
+    river = polyline((-1000, 0), (1000, 0), step=100.0)
+    canal = polyline((0, -800), (5, 800), step=100.0)       # crosses between two vertices
+    canal = canal[np.abs(canal[:, 1]) > 30]
+    path = write_lines(tmp_path / "canal.gpkg", [river, canal],
+                       {"kind": np.array(["river", "canal"], dtype=object),
+                        "W": np.array([60.0, 8.0])})
+    builder = rf.read_rivers(path, origin_m=None, width_m="W")
+    graph = built(builder)
+    (what,) = repairs_of(builder, "feature 2")
+    assert "crosses feature 1" in what and "no junction" in what
+    assert all(lk.name != "feature 1 piece 0" for lk in builder.report.links)   # not split
+    check_flows_downstream(graph, [river])
+    # a shared vertex is a junction: the canal and the river meet there
+    shared = polyline((0, -800), (0, 0), (0, 800), step=100.0)
+    path = write_lines(tmp_path / "joined.gpkg", [river, shared], {"W": np.array([60.0, 8.0])})
+    builder = rf.read_rivers(path, origin_m=None, width_m="W")
+    assert len(builder.report.links) == 4 and not any(
+        "crosses" in r.what for r in builder.report.repairs)
+
+
+# -- attributes that lie -----------------------------------------------------------------------
+
+
+def test_attributes_that_lie_fall_back_to_the_next_rule(tmp_path):
+    lines = confluence()
+    attrs = {"A": np.array([-5.0, np.nan, 140.0]),
+             "W": np.array(["12", "wide", "0"], dtype=object),
+             "strmOrder": np.array([1, 2, 3])}
+    path = write_lines(tmp_path / "lies.gpkg", lines, attrs)
+    builder = rf.read_rivers(path, origin_m=None, drainage_area_km2="A", width_m="W")
+    graph = built(builder)
+    assert "'A': -5 is not positive" in repairs_of(builder, "feature 1")[0]
+    assert any("'A': missing (NaN)" in w for w in repairs_of(builder, "feature 2"))
+    assert any("'W': 'wide' is not a number" in w for w in repairs_of(builder, "feature 2"))
+    assert any("'W': 0 is not positive" in w for w in repairs_of(builder, "feature 3"))
+    links = builder.report.links
+    assert links[0].width_m == 12.0
+    assert links[1].discharge_from == "hydraulic geometry of the stream order"
+    check_flows_downstream(graph, lines)
+    with pytest.raises(rf.GraphError, match=r"lies.gpkg.*feature 1.*'A': -5"):
+        rf.read_rivers(path, origin_m=None, drainage_area_km2="A", width_m="W", strict=True)
+
+
+# -- what cannot be used -----------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("case", ["empty", "points", "polygons", "not-gis", "all-nan"])
+def test_unusable_input_names_file_and_layer_and_writes_nothing(tmp_path, case):
+    data = tmp_path / "data"
+    data.mkdir()
+    if case == "empty":
+        path = write_lines(data / "empty.gpkg", None, {"n": np.array([], dtype=np.int64)},
+                           geoms=[], layer="streams")
+        expect = r"empty.gpkg \(layer 'streams'\): no features"
+    elif case == "points":
+        path = write_lines(data / "points.shp", None, {"n": np.array([1, 2])},
+                           geoms=[shapely.Point(ORIGIN), shapely.Point(ORIGIN + 10)])
+        expect = r"points.shp \(layer 'points'\): no usable line: feature 0 is a Point"
+    elif case == "polygons":
+        path = write_lines(data / "lakes.geojson", None, {"n": np.array([1])},
+                           geoms=[shapely.Point(ORIGIN).buffer(100.0)])
+        expect = r"lakes.geojson \(layer 'lakes'\): no usable line: feature 0 is a Polygon"
+    elif case == "not-gis":
+        path = data / "notes.geojson"
+        path.write_text("these are not rivers\n")
+        expect = r"notes.geojson: cannot read it"
+    else:
+        with np.errstate(invalid="ignore"):
+            geoms = [shapely.LineString([(np.nan, np.nan), (np.nan, np.nan)])] * 2
+        path = write_lines(data / "nan.gpkg", None, {"n": np.array([1, 2])}, geoms=geoms)
+        expect = r"nan.gpkg \(layer 'nan'\): no usable line: feature 1 has non-finite"
+    before = sorted(p.name for p in tmp_path.rglob("*"))
+    with pytest.raises(rf.GraphError, match=expect):
+        rf.read_rivers(path)
+    assert sorted(p.name for p in tmp_path.rglob("*")) == before
+
+
+# -- a property: any valid network, written out with defects, reads back the same ---------------
+
+
+def _tree(rng):
+    """A random valid network: a main river with 3 - 5 tributaries, some with their own."""
+    lines = [polyline((0, 0), (1500, 0), (3000, 200), step=50.0)]
+    s = np.linspace(300.0, 2600.0, rng.integers(3, 6))
+    for k, x in enumerate(s):
+        on = lines[0][np.argmin(np.abs(lines[0][:, 0] - x))]
+        side = 1.0 if k % 2 else -1.0
+        far = on + (rng.uniform(-400, -100), side * rng.uniform(600, 1000))
+        mid = 0.5 * (on + far) + (0.0, side * rng.uniform(-80, 80))
+        lines.append(polyline(far, mid, on, step=40.0))
+    return lines
+
+
+def _with_defects(lines, rng):
+    """Split some lines in two features, reverse a third of them, duplicate one."""
+    out = []
+    for p in lines:
+        if len(p) > 8 and rng.random() < 0.4:
+            k = int(rng.integers(3, len(p) - 3))
+            out += [p[:k + 1], p[k:]]
+        else:
+            out.append(p)
+    out = [p[::-1] if rng.random() < 0.33 else p for p in out]
+    out.append(out[int(rng.integers(len(out)))].copy())
+    return [out[i] for i in rng.permutation(len(out))]
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_valid_network_with_random_defects_reads_back_the_same(tmp_path, seed):
+    rng = np.random.default_rng(seed)
+    lines = _tree(rng)
+    # the main river is split where the tributaries end on it (the reader does the same)
+    box = shapely.box(-200.0, -700.0, 2700.0, 700.0)           # clips the outlet and some tops
+    parts = [shapely.intersection(shapely.LineString(p), box) for p in lines]
+    clipped = [shapely.get_coordinates(g) for c in parts for g in getattr(c, "geoms", [c])
+               if not g.is_empty and g.length > 50.0]
+    total = sum(shapely.length(shapely.LineString(p)) for p in clipped)
+    path = write_lines(tmp_path / f"defects{seed}.geojson", _with_defects(clipped, rng),
+                       lonlat=True)
+    builder = rf.read_rivers(path, width_m=20.0)
+    graph = built(builder)
+    assert builder.report.length_m == pytest.approx(total, rel=0.01)
+    field = rf.FlowField(graph)
+    ahead = inside = 0
+    for p in clipped:
+        pts, tangent = along(p + ORIGIN - builder.report.origin_m, step=10.0, skip_m=15.0)
+        status, velocity = field.query(pts)
+        inside += int((status == rf.FlowStatus.INSIDE).sum())
+        ahead += int(((status == rf.FlowStatus.INSIDE)
+                      & (np.einsum("ij,ij->i", velocity, tangent) > 0)).sum())
+    assert ahead >= 0.95 * inside and inside > 0
+
+
+def test_a_grid_traced_line_is_smoothed_within_half_its_width(tmp_path):
+    """A meandering river 30 m wide traced along 5 m DEM cells: a staircase of 45° and 90°
+    turns."""
+    x = np.linspace(0.0, 1200.0, 4000)
+    cells = np.round(np.column_stack([x, 80.0 * np.sin(2 * np.pi * x / 600.0)]) / 5.0)
+    steps = [cells[0]]
+    for c in cells[1:]:
+        while np.abs(c - steps[-1]).max() > 0:             # 8-connected, one cell at a time
+            steps.append(steps[-1] + np.sign(c - steps[-1]))
+    stair = 5.0 * np.array(steps)
+    path = write_lines(tmp_path / "grid.shp", [stair], {"W": np.array([30.0])})
+    builder = rf.read_rivers(path, origin_m=None, width_m="W")
+    graph = built(builder)
+    (what,) = repairs_of(builder, "feature 0")
+    assert "grid-traced" in what and "smoothed" in what
+    source = shapely.LineString(stair + ORIGIN)
+    for axis in graph.axes():
+        line = graph.vertices(axis)
+        # never farther than half the width from the line as traced
+        assert shapely.distance(shapely.points(line), source).max() <= 15.0 + 1e-6
+        pts, tangent = along(line, step=5.0)         # its direction every cell
+        turn = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", tangent[:-1], tangent[1:]),
+                                            -1.0, 1.0)))
+        assert turn.max() < 30.0                       # no staircase of 45° turns left
+
+
+def test_a_braid_splits_its_flow_by_the_arms_widths(tmp_path):
+    lines = [polyline((-800, 0), (0, 0)),
+             polyline((0, 0), (400, 150), (800, 0)),
+             polyline((0, 0), (400, -150), (800, 0)),
+             polyline((800, 0), (1600, 0))]
+    path = write_lines(tmp_path / "split.geojson", lines, {"W": np.array([45.0, 30.0, 15.0,
+                                                                          45.0])})
+    builder = rf.read_rivers(path, origin_m=None, width_m="W")
+    check_flows_downstream(built(builder), lines, skip_m=3.0)
+    q = builder.discharges_m2s
+    assert q[1] == pytest.approx(2.0 * q[2]) and q[1] + q[2] == pytest.approx(q[0])
