@@ -191,6 +191,7 @@ class FlowField:
                                   self.tiles.cache.tick, self.segments, len(idx), s_out, v_out)
                 status[idx] = s_out
                 velocity[idx] = v_out
+            _never_unknown(status, pts)
         if len(self.obstacles) and exclude_obstacles is not True:
             self.apply_obstacles(pts, status, velocity, level=lv, fallback=0,
                                  exclude=exclude_obstacles)
@@ -342,15 +343,20 @@ class FlowField:
     # -- tiles ---------------------------------------------------------------------------------
 
     def tile_of(self, xy: np.ndarray, level: int | None = None) -> np.ndarray:
-        """(N, 2) int tile indices (tx, ty) of points at ``level``; −1 outside the domain."""
+        """(N, 2) int tile indices (tx, ty) of points at ``level``; −1 outside the domain.
+
+        The numpy twin of the query kernels' ownership rule (``kernels.flow.root_unit`` and
+        ``tile_index``, bit for bit): the tile made for a point is the tile the kernels read
+        for it, on every edge and corner and on the domain's far edge."""
         pts = self._points(xy)
         lv = self._level(level)
         t = self.tiles
         n = 1 << lv
-        u = np.floor((pts - (t.root_x_m, t.root_y_m)) / t.tile_size_m(lv))
-        bad = ~np.all((u >= 0) & (u < n), axis=1)
-        u[bad] = -1
-        return u.astype(np.int64)
+        u = (pts - (t.root_x_m, t.root_y_m)) / t.root_size_m
+        inside = np.all((u >= 0.0) & (u <= 1.0), axis=1)
+        keys = np.minimum((np.where(inside[:, None], u, 0.0) * n).astype(np.int64), n - 1)
+        keys[~inside] = -1
+        return keys
 
     def level_for_spacing(self, spacing_m: float) -> int:
         """The coarsest quadtree level whose lattice spacing is at most ``spacing_m`` [m]
@@ -416,6 +422,16 @@ class FlowField:
             batch = unique[start:start + cap]
             self.ensure_tiles(level, [(int(k % n), int(k // n)) for k in batch])
             yield index if len(unique) <= cap else index[np.isin(flat, batch)]
+
+
+def _never_unknown(status: np.ndarray, pts: np.ndarray) -> None:
+    """A query answers every point: UNKNOWN left after its tiles were made is a bug (the
+    tiles made are not the ones the kernels read), never an answer."""
+    lost = np.flatnonzero(status == FlowStatus.UNKNOWN)
+    if len(lost):
+        raise RuntimeError(f"FlowField: {len(lost)} point(s) found no flow tile after their "
+                           f"tiles were made, first {pts[lost[0]].tolist()} (a tile-ownership "
+                           "bug; please report it)")
 
 
 class TileBuilder:
