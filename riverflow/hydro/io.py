@@ -29,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from riverflow._atomic import atomic_write_bytes
 from riverflow.hydro.graph import NO_CURVE, NO_POTENTIAL, Area, Curve, CurveType, GraphError, HydroGraph
 
 __all__ = ["load_graph", "save_graph"]
@@ -378,7 +379,7 @@ def save_graph(graph: HydroGraph, path: str | os.PathLike, *, binary: bool = Fal
         _write_indexed(graph, w)
     else:
         _write_graph(graph, w)
-    Path(path).write_bytes(b"".join(w.parts))
+    atomic_write_bytes(path, b"".join(w.parts))   # complete or not at all
 
 
 class _Writer:
