@@ -33,6 +33,7 @@ import numpy as np
 import shapely
 
 from riverflow._atomic import atomic_files, require_suffix, strict_json
+from riverflow._validate import check_allocation
 from riverflow.components.status import FlowStatus
 from riverflow.gis import require
 from riverflow.hydro.graph import HydroGraph
@@ -109,6 +110,8 @@ def bake_flow_map(field_or_scene, region_m=None, cell_m: float | None = None,
     if max(nx, ny) > MAX_SIDE_PX:
         raise ValueError(f"bake_flow_map: {nx}×{ny} px is over {MAX_SIDE_PX} px a side; use a "
                          f"larger cell_m than {cell_m:g} m or a smaller region")
+    # centres 16, status 1, velocity 8, speed 4, distance 8 + temporaries, RGBA ≤ 8 B a pixel
+    check_allocation(64.0 * nx * ny, f"bake_flow_map: a {nx}×{ny} px map (cell_m={cell_m:g})")
     centres = pixel_centres((x0, y0), cell_m, (nx, ny))
     status = np.empty(nx * ny, np.uint8)
     velocity = np.empty((nx * ny, 2), np.float32)

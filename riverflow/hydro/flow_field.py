@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from riverflow._validate import as_points, check_allocation, finite_positive
 from riverflow.components.flow_tiles import FLOW_KIND, FlowTiles, flow_fields
 from riverflow.components.status import FlowStatus
 from riverflow.hydro.flow_network import FlowNetwork, build_flow_network
@@ -110,11 +111,26 @@ class FlowField:
         tolerance_m: float | None = None,
         cache: TileCache | None = None,
     ) -> None:
-        for label, value in (("slip", slip), ("search_radius_factor", search_radius_factor)):
-            if not (math.isfinite(value) and value > 0.0):
-                raise ValueError(f"FlowField: {label} must be a positive number, got {value!r}")
-        if lattice_cells < 4 or cache_tiles < 1:
-            raise ValueError("FlowField: lattice_cells must be ≥ 4 and cache_tiles ≥ 1")
+        if not isinstance(graph, HydroGraph):
+            raise TypeError(f"FlowField: graph must be a HydroGraph, got {type(graph).__name__}")
+        slip = finite_positive(slip, "FlowField: slip")
+        search_radius_factor = finite_positive(search_radius_factor,
+                                               "FlowField: search_radius_factor")
+        for label, value, low in (("lattice_cells", lattice_cells, 4),
+                                  ("cache_tiles", cache_tiles, 1)):
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+                raise TypeError(f"FlowField: {label} must be a whole number, got {value!r}")
+            if value < low:
+                raise ValueError(f"FlowField: {label} must be ≥ {low}, got {value!r}")
+        n = int(lattice_cells)
+        tile_bytes_est = (2 * 4 * (n + 3) ** 2 + n * n * (1 + 4 * kf.CELL_SEGMENTS)
+                          + 9 * (n + 1 + 2 * kf.LATTICE_RING) ** 2 + 8 * kf.CELL_SEGMENTS * n * n)
+        check_allocation(tile_bytes_est * (1 if cache is not None else 1 + int(cache_tiles)),
+                         f"FlowField: lattice_cells={lattice_cells}, cache_tiles={cache_tiles}")
+        for label, value in (("potential_delta_m", potential_delta_m),
+                             ("tolerance_m", tolerance_m)):
+            if value is not None:
+                finite_positive(value, f"FlowField: {label}")
         axes = graph.axes()
         if not axes:
             raise GraphError(f"{graph.source or 'graph'}: no river axis to carry a flow")
@@ -393,14 +409,17 @@ class FlowField:
     def _level(self, level: int | None) -> int:
         if level is None:
             return self.max_level
+        if isinstance(level, bool) or not isinstance(level, (int, np.integer)):
+            raise TypeError(f"FlowField: level must be a whole number or None, got {level!r}")
         if not 0 <= int(level) <= self.max_level:
             raise ValueError(f"level must be in 0..{self.max_level}, got {level}")
         return int(level)
 
     @staticmethod
     def _points(xy: np.ndarray) -> np.ndarray:
-        pts = np.ascontiguousarray(np.asarray(xy, dtype=np.float64).reshape(-1, 2))
-        return pts
+        """(N, 2) float64 points, checked (riverflow._validate.as_points): a (2, N) array is
+        an error, never read as other points."""
+        return as_points(xy, "FlowField: xy")
 
     def _batches(self, pts: np.ndarray, level: int, missing: np.ndarray | None
                  ) -> Iterator[np.ndarray]:
