@@ -156,8 +156,8 @@ class RiverNetworkBuilder:
         if discharge_m2s is not None:
             q = float(discharge_m2s)
             if not (np.isfinite(q) and 0 < q <= MAX_PSI):
-                raise GraphError(f"branch {name!r}: discharge_m2s must be a positive number up "
-                                 f"to {MAX_PSI:g} m²/s, got {discharge_m2s!r}")
+                raise GraphError(f"branch {name!r}: discharge must be a positive number "
+                                 f"(discharge_m2s, up to {MAX_PSI:g} m²/s), got {discharge_m2s!r}")
             discharge_m2s = q
         line, widths = self._flatten(pts, w, bezier)
         keep = np.concatenate([[True], np.hypot(*np.diff(line, axis=0).T) > 1e-9])

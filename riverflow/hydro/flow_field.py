@@ -154,7 +154,10 @@ class FlowField:
                 and math.isfinite(root_size)):
             raise ValueError(f"FlowField: bad domain {domain_m!r}")
         quadtree = Quadtree(root_x, root_y, root_size)
-        self.max_level = quadtree.level_for_cell(delta, lattice_cells)
+        try:
+            self.max_level = quadtree.level_for_cell(delta, lattice_cells)
+        except ValueError as exc:
+            raise ValueError(f"FlowField: potential_delta_m={delta!r}: {exc}") from None
         if cache is None:
             tile_bytes = sum(f.nbytes for f in flow_fields(lattice_cells).values())
             cache = TileCache(cache_tiles * tile_bytes)
