@@ -7,7 +7,7 @@ Checks run at the public boundary only (once per call), never inside per-frame l
 The resource limit: every allocation that scales with an input (grids, lattices, rasters,
 tiles, rain drops, images) is estimated first with :func:`check_allocation` and refused with a
 :class:`ResourceLimitError` naming the input and the size when it is over
-:func:`memory_limit_bytes` (default half the machine's memory; :func:`set_memory_limit`, or
+:func:`memory_limit_bytes` (default half the machine's memory; ``rf.set_memory_limit``, or
 the ``RIVERFLOW_MEMORY_LIMIT_MB`` environment variable).
 """
 from __future__ import annotations
@@ -77,7 +77,7 @@ def check_allocation(nbytes: float, what: str) -> None:
     limit = memory_limit_bytes()
     if not (nbytes <= limit):            # NaN / inf estimates are over the limit too
         raise ResourceLimitError(f"{what} needs about {_gib(float(nbytes))} of memory, over the "
-                                 f"limit of {_gib(limit)} (riverflow._validate.set_memory_limit "
+                                 f"limit of {_gib(limit)} (riverflow.set_memory_limit(nbytes) "
                                  "or RIVERFLOW_MEMORY_LIMIT_MB to change it)")
 
 

@@ -162,9 +162,16 @@ class FlowField:
             tile_bytes = sum(f.nbytes for f in flow_fields(lattice_cells).values())
             cache = TileCache(cache_tiles * tile_bytes)
         self.river_boxes = self.network.river_boxes()
+        axis_segments = self.network.axis_segments()
+        axis_half_widths = self.network.axis_half_widths()
+        check_allocation(_coverage_bytes(axis_segments, axis_half_widths,
+                                         quadtree.tile_size_m(self.max_level), self.max_level),
+                         f"FlowField: the wet-tile table of a network {root_size:,.0f} m across "
+                         f"at lattice spacing potential_delta_m={delta:g} m "
+                         f"(quadtree level {self.max_level})")
         self.tiles = FlowTiles(quadtree, lattice_cells, self.max_level, cache,
-                               coverage_table(quadtree, self.network.axis_segments(),
-                                              self.network.axis_half_widths(), self.max_level))
+                               coverage_table(quadtree, axis_segments, axis_half_widths,
+                                              self.max_level))
         self.segments = Segments(*self.network.geometry_args())
         self._builder = TileBuilder(self)
         self._obstacle_sets: dict[str, np.ndarray] = {}
@@ -444,6 +451,21 @@ class FlowField:
             batch = unique[start:start + cap]
             self.ensure_tiles(level, [(int(k % n), int(k // n)) for k in batch])
             yield index if len(unique) <= cap else index[np.isin(flat, batch)]
+
+
+def _coverage_bytes(segments: np.ndarray, half_widths: np.ndarray, tile_m: float,
+                    level: int) -> float:
+    """About the bytes :func:`~riverflow.tiles.coverage.coverage_table` needs: the finest
+    tiles the axis capsules' boxes touch (as it rasterises them), with their ancestors and
+    its temporaries."""
+    if not len(segments):
+        return 0.0
+    dx = np.abs(segments[:, 2] - segments[:, 0])
+    dy = np.abs(segments[:, 3] - segments[:, 1])
+    pieces = np.maximum(np.ceil(np.hypot(dx, dy) / tile_m), 1.0)
+    r2 = 2.0 * np.broadcast_to(half_widths, (len(segments),))
+    boxes = pieces * ((dx / pieces + r2) / tile_m + 2.0) * ((dy / pieces + r2) / tile_m + 2.0)
+    return float(boxes.sum()) * (level + 1) * 16.0
 
 
 def _never_unknown(status: np.ndarray, pts: np.ndarray) -> None:

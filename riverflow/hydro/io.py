@@ -368,6 +368,8 @@ def load_graph(path: str | os.PathLike) -> HydroGraph:
         GraphError: malformed content (message: file, byte/token offset, what was expected).
         OSError: the file cannot be opened or read.
     """
+    if not isinstance(path, (str, os.PathLike)):
+        raise TypeError(f"load_graph: path must be a file name, got {type(path).__name__}")
     name = str(path)
     with _open_regular(path, name) as f:
         size = os.fstat(f.fileno()).st_size
@@ -566,6 +568,10 @@ def save_graph(graph: HydroGraph, path: str | os.PathLike, *, binary: bool = Fal
         GraphError: the graph cannot be written so that it loads back (bad index, NaN, a bank
             without a potential, a value that does not fit int32/float32, ...).
     """
+    if not isinstance(graph, HydroGraph):
+        raise TypeError(f"save_graph: graph must be a HydroGraph, got {type(graph).__name__}")
+    if not isinstance(path, (str, os.PathLike)):
+        raise TypeError(f"save_graph: path must be a file name, got {type(path).__name__}")
     _check_savable(graph, "graph")
     w = _Writer(binary)
     w.row("i", 1 if indexed else 0, newline=False)

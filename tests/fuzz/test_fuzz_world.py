@@ -182,3 +182,19 @@ def test_the_memory_limit_is_settable_and_defaults_to_half_the_machine(monkeypat
     with pytest.raises(ResourceLimitError):
         _validate.check_allocation(math.nan, "nan bytes")
     assert np.isfinite(default)
+
+
+@FUZZ
+@given(thing=st.one_of(st.none(), st.integers(), st.text(max_size=3), st.lists(st.integers())))
+def test_graph_entry_points_refuse_what_is_not_a_graph_or_a_path(tmp_path, field, thing):
+    for call, name in ((lambda: rf.save_graph(thing, tmp_path / "g.graph"), "graph"),
+                       (lambda: rf.validate_graph(thing), "graph"),
+                       (lambda: rf.FlowField(thing), "graph")):
+        with pytest.raises(TypeError) as info:
+            call()
+        assert_names(info, name)
+    if not isinstance(thing, str):
+        for call in (lambda: rf.load_graph(thing), lambda: rf.save_graph(field.graph, thing)):
+            with pytest.raises(TypeError) as info:
+                call()
+            assert_names(info, "path")
