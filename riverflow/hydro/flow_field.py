@@ -201,7 +201,14 @@ class FlowField:
         Returns:
             status (N,) uint8 :class:`FlowStatus` (INSIDE, OUTSIDE or OUTSIDE_DOMAIN) and
             velocity (N, 2) float32 [m/s], zero unless INSIDE, never NaN. Inside an
-            obstacle's hull the water moves with the hull.
+            obstacle's hull the water moves with the hull. Never UNKNOWN: the tiles under
+            the points are made first, by the kernels' own tile-ownership rule, so a point on
+            a tile edge, corner or the domain's edge is answered like its neighbours.
+
+        Raises:
+            ValueError: ``xy`` is not (N, 2) (a (2, N) array is not read as other points) or
+                holds NaN / inf; ``level`` outside 0 … max_level.
+            TypeError: ``xy`` is not real numbers; ``level`` not a whole number.
         """
         pts = self._points(xy)
         lv = self._level(level)
