@@ -143,18 +143,20 @@ def size_px(size, name: str, *, limit: int = 1 << 15) -> tuple[int, int]:
     return out[0], out[1]
 
 
-def as_points(xy, name: str = "xy", *, allow_nan: bool = False) -> np.ndarray:
-    """``xy`` as a C-contiguous (N, 2) float64 array of finite points [m].
+def as_points(xy, name: str = "xy", *, allow_nan: bool = False,
+              finite: bool = True) -> np.ndarray:
+    """``xy`` as a C-contiguous (N, 2) float64 array of points [m].
 
     An (N, 2) array or sequence of pairs, or one (2,) point; anything else — a (2, N) array,
     (N, 3), a ragged list, strings, complex numbers — is an error, never reshaped into other
     points. NaN / inf coordinates are a ValueError naming the first bad row (``allow_nan``:
-    NaN rows pass).
+    NaN rows pass; ``finite=False``: no finiteness check, for queries that answer such points
+    with a clear status).
     """
     if type(xy) is np.ndarray and xy.dtype == np.float64 and xy.ndim == 2 \
             and xy.shape[1] == 2:                   # the common case, in a few µs
         pts = xy if xy.flags.c_contiguous else np.ascontiguousarray(xy)
-        if allow_nan or np.isfinite(pts).all():
+        if not finite or allow_nan or np.isfinite(pts).all():
             return pts
         return _check_finite(pts, name, allow_nan)
     if isinstance(xy, (str, bytes)):
@@ -173,7 +175,8 @@ def as_points(xy, name: str = "xy", *, allow_nan: bool = False) -> np.ndarray:
         raise ValueError(f"{name} must be (N, 2) points [m], got shape {arr.shape}"
                          + (" (transposed? pass xy.T)" if arr.ndim == 2 and arr.shape[0] == 2
                             else ""))
-    return _check_finite(np.ascontiguousarray(arr, dtype=np.float64), name, allow_nan)
+    pts = np.ascontiguousarray(arr, dtype=np.float64)
+    return _check_finite(pts, name, allow_nan) if finite else pts
 
 
 def _check_finite(pts: np.ndarray, name: str, allow_nan: bool) -> np.ndarray:

@@ -206,8 +206,8 @@ class FlowField:
             a tile edge, corner or the domain's edge is answered like its neighbours.
 
         Raises:
-            ValueError: ``xy`` is not (N, 2) (a (2, N) array is not read as other points) or
-                holds NaN / inf; ``level`` outside 0 … max_level.
+            ValueError: ``xy`` is not (N, 2) (a (2, N) array is not read as other points);
+                ``level`` outside 0 … max_level. (NaN / inf points answer OUTSIDE_DOMAIN.)
             TypeError: ``xy`` is not real numbers; ``level`` not a whole number.
         """
         pts = self._points(xy)
@@ -435,8 +435,10 @@ class FlowField:
     @staticmethod
     def _points(xy: np.ndarray) -> np.ndarray:
         """(N, 2) float64 points, checked (riverflow._validate.as_points): a (2, N) array is
-        an error, never read as other points."""
-        return as_points(xy, "FlowField: xy")
+        an error, never read as other points. NaN / inf points pass: they answer
+        OUTSIDE_DOMAIN (velocity 0, ψ NaN), so a bad value in a running world never stops a
+        frame (SPEC §5)."""
+        return as_points(xy, "FlowField: xy", finite=False)
 
     def _batches(self, pts: np.ndarray, level: int, missing: np.ndarray | None
                  ) -> Iterator[np.ndarray]:

@@ -53,11 +53,17 @@ def test_query_answers_every_finite_point(field, xy):
 @FUZZ
 @given(xy=hnp.arrays(np.float64, st.tuples(st.integers(1, 20), st.just(2)), elements=ANY_FLOAT)
        .filter(lambda a: not np.isfinite(a).all()))
-def test_query_refuses_non_finite_points_naming_the_row(field, xy):
-    row = int(np.flatnonzero(~np.isfinite(xy).all(axis=1))[0])
+def test_non_finite_points_answer_outside_the_domain(field, xy):
+    """A clear status, never an error: a bad value in a running world must not stop a frame
+    (SPEC §5); as_points itself refuses them, naming the row, where finiteness is asked."""
+    bad = ~np.isfinite(xy).all(axis=1)
+    status, velocity = field.query(xy)
+    assert (status[bad] == rf.FlowStatus.OUTSIDE_DOMAIN).all()
+    assert (velocity[bad] == 0).all() and np.isnan(field.potential(xy)[bad]).all()
+    row = int(np.flatnonzero(bad)[0])
     with pytest.raises(ValueError) as info:
-        field.query(xy)
-    assert_names(info, "xy", f"row {row}")
+        as_points(xy, "where")
+    assert_names(info, "where", f"row {row}")
 
 
 @FUZZ
