@@ -60,6 +60,9 @@ _LAZY = {
     "FixedStep": "riverflow.engine.game_loop",
     "read_rivers": "riverflow.gis.rivers",
     "bake_flow_map": "riverflow.gis.bake",
+    "ResourceLimitError": "riverflow._validate",
+    "set_memory_limit": "riverflow._validate",
+    "memory_limit_bytes": "riverflow._validate",
 }
 
 __all__ = ["FlowStatus", "Area", "Curve", "CurveType", "GraphError", "HydroGraph", *_LAZY]

@@ -37,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+from riverflow._atomic import atomic_files
 from riverflow.components.display import DisplayMode, legend
 from riverflow.components.waves import WaveKind
 from riverflow.engine.camera_rigs import ChaseCamera, FreeFlyCamera
@@ -410,7 +411,8 @@ def run_headless(frames: int, out: Path, *, scene=None, size=(640, 360), seed: i
                     lines = demo.hud.lines(demo)
                     draw_hud(image, lines, demo.hud.legend(demo))
                 file = out / f"frame_{f:05d}.png"
-                image.save(file)
+                with atomic_files(file) as (temp,):
+                    image.save(temp)
                 written.append(file)
                 stills.append(image.convert("RGB").resize((size[0] // 2, size[1] // 2)))
     finally:
@@ -418,8 +420,9 @@ def run_headless(frames: int, out: Path, *, scene=None, size=(640, 360), seed: i
     animation = None
     if stills:
         animation = out / "demo.gif"
-        stills[0].save(animation, save_all=True, append_images=stills[1:],
-                       duration=int(round(1000 * every * STEP_S)), loop=0)
+        with atomic_files(animation) as (temp,):
+            stills[0].save(temp, save_all=True, append_images=stills[1:],
+                           duration=int(round(1000 * every * STEP_S)), loop=0)
     return HeadlessRun(written, animation, np.asarray(path, np.float64), lines)
 
 

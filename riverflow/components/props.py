@@ -11,12 +11,29 @@ from dataclasses import dataclass, field
 import numpy as np
 
 
+SHAPES = ("boat", "barrel")
+"""The prop meshes there are (riverflow.scenes.props)."""
+
+
 @dataclass(eq=False)
 class Prop:
     """``shape`` is "boat" or "barrel"; ``size_m`` (length, width, height) [m]."""
 
     shape: str
     size_m: tuple[float, float, float]
+
+    def __post_init__(self) -> None:   # checked once, where a prop is made (not per frame)
+        from riverflow._validate import choice, finite_positive
+
+        choice(self.shape, "Prop.shape", SHAPES)
+        try:
+            size = tuple(self.size_m)
+        except TypeError:
+            size = ()
+        if len(size) != 3:
+            raise ValueError(f"Prop.size_m must be (length, width, height) [m], got "
+                             f"{self.size_m!r}")
+        self.size_m = tuple(finite_positive(v, f"Prop.size_m[{i}]") for i, v in enumerate(size))
 
 
 @dataclass(eq=False)

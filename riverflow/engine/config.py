@@ -8,6 +8,7 @@ Variants: ``dataclasses.replace(config, radius_px=5.0)``; environment overrides:
 from __future__ import annotations
 
 import dataclasses
+import math
 import numbers
 import os
 from dataclasses import dataclass
@@ -140,6 +141,11 @@ class RiverConfig:
             if isinstance(f.default, float) and isinstance(value, numbers.Integral) \
                     and not isinstance(value, bool):
                 object.__setattr__(self, f.name, float(value))
+        for f in dataclasses.fields(self):   # NaN passes "not (x > 0)"-style checks: refuse it
+            value = getattr(self, f.name)
+            items = value if isinstance(value, tuple) else (value,)
+            if any(isinstance(v, float) and not math.isfinite(v) for v in items):
+                raise ValueError(f"RiverConfig.{f.name} must be finite, got {value!r}")
         positive = ("capacity", "radius_px", "cull_radius_factor", "spawn_gap_factor",
                     "grid_cell_factor", "fade_in_s", "active_s", "fade_out_s",
                     "search_radius_factor", "slip", "tile_cache_mb", "flow_tile_px", "terrain_tile_px", "max_step_s", "near_m", "far_m",

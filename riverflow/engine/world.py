@@ -32,6 +32,7 @@ from typing import Any, TypeVar
 import esper
 import numpy as np
 
+from riverflow._validate import check_allocation, size_px
 from riverflow.components.display import DisplaySettings
 from riverflow.components.foam import FoamSettings
 from riverflow.components.particles import LiveParticles, ParticlePool
@@ -71,6 +72,7 @@ class RiverWorld:
     def __init__(self, scene: Any, size: tuple[int, int] = (640, 360), *, gl: bool = False,
                  seed: int = 0, config: RiverConfig | None = None,
                  systems: list[System] | None = None) -> None:
+        size = size_px(size, "RiverWorld: size")       # (W, H) ≥ 1 px, whole, bounded
         self.config = config if config is not None else RiverConfig()
         self.gl = bool(gl)
         self.seed = int(seed)
@@ -268,8 +270,13 @@ class RiverWorld:
         from riverflow.components.props import Pose, Prop
 
         with self.active():
-            return esper.create_entity(Prop(shape, tuple(float(v) for v in size_m)),
-                                       Pose(np.array(position_m, np.float64), float(yaw_rad)))
+            prop = Prop(shape, size_m)           # checks the shape name and the size
+            position = np.array(position_m, np.float64)
+            if position.shape != (3,) or not np.isfinite(position).all() \
+                    or not math.isfinite(yaw_rad):
+                raise ValueError(f"add_prop: position_m must be 3 finite numbers [m] and yaw_rad "
+                                 f"finite, got {position_m!r}, {yaw_rad!r}")
+            return esper.create_entity(prop, Pose(position, float(yaw_rad)))
 
     def pose(self, entity: int):
         """The :class:`~riverflow.components.props.Pose` of a prop entity (mutable)."""
@@ -332,6 +339,9 @@ class RiverWorld:
                 or values[0] < 0.0 or values[1] < 0.0:
             raise ValueError("set_rain needs drops_per_s ≥ 0, variance ≥ 0 and a finite "
                              f"wind (vx, vy), got {drops_per_s!r}, {variance!r}, {wind_mps!r}")
+        check_allocation(values[0] * self.config.max_step_s * (1.0 + values[1]) * 8 * 24,
+                         f"set_rain: drops_per_s={drops_per_s!r} (per frame of up to "
+                         f"{self.config.max_step_s:g} s)")
         rain = self.resource(Rain)
         rain.drops_per_s, rain.variance, rain.wind_mps = values[0], values[1], values[2:]
         if values[0] == 0.0:

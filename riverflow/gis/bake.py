@@ -32,6 +32,8 @@ from typing import NamedTuple
 import numpy as np
 import shapely
 
+from riverflow._atomic import atomic_files, require_suffix, strict_json
+from riverflow._validate import check_allocation
 from riverflow.components.status import FlowStatus
 from riverflow.gis import require
 from riverflow.hydro.graph import HydroGraph
@@ -70,8 +72,10 @@ def bake_flow_map(field_or_scene, region_m=None, cell_m: float | None = None,
             ``rf.default_scene``: its flow on the scene's quadtree) or a hydro graph.
         region_m: (x0, y0, x1, y1) [m]; default: the network's bounds plus its widest axis.
         cell_m: pixel size [m]; default: the longer side of the region / 1024.
-        path: the PNG to write (its folder is made); the sidecar is the same path with
-            ``.json``.
+        path: the PNG to write (its folder is made; a ``.png`` name: the extension decides
+            the format); the sidecar is the same path with ``.json``. Both are written under
+            temporary names and renamed into place together once complete: an interrupted
+            bake leaves neither.
         bits: 8 or 16 bits a channel.
         max_speed_mps: speed of R, G = 0 or n; default: the fastest water in the map.
         max_distance_m: distance of A = n; default: the farthest water pixel from a bank.
@@ -80,7 +84,9 @@ def bake_flow_map(field_or_scene, region_m=None, cell_m: float | None = None,
         A :class:`FlowMap`.
 
     Raises:
-        ValueError: a bad region, cell size, bit depth or a map over MAX_SIDE_PX.
+        ValueError: a bad region, cell size, bit depth, max_speed_mps or max_distance_m
+            (not a finite positive number), a file name not ending in ``.png``, or a map over
+            MAX_SIDE_PX.
         ImportError: ``bits=16`` without pypng (the gis extra).
     """
     started = time.perf_counter()
@@ -88,6 +94,12 @@ def bake_flow_map(field_or_scene, region_m=None, cell_m: float | None = None,
     graph = field.graph
     if bits not in (8, 16):
         raise ValueError(f"bake_flow_map: bits must be 8 or 16, got {bits!r}")
+    require_suffix(path, (".png",), f"a {bits}-bit flow map")
+    for label, value in (("max_speed_mps", max_speed_mps), ("max_distance_m", max_distance_m)):
+        if value is not None and not (isinstance(value, (int, float, np.number))
+                                      and math.isfinite(value) and value > 0):
+            raise ValueError(f"bake_flow_map: {label} must be a finite positive number, got "
+                             f"{value!r}")
     x0, y0, x1, y1 = _region(region_m, graph, field)
     if cell_m is None:
         cell_m = max(x1 - x0, y1 - y0) / 1024.0
@@ -98,6 +110,8 @@ def bake_flow_map(field_or_scene, region_m=None, cell_m: float | None = None,
     if max(nx, ny) > MAX_SIDE_PX:
         raise ValueError(f"bake_flow_map: {nx}×{ny} px is over {MAX_SIDE_PX} px a side; use a "
                          f"larger cell_m than {cell_m:g} m or a smaller region")
+    # centres 16, status 1, velocity 8, speed 4, distance 8 + temporaries, RGBA ≤ 8 B a pixel
+    check_allocation(64.0 * nx * ny, f"bake_flow_map: a {nx}×{ny} px map (cell_m={cell_m:g})")
     centres = pixel_centres((x0, y0), cell_m, (nx, ny))
     status = np.empty(nx * ny, np.uint8)
     velocity = np.empty((nx * ny, 2), np.float32)
@@ -122,8 +136,6 @@ def bake_flow_map(field_or_scene, region_m=None, cell_m: float | None = None,
     rgba[:, 3] = np.clip(np.rint(n * np.minimum(distance / max_distance_m, 1.0)), 0, n)
     image = rgba.reshape(ny, nx, 4)
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    _write_png(image, path, bits)
     sidecar = path.with_suffix(".json")
     crs = getattr(graph, "crs", None)
     meta = {
@@ -137,8 +149,8 @@ def bake_flow_map(field_or_scene, region_m=None, cell_m: float | None = None,
         "pixel_centre_m": "x = x0 + (i + 0.5) * cell_m, y = y0 + (rows - j - 0.5) * cell_m "
                           "for column i, row j",
         "bits": bits,
-        "max_speed_mps": max_speed_mps,
-        "max_distance_m": max_distance_m,
+        "max_speed_mps": float(max_speed_mps),
+        "max_distance_m": float(max_distance_m),
         "encoding": {
             "R": f"0.5 + vx / (2 * max_speed_mps), vx east [m/s], times {n}",
             "G": f"0.5 + vy / (2 * max_speed_mps), vy north [m/s], times {n}",
@@ -148,7 +160,11 @@ def bake_flow_map(field_or_scene, region_m=None, cell_m: float | None = None,
         "crs": crs,
         "source": graph.source,
     }
-    sidecar.write_text(json.dumps(meta, indent=2))
+    text = strict_json(meta, where=f"bake_flow_map: the sidecar {sidecar}", indent=2)
+    # together or not at all; the sidecar is renamed in first, so that a map found is whole
+    with atomic_files(sidecar, path) as (tmp_sidecar, tmp_image):
+        _write_png(image, tmp_image, bits)
+        tmp_sidecar.write_text(text, encoding="utf-8")
     return FlowMap(path, sidecar, (nx, ny), (x0, y0), cell_m, float(max_speed_mps),
                    float(max_distance_m), float(water.mean()), time.perf_counter() - started)
 

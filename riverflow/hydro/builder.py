@@ -47,6 +47,7 @@ from riverflow.hydro import _strips
 from riverflow.hydro._checks import graph_problems
 from riverflow.hydro._network import BranchGeometry, assemble_graph
 from riverflow.hydro.bezier import flatten_curve
+from riverflow.hydro.flow_network import MAX_PSI
 from riverflow.hydro.graph import GraphError, HydroGraph
 
 MAX_TURN_DEG = 135.0
@@ -155,8 +156,9 @@ class RiverNetworkBuilder:
             raise GraphError(f"branch {name!r}: width at point {bad} must be a positive number, got {w[bad]}")
         if discharge_m2s is not None:
             q = float(discharge_m2s)
-            if not (np.isfinite(q) and q > 0):
-                raise GraphError(f"branch {name!r}: discharge must be a positive number, got {q}")
+            if not (np.isfinite(q) and 0 < q <= MAX_PSI):
+                raise GraphError(f"branch {name!r}: discharge must be a positive number "
+                                 f"(discharge_m2s, up to {MAX_PSI:g} m²/s), got {discharge_m2s!r}")
             discharge_m2s = q
         line, widths = self._flatten(pts, w, bezier)
         keep = np.concatenate([[True], np.hypot(*np.diff(line, axis=0).T) > 1e-9])

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from riverflow._validate import as_points, check_allocation, finite_positive
 from riverflow.components.flow_tiles import FLOW_KIND, FlowTiles, flow_fields
 from riverflow.components.status import FlowStatus
 from riverflow.hydro.flow_network import FlowNetwork, build_flow_network
@@ -110,11 +111,26 @@ class FlowField:
         tolerance_m: float | None = None,
         cache: TileCache | None = None,
     ) -> None:
-        for label, value in (("slip", slip), ("search_radius_factor", search_radius_factor)):
-            if not (math.isfinite(value) and value > 0.0):
-                raise ValueError(f"FlowField: {label} must be a positive number, got {value!r}")
-        if lattice_cells < 4 or cache_tiles < 1:
-            raise ValueError("FlowField: lattice_cells must be ≥ 4 and cache_tiles ≥ 1")
+        if not isinstance(graph, HydroGraph):
+            raise TypeError(f"FlowField: graph must be a HydroGraph, got {type(graph).__name__}")
+        slip = finite_positive(slip, "FlowField: slip")
+        search_radius_factor = finite_positive(search_radius_factor,
+                                               "FlowField: search_radius_factor")
+        for label, value, low in (("lattice_cells", lattice_cells, 4),
+                                  ("cache_tiles", cache_tiles, 1)):
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+                raise TypeError(f"FlowField: {label} must be a whole number, got {value!r}")
+            if value < low:
+                raise ValueError(f"FlowField: {label} must be ≥ {low}, got {value!r}")
+        n = int(lattice_cells)
+        tile_bytes_est = (2 * 4 * (n + 3) ** 2 + n * n * (1 + 4 * kf.CELL_SEGMENTS)
+                          + 9 * (n + 1 + 2 * kf.LATTICE_RING) ** 2 + 8 * kf.CELL_SEGMENTS * n * n)
+        check_allocation(tile_bytes_est * (1 if cache is not None else 1 + int(cache_tiles)),
+                         f"FlowField: lattice_cells={lattice_cells}, cache_tiles={cache_tiles}")
+        for label, value in (("potential_delta_m", potential_delta_m),
+                             ("tolerance_m", tolerance_m)):
+            if value is not None:
+                finite_positive(value, f"FlowField: {label}")
         axes = graph.axes()
         if not axes:
             raise GraphError(f"{graph.source or 'graph'}: no river axis to carry a flow")
@@ -138,14 +154,24 @@ class FlowField:
                 and math.isfinite(root_size)):
             raise ValueError(f"FlowField: bad domain {domain_m!r}")
         quadtree = Quadtree(root_x, root_y, root_size)
-        self.max_level = quadtree.level_for_cell(delta, lattice_cells)
+        try:
+            self.max_level = quadtree.level_for_cell(delta, lattice_cells)
+        except ValueError as exc:
+            raise ValueError(f"FlowField: potential_delta_m={delta!r}: {exc}") from None
         if cache is None:
             tile_bytes = sum(f.nbytes for f in flow_fields(lattice_cells).values())
             cache = TileCache(cache_tiles * tile_bytes)
         self.river_boxes = self.network.river_boxes()
+        axis_segments = self.network.axis_segments()
+        axis_half_widths = self.network.axis_half_widths()
+        check_allocation(_coverage_bytes(axis_segments, axis_half_widths,
+                                         quadtree.tile_size_m(self.max_level), self.max_level),
+                         f"FlowField: the wet-tile table of a network {root_size:,.0f} m across "
+                         f"at lattice spacing potential_delta_m={delta:g} m "
+                         f"(quadtree level {self.max_level})")
         self.tiles = FlowTiles(quadtree, lattice_cells, self.max_level, cache,
-                               coverage_table(quadtree, self.network.axis_segments(),
-                                              self.network.axis_half_widths(), self.max_level))
+                               coverage_table(quadtree, axis_segments, axis_half_widths,
+                                              self.max_level))
         self.segments = Segments(*self.network.geometry_args())
         self._builder = TileBuilder(self)
         self._obstacle_sets: dict[str, np.ndarray] = {}
@@ -175,7 +201,14 @@ class FlowField:
         Returns:
             status (N,) uint8 :class:`FlowStatus` (INSIDE, OUTSIDE or OUTSIDE_DOMAIN) and
             velocity (N, 2) float32 [m/s], zero unless INSIDE, never NaN. Inside an
-            obstacle's hull the water moves with the hull.
+            obstacle's hull the water moves with the hull. Never UNKNOWN: the tiles under
+            the points are made first, by the kernels' own tile-ownership rule, so a point on
+            a tile edge, corner or the domain's edge is answered like its neighbours.
+
+        Raises:
+            ValueError: ``xy`` is not (N, 2) (a (2, N) array is not read as other points);
+                ``level`` outside 0 … max_level. (NaN / inf points answer OUTSIDE_DOMAIN.)
+            TypeError: ``xy`` is not real numbers; ``level`` not a whole number.
         """
         pts = self._points(xy)
         lv = self._level(level)
@@ -191,6 +224,7 @@ class FlowField:
                                   self.tiles.cache.tick, self.segments, len(idx), s_out, v_out)
                 status[idx] = s_out
                 velocity[idx] = v_out
+            _never_unknown(status, pts)
         if len(self.obstacles) and exclude_obstacles is not True:
             self.apply_obstacles(pts, status, velocity, level=lv, fallback=0,
                                  exclude=exclude_obstacles)
@@ -342,15 +376,20 @@ class FlowField:
     # -- tiles ---------------------------------------------------------------------------------
 
     def tile_of(self, xy: np.ndarray, level: int | None = None) -> np.ndarray:
-        """(N, 2) int tile indices (tx, ty) of points at ``level``; −1 outside the domain."""
+        """(N, 2) int tile indices (tx, ty) of points at ``level``; −1 outside the domain.
+
+        The numpy twin of the query kernels' ownership rule (``kernels.flow.root_unit`` and
+        ``tile_index``, bit for bit): the tile made for a point is the tile the kernels read
+        for it, on every edge and corner and on the domain's far edge."""
         pts = self._points(xy)
         lv = self._level(level)
         t = self.tiles
         n = 1 << lv
-        u = np.floor((pts - (t.root_x_m, t.root_y_m)) / t.tile_size_m(lv))
-        bad = ~np.all((u >= 0) & (u < n), axis=1)
-        u[bad] = -1
-        return u.astype(np.int64)
+        u = (pts - (t.root_x_m, t.root_y_m)) / t.root_size_m
+        inside = np.all((u >= 0.0) & (u <= 1.0), axis=1)
+        keys = np.minimum((np.where(inside[:, None], u, 0.0) * n).astype(np.int64), n - 1)
+        keys[~inside] = -1
+        return keys
 
     def level_for_spacing(self, spacing_m: float) -> int:
         """The coarsest quadtree level whose lattice spacing is at most ``spacing_m`` [m]
@@ -387,14 +426,19 @@ class FlowField:
     def _level(self, level: int | None) -> int:
         if level is None:
             return self.max_level
+        if isinstance(level, bool) or not isinstance(level, (int, np.integer)):
+            raise TypeError(f"FlowField: level must be a whole number or None, got {level!r}")
         if not 0 <= int(level) <= self.max_level:
             raise ValueError(f"level must be in 0..{self.max_level}, got {level}")
         return int(level)
 
     @staticmethod
     def _points(xy: np.ndarray) -> np.ndarray:
-        pts = np.ascontiguousarray(np.asarray(xy, dtype=np.float64).reshape(-1, 2))
-        return pts
+        """(N, 2) float64 points, checked (riverflow._validate.as_points): a (2, N) array is
+        an error, never read as other points. NaN / inf points pass: they answer
+        OUTSIDE_DOMAIN (velocity 0, ψ NaN), so a bad value in a running world never stops a
+        frame (SPEC §5)."""
+        return as_points(xy, "FlowField: xy", finite=False)
 
     def _batches(self, pts: np.ndarray, level: int, missing: np.ndarray | None
                  ) -> Iterator[np.ndarray]:
@@ -416,6 +460,31 @@ class FlowField:
             batch = unique[start:start + cap]
             self.ensure_tiles(level, [(int(k % n), int(k // n)) for k in batch])
             yield index if len(unique) <= cap else index[np.isin(flat, batch)]
+
+
+def _coverage_bytes(segments: np.ndarray, half_widths: np.ndarray, tile_m: float,
+                    level: int) -> float:
+    """About the bytes :func:`~riverflow.tiles.coverage.coverage_table` needs: the finest
+    tiles the axis capsules' boxes touch (as it rasterises them), with their ancestors and
+    its temporaries."""
+    if not len(segments):
+        return 0.0
+    dx = np.abs(segments[:, 2] - segments[:, 0])
+    dy = np.abs(segments[:, 3] - segments[:, 1])
+    pieces = np.maximum(np.ceil(np.hypot(dx, dy) / tile_m), 1.0)
+    r2 = 2.0 * np.broadcast_to(half_widths, (len(segments),))
+    boxes = pieces * ((dx / pieces + r2) / tile_m + 2.0) * ((dy / pieces + r2) / tile_m + 2.0)
+    return float(boxes.sum()) * (level + 1) * 16.0
+
+
+def _never_unknown(status: np.ndarray, pts: np.ndarray) -> None:
+    """A query answers every point: UNKNOWN left after its tiles were made is a bug (the
+    tiles made are not the ones the kernels read), never an answer."""
+    lost = np.flatnonzero(status == FlowStatus.UNKNOWN)
+    if len(lost):
+        raise RuntimeError(f"FlowField: {len(lost)} point(s) found no flow tile after their "
+                           f"tiles were made, first {pts[lost[0]].tolist()} (a tile-ownership "
+                           "bug; please report it)")
 
 
 class TileBuilder:

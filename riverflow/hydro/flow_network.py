@@ -95,6 +95,11 @@ class FlowNetwork:
         )
 
 
+MAX_PSI = 1e9
+"""Largest |ψ| [m²/s] of a bank: ψ differences are discharges per unit depth (the Amazon's is
+about 1e4 m²/s), and ψ is stored in float32 lattices."""
+
+
 def build_flow_network(graph: HydroGraph, search_radius_factor: float,
                        tolerance_m: float) -> FlowNetwork:
     """Prepare ``graph`` for the flow kernels.
@@ -112,6 +117,11 @@ def build_flow_network(graph: HydroGraph, search_radius_factor: float,
     for i, p in poly.items():
         if not np.all(np.isfinite(p)):
             raise GraphError(f"{name}: curve {i} has a non-finite coordinate")
+    for i, c in enumerate(graph.curves):
+        if c.is_bank and not abs(c.potential) <= MAX_PSI:   # NaN too
+            raise GraphError(f"{name}: curve {i} (a bank) has the potential {c.potential!r} "
+                             f"m²/s, beyond ±{MAX_PSI:g} (a discharge no river has; the "
+                             "float32 ψ lattices could not carry its velocities)")
 
     # connected river networks over the axes (union-find)
     parent = {a: a for a in axes}

@@ -21,14 +21,17 @@ Differences from Proland, all deliberate:
 from __future__ import annotations
 
 import math
+import mmap
 import os
 import re
 import struct
-from bisect import bisect_left
+import stat
+from collections import deque
 from pathlib import Path
 
 import numpy as np
 
+from riverflow._atomic import atomic_write_bytes
 from riverflow.hydro.graph import NO_CURVE, NO_POTENTIAL, Area, Curve, CurveType, GraphError, HydroGraph
 
 __all__ = ["load_graph", "save_graph"]
@@ -90,26 +93,167 @@ class _Reader:
             self.float(f"extra {what} value")
 
 
+_TOKEN_RE = re.compile(rb"\S+")
+_CHUNK = 1 << 18
+"""Bytes read at a time: a graph file is read streaming, never whole (issue #30)."""
+MAX_TOKEN_BYTES = 256
+"""Longest ASCII token read [bytes] (the longest number written is 24): a longer one is an
+error at its byte offset, not a string grown to the file's size."""
+
+
+class _TokenStream:
+    """The tokens (whitespace-separated runs) of a file from a byte offset on, read in chunks
+    of _CHUNK bytes: (start byte, token) pairs; a token over MAX_TOKEN_BYTES comes back cut
+    to MAX_TOKEN_BYTES + 1 bytes (the reader refuses it)."""
+
+    def __init__(self, f, start: int) -> None:
+        self.f = f
+        self.buf = b""
+        self.base = start          # file offset of buf[0]
+        self.at = start            # file offset of the next read
+        self.i = 0
+        self.eof = False
+
+    def next(self) -> tuple[int, bytes] | None:
+        while True:
+            m = _TOKEN_RE.search(self.buf, self.i)
+            if m is not None and (m.end() < len(self.buf) or self.eof):
+                self.i = m.end()
+                return self.base + m.start(), m.group()
+            if m is None and self.eof:
+                self.i = len(self.buf)
+                return None
+            keep = m.start() if m is not None else len(self.buf)
+            if len(self.buf) - keep > MAX_TOKEN_BYTES:       # a token without end in sight
+                self.i = len(self.buf)
+                return self.base + keep, self.buf[keep:keep + MAX_TOKEN_BYTES + 1]
+            self.f.seek(self.at)
+            chunk = self.f.read(_CHUNK)
+            self.at += len(chunk)
+            self.eof = not chunk
+            self.base += keep
+            self.buf = self.buf[keep:] + chunk
+            self.i = 0
+
+
+def _count_tokens(f, start: int, stop: int) -> int:
+    """Tokens with a byte in [start, stop) of the file (``start`` at a token's start or in
+    whitespace), counted chunk by chunk in bounded memory."""
+    n = 0
+    glued = False           # the previous chunk ended inside a token
+    at = start
+    while at < stop:
+        f.seek(at)
+        chunk = f.read(min(_CHUNK, stop - at))
+        if not chunk:
+            break
+        n += len(chunk.split()) - (1 if glued and chunk[:1] not in _WS_SET else 0)
+        glued = chunk[-1:] not in _WS_SET
+        at += len(chunk)
+    return n
+
+
+_WS_SET = frozenset(bytes([c]) for c in _WS)
+
+
 class _AsciiReader(_Reader):
-    def __init__(self, name: str, data: bytes) -> None:
+    """Tokens read streaming from an open file (bounded memory whatever the file's size):
+    ``pos`` is the index of the next token (the magic is token 0, not counted here); the
+    total number of tokens is counted, in a second streaming pass, only when a count must be
+    checked against what the rest of the file can hold."""
+
+    def __init__(self, name: str, f, size: int) -> None:
         super().__init__(name)
-        self.data = data
-        ms = list(re.finditer(rb"\S+", data[2:]))
-        self.starts = [m.start() + 2 for m in ms]
-        self.toks = [m.group() for m in ms]
-        self.pos = 0
-        self.end = self.limit = len(self.toks)
+        self.f = f
+        self.size = size
+        self._limit: int | None = None
+        self._total: int | None = None
+        self._done = False
+        self._start_at(2, 0, 0)
+
+    def _start_at(self, byte: int, index: int, last_end: int) -> None:
+        self.stream = _TokenStream(self.f, byte)
+        self.pos = index
+        self.last_end = last_end
+        self.recent: deque[tuple[int, int, int]] = deque(maxlen=64)   # (index, start, end)
+        self.peeked: tuple[int, bytes] | None | bool = False
+
+    def _peek(self) -> tuple[int, bytes] | None:
+        if self.peeked is False:
+            self.peeked = self.stream.next()
+            if self.peeked is None and self._total is None:
+                self._total = self.pos
+        return self.peeked
+
+    # -- the cursor the parser sees --------------------------------------------------------
+
+    @property
+    def end(self) -> int:
+        if self._total is None:
+            nxt = self._peek()
+            self._total = self.pos if nxt is None else (
+                self.pos + _count_tokens(self.f, nxt[0], self.size))
+        return self._total
+
+    @property
+    def limit(self) -> int:
+        return self.end if self._limit is None else self._limit
+
+    @limit.setter
+    def limit(self, value: int | None) -> None:
+        self._limit = value
+
+    def more(self) -> bool:
+        if self._done:
+            return False
+        if self._limit is not None:
+            return self.pos < self._limit
+        return self._peek() is not None
+
+    def finish(self) -> None:
+        self._done = True
+
+    def save(self) -> tuple[int, int, int]:
+        nxt = self._peek()
+        return (self.pos, self.size if nxt is None else nxt[0], self.last_end)
+
+    def restore(self, state: tuple[int, int, int]) -> None:
+        index, byte, last_end = state
+        self._start_at(byte, index, last_end)
+
+    def _start_of(self, at: int) -> tuple[int, int]:
+        """(start, end) bytes of token ``at`` ((size, size) past the last token)."""
+        if at == self.pos:
+            nxt = self._peek()
+            return (self.size, self.size) if nxt is None else (nxt[0], nxt[0] + len(nxt[1]))
+        for index, start, stop in self.recent:
+            if index == at:
+                return start, stop
+        stream = _TokenStream(self.f, 2)              # an old token: an error's rare path
+        for _ in range(at + 1):
+            tok = stream.next()
+            if tok is None:
+                return self.size, self.size
+        return tok[0], tok[0] + len(tok[1])
 
     def where(self, at: int) -> str:
-        off = self.starts[at] if at < len(self.starts) else len(self.data)
-        return f"byte {off} (token {at + 1})"
+        return f"byte {self._start_of(at)[0]} (token {at + 1})"
 
     def _next(self, what: str) -> bytes:
-        if self.pos >= self.limit:
-            got = "end of file" if self.limit == self.end else "the start of the index"
-            raise self.fail(what, got)
+        if self._limit is not None and self.pos >= self._limit:
+            raise self.fail(what, "the start of the index")
+        nxt = self._peek()
+        if nxt is None:
+            raise self.fail(what, "end of file")
+        start, tok = nxt
+        if len(tok) > MAX_TOKEN_BYTES:
+            raise self.fail(f"{what} (a token of at most {MAX_TOKEN_BYTES} bytes)",
+                            f"{_show(tok)} (longer)")
+        self.recent.append((self.pos, start, start + len(tok)))
+        self.last_end = start + len(tok)
+        self.peeked = False
         self.pos += 1
-        return self.toks[self.pos - 1]
+        return tok
 
     def _int(self, what: str, size: int) -> int:
         tok = self._next(what)
@@ -129,30 +273,50 @@ class _AsciiReader(_Reader):
         return v
 
     def tell(self) -> int:
-        return self.starts[self.pos] if self.pos < len(self.starts) else len(self.data)
+        nxt = self._peek()
+        return self.size if nxt is None else nxt[0]
+
+    def _byte(self, offset: int) -> bytes:
+        if not 0 <= offset < self.size:
+            return b" "
+        self.f.seek(offset)
+        return self.f.read(1) or b" "
 
     def seek(self, offset: int) -> None:
         """Go to byte ``offset``: the first token at or after it (C++ ``seekg`` + ``>>``)."""
-        i = bisect_left(self.starts, offset)
-        if i > 0 and self.starts[i - 1] + len(self.toks[i - 1]) > offset:
-            raise GraphError(f"{self.name}: {self.where(i - 1)}: expected the index offset "
+        before = _count_tokens(self.f, 2, max(offset, 2))
+        if offset > 2 and self._byte(offset - 1) not in _WS_SET \
+                and self._byte(offset) not in _WS_SET:
+            raise GraphError(f"{self.name}: {self.where(before - 1)}: expected the index offset "
                              f"{offset} to point at the start of a token, not inside one")
-        self.pos = i
+        self._start_at(max(offset, 2), before, offset)
 
     def is_at(self, offset: int) -> bool:
-        i = bisect_left(self.starts, offset)
-        return i == self.pos and (i == 0 or self.starts[i - 1] + len(self.toks[i - 1]) <= offset)
+        nxt = self._peek()
+        return self.last_end <= offset <= (math.inf if nxt is None else nxt[0])
 
 
 class _BinaryReader(_Reader):
     int_size = float_size = 4
     long_size = 8
 
-    def __init__(self, name: str, data: bytes) -> None:
+    def __init__(self, name: str, data) -> None:
         super().__init__(name)
-        self.data = data
+        self.data = data           # bytes or a read-only mmap of the file
         self.pos = 4
-        self.end = self.limit = len(data)
+        self.size = self.end = self.limit = len(data)
+
+    def more(self) -> bool:
+        return self.pos < self.limit
+
+    def finish(self) -> None:
+        self.pos = self.limit = self.end
+
+    def save(self) -> int:
+        return self.pos
+
+    def restore(self, state: int) -> None:
+        self.pos = state
 
     def where(self, at: int) -> str:
         return f"byte {at}"
@@ -204,24 +368,56 @@ def load_graph(path: str | os.PathLike) -> HydroGraph:
         GraphError: malformed content (message: file, byte/token offset, what was expected).
         OSError: the file cannot be opened or read.
     """
+    if not isinstance(path, (str, os.PathLike)):
+        raise TypeError(f"load_graph: path must be a file name, got {type(path).__name__}")
     name = str(path)
-    data = Path(path).read_bytes()
-    if not data:
-        raise GraphError(f"{name}: byte 0: expected a graph file, got an empty file")
-    magic = struct.unpack_from("<i", data)[0] if len(data) >= 4 else None
-    if magic in (0, 1):
-        r: _Reader = _BinaryReader(name, data)
-    elif data[:1] in (b"0", b"1") and len(data) >= 2 and data[1] in _WS:
-        r = _AsciiReader(name, data)
-        magic = int(data[:1])
-    else:
-        raise GraphError(f"{name}: byte 0: expected the magic number 0 or 1 (int32 or ASCII digit "
-                         f"plus one whitespace), got {_show(data[:4])}")
-    graph = _read_indexed(r) if magic == 1 else _read_graph(r, 0)
-    if r.pos < r.end:
-        raise r.fail("end of file", "more data (trailing garbage)")
+    with _open_regular(path, name) as f:
+        size = os.fstat(f.fileno()).st_size
+        head = f.read(4)
+        if not head:
+            raise GraphError(f"{name}: byte 0: expected a graph file, got an empty file")
+        magic = struct.unpack_from("<i", head)[0] if len(head) >= 4 else None
+        data = None
+        if magic in (0, 1):
+            data = mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ)  # paged in as read
+            r: _Reader = _BinaryReader(name, data)
+        elif head[:1] in (b"0", b"1") and len(head) >= 2 and head[1] in _WS:
+            r = _AsciiReader(name, f, size)
+            magic = int(head[:1])
+        else:
+            raise GraphError(f"{name}: byte 0: expected the magic number 0 or 1 (int32 or ASCII "
+                             f"digit plus one whitespace), got {_show(head)}")
+        try:
+            graph = _read_indexed(r) if magic == 1 else _read_graph(r, 0)
+            if r.more():
+                raise r.fail("end of file", "more data (trailing garbage)")
+        finally:
+            if data is not None:
+                data.close()
     graph.source = name
     return graph
+
+
+_KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO (named pipe)"),
+          (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+          (stat.S_ISSOCK, "a socket"))
+
+
+def _open_regular(path, name: str):
+    """The file opened for reading, or GraphError at once when it is not a regular file (a
+    FIFO would block, /dev/zero never end): opened without blocking, then checked."""
+    fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+    try:
+        mode = os.fstat(fd).st_mode
+        if not stat.S_ISREG(mode):
+            kind = next((k for test, k in _KINDS if test(mode)), "not a regular file")
+            raise GraphError(f"{name}: byte 0: expected a regular graph file, got {kind}")
+        if hasattr(os, "set_blocking"):
+            os.set_blocking(fd, True)
+        return os.fdopen(fd, "rb", buffering=0)
+    except BaseException:
+        os.close(fd)
+        raise
 
 
 def _read_params(r: _Reader) -> tuple[int, ...]:
@@ -231,8 +427,8 @@ def _read_params(r: _Reader) -> tuple[int, ...]:
 def _read_indexed(r: _Reader) -> HydroGraph:
     """Indexed layout (§1.5): params, indexOffset, bodies without counts, subgraphs, index."""
     params = _read_params(r)
-    index_at = r.long("index offset", r.tell() + 1, len(r.data))
-    body = r.pos
+    index_at = r.long("index offset", r.tell() + 1, r.size)
+    body = r.save()
     r.seek(index_at)
     index_pos = r.pos
     counts = [r.count(f"{k} count in the index", r.long_size // r.int_size)
@@ -244,13 +440,14 @@ def _read_indexed(r: _Reader) -> HydroGraph:
         if a in sub_offsets:
             raise r.fail("each area index once in the subgraph index", f"area {a} twice", r.last)
         sub_offsets[a] = r.long("subgraph offset", 0, index_at)
-    if r.remaining():
+    if r.more():
         raise r.fail("end of file after the index", "more data (trailing garbage)")
-    r.pos, r.limit = body, index_pos
+    r.restore(body)
+    r.limit = index_pos
     g = _read_graph(r, 0, params=params, counts=counts, offsets=offsets, sub_offsets=sub_offsets)
-    if r.remaining():
+    if r.more():
         raise r.fail(f"the index at byte {index_at}", "more data before it")
-    r.pos = r.limit = r.end
+    r.finish()
     return g
 
 
@@ -371,6 +568,10 @@ def save_graph(graph: HydroGraph, path: str | os.PathLike, *, binary: bool = Fal
         GraphError: the graph cannot be written so that it loads back (bad index, NaN, a bank
             without a potential, a value that does not fit int32/float32, ...).
     """
+    if not isinstance(graph, HydroGraph):
+        raise TypeError(f"save_graph: graph must be a HydroGraph, got {type(graph).__name__}")
+    if not isinstance(path, (str, os.PathLike)):
+        raise TypeError(f"save_graph: path must be a file name, got {type(path).__name__}")
     _check_savable(graph, "graph")
     w = _Writer(binary)
     w.row("i", 1 if indexed else 0, newline=False)
@@ -378,7 +579,7 @@ def save_graph(graph: HydroGraph, path: str | os.PathLike, *, binary: bool = Fal
         _write_indexed(graph, w)
     else:
         _write_graph(graph, w)
-    Path(path).write_bytes(b"".join(w.parts))
+    atomic_write_bytes(path, b"".join(w.parts))   # complete or not at all
 
 
 class _Writer:

@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from riverflow._atomic import atomic_files, require_suffix
 from riverflow.components.status import FlowStatus
 from riverflow.hydro.graph import CurveType, HydroGraph
 
@@ -51,10 +52,12 @@ def plot_flow(graph_or_scene: Any, out_png: str | Path, *, field: Any = None,
 
     Raises:
         ImportError: matplotlib is not installed (``pip install riverflow[plot]``).
-        ValueError: an unknown ``style`` or a ``size_px`` below 200.
+        ValueError: an unknown ``style``, a ``size_px`` below 200 or a file name not ending
+            in .png, .svg or .pdf (the extension decides the format).
     """
     if style not in ("streamlines", "arrows"):
         raise ValueError(f"style must be 'streamlines' or 'arrows', got {style!r}")
+    require_suffix(out_png, (".png", ".svg", ".pdf"), "a flow picture")
     if size_px < 200:
         raise ValueError(f"size_px must be at least 200, got {size_px}")
     mpl, Figure, FigureCanvasAgg = _import_matplotlib()
@@ -137,8 +140,8 @@ def plot_flow(graph_or_scene: Any, out_png: str | Path, *, field: Any = None,
     _place_labels(fig, ax, labels)
 
     out = Path(out_png)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=100)
+    with atomic_files(out) as (temp,):       # complete or not at all; the extension decides
+        fig.savefig(temp, dpi=100)
     return out
 
 

@@ -68,7 +68,11 @@ def validate_graph(graph: HydroGraph, *, tolerance_m: float = 0.5) -> list[Valid
     Returns:
         All issues found, in curve order per check; empty for a valid network.
     """
-    v = _Validator(graph, float(tolerance_m))
+    from riverflow._validate import finite_positive
+
+    if not isinstance(graph, HydroGraph):
+        raise TypeError(f"validate_graph: graph must be a HydroGraph, got {type(graph).__name__}")
+    v = _Validator(graph, finite_positive(tolerance_m, "validate_graph: tolerance_m"))
     issues = v.run()
     for a, area in enumerate(graph.areas):
         if area.subgraph is not None:

@@ -36,7 +36,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from riverflow.kernels._jit import JIT_OPTIONS, WORKER_JIT_OPTIONS, is_finite
+from riverflow.kernels._jit import (EXACT_JIT_OPTIONS, JIT_OPTIONS, WORKER_JIT_OPTIONS,
+                                   is_finite)
 from riverflow.kernels.tile_table import table_find, tile_code
 
 KIND_AXIS = 0
@@ -613,6 +614,31 @@ class Segments(NamedTuple):
     by: np.ndarray
 
 
+@njit(**EXACT_JIT_OPTIONS)
+def root_unit(p, root, root_size):
+    """The coordinate ``(p − root) / root_size`` of p in the quadtree's root square: the one
+    place tile ownership is computed from, by every query kernel and by
+    ``FlowField.tile_of`` (its numpy twin, which must round the same way).
+
+    Compiled without fast-math (an IEEE division, not a multiplication by a hoisted
+    reciprocal, which rounds differently for a root side that is not a power of two), so that
+    the tile the kernels look for is bitwise the tile Python makes for that point.
+
+    The ownership rule (half-open): p is in the domain iff 0 ≤ u ≤ 1; at level l it belongs to
+    tile ``tile_index(u, 2**l)`` = ⌊u·2^l⌋, except that u = 1 (the domain's far edge) belongs
+    to the last tile. A point on an edge between tiles belongs to the tile above/right of it.
+    Since u·2^l is exact, the tile of a level is its child's index >> 1 (level fallback agrees).
+    """
+    return (p - root) / root_size
+
+
+@njit(inline="always", **JIT_OPTIONS)
+def tile_index(u, nt):
+    """The tile (0 … nt − 1) of root coordinate u ∈ [0, 1] at a level with ``nt`` tiles per
+    side (:func:`root_unit`: half-open, the far edge closed)."""
+    return min(int(u * nt), nt - 1)
+
+
 @njit(inline="always", **JIT_OPTIONS)
 def _locate(px, py, tiles, level, fallback):
     """(slot, level, cell i, cell j, fx, fy) of p: the cached tile of ``level`` under p, or of
@@ -621,8 +647,8 @@ def _locate(px, py, tiles, level, fallback):
     slot = SLOT_OUTSIDE_DOMAIN outside the domain, SLOT_MISSING when no such tile is cached,
     SLOT_DRY when the tile (at any level tried) is known to hold no river.
     """
-    u0 = (px - tiles.root_x) / tiles.root_size
-    v0 = (py - tiles.root_y) / tiles.root_size
+    u0 = root_unit(px, tiles.root_x, tiles.root_size)
+    v0 = root_unit(py, tiles.root_y, tiles.root_size)
     if not (u0 >= 0.0 and v0 >= 0.0 and u0 <= 1.0 and v0 <= 1.0):
         return -2, level, 0, 0, 0.0, 0.0
     n_cells = tiles.n_cells
@@ -631,8 +657,8 @@ def _locate(px, py, tiles, level, fallback):
         nt = 1 << lv
         u = u0 * nt
         v = v0 * nt
-        tx = min(int(u), nt - 1)
-        ty = min(int(v), nt - 1)
+        tx = tile_index(u0, nt)
+        ty = tile_index(v0, nt)
         code = tile_code(lv, tx, ty)
         slot = table_find(tiles.keys, tiles.values, code)
         if slot >= 0:
@@ -727,19 +753,17 @@ def query_velocity(xy, levels, level, fallback, tiles, tick, segs, n_velocity, o
         out_velocity[k, 1] = 0.0
         want = level if level >= 0 else np.int64(levels[k])
         # consecutive points mostly share a tile: skip the table when this one is the last one
-        u0 = (px - tiles.root_x) * inv_root
-        v0 = (py - tiles.root_y) * inv_root
+        u0 = root_unit(px, tiles.root_x, tiles.root_size)   # as _locate: the same tile
+        v0 = root_unit(py, tiles.root_y, tiles.root_size)
         code = np.int64(-2)
         if u0 >= 0.0 and v0 >= 0.0 and u0 <= 1.0 and v0 <= 1.0:
             nt = 1 << want
-            code = tile_code(want, min(int(u0 * nt), nt - 1), min(int(v0 * nt), nt - 1))
+            code = tile_code(want, tile_index(u0, nt), tile_index(v0, nt))
         if code == memo_code and code >= 0:
             slot, lv = memo
             nt = 1 << lv
-            u = u0 * nt
-            v = v0 * nt
-            fu = (u - min(int(u), nt - 1)) * tiles.n_cells
-            fv = (v - min(int(v), nt - 1)) * tiles.n_cells
+            fu = (u0 * nt - tile_index(u0, nt)) * tiles.n_cells
+            fv = (v0 * nt - tile_index(v0, nt)) * tiles.n_cells
             ci = min(int(fu), tiles.n_cells - 1)
             cj = min(int(fv), tiles.n_cells - 1)
             fx = fu - ci

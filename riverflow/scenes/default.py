@@ -21,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
+from riverflow._validate import check_allocation, finite
 from riverflow.hydro.builder import RiverNetworkBuilder
 from riverflow.scenes.carving import Carving
 from riverflow.scenes.landscape import (DEFAULT_CELL_M, CarvedTerrain, Landscape, water_surface,
@@ -90,9 +91,12 @@ class DefaultGround(HeightSource):
 def default_scene(seed: int = 0, size_km: float = 4.0) -> Landscape:
     """The built-in scene for ``seed`` on a ``size_km`` square (deterministic; the 4 km one in
     about a second, larger ones in seconds: only the network is made up front)."""
+    size_km = finite(size_km, "default_scene: size_km")
     size_m = DEFAULT_SIZE_M if abs(size_km - 4.0) < 1e-9 else 1000.0 * float(size_km)
     if not size_m >= 500.0:
         raise ValueError(f"default_scene: size_km must be at least 0.5, got {size_km!r}")
+    # the network grows with the side: about 0.6 MB a km measured (30 km, 300 km), + 250 MB
+    check_allocation(250e6 + 0.6e6 * size_km, f"default_scene: size_km={size_km!r}")
     rng = np.random.default_rng(seed)
     branches, islands = layout(rng, size_m)
     builder = RiverNetworkBuilder(tolerance_m=0.25)

@@ -28,6 +28,7 @@ import numpy as np
 import shapely
 from scipy.spatial import cKDTree
 
+from riverflow._validate import check_allocation, finite_positive
 from riverflow.hydro.areas import water_polygon
 from riverflow.hydro.graph import GraphError, HydroGraph
 from riverflow.hydro.nearest import PolylineIndex
@@ -229,9 +230,17 @@ def landscape(graph: HydroGraph, terrain=None, *, seed: int = 0, cell_m: float |
     Raises:
         GraphError: the graph has no river axis, or its water cannot be made.
     """
+    if not isinstance(graph, HydroGraph):
+        raise TypeError(f"landscape: graph must be a HydroGraph, got {type(graph).__name__}")
     axes = graph.axes()
     if not axes:
         raise GraphError(f"{graph.source or 'graph'}: no river axis to make a landscape around")
+    if cell_m is not None:
+        cell_m = finite_positive(cell_m, "landscape: cell_m")
+        length = sum(float(np.hypot(*np.diff(graph.polyline(a), axis=0).T).sum()) for a in axes)
+        # the carving profiles and water lines are sampled per cell along every axis
+        check_allocation(64.0 * length / cell_m, f"landscape: cell_m={cell_m!r} along "
+                         f"{length:,.0f} m of rivers")
     polygon = water_polygon(graph)
     if polygon.is_empty:
         raise GraphError(f"{graph.source or 'graph'}: its areas hold no water")

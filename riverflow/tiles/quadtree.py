@@ -80,7 +80,8 @@ class Quadtree:
         fixed limit: deep enough for any river, up to the codes' MAX_LEVEL)."""
         if not cell_m > 0.0:
             raise ValueError(f"cell_m must be positive, got {cell_m!r}")
-        level = max(0, math.ceil(math.log2(self.root_size_m / (n * cell_m)) - 1e-12))
+        ratio = math.log2(self.root_size_m / (n * cell_m)) if n * cell_m > 0.0 else math.inf
+        level = max(0, math.ceil(ratio - 1e-12)) if math.isfinite(ratio) else MAX_LEVEL + 1
         if level > MAX_LEVEL:
             raise ValueError(f"a {cell_m:g} m cell in a {self.root_size_m:g} m root square needs "
                              f"quadtree level {level}, deeper than {MAX_LEVEL}")
