@@ -24,6 +24,14 @@ border, as deep as the largest such gap along it (:func:`tile_skirt_m`). This is
 skirt trick of tiled terrain renderers (Proland's own terrain blends levels in the vertex
 shader instead; its rivers need no mesh, reference §4.1).
 
+A skirt fills the crack but shows as a thin wall where the finer border bends below the
+coarser one (seen from the side, a zig-zag fence on the grass). So the drawn tiles' borders
+are also *stitched* (:func:`coarser_neighbours`, :func:`stitch_tile`): along an edge whose
+neighbour is coarser, the finer tile's border vertices are moved onto the coarser one's
+border as drawn (linear between its nodes; normal, water level and shore distance with
+them), at any level difference, so the two share their edge exactly and the skirts only
+cover the rasteriser's pinholes where edges meet in T-junctions.
+
 **Water** (:func:`triangulate_water`, :class:`WaterMesh`). A tile's water mesh triangulates
 the tile's piece of the water polygon. Tessellating a wide water polygon in one piece gives
 long thin triangles whose corners sample very different terrain altitudes, the artifact
@@ -36,6 +44,7 @@ Orientation everywhere: x east, y north, z up; triangles are counter-clockwise s
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -144,6 +153,84 @@ def _lod_gap(edges: np.ndarray, n: int) -> np.ndarray:
         interp = edges[..., a * s] * (1 - t) + edges[..., a * s + s] * t
         lo, hi = np.minimum(lo, interp), np.maximum(hi, interp)
     return (hi - lo).max(axis=-1)
+
+
+EDGE_OFFSETS = ((0, -1), (1, 0), (0, 1), (-1, 0))
+"""The neighbour across each edge of a tile, as (dx, dy) tiles: south (j = 0), east (i = n),
+north (j = n), west (i = 0)."""
+
+
+def coarser_neighbours(keys: np.ndarray) -> np.ndarray:
+    """For each of the drawn tiles ``keys`` (K, 3) (level, tx, ty) — a set of quadtree tiles
+    none of which contains another — the row of the tile across each edge
+    (:data:`EDGE_OFFSETS`) when that tile is coarser, (K, 4) int64; −1 where the neighbour is
+    as fine or finer, or none is drawn there. A tile coarser than ``T`` across an edge covers
+    the whole edge, so one tile answers."""
+    rows = {k: r for r, k in enumerate(map(tuple, np.asarray(keys, np.int64).tolist()))}
+    out = np.full((len(rows), 4), -1, np.int64)
+    for (level, tx, ty), r in rows.items():
+        side = 1 << level
+        for e, (dx, dy) in enumerate(EDGE_OFFSETS):
+            x, y = tx + dx, ty + dy
+            if not (0 <= x < side and 0 <= y < side):
+                continue
+            for up in range(1, level + 1):
+                found = rows.get((level - up, x >> up, y >> up))
+                if found is not None:
+                    out[r, e] = found
+                    break
+    return out
+
+
+def _edge_nodes(e: int, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """(i, j) of the nodes of edge ``e`` of an n-cell tile, along it (x or y growing)."""
+    k = np.arange(n + 1)
+    fixed = np.full(n + 1, 0 if e in (0, 3) else n)
+    return (k, fixed) if e in (0, 2) else (fixed, k)
+
+
+def stitch_tile(vertices: np.ndarray, key, skirt_m: float,
+                neighbours: list[tuple[int, tuple[int, int, int], np.ndarray]]) -> np.ndarray:
+    """A copy of a terrain tile's ``vertices`` (V, 8) (:func:`tile_terrain_mesh`'s layout) of
+    tile ``key`` whose border follows its coarser neighbours: for each (edge, neighbour key,
+    neighbour's vertices as drawn) the edge's nodes take the neighbour's border linearly
+    interpolated between its nodes (exact fractions of its cells: 2^-k steps): height, normal
+    (renormalised), water level seen and shore distance; a corner only its height (a corner
+    is shared with a third tile: its own normal and shading stay). The skirt vertices follow
+    their border vertex, ``skirt_m`` lower."""
+    v = np.array(vertices, np.float32, copy=True)
+    n = math.isqrt(len(v) + 8) - 3                # V = (n + 1)² + 4n = (n + 3)² − 8
+    if (n + 3) ** 2 - 8 != len(v):
+        raise ValueError(f"{len(v)} vertices are not a terrain tile's (n + 1)² + 4n")
+    side = n + 1
+    grid = v[:side * side].reshape(side, side, 8)
+    level, tx, ty = (int(c) for c in key)
+    for e, (nl, nx, ny), nv in neighbours:
+        k = level - int(nl)
+        if k <= 0:
+            continue
+        ngrid = np.asarray(nv, np.float32)[:side * side].reshape(side, side, 8)
+        i, j = _edge_nodes(e, n)
+        along = np.arange(n + 1, dtype=np.int64) + (tx if e in (0, 2) else ty) * n
+        g = along >> k                                  # the coarse node at or before
+        t = ((along - (g << k)) / float(1 << k))[:, None]
+        local = g - (nx if e in (0, 2) else ny) * n
+        nxt = np.minimum(local + 1, n)
+        ni, nj = _edge_nodes((e + 2) % 4, n)          # the neighbour's facing edge
+        a = ngrid[nj[local], ni[local], 2:].astype(np.float64)
+        b = ngrid[nj[nxt], ni[nxt], 2:].astype(np.float64)
+        value = a * (1.0 - t) + b * t
+        normal = value[:, 1:4]
+        value[:, 1:4] = normal / np.linalg.norm(normal, axis=1, keepdims=True)
+        inner = slice(1, n)
+        grid[j[inner], i[inner], 2:] = value[inner]
+        grid[j[[0, n]], i[[0, n]], 2] = value[[0, n], 0]
+    bi, bj = border_loop(n)
+    skirt = v[side * side:]
+    skirt[:, 2:] = grid[bj, bi, 2:]
+    skirt[:, 2] -= np.float32(skirt_m)
+    skirt[:, 6] -= np.float32(skirt_m)
+    return v
 
 
 def tile_indices(n: int, stride: int = 1) -> np.ndarray:

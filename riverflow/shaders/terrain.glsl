@@ -41,6 +41,7 @@ in vec3 v_normal;
 in float v_level;
 in float v_shore;
 out vec4 frag;
+uniform bool u_debug_materials;  // tests: (rock, drawn slope / 90°, bed, 0.5) for the colour
 
 // -- detail -------------------------------------------------------------------------------
 
@@ -188,5 +189,9 @@ void main() {
     vec3 h = normalize(normalize(to_eye) + u_sun_dir);
     colour += SUN_COLOUR * (wet * (1.0 - under) * 0.35) * pow(max(dot(n, h), 0.0), 40.0);
     frag = vec4(apply_fog(colour, v_world), 1.0);
+    if (u_debug_materials) {   // uniform: derivatives stay defined
+        vec3 facet = normalize(cross(dFdx(v_world), dFdy(v_world)));
+        frag = vec4(rock, acos(clamp(abs(facet.z), 0.0, 1.0)) / 1.5707963, under, 0.5);
+    }
 }
 #endif
