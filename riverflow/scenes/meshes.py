@@ -81,8 +81,8 @@ def border_loop(n: int) -> tuple[np.ndarray, np.ndarray]:
 @dataclass(eq=False)
 class TerrainTileMesh:
     """One streamed terrain tile as drawn: ``vertices`` (V, 8) float32 (x, y, z [m], unit
-    normal, the water level seen from there [m], the distance to the shore [m], negative in
-    the water) in the layout of the module docstring (grid samples, then the skirt),
+    normal, the water level seen from there [m], the distance to the shore in units of that
+    river's size (metres divided by :func:`river_scale`), negative in the water) in the layout of the module docstring (grid samples, then the skirt),
     ``skirt_m`` [m], ``bounds_m`` (2, 3) float32 (min, max corner, skirt included)."""
 
     vertices: np.ndarray
@@ -96,12 +96,14 @@ class TerrainTileMesh:
 
 def tile_terrain_mesh(z_ring: np.ndarray, x0_m: float, y0_m: float, cell_m: float,
                       level_m: np.ndarray, dip_m: float = 0.0,
-                      shore_m: np.ndarray | None = None) -> TerrainTileMesh:
+                      shore_m: np.ndarray | None = None,
+                      scale: np.ndarray | None = None) -> TerrainTileMesh:
     """The mesh of one n-cell terrain tile from its heights with a one-node ring
     ``z_ring`` (n + 3, n + 3) [m] (row = y; the ring gives central-difference normals that
     agree with the neighbours'), its corner and node spacing [m], ``level_m`` (n + 1, n + 1)
     the water level seen from each node and ``shore_m`` (n + 1, n + 1) each node's distance to
-    the shore [m], negative in the water (None: far from every shore, 200 m). The skirt hangs
+    the shore [m], negative in the water (None: far from every shore, 200 m), divided by
+    ``scale`` (n + 1, n + 1) the :func:`river_scale` of that river (None: 1). The skirt hangs
     as deep as the largest crack any coarser neighbour can leave along its border
     (:func:`tile_skirt_m`), and at least ``dip_m``: how far a finer neighbour's border dips
     below this one between its nodes (:func:`riverflow.scenes.tile_kinds.border_dip_m`)."""
@@ -126,9 +128,25 @@ def tile_terrain_mesh(z_ring: np.ndarray, x0_m: float, y0_m: float, cell_m: floa
     out[:, 6] = np.asarray(level_m)[vj, vi]
     out[side * side:, 6] -= skirt         # a skirt is shaded as its top: as high above the water
     out[:, 7] = 200.0 if shore_m is None else np.asarray(shore_m)[vj, vi]
+    if scale is not None:
+        out[:, 7] /= np.asarray(scale, np.float32)[vj, vi]
     bounds = np.array([[x0_m, y0_m, min(inner.min(), inner[bj, bi].min() - skirt)],
                        [x0_m + n * cell_m, y0_m + n * cell_m, inner.max()]], np.float32)
     return TerrainTileMesh(out, float(skirt), bounds)
+
+
+FULL_SCALE_WIDTH_M = 8.0
+"""Rivers at least this wide [m] have banks, sand and wet ground of full size (the terrain
+shader's metres); narrower ones a fraction: :func:`river_scale`."""
+
+
+def river_scale(width_m) -> np.ndarray:
+    """The size of a river's shore features relative to a wide river's, (N,) float32:
+    width / FULL_SCALE_WIDTH_M, between 0.05 and 1 (a 2 m creek: 0.25, so its sand strip is
+    at most a quarter of a wide river's, 2.4 m). The terrain's shore distances are stored in
+    these units, so the shader's sand widths scale with the river."""
+    return np.clip(np.asarray(width_m, np.float64) / FULL_SCALE_WIDTH_M, 0.05, 1.0
+                   ).astype(np.float32)
 
 
 def tile_skirt_m(heights: np.ndarray, cell_m: float) -> float:

@@ -20,7 +20,9 @@
 layout(location = 0) in vec3 a_position;   // [m]
 layout(location = 1) in vec3 a_normal;
 layout(location = 2) in float a_level;     // water level seen from here [m] (-1e4: none near)
-layout(location = 3) in float a_shore;     // distance to the shore [m], < 0 in the water
+layout(location = 3) in float a_shore;     // distance to the shore [m], < 0 in the water, in
+                                           // units of the river's size (scenes/meshes.py
+                                           // river_scale: metres by rivers 8 m wide or more)
 out vec3 v_world;
 out vec3 v_normal;
 out float v_level;
@@ -154,7 +156,8 @@ void main() {
     }
 
     // the shore: sand from the water up to a width that wanders along it, from a strip to a
-    // beach of several metres (its edge broken by the grass), wet just above the water
+    // beach of several metres (its edge broken by the grass; in the river's units: a creek's
+    // beach is of its own size), wet just above the water
     float width = mix(0.5, 7.0, smoothstep(0.3, 0.7, patches)) + (detail - 0.5) * 2.5;
     float beach = (1.0 - smoothstep(width, width + 1.5, shore))
                   * (1.0 - smoothstep(1.2, 2.0, above + 0.5 * (detail - 0.5)));

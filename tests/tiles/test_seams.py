@@ -240,14 +240,15 @@ def test_mesh_vertices_are_the_tiles_heights_and_levels(made):
     """A terrain mesh is made of its height and water tiles, not of anything else: its grid
     z is the height tile's inside, its level the water tile's level seen, its normals the
     central differences over the ring (float64 from float32), its x, y the node
-    coordinates."""
+    coordinates, its shore distance the water tile's in units of the river's size."""
     n = made.n
     for a, _ in made.pairs(made.max_level, 0)[:4] + made.pairs(made.max_level - 1, 1)[:2]:
         v = made.grid_vertices(a)
         z = made.heights(a).astype(np.float64)
         assert np.array_equal(_bits(v[..., 2]), _bits(z[1:-1, 1:-1]))
         assert np.array_equal(_bits(v[..., 6]), _bits(made.get(WATER, a)["level_seen"]))
-        assert np.array_equal(_bits(v[..., 7]), _bits(made.get(WATER, a)["shore"]))
+        water = made.get(WATER, a)
+        assert np.array_equal(_bits(v[..., 7]), _bits(water["shore"] / water["scale"]))
         cell = made.quadtree.cell_m(a[0], n)
         dzdx = (z[1:-1, 2:] - z[1:-1, :-2]) / (2.0 * cell)
         dzdy = (z[2:, 1:-1] - z[:-2, 1:-1]) / (2.0 * cell)
