@@ -251,13 +251,14 @@ def stitch_tile(vertices: np.ndarray, key, skirt_m: float,
     return v
 
 
-def tile_indices(n: int, stride: int = 1) -> np.ndarray:
+def tile_indices(n: int, stride: int = 1, skirts: bool = True) -> np.ndarray:
     """Triangle indices (K, 3) uint32 of an n-cell tile, the same for every tile (one index
     buffer serves them all): first the 2n² grid triangles (two per cell, the diagonal from
-    (i, j) to (i + 1, j + 1)), counter-clockwise seen from +z, then the 8n skirt triangles
-    (two per border segment), facing outward. ``stride`` > 1 (dividing n) uses every
-    stride-th node only, a coarser mesh of the same vertices (stride² fewer triangles; the
-    reflection pass draws it)."""
+    (i, j) to (i + 1, j + 1)), counter-clockwise seen from +z, then (``skirts``) the 8n skirt
+    triangles (two per border segment), facing outward. ``stride`` > 1 (dividing n) uses
+    every stride-th node only, a coarser mesh of the same vertices (stride² fewer triangles;
+    the reflection pass draws it, without skirts: seen from under the mirror they would hang
+    in front of the ground as blocks)."""
     side = n + 1
     if stride < 1 or n % stride:
         raise ValueError(f"stride {stride} must divide the tile's {n} cells")
@@ -266,6 +267,8 @@ def tile_indices(n: int, stride: int = 1) -> np.ndarray:
     a = (jj * side + ii).ravel()  # (i, j)
     b, c, d = a + stride, a + stride * (side + 1), a + stride * side  # the cell's corners
     grid = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
+    if not skirts:
+        return grid.astype(np.uint32)
     bi, bj = border_loop(n)
     k0 = np.arange(0, 4 * n, stride)
     k1 = (k0 + stride) % (4 * n)

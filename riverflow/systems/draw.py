@@ -341,18 +341,23 @@ class _PoolSync:
 class _TerrainTiles(_PoolSync):
     """The terrain tiles on the GPU: each in a slot of one :class:`~riverflow.engine.gl.SlotArena`
     (``arena_slot`` by pool slot), its centre kept for the near-to-far order. The index buffer
-    holds every tile's triangles (:func:`~riverflow.scenes.meshes.tile_indices`) twice: the
-    full mesh, then the reflection's coarser one (every TERRAIN_STRIDE-th node)."""
+    holds every tile's triangles (:func:`~riverflow.scenes.meshes.tile_indices`) three times:
+    the full mesh, the reflection's coarser one (every TERRAIN_STRIDE-th node, no skirts:
+    mirrored, a skirt hangs in front of the ground), and every node without skirts (the
+    tests' reference reflection, :attr:`DrawRivers.debug_exact_reflection`)."""
 
     def __init__(self, cells: int) -> None:
         super().__init__()
         full = tile_indices(cells).ravel()
-        coarse = tile_indices(cells, TERRAIN_STRIDE if cells % TERRAIN_STRIDE == 0 else 1)
-        self.ranges = {"full": (len(full), 0), "coarse": (coarse.size, len(full))}
+        stride = TERRAIN_STRIDE if cells % TERRAIN_STRIDE == 0 else 1
+        coarse = tile_indices(cells, stride, skirts=False).ravel()
+        exact = tile_indices(cells, skirts=False).ravel()
+        self.ranges = {"full": (len(full), 0), "coarse": (len(coarse), len(full)),
+                       "exact": (len(exact), len(full) + len(coarse))}
         """(count, first) of each mesh in the index buffer."""
         # position, normal, water level seen, distance to the shore
         self.arena = gl.SlotArena((cells + 1) ** 2 + 4 * cells, {0: 3, 1: 3, 2: 1, 3: 1},
-                                  np.concatenate([full, coarse.ravel()]), TERRAIN_SLOTS)
+                                  np.concatenate([full, coarse, exact]), TERRAIN_SLOTS)
         self.arena_slot = np.zeros(0, np.int32)
         self.centre = np.zeros((0, 3))
         self.stitched: dict[int, tuple[tuple, np.ndarray]] = {}
@@ -567,6 +572,9 @@ class DrawRivers(System):
         """Tests: an RGB colour (0-1) the main pass is cleared to instead of drawing the sky
         (a colour no material uses shows every pixel nothing covers: cracks)."""
         self.debug_materials = False
+        self.debug_exact_reflection = False
+        """Tests: the reflection pass through every node of the terrain tiles at the frame's
+        full resolution (the mirrored scene as exactly as the drawing makes it)."""
         """Tests: the terrain drawn as (rock weight, slope of the drawn triangle / 90°, river
         bed weight, alpha 0.5: the ground) instead of its colour (``shaders/terrain.glsl``)."""
 
@@ -798,8 +806,8 @@ class DrawRivers(System):
 
     def _draw_terrain(self, world: RiverWorld, gpu: _Gpu, detail: str = "full") -> None:
         """This frame's terrain tiles, through all their nodes (``detail`` "full") or the
-        reflection's coarser mesh ("coarse", with the reflection's own program object), near
-        to far, in one multi-draw."""
+        reflection's coarser mesh ("coarse", or "exact": every node, with the reflection's
+        own program object), near to far, in one multi-draw."""
         program = gpu.programs["terrain" if detail == "full" else "terrain_reflection"]
         program.use()
         if detail == "full":
@@ -852,7 +860,8 @@ class DrawRivers(System):
             return off
         self.last_mirror_level_m = level
         reflection = gpu.reflection
-        reflection.fit(*gpu.size, settings.reflection_scale)
+        exact = self.debug_exact_reflection
+        reflection.fit(*gpu.size, 1.0 if exact else settings.reflection_scale)
         mirrored_eye = (float(eye[0]), float(eye[1]), 2.0 * level - float(eye[2]))
         # the frame's own world → clip matrix (pyrr's view_projection in closed form, as the
         # main pass draws with), mirrored
@@ -869,7 +878,7 @@ class DrawRivers(System):
         gl.set_blend(gl.BLEND_OFF)
         gl.set_depth(True)
         gl.set_clip_distance(True)
-        self._draw_terrain(world, gpu, "coarse")
+        self._draw_terrain(world, gpu, "exact" if exact else "coarse")
         self._draw_props(gpu, mirrored=True)
         gl.set_clip_distance(False)
         reflection.colour.generate_mipmaps()        # blurred levels for rough water
