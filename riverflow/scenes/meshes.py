@@ -185,13 +185,21 @@ def coarser_neighbours(keys: np.ndarray) -> np.ndarray:
     as fine or finer, or none is drawn there. A tile coarser than ``T`` across an edge covers
     the whole edge, so one tile answers."""
     rows = {k: r for r, k in enumerate(map(tuple, np.asarray(keys, np.int64).tolist()))}
+    split = set()                  # the strict ancestors of the drawn tiles
+    for level, tx, ty in rows:
+        for up in range(1, level + 1):
+            above = (level - up, tx >> up, ty >> up)
+            if above in split:
+                break
+            split.add(above)
     out = np.full((len(rows), 4), -1, np.int64)
     for (level, tx, ty), r in rows.items():
         side = 1 << level
         for e, (dx, dy) in enumerate(EDGE_OFFSETS):
             x, y = tx + dx, ty + dy
-            if not (0 <= x < side and 0 <= y < side):
-                continue
+            if not (0 <= x < side and 0 <= y < side) or (level, x, y) in rows \
+                    or (level, x, y) in split:
+                continue                   # the edge of the map, as fine, or finer
             for up in range(1, level + 1):
                 found = rows.get((level - up, x >> up, y >> up))
                 if found is not None:
