@@ -82,7 +82,8 @@ def border_loop(n: int) -> tuple[np.ndarray, np.ndarray]:
 class TerrainTileMesh:
     """One streamed terrain tile as drawn: ``vertices`` (V, 8) float32 (x, y, z [m], unit
     normal, the water level seen from there [m], the distance to the shore in units of that
-    river's size (metres divided by :func:`river_scale`), negative in the water) in the layout of the module docstring (grid samples, then the skirt),
+    river's size (metres divided by :func:`river_scale`), negative in the water) in the
+    layout of the module docstring (grid samples, then the skirt),
     ``skirt_m`` [m], ``bounds_m`` (2, 3) float32 (min, max corner, skirt included)."""
 
     vertices: np.ndarray
