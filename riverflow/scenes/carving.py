@@ -11,10 +11,11 @@ their shared points, and no whole-map grid is ever made:
   ``blend_m``; where the source lies below the valley, it is raised to it until
   ``raise_until_m`` from the shore. Beyond that the source is untouched, so points far from any
   river cost nothing but the source;
-* the level under the land is the water level of the nearest river point at the shore,
-  blended into a smooth mix of nearby levels (:meth:`WaterSurface.land_level`) a few metres
-  out, so banks stay above their water and the valleys of reaches at different levels meet
-  without steps.
+* the level under the land is the water level of the nearest river samples at the shore
+  (:meth:`WaterSurface.bank_level`: a mix that widens with the distance, so that inside a
+  sharp bend, where the nearest reach changes, the ground has no step), blended into a smooth
+  mix of nearby levels (:meth:`WaterSurface.land_level`) a few metres out, so banks stay
+  above their water and the valleys of reaches at different levels meet without steps.
 
 The bank's shape comes from exact distances to the shore polygon, not from grid cells: the
 shoreline is as smooth at 64 m cells as at 1 m (no stair steps).
@@ -39,8 +40,8 @@ class Carving:
     blend_m: tuple[float, float] = (60.0, 400.0)
     raise_until_m: float = 1000.0
     exact_level_m: tuple[float, float] = (5.0, 25.0)
-    """The level under the land is the nearest river's at the shore, the smooth mix from the
-    second distance on."""
+    """The level under the land is the nearest river samples' at the shore, the smooth mix
+    from the second distance on."""
     land_lattice_m: float = 16.0
     """The smooth mix varies slowly: it is evaluated on a global lattice this fine (anchored
     at the quadtree root) and interpolated bilinearly, still a function of the point alone."""
@@ -75,10 +76,13 @@ def carve(water: WaterSurface, xy: np.ndarray, source_m: np.ndarray,
     exact0, exact1 = carving.exact_level_m
     beta = _smoothstep(exact0, exact1, d)
     land_level = level.copy()
+    dry = np.flatnonzero(~inside & (beta < 1.0))
+    if len(dry):                    # continuous where the nearest reach changes (bends)
+        land_level[dry] = water.bank_level(q[dry], d[dry])
     mixed = np.flatnonzero(beta > 0.0)
     if len(mixed):
         smooth = lattice_land_level(water, q[mixed], carving.land_lattice_m, anchor_m)
-        land_level[mixed] = (1.0 - beta[mixed]) * level[mixed] + beta[mixed] * smooth
+        land_level[mixed] = (1.0 - beta[mixed]) * land_level[mixed] + beta[mixed] * smooth
     valley = (land_level + carving.bank_rise_m * (1.0 - np.exp(-d / carving.bank_scale_m))
               + carving.valley_rise_m * (1.0 - np.exp(-d / carving.valley_scale_m)))
     alpha = _smoothstep(*carving.blend_m, d)

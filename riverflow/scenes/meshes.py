@@ -24,6 +24,14 @@ border, as deep as the largest such gap along it (:func:`tile_skirt_m`). This is
 skirt trick of tiled terrain renderers (Proland's own terrain blends levels in the vertex
 shader instead; its rivers need no mesh, reference §4.1).
 
+A skirt fills the crack but shows as a thin wall where the finer border bends below the
+coarser one (seen from the side, a zig-zag fence on the grass). So the drawn tiles' borders
+are also *stitched* (:func:`coarser_neighbours`, :func:`stitch_tile`): along an edge whose
+neighbour is coarser, the finer tile's border vertices are moved onto the coarser one's
+border as drawn (linear between its nodes; normal, water level and shore distance with
+them), at any level difference, so the two share their edge exactly and the skirts only
+cover the rasteriser's pinholes where edges meet in T-junctions.
+
 **Water** (:func:`triangulate_water`, :class:`WaterMesh`). A tile's water mesh triangulates
 the tile's piece of the water polygon. Tessellating a wide water polygon in one piece gives
 long thin triangles whose corners sample very different terrain altitudes, the artifact
@@ -36,6 +44,7 @@ Orientation everywhere: x east, y north, z up; triangles are counter-clockwise s
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -72,8 +81,9 @@ def border_loop(n: int) -> tuple[np.ndarray, np.ndarray]:
 @dataclass(eq=False)
 class TerrainTileMesh:
     """One streamed terrain tile as drawn: ``vertices`` (V, 8) float32 (x, y, z [m], unit
-    normal, the water level seen from there [m], the distance to the shore [m], negative in
-    the water) in the layout of the module docstring (grid samples, then the skirt),
+    normal, the water level seen from there [m], the distance to the shore in units of that
+    river's size (metres divided by :func:`river_scale`), negative in the water) in the
+    layout of the module docstring (grid samples, then the skirt),
     ``skirt_m`` [m], ``bounds_m`` (2, 3) float32 (min, max corner, skirt included)."""
 
     vertices: np.ndarray
@@ -87,12 +97,14 @@ class TerrainTileMesh:
 
 def tile_terrain_mesh(z_ring: np.ndarray, x0_m: float, y0_m: float, cell_m: float,
                       level_m: np.ndarray, dip_m: float = 0.0,
-                      shore_m: np.ndarray | None = None) -> TerrainTileMesh:
+                      shore_m: np.ndarray | None = None,
+                      scale: np.ndarray | None = None) -> TerrainTileMesh:
     """The mesh of one n-cell terrain tile from its heights with a one-node ring
     ``z_ring`` (n + 3, n + 3) [m] (row = y; the ring gives central-difference normals that
     agree with the neighbours'), its corner and node spacing [m], ``level_m`` (n + 1, n + 1)
     the water level seen from each node and ``shore_m`` (n + 1, n + 1) each node's distance to
-    the shore [m], negative in the water (None: far from every shore, 200 m). The skirt hangs
+    the shore [m], negative in the water (None: far from every shore, 200 m), divided by
+    ``scale`` (n + 1, n + 1) the :func:`river_scale` of that river (None: 1). The skirt hangs
     as deep as the largest crack any coarser neighbour can leave along its border
     (:func:`tile_skirt_m`), and at least ``dip_m``: how far a finer neighbour's border dips
     below this one between its nodes (:func:`riverflow.scenes.tile_kinds.border_dip_m`)."""
@@ -117,9 +129,25 @@ def tile_terrain_mesh(z_ring: np.ndarray, x0_m: float, y0_m: float, cell_m: floa
     out[:, 6] = np.asarray(level_m)[vj, vi]
     out[side * side:, 6] -= skirt         # a skirt is shaded as its top: as high above the water
     out[:, 7] = 200.0 if shore_m is None else np.asarray(shore_m)[vj, vi]
+    if scale is not None:
+        out[:, 7] /= np.asarray(scale, np.float32)[vj, vi]
     bounds = np.array([[x0_m, y0_m, min(inner.min(), inner[bj, bi].min() - skirt)],
                        [x0_m + n * cell_m, y0_m + n * cell_m, inner.max()]], np.float32)
     return TerrainTileMesh(out, float(skirt), bounds)
+
+
+FULL_SCALE_WIDTH_M = 8.0
+"""Rivers at least this wide [m] have banks, sand and wet ground of full size (the terrain
+shader's metres); narrower ones a fraction: :func:`river_scale`."""
+
+
+def river_scale(width_m) -> np.ndarray:
+    """The size of a river's shore features relative to a wide river's, (N,) float32:
+    width / FULL_SCALE_WIDTH_M, between 0.05 and 1 (a 2 m creek: 0.25, so its sand strip is
+    at most a quarter of a wide river's, 2.4 m). The terrain's shore distances are stored in
+    these units, so the shader's sand widths scale with the river."""
+    return np.clip(np.asarray(width_m, np.float64) / FULL_SCALE_WIDTH_M, 0.05, 1.0
+                   ).astype(np.float32)
 
 
 def tile_skirt_m(heights: np.ndarray, cell_m: float) -> float:
@@ -146,13 +174,100 @@ def _lod_gap(edges: np.ndarray, n: int) -> np.ndarray:
     return (hi - lo).max(axis=-1)
 
 
-def tile_indices(n: int, stride: int = 1) -> np.ndarray:
+EDGE_OFFSETS = ((0, -1), (1, 0), (0, 1), (-1, 0))
+"""The neighbour across each edge of a tile, as (dx, dy) tiles: south (j = 0), east (i = n),
+north (j = n), west (i = 0)."""
+
+
+def coarser_neighbours(keys: np.ndarray) -> np.ndarray:
+    """For each of the drawn tiles ``keys`` (K, 3) (level, tx, ty) — a set of quadtree tiles
+    none of which contains another — the row of the tile across each edge
+    (:data:`EDGE_OFFSETS`) when that tile is coarser, (K, 4) int64; −1 where the neighbour is
+    as fine or finer, or none is drawn there. A tile coarser than ``T`` across an edge covers
+    the whole edge, so one tile answers."""
+    rows = {k: r for r, k in enumerate(map(tuple, np.asarray(keys, np.int64).tolist()))}
+    split = set()                  # the strict ancestors of the drawn tiles
+    for level, tx, ty in rows:
+        for up in range(1, level + 1):
+            above = (level - up, tx >> up, ty >> up)
+            if above in split:
+                break
+            split.add(above)
+    out = np.full((len(rows), 4), -1, np.int64)
+    for (level, tx, ty), r in rows.items():
+        side = 1 << level
+        for e, (dx, dy) in enumerate(EDGE_OFFSETS):
+            x, y = tx + dx, ty + dy
+            if not (0 <= x < side and 0 <= y < side) or (level, x, y) in rows \
+                    or (level, x, y) in split:
+                continue                   # the edge of the map, as fine, or finer
+            for up in range(1, level + 1):
+                found = rows.get((level - up, x >> up, y >> up))
+                if found is not None:
+                    out[r, e] = found
+                    break
+    return out
+
+
+def _edge_nodes(e: int, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """(i, j) of the nodes of edge ``e`` of an n-cell tile, along it (x or y growing)."""
+    k = np.arange(n + 1)
+    fixed = np.full(n + 1, 0 if e in (0, 3) else n)
+    return (k, fixed) if e in (0, 2) else (fixed, k)
+
+
+def stitch_tile(vertices: np.ndarray, key, skirt_m: float,
+                neighbours: list[tuple[int, tuple[int, int, int], np.ndarray]]) -> np.ndarray:
+    """A copy of a terrain tile's ``vertices`` (V, 8) (:func:`tile_terrain_mesh`'s layout) of
+    tile ``key`` whose border follows its coarser neighbours: for each (edge, neighbour key,
+    neighbour's vertices as drawn) the edge's nodes take the neighbour's border linearly
+    interpolated between its nodes (exact fractions of its cells: 2^-k steps): height, normal
+    (renormalised), water level seen and shore distance; a corner only its height (a corner
+    is shared with a third tile: its own normal and shading stay). The skirt vertices follow
+    their border vertex, ``skirt_m`` lower."""
+    v = np.array(vertices, np.float32, copy=True)
+    n = math.isqrt(len(v) + 8) - 3                # V = (n + 1)² + 4n = (n + 3)² − 8
+    if (n + 3) ** 2 - 8 != len(v):
+        raise ValueError(f"{len(v)} vertices are not a terrain tile's (n + 1)² + 4n")
+    side = n + 1
+    grid = v[:side * side].reshape(side, side, 8)
+    level, tx, ty = (int(c) for c in key)
+    for e, (nl, nx, ny), nv in neighbours:
+        k = level - int(nl)
+        if k <= 0:
+            continue
+        ngrid = np.asarray(nv, np.float32)[:side * side].reshape(side, side, 8)
+        i, j = _edge_nodes(e, n)
+        along = np.arange(n + 1, dtype=np.int64) + (tx if e in (0, 2) else ty) * n
+        g = along >> k                                  # the coarse node at or before
+        t = ((along - (g << k)) / float(1 << k))[:, None]
+        local = g - (nx if e in (0, 2) else ny) * n
+        nxt = np.minimum(local + 1, n)
+        ni, nj = _edge_nodes((e + 2) % 4, n)          # the neighbour's facing edge
+        a = ngrid[nj[local], ni[local], 2:].astype(np.float64)
+        b = ngrid[nj[nxt], ni[nxt], 2:].astype(np.float64)
+        value = a * (1.0 - t) + b * t
+        normal = value[:, 1:4]
+        value[:, 1:4] = normal / np.linalg.norm(normal, axis=1, keepdims=True)
+        inner = slice(1, n)
+        grid[j[inner], i[inner], 2:] = value[inner]
+        grid[j[[0, n]], i[[0, n]], 2] = value[[0, n], 0]
+    bi, bj = border_loop(n)
+    skirt = v[side * side:]
+    skirt[:, 2:] = grid[bj, bi, 2:]
+    skirt[:, 2] -= np.float32(skirt_m)
+    skirt[:, 6] -= np.float32(skirt_m)
+    return v
+
+
+def tile_indices(n: int, stride: int = 1, skirts: bool = True) -> np.ndarray:
     """Triangle indices (K, 3) uint32 of an n-cell tile, the same for every tile (one index
     buffer serves them all): first the 2n² grid triangles (two per cell, the diagonal from
-    (i, j) to (i + 1, j + 1)), counter-clockwise seen from +z, then the 8n skirt triangles
-    (two per border segment), facing outward. ``stride`` > 1 (dividing n) uses every
-    stride-th node only, a coarser mesh of the same vertices (stride² fewer triangles; the
-    reflection pass draws it)."""
+    (i, j) to (i + 1, j + 1)), counter-clockwise seen from +z, then (``skirts``) the 8n skirt
+    triangles (two per border segment), facing outward. ``stride`` > 1 (dividing n) uses
+    every stride-th node only, a coarser mesh of the same vertices (stride² fewer triangles;
+    the reflection pass draws it, without skirts: seen from under the mirror they would hang
+    in front of the ground as blocks)."""
     side = n + 1
     if stride < 1 or n % stride:
         raise ValueError(f"stride {stride} must divide the tile's {n} cells")
@@ -161,6 +276,8 @@ def tile_indices(n: int, stride: int = 1) -> np.ndarray:
     a = (jj * side + ii).ravel()  # (i, j)
     b, c, d = a + stride, a + stride * (side + 1), a + stride * side  # the cell's corners
     grid = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
+    if not skirts:
+        return grid.astype(np.uint32)
     bi, bj = border_loop(n)
     k0 = np.arange(0, 4 * n, stride)
     k1 = (k0 + stride) % (4 * n)

@@ -32,7 +32,8 @@ import shapely
 
 from riverflow.kernels.raycast import fill_height_pyramid, pyramid_size
 from riverflow.scenes.landscape import Landscape
-from riverflow.scenes.meshes import TerrainTileMesh, WaterMesh, tile_terrain_mesh, triangulate_water
+from riverflow.scenes.meshes import (TerrainTileMesh, WaterMesh, river_scale, tile_terrain_mesh,
+                                     triangulate_water)
 from riverflow.tiles.cache import FieldSpec
 from riverflow.tiles.coverage import coverage_table
 from riverflow.tiles.quadtree import Quadtree, TileKey
@@ -204,9 +205,10 @@ def border_dip_m(height, quadtree: Quadtree, key: TileKey, n: int, z: np.ndarray
 class WaterProducer(TerrainProducer):
     """``level``: the water level at wet nodes (within WET_REACH_CELLS of the water), NaN on
     dry ones; ``level_seen``: the level of the nearest river from every node within
-    LEVEL_REACH_M of a shore (DRY_LEVEL_M beyond) and ``shore``: the node's distance to the
-    nearest shore [m], negative in the water, LEVEL_REACH_M beyond it: what the terrain is
-    shaded by (wet and dry sand, the bed)."""
+    LEVEL_REACH_M of a shore (DRY_LEVEL_M beyond), ``shore``: the node's distance to the
+    nearest shore [m], negative in the water, LEVEL_REACH_M beyond it, and ``scale``: the
+    size of that river (:func:`~riverflow.scenes.meshes.river_scale` of its width; 1 beyond
+    reach): what the terrain is shaded by (wet and dry sand, the bed)."""
 
     kind = WATER
 
@@ -215,7 +217,8 @@ class WaterProducer(TerrainProducer):
         n = tiles.n
         self.fields = {"level": FieldSpec((n + 1, n + 1), np.float32, np.nan),
                        "level_seen": FieldSpec((n + 1, n + 1), np.float32, DRY_LEVEL_M),
-                       "shore": FieldSpec((n + 1, n + 1), np.float32, LEVEL_REACH_M)}
+                       "shore": FieldSpec((n + 1, n + 1), np.float32, LEVEL_REACH_M),
+                       "scale": FieldSpec((n + 1, n + 1), np.float32, 1.0)}
 
     def produce(self, key: TileKey, deps: Mapping) -> dict:
         n = self.tiles.n
@@ -224,11 +227,13 @@ class WaterProducer(TerrainProducer):
         level = np.full(len(p), np.nan, np.float32)
         seen = np.full(len(p), DRY_LEVEL_M, np.float32)
         signed = np.full(len(p), LEVEL_REACH_M, np.float32)
+        scale = np.ones(len(p), np.float32)
         shore = water.distance_to_shore(p, upper_bound_m=LEVEL_REACH_M)
         near = np.flatnonzero(np.isfinite(shore))
         if len(near):
-            value = water.nearest(p[near])[1]
+            _, value, width = water.nearest(p[near])
             seen[near] = value
+            scale[near] = river_scale(width)
             reach = WET_REACH_CELLS * self.tiles.quadtree.cell_m(key[0], n)
             inside = water.contains(p[near], shore[near])
             wet = (shore[near] < reach) | inside
@@ -236,7 +241,7 @@ class WaterProducer(TerrainProducer):
             signed[near] = np.where(inside, -shore[near], shore[near])
         side = (n + 1, n + 1)
         return {"level": level.reshape(side), "level_seen": seen.reshape(side),
-                "shore": signed.reshape(side)}
+                "shore": signed.reshape(side), "scale": scale.reshape(side)}
 
 
 class RaycastProducer(TerrainProducer):
@@ -313,7 +318,7 @@ class TerrainMeshProducer(TerrainProducer):
         water = deps[(WATER, key)]
         return tile_terrain_mesh(height["z"], x0, y0, q.cell_m(key[0], self.tiles.n),
                                  water["level_seen"], dip_m=float(height["dip"][0]),
-                                 shore_m=water["shore"])
+                                 shore_m=water["shore"], scale=water["scale"])
 
     def nbytes(self, data: TerrainTileMesh) -> int:
         return data.nbytes

@@ -25,6 +25,11 @@ JUNCTION_BLEND = 1.25
 """Levels are blended between the branches of a junction within this many (largest) widths."""
 MAX_JUNCTION_SLOPE = 0.01
 """Steepest descent [m/m] of a profile forced down to a lower junction level."""
+BANK_LEVEL_NEIGHBOURS = 24
+BANK_BLEND = 1.0
+BANK_BLEND_MIN_M = 0.5
+""":meth:`WaterSurface.bank_level`: samples mixed, and how far farther than the nearest one
+a sample still counts: BANK_BLEND × the distance to the shore + BANK_BLEND_MIN_M [m]."""
 LAND_LEVEL_STRIDE = 5
 """The level under the land is blended from every LAND_LEVEL_STRIDE-th centre-line sample…"""
 LAND_LEVEL_NEIGHBOURS = 24
@@ -137,7 +142,10 @@ class WaterSurface:
         self._decimated: dict[int, _Samples] = {}
         self._per_branch: dict[int, _Samples] = {}
         edge = shapely.segmentize(self.polygon.boundary, self.boundary_spacing_m)
-        self._boundary_trees = {1: cKDTree(shapely.get_coordinates(edge))}
+        xy, ring = shapely.get_coordinates(shapely.get_parts(edge), return_index=True)
+        self._boundary_trees = {1: cKDTree(xy)}
+        # boundary point i and i + 1 make a segment where they are on one ring
+        self._boundary_next = np.append(ring[1:] == ring[:-1], False)
         self._reach_m = 0.75 * float(self.widths_m.max()) + 2.0 * self.boundary_spacing_m
 
     # -- queries (all take xy (N, 2) [m] and return (N,) float64) -------------------------
@@ -248,8 +256,30 @@ class WaterSurface:
             if np.isfinite(reach) and not np.isfinite(
                     tree.query(0.5 * (lo + hi), distance_upper_bound=reach)[0]):
                 return np.full(len(p), np.inf)
-        d, _ = tree.query(p, distance_upper_bound=upper_bound_m, workers=_workers())
+        d, i = tree.query(p, distance_upper_bound=upper_bound_m, workers=_workers())
+        if stride == 1:
+            # near the shore, the distance to the boundary's segments on either side of the
+            # nearest boundary point, not to the point (off by up to half the spacing: a
+            # creek's bank stepped at the water's edge)
+            near = np.flatnonzero(d < 2.0 * self.boundary_spacing_m)
+            if len(near):
+                d[near] = self._segment_distance(p[near], i[near], d[near])
         return d
+
+    def _segment_distance(self, p: np.ndarray, i: np.ndarray, d: np.ndarray) -> np.ndarray:
+        """Distance from points p (N, 2) to the boundary segments that end at their nearest
+        boundary point i (N,) (distance d), the smaller."""
+        xy = self._boundary_trees[1].data
+        nxt = self._boundary_next
+        best = d.copy()
+        for a, ok in ((i - 1, nxt[np.maximum(i - 1, 0)] & (i > 0)), (i, nxt[i])):
+            a = np.where(ok, a, i)
+            b = np.where(ok, a + 1, i)
+            sa, ab = xy[a], xy[b] - xy[a]
+            t = np.clip(np.einsum("ij,ij->i", p - sa, ab)
+                        / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-18), 0.0, 1.0)
+            best = np.minimum(best, np.hypot(*(sa + t[:, None] * ab - p).T))
+        return best
 
     def land_level(self, xy: np.ndarray) -> np.ndarray:
         """The water level seen from the land [m], (N,): the levels of the
@@ -270,6 +300,32 @@ class WaterSurface:
         d, idx = samples.tree.query(p, k=k, workers=_workers())
         span = np.maximum(d[:, -1:] - d[:, :1], 1e-9)
         w = (1.0 - (d - d[:, :1]) / span) ** 2
+        return (w * samples.levels[idx]).sum(axis=1) / w.sum(axis=1)
+
+    def bank_level(self, xy: np.ndarray, shore_m: np.ndarray) -> np.ndarray:
+        """The water level seen from the land near a shore [m], (N,), at points xy (N, 2) a
+        distance ``shore_m`` (N,) [m] from it: the levels of the BANK_LEVEL_NEIGHBOURS
+        nearest centre-line samples, weighted by (1 − (d − d_nearest) / (d_farthest −
+        d_nearest))² · (1 − (d − d_nearest) / (BANK_BLEND · shore + BANK_BLEND_MIN_M))²,
+        clipped at 0. Continuous everywhere, also where the nearest reach changes (inside a
+        sharp bend the two legs' levels differ: the nearest one's level there made a cliff
+        across the grass); at the shore the nearest samples only (the level there within a
+        sample spacing's fall), the mix widening with the distance."""
+        p = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+        if 1 not in self._decimated:
+            self._decimated[1] = _Samples(self.samples_m, self.levels_m, self.widths_m,
+                                          self.branch)
+        samples = self._decimated[1]
+        k = min(BANK_LEVEL_NEIGHBOURS, len(samples.samples))
+        if k < 2 or not len(p):
+            return self.nearest(p)[1]
+        d, idx = samples.tree.query(p, k=k, workers=_workers())
+        extra = d - d[:, :1]
+        span = np.maximum(extra[:, -1:], 1e-9)
+        band = BANK_BLEND * np.maximum(np.asarray(shore_m, np.float64).reshape(-1, 1), 0.0) \
+            + BANK_BLEND_MIN_M
+        w = (1.0 - extra / span) ** 2 * np.clip(1.0 - extra / band, 0.0, 1.0) ** 2
+        w[:, 0] = np.maximum(w[:, 0], 1e-12)     # the nearest sample always counts
         return (w * samples.levels[idx]).sum(axis=1) / w.sum(axis=1)
 
     def contains(self, xy: np.ndarray, shore_m: np.ndarray | None = None) -> np.ndarray:
@@ -345,9 +401,16 @@ def _smoothstep(e0: float, e1: float, x: np.ndarray) -> np.ndarray:
     return t * t * (3 - 2 * t)
 
 
+BED_DEPTH_PER_WIDTH = 0.1
+"""A river's bed is at most this many times its width deep: its banks under the water then
+stay under 34° (a 2 m creek: 0.2 m deep, not a 1 m trench with vertical walls); rivers
+wider than 12.5 m keep 1 + width/50 m."""
+
+
 def bed_depth(shore_m: np.ndarray, width_m: np.ndarray) -> np.ndarray:
     """Depth [m] at a distance ``shore_m`` inside the water of a river ``width_m`` wide: rises
-    from 0 at the shore to 1 + width/50 m over 30 % of the width (quadratic ease)."""
-    full = 1.0 + width_m / 50.0
+    from 0 at the shore to min(1 + width/50, BED_DEPTH_PER_WIDTH · width) m over 30 % of the
+    width (quadratic ease: the steepest slope, at the shore, is 2 · 0.1 / 0.3 = 0.67)."""
+    full = np.minimum(1.0 + width_m / 50.0, BED_DEPTH_PER_WIDTH * width_m)
     t = np.clip(shore_m / (0.3 * width_m), 0.0, 1.0)
     return full * (1.0 - (1.0 - t) ** 2)

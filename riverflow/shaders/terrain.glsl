@@ -20,7 +20,9 @@
 layout(location = 0) in vec3 a_position;   // [m]
 layout(location = 1) in vec3 a_normal;
 layout(location = 2) in float a_level;     // water level seen from here [m] (-1e4: none near)
-layout(location = 3) in float a_shore;     // distance to the shore [m], < 0 in the water
+layout(location = 3) in float a_shore;     // distance to the shore [m], < 0 in the water, in
+                                           // units of the river's size (scenes/meshes.py
+                                           // river_scale: metres by rivers 8 m wide or more)
 out vec3 v_world;
 out vec3 v_normal;
 out float v_level;
@@ -41,6 +43,7 @@ in vec3 v_normal;
 in float v_level;
 in float v_shore;
 out vec4 frag;
+uniform bool u_debug_materials;  // tests: (rock, drawn slope / 90°, bed, 0.5) for the colour
 
 // -- detail -------------------------------------------------------------------------------
 
@@ -153,7 +156,8 @@ void main() {
     }
 
     // the shore: sand from the water up to a width that wanders along it, from a strip to a
-    // beach of several metres (its edge broken by the grass), wet just above the water
+    // beach of several metres (its edge broken by the grass; in the river's units: a creek's
+    // beach is of its own size), wet just above the water
     float width = mix(0.5, 7.0, smoothstep(0.3, 0.7, patches)) + (detail - 0.5) * 2.5;
     float beach = (1.0 - smoothstep(width, width + 1.5, shore))
                   * (1.0 - smoothstep(1.2, 2.0, above + 0.5 * (detail - 0.5)));
@@ -188,5 +192,9 @@ void main() {
     vec3 h = normalize(normalize(to_eye) + u_sun_dir);
     colour += SUN_COLOUR * (wet * (1.0 - under) * 0.35) * pow(max(dot(n, h), 0.0), 40.0);
     frag = vec4(apply_fog(colour, v_world), 1.0);
+    if (u_debug_materials) {   // uniform: derivatives stay defined
+        vec3 facet = normalize(cross(dFdx(v_world), dFdy(v_world)));
+        frag = vec4(rock, acos(clamp(abs(facet.z), 0.0, 1.0)) / 1.5707963, under, 0.5);
+    }
 }
 #endif

@@ -69,7 +69,7 @@ from riverflow.kernels.sprites import (MAX_PER_CELL, NO_PARTICLE, PARTICLES_PER_
                                        SPRITE_RADIUS_FACTOR, TEXELS_PER_PARTICLE, bin_texels,
                                        build_sprite_tables, empty_sprite_tables, slot_span,
                                        sprite_bins, sprite_grid_shape, sprite_source)
-from riverflow.scenes.meshes import tile_indices
+from riverflow.scenes.meshes import coarser_neighbours, stitch_tile, tile_indices
 from riverflow.scenes.props import SHAPES
 from riverflow.scenes.reflection import (MIN_EYE_HEIGHT_M, TERRAIN_STRIDE, mirror_level,
                                          mirrored_view_projection, reflection_size)
@@ -341,37 +341,82 @@ class _PoolSync:
 class _TerrainTiles(_PoolSync):
     """The terrain tiles on the GPU: each in a slot of one :class:`~riverflow.engine.gl.SlotArena`
     (``arena_slot`` by pool slot), its centre kept for the near-to-far order. The index buffer
-    holds every tile's triangles (:func:`~riverflow.scenes.meshes.tile_indices`) twice: the
-    full mesh, then the reflection's coarser one (every TERRAIN_STRIDE-th node)."""
+    holds every tile's triangles (:func:`~riverflow.scenes.meshes.tile_indices`) three times:
+    the full mesh, the reflection's coarser one (every TERRAIN_STRIDE-th node, no skirts:
+    mirrored, a skirt hangs in front of the ground), and every node without skirts (the
+    tests' reference reflection, :attr:`DrawRivers.debug_exact_reflection`)."""
 
     def __init__(self, cells: int) -> None:
         super().__init__()
         full = tile_indices(cells).ravel()
-        coarse = tile_indices(cells, TERRAIN_STRIDE if cells % TERRAIN_STRIDE == 0 else 1)
-        self.ranges = {"full": (len(full), 0), "coarse": (coarse.size, len(full))}
+        stride = TERRAIN_STRIDE if cells % TERRAIN_STRIDE == 0 else 1
+        coarse = tile_indices(cells, stride, skirts=False).ravel()
+        exact = tile_indices(cells, skirts=False).ravel()
+        self.ranges = {"full": (len(full), 0), "coarse": (len(coarse), len(full)),
+                       "exact": (len(exact), len(full) + len(coarse))}
         """(count, first) of each mesh in the index buffer."""
         # position, normal, water level seen, distance to the shore
         self.arena = gl.SlotArena((cells + 1) ** 2 + 4 * cells, {0: 3, 1: 3, 2: 1, 3: 1},
-                                  np.concatenate([full, coarse.ravel()]), TERRAIN_SLOTS)
+                                  np.concatenate([full, coarse, exact]), TERRAIN_SLOTS)
         self.arena_slot = np.zeros(0, np.int32)
         self.centre = np.zeros((0, 3))
+        self.stitched: dict[int, tuple[tuple, np.ndarray]] = {}
+        """By pool slot, the tiles uploaded with their borders stitched to coarser
+        neighbours (:func:`~riverflow.scenes.meshes.stitch_tile`): (what they were stitched
+        to, the vertices as uploaded). The others are uploaded as their pool holds them."""
 
     def sync(self, pool: TilePool, tiles: Standins) -> tuple[np.ndarray, np.ndarray]:
-        """Arena slots (K,) and centres (K, 3) [m] of ``tiles``, uploaded now if new; the
-        slots of tiles the pool released are given back."""
+        """Arena slots (K,) and centres (K, 3) [m] of ``tiles``, uploaded now if new, their
+        borders stitched to this set's coarser neighbours (re-uploaded when those change);
+        the slots of tiles the pool released are given back."""
         gone = self.stale(pool)
         if len(gone):
             self.arena.free(self.arena_slot[gone])
             self.arena_slot[gone] = -1
+            for slot in gone.tolist():
+                self.stitched.pop(slot, None)
         for k in self.missing(tiles).tolist():
             slot = int(tiles.slots[k])
             data = pool.tile(slot)
             if self.arena_slot[slot] < 0:
                 self.arena_slot[slot] = self.arena.alloc()
             self.arena.upload(int(self.arena_slot[slot]), data.vertices)
+            self.stitched.pop(slot, None)
             self.centre[slot] = data.bounds_m.mean(axis=0)
             self.code_of[slot] = tiles.codes[k]
+        self._stitch(pool, tiles)
         return self.arena_slot[tiles.slots], self.centre[tiles.slots]
+
+    def _stitch(self, pool: TilePool, tiles: Standins) -> None:
+        """Upload each tile of ``tiles`` stitched to its coarser neighbours among them (or as
+        it is, with none), where what is on the GPU was made for other neighbours. Tiles are
+        in (level, tx, ty) order: a neighbour is stitched before the finer tiles that follow
+        it (a tile's corner may move onto a much coarser one's border)."""
+        across = coarser_neighbours(tiles.keys)
+        signature: list[tuple] = []
+        for r, slot in enumerate(tiles.slots.tolist()):
+            sig = tuple((e, int(tiles.codes[m]), signature[m])
+                        for e, m in enumerate(across[r].tolist()) if m >= 0)
+            signature.append(sig)
+            known = self.stitched.get(slot)
+            if (known[0] if known is not None else ()) == sig:
+                continue
+            data = pool.tile(slot)
+            if not sig:
+                self.arena.upload(int(self.arena_slot[slot]), data.vertices)
+                del self.stitched[slot]
+                continue
+            neighbours = []
+            for e, m in enumerate(across[r].tolist()):
+                if m >= 0:
+                    other = int(tiles.slots[m])
+                    drawn = self.stitched.get(other)
+                    neighbours.append((e, tuple(tiles.keys[m].tolist()),
+                                       drawn[1] if drawn is not None
+                                       else pool.tile(other).vertices))
+            vertices = stitch_tile(data.vertices, tiles.keys[r], data.skirt_m, neighbours)
+            self.arena.upload(int(self.arena_slot[slot]), vertices)
+            self.stitched[slot] = (sig, vertices)
 
     def _grow(self, n: int) -> None:
         old = len(self.code_of)
@@ -383,6 +428,7 @@ class _TerrainTiles(_PoolSync):
         self.arena.delete()
         self.code_of[:] = -1
         self.arena_slot[:] = -1
+        self.stitched.clear()
 
 
 class _WaterTiles(_PoolSync):
@@ -522,6 +568,15 @@ class DrawRivers(System):
         self._tiles_for = None        # (pools and revisions, cut, what _tile_meshes found)
         self.last_tiles = 0
         self.last_sprites = 0
+        self.debug_background: tuple[float, float, float] | None = None
+        """Tests: an RGB colour (0-1) the main pass is cleared to instead of drawing the sky
+        (a colour no material uses shows every pixel nothing covers: cracks)."""
+        self.debug_materials = False
+        self.debug_exact_reflection = False
+        """Tests: the reflection pass through every node of the terrain tiles at the frame's
+        full resolution (the mirrored scene as exactly as the drawing makes it)."""
+        """Tests: the terrain drawn as (rock weight, slope of the drawn triangle / 90°, river
+        bed weight, alpha 0.5: the ground) instead of its colour (``shaders/terrain.glsl``)."""
 
     def attach(self, context) -> None:
         """Draw with this GL context (the world's)."""
@@ -565,14 +620,16 @@ class DrawRivers(System):
         gpu.view.bind(0, gpu.view_binding)
 
         gpu.main_fb.bind()
-        gl.clear((0.0, 0.0, 0.0, 1.0))
+        background = self.debug_background
+        gl.clear((0.0, 0.0, 0.0, 1.0) if background is None else (*background, 1.0))
         gl.set_cull(False)
         gl.set_blend(gl.BLEND_OFF)
         # sky: depth test off, nothing written to depth
         gl.set_depth(False, write=False)
-        sky = gpu.programs["sky"]
-        sky.use()
-        gpu.empty.draw(gl.TRIANGLES, count=3)
+        if background is None:
+            sky = gpu.programs["sky"]
+            sky.use()
+            gpu.empty.draw(gl.TRIANGLES, count=3)
         # terrain
         gl.set_depth(True)
         self._draw_terrain(world, gpu)
@@ -749,10 +806,12 @@ class DrawRivers(System):
 
     def _draw_terrain(self, world: RiverWorld, gpu: _Gpu, detail: str = "full") -> None:
         """This frame's terrain tiles, through all their nodes (``detail`` "full") or the
-        reflection's coarser mesh ("coarse", with the reflection's own program object), near
-        to far, in one multi-draw."""
+        reflection's coarser mesh ("coarse", or "exact": every node, with the reflection's
+        own program object), near to far, in one multi-draw."""
         program = gpu.programs["terrain" if detail == "full" else "terrain_reflection"]
         program.use()
+        if detail == "full":
+            program.set(u_debug_materials=self.debug_materials)   # sent only when changed
         count, first = gpu.terrain.ranges[detail]
         gpu.terrain.arena.draw(self._terrain_slots, count, first)
         if detail == "full":
@@ -801,7 +860,8 @@ class DrawRivers(System):
             return off
         self.last_mirror_level_m = level
         reflection = gpu.reflection
-        reflection.fit(*gpu.size, settings.reflection_scale)
+        exact = self.debug_exact_reflection
+        reflection.fit(*gpu.size, 1.0 if exact else settings.reflection_scale)
         mirrored_eye = (float(eye[0]), float(eye[1]), 2.0 * level - float(eye[2]))
         # the frame's own world → clip matrix (pyrr's view_projection in closed form, as the
         # main pass draws with), mirrored
@@ -818,7 +878,7 @@ class DrawRivers(System):
         gl.set_blend(gl.BLEND_OFF)
         gl.set_depth(True)
         gl.set_clip_distance(True)
-        self._draw_terrain(world, gpu, "coarse")
+        self._draw_terrain(world, gpu, "exact" if exact else "coarse")
         self._draw_props(gpu, mirrored=True)
         gl.set_clip_distance(False)
         reflection.colour.generate_mipmaps()        # blurred levels for rough water

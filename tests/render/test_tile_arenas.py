@@ -286,6 +286,35 @@ def _drawn_terrain(world) -> dict[int, np.ndarray]:
     return {code_of[s]: gpu.terrain.arena.read(s) for s in drawn}
 
 
+def _assert_own_data(world, drawn, pool) -> None:
+    """Each drawn slot holds its own tile's vertices: as the pool holds them, or stitched to
+    the frame's coarser neighbours (the border and skirt only; what was stitched, recorded)."""
+    from riverflow.scenes.meshes import coarser_neighbours, stitch_tile
+    from riverflow.tiles.table import code_key, tile_code
+    terrain = world._drawer().gpu.terrain
+    keys = np.array(sorted(code_key(c) for c in drawn))
+    across = coarser_neighbours(keys)
+    n = world.scene.terrain.tile_cells
+    side = n + 1
+    inner = np.zeros((side, side), bool)
+    inner[1:-1, 1:-1] = True
+    for r, key in enumerate(keys.tolist()):
+        code = tile_code(*key)
+        data = pool.get(code)
+        vertices = drawn[code]
+        grid = vertices[:side * side][inner.ravel()]
+        np.testing.assert_array_equal(grid, data.vertices[:side * side][inner.ravel()])
+        stitched = terrain.stitched.get(pool.slot(code))
+        if (across[r] < 0).all():
+            assert stitched is None
+            np.testing.assert_array_equal(vertices, data.vertices)
+        else:
+            neighbours = [(e, tuple(keys[m].tolist()), drawn[tile_code(*keys[m])])
+                          for e, m in enumerate(across[r].tolist()) if m >= 0]
+            np.testing.assert_array_equal(vertices, stitch_tile(data.vertices, key,
+                                                                data.skirt_m, neighbours))
+
+
 def test_after_evictions_a_frame_draws_only_resident_tiles(gl_context):
     import riverflow as rf
     from riverflow.components.river import TerrainView
@@ -317,8 +346,7 @@ def test_after_evictions_a_frame_draws_only_resident_tiles(gl_context):
         drawn = _drawn_terrain(world)
         assert set(drawn) == set(standin_tiles(cut, terrain).codes.tolist())
         assert not set(drawn) & gone and set(drawn) <= set(terrain.codes().tolist())
-        for code, vertices in drawn.items():       # each slot holds its own tile's data
-            np.testing.assert_array_equal(vertices, terrain.get(code).vertices)
+        _assert_own_data(world, drawn, terrain)    # each slot holds its own tile's data
         assert not gone & gpu.resident_codes(TERRAIN_MESH)
         assert len(gpu.terrain.arena) == len(gpu.resident_codes(TERRAIN_MESH))
         assert len(gpu.water.arena) == 0 and not gpu.resident_codes(WATER_MESH)
@@ -327,8 +355,7 @@ def test_after_evictions_a_frame_draws_only_resident_tiles(gl_context):
         world.render()
         drawn = _drawn_terrain(world)
         assert set(drawn) == set(codes(world.resource(TerrainView).cut).tolist())
-        for code, vertices in drawn.items():
-            np.testing.assert_array_equal(vertices, terrain.get(code).vertices)
+        _assert_own_data(world, drawn, terrain)
         assert len(gpu.water.arena) > 0
         assert gpu.resident_codes(WATER_MESH) <= set(water.codes().tolist())
     finally:

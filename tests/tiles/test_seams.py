@@ -240,14 +240,15 @@ def test_mesh_vertices_are_the_tiles_heights_and_levels(made):
     """A terrain mesh is made of its height and water tiles, not of anything else: its grid
     z is the height tile's inside, its level the water tile's level seen, its normals the
     central differences over the ring (float64 from float32), its x, y the node
-    coordinates."""
+    coordinates, its shore distance the water tile's in units of the river's size."""
     n = made.n
     for a, _ in made.pairs(made.max_level, 0)[:4] + made.pairs(made.max_level - 1, 1)[:2]:
         v = made.grid_vertices(a)
         z = made.heights(a).astype(np.float64)
         assert np.array_equal(_bits(v[..., 2]), _bits(z[1:-1, 1:-1]))
         assert np.array_equal(_bits(v[..., 6]), _bits(made.get(WATER, a)["level_seen"]))
-        assert np.array_equal(_bits(v[..., 7]), _bits(made.get(WATER, a)["shore"]))
+        water = made.get(WATER, a)
+        assert np.array_equal(_bits(v[..., 7]), _bits(water["shore"] / water["scale"]))
         cell = made.quadtree.cell_m(a[0], n)
         dzdx = (z[1:-1, 2:] - z[1:-1, :-2]) / (2.0 * cell)
         dzdy = (z[2:, 1:-1] - z[:-2, 1:-1]) / (2.0 * cell)
@@ -565,3 +566,50 @@ def test_tiles_do_not_depend_on_what_was_made_or_evicted_before(made):
     made_any_water = [v for (kind, _), v in unbounded.items() if kind == WATER_MESH and v]
     assert any(len(v["indices"]) for v in made_any_water)
     assert math.isfinite(sum(float(v["area_m2"]) for v in made_any_water))
+
+
+@pytest.mark.parametrize("up", [1, 2, 4, 6])
+def test_stitched_borders_follow_a_coarser_neighbour_exactly(up):
+    """Stitched to a neighbour ``up`` levels coarser (up to beyond log2(n): the fine tile's
+    whole edge then lies inside one coarse cell), a tile's border vertices lie on the coarse
+    border as drawn, linear between its nodes (height, normal, level, shore), its corners move
+    in height only, and its skirt hangs ``skirt_m`` below the stitched border; the neighbour
+    list leaves tiles as fine or finer alone."""
+    from riverflow.scenes.meshes import coarser_neighbours, stitch_tile
+    n = 4
+    q = Quadtree(-3.7, 11.3, 101.9)
+    level = 7
+    fine = (level, 64, 37)                     # on a border of the level-1 tiles
+    west = (level - up, (fine[1] - 1) >> up, fine[2] >> up)     # coarse, across the west edge
+    assert (west[1], west[2]) != (fine[1] >> up, fine[2] >> up)
+    same = (level, fine[1] + 1, fine[2])                          # as fine, across the east edge
+    keys = np.array(sorted([fine, west, same]))
+    across = coarser_neighbours(keys)
+    row = {tuple(k): r for r, k in enumerate(keys.tolist())}
+    assert across[row[fine]].tolist() == [-1, -1, -1, row[west]]
+    assert (across[row[west]] == -1).all() and (across[row[same]] == -1).all()
+
+    mesh, coarse = _synthetic_mesh(q, fine, n), _synthetic_mesh(q, west, n)
+    out = stitch_tile(mesh.vertices, fine, mesh.skirt_m, [(3, west, coarse.vertices)])
+    side = n + 1
+    got = out[:side * side].reshape(side, side, 8)
+    cg = coarse.vertices[:side * side].reshape(side, side, 8).astype(np.float64)
+    # the coarse tile's east column, drawn linear between its nodes, at the fine west nodes
+    s = 1 << up
+    g = fine[2] * n + np.arange(side)                # fine node rows, as global indices
+    c0 = g // s - west[2] * n
+    t = (g % s) / s
+    c1 = np.minimum(c0 + 1, n)
+    want = cg[c0, n, 2:] * (1 - t)[:, None] + cg[c1, n, 2:] * t[:, None]
+    want[:, 1:4] /= np.linalg.norm(want[:, 1:4], axis=1, keepdims=True)
+    np.testing.assert_allclose(got[:, 0, 2], want[:, 0], rtol=0, atol=1e-3)
+    np.testing.assert_allclose(got[1:-1, 0, 2:], want[1:-1], rtol=0, atol=1e-5)
+    orig = mesh.vertices[:side * side].reshape(side, side, 8)
+    np.testing.assert_array_equal(got[[0, -1], 0, 3:], orig[[0, -1], 0, 3:])   # corners
+    np.testing.assert_array_equal(got[:, 1:], orig[:, 1:])                    # the rest
+    if up >= 3:
+        assert np.abs(got[:, 0, 2] - orig[:, 0, 2]).max() > 0.1    # it did move
+    bi, bj = border_loop(n)
+    np.testing.assert_allclose(out[side * side:, 2], got[bj, bi, 2] - np.float32(mesh.skirt_m),
+                               rtol=0, atol=1e-4)
+    np.testing.assert_array_equal(out[side * side:, 3:6], got[bj, bi, 3:6])
