@@ -52,3 +52,42 @@ def xvfb():
     yield display
     proc.terminate()
     proc.wait(timeout=10)
+
+
+
+@pytest.hookimpl(wrapper=True)
+def pytest_collection_modifyitems(config, items):
+    """Under ``--dist loadgroup`` (``make test``) the tests that share a fixture of their module
+    (a scene, a world, a flight: scope module, class or package) run on one worker, which
+    builds it once; xdist would otherwise deal a module's tests out to the workers in turn,
+    and each would build it. The other tests go to whichever worker is free."""
+    grouped = getattr(config.option, "loadgroup", False)     # set on xdist's workers
+    if grouped:
+        for item in items:
+            info = getattr(item, "_fixtureinfo", None)
+            if info is None or item.get_closest_marker("xdist_group") is not None:
+                continue
+            if any(defs and defs[-1].scope in ("module", "class", "package")
+                   for defs in info.name2fixturedefs.values()):
+                item.add_marker(pytest.mark.xdist_group(item.nodeid.split("::")[0]))
+    result = yield
+    if grouped:
+        _name_the_groups(items)
+    return result
+
+
+def _name_the_groups(items) -> None:
+    """xdist tells the groups to its scheduler as a suffix '@group' of each test's id, which
+    pytest >= 9.2 no longer lets it write (pytest-dev/pytest-xdist#1386): tests marked with
+    ``xdist_group`` whose id lacks it get it here."""
+    for item in items:
+        names = sorted({str(m.args[0] if m.args else m.kwargs.get("name", "default"))
+                        for m in item.iter_markers("xdist_group")})
+        if not names or "@" in item.nodeid.rsplit("]", 1)[-1]:
+            continue
+        nodeid = f"{item.nodeid}@{'_'.join(names)}"
+        if hasattr(item, "_id"):                       # pytest >= 9.2: a structured NodeId
+            from _pytest.nodeid import NodeId
+            item._id = NodeId.parse(nodeid)
+        else:
+            item._nodeid = nodeid

@@ -36,10 +36,17 @@ LAND_LEVEL_NEIGHBOURS = 24
 """… the LAND_LEVEL_NEIGHBOURS nearest of them, weighted down to 0 at the farthest one."""
 
 
-def _workers() -> int:
-    """KD-tree query threads: all cores on the main thread, one in a tile worker thread or
-    process (which runs beside the frame: it must not take the frame's core)."""
-    if remote.IN_WORKER_PROCESS or threading.current_thread() is not threading.main_thread():
+# below this many query points a KD-tree query runs in the calling thread: starting threads
+# costs more than they save (a boat's few hull points every frame: ~1 ms a call otherwise)
+THREADED_QUERY_MIN = 4096
+
+
+def _workers(n: int) -> int:
+    """KD-tree query threads for ``n`` points: all cores on the main thread, one for a small
+    query or in a tile worker thread or process (which runs beside the frame: it must not
+    take the frame's core)."""
+    if (n < THREADED_QUERY_MIN or remote.IN_WORKER_PROCESS
+            or threading.current_thread() is not threading.main_thread()):
         return 1
     return -1
 
@@ -183,7 +190,7 @@ class WaterSurface:
             self._decimated[stride] = _Samples(self.samples_m[sel], self.levels_m[sel],
                                                self.widths_m[sel], self.branch[sel])
         samples = self._decimated[stride]
-        _, k = samples.tree.query(p, workers=_workers())
+        _, k = samples.tree.query(p, workers=_workers(len(p)))
         return samples.samples[k], samples.widths[k]
 
     def _blend_junction(self, p, j, centre, dist, level, width) -> None:
@@ -256,7 +263,7 @@ class WaterSurface:
             if np.isfinite(reach) and not np.isfinite(
                     tree.query(0.5 * (lo + hi), distance_upper_bound=reach)[0]):
                 return np.full(len(p), np.inf)
-        d, i = tree.query(p, distance_upper_bound=upper_bound_m, workers=_workers())
+        d, i = tree.query(p, distance_upper_bound=upper_bound_m, workers=_workers(len(p)))
         if stride == 1:
             # near the shore, the distance to the boundary's segments on either side of the
             # nearest boundary point, not to the point (off by up to half the spacing: a
@@ -297,7 +304,7 @@ class WaterSurface:
         k = min(LAND_LEVEL_NEIGHBOURS, len(samples.samples))
         if k < 2:
             return np.full(len(p), float(samples.levels[0]) if k else 0.0)
-        d, idx = samples.tree.query(p, k=k, workers=_workers())
+        d, idx = samples.tree.query(p, k=k, workers=_workers(len(p)))
         span = np.maximum(d[:, -1:] - d[:, :1], 1e-9)
         w = (1.0 - (d - d[:, :1]) / span) ** 2
         return (w * samples.levels[idx]).sum(axis=1) / w.sum(axis=1)
@@ -319,7 +326,7 @@ class WaterSurface:
         k = min(BANK_LEVEL_NEIGHBOURS, len(samples.samples))
         if k < 2 or not len(p):
             return self.nearest(p)[1]
-        d, idx = samples.tree.query(p, k=k, workers=_workers())
+        d, idx = samples.tree.query(p, k=k, workers=_workers(len(p)))
         extra = d - d[:, :1]
         span = np.maximum(extra[:, -1:], 1e-9)
         band = BANK_BLEND * np.maximum(np.asarray(shore_m, np.float64).reshape(-1, 1), 0.0) \
@@ -374,7 +381,7 @@ class _Samples:
 
     def project(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(distance, level, width) (N,) of the nearest point on the sampled centre lines."""
-        _, k = self.tree.query(p, workers=_workers())
+        _, k = self.tree.query(p, workers=_workers(len(p)))
         n = len(self.samples)
         best_d = np.full(len(p), np.inf)
         level = np.empty(len(p))

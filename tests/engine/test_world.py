@@ -69,8 +69,7 @@ def flight(scene):
             ok = shapely.contains_xy(water, xy[:, 0], xy[:, 1])
             rec["bad_inside"] += int((~ok).sum())
             rec["inside_seen"] += int(inside.sum())
-            rec["z_err"].append(float(np.abs(p.world_m[inside, 2]
-                                             - scene.water.level(xy)).max()))
+            z_at.append((xy, p.world_m[inside, 2]))
         if frame >= WARM:
             rec["density"].append(steady.sum() / (W * H / (2 * R) ** 2))
         if frame >= WARM and frame % 50 == 0:
@@ -83,7 +82,14 @@ def flight(scene):
                     np.full(len(pixels), np.inf), None)
                 rec["coverage_gap"].append(float(gap.max()))
 
+    z_at = []        # (xy, z) of the particles INSIDE, per frame
     fly(world, 1000, callback=check)
+    # the exact water level of all frames' particles in one query (per point: the same
+    # numbers as a query per frame, ten times faster)
+    level = scene.water.level(np.concatenate([xy for xy, _ in z_at] or [np.zeros((0, 2))]))
+    ends = np.cumsum([len(z) for _, z in z_at])
+    rec["z_err"] = [float(np.abs(z - lv).max())
+                    for (_, z), lv in zip(z_at, np.split(level, ends[:-1]))]
     rec["world"] = world
     yield rec
     world.close()

@@ -147,7 +147,25 @@ def test_the_wake_bends_with_the_boat_s_path():
 
 def test_waves_finer_than_a_few_pixels_fade_out():
     _, count, _, table = _drive(3.0, 20.0)
-    pts, _, _ = _grid(table, count, nx=100, ny=80)   # sums: a coarser grid of the Python twin
+    pts, _, _ = _grid(table, count)
     near = np.hypot(*wake_slopes(pts, table, 1, 0.01).T)
     far = np.hypot(*wake_slopes(pts, table, 1, 5.0).T)     # 5 m pixels: λ₀ = 5.8 m
     assert far.sum() < 0.05 * near.sum()
+
+
+def test_the_twin_s_nearest_trail_point_takes_the_first_segment_of_a_tie():
+    """The shader's rules in its twin: of equally near segments the first (newer) wins, and
+    a point lies 'past' the trail only beyond its oldest point."""
+    from tests.kernels.wake_reference import nearest_on_trail
+    trail = np.full((K, TR_FIELDS), -1.0)
+    arm = np.array([[0, 0], [-10, 0], [-20, 10], [-30, 0], [-40, 0]], float)   # a ∧ in the path
+    trail[:5, :2] = arm
+    trail[:5, TR_ARC] = np.r_[0, np.cumsum(np.hypot(*np.diff(arm, axis=0).T))]
+    # on the ∧'s axis: as near segment 2 as segment 3, the last one beyond its apex
+    y = np.array([-3.0, 0.0, 4.0, 8.0, 15.0])
+    X, _, _, _, back, _, _, past = nearest_on_trail(np.stack([np.full(5, -20.0), y], 1), trail)
+    npt.assert_allclose(back, np.tile([-1.0, 1.0], (5, 1)) / math.sqrt(2))   # segment 2
+    npt.assert_allclose(X, 10.0 + np.minimum(0.5 + y / 20.0, 1.0) * math.sqrt(200.0))
+    assert not past.any()                              # beyond segment 2's end is not past
+    behind = np.stack([np.linspace(-80.0, -30.0, 6), np.zeros(6)], 1)
+    npt.assert_allclose(nearest_on_trail(behind, trail)[-1], [40, 30, 20, 10, 0, 0])

@@ -1,6 +1,8 @@
 """Plain-numpy twin of ``shaders/wake.glsl``: the Kelvin wake's slopes at world points,
-written for clarity (one point at a time, as the shader does); the specification of the
-shader, checked against it through a probe (tests/render/test_foam_wake_render.py)."""
+written for clarity; the specification of the shader, checked against it through a probe
+(tests/render/test_foam_wake_render.py). The shader works one point at a time; here every
+step is the same formula applied to all points at once (arrays over points, and over trail
+segments for the nearest-point search), with masks where the shader returns early."""
 from __future__ import annotations
 
 import math
@@ -15,52 +17,70 @@ TRANSVERSE = 0.55
 
 
 def _smoothstep(e0, e1, x):
-    t = min(max((x - e0) / (e1 - e0), 0.0), 1.0)
+    t = np.clip((x - e0) / (e1 - e0), 0.0, 1.0)
     return t * t * (3.0 - 2.0 * t)
 
 
 def _wave(t, X, Y, k0, px_m):
+    """One family of waves (direction tan φ = t) at each point: its slope (N, 2) in the
+    wake's (back, port) frame, 0 where shorter than a few pixels."""
     c2 = 1.0 + t * t
     k = k0 * c2
-    visible = min(max((2.0 * math.pi / (k * max(px_m, 1e-4)) - 3.0) / 3.0, 0.0), 1.0)
-    if visible <= 0.0:
-        return np.zeros(2)
-    phase = k0 * (X + Y * t) * math.sqrt(c2)
-    return visible * math.sin(phase) * np.array([1.0, t]) / math.sqrt(c2)
+    visible = np.clip((2.0 * math.pi / (k * np.maximum(px_m, 1e-4)) - 3.0) / 3.0, 0.0, 1.0)
+    phase = k0 * (X + Y * t) * np.sqrt(c2)
+    w = (visible * np.sin(phase))[:, None] * np.stack([np.ones_like(t), t], 1) \
+        / np.sqrt(c2)[:, None]
+    return np.where((visible > 0.0)[:, None], w, 0.0)
 
 
-def nearest_on_trail(p, trail):
-    """(X, Y, U, strength, back (2,), port (2,), slope, past) at the trail point nearest p:
-    distance along the trail from the bow, signed distance (+ to port of the boat's motion),
-    speed, strength and wave slope there, the unit vectors behind the boat and to its port,
-    and how far p lies beyond the trail's oldest point (0 unless that is the nearest; the
-    first segment wins a tie, as in the shader)."""
-    best = math.inf
-    out = (0.0, 0.0, 0.0, 0.0, np.zeros(2), np.zeros(2), 0.0, 0.0, 0)
-    a = trail[0]
-    last = 0
-    for j in range(1, len(trail)):
-        q = trail[j]
-        if q[TR_ARC] < 0.0:
-            break
-        last = j
-        e = q[[TR_X, TR_Y]] - a[[TR_X, TR_Y]]
-        len2 = float(e @ e)
-        if len2 > 1e-8:
-            s = min(max(float((p - a[[TR_X, TR_Y]]) @ e) / len2, 0.0), 1.0)
-            d = p - (a[[TR_X, TR_Y]] + s * e)
-            dist2 = float(d @ d)
-            if dist2 < best:
-                best = dist2
-                u = e / math.sqrt(len2)
-                port = np.array([u[1], -u[0]])
-                mix = lambda c: (1 - s) * a[c] + s * q[c]   # noqa: E731
-                past = max(float(d @ u), 0.0) if s >= 1.0 else 0.0
-                out = (mix(TR_ARC), float(d @ port), mix(TR_SPEED), mix(TR_STRENGTH), u, port,
-                       mix(TR_SLOPE), past, j)
-        a = q
-    *values, past, segment = out
-    return (*values, past if segment == last else 0.0)
+def nearest_on_trail(points, trail):
+    """At the trail point nearest each of ``points`` (N, 2): (X, Y, U, strength, back (N, 2),
+    port (N, 2), slope, past), each (N,) unless said: distance along the trail from the bow,
+    signed distance (+ to port of the boat's motion), speed, strength and wave slope there,
+    the unit vectors behind the boat and to its port, and how far the point lies beyond the
+    trail's oldest point (0 unless that is the nearest). The first segment wins a tie, as in
+    the shader; a point with no segment (a trail of one point) gets strength 0."""
+    p = np.asarray(points, np.float64).reshape(-1, 2)
+    n = len(p)
+    # the trail's points up to the first unused one (arc < 0): segments j = 1..last
+    count = 1
+    while count < len(trail) and trail[count, TR_ARC] >= 0.0:
+        count += 1
+    last = count - 1
+    a, q = trail[:count - 1], trail[1:count]                       # (S, F) segment ends
+    e = q[:, [TR_X, TR_Y]] - a[:, [TR_X, TR_Y]]                    # (S, 2) from newer to older
+    len2 = e[:, 0] * e[:, 0] + e[:, 1] * e[:, 1]
+    ok = len2 > 1e-8                                               # degenerate ones skipped
+    safe = np.where(ok, len2, 1.0)
+    # every point against every segment: (N, S)
+    rx = p[:, 0, None] - a[None, :, TR_X]
+    ry = p[:, 1, None] - a[None, :, TR_Y]
+    s = np.clip((rx * e[:, 0] + ry * e[:, 1]) / safe, 0.0, 1.0)
+    dx = p[:, 0, None] - (a[None, :, TR_X] + s * e[:, 0])
+    dy = p[:, 1, None] - (a[None, :, TR_Y] + s * e[:, 1])
+    dist2 = np.where(ok, dx * dx + dy * dy, np.inf)
+    # the nearest segment: argmin takes the first of equal distances (the shader's strict <)
+    best = np.argmin(dist2, axis=1) if len(a) else np.zeros(n, int)
+    rows = np.arange(n)
+    found = np.isfinite(dist2[rows, best]) if len(a) else np.zeros(n, bool)
+    if not found.any():
+        zero, zero2 = np.zeros(n), np.zeros((n, 2))
+        return zero, zero, zero, zero, zero2, zero2, zero, zero
+    sb = s[rows, best]
+    d = np.stack([dx[rows, best], dy[rows, best]], 1)
+    u = e[best] / np.sqrt(safe[best])[:, None]
+    port = np.stack([u[:, 1], -u[:, 0]], 1)
+    a_b, q_b = a[best], q[best]
+
+    def mix(c):
+        return np.where(found, (1 - sb) * a_b[:, c] + sb * q_b[:, c], 0.0)
+
+    along = d[:, 0] * u[:, 0] + d[:, 1] * u[:, 1]
+    past = np.where((sb >= 1.0) & (best + 1 == last), np.maximum(along, 0.0), 0.0)
+    Y = d[:, 0] * port[:, 0] + d[:, 1] * port[:, 1]
+    return (mix(TR_ARC), np.where(found, Y, 0.0), mix(TR_SPEED), mix(TR_STRENGTH),
+            np.where(found[:, None], u, 0.0), np.where(found[:, None], port, 0.0),
+            mix(TR_SLOPE), np.where(found, past, 0.0))
 
 
 BREAK = 0.35
@@ -79,33 +99,36 @@ def wake_slopes(points, table, count, px_m, crest=None):
         used = trail[:, TR_ARC] >= 0.0
         if not used.any():
             continue
+        # the box around the wedge outside which the wake is flat
         reach = 1.1 * trail[used, TR_ARC].max() * CUSP + 1.0
         lo = trail[used][:, [TR_X, TR_Y]].min(axis=0) - reach
         hi = trail[used][:, [TR_X, TR_Y]].max(axis=0) + reach
-        for i, p in enumerate(pts):
-            if (p < lo).any() or (p > hi).any():
-                continue
-            X, Y, U, strength, back, port, slope, past = nearest_on_trail(p, trail)
-            if strength <= 0.0 or U < 0.3 or X <= 0.0:
-                continue
-            r = abs(Y) / X
-            if r > 1.06 * CUSP:
-                continue
-            k0 = G / (U * U)
-            amp = (slope * strength * _smoothstep(0.0, 4.0, X)
-                   * (1.0 - _smoothstep(0.0, math.pi / k0, past))
-                   / math.sqrt(1.0 + X * k0 / (2.0 * math.pi) * 0.5)
-                   * (1.0 - _smoothstep(0.88 * CUSP, 1.06 * CUSP, r)))
-            rr = min(r, CUSP)
-            D = math.sqrt(max(X * X - 8.0 * Y * Y, 0.0))
-            cusp = 1.0 + 0.8 * math.exp(-((CUSP - rr) / (0.18 * CUSP)) ** 2)
-            w = TRANSVERSE * _wave(-2.0 * Y / (X + D), X, Y, k0, px[i])
-            if abs(Y) > 1e-3:
-                w = w + _smoothstep(0.0, 0.5 * CUSP, r) * _wave(-(X + D) / (4.0 * Y), X, Y, k0,
-                                                                px[i])
-            w = w * amp * cusp
-            out[i] += w[0] * back + w[1] * port
-            if crest is not None:
-                crest[i] = max(crest[i], strength * _smoothstep(BREAK, 2 * BREAK,
-                                                                float(np.hypot(*w))))
+        idx = np.flatnonzero(~((pts < lo).any(axis=1) | (pts > hi).any(axis=1)))
+        X, Y, U, strength, back, port, slope, past = nearest_on_trail(pts[idx], trail)
+        # the points with a wake: moving water behind the bow, inside the wedge
+        keep = (strength > 0.0) & (U >= 0.3) & (X > 0.0)
+        r = np.full(len(idx), np.inf)
+        r[keep] = np.abs(Y[keep]) / X[keep]
+        keep &= r <= 1.06 * CUSP
+        idx, X, Y, U, strength, back, port, slope, past, r = (
+            v[keep] for v in (idx, X, Y, U, strength, back, port, slope, past, r))
+        k0 = G / (U * U)
+        amp = (slope * strength * _smoothstep(0.0, 4.0, X)
+               * (1.0 - _smoothstep(0.0, math.pi / k0, past))
+               / np.sqrt(1.0 + X * k0 / (2.0 * math.pi) * 0.5)
+               * (1.0 - _smoothstep(0.88 * CUSP, 1.06 * CUSP, r)))
+        rr = np.minimum(r, CUSP)
+        D = np.sqrt(np.maximum(X * X - 8.0 * Y * Y, 0.0))
+        cusp = 1.0 + 0.8 * np.exp(-((CUSP - rr) / (0.18 * CUSP)) ** 2)
+        w = TRANSVERSE * _wave(-2.0 * Y / (X + D), X, Y, k0, px[idx])
+        # the diverging waves, where the point is off the track (|Y| > 1 mm)
+        off = np.abs(Y) > 1e-3
+        t_div = -(X + D) / (4.0 * np.where(off, Y, 1.0))
+        w = w + np.where(off[:, None], _smoothstep(0.0, 0.5 * CUSP, r)[:, None]
+                         * _wave(t_div, X, Y, k0, px[idx]), 0.0)
+        w = w * amp[:, None] * cusp[:, None]
+        out[idx] += w[:, :1] * back + w[:, 1:] * port
+        if crest is not None:
+            crest[idx] = np.maximum(crest[idx], strength * _smoothstep(BREAK, 2 * BREAK,
+                                                                       np.hypot(*w.T)))
     return out
