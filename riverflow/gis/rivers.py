@@ -54,10 +54,15 @@ connected piece, found from drainage areas or stream orders, elevations, else th
 the junction angles); rivers that meet where nothing leaves (clipped data) get a short
 outlet; lines crossing without a shared vertex are cut where the narrower crosses the wider
 one's water (no junction); grid-traced lines are smoothed at the scale of their width;
-attribute values that are text, NaN or ≤ 0 are not used (the next rule applies); and
+attribute values that are text, NaN or ≤ 0 (stream orders below 1, OSM width tags that are
+no width) are not used (the next rule applies); a given width under MIN_WIDTH_M is raised to
+it; and
 ``build()`` narrows channels that lie closer together than their widths where the network
 cannot be built otherwise. ``strict=True``: lines are taken as drawn and the first defect
 raises :class:`~riverflow.GraphError` naming the file, layer, feature and attributes.
+Values replaced without a defect in the data (a derived width raised to MIN_WIDTH_M, a given
+discharge smaller than its inflows or split at a bifurcation, elevations rising downstream)
+are notes naming the feature and the value; nothing is replaced silently.
 OpenStreetMap files (``.osm``, ``.osm.pbf``) give their ``waterway=`` ways
 (:data:`OSM_WATERWAYS`), drawn downstream, with their ``width`` tag.
 
@@ -412,8 +417,10 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
     names = [str(n) for n in meta["fields"]]
     table = {n: columns[k] for k, n in enumerate(names)}
     osm_notes: list[str] = []
+    osm_bad_widths: list = []
     if osm:
-        fids, wkb, table, names, osm_notes = _osm_waterways(fids, wkb, table, names, where)
+        fids, wkb, table, names, osm_notes, osm_bad_widths = _osm_waterways(
+            fids, wkb, table, names, where)
         if width_m is None:
             width_m = "width"
     if len(fids) == 0:
@@ -428,6 +435,10 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
     report.notes += osm_notes
     if osm:
         report.optional.add("width")
+    for k, tag in osm_bad_widths:
+        report.repair(f"feature {fids[k]}", int(fids[k]), attrs_of(k),
+                      f"width tag {tag!r} is not a width in metres: not used (the link falls "
+                      "back to the next rule)")
     keys = {"width_m": width_m, "discharge_m2s": discharge_m2s, "discharge_m3s": discharge_m3s,
             "drainage_area_km2": drainage_area_km2, "stream_order": stream_order,
             "elevation_m": elevation_m}
@@ -491,6 +502,7 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
                           f"grid-traced (vertices closer than its width {width:.1f} m, turns "
                           f"of up to {turn:.0f}°): smoothed at the scale of its width (the "
                           f"centre line moved by at most {shift:.1f} m)")
+        _report_substitutions(link, wfrom, qfrom, report)
         line = _simplify(link.points, width)
         builder.add_branch(line, width, discharge_m2s=q, name=link.name)
         report.links.append(ImportedLink(link.name, link.fid, width, q, q3, wfrom, qfrom, lateral))
@@ -510,14 +522,17 @@ def _is_osm(path: Path) -> bool:
 def _osm_waterways(fids, wkb, table: dict, names: list[str], where: str):
     """The ways of an OSM ``lines`` layer (GDAL's OSM driver) tagged ``waterway=`` one of
     OSM_WATERWAYS, with a numeric ``width`` column from the ``width`` tag (metres; NaN where
-    absent or unreadable); and a note on the ways left out."""
+    absent or unreadable); a note on the ways left out; and (index, tag) of the kept ways
+    whose width tag is unreadable (read_rivers reports them)."""
     if "waterway" not in table:
         raise GraphError(f"{where}: no 'waterway' attribute: not an OpenStreetMap lines layer "
                          f"(its attributes: {names})")
     kind = np.array([None if w is None else str(w) for w in table["waterway"]], dtype=object)
     keep = np.array([k in OSM_WATERWAYS for k in kind], dtype=bool)
     other = table.get("other_tags", np.full(len(kind), None, dtype=object))
-    width = np.array([_osm_width(_hstore(t).get("width")) for t in other])
+    tags = [_hstore(t).get("width") for t in other]
+    width = np.array([_osm_width(t) for t in tags])
+    unreadable = [t is not None and math.isnan(w) for t, w in zip(tags, width)]
     left: dict[str, int] = {}
     for k in kind[~keep]:
         label = f"waterway={k}" if k is not None else "not a waterway"
@@ -533,7 +548,9 @@ def _osm_waterways(fids, wkb, table: dict, names: list[str], where: str):
     table = {n: np.asarray(v)[keep] for n, v in table.items()}
     table["width"] = width[keep]
     names = [*names, "width"] if "width" not in names else names
-    return np.asarray(fids)[keep], np.asarray(wkb, dtype=object)[keep], table, names, notes
+    bad = [(k, tags[i]) for k, i in enumerate(np.flatnonzero(keep)) if unreadable[i]]
+    return (np.asarray(fids)[keep], np.asarray(wkb, dtype=object)[keep], table, names, notes,
+            bad)
 
 
 def _hstore(text) -> dict[str, str]:
@@ -638,8 +655,8 @@ def _values(spec, table, k: int, name: str, attrs: dict, where: str,
             report: RiverImport | None = None, fid: int | None = None,
             key: str = "") -> tuple[float, float]:
     """(value at the link's start, at its end) of one keyword; NaN where not given. Text,
-    NaN, and (but for elevations) values ≤ 0 are reported repairs and become NaN: the link
-    falls back to the next rule."""
+    NaN, (but for elevations) values ≤ 0 and stream orders below 1 are reported repairs and
+    become NaN: the link falls back to the next rule."""
     if spec is None:
         return (math.nan, math.nan)
     if isinstance(spec, float):
@@ -657,7 +674,9 @@ def _values(spec, table, k: int, name: str, attrs: dict, where: str,
             v, why = math.nan, f"{raw!r} is not a number"
         else:
             why = ("missing (NaN)" if not math.isfinite(v) else
-                   f"{v:g} is not positive" if v <= 0 and key != "elevation_m" else None)
+                   f"{v:g} is not positive" if v <= 0 and key != "elevation_m" else
+                   f"{v:g} is below 1 (Strahler orders start at 1)"
+                   if v < 1 and key == "stream_order" else None)
             if why is not None:
                 v = math.nan
         if why is not None and report is not None and attr not in told and not (
@@ -1258,7 +1277,9 @@ def _plan(links: list[_Link], geometry: HydraulicGeometry, specs: dict, report: 
                 weights = [1.0] * len(siblings)
             share = weights[siblings.index(i)] / sum(weights)
             volume[i], psi[i] = q_in * share, psi_in * share
-            source[i] = f"split of the inflow at a bifurcation ({share:.0%})"
+            source[i] = f"split of the inflow at a bifurcation ({share:.0%})" + (
+                f" (its own estimate, {own[i][2]}, {own[i][0]:.4g} m³/s, not used)"
+                if own[i] is not None and own[i][2].startswith("given") else "")
             braid[i] = labels | {(lk.start, i)}
             continue
         braid[i] = labels
@@ -1268,9 +1289,12 @@ def _plan(links: list[_Link], geometry: HydraulicGeometry, specs: dict, report: 
             psi[i] = psi_in + lateral[i]
         else:
             volume[i], psi[i] = q_in, psi_in
-            smaller = own[i] is not None and own[i][0] < q_in * (1 - 1e-9)
-            source[i] = "sum of the inflows" + (f" (its own estimate, {own[i][2]}, is smaller)"
-                                                if smaller else "")
+            source[i] = "sum of the inflows"
+            if own[i] is not None and own[i][0] < q_in * (1 - 1e-9):
+                source[i] += f" (its own estimate, {own[i][2]}, {own[i][0]:.4g} m³/s, is smaller)"
+            elif own[i] is not None and own[i][0] > q_in * (1 + 1e-9):
+                source[i] += (f" (its own estimate, {own[i][2]}, {own[i][0]:.4g} m³/s, is "
+                              "larger, but it lies in a braid)")
     plan = []
     for i, lk in enumerate(links):
         w0, w1 = lk.values["width_m"]
@@ -1280,9 +1304,28 @@ def _plan(links: list[_Link], geometry: HydraulicGeometry, specs: dict, report: 
         else:
             width, wfrom = geometry.width(volume[i]), "hydraulic geometry of the discharge"
         if width < MIN_WIDTH_M:
-            width, wfrom = MIN_WIDTH_M, wfrom + f", raised to {MIN_WIDTH_M:g} m"
+            width, wfrom = MIN_WIDTH_M, wfrom + f", {width:.3g} m raised to {MIN_WIDTH_M:g} m"
         plan.append((width, psi[i], volume[i], wfrom, source[i], lateral[i]))
     return plan
+
+
+def _report_substitutions(link: _Link, wfrom: str, qfrom: str, report: RiverImport) -> None:
+    """Put every value of the link that :func:`_plan` replaced or clamped in the report with
+    the feature: a given width under MIN_WIDTH_M raised (a repair), a width derived under it
+    raised, a given discharge not used (the inflows are larger, a bifurcation split it, a
+    braid): notes naming the feature, the value and what was used instead."""
+    if link.added:
+        return
+    attrs = f"[{_attrs_text(link.attrs)}]"
+    if "raised to" in wfrom:
+        if wfrom.startswith("given"):
+            report.repair(link.name, link.fid, link.attrs,
+                          f"its width {wfrom.split(', ')[-1]} (the narrowest river made)")
+        else:
+            report.notes.append(f"{link.name}: width by {wfrom} (the narrowest river made) "
+                                + attrs)
+    if "own estimate, given" in qfrom:
+        report.notes.append(f"{link.name}: its given discharge is not used: {qfrom} {attrs}")
 
 
 def _given_width(link: _Link) -> float | None:
@@ -1396,7 +1439,10 @@ def _summarise(report: RiverImport) -> None:
             out[v] = out.get(v, 0) + 1
         return out
 
-    report.derived["width_m"] = counts(lk.width_from for lk in report.links)
+    report.derived["width_m"] = counts(
+        lk.width_from.split(", ")[0] + (f", raised to {MIN_WIDTH_M:g} m"
+                                        if "raised to" in lk.width_from else "")
+        for lk in report.links)
     report.derived["discharge"] = counts(lk.discharge_from.split(" (")[0] if "default" not in
                                          lk.discharge_from else lk.discharge_from
                                          for lk in report.links)
@@ -1832,13 +1878,14 @@ class ProfileLevels:
 
 def _water_levels(links: list[_Link], plan, geometry: HydraulicGeometry,
                   report: RiverImport) -> ProfileLevels | None:
-    samples, levels, missing, uphill = [], [], [], 0
+    samples, levels, missing, uphill = [], [], [], []
     for lk, (_, _, q3, *_rest) in zip(links, plan):
         z0, z1 = lk.values["elevation_m"]
         if not (math.isfinite(z0) and math.isfinite(z1)):
             missing.append(lk.name)
             continue
-        uphill += z1 > z0
+        if z1 > z0:
+            uphill.append(f"{lk.name} ({z0:g} m → {z1:g} m)")
         p = lk.points
         s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(p, axis=0).T))])
         t = np.linspace(0.0, s[-1], max(2, math.ceil(s[-1] / LEVEL_SPACING_M) + 1))
@@ -1848,8 +1895,8 @@ def _water_levels(links: list[_Link], plan, geometry: HydraulicGeometry,
         report.notes.append(f"no bed elevation for {len(missing)} links (their water follows "
                             f"the nearest link that has one): {missing[:5]}")
     if uphill:
-        report.notes.append(f"{uphill} links rise downstream by their elevations (the water "
-                            "surface is made monotone downhill)")
+        report.notes.append(f"{len(uphill)} links rise downstream by their elevations (the "
+                            "water surface is made monotone downhill): " + ", ".join(uphill))
     if not samples:
         return None
     report.derived["water_levels"] = "bed elevation + depth (hydraulic geometry), per link"
