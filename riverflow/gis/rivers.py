@@ -56,8 +56,7 @@ outlet; lines crossing without a shared vertex are cut where the narrower crosse
 one's water (no junction); grid-traced lines are smoothed at the scale of their width;
 attribute values that are text, NaN or ≤ 0 (stream orders below 1, OSM width tags that are
 no width) are not used (the next rule applies); a given width under MIN_WIDTH_M is raised to
-it; and
-``build()`` narrows channels that lie closer together than their widths where the network
+it; and ``build()`` narrows channels that lie closer together than their widths where the network
 cannot be built otherwise. ``strict=True``: lines are taken as drawn and the first defect
 raises :class:`~riverflow.GraphError` naming the file, layer, feature and attributes.
 Values replaced without a defect in the data (a derived width raised to MIN_WIDTH_M, a given
@@ -447,6 +446,8 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
 
     geoms, invalid = _from_wkb(wkb)
     raw = _lines(geoms, fids, attrs_of, where, report, invalid)
+    if crs is None and path.suffix.lower() in (".geojson", ".json"):
+        _check_geojson_crs(path, where)
     source_crs = crs if crs is not None else meta.get("crs")
     xy, crs_out, crs_note = _project(np.vstack([p for _, _, p, _ in raw]), source_crs, where,
                                      [(fids[k], attrs_of(k), len(p)) for k, _, p, _ in raw])
@@ -875,6 +876,64 @@ def _raise_at(bad: np.ndarray, features, where: str, xy: np.ndarray, what: str):
                              f"[{_attrs_text(attrs)}]")
         start += n
     raise GraphError(f"{where}: a vertex {tuple(xy[i])} {what}")
+
+
+GEOJSON_HEAD_BYTES = 1 << 20
+GEOJSON_TAIL_BYTES = 1 << 16
+
+
+def _check_geojson_crs(path: Path, where: str) -> None:
+    """GraphError naming the file, layer and CRS text when a GeoJSON's top-level ``crs``
+    member (GeoJSON 2008) names a CRS pyproj cannot resolve: GDAL reads such a file as WGS 84
+    without a word. No ``crs`` member (RFC 7946) or ``"crs": null`` is WGS 84. Only the
+    text before ``"features"`` (in the first GEOJSON_HEAD_BYTES) and a ``crs`` member that
+    closes the file (in the last GEOJSON_TAIL_BYTES) are looked at: memory stays bounded."""
+    import json
+    import re
+
+    try:
+        with open(path, "rb") as f:
+            head = f.read(GEOJSON_HEAD_BYTES)
+            size = f.seek(0, 2)
+            f.seek(max(size - GEOJSON_TAIL_BYTES, len(head)))
+            tail = f.read()
+    except OSError:
+        return                                  # pyogrio read it: nothing to add here
+    head_text = head.decode("utf-8", "replace")
+    cut = head_text.find('"features"')
+    found = None
+    decoder = json.JSONDecoder()
+    for text, at_end in ((head_text[:cut] if cut >= 0 else head_text, False),
+                         (head_text if size <= len(head) else
+                          tail.decode("utf-8", "replace"), True)):
+        for m in re.finditer(r'"crs"\s*:\s*', text):
+            try:
+                value, end = decoder.raw_decode(text, m.end())
+            except ValueError:
+                continue
+            if at_end and text[end:].strip(" \t\r\n") != "}":
+                continue                        # not the top-level object's last member
+            found = (value,)
+            break
+        if found:
+            break
+    if not found or found[0] is None:
+        return
+    value = found[0]
+    name = (value.get("properties") or {}).get("name") \
+        if isinstance(value, dict) and value.get("type") == "name" \
+        and isinstance(value.get("properties"), dict) else None
+    text = name if isinstance(name, str) else json.dumps(value)[:200]
+    pyproj = require("pyproj", f"reading the CRS of {where}")
+    try:
+        if not isinstance(name, str):
+            raise ValueError("not a named CRS ({\"type\": \"name\", \"properties\": "
+                             "{\"name\": …}})")
+        pyproj.CRS.from_user_input(name)
+    except Exception as exc:              # pyproj.exceptions.CRSError
+        raise GraphError(f"{where}: its GeoJSON crs member names a CRS that cannot be read: "
+                         f"{text!r} ({str(exc).splitlines()[0][:160]}); pass "
+                         "read_rivers(crs=...) to say which it is") from None
 
 
 def _metres(crs) -> bool:

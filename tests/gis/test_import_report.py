@@ -93,3 +93,55 @@ def test_an_unreadable_osm_width_tag_is_reported(tmp_path):
         "width tag 'wide' is not a width in metres: not used (the link falls back to the next "
         "rule)"]
     assert repairs_of(builder, "feature 101") == []
+
+
+def _geojson(path, crs_member, coords):
+    import json
+    doc = {"type": "FeatureCollection"}
+    if crs_member is not ...:
+        doc["crs"] = crs_member
+    doc["features"] = [{"type": "Feature", "properties": {"crs": "not this one"},
+                        "geometry": {"type": "LineString", "coordinates": c}} for c in coords]
+    path.write_text(json.dumps(doc))
+    return path
+
+
+LONLAT = [[[15.0, 45.0], [15.01, 45.0]], [[15.01, 45.0], [15.02, 45.001]]]
+
+
+@pytest.mark.parametrize("member", [
+    {"type": "name", "properties": {"name": "urn:ogc:def:crs:EPSG::999999"}},
+    {"type": "name", "properties": {"name": "NOT A CRS"}},
+    {"type": "link", "properties": {"href": "http://example.com/crs/42", "type": "proj4"}}])
+def test_an_unknown_geojson_crs_is_an_error(tmp_path, member):
+    path = _geojson(tmp_path / "odd.geojson", member, LONLAT)
+    text = member["properties"].get("name", "http://example.com/crs/42")
+    with pytest.raises(rf.GraphError) as err:
+        rf.read_rivers(path)
+    message = str(err.value)
+    for part in ("odd.geojson", "(layer 'odd')", text):
+        assert part in message, message
+    builder = rf.read_rivers(path, crs="EPSG:4326")       # the user says which: read
+    assert "EPSG:4326" in builder.report.derived["coordinates"]
+
+
+def test_an_unknown_crs_after_the_features_is_an_error(tmp_path):
+    import json
+    path = tmp_path / "late.geojson"
+    doc = json.loads(_geojson(path, ..., LONLAT).read_text())
+    doc["crs"] = {"type": "name", "properties": {"name": "EPSG:0"}}
+    path.write_text(json.dumps(doc))
+    with pytest.raises(rf.GraphError, match=r"late.geojson \(layer 'late'\).*'EPSG:0'"):
+        rf.read_rivers(path)
+
+
+@pytest.mark.parametrize("member", [..., None,
+                                    {"type": "name", "properties": {"name": "EPSG:4326"}},
+                                    {"type": "name", "properties": {
+                                        "name": "urn:ogc:def:crs:OGC:1.3:CRS84"}}])
+def test_geojson_without_or_with_a_known_crs_is_wgs84(tmp_path, member):
+    path = _geojson(tmp_path / "ok.geojson", member, LONLAT)
+    builder = rf.read_rivers(path)
+    assert "projected from EPSG:4326" in builder.report.derived["coordinates"] \
+        or "OGC:CRS84" in builder.report.derived["coordinates"]
+    assert len(builder.report.links) == 2
