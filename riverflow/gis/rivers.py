@@ -73,6 +73,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -84,6 +85,7 @@ import shapely.errors
 import shapely.ops
 from scipy.spatial import cKDTree
 
+from riverflow import _validate
 from riverflow.gis import require
 from riverflow.hydro.builder import MAX_TURN_DEG, RiverNetworkBuilder
 from riverflow.hydro.graph import GraphError
@@ -398,7 +400,14 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
         GraphError: unreadable file, unknown layer or attribute, no features, a feature that
             is not a line or has NaN coordinates, a CRS that cannot be projected, bad values.
         ImportError: the ``gis`` extra is not installed.
+        TypeError / ValueError: an argument of the wrong type or out of range
+            (:func:`_check_arguments`, before the file is opened), naming the argument.
     """
+    _check_arguments(path=path, layer=layer, crs=crs, snap_m=snap_m, geometry=geometry,
+                     tolerance_m=tolerance_m, strict=strict, width_m=width_m,
+                     discharge_m2s=discharge_m2s, discharge_m3s=discharge_m3s,
+                     drainage_area_km2=drainage_area_km2, stream_order=stream_order,
+                     elevation_m=elevation_m)
     path = Path(path)
     where = str(path)
     pyogrio = require("pyogrio", f"reading {where}")
@@ -513,6 +522,59 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
     if specs["elevation_m"] is not None:
         builder.water_levels = _water_levels(links, plan, geometry, report)
     return builder
+
+
+def _check_arguments(*, path, layer, crs, snap_m, geometry, tolerance_m, strict,
+                     **values) -> None:
+    """read_rivers' arguments, before any file is opened (riverflow._validate): ``path`` a
+    str or os.PathLike; ``layer`` None, a name or an index; ``crs`` None, text, an EPSG code,
+    a dict or a pyproj CRS; ``snap_m`` ≥ 0 and ``tolerance_m`` > 0, finite; ``geometry`` a
+    :class:`HydraulicGeometry` of finite positive numbers (depth_exponent < 1);
+    ``strict`` a bool; each value keyword None, an attribute name (a pair for
+    ``elevation_m`` / ``drainage_area_km2``) or a number: finite (elevation_m), ≥ 1
+    (stream_order), else > 0. TypeError / ValueError naming the argument."""
+    if isinstance(path, bytes) or not isinstance(path, (str, os.PathLike)):
+        raise TypeError(f"read_rivers: path must be a file path (str or os.PathLike), got "
+                        f"{type(path).__name__} {path!r:.80}")
+    if layer is not None and (isinstance(layer, bool)
+                              or not isinstance(layer, (str, int, np.integer))):
+        raise TypeError(f"read_rivers: layer must be a layer name or index, got "
+                        f"{type(layer).__name__} {layer!r:.80}")
+    if crs is not None and (isinstance(crs, (bool, float, bytes)) or not (
+            isinstance(crs, (str, int, np.integer, dict)) or hasattr(crs, "to_wkt"))):
+        raise TypeError(f"read_rivers: crs must be a CRS (text such as 'EPSG:4326', an EPSG "
+                        f"code, a dict or a pyproj.CRS), got {type(crs).__name__} {crs!r:.80}")
+    _validate.non_negative(snap_m, "read_rivers: snap_m")
+    _validate.finite_positive(tolerance_m, "read_rivers: tolerance_m")
+    if not isinstance(strict, (bool, np.bool_)):
+        raise TypeError(f"read_rivers: strict must be True or False, got {strict!r:.80}")
+    if not isinstance(geometry, HydraulicGeometry):
+        raise TypeError(f"read_rivers: geometry must be a HydraulicGeometry, got "
+                        f"{type(geometry).__name__}")
+    for name, v in geometry._asdict().items():
+        _validate.finite_positive(v, f"read_rivers: geometry.{name}")
+    if not geometry.depth_exponent < 1.0:
+        raise ValueError(f"read_rivers: geometry.depth_exponent must be < 1 (Q = c·q^(1/(1−f))),"
+                         f" got {geometry.depth_exponent!r}")
+    for key, value in values.items():
+        arg = f"read_rivers: {key}"
+        if value is None or isinstance(value, str):
+            continue
+        if isinstance(value, (tuple, list)):
+            if all(isinstance(v, str) for v in value):
+                continue                    # names: checked against the file's attributes
+            raise TypeError(f"{arg} must be an attribute name"
+                            + (" or a pair of them" if key in ("elevation_m", "drainage_area_km2")
+                               else "") + f" or a number, got {value!r:.80}")
+        try:
+            v = _validate.finite(value, arg)
+        except TypeError:
+            raise TypeError(f"{arg} must be an attribute name or a number, got "
+                            f"{type(value).__name__} {value!r:.80}") from None
+        if key == "stream_order" and v < 1.0:
+            raise ValueError(f"{arg} must be ≥ 1 (Strahler orders start at 1), got {value!r}")
+        if key not in ("elevation_m", "stream_order"):
+            _validate.finite_positive(value, arg)
 
 
 def _is_osm(path: Path) -> bool:
