@@ -324,14 +324,13 @@ def _vec3(v, name: str) -> np.ndarray:
     except ValueError:                          # ragged sequences
         raise ValueError(f"look_at: {name} must be 3 finite numbers [m], got {v!r:.80}") \
             from None
-    if a.dtype == bool or not np.issubdtype(a.dtype, np.number) \
-            or np.issubdtype(a.dtype, np.complexfloating):
+    if a.dtype.kind not in "fiu":             # not bool, complex, text or objects
         raise TypeError(f"look_at: {name} must be 3 real numbers [m], got {v!r:.80}")
     if a.shape != (3,):
         raise ValueError(f"look_at: {name} must be 3 finite numbers [m] (shape (3,)), got "
                          f"shape {a.shape}")
-    a = a.astype(np.float64)
-    if not np.all(np.isfinite(a)):
+    a = a.astype(np.float64)                  # a copy, always
+    if not np.isfinite(a).all():
         raise ValueError(f"look_at: {name} must be 3 finite numbers [m], got {a.tolist()}")
     return a
 
