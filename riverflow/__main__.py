@@ -67,7 +67,7 @@ def _parser() -> argparse.ArgumentParser:
                    help="exponent of the bank weights d^-S (default: %(default)s)")
     p.add_argument("--radius-factor", type=_positive, default=5.0, metavar="F",
                    help="search radius = F × the widest axis (default: %(default)s)")
-    p.add_argument("--size-px", type=int, default=1600, metavar="PX",
+    p.add_argument("--size-px", type=_side_px, default=1600, metavar="PX",
                    help="width of the picture in pixels (default: %(default)s)")
     p.add_argument("--arrows", action="store_true", help="draw arrows instead of streamlines")
     p.set_defaults(run=_flowmap)
@@ -167,13 +167,34 @@ def _positive(text: str) -> float:
     return value
 
 
+MAX_COUNT = 10_000_000
+"""Most frames (--frames, --every) a command takes: 46 hours at 60 frames a second."""
+MAX_SIDE_PX = 1 << 15
+"""Widest picture or window side [px] (--size, --size-px): RiverWorld's limit."""
+
+
 def _positive_int(text: str) -> int:
+    """A whole number 1 … MAX_COUNT (argparse names the option in its error)."""
+    try:
+        value = int(text)
+    except ValueError:             # also past Python's 4,300-digit limit
+        raise argparse.ArgumentTypeError(f"not an integer: {text[:40]!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {text!r}")
+    if value > MAX_COUNT:
+        raise argparse.ArgumentTypeError(f"must be at most {MAX_COUNT:,}, got {text[:40]!r}")
+    return value
+
+
+def _side_px(text: str) -> int:
+    """A picture side 1 … MAX_SIDE_PX pixels."""
     try:
         value = int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, got {text!r}")
+        raise argparse.ArgumentTypeError(f"not a whole number of pixels: {text[:40]!r}") \
+            from None
+    if not 1 <= value <= MAX_SIDE_PX:
+        raise argparse.ArgumentTypeError(f"must be 1 … {MAX_SIDE_PX} px, got {text[:40]!r}")
     return value
 
 
@@ -201,12 +222,17 @@ def _png_file(text: str) -> Path:
 
 
 def _size(text: str) -> tuple[int, int]:
+    """WxH: two whole numbers of pixels, 1 … MAX_SIDE_PX each."""
     try:
         w, h = (int(v) for v in text.lower().split("x"))
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected WxH such as 1280x720, got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"expected WxH such as 1280x720, got "
+                                         f"{text[:40]!r}") from None
     if w < 1 or h < 1:
         raise argparse.ArgumentTypeError(f"width and height must be positive, got {text!r}")
+    if max(w, h) > MAX_SIDE_PX:
+        raise argparse.ArgumentTypeError(f"width and height must be at most {MAX_SIDE_PX} px, "
+                                         f"got {text[:40]!r}")
     return w, h
 
 

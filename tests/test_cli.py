@@ -286,6 +286,50 @@ def test_bad_arguments_are_usage_errors():
     assert run_cli("render", *RENDER_ARGS[:-1], "nonsense", "--out", "x.png").returncode == 2
 
 
+@pytest.mark.parametrize("argv, option", [
+    (["render", "--size", "0x720"], "--size"),
+    (["render", "--size", "1e9x5"], "--size"),
+    (["render", "--size", "99999x720"], "--size"),
+    (["profile", "--size=-5x5"], "--size"),
+    (["demo", "--size", "axb"], "--size"),
+    (["render", "--frames", "0"], "--frames"),
+    (["render", "--frames", "1e3"], "--frames"),
+    (["profile", "--frames", "nan"], "--frames"),
+    (["render", "--frames", "99999999999999"], "--frames"),
+    (["demo", "--frames", "9" * 5000], "--frames"),
+    (["demo", "--every=-1"], "--every"),
+    (["flowmap", "--size-px", "0"], "--size-px"),
+    (["flowmap", "--size-px", "1e3"], "--size-px"),
+    (["bake", "--region", "1,2,3"], "--region"),
+    (["bake", "--region", "0,0,nan,5"], "--region"),
+    (["bake", "--region", "0,0,inf,5"], "--region"),
+    (["bake", "--region=-inf,0,5,5"], "--region"),
+    (["bake", "--region", "5,0,1,5"], "--region"),
+    (["bake", "--cell-m", "nan"], "--cell-m"),
+    (["bake", "--cell-m", "-1"], "--cell-m"),
+    (["bake", "--cell-m", "inf"], "--cell-m"),
+    (["bake", "--cell-m", "one"], "--cell-m"),
+])
+def test_bad_numbers_are_usage_errors_naming_the_option(argv, option, capsys):
+    from riverflow.__main__ import _parser
+
+    with pytest.raises(SystemExit) as exit_:
+        _parser().parse_args(argv)
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err
+    assert f"argument {option}:" in err and "Traceback" not in err, err
+    assert len(err) < 2000                      # a 5000-digit number is not echoed
+
+
+def test_good_numbers_parse():
+    from riverflow.__main__ import _parser
+
+    args = _parser().parse_args(["render", "--size", "32768x1", "--frames", "10000000"])
+    assert args.size == (32768, 1) and args.frames == 10_000_000
+    args = _parser().parse_args(["bake", "--region=-1e6,-5,1e6,5", "--cell-m", "0.5"])
+    assert args.region == (-1e6, -5.0, 1e6, 5.0) and args.cell_m == 0.5
+
+
 # -- plot_flow in process ------------------------------------------------------------------------
 
 

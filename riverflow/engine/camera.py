@@ -162,11 +162,13 @@ class Camera:
 
         When the view direction is parallel to ``up`` (looking straight down with up = +z) the
         screen's up is taken from the previous view's up direction projected out of the new
-        view direction, else world +y (or +x). Raises ``ValueError`` on non-finite input, a
-        zero ``up`` or ``eye == target``; the camera is then unchanged.
+        view direction, else world +y (or +x). Each argument must be exactly 3 real numbers
+        (shape (3,)): ``TypeError`` for text or non-numbers, ``ValueError`` (naming the
+        argument) for another shape, NaN/inf, a zero ``up`` or ``eye == target``; the camera
+        is then unchanged.
         """
-        eye = _vec3(eye_xyz, "eye")
-        target = _vec3(target_xyz, "target")
+        eye = _vec3(eye_xyz, "eye_xyz")
+        target = _vec3(target_xyz, "target_xyz")
         up_v = _vec3(up, "up")
         forward = target - eye
         dist = float(np.linalg.norm(forward))
@@ -313,10 +315,24 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def _vec3(v, name: str) -> np.ndarray:
-    a = np.asarray(v, dtype=np.float64).reshape(-1)
-    if a.shape != (3,) or not np.all(np.isfinite(a)):
-        raise ValueError(f"look_at: {name} must be 3 finite numbers, got {v!r}")
-    return a.copy()
+    """``v`` as a (3,) float64 vector: exactly 3 real numbers (a (3,) array or sequence; not
+    (1, 3), (3, 1) or text: TypeError / ValueError naming ``name``), all finite."""
+    if isinstance(v, (str, bytes)):
+        raise TypeError(f"look_at: {name} must be 3 finite numbers [m], got {v!r:.80}")
+    try:
+        a = np.asarray(v)
+    except ValueError:                          # ragged sequences
+        raise ValueError(f"look_at: {name} must be 3 finite numbers [m], got {v!r:.80}") \
+            from None
+    if a.dtype.kind not in "fiu":             # not bool, complex, text or objects
+        raise TypeError(f"look_at: {name} must be 3 real numbers [m], got {v!r:.80}")
+    if a.shape != (3,):
+        raise ValueError(f"look_at: {name} must be 3 finite numbers [m] (shape (3,)), got "
+                         f"shape {a.shape}")
+    a = a.astype(np.float64)                  # a copy, always
+    if not np.isfinite(a).all():
+        raise ValueError(f"look_at: {name} must be 3 finite numbers [m], got {a.tolist()}")
+    return a
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:

@@ -197,8 +197,13 @@ class RiverWorld:
     def step(self, dt_s: float) -> None:
         """Advance the world by ``dt_s`` seconds and run every system once, in order.
 
-        A negative, NaN or huge ``dt_s`` (a hitch) is clamped to [0, config.max_step_s].
+        A negative, NaN or huge ``dt_s`` (a hitch) is clamped to [0, config.max_step_s];
+        anything but a real number (text, None, an array, a bool) is a TypeError naming dt_s.
         """
+        if type(dt_s) is not float and (isinstance(dt_s, bool) or not isinstance(
+                dt_s, (int, np.integer, np.floating))):
+            raise TypeError(f"step: dt_s must be a number of seconds, got "
+                            f"{type(dt_s).__name__} {dt_s!r:.80}")
         dt = float(dt_s) if math.isfinite(dt_s) else 0.0
         dt = min(max(dt, 0.0), self.config.max_step_s)
         clock = self.clock
@@ -228,7 +233,16 @@ class RiverWorld:
 
         Once the view's tiles are made, the update systems run once more with no time passing,
         so that the particles' first Poisson fill of the screen (tens of milliseconds at
-        1080p) happens here, on the loading screen, not in the first frame."""
+        1080p) happens here, on the loading screen, not in the first frame.
+
+        ``timeout_s``: a number of seconds ≥ 0 (inf: no limit); NaN, negative or not a number
+        is a ValueError / TypeError naming it."""
+        if isinstance(timeout_s, bool) or not isinstance(timeout_s, (int, float, np.integer,
+                                                                      np.floating)):
+            raise TypeError(f"load_view: timeout_s must be a number of seconds, got "
+                            f"{type(timeout_s).__name__} {timeout_s!r:.80}")
+        if not timeout_s >= 0:                       # NaN and negatives
+            raise ValueError(f"load_view: timeout_s must be ≥ 0 seconds, got {timeout_s!r}")
         scheduler = self.tiles.scheduler
         end = time.perf_counter() + timeout_s
         starts = scheduler.max_starts

@@ -33,7 +33,7 @@ import numpy as np
 import shapely
 
 from riverflow._atomic import atomic_files, require_suffix, strict_json
-from riverflow._validate import check_allocation
+from riverflow._validate import check_allocation, finite_positive
 from riverflow.components.status import FlowStatus
 from riverflow.gis import require
 from riverflow.hydro.graph import HydroGraph
@@ -86,7 +86,8 @@ def bake_flow_map(field_or_scene, region_m=None, cell_m: float | None = None,
     Raises:
         ValueError: a bad region, cell size, bit depth, max_speed_mps or max_distance_m
             (not a finite positive number), a file name not ending in ``.png``, or a map over
-            MAX_SIDE_PX.
+            MAX_SIDE_PX (checked before any pixel is computed).
+        TypeError: region_m or cell_m not numbers (text, None inside, …), naming them.
         ImportError: ``bits=16`` without pypng (the gis extra).
     """
     started = time.perf_counter()
@@ -103,13 +104,13 @@ def bake_flow_map(field_or_scene, region_m=None, cell_m: float | None = None,
     x0, y0, x1, y1 = _region(region_m, graph, field)
     if cell_m is None:
         cell_m = max(x1 - x0, y1 - y0) / 1024.0
-    cell_m = float(cell_m)
-    if not (math.isfinite(cell_m) and cell_m > 0):
-        raise ValueError(f"bake_flow_map: cell_m must be a positive number, got {cell_m!r}")
-    nx, ny = math.ceil((x1 - x0) / cell_m - 1e-9), math.ceil((y1 - y0) / cell_m - 1e-9)
-    if max(nx, ny) > MAX_SIDE_PX:
-        raise ValueError(f"bake_flow_map: {nx}×{ny} px is over {MAX_SIDE_PX} px a side; use a "
-                         f"larger cell_m than {cell_m:g} m or a smaller region")
+    cell_m = finite_positive(cell_m, "bake_flow_map: cell_m")   # a number (TypeError), > 0
+    fx, fy = (x1 - x0) / cell_m - 1e-9, (y1 - y0) / cell_m - 1e-9
+    if not max(fx, fy) <= MAX_SIDE_PX:        # also inf (a region of 1e308 m, cell_m 5e-324)
+        raise ValueError(f"bake_flow_map: {fx:.4g}×{fy:.4g} px is over {MAX_SIDE_PX} px a "
+                         f"side; use a larger cell_m than {cell_m:g} m or a smaller "
+                         "region_m")
+    nx, ny = math.ceil(fx), math.ceil(fy)
     # centres 16, status 1, velocity 8, speed 4, distance 8 + temporaries, RGBA ≤ 8 B a pixel
     check_allocation(64.0 * nx * ny, f"bake_flow_map: a {nx}×{ny} px map (cell_m={cell_m:g})")
     centres = pixel_centres((x0, y0), cell_m, (nx, ny))
@@ -237,14 +238,29 @@ def _region(region_m, graph: HydroGraph, field) -> tuple[float, float, float, fl
         x0, y0, x1, y1 = graph.bounds()
         pad = max(graph.curves[a].width_m for a in graph.axes())
         return x0 - pad, y0 - pad, x1 + pad, y1 + pad
+    if isinstance(region_m, (str, bytes)):
+        raise TypeError(f"bake_flow_map: region_m must be (x0, y0, x1, y1) [m], got "
+                        f"{region_m!r:.80}")
     try:
-        x0, y0, x1, y1 = (float(v) for v in region_m)
+        x0, y0, x1, y1 = region_m
     except (TypeError, ValueError):
         raise ValueError(f"bake_flow_map: region_m must be (x0, y0, x1, y1) [m], got "
-                         f"{region_m!r}") from None
+                         f"{region_m!r:.80}") from None
+    x0, y0, x1, y1 = (_number(v, "bake_flow_map: region_m") for v in (x0, y0, x1, y1))
     if not all(map(math.isfinite, (x0, y0, x1, y1))) or x1 <= x0 or y1 <= y0:
         raise ValueError(f"bake_flow_map: region_m {region_m!r} needs finite x0 < x1, y0 < y1")
     return x0, y0, x1, y1
+
+
+def _number(value, name: str) -> float:
+    """A real number (NaN/inf pass: the caller's range check names them), else TypeError."""
+    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)):
+        raise TypeError(f"{name} must hold numbers [m], got {type(value).__name__} "
+                        f"{value!r:.80}")
+    try:
+        return float(value)
+    except OverflowError:                        # an int beyond float: not finite
+        return math.inf
 
 
 def _write_png(image: np.ndarray, path: Path, bits: int) -> None:

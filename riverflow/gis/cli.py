@@ -6,6 +6,7 @@ Nothing heavy is imported here at import time (``--help`` stays free of numba an
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 
@@ -122,10 +123,15 @@ def run_check(args: argparse.Namespace) -> int:
 
 
 def _region(text: str) -> tuple[float, float, float, float]:
+    """X0,Y0,X1,Y1: four finite numbers [m], X0 < X1 and Y0 < Y1."""
     try:
         x0, y0, x1, y1 = (float(v) for v in text.split(","))
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected X0,Y0,X1,Y1 in metres, got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"expected X0,Y0,X1,Y1 in metres, got "
+                                         f"{text[:80]!r}") from None
+    if not all(math.isfinite(v) for v in (x0, y0, x1, y1)):
+        raise argparse.ArgumentTypeError(f"X0,Y0,X1,Y1 must be finite numbers [m], got "
+                                         f"{text[:80]!r}")
     if not (x1 > x0 and y1 > y0):
         raise argparse.ArgumentTypeError(f"need X0 < X1 and Y0 < Y1, got {text!r}")
     return x0, y0, x1, y1

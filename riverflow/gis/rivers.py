@@ -54,10 +54,14 @@ connected piece, found from drainage areas or stream orders, elevations, else th
 the junction angles); rivers that meet where nothing leaves (clipped data) get a short
 outlet; lines crossing without a shared vertex are cut where the narrower crosses the wider
 one's water (no junction); grid-traced lines are smoothed at the scale of their width;
-attribute values that are text, NaN or ≤ 0 are not used (the next rule applies); and
-``build()`` narrows channels that lie closer together than their widths where the network
+attribute values that are text, NaN or ≤ 0 (stream orders below 1, OSM width tags that are
+no width) are not used (the next rule applies); a given width under MIN_WIDTH_M is raised to
+it; and ``build()`` narrows channels that lie closer together than their widths where the network
 cannot be built otherwise. ``strict=True``: lines are taken as drawn and the first defect
 raises :class:`~riverflow.GraphError` naming the file, layer, feature and attributes.
+Values replaced without a defect in the data (a derived width raised to MIN_WIDTH_M, a given
+discharge smaller than its inflows or split at a bifurcation, elevations rising downstream)
+are notes naming the feature and the value; nothing is replaced silently.
 OpenStreetMap files (``.osm``, ``.osm.pbf``) give their ``waterway=`` ways
 (:data:`OSM_WATERWAYS`), drawn downstream, with their ``width`` tag.
 
@@ -69,6 +73,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -80,6 +85,7 @@ import shapely.errors
 import shapely.ops
 from scipy.spatial import cKDTree
 
+from riverflow import _validate
 from riverflow.gis import require
 from riverflow.hydro.builder import MAX_TURN_DEG, RiverNetworkBuilder
 from riverflow.hydro.graph import GraphError
@@ -394,7 +400,14 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
         GraphError: unreadable file, unknown layer or attribute, no features, a feature that
             is not a line or has NaN coordinates, a CRS that cannot be projected, bad values.
         ImportError: the ``gis`` extra is not installed.
+        TypeError / ValueError: an argument of the wrong type or out of range
+            (:func:`_check_arguments`, before the file is opened), naming the argument.
     """
+    _check_arguments(path=path, layer=layer, crs=crs, snap_m=snap_m, geometry=geometry,
+                     tolerance_m=tolerance_m, strict=strict, width_m=width_m,
+                     discharge_m2s=discharge_m2s, discharge_m3s=discharge_m3s,
+                     drainage_area_km2=drainage_area_km2, stream_order=stream_order,
+                     elevation_m=elevation_m)
     path = Path(path)
     where = str(path)
     pyogrio = require("pyogrio", f"reading {where}")
@@ -412,8 +425,10 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
     names = [str(n) for n in meta["fields"]]
     table = {n: columns[k] for k, n in enumerate(names)}
     osm_notes: list[str] = []
+    osm_bad_widths: list = []
     if osm:
-        fids, wkb, table, names, osm_notes = _osm_waterways(fids, wkb, table, names, where)
+        fids, wkb, table, names, osm_notes, osm_bad_widths = _osm_waterways(
+            fids, wkb, table, names, where)
         if width_m is None:
             width_m = "width"
     if len(fids) == 0:
@@ -428,6 +443,10 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
     report.notes += osm_notes
     if osm:
         report.optional.add("width")
+    for k, tag in osm_bad_widths:
+        report.repair(f"feature {fids[k]}", int(fids[k]), attrs_of(k),
+                      f"width tag {tag!r} is not a width in metres: not used (the link falls "
+                      "back to the next rule)")
     keys = {"width_m": width_m, "discharge_m2s": discharge_m2s, "discharge_m3s": discharge_m3s,
             "drainage_area_km2": drainage_area_km2, "stream_order": stream_order,
             "elevation_m": elevation_m}
@@ -436,6 +455,8 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
 
     geoms, invalid = _from_wkb(wkb)
     raw = _lines(geoms, fids, attrs_of, where, report, invalid)
+    if crs is None and path.suffix.lower() in (".geojson", ".json"):
+        _check_geojson_crs(path, where)
     source_crs = crs if crs is not None else meta.get("crs")
     xy, crs_out, crs_note = _project(np.vstack([p for _, _, p, _ in raw]), source_crs, where,
                                      [(fids[k], attrs_of(k), len(p)) for k, _, p, _ in raw])
@@ -491,6 +512,7 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
                           f"grid-traced (vertices closer than its width {width:.1f} m, turns "
                           f"of up to {turn:.0f}°): smoothed at the scale of its width (the "
                           f"centre line moved by at most {shift:.1f} m)")
+        _report_substitutions(link, wfrom, qfrom, report)
         line = _simplify(link.points, width)
         builder.add_branch(line, width, discharge_m2s=q, name=link.name)
         report.links.append(ImportedLink(link.name, link.fid, width, q, q3, wfrom, qfrom, lateral))
@@ -502,6 +524,59 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
     return builder
 
 
+def _check_arguments(*, path, layer, crs, snap_m, geometry, tolerance_m, strict,
+                     **values) -> None:
+    """read_rivers' arguments, before any file is opened (riverflow._validate): ``path`` a
+    str or os.PathLike; ``layer`` None, a name or an index; ``crs`` None, text, an EPSG code,
+    a dict or a pyproj CRS; ``snap_m`` ≥ 0 and ``tolerance_m`` > 0, finite; ``geometry`` a
+    :class:`HydraulicGeometry` of finite positive numbers (depth_exponent < 1);
+    ``strict`` a bool; each value keyword None, an attribute name (a pair for
+    ``elevation_m`` / ``drainage_area_km2``) or a number: finite (elevation_m), ≥ 1
+    (stream_order), else > 0. TypeError / ValueError naming the argument."""
+    if isinstance(path, bytes) or not isinstance(path, (str, os.PathLike)):
+        raise TypeError(f"read_rivers: path must be a file path (str or os.PathLike), got "
+                        f"{type(path).__name__} {path!r:.80}")
+    if layer is not None and (isinstance(layer, bool)
+                              or not isinstance(layer, (str, int, np.integer))):
+        raise TypeError(f"read_rivers: layer must be a layer name or index, got "
+                        f"{type(layer).__name__} {layer!r:.80}")
+    if crs is not None and (isinstance(crs, (bool, float, bytes)) or not (
+            isinstance(crs, (str, int, np.integer, dict)) or hasattr(crs, "to_wkt"))):
+        raise TypeError(f"read_rivers: crs must be a CRS (text such as 'EPSG:4326', an EPSG "
+                        f"code, a dict or a pyproj.CRS), got {type(crs).__name__} {crs!r:.80}")
+    _validate.non_negative(snap_m, "read_rivers: snap_m")
+    _validate.finite_positive(tolerance_m, "read_rivers: tolerance_m")
+    if not isinstance(strict, (bool, np.bool_)):
+        raise TypeError(f"read_rivers: strict must be True or False, got {strict!r:.80}")
+    if not isinstance(geometry, HydraulicGeometry):
+        raise TypeError(f"read_rivers: geometry must be a HydraulicGeometry, got "
+                        f"{type(geometry).__name__}")
+    for name, v in geometry._asdict().items():
+        _validate.finite_positive(v, f"read_rivers: geometry.{name}")
+    if not geometry.depth_exponent < 1.0:
+        raise ValueError(f"read_rivers: geometry.depth_exponent must be < 1 (Q = c·q^(1/(1−f))),"
+                         f" got {geometry.depth_exponent!r}")
+    for key, value in values.items():
+        arg = f"read_rivers: {key}"
+        if value is None or isinstance(value, str):
+            continue
+        if isinstance(value, (tuple, list)):
+            if all(isinstance(v, str) for v in value):
+                continue                    # names: checked against the file's attributes
+            raise TypeError(f"{arg} must be an attribute name"
+                            + (" or a pair of them" if key in ("elevation_m", "drainage_area_km2")
+                               else "") + f" or a number, got {value!r:.80}")
+        try:
+            v = _validate.finite(value, arg)
+        except TypeError:
+            raise TypeError(f"{arg} must be an attribute name or a number, got "
+                            f"{type(value).__name__} {value!r:.80}") from None
+        if key == "stream_order" and v < 1.0:
+            raise ValueError(f"{arg} must be ≥ 1 (Strahler orders start at 1), got {value!r}")
+        if key not in ("elevation_m", "stream_order"):
+            _validate.finite_positive(value, arg)
+
+
 def _is_osm(path: Path) -> bool:
     name = path.name.lower()
     return name.endswith(".osm") or name.endswith(".osm.pbf") or name.endswith(".pbf")
@@ -510,14 +585,17 @@ def _is_osm(path: Path) -> bool:
 def _osm_waterways(fids, wkb, table: dict, names: list[str], where: str):
     """The ways of an OSM ``lines`` layer (GDAL's OSM driver) tagged ``waterway=`` one of
     OSM_WATERWAYS, with a numeric ``width`` column from the ``width`` tag (metres; NaN where
-    absent or unreadable); and a note on the ways left out."""
+    absent or unreadable); a note on the ways left out; and (index, tag) of the kept ways
+    whose width tag is unreadable (read_rivers reports them)."""
     if "waterway" not in table:
         raise GraphError(f"{where}: no 'waterway' attribute: not an OpenStreetMap lines layer "
                          f"(its attributes: {names})")
     kind = np.array([None if w is None else str(w) for w in table["waterway"]], dtype=object)
     keep = np.array([k in OSM_WATERWAYS for k in kind], dtype=bool)
     other = table.get("other_tags", np.full(len(kind), None, dtype=object))
-    width = np.array([_osm_width(_hstore(t).get("width")) for t in other])
+    tags = [_hstore(t).get("width") for t in other]
+    width = np.array([_osm_width(t) for t in tags])
+    unreadable = [t is not None and math.isnan(w) for t, w in zip(tags, width)]
     left: dict[str, int] = {}
     for k in kind[~keep]:
         label = f"waterway={k}" if k is not None else "not a waterway"
@@ -533,7 +611,9 @@ def _osm_waterways(fids, wkb, table: dict, names: list[str], where: str):
     table = {n: np.asarray(v)[keep] for n, v in table.items()}
     table["width"] = width[keep]
     names = [*names, "width"] if "width" not in names else names
-    return np.asarray(fids)[keep], np.asarray(wkb, dtype=object)[keep], table, names, notes
+    bad = [(k, tags[i]) for k, i in enumerate(np.flatnonzero(keep)) if unreadable[i]]
+    return (np.asarray(fids)[keep], np.asarray(wkb, dtype=object)[keep], table, names, notes,
+            bad)
 
 
 def _hstore(text) -> dict[str, str]:
@@ -638,8 +718,8 @@ def _values(spec, table, k: int, name: str, attrs: dict, where: str,
             report: RiverImport | None = None, fid: int | None = None,
             key: str = "") -> tuple[float, float]:
     """(value at the link's start, at its end) of one keyword; NaN where not given. Text,
-    NaN, and (but for elevations) values ≤ 0 are reported repairs and become NaN: the link
-    falls back to the next rule."""
+    NaN, (but for elevations) values ≤ 0 and stream orders below 1 are reported repairs and
+    become NaN: the link falls back to the next rule."""
     if spec is None:
         return (math.nan, math.nan)
     if isinstance(spec, float):
@@ -657,7 +737,9 @@ def _values(spec, table, k: int, name: str, attrs: dict, where: str,
             v, why = math.nan, f"{raw!r} is not a number"
         else:
             why = ("missing (NaN)" if not math.isfinite(v) else
-                   f"{v:g} is not positive" if v <= 0 and key != "elevation_m" else None)
+                   f"{v:g} is not positive" if v <= 0 and key != "elevation_m" else
+                   f"{v:g} is below 1 (Strahler orders start at 1)"
+                   if v < 1 and key == "stream_order" else None)
             if why is not None:
                 v = math.nan
         if why is not None and report is not None and attr not in told and not (
@@ -856,6 +938,64 @@ def _raise_at(bad: np.ndarray, features, where: str, xy: np.ndarray, what: str):
                              f"[{_attrs_text(attrs)}]")
         start += n
     raise GraphError(f"{where}: a vertex {tuple(xy[i])} {what}")
+
+
+GEOJSON_HEAD_BYTES = 1 << 20
+GEOJSON_TAIL_BYTES = 1 << 16
+
+
+def _check_geojson_crs(path: Path, where: str) -> None:
+    """GraphError naming the file, layer and CRS text when a GeoJSON's top-level ``crs``
+    member (GeoJSON 2008) names a CRS pyproj cannot resolve: GDAL reads such a file as WGS 84
+    without a word. No ``crs`` member (RFC 7946) or ``"crs": null`` is WGS 84. Only the
+    text before ``"features"`` (in the first GEOJSON_HEAD_BYTES) and a ``crs`` member that
+    closes the file (in the last GEOJSON_TAIL_BYTES) are looked at: memory stays bounded."""
+    import json
+    import re
+
+    try:
+        with open(path, "rb") as f:
+            head = f.read(GEOJSON_HEAD_BYTES)
+            size = f.seek(0, 2)
+            f.seek(max(size - GEOJSON_TAIL_BYTES, len(head)))
+            tail = f.read()
+    except OSError:
+        return                                  # pyogrio read it: nothing to add here
+    head_text = head.decode("utf-8", "replace")
+    cut = head_text.find('"features"')
+    found = None
+    decoder = json.JSONDecoder()
+    for text, at_end in ((head_text[:cut] if cut >= 0 else head_text, False),
+                         (head_text if size <= len(head) else
+                          tail.decode("utf-8", "replace"), True)):
+        for m in re.finditer(r'"crs"\s*:\s*', text):
+            try:
+                value, end = decoder.raw_decode(text, m.end())
+            except ValueError:
+                continue
+            if at_end and text[end:].strip(" \t\r\n") != "}":
+                continue                        # not the top-level object's last member
+            found = (value,)
+            break
+        if found:
+            break
+    if not found or found[0] is None:
+        return
+    value = found[0]
+    name = (value.get("properties") or {}).get("name") \
+        if isinstance(value, dict) and value.get("type") == "name" \
+        and isinstance(value.get("properties"), dict) else None
+    text = name if isinstance(name, str) else json.dumps(value)[:200]
+    pyproj = require("pyproj", f"reading the CRS of {where}")
+    try:
+        if not isinstance(name, str):
+            raise ValueError("not a named CRS ({\"type\": \"name\", \"properties\": "
+                             "{\"name\": …}})")
+        pyproj.CRS.from_user_input(name)
+    except Exception as exc:              # pyproj.exceptions.CRSError
+        raise GraphError(f"{where}: its GeoJSON crs member names a CRS that cannot be read: "
+                         f"{text!r} ({str(exc).splitlines()[0][:160]}); pass "
+                         "read_rivers(crs=...) to say which it is") from None
 
 
 def _metres(crs) -> bool:
@@ -1258,7 +1398,9 @@ def _plan(links: list[_Link], geometry: HydraulicGeometry, specs: dict, report: 
                 weights = [1.0] * len(siblings)
             share = weights[siblings.index(i)] / sum(weights)
             volume[i], psi[i] = q_in * share, psi_in * share
-            source[i] = f"split of the inflow at a bifurcation ({share:.0%})"
+            source[i] = f"split of the inflow at a bifurcation ({share:.0%})" + (
+                f" (its own estimate, {own[i][2]}, {own[i][0]:.4g} m³/s, not used)"
+                if own[i] is not None and own[i][2].startswith("given") else "")
             braid[i] = labels | {(lk.start, i)}
             continue
         braid[i] = labels
@@ -1268,9 +1410,12 @@ def _plan(links: list[_Link], geometry: HydraulicGeometry, specs: dict, report: 
             psi[i] = psi_in + lateral[i]
         else:
             volume[i], psi[i] = q_in, psi_in
-            smaller = own[i] is not None and own[i][0] < q_in * (1 - 1e-9)
-            source[i] = "sum of the inflows" + (f" (its own estimate, {own[i][2]}, is smaller)"
-                                                if smaller else "")
+            source[i] = "sum of the inflows"
+            if own[i] is not None and own[i][0] < q_in * (1 - 1e-9):
+                source[i] += f" (its own estimate, {own[i][2]}, {own[i][0]:.4g} m³/s, is smaller)"
+            elif own[i] is not None and own[i][0] > q_in * (1 + 1e-9):
+                source[i] += (f" (its own estimate, {own[i][2]}, {own[i][0]:.4g} m³/s, is "
+                              "larger, but it lies in a braid)")
     plan = []
     for i, lk in enumerate(links):
         w0, w1 = lk.values["width_m"]
@@ -1280,9 +1425,28 @@ def _plan(links: list[_Link], geometry: HydraulicGeometry, specs: dict, report: 
         else:
             width, wfrom = geometry.width(volume[i]), "hydraulic geometry of the discharge"
         if width < MIN_WIDTH_M:
-            width, wfrom = MIN_WIDTH_M, wfrom + f", raised to {MIN_WIDTH_M:g} m"
+            width, wfrom = MIN_WIDTH_M, wfrom + f", {width:.3g} m raised to {MIN_WIDTH_M:g} m"
         plan.append((width, psi[i], volume[i], wfrom, source[i], lateral[i]))
     return plan
+
+
+def _report_substitutions(link: _Link, wfrom: str, qfrom: str, report: RiverImport) -> None:
+    """Put every value of the link that :func:`_plan` replaced or clamped in the report with
+    the feature: a given width under MIN_WIDTH_M raised (a repair), a width derived under it
+    raised, a given discharge not used (the inflows are larger, a bifurcation split it, a
+    braid): notes naming the feature, the value and what was used instead."""
+    if link.added:
+        return
+    attrs = f"[{_attrs_text(link.attrs)}]"
+    if "raised to" in wfrom:
+        if wfrom.startswith("given"):
+            report.repair(link.name, link.fid, link.attrs,
+                          f"its width {wfrom.split(', ')[-1]} (the narrowest river made)")
+        else:
+            report.notes.append(f"{link.name}: width by {wfrom} (the narrowest river made) "
+                                + attrs)
+    if "own estimate, given" in qfrom:
+        report.notes.append(f"{link.name}: its given discharge is not used: {qfrom} {attrs}")
 
 
 def _given_width(link: _Link) -> float | None:
@@ -1396,7 +1560,10 @@ def _summarise(report: RiverImport) -> None:
             out[v] = out.get(v, 0) + 1
         return out
 
-    report.derived["width_m"] = counts(lk.width_from for lk in report.links)
+    report.derived["width_m"] = counts(
+        lk.width_from.split(", ")[0] + (f", raised to {MIN_WIDTH_M:g} m"
+                                        if "raised to" in lk.width_from else "")
+        for lk in report.links)
     report.derived["discharge"] = counts(lk.discharge_from.split(" (")[0] if "default" not in
                                          lk.discharge_from else lk.discharge_from
                                          for lk in report.links)
@@ -1832,13 +1999,14 @@ class ProfileLevels:
 
 def _water_levels(links: list[_Link], plan, geometry: HydraulicGeometry,
                   report: RiverImport) -> ProfileLevels | None:
-    samples, levels, missing, uphill = [], [], [], 0
+    samples, levels, missing, uphill = [], [], [], []
     for lk, (_, _, q3, *_rest) in zip(links, plan):
         z0, z1 = lk.values["elevation_m"]
         if not (math.isfinite(z0) and math.isfinite(z1)):
             missing.append(lk.name)
             continue
-        uphill += z1 > z0
+        if z1 > z0:
+            uphill.append(f"{lk.name} ({z0:g} m → {z1:g} m)")
         p = lk.points
         s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(p, axis=0).T))])
         t = np.linspace(0.0, s[-1], max(2, math.ceil(s[-1] / LEVEL_SPACING_M) + 1))
@@ -1848,8 +2016,8 @@ def _water_levels(links: list[_Link], plan, geometry: HydraulicGeometry,
         report.notes.append(f"no bed elevation for {len(missing)} links (their water follows "
                             f"the nearest link that has one): {missing[:5]}")
     if uphill:
-        report.notes.append(f"{uphill} links rise downstream by their elevations (the water "
-                            "surface is made monotone downhill)")
+        report.notes.append(f"{len(uphill)} links rise downstream by their elevations (the "
+                            "water surface is made monotone downhill): " + ", ".join(uphill))
     if not samples:
         return None
     report.derived["water_levels"] = "bed elevation + depth (hydraulic geometry), per link"

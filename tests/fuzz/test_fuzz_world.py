@@ -198,3 +198,35 @@ def test_graph_entry_points_refuse_what_is_not_a_graph_or_a_path(tmp_path, field
             with pytest.raises(TypeError) as info:
                 call()
             assert_names(info, "path")
+
+
+@FUZZ
+@given(region=st.one_of(
+    st.tuples(NON_FINITE, st.just(0.0), st.just(10.0), st.just(10.0)),
+    st.tuples(st.floats(0, 100), st.floats(0, 100)).map(lambda t: (t[0], t[1], t[0], t[1] + 1)),
+    st.sampled_from([(0, 0, 10), (0, 0, 10, 10, 5), (), 5.0, (10.0, 0.0, 0.0, 10.0)])))
+def test_bake_regions(field, tmp_path_factory, region):
+    with pytest.raises(ValueError) as info:
+        rf.bake_flow_map(field, region, 1.0, tmp_path_factory.mktemp("b") / "f.png")
+    assert_names(info, "region_m")
+
+
+@FUZZ
+@given(region=st.sampled_from(["0,0,10,10", ("0", 0, 10, 10), (None, 0, 10, 10),
+                               (0, 0, 10j, 10), (True, 0, 10, 10)]))
+def test_bake_regions_of_numbers(field, tmp_path_factory, region):
+    with pytest.raises(TypeError) as info:
+        rf.bake_flow_map(field, region, 1.0, tmp_path_factory.mktemp("b") / "f.png")
+    assert_names(info, "region_m")
+
+
+@FUZZ
+@given(cell=st.one_of(BAD, st.floats(5e-324, 1e-3), st.sampled_from(["1", True, [1.0]])),
+       region=st.sampled_from([(0.0, 0.0, 100.0, 100.0), (-1e308, -1e308, 1e308, 1e308)]))
+def test_bake_cells(field, tmp_path_factory, cell, region):
+    out = tmp_path_factory.mktemp("b")
+    kind = TypeError if not isinstance(cell, float) else ValueError
+    with pytest.raises(kind) as info:
+        rf.bake_flow_map(field, region, cell, out / "f.png")
+    assert_names(info, "cell_m")
+    assert list(out.iterdir()) == []                   # nothing written

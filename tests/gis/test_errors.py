@@ -98,7 +98,7 @@ def test_unknown_attributes(tmp_path):
     with pytest.raises(rf.GraphError, match=r"feature 1: attribute 'name' = 'north' is not a "
                                             r"number"):   # (GeoPackage ids start at 1)
         rf.read_rivers(path, width_m="name", strict=True)
-    with pytest.raises(rf.GraphError, match="width_m=-3.0 must be a positive number"):
+    with pytest.raises(ValueError, match=r"read_rivers: width_m must be positive, got -3.0"):
         rf.read_rivers(path, width_m=-3.0)
 
 
