@@ -87,7 +87,8 @@ from scipy.spatial import cKDTree
 
 from riverflow import _validate
 from riverflow.gis import require
-from riverflow.hydro.builder import MAX_TURN_DEG, RiverNetworkBuilder
+from riverflow.hydro.builder import (MAX_TURN_DEG, RiverNetworkBuilder, by_junction,
+                                     upstream_first)
 from riverflow.hydro.graph import GraphError
 
 SUFFIXES = (".shp", ".gpkg", ".geojson", ".json", ".osm", ".pbf")
@@ -1320,28 +1321,9 @@ def _simplify(p: np.ndarray, width_m: float) -> np.ndarray:
 
 def _order(links: list[_Link]) -> list[int]:
     """Links upstream first (GraphError naming the links of a cycle); O(n) (Kahn)."""
-    ins: dict[int, list[int]] = {}
-    outs: dict[int, list[int]] = {}
-    for i, lk in enumerate(links):
-        if lk.end >= 0:
-            ins.setdefault(lk.end, []).append(i)
-        if lk.start >= 0:
-            outs.setdefault(lk.start, []).append(i)
-    waiting = [len(ins.get(lk.start, [])) if lk.start >= 0 else 0 for lk in links]
-    ready = [i for i in range(len(links)) if waiting[i] == 0]
-    order: list[int] = []
-    while ready:
-        nxt = []
-        for i in ready:
-            order.append(i)
-            for k in outs.get(links[i].end, []) if links[i].end >= 0 else ():
-                waiting[k] -= 1
-                if waiting[k] == 0:
-                    nxt.append(k)
-        ready = sorted(nxt)
-    if len(order) < len(links):
-        done = set(order)
-        names = [links[i].name for i in range(len(links)) if i not in done][:6]
+    order, loop = upstream_first([lk.start for lk in links], [lk.end for lk in links])
+    if loop:
+        names = [links[i].name for i in loop][:6]
         raise GraphError(f"links {names} form a loop that flows back into itself (a line "
                          f"drawn upstream? see read_rivers' reverse=)")
     return order
@@ -1359,13 +1341,7 @@ def _plan(links: list[_Link], geometry: HydraulicGeometry, specs: dict, report: 
     v ∝ Q^0.1 (by about √2 where two equal rivers meet).
     """
     order = _order(links)
-    ins: dict[int, list[int]] = {}
-    outs: dict[int, list[int]] = {}
-    for i, lk in enumerate(links):
-        if lk.end >= 0:
-            ins.setdefault(lk.end, []).append(i)
-        if lk.start >= 0:
-            outs.setdefault(lk.start, []).append(i)
+    ins, outs = by_junction([lk.start for lk in links], [lk.end for lk in links])
     own = [_own_estimate(lk, geometry) for lk in links]     # (Q, q, how) or None
     volume = [0.0] * len(links)
     psi = [0.0] * len(links)
@@ -1787,13 +1763,7 @@ def _close_clipped_ends(links: list[_Link], plan, geometry: HydraulicGeometry, s
     """Where rivers meet and nothing leaves (the data was clipped there) add a short outlet
     (CONTINUATION_WIDTHS × the widest inflow long, along their mean direction); where rivers
     leave a junction that nothing enters, a short inflow. Returns the links and their plan."""
-    ins: dict[int, list[int]] = {}
-    outs: dict[int, list[int]] = {}
-    for i, lk in enumerate(links):
-        if lk.end >= 0:
-            ins.setdefault(lk.end, []).append(i)
-        if lk.start >= 0:
-            outs.setdefault(lk.start, []).append(i)
+    ins, outs = by_junction([lk.start for lk in links], [lk.end for lk in links])
     added = []
     for j in sorted(set(ins) | set(outs)):
         into, out_of = ins.get(j, []), outs.get(j, [])

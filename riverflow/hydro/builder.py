@@ -312,8 +312,9 @@ def _find_junctions(branches: list[_BranchInput]):
     return start_j, end_j, np.asarray(points).reshape(-1, 2)
 
 
-def _by_junction(start_j, end_j) -> tuple[dict[int, list[int]], dict[int, list[int]]]:
-    """Branches ending at / starting from each junction (in branch order)."""
+def by_junction(start_j, end_j) -> tuple[dict[int, list[int]], dict[int, list[int]]]:
+    """Branches (or links) ending at / starting from each junction (in their order); −1: no
+    junction."""
     ins: dict[int, list[int]] = {}
     outs: dict[int, list[int]] = {}
     for i, (s, e) in enumerate(zip(start_j, end_j)):
@@ -324,24 +325,13 @@ def _by_junction(start_j, end_j) -> tuple[dict[int, list[int]], dict[int, list[i
     return ins, outs
 
 
-def _topological_order(branches, start_j, end_j, junctions) -> list[int]:
-    """Branches ordered upstream first; raises on junctions without in- or outflow or cycles."""
-    ins_of, outs_of = _by_junction(start_j, end_j)
-    for j, p in enumerate(junctions):
-        ins = ins_of.get(j, [])
-        outs = outs_of.get(j, [])
-        where = f"junction at ({p[0]:.1f}, {p[1]:.1f})"
-        if not ins:
-            raise GraphError(f"{where}: branches {[branches[i].name for i in outs]} all start there "
-                             f"but none ends there (inflow 0 ≠ outflow)")
-        if not outs:
-            raise GraphError(f"{where}: branches {[branches[i].name for i in ins]} all end there but "
-                             f"none starts there (inflow ≠ outflow 0)")
-    # Kahn's algorithm over the branches: a branch is ready when all those ending at its
-    # start junction are done (the same order as repeated passes, in O(n))
-    waiting = [len(ins_of.get(start_j[i], [])) if start_j[i] >= 0 else 0
-               for i in range(len(branches))]
-    ready = [i for i in range(len(branches)) if waiting[i] == 0]
+def upstream_first(start_j, end_j) -> tuple[list[int], list[int]]:
+    """(order, loop): the branches (or links) upstream first, by Kahn's algorithm in O(n) (one
+    is ready when all those ending at its start junction are done; ties in index order, as
+    repeated passes would take them), and those left over, which flow round a loop."""
+    ins_of, outs_of = by_junction(start_j, end_j)
+    waiting = [len(ins_of.get(s, [])) if s >= 0 else 0 for s in start_j]
+    ready = [i for i in range(len(waiting)) if waiting[i] == 0]
     order: list[int] = []
     while ready:
         nxt = []
@@ -353,10 +343,27 @@ def _topological_order(branches, start_j, end_j, junctions) -> list[int]:
                     if waiting[k] == 0:
                         nxt.append(k)
         ready = sorted(nxt)
-    if len(order) < len(branches):
-        done = set(order)
-        names = [branches[i].name for i in range(len(branches)) if i not in done]
-        raise GraphError(f"branches {names} form a loop that flows back into itself")
+    done = set(order)
+    return order, [i for i in range(len(waiting)) if i not in done]
+
+
+def _topological_order(branches, start_j, end_j, junctions) -> list[int]:
+    """Branches ordered upstream first; raises on junctions without in- or outflow or cycles."""
+    ins_of, outs_of = by_junction(start_j, end_j)
+    for j, p in enumerate(junctions):
+        ins = ins_of.get(j, [])
+        outs = outs_of.get(j, [])
+        where = f"junction at ({p[0]:.1f}, {p[1]:.1f})"
+        if not ins:
+            raise GraphError(f"{where}: branches {[branches[i].name for i in outs]} all start there "
+                             f"but none ends there (inflow 0 ≠ outflow)")
+        if not outs:
+            raise GraphError(f"{where}: branches {[branches[i].name for i in ins]} all end there but "
+                             f"none starts there (inflow ≠ outflow 0)")
+    order, loop = upstream_first(start_j, end_j)
+    if loop:
+        raise GraphError(f"branches {[branches[i].name for i in loop]} form a loop that flows "
+                         "back into itself")
     return order
 
 
@@ -366,7 +373,7 @@ def _resolve_discharges(branches, order, start_j, end_j, junctions, lateral: boo
     lateral inflow [m²/s] per junction that has one (only with ``lateral``)."""
     q: list[float | None] = [None] * len(branches)
     inlets: dict[int, float] = {}
-    ins_of, outs_of = _by_junction(start_j, end_j)
+    ins_of, outs_of = by_junction(start_j, end_j)
     for i in order:
         if q[i] is not None:
             continue
