@@ -644,6 +644,12 @@ def _locate(px, py, tiles, level, fallback):
     """(slot, level, cell i, cell j, fx, fy) of p: the cached tile of ``level`` under p, or of
     up to ``fallback`` coarser levels when that one is not cached.
 
+    With ``fallback`` > 0 (a frame's queries, from the deepest level of its flow cut) the
+    tile of this frame's cut under p is taken (``in_cut``) even where a finer tile is still
+    cached from earlier frames: what a frame reads depends on its cut, not on what the cache
+    happens to hold. Only where no cut tile under p is cached (a late one) is the first
+    cached tile read, as a stand-in.
+
     slot = SLOT_OUTSIDE_DOMAIN outside the domain, SLOT_MISSING when no such tile is cached,
     SLOT_DRY when the tile (at any level tried) is known to hold no river.
     """
@@ -653,25 +659,31 @@ def _locate(px, py, tiles, level, fallback):
         return -2, level, 0, 0, 0.0, 0.0
     n_cells = tiles.n_cells
     lv = level
+    found = -1
+    found_lv = level
     while True:
         nt = 1 << lv
-        u = u0 * nt
-        v = v0 * nt
-        tx = tile_index(u0, nt)
-        ty = tile_index(v0, nt)
-        code = tile_code(lv, tx, ty)
+        code = tile_code(lv, tile_index(u0, nt), tile_index(v0, nt))
         slot = table_find(tiles.keys, tiles.values, code)
         if slot >= 0:
-            fu = (u - tx) * n_cells
-            fv = (v - ty) * n_cells
-            ci = min(int(fu), n_cells - 1)
-            cj = min(int(fv), n_cells - 1)
-            return slot, lv, ci, cj, fu - ci, fv - cj
-        if table_find(tiles.wet_keys, tiles.wet_values, code) < 0:
+            if found < 0 or tiles.in_cut[slot] != 0:
+                found = slot
+                found_lv = lv
+            if fallback == 0 or tiles.in_cut[slot] != 0:
+                break
+        elif found < 0 and table_find(tiles.wet_keys, tiles.wet_values, code) < 0:
             return SLOT_DRY, lv, 0, 0, 0.0, 0.0
         if lv == 0 or level - lv >= fallback:
-            return -1, level, 0, 0, 0.0, 0.0
+            break
         lv -= 1
+    if found < 0:
+        return -1, level, 0, 0, 0.0, 0.0
+    nt = 1 << found_lv
+    fu = (u0 * nt - tile_index(u0, nt)) * n_cells
+    fv = (v0 * nt - tile_index(v0, nt)) * n_cells
+    ci = min(int(fu), n_cells - 1)
+    cj = min(int(fv), n_cells - 1)
+    return found, found_lv, ci, cj, fu - ci, fv - cj
 
 
 @njit(inline="always", **JIT_OPTIONS)

@@ -151,8 +151,8 @@ def always_velocity_box(field: FlowField) -> np.ndarray:
 def query_flow(field: FlowField, xy: np.ndarray, status: np.ndarray, velocity: np.ndarray,
                n_velocity: int | None = None) -> None:
     """Flow status (N,) uint8 and velocity (N, 2) float32 [m/s] at ``xy`` (N, 2) float64 [m]
-    from the finest cached tile under each no finer than the frame's flow cut
-    (``FlowTiles.query_level``), bent around the field's obstacles; the points from
+    from the tile of the frame's flow cut under each (a coarser cached one standing in where
+    that one is late; ``kernels.flow._locate``), bent around the field's obstacles; the points from
     ``n_velocity`` on get their status alone."""
     n = len(xy)
     n_velocity = n if n_velocity is None else n_velocity

@@ -95,3 +95,36 @@ def test_a_frame_never_reads_a_stand_in_by_default(scene):
         # the leaves' ancestors may still be queued for the worker: no frame reads them
     finally:
         world.close()
+
+
+def test_a_frame_reads_its_cut_not_what_the_cache_still_holds(scene):
+    """Finer flow tiles left in the cache (a gameplay query, an earlier closer view) do not
+    change what a frame reads: from the cut's deepest level down, the tile of the frame's cut
+    answers (``kernels.flow._locate``), not the first cached one."""
+    from riverflow.kernels.flow import query_velocity
+    from riverflow.scenes.flight import main_centerline
+
+    field = rf.FlowField.for_scene(scene)
+    line = main_centerline(scene)
+    xy = np.ascontiguousarray(line[::5] + (0.25, 0.25))
+    t = field.tiles
+    coarse = field.max_level - 2
+    field.query(xy, level=coarse)
+    field.query(xy, level=coarse + 1)        # finer tiles cached under every point too
+    keys = np.unique(field.tile_of(xy, coarse), axis=0)
+    t.mark_cut(np.column_stack([np.full(len(keys), coarse), keys]).astype(np.int32))
+    none = np.zeros(0, np.int8)
+
+    def ask(level, fallback):
+        status = np.empty(len(xy), np.uint8)
+        velocity = np.empty((len(xy), 2), np.float32)
+        query_velocity(xy, none, level, fallback, t.view(), t.cache.tick, field.segments,
+                       len(xy), status, velocity)
+        return status, velocity
+
+    frame = ask(coarse + 1, coarse + 1)       # a frame's query, as if its cut went deeper
+    cut = ask(coarse, 0)                      # the cut's own tiles
+    finer = ask(coarse + 1, 0)
+    assert (cut[0] == rf.FlowStatus.INSIDE).sum() > 50
+    assert frame[0].tobytes() == cut[0].tobytes() and frame[1].tobytes() == cut[1].tobytes()
+    assert finer[1].tobytes() != cut[1].tobytes()           # the cached finer tiles differ
