@@ -92,9 +92,9 @@ class RiverConfig:
     needs them (deterministic: scripted runs and tests)."""
 
     deterministic: bool = True
-    """Every frame waits until the tiles it asked for are made (by the worker, in
-    "background" production), so a run's result depends only on the scene, seed, camera
-    script and frame times, never on the machine's load or when a tile arrived: scripted and
+    """Every frame makes the leaf tiles it reads that the worker has not finished yet (in its
+    own thread, before any system reads them), so a run's result depends only on the scene,
+    seed, camera script and frame times, never on the machine's load or when a tile arrived: scripted and
     headless runs, tests, replays. False: a frame never waits; a tile not made yet is stood in
     for by its coarser parent, so a fast flight never hitches but what particles do near such
     a tile depends on timing (an interactive game that prefers smoothness; the windowed demo
