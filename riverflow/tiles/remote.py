@@ -129,7 +129,7 @@ class ProducerProcess:
         process.join(timeout_s)
         if process.is_alive():
             process.kill()
-            process.join(timeout_s)
+            process.join(max(timeout_s, 5.0))   # a killed process still has to be scheduled
 
 
 def _serve(producers: Mapping[str, Any], conn, parent_end, nice: int) -> None:

@@ -179,6 +179,7 @@ class TileScheduler:
         self._idle.set()
         self._thread: threading.Thread | None = None
         self._process: ProducerProcess | None = None
+        self._closed = False
         self._process_kinds: frozenset[str] = frozenset()
         for producer in producers:
             self.add(producer)
@@ -353,12 +354,16 @@ class TileScheduler:
         """Worker side: the tile, from the worker process if there is one (a producer added
         after it was forked, or a process that died, makes it here)."""
         process = self._process
+        if self._closed:         # closed since the job was taken: dropped, like a stale one
+            return None
         if process is not None and kind in self._process_kinds:
             try:
                 return process.produce(kind, key, deps)
             except TileProcessError:
                 raise
             except (EOFError, OSError, ValueError) as exc:
+                if self._closed:                   # closed meanwhile: the tile is dropped
+                    return None
                 if self._process is process:       # not closed meanwhile: it died
                     self._process = None
                     self.errors.append(f"the tile process ended ({type(exc).__name__}: {exc}); "
@@ -546,14 +551,17 @@ class TileScheduler:
     def close(self) -> None:
         """Stop the worker thread and process (queued tiles are dropped). Safe from any thread,
         the worker's own included (a world's finalizer may run where the collector ran)."""
+        self._closed = True
         thread, self._thread = self._thread, None
         if thread is not None:
             self._queue.put((-1, -1, None))
-            if thread is not threading.current_thread():
-                thread.join(timeout=10.0)
         process, self._process = self._process, None
         if process is not None:
-            process.close()
+            # first, and at once: the thread may be waiting for the tile the process makes at
+            # its low priority (seconds on a busy machine); a tile dropped loses nothing
+            process.close(timeout_s=0.1)
+        if thread is not None and thread is not threading.current_thread():
+            thread.join(timeout=10.0)
 
 
 def _lower_priority() -> None:

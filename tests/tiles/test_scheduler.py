@@ -366,6 +366,35 @@ def test_closing_the_scheduler_ends_its_process():
     sched.close()                                      # idempotent
 
 
+class Stuck(Heights):
+    """A tile that takes forever (a process starved at its low priority on a busy machine)."""
+
+    kind = "stuck"
+
+    def produce(self, key, deps):
+        import time
+
+        time.sleep(3600.0)
+
+
+@needs_fork
+def test_closing_while_the_process_makes_a_tile_ends_both_at_once():
+    """close() does not wait for the tile under way (a nice-19 process on a loaded machine
+    took 10 s + 5 s of joins per dropped world): the process is ended first, the thread
+    sees it go, drops the tile rather than making it itself, and ends."""
+    sched = TileScheduler(TileCache(1 << 20), [Stuck()], "background", worker="process")
+    sched.request("stuck", [(0, 0, 0)])
+    thread = sched._thread
+    while sched.worker_pid is None:
+        threading.Event().wait(0.01)
+    pid = sched.worker_pid
+    threading.Event().wait(0.3)                        # the job is in the process
+    sched.close()
+    assert not thread.is_alive(), "close() left the worker thread waiting for the tile"
+    assert pid not in {p.pid for p in multiprocessing.active_children()}
+    assert not sched.errors                            # dropped, neither failed nor made here
+
+
 def test_a_bad_worker_is_refused():
     with pytest.raises(ValueError, match="worker"):
         TileScheduler(TileCache(1 << 20), [], "background", worker="fiber")
