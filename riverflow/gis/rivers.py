@@ -112,9 +112,23 @@ NARROW_GAP = 0.8
 land), shared in proportion to their widths."""
 GRID_TURN_DEG = 30.0
 GRID_TURN_SHARE = 0.3
-"""A line is grid-traced (a staircase, :func:`_smooth_grid_traced`) when its vertices lie
-closer together than half its width and at least GRID_TURN_SHARE of them turn by
-GRID_TURN_DEG or more."""
+"""A line not on a lattice still zigzags like a traced one (:func:`_smooth_traced`) when its
+vertices lie closer together than half its width and at least GRID_TURN_SHARE of them turn
+by GRID_TURN_DEG or more."""
+LATTICE_SHARE = 0.8
+"""A line is grid-traced (traced on a raster's cells, a staircase: :func:`_lattice_cells`)
+when at least this share of its segments run along a lattice direction (a multiple of 45° in
+the file's coordinates) with a length that is a whole number of the layer's cells, and it
+turns."""
+LATTICE_ANGLE = 0.01
+"""A segment runs along a lattice direction when its smaller coordinate step is under this
+fraction of its larger one (an axis, within 0.6°) or over 1 − this (a diagonal)."""
+TRACED_CAP_CELLS = 0.5 * math.sqrt(2.0)
+"""A grid-traced centre line is moved by at most max(half its width, this many cells: half a
+cell's diagonal, so it stays in the cells it was traced through)."""
+TRACED_SIGMA_CELLS = 1.5
+"""Grid-traced lines are smoothed by a Gaussian of σ = max(this many cells, half the width)
+along them: it takes out the steps of one or two cells that tracing on a lattice makes."""
 CONTINUATION_WIDTHS = 2.0
 """The outlet added where rivers meet at the edge of clipped data (nothing leaves the
 junction) is this many times the widest inflow's width long."""
@@ -356,6 +370,9 @@ class _Link:
     """Its direction was set by the user (``reverse=``): never turned."""
     added: bool = False
     """Made by a repair (a continuation at a clipped outlet), not read from the file."""
+    cell_m: float = math.nan
+    """The raster cell [m] its source line was traced on (:func:`_lattice_cells`), NaN for a
+    line that is not grid-traced."""
 
 
 def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge_m2s=None,
@@ -473,9 +490,10 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
     report.crs = crs_out
     report.derived["coordinates"] = crs_note
 
+    cells = _lattice_cells([pts for _, _, pts, _ in raw])
     links: list[_Link] = []
     at = 0
-    for k, part, pts, z in raw:
+    for (k, part, pts, z), cell in zip(raw, cells):
         p = xy[at:at + len(pts)]
         at += len(pts)
         name = f"feature {fids[k]}" + (f" part {part}" if part is not None else "")
@@ -489,6 +507,8 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
         link = _Link(name, int(fids[k]), np.ascontiguousarray(p), attrs, values)
         link.z = z
         link.fixed = users or osm or (flip is not None)   # the user's word, or OSM's rule
+        if math.isfinite(cell):                           # the cell in metres, as projected
+            link.cell_m = cell * _length(p) / max(_length(pts), 1e-300)
         links.append(link)
     links = _clean(links, report)
     if not links:
@@ -505,14 +525,8 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
     builder = GisRiverBuilder(tolerance_m, lateral_inflow=True)
     builder.report = report
     builder.crs = crs_out
+    _smooth_traced(links, plan, report)
     for link, (width, q, q3, wfrom, qfrom, lateral) in zip(links, plan):
-        smooth = _smooth_grid_traced(link.points, width)
-        if smooth is not None:
-            link.points, shift, turn = smooth
-            report.repair(link.name, link.fid, link.attrs,
-                          f"grid-traced (vertices closer than its width {width:.1f} m, turns "
-                          f"of up to {turn:.0f}°): smoothed at the scale of its width (the "
-                          f"centre line moved by at most {shift:.1f} m)")
         _report_substitutions(link, wfrom, qfrom, report)
         line = _simplify(link.points, width)
         builder.add_branch(line, width, discharge_m2s=q, name=link.name)
@@ -1252,6 +1266,7 @@ def _split(link: _Link, at: list[float]) -> list[_Link]:
         z0, z1 = link.z
         piece.z = (z0 + (z1 - z0) * a / s[-1], z0 + (z1 - z0) * b / s[-1])
         piece.fixed = link.fixed
+        piece.cell_m = link.cell_m
         out.append(piece)
     return out
 
@@ -1274,39 +1289,167 @@ def _length(p: np.ndarray) -> float:
     return float(np.hypot(*np.diff(p, axis=0).T).sum())
 
 
-def _smooth_grid_traced(p: np.ndarray, width_m: float):
-    """A line traced along a grid (vertices closer together than the river is wide, most of
-    them turning by GRID_TURN_DEG or more: a staircase) smoothed at the scale of its width:
-    resampled every quarter width, a Gaussian of half a width along it (ends pinned), each
-    point moved by at most half a width. Returns (points, largest shift [m], sharpest turn
-    before [°]) or None for a line that is not grid-traced."""
+def _lattice_cells(lines: list[np.ndarray]) -> np.ndarray:
+    """The raster cell each line was traced on (in the file's coordinate units), NaN for a
+    line that is not grid-traced.
+
+    A line traced along a raster's cells (a DEM's flow directions: TauDEM, ArcHydro, …) has
+    its vertices on the cells' centres: every segment runs along one of the 8 lattice
+    directions (a multiple of 45° in the raster's coordinates, the file's) and is a whole
+    number of cells long (of cell diagonals on the diagonals). The cell is the layer's (one
+    raster): the longest step, among those common in the layer, that at least LATTICE_SHARE
+    of the lattice segments are whole multiples of. A line is grid-traced when at least
+    LATTICE_SHARE of its segments run along lattice directions, as many of its inner
+    segments (its first and last may end at a cell's edge or a snapped junction) are whole
+    numbers of cells, and it runs in two directions or more (a staircase)."""
+    out = np.full(len(lines), math.nan)
+    per_line = []
+    for p in lines:
+        d = np.diff(np.asarray(p, float), axis=0)
+        d = d[np.abs(d).max(axis=1) > 0]
+        big = np.abs(d).max(axis=1) if len(d) else np.zeros(0)
+        rel = np.abs(d).min(axis=1) / np.maximum(big, 1e-300) if len(d) else np.zeros(0)
+        on = (rel <= LATTICE_ANGLE) | (rel >= 1.0 - LATTICE_ANGLE)
+        heading = np.round(np.degrees(np.arctan2(d[:, 1], d[:, 0])) / 45.0).astype(int) % 8
+        per_line.append((big, on, heading))
+    steps = np.concatenate([big[on] for big, on, _ in per_line]) if per_line else np.zeros(0)
+    if len(steps) < 3:
+        return out
+    values, counts = np.unique(np.round(steps / steps.max(), 6), return_counts=True)
+    common = values[counts >= max(2, 0.02 * len(steps))][::-1] * steps.max()
+
+    def whole(x: np.ndarray, c: float) -> np.ndarray:
+        m = x / c
+        return (m >= 0.98) & (np.abs(m - np.round(m)) <= 0.02)
+
+    cell = next((c for c in common if whole(steps, c).mean() >= LATTICE_SHARE), None)
+    if cell is None:
+        return out
+    for i, (big, on, heading) in enumerate(per_line):
+        if len(big) < 2:
+            continue
+        inner = slice(1, -1) if len(big) >= 3 else slice(None)   # ends: at a cell's edge
+        lattice = on & whole(big, cell)
+        if (on.mean() >= LATTICE_SHARE and lattice[inner].mean() >= LATTICE_SHARE
+                and len(np.unique(heading[on])) >= 2):
+            out[i] = cell
+    return out
+
+
+def _zigzags(p: np.ndarray, width_m: float) -> bool:
+    """A line off any lattice that zigzags at a scale below its width (traced or digitised
+    densely): vertices closer together than half its width, at least GRID_TURN_SHARE of
+    them turning by GRID_TURN_DEG or more."""
     if len(p) < 5:
-        return None
-    seg = np.hypot(*np.diff(p, axis=0).T)
+        return False
     d = np.diff(p, axis=0)
     turn = np.degrees(np.abs(np.arctan2(d[:-1, 0] * d[1:, 1] - d[:-1, 1] * d[1:, 0],
                                         np.einsum("ij,ij->i", d[:-1], d[1:]))))
-    if np.median(seg) >= 0.5 * width_m or (turn >= GRID_TURN_DEG).mean() < GRID_TURN_SHARE:
-        return None
-    s = np.concatenate([[0.0], np.cumsum(seg)])
-    step = 0.25 * width_m
-    n = max(int(np.ceil(s[-1] / step)), 2)
-    t = np.linspace(0.0, s[-1], n + 1)
-    q = np.column_stack([np.interp(t, s, p[:, 0]), np.interp(t, s, p[:, 1])])
-    sigma = 2.0                                   # samples: half a width
-    k = np.arange(-3 * int(sigma), 3 * int(sigma) + 1)
-    kernel = np.exp(-0.5 * (k / sigma) ** 2)
-    kernel /= kernel.sum()
-    half = len(k) // 2
-    padded = np.pad(q, ((half, half), (0, 0)), mode="reflect", reflect_type="odd")
-    smooth = np.column_stack([np.convolve(padded[:, i], kernel, mode="valid") for i in (0, 1)])
-    shift = smooth - q
-    size = np.hypot(*shift.T)
-    cap = 0.5 * width_m
-    smooth = q + shift * np.minimum(1.0, cap / np.maximum(size, 1e-12))[:, None]
-    smooth[0], smooth[-1] = p[0], p[-1]
-    moved = float(shapely.hausdorff_distance(shapely.LineString(smooth), shapely.LineString(p)))
-    return smooth, min(moved, cap), float(turn.max())
+    return bool(np.median(np.hypot(*d.T)) < 0.5 * width_m
+                and (turn >= GRID_TURN_DEG).mean() >= GRID_TURN_SHARE)
+
+
+def _smooth_traced(links: list[_Link], plan, report: RiverImport) -> None:
+    """Smooth grid-traced centre lines (:func:`_lattice_cells`), and lines that zigzag below
+    their width (:func:`_zigzags`), at the scale σ = max(cell, half the width): a Gaussian
+    of σ along the line, sampled every σ/4. Lines that continue each other (a junction with
+    one link in and one out) are smoothed as one, so no corner is left where they meet;
+    the ends of such a run (sources, outlets, confluences, bifurcations) stay where they
+    are. No point moves by more than max(half its link's width, TRACED_CAP_CELLS cells).
+    The links' points are replaced; ``report.derived["centre_lines"]`` says how many were
+    smoothed and by how much they moved (a derivation, not a repair: tracing on a raster is
+    how the data was made, not a defect of a feature)."""
+    sigma = np.zeros(len(links))
+    cap = np.zeros(len(links))
+    cells = []
+    dense = 0
+    for i, (lk, p) in enumerate(zip(links, plan)):
+        width = p[0]
+        cell = lk.cell_m if math.isfinite(lk.cell_m) and not lk.added else 0.0
+        if cell <= 0.0 and not _zigzags(lk.points, width):
+            continue
+        sigma[i] = max(TRACED_SIGMA_CELLS * cell, 0.5 * width)
+        cap[i] = max(0.5 * width, TRACED_CAP_CELLS * cell)
+        if cell > 0:
+            cells.append(cell)
+        else:
+            dense += 1
+    if not sigma.any():
+        return
+    ins, outs = by_junction([lk.start for lk in links], [lk.end for lk in links])
+
+    def following(i: int) -> int | None:
+        j = links[i].end
+        if j < 0 or len(ins.get(j, [])) != 1 or len(outs.get(j, [])) != 1:
+            return None
+        k = outs[j][0]
+        return k if sigma[k] > 0 and k != i else None
+
+    flagged = [i for i in range(len(links)) if sigma[i] > 0]
+    has_prev = {k for i in flagged if (k := following(i)) is not None}
+    shifts = []
+    for first in flagged:                  # links flow downstream (no cycle): runs have heads
+        if first in has_prev:
+            continue
+        run = [first]
+        while (k := following(run[-1])) is not None and k not in run:
+            run.append(k)
+        shifts.append(_smooth_run([links[i] for i in run], float(sigma[run].max()),
+                                  cap[run]))
+    report.derived["centre_lines"] = (
+        (f"{len(cells)} grid-traced link{'s' if len(cells) > 1 else ''} (on a lattice of "
+         f"{np.median(cells):.3g} m cells) " if cells else "")
+        + ("and " if cells and dense else "")
+        + (f"{dense} link{'s' if dense > 1 else ''} zigzagging below their width "
+           if dense else "")
+        + f"smoothed (a Gaussian along them of max({TRACED_SIGMA_CELLS:g} cells, half the "
+        f"width)): centre lines moved by at most {max(shifts):.2f} m")
+
+
+def _smooth_run(run: list[_Link], sigma: float, caps: np.ndarray) -> float:
+    """Smooth the links of one run (each continuing the one before) as one line: resampled
+    every σ/4 (each link on its own, so the points where they meet stay samples), a Gaussian
+    of σ (odd reflection at the run's ends: they stay put), each sample's move capped by its
+    link's cap. Replaces the links' points; returns the largest move [m] (the farthest new
+    point from the line as it was)."""
+    h = 0.25 * sigma
+    parts, bounds = [], [0]
+    for lk in run:
+        p = lk.points
+        s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(p, axis=0).T))])
+        t = np.linspace(0.0, s[-1], max(int(np.ceil(s[-1] / h)), 1) + 1)
+        q = np.column_stack([np.interp(t, s, p[:, 0]), np.interp(t, s, p[:, 1])])
+        parts.append(q if not parts else q[1:])
+        bounds.append(bounds[-1] + len(q) - 1)
+    q = np.vstack(parts)
+    limit = np.concatenate([np.full(b - a, c) for a, b, c in zip(bounds, bounds[1:], caps)]
+                           + [[caps[-1]]])
+
+    def gaussian(x: np.ndarray, samples: float) -> np.ndarray:
+        """x smoothed by a Gaussian of ``samples`` samples (odd reflection at the ends)."""
+        half = int(3 * samples)
+        k = np.arange(-half, half + 1)
+        kernel = np.exp(-0.5 * (k / samples) ** 2)
+        kernel /= kernel.sum()
+        padded = np.pad(x, ((half, half), (0, 0)), mode="reflect", reflect_type="odd")
+        return np.column_stack([np.convolve(padded[:, i], kernel, mode="valid")
+                                for i in (0, 1)])
+
+    def within(x: np.ndarray) -> np.ndarray:
+        """x with each point moved back towards q to at most its cap from it."""
+        shift = x - q
+        size = np.hypot(*shift.T)
+        return q + shift * np.minimum(1.0, limit / np.maximum(size, 1e-12))[:, None]
+
+    smooth = within(gaussian(q, 4.0))              # σ = 4 samples
+    smooth[0], smooth[-1] = q[0], q[-1]
+    moved = 0.0
+    for lk, a, b in zip(run, bounds, bounds[1:]):
+        new = np.ascontiguousarray(smooth[a:b + 1])
+        moved = max(moved, float(shapely.distance(shapely.points(new),
+                                                  shapely.LineString(lk.points)).max()))
+        lk.points = new
+    return moved
 
 
 def _simplify(p: np.ndarray, width_m: float) -> np.ndarray:
@@ -1849,6 +1992,7 @@ def _cut_crossings(links: list[_Link], plan, crossings, geometry: HydraulicGeome
                           part, lk.attrs, dict(lk.values),
                           start=lk.start if k == 0 else -1, end=-1 if k == 0 else lk.end)
             piece.fixed = True
+            piece.cell_m = lk.cell_m
             if k == 1 and not math.isfinite(lk.values["discharge_m2s"][1]):
                 piece.values["discharge_m3s"] = (volume[id(lk)], volume[id(lk)])
             width[id(piece)], volume[id(piece)] = w_n, volume[id(lk)]
