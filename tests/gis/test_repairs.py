@@ -380,6 +380,63 @@ def test_a_grid_traced_line_is_smoothed_within_half_its_width(tmp_path):
         assert turn.max() < 30.0                       # no staircase of 45° turns left
 
 
+def _traced(cells):
+    """An 8-connected path through the raster cells nearest to ``cells`` (i, j), a vertex
+    at each turn only (as TauDEM writes them)."""
+    cells = np.round(np.asarray(cells, float))
+    steps = [cells[0]]
+    for c in cells[1:]:
+        while np.abs(c - steps[-1]).max() > 0:
+            steps.append(steps[-1] + np.sign(c - steps[-1]))
+    steps = np.array(steps)
+    d = np.diff(steps, axis=0)
+    turn = np.concatenate([[True], np.any(d[1:] != d[:-1], axis=1), [True]])
+    return steps[turn]
+
+
+def test_a_grid_traced_lonlat_network_is_smoothed_as_runs_with_its_junctions_kept(tmp_path):
+    """A river and a tributary traced on a 3″ lon/lat DEM (HydroSHEDS' grid: cells of 65 m
+    by 93 m at 45° N) for a river 20 m wide: the lattice is the file's (lon/lat), the cell
+    larger than the width. The main river is two features that continue each other: they
+    are smoothed as one, so no corner is left where they meet; the confluence and the ends
+    stay where they are; nothing moves farther than half a cell's diagonal."""
+    x = np.linspace(0.0, 60.0, 600)
+    main = _traced(np.column_stack([x, 6.0 * np.sin(2 * np.pi * x / 30.0)]))
+    k = len(main) // 2                                   # two features, end to end
+    at = main[np.argmin(np.abs(main[:, 0] - 45.0))]           # the tributary ends on a vertex
+    y = np.linspace(25.0, 0.0, 300)
+    trib = _traced(np.column_stack([at[0] - 0.4 * y + 2.0 * np.sin(y / 3.0), at[1] + y]))
+    cell = 1.0 / 1200.0                                  # 3″
+    lonlat = [15.0 + cell * p for p in (main[:k + 1], main[k:], trib)]
+    lonlat = [np.column_stack([p[:, 0], 45.0 + p[:, 1] - 15.0]) for p in lonlat]
+    path = write_lines(tmp_path / "dem3s.geojson", None, {"W": np.array([20.0, 20.0, 12.0])},
+                       geoms=[shapely.LineString(p) for p in lonlat], crs="EPSG:4326")
+    builder = rf.read_rivers(path, width_m="W")
+    graph = built(builder)
+    assert builder.report.repairs == []
+    assert "4 grid-traced links (on a lattice of" in builder.derived["centre_lines"]
+    to = pyproj.Transformer.from_crs("EPSG:4326", pyproj.CRS.from_wkt(graph.crs), always_xy=True)
+    traced = [np.column_stack(to.transform(p[:, 0], p[:, 1])) for p in lonlat]
+    lat_cell = float(np.hypot(*np.diff(np.column_stack(
+        to.transform([15.0, 15.0], [45.0, 45.0 + cell])), axis=1).T[0]))   # ~93 m
+    branches = {b.name: b.centerline_m for b in builder._branches}
+    everything = shapely.union_all([shapely.LineString(p) for p in traced])
+    for line in branches.values():
+        assert shapely.distance(shapely.points(line), everything).max() <= 0.71 * lat_cell
+    # the confluence, the source ends and the outlet are where they were drawn
+    for p in (traced[2][-1], traced[2][0], traced[0][0], traced[1][-1]):
+        assert min(np.hypot(*(np.array([b[0], b[-1]]) - p).T).min()
+                   for b in branches.values()) < 1e-6
+    # no staircase, and no corner where the two features of the main river meet
+    data = np.concatenate([np.degrees(np.arccos(np.clip(np.einsum(
+        "ij,ij->i", t[:-10], t[10:]), -1, 1))) for t in (along(p, step=2.0)[1] for p in traced)])
+    assert data.max() >= 44.9
+    for axis in graph.axes():
+        _, t = along(graph.vertices(axis), step=2.0)
+        turn = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", t[:-10], t[10:]), -1, 1)))
+        assert turn.max() < 30.0                         # over 20 m
+
+
 def test_a_braid_splits_its_flow_by_the_arms_widths(tmp_path):
     lines = [polyline((-800, 0), (0, 0)),
              polyline((0, 0), (400, 150), (800, 0)),
