@@ -129,6 +129,13 @@ cell's diagonal, so it stays in the cells it was traced through)."""
 TRACED_SIGMA_CELLS = 1.5
 """Grid-traced lines are smoothed by a Gaussian of σ = max(this many cells, half the width)
 along them: it takes out the steps of one or two cells that tracing on a lattice makes."""
+DELTA_COS = 0.5
+DELTA_COS_EVIDENCE = 0.0
+"""A piece of network that drains to several outlets is a delta (kept so, each line as drawn
+or as its own elevations or drainage areas say: :func:`_drains_as_a_delta`) when at every
+split each outflow leaves within acos(DELTA_COS) = 60° of the inflow's direction (delta
+bifurcations open by about 70° in all, Coffey & Shaw 2017, GRL 44; a tributary drawn upstream
+points back), or within 90° where the lines' own values tell their direction."""
 CONTINUATION_WIDTHS = 2.0
 """The outlet added where rivers meet at the edge of clipped data (nothing leaves the
 junction) is this many times the widest inflow's width long."""
@@ -1769,9 +1776,17 @@ def _direct(links: list[_Link], report: RiverImport) -> list[_Link]:
                 for lk in links]
     outlets: dict[int, int] = {}
     how: dict[int, str] = {}
+    own = np.array([_own_direction(lk) for lk in links])
+    delta_turns: list[int] = []
     for comp, mine in link_groups.items():
         members = node_groups[comp]
         junction = members[(ins[members] + outs[members]) >= 2]
+        turned = mine[(own[mine] < 0) & ~np.array([links[i].fixed for i in mine], bool)]
+        if _drains_as_a_delta(u[mine], v[mine], [ends_dir[i] for i in mine],
+                              np.isin(mine, turned),
+                              DELTA_COS_EVIDENCE if (own[mine] != 0).any() else DELTA_COS):
+            delta_turns += turned.tolist()
+            continue                 # several outlets (a delta), each line as drawn or by its own
         sinks = members[(ins[members] > 0) & (outs[members] == 0)]
         consistent = (len(sinks) == 1 and not in_cycle[members].any()
                       and (ins[junction] > 0).all() and (outs[junction] > 0).all())
@@ -1808,6 +1823,13 @@ def _direct(links: list[_Link], report: RiverImport) -> list[_Link]:
             continue
         outlets[comp] = int(best)
         how[comp] = why
+    for i in delta_turns:
+        lk = links[i]
+        report.repair(lk.name, lk.fid, lk.attrs,
+                      "drawn upstream (by its own " + ("drainage areas" if own[i] == -2 else
+                                                      "elevations") +
+                      "; its piece of the network is a delta, several outlets): turned")
+        _turn(lk)
     if not outlets:
         return links
     dist = dijkstra(adjacency, directed=False, indices=list(outlets.values()), min_only=True)
@@ -1822,6 +1844,48 @@ def _direct(links: list[_Link], report: RiverImport) -> list[_Link]:
                           f"to ({x:.1f}, {y:.1f})): turned")
             _turn(lk)
     return links
+
+
+def _own_direction(lk: _Link) -> int:
+    """What the line's own values say of its drawing: 2 / −2 drawn downstream / upstream by
+    its drainage areas (given at both ends, growing downstream), 1 / −1 by its elevations
+    (Z, else the elevation attributes; falling downstream), 0 when they do not tell."""
+    a0, a1 = lk.values.get("drainage_area_km2", (math.nan, math.nan))
+    if math.isfinite(a0) and math.isfinite(a1) and a0 != a1:
+        return 2 if a1 > a0 else -2
+    z0, z1 = lk.z
+    if not (math.isfinite(z0) and math.isfinite(z1)):
+        z0, z1 = lk.values.get("elevation_m", (math.nan, math.nan))
+    if math.isfinite(z0) and math.isfinite(z1) and z0 != z1:
+        return 1 if z1 < z0 else -1
+    return 0
+
+
+def _drains_as_a_delta(u: np.ndarray, v: np.ndarray, dirs, turned: np.ndarray,
+                       min_cos: float) -> bool:
+    """Whether a piece of network, with the lines ``turned`` turned, drains to several
+    outlets as a delta does: no loop, every junction with inflow and outflow, more than one
+    outlet (a node where lines end and none starts), and at every split each outflow leaving
+    within acos(``min_cos``) of the inflows' mean direction (distributaries go on forward; a
+    tributary drawn upstream would point back)."""
+    u, v = np.where(turned, v, u), np.where(turned, u, v)
+    dirs = [(-last, -first) if t else (first, last) for (first, last), t in zip(dirs, turned)]
+    nodes, local = np.unique(np.concatenate([u, v]), return_inverse=True)
+    lu, lv = local[:len(u)], local[len(u):]
+    n = len(nodes)
+    ins, outs = np.bincount(lv, minlength=n), np.bincount(lu, minlength=n)
+    junction = (ins + outs) >= 2
+    if (((ins == 0) | (outs == 0)) & junction).any() or ((ins > 0) & (outs == 0)).sum() < 2:
+        return False
+    if _cycle_nodes(lu, lv, n).any():
+        return False
+    inflow: dict[int, list[np.ndarray]] = {}
+    for b, (_, last) in zip(lv.tolist(), dirs):
+        inflow.setdefault(b, []).append(last)
+    for a, (first, _) in zip(lu.tolist(), dirs):
+        if outs[a] >= 2 and float(np.dot(_unit(np.mean(inflow[a], axis=0)), first)) < min_cos:
+            return False
+    return True
 
 
 def _groups(label: np.ndarray) -> dict[int, np.ndarray]:

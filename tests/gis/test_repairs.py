@@ -94,6 +94,48 @@ def test_disconnected_pieces_and_rivers_entering_from_outside(tmp_path):
     check_flows_downstream(graph, lines)
 
 
+def delta():
+    """A river splitting into three distributaries that reach the sea (the data's edge at
+    x = 900) separately, drawn downstream."""
+    return [polyline((-1200, 0), (0, 0)),
+            polyline((0, 0), (400, 180), (900, 420)),
+            polyline((0, 0), (450, 10), (900, 0)),
+            polyline((0, 0), (400, -170), (900, -380))]
+
+
+def test_a_delta_stays_a_delta(tmp_path):
+    """Several outlets branching from one river (distributaries) are kept, each its own
+    outlet, the discharge split by the widths; with elevations, a distributary drawn
+    upstream is turned by its own elevations and the delta stays."""
+    lines = delta()
+    widths = np.array([60.0, 30.0, 20.0, 10.0])
+    path = write_lines(tmp_path / "delta.gpkg", lines, {"W": widths})
+    builder = rf.read_rivers(path, origin_m=None, width_m="W")
+    graph = built(builder)
+    assert builder.report.repairs == []                  # drawn downstream: nothing turned
+    check_flows_downstream(graph, lines, skip_m=3.0)
+    q = np.array(builder.discharges_m2s)
+    np.testing.assert_allclose(q[1:] / q[0], widths[1:] / widths[1:].sum())
+    # topology only: one distributary drawn upstream is ambiguous (it could be a tributary)
+    # unless its elevations say; with them it is turned back and the delta stays
+    drawn = [lines[0], lines[1], lines[2][::-1], lines[3]]
+    up = np.array([10.0, 5.0, 0.0, 5.0])
+    down = np.array([5.0, 0.0, 5.0, 0.0])                # the third drawn from the sea
+    path = write_lines(tmp_path / "delta_up.shp", drawn, {"W": widths, "up": up, "dn": down})
+    builder = rf.read_rivers(path, origin_m=None, width_m="W", elevation_m=("up", "dn"))
+    graph = built(builder)
+    (what,) = repairs_of(builder, "feature 2")
+    assert "drawn upstream" in what and "delta" in what and "elevations" in what
+    assert [r.feature for r in builder.report.repairs] == ["feature 2"]
+    check_flows_downstream(graph, lines, skip_m=3.0)
+    # a tributary drawn upstream is not a distributary: it points back where it joins
+    trib = [polyline((-1200, 0), (0, 0)), polyline((0, 0), (900, 0)),
+            polyline((0, 0), (-500, 600))]               # drawn from the junction out
+    path = write_lines(tmp_path / "trib.geojson", trib, crs=UTM)
+    builder = rf.read_rivers(path, width_m=20.0)
+    assert [r.feature for r in builder.report.repairs] == ["feature 2"]
+
+
 # -- direction ---------------------------------------------------------------------------------
 
 
