@@ -136,6 +136,13 @@ or as its own elevations or drainage areas say: :func:`_drains_as_a_delta`) when
 split each outflow leaves within acos(DELTA_COS) = 60° of the inflow's direction (delta
 bifurcations open by about 70° in all, Coffey & Shaw 2017, GRL 44; a tributary drawn upstream
 points back), or within 90° where the lines' own values tell their direction."""
+MERGE_GAP = 0.42
+"""Two channels flowing into one junction (braid arms, rivers meeting at a very acute angle)
+whose centre lines run closer than MERGE_GAP × the sum of their widths for longer than
+MERGE_REACH × the wider one's width above the junction are merged there into one wider reach
+(:func:`_merge_close_channels`): narrowing them (:func:`_narrow_branches`, NARROW_GAP · d ·
+w / (w + w_other)) would leave each less than a third of its width."""
+MERGE_REACH = 1.0
 CONTINUATION_WIDTHS = 2.0
 """The outlet added where rivers meet at the edge of clipped data (nothing leaves the
 junction) is this many times the widest inflow's width long."""
@@ -528,6 +535,8 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
     links, plan = _merge_close_junctions(links, plan, geometry, specs, report)
     if crossings:
         links, plan = _cut_crossings(links, plan, crossings, geometry, specs, report)
+    if not report.strict:
+        links, plan = _merge_close_channels(links, plan, geometry, specs, report)
 
     builder = GisRiverBuilder(tolerance_m, lateral_inflow=True)
     builder.report = report
@@ -2077,6 +2086,82 @@ def _cut_crossings(links: list[_Link], plan, crossings, geometry: HydraulicGeome
         return links, plan
     links = [q for lk in links for q in expand(lk)]
     return links, _plan(links, geometry, specs, report)
+
+
+def _merge_close_channels(links: list[_Link], plan, geometry: HydraulicGeometry, specs,
+                          report: RiverImport):
+    """Two channels that flow into one junction and run closer together than MERGE_GAP ×
+    the sum of their widths w_a + w_b (between centre lines) over more than MERGE_REACH ×
+    the wider one's width above it meet earlier: from where they come that close, they are
+    one reach along their mid line that carries both discharges, its width by the rules of
+    a link below a confluence (the hydraulic geometry of the sum), at least the wider one's
+    (wider than the gap: it holds both centre lines). Two arms of a braid keep their island
+    above that point. Each merged channel is a reported repair. Returns the links and their
+    plan."""
+    ins, _ = by_junction([lk.start for lk in links], [lk.end for lk in links])
+    width = [p[0] for p in plan]
+    next_j = 1 + max([max(lk.start, lk.end) for lk in links], default=-1)
+    added, told = [], []
+    for j in sorted(ins):
+        group = ins[j]
+        used: set[int] = set()
+        for a, b in itertools.combinations(group, 2):
+            if a in used or b in used:
+                continue
+            la, lb = links[a], links[b]
+            wa, wb = width[a], width[b]
+            line_a, line_b = shapely.LineString(la.points), shapely.LineString(lb.points)
+            step = 0.25 * min(wa, wb)
+            back = np.arange(0.0, line_a.length, step)           # from the junction up
+            pts = shapely.line_interpolate_point(line_a, line_a.length - back)
+            d = shapely.distance(pts, line_b)
+            close = d < MERGE_GAP * (wa + wb)
+            k = int(np.argmin(close)) if not close.all() else len(close)
+            reach = back[k - 1] if k else 0.0
+            reach = min(reach, 0.8 * line_a.length)
+            if reach <= MERGE_REACH * max(wa, wb):
+                continue                     # close only around the junction: its own shape
+            cut_a = np.array(line_a.interpolate(line_a.length - reach).coords[0])
+            at_b = float(line_b.project(shapely.Point(cut_a)))
+            if at_b <= 0.2 * line_b.length:
+                continue                     # b would be left with nothing above
+            cut_b = np.array(line_b.interpolate(at_b).coords[0])
+            gap = float(np.hypot(*(cut_a - cut_b)))
+            mid = 0.5 * (cut_a + cut_b)
+            s = np.arange(line_a.length - reach, line_a.length, step)
+            on_a = shapely.get_coordinates(shapely.line_interpolate_point(line_a, s))
+            on_b = shapely.get_coordinates(shapely.line_interpolate_point(
+                line_b, shapely.line_locate_point(line_b, shapely.points(on_a))))
+            midline = np.vstack([mid, 0.5 * (on_a + on_b)[1:], la.points[-1]])
+            for lk, line, at in ((la, line_a, line_a.length - reach), (lb, line_b, at_b)):
+                above = shapely.get_coordinates(shapely.ops.substring(line, 0.0, at))
+                lk.points = np.vstack([above, mid])
+                lk.end = next_j
+            values = {key: (math.nan, math.nan) for key in la.values}
+            link = _Link(f"{la.name} and {lb.name} merged", la.fid, midline, {}, values,
+                         start=next_j, end=j)
+            closest = float(d[(back > max(wa, wb)) & (back <= reach)].min())
+            told.append((la, lb, wa, wb, closest, reach, gap, len(links) + len(added)))
+            added.append(link)
+            used |= {a, b}
+            next_j += 1
+    if not added:
+        return links, plan
+    links = links + added
+    plan = _plan(links, geometry, specs, report)
+    narrow = [(i, max(wa, wb)) for _, _, wa, wb, _, _, _, i in told if plan[i][0] < max(wa, wb)]
+    for i, w in narrow:                  # given arms wider than their discharge says
+        links[i].values["width_m"] = (w, w)
+    if narrow:
+        plan = _plan(links, geometry, specs, report)
+    for la, lb, wa, wb, closest, reach, gap, i in told:
+        for lk, other in ((la, lb), (lb, la)):
+            report.repair(lk.name, lk.fid, lk.attrs,
+                          f"runs closer to {other.name} than their widths allow ({closest:.1f} m "
+                          f"between centre lines at the closest, {wa:.1f} and {wb:.1f} m wide) "
+                          f"for its last {reach:.0f} m: merged with it there ({gap:.1f} m "
+                          f"apart) into one reach {plan[i][0]:.1f} m wide that carries both")
+    return links, plan
 
 
 def _narrow_branches(branches, report: RiverImport, attempt: int) -> bool:

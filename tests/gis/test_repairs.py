@@ -40,7 +40,7 @@ def braid_arms():
             polyline((300, 0), (900, 0))]
 
 
-def test_braid_arms_closer_than_their_width_are_narrowed(tmp_path):
+def test_braid_arms_closer_than_their_width_merge_around_an_island(tmp_path):
     path = write_lines(tmp_path / "arms.gpkg", braid_arms(),
                        {"name": np.array(["up", "left", "right", "down"], dtype=object),
                         "W": np.array([50.0, 40.0, 40.0, 60.0])})
@@ -48,13 +48,21 @@ def test_braid_arms_closer_than_their_width_are_narrowed(tmp_path):
         rf.read_rivers(path, width_m="W", strict=True).build()      # today's behaviour
     builder = rf.read_rivers(path, origin_m=None, width_m="W")
     graph = built(builder)
-    for feature in ("feature 2", "feature 3"):                      # GeoPackage ids from 1
-        (what,) = repairs_of(builder, feature)
-        assert "narrowed from 40.0 m" in what, what
+    for feature, other in (("feature 2", "feature 3"), ("feature 3", "feature 2")):
+        (what,) = repairs_of(builder, feature)                      # GeoPackage ids from 1
+        assert f"runs closer to {other}" in what and "11.8 m between" in what, what
+        assert "merged with it there (30.5 m apart) into one reach 50.0 m wide" in what, what
     assert not repairs_of(builder, "feature 1") and not repairs_of(builder, "feature 4")
     text = str(builder.report)
     assert "repair: feature 2" in text and "name='left'" in text
-    check_flows_downstream(graph, braid_arms(), skip_m=3.0)
+    # narrowing them would have left ~4 m of 40: merged, nothing is narrower than given
+    (merged,) = [lk for lk in builder.report.links if lk.name.endswith("merged")]
+    assert merged.width_m == pytest.approx(50.0)      # their discharge: the river above's
+    assert min(b.widths_m.min() for b in builder._branches) >= 40.0
+    # the water between the arms above the merge is an island: land inside the braid
+    field = check_flows_downstream(graph, braid_arms(), skip_m=3.0)
+    status, _ = field.query(np.array([[60.0, 0.0]]) + ORIGIN)
+    assert status[0] != rf.FlowStatus.INSIDE
 
 
 def test_neighbouring_rivers_closer_than_their_width(tmp_path):
