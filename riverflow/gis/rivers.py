@@ -51,13 +51,16 @@ is a :class:`Repair` in ``builder.report.repairs`` naming the feature (id and at
 what was done: features that are not lines, non-finite vertices, zero-length lines and
 duplicates are left out; lines drawn upstream are turned (:func:`_direct`: one outlet per
 connected piece, found from drainage areas or stream orders, elevations, else the drawing and
-the junction angles); rivers that meet where nothing leaves (clipped data) get a short
-outlet; lines crossing without a shared vertex are cut where the narrower crosses the wider
-one's water (no junction); grid-traced lines are smoothed at the scale of their width;
-attribute values that are text, NaN or ≤ 0 (stream orders below 1, OSM width tags that are
-no width) are not used (the next rule applies); a given width under MIN_WIDTH_M is raised to
-it; and ``build()`` narrows channels that lie closer together than their widths where the network
-cannot be built otherwise. ``strict=True``: lines are taken as drawn and the first defect
+the junction angles; a delta keeps its several outlets); rivers that meet where nothing
+leaves (clipped data) get a short outlet; lines crossing without a shared vertex are cut
+where the narrower crosses the wider one's water (no junction); two channels flowing into
+one junction that run closer than their widths above it merge into one reach there
+(:func:`_merge_close_channels`); attribute values that are text, NaN or ≤ 0 (stream orders
+below 1, OSM width tags that are no width) are not used (the next rule applies); a given
+width under MIN_WIDTH_M is raised to it; and ``build()`` narrows channels that lie closer
+together than their widths where the network cannot be built otherwise. Lines traced on a
+raster's cells (a staircase) are smoothed at the scale of the cell or the width
+(:func:`_smooth_traced`; a derivation in ``report.derived``, not a repair). ``strict=True``: lines are taken as drawn and the first defect
 raises :class:`~riverflow.GraphError` naming the file, layer, feature and attributes.
 Values replaced without a defect in the data (a derived width raised to MIN_WIDTH_M, a given
 discharge smaller than its inflows or split at a bifurcation, elevations rising downstream)
@@ -2112,9 +2115,15 @@ def _merge_close_channels(links: list[_Link], plan, geometry: HydraulicGeometry,
             wa, wb = width[a], width[b]
             line_a, line_b = shapely.LineString(la.points), shapely.LineString(lb.points)
             step = 0.25 * min(wa, wb)
-            back = np.arange(0.0, line_a.length, step)           # from the junction up
-            pts = shapely.line_interpolate_point(line_a, line_a.length - back)
-            d = shapely.distance(pts, line_b)
+            back, d = np.zeros(0), np.zeros(0)
+            while len(back) * step < line_a.length:    # from the junction up, till they part
+                more = np.arange(len(back), len(back) + 64) * step
+                more = more[more < line_a.length]
+                back = np.concatenate([back, more])
+                d = np.concatenate([d, shapely.distance(shapely.line_interpolate_point(
+                    line_a, line_a.length - more), line_b)])
+                if (d >= MERGE_GAP * (wa + wb)).any():
+                    break
             close = d < MERGE_GAP * (wa + wb)
             k = int(np.argmin(close)) if not close.all() else len(close)
             reach = back[k - 1] if k else 0.0
