@@ -145,7 +145,7 @@ whose centre lines run closer than MERGE_GAP × the sum of their widths for long
 MERGE_REACH × the wider one's width above the junction are merged there into one wider reach
 (:func:`_merge_close_channels`): narrowing them (:func:`_narrow_branches`, NARROW_GAP · d ·
 w / (w + w_other)) would leave each less than a third of its width."""
-MERGE_REACH = 1.0
+MERGE_REACH = 2.0
 CONTINUATION_WIDTHS = 2.0
 """The outlet added where rivers meet at the edge of clipped data (nothing leaves the
 junction) is this many times the widest inflow's width long."""
