@@ -1880,6 +1880,8 @@ def _drains_as_a_delta(u: np.ndarray, v: np.ndarray, dirs, turned: np.ndarray,
     outlet (a node where lines end and none starts), and at every split each outflow leaving
     within acos(``min_cos``) of the inflows' mean direction (distributaries go on forward; a
     tributary drawn upstream would point back)."""
+    if len(u) < 3:                       # a split needs a line in and two out
+        return False
     u, v = np.where(turned, v, u), np.where(turned, u, v)
     dirs = [(-last, -first) if t else (first, last) for (first, last), t in zip(dirs, turned)]
     nodes, local = np.unique(np.concatenate([u, v]), return_inverse=True)
@@ -2142,11 +2144,18 @@ def _merge_close_channels(links: list[_Link], plan, geometry: HydraulicGeometry,
             on_b = shapely.get_coordinates(shapely.line_interpolate_point(
                 line_b, shapely.line_locate_point(line_b, shapely.points(on_a))))
             midline = np.vstack([mid, 0.5 * (on_a + on_b)[1:], la.points[-1]])
+            f_a = (line_a.length - reach) / line_a.length
+            z0, z1 = la.values.get("elevation_m", (math.nan, math.nan))
+            values = {key: (math.nan, math.nan) for key in la.values}   # by the rules
+            values["elevation_m"] = (z0 + (z1 - z0) * f_a, z1)
             for lk, line, at in ((la, line_a, line_a.length - reach), (lb, line_b, at_b)):
                 above = shapely.get_coordinates(shapely.ops.substring(line, 0.0, at))
                 lk.points = np.vstack([above, mid])
                 lk.end = next_j
-            values = {key: (math.nan, math.nan) for key in la.values}
+                f = at / line.length                 # values given per end: at the cut
+                lk.values = {key: (v0, v0 + (v1 - v0) * f) for key, (v0, v1) in
+                             lk.values.items()}
+                lk.z = (lk.z[0], lk.z[0] + (lk.z[1] - lk.z[0]) * f)
             link = _Link(f"{la.name} and {lb.name} merged", la.fid, midline, {}, values,
                          start=next_j, end=j)
             closest = float(d[(back > max(wa, wb)) & (back <= reach)].min())
