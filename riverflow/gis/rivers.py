@@ -51,13 +51,16 @@ is a :class:`Repair` in ``builder.report.repairs`` naming the feature (id and at
 what was done: features that are not lines, non-finite vertices, zero-length lines and
 duplicates are left out; lines drawn upstream are turned (:func:`_direct`: one outlet per
 connected piece, found from drainage areas or stream orders, elevations, else the drawing and
-the junction angles); rivers that meet where nothing leaves (clipped data) get a short
-outlet; lines crossing without a shared vertex are cut where the narrower crosses the wider
-one's water (no junction); grid-traced lines are smoothed at the scale of their width;
-attribute values that are text, NaN or ≤ 0 (stream orders below 1, OSM width tags that are
-no width) are not used (the next rule applies); a given width under MIN_WIDTH_M is raised to
-it; and ``build()`` narrows channels that lie closer together than their widths where the network
-cannot be built otherwise. ``strict=True``: lines are taken as drawn and the first defect
+the junction angles; a delta keeps its several outlets); rivers that meet where nothing
+leaves (clipped data) get a short outlet; lines crossing without a shared vertex are cut
+where the narrower crosses the wider one's water (no junction); two channels flowing into
+one junction that run closer than their widths above it merge into one reach there
+(:func:`_merge_close_channels`); attribute values that are text, NaN or ≤ 0 (stream orders
+below 1, OSM width tags that are no width) are not used (the next rule applies); a given
+width under MIN_WIDTH_M is raised to it; and ``build()`` narrows channels that lie closer
+together than their widths where the network cannot be built otherwise. Lines traced on a
+raster's cells (a staircase) are smoothed at the scale of the cell or the width
+(:func:`_smooth_traced`; a derivation in ``report.derived``, not a repair). ``strict=True``: lines are taken as drawn and the first defect
 raises :class:`~riverflow.GraphError` naming the file, layer, feature and attributes.
 Values replaced without a defect in the data (a derived width raised to MIN_WIDTH_M, a given
 discharge smaller than its inflows or split at a bifurcation, elevations rising downstream)
@@ -112,9 +115,37 @@ NARROW_GAP = 0.8
 land), shared in proportion to their widths."""
 GRID_TURN_DEG = 30.0
 GRID_TURN_SHARE = 0.3
-"""A line is grid-traced (a staircase, :func:`_smooth_grid_traced`) when its vertices lie
-closer together than half its width and at least GRID_TURN_SHARE of them turn by
-GRID_TURN_DEG or more."""
+"""A line not on a lattice still zigzags like a traced one (:func:`_smooth_traced`) when its
+vertices lie closer together than half its width and at least GRID_TURN_SHARE of them turn
+by GRID_TURN_DEG or more."""
+LATTICE_SHARE = 0.8
+"""A line is grid-traced (traced on a raster's cells, a staircase: :func:`_lattice_cells`)
+when at least this share of its segments run along a lattice direction (a multiple of 45° in
+the file's coordinates) with a length that is a whole number of the layer's cells, and it
+turns."""
+LATTICE_ANGLE = 0.01
+"""A segment runs along a lattice direction when its smaller coordinate step is under this
+fraction of its larger one (an axis, within 0.6°) or over 1 − this (a diagonal)."""
+TRACED_CAP_CELLS = 0.5 * math.sqrt(2.0)
+"""A grid-traced centre line is moved by at most max(half its width, this many cells: half a
+cell's diagonal, so it stays in the cells it was traced through)."""
+TRACED_SIGMA_CELLS = 1.5
+"""Grid-traced lines are smoothed by a Gaussian of σ = max(this many cells, half the width)
+along them: it takes out the steps of one or two cells that tracing on a lattice makes."""
+DELTA_COS = 0.5
+DELTA_COS_EVIDENCE = 0.0
+"""A piece of network that drains to several outlets is a delta (kept so, each line as drawn
+or as its own elevations or drainage areas say: :func:`_drains_as_a_delta`) when at every
+split each outflow leaves within acos(DELTA_COS) = 60° of the inflow's direction (delta
+bifurcations open by about 70° in all, Coffey & Shaw 2017, GRL 44; a tributary drawn upstream
+points back), or within 90° where the lines' own values tell their direction."""
+MERGE_GAP = 0.42
+"""Two channels flowing into one junction (braid arms, rivers meeting at a very acute angle)
+whose centre lines run closer than MERGE_GAP × the sum of their widths for longer than
+MERGE_REACH × the wider one's width above the junction are merged there into one wider reach
+(:func:`_merge_close_channels`): narrowing them (:func:`_narrow_branches`, NARROW_GAP · d ·
+w / (w + w_other)) would leave each less than a third of its width."""
+MERGE_REACH = 2.0
 CONTINUATION_WIDTHS = 2.0
 """The outlet added where rivers meet at the edge of clipped data (nothing leaves the
 junction) is this many times the widest inflow's width long."""
@@ -356,6 +387,9 @@ class _Link:
     """Its direction was set by the user (``reverse=``): never turned."""
     added: bool = False
     """Made by a repair (a continuation at a clipped outlet), not read from the file."""
+    cell_m: float = math.nan
+    """The raster cell [m] its source line was traced on (:func:`_lattice_cells`), NaN for a
+    line that is not grid-traced."""
 
 
 def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge_m2s=None,
@@ -473,9 +507,10 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
     report.crs = crs_out
     report.derived["coordinates"] = crs_note
 
+    cells = _lattice_cells([pts for _, _, pts, _ in raw])
     links: list[_Link] = []
     at = 0
-    for k, part, pts, z in raw:
+    for (k, part, pts, z), cell in zip(raw, cells):
         p = xy[at:at + len(pts)]
         at += len(pts)
         name = f"feature {fids[k]}" + (f" part {part}" if part is not None else "")
@@ -489,6 +524,8 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
         link = _Link(name, int(fids[k]), np.ascontiguousarray(p), attrs, values)
         link.z = z
         link.fixed = users or osm or (flip is not None)   # the user's word, or OSM's rule
+        if math.isfinite(cell):                           # the cell in metres, as projected
+            link.cell_m = cell * _length(p) / max(_length(pts), 1e-300)
         links.append(link)
     links = _clean(links, report)
     if not links:
@@ -501,18 +538,14 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
     links, plan = _merge_close_junctions(links, plan, geometry, specs, report)
     if crossings:
         links, plan = _cut_crossings(links, plan, crossings, geometry, specs, report)
+    if not report.strict:
+        links, plan = _merge_close_channels(links, plan, geometry, specs, report)
 
     builder = GisRiverBuilder(tolerance_m, lateral_inflow=True)
     builder.report = report
     builder.crs = crs_out
+    _smooth_traced(links, plan, report)
     for link, (width, q, q3, wfrom, qfrom, lateral) in zip(links, plan):
-        smooth = _smooth_grid_traced(link.points, width)
-        if smooth is not None:
-            link.points, shift, turn = smooth
-            report.repair(link.name, link.fid, link.attrs,
-                          f"grid-traced (vertices closer than its width {width:.1f} m, turns "
-                          f"of up to {turn:.0f}°): smoothed at the scale of its width (the "
-                          f"centre line moved by at most {shift:.1f} m)")
         _report_substitutions(link, wfrom, qfrom, report)
         line = _simplify(link.points, width)
         builder.add_branch(line, width, discharge_m2s=q, name=link.name)
@@ -1252,6 +1285,7 @@ def _split(link: _Link, at: list[float]) -> list[_Link]:
         z0, z1 = link.z
         piece.z = (z0 + (z1 - z0) * a / s[-1], z0 + (z1 - z0) * b / s[-1])
         piece.fixed = link.fixed
+        piece.cell_m = link.cell_m
         out.append(piece)
     return out
 
@@ -1274,39 +1308,167 @@ def _length(p: np.ndarray) -> float:
     return float(np.hypot(*np.diff(p, axis=0).T).sum())
 
 
-def _smooth_grid_traced(p: np.ndarray, width_m: float):
-    """A line traced along a grid (vertices closer together than the river is wide, most of
-    them turning by GRID_TURN_DEG or more: a staircase) smoothed at the scale of its width:
-    resampled every quarter width, a Gaussian of half a width along it (ends pinned), each
-    point moved by at most half a width. Returns (points, largest shift [m], sharpest turn
-    before [°]) or None for a line that is not grid-traced."""
+def _lattice_cells(lines: list[np.ndarray]) -> np.ndarray:
+    """The raster cell each line was traced on (in the file's coordinate units), NaN for a
+    line that is not grid-traced.
+
+    A line traced along a raster's cells (a DEM's flow directions: TauDEM, ArcHydro, …) has
+    its vertices on the cells' centres: every segment runs along one of the 8 lattice
+    directions (a multiple of 45° in the raster's coordinates, the file's) and is a whole
+    number of cells long (of cell diagonals on the diagonals). The cell is the layer's (one
+    raster): the longest step, among those common in the layer, that at least LATTICE_SHARE
+    of the lattice segments are whole multiples of. A line is grid-traced when at least
+    LATTICE_SHARE of its segments run along lattice directions, as many of its inner
+    segments (its first and last may end at a cell's edge or a snapped junction) are whole
+    numbers of cells, and it runs in two directions or more (a staircase)."""
+    out = np.full(len(lines), math.nan)
+    per_line = []
+    for p in lines:
+        d = np.diff(np.asarray(p, float), axis=0)
+        d = d[np.abs(d).max(axis=1) > 0]
+        big = np.abs(d).max(axis=1) if len(d) else np.zeros(0)
+        rel = np.abs(d).min(axis=1) / np.maximum(big, 1e-300) if len(d) else np.zeros(0)
+        on = (rel <= LATTICE_ANGLE) | (rel >= 1.0 - LATTICE_ANGLE)
+        heading = np.round(np.degrees(np.arctan2(d[:, 1], d[:, 0])) / 45.0).astype(int) % 8
+        per_line.append((big, on, heading))
+    steps = np.concatenate([big[on] for big, on, _ in per_line]) if per_line else np.zeros(0)
+    if len(steps) < 3:
+        return out
+    values, counts = np.unique(np.round(steps / steps.max(), 6), return_counts=True)
+    common = values[counts >= max(2, 0.02 * len(steps))][::-1] * steps.max()
+
+    def whole(x: np.ndarray, c: float) -> np.ndarray:
+        m = x / c
+        return (m >= 0.98) & (np.abs(m - np.round(m)) <= 0.02)
+
+    cell = next((c for c in common if whole(steps, c).mean() >= LATTICE_SHARE), None)
+    if cell is None:
+        return out
+    for i, (big, on, heading) in enumerate(per_line):
+        if len(big) < 2:
+            continue
+        inner = slice(1, -1) if len(big) >= 3 else slice(None)   # ends: at a cell's edge
+        lattice = on & whole(big, cell)
+        if (on.mean() >= LATTICE_SHARE and lattice[inner].mean() >= LATTICE_SHARE
+                and len(np.unique(heading[on])) >= 2):
+            out[i] = cell
+    return out
+
+
+def _zigzags(p: np.ndarray, width_m: float) -> bool:
+    """A line off any lattice that zigzags at a scale below its width (traced or digitised
+    densely): vertices closer together than half its width, at least GRID_TURN_SHARE of
+    them turning by GRID_TURN_DEG or more."""
     if len(p) < 5:
-        return None
-    seg = np.hypot(*np.diff(p, axis=0).T)
+        return False
     d = np.diff(p, axis=0)
     turn = np.degrees(np.abs(np.arctan2(d[:-1, 0] * d[1:, 1] - d[:-1, 1] * d[1:, 0],
                                         np.einsum("ij,ij->i", d[:-1], d[1:]))))
-    if np.median(seg) >= 0.5 * width_m or (turn >= GRID_TURN_DEG).mean() < GRID_TURN_SHARE:
-        return None
-    s = np.concatenate([[0.0], np.cumsum(seg)])
-    step = 0.25 * width_m
-    n = max(int(np.ceil(s[-1] / step)), 2)
-    t = np.linspace(0.0, s[-1], n + 1)
-    q = np.column_stack([np.interp(t, s, p[:, 0]), np.interp(t, s, p[:, 1])])
-    sigma = 2.0                                   # samples: half a width
-    k = np.arange(-3 * int(sigma), 3 * int(sigma) + 1)
-    kernel = np.exp(-0.5 * (k / sigma) ** 2)
-    kernel /= kernel.sum()
-    half = len(k) // 2
-    padded = np.pad(q, ((half, half), (0, 0)), mode="reflect", reflect_type="odd")
-    smooth = np.column_stack([np.convolve(padded[:, i], kernel, mode="valid") for i in (0, 1)])
-    shift = smooth - q
-    size = np.hypot(*shift.T)
-    cap = 0.5 * width_m
-    smooth = q + shift * np.minimum(1.0, cap / np.maximum(size, 1e-12))[:, None]
-    smooth[0], smooth[-1] = p[0], p[-1]
-    moved = float(shapely.hausdorff_distance(shapely.LineString(smooth), shapely.LineString(p)))
-    return smooth, min(moved, cap), float(turn.max())
+    return bool(np.median(np.hypot(*d.T)) < 0.5 * width_m
+                and (turn >= GRID_TURN_DEG).mean() >= GRID_TURN_SHARE)
+
+
+def _smooth_traced(links: list[_Link], plan, report: RiverImport) -> None:
+    """Smooth grid-traced centre lines (:func:`_lattice_cells`), and lines that zigzag below
+    their width (:func:`_zigzags`), at the scale σ = max(cell, half the width): a Gaussian
+    of σ along the line, sampled every σ/4. Lines that continue each other (a junction with
+    one link in and one out) are smoothed as one, so no corner is left where they meet;
+    the ends of such a run (sources, outlets, confluences, bifurcations) stay where they
+    are. No point moves by more than max(half its link's width, TRACED_CAP_CELLS cells).
+    The links' points are replaced; ``report.derived["centre_lines"]`` says how many were
+    smoothed and by how much they moved (a derivation, not a repair: tracing on a raster is
+    how the data was made, not a defect of a feature)."""
+    sigma = np.zeros(len(links))
+    cap = np.zeros(len(links))
+    cells = []
+    dense = 0
+    for i, (lk, p) in enumerate(zip(links, plan)):
+        width = p[0]
+        cell = lk.cell_m if math.isfinite(lk.cell_m) and not lk.added else 0.0
+        if cell <= 0.0 and not _zigzags(lk.points, width):
+            continue
+        sigma[i] = max(TRACED_SIGMA_CELLS * cell, 0.5 * width)
+        cap[i] = max(0.5 * width, TRACED_CAP_CELLS * cell)
+        if cell > 0:
+            cells.append(cell)
+        else:
+            dense += 1
+    if not sigma.any():
+        return
+    ins, outs = by_junction([lk.start for lk in links], [lk.end for lk in links])
+
+    def following(i: int) -> int | None:
+        j = links[i].end
+        if j < 0 or len(ins.get(j, [])) != 1 or len(outs.get(j, [])) != 1:
+            return None
+        k = outs[j][0]
+        return k if sigma[k] > 0 and k != i else None
+
+    flagged = [i for i in range(len(links)) if sigma[i] > 0]
+    has_prev = {k for i in flagged if (k := following(i)) is not None}
+    shifts = []
+    for first in flagged:                  # links flow downstream (no cycle): runs have heads
+        if first in has_prev:
+            continue
+        run = [first]
+        while (k := following(run[-1])) is not None and k not in run:
+            run.append(k)
+        shifts.append(_smooth_run([links[i] for i in run], float(sigma[run].max()),
+                                  cap[run]))
+    report.derived["centre_lines"] = (
+        (f"{len(cells)} grid-traced link{'s' if len(cells) > 1 else ''} (on a lattice of "
+         f"{np.median(cells):.3g} m cells) " if cells else "")
+        + ("and " if cells and dense else "")
+        + (f"{dense} link{'s' if dense > 1 else ''} zigzagging below their width "
+           if dense else "")
+        + f"smoothed (a Gaussian along them of max({TRACED_SIGMA_CELLS:g} cells, half the "
+        f"width)): centre lines moved by at most {max(shifts):.2f} m")
+
+
+def _smooth_run(run: list[_Link], sigma: float, caps: np.ndarray) -> float:
+    """Smooth the links of one run (each continuing the one before) as one line: resampled
+    every σ/4 (each link on its own, so the points where they meet stay samples), a Gaussian
+    of σ (odd reflection at the run's ends: they stay put), each sample's move capped by its
+    link's cap. Replaces the links' points; returns the largest move [m] (the farthest new
+    point from the line as it was)."""
+    h = 0.25 * sigma
+    parts, bounds = [], [0]
+    for lk in run:
+        p = lk.points
+        s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(p, axis=0).T))])
+        t = np.linspace(0.0, s[-1], max(int(np.ceil(s[-1] / h)), 1) + 1)
+        q = np.column_stack([np.interp(t, s, p[:, 0]), np.interp(t, s, p[:, 1])])
+        parts.append(q if not parts else q[1:])
+        bounds.append(bounds[-1] + len(q) - 1)
+    q = np.vstack(parts)
+    limit = np.concatenate([np.full(b - a, c) for a, b, c in zip(bounds, bounds[1:], caps)]
+                           + [[caps[-1]]])
+
+    def gaussian(x: np.ndarray, samples: float) -> np.ndarray:
+        """x smoothed by a Gaussian of ``samples`` samples (odd reflection at the ends)."""
+        half = int(3 * samples)
+        k = np.arange(-half, half + 1)
+        kernel = np.exp(-0.5 * (k / samples) ** 2)
+        kernel /= kernel.sum()
+        padded = np.pad(x, ((half, half), (0, 0)), mode="reflect", reflect_type="odd")
+        return np.column_stack([np.convolve(padded[:, i], kernel, mode="valid")
+                                for i in (0, 1)])
+
+    def within(x: np.ndarray) -> np.ndarray:
+        """x with each point moved back towards q to at most its cap from it."""
+        shift = x - q
+        size = np.hypot(*shift.T)
+        return q + shift * np.minimum(1.0, limit / np.maximum(size, 1e-12))[:, None]
+
+    smooth = within(gaussian(q, 4.0))              # σ = 4 samples
+    smooth[0], smooth[-1] = q[0], q[-1]
+    moved = 0.0
+    for lk, a, b in zip(run, bounds, bounds[1:]):
+        new = np.ascontiguousarray(smooth[a:b + 1])
+        moved = max(moved, float(shapely.distance(shapely.points(new),
+                                                  shapely.LineString(lk.points)).max()))
+        lk.points = new
+    return moved
 
 
 def _simplify(p: np.ndarray, width_m: float) -> np.ndarray:
@@ -1626,9 +1788,17 @@ def _direct(links: list[_Link], report: RiverImport) -> list[_Link]:
                 for lk in links]
     outlets: dict[int, int] = {}
     how: dict[int, str] = {}
+    own = np.array([_own_direction(lk) for lk in links])
+    delta_turns: list[int] = []
     for comp, mine in link_groups.items():
         members = node_groups[comp]
         junction = members[(ins[members] + outs[members]) >= 2]
+        turned = mine[(own[mine] < 0) & ~np.array([links[i].fixed for i in mine], bool)]
+        if _drains_as_a_delta(u[mine], v[mine], [ends_dir[i] for i in mine],
+                              np.isin(mine, turned),
+                              DELTA_COS_EVIDENCE if (own[mine] != 0).any() else DELTA_COS):
+            delta_turns += turned.tolist()
+            continue                 # several outlets (a delta), each line as drawn or by its own
         sinks = members[(ins[members] > 0) & (outs[members] == 0)]
         consistent = (len(sinks) == 1 and not in_cycle[members].any()
                       and (ins[junction] > 0).all() and (outs[junction] > 0).all())
@@ -1665,6 +1835,13 @@ def _direct(links: list[_Link], report: RiverImport) -> list[_Link]:
             continue
         outlets[comp] = int(best)
         how[comp] = why
+    for i in delta_turns:
+        lk = links[i]
+        report.repair(lk.name, lk.fid, lk.attrs,
+                      "drawn upstream (by its own " + ("drainage areas" if own[i] == -2 else
+                                                      "elevations") +
+                      "; its piece of the network is a delta, several outlets): turned")
+        _turn(lk)
     if not outlets:
         return links
     dist = dijkstra(adjacency, directed=False, indices=list(outlets.values()), min_only=True)
@@ -1679,6 +1856,50 @@ def _direct(links: list[_Link], report: RiverImport) -> list[_Link]:
                           f"to ({x:.1f}, {y:.1f})): turned")
             _turn(lk)
     return links
+
+
+def _own_direction(lk: _Link) -> int:
+    """What the line's own values say of its drawing: 2 / −2 drawn downstream / upstream by
+    its drainage areas (given at both ends, growing downstream), 1 / −1 by its elevations
+    (Z, else the elevation attributes; falling downstream), 0 when they do not tell."""
+    a0, a1 = lk.values.get("drainage_area_km2", (math.nan, math.nan))
+    if math.isfinite(a0) and math.isfinite(a1) and a0 != a1:
+        return 2 if a1 > a0 else -2
+    z0, z1 = lk.z
+    if not (math.isfinite(z0) and math.isfinite(z1)):
+        z0, z1 = lk.values.get("elevation_m", (math.nan, math.nan))
+    if math.isfinite(z0) and math.isfinite(z1) and z0 != z1:
+        return 1 if z1 < z0 else -1
+    return 0
+
+
+def _drains_as_a_delta(u: np.ndarray, v: np.ndarray, dirs, turned: np.ndarray,
+                       min_cos: float) -> bool:
+    """Whether a piece of network, with the lines ``turned`` turned, drains to several
+    outlets as a delta does: no loop, every junction with inflow and outflow, more than one
+    outlet (a node where lines end and none starts), and at every split each outflow leaving
+    within acos(``min_cos``) of the inflows' mean direction (distributaries go on forward; a
+    tributary drawn upstream would point back)."""
+    if len(u) < 3:                       # a split needs a line in and two out
+        return False
+    u, v = np.where(turned, v, u), np.where(turned, u, v)
+    dirs = [(-last, -first) if t else (first, last) for (first, last), t in zip(dirs, turned)]
+    nodes, local = np.unique(np.concatenate([u, v]), return_inverse=True)
+    lu, lv = local[:len(u)], local[len(u):]
+    n = len(nodes)
+    ins, outs = np.bincount(lv, minlength=n), np.bincount(lu, minlength=n)
+    junction = (ins + outs) >= 2
+    if (((ins == 0) | (outs == 0)) & junction).any() or ((ins > 0) & (outs == 0)).sum() < 2:
+        return False
+    if _cycle_nodes(lu, lv, n).any():
+        return False
+    inflow: dict[int, list[np.ndarray]] = {}
+    for b, (_, last) in zip(lv.tolist(), dirs):
+        inflow.setdefault(b, []).append(last)
+    for a, (first, _) in zip(lu.tolist(), dirs):
+        if outs[a] >= 2 and float(np.dot(_unit(np.mean(inflow[a], axis=0)), first)) < min_cos:
+            return False
+    return True
 
 
 def _groups(label: np.ndarray) -> dict[int, np.ndarray]:
@@ -1849,6 +2070,7 @@ def _cut_crossings(links: list[_Link], plan, crossings, geometry: HydraulicGeome
                           part, lk.attrs, dict(lk.values),
                           start=lk.start if k == 0 else -1, end=-1 if k == 0 else lk.end)
             piece.fixed = True
+            piece.cell_m = lk.cell_m
             if k == 1 and not math.isfinite(lk.values["discharge_m2s"][1]):
                 piece.values["discharge_m3s"] = (volume[id(lk)], volume[id(lk)])
             width[id(piece)], volume[id(piece)] = w_n, volume[id(lk)]
@@ -1869,6 +2091,95 @@ def _cut_crossings(links: list[_Link], plan, crossings, geometry: HydraulicGeome
         return links, plan
     links = [q for lk in links for q in expand(lk)]
     return links, _plan(links, geometry, specs, report)
+
+
+def _merge_close_channels(links: list[_Link], plan, geometry: HydraulicGeometry, specs,
+                          report: RiverImport):
+    """Two channels that flow into one junction and run closer together than MERGE_GAP ×
+    the sum of their widths w_a + w_b (between centre lines) over more than MERGE_REACH ×
+    the wider one's width above it meet earlier: from where they come that close, they are
+    one reach along their mid line that carries both discharges, its width by the rules of
+    a link below a confluence (the hydraulic geometry of the sum), at least the wider one's
+    (wider than the gap: it holds both centre lines). Two arms of a braid keep their island
+    above that point. Each merged channel is a reported repair. Returns the links and their
+    plan."""
+    ins, _ = by_junction([lk.start for lk in links], [lk.end for lk in links])
+    width = [p[0] for p in plan]
+    next_j = 1 + max([max(lk.start, lk.end) for lk in links], default=-1)
+    added, told = [], []
+    for j in sorted(ins):
+        group = ins[j]
+        used: set[int] = set()
+        for a, b in itertools.combinations(group, 2):
+            if a in used or b in used:
+                continue
+            la, lb = links[a], links[b]
+            wa, wb = width[a], width[b]
+            line_a, line_b = shapely.LineString(la.points), shapely.LineString(lb.points)
+            step = 0.25 * min(wa, wb)
+            back, d = np.zeros(0), np.zeros(0)
+            while len(back) * step < line_a.length:    # from the junction up, till they part
+                more = np.arange(len(back), len(back) + 64) * step
+                more = more[more < line_a.length]
+                back = np.concatenate([back, more])
+                d = np.concatenate([d, shapely.distance(shapely.line_interpolate_point(
+                    line_a, line_a.length - more), line_b)])
+                if (d >= MERGE_GAP * (wa + wb)).any():
+                    break
+            close = d < MERGE_GAP * (wa + wb)
+            k = int(np.argmin(close)) if not close.all() else len(close)
+            reach = back[k - 1] if k else 0.0
+            reach = min(reach, 0.8 * line_a.length)
+            if reach <= MERGE_REACH * max(wa, wb):
+                continue                     # close only around the junction: its own shape
+            cut_a = np.array(line_a.interpolate(line_a.length - reach).coords[0])
+            at_b = float(line_b.project(shapely.Point(cut_a)))
+            if at_b <= 0.2 * line_b.length:
+                continue                     # b would be left with nothing above
+            cut_b = np.array(line_b.interpolate(at_b).coords[0])
+            gap = float(np.hypot(*(cut_a - cut_b)))
+            mid = 0.5 * (cut_a + cut_b)
+            s = np.arange(line_a.length - reach, line_a.length, step)
+            on_a = shapely.get_coordinates(shapely.line_interpolate_point(line_a, s))
+            on_b = shapely.get_coordinates(shapely.line_interpolate_point(
+                line_b, shapely.line_locate_point(line_b, shapely.points(on_a))))
+            midline = np.vstack([mid, 0.5 * (on_a + on_b)[1:], la.points[-1]])
+            f_a = (line_a.length - reach) / line_a.length
+            z0, z1 = la.values.get("elevation_m", (math.nan, math.nan))
+            values = {key: (math.nan, math.nan) for key in la.values}   # by the rules
+            values["elevation_m"] = (z0 + (z1 - z0) * f_a, z1)
+            for lk, line, at in ((la, line_a, line_a.length - reach), (lb, line_b, at_b)):
+                above = shapely.get_coordinates(shapely.ops.substring(line, 0.0, at))
+                lk.points = np.vstack([above, mid])
+                lk.end = next_j
+                f = at / line.length                 # values given per end: at the cut
+                lk.values = {key: (v0, v0 + (v1 - v0) * f) for key, (v0, v1) in
+                             lk.values.items()}
+                lk.z = (lk.z[0], lk.z[0] + (lk.z[1] - lk.z[0]) * f)
+            link = _Link(f"{la.name} and {lb.name} merged", la.fid, midline, {}, values,
+                         start=next_j, end=j)
+            closest = float(d[(back > max(wa, wb)) & (back <= reach)].min())
+            told.append((la, lb, wa, wb, closest, reach, gap, len(links) + len(added)))
+            added.append(link)
+            used |= {a, b}
+            next_j += 1
+    if not added:
+        return links, plan
+    links = links + added
+    plan = _plan(links, geometry, specs, report)
+    narrow = [(i, max(wa, wb)) for _, _, wa, wb, _, _, _, i in told if plan[i][0] < max(wa, wb)]
+    for i, w in narrow:                  # given arms wider than their discharge says
+        links[i].values["width_m"] = (w, w)
+    if narrow:
+        plan = _plan(links, geometry, specs, report)
+    for la, lb, wa, wb, closest, reach, gap, i in told:
+        for lk, other in ((la, lb), (lb, la)):
+            report.repair(lk.name, lk.fid, lk.attrs,
+                          f"runs closer to {other.name} than their widths allow ({closest:.1f} m "
+                          f"between centre lines at the closest, {wa:.1f} and {wb:.1f} m wide) "
+                          f"for its last {reach:.0f} m: merged with it there ({gap:.1f} m "
+                          f"apart) into one reach {plan[i][0]:.1f} m wide that carries both")
+    return links, plan
 
 
 def _narrow_branches(branches, report: RiverImport, attempt: int) -> bool:

@@ -1,7 +1,8 @@
 """OpenStreetMap (issue 21, item 2): ``rf.read_rivers("x.osm")`` reads the ``lines`` layer of
 GDAL's OSM driver: ``waterway=river|stream|canal|ditch|drain`` ways, their ``width`` tag, OSM's
 rule that waterways are drawn downstream; the ways left out are reported. The ``.osm`` XML is
-written by the test."""
+written by the test, and converted to ``.osm.pbf`` with pyosmium (``osmium``, of the test
+extra: GDAL reads PBF but cannot write it)."""
 from __future__ import annotations
 
 import numpy as np
@@ -38,7 +39,20 @@ def write_osm(path, ways):
     return path
 
 
-def test_waterways_of_an_osm_file(tmp_path):
+def to_pbf(osm_path):
+    """The .osm file converted to .osm.pbf (protobuf, as planet extracts come) by pyosmium."""
+    osmium = pytest.importorskip("osmium", reason="pyosmium writes the .osm.pbf "
+                                                  "(pip install osmium; the test extra)")
+    pbf = osm_path.with_name(osm_path.name.removesuffix(".osm") + ".osm.pbf")
+    with osmium.SimpleWriter(str(pbf)) as writer:
+        for obj in osmium.FileProcessor(str(osm_path)):
+            writer.add(obj)
+    assert pbf.read_bytes()[4:23].find(b"OSMHeader") >= 0      # a PBF, not XML renamed
+    return pbf
+
+
+@pytest.mark.parametrize("suffix", [".osm", ".osm.pbf"])
+def test_waterways_of_an_osm_file(tmp_path, suffix):
     river = polyline((-1000, 0), (0, 0), (1000, 100), step=100.0)
     stream = polyline((-300, 700), (-100, 300), (0, 0), step=100.0)     # joins at a river node
     ditch = polyline((600, -500), (300, -100), step=100.0)               # ends in the fields
@@ -50,6 +64,8 @@ def test_waterways_of_an_osm_file(tmp_path):
         (103, ditch, {"waterway": "ditch", "width": "2 m"}),
         (104, road, {"highway": "residential"}),
         (105, bank, {"waterway": "riverbank"})])
+    if suffix == ".osm.pbf":
+        path = to_pbf(path)
     builder = rf.read_rivers(path)
     graph = builder.build()
     assert rf.validate_graph(graph) == []

@@ -40,7 +40,7 @@ def braid_arms():
             polyline((300, 0), (900, 0))]
 
 
-def test_braid_arms_closer_than_their_width_are_narrowed(tmp_path):
+def test_braid_arms_closer_than_their_width_merge_around_an_island(tmp_path):
     path = write_lines(tmp_path / "arms.gpkg", braid_arms(),
                        {"name": np.array(["up", "left", "right", "down"], dtype=object),
                         "W": np.array([50.0, 40.0, 40.0, 60.0])})
@@ -48,13 +48,21 @@ def test_braid_arms_closer_than_their_width_are_narrowed(tmp_path):
         rf.read_rivers(path, width_m="W", strict=True).build()      # today's behaviour
     builder = rf.read_rivers(path, origin_m=None, width_m="W")
     graph = built(builder)
-    for feature in ("feature 2", "feature 3"):                      # GeoPackage ids from 1
-        (what,) = repairs_of(builder, feature)
-        assert "narrowed from 40.0 m" in what, what
+    for feature, other in (("feature 2", "feature 3"), ("feature 3", "feature 2")):
+        (what,) = repairs_of(builder, feature)                      # GeoPackage ids from 1
+        assert f"runs closer to {other}" in what and "11.8 m between" in what, what
+        assert "merged with it there (30.5 m apart) into one reach 50.0 m wide" in what, what
     assert not repairs_of(builder, "feature 1") and not repairs_of(builder, "feature 4")
     text = str(builder.report)
     assert "repair: feature 2" in text and "name='left'" in text
-    check_flows_downstream(graph, braid_arms(), skip_m=3.0)
+    # narrowing them would have left ~4 m of 40: merged, nothing is narrower than given
+    (merged,) = [lk for lk in builder.report.links if lk.name.endswith("merged")]
+    assert merged.width_m == pytest.approx(50.0)      # their discharge: the river above's
+    assert min(b.widths_m.min() for b in builder._branches) >= 40.0
+    # the water between the arms above the merge is an island: land inside the braid
+    field = check_flows_downstream(graph, braid_arms(), skip_m=3.0)
+    status, _ = field.query(np.array([[60.0, 0.0]]) + ORIGIN)
+    assert status[0] != rf.FlowStatus.INSIDE
 
 
 def test_neighbouring_rivers_closer_than_their_width(tmp_path):
@@ -92,6 +100,48 @@ def test_disconnected_pieces_and_rivers_entering_from_outside(tmp_path):
     graph = built(builder)
     assert builder.report.repairs == []
     check_flows_downstream(graph, lines)
+
+
+def delta():
+    """A river splitting into three distributaries that reach the sea (the data's edge at
+    x = 900) separately, drawn downstream."""
+    return [polyline((-1200, 0), (0, 0)),
+            polyline((0, 0), (400, 180), (900, 420)),
+            polyline((0, 0), (450, 10), (900, 0)),
+            polyline((0, 0), (400, -170), (900, -380))]
+
+
+def test_a_delta_stays_a_delta(tmp_path):
+    """Several outlets branching from one river (distributaries) are kept, each its own
+    outlet, the discharge split by the widths; with elevations, a distributary drawn
+    upstream is turned by its own elevations and the delta stays."""
+    lines = delta()
+    widths = np.array([60.0, 30.0, 20.0, 10.0])
+    path = write_lines(tmp_path / "delta.gpkg", lines, {"W": widths})
+    builder = rf.read_rivers(path, origin_m=None, width_m="W")
+    graph = built(builder)
+    assert builder.report.repairs == []                  # drawn downstream: nothing turned
+    check_flows_downstream(graph, lines, skip_m=3.0)
+    q = np.array(builder.discharges_m2s)
+    np.testing.assert_allclose(q[1:] / q[0], widths[1:] / widths[1:].sum())
+    # topology only: one distributary drawn upstream is ambiguous (it could be a tributary)
+    # unless its elevations say; with them it is turned back and the delta stays
+    drawn = [lines[0], lines[1], lines[2][::-1], lines[3]]
+    up = np.array([10.0, 5.0, 0.0, 5.0])
+    down = np.array([5.0, 0.0, 5.0, 0.0])                # the third drawn from the sea
+    path = write_lines(tmp_path / "delta_up.shp", drawn, {"W": widths, "up": up, "dn": down})
+    builder = rf.read_rivers(path, origin_m=None, width_m="W", elevation_m=("up", "dn"))
+    graph = built(builder)
+    (what,) = repairs_of(builder, "feature 2")
+    assert "drawn upstream" in what and "delta" in what and "elevations" in what
+    assert [r.feature for r in builder.report.repairs] == ["feature 2"]
+    check_flows_downstream(graph, lines, skip_m=3.0)
+    # a tributary drawn upstream is not a distributary: it points back where it joins
+    trib = [polyline((-1200, 0), (0, 0)), polyline((0, 0), (900, 0)),
+            polyline((0, 0), (-500, 600))]               # drawn from the junction out
+    path = write_lines(tmp_path / "trib.geojson", trib, crs=UTM)
+    builder = rf.read_rivers(path, width_m=20.0)
+    assert [r.feature for r in builder.report.repairs] == ["feature 2"]
 
 
 # -- direction ---------------------------------------------------------------------------------
@@ -365,8 +415,10 @@ def test_a_grid_traced_line_is_smoothed_within_half_its_width(tmp_path):
     path = write_lines(tmp_path / "grid.shp", [stair], {"W": np.array([30.0])})
     builder = rf.read_rivers(path, origin_m=None, width_m="W")
     graph = built(builder)
-    (what,) = repairs_of(builder, "feature 0")
-    assert "grid-traced" in what and "smoothed" in what
+    # tracing on a raster is how the data was made, not a defect: derived, not a repair
+    assert builder.report.repairs == []
+    assert builder.derived["centre_lines"].startswith(
+        "1 grid-traced link (on a lattice of 5 m cells) smoothed")
     source = shapely.LineString(stair + ORIGIN)
     for axis in graph.axes():
         line = graph.vertices(axis)
@@ -376,6 +428,63 @@ def test_a_grid_traced_line_is_smoothed_within_half_its_width(tmp_path):
         turn = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", tangent[:-1], tangent[1:]),
                                             -1.0, 1.0)))
         assert turn.max() < 30.0                       # no staircase of 45° turns left
+
+
+def _traced(cells):
+    """An 8-connected path through the raster cells nearest to ``cells`` (i, j), a vertex
+    at each turn only (as TauDEM writes them)."""
+    cells = np.round(np.asarray(cells, float))
+    steps = [cells[0]]
+    for c in cells[1:]:
+        while np.abs(c - steps[-1]).max() > 0:
+            steps.append(steps[-1] + np.sign(c - steps[-1]))
+    steps = np.array(steps)
+    d = np.diff(steps, axis=0)
+    turn = np.concatenate([[True], np.any(d[1:] != d[:-1], axis=1), [True]])
+    return steps[turn]
+
+
+def test_a_grid_traced_lonlat_network_is_smoothed_as_runs_with_its_junctions_kept(tmp_path):
+    """A river and a tributary traced on a 3″ lon/lat DEM (HydroSHEDS' grid: cells of 65 m
+    by 93 m at 45° N) for a river 20 m wide: the lattice is the file's (lon/lat), the cell
+    larger than the width. The main river is two features that continue each other: they
+    are smoothed as one, so no corner is left where they meet; the confluence and the ends
+    stay where they are; nothing moves farther than half a cell's diagonal."""
+    x = np.linspace(0.0, 60.0, 600)
+    main = _traced(np.column_stack([x, 6.0 * np.sin(2 * np.pi * x / 30.0)]))
+    k = len(main) // 2                                   # two features, end to end
+    at = main[np.argmin(np.abs(main[:, 0] - 45.0))]           # the tributary ends on a vertex
+    y = np.linspace(25.0, 0.0, 300)
+    trib = _traced(np.column_stack([at[0] - 0.4 * y + 2.0 * np.sin(y / 3.0), at[1] + y]))
+    cell = 1.0 / 1200.0                                  # 3″
+    lonlat = [15.0 + cell * p for p in (main[:k + 1], main[k:], trib)]
+    lonlat = [np.column_stack([p[:, 0], 45.0 + p[:, 1] - 15.0]) for p in lonlat]
+    path = write_lines(tmp_path / "dem3s.geojson", None, {"W": np.array([20.0, 20.0, 12.0])},
+                       geoms=[shapely.LineString(p) for p in lonlat], crs="EPSG:4326")
+    builder = rf.read_rivers(path, width_m="W")
+    graph = built(builder)
+    assert builder.report.repairs == []
+    assert "4 grid-traced links (on a lattice of" in builder.derived["centre_lines"]
+    to = pyproj.Transformer.from_crs("EPSG:4326", pyproj.CRS.from_wkt(graph.crs), always_xy=True)
+    traced = [np.column_stack(to.transform(p[:, 0], p[:, 1])) for p in lonlat]
+    lat_cell = float(np.hypot(*np.diff(np.column_stack(
+        to.transform([15.0, 15.0], [45.0, 45.0 + cell])), axis=1).T[0]))   # ~93 m
+    branches = {b.name: b.centerline_m for b in builder._branches}
+    everything = shapely.union_all([shapely.LineString(p) for p in traced])
+    for line in branches.values():
+        assert shapely.distance(shapely.points(line), everything).max() <= 0.71 * lat_cell
+    # the confluence, the source ends and the outlet are where they were drawn
+    for p in (traced[2][-1], traced[2][0], traced[0][0], traced[1][-1]):
+        assert min(np.hypot(*(np.array([b[0], b[-1]]) - p).T).min()
+                   for b in branches.values()) < 1e-6
+    # no staircase, and no corner where the two features of the main river meet
+    data = np.concatenate([np.degrees(np.arccos(np.clip(np.einsum(
+        "ij,ij->i", t[:-10], t[10:]), -1, 1))) for t in (along(p, step=2.0)[1] for p in traced)])
+    assert data.max() >= 44.9
+    for axis in graph.axes():
+        _, t = along(graph.vertices(axis), step=2.0)
+        turn = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", t[:-10], t[10:]), -1, 1)))
+        assert turn.max() < 30.0                         # over 20 m
 
 
 def test_a_braid_splits_its_flow_by_the_arms_widths(tmp_path):
