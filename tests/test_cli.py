@@ -27,6 +27,32 @@ def run_cli(*args: str, cwd: Path | None = None, timeout: float = 300.0,
                           capture_output=True, text=True, timeout=timeout)
 
 
+def cli(*args: str, cwd: Path | None = None) -> subprocess.CompletedProcess:
+    """``riverflow ARGS`` run by the command's own ``main()`` in this process, answered as
+    :func:`run_cli` answers (exit status, stdout, stderr): the same code path without a new
+    interpreter that loads every kernel and makes a GL context again (~3 s of CPU a call).
+    What only a new process shows (imports, the console script, no display) uses run_cli."""
+    import contextlib
+    import io
+
+    from riverflow.__main__ import main
+
+    out, err = io.StringIO(), io.StringIO()
+    here = os.getcwd()
+    try:
+        if cwd is not None:
+            os.chdir(cwd)
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            try:
+                code = main(list(args))
+            except SystemExit as exc:             # argparse: usage errors and --help
+                code = exc.code if isinstance(exc.code, int) else 1
+    finally:
+        os.chdir(here)
+    return subprocess.CompletedProcess(["riverflow", *args], code, out.getvalue(),
+                                       err.getvalue())
+
+
 def run_python(code: str) -> subprocess.CompletedProcess:
     env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
     env["PYGLET_HEADLESS"] = "1"
@@ -104,7 +130,7 @@ def test_console_script_is_installed():
 
 def test_flowmap_writes_a_png(tiny_channel_path, tmp_path):
     out = tmp_path / "tmp.png"
-    result = run_cli("flowmap", "--scene", str(tiny_channel_path), "--out", str(out))
+    result = cli("flowmap", "--scene", str(tiny_channel_path), "--out", str(out))
     assert result.returncode == 0, result.stderr
     assert out.read_bytes()[:8] == PNG_SIGNATURE
     assert out.stat().st_size > 10_000
@@ -113,7 +139,7 @@ def test_flowmap_writes_a_png(tiny_channel_path, tmp_path):
 
 def test_flowmap_arrows_and_options(tiny_channel_path, tmp_path):
     out = tmp_path / "arrows.png"
-    result = run_cli("flowmap", "--scene", str(tiny_channel_path), "--out", str(out),
+    result = cli("flowmap", "--scene", str(tiny_channel_path), "--out", str(out),
                      "--arrows", "--slip", "1.3", "--radius-factor", "3", "--size-px", "600")
     assert result.returncode == 0, result.stderr
     assert out.read_bytes()[:8] == PNG_SIGNATURE
@@ -121,7 +147,7 @@ def test_flowmap_arrows_and_options(tiny_channel_path, tmp_path):
 
 @pytest.mark.gl
 def test_demo_headless_writes_frames_and_an_animation(tiny_channel_path, tmp_path):
-    result = run_cli("demo", "--scene", str(tiny_channel_path), "--headless", "--frames", "12",
+    result = cli("demo", "--scene", str(tiny_channel_path), "--headless", "--frames", "12",
                      "--every", "5", "--size", "96x64", "--out", str(tmp_path / "demo"))
     assert result.returncode == 0, result.stderr
     frames = sorted((tmp_path / "demo").glob("frame_*.png"))
@@ -144,7 +170,7 @@ def test_demo_without_a_display_says_so_and_renders_headless(tiny_channel_path, 
 def test_demo_rejects_a_bad_script(tmp_path):
     script = tmp_path / "keys.txt"
     script.write_text("0 W down\nsoon W up\n")
-    result = run_cli("demo", "--headless", "--frames", "2", "--script", str(script),
+    result = cli("demo", "--headless", "--frames", "2", "--script", str(script),
                      "--out", str(tmp_path / "demo"))
     assert result.returncode == 1
     assert "keys.txt:2" in result.stderr
@@ -153,7 +179,7 @@ def test_demo_rejects_a_bad_script(tmp_path):
 def test_demo_rejects_an_unknown_key_with_its_line(tmp_path):
     script = tmp_path / "keys.txt"
     script.write_text("# a comment\n0 W down\n10 3 tap\n20 X tap\n")
-    result = run_cli("demo", "--headless", "--frames", "2", "--script", str(script),
+    result = cli("demo", "--headless", "--frames", "2", "--script", str(script),
                      "--out", str(tmp_path / "demo"))
     assert result.returncode == 1
     assert "keys.txt:4: unknown key 'X'" in result.stderr, result.stderr
@@ -165,12 +191,12 @@ def test_out_means_a_file_where_it_says_file(tmp_path):
     folder.mkdir()
     for args in (["render", "--out", str(folder)], ["render", "--out", f"{tmp_path}/new/"],
                  ["flowmap", "--out", str(folder)]):
-        result = run_cli(*args)
+        result = cli(*args)
         assert result.returncode == 2 and "expected a file name" in result.stderr, args
-    result = run_cli("render", "--out", str(tmp_path / "frame.jpg"))
+    result = cli("render", "--out", str(tmp_path / "frame.jpg"))
     assert result.returncode == 2 and "expected a .png file name" in result.stderr
     (tmp_path / "file").write_text("")
-    result = run_cli("demo", "--headless", "--out", str(tmp_path / "file"))
+    result = cli("demo", "--headless", "--out", str(tmp_path / "file"))
     assert result.returncode == 2 and "expected a folder" in result.stderr
     assert list(folder.iterdir()) == []
 
@@ -194,7 +220,7 @@ def test_bare_render_runs_on_the_defaults_and_says_what_it_did(tmp_path):
 @pytest.mark.gl
 def test_render_of_a_debug_mode_prints_its_legend(tiny_channel_path, tmp_path):
     out = tmp_path / "coverage.png"
-    result = run_cli("render", "--scene", str(tiny_channel_path), "--size", "64x48",
+    result = cli("render", "--scene", str(tiny_channel_path), "--size", "64x48",
                      "--frames", "2", "--mode", "coverage", "--out", str(out))
     assert result.returncode == 0, result.stderr
     assert "colours: red:" in result.stdout and "magenta:" in result.stdout
@@ -203,7 +229,7 @@ def test_render_of_a_debug_mode_prints_its_legend(tiny_channel_path, tmp_path):
 def test_profile_defaults_all_but_frames(tiny_channel_path, tmp_path):
     import json
 
-    result = run_cli("profile", "--scene", str(tiny_channel_path), "--frames", "3", "--json",
+    result = cli("profile", "--scene", str(tiny_channel_path), "--frames", "3", "--json",
                      cwd=tmp_path)
     assert result.returncode == 0, result.stderr
     data = json.loads(result.stdout)
@@ -213,7 +239,7 @@ def test_profile_defaults_all_but_frames(tiny_channel_path, tmp_path):
 @pytest.mark.gl
 def test_render_writes_the_frame_of_a_graph_file(tiny_channel_path, tmp_path):
     out = tmp_path / "frames" / "frame.png"
-    result = run_cli("render", "--scene", str(tiny_channel_path), *RENDER_ARGS,
+    result = cli("render", "--scene", str(tiny_channel_path), *RENDER_ARGS,
                      "--radius-px", "4", "--out", str(out), cwd=tmp_path)
     assert result.returncode == 0, result.stderr
     assert f"wrote {out.resolve()}" in result.stdout
@@ -254,7 +280,7 @@ def test_the_engine_imports_no_system():
 def test_profile_prints_per_system_timings_as_json(tiny_channel_path, tmp_path):
     import json
 
-    result = run_cli("profile", "--scene", str(tiny_channel_path), *PROFILE_ARGS, "--json",
+    result = cli("profile", "--scene", str(tiny_channel_path), *PROFILE_ARGS, "--json",
                      cwd=tmp_path)
     assert result.returncode == 0, result.stderr
     data = json.loads(result.stdout)
@@ -268,22 +294,22 @@ def test_profile_prints_per_system_timings_as_json(tiny_channel_path, tmp_path):
     for stats in [*data["systems"].values(), data["total"]]:
         assert 0 <= stats["p50_ms"] <= stats["p95_ms"] + 1e-9
     assert data["particles"]["mean"] > 0 and data["size"] == [64, 48]
-    table = run_cli("profile", "--scene", str(tiny_channel_path), *PROFILE_ARGS, cwd=tmp_path)
+    table = cli("profile", "--scene", str(tiny_channel_path), *PROFILE_ARGS, cwd=tmp_path)
     assert table.returncode == 0 and "p95 ms" in table.stdout and "advection" in table.stdout
 
 
 def test_unreadable_scene_is_a_clear_error(tmp_path):
     bad = tmp_path / "bad.graph"
     bad.write_text("this is not a graph\n")
-    result = run_cli("flowmap", "--scene", str(bad), "--out", str(tmp_path / "x.png"))
+    result = cli("flowmap", "--scene", str(bad), "--out", str(tmp_path / "x.png"))
     assert result.returncode == 1
     assert str(bad) in result.stderr and "Traceback" not in result.stderr
     assert not (tmp_path / "x.png").exists()
 
 
 def test_bad_arguments_are_usage_errors():
-    assert run_cli("flowmap", "--slip", "-1").returncode == 2
-    assert run_cli("render", *RENDER_ARGS[:-1], "nonsense", "--out", "x.png").returncode == 2
+    assert cli("flowmap", "--slip", "-1").returncode == 2
+    assert cli("render", *RENDER_ARGS[:-1], "nonsense", "--out", "x.png").returncode == 2
 
 
 @pytest.mark.parametrize("argv, option", [

@@ -8,7 +8,7 @@ import pytest
 from tests.gis.conftest import ORIGIN, polyline, require_gis, write_lines
 
 require_gis()
-from tests.test_cli import PNG_SIGNATURE, run_cli, run_python
+from tests.test_cli import PNG_SIGNATURE, cli, run_python
 
 
 def test_bake_help_imports_nothing_heavy():
@@ -42,7 +42,7 @@ def test_flowmap_draws_a_geopackage(tmp_path, capsys):
 @pytest.mark.data
 @pytest.mark.slow
 def test_profile_runs_on_red_butte(redbutte):
-    result = run_cli("profile", "--scene", str(redbutte), "--size", "64x48", "--radius-px", "10",
+    result = cli("profile", "--scene", str(redbutte), "--size", "64x48", "--radius-px", "10",
                      "--frames", "2")
     assert result.returncode == 0, result.stderr
     assert "a001_network.shp" in result.stdout
