@@ -73,7 +73,22 @@ def pytest_collection_modifyitems(config, items):
     result = yield
     if grouped:
         _name_the_groups(items)
+        _slow_first(items)
     return result
+
+
+def _slow_first(items) -> None:
+    """xdist deals tests (and groups) out in the order they were collected: a slow test last
+    in line leaves one worker running alone at the end. Tests marked ``slow``, and the groups
+    they are in, go first (the longest jobs first keeps the workers evenly busy); the order
+    is otherwise kept, the same on every worker."""
+    def group(item):
+        tail = item.nodeid.rsplit("]", 1)[-1]
+        return item.nodeid.rsplit("@", 1)[1] if "@" in tail else None
+
+    slow = {id(i) for i in items if i.get_closest_marker("slow") is not None}
+    slow_groups = {group(i) for i in items if id(i) in slow} - {None}
+    items.sort(key=lambda i: not (id(i) in slow or group(i) in slow_groups))
 
 
 def _name_the_groups(items) -> None:

@@ -229,6 +229,7 @@ def test_embed_runs_headless_and_leaves_the_host_entities_alone():
 
 
 @pytest.mark.gl
+@pytest.mark.slow
 def test_embed_command_line_runs_headless(tmp_path):
     env = {k: v for k, v in os.environ.items() if k not in ("DISPLAY", "WAYLAND_DISPLAY")}
     out = tmp_path / "shots" / "x.png"
@@ -245,6 +246,7 @@ def test_embed_command_line_runs_headless(tmp_path):
 
 
 
+@pytest.mark.slow
 def test_windowed_demo_starts_runs_and_quits_under_xvfb(xvfb, tmp_path):
     env = {k: v for k, v in os.environ.items() if k not in ("PYGLET_HEADLESS",
                                                              "WAYLAND_DISPLAY")}

@@ -154,6 +154,7 @@ class RammingPilot:
         return 1.0, _steer_towards(boat, centre + 400.0 * side + 30.0 * t)
 
 
+@pytest.mark.slow
 def test_long_scripted_run_never_leaves_the_water(scene, river):
     """3 simulated minutes ramming banks and the island: every hull outline point stays in
     the water polygon (islands are holes) at every step."""

@@ -131,6 +131,7 @@ def test_flight_timings_are_recorded_per_system(flight):
     assert all(v >= 0 for v in world.timings_ms.values())
 
 
+@pytest.mark.slow
 def test_same_seed_and_script_give_bit_identical_pools(scene):
     worlds = [make_world(scene, seed=7) for _ in range(2)]
     for world in worlds:

@@ -342,6 +342,7 @@ LOADING = """
 
 
 @pytest.mark.gl
+@pytest.mark.slow
 def test_the_loading_screen_keeps_drawing_while_kernels_compile(xvfb, tmp_path):
     """The scene group (the terrain noise, ~2 s cold) compiles in a thread while the window
     draws the progress line: frames keep coming, none late by a second."""

@@ -122,6 +122,7 @@ def _views(scene):
     return out
 
 
+@pytest.mark.slow
 def test_no_crack_and_no_rock_on_flat_ground_in_twenty_views(world):
     scene = world.scene
     drawer = world._drawer()

@@ -21,6 +21,7 @@ def _drawer(world):
     return world._drawer()
 
 
+@pytest.mark.slow
 def test_gpu_meshes_follow_the_tile_cache(gl_context):
     from riverflow.engine.world import RiverWorld
     scene = default_scene(seed=0)

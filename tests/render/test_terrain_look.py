@@ -67,6 +67,7 @@ def test_grass_on_the_flat_rock_on_the_steep_slope(world):
     assert top[1] > top[0] + 0.05                                        # flat top: grass again
 
 
+@pytest.mark.slow
 def test_shore_sand_wet_line_and_a_bed_darker_with_depth(world):
     """Mean colours along both shores (the north one faces the sun, the south one away: their
     mean is lit about as the flat), at distances from the water line."""
