@@ -41,6 +41,8 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
+import shapely.geometry
+import shapely.ops
 from scipy.spatial import cKDTree
 
 from riverflow.hydro import _strips
@@ -108,6 +110,8 @@ class RiverNetworkBuilder:
         self.water_polygon: shapely.Geometry | None = None
         self.crs: str | None = None
         self.water_levels = None
+        self._water_area: shapely.Geometry | None = None
+        self.end_cuts_m2: list[float] = []
 
     # -- input --------------------------------------------------------------------------
 
@@ -199,6 +203,35 @@ class RiverNetworkBuilder:
         self._islands.append(_Island(poly, None if potential is None else float(potential)))
         return index
 
+    def set_water_area(self, water) -> None:
+        """Give the water itself instead of making it from the branches' strips.
+
+        ``water`` (a shapely Polygon or MultiPolygon [m]) is the water as a map draws it:
+        its rings are the banks, its holes the land between channels (each hole must have a
+        branch along each side). The branches are then its channels' axes (centre lines drawn
+        downstream, widths about the channel's width), joined at junctions as usual; islands
+        added with :meth:`add_island` are taken out of it like holes whose ψ is the plug-flow
+        estimate. At every free end of a branch the water is cut across the channel by a
+        straight closing segment (:func:`_end_chord`), where its end lies in the water
+        within two widths of the free end: the cut's line is perpendicular to the branch's
+        last segment, as near its end as gives a chord of at least END_CHORD_FRACTION of
+        the widest chord there; the water beyond (the rounded or slanted tip of a mapped
+        channel) is left out, its area in ``end_cuts_m2`` after :meth:`build`.
+
+        Raises:
+            GraphError: not a polygon, empty, invalid, or without area.
+        """
+        if not isinstance(water, (shapely.Polygon, shapely.MultiPolygon)):
+            raise GraphError(f"set_water_area needs a shapely Polygon or MultiPolygon, got "
+                             f"{type(water).__name__}")
+        if water.is_empty or not water.area > 0:
+            raise GraphError("set_water_area: the water has no area")
+        if not water.is_valid:
+            raise GraphError(f"set_water_area: the water is not a valid polygon "
+                             f"({shapely.is_valid_reason(water)}); repair it first "
+                             f"(shapely.make_valid)")
+        self._water_area = water
+
     def _flatten(self, pts: np.ndarray, w: np.ndarray, bezier: bool) -> tuple[np.ndarray, np.ndarray]:
         """Polyline (M, 2) and per-point widths (M,) of a branch's centre line."""
         if not bezier:
@@ -228,8 +261,13 @@ class RiverNetworkBuilder:
                                                  self.lateral_inflow)
         geoms = [BranchGeometry(b.name, b.centerline_m, b.widths_m, q, sj, ej)
                  for b, q, sj, ej in zip(branches, discharges, start_j, end_j)]
-        polygons, cuts, islands = _water(geoms, junctions, self._islands, self.tolerance_m,
-                                         self.fillet_fraction)
+        if self._water_area is None:
+            polygons, cuts, islands = _water(geoms, junctions, self._islands, self.tolerance_m,
+                                             self.fillet_fraction)
+            end_cuts: list[float] = []
+        else:
+            polygons, cuts, islands, end_cuts = _given_water(geoms, self._water_area,
+                                                             self._islands, self.tolerance_m)
         eps = max(1e-3, 1e-3 * self.tolerance_m)
         try:
             rings, pieces = _strips.split_rings(polygons, cuts, eps)
@@ -243,6 +281,7 @@ class RiverNetworkBuilder:
         self.inlets_m2s = [((float(junctions[j][0]), float(junctions[j][1])), s)
                            for j, s in sorted(inlets.items())]
         self.water_polygon = polygons[0] if len(polygons) == 1 else shapely.MultiPolygon(polygons)
+        self.end_cuts_m2 = end_cuts
         graph.crs = self.crs
         graph.water_levels = self.water_levels
         return graph
@@ -512,3 +551,131 @@ def _water(geoms: list[BranchGeometry], junctions: np.ndarray, islands: list[_Is
     if islands:
         water = shapely.difference(river, shapely.union_all([i.outline for i in islands]))
     return _strips.oriented_polygons(water, 0.2 * tolerance_m), cuts, valid_islands
+
+
+# -- a given water area ---------------------------------------------------------------------
+
+END_CHORD_FRACTION = 0.9
+"""A free end of a given water area is cut where the chord across the channel is at least
+this fraction of the widest chord within two widths of the end (:func:`_end_chord`)."""
+_END_STATIONS = 48
+
+
+def _first_hits(water, origins: np.ndarray, direction: np.ndarray, reach_m: float):
+    """Distance along ``direction`` (unit, (2,)) from each origin (N, 2) to the water's
+    boundary (inf where none within ``reach_m``), and whether that boundary is the exterior of
+    its polygon."""
+    rays = shapely.linestrings(np.stack([origins, origins + direction * reach_m], axis=1))
+    parts = [p for p in getattr(water, "geoms", [water])]
+    best = np.full(len(origins), np.inf)
+    outer = np.zeros(len(origins), bool)
+    for poly in parts:
+        for k, ring in enumerate([poly.exterior, *poly.interiors]):
+            hits = shapely.intersection(rays, ring)
+            for i, h in enumerate(hits):
+                if h.is_empty:
+                    continue
+                pts = shapely.get_coordinates(h)
+                d = float(((pts - origins[i]) @ direction).min())
+                if d < best[i]:
+                    best[i], outer[i] = d, k == 0
+    return best, outer
+
+
+def _end_chord(water, line: np.ndarray, width_m: float, at_start: bool, eps_m: float):
+    """The straight closing segment across a free end of a given water area: (chord (2, 2),
+    station along the end's tangent from the end point [m], unit tangent pointing out of the
+    channel). None when no chord across the channel is found within two widths of the end."""
+    if at_start:
+        c, back = line[0], line[1]
+    else:
+        c, back = line[-1], line[-2]
+    t = c - back
+    t = t / np.hypot(*t)
+    n = np.array([-t[1], t[0]])
+    reach = 4.0 * width_m + 1.0
+    start = c - t * 2.0 * width_m
+    tip, _ = _first_hits(water, start[None], t, 6.0 * width_m + 1.0)
+    if not np.isfinite(tip[0]):
+        return None
+    s = np.linspace(tip[0] - eps_m, tip[0] - 2.0 * width_m, _END_STATIONS)
+    s = s[s >= 0.0]
+    q = start + s[:, None] * t
+    inside = shapely.contains_xy(water, q[:, 0], q[:, 1])
+    left, lo = _first_hits(water, q, n, reach)
+    right, ro = _first_hits(water, q, -n, reach)
+    ok = inside & lo & ro & np.isfinite(left) & np.isfinite(right)
+    if not ok.any():
+        return None
+    chord = np.where(ok, left + right, 0.0)
+    k = int(np.flatnonzero(chord >= END_CHORD_FRACTION * chord.max())[0])
+    a, b = q[k] + n * left[k], q[k] - n * right[k]
+    return np.array([a, b]) if at_start else np.array([b, a]), float(s[k] - 2.0 * width_m), t
+
+
+def _trim_to_chord(line: np.ndarray, widths: np.ndarray, chord: np.ndarray, at_start: bool):
+    """The centre line (K, 2) and widths (K,) ending on the chord's line: cut where it first
+    crosses it coming from the free end, or extended straight to it."""
+    if not at_start:
+        line2, w2 = _trim_to_chord(line[::-1], widths[::-1], chord, True)
+        return line2[::-1].copy(), w2[::-1].copy()
+    a, b = chord
+    n = np.array([-(b - a)[1], (b - a)[0]])
+    side = (line - a) @ n
+    sign = np.sign(side[-1]) or 1.0
+    keep = side * sign > 0
+    k = int(np.argmax(keep)) if keep.any() else len(line) - 1
+    p, q = (line[0], line[1]) if k == 0 else (line[k - 1], line[k])
+    sp, sq = (side[0], side[1]) if k == 0 else (side[k - 1], side[k])
+    x = p + (sp / (sp - sq) if sp != sq else 0.0) * (q - p)
+    rest, wrest = line[k:], widths[k:]
+    if np.hypot(*(x - rest[0])) <= 1e-9:
+        rest, wrest = rest[1:], wrest[1:]
+    return np.vstack([x, rest]), np.concatenate([[widths[k]], wrest])
+
+
+def _given_water(geoms: list[BranchGeometry], water, islands: list[_Island], tolerance_m: float):
+    """:meth:`RiverNetworkBuilder.set_water_area`: the oriented water polygons cut at the free
+    ends, the closing segments, the validated islands and the area cut off at each end."""
+    eps = max(1e-3, 1e-3 * tolerance_m)
+    cuts, cut_area = [], []
+    for g in geoms:
+        for at_start in (True, False):
+            if (g.start_junction if at_start else g.end_junction) >= 0:
+                continue
+            where = "start" if at_start else "end"
+            c = g.centerline_m[0 if at_start else -1]
+            width = float(np.median(g.widths_m))
+            found = _end_chord(water, g.centerline_m, width, at_start, eps)
+            if found is None:
+                raise GraphError(f"branch {g.name!r}: its free {where} at ({c[0]:.1f}, "
+                                 f"{c[1]:.1f}) does not reach across the water to its banks "
+                                 f"(no chord across the channel within two widths of it)")
+            chord = found[0]
+            line = shapely.LineString(np.vstack([chord[0] - (chord[1] - chord[0]) * 1e-6,
+                                                 chord[1] + (chord[1] - chord[0]) * 1e-6]))
+            pieces = list(shapely.get_parts(shapely.ops.split(water, line)))
+            t = found[2]
+            mid = chord.mean(axis=0)
+            beyond = [p for p in pieces
+                      if (np.asarray(p.representative_point().coords[0]) - mid) @ t > 0
+                      and p.distance(shapely.Point(mid)) <= eps]
+            if len(pieces) > 1 and beyond:
+                cap = min(beyond, key=lambda p: p.area)
+                water = shapely.union_all([p for p in pieces if p is not cap])
+                cut_area.append(float(cap.area))
+            else:
+                cut_area.append(0.0)
+            g.centerline_m, g.widths_m = _trim_to_chord(g.centerline_m, g.widths_m, chord, at_start)
+            cuts.append(chord)
+    valid_islands = []
+    for k, isl in enumerate(islands):
+        if not water.contains(isl.outline) or isl.outline.distance(water.boundary) <= tolerance_m:
+            raise GraphError(f"island {k} is not strictly inside the water (it must not touch a bank)")
+        valid_islands.append(isl)
+    if islands:
+        water = shapely.difference(water, shapely.union_all([i.outline for i in islands]))
+    polygons = [shapely.geometry.polygon.orient(p, sign=1.0)
+                for p in sorted((p for p in getattr(water, "geoms", [water]) if not p.is_empty),
+                                key=lambda p: (-p.area, p.bounds))]
+    return polygons, cuts, valid_islands, cut_area
