@@ -608,9 +608,34 @@ def _end_chord(water, line: np.ndarray, width_m: float, at_start: bool, eps_m: f
     if not ok.any():
         return None
     chord = np.where(ok, left + right, 0.0)
+    edge = _edge_at(water, start + t * tip[0], eps_m)
+    if edge is not None and np.hypot(*(edge[1] - edge[0])) >= END_CHORD_FRACTION * chord.max():
+        # the water ends on a straight edge across the channel (the data's edge): that edge
+        u, v = edge
+        if ((v - u) @ n < 0) != at_start:
+            u, v = v, u
+        return np.array([u, v]), float(tip[0] - 2.0 * width_m), t
     k = int(np.flatnonzero(chord >= END_CHORD_FRACTION * chord.max())[0])
     a, b = q[k] + n * left[k], q[k] - n * right[k]
     return np.array([a, b]) if at_start else np.array([b, a]), float(s[k] - 2.0 * width_m), t
+
+
+def _edge_at(water, point: np.ndarray, eps_m: float):
+    """The straight edge (2, 2) of the water's outline through ``point``, or None."""
+    p = shapely.Point(point)
+    for poly in getattr(water, "geoms", [water]):
+        for ring in [poly.exterior, *poly.interiors]:
+            if ring.distance(p) > eps_m:
+                continue
+            v = np.asarray(ring.coords)
+            a, b = v[:-1], v[1:]
+            d = b - a
+            u = np.clip(np.einsum("ij,ij->i", point - a, d) / np.maximum(np.einsum("ij,ij->i", d, d), 1e-300), 0, 1)
+            dist = np.hypot(*(a + u[:, None] * d - point).T)
+            k = int(np.argmin(dist))
+            if dist[k] <= eps_m:
+                return np.array([a[k], b[k]])
+    return None
 
 
 def _trim_to_chord(line: np.ndarray, widths: np.ndarray, chord: np.ndarray, at_start: bool):
