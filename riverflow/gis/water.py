@@ -118,6 +118,34 @@ def is_water_path(path) -> bool:
         RASTER_SUFFIXES + VECTOR_SUFFIXES)
 
 
+def holds_water_areas(path, layer=None) -> bool:
+    """True when :func:`read_water` is the reader of ``path``: a raster, or a vector file
+    whose layer (``layer``, else the first polygon layer if it has no line layer) holds
+    polygons. OpenStreetMap files are read as lines (:func:`~riverflow.read_rivers`) unless
+    ``layer`` is ``"multipolygons"``."""
+    if not isinstance(path, (str, Path)):
+        return False
+    path = Path(path)
+    if is_raster_path(path):
+        return True
+    if path.suffix.lower() not in VECTOR_SUFFIXES or not path.exists():
+        return False
+    if _is_osm(path):
+        return layer == "multipolygons"
+    try:
+        import pyogrio
+        layers = [(str(n), str(t).lower()) for n, t in pyogrio.list_layers(str(path))]
+    except Exception:   # unreadable or no pyogrio: the line reader says why
+        return False
+    if layer is not None:
+        chosen = [t for n, t in layers if n == str(layer)] or (
+            [layers[layer][1]] if isinstance(layer, int) and 0 <= layer < len(layers) else [])
+        return bool(chosen) and "polygon" in chosen[0]
+    if any("line" in t for _, t in layers):
+        return False
+    return any("polygon" in t for _, t in layers)
+
+
 def is_raster_path(path) -> bool:
     return isinstance(path, (str, Path)) and Path(path).suffix.lower() in RASTER_SUFFIXES
 
@@ -442,7 +470,11 @@ class _Channel:
 
     @property
     def width(self) -> float:
-        return float(np.median(self.widths))
+        """Its width [m]: the median over its middle (20 - 80 % of its length, evenly
+        spaced; its ends widen into junctions)."""
+        s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(self.points, axis=0).T))])
+        at = np.linspace(0.2, 0.8, 25) * s[-1]
+        return float(np.median(np.interp(at, s, self.widths)))
 
     @property
     def length(self) -> float:
