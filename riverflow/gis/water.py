@@ -82,6 +82,12 @@ JOIN_WIDTHS = 1.05
 ISLAND_SPLIT_WIDTHS = 2.0
 """A hole longer (2 × its bounding radius) than this many times the water beside it splits
 the river into two channels; a smaller one is a free island in its channel."""
+MIN_CHANNEL_WIDTHS = 2.0
+"""A separate water body whose longest axis is shorter than this many widths is no river (a
+pond, a speck left by a repair): left out, reported."""
+SPECK_FRACTION = 1e-3
+"""A separate water body with less than this fraction of all the water is a speck (a piece a
+repair left): left out, reported."""
 SAMPLES_PER_WIDTH = 8.0
 """Outline points per narrowest channel width for the skeleton's Voronoi diagram."""
 MAX_OUTLINE_SAMPLES = 200_000
@@ -104,7 +110,13 @@ class WaterBuilder(RiverNetworkBuilder):
         try:
             graph = super().build()
         except GraphError as exc:
-            raise GraphError(f"{self.report.path} (layer {self.report.layer!r}): {exc}") from None
+            hint = ""
+            if "lies on its right" in str(exc):
+                hint = (" (the outline has a bay or a point of land whose far side faces away "
+                        "from its channel's axis, which the flow cannot follow yet: pass "
+                        "lines= that run into the bay, or smooth the outline there)")
+            raise GraphError(f"{self.report.path} (layer {self.report.layer!r}): {exc}{hint}"
+                             ) from None
         graph.source = self.report.path
         cut = sum(self.end_cuts_m2)
         if cut > 0:
@@ -241,7 +253,21 @@ def read_water(path, *, layer: str | int | None = None, lines=None, inlets=None,
     builder.water = water
     networks = []
     for k, part in enumerate(getattr(water, "geoms", [water])):
-        networks.append(_channels(part, k, line_geoms, tolerance_m, report))
+        net = _channels(part, k, line_geoms, tolerance_m, report)
+        longest = max(c.length for c in net.channels)
+        widest = max(float(c.widths.max()) for c in net.channels)
+        speck = part.area < SPECK_FRACTION * water.area
+        if (speck or longest < MIN_CHANNEL_WIDTHS * widest) and len(getattr(water, "geoms", [])) > 1:
+            x, y = part.representative_point().coords[0]
+            report.repair(f"water body {k}", None, None,
+                          f"{part.area:.1f} m² of water near ({x:.1f}, {y:.1f}), apart from the "
+                          f"rest: " + (f"a speck (under {SPECK_FRACTION:g} of the water)"
+                                       if speck else
+                                       f"no channel longer than {MIN_CHANNEL_WIDTHS:g} times "
+                                       f"its width (a pond; lakes are not read yet)")
+                          + ": left out")
+            continue
+        networks.append(net)
     ends = [e for net in networks for e in net.free_ends()]
     _match_points(ends, inlet_xy, "inlet", where, water)
     _match_points(ends, outlet_xy, "outlet", where, water)
@@ -415,16 +441,18 @@ def _repair(features, polygons, report: RiverImport, where: str, simplify_m: flo
         if not np.isfinite(shapely.get_coordinates(g)).all():
             report.repair(label, fid, attrs, "non-finite coordinates: left out")
             continue
-        if not g.is_valid:
-            why = shapely.is_valid_reason(g)
+        why = None if g.is_valid else shapely.is_valid_reason(g)
+        if why is not None:
             g = shapely.make_valid(g)
             g = shapely.union_all([p for p in shapely.get_parts(g)
                                    if p.geom_type in ("Polygon", "MultiPolygon")])
+        if not g.area > tolerance_m ** 2:
+            report.repair(label, fid, attrs, f"no area ({g.area:.3g} m²"
+                                             + (f"; invalid: {why}" if why else "") + "): left out")
+            continue
+        if why is not None:
             report.repair(label, fid, attrs, f"invalid polygon ({why}): made valid "
                                              f"(shapely.make_valid), {g.area:.1f} m² of water")
-        if not g.area > tolerance_m ** 2:
-            report.repair(label, fid, attrs, f"no area ({g.area:.3g} m²): left out")
-            continue
         kept.append(g)
     if not kept:
         raise GraphError(f"{where}: no polygon with an area ({len(features)} features read"
@@ -569,7 +597,12 @@ class _Network:
         return rule
 
     def _end_width(self, node: int) -> float:
-        return next(c.width for c in self.channels if node in (c.a, c.b))
+        """The width [m] of the channel at a free end: the median over the fifth of its
+        axis next to that end (but the last tenth, where the axis leaves the water)."""
+        c = next(c for c in self.channels if node in (c.a, c.b))
+        s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(c.points, axis=0).T))])
+        lo, hi = (0.1, 0.3) if node == c.a else (0.7, 0.9)
+        return float(np.median(np.interp(np.linspace(lo, hi, 11) * s[-1], s, c.widths)))
 
 
 def _channels(part, k: int, lines: list, tolerance_m: float, report: RiverImport) -> _Network:
@@ -713,6 +746,7 @@ def skeleton(water, tolerance_m: float = 0.25):
         nbr[a][b] = d
         nbr[b][a] = d
     _prune(nbr, radius)
+    _keep_longest_piece(nbr)
     chains = _chains(nbr)
     chains, collapsed_loop = _merge_junctions(chains, uniq, radius)
     if collapsed_loop is not None:
@@ -765,6 +799,33 @@ def _prune(nbr: list[dict[int, float]], radius: np.ndarray) -> None:
                 for a, b in zip(path[:-1], path[1:]):
                     nbr[a].pop(b, None)
                     nbr[b].pop(a, None)
+
+
+def _keep_longest_piece(nbr: list[dict[int, float]]) -> None:
+    """Keep the longest connected piece of the skeleton (a polygon pinched to a point, as
+    make_valid leaves a knot in an outline, has another behind the pinch: its water is
+    left without an axis of its own and flows with its neighbours)."""
+    label = np.full(len(nbr), -1)
+    lengths = []
+    for s in range(len(nbr)):
+        if label[s] >= 0 or not nbr[s]:
+            continue
+        k = len(lengths)
+        label[s] = k
+        stack, total = [s], 0.0
+        while stack:
+            a = stack.pop()
+            for b, d in nbr[a].items():
+                total += 0.5 * d
+                if label[b] < 0:
+                    label[b] = k
+                    stack.append(b)
+        lengths.append(total)
+    if len(lengths) <= 1:
+        return
+    best = int(np.argmax(lengths))
+    for a in np.flatnonzero((label >= 0) & (label != best)):
+        nbr[a].clear()
 
 
 def _chains(nbr: list[dict[int, float]]) -> list[list[int]]:

@@ -586,6 +586,8 @@ def _end_chord(water, line: np.ndarray, width_m: float, at_start: bool, eps_m: f
     """The straight closing segment across a free end of a given water area: (chord (2, 2),
     station along the end's tangent from the end point [m], unit tangent pointing out of the
     channel). None when no chord across the channel is found within two widths of the end."""
+    if len(line) < 2:
+        return None
     if at_start:
         c, back = line[0], line[1]
     else:
@@ -692,6 +694,10 @@ def _given_water(geoms: list[BranchGeometry], water, islands: list[_Island], tol
             else:
                 cut_area.append(0.0)
             g.centerline_m, g.widths_m = _trim_to_chord(g.centerline_m, g.widths_m, chord, at_start)
+            if len(g.centerline_m) < 2 or not np.hypot(*np.diff(g.centerline_m, axis=0).T).min() > 1e-9:
+                raise GraphError(f"branch {g.name!r}: nothing is left of it once the water is "
+                                 f"cut across its free {where} near ({c[0]:.1f}, {c[1]:.1f}) "
+                                 f"(a branch shorter than the water is wide there)")
             cuts.append(chord)
     valid_islands = []
     for k, isl in enumerate(islands):
