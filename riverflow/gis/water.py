@@ -222,6 +222,7 @@ def read_water(path, *, layer: str | int | None = None, lines=None, inlets=None,
     report = RiverImport(str(path), layer_name, len(features), None, None)
     line_geoms = _read_lines(path, lines, source_crs, where) if lines is not None else []
 
+    _check_points_crs(source_crs, inlet_xy, outlet_xy, where)
     # project everything at once (one local CRS for polygons, lines and points)
     geoms = [g for _, g, _ in features] + line_geoms
     coords = shapely.get_coordinates(geoms)
@@ -315,6 +316,24 @@ def _points(value, name: str) -> np.ndarray:
     if pts.ndim != 2 or pts.shape[1] != 2 or not np.isfinite(pts).all():
         raise GraphError(f"read_water: {name} must be finite points (x, y), got {value!r}")
     return pts
+
+
+def _check_points_crs(source_crs, inlets: np.ndarray, outlets: np.ndarray, where: str) -> None:
+    """Inlets and outlets in a geographic CRS must be longitudes and latitudes."""
+    if source_crs is None or not (len(inlets) or len(outlets)):
+        return
+    pyproj = require("pyproj", f"projecting {where}")
+    try:
+        crs = pyproj.CRS.from_user_input(source_crs)
+    except Exception:   # _project says what is wrong with it
+        return
+    if not crs.is_geographic:
+        return
+    for what, pts in (("inlet", inlets), ("outlet", outlets)):
+        for x, y in pts:
+            if not (abs(x) <= 360.0 and abs(y) <= 90.0):
+                raise GraphError(f"{where}: {what} ({x:g}, {y:g}) is no longitude / latitude: "
+                                 f"inlets and outlets are in the data's CRS ({crs.name})")
 
 
 def _read_mask(path: Path):

@@ -38,11 +38,11 @@ def write_mask(path, water, cell_m: float, bounds=(-20.0, -160.0, 1220.0, 160.0)
     """Rasterise ``water`` (relative to ORIGIN) into a GeoTIFF of ``cell_m`` cells (1 = water)."""
     rasterio = pytest.importorskip("rasterio")
     from rasterio import features
-    from rasterio.transform import from_origin
+    from rasterio.transform import Affine
 
     x0, y0, x1, y1 = bounds
     w, h = int(round((x1 - x0) / cell_m)), int(round((y1 - y0) / cell_m))
-    tr = from_origin(ORIGIN[0] + x0, ORIGIN[1] + y1, cell_m, cell_m)
+    tr = Affine(cell_m, 0.0, ORIGIN[0] + x0, 0.0, -cell_m, ORIGIN[1] + y1)
     data = (features.rasterize([shapely.transform(water, lambda p: p + ORIGIN)], out_shape=(h, w),
                                transform=tr, dtype=np.uint8) if not water.is_empty
             else np.zeros((h, w), np.uint8))
@@ -403,3 +403,71 @@ def test_scene_reads_a_mask(tmp_path):
     graph = scene_graph(args)
     assert graph.source == str(mask)
     assert len(graph.axes()) >= 3
+
+
+# -- other sources of direction and discharge -----------------------------------------------
+
+
+def test_a_dem_sets_the_direction(tmp_path):
+    """The widening river of the narrow→wide rule, on a DEM that falls towards its narrow
+    end: the DEM wins."""
+    from tests.gis.test_rasters import write_dem
+
+    widening = shapely.Polygon([(0, -15), (600, -50), (600, 50), (0, 15)])
+    poly = write_polygons(tmp_path / "widening.geojson", [widening])
+    dem = write_dem(tmp_path / "dem.tif", nx=70, ny=20, west=ORIGIN[0] - 50.0,
+                    north=ORIGIN[1] + 100.0, cell=10.0, fn=lambda x, y: 0.01 * (x - ORIGIN[0]))
+    builder = rf.read_water(poly, dem=dem, origin_m=ORIGIN)
+    assert builder.report.derived["direction"] == "from the DEM (highest free end in, lowest out)"
+    status, v = rf.FlowField(builder.build()).query(np.array([[300.0, 0.0]]))
+    assert status[0] == INSIDE and v[0, 0] < 0
+
+
+def test_lines_from_a_layer_of_the_same_geopackage_and_a_given_discharge(tmp_path):
+    import pyogrio.raw
+
+    poly = write_polygons(tmp_path / "river.gpkg", [two_channels()])
+    # a line down the middle that goes round the island on both sides: both arms are axes
+    north = MEANDER[33:62] + [0.0, 25.0]
+    south = MEANDER[33:62] - [0.0, 25.0]
+    lines = [MEANDER[:33], np.vstack([MEANDER[32], north[1:-1], MEANDER[62]]),
+             np.vstack([MEANDER[32], south[1:-1], MEANDER[62]]), MEANDER[62:]]
+    pyogrio.raw.write(str(poly), np.array([shapely.to_wkb(shapely.LineString(ln + ORIGIN))
+                                           for ln in lines], dtype=object), [], [],
+                      driver="GPKG", crs=UTM, layer="waterways", geometry_type="LineString",
+                      append=False)
+    builder = rf.read_water(poly, layer="river", lines="waterways", discharge_m3s=150.0,
+                            origin_m=ORIGIN)
+    builder.build()
+    report = builder.report
+    assert report.derived["axes"] == {"lines": 4}
+    assert report.derived["islands"] == {"free (in one channel)": 0, "between channels": 1}
+    from riverflow.gis.rivers import DEFAULT_GEOMETRY
+    q = builder.discharges_m2s
+    assert q[0] == pytest.approx(DEFAULT_GEOMETRY.psi(150.0))
+    assert q[1] + q[2] == pytest.approx(q[0]) and q[3] == pytest.approx(q[0])
+    assert report.links[0].discharge_from == "discharge_m3s 150 m³/s split by width"
+
+
+def test_osm_water_areas(tmp_path):
+    """``natural=water`` + ``water=river`` closed ways come in as water; other areas (a
+    wood) do not."""
+    from tests.gis.test_osm import write_osm
+
+    river = np.array(shapely.LineString([(0, 0), (800, 0)]).buffer(30.0, cap_style="flat")
+                     .exterior.coords)
+    wood = np.array([(0, 100), (200, 100), (200, 300), (0, 300), (0, 100)])
+    path = write_osm(tmp_path / "area.osm", [
+        (201, river, {"natural": "water", "water": "river"}),
+        (202, wood, {"natural": "wood"})])
+    from riverflow.gis.water import holds_water_areas
+    assert not holds_water_areas(path) and holds_water_areas(path, "multipolygons")
+    with pytest.raises(GraphError, match=r"inlet \(500000, 5e\+06\) is no longitude / "
+                                         r"latitude: inlets and outlets are in the data's CRS"):
+        rf.read_water(path, inlets=[ORIGIN])
+    import pyproj
+    lonlat = pyproj.Transformer.from_crs(UTM, "EPSG:4326", always_xy=True).transform(*ORIGIN)
+    builder = rf.read_water(path, inlets=[lonlat])
+    builder.build()
+    assert builder.report.layer == "multipolygons" and builder.report.features == 1
+    assert builder.water.area == pytest.approx(800 * 60, rel=0.01)
