@@ -82,6 +82,9 @@ JOIN_WIDTHS = 1.05
 ISLAND_SPLIT_WIDTHS = 2.0
 """A hole longer (2 × its bounding radius) than this many times the water beside it splits
 the river into two channels; a smaller one is a free island in its channel."""
+MAX_ISLAND_RETRIES = 20
+"""How many islands between channels :meth:`WaterBuilder.build` may turn into free islands
+when no channel's banks reach their shores."""
 MIN_CHANNEL_WIDTHS = 2.0
 """A separate water body whose longest axis is shorter than this many widths is no river (a
 pond, a speck left by a repair): left out, reported."""
@@ -107,21 +110,81 @@ class WaterBuilder(RiverNetworkBuilder):
 
     def build(self):
         """Make the hydro graph (``graph.source``: the file); errors name the file."""
-        try:
-            graph = super().build()
-        except GraphError as exc:
-            hint = ""
-            if "lies on its right" in str(exc):
-                hint = (" (the outline has a bay or a point of land whose far side faces away "
-                        "from its channel's axis, which the flow cannot follow yet: pass "
-                        "lines= that run into the bay, or smooth the outline there)")
-            raise GraphError(f"{self.report.path} (layer {self.report.layer!r}): {exc}{hint}"
-                             ) from None
+        forced: list[tuple[float, float]] = []
+        for _ in range(MAX_ISLAND_RETRIES + 1):
+            try:
+                graph = super().build()
+                break
+            except GraphError as exc:
+                point = _shore_point(str(exc))
+                hole = self._hole_at(point) if point is not None else self._hole_by(str(exc))
+                if hole is None or len(forced) == MAX_ISLAND_RETRIES:
+                    self._raise_named(exc)
+                forced.append(hole)
+                self._fill(tuple(forced))
+                self.report.repair("island", None, None,
+                                   f"the island near ({hole[0]:.1f}, {hole[1]:.1f}) between "
+                                   f"channels cannot be told from the other shores there "
+                                   f"({str(exc)[:100]}…): taken as a free island in one "
+                                   f"channel")
         graph.source = self.report.path
         cut = sum(self.end_cuts_m2)
         if cut > 0:
             self.report.derived["ends_cut_m2"] = round(cut, 2)
+        if self.islands_cut:
+            self.report.notes.append(f"{len(self.islands_cut)} islands at the water's open "
+                                     f"ends, where it is cut across, left out")
         return graph
+
+    def _hole_at(self, point):
+        """A point inside the hole of the water that holds ``point`` or whose ring passes
+        within a metre of it (the builder names a shore by its vertices' mean), or None."""
+        p = shapely.Point(point)
+        for poly in getattr(self.water, "geoms", [self.water]):
+            for ring in poly.interiors:
+                if ring.distance(p) <= 1.0 or shapely.Polygon(ring).contains(p):
+                    return shapely.Polygon(ring).representative_point().coords[0]
+        return None
+
+    def _hole_by(self, text: str):
+        """For an error naming a branch whose banks the builder could not tell apart (its
+        ψ does not add up round a loop, both its banks one shore): a point inside the hole
+        between channels nearest that branch's middle, or None."""
+        import re
+
+        m = re.search(r"branch '([^']+)'", text)
+        if m is None or ("inconsistent" not in text and "one continuous shore" not in text):
+            return None
+        branch = next((b for b in self._branches if b.name == m.group(1)), None)
+        holes = [shapely.Polygon(r) for poly in getattr(self.water, "geoms", [self.water])
+                 for r in poly.interiors]
+        free = [i.outline for i in self._islands]
+        holes = [h for h in holes if not any(h.contains(f.representative_point()) for f in free)]
+        if branch is None or not holes:
+            return None
+        line = shapely.LineString(branch.centerline_m)
+        mid = line.interpolate(0.5, normalized=True)
+        best = min(holes, key=lambda h: (h.distance(line), h.distance(mid)))
+        if best.distance(line) > float(branch.widths_m.max()):
+            return None
+        return best.representative_point().coords[0]
+
+    def _raise_named(self, exc: GraphError):
+        hint = ""
+        if "lies on its right" in str(exc):
+            hint = (" (the outline has a bay or a point of land whose far side faces away "
+                    "from its channel's axis, which the flow cannot follow yet: pass "
+                    "lines= that run into the bay, or smooth the outline there)")
+        raise GraphError(f"{self.report.path} (layer {self.report.layer!r}): {exc}{hint}"
+                         ) from None
+
+
+def _shore_point(text: str):
+    """The point of the builder's "a shore near (x, y) that no branch runs along" error."""
+    import re
+
+    m = re.search(r"a shore near \(([-0-9.]+), ([-0-9.]+)\) that no branch runs along", text)
+    return (float(m.group(1)), float(m.group(2))) if m else None
 
 
 def is_water_path(path) -> bool:
@@ -252,9 +315,27 @@ def read_water(path, *, layer: str | int | None = None, lines=None, inlets=None,
     builder.report = report
     builder.crs = crs_out
     builder.water = water
+    builder._fill = lambda forced: _fill(builder, water, line_geoms, inlet_xy, outlet_xy, dem,
+                                         discharge_m3s, geometry, tolerance_m, where, forced)
+    builder._fill(())
+    return builder
+
+
+def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, discharge_m3s,
+          geometry: HydraulicGeometry, tolerance_m: float, where: str, forced) -> None:
+    """Find the channels of the water and put them into the builder (anew: what it held is
+    dropped); holes containing a point of ``forced`` are free islands."""
+    report = builder.report
+    crs_out = report.crs
+    builder._branches.clear()
+    builder._islands.clear()
+    report.links.clear()
+    report.attributes.clear()
+    report.repairs[:] = [r for r in report.repairs if not r.feature.startswith("water body")]
     networks = []
+    frame = shapely.box(*water.bounds)
     for k, part in enumerate(getattr(water, "geoms", [water])):
-        net = _channels(part, k, line_geoms, tolerance_m, report)
+        net = _channels(part, k, line_geoms, tolerance_m, report, frame, forced)
         longest = max(c.length for c in net.channels)
         widest = max(float(c.widths.max()) for c in net.channels)
         speck = part.area < SPECK_FRACTION * water.area
@@ -297,7 +378,6 @@ def read_water(path, *, layer: str | int | None = None, lines=None, inlets=None,
                                  "between channels": sum(len(n.water.interiors) for n in networks)}
     report.derived["length_m"] = round(sum(float(shapely.LineString(c.points).length)
                                            for n in networks for c in n.channels), 1)
-    return builder
 
 
 # -- reading -------------------------------------------------------------------------------------
@@ -593,14 +673,14 @@ class _Network:
             inlets, outlets = ([a], [b]) if wa <= wb else ([b], [a])
             rule = ("the longest path along the axes, from its narrower end "
                     f"({min(wa, wb):.1f} m) to its wider ({max(wa, wb):.1f} m)")
-        phi = np.zeros(n)
-        if inlets:
-            phi += np.min(np.atleast_2d(dijkstra(adj, indices=inlets)), axis=0)
-        if outlets:
-            phi -= np.min(np.atleast_2d(dijkstra(adj, indices=outlets)), axis=0)
-        if not np.isfinite(phi).all():
-            raise GraphError(f"the water near {tuple(np.round(self.nodes[0], 1))}: part of it "
-                             f"is not connected to an inlet or outlet")
+        if not outlets:          # water enters where it is said to; it leaves by the rest
+            outlets = [k for k in leaves if k not in inlets]
+        if not inlets:
+            inlets = [k for k in leaves if k not in outlets]
+        if not inlets or not outlets:
+            raise GraphError(f"the water near {tuple(np.round(self.nodes[0], 1))} needs a free "
+                             f"end where water comes in and another where it leaves")
+        phi = _harmonic(adj, inlets, outlets)
         self.inlets, self.outlets = set(inlets), set(outlets)
         for c in self.channels:
             if c.directed:
@@ -612,8 +692,33 @@ class _Network:
             elif phi[c.a] > phi[c.b]:
                 c.flip()
             c.directed = True
+        self._fix_junctions(adj)
         self.rule = rule
         return rule
+
+    def _fix_junctions(self, adj) -> None:
+        """Where a junction only receives (or only sends) water, which the distances along a
+        braided network's loops can make, turn the channel there that leads nearest to a
+        free end water leaves by (comes in by); until every junction has both."""
+        deg = self.degree()
+        for _ in range(4 * len(self.channels)):
+            sinks = {c.b for c in self.channels if deg[c.b] == 1}
+            sources = {c.a for c in self.channels if deg[c.a] == 1}
+            d_out, d_in = _distance_from(adj, sinks), _distance_from(adj, sources)
+            ins = np.zeros(len(self.nodes), int)
+            outs = np.zeros(len(self.nodes), int)
+            for c in self.channels:
+                outs[c.a] += 1
+                ins[c.b] += 1
+            bad = [j for j in range(len(self.nodes)) if deg[j] > 1 and (ins[j] == 0 or outs[j] == 0)]
+            if not bad:
+                return
+            j = bad[0]
+            if outs[j] == 0:    # a sink: send water on towards the nearest way out
+                c = min((c for c in self.channels if c.b == j), key=lambda c: d_out[c.a])
+            else:               # a source: take water from the nearest way in
+                c = min((c for c in self.channels if c.a == j), key=lambda c: d_in[c.b])
+            c.flip()
 
     def _end_width(self, node: int) -> float:
         """The width [m] of the channel at a free end: the median over the fifth of its
@@ -624,17 +729,56 @@ class _Network:
         return float(np.median(np.interp(np.linspace(lo, hi, 11) * s[-1], s, c.widths)))
 
 
-def _channels(part, k: int, lines: list, tolerance_m: float, report: RiverImport) -> _Network:
+def _harmonic(adj, inlets: list[int], outlets: list[int]) -> np.ndarray:
+    """The potential along the axes that is 0 at the inlets, 1 at the outlets and at every
+    other node the average of its neighbours' weighted by 1 / channel length (a harmonic
+    function of the network: by the maximum principle every junction has a neighbour above
+    and one below it, so flowing up the potential no junction only receives or only sends
+    water, and nothing flows round a loop). Free ends not given are as their junction."""
+    from scipy.sparse import csr_matrix, diags
+    from scipy.sparse.linalg import spsolve
+
+    n = adj.shape[0]
+    g = adj.copy().tocsr()
+    g.data = 1.0 / np.maximum(g.data, 1e-9)
+    lap = (diags(np.asarray(g.sum(axis=1)).ravel()) - g).tocsr()
+    fixed = np.zeros(n, bool)
+    value = np.zeros(n)
+    fixed[inlets] = True
+    fixed[outlets] = True
+    value[outlets] = 1.0
+    free = np.flatnonzero(~fixed)
+    phi = value.copy()
+    if len(free):
+        a = lap[free][:, free]
+        b = -(lap[free][:, np.flatnonzero(fixed)] @ value[fixed])
+        a = csr_matrix(a)
+        with np.errstate(all="ignore"):
+            phi[free] = spsolve(a, b) if a.shape[0] > 1 else b / a.toarray().ravel()
+    if not np.isfinite(phi).all():
+        raise GraphError("part of the water is not connected to any inlet or outlet")
+    return phi
+
+
+def _distance_from(adj, nodes) -> np.ndarray:
+    """Shortest distance along the axes from any of ``nodes`` (inf where none is)."""
+    if not nodes:
+        return np.full(adj.shape[0], np.inf)
+    return np.min(np.atleast_2d(dijkstra(adj, indices=sorted(nodes))), axis=0)
+
+
+def _channels(part, k: int, lines: list, tolerance_m: float, report: RiverImport,
+              frame=None, forced=()) -> _Network:
     """The channels of one water polygon: along the lines in it, else its skeleton."""
     inside = [g for g in lines if g.intersects(part)]
     if inside:
-        return _line_channels(part, k, inside, tolerance_m, report)
+        return _line_channels(part, k, inside, tolerance_m, report, forced)
     if lines:
         report.notes.append(f"water body {k}: no line runs through it: its axes are its skeleton")
-    return _skeleton_channels(part, k, tolerance_m, report)
+    return _skeleton_channels(part, k, tolerance_m, report, frame, forced)
 
 
-def _split_holes(part, enclosed=None):
+def _split_holes(part, enclosed=None, forced=()):
     """(water with the holes that split channels, free islands): a hole is a free island when
     it is small beside the water around it (ISLAND_SPLIT_WIDTHS), or, with ``enclosed`` (a
     polygon), when no loop of lines goes round it."""
@@ -648,11 +792,13 @@ def _split_holes(part, enclosed=None):
             others = shapely.MultiLineString([r for j, r in enumerate(rings) if j != i + 1])
             gap = poly.distance(others)
             split = 2.0 * shapely.minimum_bounding_radius(poly) >= ISLAND_SPLIT_WIDTHS * gap
+        if any(poly.contains(shapely.Point(p)) for p in forced):
+            split = False
         (keep if split else free).append(hole if split else poly)
     return shapely.Polygon(part.exterior, keep), free
 
 
-def _line_channels(part, k: int, lines: list, tolerance_m: float, report) -> _Network:
+def _line_channels(part, k: int, lines: list, tolerance_m: float, report, forced=()) -> _Network:
     """Channels along the given lines, cut to the water and noded where they meet."""
     merged = shapely.line_merge(shapely.node(shapely.MultiLineString(
         [np.asarray(g.coords) for g in lines])), directed=True)
@@ -671,7 +817,7 @@ def _line_channels(part, k: int, lines: list, tolerance_m: float, report) -> _Ne
     if not directed:
         raise GraphError(f"water body {k}: the lines cross it but no piece lies inside it")
     faces = shapely.union_all(list(shapely.get_parts(shapely.polygonize(directed))))
-    water, free = _split_holes(part, faces if not faces.is_empty else shapely.Polygon())
+    water, free = _split_holes(part, faces if not faces.is_empty else shapely.Polygon(), forced)
     merged = shapely.line_merge(shapely.MultiLineString([np.asarray(g.coords) for g in directed]),
                                 directed=True)
     segs = [np.asarray(g.coords) for g in shapely.get_parts(merged)]
@@ -709,12 +855,13 @@ def _chord_widths(line: np.ndarray, water) -> np.ndarray:
     return np.maximum(out, 1e-3)
 
 
-def _skeleton_channels(part, k: int, tolerance_m: float, report) -> _Network:
+def _skeleton_channels(part, k: int, tolerance_m: float, report, frame=None,
+                       forced=()) -> _Network:
     """Channels along the water's skeleton; holes whose loop of axes collapses become free
     islands and the skeleton is made again."""
-    water, free = _split_holes(part)
+    water, free = _split_holes(part, None, forced)
     for _ in range(len(part.interiors) + 1):
-        chains, nodes, collapsed = skeleton(water, tolerance_m)
+        chains, nodes, collapsed = skeleton(water, tolerance_m, frame)
         if collapsed is None:
             break
         hole = water.interiors[collapsed]
@@ -731,7 +878,7 @@ def _skeleton_channels(part, k: int, tolerance_m: float, report) -> _Network:
     return net
 
 
-def skeleton(water, tolerance_m: float = 0.25):
+def skeleton(water, tolerance_m: float = 0.25, frame=None):
     """The medial axis of a polygon as channels: ([(points (K, 2), widths (K,), start node,
     end node)], node points (N, 2), the index of a hole whose loop collapsed or None).
 
@@ -743,8 +890,19 @@ def skeleton(water, tolerance_m: float = 0.25):
     rings = [water.exterior, *water.interiors]
     length = sum(r.length for r in rings)
     approx_width = 2.0 * water.area / max(length, 1e-9)
-    spacing = max(approx_width / SAMPLES_PER_WIDTH, length / MAX_OUTLINE_SAMPLES, tolerance_m)
+    gap = approx_width
+    if len(rings) > 1:       # the narrowest passage between an island and another shore
+        lines = [shapely.LinearRing(r) for r in rings]
+        tree = shapely.STRtree(lines)
+        a, b = tree.query(lines, predicate="dwithin", distance=approx_width)
+        pair = a != b
+        if pair.any():
+            gap = min(gap, float(shapely.distance(np.take(lines, a[pair]),
+                                                  np.take(lines, b[pair])).min()))
+    spacing = max(min(approx_width, 2.0 * gap) / SAMPLES_PER_WIDTH,
+                  length / MAX_OUTLINE_SAMPLES, tolerance_m)
     pts = np.vstack([np.asarray(shapely.segmentize(r, spacing).coords)[:-1] for r in rings])
+    all_pts = pts
     edges = shapely.get_parts(shapely.voronoi_polygons(shapely.MultiPoint(pts), only_edges=True))
     seg = shapely.get_coordinates(edges).reshape(-1, 2, 2)
     ok = (shapely.contains_xy(water, seg[:, 0, 0], seg[:, 0, 1])
@@ -767,13 +925,13 @@ def skeleton(water, tolerance_m: float = 0.25):
     _prune(nbr, radius)
     _keep_longest_piece(nbr)
     chains = _chains(nbr)
-    chains, collapsed_loop = _merge_junctions(chains, uniq, radius)
-    if collapsed_loop is not None:
-        loop = shapely.Polygon(uniq[collapsed_loop]) if len(collapsed_loop) >= 3 else None
+    chains, loops = _merge_junctions(chains, uniq, radius)
+    for loop in loops:        # a loop round a hole collapsed: the hole becomes a free island
+        ring = shapely.Polygon(uniq[loop]) if len(loop) >= 3 else shapely.Polygon()
         for j, hole in enumerate(water.interiors):
-            if loop is None or loop.contains(shapely.Polygon(hole).representative_point()):
+            if ring.is_valid and ring.contains(shapely.Polygon(hole).representative_point()):
                 return [], np.zeros((0, 2)), j
-    tree = cKDTree(pts)
+    tree = cKDTree(all_pts)
     out = []
     ids: dict[int, int] = {}
     for chain in chains:
@@ -790,7 +948,8 @@ def skeleton(water, tolerance_m: float = 0.25):
 
 def _prune(nbr: list[dict[int, float]], radius: np.ndarray) -> None:
     """Remove spurs (chains from a free end to a junction) shorter than SPUR_WIDTHS local
-    widths, at most all but one at each junction per pass, until none is left."""
+    widths, at most all but
+    one at each junction per pass, until none is left."""
     while True:
         spurs: dict[int, list[tuple[float, list[int]]]] = {}
         for leaf in range(len(nbr)):
@@ -868,9 +1027,11 @@ def _chains(nbr: list[dict[int, float]]) -> list[list[int]]:
 
 
 def _merge_junctions(chains, xy: np.ndarray, radius: np.ndarray):
-    """Merge junctions joined by a chain shorter than JOIN_WIDTHS × the sum of their radii
-    (one junction at the wider one's point); returns the chains left and, when a chain would
-    start and end at the same merged junction (a loop round a small hole), that chain."""
+    """Merge junctions closer than JOIN_WIDTHS × the sum of their inscribed radii (one
+    junction at the wider one's point): the builder joins end points within a quarter width
+    and refuses ends nearer than half their widths' sum that it does not join. Returns the
+    chains left (short ones between merged junctions dropped) and the chains that now start
+    and end at one junction though they are long (loops round a hole)."""
     parent: dict[int, int] = {}
 
     def root(a: int) -> int:
@@ -882,28 +1043,28 @@ def _merge_junctions(chains, xy: np.ndarray, radius: np.ndarray):
     for c in chains:
         deg[c[0]] = deg.get(c[0], 0) + 1
         deg[c[-1]] = deg.get(c[-1], 0) + 1
-    short = []
-    for i, c in enumerate(chains):
-        a, b = c[0], c[-1]
-        if deg[a] >= 3 and deg[b] >= 3 and a != b:
-            if float(np.hypot(*(xy[a] - xy[b]))) < JOIN_WIDTHS * (radius[a] + radius[b]):
-                short.append(i)
-    for i in sorted(short, key=lambda i: len(chains[i])):
-        a, b = root(chains[i][0]), root(chains[i][-1])
-        if a == b:
-            continue
-        keep, gone = (a, b) if radius[a] >= radius[b] else (b, a)
-        parent[gone] = keep
-    out = []
-    dropped = set(short)
-    for i, c in enumerate(chains):
+    junctions = np.array(sorted(n for n, d in deg.items() if d >= 3), dtype=np.int64)
+    if len(junctions) > 1:
+        pairs = cKDTree(xy[junctions]).query_pairs(2.0 * JOIN_WIDTHS * float(radius[junctions].max()),
+                                                   output_type="ndarray")
+        a, b = junctions[pairs[:, 0]], junctions[pairs[:, 1]]
+        d = np.hypot(*(xy[a] - xy[b]).T)
+        close = d < JOIN_WIDTHS * (radius[a] + radius[b])
+        for i in np.argsort(d[close]):
+            ra, rb = root(int(a[close][i])), root(int(b[close][i]))
+            if ra != rb:
+                keep, gone = (ra, rb) if radius[ra] >= radius[rb] else (rb, ra)
+                parent[gone] = keep
+    out, loops = [], []
+    for c in chains:
         ra, rb = root(c[0]), root(c[-1])
-        if i in dropped:
+        if ra == rb:
+            span = float(np.hypot(*np.diff(xy[c], axis=0).T).sum())
+            if span >= JOIN_WIDTHS * 2.0 * float(radius[ra]) and c[0] != c[-1] or len(c) > 3 and c[0] == c[-1]:
+                loops.append(c)
             continue
-        if ra == rb:          # a loop round a hole, collapsed onto one junction
-            return chains, c
         out.append([ra, *c[1:-1], rb])
-    return out, None
+    return out, loops
 
 
 def _smooth(p: np.ndarray, r_start: float, r_end: float, spacing: float) -> np.ndarray:

@@ -112,6 +112,7 @@ class RiverNetworkBuilder:
         self.water_levels = None
         self._water_area: shapely.Geometry | None = None
         self.end_cuts_m2: list[float] = []
+        self.islands_cut: list[int] = []
 
     # -- input --------------------------------------------------------------------------
 
@@ -216,7 +217,8 @@ class RiverNetworkBuilder:
         within two widths of the free end: the cut's line is perpendicular to the branch's
         last segment, as near its end as gives a chord of at least END_CHORD_FRACTION of
         the widest chord there; the water beyond (the rounded or slanted tip of a mapped
-        channel) is left out, its area in ``end_cuts_m2`` after :meth:`build`.
+        channel) is left out, its area in ``end_cuts_m2`` after :meth:`build`; islands the
+        cut runs through are left out too (their indices in ``islands_cut``).
 
         Raises:
             GraphError: not a polygon, empty, invalid, or without area.
@@ -266,8 +268,9 @@ class RiverNetworkBuilder:
                                              self.fillet_fraction)
             end_cuts: list[float] = []
         else:
-            polygons, cuts, islands, end_cuts = _given_water(geoms, self._water_area,
-                                                             self._islands, self.tolerance_m)
+            polygons, cuts, islands, (end_cuts, cut_islands) = _given_water(
+                geoms, self._water_area, self._islands, self.tolerance_m)
+            self.islands_cut = cut_islands
         eps = max(1e-3, 1e-3 * self.tolerance_m)
         try:
             rings, pieces = _strips.split_rings(polygons, cuts, eps)
@@ -665,7 +668,8 @@ def _given_water(geoms: list[BranchGeometry], water, islands: list[_Island], tol
     """:meth:`RiverNetworkBuilder.set_water_area`: the oriented water polygons cut at the free
     ends, the closing segments, the validated islands and the area cut off at each end."""
     eps = max(1e-3, 1e-3 * tolerance_m)
-    cuts, cut_area = [], []
+    cuts, cut_area, cut_islands = [], [], []
+    given = water
     for g in geoms:
         for at_start in (True, False):
             if (g.start_junction if at_start else g.end_junction) >= 0:
@@ -702,11 +706,15 @@ def _given_water(geoms: list[BranchGeometry], water, islands: list[_Island], tol
     valid_islands = []
     for k, isl in enumerate(islands):
         if not water.contains(isl.outline) or isl.outline.distance(water.boundary) <= tolerance_m:
+            if (given.contains(isl.outline)
+                    and isl.outline.distance(given.boundary) > tolerance_m):
+                cut_islands.append(k)     # an island the end cut runs through: left out
+                continue
             raise GraphError(f"island {k} is not strictly inside the water (it must not touch a bank)")
         valid_islands.append(isl)
-    if islands:
-        water = shapely.difference(water, shapely.union_all([i.outline for i in islands]))
+    if valid_islands:
+        water = shapely.difference(water, shapely.union_all([i.outline for i in valid_islands]))
     polygons = [shapely.geometry.polygon.orient(p, sign=1.0)
                 for p in sorted((p for p in getattr(water, "geoms", [water]) if not p.is_empty),
                                 key=lambda p: (-p.area, p.bounds))]
-    return polygons, cuts, valid_islands, cut_area
+    return polygons, cuts, valid_islands, (cut_area, cut_islands)
