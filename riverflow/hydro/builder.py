@@ -213,10 +213,11 @@ class RiverNetworkBuilder:
         downstream, widths about the channel's width), joined at junctions as usual; islands
         added with :meth:`add_island` are taken out of it like holes whose ψ is the plug-flow
         estimate. At every free end of a branch the water is cut across the channel by a
-        straight closing segment (:func:`_end_chord`), where its end lies in the water
-        within two widths of the free end: the cut's line is perpendicular to the branch's
-        last segment, as near its end as gives a chord of at least END_CHORD_FRACTION of
-        the widest chord there; the water beyond (the rounded or slanted tip of a mapped
+        straight closing segment (:func:`_end_chord`): the straight edge of the outline the
+        branch runs into, if it spans the channel (the data's edge), else a line
+        perpendicular to the branch's last segment, within END_CHORD_REACH widths of its
+        end, as near it as gives a chord of at least END_CHORD_FRACTION of the branch's
+        median width (and at most END_CHORD_LONGEST widths); the water beyond (the rounded or slanted tip of a mapped
         channel) is left out, its area in ``end_cuts_m2`` after :meth:`build`; islands the
         cut runs through are left out too (their indices in ``islands_cut``).
 
@@ -560,7 +561,11 @@ def _water(geoms: list[BranchGeometry], junctions: np.ndarray, islands: list[_Is
 
 END_CHORD_FRACTION = 0.9
 """A free end of a given water area is cut where the chord across the channel is at least
-this fraction of the widest chord within two widths of the end (:func:`_end_chord`)."""
+this fraction of the channel's width (or of the widest chord there, if narrower)..."""
+END_CHORD_REACH = 1.5
+"""...looked for within this many widths of the branch's free end..."""
+END_CHORD_LONGEST = 1.6
+"""...and no longer than this many widths (a longer one runs across a bend)."""
 _END_STATIONS = 48
 
 
@@ -599,11 +604,13 @@ def _end_chord(water, line: np.ndarray, width_m: float, at_start: bool, eps_m: f
     t = t / np.hypot(*t)
     n = np.array([-t[1], t[0]])
     reach = 4.0 * width_m + 1.0
-    start = c - t * 2.0 * width_m
-    tip, _ = _first_hits(water, start[None], t, 6.0 * width_m + 1.0)
+    seg = np.hypot(*np.diff(line, axis=0).T)
+    back = min(0.5 * width_m, 0.5 * float(seg.sum()))
+    start = c - t * back                     # on the centre line, in the water
+    tip, _ = _first_hits(water, start[None], t, back + 4.0 * width_m + 1.0)
     if not np.isfinite(tip[0]):
         return None
-    s = np.linspace(tip[0] - eps_m, tip[0] - 2.0 * width_m, _END_STATIONS)
+    s = np.linspace(tip[0] - eps_m, tip[0] - END_CHORD_REACH * width_m, _END_STATIONS)
     s = s[s >= 0.0]
     q = start + s[:, None] * t
     inside = shapely.contains_xy(water, q[:, 0], q[:, 1])
@@ -613,16 +620,22 @@ def _end_chord(water, line: np.ndarray, width_m: float, at_start: bool, eps_m: f
     if not ok.any():
         return None
     chord = np.where(ok, left + right, 0.0)
+    ok &= chord <= END_CHORD_LONGEST * width_m       # not across a bend
+    if not ok.any():
+        return None
+    chord = np.where(ok, chord, 0.0)
+    ref = min(chord.max(), width_m)
     edge = _edge_at(water, start + t * tip[0], eps_m)
-    if edge is not None and np.hypot(*(edge[1] - edge[0])) >= END_CHORD_FRACTION * chord.max():
+    span = np.hypot(*(edge[1] - edge[0])) if edge is not None else 0.0
+    if END_CHORD_FRACTION * ref <= span <= END_CHORD_LONGEST * width_m:
         # the water ends on a straight edge across the channel (the data's edge): that edge
         u, v = edge
         if ((v - u) @ n < 0) != at_start:
             u, v = v, u
-        return np.array([u, v]), float(tip[0] - 2.0 * width_m), t
-    k = int(np.flatnonzero(chord >= END_CHORD_FRACTION * chord.max())[0])
+        return np.array([u, v]), float(tip[0] - back), t
+    k = int(np.flatnonzero(chord >= END_CHORD_FRACTION * ref)[0])
     a, b = q[k] + n * left[k], q[k] - n * right[k]
-    return np.array([a, b]) if at_start else np.array([b, a]), float(s[k] - 2.0 * width_m), t
+    return np.array([a, b]) if at_start else np.array([b, a]), float(s[k] - back), t
 
 
 def _edge_at(water, point: np.ndarray, eps_m: float):
@@ -688,13 +701,13 @@ def _given_water(geoms: list[BranchGeometry], water, islands: list[_Island], tol
             pieces = list(shapely.get_parts(shapely.ops.split(water, line)))
             t = found[2]
             mid = chord.mean(axis=0)
+            chord_line = shapely.LineString(chord)
             beyond = [p for p in pieces
                       if (np.asarray(p.representative_point().coords[0]) - mid) @ t > 0
-                      and p.distance(shapely.Point(mid)) <= eps]
+                      and p.distance(chord_line) <= eps and p.area < 0.5 * water.area]
             if len(pieces) > 1 and beyond:
-                cap = min(beyond, key=lambda p: p.area)
-                water = shapely.union_all([p for p in pieces if p is not cap])
-                cut_area.append(float(cap.area))
+                water = shapely.union_all([p for p in pieces if not any(p is q for q in beyond)])
+                cut_area.append(float(sum(p.area for p in beyond)))
             else:
                 cut_area.append(0.0)
             g.centerline_m, g.widths_m = _trim_to_chord(g.centerline_m, g.widths_m, chord, at_start)
