@@ -88,6 +88,8 @@ when no channel's banks reach their shores."""
 MIN_CHANNEL_WIDTHS = 2.0
 """A separate water body whose longest axis is shorter than this many widths is no river (a
 pond, a speck left by a repair): left out, reported."""
+MASK_SMOOTH_CELLS = 1.5
+"""A mask's outline is averaged over this many cells (:func:`_smooth_cells`)."""
 SPECK_FRACTION = 1e-3
 """A separate water body with less than this fraction of all the water is a speck (a piece a
 repair left): left out, reported."""
@@ -310,7 +312,8 @@ def read_water(path, *, layer: str | int | None = None, lines=None, inlets=None,
 
     water = _repair(features, polygons, report, where, simplify_m, tolerance_m)
     report.derived["outline"] = (f"the polygons' rings, simplified by at most {simplify_m:g} m"
-                                 + (f" (half of the mask's {cell:g} m cells)" if cell else ""))
+                                 + (f" (half of the mask's {cell:g} m cells, its stairs "
+                                    f"smoothed over {MASK_SMOOTH_CELLS:g} cells)" if cell else ""))
     builder = WaterBuilder(tolerance_m)
     builder.report = report
     builder.crs = crs_out
@@ -434,10 +437,28 @@ def _read_mask(path: Path):
         raise GraphError(f"{path}: the mask has no water (no cell > 0 of {mask.size})")
     shapes = rio_features.shapes(mask.astype(np.uint8), mask=mask, transform=transform,
                                  connectivity=4)
-    polys = [shapely.geometry.shape(s) for s, _ in shapes]
     cell = float(min(abs(transform.a), abs(transform.e)))
+    polys = [_smooth_cells(shapely.geometry.shape(s), cell) for s, _ in shapes]
     return ([(k, p, {}) for k, p in enumerate(polys)], crs.to_wkt() if crs else None,
             "band 1", cell)
+
+
+def _smooth_cells(poly, cell: float):
+    """A mask's polygon without the cells' stairs: each ring densified to half a cell and
+    averaged over a window of MASK_SMOOTH_CELLS cells (a straight bank then is a straight
+    line again, moved by under half a cell; the stairs' risers would face away from the
+    channel's axis, which a hydro graph does not allow)."""
+    def ring(r):
+        v = np.asarray(shapely.segmentize(r, 0.5 * cell).coords)[:-1]
+        k = max(int(round(MASK_SMOOTH_CELLS)), 1)
+        if len(v) <= 2 * k + 3:
+            return v
+        kernel = np.ones(2 * k + 1) / (2 * k + 1)
+        pad = np.vstack([v[-k:], v, v[:k]])
+        return np.column_stack([np.convolve(pad[:, i], kernel, mode="valid") for i in (0, 1)])
+
+    out = shapely.Polygon(ring(poly.exterior), [h for h in map(ring, poly.interiors) if len(h) >= 3])
+    return out if out.is_valid else shapely.make_valid(out)
 
 
 def _read_polygons(path: Path, layer):

@@ -277,7 +277,9 @@ def test_an_outlet_sets_the_direction(tmp_path):
 def test_a_mask_reads_to_the_network_of_its_polygon(tmp_path):
     """A river with two islands as a polygon and as a 2 m mask: the same channels, islands
     and discharges; the mask's outline within a cell of the polygon's, its axes too (on
-    average; at most two cells)."""
+    average; at most two cells), but within a river's width of the open ends (there each
+    axis is carried straight on to its cut, and the mask's smoothed end turns it a little:
+    its end moves by up to 11 m along the cut)."""
     cell = 2.0
     outer = shapely.LineString(MEANDER).buffer(40.0, cap_style="flat", quad_segs=16)
     islands = [shapely.LineString(MEANDER[35:60]).buffer(10.0, quad_segs=16),
@@ -290,7 +292,7 @@ def test_a_mask_reads_to_the_network_of_its_polygon(tmp_path):
     from_mask = rf.read_water(mask, inlets=inlet, origin_m=ORIGIN)
     graph = from_poly.build()
     from_mask.build()
-    assert "half of the mask's 2 m cells" in from_mask.report.derived["outline"]
+    assert "half of the mask's 2 m cells, its stairs smoothed" in from_mask.report.derived["outline"]
     for key in ("axes", "islands", "direction"):
         assert from_mask.report.derived[key] == from_poly.report.derived[key]
     assert from_poly.report.derived["axes"] == {"skeleton": 7}
@@ -303,6 +305,8 @@ def test_a_mask_reads_to_the_network_of_its_polygon(tmp_path):
         assert shapely.distance(shapely.points(pts), b.boundary).max() <= cell
     for (_, p), (_, m) in zip(_channels(from_poly), _channels(from_mask)):
         pts = shapely.get_coordinates(shapely.segmentize(shapely.LineString(m), 1.0))
+        # away from the open ends, where each axis is carried on to its cut straight
+        pts = pts[shapely.distance(shapely.points(pts), ends) > 80.0]
         d = shapely.distance(shapely.points(pts), shapely.LineString(p))
         assert d.mean() <= cell and d.max() <= 2.0 * cell
 
