@@ -49,7 +49,6 @@ come from the graph as for every network).
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -61,10 +60,9 @@ from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import cKDTree
 
 from riverflow.gis import require
-from riverflow.gis.rivers import (DEFAULT_GEOMETRY, OSM_WATERWAYS, HydraulicGeometry,
-                                  ImportedLink, RiverImport, _attrs_text, _from_wkb, _hstore,
-                                  _is_osm, _moved_crs, _origin, _osm_waterways, _pick_layer,
-                                  _project, _wkt)
+from riverflow.gis.rivers import (DEFAULT_GEOMETRY, HydraulicGeometry, ImportedLink,
+                                  RiverImport, _from_wkb, _hstore, _is_osm, _moved_crs, _origin,
+                                  _osm_waterways, _pick_layer, _project, _wkt)
 from riverflow.hydro.builder import MAX_TURN_DEG, RiverNetworkBuilder, upstream_first
 from riverflow.hydro.graph import GraphError
 
@@ -342,7 +340,8 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
         longest = max(c.length for c in net.channels)
         widest = max(float(c.widths.max()) for c in net.channels)
         speck = part.area < SPECK_FRACTION * water.area
-        if (speck or longest < MIN_CHANNEL_WIDTHS * widest) and len(getattr(water, "geoms", [])) > 1:
+        several = len(getattr(water, "geoms", [])) > 1
+        if several and (speck or longest < MIN_CHANNEL_WIDTHS * widest):
             x, y = part.representative_point().coords[0]
             report.repair(f"water body {k}", None, None,
                           f"{part.area:.1f} m² of water near ({x:.1f}, {y:.1f}), apart from the "
@@ -457,7 +456,8 @@ def _smooth_cells(poly, cell: float):
         pad = np.vstack([v[-k:], v, v[:k]])
         return np.column_stack([np.convolve(pad[:, i], kernel, mode="valid") for i in (0, 1)])
 
-    out = shapely.Polygon(ring(poly.exterior), [h for h in map(ring, poly.interiors) if len(h) >= 3])
+    holes = [h for h in map(ring, poly.interiors) if len(h) >= 3]
+    out = shapely.Polygon(ring(poly.exterior), holes)
     return out if out.is_valid else shapely.make_valid(out)
 
 
@@ -582,7 +582,8 @@ def _repair(features, polygons, report: RiverImport, where: str, simplify_m: flo
         water = shapely.simplify(water, simplify_m, preserve_topology=True)
     if not water.is_valid:
         water = shapely.make_valid(water)
-    parts = [p for p in shapely.get_parts(water) if p.geom_type == "Polygon" and p.area > tolerance_m ** 2]
+    parts = [p for p in shapely.get_parts(water)
+             if p.geom_type == "Polygon" and p.area > tolerance_m ** 2]
     clean = []
     for p in parts:    # holes smaller than the tolerance are specks of the data, not islands
         holes = [r for r in p.interiors if shapely.Polygon(r).area > (4.0 * tolerance_m) ** 2]
@@ -731,7 +732,8 @@ class _Network:
             for c in self.channels:
                 outs[c.a] += 1
                 ins[c.b] += 1
-            bad = [j for j in range(len(self.nodes)) if deg[j] > 1 and (ins[j] == 0 or outs[j] == 0)]
+            bad = [j for j in range(len(self.nodes))
+                   if deg[j] > 1 and (ins[j] == 0 or outs[j] == 0)]
             if not bad:
                 return
             j = bad[0]
@@ -851,7 +853,8 @@ def _line_channels(part, k: int, lines: list, tolerance_m: float, report, forced
     channels = []
     for i, c in enumerate(segs):
         widths = _chord_widths(c, water)
-        channels.append(_Channel(c, widths, "lines", node(c[0]), node(c[-1]), f"water {k} line {i}"))
+        channels.append(_Channel(c, widths, "lines", node(c[0]), node(c[-1]),
+                                 f"water {k} line {i}"))
     nodes = np.array(sorted(key, key=key.get), dtype=np.float64).reshape(-1, 2)
     net = _Network(water, free, channels, nodes)
     _extend_free_ends(net, water)
@@ -1066,8 +1069,8 @@ def _merge_junctions(chains, xy: np.ndarray, radius: np.ndarray):
         deg[c[-1]] = deg.get(c[-1], 0) + 1
     junctions = np.array(sorted(n for n, d in deg.items() if d >= 3), dtype=np.int64)
     if len(junctions) > 1:
-        pairs = cKDTree(xy[junctions]).query_pairs(2.0 * JOIN_WIDTHS * float(radius[junctions].max()),
-                                                   output_type="ndarray")
+        reach = 2.0 * JOIN_WIDTHS * float(radius[junctions].max())
+        pairs = cKDTree(xy[junctions]).query_pairs(reach, output_type="ndarray")
         a, b = junctions[pairs[:, 0]], junctions[pairs[:, 1]]
         d = np.hypot(*(xy[a] - xy[b]).T)
         close = d < JOIN_WIDTHS * (radius[a] + radius[b])
@@ -1081,7 +1084,8 @@ def _merge_junctions(chains, xy: np.ndarray, radius: np.ndarray):
         ra, rb = root(c[0]), root(c[-1])
         if ra == rb:
             span = float(np.hypot(*np.diff(xy[c], axis=0).T).sum())
-            if span >= JOIN_WIDTHS * 2.0 * float(radius[ra]) and c[0] != c[-1] or len(c) > 3 and c[0] == c[-1]:
+            long_way = span >= JOIN_WIDTHS * 2.0 * float(radius[ra]) and c[0] != c[-1]
+            if long_way or (len(c) > 3 and c[0] == c[-1]):
                 loops.append(c)
             continue
         out.append([ra, *c[1:-1], rb])

@@ -217,9 +217,9 @@ class RiverNetworkBuilder:
         branch runs into, if it spans the channel (the data's edge), else a line
         perpendicular to the branch's last segment, within END_CHORD_REACH widths of its
         end, as near it as gives a chord of at least END_CHORD_FRACTION of the branch's
-        median width (and at most END_CHORD_LONGEST widths); the water beyond (the rounded or slanted tip of a mapped
-        channel) is left out, its area in ``end_cuts_m2`` after :meth:`build`; islands the
-        cut runs through are left out too (their indices in ``islands_cut``).
+        median width (and at most END_CHORD_LONGEST widths); the water beyond (the rounded
+        or slanted tip of a mapped channel) is left out, its area in ``end_cuts_m2`` after
+        :meth:`build`; islands there are left out too (their indices in ``islands_cut``).
 
         Raises:
             GraphError: not a polygon, empty, invalid, or without area.
@@ -648,7 +648,8 @@ def _edge_at(water, point: np.ndarray, eps_m: float):
             v = np.asarray(ring.coords)
             a, b = v[:-1], v[1:]
             d = b - a
-            u = np.clip(np.einsum("ij,ij->i", point - a, d) / np.maximum(np.einsum("ij,ij->i", d, d), 1e-300), 0, 1)
+            dd = np.maximum(np.einsum("ij,ij->i", d, d), 1e-300)
+            u = np.clip(np.einsum("ij,ij->i", point - a, d) / dd, 0, 1)
             dist = np.hypot(*(a + u[:, None] * d - point).T)
             k = int(np.argmin(dist))
             if dist[k] <= eps_m:
@@ -711,7 +712,8 @@ def _given_water(geoms: list[BranchGeometry], water, islands: list[_Island], tol
             else:
                 cut_area.append(0.0)
             g.centerline_m, g.widths_m = _trim_to_chord(g.centerline_m, g.widths_m, chord, at_start)
-            if len(g.centerline_m) < 2 or not np.hypot(*np.diff(g.centerline_m, axis=0).T).min() > 1e-9:
+            seg = np.hypot(*np.diff(g.centerline_m, axis=0).T)
+            if len(g.centerline_m) < 2 or not seg.min() > 1e-9:
                 raise GraphError(f"branch {g.name!r}: nothing is left of it once the water is "
                                  f"cut across its free {where} near ({c[0]:.1f}, {c[1]:.1f}) "
                                  f"(a branch shorter than the water is wide there)")
@@ -723,7 +725,8 @@ def _given_water(geoms: list[BranchGeometry], water, islands: list[_Island], tol
                     and isl.outline.distance(given.boundary) > tolerance_m):
                 cut_islands.append(k)     # an island the end cut runs through: left out
                 continue
-            raise GraphError(f"island {k} is not strictly inside the water (it must not touch a bank)")
+            raise GraphError(f"island {k} is not strictly inside the water (it must not touch "
+                             f"a bank)")
         valid_islands.append(isl)
     if valid_islands:
         water = shapely.difference(water, shapely.union_all([i.outline for i in valid_islands]))

@@ -292,7 +292,8 @@ def test_a_mask_reads_to_the_network_of_its_polygon(tmp_path):
     from_mask = rf.read_water(mask, inlets=inlet, origin_m=ORIGIN)
     graph = from_poly.build()
     from_mask.build()
-    assert "half of the mask's 2 m cells, its stairs smoothed" in from_mask.report.derived["outline"]
+    outline = from_mask.report.derived["outline"]
+    assert "half of the mask's 2 m cells, its stairs smoothed" in outline
     for key in ("axes", "islands", "direction"):
         assert from_mask.report.derived[key] == from_poly.report.derived[key]
     assert from_poly.report.derived["axes"] == {"skeleton": 7}
