@@ -961,6 +961,10 @@ def skeleton(water, tolerance_m: float = 0.25, frame=None):
     for chain in chains:
         p = uniq[chain]
         p = _smooth(p, radius[chain[0]], radius[chain[-1]], spacing)
+        # widths all along it, not only at the points simplification kept (a straight
+        # channel keeps only its ends, which lie in the wider junctions)
+        step = max(2.0 * spacing, 0.5 * float(radius[chain].min()))
+        p = np.asarray(shapely.segmentize(shapely.LineString(p), step).coords)
         w = 2.0 * tree.query(p)[0]
         w = np.maximum(w, 2.0 * tolerance_m)
         a = ids.setdefault(chain[0], len(ids))
