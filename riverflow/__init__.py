@@ -22,6 +22,7 @@ Public API (SPEC §6)::
     world.particles.foam                   # (N,) each live particle's foam in [0, 1]
     world.foam; world.wake(boat_entity)    # the foam's knobs (FoamSettings), a boat's Wake
     builder = rf.read_rivers(path)         # GIS stream lines → RiverNetworkBuilder (riverflow[gis])
+    builder = rf.read_water(path)          # water polygons / masks → RiverNetworkBuilder (riverflow[gis])
     rf.bake_flow_map(scene, region_m, cell_m, "flow.png")   # flow-map PNG + flow.json
 
 Names are imported lazily so that ``import riverflow`` stays cheap and never touches OpenGL.
@@ -59,6 +60,7 @@ _LAZY = {
     "KeyScript": "riverflow.engine.controls",
     "FixedStep": "riverflow.engine.game_loop",
     "read_rivers": "riverflow.gis.rivers",
+    "read_water": "riverflow.gis.water",
     "bake_flow_map": "riverflow.gis.bake",
     "ResourceLimitError": "riverflow._validate",
     "set_memory_limit": "riverflow._validate",

@@ -3,6 +3,9 @@
 - :func:`riverflow.gis.rivers.read_rivers` (``rf.read_rivers``): stream centre lines from a
   shapefile, GeoPackage or GeoJSON → a filled :class:`~riverflow.RiverNetworkBuilder`, widths
   and discharges from the attributes or from hydraulic geometry.
+- :func:`riverflow.gis.water.read_water` (``rf.read_water``): water polygons (islands as
+  holes) or a raster water mask → a filled builder whose banks are the polygons' rings, axes
+  from waterway lines or the polygons' skeleton.
 - :class:`riverflow.gis.rasters.RasterSource`: a GeoTIFF (any GDAL raster) as a height source,
   read one window per tile; :class:`~riverflow.gis.rasters.PngHeightSource` for 16-bit PNG
   heightmaps. ``rf.landscape(graph, terrain="dem.tif")`` uses them.

@@ -12,25 +12,55 @@ from pathlib import Path
 
 
 def add_scene_options(p: argparse.ArgumentParser) -> None:
-    """``--layer`` and ``--terrain`` beside every ``--scene``."""
+    """``--layer``, ``--terrain``, ``--inlet`` / ``--outlet`` and ``--lines`` beside every
+    ``--scene``."""
     p.add_argument("--layer", default=None, metavar="NAME",
                    help="the layer of a GIS --scene file that holds several (default: its "
                         "line layer)")
+    add_water_options(p)
     p.add_argument("--terrain", type=Path, default=None, metavar="DEM.tif",
                    help="an elevation raster (GeoTIFF, riverflow[gis]) under --scene's rivers, "
                         "reprojected to their CRS (default: procedural hills)")
 
 
-SCENE_HELP = ("a Proland hydro-graph file (.graph) or GIS stream lines (.shp, .gpkg, .geojson, "
-              ".json, OpenStreetMap .osm / .osm.pbf: riverflow.read_rivers, needs "
-              "riverflow[gis]); default: the built-in scene")
+def add_water_options(p: argparse.ArgumentParser) -> None:
+    """``--inlet``, ``--outlet`` (repeatable) and ``--lines`` for water polygons and masks."""
+    p.add_argument("--inlet", type=_point, action="append", default=None, metavar="X,Y",
+                   help="water polygons / masks: where water enters, in the data's CRS "
+                        "(repeatable; default: the narrower end of the longest channel)")
+    p.add_argument("--outlet", type=_point, action="append", default=None, metavar="X,Y",
+                   help="water polygons / masks: where water leaves (repeatable)")
+    p.add_argument("--lines", default=None, metavar="FILE|LAYER",
+                   help="water polygons: the waterway lines that give the channels' axes and "
+                        "direction (a file, or a layer of the polygon file; default: the "
+                        "polygons' skeleton)")
+
+
+SCENE_HELP = ("a Proland hydro-graph file (.graph), GIS stream lines (.shp, .gpkg, .geojson, "
+              ".json, OpenStreetMap .osm / .osm.pbf: riverflow.read_rivers), or water polygons "
+              "in those formats or a water mask (.tif: riverflow.read_water); GIS files need "
+              "riverflow[gis]; default: the built-in scene")
+
+
+def read_water_args(path, args: argparse.Namespace):
+    """:func:`~riverflow.read_water` of ``path`` with the command line's ``--layer``,
+    ``--lines``, ``--inlet``, ``--outlet``."""
+    from riverflow.gis.water import read_water
+
+    return read_water(path, layer=getattr(args, "layer", None),
+                      lines=getattr(args, "lines", None),
+                      inlets=getattr(args, "inlet", None), outlets=getattr(args, "outlet", None))
 
 
 def scene_graph(args: argparse.Namespace):
-    """The hydro graph of ``--scene``: GIS lines through :func:`~riverflow.read_rivers`
+    """The hydro graph of ``--scene``: water polygons and masks through
+    :func:`~riverflow.read_water`, GIS lines through :func:`~riverflow.read_rivers`
     (``--layer``), anything else as a Proland graph file."""
     from riverflow.gis.rivers import is_gis_path
+    from riverflow.gis.water import holds_water_areas
 
+    if holds_water_areas(args.scene, getattr(args, "layer", None)):
+        return read_water_args(args.scene, args).build()
     if is_gis_path(args.scene):
         from riverflow.gis.rivers import read_rivers
 
@@ -100,16 +130,21 @@ def add_check_command(sub) -> None:
     p.add_argument("--layer", default=None, metavar="NAME",
                    help="the layer to read (default: its line layer)")
     p.add_argument("--strict", action="store_true",
-                   help="no repairs: the first defect is an error")
+                   help="no repairs: the first defect is an error (stream lines)")
+    add_water_options(p)
     p.set_defaults(run=run_check)
 
 
 def run_check(args: argparse.Namespace) -> int:
     from riverflow.gis.rivers import read_rivers
+    from riverflow.gis.water import holds_water_areas
     from riverflow.hydro.graph import GraphError
 
     try:
-        builder = read_rivers(args.file, layer=args.layer, strict=args.strict)
+        if holds_water_areas(args.file, args.layer):
+            builder = read_water_args(args.file, args)
+        else:
+            builder = read_rivers(args.file, layer=args.layer, strict=args.strict)
         graph = builder.build()
     except (GraphError, FileNotFoundError, ImportError) as exc:
         print(f"riverflow check: {exc}", file=sys.stderr)
@@ -120,6 +155,18 @@ def run_check(args: argparse.Namespace) -> int:
           f"{len(report.repairs)} repairs; the hydro graph has {len(graph.curves)} curves and "
           f"{len(graph.areas)} areas")
     return 0
+
+
+def _point(text: str) -> tuple[float, float]:
+    """X,Y: two finite numbers."""
+    try:
+        x, y = (float(v) for v in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected X,Y (two numbers, the data's CRS), got "
+                                         f"{text[:80]!r}") from None
+    if not (math.isfinite(x) and math.isfinite(y)):
+        raise argparse.ArgumentTypeError(f"X,Y must be finite numbers, got {text[:80]!r}")
+    return x, y
 
 
 def _region(text: str) -> tuple[float, float, float, float]:

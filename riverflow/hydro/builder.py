@@ -41,6 +41,8 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
+import shapely.geometry
+import shapely.ops
 from scipy.spatial import cKDTree
 
 from riverflow.hydro import _strips
@@ -108,6 +110,9 @@ class RiverNetworkBuilder:
         self.water_polygon: shapely.Geometry | None = None
         self.crs: str | None = None
         self.water_levels = None
+        self._water_area: shapely.Geometry | None = None
+        self.end_cuts_m2: list[float] = []
+        self.islands_cut: list[int] = []
 
     # -- input --------------------------------------------------------------------------
 
@@ -199,6 +204,37 @@ class RiverNetworkBuilder:
         self._islands.append(_Island(poly, None if potential is None else float(potential)))
         return index
 
+    def set_water_area(self, water) -> None:
+        """Give the water itself instead of making it from the branches' strips.
+
+        ``water`` (a shapely Polygon or MultiPolygon [m]) is the water as a map draws it:
+        its rings are the banks, its holes the land between channels (each hole must have a
+        branch along each side). The branches are then its channels' axes (centre lines drawn
+        downstream, widths about the channel's width), joined at junctions as usual; islands
+        added with :meth:`add_island` are taken out of it like holes whose ψ is the plug-flow
+        estimate. At every free end of a branch the water is cut across the channel by a
+        straight closing segment (:func:`_end_chord`): the straight edge of the outline the
+        branch runs into, if it spans the channel (the data's edge), else a line
+        perpendicular to the branch's last segment, within END_CHORD_REACH widths of its
+        end, as near it as gives a chord of at least END_CHORD_FRACTION of the branch's
+        median width (and at most END_CHORD_LONGEST widths); the water beyond (the rounded
+        or slanted tip of a mapped channel) is left out, its area in ``end_cuts_m2`` after
+        :meth:`build`; islands there are left out too (their indices in ``islands_cut``).
+
+        Raises:
+            GraphError: not a polygon, empty, invalid, or without area.
+        """
+        if not isinstance(water, (shapely.Polygon, shapely.MultiPolygon)):
+            raise GraphError(f"set_water_area needs a shapely Polygon or MultiPolygon, got "
+                             f"{type(water).__name__}")
+        if water.is_empty or not water.area > 0:
+            raise GraphError("set_water_area: the water has no area")
+        if not water.is_valid:
+            raise GraphError(f"set_water_area: the water is not a valid polygon "
+                             f"({shapely.is_valid_reason(water)}); repair it first "
+                             f"(shapely.make_valid)")
+        self._water_area = water
+
     def _flatten(self, pts: np.ndarray, w: np.ndarray, bezier: bool) -> tuple[np.ndarray, np.ndarray]:
         """Polyline (M, 2) and per-point widths (M,) of a branch's centre line."""
         if not bezier:
@@ -228,8 +264,14 @@ class RiverNetworkBuilder:
                                                  self.lateral_inflow)
         geoms = [BranchGeometry(b.name, b.centerline_m, b.widths_m, q, sj, ej)
                  for b, q, sj, ej in zip(branches, discharges, start_j, end_j)]
-        polygons, cuts, islands = _water(geoms, junctions, self._islands, self.tolerance_m,
-                                         self.fillet_fraction)
+        if self._water_area is None:
+            polygons, cuts, islands = _water(geoms, junctions, self._islands, self.tolerance_m,
+                                             self.fillet_fraction)
+            end_cuts: list[float] = []
+        else:
+            polygons, cuts, islands, (end_cuts, cut_islands) = _given_water(
+                geoms, self._water_area, self._islands, self.tolerance_m)
+            self.islands_cut = cut_islands
         eps = max(1e-3, 1e-3 * self.tolerance_m)
         try:
             rings, pieces = _strips.split_rings(polygons, cuts, eps)
@@ -243,6 +285,7 @@ class RiverNetworkBuilder:
         self.inlets_m2s = [((float(junctions[j][0]), float(junctions[j][1])), s)
                            for j, s in sorted(inlets.items())]
         self.water_polygon = polygons[0] if len(polygons) == 1 else shapely.MultiPolygon(polygons)
+        self.end_cuts_m2 = end_cuts
         graph.crs = self.crs
         graph.water_levels = self.water_levels
         return graph
@@ -512,3 +555,182 @@ def _water(geoms: list[BranchGeometry], junctions: np.ndarray, islands: list[_Is
     if islands:
         water = shapely.difference(river, shapely.union_all([i.outline for i in islands]))
     return _strips.oriented_polygons(water, 0.2 * tolerance_m), cuts, valid_islands
+
+
+# -- a given water area ---------------------------------------------------------------------
+
+END_CHORD_FRACTION = 0.9
+"""A free end of a given water area is cut where the chord across the channel is at least
+this fraction of the channel's width (or of the widest chord there, if narrower)..."""
+END_CHORD_REACH = 1.5
+"""...looked for within this many widths of the branch's free end..."""
+END_CHORD_LONGEST = 1.6
+"""...and no longer than this many widths (a longer one runs across a bend)."""
+_END_STATIONS = 48
+
+
+def _first_hits(water, origins: np.ndarray, direction: np.ndarray, reach_m: float):
+    """Distance along ``direction`` (unit, (2,)) from each origin (N, 2) to the water's
+    boundary (inf where none within ``reach_m``), and whether that boundary is the exterior of
+    its polygon."""
+    rays = shapely.linestrings(np.stack([origins, origins + direction * reach_m], axis=1))
+    parts = [p for p in getattr(water, "geoms", [water])]
+    best = np.full(len(origins), np.inf)
+    outer = np.zeros(len(origins), bool)
+    for poly in parts:
+        for k, ring in enumerate([poly.exterior, *poly.interiors]):
+            hits = shapely.intersection(rays, ring)
+            for i, h in enumerate(hits):
+                if h.is_empty:
+                    continue
+                pts = shapely.get_coordinates(h)
+                d = float(((pts - origins[i]) @ direction).min())
+                if d < best[i]:
+                    best[i], outer[i] = d, k == 0
+    return best, outer
+
+
+def _end_chord(water, line: np.ndarray, width_m: float, at_start: bool, eps_m: float):
+    """The straight closing segment across a free end of a given water area: (chord (2, 2),
+    station along the end's tangent from the end point [m], unit tangent pointing out of the
+    channel). None when no chord across the channel is found within two widths of the end."""
+    if len(line) < 2:
+        return None
+    if at_start:
+        c, back = line[0], line[1]
+    else:
+        c, back = line[-1], line[-2]
+    t = c - back
+    t = t / np.hypot(*t)
+    n = np.array([-t[1], t[0]])
+    reach = 4.0 * width_m + 1.0
+    seg = np.hypot(*np.diff(line, axis=0).T)
+    back = min(0.5 * width_m, 0.5 * float(seg.sum()))
+    start = c - t * back                     # on the centre line, in the water
+    tip, _ = _first_hits(water, start[None], t, back + 4.0 * width_m + 1.0)
+    if not np.isfinite(tip[0]):
+        return None
+    s = np.linspace(tip[0] - eps_m, tip[0] - END_CHORD_REACH * width_m, _END_STATIONS)
+    s = s[s >= 0.0]
+    q = start + s[:, None] * t
+    inside = shapely.contains_xy(water, q[:, 0], q[:, 1])
+    left, lo = _first_hits(water, q, n, reach)
+    right, ro = _first_hits(water, q, -n, reach)
+    ok = inside & lo & ro & np.isfinite(left) & np.isfinite(right)
+    if not ok.any():
+        return None
+    chord = np.where(ok, left + right, 0.0)
+    ok &= chord <= END_CHORD_LONGEST * width_m       # not across a bend
+    if not ok.any():
+        return None
+    chord = np.where(ok, chord, 0.0)
+    ref = min(chord.max(), width_m)
+    edge = _edge_at(water, start + t * tip[0], eps_m)
+    span = np.hypot(*(edge[1] - edge[0])) if edge is not None else 0.0
+    if END_CHORD_FRACTION * ref <= span <= END_CHORD_LONGEST * width_m:
+        # the water ends on a straight edge across the channel (the data's edge): that edge
+        u, v = edge
+        if ((v - u) @ n < 0) != at_start:
+            u, v = v, u
+        return np.array([u, v]), float(tip[0] - back), t
+    k = int(np.flatnonzero(chord >= END_CHORD_FRACTION * ref)[0])
+    a, b = q[k] + n * left[k], q[k] - n * right[k]
+    return np.array([a, b]) if at_start else np.array([b, a]), float(s[k] - back), t
+
+
+def _edge_at(water, point: np.ndarray, eps_m: float):
+    """The straight edge (2, 2) of the water's outline through ``point``, or None."""
+    p = shapely.Point(point)
+    for poly in getattr(water, "geoms", [water]):
+        for ring in [poly.exterior, *poly.interiors]:
+            if ring.distance(p) > eps_m:
+                continue
+            v = np.asarray(ring.coords)
+            a, b = v[:-1], v[1:]
+            d = b - a
+            dd = np.maximum(np.einsum("ij,ij->i", d, d), 1e-300)
+            u = np.clip(np.einsum("ij,ij->i", point - a, d) / dd, 0, 1)
+            dist = np.hypot(*(a + u[:, None] * d - point).T)
+            k = int(np.argmin(dist))
+            if dist[k] <= eps_m:
+                return np.array([a[k], b[k]])
+    return None
+
+
+def _trim_to_chord(line: np.ndarray, widths: np.ndarray, chord: np.ndarray, at_start: bool):
+    """The centre line (K, 2) and widths (K,) ending on the chord's line: cut where it first
+    crosses it coming from the free end, or extended straight to it."""
+    if not at_start:
+        line2, w2 = _trim_to_chord(line[::-1], widths[::-1], chord, True)
+        return line2[::-1].copy(), w2[::-1].copy()
+    a, b = chord
+    n = np.array([-(b - a)[1], (b - a)[0]])
+    side = (line - a) @ n
+    sign = np.sign(side[-1]) or 1.0
+    keep = side * sign > 0
+    k = int(np.argmax(keep)) if keep.any() else len(line) - 1
+    p, q = (line[0], line[1]) if k == 0 else (line[k - 1], line[k])
+    sp, sq = (side[0], side[1]) if k == 0 else (side[k - 1], side[k])
+    x = p + (sp / (sp - sq) if sp != sq else 0.0) * (q - p)
+    rest, wrest = line[k:], widths[k:]
+    if np.hypot(*(x - rest[0])) <= 1e-9:
+        rest, wrest = rest[1:], wrest[1:]
+    return np.vstack([x, rest]), np.concatenate([[widths[k]], wrest])
+
+
+def _given_water(geoms: list[BranchGeometry], water, islands: list[_Island], tolerance_m: float):
+    """:meth:`RiverNetworkBuilder.set_water_area`: the oriented water polygons cut at the free
+    ends, the closing segments, the validated islands and the area cut off at each end."""
+    eps = max(1e-3, 1e-3 * tolerance_m)
+    cuts, cut_area, cut_islands = [], [], []
+    given = water
+    for g in geoms:
+        for at_start in (True, False):
+            if (g.start_junction if at_start else g.end_junction) >= 0:
+                continue
+            where = "start" if at_start else "end"
+            c = g.centerline_m[0 if at_start else -1]
+            width = float(np.median(g.widths_m))
+            found = _end_chord(water, g.centerline_m, width, at_start, eps)
+            if found is None:
+                raise GraphError(f"branch {g.name!r}: its free {where} at ({c[0]:.1f}, "
+                                 f"{c[1]:.1f}) does not reach across the water to its banks "
+                                 f"(no chord across the channel within two widths of it)")
+            chord = found[0]
+            line = shapely.LineString(np.vstack([chord[0] - (chord[1] - chord[0]) * 1e-6,
+                                                 chord[1] + (chord[1] - chord[0]) * 1e-6]))
+            pieces = list(shapely.get_parts(shapely.ops.split(water, line)))
+            t = found[2]
+            mid = chord.mean(axis=0)
+            chord_line = shapely.LineString(chord)
+            beyond = [p for p in pieces
+                      if (np.asarray(p.representative_point().coords[0]) - mid) @ t > 0
+                      and p.distance(chord_line) <= eps and p.area < 0.5 * water.area]
+            if len(pieces) > 1 and beyond:
+                water = shapely.union_all([p for p in pieces if not any(p is q for q in beyond)])
+                cut_area.append(float(sum(p.area for p in beyond)))
+            else:
+                cut_area.append(0.0)
+            g.centerline_m, g.widths_m = _trim_to_chord(g.centerline_m, g.widths_m, chord, at_start)
+            seg = np.hypot(*np.diff(g.centerline_m, axis=0).T)
+            if len(g.centerline_m) < 2 or not seg.min() > 1e-9:
+                raise GraphError(f"branch {g.name!r}: nothing is left of it once the water is "
+                                 f"cut across its free {where} near ({c[0]:.1f}, {c[1]:.1f}) "
+                                 f"(a branch shorter than the water is wide there)")
+            cuts.append(chord)
+    valid_islands = []
+    for k, isl in enumerate(islands):
+        if not water.contains(isl.outline) or isl.outline.distance(water.boundary) <= tolerance_m:
+            if (given.contains(isl.outline)
+                    and isl.outline.distance(given.boundary) > tolerance_m):
+                cut_islands.append(k)     # an island the end cut runs through: left out
+                continue
+            raise GraphError(f"island {k} is not strictly inside the water (it must not touch "
+                             f"a bank)")
+        valid_islands.append(isl)
+    if valid_islands:
+        water = shapely.difference(water, shapely.union_all([i.outline for i in valid_islands]))
+    polygons = [shapely.geometry.polygon.orient(p, sign=1.0)
+                for p in sorted((p for p in getattr(water, "geoms", [water]) if not p.is_empty),
+                                key=lambda p: (-p.area, p.bounds))]
+    return polygons, cuts, valid_islands, (cut_area, cut_islands)

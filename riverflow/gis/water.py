@@ -1,0 +1,1261 @@
+"""Rivers from water areas: :func:`read_water` (``rf.read_water``).
+
+A map often holds a river as the water itself, not as its centre line: OpenStreetMap's
+``natural=water`` multipolygons, a cadastre's riverbank polygons, a water mask classified
+from satellite images. :func:`read_water` reads them into a filled
+:class:`~riverflow.RiverNetworkBuilder` whose water is the polygons themselves
+(:meth:`~riverflow.RiverNetworkBuilder.set_water_area`)::
+
+    builder = rf.read_water("riverbanks.gpkg", lines="waterways.gpkg")
+    builder = rf.read_water("water_mask.tif", inlets=[(512_300.0, 5_010_250.0)])
+    print(builder.report)            # what was read, decided and repaired
+    graph = builder.build()
+
+- **Banks**: the polygons' own rings, islands their holes, simplified by at most
+  ``simplify_m`` (default 0.25 m; for a mask half a cell, which takes out the cells' stairs).
+  A hole that is small beside the channels around it (narrower than ISLAND_SPLIT_WIDTHS
+  times the water beside it, and not enclosed by the given lines) is a free island in its
+  channel (its ψ the plug-flow estimate, as :meth:`~riverflow.RiverNetworkBuilder.add_island`);
+  a larger one splits the river into two channels, each with its own axis, and its ψ comes
+  from how the discharge splits between them.
+- **Axes** (centre lines): the ``lines`` inside the water (a file, or a layer of the same
+  file), cut where they cross its outline; else the water's medial axis (:func:`skeleton`:
+  the Voronoi diagram of points along the outline, the edges inside the water), pruned of
+  spurs shorter than SPUR_WIDTHS times the width where they branch off, so every channel of a
+  braided river has one axis. Each free end is carried on to the outline; there the water is
+  cut by a straight closing segment across the channel (where water enters or leaves).
+- **Direction**: from the lines; else from ``inlets`` (points where water enters) and
+  ``outlets`` (points where it leaves), each matched to the nearest free end; else from
+  ``dem`` (the highest free end is the inlet, the lowest the outlet); else the two free ends
+  farthest apart along the axes are the inlet (the narrower) and the outlet (the wider). The
+  other free ends flow in (tributaries) or out (distributaries) as their distances along the
+  axes from the inlets and outlets say; ``report.derived["direction"]`` says which rule.
+- **Discharge**: ``discharge_m3s`` (the total entering at the sources, split by their widths),
+  else each source's from its width by hydraulic geometry
+  (:class:`~riverflow.gis.rivers.HydraulicGeometry`); at a bifurcation it splits by the
+  widths of the channels leaving (their median widths).
+
+Masks (GeoTIFF or any GDAL raster: a cell > 0 is water; nodata is land) become polygons at
+the raster's resolution (``rasterio.features.shapes``). Bad input never gets through as a
+library's traceback: an invalid polygon is made valid (``shapely.make_valid``) and reported,
+polygons without area are left out and reported, and a file with no water, an inlet far from
+every free end of the water, or a network that cannot be built raise
+:class:`~riverflow.GraphError` naming the file and what is wrong.
+
+Not yet (issue 22): lakes as flat water bodies (a polygon tagged ``water=lake`` is read as a
+channel like any other), and water tiles triangulated from the polygon itself (the meshes
+come from the graph as for every network).
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import shapely
+import shapely.ops
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import dijkstra
+from scipy.spatial import cKDTree
+
+from riverflow.gis import require
+from riverflow.gis.rivers import (DEFAULT_GEOMETRY, HydraulicGeometry, ImportedLink,
+                                  RiverImport, _from_wkb, _hstore, _is_osm, _moved_crs, _origin,
+                                  _osm_waterways, _pick_layer, _project, _wkt)
+from riverflow.hydro.builder import MAX_TURN_DEG, RiverNetworkBuilder, upstream_first
+from riverflow.hydro.graph import GraphError
+
+RASTER_SUFFIXES = (".tif", ".tiff", ".vrt", ".img", ".asc")
+"""Suffixes read as water masks (rasterio); anything else as polygons (pyogrio)."""
+VECTOR_SUFFIXES = (".shp", ".gpkg", ".geojson", ".json", ".osm", ".pbf")
+OSM_WATER = ("river", "canal", "lake", "reservoir", "pond", "oxbow", "stream", "riverbank")
+"""``water=`` values of OSM ``natural=water`` areas that are read (and ``waterway=riverbank``)."""
+SPUR_WIDTHS = 1.0
+"""Skeleton spurs shorter than this many local widths (2 × the inscribed radius where they
+branch off) are pruned."""
+JOIN_WIDTHS = 1.05
+"""Skeleton junctions closer than this × the sum of their inscribed radii are one junction
+(the builder's junctions must lie farther apart than half their widths' sum)."""
+ISLAND_SPLIT_WIDTHS = 2.0
+"""A hole longer (2 × its bounding radius) than this many times the water beside it splits
+the river into two channels; a smaller one is a free island in its channel."""
+MAX_ISLAND_RETRIES = 20
+"""How many islands between channels :meth:`WaterBuilder.build` may turn into free islands
+when no channel's banks reach their shores."""
+MIN_CHANNEL_WIDTHS = 2.0
+"""A separate water body whose longest axis is shorter than this many widths is no river (a
+pond, a speck left by a repair): left out, reported."""
+MASK_SMOOTH_CELLS = 1.5
+"""A mask's outline is averaged over this many cells (:func:`_smooth_cells`)."""
+SPECK_FRACTION = 1e-3
+"""A separate water body with less than this fraction of all the water is a speck (a piece a
+repair left): left out, reported."""
+SAMPLES_PER_WIDTH = 8.0
+"""Outline points per narrowest channel width for the skeleton's Voronoi diagram."""
+MAX_OUTLINE_SAMPLES = 200_000
+
+
+class WaterBuilder(RiverNetworkBuilder):
+    """The :class:`~riverflow.RiverNetworkBuilder` :func:`read_water` returns: ``report`` (a
+    :class:`~riverflow.gis.rivers.RiverImport`), ``water`` (the water polygons read, [m]),
+    ``crs``; ``build()`` errors name the file."""
+
+    report: RiverImport
+    water: shapely.Geometry
+
+    @property
+    def derived(self) -> dict[str, Any]:
+        return self.report.derived
+
+    def build(self):
+        """Make the hydro graph (``graph.source``: the file); errors name the file."""
+        forced: list[tuple[float, float]] = []
+        for _ in range(MAX_ISLAND_RETRIES + 1):
+            try:
+                graph = super().build()
+                break
+            except GraphError as exc:
+                point = _shore_point(str(exc))
+                hole = self._hole_at(point) if point is not None else self._hole_by(str(exc))
+                if hole is None or len(forced) == MAX_ISLAND_RETRIES:
+                    self._raise_named(exc)
+                forced.append(hole)
+                self._fill(tuple(forced))
+                self.report.repair("island", None, None,
+                                   f"the island near ({hole[0]:.1f}, {hole[1]:.1f}) between "
+                                   f"channels cannot be told from the other shores there "
+                                   f"({str(exc)[:100]}…): taken as a free island in one "
+                                   f"channel")
+        graph.source = self.report.path
+        cut = sum(self.end_cuts_m2)
+        if cut > 0:
+            self.report.derived["ends_cut_m2"] = round(cut, 2)
+        if self.islands_cut:
+            self.report.notes.append(f"{len(self.islands_cut)} islands at the water's open "
+                                     f"ends, where it is cut across, left out")
+        return graph
+
+    def _hole_at(self, point):
+        """A point inside the hole of the water that holds ``point`` or whose ring passes
+        within a metre of it (the builder names a shore by its vertices' mean), or None."""
+        p = shapely.Point(point)
+        for poly in getattr(self.water, "geoms", [self.water]):
+            for ring in poly.interiors:
+                if ring.distance(p) <= 1.0 or shapely.Polygon(ring).contains(p):
+                    return shapely.Polygon(ring).representative_point().coords[0]
+        return None
+
+    def _hole_by(self, text: str):
+        """For an error naming a branch whose banks the builder could not tell apart (its
+        ψ does not add up round a loop, both its banks one shore): a point inside the hole
+        between channels nearest that branch's middle, or None."""
+        import re
+
+        m = re.search(r"branch '([^']+)'", text)
+        if m is None or ("inconsistent" not in text and "one continuous shore" not in text):
+            return None
+        branch = next((b for b in self._branches if b.name == m.group(1)), None)
+        holes = [shapely.Polygon(r) for poly in getattr(self.water, "geoms", [self.water])
+                 for r in poly.interiors]
+        free = [i.outline for i in self._islands]
+        holes = [h for h in holes if not any(h.contains(f.representative_point()) for f in free)]
+        if branch is None or not holes:
+            return None
+        line = shapely.LineString(branch.centerline_m)
+        mid = line.interpolate(0.5, normalized=True)
+        best = min(holes, key=lambda h: (h.distance(line), h.distance(mid)))
+        if best.distance(line) > float(branch.widths_m.max()):
+            return None
+        return best.representative_point().coords[0]
+
+    def _raise_named(self, exc: GraphError):
+        hint = ""
+        if "lies on its right" in str(exc):
+            hint = (" (the outline has a bay or a point of land whose far side faces away "
+                    "from its channel's axis, which the flow cannot follow yet: pass "
+                    "lines= that run into the bay, or smooth the outline there)")
+        raise GraphError(f"{self.report.path} (layer {self.report.layer!r}): {exc}{hint}"
+                         ) from None
+
+
+def _shore_point(text: str):
+    """The point of the builder's "a shore near (x, y) that no branch runs along" error."""
+    import re
+
+    m = re.search(r"a shore near \(([-0-9.]+), ([-0-9.]+)\) that no branch runs along", text)
+    return (float(m.group(1)), float(m.group(2))) if m else None
+
+
+def is_water_path(path) -> bool:
+    """True for a path :func:`read_water` reads by its suffix (polygon files and rasters)."""
+    return isinstance(path, (str, Path)) and Path(path).suffix.lower() in (
+        RASTER_SUFFIXES + VECTOR_SUFFIXES)
+
+
+def holds_water_areas(path, layer=None) -> bool:
+    """True when :func:`read_water` is the reader of ``path``: a raster, or a vector file
+    whose layer (``layer``, else the first polygon layer if it has no line layer) holds
+    polygons. OpenStreetMap files are read as lines (:func:`~riverflow.read_rivers`) unless
+    ``layer`` is ``"multipolygons"``."""
+    if not isinstance(path, (str, Path)):
+        return False
+    path = Path(path)
+    if is_raster_path(path):
+        return True
+    if path.suffix.lower() not in VECTOR_SUFFIXES or not path.exists():
+        return False
+    if _is_osm(path):
+        return layer == "multipolygons"
+    try:
+        import pyogrio
+        layers = [(str(n), str(t).lower()) for n, t in pyogrio.list_layers(str(path))]
+    except Exception:   # unreadable or no pyogrio: the line reader says why
+        return False
+    if layer is not None:
+        chosen = [t for n, t in layers if n == str(layer)] or (
+            [layers[layer][1]] if isinstance(layer, int) and 0 <= layer < len(layers) else [])
+        return bool(chosen) and "polygon" in chosen[0]
+    if any("line" in t for _, t in layers):
+        return False
+    return any("polygon" in t for _, t in layers)
+
+
+def is_raster_path(path) -> bool:
+    return isinstance(path, (str, Path)) and Path(path).suffix.lower() in RASTER_SUFFIXES
+
+
+def read_water(path, *, layer: str | int | None = None, lines=None, inlets=None, outlets=None,
+               dem=None, discharge_m3s: float | None = None, crs=None, origin_m="auto",
+               simplify_m: float | None = None, tolerance_m: float = 0.25,
+               geometry: HydraulicGeometry = DEFAULT_GEOMETRY) -> WaterBuilder:
+    """Water polygons or a water mask as a filled river-network builder (module docstring).
+
+    Args:
+        path: polygons (``.shp``, ``.gpkg``, ``.geojson``, ``.json``, OSM ``.osm`` /
+            ``.osm.pbf``: ``natural=water`` areas, ``waterway=riverbank``) or a raster mask
+            (``.tif``, ``.tiff``, ``.vrt``, ``.img``, ``.asc``: a cell > 0 is water).
+        layer: the polygon layer (name or index; default: the first polygon layer; OSM:
+            ``multipolygons``).
+        lines: the waterway lines (drawn downstream) that give the channels' axes: a file,
+            or the name of a layer of ``path`` (OSM: ``"lines"``, its ``waterway=`` ways).
+        inlets, outlets: points (x, y) where water enters / leaves, in the data's CRS (as in
+            the file, or ``crs``); each is matched to the nearest free end of the water.
+        dem: an elevation raster: water runs from the highest free end to the lowest.
+        discharge_m3s: total volume discharge [m³/s] entering at the sources (default: each
+            source's from its width by ``geometry``).
+        crs: the data's CRS when the file has none or a wrong one.
+        origin_m: as :func:`~riverflow.read_rivers`.
+        simplify_m: how far the outline may move when simplified [m] (default 0.25 m, half a
+            cell for a mask).
+        tolerance_m: the builder's tolerance [m].
+        geometry: hydraulic-geometry laws for discharges from widths.
+
+    Raises:
+        FileNotFoundError: no such file.
+        GraphError: unreadable file, no polygon with an area, a mask with no water, an inlet
+            or outlet far from every free end of the water, a network that cannot be built.
+        ImportError: the ``gis`` extra is not installed.
+    """
+    inlet_xy = _points(inlets, "inlets")
+    outlet_xy = _points(outlets, "outlets")
+    if discharge_m3s is not None and not (isinstance(discharge_m3s, (int, float))
+                                          and math.isfinite(discharge_m3s) and discharge_m3s > 0):
+        raise GraphError(f"read_water: discharge_m3s must be a positive number, got "
+                         f"{discharge_m3s!r}")
+    if simplify_m is not None and not (math.isfinite(simplify_m) and simplify_m >= 0):
+        raise GraphError(f"read_water: simplify_m must be a number ≥ 0, got {simplify_m!r}")
+    path = Path(path)
+    if not path.exists():
+        raise FileNotFoundError(f"GIS file not found: {path}")
+    if path.is_file() and path.stat().st_size == 0:
+        raise GraphError(f"{path}: the file is empty")
+    if is_raster_path(path):
+        features, source_crs, layer_name, cell = _read_mask(path)
+        if simplify_m is None:
+            simplify_m = 0.5 * cell
+    else:
+        features, source_crs, layer_name = _read_polygons(path, layer)
+        cell = None
+        if simplify_m is None:
+            simplify_m = 0.25
+    where = f"{path} (layer {layer_name!r})"
+    if crs is not None:
+        source_crs = crs
+    report = RiverImport(str(path), layer_name, len(features), None, None)
+    line_geoms = _read_lines(path, lines, source_crs, where) if lines is not None else []
+
+    _check_points_crs(source_crs, inlet_xy, outlet_xy, where)
+    # project everything at once (one local CRS for polygons, lines and points)
+    geoms = [g for _, g, _ in features] + line_geoms
+    coords = shapely.get_coordinates(geoms)
+    extra = np.vstack([inlet_xy, outlet_xy])
+    xy, crs_out, crs_note = _project(np.vstack([coords, extra]), source_crs, where,
+                                     [(fid, attrs, len(shapely.get_coordinates(g)))
+                                      for fid, g, attrs in features])
+    report.source_crs = _wkt(source_crs)
+    offset = _origin(origin_m, xy, where)
+    if offset is not None:
+        xy = xy - offset
+        report.origin_m = (float(offset[0]), float(offset[1]))
+        crs_out, moved = _moved_crs(crs_out, offset)
+        crs_note += f"; coordinates moved by −({offset[0]:.0f}, {offset[1]:.0f}) m"
+    report.crs = crs_out
+    report.derived["coordinates"] = crs_note
+    geoms = list(shapely.set_coordinates(np.array(geoms, dtype=object), xy[:len(coords)]))
+    inlet_xy = xy[len(coords):len(coords) + len(inlet_xy)]
+    outlet_xy = xy[len(coords) + len(inlet_xy):]
+    polygons = geoms[:len(features)]
+    line_geoms = geoms[len(features):]
+
+    water = _repair(features, polygons, report, where, simplify_m, tolerance_m)
+    report.derived["outline"] = (f"the polygons' rings, simplified by at most {simplify_m:g} m"
+                                 + (f" (half of the mask's {cell:g} m cells, its stairs "
+                                    f"smoothed over {MASK_SMOOTH_CELLS:g} cells)" if cell else ""))
+    builder = WaterBuilder(tolerance_m)
+    builder.report = report
+    builder.crs = crs_out
+    builder.water = water
+    builder._fill = lambda forced: _fill(builder, water, line_geoms, inlet_xy, outlet_xy, dem,
+                                         discharge_m3s, geometry, tolerance_m, where, forced)
+    builder._fill(())
+    return builder
+
+
+def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, discharge_m3s,
+          geometry: HydraulicGeometry, tolerance_m: float, where: str, forced) -> None:
+    """Find the channels of the water and put them into the builder (anew: what it held is
+    dropped); holes containing a point of ``forced`` are free islands."""
+    report = builder.report
+    crs_out = report.crs
+    builder._branches.clear()
+    builder._islands.clear()
+    report.links.clear()
+    report.attributes.clear()
+    report.repairs[:] = [r for r in report.repairs if not r.feature.startswith("water body")]
+    networks = []
+    frame = shapely.box(*water.bounds)
+    for k, part in enumerate(getattr(water, "geoms", [water])):
+        net = _channels(part, k, line_geoms, tolerance_m, report, frame, forced)
+        longest = max(c.length for c in net.channels)
+        widest = max(float(c.widths.max()) for c in net.channels)
+        speck = part.area < SPECK_FRACTION * water.area
+        several = len(getattr(water, "geoms", [])) > 1
+        if several and (speck or longest < MIN_CHANNEL_WIDTHS * widest):
+            x, y = part.representative_point().coords[0]
+            report.repair(f"water body {k}", None, None,
+                          f"{part.area:.1f} m² of water near ({x:.1f}, {y:.1f}), apart from the "
+                          f"rest: " + (f"a speck (under {SPECK_FRACTION:g} of the water)"
+                                       if speck else
+                                       f"no channel longer than {MIN_CHANNEL_WIDTHS:g} times "
+                                       f"its width (a pond; lakes are not read yet)")
+                          + ": left out")
+            continue
+        networks.append(net)
+    ends = [e for net in networks for e in net.free_ends()]
+    _match_points(ends, inlet_xy, "inlet", where, water)
+    _match_points(ends, outlet_xy, "outlet", where, water)
+    elevations = _dem_elevations(dem, ends, crs_out, report, where) if dem is not None else None
+    rules = set()
+    for k, net in enumerate(networks):
+        rules.add(net.orient(elevations))
+    report.derived["direction"] = "; ".join(sorted(rules))
+    _discharges(networks, discharge_m3s, geometry, report)
+    kept = []
+    for net in networks:
+        kept.append(net.water)
+        for hole in net.islands:
+            builder.add_island(np.asarray(hole.exterior.coords)[:-1])
+        for ch in net.channels:
+            builder.add_branch(ch.points, ch.widths, discharge_m2s=ch.discharge_m2s, name=ch.name)
+            report.links.append(ImportedLink(ch.name, -1, float(np.median(ch.widths)),
+                                             ch.discharge_m2s, geometry.volume(ch.discharge_m2s),
+                                             "the water's outline", ch.discharge_from, 0.0))
+            report.attributes[ch.name] = {}
+    builder.set_water_area(kept[0] if len(kept) == 1 else shapely.MultiPolygon(kept))
+    report.derived["axes"] = {src: sum(1 for n in networks for c in n.channels if c.source == src)
+                              for src in ("lines", "skeleton")
+                              if any(c.source == src for n in networks for c in n.channels)}
+    report.derived["islands"] = {"free (in one channel)": sum(len(n.islands) for n in networks),
+                                 "between channels": sum(len(n.water.interiors) for n in networks)}
+    report.derived["length_m"] = round(sum(float(shapely.LineString(c.points).length)
+                                           for n in networks for c in n.channels), 1)
+
+
+# -- reading -------------------------------------------------------------------------------------
+
+
+def _points(value, name: str) -> np.ndarray:
+    """(N, 2) finite points, or GraphError naming the argument."""
+    if value is None:
+        return np.zeros((0, 2))
+    try:
+        pts = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise GraphError(f"read_water: {name} must be points (x, y), got {value!r}") from None
+    if pts.ndim == 1 and pts.shape == (2,):
+        pts = pts[None]
+    if pts.ndim != 2 or pts.shape[1] != 2 or not np.isfinite(pts).all():
+        raise GraphError(f"read_water: {name} must be finite points (x, y), got {value!r}")
+    return pts
+
+
+def _check_points_crs(source_crs, inlets: np.ndarray, outlets: np.ndarray, where: str) -> None:
+    """Inlets and outlets in a geographic CRS must be longitudes and latitudes."""
+    if source_crs is None or not (len(inlets) or len(outlets)):
+        return
+    pyproj = require("pyproj", f"projecting {where}")
+    try:
+        crs = pyproj.CRS.from_user_input(source_crs)
+    except Exception:   # _project says what is wrong with it
+        return
+    if not crs.is_geographic:
+        return
+    for what, pts in (("inlet", inlets), ("outlet", outlets)):
+        for x, y in pts:
+            if not (abs(x) <= 360.0 and abs(y) <= 90.0):
+                raise GraphError(f"{where}: {what} ({x:g}, {y:g}) is no longitude / latitude: "
+                                 f"inlets and outlets are in the data's CRS ({crs.name})")
+
+
+def _read_mask(path: Path):
+    """[(fid, polygon, attrs)] of the water cells (> 0) of a raster, its CRS, layer name and
+    cell size [CRS units]."""
+    rasterio = require("rasterio", f"reading {path}")
+    from rasterio import features as rio_features
+
+    try:
+        with rasterio.open(path) as src:
+            band = src.read(1, masked=True)
+            transform, crs = src.transform, src.crs
+    except Exception as exc:  # rasterio's RasterioIOError and friends
+        raise GraphError(f"{path}: cannot read it as a raster: {exc}") from None
+    data = np.ma.filled(band.astype(np.float64), 0.0)
+    mask = np.isfinite(data) & (data > 0)
+    if not mask.any():
+        raise GraphError(f"{path}: the mask has no water (no cell > 0 of {mask.size})")
+    shapes = rio_features.shapes(mask.astype(np.uint8), mask=mask, transform=transform,
+                                 connectivity=4)
+    cell = float(min(abs(transform.a), abs(transform.e)))
+    polys = [_smooth_cells(shapely.geometry.shape(s), cell) for s, _ in shapes]
+    return ([(k, p, {}) for k, p in enumerate(polys)], crs.to_wkt() if crs else None,
+            "band 1", cell)
+
+
+def _smooth_cells(poly, cell: float):
+    """A mask's polygon without the cells' stairs: each ring densified to half a cell and
+    averaged over a window of MASK_SMOOTH_CELLS cells (a straight bank then is a straight
+    line again, moved by under half a cell; the stairs' risers would face away from the
+    channel's axis, which a hydro graph does not allow)."""
+    def ring(r):
+        v = np.asarray(shapely.segmentize(r, 0.5 * cell).coords)[:-1]
+        k = max(int(round(MASK_SMOOTH_CELLS)), 1)
+        if len(v) <= 2 * k + 3:
+            return v
+        kernel = np.ones(2 * k + 1) / (2 * k + 1)
+        pad = np.vstack([v[-k:], v, v[:k]])
+        return np.column_stack([np.convolve(pad[:, i], kernel, mode="valid") for i in (0, 1)])
+
+    holes = [h for h in map(ring, poly.interiors) if len(h) >= 3]
+    out = shapely.Polygon(ring(poly.exterior), holes)
+    return out if out.is_valid else shapely.make_valid(out)
+
+
+def _read_polygons(path: Path, layer):
+    """[(fid, polygon, attrs)] of a vector file's polygon layer, its CRS and layer name."""
+    pyogrio = require("pyogrio", f"reading {path}")
+    osm = _is_osm(path)
+    if osm and layer is None:
+        name = "multipolygons"
+    elif layer is None:
+        try:
+            layers = pyogrio.list_layers(str(path))
+        except Exception as exc:
+            raise GraphError(f"{path}: cannot read it as GIS data: {exc}") from None
+        polys = [str(n) for n, t in layers if "polygon" in str(t).lower()]
+        name = polys[0] if polys else _pick_layer(pyogrio, path, None)
+    else:
+        name = _pick_layer(pyogrio, path, layer)
+    where = f"{path} (layer {name!r})"
+    try:
+        meta, fids, wkb, columns = pyogrio.raw.read(str(path), layer=name, return_fids=True)
+    except Exception as exc:
+        raise GraphError(f"{where}: cannot read it: {exc}") from None
+    names = [str(n) for n in meta["fields"]]
+    table = {n: columns[k] for k, n in enumerate(names)}
+    keep = np.ones(len(fids), bool)
+    if osm:
+        other = table.get("other_tags", [None] * len(fids))
+        natural = table.get("natural", [None] * len(fids))
+        for i in range(len(fids)):
+            tags = _hstore(other[i])
+            keep[i] = ((natural[i] == "water" and tags.get("water", "river") in OSM_WATER)
+                       or tags.get("waterway") == "riverbank")
+    geoms, _ = _from_wkb(wkb)
+    out = []
+    for i in np.flatnonzero(keep):
+        attrs = {n: _plain(table[n][i]) for n in names}
+        out.append((int(fids[i]), geoms[i], attrs))
+    if not out:
+        raise GraphError(f"{where}: no features" + (" tagged natural=water or "
+                                                    "waterway=riverbank" if osm else ""))
+    return out, meta.get("crs"), name
+
+
+def _plain(v):
+    return v.item() if isinstance(v, np.generic) else v
+
+
+def _read_lines(path: Path, lines, source_crs, where: str) -> list:
+    """The waterway lines (shapely LineStrings in the polygons' source CRS, drawn downstream):
+    ``lines`` is a file or a layer of ``path``."""
+    pyogrio = require("pyogrio", f"reading the lines of {where}")
+    if isinstance(lines, (str, Path)) and Path(lines).exists() and Path(lines) != path:
+        lpath, lname = Path(lines), None
+    elif isinstance(lines, (str, int)) and not is_raster_path(path):
+        lpath, lname = path, lines
+    else:
+        raise GraphError(f"{where}: lines={lines!r} is neither a file nor a layer of it")
+    name = ("lines" if _is_osm(lpath) and lname is None else _pick_layer(pyogrio, lpath, lname))
+    lwhere = f"{lpath} (layer {name!r})"
+    try:
+        meta, fids, wkb, columns = pyogrio.raw.read(str(lpath), layer=name, return_fids=True)
+    except Exception as exc:
+        raise GraphError(f"{lwhere}: cannot read it: {exc}") from None
+    if _is_osm(lpath):
+        names = [str(n) for n in meta["fields"]]
+        table = {n: columns[k] for k, n in enumerate(names)}
+        fids, wkb, *_ = _osm_waterways(fids, wkb, table, names, lwhere)
+    geoms, _ = _from_wkb(wkb)
+    out = []
+    for g in geoms:
+        if g is None or g.is_empty:
+            continue
+        out += [p for p in shapely.get_parts(g) if p.geom_type == "LineString" and p.length > 0]
+    if not out:
+        raise GraphError(f"{lwhere}: no lines")
+    line_crs = meta.get("crs")
+    if line_crs and source_crs:
+        pyproj = require("pyproj", f"projecting {lwhere}")
+        a, b = pyproj.CRS.from_user_input(line_crs), pyproj.CRS.from_user_input(source_crs)
+        if a != b:
+            to = pyproj.Transformer.from_crs(a, b, always_xy=True)
+            out = [shapely.transform(g, lambda p: np.column_stack(to.transform(p[:, 0], p[:, 1])))
+                   for g in out]
+    return out
+
+
+def _repair(features, polygons, report: RiverImport, where: str, simplify_m: float,
+            tolerance_m: float):
+    """The water (a Polygon or MultiPolygon [m]): invalid polygons made valid, polygons
+    without area and other geometries left out (each reported), all joined and simplified."""
+    kept = []
+    for (fid, _, attrs), g in zip(features, polygons):
+        label = f"feature {fid}"
+        if g is None or g.is_empty:
+            report.repair(label, fid, attrs, "no geometry: left out")
+            continue
+        if g.geom_type not in ("Polygon", "MultiPolygon"):
+            report.repair(label, fid, attrs, f"a {g.geom_type}, not a polygon: left out")
+            continue
+        if not np.isfinite(shapely.get_coordinates(g)).all():
+            report.repair(label, fid, attrs, "non-finite coordinates: left out")
+            continue
+        why = None if g.is_valid else shapely.is_valid_reason(g)
+        if why is not None:
+            g = shapely.make_valid(g)
+            g = shapely.union_all([p for p in shapely.get_parts(g)
+                                   if p.geom_type in ("Polygon", "MultiPolygon")])
+        if not g.area > tolerance_m ** 2:
+            report.repair(label, fid, attrs, f"no area ({g.area:.3g} m²"
+                                             + (f"; invalid: {why}" if why else "") + "): left out")
+            continue
+        if why is not None:
+            report.repair(label, fid, attrs, f"invalid polygon ({why}): made valid "
+                                             f"(shapely.make_valid), {g.area:.1f} m² of water")
+        kept.append(g)
+    if not kept:
+        raise GraphError(f"{where}: no polygon with an area ({len(features)} features read"
+                         + (f"; {report.repairs[0]}" if report.repairs else "") + ")")
+    water = shapely.union_all(kept)
+    if simplify_m > 0:
+        water = shapely.simplify(water, simplify_m, preserve_topology=True)
+    if not water.is_valid:
+        water = shapely.make_valid(water)
+    parts = [p for p in shapely.get_parts(water)
+             if p.geom_type == "Polygon" and p.area > tolerance_m ** 2]
+    clean = []
+    for p in parts:    # holes smaller than the tolerance are specks of the data, not islands
+        holes = [r for r in p.interiors if shapely.Polygon(r).area > (4.0 * tolerance_m) ** 2]
+        if len(holes) < len(p.interiors):
+            report.notes.append(f"{len(p.interiors) - len(holes)} holes smaller than "
+                                f"{(4.0 * tolerance_m) ** 2:g} m² filled (specks, not islands)")
+        clean.append(shapely.Polygon(p.exterior, holes))
+    clean.sort(key=lambda p: (-p.area, p.bounds))
+    return clean[0] if len(clean) == 1 else shapely.MultiPolygon(clean)
+
+
+# -- channels ------------------------------------------------------------------------------------
+
+
+class _Channel:
+    """One axis: points (K, 2) [m], widths (K,) [m], its source ("lines" / "skeleton"), end
+    node ids in its network, and once oriented its discharge."""
+
+    def __init__(self, points, widths, source: str, a: int, b: int, name: str) -> None:
+        self.points = np.asarray(points, np.float64)
+        self.widths = np.asarray(widths, np.float64)
+        self.source = source
+        self.a, self.b = a, b
+        self.name = name
+        self.discharge_m2s: float | None = None
+        self.discharge_from = ""
+        self.directed = source == "lines"
+
+    def flip(self) -> None:
+        self.points = self.points[::-1].copy()
+        self.widths = self.widths[::-1].copy()
+        self.a, self.b = self.b, self.a
+
+    @property
+    def width(self) -> float:
+        """Its width [m]: the median over its middle (20 - 80 % of its length, evenly
+        spaced; its ends widen into junctions)."""
+        s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(self.points, axis=0).T))])
+        at = np.linspace(0.2, 0.8, 25) * s[-1]
+        return float(np.median(np.interp(at, s, self.widths)))
+
+    @property
+    def length(self) -> float:
+        return float(np.hypot(*np.diff(self.points, axis=0).T).sum())
+
+
+class _Network:
+    """The channels of one connected water polygon: ``water`` (with the holes that lie
+    between channels), ``islands`` (free islands), ``channels``, node points, and the
+    inlets / outlets matched to its free ends."""
+
+    def __init__(self, water, islands, channels: list[_Channel], nodes: np.ndarray) -> None:
+        self.water = water
+        self.islands = islands
+        self.channels = channels
+        self.nodes = nodes
+        self.inlets: set[int] = set()
+        self.outlets: set[int] = set()
+        self.rule = ""
+
+    def degree(self) -> np.ndarray:
+        deg = np.zeros(len(self.nodes), int)
+        for c in self.channels:
+            deg[c.a] += 1
+            deg[c.b] += 1
+        return deg
+
+    def free_ends(self) -> list[tuple[_Network, int, float]]:
+        """(network, node, width) of every free end (a node of one channel)."""
+        deg = self.degree()
+        out = []
+        for c in self.channels:
+            for n in (c.a, c.b):
+                if deg[n] == 1:
+                    out.append((self, n, c.width))
+        return out
+
+    def orient(self, elevations: dict | None) -> str:
+        """Draw every channel downstream; returns the rule that decided."""
+        if all(c.directed for c in self.channels):
+            return "from the lines"
+        deg = self.degree()
+        leaves = [n for n in range(len(self.nodes)) if deg[n] == 1]
+        n = len(self.nodes)
+        rows = [c.a for c in self.channels] + [c.b for c in self.channels]
+        cols = [c.b for c in self.channels] + [c.a for c in self.channels]
+        lens = [c.length for c in self.channels] * 2
+        adj = coo_matrix((lens, (rows, cols)), shape=(n, n)).tocsr()
+        inlets, outlets = sorted(self.inlets), sorted(self.outlets)
+        if inlets or outlets:
+            rule = "from the inlets / outlets given"
+        elif elevations is not None and len(leaves) >= 2:
+            z = {k: elevations.get((id(self), k), math.nan) for k in leaves}
+            known = [k for k in leaves if math.isfinite(z[k])]
+            if len(known) < 2:
+                raise GraphError("the DEM has no elevation at two free ends of the water")
+            inlets = [max(known, key=lambda k: z[k])]
+            outlets = [min(known, key=lambda k: z[k])]
+            rule = "from the DEM (highest free end in, lowest out)"
+        else:
+            if len(leaves) < 2:
+                raise GraphError(f"the water near {tuple(np.round(self.nodes[0], 1))} has "
+                                 f"fewer than two free ends: no way in and out")
+            d0 = dijkstra(adj, indices=leaves[0])
+            a = max(leaves, key=lambda k: d0[k])
+            da = dijkstra(adj, indices=a)
+            b = max(leaves, key=lambda k: da[k])
+            wa, wb = self._end_width(a), self._end_width(b)
+            inlets, outlets = ([a], [b]) if wa <= wb else ([b], [a])
+            rule = ("the longest path along the axes, from its narrower end "
+                    f"({min(wa, wb):.1f} m) to its wider ({max(wa, wb):.1f} m)")
+        if not outlets:          # water enters where it is said to; it leaves by the rest
+            outlets = [k for k in leaves if k not in inlets]
+        if not inlets:
+            inlets = [k for k in leaves if k not in outlets]
+        if not inlets or not outlets:
+            raise GraphError(f"the water near {tuple(np.round(self.nodes[0], 1))} needs a free "
+                             f"end where water comes in and another where it leaves")
+        phi = _harmonic(adj, inlets, outlets)
+        self.inlets, self.outlets = set(inlets), set(outlets)
+        for c in self.channels:
+            if c.directed:
+                continue
+            tie = abs(phi[c.a] - phi[c.b]) <= 1e-9 * max(1.0, c.length)
+            if tie:    # a side channel as far from the inlet as from the outlet: it flows in
+                if deg[c.b] == 1 and c.b not in self.outlets:
+                    c.flip()
+            elif phi[c.a] > phi[c.b]:
+                c.flip()
+            c.directed = True
+        self._fix_junctions(adj)
+        self.rule = rule
+        return rule
+
+    def _fix_junctions(self, adj) -> None:
+        """Where a junction only receives (or only sends) water, which the distances along a
+        braided network's loops can make, turn the channel there that leads nearest to a
+        free end water leaves by (comes in by); until every junction has both."""
+        deg = self.degree()
+        for _ in range(4 * len(self.channels)):
+            sinks = {c.b for c in self.channels if deg[c.b] == 1}
+            sources = {c.a for c in self.channels if deg[c.a] == 1}
+            d_out, d_in = _distance_from(adj, sinks), _distance_from(adj, sources)
+            ins = np.zeros(len(self.nodes), int)
+            outs = np.zeros(len(self.nodes), int)
+            for c in self.channels:
+                outs[c.a] += 1
+                ins[c.b] += 1
+            bad = [j for j in range(len(self.nodes))
+                   if deg[j] > 1 and (ins[j] == 0 or outs[j] == 0)]
+            if not bad:
+                return
+            j = bad[0]
+            if outs[j] == 0:    # a sink: send water on towards the nearest way out
+                c = min((c for c in self.channels if c.b == j), key=lambda c: d_out[c.a])
+            else:               # a source: take water from the nearest way in
+                c = min((c for c in self.channels if c.a == j), key=lambda c: d_in[c.b])
+            c.flip()
+
+    def _end_width(self, node: int) -> float:
+        """The width [m] of the channel at a free end: the median over the fifth of its
+        axis next to that end (but the last tenth, where the axis leaves the water)."""
+        c = next(c for c in self.channels if node in (c.a, c.b))
+        s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(c.points, axis=0).T))])
+        lo, hi = (0.1, 0.3) if node == c.a else (0.7, 0.9)
+        return float(np.median(np.interp(np.linspace(lo, hi, 11) * s[-1], s, c.widths)))
+
+
+def _harmonic(adj, inlets: list[int], outlets: list[int]) -> np.ndarray:
+    """The potential along the axes that is 0 at the inlets, 1 at the outlets and at every
+    other node the average of its neighbours' weighted by 1 / channel length (a harmonic
+    function of the network: by the maximum principle every junction has a neighbour above
+    and one below it, so flowing up the potential no junction only receives or only sends
+    water, and nothing flows round a loop). Free ends not given are as their junction."""
+    from scipy.sparse import csr_matrix, diags
+    from scipy.sparse.linalg import spsolve
+
+    n = adj.shape[0]
+    g = adj.copy().tocsr()
+    g.data = 1.0 / np.maximum(g.data, 1e-9)
+    lap = (diags(np.asarray(g.sum(axis=1)).ravel()) - g).tocsr()
+    fixed = np.zeros(n, bool)
+    value = np.zeros(n)
+    fixed[inlets] = True
+    fixed[outlets] = True
+    value[outlets] = 1.0
+    free = np.flatnonzero(~fixed)
+    phi = value.copy()
+    if len(free):
+        a = lap[free][:, free]
+        b = -(lap[free][:, np.flatnonzero(fixed)] @ value[fixed])
+        a = csr_matrix(a)
+        with np.errstate(all="ignore"):
+            phi[free] = spsolve(a, b) if a.shape[0] > 1 else b / a.toarray().ravel()
+    if not np.isfinite(phi).all():
+        raise GraphError("part of the water is not connected to any inlet or outlet")
+    return phi
+
+
+def _distance_from(adj, nodes) -> np.ndarray:
+    """Shortest distance along the axes from any of ``nodes`` (inf where none is)."""
+    if not nodes:
+        return np.full(adj.shape[0], np.inf)
+    return np.min(np.atleast_2d(dijkstra(adj, indices=sorted(nodes))), axis=0)
+
+
+def _channels(part, k: int, lines: list, tolerance_m: float, report: RiverImport,
+              frame=None, forced=()) -> _Network:
+    """The channels of one water polygon: along the lines in it, else its skeleton."""
+    inside = [g for g in lines if g.intersects(part)]
+    if inside:
+        return _line_channels(part, k, inside, tolerance_m, report, forced)
+    if lines:
+        report.notes.append(f"water body {k}: no line runs through it: its axes are its skeleton")
+    return _skeleton_channels(part, k, tolerance_m, report, frame, forced)
+
+
+def _split_holes(part, enclosed=None, forced=()):
+    """(water with the holes that split channels, free islands): a hole is a free island when
+    it is small beside the water around it (ISLAND_SPLIT_WIDTHS), or, with ``enclosed`` (a
+    polygon), when no loop of lines goes round it."""
+    rings = [part.exterior, *part.interiors]
+    keep, free = [], []
+    for i, hole in enumerate(part.interiors):
+        poly = shapely.Polygon(hole)
+        if enclosed is not None:
+            split = enclosed.contains(poly.representative_point())
+        else:
+            others = shapely.MultiLineString([r for j, r in enumerate(rings) if j != i + 1])
+            gap = poly.distance(others)
+            split = 2.0 * shapely.minimum_bounding_radius(poly) >= ISLAND_SPLIT_WIDTHS * gap
+        if any(poly.contains(shapely.Point(p)) for p in forced):
+            split = False
+        (keep if split else free).append(hole if split else poly)
+    return shapely.Polygon(part.exterior, keep), free
+
+
+def _line_channels(part, k: int, lines: list, tolerance_m: float, report, forced=()) -> _Network:
+    """Channels along the given lines, cut to the water and noded where they meet."""
+    merged = shapely.line_merge(shapely.node(shapely.MultiLineString(
+        [np.asarray(g.coords) for g in lines])), directed=True)
+    # free islands lie inside their channel: the lines are cut by the outer shore only
+    pieces = [p for p in shapely.get_parts(shapely.intersection(merged,
+                                                                shapely.Polygon(part.exterior)))
+              if p.geom_type == "LineString" and p.length > tolerance_m]
+    # keep each piece's direction: its points as the original line runs
+    directed = []
+    for p in pieces:
+        c = np.asarray(p.coords)
+        src = min(lines, key=lambda g: g.distance(shapely.Point(c[len(c) // 2])))
+        if src.project(shapely.Point(c[-1])) < src.project(shapely.Point(c[0])):
+            c = c[::-1]
+        directed.append(shapely.LineString(c))
+    if not directed:
+        raise GraphError(f"water body {k}: the lines cross it but no piece lies inside it")
+    faces = shapely.union_all(list(shapely.get_parts(shapely.polygonize(directed))))
+    water, free = _split_holes(part, faces if not faces.is_empty else shapely.Polygon(), forced)
+    merged = shapely.line_merge(shapely.MultiLineString([np.asarray(g.coords) for g in directed]),
+                                directed=True)
+    segs = [np.asarray(g.coords) for g in shapely.get_parts(merged)]
+    key: dict[tuple[float, float], int] = {}
+
+    def node(p) -> int:
+        t = (round(float(p[0]), 6), round(float(p[1]), 6))
+        return key.setdefault(t, len(key))
+
+    channels = []
+    for i, c in enumerate(segs):
+        widths = _chord_widths(c, water)
+        channels.append(_Channel(c, widths, "lines", node(c[0]), node(c[-1]),
+                                 f"water {k} line {i}"))
+    nodes = np.array(sorted(key, key=key.get), dtype=np.float64).reshape(-1, 2)
+    net = _Network(water, free, channels, nodes)
+    _extend_free_ends(net, water)
+    return net
+
+
+def _chord_widths(line: np.ndarray, water) -> np.ndarray:
+    """Width [m] across the water at each point of a line (both banks along the normal)."""
+    d = np.gradient(line, axis=0)
+    t = d / np.maximum(np.hypot(*d.T), 1e-12)[:, None]
+    n = np.stack([-t[:, 1], t[:, 0]], axis=1)
+    reach = 2.0 * math.sqrt(water.area) + 1.0
+    bound = water.boundary
+    out = np.empty(len(line))
+    for sign, store in ((1.0, 0), (-1.0, 1)):
+        rays = shapely.linestrings(np.stack([line, line + sign * n * reach], axis=1))
+        hits = shapely.intersection(rays, bound)
+        for i, h in enumerate(hits):
+            pts = shapely.get_coordinates(h)
+            dist = np.hypot(*(pts - line[i]).T).min() if len(pts) else reach
+            out[i] = dist if store == 0 else out[i] + dist
+    return np.maximum(out, 1e-3)
+
+
+def _skeleton_channels(part, k: int, tolerance_m: float, report, frame=None,
+                       forced=()) -> _Network:
+    """Channels along the water's skeleton; holes whose loop of axes collapses become free
+    islands and the skeleton is made again."""
+    water, free = _split_holes(part, None, forced)
+    for _ in range(len(part.interiors) + 1):
+        chains, nodes, collapsed = skeleton(water, tolerance_m, frame)
+        if collapsed is None:
+            break
+        hole = water.interiors[collapsed]
+        free.append(shapely.Polygon(hole))
+        water = shapely.Polygon(water.exterior, [r for j, r in enumerate(water.interiors)
+                                                 if j != collapsed])
+    channels = [_Channel(pts, w, "skeleton", a, b, f"water {k} channel {i}")
+                for i, (pts, w, a, b) in enumerate(chains)]
+    if not channels:
+        raise GraphError(f"water body {k} near {tuple(np.round(water.centroid.coords[0], 1))}: "
+                         f"its skeleton has no channel (a blob with no way in or out)")
+    net = _Network(water, free, channels, nodes)
+    _extend_free_ends(net, water)
+    return net
+
+
+def skeleton(water, tolerance_m: float = 0.25, frame=None):
+    """The medial axis of a polygon as channels: ([(points (K, 2), widths (K,), start node,
+    end node)], node points (N, 2), the index of a hole whose loop collapsed or None).
+
+    The Voronoi diagram of points along the outline (spaced a SAMPLES_PER_WIDTH-th of the
+    narrowest width) has its edges inside the water along the medial axis; those are kept, the
+    spurs shorter than SPUR_WIDTHS local widths pruned, junctions closer than JOIN_WIDTHS ×
+    the sum of their inscribed radii merged, and the chains between junctions and ends
+    simplified. Widths are twice the distance to the outline."""
+    rings = [water.exterior, *water.interiors]
+    length = sum(r.length for r in rings)
+    approx_width = 2.0 * water.area / max(length, 1e-9)
+    gap = approx_width
+    if len(rings) > 1:       # the narrowest passage between an island and another shore
+        lines = [shapely.LinearRing(r) for r in rings]
+        tree = shapely.STRtree(lines)
+        a, b = tree.query(lines, predicate="dwithin", distance=approx_width)
+        pair = a != b
+        if pair.any():
+            gap = min(gap, float(shapely.distance(np.take(lines, a[pair]),
+                                                  np.take(lines, b[pair])).min()))
+    spacing = max(min(approx_width, 2.0 * gap) / SAMPLES_PER_WIDTH,
+                  length / MAX_OUTLINE_SAMPLES, tolerance_m)
+    pts = np.vstack([np.asarray(shapely.segmentize(r, spacing).coords)[:-1] for r in rings])
+    all_pts = pts
+    edges = shapely.get_parts(shapely.voronoi_polygons(shapely.MultiPoint(pts), only_edges=True))
+    seg = shapely.get_coordinates(edges).reshape(-1, 2, 2)
+    ok = (shapely.contains_xy(water, seg[:, 0, 0], seg[:, 0, 1])
+          & shapely.contains_xy(water, seg[:, 1, 0], seg[:, 1, 1]))
+    boundary = water.boundary
+    shapely.prepare(boundary)
+    ok[ok] &= ~shapely.intersects(boundary, edges[ok])
+    seg = seg[ok]
+    flat = np.round(seg.reshape(-1, 2), 6)
+    uniq, inv = np.unique(flat, axis=0, return_inverse=True)
+    inv = inv.reshape(-1, 2)
+    inv = inv[inv[:, 0] != inv[:, 1]]
+    radius = cKDTree(pts).query(uniq)[0]
+    # adjacency
+    nbr: list[dict[int, float]] = [dict() for _ in range(len(uniq))]
+    for a, b in inv:
+        d = float(np.hypot(*(uniq[a] - uniq[b])))
+        nbr[a][b] = d
+        nbr[b][a] = d
+    _prune(nbr, radius)
+    _keep_longest_piece(nbr)
+    chains = _chains(nbr)
+    chains, loops = _merge_junctions(chains, uniq, radius)
+    for loop in loops:        # a loop round a hole collapsed: the hole becomes a free island
+        ring = shapely.Polygon(uniq[loop]) if len(loop) >= 3 else shapely.Polygon()
+        for j, hole in enumerate(water.interiors):
+            if ring.is_valid and ring.contains(shapely.Polygon(hole).representative_point()):
+                return [], np.zeros((0, 2)), j
+    tree = cKDTree(all_pts)
+    out = []
+    ids: dict[int, int] = {}
+    for chain in chains:
+        p = uniq[chain]
+        p = _smooth(p, radius[chain[0]], radius[chain[-1]], spacing)
+        # widths all along it, not only at the points simplification kept (a straight
+        # channel keeps only its ends, which lie in the wider junctions)
+        step = max(2.0 * spacing, 0.5 * float(radius[chain].min()))
+        p = np.asarray(shapely.segmentize(shapely.LineString(p), step).coords)
+        w = 2.0 * tree.query(p)[0]
+        w = np.maximum(w, 2.0 * tolerance_m)
+        a = ids.setdefault(chain[0], len(ids))
+        b = ids.setdefault(chain[-1], len(ids))
+        out.append((p, w, a, b))
+    nodes = np.array([uniq[i] for i in sorted(ids, key=ids.get)]).reshape(-1, 2)
+    return out, nodes, None
+
+
+def _prune(nbr: list[dict[int, float]], radius: np.ndarray) -> None:
+    """Remove spurs (chains from a free end to a junction) shorter than SPUR_WIDTHS local
+    widths, at most all but
+    one at each junction per pass, until none is left."""
+    while True:
+        spurs: dict[int, list[tuple[float, list[int]]]] = {}
+        for leaf in range(len(nbr)):
+            if len(nbr[leaf]) != 1:
+                continue
+            path, length, prev, cur = [leaf], 0.0, -1, leaf
+            while True:
+                nxt = [v for v in nbr[cur] if v != prev]
+                if not nxt:
+                    break
+                v = nxt[0]
+                length += nbr[cur][v]
+                path.append(v)
+                prev, cur = cur, v
+                if len(nbr[cur]) != 2:
+                    break
+            if len(nbr[cur]) >= 3 and length < SPUR_WIDTHS * 2.0 * radius[cur]:
+                spurs.setdefault(cur, []).append((length, path))
+        if not spurs:
+            return
+        for j, items in spurs.items():
+            items.sort(key=lambda t: t[0])
+            drop = items if len(items) < len(nbr[j]) else items[:-1]
+            for _, path in drop:
+                for a, b in zip(path[:-1], path[1:]):
+                    nbr[a].pop(b, None)
+                    nbr[b].pop(a, None)
+
+
+def _keep_longest_piece(nbr: list[dict[int, float]]) -> None:
+    """Keep the longest connected piece of the skeleton (a polygon pinched to a point, as
+    make_valid leaves a knot in an outline, has another behind the pinch: its water is
+    left without an axis of its own and flows with its neighbours)."""
+    label = np.full(len(nbr), -1)
+    lengths = []
+    for s in range(len(nbr)):
+        if label[s] >= 0 or not nbr[s]:
+            continue
+        k = len(lengths)
+        label[s] = k
+        stack, total = [s], 0.0
+        while stack:
+            a = stack.pop()
+            for b, d in nbr[a].items():
+                total += 0.5 * d
+                if label[b] < 0:
+                    label[b] = k
+                    stack.append(b)
+        lengths.append(total)
+    if len(lengths) <= 1:
+        return
+    best = int(np.argmax(lengths))
+    for a in np.flatnonzero((label >= 0) & (label != best)):
+        nbr[a].clear()
+
+
+def _chains(nbr: list[dict[int, float]]) -> list[list[int]]:
+    """The chains of node ids between nodes of degree ≠ 2 (each once)."""
+    key = [i for i in range(len(nbr)) if nbr[i] and len(nbr[i]) != 2]
+    seen: set[tuple[int, int]] = set()
+    chains = []
+    for s in key:
+        for first in list(nbr[s]):
+            if (s, first) in seen:
+                continue
+            path, prev, cur = [s, first], s, first
+            while len(nbr[cur]) == 2:
+                nxt = [v for v in nbr[cur] if v != prev][0]
+                prev, cur = cur, nxt
+                path.append(cur)
+            seen.add((path[-1], path[-2]))
+            seen.add((s, first))
+            chains.append(path)
+    return chains
+
+
+def _merge_junctions(chains, xy: np.ndarray, radius: np.ndarray):
+    """Merge junctions closer than JOIN_WIDTHS × the sum of their inscribed radii (one
+    junction at the wider one's point): the builder joins end points within a quarter width
+    and refuses ends nearer than half their widths' sum that it does not join. Returns the
+    chains left (short ones between merged junctions dropped) and the chains that now start
+    and end at one junction though they are long (loops round a hole)."""
+    parent: dict[int, int] = {}
+
+    def root(a: int) -> int:
+        while parent.get(a, a) != a:
+            a = parent[a]
+        return a
+
+    deg: dict[int, int] = {}
+    for c in chains:
+        deg[c[0]] = deg.get(c[0], 0) + 1
+        deg[c[-1]] = deg.get(c[-1], 0) + 1
+    junctions = np.array(sorted(n for n, d in deg.items() if d >= 3), dtype=np.int64)
+    if len(junctions) > 1:
+        reach = 2.0 * JOIN_WIDTHS * float(radius[junctions].max())
+        pairs = cKDTree(xy[junctions]).query_pairs(reach, output_type="ndarray")
+        a, b = junctions[pairs[:, 0]], junctions[pairs[:, 1]]
+        d = np.hypot(*(xy[a] - xy[b]).T)
+        close = d < JOIN_WIDTHS * (radius[a] + radius[b])
+        for i in np.argsort(d[close]):
+            ra, rb = root(int(a[close][i])), root(int(b[close][i]))
+            if ra != rb:
+                keep, gone = (ra, rb) if radius[ra] >= radius[rb] else (rb, ra)
+                parent[gone] = keep
+    out, loops = [], []
+    for c in chains:
+        ra, rb = root(c[0]), root(c[-1])
+        if ra == rb:
+            span = float(np.hypot(*np.diff(xy[c], axis=0).T).sum())
+            long_way = span >= JOIN_WIDTHS * 2.0 * float(radius[ra]) and c[0] != c[-1]
+            if long_way or (len(c) > 3 and c[0] == c[-1]):
+                loops.append(c)
+            continue
+        out.append([ra, *c[1:-1], rb])
+    return out, loops
+
+
+def _smooth(p: np.ndarray, r_start: float, r_end: float, spacing: float) -> np.ndarray:
+    """A chain's points without the wiggles of the Voronoi edges: interior points within half
+    the inscribed radius of a junction dropped, simplified by a quarter of the sample spacing
+    and without turns sharper than the builder takes."""
+    if len(p) > 2:
+        d0 = np.hypot(*(p - p[0]).T)
+        d1 = np.hypot(*(p - p[-1]).T)
+        keep = np.ones(len(p), bool)
+        keep[1:-1] = (d0[1:-1] > 0.5 * r_start) & (d1[1:-1] > 0.5 * r_end)
+        p = p[keep]
+    line = shapely.simplify(shapely.LineString(p), 0.5 * spacing)
+    p = np.asarray(line.coords)
+    for _ in range(len(p)):
+        if len(p) <= 2:
+            break
+        d = np.diff(p, axis=0)
+        turn = np.degrees(np.abs(np.arctan2(d[:-1, 0] * d[1:, 1] - d[:-1, 1] * d[1:, 0],
+                                            np.einsum("ij,ij->i", d[:-1], d[1:]))))
+        if turn.max() <= 0.8 * MAX_TURN_DEG:
+            break
+        p = np.delete(p, int(np.argmax(turn)) + 1, axis=0)
+    return p
+
+
+def _extend_free_ends(net: _Network, water) -> None:
+    """Carry every free end of an axis on along its direction to the outline (where the
+    builder cuts the water across the channel)."""
+    deg = net.degree()
+    for c in net.channels:
+        for at_start in (True, False):
+            node = c.a if at_start else c.b
+            if deg[node] != 1:
+                continue
+            p = c.points if not at_start else c.points[::-1]
+            end = p[-1]
+            s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(p[::-1], axis=0).T))])
+            back_pt = p[::-1][min(int(np.searchsorted(s, 0.5 * c.width)), len(p) - 1)]
+            t = end - back_pt
+            if not np.hypot(*t) > 0:
+                continue
+            t = t / np.hypot(*t)
+            ray = shapely.LineString([end, end + t * (2.0 * c.width + 1.0)])
+            hit = shapely.intersection(ray, water.boundary)
+            if hit.is_empty:
+                continue
+            hp = shapely.get_coordinates(hit)
+            q = hp[int(np.argmin(np.hypot(*(hp - end).T)))]
+            if np.hypot(*(q - end)) <= 1e-6:
+                continue
+            if at_start:
+                c.points = np.vstack([q, c.points])
+                c.widths = np.concatenate([[c.widths[0]], c.widths])
+            else:
+                c.points = np.vstack([c.points, q])
+                c.widths = np.concatenate([c.widths, [c.widths[-1]]])
+            net.nodes[node] = q
+
+
+def _match_points(ends, pts: np.ndarray, what: str, where: str, water) -> None:
+    """Mark the free end nearest each point as an inlet / outlet; GraphError for a point far
+    from every free end."""
+    if not len(pts):
+        return
+    if not ends:
+        raise GraphError(f"{where}: the water has no free end to put an {what} at")
+    xy = np.array([net.nodes[n] for net, n, _ in ends])
+    for p in pts:
+        d = np.hypot(*(xy - p).T)
+        i = int(np.argmin(d))
+        net, n, w = ends[i]
+        if d[i] > max(w, 1.0):
+            off = water.distance(shapely.Point(p))
+            place = ("outside every water polygon, " if off > 0 else "in the water but ")
+            raise GraphError(f"{where}: {what} ({p[0]:.1f}, {p[1]:.1f}) lies {place}"
+                             f"{d[i]:.1f} m from the nearest free end of the water "
+                             f"({xy[i, 0]:.1f}, {xy[i, 1]:.1f}), more than the channel's width "
+                             f"there ({w:.1f} m): put it where a channel leaves the data "
+                             f"(coordinates in the data's CRS)")
+        (net.inlets if what == "inlet" else net.outlets).add(n)
+
+
+def _dem_elevations(dem, ends, crs_wkt, report: RiverImport, where: str) -> dict:
+    """Elevation of the DEM at every free end: {(id(network), node): z} (NaN off the DEM)."""
+    rasterio = require("rasterio", f"reading the DEM {dem}")
+    xy = np.array([net.nodes[n] for net, n, _ in ends]) + np.asarray(report.origin_m)
+    try:
+        with rasterio.open(dem) as src:
+            if crs_wkt and src.crs:
+                pyproj = require("pyproj", "projecting to the DEM")
+                to = pyproj.Transformer.from_crs(pyproj.CRS.from_wkt(report.crs),
+                                                 pyproj.CRS.from_user_input(src.crs.to_wkt()),
+                                                 always_xy=True)
+                # report.crs has the moved origin: its coordinates are the ones before the shift
+                xy = np.column_stack(to.transform(*(xy - np.asarray(report.origin_m)).T))
+            z = np.array([v[0] for v in src.sample([tuple(p) for p in xy], masked=True)],
+                         dtype=object)
+    except GraphError:
+        raise
+    except Exception as exc:
+        raise GraphError(f"{where}: cannot read the DEM {dem}: {exc}") from None
+    out = {}
+    for (net, n, _), v in zip(ends, z):
+        out[(id(net), n)] = math.nan if np.ma.is_masked(v) else float(v)
+    return out
+
+
+def _discharges(networks: list[_Network], total_m3s, geometry: HydraulicGeometry,
+                report: RiverImport) -> None:
+    """Discharge [m²/s] of every channel: sources from ``total_m3s`` split by width or from
+    their widths; summed at confluences, split by width at bifurcations."""
+    sources = []
+    for net in networks:
+        deg = net.degree()
+        for c in net.channels:
+            if deg[c.a] == 1:
+                sources.append(c)
+    if not sources:
+        raise GraphError(f"{report.path}: no channel starts at a free end (no water enters)")
+    wsum = sum(c.width for c in sources)
+    for c in sources:
+        if total_m3s is not None:
+            q3 = total_m3s * c.width / wsum
+            c.discharge_from = f"discharge_m3s {total_m3s:g} m³/s split by width"
+        else:
+            q3 = geometry.discharge_of_width(c.width)
+            c.discharge_from = f"hydraulic geometry of its width {c.width:.1f} m"
+        c.discharge_m2s = geometry.psi(q3)
+    for net in networks:
+        start = [c.a for c in net.channels]
+        end = [c.b for c in net.channels]
+        deg = net.degree()
+        start_j = [s if deg[s] > 1 else -1 for s in start]
+        end_j = [e if deg[e] > 1 else -1 for e in end]
+        order, loop = upstream_first(start_j, end_j)
+        if loop:
+            raise GraphError(f"{report.path}: channels {[net.channels[i].name for i in loop]} "
+                             f"flow round a loop")
+        ins: dict[int, list[int]] = {}
+        outs: dict[int, list[int]] = {}
+        for i, c in enumerate(net.channels):
+            ins.setdefault(c.b, []).append(i)
+            outs.setdefault(c.a, []).append(i)
+        for i in order:
+            c = net.channels[i]
+            if c.discharge_m2s is not None:
+                continue
+            j = c.a
+            if not ins.get(j):
+                raise GraphError(f"{report.path}: the junction at ({net.nodes[j][0]:.1f}, "
+                                 f"{net.nodes[j][1]:.1f}) has no channel flowing in")
+            inflow = sum(net.channels[k].discharge_m2s for k in ins[j])
+            leaving = outs[j]
+            w = sum(net.channels[k].width for k in leaving)
+            given = 0.0
+            for m, k in enumerate(leaving):
+                ck = net.channels[k]
+                ck.discharge_m2s = (inflow - given if m == len(leaving) - 1
+                                    else inflow * ck.width / w)
+                given += ck.discharge_m2s
+                ck.discharge_from = ("the inflow" if len(leaving) == 1 else
+                                     f"the inflow split by width ({ck.width:.1f} of {w:.1f} m)")
+    report.derived["discharge"] = sorted({c.discharge_from.split(" (")[0]
+                                          for n in networks for c in n.channels})

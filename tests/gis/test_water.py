@@ -1,0 +1,511 @@
+"""Rivers from water areas (issue 22, item 1): ``rf.read_water`` on water polygons (islands
+as holes) and raster water masks. The water in the running flow ends where the polygon
+says, the flow follows its outline and the given waterway line; without a line the skeleton
+gives one axis per channel; a mask reads to the network of its polygon; bad input is a
+clear GraphError or a reported repair."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import shapely
+
+import riverflow as rf
+from riverflow.hydro.graph import GraphError
+from tests.gis.conftest import ORIGIN, UTM, require_gis
+
+require_gis()
+
+INSIDE = rf.FlowStatus.INSIDE
+X = np.linspace(0.0, 1200.0, 121)
+MEANDER = np.c_[X, 80.0 * np.sin(X / 1200.0 * 2.0 * np.pi)]
+"""The centre of the test river [m] (relative to ORIGIN), drawn downstream."""
+
+
+def write_polygons(path, geoms, crs=UTM):
+    """Write shapely polygons (coordinates relative to ORIGIN) to a GIS file."""
+    import pyogrio.raw
+
+    from tests.gis.conftest import DRIVERS
+    geoms = [shapely.transform(g, lambda p: p + ORIGIN) for g in geoms]
+    kinds = {g.geom_type for g in geoms}
+    pyogrio.raw.write(str(path), np.array([shapely.to_wkb(g) for g in geoms], dtype=object),
+                      [], [], driver=DRIVERS[path.suffix], crs=crs,
+                      geometry_type=kinds.pop() if len(kinds) == 1 else "Unknown")
+    return path
+
+
+def write_mask(path, water, cell_m: float, bounds=(-20.0, -160.0, 1220.0, 160.0)):
+    """Rasterise ``water`` (relative to ORIGIN) into a GeoTIFF of ``cell_m`` cells (1 = water)."""
+    rasterio = pytest.importorskip("rasterio")
+    from rasterio import features
+    from rasterio.transform import Affine
+
+    x0, y0, x1, y1 = bounds
+    w, h = int(round((x1 - x0) / cell_m)), int(round((y1 - y0) / cell_m))
+    tr = Affine(cell_m, 0.0, ORIGIN[0] + x0, 0.0, -cell_m, ORIGIN[1] + y1)
+    data = (features.rasterize([shapely.transform(water, lambda p: p + ORIGIN)], out_shape=(h, w),
+                               transform=tr, dtype=np.uint8) if not water.is_empty
+            else np.zeros((h, w), np.uint8))
+    with rasterio.open(path, "w", driver="GTiff", width=w, height=h, count=1, dtype="uint8",
+                       crs=UTM, transform=tr) as dst:
+        dst.write(data, 1)
+    return path
+
+
+def meander_with_islands():
+    """A 70 m meandering river 1 200 m long with a long island (x 400 - 550) and a round one
+    (r = 9 m at x = 900), and the waterway line down it, round the long island on its
+    south side."""
+    outer = shapely.LineString(MEANDER).buffer(35.0, cap_style="flat", quad_segs=16)
+    long_island = shapely.LineString(MEANDER[40:55]).buffer(7.0, quad_segs=16)
+    round_island = shapely.Point(*MEANDER[90]).buffer(9.0, quad_segs=16)
+    water = outer.difference(long_island).difference(round_island)
+    line = np.vstack([MEANDER[:38], MEANDER[39:57] + [0.0, -21.0], MEANDER[58:]])
+    return water, line
+
+
+def two_channels(island_half_width=10.0):
+    """An 80 m river 1 200 m long split by a long island (x 350 - 600) into two channels."""
+    outer = shapely.LineString(MEANDER).buffer(40.0, cap_style="flat", quad_segs=16)
+    island = shapely.LineString(MEANDER[35:60]).buffer(island_half_width, quad_segs=16)
+    return outer.difference(island)
+
+
+def y_shape():
+    """A 80 m stem from (0, 0) to (500, 0) forking into two 60 m arms to (900, ±300)."""
+    return shapely.union_all([
+        shapely.LineString([(0, 0), (500, 0)]).buffer(40.0, cap_style="flat"),
+        shapely.LineString([(500, 0), (900, 300)]).buffer(30.0, cap_style="flat"),
+        shapely.LineString([(500, 0), (900, -300)]).buffer(30.0, cap_style="flat")])
+
+
+def closing_segments(graph) -> shapely.Geometry:
+    return shapely.MultiLineString([graph.polyline(i) for i, c in enumerate(graph.curves)
+                                    if c.type == rf.CurveType.CLOSING_SEGMENT])
+
+
+def outline_samples(water, n: int):
+    """``n`` points spread evenly along every ring of an oriented water polygon (water on the
+    left), with their unit inward normals."""
+    rings = [water.exterior, *water.interiors]
+    total = sum(r.length for r in rings)
+    pts, normals = [], []
+    for r in rings:
+        k = max(int(round(n * r.length / total)), 1)
+        for s in (np.arange(k) + 0.5) * r.length / k:
+            a = np.array(r.interpolate(s - 0.05).coords[0])
+            b = np.array(r.interpolate(s + 0.05).coords[0])
+            t = (b - a) / np.linalg.norm(b - a)
+            pts.append(np.array(r.interpolate(s).coords[0]))
+            normals.append([-t[1], t[0]])
+    return np.array(pts), np.array(normals)
+
+
+def corners_of(water, degrees: float = 3.0) -> np.ndarray:
+    """The vertices of the outline where it turns by more than ``degrees``."""
+    out = []
+    for r in [water.exterior, *water.interiors]:
+        v = np.asarray(r.coords)[:-1]
+        d1, d0 = np.roll(v, -1, 0) - v, v - np.roll(v, 1, 0)
+        turn = np.degrees(np.abs(np.arctan2(d0[:, 0] * d1[:, 1] - d0[:, 1] * d1[:, 0],
+                                            np.einsum("ij,ij->i", d0, d1))))
+        out.append(v[turn > degrees])
+    return np.vstack(out)
+
+
+# -- a polygon river with islands and its waterway line -------------------------------------
+
+
+@pytest.fixture(scope="module")
+def line_river(tmp_path_factory):
+    d = tmp_path_factory.mktemp("water")
+    water, line = meander_with_islands()
+    poly = write_polygons(d / "river.geojson", [water])
+    lines = d / "waterway.geojson"
+    write_polygons(lines, [shapely.LineString(line)])
+    builder = rf.read_water(poly, lines=lines, origin_m=ORIGIN)
+    graph = builder.build()
+    return water, line, builder, graph, rf.FlowField(graph)
+
+
+def test_the_polygon_river_reads_with_its_line(line_river):
+    water, line, builder, graph, _ = line_river
+    report = builder.report
+    assert report.derived["direction"] == "from the lines"
+    assert report.derived["axes"] == {"lines": 1}
+    # both islands lie in the one channel the line runs down: free islands
+    assert report.derived["islands"] == {"free (in one channel)": 2, "between channels": 0}
+    assert len([c for c in graph.curves if c.type == rf.CurveType.CLOSING_SEGMENT]) == 2
+    # the banks are the polygon's rings, simplified by 0.25 m (GEOS's Douglas-Peucker moves
+    # a few points a little farther; its flat ends are the closing segments, nothing was cut)
+    assert shapely.hausdorff_distance(builder.water_polygon, water) <= 0.5   # GEOS: 0.35
+    assert sum(builder.end_cuts_m2) < 1.0
+    assert not report.repairs
+
+
+def test_the_water_ends_within_a_metre_of_the_polygon(line_river):
+    """At 1 000 points spread along the polygon's rings (outer shore and both islands), the
+    running flow says INSIDE 1 m into the water and not INSIDE 1 m out of it."""
+    water, _, _, graph, field = line_river
+    pts, inward = outline_samples(shapely.geometry.polygon.orient(water), 1000)
+    assert len(pts) >= 990
+    ends = closing_segments(graph)
+    keep = shapely.distance(shapely.points(pts), ends) > 1.5     # the open ends
+    assert keep.sum() > 900
+    inside, _ = field.query(pts[keep] + 1.0 * inward[keep])
+    outside, _ = field.query(pts[keep] - 1.0 * inward[keep])
+    assert (inside == INSIDE).all(), pts[keep][inside != INSIDE][:5]
+    assert (outside != INSIDE).all(), pts[keep][outside == INSIDE][:5]
+
+
+def test_the_flow_follows_the_outline(line_river):
+    """1 m inside the outline the flow runs along it: its normal part is under 2 % of the
+    local speed at most points and under 10 % everywhere (as for builder rivers,
+    tests/flow/test_flow_properties.py), away from the outline's corners (the flow rounds
+    them) and the open ends; at the islands' tips (stagnation points) relative to the
+    river's mean speed."""
+    water, _, builder, graph, field = line_river
+    pts, inward = outline_samples(shapely.geometry.polygon.orient(water), 1000)
+    ends = closing_segments(graph)
+    from scipy.spatial import cKDTree
+    corner_d = cKDTree(corners_of(water)).query(pts)[0]
+    keep = (shapely.distance(shapely.points(pts), ends) > 2.0) & (corner_d > 2.0)
+    status, v = field.query(pts[keep] + 1.0 * inward[keep])
+    assert (status == INSIDE).all()
+    mean_speed = builder.discharges_m2s[0] / 70.0
+    speed = np.hypot(*v.T)
+    ratio = np.abs(np.einsum("ij,ij->i", v, inward[keep])) / np.maximum(speed, mean_speed)
+    assert keep.sum() > 800
+    assert np.median(ratio) < 0.02, np.median(ratio)
+    assert ratio.max() < 0.10, ratio.max()
+
+
+def test_the_flow_runs_along_the_line(line_river):
+    """Down the line (where it runs over water, 2 m from any shore: it crosses the round
+    island as OSM lines do), the flow runs along it."""
+    water, line, _, _, field = line_river
+    ls = shapely.LineString(line)
+    s = np.arange(5.0, ls.length - 5.0, 4.0)
+    pts = shapely.get_coordinates(ls.interpolate(s))
+    wet = shapely.contains_xy(water.buffer(-2.0), pts[:, 0], pts[:, 1])
+    assert wet.sum() > 0.95 * len(pts)
+    s, pts = s[wet], pts[wet]
+    ahead = shapely.get_coordinates(ls.interpolate(s + 1.0))
+    tangent = (ahead - pts) / np.linalg.norm(ahead - pts, axis=1)[:, None]
+    status, v = field.query(pts)
+    assert (status == INSIDE).all()
+    along = np.einsum("ij,ij->i", v, tangent)
+    assert (along > 0.5 * np.hypot(*v.T)).all()
+
+
+# -- no line: the skeleton ------------------------------------------------------------------
+
+
+def _channels(builder):
+    return [(b.name, b.centerline_m) for b in builder._branches]
+
+
+def test_the_skeleton_gives_one_axis_per_channel_round_an_island(tmp_path):
+    poly = write_polygons(tmp_path / "two.gpkg", [two_channels()])
+    inlet = ORIGIN + MEANDER[0]
+    builder = rf.read_water(poly, inlets=[inlet], origin_m=ORIGIN)
+    graph = builder.build()
+    assert builder.report.derived["axes"] == {"skeleton": 4}
+    assert builder.report.derived["islands"] == {"free (in one channel)": 0,
+                                                 "between channels": 1}
+    assert builder.report.derived["direction"] == "from the inlets / outlets given"
+    lines = [c for _, c in _channels(builder)]
+    # upstream reach from the inlet, two arms round the island, downstream reach
+    # it starts on the river's flat end (the data's edge), near its middle
+    end = shapely.LineString(closing_segments(graph).geoms[0].coords)
+    assert min(shapely.distance(shapely.Point(lines[0][0]), g)
+               for g in closing_segments(graph).geoms) < 1e-6 and end.length > 70.0
+    assert np.linalg.norm(lines[0][0] - MEANDER[0]) < 5.0
+    arms = [ln for ln in lines if 350.0 < ln[len(ln) // 2, 0] < 600.0]
+    assert len(arms) == 2
+    side = [np.sign(np.mean(ln[:, 1] - 80.0 * np.sin(ln[:, 0] / 1200.0 * 2.0 * np.pi)))
+            for ln in arms]
+    assert sorted(side) == [-1.0, 1.0]              # one on each side of the island
+    # the discharge splits between the arms and joins again
+    q = builder.discharges_m2s
+    assert q[-1] == pytest.approx(q[0])
+    assert sum(q[i] for i, ln in enumerate(lines) if any(ln is a for a in arms)) == \
+        pytest.approx(q[0])
+    field = rf.FlowField(graph)
+    status, v = field.query(MEANDER[[5, 100, 115]])
+    assert (status == INSIDE).all() and (v[:, 0] > 0).all()   # downstream from the inlet
+
+
+@pytest.mark.parametrize("inlets, outflows", [((0, 0), 2), ([(900, 300), (900, -300)], 1)],
+                         ids=["bifurcation", "confluence"])
+def test_the_skeleton_of_a_y(tmp_path, inlets, outflows):
+    poly = write_polygons(tmp_path / "y.geojson", [y_shape()])
+    pts = ORIGIN + np.atleast_2d(inlets)
+    builder = rf.read_water(poly, inlets=pts, origin_m=ORIGIN)
+    builder.build()
+    lines = [c for _, c in _channels(builder)]
+    assert len(lines) == 3
+    fork = np.array([500.0, 0.0])
+    starts_at_fork = sum(np.linalg.norm(ln[0] - fork) < 60.0 for ln in lines)
+    assert starts_at_fork == outflows
+    for ln in lines:                         # each axis runs down the middle of its channel
+        d = shapely.distance(shapely.points(ln), y_shape().boundary)
+        assert d[1:-1].min() > 20.0
+
+
+def test_direction_without_points_runs_from_the_narrow_end_to_the_wide(tmp_path):
+    widening = shapely.Polygon([(0, -15), (600, -50), (600, 50), (0, 15)])
+    poly = write_polygons(tmp_path / "widening.geojson", [widening])
+    builder = rf.read_water(poly, origin_m=ORIGIN)
+    graph = builder.build()
+    assert "narrower end" in builder.report.derived["direction"]
+    status, v = rf.FlowField(graph).query(np.array([[300.0, 0.0]]))
+    assert status[0] == INSIDE and v[0, 0] > 0
+
+
+def test_an_outlet_sets_the_direction(tmp_path):
+    widening = shapely.Polygon([(0, -15), (600, -50), (600, 50), (0, 15)])
+    poly = write_polygons(tmp_path / "widening.geojson", [widening])
+    builder = rf.read_water(poly, outlets=[ORIGIN + (0.0, 0.0)], origin_m=ORIGIN)
+    status, v = rf.FlowField(builder.build()).query(np.array([[300.0, 0.0]]))
+    assert status[0] == INSIDE and v[0, 0] < 0
+
+
+# -- masks ----------------------------------------------------------------------------------
+
+
+def test_a_mask_reads_to_the_network_of_its_polygon(tmp_path):
+    """A river with two islands as a polygon and as a 2 m mask: the same channels, islands
+    and discharges (the split between arms within 10 %); the mask's outline within a cell of the polygon's, its axes too (on
+    average; at most two cells), but within a river's width of the open ends (there each
+    axis is carried straight on to its cut, and the mask's smoothed end turns it a little:
+    its end moves by up to 11 m along the cut)."""
+    cell = 2.0
+    outer = shapely.LineString(MEANDER).buffer(40.0, cap_style="flat", quad_segs=16)
+    islands = [shapely.LineString(MEANDER[35:60]).buffer(10.0, quad_segs=16),
+               shapely.LineString(MEANDER[80:95]).buffer(10.0, quad_segs=16)]
+    water = outer.difference(shapely.union_all(islands))
+    poly = write_polygons(tmp_path / "river.gpkg", [water])
+    mask = write_mask(tmp_path / "river.tif", water, cell)
+    inlet = [ORIGIN + MEANDER[0]]
+    from_poly = rf.read_water(poly, inlets=inlet, origin_m=ORIGIN)
+    from_mask = rf.read_water(mask, inlets=inlet, origin_m=ORIGIN)
+    graph = from_poly.build()
+    mask_graph = from_mask.build()
+    outline = from_mask.report.derived["outline"]
+    assert "half of the mask's 2 m cells, its stairs smoothed" in outline
+    for key in ("axes", "islands", "direction"):
+        assert from_mask.report.derived[key] == from_poly.report.derived[key]
+    assert from_poly.report.derived["axes"] == {"skeleton": 7}
+    # the whole river's discharge (from its 80 m width) within 5 %; the arms' split within
+    # 10 % (their 30 m widths, measured along the mask's outline, are off by up to a cell
+    # on each bank)
+    qm, qp = np.array(from_mask.discharges_m2s), np.array(from_poly.discharges_m2s)
+    np.testing.assert_allclose(qm[[0, 3, 6]], qp[[0, 3, 6]], rtol=0.05)
+    np.testing.assert_allclose(qm, qp, rtol=0.10)
+    # the open ends: the mask's slanted end, drawn by cells, is cut across its axis where
+    # the polygon's straight end is the cut (they differ by up to 12 m along the cut)
+    ends = shapely.union(closing_segments(graph), closing_segments(mask_graph))
+    for a, b in ((from_poly.water_polygon, from_mask.water_polygon),
+                 (from_mask.water_polygon, from_poly.water_polygon)):
+        pts = shapely.get_coordinates(shapely.segmentize(a.boundary, 1.0))
+        pts = pts[shapely.distance(shapely.points(pts), ends) > 15.0]
+        assert shapely.distance(shapely.points(pts), b.boundary).max() <= cell
+    for (_, p), (_, m) in zip(_channels(from_poly), _channels(from_mask)):
+        pts = shapely.get_coordinates(shapely.segmentize(shapely.LineString(m), 1.0))
+        # away from the open ends, where each axis is carried on to its cut straight
+        pts = pts[shapely.distance(shapely.points(pts), ends) > 80.0]
+        d = shapely.distance(shapely.points(pts), shapely.LineString(p))
+        assert d.mean() <= cell and d.max() <= 2.0 * cell
+
+
+# -- bad input ------------------------------------------------------------------------------
+
+
+def test_a_self_intersecting_polygon_is_made_valid_and_reported(tmp_path):
+    good = shapely.LineString([(0, 0), (600, 0)]).buffer(30.0, cap_style="flat")
+    ring = list(good.exterior.coords)[:-1]
+    # a knot in the north bank: the outline crosses itself at (305, 35)
+    coords = [(0, -30), (600, -30), (600, 30), (310, 30), (300, 40), (310, 40), (300, 30),
+              (0, 30)]
+    bad = shapely.Polygon(coords)
+    assert not bad.is_valid and len(ring) >= 4
+    poly = write_polygons(tmp_path / "bowtie.geojson", [bad])
+    builder = rf.read_water(poly, inlets=[ORIGIN], origin_m=ORIGIN)
+    builder.build()
+    repair, speck = builder.report.repairs
+    assert repair.feature == "feature 0" and "made valid" in repair.what
+    assert "Self-intersection" in repair.what
+    # the knot's loop is a triangle of water touching the river at a point: left out
+    assert speck.feature == "water body 1" and "25.0 m² of water" in speck.what
+    assert "a speck" in speck.what
+
+
+def test_a_polygon_without_area_is_an_error(tmp_path):
+    flat = shapely.Polygon([(0, 0), (100, 0), (200, 0), (0, 0)])
+    poly = write_polygons(tmp_path / "flat.geojson", [flat])
+    with pytest.raises(GraphError, match=r"flat.geojson .*no polygon with an area.*feature 0"):
+        rf.read_water(poly)
+
+
+def test_a_polygon_without_area_beside_a_river_is_left_out_and_reported(tmp_path):
+    river = shapely.LineString([(0, 0), (600, 0)]).buffer(30.0, cap_style="flat")
+    flat = shapely.Polygon([(0, 100), (100, 100), (200, 100), (0, 100)])
+    poly = write_polygons(tmp_path / "two.geojson", [river, flat])
+    builder = rf.read_water(poly, origin_m=ORIGIN)
+    builder.build()
+    (repair,) = builder.report.repairs
+    assert repair.feature == "feature 1" and "no area" in repair.what
+    assert "invalid" in repair.what
+
+
+def test_a_mask_with_no_water_is_an_error(tmp_path):
+    mask = write_mask(tmp_path / "dry.tif", shapely.Polygon(), 5.0)
+    with pytest.raises(GraphError, match=r"dry.tif: the mask has no water"):
+        rf.read_water(mask)
+
+
+def test_an_inlet_outside_the_water_is_an_error(tmp_path):
+    poly = write_polygons(tmp_path / "y.geojson", [y_shape()])
+    with pytest.raises(GraphError, match=r"inlet \(1500.0, 0.0\) lies outside every water "
+                                         r"polygon, .* m from the nearest free end"):
+        rf.read_water(poly, inlets=[ORIGIN + (1500.0, 0.0)], origin_m=ORIGIN)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"inlets": [(0.0, float("nan"))]}, "inlets must be finite points"),
+    ({"outlets": "here"}, "outlets must be points"),
+    ({"discharge_m3s": -1.0}, "discharge_m3s must be a positive number"),
+])
+def test_bad_arguments_are_named(tmp_path, kwargs, match):
+    poly = write_polygons(tmp_path / "y.geojson", [y_shape()])
+    with pytest.raises(GraphError, match=match):
+        rf.read_water(poly, **kwargs)
+
+
+def test_a_missing_file(tmp_path):
+    with pytest.raises(FileNotFoundError, match="nothing.gpkg"):
+        rf.read_water(tmp_path / "nothing.gpkg")
+
+
+# -- command line ---------------------------------------------------------------------------
+
+
+def test_check_reads_a_polygon_file_with_an_inlet(tmp_path, capsys):
+    from riverflow.__main__ import main
+
+    poly = write_polygons(tmp_path / "y.gpkg", [y_shape()])
+    x, y = ORIGIN
+    assert main(["check", str(poly), "--inlet", f"{x + 900},{y + 300}",
+                 "--inlet", f"{x + 900},{y - 300}"]) == 0
+    out = capsys.readouterr().out
+    assert "direction: from the inlets / outlets given" in out
+    assert "axes: {'skeleton': 3}" in out
+    assert main(["check", str(poly), "--inlet", f"{x + 5000},{y}"]) == 1
+    assert "lies outside every water polygon" in capsys.readouterr().err
+
+
+def test_scene_reads_a_mask(tmp_path):
+    from riverflow.__main__ import _parser
+    from riverflow.gis.cli import scene_graph
+
+    mask = write_mask(tmp_path / "y.tif", y_shape(), 5.0, bounds=(-20, -340, 920, 340))
+    args = _parser().parse_args(["render", "--scene", str(mask), "--outlet",
+                                 f"{ORIGIN[0] + 900},{ORIGIN[1] + 300}"])
+    graph = scene_graph(args)
+    assert graph.source == str(mask)
+    assert len(graph.axes()) >= 3
+
+
+# -- other sources of direction and discharge -----------------------------------------------
+
+
+def test_a_dem_sets_the_direction(tmp_path):
+    """The widening river of the narrow→wide rule, on a DEM that falls towards its narrow
+    end: the DEM wins."""
+    from tests.gis.test_rasters import write_dem
+
+    widening = shapely.Polygon([(0, -15), (600, -50), (600, 50), (0, 15)])
+    poly = write_polygons(tmp_path / "widening.geojson", [widening])
+    dem = write_dem(tmp_path / "dem.tif", nx=70, ny=20, west=ORIGIN[0] - 50.0,
+                    north=ORIGIN[1] + 100.0, cell=10.0, fn=lambda x, y: 0.01 * (x - ORIGIN[0]))
+    builder = rf.read_water(poly, dem=dem, origin_m=ORIGIN)
+    assert builder.report.derived["direction"] == "from the DEM (highest free end in, lowest out)"
+    status, v = rf.FlowField(builder.build()).query(np.array([[300.0, 0.0]]))
+    assert status[0] == INSIDE and v[0, 0] < 0
+
+
+def test_lines_from_a_layer_of_the_same_geopackage_and_a_given_discharge(tmp_path):
+    import pyogrio.raw
+
+    poly = write_polygons(tmp_path / "river.gpkg", [two_channels()])
+    # a line down the middle that goes round the island on both sides: both arms are axes
+    north = MEANDER[33:62] + [0.0, 25.0]
+    south = MEANDER[33:62] - [0.0, 25.0]
+    lines = [MEANDER[:33], np.vstack([MEANDER[32], north[1:-1], MEANDER[62]]),
+             np.vstack([MEANDER[32], south[1:-1], MEANDER[62]]), MEANDER[62:]]
+    pyogrio.raw.write(str(poly), np.array([shapely.to_wkb(shapely.LineString(ln + ORIGIN))
+                                           for ln in lines], dtype=object), [], [],
+                      driver="GPKG", crs=UTM, layer="waterways", geometry_type="LineString",
+                      append=False)
+    builder = rf.read_water(poly, layer="river", lines="waterways", discharge_m3s=150.0,
+                            origin_m=ORIGIN)
+    builder.build()
+    report = builder.report
+    assert report.derived["axes"] == {"lines": 4}
+    assert report.derived["islands"] == {"free (in one channel)": 0, "between channels": 1}
+    from riverflow.gis.rivers import DEFAULT_GEOMETRY
+    q = builder.discharges_m2s
+    assert q[0] == pytest.approx(DEFAULT_GEOMETRY.psi(150.0))
+    assert q[1] + q[2] == pytest.approx(q[0]) and q[3] == pytest.approx(q[0])
+    assert report.links[0].discharge_from == "discharge_m3s 150 m³/s split by width"
+
+
+def test_osm_water_areas(tmp_path):
+    """``natural=water`` + ``water=river`` closed ways come in as water; other areas (a
+    wood) do not."""
+    from tests.gis.test_osm import write_osm
+
+    river = np.array(shapely.LineString([(0, 0), (800, 0)]).buffer(30.0, cap_style="flat")
+                     .exterior.coords)
+    wood = np.array([(0, 100), (200, 100), (200, 300), (0, 300), (0, 100)])
+    path = write_osm(tmp_path / "area.osm", [
+        (201, river, {"natural": "water", "water": "river"}),
+        (202, wood, {"natural": "wood"})])
+    from riverflow.gis.water import holds_water_areas
+    assert not holds_water_areas(path) and holds_water_areas(path, "multipolygons")
+    with pytest.raises(GraphError, match=r"inlet \(500000, 5e\+06\) is no longitude / "
+                                         r"latitude: inlets and outlets are in the data's CRS"):
+        rf.read_water(path, inlets=[ORIGIN])
+    import pyproj
+    lonlat = pyproj.Transformer.from_crs(UTM, "EPSG:4326", always_xy=True).transform(*ORIGIN)
+    builder = rf.read_water(path, inlets=[lonlat])
+    builder.build()
+    assert builder.report.layer == "multipolygons" and builder.report.features == 1
+    assert builder.water.area == pytest.approx(800 * 60, rel=0.01)
+
+
+def test_a_braid_of_three_channels(tmp_path):
+    """Two long islands side by side split a 120 m river into three channels: three axes
+    between the same two junctions, the discharge split by their widths (the middle one is
+    the narrowest), conserved, and every channel flowing downstream."""
+    outer = shapely.LineString([(0, 0), (1000, 0)]).buffer(60.0, cap_style="flat")
+    islands = [shapely.LineString([(350, y), (650, y)]).buffer(8.0) for y in (-22.0, 22.0)]
+    poly = write_polygons(tmp_path / "braid.geojson",
+                          [outer.difference(shapely.union_all(islands))])
+    builder = rf.read_water(poly, inlets=[ORIGIN], origin_m=ORIGIN)
+    graph = builder.build()
+    assert builder.report.derived["axes"] == {"skeleton": 5}
+    assert builder.report.derived["islands"] == {"free (in one channel)": 0,
+                                                 "between channels": 2}
+    q = builder.discharges_m2s
+    middle = [i for i, (_, ln) in enumerate(_channels(builder))
+              if abs(ln[len(ln) // 2, 1]) < 5.0 and 400 < ln[len(ln) // 2, 0] < 600]
+    sides = [i for i, (_, ln) in enumerate(_channels(builder))
+             if abs(ln[len(ln) // 2, 1]) > 30.0]
+    assert len(middle) == 1 and len(sides) == 2
+    assert q[middle[0]] + sum(q[i] for i in sides) == pytest.approx(q[0])
+    assert q[middle[0]] < min(q[i] for i in sides)          # 28 m against 30 m
+    status, v = rf.FlowField(graph).query(np.array([[500.0, 0.0], [500.0, 45.0],
+                                                    [500.0, -45.0], [100.0, 0.0]]))
+    assert (status == INSIDE).all() and (v[:, 0] > 0).all()
