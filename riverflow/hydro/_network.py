@@ -22,7 +22,7 @@ from shapely.geometry import LineString, Point
 
 from riverflow.hydro._strips import Piece, Ring
 from riverflow.hydro.graph import NO_CURVE, NO_POTENTIAL, Area, Curve, CurveType, GraphError, HydroGraph
-from riverflow.hydro.nearest import PolylineIndex
+from riverflow.hydro.nearest import PolylineIndex, first_per_group, ray_hits
 
 AXIS_WIDTH_FACTOR = 1.1
 """Axis width = largest river width along it × this + AXIS_MARGIN_M (reference rule 1)."""
@@ -61,32 +61,45 @@ class BranchGeometry:
         return p[k] + u * (p[k + 1] - p[k]), np.array([-t[1], t[0]]), h
 
 
-def _first_hit(origin: np.ndarray, direction: np.ndarray, reach_m: float,
-               lines: list, tree: shapely.STRtree) -> int:
-    """Index of the first of ``lines`` crossed by a ray, or the nearest one if none is."""
-    ray = LineString([origin, origin + direction * reach_m])
-    o = Point(origin)
-    hits = tree.query(ray, predicate="intersects")
-    if len(hits) == 0:
-        return int(tree.query_nearest(shapely.Point(origin + direction * reach_m))[0])
-    d = [shapely.distance(o, ray.intersection(lines[i])) for i in hits]
-    return int(hits[int(np.argmin(d))])
+def _first_hits(origins: np.ndarray, directions: np.ndarray, reach_m: np.ndarray,
+                tree: shapely.STRtree) -> np.ndarray:
+    """For each ray (origins, unit directions (R, 2), lengths (R,) [m]), the index of the
+    first of the tree's lines it crosses, or of the line nearest its far end if it crosses
+    none (the first of equally near ones), (R,)."""
+    ray, hit, dist = ray_hits(origins, directions, reach_m, tree)
+    first = first_per_group(ray, dist, len(origins))
+    out = np.where(first >= 0, hit[np.maximum(first, 0)] if len(hit) else -1, -1)
+    missed = np.flatnonzero(out < 0)
+    if len(missed):
+        ends = origins[missed] + directions[missed] * reach_m[missed][:, None]
+        at, nearest = tree.query_nearest(shapely.points(ends))
+        pick = first_per_group(at, np.zeros(len(at)), len(missed))
+        out[missed] = nearest[pick]
+    return out
 
 
 def _branch_sides(geoms: list[BranchGeometry], pieces: list[Piece], island_of: dict[int, int]
                   ) -> list[tuple[int, int]]:
-    """(left piece, right piece) of each branch, facing downstream (majority over stations)."""
+    """(left piece, right piece) of each branch, facing downstream (majority over stations;
+    every station's rays in one bulk query)."""
     ids = [i for i in range(len(pieces)) if i not in island_of]
-    lines = [pieces[i].line() for i in ids]
-    tree = shapely.STRtree(lines)
-    sides = []
+    tree = shapely.STRtree([pieces[i].line() for i in ids])
+    origins, normals, halves = [], [], []
     for g in geoms:
-        votes: list[tuple[int, int]] = []
         for f in _STATIONS:
             p, n, h = g.station(f)
-            left = ids[_first_hit(p, n, 1.5 * h + 1.0, lines, tree)]
-            right = ids[_first_hit(p, -n, 1.5 * h + 1.0, lines, tree)]
-            votes.append((left, right))
+            origins.append(p)
+            normals.append(n)
+            halves.append(h)
+    origins, normals, halves = np.array(origins), np.array(normals), np.array(halves)
+    reach = 1.5 * halves + 1.0
+    # rays: left then right at every station
+    hits = _first_hits(np.repeat(origins, 2, axis=0),
+                       np.stack([normals, -normals], axis=1).reshape(-1, 2),
+                       np.repeat(reach, 2), tree).reshape(len(geoms), len(_STATIONS), 2)
+    sides = []
+    for g, station_hits in zip(geoms, hits):
+        votes = [(ids[left], ids[right]) for left, right in station_hits]
         best = max(set(votes), key=lambda v: (votes.count(v), -votes.index(v)))
         if best[0] == best[1]:
             raise GraphError(f"branch {g.name!r}: both of its banks are one continuous shore; "

@@ -69,3 +69,39 @@ class PolylineIndex:
     def distance(self, xy: np.ndarray) -> np.ndarray:
         """Distance [m] from points (N, 2) to the polyline, (N,)."""
         return self.nearest(xy)[0]
+
+
+def ray_hits(origins: np.ndarray, directions: np.ndarray, reach_m: np.ndarray,
+             tree: shapely.STRtree) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where rays cross the geometries of ``tree``, all rays in one bulk query.
+
+    Ray r runs from ``origins[r]`` (R, 2) [m] to ``origins[r] + directions[r] * reach_m[r]``.
+    Returns (ray index (H,), tree index (H,), distance [m] from the ray's origin to the
+    crossing (H,)), grouped by ray in increasing order and, within one ray, in the order
+    ``tree.query`` gives for that ray alone (the same crossings and distances as one
+    ``ray.intersection(line)`` / ``shapely.distance`` per ray).
+    """
+    origins = np.asarray(origins, np.float64).reshape(-1, 2)
+    ends = origins + np.asarray(directions, np.float64).reshape(-1, 2) \
+        * np.asarray(reach_m, np.float64).reshape(-1)[:, None]
+    rays = shapely.linestrings(np.stack([origins, ends], axis=1))
+    ray, hit = tree.query(rays, predicate="intersects")
+    order = np.argsort(ray, kind="stable")
+    ray, hit = ray[order], hit[order]
+    crossing = shapely.intersection(rays[ray], tree.geometries[hit])
+    dist = shapely.distance(shapely.points(origins[ray]), crossing)
+    return ray, hit, dist
+
+
+def first_per_group(group: np.ndarray, key: np.ndarray, n_groups: int,
+                    largest: bool = False) -> np.ndarray:
+    """For rows grouped by ``group`` (H,) (non-decreasing), the row of each group with the
+    smallest ``key`` (``largest``: the largest), the first of equal ones, as ``np.argmin`` /
+    ``np.argmax`` over the group would pick; -1 for groups without rows, (n_groups,)."""
+    pos = np.arange(len(group))
+    order = np.lexsort((pos, -key if largest else key, group))
+    out = np.full(n_groups, -1, np.int64)
+    g = group[order]
+    first = np.concatenate([[True], g[1:] != g[:-1]]) if len(g) else np.zeros(0, bool)
+    out[g[first]] = order[first]
+    return out
