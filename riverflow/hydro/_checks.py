@@ -29,6 +29,49 @@ def area_loop(graph: HydroGraph, area: int) -> np.ndarray:
     return area_ring(graph, area)
 
 
+TILE_VERTICES = 4000
+""":func:`contains_xy_tiled` splits a polygon until its pieces have at most this many
+vertices."""
+TILE_MARGIN_M = 1.0
+
+
+def contains_xy_tiled(geom: shapely.Geometry, xy: np.ndarray) -> np.ndarray:
+    """``shapely.contains_xy(geom, xy)`` (N,) for many points in a large (multi)polygon.
+
+    GEOS locates a point in a prepared polygon through an index of its edges by y alone: a
+    point then visits every edge whose y-range holds it, all the banks of a long river
+    running east-west, and the water of a large network costs more per point the larger it
+    is. Here the polygon and the points are cut in halves (along the longer side of the box,
+    recursively) until each tile has at most TILE_VERTICES vertices; a tile is the polygon
+    within its box grown by TILE_MARGIN_M, and holds the points in its box, at least that
+    margin from its cut edges (points outside the polygon's box go down the outermost
+    tiles, and are outside them as they are outside the polygon): the same answer (the cuts
+    add vertices only at the margin; the polygon's own vertices and edges are kept)."""
+    xy = np.asarray(xy, np.float64).reshape(-1, 2)
+    out = np.zeros(len(xy), bool)
+    if not len(xy) or geom.is_empty:
+        return out
+    stack = [(geom, tuple(geom.bounds), np.arange(len(xy)))]
+    while stack:
+        g, (x0, y0, x1, y1), idx = stack.pop()
+        if not len(idx):
+            continue
+        if shapely.get_num_coordinates(g) <= TILE_VERTICES or max(x1 - x0, y1 - y0) < 8 * TILE_MARGIN_M:
+            shapely.prepare(g)
+            out[idx] = shapely.contains_xy(g, xy[idx, 0], xy[idx, 1])
+            continue
+        m = TILE_MARGIN_M
+        axis = 0 if x1 - x0 >= y1 - y0 else 1
+        cut = 0.5 * ((x0, y0)[axis] + (x1, y1)[axis])
+        low = xy[idx, axis] < cut
+        for b, part in (((x0, y0, cut, y1) if axis == 0 else (x0, y0, x1, cut), idx[low]),
+                        ((cut, y0, x1, y1) if axis == 0 else (x0, cut, x1, y1), idx[~low])):
+            if len(part):
+                grown = shapely.box(b[0] - m, b[1] - m, b[2] + m, b[3] + m)
+                stack.append((shapely.intersection(g, grown), b, part))
+    return out
+
+
 def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6) -> list[str]:
     """Check a builder-made graph. ``branches``: optional [(centre line (K, 2), widths (K,)
     or None, discharge m²/s)] drawn downstream (widths may be omitted as a 2-tuple)."""
@@ -82,7 +125,6 @@ def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6) -
     ccw = [p for p, a in zip(polys, poly_area) if signed[a] > 0]
     cw = [p for p, a in zip(polys, poly_area) if signed[a] < 0]
     water = shapely.difference(shapely.union_all(ccw), shapely.union_all(cw))
-    shapely.prepare(water)
     in_hole = {c for a in range(len(loops)) if signed[a] < 0 for c, _ in graph.areas[a].curves}
     axes: dict[int, PolylineIndex] = {}
     linked = [i for i in banks if 0 <= curves[i].river < len(curves)]
@@ -99,7 +141,7 @@ def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6) -
         eps = np.minimum(0.1 * length, 0.05)[:, None]
         segments.append((v, d, length, mid))
         probes += [mid + eps * nrm, mid - eps * nrm]
-    inside = shapely.contains_xy(water, *np.vstack(probes or [np.zeros((0, 2))]).T)
+    inside = contains_xy_tiled(water, np.vstack(probes or [np.zeros((0, 2))]))
     offset = 0
     for i, (v, d, length, mid) in zip(linked, segments):
         c = curves[i]

@@ -117,3 +117,28 @@ def test_first_per_group_takes_the_first_of_equal_keys():
     key = np.array([1.0, 0.5, 0.5, 3.0, 3.0])
     assert list(first_per_group(group, key, 4)) == [1, -1, 3, -1]
     assert list(first_per_group(group, key, 4, largest=True)) == [0, -1, 3, -1]
+
+
+def test_tiled_point_location_equals_shapely(monkeypatch):
+    """contains_xy_tiled cut into many small tiles answers as one contains_xy, also for points
+    a few millimetres from the outline and on the tiles' cut lines."""
+    from riverflow.hydro import _checks
+    monkeypatch.setattr(_checks, "TILE_VERTICES", 40)
+    rng = np.random.default_rng(5)
+    s = np.linspace(0.0, 2000.0, 400)
+    axis = np.stack([s, 80.0 * np.sin(s / 150.0)], axis=1)
+    river = shapely.LineString(axis).buffer(12.0, quad_segs=8)
+    river = shapely.difference(river, shapely.Point(1000.0, 80.0 * np.sin(1000.0 / 150.0))
+                               .buffer(4.0))                                  # an island
+    river = shapely.MultiPolygon([river, shapely.box(0.0, 300.0, 50.0, 340.0)])
+    ring = shapely.get_coordinates(shapely.get_exterior_ring(river.geoms[0]))
+    d = np.diff(ring, axis=0)
+    mid = 0.5 * (ring[:-1] + ring[1:])
+    n = np.stack([-d[:, 1], d[:, 0]], axis=1) / np.hypot(*d.T)[:, None]
+    xy = np.vstack([rng.uniform([-20, -120], [2020, 360], (3000, 2)),
+                    mid + 0.005 * n, mid - 0.005 * n,
+                    np.stack([np.full(50, 1000.0), rng.uniform(-120, 120, 50)], axis=1)])
+    want = shapely.contains_xy(river, xy[:, 0], xy[:, 1])
+    got = _checks.contains_xy_tiled(river, xy)
+    assert want.sum() > 1000 and (~want).sum() > 1000
+    assert np.array_equal(got, want)
