@@ -15,7 +15,7 @@ from shapely.geometry import LineString, MultiLineString
 
 from riverflow.hydro.areas import area_ring
 from riverflow.hydro.graph import HydroGraph
-from riverflow.hydro.nearest import PolylineIndex, first_per_group, ray_hits
+from riverflow.hydro.nearest import PolylineIndex, first_per_group, ray_hits, stations
 
 
 def _signed_area(loop: np.ndarray) -> float:
@@ -188,7 +188,7 @@ def _discharge_problems(graph: HydroGraph, branches, rel_tol: float) -> list[str
     fractions = np.array([0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8])
     origins, normals, widths = [], [], []
     for br in branches:
-        o, n, w = _stations(np.asarray(br[0], dtype=float), fractions,
+        o, n, w = stations(np.asarray(br[0], dtype=float), fractions,
                             br[1] if len(br) == 3 else None)
         origins.append(o)
         normals.append(n)
@@ -209,24 +209,6 @@ def _discharge_problems(graph: HydroGraph, branches, rel_tol: float) -> list[str
                 problems.append(f"branch {k}: ψ(right) − ψ(left) = {dpsi:g}, discharge {q:g}")
                 break
     return problems
-
-
-def _stations(line: np.ndarray, fractions: np.ndarray, widths=None):
-    """Points (F, 2), unit left normals (F, 2) and widths [m] (F,) (NaN if ``widths`` is None;
-    else a scalar, one value or one per point) at arc-length fractions (F,) of a polyline
-    (K, 2)."""
-    seg = np.hypot(*np.diff(line, axis=0).T)
-    s = np.concatenate([[0.0], np.cumsum(seg)])
-    target = fractions * s[-1]
-    j = np.clip(np.searchsorted(s, target, side="right") - 1, 0, len(seg) - 1)
-    u = (target - s[j]) / seg[j]
-    t = (line[j + 1] - line[j]) / seg[j][:, None]
-    w = np.full(len(fractions), np.nan)
-    if widths is not None:
-        wa = np.broadcast_to(np.asarray(widths, dtype=float).reshape(-1), (len(line),)) \
-            if np.size(widths) == 1 else np.asarray(widths, dtype=float)
-        w = (1 - u) * wa[j] + u * wa[j + 1]
-    return line[j] + u[:, None] * (line[j + 1] - line[j]), np.stack([-t[:, 1], t[:, 0]], axis=1), w
 
 
 def _bank_psi(tree: shapely.STRtree, potential: np.ndarray, origins: np.ndarray,

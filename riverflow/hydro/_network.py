@@ -22,7 +22,7 @@ from shapely.geometry import LineString, Point
 
 from riverflow.hydro._strips import Piece, Ring
 from riverflow.hydro.graph import NO_CURVE, NO_POTENTIAL, Area, Curve, CurveType, GraphError, HydroGraph
-from riverflow.hydro.nearest import PolylineIndex, first_per_group, ray_hits
+from riverflow.hydro.nearest import PolylineIndex, first_per_group, ray_hits, stations
 
 AXIS_WIDTH_FACTOR = 1.1
 """Axis width = largest river width along it × this + AXIS_MARGIN_M (reference rule 1)."""
@@ -50,15 +50,8 @@ class BranchGeometry:
 
     def station(self, fraction: float) -> tuple[np.ndarray, np.ndarray, float]:
         """Point (2,), unit left normal (2,) and half-width [m] at an arc-length fraction."""
-        p = self.centerline_m
-        seg = np.hypot(*np.diff(p, axis=0).T)
-        s = np.concatenate([[0.0], np.cumsum(seg)])
-        target = fraction * s[-1]
-        k = int(np.clip(np.searchsorted(s, target, side="right") - 1, 0, len(seg) - 1))
-        u = (target - s[k]) / seg[k]
-        t = (p[k + 1] - p[k]) / seg[k]
-        h = 0.5 * ((1 - u) * self.widths_m[k] + u * self.widths_m[k + 1])
-        return p[k] + u * (p[k + 1] - p[k]), np.array([-t[1], t[0]]), h
+        p, n, w = stations(self.centerline_m, np.array([fraction]), self.widths_m)
+        return p[0], n[0], 0.5 * w[0]
 
 
 def _first_hits(origins: np.ndarray, directions: np.ndarray, reach_m: np.ndarray,
@@ -84,15 +77,10 @@ def _branch_sides(geoms: list[BranchGeometry], pieces: list[Piece], island_of: d
     every station's rays in one bulk query)."""
     ids = [i for i in range(len(pieces)) if i not in island_of]
     tree = shapely.STRtree([pieces[i].line() for i in ids])
-    origins, normals, halves = [], [], []
-    for g in geoms:
-        for f in _STATIONS:
-            p, n, h = g.station(f)
-            origins.append(p)
-            normals.append(n)
-            halves.append(h)
-    origins, normals, halves = np.array(origins), np.array(normals), np.array(halves)
-    reach = 1.5 * halves + 1.0
+    at = [stations(g.centerline_m, np.asarray(_STATIONS), g.widths_m) for g in geoms]
+    origins = np.vstack([p for p, _, _ in at])
+    normals = np.vstack([n for _, n, _ in at])
+    reach = 1.5 * (0.5 * np.concatenate([w for _, _, w in at])) + 1.0
     # rays: left then right at every station
     hits = _first_hits(np.repeat(origins, 2, axis=0),
                        np.stack([normals, -normals], axis=1).reshape(-1, 2),

@@ -105,3 +105,21 @@ def first_per_group(group: np.ndarray, key: np.ndarray, n_groups: int,
     first = np.concatenate([[True], g[1:] != g[:-1]]) if len(g) else np.zeros(0, bool)
     out[g[first]] = order[first]
     return out
+
+
+def stations(line: np.ndarray, fractions: np.ndarray, widths=None):
+    """Points (F, 2), unit left normals (F, 2) and widths [m] (F,) (NaN if ``widths`` is None;
+    else a scalar, one value or one per point) at arc-length fractions (F,) of a polyline
+    (K, 2)."""
+    seg = np.hypot(*np.diff(line, axis=0).T)
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    target = fractions * s[-1]
+    j = np.clip(np.searchsorted(s, target, side="right") - 1, 0, len(seg) - 1)
+    u = (target - s[j]) / seg[j]
+    t = (line[j + 1] - line[j]) / seg[j][:, None]
+    w = np.full(len(fractions), np.nan)
+    if widths is not None:
+        wa = np.broadcast_to(np.asarray(widths, dtype=float).reshape(-1), (len(line),)) \
+            if np.size(widths) == 1 else np.asarray(widths, dtype=float)
+        w = (1 - u) * wa[j] + u * wa[j + 1]
+    return line[j] + u[:, None] * (line[j + 1] - line[j]), np.stack([-t[:, 1], t[:, 0]], axis=1), w
