@@ -52,19 +52,25 @@ class PolylineIndex:
         limit = np.inf if max_distance is None else float(max_distance) ** 2
         nearest_segments(self.a, self.d, self.boxes, np.ascontiguousarray(xy), limit, seg)
         found = seg >= 0
-        seg = np.maximum(seg, 0)
+        if not found.all():     # only the points within reach are projected
+            dist = np.full(len(xy), np.inf)
+            q = np.full((len(xy), 2), np.nan)
+            arc = np.full(len(xy), np.nan)
+            if found.any():
+                dist[found], q[found], arc[found] = self._project(xy[found], seg[found])
+            return dist, q, arc
+        return self._project(xy, seg)
+
+    def _project(self, xy: np.ndarray, seg: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Distance, nearest point and arc length of points (N, 2) on their segments (N,)."""
         a, d = self.a[seg], self.d[seg]
         dd = np.einsum("ij,ij->i", d, d)
         t = np.where(dd > 0.0, np.einsum("ij,ij->i", xy - a, d) / np.where(dd > 0, dd, 1.0), 0.0)
         t = np.clip(t, 0.0, 1.0)
         q = a + t[:, None] * d
         dist = np.hypot(q[:, 0] - xy[:, 0], q[:, 1] - xy[:, 1])
-        arc = self.s0[seg] + t * self.seg_len[seg]
-        if not found.all():
-            dist[~found] = np.inf
-            q[~found] = np.nan
-            arc[~found] = np.nan
-        return dist, q, arc
+        return dist, q, self.s0[seg] + t * self.seg_len[seg]
 
     def distance(self, xy: np.ndarray) -> np.ndarray:
         """Distance [m] from points (N, 2) to the polyline, (N,)."""
