@@ -21,7 +21,9 @@ Timed, each on its own (one core: the process is pinned and NUMBA_NUM_THREADS=1)
 Target (the GIS issue): a 1000 km network with hundreds of links read and built in ≤ 60 s on
 one core; issue 21: ≤ 10 s per 1000 km and time linear in the number of links (``--copies N``
 puts N disjoint copies side by side; ``--read-build-only`` stops after the build). Read and
-build are timed by the wall clock and by the process's CPU time (equal on a quiet machine). Figures go to docs/performance.md. Run: ``python benchmarks/bench_gis.py``
+build are timed by the wall clock and by the process's CPU time (equal on a quiet machine),
+and reported per 1000 links and per 1000 km (CPU), with the peak memory after the build
+(``peak_rss_mb``). Figures go to docs/performance.md. Run: ``python benchmarks/bench_gis.py``
 (``--json out.json`` keeps the figures).
 """
 from __future__ import annotations
@@ -93,6 +95,16 @@ def network(main_km: float, spacing_km: float, trib_km: float, sub_km: float):
     return lines, np.array(areas)
 
 
+def _peak_rss_mb() -> float | None:
+    """The process's peak resident memory so far [MB] (None where ``resource`` is missing)."""
+    try:
+        import resource
+    except ImportError:     # Windows
+        return None
+    rss = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    return rss / 1024.0 / (1024.0 if sys.platform == "darwin" else 1.0)    # bytes on macOS
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--main-km", type=float, default=200.0)
@@ -146,6 +158,7 @@ def main(argv: list[str] | None = None) -> int:
     # wall clock shows; a shared machine's wall clock also counts the other processes)
     out["cpu_s_per_1000_links"] = out["read_and_build_cpu_s"] / out["links"] * 1000.0
     out["cpu_s_per_1000_km"] = out["read_and_build_cpu_s"] / length_km * 1000.0
+    out["peak_rss_mb"] = _peak_rss_mb()
     if args.read_build_only:
         print(json.dumps({k: round(v, 3) if isinstance(v, float) else v
                           for k, v in out.items()}, indent=2))

@@ -15,7 +15,7 @@ from shapely.geometry import LineString, MultiLineString
 
 from riverflow.hydro.areas import area_ring
 from riverflow.hydro.graph import HydroGraph
-from riverflow.hydro.nearest import PolylineIndex
+from riverflow.hydro.nearest import PolylineIndex, first_per_group, ray_hits, stations
 
 
 def _signed_area(loop: np.ndarray) -> float:
@@ -27,6 +27,51 @@ def area_loop(graph: HydroGraph, area: int) -> np.ndarray:
     """The closed polyline of an area (M, 2) [m], first point not repeated (builder graphs
     have no Bézier control points, so this is the raw vertex loop)."""
     return area_ring(graph, area)
+
+
+TILE_VERTICES = 4000
+""":func:`contains_xy_tiled` splits a polygon until its pieces have at most this many
+vertices."""
+TILE_MARGIN_M = 1.0
+
+
+def contains_xy_tiled(geom: shapely.Geometry, xy: np.ndarray) -> np.ndarray:
+    """``shapely.contains_xy(geom, xy)`` (N,) for many points in a large (multi)polygon.
+
+    GEOS locates a point in a prepared polygon through an index of its edges by y alone: a
+    point then visits every edge whose y-range holds it, all the banks of a long river
+    running east-west, and the water of a large network costs more per point the larger it
+    is. Here the polygon and the points are cut in halves (along the longer side of the box,
+    recursively) until each tile has at most TILE_VERTICES vertices; a tile is the polygon
+    within its box grown by TILE_MARGIN_M, and holds the points in its box, at least that
+    margin from its cut edges (points outside the polygon's box go down the outermost
+    tiles, and are outside them as they are outside the polygon): the same answer (the cuts
+    add vertices only at the margin; the polygon's own vertices and edges are kept). GEOS's
+    rectangle clip is used: its output may be invalid along the rectangle's edges (rings
+    touching there), which changes nothing for points a margin inside it."""
+    xy = np.asarray(xy, np.float64).reshape(-1, 2)
+    out = np.zeros(len(xy), bool)
+    if not len(xy) or geom.is_empty:
+        return out
+    stack = [(geom, tuple(geom.bounds), np.arange(len(xy)))]
+    while stack:
+        g, (x0, y0, x1, y1), idx = stack.pop()
+        if not len(idx):
+            continue
+        if shapely.get_num_coordinates(g) <= TILE_VERTICES or max(x1 - x0, y1 - y0) < 8 * TILE_MARGIN_M:
+            shapely.prepare(g)
+            out[idx] = shapely.contains_xy(g, xy[idx, 0], xy[idx, 1])
+            continue
+        m = TILE_MARGIN_M
+        axis = 0 if x1 - x0 >= y1 - y0 else 1
+        cut = 0.5 * ((x0, y0)[axis] + (x1, y1)[axis])
+        low = xy[idx, axis] < cut
+        for b, part in (((x0, y0, cut, y1) if axis == 0 else (x0, y0, x1, cut), idx[low]),
+                        ((cut, y0, x1, y1) if axis == 0 else (x0, cut, x1, y1), idx[~low])):
+            if len(part):
+                stack.append((shapely.clip_by_rect(g, b[0] - m, b[1] - m, b[2] + m, b[3] + m),
+                              b, part))
+    return out
 
 
 def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6) -> list[str]:
@@ -57,26 +102,37 @@ def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6) -
                 problems.append(f"area {a}: curve {area.curves[k][0]} does not join the next one")
                 break
     loops = [area_loop(graph, a) for a in range(len(graph.areas))]
+    signed = [_signed_area(lp) for lp in loops]
     polys = [shapely.Polygon(lp) for lp in loops if len(lp) >= 3]
+    poly_area = [a for a, lp in enumerate(loops) if len(lp) >= 3]
+    # the counter-clockwise loops containing each loop's first point (one tree query)
+    first = shapely.points(np.array([lp[0] for lp in loops]).reshape(-1, 2))
+    ccw_around: dict[int, set[int]] = {}
+    if polys:
+        at, by = shapely.STRtree(polys).query(first, predicate="within")
+        for a, j in zip(at, by):
+            if signed[poly_area[j]] > 0:
+                ccw_around.setdefault(int(a), set()).add(poly_area[j])
     for a, lp in enumerate(loops):
-        sa = _signed_area(lp)
-        inside_other = any(j != a and polys[j].contains(shapely.Point(lp[0])) and
-                           _signed_area(loops[j]) > 0 for j in range(len(polys)))
+        sa = signed[a]
+        inside_other = bool(ccw_around.get(a, set()) - {a})
         if sa > 0 and inside_other:
             problems.append(f"area {a}: counter-clockwise loop inside another area")
         if sa < 0 and not inside_other:
             problems.append(f"area {a}: clockwise loop that is not an island (water on its right)")
     # water on the left of every bank: a point just left of each segment is in the water
-    # described by the areas and a point just right is not; the linked axis lies on the left
-    # of every shore bank (island loops may straddle their axis: their test is the first one)
-    water = shapely.difference(shapely.union_all([p for p, lp in zip(polys, loops) if _signed_area(lp) > 0]),
-                               shapely.union_all([p for p, lp in zip(polys, loops) if _signed_area(lp) < 0]))
-    in_hole = {c for a, lp in enumerate(loops) if _signed_area(lp) < 0 for c, _ in graph.areas[a].curves}
+    # described by the areas and a point just right is not (all banks' points in one prepared
+    # query); the linked axis lies on the left of every shore bank (island loops may straddle
+    # their axis: their test is the first one)
+    ccw = [p for p, a in zip(polys, poly_area) if signed[a] > 0]
+    cw = [p for p, a in zip(polys, poly_area) if signed[a] < 0]
+    water = shapely.difference(shapely.union_all(ccw), shapely.union_all(cw))
+    in_hole = {c for a in range(len(loops)) if signed[a] < 0 for c, _ in graph.areas[a].curves}
     axes: dict[int, PolylineIndex] = {}
-    for i in banks:
-        c = curves[i]
-        if not (0 <= c.river < len(curves)):
-            continue
+    linked = [i for i in banks if 0 <= curves[i].river < len(curves)]
+    segments = []   # per linked bank: vertices, directions, lengths, midpoints
+    probes = []     # per linked bank: the points just left and just right of its segments
+    for i in linked:
         v = graph.vertices(i)
         d = np.diff(v, axis=0)
         length = np.hypot(d[:, 0], d[:, 1])
@@ -85,8 +141,15 @@ def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6) -
         mid = 0.5 * (v[:-1] + v[1:])[ok]
         nrm = np.stack([-d[:, 1], d[:, 0]], axis=1) / length[:, None]
         eps = np.minimum(0.1 * length, 0.05)[:, None]
-        left = shapely.contains_xy(water, *(mid + eps * nrm).T)
-        right = shapely.contains_xy(water, *(mid - eps * nrm).T)
+        segments.append((v, d, length, mid))
+        probes += [mid + eps * nrm, mid - eps * nrm]
+    inside = contains_xy_tiled(water, np.vstack(probes or [np.zeros((0, 2))]))
+    offset = 0
+    for i, (v, d, length, mid) in zip(linked, segments):
+        c = curves[i]
+        left = inside[offset:offset + len(mid)]
+        right = inside[offset + len(mid):offset + 2 * len(mid)]
+        offset += 2 * len(mid)
         if not left.all() or right.any():
             problems.append(f"bank {i}: water is not on its left at {int((~left | right).sum())} of "
                             f"{len(left)} segments")
@@ -118,20 +181,29 @@ def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6) -
 
 
 def _discharge_problems(graph: HydroGraph, branches, rel_tol: float) -> list[str]:
-    """ψ(right bank) − ψ(left bank) = discharge at the middle of every branch."""
+    """ψ(right bank) − ψ(left bank) = discharge at the middle of every branch (every
+    station's two rays in one bulk query, :func:`_bank_psi`)."""
     problems = []
     bank_ids = graph.banks()
-    lines = [LineString(graph.vertices(i)) for i in bank_ids]
-    tree = shapely.STRtree(lines)
+    tree = shapely.STRtree([LineString(graph.vertices(i)) for i in bank_ids])
+    potential = np.array([graph.curves[i].potential for i in bank_ids])
+    fractions = np.array([0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8])
+    origins, normals, widths = [], [], []
+    for br in branches:
+        o, n, w = stations(np.asarray(br[0], dtype=float), fractions,
+                            br[1] if len(br) == 3 else None)
+        origins.append(o)
+        normals.append(n)
+        widths.append(w)
+    origins, normals = np.vstack(origins), np.vstack(normals)
+    # rays: left then right at every station, branch by branch
+    psi = _bank_psi(tree, potential, np.repeat(origins, 2, axis=0),
+                    np.stack([normals, -normals], axis=1).reshape(-1, 2),
+                    np.repeat(np.concatenate(widths), 2))
+    psi = psi.reshape(len(branches), len(fractions), 2)
     for k, br in enumerate(branches):
-        line, q = np.asarray(br[0], dtype=float), br[-1]
-        widths = br[1] if len(br) == 3 else None
-        found = []
-        for f in (0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8):
-            o, n, w = _station(line, f, widths)
-            psi = [_bank_psi(graph, bank_ids, lines, tree, o, sign * n, w) for sign in (1.0, -1.0)]
-            if not np.isnan(psi).any():
-                found.append(psi[1] - psi[0])
+        q = br[-1]
+        found = [p[1] - p[0] for p in psi[k] if not np.isnan(p).any()]
         if not found:
             problems.append(f"branch {k}: no banks found across its middle")
         for dpsi in found:
@@ -141,37 +213,21 @@ def _discharge_problems(graph: HydroGraph, branches, rel_tol: float) -> list[str
     return problems
 
 
-def _station(line: np.ndarray, fraction: float, widths=None):
-    """Point (2,), unit left normal (2,) and width [m] (None if ``widths`` is None: scalar,
-    one value or one per point) at an arc-length fraction of a polyline (K, 2)."""
-    seg = np.hypot(*np.diff(line, axis=0).T)
-    s = np.concatenate([[0.0], np.cumsum(seg)])
-    j = int(np.clip(np.searchsorted(s, fraction * s[-1], side="right") - 1, 0, len(seg) - 1))
-    u = (fraction * s[-1] - s[j]) / seg[j]
-    t = (line[j + 1] - line[j]) / seg[j]
-    w = None
-    if widths is not None:
-        wa = np.broadcast_to(np.asarray(widths, dtype=float).reshape(-1), (len(line),)) \
-            if np.size(widths) == 1 else np.asarray(widths, dtype=float)
-        w = float((1 - u) * wa[j] + u * wa[j + 1])
-    return line[j] + u * (line[j + 1] - line[j]), np.array([-t[1], t[0]]), w
-
-
-def _bank_psi(graph, bank_ids, lines, tree, origin, direction, width) -> float:
-    """ψ of the bank a ray from the centre line meets, NaN if none is found. With the local
-    width known, only a bank between 0.75 and 1.25 half-widths counts (the farthest such
-    hit): nearer shores are islands in the stream; a station where the bank is elsewhere
-    (tight bends, junctions) gives NaN and is skipped."""
-    if width is None:
-        lo, reach = 0.0, 1e5
-    else:
-        lo, reach = 0.75 * 0.5 * width, 1.25 * 0.5 * width + 1.0
-    ray = LineString([origin, origin + direction * reach])
-    hits = tree.query(ray, predicate="intersects")
-    dist = np.array([shapely.distance(shapely.Point(origin), ray.intersection(lines[h])) for h in hits])
-    ok = dist >= lo
-    if not ok.any():
-        return np.nan
-    hits, dist = hits[ok], dist[ok]
-    pick = hits[int(np.argmax(dist))] if width is not None else hits[int(np.argmin(dist))]
-    return graph.curves[bank_ids[pick]].potential
+def _bank_psi(tree: shapely.STRtree, potential: np.ndarray, origins: np.ndarray,
+              directions: np.ndarray, widths: np.ndarray) -> np.ndarray:
+    """ψ of the bank each ray from the centre line meets (R,), NaN if none is found. With the
+    local width known, only a bank between 0.75 and 1.25 half-widths counts (the farthest
+    such hit): nearer shores are islands in the stream; a station where the bank is elsewhere
+    (tight bends, junctions) gives NaN and is skipped. Without it (NaN), the nearest bank
+    within 100 km."""
+    known = np.isfinite(widths)
+    lo = np.where(known, 0.75 * 0.5 * widths, 0.0)
+    reach = np.where(known, 1.25 * 0.5 * widths + 1.0, 1e5)
+    ray, hit, dist = ray_hits(origins, directions, reach, tree)
+    ok = dist >= lo[ray]
+    ray, hit, dist = ray[ok], hit[ok], dist[ok]
+    far = first_per_group(ray, dist, len(origins), largest=True)
+    near = first_per_group(ray, dist, len(origins))
+    pick = np.where(known, far, near)
+    return np.where(pick >= 0, potential[hit[np.maximum(pick, 0)]] if len(hit) else np.nan,
+                    np.nan)

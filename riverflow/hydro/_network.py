@@ -22,7 +22,7 @@ from shapely.geometry import LineString, Point
 
 from riverflow.hydro._strips import Piece, Ring
 from riverflow.hydro.graph import NO_CURVE, NO_POTENTIAL, Area, Curve, CurveType, GraphError, HydroGraph
-from riverflow.hydro.nearest import PolylineIndex
+from riverflow.hydro.nearest import PolylineIndex, first_per_group, ray_hits, stations
 
 AXIS_WIDTH_FACTOR = 1.1
 """Axis width = largest river width along it × this + AXIS_MARGIN_M (reference rule 1)."""
@@ -50,43 +50,44 @@ class BranchGeometry:
 
     def station(self, fraction: float) -> tuple[np.ndarray, np.ndarray, float]:
         """Point (2,), unit left normal (2,) and half-width [m] at an arc-length fraction."""
-        p = self.centerline_m
-        seg = np.hypot(*np.diff(p, axis=0).T)
-        s = np.concatenate([[0.0], np.cumsum(seg)])
-        target = fraction * s[-1]
-        k = int(np.clip(np.searchsorted(s, target, side="right") - 1, 0, len(seg) - 1))
-        u = (target - s[k]) / seg[k]
-        t = (p[k + 1] - p[k]) / seg[k]
-        h = 0.5 * ((1 - u) * self.widths_m[k] + u * self.widths_m[k + 1])
-        return p[k] + u * (p[k + 1] - p[k]), np.array([-t[1], t[0]]), h
+        p, n, w = stations(self.centerline_m, np.array([fraction]), self.widths_m)
+        return p[0], n[0], 0.5 * w[0]
 
 
-def _first_hit(origin: np.ndarray, direction: np.ndarray, reach_m: float,
-               lines: list, tree: shapely.STRtree) -> int:
-    """Index of the first of ``lines`` crossed by a ray, or the nearest one if none is."""
-    ray = LineString([origin, origin + direction * reach_m])
-    o = Point(origin)
-    hits = tree.query(ray, predicate="intersects")
-    if len(hits) == 0:
-        return int(tree.query_nearest(shapely.Point(origin + direction * reach_m))[0])
-    d = [shapely.distance(o, ray.intersection(lines[i])) for i in hits]
-    return int(hits[int(np.argmin(d))])
+def _first_hits(origins: np.ndarray, directions: np.ndarray, reach_m: np.ndarray,
+                tree: shapely.STRtree) -> np.ndarray:
+    """For each ray (origins, unit directions (R, 2), lengths (R,) [m]), the index of the
+    first of the tree's lines it crosses, or of the line nearest its far end if it crosses
+    none (the first of equally near ones), (R,)."""
+    ray, hit, dist = ray_hits(origins, directions, reach_m, tree)
+    first = first_per_group(ray, dist, len(origins))
+    out = np.where(first >= 0, hit[np.maximum(first, 0)] if len(hit) else -1, -1)
+    missed = np.flatnonzero(out < 0)
+    if len(missed):
+        ends = origins[missed] + directions[missed] * reach_m[missed][:, None]
+        at, nearest = tree.query_nearest(shapely.points(ends))
+        pick = first_per_group(at, np.zeros(len(at)), len(missed))
+        out[missed] = nearest[pick]
+    return out
 
 
 def _branch_sides(geoms: list[BranchGeometry], pieces: list[Piece], island_of: dict[int, int]
                   ) -> list[tuple[int, int]]:
-    """(left piece, right piece) of each branch, facing downstream (majority over stations)."""
+    """(left piece, right piece) of each branch, facing downstream (majority over stations;
+    every station's rays in one bulk query)."""
     ids = [i for i in range(len(pieces)) if i not in island_of]
-    lines = [pieces[i].line() for i in ids]
-    tree = shapely.STRtree(lines)
+    tree = shapely.STRtree([pieces[i].line() for i in ids])
+    at = [stations(g.centerline_m, np.asarray(_STATIONS), g.widths_m) for g in geoms]
+    origins = np.vstack([p for p, _, _ in at])
+    normals = np.vstack([n for _, n, _ in at])
+    reach = 1.5 * (0.5 * np.concatenate([w for _, _, w in at])) + 1.0
+    # rays: left then right at every station
+    hits = _first_hits(np.repeat(origins, 2, axis=0),
+                       np.stack([normals, -normals], axis=1).reshape(-1, 2),
+                       np.repeat(reach, 2), tree).reshape(len(geoms), len(_STATIONS), 2)
     sides = []
-    for g in geoms:
-        votes: list[tuple[int, int]] = []
-        for f in _STATIONS:
-            p, n, h = g.station(f)
-            left = ids[_first_hit(p, n, 1.5 * h + 1.0, lines, tree)]
-            right = ids[_first_hit(p, -n, 1.5 * h + 1.0, lines, tree)]
-            votes.append((left, right))
+    for g, station_hits in zip(geoms, hits):
+        votes = [(ids[left], ids[right]) for left, right in station_hits]
         best = max(set(votes), key=lambda v: (votes.count(v), -votes.index(v)))
         if best[0] == best[1]:
             raise GraphError(f"branch {g.name!r}: both of its banks are one continuous shore; "

@@ -466,7 +466,8 @@ def _round_junctions(river, parts: list, geoms: list[BranchGeometry], junctions:
     FILLET_EXTENT radii r. Each junction works on the water near it, made from the strips and
     discs (``parts``) there, so the cost does not grow with the network; the pieces join the
     whole water once at the end (left out if that changed the water's topology)."""
-    keep_out = shapely.MultiLineString([c for c in cuts]) if cuts else None
+    cut_lines = shapely.linestrings(np.asarray(cuts).reshape(-1, 2, 2))
+    cut_tree = shapely.STRtree(cut_lines)
     tree = shapely.STRtree(parts)
     pieces = []
     at_junction: dict[int, list[float]] = {}
@@ -482,6 +483,10 @@ def _round_junctions(river, parts: list, geoms: list[BranchGeometry], junctions:
         near = [parts[i] for i in tree.query(window, predicate="intersects")]
         local = _strips.drop_slivers(shapely.intersection(shapely.union_all(near), window),
                                      sliver_m2)
+        # the free-end cuts a fillet must keep away from: those within 2 radii of the window
+        # (a fillet lies inside it); all of them made each test visit every cut
+        close = cut_tree.query(window, predicate="dwithin", distance=2.0 * radius + 1.0)
+        keep_out = shapely.MultiLineString(list(cut_lines[np.sort(close)])) if len(close) else None
         for scale in (1.0, 0.5, 0.25):
             added = _strips.fillet_pieces(local, p, scale * radius, reach, keep_out,
                                           FILLET_EXTENT * radius)

@@ -52,20 +52,80 @@ class PolylineIndex:
         limit = np.inf if max_distance is None else float(max_distance) ** 2
         nearest_segments(self.a, self.d, self.boxes, np.ascontiguousarray(xy), limit, seg)
         found = seg >= 0
-        seg = np.maximum(seg, 0)
+        if not found.all():     # only the points within reach are projected
+            dist = np.full(len(xy), np.inf)
+            q = np.full((len(xy), 2), np.nan)
+            arc = np.full(len(xy), np.nan)
+            if found.any():
+                dist[found], q[found], arc[found] = self._project(xy[found], seg[found])
+            return dist, q, arc
+        return self._project(xy, seg)
+
+    def _project(self, xy: np.ndarray, seg: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Distance, nearest point and arc length of points (N, 2) on their segments (N,)."""
         a, d = self.a[seg], self.d[seg]
         dd = np.einsum("ij,ij->i", d, d)
         t = np.where(dd > 0.0, np.einsum("ij,ij->i", xy - a, d) / np.where(dd > 0, dd, 1.0), 0.0)
         t = np.clip(t, 0.0, 1.0)
         q = a + t[:, None] * d
         dist = np.hypot(q[:, 0] - xy[:, 0], q[:, 1] - xy[:, 1])
-        arc = self.s0[seg] + t * self.seg_len[seg]
-        if not found.all():
-            dist[~found] = np.inf
-            q[~found] = np.nan
-            arc[~found] = np.nan
-        return dist, q, arc
+        return dist, q, self.s0[seg] + t * self.seg_len[seg]
 
     def distance(self, xy: np.ndarray) -> np.ndarray:
         """Distance [m] from points (N, 2) to the polyline, (N,)."""
         return self.nearest(xy)[0]
+
+
+def ray_hits(origins: np.ndarray, directions: np.ndarray, reach_m: np.ndarray,
+             tree: shapely.STRtree) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Where rays cross the geometries of ``tree``, all rays in one bulk query.
+
+    Ray r runs from ``origins[r]`` (R, 2) [m] to ``origins[r] + directions[r] * reach_m[r]``.
+    Returns (ray index (H,), tree index (H,), distance [m] from the ray's origin to the
+    crossing (H,)), grouped by ray in increasing order and, within one ray, in the order
+    ``tree.query`` gives for that ray alone (the same crossings and distances as one
+    ``ray.intersection(line)`` / ``shapely.distance`` per ray).
+    """
+    origins = np.asarray(origins, np.float64).reshape(-1, 2)
+    ends = origins + np.asarray(directions, np.float64).reshape(-1, 2) \
+        * np.asarray(reach_m, np.float64).reshape(-1)[:, None]
+    rays = shapely.linestrings(np.stack([origins, ends], axis=1))
+    ray, hit = tree.query(rays, predicate="intersects")
+    order = np.argsort(ray, kind="stable")
+    ray, hit = ray[order], hit[order]
+    crossing = shapely.intersection(rays[ray], tree.geometries[hit])
+    dist = shapely.distance(shapely.points(origins[ray]), crossing)
+    return ray, hit, dist
+
+
+def first_per_group(group: np.ndarray, key: np.ndarray, n_groups: int,
+                    largest: bool = False) -> np.ndarray:
+    """For rows grouped by ``group`` (H,) (non-decreasing), the row of each group with the
+    smallest ``key`` (``largest``: the largest), the first of equal ones, as ``np.argmin`` /
+    ``np.argmax`` over the group would pick; -1 for groups without rows, (n_groups,)."""
+    pos = np.arange(len(group))
+    order = np.lexsort((pos, -key if largest else key, group))
+    out = np.full(n_groups, -1, np.int64)
+    g = group[order]
+    first = np.concatenate([[True], g[1:] != g[:-1]]) if len(g) else np.zeros(0, bool)
+    out[g[first]] = order[first]
+    return out
+
+
+def stations(line: np.ndarray, fractions: np.ndarray, widths=None):
+    """Points (F, 2), unit left normals (F, 2) and widths [m] (F,) (NaN if ``widths`` is None;
+    else a scalar, one value or one per point) at arc-length fractions (F,) of a polyline
+    (K, 2)."""
+    seg = np.hypot(*np.diff(line, axis=0).T)
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    target = fractions * s[-1]
+    j = np.clip(np.searchsorted(s, target, side="right") - 1, 0, len(seg) - 1)
+    u = (target - s[j]) / seg[j]
+    t = (line[j + 1] - line[j]) / seg[j][:, None]
+    w = np.full(len(fractions), np.nan)
+    if widths is not None:
+        wa = np.broadcast_to(np.asarray(widths, dtype=float).reshape(-1), (len(line),)) \
+            if np.size(widths) == 1 else np.asarray(widths, dtype=float)
+        w = (1 - u) * wa[j] + u * wa[j + 1]
+    return line[j] + u[:, None] * (line[j + 1] - line[j]), np.stack([-t[:, 1], t[:, 0]], axis=1), w

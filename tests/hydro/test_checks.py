@@ -1,0 +1,144 @@
+"""The builder's self-check (:func:`graph_problems`) finds what it is meant to find, and its
+bulk ray queries (:mod:`riverflow.hydro.nearest`: ``ray_hits``, ``first_per_group``) give what
+one shapely query per ray gives."""
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pytest
+import shapely
+from shapely.geometry import LineString, Point
+
+from riverflow.hydro._checks import graph_problems
+from riverflow.hydro.builder import RiverNetworkBuilder
+from riverflow.hydro.graph import Area, Curve, CurveType, HydroGraph
+from riverflow.hydro.nearest import first_per_group, ray_hits
+
+
+@pytest.fixture(scope="module")
+def confluence():
+    """A small confluence: (graph, branches as (centre line, widths, discharge))."""
+    b = RiverNetworkBuilder()
+    main = np.array([[0.0, 0.0], [100.0, 5.0], [200.0, 0.0]])
+    trib = np.array([[120.0, 120.0], [160.0, 60.0], [200.0, 0.0]])
+    lower = np.array([[200.0, 0.0], [300.0, -10.0], [400.0, 0.0]])
+    b.add_branch(main, 20.0, 30.0, name="main")
+    b.add_branch(trib, 12.0, 10.0, name="trib")
+    b.add_branch(lower, 26.0, name="lower")
+    graph = b.build()
+    branches = [(main, np.full(3, 20.0), 30.0), (trib, np.full(3, 12.0), 10.0),
+                (lower, np.full(3, 26.0), 40.0)]
+    return graph, branches
+
+
+def test_a_good_graph_has_no_problems(confluence):
+    graph, branches = confluence
+    assert graph_problems(graph, branches) == []
+    assert graph_problems(graph, [(line, q) for line, _, q in branches]) == []   # no widths
+
+
+def test_a_wrong_discharge_is_found(confluence):
+    graph, branches = confluence
+    wrong = [branches[0], branches[1], (branches[2][0], branches[2][1], 41.0)]
+    problems = graph_problems(graph, wrong)
+    assert any(p.startswith("branch 2: ψ(right) − ψ(left) = 40") for p in problems), problems
+    assert not any(p.startswith(("branch 0", "branch 1")) for p in problems), problems
+
+
+def test_a_bank_with_another_potential_is_found(confluence):
+    graph, branches = confluence
+    bad = copy.deepcopy(graph)
+    bank = bad.banks()[0]
+    bad.curves[bank].potential += 5.0
+    problems = graph_problems(bad, branches)
+    assert any("different ψ" in p for p in problems), problems
+    assert any("discharge" in p for p in problems), problems
+
+
+def test_a_reversed_area_is_found(confluence):
+    """The water loop walked the other way: clockwise and not an island, water on the right
+    of every bank."""
+    graph, _ = confluence
+    bad = copy.deepcopy(graph)
+    bad.areas = [Area([(c, 1 - o) for c, o in reversed(a.curves)]) for a in bad.areas]
+    problems = graph_problems(bad)
+    assert any("clockwise loop that is not an island" in p for p in problems), problems
+    assert any("water is not on its left" in p for p in problems), problems
+
+
+def test_a_nested_counter_clockwise_loop_is_found(confluence):
+    graph, _ = confluence
+    loop = np.array([[50.0, -3.0], [60.0, -3.0], [60.0, 3.0], [50.0, 3.0]])     # in the water
+    nodes = np.vstack([graph.nodes, loop])
+    n0 = len(graph.nodes)
+    curves = list(graph.curves)
+    first = len(curves)
+    for k in range(4):
+        curves.append(Curve(n0 + k, n0 + (k + 1) % 4, type=CurveType.CLOSING_SEGMENT))
+    bad = HydroGraph(nodes, curves, list(graph.areas) + [Area([(first + k, 0) for k in range(4)])])
+    problems = graph_problems(bad)
+    assert any(p.startswith(f"area {len(graph.areas)}: counter-clockwise loop inside")
+               for p in problems), problems
+
+
+def _scalar_hits(origin, direction, reach, lines, tree):
+    """One ray the way the builder asked before: its crossings in tree order, distances."""
+    ray = LineString([origin, origin + direction * reach])
+    hits = tree.query(ray, predicate="intersects")
+    return hits, [shapely.distance(Point(origin), ray.intersection(lines[i])) for i in hits]
+
+
+def test_bulk_ray_hits_equal_one_query_per_ray():
+    rng = np.random.default_rng(3)
+    lines = [LineString(rng.uniform(0, 100, (4, 2))) for _ in range(40)]
+    tree = shapely.STRtree(lines)
+    origins = rng.uniform(0, 100, (60, 2))
+    angle = rng.uniform(0, 2 * np.pi, 60)
+    directions = np.stack([np.cos(angle), np.sin(angle)], axis=1)
+    reach = rng.uniform(1, 60, 60)
+    ray, hit, dist = ray_hits(origins, directions, reach, tree)
+    assert len(ray) > 60
+    nearest = first_per_group(ray, dist, 60)
+    farthest = first_per_group(ray, dist, 60, largest=True)
+    for r in range(60):
+        want_hits, want_dist = _scalar_hits(origins[r], directions[r], reach[r], lines, tree)
+        assert list(hit[ray == r]) == list(want_hits)
+        assert list(dist[ray == r]) == want_dist        # exactly the same numbers
+        if len(want_hits):
+            assert hit[nearest[r]] == want_hits[int(np.argmin(want_dist))]
+            assert hit[farthest[r]] == want_hits[int(np.argmax(want_dist))]
+        else:
+            assert nearest[r] == farthest[r] == -1
+
+
+def test_first_per_group_takes_the_first_of_equal_keys():
+    group = np.array([0, 0, 0, 2, 2])
+    key = np.array([1.0, 0.5, 0.5, 3.0, 3.0])
+    assert list(first_per_group(group, key, 4)) == [1, -1, 3, -1]
+    assert list(first_per_group(group, key, 4, largest=True)) == [0, -1, 3, -1]
+
+
+def test_tiled_point_location_equals_shapely(monkeypatch):
+    """contains_xy_tiled cut into many small tiles answers as one contains_xy, also for points
+    a few millimetres from the outline and on the tiles' cut lines."""
+    from riverflow.hydro import _checks
+    monkeypatch.setattr(_checks, "TILE_VERTICES", 40)
+    rng = np.random.default_rng(5)
+    s = np.linspace(0.0, 2000.0, 400)
+    axis = np.stack([s, 80.0 * np.sin(s / 150.0)], axis=1)
+    river = shapely.LineString(axis).buffer(12.0, quad_segs=8)
+    river = shapely.difference(river, shapely.Point(1000.0, 80.0 * np.sin(1000.0 / 150.0))
+                               .buffer(4.0))                                  # an island
+    river = shapely.MultiPolygon([river, shapely.box(0.0, 300.0, 50.0, 340.0)])
+    ring = shapely.get_coordinates(shapely.get_exterior_ring(river.geoms[0]))
+    d = np.diff(ring, axis=0)
+    mid = 0.5 * (ring[:-1] + ring[1:])
+    n = np.stack([-d[:, 1], d[:, 0]], axis=1) / np.hypot(*d.T)[:, None]
+    xy = np.vstack([rng.uniform([-20, -120], [2020, 360], (3000, 2)),
+                    mid + 0.005 * n, mid - 0.005 * n,
+                    np.stack([np.full(50, 1000.0), rng.uniform(-120, 120, 50)], axis=1)])
+    want = shapely.contains_xy(river, xy[:, 0], xy[:, 1])
+    got = _checks.contains_xy_tiled(river, xy)
+    assert want.sum() > 1000 and (~want).sum() > 1000
+    assert np.array_equal(got, want)
