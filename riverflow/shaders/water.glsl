@@ -46,10 +46,9 @@ uniform float u_clarity_m;
 // weight = sum w (advected mode; the number of sprites covering the pixel in the others).
 // full = the cell's list holds MAX_PER_CELL particles. foam (advected and foam modes): the
 // sprites' foam amount (sum w f / max(sum w, 1): their weighted mean, fading out with the
-// coverage where sum w < 1) and their lace patterns blended (foam.glsl), joined by the lace
-// fixed in the world where the sprites with foam thin out (as covered_slopes does the waves;
-// -1 in the foam mode: no lace).
-vec4 blend_sprites(vec2 uv_dx, vec2 uv_dy, out bool full, out vec2 foam, out float weight) {
+// coverage where sum w < 1), then for their lace patterns (foam.glsl; advected mode) sum
+// w (lace - 0.5), sum w^2 and sum w over the sprites with foam (foam_lace_at).
+vec4 blend_sprites(vec2 uv_dx, vec2 uv_dy, out bool full, out vec4 foam, out float weight) {
     ivec2 cell = clamp(ivec2(gl_FragCoord.xy / u_grid_cell_px), ivec2(0), u_grid_size - 1);
     vec2 A = vec2(0.0);
     float B = 0.0;
@@ -93,17 +92,21 @@ vec4 blend_sprites(vec2 uv_dx, vec2 uv_dy, out bool full, out vec2 foam, out flo
     }
     full = listed >= MAX_PER_CELL;
     weight = u_mode == DISPLAY_MODE_ADVECTED ? S : covering;
-    float lace = -1.0;
-    if (u_mode == DISPLAY_MODE_ADVECTED) {
-        float wl = fade5(1.0 - S_lace);
-        if (wl > 0.0) {
-            F.z += wl * (foam_lace(v_world.xy / u_foam_scale_m, fuv_dx, fuv_dy) - 0.5);
-            F.w += wl * wl;
-        }
-        lace = 0.5 + F.z / sqrt(F.w);
-    }
-    foam = vec2(F.y / max(F.x, 1.0), lace);
+    foam = vec4(F.y / max(F.x, 1.0), F.zw, S_lace);
     return vec4(A, B, covering);
+}
+
+// The foam lace of a pixel from its sprites' sums (sum w (lace - 0.5), sum w^2, sum w) over
+// the sprites with foam: their patterns blended with the contrast kept, joined by the lace
+// fixed in the world (at fuv) with weight fade5(1 - sum w) as covered_slopes does the waves,
+// so the lace does not change at once where the last such sprite's disc ends.
+float foam_lace_at(vec3 sums, vec2 fuv, vec2 fuv_dx, vec2 fuv_dy) {
+    float wl = fade5(1.0 - sums.z);
+    if (wl > 0.0) {
+        sums.x += wl * (foam_lace(fuv, fuv_dx, fuv_dy) - 0.5);
+        sums.y += wl * wl;
+    }
+    return 0.5 + sums.x / sqrt(sums.y);
 }
 
 // The advected wave slopes of a pixel from its sprites' sums A = sum w slope, B = sum w^2 and
@@ -135,7 +138,7 @@ void main() {
     bool full = false;
     vec2 slopes = vec2(0.0);
     float weight = 0.0;
-    vec2 foam = vec2(0.0, -1.0);                           // amount, lace (foam.glsl)
+    vec4 foam = vec4(0.0);                                 // amount, lace sums (blend_sprites)
     if (u_mode == DISPLAY_MODE_COVERAGE) {
         vec4 b = blend_sprites(uv_dx, uv_dy, full, foam, weight);
         frag = vec4(min(b.w / float(MAX_PER_CELL), 1.0), b.w == 0.0 ? 1.0 : 0.0,
@@ -179,13 +182,12 @@ void main() {
     vec3 added = fresnel * reflected + SUN_COLOUR * spec + (1.0 - fresnel) * (1.0 - clarity) * deep;
     float through = (1.0 - fresnel) * clarity;             // share of the bed seen through
     // foam: the particles' (advected mode), the waterline's and the wakes' breaking crests;
-    // where no sprite brought its
-    // lace, the lace fixed in the world (as the waves are then)
+    // its lace the sprites', joined by the lace fixed in the world where they thin out
     float amount = max(max(foam.x, shoreline_foam(depth_m, foam.x)), u_crest_foam * crest);
     vec2 fuv = uv0 * (u_wave_length_m / u_foam_scale_m);
     vec2 fuv_dx = uv_dx * (u_wave_length_m / u_foam_scale_m);
     vec2 fuv_dy = uv_dy * (u_wave_length_m / u_foam_scale_m);
-    float lace = foam.y >= 0.0 || amount <= 0.0 ? foam.y : foam_lace(fuv, fuv_dx, fuv_dy);
+    float lace = amount > 0.0 ? foam_lace_at(foam.yzw, fuv, fuv_dx, fuv_dy) : 0.5;
     float cover = foam_cover(amount, lace, fuv_dx, fuv_dy) * smoothstep(0.0, 0.06, depth_m);
     added = mix(added, foam_colour(n), cover);              // foam: opaque, matte
     through *= 1.0 - cover;
