@@ -185,6 +185,15 @@ def seams(world):
     return rows, covered_views, levels
 
 
+def _summary(rows) -> dict:
+    """(kind, mode) → each view's step across its borders over the largest across their
+    moved copies (for the failure message)."""
+    out = {}
+    for kind, mode, step, other, _ in rows:
+        out.setdefault((kind, mode), []).append(round(step / other, 2))
+    return out
+
+
 def test_the_views_cross_every_kind_of_border(seams):
     rows, covered_views, levels = seams
     assert covered_views >= 10, covered_views
@@ -204,9 +213,3 @@ def test_no_colour_step_along_a_border(seams, kind):
            if k == kind and step > other]
     assert not bad, (bad, _summary(rows))
 
-
-def _summary(rows):
-    out = {}
-    for kind, mode, step, other, _ in rows:
-        out.setdefault((kind, mode), []).append(round(step / other, 2))
-    return out
