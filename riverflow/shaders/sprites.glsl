@@ -1,6 +1,7 @@
 // Pre-advected mode, pass 1: each INSIDE/LEAVING particle is a screen-aligned quad of half
-// size 3r; every water pixel under it adds (w·slope.x, w·slope.y, w², 1) to a float target
-// (additive blending). The water shader then divides by sqrt(sum w²).
+// size 3r; every water pixel under it adds (w·slope.x, w·slope.y, w², w) to a float target
+// (additive blending). The water shader then divides by sqrt(sum w²), with the world-fixed
+// waves joining where sum w < 1 (water.glsl covered_slopes).
 #include "common.glsl"
 #include "params.glsl"
 uniform float u_sprite_radius_factor;
@@ -38,6 +39,6 @@ void main() {
     if (water.a == 0.0 || s >= 1.0) discard;
     float w = fade5(1.0 - s) * fade5(v_p1.z);
     vec2 slopes = wave_slopes((water.xy - v_p0.zw + v_p1.xy) / u_wave_length_m, uv_dx, uv_dy);
-    frag = vec4(w * slopes, w * w, 1.0);
+    frag = vec4(w * slopes, w * w, w);
 }
 #endif

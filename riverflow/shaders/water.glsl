@@ -38,19 +38,23 @@ uniform isampler2DArray u_grid;     // sprite lists: cell (cx, cy) = texel (cx, 
 uniform float u_grid_cell_px;
 uniform ivec2 u_grid_size;          // cells (gw, gh)
 uniform float u_sprite_radius_factor;
-uniform sampler2D u_accum;          // pre-advected sums (w·slope.x, w·slope.y, w², 1)
+uniform sampler2D u_accum;          // pre-advected sums (w·slope.x, w·slope.y, w², w)
 uniform float u_slope_factor;
 uniform float u_clarity_m;
 
-// Blend the sprites listed in this pixel's cell: returns (A.x, A.y, B = sum w^2, covering).
+// Blend the sprites listed in this pixel's cell: returns (A.x, A.y, B = sum w^2, covering);
+// weight = sum w (advected mode; the number of sprites covering the pixel in the others).
 // full = the cell's list holds MAX_PER_CELL particles. foam (advected and foam modes): the
-// sprites' foam amount (weighted mean) and their lace patterns blended (foam.glsl; -1 where
-// no sprite with foam covers the pixel).
-vec4 blend_sprites(vec2 uv_dx, vec2 uv_dy, out bool full, out vec2 foam) {
+// sprites' foam amount (sum w f / max(sum w, 1): their weighted mean, fading out with the
+// coverage where sum w < 1), then for their lace patterns (foam.glsl; advected mode) sum
+// w (lace - 0.5), sum w^2 and sum w over the sprites with foam (foam_lace_at).
+vec4 blend_sprites(vec2 uv_dx, vec2 uv_dy, out bool full, out vec4 foam, out float weight) {
     ivec2 cell = clamp(ivec2(gl_FragCoord.xy / u_grid_cell_px), ivec2(0), u_grid_size - 1);
     vec2 A = vec2(0.0);
     float B = 0.0;
     float covering = 0.0;
+    float S = 0.0;
+    float S_lace = 0.0;                 // sum w of the sprites with foam
     int listed = 0;
     // foam: sum w, sum w f, sum w (lace - 0.5) and its sum w^2; the lace's uv derivatives
     vec4 F = vec4(0.0);
@@ -76,17 +80,50 @@ vec4 blend_sprites(vec2 uv_dx, vec2 uv_dy, out bool full, out vec2 foam) {
                     if (u_mode == DISPLAY_MODE_FOAM) continue;
                     A += w * wave_slopes(uv, uv_dx, uv_dy);
                     B += w * w;
+                    S += w;
                     if (f > FOAM_MIN) {
                         F.z += w * (foam_lace(uv * scale, fuv_dx, fuv_dy) - 0.5);
                         F.w += w * w;
+                        S_lace += w;
                     }
                 }
             }
         }
     }
     full = listed >= MAX_PER_CELL;
-    foam = vec2(F.x > 0.0 ? F.y / F.x : 0.0, F.w > 0.0 ? 0.5 + F.z / sqrt(F.w) : -1.0);
+    weight = u_mode == DISPLAY_MODE_ADVECTED ? S : covering;
+    foam = vec4(F.y / max(F.x, 1.0), F.zw, S_lace);
     return vec4(A, B, covering);
+}
+
+// The foam lace of a pixel from its sprites' sums (sum w (lace - 0.5), sum w^2, sum w) over
+// the sprites with foam: their patterns blended with the contrast kept, joined by the lace
+// fixed in the world (at fuv) with weight fade5(1 - sum w) as covered_slopes does the waves,
+// so the lace does not change at once where the last such sprite's disc ends.
+float foam_lace_at(vec3 sums, vec2 fuv, vec2 fuv_dx, vec2 fuv_dy) {
+    float wl = fade5(1.0 - sums.z);
+    if (wl > 0.0) {
+        sums.x += wl * (foam_lace(fuv, fuv_dx, fuv_dy) - 0.5);
+        sums.y += wl * wl;
+    }
+    return 0.5 + sums.x / sqrt(sums.y);
+}
+
+// The advected wave slopes of a pixel from its sprites' sums A = sum w slope, B = sum w^2 and
+// S = sum w, continuous where the sprites' coverage ends (issue 29). Sprites sum to
+// A / sqrt(B): the variance-normalised blend of independent patterns (Yu et al. 2009 §5), RMS
+// 1 whatever their number. Where they thin out (S < 1: the rim of the last disc, a particle
+// fading in, a gap between particles), the world-fixed waves join as one more independent
+// pattern of weight fade5(1 - S), in the same normalisation: at S = 0 they are the waves
+// alone, from S = 1 on the sprites alone, and the RMS slope (the shade) is the same
+// throughout. A hard switch where S reaches 0 drew a line along the coverage's jagged edge.
+vec2 covered_slopes(vec2 A, float B, float S, vec2 uv0, vec2 uv_dx, vec2 uv_dy) {
+    float wf = fade5(1.0 - S);
+    if (wf > 0.0) {
+        A += wf * wave_slopes(uv0, uv_dx, uv_dy);
+        B += wf * wf;
+    }
+    return B > 0.0 ? A / sqrt(B) : vec2(0.0);
 }
 
 void main() {
@@ -100,25 +137,26 @@ void main() {
     }
     bool full = false;
     vec2 slopes = vec2(0.0);
-    bool found = false;
-    vec2 foam = vec2(0.0, -1.0);                           // amount, lace (foam.glsl)
+    float weight = 0.0;
+    vec4 foam = vec4(0.0);                                 // amount, lace sums (blend_sprites)
     if (u_mode == DISPLAY_MODE_COVERAGE) {
-        vec4 b = blend_sprites(uv_dx, uv_dy, full, foam);
+        vec4 b = blend_sprites(uv_dx, uv_dy, full, foam, weight);
         frag = vec4(min(b.w / float(MAX_PER_CELL), 1.0), b.w == 0.0 ? 1.0 : 0.0,
                     full ? 1.0 : 0.0, 0.0);
         return;
     } else if (u_mode == DISPLAY_MODE_FOAM) {              // the foam amount alone
-        blend_sprites(uv_dx, uv_dy, full, foam);
+        blend_sprites(uv_dx, uv_dy, full, foam, weight);
         frag = vec4(mix(vec3(0.02, 0.05, 0.16), vec3(1.0), foam.x), 0.0);
         return;
     } else if (u_mode == DISPLAY_MODE_ADVECTED) {
-        vec4 b = blend_sprites(uv_dx, uv_dy, full, foam);
-        if (b.z > 0.0) { slopes = b.xy / sqrt(b.z); found = true; }
+        vec4 b = blend_sprites(uv_dx, uv_dy, full, foam, weight);
+        slopes = covered_slopes(b.xy, b.z, weight, uv0, uv_dx, uv_dy);
     } else if (u_mode == DISPLAY_MODE_PRE_ADVECTED) {
         vec4 a = texelFetch(u_accum, ivec2(gl_FragCoord.xy), 0);
-        if (a.z > 0.0) { slopes = a.xy / sqrt(a.z); found = true; }
+        slopes = covered_slopes(a.xy, a.z, a.w, uv0, uv_dx, uv_dy);
+    } else {
+        slopes = wave_slopes(uv0, uv_dx, uv_dy);           // non-advected
     }
-    if (!found) slopes = wave_slopes(uv0, uv_dx, uv_dy);   // non-advected, or no sprite here
 
     // shading: Fresnel reflection of sky and sun, refraction of the bed drawn before
     vec2 tilt = slopes * u_slope_factor;
@@ -144,13 +182,12 @@ void main() {
     vec3 added = fresnel * reflected + SUN_COLOUR * spec + (1.0 - fresnel) * (1.0 - clarity) * deep;
     float through = (1.0 - fresnel) * clarity;             // share of the bed seen through
     // foam: the particles' (advected mode), the waterline's and the wakes' breaking crests;
-    // where no sprite brought its
-    // lace, the lace fixed in the world (as the waves are then)
+    // its lace the sprites', joined by the lace fixed in the world where they thin out
     float amount = max(max(foam.x, shoreline_foam(depth_m, foam.x)), u_crest_foam * crest);
     vec2 fuv = uv0 * (u_wave_length_m / u_foam_scale_m);
     vec2 fuv_dx = uv_dx * (u_wave_length_m / u_foam_scale_m);
     vec2 fuv_dy = uv_dy * (u_wave_length_m / u_foam_scale_m);
-    float lace = foam.y >= 0.0 || amount <= 0.0 ? foam.y : foam_lace(fuv, fuv_dx, fuv_dy);
+    float lace = amount > 0.0 ? foam_lace_at(foam.yzw, fuv, fuv_dx, fuv_dy) : 0.5;
     float cover = foam_cover(amount, lace, fuv_dx, fuv_dy) * smoothstep(0.0, 0.06, depth_m);
     added = mix(added, foam_colour(n), cover);              // foam: opaque, matte
     through *= 1.0 - cover;

@@ -364,6 +364,9 @@ class _TerrainTiles(_PoolSync):
         """By pool slot, the tiles uploaded with their borders stitched to coarser
         neighbours (:func:`~riverflow.scenes.meshes.stitch_tile`): (what they were stitched
         to, the vertices as uploaded). The others are uploaded as their pool holds them."""
+        self._stitched_set: tuple[np.ndarray, np.ndarray] | None = None
+        """The (codes, slots) of the last set :meth:`_stitch` went through: the same set
+        again, with no tile uploaded afresh, is stitched as it was (nothing to look up)."""
 
     def sync(self, pool: TilePool, tiles: Standins) -> tuple[np.ndarray, np.ndarray]:
         """Arena slots (K,) and centres (K, 3) [m] of ``tiles``, uploaded now if new, their
@@ -375,7 +378,11 @@ class _TerrainTiles(_PoolSync):
             self.arena_slot[gone] = -1
             for slot in gone.tolist():
                 self.stitched.pop(slot, None)
-        for k in self.missing(tiles).tolist():
+            self._stitched_set = None
+        missing = self.missing(tiles)
+        if len(missing):
+            self._stitched_set = None
+        for k in missing.tolist():
             slot = int(tiles.slots[k])
             data = pool.tile(slot)
             if self.arena_slot[slot] < 0:
@@ -384,7 +391,11 @@ class _TerrainTiles(_PoolSync):
             self.stitched.pop(slot, None)
             self.centre[slot] = data.bounds_m.mean(axis=0)
             self.code_of[slot] = tiles.codes[k]
-        self._stitch(pool, tiles)
+        last = self._stitched_set
+        if last is None or not (np.array_equal(last[0], tiles.codes)
+                                and np.array_equal(last[1], tiles.slots)):
+            self._stitch(pool, tiles)
+            self._stitched_set = (tiles.codes.copy(), tiles.slots.copy())
         return self.arena_slot[tiles.slots], self.centre[tiles.slots]
 
     def _stitch(self, pool: TilePool, tiles: Standins) -> None:
@@ -429,6 +440,7 @@ class _TerrainTiles(_PoolSync):
         self.code_of[:] = -1
         self.arena_slot[:] = -1
         self.stitched.clear()
+        self._stitched_set = None
 
 
 class _WaterTiles(_PoolSync):

@@ -360,3 +360,43 @@ def test_after_evictions_a_frame_draws_only_resident_tiles(gl_context):
         assert gpu.resident_codes(WATER_MESH) <= set(water.codes().tolist())
     finally:
         world.close()
+
+
+def test_the_same_drawn_set_is_not_stitched_again(gl_context, monkeypatch):
+    """A frame whose cut or pools changed but whose drawn terrain tiles did not (the draw
+    system's tile sync runs again) skips the stitch look-up and keeps what is on the GPU; a
+    tile uploaded afresh (a stand-in for an evicted leaf) makes the set stitched again."""
+    import riverflow as rf
+    from riverflow.scenes.flight import flight_pose
+    from riverflow.scenes.tile_kinds import TERRAIN_MESH
+    from riverflow.tiles.table import code_key
+
+    world = rf.RiverWorld(rf.default_scene(seed=0), size=(160, 90), gl=True, seed=0,
+                          config=rf.RiverConfig(tile_production="blocking"))
+    try:
+        world.camera.look_at(*flight_pose(world.scene, 0))
+        world.step(1 / 60)
+        world.render()
+        drawer = world._drawer()
+        terrain = drawer.gpu.terrain
+        pool = world.tiles.cache.pools[TERRAIN_MESH]
+        calls = []
+        stitch = type(terrain)._stitch
+        monkeypatch.setattr(type(terrain), "_stitch",
+                            lambda self, *a: (calls.append(1), stitch(self, *a))[1])
+        before = _drawn_terrain(world)
+        drawer._tiles_for = None                   # as after a change of the cut or a pool
+        world.render()
+        assert calls == []
+        after = _drawn_terrain(world)
+        assert before.keys() == after.keys()
+        for code, vertices in before.items():
+            np.testing.assert_array_equal(after[code], vertices)
+        # a leaf evicted: its parent stands in, uploaded now; the set is stitched again
+        leaf = max(after, key=lambda c: code_key(c)[0])         # one of the finest
+        pool.release(pool.slot(leaf))
+        world.render()
+        assert calls == [1]
+        _assert_own_data(world, _drawn_terrain(world), pool)
+    finally:
+        world.close()
