@@ -34,7 +34,7 @@ from riverflow.components.river import TerrainView
 from riverflow.engine import gl
 from riverflow.scenes.flight import flight_pose, main_width_m
 
-pytestmark = pytest.mark.gl
+pytestmark = [pytest.mark.gl, pytest.mark.slow]     # 20 views in every mode: ~14 s of CPU
 W, H = 256, 144
 SHIFTS_PX = tuple(k for k in range(-12, 13) if k)
 MIN_PAIRS = 12                         # a border with fewer pixel pairs on screen is skipped
