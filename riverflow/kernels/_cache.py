@@ -10,7 +10,9 @@ kernel module keeps its entries in a folder of its own, named after a hash of
 * the numba, llvmlite, numpy and Python versions and the CPU target (triple, name, features),
 
 so an edit anywhere in what a kernel is compiled from gives a new folder and the kernel is
-compiled again; a module whose closure did not change keeps its machine code.
+compiled again; a module whose closure did not change keeps its machine code. A new folder is
+first filled from the package's kernel pack when the pack has a folder of the same name
+(:mod:`riverflow.kernels.pack`: the kernels compiled ahead of time for a portable CPU).
 
 The folders live in ``$NUMBA_CACHE_DIR/riverflow`` when ``NUMBA_CACHE_DIR`` is set (the user's
 choice of place wins; the key still picks the folder inside it), else in the platform's user
@@ -238,10 +240,23 @@ def _locator_class():
                 return None
             for candidate in (folder, _fallback_root() / folder.name):
                 if _prepare(candidate):
+                    _seed(candidate)
                     return cls(py_func, py_file, candidate)
             return None
 
     return RiverflowKernelLocator
+
+
+def _seed(folder: Path) -> None:
+    """Fill a new keyed folder from the package's kernel pack, when the pack has its name
+    (:mod:`riverflow.kernels.pack`); under the folder's lock, so processes starting together
+    fill it once."""
+    from riverflow.kernels import pack
+
+    if pack.manifest() is None:
+        return
+    with _folder_lock(str(folder)):
+        pack.seed(folder)
 
 
 def _fallback_root() -> Path:
