@@ -24,7 +24,7 @@ never loaded (those modules compile, with the progress line); a file whose hash 
 the manifest's leaves its module out of the pack. Nothing here raises: a pack that cannot be
 read is a pack that is not there.
 
-The pack is built, not committed: ``python -m riverflow.kernels.pack`` (``make pack``) compiles
+The pack is built, not committed: ``tools/build_kernel_pack.py`` (``make pack``) compiles
 every recorded signature for :data:`TARGET` in a new cache folder, with the warm-up's worker
 processes, and writes ``riverflow/kernels/_pack/``; a wheel built afterwards carries it
 (package data). A build of the pack after a kernel edit makes a new one; a pack left from an
@@ -236,7 +236,3 @@ def main(argv: list[str] | None = None) -> int:
           f"({end.children_user + end.children_system - cpu.children_user - cpu.children_system:.1f}"
           " s of compile CPU)")
     return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())
