@@ -62,11 +62,16 @@ def test_a_new_cache_is_filled_from_the_pack_and_nothing_compiles(built, tmp_pat
         "folders"]
 
 
-def test_without_the_pack_the_process_keeps_the_host_cpu_and_compiles(built, tmp_path):
+@pytest.mark.parametrize("choice", ["pack off", "user's CPU"])
+def test_the_users_choice_wins_over_the_pack(built, tmp_path, choice):
+    """RIVERFLOW_KERNEL_PACK=0 keeps numba's host target; a NUMBA_CPU_NAME of the user's is
+    kept too (the pack is then used only if it was built for that CPU: here it was not)."""
     src, where, _ = built
-    answer = run(CALL, tmp_path / "cache", cwd=src, RIVERFLOW_KERNEL_PACK="0")
+    env = {"RIVERFLOW_KERNEL_PACK": "0"} if choice == "pack off" else \
+        {"RIVERFLOW_KERNEL_PACK": str(where), "NUMBA_CPU_NAME": "generic"}
+    answer = run(CALL, tmp_path / "cache", cwd=src, **env)
     assert answer["compiled"] == ["lifecycle.intensity_at"]
-    assert answer["cpu"] is None
+    assert answer["cpu"] == (None if choice == "pack off" else "generic")
 
 
 def test_a_pack_of_other_sources_is_ignored(built, tmp_path):
