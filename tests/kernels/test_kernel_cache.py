@@ -28,7 +28,9 @@ def run(code: str, cache: Path, cwd: Path = REPO, **env_extra) -> dict:
     """Run ``code`` in a fresh interpreter with ``cache`` as NUMBA_CACHE_DIR; its last stdout
     line is JSON. Adds "stderr" to the answer."""
     env = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_")}
-    env.update(NUMBA_CACHE_DIR=str(cache), PYTHONPATH=str(cwd), **env_extra)
+    # the compile path: a kernel pack `make pack` left in the checkout is not used
+    env.update(NUMBA_CACHE_DIR=str(cache), PYTHONPATH=str(cwd), RIVERFLOW_KERNEL_PACK="0")
+    env.update(env_extra)
     result = subprocess.run([sys.executable, "-c", textwrap.dedent(code)], cwd=cwd, env=env,
                             capture_output=True, text=True, timeout=300, check=False)
     assert result.returncode == 0, result.stderr[-3000:]
