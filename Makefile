@@ -20,7 +20,7 @@ help:
 	@echo "make pack      compile the kernels for x86-64-v3 into riverflow/kernels/_pack (shipped in a wheel)"
 	@echo "make wheel     build the wheel (with the kernel pack) into dist/"
 	@echo "make install   create $(VENV) and install riverflow[test,plot,gis] (the others do it too)"
-	@echo "make clean     remove caches and outputs; make distclean also removes $(VENV)"
+	@echo "make clean     remove caches, outputs and the kernel pack; make distclean also removes $(VENV)"
 
 $(VENV)/.installed: pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -60,7 +60,7 @@ wheel: pack
 	$(PY) -m pip wheel --no-deps --no-build-isolation -w dist .
 
 clean:
-	rm -rf .numba_cache .pytest_cache out build dist *.egg-info
+	rm -rf .numba_cache .pytest_cache out build dist *.egg-info riverflow/kernels/_pack
 	find . -path ./$(VENV) -prune -o -name __pycache__ -type d -exec rm -rf {} +
 
 distclean: clean
