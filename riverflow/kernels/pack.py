@@ -231,8 +231,9 @@ def main(argv: list[str] | None = None) -> int:
     data = build(args.out, args.jobs)
     end = os.times()
     size = sum(f.stat().st_size for f in args.out.rglob("*") if f.is_file())
+    compile_cpu = end.children_user + end.children_system \
+        - cpu.children_user - cpu.children_system
     print(f"wrote {args.out}: {len(data['folders'])} kernel modules, {size / 1e6:.1f} MB, "
           f"for {data['cpu_name']} in {time.perf_counter() - start:.1f} s "
-          f"({end.children_user + end.children_system - cpu.children_user - cpu.children_system:.1f}"
-          " s of compile CPU)")
+          f"({compile_cpu:.1f} s of compile CPU)")
     return 0
