@@ -118,7 +118,10 @@ def source_closure(py_file: str) -> set[str]:
     return seen
 
 
-def _imported_files(py_file: str) -> list[str]:
+@lru_cache(maxsize=None)
+def _imported_files(py_file: str) -> tuple[str, ...]:
+    """The riverflow modules ``py_file`` imports (each file is read and parsed once a process:
+    the kernel modules' closures share most of their files)."""
     source = Path(py_file).read_text(encoding="utf-8")
     package = _module_name(py_file).rpartition(".")[0]
     if Path(py_file).name == "__init__.py":
@@ -142,7 +145,7 @@ def _imported_files(py_file: str) -> list[str]:
                 file = _module_file(name)
                 if file is not None:
                     found.append(file)
-    return found
+    return tuple(found)
 
 
 def _module_name(py_file: str) -> str:
