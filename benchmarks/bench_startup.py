@@ -27,6 +27,7 @@ import argparse
 import json
 import os
 import resource
+import shutil
 import site
 import subprocess
 import sys
@@ -156,8 +157,14 @@ def fresh_venv(tmp: Path) -> dict:
     it took."""
     global VENV
     start = time.perf_counter()
+    src = tmp / "src"                   # a copy: building in place leaves build/ and egg-info
+    src.mkdir()
+    for name in ("pyproject.toml", "README.md", "LICENSE"):
+        shutil.copy2(REPO / name, src / name)
+    shutil.copytree(REPO / "riverflow", src / "riverflow",
+                    ignore=shutil.ignore_patterns("__pycache__", "*.pyc"))
     subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation",
-                    "--no-index", "-q", "-w", str(tmp / "dist"), str(REPO)], check=True,
+                    "--no-index", "-q", "-w", str(tmp / "dist"), str(src)], check=True,
                    capture_output=True)
     (wheel,) = (tmp / "dist").glob("riverflow-*.whl")
     names = zipfile.ZipFile(wheel).namelist()
