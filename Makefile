@@ -9,7 +9,7 @@ PYTHON ?= python3
 # Compiled kernels are kept by the package itself, in a per-user folder keyed by the sources
 # they are compiled from (riverflow/kernels/_cache.py); an explicit NUMBA_CACHE_DIR is honoured.
 
-.PHONY: help install demo test bench flowmap kernel-signatures clean distclean
+.PHONY: help install demo test bench flowmap kernel-signatures pack wheel clean distclean
 
 help:
 	@echo "make demo      play the boat demo (no display: renders its scripted run to out/demo/)"
@@ -17,8 +17,10 @@ help:
 	@echo "make bench     run every benchmarks/*.py"
 	@echo "make flowmap   draw the default scene's flow to out/flowmap.png"
 	@echo "make kernel-signatures   record the kernels' argument types for the warm-up"
+	@echo "make pack      compile the kernels for x86-64-v3 into riverflow/kernels/_pack (shipped in a wheel)"
+	@echo "make wheel     build the wheel (with the kernel pack) into dist/"
 	@echo "make install   create $(VENV) and install riverflow[test,plot,gis] (the others do it too)"
-	@echo "make clean     remove caches and outputs; make distclean also removes $(VENV)"
+	@echo "make clean     remove caches, outputs and the kernel pack; make distclean also removes $(VENV)"
 
 $(VENV)/.installed: pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -49,8 +51,16 @@ flowmap: $(VENV)/.installed
 kernel-signatures: $(VENV)/.installed
 	$(PY) tools/record_kernel_signatures.py
 
+# the kernels compiled ahead of time for a portable CPU (riverflow/kernels/pack.py); a wheel
+# built after it carries them, so `pip install` of the wheel draws its first frame at once
+pack: $(VENV)/.installed
+	$(PY) tools/build_kernel_pack.py
+
+wheel: pack
+	$(PY) -m pip wheel --no-deps --no-build-isolation -w dist .
+
 clean:
-	rm -rf .numba_cache .pytest_cache out build dist *.egg-info
+	rm -rf .numba_cache .pytest_cache out build dist *.egg-info riverflow/kernels/_pack
 	find . -path ./$(VENV) -prune -o -name __pycache__ -type d -exec rm -rf {} +
 
 distclean: clean

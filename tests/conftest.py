@@ -1,4 +1,7 @@
-"""Shared fixtures. PYGLET_HEADLESS is set before anything can import pyglet.gl."""
+"""Shared fixtures. PYGLET_HEADLESS is set before anything can import pyglet.gl, and
+RIVERFLOW_KERNEL_PACK=0 before anything imports riverflow: the tests run the host-tuned
+kernels CI runs, whether or not ``make pack`` left a kernel pack in the checkout (the pack's
+own tests name theirs)."""
 from __future__ import annotations
 
 import os
@@ -8,6 +11,7 @@ import time
 from pathlib import Path
 
 os.environ.setdefault("PYGLET_HEADLESS", "1")
+os.environ.setdefault("RIVERFLOW_KERNEL_PACK", "0")
 
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402

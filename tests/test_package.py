@@ -32,16 +32,26 @@ def _setuptools_version() -> tuple[int, ...]:
 @pytest.fixture(scope="module")
 def wheel(tmp_path_factory) -> Path:
     """The wheel of a copy of the sources (pyproject, README, LICENSE, riverflow/)."""
+    return _wheel(tmp_path_factory.mktemp("package"))
+
+
+def _wheel(tmp: Path, pack: dict[str, bytes] | None = None) -> Path:
+    """Build the wheel of a copy of the sources in ``tmp``; ``pack``: files to put in
+    ``riverflow/kernels/_pack/`` first (a stand-in for what ``make pack`` writes)."""
     if _setuptools_version() < (77,):
         pytest.skip("building without isolation needs setuptools>=77 here "
                     "(pip install -e '.[test]')")
-    tmp = tmp_path_factory.mktemp("package")
     src = tmp / "src"
     src.mkdir()
     for name in ("pyproject.toml", "README.md", "LICENSE"):
         shutil.copy2(REPO / name, src / name)
     shutil.copytree(REPO / "riverflow", src / "riverflow",
-                    ignore=shutil.ignore_patterns("__pycache__", "*.pyc", "*.nbi", "*.nbc"))
+                    ignore=shutil.ignore_patterns("__pycache__", "*.pyc", "*.nbi", "*.nbc",
+                                                  "_pack"))   # a kernel pack `make pack` left
+    for name, blob in (pack or {}).items():
+        path = src / "riverflow" / "kernels" / "_pack" / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_bytes(blob)
     result = subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps",
                              "--no-build-isolation", "--no-index", "-w", str(tmp / "dist"),
                              str(src)], capture_output=True, text=True, timeout=300)
@@ -66,6 +76,14 @@ def test_the_wheel_holds_every_module_the_shaders_and_the_license(wheel):
     assert any(n.endswith(".dist-info/licenses/LICENSE") for n in names)
     entry = next(n for n in names if n.endswith(".dist-info/entry_points.txt"))
     assert "riverflow = riverflow.__main__:main" in zipfile.ZipFile(wheel).read(entry).decode()
+
+
+@pytest.mark.slow
+def test_a_wheel_built_after_make_pack_carries_the_kernel_pack(tmp_path):
+    pack = {"manifest.json": b"{}", "flow-0123456789abcdef/flow.f-10.py311.nbi": b"index",
+            "flow-0123456789abcdef/flow.f-10.py311.0.nbc": b"code"}
+    names = set(zipfile.ZipFile(_wheel(tmp_path, pack)).namelist())
+    assert {f"riverflow/kernels/_pack/{name}" for name in pack} <= names
 
 
 @pytest.mark.slow

@@ -10,7 +10,9 @@ kernel module keeps its entries in a folder of its own, named after a hash of
 * the numba, llvmlite, numpy and Python versions and the CPU target (triple, name, features),
 
 so an edit anywhere in what a kernel is compiled from gives a new folder and the kernel is
-compiled again; a module whose closure did not change keeps its machine code.
+compiled again; a module whose closure did not change keeps its machine code. A new folder is
+first filled from the package's kernel pack when the pack has a folder of the same name
+(:mod:`riverflow.kernels.pack`: the kernels compiled ahead of time for a portable CPU).
 
 The folders live in ``$NUMBA_CACHE_DIR/riverflow`` when ``NUMBA_CACHE_DIR`` is set (the user's
 choice of place wins; the key still picks the folder inside it), else in the platform's user
@@ -116,7 +118,10 @@ def source_closure(py_file: str) -> set[str]:
     return seen
 
 
-def _imported_files(py_file: str) -> list[str]:
+@lru_cache(maxsize=None)
+def _imported_files(py_file: str) -> tuple[str, ...]:
+    """The riverflow modules ``py_file`` imports (each file is read and parsed once a process:
+    the kernel modules' closures share most of their files)."""
     source = Path(py_file).read_text(encoding="utf-8")
     package = _module_name(py_file).rpartition(".")[0]
     if Path(py_file).name == "__init__.py":
@@ -140,7 +145,7 @@ def _imported_files(py_file: str) -> list[str]:
                 file = _module_file(name)
                 if file is not None:
                     found.append(file)
-    return found
+    return tuple(found)
 
 
 def _module_name(py_file: str) -> str:
@@ -238,10 +243,23 @@ def _locator_class():
                 return None
             for candidate in (folder, _fallback_root() / folder.name):
                 if _prepare(candidate):
+                    _seed(candidate)
                     return cls(py_func, py_file, candidate)
             return None
 
     return RiverflowKernelLocator
+
+
+def _seed(folder: Path) -> None:
+    """Fill a new keyed folder from the package's kernel pack, when the pack has its name
+    (:mod:`riverflow.kernels.pack`); under the folder's lock, so processes starting together
+    fill it once."""
+    from riverflow.kernels import pack
+
+    if pack.manifest() is None:
+        return
+    with _folder_lock(str(folder)):
+        pack.seed(folder)
 
 
 def _fallback_root() -> Path:

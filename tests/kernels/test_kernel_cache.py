@@ -32,7 +32,9 @@ def run(code: str, cache: Path | None, cwd: Path = REPO, **env_extra) -> dict:
     if cache is not None:           # None: the user's own cache, as this process has it
         env = {k: v for k, v in env.items() if not k.startswith("NUMBA_")}
         env["NUMBA_CACHE_DIR"] = str(cache)
-    env.update(PYTHONPATH=str(cwd), **env_extra)
+    # the compile path: a kernel pack `make pack` left in the checkout is not used
+    env.update(PYTHONPATH=str(cwd), RIVERFLOW_KERNEL_PACK="0")
+    env.update(env_extra)
     result = subprocess.run([sys.executable, "-c", textwrap.dedent(code)], cwd=cwd, env=env,
                             capture_output=True, text=True, timeout=300, check=False)
     assert result.returncode == 0, result.stderr[-3000:]
