@@ -815,11 +815,16 @@ def _channels(part, k: int, lines: list, tolerance_m: float, report: RiverImport
     return _skeleton_channels(part, k, tolerance_m, report, frame, forced, ends)
 
 
-def _split_holes(part, enclosed=None, forced=()):
+def _split_holes(part, enclosed=None, forced=(), open_edge=None):
     """(water with the holes that split channels, free islands): a hole is a free island when
-    it is small beside the water around it (ISLAND_SPLIT_WIDTHS), or, with ``enclosed`` (a
-    polygon), when no loop of lines goes round it."""
-    rings = [part.exterior, *part.interiors]
+    it is small beside the water around it (ISLAND_SPLIT_WIDTHS: its gap to the outer shore,
+    not counting ``open_edge``, where the data's edge cuts the water), or, with ``enclosed``
+    (a polygon), when no loop of lines goes round it."""
+    banks = part.exterior
+    if open_edge is not None:
+        banks = shapely.difference(banks, shapely.buffer(open_edge, 1e-6 * math.sqrt(
+            part.area) + 1e-9, cap_style="flat"))
+        banks = part.exterior if banks.is_empty else banks
     keep, free = [], []
     for i, hole in enumerate(part.interiors):
         poly = shapely.Polygon(hole)
@@ -828,7 +833,7 @@ def _split_holes(part, enclosed=None, forced=()):
         else:
             # the water beside it: the gap to the outer shore (a cluster of small islands
             # close together in a wide river are free islands, not channels between them)
-            gap = poly.distance(part.exterior)
+            gap = poly.distance(banks)
             split = 2.0 * shapely.minimum_bounding_radius(poly) >= ISLAND_SPLIT_WIDTHS * gap
         if any(poly.contains(shapely.Point(p)) for p in forced):
             split = False
@@ -898,7 +903,8 @@ def _skeleton_channels(part, k: int, tolerance_m: float, report, frame=None,
                        forced=(), ends=None) -> _Network:
     """Channels along the water's skeleton; holes whose loop of axes collapses become free
     islands and the skeleton is made again."""
-    water, free = _split_holes(part, None, forced)
+    open_edge = _open_edge(part, frame, 2.0 * part.area / max(part.length, 1e-9), tolerance_m)
+    water, free = _split_holes(part, None, forced, open_edge)
     for _ in range(len(part.interiors) + 1):
         chains, nodes, collapsed = skeleton(water, tolerance_m, frame, ends)
         if collapsed is None:
@@ -946,12 +952,16 @@ def skeleton(water, tolerance_m: float = 0.25, frame=None, ends=None):
                                                   np.take(lines, b[pair])).min()))
     spacing = max(min(approx_width, 2.0 * gap) / SAMPLES_PER_WIDTH,
                   length / MAX_OUTLINE_SAMPLES, tolerance_m)
-    pts = np.vstack([np.asarray(shapely.segmentize(r, spacing).coords)[:-1] for r in rings])
+    per_ring = [np.asarray(shapely.segmentize(r, spacing).coords)[:-1] for r in rings]
+    pts = np.vstack(per_ring)
     open_edge = _open_edge(water, frame, approx_width, tolerance_m)
     if open_edge is not None:
         # no outline point on it, nor on the banks' last quarter width beside it: the axis
-        # runs out straight between the banks instead of bending into a corner
-        pts = pts[shapely.distance(open_edge, shapely.points(pts)) > 0.25 * approx_width]
+        # runs out straight between the banks instead of bending into a corner (islands'
+        # shores near it stay)
+        outer = np.arange(len(pts)) < len(per_ring[0])
+        pts = pts[~outer | (shapely.distance(open_edge, shapely.points(pts))
+                            > 0.25 * approx_width)]
     all_pts = pts
     edges = shapely.get_parts(shapely.voronoi_polygons(shapely.MultiPoint(pts), only_edges=True))
     seg = shapely.get_coordinates(edges).reshape(-1, 2, 2)

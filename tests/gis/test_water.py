@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import shapely
+import shapely.affinity
 
 import riverflow as rf
 from riverflow.hydro.graph import GraphError
@@ -509,3 +510,57 @@ def test_a_braid_of_three_channels(tmp_path):
     status, v = rf.FlowField(graph).query(np.array([[500.0, 0.0], [500.0, 45.0],
                                                     [500.0, -45.0], [100.0, 0.0]]))
     assert (status == INSIDE).all() and (v[:, 0] > 0).all()
+
+
+def island_river(islands: int, seed: int = 4):
+    """A 160 m meandering river across a 1 200 m square (x 0 - 1 200, cut by its west and east
+    edges) with ``islands`` small elliptic islands (12 - 40 m long) scattered in it, none
+    touching another, a bank or the cut ends (an island cut by the data's edge is not read
+    yet); the water and the number placed."""
+    rng = np.random.default_rng(seed)
+    x = np.linspace(-100.0, 1300.0, 141)
+    centre = shapely.LineString(np.c_[x, 150.0 * np.sin(x / 1200.0 * 2.0 * np.pi)])
+    river = centre.buffer(80.0, cap_style="flat", quad_segs=16)
+    inner = river.buffer(-14.0)
+    placed: list = []
+    while len(placed) < islands:
+        p = np.array(centre.interpolate(rng.uniform(100.0, 1300.0)).coords[0])
+        p += rng.uniform(-45.0, 45.0, 2)
+        a, b = rng.uniform(6.0, 20.0), rng.uniform(4.0, 8.0)
+        ell = shapely.affinity.rotate(shapely.affinity.scale(shapely.Point(p).buffer(1.0, 8),
+                                                             a, b), rng.uniform(0, 180))
+        away = 30.0 < ell.bounds[0] and ell.bounds[2] < 1170.0     # from the cut ends
+        if away and inner.contains(ell) and all(ell.distance(q) >= 10.0 for q in placed):
+            placed.append(ell)
+    return river.difference(shapely.union_all(placed)), len(placed)
+
+
+def test_a_mask_with_many_islands_keeps_both_ends(tmp_path):
+    """A 300 × 300-cell mask of a river with 18 islands, cut by the raster's west and east
+    edges: both ends are kept (no spur pruning eats them), the only free ends of the axes lie
+    on those edges, one axis per channel (the axes' loops are the islands between channels),
+    and the built network's flow is INSIDE all along the river."""
+    water, placed = island_river(18)
+    assert placed == 18
+    mask = write_mask(tmp_path / "islands.tif", water, 4.0, bounds=(0.0, -600.0, 1200.0, 600.0))
+    builder = rf.read_water(mask, inlets=[ORIGIN + (0.0, 0.0)], origin_m=ORIGIN)
+    islands = builder.report.derived["islands"]
+    assert sum(islands.values()) == placed
+    graph = builder.build()
+    ends = np.round(np.array([c[[0, -1]] for _, c in _channels(builder)]).reshape(-1, 2), 3)
+    nodes, degree = np.unique(ends, axis=0, return_counts=True)
+    free = nodes[degree == 1]
+    assert len(free) == 2
+    assert sorted(np.round(free[:, 0] / 1200.0).tolist()) == [0.0, 1.0]
+    # on the raster's edge within a cell (the mask's smoothed corners round the cut a little)
+    assert np.abs(free[:, 0] - np.round(free[:, 0] / 1200.0) * 1200.0).max() < 4.0
+    # one axis per channel: the cycle rank (axes - nodes + 1) is the islands between channels
+    assert len(ends) // 2 - len(nodes) + 1 == islands["between channels"]
+    assert builder.report.derived["direction"] == "from the inlets / outlets given"
+    # the flow: inside the water along the river, downstream, finite
+    x = np.linspace(20.0, 1180.0, 59)
+    on = np.c_[x, 150.0 * np.sin(x / 1200.0 * 2.0 * np.pi)]
+    clear = shapely.distance(water.boundary, shapely.points(on)) > 8.0
+    status, v = rf.FlowField(graph).query(on[clear])
+    assert clear.sum() > 30 and (status == INSIDE).all() and np.isfinite(v).all()
+    assert (v[:, 0] > 0).mean() > 0.9
