@@ -22,8 +22,10 @@ from satellite images. :func:`read_water` reads them into a filled
   file), cut where they cross its outline; else the water's medial axis (:func:`skeleton`:
   the Voronoi diagram of points along the outline, the edges inside the water), pruned of
   spurs shorter than SPUR_WIDTHS times the width where they branch off, so every channel of a
-  braided river has one axis. Each free end is carried on to the outline; there the water is
-  cut by a straight closing segment across the channel (where water enters or leaves).
+  braided river has one axis. The water's open ends (where the data's extent cuts it, or at
+  the inlets / outlets given) are never pruned (:func:`_open_edge`, :func:`_open_ends`).
+  Each free end is carried on to the outline; there the water is cut by a straight closing
+  segment across the channel (where water enters or leaves).
 - **Direction**: from the lines; else from ``inlets`` (points where water enters) and
   ``outlets`` (points where it leaves), each matched to the nearest free end; else from
   ``dem`` (the highest free end is the inlet, the lowest the outlet); else the two free ends
@@ -43,8 +45,8 @@ every free end of the water, or a network that cannot be built raise
 :class:`~riverflow.GraphError` naming the file and what is wrong.
 
 Not yet (issue 22): lakes as flat water bodies (a polygon tagged ``water=lake`` is read as a
-channel like any other), and water tiles triangulated from the polygon itself (the meshes
-come from the graph as for every network).
+channel like any other). The water tiles are the polygon (through the graph's water area)
+clipped per tile and triangulated per grid cell (:mod:`riverflow.scenes.meshes`).
 """
 from __future__ import annotations
 
