@@ -177,8 +177,8 @@ class WaterBuilder(RiverNetworkBuilder):
         line = shapely.LineString(branch.centerline_m)
         mid = line.interpolate(0.5, normalized=True)
         best = min(holes, key=lambda h: (h.distance(line), h.distance(mid)))
-        if best.distance(line) > float(branch.widths_m.max()):
-            return None
+        if k is None and best.distance(line) > float(branch.widths_m.max()):
+            return None      # (a branch whose banks are wrong: its ψ comes from the islands)
         return best.representative_point().coords[0]
 
     def _raise_named(self, exc: GraphError):
