@@ -334,8 +334,40 @@ def read_water(path, *, layer: str | int | None = None, lines=None, inlets=None,
     builder._fill = lambda forced: _fill(builder, water, line_geoms, inlet_xy, outlet_xy, dem,
                                          discharge_m3s, geometry, tolerance_m, where, forced,
                                          extent)
-    builder._fill(())
+    forced: list[tuple[float, float]] = []
+    while True:
+        try:
+            builder._fill(tuple(forced))
+            break
+        except GraphError as exc:
+            hole = _hole_in_loop(builder, str(exc))
+            if hole is None or len(forced) == MAX_ISLAND_RETRIES:
+                raise
+            forced.append(hole)
+            report.repair("island", None, None,
+                          f"the island near ({hole[0]:.1f}, {hole[1]:.1f}) between channels "
+                          f"leaves its axes flowing round a loop: taken as a free island in "
+                          f"one channel")
     return builder
+
+
+def _hole_in_loop(builder: WaterBuilder, text: str):
+    """For _discharges' "channels [...] flow round a loop": a point inside the hole between
+    channels nearest those channels (the skeleton round islands close together can leave a
+    loop no orientation drains), or None."""
+    import re
+
+    if "flow round a loop" not in text:
+        return None
+    names = set(re.findall(r"'([^']+)'", text))
+    for net in getattr(builder, "_networks", []):
+        lines = [shapely.LineString(c.points) for c in net.channels if c.name in names]
+        holes = [shapely.Polygon(r) for r in net.water.interiors]
+        if lines and holes:
+            loop = shapely.MultiLineString(lines)
+            best = min(holes, key=lambda h: h.distance(loop))
+            return best.representative_point().coords[0]
+    return None
 
 
 def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, discharge_m3s,
@@ -379,6 +411,7 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
     for k, net in enumerate(networks):
         rules.add(net.orient(elevations))
     report.derived["direction"] = "; ".join(sorted(rules))
+    builder._networks = networks       # (for _hole_in_loop, when _discharges fails)
     _discharges(networks, discharge_m3s, geometry, report)
     kept = []
     for net in networks:
