@@ -154,8 +154,8 @@ class WaterBuilder(RiverNetworkBuilder):
     def _hole_by(self, text: str):
         """For an error naming a branch whose banks the builder could not tell apart (its
         ψ does not add up round a loop, both its banks one shore, their ψ difference not its
-        discharge, no banks found across it), or branches that do not meet (the axes round an island near where the
-        water is cut): a point inside the hole
+        discharge, no banks found across it), or branches that do not meet (the axes round
+        an island near where the water is cut): a point inside the hole
         between channels nearest that branch's middle, or None."""
         import re
 
@@ -977,7 +977,8 @@ def skeleton(water, tolerance_m: float = 0.25, frame=None, ends=None):
     (the data's extent: a river cut by the map's or the raster's border) over at least
     OPEN_EDGE_WIDTHS times the mean width, that piece is no bank (no outline point is put on
     it, so the axis runs straight out between the banks) and the axis's end there is kept;
-    so is every end within its width of one of ``ends`` (the inlets and outlets given)."""
+    so is, for each of ``ends`` (the inlets and outlets given), the widest free end whose
+    inscribed circle (grown by two sample spacings) reaches it."""
     rings = [water.exterior, *water.interiors]
     length = sum(r.length for r in rings)
     approx_width = 2.0 * water.area / max(length, 1e-9)
