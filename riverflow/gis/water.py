@@ -22,8 +22,10 @@ from satellite images. :func:`read_water` reads them into a filled
   file), cut where they cross its outline; else the water's medial axis (:func:`skeleton`:
   the Voronoi diagram of points along the outline, the edges inside the water), pruned of
   spurs shorter than SPUR_WIDTHS times the width where they branch off, so every channel of a
-  braided river has one axis. Each free end is carried on to the outline; there the water is
-  cut by a straight closing segment across the channel (where water enters or leaves).
+  braided river has one axis. The water's open ends (where the data's extent cuts it, or at
+  the inlets / outlets given) are never pruned (:func:`_open_edge`, :func:`_open_ends`).
+  Each free end is carried on to the outline; there the water is cut by a straight closing
+  segment across the channel (where water enters or leaves).
 - **Direction**: from the lines; else from ``inlets`` (points where water enters) and
   ``outlets`` (points where it leaves), each matched to the nearest free end; else from
   ``dem`` (the highest free end is the inlet, the lowest the outlet); else the two free ends
@@ -43,8 +45,8 @@ every free end of the water, or a network that cannot be built raise
 :class:`~riverflow.GraphError` naming the file and what is wrong.
 
 Not yet (issue 22): lakes as flat water bodies (a polygon tagged ``water=lake`` is read as a
-channel like any other), and water tiles triangulated from the polygon itself (the meshes
-come from the graph as for every network).
+channel like any other). The water tiles are the polygon (through the graph's water area)
+clipped per tile and triangulated per grid cell (:mod:`riverflow.scenes.meshes`).
 """
 from __future__ import annotations
 
@@ -94,6 +96,9 @@ repair left): left out, reported."""
 SAMPLES_PER_WIDTH = 8.0
 """Outline points per narrowest channel width for the skeleton's Voronoi diagram."""
 MAX_OUTLINE_SAMPLES = 200_000
+OPEN_EDGE_WIDTHS = 0.25
+"""A piece of the water's outline along the data's extent at least this many mean widths
+long is an open end (the water cut by the map's edge), not a bank."""
 
 
 class WaterBuilder(RiverNetworkBuilder):
@@ -148,14 +153,21 @@ class WaterBuilder(RiverNetworkBuilder):
 
     def _hole_by(self, text: str):
         """For an error naming a branch whose banks the builder could not tell apart (its
-        ψ does not add up round a loop, both its banks one shore): a point inside the hole
+        ψ does not add up round a loop, both its banks one shore, their ψ difference not its
+        discharge, no banks found across it), or branches that do not meet (the axes round
+        an island near where the water is cut): a point inside the hole
         between channels nearest that branch's middle, or None."""
         import re
 
-        m = re.search(r"branch '([^']+)'", text)
-        if m is None or ("inconsistent" not in text and "one continuous shore" not in text):
+        m = re.search(r"branch(?:es)? '([^']+)'", text)
+        k = re.search(r"branch (\d+): (?:ψ\(right\) − ψ\(left\)|no banks found)", text)
+        if k is not None and int(k.group(1)) < len(self._branches):
+            branch = self._branches[int(k.group(1))]     # its banks not found, or wrong
+        elif m is None or ("inconsistent" not in text and "one continuous shore" not in text
+                           and "do not meet" not in text):
             return None
-        branch = next((b for b in self._branches if b.name == m.group(1)), None)
+        else:
+            branch = next((b for b in self._branches if b.name == m.group(1)), None)
         holes = [shapely.Polygon(r) for poly in getattr(self.water, "geoms", [self.water])
                  for r in poly.interiors]
         free = [i.outline for i in self._islands]
@@ -165,8 +177,8 @@ class WaterBuilder(RiverNetworkBuilder):
         line = shapely.LineString(branch.centerline_m)
         mid = line.interpolate(0.5, normalized=True)
         best = min(holes, key=lambda h: (h.distance(line), h.distance(mid)))
-        if best.distance(line) > float(branch.widths_m.max()):
-            return None
+        if k is None and best.distance(line) > float(branch.widths_m.max()):
+            return None      # (a branch whose banks are wrong: its ψ comes from the islands)
         return best.representative_point().coords[0]
 
     def _raise_named(self, exc: GraphError):
@@ -271,12 +283,12 @@ def read_water(path, *, layer: str | int | None = None, lines=None, inlets=None,
     if path.is_file() and path.stat().st_size == 0:
         raise GraphError(f"{path}: the file is empty")
     if is_raster_path(path):
-        features, source_crs, layer_name, cell = _read_mask(path)
+        features, source_crs, layer_name, cell, extent = _read_mask(path)
         if simplify_m is None:
             simplify_m = 0.5 * cell
     else:
         features, source_crs, layer_name = _read_polygons(path, layer)
-        cell = None
+        cell = extent = None
         if simplify_m is None:
             simplify_m = 0.25
     where = f"{path} (layer {layer_name!r})"
@@ -287,7 +299,8 @@ def read_water(path, *, layer: str | int | None = None, lines=None, inlets=None,
 
     _check_points_crs(source_crs, inlet_xy, outlet_xy, where)
     # project everything at once (one local CRS for polygons, lines and points)
-    geoms = [g for _, g, _ in features] + line_geoms
+    # the raster's extent (where water touching it is cut by the data's edge) goes with them
+    geoms = [g for _, g, _ in features] + line_geoms + ([extent] if extent is not None else [])
     coords = shapely.get_coordinates(geoms)
     extra = np.vstack([inlet_xy, outlet_xy])
     xy, crs_out, crs_note = _project(np.vstack([coords, extra]), source_crs, where,
@@ -306,6 +319,8 @@ def read_water(path, *, layer: str | int | None = None, lines=None, inlets=None,
     inlet_xy = xy[len(coords):len(coords) + len(inlet_xy)]
     outlet_xy = xy[len(coords) + len(inlet_xy):]
     polygons = geoms[:len(features)]
+    if extent is not None:
+        extent = geoms.pop()
     line_geoms = geoms[len(features):]
 
     water = _repair(features, polygons, report, where, simplify_m, tolerance_m)
@@ -317,15 +332,50 @@ def read_water(path, *, layer: str | int | None = None, lines=None, inlets=None,
     builder.crs = crs_out
     builder.water = water
     builder._fill = lambda forced: _fill(builder, water, line_geoms, inlet_xy, outlet_xy, dem,
-                                         discharge_m3s, geometry, tolerance_m, where, forced)
-    builder._fill(())
+                                         discharge_m3s, geometry, tolerance_m, where, forced,
+                                         extent)
+    forced: list[tuple[float, float]] = []
+    while True:
+        try:
+            builder._fill(tuple(forced))
+            break
+        except GraphError as exc:
+            hole = _hole_in_loop(builder, str(exc))
+            if hole is None or len(forced) == MAX_ISLAND_RETRIES:
+                raise
+            forced.append(hole)
+            report.repair("island", None, None,
+                          f"the island near ({hole[0]:.1f}, {hole[1]:.1f}) between channels "
+                          f"leaves its axes flowing round a loop: taken as a free island in "
+                          f"one channel")
     return builder
 
 
+def _hole_in_loop(builder: WaterBuilder, text: str):
+    """For _discharges' "channels [...] flow round a loop": a point inside the hole between
+    channels nearest those channels (the skeleton round islands close together can leave a
+    loop no orientation drains), or None."""
+    import re
+
+    if "flow round a loop" not in text:
+        return None
+    names = set(re.findall(r"'([^']+)'", text))
+    for net in getattr(builder, "_networks", []):
+        lines = [shapely.LineString(c.points) for c in net.channels if c.name in names]
+        holes = [shapely.Polygon(r) for r in net.water.interiors]
+        if lines and holes:
+            loop = shapely.MultiLineString(lines)
+            best = min(holes, key=lambda h: h.distance(loop))
+            return best.representative_point().coords[0]
+    return None
+
+
 def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, discharge_m3s,
-          geometry: HydraulicGeometry, tolerance_m: float, where: str, forced) -> None:
+          geometry: HydraulicGeometry, tolerance_m: float, where: str, forced,
+          extent=None) -> None:
     """Find the channels of the water and put them into the builder (anew: what it held is
-    dropped); holes containing a point of ``forced`` are free islands."""
+    dropped); holes containing a point of ``forced`` are free islands. ``extent``: the data's
+    extent (a raster's; default the water's bounding box), where the water is cut open."""
     report = builder.report
     crs_out = report.crs
     builder._branches.clear()
@@ -334,9 +384,10 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
     report.attributes.clear()
     report.repairs[:] = [r for r in report.repairs if not r.feature.startswith("water body")]
     networks = []
-    frame = shapely.box(*water.bounds)
+    frame = extent if extent is not None else shapely.box(*water.bounds)
     for k, part in enumerate(getattr(water, "geoms", [water])):
-        net = _channels(part, k, line_geoms, tolerance_m, report, frame, forced)
+        net = _channels(part, k, line_geoms, tolerance_m, report, frame, forced,
+                        np.vstack([inlet_xy, outlet_xy]))
         longest = max(c.length for c in net.channels)
         widest = max(float(c.widths.max()) for c in net.channels)
         speck = part.area < SPECK_FRACTION * water.area
@@ -360,6 +411,7 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
     for k, net in enumerate(networks):
         rules.add(net.orient(elevations))
     report.derived["direction"] = "; ".join(sorted(rules))
+    builder._networks = networks       # (for _hole_in_loop, when _discharges fails)
     _discharges(networks, discharge_m3s, geometry, report)
     kept = []
     for net in networks:
@@ -419,8 +471,8 @@ def _check_points_crs(source_crs, inlets: np.ndarray, outlets: np.ndarray, where
 
 
 def _read_mask(path: Path):
-    """[(fid, polygon, attrs)] of the water cells (> 0) of a raster, its CRS, layer name and
-    cell size [CRS units]."""
+    """[(fid, polygon, attrs)] of the water cells (> 0) of a raster, its CRS, layer name,
+    cell size [CRS units] and extent (a polygon along its border, a point every half cell)."""
     rasterio = require("rasterio", f"reading {path}")
     from rasterio import features as rio_features
 
@@ -438,8 +490,10 @@ def _read_mask(path: Path):
                                  connectivity=4)
     cell = float(min(abs(transform.a), abs(transform.e)))
     polys = [_smooth_cells(shapely.geometry.shape(s), cell) for s, _ in shapes]
+    extent = shapely.segmentize(shapely.box(*rasterio.transform.array_bounds(
+        *mask.shape, transform)), 0.5 * cell)
     return ([(k, p, {}) for k, p in enumerate(polys)], crs.to_wkt() if crs else None,
-            "band 1", cell)
+            "band 1", cell, extent)
 
 
 def _smooth_cells(poly, cell: float):
@@ -791,29 +845,35 @@ def _distance_from(adj, nodes) -> np.ndarray:
 
 
 def _channels(part, k: int, lines: list, tolerance_m: float, report: RiverImport,
-              frame=None, forced=()) -> _Network:
+              frame=None, forced=(), ends=None) -> _Network:
     """The channels of one water polygon: along the lines in it, else its skeleton."""
     inside = [g for g in lines if g.intersects(part)]
     if inside:
         return _line_channels(part, k, inside, tolerance_m, report, forced)
     if lines:
         report.notes.append(f"water body {k}: no line runs through it: its axes are its skeleton")
-    return _skeleton_channels(part, k, tolerance_m, report, frame, forced)
+    return _skeleton_channels(part, k, tolerance_m, report, frame, forced, ends)
 
 
-def _split_holes(part, enclosed=None, forced=()):
+def _split_holes(part, enclosed=None, forced=(), open_edge=None):
     """(water with the holes that split channels, free islands): a hole is a free island when
-    it is small beside the water around it (ISLAND_SPLIT_WIDTHS), or, with ``enclosed`` (a
-    polygon), when no loop of lines goes round it."""
-    rings = [part.exterior, *part.interiors]
+    it is small beside the water around it (ISLAND_SPLIT_WIDTHS: its gap to the outer shore,
+    not counting ``open_edge``, where the data's edge cuts the water), or, with ``enclosed``
+    (a polygon), when no loop of lines goes round it."""
+    banks = part.exterior
+    if open_edge is not None:
+        banks = shapely.difference(banks, shapely.buffer(open_edge, 1e-6 * math.sqrt(
+            part.area) + 1e-9, cap_style="flat"))
+        banks = part.exterior if banks.is_empty else banks
     keep, free = [], []
     for i, hole in enumerate(part.interiors):
         poly = shapely.Polygon(hole)
         if enclosed is not None:
             split = enclosed.contains(poly.representative_point())
         else:
-            others = shapely.MultiLineString([r for j, r in enumerate(rings) if j != i + 1])
-            gap = poly.distance(others)
+            # the water beside it: the gap to the outer shore (a cluster of small islands
+            # close together in a wide river are free islands, not channels between them)
+            gap = poly.distance(banks)
             split = 2.0 * shapely.minimum_bounding_radius(poly) >= ISLAND_SPLIT_WIDTHS * gap
         if any(poly.contains(shapely.Point(p)) for p in forced):
             split = False
@@ -880,12 +940,13 @@ def _chord_widths(line: np.ndarray, water) -> np.ndarray:
 
 
 def _skeleton_channels(part, k: int, tolerance_m: float, report, frame=None,
-                       forced=()) -> _Network:
+                       forced=(), ends=None) -> _Network:
     """Channels along the water's skeleton; holes whose loop of axes collapses become free
     islands and the skeleton is made again."""
-    water, free = _split_holes(part, None, forced)
+    open_edge = _open_edge(part, frame, 2.0 * part.area / max(part.length, 1e-9), tolerance_m)
+    water, free = _split_holes(part, None, forced, open_edge)
     for _ in range(len(part.interiors) + 1):
-        chains, nodes, collapsed = skeleton(water, tolerance_m, frame)
+        chains, nodes, collapsed = skeleton(water, tolerance_m, frame, ends)
         if collapsed is None:
             break
         hole = water.interiors[collapsed]
@@ -902,7 +963,7 @@ def _skeleton_channels(part, k: int, tolerance_m: float, report, frame=None,
     return net
 
 
-def skeleton(water, tolerance_m: float = 0.25, frame=None):
+def skeleton(water, tolerance_m: float = 0.25, frame=None, ends=None):
     """The medial axis of a polygon as channels: ([(points (K, 2), widths (K,), start node,
     end node)], node points (N, 2), the index of a hole whose loop collapsed or None).
 
@@ -910,7 +971,14 @@ def skeleton(water, tolerance_m: float = 0.25, frame=None):
     narrowest width) has its edges inside the water along the medial axis; those are kept, the
     spurs shorter than SPUR_WIDTHS local widths pruned, junctions closer than JOIN_WIDTHS ×
     the sum of their inscribed radii merged, and the chains between junctions and ends
-    simplified. Widths are twice the distance to the outline."""
+    simplified. Widths are twice the distance to the outline.
+
+    The water's open ends are never pruned: where its outline runs along ``frame``'s edge
+    (the data's extent: a river cut by the map's or the raster's border) over at least
+    OPEN_EDGE_WIDTHS times the mean width, that piece is no bank (no outline point is put on
+    it, so the axis runs straight out between the banks) and the axis's end there is kept;
+    so is, for each of ``ends`` (the inlets and outlets given), the widest free end whose
+    inscribed circle (grown by two sample spacings) reaches it."""
     rings = [water.exterior, *water.interiors]
     length = sum(r.length for r in rings)
     approx_width = 2.0 * water.area / max(length, 1e-9)
@@ -925,7 +993,16 @@ def skeleton(water, tolerance_m: float = 0.25, frame=None):
                                                   np.take(lines, b[pair])).min()))
     spacing = max(min(approx_width, 2.0 * gap) / SAMPLES_PER_WIDTH,
                   length / MAX_OUTLINE_SAMPLES, tolerance_m)
-    pts = np.vstack([np.asarray(shapely.segmentize(r, spacing).coords)[:-1] for r in rings])
+    per_ring = [np.asarray(shapely.segmentize(r, spacing).coords)[:-1] for r in rings]
+    pts = np.vstack(per_ring)
+    open_edge = _open_edge(water, frame, approx_width, tolerance_m)
+    if open_edge is not None:
+        # no outline point on it, nor on the banks' last quarter width beside it: the axis
+        # runs out straight between the banks instead of bending into a corner (islands'
+        # shores near it stay)
+        outer = np.arange(len(pts)) < len(per_ring[0])
+        pts = pts[~outer | (shapely.distance(open_edge, shapely.points(pts))
+                            > 0.25 * approx_width)]
     all_pts = pts
     edges = shapely.get_parts(shapely.voronoi_polygons(shapely.MultiPoint(pts), only_edges=True))
     seg = shapely.get_coordinates(edges).reshape(-1, 2, 2)
@@ -946,7 +1023,7 @@ def skeleton(water, tolerance_m: float = 0.25, frame=None):
         d = float(np.hypot(*(uniq[a] - uniq[b])))
         nbr[a][b] = d
         nbr[b][a] = d
-    _prune(nbr, radius)
+    _prune(nbr, radius, _open_ends(nbr, uniq, radius, open_edge, ends, spacing))
     _keep_longest_piece(nbr)
     chains = _chains(nbr)
     chains, loops = _merge_junctions(chains, uniq, radius)
@@ -974,14 +1051,51 @@ def skeleton(water, tolerance_m: float = 0.25, frame=None):
     return out, nodes, None
 
 
-def _prune(nbr: list[dict[int, float]], radius: np.ndarray) -> None:
+def _open_edge(water, frame, width: float, tolerance_m: float):
+    """The pieces of the water's outline along ``frame``'s edge (where the data's extent cuts
+    the water: no bank), or None. A piece counts when it is at least OPEN_EDGE_WIDTHS ×
+    ``width`` long and runs across the water, not along it: the rest of the outline lies at
+    least a quarter of its length from its middle (a straight bank on the frame's edge has
+    the other bank much nearer)."""
+    if frame is None:
+        return None
+    band = shapely.buffer(frame.boundary, 1e-6 * max(width, 1.0) + 1e-9, cap_style="flat")
+    on = shapely.intersection(water.boundary, band)
+    rest = shapely.difference(water.boundary, band)
+    pieces = [g for g in shapely.get_parts(shapely.line_merge(on) if on.geom_type in (
+        "MultiLineString", "LineString") else on)
+        if g.geom_type == "LineString" and g.length >= OPEN_EDGE_WIDTHS * width
+        and shapely.distance(g.interpolate(0.5, normalized=True), rest) >= 0.25 * g.length]
+    return shapely.MultiLineString(pieces) if pieces else None
+
+
+def _open_ends(nbr, xy: np.ndarray, radius: np.ndarray, open_edge, ends, spacing: float):
+    """Which skeleton nodes are ends never to prune: for each piece of ``open_edge`` and
+    each point of ``ends``, the widest free end whose inscribed circle reaches it (the axis
+    running out between the banks; the spurs into the corners beside it are narrower)."""
+    keep = np.zeros(len(xy), bool)
+    leaves = np.array([i for i in range(len(nbr)) if len(nbr[i]) == 1], dtype=np.int64)
+    if not len(leaves):
+        return keep
+    targets = list(shapely.get_parts(open_edge)) if open_edge is not None else []
+    targets += [shapely.Point(p) for p in (ends if ends is not None else ())]
+    reach = radius[leaves] + 2.0 * spacing
+    for t in targets:
+        d = shapely.distance(t, shapely.points(xy[leaves]))
+        near = d <= reach
+        if near.any():
+            keep[leaves[near][int(np.argmax(radius[leaves[near]]))]] = True
+    return keep
+
+
+def _prune(nbr: list[dict[int, float]], radius: np.ndarray, keep=None) -> None:
     """Remove spurs (chains from a free end to a junction) shorter than SPUR_WIDTHS local
-    widths, at most all but
-    one at each junction per pass, until none is left."""
+    widths, at most all but one at each junction per pass, until none is left; free ends
+    marked in ``keep`` (the water's open ends) are never removed."""
     while True:
         spurs: dict[int, list[tuple[float, list[int]]]] = {}
         for leaf in range(len(nbr)):
-            if len(nbr[leaf]) != 1:
+            if len(nbr[leaf]) != 1 or (keep is not None and keep[leaf]):
                 continue
             path, length, prev, cur = [leaf], 0.0, -1, leaf
             while True:
@@ -1080,7 +1194,9 @@ def _merge_junctions(chains, xy: np.ndarray, radius: np.ndarray):
         close = d < JOIN_WIDTHS * (radius[a] + radius[b])
         for i in np.argsort(d[close]):
             ra, rb = root(int(a[close][i])), root(int(b[close][i]))
-            if ra != rb:
+            # the roots themselves must be close (no chain of merges drifting along an axis)
+            if ra != rb and (np.hypot(*(xy[ra] - xy[rb]))
+                             < JOIN_WIDTHS * (radius[ra] + radius[rb])):
                 keep, gone = (ra, rb) if radius[ra] >= radius[rb] else (rb, ra)
                 parent[gone] = keep
     out, loops = [], []

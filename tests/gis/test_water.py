@@ -5,9 +5,12 @@ gives one axis per channel; a mask reads to the network of its polygon; bad inpu
 clear GraphError or a reported repair."""
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 import shapely
+import shapely.affinity
 
 import riverflow as rf
 from riverflow.hydro.graph import GraphError
@@ -509,3 +512,151 @@ def test_a_braid_of_three_channels(tmp_path):
     status, v = rf.FlowField(graph).query(np.array([[500.0, 0.0], [500.0, 45.0],
                                                     [500.0, -45.0], [100.0, 0.0]]))
     assert (status == INSIDE).all() and (v[:, 0] > 0).all()
+
+
+def island_river(islands: int, seed: int = 4):
+    """A 160 m meandering river across a 1 200 m square (x 0 - 1 200, cut by its west and east
+    edges) with ``islands`` small elliptic islands (12 - 40 m long) scattered in it, none
+    touching another, a bank or the cut ends (an island cut by the data's edge is not read
+    yet); the water and the number placed."""
+    rng = np.random.default_rng(seed)
+    x = np.linspace(-100.0, 1300.0, 141)
+    centre = shapely.LineString(np.c_[x, 150.0 * np.sin(x / 1200.0 * 2.0 * np.pi)])
+    river = centre.buffer(80.0, cap_style="flat", quad_segs=16)
+    inner = river.buffer(-14.0)
+    placed: list = []
+    while len(placed) < islands:
+        p = np.array(centre.interpolate(rng.uniform(100.0, 1300.0)).coords[0])
+        p += rng.uniform(-45.0, 45.0, 2)
+        a, b = rng.uniform(6.0, 20.0), rng.uniform(4.0, 8.0)
+        ell = shapely.affinity.rotate(shapely.affinity.scale(shapely.Point(p).buffer(1.0, 8),
+                                                             a, b), rng.uniform(0, 180))
+        away = 30.0 < ell.bounds[0] and ell.bounds[2] < 1170.0     # from the cut ends
+        if away and inner.contains(ell) and all(ell.distance(q) >= 10.0 for q in placed):
+            placed.append(ell)
+    return river.difference(shapely.union_all(placed)), len(placed)
+
+
+def test_a_mask_with_many_islands_keeps_both_ends(tmp_path):
+    """A 300 × 300-cell mask of a river with 18 islands, cut by the raster's west and east
+    edges: both ends are kept (no spur pruning eats them), the only free ends of the axes lie
+    on those edges, one axis per channel (the axes' loops are the islands between channels),
+    and the built network's flow is INSIDE all along the river."""
+    water, placed = island_river(18)
+    assert placed == 18
+    mask = write_mask(tmp_path / "islands.tif", water, 4.0, bounds=(0.0, -600.0, 1200.0, 600.0))
+    builder = rf.read_water(mask, inlets=[ORIGIN + (0.0, 0.0)], origin_m=ORIGIN)
+    islands = builder.report.derived["islands"]
+    assert sum(islands.values()) == placed
+    graph = builder.build()
+    ends = np.round(np.array([c[[0, -1]] for _, c in _channels(builder)]).reshape(-1, 2), 3)
+    nodes, degree = np.unique(ends, axis=0, return_counts=True)
+    free = nodes[degree == 1]
+    assert len(free) == 2
+    assert sorted(np.round(free[:, 0] / 1200.0).tolist()) == [0.0, 1.0]
+    # on the raster's edge within a cell (the mask's smoothed corners round the cut a little)
+    assert np.abs(free[:, 0] - np.round(free[:, 0] / 1200.0) * 1200.0).max() < 4.0
+    # one axis per channel: the cycle rank (axes - nodes + 1) is the islands between channels
+    assert len(ends) // 2 - len(nodes) + 1 == islands["between channels"]
+    assert builder.report.derived["direction"] == "from the inlets / outlets given"
+    # the flow: inside the water along the river, downstream, finite
+    x = np.linspace(20.0, 1180.0, 59)
+    on = np.c_[x, 150.0 * np.sin(x / 1200.0 * 2.0 * np.pi)]
+    clear = shapely.distance(water.boundary, shapely.points(on)) > 8.0
+    status, v = rf.FlowField(graph).query(on[clear])
+    assert clear.sum() > 30 and (status == INSIDE).all() and np.isfinite(v).all()
+    assert (v[:, 0] > 0).mean() > 0.9
+
+
+def many_holes_river(holes: int = 500, vertices: int = 10_000, seed: int = 1):
+    """A 300 m meandering river 4 km long (cut square at x = 0 and 4 000) with ``holes``
+    small islands (8 - 20 m long, 8 vertices each), its outer ring densified to bring the
+    polygon to about ``vertices`` vertices."""
+    rng = np.random.default_rng(seed)
+    x = np.linspace(-50.0, 4050.0, 400)
+    centre = shapely.LineString(np.c_[x, 400.0 * np.sin(x / 4000.0 * 2.0 * np.pi)])
+    river = shapely.intersection(centre.buffer(150.0, cap_style="flat", quad_segs=16),
+                                 shapely.box(0.0, -4000.0, 4000.0, 4000.0))
+    inner = river.buffer(-10.0)
+    placed, at = [], np.zeros((0, 2))
+    while len(placed) < holes:
+        p = np.array(centre.interpolate(rng.uniform(0.05, 0.95) * centre.length).coords[0])
+        p += rng.uniform(-120.0, 120.0, 2)
+        a, b = rng.uniform(4.0, 10.0), rng.uniform(2.5, 5.0)
+        ell = shapely.affinity.rotate(shapely.affinity.scale(shapely.Point(p).buffer(1.0, 2),
+                                                             a, b), rng.uniform(0, 180))
+        if inner.contains(ell) and (not len(at) or np.hypot(*(at - p).T).min() > 2 * a + 12):
+            placed.append(ell)
+            at = np.vstack([at, p])
+    water = river.difference(shapely.union_all(placed))
+    more = vertices - len(shapely.get_coordinates(water))
+    ring = shapely.segmentize(water.exterior, water.exterior.length
+                              / (len(water.exterior.coords) + max(more, 0)))
+    return shapely.Polygon(ring, water.interiors)
+
+
+def _border_cover(mesh, axis: int, value: float) -> np.ndarray:
+    """The stretches of the line ``xy[axis] = value`` that the water mesh's outer edges run
+    along (its boundary edges there): (M, 2) merged intervals of the other coordinate,
+    sorted."""
+    tri = mesh.indices.astype(np.int64)
+    edges = np.sort(np.concatenate([tri[:, [0, 1]], tri[:, [1, 2]], tri[:, [2, 0]]]), axis=1)
+    uniq, count = np.unique(edges, axis=0, return_counts=True)
+    outer = uniq[count == 1]
+    xy = mesh.positions[:, :2].astype(np.float64)
+    on = (np.abs(xy[outer[:, 0], axis] - value) < 1e-2) & (np.abs(xy[outer[:, 1], axis]
+                                                                 - value) < 1e-2)
+    s = np.sort(xy[outer[on]][:, :, 1 - axis], axis=1)
+    s = s[np.argsort(s[:, 0])]
+    merged: list[list[float]] = []
+    for a, b in s:
+        if merged and a <= merged[-1][1] + 1e-3:
+            merged[-1][1] = max(merged[-1][1], b)
+        else:
+            merged.append([a, b])
+    return np.array(merged).reshape(-1, 2)
+
+
+@pytest.mark.slow
+def test_a_polygon_of_ten_thousand_vertices_and_500_holes_meshes_per_tile(tmp_path):
+    """Issue 22, item 3: a water polygon of 10 000 vertices and 500 holes, read into a river
+    network and streamed as a landscape: every finest tile's water mesh (clipped to the tile
+    with shapely, each grid cell's piece triangulated by ``constrained_delaunay_triangles``)
+    has no NaN, no triangle longer than a grid cell's diagonal (nor than its tile); along
+    every edge between two tiles, the water meets on both sides over the same stretches (no
+    crack); the meshes together cover exactly the polygon, its 500 islands left dry."""
+    from riverflow.scenes.tile_kinds import LandscapeTiles, WaterMeshProducer
+
+    water = many_holes_river()
+    assert len(shapely.get_coordinates(water)) >= 10_000 and len(water.interiors) == 500
+    poly = write_polygons(tmp_path / "big.gpkg", [water])
+    builder = rf.read_water(poly, inlets=[ORIGIN], origin_m=ORIGIN)
+    scene = rf.landscape(builder.build())
+    polygon = scene.water.polygon
+    assert sum(len(p.interiors) for p in shapely.get_parts(polygon)) == 500
+    tiles = LandscapeTiles(scene)
+    producer = WaterMeshProducer(tiles)
+    q, level = tiles.quadtree, tiles.max_level
+    keys = [(level, tx, ty) for tx in range(1 << level) for ty in range(1 << level)
+            if tiles.has_water((level, tx, ty))]
+    meshes = {k: producer.produce(k, {})[0] for k in keys}
+    size = q.tile_size_m(level)
+    area = 0.0
+    for key, mesh in meshes.items():
+        assert np.isfinite(mesh.positions).all(), key
+        p = mesh.positions[mesh.indices.astype(np.int64)][:, :, :2].astype(np.float64)
+        longest = np.hypot(*(p - np.roll(p, 1, axis=1)).transpose(2, 0, 1)).max(initial=0.0)
+        assert longest <= mesh.cell_m * math.sqrt(2.0) + 1e-2 and longest < size, key
+        area += mesh.area_m2
+    assert area == pytest.approx(polygon.area, rel=1e-5)
+    checked = 0
+    for (lv, tx, ty), mesh in meshes.items():
+        for axis, other in ((0, (lv, tx + 1, ty)), (1, (lv, tx, ty + 1))):
+            line = q.tile_origin_m(*other)[axis]
+            mine = _border_cover(mesh, axis, line)
+            theirs = (_border_cover(meshes[other], axis, line) if other in meshes
+                      else np.zeros((0, 2)))
+            assert mine.shape == theirs.shape, (lv, tx, ty, axis)
+            assert np.abs(mine - theirs).max(initial=0.0) < 5e-3, (lv, tx, ty, axis)
+            checked += len(mine) > 0
+    assert checked >= 20
