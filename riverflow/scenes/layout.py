@@ -627,7 +627,37 @@ def _candidate(rng: np.random.Generator, world: _World, c: np.ndarray, t_c: np.n
 
 
 def _self_clear(pts: np.ndarray, widths: np.ndarray, world: _World) -> bool:
-    """No two parts of one river, far apart along it, come within its width of each other."""
+    """No two parts of one river, far apart along it (arc distance > 2.2 r), come within its
+    width of each other (0.75 × the sum of their widths + the gap, which is at most r).
+
+    Measured between chunks of the river r/4 long, not point by point over all pairs within
+    r: those are almost all neighbours along the river, which the arc test throws away (a
+    1000 km main river: ~10⁷ pairs, half of the world's layout time). Two chunks of ids 8 or
+    more apart are farther than 2.2 r along the river for some of their points; chunks whose
+    boxes are farther than r apart hold no pair near enough. What is left is compared point
+    by point: the same pairs, the same tests, the same answer."""
+    stride = max(1, int(0.25 * widths.min() / world.spacing))
+    p, w = pts[::stride], widths[::stride]
+    s = _arc(pts)[::stride]
+    r = 1.5 * float(w.max()) + world.gap
+    quarter = 0.25 * r
+    chunk = np.floor(s / quarter).astype(np.int64)       # s grows along the river
+    ids, first = np.unique(chunk, return_index=True)
+    ends = np.append(first[1:], len(p))
+    lo, hi = np.minimum.reduceat(p, first, axis=0), np.maximum.reduceat(p, first, axis=0)
+    centre, half = 0.5 * (lo + hi), 0.5 * np.hypot(*(hi - lo).T)
+    pairs = cKDTree(centre).query_pairs(r + 2.0 * float(half.max()), output_type="ndarray")
+    for a, b in pairs[np.abs(ids[pairs[:, 0]] - ids[pairs[:, 1]]) >= 8]:
+        ia, ib = slice(first[a], ends[a]), slice(first[b], ends[b])
+        d = np.hypot(p[ia, None, 0] - p[None, ib, 0], p[ia, None, 1] - p[None, ib, 1])
+        near = d < 0.75 * (w[ia, None] + w[None, ib]) + world.gap
+        if np.any(near & (np.abs(s[ia, None] - s[None, ib]) > 2.2 * r)):
+            return False
+    return True
+
+
+def _self_clear_pairwise(pts: np.ndarray, widths: np.ndarray, world: _World) -> bool:
+    """:func:`_self_clear` as every pair within r (its numpy twin, for the tests)."""
     stride = max(1, int(0.25 * widths.min() / world.spacing))
     p, w = pts[::stride], widths[::stride]
     s = _arc(pts)[::stride]

@@ -186,3 +186,28 @@ def test_bed_below_water_inside(scene, rng):
     outside = rng.uniform([x0, y0], [x1, y1], size=(2000, 2))
     outside = outside[~scene.water.contains(outside)]
     assert np.isnan(scene.water.height(outside)).all()
+
+
+def test_a_rivers_self_clearance_by_chunks_is_the_pairwise_answer():
+    """layout._self_clear (chunks r/4 long, compared only when far apart along the river)
+    against its twin over every pair within r: the same answer for rivers that meander,
+    fold back onto themselves near and far, spiral, and keep clear."""
+    from riverflow.scenes import layout
+
+    world = layout._World(50_000.0)
+    rng = np.random.default_rng(5)
+    answers = []
+    for case in range(60):
+        n = int(rng.integers(200, 2000))
+        t = np.linspace(0.0, 1.0, n)
+        turns = rng.uniform(0.1, 2.0)                   # a spiral of many turns folds back
+        radius = rng.uniform(500.0, 3000.0) * (1.0 + rng.uniform(0.0, 2.0) * t)
+        angle = 2.0 * np.pi * turns * t + rng.uniform(0.0, 0.6) * np.sin(
+            2.0 * np.pi * rng.uniform(2.0, 12.0) * t)
+        pts = np.stack([radius * np.cos(angle), radius * np.sin(angle)], 1)
+        pts, = layout.resample(pts, world.spacing)
+        widths = np.linspace(rng.uniform(5.0, 20.0), rng.uniform(20.0, 120.0), len(pts))
+        fast = layout._self_clear(pts, widths, world)
+        assert fast == layout._self_clear_pairwise(pts, widths, world), case
+        answers.append(fast)
+    assert 10 <= sum(answers) <= 50          # both answers are exercised
