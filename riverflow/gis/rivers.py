@@ -496,16 +496,7 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
     xy, crs_out, crs_note = _project(np.vstack([p for _, _, p, _ in raw]), source_crs, where,
                                      [(fids[k], attrs_of(k), len(p)) for k, _, p, _ in raw])
     report.source_crs = _wkt(source_crs)
-    offset = _origin(origin_m, xy, where)
-    if offset is not None:
-        xy = xy - offset
-        report.origin_m = (float(offset[0]), float(offset[1]))
-        crs_out, moved = _moved_crs(crs_out, offset)
-        crs_note += (f"; coordinates moved by −({offset[0]:.0f}, {offset[1]:.0f}) m"
-                     + (" (the CRS's false origin with them)" if moved else
-                        "" if crs_out is None else " (the CRS could not say so: add them back)"))
-    report.crs = crs_out
-    report.derived["coordinates"] = crs_note
+    xy = _move_to_origin(xy, origin_m, crs_out, crs_note, where, report)
 
     cells = _lattice_cells([pts for _, _, pts, _ in raw])
     links: list[_Link] = []
@@ -543,7 +534,7 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
 
     builder = GisRiverBuilder(tolerance_m, lateral_inflow=True)
     builder.report = report
-    builder.crs = crs_out
+    builder.crs = report.crs
     _smooth_traced(links, plan, report)
     for link, (width, q, q3, wfrom, qfrom, lateral) in zip(links, plan):
         _report_substitutions(link, wfrom, qfrom, report)
@@ -906,6 +897,23 @@ def _project(xy: np.ndarray, source, where: str, features) -> tuple[np.ndarray, 
     if bad.any():
         _raise_at(bad, features, where, xy, f"cannot be projected to {_short_crs(dst)}")
     return out, dst.to_wkt(), f"projected from {_short_crs(src)} to {_short_crs(dst)}"
+
+
+def _move_to_origin(xy: np.ndarray, origin_m, crs_out, crs_note: str, where: str,
+                    report: RiverImport) -> np.ndarray:
+    """The projected coordinates moved by ``origin_m`` (:func:`_origin`), the report's CRS,
+    origin and "coordinates" note written to match."""
+    offset = _origin(origin_m, xy, where)
+    if offset is not None:
+        xy = xy - offset
+        report.origin_m = (float(offset[0]), float(offset[1]))
+        crs_out, moved = _moved_crs(crs_out, offset)
+        crs_note += (f"; coordinates moved by −({offset[0]:.0f}, {offset[1]:.0f}) m"
+                     + (" (the CRS's false origin with them)" if moved else
+                        "" if crs_out is None else " (the CRS could not say so: add them back)"))
+    report.crs = crs_out
+    report.derived["coordinates"] = crs_note
+    return xy
 
 
 def _origin(origin_m, xy: np.ndarray, where: str) -> np.ndarray | None:

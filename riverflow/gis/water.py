@@ -63,7 +63,7 @@ from scipy.spatial import cKDTree
 
 from riverflow.gis import require
 from riverflow.gis.rivers import (DEFAULT_GEOMETRY, HydraulicGeometry, ImportedLink,
-                                  RiverImport, _from_wkb, _hstore, _is_osm, _moved_crs, _origin,
+                                  RiverImport, _from_wkb, _hstore, _is_osm, _move_to_origin,
                                   _osm_waterways, _pick_layer, _project, _wkt)
 from riverflow.hydro.builder import MAX_TURN_DEG, RiverNetworkBuilder, upstream_first
 from riverflow.hydro.graph import GraphError
@@ -307,14 +307,7 @@ def read_water(path, *, layer: str | int | None = None, lines=None, inlets=None,
                                      [(fid, attrs, len(shapely.get_coordinates(g)))
                                       for fid, g, attrs in features])
     report.source_crs = _wkt(source_crs)
-    offset = _origin(origin_m, xy, where)
-    if offset is not None:
-        xy = xy - offset
-        report.origin_m = (float(offset[0]), float(offset[1]))
-        crs_out, moved = _moved_crs(crs_out, offset)
-        crs_note += f"; coordinates moved by −({offset[0]:.0f}, {offset[1]:.0f}) m"
-    report.crs = crs_out
-    report.derived["coordinates"] = crs_note
+    xy = _move_to_origin(xy, origin_m, crs_out, crs_note, where, report)
     geoms = list(shapely.set_coordinates(np.array(geoms, dtype=object), xy[:len(coords)]))
     inlet_xy = xy[len(coords):len(coords) + len(inlet_xy)]
     outlet_xy = xy[len(coords) + len(inlet_xy):]
@@ -329,7 +322,7 @@ def read_water(path, *, layer: str | int | None = None, lines=None, inlets=None,
                                     f"smoothed over {MASK_SMOOTH_CELLS:g} cells)" if cell else ""))
     builder = WaterBuilder(tolerance_m)
     builder.report = report
-    builder.crs = crs_out
+    builder.crs = report.crs
     builder.water = water
     builder._fill = lambda forced: _fill(builder, water, line_geoms, inlet_xy, outlet_xy, dem,
                                          discharge_m3s, geometry, tolerance_m, where, forced,
