@@ -315,20 +315,28 @@ def _assert_own_data(world, drawn, pool) -> None:
                                                                 data.skirt_m, neighbours))
 
 
-def test_after_evictions_a_frame_draws_only_resident_tiles(gl_context):
+def _drawn_at_the_first_view():
+    """A drawn 160 × 90 world (blocking tiles) stepped and rendered once at the flight's
+    first view (the caller closes it)."""
     import riverflow as rf
-    from riverflow.components.river import TerrainView
     from riverflow.scenes.flight import flight_pose
+
+    world = rf.RiverWorld(rf.default_scene(seed=0), size=(160, 90), gl=True, seed=0,
+                          config=rf.RiverConfig(tile_production="blocking"))
+    world.camera.look_at(*flight_pose(world.scene, 0))
+    world.step(1 / 60)
+    world.render()
+    return world
+
+
+def test_after_evictions_a_frame_draws_only_resident_tiles(gl_context):
+    from riverflow.components.river import TerrainView
     from riverflow.scenes.tile_kinds import TERRAIN_MESH, WATER_MESH
     from riverflow.tiles.cut import standin_tiles
     from riverflow.tiles.table import codes
 
-    world = rf.RiverWorld(rf.default_scene(seed=0), size=(160, 90), gl=True, seed=0,
-                          config=rf.RiverConfig(tile_production="blocking"))
+    world = _drawn_at_the_first_view()
     try:
-        world.camera.look_at(*flight_pose(world.scene, 0))
-        world.step(1 / 60)
-        world.render()
         gpu = world._drawer().gpu
         terrain = world.tiles.cache.pools[TERRAIN_MESH]
         water = world.tiles.cache.pools[WATER_MESH]
@@ -366,17 +374,11 @@ def test_the_same_drawn_set_is_not_stitched_again(gl_context, monkeypatch):
     """A frame whose cut or pools changed but whose drawn terrain tiles did not (the draw
     system's tile sync runs again) skips the stitch look-up and keeps what is on the GPU; a
     tile uploaded afresh (a stand-in for an evicted leaf) makes the set stitched again."""
-    import riverflow as rf
-    from riverflow.scenes.flight import flight_pose
     from riverflow.scenes.tile_kinds import TERRAIN_MESH
     from riverflow.tiles.table import code_key
 
-    world = rf.RiverWorld(rf.default_scene(seed=0), size=(160, 90), gl=True, seed=0,
-                          config=rf.RiverConfig(tile_production="blocking"))
+    world = _drawn_at_the_first_view()
     try:
-        world.camera.look_at(*flight_pose(world.scene, 0))
-        world.step(1 / 60)
-        world.render()
         drawer = world._drawer()
         terrain = drawer.gpu.terrain
         pool = world.tiles.cache.pools[TERRAIN_MESH]
