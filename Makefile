@@ -6,6 +6,11 @@ VENV ?= .venv
 PY := $(VENV)/bin/python
 PYTHON ?= python3
 
+# Python keeps each module it compiles (__pycache__): some machines set PYTHONDONTWRITEBYTECODE,
+# and then every test process compiles numba, scipy, shapely, pyglet and the tests again
+# (collecting the tests: 10 s of CPU a worker instead of 4).
+export PYTHONDONTWRITEBYTECODE :=
+
 # Compiled kernels are kept by the package itself, in a per-user folder keyed by the sources
 # they are compiled from (riverflow/kernels/_cache.py); an explicit NUMBA_CACHE_DIR is honoured.
 

@@ -36,6 +36,7 @@ from riverflow.scenes.carving import Carving, carve
 from riverflow.scenes.layout import RiverBranch
 from riverflow.scenes.sources import FbmSource, HeightSource, as_height_source
 from riverflow.scenes.water import WaterSurface, bed_depth, monotone_profiles, resample
+from riverflow.tiles.memo import TileMemo
 from riverflow.tiles.quadtree import Quadtree
 
 TILE_CELLS = 64
@@ -112,6 +113,9 @@ class Landscape:
     branches: list[RiverBranch]
     islands: list[np.ndarray] = field(default_factory=list)
     z_range_m: tuple[float, float] = (0.0, 0.0)
+    tile_memo: TileMemo = field(default_factory=TileMemo, repr=False)
+    """The array tiles made for this scene, shared by every world over it
+    (:mod:`riverflow.tiles.memo`; ``TileMemo(0)``: none kept)."""
 
     def branch(self, name: str) -> RiverBranch:
         return next(b for b in self.branches if b.name == name)

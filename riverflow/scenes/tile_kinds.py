@@ -356,5 +356,8 @@ class WaterMeshProducer(TerrainProducer):
 def terrain_producers(scene: Landscape) -> list[Producer]:
     """The producers of every terrain kind of ``scene`` (TERRAIN_KINDS order)."""
     tiles = LandscapeTiles(scene)
-    return [HeightProducer(tiles), WaterProducer(tiles), RaycastProducer(tiles),
-            HintsProducer(tiles), TerrainMeshProducer(tiles), WaterMeshProducer(tiles)]
+    producers = [HeightProducer(tiles), WaterProducer(tiles), RaycastProducer(tiles),
+                 HintsProducer(tiles), TerrainMeshProducer(tiles), WaterMeshProducer(tiles)]
+    for producer in producers:           # the array kinds' tiles, for every world over it
+        producer.memo, producer.memo_tag = scene.tile_memo, tiles.n
+    return producers

@@ -35,13 +35,14 @@ import threading
 import time
 import weakref
 from collections import deque
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Hashable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from riverflow.tiles.cache import FieldSpec, TileCache
+from riverflow.tiles.memo import TileMemo
 from riverflow.kernels.tile_table import NOT_FOUND
 from riverflow.tiles.quadtree import TileKey
 from riverflow.tiles.remote import ProducerProcess, TileProcessError, fork_available
@@ -80,6 +81,11 @@ class Producer:
     fields: Mapping[str, FieldSpec] | None = None
     max_level: int = 0
     """Deepest level this kind is made at."""
+    memo: TileMemo | None = None
+    """Where the scene keeps the tiles of this kind for every world over it (array kinds
+    only: :mod:`riverflow.tiles.memo`); None: each world makes its own."""
+    memo_tag: Hashable = None
+    """What else than the kind and key a tile depends on (a producer parameter)."""
 
     def dependencies(self, key: TileKey) -> Sequence[Dep]:
         """Tiles of other kinds this tile is made from (same key or its parent)."""
@@ -172,6 +178,7 @@ class TileScheduler:
         self._queue: queue.PriorityQueue = queue.PriorityQueue()
         self._seq = itertools.count()
         self._done: deque = deque()
+        self._arrived = threading.Event()  # set by the worker each time it hands a job back
         self._fresh: dict[tuple[str, int], Any] = {}
         self._awaiting: dict[tuple[str, int], set] = {}   # dep → the jobs waiting for it
         self._lock = threading.Lock()
@@ -282,7 +289,7 @@ class TileScheduler:
             pinned.append((dpool, slot))
             deps[dep] = dpool.tile(slot)
         try:
-            data = self.producers[kind].produce(key, deps)
+            data = self._from_memo(kind, key, lambda: self.producers[kind].produce(key, deps))
         except Exception as exc:  # a bad source value must not crash the frame
             self._record_failure(kind, key, code, exc)
             data = None
@@ -319,7 +326,7 @@ class TileScheduler:
                 self._is_wanted(w) for w in self._awaiting.get(item, ()))
         if not needed:
             self._release_awaited(job)
-            self._done.append((job, None, None))
+            self._hand_back(job, None, None)
             return
         deps: dict[Dep, Any] = {dep: view for dep, (_, _, view) in job.resident.items()}
         error = None
@@ -336,7 +343,7 @@ class TileScheduler:
                 deps[dep] = data
         if dropped and error is None:
             self._release_awaited(job)
-            self._done.append((job, None, None))
+            self._hand_back(job, None, None)
             return
         data = None
         if error is None:
@@ -348,10 +355,33 @@ class TileScheduler:
             with self._lock:
                 self._fresh[item] = data
         self._release_awaited(job)
+        self._hand_back(job, data, error)
+
+    def _hand_back(self, job: _Job, data: Any, error: BaseException | None) -> None:
+        """Worker side: a finished (or dropped) job, for the main thread to install."""
         self._done.append((job, data, error))
+        self._arrived.set()
+
+    def _from_memo(self, kind: str, key: TileKey, make) -> Any:
+        """The tile the scene's memo keeps, or ``make()`` it (and keep it there)."""
+        producer = self.producers[kind]
+        memo = producer.memo if producer.fields is not None else None
+        if memo is None:
+            return make()
+        tag = (kind, producer.memo_tag, tuple(key))
+        data = memo.get(tag)
+        if data is None:
+            data = make()
+            if data is not None:
+                memo.put(tag, data)
+        return data
 
     def _produce(self, kind: str, key: TileKey, deps: dict) -> Any:
-        """Worker side: the tile, from the worker process if there is one (a producer added
+        """Worker side: the tile (:meth:`_from_memo`)."""
+        return self._from_memo(kind, key, lambda: self._make(kind, key, deps))
+
+    def _make(self, kind: str, key: TileKey, deps: dict) -> Any:
+        """Worker side: make the tile, in the worker process if there is one (a producer added
         after it was forked, or a process that died, makes it here)."""
         process = self._process
         if self._closed:         # closed since the job was taken: dropped, like a stale one
@@ -541,10 +571,14 @@ class TileScheduler:
         """Block until every queued tile is made and installed (tests, loading screens).
         Returns False on timeout."""
         end = time.perf_counter() + timeout_s
-        while self._pending and time.perf_counter() < end:
-            self._install()
-            if self._pending:
-                time.sleep(0.001)
+        while self._pending:
+            left = end - time.perf_counter()
+            if left <= 0.0:
+                break
+            self._arrived.clear()          # cleared before the install: a job handed back
+            self._install()                # after it sets it again, and the wait returns
+            if self._pending and not self._done:
+                self._arrived.wait(min(left, 0.05))
         self._install()
         return not self._pending
 

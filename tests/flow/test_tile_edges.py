@@ -137,5 +137,5 @@ def test_tile_of_is_the_tile_the_kernels_read(scene):
 @pytest.mark.slow
 def test_a_1000_km_scene_tile_edges_are_never_unknown():
     field = rf.FlowField.for_scene(rf.default_scene(seed=0, size_km=1000.0), cache_tiles=512)
-    # near 2 axis points: 100,000 points on every level's edges in a few tiles (8 took 48 s)
-    assert check_edges(field, np.random.default_rng(33), N_POINTS, anchors=2) > N_POINTS // 10
+    # near one axis point: 100,000 points on every level's edges in a few tiles (8 took 48 s)
+    assert check_edges(field, np.random.default_rng(33), N_POINTS, anchors=1) > N_POINTS // 10

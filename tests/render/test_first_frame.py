@@ -39,9 +39,22 @@ def _frames(scene, **config) -> list[np.ndarray]:
 
 def test_drawn_frames_do_not_depend_on_when_tiles_were_made(gl_context):
     """The same script drawn with background and with blocking production: the same
-    frames, byte for byte (a deterministic frame reads no stand-in, drawn or simulated)."""
+    frames, byte for byte (a deterministic frame reads no stand-in, drawn or simulated);
+    the second world takes the scene's array tiles from its memo, and a world over a scene
+    that keeps none makes every tile itself: the same frames again."""
+    from riverflow.tiles.memo import TileMemo
+
     scene = rf.default_scene(seed=0)
     background = _frames(scene)
+    memo = scene.tile_memo
+    kept, hits = len(memo), memo.hits
+    assert kept > 20 and 0 < memo.bytes <= memo.budget_bytes
     blocking = _frames(scene, tile_production="blocking")
-    for a, b in zip(background, blocking):
+    assert memo.hits - hits >= kept // 2
+    alone = rf.default_scene(seed=0)
+    alone.tile_memo = TileMemo(0)
+    made = _frames(alone, tile_production="blocking")
+    assert len(alone.tile_memo) == 0
+    for a, b, c in zip(background, blocking, made, strict=True):
         assert np.array_equal(a, b)
+        assert np.array_equal(a, c)
