@@ -62,7 +62,7 @@ from riverflow.components.status import FlowStatus
 from riverflow.components.waves import WaveTile
 from riverflow.engine import gl
 from riverflow.engine.system import System
-from riverflow.kernels.foam import foam_pattern, mip_chain
+from riverflow.kernels.foam import foam_pattern_mips
 from riverflow.kernels.tile_cut import near_to_far
 from riverflow.kernels.wake import wake_texture
 from riverflow.kernels.sprites import (MAX_PER_CELL, NO_PARTICLE, PARTICLES_PER_ROW,
@@ -169,7 +169,7 @@ class _Gpu:
         self.ripples_cpu = np.zeros((1, RIPPLE_RING, 4), np.float32)
         self.ripples = gl.Texture((RIPPLE_RING, 1), gl.RGBA32F)
         self.ripples.upload(self.ripples_cpu)
-        levels = mip_chain(foam_pattern(FOAM_PATTERN_PX, seed=world.seed))
+        levels = foam_pattern_mips(FOAM_PATTERN_PX, int(world.seed))
         self.foam_pattern = gl.Texture((FOAM_PATTERN_PX, FOAM_PATTERN_PX), gl.RG32F,
                                        levels=len(levels), linear=True, repeat=True)
         for k, level in enumerate(levels):

@@ -51,7 +51,11 @@ def assert_same(a: dict, b: dict) -> None:
 
 @pytest.fixture(scope="module")
 def scene():
-    return rf.default_scene(seed=0)
+    from riverflow.tiles.memo import TileMemo
+
+    scene = rf.default_scene(seed=0)
+    scene.tile_memo = TileMemo(0)      # every run makes its own tiles, late or not, under load
+    return scene
 
 
 @pytest.fixture(scope="module")
