@@ -71,7 +71,8 @@ def move_particles(n_slots, alive, has_world, world_m, velocity_mps, status, dt_
 
     ``surface`` is the view's :class:`~riverflow.kernels.surface_tiles.SurfaceTiles`: a moved
     particle takes the water altitude (the ground's where dry) once every ``z_every`` frames
-    (a power of two), staggered by slot (the lookups miss the cache; over 16 frames the level
+    (a power of two), staggered by slot, and every frame inside ``always_box`` (over a fall
+    the water's level changes by metres a second) (the lookups miss the cache; over 16 frames the level
     under a particle changes by at most 1.6 cm in the test flight, against a 0.25 m bound);
     where no tile is there yet it keeps its altitude.
 
@@ -113,7 +114,9 @@ def move_particles(n_slots, alive, has_world, world_m, velocity_mps, status, dt_
                 y = ny
                 world_m[i, 0] = x
                 world_m[i, 1] = y
-                if (i + frame) & (z_every - 1) == 0:
+                if ((i + frame) & (z_every - 1) == 0
+                        or (always_box[0] <= x <= always_box[2]
+                            and always_box[1] <= y <= always_box[3])):
                     z = surface_altitude(surface, x, y)
                     if is_finite(z):
                         world_m[i, 2] = z
