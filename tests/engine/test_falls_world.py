@@ -1,0 +1,78 @@
+"""A river world over a 5 m fall (issue #23): the particles speed up to the lip, fall with the
+water and go on in the pool, none left at the lip; a boat that reaches the lip goes over."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import riverflow as rf
+from riverflow.components.status import FlowStatus
+from riverflow.engine.config import RiverConfig
+from riverflow.systems.boat import MoveBoats
+from tests.hydro.test_falls import DROP, LIP_X, _straight
+
+DT = 1 / 30
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return rf.landscape(_straight().build(), seed=0)
+
+
+def test_particles_go_over_the_fall_and_none_stays_at_the_lip(scene):
+    (f,) = scene.graph.falls
+    lip = float(scene.water.level(np.array([[LIP_X, 0.0]]))[0])
+    world = rf.RiverWorld(scene, size=(160, 90), gl=False, seed=0,
+                          config=RiverConfig(radius_px=6.0, tile_production="blocking"))
+    world.camera.look_at((LIP_X - 5.0, -45.0, lip + 6.0), (LIP_X + 3.0, 0.0, lip - 2.5))
+    seen: dict[int, list[tuple[float, float]]] = {}
+    for frame in range(90):
+        world.step(DT)
+        p = world.particles
+        assert np.isfinite(p.world_m).all() and np.isfinite(p.velocity_mps).all()
+        inside = p.status == FlowStatus.INSIDE
+        for i in np.flatnonzero(inside):
+            seen.setdefault(int(p.ids[i]), []).append((frame, float(p.world_m[i, 0])))
+    p = world.particles
+    inside = p.status == FlowStatus.INSIDE
+    x, z = p.world_m[inside, 0], p.world_m[inside, 2]
+    speed = np.hypot(*p.velocity_mps[inside].T)
+    # above the approach at the river's level, in the pool at the pool's
+    up = x < LIP_X - f.approach_m
+    pool = x > LIP_X + f.throw_m + 4.0
+    assert up.any() and pool.any()
+    assert np.all(np.abs(z[up] - lip) < 0.3)
+    assert np.all(np.abs(z[pool] - (lip - DROP)) < 0.3)
+    # over the lip and the nappe they move at least as fast as the river upstream
+    over = (x > LIP_X - 5.0) & (x < LIP_X + f.throw_m + 2.0)
+    assert np.all(speed[over] > np.median(speed[up]))
+    # none stuck: from frame to frame, every particle near the lip or over the nappe moved
+    # on downstream by at least half the river's own speed
+    steps = 0
+    for track in seen.values():
+        for (f0, x0), (f1, x1) in zip(track, track[1:]):
+            if f1 == f0 + 1 and LIP_X - 5.0 < x0 < LIP_X + f.throw_m + 2.0:
+                assert x1 - x0 > 0.5 * DT * np.median(speed[up]), (f0, x0, x1)
+                steps += 1
+    assert steps > 20
+    world.close()
+
+
+def test_a_boat_at_the_lip_goes_over(scene):
+    (f,) = scene.graph.falls
+    lip = float(scene.water.level(np.array([[LIP_X, 0.0]]))[0])
+    world = rf.RiverWorld(scene, size=(160, 90), gl=False, seed=0, systems=[MoveBoats()],
+                          config=RiverConfig(tile_production="blocking"))
+    boat = world.boat(world.add_boat((LIP_X - 25.0, 0.0), 0.0))
+    speeds = []
+    for _ in range(int(25 / DT)):
+        world.step(DT)
+        speeds.append(float(np.hypot(*boat.flow_mps)))
+        if boat.position_m[0] > LIP_X + f.throw_m + 8.0:
+            break
+    assert boat.position_m[0] > LIP_X + f.throw_m + 8.0         # it went over
+    assert boat.altitude_m < lip - DROP + 0.5                    # and floats in the pool
+    assert max(speeds) >= 0.95 * math.sqrt(9.81 * f.depth_m)     # the flow it felt sped up
+    world.close()
