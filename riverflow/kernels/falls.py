@@ -21,6 +21,11 @@ there: the water's depth changes instead (it thins as it speeds up), which a dep
 2-D flow does not carry (docs/deviations.md). Velocities keep their direction, so water still
 never flows across a bank.
 
+The plunge pool foams (:func:`plunge_closeness`, the foam's pressure term,
+:mod:`riverflow.kernels.foam`): from halfway down the nappe, where the water starts to break
+up, to where it lands, the closeness rises to 1, then fades over the plunge pool as the flow
+slows back (the water decelerating there is the pressure).
+
 A fall is a row of a :class:`FallTable` (one array per field, F rows).
 """
 from __future__ import annotations
@@ -87,6 +92,32 @@ def fall_factor(table, f, x, y):
     else:
         r = 1.0 - _smooth((d - throw) / plunge)
     return 1.0 + (table.gain[f] - 1.0) * r * lat
+
+
+@njit(inline="always", **JIT_OPTIONS)
+def plunge_closeness(table, x, y):
+    """How much (x, y) [m] is in a plunge pool, in [0, 1], the largest over the falls:
+    S((d − throw/2) / (throw/2)) up to the landing (d = throw), 1 − S((d − throw) / plunge)
+    after it, times the lateral fade (module docstring)."""
+    best = 0.0
+    for f in range(table.gain.shape[0]):
+        rx = x - table.centre[f, 0]
+        ry = y - table.centre[f, 1]
+        tx = table.direction[f, 0]
+        ty = table.direction[f, 1]
+        d = rx * tx + ry * ty
+        throw = table.throw[f]
+        plunge = table.plunge[f]
+        if d < 0.5 * throw or d > throw + plunge:
+            continue
+        e = abs(ry * tx - rx * ty)
+        lat = 1.0 - _smooth((e - table.half_lip[f]) / table.fade[f])
+        if d <= throw:
+            r = _smooth((d - 0.5 * throw) / max(0.5 * throw, 1e-9))
+        else:
+            r = 1.0 - _smooth((d - throw) / plunge)
+        best = max(best, r * lat)
+    return best
 
 
 @njit(**JIT_OPTIONS)

@@ -76,3 +76,33 @@ def test_a_boat_at_the_lip_goes_over(scene):
     assert boat.altitude_m < lip - DROP + 0.5                    # and floats in the pool
     assert max(speeds) >= 0.95 * math.sqrt(9.81 * f.depth_m)     # the flow it felt sped up
     world.close()
+
+
+def test_the_plunge_pool_foams(scene):
+    """Particles foam where they land (the foam's pressure term at the impact): the pool's
+    foam is well above that 50 m downstream and above the fall. (Carrying it on downstream
+    is the foam's slow decay, tested in tests/engine/test_foam.py; 5 s of frames do not take
+    a particle 50 m.)"""
+    (f,) = scene.graph.falls
+    lip = float(scene.water.level(np.array([[LIP_X, 0.0]]))[0])
+    world = rf.RiverWorld(scene, size=(200, 112), gl=False, seed=0,
+                          config=RiverConfig(radius_px=5.0, tile_production="blocking"))
+    world.camera.look_at((LIP_X + 30.0, -70.0, lip + 25.0), (LIP_X + 30.0, 0.0, lip - 5.0))
+    foam = {"above": [], "pool": [], "below": []}
+    for frame in range(150):
+        world.step(DT)
+        if frame < 90:
+            continue
+        p = world.particles
+        inside = p.status == FlowStatus.INSIDE
+        x = p.world_m[inside, 0]
+        d = x - LIP_X
+        for name, sel in (("above", (d > -40.0) & (d < -f.approach_m)),
+                          ("pool", (d > f.throw_m) & (d < f.throw_m + 8.0)),
+                          ("below", (d > 45.0) & (d < 60.0))):
+            foam[name] += p.foam[inside][sel].tolist()
+    means = {k: float(np.mean(v)) for k, v in foam.items()}
+    assert all(len(v) > 10 for v in foam.values()), {k: len(v) for k, v in foam.items()}
+    assert means["pool"] > 0.3, means
+    assert means["pool"] > means["below"] + 0.3 and means["pool"] > means["above"] + 0.3, means
+    world.close()

@@ -202,3 +202,44 @@ def test_a_particle_goes_over_a_5_m_fall_in_the_ballistic_time(field, scene):
     approach = np.trapezoid(1.0 / (np.hypot(*v0.T) * k), x)
     assert t_pool == pytest.approx(approach + f.fall_time_s, rel=0.05)
     assert (p[:, 0] >= LIP_X + 30.0).all() and t < 120.0   # all three went on downstream
+
+
+def _plunge_twin(table, p):
+    """Numpy twin of kernels.falls.plunge_closeness."""
+    def smooth(t):
+        t = np.clip(t, 0.0, 1.0)
+        return t * t * (3 - 2 * t)
+
+    best = np.zeros(len(p))
+    for f in range(len(table.gain)):
+        r = p - table.centre[f]
+        t = table.direction[f]
+        d = r @ t
+        e = np.abs(r[:, 1] * t[0] - r[:, 0] * t[1])
+        throw, plunge = table.throw[f], table.plunge[f]
+        ramp = np.where(d <= throw, smooth((d - 0.5 * throw) / (0.5 * throw)),
+                        1.0 - smooth((d - throw) / plunge))
+        ramp = np.where((d < 0.5 * throw) | (d > throw + plunge), 0.0, ramp)
+        lat = 1.0 - smooth((e - table.half_lip[f]) / table.fade[f])
+        best = np.maximum(best, ramp * lat)
+    return best
+
+
+def test_the_plunge_pool_closeness_matches_its_numpy_twin():
+    from numba import njit
+
+    @njit
+    def closeness(table, p, out):
+        for i in range(p.shape[0]):
+            out[i] = kfalls.plunge_closeness(table, p[i, 0], p[i, 1])
+
+    rng = np.random.default_rng(4)
+    table = kfalls.FallTable(np.array([[0.0, 0.0], [30.0, 5.0]]),
+                             np.array([[1.0, 0.0], [0.6, 0.8]]), np.array([8.0, 5.0]),
+                             np.array([1.0, 2.0]), np.array([20.0, 12.0]), np.array([4.0, 2.5]),
+                             np.array([10.0, 6.0]), np.array([3.0, 2.0]))
+    p = rng.uniform((-10.0, -15.0), (50.0, 30.0), (3000, 2))
+    out = np.empty(len(p))
+    closeness(table, p, out)
+    assert np.allclose(out, _plunge_twin(table, p), atol=1e-12)
+    assert out.max() == pytest.approx(1.0, abs=0.01) and (out == 0.0).mean() > 0.5
