@@ -49,7 +49,8 @@ from riverflow.hydro import _strips
 from riverflow.hydro._checks import graph_problems
 from riverflow.hydro._network import BranchGeometry, assemble_graph
 from riverflow.hydro.bezier import flatten_curve
-from riverflow.hydro.falls import FALL_KINDS, FALL_MIN_DROP_M, Fall, channel_depth_m, find_falls
+from riverflow.hydro.falls import (FALL_KINDS, FALL_MIN_DROP_M, RAPIDS_MIN_SLOPE, Fall, Rapid,
+                                   channel_depth_m, find_falls, find_rapids)
 from riverflow.hydro.flow_network import MAX_PSI
 from riverflow.hydro.graph import GraphError, HydroGraph
 
@@ -104,13 +105,16 @@ class RiverNetworkBuilder:
     ``water_levels`` likewise (see :attr:`HydroGraph.water_levels`); where they are given,
     :meth:`build` also finds the falls in them: drops of more than ``fall_min_drop_m`` [m]
     over less than their own height along a branch (:func:`riverflow.hydro.falls.find_falls`;
-    None: none are looked for). Falls placed with :meth:`add_fall` and those found are the
-    built graph's ``falls``.
+    None: none are looked for), and the rapids: reaches steeper than ``rapids_min_slope``
+    (2 %; :func:`~riverflow.hydro.falls.find_rapids`). Falls placed with :meth:`add_fall`
+    and those found are the built graph's ``falls``; rapids (:meth:`add_rapids` and found)
+    its ``rapids``.
     """
 
     def __init__(self, tolerance_m: float = 0.25, *, lateral_inflow: bool = False,
                  fillet_fraction: float = FILLET_FRACTION,
-                 fall_min_drop_m: float | None = FALL_MIN_DROP_M) -> None:
+                 fall_min_drop_m: float | None = FALL_MIN_DROP_M,
+                 rapids_min_slope: float | None = RAPIDS_MIN_SLOPE) -> None:
         if not (np.isfinite(tolerance_m) and tolerance_m > 0):
             raise GraphError(f"tolerance_m must be a positive number, got {tolerance_m!r}")
         if not (np.isfinite(fillet_fraction) and 0.0 <= fillet_fraction <= 1.0):
@@ -124,6 +128,12 @@ class RiverNetworkBuilder:
                              f"got {fall_min_drop_m!r}")
         self.fall_min_drop_m = None if fall_min_drop_m is None else float(fall_min_drop_m)
         self._falls: list[_FallInput] = []
+        if rapids_min_slope is not None and not (np.isfinite(rapids_min_slope)
+                                                 and 0 < rapids_min_slope < 0.5):
+            raise GraphError(f"rapids_min_slope must lie in (0, 0.5) [m/m] or be None, got "
+                             f"{rapids_min_slope!r}")
+        self.rapids_min_slope = None if rapids_min_slope is None else float(rapids_min_slope)
+        self._rapids: list[tuple[int, float, float, float]] = []
         self._branches: list[_BranchInput] = []
         self._islands: list[_Island] = []
         self.discharges_m2s: list[float] = []
@@ -275,6 +285,46 @@ class RiverNetworkBuilder:
                                       str(kind)))
         return index
 
+    def add_rapids(self, from_m: float, to_m: float, drop_m: float, *,
+                   branch: int | str | None = None) -> int:
+        """A rapid: from ``from_m`` to ``to_m`` [m] along ``branch``'s centre line the water
+        drops by ``drop_m`` [m] (slope = drop / length, under 1 : 2: steeper is a fall);
+        returns its index. ``branch`` may be left out when there is one.
+
+        Raises:
+            GraphError: a drop that is not a positive number, a reach off the branch or of
+                no length, a slope of a fall, an unknown branch.
+        """
+        index = len(self._rapids)
+        where = f"rapids {index}"
+        if not self._branches:
+            raise GraphError(f"{where}: add the branch it lies on first (add_branch)")
+        if branch is None:
+            if len(self._branches) > 1:
+                raise GraphError(f"{where}: say which branch (branch=index or name; there "
+                                 f"are {len(self._branches)})")
+            b = 0
+        else:
+            b = self._branch_index(branch, where)
+        try:
+            a, e, drop = float(from_m), float(to_m), float(drop_m)
+        except (TypeError, ValueError):
+            raise GraphError(f"{where}: from_m, to_m and drop_m must be numbers, got "
+                             f"{from_m!r}, {to_m!r}, {drop_m!r}") from None
+        if not (np.isfinite(drop) and drop > 0.0):
+            raise GraphError(f"{where}: drop_m must be a positive number of metres, got "
+                             f"{drop_m!r}")
+        length = float(_arc(self._branches[b].centerline_m)[-1])
+        if not (np.isfinite(a) and np.isfinite(e) and 0.0 <= a < e <= length):
+            raise GraphError(f"{where}: {from_m!r} … {to_m!r} m is off the river or of no "
+                             f"length: branch {self._branches[b].name!r} runs from 0 to "
+                             f"{length:.1f} m")
+        if drop / (e - a) > 0.5:
+            raise GraphError(f"{where}: a drop of {drop:g} m over {e - a:g} m is a fall, not "
+                             f"a rapid (add_fall)")
+        self._rapids.append((b, a, e, drop))
+        return index
+
     def _branch_index(self, branch, where: str) -> int:
         if isinstance(branch, str):
             for i, bi in enumerate(self._branches):
@@ -415,32 +465,41 @@ class RiverNetworkBuilder:
         self.end_cuts_m2 = end_cuts
         graph.crs = self.crs
         graph.water_levels = self.water_levels
-        graph.falls = self._resolve_falls(geoms)
+        graph.falls, graph.rapids = self._resolve_falls(geoms)
         return graph
 
-    def _resolve_falls(self, geoms: list[BranchGeometry]) -> list[Fall]:
-        """The falls placed with :meth:`add_fall` and those found in ``water_levels``, on the
-        built (junction-snapped) centre lines, upstream first along each branch."""
+    def _resolve_falls(self, geoms: list[BranchGeometry]) -> tuple[list[Fall], list[Rapid]]:
+        """The falls and rapids given and those found in ``water_levels``, on the built
+        (junction-snapped) centre lines, upstream first along each branch."""
         falls = []
         for f in self._falls:
             falls.append(_fall_on(geoms[f.branch], f.at, f.drop_m, f.lip_m, f.kind, False))
-        if self.water_levels is not None and self.fall_min_drop_m is not None:
+        rapids = [_rapid_on(geoms[b], a, e, drop, False) for b, a, e, drop in self._rapids]
+        if self.water_levels is not None and (self.fall_min_drop_m is not None
+                                              or self.rapids_min_slope is not None):
             for g in geoms:
                 s = _arc(g.centerline_m)
-                spacing = float(np.clip(0.5 * self.fall_min_drop_m, 0.25, 1.0))
+                spacing = float(np.clip(0.5 * (self.fall_min_drop_m or 2.0), 0.25, 1.0))
                 t = np.linspace(0.0, s[-1], max(2, int(np.ceil(s[-1] / spacing)) + 1))
                 pts = np.stack([np.interp(t, s, g.centerline_m[:, 0]),
                                 np.interp(t, s, g.centerline_m[:, 1])], axis=1)
                 levels = np.asarray(self.water_levels(pts), np.float64).reshape(-1)
                 if levels.shape != t.shape or not np.isfinite(levels).all():
                     continue            # no levels there: nothing to find
-                for at, drop in find_falls(t, levels, self.fall_min_drop_m):
+                for at, drop in (find_falls(t, levels, self.fall_min_drop_m)
+                                 if self.fall_min_drop_m is not None else []):
                     found = _fall_on(g, at, drop, None, "fall", True)
                     if not any(o.branch == g.name and abs(o.at_m - at) <= o.throw_m + o.approach_m
                                for o in falls):
                         falls.append(found)
+                for a, e, drop in (find_rapids(t, levels, self.rapids_min_slope)
+                                   if self.rapids_min_slope is not None else []):
+                    if not any(o.branch == g.name and o.from_m < e and a < o.to_m
+                               for o in rapids):
+                        rapids.append(_rapid_on(g, a, e, drop, True))
         order = {g.name: i for i, g in enumerate(geoms)}
-        return sorted(falls, key=lambda f: (order[f.branch], f.at_m))
+        return (sorted(falls, key=lambda f: (order[f.branch], f.at_m)),
+                sorted(rapids, key=lambda r: (order[r.branch], r.from_m)))
 
 
 def _arc(line: np.ndarray) -> np.ndarray:
@@ -469,6 +528,18 @@ def _fall_on(g: BranchGeometry, at, drop_m: float, lip_m: float | None, kind: st
     return Fall(g.name, at, float(drop_m), (float(centre[0]), float(centre[1])),
                 (float(t[0]), float(t[1])), width, width if lip_m is None else min(lip_m, width),
                 depth, float(g.discharge_m2s) / width, kind, in_levels)
+
+
+def _rapid_on(g: BranchGeometry, a: float, e: float, drop_m: float, in_levels: bool) -> Rapid:
+    s = _arc(g.centerline_m)
+    a, e = float(np.clip(a, 0.0, s[-1])), float(np.clip(e, 0.0, s[-1]))
+
+    def point(at):
+        return (float(np.interp(at, s, g.centerline_m[:, 0])),
+                float(np.interp(at, s, g.centerline_m[:, 1])))
+
+    return Rapid(g.name, a, e, float(drop_m), point(0.5 * (a + e)), point(a), point(e),
+                 in_levels)
 
 
 # -- topology -----------------------------------------------------------------------------

@@ -112,7 +112,7 @@ def default_scene(seed: int = 0, size_km: float = 4.0) -> Landscape:
     ground = DefaultGround(main, size_m, noise_seed, hills_seed)
     base = ground.without_hills()
     water = water_surface(branches, lambda xy: base.heights(xy[:, 0], xy[:, 1]),
-                          builder.water_polygon, graph.falls)
+                          builder.water_polygon, graph.falls, graph.rapids)
     half = 0.5 * size_m
     quadtree = Quadtree(-half, -half, size_m)
     carving = Carving()

@@ -18,7 +18,7 @@ import numpy as np
 import shapely
 from scipy.spatial import cKDTree
 
-from riverflow.hydro.falls import channel_depth_m, nappe_drop
+from riverflow.hydro.falls import channel_depth_m, drop_along
 from riverflow.kernels.centre_line import nearest_level
 from riverflow.tiles import remote
 
@@ -55,7 +55,7 @@ def _workers(n: int) -> int:
 def monotone_profiles(samples: list[np.ndarray], ground_m: list[np.ndarray],
                       start_of: list[int], end_of: list[int], n_junctions: int,
                       half_window: int, caps_m: list[tuple[float, float]] | None = None,
-                      falls: list[list[tuple[float, float, float, str]]] | None = None
+                      falls: list[list[tuple[float, float, float, str, str]]] | None = None
                       ) -> list[np.ndarray]:
     """Water levels along branches (listed upstream first).
 
@@ -68,11 +68,12 @@ def monotone_profiles(samples: list[np.ndarray], ground_m: list[np.ndarray],
         caps_m: per branch, (start, end) lengths [m] kept flat at the junction height (the
             part of a branch that lies in the water of the other branches of its junction,
             Proland's junction "cap"); none by default.
-        falls: per branch, its falls as (at_m, drop_m, throw_m, how): the level drops by
-            drop_m at at_m [m] along the samples, along the nappe's parabola over throw_m
-            (:func:`riverflow.hydro.falls.nappe_drop`), never smoothed away. ``how`` says
-            where the drop comes from: "given" (the ground already drops there: levels the
-            fall was found in), "raise" (the water upstream of it is raised: a branch from a
+        falls: per branch, its falls and rapids as (at_m, drop_m, length_m, how, shape): the
+            level drops by drop_m from at_m [m] along the samples, over length_m, along a
+            fall's nappe or a rapid's even slope (``shape`` "nappe" or "ramp":
+            :func:`riverflow.hydro.falls.drop_along`), never smoothed away. ``how`` says
+            where the drop comes from: "given" (the ground already drops there: levels it
+            was found in), "raise" (the water upstream of it is raised: a branch from a
             free source, so no junction moves) or "lower" (the water downstream is lowered,
             and with it the junction it ends at).
 
@@ -86,7 +87,7 @@ def monotone_profiles(samples: list[np.ndarray], ground_m: list[np.ndarray],
             z[0] = junction[start_of[k]]
         z = np.minimum.accumulate(z)
         s = _arc_length(samples[k])
-        for at, drop, _, how in (falls[k] if falls is not None else ()):
+        for at, drop, _, how, _ in (falls[k] if falls is not None else ()):
             if how == "raise":
                 z = np.where(s < at, z + drop, z)
             elif how == "lower":
@@ -111,9 +112,9 @@ def monotone_profiles(samples: list[np.ndarray], ground_m: list[np.ndarray],
             z = np.where(s <= cap0, z[0], z)
         step = np.zeros_like(s)
         nappe = np.zeros_like(s)
-        for at, drop, throw, _ in (falls[k] if falls is not None else ()):
+        for at, drop, length, _, shape in (falls[k] if falls is not None else ()):
             step += np.where(s >= at, drop, 0.0)
-            nappe += nappe_drop(s - at, drop, throw)
+            nappe += drop_along(s - at, drop, length, shape)
         # the drops are taken out before smoothing and put back after, as the nappe: a
         # smoothing window must not spread a fall over 25 samples
         z = _box_smooth(z + step, half_window) - nappe

@@ -243,3 +243,37 @@ def test_the_plunge_pool_closeness_matches_its_numpy_twin():
     closeness(table, p, out)
     assert np.allclose(out, _plunge_twin(table, p), atol=1e-12)
     assert out.max() == pytest.approx(1.0, abs=0.01) and (out == 0.0).mean() > 0.5
+
+
+# -- rapids ------------------------------------------------------------------------------------
+
+def test_rapids_given_and_found_and_bad_ones():
+    b = _straight(fall=False)
+    b.add_rapids(100.0, 160.0, 6.0)
+    (r,) = b.build().rapids
+    assert (r.from_m, r.to_m, r.drop_m) == (100.0, 160.0, 6.0) and r.slope == pytest.approx(0.1)
+    for args, words in (((100.0, 160.0, -1.0), "positive"), ((100.0, 90.0, 1.0), "no length"),
+                        ((500.0, 700.0, 1.0), "off the river"), ((100.0, 104.0, 3.0), "a fall")):
+        with pytest.raises(GraphError, match=words):
+            _straight(fall=False).add_rapids(*args)
+    s = np.linspace(0.0, 200.0, 801)
+    z = 30.0 - 0.001 * s - 3.0 * np.clip((s - 50.0) / 100.0, 0.0, 1.0)      # 3 % over 100 m
+    (a, e, drop), = rf.hydro.falls.find_rapids(s, z)
+    assert a == pytest.approx(50.0, abs=0.5) and e == pytest.approx(150.0, abs=0.5)
+    assert drop == pytest.approx(3.1, abs=0.05)
+    b = _straight(fall=False)
+    b.water_levels = lambda xy: 30.0 - 0.001 * xy[:, 0] - 3.0 * np.clip(
+        (xy[:, 0] - 200.0) / 100.0, 0.0, 1.0)
+    g = b.build()
+    assert g.falls == [] and len(g.rapids) == 1 and g.rapids[0].in_levels
+
+
+def test_the_surface_slopes_down_a_rapid():
+    b = _straight(fall=False)
+    b.add_rapids(100.0, 160.0, 6.0)
+    sc = rf.landscape(b.build(), seed=0)
+    s = np.array([90.0, 100.0, 130.0, 160.0, 170.0])
+    z = sc.water.level(np.stack([s, np.zeros_like(s)], 1))
+    assert z[1] - z[3] == pytest.approx(6.0, abs=0.05)      # + the river's own 0.05 %
+    assert (z[1] - z[2]) == pytest.approx(3.0, abs=0.05)
+    assert abs(z[0] - z[1]) < 0.1 and abs(z[3] - z[4]) < 0.1
