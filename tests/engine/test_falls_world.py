@@ -106,3 +106,28 @@ def test_the_plunge_pool_foams(scene):
     assert means["pool"] > 0.3, means
     assert means["pool"] > means["below"] + 0.3 and means["pool"] > means["above"] + 0.3, means
     world.close()
+
+
+def test_a_steep_rapid_foams_more_than_a_gentle_reach():
+    """Foam follows the slope (the foam's steepness term on the surface tiles): particles on
+    a 10 % rapid carry more than those on the same river's 0.05 % reach."""
+    b = _straight(fall=False)
+    b.add_rapids(100.0, 160.0, 6.0)
+    scene = rf.landscape(b.build(), seed=0)
+    world = rf.RiverWorld(scene, size=(160, 90), gl=False, seed=0,
+                          config=RiverConfig(radius_px=5.0, tile_production="blocking"))
+    foam = {}
+    for name, x0 in (("rapid", 130.0), ("gentle", 450.0)):
+        z = float(scene.water.level(np.array([[x0, 0.0]]))[0])
+        world.camera.look_at((x0, -45.0, z + 20.0), (x0, 0.0, z))
+        values = []
+        for frame in range(45):
+            world.step(DT)
+            if frame >= 30:
+                p = world.particles
+                sel = ((p.status == FlowStatus.INSIDE) & (np.abs(p.world_m[:, 0] - x0) < 20.0))
+                values += p.foam[sel].tolist()
+        assert len(values) > 20
+        foam[name] = float(np.mean(values))
+    assert foam["rapid"] > foam["gentle"] + 0.2, foam
+    world.close()
