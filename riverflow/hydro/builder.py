@@ -479,7 +479,7 @@ class RiverNetworkBuilder:
                                               or self.rapids_min_slope is not None):
             for g in geoms:
                 s = _arc(g.centerline_m)
-                spacing = float(np.clip(0.5 * (self.fall_min_drop_m or 2.0), 0.25, 1.0))
+                spacing = float(np.clip(self.fall_min_drop_m or 2.0, 0.25, 2.0))
                 t = np.linspace(0.0, s[-1], max(2, int(np.ceil(s[-1] / spacing)) + 1))
                 pts = np.stack([np.interp(t, s, g.centerline_m[:, 0]),
                                 np.interp(t, s, g.centerline_m[:, 1])], axis=1)

@@ -112,10 +112,13 @@ def monotone_profiles(samples: list[np.ndarray], ground_m: list[np.ndarray],
             z = np.where(s <= cap0, z[0], z)
         step = np.zeros_like(s)
         nappe = np.zeros_like(s)
-        for at, drop, length, _, shape in (falls[k] if falls is not None else ()):
-            step += np.where(s >= at, drop, 0.0)
-            nappe += drop_along(s - at, drop, length, shape)
-        # the drops are taken out before smoothing and put back after, as the nappe: a
+        for at, drop, length, how, shape in (falls[k] if falls is not None else ()):
+            shaped = drop_along(s - at, drop, length, shape)
+            # the drop as it is in the raw levels: a step where it was made here, its own
+            # shape where the levels it was found in have it
+            step += shaped if how == "given" else np.where(s >= at, drop, 0.0)
+            nappe += shaped
+        # the drops are taken out before smoothing and put back after, in their shape: a
         # smoothing window must not spread a fall over 25 samples
         z = _box_smooth(z + step, half_window) - nappe
         out.append(np.maximum(np.minimum.accumulate(z), z[-1]))  # rounding must not move the end
