@@ -41,6 +41,8 @@ from riverflow.tiles.quadtree import Quadtree
 from riverflow.tiles.table import tile_code
 
 _NO_LEVELS = np.zeros(0, np.int8)
+FALL_BOX_M = 5.0
+""":meth:`FlowField.falls_box` reaches this far [m] before a fall's lip and past its nappe."""
 _NO_OBSTACLES = np.zeros((0, ko.OBSTACLE_FIELDS))
 
 
@@ -381,8 +383,10 @@ class FlowField:
                                            table))
 
     def falls_box(self) -> np.ndarray:
-        """(4,) [m] xmin, ymin, xmax, ymax around every fall's reach (from its approach to
-        its plunge pool, across its lip); empty (inf, inf, −inf, −inf) without falls."""
+        """(4,) [m] xmin, ymin, xmax, ymax around where the water of every fall changes
+        fast (FALL_BOX_M before its lip to FALL_BOX_M past where its nappe lands, across its
+        lip): the particles there ask the flow and the surface every frame. Empty (inf, inf,
+        −inf, −inf) without falls."""
         if not self.falls:
             return np.array([np.inf, np.inf, -np.inf, -np.inf])
         lo, hi = [], []
@@ -391,7 +395,7 @@ class FlowField:
             t = np.asarray(f.direction)
             n = np.array([-t[1], t[0]])
             half = 0.5 * f.lip_m + max(1.0, 0.1 * f.lip_m)
-            ends = np.array([c - f.approach_m * t, c + (f.throw_m + f.plunge_m) * t])
+            ends = np.array([c - FALL_BOX_M * t, c + (f.throw_m + FALL_BOX_M) * t])
             corners = np.concatenate([ends + half * n, ends - half * n])
             lo.append(corners.min(axis=0))
             hi.append(corners.max(axis=0))
