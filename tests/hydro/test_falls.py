@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 import pytest
+from numba import njit
 
 import riverflow as rf
 from riverflow.hydro.builder import RiverNetworkBuilder
@@ -225,14 +226,13 @@ def _plunge_twin(table, p):
     return best
 
 
+@njit(cache=True)
+def _closeness(table, p, out):
+    for i in range(p.shape[0]):
+        out[i] = kfalls.plunge_closeness(table, p[i, 0], p[i, 1])
+
+
 def test_the_plunge_pool_closeness_matches_its_numpy_twin():
-    from numba import njit
-
-    @njit
-    def closeness(table, p, out):
-        for i in range(p.shape[0]):
-            out[i] = kfalls.plunge_closeness(table, p[i, 0], p[i, 1])
-
     rng = np.random.default_rng(4)
     table = kfalls.FallTable(np.array([[0.0, 0.0], [30.0, 5.0]]),
                              np.array([[1.0, 0.0], [0.6, 0.8]]), np.array([8.0, 5.0]),
@@ -240,7 +240,7 @@ def test_the_plunge_pool_closeness_matches_its_numpy_twin():
                              np.array([10.0, 6.0]), np.array([3.0, 2.0]))
     p = rng.uniform((-10.0, -15.0), (50.0, 30.0), (3000, 2))
     out = np.empty(len(p))
-    closeness(table, p, out)
+    _closeness(table, p, out)
     assert np.allclose(out, _plunge_twin(table, p), atol=1e-12)
     assert out.max() == pytest.approx(1.0, abs=0.01) and (out == 0.0).mean() > 0.5
 
