@@ -349,8 +349,6 @@ class FlowField:
                 self._fall_table = kfalls.empty_table()
             else:
                 centre = np.array([f.centre_m for f in self.falls], np.float64)
-                status = np.empty(len(centre), np.uint8)
-                velocity = np.empty((len(centre), 2), np.float32)
                 self._fall_table = kfalls.empty_table()     # the river's own speed
                 status, velocity = self.query(centre, exclude_obstacles=True)
                 speed = np.hypot(*velocity.astype(np.float64).T)
