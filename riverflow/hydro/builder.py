@@ -472,8 +472,20 @@ class RiverNetworkBuilder:
         """The falls and rapids given and those found in ``water_levels``, on the built
         (junction-snapped) centre lines, upstream first along each branch."""
         falls = []
-        for f in self._falls:
-            falls.append(_fall_on(geoms[f.branch], f.at, f.drop_m, f.lip_m, f.kind, False))
+        for k, f in enumerate(self._falls):
+            fall = _fall_on(geoms[f.branch], f.at, f.drop_m, f.lip_m, f.kind, False)
+            length = float(_arc(geoms[f.branch].centerline_m)[-1])
+            if fall.at_m + fall.throw_m > length:
+                raise GraphError(f"fall {k}: its nappe ({fall.throw_m:.1f} m long) runs past "
+                                 f"the end of branch {fall.branch!r} ({length - fall.at_m:.1f} m "
+                                 f"below the lip): place it higher up")
+            for m, other in enumerate(falls):
+                if other.branch == fall.branch and abs(other.at_m - fall.at_m) < max(
+                        other.throw_m, fall.throw_m):
+                    raise GraphError(f"falls {m} and {k} on branch {fall.branch!r} overlap: "
+                                     f"{abs(other.at_m - fall.at_m):.1f} m apart, less than a "
+                                     f"nappe's length; make them one fall")
+            falls.append(fall)
         rapids = [_rapid_on(geoms[b], a, e, drop, False) for b, a, e, drop in self._rapids]
         if self.water_levels is not None and (self.fall_min_drop_m is not None
                                               or self.rapids_min_slope is not None):

@@ -79,6 +79,16 @@ def test_bad_falls_are_clear_graph_errors(args, words):
     assert "fall 0" in str(err.value)
 
 
+def test_falls_whose_nappes_do_not_fit_are_graph_errors():
+    b = _straight(at_m=598.0)
+    with pytest.raises(GraphError, match="fall 0: its nappe .* runs past the end"):
+        b.build()
+    b = _straight()
+    b.add_fall(LIP_X + 1.0, 2.0)
+    with pytest.raises(GraphError, match="falls 0 and 1 .* overlap"):
+        b.build()
+
+
 def test_falls_are_found_from_water_levels():
     s = np.linspace(0.0, 100.0, 401)
     z = 50.0 - 0.01 * s
