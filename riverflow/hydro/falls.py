@@ -122,6 +122,9 @@ class Fall:
 RAPIDS_MIN_SLOPE = 0.02
 """A reach whose water level falls faster than this [m/m] (2 %) but is no fall is a rapid
 (the builder's ``rapids_min_slope``)."""
+RAPIDS_FULL_SLOPE = 0.15
+"""The water shader's standing waves grow from RAPIDS_MIN_SLOPE to full at this surface slope
+(15 %: a cascade; a 3 % riffle gets a little of them), ``shaders/rapids.glsl``."""
 RAPIDS_MIN_LENGTH_M = 10.0
 """A steep stretch of water levels shorter than this [m] is no rapid (a sampling step)."""
 
