@@ -53,6 +53,7 @@ from riverflow.hydro.falls import (FALL_KINDS, FALL_MIN_DROP_M, RAPIDS_MIN_SLOPE
                                    channel_depth_m, find_falls, find_rapids)
 from riverflow.hydro.flow_network import MAX_PSI
 from riverflow.hydro.graph import GraphError, HydroGraph
+from riverflow.hydro.nearest import PolylineIndex
 
 MAX_TURN_DEG = 135.0
 """Sharpest turn of a centre line at one point; sharper ones fold the strip onto itself."""
@@ -343,15 +344,9 @@ class RiverNetworkBuilder:
         for i, bi in enumerate(self._branches):
             if only is not None and i != only:
                 continue
-            line = bi.centerline_m
-            a, d = line[:-1], np.diff(line, axis=0)
-            dd = np.maximum(np.einsum("ij,ij->i", d, d), 1e-300)
-            u = np.clip(np.einsum("ij,ij->i", p - a, d) / dd, 0.0, 1.0)
-            dist = np.hypot(*(a + u[:, None] * d - p).T)
-            k = int(np.argmin(dist))
-            station = float(_arc(line)[k] + u[k] * np.sqrt(dd[k]))
-            if best is None or dist[k] < best[2]:
-                best = (i, station, float(dist[k]), self._width_at(i, station))
+            dist, _, arc = PolylineIndex(bi.centerline_m).nearest(p[None])
+            if best is None or dist[0] < best[2]:
+                best = (i, float(arc[0]), float(dist[0]), self._width_at(i, float(arc[0])))
         return best
 
     def _width_at(self, b: int, station: float) -> float:
@@ -523,12 +518,7 @@ def _fall_on(g: BranchGeometry, at, drop_m: float, lip_m: float | None, kind: st
     """A :class:`Fall` on branch ``g`` at station ``at`` [m] (or the point (2,) nearest)."""
     s = _arc(g.centerline_m)
     if np.ndim(at):
-        p = np.asarray(at, np.float64)
-        a, d = g.centerline_m[:-1], np.diff(g.centerline_m, axis=0)
-        dd = np.maximum(np.einsum("ij,ij->i", d, d), 1e-300)
-        u = np.clip(np.einsum("ij,ij->i", p - a, d) / dd, 0.0, 1.0)
-        k = int(np.argmin(np.hypot(*(a + u[:, None] * d - p).T)))
-        at = float(s[k] + u[k] * np.sqrt(dd[k]))
+        at = float(PolylineIndex(g.centerline_m).nearest(np.asarray(at, np.float64)[None])[2][0])
     at = float(np.clip(at, 0.0, s[-1]))
     k = int(np.clip(np.searchsorted(s, at, side="right") - 1, 0, len(s) - 2))
     seg = g.centerline_m[k + 1] - g.centerline_m[k]
