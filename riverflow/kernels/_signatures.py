@@ -93,7 +93,7 @@ SIGNATURES = {
             "(A(int32, 2, 'C'), int64, A(int64, 1, 'C'), A(int32, 1, 'C'), A(int32, 1, 'C'), A(int32, 2, 'C'))",
         ],
         'advection.move_particles': [
-            "(int64, A(bool, 1, 'C'), A(bool, 1, 'C'), A(float64, 2, 'C'), A(float32, 2, 'C'), A(uint8, 1, 'C'), float64, Named(riverflow.kernels.surface_tiles.SurfaceTiles, (float64, float64, float64, int64, A(int64, 1, 'C'), A(int32, 1, 'C'), int64, int64, A(int32, 1, 'C'), A(int32, 2, 'C'), A(float32, 3, 'C'), A(float32, 3, 'C'), A(float32, 3, 'C'), float64, float64, A(int32, 1, 'C'), A(int32, 2, 'C'), A(float32, 4, 'C'), int64, )), int64, int64, int64, A(float64, 1, 'C'), A(int32, 1, 'C'), A(float64, 2, 'C'))",
+            "(int64, A(bool, 1, 'C'), A(bool, 1, 'C'), A(float64, 2, 'C'), A(float32, 2, 'C'), A(uint8, 1, 'C'), float64, Named(riverflow.kernels.surface_tiles.SurfaceTiles, (float64, float64, float64, int64, A(int64, 1, 'C'), A(int32, 1, 'C'), int64, int64, A(int32, 1, 'C'), A(int32, 2, 'C'), A(float32, 3, 'C'), A(float32, 3, 'C'), A(float32, 3, 'C'), float64, float64, A(int32, 1, 'C'), A(int32, 2, 'C'), A(float32, 4, 'C'), int64, )), int64, int64, int64, A(float64, 1, 'C'), A(float64, 1, 'C'), A(int32, 1, 'C'), A(float64, 2, 'C'))",
         ],
         'advection.apply_flow_status': [
             "(A(bool, 1, 'C'), A(float32, 2, 'C'), A(uint8, 1, 'C'), A(bool, 1, 'C'), A(float32, 2, 'C'), int64, A(int32, 1, 'C'), A(uint8, 1, 'C'), A(float32, 2, 'C'), int64, float64, int64, int64, A(int32, 1, 'C'), A(int32, 2, 'C'), float64)",

@@ -68,7 +68,8 @@ class AdvectParticles(System):
                 int(pool.counters[2]), pool.alive, pool.has_world, pool.world_m,
                 pool.velocity_mps, pool.status, dt_s * clock.speed_factor, surface, clock.frame,
                 ALTITUDE_EVERY,
-                VELOCITY_EVERY, always_velocity_box(node.field), grid.query_index,
+                VELOCITY_EVERY, always_velocity_box(node.field),
+                node.field.falls_box() if node.field.falls else _NO_BOX, grid.query_index,
                 grid.query_xy)
             if n_status:  # the status-only askers, listed from the end, after the others
                 tail = slice(cap - n_status, cap)
@@ -138,8 +139,9 @@ class AdvectParticles(System):
 
 def always_velocity_box(field: FlowField) -> np.ndarray:
     """(4,) [m] xmin, ymin, xmax, ymax around every obstacle's influence and every fall's
-    reach (empty when there is none): particles there get a velocity and an altitude every
-    frame, as the hulls move and as the water speeds up and falls."""
+    lip and nappe (empty when there is none): particles there get a velocity every frame, as
+    the hulls move and as the water speeds up and falls (over a fall, their altitude too:
+    ``FlowField.falls_box``)."""
     obstacles = field.obstacles
     box = field.falls_box() if field.falls else _NO_BOX
     if not len(obstacles):
