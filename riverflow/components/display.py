@@ -55,6 +55,9 @@ class DisplaySettings:
     """Exponential distance fog [1/m]."""
     arrow_s: float = 4.0
     """Velocity arrows are this many seconds of travel long."""
+    rapids_wave_slope: float = 0.3
+    """Slope of the standing waves on rapids where the surface is steepest (15 %; from 0 at
+    2 %, ``shaders/rapids.glsl``); 0: none."""
     # -- reflections (issue 12 item 3) --
     reflections: bool = True
     """Banks, props and sky mirrored in the water (a planar reflection pass at the level of
@@ -74,7 +77,7 @@ class DisplaySettings:
         if type(self.wave) is not WaveKind:
             self.wave = WaveKind(self.wave)
         for name in ("wave_slope_factor", "water_clarity_m", "fog_density_per_m", "arrow_s",
-                     "reflection_distortion"):
+                     "reflection_distortion", "rapids_wave_slope"):
             value = getattr(self, name)
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value >= 0):
                 raise ValueError(f"DisplaySettings.{name} must be a finite number ≥ 0, "

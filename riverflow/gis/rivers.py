@@ -163,6 +163,12 @@ AUTO_ORIGIN_M = 100_000.0
 OSM_WATERWAYS = ("river", "stream", "canal", "ditch", "drain")
 """The OpenStreetMap ``waterway=*`` values read as river centre lines (other ways are left
 out, and the report says which)."""
+OSM_FALLS = {"waterfall": "fall", "weir": "weir", "dam": "dam"}
+"""OpenStreetMap ``waterway=*`` nodes and ways read as falls (:meth:`RiverNetworkBuilder.
+add_fall`), with the kind each becomes. A node is the lip; a way (a weir's or dam's crest
+across the river) is placed where it crosses a river line, else at its middle."""
+OSM_DEFAULT_DROP_M = 2.0
+"""The drop [m] of an OSM fall without a ``drop_m`` or ``height`` tag (the report says so)."""
 
 KNOWN_ATTRIBUTES: dict[str, tuple] = {
     "width_m": ("width_m",),
@@ -461,7 +467,9 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
     table = {n: columns[k] for k, n in enumerate(names)}
     osm_notes: list[str] = []
     osm_bad_widths: list = []
+    osm_falls: list[tuple[str, np.ndarray, str, float | None, shapely.Geometry | None]] = []
     if osm:
+        osm_falls = _osm_fall_features(pyogrio, path, fids, wkb, table)
         fids, wkb, table, names, osm_notes, osm_bad_widths = _osm_waterways(
             fids, wkb, table, names, where)
         if width_m is None:
@@ -493,10 +501,17 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
     if crs is None and path.suffix.lower() in (".geojson", ".json"):
         _check_geojson_crs(path, where)
     source_crs = crs if crs is not None else meta.get("crs")
-    xy, crs_out, crs_note = _project(np.vstack([p for _, _, p, _ in raw]), source_crs, where,
-                                     [(fids[k], attrs_of(k), len(p)) for k, _, p, _ in raw])
+    fall_xy = [f[1] for f in osm_falls]
+    xy, crs_out, crs_note = _project(np.vstack([p for _, _, p, _ in raw] + fall_xy), source_crs,
+                                     where, [(fids[k], attrs_of(k), len(p)) for k, _, p, _ in raw])
     report.source_crs = _wkt(source_crs)
     xy = _move_to_origin(xy, origin_m, crs_out, crs_note, where, report)
+    if fall_xy:             # the falls' points, projected and moved with the lines
+        n_fall = sum(len(p) for p in fall_xy)
+        xy, fall_pts = xy[:-n_fall], xy[-n_fall:]
+        at = np.cumsum([0] + [len(p) for p in fall_xy])
+        osm_falls = [(name, fall_pts[at[i]:at[i + 1]], kind, drop, None)
+                     for i, (name, _, kind, drop, _) in enumerate(osm_falls)]
 
     cells = _lattice_cells([pts for _, _, pts, _ in raw])
     links: list[_Link] = []
@@ -546,7 +561,91 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
     report.derived["length_m"] = round(sum(_length(lk.points) for lk in links if not lk.added), 1)
     if specs["elevation_m"] is not None:
         builder.water_levels = _water_levels(links, plan, geometry, report)
+    _add_osm_falls(builder, osm_falls, report)
     return builder
+
+
+def _osm_fall_features(pyogrio, path: Path, fids, wkb, table: dict):
+    """The falls of an OSM file (OSM_FALLS): (name, points (K, 2) in the file's CRS, kind,
+    drop [m] or None) of the ``points`` layer's nodes and the ``lines`` layer's ways tagged
+    ``waterway=waterfall|weir|dam`` (a node: its point; a way: its vertices, placed later);
+    the drop from a ``drop_m`` or ``height`` tag."""
+    out = []
+
+    def drop_of(tags: dict) -> float | None:
+        for key in ("drop_m", "height"):
+            if key in tags:
+                value = _osm_width(tags[key])
+                if math.isfinite(value) and value > 0.0:
+                    return value
+        return None
+
+    try:
+        meta, pfids, pwkb, pcols = pyogrio.raw.read(str(path), layer="points",
+                                                    return_fids=True)
+        pnames = [str(n) for n in meta["fields"]]
+    except Exception:  # noqa: BLE001 - no points layer: no falls from nodes
+        pfids, pwkb, pcols, pnames = [], [], [], []
+    ptable = {n: pcols[k] for k, n in enumerate(pnames)}
+    other = ptable.get("other_tags", [None] * len(pfids))
+    for k in range(len(pfids)):
+        tags = _hstore(other[k])
+        kind = OSM_FALLS.get(str(ptable["waterway"][k]) if "waterway" in ptable
+                             and ptable["waterway"][k] is not None else tags.get("waterway"))
+        if kind is None or pwkb[k] is None:
+            continue
+        pt = shapely.from_wkb(pwkb[k])
+        out.append((f"node {pfids[k]}", shapely.get_coordinates(pt)[:1], kind, drop_of(tags),
+                    None))
+    if "waterway" in table:
+        other = table.get("other_tags", [None] * len(fids))
+        for k, w in enumerate(table["waterway"]):
+            kind = OSM_FALLS.get(None if w is None else str(w))
+            if kind is None or wkb[k] is None:
+                continue
+            line = shapely.from_wkb(wkb[k])
+            out.append((f"way {fids[k]}", shapely.get_coordinates(line), kind,
+                        drop_of(_hstore(other[k])), None))
+    return out
+
+
+def _add_osm_falls(builder: RiverNetworkBuilder, falls, report) -> None:
+    """Each OSM fall onto the builder (:meth:`~RiverNetworkBuilder.add_fall`): a node at its
+    point, a way where it crosses a river's centre line (else at its middle); the report
+    notes the drops assumed and the falls left out (off every river)."""
+    if not falls:
+        return
+    lines = [b.centerline_m for b in builder._branches]
+    tree = shapely.STRtree(shapely.linestrings(lines)) if lines else None
+    added, assumed, left = [], [], []
+    for name, pts, kind, drop in ((f[0], f[1], f[2], f[3]) for f in falls):
+        if len(pts) == 1:
+            at = pts[0]
+        else:
+            way = shapely.LineString(pts)
+            at = np.asarray(way.interpolate(0.5, normalized=True).coords[0])
+            if tree is not None:
+                for i in tree.query(way, predicate="intersects"):
+                    cross = shapely.get_coordinates(
+                        shapely.intersection(way, shapely.LineString(lines[i])))
+                    if len(cross):
+                        at = cross[0]
+                        break
+        if drop is None:
+            drop = OSM_DEFAULT_DROP_M
+            assumed.append(name)
+        try:
+            builder.add_fall(at, drop, kind=kind)
+            added.append(name)
+        except GraphError as exc:
+            left.append(f"{name} ({exc})")
+    if added:
+        report.derived["falls"] = f"{len(added)} from OpenStreetMap: {', '.join(added[:8])}"
+    if assumed:
+        report.notes.append(f"OpenStreetMap: {len(assumed)} falls without a drop_m or height "
+                            f"tag, {OSM_DEFAULT_DROP_M:g} m assumed: {', '.join(assumed[:8])}")
+    if left:
+        report.notes.append(f"OpenStreetMap: {len(left)} falls left out: {'; '.join(left[:8])}")
 
 
 def _check_arguments(*, path, layer, crs, snap_m, geometry, tolerance_m, strict,
@@ -622,17 +721,19 @@ def _osm_waterways(fids, wkb, table: dict, names: list[str], where: str):
     width = np.array([_osm_width(t) for t in tags])
     unreadable = [t is not None and math.isnan(w) for t, w in zip(tags, width)]
     left: dict[str, int] = {}
-    for k in kind[~keep]:
+    falls = np.array([k in OSM_FALLS for k in kind], dtype=bool)   # read as falls instead
+    for k in kind[~keep & ~falls]:
         label = f"waterway={k}" if k is not None else "not a waterway"
         left[label] = left.get(label, 0) + 1
     notes = []
     if left:
+        out = ~keep & ~falls
         ids = [str(table["osm_id"][i]) if "osm_id" in table else str(fids[i])
-               for i in np.flatnonzero(~keep)[:8]]
-        notes.append(f"OpenStreetMap: {int((~keep).sum())} ways left out (not waterway="
+               for i in np.flatnonzero(out)[:8]]
+        notes.append(f"OpenStreetMap: {int(out.sum())} ways left out (not waterway="
                      f"{'|'.join(OSM_WATERWAYS)}): "
                      + ", ".join(f"{k} ×{n}" for k, n in sorted(left.items()))
-                     + f"; ways {', '.join(ids)}{', …' if (~keep).sum() > 8 else ''}")
+                     + f"; ways {', '.join(ids)}{', …' if out.sum() > 8 else ''}")
     table = {n: np.asarray(v)[keep] for n, v in table.items()}
     table["width"] = width[keep]
     names = [*names, "width"] if "width" not in names else names

@@ -49,8 +49,11 @@ from riverflow.hydro import _strips
 from riverflow.hydro._checks import graph_problems
 from riverflow.hydro._network import BranchGeometry, assemble_graph
 from riverflow.hydro.bezier import flatten_curve
+from riverflow.hydro.falls import (FALL_KINDS, FALL_MIN_DROP_M, RAPIDS_MIN_SLOPE, Fall, Rapid,
+                                   channel_depth_m, find_falls, find_rapids)
 from riverflow.hydro.flow_network import MAX_PSI
 from riverflow.hydro.graph import GraphError, HydroGraph
+from riverflow.hydro.nearest import PolylineIndex
 
 MAX_TURN_DEG = 135.0
 """Sharpest turn of a centre line at one point; sharper ones fold the strip onto itself."""
@@ -75,6 +78,15 @@ class _BranchInput:
 
 
 @dataclass
+class _FallInput:
+    at: float | np.ndarray        # station [m] along the branch, or a point (2,) [m]
+    drop_m: float
+    branch: int | None
+    lip_m: float | None
+    kind: str
+
+
+@dataclass
 class _Island:
     outline: shapely.Polygon
     potential: float | None
@@ -91,11 +103,19 @@ class RiverNetworkBuilder:
     every branch (in the order they were added), ``inlets_m2s`` the lateral inflow [m²/s] at
     each junction point that has one, and ``water_polygon`` the water (shapely, islands are
     holes). ``crs`` (WKT or ``EPSG:n``, None when unknown) is copied onto the built graph;
-    ``water_levels`` likewise (see :attr:`HydroGraph.water_levels`).
+    ``water_levels`` likewise (see :attr:`HydroGraph.water_levels`); where they are given,
+    :meth:`build` also finds the falls in them: drops of more than ``fall_min_drop_m`` [m]
+    over less than their own height along a branch (:func:`riverflow.hydro.falls.find_falls`;
+    None: none are looked for), and the rapids: reaches steeper than ``rapids_min_slope``
+    (2 %; :func:`~riverflow.hydro.falls.find_rapids`). Falls placed with :meth:`add_fall`
+    and those found are the built graph's ``falls``; rapids (:meth:`add_rapids` and found)
+    its ``rapids``.
     """
 
     def __init__(self, tolerance_m: float = 0.25, *, lateral_inflow: bool = False,
-                 fillet_fraction: float = FILLET_FRACTION) -> None:
+                 fillet_fraction: float = FILLET_FRACTION,
+                 fall_min_drop_m: float | None = FALL_MIN_DROP_M,
+                 rapids_min_slope: float | None = RAPIDS_MIN_SLOPE) -> None:
         if not (np.isfinite(tolerance_m) and tolerance_m > 0):
             raise GraphError(f"tolerance_m must be a positive number, got {tolerance_m!r}")
         if not (np.isfinite(fillet_fraction) and 0.0 <= fillet_fraction <= 1.0):
@@ -103,6 +123,18 @@ class RiverNetworkBuilder:
         self.tolerance_m = float(tolerance_m)
         self.lateral_inflow = bool(lateral_inflow)
         self.fillet_fraction = float(fillet_fraction)
+        if fall_min_drop_m is not None and not (np.isfinite(fall_min_drop_m)
+                                                and fall_min_drop_m > 0):
+            raise GraphError(f"fall_min_drop_m must be a positive number of metres or None, "
+                             f"got {fall_min_drop_m!r}")
+        self.fall_min_drop_m = None if fall_min_drop_m is None else float(fall_min_drop_m)
+        self._falls: list[_FallInput] = []
+        if rapids_min_slope is not None and not (np.isfinite(rapids_min_slope)
+                                                 and 0 < rapids_min_slope < 0.5):
+            raise GraphError(f"rapids_min_slope must lie in (0, 0.5) [m/m] or be None, got "
+                             f"{rapids_min_slope!r}")
+        self.rapids_min_slope = None if rapids_min_slope is None else float(rapids_min_slope)
+        self._rapids: list[tuple[int, float, float, float]] = []
         self._branches: list[_BranchInput] = []
         self._islands: list[_Island] = []
         self.discharges_m2s: list[float] = []
@@ -180,6 +212,146 @@ class RiverNetworkBuilder:
                              f"{MAX_TURN_DEG:.0f}° at one point; round the bend with more points)")
         self._branches.append(_BranchInput(name, line, widths, discharge_m2s))
         return index
+
+    def add_fall(self, at_m, drop_m: float, *, branch: int | str | None = None,
+                 lip_m: float | None = None, kind: str = "fall") -> int:
+        """Add a fall (a weir, a dam) where the water drops by ``drop_m`` [m]; returns its
+        index (:mod:`riverflow.hydro.falls`).
+
+        Args:
+            at_m: where its lip is: a distance [m] along ``branch``'s centre line from its
+                start, or a point (x, y) [m] in the river (on the branch whose centre line
+                is nearest it).
+            drop_m: the height of the drop [m], > 0.
+            branch: the branch (index or name) ``at_m`` is measured along; may be left out
+                when there is one branch, or when ``at_m`` is a point.
+            lip_m: the length of the lip across the river [m] (centred on the centre line,
+                perpendicular to it); default: the river's width there. A weir's or dam's lip
+                runs across the whole river.
+            kind: "fall", "weir" or "dam".
+
+        Raises:
+            GraphError (a ValueError): a drop that is not a positive number, an unknown
+                branch or kind, a point off the river or a distance beyond the branch's
+                ends, a lip not positive or longer than the river is wide there.
+        """
+        index = len(self._falls)
+        where = f"fall {index}"
+        try:
+            drop = float(drop_m)
+        except (TypeError, ValueError):
+            raise GraphError(f"{where}: drop_m must be a number of metres, got {drop_m!r}") from None
+        if not (np.isfinite(drop) and drop > 0.0):
+            raise GraphError(f"{where}: drop_m must be a positive number of metres (the water "
+                             f"falls by it), got {drop_m!r}")
+        if kind not in FALL_KINDS:
+            raise GraphError(f"{where}: kind must be one of {', '.join(FALL_KINDS)}, got {kind!r}")
+        if not self._branches:
+            raise GraphError(f"{where}: add the branch it lies on first (add_branch)")
+        b = self._branch_index(branch, where) if branch is not None else None
+        at = np.asarray(at_m, dtype=np.float64)
+        if at.shape == (2,):
+            if not np.isfinite(at).all():
+                raise GraphError(f"{where}: its point must be finite, got {at.tolist()}")
+            b, station, dist, width = self._project(at, b)
+            if dist > 0.5 * width:
+                raise GraphError(f"{where} at ({at[0]:.1f}, {at[1]:.1f}) is off the river: "
+                                 f"{dist:.1f} m from the centre line of branch "
+                                 f"{self._branches[b].name!r}, which is {width:.1f} m wide there")
+        elif at.shape == ():
+            if b is None:
+                if len(self._branches) > 1:
+                    raise GraphError(f"{where}: at_m is a distance along a branch: say which "
+                                     f"(branch=index or name; there are {len(self._branches)})")
+                b = 0
+            station = float(at)
+            length = float(_arc(self._branches[b].centerline_m)[-1])
+            if not (np.isfinite(station) and 0.0 <= station <= length):
+                raise GraphError(f"{where}: at_m = {at_m!r} is off the river: branch "
+                                 f"{self._branches[b].name!r} runs from 0 to {length:.1f} m")
+            width = self._width_at(b, station)
+        else:
+            raise GraphError(f"{where}: at_m must be a distance [m] or a point (x, y), got "
+                             f"shape {at.shape}")
+        if lip_m is not None:
+            lip = float(lip_m)
+            if not (np.isfinite(lip) and lip > 0.0):
+                raise GraphError(f"{where}: lip_m must be a positive number of metres, got "
+                                 f"{lip_m!r}")
+            if lip > width * (1.0 + 1e-9) + 1e-9:
+                raise GraphError(f"{where}: its lip ({lip:g} m) is longer than the river is "
+                                 f"wide there ({width:.2f} m, branch "
+                                 f"{self._branches[b].name!r} at {station:.1f} m)")
+        self._falls.append(_FallInput(station, drop, b, None if lip_m is None else float(lip_m),
+                                      str(kind)))
+        return index
+
+    def add_rapids(self, from_m: float, to_m: float, drop_m: float, *,
+                   branch: int | str | None = None) -> int:
+        """A rapid: from ``from_m`` to ``to_m`` [m] along ``branch``'s centre line the water
+        drops by ``drop_m`` [m] (slope = drop / length, under 1 : 2: steeper is a fall);
+        returns its index. ``branch`` may be left out when there is one.
+
+        Raises:
+            GraphError: a drop that is not a positive number, a reach off the branch or of
+                no length, a slope of a fall, an unknown branch.
+        """
+        index = len(self._rapids)
+        where = f"rapids {index}"
+        if not self._branches:
+            raise GraphError(f"{where}: add the branch it lies on first (add_branch)")
+        if branch is None:
+            if len(self._branches) > 1:
+                raise GraphError(f"{where}: say which branch (branch=index or name; there "
+                                 f"are {len(self._branches)})")
+            b = 0
+        else:
+            b = self._branch_index(branch, where)
+        try:
+            a, e, drop = float(from_m), float(to_m), float(drop_m)
+        except (TypeError, ValueError):
+            raise GraphError(f"{where}: from_m, to_m and drop_m must be numbers, got "
+                             f"{from_m!r}, {to_m!r}, {drop_m!r}") from None
+        if not (np.isfinite(drop) and drop > 0.0):
+            raise GraphError(f"{where}: drop_m must be a positive number of metres, got "
+                             f"{drop_m!r}")
+        length = float(_arc(self._branches[b].centerline_m)[-1])
+        if not (np.isfinite(a) and np.isfinite(e) and 0.0 <= a < e <= length):
+            raise GraphError(f"{where}: {from_m!r} … {to_m!r} m is off the river or of no "
+                             f"length: branch {self._branches[b].name!r} runs from 0 to "
+                             f"{length:.1f} m")
+        if drop / (e - a) > 0.5:
+            raise GraphError(f"{where}: a drop of {drop:g} m over {e - a:g} m is a fall, not "
+                             f"a rapid (add_fall)")
+        self._rapids.append((b, a, e, drop))
+        return index
+
+    def _branch_index(self, branch, where: str) -> int:
+        if isinstance(branch, str):
+            for i, bi in enumerate(self._branches):
+                if bi.name == branch:
+                    return i
+            raise GraphError(f"{where}: no branch named {branch!r}")
+        if isinstance(branch, (int, np.integer)) and not isinstance(branch, bool) \
+                and 0 <= int(branch) < len(self._branches):
+            return int(branch)
+        raise GraphError(f"{where}: branch must be the index or name of a branch added "
+                         f"before, got {branch!r}")
+
+    def _project(self, p: np.ndarray, only: int | None):
+        """(branch, station [m], distance [m], width [m]) of the nearest centre-line point."""
+        best = None
+        for i, bi in enumerate(self._branches):
+            if only is not None and i != only:
+                continue
+            dist, _, arc = PolylineIndex(bi.centerline_m).nearest(p[None])
+            if best is None or dist[0] < best[2]:
+                best = (i, float(arc[0]), float(dist[0]), self._width_at(i, float(arc[0])))
+        return best
+
+    def _width_at(self, b: int, station: float) -> float:
+        bi = self._branches[b]
+        return float(np.interp(station, _arc(bi.centerline_m), bi.widths_m))
 
     def add_island(self, outline, *, potential: float | None = None) -> int:
         """Add a free island (obstacle) polygon (M, 2) [m] lying inside one branch.
@@ -288,7 +460,88 @@ class RiverNetworkBuilder:
         self.end_cuts_m2 = end_cuts
         graph.crs = self.crs
         graph.water_levels = self.water_levels
+        graph.falls, graph.rapids = self._resolve_falls(geoms)
         return graph
+
+    def _resolve_falls(self, geoms: list[BranchGeometry]) -> tuple[list[Fall], list[Rapid]]:
+        """The falls and rapids given and those found in ``water_levels``, on the built
+        (junction-snapped) centre lines, upstream first along each branch."""
+        falls = []
+        for k, f in enumerate(self._falls):
+            fall = _fall_on(geoms[f.branch], f.at, f.drop_m, f.lip_m, f.kind, False)
+            length = float(_arc(geoms[f.branch].centerline_m)[-1])
+            if fall.at_m + fall.throw_m > length:
+                raise GraphError(f"fall {k}: its nappe ({fall.throw_m:.1f} m long) runs past "
+                                 f"the end of branch {fall.branch!r} ({length - fall.at_m:.1f} m "
+                                 f"below the lip): place it higher up")
+            for m, other in enumerate(falls):
+                if other.branch == fall.branch and abs(other.at_m - fall.at_m) < max(
+                        other.throw_m, fall.throw_m):
+                    raise GraphError(f"falls {m} and {k} on branch {fall.branch!r} overlap: "
+                                     f"{abs(other.at_m - fall.at_m):.1f} m apart, less than a "
+                                     f"nappe's length; make them one fall")
+            falls.append(fall)
+        rapids = [_rapid_on(geoms[b], a, e, drop, False) for b, a, e, drop in self._rapids]
+        if self.water_levels is not None and (self.fall_min_drop_m is not None
+                                              or self.rapids_min_slope is not None):
+            for g in geoms:
+                s = _arc(g.centerline_m)
+                spacing = float(np.clip(self.fall_min_drop_m or 2.0, 0.25, 2.0))
+                t = np.linspace(0.0, s[-1], max(2, int(np.ceil(s[-1] / spacing)) + 1))
+                pts = np.stack([np.interp(t, s, g.centerline_m[:, 0]),
+                                np.interp(t, s, g.centerline_m[:, 1])], axis=1)
+                levels = np.asarray(self.water_levels(pts), np.float64).reshape(-1)
+                if levels.shape != t.shape or not np.isfinite(levels).all():
+                    continue            # no levels there: nothing to find
+                for at, drop in (find_falls(t, levels, self.fall_min_drop_m)
+                                 if self.fall_min_drop_m is not None else []):
+                    found = _fall_on(g, at, drop, None, "fall", True)
+                    if not any(o.branch == g.name and abs(o.at_m - at) <= o.throw_m + o.approach_m
+                               for o in falls):
+                        falls.append(found)
+                for a, e, drop in (find_rapids(t, levels, self.rapids_min_slope)
+                                   if self.rapids_min_slope is not None else []):
+                    if not any(o.branch == g.name and o.from_m < e and a < o.to_m
+                               for o in rapids):
+                        rapids.append(_rapid_on(g, a, e, drop, True))
+        order = {g.name: i for i, g in enumerate(geoms)}
+        return (sorted(falls, key=lambda f: (order[f.branch], f.at_m)),
+                sorted(rapids, key=lambda r: (order[r.branch], r.from_m)))
+
+
+def _arc(line: np.ndarray) -> np.ndarray:
+    return np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(line, axis=0).T))])
+
+
+def _fall_on(g: BranchGeometry, at, drop_m: float, lip_m: float | None, kind: str,
+             in_levels: bool) -> Fall:
+    """A :class:`Fall` on branch ``g`` at station ``at`` [m] (or the point (2,) nearest)."""
+    s = _arc(g.centerline_m)
+    if np.ndim(at):
+        at = float(PolylineIndex(g.centerline_m).nearest(np.asarray(at, np.float64)[None])[2][0])
+    at = float(np.clip(at, 0.0, s[-1]))
+    k = int(np.clip(np.searchsorted(s, at, side="right") - 1, 0, len(s) - 2))
+    seg = g.centerline_m[k + 1] - g.centerline_m[k]
+    u = (at - s[k]) / max(s[k + 1] - s[k], 1e-300)
+    centre = g.centerline_m[k] + u * seg
+    t = seg / np.hypot(*seg)
+    width = float(np.interp(at, s, g.widths_m))
+    depth = float(channel_depth_m(width))
+    return Fall(g.name, at, float(drop_m), (float(centre[0]), float(centre[1])),
+                (float(t[0]), float(t[1])), width, width if lip_m is None else min(lip_m, width),
+                depth, float(g.discharge_m2s) / width, kind, in_levels)
+
+
+def _rapid_on(g: BranchGeometry, a: float, e: float, drop_m: float, in_levels: bool) -> Rapid:
+    s = _arc(g.centerline_m)
+    a, e = float(np.clip(a, 0.0, s[-1])), float(np.clip(e, 0.0, s[-1]))
+
+    def point(at):
+        return (float(np.interp(at, s, g.centerline_m[:, 0])),
+                float(np.interp(at, s, g.centerline_m[:, 1])))
+
+    return Rapid(g.name, a, e, float(drop_m), point(0.5 * (a + e)), point(a), point(e),
+                 in_levels)
 
 
 # -- topology -----------------------------------------------------------------------------

@@ -30,6 +30,7 @@ from riverflow.components.flow_tiles import FLOW_KIND, FlowTiles, flow_fields
 from riverflow.components.status import FlowStatus
 from riverflow.hydro.flow_network import FlowNetwork, build_flow_network
 from riverflow.hydro.graph import GraphError, HydroGraph
+from riverflow.kernels import falls as kfalls
 from riverflow.kernels import flow as kf
 from riverflow.kernels import obstacles as ko
 from riverflow.kernels.flow import Segments
@@ -40,6 +41,8 @@ from riverflow.tiles.quadtree import Quadtree
 from riverflow.tiles.table import tile_code
 
 _NO_LEVELS = np.zeros(0, np.int8)
+FALL_BOX_M = 5.0
+""":meth:`FlowField.falls_box` reaches this far [m] before a fall's lip and past its nappe."""
 _NO_OBSTACLES = np.zeros((0, ko.OBSTACLE_FIELDS))
 
 
@@ -177,6 +180,10 @@ class FlowField:
         self._obstacle_sets: dict[str, np.ndarray] = {}
         self.obstacles: np.ndarray = _NO_OBSTACLES
         """(K, OBSTACLE_FIELDS) float64: every obstacle, set by set_obstacles (read-only)."""
+        self.falls = list(getattr(graph, "falls", []) or [])
+        """The graph's falls (:class:`riverflow.hydro.falls.Fall`): :meth:`query` speeds the
+        flow up over them (:mod:`riverflow.kernels.falls`)."""
+        self._fall_table: kfalls.FallTable | None = None
 
     @classmethod
     def for_scene(cls, scene, slip: float = 1.0, search_radius_factor: float = 5.0,
@@ -225,6 +232,7 @@ class FlowField:
                 status[idx] = s_out
                 velocity[idx] = v_out
             _never_unknown(status, pts)
+        self.apply_falls(pts, status, velocity)
         if len(self.obstacles) and exclude_obstacles is not True:
             self.apply_obstacles(pts, status, velocity, level=lv, fallback=0,
                                  exclude=exclude_obstacles)
@@ -328,6 +336,69 @@ class FlowField:
                 return range(start, start + len(rows))
             start += len(rows)
         return range(start, start)
+
+    # -- falls ------------------------------------------------------------------------------
+
+    def fall_table(self) -> kfalls.FallTable:
+        """The falls as the kernel reads them (:class:`riverflow.kernels.falls.FallTable`),
+        made on first use: each fall's gain is its lip speed over the speed this field
+        gives at the lip's centre (so the lip's middle moves at the lip speed whatever the
+        cross-section's profile)."""
+        if self._fall_table is None:
+            if not self.falls:
+                self._fall_table = kfalls.empty_table()
+            else:
+                centre = np.array([f.centre_m for f in self.falls], np.float64)
+                self._fall_table = kfalls.empty_table()     # the river's own speed
+                status, velocity = self.query(centre, exclude_obstacles=True)
+                speed = np.hypot(*velocity.astype(np.float64).T)
+                lip = np.array([f.lip_speed_mps for f in self.falls])
+                river = np.array([f.speed_mps for f in self.falls])
+                # a lip on a point the flow does not reach: the branch's mean speed stands in
+                speed = np.where((status == FlowStatus.INSIDE) & (speed > 1e-6), speed, river)
+                self._fall_table = kfalls.FallTable(
+                    centre, np.array([f.direction for f in self.falls], np.float64),
+                    np.array([0.5 * f.lip_m for f in self.falls]),
+                    np.array([max(1.0, 0.1 * f.lip_m) for f in self.falls]),
+                    np.array([f.approach_m for f in self.falls]),
+                    np.array([f.throw_m for f in self.falls]),
+                    np.array([f.plunge_m for f in self.falls]),
+                    np.maximum(lip / speed, 1.0))
+        return self._fall_table
+
+    def apply_falls(self, xy: np.ndarray, status: np.ndarray, velocity: np.ndarray,
+                    n: int | None = None) -> int:
+        """Speed up the velocities already queried (``xy`` (N, 2) float64 [m], ``status``
+        (N,) uint8, ``velocity`` (N, 2) float32 [m/s]; the first ``n``) over the falls, in
+        place (:func:`riverflow.kernels.falls.accelerate_falls`); returns how many changed.
+        Costs nothing without falls."""
+        if not self.falls:
+            return 0
+        table = self.fall_table()
+        if not len(table.gain):
+            return 0
+        return int(kfalls.accelerate_falls(xy, status, velocity, len(xy) if n is None else n,
+                                           table))
+
+    def falls_box(self) -> np.ndarray:
+        """(4,) [m] xmin, ymin, xmax, ymax around where the water of every fall changes
+        fast (FALL_BOX_M before its lip to FALL_BOX_M past where its nappe lands, across its
+        lip): the particles there ask the flow and the surface every frame. Empty (inf, inf,
+        −inf, −inf) without falls."""
+        if not self.falls:
+            return np.array([np.inf, np.inf, -np.inf, -np.inf])
+        lo, hi = [], []
+        for f in self.falls:
+            c = np.asarray(f.centre_m)
+            t = np.asarray(f.direction)
+            n = np.array([-t[1], t[0]])
+            half = 0.5 * f.lip_m + max(1.0, 0.1 * f.lip_m)
+            ends = np.array([c - FALL_BOX_M * t, c + (f.throw_m + FALL_BOX_M) * t])
+            corners = np.concatenate([ends + half * n, ends - half * n])
+            lo.append(corners.min(axis=0))
+            hi.append(corners.max(axis=0))
+        lo, hi = np.min(lo, axis=0), np.max(hi, axis=0)
+        return np.array([lo[0], lo[1], hi[0], hi[1]])
 
     def apply_obstacles(self, xy: np.ndarray, status: np.ndarray, velocity: np.ndarray, *,
                         level: int, fallback: int = 0, levels: np.ndarray = _NO_LEVELS,

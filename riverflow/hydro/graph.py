@@ -153,6 +153,13 @@ class HydroGraph:
     """Optional water level [m] at points (N, 2) [m] near the rivers, given by the data (GIS
     bed elevations); :func:`riverflow.landscape` then follows it instead of the terrain. Not
     part of equality, not saved in graph files."""
+    falls: list = field(default_factory=list)
+    """The falls, weirs and dams on its rivers (:class:`riverflow.hydro.falls.Fall`), placed
+    with the builder's ``add_fall``, found from its water levels or read from GIS. Not part of
+    equality, not saved in graph files."""
+    rapids: list = field(default_factory=list)
+    """Its steep reaches (:class:`riverflow.hydro.falls.Rapid`), given to the builder
+    (``add_rapids``) or found in its water levels. Not part of equality, not saved."""
 
     def __post_init__(self) -> None:
         self.nodes = np.asarray(self.nodes, dtype=np.float64).reshape(-1, 2)

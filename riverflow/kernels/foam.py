@@ -20,7 +20,8 @@ foam the slot holds, so a new particle in a reused slot is seen). :func:`update_
 * **pressure**: the water running into a shore (island noses, outer bends, a bifurcation's
   tip: −v·∇d / impinge_mps, fading over 2·shore_m from the shore) or turning sharply (the
   strain rate of the velocity from the ψ bicubic's second derivatives, beyond a quarter of
-  ``strain_ps``, × speed);
+  ``strain_ps``, × speed), or landing in a fall's plunge pool
+  (:func:`riverflow.kernels.falls.plunge_closeness`);
 
 speed = min(|v| / speed_mps, 1). Every frame the foam relaxes toward the target, foam +=
 (target − foam)·(1 − e^(−dt/τ)), τ = rise_s going up and decay_s going down, so foam made at a
@@ -42,6 +43,7 @@ import numpy as np
 from numba import njit
 
 from riverflow.kernels._jit import JIT_OPTIONS, is_finite
+from riverflow.kernels.falls import FallTable, plunge_closeness
 from riverflow.kernels.flow import CachedTiles, flow_details_at
 from riverflow.kernels.surface_tiles import water_slope_at
 from riverflow.kernels.wake import TR_AGE, TR_ARC, TR_HALF_WIDTH, TR_STRENGTH, TR_X, TR_Y
@@ -86,12 +88,14 @@ class FoamParams(NamedTuple):
 
 class FoamFlow(NamedTuple):
     """The flow tiles as foam reads them: the query view, the pool's distance lattices
-    (P, n+3, n+3) float32, and the level a frame's queries start from with its fallback."""
+    (P, n+3, n+3) float32, the level a frame's queries start from with its fallback, and the
+    field's falls (their plunge pools foam)."""
 
     tiles: CachedTiles
     shore: np.ndarray
     level: int
     fallback: int
+    falls: FallTable
 
 
 class FoamSources(NamedTuple):
@@ -154,6 +158,7 @@ def flow_terms(x, y, vx, vy, params, flow, surface, patch):
         impinge = _unit(approach / params.impinge_mps) * math.exp(-d / (2.0 * params.shore_m))
         turn = _unit((strain - 0.25 * params.strain_ps) / (0.75 * params.strain_ps)) * speed
         pressure = max(impinge, turn)
+    pressure = max(pressure, plunge_closeness(flow.falls, x, y))
     gx, gy = water_slope_at(surface, x, y)
     slope = math.sqrt(gx * gx + gy * gy)
     steep = _unit((slope - params.steep_from) / (params.steep_full - params.steep_from))

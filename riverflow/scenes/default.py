@@ -88,9 +88,22 @@ class DefaultGround(HeightSource):
         return z.reshape(x.shape)
 
 
-def default_scene(seed: int = 0, size_km: float = 4.0) -> Landscape:
+FALL_AT = 0.4
+"""With ``falls=True`` the first tributary drops over a fall this far along it…"""
+FALL_DROP_M = 6.0
+"""…of this height…"""
+RAPIDS_AT = (0.55, 0.62)
+"""…and runs down a rapid between these fractions of its length…"""
+RAPIDS_SLOPE = 0.06
+"""…this steep (6 %: whitewater, not a cascade)."""
+
+
+def default_scene(seed: int = 0, size_km: float = 4.0, *, falls: bool = False) -> Landscape:
     """The built-in scene for ``seed`` on a ``size_km`` square (deterministic; the 4 km one in
-    about a second, larger ones in seconds: only the network is made up front)."""
+    about a second, larger ones in seconds: only the network is made up front). With
+    ``falls=True`` the first tributary has a fall (FALL_DROP_M high, FALL_AT along it) and a
+    rapid below it (RAPIDS_AT, RAPIDS_SLOPE); the water above them is raised to make their
+    drop, so the rest of the network is the scene without them."""
     size_km = finite(size_km, "default_scene: size_km")
     size_m = DEFAULT_SIZE_M if abs(size_km - 4.0) < 1e-9 else 1000.0 * float(size_km)
     if not size_m >= 500.0:
@@ -104,6 +117,14 @@ def default_scene(seed: int = 0, size_km: float = 4.0) -> Landscape:
         builder.add_branch(b.centerline_m, b.widths_m, b.discharge_m2s, name=b.name)
     for outline in islands:
         builder.add_island(outline)
+    if falls:
+        k = next((i for i, b in enumerate(branches) if b.kind == "tributary"), None)
+        if k is None:
+            raise ValueError("default_scene: this layout has no tributary to put a fall on")
+        length = float(np.hypot(*np.diff(branches[k].centerline_m, axis=0).T).sum())
+        builder.add_fall(FALL_AT * length, FALL_DROP_M, branch=k)
+        a, e = RAPIDS_AT[0] * length, RAPIDS_AT[1] * length
+        builder.add_rapids(a, e, RAPIDS_SLOPE * (e - a), branch=k)
     graph = builder.build()
     for b, q in zip(branches, builder.discharges_m2s):
         b.discharge_m2s = q
@@ -112,7 +133,7 @@ def default_scene(seed: int = 0, size_km: float = 4.0) -> Landscape:
     ground = DefaultGround(main, size_m, noise_seed, hills_seed)
     base = ground.without_hills()
     water = water_surface(branches, lambda xy: base.heights(xy[:, 0], xy[:, 1]),
-                          builder.water_polygon)
+                          builder.water_polygon, graph.falls, graph.rapids)
     half = 0.5 * size_m
     quadtree = Quadtree(-half, -half, size_m)
     carving = Carving()

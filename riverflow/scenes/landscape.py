@@ -30,6 +30,7 @@ from scipy.spatial import cKDTree
 
 from riverflow._validate import check_allocation, finite_positive
 from riverflow.hydro.areas import water_polygon
+from riverflow.hydro.falls import Fall, Rapid, drop_along
 from riverflow.hydro.graph import GraphError, HydroGraph
 from riverflow.hydro.nearest import PolylineIndex
 from riverflow.scenes.carving import Carving, carve
@@ -140,22 +141,29 @@ def z_range(source: HeightSource, water: WaterSurface, carving: Carving) -> tupl
 
 def water_surface(branches: list[RiverBranch],
                   ground: Callable[[np.ndarray], np.ndarray] | list[np.ndarray],
-                  polygon) -> WaterSurface:
+                  polygon, falls: list[Fall] = (), rapids: list[Rapid] = ()) -> WaterSurface:
     """Monotone water profiles of the branches (listed upstream first) on the ground [m]
     (``ground(xy)`` of the uncarved terrain, or its values at each branch's centre-line
-    points) lowered by FREEBOARD_M, as a :class:`WaterSurface`."""
+    points) lowered by FREEBOARD_M, as a :class:`WaterSurface`. ``falls`` and ``rapids``
+    (the graph's) drop the water along their nappes and slopes (:func:`monotone_profiles`);
+    the surface is sampled finely along each nappe (NAPPE_SAMPLES)."""
     n_junctions = 1 + max(max(b.start_junction, b.end_junction) for b in branches)
     along = ground if isinstance(ground, list) else [ground(b.centerline_m) for b in branches]
     sampled = [np.asarray(z, np.float64) - FREEBOARD_M for z in along]
+    on_branch = falls_on_branches(branches, falls, rapids)
     levels = monotone_profiles([b.centerline_m for b in branches], sampled,
                                [b.start_junction for b in branches],
                                [b.end_junction for b in branches], max(n_junctions, 0),
-                               half_window=PROFILE_HALF_WINDOW, caps_m=junction_caps(branches))
+                               half_window=PROFILE_HALF_WINDOW, caps_m=junction_caps(branches),
+                               falls=on_branch)
     samples, lv, wd, index, profiles = [], [], [], [], {}
     for k, (b, z) in enumerate(zip(branches, levels)):
         s = _arc(b.centerline_m)
         profiles[b.name] = (s, z)
-        pts, zz, ww = resample(b.centerline_m, SURFACE_SPACING_M, z, b.widths_m)
+        if on_branch[k]:
+            pts, zz, ww = _resample_over_falls(b.centerline_m, s, z, b.widths_m, on_branch[k])
+        else:
+            pts, zz, ww = resample(b.centerline_m, SURFACE_SPACING_M, z, b.widths_m)
         samples.append(pts)
         lv.append(np.minimum.accumulate(zz))
         wd.append(ww)
@@ -169,6 +177,69 @@ def water_surface(branches: list[RiverBranch],
         junctions[j] = b.centerline_m[0] if b.start_junction == j else b.centerline_m[-1]
     return WaterSurface(np.vstack(samples), np.concatenate(lv), np.concatenate(wd),
                         np.concatenate(index), polygon, profiles, junctions, members)
+
+
+NAPPE_SAMPLES = 16
+"""The water surface is sampled this many times along each fall's nappe (and its level there
+is the nappe's parabola itself, not an interpolation between profile points)."""
+
+
+def falls_on_branches(branches: list[RiverBranch], falls, rapids=()
+                      ) -> list[list[tuple[float, float, float, str, str]]]:
+    """Per branch, its falls and rapids as :func:`monotone_profiles` takes them: (station
+    [m] along the branch's centre line, drop [m], length [m] (a fall's throw, a rapid's
+    length), how, shape). Each lies on the branch whose centre line passes nearest its lip
+    (a rapid: its middle); its drop is "given" where it was found in the levels, else made
+    by raising the water above it on a branch from a free source, by lowering the water
+    below it otherwise."""
+    out: list[list[tuple[float, float, float, str, str]]] = [[] for _ in branches]
+    if not falls and not rapids:
+        return out
+    indexes = [PolylineIndex(b.centerline_m) for b in branches]
+
+    def nearest(xy) -> tuple[int, np.ndarray]:
+        p = np.asarray(xy, np.float64).reshape(-1, 2)
+        found = [index.nearest(p) for index in indexes]
+        best = min(range(len(branches)), key=lambda k: found[k][0][0])
+        return best, found[best][2]
+
+    def how(item, b: RiverBranch) -> str:
+        return "given" if item.in_levels else ("raise" if b.start_junction < 0 else "lower")
+
+    for f in falls:
+        k, at = nearest(f.centre_m)
+        out[k].append((float(at[0]), f.drop_m, f.throw_m, how(f, branches[k]), "nappe"))
+    for r in rapids:
+        k, _ = nearest(r.centre_m)
+        index = indexes[k]
+        a = float(index.nearest(np.asarray(r.start_m, np.float64)[None])[2][0])
+        e = float(index.nearest(np.asarray(r.end_m, np.float64)[None])[2][0])
+        if e > a:
+            out[k].append((a, r.drop_m, e - a, how(r, branches[k]), "ramp"))
+    for row in out:
+        row.sort()
+    return out
+
+
+def _resample_over_falls(line: np.ndarray, s: np.ndarray, z: np.ndarray, widths: np.ndarray,
+                         falls: list[tuple[float, float, float, str, str]]):
+    """:func:`resample` of a branch with falls or rapids: every SURFACE_SPACING_M plus
+    NAPPE_SAMPLES stations along each nappe (a rapid's two ends), the level there the profile
+    without its drops (interpolated) less the drops' exact shape."""
+    n = max(2, int(np.ceil(s[-1] / SURFACE_SPACING_M)) + 1)
+    extra = [np.linspace(0.0, s[-1], n)]
+    nappe_s = np.zeros_like(s)
+    for at, drop, length, _, shape in falls:
+        extra.append(at + length * (np.linspace(0.0, 1.0, NAPPE_SAMPLES + 1)
+                                    if shape == "nappe" else np.array([0.0, 1.0])))
+        nappe_s += drop_along(s - at, drop, length, shape)
+    t = np.unique(np.clip(np.concatenate(extra), 0.0, s[-1]))
+    t = t[np.concatenate([[True], np.diff(t) > 1e-6])]
+    nappe_t = np.zeros_like(t)
+    for at, drop, length, _, shape in falls:
+        nappe_t += drop_along(t - at, drop, length, shape)
+    pts = np.stack([np.interp(t, s, line[:, 0]), np.interp(t, s, line[:, 1])], axis=1)
+    return pts, np.interp(t, s, z + nappe_s) - nappe_t, np.interp(t, s, widths)
 
 
 def junction_caps(branches: list[RiverBranch]) -> list[tuple[float, float]]:
@@ -262,12 +333,14 @@ def landscape(graph: HydroGraph, terrain=None, *, seed: int = 0, cell_m: float |
     given = graph.water_levels
     if source is None:
         water = water_surface(branches, _synthetic_ground(branches) if given is None
-                              else lambda xy: given(xy) + FREEBOARD_M, polygon)
+                              else lambda xy: given(xy) + FREEBOARD_M, polygon, graph.falls,
+                              graph.rapids)
         source = valley_source(water, seed)
         carving = carving or Carving()
     else:
         water = water_surface(branches, (lambda xy: source.heights(xy[:, 0], xy[:, 1]))
-                              if given is None else lambda xy: given(xy) + FREEBOARD_M, polygon)
+                              if given is None else lambda xy: given(xy) + FREEBOARD_M, polygon,
+                              graph.falls, graph.rapids)
         carving = carving or Carving.measured()
     terrain_ = CarvedTerrain(source, water, carving, quadtree, float(cell_m))
     return Landscape(graph, terrain_, water, quadtree.bounds_m, int(seed), branches, [],

@@ -18,6 +18,7 @@ import numpy as np
 import shapely
 from scipy.spatial import cKDTree
 
+from riverflow.hydro.falls import channel_depth_m, drop_along
 from riverflow.kernels.centre_line import nearest_level
 from riverflow.tiles import remote
 
@@ -53,7 +54,8 @@ def _workers(n: int) -> int:
 
 def monotone_profiles(samples: list[np.ndarray], ground_m: list[np.ndarray],
                       start_of: list[int], end_of: list[int], n_junctions: int,
-                      half_window: int, caps_m: list[tuple[float, float]] | None = None
+                      half_window: int, caps_m: list[tuple[float, float]] | None = None,
+                      falls: list[list[tuple[float, float, float, str, str]]] | None = None
                       ) -> list[np.ndarray]:
     """Water levels along branches (listed upstream first).
 
@@ -66,6 +68,14 @@ def monotone_profiles(samples: list[np.ndarray], ground_m: list[np.ndarray],
         caps_m: per branch, (start, end) lengths [m] kept flat at the junction height (the
             part of a branch that lies in the water of the other branches of its junction,
             Proland's junction "cap"); none by default.
+        falls: per branch, its falls and rapids as (at_m, drop_m, length_m, how, shape): the
+            level drops by drop_m from at_m [m] along the samples, over length_m, along a
+            fall's nappe or a rapid's even slope (``shape`` "nappe" or "ramp":
+            :func:`riverflow.hydro.falls.drop_along`), never smoothed away. ``how`` says
+            where the drop comes from: "given" (the ground already drops there: levels it
+            was found in), "raise" (the water upstream of it is raised: a branch from a
+            free source, so no junction moves) or "lower" (the water downstream is lowered,
+            and with it the junction it ends at).
 
     Returns:
         per branch, (P,) non-increasing water level [m], equal at shared junctions.
@@ -75,7 +85,17 @@ def monotone_profiles(samples: list[np.ndarray], ground_m: list[np.ndarray],
         z = np.asarray(z, dtype=np.float64).copy()
         if start_of[k] >= 0:
             z[0] = junction[start_of[k]]
-        raw.append(np.minimum.accumulate(z))
+        z = np.minimum.accumulate(z)
+        s = _arc_length(samples[k])
+        for at, drop, _, how, _ in (falls[k] if falls is not None else ()):
+            if how == "raise":
+                z = np.where(s < at, z + drop, z)
+            elif how == "lower":
+                z = np.where(s >= at, z - drop, z)
+            elif how != "given":
+                raise ValueError(f"monotone_profiles: a fall is 'given', 'raise' or 'lower', "
+                                 f"got {how!r}")
+        raw.append(z)
         if end_of[k] >= 0:
             junction[end_of[k]] = min(junction[end_of[k]], raw[-1][-1])
     out = []
@@ -90,7 +110,17 @@ def monotone_profiles(samples: list[np.ndarray], ground_m: list[np.ndarray],
             z = np.minimum(z, target + slope * np.maximum(s_cap - s, 0.0))
         if start_of[k] >= 0:  # raw levels never exceed the start junction's: still monotone
             z = np.where(s <= cap0, z[0], z)
-        z = _box_smooth(z, half_window)
+        step = np.zeros_like(s)
+        nappe = np.zeros_like(s)
+        for at, drop, length, how, shape in (falls[k] if falls is not None else ()):
+            shaped = drop_along(s - at, drop, length, shape)
+            # the drop as it is in the raw levels: a step where it was made here, its own
+            # shape where the levels it was found in have it
+            step += shaped if how == "given" else np.where(s >= at, drop, 0.0)
+            nappe += shaped
+        # the drops are taken out before smoothing and put back after, in their shape: a
+        # smoothing window must not spread a fall over 25 samples
+        z = _box_smooth(z + step, half_window) - nappe
         out.append(np.maximum(np.minimum.accumulate(z), z[-1]))  # rounding must not move the end
     return out
 
@@ -411,13 +441,14 @@ def _smoothstep(e0: float, e1: float, x: np.ndarray) -> np.ndarray:
 BED_DEPTH_PER_WIDTH = 0.1
 """A river's bed is at most this many times its width deep: its banks under the water then
 stay under 34° (a 2 m creek: 0.2 m deep, not a 1 m trench with vertical walls); rivers
-wider than 12.5 m keep 1 + width/50 m."""
+wider than 12.5 m keep 1 + width/50 m (:func:`riverflow.hydro.falls.channel_depth_m`, which
+the falls' critical speed reads too)."""
 
 
 def bed_depth(shore_m: np.ndarray, width_m: np.ndarray) -> np.ndarray:
     """Depth [m] at a distance ``shore_m`` inside the water of a river ``width_m`` wide: rises
     from 0 at the shore to min(1 + width/50, BED_DEPTH_PER_WIDTH · width) m over 30 % of the
     width (quadratic ease: the steepest slope, at the shore, is 2 · 0.1 / 0.3 = 0.67)."""
-    full = np.minimum(1.0 + width_m / 50.0, BED_DEPTH_PER_WIDTH * width_m)
+    full = channel_depth_m(width_m)
     t = np.clip(shore_m / (0.3 * width_m), 0.0, 1.0)
     return full * (1.0 - (1.0 - t) ** 2)

@@ -31,6 +31,7 @@ void main() {
 #include "reflection.glsl"
 #include "foam.glsl"
 #include "wake.glsl"
+#include "rapids.glsl"
 
 uniform int u_mode;                 // DISPLAY_MODE_*
 uniform bool u_show_grid;
@@ -166,6 +167,13 @@ void main() {
     float crest = 0.0;                                      // boats: Kelvin wakes
     if (u_wake_count > 0)
         tilt += wake_slopes(v_world.xy, px_m, crest);
+    vec3 wx = dFdx(v_world), wy = dFdy(v_world);            // rapids: standing waves where
+    vec3 facet = cross(wx, wy);                             // the surface is steep
+    vec2 grad = abs(facet.z) > 1e-9 ? -facet.xy / facet.z : vec2(0.0);
+    float rapid_crest = 0.0;
+    if (u_rapids.x > 0.0)
+        tilt += standing_slopes(v_world.xy, grad, px_m, rapid_crest);
+    crest = max(crest, rapid_crest);
     vec3 n = normalize(vec3(-tilt, 1.0));
     vec3 v = normalize(u_eye_m - v_world);
     float shore = smoothstep(0.0, 0.5, depth_m);            // soft shore: fade in over 0.5 m

@@ -68,7 +68,8 @@ class AdvectParticles(System):
                 int(pool.counters[2]), pool.alive, pool.has_world, pool.world_m,
                 pool.velocity_mps, pool.status, dt_s * clock.speed_factor, surface, clock.frame,
                 ALTITUDE_EVERY,
-                VELOCITY_EVERY, always_velocity_box(node.field), grid.query_index,
+                VELOCITY_EVERY, always_velocity_box(node.field),
+                node.field.falls_box() if node.field.falls else _NO_BOX, grid.query_index,
                 grid.query_xy)
             if n_status:  # the status-only askers, listed from the end, after the others
                 tail = slice(cap - n_status, cap)
@@ -137,15 +138,19 @@ class AdvectParticles(System):
 
 
 def always_velocity_box(field: FlowField) -> np.ndarray:
-    """(4,) [m] xmin, ymin, xmax, ymax around every obstacle's influence (empty when there is
-    none): particles there get a velocity every frame, as the hulls move."""
+    """(4,) [m] xmin, ymin, xmax, ymax around every obstacle's influence and every fall's
+    lip and nappe (empty when there is none): particles there get a velocity every frame, as
+    the hulls move and as the water speeds up and falls (over a fall, their altitude too:
+    ``FlowField.falls_box``)."""
     obstacles = field.obstacles
+    box = field.falls_box() if field.falls else _NO_BOX
     if not len(obstacles):
-        return _NO_BOX
+        return box
     half = (0.5 * np.maximum(obstacles[:, OB_LENGTH], obstacles[:, OB_BEAM])
             + obstacles[:, OB_REACH])
     x, y = obstacles[:, OB_X], obstacles[:, OB_Y]
-    return np.array([(x - half).min(), (y - half).min(), (x + half).max(), (y + half).max()])
+    return np.array([min((x - half).min(), box[0]), min((y - half).min(), box[1]),
+                     max((x + half).max(), box[2]), max((y + half).max(), box[3])])
 
 
 def query_flow(field: FlowField, xy: np.ndarray, status: np.ndarray, velocity: np.ndarray,
@@ -159,6 +164,8 @@ def query_flow(field: FlowField, xy: np.ndarray, status: np.ndarray, velocity: n
     level = field.tiles.query_level
     query_velocity(xy, _NO_LEVELS, level, level, field.tiles.view(), field.tiles.cache.tick,
                    field.segments, n_velocity, status[:n], velocity[:n])
+    if field.falls and n_velocity:
+        field.apply_falls(xy, status, velocity, n_velocity)
     if len(field.obstacles) and n_velocity:
         field.apply_obstacles(xy[:n_velocity], status[:n_velocity], velocity[:n_velocity],
                               level=level, fallback=level)

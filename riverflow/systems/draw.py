@@ -62,6 +62,7 @@ from riverflow.components.status import FlowStatus
 from riverflow.components.waves import WaveTile
 from riverflow.engine import gl
 from riverflow.engine.system import System
+from riverflow.hydro.falls import RAPIDS_FULL_SLOPE, RAPIDS_MIN_SLOPE
 from riverflow.kernels.foam import foam_pattern_mips
 from riverflow.kernels.tile_cut import near_to_far
 from riverflow.kernels.wake import wake_texture
@@ -660,6 +661,8 @@ class DrawRivers(System):
             water.set(u_mode=int(mode), u_show_grid=bool(settings.show_grid),
                       u_grid_cell_px=float(gpu.grid_shape[0]), u_grid_size=gpu.grid_shape[1:],
                       u_slope_factor=settings.wave_slope_factor,
+                      u_rapids=(float(settings.rapids_wave_slope), RAPIDS_MIN_SLOPE,
+                                RAPIDS_FULL_SLOPE),
                       u_clarity_m=settings.water_clarity_m, **wave_uniforms, **ripple_uniforms,
                       **foam_uniforms)
             water.set_if_used(**reflection_uniforms)

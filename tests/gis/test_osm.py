@@ -92,3 +92,35 @@ def test_an_osm_file_without_waterways(tmp_path):
     with pytest.raises(rf.GraphError, match=r"roads.osm \(layer 'lines'\): no features.*"
                                             r"1 ways left out"):
         rf.read_rivers(path)
+
+
+def test_osm_waterfalls_weirs_and_dams_become_falls(tmp_path):
+    """A waterway=waterfall node on the river with a height tag, a waterway=weir way across
+    it without one (the default drop, reported) and a waterfall node in the fields (left
+    out, reported) (issue 23)."""
+    river = polyline((-1000, 0), (1000, 0), step=100.0)
+    path = write_osm(tmp_path / "falls.osm", [
+        (101, river, {"waterway": "river", "width": "25"}),
+        (102, np.array([[300.0, -20.0], [300.0, 20.0]]), {"waterway": "weir"})])
+    to = pyproj.Transformer.from_crs(UTM, "EPSG:4326", always_xy=True)
+    extra = []
+    for nid, (x, y), tags in ((9001, (-200.0, 0.0), {"waterway": "waterfall", "height": "4"}),
+                              (9002, (-200.0, 400.0), {"waterway": "waterfall"})):
+        lon, lat = to.transform(x + ORIGIN[0], y + ORIGIN[1])
+        body = "".join(f'<tag k="{k}" v="{v}"/>' for k, v in tags.items())
+        extra.append(f'<node id="{nid}" lat="{lat:.9f}" lon="{lon:.9f}" version="1">{body}'
+                     f'</node>')
+    text = path.read_text()
+    path.write_text(text.replace('<way id="101"', "\n".join(extra) + '\n<way id="101"', 1))
+    builder = rf.read_rivers(path)
+    graph = builder.build()
+    falls = sorted(graph.falls, key=lambda f: f.centre_m[0])
+    assert [f.kind for f in falls] == ["fall", "weir"]
+    shift = np.asarray(builder.report.origin_m or (0.0, 0.0))
+    assert np.allclose(np.asarray(falls[0].centre_m) + shift, (-200.0 + ORIGIN[0], ORIGIN[1]),
+                       atol=1.0) or np.allclose(falls[0].centre_m, (-200.0, 0.0), atol=1.0)
+    assert falls[0].drop_m == 4.0 and falls[1].drop_m == 2.0
+    notes = " ".join(builder.report.notes)
+    assert "way 102" in notes and "2 m assumed" in notes
+    assert "node 9002" in notes and "falls left out" in notes and "off the river" in notes
+    assert "ways left out" not in notes          # the weir is a fall, not a left-out way

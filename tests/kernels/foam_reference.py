@@ -22,9 +22,11 @@ def unit(v: float) -> float:
     return min(max(float(v), 0.0), 1.0) if math.isfinite(v) else 0.0
 
 
-def flow_terms(found, shore, sx, sy, strain, slope, vx, vy, p) -> tuple[float, float, float]:
+def flow_terms(found, shore, sx, sy, strain, slope, vx, vy, p, plunge=0.0
+               ) -> tuple[float, float, float]:
     """(steepness, shore closeness, pressure) from what the tiles say at a particle: found
-    (a tile answered), shore distance and gradient, strain rate, water-surface slope."""
+    (a tile answered), shore distance and gradient, strain rate, water-surface slope, and
+    its plunge-pool closeness (``plunge``: tests/hydro/test_falls.py has its twin)."""
     speed = unit(math.hypot(vx, vy) / p.speed_mps)
     shore_c = pressure = 0.0
     if found and math.isfinite(shore):
@@ -34,6 +36,7 @@ def flow_terms(found, shore, sx, sy, strain, slope, vx, vy, p) -> tuple[float, f
         impinge = unit(-(vx * sx + vy * sy) / p.impinge_mps) * math.exp(-d / (2 * p.shore_m))
         turn = unit((strain - 0.25 * p.strain_ps) / (0.75 * p.strain_ps)) * speed
         pressure = max(impinge, turn)
+    pressure = max(pressure, plunge)
     steep = unit((slope - p.steep_from) / (p.steep_full - p.steep_from))
     return steep, unit(shore_c), unit(pressure)
 

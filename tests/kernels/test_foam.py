@@ -42,7 +42,8 @@ def channel():
 
 def _flow(field):
     t = field.tiles
-    return kfoam.FoamFlow(t.view(), t.shore, field.max_level, field.max_level)
+    return kfoam.FoamFlow(t.view(), t.shore, field.max_level, field.max_level,
+                          field.fall_table())
 
 
 def _boat_trail(speed_mps, frames=240, k=48, heading=0.0, start=(100.0, 0.0)):

@@ -332,7 +332,7 @@ def test_move_matches_reference(rng):
     no_box = np.array([np.inf, np.inf, -np.inf, -np.inf])
     moved, n, n_status = ka.move_particles(
         pool.counters[2], pool.alive, pool.has_world, pool.world_m, pool.velocity_mps,
-        pool.status, 0.25, surface, 0, 1, 1, no_box, index, xy)
+        pool.status, 0.25, surface, 0, 1, 1, no_box, no_box, index, xy)
     assert moved == moving.sum() and n_status == 0
     npt.assert_allclose(pool.world_m[moving, :2], want[moving, :2], rtol=1e-6)
     npt.assert_array_equal(pool.world_m[~moving], start[~moving])
@@ -345,7 +345,7 @@ def test_move_matches_reference(rng):
     box = np.array([0.0, 0.0, 5.0, 5.0])
     _, n, n_status = ka.move_particles(
         pool.counters[2], pool.alive, pool.has_world, pool.world_m, pool.velocity_mps,
-        pool.status, 0.25, surface, 1, 1, 2, box, index, xy)
+        pool.status, 0.25, surface, 1, 1, 2, box, no_box, index, xy)
     slots = np.arange(pool.capacity)
     in_box = np.all((pool.world_m[:, :2] >= 0) & (pool.world_m[:, :2] <= 5), axis=1)
     quiet = asking & (pool.status == FlowStatus.INSIDE) & ((slots + 1) % 2 == 1) & ~in_box
@@ -357,10 +357,20 @@ def test_move_matches_reference(rng):
     ka.move_particles(pool.counters[2], pool.alive, pool.has_world, pool.world_m,
                       pool.velocity_mps, pool.status, 0.25,
                       one_tile_surface(flat + 1, water, -100.0, -100.0, 100.0), 1, 4, 1, no_box,
-                      index, xy)
+                      no_box, index, xy)
     looked_up = moving & ((np.arange(pool.capacity) + 1) % 4 == 0)
     assert np.allclose(pool.world_m[looked_up, 2], 1.0)  # every 4th frame, by slot
     assert np.allclose(pool.world_m[moving & ~looked_up, 2], 0.0)
+    # and every frame inside the altitude box (over a fall), whatever the slot
+    pool.world_m[:, 2] = 0.0
+    ka.move_particles(pool.counters[2], pool.alive, pool.has_world, pool.world_m,
+                      pool.velocity_mps, pool.status, 0.25,
+                      one_tile_surface(flat + 1, water, -100.0, -100.0, 100.0), 1, 4, 1, no_box,
+                      box, index, xy)
+    z_box = np.all((pool.world_m[:, :2] >= 0) & (pool.world_m[:, :2] <= 5), axis=1)
+    assert (moving & z_box & ~looked_up).sum() > 3
+    assert np.allclose(pool.world_m[moving & (looked_up | z_box), 2], 1.0)
+    assert np.allclose(pool.world_m[moving & ~looked_up & ~z_box, 2], 0.0)
 
 
 def test_status_machine():

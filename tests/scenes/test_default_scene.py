@@ -211,3 +211,24 @@ def test_a_rivers_self_clearance_by_chunks_is_the_pairwise_answer():
         assert fast == layout._self_clear_pairwise(pts, widths, world), case
         answers.append(fast)
     assert 10 <= sum(answers) <= 50          # both answers are exercised
+
+
+def test_falls_true_puts_a_fall_and_a_rapid_on_the_tributary_and_leaves_the_rest(scene):
+    """``default_scene(falls=True)`` (issue 23): a 6 m fall and a 6 % rapid on the tributary;
+    the water above them is raised, so every other branch keeps its levels."""
+    from riverflow.scenes.default import FALL_DROP_M, RAPIDS_SLOPE
+    falls = default_scene(seed=0, falls=True)
+    (f,) = falls.graph.falls
+    (r,) = falls.graph.rapids
+    assert f.branch == r.branch == "tributary" and f.drop_m == FALL_DROP_M
+    assert r.slope == pytest.approx(RAPIDS_SLOPE) and r.from_m > f.at_m + f.throw_m
+    c = np.asarray(f.centre_m)
+    t = np.asarray(f.direction)
+    up, above, below = falls.water.level(np.array([c - 12.0 * t, c - 2.0 * t,
+                                                   c + (f.throw_m + 2.0) * t]))
+    slope = (up - above) / 10.0                        # the river's own, around the fall
+    assert above - below - slope * (f.throw_m + 4.0) == pytest.approx(FALL_DROP_M, abs=0.05)
+    for b in scene.branches:
+        if b.name != "tributary":
+            pts = b.centerline_m[::10]
+            assert np.allclose(falls.water.level(pts), scene.water.level(pts), atol=1e-9)

@@ -1,0 +1,185 @@
+"""A fall drawn (issue #23), offscreen on Mesa's llvmpipe, tiny frames: seen from the side, the
+water covers the band between lip and pool where the ground shows without it; the plunge pool
+is whiter than the river 50 m below it (the foam mode)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import riverflow as rf
+from riverflow.components.display import DisplayMode
+from riverflow.engine.config import RiverConfig
+from tests.hydro.test_falls import DROP, LIP_X, _straight
+
+pytestmark = pytest.mark.gl
+PROBES = Path(__file__).parent / "shaders"
+W, H = 160, 90
+
+
+RAPID = (100.0, 160.0, 6.0)
+"""A 10 % rapid well above the fall (from, to, drop)."""
+
+
+@pytest.fixture(scope="module")
+def world(gl_context):
+    b = _straight()
+    b.add_rapids(*RAPID)
+    scene = rf.landscape(b.build(), seed=0)
+    w = rf.RiverWorld(scene, size=(W, H), gl=True, seed=0,
+                      config=RiverConfig(radius_px=5.0, tile_production="blocking"))
+    yield w
+    w.close()
+
+
+def _lip(world) -> float:
+    return float(world.scene.water.level(np.array([[LIP_X, 0.0]]))[0])
+
+
+def test_a_fall_seen_from_the_side_is_a_sheet_of_water(world):
+    (f,) = world.scene.graph.falls
+    lip = _lip(world)
+    # from the pool's side, obliquely, a little above the pool
+    world.camera.look_at((LIP_X + 25.0, -14.0, lip - DROP + 2.0),
+                         (LIP_X + 0.5 * f.throw_m, 0.0, lip - 0.5 * DROP))
+    for _ in range(10):
+        world.step(1 / 30)
+    frames = {}
+    for mode in (DisplayMode.NONE, DisplayMode.MESH):
+        world.display.mode = mode
+        frames[mode] = world.render()[..., :3].astype(int)
+    world.display.mode = DisplayMode.ADVECTED
+    # the band the nappe spans on screen: between the lip and the pool, across the river
+    corners = np.array([[LIP_X + 0.3 * f.throw_m, -6.0, lip - 0.09 * DROP],
+                        [LIP_X + 0.7 * f.throw_m, 6.0, lip - 0.49 * DROP]])
+    px, _, front = world.camera.world_to_screen(corners)
+    assert front.all()
+    x0, x1 = sorted(px[:, 0].astype(int))
+    y0, y1 = sorted((H - px[:, 1]).astype(int))          # rows from the top
+    band = (slice(max(y0, 0), min(y1 + 1, H)), slice(max(x0, 0), min(x1 + 1, W)))
+    changed = np.abs(frames[DisplayMode.MESH][band] - frames[DisplayMode.NONE][band]).sum(-1)
+    assert changed.size >= 20
+    assert (changed > 30).mean() > 0.8        # water where the ground showed
+
+
+def test_the_plunge_pool_is_whiter_than_the_river_below(world):
+    (f,) = world.scene.graph.falls
+    lip = _lip(world)
+    pool_x = LIP_X + f.throw_m + 4.0
+    world.camera.look_at((pool_x + 25.0, -45.0, lip + 25.0), (pool_x + 25.0, 0.0, lip - DROP))
+    for _ in range(60):
+        world.step(1 / 30)
+    world.render()      # the foam mode shows what the last water frame drew (as in
+    world.display.mode = DisplayMode.FOAM   # tests/render/test_foam_wake_render.py)
+    image = world.render()[..., :3].astype(float).mean(-1)
+    world.display.mode = DisplayMode.ADVECTED
+    probes = np.array([[pool_x + dx, dy, lip - DROP] for dx in (0.0, 50.0)
+                       for dy in (-4.0, 0.0, 4.0)])
+    px, _, front = world.camera.world_to_screen(probes)
+    assert front.all()
+    cols = px[:, 0].astype(int)
+    rows = (H - px[:, 1]).astype(int)
+    assert ((cols >= 0) & (cols < W) & (rows >= 0) & (rows < H)).all()
+    bright = np.array([image[max(r - 1, 0):r + 2, max(c - 1, 0):c + 2].mean()
+                       for r, c in zip(rows, cols)])
+    pool, below = bright[:3].mean(), bright[3:].mean()
+    assert pool > below + 20.0, (pool, below)
+
+
+# -- rapids: standing waves --------------------------------------------------------------------
+
+def _standing_twin(p, grad, px_m, amp, lo, hi):
+    """Numpy twin of standing_slopes (shaders/rapids.glsl): (slopes (N, 2), crest (N,))."""
+    def smooth(e0, e1, x):
+        t = np.clip((x - e0) / (e1 - e0), 0.0, 1.0)
+        return t * t * (3 - 2 * t)
+
+    s = np.hypot(*grad.T)
+    amount = smooth(lo, hi, s) * (1.0 - smooth(0.33, 0.5, s))
+    visible = np.clip((3.0 / px_m - 3.0) / 3.0, 0.0, 1.0)
+    d = -grad / np.maximum(s, 1e-12)[:, None]
+    across = np.stack([-d[:, 1], d[:, 0]], 1)
+    k = 2 * np.pi / 3.0
+    a = np.einsum("ij,ij->i", p, d)
+    c = np.einsum("ij,ij->i", p, across)
+    phase = k * a + 1.7 * np.sin(0.37 * k * c) + 0.9 * np.sin(0.23 * k * c + 1.3)
+    envelope = 0.65 + 0.35 * np.sin(0.29 * k * c + 0.6 * np.sin(0.11 * k * a))
+    on = (amount > 0) & (visible > 0) & (amp > 0)
+    crest = np.where(on, amount * envelope * smooth(0.75, 0.98, np.sin(phase)), 0.0)
+    slopes = np.where(on[:, None], (visible * amount * envelope * amp * np.cos(phase))[:, None]
+                      * d, 0.0)
+    return slopes, crest
+
+
+def test_the_standing_waves_shader_matches_its_numpy_twin(gl_context):
+    from riverflow.engine import gl
+    from riverflow.systems.draw import shader_defines
+    rng = np.random.default_rng(5)
+    size = (48, 32)
+    n = size[0] * size[1]
+    p = rng.uniform(-40.0, 40.0, (n, 2))
+    slope = rng.choice([0.005, 0.03, 0.08, 0.2, 0.4, 0.7], n)
+    angle = rng.uniform(0, 2 * np.pi, n)
+    grad = slope[:, None] * np.stack([np.cos(angle), np.sin(angle)], 1)
+    points = np.concatenate([p, grad], 1).reshape(size[1], size[0], 4).astype(np.float32)
+    tex = gl.Texture(size, gl.RGBA32F)
+    tex.upload(points)
+    target = gl.Texture(size, gl.RGBA32F)
+    fb = gl.Framebuffer([target])
+    program = gl.Program("probe_rapids.glsl", shader_defines(), directory=PROBES)
+    fb.bind()
+    gl.clear((0, 0, 0, 0), depth=False)
+    tex.bind(4)
+    program.use()
+    program.set(u_points=4, u_px_m=0.05, u_rapids=(0.3, 0.02, 0.15))
+    empty = gl.Mesh(None, {})
+    empty.draw(gl.TRIANGLES, count=3)
+    probe = gl.read_texture(target).reshape(-1, 4)
+    gl.check_errors("rapids probe")
+    for obj in (empty, fb, target, program, tex):
+        obj.delete()
+    pts = points.reshape(-1, 4).astype(np.float64)
+    want, want_crest = _standing_twin(pts[:, :2], pts[:, 2:], 0.05, 0.3, 0.02, 0.15)
+    assert np.abs(want).max() > 0.1 and want_crest.max() > 0.3
+    assert np.abs(probe[:, :2] - want).max() < 2e-3
+    assert np.abs(probe[:, 2] - want_crest).max() < 2e-3
+    # none on a lowland river (0.5 %) or a fall's nappe (70 %); more on 20 % than on 3 %
+    mag = np.hypot(*want.T)
+    assert mag[slope == 0.005].max() == 0.0 and mag[slope == 0.7].max() == 0.0
+    assert mag[slope == 0.2].mean() > 3.0 * mag[slope == 0.03].mean()
+
+
+def test_the_standing_waves_stay_in_place_while_particles_pass(world):
+    """On a 10 % rapid, with the sprites' waves and the foam off, the water's look at fixed
+    pixels (a fixed camera) is the standing waves': it changes by under 10 % of what they
+    add over 2 s of frames, while the particles run through."""
+    mid = 0.5 * (RAPID[0] + RAPID[1])
+    z = float(world.scene.water.level(np.array([[mid, 0.0]]))[0])
+    world.camera.look_at((mid + 12.0, -16.0, z + 12.0), (mid - 2.0, 0.0, z))
+    display = world.display
+    kept = (display.wave_slope_factor, display.reflections, display.rapids_wave_slope)
+    try:
+        display.wave_slope_factor = 0.0
+        display.reflections = False
+        world.foam.enabled = False
+        for _ in range(5):
+            world.step(1 / 30)
+        shots = []
+        for rapids in (0.3, 0.0, 0.3):
+            world.display.rapids_wave_slope = rapids
+            shots.append(world.render()[..., :3].astype(float))
+            if len(shots) == 2:
+                for _ in range(60):
+                    world.step(1 / 30)
+        before, flat, after = shots
+        water = np.abs(before - flat).sum(-1) > 0
+        assert water.mean() > 0.2
+        added = np.abs(before - flat)[water].mean()
+        moved = np.abs(after - before)[water].mean()
+        assert added > 1.5, added
+        assert moved < 0.1 * added, (moved, added)
+        assert len(world.particles) > 20                    # particles there, running through
+    finally:
+        display.wave_slope_factor, display.reflections, display.rapids_wave_slope = kept
+        world.foam.enabled = True
