@@ -195,8 +195,13 @@ def _discard(context, kind: str, ident: int) -> None:
 
 
 def make_current(context) -> None:
-    """Make ``context`` current if it is not."""
+    """Make ``context`` current if it is not: pyglet's idea of the current context, and the
+    thread's own (another library's window, Panda3D's, may have made its context current
+    since; pyglet would not know)."""
     if gl.current_context is not context:
+        context.set_current()
+    elif not isinstance(context, HostContext) \
+            and native_current_context() != _pyglet_native(context):
         context.set_current()
 
 

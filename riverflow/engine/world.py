@@ -83,6 +83,11 @@ class RiverWorld:
         self.gl = bool(gl)
         self.host = gl == "current"
         """Draws into the host's current context and framebuffer (``gl="current"``)."""
+        self.context = None
+        if self.host:      # before anything is made: no usable context fails at once
+            from riverflow.engine import gl as gl_module
+
+            self.context = gl_module.acquire_host_context()
         self.seed = int(seed)
         self.rng = np.random.default_rng(self.seed)
         self.scene = scene
@@ -134,12 +139,11 @@ class RiverWorld:
             systems = default_systems(self.gl)
         self.systems = systems
         self.pool: ParticlePool = self.component(ParticlePool)
-        self.context = None
         if self.gl:
             from riverflow.engine import gl as gl_module  # pyglet's GL: only when drawing
 
-            self.context = (gl_module.acquire_host_context() if self.host
-                            else gl_module.acquire_context())
+            if self.context is None:
+                self.context = gl_module.acquire_context()
             for system in self.systems:
                 if hasattr(system, "attach"):
                     system.attach(self.context)

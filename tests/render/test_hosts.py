@@ -1,0 +1,486 @@
+"""Rivers in another library's window (issue 28): ``RiverWorld(gl="current")`` draws with the
+context a pygame-ce, glfw or arcade host made current, into the host's framebuffer, with the
+host's camera and depth, and leaves the host's GL state as it was; no usable context is a
+clear error.
+
+The hosts run in this process, one Xvfb display for the module (pygame and glfw make GLX
+contexts on it; arcade is a pyglet window, an EGL pbuffer like the other tests' contexts under
+PYGLET_HEADLESS). The window's pixels are read from the host's own framebuffer after the
+host's swap (its front buffer). Small windows, a few frames: the module costs a few seconds
+of CPU, most of it the worlds' first frames.
+"""
+from __future__ import annotations
+
+import ctypes
+import os
+import subprocess
+import sys
+import threading
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+import riverflow as rf
+from riverflow.engine import gl as rgl
+
+pytestmark = pytest.mark.gl
+
+W, H = 160, 120
+HOST_CLEAR = (0.5, 0.0, 0.5)                    # a colour nothing of the river's has
+HOST_CLEAR_U8 = (128, 0, 128)
+GL_RGBA, GL_UNSIGNED_BYTE = 0x1908, 0x1401
+
+
+def _libgl():
+    lib = ctypes.CDLL("libGL.so.1")
+    lib.glReadPixels.argtypes = [ctypes.c_int] * 4 + [ctypes.c_uint] * 2 + [ctypes.c_void_p]
+    return lib
+
+
+def read_pixels() -> np.ndarray:
+    """The bound read framebuffer as (H, W, 4) uint8, row 0 at the top, read with the host's
+    own GL calls (plain libGL)."""
+    out = np.empty((H, W, 4), np.uint8)
+    _libgl().glReadPixels(0, 0, W, H, GL_RGBA, GL_UNSIGNED_BYTE, out.ctypes.data)
+    return out[::-1].copy()
+
+
+class _XImage(ctypes.Structure):
+    _fields_ = [(name, ctypes.c_int) for name in ("width", "height", "xoffset", "format")] + [
+        ("data", ctypes.c_void_p)] + [(name, ctypes.c_int) for name in (
+            "byte_order", "bitmap_unit", "bitmap_bit_order", "bitmap_pad", "depth",
+            "bytes_per_line", "bits_per_pixel")]
+
+
+def window_pixels(window_id: int) -> np.ndarray:
+    """What the X server shows in the host's window after its swap, as (H, W, 4) uint8 RGBA
+    (XGetImage: Mesa's front buffer on Xvfb is the window itself, not readable with GL)."""
+    x11 = ctypes.CDLL("libX11.so.6")
+    x11.XOpenDisplay.restype = ctypes.c_void_p
+    x11.XOpenDisplay.argtypes = [ctypes.c_char_p]
+    x11.XGetImage.restype = ctypes.POINTER(_XImage)
+    x11.XGetImage.argtypes = [ctypes.c_void_p, ctypes.c_ulong, ctypes.c_int, ctypes.c_int,
+                              ctypes.c_uint, ctypes.c_uint, ctypes.c_ulong, ctypes.c_int]
+    x11.XFree.argtypes = [ctypes.c_void_p]
+    x11.XCloseDisplay.argtypes = [ctypes.c_void_p]
+    display = x11.XOpenDisplay(None)
+    pointer = x11.XGetImage(display, window_id, 0, 0, W, H, 0xFFFFFFFF, 2)   # ZPixmap
+    image = pointer.contents
+    assert (image.width, image.height, image.bits_per_pixel) == (W, H, 32)
+    rows = np.ctypeslib.as_array((ctypes.c_uint8 * (image.bytes_per_line * H)).from_address(
+        image.data)).reshape(H, image.bytes_per_line // 4, 4)[:, :W]
+    out = np.empty((H, W, 4), np.uint8)
+    out[..., :3] = rows[..., 2::-1]             # BGRX
+    out[..., 3] = 255
+    x11.XFree(image.data)
+    x11.XFree(ctypes.cast(pointer, ctypes.c_void_p))
+    x11.XCloseDisplay(display)
+    return out
+
+
+@pytest.fixture(scope="module")
+def display(xvfb_module):
+    """The Xvfb display for the hosts' windows. The thread's EGL context (the offscreen one
+    earlier tests of this process made current) is put aside while the hosts' GLX contexts
+    live (a thread cannot have both) and made current again afterwards."""
+    old = os.environ.get("DISPLAY")
+    os.environ["DISPLAY"] = xvfb_module
+    native = rgl.native_current_context()
+    if native is not None and native[0] == "egl":
+        egl = ctypes.CDLL("libEGL.so.1")
+        egl.eglGetCurrentDisplay.restype = ctypes.c_void_p
+        egl.eglMakeCurrent.argtypes = [ctypes.c_void_p] * 4
+        egl.eglMakeCurrent(egl.eglGetCurrentDisplay(), None, None, None)
+    yield xvfb_module
+    if old is None:
+        os.environ.pop("DISPLAY", None)
+    else:
+        os.environ["DISPLAY"] = old
+    previous = rgl.gl.current_context
+    if previous is not None and rgl.context_alive(previous):
+        previous.set_current()
+
+
+@pytest.fixture(scope="module")
+def scene():
+    return rf.default_scene(seed=0)
+
+
+def _camera_matrices(world):
+    """The host's camera, as a host has it: column-major view and projection (pyrr's
+    row-vector matrices ravelled are exactly that)."""
+    camera = world.camera
+    return camera.view_matrix().ravel(), camera.projection_matrix().ravel()
+
+
+@pytest.fixture(scope="module")
+def pygame_host(display, scene):
+    pygame = pytest.importorskip("pygame")
+    moderngl = pytest.importorskip("moderngl")
+    pygame.display.init()
+    for key, value in ((pygame.GL_CONTEXT_MAJOR_VERSION, 3),
+                       (pygame.GL_CONTEXT_MINOR_VERSION, 3),
+                       (pygame.GL_CONTEXT_PROFILE_MASK, pygame.GL_CONTEXT_PROFILE_CORE),
+                       (pygame.GL_DEPTH_SIZE, 24)):
+        pygame.display.gl_set_attribute(key, value)
+    pygame.display.set_mode((W, H), pygame.OPENGL | pygame.DOUBLEBUF)
+    mgl = moderngl.create_context()           # the host's own GL (what pygame games use)
+    world = rf.RiverWorld(scene, size=(W, H), gl="current", seed=0)
+    world.step(1 / 60)
+    yield SimpleNamespace(pygame=pygame, mgl=mgl, world=world,
+                          window=pygame.display.get_wm_info()["window"])
+    world.close()
+    mgl.release()
+    pygame.display.quit()
+
+
+def _assert_same_frame(window: np.ndarray, own: np.ndarray, world) -> None:
+    """The host's window shows riverflow's own offscreen frame, and water where the
+    particles are (on the water by construction)."""
+    diff = np.abs(window[..., :3].astype(int) - own[..., :3].astype(int))
+    assert np.percentile(diff, 99) <= 2 and diff.mean() < 0.5, diff.max()
+    p = world.particles
+    inside = p.screen_px[(p.status == rf.FlowStatus.INSIDE)]
+    inside = inside[(inside[:, 0] >= 0) & (inside[:, 0] < W) & (inside[:, 1] >= 0)
+                    & (inside[:, 1] < H)]
+    assert len(inside) > 20
+    cols, rows = inside[:, 0].astype(int), H - 1 - inside[:, 1].astype(int)
+    water = window[rows, cols, :3].astype(int)
+    assert np.mean(water[:, 2] > water[:, 0]) > 0.8          # blue-grey water, not land
+    assert not (window[..., :3] == HOST_CLEAR_U8).all(-1).any()   # the sky drawn too
+
+
+def test_pygame_window_shows_the_river(pygame_host):
+    h, world = pygame_host, pygame_host.world
+    view, projection = _camera_matrices(world)
+    h.mgl.clear(*HOST_CLEAR, 1.0, depth=1.0)
+    world.draw(view, projection)
+    h.pygame.display.flip()
+    _assert_same_frame(window_pixels(h.window), world.render(), world)
+
+
+_QUAD_PROGRAM = """
+#version 330 core
+uniform mat4 u_view_projection;
+in vec3 in_position;
+void main() { gl_Position = u_view_projection * vec4(in_position, 1.0); }
+"""
+_QUAD_COLOUR = """
+#version 330 core
+uniform vec3 u_colour;
+out vec4 frag;
+void main() { frag = vec4(u_colour, 1.0); }
+"""
+
+
+def _host_quad(mgl, program, corners):
+    buffer = mgl.buffer(np.asarray(corners, np.float32).tobytes())
+    return mgl.vertex_array(program, [(buffer, "3f", "in_position")]), buffer
+
+
+def test_depth_host_quads_in_front_and_under_the_water(pygame_host):
+    """A host quad between the eye and the river hides the water; one just under the water
+    surface is hidden by it (the host's matrices, the host's depth buffer)."""
+    h, world = pygame_host, pygame_host.world
+    mgl, camera = h.mgl, world.camera
+    view, projection = _camera_matrices(world)
+    program = mgl.program(vertex_shader=_QUAD_PROGRAM, fragment_shader=_QUAD_COLOUR)
+    program["u_view_projection"].write(camera.view_projection().tobytes())
+    eye, f, r, u = camera.position, camera.forward, camera.right, camera.screen_up
+    centre = eye + 30.0 * f - 8.0 * r - 5.0 * u           # lower left of the view, 30 m off
+    front = [centre + a * r + b * u for a, b in ((-3, -3), (3, -3), (3, 3), (-3, -3), (3, 3),
+                                                (-3, 3))]
+    p = world.particles
+    on_water = p.world_m[(p.status == rf.FlowStatus.INSIDE) & p.has_world]
+    spot = on_water[np.argmin(np.linalg.norm(on_water - (eye + 80.0 * f), axis=1))]
+    level = float(world.scene.water.level(spot[None, :2])[0])
+    under = [(spot[0] + a, spot[1] + b, level - 0.3) for a, b in ((-8, -8), (8, -8), (8, 8),
+                                                                  (-8, -8), (8, 8), (-8, 8))]
+    quads = [(_host_quad(mgl, program, front), (1.0, 0.0, 0.0)),
+             (_host_quad(mgl, program, under), (0.0, 1.0, 0.0))]
+
+    def host_frame(with_river: bool) -> np.ndarray:
+        mgl.clear(*HOST_CLEAR, 1.0, depth=1.0)
+        mgl.enable(mgl.DEPTH_TEST)
+        for (vao, _), colour in quads:
+            program["u_colour"].value = colour
+            vao.render()
+        mgl.disable(mgl.DEPTH_TEST)
+        if with_river:
+            world.draw(view, projection, sky=False)
+        h.pygame.display.flip()
+        return window_pixels(h.window)
+
+    alone, with_river = host_frame(False), host_frame(True)
+    red = (alone[..., :3] == (255, 0, 0)).all(-1)
+    green = (alone[..., :3] == (0, 255, 0)).all(-1)
+    assert red.sum() > 100 and green.sum() > 20          # both quads are in the view
+    assert (with_river[red][:, :3] == (255, 0, 0)).all()     # in front: still the host's
+    assert not (with_river[..., :3] == (0, 255, 0)).all(-1).any()   # under: the water's
+    assert np.abs(with_river[green][:, :3].astype(int) - (0, 255, 0)).sum(-1).min() > 100
+    for (vao, buffer), _ in quads:
+        vao.release()
+        buffer.release()
+    program.release()
+
+
+def _host_state(world) -> dict:
+    with rgl._as_pyglet_current(world.context):
+        return rgl.HostState.save().as_dict()
+
+
+def test_gl_state_is_the_hosts_after_a_draw(pygame_host):
+    """Every piece of state the draw touches, set by the host to something other than
+    OpenGL's defaults and riverflow's own choices, reads the same after ``draw()``; and every
+    state-changing GL call the draw makes is of state :class:`HostState` saves."""
+    h, world = pygame_host, pygame_host.world
+    mgl = h.mgl
+    program = mgl.program(vertex_shader=_QUAD_PROGRAM, fragment_shader=_QUAD_COLOUR)
+    buffer = mgl.buffer(np.zeros(9, np.float32).tobytes())
+    vao = mgl.vertex_array(program, [(buffer, "3f", "in_position")])
+    texture = mgl.texture((4, 4), 4)
+    ubo = mgl.buffer(reserve=256)
+    lib = _libgl()
+    # the host's state: a bound program, vertex array, textures, a uniform buffer, blending,
+    # culling, depth, a sub-viewport, its clear colour, pixel alignment...
+    mgl.enable(mgl.BLEND | mgl.CULL_FACE | mgl.DEPTH_TEST | mgl.PROGRAM_POINT_SIZE)
+    mgl.blend_func = mgl.SRC_ALPHA, mgl.ONE
+    mgl.blend_equation = mgl.FUNC_REVERSE_SUBTRACT
+    mgl.front_face = "cw"
+    mgl.cull_face = "front"
+    texture.use(3)
+    texture.use(0)
+    ubo.bind_to_uniform_block(0)
+    lib.glUseProgram(program.glo)
+    lib.glBindVertexArray(vao.glo)
+    lib.glBindBuffer(0x8892, buffer.glo)              # GL_ARRAY_BUFFER
+    lib.glActiveTexture(0x84C0 + 5)
+    lib.glDepthFunc(0x0201)                           # GL_LESS
+    lib.glDepthMask(0)
+    lib.glViewport(10, 5, W - 20, H - 10)
+    lib.glClearColor(ctypes.c_float(0.1), ctypes.c_float(0.2), ctypes.c_float(0.3),
+                     ctypes.c_float(0.4))
+    lib.glPixelStorei(0x0CF5, 2)                      # GL_UNPACK_ALIGNMENT
+    lib.glPixelStorei(0x0D05, 8)                      # GL_PACK_ALIGNMENT
+    before = _host_state(world)
+    assert before["enabled 0xbe2"] == (True,) and before["program"] == (program.glo,)
+    assert before["viewport"] == (10, 5, W - 20, H - 10)
+
+    calls = _record_gl_calls(lambda: world.draw())
+    after = _host_state(world)
+    changed = {k: (before[k], after[k]) for k in before if before[k] != after[k]}
+    assert not changed
+    _assert_calls_covered(calls, before)
+    assert world.camera.size_px == (W - 20, H - 10)      # the host's viewport
+    lib.glViewport(0, 0, W, H)
+    mgl.disable(mgl.BLEND | mgl.CULL_FACE | mgl.DEPTH_TEST | mgl.PROGRAM_POINT_SIZE)
+    lib.glDepthMask(1)
+    lib.glBindVertexArray(0)
+    lib.glUseProgram(0)
+    for obj in (vao, buffer, texture, ubo, program):
+        obj.release()
+    world.draw()
+    assert world.camera.size_px == (W, H)
+
+
+# -- every GL call the draw makes, and the state it changes ----------------------------------
+
+_NO_CONTEXT_STATE = {
+    # draws, reads, queries, object creation and deletion, and calls that change the state
+    # of riverflow's own objects (its textures, buffers, vertex arrays, framebuffers) only
+    "glGetError", "glGetIntegerv", "glGetFloatv", "glGetInteger64i_v", "glIsEnabled",
+    "glGetString", "glGenTextures", "glGenBuffers", "glGenVertexArrays", "glGenFramebuffers",
+    "glGenQueries", "glDeleteTextures", "glDeleteBuffers", "glDeleteVertexArrays",
+    "glDeleteFramebuffers", "glDeleteQueries", "glTexImage2D", "glTexImage3D",
+    "glTexSubImage2D", "glTexSubImage3D", "glTexParameteri", "glTexBuffer",
+    "glGenerateMipmap", "glBufferData", "glBufferSubData", "glCopyBufferSubData",
+    "glGetBufferSubData", "glFramebufferTexture2D", "glFramebufferTextureLayer",
+    "glCheckFramebufferStatus", "glDrawBuffers", "glReadBuffer", "glVertexAttribPointer",
+    "glEnableVertexAttribArray", "glDrawArrays", "glDrawElementsBaseVertex",
+    "glMultiDrawElementsBaseVertex", "glClear", "glReadPixels", "glGetTexImage",
+    "glBlitFramebuffer", "glFinish", "glFlush", "glBeginQuery", "glEndQuery",
+    "glGetQueryObjectui64v",
+}
+"""(glDrawBuffers and glReadBuffer are only called with riverflow's framebuffers bound.)"""
+
+_STATE_KEYS = {
+    "glBindFramebuffer": ("draw_framebuffer", "read_framebuffer"),
+    "glBindRenderbuffer": ("renderbuffer",),
+    "glViewport": ("viewport",), "glUseProgram": ("program",),
+    "glBindVertexArray": ("vertex_array",), "glActiveTexture": ("active_texture",),
+    "glDepthFunc": ("depth_func",), "glDepthMask": ("depth_mask",),
+    "glDepthRange": ("depth_range",), "glClearDepth": ("clear_depth",),
+    "glClearColor": ("clear_colour",), "glColorMask": ("colour_mask",),
+    "glBlendFuncSeparate": ("blend",), "glBlendEquation": ("blend",),
+    "glBlendEquationSeparate": ("blend",), "glBlendColor": ("blend_colour",),
+    "glCullFace": ("cull_face",), "glFrontFace": ("front_face",),
+    "glPolygonMode": ("polygon_mode",), "glPointSize": ("point_size",),
+    "glLineWidth": ("line_width",),
+}
+
+
+def _record_gl_calls(action) -> list[tuple[str, tuple]]:
+    """Run ``action`` with every GL function riverflow's GL module calls recorded."""
+    module = rgl.gl
+    calls: list[tuple[str, tuple]] = []
+    originals = {name: getattr(module, name) for name in dir(module)
+                 if name.startswith("gl") and name[2:3].isupper()
+                 and callable(getattr(module, name))}
+
+    def recorder(name, function):
+        def call(*args):
+            calls.append((name, args))
+            return function(*args)
+        return call
+
+    for name, function in originals.items():
+        setattr(module, name, recorder(name, function))
+    try:
+        action()
+    finally:
+        for name, function in originals.items():
+            setattr(module, name, function)
+    return calls
+
+
+def _assert_calls_covered(calls, saved: dict) -> None:
+    """Each state-changing call is of a piece of state in ``saved`` (one the host state
+    reads and puts back); a GL call this table does not know fails the test (classify it)."""
+    unknown = set()
+    for name, args in calls:
+        if name in _NO_CONTEXT_STATE:
+            continue
+        if name in _STATE_KEYS:
+            assert all(k in saved for k in _STATE_KEYS[name]), name
+        elif name in ("glEnable", "glDisable"):
+            assert f"enabled {int(args[0]):#x}" in saved, (name, hex(int(args[0])))
+        elif name == "glPixelStorei":
+            assert f"pixel_store {int(args[0]):#x}" in saved, (name, hex(int(args[0])))
+        elif name == "glBindTexture":
+            query = {int(t): int(q) for q, t in rgl._host_tables()[0]}[int(args[0])]
+            assert f"texture 0 {query:#x}" in saved, name
+        elif name == "glBindBuffer":
+            queries = {int(t): int(q) for q, t in rgl._buffer_targets()}
+            assert int(args[0]) in queries or int(args[0]) == 0x8893, name  # or an index
+        elif name in ("glBindBufferRange", "glBindBufferBase"):    # buffer, in a VAO
+            assert int(args[1]) < rgl.HostState.UBO_BINDINGS, (name, args[1])
+        elif name == "glBindSampler":
+            assert f"sampler {int(args[0])}" in saved, name
+        else:
+            unknown.add(name)
+    assert not unknown, f"GL calls of the draw not classified by this test: {sorted(unknown)}"
+
+
+def test_glfw_window_shows_the_river(display, scene):
+    glfw = pytest.importorskip("glfw")
+    assert glfw.init()
+    try:
+        glfw.window_hint(glfw.CONTEXT_VERSION_MAJOR, 3)
+        glfw.window_hint(glfw.CONTEXT_VERSION_MINOR, 3)
+        glfw.window_hint(glfw.OPENGL_PROFILE, glfw.OPENGL_CORE_PROFILE)
+        glfw.window_hint(glfw.OPENGL_FORWARD_COMPAT, True)
+        window = glfw.create_window(W, H, "glfw host", None, None)
+        assert window
+        glfw.make_context_current(window)
+        lib = _libgl()
+        with rf.RiverWorld(scene, size=(W, H), gl="current", seed=0) as world:
+            world.step(1 / 60)
+            view, projection = _camera_matrices(world)
+            lib.glClearColor(*(ctypes.c_float(v) for v in (*HOST_CLEAR, 1.0)))
+            lib.glClear(0x4100)
+            world.draw(view, projection)
+            glfw.swap_buffers(window)
+            _assert_same_frame(window_pixels(glfw.get_x11_window(window)), world.render(),
+                               world)
+        glfw.destroy_window(window)
+    finally:
+        glfw.terminate()
+
+
+def test_arcade_window_shows_the_river(display, scene):
+    """arcade 3 (on pyglet): its window's context is pyglet's own, which gl="current" draws
+    with as it is (a pbuffer here: pyglet runs headless in the tests)."""
+    os.environ.setdefault("ARCADE_HEADLESS", "1")
+    arcade = pytest.importorskip("arcade")
+    window = arcade.Window(W, H, "arcade host", visible=False)
+    try:
+        with rf.RiverWorld(scene, size=(W, H), gl="current", seed=0) as world:
+            assert world.context is rgl.gl.current_context     # pyglet's, not a stand-in
+            world.step(1 / 60)
+            view, projection = _camera_matrices(world)
+            window.ctx.screen.use()
+            window.clear(color=(*HOST_CLEAR_U8, 255))
+            world.draw(view, projection)
+            arcade.draw_lrbt_rectangle_filled(0, 20, 0, 20, arcade.color.YELLOW)  # on top
+            window.flip()
+            shown = read_pixels()
+            assert (shown[-10, 5, :3] == (255, 255, 0)).all()
+            shown[-20:, :20] = 0
+            own = world.render()
+            own[-20:, :20] = 0
+            _assert_same_frame(shown, own, world)
+    finally:
+        window.close()
+
+
+# -- no silent failure -----------------------------------------------------------------------
+
+def test_no_context_is_a_clear_error(display, scene):
+    assert rgl.native_current_context() is None
+    with pytest.raises(rgl.ContextError, match="no OpenGL context is current on this thread"):
+        rf.RiverWorld(scene, size=(W, H), gl="current")
+    with pytest.raises(ValueError, match='gl must be False, True or "current"'):
+        rf.RiverWorld(scene, size=(W, H), gl="yes")
+
+
+def test_drawing_from_another_thread_is_a_clear_error(pygame_host):
+    world = pygame_host.world
+    errors = []
+
+    def draw():
+        try:
+            world.draw()
+        except Exception as exc:  # noqa: BLE001 - what the thread saw
+            errors.append(exc)
+
+    thread = threading.Thread(target=draw, name="render-thread")
+    thread.start()
+    thread.join()
+    assert len(errors) == 1 and isinstance(errors[0], rgl.ContextError)
+    message = str(errors[0])
+    assert "'MainThread'" in message and "'render-thread'" in message
+    world.draw()                                        # still fine on its own thread
+
+
+_OLD_CONTEXT = """
+import os, sys
+import glfw
+assert glfw.init()
+glfw.window_hint(glfw.VISIBLE, False)
+glfw.window_hint(glfw.CONTEXT_VERSION_MAJOR, 2)
+glfw.window_hint(glfw.CONTEXT_VERSION_MINOR, 1)
+window = glfw.create_window(64, 64, "2.1", None, None)
+glfw.make_context_current(window)
+from riverflow.engine import gl
+try:
+    gl.acquire_host_context()
+except gl.ContextError as exc:
+    print(exc)
+    sys.exit(3)
+"""
+
+
+def test_a_2_1_context_is_a_clear_error(display):
+    """Mesa makes the 2.1 context asked for when its version is overridden (per process:
+    a process of its own)."""
+    pytest.importorskip("glfw")
+    env = dict(os.environ, MESA_GL_VERSION_OVERRIDE="2.1", DISPLAY=display)
+    env.pop("PYGLET_HEADLESS", None)
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(rgl.__file__).rsplit(
+        "/riverflow/", 1)[0], env.get("PYTHONPATH")]))
+    run = subprocess.run([sys.executable, "-c", _OLD_CONTEXT], env=env, capture_output=True,
+                         text=True, timeout=60)
+    assert run.returncode == 3, run.stderr[-2000:]
+    assert "version '2.1" in run.stdout and "below the 3.3 core" in run.stdout
+    assert "pygame.display.gl_set_attribute" in run.stdout      # says what to do
