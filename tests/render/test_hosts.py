@@ -30,6 +30,9 @@ W, H = 160, 120
 HOST_CLEAR = (0.5, 0.0, 0.5)                    # a colour nothing of the river's has
 HOST_CLEAR_U8 = (128, 0, 128)
 GL_RGBA, GL_UNSIGNED_BYTE = 0x1908, 0x1401
+CONFIG = dict(capacity=4096, terrain_tile_px=24.0, flow_tile_px=8.0, freeze_gc_on_load=False)
+"""Coarse tiles, fewer particles, no garbage collection on load: a small window shows the
+same river, for a fraction of the first frame's CPU time."""
 
 
 def _libgl():
@@ -114,6 +117,14 @@ def _camera_matrices(world):
     return camera.view_matrix().ravel(), camera.projection_matrix().ravel()
 
 
+def test_no_context_is_a_clear_error(display, scene):
+    assert rgl.native_current_context() is None
+    with pytest.raises(rgl.ContextError, match="no OpenGL context is current on this thread"):
+        rf.RiverWorld(scene, size=(W, H), gl="current")
+    with pytest.raises(ValueError, match='gl must be False, True or "current"'):
+        rf.RiverWorld(scene, size=(W, H), gl="yes")
+
+
 @pytest.fixture(scope="module")
 def pygame_host(display, scene):
     pygame = pytest.importorskip("pygame")
@@ -126,7 +137,8 @@ def pygame_host(display, scene):
         pygame.display.gl_set_attribute(key, value)
     pygame.display.set_mode((W, H), pygame.OPENGL | pygame.DOUBLEBUF)
     mgl = moderngl.create_context()           # the host's own GL (what pygame games use)
-    world = rf.RiverWorld(scene, size=(W, H), gl="current", seed=0)
+    world = rf.RiverWorld(scene, size=(W, H), gl="current", seed=0,
+                         config=rf.RiverConfig(**CONFIG))
     world.step(1 / 60)
     yield SimpleNamespace(pygame=pygame, mgl=mgl, world=world,
                           window=pygame.display.get_wm_info()["window"])
@@ -284,6 +296,25 @@ def test_gl_state_is_the_hosts_after_a_draw(pygame_host):
     assert world.camera.size_px == (W, H)
 
 
+def test_drawing_from_another_thread_is_a_clear_error(pygame_host):
+    world = pygame_host.world
+    errors = []
+
+    def draw():
+        try:
+            world.draw()
+        except Exception as exc:  # noqa: BLE001 - what the thread saw
+            errors.append(exc)
+
+    thread = threading.Thread(target=draw, name="render-thread")
+    thread.start()
+    thread.join()
+    assert len(errors) == 1 and isinstance(errors[0], rgl.ContextError)
+    message = str(errors[0])
+    assert "'MainThread'" in message and "'render-thread'" in message
+    world.draw()                                        # still fine on its own thread
+
+
 # -- every GL call the draw makes, and the state it changes ----------------------------------
 
 _NO_CONTEXT_STATE = {
@@ -384,7 +415,8 @@ def test_glfw_window_shows_the_river(display, scene):
         assert window
         glfw.make_context_current(window)
         lib = _libgl()
-        with rf.RiverWorld(scene, size=(W, H), gl="current", seed=0) as world:
+        with rf.RiverWorld(scene, size=(W, H), gl="current", seed=0,
+                         config=rf.RiverConfig(**CONFIG)) as world:
             world.step(1 / 60)
             view, projection = _camera_matrices(world)
             lib.glClearColor(*(ctypes.c_float(v) for v in (*HOST_CLEAR, 1.0)))
@@ -405,7 +437,8 @@ def test_arcade_window_shows_the_river(display, scene):
     arcade = pytest.importorskip("arcade")
     window = arcade.Window(W, H, "arcade host", visible=False)
     try:
-        with rf.RiverWorld(scene, size=(W, H), gl="current", seed=0) as world:
+        with rf.RiverWorld(scene, size=(W, H), gl="current", seed=0,
+                         config=rf.RiverConfig(**CONFIG)) as world:
             assert world.context is rgl.gl.current_context     # pyglet's, not a stand-in
             world.step(1 / 60)
             view, projection = _camera_matrices(world)
@@ -425,33 +458,6 @@ def test_arcade_window_shows_the_river(display, scene):
 
 
 # -- no silent failure -----------------------------------------------------------------------
-
-def test_no_context_is_a_clear_error(display, scene):
-    assert rgl.native_current_context() is None
-    with pytest.raises(rgl.ContextError, match="no OpenGL context is current on this thread"):
-        rf.RiverWorld(scene, size=(W, H), gl="current")
-    with pytest.raises(ValueError, match='gl must be False, True or "current"'):
-        rf.RiverWorld(scene, size=(W, H), gl="yes")
-
-
-def test_drawing_from_another_thread_is_a_clear_error(pygame_host):
-    world = pygame_host.world
-    errors = []
-
-    def draw():
-        try:
-            world.draw()
-        except Exception as exc:  # noqa: BLE001 - what the thread saw
-            errors.append(exc)
-
-    thread = threading.Thread(target=draw, name="render-thread")
-    thread.start()
-    thread.join()
-    assert len(errors) == 1 and isinstance(errors[0], rgl.ContextError)
-    message = str(errors[0])
-    assert "'MainThread'" in message and "'render-thread'" in message
-    world.draw()                                        # still fine on its own thread
-
 
 _OLD_CONTEXT = """
 import os, sys
