@@ -332,6 +332,7 @@ def deleting_with(context):
     context, which takes them when it is destroyed)."""
     if isinstance(context, HostContext) and native_current_context() == context.native:
         with _as_pyglet_current(context):
+            _take_errors()              # the host's (pyglet would blame its first call)
             yield
     else:
         yield
