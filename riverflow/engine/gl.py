@@ -87,6 +87,71 @@ def _current_context_functions() -> list:
     return _CURRENT_FUNCTIONS
 
 
+@contextlib.contextmanager
+def keeping_native_current():
+    """Whatever context the thread has current when the block starts (a host's: Panda3D's,
+    pygame's) is current again when it ends, if riverflow's own offscreen context was made
+    current in between (EGL and GLX; elsewhere nothing is done)."""
+    saved = _native_binding()
+    previous = gl.current_context
+    try:
+        yield
+    finally:
+        if saved is not None and native_current_context() != (saved[0], saved[4]):
+            _rebind(saved)
+            # pyglet's current context is the one made current again if pyglet made it
+            gl.current_context = previous if _pyglet_native(previous) == (
+                saved[0], saved[4]) else None
+
+
+def _native_binding():
+    """(api, display, draw surface, read surface, context) current on this thread, or None."""
+    native = native_current_context()
+    if native is None or native[0] not in ("egl", "glx"):
+        return None
+    lib = _native_library(native[0])
+    if native[0] == "egl":
+        return ("egl", lib.eglGetCurrentDisplay(), lib.eglGetCurrentSurface(0x3059),
+                lib.eglGetCurrentSurface(0x305A), native[1])          # EGL_DRAW, EGL_READ
+    return ("glx", lib.glXGetCurrentDisplay(), lib.glXGetCurrentDrawable(),
+            lib.glXGetCurrentReadDrawable(), native[1])
+
+
+def _rebind(saved) -> None:
+    api, display, draw, read, context = saved
+    lib = _native_library(api)
+    if api == "egl":
+        lib.eglMakeCurrent(display, draw, read, context)
+    else:
+        lib.glXMakeContextCurrent(display, draw, read, context)
+
+
+_NATIVE_LIBRARIES: dict = {}
+
+
+def _native_library(api: str):
+    lib = _NATIVE_LIBRARIES.get(api)
+    if lib is None:
+        import ctypes.util
+
+        name = "EGL" if api == "egl" else "GL"
+        lib = ctypes.CDLL(ctypes.util.find_library(name) or f"lib{name}.so.1")
+        pointer = ctypes.c_void_p
+        if api == "egl":
+            lib.eglGetCurrentDisplay.restype = pointer
+            lib.eglGetCurrentSurface.restype = pointer
+            lib.eglGetCurrentSurface.argtypes = [ctypes.c_int]
+            lib.eglMakeCurrent.argtypes = [pointer] * 4
+        else:
+            lib.glXGetCurrentDisplay.restype = pointer
+            lib.glXGetCurrentDrawable.restype = ctypes.c_ulong
+            lib.glXGetCurrentReadDrawable.restype = ctypes.c_ulong
+            lib.glXMakeContextCurrent.argtypes = [pointer, ctypes.c_ulong, ctypes.c_ulong,
+                                                  pointer]
+        _NATIVE_LIBRARIES[api] = lib
+    return lib
+
+
 if "pyglet.gl" not in sys.modules:
     if native_current_context() is not None:
         # a host made its own context current before riverflow's GL was imported (pygame,

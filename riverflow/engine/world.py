@@ -495,12 +495,15 @@ class RiverWorld:
 
     @contextlib.contextmanager
     def _offscreen(self):
-        """A host world's offscreen drawing: in the host's context, its state put back."""
-        if not self.host:
-            yield
-            return
+        """Offscreen drawing: a host world's in the host's context, its state put back; a
+        ``gl=True`` world's in its own context, the context the thread had current before
+        (a host's that shares nothing with riverflow: Panda3D's) current again after."""
         from riverflow.engine import gl as gl_module
 
+        if not self.host:
+            with gl_module.keeping_native_current():
+                yield
+            return
         with gl_module.host_frame(self.context):
             yield
 
