@@ -16,7 +16,6 @@ import sys
 import numpy as np
 
 if "--headless" in sys.argv:
-    sys.argv.remove("--headless")
     os.environ["ARCADE_HEADLESS"] = "1"             # before arcade (and pyglet) are imported
     os.environ["PYGLET_HEADLESS"] = "1"
 
@@ -24,7 +23,9 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import hostgame  # noqa: E402
 
 
-def main(argv=None) -> int:
+def main(argv=None, *, scene=None, config=None, on_last_frame=None) -> int:
+    """Play the game (``scene``, ``config``: a test's; ``on_last_frame(game, ...)`` is
+    called after the last frame is shown, before anything closes)."""
     args = hostgame.parse(argv, __doc__.splitlines()[0])
     import arcade
     from arcade.gl import BufferDescription
@@ -34,7 +35,7 @@ def main(argv=None) -> int:
             super().__init__(*args.size, "riverflow in arcade", visible=not os.environ.get(
                 "ARCADE_HEADLESS"))
             self.game = hostgame.Game(args.size, seed=args.seed)
-            self.game.start(gl="current")            # RIVERS: draw into this window
+            self.game.start(gl="current", scene=scene, config=config)   # RIVERS: into this window
             self.program = self.ctx.program(vertex_shader=hostgame.CRATE_VERTEX,
                                             fragment_shader=hostgame.CRATE_FRAGMENT)
             buffer = self.ctx.buffer(data=hostgame.cube(hostgame.CRATE_M).tobytes())
@@ -79,6 +80,8 @@ def main(argv=None) -> int:
                 rgba = np.frombuffer(image, np.uint8).reshape(args.size[1], args.size[0], 4)
                 hostgame.save_png(rgba[::-1], args.out)
             window.flip()
+        if on_last_frame is not None:
+            on_last_frame(window.game, window)
     finally:
         window.game.rivers.close()
         window.close()

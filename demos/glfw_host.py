@@ -19,7 +19,9 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import hostgame  # noqa: E402
 
 
-def main(argv=None) -> int:
+def main(argv=None, *, scene=None, config=None, on_last_frame=None) -> int:
+    """Play the game (``scene``, ``config``: a test's; ``on_last_frame(game, ...)`` is
+    called after the last frame is shown, before anything closes)."""
     args = hostgame.parse(argv, __doc__.splitlines()[0])
     import glfw
     import moderngl
@@ -38,7 +40,7 @@ def main(argv=None) -> int:
         glfw.make_context_current(window)
         ctx = moderngl.create_context()
         game = hostgame.Game(args.size, seed=args.seed)
-        game.start(gl="current")                      # RIVERS: draw into this window
+        game.start(gl="current", scene=scene, config=config)   # RIVERS: into this window
         crate = hostgame.ModernglCrate(ctx)
         frame = 0
         try:
@@ -60,6 +62,8 @@ def main(argv=None) -> int:
                 glfw.swap_buffers(window)
                 glfw.set_window_title(window, f"riverflow in glfw: score {game.score}")
                 if last:
+                    if on_last_frame is not None:
+                        on_last_frame(game, glfw.get_x11_window(window))
                     break
         finally:
             game.rivers.close()

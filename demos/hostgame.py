@@ -31,6 +31,8 @@ def parse(argv, description: str) -> argparse.Namespace:
     parser.add_argument("--out", help="write the last frame to this PNG file")
     parser.add_argument("--size", default="640x360", help="window size WxH [px]")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--headless", action="store_true",
+                        help="no display: an offscreen window (EGL)")
     args = parser.parse_args(argv)
     try:
         w, h = (int(v) for v in args.size.lower().split("x"))
@@ -56,9 +58,11 @@ class Game:
     orbit_rad: float = 0.0
     rivers: rf.RiverWorld | None = None
 
-    def start(self, gl="current") -> None:
-        scene = rf.default_scene(seed=self.seed)
-        self.rivers = rf.RiverWorld(scene, size=self.size, gl=gl, seed=self.seed)  # RIVERS
+    def start(self, gl="current", scene=None, config: rf.RiverConfig | None = None) -> None:
+        """Make the rivers (``scene``, ``config``: the tests pass theirs)."""
+        scene = rf.default_scene(seed=self.seed) if scene is None else scene
+        self.rivers = rf.RiverWorld(scene, size=self.size, gl=gl, seed=self.seed,  # RIVERS
+                                    config=config)
         # the crate starts on the water a little ahead of riverflow's default view
         eye, target = (np.asarray(v, float) for v in (self.rivers.camera.position,
                                                       self.rivers.camera.target))

@@ -18,16 +18,16 @@ import sys
 
 import numpy as np
 
-HEADLESS = "--headless" in sys.argv
-if HEADLESS:
-    sys.argv.remove("--headless")
+if "--headless" in sys.argv:
     os.environ["PYGLET_HEADLESS"] = "1"    # riverflow's context: EGL, as Panda3D's below
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import hostgame  # noqa: E402
 
 
-def main(argv=None) -> int:
+def main(argv=None, *, scene=None, config=None, on_last_frame=None) -> int:
+    """Play the game (``scene``, ``config``: a test's; ``on_last_frame(game, ...)`` is
+    called after the last frame is shown, before anything closes)."""
     args = hostgame.parse(argv, __doc__.splitlines()[0])
     from panda3d.core import (AmbientLight, CardMaker, DirectionalLight, Filename, Texture,
                               loadPrcFileData)
@@ -35,14 +35,14 @@ def main(argv=None) -> int:
     loadPrcFileData("", f"win-size {args.size[0]} {args.size[1]}\n"
                         "window-title riverflow in Panda3D\nsync-video false\n"
                         "audio-library-name null\n")
-    if HEADLESS:
+    if args.headless:
         loadPrcFileData("", "load-display p3headlessgl\nwindow-type offscreen\n")
     from direct.showbase.ShowBase import ShowBase
 
     base = ShowBase()
     card_px = (320, 180)
     game = hostgame.Game(card_px, seed=args.seed)
-    game.start(gl=True)                    # RIVERS: riverflow's own offscreen context
+    game.start(gl=True, scene=scene, config=config)   # RIVERS: its own context
 
     # the card: a screen by the river showing riverflow's frame
     texture = Texture("river")
@@ -99,6 +99,8 @@ def main(argv=None) -> int:
                 base.graphicsEngine.renderFrame()
                 base.win.saveScreenshot(Filename.fromOsSpecific(os.path.abspath(args.out)))
                 print(f"wrote {args.out}")
+            if on_last_frame is not None:
+                on_last_frame(game, base, card)
     finally:
         game.rivers.close()
         base.destroy()

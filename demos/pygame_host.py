@@ -18,7 +18,9 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import hostgame  # noqa: E402
 
 
-def main(argv=None) -> int:
+def main(argv=None, *, scene=None, config=None, on_last_frame=None) -> int:
+    """Play the game (``scene``, ``config``: a test's; ``on_last_frame(game, ...)`` is
+    called after the last frame is shown, before anything closes)."""
     args = hostgame.parse(argv, __doc__.splitlines()[0])
     import moderngl
     import pygame
@@ -33,7 +35,7 @@ def main(argv=None) -> int:
     pygame.display.set_caption("riverflow in pygame-ce")
     ctx = moderngl.create_context()                  # the host's GL, in its own context
     game = hostgame.Game(args.size, seed=args.seed)
-    game.start(gl="current")                         # RIVERS: draw into this window
+    game.start(gl="current", scene=scene, config=config)   # RIVERS: into this window
     crate = hostgame.ModernglCrate(ctx)
     clock = pygame.time.Clock()
     frame, running = 0, True
@@ -56,6 +58,8 @@ def main(argv=None) -> int:
             pygame.display.flip()
             pygame.display.set_caption(f"riverflow in pygame-ce: score {game.score}")
             if last:
+                if on_last_frame is not None:
+                    on_last_frame(game, pygame.display.get_wm_info().get("window"))
                 break
             if not args.frames:
                 clock.tick(60)
