@@ -3,10 +3,20 @@
 Every OpenGL call of riverflow lives here or in :mod:`riverflow.systems.draw` (pyglet 2.1,
 OpenGL 3.3 core; pyglet 3 moves most of these names, hence the pin ``<3``).
 
-* **Context**: a world made with ``gl=True`` draws with the OpenGL context current when it is
-  made (a host game's window), or else with one hidden offscreen context per process (EGL
+* **Context**: a world made with ``gl=True`` draws with the pyglet context current when it
+  is made (a pyglet window), or else with one hidden offscreen context per process (EGL
   pbuffer when there is no display: ``PYGLET_HEADLESS=1`` is set for you before pyglet's GL is
-  imported if ``DISPLAY`` and ``WAYLAND_DISPLAY`` are unset).
+  imported if ``DISPLAY`` and ``WAYLAND_DISPLAY`` are unset); drawing offscreen, it makes the
+  context the thread had current before (a host's) current again after
+  (:func:`keeping_native_current`).
+* **A host's context** (``gl="current"``, issue 28): whatever OpenGL ≥ 3.3 context the thread
+  has current, asked of the platform (:func:`native_current_context`: EGL, GLX, WGL, CGL),
+  not of pyglet: pyglet's GL functions are the platform library's and go to any current
+  context; a :class:`HostContext` stands in for pyglet's context object (pyglet's programs
+  and deletions need one). If a host's context is current when this module is imported,
+  pyglet's hidden shadow window is not made (it would take the thread's current context).
+  :func:`host_frame` checks the context (:class:`ContextError`), saves the host's state
+  (:class:`HostState`), sets a neutral one, and puts the host's back afterwards.
 * **Programs**: one file per program in ``riverflow/shaders`` (package data), its stages
   between ``#ifdef VERTEX`` / ``#ifdef GEOMETRY`` / ``#ifdef FRAGMENT``; ``#include "x.glsl"``
   pastes a shared file; Python enums become ``#define``s (:func:`enum_defines`), so numbers never
