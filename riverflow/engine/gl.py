@@ -398,6 +398,22 @@ def _as_pyglet_current(context):
         gl.current_context = previous
 
 
+def check_blit_target(context) -> None:
+    """:class:`ContextError` when the window current now is not the world's (``gl=True``):
+    a copy onto framebuffer 0 of the world's own context would land in riverflow's hidden
+    window, never on the host's screen (a pygame or glfw window: the silent black window of
+    issue 28)."""
+    native = native_current_context()
+    if native is not None and native != _pyglet_native(context):
+        raise ContextError(
+            "blit_to_window(): the window current now is not the one this world draws with "
+            "(gl=True made riverflow's own offscreen context: no pyglet window was current "
+            "when the world was made), so the copy would never reach your window. For a "
+            "pygame, glfw, Qt or SDL window make the world with gl=\"current\" and call "
+            "draw(view, projection): it draws straight into your window.")
+    make_current(context)
+
+
 @contextlib.contextmanager
 def deleting_with(context):
     """For the block, ``context`` is pyglet's current one if it is a :class:`HostContext`

@@ -412,7 +412,8 @@ class RiverWorld:
         if not self.host:
             if view is not None or projection is not None:
                 self.camera.set_matrices(view, projection)
-            self._draw_systems()
+            with self._offscreen():
+                self._draw_systems()
             return
         from riverflow.engine import gl as gl_module
 
@@ -512,6 +513,10 @@ class RiverWorld:
         this in its ``on_draw`` after :meth:`draw`), scaled to ``width_px`` × ``height_px``
         (default: the camera's viewport)."""
         w, h = self.camera.size_px
+        if not self.host and self.context is not None:
+            from riverflow.engine import gl as gl_module
+
+            gl_module.check_blit_target(self.context)
         self._drawer().blit_to_window(width_px or w, height_px or h)
 
     def close(self) -> None:

@@ -318,6 +318,15 @@ def test_drawing_from_another_thread_is_a_clear_error(pygame_host):
     world.draw()                                        # still fine on its own thread
 
 
+def test_blit_from_another_context_is_a_clear_error(pygame_host):
+    """The issue's black window: a gl=True world (riverflow's own offscreen context) copied
+    onto "the window" while a pygame window is current would never reach it: an error that
+    says to use gl="current"."""
+    own_context = SimpleNamespace(egl_context=1)      # a pyglet context that is not current
+    with pytest.raises(rgl.ContextError, match='gl="current"'):
+        rgl.check_blit_target(own_context)
+
+
 # -- every GL call the draw makes, and the state it changes ----------------------------------
 
 _NO_CONTEXT_STATE = {
