@@ -318,6 +318,18 @@ def test_drawing_from_another_thread_is_a_clear_error(pygame_host):
     world.draw()                                        # still fine on its own thread
 
 
+def test_render_to_texture_is_a_texture_of_the_hosts_context(pygame_host):
+    """render_to_texture(): the frame as a GL texture name the host samples with its own GL
+    (moderngl here), the same pixels as render(), the host's state left as it was."""
+    h, world = pygame_host, pygame_host.world
+    before = _host_state(world)
+    name = world.render_to_texture()
+    assert _host_state(world) == before
+    texture = h.mgl.external_texture(name, (W, H), 4, 0, "f1")
+    pixels = np.frombuffer(texture.read(), np.uint8).reshape(H, W, 4)[::-1]   # row 0: bottom
+    np.testing.assert_array_equal(pixels, world.render())
+
+
 def test_blit_from_another_context_is_a_clear_error(pygame_host):
     """The issue's black window: a gl=True world (riverflow's own offscreen context) copied
     onto "the window" while a pygame window is current would never reach it: an error that
