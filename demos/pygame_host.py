@@ -18,10 +18,9 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import hostgame  # noqa: E402
 
 
-def main(argv=None, *, scene=None, config=None, on_last_frame=None) -> int:
-    """Play the game (``scene``, ``config``: a test's; ``on_last_frame(game, ...)`` is
-    called after the last frame is shown, before anything closes)."""
-    args = hostgame.parse(argv, __doc__.splitlines()[0])
+def open_window(size: tuple[int, int]):
+    """The host's window: pygame with an OpenGL 3.3 core context and a depth buffer; returns
+    the host's moderngl context on it."""
     import moderngl
     import pygame
 
@@ -31,38 +30,55 @@ def main(argv=None, *, scene=None, config=None, on_last_frame=None) -> int:
     pygame.display.gl_set_attribute(pygame.GL_CONTEXT_PROFILE_MASK,
                                     pygame.GL_CONTEXT_PROFILE_CORE)
     pygame.display.gl_set_attribute(pygame.GL_DEPTH_SIZE, 24)
-    pygame.display.set_mode(args.size, pygame.OPENGL | pygame.DOUBLEBUF)
+    pygame.display.set_mode(size, pygame.OPENGL | pygame.DOUBLEBUF)
     pygame.display.set_caption("riverflow in pygame-ce")
-    ctx = moderngl.create_context()                  # the host's GL, in its own context
-    game = hostgame.Game(args.size, seed=args.seed)
-    game.start(gl="current", scene=scene, config=config)   # RIVERS: into this window
+    return moderngl.create_context()                 # the host's GL, in its own context
+
+
+def play(game: hostgame.Game, ctx, frames: int = 0, out: str | None = None,
+         on_last_frame=None) -> None:
+    """The game loop: ``frames`` frames (0: until the window closes), the last one written
+    to ``out``; ``on_last_frame(game)`` after it is shown."""
+    import pygame
+
     crate = hostgame.ModernglCrate(ctx)
     clock = pygame.time.Clock()
     frame, running = 0, True
+    while running:
+        for event in pygame.event.get():
+            if event.type == pygame.QUIT or (event.type == pygame.KEYDOWN
+                                             and event.key == pygame.K_ESCAPE):
+                running = False
+        game.update(hostgame.STEP_S)
+        view, projection = game.matrices()
+        ctx.clear(0.55, 0.70, 0.90, 1.0, depth=1.0)
+        crate.draw(game, view, projection)            # the host's scene first
+        game.rivers.draw(view, projection)            # RIVERS: depth-tested against it
+        frame += 1
+        last = frames and frame >= frames
+        if last and out:
+            w, h = game.size
+            rgba = np.frombuffer(ctx.screen.read(components=4), np.uint8)
+            hostgame.save_png(rgba.reshape(h, w, 4)[::-1], out)
+        pygame.display.flip()
+        pygame.display.set_caption(f"riverflow in pygame-ce: score {game.score}")
+        if last:
+            if on_last_frame is not None:
+                on_last_frame(game)
+            break
+        if not frames:
+            clock.tick(60)
+
+
+def main(argv=None) -> int:
+    args = hostgame.parse(argv, __doc__.splitlines()[0])
+    import pygame
+
+    ctx = open_window(args.size)
+    game = hostgame.Game(args.size, seed=args.seed)
+    game.start(gl="current")                         # RIVERS: into this window
     try:
-        while running:
-            for event in pygame.event.get():
-                if event.type == pygame.QUIT or (event.type == pygame.KEYDOWN
-                                                 and event.key == pygame.K_ESCAPE):
-                    running = False
-            game.update(hostgame.STEP_S)
-            view, projection = game.matrices()
-            ctx.clear(0.55, 0.70, 0.90, 1.0, depth=1.0)
-            crate.draw(game, view, projection)        # the host's scene first
-            game.rivers.draw(view, projection)        # RIVERS: depth-tested against it
-            frame += 1
-            last = args.frames and frame >= args.frames
-            if last and args.out:
-                rgba = np.frombuffer(ctx.screen.read(components=4), np.uint8)
-                hostgame.save_png(rgba.reshape(args.size[1], args.size[0], 4)[::-1], args.out)
-            pygame.display.flip()
-            pygame.display.set_caption(f"riverflow in pygame-ce: score {game.score}")
-            if last:
-                if on_last_frame is not None:
-                    on_last_frame(game, pygame.display.get_wm_info().get("window"))
-                break
-            if not args.frames:
-                clock.tick(60)
+        play(game, ctx, args.frames, args.out)
     finally:
         game.rivers.close()
         pygame.display.quit()

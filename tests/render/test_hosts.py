@@ -107,6 +107,15 @@ def display(xvfb_module):
         previous.set_current()
 
 
+def _demo(name: str):
+    """A module of demos/ (each is a complete small host game)."""
+    path = REPO / "demos" / f"{name}.py"
+    spec = importlib.util.spec_from_file_location(f"demo_{name}", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
 @pytest.fixture(scope="module")
 def scene():
     return rf.default_scene(seed=0)
@@ -129,22 +138,17 @@ def test_no_context_is_a_clear_error(display, scene):
 
 @pytest.fixture(scope="module")
 def pygame_host(display, scene):
+    """demos/pygame_host.py's window and game (its world made with the module's scene)."""
     pygame = pytest.importorskip("pygame")
-    moderngl = pytest.importorskip("moderngl")
-    pygame.display.init()
-    for key, value in ((pygame.GL_CONTEXT_MAJOR_VERSION, 3),
-                       (pygame.GL_CONTEXT_MINOR_VERSION, 3),
-                       (pygame.GL_CONTEXT_PROFILE_MASK, pygame.GL_CONTEXT_PROFILE_CORE),
-                       (pygame.GL_DEPTH_SIZE, 24)):
-        pygame.display.gl_set_attribute(key, value)
-    pygame.display.set_mode((W, H), pygame.OPENGL | pygame.DOUBLEBUF)
-    mgl = moderngl.create_context()           # the host's own GL (what pygame games use)
-    world = rf.RiverWorld(scene, size=(W, H), gl="current", seed=0,
-                         config=rf.RiverConfig(**CONFIG))
-    world.step(1 / 60)
-    yield SimpleNamespace(pygame=pygame, mgl=mgl, world=world,
+    pytest.importorskip("moderngl")
+    demo = _demo("pygame_host")
+    mgl = demo.open_window((W, H))               # the host's own GL (moderngl)
+    game = demo.hostgame.Game((W, H), seed=0)
+    game.start(gl="current", scene=scene, config=rf.RiverConfig(**CONFIG))
+    game.update(demo.hostgame.STEP_S)               # the host's camera, particles
+    yield SimpleNamespace(pygame=pygame, mgl=mgl, world=game.rivers, demo=demo, game=game,
                           window=pygame.display.get_wm_info()["window"])
-    world.close()
+    game.rivers.close()
     mgl.release()
     pygame.display.quit()
 
@@ -166,13 +170,14 @@ def _assert_same_frame(window: np.ndarray, own: np.ndarray, world, rows: int = H
     assert not (window[..., :3] == HOST_CLEAR_U8).all(-1).any()   # the sky drawn too
 
 
-def test_pygame_window_shows_the_river(pygame_host):
-    h, world = pygame_host, pygame_host.world
-    view, projection = _camera_matrices(world)
-    h.mgl.clear(*HOST_CLEAR, 1.0, depth=1.0)
-    world.draw(view, projection)
-    h.pygame.display.flip()
-    _assert_same_frame(window_pixels(h.window), world.render(), world)
+def test_pygame_demo_window_shows_the_river(pygame_host):
+    h = pygame_host
+
+    def check(game):
+        shown = window_pixels(h.window)
+        _assert_same_frame(shown, game.rivers.render(), game.rivers)
+
+    h.demo.play(h.game, h.mgl, frames=2, on_last_frame=check)
 
 
 _QUAD_PROGRAM = """
@@ -425,15 +430,6 @@ def _assert_calls_covered(calls, saved: dict) -> None:
         else:
             unknown.add(name)
     assert not unknown, f"GL calls of the draw not classified by this test: {sorted(unknown)}"
-
-
-def _demo(name: str):
-    """A module of demos/ (each is a complete small host game)."""
-    path = REPO / "demos" / f"{name}.py"
-    spec = importlib.util.spec_from_file_location(f"demo_{name}", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 def _run_demo(name: str, scene, check, *extra: str) -> None:
