@@ -238,8 +238,12 @@ def acquire_context():
     """The context to draw with: the current one (a host's window) or the process's hidden
     offscreen one, created on first use. Returns a pyglet ``Context``."""
     global _offscreen_window
-    if gl.current_context is not None:
-        return gl.current_context
+    current = gl.current_context
+    if current is not None and context_alive(current):
+        if not isinstance(current, HostContext) \
+                and native_current_context() != _pyglet_native(current):
+            current.set_current()        # pyglet's idea only: another library's since
+        return current
     if _offscreen_window is None:
         config = gl.Config(major_version=3, minor_version=3, forward_compatible=True,
                            double_buffer=False, depth_size=24)

@@ -143,7 +143,8 @@ class RiverWorld:
             from riverflow.engine import gl as gl_module  # pyglet's GL: only when drawing
 
             if self.context is None:
-                self.context = gl_module.acquire_context()
+                with gl_module.keeping_native_current():   # a host's context stays current
+                    self.context = gl_module.acquire_context()
             for system in self.systems:
                 if hasattr(system, "attach"):
                     system.attach(self.context)

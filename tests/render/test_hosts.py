@@ -91,6 +91,7 @@ def display(xvfb_module):
     live (a thread cannot have both) and made current again afterwards."""
     old = os.environ.get("DISPLAY")
     os.environ["DISPLAY"] = xvfb_module
+    previous = rgl.gl.current_context
     native = rgl.native_current_context()
     if native is not None and native[0] == "egl":
         egl = ctypes.CDLL("libEGL.so.1")
@@ -102,7 +103,6 @@ def display(xvfb_module):
         os.environ.pop("DISPLAY", None)
     else:
         os.environ["DISPLAY"] = old
-    previous = rgl.gl.current_context
     if previous is not None and rgl.context_alive(previous):
         previous.set_current()
 
