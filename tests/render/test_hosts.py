@@ -323,6 +323,38 @@ def test_drawing_from_another_thread_is_a_clear_error(pygame_host):
     world.draw()                                        # still fine on its own thread
 
 
+def test_draws_into_a_hosts_framebuffer_object_at_its_viewport(pygame_host):
+    """draw(framebuffer=fbo): into the host's framebuffer object, not the bound one, over the
+    host's viewport (an offset one here): inside it riverflow's frame, outside it the host's
+    pixels."""
+    h, world = pygame_host, pygame_host.world
+    mgl = h.mgl
+    colour, depth = mgl.texture((W, H), 4), mgl.depth_texture((W, H))
+    fbo = mgl.framebuffer(color_attachments=[colour], depth_attachment=depth)
+    fbo.use()
+    mgl.clear(*HOST_CLEAR, 1.0, depth=1.0)
+    mgl.screen.use()
+    mgl.clear(0.0, 1.0, 0.0, 1.0, depth=1.0)              # the window: green
+    x, y, w, hh = 10, 5, W - 20, H - 10
+    mgl.viewport = (x, y, w, hh)
+    world.draw(framebuffer=fbo.glo)
+    mgl.viewport = (0, 0, W, H)
+    drawn = np.frombuffer(fbo.read(components=4), np.uint8).reshape(H, W, 4)[::-1]
+    window = np.frombuffer(mgl.screen.read(components=4), np.uint8).reshape(H, W, 4)
+    assert (window[..., :3] == (0, 255, 0)).all()          # the bound framebuffer untouched
+    own = world.render()
+    assert own.shape == (hh, w, 4)
+    inside = drawn[H - y - hh:H - y, x:x + w]
+    same = (np.abs(inside[..., :3].astype(int) - own[..., :3].astype(int)) <= 2).all(-1)
+    assert same.mean() > 0.99
+    outside = np.ones((H, W), bool)
+    outside[H - y - hh:H - y, x:x + w] = False
+    assert (drawn[outside][:, :3] == HOST_CLEAR_U8).all()
+    for obj in (fbo, colour, depth):
+        obj.release()
+    world.draw()                                           # back to the whole window
+
+
 def test_render_to_texture_is_a_texture_of_the_hosts_context(pygame_host):
     """render_to_texture(): the frame as a GL texture name the host samples with its own GL
     (moderngl here), the same pixels as render(), the host's state left as it was."""
