@@ -130,7 +130,8 @@ def _camera_matrices(world):
 
 def test_no_context_is_a_clear_error(display, scene):
     assert rgl.native_current_context() is None
-    with pytest.raises(rgl.ContextError, match="no OpenGL context is current on this thread"):
+    assert rf.ContextError is rgl.ContextError
+    with pytest.raises(rf.ContextError, match="no OpenGL context is current on this thread"):
         rf.RiverWorld(scene, size=(W, H), gl="current")
     with pytest.raises(ValueError, match='gl must be False, True or "current"'):
         rf.RiverWorld(scene, size=(W, H), gl="yes")
