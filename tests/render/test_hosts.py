@@ -32,7 +32,7 @@ W, H = 160, 120
 HOST_CLEAR = (0.5, 0.0, 0.5)                    # a colour nothing of the river's has
 HOST_CLEAR_U8 = (128, 0, 128)
 GL_RGBA, GL_UNSIGNED_BYTE = 0x1908, 0x1401
-CONFIG = dict(capacity=4096, terrain_tile_px=24.0, flow_tile_px=8.0, freeze_gc_on_load=False)
+CONFIG = dict(capacity=2048, terrain_tile_px=48.0, flow_tile_px=16.0, freeze_gc_on_load=False)
 """Coarse tiles, fewer particles, no garbage collection on load: a small window shows the
 same river, for a fraction of the first frame's CPU time."""
 
