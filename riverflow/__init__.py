@@ -65,6 +65,7 @@ _LAZY = {
     "ResourceLimitError": "riverflow._validate",
     "set_memory_limit": "riverflow._validate",
     "memory_limit_bytes": "riverflow._validate",
+    "ContextError": "riverflow.engine.gl",       # imports pyglet's GL: only when asked for
 }
 
 __all__ = ["FlowStatus", "Area", "Curve", "CurveType", "GraphError", "HydroGraph", *_LAZY]

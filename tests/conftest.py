@@ -7,7 +7,6 @@ from __future__ import annotations
 import os
 import shutil
 import subprocess
-import time
 from pathlib import Path
 
 os.environ.setdefault("PYGLET_HEADLESS", "1")
@@ -41,21 +40,39 @@ def tiny_channel_path() -> Path:
     return TINY_CHANNEL
 
 
-@pytest.fixture
-def xvfb():
-    """A virtual X display (Xvfb) for windowed runs; skipped where Xvfb is missing."""
+def _xvfb():
+    """Start a virtual X display (Xvfb) on a free display number (``-displayfd``: Xvfb
+    picks it and says when it is ready); yields ``":N"``; skips where Xvfb is missing."""
     binary = shutil.which("Xvfb")
     if binary is None:
         pytest.skip("Xvfb is not installed (apt-get install xvfb)")
-    display = f":{90 + os.getpid() % 9}"
-    proc = subprocess.Popen([binary, display, "-screen", "0", "640x480x24", "-nolisten", "tcp"],
+    read, write = os.pipe()
+    proc = subprocess.Popen([binary, "-displayfd", str(write), "-screen", "0", "640x480x24",
+                             "-nolisten", "tcp"], pass_fds=(write,),
                             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    time.sleep(1.0)
-    if proc.poll() is not None:
+    os.close(write)
+    with os.fdopen(read) as pipe:
+        number = pipe.readline().strip()     # written once the server accepts clients
+    if not number or proc.poll() is not None:
+        proc.kill()
         pytest.skip("Xvfb did not start")
-    yield display
-    proc.terminate()
-    proc.wait(timeout=10)
+    try:
+        yield f":{number}"
+    finally:
+        proc.terminate()
+        proc.wait(timeout=10)
+
+
+@pytest.fixture
+def xvfb():
+    """A virtual X display (Xvfb) for windowed runs; skipped where Xvfb is missing."""
+    yield from _xvfb()
+
+
+@pytest.fixture(scope="module")
+def xvfb_module():
+    """One virtual X display for all the tests of a module (see :func:`xvfb`)."""
+    yield from _xvfb()
 
 
 

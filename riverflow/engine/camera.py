@@ -52,7 +52,7 @@ class Camera:
 
     __slots__ = ("_position", "_target", "_up", "_forward", "_right", "_screen_up",
                  "_fov_y_deg", "_near_m", "_far_m", "_size_px", "revision",
-                 "_kernel_matrices")
+                 "_kernel_matrices", "_host_matrices")
 
     def __init__(self, position=(0.0, -100.0, 50.0), target=(0.0, 0.0, 0.0), up=(0.0, 0.0, 1.0),
                  fov_y_deg: float = 60.0, near_m: float = 0.5, far_m: float = 10000.0,
@@ -60,6 +60,7 @@ class Camera:
         self.revision = 0
         """Incremented by every change of view, projection or viewport."""
         self._kernel_matrices: tuple | None = None
+        self._host_matrices: bytes | None = None
         self._forward = np.array([0.0, 1.0, 0.0])
         self._fov_y_deg = self._near_m = self._far_m = 0.0
         self._size_px = (0, 0)
@@ -208,6 +209,53 @@ class Camera:
         self._fov_y_deg, self._near_m, self._far_m = fov, near, far
         self.revision += 1
 
+    def set_matrices(self, view, projection) -> None:
+        """Take a host's camera: its ``view`` (world → eye) and ``projection`` (eye → clip)
+        matrices, each 16 numbers in OpenGL's **column-major** order (what
+        ``glUniformMatrix4fv(..., GL_FALSE, m)`` reads: ``pyglet.math.Mat4``, PyGLM's
+        ``mat4``, a pyrr matrix, or ``M.T`` / ``M.ravel(order="F")`` of a numpy (4, 4) ``M``
+        written as in maths, ``clip = M @ [x, y, z, 1]``). World: x east, y north, z up [m].
+
+        The view must be a rotation and a translation (no scale); the projection a symmetric
+        perspective with OpenGL's depth range (−1 at the near plane, +1 at the far one: what
+        ``glm.perspective`` and ``Mat4.perspective_projection`` make) whose aspect is the
+        viewport's (``size_px``). The same matrices as last time change nothing (the camera's
+        :attr:`revision` stays). Raises ``ValueError`` naming what does not fit."""
+        v = _matrix16(view, "view")
+        p = _matrix16(projection, "projection")
+        key = v.tobytes() + p.tobytes()
+        if key == self._host_matrices:
+            return
+        rotation = v[:3, :3]
+        if not np.allclose(rotation @ rotation.T, np.eye(3), atol=1e-4) \
+                or not np.allclose(v[3], (0.0, 0.0, 0.0, 1.0), atol=1e-6):
+            raise ValueError("set_matrices: view must be a rotation and a translation "
+                             "(world → eye, no scale or projection); got rows "
+                             f"{np.round(v, 4).tolist()}")
+        sx, sy, a, b = p[0, 0], p[1, 1], p[2, 2], p[2, 3]
+        off = [p[0, 1], p[0, 2], p[0, 3], p[1, 0], p[1, 2], p[1, 3], p[2, 0], p[2, 1],
+               p[3, 0], p[3, 1], p[3, 3]]
+        if not (sx > 0 and sy > 0 and abs(p[3, 2] + 1.0) < 1e-6
+                and np.allclose(off, 0.0, atol=1e-6)):
+            raise ValueError("set_matrices: projection must be a symmetric OpenGL perspective "
+                             "(glm.perspective, Mat4.perspective_projection; column-major); "
+                             f"got rows {np.round(p, 4).tolist()}")
+        near, far = b / (a - 1.0), b / (a + 1.0)
+        if not 0.0 < near < far < math.inf:
+            raise ValueError(f"set_matrices: the projection's clip planes are near {near:g} m, "
+                             f"far {far:g} m (need 0 < near < far; depth −1 at near, +1 at "
+                             "far)")
+        aspect = sy / sx
+        if not self.is_empty and abs(aspect / self.aspect - 1.0) > 1e-3:
+            raise ValueError(f"set_matrices: the projection's aspect {aspect:.4f} is not the "
+                             f"viewport's {self.size_px[0]}/{self.size_px[1]} = "
+                             f"{self.aspect:.4f}")
+        eye = -rotation.T @ v[:3, 3]
+        forward = -rotation[2]
+        self.set_projection(math.degrees(2.0 * math.atan(1.0 / sy)), near, far)
+        self.look_at(eye, eye + forward, rotation[1])
+        self._host_matrices = key
+
     # -- matrices -------------------------------------------------------------------------
 
     def view_matrix(self, dtype=np.float32) -> np.ndarray:
@@ -333,6 +381,19 @@ def _vec3(v, name: str) -> np.ndarray:
     if not np.isfinite(a).all():
         raise ValueError(f"look_at: {name} must be 3 finite numbers [m], got {a.tolist()}")
     return a
+
+
+def _matrix16(m, name: str) -> np.ndarray:
+    """16 numbers in OpenGL's column-major order as a float64 (4, 4) matrix written as in
+    maths (``clip = M @ [x, y, z, 1]``); ValueError naming ``name`` otherwise."""
+    try:
+        a = np.asarray(m, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError):
+        a = np.asarray(list(m), dtype=np.float64).reshape(-1)   # Mat4 and other sequences
+    if a.size != 16 or not np.isfinite(a).all():
+        raise ValueError(f"set_matrices: {name} must be 16 finite numbers (a 4 × 4 matrix in "
+                         f"OpenGL's column-major order), got {a.size} values")
+    return a.reshape(4, 4).T.copy()
 
 
 def _frozen(a: np.ndarray) -> np.ndarray:

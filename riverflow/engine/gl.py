@@ -3,10 +3,20 @@
 Every OpenGL call of riverflow lives here or in :mod:`riverflow.systems.draw` (pyglet 2.1,
 OpenGL 3.3 core; pyglet 3 moves most of these names, hence the pin ``<3``).
 
-* **Context**: a world made with ``gl=True`` draws with the OpenGL context current when it is
-  made (a host game's window), or else with one hidden offscreen context per process (EGL
+* **Context**: a world made with ``gl=True`` draws with the pyglet context current when it
+  is made (a pyglet window), or else with one hidden offscreen context per process (EGL
   pbuffer when there is no display: ``PYGLET_HEADLESS=1`` is set for you before pyglet's GL is
-  imported if ``DISPLAY`` and ``WAYLAND_DISPLAY`` are unset).
+  imported if ``DISPLAY`` and ``WAYLAND_DISPLAY`` are unset); drawing offscreen, it makes the
+  context the thread had current before (a host's) current again after
+  (:func:`keeping_native_current`).
+* **A host's context** (``gl="current"``, issue 28): whatever OpenGL ≥ 3.3 context the thread
+  has current, asked of the platform (:func:`native_current_context`: EGL, GLX, WGL, CGL),
+  not of pyglet: pyglet's GL functions are the platform library's and go to any current
+  context; a :class:`HostContext` stands in for pyglet's context object (pyglet's programs
+  and deletions need one). If a host's context is current when this module is imported,
+  pyglet's hidden shadow window is not made (it would take the thread's current context).
+  :func:`host_frame` checks the context (:class:`ContextError`), saves the host's state
+  (:class:`HostState`), sets a neutral one, and puts the host's back afterwards.
 * **Programs**: one file per program in ``riverflow/shaders`` (package data), its stages
   between ``#ifdef VERTEX`` / ``#ifdef GEOMETRY`` / ``#ifdef FRAGMENT``; ``#include "x.glsl"``
   pastes a shared file; Python enums become ``#define``s (:func:`enum_defines`), so numbers never
@@ -29,19 +39,139 @@ OpenGL 3.3 core; pyglet 3 moves most of these names, hence the pin ``<3``).
 """
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import os
 import re
 import sys
+import threading
 from dataclasses import dataclass
 from enum import IntEnum
 from importlib import resources
 
 import numpy as np
 
-if "pyglet.gl" not in sys.modules and not (os.environ.get("DISPLAY")
-                                           or os.environ.get("WAYLAND_DISPLAY")):
-    os.environ.setdefault("PYGLET_HEADLESS", "1")
+
+def native_current_context() -> tuple[str, int] | None:
+    """The OpenGL context current on this thread, whoever made it: ``(api, handle)`` with api
+    ``"egl"``, ``"glx"``, ``"wgl"`` or ``"cgl"``, or None when none is. Asked of the platform's
+    own library (not pyglet's idea of what is current: a host's window made with pygame, glfw
+    or Qt is invisible to pyglet)."""
+    for api, function in _current_context_functions():
+        try:
+            handle = function()
+        except OSError:                   # a library that cannot answer on this platform
+            continue
+        if handle:
+            return api, int(handle)
+    return None
+
+
+_CURRENT_FUNCTIONS: list = []
+
+
+def _current_context_functions() -> list:
+    """The platform's ``*GetCurrentContext`` functions (ctypes, loaded once)."""
+    if _CURRENT_FUNCTIONS:
+        return _CURRENT_FUNCTIONS
+    import ctypes.util
+
+    names = {"win32": [("wgl", "opengl32", "wglGetCurrentContext")],
+             "darwin": [("cgl", "/System/Library/Frameworks/OpenGL.framework/OpenGL",
+                         "CGLGetCurrentContext")]}.get(
+        sys.platform, [("egl", "EGL", "eglGetCurrentContext"),
+                       ("glx", "GL", "glXGetCurrentContext")])
+    for api, library, symbol in names:
+        path = library if "/" in library else (ctypes.util.find_library(library)
+                                               or f"lib{library}.so.1")
+        try:
+            lib = ctypes.WinDLL(path) if sys.platform == "win32" else ctypes.CDLL(path)
+            function = getattr(lib, symbol)
+        except (OSError, AttributeError):
+            continue
+        function.restype = ctypes.c_void_p
+        function.argtypes = []
+        _CURRENT_FUNCTIONS.append((api, function))
+    if not _CURRENT_FUNCTIONS:
+        _CURRENT_FUNCTIONS.append(("none", lambda: None))
+    return _CURRENT_FUNCTIONS
+
+
+@contextlib.contextmanager
+def keeping_native_current():
+    """Whatever context the thread has current when the block starts (a host's: Panda3D's,
+    pygame's) is current again when it ends, if riverflow's own offscreen context was made
+    current in between (EGL and GLX; elsewhere nothing is done)."""
+    saved = _native_binding()
+    previous = gl.current_context
+    try:
+        yield
+    finally:
+        if saved is not None and native_current_context() != (saved[0], saved[4]):
+            _rebind(saved)
+            # pyglet's current context is the one made current again if pyglet made it
+            gl.current_context = previous if _pyglet_native(previous) == (
+                saved[0], saved[4]) else None
+
+
+def _native_binding():
+    """(api, display, draw surface, read surface, context) current on this thread, or None."""
+    native = native_current_context()
+    if native is None or native[0] not in ("egl", "glx"):
+        return None
+    lib = _native_library(native[0])
+    if native[0] == "egl":
+        return ("egl", lib.eglGetCurrentDisplay(), lib.eglGetCurrentSurface(0x3059),
+                lib.eglGetCurrentSurface(0x305A), native[1])          # EGL_DRAW, EGL_READ
+    return ("glx", lib.glXGetCurrentDisplay(), lib.glXGetCurrentDrawable(),
+            lib.glXGetCurrentReadDrawable(), native[1])
+
+
+def _rebind(saved) -> None:
+    api, display, draw, read, context = saved
+    lib = _native_library(api)
+    if api == "egl":
+        lib.eglMakeCurrent(display, draw, read, context)
+    else:
+        lib.glXMakeContextCurrent(display, draw, read, context)
+
+
+_NATIVE_LIBRARIES: dict = {}
+
+
+def _native_library(api: str):
+    lib = _NATIVE_LIBRARIES.get(api)
+    if lib is None:
+        import ctypes.util
+
+        name = "EGL" if api == "egl" else "GL"
+        lib = ctypes.CDLL(ctypes.util.find_library(name) or f"lib{name}.so.1")
+        pointer = ctypes.c_void_p
+        if api == "egl":
+            lib.eglGetCurrentDisplay.restype = pointer
+            lib.eglGetCurrentSurface.restype = pointer
+            lib.eglGetCurrentSurface.argtypes = [ctypes.c_int]
+            lib.eglMakeCurrent.argtypes = [pointer] * 4
+        else:
+            lib.glXGetCurrentDisplay.restype = pointer
+            lib.glXGetCurrentDrawable.restype = ctypes.c_ulong
+            lib.glXGetCurrentReadDrawable.restype = ctypes.c_ulong
+            lib.glXMakeContextCurrent.argtypes = [pointer, ctypes.c_ulong, ctypes.c_ulong,
+                                                  pointer]
+        _NATIVE_LIBRARIES[api] = lib
+    return lib
+
+
+if "pyglet.gl" not in sys.modules:
+    if native_current_context() is not None:
+        # a host made its own context current before riverflow's GL was imported (pygame,
+        # glfw, Qt): pyglet must not make its hidden "shadow window" and switch to it, which
+        # takes the thread's current context from the host (its window would stay black)
+        import pyglet
+
+        pyglet.options["shadow_window"] = False
+    elif not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        os.environ.setdefault("PYGLET_HEADLESS", "1")
 
 import pyglet  # noqa: E402
 
@@ -81,14 +211,20 @@ _ERRORS = {gl.GL_INVALID_ENUM: "GL_INVALID_ENUM", gl.GL_INVALID_VALUE: "GL_INVAL
            gl.GL_OUT_OF_MEMORY: "GL_OUT_OF_MEMORY"}
 
 
-def check_errors(where: str) -> None:
-    """Raise :class:`GLError` if OpenGL has raised error flags since the last check."""
+def _take_errors() -> list[str]:
+    """The error flags OpenGL has raised since they were last read (clearing them)."""
     found = []
     for _ in range(16):
         code = gl.glGetError()
         if code == gl.GL_NO_ERROR:
             break
         found.append(_ERRORS.get(code, hex(code)))
+    return found
+
+
+def check_errors(where: str) -> None:
+    """Raise :class:`GLError` if OpenGL has raised error flags since the last check."""
+    found = _take_errors()
     if found:
         raise GLError(f"OpenGL error(s) {', '.join(found)} at {where}")
 
@@ -102,8 +238,12 @@ def acquire_context():
     """The context to draw with: the current one (a host's window) or the process's hidden
     offscreen one, created on first use. Returns a pyglet ``Context``."""
     global _offscreen_window
-    if gl.current_context is not None:
-        return gl.current_context
+    current = gl.current_context
+    if current is not None and context_alive(current):
+        if not isinstance(current, HostContext) \
+                and native_current_context() != _pyglet_native(current):
+            current.set_current()        # pyglet's idea only: another library's since
+        return current
     if _offscreen_window is None:
         config = gl.Config(major_version=3, minor_version=3, forward_compatible=True,
                            double_buffer=False, depth_size=24)
@@ -134,14 +274,431 @@ def _discard(context, kind: str, ident: int) -> None:
 
 
 def make_current(context) -> None:
-    """Make ``context`` current if it is not."""
+    """Make ``context`` current if it is not: pyglet's idea of the current context, and the
+    thread's own (another library's window, Panda3D's, may have made its context current
+    since; pyglet would not know)."""
     if gl.current_context is not context:
+        context.set_current()
+    elif not isinstance(context, HostContext) \
+            and native_current_context() != _pyglet_native(context):
         context.set_current()
 
 
 def renderer_name() -> str:
     """The GL renderer string (e.g. ``llvmpipe (LLVM 15.0.6, 256 bits)``)."""
     return gl.gl_info.get_renderer()
+
+
+# -- a host's own context (``RiverWorld(..., gl="current")``) -------------------------------
+
+class ContextError(GLError):
+    """No usable OpenGL context to draw a host's frame with: none current on this thread,
+    one below OpenGL 3.3, or another one than the world was made with (another thread's)."""
+
+
+_HOW_TO_ASK = ("ask your window for OpenGL 3.3 core, e.g. pygame: "
+               "pygame.display.gl_set_attribute(pygame.GL_CONTEXT_MAJOR_VERSION, 3), "
+               "(…MINOR_VERSION, 3), (…PROFILE_MASK, pygame.GL_CONTEXT_PROFILE_CORE) before "
+               "set_mode(size, pygame.OPENGL | pygame.DOUBLEBUF); glfw: "
+               "glfw.window_hint(glfw.CONTEXT_VERSION_MAJOR, 3), (…MINOR, 3), "
+               "(glfw.OPENGL_PROFILE, glfw.OPENGL_CORE_PROFILE) before create_window")
+
+
+class _HostCanvas:
+    """What a :class:`HostContext` is attached to: the host's window, which pyglet never
+    sees (pyglet only asks that a context has a canvas)."""
+
+
+class HostContext(pyglet.gl.base.Context):
+    """pyglet's stand-in for an OpenGL context pyglet did not make (a pygame, glfw, SDL or Qt
+    window's): riverflow's GL objects remember it and are deleted through it, and while a
+    world draws with it, it is pyglet's ``current_context`` (pyglet's GL functions are the
+    platform library's, so they go to whatever context the thread has current). It never
+    makes itself current: the host does; :func:`host_frame` checks that it has."""
+
+    def __init__(self, native: tuple[str, int]) -> None:
+        super().__init__(None)
+        self.canvas = _HostCanvas()
+        self.native = native
+        self.thread = threading.get_ident()
+        self.thread_name = threading.current_thread().name
+
+    def set_current(self) -> None:
+        """pyglet's bookkeeping only (pyglet's current context, deletions queued while it was
+        not current); the native context is the host's to make current."""
+        super().set_current()
+
+
+def _pyglet_native(context) -> tuple[str, int] | None:
+    """The native handle of a context pyglet made (EGL, GLX, WGL, CGL), if it tells."""
+    if isinstance(context, HostContext):
+        return context.native
+    for api, attribute in (("egl", "egl_context"), ("glx", "glx_context"),
+                           ("wgl", "_context"), ("cgl", "_nscontext")):
+        handle = getattr(context, attribute, None)
+        if handle is None:
+            continue
+        value = ctypes.cast(handle, ctypes.c_void_p).value if not isinstance(handle, int) \
+            else handle
+        return (api, int(value)) if value else None
+    return None
+
+
+def acquire_host_context():
+    """The context a host made current on this thread, to draw a world with
+    (``gl="current"``): pyglet's own when the host is a pyglet window (arcade), else a
+    :class:`HostContext`. Raises :class:`ContextError` when no context is current or it is
+    below OpenGL 3.3."""
+    native = native_current_context()
+    if native is None:
+        raise ContextError(
+            "RiverWorld(gl=\"current\"): no OpenGL context is current on this thread "
+            f"({threading.current_thread().name}). Make the world after your window exists and "
+            "its context is current (pygame: set_mode(..., pygame.OPENGL); glfw: "
+            "make_context_current(window)), or use gl=True for riverflow's own offscreen "
+            "context.")
+    current = gl.current_context
+    if current is not None and _pyglet_native(current) == native:
+        context = current                 # a pyglet window (arcade): pyglet's own context
+    else:
+        context = HostContext(native)
+    with _as_pyglet_current(context):
+        check_version()
+    return context
+
+
+def check_version() -> tuple[int, int]:
+    """The current context's OpenGL version; :class:`ContextError` below 3.3 or for OpenGL
+    ES (a compatibility profile of 3.3 or later is accepted: riverflow uses core calls only)."""
+    raw = gl.glGetString(gl.GL_VERSION)
+    text = ctypes.cast(raw, ctypes.c_char_p).value.decode("ascii", "replace") if raw else ""
+    match = re.match(r"\s*(OpenGL ES[^0-9]*)?(\d+)\.(\d+)", text)
+    if match is None or match.group(1):
+        raise ContextError(f"the current OpenGL context is {text or 'unknown'!r}: riverflow "
+                           f"draws with desktop OpenGL 3.3 or later; {_HOW_TO_ASK}")
+    version = (int(match.group(2)), int(match.group(3)))
+    if version < (3, 3):
+        raise ContextError(f"the current OpenGL context is version {text!r}, below the 3.3 "
+                           f"core riverflow draws with; {_HOW_TO_ASK}")
+    return version
+
+
+@contextlib.contextmanager
+def _as_pyglet_current(context):
+    """``context`` as pyglet's current context for the block, then pyglet's previous one
+    (for a :class:`HostContext`; a pyglet context is made current as usual)."""
+    previous = gl.current_context
+    if previous is context:
+        yield
+        return
+    if not isinstance(context, HostContext):
+        context.set_current()
+        yield
+        return
+    context.set_current()
+    try:
+        yield
+    finally:
+        gl.current_context = previous
+
+
+def check_blit_target(context) -> None:
+    """:class:`ContextError` when the window current now is not the world's (``gl=True``):
+    a copy onto framebuffer 0 of the world's own context would land in riverflow's hidden
+    window, never on the host's screen (a pygame or glfw window: the silent black window of
+    issue 28)."""
+    native = native_current_context()
+    if native is not None and native != _pyglet_native(context):
+        raise ContextError(
+            "blit_to_window(): the window current now is not the one this world draws with "
+            "(gl=True made riverflow's own offscreen context: no pyglet window was current "
+            "when the world was made), so the copy would never reach your window. For a "
+            "pygame, glfw, Qt or SDL window make the world with gl=\"current\" and call "
+            "draw(view, projection): it draws straight into your window.")
+    make_current(context)
+
+
+@contextlib.contextmanager
+def deleting_with(context):
+    """For the block, ``context`` is pyglet's current one if it is a :class:`HostContext`
+    current on this thread now, so that GL objects made in it are deleted at once (a world
+    closed while its host's context is current); else nothing changes (pyglet's contexts
+    delete through themselves; a host context not current leaves its objects to the host's
+    context, which takes them when it is destroyed)."""
+    if isinstance(context, HostContext) and native_current_context() == context.native:
+        with _as_pyglet_current(context):
+            _take_errors()              # the host's (pyglet would blame its first call)
+            yield
+    else:
+        yield
+
+
+def check_host_current(context) -> None:
+    """Raise :class:`ContextError` unless ``context`` (a world's, ``gl="current"``) is the
+    context current on this thread now."""
+    native = native_current_context()
+    want = _pyglet_native(context)
+    if native is not None and native == want:
+        return
+    owner = getattr(context, "thread", None)
+    here = threading.get_ident()
+    if owner is not None and owner != here:
+        raise ContextError(
+            f"this world draws with the OpenGL context of thread "
+            f"{getattr(context, 'thread_name', owner)!r}, and draw() was called on thread "
+            f"{threading.current_thread().name!r}, where "
+            f"{'no context is' if native is None else 'another context is'} current: an "
+            "OpenGL context is current on one thread at a time. Draw from the thread that "
+            "owns your window (or make its context current on this one first).")
+    if native is None:
+        raise ContextError("draw(): no OpenGL context is current on this thread; make your "
+                           "window's context current first (the world was made with "
+                           "gl=\"current\" and draws with it)")
+    raise ContextError("draw(): the OpenGL context current now is not the one this world was "
+                       "made with (gl=\"current\"): its GL objects (vertex arrays, "
+                       "framebuffers) live in that one; make it current before draw(), or "
+                       "make one world per context")
+
+
+@contextlib.contextmanager
+def host_frame(context):
+    """Draw a frame with a host's context: checks it is current here (:class:`ContextError`),
+    makes it pyglet's current context for the block, saves every piece of GL state riverflow's
+    drawing touches, sets the neutral state riverflow draws from (:data:`HOST_NEUTRAL`), and
+    puts the host's state back afterwards, errors or not. Yields the host's
+    :class:`HostState` (its framebuffer and viewport)."""
+    check_host_current(context)
+    with _as_pyglet_current(context):
+        # pyglet checks glGetError after each of its calls: an error the host left pending
+        # would be blamed on riverflow's first call. They are taken (and kept in the saved
+        # state's ``host_errors``); riverflow's own are raised as they happen.
+        pending = _take_errors()
+        saved = HostState.save()
+        saved.host_errors = pending
+        try:
+            saved.neutral()
+            forget_state()
+            yield saved
+        finally:
+            saved.restore()
+            forget_state()
+
+
+_TEXTURE_TARGETS = None
+"""(binding query, target) of the texture targets riverflow binds (set on first use)."""
+
+_ENABLES = None
+"""The capabilities riverflow enables or that would change its drawing if a host left them
+on, with riverflow's setting for each (set on first use)."""
+
+
+def _host_tables():
+    global _TEXTURE_TARGETS, _ENABLES
+    if _TEXTURE_TARGETS is None:
+        _TEXTURE_TARGETS = ((gl.GL_TEXTURE_BINDING_2D, gl.GL_TEXTURE_2D),
+                            (gl.GL_TEXTURE_BINDING_2D_ARRAY, gl.GL_TEXTURE_2D_ARRAY),
+                            (gl.GL_TEXTURE_BINDING_BUFFER, gl.GL_TEXTURE_BUFFER))
+        _ENABLES = ((gl.GL_DEPTH_TEST, False), (gl.GL_BLEND, False),
+                    (gl.GL_CULL_FACE, False), (gl.GL_CLIP_DISTANCE0, False),
+                    (gl.GL_PROGRAM_POINT_SIZE, False), (gl.GL_SCISSOR_TEST, False),
+                    (gl.GL_STENCIL_TEST, False), (gl.GL_FRAMEBUFFER_SRGB, False),
+                    (gl.GL_POLYGON_OFFSET_FILL, False), (gl.GL_RASTERIZER_DISCARD, False),
+                    (gl.GL_SAMPLE_ALPHA_TO_COVERAGE, False), (gl.GL_COLOR_LOGIC_OP, False),
+                    (gl.GL_PRIMITIVE_RESTART, False))
+    return _TEXTURE_TARGETS, _ENABLES
+
+
+TEXTURE_UNITS = 16
+"""Texture units riverflow draws with (0-15: the scratch unit is the last)."""
+
+_BUFFER_TARGETS = None
+
+
+def _buffer_targets():
+    global _BUFFER_TARGETS
+    if _BUFFER_TARGETS is None:
+        _BUFFER_TARGETS = ((gl.GL_ARRAY_BUFFER_BINDING, gl.GL_ARRAY_BUFFER),
+                           (gl.GL_UNIFORM_BUFFER_BINDING, gl.GL_UNIFORM_BUFFER),
+                           (gl.GL_TEXTURE_BUFFER, gl.GL_TEXTURE_BUFFER),
+                           (gl.GL_COPY_READ_BUFFER, gl.GL_COPY_READ_BUFFER),
+                           (gl.GL_COPY_WRITE_BUFFER, gl.GL_COPY_WRITE_BUFFER),
+                           (gl.GL_PIXEL_PACK_BUFFER_BINDING, gl.GL_PIXEL_PACK_BUFFER),
+                           (gl.GL_PIXEL_UNPACK_BUFFER_BINDING, gl.GL_PIXEL_UNPACK_BUFFER))
+    return _BUFFER_TARGETS
+
+
+_PIXEL_STORE = None
+
+
+def _pixel_store():
+    global _PIXEL_STORE
+    if _PIXEL_STORE is None:
+        _PIXEL_STORE = tuple((name, default) for name, default in (
+            (gl.GL_PACK_ALIGNMENT, 4), (gl.GL_UNPACK_ALIGNMENT, 4),
+            (gl.GL_PACK_ROW_LENGTH, 0), (gl.GL_UNPACK_ROW_LENGTH, 0),
+            (gl.GL_PACK_SKIP_ROWS, 0), (gl.GL_UNPACK_SKIP_ROWS, 0),
+            (gl.GL_PACK_SKIP_PIXELS, 0), (gl.GL_UNPACK_SKIP_PIXELS, 0),
+            (gl.GL_PACK_IMAGE_HEIGHT, 0), (gl.GL_UNPACK_IMAGE_HEIGHT, 0),
+            (gl.GL_PACK_SKIP_IMAGES, 0), (gl.GL_UNPACK_SKIP_IMAGES, 0),
+            (gl.GL_PACK_SWAP_BYTES, 0), (gl.GL_UNPACK_SWAP_BYTES, 0),
+            (gl.GL_PACK_LSB_FIRST, 0), (gl.GL_UNPACK_LSB_FIRST, 0)))
+    return _PIXEL_STORE
+
+
+def _get_ints(pname: int, n: int = 1) -> tuple[int, ...]:
+    out = (gl.GLint * max(n, 4))()
+    gl.glGetIntegerv(pname, out)
+    return tuple(out[:n])
+
+
+def _get_floats(pname: int, n: int = 1) -> tuple[float, ...]:
+    out = (gl.GLfloat * max(n, 4))()
+    gl.glGetFloatv(pname, out)
+    return tuple(out[:n])
+
+
+class HostState:
+    """The host's GL state that riverflow's drawing touches, read with ``glGet*``
+    (:meth:`save`), put back (:meth:`restore`). ``framebuffer`` and ``viewport`` are where
+    the host draws: riverflow composites its frame there (:meth:`as_dict` lists everything,
+    for tests)."""
+
+    UBO_BINDINGS = 8
+    """Indexed uniform buffer binding points saved (riverflow's programs share one, the
+    first free one pyglet hands out in the context: 0 in a host's own context, a low one
+    after a pyglet host's own blocks)."""
+
+    def __init__(self) -> None:
+        self.values: dict[str, object] = {}
+        self.host_errors: list[str] = []
+        """GL errors the host had left pending when riverflow's draw began (taken then)."""
+
+    @property
+    def framebuffer(self) -> int:
+        return int(self.values["draw_framebuffer"][0])
+
+    @property
+    def viewport(self) -> tuple[int, int, int, int]:
+        return tuple(int(v) for v in self.values["viewport"])
+
+    @classmethod
+    def save(cls) -> HostState:
+        textures, enables = _host_tables()
+        state = cls()
+        v = state.values
+        v["draw_framebuffer"] = _get_ints(gl.GL_DRAW_FRAMEBUFFER_BINDING)
+        v["read_framebuffer"] = _get_ints(gl.GL_READ_FRAMEBUFFER_BINDING)
+        v["renderbuffer"] = _get_ints(gl.GL_RENDERBUFFER_BINDING)
+        v["viewport"] = _get_ints(gl.GL_VIEWPORT, 4)
+        v["program"] = _get_ints(gl.GL_CURRENT_PROGRAM)
+        v["vertex_array"] = _get_ints(gl.GL_VERTEX_ARRAY_BINDING)
+        for query, _ in _buffer_targets():
+            v[f"buffer {query:#x}"] = _get_ints(query)
+        for i in range(cls.UBO_BINDINGS):
+            for query in (gl.GL_UNIFORM_BUFFER_BINDING, gl.GL_UNIFORM_BUFFER_START,
+                          gl.GL_UNIFORM_BUFFER_SIZE):
+                out = gl.GLint64()
+                gl.glGetInteger64i_v(query, i, ctypes.byref(out))
+                v[f"ubo {i} {query:#x}"] = (out.value,)
+        v["active_texture"] = _get_ints(gl.GL_ACTIVE_TEXTURE)
+        for unit in range(TEXTURE_UNITS):
+            gl.glActiveTexture(gl.GL_TEXTURE0 + unit)
+            for query, _ in textures:
+                v[f"texture {unit} {query:#x}"] = _get_ints(query)
+            v[f"sampler {unit}"] = _get_ints(gl.GL_SAMPLER_BINDING)
+        gl.glActiveTexture(v["active_texture"][0])
+        for cap, _ in enables:
+            v[f"enabled {cap:#x}"] = (bool(gl.glIsEnabled(cap)),)
+        v["depth_func"] = _get_ints(gl.GL_DEPTH_FUNC)
+        v["depth_mask"] = _get_ints(gl.GL_DEPTH_WRITEMASK)
+        v["depth_range"] = _get_floats(gl.GL_DEPTH_RANGE, 2)
+        v["clear_depth"] = _get_floats(gl.GL_DEPTH_CLEAR_VALUE)
+        v["clear_colour"] = _get_floats(gl.GL_COLOR_CLEAR_VALUE, 4)
+        v["colour_mask"] = _get_ints(gl.GL_COLOR_WRITEMASK, 4)
+        v["blend"] = (*_get_ints(gl.GL_BLEND_SRC_RGB), *_get_ints(gl.GL_BLEND_DST_RGB),
+                      *_get_ints(gl.GL_BLEND_SRC_ALPHA), *_get_ints(gl.GL_BLEND_DST_ALPHA),
+                      *_get_ints(gl.GL_BLEND_EQUATION_RGB),
+                      *_get_ints(gl.GL_BLEND_EQUATION_ALPHA))
+        v["blend_colour"] = _get_floats(gl.GL_BLEND_COLOR, 4)
+        v["cull_face"] = _get_ints(gl.GL_CULL_FACE_MODE)
+        v["front_face"] = _get_ints(gl.GL_FRONT_FACE)
+        v["polygon_mode"] = _get_ints(gl.GL_POLYGON_MODE, 2)
+        v["point_size"] = _get_floats(gl.GL_POINT_SIZE)
+        v["line_width"] = _get_floats(gl.GL_LINE_WIDTH)
+        for name, _ in _pixel_store():
+            v[f"pixel_store {name:#x}"] = _get_ints(name)
+        return state
+
+    def as_dict(self) -> dict[str, object]:
+        return dict(self.values)
+
+    def neutral(self) -> None:
+        """The state riverflow's drawing starts from (OpenGL's defaults where it matters):
+        no host buffer, vertex array, sampler or pixel buffer in the way, nothing enabled
+        that would change what it draws, full colour writes, depth range [0, 1]."""
+        _, enables = _host_tables()
+        gl.glBindVertexArray(0)
+        for _, target in _buffer_targets():
+            gl.glBindBuffer(target, 0)
+        for unit in range(TEXTURE_UNITS):
+            if self.values[f"sampler {unit}"][0]:
+                gl.glBindSampler(unit, 0)
+        for cap, on in enables:
+            if self.values[f"enabled {cap:#x}"][0] != on:
+                (gl.glEnable if on else gl.glDisable)(cap)
+        gl.glColorMask(True, True, True, True)
+        gl.glDepthRange(0.0, 1.0)
+        gl.glClearDepth(1.0)
+        gl.glPolygonMode(gl.GL_FRONT_AND_BACK, gl.GL_FILL)
+        for name, default in _pixel_store():
+            if self.values[f"pixel_store {name:#x}"][0] != default:
+                gl.glPixelStorei(name, default)
+
+    def restore(self) -> None:
+        """Put every saved piece of state back."""
+        textures, enables = _host_tables()
+        v = self.values
+        gl.glBindFramebuffer(gl.GL_DRAW_FRAMEBUFFER, v["draw_framebuffer"][0])
+        gl.glBindFramebuffer(gl.GL_READ_FRAMEBUFFER, v["read_framebuffer"][0])
+        gl.glBindRenderbuffer(gl.GL_RENDERBUFFER, v["renderbuffer"][0])
+        gl.glViewport(*v["viewport"])
+        gl.glUseProgram(v["program"][0])
+        gl.glBindVertexArray(v["vertex_array"][0])
+        for i in range(self.UBO_BINDINGS):
+            ident = v[f"ubo {i} {gl.GL_UNIFORM_BUFFER_BINDING:#x}"][0]
+            start = v[f"ubo {i} {gl.GL_UNIFORM_BUFFER_START:#x}"][0]
+            size = v[f"ubo {i} {gl.GL_UNIFORM_BUFFER_SIZE:#x}"][0]
+            if ident and size:
+                gl.glBindBufferRange(gl.GL_UNIFORM_BUFFER, i, ident, start, size)
+            else:
+                gl.glBindBufferBase(gl.GL_UNIFORM_BUFFER, i, ident)
+        for query, target in _buffer_targets():       # after the indexed ones (they set
+            gl.glBindBuffer(target, v[f"buffer {query:#x}"][0])   # the generic binding too)
+        for unit in range(TEXTURE_UNITS):
+            gl.glActiveTexture(gl.GL_TEXTURE0 + unit)
+            for query, target in textures:
+                gl.glBindTexture(target, v[f"texture {unit} {query:#x}"][0])
+            gl.glBindSampler(unit, v[f"sampler {unit}"][0])
+        gl.glActiveTexture(v["active_texture"][0])
+        for cap, _ in enables:
+            (gl.glEnable if v[f"enabled {cap:#x}"][0] else gl.glDisable)(cap)
+        gl.glDepthFunc(v["depth_func"][0])
+        gl.glDepthMask(v["depth_mask"][0])
+        gl.glDepthRange(*v["depth_range"])
+        gl.glClearDepth(v["clear_depth"][0])
+        gl.glClearColor(*v["clear_colour"])
+        gl.glColorMask(*v["colour_mask"])
+        b = v["blend"]
+        gl.glBlendFuncSeparate(b[0], b[1], b[2], b[3])
+        gl.glBlendEquationSeparate(b[4], b[5])
+        gl.glBlendColor(*v["blend_colour"])
+        gl.glCullFace(v["cull_face"][0])
+        gl.glFrontFace(v["front_face"][0])
+        gl.glPolygonMode(gl.GL_FRONT_AND_BACK, v["polygon_mode"][0])
+        gl.glPointSize(v["point_size"][0])
+        gl.glLineWidth(v["line_width"][0])
+        for name, _ in _pixel_store():
+            gl.glPixelStorei(name, v[f"pixel_store {name:#x}"][0])
 
 
 # -- programs --------------------------------------------------------------------------------
@@ -610,6 +1167,12 @@ def bind_default_framebuffer(width_px: int, height_px: int) -> None:
     """Draw into the window (framebuffer 0) over a ``width`` × ``height`` viewport."""
     gl.glBindFramebuffer(gl.GL_FRAMEBUFFER, 0)
     gl.glViewport(0, 0, max(1, width_px), max(1, height_px))
+
+
+def bind_host_framebuffer(framebuffer: int, viewport: tuple[int, int, int, int]) -> None:
+    """Draw into a host's framebuffer (0: its window) over its viewport (x, y, w, h)."""
+    gl.glBindFramebuffer(gl.GL_DRAW_FRAMEBUFFER, int(framebuffer))
+    gl.glViewport(*(int(v) for v in viewport))
 
 
 # -- meshes ----------------------------------------------------------------------------------

@@ -61,20 +61,33 @@ class RiverWorld:
         scene: what to simulate: ``scene.graph``, ``scene.terrain``, ``scene.water``,
             ``scene.bounds_m`` (the built-in :func:`riverflow.default_scene` or your own).
         size: viewport (W, H) [px].
-        gl: draw with OpenGL: with the context current when the world is made (a host
-            game's window) or else a hidden offscreen one (EGL when there is no display);
-            False runs every system but drawing with no OpenGL at all.
+        gl: draw with OpenGL: True draws into the world's own offscreen framebuffer, with
+            the pyglet context current when the world is made (a pyglet window) or else a
+            hidden offscreen one (EGL when there is no display); ``"current"`` draws into
+            the framebuffer and viewport of whatever OpenGL ≥ 3.3 context the host has
+            current (pygame-ce, glfw, moderngl-window, SDL, Qt, arcade), depth-tested
+            against what the host drew, leaving the host's GL state as it was (see
+            :meth:`draw`); False runs every system but drawing with no OpenGL at all.
         seed: seeds every random choice; the same seed and inputs give bit-identical pools.
         config: :class:`RiverConfig`; default ``RiverConfig()``.
         systems: the ordered systems; default :func:`riverflow.systems.schedule.default_systems`.
     """
 
-    def __init__(self, scene: Any, size: tuple[int, int] = (640, 360), *, gl: bool = False,
-                 seed: int = 0, config: RiverConfig | None = None,
+    def __init__(self, scene: Any, size: tuple[int, int] = (640, 360), *,
+                 gl: bool | str = False, seed: int = 0, config: RiverConfig | None = None,
                  systems: list[System] | None = None) -> None:
         size = size_px(size, "RiverWorld: size")       # (W, H) ≥ 1 px, whole, bounded
+        if not (gl is True or gl is False or gl == "current"):
+            raise ValueError(f"RiverWorld: gl must be False, True or \"current\", got {gl!r}")
         self.config = config if config is not None else RiverConfig()
         self.gl = bool(gl)
+        self.host = gl == "current"
+        """Draws into the host's current context and framebuffer (``gl="current"``)."""
+        self.context = None
+        if self.host:      # before anything is made: no usable context fails at once
+            from riverflow.engine import gl as gl_module
+
+            self.context = gl_module.acquire_host_context()
         self.seed = int(seed)
         self.rng = np.random.default_rng(self.seed)
         self.scene = scene
@@ -126,11 +139,12 @@ class RiverWorld:
             systems = default_systems(self.gl)
         self.systems = systems
         self.pool: ParticlePool = self.component(ParticlePool)
-        self.context = None
         if self.gl:
             from riverflow.engine import gl as gl_module  # pyglet's GL: only when drawing
 
-            self.context = gl_module.acquire_context()
+            if self.context is None:
+                with gl_module.keeping_native_current():   # a host's context stays current
+                    self.context = gl_module.acquire_context()
             for system in self.systems:
                 if hasattr(system, "attach"):
                     system.attach(self.context)
@@ -372,13 +386,53 @@ class RiverWorld:
         """What is drawn: mode, overlays, shading knobs (mutable)."""
         return self.resource(DisplaySettings)
 
-    def draw(self) -> None:
+    def draw(self, view=None, projection=None, *, framebuffer: int | None = None,
+             sky: bool = True) -> None:
         """Run the draw systems: draw the current frame into the world's offscreen framebuffer
         (CPU time in ``timings_ms["draw"]``). Drawn before the world was ever stepped or
         loaded, it makes the view's tiles and particles first (:meth:`load_view`): never a
-        frame of fog. See :meth:`render` and :meth:`blit_to_window`."""
+        frame of fog. See :meth:`render` and :meth:`blit_to_window`.
+
+        ``view``, ``projection``: the host's camera, each 16 numbers in OpenGL's column-major
+        order (world → eye, eye → clip: :meth:`Camera.set_matrices`, which says what they may
+        be); the camera then stays so (the next :meth:`step` simulates with it).
+
+        A world made with ``gl="current"`` (a host's own context) draws with the context
+        current now (:class:`~riverflow.engine.gl.ContextError` if there is none, it is
+        another thread's, or not the one the world was made with) into the host's bound draw
+        framebuffer (or ``framebuffer``, a framebuffer object name) at the host's viewport
+        (the camera's viewport follows it), each pixel depth-tested (``<=``) against the
+        host's depth buffer and written to it; ``sky`` false leaves the pixels of sky to the
+        host. Every piece of GL state the draw touches is put back as it was
+        (:class:`~riverflow.engine.gl.HostState`); ``timings_ms["host_frame"]`` is the whole
+        draw's CPU time."""
         if not self.gl:
             raise RuntimeError("drawing needs a world made with gl=True")
+        if not self.host and framebuffer is not None:
+            raise ValueError("draw(framebuffer=...) is for a world made with gl=\"current\"")
+        if not self.host:
+            if view is not None or projection is not None:
+                self.camera.set_matrices(view, projection)
+            with self._offscreen():
+                self._draw_systems()
+            return
+        from riverflow.engine import gl as gl_module
+
+        t0 = time.perf_counter_ns()
+        with gl_module.host_frame(self.context) as host:
+            x, y, w, h = host.viewport
+            if (w, h) != self.camera.size_px:
+                self.camera.set_viewport(w, h)
+            if view is not None or projection is not None:
+                self.camera.set_matrices(view, projection)
+            if self.camera.is_empty:
+                return
+            self._draw_systems()
+            target = host.framebuffer if framebuffer is None else int(framebuffer)
+            self._drawer().composite(target, (x, y, w, h), bool(sky))
+        self.timings_ms["host_frame"] = (time.perf_counter_ns() - t0) * 1e-6
+
+    def _draw_systems(self) -> None:
         if self.camera.is_empty:
             return
         if self.clock.frame == 0 and not self._view_loaded:
@@ -414,20 +468,56 @@ class RiverWorld:
 
     def render(self) -> np.ndarray:
         """Draw the current frame and return it as (H, W, 4) uint8 RGBA, row 0 at the top
-        (needs ``gl=True``)."""
+        (needs ``gl=True``): the numpy hand-off to a host that cannot share OpenGL with
+        riverflow (Panda3D: ``demos/panda3d_host.py``). A ``gl="current"`` world draws it
+        offscreen in the host's context, not into the host's framebuffer, and leaves the
+        host's state as it was."""
         if not self.gl:
             raise RuntimeError("render() needs a world made with gl=True")
         if self.camera.is_empty:                    # a minimised window: nothing to draw
             w, h = self.camera.size_px
             return np.zeros((h, w, 4), np.uint8)
-        self.draw()
-        return self._drawer().read_rgba8()
+        with self._offscreen():
+            self._draw_systems()
+            return self._drawer().read_rgba8()
+
+    def render_to_texture(self) -> int:
+        """Draw the current frame offscreen and return the GL name of its RGBA8 colour
+        texture (``GL_TEXTURE_2D``, the camera's viewport size, row 0 at the bottom) in the
+        world's context: a host whose context shares objects with it (a pyglet window, a
+        host's context with ``gl="current"``, a context made sharing with it) samples it
+        as its own texture. The name stays valid until the viewport changes or the world
+        closes; its contents until the next draw. A ``gl="current"`` world leaves the
+        host's state as it was."""
+        if not self.gl:
+            raise RuntimeError("render_to_texture() needs a world made with gl=True")
+        with self._offscreen():
+            self._draw_systems()
+            return self._drawer().colour_texture()
+
+    @contextlib.contextmanager
+    def _offscreen(self):
+        """Offscreen drawing: a host world's in the host's context, its state put back; a
+        ``gl=True`` world's in its own context, the context the thread had current before
+        (a host's that shares nothing with riverflow: Panda3D's) current again after."""
+        from riverflow.engine import gl as gl_module
+
+        if not self.host:
+            with gl_module.keeping_native_current():
+                yield
+            return
+        with gl_module.host_frame(self.context):
+            yield
 
     def blit_to_window(self, width_px: int | None = None, height_px: int | None = None) -> None:
         """Copy the last drawn frame onto the current window's framebuffer (a host game calls
         this in its ``on_draw`` after :meth:`draw`), scaled to ``width_px`` × ``height_px``
         (default: the camera's viewport)."""
         w, h = self.camera.size_px
+        if not self.host and self.context is not None:
+            from riverflow.engine import gl as gl_module
+
+            gl_module.check_blit_target(self.context)
         self._drawer().blit_to_window(width_px or w, height_px or h)
 
     def close(self) -> None:

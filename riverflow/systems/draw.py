@@ -132,6 +132,7 @@ FOAM_SCALE_M = 3.0
 
 PARAMS_UNIT, GRID_UNIT, WAVE_UNIT, ACCUM_UNIT, WATER_POSITION_UNIT = 2, 3, 1, 4, 5
 RIPPLES_UNIT, DROPS_UNIT, BINS_UNIT = 6, 7, 8
+COMPOSITE_COLOUR_UNIT, COMPOSITE_DEPTH_UNIT = 0, 14
 """Texture units of the sprite table, sprite grid, wave tile, pre-advected sums, water
 position, ripple table, rain drops and sprite bins."""
 
@@ -155,6 +156,7 @@ class _Gpu:
             "arrows": gl.Program("arrows.glsl", defines),
             "props": gl.Program("props.glsl", defines),
             "rain": gl.Program("rain.glsl", defines),
+            "composite": gl.Program("composite.glsl"),
         }
         # the uniforms that never change (texture units, constants), set once: not checked
         # again every frame
@@ -550,6 +552,7 @@ _CONSTANT_UNIFORMS = dict(
     u_water_position=WATER_POSITION_UNIT, u_ripples=RIPPLES_UNIT, u_drops=DROPS_UNIT,
     u_bins=BINS_UNIT, u_foam_pattern=FOAM_PATTERN_UNIT, u_wakes=WAKES_UNIT,
     u_reflection=REFLECTION_UNIT, u_reflection_depth=REFLECTION_DEPTH_UNIT,
+    u_colour=COMPOSITE_COLOUR_UNIT, u_depth=COMPOSITE_DEPTH_UNIT,
     u_sprite_radius_factor=SPRITE_RADIUS_FACTOR, u_foam_scale_m=FOAM_SCALE_M,
     u_foam_size_px=float(FOAM_PATTERN_PX))
 """The uniforms every program that uses them gets once, when it is made."""
@@ -937,6 +940,37 @@ class DrawRivers(System):
             gl.make_current(self.context)
         return self.gpu.main_fb.read_rgba8()
 
+    def composite(self, framebuffer: int, viewport: tuple[int, int, int, int],
+                  sky: bool) -> None:
+        """Draw the last drawn frame into a host's ``framebuffer`` over its ``viewport``
+        (x, y, w, h: the frame's size), depth-tested (``<=``) against the host's depth and
+        writing it (``shaders/composite.glsl``): ``RiverWorld(gl="current")``. The caller
+        (:func:`riverflow.engine.gl.host_frame`) puts the host's state back afterwards."""
+        gpu = self.gpu
+        if gpu is None:
+            raise RuntimeError("nothing drawn yet")
+        x, y, w, h = viewport
+        if (w, h) != gpu.size:
+            raise RuntimeError(f"composite: the host's viewport {w}×{h} is not the frame's "
+                               f"{gpu.size[0]}×{gpu.size[1]}")
+        gl.bind_host_framebuffer(framebuffer, viewport)
+        gl.set_blend(gl.BLEND_OFF)
+        gl.set_cull(False)
+        gl.set_depth(True)
+        gpu.colour.bind(COMPOSITE_COLOUR_UNIT)
+        gpu.depth.bind(COMPOSITE_DEPTH_UNIT)
+        program = gpu.programs["composite"]
+        program.use()
+        program.set(u_origin_px=(int(x), int(y)), u_sky=bool(sky))
+        gpu.empty.draw(gl.TRIANGLES, count=3)
+
+    def colour_texture(self) -> int:
+        """The GL name of the last drawn frame's RGBA8 colour texture (row 0 at the bottom),
+        in the world's context: valid until the viewport changes or the world closes."""
+        if self.gpu is None:
+            raise RuntimeError("nothing drawn yet")
+        return int(self.gpu.colour.id)
+
     def blit_to_window(self, width_px: int, height_px: int) -> None:
         """Copy the last drawn frame onto the current window."""
         if self.gpu is None:
@@ -948,5 +982,6 @@ class DrawRivers(System):
         world's finalizer must not switch contexts under a host: :mod:`riverflow.engine.gl`)."""
         self._tiles_for = None
         if self.gpu is not None:
-            self.gpu.delete()
+            with gl.deleting_with(self.context):
+                self.gpu.delete()
             self.gpu = None

@@ -234,3 +234,41 @@ def test_revision_counts_changes():
     c.size_px = (20, 10)
     assert c.revision == 8
     assert (c.fov_y_deg, c.near_m, c.far_m, c.size_px) == (45.0, 1.0, 200.0, (20, 10))
+
+
+def test_set_matrices_takes_a_hosts_camera():
+    """A host's column-major view and projection (pyglet's Mat4, numpy written as in maths
+    and transposed) give the camera that makes them: the same world → clip matrix; the same
+    matrices again change nothing; what riverflow's camera cannot be is a ValueError."""
+    host = Camera(position=(30.0, -240.0, 90.0), target=(-20.0, 10.0, 12.0), fov_y_deg=47.0,
+                  near_m=0.8, far_m=6000.0, size_px=(320, 200))
+    aspect = 320 / 200
+    view = pm.Mat4.look_at(pm.Vec3(30.0, -240.0, 90.0), pm.Vec3(-20.0, 10.0, 12.0),
+                           pm.Vec3(0.0, 0.0, 1.0))
+    projection = pm.Mat4.perspective_projection(aspect, 0.8, 6000.0, 47.0)
+    c = Camera(size_px=(320, 200))
+    c.set_matrices(view, projection)                       # pyglet: column-major tuples
+    npt.assert_allclose(c.matrices_for_kernels()[0], host.matrices_for_kernels()[0],
+                        rtol=1e-5, atol=1e-5)
+    npt.assert_allclose(c.position, host.position, atol=1e-3)
+    assert abs(c.fov_y_deg - 47.0) < 1e-4 and abs(c.near_m - 0.8) < 1e-4
+    revision = c.revision
+    c.set_matrices(view, projection)
+    assert c.revision == revision
+    maths_view = np.asarray(view, np.float64).reshape(4, 4).T      # clip = M @ [x, y, z, 1]
+    c2 = Camera(size_px=(320, 200))
+    c2.set_matrices(maths_view.T, np.asarray(projection).reshape(4, 4))
+    npt.assert_allclose(c2.matrices_for_kernels()[0], c.matrices_for_kernels()[0], atol=1e-9)
+    scaled = maths_view.copy()
+    scaled[:3, :3] *= 2.0
+    with pytest.raises(ValueError, match="rotation and a translation"):
+        c.set_matrices(scaled.T, projection)
+    off_centre = np.asarray(projection, np.float64).reshape(4, 4).T.copy()
+    off_centre[0, 2] = 0.2
+    with pytest.raises(ValueError, match="symmetric OpenGL perspective"):
+        c.set_matrices(view, off_centre.T)
+    with pytest.raises(ValueError, match="aspect"):
+        c.set_matrices(view, pm.Mat4.perspective_projection(1.0, 0.8, 6000.0, 47.0))
+    with pytest.raises(ValueError, match="16 finite numbers"):
+        c.set_matrices(np.eye(3), projection)
+    assert c.revision == revision                           # unchanged by the errors
