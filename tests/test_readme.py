@@ -32,10 +32,11 @@ def test_the_readme_has_world_snippets():
 @pytest.mark.parametrize("index", range(len(SNIPPETS)))
 def test_readme_snippet_shows_water(index):
     names: dict = {"rf": rf, "np": np}
-    for earlier in SNIPPETS[:index]:             # what a reader pasted before (scene, …)
+    for earlier in SNIPPETS[:index]:             # the scene a reader made before
         if "scene = " in earlier and "scene = " not in SNIPPETS[index]:
-            exec(compile(earlier, "README.md", "exec"), names)
-            names["world"].close()
+            made = [line for line in earlier.splitlines()
+                    if line.startswith(("scene = ", "import ", "from "))]
+            exec(compile("\n".join(made), "README.md", "exec"), names)
     code = SNIPPETS[index]
     if "gl=True" in code:
         pytest.importorskip("pyglet")
