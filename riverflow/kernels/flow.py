@@ -342,7 +342,9 @@ def potential_and_shore_at(
                 w = f * math.exp(slip * math.log(radius / d))
             sw += w
             swp += w * group_psi[g]
-    if count < 2:
+    if count < 2 and not (count == 1 and g1 - g0 == 1):
+        # water lies between two shores of different ψ; a network whose whole shore has one
+        # ψ (a lake no river touches) is still water
         return np.nan, np.inf
     if on_bank >= 0:
         return group_psi[on_bank], 0.0

@@ -1,0 +1,319 @@
+"""Lakes for :mod:`riverflow.hydro.builder`: water bodies that rivers run into and out of.
+
+A lake is a polygon given with :meth:`RiverNetworkBuilder.add_lake`. It is built with the
+same machinery as the rivers (reference §1.2): its shore is made of banks whose ψ is constant
+between two openings (the shore between two mouths is one boundary piece), so the flux
+through each mouth is its river's discharge, and the flow inside is Proland's ψ interpolation
+between the shore pieces, as for any area: divergence-free and tangent to the shore. A lake
+with no river is one shore piece: one ψ, still water.
+
+* **Branches** that cross a lake's shore are cut there: the part inside is dropped, a branch
+  that runs through the lake becomes an inlet and an outlet; an end within a quarter of the
+  river's width outside the shore is drawn on to it. A lake is then a junction of its
+  inlets and outlets for the discharges (the outlets share the inflow, by width where not
+  given).
+* **Water**: the lake joins the rivers' strips; the result is split along the lake's shore into
+  river polygons and lake polygons, which share the *mouths* (the stretches of shore across
+  the rivers). Each mouth is one closing segment of both areas; banks that meet at its ends
+  have one ψ (reference §1.2 rule 2), which ties the lake's shore pieces to the rivers' banks.
+* **Axes**: a star of axes from the lake's centre (the pole of inaccessibility) to each mouth
+  (the river's axis end), or one short axis from the centre for a lake with no river. Their
+  widths grow to cover the shore linked to them, so every point of a lake that is star-shaped
+  about its centre is inside one (reference §1.2 rule 1).
+* The lake's area in the graph is marked with ``Area.info`` = LAKE_INFO, or LAKE_LEVEL_INFO
+  and ``Area.level_m`` when its level is given.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+from shapely.geometry import LineString
+from shapely.ops import polylabel
+
+from riverflow.hydro.graph import GraphError
+
+
+@dataclass
+class Lake:
+    """A lake given to the builder: its polygon [m], its level [m] (None: from the terrain)
+    and a name for messages."""
+
+    polygon: shapely.Polygon
+    level_m: float | None
+    name: str
+
+    def centre(self, tolerance_m: float) -> np.ndarray:
+        """The pole of inaccessibility (the point farthest inside), (2,) [m]."""
+        p = polylabel(self.polygon, tolerance=max(tolerance_m, 1e-3 * np.sqrt(self.polygon.area)))
+        return np.array(p.coords[0])
+
+
+def check_lake(polygon, level_m, index: int) -> Lake:
+    """A validated :class:`Lake` (GraphError naming the lake and what is wrong)."""
+    name = f"lake {index}"
+    if isinstance(polygon, shapely.Polygon):
+        poly = polygon
+    else:
+        pts = np.asarray(polygon, dtype=np.float64)
+        if pts.ndim != 2 or pts.shape[1] != 2 or len(pts) < 3:
+            raise GraphError(f"{name}: its outline must be a shapely Polygon or an (M >= 3, 2) "
+                             f"array, got shape {pts.shape}")
+        if not np.isfinite(pts).all():
+            raise GraphError(f"{name}: its outline has non-finite coordinates")
+        poly = shapely.Polygon(pts)
+    if poly.is_empty or not poly.area > 0 or not poly.is_valid:
+        raise GraphError(f"{name}: its outline is not a simple polygon with an area "
+                         f"({shapely.is_valid_reason(poly)})")
+    if len(poly.interiors):
+        raise GraphError(f"{name}: has {len(poly.interiors)} island(s); islands in lakes are not "
+                         f"supported yet (give the lake without them)")
+    if level_m is not None:
+        level_m = float(level_m)
+        if not np.isfinite(level_m):
+            raise GraphError(f"{name}: level_m must be finite, got {level_m!r}")
+    return Lake(shapely.geometry.polygon.orient(poly, 1.0), level_m, name)
+
+
+def _arc(line: np.ndarray) -> np.ndarray:
+    return np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(line, axis=0).T))])
+
+
+def cut_branches(branches: list, lakes: list[Lake], tolerance_m: float):
+    """Cut the branches at the lakes' shores. Returns the new branch list (objects of the same
+    kind: ``name``, ``centerline_m``, ``widths_m``, ``discharge_m2s``), for each the lake its
+    start / end lies on (-1: none), and for each the index of the branch it came from."""
+    if not lakes:
+        return branches, [(-1, -1)] * len(branches), list(range(len(branches)))
+    union = shapely.union_all([lk.polygon for lk in lakes])
+    out, ends, origin = [], [], []
+    for i, b in enumerate(branches):
+        line, w = b.centerline_m, b.widths_m
+        # an end just outside a shore is drawn on to it
+        for at_start in (True, False):
+            p = line[0] if at_start else line[-1]
+            width = w[0] if at_start else w[-1]
+            pt = shapely.Point(p)
+            if union.contains(pt):
+                continue
+            d = union.boundary.distance(pt)
+            if 0.0 < d <= 0.25 * width:
+                q = np.asarray(shapely.ops.nearest_points(union.boundary, pt)[0].coords[0])
+                t = q - p
+                q = q + t / np.hypot(*t) * min(tolerance_m, 0.05 * width)   # just inside
+                line = np.vstack([q, line]) if at_start else np.vstack([line, q])
+                w = np.concatenate([[width], w]) if at_start else np.concatenate([w, [width]])
+        ls = LineString(line)
+        if not ls.intersects(union) or ls.intersection(union).length <= 1e-9:
+            out.append(b)
+            ends.append((-1, -1))
+            origin.append(i)
+            continue
+        s = _arc(line)
+        outside = shapely.difference(ls, union)
+        parts = sorted((g for g in getattr(outside, "geoms", [outside])
+                        if not g.is_empty and g.length > 1e-9),
+                       key=lambda g: ls.project(shapely.Point(g.coords[0])))
+        if not parts:
+            raise GraphError(f"branch {b.name!r} lies inside a lake: a river must run into or "
+                             f"out of a lake, not within it")
+        for k, g in enumerate(parts):
+            pts = np.asarray(g.coords)
+            ws = np.interp(shapely.line_locate_point(ls, shapely.points(pts)), s, w)
+            if g.length < 0.5 * float(ws.max()):
+                x, y = pts[0]
+                raise GraphError(f"branch {b.name!r}: a piece {g.length:.2f} m long near "
+                                 f"({x:.1f}, {y:.1f}) lies outside the lakes it crosses (shorter "
+                                 f"than half its width); end the branch on the shore or inside")
+            on = []
+            for p in (pts[0], pts[-1]):
+                near = [k2 for k2, lk in enumerate(lakes)
+                        if lk.polygon.boundary.distance(shapely.Point(p)) <= 1e-6 * max(1.0, np.abs(p).max())]
+                on.append(near[0] if near else -1)
+            name = b.name if len(parts) == 1 else f"{b.name}[{k}]"
+            q = b.discharge_m2s if k == 0 else None
+            out.append(type(b)(name, pts, ws, q))
+            ends.append((on[0], on[1]))
+            origin.append(i)
+    return out, ends, origin
+
+
+def lake_junctions(branches, lakes: list[Lake], lake_ends, start_j, end_j, junctions):
+    """Make each lake that rivers touch one junction of its inlets and outlets (its centre as
+    the junction's point, for messages): returns the new start / end junction lists and the
+    junction points; raises GraphError for a lake with only inflow or only outflow."""
+    start_j, end_j = list(start_j), list(end_j)
+    points = [np.asarray(junctions).reshape(-1, 2)]
+    for k, lake in enumerate(lakes):
+        ins = [i for i, (_, e) in enumerate(lake_ends) if e == k]
+        outs = [i for i, (s, _) in enumerate(lake_ends) if s == k]
+        if not ins and not outs:
+            continue
+        names_in = [branches[i].name for i in ins]
+        names_out = [branches[i].name for i in outs]
+        if not outs:
+            raise GraphError(f"{lake.name}: rivers {names_in} flow into it but none flows out; a "
+                             f"lake without an outlet takes no inflow here (add its outlet)")
+        if not ins:
+            raise GraphError(f"{lake.name}: rivers {names_out} flow out of it but none flows in "
+                             f"(add the river that feeds it)")
+        j = sum(len(p) for p in points)
+        for i in ins:
+            if end_j[i] >= 0:
+                raise GraphError(f"branch {branches[i].name!r} ends both at a junction and on "
+                                 f"the shore of {lake.name}")
+            end_j[i] = j
+        for i in outs:
+            if start_j[i] >= 0:
+                raise GraphError(f"branch {branches[i].name!r} starts both at a junction and on "
+                                 f"the shore of {lake.name}")
+            start_j[i] = j
+        points.append(lake.centre(1e-3)[None])
+    return start_j, end_j, np.vstack(points)
+
+
+MOUTH_REACH = 10.0
+"""A river's bank is drawn on straight to its lake's shore within this many widths."""
+
+
+def mouth_strips(geoms, lake_ends, lakes: list[Lake]) -> list:
+    """Where a river meets its lake's shore obliquely, its strip's flat end leaves a notch of
+    land beside it: the triangle between the end, the bank drawn on straight to the shore and
+    the shore, for each such corner (the water then has no notch at the mouth)."""
+    parts = []
+    for g, (ls, le) in zip(geoms, lake_ends):
+        for k, at_start in ((ls, True), (le, False)):
+            if k < 0:
+                continue
+            line = g.centerline_m
+            p, q = (line[0], line[1]) if at_start else (line[-1], line[-2])
+            w = float(g.widths_m[0] if at_start else g.widths_m[-1])
+            t = (p - q) / np.hypot(*(p - q))
+            n = np.array([-t[1], t[0]])
+            shore = lakes[k].polygon.exterior
+            end = p + t * 0.05 * 0.5 * w            # the strip's end (extend_ends)
+            for side in (1.0, -1.0):
+                c = end + side * n * 0.5 * w * 1.001
+                if lakes[k].polygon.contains(shapely.Point(c)):
+                    continue
+                h = _first_hit(shore, c, c + t * MOUTH_REACH * w)
+                m = _first_hit(shore, c, end - side * n * 0.5 * w)
+                if h is None or m is None:
+                    continue
+                tri = shapely.Polygon([c, h, m])
+                if tri.is_valid and tri.area > 0:
+                    parts.append(tri)
+    return parts
+
+
+def _first_hit(ring, a: np.ndarray, b: np.ndarray):
+    """The point of ``ring`` nearest ``a`` on the segment a→b, or None."""
+    x = shapely.intersection(LineString([a, b]), ring)
+    if x.is_empty:
+        return None
+    pts = shapely.get_coordinates(x)
+    return pts[np.argmin(np.hypot(*(pts - a).T))]
+
+
+def split_water(polygons: list, lakes: list[Lake], eps_m: float, min_area_m2: float):
+    """Split the oriented water polygons along the lakes' shores: (polygons, the lake of each
+    polygon or -1, the mouths as polylines (M, 2), each shared by a river and a lake polygon).
+    River pieces smaller than ``min_area_m2`` (slivers where the simplified outline left the
+    shore) are dropped."""
+    from shapely.geometry.polygon import orient
+
+    water = shapely.union_all(polygons) if len(polygons) > 1 else polygons[0]
+    lake_union = shapely.union_all([lk.polygon for lk in lakes])
+    river = shapely.difference(water, lake_union)
+    out, which = [], []
+    for p in getattr(river, "geoms", [river]):
+        if isinstance(p, shapely.Polygon) and p.area > min_area_m2:
+            out.append(orient(p, 1.0))
+            which.append(-1)
+    lake_parts = []
+    for lk in lakes:
+        part = shapely.difference(water, shapely.union_all([river] + [o.polygon for o in lakes
+                                                                     if o is not lk]))
+        polys = [p for p in getattr(part, "geoms", [part])
+                 if isinstance(p, shapely.Polygon) and p.area > min_area_m2]
+        if len(polys) != 1:
+            raise GraphError(f"{lk.name}: the rivers cut it into {len(polys)} pieces (a river "
+                             f"runs along or across its shore)")
+        lake_parts.append(orient(polys[0], 1.0))
+    out += lake_parts
+    which += list(range(len(lake_parts)))
+    out = _node_together(out, eps_m)
+    n_river = len(out) - len(lake_parts)
+    mouths = []
+    if n_river:
+        lake_lines = shapely.union_all([p.boundary for p in out[n_river:]])
+        for p in out[:n_river]:
+            for ring in [p.exterior, *p.interiors]:
+                v = np.asarray(ring.coords)
+                near = shapely.dwithin(lake_lines, shapely.points(v), eps_m)
+                mid = shapely.dwithin(lake_lines, shapely.points(0.5 * (v[1:] + v[:-1])), eps_m)
+                on = near[:-1] & near[1:] & mid
+                mouths += [v[k:k + 2] for k in np.flatnonzero(on)]
+    return out, which, mouths
+
+
+def _node_together(polygons: list, eps_m: float) -> list:
+    """The polygons with every vertex of the others that lies on one of their edges (within
+    ``eps_m``, not at its ends) inserted there, so that shared stretches of outline have the
+    same vertices on both sides (overlay results need not)."""
+    from shapely.geometry.polygon import orient
+
+    allv = np.vstack([shapely.get_coordinates(p) for p in polygons])
+    tree = shapely.STRtree(shapely.points(allv))
+    out = []
+    for poly in polygons:
+        rings = []
+        for ring in [poly.exterior, *poly.interiors]:
+            v = np.asarray(ring.coords)
+            a, b = v[:-1], v[1:]
+            segs = shapely.linestrings(np.stack([a, b], axis=1))
+            si, pi = tree.query(segs, predicate="dwithin", distance=eps_m)
+            d = b - a
+            dd = np.maximum(np.einsum("ij,ij->i", d, d), 1e-300)
+            t = np.einsum("ij,ij->i", allv[pi] - a[si], d[si]) / dd[si]
+            length = np.sqrt(dd[si])
+            inner = (t * length > eps_m) & ((1.0 - t) * length > eps_m)
+            si, pi, t = si[inner], pi[inner], t[inner]
+            if not len(si):
+                rings.append(v)
+                continue
+            order = np.lexsort((t, si))
+            si, pi = si[order], pi[order]
+            rows = []
+            k = 0
+            for e in range(len(a)):
+                rows.append(a[e:e + 1])
+                while k < len(si) and si[k] == e:
+                    rows.append(allv[pi[k]][None])
+                    k += 1
+            rows.append(v[-1:])
+            rings.append(np.vstack(rows))
+        out.append(orient(shapely.Polygon(rings[0], rings[1:]), 1.0))
+    return out
+
+
+def lake_axes(lake: Lake, mouths_m: list[np.ndarray], outlet: list[bool], tolerance_m: float
+              ) -> list[np.ndarray]:
+    """The lake's axes: from each mouth point (a river's axis end on the shore) to the lake's
+    centre (drawn downstream: into the centre for inlets, out of it for outlets), or one short
+    axis from the centre towards the nearest shore for a lake with no river."""
+    c = lake.centre(tolerance_m)
+    inside = lake.polygon.buffer(max(tolerance_m, 1e-6))
+    if not mouths_m:
+        q = np.asarray(shapely.ops.nearest_points(lake.polygon.exterior, shapely.Point(c))[0].coords[0])
+        return [np.array([c, c + 0.5 * (q - c)])]
+    axes = []
+    for m, out in zip(mouths_m, outlet):
+        line = np.array([c, m]) if out else np.array([m, c])
+        if not inside.contains(LineString(line)):
+            raise GraphError(f"{lake.name}: the straight line from its mouth at ({m[0]:.1f}, "
+                             f"{m[1]:.1f}) to its centre ({c[0]:.1f}, {c[1]:.1f}) leaves the "
+                             f"lake; lakes must be star-shaped about their centre")
+        axes.append(line)
+    return axes
