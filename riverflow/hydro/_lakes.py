@@ -174,13 +174,16 @@ def lake_junctions(branches, lakes: list[Lake], lake_ends, start_j, end_j, junct
 
 
 MOUTH_REACH = 10.0
-"""A river's bank is drawn on straight to its lake's shore within this many widths."""
+"""A river's banks are drawn on straight to its lake's shore within this many widths."""
 
 
 def mouth_strips(geoms, lake_ends, lakes: list[Lake]) -> list:
     """Where a river meets its lake's shore obliquely, its strip's flat end leaves a notch of
-    land beside it: the triangle between the end, the bank drawn on straight to the shore and
-    the shore, for each such corner (the water then has no notch at the mouth)."""
+    land beside it: its strip continued straight past the mouth, as far as it lies outside the
+    lake next to the river's end (the banks drawn on to the shore; the water then has no notch
+    at the mouth)."""
+    from riverflow.hydro._strips import strip_polygon
+
     parts = []
     for g, (ls, le) in zip(geoms, lake_ends):
         for k, at_start in ((ls, True), (le, False)):
@@ -191,19 +194,12 @@ def mouth_strips(geoms, lake_ends, lakes: list[Lake]) -> list:
             w = float(g.widths_m[0] if at_start else g.widths_m[-1])
             t = (p - q) / np.hypot(*(p - q))
             n = np.array([-t[1], t[0]])
-            shore = lakes[k].polygon.exterior
-            end = p + t * 0.05 * 0.5 * w            # the strip's end (extend_ends)
-            for side in (1.0, -1.0):
-                c = end + side * n * 0.5 * w * 1.001
-                if lakes[k].polygon.contains(shapely.Point(c)):
-                    continue
-                h = _first_hit(shore, c, c + t * MOUTH_REACH * w)
-                m = _first_hit(shore, c, end - side * n * 0.5 * w)
-                if h is None or m is None:
-                    continue
-                tri = shapely.Polygon([c, h, m])
-                if tri.is_valid and tri.area > 0:
-                    parts.append(tri)
+            ext = strip_polygon(np.array([p - t * 0.05 * w, p + t * MOUTH_REACH * w]),
+                                np.array([w, w]))
+            end = LineString([p - t * 0.01 * w + n * 0.5 * w, p - t * 0.01 * w - n * 0.5 * w])
+            outside = shapely.difference(ext, lakes[k].polygon)
+            parts += [o for o in getattr(outside, "geoms", [outside])
+                      if isinstance(o, shapely.Polygon) and o.intersects(end)]
     return parts
 
 
@@ -294,8 +290,33 @@ def _node_together(polygons: list, eps_m: float) -> list:
                     k += 1
             rows.append(v[-1:])
             rings.append(np.vstack(rows))
-        out.append(orient(shapely.Polygon(rings[0], rings[1:]), 1.0))
+        rings = [_clean_ring(r, eps_m) for r in rings]
+        out.append(orient(shapely.Polygon(rings[0], [r for r in rings[1:] if len(r) >= 4]), 1.0))
     return out
+
+
+def _clean_ring(v: np.ndarray, eps_m: float) -> np.ndarray:
+    """A closed ring (M, 2) (last point = first) without repeated points and without spikes
+    (a vertex the ring goes out to and comes straight back from: a stretch of shore both
+    sides of the split kept)."""
+    v = list(map(tuple, v[:-1]))
+    changed = True
+    while changed and len(v) > 3:
+        changed = False
+        m = len(v)
+        for i in range(m):
+            a, b, c = np.array(v[i - 1]), np.array(v[i]), np.array(v[(i + 1) % m])
+            if np.hypot(*(b - a)) <= eps_m:
+                del v[i]
+                changed = True
+                break
+            if np.hypot(*(c - a)) <= eps_m:        # a → b → a: drop b and the return
+                for k in sorted({i, (i + 1) % m}, reverse=True):
+                    del v[k]
+                changed = True
+                break
+    v = np.asarray(v)
+    return np.vstack([v, v[:1]])
 
 
 def lake_axes(lake: Lake, mouths_m: list[np.ndarray], outlet: list[bool], tolerance_m: float
