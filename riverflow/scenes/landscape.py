@@ -29,7 +29,7 @@ import shapely
 from scipy.spatial import cKDTree
 
 from riverflow._validate import check_allocation, finite_positive
-from riverflow.hydro.areas import water_polygon
+from riverflow.hydro.areas import area_ring, water_polygon
 from riverflow.hydro.graph import GraphError, HydroGraph
 from riverflow.hydro.nearest import PolylineIndex
 from riverflow.scenes.carving import Carving, carve
@@ -136,10 +136,13 @@ def z_range(source: HeightSource, water: WaterSurface, carving: Carving) -> tupl
 
 def water_surface(branches: list[RiverBranch],
                   ground: Callable[[np.ndarray], np.ndarray] | list[np.ndarray],
-                  polygon) -> WaterSurface:
+                  polygon, lakes=()) -> WaterSurface:
     """Monotone water profiles of the branches (listed upstream first) on the ground [m]
     (``ground(xy)`` of the uncarved terrain, or its values at each branch's centre-line
-    points) lowered by FREEBOARD_M, as a :class:`WaterSurface`."""
+    points) lowered by FREEBOARD_M, as a :class:`WaterSurface`. ``lakes``: [(polygon, level
+    [m] or None)]: the samples in a lake are at its level (given, else the lowest the profiles
+    reach in it), those upstream of it no lower and those downstream no higher: the lake is
+    flat and no river runs uphill into or out of it."""
     n_junctions = 1 + max(max(b.start_junction, b.end_junction) for b in branches)
     along = ground if isinstance(ground, list) else [ground(b.centerline_m) for b in branches]
     sampled = [np.asarray(z, np.float64) - FREEBOARD_M for z in along]
@@ -156,6 +159,7 @@ def water_surface(branches: list[RiverBranch],
         lv.append(np.minimum.accumulate(zz))
         wd.append(ww)
         index.append(np.full(len(pts), k))
+    _flat_lakes(samples, lv, lakes)
     junctions = np.zeros((max(n_junctions, 0), 2))
     members: list[tuple[int, ...]] = []
     for j in range(max(n_junctions, 0)):
@@ -165,6 +169,23 @@ def water_surface(branches: list[RiverBranch],
         junctions[j] = b.centerline_m[0] if b.start_junction == j else b.centerline_m[-1]
     return WaterSurface(np.vstack(samples), np.concatenate(lv), np.concatenate(wd),
                         np.concatenate(index), polygon, profiles, junctions, members)
+
+
+def _flat_lakes(samples: list[np.ndarray], levels: list[np.ndarray], lakes) -> None:
+    """Put the samples in each lake at its level, in place (:func:`water_surface`)."""
+    for poly, given in lakes:
+        inside = [shapely.contains_xy(poly, p[:, 0], p[:, 1]) for p in samples]
+        found = [z[m] for z, m in zip(levels, inside) if m.any()]
+        if not found:
+            continue
+        level = float(given) if given is not None else float(min(f.min() for f in found))
+        for z, m in zip(levels, inside):
+            if not m.any():
+                continue
+            first, last = np.flatnonzero(m)[[0, -1]]
+            z[:first] = np.maximum(z[:first], level)
+            z[m] = level
+            z[last + 1:] = np.minimum(z[last + 1:], level)
 
 
 def junction_caps(branches: list[RiverBranch]) -> list[tuple[float, float]]:
@@ -256,14 +277,16 @@ def landscape(graph: HydroGraph, terrain=None, *, seed: int = 0, cell_m: float |
         if source is not None and source.cell_m:
             cell_m = min(cell_m, max(source.cell_m, 0.5))
     given = graph.water_levels
+    lakes = [(shapely.Polygon(area_ring(graph, a)), graph.areas[a].level_m) for a in graph.lakes()]
     if source is None:
         water = water_surface(branches, _synthetic_ground(branches) if given is None
-                              else lambda xy: given(xy) + FREEBOARD_M, polygon)
+                              else lambda xy: given(xy) + FREEBOARD_M, polygon, lakes)
         source = valley_source(water, seed)
         carving = carving or Carving()
     else:
         water = water_surface(branches, (lambda xy: source.heights(xy[:, 0], xy[:, 1]))
-                              if given is None else lambda xy: given(xy) + FREEBOARD_M, polygon)
+                              if given is None else lambda xy: given(xy) + FREEBOARD_M, polygon,
+                              lakes)
         carving = carving or Carving.measured()
     terrain_ = CarvedTerrain(source, water, carving, quadtree, float(cell_m))
     return Landscape(graph, terrain_, water, quadtree.bounds_m, int(seed), branches, [],
