@@ -205,3 +205,20 @@ def test_bad_lakes_are_clear_errors(make, message):
     with pytest.raises(GraphError, match=message):
         make(b)
         b.build()
+
+
+def test_particles_on_a_still_lake_in_the_running_world():
+    b = RiverNetworkBuilder()
+    b.add_branch([(-500, -400), (500, -400)], 30.0, discharge_m2s=10.0, name="river")
+    b.add_lake(shapely.Point(0, 0).buffer(80))
+    scene = rf.landscape(b.build(), seed=0)
+    level = scene.water.level(np.array([[0.0, 0.0]]))[0]
+    world = rf.RiverWorld(scene, size=(160, 90), gl=False, seed=0)
+    world.camera.look_at((0.0, -150.0, level + 60.0), (0.0, 0.0, level))
+    for _ in range(30):
+        world.step(1 / 30)
+    p = world.particles
+    assert np.isfinite(p.world_m).all()
+    on_lake = (p.status == rf.FlowStatus.INSIDE) & (np.hypot(*p.world_m[:, :2].T) < 79.0)
+    assert on_lake.sum() >= 5
+    assert np.allclose(p.world_m[on_lake, 2], level)
