@@ -8,7 +8,7 @@ between the shore pieces, as for any area: divergence-free and tangent to the sh
 with no river is one shore piece: one ψ, still water.
 
 * **Branches** that cross a lake's shore are cut there: the part inside is dropped, a branch
-  that runs through the lake becomes an inlet and an outlet; an end within a quarter of the
+  that runs through the lake becomes an inlet and an outlet; an end within END_SNAP of the
   river's width outside the shore is drawn on to it. A lake is then a junction of its
   inlets and outlets for the discharges (the outlets share the inflow, by width where not
   given).
@@ -76,6 +76,11 @@ def check_lake(polygon, level_m, index: int) -> Lake:
     return Lake(shapely.geometry.polygon.orient(poly, 1.0), level_m, name)
 
 
+END_SNAP = 0.75
+"""A branch end this many widths or nearer outside a lake's shore is drawn on to it (an axis
+found from a water polygon stops about half a width short of the shore)."""
+
+
 def _arc(line: np.ndarray) -> np.ndarray:
     return np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(line, axis=0).T))])
 
@@ -98,7 +103,7 @@ def cut_branches(branches: list, lakes: list[Lake], tolerance_m: float):
             if union.contains(pt):
                 continue
             d = union.boundary.distance(pt)
-            if 0.0 < d <= 0.25 * width:
+            if 1e-6 * max(1.0, np.abs(p).max()) < d <= END_SNAP * width:
                 q = np.asarray(shapely.ops.nearest_points(union.boundary, pt)[0].coords[0])
                 t = q - p
                 q = q + t / np.hypot(*t) * min(tolerance_m, 0.05 * width)   # just inside
@@ -106,8 +111,9 @@ def cut_branches(branches: list, lakes: list[Lake], tolerance_m: float):
                 w = np.concatenate([[width], w]) if at_start else np.concatenate([w, [width]])
         ls = LineString(line)
         if not ls.intersects(union) or ls.intersection(union).length <= 1e-9:
-            out.append(b)
-            ends.append((-1, -1))
+            # touching a shore at an end at most
+            out.append(type(b)(b.name, line, w, b.discharge_m2s))
+            ends.append((_on_lake(lakes, line[0]), _on_lake(lakes, line[-1])))
             origin.append(i)
             continue
         s = _arc(line)
@@ -126,17 +132,21 @@ def cut_branches(branches: list, lakes: list[Lake], tolerance_m: float):
                 raise GraphError(f"branch {b.name!r}: a piece {g.length:.2f} m long near "
                                  f"({x:.1f}, {y:.1f}) lies outside the lakes it crosses (shorter "
                                  f"than half its width); end the branch on the shore or inside")
-            on = []
-            for p in (pts[0], pts[-1]):
-                near = [k2 for k2, lk in enumerate(lakes)
-                        if lk.polygon.boundary.distance(shapely.Point(p)) <= 1e-6 * max(1.0, np.abs(p).max())]
-                on.append(near[0] if near else -1)
+            on = [_on_lake(lakes, pts[0]), _on_lake(lakes, pts[-1])]
             name = b.name if len(parts) == 1 else f"{b.name}[{k}]"
             q = b.discharge_m2s if k == 0 else None
             out.append(type(b)(name, pts, ws, q))
             ends.append((on[0], on[1]))
             origin.append(i)
     return out, ends, origin
+
+
+def _on_lake(lakes: list[Lake], p: np.ndarray) -> int:
+    """The lake whose shore ``p`` lies on (-1: none)."""
+    for k, lk in enumerate(lakes):
+        if lk.polygon.boundary.distance(shapely.Point(p)) <= 1e-6 * max(1.0, np.abs(p).max()):
+            return k
+    return -1
 
 
 def lake_junctions(branches, lakes: list[Lake], lake_ends, start_j, end_j, junctions):
@@ -258,15 +268,37 @@ def _node_together(polygons: list, eps_m: float) -> list:
     """The polygons with every vertex of the others that lies on one of their edges (within
     ``eps_m``, not at its ends) inserted there, so that shared stretches of outline have the
     same vertices on both sides (overlay results need not)."""
+    from scipy.spatial import cKDTree
     from shapely.geometry.polygon import orient
 
-    allv = np.vstack([shapely.get_coordinates(p) for p in polygons])
+    # vertices within eps of each other become one (the first of them)
+    ring_sets = [[np.asarray(r.coords) for r in [p.exterior, *p.interiors]] for p in polygons]
+    flat = np.vstack([r for rs in ring_sets for r in rs])
+    rep = np.arange(len(flat))
+    for a, b in sorted(cKDTree(flat).query_pairs(eps_m)):
+        ra, rb = rep[a], rep[b]
+        while rep[ra] != ra:
+            ra = rep[ra]
+        while rep[rb] != rb:
+            rb = rep[rb]
+        rep[max(ra, rb)] = min(ra, rb)
+    for i in range(len(rep)):
+        r = i
+        while rep[r] != r:
+            r = rep[r]
+        rep[i] = r
+    flat = flat[rep]
+    k = 0
+    for rs in ring_sets:
+        for j in range(len(rs)):
+            rs[j] = flat[k:k + len(rs[j])]
+            k += len(rs[j])
+    allv = np.unique(flat, axis=0)
     tree = shapely.STRtree(shapely.points(allv))
     out = []
-    for poly in polygons:
+    for rs in ring_sets:
         rings = []
-        for ring in [poly.exterior, *poly.interiors]:
-            v = np.asarray(ring.coords)
+        for v in rs:
             a, b = v[:-1], v[1:]
             segs = shapely.linestrings(np.stack([a, b], axis=1))
             si, pi = tree.query(segs, predicate="dwithin", distance=eps_m)

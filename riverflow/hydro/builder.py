@@ -209,7 +209,7 @@ class RiverNetworkBuilder:
         """Add a lake: a water body with a flat surface (``polygon``: a shapely Polygon or an
         (M, 2) outline [m]); returns its index.
 
-        Branches that reach its shore run into it (an end inside the lake or within a quarter
+        Branches that reach its shore run into it (an end inside the lake or within 0.75
         of the river's width of its shore is cut or drawn to the shore; a branch that runs
         through it becomes an inlet and an outlet). The lake is a junction of its inlets and
         outlets for the discharges; its shore carries one ψ between two mouths, so the flow in
@@ -222,9 +222,6 @@ class RiverNetworkBuilder:
             GraphError: not a simple polygon with an area, a non-finite level, or islands in
                 the polygon (not supported yet).
         """
-        if self._water_area is not None:
-            raise GraphError("add_lake: lakes cannot be added to a given water area "
-                             "(set_water_area) yet")
         lake = _lakes.check_lake(polygon, level_m, len(self._lakes))
         for other in self._lakes:
             if other.polygon.intersects(lake.polygon):
@@ -257,9 +254,7 @@ class RiverNetworkBuilder:
                              f"{type(water).__name__}")
         if water.is_empty or not water.area > 0:
             raise GraphError("set_water_area: the water has no area")
-        if self._lakes:
-            raise GraphError("set_water_area: a builder with lakes (add_lake) cannot take a "
-                             "given water area yet")
+
         if not water.is_valid:
             raise GraphError(f"set_water_area: the water is not a valid polygon "
                              f"({shapely.is_valid_reason(water)}); repair it first "
@@ -316,9 +311,17 @@ class RiverNetworkBuilder:
                 polygons, polygon_lake, mouths = _lakes.split_water(polygons, lakes, eps, min_area)
                 cuts = list(cuts) + mouths
         else:
+            water = self._water_area
+            if lakes:   # the lakes are water too
+                water = shapely.union_all([water] + [lk.polygon for lk in lakes])
             polygons, cuts, islands, (end_cuts, cut_islands) = _given_water(
-                geoms, self._water_area, self._islands, self.tolerance_m)
+                geoms, water, self._islands, self.tolerance_m)
             self.islands_cut = cut_islands
+            if lakes:
+                min_area = (0.01 * min(float(g.widths_m.min()) for g in geoms) ** 2
+                            if geoms else eps ** 2)
+                polygons, polygon_lake, mouths = _lakes.split_water(polygons, lakes, eps, min_area)
+                cuts = list(cuts) + mouths
         try:
             rings, pieces = _strips.split_rings(polygons, cuts, eps)
         except ValueError as exc:
