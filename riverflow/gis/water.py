@@ -44,8 +44,10 @@ polygons without area are left out and reported, and a file with no water, an in
 every free end of the water, or a network that cannot be built raise
 :class:`~riverflow.GraphError` naming the file and what is wrong.
 
-Not yet (issue 22): lakes as flat water bodies (a polygon tagged ``water=lake`` is read as a
-channel like any other). The water tiles are the polygon (through the graph's water area)
+Lakes: polygons tagged ``water=lake|reservoir|pond`` (an OSM tag, or a file's ``water``
+attribute) are lakes (:meth:`~riverflow.RiverNetworkBuilder.add_lake`): the rivers' water is
+cut open at their shores (their ends there are open ends), a channel starting on a shore
+takes its discharge from the lake, and lakes alone are still water. The water tiles are the polygon (through the graph's water area)
 clipped per tile and triangulated per grid cell (:mod:`riverflow.scenes.meshes`).
 """
 from __future__ import annotations
@@ -411,7 +413,7 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
                           f"rest: " + (f"a speck (under {SPECK_FRACTION:g} of the water)"
                                        if speck else
                                        f"no channel longer than {MIN_CHANNEL_WIDTHS:g} times "
-                                       f"its width (a pond; lakes are not read yet)")
+                                       f"its width (a pond; tag it water=pond to read it as a lake)")
                           + ": left out")
             continue
         networks.append(net)
