@@ -196,3 +196,46 @@ def test_no_nan_and_clear_status_for_bad_points(field):
     assert np.all(status == rf.FlowStatus.OUTSIDE_DOMAIN)
     assert np.all(velocity == 0)
     assert np.all(np.isnan(field.potential(bad)))
+
+
+def test_dry_lattice_points_hold_quadratic_extrapolations(field):
+    """Twin of ``_extrapolate_ghosts``: a dry lattice point next to the water holds the mean,
+    over the lattice directions with water beside it, of the quadratic extrapolation from
+    the three points inward (linear from two where the third is dry, else the neighbour's
+    value); checked where those points lie in the tile's stored window."""
+    t = field.tiles
+    lv = field.max_level
+    xy = np.array(field.network.polylines[0][len(field.network.polylines[0]) // 2])[None]
+    field.query(xy)
+    tx, ty = field.tile_of(xy, lv)[0]
+    slot = t.slot_of(lv, tx, ty)
+    ox, oy = t.tile_origin_m(lv, tx, ty)
+    h = t.spacing_m(lv)
+    idx = np.arange(-1, t.n_cells + 2)
+    gx, gy = np.meshgrid(ox + idx * h, oy + idx * h)
+    exact = reference.potential(field.network, np.c_[gx.ravel(), gy.ravel()],
+                                field.slip).reshape(gx.shape)
+    wet = np.isfinite(exact)
+    got = t.psi[slot]
+    m = got.shape[0]
+    checked = 0
+    for j in range(3, m - 3):
+        for i in range(3, m - 3):
+            if wet[j, i]:
+                continue
+            two, one = [], []
+            for di, dj in ((1, 0), (-1, 0), (0, 1), (0, -1)):
+                p = [(j + k * dj, i + k * di) for k in (1, 2, 3)]
+                if not wet[p[0]]:
+                    continue
+                if wet[p[1]]:
+                    two.append(3 * exact[p[0]] - 3 * exact[p[1]] + exact[p[2]] if wet[p[2]]
+                               else 2 * exact[p[0]] - exact[p[1]])
+                else:
+                    one.append(exact[p[0]])
+            if not two and not one:
+                continue
+            want = np.mean(two) if two else np.mean(one)
+            npt.assert_allclose(got[j, i], want, rtol=1e-4, atol=1e-4)
+            checked += 1
+    assert checked > 10
