@@ -164,8 +164,7 @@ def test_the_water_ends_within_a_metre_of_the_polygon(line_river):
 def test_the_flow_follows_the_outline(line_river):
     """1 m inside the outline the flow runs along it: its normal part is under 1 % of the
     local speed at most points, 4 % at 99 % of them and 6 % everywhere (docs/gis.md,
-    "Tangency"; builder rivers: tests/flow/test_flow_properties.py,
-    tests/flow/test_flow_properties.py), away from the outline's corners (the flow rounds
+    "Tangency"; builder rivers: tests/flow/test_flow_properties.py), away from the outline's corners (the flow rounds
     them) and the open ends; at the islands' tips (stagnation points) relative to the
     river's mean speed."""
     water, _, builder, graph, field = line_river
