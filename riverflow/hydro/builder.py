@@ -295,7 +295,7 @@ class RiverNetworkBuilder:
                                                               start_j, end_j, junctions)
         order = _topological_order(branches, start_j, end_j, all_junctions)
         discharges, inlets = _resolve_discharges(branches, order, start_j, end_j, all_junctions,
-                                                 self.lateral_inflow)
+                                                 self.lateral_inflow, n_junctions)
         geoms = [BranchGeometry(b.name, b.centerline_m, b.widths_m, q, sj, ej)
                  for b, q, sj, ej in zip(branches, discharges, start_j, end_j)]
         eps = max(1e-3, 1e-3 * self.tolerance_m)
@@ -490,10 +490,11 @@ def _topological_order(branches, start_j, end_j, junctions) -> list[int]:
     return order
 
 
-def _resolve_discharges(branches, order, start_j, end_j, junctions, lateral: bool = False
-                        ) -> tuple[list[float], dict[int, float]]:
+def _resolve_discharges(branches, order, start_j, end_j, junctions, lateral: bool = False,
+                        n_lateral: int | None = None) -> tuple[list[float], dict[int, float]]:
     """Discharge of every branch [m²/s] (sources given, sums at confluences, splits) and the
-    lateral inflow [m²/s] per junction that has one (only with ``lateral``)."""
+    lateral inflow [m²/s] per junction that has one (only with ``lateral``, and only at the
+    first ``n_lateral`` junctions: a lake's outflow is its inflow)."""
     q: list[float | None] = [None] * len(branches)
     inlets: dict[int, float] = {}
     ins_of, outs_of = by_junction(start_j, end_j)
@@ -525,7 +526,7 @@ def _resolve_discharges(branches, order, start_j, end_j, junctions, lateral: boo
             wsum = sum(branches[k].widths_m[0] for k in missing)
             for k in missing:
                 given[k] = rest * branches[k].widths_m[0] / wsum
-        elif lateral and len(outs) == 1 and rest < -tol:
+        elif lateral and len(outs) == 1 and rest < -tol and (n_lateral is None or j < n_lateral):
             inlets[j] = -rest
         elif abs(rest) > tol:
             raise GraphError(f"{where}: inflow {inflow:g} m²/s ≠ outflow {sum(given.values()):g} m²/s")

@@ -62,3 +62,20 @@ def test_lakes_alone_are_still_water_and_check_lists_them(tmp_path, capsys):
     out = capsys.readouterr().out
     assert out.count("no river (still water)") == 2
     assert "2 areas, 2 of them lakes" in out
+
+
+def test_stream_lines_through_a_lake_given_with_them(tmp_path):
+    """read_rivers(lakes=...): a main line through a lake and a tributary joining it inside
+    the lake: both run into the lake, the line leaving it takes their sum."""
+    from tests.gis.conftest import polyline, write_lines
+
+    lines = [polyline((-800, 0), (0, 0)), polyline((0, 0), (800, 100)),
+             polyline((100, -700), (0, 0))]
+    net = write_lines(tmp_path / "net.geojson", lines,
+                      {"name": np.array(["a", "b", "c"], dtype=object)})
+    lake = shapely.Point(*ORIGIN).buffer(200)
+    b = rf.read_rivers(net, lakes=[lake])
+    graph = b.build()
+    assert len(graph.lakes()) == 1 and "lakes" in b.report.derived
+    qa, qb, qc = b.discharges_m2s
+    assert abs(qb - (qa + qc)) < 1e-9
