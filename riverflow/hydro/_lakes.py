@@ -12,7 +12,8 @@ with no river is one shore piece: one ψ, still water.
   river's width outside the shore is drawn on to it. A lake is then a junction of its
   inlets and outlets for the discharges (the outlets share the inflow, by width where not
   given).
-* **Water**: the lake joins the rivers' strips; the result is split along the lake's shore into
+* **Water**: the lake joins the rivers' strips (their banks drawn on straight to an oblique
+  shore, :func:`mouth_strips`), or the given water (``set_water_area``); the result is split along the lake's shore into
   river polygons and lake polygons, which share the *mouths* (the stretches of shore across
   the rivers). Each mouth is one closing segment of both areas; banks that meet at its ends
   have one ψ (reference §1.2 rule 2), which ties the lake's shore pieces to the rivers' banks.
@@ -213,20 +214,12 @@ def mouth_strips(geoms, lake_ends, lakes: list[Lake]) -> list:
     return parts
 
 
-def _first_hit(ring, a: np.ndarray, b: np.ndarray):
-    """The point of ``ring`` nearest ``a`` on the segment a→b, or None."""
-    x = shapely.intersection(LineString([a, b]), ring)
-    if x.is_empty:
-        return None
-    pts = shapely.get_coordinates(x)
-    return pts[np.argmin(np.hypot(*(pts - a).T))]
-
-
 def split_water(polygons: list, lakes: list[Lake], eps_m: float, min_area_m2: float):
     """Split the oriented water polygons along the lakes' shores: (polygons, the lake of each
-    polygon or -1, the mouths as polylines (M, 2), each shared by a river and a lake polygon).
-    River pieces smaller than ``min_area_m2`` (slivers where the simplified outline left the
-    shore) are dropped."""
+    polygon or -1, the mouths' edges (2, 2) each: the edges a river polygon shares with a lake
+    polygon, which ``split_rings`` makes closing segments). River pieces smaller than
+    ``min_area_m2`` (slivers left along a shore) are dropped; shared stretches of outline get
+    the same vertices on both sides (:func:`_node_together`)."""
     from shapely.geometry.polygon import orient
 
     water = shapely.union_all(polygons) if len(polygons) > 1 else polygons[0]

@@ -153,6 +153,23 @@ def _solve_potentials(geoms, sides, pieces, island_of, ties=(), still=frozenset(
                         f"discharges are inconsistent around {what} "
                         f"differ by {psi[c] - psi[a]:g} m²/s along another path, not {dq:g}")
         psi[component] -= psi[component].min()
+    # pieces tied with no step (meeting end to end) hold one value, bit for bit (their ψ came
+    # along different paths of the search and may differ in the last bits)
+    same = {}
+    for up, down, step, _ in ties:
+        if step == 0.0:
+            a, b = same.get(up, up), same.get(down, down)
+            while same.get(a, a) != a:
+                a = same[a]
+            while same.get(b, b) != b:
+                b = same[b]
+            if a != b:
+                same[max(a, b)] = min(a, b)
+    for i in sorted(same):
+        r = i
+        while same.get(r, r) != r:
+            r = same[r]
+        psi[i] = psi[r]
     return psi
 
 

@@ -222,3 +222,35 @@ def test_particles_on_a_still_lake_in_the_running_world():
     on_lake = (p.status == rf.FlowStatus.INSIDE) & (np.hypot(*p.world_m[:, :2].T) < 79.0)
     assert on_lake.sum() >= 5
     assert np.allclose(p.world_m[on_lake, 2], level)
+
+
+def test_lakes_of_many_shapes_build():
+    """Ellipses of 4 to 23 vertices a quarter, turned any way, with one to three inlets and
+    one or two outlets meeting the shore at any angle: every one builds (the builder checks
+    its graph: water left of every bank, one ψ where banks meet, the discharges)."""
+    from shapely import affinity
+
+    rng = np.random.default_rng(7)
+    for _ in range(8):
+        a, c = rng.uniform(100, 250, 2)
+        lake = affinity.rotate(affinity.scale(shapely.Point(0, 0).buffer(
+            1, quad_segs=int(rng.integers(4, 24))), a, c), rng.uniform(0, 180))
+        n_in, n_out = int(rng.integers(1, 4)), int(rng.integers(1, 3))
+        angles = np.sort(rng.uniform(0, 2 * np.pi, n_in + n_out))
+        while np.min(np.diff(np.r_[angles, angles[0] + 2 * np.pi])) < 0.6:
+            angles = np.sort(rng.uniform(0, 2 * np.pi, n_in + n_out))
+        b = RiverNetworkBuilder()
+        for k, angle in enumerate(angles):
+            d = np.array([np.cos(angle), np.sin(angle)])
+            off = rng.uniform(-30, 30) * np.array([-d[1], d[0]])
+            line = [d * 900 + off, d * 460 + off, d * 20 + off]
+            width = float(rng.uniform(15, 40))
+            if k < n_in:
+                b.add_branch(line, width, discharge_m2s=float(rng.uniform(5, 30)))
+            else:
+                b.add_branch(line[::-1], width)
+        b.add_lake(lake)
+        graph = b.build()
+        assert len(graph.lakes()) == 1
+        inflow = sum(b.discharges_m2s[:n_in])
+        assert abs(sum(b.discharges_m2s[n_in:]) - inflow) < 1e-9 * inflow
