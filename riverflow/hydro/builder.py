@@ -254,7 +254,6 @@ class RiverNetworkBuilder:
                              f"{type(water).__name__}")
         if water.is_empty or not water.area > 0:
             raise GraphError("set_water_area: the water has no area")
-
         if not water.is_valid:
             raise GraphError(f"set_water_area: the water is not a valid polygon "
                              f"({shapely.is_valid_reason(water)}); repair it first "
@@ -300,16 +299,10 @@ class RiverNetworkBuilder:
                  for b, q, sj, ej in zip(branches, discharges, start_j, end_j)]
         eps = max(1e-3, 1e-3 * self.tolerance_m)
         polygon_lake: list[int] = []
-        mouths: list = []
         if self._water_area is None:
             polygons, cuts, islands = _water(geoms, junctions, self._islands, self.tolerance_m,
                                              self.fillet_fraction, lakes, lake_ends)
             end_cuts: list[float] = []
-            if lakes:
-                min_area = (0.01 * min(float(g.widths_m.min()) for g in geoms) ** 2
-                            if geoms else eps ** 2)
-                polygons, polygon_lake, mouths = _lakes.split_water(polygons, lakes, eps, min_area)
-                cuts = list(cuts) + mouths
         else:
             water = self._water_area
             if lakes:   # the lakes are water too
@@ -317,11 +310,11 @@ class RiverNetworkBuilder:
             polygons, cuts, islands, (end_cuts, cut_islands) = _given_water(
                 geoms, water, self._islands, self.tolerance_m)
             self.islands_cut = cut_islands
-            if lakes:
-                min_area = (0.01 * min(float(g.widths_m.min()) for g in geoms) ** 2
-                            if geoms else eps ** 2)
-                polygons, polygon_lake, mouths = _lakes.split_water(polygons, lakes, eps, min_area)
-                cuts = list(cuts) + mouths
+        if lakes:   # river areas and lake areas, sharing the mouths
+            min_area = (0.01 * min(float(g.widths_m.min()) for g in geoms) ** 2
+                        if geoms else eps ** 2)
+            polygons, polygon_lake, mouths = _lakes.split_water(polygons, lakes, eps, min_area)
+            cuts = list(cuts) + mouths
         try:
             rings, pieces = _strips.split_rings(polygons, cuts, eps)
         except ValueError as exc:
