@@ -69,7 +69,8 @@ def potential(net: FlowNetwork, xy: np.ndarray, slip: float) -> np.ndarray:
             continue
         vals = np.array([groups[g] for g in sorted(groups)])
         psis = net.group_psi[sorted(groups)]
-        if len(vals) < 2 or np.any((vals < 0) & (-vals < width2)):
+        one = net.comp_group1[comp] - net.comp_group0[comp] == 1   # a still lake's one shore
+        if (len(vals) < 2 and not (len(vals) == 1 and one)) or np.any((vals < 0) & (-vals < width2)):
             continue
         d = np.sqrt(np.abs(vals))
         if np.any(d <= 1e-9 * radius):

@@ -151,10 +151,32 @@ def run_check(args: argparse.Namespace) -> int:
         return 1
     report = builder.report
     print(report)
+    lakes = graph.lakes()
+    for line in lake_lines(graph):
+        print(line)
     print(f"usable: {len(report.links)} links, {report.length_m / 1000.0:.3f} km of river, "
           f"{len(report.repairs)} repairs; the hydro graph has {len(graph.curves)} curves and "
-          f"{len(graph.areas)} areas")
+          f"{len(graph.areas)} areas" + (f", {len(lakes)} of them lakes" if lakes else ""))
     return 0
+
+
+def lake_lines(graph) -> list[str]:
+    """One line per lake of a hydro graph: its area, level and mouths."""
+    import shapely
+
+    from riverflow.hydro.areas import area_ring
+
+    lines = []
+    for k in graph.lakes():
+        area = graph.areas[k]
+        poly = shapely.Polygon(area_ring(graph, k))
+        x, y = poly.representative_point().coords[0]
+        mouths = sum(1 for c, _ in area.curves if not graph.curves[c].is_bank)
+        level = (f"level {area.level_m:g} m" if area.level_m is not None
+                 else "level from the terrain")
+        lines.append(f"  lake (area {k}) near ({x:.1f}, {y:.1f}): {poly.area:,.0f} m², {level}, "
+                     + (f"{mouths} river mouths" if mouths else "no river (still water)"))
+    return lines
 
 
 def _point(text: str) -> tuple[float, float]:

@@ -403,7 +403,7 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
                 stream_order=None, reverse=None, origin_m="auto",
                 snap_m: float = DEFAULT_SNAP_M,
                 geometry: HydraulicGeometry = DEFAULT_GEOMETRY,
-                tolerance_m: float = 0.25, strict: bool = False) -> GisRiverBuilder:
+                tolerance_m: float = 0.25, strict: bool = False, lakes=None) -> GisRiverBuilder:
     """Stream centre lines from a GIS file as a filled river-network builder.
 
     Args:
@@ -422,6 +422,11 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
         discharge_m3s: volume discharge Q [m³/s] (mean annual flow): attribute or number.
         stream_order: Strahler order: attribute or number.
         reverse: attribute whose true values mark lines drawn upstream, or True (all are).
+        lakes: lakes the lines run through (:meth:`RiverNetworkBuilder.add_lake`): a polygon
+            file (its CRS; every polygon is a lake) or polygons (shapely, or (M, 2) arrays) in
+            the lines' CRS. A line is cut at a lake's shore; a link inside a lake is left out
+            (reported: the lake carries its water); a link that starts in a lake takes its
+            discharge from the lake.
         origin_m: (x, y) [m] subtracted from the (projected) coordinates, None for none, or
             "auto": the data's centre rounded to 1 km when it lies more than AUTO_ORIGIN_M
             from 0 (the module docstring); the CRS's false origin moves with it.
@@ -502,8 +507,12 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
         _check_geojson_crs(path, where)
     source_crs = crs if crs is not None else meta.get("crs")
     fall_xy = [f[1] for f in osm_falls]
-    xy, crs_out, crs_note = _project(np.vstack([p for _, _, p, _ in raw] + fall_xy), source_crs,
-                                     where, [(fids[k], attrs_of(k), len(p)) for k, _, p, _ in raw])
+    lake_geoms = _lake_polygons(lakes, source_crs, where) if lakes is not None else []
+    lake_xy = shapely.get_coordinates(lake_geoms) if lake_geoms else np.zeros((0, 2))
+    xy, crs_out, crs_note = _project(np.vstack([p for _, _, p, _ in raw] + [lake_xy] + fall_xy),
+                                     source_crs, where,
+                                     [(fids[k], attrs_of(k), len(p)) for k, _, p, _ in raw]
+                                     + [(-1, {"lakes": len(lake_geoms)}, len(lake_xy))])
     report.source_crs = _wkt(source_crs)
     xy = _move_to_origin(xy, origin_m, crs_out, crs_note, where, report)
     if fall_xy:             # the falls' points, projected and moved with the lines
@@ -512,6 +521,10 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
         at = np.cumsum([0] + [len(p) for p in fall_xy])
         osm_falls = [(name, fall_pts[at[i]:at[i + 1]], kind, drop, None)
                      for i, (name, _, kind, drop, _) in enumerate(osm_falls)]
+    if lake_geoms:
+        lake_geoms = list(shapely.set_coordinates(np.array(lake_geoms, dtype=object),
+                                                  xy[len(xy) - len(lake_xy):]))
+        xy = xy[:len(xy) - len(lake_xy)]
 
     cells = _lattice_cells([pts for _, _, pts, _ in raw])
     links: list[_Link] = []
@@ -551,12 +564,24 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
     builder.report = report
     builder.crs = report.crs
     _smooth_traced(links, plan, report)
+    lake_area = shapely.union_all(lake_geoms) if lake_geoms else None
     for link, (width, q, q3, wfrom, qfrom, lateral) in zip(links, plan):
         _report_substitutions(link, wfrom, qfrom, report)
         line = _simplify(link.points, width)
+        if lake_area is not None:
+            if lake_area.buffer(tolerance_m).contains(shapely.LineString(line)):
+                report.repair(link.name, link.fid, link.attrs, "inside a lake: left out (the "
+                              "lake carries its water)")
+                continue
+            if lake_area.distance(shapely.Point(line[0])) <= 0.75 * width:
+                q = None            # it starts in a lake: its discharge is the lake's outflow
         builder.add_branch(line, width, discharge_m2s=q, name=link.name)
         report.links.append(ImportedLink(link.name, link.fid, width, q, q3, wfrom, qfrom, lateral))
         report.attributes[link.name] = link.attrs
+    for poly in lake_geoms:
+        builder.add_lake(poly)
+    if lake_geoms:
+        report.derived["lakes"] = f"{len(lake_geoms)} given: flat water bodies the lines run through"
     _summarise(report)
     report.derived["length_m"] = round(sum(_length(lk.points) for lk in links if not lk.added), 1)
     if specs["elevation_m"] is not None:
@@ -960,6 +985,32 @@ def _lines(geoms, fids, attrs_of, where: str, report: RiverImport, invalid=None
 
 
 # -- coordinates ---------------------------------------------------------------------------------
+
+
+def _lake_polygons(lakes, source_crs, where: str) -> list:
+    """The lakes given to :func:`read_rivers` as shapely polygons in the lines' CRS."""
+    if isinstance(lakes, (str, Path)):
+        from riverflow.gis.water import _read_polygons
+
+        features, lake_crs, _ = _read_polygons(Path(lakes), None)
+        polys = [g for _, g, _ in features if g is not None and not g.is_empty]
+        if lake_crs and source_crs:
+            pyproj = require("pyproj", f"projecting the lakes of {where}")
+            a, b = pyproj.CRS.from_user_input(lake_crs), pyproj.CRS.from_user_input(source_crs)
+            if a != b:
+                to = pyproj.Transformer.from_crs(a, b, always_xy=True)
+                polys = [shapely.transform(g, lambda p: np.column_stack(
+                    to.transform(p[:, 0], p[:, 1]))) for g in polys]
+    else:
+        polys = [g if isinstance(g, shapely.Geometry) else shapely.Polygon(np.asarray(g, float))
+                 for g in lakes]
+    out = []
+    for k, g in enumerate(polys):
+        parts = [p for p in shapely.get_parts(shapely.make_valid(g)) if p.geom_type == "Polygon"]
+        if not parts:
+            raise GraphError(f"{where}: lake {k} is not a polygon with an area")
+        out += parts
+    return out
 
 
 def _project(xy: np.ndarray, source, where: str, features) -> tuple[np.ndarray, str | None, str]:

@@ -44,8 +44,10 @@ polygons without area are left out and reported, and a file with no water, an in
 every free end of the water, or a network that cannot be built raise
 :class:`~riverflow.GraphError` naming the file and what is wrong.
 
-Not yet (issue 22): lakes as flat water bodies (a polygon tagged ``water=lake`` is read as a
-channel like any other). The water tiles are the polygon (through the graph's water area)
+Lakes: polygons tagged ``water=lake|reservoir|pond`` (an OSM tag, or a file's ``water``
+attribute) are lakes (:meth:`~riverflow.RiverNetworkBuilder.add_lake`): the rivers' water is
+cut open at their shores (their ends there are open ends), a channel starting on a shore
+takes its discharge from the lake, and lakes alone are still water. The water tiles are the polygon (through the graph's water area)
 clipped per tile and triangulated per grid cell (:mod:`riverflow.scenes.meshes`).
 """
 from __future__ import annotations
@@ -73,6 +75,11 @@ RASTER_SUFFIXES = (".tif", ".tiff", ".vrt", ".img", ".asc")
 VECTOR_SUFFIXES = (".shp", ".gpkg", ".geojson", ".json", ".osm", ".pbf")
 OSM_WATER = ("river", "canal", "lake", "reservoir", "pond", "oxbow", "stream", "riverbank")
 """``water=`` values of OSM ``natural=water`` areas that are read (and ``waterway=riverbank``)."""
+LAKE_WATER = ("lake", "reservoir", "pond")
+"""``water=`` values (an OSM tag, or a polygon file's ``water`` attribute) read as lakes: flat
+water bodies (:meth:`~riverflow.RiverNetworkBuilder.add_lake`)."""
+LAKE_FLAG = "_riverflow_lake"
+"""The attribute :func:`_read_polygons` sets on the features tagged as lakes."""
 SPUR_WIDTHS = 1.0
 """Skeleton spurs shorter than this many local widths (2 × the inscribed radius where they
 branch off) are pruned."""
@@ -320,13 +327,21 @@ def read_water(path, *, layer: str | int | None = None, lines=None, inlets=None,
     report.derived["outline"] = (f"the polygons' rings, simplified by at most {simplify_m:g} m"
                                  + (f" (half of the mask's {cell:g} m cells, its stairs "
                                     f"smoothed over {MASK_SMOOTH_CELLS:g} cells)" if cell else ""))
+    lakes, rivers = _lakes_of(features, polygons, water, report, tolerance_m)
     builder = WaterBuilder(tolerance_m)
     builder.report = report
     builder.crs = report.crs
     builder.water = water
-    builder._fill = lambda forced: _fill(builder, water, line_geoms, inlet_xy, outlet_xy, dem,
+    if rivers is None:          # lakes only: still water
+        for lake in lakes:
+            builder.add_lake(lake)
+        return builder
+    if lakes:   # the rivers' water is cut open where it meets a lake
+        extent = shapely.difference(extent if extent is not None else shapely.box(*water.bounds),
+                                    shapely.union_all(lakes))
+    builder._fill = lambda forced: _fill(builder, rivers, line_geoms, inlet_xy, outlet_xy, dem,
                                          discharge_m3s, geometry, tolerance_m, where, forced,
-                                         extent)
+                                         extent, lakes)
     forced: list[tuple[float, float]] = []
     while True:
         try:
@@ -365,14 +380,20 @@ def _hole_in_loop(builder: WaterBuilder, text: str):
 
 def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, discharge_m3s,
           geometry: HydraulicGeometry, tolerance_m: float, where: str, forced,
-          extent=None) -> None:
+          extent=None, lakes=()) -> None:
     """Find the channels of the water and put them into the builder (anew: what it held is
     dropped); holes containing a point of ``forced`` are free islands. ``extent``: the data's
-    extent (a raster's; default the water's bounding box), where the water is cut open."""
+    extent (a raster's; default the water's bounding box), where the water is cut open.
+    ``lakes``: the lakes (polygons [m]) the water runs into and out of; a channel that starts
+    on a lake's shore takes its discharge from the lake."""
     report = builder.report
     crs_out = report.crs
     builder._branches.clear()
     builder._islands.clear()
+    builder._lakes.clear()
+    for lake in lakes:
+        builder.add_lake(lake)
+    shores = shapely.union_all([lk.exterior for lk in lakes]) if lakes else None
     report.links.clear()
     report.attributes.clear()
     report.repairs[:] = [r for r in report.repairs if not r.feature.startswith("water body")]
@@ -392,7 +413,7 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
                           f"rest: " + (f"a speck (under {SPECK_FRACTION:g} of the water)"
                                        if speck else
                                        f"no channel longer than {MIN_CHANNEL_WIDTHS:g} times "
-                                       f"its width (a pond; lakes are not read yet)")
+                                       f"its width (a pond; tag it water=pond to read it as a lake)")
                           + ": left out")
             continue
         networks.append(net)
@@ -412,7 +433,10 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
         for hole in net.islands:
             builder.add_island(np.asarray(hole.exterior.coords)[:-1])
         for ch in net.channels:
-            builder.add_branch(ch.points, ch.widths, discharge_m2s=ch.discharge_m2s, name=ch.name)
+            from_lake = (shores is not None and shores.distance(shapely.Point(ch.points[0]))
+                         <= 0.5 * float(ch.widths[0]))
+            builder.add_branch(ch.points, ch.widths, name=ch.name,
+                               discharge_m2s=None if from_lake else ch.discharge_m2s)
             report.links.append(ImportedLink(ch.name, -1, float(np.median(ch.widths)),
                                              ch.discharge_m2s, geometry.volume(ch.discharge_m2s),
                                              "the water's outline", ch.discharge_from, 0.0))
@@ -508,6 +532,35 @@ def _smooth_cells(poly, cell: float):
     return out if out.is_valid else shapely.make_valid(out)
 
 
+def _lakes_of(features, polygons, water, report: RiverImport, tolerance_m: float):
+    """(the lakes: polygons [m] of the water where features tagged as lakes lie, without
+    holes; the rest of the water, None when nothing is left)."""
+    tagged = [g for (_, _, attrs), g in zip(features, polygons)
+              if attrs.get(LAKE_FLAG) and g is not None and not g.is_empty]
+    if not tagged:
+        return [], water
+    area = shapely.intersection(water, shapely.make_valid(shapely.union_all(tagged)))
+    lakes = []
+    for p in shapely.get_parts(area):
+        if p.geom_type != "Polygon" or not p.area > (4.0 * tolerance_m) ** 2:
+            continue
+        x, y = p.representative_point().coords[0]
+        if len(p.interiors):
+            report.repair("lake", None, None, f"the lake near ({x:.1f}, {y:.1f}) has "
+                          f"{len(p.interiors)} islands; islands in lakes are not modelled yet: "
+                          f"filled (water)")
+            p = shapely.Polygon(p.exterior)
+        lakes.append(p)
+    if not lakes:
+        return [], water
+    rest = shapely.difference(water, shapely.union_all(lakes))
+    rest = shapely.union_all([p for p in shapely.get_parts(rest)
+                              if p.geom_type == "Polygon" and p.area > (4.0 * tolerance_m) ** 2])
+    report.derived["lakes"] = (f"{len(lakes)} (polygons tagged water="
+                               f"{'|'.join(LAKE_WATER)}): flat water bodies")
+    return lakes, (None if rest.is_empty else rest)
+
+
 def _read_polygons(path: Path, layer):
     """[(fid, polygon, attrs)] of a vector file's polygon layer, its CRS and layer name."""
     pyogrio = require("pyogrio", f"reading {path}")
@@ -542,6 +595,10 @@ def _read_polygons(path: Path, layer):
     out = []
     for i in np.flatnonzero(keep):
         attrs = {n: _plain(table[n][i]) for n in names}
+        water = (_hstore(table["other_tags"][i]).get("water") if osm and "other_tags" in table
+                 else attrs.get("water"))
+        if isinstance(water, str) and water.strip().lower() in LAKE_WATER:
+            attrs[LAKE_FLAG] = True
         out.append((int(fids[i]), geoms[i], attrs))
     if not out:
         raise GraphError(f"{where}: no features" + (" tagged natural=water or "

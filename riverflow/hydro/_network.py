@@ -18,10 +18,12 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
+from scipy.spatial import cKDTree
 from shapely.geometry import LineString, Point
 
 from riverflow.hydro._strips import Piece, Ring
-from riverflow.hydro.graph import NO_CURVE, NO_POTENTIAL, Area, Curve, CurveType, GraphError, HydroGraph
+from riverflow.hydro.graph import (LAKE_INFO, LAKE_LEVEL_INFO, NO_CURVE, NO_POTENTIAL, Area, Curve,
+                                   CurveType, GraphError, HydroGraph)
 from riverflow.hydro.nearest import PolylineIndex, first_per_group, ray_hits, stations
 
 AXIS_WIDTH_FACTOR = 1.1
@@ -52,6 +54,17 @@ class BranchGeometry:
         """Point (2,), unit left normal (2,) and half-width [m] at an arc-length fraction."""
         p, n, w = stations(self.centerline_m, np.array([fraction]), self.widths_m)
         return p[0], n[0], 0.5 * w[0]
+
+
+@dataclass
+class LakeParts:
+    """The lakes of a build (:mod:`riverflow.hydro._lakes`): the lakes, per lake its axes
+    [(points (2, 2) drawn downstream, width of the river at the mouth [m])], and per water
+    polygon its lake (-1: a river polygon)."""
+
+    lakes: list
+    axes: list[list[tuple[np.ndarray, float]]]
+    polygon_lake: list[int]
 
 
 def _first_hits(origins: np.ndarray, directions: np.ndarray, reach_m: np.ndarray,
@@ -97,9 +110,11 @@ def _branch_sides(geoms: list[BranchGeometry], pieces: list[Piece], island_of: d
     return sides
 
 
-def _solve_potentials(geoms, sides, pieces, island_of, ties=()) -> np.ndarray:
+def _solve_potentials(geoms, sides, pieces, island_of, ties=(), still=frozenset()) -> np.ndarray:
     """ψ of every non-island piece [m²/s], minimum 0 in each connected network; ``ties``
-    (upstream piece, downstream piece, ψ step [m²/s], junction point) across inlets."""
+    (upstream piece, downstream piece, ψ step [m²/s], junction point) across inlets and where
+    pieces meet; ``still``: pieces that may have no branch along them (the shore of a lake
+    with no river: ψ 0)."""
     adj: dict[int, list[tuple[int, float, int]]] = {}
     for b, (l, r) in enumerate(sides):
         q = geoms[b].discharge_m2s
@@ -110,7 +125,9 @@ def _solve_potentials(geoms, sides, pieces, island_of, ties=()) -> np.ndarray:
         adj.setdefault(down, []).append((up, -step, -1 - k))
     psi = np.full(len(pieces), np.nan)
     for i, piece in enumerate(pieces):
-        if i not in island_of and i not in adj:
+        if i in still and i not in adj:
+            psi[i] = 0.0
+        elif i not in island_of and i not in adj:
             x, y = piece.points.mean(axis=0)
             raise GraphError(f"the water has a shore near ({x:.1f}, {y:.1f}) that no branch runs "
                              f"along (a branch loops onto itself or branches overlap)")
@@ -129,11 +146,30 @@ def _solve_potentials(geoms, sides, pieces, island_of, ties=()) -> np.ndarray:
                 elif abs(psi[c] - psi[a] - dq) > 1e-6 * max(1.0, abs(dq)):
                     what = (f"branch {geoms[b].name!r}: its banks" if b >= 0 else
                             "the lateral inflow at ({:.1f}, {:.1f}): the banks beside its "
-                            "inlet".format(*ties[-1 - b][3]))
+                            "inlet".format(*ties[-1 - b][3]) if ties[-1 - b][2] != 0.0 else
+                            "the shores meeting at ({:.1f}, {:.1f}): their ψ".format(
+                                *ties[-1 - b][3]))
                     raise GraphError(
                         f"discharges are inconsistent around {what} "
                         f"differ by {psi[c] - psi[a]:g} m²/s along another path, not {dq:g}")
         psi[component] -= psi[component].min()
+    # pieces tied with no step (meeting end to end) hold one value, bit for bit (their ψ came
+    # along different paths of the search and may differ in the last bits)
+    same = {}
+    for up, down, step, _ in ties:
+        if step == 0.0:
+            a, b = same.get(up, up), same.get(down, down)
+            while same.get(a, a) != a:
+                a = same[a]
+            while same.get(b, b) != b:
+                b = same[b]
+            if a != b:
+                same[max(a, b)] = min(a, b)
+    for i in sorted(same):
+        r = i
+        while same.get(r, r) != r:
+            r = same[r]
+        psi[i] = psi[r]
     return psi
 
 
@@ -358,11 +394,31 @@ class _Nodes:
         return self.index[key]
 
 
+def _meeting_ties(pieces: list[Piece], eps_m: float) -> list:
+    """(piece, piece, 0, point) for every two open pieces that meet end to end: banks that
+    meet at a node have one ψ (reference §1.2 rule 2; where a river's banks meet a lake's
+    shore at a mouth)."""
+    ends, owner = [], []
+    for i, piece in enumerate(pieces):
+        if not piece.closed:
+            ends += [piece.points[0], piece.points[-1]]
+            owner += [i, i]
+    if len(ends) < 2:
+        return []
+    ends = np.asarray(ends)
+    ties = []
+    for a, b in sorted(cKDTree(ends).query_pairs(eps_m)):
+        if owner[a] != owner[b]:
+            ties.append((owner[a], owner[b], 0.0, tuple(ends[a])))
+    return ties
+
+
 def assemble_graph(geoms: list[BranchGeometry], rings: list[Ring], pieces: list[Piece],
-                   islands: list, junctions: np.ndarray, inlets: dict[int, float] | None = None
-                   ) -> HydroGraph:
+                   islands: list, junctions: np.ndarray, inlets: dict[int, float] | None = None,
+                   lakes: LakeParts | None = None) -> HydroGraph:
     """Make the hydro graph from the branches and the cut water outline; ``inlets``: lateral
-    inflow [m²/s] per junction (module docstring)."""
+    inflow [m²/s] per junction (module docstring); ``lakes``: the lakes' axes and polygons
+    (:mod:`riverflow.hydro._lakes`)."""
     island_of: dict[int, int] = {}
     for i, piece in enumerate(pieces):
         if piece.closed and rings[piece.ring].hole:
@@ -370,11 +426,20 @@ def assemble_graph(geoms: list[BranchGeometry], rings: list[Ring], pieces: list[
             for k, isl in enumerate(islands):
                 if hole.contains(isl.outline.representative_point()):
                     island_of[i] = k
-    sides = _branch_sides(geoms, pieces, island_of)
+    lake_of: dict[int, int] = {}
+    if lakes is not None:
+        for i, piece in enumerate(pieces):
+            k = lakes.polygon_lake[rings[piece.ring].polygon]
+            if k >= 0:
+                lake_of[i] = k
+    sides = _branch_sides(geoms, pieces, {**island_of, **lake_of}) if geoms else []
     ties: list = []
     if inlets:
         sides, ties = _cut_inlets(geoms, sides, rings, pieces, island_of, junctions, inlets)
-    psi = _solve_potentials(geoms, sides, pieces, island_of, ties)
+    if lakes is not None:
+        ties = list(ties) + _meeting_ties(pieces, 1e-6 * max(1.0, float(np.abs(
+            np.vstack([p.points for p in pieces])).max())))
+    psi = _solve_potentials(geoms, sides, pieces, island_of, ties, frozenset(lake_of))
     _island_potentials(geoms, sides, pieces, islands, island_of, psi)
 
     nodes = _Nodes()
@@ -392,11 +457,22 @@ def assemble_graph(geoms: list[BranchGeometry], rings: list[Ring], pieces: list[
                               type=CurveType.AXIS))
             axis_lines.append(LineString(pts))
             axis_width.append(AXIS_WIDTH_FACTOR * wmax + AXIS_MARGIN_M)
+    lake_axes: list[list[int]] = []
+    for lines in (lakes.axes if lakes is not None else []):
+        lake_axes.append([])
+        for pts, w in lines:
+            lake_axes[-1].append(len(axes))
+            axes.append(Curve(nodes(pts[0]), nodes(pts[-1]), pts[1:-1], np.zeros(len(pts) - 2, bool),
+                              type=CurveType.AXIS))
+            axis_lines.append(LineString(pts))
+            axis_width.append(AXIS_WIDTH_FACTOR * w + AXIS_MARGIN_M)
 
     piece_axes: dict[int, set[int]] = {}
     for b, (l, r) in enumerate(sides):
         for pc in (l, r):
             piece_axes.setdefault(pc, set()).update(branch_axes[b])
+    for pc, k in lake_of.items():
+        piece_axes[pc] = set(lake_axes[k])
     for pc, k in island_of.items():
         c = islands[k].outline.centroid
         b = min(range(len(geoms)), key=lambda i: shapely.distance(c, LineString(geoms[i].centerline_m)))
@@ -404,7 +480,9 @@ def assemble_graph(geoms: list[BranchGeometry], rings: list[Ring], pieces: list[
     # a bank beside an inlet may reach past it (the nearest point to the junction is not
     # always straight across): it may link to the axes on either side of the inlet
     extra: dict[int, set[int]] = {}
-    for up, dn, _, _ in ties:
+    for up, dn, step, _ in ties:
+        if step == 0.0 and (up in lake_of) != (dn in lake_of):
+            continue    # a river's bank meeting a lake's shore: each keeps its own axes
         extra.setdefault(up, set()).update(piece_axes.get(dn, ()))
         extra.setdefault(dn, set()).update(piece_axes.get(up, ()))
     for a, more in extra.items():
@@ -429,13 +507,19 @@ def assemble_graph(geoms: list[BranchGeometry], rings: list[Ring], pieces: list[
 
     curves: list[Curve] = list(axes)
     areas: list[Area] = []
-    ring_curves: list[list[int]] = []
+    ring_curves: list[list] = []
+    closing_at: dict[tuple[int, int], int] = {}
     for ring in rings:
         ring_curves.append([])
         for kind, item in ring.items:
             if kind == "closing":
-                ring_curves[-1].append(len(curves))
-                curves.append(Curve(nodes(item[0]), nodes(item[-1]), item[1:-1],
+                ends = (nodes(item[0]), nodes(item[-1]))
+                if ends[::-1] in closing_at:    # a mouth, shared with a lake: one curve
+                    ring_curves[-1].append((closing_at[ends[::-1]], 1))
+                    continue
+                closing_at[ends] = len(curves)
+                ring_curves[-1].append((len(curves), 0))
+                curves.append(Curve(ends[0], ends[1], item[1:-1],
                                     np.zeros(len(item) - 2, bool), width_m=0.0,
                                     type=CurveType.CLOSING_SEGMENT, potential=NO_POTENTIAL,
                                     river=NO_CURVE))
@@ -447,13 +531,19 @@ def assemble_graph(geoms: list[BranchGeometry], rings: list[Ring], pieces: list[
         curves.append(Curve(nodes(pts[0]), nodes(pts[-1]), pts[1:-1], np.zeros(len(pts) - 2, bool),
                             width_m=axis_width[axis], type=CurveType.BANK, potential=value,
                             river=axis))
-    for loop in ring_curves:
+    for ring, loop in zip(rings, ring_curves):
         flat = []
         for entry in loop:
-            if isinstance(entry, tuple):
-                flat.extend(bank_index[b] for b in piece_banks[entry[1]])
+            if entry[0] == "piece":
+                flat.extend((bank_index[b], 0) for b in piece_banks[entry[1]])
             else:
                 flat.append(entry)
-        areas.append(Area([(c, 0) for c in flat]))
+        k = lakes.polygon_lake[ring.polygon] if lakes is not None else -1
+        if k >= 0 and not ring.hole:
+            level = lakes.lakes[k].level_m
+            areas.append(Area(flat, LAKE_INFO if level is None else LAKE_LEVEL_INFO,
+                              level_m=level))
+        else:
+            areas.append(Area(flat))
     return HydroGraph(np.asarray(nodes.points).reshape(-1, 2), curves, areas,
                       source="RiverNetworkBuilder")

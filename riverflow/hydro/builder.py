@@ -45,9 +45,9 @@ import shapely.geometry
 import shapely.ops
 from scipy.spatial import cKDTree
 
-from riverflow.hydro import _strips
+from riverflow.hydro import _lakes, _strips
 from riverflow.hydro._checks import graph_problems
-from riverflow.hydro._network import BranchGeometry, assemble_graph
+from riverflow.hydro._network import BranchGeometry, LakeParts, assemble_graph
 from riverflow.hydro.bezier import flatten_curve
 from riverflow.hydro.falls import (FALL_KINDS, FALL_MIN_DROP_M, RAPIDS_MIN_SLOPE, Fall, Rapid,
                                    channel_depth_m, find_falls, find_rapids)
@@ -145,6 +145,7 @@ class RiverNetworkBuilder:
         self._water_area: shapely.Geometry | None = None
         self.end_cuts_m2: list[float] = []
         self.islands_cut: list[int] = []
+        self._lakes: list[_lakes.Lake] = []
 
     # -- input --------------------------------------------------------------------------
 
@@ -376,6 +377,30 @@ class RiverNetworkBuilder:
         self._islands.append(_Island(poly, None if potential is None else float(potential)))
         return index
 
+    def add_lake(self, polygon, level_m: float | None = None) -> int:
+        """Add a lake: a water body with a flat surface (``polygon``: a shapely Polygon or an
+        (M, 2) outline [m]); returns its index.
+
+        Branches that reach its shore run into it (an end inside the lake or within 0.75
+        of the river's width of its shore is cut or drawn to the shore; a branch that runs
+        through it becomes an inlet and an outlet). The lake is a junction of its inlets and
+        outlets for the discharges; its shore carries one ψ between two mouths, so the flow in
+        it runs slowly from its inlets to its outlets, tangent to the shore
+        (:mod:`riverflow.hydro._lakes`). A lake that no river touches is still water; one with
+        inflow but no outlet (or outflow but no inflow) is refused. ``level_m``: its water
+        level [m] (None: from the terrain, :func:`riverflow.landscape`).
+
+        Raises:
+            GraphError: not a simple polygon with an area, a non-finite level, or islands in
+                the polygon (not supported yet).
+        """
+        lake = _lakes.check_lake(polygon, level_m, len(self._lakes))
+        for other in self._lakes:
+            if other.polygon.intersects(lake.polygon):
+                raise GraphError(f"{lake.name} touches or overlaps {other.name}")
+        self._lakes.append(lake)
+        return len(self._lakes) - 1
+
     def set_water_area(self, water) -> None:
         """Give the water itself instead of making it from the branches' strips.
 
@@ -426,37 +451,62 @@ class RiverNetworkBuilder:
 
     def build(self) -> HydroGraph:
         """Make the hydro graph. Raises :class:`GraphError` naming the branch or junction."""
-        if not self._branches:
+        if not self._branches and not self._lakes:
             raise GraphError("no branches: add at least one with add_branch()")
         branches = [_BranchInput(b.name, b.centerline_m.copy(), b.widths_m.copy(), b.discharge_m2s)
                     for b in self._branches]
-        start_j, end_j, junctions = _find_junctions(branches)
-        order = _topological_order(branches, start_j, end_j, junctions)
-        discharges, inlets = _resolve_discharges(branches, order, start_j, end_j, junctions,
-                                                 self.lateral_inflow)
+        lakes = self._lakes
+        branches, lake_ends, origin = _lakes.cut_branches(branches, lakes, self.tolerance_m)
+        if branches:
+            start_j, end_j, junctions = _find_junctions(branches)
+        else:
+            start_j, end_j, junctions = [], [], np.zeros((0, 2))
+        n_junctions = len(junctions)
+        start_j, end_j, all_junctions = _lakes.lake_junctions(branches, lakes, lake_ends,
+                                                              start_j, end_j, junctions)
+        order = _topological_order(branches, start_j, end_j, all_junctions)
+        discharges, inlets = _resolve_discharges(branches, order, start_j, end_j, all_junctions,
+                                                 self.lateral_inflow, n_junctions)
         geoms = [BranchGeometry(b.name, b.centerline_m, b.widths_m, q, sj, ej)
                  for b, q, sj, ej in zip(branches, discharges, start_j, end_j)]
+        eps = max(1e-3, 1e-3 * self.tolerance_m)
+        polygon_lake: list[int] = []
         if self._water_area is None:
             polygons, cuts, islands = _water(geoms, junctions, self._islands, self.tolerance_m,
-                                             self.fillet_fraction)
+                                             self.fillet_fraction, lakes, lake_ends)
             end_cuts: list[float] = []
         else:
+            water = self._water_area
+            if lakes:   # the lakes are water too
+                water = shapely.union_all([water] + [lk.polygon for lk in lakes])
             polygons, cuts, islands, (end_cuts, cut_islands) = _given_water(
-                geoms, self._water_area, self._islands, self.tolerance_m)
+                geoms, water, self._islands, self.tolerance_m)
             self.islands_cut = cut_islands
-        eps = max(1e-3, 1e-3 * self.tolerance_m)
+        if lakes:   # river areas and lake areas, sharing the mouths
+            min_area = (0.01 * min(float(g.widths_m.min()) for g in geoms) ** 2
+                        if geoms else eps ** 2)
+            polygons, polygon_lake, mouths = _lakes.split_water(polygons, lakes, eps, min_area)
+            cuts = list(cuts) + mouths
         try:
             rings, pieces = _strips.split_rings(polygons, cuts, eps)
         except ValueError as exc:
             raise GraphError(f"cannot cut the water outline at the river ends: {exc}") from None
-        graph = assemble_graph(geoms, rings, pieces, islands, junctions, inlets)
+        lake_parts = None
+        if lakes:
+            lake_parts = _lakes_of_graph(geoms, lakes, lake_ends, polygon_lake, self.tolerance_m)
+        graph = assemble_graph(geoms, rings, pieces, islands, all_junctions[:n_junctions],
+                               inlets, lake_parts)
         problems = graph_problems(graph, [(g.centerline_m, g.widths_m, g.discharge_m2s) for g in geoms])
         if problems:
             raise GraphError("the network gives an invalid hydro graph: " + "; ".join(problems[:5]))
-        self.discharges_m2s = list(discharges)
-        self.inlets_m2s = [((float(junctions[j][0]), float(junctions[j][1])), s)
+        first = {}
+        for k, i in enumerate(origin):
+            first.setdefault(i, k)
+        self.discharges_m2s = [float(discharges[first[i]]) for i in range(len(self._branches))]
+        self.inlets_m2s = [((float(all_junctions[j][0]), float(all_junctions[j][1])), s)
                            for j, s in sorted(inlets.items())]
-        self.water_polygon = polygons[0] if len(polygons) == 1 else shapely.MultiPolygon(polygons)
+        self.water_polygon = (polygons[0] if len(polygons) == 1 else
+                              shapely.union_all(polygons) if lakes else shapely.MultiPolygon(polygons))
         self.end_cuts_m2 = end_cuts
         graph.crs = self.crs
         graph.water_levels = self.water_levels
@@ -542,6 +592,29 @@ def _rapid_on(g: BranchGeometry, a: float, e: float, drop_m: float, in_levels: b
 
     return Rapid(g.name, a, e, float(drop_m), point(0.5 * (a + e)), point(a), point(e),
                  in_levels)
+
+
+def _lakes_of_graph(geoms, lakes, lake_ends, polygon_lake, tolerance_m):
+    """What :func:`assemble_graph` needs of the lakes: per lake its axes (from each mouth to
+    its centre, :func:`_lakes.lake_axes`) with the width of the river there, and the lake of
+    each water polygon."""
+    axes = []
+    for k, lake in enumerate(lakes):
+        points, outlet, widths = [], [], []
+        for g, (ls, le) in zip(geoms, lake_ends):
+            if le == k:
+                points.append(g.centerline_m[-1])
+                outlet.append(False)
+                widths.append(float(g.widths_m[-1]))
+            if ls == k:
+                points.append(g.centerline_m[0])
+                outlet.append(True)
+                widths.append(float(g.widths_m[0]))
+        lines = _lakes.lake_axes(lake, points, outlet, tolerance_m)
+        if not widths:
+            widths = [2.0 * float(np.hypot(*(lines[0][1] - lines[0][0])))]
+        axes.append(list(zip(lines, widths)))
+    return LakeParts(lakes, axes, polygon_lake)
 
 
 # -- topology -----------------------------------------------------------------------------
@@ -663,10 +736,11 @@ def _topological_order(branches, start_j, end_j, junctions) -> list[int]:
     return order
 
 
-def _resolve_discharges(branches, order, start_j, end_j, junctions, lateral: bool = False
-                        ) -> tuple[list[float], dict[int, float]]:
+def _resolve_discharges(branches, order, start_j, end_j, junctions, lateral: bool = False,
+                        n_lateral: int | None = None) -> tuple[list[float], dict[int, float]]:
     """Discharge of every branch [m²/s] (sources given, sums at confluences, splits) and the
-    lateral inflow [m²/s] per junction that has one (only with ``lateral``)."""
+    lateral inflow [m²/s] per junction that has one (only with ``lateral``, and only at the
+    first ``n_lateral`` junctions: a lake's outflow is its inflow)."""
     q: list[float | None] = [None] * len(branches)
     inlets: dict[int, float] = {}
     ins_of, outs_of = by_junction(start_j, end_j)
@@ -698,7 +772,7 @@ def _resolve_discharges(branches, order, start_j, end_j, junctions, lateral: boo
             wsum = sum(branches[k].widths_m[0] for k in missing)
             for k in missing:
                 given[k] = rest * branches[k].widths_m[0] / wsum
-        elif lateral and len(outs) == 1 and rest < -tol:
+        elif lateral and len(outs) == 1 and rest < -tol and (n_lateral is None or j < n_lateral):
             inlets[j] = -rest
         elif abs(rest) > tol:
             raise GraphError(f"{where}: inflow {inflow:g} m²/s ≠ outflow {sum(given.values()):g} m²/s")
@@ -753,8 +827,13 @@ def _round_junctions(river, parts: list, geoms: list[BranchGeometry], junctions:
 
 
 def _water(geoms: list[BranchGeometry], junctions: np.ndarray, islands: list[_Island],
-           tolerance_m: float, fillet_fraction: float = FILLET_FRACTION):
-    """Oriented water polygons, free-end cuts and validated islands."""
+           tolerance_m: float, fillet_fraction: float = FILLET_FRACTION, lakes=(),
+           lake_ends=None):
+    """Oriented water polygons, free-end cuts and validated islands; ``lakes`` join the water
+    (``lake_ends``: the lake each branch starts / ends on, -1: none)."""
+    lake_polys = [lk.polygon for lk in lakes]
+    if not geoms:
+        return [shapely.geometry.polygon.orient(p, 1.0) for p in lake_polys], [], []
     strips, cuts = [], []
     for g in geoms:
         line, w = _strips.extend_ends(g.centerline_m, g.widths_m, g.start_junction >= 0,
@@ -785,21 +864,24 @@ def _water(geoms: list[BranchGeometry], junctions: np.ndarray, islands: list[_Is
             continue
         ga, gb = geoms[a], geoms[b]
         shared = {ga.start_junction, ga.end_junction} & {gb.start_junction, gb.end_junction} - {-1}
-        if not shared:
+        in_lakes = [lake_polys[j - len(junctions)] for j in shared if j >= len(junctions)]
+        shared = {j for j in shared if j < len(junctions)}
+        if not shared and not in_lakes:
             raise GraphError(f"branches {ga.name!r} and {gb.name!r} overlap but do not meet at a "
                              f"junction (end points must coincide to join; split a branch where "
                              f"another one flows into it)")
         common = shapely.intersection(strips[a], strips[b])
-        near = shapely.union_all([discs[j] for j in sorted(shared)])
+        near = shapely.union_all([discs[j] for j in sorted(shared)] + in_lakes)
         for part in getattr(common, "geoms", [common]):
             if part.area > tolerance_m ** 2 and not part.intersects(near):
                 x, y = part.representative_point().coords[0]
                 raise GraphError(f"branches {ga.name!r} and {gb.name!r} overlap near ({x:.1f}, "
                                  f"{y:.1f}), away from the junction they share")
     min_width = min(float(g.widths_m.min()) for g in geoms)
-    river = _strips.drop_slivers(shapely.union_all(strips + discs), 1e-4 * min_width ** 2)
+    extra = (_lakes.mouth_strips(geoms, lake_ends, lakes) + lake_polys) if lakes else []
+    river = _strips.drop_slivers(shapely.union_all(strips + discs + extra), 1e-4 * min_width ** 2)
     if fillet_fraction > 0.0:
-        river = _round_junctions(river, strips + discs, geoms, junctions, cuts,
+        river = _round_junctions(river, strips + discs + extra, geoms, junctions, cuts,
                                  fillet_fraction, 1e-4 * min_width ** 2)
     valid_islands = []
     for k, isl in enumerate(islands):
@@ -812,7 +894,10 @@ def _water(geoms: list[BranchGeometry], junctions: np.ndarray, islands: list[_Is
     water = river
     if islands:
         water = shapely.difference(river, shapely.union_all([i.outline for i in islands]))
-    return _strips.oriented_polygons(water, 0.2 * tolerance_m), cuts, valid_islands
+    # with lakes the outline is kept as made: simplified, it would leave the lakes' shores,
+    # which the rivers' outlines must share exactly (_lakes.split_water)
+    return (_strips.oriented_polygons(water, 0.0 if lakes else 0.2 * tolerance_m), cuts,
+            valid_islands)
 
 
 # -- a given water area ---------------------------------------------------------------------

@@ -271,9 +271,15 @@ def _oriented_caps(graph: HydroGraph, poly: dict) -> dict[int, np.ndarray]:
     """Closing segments of water areas, as polylines with the water on their left.
 
     An area's banks say on which side of the loop traversal the water is (a bank traversed
-    start→end has the water on the left); its zero-width curves get the same side.
+    start→end has the water on the left); its zero-width curves get the same side. A closing
+    segment of two areas (a lake's mouth, shared with its river) has water on both sides: it
+    is no cap.
     """
     caps: dict[int, np.ndarray] = {}
+    uses: dict[int, int] = {}
+    for area in graph.areas:
+        for c in {c for c, _ in area.curves}:
+            uses[c] = uses.get(c, 0) + 1
     for area in graph.areas:
         water_left = None
         for c, o in area.curves:
@@ -286,7 +292,7 @@ def _oriented_caps(graph: HydroGraph, poly: dict) -> dict[int, np.ndarray]:
             if not 0 <= c < len(graph.curves):
                 continue
             curve = graph.curves[c]
-            if curve.type == CurveType.BANK or curve.width_m > 0.0:
+            if curve.type == CurveType.BANK or curve.width_m > 0.0 or uses[c] > 1:
                 continue
             p = poly[c]
             forward = (o == 0) == water_left

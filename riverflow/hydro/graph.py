@@ -27,6 +27,13 @@ NO_POTENTIAL = -1.0
 NO_CURVE = -1
 """Marker for "no curve" in ``Curve.river`` and ``Curve.parent``."""
 
+LAKE_INFO = 2
+"""``Area.info`` of a lake (a water body with a flat surface) whose level follows the terrain
+(Proland's ``WaterElevationCurveData::LAKE`` is 2 too)."""
+LAKE_LEVEL_INFO = 3
+"""``Area.info`` of a lake at a given level, ``Area.level_m`` (saved as the area's extra
+value in graph files)."""
+
 
 class GraphError(ValueError):
     """A hydro-graph file or network that cannot be used; the message says where and what."""
@@ -111,15 +118,24 @@ class Curve:
 class Area:
     """A closed loop of curves: ``curves[i] = (curve index, orientation)``, orientation 0 =
     start→end, 1 = end→start. ``info`` is Proland's user integer; ``subgraph`` an optional
-    nested graph."""
+    nested graph. A **lake** is an area with ``info`` LAKE_INFO (level from the terrain) or
+    LAKE_LEVEL_INFO (level ``level_m`` [m]); it shares the closing segments across its mouths
+    with the river areas that run into and out of it."""
 
     curves: list[tuple[int, int]]
     info: int = 0
     parent: int = NO_CURVE
     subgraph: HydroGraph | None = None
+    level_m: float | None = None
 
     def __post_init__(self) -> None:
         self.curves = [(int(c), int(o)) for c, o in self.curves]
+        if self.level_m is not None:
+            self.level_m = float(self.level_m)
+
+    @property
+    def is_lake(self) -> bool:
+        return self.info in (LAKE_INFO, LAKE_LEVEL_INFO)
 
     def __eq__(self, other: object) -> bool:
         if not isinstance(other, Area):
@@ -129,11 +145,13 @@ class Area:
             and self.info == other.info
             and self.parent == other.parent
             and self.subgraph == other.subgraph
+            and self.level_m == other.level_m
         )
 
     def __repr__(self) -> str:
         sub = ", subgraph" if self.subgraph is not None else ""
-        return f"Area({len(self.curves)} curves, info={self.info}{sub})"
+        level = f", level={self.level_m:g} m" if self.level_m is not None else ""
+        return f"Area({len(self.curves)} curves, info={self.info}{level}{sub})"
 
 
 @dataclass(eq=False)
@@ -226,3 +244,7 @@ class HydroGraph:
 
     def banks(self) -> list[int]:
         return [i for i, c in enumerate(self.curves) if c.is_bank]
+
+    def lakes(self) -> list[int]:
+        """The indices of the areas that are lakes (:attr:`Area.is_lake`)."""
+        return [i for i, a in enumerate(self.areas) if a.is_lake]

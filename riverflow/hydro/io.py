@@ -32,7 +32,8 @@ from pathlib import Path
 import numpy as np
 
 from riverflow._atomic import atomic_write_bytes
-from riverflow.hydro.graph import NO_CURVE, NO_POTENTIAL, Area, Curve, CurveType, GraphError, HydroGraph
+from riverflow.hydro.graph import (LAKE_LEVEL_INFO, NO_CURVE, NO_POTENTIAL, Area, Curve, CurveType,
+                                   GraphError, HydroGraph)
 
 __all__ = ["load_graph", "save_graph"]
 
@@ -41,6 +42,14 @@ _PARAM_NAMES = ("nParamsNodes", "nParamsCurves", "nParamsAreas", "nParamsCurveEx
 _PARAM_MIN = (2, 3, 3, 1, 3, 2, 0)
 _PARAM_MAX = 1000
 _HYDRO_PARAMS = (2, 5, 3, 1, 3, 2, 0)
+
+
+def _params_of(g: HydroGraph) -> tuple[int, ...]:
+    """The params a graph is written with: one extra area value (a lake's level, 0 for other
+    areas) when some lake has a level, else Proland's own."""
+    if any(a.level_m is not None for a in g.areas):
+        return (2, 5, 4, 1, 3, 2, 0)
+    return _HYDRO_PARAMS
 _MAX_DEPTH = 32
 _INT32 = (-(2**31), 2**31 - 1)
 _INT_RE = re.compile(rb"[+-]?[0-9]+")
@@ -531,14 +540,19 @@ def _read_graph(r: _Reader, depth: int, params: tuple[int, ...] | None = None,
         n = r.int(f"curve count of area {i}", 1, r.remaining() // (2 * r.int_size))
         info = r.int(f"info of area {i}")
         flags.append(r.int(f"subgraph flag (0/1) of area {i}", 0, 1))
-        r.skip(pa - 3, f"area {i}")
+        level = None
+        if pa > 3:      # riverflow writes a lake's level as the first extra value
+            value = r.float(f"extra area {i} value (a lake's level)")
+            if info == LAKE_LEVEL_INFO:
+                level = value
+            r.skip(pa - 4, f"area {i}")
         loop = []
         for _ in range(n):
             loop.append((r.int(f"curve index in area {i}", 0, n_curves - 1),
                          r.int(f"orientation (0/1) in area {i}", 0, 1)))
             r.skip(pac - 2, f"area {i} curve")
         r.skip(ps, f"area {i} subgraph")
-        areas.append(Area(loop, info, r.int(f"parent of area {i}", -1)))
+        areas.append(Area(loop, info, r.int(f"parent of area {i}", -1), level_m=level))
     if sub_offsets is not None and set(sub_offsets) != {i for i, f in enumerate(flags) if f}:
         raise GraphError(f"{r.name}: the index lists subgraphs for areas {sorted(sub_offsets)} "
                          f"but the areas with a subgraph flag are "
@@ -558,7 +572,8 @@ def _read_graph(r: _Reader, depth: int, params: tuple[int, ...] | None = None,
 
 def save_graph(graph: HydroGraph, path: str | os.PathLike, *, binary: bool = False,
                indexed: bool = False) -> None:
-    """Write ``graph`` as a Proland hydro-graph file (params ``2 5 3 1 3 2 0``).
+    """Write ``graph`` as a Proland hydro-graph file (params ``2 5 3 1 3 2 0``; ``2 5 4 1 3 2 0``
+    when a lake has a level, which is then each area's extra value).
 
     The default, ASCII basic, is what Proland's examples use and round-trips exactly
     (floats written with ``repr``). ``binary=True`` writes int32/float32 little-endian (values
@@ -612,8 +627,9 @@ def _write_graph(g: HydroGraph, w: _Writer, offsets: list[int] | None = None,
     """Basic layout without magic; with ``offsets`` the indexed body (no counts, the byte
     offset of each element appended to ``offsets``, of each subgraph to ``sub_offsets``)."""
     indexed = offsets is not None
+    levels = _params_of(g)[2] > 3
     if not indexed:
-        w.row("i" * 7, *_HYDRO_PARAMS)
+        w.row("i" * 7, *_params_of(g))
     adjacent: list[list[int]] = [[] for _ in g.curves]  # Proland's area1 / area2
     for k, area in enumerate(g.areas):
         for c, _ in area.curves:
@@ -629,9 +645,10 @@ def _write_graph(g: HydroGraph, w: _Writer, offsets: list[int] | None = None,
           c.end, *(adjacent[i] + [-1, -1])[:2], c.parent))
         for i, c in enumerate(g.curves)
     ]), (len(g.areas), [
-        ("iii" + "ii" * len(a.curves) + "i",
-         (len(a.curves), a.info, a.subgraph is not None, *[v for co in a.curves for v in co],
-          a.parent))
+        ("iii" + "f" * levels + "ii" * len(a.curves) + "i",
+         (len(a.curves), a.info, a.subgraph is not None,
+          *([a.level_m if a.level_m is not None else 0.0] if levels else []),
+          *[v for co in a.curves for v in co], a.parent))
         for a in g.areas
     ])]
     for count, rows in elements:
@@ -650,7 +667,7 @@ def _write_graph(g: HydroGraph, w: _Writer, offsets: list[int] | None = None,
 
 def _write_indexed(g: HydroGraph, w: _Writer) -> None:
     """Indexed layout (§1.5); the index offset is patched into its fixed-width field."""
-    w.row("i" * 7, *_HYDRO_PARAMS, newline=False)
+    w.row("i" * 7, *_params_of(g), newline=False)
     slot = len(w.parts)
     w.row("q", 0)
     offsets: list[int] = []
@@ -697,5 +714,7 @@ def _check_savable(g: HydroGraph, what: str, depth: int = 0) -> None:
             raise bad(f"area {i} has no curves or a bad (curve, orientation) in {a.curves}")
         if not (-1 <= a.parent <= _INT32[1] and _INT32[0] <= a.info <= _INT32[1]):
             raise bad(f"area {i} has parent {a.parent} / info {a.info} out of int32 (parent >= -1)")
+        if a.level_m is not None and not np.isfinite(a.level_m):
+            raise bad(f"area {i} (a lake) has a non-finite level {a.level_m!r}")
         if a.subgraph is not None:
             _check_savable(a.subgraph, f"{what} > subgraph of area {i}", depth + 1)

@@ -342,7 +342,9 @@ def potential_and_shore_at(
                 w = f * math.exp(slip * math.log(radius / d))
             sw += w
             swp += w * group_psi[g]
-    if count < 2:
+    if count < 2 and not (count == 1 and g1 - g0 == 1):
+        # water lies between two shores of different ψ; a network whose whole shore has one
+        # ψ (a lake no river touches) is still water
         return np.nan, np.inf
     if on_bank >= 0:
         return group_psi[on_bank], 0.0
@@ -526,7 +528,11 @@ def _classify_plain_cells(inside_full, n_cells, out_cell_status):
 
 @njit(**JIT_OPTIONS)
 def _extrapolate_ghosts(psi_full, inside_full, n_cells, out_psi):
-    """Copy lattice points −1 … n+1; dry points next to the water get linear extrapolations."""
+    """Copy lattice points −1 … n+1; dry points next to the water get extrapolations: along
+    each lattice direction with water beside them, quadratic from the three points inward
+    (linear from two where the third is dry), averaged. ψ bends near a bank (the bank's
+    weight falls as 1/d), and a linear ghost made the flow one cell from a bank cross it by
+    up to 7 % of its speed (issue 22's tangency figure; quadratic: 5 %)."""
     ring = LATTICE_RING
     for sj in range(n_cells + 3):
         b = sj + ring - 1
@@ -544,7 +550,14 @@ def _extrapolate_ghosts(psi_full, inside_full, n_cells, out_psi):
                 db = 1 if d == 2 else (-1 if d == 3 else 0)
                 if inside_full[b + db, a + da]:
                     if inside_full[b + 2 * db, a + 2 * da]:
-                        acc += 2.0 * psi_full[b + db, a + da] - psi_full[b + 2 * db, a + 2 * da]
+                        b3 = b + 3 * db
+                        a3 = a + 3 * da
+                        if (0 <= b3 < inside_full.shape[0] and 0 <= a3 < inside_full.shape[1]
+                                and inside_full[b3, a3]):
+                            acc += (3.0 * psi_full[b + db, a + da]
+                                    - 3.0 * psi_full[b + 2 * db, a + 2 * da] + psi_full[b3, a3])
+                        else:
+                            acc += 2.0 * psi_full[b + db, a + da] - psi_full[b + 2 * db, a + 2 * da]
                         n2 += 1
                     else:
                         acc1 += psi_full[b + db, a + da]

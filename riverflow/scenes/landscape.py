@@ -29,7 +29,7 @@ import shapely
 from scipy.spatial import cKDTree
 
 from riverflow._validate import check_allocation, finite_positive
-from riverflow.hydro.areas import water_polygon
+from riverflow.hydro.areas import area_ring, water_polygon
 from riverflow.hydro.falls import Fall, Rapid, drop_along
 from riverflow.hydro.graph import GraphError, HydroGraph
 from riverflow.hydro.nearest import PolylineIndex
@@ -141,12 +141,16 @@ def z_range(source: HeightSource, water: WaterSurface, carving: Carving) -> tupl
 
 def water_surface(branches: list[RiverBranch],
                   ground: Callable[[np.ndarray], np.ndarray] | list[np.ndarray],
-                  polygon, falls: list[Fall] = (), rapids: list[Rapid] = ()) -> WaterSurface:
+                  polygon, falls: list[Fall] = (), rapids: list[Rapid] = (),
+                  lakes=()) -> WaterSurface:
     """Monotone water profiles of the branches (listed upstream first) on the ground [m]
     (``ground(xy)`` of the uncarved terrain, or its values at each branch's centre-line
     points) lowered by FREEBOARD_M, as a :class:`WaterSurface`. ``falls`` and ``rapids``
     (the graph's) drop the water along their nappes and slopes (:func:`monotone_profiles`);
-    the surface is sampled finely along each nappe (NAPPE_SAMPLES)."""
+    the surface is sampled finely along each nappe (NAPPE_SAMPLES). ``lakes``: [(polygon,
+    level [m] or None)]: the samples in a lake are at its level (given, else the lowest the
+    profiles reach in it), those upstream of it no lower and those downstream no higher: the
+    lake is flat and no river runs uphill into or out of it."""
     n_junctions = 1 + max(max(b.start_junction, b.end_junction) for b in branches)
     along = ground if isinstance(ground, list) else [ground(b.centerline_m) for b in branches]
     sampled = [np.asarray(z, np.float64) - FREEBOARD_M for z in along]
@@ -168,6 +172,7 @@ def water_surface(branches: list[RiverBranch],
         lv.append(np.minimum.accumulate(zz))
         wd.append(ww)
         index.append(np.full(len(pts), k))
+    _flat_lakes(samples, lv, lakes)
     junctions = np.zeros((max(n_junctions, 0), 2))
     members: list[tuple[int, ...]] = []
     for j in range(max(n_junctions, 0)):
@@ -240,6 +245,23 @@ def _resample_over_falls(line: np.ndarray, s: np.ndarray, z: np.ndarray, widths:
         nappe_t += drop_along(t - at, drop, length, shape)
     pts = np.stack([np.interp(t, s, line[:, 0]), np.interp(t, s, line[:, 1])], axis=1)
     return pts, np.interp(t, s, z + nappe_s) - nappe_t, np.interp(t, s, widths)
+
+
+def _flat_lakes(samples: list[np.ndarray], levels: list[np.ndarray], lakes) -> None:
+    """Put the samples in each lake at its level, in place (:func:`water_surface`)."""
+    for poly, given in lakes:
+        inside = [shapely.contains_xy(poly, p[:, 0], p[:, 1]) for p in samples]
+        found = [z[m] for z, m in zip(levels, inside) if m.any()]
+        if not found:
+            continue
+        level = float(given) if given is not None else float(min(f.min() for f in found))
+        for z, m in zip(levels, inside):
+            if not m.any():
+                continue
+            first, last = np.flatnonzero(m)[[0, -1]]
+            z[:first] = np.maximum(z[:first], level)
+            z[m] = level
+            z[last + 1:] = np.minimum(z[last + 1:], level)
 
 
 def junction_caps(branches: list[RiverBranch]) -> list[tuple[float, float]]:
@@ -331,16 +353,19 @@ def landscape(graph: HydroGraph, terrain=None, *, seed: int = 0, cell_m: float |
         if source is not None and source.cell_m:
             cell_m = min(cell_m, max(source.cell_m, 0.5))
     given = graph.water_levels
+    lakes = [(shapely.Polygon(area_ring(graph, a)), graph.areas[a].level_m) for a in graph.lakes()]
     if source is None:
         water = water_surface(branches, _synthetic_ground(branches) if given is None
                               else lambda xy: given(xy) + FREEBOARD_M, polygon, graph.falls,
-                              graph.rapids)
+                              graph.rapids,
+                              lakes)
         source = valley_source(water, seed)
         carving = carving or Carving()
     else:
         water = water_surface(branches, (lambda xy: source.heights(xy[:, 0], xy[:, 1]))
                               if given is None else lambda xy: given(xy) + FREEBOARD_M, polygon,
-                              graph.falls, graph.rapids)
+                              graph.falls, graph.rapids,
+                              lakes)
         carving = carving or Carving.measured()
     terrain_ = CarvedTerrain(source, water, carving, quadtree, float(cell_m))
     return Landscape(graph, terrain_, water, quadtree.bounds_m, int(seed), branches, [],

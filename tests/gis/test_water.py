@@ -162,9 +162,9 @@ def test_the_water_ends_within_a_metre_of_the_polygon(line_river):
 
 
 def test_the_flow_follows_the_outline(line_river):
-    """1 m inside the outline the flow runs along it: its normal part is under 2 % of the
-    local speed at most points and under 10 % everywhere (as for builder rivers,
-    tests/flow/test_flow_properties.py), away from the outline's corners (the flow rounds
+    """1 m inside the outline the flow runs along it: its normal part is under 1 % of the
+    local speed at most points, 4 % at 99 % of them and 6 % everywhere (docs/gis.md,
+    "Tangency"; builder rivers: tests/flow/test_flow_properties.py), away from the outline's corners (the flow rounds
     them) and the open ends; at the islands' tips (stagnation points) relative to the
     river's mean speed."""
     water, _, builder, graph, field = line_river
@@ -179,8 +179,9 @@ def test_the_flow_follows_the_outline(line_river):
     speed = np.hypot(*v.T)
     ratio = np.abs(np.einsum("ij,ij->i", v, inward[keep])) / np.maximum(speed, mean_speed)
     assert keep.sum() > 800
-    assert np.median(ratio) < 0.02, np.median(ratio)
-    assert ratio.max() < 0.10, ratio.max()
+    assert np.median(ratio) < 0.01, np.median(ratio)          # measured 0.7 %
+    assert np.percentile(ratio, 99) < 0.04, np.percentile(ratio, 99)   # 3.1 % (linear ghosts: 6 %)
+    assert ratio.max() < 0.06, ratio.max()                      # 4.9 % (linear ghosts: 7.5 %)
 
 
 def test_the_flow_runs_along_the_line(line_river):

@@ -196,3 +196,46 @@ def test_no_nan_and_clear_status_for_bad_points(field):
     assert np.all(status == rf.FlowStatus.OUTSIDE_DOMAIN)
     assert np.all(velocity == 0)
     assert np.all(np.isnan(field.potential(bad)))
+
+
+def test_dry_lattice_points_hold_quadratic_extrapolations(field):
+    """Twin of ``_extrapolate_ghosts``: a dry lattice point next to the water holds the mean,
+    over the lattice directions with water beside it, of the quadratic extrapolation from
+    the three points inward (linear from two where the third is dry, else the neighbour's
+    value); checked where those points lie in the tile's stored window."""
+    t = field.tiles
+    lv = field.max_level
+    xy = np.array(field.network.polylines[0][len(field.network.polylines[0]) // 2])[None]
+    field.query(xy)
+    tx, ty = field.tile_of(xy, lv)[0]
+    slot = t.slot_of(lv, tx, ty)
+    ox, oy = t.tile_origin_m(lv, tx, ty)
+    h = t.spacing_m(lv)
+    idx = np.arange(-1, t.n_cells + 2)
+    gx, gy = np.meshgrid(ox + idx * h, oy + idx * h)
+    # the water's lattice values are checked against the reference above; here the exact
+    # (uncached) kernel gives them, fast
+    exact = field.exact_potential(np.c_[gx.ravel(), gy.ravel()]).reshape(gx.shape)
+    wet = np.isfinite(exact)
+    got = t.psi[slot]
+    m = got.shape[0]
+    e = np.where(wet, exact, 0.0)
+    core = (slice(3, m - 3), slice(3, m - 3))
+    two_sum = np.zeros((m - 6, m - 6))
+    two_n = np.zeros((m - 6, m - 6))
+    one_sum = np.zeros((m - 6, m - 6))
+    one_n = np.zeros((m - 6, m - 6))
+    for dj, di in ((0, 1), (0, -1), (1, 0), (-1, 0)):
+        def at(k):
+            return (slice(3 + k * dj, m - 3 + k * dj), slice(3 + k * di, m - 3 + k * di))
+        w1, w2, w3 = wet[at(1)], wet[at(2)], wet[at(3)]
+        quad = 3 * e[at(1)] - 3 * e[at(2)] + e[at(3)]
+        lin = 2 * e[at(1)] - e[at(2)]
+        two_sum += np.where(w1 & w2, np.where(w3, quad, lin), 0.0)
+        two_n += w1 & w2
+        one_sum += np.where(w1 & ~w2, e[at(1)], 0.0)
+        one_n += w1 & ~w2
+    dry = ~wet[core] & ((two_n > 0) | (one_n > 0))
+    want = np.where(two_n > 0, two_sum / np.maximum(two_n, 1), one_sum / np.maximum(one_n, 1))
+    assert dry.sum() > 10
+    npt.assert_allclose(got[core][dry], want[dry], rtol=1e-4, atol=1e-4)

@@ -1,0 +1,365 @@
+"""Lakes for :mod:`riverflow.hydro.builder`: water bodies that rivers run into and out of.
+
+A lake is a polygon given with :meth:`RiverNetworkBuilder.add_lake`. It is built with the
+same machinery as the rivers (reference §1.2): its shore is made of banks whose ψ is constant
+between two openings (the shore between two mouths is one boundary piece), so the flux
+through each mouth is its river's discharge, and the flow inside is Proland's ψ interpolation
+between the shore pieces, as for any area: divergence-free and tangent to the shore. A lake
+with no river is one shore piece: one ψ, still water.
+
+* **Branches** that cross a lake's shore are cut there: the part inside is dropped, a branch
+  that runs through the lake becomes an inlet and an outlet; an end within END_SNAP of the
+  river's width outside the shore is drawn on to it. A lake is then a junction of its
+  inlets and outlets for the discharges (the outlets share the inflow, by width where not
+  given).
+* **Water**: the lake joins the rivers' strips (their banks drawn on straight to an oblique
+  shore, :func:`mouth_strips`), or the given water (``set_water_area``); the result is split along the lake's shore into
+  river polygons and lake polygons, which share the *mouths* (the stretches of shore across
+  the rivers). Each mouth is one closing segment of both areas; banks that meet at its ends
+  have one ψ (reference §1.2 rule 2), which ties the lake's shore pieces to the rivers' banks.
+* **Axes**: a star of axes from the lake's centre (the pole of inaccessibility) to each mouth
+  (the river's axis end), or one short axis from the centre for a lake with no river. Their
+  widths grow to cover the shore linked to them, so every point of a lake that is star-shaped
+  about its centre is inside one (reference §1.2 rule 1).
+* The lake's area in the graph is marked with ``Area.info`` = LAKE_INFO, or LAKE_LEVEL_INFO
+  and ``Area.level_m`` when its level is given.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+from shapely.geometry import LineString
+from shapely.ops import polylabel
+
+from riverflow.hydro.graph import GraphError
+
+
+@dataclass
+class Lake:
+    """A lake given to the builder: its polygon [m], its level [m] (None: from the terrain)
+    and a name for messages."""
+
+    polygon: shapely.Polygon
+    level_m: float | None
+    name: str
+
+    def centre(self, tolerance_m: float) -> np.ndarray:
+        """The pole of inaccessibility (the point farthest inside), (2,) [m]."""
+        p = polylabel(self.polygon, tolerance=max(tolerance_m, 1e-3 * np.sqrt(self.polygon.area)))
+        return np.array(p.coords[0])
+
+
+def check_lake(polygon, level_m, index: int) -> Lake:
+    """A validated :class:`Lake` (GraphError naming the lake and what is wrong)."""
+    name = f"lake {index}"
+    if isinstance(polygon, shapely.Polygon):
+        poly = polygon
+    else:
+        pts = np.asarray(polygon, dtype=np.float64)
+        if pts.ndim != 2 or pts.shape[1] != 2 or len(pts) < 3:
+            raise GraphError(f"{name}: its outline must be a shapely Polygon or an (M >= 3, 2) "
+                             f"array, got shape {pts.shape}")
+        if not np.isfinite(pts).all():
+            raise GraphError(f"{name}: its outline has non-finite coordinates")
+        poly = shapely.Polygon(pts)
+    if poly.is_empty or not poly.area > 0 or not poly.is_valid:
+        raise GraphError(f"{name}: its outline is not a simple polygon with an area "
+                         f"({shapely.is_valid_reason(poly)})")
+    if len(poly.interiors):
+        raise GraphError(f"{name}: has {len(poly.interiors)} island(s); islands in lakes are not "
+                         f"supported yet (give the lake without them)")
+    if level_m is not None:
+        level_m = float(level_m)
+        if not np.isfinite(level_m):
+            raise GraphError(f"{name}: level_m must be finite, got {level_m!r}")
+    return Lake(shapely.geometry.polygon.orient(poly, 1.0), level_m, name)
+
+
+END_SNAP = 0.75
+"""A branch end this many widths or nearer outside a lake's shore is drawn on to it (an axis
+found from a water polygon stops about half a width short of the shore)."""
+
+
+def _arc(line: np.ndarray) -> np.ndarray:
+    return np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(line, axis=0).T))])
+
+
+def cut_branches(branches: list, lakes: list[Lake], tolerance_m: float):
+    """Cut the branches at the lakes' shores. Returns the new branch list (objects of the same
+    kind: ``name``, ``centerline_m``, ``widths_m``, ``discharge_m2s``), for each the lake its
+    start / end lies on (-1: none), and for each the index of the branch it came from."""
+    if not lakes:
+        return branches, [(-1, -1)] * len(branches), list(range(len(branches)))
+    union = shapely.union_all([lk.polygon for lk in lakes])
+    out, ends, origin = [], [], []
+    for i, b in enumerate(branches):
+        line, w = b.centerline_m, b.widths_m
+        # an end just outside a shore is drawn on to it
+        for at_start in (True, False):
+            p = line[0] if at_start else line[-1]
+            width = w[0] if at_start else w[-1]
+            pt = shapely.Point(p)
+            if union.contains(pt):
+                continue
+            d = union.boundary.distance(pt)
+            if 1e-6 * max(1.0, np.abs(p).max()) < d <= END_SNAP * width:
+                q = np.asarray(shapely.ops.nearest_points(union.boundary, pt)[0].coords[0])
+                t = q - p
+                q = q + t / np.hypot(*t) * min(tolerance_m, 0.05 * width)   # just inside
+                line = np.vstack([q, line]) if at_start else np.vstack([line, q])
+                w = np.concatenate([[width], w]) if at_start else np.concatenate([w, [width]])
+        ls = LineString(line)
+        if not ls.intersects(union) or ls.intersection(union).length <= 1e-9:
+            # touching a shore at an end at most
+            out.append(type(b)(b.name, line, w, b.discharge_m2s))
+            ends.append((_on_lake(lakes, line[0]), _on_lake(lakes, line[-1])))
+            origin.append(i)
+            continue
+        s = _arc(line)
+        outside = shapely.difference(ls, union)
+        parts = sorted((g for g in getattr(outside, "geoms", [outside])
+                        if not g.is_empty and g.length > 1e-9),
+                       key=lambda g: ls.project(shapely.Point(g.coords[0])))
+        if not parts:
+            raise GraphError(f"branch {b.name!r} lies inside a lake: a river must run into or "
+                             f"out of a lake, not within it")
+        for k, g in enumerate(parts):
+            pts = np.asarray(g.coords)
+            ws = np.interp(shapely.line_locate_point(ls, shapely.points(pts)), s, w)
+            if g.length < 0.5 * float(ws.max()):
+                x, y = pts[0]
+                raise GraphError(f"branch {b.name!r}: a piece {g.length:.2f} m long near "
+                                 f"({x:.1f}, {y:.1f}) lies outside the lakes it crosses (shorter "
+                                 f"than half its width); end the branch on the shore or inside")
+            on = [_on_lake(lakes, pts[0]), _on_lake(lakes, pts[-1])]
+            name = b.name if len(parts) == 1 else f"{b.name}[{k}]"
+            q = b.discharge_m2s if k == 0 else None
+            out.append(type(b)(name, pts, ws, q))
+            ends.append((on[0], on[1]))
+            origin.append(i)
+    return out, ends, origin
+
+
+def _on_lake(lakes: list[Lake], p: np.ndarray) -> int:
+    """The lake whose shore ``p`` lies on (-1: none)."""
+    for k, lk in enumerate(lakes):
+        if lk.polygon.boundary.distance(shapely.Point(p)) <= 1e-6 * max(1.0, np.abs(p).max()):
+            return k
+    return -1
+
+
+def lake_junctions(branches, lakes: list[Lake], lake_ends, start_j, end_j, junctions):
+    """Make each lake that rivers touch one junction of its inlets and outlets (its centre as
+    the junction's point, for messages): returns the new start / end junction lists and the
+    junction points; raises GraphError for a lake with only inflow or only outflow."""
+    start_j, end_j = list(start_j), list(end_j)
+    points = [np.asarray(junctions).reshape(-1, 2)]
+    for k, lake in enumerate(lakes):
+        ins = [i for i, (_, e) in enumerate(lake_ends) if e == k]
+        outs = [i for i, (s, _) in enumerate(lake_ends) if s == k]
+        if not ins and not outs:
+            continue
+        names_in = [branches[i].name for i in ins]
+        names_out = [branches[i].name for i in outs]
+        if not outs:
+            raise GraphError(f"{lake.name}: rivers {names_in} flow into it but none flows out; a "
+                             f"lake without an outlet takes no inflow here (add its outlet)")
+        if not ins:
+            raise GraphError(f"{lake.name}: rivers {names_out} flow out of it but none flows in "
+                             f"(add the river that feeds it)")
+        j = sum(len(p) for p in points)
+        for i in ins:
+            if end_j[i] >= 0:
+                raise GraphError(f"branch {branches[i].name!r} ends both at a junction and on "
+                                 f"the shore of {lake.name}")
+            end_j[i] = j
+        for i in outs:
+            if start_j[i] >= 0:
+                raise GraphError(f"branch {branches[i].name!r} starts both at a junction and on "
+                                 f"the shore of {lake.name}")
+            start_j[i] = j
+        points.append(lake.centre(1e-3)[None])
+    return start_j, end_j, np.vstack(points)
+
+
+MOUTH_REACH = 10.0
+"""A river's banks are drawn on straight to its lake's shore within this many widths."""
+
+
+def mouth_strips(geoms, lake_ends, lakes: list[Lake]) -> list:
+    """Where a river meets its lake's shore obliquely, its strip's flat end leaves a notch of
+    land beside it: its strip continued straight past the mouth, as far as it lies outside the
+    lake next to the river's end (the banks drawn on to the shore; the water then has no notch
+    at the mouth)."""
+    from riverflow.hydro._strips import strip_polygon
+
+    parts = []
+    for g, (ls, le) in zip(geoms, lake_ends):
+        for k, at_start in ((ls, True), (le, False)):
+            if k < 0:
+                continue
+            line = g.centerline_m
+            p, q = (line[0], line[1]) if at_start else (line[-1], line[-2])
+            w = float(g.widths_m[0] if at_start else g.widths_m[-1])
+            t = (p - q) / np.hypot(*(p - q))
+            n = np.array([-t[1], t[0]])
+            ext = strip_polygon(np.array([p - t * 0.05 * w, p + t * MOUTH_REACH * w]),
+                                np.array([w, w]))
+            end = LineString([p - t * 0.01 * w + n * 0.5 * w, p - t * 0.01 * w - n * 0.5 * w])
+            outside = shapely.difference(ext, lakes[k].polygon)
+            parts += [o for o in getattr(outside, "geoms", [outside])
+                      if isinstance(o, shapely.Polygon) and o.intersects(end)]
+    return parts
+
+
+def split_water(polygons: list, lakes: list[Lake], eps_m: float, min_area_m2: float):
+    """Split the oriented water polygons along the lakes' shores: (polygons, the lake of each
+    polygon or -1, the mouths' edges (2, 2) each: the edges a river polygon shares with a lake
+    polygon, which ``split_rings`` makes closing segments). River pieces smaller than
+    ``min_area_m2`` (slivers left along a shore) are dropped; shared stretches of outline get
+    the same vertices on both sides (:func:`_node_together`)."""
+    from shapely.geometry.polygon import orient
+
+    water = shapely.union_all(polygons) if len(polygons) > 1 else polygons[0]
+    lake_union = shapely.union_all([lk.polygon for lk in lakes])
+    river = shapely.difference(water, lake_union)
+    out, which = [], []
+    for p in getattr(river, "geoms", [river]):
+        if isinstance(p, shapely.Polygon) and p.area > min_area_m2:
+            out.append(orient(p, 1.0))
+            which.append(-1)
+    lake_parts = []
+    for lk in lakes:
+        part = shapely.difference(water, shapely.union_all([river] + [o.polygon for o in lakes
+                                                                     if o is not lk]))
+        polys = [p for p in getattr(part, "geoms", [part])
+                 if isinstance(p, shapely.Polygon) and p.area > min_area_m2]
+        if len(polys) != 1:
+            raise GraphError(f"{lk.name}: the rivers cut it into {len(polys)} pieces (a river "
+                             f"runs along or across its shore)")
+        lake_parts.append(orient(polys[0], 1.0))
+    out += lake_parts
+    which += list(range(len(lake_parts)))
+    out = _node_together(out, eps_m)
+    n_river = len(out) - len(lake_parts)
+    mouths = []
+    if n_river:
+        lake_lines = shapely.union_all([p.boundary for p in out[n_river:]])
+        for p in out[:n_river]:
+            for ring in [p.exterior, *p.interiors]:
+                v = np.asarray(ring.coords)
+                near = shapely.dwithin(lake_lines, shapely.points(v), eps_m)
+                mid = shapely.dwithin(lake_lines, shapely.points(0.5 * (v[1:] + v[:-1])), eps_m)
+                on = near[:-1] & near[1:] & mid
+                mouths += [v[k:k + 2] for k in np.flatnonzero(on)]
+    return out, which, mouths
+
+
+def _node_together(polygons: list, eps_m: float) -> list:
+    """The polygons with every vertex of the others that lies on one of their edges (within
+    ``eps_m``, not at its ends) inserted there, so that shared stretches of outline have the
+    same vertices on both sides (overlay results need not)."""
+    from scipy.spatial import cKDTree
+    from shapely.geometry.polygon import orient
+
+    # vertices within eps of each other become one (the first of them)
+    ring_sets = [[np.asarray(r.coords) for r in [p.exterior, *p.interiors]] for p in polygons]
+    flat = np.vstack([r for rs in ring_sets for r in rs])
+    rep = np.arange(len(flat))
+    for a, b in sorted(cKDTree(flat).query_pairs(eps_m)):
+        ra, rb = rep[a], rep[b]
+        while rep[ra] != ra:
+            ra = rep[ra]
+        while rep[rb] != rb:
+            rb = rep[rb]
+        rep[max(ra, rb)] = min(ra, rb)
+    for i in range(len(rep)):
+        r = i
+        while rep[r] != r:
+            r = rep[r]
+        rep[i] = r
+    flat = flat[rep]
+    k = 0
+    for rs in ring_sets:
+        for j in range(len(rs)):
+            rs[j] = flat[k:k + len(rs[j])]
+            k += len(rs[j])
+    allv = np.unique(flat, axis=0)
+    tree = shapely.STRtree(shapely.points(allv))
+    out = []
+    for rs in ring_sets:
+        rings = []
+        for v in rs:
+            a, b = v[:-1], v[1:]
+            segs = shapely.linestrings(np.stack([a, b], axis=1))
+            si, pi = tree.query(segs, predicate="dwithin", distance=eps_m)
+            d = b - a
+            dd = np.maximum(np.einsum("ij,ij->i", d, d), 1e-300)
+            t = np.einsum("ij,ij->i", allv[pi] - a[si], d[si]) / dd[si]
+            length = np.sqrt(dd[si])
+            inner = (t * length > eps_m) & ((1.0 - t) * length > eps_m)
+            si, pi, t = si[inner], pi[inner], t[inner]
+            if not len(si):
+                rings.append(v)
+                continue
+            order = np.lexsort((t, si))
+            si, pi = si[order], pi[order]
+            rows = []
+            k = 0
+            for e in range(len(a)):
+                rows.append(a[e:e + 1])
+                while k < len(si) and si[k] == e:
+                    rows.append(allv[pi[k]][None])
+                    k += 1
+            rows.append(v[-1:])
+            rings.append(np.vstack(rows))
+        rings = [_clean_ring(r, eps_m) for r in rings]
+        out.append(orient(shapely.Polygon(rings[0], [r for r in rings[1:] if len(r) >= 4]), 1.0))
+    return out
+
+
+def _clean_ring(v: np.ndarray, eps_m: float) -> np.ndarray:
+    """A closed ring (M, 2) (last point = first) without repeated points and without spikes
+    (a vertex the ring goes out to and comes straight back from: a stretch of shore both
+    sides of the split kept)."""
+    v = list(map(tuple, v[:-1]))
+    changed = True
+    while changed and len(v) > 3:
+        changed = False
+        m = len(v)
+        for i in range(m):
+            a, b, c = np.array(v[i - 1]), np.array(v[i]), np.array(v[(i + 1) % m])
+            if np.hypot(*(b - a)) <= eps_m:
+                del v[i]
+                changed = True
+                break
+            if np.hypot(*(c - a)) <= eps_m:        # a → b → a: drop b and the return
+                for k in sorted({i, (i + 1) % m}, reverse=True):
+                    del v[k]
+                changed = True
+                break
+    v = np.asarray(v)
+    return np.vstack([v, v[:1]])
+
+
+def lake_axes(lake: Lake, mouths_m: list[np.ndarray], outlet: list[bool], tolerance_m: float
+              ) -> list[np.ndarray]:
+    """The lake's axes: from each mouth point (a river's axis end on the shore) to the lake's
+    centre (drawn downstream: into the centre for inlets, out of it for outlets), or one short
+    axis from the centre towards the nearest shore for a lake with no river."""
+    c = lake.centre(tolerance_m)
+    inside = lake.polygon.buffer(max(tolerance_m, 1e-6))
+    if not mouths_m:
+        q = np.asarray(shapely.ops.nearest_points(lake.polygon.exterior, shapely.Point(c))[0].coords[0])
+        return [np.array([c, c + 0.5 * (q - c)])]
+    axes = []
+    for m, out in zip(mouths_m, outlet):
+        line = np.array([c, m]) if out else np.array([m, c])
+        if not inside.contains(LineString(line)):
+            raise GraphError(f"{lake.name}: the straight line from its mouth at ({m[0]:.1f}, "
+                             f"{m[1]:.1f}) to its centre ({c[0]:.1f}, {c[1]:.1f}) leaves the "
+                             f"lake; lakes must be star-shaped about their centre")
+        axes.append(line)
+    return axes

@@ -1,0 +1,256 @@
+"""Lakes (issue 22, item 2): ``RiverNetworkBuilder.add_lake``.
+
+The test of record: a round lake with two inlets and one outlet. Its shore carries one ψ
+between two mouths, so the flux through each mouth is its river's discharge; in the lake the
+level is flat, the flow is divergence-free, tangent to the shore, and carries tracers from
+each inlet to the outlet, none stuck and none leaving the water. A lake no river touches is
+still water; lakes round-trip through graph files; bad lakes are clear GraphErrors."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import shapely
+
+import riverflow as rf
+from riverflow.hydro.areas import area_ring
+from riverflow.hydro.builder import RiverNetworkBuilder
+from riverflow.hydro.flow_network import build_flow_network
+from riverflow.hydro.graph import LAKE_INFO, LAKE_LEVEL_INFO, GraphError
+from riverflow.kernels.flow import KIND_CAP
+from tests.flow.networks import divergence_and_gradient
+
+LAKE = shapely.Point(0, 0).buffer(150, quad_segs=24)
+WEST = [(-600, 120), (-300, 60), (-100, 20)]       # ends inside the lake: cut at its shore
+SOUTH = [(-100, -600), (-60, -300), (-20, -100)]
+OUT = [(100, 10), (350, 40), (700, 0)]
+
+
+def two_inlets(level_m=None) -> RiverNetworkBuilder:
+    b = RiverNetworkBuilder()
+    b.add_branch(WEST, 30.0, discharge_m2s=20.0, name="west")
+    b.add_branch(SOUTH, 24.0, discharge_m2s=10.0, name="south")
+    b.add_branch(OUT, 36.0, name="out")
+    b.add_lake(LAKE, level_m=level_m)
+    return b
+
+
+@pytest.fixture(scope="module")
+def lake():
+    b = two_inlets()
+    graph = b.build()
+    field = rf.FlowField(graph)
+    shore = shapely.Polygon(area_ring(graph, graph.lakes()[0]))
+    return b, graph, field, shore
+
+
+def _mouth_ends(graph) -> np.ndarray:
+    """The end points of every closing segment (mouths and free ends)."""
+    return np.vstack([graph.vertices(i)[[0, -1]] for i, c in enumerate(graph.curves)
+                      if not c.is_bank and c.width_m == 0.0])
+
+
+def test_a_lake_is_an_area_whose_shore_carries_the_rivers_psi(lake):
+    b, graph, _, shore = lake
+    assert b.discharges_m2s == [20.0, 10.0, 30.0]           # the outlet takes all the inflow
+    (k,) = graph.lakes()
+    assert graph.areas[k].info == LAKE_INFO and graph.areas[k].level_m is None
+    assert shore.symmetric_difference(LAKE).area < 1e-3 * LAKE.area
+    # the shore: one ψ between two mouths, three pieces for three mouths
+    shore_psi = [graph.curves[c].potential for c, _ in graph.areas[k].curves
+                 if graph.curves[c].is_bank]
+    assert sorted(set(shore_psi)) == [0.0, 20.0, 30.0]
+    # each mouth is one closing segment of the lake and of its river, and no cap of the flow
+    shared = [c for c, _ in graph.areas[k].curves if not graph.curves[c].is_bank]
+    assert len(shared) == 3
+    for c in shared:
+        assert -1 not in graph.curve_areas(c)
+    net = build_flow_network(graph, 5.0, 0.25)
+    caps = set(net.curve_source[net.curve_kind == KIND_CAP].tolist())
+    assert caps.isdisjoint(shared) and len(caps) == 3       # the three free river ends
+
+
+def test_flow_in_the_lake_is_divergence_free_and_follows_the_shore(lake):
+    _, graph, field, shore = lake
+    h = field.tiles.spacing_m(field.max_level)
+    rng = np.random.default_rng(5)
+    pts = rng.uniform(-150, 150, (4000, 2))
+    pts = pts[shapely.contains_xy(shore.buffer(-3 * h), pts[:, 0], pts[:, 1])][:300]
+    status, v = field.query(pts)
+    assert (status == rf.FlowStatus.INSIDE).all() and np.isfinite(v).all()
+    div, grad = divergence_and_gradient(field, pts, 0.05 * h)
+    assert np.abs(div).max() < 0.05 * np.median(grad)
+    # tangent at the shore: half a metre in, away from the mouths and from the stagnation
+    # points where the flow parts (speed under a tenth of the median)
+    ring = shore.exterior
+    s = np.linspace(0.0, ring.length, 1500, endpoint=False)
+    p = shapely.get_coordinates(shapely.line_interpolate_point(ring, s))
+    t = shapely.get_coordinates(shapely.line_interpolate_point(ring, s + 0.01)) - p
+    t /= np.hypot(*t.T)[:, None]
+    n = np.c_[-t[:, 1], t[:, 0]]                               # inward (the ring is CCW)
+    q = p + 0.5 * n
+    ends = _mouth_ends(graph)
+    keep = np.hypot(*(q[:, None] - ends[None]).transpose(2, 0, 1)).min(axis=1) > 40.0
+    status, v = field.query(q[keep])
+    assert (status == rf.FlowStatus.INSIDE).all()
+    speed = np.hypot(*v.T)
+    normal = np.abs((v * n[keep]).sum(axis=1))
+    moving = speed > 0.1 * np.median(speed)
+    assert (normal[moving] / speed[moving]).max() < 0.1
+    assert normal.max() < 0.07 * np.median(speed)
+
+
+def _trace(field, seeds: np.ndarray, done, dt: float = 4.0, steps: int = 4000):
+    """Midpoint-rule tracers: (reached, ever left the water)."""
+    p = seeds.astype(float).copy()
+    reached = np.zeros(len(p), bool)
+    left = np.zeros(len(p), bool)
+    for _ in range(steps):
+        status, v = field.query(p)
+        left |= (status != rf.FlowStatus.INSIDE) & ~reached
+        _, v2 = field.query(p + 0.5 * dt * v)
+        p = np.where(reached[:, None], p, p + dt * v2)
+        reached |= done(p)
+        if reached.all():
+            break
+    return reached, left
+
+
+def test_tracers_go_from_each_inlet_to_the_outlet(lake):
+    _, _, field, _ = lake
+    across = np.linspace(-0.4, 0.4, 7)
+    west = np.c_[np.full(7, -400.0), 80.0 + 30.0 * across]     # the west river at x = -400
+    south = np.c_[-73.3 + 24.0 * across, np.full(7, -400.0)]
+    for seeds in (west, south):
+        status, _ = field.query(seeds)
+        assert (status == rf.FlowStatus.INSIDE).all()
+        reached, left = _trace(field, seeds, lambda p: p[:, 0] > 400.0)
+        assert reached.all() and not left.any()
+
+
+def test_the_lake_is_flat_in_the_landscape(lake):
+    _, graph, _, shore = lake
+    scene = rf.landscape(graph, seed=0)
+    rng = np.random.default_rng(2)
+    pts = rng.uniform(-150, 150, (3000, 2))
+    pts = pts[shapely.contains_xy(shore.buffer(-2.0), pts[:, 0], pts[:, 1])]
+    level = scene.water.level(pts)
+    assert np.ptp(level) < 1e-9
+    # the rivers run down into it and out of it
+    assert scene.water.level(np.array([[-400.0, 80.0]]))[0] >= level[0]
+    assert scene.water.level(np.array([[500.0, 30.0]]))[0] <= level[0]
+    assert (scene.terrain.height(pts[:200]) < level[:200]).all()   # a carved bed under it
+    given = rf.landscape(two_inlets(level_m=level[0] + 0.5).build(), seed=0)
+    assert np.allclose(given.water.level(pts[:200]), level[0] + 0.5)
+
+
+def test_a_lake_no_river_touches_is_still_water():
+    b = RiverNetworkBuilder()
+    b.add_branch([(-500, -400), (500, -400)], 30.0, discharge_m2s=10.0, name="river")
+    b.add_lake(shapely.Point(0, 0).buffer(80))
+    graph = b.build()
+    field = rf.FlowField(graph)
+    rng = np.random.default_rng(3)
+    pts = rng.uniform(-80, 80, (2000, 2))
+    pts = pts[np.hypot(*pts.T) < 78]
+    status, v = field.query(pts)
+    assert (status == rf.FlowStatus.INSIDE).all()
+    assert np.isfinite(v).all() and np.abs(v).max() < 1e-6
+    assert np.isfinite(field.potential(pts)).all()
+    reached, left = _trace(field, pts[:20], lambda p: np.zeros(len(p), bool), steps=50)
+    assert not left.any()
+    # the river beside it still flows
+    status, v = field.query(np.array([[0.0, -400.0]]))
+    assert status[0] == rf.FlowStatus.INSIDE and v[0, 0] > 0.1
+
+
+def test_a_river_through_a_lake_becomes_its_inlet_and_outlet():
+    b = RiverNetworkBuilder()
+    b.add_branch([(-700, 50), (-300, 0), (0, 0), (300, -20), (700, 40)], 30.0,
+                 discharge_m2s=25.0, name="river")
+    b.add_lake(shapely.Point(0, 0).buffer(180, quad_segs=8), level_m=3.0)
+    graph = b.build()
+    (k,) = graph.lakes()
+    assert graph.areas[k].info == LAKE_LEVEL_INFO and graph.areas[k].level_m == 3.0
+    assert sorted({graph.curves[c].potential for c, _ in graph.areas[k].curves
+                   if graph.curves[c].is_bank}) == [0.0, 25.0]
+    assert len(graph.areas) == 3
+
+
+@pytest.mark.parametrize("level", [None, 12.5])
+def test_lakes_round_trip_through_graph_files(tmp_path, level):
+    graph = two_inlets(level_m=level).build()
+    for kw in ({}, {"indexed": True}):
+        path = tmp_path / "lake.graph"
+        rf.save_graph(graph, path, **kw)
+        back = rf.load_graph(path)
+        assert back == graph
+        assert [a.level_m for a in back.areas] == [a.level_m for a in graph.areas]
+    first = (tmp_path / "lake.graph").read_bytes()[:40]
+    assert (b"2 5 4 1 3 2 0" in first) == (level is not None)
+
+
+@pytest.mark.parametrize("make, message", [
+    (lambda b: (b.add_branch([(-500, 0), (-100, 0)], 30.0, discharge_m2s=5.0),
+                b.add_lake(LAKE)), "none flows out"),
+    (lambda b: (b.add_branch([(100, 0), (500, 0)], 30.0, discharge_m2s=5.0),
+                b.add_lake(LAKE)), "none flows in"),
+    (lambda b: b.add_lake([(0, 0), (10, 10), (10, 0), (0, 10)]), "not a simple polygon"),
+    (lambda b: (b.add_lake(LAKE), b.add_lake(shapely.Point(100, 0).buffer(100))), "overlaps"),
+    (lambda b: (b.add_branch([(-50, 0), (50, 0)], 30.0, discharge_m2s=5.0),
+                b.add_lake(LAKE)), "inside a lake"),
+    (lambda b: b.add_lake(LAKE, level_m=float("nan")), "level_m"),
+])
+def test_bad_lakes_are_clear_errors(make, message):
+    b = RiverNetworkBuilder()
+    with pytest.raises(GraphError, match=message):
+        make(b)
+        b.build()
+
+
+def test_particles_on_a_still_lake_in_the_running_world():
+    b = RiverNetworkBuilder()
+    b.add_branch([(-500, -400), (500, -400)], 30.0, discharge_m2s=10.0, name="river")
+    b.add_lake(shapely.Point(0, 0).buffer(80))
+    scene = rf.landscape(b.build(), seed=0)
+    level = scene.water.level(np.array([[0.0, 0.0]]))[0]
+    world = rf.RiverWorld(scene, size=(160, 90), gl=False, seed=0)
+    world.camera.look_at((0.0, -150.0, level + 60.0), (0.0, 0.0, level))
+    for _ in range(30):
+        world.step(1 / 30)
+    p = world.particles
+    assert np.isfinite(p.world_m).all()
+    on_lake = (p.status == rf.FlowStatus.INSIDE) & (np.hypot(*p.world_m[:, :2].T) < 79.0)
+    assert on_lake.sum() >= 5
+    assert np.allclose(p.world_m[on_lake, 2], level)
+
+
+def test_lakes_of_many_shapes_build():
+    """Ellipses of 4 to 23 vertices a quarter, turned any way, with one to three inlets and
+    one or two outlets meeting the shore at any angle: every one builds (the builder checks
+    its graph: water left of every bank, one ψ where banks meet, the discharges)."""
+    from shapely import affinity
+
+    rng = np.random.default_rng(7)
+    for _ in range(8):
+        a, c = rng.uniform(100, 250, 2)
+        lake = affinity.rotate(affinity.scale(shapely.Point(0, 0).buffer(
+            1, quad_segs=int(rng.integers(4, 24))), a, c), rng.uniform(0, 180))
+        n_in, n_out = int(rng.integers(1, 4)), int(rng.integers(1, 3))
+        angles = np.sort(rng.uniform(0, 2 * np.pi, n_in + n_out))
+        while np.min(np.diff(np.r_[angles, angles[0] + 2 * np.pi])) < 0.6:
+            angles = np.sort(rng.uniform(0, 2 * np.pi, n_in + n_out))
+        b = RiverNetworkBuilder()
+        for k, angle in enumerate(angles):
+            d = np.array([np.cos(angle), np.sin(angle)])
+            off = rng.uniform(-30, 30) * np.array([-d[1], d[0]])
+            line = [d * 900 + off, d * 460 + off, d * 20 + off]
+            width = float(rng.uniform(15, 40))
+            if k < n_in:
+                b.add_branch(line, width, discharge_m2s=float(rng.uniform(5, 30)))
+            else:
+                b.add_branch(line[::-1], width)
+        b.add_lake(lake)
+        graph = b.build()
+        assert len(graph.lakes()) == 1
+        inflow = sum(b.discharges_m2s[:n_in])
+        assert abs(sum(b.discharges_m2s[n_in:]) - inflow) < 1e-9 * inflow
