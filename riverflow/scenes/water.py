@@ -18,7 +18,7 @@ import numpy as np
 import shapely
 from scipy.spatial import cKDTree
 
-from riverflow.kernels.centre_line import nearest_level
+from riverflow.kernels.centre_line import LevelSamples, nearest_level
 from riverflow.tiles import remote
 
 JUNCTION_BLEND = 1.25
@@ -244,6 +244,22 @@ class WaterSurface:
             if level == level:
                 return level
         return float(self.level(np.array([[x, y]]))[0])
+
+    def level_samples(self) -> LevelSamples:
+        """The centre-line samples with the water each stands for (its river's width times
+        half the distance to its neighbours on its branch), as
+        :func:`riverflow.kernels.centre_line.view_level` reads them (made once)."""
+        cached = self.__dict__.get("_level_samples")
+        if cached is None:
+            xy = np.ascontiguousarray(self.samples_m, np.float64)
+            gap = np.hypot(*np.diff(xy, axis=0).T)
+            gap[self.branch[1:] != self.branch[:-1]] = 0.0          # between two branches
+            length = 0.5 * (np.append(gap, 0.0) + np.insert(gap, 0, 0.0))
+            width = np.ascontiguousarray(self.widths_m, np.float64)
+            cached = self._level_samples = LevelSamples(
+                xy, np.ascontiguousarray(self.levels_m, np.float64), width * length,
+                0.5 * width)
+        return cached
 
     def distance_to_shore(self, xy: np.ndarray, stride: int = 1,
                           upper_bound_m: float = np.inf) -> np.ndarray:

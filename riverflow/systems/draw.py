@@ -28,7 +28,8 @@ Per frame (reference §4; no one-frame latency: the tables are built from this f
 
 Reflections (issue 12 item 3; :attr:`DisplaySettings.reflections`, shaded water modes, the eye
 above the water), before step 2: the terrain tiles (through every 2nd node) and the props
-drawn mirrored in the level of the river nearest the camera, each cut at its own water
+drawn mirrored in the mean level of the water in view (weighted by its share of the screen:
+continuous as the camera moves), each cut at its own water
 level, into a reduced-resolution colour + depth target with mip levels
 (:mod:`riverflow.scenes.reflection`); in step 4 the water shader follows each pixel's
 wave-bent reflected ray through it and Fresnel-weights what it finds over the sky
@@ -71,8 +72,9 @@ from riverflow.kernels.sprites import (MAX_PER_CELL, NO_PARTICLE, PARTICLES_PER_
                                        sprite_bins, sprite_grid_shape, sprite_source)
 from riverflow.scenes.meshes import coarser_neighbours, stitch_tile, tile_indices
 from riverflow.scenes.props import SHAPES
-from riverflow.scenes.reflection import (MIN_EYE_HEIGHT_M, TERRAIN_STRIDE, mirror_level,
-                                         mirrored_view_projection, reflection_size)
+from riverflow.scenes.reflection import (MIN_EYE_HEIGHT_M, TERRAIN_STRIDE, ease_level,
+                                         mirror_level, mirrored_view_projection,
+                                         reflection_size)
 from riverflow.scenes.tile_kinds import TERRAIN_MESH, WATER_MESH
 from riverflow.tiles.cache import TilePool
 from riverflow.tiles.cut import Standins, standin_tiles
@@ -575,6 +577,8 @@ class DrawRivers(System):
         self.last_mirror_level_m: float | None = None
         """The reflection's mirror height [m] in the last frame (None: no reflection)."""
         self._mirror_for: tuple[int, float | None] = (-1, None)
+        self._mirror_eased: tuple[float, float, float, int] | None = None
+        """(clock time [s], mirror height [m], its rate [m/s], camera revision) last drawn."""
         self.last_tables_ms = 0.0
         self._terrain_slots = np.zeros(0, np.int32)   # this frame's, near to far
         self._tiles_for = None        # (pools and revisions, cut, what _tile_meshes found)
@@ -853,7 +857,7 @@ class DrawRivers(System):
     def _draw_reflection(self, world: RiverWorld, gpu: _Gpu, settings: DisplaySettings,
                          clip_from_world: np.ndarray) -> dict:
         """The planar reflection pass (``shaders/reflection.glsl``): terrain and props mirrored
-        in the water level nearest the camera, cut at their water level, into the reflection
+        in the mean level of the water in view (:func:`mirror_level`), cut at their water level, into the reflection
         target; returns the water shader's reflection uniforms (``u_reflect`` false, and no
         pass, when reflections are off, the water mode is not shaded, or the eye is not above
         the mirror). With a pass, the view block is written (its copy 0 packed by the caller,
@@ -864,11 +868,13 @@ class DrawRivers(System):
             return off
         camera = world.camera
         eye = camera.position
-        if self._mirror_for[0] != camera.revision:  # a KD-tree query: once per view
+        if self._mirror_for[0] != camera.revision:  # the water in view: once per view
             self._mirror_for = (camera.revision,
-                                mirror_level(getattr(world.scene, "water", None), eye))
-        level = self._mirror_for[1]
-        if level is None or not eye[2] > level + MIN_EYE_HEIGHT_M:
+                                mirror_level(getattr(world.scene, "water", None), eye,
+                                             clip_from_world, camera.near_m))
+        level = self._ease_mirror(self._mirror_for[1], world.clock.now_s, camera.revision,
+                                  float(eye[2]))
+        if level is None:
             return off
         self.last_mirror_level_m = level
         reflection = gpu.reflection
@@ -898,6 +904,32 @@ class DrawRivers(System):
         reflection.depth.bind(REFLECTION_DEPTH_UNIT)
         return {"u_reflect": True, "u_mirror_level_m": float(level),
                 "u_reflection_distortion": float(settings.reflection_distortion)}
+
+    def _ease_mirror(self, target: float | None, now_s: float, revision: int,
+                     eye_z: float) -> float | None:
+        """The mirror's height this frame: eased towards ``target`` (the level of the water in
+        view) as time passes (:func:`ease_level`), so that it changes smoothly however fast
+        the view does. With no time passed since the last frame it stays, or, for another
+        view (a jump, a still), is the target; None (no reflection) when the eye is not above
+        the target or the eased height."""
+        last = self._mirror_eased
+        if target is None or not eye_z > target + MIN_EYE_HEIGHT_M:
+            self._mirror_eased = None
+            return None
+        if last is None:
+            level, rate = target, 0.0
+        else:
+            t, level, rate, seen = last
+            dt = now_s - t
+            if not dt > 0.0:
+                if seen != revision:
+                    level, rate = target, 0.0
+            else:
+                level, rate = ease_level(level, rate, target, min(dt, 10.0))
+        if not eye_z > level + MIN_EYE_HEIGHT_M:     # the eye came down fast: to the target
+            level, rate = target, 0.0
+        self._mirror_eased = (now_s, level, rate, revision)
+        return level
 
     def _pre_advect(self, gpu: _Gpu, wave_uniforms: dict,
                     n_drawn: int, water_meshes: list) -> None:
