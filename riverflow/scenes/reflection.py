@@ -26,6 +26,9 @@ water: the surface seen from below shows no mirror image of the land)."""
 MIRROR_SETTLE_S = 0.5
 """The mirror's height follows the level of the water in view within about this time [s]
 (:func:`ease_level`; 90 % of a step)."""
+MIRROR_CUT_M = 50.0
+"""An eye that moved farther than this [m] between two drawn frames jumped (a teleport, a
+new shot): the mirror takes the new view's level at once, without easing."""
 FALLBACK_SHARE = 1e-4
 """The share of the screen with which the nearest river's level joins the level of the water
 in view (:func:`mirror_level`): it decides where less water than that is in view."""

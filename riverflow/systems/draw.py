@@ -47,6 +47,7 @@ a pass draws all of a frame's terrain tiles, near to far, with one multi-draw ca
 """
 from __future__ import annotations
 
+import math
 import time
 import weakref
 from typing import TYPE_CHECKING
@@ -72,8 +73,8 @@ from riverflow.kernels.sprites import (MAX_PER_CELL, NO_PARTICLE, PARTICLES_PER_
                                        sprite_bins, sprite_grid_shape, sprite_source)
 from riverflow.scenes.meshes import coarser_neighbours, stitch_tile, tile_indices
 from riverflow.scenes.props import SHAPES
-from riverflow.scenes.reflection import (MIN_EYE_HEIGHT_M, TERRAIN_STRIDE, ease_level,
-                                         mirror_level, mirrored_view_projection,
+from riverflow.scenes.reflection import (MIN_EYE_HEIGHT_M, MIRROR_CUT_M, TERRAIN_STRIDE,
+                                         ease_level, mirror_level, mirrored_view_projection,
                                          reflection_size)
 from riverflow.scenes.tile_kinds import TERRAIN_MESH, WATER_MESH
 from riverflow.tiles.cache import TilePool
@@ -577,8 +578,9 @@ class DrawRivers(System):
         self.last_mirror_level_m: float | None = None
         """The reflection's mirror height [m] in the last frame (None: no reflection)."""
         self._mirror_for: tuple[int, float | None] = (-1, None)
-        self._mirror_eased: tuple[float, float, float, int] | None = None
-        """(clock time [s], mirror height [m], its rate [m/s], camera revision) last drawn."""
+        self._mirror_eased = None
+        """(clock time [s], mirror height [m], its rate [m/s], camera revision, eye [m]) of
+        the last frame drawn with a reflection."""
         self.last_tables_ms = 0.0
         self._terrain_slots = np.zeros(0, np.int32)   # this frame's, near to far
         self._tiles_for = None        # (pools and revisions, cut, what _tile_meshes found)
@@ -873,7 +875,7 @@ class DrawRivers(System):
                                 mirror_level(getattr(world.scene, "water", None), eye,
                                              clip_from_world, camera.near_m))
         level = self._ease_mirror(self._mirror_for[1], world.clock.now_s, camera.revision,
-                                  float(eye[2]))
+                                  (float(eye[0]), float(eye[1]), float(eye[2])))
         if level is None:
             return off
         self.last_mirror_level_m = level
@@ -906,29 +908,31 @@ class DrawRivers(System):
                 "u_reflection_distortion": float(settings.reflection_distortion)}
 
     def _ease_mirror(self, target: float | None, now_s: float, revision: int,
-                     eye_z: float) -> float | None:
+                     eye: tuple[float, float, float]) -> float | None:
         """The mirror's height this frame: eased towards ``target`` (the level of the water in
         view) as time passes (:func:`ease_level`), so that it changes smoothly however fast
-        the view does. With no time passed since the last frame it stays, or, for another
-        view (a jump, a still), is the target; None (no reflection) when the eye is not above
-        the target or the eased height."""
+        the view does. It is the target at once after a cut: the first frame, another view
+        with no time passed (a still, a test), or an eye more than MIRROR_CUT_M from the last
+        frame's (a teleport). None (no reflection) when the eye is not above the target or
+        the eased height."""
         last = self._mirror_eased
+        eye_z = eye[2]
         if target is None or not eye_z > target + MIN_EYE_HEIGHT_M:
             self._mirror_eased = None
             return None
-        if last is None:
-            level, rate = target, 0.0
-        else:
-            t, level, rate, seen = last
+        level, rate = target, 0.0
+        if last is not None:
+            t, was, was_rate, seen, (x, y, z) = last
             dt = now_s - t
-            if not dt > 0.0:
-                if seen != revision:
-                    level, rate = target, 0.0
-            else:
-                level, rate = ease_level(level, rate, target, min(dt, 10.0))
-        if not eye_z > level + MIN_EYE_HEIGHT_M:     # the eye came down fast: to the target
+            if math.hypot(eye[0] - x, eye[1] - y, eye_z - z) > MIRROR_CUT_M:
+                pass                                    # a cut: the target at once
+            elif dt > 0.0:
+                level, rate = ease_level(was, was_rate, target, min(dt, 10.0))
+            elif seen == revision:                      # the same view again: as it was
+                level, rate = was, was_rate
+        if not eye_z > level + MIN_EYE_HEIGHT_M:       # the eye came down fast: the target
             level, rate = target, 0.0
-        self._mirror_eased = (now_s, level, rate, revision)
+        self._mirror_eased = (now_s, level, rate, revision, eye)
         return level
 
     def _pre_advect(self, gpu: _Gpu, wave_uniforms: dict,
