@@ -50,8 +50,9 @@ def _fade(x):
 @njit(**JIT_OPTIONS)
 def view_level(samples, clip_from_world, eye, near_m, min_height_m, fallback_level,
                fallback_share):
-    """The water level [m] the camera sees, each centre-line sample weighted by the share of
-    the screen its water covers, and that share's sum: (level, share); level NaN when nothing
+    """The water level [m] the camera sees: the centre-line samples' levels weighted by the
+    share of the screen their water covers times its Fresnel reflectance there (where the
+    reflection shows), and the sum of those weights: (level, weight); level NaN when nothing
     weighs (no sample in view and ``fallback_share`` 0).
 
     ``clip_from_world`` (4, 4) is the column-vector world → clip matrix of a perspective
@@ -59,13 +60,15 @@ def view_level(samples, clip_from_world, eye, near_m, min_height_m, fallback_lev
     row 3 the view direction, so clip w is the depth along it; rows 0 and 1 its right and up
     axes scaled by the projection's x and y scales). A horizontal patch of area A whose
     water lies h below the eye, at depth w, covers A·h / w³ × sx·sy / 4 of the screen (the
-    solid angle it subtends, A·h / d³, times the pixels per steradian, ∝ 1 / cos³ of its angle
-    off the view axis, d·cos = w). Only water more than ``min_height_m`` below the eye
-    weighs (h is measured from there). A sample fades in over VIEW_EDGE_NDC inside the
-    screen's edges moved out by its river's half width, and between the near plane
-    ``near_m`` and twice it: the result is continuous in the camera's pose. ``fallback_level`` joins
-    with the share ``fallback_share`` (≥ 0): what the level tends to where little water is
-    in view. Occlusion by the terrain is not looked at."""
+    solid angle it subtends, A·h / d³, times the pixels per steradian, ∝ 1 / cos³ of its
+    angle off the view axis, d·cos = w); its reflectance is Schlick's F0 + (1 − F0)(1 − h/d)⁵
+    (seen from above, 2 %: the water right under a camera shows little reflection). Only
+    water more than ``min_height_m`` below the eye weighs (h measured from there for the
+    share). A sample fades in over VIEW_EDGE_NDC inside the screen's edges moved out by its
+    river's half width, and between the near plane ``near_m`` and twice it: the result is
+    continuous in the camera's pose. ``fallback_level`` joins with the weight
+    ``fallback_share`` (≥ 0): what the level tends to where little water is in view.
+    Occlusion by the terrain is not looked at."""
     m = clip_from_world
     sx = math.sqrt(m[0, 0] * m[0, 0] + m[0, 1] * m[0, 1] + m[0, 2] * m[0, 2])
     sy = math.sqrt(m[1, 0] * m[1, 0] + m[1, 1] * m[1, 1] + m[1, 2] * m[1, 2])
@@ -83,14 +86,17 @@ def view_level(samples, clip_from_world, eye, near_m, min_height_m, fallback_lev
         w = m[3, 0] * x + m[3, 1] * y + m[3, 2] * z + m[3, 3]
         if not w > near_m:
             continue
-        inv = 1.0 / w
-        cx = (m[0, 0] * x + m[0, 1] * y + m[0, 2] * z + m[0, 3]) * inv
-        cy = (m[1, 0] * x + m[1, 1] * y + m[1, 2] * z + m[1, 3]) * inv
-        r = half_width[i] * inv
-        fx = _fade((1.0 + r * sx - abs(cx)) / VIEW_EDGE_NDC)
-        fy = _fade((1.0 + r * sy - abs(cy)) / VIEW_EDGE_NDC)
-        if fx * fy == 0.0:
+        # off the screen widened by the half width (fx or fy 0): no division, no weight
+        px = m[0, 0] * x + m[0, 1] * y + m[0, 2] * z + m[0, 3]
+        if not abs(px) < w + half_width[i] * sx:
             continue
+        py = m[1, 0] * x + m[1, 1] * y + m[1, 2] * z + m[1, 3]
+        if not abs(py) < w + half_width[i] * sy:
+            continue
+        inv = 1.0 / w
+        r = half_width[i] * inv
+        fx = _fade((1.0 + r * sx - abs(px * inv)) / VIEW_EDGE_NDC)
+        fy = _fade((1.0 + r * sy - abs(py * inv)) / VIEW_EDGE_NDC)
         share = area[i] * h * inv * inv * inv * screen * fx * fy * _fade(w / near_m - 1.0)
         dx, dy, dz = x - eye[0], y - eye[1], z - eye[2]
         c = 1.0 - min((eye[2] - z) / math.sqrt(dx * dx + dy * dy + dz * dz), 1.0)

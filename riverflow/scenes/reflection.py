@@ -29,6 +29,11 @@ MIRROR_SETTLE_S = 0.5
 MIRROR_CUT_M = 50.0
 """An eye that moved farther than this [m] between two drawn frames jumped (a teleport, a
 new shot): the mirror takes the new view's level at once, without easing."""
+MIRROR_REFRESH_M = 1.0
+MIRROR_REFRESH_RAD = math.radians(0.5)
+"""In a moving view the level of the water in view is found again once the eye moved more
+than MIRROR_REFRESH_M [m] or the view turned more than MIRROR_REFRESH_RAD since it was last
+found (at 12 m/s and 60 frames a second, every 5th frame; the easing smooths the steps)."""
 FALLBACK_SHARE = 1e-4
 """The share of the screen with which the nearest river's level joins the level of the water
 in view (:func:`mirror_level`): it decides where less water than that is in view."""

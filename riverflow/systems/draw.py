@@ -73,8 +73,8 @@ from riverflow.kernels.sprites import (MAX_PER_CELL, NO_PARTICLE, PARTICLES_PER_
                                        sprite_bins, sprite_grid_shape, sprite_source)
 from riverflow.scenes.meshes import coarser_neighbours, stitch_tile, tile_indices
 from riverflow.scenes.props import SHAPES
-from riverflow.scenes.reflection import (MIN_EYE_HEIGHT_M, MIRROR_CUT_M, TERRAIN_STRIDE,
-                                         ease_level, mirror_level, mirrored_view_projection,
+from riverflow.scenes.reflection import (MIN_EYE_HEIGHT_M, MIRROR_CUT_M, MIRROR_REFRESH_M,
+                                         MIRROR_REFRESH_RAD, TERRAIN_STRIDE, ease_level, mirror_level, mirrored_view_projection,
                                          reflection_size)
 from riverflow.scenes.tile_kinds import TERRAIN_MESH, WATER_MESH
 from riverflow.tiles.cache import TilePool
@@ -555,6 +555,20 @@ _CONSTANT_UNIFORMS = dict(
     u_sprite_radius_factor=SPRITE_RADIUS_FACTOR, u_foam_scale_m=FOAM_SCALE_M,
     u_foam_size_px=float(FOAM_PATTERN_PX))
 """The uniforms every program that uses them gets once, when it is made."""
+_COS_REFRESH = math.cos(MIRROR_REFRESH_RAD)
+
+
+def _moved(was: tuple, pose: tuple) -> bool:
+    """Whether the camera ``pose`` (eye [m], view direction, the projection's x and y
+    scales) is far enough from ``was`` for the level of the water in view to be found
+    again: the eye moved more than MIRROR_REFRESH_M, the view turned more than
+    MIRROR_REFRESH_RAD or the projection changed (or there is no ``was``)."""
+    if len(was) != len(pose):
+        return True
+    ex, ey, ez, fx, fy, fz, sx, sy = was
+    x, y, z, gx, gy, gz, tx, ty = pose
+    return ((x - ex) ** 2 + (y - ey) ** 2 + (z - ez) ** 2 > MIRROR_REFRESH_M ** 2
+            or fx * gx + fy * gy + fz * gz < _COS_REFRESH or sx != tx or sy != ty)
 
 
 # -- the draw system ---------------------------------------------------------------------------
@@ -577,7 +591,9 @@ class DrawRivers(System):
         self.context = None
         self.last_mirror_level_m: float | None = None
         """The reflection's mirror height [m] in the last frame (None: no reflection)."""
-        self._mirror_for: tuple[int, float | None] = (-1, None)
+        self._mirror_for: tuple = (-1, None, -math.inf, ())
+        """(camera revision, the level of the water in view, clock time, pose) when the
+        mirror's target was last found (:func:`_moved`)."""
         self._mirror_eased = None
         """(clock time [s], mirror height [m], its rate [m/s], camera revision, eye [m]) of
         the last frame drawn with a reflection."""
@@ -859,8 +875,9 @@ class DrawRivers(System):
     def _draw_reflection(self, world: RiverWorld, gpu: _Gpu, settings: DisplaySettings,
                          clip_from_world: np.ndarray) -> dict:
         """The planar reflection pass (``shaders/reflection.glsl``): terrain and props mirrored
-        in the mean level of the water in view (:func:`mirror_level`), cut at their water level, into the reflection
-        target; returns the water shader's reflection uniforms (``u_reflect`` false, and no
+        in the level of the water in view (:func:`mirror_level`, eased in time:
+        :meth:`_ease_mirror`), cut at their water level, into the reflection target; returns
+        the water shader's reflection uniforms (``u_reflect`` false, and no
         pass, when reflections are off, the water mode is not shaded, or the eye is not above
         the mirror). With a pass, the view block is written (its copy 0 packed by the caller,
         copy 1 the mirrored view, bound for the pass)."""
@@ -870,12 +887,19 @@ class DrawRivers(System):
             return off
         camera = world.camera
         eye = camera.position
-        if self._mirror_for[0] != camera.revision:  # the water in view: once per view
+        now = world.clock.now_s
+        pose = (float(eye[0]), float(eye[1]), float(eye[2]),
+                *clip_from_world[3, :3].tolist(), float(clip_from_world[0, 0]),
+                float(clip_from_world[1, 1]))
+        last = self._mirror_for
+        if last[0] != camera.revision and (not now > last[2] or _moved(last[3], pose)):
+            # the water in view (a pass over the centre-line samples), again when the camera
+            # moved or turned enough (the easing smooths what changed meanwhile), or at once
+            # for a view with no time passed (a still, a jump)
             self._mirror_for = (camera.revision,
                                 mirror_level(getattr(world.scene, "water", None), eye,
-                                             clip_from_world, camera.near_m))
-        level = self._ease_mirror(self._mirror_for[1], world.clock.now_s, camera.revision,
-                                  (float(eye[0]), float(eye[1]), float(eye[2])))
+                                             clip_from_world, camera.near_m), now, pose)
+        level = self._ease_mirror(self._mirror_for[1], now, camera.revision, pose[:3])
         if level is None:
             return off
         self.last_mirror_level_m = level
