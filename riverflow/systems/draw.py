@@ -559,8 +559,8 @@ _COS_REFRESH = math.cos(MIRROR_REFRESH_RAD)
 
 
 def _moved(was: tuple, pose: tuple) -> bool:
-    """Whether the camera ``pose`` (eye [m], view direction, the projection's x and y
-    scales) is far enough from ``was`` for the level of the water in view to be found
+    """Whether the camera ``pose`` (eye [m], view direction, vertical field of view, aspect
+    ratio) is far enough from ``was`` for the level of the water in view to be found
     again: the eye moved more than MIRROR_REFRESH_M, the view turned more than
     MIRROR_REFRESH_RAD or the projection changed (or there is no ``was``)."""
     if len(was) != len(pose):
@@ -889,8 +889,7 @@ class DrawRivers(System):
         eye = camera.position
         now = world.clock.now_s
         pose = (float(eye[0]), float(eye[1]), float(eye[2]),
-                *clip_from_world[3, :3].tolist(), float(clip_from_world[0, 0]),
-                float(clip_from_world[1, 1]))
+                *clip_from_world[3, :3].tolist(), camera.fov_y_deg, camera.aspect)
         last = self._mirror_for
         if last[0] != camera.revision and (not now > last[2] or _moved(last[3], pose)):
             # the water in view (a pass over the centre-line samples), again when the camera
