@@ -157,11 +157,11 @@ def _random_cut(rng, depth: int) -> list[tuple[int, int, int]]:
 
 def test_coarser_neighbours_match_the_twin(rng):
     """The coarser tile across each edge (numba, binary searches) as the Python twin finds
-    it: 60 random cuts down to 4-8 levels, whole, thinned (tiles not drawn) and shuffled."""
+    it: 30 random cuts down to 3-7 levels, whole, thinned (tiles not drawn) and shuffled."""
     from riverflow.scenes.meshes import coarser_neighbours
     found = 0
-    for k in range(60):
-        leaves = _random_cut(rng, int(rng.integers(4, 9)))
+    for k in range(30):
+        leaves = _random_cut(rng, int(rng.integers(3, 8)))
         keys = np.array(leaves, np.int64)
         if k % 3 == 1:
             keys = keys[rng.random(len(keys)) < 0.7]
@@ -169,6 +169,6 @@ def test_coarser_neighbours_match_the_twin(rng):
         got = coarser_neighbours(keys)
         np.testing.assert_array_equal(got, _coarser_neighbours_twin(keys))
         found += int((got >= 0).sum())
-    assert found > 500
+    assert found > 100
     assert coarser_neighbours(np.zeros((0, 3), np.int64)).shape == (0, 4)
     np.testing.assert_array_equal(coarser_neighbours([[0, 0, 0]]), [[-1, -1, -1, -1]])
