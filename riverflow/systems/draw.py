@@ -367,6 +367,9 @@ class _TerrainTiles(_PoolSync):
         """By pool slot, the tiles uploaded with their borders stitched to coarser
         neighbours (:func:`~riverflow.scenes.meshes.stitch_tile`): (what they were stitched
         to, the vertices as uploaded). The others are uploaded as their pool holds them."""
+        self.stitched_across = np.zeros((0, 4), np.int64)
+        """By pool slot, the codes of the coarser tiles across its edges (−1: none) that the
+        tile on the GPU is stitched to; −2: not known (uploaded afresh)."""
         self._stitched_set: tuple[np.ndarray, np.ndarray] | None = None
         """The (codes, slots) of the last set :meth:`_stitch` went through: the same set
         again, with no tile uploaded afresh, is stitched as it was (nothing to look up)."""
@@ -381,6 +384,7 @@ class _TerrainTiles(_PoolSync):
             self.arena_slot[gone] = -1
             for slot in gone.tolist():
                 self.stitched.pop(slot, None)
+            self.stitched_across[gone] = -2
             self._stitched_set = None
         missing = self.missing(tiles)
         if len(missing):
@@ -392,6 +396,7 @@ class _TerrainTiles(_PoolSync):
                 self.arena_slot[slot] = self.arena.alloc()
             self.arena.upload(int(self.arena_slot[slot]), data.vertices)
             self.stitched.pop(slot, None)
+            self.stitched_across[slot] = -2
             self.centre[slot] = data.bounds_m.mean(axis=0)
             self.code_of[slot] = tiles.codes[k]
         last = self._stitched_set
@@ -407,6 +412,10 @@ class _TerrainTiles(_PoolSync):
         in (level, tx, ty) order: a neighbour is stitched before the finer tiles that follow
         it (a tile's corner may move onto a much coarser one's border)."""
         across = coarser_neighbours(tiles.keys)
+        codes_across = np.where(across >= 0, tiles.codes[np.maximum(across, 0)], -1)
+        if np.array_equal(self.stitched_across[tiles.slots], codes_across):
+            return              # every tile is stitched to these neighbours already (most sets)
+        self.stitched_across[tiles.slots] = codes_across
         signature: list[tuple] = []
         for r, slot in enumerate(tiles.slots.tolist()):
             sig = tuple((e, int(tiles.codes[m]), signature[m])
@@ -437,12 +446,15 @@ class _TerrainTiles(_PoolSync):
         super()._grow(n)
         self.arena_slot = np.concatenate([self.arena_slot, np.full(n - old, -1, np.int32)])
         self.centre = np.concatenate([self.centre, np.zeros((n - old, 3))])
+        self.stitched_across = np.concatenate([self.stitched_across,
+                                               np.full((n - old, 4), -2, np.int64)])
 
     def delete(self) -> None:
         self.arena.delete()
         self.code_of[:] = -1
         self.arena_slot[:] = -1
         self.stitched.clear()
+        self.stitched_across[:] = -2
         self._stitched_set = None
 
 
