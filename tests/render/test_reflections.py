@@ -331,7 +331,7 @@ def test_the_reflection_does_not_jump_where_the_nearest_river_changes(world, sce
     pixels (reflections on minus off, non-advected waves, over the pixels that are water in
     both frames) changes by at most 2/255 from one frame to the next (measured: ≤ 0.9).
     Before, the mirror sat at the nearest river's level: the tributary's until the line,
-    and the reflection of the whole far river changed at once there, by 52/255 in blue."""
+    and the reflection of the whole far river changed at once there: by 61/255 (in blue)."""
     pose, switch = _tributary_flight(scene)
     saved = (world.camera.position.copy(), world.camera.target.copy())
     drawer = world._drawer()
