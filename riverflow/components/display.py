@@ -61,7 +61,7 @@ class DisplaySettings:
     # -- reflections (issue 12 item 3) --
     reflections: bool = True
     """Banks, props and sky mirrored in the water (a planar reflection pass at the level of
-    the water nearest the camera, corrected per pixel for the river's slope); False: the sky
+    the water in view, corrected per pixel for the river's slope); False: the sky
     alone is reflected, as before, and the pass is skipped."""
     reflection_scale: float = 0.5
     """Size of the reflection texture as a fraction of the viewport's (0 < scale ≤ 1); the

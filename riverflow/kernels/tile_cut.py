@@ -3,7 +3,8 @@
 For each leaf of a cut: its own resident tile, or its finest resident ancestor; then the
 distinct tiles in (level, tx, ty) order, less every tile that another one listed contains (an
 ancestor stands in for leaves around it: its descendants are not drawn too).
-:func:`near_to_far` orders a frame's tiles for drawing.
+:func:`near_to_far` orders a frame's tiles for drawing; :func:`coarser_across` finds the coarser
+tile across each edge of every drawn tile (the terrain's stitching).
 """
 from __future__ import annotations
 
@@ -116,3 +117,64 @@ def near_to_far(slots, centres, eye, out):
     order = np.argsort(d, kind="mergesort")
     for i in range(n):
         out[i] = slots[order[i]]
+
+
+_EDGE_DX = (0, 1, 0, -1)
+_EDGE_DY = (-1, 0, 1, 0)
+
+
+@njit(inline="always", **JIT_OPTIONS)
+def _find(sorted_keys, n, key):
+    """The index of ``key`` in ``sorted_keys[:n]``, or −1 (binary search)."""
+    lo, hi = 0, n
+    while lo < hi:
+        mid = (lo + hi) >> 1
+        if sorted_keys[mid] < key:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo if lo < n and sorted_keys[lo] == key else -1
+
+
+@njit(**JIT_OPTIONS)
+def coarser_across(keys, out):
+    """For each of the drawn tiles ``keys`` (K, 3) int64 (level, tx, ty) — quadtree tiles none
+    of which contains another, in any order — write into ``out`` (K, 4) int64 the row of the
+    tile across each edge (south, east, north, west:
+    :data:`riverflow.scenes.meshes.EDGE_OFFSETS`) when that tile is coarser; −1 where the
+    neighbour is as fine or finer (the same tile drawn, or one of its descendants), none is
+    drawn there, or the edge is the map's. A tile coarser than the tile across an edge covers
+    the whole edge: the nearest drawn ancestor of the same-level neighbour answers. Binary
+    searches in the sorted keys and in the sorted strict ancestors of the drawn tiles."""
+    k = keys.shape[0]
+    order_keys = np.empty(k, np.int64)
+    depth = 0
+    for r in range(k):
+        order_keys[r] = _order_key(keys[r, 0], keys[r, 1], keys[r, 2])
+        depth += keys[r, 0]
+    order = np.argsort(order_keys, kind="mergesort")
+    drawn = order_keys[order]
+    above = np.empty(max(depth, 1), np.int64)      # every drawn tile's strict ancestors
+    n = 0
+    for r in range(k):
+        level, tx, ty = keys[r, 0], keys[r, 1], keys[r, 2]
+        for up in range(1, level + 1):
+            above[n] = _order_key(level - up, tx >> up, ty >> up)
+            n += 1
+    above = np.sort(above[:n])
+    for r in range(k):
+        level, tx, ty = keys[r, 0], keys[r, 1], keys[r, 2]
+        side = np.int64(1) << level
+        for e in range(4):
+            out[r, e] = -1
+            x, y = tx + _EDGE_DX[e], ty + _EDGE_DY[e]
+            if x < 0 or y < 0 or x >= side or y >= side:
+                continue                                # the edge of the map
+            same = _order_key(level, x, y)
+            if _find(drawn, k, same) >= 0 or _find(above, n, same) >= 0:
+                continue                                # as fine, or finer
+            for up in range(1, level + 1):
+                found = _find(drawn, k, _order_key(level - up, x >> up, y >> up))
+                if found >= 0:
+                    out[r, e] = order[found]
+                    break

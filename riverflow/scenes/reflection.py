@@ -4,15 +4,17 @@ Banks, props and sky are reflected in the water by a *planar reflection* (issue 
 the choice and its measurements: ``docs/deviations.md``, ``docs/performance.md``): the land and
 the props are drawn once more, mirrored in the horizontal plane z = L, into a texture the
 water shader samples. A river's level falls along its course, so one plane is exact only
-where the water is at L; L is taken where it matters most, at the river nearest the camera
-(:func:`mirror_level`), and the water shader corrects every pixel for its own level
-(``shaders/reflection.glsl``).
+where the water is at L; L is the mean level of the water in view, weighted by the share of
+the screen it covers (:func:`mirror_level`: continuous as the camera moves), and the water
+shader corrects every pixel for its own level (``shaders/reflection.glsl``).
 """
 from __future__ import annotations
 
 import math
 
 import numpy as np
+
+from riverflow.kernels.centre_line import view_level
 
 TERRAIN_STRIDE = 2
 """The reflection draws the terrain tiles through every TERRAIN_STRIDE-th node (a quarter of
@@ -21,6 +23,20 @@ the pass's cost; the reflection is at a reduced resolution and blurred by the wa
 MIN_EYE_HEIGHT_M = 0.05
 """No reflection is drawn when the eye is less than this above the mirror (at or under the
 water: the surface seen from below shows no mirror image of the land)."""
+MIRROR_SETTLE_S = 0.5
+"""The mirror's height follows the level of the water in view within about this time [s]
+(:func:`ease_level`; 90 % of a step)."""
+MIRROR_CUT_M = 50.0
+"""An eye that moved farther than this [m] between two drawn frames jumped (a teleport, a
+new shot): the mirror takes the new view's level at once, without easing."""
+MIRROR_REFRESH_M = 1.0
+MIRROR_REFRESH_RAD = math.radians(0.5)
+"""In a moving view the level of the water in view is found again once the eye moved more
+than MIRROR_REFRESH_M [m] or the view turned more than MIRROR_REFRESH_RAD since it was last
+found (at 12 m/s and 60 frames a second, every 5th frame; the easing smooths the steps)."""
+FALLBACK_SHARE = 1e-4
+"""The share of the screen with which the nearest river's level joins the level of the water
+in view (:func:`mirror_level`): it decides where less water than that is in view."""
 
 
 def mirror_matrix(level_m: float) -> np.ndarray:
@@ -48,12 +64,24 @@ def mirrored_view_projection(view_projection: np.ndarray, level_m: float) -> np.
                      [a * two_l + b + 0.0 for a, b in zip(r2, r3)]], np.float32)
 
 
-def mirror_level(water, eye_m) -> float | None:
-    """The mirror's height [m]: the level of the river nearest the eye (``water`` a
-    :class:`~riverflow.scenes.water.WaterSurface`, or None: no reflection). Where the water
-    is seen nearest, the mirror is exact; elsewhere the water shader corrects each pixel for
-    its own level, so this choice only has to be close. It depends on the camera alone, not
-    on the particles: the frame stays a function of the view."""
+def mirror_level(water, eye_m, clip_from_world=None, near_m: float = 0.5) -> float | None:
+    """The mirror's height [m] (``water`` a :class:`~riverflow.scenes.water.WaterSurface`, or
+    None: no reflection). It depends on the camera alone, not on the particles: the frame
+    stays a function of the view.
+
+    Without ``clip_from_world``: the level of the river nearest the eye. With it (the
+    camera's column-vector world → clip matrix, ``near_m`` its near plane): the mean level of
+    the water in view, weighted by the share of the screen it covers
+    (:func:`riverflow.kernels.centre_line.view_level`), joined by the nearest river's level
+    with the share FALLBACK_SHARE (what it tends to when little water is in view). The
+    mirror is exact where the water is at its level, and the water shader corrects every
+    pixel for its own level, imperfectly where the mirrored view hides or lacks what that
+    pixel's own mirror would show: so the level that the water on screen has is the one
+    that matters, and as a weighted mean it changes continuously as the camera moves. The
+    nearest river's level jumped where the nearest river changed (up to 43 m in the default
+    scene between a tributary and the main river), and the whole reflection with it.
+    Where the eye is not above the nearest river (under its water), that river's level is
+    returned: the caller draws no reflection there (MIN_EYE_HEIGHT_M)."""
     if water is None:
         return None
     x, y, z = (float(v) for v in np.asarray(eye_m, np.float64).reshape(3).tolist())
@@ -62,7 +90,30 @@ def mirror_level(water, eye_m) -> float | None:
     level_at = getattr(water, "level_at", None)      # one point without numpy's overhead
     level = float(level_at(x, y) if level_at is not None
                   else water.level(np.array([[x, y]]))[0])
-    return level if math.isfinite(level) else None
+    if not math.isfinite(level):
+        return None
+    samples = getattr(water, "level_samples", None)
+    if clip_from_world is None or samples is None or not z > level + MIN_EYE_HEIGHT_M:
+        return level
+    seen, _ = view_level(samples(), np.ascontiguousarray(clip_from_world, np.float64),
+                         np.array((x, y, z)), float(near_m), MIN_EYE_HEIGHT_M, level,
+                         FALLBACK_SHARE)
+    return float(seen) if math.isfinite(seen) else level
+
+
+def ease_level(level_m: float, rate_mps: float, target_m: float, dt_s: float,
+               settle_s: float = MIRROR_SETTLE_S) -> tuple[float, float]:
+    """The mirror's height and its rate of change [m/s] ``dt_s`` later, eased towards
+    ``target_m`` by a critically damped spring (x'' = ω²(target − x) − 2ω x', exact for a
+    constant target; ω = 3.9 / ``settle_s``: a step of the target is 90 % done after
+    settle_s, its steepest change 1.43 × step / settle_s, and nothing overshoots). The
+    mirror's height then changes smoothly in time, however fast the water in view changes
+    (a camera turning, water entering or leaving the screen)."""
+    omega = 3.9 / settle_s
+    e = math.exp(-omega * dt_s)
+    x0 = level_m - target_m
+    c = rate_mps + omega * x0
+    return target_m + (x0 + c * dt_s) * e, (rate_mps - omega * c * dt_s) * e
 
 
 def reflection_size(width_px: int, height_px: int, scale: float) -> tuple[int, int]:

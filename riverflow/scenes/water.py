@@ -19,13 +19,16 @@ import shapely
 from scipy.spatial import cKDTree
 
 from riverflow.hydro.falls import channel_depth_m, drop_along
-from riverflow.kernels.centre_line import nearest_level
+from riverflow.kernels.centre_line import LevelSamples, nearest_level
 from riverflow.tiles import remote
 
 JUNCTION_BLEND = 1.25
 """Levels are blended between the branches of a junction within this many (largest) widths."""
 MAX_JUNCTION_SLOPE = 0.01
 """Steepest descent [m/m] of a profile forced down to a lower junction level."""
+LEVEL_SAMPLE_SPACING_M = 8.0
+"""The spacing [m] of the centre-line samples that weigh the level of the water in view
+(:meth:`WaterSurface.level_samples`, the reflection's mirror: one pass over them a frame)."""
 BANK_LEVEL_NEIGHBOURS = 24
 BANK_BLEND = 1.0
 BANK_BLEND_MIN_M = 0.5
@@ -274,6 +277,31 @@ class WaterSurface:
             if level == level:
                 return level
         return float(self.level(np.array([[x, y]]))[0])
+
+    def level_samples(self) -> LevelSamples:
+        """Centre-line samples about LEVEL_SAMPLE_SPACING_M apart (every k-th of each
+        branch's), each with the water it stands for (its river's width times half the
+        distance to its neighbours on its branch), as
+        :func:`riverflow.kernels.centre_line.view_level` reads them (made once)."""
+        cached = self.__dict__.get("_level_samples")
+        if cached is None:
+            spacing = float(np.median(np.hypot(*np.diff(self.samples_m, axis=0).T))) \
+                if len(self.samples_m) > 1 else 1.0
+            k = max(1, int(round(LEVEL_SAMPLE_SPACING_M / max(spacing, 1e-9))))
+            first = np.r_[0, np.flatnonzero(np.diff(self.branch)) + 1]    # of each branch
+            along = np.arange(len(self.branch)) - np.repeat(first, np.diff(
+                np.r_[first, len(self.branch)]))
+            keep = np.flatnonzero(along % k == 0)
+            xy = np.ascontiguousarray(self.samples_m[keep], np.float64)
+            branch = self.branch[keep]
+            gap = np.hypot(*np.diff(xy, axis=0).T)
+            gap[branch[1:] != branch[:-1]] = 0.0                  # between two branches
+            length = 0.5 * (np.append(gap, 0.0) + np.insert(gap, 0, 0.0))
+            width = np.ascontiguousarray(self.widths_m[keep], np.float64)
+            cached = self._level_samples = LevelSamples(
+                xy, np.ascontiguousarray(self.levels_m[keep], np.float64), width * length,
+                0.5 * width)
+        return cached
 
     def distance_to_shore(self, xy: np.ndarray, stride: int = 1,
                           upper_bound_m: float = np.inf) -> np.ndarray:

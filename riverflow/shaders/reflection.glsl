@@ -1,7 +1,7 @@
 // The land and the props mirrored in the water (issue 12 item 3), for the water shader.
 //
 // The draw system renders the terrain and the props mirrored in the plane z = u_mirror_level_m
-// (the level of the river nearest the camera: riverflow.scenes.reflection) into
+// (the level of the water in view, eased in time: riverflow.scenes.reflection) into
 // u_reflection (premultiplied colour, alpha = something drawn; unfogged) and
 // u_reflection_depth, in the frame's own screen space at a reduced resolution. What is under
 // the water is clipped away there (terrain below its water level, props below their waterline).

@@ -28,7 +28,8 @@ Per frame (reference §4; no one-frame latency: the tables are built from this f
 
 Reflections (issue 12 item 3; :attr:`DisplaySettings.reflections`, shaded water modes, the eye
 above the water), before step 2: the terrain tiles (through every 2nd node) and the props
-drawn mirrored in the level of the river nearest the camera, each cut at its own water
+drawn mirrored in the mean level of the water in view (weighted by its share of the screen:
+continuous as the camera moves), each cut at its own water
 level, into a reduced-resolution colour + depth target with mip levels
 (:mod:`riverflow.scenes.reflection`); in step 4 the water shader follows each pixel's
 wave-bent reflected ray through it and Fresnel-weights what it finds over the sky
@@ -46,6 +47,7 @@ a pass draws all of a frame's terrain tiles, near to far, with one multi-draw ca
 """
 from __future__ import annotations
 
+import math
 import time
 import weakref
 from typing import TYPE_CHECKING
@@ -72,8 +74,9 @@ from riverflow.kernels.sprites import (MAX_PER_CELL, NO_PARTICLE, PARTICLES_PER_
                                        sprite_bins, sprite_grid_shape, sprite_source)
 from riverflow.scenes.meshes import coarser_neighbours, stitch_tile, tile_indices
 from riverflow.scenes.props import SHAPES
-from riverflow.scenes.reflection import (MIN_EYE_HEIGHT_M, TERRAIN_STRIDE, mirror_level,
-                                         mirrored_view_projection, reflection_size)
+from riverflow.scenes.reflection import (MIN_EYE_HEIGHT_M, MIRROR_CUT_M, MIRROR_REFRESH_M,
+                                         MIRROR_REFRESH_RAD, TERRAIN_STRIDE, ease_level, mirror_level, mirrored_view_projection,
+                                         reflection_size)
 from riverflow.scenes.tile_kinds import TERRAIN_MESH, WATER_MESH
 from riverflow.tiles.cache import TilePool
 from riverflow.tiles.cut import Standins, standin_tiles
@@ -367,6 +370,9 @@ class _TerrainTiles(_PoolSync):
         """By pool slot, the tiles uploaded with their borders stitched to coarser
         neighbours (:func:`~riverflow.scenes.meshes.stitch_tile`): (what they were stitched
         to, the vertices as uploaded). The others are uploaded as their pool holds them."""
+        self.stitched_across = np.zeros((0, 4), np.int64)
+        """By pool slot, the codes of the coarser tiles across its edges (−1: none) that the
+        tile on the GPU is stitched to; −2: not known (uploaded afresh)."""
         self._stitched_set: tuple[np.ndarray, np.ndarray] | None = None
         """The (codes, slots) of the last set :meth:`_stitch` went through: the same set
         again, with no tile uploaded afresh, is stitched as it was (nothing to look up)."""
@@ -381,6 +387,7 @@ class _TerrainTiles(_PoolSync):
             self.arena_slot[gone] = -1
             for slot in gone.tolist():
                 self.stitched.pop(slot, None)
+            self.stitched_across[gone] = -2
             self._stitched_set = None
         missing = self.missing(tiles)
         if len(missing):
@@ -392,6 +399,7 @@ class _TerrainTiles(_PoolSync):
                 self.arena_slot[slot] = self.arena.alloc()
             self.arena.upload(int(self.arena_slot[slot]), data.vertices)
             self.stitched.pop(slot, None)
+            self.stitched_across[slot] = -2
             self.centre[slot] = data.bounds_m.mean(axis=0)
             self.code_of[slot] = tiles.codes[k]
         last = self._stitched_set
@@ -407,6 +415,10 @@ class _TerrainTiles(_PoolSync):
         in (level, tx, ty) order: a neighbour is stitched before the finer tiles that follow
         it (a tile's corner may move onto a much coarser one's border)."""
         across = coarser_neighbours(tiles.keys)
+        codes_across = np.where(across >= 0, tiles.codes[np.maximum(across, 0)], -1)
+        if np.array_equal(self.stitched_across[tiles.slots], codes_across):
+            return              # every tile is stitched to these neighbours already (most sets)
+        self.stitched_across[tiles.slots] = codes_across
         signature: list[tuple] = []
         for r, slot in enumerate(tiles.slots.tolist()):
             sig = tuple((e, int(tiles.codes[m]), signature[m])
@@ -437,12 +449,15 @@ class _TerrainTiles(_PoolSync):
         super()._grow(n)
         self.arena_slot = np.concatenate([self.arena_slot, np.full(n - old, -1, np.int32)])
         self.centre = np.concatenate([self.centre, np.zeros((n - old, 3))])
+        self.stitched_across = np.concatenate([self.stitched_across,
+                                               np.full((n - old, 4), -2, np.int64)])
 
     def delete(self) -> None:
         self.arena.delete()
         self.code_of[:] = -1
         self.arena_slot[:] = -1
         self.stitched.clear()
+        self.stitched_across[:] = -2
         self._stitched_set = None
 
 
@@ -556,6 +571,20 @@ _CONSTANT_UNIFORMS = dict(
     u_sprite_radius_factor=SPRITE_RADIUS_FACTOR, u_foam_scale_m=FOAM_SCALE_M,
     u_foam_size_px=float(FOAM_PATTERN_PX))
 """The uniforms every program that uses them gets once, when it is made."""
+_COS_REFRESH = math.cos(MIRROR_REFRESH_RAD)
+
+
+def _moved(was: tuple, pose: tuple) -> bool:
+    """Whether the camera ``pose`` (eye [m], view direction, vertical field of view, aspect
+    ratio) is far enough from ``was`` for the level of the water in view to be found
+    again: the eye moved more than MIRROR_REFRESH_M, the view turned more than
+    MIRROR_REFRESH_RAD or the projection changed (or there is no ``was``)."""
+    if len(was) != len(pose):
+        return True
+    ex, ey, ez, fx, fy, fz, sx, sy = was
+    x, y, z, gx, gy, gz, tx, ty = pose
+    return ((x - ex) ** 2 + (y - ey) ** 2 + (z - ez) ** 2 > MIRROR_REFRESH_M ** 2
+            or fx * gx + fy * gy + fz * gz < _COS_REFRESH or sx != tx or sy != ty)
 
 
 # -- the draw system ---------------------------------------------------------------------------
@@ -578,7 +607,12 @@ class DrawRivers(System):
         self.context = None
         self.last_mirror_level_m: float | None = None
         """The reflection's mirror height [m] in the last frame (None: no reflection)."""
-        self._mirror_for: tuple[int, float | None] = (-1, None)
+        self._mirror_for: tuple = (-1, None, -math.inf, ())
+        """(camera revision, the level of the water in view, clock time, pose) when the
+        mirror's target was last found (:func:`_moved`)."""
+        self._mirror_eased = None
+        """(clock time [s], mirror height [m], its rate [m/s], camera revision, eye [m]) of
+        the last frame drawn with a reflection."""
         self.last_tables_ms = 0.0
         self._terrain_slots = np.zeros(0, np.int32)   # this frame's, near to far
         self._tiles_for = None        # (pools and revisions, cut, what _tile_meshes found)
@@ -859,8 +893,9 @@ class DrawRivers(System):
     def _draw_reflection(self, world: RiverWorld, gpu: _Gpu, settings: DisplaySettings,
                          clip_from_world: np.ndarray) -> dict:
         """The planar reflection pass (``shaders/reflection.glsl``): terrain and props mirrored
-        in the water level nearest the camera, cut at their water level, into the reflection
-        target; returns the water shader's reflection uniforms (``u_reflect`` false, and no
+        in the level of the water in view (:func:`mirror_level`, eased in time:
+        :meth:`_ease_mirror`), cut at their water level, into the reflection target; returns
+        the water shader's reflection uniforms (``u_reflect`` false, and no
         pass, when reflections are off, the water mode is not shaded, or the eye is not above
         the mirror). With a pass, the view block is written (its copy 0 packed by the caller,
         copy 1 the mirrored view, bound for the pass)."""
@@ -870,11 +905,19 @@ class DrawRivers(System):
             return off
         camera = world.camera
         eye = camera.position
-        if self._mirror_for[0] != camera.revision:  # a KD-tree query: once per view
+        now = world.clock.now_s
+        pose = (float(eye[0]), float(eye[1]), float(eye[2]),
+                *clip_from_world[3, :3].tolist(), camera.fov_y_deg, camera.aspect)
+        last = self._mirror_for
+        if last[0] != camera.revision and (not now > last[2] or _moved(last[3], pose)):
+            # the water in view (a pass over the centre-line samples), again when the camera
+            # moved or turned enough (the easing smooths what changed meanwhile), or at once
+            # for a view with no time passed (a still, a jump)
             self._mirror_for = (camera.revision,
-                                mirror_level(getattr(world.scene, "water", None), eye))
-        level = self._mirror_for[1]
-        if level is None or not eye[2] > level + MIN_EYE_HEIGHT_M:
+                                mirror_level(getattr(world.scene, "water", None), eye,
+                                             clip_from_world, camera.near_m), now, pose)
+        level = self._ease_mirror(self._mirror_for[1], now, camera.revision, pose[:3])
+        if level is None:
             return off
         self.last_mirror_level_m = level
         reflection = gpu.reflection
@@ -904,6 +947,34 @@ class DrawRivers(System):
         reflection.depth.bind(REFLECTION_DEPTH_UNIT)
         return {"u_reflect": True, "u_mirror_level_m": float(level),
                 "u_reflection_distortion": float(settings.reflection_distortion)}
+
+    def _ease_mirror(self, target: float | None, now_s: float, revision: int,
+                     eye: tuple[float, float, float]) -> float | None:
+        """The mirror's height this frame: eased towards ``target`` (the level of the water in
+        view) as time passes (:func:`ease_level`), so that it changes smoothly however fast
+        the view does. It is the target at once after a cut: the first frame, another view
+        with no time passed (a still, a test), or an eye more than MIRROR_CUT_M from the last
+        frame's (a teleport). None (no reflection) when the eye is not above the target or
+        the eased height."""
+        last = self._mirror_eased
+        eye_z = eye[2]
+        if target is None or not eye_z > target + MIN_EYE_HEIGHT_M:
+            self._mirror_eased = None
+            return None
+        level, rate = target, 0.0
+        if last is not None:
+            t, was, was_rate, seen, (x, y, z) = last
+            dt = now_s - t
+            if math.hypot(eye[0] - x, eye[1] - y, eye_z - z) > MIRROR_CUT_M:
+                pass                                    # a cut: the target at once
+            elif dt > 0.0:
+                level, rate = ease_level(was, was_rate, target, min(dt, 10.0))
+            elif seen == revision:                      # the same view again: as it was
+                level, rate = was, was_rate
+        if not eye_z > level + MIN_EYE_HEIGHT_M:       # the eye came down fast: the target
+            level, rate = target, 0.0
+        self._mirror_eased = (now_s, level, rate, revision, eye)
+        return level
 
     def _pre_advect(self, gpu: _Gpu, wave_uniforms: dict,
                     n_drawn: int, water_meshes: list) -> None:

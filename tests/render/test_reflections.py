@@ -283,3 +283,101 @@ def test_far_water_shows_the_mirrored_scene_not_blocks(world, scene):
     assert reflected.max() > 8.0                 # the far bank does show in the far water
     # (the reference is sharper: a block or two at the far bank's edge differ a little)
     assert (step > 12.0).sum() <= 2 and step.max() < 20.0, np.sort(step)[-5:]
+
+
+DT_S, SPEED_MPS = 1 / 30, 45.0            # 1.5 m a frame
+
+
+def _tributary_flight(scene):
+    """A flight at 95 m from over a tributary (its water at ~60 m) towards the main river
+    (~34 m): pose(s, look_m) is (eye, target) at s metres along it looking look_m ahead; and
+    the s where the river nearest the eye changes (the mirror's old level jumped there)."""
+    water = scene.water
+    trib = water.branch == 1                    # the tributary coming down from 77 m
+    start = water.samples_m[trib][np.argmin(np.abs(water.levels_m[trib] - 60.0))]
+    main = water.samples_m[water.branch == 2]
+    end = main[np.argmax(main[:, 0])]
+    d = (end - start) / np.linalg.norm(end - start)
+    lo, hi = 0.0, float(np.linalg.norm(end - start))
+    first = water.level_at(*start)
+    while hi - lo > 0.05:                       # the nearest river changes once on the way
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if abs(water.level_at(*(start + mid * d)) - first) < 10 else (lo, mid)
+
+    def pose(s, look_m):
+        p = start + s * d
+        return (*p, 95.0), (*(p + look_m * d), 30.0)
+    return pose, lo
+
+
+def _fly(world, pose, first_m: float, look_m: float, frames: int, each) -> list:
+    """Jump to ``first_m`` along the flight (no time passes), then fly on a frame at a time
+    (DT_S, SPEED_MPS), calling each(k) after every frame's move; its answers."""
+    out = []
+    for k in range(frames):
+        world.camera.look_at(*pose(first_m + SPEED_MPS * DT_S * k, look_m))
+        if k:
+            world.step(DT_S)
+        else:
+            world.load_view()
+        out.append(each(k))
+    return out
+
+
+def test_the_reflection_does_not_jump_where_the_nearest_river_changes(world, scene):
+    """Flying at 45 m/s (1.5 m a frame at 30 frames a second) from over a tributary towards
+    the main river, 19 m lower, looking 300 m ahead at the main river: across the line where
+    the river nearest the eye changes, the mean colour the reflection adds to the water
+    pixels (reflections on minus off, non-advected waves, over the pixels that are water in
+    both frames) changes by at most 2/255 from one frame to the next (measured: ≤ 0.9).
+    Before, the mirror sat at the nearest river's level: the tributary's until the line,
+    and the reflection of the whole far river changed at once there: by 61/255 (in blue)."""
+    pose, switch = _tributary_flight(scene)
+    saved = (world.camera.position.copy(), world.camera.target.copy())
+    drawer = world._drawer()
+
+    def frame(k):
+        on = _render(world, mode=DisplayMode.NON_ADVECTED)
+        level = drawer.last_mirror_level_m
+        off = _render(world, mode=DisplayMode.NON_ADVECTED, reflections=False)
+        water = (_render(world, mode=DisplayMode.MESH) != off).any(axis=2)
+        return level, water, on - off
+    try:
+        frames = _fly(world, pose, switch - 5.25, 300.0, 8, frame)
+    finally:
+        world.camera.look_at(*saved)
+    assert all(level is not None for level, _, _ in frames)
+    steps = []
+    for (_, water0, added0), (_, water1, added1) in zip(frames, frames[1:]):
+        both = water0 & water1
+        assert both.sum() > 0.02 * W * H
+        steps.append(np.abs(added1[both].mean(axis=0) - added0[both].mean(axis=0)).max())
+    assert max(steps) <= 2.0, np.round(steps, 1)
+
+
+def test_the_mirror_eases_to_the_level_of_the_water_in_view(world, scene):
+    """On the same flight, from right over the tributary looking 150 m ahead: the tributary
+    leaves the view within ~8 frames and the level of the water in view falls by ~20 m to
+    the far main river's; the mirror follows it within ~0.5 s (MIRROR_SETTLE_S: > 10 m in
+    the 12 frames here), by no more than its easing allows a frame (1.43 × the fall / settle
+    time × the frame's time, 2 m), never back up; a still view keeps its level. Without the
+    easing it fell by up to 5.6 m in one 0.75 m step (at 60 frames a second)."""
+    from riverflow.scenes.reflection import MIRROR_SETTLE_S
+    pose, _ = _tributary_flight(scene)
+    saved = (world.camera.position.copy(), world.camera.target.copy())
+    drawer = world._drawer()
+
+    def frame(k):
+        world.draw()
+        return drawer.last_mirror_level_m
+    try:
+        levels = np.array(_fly(world, pose, 0.0, 150.0, 12, frame))
+        world.draw()                             # no time passed, the same view: the same
+        assert drawer.last_mirror_level_m == levels[-1]
+    finally:
+        world.camera.look_at(*saved)
+    fall = levels[0] - levels.min()
+    assert fall > 10.0, levels
+    steps = -np.diff(levels)
+    assert steps.min() > -1e-6                   # down only: no overshoot, no wobble
+    assert steps.max() <= 1.43 * 21.0 / MIRROR_SETTLE_S * DT_S, np.round(steps, 2)

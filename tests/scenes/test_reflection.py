@@ -81,3 +81,106 @@ def test_the_mirrored_matrix_is_the_mirror_times_the_view_projection(rng):
         got = mirrored_view_projection(vp, level)
         assert got.dtype == np.float32 and got.shape == (4, 4)
         np.testing.assert_array_equal(got, want)
+
+
+def _view_level_twin(samples, m, eye, near_m, min_height_m, fallback_level, fallback_share):
+    """Plain numpy twin of riverflow.kernels.centre_line.view_level."""
+    from riverflow.kernels.centre_line import FRESNEL_F0, VIEW_EDGE_NDC
+
+    def fade(x):
+        x = np.clip(x, 0.0, 1.0)
+        return x * x * (3.0 - 2.0 * x)
+    p = np.c_[samples.xy, samples.level, np.ones(len(samples.level))]
+    clip = p @ m.T
+    w = clip[:, 3]
+    h = eye[2] - min_height_m - samples.level
+    ok = (h > 0) & (w > near_m)
+    w = np.where(ok, w, 1.0)
+    sx, sy = np.linalg.norm(m[0, :3]), np.linalg.norm(m[1, :3])
+    r = samples.half_width / w
+    fx = fade((1.0 + r * sx - np.abs(clip[:, 0] / w)) / VIEW_EDGE_NDC)
+    fy = fade((1.0 + r * sy - np.abs(clip[:, 1] / w)) / VIEW_EDGE_NDC)
+    share = samples.area * h / w ** 3 * 0.25 * sx * sy * fx * fy * fade(w / near_m - 1.0)
+    d = np.linalg.norm(p[:, :3] - eye, axis=1)
+    c = 1.0 - np.minimum((eye[2] - samples.level) / d, 1.0)
+    weight = np.where(ok, share * (FRESNEL_F0 + (1 - FRESNEL_F0) * c ** 5), 0.0)
+    total = weight.sum() + fallback_share
+    if not total > 0:
+        return np.nan, 0.0
+    return (weight @ samples.level + fallback_share * fallback_level) / total, total
+
+
+@pytest.fixture(scope="module")
+def default_water():
+    from riverflow.scenes.default import default_scene
+    return default_scene(seed=0).water
+
+
+def test_the_level_in_view_is_its_numpy_twin(default_water, rng):
+    """view_level (numba) against its plain numpy twin: 200 cameras over the default scene,
+    high and low, looking every way, with and without a fallback."""
+    from riverflow.kernels.centre_line import view_level
+    samples = default_water.level_samples()
+    lo, hi = samples.xy.min(axis=0), samples.xy.max(axis=0)
+    seen = 0
+    for k in range(200):
+        xy = rng.uniform(lo, hi)
+        eye = np.array([*xy, float(rng.uniform(30.0, 300.0))])
+        camera = Camera(eye, eye + rng.normal(0.0, 100.0, 3) - (0, 0, 60.0),
+                        size_px=(320, 180), fov_y_deg=float(rng.uniform(30, 90)))
+        m, _ = camera.matrices_for_kernels()
+        args = (m, eye, camera.near_m, 0.05, 40.0, 1e-4 if k % 2 else 0.0)
+        got = view_level(samples, *args)
+        want = _view_level_twin(samples, *args)
+        np.testing.assert_allclose(got, want, rtol=1e-9, atol=1e-12, equal_nan=True)
+        seen += want[1] > 1e-3
+    assert seen > 20                                  # many cameras see water
+
+
+def test_the_mirror_is_the_level_of_the_water_in_view(default_water):
+    """With a camera: the mirror is the level of the water the camera sees, not the nearest
+    river's. 95 m up, over the land between a tributary (nearest, ~53 m) and the main river
+    (~34 m), looking 300 m ahead at the main river: the main river's level; looking at the
+    sky: the nearest river's; under the water: the nearest river's (no reflection drawn)."""
+    water = default_water
+    trib = water.branch == 1
+    start = water.samples_m[trib][np.argmin(np.abs(water.levels_m[trib] - 60.0))]
+    main = water.samples_m[water.branch == 2]
+    d = main[np.argmax(main[:, 0])] - start
+    d /= np.linalg.norm(d)
+    xy = start + 515.0 * d
+    eye = np.array([*xy, 95.0])
+    nearest = mirror_level(water, eye)
+    main_level = float(water.levels_m[water.branch == 2].min())
+
+    def level(target):
+        camera = Camera(eye, target, size_px=(320, 180))
+        return mirror_level(water, eye, camera.matrices_for_kernels()[0], camera.near_m)
+    assert nearest > main_level + 15.0
+    assert level((*(xy + 300.0 * d), 30.0)) == pytest.approx(main_level, abs=1.0)
+    assert level(eye + (0.0, 100.0, 80.0)) == nearest      # no water in view
+    under = np.array([*start, water.level_at(*start) - 1.0])
+    camera = Camera(under, (*(start + 300.0 * d), 30.0), size_px=(320, 180))
+    assert mirror_level(water, under, camera.matrices_for_kernels()[0]) == mirror_level(
+        water, under)
+
+
+def test_the_mirror_eases_without_overshoot():
+    """ease_level: a step of the target is 90 % done after the settle time, never overshot,
+    never faster than 1.43 × step / settle time; the easing of one long step equals that of
+    two halves (exact for a constant target), and a mirror at its target stays there."""
+    from riverflow.scenes.reflection import MIRROR_SETTLE_S, ease_level
+    x, v, t, xs = 0.0, 0.0, 0.0, []
+    dt = 1 / 240
+    while t < 3 * MIRROR_SETTLE_S:
+        x, v = ease_level(x, v, 20.0, dt)
+        t += dt
+        xs.append((t, x, v))
+    t, x, v = np.array(xs).T
+    assert np.all(np.diff(x) >= 0) and x.max() <= 20.0
+    assert np.interp(MIRROR_SETTLE_S, t, x) == pytest.approx(18.0, abs=0.3)
+    assert v.max() <= 1.43 * 20.0 / MIRROR_SETTLE_S * 1.01
+    one = ease_level(3.0, -4.0, 10.0, 0.1)
+    two = ease_level(*ease_level(3.0, -4.0, 10.0, 0.05), 10.0, 0.05)
+    np.testing.assert_allclose(one, two, rtol=1e-12)
+    assert ease_level(7.0, 0.0, 7.0, 0.5) == (7.0, 0.0)

@@ -116,3 +116,59 @@ def test_near_to_far_is_numpys_stable_argsort_of_the_same_distances():
         got = np.full(k, -1, np.int32)
         near_to_far(slots, np.ascontiguousarray(centres), eye, got)
         assert np.array_equal(got, want), k
+
+
+def _coarser_neighbours_twin(keys):
+    """Plain Python twin of kernels.tile_cut.coarser_across (scenes.meshes.coarser_neighbours
+    as it was written first): dicts and sets of (level, tx, ty)."""
+    from riverflow.scenes.meshes import EDGE_OFFSETS
+    rows = {k: r for r, k in enumerate(map(tuple, np.asarray(keys, np.int64).tolist()))}
+    split = set()
+    for level, tx, ty in rows:
+        for up in range(1, level + 1):
+            split.add((level - up, tx >> up, ty >> up))
+    out = np.full((len(rows), 4), -1, np.int64)
+    for (level, tx, ty), r in rows.items():
+        side = 1 << level
+        for e, (dx, dy) in enumerate(EDGE_OFFSETS):
+            x, y = tx + dx, ty + dy
+            if not (0 <= x < side and 0 <= y < side) or (level, x, y) in rows \
+                    or (level, x, y) in split:
+                continue
+            for up in range(1, level + 1):
+                found = rows.get((level - up, x >> up, y >> up))
+                if found is not None:
+                    out[r, e] = found
+                    break
+    return out
+
+
+def _random_cut(rng, depth: int) -> list[tuple[int, int, int]]:
+    """The leaves of a random quadtree down to ``depth`` levels."""
+    leaves, todo = [], [(0, 0, 0)]
+    while todo:
+        level, tx, ty = todo.pop()
+        if level < depth and (level < 2 or rng.random() < 0.6):
+            todo += [(level + 1, 2 * tx + i, 2 * ty + j) for i in (0, 1) for j in (0, 1)]
+        else:
+            leaves.append((level, tx, ty))
+    return leaves
+
+
+def test_coarser_neighbours_match_the_twin(rng):
+    """The coarser tile across each edge (numba, binary searches) as the Python twin finds
+    it: 30 random cuts down to 3-7 levels, whole, thinned (tiles not drawn) and shuffled."""
+    from riverflow.scenes.meshes import coarser_neighbours
+    found = 0
+    for k in range(30):
+        leaves = _random_cut(rng, int(rng.integers(3, 8)))
+        keys = np.array(leaves, np.int64)
+        if k % 3 == 1:
+            keys = keys[rng.random(len(keys)) < 0.7]
+        rng.shuffle(keys)
+        got = coarser_neighbours(keys)
+        np.testing.assert_array_equal(got, _coarser_neighbours_twin(keys))
+        found += int((got >= 0).sum())
+    assert found > 100
+    assert coarser_neighbours(np.zeros((0, 3), np.int64)).shape == (0, 4)
+    np.testing.assert_array_equal(coarser_neighbours([[0, 0, 0]]), [[-1, -1, -1, -1]])
