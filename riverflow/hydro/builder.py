@@ -498,7 +498,11 @@ def _round_junctions(river, parts: list, geoms: list[BranchGeometry], junctions:
                 local = shapely.union_all([local, *added])
     if not pieces:
         return river
-    rounded = _strips.drop_slivers(shapely.union_all([river, *pieces]), sliver_m2)
+    # the pieces lie in small groups (one per junction): their union by disjoint subsets is
+    # some 40 times faster than GEOS's cascaded union, and one overlay with the water then
+    # costs less than adding them to it in a cascade
+    added = shapely.disjoint_subset_union_all(pieces)
+    rounded = _strips.drop_slivers(shapely.union(river, added), sliver_m2)
     return rounded if _strips.topology(rounded) == _strips.topology(river) else river
 
 
