@@ -144,12 +144,21 @@ def oriented_polygons(water: shapely.Geometry, simplify_m: float) -> list[Polygo
     that the water lies on the left of every ring traversal.
 
     The outline is first simplified (Douglas-Peucker, ``simplify_m``) to drop the millimetre
-    notches left where the tapered segment quads of a strip meet.
+    notches left where the tapered segment quads of a strip meet. The plain simplifier is
+    tried first: GEOS's topology-preserving one gives the same outline wherever the plain one
+    leaves it valid with the same rings, but holds some 300 bytes per vertex while it works
+    (150 MB for a 2,400-link network: the build's peak) and takes 3 times as long; it is
+    used where the plain one breaks the outline.
     """
-    water = shapely.simplify(water, simplify_m, preserve_topology=True)
-    water = shapely.remove_repeated_points(water, tolerance=1e-6)
-    if not water.is_valid:
-        water = shapely.make_valid(water)
+    shape = topology(water)
+    simple = shapely.remove_repeated_points(
+        shapely.simplify(water, simplify_m, preserve_topology=False), tolerance=1e-6)
+    if not (simple.is_valid and topology(simple) == shape):
+        simple = shapely.remove_repeated_points(
+            shapely.simplify(water, simplify_m, preserve_topology=True), tolerance=1e-6)
+        if not simple.is_valid:
+            simple = shapely.make_valid(simple)
+    water = simple
     parts = [g for g in getattr(water, "geoms", [water]) if isinstance(g, Polygon) and not g.is_empty]
     parts.sort(key=lambda g: (-g.area, g.bounds))
     return [orient(g, sign=1.0) for g in parts]
