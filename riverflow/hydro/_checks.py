@@ -126,30 +126,42 @@ def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6) -
     # their axis: their test is the first one)
     ccw = [p for p, a in zip(polys, poly_area) if signed[a] > 0]
     cw = [p for p, a in zip(polys, poly_area) if signed[a] < 0]
-    water = shapely.difference(shapely.union_all(ccw), shapely.union_all(cw))
+    # (the loops of a sound graph are disjoint: a union by disjoint subsets leaves them as
+    # they are, where the cascaded union nodes every edge again, holding ~150 B per vertex)
+    water = shapely.disjoint_subset_union_all(ccw)
+    if cw:
+        water = shapely.difference(water, shapely.disjoint_subset_union_all(cw))
     in_hole = {c for a in range(len(loops)) if signed[a] < 0 for c, _ in graph.areas[a].curves}
+    del loops, polys, ccw, cw, first     # (copies of the whole outline: the peak is below)
     axes: dict[int, PolylineIndex] = {}
     linked = [i for i in banks if 0 <= curves[i].river < len(curves)]
-    segments = []   # per linked bank: vertices, directions, lengths, midpoints
-    probes = []     # per linked bank: the points just left and just right of its segments
-    for i in linked:
+
+    def bank_segments(i):
+        """A bank's vertices, segment directions, lengths and midpoints (no null segments)."""
         v = graph.vertices(i)
         d = np.diff(v, axis=0)
         length = np.hypot(d[:, 0], d[:, 1])
         ok = length > 1e-6
-        d, length = d[ok], length[ok]
-        mid = 0.5 * (v[:-1] + v[1:])[ok]
+        return v, d[ok], length[ok], 0.5 * (v[:-1] + v[1:])[ok]
+
+    # the probes just left and just right of every segment, bank by bank, in one array (the
+    # segments themselves are made again below, not kept: at the build's peak of memory)
+    counts = [len(bank_segments(i)[3]) for i in linked]
+    bounds = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    probes = np.empty((2 * int(bounds[-1]), 2))
+    for i, a, b in zip(linked, bounds[:-1], bounds[1:]):
+        _, d, length, mid = bank_segments(i)
         nrm = np.stack([-d[:, 1], d[:, 0]], axis=1) / length[:, None]
         eps = np.minimum(0.1 * length, 0.05)[:, None]
-        segments.append((v, d, length, mid))
-        probes += [mid + eps * nrm, mid - eps * nrm]
-    inside = contains_xy_tiled(water, np.vstack(probes or [np.zeros((0, 2))]))
-    offset = 0
-    for i, (v, d, length, mid) in zip(linked, segments):
+        probes[2 * a:a + b] = mid + eps * nrm
+        probes[a + b:2 * b] = mid - eps * nrm
+    inside = contains_xy_tiled(water, probes)
+    del probes
+    for i, a, b in zip(linked, bounds[:-1], bounds[1:]):
+        v, d, length, mid = bank_segments(i)
         c = curves[i]
-        left = inside[offset:offset + len(mid)]
-        right = inside[offset + len(mid):offset + 2 * len(mid)]
-        offset += 2 * len(mid)
+        left = inside[2 * a:a + b]
+        right = inside[a + b:2 * b]
         if not left.all() or right.any():
             problems.append(f"bank {i}: water is not on its left at {int((~left | right).sum())} of "
                             f"{len(left)} segments")
@@ -157,16 +169,17 @@ def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6) -
         if axis is None:
             axis = axes[c.river] = PolylineIndex(graph.vertices(c.river))
         covers = 0.5 * curves[c.river].width_m + 1e-6
+        # the segments' midpoints and the bank's points, in one query
+        dist, q, _ = axis.nearest(np.vstack([mid, v]), covers)
         if i not in in_hole:   # (segments farther than the axis covers fail the reach test)
-            _, q, _ = axis.nearest(mid, covers)
-            to = q - mid
+            to = q[:len(mid)] - mid
             cross = d[:, 0] * to[:, 1] - d[:, 1] * to[:, 0]
             with np.errstate(invalid="ignore"):
                 bad = cross < -1e-9 * length * np.hypot(to[:, 0], to[:, 1])
             if bad.any():
                 problems.append(f"bank {i}: its axis {c.river} lies on its right at {int(bad.sum())} "
                                 f"of {len(bad)} segments (water must be on the left)")
-        far = axis.nearest(v, covers)[0]
+        far = dist[len(mid):]
         if not np.isfinite(far).all():
             problems.append(f"bank {i}: {int((~np.isfinite(far)).sum())} of its {len(v)} points "
                             f"lie farther from axis {c.river} than the "

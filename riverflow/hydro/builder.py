@@ -790,7 +790,8 @@ def _round_junctions(river, parts: list, geoms: list[BranchGeometry], junctions:
     arcs of radius r = ``fraction`` × the narrowest width there; slim points of land (the tip
     of a slim island between two arms), which that arc would cut far back, get arcs of half
     or a quarter of r, whichever first cuts off no more than fits in a circle of
-    FILLET_EXTENT radii r. Each junction works on the water near it, made from the strips and
+    FILLET_EXTENT radii r (tried only at junctions where the larger arc refused a corner).
+    Each junction works on the water near it, made from the strips and
     discs (``parts``) there, so the cost does not grow with the network; the pieces join the
     whole water once at the end (left out if that changed the water's topology)."""
     cut_lines = shapely.linestrings(np.asarray(cuts).reshape(-1, 2, 2))
@@ -815,14 +816,20 @@ def _round_junctions(river, parts: list, geoms: list[BranchGeometry], junctions:
         close = cut_tree.query(window, predicate="dwithin", distance=2.0 * radius + 1.0)
         keep_out = shapely.MultiLineString(list(cut_lines[np.sort(close)])) if len(close) else None
         for scale in (1.0, 0.5, 0.25):
-            added = _strips.fillet_pieces(local, p, scale * radius, reach, keep_out,
-                                          FILLET_EXTENT * radius)
+            added, refused = _strips.fillet_pieces(local, p, scale * radius, reach, keep_out,
+                                                   FILLET_EXTENT * radius)
+            pieces += added
+            if not refused:
+                break       # a smaller closing of the rounded water adds nothing
             if added:
                 local = shapely.union_all([local, *added])
-                pieces += added
     if not pieces:
         return river
-    rounded = _strips.drop_slivers(shapely.union_all([river, *pieces]), sliver_m2)
+    # the pieces lie in small groups (one per junction): their union by disjoint subsets is
+    # some 40 times faster than GEOS's cascaded union, and one overlay with the water then
+    # costs less than adding them to it in a cascade
+    added = shapely.disjoint_subset_union_all(pieces)
+    rounded = _strips.drop_slivers(shapely.union(river, added), sliver_m2)
     return rounded if _strips.topology(rounded) == _strips.topology(river) else river
 
 
