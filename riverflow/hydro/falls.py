@@ -172,19 +172,14 @@ def find_rapids(s_m: np.ndarray, level_m: np.ndarray, min_slope: float = RAPIDS_
     ds = np.maximum(np.diff(s), 1e-12)
     slope = (z[:-1] - z[1:]) / ds
     steep = (slope > min_slope) & (slope <= 0.5)
-    out = []
-    k = 0
-    while k < len(steep):
-        if not steep[k]:
-            k += 1
-            continue
-        e = k
-        while e + 1 < len(steep) and steep[e + 1]:
-            e += 1
-        if s[e + 1] - s[k] >= min_length_m:
-            out.append((float(s[k]), float(s[e + 1]), float(z[k] - z[e + 1])))
-        k = e + 1
-    return out
+    return [(float(s[k]), float(s[e + 1]), float(z[k] - z[e + 1])) for k, e in _runs(steep)
+            if s[e + 1] - s[k] >= min_length_m]
+
+
+def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
+    """(first, last) index of each run of True in ``mask`` (N,), in order."""
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], mask.astype(np.int8), [0]])))
+    return list(zip(edges[0::2].tolist(), (edges[1::2] - 1).tolist()))
 
 
 def drop_along(s_m, drop_m: float, length_m: float, shape: str) -> np.ndarray:
@@ -228,18 +223,10 @@ def find_falls(s_m: np.ndarray, level_m: np.ndarray, min_drop_m: float = FALL_MI
     dz = z[:-1] - z[1:]
     steep = dz > 0.5 * np.maximum(ds, 1e-12)
     out = []
-    k = 0
-    while k < len(steep):
-        if not steep[k]:
-            k += 1
-            continue
-        e = k
-        while e + 1 < len(steep) and steep[e + 1]:
-            e += 1
+    for k, e in _runs(steep):
         drop = float(z[k] - z[e + 1])
         length = float(s[e + 1] - s[k])
         spacing = float(ds[k:e + 1].max())
         if drop > min_drop_m and length <= drop + spacing:
             out.append((float(s[k]), drop))
-        k = e + 1
     return out
