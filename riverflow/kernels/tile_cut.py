@@ -24,8 +24,8 @@ def _order_key(level, tx, ty):
 
 
 @njit(inline="always", **JIT_OPTIONS)
-def _listed(sorted_keys, n, key):
-    """``key`` is in ``sorted_keys[:n]`` (binary search)."""
+def _find(sorted_keys, n, key):
+    """The index of ``key`` in ``sorted_keys[:n]``, or −1 (binary search)."""
     lo, hi = 0, n
     while lo < hi:
         mid = (lo + hi) >> 1
@@ -33,7 +33,13 @@ def _listed(sorted_keys, n, key):
             lo = mid + 1
         else:
             hi = mid
-    return lo < n and sorted_keys[lo] == key
+    return lo if lo < n and sorted_keys[lo] == key else -1
+
+
+@njit(inline="always", **JIT_OPTIONS)
+def _listed(sorted_keys, n, key):
+    """``key`` is in ``sorted_keys[:n]``."""
+    return _find(sorted_keys, n, key) >= 0
 
 
 @njit(**JIT_OPTIONS)
@@ -121,19 +127,6 @@ def near_to_far(slots, centres, eye, out):
 
 _EDGE_DX = (0, 1, 0, -1)
 _EDGE_DY = (-1, 0, 1, 0)
-
-
-@njit(inline="always", **JIT_OPTIONS)
-def _find(sorted_keys, n, key):
-    """The index of ``key`` in ``sorted_keys[:n]``, or −1 (binary search)."""
-    lo, hi = 0, n
-    while lo < hi:
-        mid = (lo + hi) >> 1
-        if sorted_keys[mid] < key:
-            lo = mid + 1
-        else:
-            hi = mid
-    return lo if lo < n and sorted_keys[lo] == key else -1
 
 
 @njit(**JIT_OPTIONS)
