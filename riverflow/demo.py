@@ -402,7 +402,7 @@ def run_headless(frames: int, out: Path, *, scene=None, size=(640, 360), seed: i
             path.append((*boat.position_m, boat.heading_rad))
             if f % every == 0 or f == frames - 1:
                 t0 = time.perf_counter()
-                image = Image.fromarray(demo.world.render(), "RGBA")
+                image = Image.fromarray(demo.world.render())
                 frame_ms = step_ms + (time.perf_counter() - t0) * 1e3
                 demo.hud.frame_ms = frame_ms
                 demo.hud.fps = 1e3 / max(frame_ms, 1e-3)

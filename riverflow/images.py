@@ -22,5 +22,5 @@ def save_png(frame: np.ndarray, path: Path | str) -> Path:
         raise ValueError(f"save_png: frame must be an (H, W, 4) uint8 RGBA array, got "
                          f"{frame.shape} {frame.dtype}")
     with atomic_files(path) as (temp,):
-        Image.fromarray(np.ascontiguousarray(frame), "RGBA").save(temp)
+        Image.fromarray(np.ascontiguousarray(frame)).save(temp)
     return path

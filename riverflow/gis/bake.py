@@ -269,7 +269,7 @@ def _write_png(image: np.ndarray, path: Path, bits: int) -> None:
     if bits == 8:
         from PIL import Image
 
-        Image.fromarray(np.ascontiguousarray(image), "RGBA").save(path)
+        Image.fromarray(np.ascontiguousarray(image)).save(path)
         return
     png = require("png", "writing a 16-bit flow map")
     h, w, _ = image.shape

@@ -50,9 +50,6 @@ GROWTH_RSS_BOUND_MIB = 512
 compiled or loaded) [MiB]: its scene, its flow network, and tiles up to the cache budget
 (RiverConfig.tile_cache_mb = 256 by default; the view needs far less: 24 MB of tiles).
 Measured: 43 MiB (1 MiB after a cold compile, whose freed memory the world reuses)."""
-SCENE_MAKE_BOUND_S = 60.0
-"""Making the ≥ 100 km scene [s] (only the network is made up front). Measured: 1.9-3.0 s
-(101.4 km of rivers on a 44.8 km square, seed 0)."""
 
 _BIG_WORLD = textwrap.dedent("""
     import json, sys, time
@@ -142,7 +139,6 @@ def test_world_on_a_100_km_network_stays_in_memory_bound():
     print(json.dumps(r, indent=1))
 
     assert r["network_m"] >= NETWORK_M, r["network_m"]
-    assert r["scene_s"] < SCENE_MAKE_BOUND_S, r["scene_s"]
     assert r["particles"] > 0
     assert r["inside"] > 0, "no particle on the river under the camera"
     assert r["nan"] == 0 and r["nan_end"] == 0
