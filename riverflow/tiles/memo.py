@@ -18,9 +18,11 @@ from typing import Any
 
 import numpy as np
 
-DEFAULT_BUDGET_MB = 48.0
-"""A memo's default budget: the first views of the built-in scene (~300 height tiles of
-18 KB with their water, ray-cast and hint tiles) and a flight's worth of tiles around them."""
+DEFAULT_BUDGET_MB = 24.0
+"""A memo's default budget: the first views of a scene (the built-in one's: ~300 height tiles
+of 18 KB with their water, ray-cast and hint tiles) and some of a flight's around them; at
+48 MB a 100 km flight's RSS grew by the whole 48 MB (bench_scale), for a second world that
+mostly opens where the first one did."""
 
 
 class TileMemo:
