@@ -65,17 +65,23 @@ def test_gather_box_segments_keeps_each_curves_nearest_segment(field, rng):
                 assert reference._dist2(p, a[kept[c]], b[kept[c]]).min() == d.min()
 
 
-def test_flow_tile_lattice_matches_reference(field):
+def _lattice_of_a_river_tile(field):
+    """(tiles, slot, gx, gy): the finest flow tile at the middle of the first river, made,
+    and its stored ψ window's lattice points (one ghost ring and the far edge included)."""
     t = field.tiles
     lv = field.max_level
     xy = np.array(field.network.polylines[0][len(field.network.polylines[0]) // 2])[None]
     field.query(xy)
     tx, ty = field.tile_of(xy, lv)[0]
-    slot = t.slot_of(lv, tx, ty)
     ox, oy = t.tile_origin_m(lv, tx, ty)
     h = t.spacing_m(lv)
     idx = np.arange(-1, t.n_cells + 2)
     gx, gy = np.meshgrid(ox + idx * h, oy + idx * h)
+    return t, t.slot_of(lv, tx, ty), gx, gy
+
+
+def test_flow_tile_lattice_matches_reference(field):
+    t, slot, gx, gy = _lattice_of_a_river_tile(field)
     want = reference.potential(field.network, np.c_[gx.ravel(), gy.ravel()], field.slip)
     got = t.psi[slot].ravel()
     inside = np.isfinite(want)
@@ -203,16 +209,7 @@ def test_dry_lattice_points_hold_quadratic_extrapolations(field):
     over the lattice directions with water beside it, of the quadratic extrapolation from
     the three points inward (linear from two where the third is dry, else the neighbour's
     value); checked where those points lie in the tile's stored window."""
-    t = field.tiles
-    lv = field.max_level
-    xy = np.array(field.network.polylines[0][len(field.network.polylines[0]) // 2])[None]
-    field.query(xy)
-    tx, ty = field.tile_of(xy, lv)[0]
-    slot = t.slot_of(lv, tx, ty)
-    ox, oy = t.tile_origin_m(lv, tx, ty)
-    h = t.spacing_m(lv)
-    idx = np.arange(-1, t.n_cells + 2)
-    gx, gy = np.meshgrid(ox + idx * h, oy + idx * h)
+    t, slot, gx, gy = _lattice_of_a_river_tile(field)
     # the water's lattice values are checked against the reference above; here the exact
     # (uncached) kernel gives them, fast
     exact = field.exact_potential(np.c_[gx.ravel(), gy.ravel()]).reshape(gx.shape)
