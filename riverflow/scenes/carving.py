@@ -71,10 +71,17 @@ def carve(water: WaterSurface, xy: np.ndarray, source_m: np.ndarray,
     if not len(near):
         return out
     q, d, far = p[near], shore[near], out[near]
-    _, level, width = water.nearest(q)
     inside = water.contains(q, d)
     exact0, exact1 = carving.exact_level_m
     beta = _smoothstep(exact0, exact1, d)
+    # the nearest river's level and width count in the water and where the land's level is
+    # not all the smooth mix (beta < 1): the centre-line query (as costly as the shore's) is
+    # made there only
+    level = np.zeros(len(q))
+    width = np.ones(len(q))
+    wanted = np.flatnonzero(inside | (beta < 1.0))
+    if len(wanted):
+        _, level[wanted], width[wanted] = water.nearest(q[wanted])
     land_level = level.copy()
     dry = np.flatnonzero(~inside & (beta < 1.0))
     if len(dry):                    # continuous where the nearest reach changes (bends)
