@@ -98,7 +98,7 @@ class TerrainTileMesh:
 
 
 def tile_terrain_mesh(z_ring: np.ndarray, x0_m: float, y0_m: float, cell_m: float,
-                      level_m: np.ndarray, dip_m: float = 0.0,
+                      level_m: np.ndarray,
                       shore_m: np.ndarray | None = None,
                       scale: np.ndarray | None = None) -> TerrainTileMesh:
     """The mesh of one n-cell terrain tile from its heights with a one-node ring
@@ -108,8 +108,8 @@ def tile_terrain_mesh(z_ring: np.ndarray, x0_m: float, y0_m: float, cell_m: floa
     the shore [m], negative in the water (None: far from every shore, 200 m), divided by
     ``scale`` (n + 1, n + 1) the :func:`river_scale` of that river (None: 1). The skirt hangs
     as deep as the largest crack any coarser neighbour can leave along its border
-    (:func:`tile_skirt_m`), and at least ``dip_m``: how far a finer neighbour's border dips
-    below this one between its nodes (:func:`riverflow.scenes.tile_kinds.border_dip_m`)."""
+    (:func:`tile_skirt_m`); a finer neighbour is stitched to this one's border
+    (:func:`stitch_tile`), so the skirt is for the rasteriser's pinholes at T-junctions."""
     z = np.asarray(z_ring, np.float64)
     n = z.shape[0] - 3
     side = n + 1
@@ -118,7 +118,7 @@ def tile_terrain_mesh(z_ring: np.ndarray, x0_m: float, y0_m: float, cell_m: floa
     dz_dy = (z[2:, 1:-1] - z[:-2, 1:-1]) / (2.0 * cell_m)
     normal = np.stack([-dz_dx, -dz_dy, np.ones_like(dz_dx)], axis=-1)
     normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
-    skirt = max(tile_skirt_m(inner, cell_m), float(dip_m))
+    skirt = tile_skirt_m(inner, cell_m)
     bi, bj = border_loop(n)
     grid_j, grid_i = np.divmod(np.arange(side * side), side)
     vj, vi = np.concatenate([grid_j, bj]), np.concatenate([grid_i, bi])

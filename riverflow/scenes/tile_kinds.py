@@ -143,63 +143,23 @@ class TerrainProducer(Producer):
 
 
 class HeightProducer(TerrainProducer):
-    """Carved terrain heights at the tile's nodes and a one-node ring (float32), and ``dip``:
-    how far the terrain along the tile's border, as tiles up to SKIRT_FINER_LEVELS levels finer
-    sample it, dips below the border as this tile draws it (:func:`border_dip_m`; the skirt
-    hangs at least that deep, so no crack shows next to a finer neighbour)."""
+    """Carved terrain heights at the tile's nodes and a one-node ring (float32). A finer
+    neighbour's border may dip below this tile's between its nodes (a gully crossing the
+    border): the draw stitches that neighbour's border onto this one's
+    (:func:`riverflow.scenes.meshes.stitch_tile`), so no crack opens there and no skirt need
+    reach down to it."""
 
     kind = HEIGHT
 
     def __init__(self, tiles: LandscapeTiles) -> None:
         super().__init__(tiles)
         n = tiles.n
-        self.fields = {"z": FieldSpec((n + 3, n + 3), np.float32, np.nan),
-                       "dip": FieldSpec((1,), np.float32, 0.0)}
+        self.fields = {"z": FieldSpec((n + 3, n + 3), np.float32, np.nan)}
 
     def produce(self, key: TileKey, deps: Mapping) -> dict:
         n = self.tiles.n
         z = self.scene.terrain.height(self.tiles.nodes(key, n, ring=1))
-        z = z.reshape(n + 3, n + 3).astype(np.float32)
-        finer = min(SKIRT_FINER_LEVELS, self.max_level - key[0])
-        dip = border_dip_m(self.scene.terrain.height, self.tiles.quadtree, key, n, z[1:-1, 1:-1],
-                           finer)
-        return {"z": z, "dip": np.array([dip], np.float32)}
-
-
-SKIRT_FINER_LEVELS = 3
-"""A coarse tile's skirt covers the dips of neighbours up to this many levels finer (the view's
-cut puts neighbours at most a level or two apart)."""
-
-
-def border_dip_m(height, quadtree: Quadtree, key: TileKey, n: int, z: np.ndarray,
-                 finer: int) -> float:
-    """How far [m] the terrain ``height(xy)`` along the border of tile ``key`` (n cells, node
-    heights ``z`` (n + 1, n + 1) as drawn), sampled at the nodes of the tiles ``finer`` levels
-    finer (bitwise their node coordinates), lies below the border as this tile draws it
-    (linear between its nodes); 0 when ``finer`` is 0 or it never does. A finer neighbour's
-    border can only dip below ours between our nodes (a gully crossing the border): our skirt,
-    not theirs, must reach down there."""
-    if finer <= 0:
-        return 0.0
-    level, tx, ty = key
-    m = 1 << finer
-    cell = quadtree.cell_m(level + finer, n)
-    k = np.arange(m * n + 1, dtype=np.int64)
-    x0, y0 = quadtree.root_x_m, quadtree.root_y_m
-    along_x = x0 + (tx * n * m + k) * cell
-    along_y = y0 + (ty * n * m + k) * cell
-    lo_x, hi_x = x0 + (tx * n * m) * cell, x0 + ((tx + 1) * n * m) * cell
-    lo_y, hi_y = y0 + (ty * n * m) * cell, y0 + ((ty + 1) * n * m) * cell
-    pts = np.concatenate([np.c_[along_x, np.full(len(k), lo_y)],      # south, y = lo
-                          np.c_[along_x, np.full(len(k), hi_y)],      # north
-                          np.c_[np.full(len(k), lo_x), along_y],      # west
-                          np.c_[np.full(len(k), hi_x), along_y]])     # east
-    true = np.asarray(height(pts), np.float64).reshape(4, -1)
-    t = k / m                                                        # in our cells
-    drawn = np.stack([np.interp(t, np.arange(n + 1), edge) for edge in
-                      (z[0, :], z[-1, :], z[:, 0], z[:, -1])]).astype(np.float64)
-    # what is drawn is float32: compare with the fine tiles' float32 heights
-    return float(max((drawn - true.astype(np.float32)).max(), 0.0))
+        return {"z": z.reshape(n + 3, n + 3).astype(np.float32)}
 
 
 class WaterProducer(TerrainProducer):
@@ -317,8 +277,7 @@ class TerrainMeshProducer(TerrainProducer):
         height = deps[(HEIGHT, key)]
         water = deps[(WATER, key)]
         return tile_terrain_mesh(height["z"], x0, y0, q.cell_m(key[0], self.tiles.n),
-                                 water["level_seen"], dip_m=float(height["dip"][0]),
-                                 shore_m=water["shore"], scale=water["scale"])
+                                 water["level_seen"], shore_m=water["shore"], scale=water["scale"])
 
     def nbytes(self, data: TerrainTileMesh) -> int:
         return data.nbytes

@@ -459,38 +459,35 @@ def test_tile_skirt_covers_any_coarser_neighbour_on_rough_ground():
                                (z[bj, bi] - mesh.skirt_m).astype(np.float32), rtol=0, atol=1e-4)
 
 
-def test_a_ravine_under_a_coarse_border_is_covered():
+def test_a_ravine_under_a_coarse_border_leaves_no_gap_once_stitched():
+    """A 30 m ravine crosses the border between coarse nodes: the fine tile's own border dips
+    into it, the coarse one's does not; stitched to its coarse neighbour (as the draw does
+    it), the fine border lies on the coarse one as drawn, so no crack opens and no skirt need
+    reach down into the ravine."""
+    from riverflow.scenes.meshes import stitch_tile
     n = 16
     q = Quadtree(0.0, 0.0, 512.0)
     fine, coarse = (3, 2, 2), (2, 0, 1)         # coarse: west of the fine tile, one level up
 
-    def heights(x, y):                           # flat, but a 30 m deep ravine 1 m wide
-        return np.where(np.abs(y - 156.0) < 1.0, -30.0, 0.0) + 0.0 * x
-
-    def height(xy):
-        return heights(xy[:, 0], xy[:, 1])
-
     def mesh(key):
-        """As the producers make it: the skirt reaches the dips of finer neighbours."""
-        from riverflow.scenes.tile_kinds import border_dip_m
         x, y = q.node_coords(*key, n, ring=1)
-        z = heights(x[None, :], y[:, None]).astype(np.float32)
-        dip = border_dip_m(height, q, key, n, z[1:-1, 1:-1], finer=3 - key[0])
-        return tile_terrain_mesh(z, *q.tile_origin_m(*key), q.cell_m(key[0], n),
-                                 np.zeros((n + 1, n + 1), np.float32), dip_m=dip)
+        z = (np.where(np.abs(y - 156.0) < 1.0, -30.0, 0.0)[:, None] + 0.0 * x[None, :])
+        return tile_terrain_mesh(z.astype(np.float32), *q.tile_origin_m(*key),
+                                 q.cell_m(key[0], n), np.zeros((n + 1, n + 1), np.float32))
 
     mf, mc = mesh(fine), mesh(coarse)
     side = n + 1
-    hf = mf.vertices[:side * side].reshape(side, side, 8)[:, 0, 2]     # fine west border
     hc = mc.vertices[:side * side].reshape(side, side, 8)[:, n, 2]     # coarse east border
     off = (fine[2] % 2) * n // 2
     hc = hc[off:off + n // 2 + 1].astype(np.float64)
     drawn = np.repeat(hc, 2)[: n + 1]
     drawn[1::2] = 0.5 * (hc[:-1] + hc[1:])
-    gap_above_fine = np.maximum(drawn - hf, 0.0).max()
-    assert gap_above_fine > 20.0                 # the ravine is there, between coarse nodes
-    assert mc.skirt_m >= gap_above_fine          # the coarse skirt reaches down to it
-    assert mf.skirt_m < 31.0                     # and the fine one is not made deeper
+    own = mf.vertices[:side * side].reshape(side, side, 8)[:, 0, 2]     # fine west border
+    assert np.maximum(drawn - own, 0.0).max() > 20.0     # unstitched: the ravine's gap
+    stitched = stitch_tile(mf.vertices, fine, mf.skirt_m, [(3, coarse, mc.vertices)])
+    hf = stitched[:side * side].reshape(side, side, 8)[:, 0, 2]
+    np.testing.assert_allclose(hf, drawn, rtol=0, atol=1e-4)
+    assert mc.skirt_m < 20.0 and mf.skirt_m < 31.0      # no skirt hangs into the ravine
 
 
 # -- results independent of history ------------------------------------------------------------
