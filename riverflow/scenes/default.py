@@ -19,7 +19,6 @@ makes tiles of it where the camera looks. Same seed → bitwise the same scene.
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from riverflow._validate import check_allocation, finite
 from riverflow.hydro.builder import RiverNetworkBuilder
@@ -28,6 +27,7 @@ from riverflow.scenes.landscape import (DEFAULT_CELL_M, CarvedTerrain, Landscape
                                         z_range)
 from riverflow.scenes.layout import DEFAULT_SIZE_M, RiverBranch, layout
 from riverflow.scenes.sources import FbmSource, HeightSource
+from riverflow.scenes.water import point_tree
 from riverflow.tiles.quadtree import Quadtree
 
 __all__ = ["DefaultGround", "RiverBranch", "Scene", "default_scene"]
@@ -55,7 +55,7 @@ class DefaultGround(HeightSource):
 
     def __init__(self, main_line_m: np.ndarray, size_m: float, noise_seed: int, hills_seed: int,
                  hills: bool = True) -> None:
-        self._tree = cKDTree(np.asarray(main_line_m, np.float64))
+        self._tree = point_tree(np.asarray(main_line_m, np.float64))
         self.half_m = 0.5 * float(size_m)
         self.slope = min(REGIONAL_DROP_M / DEFAULT_SIZE_M, 400.0 / float(size_m))
         self._noise = FbmSource(noise_seed, ((700.0, 6.0), (220.0, 2.5), (70.0, 0.8)))

@@ -36,7 +36,8 @@ from riverflow.hydro.nearest import PolylineIndex
 from riverflow.scenes.carving import Carving, carve
 from riverflow.scenes.layout import RiverBranch
 from riverflow.scenes.sources import FbmSource, HeightSource, as_height_source
-from riverflow.scenes.water import WaterSurface, bed_depth, monotone_profiles, resample
+from riverflow.scenes.water import (WaterSurface, bed_depth, monotone_profiles, point_tree,
+                                    resample)
 from riverflow.tiles.memo import TileMemo
 from riverflow.tiles.quadtree import Quadtree
 
@@ -543,7 +544,7 @@ class ValleySource(HeightSource):
     neighbours: int = 8
 
     def __post_init__(self) -> None:
-        self._tree = cKDTree(self.control_xy)
+        self._tree = point_tree(self.control_xy)
         self._hills = FbmSource(self.seed, ((900.0, 0.8), (350.0, 0.3)))
         self._relief = FbmSource(self.seed + 1, ((700.0, 6.0), (220.0, 2.5), (70.0, 0.8)))
         k = min(self.neighbours, len(self.control_xy))

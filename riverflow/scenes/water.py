@@ -40,6 +40,14 @@ LAND_LEVEL_NEIGHBOURS = 24
 """… the LAND_LEVEL_NEIGHBOURS nearest of them, weighted down to 0 at the farthest one."""
 
 
+def point_tree(points: np.ndarray) -> cKDTree:
+    """A KD-tree over points the tiles query at run time (shores, centre lines, the ground's
+    valley): built unbalanced, with uncompacted nodes. The answers are the same; queries far
+    from the data (most of a terrain tile's nodes) visit far fewer nodes: 2-3.5x less CPU a
+    point 300-900 m from a 200 km scene's 940,000 shore points, the same near them."""
+    return cKDTree(points, balanced_tree=False, compact_nodes=False)
+
+
 # below this many query points a KD-tree query runs in the calling thread: starting threads
 # costs more than they save (a boat's few hull points every frame: ~1 ms a call otherwise)
 THREADED_QUERY_MIN = 4096
@@ -183,7 +191,7 @@ class WaterSurface:
         self._per_branch: dict[int, _Samples] = {}
         edge = shapely.segmentize(self.polygon.boundary, self.boundary_spacing_m)
         xy, ring = shapely.get_coordinates(shapely.get_parts(edge), return_index=True)
-        self._boundary_trees = {1: cKDTree(xy)}
+        self._boundary_trees = {1: point_tree(xy)}
         # boundary point i and i + 1 make a segment where they are on one ring
         self._boundary_next = np.append(ring[1:] == ring[:-1], False)
         self._reach_m = 0.75 * float(self.widths_m.max()) + 2.0 * self.boundary_spacing_m
@@ -309,7 +317,7 @@ class WaterSurface:
         every stride-th shore sample only (faster far away, error up to stride × the shore
         sample spacing); beyond ``upper_bound_m`` it is inf (much faster far away)."""
         if stride not in self._boundary_trees:
-            self._boundary_trees[stride] = cKDTree(self._boundary_trees[1].data[::stride])
+            self._boundary_trees[stride] = point_tree(self._boundary_trees[1].data[::stride])
         tree = self._boundary_trees[stride]
         p = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
         if np.isfinite(upper_bound_m) and len(p) > 1:
@@ -435,7 +443,7 @@ class _Samples:
 
     def __init__(self, samples, levels, widths, branch) -> None:
         self.samples, self.levels, self.widths, self.branch = samples, levels, widths, branch
-        self.tree = cKDTree(samples)
+        self.tree = point_tree(samples)
 
     def project(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(distance, level, width) (N,) of the nearest point on the sampled centre lines."""
