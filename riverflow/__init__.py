@@ -62,6 +62,8 @@ _LAZY = {
     "read_rivers": "riverflow.gis.rivers",
     "read_water": "riverflow.gis.water",
     "bake_flow_map": "riverflow.gis.bake",
+    "bake_concentration": "riverflow.gis.spill",
+    "Dispersion": "riverflow.hydro.spill_network",
     "ResourceLimitError": "riverflow._validate",
     "set_memory_limit": "riverflow._validate",
     "memory_limit_bytes": "riverflow._validate",
