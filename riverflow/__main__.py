@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 DISPLAY_MODES = ("none", "mesh", "coverage", "advected", "pre-advected", "non-advected",
-                 "foam", "grid", "particles", "velocities")
+                 "foam", "concentration", "grid", "particles", "velocities")
 """Display / debug modes of the river drawing (SPEC §4 "Drawing"; Proland MeshDisplayType,
 reference §4.6): ground only, mesh only, particle coverage, per-pixel sprite blending,
 pre-advected texture, non-advected texture, the particles' foam alone, sprite-grid cells,

@@ -205,3 +205,100 @@ class SpillSolver:
             passed_kg={name: float(v) for name, v in zip(net.names, b.passed[row])},
             decayed_kg=float(b.decayed[row]), front_m=front, tail_m=tail, front_xy_m=fxy,
             tail_xy_m=txy, peak_kg_m3=peak, source_xy_m=src.xy_m.copy(), moved_m=src.moved_m)
+
+
+TINT_TEXELS = 256
+"""Side of the spill tint texture [texels]."""
+TINT_REFRESH_S = 5.0
+"""The tint follows the spills every this many seconds of spill time (a plume moves a few
+metres: less than a texel)."""
+TINT_MIN_SIDE_M = 256.0
+"""Smallest side of the square the tint covers [m] (sides are this × a power of two)."""
+
+
+@dataclass(eq=False)
+class SpillTint:
+    """The water's discolouring by the spills, as a small RGBA float32 texture over a square of
+    the world that holds the plumes (what the water shader samples; ``shaders/spill.glsl``):
+    RGB the concentration-weighted mean colour of the spills there, A the total concentration
+    [kg/m³]. The square's side is TINT_MIN_SIDE_M × a power of two and its corner a multiple
+    of a quarter of it, so it changes only when the plumes outgrow it or leave it; each texel's
+    place on the network (link, arc length, ψ) is found once per square (the slow part: the
+    stream function at the texels near a river), its concentration again when the spills have
+    stepped by TINT_REFRESH_S.
+    """
+
+    rect_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    """(x0, y0, side) [m] of the square (side 0: nothing to tint)."""
+    rgba: np.ndarray = field(default_factory=lambda: np.zeros((TINT_TEXELS, TINT_TEXELS, 4),
+                                                              np.float32))
+    version: int = 0
+    """Increases whenever ``rgba`` or ``rect_m`` changed (the draw system uploads then)."""
+    _key: tuple = ()
+    _wet: np.ndarray | None = None
+    _xy: np.ndarray | None = None
+    _psi: np.ndarray | None = None
+    _link: np.ndarray | None = None
+    _s: np.ndarray | None = None
+
+    def update(self, solver: SpillSolver, potential, colours) -> bool:
+        """Follow the solver (``potential(xy) -> ψ`` the flow field's; ``colours`` (S, 3) the
+        spills' RGB); True if the texture changed."""
+        if self._key and self._key[1] == solver.n_spills \
+                and 0.0 <= solver.time_s - self._key[0] < TINT_REFRESH_S:
+            return False
+        key = (solver.time_s, solver.n_spills)
+        rect = self._square(solver)
+        if rect != self.rect_m or self._wet is None:
+            self.rect_m = rect
+            x0, y0, side = rect
+            n = TINT_TEXELS
+            cell = side / n if side > 0 else 0.0
+            g = (np.arange(n) + 0.5) * cell
+            gx, gy = np.meshgrid(x0 + g, y0 + g)
+            xy = np.column_stack([gx.ravel(), gy.ravel()])
+            net = solver.network
+            # only texels near a centre line can be water: the stream function there alone
+            near = np.flatnonzero(net.locate(xy, float(net.cell_width_m.max()))[0] >= 0) \
+                if side > 0 else np.zeros(0, np.int64)
+            psi = potential(xy[near]) if len(near) else np.zeros(0)
+            self._wet = near[np.isfinite(psi)]
+            self._xy, self._psi = xy[self._wet], psi[np.isfinite(psi)]
+            self._link, self._s, _ = net.locate(self._xy)
+        self._key = key
+        out = self.rgba.reshape(-1, 4)
+        out[:] = 0.0
+        if len(self._wet) and solver.n_spills:
+            c = solver.network.interpolate(solver.cell_concentration(), self._link, self._s)
+            for k, src in enumerate(solver.sources):
+                here = self._link == src.link
+                if here.any():
+                    c[k, here] *= solver._profile(src, self._s[here], self._psi[here])
+            total = c.sum(axis=0)
+            rgb = (np.asarray(colours, np.float64)[:, :3].T @ c) / np.maximum(total, 1e-30)
+            out[self._wet, :3] = rgb.T
+            out[self._wet, 3] = total
+        self.version += 1
+        return True
+
+    @staticmethod
+    def _square(solver: SpillSolver) -> tuple[float, float, float]:
+        """The aligned square around every cell holding a spill (module docstring)."""
+        if not solver.n_spills:
+            return (0.0, 0.0, 0.0)
+        c = solver.cell_concentration()
+        peak = c.max(axis=1, keepdims=True)
+        on = np.flatnonzero(np.any((c > 0) & (c >= FRONT_FRACTION * peak), axis=0))
+        if not len(on):
+            return (0.0, 0.0, 0.0)
+        net = solver.network
+        pad = float(net.cell_width_m[on].max()) + float(net.link_dx_m.max())
+        lo = net.cell_xy_m[on].min(axis=0) - pad
+        hi = net.cell_xy_m[on].max(axis=0) + pad
+        side = TINT_MIN_SIDE_M
+        while True:
+            step = 0.25 * side
+            x0, y0 = (math.floor(v / step) * step for v in lo)
+            if x0 + side >= hi[0] and y0 + side >= hi[1]:
+                return (float(x0), float(y0), float(side))
+            side *= 2.0
