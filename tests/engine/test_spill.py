@@ -272,7 +272,7 @@ def test_concentrations_do_not_depend_on_the_camera(scene):
     probes = np.vstack([up[::40], scene.branch("main_lower").centerline_m[::60]])
     results = []
     for flight in (0, 1):
-        world = rf.RiverWorld(scene, size=(48, 32), gl=False, seed=0)
+        world = rf.RiverWorld(scene, size=(32, 18), gl=False, seed=0)
         world.speed_factor = 120.0
         world.add_spill(up[len(up) // 5], 1000.0)
         for frame in range(6):
@@ -317,3 +317,25 @@ def test_bad_input(scene):
     with pytest.raises(ValueError, match="advance_spills"):
         world.advance_spills(-1.0)
     world.close()
+
+
+def test_the_tint_texture_holds_the_concentrations(spilled):
+    from riverflow.hydro.spills import TINT_TEXELS, SpillTint
+
+    world, _, _, _ = spilled
+    solver = world.spill_solver
+    world.advance_spills(0.0)
+    tint = SpillTint()
+    colours = [(1.0, 0.0, 0.0), (0.0, 0.0, 1.0)]
+    assert tint.update(solver, world.field.potential, colours)
+    assert not tint.update(solver, world.field.potential, colours)    # nothing stepped
+    x0, y0, side = tint.rect_m
+    assert side > 0
+    g = (np.arange(TINT_TEXELS) + 0.5) * side / TINT_TEXELS
+    gx, gy = np.meshgrid(x0 + g, y0 + g)
+    xy = np.column_stack([gx.ravel(), gy.ravel()])
+    c = world.concentration(xy, per_spill=True)
+    rgba = tint.rgba.reshape(-1, 4)
+    np.testing.assert_allclose(rgba[:, 3], c.sum(axis=0), rtol=1e-5, atol=1e-12)
+    wet = c.sum(axis=0) > 0
+    np.testing.assert_allclose(rgba[wet, 0], c[0, wet] / c[:, wet].sum(axis=0), rtol=1e-4)
