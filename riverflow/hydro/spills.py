@@ -20,6 +20,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from riverflow.hydro.spill_network import SpillNetwork
 from riverflow.kernels.spill import SpillBook, spill_steps
@@ -166,15 +167,18 @@ class SpillSolver:
             out[:, wet] = c
         return out if per_spill else out.sum(axis=0)
 
-    def _profile(self, src: SpillSource, s_m: np.ndarray, psi: np.ndarray) -> np.ndarray:
-        """The transverse profile (mean 1 across the river) on the source's link."""
+    def _profile(self, src: SpillSource, s_m: np.ndarray, psi: np.ndarray,
+                 min_sigma_m: float = 0.0) -> np.ndarray:
+        """The transverse profile (mean 1 across the river) on the source's link; its standard
+        deviation at least ``min_sigma_m`` [m] (a texture's texel: no plume narrower than what
+        can be drawn, which would alias into beads)."""
         net = self.network
         lk = np.full(len(s_m), src.link)
         u = net.interpolate(net.cell_speed_mps, lk, s_m)
         eps = net.interpolate(net.cell_eps_m2s, lk, s_m)
         w = net.interpolate(net.cell_width_m, lk, s_m)
         tau = np.abs(s_m - src.s_m) / np.maximum(u, 1e-9)
-        sigma = np.maximum(np.sqrt(2.0 * eps * tau) / w, MIN_SIGMA_ETA)
+        sigma = np.maximum(np.sqrt(2.0 * eps * tau + min_sigma_m ** 2) / w, MIN_SIGMA_ETA)
         span = src.psi_right - src.psi_left
         eta = np.clip((psi - src.psi_left) / span, 0.0, 1.0) if span > 0 else np.full(len(psi), 0.5)
         f = np.zeros(len(s_m))
@@ -240,6 +244,9 @@ class SpillTint:
     _psi: np.ndarray | None = None
     _link: np.ndarray | None = None
     _s: np.ndarray | None = None
+    _fringe: np.ndarray | None = None
+    _fringe_from: np.ndarray | None = None
+    _texel_m: float = 0.0
 
     def update(self, solver: SpillSolver, potential, colours) -> bool:
         """Follow the solver (``potential(xy) -> ψ`` the flow field's; ``colours`` (S, 3) the
@@ -265,6 +272,14 @@ class SpillTint:
             self._wet = near[np.isfinite(psi)]
             self._xy, self._psi = xy[self._wet], psi[np.isfinite(psi)]
             self._link, self._s, _ = net.locate(self._xy)
+            # the dry texels next to the water take their nearest wet texel's value, so that
+            # the texture's bilinear filter does not darken the water along the banks
+            self._fringe = near[~np.isfinite(psi)]
+            self._fringe_from = np.zeros(0, np.int64)
+            if len(self._wet) and len(self._fringe):
+                _, k = cKDTree(xy[self._wet]).query(xy[self._fringe])
+                self._fringe_from = self._wet[k]
+            self._texel_m = cell
         self._key = key
         out = self.rgba.reshape(-1, 4)
         out[:] = 0.0
@@ -273,11 +288,13 @@ class SpillTint:
             for k, src in enumerate(solver.sources):
                 here = self._link == src.link
                 if here.any():
-                    c[k, here] *= solver._profile(src, self._s[here], self._psi[here])
+                    c[k, here] *= solver._profile(src, self._s[here], self._psi[here],
+                                                  self._texel_m)
             total = c.sum(axis=0)
             rgb = (np.asarray(colours, np.float64)[:, :3].T @ c) / np.maximum(total, 1e-30)
             out[self._wet, :3] = rgb.T
             out[self._wet, 3] = total
+            out[self._fringe] = out[self._fringe_from]
         self.version += 1
         return True
 
