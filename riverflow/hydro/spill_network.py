@@ -109,6 +109,17 @@ class SpillNetwork:
         s = np.where(ok, self._sample_s[kk], np.nan)
         return link.astype(np.int64), s, d
 
+    def weights(self, link: np.ndarray, s_m: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The two cells (P,) and the weight (P,) of the second that linearly interpolate
+        between cell centres at (link, s) (link ≥ 0)."""
+        c0 = self.net.link_c0[link]
+        n = self.net.link_c1[link] - c0
+        p = np.clip(s_m / self.link_dx_m[link] - 0.5, 0.0, np.maximum(n - 1, 0))
+        i0 = np.minimum(np.floor(p).astype(np.int64), np.maximum(n - 2, 0))
+        w = np.clip(p - i0, 0.0, 1.0)
+        return c0 + i0, c0 + np.minimum(i0 + 1, n - 1), w
+
     def interpolate(self, values: np.ndarray, link: np.ndarray, s_m: np.ndarray) -> np.ndarray:
         """Per-cell ``values`` (..., N) linearly interpolated between cell centres at (link, s)
         (link −1: 0); (..., P)."""
@@ -116,14 +127,7 @@ class SpillNetwork:
         ok = link >= 0
         if not ok.any():
             return out
-        lk = link[ok]
-        c0 = self.net.link_c0[lk]
-        n = self.net.link_c1[lk] - c0
-        p = np.clip(s_m[ok] / self.link_dx_m[lk] - 0.5, 0.0, np.maximum(n - 1, 0))
-        i0 = np.minimum(np.floor(p).astype(np.int64), np.maximum(n - 2, 0))
-        w = np.clip(p - i0, 0.0, 1.0)
-        a = c0 + i0
-        b = c0 + np.minimum(i0 + 1, n - 1)
+        a, b, w = self.weights(link[ok], s_m[ok])
         out[..., ok] = values[..., a] * (1.0 - w) + values[..., b] * w
         return out
 

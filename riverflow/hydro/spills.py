@@ -240,13 +240,16 @@ class SpillTint:
     """Increases whenever ``rgba`` or ``rect_m`` changed (the draw system uploads then)."""
     _key: tuple = ()
     _wet: np.ndarray | None = None
-    _xy: np.ndarray | None = None
     _psi: np.ndarray | None = None
     _link: np.ndarray | None = None
     _s: np.ndarray | None = None
     _fringe: np.ndarray | None = None
     _fringe_from: np.ndarray | None = None
     _texel_m: float = 0.0
+    _ia: np.ndarray | None = None
+    _ib: np.ndarray | None = None
+    _iw: np.ndarray | None = None
+    _prof: np.ndarray | None = None
 
     def update(self, solver: SpillSolver, potential, colours) -> bool:
         """Follow the solver (``potential(xy) -> ψ`` the flow field's; ``colours`` (S, 3) the
@@ -254,49 +257,62 @@ class SpillTint:
         if self._key and self._key[1] == solver.n_spills \
                 and 0.0 <= solver.time_s - self._key[0] < TINT_REFRESH_S:
             return False
-        key = (solver.time_s, solver.n_spills)
         rect = self._square(solver)
         if rect != self.rect_m or self._wet is None:
-            self.rect_m = rect
-            x0, y0, side = rect
-            n = TINT_TEXELS
-            cell = side / n if side > 0 else 0.0
-            g = (np.arange(n) + 0.5) * cell
-            gx, gy = np.meshgrid(x0 + g, y0 + g)
-            xy = np.column_stack([gx.ravel(), gy.ravel()])
-            net = solver.network
-            # only texels near a centre line can be water: the stream function there alone
-            near = np.flatnonzero(net.locate(xy, float(net.cell_width_m.max()))[0] >= 0) \
-                if side > 0 else np.zeros(0, np.int64)
-            psi = potential(xy[near]) if len(near) else np.zeros(0)
-            self._wet = near[np.isfinite(psi)]
-            self._xy, self._psi = xy[self._wet], psi[np.isfinite(psi)]
-            self._link, self._s, _ = net.locate(self._xy)
-            # the dry texels next to the water take their nearest wet texel's value, so that
-            # the texture's bilinear filter does not darken the water along the banks
-            self._fringe = near[~np.isfinite(psi)]
-            self._fringe_from = np.zeros(0, np.int64)
-            if len(self._wet) and len(self._fringe):
-                _, k = cKDTree(xy[self._wet]).query(xy[self._fringe])
-                self._fringe_from = self._wet[k]
-            self._texel_m = cell
-        self._key = key
-        out = self.rgba.reshape(-1, 4)
-        out[:] = 0.0
+            self._locate(solver, potential, rect)
+        if not self._key or self._key[1] != solver.n_spills or self._prof is None:
+            self._profiles(solver)
+        self._key = (solver.time_s, solver.n_spills)
         if len(self._wet) and solver.n_spills:
-            c = solver.network.interpolate(solver.cell_concentration(), self._link, self._s)
-            for k, src in enumerate(solver.sources):
-                here = self._link == src.link
-                if here.any():
-                    c[k, here] *= solver._profile(src, self._s[here], self._psi[here],
-                                                  self._texel_m)
+            conc = solver.cell_concentration()
+            c = (conc[:, self._ia] * (1.0 - self._iw) + conc[:, self._ib] * self._iw) * self._prof
             total = c.sum(axis=0)
+            out = self.rgba.reshape(-1, 4)
             rgb = (np.asarray(colours, np.float64)[:, :3].T @ c) / np.maximum(total, 1e-30)
             out[self._wet, :3] = rgb.T
             out[self._wet, 3] = total
             out[self._fringe] = out[self._fringe_from]
         self.version += 1
         return True
+
+    def _locate(self, solver: SpillSolver, potential, rect) -> None:
+        """Each texel's place on the network for the square ``rect`` (the slow part)."""
+        self.rect_m = rect
+        self.rgba[:] = 0.0
+        x0, y0, side = rect
+        n = TINT_TEXELS
+        cell = side / n if side > 0 else 0.0
+        g = (np.arange(n) + 0.5) * cell
+        gx, gy = np.meshgrid(x0 + g, y0 + g)
+        xy = np.column_stack([gx.ravel(), gy.ravel()])
+        net = solver.network
+        # only texels near a centre line can be water: the stream function there alone
+        near = np.flatnonzero(net.locate(xy, float(net.cell_width_m.max()))[0] >= 0) \
+            if side > 0 else np.zeros(0, np.int64)
+        psi = potential(xy[near]) if len(near) else np.zeros(0)
+        self._wet = near[np.isfinite(psi)]
+        self._psi = psi[np.isfinite(psi)]
+        self._link, self._s, _ = net.locate(xy[self._wet])
+        self._ia, self._ib, self._iw = net.weights(self._link, self._s)
+        # the dry texels next to the water take their nearest wet texel's value, so that
+        # the texture's bilinear filter does not darken the water along the banks
+        self._fringe = near[~np.isfinite(psi)]
+        self._fringe_from = np.zeros(0, np.int64)
+        if len(self._wet) and len(self._fringe):
+            _, k = cKDTree(xy[self._wet]).query(xy[self._fringe])
+            self._fringe_from = self._wet[k]
+        self._texel_m = cell
+        self._prof = None
+
+    def _profiles(self, solver: SpillSolver) -> None:
+        """Each spill's transverse profile at each wet texel (S, W): steady, like the flow."""
+        prof = np.ones((solver.n_spills, len(self._wet)))
+        for k, src in enumerate(solver.sources):
+            here = self._link == src.link
+            if here.any():
+                prof[k, here] = solver._profile(src, self._s[here], self._psi[here],
+                                                self._texel_m)
+        self._prof = prof
 
     @staticmethod
     def _square(solver: SpillSolver) -> tuple[float, float, float]:
