@@ -361,3 +361,19 @@ def test_a_graph_file_scene_gets_its_discharges_from_the_stream_function(tiny_ch
     r = world.spill(e)
     assert sum(r.out_kg.values()) == pytest.approx(10.0, rel=1e-6) and abs(r.balance_kg) < 1e-9
     world.close()
+
+
+def test_dispersion_settings():
+    line = _straight(2000.0, 41)
+    fixed = build_spill_network([_branch("c", line, 30.0)], [30.0],
+                                Dispersion(longitudinal_m2s=12.0, cell_m=10.0))
+    assert np.all(fixed.cell_k_m2s == 12.0) and np.allclose(fixed.link_dx_m, 10.0)
+    rough = build_spill_network([_branch("c", line, 30.0)], [30.0], Dispersion(manning_n=0.06))
+    smooth = build_spill_network([_branch("c", line, 30.0)], [30.0])
+    assert rough.cell_k_m2s[0] == pytest.approx(0.5 * smooth.cell_k_m2s[0])   # K ∝ 1/u* ∝ 1/n
+    for bad in (dict(manning_n=0.0), dict(fischer=float("nan")), dict(cell_m=-1.0),
+                dict(longitudinal_m2s=float("inf"))):
+        with pytest.raises(ValueError, match="Dispersion"):
+            Dispersion(**bad)
+    with pytest.raises(ValueError, match="discharge"):
+        build_spill_network([_branch("c", line, 30.0)], [float("nan")])
