@@ -21,7 +21,8 @@ explicit, for every spill:
 5. **Decay**: every cell's mass is multiplied by exp(−k dt), the loss counted.
 
 Every flux is taken from one cell and given to another (or to a node, an outlet): mass is
-conserved by construction, to rounding. Fluxes use the concentrations at the start of the
+conserved by construction, to rounding. A link holding no mass and receiving none is skipped
+(its cells stay exactly 0). Fluxes use the concentrations at the start of the
 step; the step is stable and keeps masses non-negative for Cr ≤ ½ and a diffusion number
 Σk dt / V ≤ ¼ per cell (the network's ``dt_max_s``).
 """
@@ -127,8 +128,16 @@ def spill_steps(net, book, t_start, dt, n_steps, work, node_mass):
                 c0 = net.link_c0[b]
                 c1 = net.link_c1[b]
                 n0 = net.link_start[b]
-                if n0 >= 0:
-                    work[c0] += node_mass[n0] * net.link_share[b]
+                inflow = node_mass[n0] * net.link_share[b] if n0 >= 0 else 0.0
+                if inflow == 0.0:                  # a link the spill has not reached: skip
+                    empty = True
+                    for i in range(c0, c1):
+                        if m[i] != 0.0:
+                            empty = False
+                            break
+                    if empty:
+                        continue
+                work[c0] += inflow
                 for i in range(c0, c1):
                     ci = m[i] / vol[i]
                     if i + 1 < c1:
