@@ -163,13 +163,13 @@ def _report_dict(r) -> dict:
 
 def _write_geotiff(image: np.ndarray, path: Path, top_left, cell_m: float, crs) -> None:
     import rasterio
-    from rasterio.transform import from_origin
+    from rasterio.transform import Affine
 
     h, w = image.shape
     with atomic_files(path) as (tmp,):
         with rasterio.open(tmp, "w", driver="GTiff", width=w, height=h, count=1,
                            dtype="float32", crs=crs, nodata=None,
-                           transform=from_origin(top_left[0], top_left[1], cell_m, cell_m)) as ds:
+                           transform=Affine(cell_m, 0.0, top_left[0], 0.0, -cell_m, top_left[1])) as ds:
             ds.write(image.astype(np.float32), 1)
             ds.update_tags(units="kg/m3")
 

@@ -363,6 +363,50 @@ def test_a_graph_file_scene_gets_its_discharges_from_the_stream_function(tiny_ch
     world.close()
 
 
+def test_bake_concentration_and_the_spill_command(tiny_channel_path, tmp_path):
+    import csv
+    import json
+
+    from riverflow.gis.bake import pixel_centres
+    from riverflow.gis.spill import read_concentration
+    from tests.test_cli import cli
+
+    scene = rf.landscape(rf.load_graph(tiny_channel_path), seed=0)
+    world = rf.RiverWorld(scene, size=(32, 18), gl=False, seed=0)
+    world.add_spill((10.0, 2.0), 5.0, 20.0)
+    with pytest.raises(ValueError, match="increasing"):
+        rf.bake_concentration(world, (0, -12, 100, 12), 2.0, tmp_path / "x", [10.0, 5.0])
+    dt = world.spill_solver.dt_s
+    baked = rf.bake_concentration(world, (0.0, -12.0, 100.0, 12.0), 2.0, tmp_path / "png",
+                                  [4.0, 8.0], gauges_m=[(30.0, 0.0), (60.0, 0.0)],
+                                  geotiff=False)
+    assert baked.size_px == (50, 12) and len(baked.images) == 2
+    assert abs(baked.times_s[1] - 8.0) <= dt
+    c, meta = read_concentration(baked.images[1])
+    want = world.concentration(pixel_centres((0.0, -12.0), 2.0, (50, 12))).reshape(12, 50)
+    assert np.abs(c - want).max() <= want.max() / 65535 + 1e-15 and want.max() > 0
+    rows = list(csv.reader(open(baked.gauges_csv)))
+    assert rows[0] == ["time_s", "gauge_0", "gauge_1"] and len(rows) == 3
+    assert float(rows[2][1]) == pytest.approx(world.concentration([(30.0, 0.0)])[0])
+    index = json.loads(baked.index.read_text())
+    assert index["frames"][1]["spills"][0]["released_kg"] == pytest.approx(5.0 * 8.0 / 20.0,
+                                                                          abs=0.25 * dt)
+    world.close()
+    pytest.importorskip("rasterio")
+    out = tmp_path / "cli"
+    result = cli("spill", "--scene", str(tiny_channel_path), "--at", "20,30", "--mass", "2",
+                 "--hours", "0.01", "--every", "0.3", "--cell-m", "4", "--out", str(out))
+    assert result.returncode == 0, result.stderr
+    assert "moved" in result.stdout and "GeoTIFF" in result.stdout
+    tifs = sorted(out.glob("concentration_*.tif"))
+    assert len(tifs) == 2 and (out / "gauges.csv").exists()
+    c, meta = read_concentration(tifs[-1])
+    assert c.max() > 0 and meta["transform"].a == 4.0
+    far = cli("spill", "--scene", str(tiny_channel_path), "--at", "20,300", "--mass", "2",
+              "--hours", "1", "--every", "30", "--out", str(tmp_path / "no"))
+    assert far.returncode == 1 and "on land" in far.stderr
+
+
 def test_dispersion_settings():
     line = _straight(2000.0, 41)
     fixed = build_spill_network([_branch("c", line, 30.0)], [30.0],
