@@ -24,6 +24,9 @@ Public API (SPEC §6)::
     builder = rf.read_rivers(path)         # GIS stream lines → RiverNetworkBuilder (riverflow[gis])
     builder = rf.read_water(path)          # water polygons / masks → RiverNetworkBuilder (riverflow[gis])
     rf.bake_flow_map(scene, region_m, cell_m, "flow.png")   # flow-map PNG + flow.json
+    spill = world.add_spill(xy_m, mass_kg, duration_s=0.0, name=None, decay_per_s=0.0)
+    world.advance_spills(seconds); world.concentration(xy)  # (N,) kg/m³; world.spill(spill)
+    rf.bake_concentration(world, region_m, cell_m, "out/spill", times_s)   # GeoTIFF/PNG + CSV
 
 Names are imported lazily so that ``import riverflow`` stays cheap and never touches OpenGL.
 """
@@ -62,6 +65,8 @@ _LAZY = {
     "read_rivers": "riverflow.gis.rivers",
     "read_water": "riverflow.gis.water",
     "bake_flow_map": "riverflow.gis.bake",
+    "bake_concentration": "riverflow.gis.spill",
+    "Dispersion": "riverflow.hydro.spill_network",
     "ResourceLimitError": "riverflow._validate",
     "set_memory_limit": "riverflow._validate",
     "memory_limit_bytes": "riverflow._validate",

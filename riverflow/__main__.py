@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 DISPLAY_MODES = ("none", "mesh", "coverage", "advected", "pre-advected", "non-advected",
-                 "foam", "grid", "particles", "velocities")
+                 "foam", "concentration", "grid", "particles", "velocities")
 """Display / debug modes of the river drawing (SPEC §4 "Drawing"; Proland MeshDisplayType,
 reference §4.6): ground only, mesh only, particle coverage, per-pixel sprite blending,
 pre-advected texture, non-advected texture, the particles' foam alone, sprite-grid cells,
@@ -141,10 +141,11 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print the timings as JSON")
     p.set_defaults(run=_profile)
 
-    from riverflow.gis.cli import add_bake_command, add_check_command
+    from riverflow.gis.cli import add_bake_command, add_check_command, add_spill_command
 
     add_bake_command(sub, _scene_args, _positive)
     add_check_command(sub)
+    add_spill_command(sub, _scene_args, _positive)
     return parser
 
 

@@ -31,6 +31,9 @@ class DisplayMode(IntEnum):
     """The water mesh in one flat colour."""
     FOAM = 12
     """The foam the particles carry, alone: its amount blended like the sprites (ours)."""
+    CONCENTRATION = 13
+    """The spills' concentration (issue 24): log10 of it on a colour ramp over
+    ``concentration_range_kg_m3`` (:func:`concentration_legend`), dark water below (ours)."""
 
 
 @dataclass
@@ -58,6 +61,12 @@ class DisplaySettings:
     rapids_wave_slope: float = 0.3
     """Slope of the standing waves on rapids where the surface is steepest (15 %; from 0 at
     2 %, ``shaders/rapids.glsl``); 0: none."""
+    # -- spills (issue 24) --
+    spill_visible_kg_m3: float = 1e-4
+    """Concentration [kg/m³] at which a spill's colour covers 1 − 1/e of the water's (×0.75)
+    in the normal look."""
+    concentration_range_kg_m3: tuple[float, float] = (1e-6, 1e-2)
+    """The concentrations [kg/m³] at the two ends of the concentration mode's colour ramp."""
     # -- reflections (issue 12 item 3) --
     reflections: bool = True
     """Banks, props and sky mirrored in the water (a planar reflection pass at the level of
@@ -76,6 +85,12 @@ class DisplaySettings:
             self.mode = DisplayMode(self.mode)
         if type(self.wave) is not WaveKind:
             self.wave = WaveKind(self.wave)
+        lo, hi = self.concentration_range_kg_m3
+        if not (math.isfinite(self.spill_visible_kg_m3) and self.spill_visible_kg_m3 > 0
+                and math.isfinite(lo) and math.isfinite(hi) and 0 < lo < hi):
+            raise ValueError("DisplaySettings: spill_visible_kg_m3 must be > 0 and "
+                             "concentration_range_kg_m3 finite with 0 < low < high, got "
+                             f"{self.spill_visible_kg_m3!r}, {self.concentration_range_kg_m3!r}")
         for name in ("wave_slope_factor", "water_clarity_m", "fog_density_per_m", "arrow_s",
                      "reflection_distortion", "rapids_wave_slope"):
             value = getattr(self, name)
@@ -97,6 +112,7 @@ MODE_NAMES: dict[str, dict[str, object]] = {
     "pre-advected": {"mode": DisplayMode.PRE_ADVECTED},
     "non-advected": {"mode": DisplayMode.NON_ADVECTED},
     "foam": {"mode": DisplayMode.FOAM},
+    "concentration": {"mode": DisplayMode.CONCENTRATION},
     "grid": {"mode": DisplayMode.ADVECTED, "show_grid": True},
     "particles": {"mode": DisplayMode.ADVECTED, "show_particles": True},
     "velocities": {"mode": DisplayMode.ADVECTED, "show_velocities": True},
@@ -127,6 +143,7 @@ MODE_LEGENDS: dict[DisplayMode, list[tuple[Colour | None, str]]] = {
         (_rgb(1, 1, 1), "white: foam 1, the most a particle carries (blended like the sprites)"),
         (_rgb(0.02, 0.05, 0.16), "dark blue: no foam; grey between"),
     ],
+    DisplayMode.CONCENTRATION: [],       # from the settings' range: concentration_legend
 }
 """What each water mode's colours mean (``water.glsl``; the HUD and the README show it)."""
 
@@ -159,11 +176,49 @@ ARROW_LEGEND: list[tuple[Colour | None, str]] = [
 _SHADED = (DisplayMode.ADVECTED, DisplayMode.PRE_ADVECTED, DisplayMode.NON_ADVECTED)
 
 
+CONCENTRATION_STOPS = ((0.05, 0.15, 0.60), (0.05, 0.70, 0.80), (0.20, 0.80, 0.20),
+                       (0.95, 0.85, 0.10), (0.85, 0.10, 0.05))
+"""The concentration mode's colour ramp, evenly spaced over log10(c) (``spill.glsl``'s
+``concentration_ramp``)."""
+NO_CONCENTRATION = (0.02, 0.05, 0.16)
+"""The concentration mode's water below the ramp's range."""
+
+
+def concentration_colour(c_kg_m3, settings: DisplaySettings) -> np.ndarray:
+    """The concentration mode's linear RGB (..., 3) for concentrations [kg/m³] (the numpy twin
+    of ``spill.glsl``'s ``concentration_colour``)."""
+    import numpy as np
+
+    c = np.asarray(c_kg_m3, np.float64)
+    lo, hi = (math.log10(v) for v in settings.concentration_range_kg_m3)
+    with np.errstate(divide="ignore"):
+        t = np.clip((np.log10(c) - lo) / (hi - lo), 0.0, 1.0) * 4.0
+    stops = np.asarray(CONCENTRATION_STOPS)
+    k = np.minimum(np.floor(t).astype(int), 3)
+    f = (t - k)[..., None]
+    out = stops[k] * (1.0 - f) + stops[k + 1] * f
+    return np.where((c > 10.0 ** lo)[..., None], out, np.asarray(NO_CONCENTRATION))
+
+
+def concentration_legend(settings: DisplaySettings) -> list[tuple[Colour | None, str]]:
+    """The concentration mode's legend: a swatch per decade of its range."""
+    lo, hi = settings.concentration_range_kg_m3
+    out: list[tuple[Colour | None, str]] = [(_rgb(*NO_CONCENTRATION),
+                                             f"dark blue: below {lo:g} kg/m³ (no spill)")]
+    decades = max(1, round(math.log10(hi / lo)))
+    for k in range(decades + 1):
+        c = lo * (hi / lo) ** (k / decades)
+        rgb = concentration_colour(c * (1 + 1e-9), settings)
+        out.append((_rgb(*rgb.tolist()), f"{c:.0e} kg/m³ ({c * 1e3:g} mg/L)"))
+    return out
+
+
 def legend(settings: DisplaySettings) -> list[tuple[Colour | None, str]]:
     """What the colours of the current drawing mean: (8-bit RGB or None, text) per line, the
     water mode first, then each overlay that is on."""
     mode = DisplayMode(settings.mode)
-    out = list(MODE_LEGENDS[mode])
+    out = list(MODE_LEGENDS[mode]) if mode != DisplayMode.CONCENTRATION \
+        else concentration_legend(settings)
     if settings.show_grid and mode in _SHADED:       # mesh and coverage colours stay plain
         out += GRID_LEGEND if mode == DisplayMode.ADVECTED else GRID_LEGEND[:1]
     if settings.show_particles:

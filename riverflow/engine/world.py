@@ -53,6 +53,13 @@ from riverflow.tiles.scheduler import TileScheduler
 
 T = TypeVar("T")
 
+SPILL_SNAP_M = 50.0
+"""A spill released on land is moved to the nearest water within this distance [m]."""
+
+
+class _SpillSolverKey:
+    """The resource key of the world's spill solver (made by the first spill)."""
+
 
 class RiverWorld:
     """A landscape with rivers, simulated (and, with ``gl=True``, drawn) frame by frame.
@@ -380,6 +387,138 @@ class RiverWorld:
         """A copy of the live rain drops' positions, (N, 3) float64 [m]."""
         drops = self.resource(Rain).drops
         return drops.position[:int(drops.counts[0])].copy()
+
+    # -- spills (issue 24) ------------------------------------------------------------------
+
+    @property
+    def spill_solver(self):
+        """The world's :class:`~riverflow.hydro.spills.SpillSolver`, or None before the first
+        :meth:`add_spill` (or :meth:`configure_spills`)."""
+        return self.resources.get(_SpillSolverKey)
+
+    def configure_spills(self, dispersion=None, *, dt_s: float | None = None):
+        """Make the spill solver now with these settings (a
+        :class:`~riverflow.hydro.spill_network.Dispersion`; ``dt_s``: its fixed step [s], at most
+        the network's stable step): before the first spill only (ValueError after). Returns it."""
+        from riverflow.hydro.spill_network import build_spill_network, section_discharge_m2s
+        from riverflow.hydro.spills import SpillSolver
+
+        if self.spill_solver is not None and self.spill_solver.n_spills:
+            raise ValueError("configure_spills: this world has spills already (configure first)")
+        branches = self.scene.branches
+        qs = [b.discharge_m2s if b.discharge_m2s is not None
+              else section_discharge_m2s(self.field.potential, b.centerline_m, b.widths_m)
+              for b in branches]
+        network = build_spill_network(branches, qs, dispersion)
+        solver = SpillSolver(network, dt_s=float(dt_s) if dt_s is not None else 0.0)
+        self.resources[_SpillSolverKey] = solver
+        return solver
+
+    def add_spill(self, xy_m, mass_kg: float, duration_s: float = 0.0, *, name: str | None = None,
+                  decay_per_s: float = 0.0) -> int:
+        """Release ``mass_kg`` [kg] of a tracer at ``xy_m`` (2,) [m], at once (``duration_s``
+        0) or at a constant rate over ``duration_s`` [s], from the spills' next step on; it
+        decays at ``decay_per_s`` [1/s] (first order). Carried by the "spill" system, by
+        :meth:`advance_spills`; read with :meth:`concentration` and :meth:`spill`. Returns the
+        spill's entity (a :class:`~riverflow.components.spill.Spill` component).
+
+        A point on land is moved to the nearest water if that is within 50 m
+        (``world.spill(entity).moved_m`` says how far).
+
+        Raises:
+            ValueError: a point on land farther than 50 m from water, not two finite numbers;
+                a negative, NaN or infinite mass, duration or decay.
+        """
+        from riverflow.components.spill import SPILL_COLOURS, Spill
+
+        values = {"mass_kg": mass_kg, "duration_s": duration_s, "decay_per_s": decay_per_s}
+        for key, v in values.items():
+            if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) \
+                    or not (math.isfinite(v) and v >= 0):
+                raise ValueError(f"add_spill: {key} must be a finite number ≥ 0, got {v!r}")
+        if not mass_kg > 0:
+            raise ValueError(f"add_spill: mass_kg must be > 0, got {mass_kg!r}")
+        solver = self.spill_solver or self.configure_spills()
+        source = self._spill_source(xy_m, solver.network)
+        row = solver.n_spills
+        name = str(name) if name is not None else f"spill {row}"
+        solver.add(source, name, float(mass_kg), float(duration_s), float(decay_per_s))
+        with self.active():
+            return esper.create_entity(Spill(row, name, float(mass_kg), float(duration_s),
+                                             float(decay_per_s),
+                                             SPILL_COLOURS[row % len(SPILL_COLOURS)]))
+
+    def _spill_source(self, xy_m, network):
+        from riverflow.hydro.spill_network import section_psi_range
+        from riverflow.hydro.spills import SpillSource
+
+        xy = np.asarray(xy_m, np.float64)
+        if xy.shape != (2,) or not np.isfinite(xy).all():
+            raise ValueError(f"add_spill: xy_m must be two finite numbers [m], got {xy_m!r}")
+        psi = self.field.potential(xy[None, :])[0]
+        moved = 0.0
+        if not np.isfinite(psi):
+            import shapely
+            from shapely.ops import nearest_points
+
+            water = self.scene.water.polygon
+            shore = np.array(nearest_points(water, shapely.Point(*xy))[0].coords[0])
+            moved = float(np.hypot(*(shore - xy)))
+            if moved > SPILL_SNAP_M:
+                raise ValueError(f"add_spill: ({xy[0]:.1f}, {xy[1]:.1f}) m is on land, "
+                                 f"{moved:.1f} m from the nearest water (at most "
+                                 f"{SPILL_SNAP_M:g} m is moved to)")
+            direction = (shore - xy) / max(moved, 1e-9)
+            for step in (0.5, 1.0, 2.0, 4.0, 8.0):       # just inside the shore
+                p = shore + direction * step
+                psi = self.field.potential(p[None, :])[0]
+                if np.isfinite(psi):
+                    break
+            if not np.isfinite(psi):
+                raise ValueError(f"add_spill: ({xy[0]:.1f}, {xy[1]:.1f}) m is on land and no "
+                                 "water was found at the nearest shore")
+            xy = p
+            moved = float(np.hypot(*(xy - np.asarray(xy_m, np.float64))))
+        link, s, _ = network.locate(xy[None, :])
+        link, s = int(link[0]), float(s[0])
+        lo, hi = section_psi_range(self.field.potential, network.lines[link], s,
+                                   float(np.interp(s, network.cell_s_m[network.cell_link == link],
+                                                   network.cell_width_m[network.cell_link == link])))
+        c0, c1 = int(network.net.link_c0[link]), int(network.net.link_c1[link])
+        cell = min(c0 + int(s / network.link_dx_m[link]), c1 - 1)
+        eta = float(np.clip((psi - lo) / (hi - lo), 0.0, 1.0)) if hi > lo else 0.5
+        return SpillSource(xy.copy(), moved, link, s, cell, eta, lo, hi)
+
+    def advance_spills(self, seconds: float) -> None:
+        """Run the spills ``seconds`` [s] ahead (hours in one call), nothing else moving
+        (ValueError for a negative, NaN or infinite time)."""
+        if isinstance(seconds, bool) or not isinstance(seconds, (int, float, np.integer,
+                                                                  np.floating)) \
+                or not (math.isfinite(seconds) and seconds >= 0):
+            raise ValueError(f"advance_spills: seconds must be a finite number ≥ 0, got "
+                             f"{seconds!r}")
+        solver = self.spill_solver
+        if solver is not None:
+            solver.advance(float(seconds))
+
+    def concentration(self, xy_m, *, per_spill: bool = False) -> np.ndarray:
+        """Tracer concentration [kg/m³] at points (N, 2) [m]: (N,) summed over the spills
+        (0 on land and with no spill), or (S, N) per spill in order of release."""
+        xy = np.asarray(xy_m, np.float64).reshape(-1, 2)
+        solver = self.spill_solver
+        if solver is None or not solver.n_spills:
+            n = solver.n_spills if (per_spill and solver is not None) else 0
+            return np.zeros((n, len(xy))) if per_spill else np.zeros(len(xy))
+        return solver.concentration(xy, self.field.potential(xy), per_spill)
+
+    def spill(self, entity: int):
+        """A :class:`~riverflow.hydro.spills.SpillReport` of a spill entity: mass released, in
+        the water, out per outlet, decayed; its front and tail along the river; its peak."""
+        from riverflow.components.spill import Spill
+
+        with self.active():
+            component = esper.component_for_entity(entity, Spill)
+        return self.spill_solver.report(component.row)
 
     @property
     def display(self) -> DisplaySettings:

@@ -32,6 +32,7 @@ void main() {
 #include "foam.glsl"
 #include "wake.glsl"
 #include "rapids.glsl"
+#include "spill.glsl"
 
 uniform int u_mode;                 // DISPLAY_MODE_*
 uniform bool u_show_grid;
@@ -136,6 +137,10 @@ void main() {
         frag = vec4(apply_fog(vec3(0.10, 0.35, 0.75), v_world), 0.0);
         return;
     }
+    if (u_mode == DISPLAY_MODE_CONCENTRATION) {             // spills: log10(c) on a ramp
+        frag = vec4(apply_fog(concentration_colour(spill_at(v_world.xy)), v_world), 0.0);
+        return;
+    }
     bool full = false;
     vec2 slopes = vec2(0.0);
     float weight = 0.0;
@@ -189,6 +194,14 @@ void main() {
     float fog = fog_amount(v_world);
     vec3 added = fresnel * reflected + SUN_COLOUR * spec + (1.0 - fresnel) * (1.0 - clarity) * deep;
     float through = (1.0 - fresnel) * clarity;             // share of the bed seen through
+    // spills: turbid, coloured water (spill.glsl) hides the bed under its colour
+    vec4 spill = spill_at(v_world.xy);
+    float stain = spill_cover(spill);
+    if (stain > 0.0) {
+        vec3 lit = spill.rgb * (0.3 + 0.7 * max(dot(n, u_sun_dir), 0.0));   // waves shade it
+        added = mix(added, fresnel * reflected + (1.0 - fresnel) * lit, stain);
+        through *= 1.0 - stain;
+    }
     // foam: the particles' (advected mode), the waterline's and the wakes' breaking crests;
     // its lace the sprites', joined by the lace fixed in the world where they thin out
     float amount = max(max(foam.x, shoreline_foam(depth_m, foam.x)), u_crest_foam * crest);

@@ -59,12 +59,14 @@ from riverflow.components.foam import FoamSettings
 from riverflow.components.wake import MAX_WAKES, TRAIL_POINTS, Wakes
 from riverflow.components.props import Pose, Prop
 from riverflow.components.rain import RIPPLE_RING, Rain
+from riverflow.components.spill import Spill
 from riverflow.components.river import TerrainView, Tiles
 from riverflow.components.status import FlowStatus
 from riverflow.components.waves import WaveTile
 from riverflow.engine import gl
 from riverflow.engine.system import System
 from riverflow.hydro.falls import RAPIDS_FULL_SLOPE, RAPIDS_MIN_SLOPE
+from riverflow.hydro.spills import TINT_TEXELS, SpillTint
 from riverflow.kernels.foam import foam_pattern_mips
 from riverflow.kernels.tile_cut import near_to_far
 from riverflow.kernels.wake import wake_texture
@@ -127,6 +129,8 @@ TERRAIN_SLOTS = 128
 is ~80-110 tiles)."""
 
 FOAM_PATTERN_UNIT, WAKES_UNIT = 12, 13
+SPILL_UNIT = 9
+"""Texture unit of the spills' tint (issue 24, ``shaders/spill.glsl``)."""
 """Texture units of the foam's lace pattern and the wake table (issue 12 items 1, 2)."""
 FOAM_PATTERN_PX = 256
 FOAM_SCALE_M = 3.0
@@ -182,6 +186,9 @@ class _Gpu:
             self.foam_pattern.upload(level, level=k)
         self.wakes_cpu = np.zeros((MAX_WAKES, 1 + 2 * TRAIL_POINTS, 4), np.float32)
         self.wakes = gl.Texture((1 + 2 * TRAIL_POINTS, MAX_WAKES), gl.RGBA32F)
+        self.spill_tint = SpillTint()
+        self.spill = gl.Texture((TINT_TEXELS, TINT_TEXELS), gl.RGBA32F, linear=True)
+        self.spill_version = -1
         self.prop_meshes: dict[tuple, gl.Mesh] = {}
         self.terrain = _TerrainTiles(world.scene.terrain.tile_cells)
         self.water = _WaterTiles()
@@ -291,7 +298,8 @@ class _Gpu:
         self.terrain.delete()
         self.water.delete()
         for obj in [self.empty, self.view, self.params, self.bins, self.grid_fb, self.grid,
-                    self.drops, self.ripples, self.foam_pattern, self.wakes, *self.targets,
+                    self.drops, self.ripples, self.foam_pattern, self.wakes, self.spill,
+                    *self.targets,
                     *(tex for _, tex in self.waves.values())]:
             if obj is not None:
                 obj.delete()
@@ -565,7 +573,7 @@ class _Reflection:
 _CONSTANT_UNIFORMS = dict(
     u_params=PARAMS_UNIT, u_grid=GRID_UNIT, u_wave=WAVE_UNIT, u_accum=ACCUM_UNIT,
     u_water_position=WATER_POSITION_UNIT, u_ripples=RIPPLES_UNIT, u_drops=DROPS_UNIT,
-    u_bins=BINS_UNIT, u_foam_pattern=FOAM_PATTERN_UNIT, u_wakes=WAKES_UNIT,
+    u_bins=BINS_UNIT, u_foam_pattern=FOAM_PATTERN_UNIT, u_wakes=WAKES_UNIT, u_spill=SPILL_UNIT,
     u_reflection=REFLECTION_UNIT, u_reflection_depth=REFLECTION_DEPTH_UNIT,
     u_colour=COMPOSITE_COLOUR_UNIT, u_depth=COMPOSITE_DEPTH_UNIT,
     u_sprite_radius_factor=SPRITE_RADIUS_FACTOR, u_foam_scale_m=FOAM_SCALE_M,
@@ -663,6 +671,7 @@ class DrawRivers(System):
         rain = world.resources.get(Rain)
         ripple_uniforms = self._upload_ripples(world, gpu, rain)
         foam_uniforms = self._upload_foam_and_wakes(world, gpu)
+        foam_uniforms.update(self._upload_spill(world, gpu, settings))
         water_meshes = self._tile_meshes(world, gpu)
         reflection_uniforms = self._draw_reflection(world, gpu, settings, clip_from_world)
         if not reflection_uniforms["u_reflect"]:
@@ -793,6 +802,24 @@ class DrawRivers(System):
         return {"u_time_s": float(world.clock.now_s % 3600.0), "u_wake_count": count,
                 "u_shoreline": shoreline,
                 "u_crest_foam": 1.0 if foam is not None and foam.enabled else 0.0}
+
+    def _upload_spill(self, world: RiverWorld, gpu: _Gpu, settings: DisplaySettings) -> dict:
+        """The water shader's spill uniforms; the spills' tint texture uploaded when the spills
+        have stepped (:class:`~riverflow.hydro.spills.SpillTint`; no spill: u_spill_on = 0)."""
+        solver = world.spill_solver
+        on = solver is not None and solver.n_spills > 0
+        if on:
+            colours = sorted((s.row, s.colour) for _, s in esper.get_component(Spill))
+            gpu.spill_tint.update(solver, world.field.potential, [c for _, c in colours])
+            if gpu.spill_tint.version != gpu.spill_version:
+                gpu.spill.upload(gpu.spill_tint.rgba)
+                gpu.spill_version = gpu.spill_tint.version
+            on = gpu.spill_tint.rect_m[2] > 0.0
+        gpu.spill.bind(SPILL_UNIT)
+        lo, hi = settings.concentration_range_kg_m3
+        return {"u_spill_on": int(on), "u_spill_rect": gpu.spill_tint.rect_m,
+                "u_spill_visible": float(settings.spill_visible_kg_m3),
+                "u_spill_range": (math.log10(lo), math.log10(hi))}
 
     def _draw_rain(self, gpu: _Gpu, rain: Rain | None) -> None:
         """The live drops as streaks (depth-tested, not written; alpha-blended)."""

@@ -6,6 +6,7 @@
 3. tile production (every kind: flow, terrain, water, meshes, particle tables)   4. advection   5. screen projection   6. life cycle
 7. Poisson-disk maintenance, then placement of the new particles   7b. foam (each particle's
    foam from the flow, shores, hulls and wakes: it reads where they are now, new ones included)
+7c. spills (issue 24: the tracers carried down the whole network, camera-independent)
 8. wave-tile animation
 8b. rain (seed 002: drops born in the view, falling, dying on the surface; it reads this
    frame's camera and surface tiles)
@@ -30,6 +31,7 @@ from riverflow.systems.placement import PlaceNewParticles
 from riverflow.systems.poisson import MaintainPoissonDisk
 from riverflow.systems.rain import MakeRain
 from riverflow.systems.screen import ProjectParticles
+from riverflow.systems.spill import AdvanceSpills
 from riverflow.systems.tiles import ProduceTiles
 from riverflow.systems.wake import UpdateWakes
 from riverflow.systems.waves import AnimateWaveTiles
@@ -45,6 +47,7 @@ SYSTEM_ORDER = (
     "poisson",
     "placement",
     "foam",
+    "spill",
     "waves",
     "rain",
     "draw",
@@ -57,7 +60,7 @@ def default_systems(gl: bool = True) -> list[System]:
     draw system (and never imports OpenGL)."""
     systems = [MoveBoats(), UpdateWakes(), UpdateCamera(), ProduceTiles(), AdvectParticles(),
                ProjectParticles(), AgeParticles(), MaintainPoissonDisk(), PlaceNewParticles(),
-               UpdateFoam(), AnimateWaveTiles(), MakeRain()]
+               UpdateFoam(), AdvanceSpills(), AnimateWaveTiles(), MakeRain()]
     if gl:
         from riverflow.systems.draw import DrawRivers  # imports pyglet's GL: only when drawing
 

@@ -1,0 +1,159 @@
+"""Spill benchmark (issue 24): a spill on the 1000 km built-in network run for 24 simulated hours.
+
+The network is the procedural ``default_scene`` whose rivers add up to about ``--network-km``
+(1000 km: :func:`~riverflow.scenes.layout.size_for_network_length`, one try); the world is not
+drawn (``gl=False``). The spill is released at the head of the main river (its first branch's
+first tenth) and run with ``world.advance_spills`` in one-hour chunks. Reported: the network's
+cells and the solver's fixed step, the wall and CPU time of the solver's set-up (the cells, the
+discharges) and of the 24 hours, the steps taken, cell-updates per second, and the mass
+bookkeeping at the end (released = in the water + out + decayed).
+
+Target (the issue): ≤ 30 s wall for the 24 hours on one core, world not drawn; with a world
+drawn at 1080p and a plume on screen, ≤ 0.3 ms added to the frame. Reported for that: the
+spill system's ms per step of the undrawn 1000 km world at ``clock.speed_factor`` 60 (one
+simulated minute a second) over 600 frames of 1/60 s (its ``timings_ms["spill"]``), and
+(:func:`drawn`) a 1920×1080 drawn world of the built-in 4 km scene with two plumes on screen:
+the spill system plus the draw system's spill part per frame.
+
+Run: ``NUMBA_NUM_THREADS=1 taskset -c 0 python benchmarks/bench_spill.py`` (``--network-km 100``
+for a quicker one, ``--json out.json`` to keep the figures). Figures go to docs/performance.md.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--network-km", type=float, default=1000.0)
+    ap.add_argument("--hours", type=float, default=24.0)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--json", default=None)
+    ap.add_argument("--drawn-frames", type=int, default=120,
+                    help="frames of the drawn 1080p world (0: skip it)")
+    args = ap.parse_args()
+
+    import numpy as np
+
+    import riverflow as rf
+    from riverflow.scenes.layout import network_length_m, size_for_network_length
+
+    out: dict = {}
+    t0, c0 = time.perf_counter(), time.process_time()
+    scene = rf.default_scene(seed=args.seed,
+                             size_km=size_for_network_length(args.network_km * 1000.0) / 1000.0)
+    world = rf.RiverWorld(scene, size=(64, 36), gl=False, seed=args.seed)
+    out["network_km"] = network_length_m(scene.branches) / 1000.0
+    out["branches"] = len(scene.branches)
+    out["scene_and_world_wall_s"] = time.perf_counter() - t0
+    out["scene_and_world_cpu_s"] = time.process_time() - c0
+
+    t0, c0 = time.perf_counter(), time.process_time()
+    solver = world.configure_spills()
+    net = solver.network
+    main = next(b for b in scene.branches if b.kind == "main")
+    e = world.add_spill(main.centerline_m[len(main.centerline_m) // 10], 1000.0, name="bench")
+    out["setup_wall_s"] = time.perf_counter() - t0
+    out["setup_cpu_s"] = time.process_time() - c0
+    out["cells"] = net.n_cells
+    out["dt_s"] = solver.dt_s
+
+    steps = 0
+    t0, c0 = time.perf_counter(), time.process_time()
+    hours = 0.0
+    while hours < args.hours - 1e-9:
+        chunk = min(1.0, args.hours - hours)
+        steps += solver.advance(3600.0 * chunk)
+        hours += chunk
+    out["run_wall_s"] = time.perf_counter() - t0
+    out["run_cpu_s"] = time.process_time() - c0
+    out["steps"] = steps
+    out["cell_updates_per_s"] = steps * net.n_cells / max(out["run_cpu_s"], 1e-9)
+    r = world.spill(e)
+    out["released_kg"] = r.released_kg
+    out["in_water_kg"] = r.in_water_kg
+    out["out_kg"] = sum(r.out_kg.values())
+    out["balance_kg"] = r.balance_kg
+    out["front_km"] = r.front_m / 1000.0
+
+    # the frame's share: the spill system at 60x, 600 frames
+    world.speed_factor = 60.0
+    for _ in range(10):
+        world.step(1 / 60)
+    ms = []
+    for _ in range(600):
+        world.step(1 / 60)
+        ms.append(world.timings_ms["spill"])
+    out["frame_spill_ms_mean"] = float(np.mean(ms))
+    out["frame_spill_ms_p99"] = float(np.percentile(ms, 99))
+    out["frame_spill_ms_max"] = float(np.max(ms))
+    world.close()
+    if args.drawn_frames:
+        out.update(drawn(args.drawn_frames))
+    for k, v in out.items():
+        print(f"{k:>24}: {v:.6g}" if isinstance(v, float) else f"{k:>24}: {v}")
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(out, f, indent=2)
+
+
+def drawn(frames: int) -> dict:
+    """What the spills add to a drawn frame: a 1920×1080 ``gl=True`` world of the built-in
+    4 km scene looking at the confluence, two plumes on screen, ``speed_factor`` 60; per frame
+    the spill system's time (``timings_ms["spill"]``) and the draw system's spill part (the
+    tint texture's update and upload, ``DrawRivers._upload_spill``, timed by wrapping it), CPU
+    time (``time.process_time_ns``) and wall."""
+    import numpy as np
+
+    import riverflow as rf
+    from riverflow.systems import draw as draw_module
+
+    spent = []
+    original = draw_module.DrawRivers._upload_spill
+
+    def timed(self, world, gpu, settings):
+        w0, c0 = time.perf_counter_ns(), time.process_time_ns()
+        try:
+            return original(self, world, gpu, settings)
+        finally:
+            spent.append(((time.perf_counter_ns() - w0) * 1e-6, (time.process_time_ns() - c0) * 1e-6))
+
+    draw_module.DrawRivers._upload_spill = timed
+    scene = rf.default_scene(seed=0)
+    world = rf.RiverWorld(scene, size=(1920, 1080), gl=True, seed=0)
+    j = scene.water.junctions_m[0]
+    world.camera.look_at((j[0] - 150.0, j[1] - 450.0, 380.0), (j[0] + 150.0, j[1], 0.0))
+    trib = scene.branch("tributary").centerline_m
+    upper = scene.branch("main_upper").centerline_m
+    world.add_spill(trib[int(len(trib) * 0.75)], 300.0, 3600.0, name="dye")
+    world.add_spill(upper[int(len(upper) * 0.7)], 200.0, 3600.0, name="mud")
+    world.advance_spills(900.0)
+    world.speed_factor = 60.0
+    world.load_view()
+    for _ in range(10):
+        world.step(1 / 60)
+        world.draw()
+    spent.clear()
+    system = []
+    for _ in range(frames):
+        world.step(1 / 60)
+        system.append(world.timings_ms["spill"])
+        world.draw()
+    world.close()
+    draw_module.DrawRivers._upload_spill = original
+    wall = np.array([w for w, _ in spent])
+    cpu = np.array([c for _, c in spent])
+    added = np.array(system) + wall
+    return {"drawn_spill_system_ms_mean": float(np.mean(system)),
+            "drawn_tint_wall_ms_mean": float(wall.mean()),
+            "drawn_tint_cpu_ms_mean": float(cpu.mean()),
+            "drawn_tint_wall_ms_max": float(wall.max()),
+            "drawn_added_ms_mean": float(added.mean()),
+            "drawn_added_ms_p50": float(np.median(added)),
+            "drawn_added_ms_p99": float(np.percentile(added, 99))}
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,337 @@
+"""SpillSolver: the spills of a world on a :class:`~riverflow.hydro.spill_network.SpillNetwork`.
+
+It holds every spill's cells and bookkeeping (:class:`riverflow.kernels.spill.SpillBook`),
+advances them in whole steps of a fixed ``dt_s`` (so a result depends on the simulated time
+only, never on how it was cut into frames or on the camera), and answers concentrations at
+points.
+
+**2-D near the source.** The solver is 1-D: a cell's concentration is the cross-section mean.
+On the source's own link the plume is not yet mixed across the river: the concentration at a
+point is the mean times a transverse profile, a Gaussian in the cross-river coordinate
+η = (ψ − ψ_left) / (ψ_right − ψ_left) ∈ [0, 1] (the stream function: streamlines are lines of
+constant η, so the plume follows the bends, islands and banks) centred on the source's η₀,
+reflected at both banks, of standard deviation σ = √(2 ε_t τ) / W, τ = |s − s₀| / U the travel
+time from the source. Its mean across the river is 1, so the cross-section mean stays the
+solver's; once σ ≳ W it is flat (fully mixed). Downstream of the source's link it is 1.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from riverflow.hydro.spill_network import SpillNetwork
+from riverflow.kernels.spill import SpillBook, spill_steps
+
+MIN_SIGMA_ETA = 0.02
+"""Smallest transverse standard deviation (in river widths) of a plume at its source."""
+FRONT_FRACTION = 1e-3
+"""A plume's front and tail: the farthest cells downstream and upstream whose concentration is
+at least this fraction of its peak."""
+_IMAGES = 3
+
+
+@dataclass
+class SpillSource:
+    """Where and how a spill is released (plain data, filled by :class:`SpillSolver`)."""
+
+    xy_m: np.ndarray
+    """(2,) release point [m] (moved into the water when given on land, see ``moved_m``)."""
+    moved_m: float
+    link: int
+    s_m: float
+    cell: int
+    eta: float
+    psi_left: float
+    psi_right: float
+
+
+@dataclass
+class SpillReport:
+    """What :meth:`riverflow.RiverWorld.spill` says of one spill, at spill time ``time_s``."""
+
+    name: str
+    time_s: float
+    released_kg: float
+    in_water_kg: float
+    out_kg: dict[str, float]
+    """Mass out through each outlet (keyed by the outlet link's name) [kg]."""
+    passed_kg: dict[str, float]
+    """Mass that has left each link through its downstream end (keyed by link name) [kg]:
+    at a bifurcation, what went down each arm."""
+    decayed_kg: float
+    front_m: float
+    """The plume's front: distance along the river downstream of the source [m] (NaN: none)."""
+    tail_m: float
+    """Its tail (negative: upstream of the source) [m]."""
+    front_xy_m: np.ndarray
+    tail_xy_m: np.ndarray
+    peak_kg_m3: float
+    """Largest cross-section mean concentration [kg/m³]."""
+    source_xy_m: np.ndarray
+    moved_m: float
+    """How far the release point was moved into the water [m] (0: it was in the water)."""
+
+    @property
+    def balance_kg(self) -> float:
+        """released − (in water + out + decayed): 0 up to rounding."""
+        return self.released_kg - (self.in_water_kg + sum(self.out_kg.values())
+                                   + self.decayed_kg)
+
+
+@dataclass(eq=False)
+class SpillSolver:
+    """The spills of one world (module docstring)."""
+
+    network: SpillNetwork
+    dt_s: float = 0.0
+    """The fixed step [s] (default: the network's largest stable step)."""
+    time_s: float = 0.0
+    """Spill time reached, in whole steps [s]."""
+    pending_s: float = 0.0
+    book: SpillBook = field(init=False)
+    sources: list[SpillSource] = field(default_factory=list)
+    names: list[str] = field(default_factory=list)
+
+    def __post_init__(self) -> None:
+        if not self.dt_s:
+            self.dt_s = self.network.dt_max_s
+        if not (math.isfinite(self.dt_s) and 0 < self.dt_s <= self.network.dt_max_s * (1 + 1e-9)):
+            raise ValueError(f"SpillSolver: dt_s must be in (0, {self.network.dt_max_s:g}] s "
+                             f"(the network's stable step), got {self.dt_s!r}")
+        n = self.network.n_cells
+        o = len(self.network.outlets)
+        z = np.zeros(0)
+        self.book = SpillBook(np.zeros((0, n)), np.zeros(0, np.int32), z, z.copy(), z.copy(),
+                              z.copy(), z.copy(), np.zeros((0, o)), z.copy(),
+                              np.zeros((0, len(self.network.names))))
+        self._work = np.zeros(n)
+        self._nodes = np.zeros(max(self.network.n_nodes, 1))
+
+    @property
+    def n_spills(self) -> int:
+        return len(self.sources)
+
+    def add(self, source: SpillSource, name: str, mass_kg: float, duration_s: float,
+            decay_per_s: float) -> int:
+        """Add a spill released from now (the next step) on; its row."""
+        b = self.book
+        t0 = self.time_s
+        rows = [np.vstack([b.mass, np.zeros((1, b.mass.shape[1]))]),
+                np.append(b.source_cell, np.int32(source.cell)).astype(np.int32),
+                np.append(b.release_t0, t0), np.append(b.release_t1, t0 + float(duration_s)),
+                np.append(b.release_kg, float(mass_kg)), np.append(b.decay_per_s, decay_per_s),
+                np.append(b.released, 0.0), np.vstack([b.outflow, np.zeros((1, b.outflow.shape[1]))]),
+                np.append(b.decayed, 0.0), np.vstack([b.passed, np.zeros((1, b.passed.shape[1]))])]
+        self.book = SpillBook(*(np.ascontiguousarray(r) for r in rows))
+        self.sources.append(source)
+        self.names.append(name)
+        return len(self.sources) - 1
+
+    def advance(self, seconds: float) -> int:
+        """Advance by ``seconds`` of spill time (whole steps; the rest waits for the next call);
+        returns the steps taken."""
+        self.pending_s += float(seconds)
+        n = int(math.floor(self.pending_s / self.dt_s + 1e-9))
+        if n <= 0:
+            return 0
+        if self.n_spills:
+            spill_steps(self.network.net, self.book, self.time_s, self.dt_s, n, self._work,
+                        self._nodes)
+        self.time_s += n * self.dt_s
+        self.pending_s = max(self.pending_s - n * self.dt_s, 0.0)
+        return n
+
+    def cell_concentration(self) -> np.ndarray:
+        """(S, N) cross-section mean concentration of each spill in each cell [kg/m³]."""
+        return self.book.mass / self.network.net.cell_vol
+
+    def concentration(self, xy_m: np.ndarray, psi: np.ndarray, per_spill: bool = False
+                      ) -> np.ndarray:
+        """Concentration [kg/m³] at points (P, 2) whose stream function is ``psi`` (P,) (NaN:
+        not in the water, concentration 0): (P,) the sum over spills, or (S, P) each."""
+        xy = np.asarray(xy_m, np.float64).reshape(-1, 2)
+        psi = np.asarray(psi, np.float64).reshape(-1)
+        net = self.network
+        out = np.zeros((self.n_spills, len(xy)))
+        wet = np.isfinite(psi)
+        if self.n_spills and wet.any():
+            link, s, _ = net.locate(xy[wet])
+            c = net.interpolate(self.cell_concentration(), link, s)
+            for k, src in enumerate(self.sources):
+                here = link == src.link
+                if here.any():
+                    c[k, here] *= self._profile(src, s[here], psi[wet][here])
+            out[:, wet] = c
+        return out if per_spill else out.sum(axis=0)
+
+    def _profile(self, src: SpillSource, s_m: np.ndarray, psi: np.ndarray,
+                 min_sigma_m: float = 0.0) -> np.ndarray:
+        """The transverse profile (mean 1 across the river) on the source's link; its standard
+        deviation at least ``min_sigma_m`` [m] (a texture's texel: no plume narrower than what
+        can be drawn, which would alias into beads)."""
+        net = self.network
+        lk = np.full(len(s_m), src.link)
+        u = net.interpolate(net.cell_speed_mps, lk, s_m)
+        eps = net.interpolate(net.cell_eps_m2s, lk, s_m)
+        w = net.interpolate(net.cell_width_m, lk, s_m)
+        tau = np.abs(s_m - src.s_m) / np.maximum(u, 1e-9)
+        sigma = np.maximum(np.sqrt(2.0 * eps * tau + min_sigma_m ** 2) / w, MIN_SIGMA_ETA)
+        span = src.psi_right - src.psi_left
+        eta = np.clip((psi - src.psi_left) / span, 0.0, 1.0) if span > 0 else np.full(len(psi), 0.5)
+        f = np.zeros(len(s_m))
+        for k in range(-_IMAGES, _IMAGES + 1):
+            for centre in (src.eta + 2 * k, -src.eta + 2 * k):
+                f += np.exp(-0.5 * ((eta - centre) / sigma) ** 2)
+        return f / (sigma * math.sqrt(2.0 * math.pi))
+
+    def report(self, row: int) -> SpillReport:
+        net = self.network
+        b = self.book
+        c = b.mass[row] / net.net.cell_vol
+        src = self.sources[row]
+        peak = float(c.max()) if len(c) else 0.0
+        front = tail = float("nan")
+        fxy = txy = np.full(2, np.nan)
+        if peak > 0:
+            dist = net.downstream_distance(src.link, src.s_m)
+            on = np.flatnonzero((c >= FRONT_FRACTION * peak) & np.isfinite(dist))
+            if len(on):
+                f, t = on[np.argmax(dist[on])], on[np.argmin(dist[on])]
+                front, tail = float(dist[f]), float(dist[t])
+                fxy, txy = net.cell_xy_m[f].copy(), net.cell_xy_m[t].copy()
+        return SpillReport(
+            name=self.names[row], time_s=self.time_s, released_kg=float(b.released[row]),
+            in_water_kg=float(b.mass[row].sum()),
+            out_kg={name: float(v) for name, v in zip(net.outlets, b.outflow[row])},
+            passed_kg={name: float(v) for name, v in zip(net.names, b.passed[row])},
+            decayed_kg=float(b.decayed[row]), front_m=front, tail_m=tail, front_xy_m=fxy,
+            tail_xy_m=txy, peak_kg_m3=peak, source_xy_m=src.xy_m.copy(), moved_m=src.moved_m)
+
+
+TINT_TEXELS = 256
+"""Side of the spill tint texture [texels]."""
+TINT_REFRESH_S = 5.0
+"""The tint follows the spills every this many seconds of spill time (a plume moves a few
+metres: less than a texel)."""
+TINT_MIN_SIDE_M = 256.0
+"""Smallest side of the square the tint covers [m] (sides are this × a power of two)."""
+
+
+@dataclass(eq=False)
+class SpillTint:
+    """The water's discolouring by the spills, as a small RGBA float32 texture over a square of
+    the world that holds the plumes (what the water shader samples; ``shaders/spill.glsl``):
+    RGB the concentration-weighted mean colour of the spills there, A the total concentration
+    [kg/m³]. The square's side is TINT_MIN_SIDE_M × a power of two and its corner a multiple
+    of a quarter of it, so it changes only when the plumes outgrow it or leave it; each texel's
+    place on the network (link, arc length, ψ) is found once per square (the slow part: the
+    stream function at the texels near a river), its concentration again when the spills have
+    stepped by TINT_REFRESH_S.
+    """
+
+    rect_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    """(x0, y0, side) [m] of the square (side 0: nothing to tint)."""
+    rgba: np.ndarray = field(default_factory=lambda: np.zeros((TINT_TEXELS, TINT_TEXELS, 4),
+                                                              np.float32))
+    version: int = 0
+    """Increases whenever ``rgba`` or ``rect_m`` changed (the draw system uploads then)."""
+    _key: tuple = ()
+    _wet: np.ndarray | None = None
+    _psi: np.ndarray | None = None
+    _link: np.ndarray | None = None
+    _s: np.ndarray | None = None
+    _fringe: np.ndarray | None = None
+    _fringe_from: np.ndarray | None = None
+    _texel_m: float = 0.0
+    _ia: np.ndarray | None = None
+    _ib: np.ndarray | None = None
+    _iw: np.ndarray | None = None
+    _prof: np.ndarray | None = None
+
+    def update(self, solver: SpillSolver, potential, colours) -> bool:
+        """Follow the solver (``potential(xy) -> ψ`` the flow field's; ``colours`` (S, 3) the
+        spills' RGB); True if the texture changed."""
+        if self._key and self._key[1] == solver.n_spills \
+                and 0.0 <= solver.time_s - self._key[0] < TINT_REFRESH_S:
+            return False
+        rect = self._square(solver)
+        if rect != self.rect_m or self._wet is None:
+            self._locate(solver, potential, rect)
+        if not self._key or self._key[1] != solver.n_spills or self._prof is None:
+            self._profiles(solver)
+        self._key = (solver.time_s, solver.n_spills)
+        if len(self._wet) and solver.n_spills:
+            conc = solver.cell_concentration()
+            c = (conc[:, self._ia] * (1.0 - self._iw) + conc[:, self._ib] * self._iw) * self._prof
+            total = c.sum(axis=0)
+            out = self.rgba.reshape(-1, 4)
+            rgb = (np.asarray(colours, np.float64)[:, :3].T @ c) / np.maximum(total, 1e-30)
+            out[self._wet, :3] = rgb.T
+            out[self._wet, 3] = total
+            out[self._fringe] = out[self._fringe_from]
+        self.version += 1
+        return True
+
+    def _locate(self, solver: SpillSolver, potential, rect) -> None:
+        """Each texel's place on the network for the square ``rect`` (the slow part)."""
+        self.rect_m = rect
+        self.rgba[:] = 0.0
+        x0, y0, side = rect
+        n = TINT_TEXELS
+        cell = side / n if side > 0 else 0.0
+        g = (np.arange(n) + 0.5) * cell
+        gx, gy = np.meshgrid(x0 + g, y0 + g)
+        xy = np.column_stack([gx.ravel(), gy.ravel()])
+        net = solver.network
+        # only texels near a centre line can be water: the stream function there alone
+        near = np.flatnonzero(net.locate(xy, float(net.cell_width_m.max()))[0] >= 0) \
+            if side > 0 else np.zeros(0, np.int64)
+        psi = potential(xy[near]) if len(near) else np.zeros(0)
+        self._wet = near[np.isfinite(psi)]
+        self._psi = psi[np.isfinite(psi)]
+        self._link, self._s, _ = net.locate(xy[self._wet])
+        self._ia, self._ib, self._iw = net.weights(self._link, self._s)
+        # the dry texels next to the water take their nearest wet texel's value, so that
+        # the texture's bilinear filter does not darken the water along the banks
+        self._fringe = near[~np.isfinite(psi)]
+        self._fringe_from = np.zeros(0, np.int64)
+        if len(self._wet) and len(self._fringe):
+            _, k = cKDTree(xy[self._wet]).query(xy[self._fringe])
+            self._fringe_from = self._wet[k]
+        self._texel_m = cell
+        self._prof = None
+
+    def _profiles(self, solver: SpillSolver) -> None:
+        """Each spill's transverse profile at each wet texel (S, W): steady, like the flow."""
+        prof = np.ones((solver.n_spills, len(self._wet)))
+        for k, src in enumerate(solver.sources):
+            here = self._link == src.link
+            if here.any():
+                prof[k, here] = solver._profile(src, self._s[here], self._psi[here],
+                                                self._texel_m)
+        self._prof = prof
+
+    @staticmethod
+    def _square(solver: SpillSolver) -> tuple[float, float, float]:
+        """The aligned square around every cell holding a spill (module docstring)."""
+        if not solver.n_spills:
+            return (0.0, 0.0, 0.0)
+        c = solver.cell_concentration()
+        peak = c.max(axis=1, keepdims=True)
+        on = np.flatnonzero(np.any((c > 0) & (c >= FRONT_FRACTION * peak), axis=0))
+        if not len(on):
+            return (0.0, 0.0, 0.0)
+        net = solver.network
+        pad = float(net.cell_width_m[on].max()) + float(net.link_dx_m.max())
+        lo = net.cell_xy_m[on].min(axis=0) - pad
+        hi = net.cell_xy_m[on].max(axis=0) + pad
+        side = TINT_MIN_SIDE_M
+        while True:
+            step = 0.25 * side
+            x0, y0 = (math.floor(v / step) * step for v in lo)
+            if x0 + side >= hi[0] and y0 + side >= hi[1]:
+                return (float(x0), float(y0), float(side))
+            side *= 2.0

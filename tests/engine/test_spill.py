@@ -1,0 +1,423 @@
+"""Spills (issue 24): a tracer carried down the river network by the 1-D advection–dispersion
+solver (riverflow/kernels/spill.py), its world API and its bookkeeping.
+
+Tests of record: the analytic Gaussian in a straight uniform channel, mass conservation at
+every step of a 6-hour run on the built-in network (confluence and bifurcation), the split at
+the bifurcation by discharge, decay, camera independence and bad input.
+"""
+from __future__ import annotations
+
+import math
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+import riverflow as rf
+from riverflow.hydro.spill_network import Dispersion, build_spill_network
+from riverflow.hydro.spills import SpillSolver, SpillSource
+from riverflow.kernels.spill import SpillBook, spill_steps
+
+
+def _branch(name, line, width, start=-1, end=-1):
+    line = np.asarray(line, np.float64)
+    return SimpleNamespace(name=name, centerline_m=line, widths_m=np.full(len(line), width),
+                           start_junction=start, end_junction=end)
+
+
+def _straight(length_m, n=201, y=0.0, x0=0.0):
+    x = np.linspace(x0, x0 + length_m, n)
+    return np.stack([x, np.full(n, y)], 1)
+
+
+def _source(network, link, s_m):
+    c0 = int(network.net.link_c0[link])
+    cell = c0 + int(s_m / network.link_dx_m[link])
+    xy = np.interp(s_m, [0, network.link_length_m[link]], [0, 1])
+    return SpillSource(np.array([xy, 0.0]), 0.0, link, s_m, cell, 0.5, 0.0, 1.0)
+
+
+# -- the kernel against its plain-numpy twin ---------------------------------------------------
+
+def _twin_step(net, mass, released, outflow, decayed, passed, src, t0, t1, total, decay, t, dt):
+    """One step of riverflow.kernels.spill.spill_steps, vectorised per link with numpy."""
+    for s in range(mass.shape[0]):
+        if t + dt < t0[s]:
+            target = 0.0
+        elif t + dt >= t1[s]:
+            target = total[s]
+        else:
+            target = total[s] * (t + dt - t0[s]) / (t1[s] - t0[s])
+        add = target - released[s]
+        if add > 0:
+            mass[s, src[s]] += add
+            released[s] += add
+        if released[s] == 0.0:
+            continue
+        m = mass[s].copy()
+        c = m / net.cell_vol
+        new = m.copy()
+        node = np.zeros(max(int(max(net.link_end.max(), net.link_start.max())) + 1, 1))
+        for b in range(len(net.link_c0)):
+            a, e = int(net.link_c0[b]), int(net.link_c1[b])
+            if net.link_start[b] >= 0:
+                new[a] += node[net.link_start[b]] * net.link_share[b]
+            ci, cn = c[a:e - 1], c[a + 1:e]
+            dc = cn - ci
+            cp = np.concatenate([[np.nan], c[a:e - 2]])
+            with np.errstate(divide="ignore", invalid="ignore"):
+                r = (ci - cp) / dc
+                phi = np.where((dc != 0) & (np.arange(len(ci)) > 0), (r + np.abs(r)) / (1 + np.abs(r)),
+                               0.0)
+            q = net.cell_q[a:e - 1]
+            cr = q * dt / net.cell_vol[a:e - 1]
+            f = dt * (q * (ci + 0.5 * (1 - cr) * phi * dc) + net.face_k[a:e - 1] * (ci - cn))
+            new[a:e - 1] -= f
+            new[a + 1:e] += f
+            out = dt * net.cell_q[e - 1] * c[e - 1]
+            new[e - 1] -= out
+            passed[s, b] += out
+            if net.link_end[b] >= 0:
+                node[net.link_end[b]] += out
+            else:
+                outflow[s, net.link_outlet[b]] += out
+        if decay[s] > 0:
+            kept = new * math.exp(-decay[s] * dt)
+            decayed[s] += (new - kept).sum()
+            new = kept
+        mass[s] = new
+
+
+@pytest.fixture(scope="module")
+def diamond():
+    """A source splitting at a bifurcation into two arms of different discharges that meet
+    again, a tributary joining below, and an outlet."""
+    return build_spill_network(
+        [_branch("top", _straight(1500.0, 31), 40.0, -1, 0),
+         _branch("left", _straight(1200.0, 25, 60.0, 1500.0), 30.0, 0, 1),
+         _branch("right", _straight(900.0, 19, -60.0, 1500.0), 20.0, 0, 1),
+         _branch("trib", _straight(800.0, 17, 300.0, 1900.0), 15.0, -1, 1),
+         _branch("bottom", _straight(1500.0, 31, 0.0, 2700.0), 45.0, 1, -1)],
+        [40.0, 25.0, 15.0, 10.0, 50.0])
+
+
+def test_kernel_matches_numpy_twin(diamond):
+    net = diamond.net
+    rng = np.random.default_rng(3)
+    n, o, b = diamond.n_cells, len(diamond.outlets), len(diamond.names)
+    mass = rng.uniform(0.0, 5.0, (2, n))
+    src = np.array([2, diamond.net.link_c0[3] + 1], np.int32)
+    t0, t1 = np.array([0.0, 5.0]), np.array([0.0, 200.0])
+    total, decay = np.array([100.0, 50.0]), np.array([0.0, 1e-3])
+    book = SpillBook(mass.copy(), src, t0, t1, total, decay, np.zeros(2), np.zeros((2, o)),
+                     np.zeros(2), np.zeros((2, b)))
+    twin = [mass.copy(), np.zeros(2), np.zeros((2, o)), np.zeros(2), np.zeros((2, b))]
+    dt = diamond.dt_max_s
+    spill_steps(net, book, 0.0, dt, 40, np.zeros(n), np.zeros(diamond.n_nodes))
+    for k in range(40):
+        _twin_step(net, twin[0], twin[1], twin[2], twin[3], twin[4], src, t0, t1, total, decay,
+                   k * dt, dt)
+    for got, want in zip((book.mass, book.released, book.outflow, book.decayed, book.passed), twin):
+        np.testing.assert_allclose(got, want, rtol=1e-10, atol=1e-10)
+    assert book.released[1] > 0 and (book.mass >= -1e-12).all()
+
+
+def test_bifurcation_splits_by_discharge_and_mass_is_kept(diamond):
+    solver = SpillSolver(diamond)
+    solver.add(_source(diamond, 0, 300.0), "a", 1000.0, 0.0, 0.0)
+    for _ in range(60):
+        solver.advance(120.0)
+        r = solver.report(0)
+        assert abs(r.balance_kg) <= 1e-9 * 1000.0
+    passed = r.passed_kg
+    assert passed["top"] == pytest.approx(1000.0, rel=1e-6)   # all of it has gone by
+    assert passed["left"] / passed["right"] == pytest.approx(25.0 / 15.0, rel=0.03)
+    assert r.out_kg["bottom"] > 0.99 * 1000.0
+    assert passed["trib"] == 0.0         # nothing goes up a tributary
+
+
+# -- the analytic Gaussian ---------------------------------------------------------------------
+
+def test_instant_release_in_a_straight_channel_is_the_analytic_gaussian():
+    W, U = 50.0, 1.0
+    network = build_spill_network([_branch("channel", _straight(7000.0), W)], [U * W])
+    D = float(network.cell_k_m2s[0])             # Fischer's, uniform along the channel
+    h = float(network.link_depth_m[0])
+    assert np.allclose(network.cell_k_m2s, D) and 50.0 < D < 500.0
+    assert np.allclose(network.cell_speed_mps, U)
+    solver = SpillSolver(network)
+    src = _source(network, 0, 1000.0)
+    solver.add(src, "a", 1000.0, 0.0, 0.0)
+    x0 = float(network.cell_s_m[src.cell - int(network.net.link_c0[0])])
+    station = x0 + 2000.0
+    t, c = [], []
+    while solver.time_s < 4500.0:
+        solver.advance(solver.dt_s)
+        t.append(solver.time_s)
+        c.append(network.interpolate(solver.cell_concentration(), np.array([0]),
+                                     np.array([station]))[0, 0])
+    t, c = np.array(t), np.array(c)
+    exact = 1000.0 / (W * h * np.sqrt(4 * np.pi * D * t)) * np.exp(-(station - x0 - U * t) ** 2
+                                                                    / (4 * D * t))
+
+    def spread(y):
+        m = np.trapezoid(y, t)
+        mu = np.trapezoid(y * t, t) / m
+        return math.sqrt(np.trapezoid(y * (t - mu) ** 2, t) / m)
+
+    assert t[np.argmax(c)] == pytest.approx(t[np.argmax(exact)], rel=0.02)
+    assert c.max() == pytest.approx(exact.max(), rel=0.05)
+    assert spread(c) == pytest.approx(spread(exact), rel=0.05)
+
+
+def test_decay_is_exponential():
+    network = build_spill_network([_branch("channel", _straight(6000.0), 40.0)], [40.0])
+    solver = SpillSolver(network)
+    k = 2e-4
+    solver.add(_source(network, 0, 500.0), "a", 10.0, 0.0, k)
+    solver.advance(1500.0)          # the plume is still in the channel
+    r = solver.report(0)
+    assert r.in_water_kg == pytest.approx(10.0 * math.exp(-k * r.time_s), rel=0.01)
+    assert sum(r.out_kg.values()) < 1e-6
+    assert r.in_water_kg + r.decayed_kg == pytest.approx(10.0, rel=1e-9)
+
+
+# -- the world: the built-in network -----------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def scene():
+    return rf.default_scene(seed=0)
+
+
+@pytest.fixture(scope="module")
+def spilled(scene):
+    """A world with an instant spill on the upper main river and a one-hour release with
+    decay on the tributary, run for 6 hours, the balance checked at every step."""
+    world = rf.RiverWorld(scene, size=(64, 36), gl=False, seed=0)
+    up = scene.branch("main_upper").centerline_m
+    trib = scene.branch("tributary").centerline_m
+    a = world.add_spill(up[len(up) // 5], 1000.0, name="upper")
+    b = world.add_spill(trib[len(trib) // 3], 500.0, 3600.0, decay_per_s=1e-4)
+    solver = world.spill_solver
+    book = solver.book
+    worst = 0.0
+    while solver.time_s < 6 * 3600.0:
+        solver.advance(solver.dt_s)
+        kept = book.mass.sum(axis=1) + book.outflow.sum(axis=1) + book.decayed
+        worst = max(worst, float(np.max(np.abs(kept - book.released) / book.release_kg)))
+    yield world, a, b, worst
+    world.close()
+
+
+def test_mass_is_conserved_at_every_step_of_six_hours(spilled):
+    world, a, b, worst = spilled
+    assert worst <= 0.005
+    assert worst < 1e-9            # by construction: to rounding
+    ra, rb = world.spill(a), world.spill(b)
+    assert ra.name == "upper" and rb.name == "spill 1"
+    assert ra.released_kg == 1000.0 and rb.released_kg == pytest.approx(500.0)
+    assert sum(ra.out_kg.values()) > 0.99 * 1000.0       # 6 h: it has left by the outlet
+    assert rb.decayed_kg > 0.0
+
+
+def test_split_at_the_builtin_bifurcation_follows_discharge(spilled, scene):
+    world, a, _, _ = spilled
+    passed = world.spill(a).passed_kg
+    q = {b.name: b.discharge_m2s for b in scene.branches}
+    assert passed["arm_left"] / passed["arm_right"] == pytest.approx(
+        q["arm_left"] / q["arm_right"], rel=0.03)
+    assert passed["tributary"] == 0.0
+
+
+def test_front_tail_and_concentration_queries(scene):
+    world = rf.RiverWorld(scene, size=(64, 36), gl=False, seed=0)
+    up = scene.branch("main_upper").centerline_m
+    e = world.add_spill(up[len(up) // 5], 100.0)
+    world.advance_spills(300.0)
+    r1 = world.spill(e)
+    world.advance_spills(300.0)
+    r2 = world.spill(e)
+    assert r1.tail_m < 0.0 < r1.front_m < r2.front_m        # the front goes downstream
+    assert r1.time_s == pytest.approx(300.0, abs=world.spill_solver.dt_s)
+    assert r2.peak_kg_m3 < r1.peak_kg_m3                    # and the plume spreads
+    # the query: zero on land, the cross-river mean of the 2-D plume is the solver's mean
+    solver = world.spill_solver
+    net = solver.network
+    link = net.names.index("main_upper")
+    cells = np.flatnonzero(net.cell_link == link)
+    k = cells[np.argmax(solver.cell_concentration()[0, cells])]
+    p, s = net.cell_xy_m[k], net.cell_s_m[k]
+    line = net.lines[link]
+    i = int(np.searchsorted(np.concatenate([[0], np.cumsum(np.hypot(*np.diff(line, axis=0).T))]), s))
+    t = line[i] - line[i - 1]
+    normal = np.array([-t[1], t[0]]) / np.hypot(*t)
+    off = np.linspace(-net.cell_width_m[k], net.cell_width_m[k], 801)
+    xy = p + off[:, None] * normal
+    c = world.concentration(xy)
+    psi = world.field.potential(xy)
+    assert (c[~np.isfinite(psi)] == 0).all() and (c >= 0).all()
+    wet = np.isfinite(psi)
+    eta = (psi[wet] - solver.sources[0].psi_left) / (solver.sources[0].psi_right
+                                                     - solver.sources[0].psi_left)
+    order = np.argsort(eta)
+    mean = np.trapezoid(c[wet][order], eta[order]) / (eta.max() - eta.min())
+    assert mean == pytest.approx(solver.cell_concentration()[0, k], rel=0.1)
+    assert world.concentration(np.array([[1e5, 1e5]]))[0] == 0.0
+    assert world.concentration(xy, per_spill=True).shape == (1, len(xy))
+    world.close()
+
+
+def test_concentrations_do_not_depend_on_the_camera(scene):
+    up = scene.branch("main_upper").centerline_m
+    probes = np.vstack([up[::40], scene.branch("main_lower").centerline_m[::60]])
+    results = []
+    for flight in (0, 1):
+        world = rf.RiverWorld(scene, size=(32, 18), gl=False, seed=0)
+        world.speed_factor = 120.0
+        world.add_spill(up[len(up) // 5], 1000.0)
+        for frame in range(4):
+            eye = (probes[(frame * (3 + 5 * flight)) % len(probes)][0], -400.0 * (1 + flight),
+                   150.0 + 200.0 * flight)
+            world.camera.look_at(eye, (eye[0], 0.0, 0.0))
+            world.step(1 / 30)
+        results.append((world.spill_solver.time_s, world.concentration(probes)))
+        world.close()
+    assert results[0][0] == results[1][0] == pytest.approx(4 / 30 * 120.0, abs=2.0)
+    np.testing.assert_allclose(results[0][1], results[1][1], rtol=1e-6, atol=0.0)
+    assert results[0][1].max() > 0.0
+
+
+def test_bad_input(scene):
+    world = rf.RiverWorld(scene, size=(48, 32), gl=False, seed=0)
+    water = scene.water.polygon
+    up = scene.branch("main_upper").centerline_m
+    import shapely
+    for bad in (dict(mass_kg=-1.0), dict(mass_kg=float("nan")), dict(mass_kg=0.0),
+                dict(mass_kg=1.0, duration_s=-5.0), dict(mass_kg=1.0, duration_s=float("nan")),
+                dict(mass_kg=1.0, decay_per_s=-1e-3), dict(mass_kg=1.0, decay_per_s=float("inf"))):
+        with pytest.raises(ValueError, match="add_spill"):
+            world.add_spill(up[50], **bad)
+    with pytest.raises(ValueError, match="xy_m"):
+        world.add_spill((float("nan"), 0.0), 1.0)
+    # a point on land 30 m from the shore: moved to the water, and reported
+    k = len(up) // 2
+    t = up[k + 1] - up[k - 1]
+    normal = np.array([-t[1], t[0]]) / np.hypot(*t)
+    shore = up[k].copy()
+    while shapely.contains_xy(water, *shore):
+        shore += normal
+    near = shore + 30.0 * normal
+    far = shore + 80.0 * normal
+    assert not shapely.contains_xy(water, *near)
+    e = world.add_spill(near, 1.0)
+    r = world.spill(e)
+    assert 29.0 < r.moved_m < 40.0 and shapely.contains_xy(water, *r.source_xy_m)
+    with pytest.raises(ValueError, match="on land"):
+        world.add_spill(far, 1.0)
+    with pytest.raises(ValueError, match="advance_spills"):
+        world.advance_spills(-1.0)
+    world.close()
+
+
+def test_the_tint_texture_holds_the_concentrations(spilled):
+    from riverflow.hydro.spills import TINT_TEXELS, SpillTint
+
+    world, _, _, _ = spilled
+    solver = world.spill_solver
+    world.advance_spills(0.0)
+    tint = SpillTint()
+    colours = [(1.0, 0.0, 0.0), (0.0, 0.0, 1.0)]
+    assert tint.update(solver, world.field.potential, colours)
+    assert not tint.update(solver, world.field.potential, colours)    # nothing stepped
+    x0, y0, side = tint.rect_m
+    assert side > 0
+    g = (np.arange(TINT_TEXELS) + 0.5) * side / TINT_TEXELS
+    gx, gy = np.meshgrid(x0 + g, y0 + g)
+    xy = np.column_stack([gx.ravel(), gy.ravel()])
+    c = world.concentration(xy, per_spill=True)
+    rgba = tint.rgba.reshape(-1, 4)
+    # off the sources' links (where the tint widens the plume to a texel, not to alias)
+    link, _, _ = solver.network.locate(xy)
+    off = ~np.isin(link, [s.link for s in solver.sources]) & np.isfinite(
+        world.field.potential(xy))
+    assert off.sum() > 100
+    np.testing.assert_allclose(rgba[off, 3], c.sum(axis=0)[off], rtol=1e-5, atol=1e-12)
+    wet = off & (c.sum(axis=0) > 0)
+    np.testing.assert_allclose(rgba[wet, 0], c[0, wet] / c[:, wet].sum(axis=0), rtol=1e-4)
+
+
+def test_a_graph_file_scene_gets_its_discharges_from_the_stream_function(tiny_channel_path):
+    """A scene read from a graph file has no discharges in its branches: the spill network
+    measures them across each link (ψ difference), and the spill runs out of its outlet."""
+    scene = rf.landscape(rf.load_graph(tiny_channel_path), seed=0)
+    assert all(b.discharge_m2s is None for b in scene.branches)
+    world = rf.RiverWorld(scene, size=(32, 18), gl=False, seed=0)
+    line = scene.branches[0].centerline_m
+    e = world.add_spill(line[len(line) // 4], 10.0)
+    net = world.spill_solver.network
+    psi = world.field.potential(np.array([[50.0, y] for y in np.linspace(-30, 30, 601)]))
+    assert net.link_q_m2s[0] == pytest.approx(np.nanmax(psi) - np.nanmin(psi), rel=0.01)
+    world.advance_spills(600.0)
+    r = world.spill(e)
+    assert sum(r.out_kg.values()) == pytest.approx(10.0, rel=1e-6) and abs(r.balance_kg) < 1e-9
+    world.close()
+
+
+def test_bake_concentration_and_the_spill_command(tiny_channel_path, tmp_path):
+    import csv
+    import json
+
+    from riverflow.gis.bake import pixel_centres
+    from riverflow.gis.spill import read_concentration
+    from tests.test_cli import cli
+
+    scene = rf.landscape(rf.load_graph(tiny_channel_path), seed=0)
+    world = rf.RiverWorld(scene, size=(32, 18), gl=False, seed=0)
+    world.add_spill((10.0, 2.0), 5.0, 20.0)
+    with pytest.raises(ValueError, match="increasing"):
+        rf.bake_concentration(world, (0, -12, 100, 12), 2.0, tmp_path / "x", [10.0, 5.0])
+    dt = world.spill_solver.dt_s
+    baked = rf.bake_concentration(world, (0.0, -12.0, 100.0, 12.0), 2.0, tmp_path / "png",
+                                  [4.0, 8.0], gauges_m=[(30.0, 0.0), (60.0, 0.0)],
+                                  geotiff=False)
+    assert baked.size_px == (50, 12) and len(baked.images) == 2
+    assert abs(baked.times_s[1] - 8.0) <= dt
+    c, meta = read_concentration(baked.images[1])
+    want = world.concentration(pixel_centres((0.0, -12.0), 2.0, (50, 12))).reshape(12, 50)
+    assert np.abs(c - want).max() <= want.max() / 65535 + 1e-15 and want.max() > 0
+    rows = list(csv.reader(open(baked.gauges_csv)))
+    assert rows[0] == ["time_s", "gauge_0", "gauge_1"] and len(rows) == 3
+    assert float(rows[2][1]) == pytest.approx(world.concentration([(30.0, 0.0)])[0])
+    index = json.loads(baked.index.read_text())
+    assert index["frames"][1]["spills"][0]["released_kg"] == pytest.approx(5.0 * 8.0 / 20.0,
+                                                                          abs=0.25 * dt)
+    world.close()
+    pytest.importorskip("rasterio")
+    out = tmp_path / "cli"
+    result = cli("spill", "--scene", str(tiny_channel_path), "--at", "20,30", "--mass", "2",
+                 "--hours", "0.01", "--every", "0.3", "--cell-m", "4", "--out", str(out))
+    assert result.returncode == 0, result.stderr
+    assert "moved" in result.stdout and "GeoTIFF" in result.stdout
+    tifs = sorted(out.glob("concentration_*.tif"))
+    assert len(tifs) == 2 and (out / "gauges.csv").exists()
+    c, meta = read_concentration(tifs[-1])
+    assert c.max() > 0 and meta["transform"].a == 4.0
+    far = cli("spill", "--scene", str(tiny_channel_path), "--at", "20,300", "--mass", "2",
+              "--hours", "1", "--every", "30", "--out", str(tmp_path / "no"))
+    assert far.returncode == 1 and "on land" in far.stderr
+
+
+def test_dispersion_settings():
+    line = _straight(2000.0, 41)
+    fixed = build_spill_network([_branch("c", line, 30.0)], [30.0],
+                                Dispersion(longitudinal_m2s=12.0, cell_m=10.0))
+    assert np.all(fixed.cell_k_m2s == 12.0) and np.allclose(fixed.link_dx_m, 10.0)
+    rough = build_spill_network([_branch("c", line, 30.0)], [30.0], Dispersion(manning_n=0.06))
+    smooth = build_spill_network([_branch("c", line, 30.0)], [30.0])
+    assert rough.cell_k_m2s[0] == pytest.approx(0.5 * smooth.cell_k_m2s[0])   # K ∝ 1/u* ∝ 1/n
+    for bad in (dict(manning_n=0.0), dict(fischer=float("nan")), dict(cell_m=-1.0),
+                dict(longitudinal_m2s=float("inf"))):
+        with pytest.raises(ValueError, match="Dispersion"):
+            Dispersion(**bad)
+    with pytest.raises(ValueError, match="discharge"):
+        build_spill_network([_branch("c", line, 30.0)], [float("nan")])
