@@ -16,8 +16,10 @@ import riverflow as rf
 @contextmanager
 def cpu_load(processes: int = 1):
     """Busy processes for the block (another program hogging the machine: one is enough to
-    take the worker's idle core, and more would slow the suite's other test worker)."""
-    hogs = [subprocess.Popen([sys.executable, "-c", "while True: pass"])
+    take the worker's idle core, and more would slow the suite's other test worker). They run
+    at the tile worker's own priority (nice 19): each takes the idle time the worker would
+    have had, and leaves the suite's other test worker its core."""
+    hogs = [subprocess.Popen([sys.executable, "-c", "import os; os.nice(19)\nwhile True: pass"])
             for _ in range(processes)]
     try:
         yield
