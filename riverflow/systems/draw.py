@@ -64,6 +64,7 @@ from riverflow.components.status import FlowStatus
 from riverflow.components.waves import WaveTile
 from riverflow.engine import gl
 from riverflow.engine.system import System
+from riverflow.systems.draw_falls import FallSheets
 from riverflow.hydro.falls import RAPIDS_FULL_SLOPE, RAPIDS_MIN_SLOPE
 from riverflow.kernels.foam import foam_pattern_mips
 from riverflow.kernels.tile_cut import near_to_far
@@ -159,6 +160,7 @@ class _Gpu:
             "arrows": gl.Program("arrows.glsl", defines),
             "props": gl.Program("props.glsl", defines),
             "rain": gl.Program("rain.glsl", defines),
+            "falls": gl.Program("falls.glsl", defines),
             "composite": gl.Program("composite.glsl"),
         }
         # the uniforms that never change (texture units, constants), set once: not checked
@@ -195,6 +197,7 @@ class _Gpu:
         self.params_cpu = self.starts_cpu = self.scratch = None
         self.targets: list = []
         self.reflection = _Reflection()
+        self.fall_sheets = FallSheets()
         gl.check_errors("creating the river draw resources")
 
     # -- sized resources --------------------------------------------------------------------
@@ -298,6 +301,7 @@ class _Gpu:
         self.waves.clear()
         self.targets = []
         self.reflection.delete()
+        self.fall_sheets.delete()
 
 
 # -- tiles on the GPU --------------------------------------------------------------------------
@@ -706,6 +710,9 @@ class DrawRivers(System):
             gl.set_blend(gl.BLEND_WATER)
             for mesh in water_meshes:
                 mesh.draw()
+            if mode in _SHADED_MODES:       # the falling sheets, over the water
+                gpu.fall_sheets.draw(world, gpu.programs["falls"],
+                                     foam_uniforms["u_time_s"])
         self._draw_rain(gpu, rain)
         gl.set_depth(False, write=False)
         if settings.show_velocities and n_entries:
