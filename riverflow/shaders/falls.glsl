@@ -54,7 +54,8 @@ float value_noise(vec2 p) {
 // The streak pattern in [0, 1] at (across [m], tau [s]): two octaves of value noise.
 float streaks(float across_m, float tau_s) {
     vec2 p = vec2(across_m / STREAK_M, tau_s / STREAK_S);
-    return 0.65 * value_noise(p) + 0.35 * value_noise(2.3 * p + vec2(17.0, 5.0));
+    return 0.5 * value_noise(p) + 0.3 * value_noise(vec2(2.3, 3.1) * p + vec2(17.0, 5.0))
+           + 0.2 * value_noise(vec2(0.7, 5.3) * p + vec2(3.0, 41.0));
 }
 
 void main() {
@@ -63,7 +64,7 @@ void main() {
     float s = streaks(v_sheet.x, tau);
     float air = smoothstep(0.0, 0.9, t);           // breaking up as it falls
     float edge = smoothstep(0.0, 0.8, v_sheet.w);  // thin at the lip's ends
-    float thick = edge * (0.55 + 0.45 * s);
+    float thick = edge * (0.45 + 0.55 * s);
     vec3 n = normalize(cross(dFdx(v_world), dFdy(v_world)));
     vec3 v = normalize(u_eye_m - v_world);
     if (dot(n, v) < 0.0) n = -n;
@@ -74,9 +75,9 @@ void main() {
                      sky_colour(vec3(r.xy, abs(r.z))), fresnel);
     float lit = 0.55 + 0.45 * max(dot(n, u_sun_dir), 0.0) + 0.25 * max(u_sun_dir.z, 0.0);
     vec3 foam = vec3(0.93, 0.95, 0.97) * lit;
-    float white = clamp((0.25 + 0.75 * air) * thick * (0.6 + 0.8 * s), 0.0, 1.0);
-    vec3 colour = mix(water, foam, white);
-    float alpha = clamp(thick * (0.6 + 0.4 * air) + fresnel * edge, 0.0, 0.97);
+    float white = clamp((0.35 + 0.65 * air) * thick * (1.6 * s - 0.1), 0.0, 1.0);
+    vec3 colour = mix(water * (0.6 + 0.6 * s), foam, white);
+    float alpha = clamp(thick * (0.75 + 0.35 * air) + fresnel * edge, 0.0, 0.97);
     frag = vec4(apply_fog(colour, v_world), alpha);
 }
 #endif

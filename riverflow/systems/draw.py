@@ -710,7 +710,7 @@ class DrawRivers(System):
             gl.set_blend(gl.BLEND_WATER)
             for mesh in water_meshes:
                 mesh.draw()
-            if mode in _SHADED_MODES:       # the falling sheets, over the water
+            if mode in _SHADED_MODES and settings.fall_sheets:   # the falls' sheets
                 gpu.fall_sheets.draw(world, gpu.programs["falls"],
                                      foam_uniforms["u_time_s"])
         self._draw_rain(gpu, rain)

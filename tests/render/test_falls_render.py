@@ -1,6 +1,7 @@
 """A fall drawn (issue #23), offscreen on Mesa's llvmpipe, tiny frames: seen from the side, the
-water covers the band between lip and pool where the ground shows without it; the plunge pool
-is whiter than the river 50 m below it (the foam mode)."""
+falling sheet covers the band between lip and pool where the ground shows without it, and its
+streaks move down between two frames; the plunge pool is whiter than the river 50 m below it
+(the foam mode)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -38,6 +39,9 @@ def _lip(world) -> float:
 
 
 def test_a_fall_seen_from_the_side_is_a_sheet_of_water(world):
+    """From the pool's side, the band the nappe spans on screen shows the ground without the
+    water (mode NONE); drawn, it is water-coloured (blue at least red: water or white foam,
+    where grass and sand are not) and it is the falling sheet's (it changes with it)."""
     (f,) = world.scene.graph.falls
     lip = _lip(world)
     # from the pool's side, obliquely, a little above the pool
@@ -46,10 +50,12 @@ def test_a_fall_seen_from_the_side_is_a_sheet_of_water(world):
     for _ in range(10):
         world.step(1 / 30)
     frames = {}
-    for mode in (DisplayMode.NONE, DisplayMode.MESH):
+    for name, mode, sheets in (("ground", DisplayMode.NONE, True),
+                               ("water", DisplayMode.ADVECTED, False),
+                               ("sheet", DisplayMode.ADVECTED, True)):
         world.display.mode = mode
-        frames[mode] = world.render()[..., :3].astype(int)
-    world.display.mode = DisplayMode.ADVECTED
+        world.display.fall_sheets = sheets
+        frames[name] = world.render()[..., :3].astype(int)
     # the band the nappe spans on screen: between the lip and the pool, across the river
     corners = np.array([[LIP_X + 0.3 * f.throw_m, -6.0, lip - 0.09 * DROP],
                         [LIP_X + 0.7 * f.throw_m, 6.0, lip - 0.49 * DROP]])
@@ -58,9 +64,43 @@ def test_a_fall_seen_from_the_side_is_a_sheet_of_water(world):
     x0, x1 = sorted(px[:, 0].astype(int))
     y0, y1 = sorted((H - px[:, 1]).astype(int))          # rows from the top
     band = (slice(max(y0, 0), min(y1 + 1, H)), slice(max(x0, 0), min(x1 + 1, W)))
-    changed = np.abs(frames[DisplayMode.MESH][band] - frames[DisplayMode.NONE][band]).sum(-1)
+    ground, sheet = frames["ground"][band], frames["sheet"][band]
+    changed = np.abs(sheet - ground).sum(-1)
     assert changed.size >= 20
     assert (changed > 30).mean() > 0.8        # water where the ground showed
+    land = ground[..., 2] < ground[..., 0]              # grass, sand, rock (else sky)
+    assert land.mean() > 0.3
+    assert (sheet[land][:, 2] >= sheet[land][:, 0]).mean() > 0.9   # now water, foam
+    assert (np.abs(sheet - frames["water"][band]).sum(-1) > 30).mean() > 0.5   # the sheet
+
+
+def test_the_sheets_texture_moves_down_with_the_falling_water(world):
+    """Two frames 2/30 s apart, the camera still in front of the fall: the sheet's pixels
+    match best shifted down the screen (the streaks fall with the water, at 4-11 m/s: a few
+    pixels here), and better down than up."""
+    (f,) = world.scene.graph.falls
+    lip = _lip(world)
+    world.camera.look_at((LIP_X + 14.0, -3.0, lip - DROP + 1.0),
+                         (LIP_X + 0.5 * f.throw_m, 0.0, lip - 0.5 * DROP))
+    world.step(1 / 30)
+    world.display.fall_sheets = False
+    off = world.render()[..., :3].astype(float)
+    world.display.fall_sheets = True
+    a = world.render()[..., :3].astype(float)
+    world.step(1 / 30)
+    world.step(1 / 30)
+    b = world.render()[..., :3].astype(float)
+    cols = slice(W // 4, 3 * W // 4)
+    sheet = np.abs(a - off).sum(-1)[:, cols] > 30
+    rows = np.flatnonzero(sheet.mean(1) > 0.95)             # the rows the sheet covers
+    rows = rows[:1 + np.argmax(np.append(np.diff(rows) != 1, True))]   # (the first run)
+    assert len(rows) > 15
+    r0, r1 = rows[0] + 3, rows[-1] - 3
+    la, lb = a.mean(-1)[:, cols], b.mean(-1)[:, cols]
+    err = {k: np.abs(la[r0:r1] - lb[r0 + k:r1 + k]).mean() for k in range(-3, 4)}
+    best = min(err, key=err.get)
+    assert best > 0, err                                    # rows grow down the screen
+    assert err[best] < err[0] - 0.5 and err[best] < err[-best] - 2.0, err
 
 
 def test_the_plunge_pool_is_whiter_than_the_river_below(world):
