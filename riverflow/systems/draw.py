@@ -121,6 +121,8 @@ DROPS_PER_ROW = 1024
 """Rain drops per row of the drop table (two RGBA32F texels each: position, velocity)."""
 
 _SHADED_MODES = (DisplayMode.ADVECTED, DisplayMode.PRE_ADVECTED, DisplayMode.NON_ADVECTED)
+_GRID_MODES = (DisplayMode.ADVECTED, DisplayMode.COVERAGE, DisplayMode.FOAM)
+"""The modes whose water shader reads the sprite grid (blend_sprites)."""
 """The water modes shaded with reflections (the others draw debug colours)."""
 
 TERRAIN_SLOTS = 128
@@ -652,7 +654,7 @@ class DrawRivers(System):
         t0 = time.perf_counter_ns()
         n_drawn, n_entries = self._upload_tables(
             world, gpu, settings.show_particles or settings.show_velocities)
-        if settings.mode in (DisplayMode.ADVECTED, DisplayMode.COVERAGE):
+        if settings.mode in _GRID_MODES:
             self._make_grid(gpu, config.radius_px)
         self.last_tables_ms = (time.perf_counter_ns() - t0) * 1e-6
 

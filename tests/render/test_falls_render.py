@@ -24,10 +24,14 @@ RAPID = (100.0, 160.0, 6.0)
 
 
 @pytest.fixture(scope="module")
-def world(gl_context):
+def scene():
     b = _straight()
     b.add_rapids(*RAPID)
-    scene = rf.landscape(b.build(), seed=0)
+    return rf.landscape(b.build(), seed=0)
+
+
+@pytest.fixture(scope="module")
+def world(gl_context, scene):
     w = rf.RiverWorld(scene, size=(W, H), gl=True, seed=0,
                       config=RiverConfig(radius_px=5.0, tile_production="blocking"))
     yield w
@@ -103,17 +107,20 @@ def test_the_sheets_texture_moves_down_with_the_falling_water(world):
     assert err[best] < err[0] - 0.5 and err[best] < err[-best] - 2.0, err
 
 
-def test_the_plunge_pool_is_whiter_than_the_river_below(world):
+def test_the_plunge_pool_is_whiter_than_the_river_below(gl_context, scene):
+    """In the foam mode, from a world's first drawn frame (the mode makes its own sprite
+    grid: it once showed only what an advected frame before it had left)."""
+    world = rf.RiverWorld(scene, size=(W, H), gl=True, seed=0,
+                          config=RiverConfig(radius_px=5.0, tile_production="blocking"))
     (f,) = world.scene.graph.falls
     lip = _lip(world)
     pool_x = LIP_X + f.throw_m + 4.0
     world.camera.look_at((pool_x + 25.0, -45.0, lip + 25.0), (pool_x + 25.0, 0.0, lip - DROP))
     for _ in range(60):
         world.step(1 / 30)
-    world.render()      # the foam mode shows what the last water frame drew (as in
-    world.display.mode = DisplayMode.FOAM   # tests/render/test_foam_wake_render.py)
+    world.display.mode = DisplayMode.FOAM
     image = world.render()[..., :3].astype(float).mean(-1)
-    world.display.mode = DisplayMode.ADVECTED
+    world.close()
     probes = np.array([[pool_x + dx, dy, lip - DROP] for dx in (0.0, 50.0)
                        for dy in (-4.0, 0.0, 4.0)])
     px, _, front = world.camera.world_to_screen(probes)
