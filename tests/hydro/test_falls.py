@@ -110,6 +110,37 @@ def test_falls_are_found_from_water_levels():
     assert b.build().falls == []
 
 
+def test_the_thresholds_come_from_the_river_config():
+    """RiverConfig.fall_min_drop_m (default 1 m) and rapids_min_slope reach a builder through
+    use_config; the builder's own defaults are the same numbers; bad values are named."""
+    from riverflow.engine.config import RiverConfig
+
+    config = RiverConfig()
+    assert config.fall_min_drop_m == 1.0 and config.rapids_min_slope == 0.02
+    fresh = RiverNetworkBuilder()
+    assert (fresh.fall_min_drop_m, fresh.rapids_min_slope) == (config.fall_min_drop_m,
+                                                               config.rapids_min_slope)
+
+    def levels(xy):                    # a 4 m fall at 400 m and a 3 % reach from 100 to 200 m
+        x = xy[:, 0]
+        return 30.0 - 3.0 * np.clip((x - 100.0) / 100.0, 0.0, 1.0) - np.where(x >= 400.0,
+                                                                               4.0, 0.0)
+
+    found = {}
+    for name, cfg in (("default", config),
+                      ("strict", RiverConfig(fall_min_drop_m=5.0, rapids_min_slope=0.04))):
+        b = _straight(fall=False).use_config(cfg)
+        b.water_levels = levels
+        g = b.build()
+        found[name] = (len(g.falls), len(g.rapids))
+    assert found == {"default": (1, 1), "strict": (0, 0)}
+    for bad, words in (({"fall_min_drop_m": 0.0}, "fall_min_drop_m must be positive"),
+                       ({"fall_min_drop_m": float("nan")}, "fall_min_drop_m must be finite"),
+                       ({"rapids_min_slope": 0.6}, "rapids_min_slope must lie in")):
+        with pytest.raises(ValueError, match=words):
+            RiverConfig(**bad)
+
+
 # -- the water surface -------------------------------------------------------------------------
 
 def test_the_surface_drops_along_the_nappe(scene):
