@@ -602,8 +602,11 @@ def _rapid_on(g: BranchGeometry, a: float, e: float, drop_m: float, in_levels: b
         return (float(np.interp(at, s, g.centerline_m[:, 0])),
                 float(np.interp(at, s, g.centerline_m[:, 1])))
 
+    inside = (s >= a) & (s <= e)
+    width = max(float(np.interp(a, s, g.widths_m)), float(np.interp(e, s, g.widths_m)),
+                float(g.widths_m[inside].max()) if inside.any() else 0.0)
     return Rapid(g.name, a, e, float(drop_m), point(0.5 * (a + e)), point(a), point(e),
-                 in_levels)
+                 in_levels, width)
 
 
 def _lakes_of_graph(geoms, lakes, lake_ends, polygon_lake, tolerance_m):
