@@ -64,7 +64,7 @@ from riverflow.components.status import FlowStatus
 from riverflow.components.waves import WaveTile
 from riverflow.engine import gl
 from riverflow.engine.system import System
-from riverflow.systems.draw_falls import FallSheets
+from riverflow.systems.draw_falls import FallSheets, SprayQuads
 from riverflow.hydro.falls import RAPIDS_FULL_SLOPE, RAPIDS_MIN_SLOPE
 from riverflow.kernels.foam import foam_pattern_mips
 from riverflow.kernels.tile_cut import near_to_far
@@ -137,7 +137,7 @@ FOAM_SCALE_M = 3.0
 
 
 PARAMS_UNIT, GRID_UNIT, WAVE_UNIT, ACCUM_UNIT, WATER_POSITION_UNIT = 2, 3, 1, 4, 5
-RIPPLES_UNIT, DROPS_UNIT, BINS_UNIT = 6, 7, 8
+RIPPLES_UNIT, DROPS_UNIT, BINS_UNIT, SPRAY_UNIT = 6, 7, 8, 9
 COMPOSITE_COLOUR_UNIT, COMPOSITE_DEPTH_UNIT = 0, 14
 """Texture units of the sprite table, sprite grid, wave tile, pre-advected sums, water
 position, ripple table, rain drops and sprite bins."""
@@ -163,6 +163,7 @@ class _Gpu:
             "props": gl.Program("props.glsl", defines),
             "rain": gl.Program("rain.glsl", defines),
             "falls": gl.Program("falls.glsl", defines),
+            "spray": gl.Program("spray.glsl", defines),
             "composite": gl.Program("composite.glsl"),
         }
         # the uniforms that never change (texture units, constants), set once: not checked
@@ -200,6 +201,7 @@ class _Gpu:
         self.targets: list = []
         self.reflection = _Reflection()
         self.fall_sheets = FallSheets()
+        self.spray = SprayQuads()
         gl.check_errors("creating the river draw resources")
 
     # -- sized resources --------------------------------------------------------------------
@@ -304,6 +306,7 @@ class _Gpu:
         self.targets = []
         self.reflection.delete()
         self.fall_sheets.delete()
+        self.spray.delete()
 
 
 # -- tiles on the GPU --------------------------------------------------------------------------
@@ -571,7 +574,7 @@ class _Reflection:
 _CONSTANT_UNIFORMS = dict(
     u_params=PARAMS_UNIT, u_grid=GRID_UNIT, u_wave=WAVE_UNIT, u_accum=ACCUM_UNIT,
     u_water_position=WATER_POSITION_UNIT, u_ripples=RIPPLES_UNIT, u_drops=DROPS_UNIT,
-    u_bins=BINS_UNIT, u_foam_pattern=FOAM_PATTERN_UNIT, u_wakes=WAKES_UNIT,
+    u_bins=BINS_UNIT, u_foam_pattern=FOAM_PATTERN_UNIT, u_wakes=WAKES_UNIT, u_spray=SPRAY_UNIT,
     u_reflection=REFLECTION_UNIT, u_reflection_depth=REFLECTION_DEPTH_UNIT,
     u_colour=COMPOSITE_COLOUR_UNIT, u_depth=COMPOSITE_DEPTH_UNIT,
     u_sprite_radius_factor=SPRITE_RADIUS_FACTOR, u_foam_scale_m=FOAM_SCALE_M,
@@ -712,9 +715,11 @@ class DrawRivers(System):
             gl.set_blend(gl.BLEND_WATER)
             for mesh in water_meshes:
                 mesh.draw()
-            if mode in _SHADED_MODES and settings.fall_sheets:   # the falls' sheets
-                gpu.fall_sheets.draw(world, gpu.programs["falls"],
-                                     foam_uniforms["u_time_s"])
+            if mode in _SHADED_MODES:       # the falls' sheets and spray, over the water
+                if settings.fall_sheets:
+                    gpu.fall_sheets.draw(world, gpu.programs["falls"],
+                                         foam_uniforms["u_time_s"])
+                gpu.spray.draw(world, gpu.programs["spray"], gpu.empty, SPRAY_UNIT)
         self._draw_rain(gpu, rain)
         gl.set_depth(False, write=False)
         if settings.show_velocities and n_entries:

@@ -1,14 +1,21 @@
-"""The falling sheets' drawing (issue #23): one mesh of every fall's ribbon
-(:mod:`riverflow.scenes.fall_sheets`), made on the first frame and kept (the falls do not
-move), drawn after the water in the shaded modes with ``shaders/falls.glsl``: depth-tested
-against the ground and the water, not writing depth, alpha-blended (what is behind the sheet
-shows through it where it is thin)."""
+"""The falls' drawing (issue #23), after the water in the shaded modes, depth-tested against
+the ground and the water, not writing depth, alpha-blended (what is behind shows through):
+
+* the falling sheets: one mesh of every fall's ribbon (:mod:`riverflow.scenes.fall_sheets`),
+  made on the first frame and kept (the falls do not move), ``shaders/falls.glsl``;
+* the spray and mist (:class:`~riverflow.components.spray.Spray`): its particles packed into
+  a small float texture each frame (:func:`riverflow.kernels.spray.pack_spray`) and drawn as
+  camera-facing soft sprites, six attribute-less vertices each, ``shaders/spray.glsl``."""
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
 
+import numpy as np
+
+from riverflow.components.spray import Spray
 from riverflow.engine import gl
+from riverflow.kernels.spray import pack_spray
 from riverflow.scenes.fall_sheets import (SHEET_ATTRIBUTES, SHEET_DEPTH_PULL_M, lip_levels,
                                          sheet_mesh)
 
@@ -57,4 +64,44 @@ class FallSheets:
         self.made = False
 
 
-__all__ = ["FallSheets"]
+class SprayQuads:
+    """The spray's GPU texture (grown to the pool's size) and its CPU copy."""
+
+    def __init__(self) -> None:
+        self.texture: gl.Texture | None = None
+        self.cpu = np.zeros((0, 2, 4), np.float32)
+        self.drawn = 0
+
+    def draw(self, world: RiverWorld, program: gl.Program, empty: gl.Mesh, unit: int) -> None:
+        """Draw the world's spray particles (none: nothing), the view block bound."""
+        spray = world.resources.get(Spray)
+        self.drawn = 0
+        if spray is None or not spray.enabled or spray.count == 0:
+            return
+        n = spray.count
+        if self.cpu.shape[0] < n:
+            if self.texture is not None:
+                self.texture.delete()
+            self.cpu = np.zeros((n, 2, 4), np.float32)
+            self.texture = gl.Texture((2, n), gl.RGBA32F)
+        pack_spray(spray.particles, self.cpu)
+        self.texture.upload(self.cpu, rows=n)
+        self.texture.bind(unit)
+        camera = world.camera
+        program.use()
+        program.set(u_right=tuple(float(v) for v in camera.right),
+                    u_up=tuple(float(v) for v in camera.screen_up))
+        gl.set_depth(True, write=False)
+        gl.set_blend(gl.BLEND_ALPHA)
+        empty.draw(gl.TRIANGLES, count=6 * n)
+        gl.set_depth(True)
+        self.drawn = n
+
+    def delete(self) -> None:
+        if self.texture is not None:
+            self.texture.delete()
+        self.texture = None
+        self.cpu = np.zeros((0, 2, 4), np.float32)
+
+
+__all__ = ["FallSheets", "SprayQuads"]
