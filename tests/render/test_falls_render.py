@@ -107,6 +107,33 @@ def test_the_sheets_texture_moves_down_with_the_falling_water(world):
     assert err[best] < err[0] - 0.5 and err[best] < err[-best] - 2.0, err
 
 
+def test_spray_and_mist_whiten_the_air_over_the_impact(world):
+    """From below the fall, the air 1-3 m over where the nappe lands is whiter with the
+    spray drawn than without it (Spray.enabled), and the mist is soft: no pixel turns
+    white."""
+    from riverflow.components.spray import Spray
+    (f,) = world.scene.graph.falls
+    lip = _lip(world)
+    world.camera.look_at((LIP_X + 30.0, -4.0, lip - DROP + 2.0), (LIP_X, 0.0, lip - DROP + 1.5))
+    for _ in range(30):
+        world.step(1 / 30)
+    spray = world.resource(Spray)
+    shots = {}
+    for on in (False, True):
+        spray.enabled = on
+        shots[on] = world.render()[..., :3].astype(float).mean(-1)
+    assert spray.count == spray.per_fall
+    probes = np.array([[LIP_X + f.throw_m + 1.0, y, lip - DROP + z]
+                       for y in (-6.0, -3.0, 0.0, 3.0, 6.0) for z in (1.0, 2.0, 3.0)])
+    px, _, front = world.camera.world_to_screen(probes)
+    assert front.all()
+    cols, rows = px[:, 0].astype(int), (H - px[:, 1]).astype(int)
+    assert ((cols >= 0) & (cols < W) & (rows >= 0) & (rows < H)).all()
+    gain = shots[True][rows, cols] - shots[False][rows, cols]
+    assert gain.mean() > 8.0, gain
+    assert np.abs(shots[True] - shots[False]).max() < 200.0
+
+
 def test_the_plunge_pool_is_whiter_than_the_river_below(gl_context, scene):
     """In the foam mode, from a world's first drawn frame (the mode makes its own sprite
     grid: it once showed only what an advected frame before it had left)."""
