@@ -185,6 +185,7 @@ class FlowField:
         """The graph's falls (:class:`riverflow.hydro.falls.Fall`): :meth:`query` speeds the
         flow up over them (:mod:`riverflow.kernels.falls`)."""
         self._fall_table: kfalls.FallTable | None = None
+        self._falls_box: tuple | None = None
         self.rapids = list(getattr(graph, "rapids", []) or [])
         """The graph's rapids (:class:`riverflow.hydro.falls.Rapid`): :meth:`query` speeds the
         flow up on them by their ``speed_gain``, through the falls' kernel
@@ -416,7 +417,16 @@ class FlowField:
         """(4,) [m] xmin, ymin, xmax, ymax around where the water of every fall changes
         fast (FALL_BOX_M before its lip to FALL_BOX_M past where its nappe lands, across its
         lip): the particles there ask the flow and the surface every frame. Empty (inf, inf,
-        −inf, −inf) without falls."""
+        −inf, −inf) without falls. Made once for the list of falls (every frame asks it);
+        a copy."""
+        known = self._falls_box
+        if known is not None and known[0] is self.falls and known[1] == len(self.falls):
+            return known[2].copy()
+        box = self._make_falls_box()
+        self._falls_box = (self.falls, len(self.falls), box)
+        return box.copy()
+
+    def _make_falls_box(self) -> np.ndarray:
         if not self.falls:
             return np.array([np.inf, np.inf, -np.inf, -np.inf])
         lo, hi = [], []

@@ -5,7 +5,9 @@ speed v0 and falls ballistically: t seconds after the lip it is ``v0·t`` past t
 the river and ``g·t²/2`` below it (the nappe, :func:`riverflow.hydro.falls.nappe_drop`), and
 moves at ``v = √(v0² + (g·t)²) = √(v0² + 2·g·d)`` with d the height fallen. The ribbon is the
 lip's line × that parabola: ``across`` vertices along the lip by ``down`` rows in equal steps
-of t from the lip (t = 0) to the pool (t = the fall time √(2·drop/g)).
+of t from the lip (t = 0) to the pool (t = the fall time √(2·drop/g)). The lip is straight and
+the distance to its nearer end is linear on either side of its middle, so three vertices across
+draw it exactly (the streaks are the fragment shader's): few triangles to set up.
 
 Each vertex carries, besides its world position, (across [m] from the lip's middle, t [s],
 v [m/s], its distance [m] to the nearer end of the lip). The sheet's shader
@@ -33,7 +35,7 @@ and would hide it, the depth test sees it this much nearer the eye (from 0 at th
 proportion to t / the fall time; ``shaders/falls.glsl``)."""
 
 
-def sheet_mesh(falls, lip_levels_m, across: int = 12, down: int = 16
+def sheet_mesh(falls, lip_levels_m, across: int = 3, down: int = 12
                ) -> tuple[np.ndarray, np.ndarray]:
     """The ribbons of ``falls`` (a sequence of :class:`~riverflow.hydro.falls.Fall`) whose
     lips lie at ``lip_levels_m`` (F,) [m]: (vertices (F·across·down, 8) float32 — position,
@@ -84,3 +86,36 @@ def lip_levels(falls, water) -> np.ndarray:
         return np.zeros(0)
     return np.asarray(water.level(np.array([f.centre_m for f in falls], np.float64)),
                       np.float64)
+
+
+SPRAY_HEIGHT_M = 8.0
+"""The falls' boxes (:func:`falls_boxes`) reach this far above the lips (the spray's mist)."""
+
+
+def falls_boxes(falls, lip_levels_m) -> np.ndarray:
+    """(F, 8, 4) float64: the corners (x, y, z, 1) of a box around each fall's sheet and spray
+    (its lip's line from 2 m above to the pool, the nappe's throw and 10 m beyond it, and
+    SPRAY_HEIGHT_M over the lip): :func:`in_view` skips what is out of view."""
+    out = np.ones((len(falls), 8, 4))
+    for k, (f, lip) in enumerate(zip(falls, np.asarray(lip_levels_m, np.float64).reshape(-1))):
+        c, d = np.asarray(f.centre_m, np.float64), np.asarray(f.direction, np.float64)
+        n = np.array([-d[1], d[0]])
+        half = 0.5 * f.lip_m + 3.0
+        corners = [c + a * d + b * half * n for a in (-2.0, f.throw_m + 10.0) for b in (-1, 1)]
+        out[k, :, :2] = np.array(corners * 2)
+        out[k, :4, 2] = lip - f.drop_m - 1.0
+        out[k, 4:, 2] = lip + SPRAY_HEIGHT_M
+    return out
+
+
+def in_view(boxes: np.ndarray, clip_from_world: np.ndarray) -> bool:
+    """Whether any of ``boxes`` (F, 8, 4) may be seen through ``clip_from_world`` (4, 4),
+    column vectors: a box is out of view when all its corners lie beyond one of the frustum's
+    side planes or behind the eye (conservative: a box may be kept that is not seen)."""
+    if not len(boxes):
+        return False
+    clip = boxes @ clip_from_world.T                         # (F, 8, 4)
+    x, y, w = clip[..., 0], clip[..., 1], clip[..., 3]
+    out = ((x < -w).all(1) | (x > w).all(1) | (y < -w).all(1) | (y > w).all(1)
+           | (w <= 0.0).all(1))
+    return not bool(out.all())

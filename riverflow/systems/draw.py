@@ -715,8 +715,8 @@ class DrawRivers(System):
             gl.set_blend(gl.BLEND_WATER)
             for mesh in water_meshes:
                 mesh.draw()
-            if mode in _SHADED_MODES:       # the falls' sheets and spray, over the water
-                if settings.fall_sheets:
+            if mode in _SHADED_MODES and gpu.fall_sheets.in_view(world, clip_from_world):
+                if settings.fall_sheets:        # the falls' sheets and spray, over the water
                     gpu.fall_sheets.draw(world, gpu.programs["falls"],
                                          foam_uniforms["u_time_s"])
                 gpu.spray.draw(world, gpu.programs["spray"], gpu.empty, SPRAY_UNIT)

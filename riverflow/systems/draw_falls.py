@@ -16,8 +16,8 @@ import numpy as np
 from riverflow.components.spray import Spray
 from riverflow.engine import gl
 from riverflow.kernels.spray import pack_spray
-from riverflow.scenes.fall_sheets import (SHEET_ATTRIBUTES, SHEET_DEPTH_PULL_M, lip_levels,
-                                         sheet_mesh)
+from riverflow.scenes.fall_sheets import (SHEET_ATTRIBUTES, SHEET_DEPTH_PULL_M, falls_boxes,
+                                         in_view, lip_levels, sheet_mesh)
 
 if TYPE_CHECKING:
     from riverflow.engine.world import RiverWorld
@@ -31,6 +31,8 @@ class FallSheets:
         self.mesh: gl.Mesh | None = None
         self.made = False
         self.triangles = 0
+        self.boxes = np.zeros((0, 8, 4))
+        """(F, 8, 4) a box around each fall's sheet and spray (:func:`falls_boxes`)."""
 
     def make(self, world: RiverWorld) -> None:
         scene = world.scene
@@ -40,9 +42,17 @@ class FallSheets:
         self.made = True
         if not falls or water is None:
             return
-        vertices, indices = sheet_mesh(falls, lip_levels(falls, water))
+        lips = lip_levels(falls, water)
+        vertices, indices = sheet_mesh(falls, lips)
         self.mesh = gl.Mesh(vertices, SHEET_ATTRIBUTES, indices)
         self.triangles = len(indices) // 3
+        self.boxes = falls_boxes(falls, lips)
+
+    def in_view(self, world: RiverWorld, clip_from_world: np.ndarray) -> bool:
+        """Whether a fall (its sheet or spray) may be in the view (made on first use)."""
+        if not self.made:
+            self.make(world)
+        return in_view(self.boxes, clip_from_world)
 
     def draw(self, world: RiverWorld, program: gl.Program, time_s: float) -> None:
         """Draw the sheets into the bound framebuffer (the view block bound)."""

@@ -39,6 +39,7 @@ class MakeSpray(System):
 
     def __init__(self) -> None:
         self.last_born = 0
+        self._randoms = np.zeros((0, RANDOMS_PER_PARTICLE))
 
     def process(self, world: RiverWorld, dt_s: float) -> None:
         spray = world.resources.get(Spray)
@@ -59,7 +60,11 @@ class MakeSpray(System):
             p.age[:] = spray.rng.uniform(0.0, 1.0, spray.count) * p.life
         if spray.count == 0:
             return
-        randoms = spray.rng.random((spray.count, RANDOMS_PER_PARTICLE))
-        wind_x, wind_y = (float(v) for v in spray.wind_mps)
-        self.last_born = int(step_spray(spray.particles, spray.sources, randoms,
-                                        float(dt_s) * world.clock.speed_factor, wind_x, wind_y))
+        randoms = self._randoms
+        if randoms.shape[0] != spray.count:
+            randoms = self._randoms = np.zeros((spray.count, RANDOMS_PER_PARTICLE))
+        spray.rng.random(out=randoms)
+        wind = spray.wind_mps
+        self.last_born = step_spray(spray.particles, spray.sources, randoms,
+                                    float(dt_s) * world.clock.speed_factor, float(wind[0]),
+                                    float(wind[1]))

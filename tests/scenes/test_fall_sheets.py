@@ -62,3 +62,23 @@ def test_no_falls_no_sheet_and_bad_input_is_named(falls):
         sheet_mesh(falls, [1.0, np.nan])
     with pytest.raises(ValueError, match="across and down"):
         sheet_mesh(falls, [1.0, 2.0], across=1)
+
+
+def test_the_falls_boxes_hold_the_sheet_and_say_when_it_is_in_view(falls):
+    from riverflow.engine.camera import Camera
+    from riverflow.scenes.fall_sheets import falls_boxes, in_view
+    lips = np.array([25.0, 18.0])
+    boxes = falls_boxes(falls, lips)
+    v, _ = sheet_mesh(falls, lips)
+    for k in range(2):
+        pts = v[k * 36:(k + 1) * 36, :3]                     # 3 × 12 vertices a fall
+        lo, hi = boxes[k, :, :3].min(0), boxes[k, :, :3].max(0)
+        assert np.all(pts >= lo) and np.all(pts <= hi)
+    camera = Camera(size_px=(64, 36))
+    camera.look_at((LIP_X + 30.0, -10.0, 30.0), (LIP_X, 0.0, 22.0))
+    assert in_view(boxes, camera.matrices_for_kernels()[0])
+    camera.look_at((LIP_X + 30.0, -10.0, 30.0), (LIP_X + 31.0, -10.0, 200.0))  # at the sky
+    assert not in_view(boxes, camera.matrices_for_kernels()[0])
+    camera.look_at((LIP_X, -200.0, 30.0), (LIP_X, -400.0, 30.0))            # behind the eye
+    assert not in_view(boxes, camera.matrices_for_kernels()[0])
+    assert not in_view(boxes[:0], camera.matrices_for_kernels()[0])
