@@ -11,6 +11,7 @@ import pytest
 
 import riverflow as rf
 from riverflow.components.display import DisplayMode
+from riverflow.engine import gl
 from riverflow.engine.config import RiverConfig
 from tests.hydro.test_falls import DROP, LIP_X, _straight
 
@@ -60,6 +61,7 @@ def test_a_fall_seen_from_the_side_is_a_sheet_of_water(world):
         world.display.mode = mode
         world.display.fall_sheets = sheets
         frames[name] = world.render()[..., :3].astype(int)
+    gl.check_errors("drawing the falling sheet and spray")
     # the band the nappe spans on screen: between the lip and the pool, across the river
     corners = np.array([[LIP_X + 0.3 * f.throw_m, -6.0, lip - 0.09 * DROP],
                         [LIP_X + 0.7 * f.throw_m, 6.0, lip - 0.49 * DROP]])
