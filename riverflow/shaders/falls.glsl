@@ -9,6 +9,7 @@
 #include "common.glsl"
 uniform float u_time_s;
 uniform float u_depth_pull_m;   // the foot's pull towards the eye in the depth test
+uniform float u_clip_level_m;   // the reflection pass (u_clip_water): the mirror's level [m]
 
 #ifdef VERTEX
 layout(location = 0) in vec3 a_position;   // world [m]
@@ -27,6 +28,7 @@ void main() {
     vec4 pulled = u_view_projection * vec4(a_position + pull * normalize(to_eye), 1.0);
     vec4 clip = u_view_projection * vec4(a_position, 1.0);
     gl_Position = vec4(clip.xy, pulled.z / pulled.w * clip.w, clip.w);
+    gl_ClipDistance[0] = u_clip_water > 0.0 ? a_position.z - u_clip_level_m : 1.0;
 }
 #endif
 

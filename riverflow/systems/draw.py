@@ -16,7 +16,8 @@ Per frame (reference §4; no one-frame latency: the tables are built from this f
    sprite as a quad adding (w·slope, w²) into a second float target;
 4. the water mesh tiles of the cut at the water level, shaded per :class:`DisplayMode`,
    blended over the bed drawn in step 2 (the shader writes what it adds and how much of the bed
-   shows through);
+   shows through); in the shaded modes the falls' sheets and spray over it
+   (:mod:`riverflow.systems.draw_falls`; the sheets also in the reflection pass);
 5. rain (:mod:`riverflow.systems.rain`): the drops as short streaks along their velocity
    (GL lines, depth-tested against the land and alpha-blended), and in step 4 ripple rings
    around the recent hits on the water, added to the water's slopes (none without rain);
@@ -955,6 +956,9 @@ class DrawRivers(System):
         gl.set_clip_distance(True)
         self._draw_terrain(world, gpu, "exact" if exact else "coarse")
         self._draw_props(gpu, mirrored=True)
+        if settings.fall_sheets and gpu.fall_sheets.in_view(world, vp.T):   # the falls' sheets
+            gpu.fall_sheets.draw(world, gpu.programs["falls"], world.clock.now_s % 3600.0,
+                                 clip_level_m=level)
         gl.set_clip_distance(False)
         reflection.colour.generate_mipmaps()        # blurred levels for rough water
         reflection.colour.bind(REFLECTION_UNIT)

@@ -2,7 +2,8 @@
 the ground and the water, not writing depth, alpha-blended (what is behind shows through):
 
 * the falling sheets: one mesh of every fall's ribbon (:mod:`riverflow.scenes.fall_sheets`),
-  made on the first frame and kept (the falls do not move), ``shaders/falls.glsl``;
+  made on the first frame and kept (the falls do not move), ``shaders/falls.glsl``; also in
+  the reflection pass, mirrored and cut at the mirror's level, so the pool mirrors them;
 * the spray and mist (:class:`~riverflow.components.spray.Spray`): its particles packed into
   a small float texture each frame (:func:`riverflow.kernels.spray.pack_spray`) and drawn as
   camera-facing soft sprites, six attribute-less vertices each, ``shaders/spray.glsl``."""
@@ -54,14 +55,18 @@ class FallSheets:
             self.make(world)
         return in_view(self.boxes, clip_from_world)
 
-    def draw(self, world: RiverWorld, program: gl.Program, time_s: float) -> None:
-        """Draw the sheets into the bound framebuffer (the view block bound)."""
+    def draw(self, world: RiverWorld, program: gl.Program, time_s: float,
+             clip_level_m: float = 0.0) -> None:
+        """Draw the sheets into the bound framebuffer (the view block bound); in the
+        reflection pass (its mirrored view block bound, clip distances on) cut at
+        ``clip_level_m``, the mirror's level."""
         if not self.made:
             self.make(world)
         if self.mesh is None:
             return
         program.use()
-        program.set(u_time_s=float(time_s), u_depth_pull_m=SHEET_DEPTH_PULL_M)
+        program.set(u_time_s=float(time_s), u_depth_pull_m=SHEET_DEPTH_PULL_M,
+                    u_clip_level_m=float(clip_level_m))
         gl.set_depth(True, write=False)
         gl.set_blend(gl.BLEND_ALPHA)
         self.mesh.draw()

@@ -115,6 +115,33 @@ def test_the_sheets_texture_moves_down_with_the_falling_water(world):
     assert err[best] < err[0] - 0.5 and err[best] < err[-best] - 2.0, err
 
 
+def test_the_pool_mirrors_the_sheet(world):
+    """Low over the pool, looking at the fall (spray off): with reflections, drawing the
+    sheet changes pixels of the pool below it that it does not cover itself (its mirror
+    image: the sheet is drawn into the reflection pass too)."""
+    from riverflow.components.spray import Spray
+    lip = _lip(world)
+    world.camera.look_at((LIP_X + 35.0, -3.0, lip - DROP + 1.2), (LIP_X, 0.0, lip - DROP + 0.5))
+    world.step(1 / 30)
+    spray, display = world.resource(Spray), world.display
+    frames = {}
+    try:
+        spray.enabled = False
+        for reflect in (False, True):
+            display.reflections = reflect
+            for sheets in (True, False):
+                display.fall_sheets = sheets
+                frames[reflect, sheets] = world.render()[..., :3].astype(float)
+    finally:
+        spray.enabled, display.reflections, display.fall_sheets = True, True, True
+    direct = np.abs(frames[False, True] - frames[False, False]).sum(-1) > 10
+    mirrored = np.abs(frames[True, True] - frames[True, False]).sum(-1) > 10
+    only = mirrored & ~direct
+    assert direct.sum() > 200
+    assert only.sum() > 60, only.sum()
+    assert np.median(np.nonzero(only)[0]) > np.nonzero(direct)[0].max()    # below the foot
+
+
 def test_spray_and_mist_whiten_the_air_over_the_impact(world):
     """From below the fall, the air 1-3 m over where the nappe lands is whiter with the
     spray drawn than without it (Spray.enabled), and the mist is soft: no pixel turns
