@@ -5,9 +5,10 @@ Run: ``python benchmarks/bench_falls.py [--json] [--frames N] [--draw-size WxH]`
 The built-in scene with ``falls=True`` (a 6 m fall and a 6 % rapid on the tributary), the
 camera downstream of the fall looking up the tributary at it, 1920×1080 with r = 10 px, in
 two worlds stepped in turns, frame by frame (so a loaded machine slows both alike): "falls"
-as it is, "off" the same scene and view with the field's falls taken away (no speed-up, no
-per-frame altitude over the fall, no plunge foam; the water surface still drops, so the same
-particles are on screen). What the falls add is the difference:
+as it is, "off" the same scene and view with the field's falls and rapids taken away (no
+speed-up, no per-frame altitude over the fall, no plunge foam), no spray and no falling sheet
+drawn; the water surface still drops, so the same particles are on screen. What the falls add
+is the difference:
 
 * simulation: the systems' milliseconds a frame (all but "draw"; wall clock, as the HUD shows
   them) and the frame's CPU time (``time.thread_time``: a loaded machine's waits left out);
@@ -39,6 +40,7 @@ def _view(scene):
 
 def _worlds(size, gl: bool):
     import riverflow as rf
+    from riverflow.components.spray import Spray
     from riverflow.engine.config import RiverConfig
 
     scene = rf.default_scene(seed=0, falls=True)
@@ -51,6 +53,10 @@ def _worlds(size, gl: bool):
         if name == "off":
             world.field.falls = []
             world.field._fall_table = None
+            world.field.rapids = []
+            world.field._rapid_table = None
+            world.resource(Spray).enabled = False
+            world.display.fall_sheets = False
         worlds[name] = world
     return worlds
 

@@ -15,7 +15,7 @@ prepare)
     for lib in libEGL.so.1 libGLdispatch.so.0 libOpenGL.so.0 libGL.so.1 libGLX.so.0; do
         cp -L "/usr/lib/x86_64-linux-gnu/$lib" .gl/lib/
     done
-    .venv/bin/python -m pip install -q --target .gl/py --no-deps --only-binary=:all: \
+    "${PREP_PYTHON:-.venv/bin/python}" -m pip install -q --target .gl/py --no-deps --only-binary=:all: \
         --python-version "$PY_VERSION" --platform manylinux_2_28_x86_64 \
         --platform manylinux2014_x86_64 --platform manylinux_2_17_x86_64 \
         'esper>=3.5,<4' 'pyglet>=2.1.19,<3' 'pyrr>=0.10.3,<0.11' multipledispatch \

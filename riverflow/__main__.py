@@ -156,6 +156,9 @@ def _scene_args(p: argparse.ArgumentParser) -> None:
     add_scene_options(p)
     p.add_argument("--seed", type=int, default=0, metavar="N",
                    help="seed of the built-in scene (default: %(default)s)")
+    p.add_argument("--falls", action="store_true",
+                   help="the built-in scene with a 6 m fall and a rapid on its tributary "
+                        "(the demo's boat starts above the fall)")
 
 
 def _positive(text: str) -> float:
@@ -397,7 +400,9 @@ def _load_scene(args: argparse.Namespace) -> tuple[Any, str]:
             return None, ""
     from riverflow.scenes.default import default_scene
 
-    return default_scene(seed=args.seed), f"built-in scene, seed {args.seed}"
+    falls = bool(getattr(args, "falls", False))
+    return (default_scene(seed=args.seed, falls=falls),
+            f"built-in scene, seed {args.seed}{', falls' if falls else ''}")
 
 
 if __name__ == "__main__":

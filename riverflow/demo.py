@@ -259,9 +259,22 @@ class BoatDemo:
             self.world = None
 
 
+FALL_START_M = 45.0
+"""In a scene with falls the boat starts this far above the first one's lip, heading for it
+(the chase camera then passes the fall: ``riverflow demo --falls``)."""
+
+
 def _start_pose(scene) -> tuple[np.ndarray, float]:
-    """A point a fifth of the way down the main river and the downstream heading there."""
+    """A point a fifth of the way down the main river and the downstream heading there; in a
+    scene with falls, FALL_START_M above the first fall's lip, heading downstream to it."""
     from riverflow.scenes.flight import main_centerline
+
+    falls = getattr(getattr(scene, "graph", None), "falls", None)
+    if falls:
+        f = falls[0]
+        t = np.asarray(f.direction, np.float64)
+        return _onto_axis(scene, np.asarray(f.centre_m, np.float64) - FALL_START_M * t,
+                          math.atan2(t[1], t[0]))
 
     line = main_centerline(scene)
     s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(line, axis=0).T))])

@@ -289,7 +289,7 @@ def test_profile_prints_per_system_timings_as_json(tiny_channel_path, tmp_path):
     # every update system is timed (drawing is not: profile steps gl=False worlds)
     assert set(data["systems"]) == {"boat", "wake", "camera", "tiles", "advection", "screen",
                                     "lifecycle", "poisson", "placement", "foam", "spill",
-                                    "waves", "rain"}
+                                    "waves", "rain", "spray"}
     assert set(data["systems"]) == set(SYSTEM_ORDER) - {"draw"}
     for stats in [*data["systems"].values(), data["total"]]:
         assert 0 <= stats["p50_ms"] <= stats["p95_ms"] + 1e-9

@@ -58,6 +58,9 @@ class DisplaySettings:
     """Exponential distance fog [1/m]."""
     arrow_s: float = 4.0
     """Velocity arrows are this many seconds of travel long."""
+    fall_sheets: bool = True
+    """The falls' falling sheets drawn over the water in the shaded modes
+    (:mod:`riverflow.scenes.fall_sheets`); False: the water mesh alone (a cascade)."""
     rapids_wave_slope: float = 0.3
     """Slope of the standing waves on rapids where the surface is steepest (15 %; from 0 at
     2 %, ``shaders/rapids.glsl``); 0: none."""

@@ -13,6 +13,8 @@ import numbers
 import os
 from dataclasses import dataclass
 
+from riverflow.hydro.falls import FALL_MIN_DROP_M, RAPIDS_MIN_SLOPE
+
 
 @dataclass(frozen=True, slots=True)
 class RiverConfig:
@@ -120,6 +122,18 @@ class RiverConfig:
     random_offset_max_m: tuple[float, float] = (1.0, 1.0)
     """Upper corner of the random sprite offset box [m]."""
 
+    fall_min_drop_m: float = FALL_MIN_DROP_M
+    """A drop of the water level is a fall when it is larger than this [m] over less than its
+    own height along the river (issue #23; :func:`riverflow.hydro.falls.find_falls`). Falls
+    are found when a graph is built from water levels (GIS bed elevations, a DEM): a builder
+    takes it with ``builder.use_config(config)`` (the command line's ``--scene`` does, from
+    ``RIVERFLOW_FALL_MIN_DROP_M``); falls placed by hand are kept whatever their height."""
+
+    rapids_min_slope: float = RAPIDS_MIN_SLOPE
+    """A reach of water levels steeper than this [m/m] (and no fall) is a rapid (2 %;
+    :func:`riverflow.hydro.falls.find_rapids`), found at build time as ``fall_min_drop_m``
+    is. In (0, 0.5)."""
+
     max_step_s: float = 0.1
     """Longest simulation step [s]: a longer frame (a hitch, a debugger pause) is clamped so
     that particles never jump across a river."""
@@ -148,7 +162,7 @@ class RiverConfig:
                 raise ValueError(f"RiverConfig.{f.name} must be finite, got {value!r}")
         positive = ("capacity", "radius_px", "cull_radius_factor", "spawn_gap_factor",
                     "grid_cell_factor", "fade_in_s", "active_s", "fade_out_s",
-                    "search_radius_factor", "slip", "tile_cache_mb", "flow_tile_px", "terrain_tile_px", "max_step_s", "near_m", "far_m",
+                    "search_radius_factor", "slip", "tile_cache_mb", "flow_tile_px", "terrain_tile_px", "max_step_s", "near_m", "far_m", "fall_min_drop_m",
                     "fov_y_deg")
         for name in positive:
             value = getattr(self, name)
@@ -167,6 +181,9 @@ class RiverConfig:
                              f"got {self.tile_worker!r}")
         if self.spawn_gap_factor < self.cull_radius_factor:
             raise ValueError("RiverConfig.spawn_gap_factor must be ≥ cull_radius_factor")
+        if not 0.0 < self.rapids_min_slope < 0.5:
+            raise ValueError(f"RiverConfig.rapids_min_slope must lie in (0, 0.5) [m/m], got "
+                             f"{self.rapids_min_slope!r}")
         if self.far_m <= self.near_m:
             raise ValueError("RiverConfig.far_m must exceed near_m")
 

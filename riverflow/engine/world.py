@@ -37,6 +37,7 @@ from riverflow.components.display import DisplaySettings
 from riverflow.components.foam import FoamSettings
 from riverflow.components.particles import LiveParticles, ParticlePool
 from riverflow.components.rain import Rain
+from riverflow.components.spray import Spray
 from riverflow.components.river import Clock, FrameView, RiverNode, ScreenGrid, TerrainView, Tiles
 from riverflow.components.wake import Wakes
 from riverflow.engine.camera import Camera
@@ -131,7 +132,7 @@ class RiverWorld:
         terrain = TerrainView(z_min=float(scene.z_range_m[0]), z_max=float(scene.z_range_m[1]))
         for resource in (camera, c, Clock(speed_factor=c.speed_factor), FrameView(), terrain,
                          DisplaySettings(), self.tiles, Rain(seed=self.seed), FoamSettings(),
-                         Wakes()):
+                         Wakes(), Spray(seed=self.seed)):
             self.insert(resource)
         with self.active():
             self.river = esper.create_entity(RiverNode(scene.graph, field),

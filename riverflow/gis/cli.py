@@ -52,19 +52,24 @@ def read_water_args(path, args: argparse.Namespace):
                       inlets=getattr(args, "inlet", None), outlets=getattr(args, "outlet", None))
 
 
-def scene_graph(args: argparse.Namespace):
+def scene_graph(args: argparse.Namespace, config=None):
     """The hydro graph of ``--scene``: water polygons and masks through
     :func:`~riverflow.read_water`, GIS lines through :func:`~riverflow.read_rivers`
-    (``--layer``), anything else as a Proland graph file."""
+    (``--layer``), anything else as a Proland graph file. ``config``: the
+    :class:`~riverflow.engine.config.RiverConfig` whose fall and rapid thresholds the GIS
+    builders find falls with (default: the environment's, ``RiverConfig.from_env()``)."""
+    from riverflow.engine.config import RiverConfig
     from riverflow.gis.rivers import is_gis_path
     from riverflow.gis.water import holds_water_areas
 
+    config = RiverConfig.from_env() if config is None else config
     if holds_water_areas(args.scene, getattr(args, "layer", None)):
-        return read_water_args(args.scene, args).build()
+        return read_water_args(args.scene, args).use_config(config).build()
     if is_gis_path(args.scene):
         from riverflow.gis.rivers import read_rivers
 
-        return read_rivers(args.scene, layer=getattr(args, "layer", None)).build()
+        return read_rivers(args.scene, layer=getattr(args, "layer", None)).use_config(
+            config).build()
     from riverflow.hydro.io import load_graph
 
     return load_graph(args.scene)

@@ -106,7 +106,8 @@ class RiverNetworkBuilder:
     ``water_levels`` likewise (see :attr:`HydroGraph.water_levels`); where they are given,
     :meth:`build` also finds the falls in them: drops of more than ``fall_min_drop_m`` [m]
     over less than their own height along a branch (:func:`riverflow.hydro.falls.find_falls`;
-    None: none are looked for), and the rapids: reaches steeper than ``rapids_min_slope``
+    None: none are looked for; :meth:`use_config` takes it and ``rapids_min_slope`` from a
+    ``RiverConfig``), and the rapids: reaches steeper than ``rapids_min_slope``
     (2 %; :func:`~riverflow.hydro.falls.find_rapids`). Falls placed with :meth:`add_fall`
     and those found are the built graph's ``falls``; rapids (:meth:`add_rapids` and found)
     its ``rapids``.
@@ -123,17 +124,8 @@ class RiverNetworkBuilder:
         self.tolerance_m = float(tolerance_m)
         self.lateral_inflow = bool(lateral_inflow)
         self.fillet_fraction = float(fillet_fraction)
-        if fall_min_drop_m is not None and not (np.isfinite(fall_min_drop_m)
-                                                and fall_min_drop_m > 0):
-            raise GraphError(f"fall_min_drop_m must be a positive number of metres or None, "
-                             f"got {fall_min_drop_m!r}")
-        self.fall_min_drop_m = None if fall_min_drop_m is None else float(fall_min_drop_m)
+        self._set_thresholds(fall_min_drop_m, rapids_min_slope)
         self._falls: list[_FallInput] = []
-        if rapids_min_slope is not None and not (np.isfinite(rapids_min_slope)
-                                                 and 0 < rapids_min_slope < 0.5):
-            raise GraphError(f"rapids_min_slope must lie in (0, 0.5) [m/m] or be None, got "
-                             f"{rapids_min_slope!r}")
-        self.rapids_min_slope = None if rapids_min_slope is None else float(rapids_min_slope)
         self._rapids: list[tuple[int, float, float, float]] = []
         self._branches: list[_BranchInput] = []
         self._islands: list[_Island] = []
@@ -149,6 +141,26 @@ class RiverNetworkBuilder:
 
     # -- input --------------------------------------------------------------------------
 
+
+    def use_config(self, config) -> RiverNetworkBuilder:
+        """Find falls and rapids in the water levels with the thresholds of ``config`` (a
+        :class:`~riverflow.engine.config.RiverConfig`: its ``fall_min_drop_m`` and
+        ``rapids_min_slope``) when :meth:`build` runs; returns the builder. The builder's own
+        defaults are the same constants (:mod:`riverflow.hydro.falls`)."""
+        self._set_thresholds(config.fall_min_drop_m, config.rapids_min_slope)
+        return self
+
+    def _set_thresholds(self, fall_min_drop_m, rapids_min_slope) -> None:
+        if fall_min_drop_m is not None and not (np.isfinite(fall_min_drop_m)
+                                                and fall_min_drop_m > 0):
+            raise GraphError(f"fall_min_drop_m must be a positive number of metres or None, "
+                             f"got {fall_min_drop_m!r}")
+        if rapids_min_slope is not None and not (np.isfinite(rapids_min_slope)
+                                                 and 0 < rapids_min_slope < 0.5):
+            raise GraphError(f"rapids_min_slope must lie in (0, 0.5) [m/m] or be None, got "
+                             f"{rapids_min_slope!r}")
+        self.fall_min_drop_m = None if fall_min_drop_m is None else float(fall_min_drop_m)
+        self.rapids_min_slope = None if rapids_min_slope is None else float(rapids_min_slope)
     def add_branch(self, centerline, widths_m, discharge_m2s: float | None = None, *,
                    bezier: bool = False, name: str | None = None) -> int:
         """Add a branch drawn from upstream to downstream; returns its index.
@@ -590,8 +602,11 @@ def _rapid_on(g: BranchGeometry, a: float, e: float, drop_m: float, in_levels: b
         return (float(np.interp(at, s, g.centerline_m[:, 0])),
                 float(np.interp(at, s, g.centerline_m[:, 1])))
 
+    inside = (s >= a) & (s <= e)
+    width = max(float(np.interp(a, s, g.widths_m)), float(np.interp(e, s, g.widths_m)),
+                float(g.widths_m[inside].max()) if inside.any() else 0.0)
     return Rapid(g.name, a, e, float(drop_m), point(0.5 * (a + e)), point(a), point(e),
-                 in_levels)
+                 in_levels, width)
 
 
 def _lakes_of_graph(geoms, lakes, lake_ends, polygon_lake, tolerance_m):

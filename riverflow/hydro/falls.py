@@ -127,6 +127,16 @@ RAPIDS_FULL_SLOPE = 0.15
 (15 %: a cascade; a 3 % riffle gets a little of them), ``shaders/rapids.glsl``."""
 RAPIDS_MIN_LENGTH_M = 10.0
 """A steep stretch of water levels shorter than this [m] is no rapid (a sampling step)."""
+RAPIDS_SPEED_EXPONENT = 0.3
+"""On a rapid the flow is faster by (slope / RAPIDS_MIN_SLOPE) ** this: Manning's uniform
+flow at a fixed discharge per unit width, v = q^0.4 · S^0.3 / n^0.6, against the slope at which
+a reach starts being a rapid (the river's own speed comes from its discharge and width, not its
+slope: docs/deviations.md W11). A 3 % riffle: ×1.13; 10 %: ×1.62; 15 %: ×1.83…"""
+RAPIDS_MAX_GAIN = 2.5
+"""…at most this many times the river's speed."""
+RAPIDS_RAMP = (0.2, 2.0, 20.0)
+"""The flow speeds up over this fraction of a rapid's length before it, at least / at most
+this many metres, and slows back over as much after it."""
 
 
 @dataclass(frozen=True)
@@ -145,10 +155,20 @@ class Rapid:
     start_m: tuple[float, float]
     end_m: tuple[float, float]
     in_levels: bool = False
+    width_m: float = 0.0
+    """The river's widest [m] along the rapid (0: not known; the speed-up then reaches as
+    far across as the rapid is long)."""
 
     @property
     def slope(self) -> float:
         return self.drop_m / max(self.to_m - self.from_m, 1e-9)
+
+    @property
+    def speed_gain(self) -> float:
+        """How many times faster the water runs on the rapid than the river's own flow:
+        clip((slope / RAPIDS_MIN_SLOPE) ** RAPIDS_SPEED_EXPONENT, 1, RAPIDS_MAX_GAIN)."""
+        return float(np.clip((max(self.slope, 0.0) / RAPIDS_MIN_SLOPE) ** RAPIDS_SPEED_EXPONENT,
+                             1.0, RAPIDS_MAX_GAIN))
 
 
 def ramp_drop(s_m, drop_m: float, length_m: float) -> np.ndarray:

@@ -30,6 +30,7 @@ from riverflow.components.flow_tiles import FLOW_KIND, FlowTiles, flow_fields
 from riverflow.components.status import FlowStatus
 from riverflow.hydro.flow_network import FlowNetwork, build_flow_network
 from riverflow.hydro.graph import GraphError, HydroGraph
+from riverflow.hydro.falls import RAPIDS_RAMP
 from riverflow.kernels import falls as kfalls
 from riverflow.kernels import flow as kf
 from riverflow.kernels import obstacles as ko
@@ -184,6 +185,12 @@ class FlowField:
         """The graph's falls (:class:`riverflow.hydro.falls.Fall`): :meth:`query` speeds the
         flow up over them (:mod:`riverflow.kernels.falls`)."""
         self._fall_table: kfalls.FallTable | None = None
+        self._falls_box: tuple | None = None
+        self.rapids = list(getattr(graph, "rapids", []) or [])
+        """The graph's rapids (:class:`riverflow.hydro.falls.Rapid`): :meth:`query` speeds the
+        flow up on them by their ``speed_gain``, through the falls' kernel
+        (:meth:`rapid_table`)."""
+        self._rapid_table: kfalls.FallTable | None = None
 
     @classmethod
     def for_scene(cls, scene, slip: float = 1.0, search_radius_factor: float = 5.0,
@@ -366,25 +373,60 @@ class FlowField:
                     np.maximum(lip / speed, 1.0))
         return self._fall_table
 
+    def rapid_table(self) -> kfalls.FallTable:
+        """The rapids as rows of the falls' kernel (:class:`riverflow.kernels.falls.FallTable`;
+        a separate table: the foam's plunge term reads the falls' alone), made on first use:
+        a rapid is a "fall" whose lip is its start, across the river (its width), whose
+        "nappe" is its chord from start to end and whose gain is its ``speed_gain``; the flow
+        speeds up over RAPIDS_RAMP before it and slows back over as much after it."""
+        if self._rapid_table is None:
+            rows = [r for r in self.rapids if r.speed_gain > 1.0]
+            if not rows:
+                self._rapid_table = kfalls.empty_table()
+            else:
+                start = np.array([r.start_m for r in rows], np.float64)
+                chord = np.array([r.end_m for r in rows], np.float64) - start
+                length = np.maximum(np.hypot(*chord.T), 1e-6)
+                across = np.array([r.width_m if r.width_m > 0 else r.to_m - r.from_m
+                                   for r in rows])
+                frac, lo, hi = RAPIDS_RAMP
+                ramp = np.clip(frac * length, lo, hi)
+                self._rapid_table = kfalls.FallTable(
+                    start, chord / length[:, None], 0.5 * across,
+                    np.maximum(1.0, 0.1 * across), ramp, length, ramp,
+                    np.array([r.speed_gain for r in rows]))
+        return self._rapid_table
+
     def apply_falls(self, xy: np.ndarray, status: np.ndarray, velocity: np.ndarray,
                     n: int | None = None) -> int:
         """Speed up the velocities already queried (``xy`` (N, 2) float64 [m], ``status``
-        (N,) uint8, ``velocity`` (N, 2) float32 [m/s]; the first ``n``) over the falls, in
-        place (:func:`riverflow.kernels.falls.accelerate_falls`); returns how many changed.
-        Costs nothing without falls."""
-        if not self.falls:
+        (N,) uint8, ``velocity`` (N, 2) float32 [m/s]; the first ``n``) over the falls and
+        the rapids, in place (:func:`riverflow.kernels.falls.accelerate_falls`, once with
+        each table); returns how many changed (a point sped up by both counts twice). Costs
+        nothing without falls and rapids."""
+        if not self.falls and not self.rapids:
             return 0
-        table = self.fall_table()
-        if not len(table.gain):
-            return 0
-        return int(kfalls.accelerate_falls(xy, status, velocity, len(xy) if n is None else n,
-                                           table))
+        n = len(xy) if n is None else n
+        changed = 0
+        for table in (self.fall_table(), self.rapid_table()):
+            if len(table.gain):
+                changed += int(kfalls.accelerate_falls(xy, status, velocity, n, table))
+        return changed
 
     def falls_box(self) -> np.ndarray:
         """(4,) [m] xmin, ymin, xmax, ymax around where the water of every fall changes
         fast (FALL_BOX_M before its lip to FALL_BOX_M past where its nappe lands, across its
         lip): the particles there ask the flow and the surface every frame. Empty (inf, inf,
-        −inf, −inf) without falls."""
+        −inf, −inf) without falls. Made once for the list of falls (every frame asks it);
+        a copy."""
+        known = self._falls_box
+        if known is not None and known[0] is self.falls and known[1] == len(self.falls):
+            return known[2].copy()
+        box = self._make_falls_box()
+        self._falls_box = (self.falls, len(self.falls), box)
+        return box.copy()
+
+    def _make_falls_box(self) -> np.ndarray:
         if not self.falls:
             return np.array([np.inf, np.inf, -np.inf, -np.inf])
         lo, hi = [], []

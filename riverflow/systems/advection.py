@@ -164,7 +164,7 @@ def query_flow(field: FlowField, xy: np.ndarray, status: np.ndarray, velocity: n
     level = field.tiles.query_level
     query_velocity(xy, _NO_LEVELS, level, level, field.tiles.view(), field.tiles.cache.tick,
                    field.segments, n_velocity, status[:n], velocity[:n])
-    if field.falls and n_velocity:
+    if (field.falls or field.rapids) and n_velocity:     # sped up over falls and rapids
         field.apply_falls(xy, status, velocity, n_velocity)
     if len(field.obstacles) and n_velocity:
         field.apply_obstacles(xy[:n_velocity], status[:n_velocity], velocity[:n_velocity],

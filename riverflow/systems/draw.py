@@ -16,7 +16,8 @@ Per frame (reference §4; no one-frame latency: the tables are built from this f
    sprite as a quad adding (w·slope, w²) into a second float target;
 4. the water mesh tiles of the cut at the water level, shaded per :class:`DisplayMode`,
    blended over the bed drawn in step 2 (the shader writes what it adds and how much of the bed
-   shows through);
+   shows through); in the shaded modes the falls' sheets and spray over it
+   (:mod:`riverflow.systems.draw_falls`; the sheets also in the reflection pass);
 5. rain (:mod:`riverflow.systems.rain`): the drops as short streaks along their velocity
    (GL lines, depth-tested against the land and alpha-blended), and in step 4 ripple rings
    around the recent hits on the water, added to the water's slopes (none without rain);
@@ -65,6 +66,7 @@ from riverflow.components.status import FlowStatus
 from riverflow.components.waves import WaveTile
 from riverflow.engine import gl
 from riverflow.engine.system import System
+from riverflow.systems.draw_falls import FallSheets, SprayQuads
 from riverflow.hydro.falls import RAPIDS_FULL_SLOPE, RAPIDS_MIN_SLOPE
 from riverflow.hydro.spills import TINT_TEXELS, SpillTint
 from riverflow.kernels.foam import foam_pattern_mips
@@ -122,6 +124,8 @@ DROPS_PER_ROW = 1024
 """Rain drops per row of the drop table (two RGBA32F texels each: position, velocity)."""
 
 _SHADED_MODES = (DisplayMode.ADVECTED, DisplayMode.PRE_ADVECTED, DisplayMode.NON_ADVECTED)
+_GRID_MODES = (DisplayMode.ADVECTED, DisplayMode.COVERAGE, DisplayMode.FOAM)
+"""The modes whose water shader reads the sprite grid (blend_sprites)."""
 """The water modes shaded with reflections (the others draw debug colours)."""
 
 TERRAIN_SLOTS = 128
@@ -130,7 +134,9 @@ is ~80-110 tiles)."""
 
 FOAM_PATTERN_UNIT, WAKES_UNIT = 12, 13
 SPILL_UNIT = 9
-"""Texture unit of the spills' tint (issue 24, ``shaders/spill.glsl``)."""
+"""Texture unit of the spills' tint (issue 24, ``shaders/spill.glsl``). The falls' spray
+(SPRAY_UNIT) shares it: each binds its texture right before the program that reads it draws
+(the tint before every water pass, the spray after the water)."""
 """Texture units of the foam's lace pattern and the wake table (issue 12 items 1, 2)."""
 FOAM_PATTERN_PX = 256
 FOAM_SCALE_M = 3.0
@@ -138,7 +144,7 @@ FOAM_SCALE_M = 3.0
 
 
 PARAMS_UNIT, GRID_UNIT, WAVE_UNIT, ACCUM_UNIT, WATER_POSITION_UNIT = 2, 3, 1, 4, 5
-RIPPLES_UNIT, DROPS_UNIT, BINS_UNIT = 6, 7, 8
+RIPPLES_UNIT, DROPS_UNIT, BINS_UNIT, SPRAY_UNIT = 6, 7, 8, 9
 COMPOSITE_COLOUR_UNIT, COMPOSITE_DEPTH_UNIT = 0, 14
 """Texture units of the sprite table, sprite grid, wave tile, pre-advected sums, water
 position, ripple table, rain drops and sprite bins."""
@@ -163,6 +169,8 @@ class _Gpu:
             "arrows": gl.Program("arrows.glsl", defines),
             "props": gl.Program("props.glsl", defines),
             "rain": gl.Program("rain.glsl", defines),
+            "falls": gl.Program("falls.glsl", defines),
+            "spray": gl.Program("spray.glsl", defines),
             "composite": gl.Program("composite.glsl"),
         }
         # the uniforms that never change (texture units, constants), set once: not checked
@@ -202,6 +210,8 @@ class _Gpu:
         self.params_cpu = self.starts_cpu = self.scratch = None
         self.targets: list = []
         self.reflection = _Reflection()
+        self.fall_sheets = FallSheets()
+        self.spray = SprayQuads()
         gl.check_errors("creating the river draw resources")
 
     # -- sized resources --------------------------------------------------------------------
@@ -306,6 +316,8 @@ class _Gpu:
         self.waves.clear()
         self.targets = []
         self.reflection.delete()
+        self.fall_sheets.delete()
+        self.spray.delete()
 
 
 # -- tiles on the GPU --------------------------------------------------------------------------
@@ -574,6 +586,7 @@ _CONSTANT_UNIFORMS = dict(
     u_params=PARAMS_UNIT, u_grid=GRID_UNIT, u_wave=WAVE_UNIT, u_accum=ACCUM_UNIT,
     u_water_position=WATER_POSITION_UNIT, u_ripples=RIPPLES_UNIT, u_drops=DROPS_UNIT,
     u_bins=BINS_UNIT, u_foam_pattern=FOAM_PATTERN_UNIT, u_wakes=WAKES_UNIT, u_spill=SPILL_UNIT,
+    u_spray=SPRAY_UNIT,
     u_reflection=REFLECTION_UNIT, u_reflection_depth=REFLECTION_DEPTH_UNIT,
     u_colour=COMPOSITE_COLOUR_UNIT, u_depth=COMPOSITE_DEPTH_UNIT,
     u_sprite_radius_factor=SPRITE_RADIUS_FACTOR, u_foam_scale_m=FOAM_SCALE_M,
@@ -656,7 +669,7 @@ class DrawRivers(System):
         t0 = time.perf_counter_ns()
         n_drawn, n_entries = self._upload_tables(
             world, gpu, settings.show_particles or settings.show_velocities)
-        if settings.mode in (DisplayMode.ADVECTED, DisplayMode.COVERAGE):
+        if settings.mode in _GRID_MODES:
             self._make_grid(gpu, config.radius_px)
         self.last_tables_ms = (time.perf_counter_ns() - t0) * 1e-6
 
@@ -715,6 +728,11 @@ class DrawRivers(System):
             gl.set_blend(gl.BLEND_WATER)
             for mesh in water_meshes:
                 mesh.draw()
+            if mode in _SHADED_MODES and gpu.fall_sheets.in_view(world, clip_from_world):
+                if settings.fall_sheets:        # the falls' sheets and spray, over the water
+                    gpu.fall_sheets.draw(world, gpu.programs["falls"],
+                                         foam_uniforms["u_time_s"])
+                gpu.spray.draw(world, gpu.programs["spray"], gpu.empty, SPRAY_UNIT)
         self._draw_rain(gpu, rain)
         gl.set_depth(False, write=False)
         if settings.show_velocities and n_entries:
@@ -968,6 +986,9 @@ class DrawRivers(System):
         gl.set_clip_distance(True)
         self._draw_terrain(world, gpu, "exact" if exact else "coarse")
         self._draw_props(gpu, mirrored=True)
+        if settings.fall_sheets and gpu.fall_sheets.in_view(world, vp.T):   # the falls' sheets
+            gpu.fall_sheets.draw(world, gpu.programs["falls"], world.clock.now_s % 3600.0,
+                                 clip_level_m=level)
         gl.set_clip_distance(False)
         reflection.colour.generate_mipmaps()        # blurred levels for rough water
         reflection.colour.bind(REFLECTION_UNIT)

@@ -9,7 +9,7 @@
 7c. spills (issue 24: the tracers carried down the whole network, camera-independent)
 8. wave-tile animation
 8b. rain (seed 002: drops born in the view, falling, dying on the surface; it reads this
-   frame's camera and surface tiles)
+   frame's camera and surface tiles)   8c. spray (the falls' spray and mist, issue #23)
 9. drawing (``gl=True`` worlds only; it is the one "draw"-phase system: ``world.step`` runs
    1–8, ``world.draw`` / ``world.render`` run 9, so a game may step at a fixed rate and draw
    when it presents a frame)
@@ -32,6 +32,7 @@ from riverflow.systems.poisson import MaintainPoissonDisk
 from riverflow.systems.rain import MakeRain
 from riverflow.systems.screen import ProjectParticles
 from riverflow.systems.spill import AdvanceSpills
+from riverflow.systems.spray import MakeSpray
 from riverflow.systems.tiles import ProduceTiles
 from riverflow.systems.wake import UpdateWakes
 from riverflow.systems.waves import AnimateWaveTiles
@@ -50,6 +51,7 @@ SYSTEM_ORDER = (
     "spill",
     "waves",
     "rain",
+    "spray",
     "draw",
 )
 """Names of the default systems, in frame order."""
@@ -60,7 +62,7 @@ def default_systems(gl: bool = True) -> list[System]:
     draw system (and never imports OpenGL)."""
     systems = [MoveBoats(), UpdateWakes(), UpdateCamera(), ProduceTiles(), AdvectParticles(),
                ProjectParticles(), AgeParticles(), MaintainPoissonDisk(), PlaceNewParticles(),
-               UpdateFoam(), AdvanceSpills(), AnimateWaveTiles(), MakeRain()]
+               UpdateFoam(), AdvanceSpills(), AnimateWaveTiles(), MakeRain(), MakeSpray()]
     if gl:
         from riverflow.systems.draw import DrawRivers  # imports pyglet's GL: only when drawing
 

@@ -110,6 +110,37 @@ def test_falls_are_found_from_water_levels():
     assert b.build().falls == []
 
 
+def test_the_thresholds_come_from_the_river_config():
+    """RiverConfig.fall_min_drop_m (default 1 m) and rapids_min_slope reach a builder through
+    use_config; the builder's own defaults are the same numbers; bad values are named."""
+    from riverflow.engine.config import RiverConfig
+
+    config = RiverConfig()
+    assert config.fall_min_drop_m == 1.0 and config.rapids_min_slope == 0.02
+    fresh = RiverNetworkBuilder()
+    assert (fresh.fall_min_drop_m, fresh.rapids_min_slope) == (config.fall_min_drop_m,
+                                                               config.rapids_min_slope)
+
+    def levels(xy):                    # a 4 m fall at 400 m and a 3 % reach from 100 to 200 m
+        x = xy[:, 0]
+        return 30.0 - 3.0 * np.clip((x - 100.0) / 100.0, 0.0, 1.0) - np.where(x >= 400.0,
+                                                                               4.0, 0.0)
+
+    found = {}
+    for name, cfg in (("default", config),
+                      ("strict", RiverConfig(fall_min_drop_m=5.0, rapids_min_slope=0.04))):
+        b = _straight(fall=False).use_config(cfg)
+        b.water_levels = levels
+        g = b.build()
+        found[name] = (len(g.falls), len(g.rapids))
+    assert found == {"default": (1, 1), "strict": (0, 0)}
+    for bad, words in (({"fall_min_drop_m": 0.0}, "fall_min_drop_m must be positive"),
+                       ({"fall_min_drop_m": float("nan")}, "fall_min_drop_m must be finite"),
+                       ({"rapids_min_slope": 0.6}, "rapids_min_slope must lie in")):
+        with pytest.raises(ValueError, match=words):
+            RiverConfig(**bad)
+
+
 # -- the water surface -------------------------------------------------------------------------
 
 def test_the_surface_drops_along_the_nappe(scene):
@@ -287,3 +318,38 @@ def test_the_surface_slopes_down_a_rapid():
     assert z[1] - z[3] == pytest.approx(6.0, abs=0.05)      # + the river's own 0.05 %
     assert (z[1] - z[2]) == pytest.approx(3.0, abs=0.05)
     assert abs(z[0] - z[1]) < 0.1 and abs(z[3] - z[4]) < 0.1
+
+
+def test_the_flow_runs_faster_on_rapids_by_their_slope():
+    """Rapids speed the flow up through the falls' kernel (the same query correction): on a
+    10 % rapid by (10/2)^0.3 = 1.62, on a 3 % riffle of the same river by 1.13; upstream and
+    downstream the river's own flow; across the river the same gain, along the banks (only
+    the speed changes). The rapids' table rows are the kernel's twin's."""
+    from riverflow.hydro.falls import RAPIDS_MIN_SLOPE, RAPIDS_SPEED_EXPONENT
+    b = _straight(fall=False)
+    b.add_rapids(100.0, 160.0, 6.0)
+    b.add_rapids(300.0, 400.0, 3.0)
+    graph = b.build()
+    steep, riffle = graph.rapids
+    assert steep.width_m == pytest.approx(WIDTH) and riffle.slope == pytest.approx(0.03)
+    assert steep.speed_gain == pytest.approx((0.1 / RAPIDS_MIN_SLOPE) ** RAPIDS_SPEED_EXPONENT)
+    assert riffle.speed_gain == pytest.approx(1.129, abs=1e-3)
+    field = rf.FlowField(graph)
+    plain = rf.FlowField(_straight(fall=False).build())
+    pts = np.array([[x, y] for x in (40.0, 130.0, 350.0, 520.0) for y in (-5.0, 0.0, 5.0)])
+    status, v = field.query(pts)
+    _, v0 = plain.query(pts)
+    assert (status == rf.FlowStatus.INSIDE).all()
+    gain = (np.hypot(*v.T) / np.hypot(*v0.T)).reshape(4, 3)
+    assert np.allclose(gain[0], 1.0) and np.allclose(gain[3], 1.0)
+    assert np.allclose(gain[1], steep.speed_gain, rtol=1e-4)
+    assert np.allclose(gain[2], riffle.speed_gain, rtol=1e-4)
+    cos = np.einsum("ij,ij->i", v, v0) / (np.hypot(*v.T) * np.hypot(*v0.T))
+    assert np.all(cos > 1 - 1e-6)
+    # the twin: the whole gain field over the rapids' table
+    p = np.stack([np.linspace(60.0, 460.0, 401), np.zeros(401)], 1)
+    s, vq = field.query(p)
+    _, vp = plain.query(p)
+    want = _factor_twin(field.rapid_table(), p)
+    assert np.allclose(np.hypot(*vq.T) / np.hypot(*vp.T), want, rtol=1e-4)
+    assert want.max() == pytest.approx(steep.speed_gain) and (want == 1.0).sum() > 50

@@ -1,6 +1,7 @@
 """A fall drawn (issue #23), offscreen on Mesa's llvmpipe, tiny frames: seen from the side, the
-water covers the band between lip and pool where the ground shows without it; the plunge pool
-is whiter than the river 50 m below it (the foam mode)."""
+falling sheet covers the band between lip and pool where the ground shows without it, and its
+streaks move down between two frames; the plunge pool is whiter than the river 50 m below it
+(the foam mode)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -10,6 +11,7 @@ import pytest
 
 import riverflow as rf
 from riverflow.components.display import DisplayMode
+from riverflow.engine import gl
 from riverflow.engine.config import RiverConfig
 from tests.hydro.test_falls import DROP, LIP_X, _straight
 
@@ -23,10 +25,14 @@ RAPID = (100.0, 160.0, 6.0)
 
 
 @pytest.fixture(scope="module")
-def world(gl_context):
+def scene():
     b = _straight()
     b.add_rapids(*RAPID)
-    scene = rf.landscape(b.build(), seed=0)
+    return rf.landscape(b.build(), seed=0)
+
+
+@pytest.fixture(scope="module")
+def world(gl_context, scene):
     w = rf.RiverWorld(scene, size=(W, H), gl=True, seed=0,
                       config=RiverConfig(radius_px=5.0, tile_production="blocking"))
     yield w
@@ -38,6 +44,9 @@ def _lip(world) -> float:
 
 
 def test_a_fall_seen_from_the_side_is_a_sheet_of_water(world):
+    """From the pool's side, the band the nappe spans on screen shows the ground without the
+    water (mode NONE); drawn, it is water-coloured (blue at least red: water or white foam,
+    where grass and sand are not) and it is the falling sheet's (it changes with it)."""
     (f,) = world.scene.graph.falls
     lip = _lip(world)
     # from the pool's side, obliquely, a little above the pool
@@ -46,10 +55,13 @@ def test_a_fall_seen_from_the_side_is_a_sheet_of_water(world):
     for _ in range(10):
         world.step(1 / 30)
     frames = {}
-    for mode in (DisplayMode.NONE, DisplayMode.MESH):
+    for name, mode, sheets in (("ground", DisplayMode.NONE, True),
+                               ("water", DisplayMode.ADVECTED, False),
+                               ("sheet", DisplayMode.ADVECTED, True)):
         world.display.mode = mode
-        frames[mode] = world.render()[..., :3].astype(int)
-    world.display.mode = DisplayMode.ADVECTED
+        world.display.fall_sheets = sheets
+        frames[name] = world.render()[..., :3].astype(int)
+    gl.check_errors("drawing the falling sheet and spray")
     # the band the nappe spans on screen: between the lip and the pool, across the river
     corners = np.array([[LIP_X + 0.3 * f.throw_m, -6.0, lip - 0.09 * DROP],
                         [LIP_X + 0.7 * f.throw_m, 6.0, lip - 0.49 * DROP]])
@@ -58,22 +70,119 @@ def test_a_fall_seen_from_the_side_is_a_sheet_of_water(world):
     x0, x1 = sorted(px[:, 0].astype(int))
     y0, y1 = sorted((H - px[:, 1]).astype(int))          # rows from the top
     band = (slice(max(y0, 0), min(y1 + 1, H)), slice(max(x0, 0), min(x1 + 1, W)))
-    changed = np.abs(frames[DisplayMode.MESH][band] - frames[DisplayMode.NONE][band]).sum(-1)
+    ground, sheet = frames["ground"][band], frames["sheet"][band]
+    changed = np.abs(sheet - ground).sum(-1)
     assert changed.size >= 20
     assert (changed > 30).mean() > 0.8        # water where the ground showed
+    land = ground[..., 2] < ground[..., 0]              # grass, sand, rock (else sky)
+    assert land.mean() > 0.3
+    assert (sheet[land][:, 2] >= sheet[land][:, 0]).mean() > 0.9   # now water, foam
+    assert (np.abs(sheet - frames["water"][band]).sum(-1) > 30).mean() > 0.5   # the sheet
 
 
-def test_the_plunge_pool_is_whiter_than_the_river_below(world):
+def test_the_sheets_texture_moves_down_with_the_falling_water(world):
+    """Two frames 2/30 s apart, the camera still in front of the fall: the sheet's pixels
+    match best shifted down the screen (the streaks fall with the water, at 4-11 m/s: a few
+    pixels here), and better down than up."""
+    (f,) = world.scene.graph.falls
+    lip = _lip(world)
+    world.camera.look_at((LIP_X + 14.0, -3.0, lip - DROP + 1.0),
+                         (LIP_X + 0.5 * f.throw_m, 0.0, lip - 0.5 * DROP))
+    from riverflow.components.spray import Spray
+    spray = world.resource(Spray)
+    spray.enabled = False                   # the sheet alone (the mist drifts over it)
+    try:
+        world.step(1 / 30)
+        world.display.fall_sheets = False
+        off = world.render()[..., :3].astype(float)
+        world.display.fall_sheets = True
+        a = world.render()[..., :3].astype(float)
+        world.step(1 / 30)
+        world.step(1 / 30)
+        b = world.render()[..., :3].astype(float)
+    finally:
+        spray.enabled = True
+    cols = slice(W // 4, 3 * W // 4)
+    sheet = np.abs(a - off).sum(-1)[:, cols] > 30
+    rows = np.flatnonzero(sheet.mean(1) > 0.95)             # the rows the sheet covers
+    rows = rows[:1 + np.argmax(np.append(np.diff(rows) != 1, True))]   # (the first run)
+    assert len(rows) > 15
+    r0, r1 = rows[0] + 3, rows[-1] - 3
+    la, lb = a.mean(-1)[:, cols], b.mean(-1)[:, cols]
+    err = {k: np.abs(la[r0:r1] - lb[r0 + k:r1 + k]).mean() for k in range(-3, 4)}
+    best = min(err, key=err.get)
+    assert best > 0, err                                    # rows grow down the screen
+    assert err[best] < err[0] - 0.5 and err[best] < err[-best] - 2.0, err
+
+
+def test_the_pool_mirrors_the_sheet(world):
+    """Low over the pool, looking at the fall (spray off): with reflections, drawing the
+    sheet changes pixels of the pool below it that it does not cover itself (its mirror
+    image: the sheet is drawn into the reflection pass too)."""
+    from riverflow.components.spray import Spray
+    lip = _lip(world)
+    world.camera.look_at((LIP_X + 35.0, -3.0, lip - DROP + 1.2), (LIP_X, 0.0, lip - DROP + 0.5))
+    world.step(1 / 30)
+    spray, display = world.resource(Spray), world.display
+    frames = {}
+    try:
+        spray.enabled = False
+        for reflect in (False, True):
+            display.reflections = reflect
+            for sheets in (True, False):
+                display.fall_sheets = sheets
+                frames[reflect, sheets] = world.render()[..., :3].astype(float)
+    finally:
+        spray.enabled, display.reflections, display.fall_sheets = True, True, True
+    direct = np.abs(frames[False, True] - frames[False, False]).sum(-1) > 10
+    mirrored = np.abs(frames[True, True] - frames[True, False]).sum(-1) > 10
+    only = mirrored & ~direct
+    assert direct.sum() > 200
+    assert only.sum() > 60, only.sum()
+    assert np.median(np.nonzero(only)[0]) > np.nonzero(direct)[0].max()    # below the foot
+
+
+def test_spray_and_mist_whiten_the_air_over_the_impact(world):
+    """From below the fall, the air 1-3 m over where the nappe lands is whiter with the
+    spray drawn than without it (Spray.enabled), and the mist is soft: no pixel turns
+    white."""
+    from riverflow.components.spray import Spray
+    (f,) = world.scene.graph.falls
+    lip = _lip(world)
+    world.camera.look_at((LIP_X + 30.0, -4.0, lip - DROP + 2.0), (LIP_X, 0.0, lip - DROP + 1.5))
+    for _ in range(30):
+        world.step(1 / 30)
+    spray = world.resource(Spray)
+    shots = {}
+    for on in (False, True):
+        spray.enabled = on
+        shots[on] = world.render()[..., :3].astype(float).mean(-1)
+    assert spray.count == spray.per_fall
+    probes = np.array([[LIP_X + f.throw_m + 1.0, y, lip - DROP + z]
+                       for y in (-6.0, -3.0, 0.0, 3.0, 6.0) for z in (1.0, 2.0, 3.0)])
+    px, _, front = world.camera.world_to_screen(probes)
+    assert front.all()
+    cols, rows = px[:, 0].astype(int), (H - px[:, 1]).astype(int)
+    assert ((cols >= 0) & (cols < W) & (rows >= 0) & (rows < H)).all()
+    gain = shots[True][rows, cols] - shots[False][rows, cols]
+    assert gain.mean() > 8.0, gain
+    assert np.abs(shots[True] - shots[False]).max() < 200.0
+
+
+def test_the_plunge_pool_is_whiter_than_the_river_below(gl_context, scene):
+    """In the foam mode, from a world's first drawn frame (the mode makes its own sprite
+    grid: it once showed only what an advected frame before it had left)."""
+    world = rf.RiverWorld(scene, size=(W, H), gl=True, seed=0,
+                          config=RiverConfig(radius_px=5.0, tile_production="blocking"))
     (f,) = world.scene.graph.falls
     lip = _lip(world)
     pool_x = LIP_X + f.throw_m + 4.0
     world.camera.look_at((pool_x + 25.0, -45.0, lip + 25.0), (pool_x + 25.0, 0.0, lip - DROP))
     for _ in range(60):
         world.step(1 / 30)
-    world.render()      # the foam mode shows what the last water frame drew (as in
-    world.display.mode = DisplayMode.FOAM   # tests/render/test_foam_wake_render.py)
+    world.display.mode = DisplayMode.FOAM
     image = world.render()[..., :3].astype(float).mean(-1)
-    world.display.mode = DisplayMode.ADVECTED
+    world.close()
     probes = np.array([[pool_x + dx, dy, lip - DROP] for dx in (0.0, 50.0)
                        for dy in (-4.0, 0.0, 4.0)])
     px, _, front = world.camera.world_to_screen(probes)

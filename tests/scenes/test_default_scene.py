@@ -2,6 +2,7 @@
 and never floats above the terrain or sinks below its bed."""
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -214,11 +215,17 @@ def test_a_rivers_self_clearance_by_chunks_is_the_pairwise_answer():
     assert 10 <= sum(answers) <= 50          # both answers are exercised
 
 
-def test_falls_true_puts_a_fall_and_a_rapid_on_the_tributary_and_leaves_the_rest(scene):
+@pytest.fixture(scope="module")
+def falls_scene():
+    return default_scene(seed=0, falls=True)
+
+
+def test_falls_true_puts_a_fall_and_a_rapid_on_the_tributary_and_leaves_the_rest(
+        scene, falls_scene):
     """``default_scene(falls=True)`` (issue 23): a 6 m fall and a 6 % rapid on the tributary;
     the water above them is raised, so every other branch keeps its levels."""
     from riverflow.scenes.default import FALL_DROP_M, RAPIDS_SLOPE
-    falls = default_scene(seed=0, falls=True)
+    falls = falls_scene
     (f,) = falls.graph.falls
     (r,) = falls.graph.rapids
     assert f.branch == r.branch == "tributary" and f.drop_m == FALL_DROP_M
@@ -233,3 +240,26 @@ def test_falls_true_puts_a_fall_and_a_rapid_on_the_tributary_and_leaves_the_rest
         if b.name != "tributary":
             pts = b.centerline_m[::10]
             assert np.allclose(falls.water.level(pts), scene.water.level(pts), atol=1e-9)
+
+
+def test_the_demos_chase_camera_passes_the_fall(falls_scene):
+    """``riverflow demo --falls``: the boat starts FALL_START_M above the fall on its axis,
+    heading down the tributary to it, and the chase camera sees the lip from there (that a
+    boat carried to a lip goes over it, camera and all, is tests/engine/test_falls_world.py's;
+    a BoatDemo world on the 4 km scene would cost this suite seconds)."""
+    from riverflow.demo import FALL_START_M, _start_pose
+    from riverflow.engine.camera import Camera
+    from riverflow.engine.camera_rigs import ChaseCamera
+    (f,) = falls_scene.graph.falls
+    c, t = np.asarray(f.centre_m), np.asarray(f.direction)
+    lip = float(falls_scene.water.level(c[None])[0])
+    position, heading = _start_pose(falls_scene)
+    assert (position - c) @ t == pytest.approx(-FALL_START_M, abs=2.0)
+    assert abs((position - c) @ np.array([-t[1], t[0]])) < 0.25 * f.width_m   # on its axis
+    assert math.cos(heading - math.atan2(t[1], t[0])) > 0.99
+    assert falls_scene.water.contains(position[None])[0]
+    camera = Camera(size_px=(64, 36))
+    ChaseCamera().update(camera, (*position, lip), heading, 0.0)
+    px, _, front = camera.world_to_screen(np.array([[*c, lip], [*(c + f.throw_m * t),
+                                                                lip - f.drop_m]]))
+    assert front.all() and np.all((px >= 0) & (px < (64, 36)))
