@@ -16,12 +16,19 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
 
+SHARED_MEMO_MB = 96.0
+"""The shared built-in scenes' tile memo (a world's default 24 MB holds about one view)."""
+
+
 def _share_built_in_scenes() -> None:
     """Each test process builds each built-in scene once: ``default_scene`` (1.5 s of CPU for
     the 4 km one, 11 s for 1000 km, asked for by some fifty tests) hands back a new
-    ``Landscape`` that shares the network, terrain and water of the first call with the same
-    arguments, with a tile memo of its own, so no test reads tiles another test made.
-    ``REAL_DEFAULT_SCENE`` builds afresh (tests/scenes/test_default_scene.py's determinism)."""
+    ``Landscape`` that shares the network, terrain, water and tile memo of the first call with
+    the same arguments, as a game reopening a level does (deviation T8): a world's first view
+    takes the array tiles earlier tests made (the same bytes: tests/render/test_first_frame.py
+    compares). A test about making tiles gives its scene a memo of its own (``TileMemo()``, or
+    ``TileMemo(0)`` for none). ``REAL_DEFAULT_SCENE`` builds afresh
+    (tests/scenes/test_default_scene.py's determinism)."""
     import dataclasses
     import functools
 
@@ -32,7 +39,9 @@ def _share_built_in_scenes() -> None:
 
     @functools.lru_cache(maxsize=6)
     def built(seed, size_km, falls):
-        return real(seed=seed, size_km=size_km, falls=falls)
+        scene = real(seed=seed, size_km=size_km, falls=falls)
+        scene.tile_memo = TileMemo(SHARED_MEMO_MB)
+        return scene
 
     @functools.wraps(real)
     def shared(seed=0, size_km=4.0, *, falls=False):
@@ -40,7 +49,7 @@ def _share_built_in_scenes() -> None:
             scene = built(seed, size_km, falls)
         except TypeError:            # an unhashable argument: the real one says what is wrong
             return real(seed=seed, size_km=size_km, falls=falls)
-        return dataclasses.replace(scene, tile_memo=TileMemo())
+        return dataclasses.replace(scene)
 
     default.default_scene = shared
     globals()["REAL_DEFAULT_SCENE"] = real
