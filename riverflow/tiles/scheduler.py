@@ -350,7 +350,9 @@ class TileScheduler:
             try:
                 data = self._produce(job.kind, job.key, deps)
             except Exception as exc:  # reported on the main thread by collect()
-                error = exc
+                # (by its type and message: its traceback's frames hold this scheduler, a
+                # cycle that would keep a dropped world's tiles until the collector ran)
+                error = exc.with_traceback(None)
         if data is not None:
             with self._lock:
                 self._fresh[item] = data
