@@ -1394,6 +1394,23 @@ class SlotArena:
         draws.offsets[:n] = 4 * int(first)
         draws.call(self.vao, mode, n)
 
+    def draw_parts(self, slots: np.ndarray, counts: np.ndarray, firsts: np.ndarray,
+                   mode: int = gl.GL_TRIANGLES) -> None:
+        """Draw the meshes in ``slots`` (K,) (in that order), each through P ranges of the
+        index buffer, ``counts`` and ``firsts`` (K, P) indices (a tile's core and its edges'
+        variants), with one multi-draw call of K·P draws."""
+        k, parts = np.shape(counts)
+        n = k * parts
+        if n == 0:
+            return
+        draws = self._draws
+        draws.room(n)
+        base = draws.base[:n].reshape(k, parts)
+        np.multiply(np.asarray(slots)[:, None], self.slot_vertices, out=base, casting="unsafe")
+        draws.counts[:n].reshape(k, parts)[...] = counts
+        np.multiply(firsts, 4, out=draws.offsets[:n].reshape(k, parts), casting="unsafe")
+        draws.call(self.vao, mode, n)
+
     def _grow(self, capacity: int) -> None:
         if capacity * self.slot_vertices >= 2 ** 31:
             raise ValueError(f"{capacity} slots of {self.slot_vertices} vertices are past "

@@ -288,31 +288,42 @@ def _drawn_terrain(world) -> dict[int, np.ndarray]:
 
 def _assert_own_data(world, drawn, pool) -> None:
     """Each drawn slot holds its own tile's vertices: as the pool holds them, or stitched to
-    the frame's coarser neighbours (the border and skirt only; what was stitched, recorded)."""
-    from riverflow.scenes.meshes import coarser_neighbours, stitch_tile
+    neighbours more than log2(n) levels coarser (the border and skirt only; what was
+    stitched, recorded); and it is drawn through the index ranges of its edges' level
+    differences to the frame's coarser neighbours."""
+    from riverflow.scenes.meshes import coarser_neighbours, edge_levels_up, stitch_tile
     from riverflow.tiles.table import code_key, tile_code
     terrain = world._drawer().gpu.terrain
     keys = np.array(sorted(code_key(c) for c in drawn))
     across = coarser_neighbours(keys)
+    up = edge_levels_up(keys, across)
     n = world.scene.terrain.tile_cells
     side = n + 1
     inner = np.zeros((side, side), bool)
     inner[1:-1, 1:-1] = True
+    (core_count, core_first), edge = terrain.tables["full"]
+    counts, firsts = terrain.parts["full"]
     for r, key in enumerate(keys.tolist()):
         code = tile_code(*key)
         data = pool.get(code)
         vertices = drawn[code]
+        aslot = int(terrain.arena_slot[pool.slot(code)])
+        k = np.minimum(up[r], edge.shape[1] - 1)
+        assert counts[aslot].tolist() == [core_count] + edge[range(4), k, 0].tolist()
+        assert firsts[aslot].tolist() == [core_first] + edge[range(4), k, 1].tolist()
         grid = vertices[:side * side][inner.ravel()]
         np.testing.assert_array_equal(grid, data.vertices[:side * side][inner.ravel()])
         stitched = terrain.stitched.get(pool.slot(code))
-        if (across[r] < 0).all():
+        big = np.where(up[r] > terrain.max_up, across[r], -1)
+        if (big < 0).all():
             assert stitched is None
             np.testing.assert_array_equal(vertices, data.vertices)
         else:
             neighbours = [(e, tuple(keys[m].tolist()), drawn[tile_code(*keys[m])])
-                          for e, m in enumerate(across[r].tolist()) if m >= 0]
+                          for e, m in enumerate(big.tolist()) if m >= 0]
             np.testing.assert_array_equal(vertices, stitch_tile(data.vertices, key,
                                                                 data.skirt_m, neighbours))
+    assert (up > 0).any()                 # the view has level borders
 
 
 def _drawn_at_the_first_view():
@@ -383,8 +394,8 @@ def test_the_same_drawn_set_is_not_stitched_again(gl_context, monkeypatch):
         terrain = drawer.gpu.terrain
         pool = world.tiles.cache.pools[TERRAIN_MESH]
         calls = []
-        stitch = type(terrain)._stitch
-        monkeypatch.setattr(type(terrain), "_stitch",
+        stitch = type(terrain)._seams
+        monkeypatch.setattr(type(terrain), "_seams",
                             lambda self, *a: (calls.append(1), stitch(self, *a))[1])
         before = _drawn_terrain(world)
         drawer._tiles_for = None                   # as after a change of the cut or a pool
