@@ -3,9 +3,9 @@ no GL: the draw system uploads these arrays as they are, into shared GPU buffers
 terrain tile, a run per water tile), and gives the room back when the tile leaves the cache.
 Nothing here spans the whole map.
 
-**Terrain** (:func:`tile_terrain_mesh`, :func:`tile_indices`). Every terrain tile has n cells
-per side (its quadtree level sets their size) and the same vertex layout, so one index buffer
-serves all tiles. Its ``V = (n + 1)² + 4n`` vertices are
+**Terrain** (:func:`tile_terrain_mesh`, :func:`tile_indices`, :func:`tile_index_parts`). Every
+terrain tile has n cells per side (its quadtree level sets their size) and the same vertex
+layout, so one index buffer serves all tiles. Its ``V = (n + 1)² + 4n`` vertices are
 
 * ``j * (n + 1) + i`` (0 ≤ i, j ≤ n): the grid sample at the tile's node (i, j), at
   ``(x0 + i·cell, y0 + j·cell)`` with the height tile's height there (row-major, row = y);
@@ -26,10 +26,16 @@ shader instead; its rivers need no mesh, reference §4.1).
 
 A skirt fills the crack but shows as a thin wall where the finer border bends below the
 coarser one (seen from the side, a zig-zag fence on the grass). So the drawn tiles' borders
-are also *stitched* (:func:`coarser_neighbours`, :func:`stitch_tile`): along an edge whose
-neighbour is coarser, the finer tile's border vertices are moved onto the coarser one's
-border as drawn (linear between its nodes; normal, water level and shore distance with
-them), at any level difference, so the two share their edge exactly and the skirts only
+follow their coarser neighbours (:func:`coarser_neighbours`, :func:`edge_levels_up`) through
+*edge index variants* (:func:`tile_index_parts`, the usual way of tiled terrain engines): a
+tile's triangles are a core plus, per edge, a strip for each level difference k, which uses
+only every 2^k-th border node (the nodes the neighbour has, with the same heights: point
+samples of one height function) and fans the skipped ones' neighbours to them. The vertex data
+is never changed for it: the draw system picks each tile's five index ranges when the drawn
+set changes. Only a neighbour more than log2(n) levels coarser has no node at the finer
+tile's corners; then :func:`stitch_tile` moves the tile's border vertices onto its border
+(linear between its nodes; normal, water level and shore distance with them) and the tile is
+re-uploaded, a rare case. Either way the two share their edge exactly and the skirts only
 cover the rasteriser's pinholes where edges meet in T-junctions.
 
 **Water** (:func:`triangulate_water`, :class:`WaterMesh`). A tile's water mesh triangulates

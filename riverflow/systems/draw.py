@@ -42,8 +42,10 @@ GPU objects follow the tile cache: a terrain or water tile is uploaded when it i
 and released when the cache evicts it (:class:`_TerrainTiles`, :class:`_WaterTiles`). Every
 terrain tile has the same vertex count and the same triangles, so all of them share GPU
 buffers (a :class:`~riverflow.engine.gl.SlotArena`: one vertex buffer of fixed-size slots, one
-index buffer holding the full and the reflection's coarse index ranges, one vertex array), and
-a pass draws all of a frame's terrain tiles, near to far, with one multi-draw call.
+index buffer holding the full and the reflection's coarse meshes in parts: a core and, per
+edge, a strip for each level difference to the neighbour across, one vertex array), and a
+pass draws all of a frame's terrain tiles, near to far, with one multi-draw call (five ranges
+a tile, chosen when the drawn set changes: the seams to coarser neighbours cost no upload).
 """
 from __future__ import annotations
 
