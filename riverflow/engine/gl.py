@@ -1339,6 +1339,8 @@ class SlotArena:
         """Times the vertex buffer grew after it was made."""
         self._free: list[int] = []
         self._draws = _MultiDraw()
+        self._part_draws: dict[str, list] = {}
+        """:meth:`draw_parts`' kept calls by name: [arrays, (revision, slots) filled for]."""
         self._grow(max(1, int(capacity)))
 
     def __len__(self) -> int:
@@ -1395,20 +1397,33 @@ class SlotArena:
         draws.call(self.vao, mode, n)
 
     def draw_parts(self, slots: np.ndarray, counts: np.ndarray, firsts: np.ndarray,
-                   mode: int = gl.GL_TRIANGLES) -> None:
+                   cache: tuple | None = None, mode: int = gl.GL_TRIANGLES) -> None:
         """Draw the meshes in ``slots`` (K,) (in that order), each through P ranges of the
-        index buffer, ``counts`` and ``firsts`` (K, P) indices (a tile's core and its edges'
-        variants), with one multi-draw call of K·P draws."""
-        k, parts = np.shape(counts)
+        index buffer given by slot: ``counts`` and ``firsts`` (S, P) int32 / int64 indices
+        (a terrain tile's core and its edges' variants), with one multi-draw call of K·P
+        draws. ``cache`` (name, revision): the call's arrays are kept under that name and
+        filled again only when the slots or the revision (of the tables) change."""
+        k, parts = len(slots), counts.shape[1]
         n = k * parts
         if n == 0:
             return
-        draws = self._draws
+        slots = np.ascontiguousarray(slots)
+        if cache is None:
+            draws, signature = self._draws, None
+        else:
+            kept = self._part_draws.setdefault(cache[0], [_MultiDraw(), None])
+            draws, signature = kept[0], (cache[1], slots.dtype.str, slots.tobytes())
+            if kept[1] == signature:
+                draws.call(self.vao, mode, n)
+                return
+            kept[1] = signature
         draws.room(n)
-        base = draws.base[:n].reshape(k, parts)
-        np.multiply(np.asarray(slots)[:, None], self.slot_vertices, out=base, casting="unsafe")
-        draws.counts[:n].reshape(k, parts)[...] = counts
-        np.multiply(firsts, 4, out=draws.offsets[:n].reshape(k, parts), casting="unsafe")
+        np.multiply(slots[:, None], self.slot_vertices,
+                    out=draws.base[:n].reshape(k, parts), casting="unsafe")
+        np.take(counts, slots, axis=0, out=draws.counts[:n].reshape(k, parts))
+        offsets = draws.offsets[:n].reshape(k, parts)
+        np.take(firsts, slots, axis=0, out=offsets)
+        offsets *= 4
         draws.call(self.vao, mode, n)
 
     def _grow(self, capacity: int) -> None:

@@ -399,6 +399,8 @@ class _TerrainTiles(_PoolSync):
                       for name in tables}
         """By mesh, by arena slot: (counts, firsts) (S, 5) of the tile's five index ranges
         (core, edges) for the neighbours of the last set drawn."""
+        self.revision = 0
+        """Counts the changes of ``parts`` (the arena refills its draw arrays after one)."""
         self.arena_slot = np.zeros(0, np.int32)
         self.centre = np.zeros((0, 3))
         self.stitched: dict[int, tuple[tuple, np.ndarray]] = {}
@@ -449,6 +451,7 @@ class _TerrainTiles(_PoolSync):
         """Choose each tile's index ranges for the level differences to its coarser
         neighbours among ``tiles`` (:func:`edge_levels_up`), and stitch the vertices of those
         with a neighbour more than ``max_up`` levels coarser (:meth:`_stitch`)."""
+        self.revision += 1
         across = coarser_neighbours(tiles.keys)
         up = edge_levels_up(tiles.keys, across)
         aslots = self.arena_slot[tiles.slots]
@@ -500,8 +503,7 @@ class _TerrainTiles(_PoolSync):
     def draw(self, slots: np.ndarray, mesh: str) -> None:
         """Draw the tiles in arena ``slots`` (in that order) through ``mesh``'s index ranges
         ("full", "coarse", "exact"), with one multi-draw."""
-        counts, firsts = self.parts[mesh]
-        self.arena.draw_parts(slots, counts[slots], firsts[slots])
+        self.arena.draw_parts(slots, *self.parts[mesh], cache=(mesh, self.revision))
 
     def _grow_parts(self, n: int) -> None:
         for name, (counts, firsts) in self.parts.items():

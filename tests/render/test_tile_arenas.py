@@ -106,6 +106,57 @@ def test_one_multi_draw_draws_what_the_tiles_drawn_one_by_one_draw(target, rng):
             mesh.delete()
 
 
+def test_draw_parts_draws_each_slot_through_its_own_ranges_and_keeps_its_arrays(target, rng):
+    """``draw_parts``: each slot through its own P ranges of the shared indices (the terrain
+    tiles' core and edge variants), in the slots' order, as drawing each mesh range by range;
+    with ``cache`` the arrays are refilled when the slots' order or the revision changes."""
+    from riverflow.engine import gl
+    indices = _grid_indices(CELLS)
+    tiles = [_tile(rng) for _ in range(8)]
+    arena = gl.SlotArena(len(tiles[0]), ATTRIBUTES, indices, capacity=8)
+    meshes = [gl.Mesh(t, ATTRIBUTES, indices) for t in tiles]
+    slots = np.array([arena.alloc() for _ in tiles], np.int32)
+    for slot, tile in zip(slots, tiles):
+        arena.upload(slot, tile)
+    tris = len(indices)
+    counts = np.zeros((arena.capacity, 2), np.int32)
+    firsts = np.zeros((arena.capacity, 2), np.int64)
+
+    def ranges():             # two random runs of whole triangles per slot
+        for s in slots.tolist():
+            a, b = np.sort(rng.choice(tris, 2, replace=False))
+            counts[s], firsts[s] = (3 * (b - a), 3 * (tris - b)), (3 * a, 3 * b)
+
+    def one_by_one(order):
+        def draw():
+            for k in order:
+                s = int(slots[k])
+                for c, f in zip(counts[s].tolist(), firsts[s].tolist()):
+                    meshes[k].draw(count=c, first=f)
+        return draw
+
+    try:
+        ranges()
+        order = rng.permutation(len(tiles))
+        parts = target(lambda: arena.draw_parts(slots[order], counts, firsts, cache=("t", 0)))
+        np.testing.assert_array_equal(parts, target(one_by_one(order)))
+        assert len(np.unique(parts.reshape(-1, 4), axis=0)) > 20
+        np.testing.assert_array_equal(
+            target(lambda: arena.draw_parts(slots[order], counts, firsts)), parts)
+        order = order[::-1]                       # another order: refilled
+        np.testing.assert_array_equal(
+            target(lambda: arena.draw_parts(slots[order], counts, firsts, cache=("t", 0))),
+            target(one_by_one(order)))
+        ranges()                                  # new ranges: a new revision refills
+        np.testing.assert_array_equal(
+            target(lambda: arena.draw_parts(slots[order], counts, firsts, cache=("t", 1))),
+            target(one_by_one(order)))
+    finally:
+        arena.delete()
+        for mesh in meshes:
+            mesh.delete()
+
+
 def test_slots_are_reused_after_release(gl_context, rng):
     from riverflow.engine import gl
     arena = gl.SlotArena((CELLS + 1) ** 2, ATTRIBUTES, _grid_indices(CELLS), capacity=4)
