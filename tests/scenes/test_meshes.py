@@ -555,7 +555,7 @@ def test_tile_index_parts_tile_the_tile_once_at_every_level_difference(n, stride
     gj, gi = np.divmod(np.arange(side * side), side)
     bi, bj = border_loop(n)
     xy = np.vstack([np.stack([gi, gj], 1), np.stack([bi, bj], 1)]).astype(np.float64)
-    pts = rng.uniform(0, n, size=(1500, 2))
+    pts = rng.uniform(0, n, size=(600, 2))
     for combo in [(0, 0, 0, 0), (1, 0, 2, 0), (levels - 1,) * 4,
                   *(tuple(rng.integers(0, levels, 4)) for _ in range(3))]:
         strips = [parts.edges[e][k][:len(parts.edges[e][k]) - parts.skirt_counts[e][k]]
