@@ -1411,7 +1411,9 @@ class SlotArena:
         if cache is None:
             draws, signature = self._draws, None
         else:
-            kept = self._part_draws.setdefault(cache[0], [_MultiDraw(), None])
+            kept = self._part_draws.get(cache[0])
+            if kept is None:
+                kept = self._part_draws[cache[0]] = [_MultiDraw(), None]
             draws, signature = kept[0], (cache[1], slots.dtype.str, slots.tobytes())
             if kept[1] == signature:
                 draws.call(self.vao, mode, n)

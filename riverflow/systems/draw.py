@@ -357,7 +357,7 @@ class _TerrainTiles(_PoolSync):
     without them for the tests' reference reflection,
     :attr:`DrawRivers.debug_exact_reflection`) and the reflection's coarser one (every
     TERRAIN_STRIDE-th node, no skirts: mirrored, a skirt hangs in front of the ground).
-    Each tile is drawn as five ranges (``parts``, by arena slot), chosen when the frame's set
+    Each tile is drawn as five ranges (``counts``, ``firsts``, by arena slot), chosen when the frame's set
     of tiles changes. A neighbour more than log2(n) levels coarser has no node on a whole
     edge of the tile: then the tile's border vertices are moved onto its border
     (:func:`~riverflow.scenes.meshes.stitch_tile`) and re-uploaded, the rare case."""
@@ -378,7 +378,6 @@ class _TerrainTiles(_PoolSync):
         for name, parts in (("full", tile_index_parts(cells)),
                             ("coarse", tile_index_parts(cells, stride, skirts=False))):
             core = put(parts.core)
-            levels = len(parts.edges[0])
             edge = np.array([[put(part) for part in parts.edges[e]] for e in range(4)],
                             np.int64)                                    # (4, L, 2)
             tables[name] = (core, edge)
@@ -392,15 +391,25 @@ class _TerrainTiles(_PoolSync):
         (count, first) by level difference (4, L, 2) in the index buffer."""
         self.max_up = level_count(cells) - 1
         """The largest level difference whose coarse nodes lie on a tile's edge: log2(n)."""
+        self.meshes = tuple(tables)
+        # the edges' ranges by level difference 0 … max_up + 1 (all beyond: the last), edge,
+        # mesh: (max_up + 2, 4, M) counts and firsts (each mesh's own levels clamped)
+        ups = np.arange(self.max_up + 2)
+        lut = np.stack([edge[:, np.minimum(ups, edge.shape[1] - 1)].transpose(1, 0, 2)
+                        for _, edge in tables.values()], axis=2)        # (U, 4, M, 2)
+        self._lut_counts = lut[..., 0].astype(np.int32)
+        self._lut_firsts = lut[..., 1].astype(np.int64)
+        self._core = np.array([core for core, _ in tables.values()], np.int64)   # (M, 2)
         # position, normal, water level seen, distance to the shore
         self.arena = gl.SlotArena((cells + 1) ** 2 + 4 * cells, {0: 3, 1: 3, 2: 1, 3: 1},
                                   np.concatenate(chunks), TERRAIN_SLOTS)
-        self.parts = {name: (np.zeros((0, 5), np.int32), np.zeros((0, 5), np.int64))
-                      for name in tables}
-        """By mesh, by arena slot: (counts, firsts) (S, 5) of the tile's five index ranges
-        (core, edges) for the neighbours of the last set drawn."""
+        self.counts = np.zeros((0, len(tables), 5), np.int32)
+        self.firsts = np.zeros((0, len(tables), 5), np.int64)
+        """By arena slot and mesh: the counts and firsts of the tile's five index ranges (core,
+        edges) for the neighbours of the last set drawn."""
         self.revision = 0
-        """Counts the changes of ``parts`` (the arena refills its draw arrays after one)."""
+        """Counts the changes of ``counts`` and ``firsts`` (the arena refills its draw arrays
+        after one)."""
         self.arena_slot = np.zeros(0, np.int32)
         self.centre = np.zeros((0, 3))
         self.stitched: dict[int, tuple[tuple, np.ndarray]] = {}
@@ -455,15 +464,15 @@ class _TerrainTiles(_PoolSync):
         across = coarser_neighbours(tiles.keys)
         up = edge_levels_up(tiles.keys, across)
         aslots = self.arena_slot[tiles.slots]
-        if len(self.parts["full"][0]) < self.arena.capacity:
+        if len(self.counts) < self.arena.capacity:
             self._grow_parts(self.arena.capacity)
-        for name, (core, edge) in self.tables.items():
-            counts, firsts = self.parts[name]
-            kk = np.minimum(up, edge.shape[1] - 1)
-            chosen = edge[np.arange(4)[None, :], kk]                    # (K, 4, 2)
-            counts[aslots, 0], firsts[aslots, 0] = core
-            counts[aslots, 1:], firsts[aslots, 1:] = chosen[..., 0], chosen[..., 1]
-        self._stitch(pool, tiles, np.where(up > self.max_up, across, -1))
+        kk = np.minimum(up, self.max_up + 1)
+        e4 = np.arange(4)
+        self.counts[aslots, :, 1:] = self._lut_counts[kk, e4].transpose(0, 2, 1)
+        self.firsts[aslots, :, 1:] = self._lut_firsts[kk, e4].transpose(0, 2, 1)
+        if self.stitched or up.max(initial=0) > self.max_up:      # rare: a neighbour
+            self._stitch(pool, tiles, np.where(up > self.max_up, across, -1))  # far coarser
+
 
     def _stitch(self, pool: TilePool, tiles: Standins, across: np.ndarray) -> None:
         """Upload each tile of ``tiles`` stitched to the much coarser neighbours ``across``
@@ -503,14 +512,17 @@ class _TerrainTiles(_PoolSync):
     def draw(self, slots: np.ndarray, mesh: str) -> None:
         """Draw the tiles in arena ``slots`` (in that order) through ``mesh``'s index ranges
         ("full", "coarse", "exact"), with one multi-draw."""
-        self.arena.draw_parts(slots, *self.parts[mesh], cache=(mesh, self.revision))
+        m = self.meshes.index(mesh)
+        self.arena.draw_parts(slots, self.counts[:, m], self.firsts[:, m],
+                              cache=(mesh, self.revision))
 
     def _grow_parts(self, n: int) -> None:
-        for name, (counts, firsts) in self.parts.items():
-            grown_counts = np.zeros((n, 5), np.int32)
-            grown_firsts = np.zeros((n, 5), np.int64)
-            grown_counts[:len(counts)], grown_firsts[:len(firsts)] = counts, firsts
-            self.parts[name] = (grown_counts, grown_firsts)
+        old = len(self.counts)
+        counts = np.zeros((n,) + self.counts.shape[1:], np.int32)
+        firsts = np.zeros((n,) + self.firsts.shape[1:], np.int64)
+        counts[:old], firsts[:old] = self.counts, self.firsts
+        counts[old:, :, 0], firsts[old:, :, 0] = self._core[:, 0], self._core[:, 1]
+        self.counts, self.firsts = counts, firsts
 
     def _grow(self, n: int) -> None:
         old = len(self.code_of)

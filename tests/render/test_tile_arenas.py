@@ -353,7 +353,8 @@ def _assert_own_data(world, drawn, pool) -> None:
     inner = np.zeros((side, side), bool)
     inner[1:-1, 1:-1] = True
     (core_count, core_first), edge = terrain.tables["full"]
-    counts, firsts = terrain.parts["full"]
+    full = terrain.meshes.index("full")
+    counts, firsts = terrain.counts[:, full], terrain.firsts[:, full]
     for r, key in enumerate(keys.tolist()):
         code = tile_code(*key)
         data = pool.get(code)
