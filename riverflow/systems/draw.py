@@ -357,7 +357,7 @@ class _TerrainTiles(_PoolSync):
     without them for the tests' reference reflection,
     :attr:`DrawRivers.debug_exact_reflection`) and the reflection's coarser one (every
     TERRAIN_STRIDE-th node, no skirts: mirrored, a skirt hangs in front of the ground).
-    Each tile is drawn as five ranges (``counts``, ``firsts``, by arena slot), chosen when the frame's set
+    Each tile is drawn as five ranges (``counts``, ``offsets``, by arena slot), chosen when the frame's set
     of tiles changes. A neighbour more than log2(n) levels coarser has no node on a whole
     edge of the tile: then the tile's border vertices are moved onto its border
     (:func:`~riverflow.scenes.meshes.stitch_tile`) and re-uploaded, the rare case."""
@@ -398,17 +398,17 @@ class _TerrainTiles(_PoolSync):
         lut = np.stack([edge[:, np.minimum(ups, edge.shape[1] - 1)].transpose(1, 0, 2)
                         for _, edge in tables.values()], axis=2)        # (U, 4, M, 2)
         self._lut_counts = lut[..., 0].astype(np.int32)
-        self._lut_firsts = lut[..., 1].astype(np.int64)
+        self._lut_offsets = 4 * lut[..., 1].astype(np.int64)          # bytes
         self._core = np.array([core for core, _ in tables.values()], np.int64)   # (M, 2)
         # position, normal, water level seen, distance to the shore
         self.arena = gl.SlotArena((cells + 1) ** 2 + 4 * cells, {0: 3, 1: 3, 2: 1, 3: 1},
                                   np.concatenate(chunks), TERRAIN_SLOTS)
         self.counts = np.zeros((0, len(tables), 5), np.int32)
-        self.firsts = np.zeros((0, len(tables), 5), np.int64)
-        """By arena slot and mesh: the counts and firsts of the tile's five index ranges (core,
-        edges) for the neighbours of the last set drawn."""
+        self.offsets = np.zeros((0, len(tables), 5), np.int64)
+        """By arena slot and mesh: the index counts and first indices' byte offsets of the
+        tile's five index ranges (core, edges) for the neighbours of the last set drawn."""
         self.revision = 0
-        """Counts the changes of ``counts`` and ``firsts`` (the arena refills its draw arrays
+        """Counts the changes of ``counts`` and ``offsets`` (the arena refills its draw arrays
         after one)."""
         self.arena_slot = np.zeros(0, np.int32)
         self.centre = np.zeros((0, 3))
@@ -469,7 +469,7 @@ class _TerrainTiles(_PoolSync):
         kk = np.minimum(up, self.max_up + 1)
         e4 = np.arange(4)
         self.counts[aslots, :, 1:] = self._lut_counts[kk, e4].transpose(0, 2, 1)
-        self.firsts[aslots, :, 1:] = self._lut_firsts[kk, e4].transpose(0, 2, 1)
+        self.offsets[aslots, :, 1:] = self._lut_offsets[kk, e4].transpose(0, 2, 1)
         if self.stitched or up.max(initial=0) > self.max_up:      # rare: a neighbour
             self._stitch(pool, tiles, np.where(up > self.max_up, across, -1))  # far coarser
 
@@ -513,16 +513,16 @@ class _TerrainTiles(_PoolSync):
         """Draw the tiles in arena ``slots`` (in that order) through ``mesh``'s index ranges
         ("full", "coarse", "exact"), with one multi-draw."""
         m = self.meshes.index(mesh)
-        self.arena.draw_parts(slots, self.counts[:, m], self.firsts[:, m],
+        self.arena.draw_parts(slots, self.counts[:, m], self.offsets[:, m],
                               cache=(mesh, self.revision))
 
     def _grow_parts(self, n: int) -> None:
         old = len(self.counts)
         counts = np.zeros((n,) + self.counts.shape[1:], np.int32)
-        firsts = np.zeros((n,) + self.firsts.shape[1:], np.int64)
-        counts[:old], firsts[:old] = self.counts, self.firsts
-        counts[old:, :, 0], firsts[old:, :, 0] = self._core[:, 0], self._core[:, 1]
-        self.counts, self.firsts = counts, firsts
+        offsets = np.zeros((n,) + self.offsets.shape[1:], np.int64)
+        counts[:old], offsets[:old] = self.counts, self.offsets
+        counts[old:, :, 0], offsets[old:, :, 0] = self._core[:, 0], 4 * self._core[:, 1]
+        self.counts, self.offsets = counts, offsets
 
     def _grow(self, n: int) -> None:
         old = len(self.code_of)

@@ -138,18 +138,19 @@ def test_draw_parts_draws_each_slot_through_its_own_ranges_and_keeps_its_arrays(
     try:
         ranges()
         order = rng.permutation(len(tiles))
-        parts = target(lambda: arena.draw_parts(slots[order], counts, firsts, cache=("t", 0)))
+        parts = target(lambda: arena.draw_parts(slots[order], counts, 4 * firsts,
+                                                cache=("t", 0)))
         np.testing.assert_array_equal(parts, target(one_by_one(order)))
         assert len(np.unique(parts.reshape(-1, 4), axis=0)) > 20
         np.testing.assert_array_equal(
-            target(lambda: arena.draw_parts(slots[order], counts, firsts)), parts)
+            target(lambda: arena.draw_parts(slots[order], counts, 4 * firsts)), parts)
         order = order[::-1]                       # another order: refilled
         np.testing.assert_array_equal(
-            target(lambda: arena.draw_parts(slots[order], counts, firsts, cache=("t", 0))),
+            target(lambda: arena.draw_parts(slots[order], counts, 4 * firsts, cache=("t", 0))),
             target(one_by_one(order)))
         ranges()                                  # new ranges: a new revision refills
         np.testing.assert_array_equal(
-            target(lambda: arena.draw_parts(slots[order], counts, firsts, cache=("t", 1))),
+            target(lambda: arena.draw_parts(slots[order], counts, 4 * firsts, cache=("t", 1))),
             target(one_by_one(order)))
     finally:
         arena.delete()
@@ -354,7 +355,7 @@ def _assert_own_data(world, drawn, pool) -> None:
     inner[1:-1, 1:-1] = True
     (core_count, core_first), edge = terrain.tables["full"]
     full = terrain.meshes.index("full")
-    counts, firsts = terrain.counts[:, full], terrain.firsts[:, full]
+    counts, firsts = terrain.counts[:, full], terrain.offsets[:, full] // 4
     for r, key in enumerate(keys.tolist()):
         code = tile_code(*key)
         data = pool.get(code)
