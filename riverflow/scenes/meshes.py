@@ -361,8 +361,8 @@ def _zip_strip(bp: np.ndarray, bv: np.ndarray, ip: np.ndarray, iv: np.ndarray,
     """Triangles (T, 3) joining a border polyline (positions ``bp``, vertices ``bv``) and the
     inner one (``ip``, ``iv``) running beside it: from the first pair to the last, each
     triangle advances the side whose next node comes first along the edge (``tie_inner``:
-    the inner side on a tie), counter-clockwise seen from +z (the border on the right, looking
-    along the edge from inside... the loop runs counter-clockwise)."""
+    the inner side on a tie), counter-clockwise seen from +z (positions grow along the
+    border loop's counter-clockwise direction, the inner line on its left)."""
     out = []
     b = i = 0
     while b < len(bp) - 1 or i < len(ip) - 1:
