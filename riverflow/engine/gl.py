@@ -1339,6 +1339,9 @@ class SlotArena:
         """Times the vertex buffer grew after it was made."""
         self._free: list[int] = []
         self._draws = _MultiDraw()
+        self._part_draws: dict[str, list] = {}
+        self._part_base = np.zeros((0, 0), np.int32)     # by slot and part: its base vertex
+        """:meth:`draw_parts`' kept calls by name: [arrays, (revision, slots) filled for]."""
         self._grow(max(1, int(capacity)))
 
     def __len__(self) -> int:
@@ -1392,6 +1395,39 @@ class SlotArena:
         np.multiply(slots, self.slot_vertices, out=draws.base[:n], casting="unsafe")
         draws.counts[:n] = count
         draws.offsets[:n] = 4 * int(first)
+        draws.call(self.vao, mode, n)
+
+    def draw_parts(self, slots: np.ndarray, counts: np.ndarray, offsets: np.ndarray,
+                   cache: tuple | None = None, mode: int = gl.GL_TRIANGLES) -> None:
+        """Draw the meshes in ``slots`` (K,) (in that order), each through P ranges of the
+        index buffer given by slot: ``counts`` (S, P) int32 indices and ``offsets`` (S, P)
+        int64 their first index's byte offset (4 × the index: a terrain tile's core and its
+        edges' variants), with one multi-draw call of K·P draws. ``cache`` (name,
+        revision): the call's arrays are kept under that name and filled again only when
+        the slots or the revision (of the tables) change."""
+        k, parts = len(slots), counts.shape[1]
+        n = k * parts
+        if n == 0:
+            return
+        if cache is None:
+            draws = self._draws
+        else:
+            kept = self._part_draws.get(cache[0])
+            if kept is None:
+                kept = self._part_draws[cache[0]] = [_MultiDraw(), None]
+            draws, signature = kept[0], (cache[1], slots.dtype.str, slots.tobytes())
+            if kept[1] == signature:
+                draws.call(self.vao, mode, n)
+                return
+            kept[1] = signature
+        if self._part_base.shape != (self.capacity, parts):
+            self._part_base = np.repeat(
+                (np.arange(self.capacity, dtype=np.int32) * self.slot_vertices)[:, None],
+                parts, axis=1)
+        draws.room(n)
+        np.take(self._part_base, slots, axis=0, out=draws.base[:n].reshape(k, parts))
+        np.take(counts, slots, axis=0, out=draws.counts[:n].reshape(k, parts))
+        np.take(offsets, slots, axis=0, out=draws.offsets[:n].reshape(k, parts))
         draws.call(self.vao, mode, n)
 
     def _grow(self, capacity: int) -> None:

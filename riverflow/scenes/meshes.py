@@ -3,9 +3,9 @@ no GL: the draw system uploads these arrays as they are, into shared GPU buffers
 terrain tile, a run per water tile), and gives the room back when the tile leaves the cache.
 Nothing here spans the whole map.
 
-**Terrain** (:func:`tile_terrain_mesh`, :func:`tile_indices`). Every terrain tile has n cells
-per side (its quadtree level sets their size) and the same vertex layout, so one index buffer
-serves all tiles. Its ``V = (n + 1)² + 4n`` vertices are
+**Terrain** (:func:`tile_terrain_mesh`, :func:`tile_indices`, :func:`tile_index_parts`). Every
+terrain tile has n cells per side (its quadtree level sets their size) and the same vertex
+layout, so one index buffer serves all tiles. Its ``V = (n + 1)² + 4n`` vertices are
 
 * ``j * (n + 1) + i`` (0 ≤ i, j ≤ n): the grid sample at the tile's node (i, j), at
   ``(x0 + i·cell, y0 + j·cell)`` with the height tile's height there (row-major, row = y);
@@ -26,10 +26,16 @@ shader instead; its rivers need no mesh, reference §4.1).
 
 A skirt fills the crack but shows as a thin wall where the finer border bends below the
 coarser one (seen from the side, a zig-zag fence on the grass). So the drawn tiles' borders
-are also *stitched* (:func:`coarser_neighbours`, :func:`stitch_tile`): along an edge whose
-neighbour is coarser, the finer tile's border vertices are moved onto the coarser one's
-border as drawn (linear between its nodes; normal, water level and shore distance with
-them), at any level difference, so the two share their edge exactly and the skirts only
+follow their coarser neighbours (:func:`coarser_neighbours`, :func:`edge_levels_up`) through
+*edge index variants* (:func:`tile_index_parts`, the usual way of tiled terrain engines): a
+tile's triangles are a core plus, per edge, a strip for each level difference k, which uses
+only every 2^k-th border node (the nodes the neighbour has, with the same heights: point
+samples of one height function) and fans the skipped ones' neighbours to them. The vertex data
+is never changed for it: the draw system picks each tile's five index ranges when the drawn
+set changes. Only a neighbour more than log2(n) levels coarser has no node at the finer
+tile's corners; then :func:`stitch_tile` moves the tile's border vertices onto its border
+(linear between its nodes; normal, water level and shore distance with them) and the tile is
+re-uploaded, a rare case. Either way the two share their edge exactly and the skirts only
 cover the rasteriser's pinholes where edges meet in T-junctions.
 
 **Water** (:func:`triangulate_water`, :class:`WaterMesh`). A tile's water mesh triangulates
@@ -46,6 +52,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 import shapely
@@ -194,6 +201,15 @@ def coarser_neighbours(keys: np.ndarray) -> np.ndarray:
     return out
 
 
+def edge_levels_up(keys: np.ndarray, across: np.ndarray) -> np.ndarray:
+    """How many levels coarser the tile across each edge is, (K, 4) int64 (0: as fine or
+    finer, or none), for the drawn tiles ``keys`` (K, 3) and their :func:`coarser_neighbours`
+    ``across`` (K, 4): which of :func:`tile_index_parts`' edge variants each tile draws."""
+    level = np.asarray(keys, np.int64).reshape(-1, 3)[:, 0]
+    across = np.asarray(across, np.int64)
+    return np.where(across >= 0, level[:, None] - level[np.maximum(across, 0)], 0)
+
+
 def _edge_nodes(e: int, n: int) -> tuple[np.ndarray, np.ndarray]:
     """(i, j) of the nodes of edge ``e`` of an n-cell tile, along it (x or y growing)."""
     k = np.arange(n + 1)
@@ -270,6 +286,94 @@ def tile_indices(n: int, stride: int = 1, skirts: bool = True) -> np.ndarray:
     b0, b1 = side * side + k0, side * side + k1
     skirt = np.concatenate([np.stack([t0, b0, b1], 1), np.stack([t0, b1, t1], 1)])
     return np.concatenate([grid, skirt]).astype(np.uint32)
+
+
+class TileIndexParts(NamedTuple):
+    """A terrain tile's triangles (:func:`tile_index_parts`) in five parts drawn together:
+    ``core`` (T, 3) uint32, the cells at least one ``stride`` from the border, and ``edges``,
+    for each edge (:data:`EDGE_OFFSETS` order) and each level difference k = 0 … L − 1 to the
+    neighbour across it, the strip between the edge and the core's outline (T, 3) uint32
+    through every (stride·2^k)-th border node (at most the whole edge), then its skirt."""
+
+    core: np.ndarray
+    edges: list[list[np.ndarray]]
+    skirt_counts: list[list[int]]
+    """Triangles of each ``edges`` part that are skirt (its last ones; 0 without skirts)."""
+
+
+def tile_index_parts(n: int, stride: int = 1, skirts: bool = True) -> TileIndexParts:
+    """The triangles of an n-cell tile (:func:`tile_indices`' vertices and winding) as a
+    core and per-edge strips, one strip per level difference to the neighbour across the
+    edge: the terrain's seams without touching the vertices (the usual edge index-buffer
+    variants of tiled terrain). Toward a neighbour k levels coarser the strip uses every
+    2^k-th border node only, the nodes the neighbour has (its border drawn linear between
+    them: the same heights at the same places), fanned to the core's outline one node in; the
+    border nodes in between are skipped, so the two tiles share their edge exactly. Beyond
+    log2(n / stride) levels the edge is one segment (its corners, not the neighbour's nodes:
+    :func:`stitch_tile` moves them). At k = 0 with ``stride`` 1 the parts hold the same
+    triangles as :func:`tile_indices` but in two corner cells, cut along their other diagonal.
+    ``stride`` (dividing n, n / stride ≥ 2) draws every stride-th node (the reflection)."""
+    if stride < 1 or n % stride or n // stride < 2:
+        raise ValueError(f"stride {stride} must divide the tile's {n} cells at least twice")
+    side = n + 1
+    s = stride
+    g = np.arange(s, n - s, s)
+    jj, ii = np.meshgrid(g, g, indexing="ij")
+    a = (jj * side + ii).ravel()
+    b, c, d = a + s, a + s * (side + 1), a + s * side
+    core = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)]).reshape(-1, 3)
+    bi, bj = border_loop(n)
+    levels = level_count(n // s)
+    edges, skirt_counts = [], []
+    for e in range(4):
+        # the edge in the loop's direction, position p = 0 … n; inward one stride
+        p = np.arange(n + 1)
+        loop = (e * n + p) % (4 * n)
+        inward = np.array([(0, 1), (-1, 0), (0, -1), (1, 0)][e])
+        inner = np.arange(s, n - s + 1, s)
+        inner_ij = np.stack([bi[(e * n + inner) % (4 * n)], bj[(e * n + inner) % (4 * n)]], 1) \
+            + s * inward
+        inner_v = inner_ij[:, 1] * side + inner_ij[:, 0]
+        border_v = bj[loop] * side + bi[loop]
+        tie_inner = e in (0, 2)                  # as tile_indices' diagonals at k = 0
+        parts, counts = [], []
+        for k in range(levels):
+            step = min(s << k, n)
+            bp = np.arange(0, n + 1, step)
+            tris = _zip_strip(bp, border_v[bp], inner, inner_v, tie_inner)
+            if skirts:
+                t0, t1 = border_v[bp[:-1]], border_v[bp[1:]]
+                b0 = side * side + loop[bp[:-1]]
+                b1 = side * side + (e * n + bp[1:]) % (4 * n)
+                skirt = np.concatenate([np.stack([t0, b0, b1], 1), np.stack([t0, b1, t1], 1)])
+                tris = np.concatenate([tris, skirt])
+                counts.append(len(skirt))
+            else:
+                counts.append(0)
+            parts.append(tris.astype(np.uint32))
+        edges.append(parts)
+        skirt_counts.append(counts)
+    return TileIndexParts(core.astype(np.uint32), edges, skirt_counts)
+
+
+def _zip_strip(bp: np.ndarray, bv: np.ndarray, ip: np.ndarray, iv: np.ndarray,
+               tie_inner: bool) -> np.ndarray:
+    """Triangles (T, 3) joining a border polyline (positions ``bp``, vertices ``bv``) and the
+    inner one (``ip``, ``iv``) running beside it: from the first pair to the last, each
+    triangle advances the side whose next node comes first along the edge (``tie_inner``:
+    the inner side on a tie), counter-clockwise seen from +z (positions grow along the
+    border loop's counter-clockwise direction, the inner line on its left)."""
+    out = []
+    b = i = 0
+    while b < len(bp) - 1 or i < len(ip) - 1:
+        if i == len(ip) - 1 or (b < len(bp) - 1 and (bp[b + 1] < ip[i + 1] or (
+                bp[b + 1] == ip[i + 1] and not tie_inner))):
+            out.append((bv[b], bv[b + 1], iv[i]))
+            b += 1
+        else:
+            out.append((bv[b], iv[i + 1], iv[i]))
+            i += 1
+    return np.array(out, np.int64).reshape(-1, 3)
 
 
 # -- water --------------------------------------------------------------------------------

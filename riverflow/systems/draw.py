@@ -43,8 +43,10 @@ GPU objects follow the tile cache: a terrain or water tile is uploaded when it i
 and released when the cache evicts it (:class:`_TerrainTiles`, :class:`_WaterTiles`). Every
 terrain tile has the same vertex count and the same triangles, so all of them share GPU
 buffers (a :class:`~riverflow.engine.gl.SlotArena`: one vertex buffer of fixed-size slots, one
-index buffer holding the full and the reflection's coarse index ranges, one vertex array), and
-a pass draws all of a frame's terrain tiles, near to far, with one multi-draw call.
+index buffer holding the full and the reflection's coarse meshes in parts: a core and, per
+edge, a strip for each level difference to the neighbour across, one vertex array), and a
+pass draws all of a frame's terrain tiles, near to far, with one multi-draw call (five ranges
+a tile, chosen when the drawn set changes: the seams to coarser neighbours cost no upload).
 """
 from __future__ import annotations
 
@@ -76,7 +78,8 @@ from riverflow.kernels.sprites import (MAX_PER_CELL, NO_PARTICLE, PARTICLES_PER_
                                        SPRITE_RADIUS_FACTOR, TEXELS_PER_PARTICLE, bin_texels,
                                        build_sprite_tables, empty_sprite_tables, slot_span,
                                        sprite_bins, sprite_grid_shape, sprite_source)
-from riverflow.scenes.meshes import coarser_neighbours, stitch_tile, tile_indices
+from riverflow.scenes.meshes import (coarser_neighbours, edge_levels_up, level_count,
+                                     stitch_tile, tile_index_parts)
 from riverflow.scenes.props import SHAPES
 from riverflow.scenes.reflection import (MIN_EYE_HEIGHT_M, MIRROR_CUT_M, MIRROR_REFRESH_M,
                                          MIRROR_REFRESH_RAD, TERRAIN_STRIDE, ease_level, mirror_level, mirrored_view_projection,
@@ -367,40 +370,84 @@ class _PoolSync:
 class _TerrainTiles(_PoolSync):
     """The terrain tiles on the GPU: each in a slot of one :class:`~riverflow.engine.gl.SlotArena`
     (``arena_slot`` by pool slot), its centre kept for the near-to-far order. The index buffer
-    holds every tile's triangles (:func:`~riverflow.scenes.meshes.tile_indices`) three times:
-    the full mesh, the reflection's coarser one (every TERRAIN_STRIDE-th node, no skirts:
-    mirrored, a skirt hangs in front of the ground), and every node without skirts (the
-    tests' reference reflection, :attr:`DrawRivers.debug_exact_reflection`)."""
+    holds every tile's triangles in parts (:func:`~riverflow.scenes.meshes.tile_index_parts`):
+    a core and, per edge, one strip for each level difference to the neighbour across it
+    (the edge index-buffer variants: toward a coarser neighbour only the border nodes it has,
+    so the vertex data is never changed for a seam); twice: the full mesh with skirts (drawn
+    without them for the tests' reference reflection,
+    :attr:`DrawRivers.debug_exact_reflection`) and the reflection's coarser one (every
+    TERRAIN_STRIDE-th node, no skirts: mirrored, a skirt hangs in front of the ground).
+    Each tile is drawn as five ranges (``counts``, ``offsets``, by arena slot), chosen when the frame's set
+    of tiles changes. A neighbour more than log2(n) levels coarser has no node on a whole
+    edge of the tile: then the tile's border vertices are moved onto its border
+    (:func:`~riverflow.scenes.meshes.stitch_tile`) and re-uploaded, the rare case."""
 
     def __init__(self, cells: int) -> None:
         super().__init__()
-        full = tile_indices(cells).ravel()
-        stride = TERRAIN_STRIDE if cells % TERRAIN_STRIDE == 0 else 1
-        coarse = tile_indices(cells, stride, skirts=False).ravel()
-        exact = tile_indices(cells, skirts=False).ravel()
-        self.ranges = {"full": (len(full), 0), "coarse": (len(coarse), len(full)),
-                       "exact": (len(exact), len(full) + len(coarse))}
-        """(count, first) of each mesh in the index buffer."""
+        self.cells = int(cells)
+        stride = TERRAIN_STRIDE if cells % TERRAIN_STRIDE == 0 \
+            and cells // TERRAIN_STRIDE >= 2 else 1
+        chunks: list[np.ndarray] = []
+
+        def put(tris: np.ndarray) -> tuple[int, int]:
+            first = sum(len(c) for c in chunks)
+            chunks.append(tris.ravel())
+            return tris.size, first
+
+        tables = {}
+        for name, parts in (("full", tile_index_parts(cells)),
+                            ("coarse", tile_index_parts(cells, stride, skirts=False))):
+            core = put(parts.core)
+            edge = np.array([[put(part) for part in parts.edges[e]] for e in range(4)],
+                            np.int64)                                    # (4, L, 2)
+            tables[name] = (core, edge)
+            if name == "full":                   # the same ranges without their skirts
+                skirt = 3 * np.array(parts.skirt_counts, np.int64)
+                exact = edge.copy()
+                exact[..., 0] -= skirt
+                tables["exact"] = (core, exact)
+        self.tables = tables
+        """By mesh ("full", "coarse", "exact"): the core's (count, first) and each edge's
+        (count, first) by level difference (4, L, 2) in the index buffer."""
+        self.max_up = level_count(cells) - 1
+        """The largest level difference whose coarse nodes lie on a tile's edge: log2(n)."""
+        self.meshes = tuple(tables)
+        # the edges' ranges by level difference 0 … max_up + 1 (all beyond: the last), edge,
+        # mesh: (max_up + 2, 4, M) counts and firsts (each mesh's own levels clamped)
+        ups = np.arange(self.max_up + 2)
+        lut = np.stack([edge[:, np.minimum(ups, edge.shape[1] - 1)].transpose(1, 0, 2)
+                        for _, edge in tables.values()], axis=2)        # (U, 4, M, 2)
+        self._lut_counts = lut[..., 0].astype(np.int32)
+        self._lut_offsets = 4 * lut[..., 1].astype(np.int64)          # bytes
+        self._core = np.array([core for core, _ in tables.values()], np.int64)   # (M, 2)
         # position, normal, water level seen, distance to the shore
         self.arena = gl.SlotArena((cells + 1) ** 2 + 4 * cells, {0: 3, 1: 3, 2: 1, 3: 1},
-                                  np.concatenate([full, coarse, exact]), TERRAIN_SLOTS)
+                                  np.concatenate(chunks), TERRAIN_SLOTS)
+        self.counts = np.zeros((0, len(tables), 5), np.int32)
+        self.offsets = np.zeros((0, len(tables), 5), np.int64)
+        """By arena slot and mesh: the index counts and first indices' byte offsets of the
+        tile's five index ranges (core, edges) for the neighbours of the last set drawn."""
+        self.revision = 0
+        """Counts the changes of ``counts`` and ``offsets`` (the arena refills its draw arrays
+        after one)."""
         self.arena_slot = np.zeros(0, np.int32)
         self.centre = np.zeros((0, 3))
         self.stitched: dict[int, tuple[tuple, np.ndarray]] = {}
-        """By pool slot, the tiles uploaded with their borders stitched to coarser
-        neighbours (:func:`~riverflow.scenes.meshes.stitch_tile`): (what they were stitched
-        to, the vertices as uploaded). The others are uploaded as their pool holds them."""
+        """By pool slot, the tiles uploaded with their borders stitched to neighbours more
+        than ``max_up`` levels coarser (:func:`~riverflow.scenes.meshes.stitch_tile`): (what
+        they were stitched to, the vertices as uploaded). The others are uploaded as their
+        pool holds them."""
         self.stitched_across = np.zeros((0, 4), np.int64)
-        """By pool slot, the codes of the coarser tiles across its edges (−1: none) that the
-        tile on the GPU is stitched to; −2: not known (uploaded afresh)."""
+        """By pool slot, the codes of the much coarser tiles across its edges (−1: none) that
+        the tile on the GPU is stitched to; −2: not known (uploaded afresh)."""
         self._stitched_set: tuple[np.ndarray, np.ndarray] | None = None
-        """The (codes, slots) of the last set :meth:`_stitch` went through: the same set
-        again, with no tile uploaded afresh, is stitched as it was (nothing to look up)."""
+        """The (codes, slots) of the last set :meth:`_seams` went through: the same set
+        again, with no tile uploaded afresh, is drawn as it was (nothing to look up)."""
 
     def sync(self, pool: TilePool, tiles: Standins) -> tuple[np.ndarray, np.ndarray]:
-        """Arena slots (K,) and centres (K, 3) [m] of ``tiles``, uploaded now if new, their
-        borders stitched to this set's coarser neighbours (re-uploaded when those change);
-        the slots of tiles the pool released are given back."""
+        """Arena slots (K,) and centres (K, 3) [m] of ``tiles``, uploaded now if new, with
+        the index ranges that join them to this set's coarser neighbours; the slots of tiles
+        the pool released are given back."""
         gone = self.stale(pool)
         if len(gone):
             self.arena.free(self.arena_slot[gone])
@@ -425,16 +472,34 @@ class _TerrainTiles(_PoolSync):
         last = self._stitched_set
         if last is None or not (np.array_equal(last[0], tiles.codes)
                                 and np.array_equal(last[1], tiles.slots)):
-            self._stitch(pool, tiles)
+            self._seams(pool, tiles)
             self._stitched_set = (tiles.codes.copy(), tiles.slots.copy())
         return self.arena_slot[tiles.slots], self.centre[tiles.slots]
 
-    def _stitch(self, pool: TilePool, tiles: Standins) -> None:
-        """Upload each tile of ``tiles`` stitched to its coarser neighbours among them (or as
-        it is, with none), where what is on the GPU was made for other neighbours. Tiles are
-        in (level, tx, ty) order: a neighbour is stitched before the finer tiles that follow
-        it (a tile's corner may move onto a much coarser one's border)."""
+    def _seams(self, pool: TilePool, tiles: Standins) -> None:
+        """Choose each tile's index ranges for the level differences to its coarser
+        neighbours among ``tiles`` (:func:`edge_levels_up`), and stitch the vertices of those
+        with a neighbour more than ``max_up`` levels coarser (:meth:`_stitch`)."""
+        self.revision += 1
         across = coarser_neighbours(tiles.keys)
+        up = edge_levels_up(tiles.keys, across)
+        aslots = self.arena_slot[tiles.slots]
+        if len(self.counts) < self.arena.capacity:
+            self._grow_parts(self.arena.capacity)
+        kk = np.minimum(up, self.max_up + 1)
+        e4 = np.arange(4)
+        self.counts[aslots, :, 1:] = self._lut_counts[kk, e4].transpose(0, 2, 1)
+        self.offsets[aslots, :, 1:] = self._lut_offsets[kk, e4].transpose(0, 2, 1)
+        if self.stitched or up.max(initial=0) > self.max_up:      # rare: a neighbour
+            self._stitch(pool, tiles, np.where(up > self.max_up, across, -1))  # far coarser
+
+
+    def _stitch(self, pool: TilePool, tiles: Standins, across: np.ndarray) -> None:
+        """Upload each tile of ``tiles`` stitched to the much coarser neighbours ``across``
+        (K, 4) (rows into ``tiles``, −1: none) (or as it is, with none), where what is on
+        the GPU was made for other neighbours. Tiles are in (level, tx, ty) order: a neighbour
+        is stitched before the finer tiles that follow it (a tile's corner may move onto a
+        much coarser one's border)."""
         codes_across = np.where(across >= 0, tiles.codes[np.maximum(across, 0)], -1)
         if np.array_equal(self.stitched_across[tiles.slots], codes_across):
             return              # every tile is stitched to these neighbours already (most sets)
@@ -463,6 +528,21 @@ class _TerrainTiles(_PoolSync):
             vertices = stitch_tile(data.vertices, tiles.keys[r], data.skirt_m, neighbours)
             self.arena.upload(int(self.arena_slot[slot]), vertices)
             self.stitched[slot] = (sig, vertices)
+
+    def draw(self, slots: np.ndarray, mesh: str) -> None:
+        """Draw the tiles in arena ``slots`` (in that order) through ``mesh``'s index ranges
+        ("full", "coarse", "exact"), with one multi-draw."""
+        m = self.meshes.index(mesh)
+        self.arena.draw_parts(slots, self.counts[:, m], self.offsets[:, m],
+                              cache=(mesh, self.revision))
+
+    def _grow_parts(self, n: int) -> None:
+        old = len(self.counts)
+        counts = np.zeros((n,) + self.counts.shape[1:], np.int32)
+        offsets = np.zeros((n,) + self.offsets.shape[1:], np.int64)
+        counts[:old], offsets[:old] = self.counts, self.offsets
+        counts[old:, :, 0], offsets[old:, :, 0] = self._core[:, 0], 4 * self._core[:, 1]
+        self.counts, self.offsets = counts, offsets
 
     def _grow(self, n: int) -> None:
         old = len(self.code_of)
@@ -909,8 +989,7 @@ class DrawRivers(System):
         program.use()
         if detail == "full":
             program.set(u_debug_materials=self.debug_materials)   # sent only when changed
-        count, first = gpu.terrain.ranges[detail]
-        gpu.terrain.arena.draw(self._terrain_slots, count, first)
+        gpu.terrain.draw(self._terrain_slots, detail)
         if detail == "full":
             self.last_tiles = len(self._terrain_slots)
 

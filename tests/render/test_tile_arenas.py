@@ -106,6 +106,58 @@ def test_one_multi_draw_draws_what_the_tiles_drawn_one_by_one_draw(target, rng):
             mesh.delete()
 
 
+def test_draw_parts_draws_each_slot_through_its_own_ranges_and_keeps_its_arrays(target, rng):
+    """``draw_parts``: each slot through its own P ranges of the shared indices (the terrain
+    tiles' core and edge variants), in the slots' order, as drawing each mesh range by range;
+    with ``cache`` the arrays are refilled when the slots' order or the revision changes."""
+    from riverflow.engine import gl
+    indices = _grid_indices(CELLS)
+    tiles = [_tile(rng) for _ in range(8)]
+    arena = gl.SlotArena(len(tiles[0]), ATTRIBUTES, indices, capacity=8)
+    meshes = [gl.Mesh(t, ATTRIBUTES, indices) for t in tiles]
+    slots = np.array([arena.alloc() for _ in tiles], np.int32)
+    for slot, tile in zip(slots, tiles):
+        arena.upload(slot, tile)
+    tris = len(indices)
+    counts = np.zeros((arena.capacity, 2), np.int32)
+    firsts = np.zeros((arena.capacity, 2), np.int64)
+
+    def ranges():             # two random runs of whole triangles per slot
+        for s in slots.tolist():
+            a, b = np.sort(rng.choice(tris, 2, replace=False))
+            counts[s], firsts[s] = (3 * (b - a), 3 * (tris - b)), (3 * a, 3 * b)
+
+    def one_by_one(order):
+        def draw():
+            for k in order:
+                s = int(slots[k])
+                for c, f in zip(counts[s].tolist(), firsts[s].tolist()):
+                    meshes[k].draw(count=c, first=f)
+        return draw
+
+    try:
+        ranges()
+        order = rng.permutation(len(tiles))
+        parts = target(lambda: arena.draw_parts(slots[order], counts, 4 * firsts,
+                                                cache=("t", 0)))
+        np.testing.assert_array_equal(parts, target(one_by_one(order)))
+        assert len(np.unique(parts.reshape(-1, 4), axis=0)) > 20
+        np.testing.assert_array_equal(
+            target(lambda: arena.draw_parts(slots[order], counts, 4 * firsts)), parts)
+        order = order[::-1]                       # another order: refilled
+        np.testing.assert_array_equal(
+            target(lambda: arena.draw_parts(slots[order], counts, 4 * firsts, cache=("t", 0))),
+            target(one_by_one(order)))
+        ranges()                                  # new ranges: a new revision refills
+        np.testing.assert_array_equal(
+            target(lambda: arena.draw_parts(slots[order], counts, 4 * firsts, cache=("t", 1))),
+            target(one_by_one(order)))
+    finally:
+        arena.delete()
+        for mesh in meshes:
+            mesh.delete()
+
+
 def test_slots_are_reused_after_release(gl_context, rng):
     from riverflow.engine import gl
     arena = gl.SlotArena((CELLS + 1) ** 2, ATTRIBUTES, _grid_indices(CELLS), capacity=4)
@@ -288,31 +340,43 @@ def _drawn_terrain(world) -> dict[int, np.ndarray]:
 
 def _assert_own_data(world, drawn, pool) -> None:
     """Each drawn slot holds its own tile's vertices: as the pool holds them, or stitched to
-    the frame's coarser neighbours (the border and skirt only; what was stitched, recorded)."""
-    from riverflow.scenes.meshes import coarser_neighbours, stitch_tile
+    neighbours more than log2(n) levels coarser (the border and skirt only; what was
+    stitched, recorded); and it is drawn through the index ranges of its edges' level
+    differences to the frame's coarser neighbours."""
+    from riverflow.scenes.meshes import coarser_neighbours, edge_levels_up, stitch_tile
     from riverflow.tiles.table import code_key, tile_code
     terrain = world._drawer().gpu.terrain
     keys = np.array(sorted(code_key(c) for c in drawn))
     across = coarser_neighbours(keys)
+    up = edge_levels_up(keys, across)
     n = world.scene.terrain.tile_cells
     side = n + 1
     inner = np.zeros((side, side), bool)
     inner[1:-1, 1:-1] = True
+    (core_count, core_first), edge = terrain.tables["full"]
+    full = terrain.meshes.index("full")
+    counts, firsts = terrain.counts[:, full], terrain.offsets[:, full] // 4
     for r, key in enumerate(keys.tolist()):
         code = tile_code(*key)
         data = pool.get(code)
         vertices = drawn[code]
+        aslot = int(terrain.arena_slot[pool.slot(code)])
+        k = np.minimum(up[r], edge.shape[1] - 1)
+        assert counts[aslot].tolist() == [core_count] + edge[range(4), k, 0].tolist()
+        assert firsts[aslot].tolist() == [core_first] + edge[range(4), k, 1].tolist()
         grid = vertices[:side * side][inner.ravel()]
         np.testing.assert_array_equal(grid, data.vertices[:side * side][inner.ravel()])
         stitched = terrain.stitched.get(pool.slot(code))
-        if (across[r] < 0).all():
+        big = np.where(up[r] > terrain.max_up, across[r], -1)
+        if (big < 0).all():
             assert stitched is None
             np.testing.assert_array_equal(vertices, data.vertices)
         else:
             neighbours = [(e, tuple(keys[m].tolist()), drawn[tile_code(*keys[m])])
-                          for e, m in enumerate(across[r].tolist()) if m >= 0]
+                          for e, m in enumerate(big.tolist()) if m >= 0]
             np.testing.assert_array_equal(vertices, stitch_tile(data.vertices, key,
                                                                 data.skirt_m, neighbours))
+    assert (up > 0).any()                 # the view has level borders
 
 
 def _drawn_at_the_first_view():
@@ -383,8 +447,8 @@ def test_the_same_drawn_set_is_not_stitched_again(gl_context, monkeypatch):
         terrain = drawer.gpu.terrain
         pool = world.tiles.cache.pools[TERRAIN_MESH]
         calls = []
-        stitch = type(terrain)._stitch
-        monkeypatch.setattr(type(terrain), "_stitch",
+        stitch = type(terrain)._seams
+        monkeypatch.setattr(type(terrain), "_seams",
                             lambda self, *a: (calls.append(1), stitch(self, *a))[1])
         before = _drawn_terrain(world)
         drawer._tiles_for = None                   # as after a change of the cut or a pool

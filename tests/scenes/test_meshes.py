@@ -527,3 +527,75 @@ def test_default_water_mesh_is_compact(default_water):
     mesh = default_water.mesh
     assert len(mesh.positions) < len(mesh.indices)
     assert 5_000 < len(mesh.indices) < 200_000
+
+
+def _covers(points, xy, tris):
+    """How many triangles (vertex rows ``tris`` (K, 3) into ``xy``) hold each point."""
+    t = xy[tris]                                                   # (K, 3, 2)
+    p = points[:, None, :]
+    inside = np.ones((len(points), len(t)), bool)
+    for a, b in ((0, 1), (1, 2), (2, 0)):
+        inside &= _cross(t[None, :, a], t[None, :, b], p) >= -1e-12
+    return inside.sum(axis=1)
+
+
+@pytest.mark.parametrize("n, stride", [(8, 1), (16, 1), (8, 2), (16, 4)])
+def test_tile_index_parts_tile_the_tile_once_at_every_level_difference(n, stride, rng):
+    """Core and edge strips, for any level difference per edge (beyond log2(n / stride) too,
+    clamped): counter-clockwise, covering the tile exactly once; toward a neighbour k levels
+    coarser the strip touches only every (stride·2^k)-th border node (the ones the neighbour
+    has) and its skirt hangs from those, outward; at k = 0 the same triangles as
+    :func:`tile_indices` but in two corner cells."""
+    from riverflow.scenes.meshes import tile_index_parts
+    side = n + 1
+    skirts = stride == 1
+    parts = tile_index_parts(n, stride, skirts=skirts)
+    levels = len(parts.edges[0])
+    assert levels == level_count(n // stride)
+    gj, gi = np.divmod(np.arange(side * side), side)
+    bi, bj = border_loop(n)
+    xy = np.vstack([np.stack([gi, gj], 1), np.stack([bi, bj], 1)]).astype(np.float64)
+    pts = rng.uniform(0, n, size=(600, 2))
+    for combo in [(0, 0, 0, 0), (1, 0, 2, 0), (levels - 1,) * 4,
+                  *(tuple(rng.integers(0, levels, 4)) for _ in range(3))]:
+        strips = [parts.edges[e][k][:len(parts.edges[e][k]) - parts.skirt_counts[e][k]]
+                  for e, k in enumerate(combo)]
+        tris = np.concatenate([parts.core, *strips]).astype(np.int64)
+        assert (tris < side * side).all()
+        assert (_cross(*(xy[tris[:, c]] for c in range(3))) > 0).all()
+        assert (_covers(pts, xy, tris) == 1).all(), combo
+        for e, (k, strip) in enumerate(zip(combo, strips)):
+            step = min(stride << k, n)
+            on_edge = np.unique(strip[np.isin(strip, _edge_vertices(n, e))])
+            along = (gi if e in (0, 2) else gj)[on_edge]
+            assert (along % step == 0).all() and len(on_edge) == n // step + 1
+            if skirts:
+                skirt = parts.edges[e][k][len(strip):]
+                assert len(skirt) == 2 * (n // step)
+                tops = skirt[skirt < side * side]
+                assert set(tops.tolist()) == set(on_edge.tolist())
+                p3 = np.concatenate([xy, np.zeros((len(xy), 1))], axis=1)
+                p3[side * side:, 2] = -1.0
+                tri = p3[skirt.astype(np.int64)]
+                normal = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+                assert (np.einsum("ij,ij->i", normal[:, :2], tri.mean(axis=1)[:, :2] - n / 2)
+                        > 0).all()
+    zero = np.concatenate([parts.core, *(parts.edges[e][0] for e in range(4))])
+    def as_set(t):
+        return {tuple(np.roll(r, -int(np.argmin(r)))) for r in np.asarray(t).tolist()}
+    differ = as_set(zero) ^ as_set(tile_indices(n, stride, skirts=skirts))
+    assert len(differ) == 8                       # two cells, two triangles each, both ways
+
+
+def _edge_vertices(n: int, e: int) -> np.ndarray:
+    """Grid vertex numbers of edge ``e`` of an n-cell tile (EDGE_OFFSETS order)."""
+    side, k = n + 1, np.arange(n + 1)
+    return [k, k * side + n, n * side + k, k * side][e]
+
+
+def test_tile_index_parts_refuse_a_stride_that_leaves_no_core():
+    from riverflow.scenes.meshes import tile_index_parts
+    with pytest.raises(ValueError, match="stride"):
+        tile_index_parts(12, 5)
+    with pytest.raises(ValueError, match="stride"):
+        tile_index_parts(8, 8)

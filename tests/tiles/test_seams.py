@@ -612,3 +612,55 @@ def test_stitched_borders_follow_a_coarser_neighbour_exactly(up):
     np.testing.assert_allclose(out[side * side:, 2], got[bj, bi, 2] - np.float32(mesh.skirt_m),
                                rtol=0, atol=1e-4)
     np.testing.assert_array_equal(out[side * side:, 3:6], got[bj, bi, 3:6])
+
+
+@pytest.mark.parametrize("up", [1, 2, 3, 5])
+def test_edge_index_variants_meet_a_coarser_neighbour_exactly(up):
+    """Drawn through the edge variant of its level difference (:func:`tile_index_parts`,
+    the draw system's terrain seams), a tile's edge and its coarser neighbour's facing edge
+    are the same line: heights linear between the same nodes, with the fine tile's vertex
+    data as made. Beyond log2(n) levels (up = 5 for n = 8) the fine edge is one segment whose
+    corners :func:`stitch_tile` moves onto the coarse border, as the draw system does."""
+    from riverflow.scenes.meshes import (coarser_neighbours, edge_levels_up, stitch_tile,
+                                         tile_index_parts)
+    n = 8
+    q = Quadtree(-3.7, 11.3, 101.9)
+    level = 7
+    fine = (level, 64, 37)
+    west = (level - up, (fine[1] - 1) >> up, fine[2] >> up)
+    keys = np.array(sorted([fine, west]))
+    across = coarser_neighbours(keys)
+    ups = edge_levels_up(keys, across)
+    row = {tuple(k): r for r, k in enumerate(keys.tolist())}
+    assert ups[row[fine]].tolist() == [0, 0, 0, up]
+    assert ups[row[west]].tolist() == [0, 0, 0, 0]
+    mesh, coarse = _synthetic_mesh(q, fine, n), _synthetic_mesh(q, west, n)
+    vertices = mesh.vertices
+    if up > level_count(n) - 1:
+        vertices = stitch_tile(vertices, fine, mesh.skirt_m, [(3, west, coarse.vertices)])
+    else:
+        np.testing.assert_array_equal(vertices, mesh.vertices)   # nothing re-uploaded
+    parts = tile_index_parts(n)
+    side = n + 1
+
+    def drawn_edge(v, e, k):
+        """(y, z) of the edge-``e`` nodes a variant-k strip draws, along y."""
+        tris = parts.edges[e][k][:len(parts.edges[e][k]) - parts.skirt_counts[e][k]]
+        col = 0 if e == 3 else n
+        used = np.unique(tris[tris % side == col])
+        used = used[used < side * side]
+        pos = v[used.astype(np.int64)]
+        assert np.all(pos[:, 0] == pos[0, 0])                    # on one vertical line
+        order = np.argsort(pos[:, 1])
+        return pos[order, 0][0], pos[order, 1], pos[order, 2]
+
+    x_f, y_f, z_f = drawn_edge(vertices, 3, min(up, level_count(n) - 1))
+    x_c, y_c, z_c = drawn_edge(coarse.vertices, 1, 0)
+    assert x_f == x_c
+    assert len(y_f) == max(n >> up, 1) + 1
+    along = np.linspace(y_f[0], y_f[-1], 97)
+    np.testing.assert_allclose(np.interp(along, y_f, z_f), np.interp(along, y_c, z_c),
+                               rtol=0, atol=2e-4)
+    # without the variant the fine border bends off the coarse line (what the skirts hid)
+    _, y0, z0 = drawn_edge(mesh.vertices, 3, 0)
+    assert np.abs(np.interp(along, y0, z0) - np.interp(along, y_c, z_c)).max() > 10 * 2e-4
