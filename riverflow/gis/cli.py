@@ -92,12 +92,28 @@ def add_bake_command(sub, scene_args, positive) -> None:
                    help="16 bits a channel (needs pypng: pip install 'riverflow[gis]')")
     p.add_argument("--max-speed", type=positive, default=None, metavar="MPS",
                    help="speed [m/s] of R, G = 0 or full (default: the fastest water in the map)")
+    p.add_argument("--preset", default="raw", metavar="NAME",
+                   help="the engine whose flow-map shaders read the map: raw, unity, unreal, "
+                        "godot-waterways, source (docs/flowmaps.md; default: %(default)s)")
+    p.add_argument("--direction-test", action="store_true",
+                   help="write the preset's direction test map (a counter-clockwise "
+                        "rotation, 256 px) to --out instead of the scene's flow")
     p.set_defaults(run=run_bake)
 
 
 def run_bake(args: argparse.Namespace) -> int:
     from riverflow.__main__ import _load_scene
+    from riverflow.gis.bake import direction_test_map, preset_spec
 
+    try:
+        preset_spec(args.preset, "riverflow bake --preset")
+        if args.direction_test:
+            path = direction_test_map(args.out, args.preset, bits=16 if args.bits16 else 8)
+            print(f"wrote {path.resolve()} (direction test map, preset {args.preset})")
+            return 0
+    except (ImportError, ValueError, OSError) as exc:
+        print(f"riverflow bake: {exc}", file=sys.stderr)
+        return 1
     scene, title = _load_scene(args)
     if scene is None:
         return 1
@@ -105,7 +121,8 @@ def run_bake(args: argparse.Namespace) -> int:
 
     try:
         result = bake_flow_map(scene, args.region, args.cell_m, args.out,
-                               bits=16 if args.bits16 else 8, max_speed_mps=args.max_speed)
+                               bits=16 if args.bits16 else 8, max_speed_mps=args.max_speed,
+                               preset=args.preset)
     except (ImportError, ValueError, OSError) as exc:
         print(f"riverflow bake: {exc}", file=sys.stderr)
         return 1
