@@ -24,6 +24,8 @@ Public API (SPEC §6)::
     builder = rf.read_rivers(path)         # GIS stream lines → RiverNetworkBuilder (riverflow[gis])
     builder = rf.read_water(path)          # water polygons / masks → RiverNetworkBuilder (riverflow[gis])
     rf.bake_flow_map(scene, region_m, cell_m, "flow.png")   # flow-map PNG + flow.json
+    rf.bake_flow_map(..., preset="unity")  # also unreal, godot-waterways, source (docs/flowmaps.md)
+    rf.bake_tiles(graph, "tiles", (10, 14))  # XYZ Web Mercator flow tiles + tiles.json
 
 Names are imported lazily so that ``import riverflow`` stays cheap and never touches OpenGL.
 """
@@ -62,6 +64,7 @@ _LAZY = {
     "read_rivers": "riverflow.gis.rivers",
     "read_water": "riverflow.gis.water",
     "bake_flow_map": "riverflow.gis.bake",
+    "bake_tiles": "riverflow.gis.tiles",
     "ResourceLimitError": "riverflow._validate",
     "set_memory_limit": "riverflow._validate",
     "memory_limit_bytes": "riverflow._validate",
