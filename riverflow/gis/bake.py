@@ -160,24 +160,8 @@ def bake_flow_map(field_or_scene, region_m=None, cell_m: float | None = None,
                                       and math.isfinite(value) and value > 0):
             raise ValueError(f"bake_flow_map: {label} must be a finite positive number, got "
                              f"{value!r}")
-    x0, y0, x1, y1 = _region(region_m, graph, field)
-    if cell_m is None:
-        cell_m = max(x1 - x0, y1 - y0) / 1024.0
-    cell_m = finite_positive(cell_m, "bake_flow_map: cell_m")   # a number (TypeError), > 0
-    fx, fy = (x1 - x0) / cell_m - 1e-9, (y1 - y0) / cell_m - 1e-9
-    if not max(fx, fy) <= MAX_SIDE_PX:        # also inf (a region of 1e308 m, cell_m 5e-324)
-        raise ValueError(f"bake_flow_map: {fx:.4g}×{fy:.4g} px is over {MAX_SIDE_PX} px a "
-                         f"side; use a larger cell_m than {cell_m:g} m or a smaller "
-                         "region_m")
-    nx, ny = math.ceil(fx), math.ceil(fy)
-    # centres 16, status 1, velocity 8, speed 4, distance 8 + temporaries, RGBA ≤ 8 B a pixel
-    check_allocation(64.0 * nx * ny, f"bake_flow_map: a {nx}×{ny} px map (cell_m={cell_m:g})")
-    centres = pixel_centres((x0, y0), cell_m, (nx, ny))
-    status = np.empty(nx * ny, np.uint8)
-    velocity = np.empty((nx * ny, 2), np.float32)
-    for a in range(0, nx * ny, BATCH_POINTS):
-        status[a:a + BATCH_POINTS], velocity[a:a + BATCH_POINTS] = field.query(
-            centres[a:a + BATCH_POINTS])
+    (x0, y0, x1, y1), cell_m, (nx, ny), centres, status, velocity = _sample(
+        field, region_m, cell_m, "bake_flow_map")
     water = status == FlowStatus.INSIDE
     speed = np.hypot(velocity[:, 0], velocity[:, 1])
     if max_speed_mps is None:
@@ -389,6 +373,83 @@ def _write_all(images, paths, sidecar: Path, meta: dict, bits: int) -> None:
         for image, tmp in zip(images, tmp_images):
             _write_png(image, tmp, bits)
         tmp_sidecar.write_text(text, encoding="utf-8")
+
+
+def _sample(field, region_m, cell_m, where: str):
+    """The region, cell size, size, pixel centres and FlowField.query of a north-up map."""
+    x0, y0, x1, y1 = _region(region_m, field.graph, field)
+    if cell_m is None:
+        cell_m = max(x1 - x0, y1 - y0) / 1024.0
+    cell_m = finite_positive(cell_m, f"{where}: cell_m")   # a number (TypeError), > 0
+    fx, fy = (x1 - x0) / cell_m - 1e-9, (y1 - y0) / cell_m - 1e-9
+    if not max(fx, fy) <= MAX_SIDE_PX:        # also inf (a region of 1e308 m, cell_m 5e-324)
+        raise ValueError(f"{where}: {fx:.4g}×{fy:.4g} px is over {MAX_SIDE_PX} px a "
+                         f"side; use a larger cell_m than {cell_m:g} m or a smaller "
+                         "region_m")
+    nx, ny = math.ceil(fx), math.ceil(fy)
+    # centres 16, status 1, velocity 8, speed 4, distance 8 + temporaries, RGBA ≤ 8 B a pixel
+    check_allocation(64.0 * nx * ny, f"{where}: a {nx}×{ny} px map (cell_m={cell_m:g})")
+    centres = pixel_centres((x0, y0), cell_m, (nx, ny))
+    status = np.empty(nx * ny, np.uint8)
+    velocity = np.empty((nx * ny, 2), np.float32)
+    for a in range(0, nx * ny, BATCH_POINTS):
+        status[a:a + BATCH_POINTS], velocity[a:a + BATCH_POINTS] = field.query(
+            centres[a:a + BATCH_POINTS])
+    return (x0, y0, x1, y1), cell_m, (nx, ny), centres, status, velocity
+
+
+def bake_geotiff(field_or_scene, region_m=None, cell_m: float | None = None,
+                 path="flow.tif") -> FlowMap:
+    """Bake the flow of a region into a cloud-optimised GeoTIFF (``riverflow bake --format
+    geotiff``) for QGIS and rasterio: four float32 bands, ``vx`` and ``vy`` [m/s] (x east, y
+    north of the network's CRS), ``mask`` (1 water, 0 land) and ``distance`` to the nearest
+    bank [m], north-up, in the network's CRS (none where the network has none), pixels as
+    :func:`bake_flow_map`'s. Written under a temporary name and renamed into place.
+
+    Raises:
+        ValueError / TypeError: as :func:`bake_flow_map`; a name not ending in .tif/.tiff.
+        ImportError: rasterio missing (the gis extra).
+    """
+    started = time.perf_counter()
+    field = _field(field_or_scene)
+    graph = field.graph
+    require_suffix(path, (".tif", ".tiff"), "a cloud-optimised GeoTIFF")
+    require("rasterio", "writing a GeoTIFF flow map")
+    from rasterio.io import MemoryFile
+    from rasterio.shutil import copy as rio_copy
+    from rasterio.transform import from_origin
+
+    (x0, y0, x1, y1), cell_m, (nx, ny), centres, status, velocity = _sample(
+        field, region_m, cell_m, "bake_geotiff")
+    water = status == FlowStatus.INSIDE
+    distance = bank_distance(graph, centres)
+    bands = np.stack([velocity[:, 0], velocity[:, 1], water.astype(np.float32),
+                      np.where(np.isfinite(distance), distance, np.nan).astype(np.float32)]
+                     ).reshape(4, ny, nx).astype(np.float32)
+    crs = getattr(graph, "crs", None)
+    profile = {"driver": "GTiff", "width": nx, "height": ny, "count": 4, "dtype": "float32",
+               "transform": from_origin(x0, y0 + ny * cell_m, cell_m, cell_m),
+               "crs": crs}
+    path = Path(path)
+    with atomic_files(path) as (tmp,):
+        with MemoryFile() as mem:
+            with mem.open(**profile) as dst:
+                dst.write(bands)
+                for i, (name, unit) in enumerate((("vx", "m/s"), ("vy", "m/s"),
+                                                  ("mask", "1 water / 0 land"),
+                                                  ("distance", "m")), start=1):
+                    dst.set_band_description(i, name)
+                    dst.update_tags(i, unit=unit)
+                dst.update_tags(format=FORMAT, source=str(graph.source),
+                                axes="vx east, vy north of the CRS; rows north-up")
+            with mem.open() as src:
+                rio_copy(src, str(tmp), driver="COG", COMPRESS="DEFLATE", PREDICTOR="3")
+    speed = np.hypot(velocity[:, 0], velocity[:, 1])
+    max_speed = float(speed[water].max()) if water.any() else 0.0
+    finite = distance[water & np.isfinite(distance)]
+    return FlowMap(path, path, (nx, ny), (x0, y0), cell_m, max_speed,
+                   float(finite.max()) if finite.size else 0.0, float(water.mean()),
+                   time.perf_counter() - started)
 
 
 def pixel_centres(origin_m, cell_m: float, size_px) -> np.ndarray:

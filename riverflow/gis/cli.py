@@ -98,6 +98,23 @@ def add_bake_command(sub, scene_args, positive) -> None:
     p.add_argument("--direction-test", action="store_true",
                    help="write the preset's direction test map (a counter-clockwise "
                         "rotation, 256 px) to --out instead of the scene's flow")
+    p.add_argument("--format", choices=("png", "geotiff"), default="png",
+                   help="png: the flow map (--preset); geotiff: a cloud-optimised GeoTIFF of "
+                        "float32 vx, vy [m/s], mask and distance [m] in the network's CRS "
+                        "(--out FILE.tif; riverflow[gis])")
+    p.add_argument("--tiles", type=Path, default=None, metavar="DIR",
+                   help="write web tiles instead: an XYZ PNG pyramid in Web Mercator "
+                        "(DIR/{z}/{x}/{y}.png + DIR/tiles.json; resumable; riverflow[gis])")
+    p.add_argument("--zoom", default="10-14", metavar="Z0-Z1",
+                   help="--tiles: the zoom levels, 0-22 (default: %(default)s)")
+    p.add_argument("--crs", default=None, metavar="CRS",
+                   help="--tiles: the network's CRS where the scene has none (e.g. EPSG:32633)")
+    p.add_argument("--workers", type=int, default=1, metavar="N",
+                   help="--tiles: processes (a Dask LocalCluster of N where riverflow[cluster] "
+                        "is installed, else local processes; default: %(default)s)")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="--tiles: bake on the Dask cluster of this scheduler "
+                        "(tcp://host:8786; riverflow[cluster])")
     p.set_defaults(run=run_bake)
 
 
@@ -107,6 +124,12 @@ def run_bake(args: argparse.Namespace) -> int:
 
     try:
         preset_spec(args.preset, "riverflow bake --preset")
+        if args.tiles is not None:
+            from riverflow.gis.tiles import parse_zooms
+
+            zooms = parse_zooms(args.zoom)
+            if args.tiles.exists() and not args.tiles.is_dir():
+                raise ValueError(f"--tiles {args.tiles} is a file, expected a folder")
         if args.direction_test:
             path = direction_test_map(args.out, args.preset, bits=16 if args.bits16 else 8)
             print(f"wrote {path.resolve()} (direction test map, preset {args.preset})")
@@ -117,6 +140,20 @@ def run_bake(args: argparse.Namespace) -> int:
     scene, title = _load_scene(args)
     if scene is None:
         return 1
+    if args.tiles is not None:
+        return _run_bake_tiles(args, scene, title, zooms)
+    if args.format == "geotiff":
+        from riverflow.gis.bake import bake_geotiff
+
+        try:
+            result = bake_geotiff(scene, args.region, args.cell_m, args.out)
+        except (ImportError, ValueError, OSError) as exc:
+            print(f"riverflow bake: {exc}", file=sys.stderr)
+            return 1
+        w, h = result.size_px
+        print(f"wrote {result.image.resolve()} ({title}: {w}x{h} px of {result.cell_m:g} m, "
+              f"cloud-optimised GeoTIFF: vx, vy [m/s], mask, distance [m])")
+        return 0
     from riverflow.gis.bake import bake_flow_map
 
     try:
@@ -131,6 +168,24 @@ def run_bake(args: argparse.Namespace) -> int:
           f"{result.cell_m:g} m from ({result.origin_m[0]:.1f}, {result.origin_m[1]:.1f}), "
           f"max speed {result.max_speed_mps:.3g} m/s, {result.water_fraction:.1%} water, "
           f"{result.seconds:.1f} s)")
+    return 0
+
+
+def _run_bake_tiles(args, scene, title, zooms) -> int:
+    from riverflow.gis.tiles import bake_tiles
+
+    workers, scheduler = args.workers, args.scheduler
+    try:
+        result = bake_tiles(scene, args.tiles, zooms, crs=args.crs, region_m=args.region,
+                            max_speed_mps=args.max_speed, workers=workers,
+                            scheduler=scheduler, progress=True)
+    except (ImportError, ValueError, OSError) as exc:
+        print(f"riverflow bake: {exc}", file=sys.stderr)
+        return 1
+    print(f"wrote {result.written} tiles to {result.folder.resolve()} ({title}: zoom "
+          f"{zooms[0]}-{zooms[1]}, {result.skipped} already there, {result.empty} without "
+          f"water not written, max speed {result.max_speed_mps:.3g} m/s, "
+          f"{result.seconds:.1f} s); TileJSON {result.tilejson.name}")
     return 0
 
 

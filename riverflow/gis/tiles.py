@@ -46,12 +46,17 @@ TILE_PX = 256
 MAX_ZOOM = 22
 BLOCK = 16
 """Tiles a task bakes."""
+RETRIES = 3
+"""Times a failed block is run again (a worker killed, a lost Dask task)."""
 FORMAT = "riverflow-flowtiles/1"
 R_EARTH = 6378137.0
 HALF = math.pi * R_EARTH
 """Half the width of the Web Mercator world [m]."""
 SAMPLE_PX = 512
 """Side of the grid the default max speed is sampled on."""
+HEADROOM = 1.25
+"""The default max speed is the sampled one times this (water between the samples can be
+faster, a confluence's jet: anything above max speed is clipped)."""
 
 
 class TileSet(NamedTuple):
@@ -96,7 +101,8 @@ def parse_zooms(text) -> tuple[int, int]:
 
 def bake_tiles(field_or_scene, folder, zooms=(0, 14), *, crs: str | None = None,
                region_m=None, max_speed_mps: float | None = None, workers: int = 1,
-               scheduler: str | None = None, progress: bool = False) -> TileSet:
+               scheduler: str | None = None, dask: bool | None = None,
+               progress: bool = False) -> TileSet:
     """Bake the flow into an XYZ tile pyramid (module docstring).
 
     Args:
@@ -106,9 +112,13 @@ def bake_tiles(field_or_scene, folder, zooms=(0, 14), *, crs: str | None = None,
         crs: the network's CRS (default: the graph's; a built-in scene has none: give one).
         region_m: (x0, y0, x1, y1) in the network's CRS to bake (default: the whole network).
         max_speed_mps: speed of R, G = 0 or 255 (default: the one in an existing tiles.json,
-            else the fastest water on a 512² grid over the region).
+            else HEADROOM × the fastest water on a 512² grid over the region; faster water
+            is clipped).
         workers: processes (1: this one).
-        scheduler: a Dask scheduler's address (``tcp://host:8786``): bake there.
+        scheduler: a Dask scheduler's address (``tcp://host:8786``), or a
+            ``dask.distributed.Client``: bake there.
+        dask: ``workers`` > 1 run on a Dask ``LocalCluster`` (True), on local processes
+            (False), or on Dask where dask.distributed is installed (None).
         progress: a progress bar on stderr.
 
     Raises:
@@ -155,7 +165,15 @@ def bake_tiles(field_or_scene, folder, zooms=(0, 14), *, crs: str | None = None,
         if existing is not None and abs(existing - max_speed_mps) > 1e-12 * existing:
             raise ValueError(f"bake_tiles: {tilejson} was baked with max speed {existing} m/s, "
                              f"not {max_speed_mps}: bake into another folder")
-    client = _dask_client(scheduler, workers) if scheduler else None
+    own_client = not (scheduler is not None and hasattr(scheduler, "submit"))
+    if not own_client:
+        client = scheduler                     # a dask.distributed Client the caller holds
+    elif scheduler is not None:
+        client = _dask_client(scheduler)
+    elif workers > 1 and dask is not False:
+        client = _local_cluster(workers, required=bool(dask))
+    else:
+        client = None
     try:
         candidates = candidate_tiles(water, crs, z0, z1)
         if not candidates:
@@ -176,8 +194,8 @@ def bake_tiles(field_or_scene, folder, zooms=(0, 14), *, crs: str | None = None,
             bar.step(processed)
         bar.close()
     finally:
-        if client is not None:
-            client.close()
+        if client is not None and own_client:
+            _close(client)
     # empty tiles: what was to do and is still not on disk
     empty = sum(1 for t in todo if not tile_path(folder, *t).exists())
     written = len(todo) - empty
@@ -266,7 +284,8 @@ def candidate_tiles(water, crs: str, z0: int, z1: int) -> list[tuple[int, int, i
 
 
 def sample_max_speed(field, region) -> float:
-    """The fastest water on a SAMPLE_PX² grid over region [m/s] (1 where none moves)."""
+    """HEADROOM × the fastest water on a SAMPLE_PX² grid over region [m/s] (1 where none
+    moves)."""
     from riverflow.components.status import FlowStatus
     from riverflow.gis.bake import pixel_centres
 
@@ -276,7 +295,7 @@ def sample_max_speed(field, region) -> float:
     status, velocity = field.query(pixel_centres((x0, y0), cell, (nx, ny)))
     speed = np.hypot(velocity[:, 0], velocity[:, 1])[status == FlowStatus.INSIDE]
     top = float(speed.max()) if speed.size else 0.0
-    return top if top > 0 else 1.0
+    return HEADROOM * top if top > 0 else 1.0
 
 
 def tile_json(graph, crs, z0, z1, water, max_speed_mps) -> dict:
@@ -421,20 +440,58 @@ def _run(job: Job, folder: Path, blocks, workers: int, client):
             yield bake_block(job, str(folder), block)
         return
     from concurrent.futures import ProcessPoolExecutor, as_completed
+    from concurrent.futures.process import BrokenProcessPool
     import multiprocessing
 
     ctx = multiprocessing.get_context("fork" if sys.platform.startswith("linux") else None)
-    with ProcessPoolExecutor(workers, mp_context=ctx, initializer=_init_worker,
-                             initargs=(job,)) as pool:
-        futures = [pool.submit(_worker_block, str(folder), b) for b in blocks]
-        for f in as_completed(futures):
-            yield f.result()
+    pending = list(range(len(blocks)))
+    for attempt in range(RETRIES + 1):
+        # a worker killed mid-bake breaks the pool: the blocks not reported are run again on a
+        # new one (their tiles already written are skipped)
+        try:
+            with ProcessPoolExecutor(workers, mp_context=ctx, initializer=_init_worker,
+                                     initargs=(job,)) as pool:
+                futures = {pool.submit(_worker_block, str(folder), blocks[i]): i
+                           for i in pending}
+                for f in as_completed(futures):
+                    yield f.result()
+                    pending.remove(futures[f])
+            return
+        except BrokenProcessPool:
+            if attempt == RETRIES:
+                raise
 
 
-def _dask_client(scheduler: str, workers: int):
-    require_dask = _require_dask()
+def _local_cluster(workers: int, required: bool):
+    """A Dask client on a new LocalCluster of ``workers`` one-thread processes (closed with
+    the client), or None without dask.distributed unless ``required``."""
     try:
-        return require_dask.Client(scheduler, timeout="5s")
+        dd = _require_dask()
+    except ImportError:
+        if required:
+            raise
+        return None
+    cluster = dd.LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                              dashboard_address=None)
+    client = dd.Client(cluster)
+    client._riverflow_cluster = cluster
+    return client
+
+
+def _close(client) -> None:
+    cluster = getattr(client, "_riverflow_cluster", None)
+    client.close()
+    if cluster is not None:
+        cluster.close()
+
+
+def _dask_client(scheduler: str):
+    dd = _require_dask()
+    if not isinstance(scheduler, str) or "://" not in scheduler and ":" not in scheduler:
+        raise ValueError(f"bake_tiles: scheduler must be an address like tcp://host:8786, got "
+                         f"{scheduler!r:.80}")
+    try:
+        return dd.Client(scheduler, timeout="3s")
     except (OSError, TimeoutError, ValueError) as exc:
         raise OSError(f"bake_tiles: cannot reach the Dask scheduler {scheduler!r}: {exc}") \
             from None
@@ -452,7 +509,7 @@ def _require_dask():
 def _run_dask(client, job: Job, folder: Path, blocks):
     dd = _require_dask()
     shared = client.scatter(job, broadcast=True)        # the network goes to each worker once
-    futures = [client.submit(bake_block, shared, str(folder), b, retries=3, pure=False)
+    futures = [client.submit(bake_block, shared, str(folder), b, retries=RETRIES, pure=False)
                for b in blocks]
     for f in dd.as_completed(futures):
         yield f.result()
