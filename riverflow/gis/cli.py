@@ -189,6 +189,61 @@ def _run_bake_tiles(args, scene, title, zooms) -> int:
     return 0
 
 
+def add_view_command(sub) -> None:
+    """The ``view`` subcommand: a page that animates a tile pyramid's water in a browser."""
+    p = sub.add_parser(
+        "view", help="write (and --serve) a web page that shows baked flow tiles flowing",
+        description="Write DIR/index.html for a pyramid that `riverflow bake --tiles DIR` "
+                    "baked: a self-contained page (Leaflet inlined, no CDN) that draws the "
+                    "water from the tiles and animates it with particles. Browsers cannot read "
+                    "the pixels of file:// images: open it with --serve.")
+    p.add_argument("folder", type=Path, metavar="DIR", help="the tile pyramid's folder")
+    p.add_argument("--serve", action="store_true",
+                   help="serve DIR on http://127.0.0.1:PORT/ until interrupted")
+    p.add_argument("--port", type=int, default=8000, metavar="PORT",
+                   help="--serve: the port (0: any free one; default: %(default)s)")
+    p.add_argument("--basemap", default=None, metavar="URL",
+                   help="an XYZ basemap URL (https://…/{z}/{x}/{y}.png) under the water "
+                        "(default: a plain colour; nothing is fetched)")
+    p.add_argument("--attribution", default="", metavar="TEXT",
+                   help="--basemap: its attribution, shown in the corner")
+    p.set_defaults(run=run_view)
+
+
+def run_view(args: argparse.Namespace) -> int:
+    from riverflow.web import serve, write_viewer
+
+    try:
+        page = write_viewer(args.folder, basemap=args.basemap, attribution=args.attribution)
+    except (ValueError, OSError) as exc:
+        print(f"riverflow view: {exc}", file=sys.stderr)
+        return 1
+    print(f"wrote {page.resolve()}")
+    if args.serve:
+        try:
+            server = serve(args.folder, args.port, background=True)
+        except OSError as exc:
+            print(f"riverflow view: cannot serve on port {args.port}: {exc}", file=sys.stderr)
+            return 1
+        host, port = server.server_address[:2]
+        print(f"serving {args.folder} on http://{host}:{port}/ (Ctrl-C stops)", flush=True)
+        try:
+            threading_event_wait()
+        except KeyboardInterrupt:
+            pass
+        finally:
+            server.shutdown()
+            server.server_close()
+    return 0
+
+
+def threading_event_wait() -> None:
+    """Wait until interrupted."""
+    import threading
+
+    threading.Event().wait()
+
+
 def add_check_command(sub) -> None:
     """The ``check`` subcommand (SPEC §7): the import report of a GIS file."""
     p = sub.add_parser(
