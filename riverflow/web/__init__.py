@@ -30,7 +30,7 @@ LAND = "#e9e5da"
 
 
 def write_viewer(folder, *, basemap: str | None = None, attribution: str = "",
-                 particles: int = 4000, title: str | None = None) -> Path:
+                 particles: int = 1500, title: str | None = None) -> Path:
     """Write ``folder/index.html`` (and ``leaflet-LICENSE.txt``) for the pyramid in
     ``folder``; returns the page's path.
 

@@ -81,7 +81,7 @@
   canvas.className = "rf-particles";
   map.getContainer().appendChild(canvas);
   var ctx = canvas.getContext("2d");
-  var N = cfg.particles || 4000, LIFE = 90;
+  var N = cfg.particles || 1500, LIFE = 90;
   var px = new Float32Array(N), py = new Float32Array(N), age = new Int32Array(N);
   var alive = new Uint8Array(N);
   function resize() {
@@ -118,10 +118,10 @@
     // max_speed_mps crosses 60 screen pixels a second at any zoom (a picture, not physics)
     var gain = 60 / maxSpeed;
     ctx.globalCompositeOperation = "destination-out";
-    ctx.fillStyle = "rgba(0, 0, 0, 0.06)";
+    ctx.fillStyle = "rgba(0, 0, 0, 0.12)";
     ctx.fillRect(0, 0, canvas.width, canvas.height);
     ctx.globalCompositeOperation = "source-over";
-    ctx.strokeStyle = "rgba(235, 246, 255, 0.9)";
+    ctx.strokeStyle = "rgba(235, 246, 255, 0.75)";
     ctx.lineWidth = 1.2;
     ctx.beginPath();
     for (var i = 0; i < N; i++) {
