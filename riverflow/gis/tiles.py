@@ -76,11 +76,35 @@ class TileSet(NamedTuple):
 
 
 class Job(NamedTuple):
-    """What every worker needs: the field, the CRS transformers' ends, the encoding."""
+    """What every worker needs: the field, the network's CRS, max speed."""
 
     field: object
     crs: str
     max_speed_mps: float
+
+    def __reduce__(self):
+        """Pickled (sent to a Dask worker): the graph and the field's quadtree and lattice,
+        from which the worker makes the same field again (:func:`_job_from_recipe`)."""
+        f = self.field
+        qt = f.tiles.quadtree
+        options = {"slip": f.slip, "search_radius_factor": f.search_radius_factor,
+                   "domain_m": (qt.root_x_m, qt.root_y_m, qt.root_size_m),
+                   "lattice_cells": f.tiles.n_cells,
+                   # the node spacing of the field's finest level gives that level again
+                   "potential_delta_m": qt.root_size_m / (f.tiles.n_cells * 2 ** f.max_level)}
+        return (_job_from_recipe, (f.graph, options, f.max_level, self.crs,
+                                   self.max_speed_mps))
+
+
+def _job_from_recipe(graph, options, max_level, crs, max_speed_mps) -> Job:
+    """A worker's Job (made once per worker: the job is scattered to each worker once)."""
+    from riverflow.hydro.flow_field import FlowField
+
+    field = FlowField(graph, **options)
+    if field.max_level != max_level:
+        raise RuntimeError(f"bake_tiles: the worker's flow field has quadtree level "
+                           f"{field.max_level}, the caller's {max_level}")
+    return Job(field, crs, max_speed_mps)
 
 
 def parse_zooms(text) -> tuple[int, int]:

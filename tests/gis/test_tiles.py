@@ -156,6 +156,20 @@ def test_two_dask_workers_give_the_bytes_of_one(river, baked, tmp_path, small_bl
     assert _files(tmp_path / "tiles") == files
 
 
+def test_a_job_sent_to_another_process_bakes_the_same_bytes(river, baked, tmp_path):
+    import pickle
+
+    _, field = river
+    _, files = baked
+    job = T.Job(field, UTM, json.loads(files["tiles.json"])["riverflow"]["max_speed_mps"])
+    sent = pickle.loads(pickle.dumps(job))          # what a Dask worker gets: the recipe
+    assert sent.field is not field and sent.field.max_level == field.max_level
+    name = next(k for k in files if k.endswith(".png"))
+    z, x, y = (int(v) for v in name[:-4].split("/"))
+    T.bake_block(sent, str(tmp_path), [(z, x, y)])
+    assert (tmp_path / name).read_bytes() == files[name]
+
+
 def test_a_worker_killed_mid_bake_loses_no_tiles(river, baked, tmp_path, monkeypatch,
                                                  small_blocks):
     import os
