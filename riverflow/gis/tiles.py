@@ -25,7 +25,8 @@ skipped (every tile is written under a temporary name and renamed into place), a
 (:data:`BLOCK`) by the caller's process (``workers=1``), local processes
 (``concurrent.futures``), or Dask (``riverflow[cluster]``: a ``LocalCluster`` of ``workers``
 processes, or ``scheduler`` an existing cluster's address); the network goes to each worker
-once and a failed block is retried.
+once (Dask: as a recipe, from which the worker makes the flow field again; the field's
+obstacles are not carried) and a failed block is retried.
 """
 from __future__ import annotations
 
@@ -75,12 +76,19 @@ class TileSet(NamedTuple):
     seconds: float
 
 
-class Job(NamedTuple):
-    """What every worker needs: the field, the network's CRS, max speed."""
+class Job:
+    """What every worker needs: the field, the network's CRS, max speed. (Not a tuple: Dask
+    takes the tuples among a task's arguments apart and would pickle the field itself.)"""
 
-    field: object
-    crs: str
-    max_speed_mps: float
+    __slots__ = ("field", "crs", "max_speed_mps", "lock")
+
+    def __init__(self, field, crs: str, max_speed_mps: float) -> None:
+        import threading
+
+        self.field, self.crs, self.max_speed_mps = field, crs, float(max_speed_mps)
+        self.lock = threading.Lock()
+        """FlowField is not thread-safe: threads of one process (Dask thread workers) query
+        it one at a time."""
 
     def __reduce__(self):
         """Pickled (sent to a Dask worker): the graph and the field's quadtree and lattice,
@@ -370,7 +378,8 @@ def render_tile(job: Job, z: int, x: int, y: int) -> np.ndarray | None:
     status = np.zeros(len(pts), np.uint8)
     velocity = np.zeros((len(pts), 2), np.float32)
     if ok.any():
-        status[ok], velocity[ok] = job.field.query(pts[ok])
+        with job.lock:
+            status[ok], velocity[ok] = job.field.query(pts[ok])
     water = status == FlowStatus.INSIDE
     if not water.any():
         return None
@@ -532,11 +541,17 @@ def _require_dask():
 
 def _run_dask(client, job: Job, folder: Path, blocks):
     dd = _require_dask()
-    shared = client.scatter(job, broadcast=True)        # the network goes to each worker once
+    # the network goes to each worker once: a task that holds the job (a task, not scattered
+    # data, so that the scheduler can make it again when the worker holding it is killed)
+    shared = client.submit(_hold, job, pure=False)
     futures = [client.submit(bake_block, shared, str(folder), b, retries=RETRIES, pure=False)
                for b in blocks]
     for f in dd.as_completed(futures):
         yield f.result()
+
+
+def _hold(job: Job) -> Job:
+    return job
 
 
 def _existing_max_speed(tilejson: Path) -> float | None:
