@@ -73,13 +73,16 @@ def scene_graph(args: argparse.Namespace):
 def add_bake_command(sub, scene_args, positive) -> None:
     """The ``bake`` subcommand (SPEC §7)."""
     p = sub.add_parser(
-        "bake", help="bake the flow of a region into a flow-map PNG (+ JSON) for other engines",
-        description="Sample the flow at every pixel centre of a region and write a flow map "
-                    "as flow-map shaders read it (Waterways, Unity, Unreal): RG = 0.5 + v / "
-                    "(2 max_speed) (x east, y north), B = water / land, A = distance to the "
-                    "nearest bank / max_distance; rows north-up. A JSON file beside it (same "
-                    "name, .json) holds origin_m, cell_m, size_px, max_speed_mps, the encoding "
-                    "and the CRS.")
+        "bake", help="bake the flow into a flow-map PNG (+ JSON) for other engines, web "
+                     "tiles (--tiles) or a GeoTIFF (--format geotiff)",
+        description="Sample the flow at every pixel centre of a region and write a flow map: "
+                    "--preset raw (default): RG = 0.5 + v / (2 max_speed) (x east, y north), "
+                    "B = water / land, A = distance to the nearest bank / max_distance; "
+                    "--preset unity, unreal, godot-waterways or source: what that engine's "
+                    "flow-map shaders read (docs/flowmaps.md); rows north-up. A JSON file "
+                    "beside it (same name, .json) holds origin_m, cell_m, size_px, "
+                    "max_speed_mps, the preset, the encoding and the CRS. --tiles DIR writes "
+                    "an XYZ Web Mercator pyramid instead (resumable; --workers, --scheduler).")
     scene_args(p)
     p.add_argument("--region", type=_region, default=None, metavar="X0,Y0,X1,Y1",
                    help="the region [m] in the scene's coordinates (default: the network's "
