@@ -1,6 +1,6 @@
 # riverflow: `make demo`, `make test`. Works from a fresh clone: the first target that needs
 # Python creates $(VENV) with python3's venv module and installs the package with its test,
-# plot, gis and hosts extras; it reinstalls when pyproject.toml changes.
+# plot, gis, hosts and cluster extras; it reinstalls when pyproject.toml changes.
 
 VENV ?= .venv
 PY := $(VENV)/bin/python
@@ -24,13 +24,13 @@ help:
 	@echo "make kernel-signatures   record the kernels' argument types for the warm-up"
 	@echo "make pack      compile the kernels for x86-64-v3 into riverflow/kernels/_pack (shipped in a wheel)"
 	@echo "make wheel     build the wheel (with the kernel pack) into dist/"
-	@echo "make install   create $(VENV) and install riverflow[test,plot,gis,hosts] (the others do it too)"
+	@echo "make install   create $(VENV) and install riverflow[test,plot,gis,hosts,cluster] (the others do it too)"
 	@echo "make clean     remove caches, outputs and the kernel pack; make distclean also removes $(VENV)"
 
 $(VENV)/.installed: pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --upgrade pip
-	$(PY) -m pip install -e '.[test,plot,gis,hosts]'
+	$(PY) -m pip install -e '.[test,plot,gis,hosts,cluster]'
 	touch $@
 
 install: $(VENV)/.installed

@@ -27,6 +27,8 @@ Public API (SPEC §6)::
     spill = world.add_spill(xy_m, mass_kg, duration_s=0.0, name=None, decay_per_s=0.0)
     world.advance_spills(seconds); world.concentration(xy)  # (N,) kg/m³; world.spill(spill)
     rf.bake_concentration(world, region_m, cell_m, "out/spill", times_s)   # GeoTIFF/PNG + CSV
+    rf.bake_flow_map(..., preset="unity")  # also unreal, godot-waterways, source (docs/flowmaps.md)
+    rf.bake_tiles(graph, "tiles", (10, 14))  # XYZ Web Mercator flow tiles + tiles.json
 
 Names are imported lazily so that ``import riverflow`` stays cheap and never touches OpenGL.
 """
@@ -67,6 +69,7 @@ _LAZY = {
     "bake_flow_map": "riverflow.gis.bake",
     "bake_concentration": "riverflow.gis.spill",
     "Dispersion": "riverflow.hydro.spill_network",
+    "bake_tiles": "riverflow.gis.tiles",
     "ResourceLimitError": "riverflow._validate",
     "set_memory_limit": "riverflow._validate",
     "memory_limit_bytes": "riverflow._validate",

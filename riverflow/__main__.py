@@ -141,11 +141,13 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print the timings as JSON")
     p.set_defaults(run=_profile)
 
-    from riverflow.gis.cli import add_bake_command, add_check_command, add_spill_command
+    from riverflow.gis.cli import (add_bake_command, add_check_command, add_spill_command,
+                                   add_view_command)
 
     add_bake_command(sub, _scene_args, _positive)
     add_check_command(sub)
     add_spill_command(sub, _scene_args, _positive)
+    add_view_command(sub)
     return parser
 
 

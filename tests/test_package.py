@@ -66,9 +66,10 @@ def _wheel(tmp: Path, pack: dict[str, bytes] | None = None) -> Path:
 def test_the_wheel_holds_every_module_the_shaders_and_the_license(wheel):
     names = set(zipfile.ZipFile(wheel).namelist())
     sources = {p.relative_to(REPO).as_posix() for p in (REPO / "riverflow").rglob("*")
-               if p.suffix in (".py", ".glsl") and "__pycache__" not in p.parts}
+               if p.suffix in (".py", ".glsl", ".js", ".css") and "__pycache__" not in p.parts}
     assert sources <= names, sorted(sources - names)
     assert "riverflow/py.typed" in names
+    assert "riverflow/web/leaflet/LICENSE" in names          # riverflow view's Leaflet
     info = next(n for n in names if n.endswith(".dist-info/METADATA"))
     metadata = zipfile.ZipFile(wheel).read(info).decode()
     assert "License-Expression: BSD-3-Clause" in metadata

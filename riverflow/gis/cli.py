@@ -78,13 +78,16 @@ def scene_graph(args: argparse.Namespace, config=None):
 def add_bake_command(sub, scene_args, positive) -> None:
     """The ``bake`` subcommand (SPEC §7)."""
     p = sub.add_parser(
-        "bake", help="bake the flow of a region into a flow-map PNG (+ JSON) for other engines",
-        description="Sample the flow at every pixel centre of a region and write a flow map "
-                    "as flow-map shaders read it (Waterways, Unity, Unreal): RG = 0.5 + v / "
-                    "(2 max_speed) (x east, y north), B = water / land, A = distance to the "
-                    "nearest bank / max_distance; rows north-up. A JSON file beside it (same "
-                    "name, .json) holds origin_m, cell_m, size_px, max_speed_mps, the encoding "
-                    "and the CRS.")
+        "bake", help="bake the flow into a flow-map PNG (+ JSON) for other engines, web "
+                     "tiles (--tiles) or a GeoTIFF (--format geotiff)",
+        description="Sample the flow at every pixel centre of a region and write a flow map: "
+                    "--preset raw (default): RG = 0.5 + v / (2 max_speed) (x east, y north), "
+                    "B = water / land, A = distance to the nearest bank / max_distance; "
+                    "--preset unity, unreal, godot-waterways or source: what that engine's "
+                    "flow-map shaders read (docs/flowmaps.md); rows north-up. A JSON file "
+                    "beside it (same name, .json) holds origin_m, cell_m, size_px, "
+                    "max_speed_mps, the preset, the encoding and the CRS. --tiles DIR writes "
+                    "an XYZ Web Mercator pyramid instead (resumable; --workers, --scheduler).")
     scene_args(p)
     p.add_argument("--region", type=_region, default=None, metavar="X0,Y0,X1,Y1",
                    help="the region [m] in the scene's coordinates (default: the network's "
@@ -97,20 +100,74 @@ def add_bake_command(sub, scene_args, positive) -> None:
                    help="16 bits a channel (needs pypng: pip install 'riverflow[gis]')")
     p.add_argument("--max-speed", type=positive, default=None, metavar="MPS",
                    help="speed [m/s] of R, G = 0 or full (default: the fastest water in the map)")
+    p.add_argument("--preset", default="raw", metavar="NAME",
+                   help="the engine whose flow-map shaders read the map: raw, unity, unreal, "
+                        "godot-waterways, source (docs/flowmaps.md; default: %(default)s)")
+    p.add_argument("--direction-test", action="store_true",
+                   help="write the preset's direction test map (a counter-clockwise "
+                        "rotation, 256 px) to --out instead of the scene's flow")
+    p.add_argument("--format", choices=("png", "geotiff"), default="png",
+                   help="png: the flow map (--preset); geotiff: a cloud-optimised GeoTIFF of "
+                        "float32 vx, vy [m/s], mask and distance [m] in the network's CRS "
+                        "(--out FILE.tif; riverflow[gis])")
+    p.add_argument("--tiles", type=Path, default=None, metavar="DIR",
+                   help="write web tiles instead: an XYZ PNG pyramid in Web Mercator "
+                        "(DIR/{z}/{x}/{y}.png + DIR/tiles.json; resumable; riverflow[gis])")
+    p.add_argument("--zoom", default="10-14", metavar="Z0-Z1",
+                   help="--tiles: the zoom levels, 0-22 (default: %(default)s)")
+    p.add_argument("--crs", default=None, metavar="CRS",
+                   help="--tiles: the network's CRS where the scene has none (e.g. EPSG:32633)")
+    p.add_argument("--workers", type=int, default=1, metavar="N",
+                   help="--tiles: processes (a Dask LocalCluster of N where riverflow[cluster] "
+                        "is installed, else local processes; default: %(default)s)")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="--tiles: bake on the Dask cluster of this scheduler "
+                        "(tcp://host:8786; riverflow[cluster])")
     p.set_defaults(run=run_bake)
 
 
 def run_bake(args: argparse.Namespace) -> int:
     from riverflow.__main__ import _load_scene
+    from riverflow.gis.bake import direction_test_map, preset_spec
 
+    try:
+        preset_spec(args.preset, "riverflow bake --preset")
+        if args.tiles is not None:
+            from riverflow.gis.tiles import parse_zooms
+
+            zooms = parse_zooms(args.zoom)
+            if args.tiles.exists() and not args.tiles.is_dir():
+                raise ValueError(f"--tiles {args.tiles} is a file, expected a folder")
+        if args.direction_test:
+            path = direction_test_map(args.out, args.preset, bits=16 if args.bits16 else 8)
+            print(f"wrote {path.resolve()} (direction test map, preset {args.preset})")
+            return 0
+    except (ImportError, ValueError, OSError) as exc:
+        print(f"riverflow bake: {exc}", file=sys.stderr)
+        return 1
     scene, title = _load_scene(args)
     if scene is None:
         return 1
+    if args.tiles is not None:
+        return _run_bake_tiles(args, scene, title, zooms)
+    if args.format == "geotiff":
+        from riverflow.gis.bake import bake_geotiff
+
+        try:
+            result = bake_geotiff(scene, args.region, args.cell_m, args.out)
+        except (ImportError, ValueError, OSError) as exc:
+            print(f"riverflow bake: {exc}", file=sys.stderr)
+            return 1
+        w, h = result.size_px
+        print(f"wrote {result.image.resolve()} ({title}: {w}x{h} px of {result.cell_m:g} m, "
+              f"cloud-optimised GeoTIFF: vx, vy [m/s], mask, distance [m])")
+        return 0
     from riverflow.gis.bake import bake_flow_map
 
     try:
         result = bake_flow_map(scene, args.region, args.cell_m, args.out,
-                               bits=16 if args.bits16 else 8, max_speed_mps=args.max_speed)
+                               bits=16 if args.bits16 else 8, max_speed_mps=args.max_speed,
+                               preset=args.preset)
     except (ImportError, ValueError, OSError) as exc:
         print(f"riverflow bake: {exc}", file=sys.stderr)
         return 1
@@ -218,6 +275,79 @@ def run_spill(args: argparse.Namespace) -> int:
           f"{final.time_s / 3600:.2f} h: {final.in_water_kg:.4g} kg in the water, "
           f"{sum(final.out_kg.values()):.4g} kg out, {final.decayed_kg:.4g} kg decayed)")
     return 0
+
+
+def _run_bake_tiles(args, scene, title, zooms) -> int:
+    from riverflow.gis.tiles import bake_tiles
+
+    workers, scheduler = args.workers, args.scheduler
+    try:
+        result = bake_tiles(scene, args.tiles, zooms, crs=args.crs, region_m=args.region,
+                            max_speed_mps=args.max_speed, workers=workers,
+                            scheduler=scheduler, progress=True)
+    except (ImportError, ValueError, OSError) as exc:
+        print(f"riverflow bake: {exc}", file=sys.stderr)
+        return 1
+    print(f"wrote {result.written} tiles to {result.folder.resolve()} ({title}: zoom "
+          f"{zooms[0]}-{zooms[1]}, {result.skipped} already there, {result.empty} without "
+          f"water not written, max speed {result.max_speed_mps:.3g} m/s, "
+          f"{result.seconds:.1f} s); TileJSON {result.tilejson.name}")
+    return 0
+
+
+def add_view_command(sub) -> None:
+    """The ``view`` subcommand: a page that animates a tile pyramid's water in a browser."""
+    p = sub.add_parser(
+        "view", help="write (and --serve) a web page that shows baked flow tiles flowing",
+        description="Write DIR/index.html for a pyramid that `riverflow bake --tiles DIR` "
+                    "baked: a self-contained page (Leaflet inlined, no CDN) that draws the "
+                    "water from the tiles and animates it with particles. Browsers cannot read "
+                    "the pixels of file:// images: open it with --serve.")
+    p.add_argument("folder", type=Path, metavar="DIR", help="the tile pyramid's folder")
+    p.add_argument("--serve", action="store_true",
+                   help="serve DIR on http://127.0.0.1:PORT/ until interrupted")
+    p.add_argument("--port", type=int, default=8000, metavar="PORT",
+                   help="--serve: the port (0: any free one; default: %(default)s)")
+    p.add_argument("--basemap", default=None, metavar="URL",
+                   help="an XYZ basemap URL (https://…/{z}/{x}/{y}.png) under the water "
+                        "(default: a plain colour; nothing is fetched)")
+    p.add_argument("--attribution", default="", metavar="TEXT",
+                   help="--basemap: its attribution, shown in the corner")
+    p.set_defaults(run=run_view)
+
+
+def run_view(args: argparse.Namespace) -> int:
+    from riverflow.web import serve, write_viewer
+
+    try:
+        page = write_viewer(args.folder, basemap=args.basemap, attribution=args.attribution)
+    except (ValueError, OSError) as exc:
+        print(f"riverflow view: {exc}", file=sys.stderr)
+        return 1
+    print(f"wrote {page.resolve()}")
+    if args.serve:
+        try:
+            server = serve(args.folder, args.port, background=True)
+        except OSError as exc:
+            print(f"riverflow view: cannot serve on port {args.port}: {exc}", file=sys.stderr)
+            return 1
+        host, port = server.server_address[:2]
+        print(f"serving {args.folder} on http://{host}:{port}/ (Ctrl-C stops)", flush=True)
+        try:
+            threading_event_wait()
+        except KeyboardInterrupt:
+            pass
+        finally:
+            server.shutdown()
+            server.server_close()
+    return 0
+
+
+def threading_event_wait() -> None:
+    """Wait until interrupted."""
+    import threading
+
+    threading.Event().wait()
 
 
 def add_check_command(sub) -> None:
