@@ -257,10 +257,11 @@ def potential_at(
 
     ``gval`` is (G,) scratch for the merged signed squared distance of each ψ-group.
     """
-    return potential_and_shore_at(px, py, nb, blk_curve, blk_start, blk_count, blk_seg,
-                                  blk_dmin2, seg_ax, seg_ay, seg_bx, seg_by, curve_kind,
-                                  curve_comp, curve_group, curve_hw2, comp_radius, comp_group0,
-                                  comp_group1, group_psi, slip, gval)[0]
+    psi, _, beyond_cap = potential_and_shore_at(
+        px, py, nb, blk_curve, blk_start, blk_count, blk_seg, blk_dmin2, seg_ax, seg_ay, seg_bx,
+        seg_by, curve_kind, curve_comp, curve_group, curve_hw2, comp_radius, comp_group0,
+        comp_group1, group_psi, slip, gval)
+    return np.nan if beyond_cap else psi
 
 
 @njit(**JIT_OPTIONS)
@@ -270,9 +271,12 @@ def potential_and_shore_at(
     curve_kind, curve_comp, curve_group, curve_hw2,
     comp_radius, comp_group0, comp_group1, group_psi, slip, gval,
 ):
-    """(ψ [m²/s], squared distance to the nearest bank [m²]) at p, as :func:`potential_at`;
-    the distance is to the nearest bank or island shore of p's river network (the ψ-groups'
-    nearest segments, which the weighting finds anyway), inf where p is not in the water."""
+    """(ψ [m²/s], squared distance to the nearest bank [m²], beyond_cap) at p, as
+    :func:`potential_at`; the distance is to the nearest bank or island shore of p's river
+    network (the ψ-groups' nearest segments, which the weighting finds anyway), inf where p is
+    not in the water. Where p lies just beyond a cap (a river's open end; ``beyond_cap``
+    True) ψ is the weighting continued past the cap (the flow tiles' ghosts there: the water
+    would go on), and not in the water."""
     best = np.inf
     axis = -1
     for k in range(nb):
@@ -287,7 +291,7 @@ def potential_and_shore_at(
                 best = d2
                 axis = c
     if axis < 0:
-        return np.nan, np.inf
+        return np.nan, np.inf, False
     comp = curve_comp[axis]
     radius = comp_radius[comp]
     width2 = 4.0 * curve_hw2[axis]  # sign tests only within one river width
@@ -315,8 +319,7 @@ def potential_and_shore_at(
             gval[curve_group[c]] = cur
         else:
             cap = cur
-    if cap < 0.0 and -cap < width2:
-        return np.nan, np.inf
+    beyond_cap = cap < 0.0 and -cap < width2
     count = 0
     near2 = np.inf
     on_bank = -1
@@ -327,7 +330,7 @@ def potential_and_shore_at(
         if v == np.inf:
             continue
         if v < 0.0 and -v < width2:
-            return np.nan, np.inf
+            return np.nan, np.inf, False
         count += 1
         near2 = min(near2, abs(v))
         d = math.sqrt(abs(v))
@@ -345,12 +348,12 @@ def potential_and_shore_at(
     if count < 2 and not (count == 1 and g1 - g0 == 1):
         # water lies between two shores of different ψ; a network whose whole shore has one
         # ψ (a lake no river touches) is still water
-        return np.nan, np.inf
+        return np.nan, np.inf, False
     if on_bank >= 0:
-        return group_psi[on_bank], 0.0
+        return group_psi[on_bank], (np.inf if beyond_cap else 0.0), beyond_cap
     if sw <= 0.0:
-        return np.nan, np.inf
-    return swp / sw, near2
+        return np.nan, np.inf, False
+    return swp / sw, (np.inf if beyond_cap else near2), beyond_cap
 
 
 @njit(**JIT_OPTIONS)
@@ -375,6 +378,51 @@ def evaluate_potential(
                                   seg_ax, seg_ay, seg_bx, seg_by, curve_kind, curve_comp,
                                   curve_group, curve_hw2, comp_radius, comp_group0, comp_group1,
                                   group_psi, slip, gval)
+
+
+@njit(**JIT_OPTIONS)
+def _mirrored_across_cap(
+    px, py, reach, seg_ax, seg_ay, seg_bx, seg_by, curve_kind, curve_comp, curve_group,
+    curve_hw2, curve_seg0, curve_seg1, curve_bbox, curve_cutoff, comp_radius, comp_group0,
+    comp_group1, group_psi, slip, blk_curve, blk_start, blk_count, blk_seg, blk_dmin2, tmp_d2,
+    gval,
+):
+    """ψ at the mirror image of p (a dry point just beyond a cap) across its nearest cap
+    segment's line, when that lies in the water and p within ``reach`` of the cap; else NaN.
+    The ghosts of a river's open end: the water would go on, square to the cap."""
+    best = np.inf
+    seg = -1
+    for c in range(curve_kind.shape[0]):
+        if curve_kind[c] != KIND_CAP:
+            continue
+        if (curve_bbox[c, 0] > px + reach or curve_bbox[c, 2] < px - reach
+                or curve_bbox[c, 1] > py + reach or curve_bbox[c, 3] < py - reach):
+            continue
+        for s in range(curve_seg0[c], curve_seg1[c]):
+            d2 = _dist2(px, py, seg_ax[s], seg_ay[s], seg_bx[s], seg_by[s])
+            if d2 < best:
+                best = d2
+                seg = s
+    if seg < 0 or best > reach * reach:
+        return np.nan
+    ax = seg_ax[seg]
+    ay = seg_ay[seg]
+    ex = seg_bx[seg] - ax
+    ey = seg_by[seg] - ay
+    len2 = ex * ex + ey * ey
+    if len2 <= 0.0:
+        return np.nan
+    t = ((px - ax) * ex + (py - ay) * ey) / len2
+    mx = 2.0 * (ax + t * ex) - px
+    my = 2.0 * (ay + t * ey) - py
+    nb = gather_box_segments(mx, my, mx, my, seg_ax, seg_ay, seg_bx, seg_by, curve_seg0,
+                             curve_seg1, curve_bbox, curve_cutoff, blk_curve, blk_start,
+                             blk_count, blk_seg, blk_dmin2, tmp_d2)
+    if nb == 0:
+        return np.nan
+    return potential_at(mx, my, nb, blk_curve, blk_start, blk_count, blk_seg, blk_dmin2,
+                        seg_ax, seg_ay, seg_bx, seg_by, curve_kind, curve_comp, curve_group,
+                        curve_hw2, comp_radius, comp_group0, comp_group1, group_psi, slip, gval)
 
 
 # -- flow tiles ---------------------------------------------------------------------------------
@@ -430,14 +478,15 @@ def build_flow_tile(
                     px = origin_x + (gi0 + i - ring) * h
                     psi = np.nan
                     near2 = np.inf
+                    beyond_cap = False
                     if nb > 0:
-                        psi, near2 = potential_and_shore_at(
+                        psi, near2, beyond_cap = potential_and_shore_at(
                             px, py, nb, blk_curve, blk_start, blk_count, blk_seg, blk_dmin2,
                             seg_ax, seg_ay, seg_bx, seg_by, curve_kind, curve_comp,
                             curve_group, curve_hw2, comp_radius, comp_group0, comp_group1,
                             group_psi, slip, gval)
-                    psi_full[j, i] = psi
-                    inside_full[j, i] = not math.isnan(psi)
+                    psi_full[j, i] = psi          # beyond a cap: ψ continued, but dry
+                    inside_full[j, i] = not (beyond_cap or math.isnan(psi))
                     sj = j - ring + 1          # lattice points −1 … n+1 are kept
                     si = i - ring + 1
                     if 0 <= sj <= n_cells + 2 and 0 <= si <= n_cells + 2:
@@ -445,6 +494,18 @@ def build_flow_tile(
                                              and near2 < np.inf else 0.0)
                     if inside_full[j, i] and ring <= i < m - ring and ring <= j < m - ring:
                         n_inside += 1
+    # beyond a cap (a river's open end) the water would go on: ψ there is ψ at the point
+    # mirrored across the cap (flow square to the cap), for the ghosts
+    for j in range(m):
+        for i in range(m):
+            if inside_full[j, i] or math.isnan(psi_full[j, i]):
+                continue
+            psi_full[j, i] = _mirrored_across_cap(
+                origin_x + (gi0 + i - ring) * h, origin_y + (gj0 + j - ring) * h, 3.0 * h,
+                seg_ax, seg_ay, seg_bx, seg_by, curve_kind, curve_comp, curve_group,
+                curve_hw2, curve_seg0, curve_seg1, curve_bbox, curve_cutoff, comp_radius,
+                comp_group0, comp_group1, group_psi, slip, blk_curve, blk_start, blk_count,
+                blk_seg, blk_dmin2, tmp_d2, gval)
     _mark_boundary_cells(origin_x + gi0 * h, origin_y + gj0 * h, h, n_cells, seg_ax, seg_ay,
                          seg_bx, seg_by, curve_kind, curve_seg0, curve_seg1, curve_bbox,
                          cell_d2, out_cell_status, out_cell_segments)
@@ -538,7 +599,7 @@ def _extrapolate_ghosts(psi_full, inside_full, n_cells, out_psi):
         b = sj + ring - 1
         for si in range(n_cells + 3):
             a = si + ring - 1
-            if inside_full[b, a]:
+            if not math.isnan(psi_full[b, a]):
                 out_psi[sj, si] = psi_full[b, a]
                 continue
             acc = 0.0
@@ -548,12 +609,12 @@ def _extrapolate_ghosts(psi_full, inside_full, n_cells, out_psi):
             for d in range(4):
                 da = 1 if d == 0 else (-1 if d == 1 else 0)
                 db = 1 if d == 2 else (-1 if d == 3 else 0)
-                if inside_full[b + db, a + da]:
-                    if inside_full[b + 2 * db, a + 2 * da]:
+                if not math.isnan(psi_full[b + db, a + da]):
+                    if not math.isnan(psi_full[b + 2 * db, a + 2 * da]):
                         b3 = b + 3 * db
                         a3 = a + 3 * da
                         if (0 <= b3 < inside_full.shape[0] and 0 <= a3 < inside_full.shape[1]
-                                and inside_full[b3, a3]):
+                                and not math.isnan(psi_full[b3, a3])):
                             acc += (3.0 * psi_full[b + db, a + da]
                                     - 3.0 * psi_full[b + 2 * db, a + 2 * da] + psi_full[b3, a3])
                         else:
@@ -619,12 +680,14 @@ class CachedTiles(NamedTuple):
 
 class Segments(NamedTuple):
     """The network's segments (S,) float64 [m]: a → b; banks and caps have the water on their
-    left."""
+    left. ``psi`` (S,) float64 [m²/s]: the stream function of a bank segment's ψ-group, NaN
+    for axes and caps (the bank correction, :func:`_bank_correction`)."""
 
     ax: np.ndarray
     ay: np.ndarray
     bx: np.ndarray
     by: np.ndarray
+    psi: np.ndarray
 
 
 @njit(**EXACT_JIT_OPTIONS)
@@ -749,6 +812,117 @@ def _fill_stencil(patch):
     return True
 
 
+BANK_REACH = 1.4
+"""The bank correction (:func:`_bank_correction`) fades out this many lattice spacings from a
+bank: within one cell diagonal (√2) of a cell, every segment is in the cell's list."""
+
+
+@njit(inline="always", **JIT_OPTIONS)
+def _bicubic(patch, fx, fy):
+    """(value, ∂/∂fx, ∂/∂fy) of the Catmull-Rom bicubic of a 4×4 stencil at (fx, fy) (lattice
+    units; outside [0, 1] the cell's polynomial continued)."""
+    wx0, wx1, wx2, wx3, dx0, dx1, dx2, dx3 = _catmull_rom(fx)
+    wy0, wy1, wy2, wy3, dy0, dy1, dy2, dy3 = _catmull_rom(fy)
+    r0w = _rows(wx0, wx1, wx2, wx3, patch[0, 0], patch[0, 1], patch[0, 2], patch[0, 3])
+    r1w = _rows(wx0, wx1, wx2, wx3, patch[1, 0], patch[1, 1], patch[1, 2], patch[1, 3])
+    r2w = _rows(wx0, wx1, wx2, wx3, patch[2, 0], patch[2, 1], patch[2, 2], patch[2, 3])
+    r3w = _rows(wx0, wx1, wx2, wx3, patch[3, 0], patch[3, 1], patch[3, 2], patch[3, 3])
+    r0d = _rows(dx0, dx1, dx2, dx3, patch[0, 0], patch[0, 1], patch[0, 2], patch[0, 3])
+    r1d = _rows(dx0, dx1, dx2, dx3, patch[1, 0], patch[1, 1], patch[1, 2], patch[1, 3])
+    r2d = _rows(dx0, dx1, dx2, dx3, patch[2, 0], patch[2, 1], patch[2, 2], patch[2, 3])
+    r3d = _rows(dx0, dx1, dx2, dx3, patch[3, 0], patch[3, 1], patch[3, 2], patch[3, 3])
+    val = _rows(wy0, wy1, wy2, wy3, r0w, r1w, r2w, r3w)
+    gx = _rows(wy0, wy1, wy2, wy3, r0d, r1d, r2d, r3d)
+    gy = _rows(dy0, dy1, dy2, dy3, r0w, r1w, r2w, r3w)
+    return val, gx, gy
+
+
+@njit(**JIT_OPTIONS)
+def _bank_correction(px, py, slot, ci, cj, fx, fy, inv_h, tiles, segs, patch):
+    """The bank correction at p (in a cell of tile ``slot`` whose segment list is not empty):
+    (δψ [m²/s], ∂δψ/∂x, ∂δψ/∂y [m/s]) to add to the lattice's bicubic ψ_L.
+
+    The lattice is a few metres coarse; its bicubic is not constant along a bank, so the flow
+    crossed it by up to 4 % of its speed 1 m in (issue 22). With f the foot of p on its nearest
+    bank segment (ψ-group value ψ_b), d = |p − f| and w = 1 − fade(d / D), D = BANK_REACH
+    lattice spacings, the corrected stream function is ψ = ψ_L(p) − w·(ψ_L(f) − ψ_b): exactly
+    ψ_b on the bank, ψ_L from D on, and the velocity stays its curl (divergence-free). Its
+    normal part at p is ∂ψ_L/∂t(p) − w·∂ψ_L/∂t(f): what the lattice gets wrong at the bank,
+    cancelled near it. ψ_L(f) is the bicubic of f's cell in p's tile (continued past the tile's
+    edge when f lies beyond it). Caps carry no ψ and are skipped. Returns zeros when no bank is
+    within D."""
+    h = 1.0 / inv_h
+    reach = BANK_REACH * h
+    best = reach * reach
+    fxm = 0.0
+    fym = 0.0
+    on_inside = False
+    psi_b = 0.0
+    tx = 0.0
+    ty = 0.0
+    tl2 = 1.0
+    for q in range(CELL_SEGMENTS):
+        s = tiles.cell_segments[slot, cj, ci, q]
+        if s < 0:
+            break
+        if math.isnan(segs.psi[s]):
+            continue
+        ax = segs.ax[s]
+        ay = segs.ay[s]
+        ex = segs.bx[s] - ax
+        ey = segs.by[s] - ay
+        len2 = ex * ex + ey * ey
+        t = 0.0
+        if len2 > 0.0:
+            t = min(max(((px - ax) * ex + (py - ay) * ey) / len2, 0.0), 1.0)
+        qx = ax + t * ex
+        qy = ay + t * ey
+        d2 = (px - qx) * (px - qx) + (py - qy) * (py - qy)
+        if d2 < best:
+            best = d2
+            fxm = qx
+            fym = qy
+            psi_b = segs.psi[s]
+            on_inside = 0.0 < t < 1.0
+            tx = ex
+            ty = ey
+            tl2 = len2
+    if best >= reach * reach:
+        return 0.0, 0.0, 0.0
+    n = tiles.n_cells
+    uf = ci + fx + (fxm - px) * inv_h
+    vf = cj + fy + (fym - py) * inv_h
+    cif = ci
+    cjf = cj
+    total = 0.0
+    for r in range(4):
+        for q in range(4):
+            val = tiles.psi[slot, cjf + r, cif + q]
+            patch[r, q] = val
+            total += val
+    if math.isnan(total) and not _fill_stencil(patch):
+        return 0.0, 0.0, 0.0
+    val, gfx, gfy = _bicubic(patch, uf - cif, vf - cjf)
+    gfx *= inv_h
+    gfy *= inv_h
+    err = val - psi_b
+    d = math.sqrt(best)
+    x = d / reach
+    w = 1.0 - x * x * x * (x * (x * 6.0 - 15.0) + 10.0)
+    dw = -30.0 * x * x * (x - 1.0) * (x - 1.0) / reach      # dw/dd
+    gx = 0.0
+    gy = 0.0
+    if d > 0.0:
+        gx = -dw * err * (px - fxm) / d
+        gy = -dw * err * (py - fym) / d
+    if on_inside:           # ∇(ψ_L(f(p))) = t̂ (t̂ · ∇ψ_L(f)); at an end the foot stays put
+        along = (tx * gfx + ty * gfy) / tl2
+        gx -= w * along * tx
+        gy -= w * along * ty
+    return -w * err, gx, gy
+
+
+
 @njit(**JIT_OPTIONS)
 def query_velocity(xy, levels, level, fallback, tiles, tick, segs, n_velocity, out_status,
                    out_velocity):
@@ -764,6 +938,7 @@ def query_velocity(xy, levels, level, fallback, tiles, tick, segs, n_velocity, o
     UNKNOWN).
     """
     patch = np.empty((4, 4))
+    bank_patch = np.empty((4, 4))
     missing = 0
     psi_pool = tiles.psi
     cell_status = tiles.cell_status
@@ -845,6 +1020,11 @@ def query_velocity(xy, levels, level, fallback, tiles, tick, segs, n_velocity, o
         inv_h = (1 << lv) * tiles.n_cells * inv_root
         vx = -gy * inv_h
         vy = gx * inv_h
+        if tiles.cell_segments[slot, cj, ci, 0] >= 0:    # a bank may be near: its correction
+            _, cx, cy = _bank_correction(px, py, slot, ci, cj, fx, fy, inv_h, tiles, segs,
+                                         bank_patch)
+            vx -= cy
+            vy += cx
         if is_finite(vx) and is_finite(vy):
             out_velocity[k, 0] = vx
             out_velocity[k, 1] = vy
@@ -857,6 +1037,7 @@ def sample_potential(xy, levels, level, fallback, tiles, tick, segs, out_psi):
     (N,) float64: NaN outside the water, outside the domain or in an uncached tile. Levels and
     arguments as in :func:`query_velocity`. Returns the number of points with no cached tile."""
     patch = np.empty((4, 4))
+    bank_patch = np.empty((4, 4))
     missing = 0
     psi_pool = tiles.psi
     for k in range(xy.shape[0]):
@@ -894,6 +1075,10 @@ def sample_potential(xy, levels, level, fallback, tiles, tick, segs, out_psi):
                     _rows(wx0, wx1, wx2, wx3, patch[1, 0], patch[1, 1], patch[1, 2], patch[1, 3]),
                     _rows(wx0, wx1, wx2, wx3, patch[2, 0], patch[2, 1], patch[2, 2], patch[2, 3]),
                     _rows(wx0, wx1, wx2, wx3, patch[3, 0], patch[3, 1], patch[3, 2], patch[3, 3]))
+        if tiles.cell_segments[slot, cj, ci, 0] >= 0:    # a bank may be near: its correction
+            acc += _bank_correction(px, py, slot, ci, cj, fx, fy,
+                                    (1 << lv) * tiles.n_cells / tiles.root_size, tiles, segs,
+                                    bank_patch)[0]
         out_psi[k] = acc
     return missing
 
