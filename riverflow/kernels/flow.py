@@ -257,11 +257,10 @@ def potential_at(
 
     ``gval`` is (G,) scratch for the merged signed squared distance of each ψ-group.
     """
-    psi, _, beyond_cap = potential_and_shore_at(
-        px, py, nb, blk_curve, blk_start, blk_count, blk_seg, blk_dmin2, seg_ax, seg_ay, seg_bx,
-        seg_by, curve_kind, curve_comp, curve_group, curve_hw2, comp_radius, comp_group0,
-        comp_group1, group_psi, slip, gval)
-    return np.nan if beyond_cap else psi
+    return potential_and_shore_at(px, py, nb, blk_curve, blk_start, blk_count, blk_seg,
+                                  blk_dmin2, seg_ax, seg_ay, seg_bx, seg_by, curve_kind,
+                                  curve_comp, curve_group, curve_hw2, comp_radius, comp_group0,
+                                  comp_group1, group_psi, slip, gval)[0]
 
 
 @njit(**JIT_OPTIONS)
@@ -271,12 +270,9 @@ def potential_and_shore_at(
     curve_kind, curve_comp, curve_group, curve_hw2,
     comp_radius, comp_group0, comp_group1, group_psi, slip, gval,
 ):
-    """(ψ [m²/s], squared distance to the nearest bank [m²], beyond_cap) at p, as
-    :func:`potential_at`; the distance is to the nearest bank or island shore of p's river
-    network (the ψ-groups' nearest segments, which the weighting finds anyway), inf where p is
-    not in the water. Where p lies just beyond a cap (a river's open end; ``beyond_cap``
-    True) ψ is the weighting continued past the cap (the flow tiles' ghosts there: the water
-    would go on), and not in the water."""
+    """(ψ [m²/s], squared distance to the nearest bank [m²]) at p, as :func:`potential_at`;
+    the distance is to the nearest bank or island shore of p's river network (the ψ-groups'
+    nearest segments, which the weighting finds anyway), inf where p is not in the water."""
     best = np.inf
     axis = -1
     for k in range(nb):
@@ -291,7 +287,7 @@ def potential_and_shore_at(
                 best = d2
                 axis = c
     if axis < 0:
-        return np.nan, np.inf, False
+        return np.nan, np.inf
     comp = curve_comp[axis]
     radius = comp_radius[comp]
     width2 = 4.0 * curve_hw2[axis]  # sign tests only within one river width
@@ -319,7 +315,8 @@ def potential_and_shore_at(
             gval[curve_group[c]] = cur
         else:
             cap = cur
-    beyond_cap = cap < 0.0 and -cap < width2
+    if cap < 0.0 and -cap < width2:
+        return np.nan, np.inf
     count = 0
     near2 = np.inf
     on_bank = -1
@@ -330,7 +327,7 @@ def potential_and_shore_at(
         if v == np.inf:
             continue
         if v < 0.0 and -v < width2:
-            return np.nan, np.inf, False
+            return np.nan, np.inf
         count += 1
         near2 = min(near2, abs(v))
         d = math.sqrt(abs(v))
@@ -348,12 +345,12 @@ def potential_and_shore_at(
     if count < 2 and not (count == 1 and g1 - g0 == 1):
         # water lies between two shores of different ψ; a network whose whole shore has one
         # ψ (a lake no river touches) is still water
-        return np.nan, np.inf, False
+        return np.nan, np.inf
     if on_bank >= 0:
-        return group_psi[on_bank], (np.inf if beyond_cap else 0.0), beyond_cap
+        return group_psi[on_bank], 0.0
     if sw <= 0.0:
-        return np.nan, np.inf, False
-    return swp / sw, (np.inf if beyond_cap else near2), beyond_cap
+        return np.nan, np.inf
+    return swp / sw, near2
 
 
 @njit(**JIT_OPTIONS)
@@ -472,21 +469,26 @@ def build_flow_tile(
             nb = gather_box_segments(x0, y0, x1, y1, seg_ax, seg_ay, seg_bx, seg_by,
                                      curve_seg0, curve_seg1, curve_bbox, curve_cutoff,
                                      blk_curve, blk_start, blk_count, blk_seg, blk_dmin2, tmp_d2)
+            near_cap = False
+            for k in range(nb):
+                if curve_kind[blk_curve[k]] == KIND_CAP:
+                    near_cap = True
             for j in range(bj, j_hi):
                 py = origin_y + (gj0 + j - ring) * h
                 for i in range(bi, i_hi):
                     px = origin_x + (gi0 + i - ring) * h
                     psi = np.nan
                     near2 = np.inf
-                    beyond_cap = False
                     if nb > 0:
-                        psi, near2, beyond_cap = potential_and_shore_at(
+                        psi, near2 = potential_and_shore_at(
                             px, py, nb, blk_curve, blk_start, blk_count, blk_seg, blk_dmin2,
                             seg_ax, seg_ay, seg_bx, seg_by, curve_kind, curve_comp,
                             curve_group, curve_hw2, comp_radius, comp_group0, comp_group1,
                             group_psi, slip, gval)
-                    psi_full[j, i] = psi          # beyond a cap: ψ continued, but dry
-                    inside_full[j, i] = not (beyond_cap or math.isnan(psi))
+                    inside_full[j, i] = not math.isnan(psi)
+                    # dry by a cap: mirrored below
+                    psi_full[j, i] = psi if inside_full[j, i] else (np.inf if near_cap
+                                                                      else np.nan)
                     sj = j - ring + 1          # lattice points −1 … n+1 are kept
                     si = i - ring + 1
                     if 0 <= sj <= n_cells + 2 and 0 <= si <= n_cells + 2:
@@ -498,7 +500,7 @@ def build_flow_tile(
     # mirrored across the cap (flow square to the cap), for the ghosts
     for j in range(m):
         for i in range(m):
-            if inside_full[j, i] or math.isnan(psi_full[j, i]):
+            if psi_full[j, i] != np.inf:
                 continue
             psi_full[j, i] = _mirrored_across_cap(
                 origin_x + (gi0 + i - ring) * h, origin_y + (gj0 + j - ring) * h, 3.0 * h,
@@ -848,9 +850,11 @@ def _bank_correction(px, py, slot, ci, cj, fx, fy, inv_h, tiles, segs, patch):
     lattice spacings, the corrected stream function is ψ = ψ_L(p) − w·(ψ_L(f) − ψ_b): exactly
     ψ_b on the bank, ψ_L from D on, and the velocity stays its curl (divergence-free). Its
     normal part at p is ∂ψ_L/∂t(p) − w·∂ψ_L/∂t(f): what the lattice gets wrong at the bank,
-    cancelled near it. ψ_L(f) is the bicubic of f's cell in p's tile (continued past the tile's
-    edge when f lies beyond it). Caps carry no ψ and are skipped. Returns zeros when no bank is
-    within D."""
+    cancelled near it. ψ_L(f) is p's own cell's bicubic continued to f (within D of p): the
+    same polynomial on both sides of the difference, so that ∂ψ_L/∂t cancels where the lattice
+    is rough (ghosts by a corner), at the price of ψ jumping a little (what the polynomials of
+    two cells disagree on at f) where p crosses a cell edge within D of a bank. Caps carry no
+    ψ and are skipped. Returns zeros when no bank is within D."""
     h = 1.0 / inv_h
     reach = BANK_REACH * h
     best = reach * reach
@@ -889,20 +893,15 @@ def _bank_correction(px, py, slot, ci, cj, fx, fy, inv_h, tiles, segs, patch):
             tl2 = len2
     if best >= reach * reach:
         return 0.0, 0.0, 0.0
-    n = tiles.n_cells
-    uf = ci + fx + (fxm - px) * inv_h
-    vf = cj + fy + (fym - py) * inv_h
-    cif = ci
-    cjf = cj
     total = 0.0
     for r in range(4):
         for q in range(4):
-            val = tiles.psi[slot, cjf + r, cif + q]
+            val = tiles.psi[slot, cj + r, ci + q]
             patch[r, q] = val
             total += val
     if math.isnan(total) and not _fill_stencil(patch):
         return 0.0, 0.0, 0.0
-    val, gfx, gfy = _bicubic(patch, uf - cif, vf - cjf)
+    val, gfx, gfy = _bicubic(patch, fx + (fxm - px) * inv_h, fy + (fym - py) * inv_h)
     gfx *= inv_h
     gfy *= inv_h
     err = val - psi_b
