@@ -444,7 +444,8 @@ def build_flow_tile(
     M = n_cells + 1 + 2·LATTICE_RING; ``cell_d2`` (n, n, CELL_SEGMENTS) float64.
 
     Outputs: ``out_psi`` (n+3, n+3) float64, lattice points −1 … n+1 (NaN far from water;
-    outside points next to the water hold ψ extrapolated linearly from the water side);
+    outside points next to the water hold ψ extrapolated from the water side, those within
+    three spacings beyond a cap ψ of their mirror image across it);
     ``out_cell_status`` (n, n) uint8 CELL_* (BOUNDARY possibly with the CELL_CROWDED flag); ``out_cell_segments`` (n, n, CELL_SEGMENTS) int32,
     for boundary cells the nearest bank / cap segments (−1 padded); ``out_shore`` (n+3, n+3)
     float32, lattice points −1 … n+1: the distance [m] to the nearest bank or island shore
@@ -595,7 +596,9 @@ def _extrapolate_ghosts(psi_full, inside_full, n_cells, out_psi):
     each lattice direction with water beside them, quadratic from the three points inward
     (linear from two where the third is dry), averaged. ψ bends near a bank (the bank's
     weight falls as 1/d), and a linear ghost made the flow one cell from a bank cross it by
-    up to 7 % of its speed (issue 22's tangency figure; quadratic: 5 %)."""
+    up to 7 % of its speed (issue 22's tangency figure; quadratic: 5 %; with the query's bank
+    correction, :func:`_bank_correction`: 1.7 %). Points that already hold a value (ψ
+    mirrored across a cap, :func:`_mirrored_across_cap`) are copied and extrapolated from."""
     ring = LATTICE_RING
     for sj in range(n_cells + 3):
         b = sj + ring - 1
