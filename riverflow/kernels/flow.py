@@ -57,6 +57,10 @@ stands in for a late tile) answers UNKNOWN, and the particle waits for its tile
 pixels on screen. The cell's kind is
 ``status & CELL_KIND``."""
 CELL_KIND = 3
+CELL_NEAR_BANK = 8
+"""Flag on a cell that a bank segment comes within a cell diagonal of: queries there apply
+the bank correction (:func:`_bank_correction`); read with the cell's status byte, so cells
+away from banks pay nothing for it."""
 _CELL_UNSET = 128
 
 CELL_SEGMENTS = 4
@@ -552,9 +556,11 @@ def _mark_boundary_cells(x0, y0, h, n_cells, seg_ax, seg_ay, seg_bx, seg_by, cur
                     d2 = _segment_box_dist2(ax, ay, bx, by, cx0, cy0, cx0 + h, cy0 + h)
                     if d2 > diag2:
                         continue
+                    if curve_kind[c] == KIND_BANK:
+                        out_cell_status[j, i] |= CELL_NEAR_BANK
                     if d2 == 0.0:
-                        out_cell_status[j, i] = CELL_BOUNDARY | (out_cell_status[j, i]
-                                                                 & CELL_CROWDED)
+                        out_cell_status[j, i] = CELL_BOUNDARY | (
+                            out_cell_status[j, i] & (CELL_CROWDED | CELL_NEAR_BANK))
                     pos = CELL_SEGMENTS
                     while pos > 0 and d2 < cell_d2[j, i, pos - 1]:
                         pos -= 1
@@ -576,6 +582,7 @@ def _classify_plain_cells(inside_full, n_cells, out_cell_status):
     for j in range(n_cells):
         for i in range(n_cells):
             crowded = out_cell_status[j, i] & CELL_CROWDED
+            near = out_cell_status[j, i] & CELL_NEAR_BANK
             if out_cell_status[j, i] & CELL_KIND == CELL_BOUNDARY:
                 continue
             a = ring + i
@@ -583,11 +590,11 @@ def _classify_plain_cells(inside_full, n_cells, out_cell_status):
             n = (int(inside_full[b, a]) + int(inside_full[b, a + 1])
                  + int(inside_full[b + 1, a]) + int(inside_full[b + 1, a + 1]))
             if n == 4:
-                out_cell_status[j, i] = CELL_INSIDE
+                out_cell_status[j, i] = CELL_INSIDE | near
             elif n == 0:
-                out_cell_status[j, i] = CELL_OUTSIDE
+                out_cell_status[j, i] = CELL_OUTSIDE | near
             else:
-                out_cell_status[j, i] = CELL_BOUNDARY | crowded
+                out_cell_status[j, i] = CELL_BOUNDARY | crowded | near
 
 
 @njit(**JIT_OPTIONS)
@@ -842,9 +849,10 @@ def _bicubic(patch, fx, fy):
     return val, gx, gy
 
 
-@njit(**JIT_OPTIONS)
+@njit(inline="always", **JIT_OPTIONS)
 def _bank_correction(px, py, slot, ci, cj, fx, fy, inv_h, tiles, segs, patch):
-    """The bank correction at p (in a cell of tile ``slot`` whose segment list is not empty):
+    """The bank correction at p (in a CELL_NEAR_BANK cell of tile ``slot``; ``patch`` its
+    cell's 4×4 ψ stencil, NaN-free):
     (δψ [m²/s], ∂δψ/∂x, ∂δψ/∂y [m/s]) to add to the lattice's bicubic ψ_L.
 
     The lattice is a few metres coarse; its bicubic is not constant along a bank, so the flow
@@ -896,14 +904,6 @@ def _bank_correction(px, py, slot, ci, cj, fx, fy, inv_h, tiles, segs, patch):
             tl2 = len2
     if best >= reach * reach:
         return 0.0, 0.0, 0.0
-    total = 0.0
-    for r in range(4):
-        for q in range(4):
-            val = tiles.psi[slot, cj + r, ci + q]
-            patch[r, q] = val
-            total += val
-    if math.isnan(total) and not _fill_stencil(patch):
-        return 0.0, 0.0, 0.0
     val, gfx, gfy = _bicubic(patch, fx + (fxm - px) * inv_h, fy + (fym - py) * inv_h)
     gfx *= inv_h
     gfy *= inv_h
@@ -940,7 +940,6 @@ def query_velocity(xy, levels, level, fallback, tiles, tick, segs, n_velocity, o
     UNKNOWN).
     """
     patch = np.empty((4, 4))
-    bank_patch = np.empty((4, 4))
     missing = 0
     psi_pool = tiles.psi
     cell_status = tiles.cell_status
@@ -986,6 +985,7 @@ def query_velocity(xy, levels, level, fallback, tiles, tick, segs, n_velocity, o
             continue
         last_used[slot] = tick
         cell = cell_status[slot, cj, ci]
+        near_bank = cell & CELL_NEAR_BANK
         if cell & CELL_CROWDED and lv < want and tiles.in_cut[slot] == 0:
             out_status[k] = STATUS_UNKNOWN   # a stand-in too coarse here: wait for the tile
             missing += 1
@@ -1022,9 +1022,9 @@ def query_velocity(xy, levels, level, fallback, tiles, tick, segs, n_velocity, o
         inv_h = (1 << lv) * tiles.n_cells * inv_root
         vx = -gy * inv_h
         vy = gx * inv_h
-        if tiles.cell_segments[slot, cj, ci, 0] >= 0:    # a bank may be near: its correction
+        if near_bank:                          # a bank may be near: its correction
             _, cx, cy = _bank_correction(px, py, slot, ci, cj, fx, fy, inv_h, tiles, segs,
-                                         bank_patch)
+                                         patch)
             vx -= cy
             vy += cx
         if is_finite(vx) and is_finite(vy):
@@ -1039,7 +1039,6 @@ def sample_potential(xy, levels, level, fallback, tiles, tick, segs, out_psi):
     (N,) float64: NaN outside the water, outside the domain or in an uncached tile. Levels and
     arguments as in :func:`query_velocity`. Returns the number of points with no cached tile."""
     patch = np.empty((4, 4))
-    bank_patch = np.empty((4, 4))
     missing = 0
     psi_pool = tiles.psi
     for k in range(xy.shape[0]):
@@ -1054,6 +1053,7 @@ def sample_potential(xy, levels, level, fallback, tiles, tick, segs, out_psi):
             continue
         tiles.last_used[slot] = tick
         cell = tiles.cell_status[slot, cj, ci]
+        near_bank = cell & CELL_NEAR_BANK
         if cell & CELL_CROWDED and lv < (level if level >= 0 else levels[k]) \
                 and tiles.in_cut[slot] == 0:
             missing += 1
@@ -1077,10 +1077,10 @@ def sample_potential(xy, levels, level, fallback, tiles, tick, segs, out_psi):
                     _rows(wx0, wx1, wx2, wx3, patch[1, 0], patch[1, 1], patch[1, 2], patch[1, 3]),
                     _rows(wx0, wx1, wx2, wx3, patch[2, 0], patch[2, 1], patch[2, 2], patch[2, 3]),
                     _rows(wx0, wx1, wx2, wx3, patch[3, 0], patch[3, 1], patch[3, 2], patch[3, 3]))
-        if tiles.cell_segments[slot, cj, ci, 0] >= 0:    # a bank may be near: its correction
+        if near_bank:                          # a bank may be near: its correction
             acc += _bank_correction(px, py, slot, ci, cj, fx, fy,
                                     (1 << lv) * tiles.n_cells / tiles.root_size, tiles, segs,
-                                    bank_patch)[0]
+                                    patch)[0]
         out_psi[k] = acc
     return missing
 
