@@ -106,6 +106,9 @@ def main(argv: list[str] | None = None) -> dict:
     results["cached_queries_per_s_water_coherent"] = best_rate(lambda: field.query(coherent),
                                                                len(coherent))
     results["cached_queries_per_s_river_bbox"] = best_rate(lambda: field.query(pts_box), len(pts_box))
+    # within 4 m of the banks: the bank correction's cells (kernels/flow.py _bank_correction)
+    near = pts_water[shapely.distance(shapely.points(pts_water), water.boundary) < 4.0]
+    results["cached_queries_per_s_near_banks"] = best_rate(lambda: field.query(near), len(near))
     results["cached_potential_per_s_water"] = best_rate(lambda: field.potential(pts_water),
                                                         len(pts_water))
     results["lattice_spacing_m"] = tiles.spacing_m(lv)

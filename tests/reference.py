@@ -110,6 +110,48 @@ def lattice_velocity(psi: np.ndarray, origin: tuple[float, float], h: float, xy:
     return out
 
 
+def bank_corrected_potential(psi: np.ndarray, origin: tuple[float, float], h: float,
+                             cell_segments: np.ndarray, segs, xy: np.ndarray,
+                             reach_cells: float = 1.4) -> np.ndarray:
+    """ψ of a stored ψ lattice with its bank correction at points xy (N, 2), the twin of
+    ``sample_potential`` where the point's 4×4 stencil has no NaN: ψ_L(p) − w·(ψ_L(f) − ψ_b),
+    f the foot of p on the nearest bank segment of its cell's list (``segs``: the field's
+    :class:`~riverflow.kernels.flow.Segments`, NaN ψ for caps), d = |p − f|,
+    w = 1 − fade(d / (reach_cells·h)), ψ_L(f) from p's own cell's bicubic."""
+    u = (xy[:, 0] - origin[0]) / h
+    v = (xy[:, 1] - origin[1]) / h
+    n = psi.shape[0] - 3
+    i = np.minimum(np.floor(u).astype(int), n - 1)
+    j = np.minimum(np.floor(v).astype(int), n - 1)
+    a = np.c_[segs.ax, segs.ay]
+    b = np.c_[segs.bx, segs.by]
+
+    def bicubic(k, uu, vv):
+        wx, _ = catmull_rom(np.array([uu - i[k]]))
+        wy, _ = catmull_rom(np.array([vv - j[k]]))
+        return float(wy[0] @ psi[j[k]:j[k] + 4, i[k]:i[k] + 4] @ wx[0])
+
+    out = np.empty(len(xy))
+    reach = reach_cells * h
+    for k, p in enumerate(xy):
+        out[k] = bicubic(k, u[k], v[k])
+        listed = [s for s in cell_segments[j[k], i[k]] if s >= 0 and np.isfinite(segs.psi[s])]
+        if not listed:
+            continue
+        d2 = _dist2(p, a[listed], b[listed])
+        s = listed[int(np.argmin(d2))]
+        d = np.sqrt(d2.min())
+        if d >= reach:
+            continue
+        e = b[s] - a[s]
+        t = np.clip((p - a[s]) @ e / (e @ e), 0.0, 1.0)
+        f = a[s] + t * e
+        x = d / reach
+        w = 1.0 - x**3 * (x * (x * 6 - 15) + 10)
+        out[k] -= w * (bicubic(k, (f[0] - origin[0]) / h, (f[1] - origin[1]) / h) - segs.psi[s])
+    return out
+
+
 # -- raycast (riverflow.kernels.raycast) --------------------------------------------------------
 
 

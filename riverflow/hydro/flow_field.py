@@ -176,7 +176,7 @@ class FlowField:
         self.tiles = FlowTiles(quadtree, lattice_cells, self.max_level, cache,
                                coverage_table(quadtree, axis_segments, axis_half_widths,
                                               self.max_level))
-        self.segments = Segments(*self.network.geometry_args())
+        self.segments = Segments(*self.network.geometry_args(), self.network.segment_psi())
         self._builder = TileBuilder(self)
         self._obstacle_sets: dict[str, np.ndarray] = {}
         self.obstacles: np.ndarray = _NO_OBSTACLES

@@ -85,6 +85,13 @@ class FlowNetwork:
         """The segment arrays, in kernel argument order."""
         return (self.seg_ax, self.seg_ay, self.seg_bx, self.seg_by)
 
+    def segment_psi(self) -> np.ndarray:
+        """(S,) float64 [m²/s]: the ψ of each bank segment's ψ-group, NaN for axes and caps."""
+        out = np.full(self.n_segments, np.nan)
+        for c in np.flatnonzero(self.curve_kind == KIND_BANK):
+            out[self.curve_seg0[c]:self.curve_seg1[c]] = self.group_psi[self.curve_group[c]]
+        return out
+
     def kernel_args(self) -> tuple:
         """Segment and curve arrays in the argument order of ``build_flow_tile``."""
         return (

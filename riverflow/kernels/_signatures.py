@@ -17,7 +17,7 @@ SIGNATURES = {
             "(A(int64, 1, 'C'), A(int32, 1, 'C'), A(int64, 1, 'C'), A(int64, 1, 'C'), A(int32, 1, 'C'))",
         ],
         'flow.query_velocity': [
-            "(A(float64, 2, 'C'), A(int8, 1, 'C'), int64, int64, Named(riverflow.kernels.flow.CachedTiles, (float64, float64, float64, int64, A(int64, 1, 'C'), A(int32, 1, 'C'), A(int64, 1, 'C'), A(int32, 1, 'C'), A(float32, 3, 'C'), A(uint8, 3, 'C'), A(int32, 4, 'C'), A(int64, 1, 'C'), A(uint8, 1, 'C'), )), int64, Named(riverflow.kernels.flow.Segments, (A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), )), int64, A(uint8, 1, 'C'), A(float32, 2, 'C'))",
+            "(A(float64, 2, 'C'), A(int8, 1, 'C'), int64, int64, Named(riverflow.kernels.flow.CachedTiles, (float64, float64, float64, int64, A(int64, 1, 'C'), A(int32, 1, 'C'), A(int64, 1, 'C'), A(int32, 1, 'C'), A(float32, 3, 'C'), A(uint8, 3, 'C'), A(int32, 4, 'C'), A(int64, 1, 'C'), A(uint8, 1, 'C'), )), int64, Named(riverflow.kernels.flow.Segments, (A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), )), int64, A(uint8, 1, 'C'), A(float32, 2, 'C'))",
         ],
         'tile_table.mark_used': [
             "(A(int64, 1, 'C'), A(int32, 1, 'C'), A(int64, 1, 'C'), int64, A(int64, 1, 'C'), int64, A(int64, 1, 'C'))",
@@ -32,7 +32,7 @@ SIGNATURES = {
             "(A(int64, 1, 'C'), A(int32, 1, 'C'), A(int64, 1, 'C'), int64, int32)",
         ],
         'flow.sample_potential': [
-            "(A(float64, 2, 'C'), A(int8, 1, 'C'), int64, int64, Named(riverflow.kernels.flow.CachedTiles, (float64, float64, float64, int64, A(int64, 1, 'C'), A(int32, 1, 'C'), A(int64, 1, 'C'), A(int32, 1, 'C'), A(float32, 3, 'C'), A(uint8, 3, 'C'), A(int32, 4, 'C'), A(int64, 1, 'C'), A(uint8, 1, 'C'), )), int64, Named(riverflow.kernels.flow.Segments, (A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), )), A(float64, 1, 'C'))",
+            "(A(float64, 2, 'C'), A(int8, 1, 'C'), int64, int64, Named(riverflow.kernels.flow.CachedTiles, (float64, float64, float64, int64, A(int64, 1, 'C'), A(int32, 1, 'C'), A(int64, 1, 'C'), A(int32, 1, 'C'), A(float32, 3, 'C'), A(uint8, 3, 'C'), A(int32, 4, 'C'), A(int64, 1, 'C'), A(uint8, 1, 'C'), )), int64, Named(riverflow.kernels.flow.Segments, (A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), )), A(float64, 1, 'C'))",
         ],
     },
     'scene': {
@@ -54,7 +54,7 @@ SIGNATURES = {
             "(A(int64, 1, 'C'), A(int32, 1, 'C'), A(int64, 1, 'C'), A(int64, 1, 'C'), A(int32, 1, 'C'))",
         ],
         'flow.query_velocity': [
-            "(A(float64, 2, 'C'), A(int8, 1, 'C'), int64, int64, Named(riverflow.kernels.flow.CachedTiles, (float64, float64, float64, int64, A(int64, 1, 'C'), A(int32, 1, 'C'), A(int64, 1, 'C'), A(int32, 1, 'C'), A(float32, 3, 'C'), A(uint8, 3, 'C'), A(int32, 4, 'C'), A(int64, 1, 'C'), A(uint8, 1, 'C'), )), int64, Named(riverflow.kernels.flow.Segments, (A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), )), int64, A(uint8, 1, 'C'), A(float32, 2, 'C'))",
+            "(A(float64, 2, 'C'), A(int8, 1, 'C'), int64, int64, Named(riverflow.kernels.flow.CachedTiles, (float64, float64, float64, int64, A(int64, 1, 'C'), A(int32, 1, 'C'), A(int64, 1, 'C'), A(int32, 1, 'C'), A(float32, 3, 'C'), A(uint8, 3, 'C'), A(int32, 4, 'C'), A(int64, 1, 'C'), A(uint8, 1, 'C'), )), int64, Named(riverflow.kernels.flow.Segments, (A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), )), int64, A(uint8, 1, 'C'), A(float32, 2, 'C'))",
         ],
         'tile_table.mark_used': [
             "(A(int64, 1, 'C'), A(int32, 1, 'C'), A(int64, 1, 'C'), int64, A(int64, 1, 'C'), int64, A(int64, 1, 'C'))",
@@ -69,7 +69,7 @@ SIGNATURES = {
             "(A(int64, 1, 'C'), A(int32, 1, 'C'), A(int64, 1, 'C'), int64, int32)",
         ],
         'flow.sample_potential': [
-            "(A(float64, 2, 'C'), A(int8, 1, 'C'), int64, int64, Named(riverflow.kernels.flow.CachedTiles, (float64, float64, float64, int64, A(int64, 1, 'C'), A(int32, 1, 'C'), A(int64, 1, 'C'), A(int32, 1, 'C'), A(float32, 3, 'C'), A(uint8, 3, 'C'), A(int32, 4, 'C'), A(int64, 1, 'C'), A(uint8, 1, 'C'), )), int64, Named(riverflow.kernels.flow.Segments, (A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), )), A(float64, 1, 'C'))",
+            "(A(float64, 2, 'C'), A(int8, 1, 'C'), int64, int64, Named(riverflow.kernels.flow.CachedTiles, (float64, float64, float64, int64, A(int64, 1, 'C'), A(int32, 1, 'C'), A(int64, 1, 'C'), A(int32, 1, 'C'), A(float32, 3, 'C'), A(uint8, 3, 'C'), A(int32, 4, 'C'), A(int64, 1, 'C'), A(uint8, 1, 'C'), )), int64, Named(riverflow.kernels.flow.Segments, (A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), )), A(float64, 1, 'C'))",
         ],
         'raycast.pyramid_size': [
             '(int64, int64)',

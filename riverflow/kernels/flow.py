@@ -57,6 +57,10 @@ stands in for a late tile) answers UNKNOWN, and the particle waits for its tile
 pixels on screen. The cell's kind is
 ``status & CELL_KIND``."""
 CELL_KIND = 3
+CELL_NEAR_BANK = 8
+"""Flag on a cell that a bank segment comes within a cell diagonal of: queries there apply
+the bank correction (:func:`_bank_correction`); read with the cell's status byte, so cells
+away from banks pay nothing for it."""
 _CELL_UNSET = 128
 
 CELL_SEGMENTS = 4
@@ -377,6 +381,51 @@ def evaluate_potential(
                                   group_psi, slip, gval)
 
 
+@njit(**JIT_OPTIONS)
+def _mirrored_across_cap(
+    px, py, reach, seg_ax, seg_ay, seg_bx, seg_by, curve_kind, curve_comp, curve_group,
+    curve_hw2, curve_seg0, curve_seg1, curve_bbox, curve_cutoff, comp_radius, comp_group0,
+    comp_group1, group_psi, slip, blk_curve, blk_start, blk_count, blk_seg, blk_dmin2, tmp_d2,
+    gval,
+):
+    """ψ at the mirror image of p (a dry point just beyond a cap) across its nearest cap
+    segment's line, when that lies in the water and p within ``reach`` of the cap; else NaN.
+    The ghosts of a river's open end: the water would go on, square to the cap."""
+    best = np.inf
+    seg = -1
+    for c in range(curve_kind.shape[0]):
+        if curve_kind[c] != KIND_CAP:
+            continue
+        if (curve_bbox[c, 0] > px + reach or curve_bbox[c, 2] < px - reach
+                or curve_bbox[c, 1] > py + reach or curve_bbox[c, 3] < py - reach):
+            continue
+        for s in range(curve_seg0[c], curve_seg1[c]):
+            d2 = _dist2(px, py, seg_ax[s], seg_ay[s], seg_bx[s], seg_by[s])
+            if d2 < best:
+                best = d2
+                seg = s
+    if seg < 0 or best > reach * reach:
+        return np.nan
+    ax = seg_ax[seg]
+    ay = seg_ay[seg]
+    ex = seg_bx[seg] - ax
+    ey = seg_by[seg] - ay
+    len2 = ex * ex + ey * ey
+    if len2 <= 0.0:
+        return np.nan
+    t = ((px - ax) * ex + (py - ay) * ey) / len2
+    mx = 2.0 * (ax + t * ex) - px
+    my = 2.0 * (ay + t * ey) - py
+    nb = gather_box_segments(mx, my, mx, my, seg_ax, seg_ay, seg_bx, seg_by, curve_seg0,
+                             curve_seg1, curve_bbox, curve_cutoff, blk_curve, blk_start,
+                             blk_count, blk_seg, blk_dmin2, tmp_d2)
+    if nb == 0:
+        return np.nan
+    return potential_at(mx, my, nb, blk_curve, blk_start, blk_count, blk_seg, blk_dmin2,
+                        seg_ax, seg_ay, seg_bx, seg_by, curve_kind, curve_comp, curve_group,
+                        curve_hw2, comp_radius, comp_group0, comp_group1, group_psi, slip, gval)
+
+
 # -- flow tiles ---------------------------------------------------------------------------------
 
 
@@ -399,7 +448,8 @@ def build_flow_tile(
     M = n_cells + 1 + 2·LATTICE_RING; ``cell_d2`` (n, n, CELL_SEGMENTS) float64.
 
     Outputs: ``out_psi`` (n+3, n+3) float64, lattice points −1 … n+1 (NaN far from water;
-    outside points next to the water hold ψ extrapolated linearly from the water side);
+    outside points next to the water hold ψ extrapolated from the water side, those within
+    three spacings beyond a cap ψ of their mirror image across it);
     ``out_cell_status`` (n, n) uint8 CELL_* (BOUNDARY possibly with the CELL_CROWDED flag); ``out_cell_segments`` (n, n, CELL_SEGMENTS) int32,
     for boundary cells the nearest bank / cap segments (−1 padded); ``out_shore`` (n+3, n+3)
     float32, lattice points −1 … n+1: the distance [m] to the nearest bank or island shore
@@ -424,6 +474,10 @@ def build_flow_tile(
             nb = gather_box_segments(x0, y0, x1, y1, seg_ax, seg_ay, seg_bx, seg_by,
                                      curve_seg0, curve_seg1, curve_bbox, curve_cutoff,
                                      blk_curve, blk_start, blk_count, blk_seg, blk_dmin2, tmp_d2)
+            near_cap = False
+            for k in range(nb):
+                if curve_kind[blk_curve[k]] == KIND_CAP:
+                    near_cap = True
             for j in range(bj, j_hi):
                 py = origin_y + (gj0 + j - ring) * h
                 for i in range(bi, i_hi):
@@ -436,8 +490,10 @@ def build_flow_tile(
                             seg_ax, seg_ay, seg_bx, seg_by, curve_kind, curve_comp,
                             curve_group, curve_hw2, comp_radius, comp_group0, comp_group1,
                             group_psi, slip, gval)
-                    psi_full[j, i] = psi
                     inside_full[j, i] = not math.isnan(psi)
+                    # dry by a cap: mirrored below
+                    psi_full[j, i] = psi if inside_full[j, i] else (np.inf if near_cap
+                                                                      else np.nan)
                     sj = j - ring + 1          # lattice points −1 … n+1 are kept
                     si = i - ring + 1
                     if 0 <= sj <= n_cells + 2 and 0 <= si <= n_cells + 2:
@@ -445,6 +501,18 @@ def build_flow_tile(
                                              and near2 < np.inf else 0.0)
                     if inside_full[j, i] and ring <= i < m - ring and ring <= j < m - ring:
                         n_inside += 1
+    # beyond a cap (a river's open end) the water would go on: ψ there is ψ at the point
+    # mirrored across the cap (flow square to the cap), for the ghosts
+    for j in range(m):
+        for i in range(m):
+            if psi_full[j, i] != np.inf:
+                continue
+            psi_full[j, i] = _mirrored_across_cap(
+                origin_x + (gi0 + i - ring) * h, origin_y + (gj0 + j - ring) * h, 3.0 * h,
+                seg_ax, seg_ay, seg_bx, seg_by, curve_kind, curve_comp, curve_group,
+                curve_hw2, curve_seg0, curve_seg1, curve_bbox, curve_cutoff, comp_radius,
+                comp_group0, comp_group1, group_psi, slip, blk_curve, blk_start, blk_count,
+                blk_seg, blk_dmin2, tmp_d2, gval)
     _mark_boundary_cells(origin_x + gi0 * h, origin_y + gj0 * h, h, n_cells, seg_ax, seg_ay,
                          seg_bx, seg_by, curve_kind, curve_seg0, curve_seg1, curve_bbox,
                          cell_d2, out_cell_status, out_cell_segments)
@@ -488,9 +556,11 @@ def _mark_boundary_cells(x0, y0, h, n_cells, seg_ax, seg_ay, seg_bx, seg_by, cur
                     d2 = _segment_box_dist2(ax, ay, bx, by, cx0, cy0, cx0 + h, cy0 + h)
                     if d2 > diag2:
                         continue
+                    if curve_kind[c] == KIND_BANK:
+                        out_cell_status[j, i] |= CELL_NEAR_BANK
                     if d2 == 0.0:
-                        out_cell_status[j, i] = CELL_BOUNDARY | (out_cell_status[j, i]
-                                                                 & CELL_CROWDED)
+                        out_cell_status[j, i] = CELL_BOUNDARY | (
+                            out_cell_status[j, i] & (CELL_CROWDED | CELL_NEAR_BANK))
                     pos = CELL_SEGMENTS
                     while pos > 0 and d2 < cell_d2[j, i, pos - 1]:
                         pos -= 1
@@ -512,6 +582,7 @@ def _classify_plain_cells(inside_full, n_cells, out_cell_status):
     for j in range(n_cells):
         for i in range(n_cells):
             crowded = out_cell_status[j, i] & CELL_CROWDED
+            near = out_cell_status[j, i] & CELL_NEAR_BANK
             if out_cell_status[j, i] & CELL_KIND == CELL_BOUNDARY:
                 continue
             a = ring + i
@@ -519,11 +590,11 @@ def _classify_plain_cells(inside_full, n_cells, out_cell_status):
             n = (int(inside_full[b, a]) + int(inside_full[b, a + 1])
                  + int(inside_full[b + 1, a]) + int(inside_full[b + 1, a + 1]))
             if n == 4:
-                out_cell_status[j, i] = CELL_INSIDE
+                out_cell_status[j, i] = CELL_INSIDE | near
             elif n == 0:
-                out_cell_status[j, i] = CELL_OUTSIDE
+                out_cell_status[j, i] = CELL_OUTSIDE | near
             else:
-                out_cell_status[j, i] = CELL_BOUNDARY | crowded
+                out_cell_status[j, i] = CELL_BOUNDARY | crowded | near
 
 
 @njit(**JIT_OPTIONS)
@@ -532,13 +603,15 @@ def _extrapolate_ghosts(psi_full, inside_full, n_cells, out_psi):
     each lattice direction with water beside them, quadratic from the three points inward
     (linear from two where the third is dry), averaged. ψ bends near a bank (the bank's
     weight falls as 1/d), and a linear ghost made the flow one cell from a bank cross it by
-    up to 7 % of its speed (issue 22's tangency figure; quadratic: 5 %)."""
+    up to 7 % of its speed (issue 22's tangency figure; quadratic: 5 %; with the query's bank
+    correction, :func:`_bank_correction`: 1.7 %). Points that already hold a value (ψ
+    mirrored across a cap, :func:`_mirrored_across_cap`) are copied and extrapolated from."""
     ring = LATTICE_RING
     for sj in range(n_cells + 3):
         b = sj + ring - 1
         for si in range(n_cells + 3):
             a = si + ring - 1
-            if inside_full[b, a]:
+            if not math.isnan(psi_full[b, a]):
                 out_psi[sj, si] = psi_full[b, a]
                 continue
             acc = 0.0
@@ -548,12 +621,12 @@ def _extrapolate_ghosts(psi_full, inside_full, n_cells, out_psi):
             for d in range(4):
                 da = 1 if d == 0 else (-1 if d == 1 else 0)
                 db = 1 if d == 2 else (-1 if d == 3 else 0)
-                if inside_full[b + db, a + da]:
-                    if inside_full[b + 2 * db, a + 2 * da]:
+                if not math.isnan(psi_full[b + db, a + da]):
+                    if not math.isnan(psi_full[b + 2 * db, a + 2 * da]):
                         b3 = b + 3 * db
                         a3 = a + 3 * da
                         if (0 <= b3 < inside_full.shape[0] and 0 <= a3 < inside_full.shape[1]
-                                and inside_full[b3, a3]):
+                                and not math.isnan(psi_full[b3, a3])):
                             acc += (3.0 * psi_full[b + db, a + da]
                                     - 3.0 * psi_full[b + 2 * db, a + 2 * da] + psi_full[b3, a3])
                         else:
@@ -619,12 +692,14 @@ class CachedTiles(NamedTuple):
 
 class Segments(NamedTuple):
     """The network's segments (S,) float64 [m]: a → b; banks and caps have the water on their
-    left."""
+    left. ``psi`` (S,) float64 [m²/s]: the stream function of a bank segment's ψ-group, NaN
+    for axes and caps (the bank correction, :func:`_bank_correction`)."""
 
     ax: np.ndarray
     ay: np.ndarray
     bx: np.ndarray
     by: np.ndarray
+    psi: np.ndarray
 
 
 @njit(**EXACT_JIT_OPTIONS)
@@ -749,6 +824,107 @@ def _fill_stencil(patch):
     return True
 
 
+BANK_REACH = 1.4
+"""The bank correction (:func:`_bank_correction`) fades out this many lattice spacings from a
+bank: within one cell diagonal (√2) of a cell, every segment is in the cell's list."""
+
+
+@njit(inline="always", **JIT_OPTIONS)
+def _bicubic(patch, fx, fy):
+    """(value, ∂/∂fx, ∂/∂fy) of the Catmull-Rom bicubic of a 4×4 stencil at (fx, fy) (lattice
+    units; outside [0, 1] the cell's polynomial continued)."""
+    wx0, wx1, wx2, wx3, dx0, dx1, dx2, dx3 = _catmull_rom(fx)
+    wy0, wy1, wy2, wy3, dy0, dy1, dy2, dy3 = _catmull_rom(fy)
+    r0w = _rows(wx0, wx1, wx2, wx3, patch[0, 0], patch[0, 1], patch[0, 2], patch[0, 3])
+    r1w = _rows(wx0, wx1, wx2, wx3, patch[1, 0], patch[1, 1], patch[1, 2], patch[1, 3])
+    r2w = _rows(wx0, wx1, wx2, wx3, patch[2, 0], patch[2, 1], patch[2, 2], patch[2, 3])
+    r3w = _rows(wx0, wx1, wx2, wx3, patch[3, 0], patch[3, 1], patch[3, 2], patch[3, 3])
+    r0d = _rows(dx0, dx1, dx2, dx3, patch[0, 0], patch[0, 1], patch[0, 2], patch[0, 3])
+    r1d = _rows(dx0, dx1, dx2, dx3, patch[1, 0], patch[1, 1], patch[1, 2], patch[1, 3])
+    r2d = _rows(dx0, dx1, dx2, dx3, patch[2, 0], patch[2, 1], patch[2, 2], patch[2, 3])
+    r3d = _rows(dx0, dx1, dx2, dx3, patch[3, 0], patch[3, 1], patch[3, 2], patch[3, 3])
+    val = _rows(wy0, wy1, wy2, wy3, r0w, r1w, r2w, r3w)
+    gx = _rows(wy0, wy1, wy2, wy3, r0d, r1d, r2d, r3d)
+    gy = _rows(dy0, dy1, dy2, dy3, r0w, r1w, r2w, r3w)
+    return val, gx, gy
+
+
+@njit(inline="always", **JIT_OPTIONS)
+def _bank_correction(px, py, slot, ci, cj, fx, fy, inv_h, tiles, segs, patch):
+    """The bank correction at p (in a CELL_NEAR_BANK cell of tile ``slot``; ``patch`` its
+    cell's 4×4 ψ stencil, NaN-free):
+    (δψ [m²/s], ∂δψ/∂x, ∂δψ/∂y [m/s]) to add to the lattice's bicubic ψ_L.
+
+    The lattice is a few metres coarse; its bicubic is not constant along a bank, so the flow
+    crossed it by up to 4 % of its speed 1 m in (issue 22). With f the foot of p on its nearest
+    bank segment (ψ-group value ψ_b), d = |p − f| and w = 1 − fade(d / D), D = BANK_REACH
+    lattice spacings, the corrected stream function is ψ = ψ_L(p) − w·(ψ_L(f) − ψ_b): exactly
+    ψ_b on the bank, ψ_L from D on, and the velocity stays its curl (divergence-free). Its
+    normal part at p is ∂ψ_L/∂t(p) − w·∂ψ_L/∂t(f): what the lattice gets wrong at the bank,
+    cancelled near it. ψ_L(f) is p's own cell's bicubic continued to f (within D of p): the
+    same polynomial on both sides of the difference, so that ∂ψ_L/∂t cancels where the lattice
+    is rough (ghosts by a corner), at the price of ψ jumping a little (what the polynomials of
+    two cells disagree on at f) where p crosses a cell edge within D of a bank. Caps carry no
+    ψ and are skipped. Returns zeros when no bank is within D."""
+    h = 1.0 / inv_h
+    reach = BANK_REACH * h
+    best = reach * reach
+    fxm = 0.0
+    fym = 0.0
+    on_inside = False
+    psi_b = 0.0
+    tx = 0.0
+    ty = 0.0
+    tl2 = 1.0
+    for q in range(CELL_SEGMENTS):
+        s = tiles.cell_segments[slot, cj, ci, q]
+        if s < 0:
+            break
+        if math.isnan(segs.psi[s]):
+            continue
+        ax = segs.ax[s]
+        ay = segs.ay[s]
+        ex = segs.bx[s] - ax
+        ey = segs.by[s] - ay
+        len2 = ex * ex + ey * ey
+        t = 0.0
+        if len2 > 0.0:
+            t = min(max(((px - ax) * ex + (py - ay) * ey) / len2, 0.0), 1.0)
+        qx = ax + t * ex
+        qy = ay + t * ey
+        d2 = (px - qx) * (px - qx) + (py - qy) * (py - qy)
+        if d2 < best:
+            best = d2
+            fxm = qx
+            fym = qy
+            psi_b = segs.psi[s]
+            on_inside = 0.0 < t < 1.0
+            tx = ex
+            ty = ey
+            tl2 = len2
+    if best >= reach * reach:
+        return 0.0, 0.0, 0.0
+    val, gfx, gfy = _bicubic(patch, fx + (fxm - px) * inv_h, fy + (fym - py) * inv_h)
+    gfx *= inv_h
+    gfy *= inv_h
+    err = val - psi_b
+    d = math.sqrt(best)
+    x = d / reach
+    w = 1.0 - x * x * x * (x * (x * 6.0 - 15.0) + 10.0)
+    dw = -30.0 * x * x * (x - 1.0) * (x - 1.0) / reach      # dw/dd
+    gx = 0.0
+    gy = 0.0
+    if d > 0.0:
+        gx = -dw * err * (px - fxm) / d
+        gy = -dw * err * (py - fym) / d
+    if on_inside:           # ∇(ψ_L(f(p))) = t̂ (t̂ · ∇ψ_L(f)); at an end the foot stays put
+        along = (tx * gfx + ty * gfy) / tl2
+        gx -= w * along * tx
+        gy -= w * along * ty
+    return -w * err, gx, gy
+
+
+
 @njit(**JIT_OPTIONS)
 def query_velocity(xy, levels, level, fallback, tiles, tick, segs, n_velocity, out_status,
                    out_velocity):
@@ -809,6 +985,7 @@ def query_velocity(xy, levels, level, fallback, tiles, tick, segs, n_velocity, o
             continue
         last_used[slot] = tick
         cell = cell_status[slot, cj, ci]
+        near_bank = cell & CELL_NEAR_BANK
         if cell & CELL_CROWDED and lv < want and tiles.in_cut[slot] == 0:
             out_status[k] = STATUS_UNKNOWN   # a stand-in too coarse here: wait for the tile
             missing += 1
@@ -845,6 +1022,11 @@ def query_velocity(xy, levels, level, fallback, tiles, tick, segs, n_velocity, o
         inv_h = (1 << lv) * tiles.n_cells * inv_root
         vx = -gy * inv_h
         vy = gx * inv_h
+        if near_bank:                          # a bank may be near: its correction
+            _, cx, cy = _bank_correction(px, py, slot, ci, cj, fx, fy, inv_h, tiles, segs,
+                                         patch)
+            vx -= cy
+            vy += cx
         if is_finite(vx) and is_finite(vy):
             out_velocity[k, 0] = vx
             out_velocity[k, 1] = vy
@@ -871,6 +1053,7 @@ def sample_potential(xy, levels, level, fallback, tiles, tick, segs, out_psi):
             continue
         tiles.last_used[slot] = tick
         cell = tiles.cell_status[slot, cj, ci]
+        near_bank = cell & CELL_NEAR_BANK
         if cell & CELL_CROWDED and lv < (level if level >= 0 else levels[k]) \
                 and tiles.in_cut[slot] == 0:
             missing += 1
@@ -894,6 +1077,10 @@ def sample_potential(xy, levels, level, fallback, tiles, tick, segs, out_psi):
                     _rows(wx0, wx1, wx2, wx3, patch[1, 0], patch[1, 1], patch[1, 2], patch[1, 3]),
                     _rows(wx0, wx1, wx2, wx3, patch[2, 0], patch[2, 1], patch[2, 2], patch[2, 3]),
                     _rows(wx0, wx1, wx2, wx3, patch[3, 0], patch[3, 1], patch[3, 2], patch[3, 3]))
+        if near_bank:                          # a bank may be near: its correction
+            acc += _bank_correction(px, py, slot, ci, cj, fx, fy,
+                                    (1 << lv) * tiles.n_cells / tiles.root_size, tiles, segs,
+                                    patch)[0]
         out_psi[k] = acc
     return missing
 

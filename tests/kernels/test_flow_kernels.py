@@ -106,6 +106,8 @@ def test_query_velocity_matches_reference(field, rng):
         i, j = int((pts[k, 0] - ox) / h), int((pts[k, 1] - oy) / h)
         if np.isnan(t.psi[slot, j:j + 4, i:i + 4]).any():
             continue  # stencil filled by local extrapolation: not the plain formula
+        if (t.cell_segments[slot, j, i] >= 0).any():
+            continue  # a bank may be near: its correction (the test below)
         want = reference.lattice_velocity(t.psi[slot], (ox, oy), h, pts[k:k + 1])
         npt.assert_allclose(vel[k], want[0], rtol=1e-4, atol=1e-5)
         checked += 1
@@ -120,6 +122,94 @@ def test_query_velocity_matches_reference(field, rng):
     npt.assert_array_equal(s2, status)
     npt.assert_array_equal(v2[:half], vel[:half])
     assert np.all(v2[half:] == 0.0)
+
+
+def test_the_bank_correction_matches_reference_and_its_velocity_is_its_curl(field, rng):
+    """Near a bank the cached ψ is the lattice's bicubic corrected to the bank's exact ψ
+    (twin: ``reference.bank_corrected_potential``), and the velocity is the curl of that ψ
+    (central differences): divergence-free, and along the bank."""
+    t = field.tiles
+    lv = field.max_level
+    h = t.spacing_m(lv)
+    net = field.network
+    banks = [c for c in range(net.n_curves) if net.curve_kind[c] == kf.KIND_BANK]
+    # points 0 … 1.5 lattice spacings in from the banks
+    pts = []
+    for c in banks:
+        s = rng.integers(net.curve_seg0[c], net.curve_seg1[c], 40)
+        a = np.c_[net.seg_ax[s], net.seg_ay[s]]
+        e = np.c_[net.seg_bx[s], net.seg_by[s]] - a
+        left = np.c_[-e[:, 1], e[:, 0]] / np.linalg.norm(e, axis=1)[:, None]
+        pts.append(a + rng.uniform(0.1, 0.9, (len(s), 1)) * e
+                   + rng.uniform(0.05, 1.5, (len(s), 1)) * h * left)
+    pts = np.vstack(pts)
+    status, vel = field.query(pts)
+    psi = field.potential(pts)
+    keys = field.tile_of(pts, lv)
+    eps = 1e-3 * h
+    checked = corrected = 0
+    for k in np.flatnonzero(status == rf.FlowStatus.INSIDE):
+        if checked == 60:
+            break
+        tx, ty = keys[k]
+        slot = t.slot_of(lv, tx, ty)
+        ox, oy = t.tile_origin_m(lv, tx, ty)
+        fu, fv = (pts[k] - (ox, oy)) / h
+        i, j = int(fu), int(fv)
+        if np.isnan(t.psi[slot, j:j + 4, i:i + 4]).any() or min(fu - i, fv - j) < 0.01 \
+                or max(fu - i, fv - j) > 0.99:
+            continue  # a stencil filled by local extrapolation; a cell edge in reach
+        args = (t.psi[slot].astype(float), (ox, oy), h, t.cell_segments[slot], field.segments)
+        want = reference.bank_corrected_potential(*args, pts[k:k + 1])[0]
+        plain = reference.lattice_velocity(t.psi[slot].astype(float), (ox, oy), h,
+                                           pts[k:k + 1])[0]
+        npt.assert_allclose(psi[k], want, rtol=1e-5, atol=1e-5)
+        around = pts[k] + np.array([[eps, 0], [-eps, 0], [0, eps], [0, -eps]])
+        p4 = reference.bank_corrected_potential(*args, around)
+        curl = np.array([-(p4[2] - p4[3]), p4[0] - p4[1]]) / (2 * eps)
+        npt.assert_allclose(vel[k], curl, rtol=2e-3, atol=2e-4 * np.abs(curl).max() + 1e-5)
+        checked += 1
+        corrected += not np.allclose(vel[k], plain, rtol=1e-4, atol=1e-6)
+    assert checked > 20 and corrected > 10, (checked, corrected)
+
+
+def test_lattice_points_beyond_an_open_end_mirror_the_water(field):
+    """Twin of ``_mirrored_across_cap``: a dry lattice point beyond a cap (a river's open end,
+    within 3 lattice spacings of it) holds ψ at its mirror image across the cap's line, when
+    that is in the water: the ghosts continue the flow square to the cap."""
+    net = field.network
+    t = field.tiles
+    lv = field.max_level
+    h = t.spacing_m(lv)
+    caps = [s for c in range(net.n_curves) if net.curve_kind[c] == kf.KIND_CAP
+            for s in range(net.curve_seg0[c], net.curve_seg1[c])]
+    a = np.c_[net.seg_ax[caps], net.seg_ay[caps]]
+    b = np.c_[net.seg_bx[caps], net.seg_by[caps]]
+    mid = 0.5 * (a[0] + b[0])
+    field.query(mid[None])
+    tx, ty = field.tile_of(mid[None], lv)[0]
+    ox, oy = t.tile_origin_m(lv, tx, ty)
+    idx = np.arange(-1, t.n_cells + 2)
+    gx, gy = np.meshgrid(ox + idx * h, oy + idx * h)
+    pts = np.c_[gx.ravel(), gy.ravel()]
+    got = t.psi[t.slot_of(lv, tx, ty)].ravel()
+    # the lattice points within 3 spacings of a cap, on its dry side, and their mirror images
+    cand, mirror = [], []
+    for k, p in enumerate(pts):
+        d2 = reference._dist2(p, a, b)
+        q = int(np.argmin(d2))
+        if d2[q] > (3 * h) ** 2 or reference._signed(p, a[q:q + 1], b[q:q + 1])[0] >= 0:
+            continue
+        e = b[q] - a[q]
+        cand.append(k)
+        mirror.append(2 * (a[q] + ((p - a[q]) @ e / (e @ e)) * e) - p)
+    cand = np.array(cand)
+    dry = ~np.isfinite(reference.potential(net, pts[cand], field.slip))
+    want = reference.potential(net, np.array(mirror)[dry], field.slip)
+    ok = np.isfinite(want)
+    npt.assert_allclose(got[cand[dry][ok]], want[ok], rtol=1e-4, atol=1e-4)
+    checked = int(ok.sum())
+    assert checked > 10
 
 
 def test_boundary_cells_are_where_banks_cross(field):
