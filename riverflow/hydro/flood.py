@@ -121,8 +121,9 @@ class FloodRouter:
             raise ValueError(f"set_hydrograph: times_s has {len(t)} values, discharge_m3s "
                              f"{len(q)}")
         if not np.isfinite(t).all():
-            raise ValueError(f"set_hydrograph: times_s must be finite, got {t[~np.isfinite(t)][0]!r} "
-                             f"at index {int(np.flatnonzero(~np.isfinite(t))[0])}")
+            k = int(np.flatnonzero(~np.isfinite(t))[0])
+            raise ValueError(f"set_hydrograph: times_s must be finite, got times_s[{k}] = "
+                             f"{t[k]!r}")
         bad = np.flatnonzero(~(np.isfinite(q) & (q >= 0)))
         if len(bad):
             raise ValueError(f"set_hydrograph: discharge_m3s[{int(bad[0])}] = {q[bad[0]]!r} "

@@ -3,8 +3,8 @@
 The network is the spill network's (:mod:`riverflow.hydro.spill_network`): links in
 upstream-first order, each cut into cells of length Δx, junctions as nodes. Each cell holds its
 cross-section relative to base flow, a = A / A₀. With a wide channel and Manning's law
-(Q ∝ W h^(5/3) √S / n) a cell's discharge is Q = Q₀ a^(5/3), its depth h = h₀ a, its mean speed
-U = U₀ a^(2/3) and the kinematic-wave celerity dQ/dA = (5/3) U. Slope and roughness cancel in
+(Q ∝ W h^(5/3) √S / n) a cell's discharge is Q = Q₀ a^(5/3), its depth h = h₀ a, its mean
+speed U = U₀ a^(2/3) and the kinematic-wave celerity dQ/dA = (5/3) U. Slope and roughness cancel in
 these ratios: the base state (Q₀, h₀, W) carries them.
 
 One explicit step of ``dt`` [s], conservative first-order upwind (the kinematic wave has no

@@ -62,8 +62,8 @@ def default_systems(gl: bool = True) -> list[System]:
     """A fresh instance of every default system, in frame order; ``gl=False`` leaves out the
     draw system (and never imports OpenGL)."""
     systems = [MoveBoats(), UpdateWakes(), AdvanceFlood(), UpdateCamera(), ProduceTiles(),
-               AdvectParticles(), ProjectParticles(), AgeParticles(), MaintainPoissonDisk(), PlaceNewParticles(),
-               UpdateFoam(), AdvanceSpills(), AnimateWaveTiles(), MakeRain()]
+               AdvectParticles(), ProjectParticles(), AgeParticles(), MaintainPoissonDisk(),
+               PlaceNewParticles(), UpdateFoam(), AdvanceSpills(), AnimateWaveTiles(), MakeRain()]
     if gl:
         from riverflow.systems.draw import DrawRivers  # imports pyglet's GL: only when drawing
 
