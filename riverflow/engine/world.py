@@ -434,8 +434,8 @@ class RiverWorld:
     def set_hydrograph(self, link, times_s, discharge_m3s) -> None:
         """Make the inflow at the start of ``link`` (a branch name or index in the flood's
         upstream-first order; None: every source, shared by their base discharges) follow
-        the hydrograph ``discharge_m3s`` [m³/s] at world-clock times ``times_s`` [s]
-        (piecewise linear, held beyond its ends; on a link below others it replaces what
+        the hydrograph ``discharge_m3s`` [m³/s] at times ``times_s`` [s] of the flood's clock
+        (:attr:`flood_time_s`; piecewise linear, held beyond its ends; on a link below others it replaces what
         comes from upstream: a dam's release). The discharge is routed downstream by the
         kinematic wave ("flood" system, :mod:`riverflow.hydro.flood`): the flow's speed
         follows it (velocities × (Q/Q₀)^(2/5)) and the water level its rating curve
@@ -456,10 +456,29 @@ class RiverWorld:
             return
         router.set_hydrograph(link, times_s, discharge_m3s)
 
+    @property
+    def flood_time_s(self) -> float:
+        """The flood's clock [s]: the world clock's ``now_s`` until the first hydrograph,
+        then advanced by each frame's time × ``speed_factor`` (held while paused; as the
+        spills') and by :meth:`advance_flood`."""
+        router = self.flood
+        return router.clock_s if router is not None else self.clock.now_s
+
+    def advance_flood(self, seconds: float) -> None:
+        """Run the flood ``seconds`` [s] ahead (hours in one call), nothing else moving
+        (ValueError for a negative, NaN or infinite time)."""
+        if isinstance(seconds, bool) or not isinstance(seconds, (int, float, np.integer,
+                                                                  np.floating)) \
+                or not (math.isfinite(seconds) and seconds >= 0):
+            raise ValueError(f"advance_flood: seconds must be a finite number ≥ 0, got "
+                             f"{seconds!r}")
+        if self.flood is not None:
+            self.flood.advance(float(seconds))
+
     def set_discharge(self, link, q_m3s: float) -> None:
         """A constant inflow ``q_m3s`` [m³/s] at the start of ``link`` from now on
         (:meth:`set_hydrograph` with one point)."""
-        self.set_hydrograph(link, [self.clock.now_s], [q_m3s])
+        self.set_hydrograph(link, [self.flood_time_s], [q_m3s])
 
     def water_level(self, xy_m) -> np.ndarray:
         """(N,) water level [m] of the nearest river point to each (N, 2) [m]: the scene's

@@ -75,6 +75,10 @@ class FloodRouter:
         """(N,) each cell's cross-section over its base one (= depth over base depth)."""
         self.hydrographs: dict[int, tuple[np.ndarray, np.ndarray]] = {}
         self.time_s = float(t0_s)
+        """The flood's time [s]: how far the routing has stepped (whole fixed steps)."""
+        self.clock_s = float(t0_s)
+        """The time the flood has been asked to reach [s] (:attr:`time_s` is within one step
+        below it)."""
         self._outflow = np.zeros(n)
         self._node_q = np.zeros(max(network.n_nodes, 1))
         self._inflow = np.zeros(len(q0))
@@ -161,12 +165,15 @@ class FloodRouter:
     # -- time --------------------------------------------------------------------------------
 
     def advance(self, seconds: float) -> None:
-        """Run ``seconds`` [s] of world time ahead, in whole fixed steps."""
-        self.advance_to(self.time_s + float(seconds))
+        """Run the flood's clock ``seconds`` [s] ahead (whole fixed steps are taken; what is
+        left of a step waits for the next call)."""
+        self.advance_to(self.clock_s + float(seconds))
 
     def advance_to(self, t_s: float) -> None:
-        """Step (whole fixed steps) until the router's time is within one step of ``t_s``."""
-        n = int(math.floor((float(t_s) - self.time_s) / self.dt_s + 1e-9))
+        """Step (whole fixed steps) until the router's time is within one step of ``t_s``
+        (a time behind the flood's clock does nothing)."""
+        self.clock_s = max(self.clock_s, float(t_s))
+        n = int(math.floor((self.clock_s - self.time_s) / self.dt_s + 1e-9))
         if n <= 0:
             return
         flood_steps(self.net, self._table, self.a, self.time_s, self.dt_s, n, self._outflow,

@@ -1,9 +1,10 @@
-"""Flood system: routes the world's hydrographs (issue 25) up to the world clock.
+"""Flood system: routes the world's hydrographs (issue 25) by the frame's simulated time.
 
 Glue only: the router (:class:`riverflow.hydro.flood.FloodRouter`, a resource made by the
 first ``world.set_hydrograph``) steps in whole fixed steps of its own
-(:mod:`riverflow.kernels.flood`) until it is within one step of ``clock.now_s``, so its state
-depends on the world time only, never on how frames cut it. With no hydrograph it does nothing.
+(:mod:`riverflow.kernels.flood`), so its state depends on the flood's time only, never on how
+frames cut it. The frame's time counts ``clock.speed_factor`` times (as the spills'); a
+paused clock holds the flood too. With no hydrograph it does nothing.
 """
 from __future__ import annotations
 
@@ -20,5 +21,7 @@ class AdvanceFlood(System):
 
     def process(self, world: RiverWorld, dt_s: float) -> None:
         router = world.flood
-        if router is not None:
-            router.advance_to(world.clock.now_s)
+        clock = world.clock
+        if router is None or clock.paused or dt_s <= 0.0:
+            return
+        router.advance(dt_s * clock.speed_factor)

@@ -216,12 +216,16 @@ def test_the_world_routes_a_flood_and_its_flow_and_level_follow(world):
     router_sources = [b for b in range(len(router.network.names))
                       if router.net.link_start[b] < 0]
     base = float(router.net.link_q0[router_sources].sum())
-    now = world.clock.now_s
+    now = world.flood_time_s
     world.set_hydrograph(None, [now, now + 1.0], [base, 3.0 * base])
+    world.speed_factor = 100.0
     for _ in range(40):
-        world.step(0.1)
-    assert router.time_s <= world.clock.now_s < router.time_s + router.dt_s
-    router.advance(4 * 3600.0)                        # long after the wave has passed
+        world.step(0.1)                               # the flood's clock runs 100× too
+    assert router.clock_s == pytest.approx(now + 400.0)
+    assert router.time_s <= router.clock_s < router.time_s + router.dt_s
+    with pytest.raises(ValueError, match="advance_flood"):
+        world.advance_flood(-1.0)
+    world.advance_flood(4 * 3600.0)                   # long after the wave has passed
     status, v = world.field.query(probe)
     factor = float(np.hypot(*v[0]) / np.hypot(*v0[0]))
     link, s, _ = router.network.locate(probe)
