@@ -27,7 +27,7 @@ import time
 
 
 def _flood(world, peak: float = 5.0) -> None:
-    world.set_discharge(None, 1.0)                      # makes the router
+    world.set_hydrograph(None, [], None)                # makes the router
     router = world.flood
     sources = [b for b in range(len(router.network.names)) if router.net.link_start[b] < 0]
     router_q = float(router.net.link_q0[sources].sum())

@@ -439,7 +439,8 @@ class RiverWorld:
         comes from upstream: a dam's release). The discharge is routed downstream by the
         kinematic wave ("flood" system, :mod:`riverflow.hydro.flood`): the flow's speed
         follows it (velocities × (Q/Q₀)^(2/5)) and the water level its rating curve
-        (:meth:`water_level`). ``discharge_m3s`` None removes the link's hydrograph.
+        (:meth:`water_level`). ``discharge_m3s`` None removes the link's hydrograph
+        (``set_hydrograph(None, [], None)`` makes :attr:`flood` and changes nothing).
 
         Raises:
             ValueError: an unknown link, negative / NaN discharges, times not strictly

@@ -210,7 +210,7 @@ def test_the_world_routes_a_flood_and_its_flow_and_level_follow(world):
     with pytest.raises(ValueError, match="discharge_m3s"):
         world.set_hydrograph("main_upper", [0.0], [-5.0])
     assert world.flood is None and world.field.discharge_scale is None   # nothing kept
-    world.set_discharge(None, 1.0)          # makes the router; replaced before any step
+    world.set_hydrograph(None, [], None)    # makes the router, changes nothing
     router = world.flood
     assert world.field.discharge_scale == router.scale_velocity
     router_sources = [b for b in range(len(router.network.names))
