@@ -287,7 +287,8 @@ def test_profile_prints_per_system_timings_as_json(tiny_channel_path, tmp_path):
     from riverflow.systems.schedule import SYSTEM_ORDER
 
     # every update system is timed (drawing is not: profile steps gl=False worlds)
-    assert set(data["systems"]) == {"boat", "wake", "camera", "tiles", "advection", "screen",
+    assert set(data["systems"]) == {"boat", "wake", "flood", "camera", "tiles", "advection",
+                                    "screen",
                                     "lifecycle", "poisson", "placement", "foam", "spill",
                                     "waves", "rain", "spray"}
     assert set(data["systems"]) == set(SYSTEM_ORDER) - {"draw"}

@@ -62,6 +62,10 @@ class _SpillSolverKey:
     """The resource key of the world's spill solver (made by the first spill)."""
 
 
+class _FloodRouterKey:
+    """The resource key of the world's flood router (made by the first hydrograph)."""
+
+
 class RiverWorld:
     """A landscape with rivers, simulated (and, with ``gl=True``, drawn) frame by frame.
 
@@ -401,19 +405,90 @@ class RiverWorld:
         """Make the spill solver now with these settings (a
         :class:`~riverflow.hydro.spill_network.Dispersion`; ``dt_s``: its fixed step [s], at most
         the network's stable step): before the first spill only (ValueError after). Returns it."""
-        from riverflow.hydro.spill_network import build_spill_network, section_discharge_m2s
         from riverflow.hydro.spills import SpillSolver
 
         if self.spill_solver is not None and self.spill_solver.n_spills:
             raise ValueError("configure_spills: this world has spills already (configure first)")
+        network = self._cell_network(dispersion)
+        solver = SpillSolver(network, dt_s=float(dt_s) if dt_s is not None else 0.0)
+        self.resources[_SpillSolverKey] = solver
+        return solver
+
+    def _cell_network(self, dispersion=None):
+        """The river network cut into cells along its links (the spills' and the flood's)."""
+        from riverflow.hydro.spill_network import build_spill_network, section_discharge_m2s
+
         branches = self.scene.branches
         qs = [b.discharge_m2s if b.discharge_m2s is not None
               else section_discharge_m2s(self.field.potential, b.centerline_m, b.widths_m)
               for b in branches]
-        network = build_spill_network(branches, qs, dispersion)
-        solver = SpillSolver(network, dt_s=float(dt_s) if dt_s is not None else 0.0)
-        self.resources[_SpillSolverKey] = solver
-        return solver
+        return build_spill_network(branches, qs, dispersion)
+
+    # -- floods (issue 25) ------------------------------------------------------------------
+
+    @property
+    def flood(self):
+        """The world's :class:`~riverflow.hydro.flood.FloodRouter`, or None before the first
+        :meth:`set_hydrograph` / :meth:`set_discharge`."""
+        return self.resources.get(_FloodRouterKey)
+
+    def set_hydrograph(self, link, times_s, discharge_m3s) -> None:
+        """Make the inflow at the start of ``link`` (a branch name or index in the flood's
+        upstream-first order; None: every source, shared by their base discharges) follow
+        the hydrograph ``discharge_m3s`` [m³/s] at times ``times_s`` [s] of the flood's clock
+        (:attr:`flood_time_s`; piecewise linear, held beyond its ends; on a link below others it replaces what
+        comes from upstream: a dam's release). The discharge is routed downstream by the
+        kinematic wave ("flood" system, :mod:`riverflow.hydro.flood`): the flow's speed
+        follows it (velocities × (Q/Q₀)^(2/5)) and the water level its rating curve
+        (:meth:`water_level`). ``discharge_m3s`` None removes the link's hydrograph
+        (``set_hydrograph(None, [], None)`` makes :attr:`flood` and changes nothing).
+
+        Raises:
+            ValueError: an unknown link, negative / NaN discharges, times not strictly
+                increasing or of another length; the world keeps its old state.
+        """
+        router = self.flood
+        if router is None:
+            from riverflow.hydro.flood import FloodRouter
+
+            router = FloodRouter(self._cell_network(), self.clock.now_s)
+            router.set_hydrograph(link, times_s, discharge_m3s)    # raises before it is kept
+            self.resources[_FloodRouterKey] = router
+            self.field.discharge_scale = router.scale_velocity
+            return
+        router.set_hydrograph(link, times_s, discharge_m3s)
+
+    @property
+    def flood_time_s(self) -> float:
+        """The flood's clock [s]: the world clock's ``now_s`` until the first hydrograph,
+        then advanced by each frame's time × ``speed_factor`` (held while paused; as the
+        spills') and by :meth:`advance_flood`."""
+        router = self.flood
+        return router.clock_s if router is not None else self.clock.now_s
+
+    def advance_flood(self, seconds: float) -> None:
+        """Run the flood ``seconds`` [s] ahead (hours in one call), nothing else moving
+        (ValueError for a negative, NaN or infinite time)."""
+        if isinstance(seconds, bool) or not isinstance(seconds, (int, float, np.integer,
+                                                                  np.floating)) \
+                or not (math.isfinite(seconds) and seconds >= 0):
+            raise ValueError(f"advance_flood: seconds must be a finite number ≥ 0, got "
+                             f"{seconds!r}")
+        if self.flood is not None:
+            self.flood.advance(float(seconds))
+
+    def set_discharge(self, link, q_m3s: float) -> None:
+        """A constant inflow ``q_m3s`` [m³/s] at the start of ``link`` from now on
+        (:meth:`set_hydrograph` with one point)."""
+        self.set_hydrograph(link, [self.flood_time_s], [q_m3s])
+
+    def water_level(self, xy_m) -> np.ndarray:
+        """(N,) water level [m] of the nearest river point to each (N, 2) [m]: the scene's
+        base-flow level plus the flood's rise there."""
+        xy = np.asarray(xy_m, np.float64).reshape(-1, 2)
+        level = np.asarray(self.scene.water.level(xy), np.float64)
+        router = self.flood
+        return level + router.level_rise(xy) if router is not None else level
 
     def add_spill(self, xy_m, mass_kg: float, duration_s: float = 0.0, *, name: str | None = None,
                   decay_per_s: float = 0.0) -> int:

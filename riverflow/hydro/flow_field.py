@@ -191,6 +191,11 @@ class FlowField:
         flow up on them by their ``speed_gain``, through the falls' kernel
         (:meth:`rapid_table`)."""
         self._rapid_table: kfalls.FallTable | None = None
+        self.discharge_scale = None
+        """None, or a callable (xy, status, velocity, n) that scales the first n velocities in
+        place by the local discharge's speed factor (a running flood:
+        :meth:`riverflow.hydro.flood.FloodRouter.scale_velocity`); :meth:`query` and the
+        particles' query call it after the falls."""
 
     @classmethod
     def for_scene(cls, scene, slip: float = 1.0, search_radius_factor: float = 5.0,
@@ -240,6 +245,8 @@ class FlowField:
                 velocity[idx] = v_out
             _never_unknown(status, pts)
         self.apply_falls(pts, status, velocity)
+        if self.discharge_scale is not None:
+            self.discharge_scale(pts, status, velocity, len(pts))
         if len(self.obstacles) and exclude_obstacles is not True:
             self.apply_obstacles(pts, status, velocity, level=lv, fallback=0,
                                  exclude=exclude_obstacles)

@@ -166,6 +166,8 @@ def query_flow(field: FlowField, xy: np.ndarray, status: np.ndarray, velocity: n
                    field.segments, n_velocity, status[:n], velocity[:n])
     if (field.falls or field.rapids) and n_velocity:     # sped up over falls and rapids
         field.apply_falls(xy, status, velocity, n_velocity)
+    if field.discharge_scale is not None and n_velocity:
+        field.discharge_scale(xy, status, velocity, n_velocity)
     if len(field.obstacles) and n_velocity:
         field.apply_obstacles(xy[:n_velocity], status[:n_velocity], velocity[:n_velocity],
                               level=level, fallback=level)

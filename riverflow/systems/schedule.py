@@ -2,7 +2,8 @@
 
 1. boats (``MoveBoats``: the boats' physics, and their hulls as obstacles in the flow; a host
    game's input comes before ``world.step``)   1b. wakes (each boat's trail through the water,
-   packed for the foam and the water shader)   2. camera
+   packed for the foam and the water shader)   1c. flood (issue 25: hydrographs routed down
+   the network up to the clock; the flow query reads its speed factors)   2. camera
 3. tile production (every kind: flow, terrain, water, meshes, particle tables)   4. advection   5. screen projection   6. life cycle
 7. Poisson-disk maintenance, then placement of the new particles   7b. foam (each particle's
    foam from the flow, shores, hulls and wakes: it reads where they are now, new ones included)
@@ -25,6 +26,7 @@ from riverflow.engine.system import System
 from riverflow.systems.advection import AdvectParticles
 from riverflow.systems.boat import MoveBoats
 from riverflow.systems.camera import UpdateCamera
+from riverflow.systems.flood import AdvanceFlood
 from riverflow.systems.foam import UpdateFoam
 from riverflow.systems.lifecycle import AgeParticles
 from riverflow.systems.placement import PlaceNewParticles
@@ -40,6 +42,7 @@ from riverflow.systems.waves import AnimateWaveTiles
 SYSTEM_ORDER = (
     "boat",
     "wake",
+    "flood",
     "camera",
     "tiles",
     "advection",
@@ -60,9 +63,10 @@ SYSTEM_ORDER = (
 def default_systems(gl: bool = True) -> list[System]:
     """A fresh instance of every default system, in frame order; ``gl=False`` leaves out the
     draw system (and never imports OpenGL)."""
-    systems = [MoveBoats(), UpdateWakes(), UpdateCamera(), ProduceTiles(), AdvectParticles(),
-               ProjectParticles(), AgeParticles(), MaintainPoissonDisk(), PlaceNewParticles(),
-               UpdateFoam(), AdvanceSpills(), AnimateWaveTiles(), MakeRain(), MakeSpray()]
+    systems = [MoveBoats(), UpdateWakes(), AdvanceFlood(), UpdateCamera(), ProduceTiles(),
+               AdvectParticles(), ProjectParticles(), AgeParticles(), MaintainPoissonDisk(),
+               PlaceNewParticles(), UpdateFoam(), AdvanceSpills(), AnimateWaveTiles(), MakeRain(),
+               MakeSpray()]
     if gl:
         from riverflow.systems.draw import DrawRivers  # imports pyglet's GL: only when drawing
 

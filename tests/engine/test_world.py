@@ -241,11 +241,11 @@ def test_worlds_do_not_see_each_others_entities(scene):
 
 def test_system_order_is_the_one_list():
     assert [s.name for s in default_systems()] == list(SYSTEM_ORDER)
-    assert SYSTEM_ORDER == ("boat", "wake", "camera", "tiles", "advection", "screen",
-                            "lifecycle", "poisson", "placement", "foam", "spill", "waves", "rain",
-                            "spray", "draw")
+    assert SYSTEM_ORDER == ("boat", "wake", "flood", "camera", "tiles", "advection",
+                            "screen", "lifecycle", "poisson", "placement", "foam", "spill",
+                            "waves", "rain", "spray", "draw")
     assert [s.name for s in default_systems(gl=False)] == list(SYSTEM_ORDER[:-1])
-    assert [s.phase for s in default_systems()] == ["update"] * 14 + ["draw"]
+    assert [s.phase for s in default_systems()] == ["update"] * 15 + ["draw"]
 
 
 def test_background_tile_production_fills_in(scene):

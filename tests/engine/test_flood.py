@@ -1,0 +1,239 @@
+"""Floods (issue 25, item 2): hydrographs routed down the network by the kinematic wave
+(riverflow/kernels/flood.py, riverflow/hydro/flood.py), the flow's speed and the water level
+following the local discharge, and the world API.
+
+Tests of record: a hydrograph step at the upstream end of a 30 km uniform river reaches 20 km
+downstream after the kinematic-wave travel time (within 5 %) and the level there matches
+Manning's rating curve once steady (within 2 %); bad input leaves the old state.
+"""
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+import riverflow as rf
+from riverflow.hydro.falls import channel_depth_m
+from riverflow.hydro.flood import FloodRouter
+from riverflow.hydro.spill_network import build_spill_network
+from riverflow.kernels.flood import flood_steps
+
+
+def _branch(name, line, width, start=-1, end=-1):
+    line = np.asarray(line, np.float64)
+    return SimpleNamespace(name=name, centerline_m=line, widths_m=np.full(len(line), width),
+                           start_junction=start, end_junction=end)
+
+
+def _straight(length_m, n=201, y=0.0, x0=0.0):
+    x = np.linspace(x0, x0 + length_m, n)
+    return np.stack([x, np.full(n, y)], 1)
+
+
+# -- the kernel against its plain-numpy twin ---------------------------------------------------
+
+def _twin_steps(net, hydro, a, t0, dt, n):
+    """riverflow.kernels.flood.flood_steps, vectorised per link with numpy."""
+    n_nodes = int(max(net.link_end.max(), net.link_start.max(), 0)) + 1
+    for k in range(n):
+        t = t0 + k * dt
+        q = np.empty_like(a)
+        for b in range(len(net.link_q0)):
+            c = slice(net.link_c0[b], net.link_c1[b])
+            q[c] = net.link_q0[b] * a[c] ** (5 / 3)
+        node = np.zeros(n_nodes)
+        for b in range(len(net.link_q0)):
+            if net.link_end[b] >= 0:
+                node[net.link_end[b]] += q[net.link_c1[b] - 1]
+        inflow = np.where(net.link_start >= 0, node[np.maximum(net.link_start, 0)]
+                          * net.link_share, net.link_q0)
+        for h in range(len(hydro.link)):
+            s = slice(hydro.start[h], hydro.start[h + 1])
+            inflow[hydro.link[h]] = np.interp(t, hydro.times[s], hydro.q[s])
+        for b in range(len(net.link_q0)):
+            c = slice(net.link_c0[b], net.link_c1[b])
+            upstream = np.concatenate([[inflow[b]], q[c][:-1]])
+            a[c] = np.maximum(a[c] + dt / net.link_dx[b] * (upstream - q[c])
+                              / net.cell_area0[c], 0.0)
+    return a
+
+
+@pytest.fixture(scope="module")
+def diamond():
+    """A source splitting at a bifurcation into two arms that meet again, a tributary joining
+    below, and an outlet (the spill tests' network)."""
+    return build_spill_network(
+        [_branch("top", _straight(1500.0, 31), 40.0, -1, 0),
+         _branch("left", _straight(1200.0, 25, 60.0, 1500.0), 30.0, 0, 1),
+         _branch("right", _straight(900.0, 19, -60.0, 1500.0), 20.0, 0, 1),
+         _branch("trib", _straight(800.0, 17, 300.0, 1900.0), 15.0, -1, 1),
+         _branch("bottom", _straight(1500.0, 31, 0.0, 2700.0), 45.0, 1, -1)],
+        [40.0, 25.0, 15.0, 10.0, 50.0])
+
+
+def test_kernel_matches_numpy_twin(diamond):
+    router = FloodRouter(diamond)
+    q0 = float(router.net.link_q0[0])
+    router.set_hydrograph("top", [0.0, 600.0, 1800.0], [q0, 4.0 * q0, 0.5 * q0])
+    a = router.a.copy()
+    n = int(2400.0 / router.dt_s)
+    flood_steps(router.net, router._table, router.a, 0.0, router.dt_s, n, router._outflow,
+                router._node_q, router._inflow)
+    twin = _twin_steps(router.net, router._table, a, 0.0, router.dt_s, n)
+    assert np.abs(router.a - 1.0).max() > 0.1            # the wave is in the network
+    np.testing.assert_allclose(router.a, twin, rtol=1e-9, atol=1e-12)
+
+
+def test_volume_is_conserved_and_a_junction_adds_its_inflows(diamond):
+    router = FloodRouter(diamond)
+    router.advance(3600.0)                # base flow is a steady state of the routing
+    np.testing.assert_allclose(router.a, 1.0, atol=1e-12)
+    assert not router.active
+    net = router.net
+    q0 = net.link_q0.copy()
+    router.set_hydrograph("trib", [0.0, 60.0], [q0[router.link_index("trib")],
+                                               3.0 * q0[router.link_index("trib")]])
+    dx = net.link_dx[diamond.cell_link]
+    volume = lambda: float(np.sum(router.a * net.cell_area0 * dx))   # noqa: E731
+    v0, inflow, outflow = volume(), 0.0, 0.0
+    out_cell = int(net.link_c1[router.link_index("bottom")]) - 1
+    for _ in range(int(4 * 3600 / router.dt_s)):
+        q_out = q0[router.link_index("bottom")] * router.a[out_cell] ** (5 / 3)
+        router.advance(router.dt_s)
+        inflow += router._inflow[np.asarray(net.link_start) < 0].sum() * router.dt_s
+        outflow += q_out * router.dt_s
+    assert volume() == pytest.approx(v0 + inflow - outflow, rel=1e-9)
+    # steady: the outlet carries the base flow plus the tributary's extra 2 q0
+    q = router.cell_discharge_m3s()
+    extra = 2.0 * q0[router.link_index("trib")]
+    assert q[out_cell] == pytest.approx(q0[router.link_index("bottom")] + extra, rel=1e-3)
+    # the bifurcation above is untouched
+    top = slice(net.link_c0[0], net.link_c1[0])
+    np.testing.assert_allclose(router.a[top], 1.0, atol=1e-12)
+
+
+# -- tests of record: a 30 km uniform river ----------------------------------------------------
+
+WIDTH_M, U0_MPS, N_MANNING = 50.0, 1.0, 0.03
+
+
+@pytest.fixture(scope="module")
+def long_river():
+    """A hydrograph step Q₀ → 2 Q₀ at t = 0 at the upstream end of a 30 km uniform river,
+    the level rise at 20 km recorded every step for 5 hours."""
+    network = build_spill_network([_branch("river", _straight(30_000.0, 301), WIDTH_M)],
+                                  [U0_MPS * WIDTH_M])          # ψ difference q = U W [m²/s]
+    router = FloodRouter(network)
+    q0 = float(router.net.link_q0[0])
+    router.set_hydrograph(None, [0.0, 1e-6], [q0, 2.0 * q0])
+    at = np.array([[20_000.0, 0.0]])
+    times, rise = [], []
+    while router.time_s < 5 * 3600.0:
+        router.advance(router.dt_s)
+        times.append(router.time_s)
+        rise.append(float(router.level_rise(at)[0]))
+    return router, q0, np.array(times), np.array(rise)
+
+
+def test_a_step_reaches_20_km_after_the_kinematic_wave_travel_time(long_river):
+    router, q0, times, rise = long_river
+    h0 = float(channel_depth_m(WIDTH_M))
+    final = rise[-1]
+    # kinematic wave: Q ∝ A^(5/3); a rising step travels as a front at ΔQ / ΔA
+    a2 = 2.0 ** 0.6
+    celerity = q0 / (WIDTH_M * h0 * (a2 - 1.0))
+    expected = 20_000.0 / celerity
+    arrival = float(np.interp(0.5 * final, rise, times))    # half the rise has arrived
+    assert arrival == pytest.approx(expected, rel=0.05)
+    assert np.all(rise[times < 0.8 * expected] < 0.02 * final)   # not instantly
+    # the celerity is that of Manning's law: between (5/3) U at Q₀ and at 2 Q₀
+    assert 5 / 3 * U0_MPS < celerity < 5 / 3 * U0_MPS * 2 ** 0.4
+
+
+def test_the_level_matches_the_rating_curve_once_steady(long_river):
+    router, q0, times, rise = long_river
+    h0 = float(channel_depth_m(WIDTH_M))
+    # Manning, wide channel: Q = W h^(5/3) √S / n; the slope the base state implies
+    slope = (q0 * N_MANNING / (WIDTH_M * h0 ** (5 / 3))) ** 2
+    h_manning = (2.0 * q0 * N_MANNING / (WIDTH_M * np.sqrt(slope))) ** 0.6
+    assert h0 + rise[-1] == pytest.approx(h_manning, rel=0.02)
+    assert float(router.discharge(np.array([[20_000.0, 0.0]]))[0]) == pytest.approx(2 * q0,
+                                                                                    rel=1e-3)
+    # the speed factor is U/U₀ = (Q/Q₀)^(2/5)
+    velocity = np.ones((1, 2), np.float32)
+    router.scale_velocity(np.array([[20_000.0, 0.0]]), np.ones(1, np.uint8), velocity)
+    assert velocity[0, 0] == pytest.approx(2.0 ** 0.4, rel=1e-3)
+
+
+def test_bad_hydrographs_raise_and_keep_the_old_state(diamond):
+    router = FloodRouter(diamond)
+    router.set_hydrograph("top", [0.0, 100.0], [20.0, 40.0])
+    router.advance(300.0)
+    before = (router.a.copy(), router.dt_s, {k: (t.copy(), q.copy())
+                                             for k, (t, q) in router.hydrographs.items()})
+    for link, t, q, match in (
+            ("top", [0.0, 10.0], [1.0, -1.0], "discharge_m3s\\[1\\]"),
+            ("top", [0.0, 10.0], [1.0, float("nan")], "discharge_m3s\\[1\\]"),
+            ("top", [0.0, 10.0, 10.0], [1.0, 2.0, 3.0], "increase strictly"),
+            ("top", [5.0, 1.0], [1.0, 2.0], "increase strictly"),
+            ("top", [0.0, float("inf")], [1.0, 2.0], "finite"),
+            ("top", [0.0, 1.0], [1.0], "2 values"),
+            ("top", "soon", [1.0], "numbers"),
+            ("nowhere", [0.0], [1.0], "no link named 'nowhere'"),
+            (7, [0.0], [1.0], "out of range")):
+        with pytest.raises(ValueError, match=match):
+            router.set_hydrograph(link, t, q)
+    assert np.array_equal(router.a, before[0]) and router.dt_s == before[1]
+    assert router.hydrographs.keys() == before[2].keys()
+    for k, (t, q) in before[2].items():
+        assert np.array_equal(router.hydrographs[k][0], t)
+        assert np.array_equal(router.hydrographs[k][1], q)
+
+
+# -- the world ---------------------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def world():
+    w = rf.RiverWorld(rf.default_scene(seed=0), size=(48, 32), gl=False, seed=0)
+    yield w
+    w.close()
+
+
+def test_the_world_routes_a_flood_and_its_flow_and_level_follow(world):
+    scene = world.scene
+    line = scene.branch("main_upper").centerline_m
+    probe = line[len(line) // 2][None, :]
+    status0, v0 = world.field.query(probe)
+    level0 = float(world.water_level(probe)[0])
+    assert status0[0] == rf.FlowStatus.INSIDE and world.flood is None
+    with pytest.raises(ValueError, match="discharge_m3s"):
+        world.set_hydrograph("main_upper", [0.0], [-5.0])
+    assert world.flood is None and world.field.discharge_scale is None   # nothing kept
+    world.set_hydrograph(None, [], None)    # makes the router, changes nothing
+    router = world.flood
+    assert world.field.discharge_scale == router.scale_velocity
+    router_sources = [b for b in range(len(router.network.names))
+                      if router.net.link_start[b] < 0]
+    base = float(router.net.link_q0[router_sources].sum())
+    now = world.flood_time_s
+    world.set_hydrograph(None, [now, now + 1.0], [base, 3.0 * base])
+    world.speed_factor = 100.0
+    for _ in range(40):
+        world.step(0.1)                               # the flood's clock runs 100× too
+    assert router.clock_s == pytest.approx(now + 400.0)
+    assert router.time_s <= router.clock_s < router.time_s + router.dt_s
+    with pytest.raises(ValueError, match="advance_flood"):
+        world.advance_flood(-1.0)
+    world.advance_flood(4 * 3600.0)                   # long after the wave has passed
+    status, v = world.field.query(probe)
+    factor = float(np.hypot(*v[0]) / np.hypot(*v0[0]))
+    link, s, _ = router.network.locate(probe)
+    r = float(router.network.interpolate(router.cell_discharge_m3s(), link, s)[0]
+              / router.net.link_q0[link[0]])
+    assert r > 1.5
+    assert factor == pytest.approx(r ** 0.4, rel=1e-4)
+    h0 = float(router.network.link_depth_m[link[0]])
+    assert float(world.water_level(probe)[0]) - level0 == pytest.approx(h0 * (r ** 0.6 - 1),
+                                                                         rel=1e-6)
+    assert np.isfinite(router.a).all() and router.a.min() > 0
