@@ -74,9 +74,39 @@ def contains_xy_tiled(geom: shapely.Geometry, xy: np.ndarray) -> np.ndarray:
     return out
 
 
-def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6) -> list[str]:
+CHUNK_SEGMENTS = 1_000_000
+""":func:`graph_problems` tests the banks' segments in chunks of about this many."""
+
+
+def _bank_segments(graph: HydroGraph, chunk: list[int]):
+    """The banks ``chunk``'s vertices (P, 2) and their bank (P,), their segments without null
+    ones: directions (S, 2), lengths (S,), midpoints (S, 2) and bank (S,) (position in
+    ``chunk``), and the probes just left and just right of each segment, (2S, 2) interleaved."""
+    verts = [graph.vertices(i) for i in chunk]
+    n_pts = np.array([len(v) for v in verts], np.int64)
+    v = np.concatenate(verts) if verts else np.zeros((0, 2))
+    vb = np.repeat(np.arange(len(chunk)), n_pts)
+    d = np.diff(v, axis=0)
+    length = np.hypot(d[:, 0], d[:, 1])
+    ok = (vb[1:] == vb[:-1]) & (length > 1e-6)   # (no segment from one bank to the next)
+    d, length, sb = d[ok], length[ok], vb[:-1][ok]
+    mid = 0.5 * (v[:-1][ok] + v[1:][ok])
+    nrm = np.stack([-d[:, 1], d[:, 0]], axis=1) / length[:, None]
+    eps = np.minimum(0.1 * length, 0.05)[:, None]
+    probes = np.empty((2 * len(mid), 2))
+    probes[0::2] = mid + eps * nrm
+    probes[1::2] = mid - eps * nrm
+    return v, vb, d, length, mid, sb, probes
+
+
+def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6,
+                   axes_cover_banks: bool = False) -> list[str]:
     """Check a builder-made graph. ``branches``: optional [(centre line (K, 2), widths (K,)
-    or None, discharge m²/s)] drawn downstream (widths may be omitted as a 2-tuple)."""
+    or None, discharge m²/s)] drawn downstream (widths may be omitted as a 2-tuple).
+    ``axes_cover_banks``: the caller made every axis' width cover its banks' points (the
+    builder sets it from the farthest of them, :func:`~riverflow.hydro._network.assemble_graph`),
+    so the test that they lie within half an axis' width is skipped (the test that the axis
+    lies on each bank's left stays)."""
     problems: list[str] = []
     curves = graph.curves
     banks = graph.banks()
@@ -133,55 +163,86 @@ def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6) -
         water = shapely.difference(water, shapely.disjoint_subset_union_all(cw))
     in_hole = {c for a in range(len(loops)) if signed[a] < 0 for c, _ in graph.areas[a].curves}
     del loops, polys, ccw, cw, first     # (copies of the whole outline: the peak is below)
-    axes: dict[int, PolylineIndex] = {}
     linked = [i for i in banks if 0 <= curves[i].river < len(curves)]
-
-    def bank_segments(i):
-        """A bank's vertices, segment directions, lengths and midpoints (no null segments)."""
-        v = graph.vertices(i)
-        d = np.diff(v, axis=0)
-        length = np.hypot(d[:, 0], d[:, 1])
-        ok = length > 1e-6
-        return v, d[ok], length[ok], 0.5 * (v[:-1] + v[1:])[ok]
-
-    # the probes just left and just right of every segment, bank by bank, in one array (the
-    # segments themselves are made again below, not kept: at the build's peak of memory)
-    counts = [len(bank_segments(i)[3]) for i in linked]
-    bounds = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
-    probes = np.empty((2 * int(bounds[-1]), 2))
-    for i, a, b in zip(linked, bounds[:-1], bounds[1:]):
-        _, d, length, mid = bank_segments(i)
-        nrm = np.stack([-d[:, 1], d[:, 0]], axis=1) / length[:, None]
-        eps = np.minimum(0.1 * length, 0.05)[:, None]
-        probes[2 * a:a + b] = mid + eps * nrm
-        probes[a + b:2 * b] = mid - eps * nrm
-    inside = contains_xy_tiled(water, probes)
+    # every linked bank's segments in bulk, banks grouped by their axis (one nearest-point
+    # query per axis), in chunks of about CHUNK_SEGMENTS segments (the arrays of a chunk are
+    # made twice, for the probes and for the axis tests, not kept: the build's peak of memory
+    # is at the probes)
+    linked.sort(key=lambda i: curves[i].river)
+    chunks, size, first = [], 0, 0
+    for k, i in enumerate(linked):
+        size += len(curves[i].points) + 1
+        if size >= CHUNK_SEGMENTS and (k + 1 == len(linked)
+                                       or curves[linked[k + 1]].river != curves[i].river):
+            chunks.append(linked[first:k + 1])
+            first, size = k + 1, 0
+    if first < len(linked):
+        chunks.append(linked[first:])
+    probes = np.empty((2 * sum(len(curves[i].points) + 1 for i in linked), 2))
+    at = 0
+    for chunk in chunks:
+        part = _bank_segments(graph, chunk)[-1]
+        probes[at:at + len(part)] = part
+        at += len(part)
+        del part
+    inside = contains_xy_tiled(water, probes[:at])
     del probes
-    for i, a, b in zip(linked, bounds[:-1], bounds[1:]):
-        v, d, length, mid = bank_segments(i)
+    wrong_side: dict[int, tuple[int, int]] = {}
+    on_right: dict[int, tuple[int, int]] = {}
+    too_far: dict[int, tuple[int, int]] = {}
+    at = 0
+    for chunk in chunks:
+        v, vb, d, length, mid, sb, _ = _bank_segments(graph, chunk)
+        n_seg = len(mid)
+        left, right = inside[at:at + 2 * n_seg:2], inside[at + 1:at + 2 * n_seg:2]
+        at += 2 * n_seg
+        n = len(chunk)
+        bad_side = np.bincount(sb, ~left | right, n).astype(np.int64)
+        seg_count = np.bincount(sb, minlength=n)
+        cross_bad = np.zeros(len(mid), bool)
+        far = np.zeros(len(v), bool)
+        # the banks of one axis are consecutive: one query per axis for their midpoints and
+        # points
+        rivers = np.array([curves[i].river for i in chunk])
+        groups = np.flatnonzero(np.concatenate([[True], rivers[1:] != rivers[:-1]]))
+        seg_at = np.searchsorted(sb, np.arange(n + 1))
+        pt_at = np.searchsorted(vb, np.arange(n + 1))
+        for g0, g1 in zip(groups, np.append(groups[1:], n)):
+            river = int(rivers[g0])
+            axis = PolylineIndex(graph.vertices(river))
+            covers = 0.5 * curves[river].width_m + 1e-6
+            s0, s1, p0, p1 = seg_at[g0], seg_at[g1], pt_at[g0], pt_at[g1]
+            dist, q, _ = axis.nearest(mid[s0:s1] if axes_cover_banks
+                                      else np.vstack([mid[s0:s1], v[p0:p1]]), covers)
+            to = q[:s1 - s0] - mid[s0:s1]
+            dd = d[s0:s1]
+            cross = dd[:, 0] * to[:, 1] - dd[:, 1] * to[:, 0]
+            with np.errstate(invalid="ignore"):   # (segments beyond reach fail the reach test)
+                cross_bad[s0:s1] = cross < -1e-9 * length[s0:s1] * np.hypot(to[:, 0], to[:, 1])
+            if not axes_cover_banks:
+                far[p0:p1] = ~np.isfinite(dist[s1 - s0:])
+        holes = np.array([i in in_hole for i in chunk], bool)
+        bad_axis = np.bincount(sb, cross_bad, n).astype(np.int64) * ~holes
+        bad_far = np.bincount(vb, far, n).astype(np.int64)
+        pt_count = np.bincount(vb, minlength=n)
+        for k, i in enumerate(chunk):
+            if bad_side[k]:
+                wrong_side[i] = (int(bad_side[k]), int(seg_count[k]))
+            if bad_axis[k]:
+                on_right[i] = (int(bad_axis[k]), int(seg_count[k]))
+            if bad_far[k]:
+                too_far[i] = (int(bad_far[k]), int(pt_count[k]))
+    rank = {i: k for k, i in enumerate(banks)}
+    for i in sorted(set(wrong_side) | set(on_right) | set(too_far), key=rank.__getitem__):
         c = curves[i]
-        left = inside[2 * a:a + b]
-        right = inside[a + b:2 * b]
-        if not left.all() or right.any():
-            problems.append(f"bank {i}: water is not on its left at {int((~left | right).sum())} of "
-                            f"{len(left)} segments")
-        axis = axes.get(c.river)
-        if axis is None:
-            axis = axes[c.river] = PolylineIndex(graph.vertices(c.river))
-        covers = 0.5 * curves[c.river].width_m + 1e-6
-        # the segments' midpoints and the bank's points, in one query
-        dist, q, _ = axis.nearest(np.vstack([mid, v]), covers)
-        if i not in in_hole:   # (segments farther than the axis covers fail the reach test)
-            to = q[:len(mid)] - mid
-            cross = d[:, 0] * to[:, 1] - d[:, 1] * to[:, 0]
-            with np.errstate(invalid="ignore"):
-                bad = cross < -1e-9 * length * np.hypot(to[:, 0], to[:, 1])
-            if bad.any():
-                problems.append(f"bank {i}: its axis {c.river} lies on its right at {int(bad.sum())} "
-                                f"of {len(bad)} segments (water must be on the left)")
-        far = dist[len(mid):]
-        if not np.isfinite(far).all():
-            problems.append(f"bank {i}: {int((~np.isfinite(far)).sum())} of its {len(v)} points "
+        if i in wrong_side:
+            problems.append(f"bank {i}: water is not on its left at {wrong_side[i][0]} of "
+                            f"{wrong_side[i][1]} segments")
+        if i in on_right:
+            problems.append(f"bank {i}: its axis {c.river} lies on its right at {on_right[i][0]} "
+                            f"of {on_right[i][1]} segments (water must be on the left)")
+        if i in too_far:
+            problems.append(f"bank {i}: {too_far[i][0]} of its {too_far[i][1]} points "
                             f"lie farther from axis {c.river} than the "
                             f"{0.5 * curves[c.river].width_m:.2f} m it covers")
     # no crossing banks (banks and closing segments may only touch at their end nodes)

@@ -508,7 +508,8 @@ class RiverNetworkBuilder:
             lake_parts = _lakes_of_graph(geoms, lakes, lake_ends, polygon_lake, self.tolerance_m)
         graph = assemble_graph(geoms, rings, pieces, islands, all_junctions[:n_junctions],
                                inlets, lake_parts)
-        problems = graph_problems(graph, [(g.centerline_m, g.widths_m, g.discharge_m2s) for g in geoms])
+        problems = graph_problems(graph, [(g.centerline_m, g.widths_m, g.discharge_m2s) for g in geoms],
+                                  axes_cover_banks=True)
         if problems:
             raise GraphError("the network gives an invalid hydro graph: " + "; ".join(problems[:5]))
         first = {}

@@ -82,6 +82,46 @@ def test_a_nested_counter_clockwise_loop_is_found(confluence):
                for p in problems), problems
 
 
+def _main_banks(graph):
+    """The banks linked to the axis of branch "main" (the one along y ≈ 0 left of x = 200)."""
+    main = [i for i in graph.axes() if graph.vertices(i)[:, 0].max() <= 200.0 + 1e-6
+            and abs(graph.vertices(i)[:, 1]).max() < 10.0]
+    assert len(main) == 1
+    return main[0], [i for i in graph.banks() if graph.curves[i].river == main[0]]
+
+
+def test_a_bank_beyond_its_axis_reach_is_found(confluence):
+    """Linked to the tributary's axis, the main river's bank lies farther from it than its
+    half width; the other banks stay clean."""
+    graph, branches = confluence
+    bad = copy.deepcopy(graph)
+    main, banks = _main_banks(bad)
+    trib = next(i for i in bad.axes() if bad.vertices(i)[:, 1].max() > 100.0)
+    bad.curves[banks[0]].river = trib
+    problems = graph_problems(bad, branches)
+    assert any(p.startswith(f"bank {banks[0]}: ") and f"farther from axis {trib}" in p
+               for p in problems), problems
+    assert not any(p.startswith(f"bank {banks[1]}: ") for p in problems), problems
+    # the builder makes every axis cover its banks and skips this test (only this one)
+    assert graph_problems(bad, branches, axes_cover_banks=True) == [
+        p for p in problems if "farther from axis" not in p]
+
+
+def test_a_bank_with_its_axis_on_the_right_is_found(confluence):
+    """A bank mirrored across its axis (same direction): the axis lies on its right there
+    (the water the areas describe changes too, so other banks' tests fail as well)."""
+    graph, branches = confluence
+    bad = copy.deepcopy(graph)
+    main, banks = _main_banks(bad)
+    axis = bad.vertices(main)
+    c = bad.curves[banks[1]]
+    y_axis = np.interp(c.points[:, 0], axis[:, 0], axis[:, 1])
+    c.points = np.stack([c.points[:, 0], 2.0 * y_axis - c.points[:, 1]], axis=1)
+    problems = graph_problems(bad, branches)
+    assert any(p.startswith(f"bank {banks[1]}: its axis {main} lies on its right") for p in problems), \
+        problems
+
+
 def _scalar_hits(origin, direction, reach, lines, tree):
     """One ray the way the builder asked before: its crossings in tree order, distances."""
     ray = LineString([origin, origin + direction * reach])
