@@ -8,8 +8,6 @@ Manning's rating curve once steady (within 2 %); bad input leaves the old state.
 """
 from __future__ import annotations
 
-from types import SimpleNamespace
-
 import numpy as np
 import pytest
 
@@ -18,17 +16,8 @@ from riverflow.hydro.falls import channel_depth_m
 from riverflow.hydro.flood import FloodRouter
 from riverflow.hydro.spill_network import build_spill_network
 from riverflow.kernels.flood import flood_steps
-
-
-def _branch(name, line, width, start=-1, end=-1):
-    line = np.asarray(line, np.float64)
-    return SimpleNamespace(name=name, centerline_m=line, widths_m=np.full(len(line), width),
-                           start_junction=start, end_junction=end)
-
-
-def _straight(length_m, n=201, y=0.0, x0=0.0):
-    x = np.linspace(x0, x0 + length_m, n)
-    return np.stack([x, np.full(n, y)], 1)
+from tests.engine import cell_networks
+from tests.engine.cell_networks import branch, straight
 
 
 # -- the kernel against its plain-numpy twin ---------------------------------------------------
@@ -63,13 +52,7 @@ def _twin_steps(net, hydro, a, t0, dt, n):
 def diamond():
     """A source splitting at a bifurcation into two arms that meet again, a tributary joining
     below, and an outlet (the spill tests' network)."""
-    return build_spill_network(
-        [_branch("top", _straight(1500.0, 31), 40.0, -1, 0),
-         _branch("left", _straight(1200.0, 25, 60.0, 1500.0), 30.0, 0, 1),
-         _branch("right", _straight(900.0, 19, -60.0, 1500.0), 20.0, 0, 1),
-         _branch("trib", _straight(800.0, 17, 300.0, 1900.0), 15.0, -1, 1),
-         _branch("bottom", _straight(1500.0, 31, 0.0, 2700.0), 45.0, 1, -1)],
-        [40.0, 25.0, 15.0, 10.0, 50.0])
+    return cell_networks.diamond()
 
 
 def test_kernel_matches_numpy_twin(diamond):
@@ -122,7 +105,7 @@ WIDTH_M, U0_MPS, N_MANNING = 50.0, 1.0, 0.03
 def long_river():
     """A hydrograph step Q₀ → 2 Q₀ at t = 0 at the upstream end of a 30 km uniform river,
     the level rise at 20 km recorded every step for 5 hours."""
-    network = build_spill_network([_branch("river", _straight(30_000.0, 301), WIDTH_M)],
+    network = build_spill_network([branch("river", straight(30_000.0, 301), WIDTH_M)],
                                   [U0_MPS * WIDTH_M])          # ψ difference q = U W [m²/s]
     router = FloodRouter(network)
     q0 = float(router.net.link_q0[0])

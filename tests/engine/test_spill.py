@@ -8,7 +8,6 @@ the bifurcation by discharge, decay, camera independence and bad input.
 from __future__ import annotations
 
 import math
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -17,17 +16,8 @@ import riverflow as rf
 from riverflow.hydro.spill_network import Dispersion, build_spill_network
 from riverflow.hydro.spills import SpillSolver, SpillSource
 from riverflow.kernels.spill import SpillBook, spill_steps
-
-
-def _branch(name, line, width, start=-1, end=-1):
-    line = np.asarray(line, np.float64)
-    return SimpleNamespace(name=name, centerline_m=line, widths_m=np.full(len(line), width),
-                           start_junction=start, end_junction=end)
-
-
-def _straight(length_m, n=201, y=0.0, x0=0.0):
-    x = np.linspace(x0, x0 + length_m, n)
-    return np.stack([x, np.full(n, y)], 1)
+from tests.engine import cell_networks
+from tests.engine.cell_networks import branch, straight
 
 
 def _source(network, link, s_m):
@@ -92,13 +82,7 @@ def _twin_step(net, mass, released, outflow, decayed, passed, src, t0, t1, total
 def diamond():
     """A source splitting at a bifurcation into two arms of different discharges that meet
     again, a tributary joining below, and an outlet."""
-    return build_spill_network(
-        [_branch("top", _straight(1500.0, 31), 40.0, -1, 0),
-         _branch("left", _straight(1200.0, 25, 60.0, 1500.0), 30.0, 0, 1),
-         _branch("right", _straight(900.0, 19, -60.0, 1500.0), 20.0, 0, 1),
-         _branch("trib", _straight(800.0, 17, 300.0, 1900.0), 15.0, -1, 1),
-         _branch("bottom", _straight(1500.0, 31, 0.0, 2700.0), 45.0, 1, -1)],
-        [40.0, 25.0, 15.0, 10.0, 50.0])
+    return cell_networks.diamond()
 
 
 def test_kernel_matches_numpy_twin(diamond):
@@ -140,7 +124,7 @@ def test_bifurcation_splits_by_discharge_and_mass_is_kept(diamond):
 
 def test_instant_release_in_a_straight_channel_is_the_analytic_gaussian():
     W, U = 50.0, 1.0
-    network = build_spill_network([_branch("channel", _straight(7000.0), W)], [U * W])
+    network = build_spill_network([branch("channel", straight(7000.0), W)], [U * W])
     D = float(network.cell_k_m2s[0])             # Fischer's, uniform along the channel
     h = float(network.link_depth_m[0])
     assert np.allclose(network.cell_k_m2s, D) and 50.0 < D < 500.0
@@ -171,7 +155,7 @@ def test_instant_release_in_a_straight_channel_is_the_analytic_gaussian():
 
 
 def test_decay_is_exponential():
-    network = build_spill_network([_branch("channel", _straight(6000.0), 40.0)], [40.0])
+    network = build_spill_network([branch("channel", straight(6000.0), 40.0)], [40.0])
     solver = SpillSolver(network)
     k = 2e-4
     solver.add(_source(network, 0, 500.0), "a", 10.0, 0.0, k)
@@ -408,16 +392,16 @@ def test_bake_concentration_and_the_spill_command(tiny_channel_path, tmp_path):
 
 
 def test_dispersion_settings():
-    line = _straight(2000.0, 41)
-    fixed = build_spill_network([_branch("c", line, 30.0)], [30.0],
+    line = straight(2000.0, 41)
+    fixed = build_spill_network([branch("c", line, 30.0)], [30.0],
                                 Dispersion(longitudinal_m2s=12.0, cell_m=10.0))
     assert np.all(fixed.cell_k_m2s == 12.0) and np.allclose(fixed.link_dx_m, 10.0)
-    rough = build_spill_network([_branch("c", line, 30.0)], [30.0], Dispersion(manning_n=0.06))
-    smooth = build_spill_network([_branch("c", line, 30.0)], [30.0])
+    rough = build_spill_network([branch("c", line, 30.0)], [30.0], Dispersion(manning_n=0.06))
+    smooth = build_spill_network([branch("c", line, 30.0)], [30.0])
     assert rough.cell_k_m2s[0] == pytest.approx(0.5 * smooth.cell_k_m2s[0])   # K ∝ 1/u* ∝ 1/n
     for bad in (dict(manning_n=0.0), dict(fischer=float("nan")), dict(cell_m=-1.0),
                 dict(longitudinal_m2s=float("inf"))):
         with pytest.raises(ValueError, match="Dispersion"):
             Dispersion(**bad)
     with pytest.raises(ValueError, match="discharge"):
-        build_spill_network([_branch("c", line, 30.0)], [float("nan")])
+        build_spill_network([branch("c", line, 30.0)], [float("nan")])

@@ -1,0 +1,34 @@
+"""Small link networks for the 1-D cells that spills and floods share
+(:func:`riverflow.hydro.spill_network.build_spill_network`)."""
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+
+from riverflow.hydro.spill_network import build_spill_network
+
+
+def branch(name, line, width, start=-1, end=-1):
+    """A scene branch as the network builder reads it: a centre line of constant width."""
+    line = np.asarray(line, np.float64)
+    return SimpleNamespace(name=name, centerline_m=line, widths_m=np.full(len(line), width),
+                           start_junction=start, end_junction=end)
+
+
+def straight(length_m, n=201, y=0.0, x0=0.0):
+    """A straight centre line along x, n points."""
+    x = np.linspace(x0, x0 + length_m, n)
+    return np.stack([x, np.full(n, y)], 1)
+
+
+def diamond():
+    """A source splitting at a bifurcation into two arms of different discharges that meet
+    again, a tributary joining below, and an outlet."""
+    return build_spill_network(
+        [branch("top", straight(1500.0, 31), 40.0, -1, 0),
+         branch("left", straight(1200.0, 25, 60.0, 1500.0), 30.0, 0, 1),
+         branch("right", straight(900.0, 19, -60.0, 1500.0), 20.0, 0, 1),
+         branch("trib", straight(800.0, 17, 300.0, 1900.0), 15.0, -1, 1),
+         branch("bottom", straight(1500.0, 31, 0.0, 2700.0), 45.0, 1, -1)],
+        [40.0, 25.0, 15.0, 10.0, 50.0])
