@@ -156,6 +156,44 @@ def test_two_dask_workers_give_the_bytes_of_one(river, baked, tmp_path, small_bl
     assert _files(tmp_path / "tiles") == files
 
 
+@pytest.mark.slow
+def test_a_dask_worker_process_killed_mid_bake_loses_no_tiles(river, baked, tmp_path,
+                                                               monkeypatch):
+    """A LocalCluster of two worker processes; as soon as the first tile is on disk one worker
+    is SIGKILLed (its nanny starts another, the scheduler hands its tasks on): the pyramid is
+    still byte for byte the one worker's."""
+    import os
+    import signal
+    import threading
+    import time
+
+    dd = pytest.importorskip("dask.distributed", reason="the cluster extra (riverflow[cluster])")
+    _, field = river
+    _, files = baked
+    monkeypatch.setattr(T, "BLOCK", 1)                 # one task a tile: most are left to do
+    out = tmp_path / "tiles"
+    seen = {}
+    with dd.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                         dashboard_address=None) as cluster, dd.Client(cluster) as client:
+        def kill_one():
+            deadline = time.monotonic() + 120.0
+            while time.monotonic() < deadline and not any(out.rglob("*.png")):
+                time.sleep(0.01)
+            addr = sorted(client.scheduler_info()["workers"])[0]
+            pid = client.run(os.getpid, workers=[addr])[addr]
+            seen["on_disk"] = sum(1 for _ in out.rglob("*.png"))
+            os.kill(pid, signal.SIGKILL)
+            seen["killed"] = pid
+
+        killer = threading.Thread(target=kill_one, daemon=True)
+        killer.start()
+        result = rf.bake_tiles(field, out, ZOOMS, scheduler=client)
+        killer.join(timeout=30.0)
+    assert "killed" in seen, "no worker was killed"
+    assert seen["on_disk"] < result.written, f"killed after the bake: {seen}"
+    assert _files(out) == files
+
+
 def test_a_job_sent_to_another_process_bakes_the_same_bytes(river, baked, tmp_path):
     import pickle
 
