@@ -91,6 +91,7 @@ def drawing(frames: int, size) -> dict[str, dict[str, float]]:
     cpu = {k: [] for k in worlds}
     proc = {k: [] for k in worlds}
     wall = {k: [] for k in worlds}
+    system = {k: [] for k in worlds}
     for _ in range(frames):
         for name, world in worlds.items():
             world.step(1 / 60)
@@ -99,11 +100,13 @@ def drawing(frames: int, size) -> dict[str, dict[str, float]]:
             cpu[name].append((time.thread_time() - t0) * 1e3)
             proc[name].append((time.process_time() - p0) * 1e3)
             wall[name].append((time.perf_counter() - w0) * 1e3)
+            system[name].append(world.timings_ms["draw"])
     out = {}
     for name, world in worlds.items():
         out[name] = {"render_thread_cpu_ms": float(np.median(cpu[name])),
                      "render_process_cpu_ms": float(np.median(proc[name])),
-                     "render_wall_ms": float(np.median(wall[name]))}
+                     "render_wall_ms": float(np.median(wall[name])),
+                     "draw_system_ms": float(np.median(system[name]))}
         world.close()
     out["extra"] = {k: out["falls"][k] - out["off"][k] for k in out["falls"]}
     return out
