@@ -8,6 +8,7 @@ kernel module keeps its entries in a folder of its own, named after a hash of
 * its source and the source of every riverflow module it imports, directly or through other
   modules (helpers and the constants numba freezes into the machine code), and
 * the numba, llvmlite, numpy and Python versions and the CPU target (triple, name, features),
+  and :data:`NAMING` (how the machine code's function names are made unique),
 
 so an edit anywhere in what a kernel is compiled from gives a new folder and the kernel is
 compiled again; a module whose closure did not change keeps its machine code. A new folder is
@@ -31,6 +32,7 @@ import ast
 import contextlib
 import hashlib
 import os
+import secrets
 import shutil
 import sys
 import tempfile
@@ -101,7 +103,7 @@ def _toolchain() -> str:
         else get_host_cpu_features()
     return "|".join((numba.__version__, llvmlite.__version__, numpy.__version__,
                      sys.implementation.cache_tag or "", getattr(sys, "abiflags", ""),
-                     ll.get_process_triple(), cpu, features))
+                     ll.get_process_triple(), cpu, features, NAMING))
 
 
 def source_closure(py_file: str) -> set[str]:
@@ -274,10 +276,11 @@ _installed = None
 
 
 def install() -> None:
-    """Put riverflow's kernel locator in front of numba's, and lock riverflow's folders around
-    numba's index updates (idempotent). Only functions of ``riverflow/kernels/*.py`` are
-    affected; the user's own ``cache=True`` functions keep numba's locators, and
-    ``NUMBA_CACHE_LOCATOR_CLASSES`` still overrides everything."""
+    """Put riverflow's kernel locator in front of numba's, lock riverflow's folders around
+    numba's index updates, and give compiled functions names no other process gives
+    (:func:`_name_functions_uniquely`) (idempotent). Only functions of
+    ``riverflow/kernels/*.py`` get the locator; the user's own ``cache=True`` functions keep
+    numba's locators, and ``NUMBA_CACHE_LOCATOR_CLASSES`` still overrides everything."""
     global _installed
     if _installed is not None:
         return
@@ -287,6 +290,52 @@ def install() -> None:
     _installed = _locator_class()
     impl._locator_classes.insert(0, _installed)
     _lock_index_updates(caching)
+    _name_functions_uniquely()
+
+
+# -- names of compiled functions -----------------------------------------------------------------
+
+NAMING = "uid=random64"
+"""How this module makes compiled functions' names unique across processes (part of every
+folder's key: machine code cached before, whose names may clash, is never loaded)."""
+
+
+class RandomIds:
+    """An endless iterator of random 64-bit numbers (the operating system's randomness: a
+    forked child draws other numbers than its parent and siblings)."""
+
+    def __iter__(self) -> RandomIds:
+        return self
+
+    def __next__(self) -> int:
+        return secrets.randbits(64)
+
+
+def _name_functions_uniquely() -> None:
+    """Number the functions numba compiles from now on with random 64-bit ids instead of its
+    per-process counter (1, 2, 3, …).
+
+    numba names a compiled function by module, qualified name, argument types and that id
+    (``…run_quicksort1B3v16…``), and every library that calls a helper carries its own copy
+    under that name, as a weak symbol. When machine code compiled by several processes is
+    loaded into one (the warm-up's worker processes, a later run filling the cache further,
+    the cache of an earlier run), LLVM's linker takes the first definition of a name for all
+    of them, which is right only if equal names mean equal code. The counter breaks that:
+    two processes give the same number to different functions of the same name, e.g. numba's
+    quicksort behind ``np.sort`` and behind ``np.argsort`` of an int64 array, and a kernel then
+    calls another kernel's helper. That is how ``tile_cut.cut_standins`` segfaulted (it got
+    ``np.sort``'s helper, which returns the sorted keys, not their order) and how
+    ``tile_cut.coarser_across`` silently got ``np.argsort``'s when loaded the other way round.
+    Random ids make equal names mean equal code (``tests/kernels/test_kernel_cache.py``).
+    numba issue 10486 is this bug; numba 0.68 has no fix of its own. Applies to every function
+    the process compiles after riverflow is imported (the ids are only ever used as names)."""
+    try:
+        from numba.core.bytecode import FunctionIdentity
+    except ImportError:          # another numba: nothing to replace
+        return
+    if hasattr(FunctionIdentity, "_unique_ids") \
+            and not isinstance(FunctionIdentity._unique_ids, RandomIds):
+        FunctionIdentity._unique_ids = RandomIds()
 
 
 def _lock_index_updates(caching) -> None:

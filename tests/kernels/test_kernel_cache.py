@@ -162,6 +162,83 @@ def test_the_platform_folder_is_used_without_numba_cache_dir(tmp_path):
         assert root.parts[-1] == "kernels" and str(tmp_path) in str(root)
 
 
+
+TWO_SCALERS = """
+    import numpy as np
+    from numba import njit
+
+
+    def scaler(k):
+        @njit
+        def scale(x):                   # big enough not to be inlined into its caller
+            out = np.empty_like(x)
+            for i in range(x.size):
+                v = x[i]
+                if v > 100.0:
+                    v = np.sqrt(v) + np.log(v)
+                elif v < -100.0:
+                    v = np.exp(v / 1000.0) - np.sin(v)
+                elif v == 7.0:
+                    v = np.cos(v) * np.tan(v) + np.arctan2(v, 3.0)
+                out[i] = v * k
+            return out
+        return scale
+
+
+    double, triple = scaler(2.0), scaler(3.0)
+
+
+    @njit(cache=True)
+    def doubled(x):
+        return double(x)
+
+
+    @njit(cache=True)
+    def tripled(x):
+        return triple(x)
+"""
+CALL_SCALERS = """
+    import json
+    import sys
+
+    import numpy as np
+
+    import riverflow.kernels  # noqa: F401 - what every riverflow process imports first
+    sys.path.insert(0, {folder!r})
+    import two_scalers
+    x = np.array([1.0, 2.0])
+    values = [getattr(two_scalers, name)(x).tolist() for name in {names!r}]
+    print(json.dumps({{"values": values,
+                      "loaded": sum(two_scalers.doubled.stats.cache_hits.values())}}))
+"""
+
+
+def test_machine_code_compiled_by_two_processes_loads_into_one(tmp_path):
+    """The segfault of ``tile_cut.cut_standins`` on a cold cache, in small: two processes (the
+    warm-up's workers, or two runs) each compiled one function that calls a helper of the same
+    name; numba numbered both helpers alike (a per-process counter), so a third process that
+    loads both called the first one loaded for both (LLVM takes one definition per name):
+    ``tripled`` answered ``doubled``'s numbers here, and ``cut_standins`` got ``np.sort``'s
+    helper for ``np.argsort``'s. Random ids (``_cache._name_functions_uniquely``) keep the
+    names apart."""
+    (tmp_path / "two_scalers.py").write_text(textwrap.dedent(TWO_SCALERS))
+    cache = tmp_path / "cache"
+    first = run(CALL_SCALERS.format(folder=str(tmp_path), names=["doubled"]), cache)
+    second = run(CALL_SCALERS.format(folder=str(tmp_path), names=["tripled", "doubled"]), cache)
+    assert first["values"] == [[2.0, 4.0]]
+    assert second["loaded"] == 1                  # doubled: the first process's machine code
+    assert second["values"] == [[3.0, 6.0], [2.0, 4.0]]
+
+
+def test_compiled_functions_are_numbered_at_random():
+    from numba.core.bytecode import FunctionIdentity
+
+    assert isinstance(FunctionIdentity._unique_ids, _cache.RandomIds)
+    ids = {next(FunctionIdentity._unique_ids) for _ in range(1000)}
+    assert len(ids) == 1000 and max(ids) > 2 ** 40
+    assert _cache.NAMING in _cache._toolchain()     # older machine code is never loaded
+
+
 WARM_TWO = """
     import json
     from riverflow.kernels.warmup import CompileCounter, compile_entries, entries
