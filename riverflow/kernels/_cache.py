@@ -324,11 +324,12 @@ def _name_functions_uniquely() -> None:
     two processes give the same number to different functions of the same name, e.g. numba's
     quicksort behind ``np.sort`` and behind ``np.argsort`` of an int64 array, and a kernel then
     calls another kernel's helper. That is how ``tile_cut.cut_standins`` segfaulted (it got
-    ``np.sort``'s helper, which returns the sorted keys, not their order) and how
-    ``tile_cut.coarser_across`` silently got ``np.argsort``'s when loaded the other way round.
-    Random ids make equal names mean equal code (``tests/kernels/test_kernel_cache.py``).
-    numba issue 10486 is this bug; numba 0.68 has no fix of its own. Applies to every function
-    the process compiles after riverflow is imported (the ids are only ever used as names)."""
+    ``np.sort``'s helper, which returns the sorted keys, not their order; loaded the other way
+    round, ``tile_cut.coarser_across``'s ``np.sort`` gets ``np.argsort``'s, which its answers
+    happen not to show). Random ids make equal names mean equal code
+    (``tests/kernels/test_kernel_cache.py``). numba issue 10486 is this bug; numba 0.68 has no
+    fix of its own. Applies to every function the process compiles after riverflow is
+    imported (numba uses the ids only in names)."""
     try:
         from numba.core.bytecode import FunctionIdentity
     except ImportError:          # another numba: nothing to replace

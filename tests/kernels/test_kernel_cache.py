@@ -1,6 +1,7 @@
 """Compiled kernels managed by the package (issue #13): one keyed cache folder per user, a
-second process compiles nothing, an edited helper is compiled again, the warm-up's progress
-line shows on a cold cache only, and the recorded signatures match the kernels.
+second process compiles nothing, an edited helper is compiled again, machine code compiled by
+two processes loads into one, the warm-up's progress line shows on a cold cache only, and the
+recorded signatures match the kernels.
 
 Processes run with their own NUMBA_CACHE_DIR (a temporary folder) and compile one or two tiny
 kernels, so these tests stay cheap; the slow one warms the whole world group on the user's
