@@ -21,12 +21,21 @@ import math
 
 import numpy as np
 
-from riverflow.kernels.flood import FloodNet, Hydrographs, flood_steps
+from riverflow.kernels.flood import (CellRaster, FloodNet, Hydrographs, flood_steps,
+                                     scale_by_cells)
 
 COURANT = 0.9
 """Largest Courant number c dt / Δx of the router's fixed step."""
 ACTIVE_EPS = 1e-9
 """The flow field is left untouched while every cell's speed factor is within this of 1."""
+RASTER_PIXELS_PER_CELL = 4
+"""The cell raster's pixel is the shortest cell length over this (:func:`cell_raster`)."""
+RASTER_REACH = 1.5
+"""The cell raster covers this many half-widths (at least) on each side of a centre line."""
+RASTER_MAX_PIXELS = 1 << 24
+"""The cell raster's pixels (and its block table's entries) at most: its pixel grows by
+powers of two until both fit (about 130 MB at most)."""
+RASTER_BLOCK_PX = 16
 
 
 def _as_float_array(values, what: str) -> np.ndarray:
@@ -54,6 +63,62 @@ def base_discharges_m3s(network) -> np.ndarray:
         if s.link_end[b] >= 0:
             node[s.link_end[b]] += q0[b]
     return q0
+
+
+def cell_raster(network, pixel_m: float | None = None) -> CellRaster:
+    """The :class:`~riverflow.kernels.flood.CellRaster` of a spill network: blocks of
+    ``RASTER_BLOCK_PX``² pixels of side ``pixel_m`` (default: the shortest cell over
+    ``RASTER_PIXELS_PER_CELL``, doubled until it fits ``RASTER_MAX_PIXELS``) wherever a
+    centre line's sample is within ``RASTER_REACH`` half-widths (+ one pixel) of the block;
+    each pixel holds the cell coordinate its centre reads by :meth:`SpillNetwork.locate`
+    (the nearest centre-line sample), so a point reads what the KD-tree gives the pixel's
+    centre: within half a pixel diagonal of the point."""
+    sample_xy = network._tree.data
+    link = network._sample_link
+    half = np.array([float(network.cell_width_m[network.net.link_c0[b]:
+                                                network.net.link_c1[b]].max())
+                     for b in range(len(network.names))]) * 0.5
+    reach = RASTER_REACH * half[link]
+    lo = (sample_xy - reach[:, None]).min(axis=0)
+    hi = (sample_xy + reach[:, None]).max(axis=0)
+    px = float(pixel_m) if pixel_m is not None else \
+        float(network.link_dx_m.min()) / RASTER_PIXELS_PER_CELL
+    if not (math.isfinite(px) and px > 0):
+        raise ValueError(f"cell_raster: pixel_m must be a finite number > 0, got {pixel_m!r}")
+    B = RASTER_BLOCK_PX
+    while True:
+        block_m = B * px
+        nb = np.ceil((hi - lo) / block_m).astype(np.int64) + 2
+        # blocks within reach of each sample (reach + one pixel, a square around it)
+        r = reach + px
+        b_lo = np.floor((sample_xy - r[:, None] - lo + block_m) / block_m).astype(np.int64)
+        b_hi = np.floor((sample_xy + r[:, None] - lo + block_m) / block_m).astype(np.int64)
+        span = (b_hi - b_lo + 1)
+        n_marks = int((span[:, 0] * span[:, 1]).sum())
+        if nb[0] * nb[1] <= RASTER_MAX_PIXELS and n_marks <= RASTER_MAX_PIXELS:
+            rows = np.repeat(np.arange(len(sample_xy)), span[:, 0] * span[:, 1])
+            k = np.arange(n_marks) - np.repeat(np.cumsum(span[:, 0] * span[:, 1])
+                                               - span[:, 0] * span[:, 1], span[:, 0] * span[:, 1])
+            bx = b_lo[rows, 0] + k % span[rows, 0]
+            by = b_lo[rows, 1] + k // span[rows, 0]
+            keys = np.unique(by * nb[0] + bx)
+            if len(keys) * B * B <= RASTER_MAX_PIXELS:
+                break
+        px *= 2.0
+    x0, y0 = lo - block_m                                         # one empty block around
+    blocks = np.full((int(nb[1]), int(nb[0])), -1, np.int32)
+    blocks.flat[keys] = np.arange(len(keys), dtype=np.int32)
+    j, i = np.mgrid[0:B, 0:B]
+    kx = (keys % nb[0])[:, None, None] * B + i[None]
+    ky = (keys // nb[0])[:, None, None] * B + j[None]
+    centres = np.stack([x0 + (kx + 0.5) * px, y0 + (ky + 0.5) * px], -1).reshape(-1, 2)
+    lk, s, _ = network.locate(centres)
+    cells = np.full(len(centres), -1.0)
+    ok = lk >= 0
+    c_a, c_b, w = network.weights(lk[ok], s[ok])
+    cells[ok] = np.where(c_b > c_a, c_a + w, c_a)
+    return CellRaster(x0=float(x0), y0=float(y0), pixel_m=px, block_px=B, blocks=blocks,
+                      cells=np.ascontiguousarray(cells.reshape(len(keys), B, B)))
 
 
 class FloodRouter:
@@ -84,6 +149,8 @@ class FloodRouter:
         self._inflow = np.zeros(len(q0))
         self._table = self._pack()
         self.dt_s = self._step_for(1.0)
+        self._raster: CellRaster | None = None
+        self._missed = np.zeros(0, np.int64)
 
     # -- input -------------------------------------------------------------------------------
 
@@ -200,11 +267,21 @@ class FloodRouter:
         """(N,) each cell's depth-averaged speed over its base one, r^(2/5) = a^(2/3)."""
         return self.a ** (2.0 / 3.0)
 
+    @property
+    def raster(self) -> CellRaster:
+        """The network's :func:`cell_raster` (made on first use)."""
+        if self._raster is None:
+            self._raster = cell_raster(self.network)
+        return self._raster
+
     def _at(self, values: np.ndarray, xy: np.ndarray, fill: float) -> np.ndarray:
         xy = np.asarray(xy, np.float64).reshape(-1, 2)
-        link, s, _ = self.network.locate(xy)
-        out = self.network.interpolate(values, link, s)
-        out[link < 0] = fill
+        finite = np.isfinite(xy).all(axis=1)
+        out = np.full(len(xy), float(fill))
+        link, s, _ = self.network.locate(xy[finite])
+        got = self.network.interpolate(values, link, s)
+        got[link < 0] = fill
+        out[finite] = got
         return out
 
     def level_rise(self, xy) -> np.ndarray:
@@ -217,13 +294,21 @@ class FloodRouter:
 
     def scale_velocity(self, xy: np.ndarray, status: np.ndarray, velocity: np.ndarray,
                        n: int | None = None) -> None:
-        """Multiply the velocities (N, 2) of the first ``n`` points by the speed factor of the
-        nearest cell (in place; only while :attr:`active`)."""
+        """Multiply the nonzero velocities (N, 2) float32 of the first ``n`` points by the
+        speed factor of the nearest cell (in place; only while :attr:`active`): read through
+        the :attr:`raster` (:func:`~riverflow.kernels.flood.scale_by_cells`), the KD-tree
+        for the few points beyond it."""
         if not self.active:
             return
         n = len(xy) if n is None else int(n)
-        moving = np.flatnonzero(np.any(velocity[:n] != 0.0, axis=1))
-        if not len(moving):
+        if not n:
             return
-        factor = self._at(self.cell_speed_factor(), xy[moving], 1.0)
-        velocity[moving] *= factor[:, None].astype(velocity.dtype)
+        if len(self._missed) < n:
+            self._missed = np.empty(max(n, 2 * len(self._missed)), np.int64)
+        factor = self.cell_speed_factor()
+        pts = np.ascontiguousarray(xy[:n], np.float64)
+        n_missed = scale_by_cells(pts, velocity, n, self.raster, factor, self._missed)
+        if n_missed:
+            rest = self._missed[:n_missed]
+            f = self._at(factor, pts[rest], 1.0)
+            velocity[rest] *= f[:, None].astype(velocity.dtype)
