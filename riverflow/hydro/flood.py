@@ -22,7 +22,7 @@ import math
 import numpy as np
 
 from riverflow.kernels.flood import (CellRaster, FloodNet, Hydrographs, flood_steps,
-                                     scale_by_cells)
+                                     sample_by_cells, scale_by_cells)
 
 COURANT = 0.9
 """Largest Courant number c dt / Δx of the router's fixed step."""
@@ -36,6 +36,10 @@ RASTER_MAX_PIXELS = 1 << 24
 """The cell raster's pixels (and its block table's entries) at most: its pixel grows by
 powers of two until both fit (about 130 MB at most)."""
 RASTER_BLOCK_PX = 16
+LEVEL_TEXELS = 1024
+"""Side [texels] of the drawn level's cell texture (:meth:`FloodRouter.level_textures`)."""
+RISE_ROW = 1024
+"""Cells per row of the drawn level's rise texture."""
 
 
 def _as_float_array(values, what: str) -> np.ndarray:
@@ -150,6 +154,7 @@ class FloodRouter:
         self._table = self._pack()
         self.dt_s = self._step_for(1.0)
         self._raster: CellRaster | None = None
+        self._level_tex = None
         self._missed = np.zeros(0, np.int64)
 
     # -- input -------------------------------------------------------------------------------
@@ -273,6 +278,37 @@ class FloodRouter:
         if self._raster is None:
             self._raster = cell_raster(self.network)
         return self._raster
+
+    def level_textures(self) -> tuple[tuple[float, float, float], np.ndarray]:
+        """What the water shader reads to draw the level's rise (``shaders/flood.glsl``):
+        the square (x0, y0, side) [m] around the network and its (LEVEL_TEXELS,
+        LEVEL_TEXELS) float32 cell coordinates c + w (−1: no cell; the :attr:`raster`'s at
+        each texel's centre), made once; :meth:`rise_texels` holds the per-cell rises."""
+        if getattr(self, "_level_tex", None) is None:
+            r = self.raster
+            by, bx = r.blocks.shape
+            side = max(bx, by) * r.block_px * r.pixel_m
+            n = LEVEL_TEXELS
+            g = (np.arange(n) + 0.5) * (side / n)
+            gx, gy = np.meshgrid(r.x0 + g, r.y0 + g)
+            xy = np.column_stack([gx.ravel(), gy.ravel()])
+            cells = np.empty(len(xy))
+            sample_by_cells(xy, len(xy), r, np.arange(self.network.n_cells, dtype=np.float64),
+                            -1.0, cells)
+            self._level_tex = ((float(r.x0), float(r.y0), float(side)),
+                               cells.reshape(n, n).astype(np.float32))
+        return self._level_tex
+
+    def rise_texels(self, out: np.ndarray | None = None) -> np.ndarray:
+        """(R, RISE_ROW) float32 each cell's level rise [m] (:meth:`cell_level_rise_m`), row
+        major, one padding cell at least after the last (0); ``out`` is reused when its
+        shape fits."""
+        n = self.network.n_cells
+        rows = n // RISE_ROW + 1
+        if out is None or out.shape != (rows, RISE_ROW):
+            out = np.zeros((rows, RISE_ROW), np.float32)
+        out.reshape(-1)[:n] = self.cell_level_rise_m()
+        return out
 
     def _at(self, values: np.ndarray, xy: np.ndarray, fill: float) -> np.ndarray:
         xy = np.asarray(xy, np.float64).reshape(-1, 2)
