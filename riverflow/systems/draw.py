@@ -1077,6 +1077,8 @@ class DrawRivers(System):
         level = self._ease_mirror(self._mirror_for[1], now, camera.revision, pose[:3])
         if level is None:
             return off
+        if world.flood is not None and world.flood.active:      # the flood's rise near the eye
+            level += float(world.flood.level_rise(np.array([eye[:2]], np.float64))[0])
         self.last_mirror_level_m = level
         reflection = gpu.reflection
         exact = self.debug_exact_reflection

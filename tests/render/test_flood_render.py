@@ -42,9 +42,16 @@ def _surface(world) -> np.ndarray:
 
 
 def test_the_drawn_surface_rises_by_the_rating_curve_and_falls_back(setup):
+    """The surface, the reflections' mirror and a boat rise with the flood, and fall back."""
     world = setup
+    line = world.scene.branch("main_middle").centerline_m
+    boat = world.add_boat(line[len(line) // 2], drawn=False)
+    world.step(1 / 60)
     world.paused = True
     before = _surface(world)
+    drawer = next(s for s in world.systems if s.name == "draw")
+    mirror0 = drawer.last_mirror_level_m
+    boat0 = world.boat(boat).altitude_m
     water = before[..., 3] > 0
     assert water.sum() > 100
     world.set_hydrograph(None, [], None)
@@ -55,6 +62,15 @@ def test_the_drawn_surface_rises_by_the_rating_curve_and_falls_back(setup):
     world.set_hydrograph(None, [t, t + 1.0], [q0, 2.0 * q0])
     world.advance_flood(4 * 3600.0)                        # steady at twice the base flow
     after = _surface(world)
+    eye = np.array([world.camera.position[:2]], np.float64)
+    assert mirror0 is not None and drawer.last_mirror_level_m == pytest.approx(
+        mirror0 + float(router.level_rise(eye)[0]), abs=1e-6)
+    world.paused = False
+    world.step(1e-4)                                           # the boat system runs
+    world.paused = True
+    b = world.boat(boat)
+    assert b.altitude_m - boat0 == pytest.approx(
+        float(router.level_rise(b.position_m[None])[0]), abs=0.1)   # (and its bob)
     both = water & (after[..., 3] > 0)
     xy = after[both][:, :2]
     rise = router.level_rise(xy)                          # the rating curve's rise there
