@@ -40,6 +40,14 @@ LEVEL_TEXELS = 1024
 """Side [texels] of the drawn level's cell texture (:meth:`FloodRouter.level_textures`)."""
 RISE_ROW = 1024
 """Cells per row of the drawn level's rise texture."""
+FLOODPLAIN_REACH_M = 250.0
+"""The drawn level's cell texture reaches this far from a centre line [m] (the floodplain:
+beyond the cell raster, the nearest cell by the KD-tree); the terrain shader floods the ground
+below the level there (it knows the level within 200 m of a shore,
+``scenes.tile_kinds.LEVEL_REACH_M``)."""
+WET_FALL_MPS = 0.5 / 3600.0
+"""How fast the line of wet-looking ground falls behind a falling flood [m/s] (0.5 m an hour
+of flood time): ground the flood covered looks wet for a while after the water left it."""
 
 
 def _as_float_array(values, what: str) -> np.ndarray:
@@ -155,6 +163,9 @@ class FloodRouter:
         self.dt_s = self._step_for(1.0)
         self._raster: CellRaster | None = None
         self._level_tex = None
+        self.wet_rise_m = np.zeros(n)
+        """(N,) the rise [m] up to which the ground looks wet (the highest rise, falling
+        behind a falling level by WET_FALL_MPS)."""
         self._missed = np.zeros(0, np.int64)
 
     # -- input -------------------------------------------------------------------------------
@@ -251,6 +262,8 @@ class FloodRouter:
         flood_steps(self.net, self._table, self.a, self.time_s, self.dt_s, n, self._outflow,
                     self._node_q, self._inflow)
         self.time_s += n * self.dt_s
+        np.maximum(self.cell_level_rise_m(), self.wet_rise_m - WET_FALL_MPS * n * self.dt_s,
+                   out=self.wet_rise_m)
 
     # -- what the world reads ------------------------------------------------------------------
 
@@ -259,6 +272,12 @@ class FloodRouter:
         """Whether any cell's discharge differs from its base one (else the flow is left as
         it is)."""
         return bool(np.any(np.abs(self.a - 1.0) > ACTIVE_EPS))
+
+    @property
+    def drawn(self) -> bool:
+        """Whether the drawn water or ground differs from base flow (:attr:`active`, or
+        ground still wet from a flood)."""
+        return self.active or bool(np.any(self.wet_rise_m > ACTIVE_EPS))
 
     def cell_discharge_m3s(self) -> np.ndarray:
         """(N,) each cell's discharge Q [m³/s]."""
@@ -295,19 +314,26 @@ class FloodRouter:
             cells = np.empty(len(xy))
             sample_by_cells(xy, len(xy), r, np.arange(self.network.n_cells, dtype=np.float64),
                             -1.0, cells)
+            far = np.flatnonzero(cells < 0)                 # the floodplain: the nearest cell
+            link, s, _ = self.network.locate(xy[far], FLOODPLAIN_REACH_M)
+            ok = link >= 0
+            a, b, w = self.network.weights(link[ok], s[ok])
+            cells[far[ok]] = np.where(b > a, a + w, a)
             self._level_tex = ((float(r.x0), float(r.y0), float(side)),
                                cells.reshape(n, n).astype(np.float32))
         return self._level_tex
 
     def rise_texels(self, out: np.ndarray | None = None) -> np.ndarray:
-        """(R, RISE_ROW) float32 each cell's level rise [m] (:meth:`cell_level_rise_m`), row
-        major, one padding cell at least after the last (0); ``out`` is reused when its
-        shape fits."""
+        """(R, RISE_ROW, 2) float32 each cell's level rise [m] (:meth:`cell_level_rise_m`) and
+        wet-looking rise (:attr:`wet_rise_m`), row major, one padding cell at least after the
+        last (0); ``out`` is reused when its shape fits."""
         n = self.network.n_cells
         rows = n // RISE_ROW + 1
-        if out is None or out.shape != (rows, RISE_ROW):
-            out = np.zeros((rows, RISE_ROW), np.float32)
-        out.reshape(-1)[:n] = self.cell_level_rise_m()
+        if out is None or out.shape != (rows, RISE_ROW, 2):
+            out = np.zeros((rows, RISE_ROW, 2), np.float32)
+        flat = out.reshape(-1, 2)
+        flat[:n, 0] = self.cell_level_rise_m()
+        flat[:n, 1] = self.wet_rise_m
         return out
 
     def _at(self, values: np.ndarray, xy: np.ndarray, fill: float) -> np.ndarray:

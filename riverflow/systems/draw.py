@@ -714,6 +714,7 @@ class DrawRivers(System):
 
     def __init__(self) -> None:
         self.gpu: _Gpu | None = None
+        self._flood_uniforms = {"u_flood_on": 0, "u_flood_rect": (0.0, 0.0, 1.0)}
         self.context = None
         self.last_mirror_level_m: float | None = None
         """The reflection's mirror height [m] in the last frame (None: no reflection)."""
@@ -935,7 +936,7 @@ class DrawRivers(System):
         (:meth:`~riverflow.hydro.flood.FloodRouter.level_textures`); no flood or none
         running: u_flood_on = 0."""
         router = world.flood
-        on = router is not None and router.active
+        on = router is not None and router.drawn
         rect = (0.0, 0.0, 1.0)
         if on:
             rect, cells = router.level_textures()
@@ -946,12 +947,13 @@ class DrawRivers(System):
                 gpu.flood_cells = gl.Texture(cells.shape[::-1], gl.R32F)
                 gpu.flood_cells.upload(cells)
                 gpu.flood_rise_cpu = router.rise_texels()
-                gpu.flood_rise = gl.Texture(gpu.flood_rise_cpu.shape[::-1], gl.R32F)
+                gpu.flood_rise = gl.Texture(gpu.flood_rise_cpu.shape[1::-1], gl.RG32F)
                 gpu.flood_for = router
             gpu.flood_rise.upload(router.rise_texels(gpu.flood_rise_cpu))
             gpu.flood_cells.bind(FLOOD_CELLS_UNIT)
             gpu.flood_rise.bind(FLOOD_RISE_UNIT)
-        return {"u_flood_on": int(on), "u_flood_rect": rect}
+        self._flood_uniforms = {"u_flood_on": int(on), "u_flood_rect": rect}
+        return self._flood_uniforms
 
     def _draw_rain(self, gpu: _Gpu, rain: Rain | None) -> None:
         """The live drops as streaks (depth-tested, not written; alpha-blended)."""
@@ -1023,6 +1025,7 @@ class DrawRivers(System):
         program.use()
         if detail == "full":
             program.set(u_debug_materials=self.debug_materials)   # sent only when changed
+        program.set_if_used(**self._flood_uniforms)
         gpu.terrain.draw(self._terrain_slots, detail)
         if detail == "full":
             self.last_tiles = len(self._terrain_slots)
