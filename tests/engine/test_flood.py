@@ -303,3 +303,29 @@ def test_the_world_routes_a_flood_and_its_flow_and_level_follow(world):
     assert float(world.water_level(probe)[0]) - level0 == pytest.approx(h0 * (r ** 0.6 - 1),
                                                                          rel=1e-6)
     assert np.isfinite(router.a).all() and router.a.min() > 0
+
+
+# -- a dam's breach: level-pool routing ----------------------------------------------------------
+
+def test_level_pool_release_matches_the_emptying_reservoir():
+    from riverflow.hydro.flood import BROAD_CRESTED_WEIR, level_pool_release
+    area, head, width = 2.0e5, 6.0, 30.0
+    t, q = level_pool_release(area, head, width, 0.0, 3600.0)
+    k = BROAD_CRESTED_WEIR * width
+    # no inflow: A dh/dt = −k h^(3/2), so h(t) = (h0^(−1/2) + k t / (2 A))^(−2)
+    h = (head ** -0.5 + 0.5 * k * t / area) ** -2.0
+    np.testing.assert_allclose(q, k * h ** 1.5, rtol=1e-5)
+    assert q[0] == pytest.approx(k * head ** 1.5) and np.all(np.diff(q) < 0)
+    # with an inflow: the volume released beyond it is what the reservoir lost
+    inflow = 40.0
+    t, q = level_pool_release(area, head, width, inflow, 7200.0, points=2001)
+    h_end = (q[-1] / k) ** (2.0 / 3.0)
+    released = np.trapezoid(q - inflow, t)
+    assert released == pytest.approx(area * (head - h_end), rel=1e-3)
+    assert inflow < q[-1] < 1.5 * inflow                   # falling towards the inflow
+    for kwargs, match in (({"area_m2": 0.0}, "area_m2"), ({"head_m": float("nan")}, "head_m"),
+                          ({"inflow_m3s": -1.0}, "inflow_m3s"), ({"points": 1}, "points")):
+        args = {"area_m2": area, "head_m": head, "breach_width_m": width, "inflow_m3s": 1.0,
+                "duration_s": 60.0, **kwargs}
+        with pytest.raises(ValueError, match=match):
+            level_pool_release(**args)
