@@ -209,8 +209,8 @@ void main() {
     float plain = (1.0 - smoothstep(-0.03, 0.0, above)) * smoothstep(0.0, 0.05, v_rise);
     {
         vec3 e = normalize(to_eye);
-        float fresnel = 0.02 + 0.98 * pow(1.0 - max(e.z, 0.0), 5.0);
-        vec3 muddy = vec3(0.30, 0.27, 0.19) * (SUN_COLOUR * 0.6 * max(u_sun_dir.z, 0.0)
+        float fresnel = 0.2 + 0.8 * pow(1.0 - max(e.z, 0.0), 5.0);   // a rough surface
+        vec3 muddy = vec3(0.42, 0.37, 0.27) * (SUN_COLOUR * 0.6 * max(u_sun_dir.z, 0.0)
                                                + vec3(0.32, 0.38, 0.46));
         vec3 flood = mix(colour, muddy, 0.55 + 0.4 * (1.0 - exp(-depth / 0.7)));
         flood = mix(flood, vec3(0.36, 0.47, 0.58), fresnel * 0.85);
