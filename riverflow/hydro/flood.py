@@ -359,7 +359,16 @@ class FloodRouter:
             cells = np.empty(len(xy))
             sample_by_cells(xy, len(xy), r, np.arange(self.network.n_cells, dtype=np.float64),
                             -1.0, cells)
-            far = np.flatnonzero(cells < 0)                 # the floodplain: the nearest cell
+            # the floodplain: the nearest cell within reach, asked only in the blocks of 16²
+            # texels whose centre is within reach + half their diagonal of a centre line
+            blk = 16
+            nb = n // blk
+            centres = (np.arange(nb) + 0.5) * (side / nb)
+            bx, by = np.meshgrid(r.x0 + centres, r.y0 + centres)
+            near = self.network.locate(np.column_stack([bx.ravel(), by.ravel()]),
+                                       FLOODPLAIN_REACH_M + side / nb)[0] >= 0
+            near = np.repeat(np.repeat(near.reshape(nb, nb), blk, 0), blk, 1).ravel()
+            far = np.flatnonzero((cells < 0) & near)
             link, s, _ = self.network.locate(xy[far], FLOODPLAIN_REACH_M)
             ok = link >= 0
             a, b, w = self.network.weights(link[ok], s[ok])
