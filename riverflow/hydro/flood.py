@@ -344,17 +344,20 @@ class FloodRouter:
         return self._raster
 
     def level_textures(self) -> tuple[tuple[float, float, float], np.ndarray]:
-        """What the water shader reads to draw the level's rise (``shaders/flood.glsl``):
-        the square (x0, y0, side) [m] around the network and its (LEVEL_TEXELS,
-        LEVEL_TEXELS) float32 cell coordinates c + w (−1: no cell; the :attr:`raster`'s at
-        each texel's centre), made once; :meth:`rise_texels` holds the per-cell rises."""
-        if getattr(self, "_level_tex", None) is None:
+        """What the water and terrain shaders read to draw the level's rise
+        (``shaders/flood.glsl``): the square (x0, y0, side) [m] around the network and its
+        floodplain (FLOODPLAIN_REACH_M), and its (LEVEL_TEXELS, LEVEL_TEXELS) float32 cell
+        coordinates c + w at each texel's centre (the :attr:`raster`'s, beyond it the
+        KD-tree's within FLOODPLAIN_REACH_M; −1: no cell), made once; :meth:`rise_texels`
+        holds the per-cell rises."""
+        if self._level_tex is None:
             r = self.raster
             by, bx = r.blocks.shape
-            side = max(bx, by) * r.block_px * r.pixel_m
+            x0, y0 = r.x0 - FLOODPLAIN_REACH_M, r.y0 - FLOODPLAIN_REACH_M
+            side = max(bx, by) * r.block_px * r.pixel_m + 2.0 * FLOODPLAIN_REACH_M
             n = LEVEL_TEXELS
             g = (np.arange(n) + 0.5) * (side / n)
-            gx, gy = np.meshgrid(r.x0 + g, r.y0 + g)
+            gx, gy = np.meshgrid(x0 + g, y0 + g)
             xy = np.column_stack([gx.ravel(), gy.ravel()])
             cells = np.empty(len(xy))
             sample_by_cells(xy, len(xy), r, np.arange(self.network.n_cells, dtype=np.float64),
@@ -364,7 +367,7 @@ class FloodRouter:
             blk = 16
             nb = n // blk
             centres = (np.arange(nb) + 0.5) * (side / nb)
-            bx, by = np.meshgrid(r.x0 + centres, r.y0 + centres)
+            bx, by = np.meshgrid(x0 + centres, y0 + centres)
             near = self.network.locate(np.column_stack([bx.ravel(), by.ravel()]),
                                        FLOODPLAIN_REACH_M + side / nb)[0] >= 0
             near = np.repeat(np.repeat(near.reshape(nb, nb), blk, 0), blk, 1).ravel()
@@ -373,7 +376,7 @@ class FloodRouter:
             ok = link >= 0
             a, b, w = self.network.weights(link[ok], s[ok])
             cells[far[ok]] = np.where(b > a, a + w, a)
-            self._level_tex = ((float(r.x0), float(r.y0), float(side)),
+            self._level_tex = ((float(x0), float(y0), float(side)),
                                cells.reshape(n, n).astype(np.float32))
         return self._level_tex
 
