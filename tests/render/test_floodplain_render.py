@@ -9,7 +9,6 @@ import pytest
 
 from riverflow.components.display import DisplayMode
 from riverflow.engine.config import RiverConfig
-from riverflow.hydro.falls import channel_depth_m
 from riverflow.scenes.carving import Carving
 from riverflow.scenes.default import default_scene
 
