@@ -329,3 +329,23 @@ def test_level_pool_release_matches_the_emptying_reservoir():
                 "duration_s": 60.0, **kwargs}
         with pytest.raises(ValueError, match=match):
             level_pool_release(**args)
+
+
+def test_the_ground_stays_wet_looking_behind_a_falling_flood(diamond):
+    from riverflow.hydro.flood import WET_FALL_MPS
+    router = FloodRouter(diamond)
+    q0 = float(router.net.link_q0[0])
+    router.set_hydrograph("top", [0.0, 60.0, 1800.0, 1860.0], [q0, 4 * q0, 4 * q0, q0])
+    router.advance(1800.0)
+    t_peak = router.time_s
+    peak = router.cell_level_rise_m().copy()
+    assert peak.max() > 0.5 and np.allclose(router.wet_rise_m, np.maximum(peak, 0.0))
+    assert router.drawn
+    router.advance(3 * 3600.0)                          # the flood has passed
+    assert np.abs(router.cell_level_rise_m()).max() < 1e-3 and not router.active
+    elapsed = router.time_s - t_peak
+    # each cell's wet line has fallen from its highest rise, at most WET_FALL_MPS
+    assert np.all(router.wet_rise_m >= peak - WET_FALL_MPS * elapsed - 1e-9)
+    assert router.wet_rise_m.max() > 0.0 and router.drawn   # still wet-looking
+    router.advance(12 * 3600.0)
+    assert router.wet_rise_m.max() < 1e-9 and not router.drawn   # dry again
