@@ -135,12 +135,12 @@ TERRAIN_SLOTS = 128
 """Terrain tiles the GPU arena has room for at first (it doubles when full; a 1080p view's cut
 is ~80-110 tiles)."""
 
-FOAM_PATTERN_UNIT, WAKES_UNIT = 12, 13
-SPILL_UNIT = 9
 FLOOD_CELLS_UNIT, FLOOD_RISE_UNIT = 16, 17
 """Texture units of the flood's cell texture and per-cell level rise (issue 25,
-``shaders/flood.glsl``), read by the water's vertex shader (15 is the GL module's scratch
-unit)."""
+``shaders/flood.glsl``), read by the water's and the terrain's vertex shaders (15 is the GL
+module's scratch unit)."""
+FOAM_PATTERN_UNIT, WAKES_UNIT = 12, 13
+SPILL_UNIT = 9
 """Texture unit of the spills' tint (issue 24, ``shaders/spill.glsl``). The falls' spray
 (SPRAY_UNIT) shares it: each binds its texture right before the program that reads it draws
 (the tint before every water pass, the spray after the water)."""
@@ -931,10 +931,10 @@ class DrawRivers(System):
                 "u_spill_range": (math.log10(lo), math.log10(hi))}
 
     def _upload_flood(self, world: RiverWorld, gpu: _Gpu) -> dict:
-        """The water shader's flood uniforms (``shaders/flood.glsl``): the router's cell
-        texture uploaded once, its per-cell level rise each frame while the flood runs
-        (:meth:`~riverflow.hydro.flood.FloodRouter.level_textures`); no flood or none
-        running: u_flood_on = 0."""
+        """The water and terrain shaders' flood uniforms (``shaders/flood.glsl``): the
+        router's cell texture uploaded once, its per-cell level rise and wet rise each frame
+        while the flood is drawn (:meth:`~riverflow.hydro.flood.FloodRouter.level_textures`,
+        :attr:`~riverflow.hydro.flood.FloodRouter.drawn`); else u_flood_on = 0."""
         router = world.flood
         on = router is not None and router.drawn
         rect = (0.0, 0.0, 1.0)
