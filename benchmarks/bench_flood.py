@@ -14,6 +14,12 @@ Two parts, one core, CPU time (``time.process_time``) next to wall time:
    ask for is scaled: :meth:`FloodRouter.scale_velocity`), and the scaling's own time per
    frame (timed by wrapping it).
 
+3. **The drawn flood** (``--draw``, headless GL): the built-in scene at 1920×1080, default
+   camera: the step + render CPU time and the draw system's ``timings_ms["draw"]`` (medians
+   over ``--draw-frames``) with no flood, the first frame of a 4× flood (the router's level
+   texture made and uploaded), then the same medians with the flood drawn (the water raised,
+   the banks flooded).
+
 Target (the issue brief): the routing's frame cost ≤ 0.3 ms at 1080p, one core.
 
 Run: ``NUMBA_NUM_THREADS=1 taskset -c 0 python benchmarks/bench_flood.py`` (``--json out.json``
@@ -133,6 +139,41 @@ def speed_factor(frames: int, seed: int) -> dict:
     return out
 
 
+def drawn(frames: int, seed: int) -> dict:
+    import numpy as np
+
+    import riverflow as rf
+
+    world = rf.RiverWorld(rf.default_scene(seed=seed), size=(1920, 1080), gl=True, seed=seed)
+    world.load_view()
+    for _ in range(30):
+        world.step(1 / 60)
+        world.render()
+
+    def run():
+        draw, cpu = [], []
+        for _ in range(frames):
+            c0 = time.process_time()
+            world.step(1 / 60)
+            world.render()
+            cpu.append((time.process_time() - c0) * 1e3)
+            draw.append(world.timings_ms["draw"])
+        return float(np.median(draw)), float(np.median(cpu))
+
+    out: dict = {}
+    out["draw_ms_no_flood_median"], out["frame_cpu_ms_no_flood_median"] = run()
+    _flood(world, peak=4.0)
+    world.flood.advance(3600.0)
+    c0, w0 = time.process_time(), time.perf_counter()
+    world.step(1 / 60)
+    world.render()
+    out["first_flood_frame_cpu_s"] = time.process_time() - c0
+    out["first_flood_frame_wall_s"] = time.perf_counter() - w0
+    out["draw_ms_flood_median"], out["frame_cpu_ms_flood_median"] = run()
+    world.close()
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--network-km", type=float, default=100.0)
@@ -140,9 +181,13 @@ def main() -> None:
     ap.add_argument("--frames", type=int, default=120)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", default=None)
+    ap.add_argument("--draw", action="store_true", help="also time the drawn flood (GL)")
+    ap.add_argument("--draw-frames", type=int, default=40)
     args = ap.parse_args()
     out = {**routing(args.network_km, args.hours, args.seed), **speed_factor(args.frames,
                                                                               args.seed)}
+    if args.draw:
+        out.update(drawn(args.draw_frames, args.seed))
     for k, v in out.items():
         print(f"{k:>32}: {v:.6g}" if isinstance(v, float) else f"{k:>32}: {v}")
     if args.json:

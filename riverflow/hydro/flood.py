@@ -21,12 +21,33 @@ import math
 
 import numpy as np
 
-from riverflow.kernels.flood import FloodNet, Hydrographs, flood_steps
+from riverflow.kernels.flood import (CellRaster, FloodNet, Hydrographs, flood_steps,
+                                     sample_by_cells, scale_by_cells)
 
 COURANT = 0.9
 """Largest Courant number c dt / Δx of the router's fixed step."""
 ACTIVE_EPS = 1e-9
 """The flow field is left untouched while every cell's speed factor is within this of 1."""
+RASTER_PIXELS_PER_CELL = 4
+"""The cell raster's pixel is the shortest cell length over this (:func:`cell_raster`)."""
+RASTER_REACH = 1.5
+"""The cell raster covers this many half-widths (at least) on each side of a centre line."""
+RASTER_MAX_PIXELS = 1 << 24
+"""The cell raster's pixels (and its block table's entries) at most: its pixel grows by
+powers of two until both fit (about 130 MB at most)."""
+RASTER_BLOCK_PX = 16
+LEVEL_TEXELS = 1024
+"""Side [texels] of the drawn level's cell texture (:meth:`FloodRouter.level_textures`)."""
+RISE_ROW = 1024
+"""Cells per row of the drawn level's rise texture."""
+FLOODPLAIN_REACH_M = 250.0
+"""The drawn level's cell texture reaches this far from a centre line [m] (the floodplain:
+beyond the cell raster, the nearest cell by the KD-tree); the terrain shader floods the ground
+below the level there (it knows the level within 200 m of a shore,
+``scenes.tile_kinds.LEVEL_REACH_M``)."""
+WET_FALL_MPS = 0.5 / 3600.0
+"""How fast the line of wet-looking ground falls behind a falling flood [m/s] (0.5 m an hour
+of flood time): ground the flood covered looks wet for a while after the water left it."""
 
 
 def _as_float_array(values, what: str) -> np.ndarray:
@@ -54,6 +75,107 @@ def base_discharges_m3s(network) -> np.ndarray:
         if s.link_end[b] >= 0:
             node[s.link_end[b]] += q0[b]
     return q0
+
+
+def cell_raster(network, pixel_m: float | None = None) -> CellRaster:
+    """The :class:`~riverflow.kernels.flood.CellRaster` of a spill network: blocks of
+    ``RASTER_BLOCK_PX``² pixels of side ``pixel_m`` (default: the shortest cell over
+    ``RASTER_PIXELS_PER_CELL``, doubled until it fits ``RASTER_MAX_PIXELS``) wherever a
+    centre line's sample is within ``RASTER_REACH`` half-widths (+ one pixel) of the block;
+    each pixel holds the cell coordinate its centre reads by :meth:`SpillNetwork.locate`
+    (the nearest centre-line sample), so a point reads what the KD-tree gives the pixel's
+    centre: within half a pixel diagonal of the point."""
+    sample_xy = network._tree.data
+    link = network._sample_link
+    half = np.array([float(network.cell_width_m[network.net.link_c0[b]:
+                                                network.net.link_c1[b]].max())
+                     for b in range(len(network.names))]) * 0.5
+    reach = RASTER_REACH * half[link]
+    lo = (sample_xy - reach[:, None]).min(axis=0)
+    hi = (sample_xy + reach[:, None]).max(axis=0)
+    px = float(pixel_m) if pixel_m is not None else \
+        float(network.link_dx_m.min()) / RASTER_PIXELS_PER_CELL
+    if not (math.isfinite(px) and px > 0):
+        raise ValueError(f"cell_raster: pixel_m must be a finite number > 0, got {pixel_m!r}")
+    B = RASTER_BLOCK_PX
+    while True:
+        block_m = B * px
+        nb = np.ceil((hi - lo) / block_m).astype(np.int64) + 2
+        # blocks within reach of each sample (reach + one pixel, a square around it)
+        r = reach + px
+        b_lo = np.floor((sample_xy - r[:, None] - lo + block_m) / block_m).astype(np.int64)
+        b_hi = np.floor((sample_xy + r[:, None] - lo + block_m) / block_m).astype(np.int64)
+        span = (b_hi - b_lo + 1)
+        n_marks = int((span[:, 0] * span[:, 1]).sum())
+        if nb[0] * nb[1] <= RASTER_MAX_PIXELS and n_marks <= RASTER_MAX_PIXELS:
+            rows = np.repeat(np.arange(len(sample_xy)), span[:, 0] * span[:, 1])
+            k = np.arange(n_marks) - np.repeat(np.cumsum(span[:, 0] * span[:, 1])
+                                               - span[:, 0] * span[:, 1], span[:, 0] * span[:, 1])
+            bx = b_lo[rows, 0] + k % span[rows, 0]
+            by = b_lo[rows, 1] + k // span[rows, 0]
+            keys = np.unique(by * nb[0] + bx)
+            if len(keys) * B * B <= RASTER_MAX_PIXELS:
+                break
+        px *= 2.0
+    x0, y0 = lo - block_m                                         # one empty block around
+    blocks = np.full((int(nb[1]), int(nb[0])), -1, np.int32)
+    blocks.flat[keys] = np.arange(len(keys), dtype=np.int32)
+    j, i = np.mgrid[0:B, 0:B]
+    kx = (keys % nb[0])[:, None, None] * B + i[None]
+    ky = (keys // nb[0])[:, None, None] * B + j[None]
+    centres = np.stack([x0 + (kx + 0.5) * px, y0 + (ky + 0.5) * px], -1).reshape(-1, 2)
+    lk, s, _ = network.locate(centres)
+    cells = np.full(len(centres), -1.0)
+    ok = lk >= 0
+    c_a, c_b, w = network.weights(lk[ok], s[ok])
+    cells[ok] = np.where(c_b > c_a, c_a + w, c_a)
+    return CellRaster(x0=float(x0), y0=float(y0), pixel_m=px, block_px=B, blocks=blocks,
+                      cells=np.ascontiguousarray(cells.reshape(len(keys), B, B)))
+
+
+BROAD_CRESTED_WEIR = 1.705
+"""Discharge coefficient of a broad-crested weir [m^(1/2)/s]: Q = C b H^(3/2) (SI units,
+critical flow over the crest)."""
+
+
+def level_pool_release(area_m2: float, head_m: float, breach_width_m: float,
+                       inflow_m3s: float, duration_s: float, points: int = 241,
+                       weir: float = BROAD_CRESTED_WEIR) -> tuple[np.ndarray, np.ndarray]:
+    """A reservoir's outflow after its dam breaches, by level-pool (storage) routing: a
+    prismatic reservoir of surface ``area_m2`` [m²] whose level stands ``head_m`` [m] over the
+    breach's floor, emptied through the breach as over a broad-crested weir of width
+    ``breach_width_m`` [m] (O = ``weir`` b h^(3/2)) while ``inflow_m3s`` [m³/s] still comes
+    in: A dh/dt = I − O(h) (scipy's ``solve_ivp``, RK45). Returns ``points`` times [s] from
+    the breach over ``duration_s`` and the outflow [m³/s] then: the jump to O(head) at once,
+    falling towards the inflow as the reservoir empties — a hydrograph for
+    :meth:`FloodRouter.set_hydrograph` (times shifted to the breach's time).
+
+    Raises:
+        ValueError: a value not finite, an area, head, width, duration or weir ≤ 0, a
+            negative inflow, fewer than two points (naming which).
+    """
+    from scipy.integrate import solve_ivp
+
+    values = {"area_m2": area_m2, "head_m": head_m, "breach_width_m": breach_width_m,
+              "duration_s": duration_s, "weir": weir}
+    for name, v in values.items():
+        if not (isinstance(v, (int, float, np.floating)) and math.isfinite(v) and v > 0):
+            raise ValueError(f"level_pool_release: {name} must be a finite number > 0, got {v!r}")
+    if not (isinstance(inflow_m3s, (int, float, np.floating)) and math.isfinite(inflow_m3s)
+            and inflow_m3s >= 0):
+        raise ValueError(f"level_pool_release: inflow_m3s must be a finite number ≥ 0, got "
+                         f"{inflow_m3s!r}")
+    if int(points) < 2:
+        raise ValueError(f"level_pool_release: points must be 2 or more, got {points!r}")
+    k = weir * breach_width_m
+
+    def dh(_t, h):
+        return [(inflow_m3s - k * max(h[0], 0.0) ** 1.5) / area_m2]
+
+    t = np.linspace(0.0, float(duration_s), int(points))
+    sol = solve_ivp(dh, (0.0, float(duration_s)), [float(head_m)], t_eval=t, rtol=1e-8,
+                    atol=1e-9 * head_m)
+    return t, k * np.maximum(sol.y[0], 0.0) ** 1.5
 
 
 class FloodRouter:
@@ -84,6 +206,12 @@ class FloodRouter:
         self._inflow = np.zeros(len(q0))
         self._table = self._pack()
         self.dt_s = self._step_for(1.0)
+        self._raster: CellRaster | None = None
+        self._level_tex = None
+        self.wet_rise_m = np.zeros(n)
+        """(N,) the rise [m] up to which the ground looks wet (the highest rise, falling
+        behind a falling level by WET_FALL_MPS)."""
+        self._missed = np.zeros(0, np.int64)
 
     # -- input -------------------------------------------------------------------------------
 
@@ -179,6 +307,8 @@ class FloodRouter:
         flood_steps(self.net, self._table, self.a, self.time_s, self.dt_s, n, self._outflow,
                     self._node_q, self._inflow)
         self.time_s += n * self.dt_s
+        np.maximum(self.cell_level_rise_m(), self.wet_rise_m - WET_FALL_MPS * n * self.dt_s,
+                   out=self.wet_rise_m)
 
     # -- what the world reads ------------------------------------------------------------------
 
@@ -187,6 +317,12 @@ class FloodRouter:
         """Whether any cell's discharge differs from its base one (else the flow is left as
         it is)."""
         return bool(np.any(np.abs(self.a - 1.0) > ACTIVE_EPS))
+
+    @property
+    def drawn(self) -> bool:
+        """Whether the drawn water or ground differs from base flow (:attr:`active`, or
+        ground still wet from a flood)."""
+        return self.active or bool(np.any(self.wet_rise_m > ACTIVE_EPS))
 
     def cell_discharge_m3s(self) -> np.ndarray:
         """(N,) each cell's discharge Q [m³/s]."""
@@ -200,11 +336,71 @@ class FloodRouter:
         """(N,) each cell's depth-averaged speed over its base one, r^(2/5) = a^(2/3)."""
         return self.a ** (2.0 / 3.0)
 
+    @property
+    def raster(self) -> CellRaster:
+        """The network's :func:`cell_raster` (made on first use)."""
+        if self._raster is None:
+            self._raster = cell_raster(self.network)
+        return self._raster
+
+    def level_textures(self) -> tuple[tuple[float, float, float], np.ndarray]:
+        """What the water and terrain shaders read to draw the level's rise
+        (``shaders/flood.glsl``): the square (x0, y0, side) [m] around the network and its
+        floodplain (FLOODPLAIN_REACH_M), and its (LEVEL_TEXELS, LEVEL_TEXELS) float32 cell
+        coordinates c + w at each texel's centre (the :attr:`raster`'s, beyond it the
+        KD-tree's within FLOODPLAIN_REACH_M; −1: no cell), made once; :meth:`rise_texels`
+        holds the per-cell rises."""
+        if self._level_tex is None:
+            r = self.raster
+            by, bx = r.blocks.shape
+            x0, y0 = r.x0 - FLOODPLAIN_REACH_M, r.y0 - FLOODPLAIN_REACH_M
+            side = max(bx, by) * r.block_px * r.pixel_m + 2.0 * FLOODPLAIN_REACH_M
+            n = LEVEL_TEXELS
+            g = (np.arange(n) + 0.5) * (side / n)
+            gx, gy = np.meshgrid(x0 + g, y0 + g)
+            xy = np.column_stack([gx.ravel(), gy.ravel()])
+            cells = np.empty(len(xy))
+            sample_by_cells(xy, len(xy), r, np.arange(self.network.n_cells, dtype=np.float64),
+                            -1.0, cells)
+            # the floodplain: the nearest cell within reach, asked only in the blocks of 16²
+            # texels whose centre is within reach + half their diagonal of a centre line
+            blk = 16
+            nb = n // blk
+            centres = (np.arange(nb) + 0.5) * (side / nb)
+            bx, by = np.meshgrid(x0 + centres, y0 + centres)
+            near = self.network.locate(np.column_stack([bx.ravel(), by.ravel()]),
+                                       FLOODPLAIN_REACH_M + side / nb)[0] >= 0
+            near = np.repeat(np.repeat(near.reshape(nb, nb), blk, 0), blk, 1).ravel()
+            far = np.flatnonzero((cells < 0) & near)
+            link, s, _ = self.network.locate(xy[far], FLOODPLAIN_REACH_M)
+            ok = link >= 0
+            a, b, w = self.network.weights(link[ok], s[ok])
+            cells[far[ok]] = np.where(b > a, a + w, a)
+            self._level_tex = ((float(x0), float(y0), float(side)),
+                               cells.reshape(n, n).astype(np.float32))
+        return self._level_tex
+
+    def rise_texels(self, out: np.ndarray | None = None) -> np.ndarray:
+        """(R, RISE_ROW, 2) float32 each cell's level rise [m] (:meth:`cell_level_rise_m`) and
+        wet-looking rise (:attr:`wet_rise_m`), row major, one padding cell at least after the
+        last (0); ``out`` is reused when its shape fits."""
+        n = self.network.n_cells
+        rows = n // RISE_ROW + 1
+        if out is None or out.shape != (rows, RISE_ROW, 2):
+            out = np.zeros((rows, RISE_ROW, 2), np.float32)
+        flat = out.reshape(-1, 2)
+        flat[:n, 0] = self.cell_level_rise_m()
+        flat[:n, 1] = self.wet_rise_m
+        return out
+
     def _at(self, values: np.ndarray, xy: np.ndarray, fill: float) -> np.ndarray:
         xy = np.asarray(xy, np.float64).reshape(-1, 2)
-        link, s, _ = self.network.locate(xy)
-        out = self.network.interpolate(values, link, s)
-        out[link < 0] = fill
+        finite = np.isfinite(xy).all(axis=1)
+        out = np.full(len(xy), float(fill))
+        link, s, _ = self.network.locate(xy[finite])
+        got = self.network.interpolate(values, link, s)
+        got[link < 0] = fill
+        out[finite] = got
         return out
 
     def level_rise(self, xy) -> np.ndarray:
@@ -217,13 +413,21 @@ class FloodRouter:
 
     def scale_velocity(self, xy: np.ndarray, status: np.ndarray, velocity: np.ndarray,
                        n: int | None = None) -> None:
-        """Multiply the velocities (N, 2) of the first ``n`` points by the speed factor of the
-        nearest cell (in place; only while :attr:`active`)."""
+        """Multiply the nonzero velocities (N, 2) float32 of the first ``n`` points by the
+        speed factor of the nearest cell (in place; only while :attr:`active`): read through
+        the :attr:`raster` (:func:`~riverflow.kernels.flood.scale_by_cells`), the KD-tree
+        for the few points beyond it."""
         if not self.active:
             return
         n = len(xy) if n is None else int(n)
-        moving = np.flatnonzero(np.any(velocity[:n] != 0.0, axis=1))
-        if not len(moving):
+        if not n:
             return
-        factor = self._at(self.cell_speed_factor(), xy[moving], 1.0)
-        velocity[moving] *= factor[:, None].astype(velocity.dtype)
+        if len(self._missed) < n:
+            self._missed = np.empty(max(n, 2 * len(self._missed)), np.int64)
+        factor = self.cell_speed_factor()
+        pts = np.ascontiguousarray(xy[:n], np.float64)
+        n_missed = scale_by_cells(pts, velocity, n, self.raster, factor, self._missed)
+        if n_missed:
+            rest = self._missed[:n_missed]
+            f = self._at(factor, pts[rest], 1.0)
+            velocity[rest] *= f[:, None].astype(velocity.dtype)

@@ -123,3 +123,94 @@ def flood_steps(net, hydro, a, t_start, dt, n_steps, outflow, node_q, inflow):
                 if a[i] < 0.0:
                     a[i] = 0.0
                 upstream = outflow[i]
+
+
+class CellRaster(NamedTuple):
+    """Which cell a point of the plane reads its flood state from: a sparse raster of square
+    pixels around the centre lines, in blocks of ``block_px`` × ``block_px`` pixels. Each
+    pixel holds the cell coordinate p = c + w of its centre (the nearest centre-line sample's
+    two cells c, c + 1 and the weight w of the second, :meth:`SpillNetwork.weights`), −1 for
+    none; a block not near any centre line is absent (``blocks`` −1)."""
+
+    x0: float
+    """West edge of block (0, 0) [m]."""
+    y0: float
+    """South edge of block (0, 0) [m]."""
+    pixel_m: float
+    """Pixel side [m]."""
+    block_px: int
+    """Pixels along a block's side."""
+    blocks: np.ndarray
+    """(BY, BX) int32 each block's index in ``cells``, −1: absent."""
+    cells: np.ndarray
+    """(K, block_px, block_px) float64 each pixel's cell coordinate c + w, −1: none."""
+
+
+@njit(inline="always", **JIT_OPTIONS)
+def raster_cell(raster, x, y):
+    """The cell coordinate c + w at (x, y) [m], or −1 where the raster has none."""
+    fx = (x - raster.x0) / raster.pixel_m
+    fy = (y - raster.y0) / raster.pixel_m
+    if not (fx >= 0.0 and fy >= 0.0):              # also NaN
+        return -1.0
+    if fx >= raster.blocks.shape[1] * raster.block_px \
+            or fy >= raster.blocks.shape[0] * raster.block_px:
+        return -1.0
+    ix = int(fx)
+    iy = int(fy)
+    bx = ix // raster.block_px
+    by = iy // raster.block_px
+    k = raster.blocks[by, bx]
+    if k < 0:
+        return -1.0
+    return raster.cells[k, iy - by * raster.block_px, ix - bx * raster.block_px]
+
+
+@njit(**JIT_OPTIONS)
+def scale_by_cells(xy, velocity, n, raster, factor, missed):
+    """Multiply the nonzero velocities (N, 2) float32 of the first ``n`` points ``xy``
+    (N, 2) float64 [m] by the per-cell ``factor`` (C,) float64 interpolated at their raster
+    cell coordinate (:class:`CellRaster`), in place. Points the raster does not cover are
+    left as they are and listed in ``missed`` (int64, ≥ n long); returns how many."""
+    n_missed = 0
+    last = factor.shape[0] - 1
+    for i in range(n):
+        vx = velocity[i, 0]
+        vy = velocity[i, 1]
+        if vx == 0.0 and vy == 0.0:
+            continue
+        p = raster_cell(raster, xy[i, 0], xy[i, 1])
+        if p < 0.0:
+            missed[n_missed] = i
+            n_missed += 1
+            continue
+        c = int(p)
+        w = p - c
+        f = factor[c]
+        if w > 0.0 and c < last:
+            f = f * (1.0 - w) + factor[c + 1] * w
+        velocity[i, 0] = vx * f
+        velocity[i, 1] = vy * f
+    return n_missed
+
+
+@njit(**JIT_OPTIONS)
+def sample_by_cells(xy, n, raster, values, fill, out):
+    """``out[i]`` = the per-cell ``values`` (C,) interpolated at the raster cell coordinate
+    of point ``xy[i]`` for the first ``n`` points, ``fill`` where the raster has none;
+    returns how many had none."""
+    n_missed = 0
+    last = values.shape[0] - 1
+    for i in range(n):
+        p = raster_cell(raster, xy[i, 0], xy[i, 1])
+        if p < 0.0:
+            out[i] = fill
+            n_missed += 1
+            continue
+        c = int(p)
+        w = p - c
+        f = values[c]
+        if w > 0.0 and c < last:
+            f = f * (1.0 - w) + values[c + 1] * w
+        out[i] = f
+    return n_missed

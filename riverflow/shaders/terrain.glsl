@@ -17,6 +17,7 @@
 #include "common.glsl"
 
 #ifdef VERTEX
+#include "flood.glsl"
 layout(location = 0) in vec3 a_position;   // [m]
 layout(location = 1) in vec3 a_normal;
 layout(location = 2) in float a_level;     // water level seen from here [m] (-1e4: none near)
@@ -26,14 +27,20 @@ layout(location = 3) in float a_shore;     // distance to the shore [m], < 0 in 
 out vec3 v_world;
 out vec3 v_normal;
 out float v_level;
+out float v_wet_level;
+out float v_rise;
 out float v_shore;
 void main() {
+    // a flood raises the level seen from here (issue 25): the ground below it is flooded
+    vec2 flood = a_level > -1000.0 ? flood_at(a_position.xy) : vec2(0.0);
     v_world = a_position;
     v_normal = a_normal;
-    v_level = a_level;
+    v_level = a_level + flood.x;
+    v_wet_level = a_level + flood.y;
+    v_rise = flood.x;
     v_shore = a_shore;
     gl_Position = u_view_projection * vec4(a_position, 1.0);
-    gl_ClipDistance[0] = u_clip_water > 0.0 ? a_position.z - a_level : 1.0;
+    gl_ClipDistance[0] = u_clip_water > 0.0 ? a_position.z - v_level : 1.0;
 }
 #endif
 
@@ -41,6 +48,8 @@ void main() {
 in vec3 v_world;
 in vec3 v_normal;
 in float v_level;
+in float v_wet_level;
+in float v_rise;
 in float v_shore;
 out vec4 frag;
 uniform bool u_debug_materials;  // tests: (rock, drawn slope / 90°, bed, 0.5) for the colour
@@ -166,6 +175,9 @@ void main() {
     albedo = mix(albedo, sand, beach);
     relief = mix(relief, 0.05 * detail_d.yz + 0.015 * grain_d.yz, beach);
     float wet = 1.0 - smoothstep(0.05, 0.45, above + 0.15 * (detail - 0.5));
+    // ground a flood covered stays wet-looking a while (v_wet_level lags the falling level)
+    float above_wet = river ? v_world.z - v_wet_level : 1e3;
+    wet = max(wet, 1.0 - smoothstep(0.0, 0.3, above_wet + 0.1 * (detail - 0.5)));
 
     // the river bed under the water: sand and pebbles in the shallows, silt in the deep,
     // darker with depth (light down to the bed and back up)
@@ -191,6 +203,20 @@ void main() {
     vec3 colour = albedo * light;
     vec3 h = normalize(normalize(to_eye) + u_sun_dir);
     colour += SUN_COLOUR * (wet * (1.0 - under) * 0.35) * pow(max(dot(n, h), 0.0), 40.0);
+    // a flood (issue 25) over the ground below its level: the floodplain, and the channel's
+    // banks and bed (seen between the raised water mesh and the shore): muddy water, more
+    // opaque as it deepens, the sky's sheen and the sun's glint on its flat surface
+    float plain = (1.0 - smoothstep(-0.03, 0.0, above)) * smoothstep(0.0, 0.05, v_rise);
+    {
+        vec3 e = normalize(to_eye);
+        float fresnel = 0.2 + 0.8 * pow(1.0 - max(e.z, 0.0), 5.0);   // a rough surface
+        vec3 muddy = vec3(0.42, 0.37, 0.27) * (SUN_COLOUR * 0.6 * max(u_sun_dir.z, 0.0)
+                                               + vec3(0.32, 0.38, 0.46));
+        vec3 flood = mix(colour, muddy, 0.55 + 0.4 * (1.0 - exp(-depth / 0.7)));
+        flood = mix(flood, vec3(0.36, 0.47, 0.58), fresnel * 0.85);
+        flood += SUN_COLOUR * pow(max(h.z, 0.0), 300.0) * 0.8;
+        colour = mix(colour, flood, plain);
+    }
     frag = vec4(apply_fog(colour, v_world), 1.0);
     if (u_debug_materials) {   // uniform: derivatives stay defined
         vec3 facet = normalize(cross(dFdx(v_world), dFdy(v_world)));

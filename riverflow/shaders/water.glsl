@@ -4,14 +4,15 @@
 #include "common.glsl"
 
 #ifdef VERTEX
+#include "flood.glsl"
 layout(location = 0) in vec3 a_position;   // (x, y, water level) [m]
 layout(location = 1) in float a_ground;    // the terrain (river bed) under it [m]
 out vec3 v_world;
 out float v_ground;
 void main() {
-    v_world = a_position;
+    v_world = a_position + vec3(0.0, 0.0, flood_rise(a_position.xy));   // a flood's rise
     v_ground = a_ground;
-    gl_Position = u_view_projection * vec4(a_position, 1.0);
+    gl_Position = u_view_projection * vec4(v_world, 1.0);
 }
 #endif
 

@@ -56,6 +56,8 @@ class MoveBoats(System):
             rows[i] = step_boat(boat, field, shore, surface, water, dt_s, now_s,
                                 self._poses.get(entity, (np.zeros(2), 0.0)),
                                 () if own is None else (start + own,))
+            if world.flood is not None and world.flood.active:   # a flood raises the water
+                boat.altitude_m += float(world.flood.level_rise(boat.position_m[None])[0])
             poses[entity] = (boat.position_m.copy(), boat.heading_rad)
             pose = esper.try_component(entity, Pose)
             if pose is not None:

@@ -135,6 +135,10 @@ TERRAIN_SLOTS = 128
 """Terrain tiles the GPU arena has room for at first (it doubles when full; a 1080p view's cut
 is ~80-110 tiles)."""
 
+FLOOD_CELLS_UNIT, FLOOD_RISE_UNIT = 16, 17
+"""Texture units of the flood's cell texture and per-cell level rise (issue 25,
+``shaders/flood.glsl``), read by the water's and the terrain's vertex shaders (15 is the GL
+module's scratch unit)."""
 FOAM_PATTERN_UNIT, WAKES_UNIT = 12, 13
 SPILL_UNIT = 9
 """Texture unit of the spills' tint (issue 24, ``shaders/spill.glsl``). The falls' spray
@@ -200,6 +204,10 @@ class _Gpu:
         self.spill_tint = SpillTint()
         self.spill = gl.Texture((TINT_TEXELS, TINT_TEXELS), gl.RGBA32F, linear=True)
         self.spill_version = -1
+        self.flood_cells: gl.Texture | None = None      # made by the first flood drawn
+        self.flood_rise: gl.Texture | None = None
+        self.flood_rise_cpu: np.ndarray | None = None
+        self.flood_for = None
         self.prop_meshes: dict[tuple, gl.Mesh] = {}
         self.terrain = _TerrainTiles(world.scene.terrain.tile_cells)
         self.water = _WaterTiles()
@@ -312,6 +320,7 @@ class _Gpu:
         self.water.delete()
         for obj in [self.empty, self.view, self.params, self.bins, self.grid_fb, self.grid,
                     self.drops, self.ripples, self.foam_pattern, self.wakes, self.spill,
+                    self.flood_cells, self.flood_rise,
                     *self.targets,
                     *(tex for _, tex in self.waves.values())]:
             if obj is not None:
@@ -666,7 +675,7 @@ _CONSTANT_UNIFORMS = dict(
     u_params=PARAMS_UNIT, u_grid=GRID_UNIT, u_wave=WAVE_UNIT, u_accum=ACCUM_UNIT,
     u_water_position=WATER_POSITION_UNIT, u_ripples=RIPPLES_UNIT, u_drops=DROPS_UNIT,
     u_bins=BINS_UNIT, u_foam_pattern=FOAM_PATTERN_UNIT, u_wakes=WAKES_UNIT, u_spill=SPILL_UNIT,
-    u_spray=SPRAY_UNIT,
+    u_spray=SPRAY_UNIT, u_flood_cells=FLOOD_CELLS_UNIT, u_flood_rise=FLOOD_RISE_UNIT,
     u_reflection=REFLECTION_UNIT, u_reflection_depth=REFLECTION_DEPTH_UNIT,
     u_colour=COMPOSITE_COLOUR_UNIT, u_depth=COMPOSITE_DEPTH_UNIT,
     u_sprite_radius_factor=SPRITE_RADIUS_FACTOR, u_foam_scale_m=FOAM_SCALE_M,
@@ -705,6 +714,7 @@ class DrawRivers(System):
 
     def __init__(self) -> None:
         self.gpu: _Gpu | None = None
+        self._flood_uniforms = {"u_flood_on": 0, "u_flood_rect": (0.0, 0.0, 1.0)}
         self.context = None
         self.last_mirror_level_m: float | None = None
         """The reflection's mirror height [m] in the last frame (None: no reflection)."""
@@ -765,6 +775,7 @@ class DrawRivers(System):
         ripple_uniforms = self._upload_ripples(world, gpu, rain)
         foam_uniforms = self._upload_foam_and_wakes(world, gpu)
         foam_uniforms.update(self._upload_spill(world, gpu, settings))
+        flood_uniforms = self._upload_flood(world, gpu)
         water_meshes = self._tile_meshes(world, gpu)
         reflection_uniforms = self._draw_reflection(world, gpu, settings, clip_from_world)
         if not reflection_uniforms["u_reflect"]:
@@ -792,7 +803,7 @@ class DrawRivers(System):
         gpu.grid.bind(GRID_UNIT)
         wave_tex.bind(WAVE_UNIT)
         if mode == DisplayMode.PRE_ADVECTED:
-            self._pre_advect(gpu, wave_uniforms, n_drawn, water_meshes)
+            self._pre_advect(gpu, wave_uniforms, n_drawn, water_meshes, flood_uniforms)
         if mode != DisplayMode.NONE:
             water = gpu.programs["water"]
             water.use()
@@ -803,7 +814,7 @@ class DrawRivers(System):
                       u_rapids=(float(settings.rapids_wave_slope), RAPIDS_MIN_SLOPE,
                                 RAPIDS_FULL_SLOPE),
                       u_clarity_m=settings.water_clarity_m, **wave_uniforms, **ripple_uniforms,
-                      **foam_uniforms)
+                      **foam_uniforms, **flood_uniforms)
             water.set_if_used(**reflection_uniforms)
             gl.set_blend(gl.BLEND_WATER)
             for mesh in water_meshes:
@@ -919,6 +930,31 @@ class DrawRivers(System):
                 "u_spill_visible": float(settings.spill_visible_kg_m3),
                 "u_spill_range": (math.log10(lo), math.log10(hi))}
 
+    def _upload_flood(self, world: RiverWorld, gpu: _Gpu) -> dict:
+        """The water and terrain shaders' flood uniforms (``shaders/flood.glsl``): the
+        router's cell texture uploaded once, its per-cell level rise and wet rise each frame
+        while the flood is drawn (:meth:`~riverflow.hydro.flood.FloodRouter.level_textures`,
+        :attr:`~riverflow.hydro.flood.FloodRouter.drawn`); else u_flood_on = 0."""
+        router = world.flood
+        on = router is not None and router.drawn
+        rect = (0.0, 0.0, 1.0)
+        if on:
+            rect, cells = router.level_textures()
+            if gpu.flood_for is not router:
+                for tex in (gpu.flood_cells, gpu.flood_rise):
+                    if tex is not None:
+                        tex.delete()
+                gpu.flood_cells = gl.Texture(cells.shape[::-1], gl.R32F)
+                gpu.flood_cells.upload(cells)
+                gpu.flood_rise_cpu = router.rise_texels()
+                gpu.flood_rise = gl.Texture(gpu.flood_rise_cpu.shape[1::-1], gl.RG32F)
+                gpu.flood_for = router
+            gpu.flood_rise.upload(router.rise_texels(gpu.flood_rise_cpu))
+            gpu.flood_cells.bind(FLOOD_CELLS_UNIT)
+            gpu.flood_rise.bind(FLOOD_RISE_UNIT)
+        self._flood_uniforms = {"u_flood_on": int(on), "u_flood_rect": rect}
+        return self._flood_uniforms
+
     def _draw_rain(self, gpu: _Gpu, rain: Rain | None) -> None:
         """The live drops as streaks (depth-tested, not written; alpha-blended)."""
         n = 0 if rain is None else rain.count
@@ -989,6 +1025,7 @@ class DrawRivers(System):
         program.use()
         if detail == "full":
             program.set(u_debug_materials=self.debug_materials)   # sent only when changed
+        program.set_if_used(**self._flood_uniforms)
         gpu.terrain.draw(self._terrain_slots, detail)
         if detail == "full":
             self.last_tiles = len(self._terrain_slots)
@@ -1043,6 +1080,8 @@ class DrawRivers(System):
         level = self._ease_mirror(self._mirror_for[1], now, camera.revision, pose[:3])
         if level is None:
             return off
+        if world.flood is not None and world.flood.active:      # the flood's rise near the eye
+            level += float(world.flood.level_rise(np.array([eye[:2]], np.float64))[0])
         self.last_mirror_level_m = level
         reflection = gpu.reflection
         exact = self.debug_exact_reflection
@@ -1104,13 +1143,14 @@ class DrawRivers(System):
         return level
 
     def _pre_advect(self, gpu: _Gpu, wave_uniforms: dict,
-                    n_drawn: int, water_meshes: list) -> None:
+                    n_drawn: int, water_meshes: list, flood_uniforms: dict) -> None:
         # the water's world position where it is visible (depth test against the terrain)
         gpu.position_fb.bind()
         gl.clear((0.0, 0.0, 0.0, 0.0), depth=False)
         gl.set_depth(True, write=False)
         program = gpu.programs["water_position"]
         program.use()
+        program.set(**flood_uniforms)
         for mesh in water_meshes:
             mesh.draw()
         # the sprites, added up

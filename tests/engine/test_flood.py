@@ -13,9 +13,9 @@ import pytest
 
 import riverflow as rf
 from riverflow.hydro.falls import channel_depth_m
-from riverflow.hydro.flood import FloodRouter
+from riverflow.hydro.flood import FloodRouter, cell_raster
 from riverflow.hydro.spill_network import build_spill_network
-from riverflow.kernels.flood import flood_steps
+from riverflow.kernels.flood import flood_steps, sample_by_cells, scale_by_cells
 from tests.engine import cell_networks
 from tests.engine.cell_networks import branch, straight
 
@@ -174,6 +174,89 @@ def test_bad_hydrographs_raise_and_keep_the_old_state(diamond):
         assert np.array_equal(router.hydrographs[k][1], q)
 
 
+# -- the cell raster (the speed factor and the level read per point) ----------------------------
+
+def _twin_raster_cells(raster, xy):
+    """numpy twin of ``kernels.flood.raster_cell``: each point's cell coordinate, −1: none."""
+    f = (xy - (raster.x0, raster.y0)) / raster.pixel_m
+    B = raster.block_px
+    by_bx = raster.blocks.shape
+    ok = np.all(f >= 0, axis=1) & (f[:, 0] < by_bx[1] * B) & (f[:, 1] < by_bx[0] * B)
+    i = np.where(ok[:, None], f, 0).astype(np.int64)
+    k = np.where(ok, raster.blocks[i[:, 1] // B, i[:, 0] // B], -1)
+    p = raster.cells[np.maximum(k, 0), i[:, 1] % B, i[:, 0] % B]
+    return np.where(k >= 0, p, -1.0)
+
+
+def _twin_interp(values, p):
+    c = np.clip(np.floor(p).astype(np.int64), 0, len(values) - 1)
+    w = p - c
+    nxt = np.minimum(c + 1, len(values) - 1)
+    return np.where(w > 0, values[c] * (1 - w) + values[nxt] * w, values[c])
+
+
+@pytest.fixture(scope="module")
+def flooded_diamond(diamond):
+    router = FloodRouter(diamond)
+    router.set_hydrograph("top", [0.0, 100.0], [20.0, 80.0])
+    router.advance(900.0)
+    rng = np.random.default_rng(3)
+    xy = np.stack([rng.uniform(-100.0, 4300.0, 20_000), rng.uniform(-150.0, 400.0, 20_000)], 1)
+    xy[:3] = [np.nan, 0.0], [1e9, 0.0], [-1e9, -1e9]            # beyond any raster
+    return router, xy
+
+
+def test_raster_kernels_match_their_numpy_twin(flooded_diamond):
+    router, xy = flooded_diamond
+    raster = router.raster
+    factor = router.cell_speed_factor()
+    p = _twin_raster_cells(raster, xy)
+    assert np.all(p[:3] == -1.0) and (p >= 0).mean() > 0.2
+    velocity = np.ones((len(xy), 2), np.float32)
+    velocity[::5] = 0.0
+    expected = velocity * np.where(p >= 0, _twin_interp(factor, p), 1.0)[:, None]
+    missed = np.empty(len(xy), np.int64)
+    n = scale_by_cells(xy, velocity, len(xy), raster, factor, missed)
+    np.testing.assert_allclose(velocity, expected, rtol=1e-6)
+    moving = np.flatnonzero(np.arange(len(xy)) % 5 != 0)
+    assert np.array_equal(missed[:n], moving[p[moving] < 0])
+    out = np.empty(len(xy))
+    n_none = sample_by_cells(xy, len(xy), raster, router.cell_level_rise_m(), -7.0, out)
+    np.testing.assert_allclose(out, np.where(p >= 0, _twin_interp(
+        router.cell_level_rise_m(), p), -7.0), rtol=1e-12)
+    assert n_none == int((p < 0).sum())
+
+
+def test_the_raster_reads_the_nearest_cell_like_the_kd_tree(flooded_diamond):
+    """scale_velocity (raster + KD-tree beyond it) agrees with the KD-tree at every point, to
+    the change of the factor over a pixel; the whole water of every link is covered."""
+    router, xy = flooded_diamond
+    net = router.network
+    velocity = np.ones((len(xy), 2), np.float32)
+    router.scale_velocity(xy, None, velocity)
+    assert np.all(velocity[0] == 1.0)                     # a NaN point is left as it is
+    xy, velocity = xy[3:], velocity[3:]
+    link, s, d = net.locate(xy)
+    a, b, _ = net.weights(np.maximum(link, 0), np.nan_to_num(s))
+    inside = (link >= 0) & (d < 0.5 * net.cell_width_m[a])
+    p = _twin_raster_cells(router.raster, xy)
+    assert np.all(p[inside] >= 0)                         # the water is covered
+    kd = router._at(router.cell_speed_factor(), xy, 1.0)
+    factor = router.cell_speed_factor()
+    slope = np.abs(np.diff(factor)).max() / net.link_dx_m.min()   # [1/m]
+    tol = slope * router.raster.pixel_m * np.sqrt(2) + 1e-6
+    assert np.abs(factor - 1).max() > 0.03                         # a real flood
+    away = ~inside & (p < 0)                                   # beyond the raster: the KD-tree
+    np.testing.assert_allclose(velocity[away, 0], kd[away], rtol=1e-6)
+    err = np.abs(velocity[inside, 0] - kd[inside])
+    # away from the junctions, where the nearest link may change within a pixel
+    ends = np.array([ln[[0, -1]] for ln in net.lines]).reshape(-1, 2)
+    far = np.min(np.hypot(*(xy[inside][:, None, :] - ends[None]).transpose(2, 0, 1)), 1) > 60.0
+    assert far.sum() > 1000 and err[far].max() <= tol
+    with pytest.raises(ValueError, match="pixel_m"):
+        cell_raster(net, pixel_m=0.0)
+
+
 # -- the world ---------------------------------------------------------------------------------
 
 @pytest.fixture(scope="module")
@@ -220,3 +303,49 @@ def test_the_world_routes_a_flood_and_its_flow_and_level_follow(world):
     assert float(world.water_level(probe)[0]) - level0 == pytest.approx(h0 * (r ** 0.6 - 1),
                                                                          rel=1e-6)
     assert np.isfinite(router.a).all() and router.a.min() > 0
+
+
+# -- a dam's breach: level-pool routing ----------------------------------------------------------
+
+def test_level_pool_release_matches_the_emptying_reservoir():
+    from riverflow.hydro.flood import BROAD_CRESTED_WEIR, level_pool_release
+    area, head, width = 2.0e5, 6.0, 30.0
+    t, q = level_pool_release(area, head, width, 0.0, 3600.0)
+    k = BROAD_CRESTED_WEIR * width
+    # no inflow: A dh/dt = −k h^(3/2), so h(t) = (h0^(−1/2) + k t / (2 A))^(−2)
+    h = (head ** -0.5 + 0.5 * k * t / area) ** -2.0
+    np.testing.assert_allclose(q, k * h ** 1.5, rtol=1e-5)
+    assert q[0] == pytest.approx(k * head ** 1.5) and np.all(np.diff(q) < 0)
+    # with an inflow: the volume released beyond it is what the reservoir lost
+    inflow = 40.0
+    t, q = level_pool_release(area, head, width, inflow, 7200.0, points=2001)
+    h_end = (q[-1] / k) ** (2.0 / 3.0)
+    released = np.trapezoid(q - inflow, t)
+    assert released == pytest.approx(area * (head - h_end), rel=1e-3)
+    assert inflow < q[-1] < 1.5 * inflow                   # falling towards the inflow
+    for kwargs, match in (({"area_m2": 0.0}, "area_m2"), ({"head_m": float("nan")}, "head_m"),
+                          ({"inflow_m3s": -1.0}, "inflow_m3s"), ({"points": 1}, "points")):
+        args = {"area_m2": area, "head_m": head, "breach_width_m": width, "inflow_m3s": 1.0,
+                "duration_s": 60.0, **kwargs}
+        with pytest.raises(ValueError, match=match):
+            level_pool_release(**args)
+
+
+def test_the_ground_stays_wet_looking_behind_a_falling_flood(diamond):
+    from riverflow.hydro.flood import WET_FALL_MPS
+    router = FloodRouter(diamond)
+    q0 = float(router.net.link_q0[0])
+    router.set_hydrograph("top", [0.0, 60.0, 1800.0, 1860.0], [q0, 4 * q0, 4 * q0, q0])
+    router.advance(1800.0)
+    t_peak = router.time_s
+    peak = router.cell_level_rise_m().copy()
+    assert peak.max() > 0.5 and np.allclose(router.wet_rise_m, np.maximum(peak, 0.0))
+    assert router.drawn
+    router.advance(3 * 3600.0)                          # the flood has passed
+    assert np.abs(router.cell_level_rise_m()).max() < 1e-3 and not router.active
+    elapsed = router.time_s - t_peak
+    # each cell's wet line has fallen from its highest rise, at most WET_FALL_MPS
+    assert np.all(router.wet_rise_m >= peak - WET_FALL_MPS * elapsed - 1e-9)
+    assert router.wet_rise_m.max() > 0.0 and router.drawn   # still wet-looking
+    router.advance(12 * 3600.0)
+    assert router.wet_rise_m.max() < 1e-9 and not router.drawn   # dry again
