@@ -107,6 +107,7 @@ class RiverWorld:
         self.resources: dict[type, Any] = {}
         self.timings_ms: dict[str, float] = {}
         self._view_loaded = False
+        self._edits = None          # riverflow.engine.edits.LiveEdits, on the first edit
         c = self.config
         if not hasattr(scene, "quadtree"):
             raise TypeError("RiverWorld needs a streamed landscape (riverflow.default_scene(), "
@@ -232,6 +233,8 @@ class RiverWorld:
                             f"{type(dt_s).__name__} {dt_s!r:.80}")
         dt = float(dt_s) if math.isfinite(dt_s) else 0.0
         dt = min(max(dt, 0.0), self.config.max_step_s)
+        if self._edits is not None:
+            self._land_edit()              # a background edit made meanwhile: swapped in now
         clock = self.clock
         clock.now_s += dt
         timings = self.timings_ms
@@ -481,6 +484,227 @@ class RiverWorld:
         """A constant inflow ``q_m3s`` [m³/s] at the start of ``link`` from now on
         (:meth:`set_hydrograph` with one point)."""
         self.set_hydrograph(link, [self.flood_time_s], [q_m3s])
+
+    # -- live edits (issue 25) ---------------------------------------------------------------
+
+    def edit_network(self, builder_or_graph, *, wait: bool = True):
+        """Replace the running network by a whole new one (a
+        :class:`~riverflow.hydro.builder.RiverNetworkBuilder`, built here, or a
+        :class:`~riverflow.hydro.graph.HydroGraph`) on the same terrain: the tiles near what
+        changed are made again (:mod:`riverflow.engine.edits`), the others are kept. See
+        :meth:`move_axis` for ``wait`` and what happens to the tiles and particles.
+
+        Raises:
+            GraphError: the network cannot carry a flow (the world keeps the old one).
+        """
+        from riverflow.engine import edits
+
+        def make(scene):
+            branches, islands, graph, _ = edits.branches_of_input(builder_or_graph)
+            return branches, islands, graph
+        return self._edit(make, wait)
+
+    def set_width(self, link, widths_m, *, wait: bool = True):
+        """Set the widths [m] of branch ``link`` (a name or an index of
+        ``world.scene.branches``): one number, or one per point of its centre line. See
+        :meth:`move_axis`."""
+        return self._edit_branches("width", link, wait, widths=widths_m)
+
+    def move_axis(self, link, points_m, *, wait: bool = True):
+        """Move the centre line of branch ``link`` (a name or an index of
+        ``world.scene.branches``) to ``points_m`` (K, 2) [m], drawn downstream; an end at a
+        junction stays where it is (the widths follow along the arc length).
+
+        The changed branches' banks and ψ are rebuilt (the builder, the water surface, the
+        flow network); only the tiles within reach of the change (flow: the changed banks'
+        search radius; terrain, water, ray-cast, hints, meshes: the carving's reach) are made
+        again, in the background, their old versions standing in until then; the other tiles
+        are kept. The particles keep flowing: one that finds itself on land once the new
+        flow tiles are in leaves the water as at any shore (LEAVING, then OUTSIDE, recycled
+        by the NEAR rule). A running flood is carried over by branch name (its waves start
+        again from the base flow).
+
+        ``wait`` True: made now and in place when this returns. False: made in a background
+        thread and swapped in at the start of the first :meth:`step` after it is ready (the
+        frames meanwhile are not held up); returns a ``concurrent.futures.Future`` (its result:
+        the names of the branches changed; its exception: what the builder raised, also in
+        ``world.edit_errors``); a newer edit asked for while one is made replaces any other
+        waiting.
+
+        Raises:
+            ValueError / TypeError: an unknown branch, points or widths not finite or of the
+                wrong shape, an end moved off its junction;
+            GraphError: the new network cannot carry a flow (banks crossing, a branch turning
+                back on itself…). The world keeps the old network.
+        """
+        return self._edit_branches("axis", link, wait, points=points_m)
+
+    def add_branch(self, points_m, widths_m, discharge_m2s: float | None = None, *,
+                   name: str | None = None, wait: bool = True):
+        """Add a branch: centre line ``points_m`` (K, 2) [m] drawn downstream, widths [m],
+        ``discharge_m2s`` (needed for a source; an end on another branch's end meets it
+        there). See :meth:`move_axis`."""
+        return self._edit_branches(None, None, wait, op="add", points=points_m,
+                                   widths=widths_m, discharge_m2s=discharge_m2s, name=name)
+
+    def remove_branch(self, link, *, wait: bool = True):
+        """Remove branch ``link`` (a name or an index of ``world.scene.branches``). See
+        :meth:`move_axis`."""
+        return self._edit_branches("remove", link, wait)
+
+    @property
+    def edit_errors(self) -> list[str]:
+        """What background edits (``wait=False``) raised (the world kept its network)."""
+        return [] if self._edits is None else self._edits.errors
+
+    @property
+    def edits(self):
+        """The :class:`~riverflow.engine.edits.LiveEdits` state (counters, the last edit), or
+        None before the first edit."""
+        return self._edits
+
+    def _edit_branches(self, op, link, wait: bool, **args):
+        from riverflow.engine import edits
+
+        op = args.pop("op", op)
+        edits.edited_branches(self.scene, op, link, **args)    # bad arguments raise here, now
+
+        def make(scene):
+            return edits.edited_branches(scene, op, link, **args), None, None
+        return self._edit(make, wait)
+
+    def _edit(self, make, wait: bool):
+        from concurrent.futures import Future
+
+        from riverflow.engine.edits import LiveEdits
+
+        if self._edits is None:
+            self._edits = LiveEdits()
+        live = self._edits
+        if wait:
+            while live.busy:                      # the background ones first, in order
+                self._land_edit(block=True)
+            plan = self._plan(make, self.scene, self.field)
+            return self._apply_edit(*plan)
+        future = Future()
+        live.queued = (make, future)              # a newer edit replaces one still waiting
+        self._land_edit()
+        return future
+
+    def _plan(self, make, scene, field):
+        """The new scene, field and producers, and what changed (any thread)."""
+        from riverflow.engine import edits
+        from riverflow.hydro.tile_producer import FlowProducer
+
+        branches, islands, graph = make(scene)
+        new_scene, graph = edits.edited_scene(scene, branches, islands, graph)
+        new_field = edits.edited_field(field, graph)
+        plan = edits.plan_edit(scene, field, new_scene, new_field)
+        producers = [*terrain_producers(new_scene), FlowProducer(new_field)]
+        return plan, producers
+
+    def _land_edit(self, block: bool = False) -> None:
+        """Swap in a background edit that is ready (or, ``block``, wait for it), then start
+        the one waiting."""
+        import threading
+
+        live = self._edits
+        if live.thread is not None:
+            if block:
+                live.thread.join()
+            if live.thread.is_alive():
+                return
+            live.thread = None
+            result, future = live.result, live.future
+            live.result = live.future = None
+            if isinstance(result, BaseException):
+                live.errors.append(f"{type(result).__name__}: {result}")
+                future.set_exception(result)
+            else:
+                try:
+                    future.set_result(self._apply_edit(*result))
+                except BaseException as exc:    # the swap itself failed: say so, go on
+                    live.errors.append(f"{type(exc).__name__}: {exc}")
+                    future.set_exception(exc)
+        if live.queued is not None and live.thread is None:
+            make, future = live.queued
+            live.queued = None
+            scene, field = self.scene, self.field
+
+            def run():
+                try:
+                    live.result = self._plan(make, scene, field)
+                except BaseException as exc:
+                    live.result = exc.with_traceback(None)
+            live.future = future
+            live.thread = threading.Thread(target=run, name="riverflow-edit", daemon=True)
+            live.thread.start()
+
+    def _apply_edit(self, plan, producers) -> list[str]:
+        """Swap an edit in (main thread, between frames): module docstring of
+        :mod:`riverflow.engine.edits`, step 3. Returns the changed branches' names."""
+        from riverflow.components.flow_tiles import FLOW_KIND
+        from riverflow.engine.edits import tiles_meeting
+        from riverflow.scenes.tile_kinds import TERRAIN_KINDS
+
+        scheduler = self.tiles.scheduler
+        cache = self.tiles.cache
+        q = self.scene.quadtree
+        old = self.field
+        stale: dict[str, np.ndarray] = {}
+        pool = old.tiles.pool
+        slots = np.flatnonzero(pool.slot_code >= 0)
+        codes = pool.slot_code[slots].copy()
+        released = 0
+        if len(slots):
+            # the tiles' bank lists, renumbered to the new network (an untouched segment is
+            # the same segment); a tile that lists a segment gone cannot stand in
+            seg = pool.arrays["cell_segments"][slots]
+            listed = seg >= 0
+            mapped = np.where(listed, plan.segment_map[np.where(listed, seg, 0)], -1)
+            lost = (listed & (mapped < 0)).reshape(len(slots), -1).any(axis=1)
+            pool.arrays["cell_segments"][slots] = mapped
+            for slot in slots[lost].tolist():
+                pool.release(slot)
+            released = int(lost.sum())
+            near = tiles_meeting(codes, q, plan.flow_boxes, old.tiles.n_cells)
+            stale[FLOW_KIND] = codes[near & ~lost]
+        n = self.scene.terrain.tile_cells
+        for kind in TERRAIN_KINDS:
+            kcodes = cache.pools[kind].codes()
+            stale[kind] = kcodes[tiles_meeting(kcodes, q, plan.terrain_boxes, n)]
+        scheduler.replace_producers(producers)
+        scheduler.invalidate(stale)
+        self.scene = plan.scene
+        self.field = plan.field
+        with self.active():
+            node = esper.component_for_entity(self.river, RiverNode)
+        node.graph, node.field = plan.scene.graph, plan.field
+        terrain = self.resource(TerrainView)
+        terrain.z_min = min(terrain.z_min, float(plan.scene.z_range_m[0]))
+        terrain.z_max = max(terrain.z_max, float(plan.scene.z_range_m[1]))
+        router = self.flood
+        if router is not None:
+            self._carry_flood(router)
+        live = self._edits
+        live.applied += 1
+        live.last = {"changed": list(plan.changed), "released": released,
+                     "marked": {k: len(v) for k, v in stale.items()},
+                     "applied_s": time.perf_counter()}
+        return list(plan.changed)
+
+    def _carry_flood(self, old) -> None:
+        """A flood router on the edited network, with the old one's hydrographs of the
+        branches that are still there (by name) and its clock."""
+        from riverflow.hydro.flood import FloodRouter
+
+        router = FloodRouter(self._cell_network(), old.clock_s)
+        names = old.network.names
+        for b, (t, q) in old.hydrographs.items():
+            if names[b] in router.network.names:
+                router.set_hydrograph(names[b], t, q)
+        self.resources[_FloodRouterKey] = router
+        self.field.discharge_scale = router.scale_velocity
 
     def water_level(self, xy_m) -> np.ndarray:
         """(N,) water level [m] of the nearest river point to each (N, 2) [m]: the scene's

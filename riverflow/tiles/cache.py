@@ -141,6 +141,23 @@ class TilePool:
         self.revision += 1
         return slot
 
+    def replace(self, code: int, data, nbytes: int | None = None, tick: int = 0) -> int:
+        """Install the new version of a resident tile (a live edit) in another slot and release
+        the old one, so that whoever keeps per-slot copies (the draw system's GPU buffers)
+        sees the slot's tile change; a tile not resident is stored. Returns its slot."""
+        old = self.table.get(code)
+        if old < 0:
+            return self.store(code, data, nbytes, tick)
+        if not self._free:
+            self._grow(2 * self.capacity)
+        slot = self._free.pop()
+        self.release(old)
+        self._free.remove(old)
+        self._free.append(slot)          # store() takes the last free slot: this one
+        slot = self.store(code, data, nbytes, tick)
+        self._free.append(old)
+        return slot
+
     def release(self, slot: int) -> None:
         """Drop the tile in ``slot``."""
         code = int(self.slot_code[slot])

@@ -22,6 +22,13 @@ before the frame reads any, the ones the worker has not finished in the frame it
 worker changes *when* and *where* a tile is made, never *what* a frame computes.
 
 A resident dependency is pinned (never evicted) until the tile that reads it is installed.
+
+The sources can change while tiles are made (a live edit of the river network:
+:mod:`riverflow.engine.edits`): :meth:`TileScheduler.replace_producers` takes the new
+producers and :meth:`TileScheduler.invalidate` starts a new *generation*: the resident tiles it
+names become *stale*, standing in (read as before) until their new versions, made in the
+background like any missing tile, replace them; every tile being made from the old sources is
+dropped when it arrives, never stored, and never kept in the new producers' memo.
 A producer that raises does not crash the frame: the error is kept in ``errors`` and that tile
 is not asked for again.
 """
@@ -124,6 +131,7 @@ class _Job:
     code: int
     resident: dict = field(default_factory=dict)   # dep → (pool, slot, data view), pinned
     awaited: list = field(default_factory=list)    # deps being produced by earlier jobs
+    generation: int = 0                            # the sources it is made from
 
 
 class TileScheduler:
@@ -188,6 +196,12 @@ class TileScheduler:
         self._process: ProducerProcess | None = None
         self._closed = False
         self._process_kinds: frozenset[str] = frozenset()
+        self.generation = 0
+        """Changes at each :meth:`invalidate` (a tile made from older sources is dropped)."""
+        self._stale: dict[str, set[int]] = {}
+        """Per kind, the codes of resident tiles standing in for their new versions."""
+        self.remade = 0
+        """Stale tiles replaced by their new versions so far."""
         for producer in producers:
             self.add(producer)
 
@@ -199,6 +213,90 @@ class TileScheduler:
         self.cache.pool(producer.kind, producer.fields)
         self._wanted[producer.kind] = TileTable(1024)
         self._state[producer.kind] = TileTable(1024)
+        self._stale[producer.kind] = set()
+
+    def replace_producers(self, producers: Iterable[Producer]) -> None:
+        """Make the tiles of the given kinds with these producers from now on (same kinds and
+        fields as the ones they replace; call :meth:`invalidate` for the tiles this changes).
+        A worker process, forked with the old producers, is let go: the tiles are made in
+        the worker thread from then on."""
+        producers = list(producers)
+        for producer in producers:
+            old = self.producers.get(producer.kind)
+            if old is None:
+                raise ValueError(f"replace_producers: no {producer.kind!r} producer to replace")
+            if (old.fields is None) != (producer.fields is None) or (
+                    old.fields is not None and dict(old.fields) != dict(producer.fields)):
+                raise ValueError(f"replace_producers: the new {producer.kind!r} producer's tiles "
+                                 "have other fields than the old one's")
+        for producer in producers:
+            self.producers[producer.kind] = producer
+        process, self._process = self._process, None
+        self._process_kinds = frozenset()
+        if process is not None:
+            process.close(timeout_s=0.1)
+
+    def invalidate(self, stale: Mapping[str, np.ndarray], release: Iterable[str] = ()) -> int:
+        """Start a new generation (module docstring): the resident tiles of ``stale`` (kind →
+        codes) stand in until they are made again, those of the kinds in ``release`` (and
+        every one in blocking mode) are dropped at once, as are those the current producer
+        says are empty; every tile queued or being made is let go (asked again, it is made
+        from the current producers). Returns how many resident tiles were marked or dropped."""
+        release = set(release)
+        self.generation += 1
+        with self._lock:
+            self._fresh.clear()
+            self._awaiting.clear()
+            for kind, code in self._pending:
+                self._wanted[kind].set(code, _LONG_AGO)
+        self._pending.clear()
+        self._failed.clear()
+        for table in self._state.values():
+            table.clear()
+        for pool in self.cache.pools.values():
+            pool.pins[:] = 0        # the old jobs' pins: their tiles are dropped anyway
+        marked = 0
+        for kind, codes in stale.items():
+            pool = self.cache.pools[kind]
+            codes = np.ascontiguousarray(codes, np.int64)
+            codes = codes[pool.table.find_many(codes) >= 0]
+            if not len(codes):
+                continue
+            empty = self.producers[kind].empty_mask(codes)
+            drop = kind in release or self.mode == "blocking"
+            for code, gone in zip(codes.tolist(), empty.tolist()):
+                if drop or gone:
+                    pool.release(pool.slot(code))
+                    self._stale[kind].discard(code)
+                else:
+                    self._stale[kind].add(code)
+                marked += 1
+        return marked
+
+    def stale(self, kind: str) -> set[int]:
+        """Codes of the resident ``kind`` tiles standing in for their new versions (a copy)."""
+        pool = self.cache.pools[kind]
+        return {c for c in self._stale[kind] if c in pool}
+
+    def _is_stale(self, kind: str, code: int) -> bool:
+        return code in self._stale[kind]
+
+    def _store(self, kind: str, code: int, data, tick: int) -> bool:
+        """Install a made tile: a new one, or the new version of a stale one (into another
+        slot, the old one released: whoever syncs by slot sees the change); a tile already
+        resident and not stale is kept. Returns whether it was stored."""
+        pool = self.cache.pools[kind]
+        nbytes = self.producers[kind].nbytes(data)
+        stale = self._stale[kind]
+        if code in pool:
+            if code not in stale:
+                return False
+            pool.replace(code, data, nbytes, tick)
+            self.remade += 1
+        else:
+            pool.store(code, data, nbytes, tick)
+        stale.discard(code)
+        return True
 
     # -- requests --------------------------------------------------------------------------
 
@@ -212,6 +310,11 @@ class TileScheduler:
         pool = self.cache.pools[kind]
         codes = codes_of(keys) if codes is None else codes
         missing = pool.mark_used(codes, self.cache.tick)
+        stale = self._stale[kind]
+        if stale:                       # standing in: made again like missing ones
+            again = [c for c in codes.tolist() if c in stale]
+            if again:
+                missing = np.concatenate([missing, np.array(again, np.int64)])
         started = 0
         producer = self.producers[kind]
         if len(missing):
@@ -234,14 +337,14 @@ class TileScheduler:
         if self.mode == "blocking":
             self._make_now(kind, key, code)
             return 1
-        job = _Job(kind, key, code)
+        job = _Job(kind, key, code, generation=self.generation)
         started = 1
         for dep in self.producers[kind].dependencies(key):
             dkind, dkey = dep
             dcode = tile_code(*dkey)
             dpool = self.cache.pools[dkind]
             slot = dpool.slot(dcode)
-            if slot >= 0:
+            if slot >= 0 and not self._is_stale(dkind, dcode):
                 dpool.pins[slot] += 1
                 dpool.last_used[slot] = self.cache.tick
                 job.resident[dep] = (dpool, slot, dpool.tile(slot))
@@ -278,10 +381,10 @@ class TileScheduler:
             if self.producers[dkind].is_empty(dkey):
                 deps[dep] = None
                 continue
-            if dpool.slot(dcode) < 0:
+            if dpool.slot(dcode) < 0 or self._is_stale(dkind, dcode):
                 self._make_now(dkind, dkey, dcode)
             slot = dpool.slot(dcode)
-            if slot < 0:                                # it failed
+            if slot < 0 or self._is_stale(dkind, dcode):    # it failed
                 self._set_failed(kind, code)
                 return
             dpool.pins[slot] += 1
@@ -296,8 +399,8 @@ class TileScheduler:
         for dpool, slot in pinned:
             dpool.pins[slot] = max(dpool.pins[slot] - 1, 0)
         self.requested += 1
-        if data is not None:
-            self.cache.install(kind, code, data, self.producers[kind].nbytes(data))
+        if data is not None and self._store(kind, code, data, self.cache.tick):
+            self.cache.evict_to_budget()
 
     # -- worker and installation -----------------------------------------------------------------
 
@@ -321,9 +424,10 @@ class TileScheduler:
         """Worker side: make one queued tile (or drop it if no frame wants it any more, nor
         any wanted tile that waits for it)."""
         item = (job.kind, job.code)
+        producer = self.producers[job.kind]     # with the generation: one edit's sources
         with self._lock:
-            needed = self._is_wanted(item) or any(
-                self._is_wanted(w) for w in self._awaiting.get(item, ()))
+            needed = job.generation == self.generation and (self._is_wanted(item) or any(
+                self._is_wanted(w) for w in self._awaiting.get(item, ())))
         if not needed:
             self._release_awaited(job)
             self._hand_back(job, None, None)
@@ -348,14 +452,15 @@ class TileScheduler:
         data = None
         if error is None:
             try:
-                data = self._produce(job.kind, job.key, deps)
+                data = self._produce(job.kind, job.key, deps, producer)
             except Exception as exc:  # reported on the main thread by collect()
                 # (by its type and message: its traceback's frames hold this scheduler, a
                 # cycle that would keep a dropped world's tiles until the collector ran)
                 error = exc.with_traceback(None)
         if data is not None:
             with self._lock:
-                self._fresh[item] = data
+                if job.generation == self.generation:
+                    self._fresh[item] = data
         self._release_awaited(job)
         self._hand_back(job, data, error)
 
@@ -364,9 +469,10 @@ class TileScheduler:
         self._done.append((job, data, error))
         self._arrived.set()
 
-    def _from_memo(self, kind: str, key: TileKey, make) -> Any:
-        """The tile the scene's memo keeps, or ``make()`` it (and keep it there)."""
-        producer = self.producers[kind]
+    def _from_memo(self, kind: str, key: TileKey, make, producer: Producer | None = None) -> Any:
+        """The tile the scene's memo keeps, or ``make()`` it (and keep it there); ``producer``:
+        the one the tile is made with (default: the current one of ``kind``)."""
+        producer = producer or self.producers[kind]
         memo = producer.memo if producer.fields is not None else None
         if memo is None:
             return make()
@@ -378,17 +484,19 @@ class TileScheduler:
                 memo.put(tag, data)
         return data
 
-    def _produce(self, kind: str, key: TileKey, deps: dict) -> Any:
+    def _produce(self, kind: str, key: TileKey, deps: dict, producer: Producer) -> Any:
         """Worker side: the tile (:meth:`_from_memo`)."""
-        return self._from_memo(kind, key, lambda: self._make(kind, key, deps))
+        return self._from_memo(kind, key, lambda: self._make(kind, key, deps, producer),
+                               producer)
 
-    def _make(self, kind: str, key: TileKey, deps: dict) -> Any:
+    def _make(self, kind: str, key: TileKey, deps: dict, producer: Producer) -> Any:
         """Worker side: make the tile, in the worker process if there is one (a producer added
         after it was forked, or a process that died, makes it here)."""
         process = self._process
         if self._closed:         # closed since the job was taken: dropped, like a stale one
             return None
-        if process is not None and kind in self._process_kinds:
+        if process is not None and kind in self._process_kinds \
+                and producer is self.producers[kind]:
             try:
                 return process.produce(kind, key, deps)
             except TileProcessError:
@@ -401,7 +509,7 @@ class TileScheduler:
                     self.errors.append(f"the tile process ended ({type(exc).__name__}: {exc}); "
                                        "tiles are made in the worker thread from now on")
                     process.close(timeout_s=0.5)
-        return self.producers[kind].produce(key, deps)
+        return producer.produce(key, deps)
 
     @property
     def worker_pid(self) -> int | None:
@@ -510,6 +618,8 @@ class TileScheduler:
             if end is not None and installed and time.perf_counter() > end:
                 break
             job, data, error = self._done.popleft()
+            if job.generation != self.generation:   # made from the sources before an edit
+                continue
             item = (job.kind, job.code)
             self._pending.discard(item)
             if item not in self._failed:
@@ -518,10 +628,7 @@ class TileScheduler:
             if error is not None:
                 self._record_failure(job.kind, job.key, job.code, error)
             elif data is not None:
-                pool = self.cache.pools[job.kind]
-                if job.code not in pool:
-                    pool.store(job.code, data, self.producers[job.kind].nbytes(data),
-                               self.cache.tick)
+                if self._store(job.kind, job.code, data, self.cache.tick):
                     installed += 1
         if installed:
             self.cache.evict_to_budget()
