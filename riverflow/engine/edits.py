@@ -218,6 +218,28 @@ def branches_of_input(builder_or_graph) -> tuple[list[RiverBranch], list[np.ndar
     return branches_of_graph(graph, polygon), [], graph, None
 
 
+def fill_discharges(scene: Landscape, field: FlowField) -> None:
+    """Give the scene's branches without a discharge (a landscape made from a graph) the ψ
+    difference across their middle section, from the banks themselves (no tile is made: any
+    thread may call it), so the builder can rebuild the network."""
+    from riverflow.hydro.flow_field import TileBuilder
+    from riverflow.hydro.spill_network import section_discharge_m2s
+    from riverflow.kernels import flow as kf
+
+    missing = [b for b in scene.branches if b.discharge_m2s is None]
+    if not missing:
+        return
+    scratch = TileBuilder(field).block_scratch()
+
+    def potential(xy):
+        pts = np.ascontiguousarray(np.asarray(xy, np.float64).reshape(-1, 2))
+        psi = np.empty(len(pts))
+        kf.evaluate_potential(pts, psi, *field.network.kernel_args(), field.slip, *scratch)
+        return psi
+    for b in missing:
+        b.discharge_m2s = float(section_discharge_m2s(potential, b.centerline_m, b.widths_m))
+
+
 def _build(branches: list[RiverBranch], islands, tolerance_m: float
            ) -> tuple[HydroGraph, RiverNetworkBuilder]:
     builder = RiverNetworkBuilder(tolerance_m=tolerance_m)

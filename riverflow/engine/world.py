@@ -596,6 +596,7 @@ class RiverWorld:
         from riverflow.engine import edits
         from riverflow.hydro.tile_producer import FlowProducer
 
+        edits.fill_discharges(scene, field)
         branches, islands, graph = make(scene)
         new_scene, graph = edits.edited_scene(scene, branches, islands, graph)
         new_field = edits.edited_field(field, graph)
