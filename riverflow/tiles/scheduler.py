@@ -202,6 +202,7 @@ class TileScheduler:
         """Per kind, the codes of resident tiles standing in for their new versions."""
         self.remade = 0
         """Stale tiles replaced by their new versions so far."""
+        self._invalidated_at = 0
         for producer in producers:
             self.add(producer)
 
@@ -244,6 +245,7 @@ class TileScheduler:
         from the current producers). Returns how many resident tiles were marked or dropped."""
         release = set(release)
         self.generation += 1
+        self._invalidated_at = self.frame
         with self._lock:
             self._fresh.clear()
             self._awaiting.clear()
@@ -273,10 +275,34 @@ class TileScheduler:
                 marked += 1
         return marked
 
-    def stale(self, kind: str) -> set[int]:
-        """Codes of the resident ``kind`` tiles standing in for their new versions (a copy)."""
+    def stale(self, kind: str, *, wanted: bool = False) -> set[int]:
+        """Codes of the resident ``kind`` tiles standing in for their new versions (a copy);
+        ``wanted``: only those the latest frame asked for (in view)."""
         pool = self.cache.pools[kind]
-        return {c for c in self._stale[kind] if c in pool}
+        out = {c for c in self._stale[kind] if c in pool}
+        if wanted:
+            with self._lock:
+                out = {c for c in out if self._wanted[kind].get(c) == self.frame}
+        return out
+
+    def _let_stale_go(self) -> None:
+        """Stale tiles no frame asked for since the edit (or within stale_frames) are
+        released: a stand-in nobody reads is not kept to be read later."""
+        if self.frame - self._invalidated_at <= self.stale_frames:
+            return
+        for kind, stale in self._stale.items():
+            if not stale:
+                continue
+            pool = self.cache.pools[kind]
+            with self._lock:
+                table = self._wanted[kind]
+                old = [c for c in stale if not (self.frame - table.get(c) <= self.stale_frames
+                                                and table.get(c) >= self._invalidated_at)]
+            for code in old:
+                stale.discard(code)
+                slot = pool.slot(code)
+                if slot >= 0 and pool.pins[slot] == 0:
+                    pool.release(slot)
 
     def _is_stale(self, kind: str, code: int) -> bool:
         return code in self._stale[kind]
@@ -607,7 +633,10 @@ class TileScheduler:
         """Install the tiles the worker finished (main thread, start of a frame); returns how
         many were installed."""
         self.frame += 1
-        return self._install(self.install_budget_s)
+        installed = self._install(self.install_budget_s)
+        if any(self._stale.values()):
+            self._let_stale_go()
+        return installed
 
     def _install(self, budget_s: float | None = None) -> int:
         """Install what the worker finished: all of it, or (``budget_s``) until that long
