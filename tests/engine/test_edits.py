@@ -265,3 +265,31 @@ def test_a_thousand_random_edits_on_a_running_world(restore):
           f"{len(w.edit_errors)} refused in the background")
     assert abs(rss[1] - rss[0]) < 20.0, rss
     assert len(w.particles.ids) > 10
+
+
+def test_the_mouse_drags_a_centre_line(restore):
+    """The demo's edit mode (key X): press on a river, drag, and its centre line follows."""
+    from riverflow.engine.controls import CentreLineDrag
+
+    w = restore
+    _look_at(w, 0.0, frames=1)
+    line = w.scene.branches[0].centerline_m
+    k = len(line) // 2
+    z = w.scene.water.level(line[k][None, :])
+    (x, y), = w.camera.world_to_screen(np.r_[line[k], z][None, :])[0]
+    drag = CentreLineDrag()
+    assert not drag.press(w, x + 200.0, y + 200.0)             # nowhere near a river
+    assert drag.press(w, x + 3.0, y - 2.0) and drag.link == 0
+    for step in range(1, 6):                                   # a drag of 5 mouse moves
+        future = drag.drag(w, x, y + 4.0 * step)
+        w.step(1 / 30)
+    drag.release()
+    while w.edits.busy:
+        w.step(1 / 30)
+    assert future.done() and future.exception() is None
+    moved = w.scene.branches[0].centerline_m
+    origin, direction = w.camera.screen_to_ray([(x, y + 20.0)])
+    t = (z[0] - origin[0, 2]) / direction[0, 2]
+    assert np.hypot(*(moved[k] - (origin[0, :2] + t * direction[0, :2]))) < 1e-6
+    assert np.array_equal(moved[[0, -1]], line[[0, -1]])        # the ends stay
+    assert np.abs(moved - line).max() > 5.0
