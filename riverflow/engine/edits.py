@@ -64,7 +64,8 @@ class EditPlan:
     flow_boxes: np.ndarray
     """(F, 4): the flow tiles meeting them are made again."""
     segment_map: np.ndarray
-    """(S_old,) int32: each old flow segment's index in the new network, −1 if it is gone."""
+    """(S_old,) int32: each old flow segment's index in the new network (a segment gone: the
+    nearest new one, the tiles listing it being stale)."""
     changed: list[str] = field(default_factory=list)
     """Names of the branches whose water changed (added, moved, widened, removed)."""
 
@@ -365,19 +366,29 @@ def _segment_rows(net: FlowNetwork) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _segment_changes(old: FlowNetwork, new: FlowNetwork) -> tuple[np.ndarray, np.ndarray]:
+    """The old → new segment map and the boxes of the segments that changed. A segment gone
+    maps to the nearest new segment (by midpoint): the flow tiles that list it are near the
+    change, so they stand in (stale) until they are made again, and a stand-in's inside test
+    near the moved bank reads a bank nearby rather than a number past the new list."""
+    from scipy.spatial import cKDTree
+
     a, cut_a = _segment_rows(old)
     b, cut_b = _segment_rows(new)
     index = {row.tobytes(): i for i, row in enumerate(b)}
     seg_map = np.array([index.get(row.tobytes(), -1) for row in a], np.int32)
     kept = np.zeros(len(b), bool)
     kept[seg_map[seg_map >= 0]] = True
+    gone = seg_map < 0
     boxes = []
-    for rows, cut in ((a[seg_map < 0], cut_a[seg_map < 0]), (b[~kept], cut_b[~kept])):
+    for rows, cut in ((a[gone], cut_a[gone]), (b[~kept], cut_b[~kept])):
         if len(rows):
             lo = np.minimum(rows[:, :2], rows[:, 2:4]) - cut[:, None]
             hi = np.maximum(rows[:, :2], rows[:, 2:4]) + cut[:, None]
             boxes.append(np.hstack([lo, hi]))
     boxes = np.concatenate(boxes) if boxes else np.zeros((0, 4))
+    if gone.any() and len(b):
+        _, near = cKDTree(0.5 * (b[:, :2] + b[:, 2:4])).query(0.5 * (a[gone, :2] + a[gone, 2:4]))
+        seg_map[gone] = near
     return seg_map, _merge_boxes(boxes)
 
 

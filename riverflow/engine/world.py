@@ -596,13 +596,28 @@ class RiverWorld:
         from riverflow.engine import edits
         from riverflow.hydro.tile_producer import FlowProducer
 
+        import threading
+
+        scheduler = self.tiles.scheduler
+        background = threading.current_thread() is not threading.main_thread()
+
+        def between_frames():           # each piece starts in a frame's idle time
+            if background:
+                scheduler.wait_idle()
         edits.fill_discharges(scene, field)
         branches, islands, graph = make(scene)
+        between_frames()
         new_scene, graph = edits.edited_scene(scene, branches, islands, graph)
+        between_frames()
         new_field = edits.edited_field(field, graph)
+        between_frames()
         plan = edits.plan_edit(scene, field, new_scene, new_field)
+        between_frames()
         producers = [*terrain_producers(new_scene), FlowProducer(new_field)]
-        return plan, producers
+        between_frames()
+        # the tile process: forked here with the new producers (the frames go on meanwhile)
+        process = self.tiles.scheduler.fork_for(producers)
+        return plan, producers, process
 
     def _land_edit(self, block: bool = False) -> None:
         """Swap in a background edit that is ready (or, ``block``, wait for it), then start
@@ -641,13 +656,14 @@ class RiverWorld:
             live.thread = threading.Thread(target=run, name="riverflow-edit", daemon=True)
             live.thread.start()
 
-    def _apply_edit(self, plan, producers) -> list[str]:
+    def _apply_edit(self, plan, producers, process=None) -> list[str]:
         """Swap an edit in (main thread, between frames): module docstring of
         :mod:`riverflow.engine.edits`, step 3. Returns the changed branches' names."""
         from riverflow.components.flow_tiles import FLOW_KIND
         from riverflow.engine.edits import tiles_meeting
         from riverflow.scenes.tile_kinds import TERRAIN_KINDS
 
+        t0 = time.perf_counter()
         scheduler = self.tiles.scheduler
         cache = self.tiles.cache
         q = self.scene.quadtree
@@ -656,25 +672,25 @@ class RiverWorld:
         pool = old.tiles.pool
         slots = np.flatnonzero(pool.slot_code >= 0)
         codes = pool.slot_code[slots].copy()
-        released = 0
         if len(slots):
             # the tiles' bank lists, renumbered to the new network (an untouched segment is
-            # the same segment); a tile that lists a segment gone cannot stand in
-            seg = pool.arrays["cell_segments"][slots]
-            listed = seg >= 0
-            mapped = np.where(listed, plan.segment_map[np.where(listed, seg, 0)], -1)
-            lost = (listed & (mapped < 0)).reshape(len(slots), -1).any(axis=1)
-            pool.arrays["cell_segments"][slots] = mapped
-            for slot in slots[lost].tolist():
-                pool.release(slot)
-            released = int(lost.sum())
+            # the same segment, one gone the nearest new one: its tiles are near the change)
+            seg_map = plan.segment_map
+            moved = seg_map != np.arange(len(seg_map), dtype=seg_map.dtype)
+            if moved.any():
+                segments = pool.arrays["cell_segments"]
+                first = int(np.argmax(moved))        # the segments before it keep their number
+                for slot in slots.tolist():
+                    seg = segments[slot]
+                    if seg.max() >= first:
+                        segments[slot] = np.where(seg >= 0, seg_map[np.maximum(seg, 0)], -1)
             near = tiles_meeting(codes, q, plan.flow_boxes, old.tiles.n_cells)
-            stale[FLOW_KIND] = codes[near & ~lost]
+            stale[FLOW_KIND] = codes[near]
         n = self.scene.terrain.tile_cells
         for kind in TERRAIN_KINDS:
             kcodes = cache.pools[kind].codes()
             stale[kind] = kcodes[tiles_meeting(kcodes, q, plan.terrain_boxes, n)]
-        scheduler.replace_producers(producers)
+        scheduler.replace_producers(producers, process)
         scheduler.invalidate(stale)
         self.scene = plan.scene
         self.field = plan.field
@@ -689,9 +705,10 @@ class RiverWorld:
             self._carry_flood(router)
         live = self._edits
         live.applied += 1
-        live.last = {"changed": list(plan.changed), "released": released,
+        live.last = {"changed": list(plan.changed),
                      "marked": {k: len(v) for k, v in stale.items()},
-                     "applied_s": time.perf_counter()}
+                     "applied_s": time.perf_counter(),
+                     "swap_ms": (time.perf_counter() - t0) * 1e3}
         return list(plan.changed)
 
     def _carry_flood(self, old) -> None:

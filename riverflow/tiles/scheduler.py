@@ -216,11 +216,22 @@ class TileScheduler:
         self._state[producer.kind] = TileTable(1024)
         self._stale[producer.kind] = set()
 
-    def replace_producers(self, producers: Iterable[Producer]) -> None:
+    def fork_for(self, producers: Iterable[Producer]) -> ProducerProcess | None:
+        """A worker process forked now with ``producers`` in place of the current ones of
+        their kinds, for :meth:`replace_producers` (any thread may fork it: a live edit does,
+        in its background thread); None when tiles are not made in a process."""
+        if self.worker != "process" or self._process is None or self._closed:
+            return None
+        return ProducerProcess({**self.producers, **{p.kind: p for p in producers}},
+                               WORKER_NICE)
+
+    def replace_producers(self, producers: Iterable[Producer],
+                          process: ProducerProcess | None = None) -> None:
         """Make the tiles of the given kinds with these producers from now on (same kinds and
         fields as the ones they replace; call :meth:`invalidate` for the tiles this changes).
-        A worker process, forked with the old producers, is let go: the tiles are made in
-        the worker thread from then on."""
+        The worker process, forked with the old producers, is let go (closed in a thread of
+        its own: its end is not waited for in a frame); ``process`` (:meth:`fork_for` with
+        these producers) takes its place, else the tiles are made in the worker thread."""
         producers = list(producers)
         for producer in producers:
             old = self.producers.get(producer.kind)
@@ -232,10 +243,11 @@ class TileScheduler:
                                  "have other fields than the old one's")
         for producer in producers:
             self.producers[producer.kind] = producer
-        process, self._process = self._process, None
-        self._process_kinds = frozenset()
-        if process is not None:
-            process.close(timeout_s=0.1)
+        old, self._process = self._process, process
+        self._process_kinds = frozenset(self.producers) if process is not None else frozenset()
+        if old is not None:
+            threading.Thread(target=old.close, kwargs={"timeout_s": 1.0}, daemon=True,
+                             name="riverflow-tiles-close").start()
 
     def invalidate(self, stale: Mapping[str, np.ndarray], release: Iterable[str] = ()) -> int:
         """Start a new generation (module docstring): the resident tiles of ``stale`` (kind →
@@ -521,15 +533,16 @@ class TileScheduler:
         process = self._process
         if self._closed:         # closed since the job was taken: dropped, like a stale one
             return None
-        if process is not None and kind in self._process_kinds \
-                and producer is self.producers[kind]:
+        if producer is not self.producers[kind]:
+            return None            # made from the sources before an edit: dropped anyway
+        if process is not None and kind in self._process_kinds:
             try:
                 return process.produce(kind, key, deps)
             except TileProcessError:
                 raise
             except (EOFError, OSError, ValueError) as exc:
-                if self._closed:                   # closed meanwhile: the tile is dropped
-                    return None
+                if self._closed or producer is not self.producers[kind]:
+                    return None                    # closed or replaced meanwhile: dropped
                 if self._process is process:       # not closed meanwhile: it died
                     self._process = None
                     self.errors.append(f"the tile process ended ({type(exc).__name__}: {exc}); "
@@ -586,6 +599,11 @@ class TileScheduler:
                 process.resume()
         self._idle_since = time.perf_counter()
         self._idle.set()
+
+    def wait_idle(self, timeout_s: float = IDLE_WAIT_S) -> None:
+        """Wait (at most ``timeout_s``) until no frame runs: background work in Python (a
+        live edit) starts its next piece between frames, as the worker starts its tiles."""
+        self._idle.wait(timeout_s)
 
     def _pause_now(self) -> bool:
         if self.pause_in_frames == "auto":
