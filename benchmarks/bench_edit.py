@@ -47,9 +47,13 @@ def _bumped(line: np.ndarray, dy_m: float, at: float, width_m: float) -> np.ndar
     return line + (dy_m * weight)[:, None] * normal
 
 
-def _stale_in_view(world) -> int:
+RIVER_KINDS = ("flow", "water", "water_mesh")
+"""The tiles of the river itself (its flow, its level, its surface's mesh)."""
+
+
+def _stale_in_view(world, kinds=None) -> int:
     sched = world.tiles.scheduler
-    return sum(len(sched.stale(k, wanted=True)) for k in sched.producers)
+    return sum(len(sched.stale(k, wanted=True)) for k in (kinds or sched.producers))
 
 
 def run(size, edits: int, every: int, bump_m: float, warm: int, seed: int) -> dict:
@@ -87,24 +91,28 @@ def run(size, edits: int, every: int, bump_m: float, warm: int, seed: int) -> di
                  "quiet_ms_median": float(np.median(quiet[:, 0])),
                  "quiet_cpu_ms_median": float(np.median(quiet[:, 1])),
                  "quiet_ms_max": float(quiet[:, 0].max())}
-    during, swap_s, in_view_s, marked, swap_ms = [], [], [], [], []
+    during, swap_s, in_view_s, marked, swap_ms, river_s = [], [], [], [], [], []
     for e in range(edits):
         sign = 1.0 if e % 2 == 0 else -1.0
         t0 = time.perf_counter()
         applied = world.edits.applied if world.edits is not None else 0
         future = world.move_axis(link, _bumped(line0, sign * bump_m, at, width), wait=False)
-        swapped = None
+        swapped = river = None
         for k in range(every):
             during.append(frame())
             if swapped is None and world.edits.applied > applied:
                 swapped = time.perf_counter() - t0
                 marked.append(sum(world.edits.last["marked"].values()))
                 swap_ms.append(world.edits.last["swap_ms"])
+            if swapped is not None and river is None \
+                    and _stale_in_view(world, RIVER_KINDS) == 0:
+                river = time.perf_counter() - t0
             if swapped is not None and _stale_in_view(world) == 0:
                 in_view_s.append(time.perf_counter() - t0)
                 break
         else:
             in_view_s.append(np.nan)
+        river_s.append(river if river is not None else np.nan)
         swap_s.append(swapped if swapped is not None else np.nan)
         future.result(0) if future.done() else None
         for _ in range(every - 1 - k):
@@ -116,6 +124,8 @@ def run(size, edits: int, every: int, bump_m: float, warm: int, seed: int) -> di
         "tiles_marked_per_edit_mean": float(np.mean(marked)) if marked else 0.0,
         "swap_main_thread_ms_max": float(np.max(swap_ms)) if swap_ms else 0.0,
         "swap_s_median": float(np.nanmedian(swap_s)), "swap_s_max": float(np.nanmax(swap_s)),
+        "river_in_view_s_median": float(np.nanmedian(river_s)),
+        "river_in_view_s_max": float(np.nanmax(river_s)),
         "in_view_s_median": float(np.nanmedian(in_view_s)),
         "in_view_s_max": float(np.nanmax(in_view_s)),
         "in_view_late": int(np.sum(~(np.array(in_view_s) <= 0.5))),

@@ -661,7 +661,7 @@ class RiverWorld:
         :mod:`riverflow.engine.edits`, step 3. Returns the changed branches' names."""
         from riverflow.components.flow_tiles import FLOW_KIND
         from riverflow.engine.edits import tiles_meeting
-        from riverflow.scenes.tile_kinds import TERRAIN_KINDS
+        from riverflow.scenes.tile_kinds import TERRAIN_KINDS, WATER, WATER_MESH
 
         t0 = time.perf_counter()
         scheduler = self.tiles.scheduler
@@ -691,7 +691,7 @@ class RiverWorld:
             kcodes = cache.pools[kind].codes()
             stale[kind] = kcodes[tiles_meeting(kcodes, q, plan.terrain_boxes, n)]
         scheduler.replace_producers(producers, process)
-        scheduler.invalidate(stale)
+        scheduler.invalidate(stale, first=(FLOW_KIND, WATER, WATER_MESH))   # the river first
         self.scene = plan.scene
         self.field = plan.field
         with self.active():

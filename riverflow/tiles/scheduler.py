@@ -203,6 +203,7 @@ class TileScheduler:
         self.remade = 0
         """Stale tiles replaced by their new versions so far."""
         self._invalidated_at = 0
+        self._first: frozenset[str] = frozenset()
         for producer in producers:
             self.add(producer)
 
@@ -249,13 +250,16 @@ class TileScheduler:
             threading.Thread(target=old.close, kwargs={"timeout_s": 1.0}, daemon=True,
                              name="riverflow-tiles-close").start()
 
-    def invalidate(self, stale: Mapping[str, np.ndarray], release: Iterable[str] = ()) -> int:
+    def invalidate(self, stale: Mapping[str, np.ndarray], release: Iterable[str] = (),
+                   first: Iterable[str] = ()) -> int:
         """Start a new generation (module docstring): the resident tiles of ``stale`` (kind →
-        codes) stand in until they are made again, those of the kinds in ``release`` (and
-        every one in blocking mode) are dropped at once, as are those the current producer
-        says are empty; every tile queued or being made is let go (asked again, it is made
-        from the current producers). Returns how many resident tiles were marked or dropped."""
+        codes) stand in until they are made again, before any other tile (those of the kinds
+        in ``first`` first of all), those of the kinds in ``release`` (and every one in
+        blocking mode) are dropped at once, as are those the current producer says are
+        empty; every tile queued or being made is let go (asked again, it is made from the
+        current producers). Returns how many resident tiles were marked or dropped."""
         release = set(release)
+        self._first = frozenset(first)
         self.generation += 1
         self._invalidated_at = self.frame
         with self._lock:
@@ -405,7 +409,10 @@ class TileScheduler:
         self._state[kind].set(code, _PENDING)
         self.requested += 1
         self._ensure_thread()
-        self._queue.put((key[0], next(self._seq), job))
+        # coarse first; a stale tile (a live edit) before any, the kinds asked first first
+        priority = key[0] if code not in self._stale[kind] else (
+            -2 if kind in self._first else -1)
+        self._queue.put((priority, next(self._seq), job))
         return started
 
     def _make_now(self, kind: str, key: TileKey, code: int) -> None:
