@@ -680,10 +680,10 @@ class RiverWorld:
             if moved.any():
                 segments = pool.arrays["cell_segments"]
                 first = int(np.argmax(moved))        # the segments before it keep their number
-                for slot in slots.tolist():
-                    seg = segments[slot]
-                    if seg.max() >= first:
-                        segments[slot] = np.where(seg >= 0, seg_map[np.maximum(seg, 0)], -1)
+                top = segments[slots].reshape(len(slots), -1).max(axis=1)
+                renumber = slots[top >= first]
+                lookup = np.concatenate([[-1], seg_map]).astype(segments.dtype)   # −1 stays
+                segments[renumber] = lookup[segments[renumber] + 1]
             near = tiles_meeting(codes, q, plan.flow_boxes, old.tiles.n_cells)
             stale[FLOW_KIND] = codes[near]
         n = self.scene.terrain.tile_cells
