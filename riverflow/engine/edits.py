@@ -68,6 +68,11 @@ class EditPlan:
     nearest new one, the tiles listing it being stale)."""
     changed: list[str] = field(default_factory=list)
     """Names of the branches whose water changed (added, moved, widened, removed)."""
+    renumbered: tuple | None = None
+    """(slots, their codes, their new bank lists): the flow tiles resident when the edit was
+    planned, renumbered (:func:`renumbered_segments`) in the edit's thread."""
+    renumbered_all: tuple | None = None
+    """(slots, codes) of every flow tile resident when the edit was planned."""
 
 
 # -- step 1: the new network ------------------------------------------------------------------
@@ -401,6 +406,22 @@ def _merge_boxes(boxes: np.ndarray, limit: int = 512) -> np.ndarray:
     out = [np.r_[boxes[s:s + step, :2].min(axis=0), boxes[s:s + step, 2:].max(axis=0)]
            for s in range(0, len(boxes), step)]
     return np.array(out)
+
+
+def renumbered_segments(segments: np.ndarray, slots: np.ndarray, seg_map: np.ndarray
+                        ) -> tuple[np.ndarray, np.ndarray]:
+    """The flow pool's bank lists (``segments``: the pool's ``cell_segments``) of ``slots``
+    in the new network's numbers: (the slots that list a renumbered segment, their new
+    lists); the other slots' lists stay as they are. Reads the pool, writes nothing (an edit's
+    thread makes them while the frames run; :meth:`RiverWorld._apply_edit` stores them)."""
+    moved = seg_map != np.arange(len(seg_map), dtype=seg_map.dtype)
+    if not moved.any() or not len(slots):
+        return slots[:0], segments[:0]
+    first = int(np.argmax(moved))          # the segments before it keep their numbers
+    top = segments[slots].reshape(len(slots), -1).max(axis=1)
+    slots = slots[top >= first]
+    lookup = np.concatenate([[-1], seg_map]).astype(segments.dtype)      # −1 stays −1
+    return slots, lookup[segments[slots] + 1]
 
 
 def tiles_meeting(codes: np.ndarray, quadtree, boxes: np.ndarray, cells: int) -> np.ndarray:

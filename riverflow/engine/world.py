@@ -613,6 +613,14 @@ class RiverWorld:
         between_frames()
         plan = edits.plan_edit(scene, field, new_scene, new_field)
         between_frames()
+        pool = field.tiles.pool                # the resident flow tiles, renumbered here
+        slots = np.flatnonzero(pool.slot_code >= 0)
+        codes = pool.slot_code[slots].copy()
+        renumber, lists = edits.renumbered_segments(pool.arrays["cell_segments"], slots,
+                                                    plan.segment_map)
+        plan.renumbered = (renumber, pool.slot_code[renumber].copy(), lists)
+        plan.renumbered_all = (slots, codes)
+        between_frames()
         producers = [*terrain_producers(new_scene), FlowProducer(new_field)]
         between_frames()
         # the tile process: forked here with the new producers (the frames go on meanwhile)
@@ -660,7 +668,7 @@ class RiverWorld:
         """Swap an edit in (main thread, between frames): module docstring of
         :mod:`riverflow.engine.edits`, step 3. Returns the changed branches' names."""
         from riverflow.components.flow_tiles import FLOW_KIND
-        from riverflow.engine.edits import tiles_meeting
+        from riverflow.engine.edits import renumbered_segments, tiles_meeting
         from riverflow.scenes.tile_kinds import TERRAIN_KINDS, WATER, WATER_MESH
 
         t0 = time.perf_counter()
@@ -675,15 +683,20 @@ class RiverWorld:
         if len(slots):
             # the tiles' bank lists, renumbered to the new network (an untouched segment is
             # the same segment, one gone the nearest new one: its tiles are near the change)
-            seg_map = plan.segment_map
-            moved = seg_map != np.arange(len(seg_map), dtype=seg_map.dtype)
-            if moved.any():
-                segments = pool.arrays["cell_segments"]
-                first = int(np.argmax(moved))        # the segments before it keep their number
-                top = segments[slots].reshape(len(slots), -1).max(axis=1)
-                renumber = slots[top >= first]
-                lookup = np.concatenate([[-1], seg_map]).astype(segments.dtype)   # −1 stays
-                segments[renumber] = lookup[segments[renumber] + 1]
+            # made in the edit's thread for the tiles resident then (a slot holding the same
+            # tile now holds the same lists: a tile of the old network is always the same);
+            # the tiles installed since are renumbered here
+            segments = pool.arrays["cell_segments"]
+            done = np.zeros(0, np.int64)
+            if plan.renumbered is not None:
+                (ready, ready_codes, lists), (seen, seen_codes) = (plan.renumbered,
+                                                                   plan.renumbered_all)
+                same = pool.slot_code[ready] == ready_codes
+                segments[ready[same]] = lists[same]
+                done = seen[pool.slot_code[seen] == seen_codes]
+            rest = np.setdiff1d(slots, done)
+            rest, lists = renumbered_segments(segments, rest, plan.segment_map)
+            segments[rest] = lists
             near = tiles_meeting(codes, q, plan.flow_boxes, old.tiles.n_cells)
             stale[FLOW_KIND] = codes[near]
         n = self.scene.terrain.tile_cells

@@ -204,6 +204,7 @@ class TileScheduler:
         """Stale tiles replaced by their new versions so far."""
         self._invalidated_at = 0
         self._first: frozenset[str] = frozenset()
+        self._stale_codes: dict[str, np.ndarray] = {}     # the stale sets as arrays (request)
         for producer in producers:
             self.add(producer)
 
@@ -260,6 +261,7 @@ class TileScheduler:
         current producers). Returns how many resident tiles were marked or dropped."""
         release = set(release)
         self._first = frozenset(first)
+        self._stale_codes.clear()        # (only invalidate adds to a stale set)
         self.generation += 1
         self._invalidated_at = self.frame
         with self._lock:
@@ -354,9 +356,12 @@ class TileScheduler:
         missing = pool.mark_used(codes, self.cache.tick)
         stale = self._stale[kind]
         if stale:                       # standing in: made again like missing ones
-            again = [c for c in codes.tolist() if c in stale]
-            if again:
-                missing = np.concatenate([missing, np.array(again, np.int64)])
+            known = self._stale_codes.get(kind)
+            if known is None or len(known) != len(stale):
+                known = self._stale_codes[kind] = np.fromiter(stale, np.int64, len(stale))
+            again = codes[np.isin(codes, known)]
+            if len(again):
+                missing = np.concatenate([missing, again])
         started = 0
         producer = self.producers[kind]
         if len(missing):
@@ -659,7 +664,7 @@ class TileScheduler:
         many were installed."""
         self.frame += 1
         installed = self._install(self.install_budget_s)
-        if any(self._stale.values()):
+        if self.frame % 8 == 0 and any(self._stale.values()):
             self._let_stale_go()
         return installed
 
