@@ -458,10 +458,12 @@ class LiveEdits:
     edits raised (the world keeps its network then)."""
 
     def __init__(self) -> None:
-        self.thread = None
+        self.thread = None          # a threading.Event while an edit is made, set when done
         self.result = None          # (plan, producers) or an exception, set by the thread
         self.future = None
         self.queued = None          # (make_plan, future)
+        self._worker = None         # the edits' thread (start)
+        self._jobs = None
         self.errors: list[str] = []
         self.applied = 0
         """Edits swapped in so far."""
@@ -472,3 +474,54 @@ class LiveEdits:
     @property
     def busy(self) -> bool:
         return self.thread is not None or self.queued is not None
+
+    def start(self, run) -> None:
+        """Run ``run()`` in the edits' thread: one thread for the world's life, not one per
+        edit, because the tile process an edit forks there is killed when the thread that
+        forked it ends (``PR_SET_PDEATHSIG``: :mod:`riverflow.tiles.remote`)."""
+        import queue
+        import threading
+        import weakref
+
+        if self._worker is None or not self._worker.is_alive():
+            self._jobs = queue.Queue()
+            self._worker = threading.Thread(target=_serve_edits,
+                                            args=(weakref.ref(self), self._jobs),
+                                            name="riverflow-edits", daemon=True)
+            self._worker.start()
+        done = threading.Event()
+        self.thread = done                   # busy until ``run`` has set the result
+        self._jobs.put((run, done))
+
+    def running(self) -> bool:
+        return self.thread is not None and not self.thread.is_set()
+
+    def join(self) -> None:
+        if self.thread is not None:
+            self.thread.wait()
+
+    def stop(self) -> None:
+        if self._worker is not None:
+            self._jobs.put(None)
+            self._worker = None
+
+
+def _serve_edits(ref, jobs) -> None:
+    """The edits' thread: runs what :meth:`LiveEdits.start` hands it until told to stop or
+    its LiveEdits is gone."""
+    import queue
+
+    while True:
+        try:
+            job = jobs.get(timeout=1.0)
+        except queue.Empty:
+            if ref() is None:
+                return
+            continue
+        if job is None:
+            return
+        run, done = job
+        try:
+            run()
+        finally:
+            done.set()

@@ -544,8 +544,8 @@ class RiverWorld:
         """Add a branch: centre line ``points_m`` (K, 2) [m] drawn downstream, widths [m],
         ``discharge_m2s`` (needed for a source; an end on another branch's end meets it
         there). See :meth:`move_axis`."""
-        return self._edit_branches(None, None, wait, op="add", points=points_m,
-                                   widths=widths_m, discharge_m2s=discharge_m2s, name=name)
+        return self._edit_branches("add", None, wait, points=points_m, widths=widths_m,
+                                   discharge_m2s=discharge_m2s, name=name)
 
     def remove_branch(self, link, *, wait: bool = True):
         """Remove branch ``link`` (a name or an index of ``world.scene.branches``). See
@@ -566,7 +566,6 @@ class RiverWorld:
     def _edit_branches(self, op, link, wait: bool, **args):
         from riverflow.engine import edits
 
-        op = args.pop("op", op)
         edits.edited_branches(self.scene, op, link, **args)    # bad arguments raise here, now
 
         def make(scene):
@@ -587,7 +586,9 @@ class RiverWorld:
             plan = self._plan(make, self.scene, self.field)
             return self._apply_edit(*plan)
         future = Future()
-        live.queued = (make, future)              # a newer edit replaces one still waiting
+        if live.queued is not None:               # a newer edit replaces one still waiting
+            live.queued[1].cancel()
+        live.queued = (make, future)
         self._land_edit()
         return future
 
@@ -630,13 +631,11 @@ class RiverWorld:
     def _land_edit(self, block: bool = False) -> None:
         """Swap in a background edit that is ready (or, ``block``, wait for it), then start
         the one waiting."""
-        import threading
-
         live = self._edits
         if live.thread is not None:
             if block:
-                live.thread.join()
-            if live.thread.is_alive():
+                live.join()
+            if live.running():
                 return
             live.thread = None
             result, future = live.result, live.future
@@ -661,8 +660,7 @@ class RiverWorld:
                 except BaseException as exc:
                     live.result = exc.with_traceback(None)
             live.future = future
-            live.thread = threading.Thread(target=run, name="riverflow-edit", daemon=True)
-            live.thread.start()
+            live.start(run)
 
     def _apply_edit(self, plan, producers, process=None) -> list[str]:
         """Swap an edit in (main thread, between frames): module docstring of
@@ -994,6 +992,8 @@ class RiverWorld:
         """Stop the tile worker thread, release GPU objects (while their OpenGL context lives)
         and delete the esper world. Idempotent; a world dropped without it does the same
         when it is collected."""
+        if self._edits is not None:
+            self._edits.stop()
         self._finalizer()
 
     def __enter__(self) -> RiverWorld:

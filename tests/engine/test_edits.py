@@ -295,3 +295,29 @@ def test_the_mouse_drags_a_centre_line(restore):
     assert np.hypot(*(moved[k] - (origin[0, :2] + t * direction[0, :2]))) < 1e-6
     assert np.array_equal(moved[[0, -1]], line[[0, -1]])        # the ends stay
     assert np.abs(moved - line).max() > 5.0
+
+
+def test_branches_added_removed_and_a_whole_network(restore):
+    w = restore
+    x = np.linspace(-150.0, 150.0, 16)
+    line = np.c_[x, 350.0 + 0.0 * x]
+    with pytest.raises(GraphError, match="give its discharge"):
+        w.add_branch(line, 16.0, name="new")            # a source needs its discharge
+    assert w.add_branch(line, 16.0, 8.0, name="new") == ["new"]
+    assert [b.name for b in w.scene.branches][-1] == "new"
+    _settle(w)
+    assert np.isfinite(w.field.potential(line[8][None, :]))[0]
+    with pytest.raises(ValueError, match="exists already"):
+        w.add_branch(line + (0.0, 50.0), 16.0, 8.0, name="new")
+    assert w.remove_branch("new") == ["new"]
+    assert len(w.scene.branches) == 2
+    _settle(w)
+    assert np.isnan(w.field.potential(line[8][None, :]))[0]
+    builder = RiverNetworkBuilder(tolerance_m=TOLERANCE_M)    # a whole network, one moved
+    builder.add_branch(_line(0.0), WIDTH_M, 12.0)
+    builder.add_branch(_line(650.0), WIDTH_M, 12.0)
+    w.edit_network(builder)
+    _settle(w)
+    assert np.isfinite(w.field.potential(_line(650.0)[10][None, :]))[0]
+    with pytest.raises(TypeError, match="RiverNetworkBuilder or a HydroGraph"):
+        w.edit_network("rivers.gpkg")
