@@ -158,3 +158,19 @@ def test_replace_producers_checks_kinds_and_fields():
     other.fields = {"v": FieldSpec((N + 1, N), np.float64, np.nan)}
     with pytest.raises(ValueError, match="other fields"):
         sched.replace_producers([other])
+
+
+def test_stale_tiles_no_frame_asks_for_are_let_go():
+    sched = TileScheduler(TileCache(1 << 20), [Level(1.0)], stale_frames=4)
+    try:
+        _made(sched, KEYS[:4])
+        sched.replace_producers([Level(2.0)])
+        sched.invalidate({"a": codes(KEYS[:4])})
+        for _ in range(16):                   # the view asks for the first two only
+            sched.collect()
+            sched.request("a", KEYS[:2])
+            sched.wait(5.0)
+        assert not sched.stale("a")
+        assert _resident(sched, "a") == {int(c): 2.0 for c in codes(KEYS[:2])}
+    finally:
+        sched.close()
