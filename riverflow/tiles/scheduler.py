@@ -636,8 +636,10 @@ class TileScheduler:
         the same tiles whatever the machine's load and whenever the worker ran; only where and
         when the work is done changes. The tiles are made in the frame's own thread, at its
         priority: a frame that waited for the worker would wait for a nice-19 process, which a
-        busy machine starves (seconds a tile)."""
-        self._install()
+        busy machine starves (seconds a tile). The new versions of stale tiles (a live edit)
+        are installed within :attr:`install_budget_s` a frame, as :meth:`collect` does: the
+        old ones stand in meanwhile."""
+        self._install(replacements_s=self.install_budget_s)
         made = 0
         for kind, codes in wanted:
             codes = np.ascontiguousarray(codes, np.int64)
@@ -668,16 +670,28 @@ class TileScheduler:
             self._let_stale_go()
         return installed
 
-    def _install(self, budget_s: float | None = None) -> int:
+    def _install(self, budget_s: float | None = None, replacements_s: float | None = None
+                 ) -> int:
         """Install what the worker finished: all of it, or (``budget_s``) until that long
-        has been spent (at least one tile)."""
+        has been spent (at least one tile); ``replacements_s``: the new versions of stale
+        tiles (which stand in meanwhile: no frame needs them) only until that long has been
+        spent, the others all."""
         installed = 0
-        end = None if budget_s is None else time.perf_counter() + budget_s
+        now = time.perf_counter()
+        end = None if budget_s is None else now + budget_s
+        replace_end = None if replacements_s is None else now + replacements_s
+        later = []
         while self._done:
             if end is not None and installed and time.perf_counter() > end:
                 break
             job, data, error = self._done.popleft()
             if job.generation != self.generation:   # made from the sources before an edit
+                continue
+            if (replace_end is not None and data is not None and error is None
+                    and job.code in self._stale[job.kind] and installed
+                    and time.perf_counter() > replace_end
+                    and job.code in self.cache.pools[job.kind]):
+                later.append((job, data, error))    # a later frame's
                 continue
             item = (job.kind, job.code)
             self._pending.discard(item)
@@ -689,6 +703,8 @@ class TileScheduler:
             elif data is not None:
                 if self._store(job.kind, job.code, data, self.cache.tick):
                     installed += 1
+        if later:
+            self._done.extendleft(reversed(later))
         if installed:
             self.cache.evict_to_budget()
         with self._lock:
