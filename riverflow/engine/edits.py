@@ -73,6 +73,9 @@ class EditPlan:
     planned, renumbered (:func:`renumbered_segments`) in the edit's thread."""
     renumbered_all: tuple | None = None
     """(slots, codes) of every flow tile resident when the edit was planned."""
+    cell_network: object = None
+    """The new network's cells for a running flood (:mod:`riverflow.hydro.spill_network`),
+    None without one."""
 
 
 # -- step 1: the new network ------------------------------------------------------------------
@@ -492,6 +495,16 @@ class LiveEdits:
         done = threading.Event()
         self.thread = done                   # busy until ``run`` has set the result
         self._jobs.put((run, done))
+
+    def run_later(self, fn) -> None:
+        """Run ``fn()`` in the edits' thread after what it does now (closing a tile process
+        replaced by an edit: its end is not waited for in a frame)."""
+        import threading
+
+        if self._worker is None or not self._worker.is_alive():
+            threading.Thread(target=fn, daemon=True, name="riverflow-edits-close").start()
+            return
+        self._jobs.put((fn, threading.Event()))
 
     def running(self) -> bool:
         return self.thread is not None and not self.thread.is_set()

@@ -622,6 +622,12 @@ class RiverWorld:
         plan.renumbered = (renumber, pool.slot_code[renumber].copy(), lists)
         plan.renumbered_all = (slots, codes)
         between_frames()
+        if self.flood is not None:              # the flood's cells on the new network
+            from riverflow.hydro.spill_network import build_spill_network
+
+            plan.cell_network = build_spill_network(
+                new_scene.branches, [b.discharge_m2s for b in new_scene.branches])
+            between_frames()
         producers = [*terrain_producers(new_scene), FlowProducer(new_field)]
         between_frames()
         # the tile process: forked here with the new producers (the frames go on meanwhile)
@@ -692,7 +698,9 @@ class RiverWorld:
                 same = pool.slot_code[ready] == ready_codes
                 segments[ready[same]] = lists[same]
                 done = seen[pool.slot_code[seen] == seen_codes]
-            rest = np.setdiff1d(slots, done)
+            seen_now = np.zeros(len(pool.slot_code), bool)
+            seen_now[done] = True
+            rest = slots[~seen_now[slots]]
             rest, lists = renumbered_segments(segments, rest, plan.segment_map)
             segments[rest] = lists
             near = tiles_meeting(codes, q, plan.flow_boxes, old.tiles.n_cells)
@@ -701,7 +709,9 @@ class RiverWorld:
         for kind in TERRAIN_KINDS:
             kcodes = cache.pools[kind].codes()
             stale[kind] = kcodes[tiles_meeting(kcodes, q, plan.terrain_boxes, n)]
-        scheduler.replace_producers(producers, process)
+        old_process = scheduler.replace_producers(producers, process, close_old=False)
+        if old_process is not None:     # closed in the edits' thread, not in this frame
+            self._edits.run_later(old_process.close)
         scheduler.invalidate(stale, first=(FLOW_KIND, WATER, WATER_MESH))   # the river first
         self.scene = plan.scene
         self.field = plan.field
@@ -713,7 +723,7 @@ class RiverWorld:
         terrain.z_max = max(terrain.z_max, float(plan.scene.z_range_m[1]))
         router = self.flood
         if router is not None:
-            self._carry_flood(router)
+            self._carry_flood(router, plan.cell_network)
         live = self._edits
         live.applied += 1
         live.last = {"changed": list(plan.changed),
@@ -722,12 +732,13 @@ class RiverWorld:
                      "swap_ms": (time.perf_counter() - t0) * 1e3}
         return list(plan.changed)
 
-    def _carry_flood(self, old) -> None:
-        """A flood router on the edited network, with the old one's hydrographs of the
-        branches that are still there (by name) and its clock."""
+    def _carry_flood(self, old, network=None) -> None:
+        """A flood router on the edited network (``network``: its cells, made in the edit's
+        thread), with the old one's hydrographs of the branches still there (by name) and its
+        clock."""
         from riverflow.hydro.flood import FloodRouter
 
-        router = FloodRouter(self._cell_network(), old.clock_s)
+        router = FloodRouter(network or self._cell_network(), old.clock_s)
         names = old.network.names
         for b, (t, q) in old.hydrographs.items():
             if names[b] in router.network.names:

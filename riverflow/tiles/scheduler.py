@@ -228,12 +228,14 @@ class TileScheduler:
                                WORKER_NICE)
 
     def replace_producers(self, producers: Iterable[Producer],
-                          process: ProducerProcess | None = None) -> None:
+                          process: ProducerProcess | None = None, *,
+                          close_old: bool = True) -> ProducerProcess | None:
         """Make the tiles of the given kinds with these producers from now on (same kinds and
         fields as the ones they replace; call :meth:`invalidate` for the tiles this changes).
         The worker process, forked with the old producers, is let go (closed in a thread of
         its own: its end is not waited for in a frame); ``process`` (:meth:`fork_for` with
-        these producers) takes its place, else the tiles are made in the worker thread."""
+        these producers) takes its place, else the tiles are made in the worker thread.
+        ``close_old`` False: the old process is handed back for the caller to close."""
         producers = list(producers)
         for producer in producers:
             old = self.producers.get(producer.kind)
@@ -247,9 +249,11 @@ class TileScheduler:
             self.producers[producer.kind] = producer
         old, self._process = self._process, process
         self._process_kinds = frozenset(self.producers) if process is not None else frozenset()
-        if old is not None:
+        if old is not None and close_old:
             threading.Thread(target=old.close, kwargs={"timeout_s": 1.0}, daemon=True,
                              name="riverflow-tiles-close").start()
+            return None
+        return old
 
     def invalidate(self, stale: Mapping[str, np.ndarray], release: Iterable[str] = (),
                    first: Iterable[str] = ()) -> int:
