@@ -427,6 +427,22 @@ def renumbered_segments(segments: np.ndarray, slots: np.ndarray, seg_map: np.nda
     return slots, lookup[segments[slots] + 1]
 
 
+def tile_distances(codes: np.ndarray, quadtree, points: np.ndarray) -> np.ndarray:
+    """(K,) distance [m] from each tile's centre to the nearest of ``points`` (P, 2) (inf with
+    none): the order a live edit's stale tiles are made again in."""
+    codes = np.asarray(codes, np.int64)
+    if not len(codes) or not len(points):
+        return np.full(len(codes), np.inf)
+    from scipy.spatial import cKDTree
+
+    mask = (1 << 28) - 1
+    size = quadtree.root_size_m / np.exp2((codes >> 56).astype(np.float64))
+    x = quadtree.root_x_m + ((codes & mask).astype(np.float64) + 0.5) * size
+    y = quadtree.root_y_m + (((codes >> 28) & mask).astype(np.float64) + 0.5) * size
+    d, _ = cKDTree(points).query(np.column_stack([x, y]))
+    return d
+
+
 def tiles_meeting(codes: np.ndarray, quadtree, boxes: np.ndarray, cells: int) -> np.ndarray:
     """(K,) bool: the tiles of ``codes`` whose footprint (widened by EDGE_CELLS of its
     ``cells`` cells a side) meets one of ``boxes`` (B, 4) [m]."""

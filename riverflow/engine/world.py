@@ -672,7 +672,7 @@ class RiverWorld:
         """Swap an edit in (main thread, between frames): module docstring of
         :mod:`riverflow.engine.edits`, step 3. Returns the changed branches' names."""
         from riverflow.components.flow_tiles import FLOW_KIND
-        from riverflow.engine.edits import renumbered_segments, tiles_meeting
+        from riverflow.engine.edits import renumbered_segments, tile_distances, tiles_meeting
         from riverflow.scenes.tile_kinds import TERRAIN_KINDS, WATER, WATER_MESH
 
         t0 = time.perf_counter()
@@ -712,7 +712,11 @@ class RiverWorld:
         old_process = scheduler.replace_producers(producers, process, close_old=False)
         if old_process is not None:     # closed in the edits' thread, not in this frame
             self._edits.run_later(old_process.close)
-        scheduler.invalidate(stale, first=(FLOW_KIND, WATER, WATER_MESH))   # the river first
+        # the river's kinds first, each kind's tiles nearest the change first
+        centres = np.concatenate([plan.terrain_boxes, plan.flow_boxes])
+        centres = 0.5 * (centres[:, :2] + centres[:, 2:])
+        rank = {kind: tile_distances(codes_, q, centres) for kind, codes_ in stale.items()}
+        scheduler.invalidate(stale, first=(FLOW_KIND, WATER, WATER_MESH), rank=rank)
         self.scene = plan.scene
         self.field = plan.field
         with self.active():

@@ -204,6 +204,7 @@ class TileScheduler:
         """Stale tiles replaced by their new versions so far."""
         self._invalidated_at = 0
         self._first: frozenset[str] = frozenset()
+        self._rank: dict[str, dict[int, float]] = {}      # kind → code → [0, 1) (invalidate)
         self._stale_codes: dict[str, np.ndarray] = {}     # the stale sets as arrays (request)
         for producer in producers:
             self.add(producer)
@@ -256,14 +257,24 @@ class TileScheduler:
         return old
 
     def invalidate(self, stale: Mapping[str, np.ndarray], release: Iterable[str] = (),
-                   first: Iterable[str] = ()) -> int:
+                   first: Iterable[str] = (),
+                   rank: Mapping[str, np.ndarray] | None = None) -> int:
         """Start a new generation (module docstring): the resident tiles of ``stale`` (kind →
         codes) stand in until they are made again, before any other tile (those of the kinds
         in ``first`` first of all), those of the kinds in ``release`` (and every one in
         blocking mode) are dropped at once, as are those the current producer says are
         empty; every tile queued or being made is let go (asked again, it is made from the
-        current producers). Returns how many resident tiles were marked or dropped."""
+        current producers). ``rank`` (kind → a number per code of ``stale``, smaller first:
+        the distance to the change) orders the stale tiles of a kind. Returns how many
+        resident tiles were marked or dropped."""
         release = set(release)
+        self._rank = {}
+        for kind, values in (rank or {}).items():
+            values = np.asarray(values, np.float64)
+            values = np.where(np.isfinite(values) & (values >= 0), values, 0.0)
+            top = float(values.max()) if len(values) else 0.0
+            self._rank[kind] = dict(zip(np.asarray(stale[kind], np.int64).tolist(),
+                                        (values / (top + 1.0)).tolist()))
         self._first = frozenset(first)
         self._stale_codes.clear()        # (only invalidate adds to a stale set)
         self.generation += 1
@@ -420,7 +431,7 @@ class TileScheduler:
         self._ensure_thread()
         # coarse first; a stale tile (a live edit) before any, the kinds asked first first
         priority = key[0] if code not in self._stale[kind] else (
-            -2 if kind in self._first else -1)
+            (-2 if kind in self._first else -1) + self._rank.get(kind, {}).get(code, 0.0))
         self._queue.put((priority, next(self._seq), job))
         return started
 

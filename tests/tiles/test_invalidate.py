@@ -174,3 +174,26 @@ def test_stale_tiles_no_frame_asks_for_are_let_go():
         assert _resident(sched, "a") == {int(c): 2.0 for c in codes(KEYS[:2])}
     finally:
         sched.close()
+
+
+def test_stale_tiles_are_made_again_nearest_first():
+    gate = threading.Event()
+    sched = TileScheduler(TileCache(1 << 20), [Level(1.0)])
+    try:
+        _made(sched, KEYS[:4])
+        new = Level(2.0, gate)
+        order = []
+        produce = new.produce
+        new.produce = lambda key, deps: (order.append(tuple(key)), produce(key, deps))[1]
+        sched.replace_producers([new])
+        stale = codes(KEYS[:4])
+        sched.invalidate({"a": stale}, rank={"a": np.array([30.0, 0.0, 20.0, 10.0])})
+        sched.max_starts = 4
+        sched.request("a", KEYS[:4])          # all four queued before the worker starts one
+        gate.set()
+        _made(sched, KEYS[:4])
+        rank = {tuple(k): r for k, r in zip(KEYS[:4].tolist(), (30.0, 0.0, 20.0, 10.0))}
+        later = [rank[k] for k in order[1:]]   # (the first may be taken before all are queued)
+        assert sorted(order) == sorted(rank) and later == sorted(later)
+    finally:
+        sched.close()
