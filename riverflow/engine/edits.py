@@ -129,7 +129,8 @@ def edited_branches(scene: Landscape, op: str, link=None, **args) -> list[RiverB
 
     * ``"width"``: ``widths`` (one number or one per centre-line point) [m];
     * ``"axis"``: ``points`` (K, 2) [m], the new centre line drawn downstream; an end that
-      meets a junction must stay there (the widths are carried along the arc length);
+      meets a junction must stay there; ``widths`` (optional: else the old ones, carried along
+      the arc length);
     * ``"add"``: ``points``, ``widths``, ``discharge_m2s`` (needed for a source), ``name``;
     * ``"remove"``: the branch ``link``.
 
@@ -167,7 +168,11 @@ def edited_branches(scene: Landscape, op: str, link=None, **args) -> list[RiverB
             pts[0] = b.centerline_m[0]
         if b.end_junction >= 0:
             pts[-1] = b.centerline_m[-1]
-        b.widths_m = np.interp(_arc_fraction(pts), _arc_fraction(b.centerline_m), b.widths_m)
+        if args.get("widths") is not None:
+            b.widths_m = _widths(args["widths"], len(pts), what)
+        else:
+            b.widths_m = np.interp(_arc_fraction(pts), _arc_fraction(b.centerline_m),
+                                   b.widths_m)
         b.centerline_m = pts
     elif op == "remove":
         del branches[k]

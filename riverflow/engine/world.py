@@ -510,10 +510,11 @@ class RiverWorld:
         :meth:`move_axis`."""
         return self._edit_branches("width", link, wait, widths=widths_m)
 
-    def move_axis(self, link, points_m, *, wait: bool = True):
+    def move_axis(self, link, points_m, widths_m=None, *, wait: bool = True):
         """Move the centre line of branch ``link`` (a name or an index of
         ``world.scene.branches``) to ``points_m`` (K, 2) [m], drawn downstream; an end at a
-        junction stays where it is (the widths follow along the arc length).
+        junction stays where it is. ``widths_m``: one number or one per point (default: the
+        old widths, carried along the arc length).
 
         The changed branches' banks and ψ are rebuilt (the builder, the water surface, the
         flow network); only the tiles within reach of the change (flow: the changed banks'
@@ -537,7 +538,7 @@ class RiverWorld:
             GraphError: the new network cannot carry a flow (banks crossing, a branch turning
                 back on itself…). The world keeps the old network.
         """
-        return self._edit_branches("axis", link, wait, points=points_m)
+        return self._edit_branches("axis", link, wait, points=points_m, widths=widths_m)
 
     def add_branch(self, points_m, widths_m, discharge_m2s: float | None = None, *,
                    name: str | None = None, wait: bool = True):

@@ -85,8 +85,10 @@ def restore(world):
     yield world
     if world.scene is not world.original:
         for k, b in enumerate(world.original.branches):
-            world.move_axis(k, b.centerline_m)
-            world.set_width(k, b.widths_m)
+            now = world.scene.branches[k]
+            if not (np.array_equal(now.centerline_m, b.centerline_m)
+                    and np.array_equal(now.widths_m, b.widths_m)):
+                world.move_axis(k, b.centerline_m, b.widths_m)
         _settle(world)
 
 
