@@ -42,7 +42,7 @@ from riverflow.components.display import DisplayMode, legend
 from riverflow.components.waves import WaveKind
 from riverflow.engine.camera_rigs import ChaseCamera, FreeFlyCamera
 from riverflow.engine.config import RiverConfig
-from riverflow.engine.controls import InputState, KeyScript
+from riverflow.engine.controls import CentreLineDrag, InputState, KeyScript
 from riverflow.engine.game_loop import FixedStep
 from riverflow.engine.world import RiverWorld
 
@@ -54,7 +54,7 @@ MODE_KEYS = {"_1": DisplayMode.NONE, "_2": DisplayMode.MESH, "_3": DisplayMode.C
              "_6": DisplayMode.NON_ADVECTED, "_7": DisplayMode.FOAM}
 KEYS = frozenset({"W", "S", "A", "D", "UP", "DOWN", "LEFT", "RIGHT", "Q", "E", "C", *MODE_KEYS,
                   "G", "P", "V", "T", "R", "M", "SPACE", "PLUS", "EQUAL", "NUM_ADD", "MINUS",
-                  "NUM_SUBTRACT", "H", "F1", "F2", "ESCAPE"})
+                  "NUM_SUBTRACT", "H", "F1", "F2", "ESCAPE", "X"})
 """The keys the demo reacts to (pyglet names); a key script naming another is an error."""
 HELP = """riverflow boat demo
 W/S or UP/DOWN   throttle        A/D or LEFT/RIGHT  rudder
@@ -62,6 +62,7 @@ C  chase / free camera (free: WASD, Q/E, mouse drag)
 1-7  water: none, mesh, coverage, advected, pre-advected, non-advected, foam
 G grid   P particles   V velocity arrows   T wave tile   R rain   M reflections
 SPACE pause particles   +/- flow speed   F2 screenshot
+X edit mode: drag a river's centre line with the mouse
 H help   ESC quit"""
 
 DEFAULT_SCRIPT = """# the scripted run of `riverflow demo --headless` (make demo with no display)
@@ -112,6 +113,10 @@ class Hud:
                f"simulation {total:.2f} ms: " + "  ".join(
                    f"{k} {v:.2f}" for k, v in self.timings_ms.items() if k != "draw"),
                f"draw {self.timings_ms.get('draw', 0.0):.2f} ms (CPU)   H: help"]
+        if demo.edit_mode:
+            errors = world.edit_errors
+            out.append("EDIT MODE (X): drag a river's centre line"
+                       + (f"   last refused: {errors[-1][:60]}" if errors else ""))
         if self.message and time.monotonic() < self.message_until_s:
             out.append(self.message)
         return out
@@ -158,6 +163,9 @@ class BoatDemo:
         self.quit_requested = False
         self.screenshots = Path(screenshots)
         self.screenshot_count = 0
+        self.edit_mode = False
+        """Key X: the mouse drags rivers' centre lines (live edits) instead of the camera."""
+        self.drag = CentreLineDrag()
         self._place_chase(0.0)
 
     @property
@@ -232,6 +240,12 @@ class BoatDemo:
                 self.camera_mode = "free"
             else:
                 self.camera_mode = "chase"
+        elif key == "X":
+            self.edit_mode = not self.edit_mode
+            self.drag.release()
+            self.hud.message = ("edit mode: drag a river's centre line" if self.edit_mode
+                                else "edit mode off")
+            self.hud.message_until_s = time.monotonic() + 3.0
         elif key in ("H", "F1"):
             self.show_help = not self.show_help
         elif key == "F2":
@@ -486,8 +500,21 @@ def run_window(*, scene=None, size=(1280, 720), seed: int = 0, frames: int | Non
     def on_key_release(symbol, modifiers):
         demo.input.key_up(keys.symbol_string(symbol))
 
+    def to_framebuffer(x, y):
+        fw, fh = window.get_framebuffer_size()
+        return x * fw / max(window.width, 1), y * fh / max(window.height, 1)
+
+    def on_mouse_press(x, y, buttons, modifiers):
+        if demo.edit_mode:
+            demo.drag.press(demo.world, *to_framebuffer(x, y))
+
+    def on_mouse_release(x, y, buttons, modifiers):
+        demo.drag.release()
+
     def on_mouse_drag(x, y, dx, dy, buttons, modifiers):
-        if demo.camera_mode == "free":
+        if demo.edit_mode:
+            demo.drag.drag(demo.world, *to_framebuffer(x, y))
+        elif demo.camera_mode == "free":
             demo.free.turn(dx, dy)
 
     def on_resize(width, height):
@@ -544,7 +571,8 @@ def run_window(*, scene=None, size=(1280, 720), seed: int = 0, frames: int | Non
     # pushed as a frame of their own: after the loading screen pushed and removed its
     # handlers, pyglet's stack is an empty list, which window.event / set_handler fail on
     window.push_handlers(on_key_press=on_key_press, on_key_release=on_key_release,
-                         on_mouse_drag=on_mouse_drag, on_resize=on_resize, on_draw=on_draw,
+                         on_mouse_drag=on_mouse_drag, on_mouse_press=on_mouse_press,
+                         on_mouse_release=on_mouse_release, on_resize=on_resize, on_draw=on_draw,
                          on_close=on_close)
     pyglet.clock.schedule(tick)
     try:

@@ -150,6 +150,7 @@ def test_keys_drive_the_boat_and_the_display(scene):
             3 SPACE tap
             4 EQUAL tap
             5 C tap
+            5 X tap
             6 ESCAPE tap
         """)
         for frame in range(8):
@@ -159,6 +160,7 @@ def test_keys_drive_the_boat_and_the_display(scene):
         assert display.mode == DisplayMode.MESH and display.show_grid
         assert world.paused and world.speed_factor == pytest.approx(1.5)
         assert demo.camera_mode == "free" and demo.quit_requested
+        assert demo.edit_mode                  # X: the mouse drags centre lines
         boat = demo.boat_state
         assert boat.throttle == 0.0            # in free-camera mode the keys fly the camera
         demo.input.key_down("C")

@@ -117,3 +117,77 @@ class KeyScript:
 def _spoken(name: str) -> str:
     """A pyglet key name as a script may write it (``_3`` → ``3``)."""
     return name[1:] if len(name) == 2 and name[0] == "_" and name[1].isdigit() else name
+
+
+class CentreLineDrag:
+    """The mouse drags a river's centre line (the demo's edit mode; issue 25 live edits).
+
+    :meth:`press` picks the centre-line point nearest the cursor on screen (within
+    ``reach_px``), :meth:`drag` moves it under the cursor on the water's plane there and
+    bends the line around it (a Gaussian along the arc, ``falloff`` river widths wide; the
+    ends stay put), asking the world for the edit in the background
+    (:meth:`~riverflow.engine.world.RiverWorld.move_axis` with ``wait=False``: a drag asks
+    each frame, only the newest waiting edit is made), :meth:`release` lets go. Pixels have
+    their origin at the bottom left, as the camera's.
+    """
+
+    def __init__(self, reach_px: float = 40.0, falloff: float = 3.0) -> None:
+        self.reach_px = float(reach_px)
+        self.falloff = float(falloff)
+        self.link: int | None = None
+        """The branch held (an index of ``world.scene.branches``), None when none is."""
+        self._line = None
+        self._index = 0
+        self._level = 0.0
+        self.last = None
+        """The last edit asked for (a ``concurrent.futures.Future``)."""
+
+    def press(self, world, x_px: float, y_px: float) -> bool:
+        """Pick the centre-line point nearest (x_px, y_px); returns whether one was near."""
+        import numpy as np
+
+        best = None
+        for k, b in enumerate(world.scene.branches):
+            line = np.asarray(b.centerline_m, np.float64)
+            level = np.asarray(world.scene.water.level(line), np.float64)
+            screen, _, in_front = world.camera.world_to_screen(np.c_[line, level])
+            d = np.hypot(screen[:, 0] - x_px, screen[:, 1] - y_px)
+            d[~in_front] = np.inf
+            i = int(np.argmin(d))
+            if d[i] <= self.reach_px and (best is None or d[i] < best[0]):
+                best = (float(d[i]), k, i, float(level[i]))
+        if best is None:
+            self.link = None
+            return False
+        _, self.link, self._index, self._level = best
+        self._line = np.array(world.scene.branches[self.link].centerline_m, np.float64)
+        return True
+
+    def drag(self, world, x_px: float, y_px: float):
+        """Move the held point under (x_px, y_px); returns the edit's Future (None when no
+        branch is held or the cursor's ray misses the water's plane)."""
+        import numpy as np
+
+        if self.link is None:
+            return None
+        origin, direction = world.camera.screen_to_ray([(x_px, y_px)])
+        dz = float(direction[0, 2])
+        if abs(dz) < 1e-6:
+            return None
+        t = (self._level - float(origin[0, 2])) / dz
+        if not t > 0:
+            return None
+        target = origin[0, :2] + t * direction[0, :2]
+        line = self._line
+        arc = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(line, axis=0).T))])
+        width = float(np.asarray(world.scene.branches[self.link].widths_m)[self._index])
+        spread = max(self.falloff * width, 2.0 * float(arc[-1]) / max(len(line) - 1, 1))
+        weight = np.exp(-((arc - arc[self._index]) / spread) ** 2)
+        weight[[0, -1]] = 0.0
+        moved = line + weight[:, None] * (target - line[self._index])[None, :]
+        self.last = world.move_axis(self.link, moved, wait=False)
+        return self.last
+
+    def release(self) -> None:
+        self.link = None
+        self._line = None

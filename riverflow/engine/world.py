@@ -107,6 +107,7 @@ class RiverWorld:
         self.resources: dict[type, Any] = {}
         self.timings_ms: dict[str, float] = {}
         self._view_loaded = False
+        self._edits = None          # riverflow.engine.edits.LiveEdits, on the first edit
         c = self.config
         if not hasattr(scene, "quadtree"):
             raise TypeError("RiverWorld needs a streamed landscape (riverflow.default_scene(), "
@@ -232,6 +233,8 @@ class RiverWorld:
                             f"{type(dt_s).__name__} {dt_s!r:.80}")
         dt = float(dt_s) if math.isfinite(dt_s) else 0.0
         dt = min(max(dt, 0.0), self.config.max_step_s)
+        if self._edits is not None:
+            self._land_edit()              # a background edit made meanwhile: swapped in now
         clock = self.clock
         clock.now_s += dt
         timings = self.timings_ms
@@ -481,6 +484,272 @@ class RiverWorld:
         """A constant inflow ``q_m3s`` [m³/s] at the start of ``link`` from now on
         (:meth:`set_hydrograph` with one point)."""
         self.set_hydrograph(link, [self.flood_time_s], [q_m3s])
+
+    # -- live edits (issue 25) ---------------------------------------------------------------
+
+    def edit_network(self, builder_or_graph, *, wait: bool = True):
+        """Replace the running network by a whole new one (a
+        :class:`~riverflow.hydro.builder.RiverNetworkBuilder`, built here, or a
+        :class:`~riverflow.hydro.graph.HydroGraph`) on the same terrain: the tiles near what
+        changed are made again (:mod:`riverflow.engine.edits`), the others are kept. See
+        :meth:`move_axis` for ``wait`` and what happens to the tiles and particles.
+
+        Raises:
+            GraphError: the network cannot carry a flow (the world keeps the old one).
+        """
+        from riverflow.engine import edits
+
+        def make(scene):
+            branches, islands, graph, _ = edits.branches_of_input(builder_or_graph)
+            return branches, islands, graph
+        return self._edit(make, wait)
+
+    def set_width(self, link, widths_m, *, wait: bool = True):
+        """Set the widths [m] of branch ``link`` (a name or an index of
+        ``world.scene.branches``): one number, or one per point of its centre line. See
+        :meth:`move_axis`."""
+        return self._edit_branches("width", link, wait, widths=widths_m)
+
+    def move_axis(self, link, points_m, widths_m=None, *, wait: bool = True):
+        """Move the centre line of branch ``link`` (a name or an index of
+        ``world.scene.branches``) to ``points_m`` (K, 2) [m], drawn downstream; an end at a
+        junction stays where it is. ``widths_m``: one number or one per point (default: the
+        old widths, carried along the arc length).
+
+        The changed branches' banks and ψ are rebuilt (the builder, the water surface, the
+        flow network); only the tiles within reach of the change (flow: the changed banks'
+        search radius; terrain, water, ray-cast, hints, meshes: the carving's reach) are made
+        again, in the background, their old versions standing in until then; the other tiles
+        are kept. The particles keep flowing: one that finds itself on land once the new
+        flow tiles are in leaves the water as at any shore (LEAVING, then OUTSIDE, recycled
+        by the NEAR rule). A running flood is carried over by branch name (its waves start
+        again from the base flow).
+
+        ``wait`` True: made now and in place when this returns. False: made in a background
+        thread and swapped in at the start of the first :meth:`step` after it is ready (the
+        frames meanwhile are not held up); returns a ``concurrent.futures.Future`` (its result:
+        the names of the branches changed; its exception: what the builder raised, also in
+        ``world.edit_errors``); a newer edit asked for while one is made replaces any other
+        waiting.
+
+        Raises:
+            ValueError / TypeError: an unknown branch, points or widths not finite or of the
+                wrong shape, an end moved off its junction;
+            GraphError: the new network cannot carry a flow (banks crossing, a branch turning
+                back on itself…). The world keeps the old network.
+        """
+        return self._edit_branches("axis", link, wait, points=points_m, widths=widths_m)
+
+    def add_branch(self, points_m, widths_m, discharge_m2s: float | None = None, *,
+                   name: str | None = None, wait: bool = True):
+        """Add a branch: centre line ``points_m`` (K, 2) [m] drawn downstream, widths [m],
+        ``discharge_m2s`` (needed for a source; an end on another branch's end meets it
+        there). See :meth:`move_axis`."""
+        return self._edit_branches("add", None, wait, points=points_m, widths=widths_m,
+                                   discharge_m2s=discharge_m2s, name=name)
+
+    def remove_branch(self, link, *, wait: bool = True):
+        """Remove branch ``link`` (a name or an index of ``world.scene.branches``). See
+        :meth:`move_axis`."""
+        return self._edit_branches("remove", link, wait)
+
+    @property
+    def edit_errors(self) -> list[str]:
+        """What background edits (``wait=False``) raised (the world kept its network)."""
+        return [] if self._edits is None else self._edits.errors
+
+    @property
+    def edits(self):
+        """The :class:`~riverflow.engine.edits.LiveEdits` state (counters, the last edit), or
+        None before the first edit."""
+        return self._edits
+
+    def _edit_branches(self, op, link, wait: bool, **args):
+        from riverflow.engine import edits
+
+        edits.edited_branches(self.scene, op, link, **args)    # bad arguments raise here, now
+
+        def make(scene):
+            return edits.edited_branches(scene, op, link, **args), None, None
+        return self._edit(make, wait)
+
+    def _edit(self, make, wait: bool):
+        from concurrent.futures import Future
+
+        from riverflow.engine.edits import LiveEdits
+
+        if self._edits is None:
+            self._edits = LiveEdits()
+        live = self._edits
+        if wait:
+            while live.busy:                      # the background ones first, in order
+                self._land_edit(block=True)
+            plan = self._plan(make, self.scene, self.field)
+            return self._apply_edit(*plan)
+        future = Future()
+        if live.queued is not None:               # a newer edit replaces one still waiting
+            live.queued[1].cancel()
+        live.queued = (make, future)
+        self._land_edit()
+        return future
+
+    def _plan(self, make, scene, field):
+        """The new scene, field and producers, and what changed (any thread)."""
+        from riverflow.engine import edits
+        from riverflow.hydro.tile_producer import FlowProducer
+
+        import threading
+
+        scheduler = self.tiles.scheduler
+        background = threading.current_thread() is not threading.main_thread()
+
+        def between_frames():           # each piece starts in a frame's idle time
+            if background:
+                scheduler.wait_idle()
+        edits.fill_discharges(scene, field)
+        branches, islands, graph = make(scene)
+        between_frames()
+        new_scene, graph = edits.edited_scene(scene, branches, islands, graph)
+        between_frames()
+        new_field = edits.edited_field(field, graph)
+        between_frames()
+        plan = edits.plan_edit(scene, field, new_scene, new_field)
+        between_frames()
+        pool = field.tiles.pool                # the resident flow tiles, renumbered here
+        slots = np.flatnonzero(pool.slot_code >= 0)
+        codes = pool.slot_code[slots].copy()
+        renumber, lists = edits.renumbered_segments(pool.arrays["cell_segments"], slots,
+                                                    plan.segment_map)
+        plan.renumbered = (renumber, pool.slot_code[renumber].copy(), lists)
+        plan.renumbered_all = (slots, codes)
+        between_frames()
+        if self.flood is not None:              # the flood's cells on the new network
+            from riverflow.hydro.spill_network import build_spill_network
+
+            plan.cell_network = build_spill_network(
+                new_scene.branches, [b.discharge_m2s for b in new_scene.branches])
+            between_frames()
+        producers = [*terrain_producers(new_scene), FlowProducer(new_field)]
+        between_frames()
+        # the tile process: forked here with the new producers (the frames go on meanwhile)
+        process = self.tiles.scheduler.fork_for(producers)
+        return plan, producers, process
+
+    def _land_edit(self, block: bool = False) -> None:
+        """Swap in a background edit that is ready (or, ``block``, wait for it), then start
+        the one waiting."""
+        live = self._edits
+        if live.thread is not None:
+            if block:
+                live.join()
+            if live.running():
+                return
+            live.thread = None
+            result, future = live.result, live.future
+            live.result = live.future = None
+            if isinstance(result, BaseException):
+                live.errors.append(f"{type(result).__name__}: {result}")
+                future.set_exception(result)
+            else:
+                try:
+                    future.set_result(self._apply_edit(*result))
+                except BaseException as exc:    # the swap itself failed: say so, go on
+                    live.errors.append(f"{type(exc).__name__}: {exc}")
+                    future.set_exception(exc)
+        if live.queued is not None and live.thread is None:
+            make, future = live.queued
+            live.queued = None
+            scene, field = self.scene, self.field
+
+            def run():
+                try:
+                    live.result = self._plan(make, scene, field)
+                except BaseException as exc:
+                    live.result = exc.with_traceback(None)
+            live.future = future
+            live.start(run)
+
+    def _apply_edit(self, plan, producers, process=None) -> list[str]:
+        """Swap an edit in (main thread, between frames): module docstring of
+        :mod:`riverflow.engine.edits`, step 3. Returns the changed branches' names."""
+        from riverflow.components.flow_tiles import FLOW_KIND
+        from riverflow.engine.edits import renumbered_segments, tile_distances, tiles_meeting
+        from riverflow.scenes.tile_kinds import TERRAIN_KINDS, WATER, WATER_MESH
+
+        t0 = time.perf_counter()
+        scheduler = self.tiles.scheduler
+        cache = self.tiles.cache
+        q = self.scene.quadtree
+        old = self.field
+        stale: dict[str, np.ndarray] = {}
+        pool = old.tiles.pool
+        slots = np.flatnonzero(pool.slot_code >= 0)
+        codes = pool.slot_code[slots].copy()
+        if len(slots):
+            # the tiles' bank lists, renumbered to the new network (an untouched segment is
+            # the same segment, one gone the nearest new one: its tiles are near the change)
+            # made in the edit's thread for the tiles resident then (a slot holding the same
+            # tile now holds the same lists: a tile of the old network is always the same);
+            # the tiles installed since are renumbered here
+            segments = pool.arrays["cell_segments"]
+            done = np.zeros(0, np.int64)
+            if plan.renumbered is not None:
+                (ready, ready_codes, lists), (seen, seen_codes) = (plan.renumbered,
+                                                                   plan.renumbered_all)
+                same = pool.slot_code[ready] == ready_codes
+                segments[ready[same]] = lists[same]
+                done = seen[pool.slot_code[seen] == seen_codes]
+            seen_now = np.zeros(len(pool.slot_code), bool)
+            seen_now[done] = True
+            rest = slots[~seen_now[slots]]
+            rest, lists = renumbered_segments(segments, rest, plan.segment_map)
+            segments[rest] = lists
+            near = tiles_meeting(codes, q, plan.flow_boxes, old.tiles.n_cells)
+            stale[FLOW_KIND] = codes[near]
+        n = self.scene.terrain.tile_cells
+        for kind in TERRAIN_KINDS:
+            kcodes = cache.pools[kind].codes()
+            stale[kind] = kcodes[tiles_meeting(kcodes, q, plan.terrain_boxes, n)]
+        old_process = scheduler.replace_producers(producers, process, close_old=False)
+        if old_process is not None:     # closed in the edits' thread, not in this frame
+            self._edits.run_later(old_process.close)
+        # the river's kinds first, each kind's tiles nearest the change first
+        centres = np.concatenate([plan.terrain_boxes, plan.flow_boxes])
+        centres = 0.5 * (centres[:, :2] + centres[:, 2:])
+        rank = {kind: tile_distances(codes_, q, centres) for kind, codes_ in stale.items()}
+        scheduler.invalidate(stale, first=(FLOW_KIND, WATER, WATER_MESH), rank=rank)
+        self.scene = plan.scene
+        self.field = plan.field
+        with self.active():
+            node = esper.component_for_entity(self.river, RiverNode)
+        node.graph, node.field = plan.scene.graph, plan.field
+        terrain = self.resource(TerrainView)
+        terrain.z_min = min(terrain.z_min, float(plan.scene.z_range_m[0]))
+        terrain.z_max = max(terrain.z_max, float(plan.scene.z_range_m[1]))
+        router = self.flood
+        if router is not None:
+            self._carry_flood(router, plan.cell_network)
+        live = self._edits
+        live.applied += 1
+        live.last = {"changed": list(plan.changed),
+                     "marked": {k: len(v) for k, v in stale.items()},
+                     "applied_s": time.perf_counter(),
+                     "swap_ms": (time.perf_counter() - t0) * 1e3}
+        return list(plan.changed)
+
+    def _carry_flood(self, old, network=None) -> None:
+        """A flood router on the edited network (``network``: its cells, made in the edit's
+        thread), with the old one's hydrographs of the branches still there (by name) and its
+        clock."""
+        from riverflow.hydro.flood import FloodRouter
+
+        router = FloodRouter(network or self._cell_network(), old.clock_s)
+        names = old.network.names
+        for b, (t, q) in old.hydrographs.items():
+            if names[b] in router.network.names:
+                router.set_hydrograph(names[b], t, q)
+        self.resources[_FloodRouterKey] = router
+        self.field.discharge_scale = router.scale_velocity
 
     def water_level(self, xy_m) -> np.ndarray:
         """(N,) water level [m] of the nearest river point to each (N, 2) [m]: the scene's
@@ -739,6 +1008,8 @@ class RiverWorld:
         """Stop the tile worker thread, release GPU objects (while their OpenGL context lives)
         and delete the esper world. Idempotent; a world dropped without it does the same
         when it is collected."""
+        if self._edits is not None:
+            self._edits.stop()
         self._finalizer()
 
     def __enter__(self) -> RiverWorld:

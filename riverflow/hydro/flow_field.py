@@ -144,6 +144,8 @@ class FlowField:
         self.slip = float(slip)
         self.search_radius_factor = float(search_radius_factor)
         tol = tolerance_m if tolerance_m is not None else max(min_width / 200.0, 0.01)
+        self.tolerance_m = float(tol)
+        """The Bézier flattening tolerance the network was made with [m]."""
         self.network: FlowNetwork = build_flow_network(graph, self.search_radius_factor, tol)
         delta = potential_delta_m if potential_delta_m is not None else min_width / 24.0
         if not (math.isfinite(delta) and delta > 0.0):

@@ -23,8 +23,8 @@ import numpy as np
 from riverflow._validate import check_allocation, finite
 from riverflow.hydro.builder import RiverNetworkBuilder
 from riverflow.scenes.carving import Carving
-from riverflow.scenes.landscape import (DEFAULT_CELL_M, CarvedTerrain, Landscape, water_surface,
-                                        z_range)
+from riverflow.scenes.landscape import (DEFAULT_CELL_M, CarvedTerrain, Landscape, SourceGround,
+                                        water_surface, z_range)
 from riverflow.scenes.layout import DEFAULT_SIZE_M, RiverBranch, layout
 from riverflow.scenes.sources import FbmSource, HeightSource
 from riverflow.scenes.water import point_tree
@@ -139,4 +139,5 @@ def default_scene(seed: int = 0, size_km: float = 4.0, *, falls: bool = False) -
     carving = Carving()
     terrain = CarvedTerrain(ground, water, carving, quadtree, CELL_M)
     return Landscape(graph, terrain, water, quadtree.bounds_m, int(seed), branches, islands,
-                     z_range(ground, water, carving))
+                     z_range(ground, water, carving),
+                     profile_ground=SourceGround(base))

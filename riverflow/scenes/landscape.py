@@ -118,6 +118,10 @@ class Landscape:
     tile_memo: TileMemo = field(default_factory=TileMemo, repr=False)
     """The array tiles made for this scene, shared by every world over it
     (:mod:`riverflow.tiles.memo`; ``TileMemo(0)``: none kept)."""
+    profile_ground: Callable[[np.ndarray], np.ndarray] | None = field(default=None, repr=False)
+    """``ground(xy)`` the water profiles were sampled on (:func:`water_surface`): a live edit
+    samples its new branches on it (:mod:`riverflow.engine.edits`); None: the scene's water
+    level + FREEBOARD_M."""
 
     def branch(self, name: str) -> RiverBranch:
         return next(b for b in self.branches if b.name == name)
@@ -125,6 +129,26 @@ class Landscape:
     @property
     def quadtree(self) -> Quadtree:
         return self.terrain.quadtree
+
+
+@dataclass(frozen=True)
+class SourceGround:
+    """``ground(xy)`` (N, 2) → (N,) [m] of a height source (picklable, unlike a lambda)."""
+
+    source: HeightSource
+
+    def __call__(self, xy: np.ndarray) -> np.ndarray:
+        return np.asarray(self.source.heights(xy[:, 0], xy[:, 1]), np.float64)
+
+
+@dataclass(frozen=True)
+class GivenGround:
+    """``ground(xy)`` of given water levels (a graph's ``water_levels``) + FREEBOARD_M."""
+
+    levels: Callable[[np.ndarray], np.ndarray]
+
+    def __call__(self, xy: np.ndarray) -> np.ndarray:
+        return np.asarray(self.levels(xy), np.float64) + FREEBOARD_M
 
 
 def z_range(source: HeightSource, water: WaterSurface, carving: Carving) -> tuple[float, float]:
@@ -360,17 +384,17 @@ def landscape(graph: HydroGraph, terrain=None, *, seed: int = 0, cell_m: float |
                               else lambda xy: given(xy) + FREEBOARD_M, polygon, graph.falls,
                               graph.rapids,
                               lakes)
+        profile_ground = None if given is None else GivenGround(given)
         source = valley_source(water, seed)
         carving = carving or Carving()
     else:
-        water = water_surface(branches, (lambda xy: source.heights(xy[:, 0], xy[:, 1]))
-                              if given is None else lambda xy: given(xy) + FREEBOARD_M, polygon,
-                              graph.falls, graph.rapids,
+        profile_ground = SourceGround(source) if given is None else GivenGround(given)
+        water = water_surface(branches, profile_ground, polygon, graph.falls, graph.rapids,
                               lakes)
         carving = carving or Carving.measured()
     terrain_ = CarvedTerrain(source, water, carving, quadtree, float(cell_m))
     return Landscape(graph, terrain_, water, quadtree.bounds_m, int(seed), branches, [],
-                     z_range(source, water, carving))
+                     z_range(source, water, carving), profile_ground=profile_ground)
 
 
 def branches_of_graph(graph: HydroGraph, polygon) -> list[RiverBranch]:

@@ -141,8 +141,26 @@ class TilePool:
         self.revision += 1
         return slot
 
-    def release(self, slot: int) -> None:
-        """Drop the tile in ``slot``."""
+    def replace(self, code: int, data, nbytes: int | None = None, tick: int = 0) -> int:
+        """Install the new version of a resident tile (a live edit) in another slot and release
+        the old one, so that whoever keeps per-slot copies (the draw system's GPU buffers)
+        sees the slot's tile change; a tile not resident is stored. Returns its slot."""
+        old = self.table.get(code)
+        if old < 0:
+            return self.store(code, data, nbytes, tick)
+        if not self._free:
+            self._grow(2 * self.capacity)
+        slot = self._free.pop()
+        self.release(old, fill=False)    # not read again: its arrays are left as they are
+        self._free.remove(old)
+        self._free.append(slot)          # store() takes the last free slot: this one
+        slot = self.store(code, data, nbytes, tick)
+        self._free.append(old)
+        return slot
+
+    def release(self, slot: int, fill: bool = True) -> None:
+        """Drop the tile in ``slot`` (``fill``: its arrays get their free value; a free slot
+        is never read, kernels reach slots through the table)."""
         code = int(self.slot_code[slot])
         if code < 0:
             return
@@ -153,7 +171,7 @@ class TilePool:
         self.pins[slot] = 0
         if self.fields is None:
             self.objects[slot] = None
-        else:
+        elif fill:
             for name, spec in self.fields.items():
                 self.arrays[name][slot] = spec.fill
         self._free.append(slot)

@@ -22,6 +22,13 @@ before the frame reads any, the ones the worker has not finished in the frame it
 worker changes *when* and *where* a tile is made, never *what* a frame computes.
 
 A resident dependency is pinned (never evicted) until the tile that reads it is installed.
+
+The sources can change while tiles are made (a live edit of the river network:
+:mod:`riverflow.engine.edits`): :meth:`TileScheduler.replace_producers` takes the new
+producers and :meth:`TileScheduler.invalidate` starts a new *generation*: the resident tiles it
+names become *stale*, standing in (read as before) until their new versions, made in the
+background like any missing tile, replace them; every tile being made from the old sources is
+dropped when it arrives, never stored, and never kept in the new producers' memo.
 A producer that raises does not crash the frame: the error is kept in ``errors`` and that tile
 is not asked for again.
 """
@@ -124,6 +131,7 @@ class _Job:
     code: int
     resident: dict = field(default_factory=dict)   # dep → (pool, slot, data view), pinned
     awaited: list = field(default_factory=list)    # deps being produced by earlier jobs
+    generation: int = 0                            # the sources it is made from
 
 
 class TileScheduler:
@@ -188,6 +196,16 @@ class TileScheduler:
         self._process: ProducerProcess | None = None
         self._closed = False
         self._process_kinds: frozenset[str] = frozenset()
+        self.generation = 0
+        """Changes at each :meth:`invalidate` (a tile made from older sources is dropped)."""
+        self._stale: dict[str, set[int]] = {}
+        """Per kind, the codes of resident tiles standing in for their new versions."""
+        self.remade = 0
+        """Stale tiles replaced by their new versions so far."""
+        self._invalidated_at = 0
+        self._first: frozenset[str] = frozenset()
+        self._rank: dict[str, dict[int, float]] = {}      # kind → code → [0, 1) (invalidate)
+        self._stale_codes: dict[str, np.ndarray] = {}     # the stale sets as arrays (request)
         for producer in producers:
             self.add(producer)
 
@@ -199,6 +217,145 @@ class TileScheduler:
         self.cache.pool(producer.kind, producer.fields)
         self._wanted[producer.kind] = TileTable(1024)
         self._state[producer.kind] = TileTable(1024)
+        self._stale[producer.kind] = set()
+
+    def fork_for(self, producers: Iterable[Producer]) -> ProducerProcess | None:
+        """A worker process forked now with ``producers`` in place of the current ones of
+        their kinds, for :meth:`replace_producers` (any thread may fork it: a live edit does,
+        in its background thread); None when tiles are not made in a process."""
+        if self.worker != "process" or self._process is None or self._closed:
+            return None
+        return ProducerProcess({**self.producers, **{p.kind: p for p in producers}},
+                               WORKER_NICE)
+
+    def replace_producers(self, producers: Iterable[Producer],
+                          process: ProducerProcess | None = None, *,
+                          close_old: bool = True) -> ProducerProcess | None:
+        """Make the tiles of the given kinds with these producers from now on (same kinds and
+        fields as the ones they replace; call :meth:`invalidate` for the tiles this changes).
+        The worker process, forked with the old producers, is let go (closed in a thread of
+        its own: its end is not waited for in a frame); ``process`` (:meth:`fork_for` with
+        these producers) takes its place, else the tiles are made in the worker thread.
+        ``close_old`` False: the old process is handed back for the caller to close."""
+        producers = list(producers)
+        for producer in producers:
+            old = self.producers.get(producer.kind)
+            if old is None:
+                raise ValueError(f"replace_producers: no {producer.kind!r} producer to replace")
+            if (old.fields is None) != (producer.fields is None) or (
+                    old.fields is not None and dict(old.fields) != dict(producer.fields)):
+                raise ValueError(f"replace_producers: the new {producer.kind!r} producer's tiles "
+                                 "have other fields than the old one's")
+        for producer in producers:
+            self.producers[producer.kind] = producer
+        old, self._process = self._process, process
+        self._process_kinds = frozenset(self.producers) if process is not None else frozenset()
+        if old is not None and close_old:
+            threading.Thread(target=old.close, kwargs={"timeout_s": 1.0}, daemon=True,
+                             name="riverflow-tiles-close").start()
+            return None
+        return old
+
+    def invalidate(self, stale: Mapping[str, np.ndarray], release: Iterable[str] = (),
+                   first: Iterable[str] = (),
+                   rank: Mapping[str, np.ndarray] | None = None) -> int:
+        """Start a new generation (module docstring): the resident tiles of ``stale`` (kind →
+        codes) stand in until they are made again, before any other tile (those of the kinds
+        in ``first`` first of all), those of the kinds in ``release`` (and every one in
+        blocking mode) are dropped at once, as are those the current producer says are
+        empty; every tile queued or being made is let go (asked again, it is made from the
+        current producers). ``rank`` (kind → a number per code of ``stale``, smaller first:
+        the distance to the change) orders the stale tiles of a kind. Returns how many
+        resident tiles were marked or dropped."""
+        release = set(release)
+        self._rank = {}
+        for kind, values in (rank or {}).items():
+            values = np.asarray(values, np.float64)
+            values = np.where(np.isfinite(values) & (values >= 0), values, 0.0)
+            top = float(values.max()) if len(values) else 0.0
+            self._rank[kind] = dict(zip(np.asarray(stale[kind], np.int64).tolist(),
+                                        (values / (top + 1.0)).tolist()))
+        self._first = frozenset(first)
+        self._stale_codes.clear()        # (only invalidate adds to a stale set)
+        self.generation += 1
+        self._invalidated_at = self.frame
+        with self._lock:
+            self._fresh.clear()
+            self._awaiting.clear()
+            for kind, code in self._pending:
+                self._wanted[kind].set(code, _LONG_AGO)
+        self._pending.clear()
+        self._failed.clear()
+        for table in self._state.values():
+            table.clear()
+        for pool in self.cache.pools.values():
+            pool.pins[:] = 0        # the old jobs' pins: their tiles are dropped anyway
+        marked = 0
+        for kind, codes in stale.items():
+            pool = self.cache.pools[kind]
+            codes = np.ascontiguousarray(codes, np.int64)
+            codes = codes[pool.table.find_many(codes) >= 0]
+            if not len(codes):
+                continue
+            empty = self.producers[kind].empty_mask(codes)
+            drop = kind in release or self.mode == "blocking"
+            for code, gone in zip(codes.tolist(), empty.tolist()):
+                if drop or gone:
+                    pool.release(pool.slot(code))
+                    self._stale[kind].discard(code)
+                else:
+                    self._stale[kind].add(code)
+                marked += 1
+        return marked
+
+    def stale(self, kind: str, *, wanted: bool = False) -> set[int]:
+        """Codes of the resident ``kind`` tiles standing in for their new versions (a copy);
+        ``wanted``: only those the latest frame asked for (in view)."""
+        pool = self.cache.pools[kind]
+        out = {c for c in self._stale[kind] if c in pool}
+        if wanted:
+            with self._lock:
+                out = {c for c in out if self._wanted[kind].get(c) == self.frame}
+        return out
+
+    def _let_stale_go(self) -> None:
+        """Stale tiles no frame asked for since the edit (or within stale_frames) are
+        released: a stand-in nobody reads is not kept to be read later."""
+        if self.frame - self._invalidated_at <= self.stale_frames:
+            return
+        for kind, stale in self._stale.items():
+            if not stale:
+                continue
+            pool = self.cache.pools[kind]
+            with self._lock:
+                table = self._wanted[kind]
+                old = [c for c in stale if not (self.frame - table.get(c) <= self.stale_frames
+                                                and table.get(c) >= self._invalidated_at)]
+            for code in old:
+                stale.discard(code)
+                slot = pool.slot(code)
+                if slot >= 0 and pool.pins[slot] == 0:
+                    pool.release(slot)
+
+    def _is_stale(self, kind: str, code: int) -> bool:
+        return code in self._stale[kind]
+
+    def _store(self, kind: str, code: int, data, tick: int) -> bool:
+        """Install a made tile: a new one, or the new version of a stale one (into another
+        slot, the old one released: whoever syncs by slot sees the change); a tile already
+        resident and not stale is kept. Returns whether it was stored."""
+        pool = self.cache.pools[kind]
+        nbytes = self.producers[kind].nbytes(data)
+        stale = self._stale[kind]
+        if code in pool:
+            if code not in stale:
+                return False
+            pool.replace(code, data, nbytes, tick)
+            self.remade += 1
+        else:
+            pool.store(code, data, nbytes, tick)
+        stale.discard(code)
+        return True
 
     # -- requests --------------------------------------------------------------------------
 
@@ -212,6 +369,14 @@ class TileScheduler:
         pool = self.cache.pools[kind]
         codes = codes_of(keys) if codes is None else codes
         missing = pool.mark_used(codes, self.cache.tick)
+        stale = self._stale[kind]
+        if stale:                       # standing in: made again like missing ones
+            known = self._stale_codes.get(kind)
+            if known is None or len(known) != len(stale):
+                known = self._stale_codes[kind] = np.fromiter(stale, np.int64, len(stale))
+            again = codes[np.isin(codes, known)]
+            if len(again):
+                missing = np.concatenate([missing, again])
         started = 0
         producer = self.producers[kind]
         if len(missing):
@@ -234,14 +399,14 @@ class TileScheduler:
         if self.mode == "blocking":
             self._make_now(kind, key, code)
             return 1
-        job = _Job(kind, key, code)
+        job = _Job(kind, key, code, generation=self.generation)
         started = 1
         for dep in self.producers[kind].dependencies(key):
             dkind, dkey = dep
             dcode = tile_code(*dkey)
             dpool = self.cache.pools[dkind]
             slot = dpool.slot(dcode)
-            if slot >= 0:
+            if slot >= 0 and not self._is_stale(dkind, dcode):
                 dpool.pins[slot] += 1
                 dpool.last_used[slot] = self.cache.tick
                 job.resident[dep] = (dpool, slot, dpool.tile(slot))
@@ -264,7 +429,10 @@ class TileScheduler:
         self._state[kind].set(code, _PENDING)
         self.requested += 1
         self._ensure_thread()
-        self._queue.put((key[0], next(self._seq), job))
+        # coarse first; a stale tile (a live edit) before any, the kinds asked first first
+        priority = key[0] if code not in self._stale[kind] else (
+            (-2 if kind in self._first else -1) + self._rank.get(kind, {}).get(code, 0.0))
+        self._queue.put((priority, next(self._seq), job))
         return started
 
     def _make_now(self, kind: str, key: TileKey, code: int) -> None:
@@ -278,10 +446,10 @@ class TileScheduler:
             if self.producers[dkind].is_empty(dkey):
                 deps[dep] = None
                 continue
-            if dpool.slot(dcode) < 0:
+            if dpool.slot(dcode) < 0 or self._is_stale(dkind, dcode):
                 self._make_now(dkind, dkey, dcode)
             slot = dpool.slot(dcode)
-            if slot < 0:                                # it failed
+            if slot < 0 or self._is_stale(dkind, dcode):    # it failed
                 self._set_failed(kind, code)
                 return
             dpool.pins[slot] += 1
@@ -296,8 +464,8 @@ class TileScheduler:
         for dpool, slot in pinned:
             dpool.pins[slot] = max(dpool.pins[slot] - 1, 0)
         self.requested += 1
-        if data is not None:
-            self.cache.install(kind, code, data, self.producers[kind].nbytes(data))
+        if data is not None and self._store(kind, code, data, self.cache.tick):
+            self.cache.evict_to_budget()
 
     # -- worker and installation -----------------------------------------------------------------
 
@@ -321,9 +489,10 @@ class TileScheduler:
         """Worker side: make one queued tile (or drop it if no frame wants it any more, nor
         any wanted tile that waits for it)."""
         item = (job.kind, job.code)
+        producer = self.producers[job.kind]     # with the generation: one edit's sources
         with self._lock:
-            needed = self._is_wanted(item) or any(
-                self._is_wanted(w) for w in self._awaiting.get(item, ()))
+            needed = job.generation == self.generation and (self._is_wanted(item) or any(
+                self._is_wanted(w) for w in self._awaiting.get(item, ())))
         if not needed:
             self._release_awaited(job)
             self._hand_back(job, None, None)
@@ -348,14 +517,15 @@ class TileScheduler:
         data = None
         if error is None:
             try:
-                data = self._produce(job.kind, job.key, deps)
+                data = self._produce(job.kind, job.key, deps, producer)
             except Exception as exc:  # reported on the main thread by collect()
                 # (by its type and message: its traceback's frames hold this scheduler, a
                 # cycle that would keep a dropped world's tiles until the collector ran)
                 error = exc.with_traceback(None)
         if data is not None:
             with self._lock:
-                self._fresh[item] = data
+                if job.generation == self.generation:
+                    self._fresh[item] = data
         self._release_awaited(job)
         self._hand_back(job, data, error)
 
@@ -364,9 +534,10 @@ class TileScheduler:
         self._done.append((job, data, error))
         self._arrived.set()
 
-    def _from_memo(self, kind: str, key: TileKey, make) -> Any:
-        """The tile the scene's memo keeps, or ``make()`` it (and keep it there)."""
-        producer = self.producers[kind]
+    def _from_memo(self, kind: str, key: TileKey, make, producer: Producer | None = None) -> Any:
+        """The tile the scene's memo keeps, or ``make()`` it (and keep it there); ``producer``:
+        the one the tile is made with (default: the current one of ``kind``)."""
+        producer = producer or self.producers[kind]
         memo = producer.memo if producer.fields is not None else None
         if memo is None:
             return make()
@@ -378,30 +549,33 @@ class TileScheduler:
                 memo.put(tag, data)
         return data
 
-    def _produce(self, kind: str, key: TileKey, deps: dict) -> Any:
+    def _produce(self, kind: str, key: TileKey, deps: dict, producer: Producer) -> Any:
         """Worker side: the tile (:meth:`_from_memo`)."""
-        return self._from_memo(kind, key, lambda: self._make(kind, key, deps))
+        return self._from_memo(kind, key, lambda: self._make(kind, key, deps, producer),
+                               producer)
 
-    def _make(self, kind: str, key: TileKey, deps: dict) -> Any:
+    def _make(self, kind: str, key: TileKey, deps: dict, producer: Producer) -> Any:
         """Worker side: make the tile, in the worker process if there is one (a producer added
         after it was forked, or a process that died, makes it here)."""
         process = self._process
         if self._closed:         # closed since the job was taken: dropped, like a stale one
             return None
+        if producer is not self.producers[kind]:
+            return None            # made from the sources before an edit: dropped anyway
         if process is not None and kind in self._process_kinds:
             try:
                 return process.produce(kind, key, deps)
             except TileProcessError:
                 raise
             except (EOFError, OSError, ValueError) as exc:
-                if self._closed:                   # closed meanwhile: the tile is dropped
-                    return None
+                if self._closed or producer is not self.producers[kind]:
+                    return None                    # closed or replaced meanwhile: dropped
                 if self._process is process:       # not closed meanwhile: it died
                     self._process = None
                     self.errors.append(f"the tile process ended ({type(exc).__name__}: {exc}); "
                                        "tiles are made in the worker thread from now on")
                     process.close(timeout_s=0.5)
-        return self.producers[kind].produce(key, deps)
+        return producer.produce(key, deps)
 
     @property
     def worker_pid(self) -> int | None:
@@ -453,6 +627,11 @@ class TileScheduler:
         self._idle_since = time.perf_counter()
         self._idle.set()
 
+    def wait_idle(self, timeout_s: float = IDLE_WAIT_S) -> None:
+        """Wait (at most ``timeout_s``) until no frame runs: background work in Python (a
+        live edit) starts its next piece between frames, as the worker starts its tiles."""
+        self._idle.wait(timeout_s)
+
     def _pause_now(self) -> bool:
         if self.pause_in_frames == "auto":
             if not hasattr(os, "sched_getaffinity") or len(os.sched_getaffinity(0)) != 1:
@@ -472,8 +651,10 @@ class TileScheduler:
         the same tiles whatever the machine's load and whenever the worker ran; only where and
         when the work is done changes. The tiles are made in the frame's own thread, at its
         priority: a frame that waited for the worker would wait for a nice-19 process, which a
-        busy machine starves (seconds a tile)."""
-        self._install()
+        busy machine starves (seconds a tile). The new versions of stale tiles (a live edit)
+        are installed within :attr:`install_budget_s` a frame, as :meth:`collect` does: the
+        old ones stand in meanwhile."""
+        self._install(replacements_s=self.install_budget_s)
         made = 0
         for kind, codes in wanted:
             codes = np.ascontiguousarray(codes, np.int64)
@@ -499,17 +680,34 @@ class TileScheduler:
         """Install the tiles the worker finished (main thread, start of a frame); returns how
         many were installed."""
         self.frame += 1
-        return self._install(self.install_budget_s)
+        installed = self._install(self.install_budget_s)
+        if self.frame % 8 == 0 and any(self._stale.values()):
+            self._let_stale_go()
+        return installed
 
-    def _install(self, budget_s: float | None = None) -> int:
+    def _install(self, budget_s: float | None = None, replacements_s: float | None = None
+                 ) -> int:
         """Install what the worker finished: all of it, or (``budget_s``) until that long
-        has been spent (at least one tile)."""
+        has been spent (at least one tile); ``replacements_s``: the new versions of stale
+        tiles (which stand in meanwhile: no frame needs them) only until that long has been
+        spent, the others all."""
         installed = 0
-        end = None if budget_s is None else time.perf_counter() + budget_s
+        now = time.perf_counter()
+        end = None if budget_s is None else now + budget_s
+        replace_end = None if replacements_s is None else now + replacements_s
+        later = []
         while self._done:
             if end is not None and installed and time.perf_counter() > end:
                 break
             job, data, error = self._done.popleft()
+            if job.generation != self.generation:   # made from the sources before an edit
+                continue
+            if (replace_end is not None and data is not None and error is None
+                    and job.code in self._stale[job.kind] and installed
+                    and time.perf_counter() > replace_end
+                    and job.code in self.cache.pools[job.kind]):
+                later.append((job, data, error))    # a later frame's
+                continue
             item = (job.kind, job.code)
             self._pending.discard(item)
             if item not in self._failed:
@@ -518,11 +716,10 @@ class TileScheduler:
             if error is not None:
                 self._record_failure(job.kind, job.key, job.code, error)
             elif data is not None:
-                pool = self.cache.pools[job.kind]
-                if job.code not in pool:
-                    pool.store(job.code, data, self.producers[job.kind].nbytes(data),
-                               self.cache.tick)
+                if self._store(job.kind, job.code, data, self.cache.tick):
                     installed += 1
+        if later:
+            self._done.extendleft(reversed(later))
         if installed:
             self.cache.evict_to_budget()
         with self._lock:

@@ -1,0 +1,187 @@
+"""Live-edit benchmark (issue 25): how soon an edit's new tiles are in view, and what edits
+cost the frames around them.
+
+The built-in 4 km scene at ``--size`` (1920×1080), r = 10 px, default camera (on the main
+river), ``gl=False`` (llvmpipe's draw would dominate the frame and says nothing about
+edits), one core, frames paced at 60 fps (each step starts on a 1/60 s tick; the time left
+is the idle time the tile worker and the edit thread run in), with a flood running (a
+hydrograph on every source, as bench_flood):
+
+1. ``--warm`` frames with nothing edited: the frame's median (wall and CPU ms);
+Frame CPU times are the frame's own thread's (``time.thread_time``: not the tile worker's nor
+the edits' thread's, which run in its idle time).
+
+2. ``--edits`` edits of the branch nearest the view's centre, one every ``--every``
+   frames, each a centre-line bump of ±``--bump`` m (the demo's drag, made in the
+   background: ``move_axis(..., wait=False)``): per edit the seconds from the call to its
+   swap (the new network made), to the river's last new tile in view (flow, water, water
+   mesh) and to the last new tile in view (no stale tile the frame asks for), the CPU
+   seconds the tile process (forked again for the edit) spent until then or until the next
+   edit (what remaking the tiles costs, whatever the machine's load), and every frame's
+   wall and CPU ms while edits run.
+
+Target (the issue brief): an edit's new tiles in view within 0.5 s at 1080p; no frame over
+2× the median while edits and a flood run (one core, paced 60 fps).
+
+Run: ``NUMBA_NUM_THREADS=1 taskset -c 0 python benchmarks/bench_edit.py`` (``--json out.json``
+to keep the figures). Figures go to docs/performance.md.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+import numpy as np
+
+
+def _flood(world, peak: float = 3.0) -> None:
+    world.set_hydrograph(None, [], None)                # makes the router
+    router = world.flood
+    sources = [b for b in range(len(router.network.names)) if router.net.link_start[b] < 0]
+    q = float(router.net.link_q0[sources].sum())
+    now = world.clock.now_s
+    world.set_hydrograph(None, [now, now + 60.0, now + 600.0], [q, peak * q, q])
+
+
+def _bumped(line: np.ndarray, dy_m: float, at: float, width_m: float) -> np.ndarray:
+    arc = np.r_[0.0, np.cumsum(np.hypot(*np.diff(line, axis=0).T))]
+    weight = np.exp(-((arc - at) / width_m) ** 2)
+    weight[[0, -1]] = 0.0
+    d = np.gradient(line, axis=0)
+    normal = np.c_[-d[:, 1], d[:, 0]] / np.maximum(np.hypot(*d.T), 1e-9)[:, None]
+    return line + (dy_m * weight)[:, None] * normal
+
+
+RIVER_KINDS = ("flow", "water", "water_mesh")
+"""The tiles of the river itself (its flow, its level, its surface's mesh)."""
+
+
+def _process_cpu_s(pid) -> float:
+    """CPU seconds (user + system) a process has used (Linux /proc), NaN if unknown."""
+    import os
+
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            fields = f.read().rsplit(")", 1)[1].split()
+        return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError, TypeError):
+        return float("nan")
+
+
+def _stale_in_view(world, kinds=None) -> int:
+    sched = world.tiles.scheduler
+    return sum(len(sched.stale(k, wanted=True)) for k in (kinds or sched.producers))
+
+
+def run(size, edits: int, every: int, bump_m: float, warm: int, seed: int) -> dict:
+    import riverflow as rf
+
+    world = rf.RiverWorld(rf.default_scene(seed=seed), size=size, gl=False, seed=seed)
+    world.load_view()
+    _flood(world)
+    target = np.asarray(world.camera.target[:2])
+    dist = [float(np.hypot(*(b.centerline_m - target).T).min()) for b in world.scene.branches]
+    link = int(np.argmin(dist))
+    branch = world.scene.branches[link]
+    line0 = branch.centerline_m.copy()
+    arc = np.r_[0.0, np.cumsum(np.hypot(*np.diff(line0, axis=0).T))]
+    at = float(arc[int(np.argmin(np.hypot(*(line0 - target).T)))])
+    width = 4.0 * float(np.median(branch.widths_m))
+    tick = 1.0 / 60.0
+    next_tick = time.perf_counter()
+
+    def frame() -> tuple[float, float]:
+        nonlocal next_tick
+        now = time.perf_counter()
+        if now < next_tick:
+            time.sleep(next_tick - now)
+        next_tick = max(next_tick + tick, time.perf_counter() - tick)
+        w0, c0 = time.perf_counter(), time.thread_time()
+        world.step(tick)
+        return (time.perf_counter() - w0) * 1e3, (time.thread_time() - c0) * 1e3
+
+    for _ in range(60):
+        frame()
+    quiet = np.array([frame() for _ in range(warm)])
+    out: dict = {"size": f"{size[0]}x{size[1]}", "branch": branch.name,
+                 "particles": len(world.particles),
+                 "quiet_ms_median": float(np.median(quiet[:, 0])),
+                 "quiet_cpu_ms_median": float(np.median(quiet[:, 1])),
+                 "quiet_ms_max": float(quiet[:, 0].max())}
+    during, swap_s, in_view_s, marked, swap_ms, river_s = [], [], [], [], [], []
+    worker_cpu_s: list[float] = []
+    for e in range(edits):
+        sign = 1.0 if e % 2 == 0 else -1.0
+        t0 = time.perf_counter()
+        applied = world.edits.applied if world.edits is not None else 0
+        future = world.move_axis(link, _bumped(line0, sign * bump_m, at, width), wait=False)
+        swapped = river = None
+        for k in range(every):
+            during.append(frame())
+            if swapped is None and world.edits.applied > applied:
+                swapped = time.perf_counter() - t0
+                pid = world.tiles.scheduler.worker_pid     # forked for this edit
+                marked.append(sum(world.edits.last["marked"].values()))
+                swap_ms.append(world.edits.last["swap_ms"])
+            if swapped is not None and river is None \
+                    and _stale_in_view(world, RIVER_KINDS) == 0:
+                river = time.perf_counter() - t0
+            if swapped is not None and _stale_in_view(world) == 0:
+                in_view_s.append(time.perf_counter() - t0)
+                break
+        else:
+            in_view_s.append(np.nan)
+        if swapped is not None:
+            worker_cpu_s.append(_process_cpu_s(pid))
+        river_s.append(river if river is not None else np.nan)
+        swap_s.append(swapped if swapped is not None else np.nan)
+        future.result(0) if future.done() else None
+        for _ in range(every - 1 - k):
+            during.append(frame())
+    during = np.array(during)
+    med = float(np.median(during[:, 0]))
+    out.update({
+        "edits": edits, "edit_errors": len(world.edit_errors),
+        "tiles_marked_per_edit_mean": float(np.mean(marked)) if marked else 0.0,
+        "swap_main_thread_ms_max": float(np.max(swap_ms)) if swap_ms else 0.0,
+        "swap_s_median": float(np.nanmedian(swap_s)), "swap_s_max": float(np.nanmax(swap_s)),
+        "worker_cpu_s_per_edit_median": float(np.nanmedian(worker_cpu_s))
+        if worker_cpu_s else float("nan"),
+        "river_in_view_s_median": float(np.nanmedian(river_s)),
+        "river_in_view_s_max": float(np.nanmax(river_s)),
+        "in_view_s_median": float(np.nanmedian(in_view_s)),
+        "in_view_s_max": float(np.nanmax(in_view_s)),
+        "in_view_late": int(np.sum(~(np.array(in_view_s) <= 0.5))),
+        "edit_frames": len(during), "edit_ms_median": med,
+        "edit_cpu_ms_median": float(np.median(during[:, 1])),
+        "edit_ms_p99": float(np.percentile(during[:, 0], 99)),
+        "edit_ms_max": float(during[:, 0].max()),
+        "edit_cpu_ms_max": float(during[:, 1].max()),
+        "frames_over_2x_median": int(np.sum(during[:, 0] > 2.0 * med)),
+        "frames_over_2x_quiet_median": int(np.sum(during[:, 0] > 2.0 * out["quiet_ms_median"])),
+        "particles_end": len(world.particles)})
+    world.close()
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--size", type=int, nargs=2, default=(1920, 1080))
+    ap.add_argument("--edits", type=int, default=10)
+    ap.add_argument("--every", type=int, default=60, help="frames between edits")
+    ap.add_argument("--bump", type=float, default=20.0, help="[m]")
+    ap.add_argument("--warm", type=int, default=120)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--json", default=None)
+    args = ap.parse_args()
+    out = run(tuple(args.size), args.edits, args.every, args.bump, args.warm, args.seed)
+    for k, v in out.items():
+        print(f"{k:>30}: {v:.4g}" if isinstance(v, float) else f"{k:>30}: {v}")
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(out, f, indent=2)
+
+
+if __name__ == "__main__":
+    main()

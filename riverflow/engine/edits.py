@@ -1,0 +1,561 @@
+"""Live edits of a running world's river network (issue 25, Proland's ``edit4``).
+
+An edit is made in three steps:
+
+1. **the new network** (:func:`edited_branches` for the finer calls, :func:`branches_of_input`
+   for a whole builder or graph): a list of :class:`~riverflow.scenes.layout.RiverBranch` and
+   the islands, built with the :class:`~riverflow.hydro.builder.RiverNetworkBuilder` (which
+   rejects what cannot carry a flow: banks that cross, a branch turning back on itself, a
+   junction that does not balance: :class:`~riverflow.hydro.graph.GraphError`) and made into a
+   new :class:`~riverflow.scenes.landscape.Landscape` on the same height source, carving,
+   quadtree and cell size (:func:`edited_scene`), with its own
+   :class:`~riverflow.hydro.flow_field.FlowField` on the same quadtree, lattice spacing and
+   flattening tolerance. Nothing of the running world is touched until all of it is made, so a
+   bad edit leaves the world as it was.
+2. **what changed** (:func:`plan_edit`): the water-surface samples whose position, level or
+   width differ (per branch, by name) and the flow network's segments whose geometry, ψ or
+   search radius differ. Each gives boxes [m] padded by how far such a change reaches: the
+   carving's reach (or the water tiles' LEVEL_REACH_M, the larger) for the terrain kinds,
+   each segment's own cut-off radius for the flow. The resident flow tiles keep their bank
+   lists through an old → new segment index map (an untouched segment keeps its tiles).
+3. **the swap** (:meth:`RiverWorld._apply_edit`, main thread, between frames): the scheduler
+   takes the new producers and marks the resident tiles whose footprint meets the boxes as
+   stale (:meth:`~riverflow.tiles.scheduler.TileScheduler.invalidate`): they stand in until
+   their new versions, made in the background, replace them.
+
+Everything here is plain numpy / shapely; nothing needs OpenGL.
+"""
+from __future__ import annotations
+
+import copy
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from riverflow.hydro.builder import RiverNetworkBuilder
+from riverflow.hydro.flow_field import FlowField
+from riverflow.hydro.flow_network import FlowNetwork
+from riverflow.hydro.graph import GraphError, HydroGraph
+from riverflow.scenes.landscape import (FREEBOARD_M, CarvedTerrain, Landscape,
+                                        branches_of_graph, water_surface, z_range)
+from riverflow.scenes.layout import RiverBranch
+from riverflow.scenes.tile_kinds import LEVEL_REACH_M
+from riverflow.scenes.water import WaterSurface
+from riverflow.tiles.memo import TileMemo
+
+JUNCTION_SNAP_M = 1.0
+"""A branch end this close to another branch's end (or a junction) meets it there."""
+BOX_SAMPLES = 24
+"""Water-surface samples per box of a changed branch (boxes follow a branch's bends)."""
+EDGE_CELLS = 4
+"""A tile's footprint is widened by this many of its own cells (its ψ ring, its normals'
+ring, bicubic support) when it is tested against the changed boxes."""
+
+
+@dataclass(eq=False)
+class EditPlan:
+    """A checked edit, ready to be swapped in (module docstring, step 2)."""
+
+    scene: Landscape
+    field: FlowField
+    terrain_boxes: np.ndarray
+    """(B, 4) xmin, ymin, xmax, ymax [m]: the terrain kinds' tiles meeting them are made again."""
+    flow_boxes: np.ndarray
+    """(F, 4): the flow tiles meeting them are made again."""
+    segment_map: np.ndarray
+    """(S_old,) int32: each old flow segment's index in the new network (a segment gone: the
+    nearest new one, the tiles listing it being stale)."""
+    changed: list[str] = field(default_factory=list)
+    """Names of the branches whose water changed (added, moved, widened, removed)."""
+    renumbered: tuple | None = None
+    """(slots, their codes, their new bank lists): the flow tiles resident when the edit was
+    planned, renumbered (:func:`renumbered_segments`) in the edit's thread."""
+    renumbered_all: tuple | None = None
+    """(slots, codes) of every flow tile resident when the edit was planned."""
+    cell_network: object = None
+    """The new network's cells for a running flood (:mod:`riverflow.hydro.spill_network`),
+    None without one."""
+
+
+# -- step 1: the new network ------------------------------------------------------------------
+
+
+def _link_index(branches: list[RiverBranch], link, what: str) -> int:
+    if isinstance(link, (int, np.integer)) and not isinstance(link, bool):
+        if not -len(branches) <= int(link) < len(branches):
+            raise ValueError(f"{what}: no branch {int(link)} (the scene has {len(branches)})")
+        return int(link) % len(branches)
+    if isinstance(link, str):
+        for k, b in enumerate(branches):
+            if b.name == link:
+                return k
+        names = ", ".join(b.name for b in branches)
+        raise ValueError(f"{what}: no branch named {link!r} (the scene has {names})")
+    raise TypeError(f"{what}: link must be a branch name or index, got {type(link).__name__} "
+                    f"{link!r:.80}")
+
+
+def _points(points, what: str) -> np.ndarray:
+    pts = np.asarray(points, np.float64)
+    if pts.ndim != 2 or pts.shape[1] != 2 or len(pts) < 2:
+        raise ValueError(f"{what}: points must be (K ≥ 2, 2) [m], got shape {pts.shape}")
+    if not np.isfinite(pts).all():
+        bad = int(np.flatnonzero(~np.isfinite(pts).all(axis=1))[0])
+        raise ValueError(f"{what}: point {bad} is not finite: {pts[bad].tolist()}")
+    return pts
+
+
+def _widths(widths, k: int, what: str) -> np.ndarray:
+    w = np.asarray(widths, np.float64)
+    if w.ndim == 0:
+        w = np.full(k, float(w))
+    if w.shape != (k,):
+        raise ValueError(f"{what}: widths must be one number or one per centre-line point "
+                         f"({k}), got shape {w.shape}")
+    if not (np.isfinite(w).all() and (w > 0).all()):
+        bad = int(np.flatnonzero(~(np.isfinite(w) & (w > 0)))[0])
+        raise ValueError(f"{what}: width {bad} must be a finite number > 0 [m], got {w[bad]!r}")
+    return w
+
+
+def _arc_fraction(line: np.ndarray) -> np.ndarray:
+    s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(line, axis=0).T))])
+    return s / s[-1] if s[-1] > 0 else np.linspace(0.0, 1.0, len(line))
+
+
+def edited_branches(scene: Landscape, op: str, link=None, **args) -> list[RiverBranch]:
+    """The scene's branches after one finer edit (copies; the scene is not changed):
+
+    * ``"width"``: ``widths`` (one number or one per centre-line point) [m];
+    * ``"axis"``: ``points`` (K, 2) [m], the new centre line drawn downstream; an end that
+      meets a junction must stay there; ``widths`` (optional: else the old ones, carried along
+      the arc length);
+    * ``"add"``: ``points``, ``widths``, ``discharge_m2s`` (needed for a source), ``name``;
+    * ``"remove"``: the branch ``link``.
+
+    Raises ValueError / TypeError naming the call and what is wrong with its arguments (the
+    network itself is checked by the builder: :func:`edited_scene`)."""
+    branches = [copy.copy(b) for b in scene.branches]
+    what = {"width": "set_width", "axis": "move_axis", "add": "add_branch",
+            "remove": "remove_branch"}[op]
+    if op == "add":
+        pts = _points(args["points"], what)
+        w = _widths(args["widths"], len(pts), what)
+        q = args.get("discharge_m2s")
+        if q is not None and not (math.isfinite(float(q)) and float(q) > 0):
+            raise ValueError(f"{what}: discharge_m2s must be a finite number > 0, got {q!r}")
+        name = args.get("name") or f"branch_{len(branches)}"
+        if any(b.name == name for b in branches):
+            raise ValueError(f"{what}: a branch named {name!r} exists already")
+        branches.append(RiverBranch(str(name), pts, w, None if q is None else float(q),
+                                    "tributary", -1, -1))
+        return _renumber_junctions(branches)
+    k = _link_index(branches, link, what)
+    b = branches[k]
+    if op == "width":
+        b.widths_m = _widths(args["widths"], len(b.centerline_m), what)
+    elif op == "axis":
+        pts = _points(args["points"], what)
+        for end, j, old in (("start", b.start_junction, b.centerline_m[0]),
+                            ("end", b.end_junction, b.centerline_m[-1])):
+            new = pts[0] if end == "start" else pts[-1]
+            if j >= 0 and float(np.hypot(*(new - old))) > JUNCTION_SNAP_M:
+                raise ValueError(f"{what}: branch {b.name!r}'s {end} is at a junction "
+                                 f"({old[0]:.1f}, {old[1]:.1f}) m; the new centre line must "
+                                 f"keep it there, got ({new[0]:.1f}, {new[1]:.1f})")
+        if b.start_junction >= 0:
+            pts[0] = b.centerline_m[0]
+        if b.end_junction >= 0:
+            pts[-1] = b.centerline_m[-1]
+        if args.get("widths") is not None:
+            b.widths_m = _widths(args["widths"], len(pts), what)
+        else:
+            b.widths_m = np.interp(_arc_fraction(pts), _arc_fraction(b.centerline_m),
+                                   b.widths_m)
+        b.centerline_m = pts
+    elif op == "remove":
+        del branches[k]
+        if not branches:
+            raise ValueError(f"{what}: {b.name!r} is the scene's last branch")
+    return _renumber_junctions(branches)
+
+
+def _renumber_junctions(branches: list[RiverBranch]) -> list[RiverBranch]:
+    """Junctions from the branch ends that meet (within JUNCTION_SNAP_M): the ones that stay
+    keep their order, new ones come after, and a junction left with one branch is a free end."""
+    ends = []
+    for k, b in enumerate(branches):
+        ends.append((k, 0, b.centerline_m[0], b.start_junction))
+        ends.append((k, 1, b.centerline_m[-1], b.end_junction))
+    groups: list[list[int]] = []
+    for e, (_, _, p, _) in enumerate(ends):
+        for g in groups:
+            if float(np.hypot(*(ends[g[0]][2] - p))) <= JUNCTION_SNAP_M:
+                g.append(e)
+                break
+        else:
+            groups.append([e])
+    groups = [g for g in groups if len(g) >= 2]
+    old = [min([ends[e][3] for e in g if ends[e][3] >= 0], default=1 << 30) for g in groups]
+    order = sorted(range(len(groups)), key=lambda i: (old[i], i))
+    number = {i: n for n, i in enumerate(order)}
+    for b in branches:
+        b.start_junction = b.end_junction = -1
+    for i, g in enumerate(groups):
+        for e in g:
+            k, side, _, _ = ends[e]
+            if side == 0:
+                branches[k].start_junction = number[i]
+            else:
+                branches[k].end_junction = number[i]
+    return branches
+
+
+def branches_of_input(builder_or_graph) -> tuple[list[RiverBranch], list[np.ndarray], HydroGraph,
+                                                 RiverNetworkBuilder | None]:
+    """A whole new network: a :class:`RiverNetworkBuilder` (built here) or a
+    :class:`HydroGraph`, as branches (:func:`~riverflow.scenes.landscape.branches_of_graph`)."""
+    if isinstance(builder_or_graph, RiverNetworkBuilder):
+        graph = builder_or_graph.build()
+        polygon = builder_or_graph.water_polygon
+    elif isinstance(builder_or_graph, HydroGraph):
+        from riverflow.hydro.areas import water_polygon
+
+        graph = builder_or_graph
+        polygon = water_polygon(graph)
+    else:
+        raise TypeError("edit_network: needs a RiverNetworkBuilder or a HydroGraph, got "
+                        f"{type(builder_or_graph).__name__}")
+    if polygon is None or polygon.is_empty:
+        raise GraphError("edit_network: the new network holds no water")
+    return branches_of_graph(graph, polygon), [], graph, None
+
+
+def fill_discharges(scene: Landscape, field: FlowField) -> None:
+    """Give the scene's branches without a discharge (a landscape made from a graph) the ψ
+    difference across their middle section, from the banks themselves (no tile is made: any
+    thread may call it), so the builder can rebuild the network."""
+    from riverflow.hydro.flow_field import TileBuilder
+    from riverflow.hydro.spill_network import section_discharge_m2s
+    from riverflow.kernels import flow as kf
+
+    missing = [b for b in scene.branches if b.discharge_m2s is None]
+    if not missing:
+        return
+    scratch = TileBuilder(field).block_scratch()
+
+    def potential(xy):
+        pts = np.ascontiguousarray(np.asarray(xy, np.float64).reshape(-1, 2))
+        psi = np.empty(len(pts))
+        kf.evaluate_potential(pts, psi, *field.network.kernel_args(), field.slip, *scratch)
+        return psi
+    for b in missing:
+        b.discharge_m2s = float(section_discharge_m2s(potential, b.centerline_m, b.widths_m))
+
+
+def _build(branches: list[RiverBranch], islands, tolerance_m: float
+           ) -> tuple[HydroGraph, RiverNetworkBuilder]:
+    builder = RiverNetworkBuilder(tolerance_m=tolerance_m)
+    sources = {b.end_junction for b in branches if b.end_junction >= 0}
+    for b in branches:
+        # a branch below a junction takes what flows into it (the builder splits it by width)
+        fed = b.start_junction >= 0 and b.start_junction in sources
+        builder.add_branch(b.centerline_m, b.widths_m, None if fed else b.discharge_m2s,
+                           name=b.name)
+    for outline in islands:
+        builder.add_island(outline)
+    graph = builder.build()
+    for b, q in zip(branches, builder.discharges_m2s):
+        b.discharge_m2s = q
+    return graph, builder
+
+
+def edited_scene(scene: Landscape, branches: list[RiverBranch], islands=None,
+                 graph: HydroGraph | None = None) -> tuple[Landscape, HydroGraph]:
+    """A landscape like ``scene`` (height source, carving, quadtree, cell size, seed) over the
+    network of ``branches`` (built here unless ``graph`` is given) with its own, empty tile
+    memo. Raises :class:`GraphError` for a network that cannot carry a flow."""
+    islands = scene.islands if islands is None else islands
+    polygon = None
+    if graph is None:
+        graph, builder = _build(branches, islands, getattr(scene, "tolerance_m", 0.25))
+        polygon = builder.water_polygon
+    else:
+        from riverflow.hydro.areas import water_polygon
+
+        polygon = water_polygon(graph)
+    ground = scene.profile_ground or _LevelGround(scene.water)
+    old = scene.terrain
+    water = water_surface(branches, ground, polygon, graph.falls, graph.rapids)
+    terrain = CarvedTerrain(old.source, water, old.carving, old.quadtree, old.cell_m,
+                            old.tile_cells)
+    lo, hi = z_range(old.source, water, old.carving)
+    new = Landscape(graph, terrain, water, scene.bounds_m, scene.seed, branches, list(islands),
+                    (min(lo, scene.z_range_m[0]), max(hi, scene.z_range_m[1])),
+                    TileMemo(scene.tile_memo.budget_bytes / 1e6), scene.profile_ground)
+    return new, graph
+
+
+@dataclass(frozen=True)
+class _LevelGround:
+    """A scene without its profiles' ground: its water level + FREEBOARD_M (so its untouched
+    branches keep their levels, up to the profiles' smoothing)."""
+
+    water: WaterSurface
+
+    def __call__(self, xy: np.ndarray) -> np.ndarray:
+        return np.asarray(self.water.level(xy), np.float64) + FREEBOARD_M
+
+
+def edited_field(old: FlowField, graph: HydroGraph) -> FlowField:
+    """The flow of ``graph`` on ``old``'s quadtree, lattice spacing, tolerance and cache (so an
+    untouched segment is flattened alike and its tiles are the same tiles)."""
+    t = old.tiles
+    field = FlowField(graph, old.slip, old.search_radius_factor,
+                      potential_delta_m=t.spacing_m(old.max_level),
+                      lattice_cells=t.n_cells, domain_m=(t.root_x_m, t.root_y_m, t.root_size_m),
+                      tolerance_m=old.tolerance_m, cache=t.cache)
+    if field.max_level != old.max_level:      # cannot happen with the same spacing; guarded
+        raise GraphError(f"the edited flow's finest level {field.max_level} is not the "
+                         f"running one's {old.max_level}")
+    field.discharge_scale = old.discharge_scale
+    field._obstacle_sets = dict(old._obstacle_sets)
+    field.obstacles = old.obstacles
+    return field
+
+
+# -- step 2: what changed ---------------------------------------------------------------------
+
+
+def plan_edit(old_scene: Landscape, old_field: FlowField, new_scene: Landscape,
+              new_field: FlowField) -> EditPlan:
+    """What the edit changes (module docstring, step 2)."""
+    reach = max(old_scene.terrain.carving.reach_m, LEVEL_REACH_M)
+    boxes, changed = _water_boxes(old_scene.water, old_scene.branches, new_scene.water,
+                                  new_scene.branches, reach)
+    seg_map, flow_boxes = _segment_changes(old_field.network, new_field.network)
+    return EditPlan(new_scene, new_field, boxes, flow_boxes, seg_map, changed)
+
+
+def _branch_samples(water: WaterSurface, k: int) -> np.ndarray:
+    rows = water.branch == k
+    return np.column_stack([water.samples_m[rows], water.levels_m[rows], water.widths_m[rows]])
+
+
+def _water_boxes(old: WaterSurface, old_branches, new: WaterSurface, new_branches,
+                 reach_m: float) -> tuple[np.ndarray, list[str]]:
+    old_k = {b.name: k for k, b in enumerate(old_branches)}
+    new_k = {b.name: k for k, b in enumerate(new_branches)}
+    boxes, changed = [], []
+    for name in list(old_k) + [n for n in new_k if n not in old_k]:
+        a = _branch_samples(old, old_k[name]) if name in old_k else np.zeros((0, 4))
+        b = _branch_samples(new, new_k[name]) if name in new_k else np.zeros((0, 4))
+        if a.shape == b.shape and np.array_equal(a, b):
+            continue
+        changed.append(name)
+        for rows in (a, b):
+            for s in range(0, len(rows), BOX_SAMPLES):
+                chunk = rows[s:s + BOX_SAMPLES + 1]
+                pad = reach_m + 0.5 * float(chunk[:, 3].max())
+                lo, hi = chunk[:, :2].min(axis=0) - pad, chunk[:, :2].max(axis=0) + pad
+                boxes.append([lo[0], lo[1], hi[0], hi[1]])
+    return np.array(boxes, np.float64).reshape(-1, 4), changed
+
+
+def _segment_rows(net: FlowNetwork) -> tuple[np.ndarray, np.ndarray]:
+    """Per segment: a key of everything a flow tile reads of it (ends, curve kind, half width,
+    cut-off, ψ) and its cut-off radius [m]."""
+    n = net.n_segments
+    curve = np.repeat(np.arange(net.n_curves), (net.curve_seg1 - net.curve_seg0).astype(np.int64))
+    if len(curve) != n:         # segments not covered by a curve (none expected): keyed alone
+        curve = np.resize(curve, n)
+    psi = net.segment_psi()
+    rows = np.column_stack([net.seg_ax, net.seg_ay, net.seg_bx, net.seg_by,
+                            net.curve_kind[curve].astype(np.float64), net.curve_hw2[curve],
+                            net.curve_cutoff[curve], psi])
+    rows = np.where(np.isnan(rows), np.inf, rows)     # NaN ψ (axes, caps) keys alike
+    return np.ascontiguousarray(rows), np.asarray(net.curve_cutoff[curve], np.float64)
+
+
+def _segment_changes(old: FlowNetwork, new: FlowNetwork) -> tuple[np.ndarray, np.ndarray]:
+    """The old → new segment map and the boxes of the segments that changed. A segment gone
+    maps to the nearest new segment (by midpoint): the flow tiles that list it are near the
+    change, so they stand in (stale) until they are made again, and a stand-in's inside test
+    near the moved bank reads a bank nearby rather than a number past the new list."""
+    from scipy.spatial import cKDTree
+
+    a, cut_a = _segment_rows(old)
+    b, cut_b = _segment_rows(new)
+    index = {row.tobytes(): i for i, row in enumerate(b)}
+    seg_map = np.array([index.get(row.tobytes(), -1) for row in a], np.int32)
+    kept = np.zeros(len(b), bool)
+    kept[seg_map[seg_map >= 0]] = True
+    gone = seg_map < 0
+    boxes = []
+    for rows, cut in ((a[gone], cut_a[gone]), (b[~kept], cut_b[~kept])):
+        if len(rows):
+            lo = np.minimum(rows[:, :2], rows[:, 2:4]) - cut[:, None]
+            hi = np.maximum(rows[:, :2], rows[:, 2:4]) + cut[:, None]
+            boxes.append(np.hstack([lo, hi]))
+    boxes = np.concatenate(boxes) if boxes else np.zeros((0, 4))
+    if gone.any() and len(b):
+        _, near = cKDTree(0.5 * (b[:, :2] + b[:, 2:4])).query(0.5 * (a[gone, :2] + a[gone, 2:4]))
+        seg_map[gone] = near
+    return seg_map, _merge_boxes(boxes)
+
+
+def _merge_boxes(boxes: np.ndarray, limit: int = 512) -> np.ndarray:
+    """At most ``limit`` boxes covering ``boxes`` (consecutive ones merged: segments of a curve
+    are consecutive, so the merged boxes still follow the river)."""
+    if len(boxes) <= limit:
+        return boxes
+    step = -(-len(boxes) // limit)
+    out = [np.r_[boxes[s:s + step, :2].min(axis=0), boxes[s:s + step, 2:].max(axis=0)]
+           for s in range(0, len(boxes), step)]
+    return np.array(out)
+
+
+def renumbered_segments(segments: np.ndarray, slots: np.ndarray, seg_map: np.ndarray
+                        ) -> tuple[np.ndarray, np.ndarray]:
+    """The flow pool's bank lists (``segments``: the pool's ``cell_segments``) of ``slots``
+    in the new network's numbers: (the slots that list a renumbered segment, their new
+    lists); the other slots' lists stay as they are. Reads the pool, writes nothing (an edit's
+    thread makes them while the frames run; :meth:`RiverWorld._apply_edit` stores them)."""
+    moved = seg_map != np.arange(len(seg_map), dtype=seg_map.dtype)
+    if not moved.any() or not len(slots):
+        return slots[:0], segments[:0]
+    first = int(np.argmax(moved))          # the segments before it keep their numbers
+    top = segments[slots].reshape(len(slots), -1).max(axis=1)
+    slots = slots[top >= first]
+    lookup = np.concatenate([[-1], seg_map]).astype(segments.dtype)      # −1 stays −1
+    return slots, lookup[segments[slots] + 1]
+
+
+def tile_distances(codes: np.ndarray, quadtree, points: np.ndarray) -> np.ndarray:
+    """(K,) distance [m] from each tile's centre to the nearest of ``points`` (P, 2) (inf with
+    none): the order a live edit's stale tiles are made again in."""
+    codes = np.asarray(codes, np.int64)
+    if not len(codes) or not len(points):
+        return np.full(len(codes), np.inf)
+    from scipy.spatial import cKDTree
+
+    mask = (1 << 28) - 1
+    size = quadtree.root_size_m / np.exp2((codes >> 56).astype(np.float64))
+    x = quadtree.root_x_m + ((codes & mask).astype(np.float64) + 0.5) * size
+    y = quadtree.root_y_m + (((codes >> 28) & mask).astype(np.float64) + 0.5) * size
+    d, _ = cKDTree(points).query(np.column_stack([x, y]))
+    return d
+
+
+def tiles_meeting(codes: np.ndarray, quadtree, boxes: np.ndarray, cells: int) -> np.ndarray:
+    """(K,) bool: the tiles of ``codes`` whose footprint (widened by EDGE_CELLS of its
+    ``cells`` cells a side) meets one of ``boxes`` (B, 4) [m]."""
+    codes = np.asarray(codes, np.int64)
+    if not len(codes) or not len(boxes):
+        return np.zeros(len(codes), bool)
+    mask = (1 << 28) - 1
+    level = (codes >> 56).astype(np.int64)
+    tx = (codes & mask).astype(np.float64)
+    ty = ((codes >> 28) & mask).astype(np.float64)
+    size = quadtree.root_size_m / np.exp2(level)
+    edge = size * EDGE_CELLS / cells
+    x0 = quadtree.root_x_m + tx * size - edge
+    y0 = quadtree.root_y_m + ty * size - edge
+    x1, y1 = x0 + size + 2 * edge, y0 + size + 2 * edge
+    out = np.zeros(len(codes), bool)
+    for s in range(0, len(boxes), 256):       # (K, 256) at a time: bounded temporaries
+        bx = boxes[s:s + 256]
+        out |= ((x0[:, None] <= bx[None, :, 2]) & (x1[:, None] >= bx[None, :, 0])
+                & (y0[:, None] <= bx[None, :, 3]) & (y1[:, None] >= bx[None, :, 1])).any(axis=1)
+    return out
+
+
+# -- step 3: in the background, then swapped in between frames --------------------------------
+
+
+class LiveEdits:
+    """A world's edits in the background (``wait=False``): one at a time in a worker thread,
+    the latest one asked for while another is made waiting its turn (a drag asks for an edit
+    each frame: only the newest of those is made), each swapped in at the start of the first
+    frame after it is ready (:meth:`RiverWorld.step`). ``errors`` keeps what the background
+    edits raised (the world keeps its network then)."""
+
+    def __init__(self) -> None:
+        self.thread = None          # a threading.Event while an edit is made, set when done
+        self.result = None          # (plan, producers) or an exception, set by the thread
+        self.future = None
+        self.queued = None          # (make_plan, future)
+        self._worker = None         # the edits' thread (start)
+        self._jobs = None
+        self.errors: list[str] = []
+        self.applied = 0
+        """Edits swapped in so far."""
+        self.last: dict = {}
+        """The last edit swapped in: ``changed`` branch names, ``marked`` tiles per kind,
+        ``released`` flow tiles, ``applied_s`` (time.perf_counter() of the swap)."""
+
+    @property
+    def busy(self) -> bool:
+        return self.thread is not None or self.queued is not None
+
+    def start(self, run) -> None:
+        """Run ``run()`` in the edits' thread: one thread for the world's life, not one per
+        edit, because the tile process an edit forks there is killed when the thread that
+        forked it ends (``PR_SET_PDEATHSIG``: :mod:`riverflow.tiles.remote`)."""
+        import queue
+        import threading
+        import weakref
+
+        if self._worker is None or not self._worker.is_alive():
+            self._jobs = queue.Queue()
+            self._worker = threading.Thread(target=_serve_edits,
+                                            args=(weakref.ref(self), self._jobs),
+                                            name="riverflow-edits", daemon=True)
+            self._worker.start()
+        done = threading.Event()
+        self.thread = done                   # busy until ``run`` has set the result
+        self._jobs.put((run, done))
+
+    def run_later(self, fn) -> None:
+        """Run ``fn()`` in the edits' thread after what it does now (closing a tile process
+        replaced by an edit: its end is not waited for in a frame)."""
+        import threading
+
+        if self._worker is None or not self._worker.is_alive():
+            threading.Thread(target=fn, daemon=True, name="riverflow-edits-close").start()
+            return
+        self._jobs.put((fn, threading.Event()))
+
+    def running(self) -> bool:
+        return self.thread is not None and not self.thread.is_set()
+
+    def join(self) -> None:
+        if self.thread is not None:
+            self.thread.wait()
+
+    def stop(self) -> None:
+        if self._worker is not None:
+            self._jobs.put(None)
+            self._worker = None
+
+
+def _serve_edits(ref, jobs) -> None:
+    """The edits' thread: runs what :meth:`LiveEdits.start` hands it until told to stop or
+    its LiveEdits is gone."""
+    import queue
+
+    while True:
+        try:
+            job = jobs.get(timeout=1.0)
+        except queue.Empty:
+            if ref() is None:
+                return
+            continue
+        if job is None:
+            return
+        run, done = job
+        try:
+            run()
+        finally:
+            done.set()
