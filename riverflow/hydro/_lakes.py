@@ -67,9 +67,6 @@ def check_lake(polygon, level_m, index: int) -> Lake:
     if poly.is_empty or not poly.area > 0 or not poly.is_valid:
         raise GraphError(f"{name}: its outline is not a simple polygon with an area "
                          f"({shapely.is_valid_reason(poly)})")
-    if len(poly.interiors):
-        raise GraphError(f"{name}: has {len(poly.interiors)} island(s); islands in lakes are not "
-                         f"supported yet (give the lake without them)")
     if level_m is not None:
         level_m = float(level_m)
         if not np.isfinite(level_m):

@@ -508,6 +508,9 @@ class RiverNetworkBuilder:
             lake_parts = _lakes_of_graph(geoms, lakes, lake_ends, polygon_lake, self.tolerance_m)
         graph = assemble_graph(geoms, rings, pieces, islands, all_junctions[:n_junctions],
                                inlets, lake_parts)
+        if lakes:   # islands in lakes: the ψ of zero circulation round them
+            from riverflow.hydro.lake_flow import set_island_potentials
+            set_island_potentials(graph, self.tolerance_m)
         problems = graph_problems(graph, [(g.centerline_m, g.widths_m, g.discharge_m2s) for g in geoms],
                                   axes_cover_banks=True)
         if problems:

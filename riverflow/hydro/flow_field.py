@@ -512,6 +512,7 @@ class FlowField:
         """The potential flow of each lake a river runs through (:mod:`riverflow.hydro.lake_flow`);
         a lake no river touches is still water (one ψ) and needs none."""
         from riverflow.hydro import lake_flow
+        from riverflow.hydro.areas import area_ring
 
         out = []
         for k in self.graph.lakes():
@@ -520,9 +521,13 @@ class FlowField:
                      if self.graph.curves[c].is_bank}
             if len(shore) < 2:
                 continue
+            islands = lake_flow.lake_islands(self.graph, k, tolerance_m)
             out.append(lake_flow.solve_lake(
                 self.graph, k, (self.tiles.root_x_m, self.tiles.root_y_m),
-                self.tiles.spacing_m(self.max_level), self._banks_potential, tolerance_m))
+                self.tiles.spacing_m(self.max_level), self._banks_potential, tolerance_m,
+                [area_ring(self.graph, a, tolerance_m) for a in islands],
+                [self.graph.curves[self.graph.areas[a].curves[0][0]].potential
+                 for a in islands]))
         return out
 
     # -- tiles ---------------------------------------------------------------------------------

@@ -107,7 +107,8 @@ class LakeGrid:
 
 
 def _pieces(graph: HydroGraph, area: int, tolerance_m: float):
-    """The lake's outline: (exterior ring (M, 2), [(LineString, ψ or NaN for a mouth)])."""
+    """The lake's outline: (exterior ring (M, 2), [LineString], ψ of each piece (NaN for a
+    mouth), for each mouth the ψ of the shore pieces before and after it (NaN for a bank))."""
     lines, values, ring = [], [], []
     for c, o in graph.areas[area].curves:
         p = graph.polyline(c, tolerance_m)
@@ -116,29 +117,82 @@ def _pieces(graph: HydroGraph, area: int, tolerance_m: float):
         curve = graph.curves[c]
         lines.append(shapely.LineString(p))
         values.append(curve.potential if curve.is_bank and curve.has_potential else np.nan)
-    return np.vstack(ring), lines, np.asarray(values)
+    values = np.asarray(values)
+    ends = np.full((len(values), 2), np.nan)
+    for k in np.flatnonzero(np.isnan(values)):
+        ends[k] = values[k - 1], values[(k + 1) % len(values)]
+    return np.vstack(ring), lines, values, ends
+
+
+def lake_islands(graph: HydroGraph, area: int, tolerance_m: float) -> list[int]:
+    """The areas that are islands in lake ``area`` (loops inside its outline, odd winding)."""
+    from riverflow.hydro.areas import area_ring
+
+    outline = shapely.Polygon(area_ring(graph, area, tolerance_m))
+    out = []
+    for a in range(len(graph.areas)):
+        if a == area or graph.areas[a].is_lake:
+            continue
+        ring = area_ring(graph, a, tolerance_m)
+        if len(ring) >= 3 and outline.contains(shapely.Polygon(ring).representative_point()):
+            out.append(a)
+    return out
+
+
+def set_island_potentials(graph: HydroGraph, tolerance_m: float, nodes: int = 40_000) -> None:
+    """Give the shore of every island in a lake the ψ of zero circulation around it (the
+    potential flow goes by both sides of it in the ratio of the sides' conductances), solved
+    on a grid of about ``nodes`` points with ψ linear across the mouths. Sets the island
+    curves' ``potential`` in ``graph``."""
+    from riverflow.hydro.areas import area_ring
+
+    for k in graph.lakes():
+        isl = lake_islands(graph, k, tolerance_m)
+        if not isl:
+            continue
+        ring, _, values, _ = _pieces(graph, k, tolerance_m)
+        if len(set(values[np.isfinite(values)].tolist())) < 2:
+            psi = [float(values[np.isfinite(values)][0])] * len(isl) if np.isfinite(values).any() \
+                else [0.0] * len(isl)
+        else:
+            h = np.sqrt(shapely.Polygon(ring).area / nodes)
+            grid = solve_lake(graph, k, (0.0, 0.0), h, None, tolerance_m,
+                              [area_ring(graph, a, tolerance_m) for a in isl], max_nodes=4 * nodes)
+            psi = grid.island_psi
+        for a, v in zip(isl, psi):
+            for c, _ in graph.areas[a].curves:
+                if graph.curves[c].is_bank:
+                    graph.curves[c].potential = float(v)
 
 
 def solve_lake(graph: HydroGraph, area: int, root_xy: tuple[float, float], finest_m: float,
-               mouth_psi: Callable[[np.ndarray], np.ndarray], tolerance_m: float,
-               islands: list[np.ndarray] = (), max_nodes: int = MAX_NODES) -> LakeGrid:
+               mouth_psi: Callable[[np.ndarray], np.ndarray] | None, tolerance_m: float,
+               islands: list[np.ndarray] = (), island_values: list[float] | None = None,
+               max_nodes: int = MAX_NODES) -> LakeGrid:
     """ψ of the potential flow in lake ``area`` (module docstring) on the lattice of spacing
     ``finest_m`` (or 2ᵏ·``finest_m``) rooted at ``root_xy``. ``mouth_psi``: Proland's ψ at
-    points (N, 2) on the mouths; ``islands``: rings (M, 2) of the islands in the lake."""
+    points (N, 2) on the mouths (None: linear between the shore pieces beside each mouth);
+    ``islands``: rings (M, 2) of the islands in the lake, with their ψ ``island_values`` or,
+    None, the ψ of zero circulation round each (:attr:`LakeGrid.island_psi`)."""
     from scipy import sparse
     from scipy.sparse.linalg import splu
 
-    ring, lines, values = _pieces(graph, area, tolerance_m)
+    ring, lines, values, mouth_ends = _pieces(graph, area, tolerance_m)
+    n_pieces = len(values)
     poly = shapely.Polygon(ring, [np.asarray(r) for r in islands])
     if not poly.is_valid or poly.area <= 0.0:
         raise GraphError(f"lake area {area}: its outline is not a valid polygon "
                          f"({shapely.is_valid_reason(poly)})")
     for r in islands:
         lines.append(shapely.LineString(np.vstack([r, r[:1]])))
-    n_islands = len(islands)
-    # piece k < len(values): shore or mouth; then one piece per island
-    island_of_piece = np.r_[np.full(len(values), -1), np.arange(n_islands)]
-    values = np.r_[values, np.zeros(n_islands)]
+    if island_values is not None:
+        values = np.r_[values, np.asarray(island_values, np.float64)]
+        island_of_piece = np.full(len(values), -1)
+        n_islands = 0
+    else:
+        n_islands = len(islands)
+        island_of_piece = np.r_[np.full(len(values), -1), np.arange(n_islands)]
+        values = np.r_[values, np.zeros(n_islands)]
     x0, y0, x1, y1 = poly.bounds
     rx, ry = root_xy
     h = float(finest_m)
@@ -191,8 +245,14 @@ def solve_lake(graph: HydroGraph, area: int, root_xy: tuple[float, float], fines
             val = values[piece].copy()
             isl[dry] = island_of_piece[piece]
             mouth = np.isnan(val)
-            if mouth.any():
+            if mouth.any() and mouth_psi is not None:
                 val[mouth] = mouth_psi(hit[mouth])
+            elif mouth.any():
+                for q in np.flatnonzero(mouth):
+                    line = lines[piece[q]]
+                    t = line.project(shapely.Point(hit[q]), normalized=True)
+                    a0, a1 = mouth_ends[piece[q]]
+                    val[q] = a0 + t * (a1 - a0)
             if not np.isfinite(val).all():
                 raise GraphError(f"lake area {area}: no ψ at {int((~np.isfinite(val)).sum())} "
                                  f"shore point(s) (a mouth outside its river?)")
