@@ -396,15 +396,16 @@ class RiverNetworkBuilder:
         Branches that reach its shore run into it (an end inside the lake or within 0.75
         of the river's width of its shore is cut or drawn to the shore; a branch that runs
         through it becomes an inlet and an outlet). The lake is a junction of its inlets and
-        outlets for the discharges; its shore carries one ψ between two mouths, so the flow in
-        it runs slowly from its inlets to its outlets, tangent to the shore
-        (:mod:`riverflow.hydro._lakes`). A lake that no river touches is still water; one with
-        inflow but no outlet (or outflow but no inflow) is refused. ``level_m``: its water
-        level [m] (None: from the terrain, :func:`riverflow.landscape`).
+        outlets for the discharges; its shore carries one ψ between two mouths, and the flow in
+        it is the potential flow from its inlets to its outlets, tangent to the shore
+        (:mod:`riverflow.hydro._lakes`, :mod:`riverflow.hydro.lake_flow`). Holes in the polygon
+        are islands: their shore gets the ψ of zero circulation round them. A lake that no
+        river touches is still water; one with inflow but no outlet (or outflow but no inflow)
+        is refused. ``level_m``: its water level [m] (None: from the terrain,
+        :func:`riverflow.landscape`).
 
         Raises:
-            GraphError: not a simple polygon with an area, a non-finite level, or islands in
-                the polygon (not supported yet).
+            GraphError: not a simple polygon with an area, or a non-finite level.
         """
         lake = _lakes.check_lake(polygon, level_m, len(self._lakes))
         for other in self._lakes:
