@@ -138,6 +138,9 @@ class RiverNetworkBuilder:
         self.end_cuts_m2: list[float] = []
         self.islands_cut: list[int] = []
         self._lakes: list[_lakes.Lake] = []
+        self.terminal_lakes: list[int] = []
+        """After build(): the lakes with inflow and no outlet (still water, their inlets ending
+        on free ends at the shore)."""
 
     # -- input --------------------------------------------------------------------------
 
@@ -470,6 +473,13 @@ class RiverNetworkBuilder:
                     for b in self._branches]
         lakes = self._lakes
         branches, lake_ends, origin = _lakes.cut_branches(branches, lakes, self.tolerance_m)
+        branches, lake_ends, self.terminal_lakes = _lakes.end_at_terminal_lakes(
+            branches, lakes, lake_ends, allowed=self._water_area is None)
+        if self.terminal_lakes and getattr(self, "report", None) is not None:
+            self.report.derived["terminal lakes"] = (
+                f"{len(self.terminal_lakes)} lake(s) with inflow and no outlet "
+                f"({', '.join(lakes[k].name for k in self.terminal_lakes)}): still water, "
+                f"their inlets end on free ends at the shore")
         if branches:
             start_j, end_j, junctions = _find_junctions(branches)
         else:

@@ -222,7 +222,8 @@ def test_lakes_round_trip_through_graph_files(tmp_path, level):
 
 @pytest.mark.parametrize("make, message", [
     (lambda b: (b.add_branch([(-500, 0), (-100, 0)], 30.0, discharge_m2s=5.0),
-                b.add_lake(LAKE)), "none flows out"),
+                b.set_water_area(shapely.box(-500, -15, -140, 15)), b.add_lake(LAKE)),
+     "none flows out"),
     (lambda b: (b.add_branch([(100, 0), (500, 0)], 30.0, discharge_m2s=5.0),
                 b.add_lake(LAKE)), "none flows in"),
     (lambda b: b.add_lake([(0, 0), (10, 10), (10, 0), (0, 10)]), "not a simple polygon"),
@@ -343,3 +344,38 @@ def test_an_island_in_a_lake_has_the_psi_of_zero_circulation(island_lake):
     west = np.c_[np.full(7, -400.0), 80.0 + 30.0 * np.linspace(-0.4, 0.4, 7)]
     reached, left = _trace(field, west, lambda p: p[:, 0] > 400.0)
     assert reached.all() and not left.any()
+
+
+def test_a_lake_with_no_outlet_is_still_water():
+    """A terminal lake: its two inlets end on free ends just short of its shore (their water
+    leaves there, as at any river end), the lake is one shore, one ψ: still water, flat, in a
+    network of its own; the builder says which lakes are terminal."""
+    b = RiverNetworkBuilder()
+    b.add_branch(WEST, 30.0, discharge_m2s=20.0, name="west")
+    b.add_branch(SOUTH, 24.0, discharge_m2s=10.0, name="south")
+    b.add_lake(LAKE)
+    graph = b.build()
+    assert b.terminal_lakes == [0] and len(graph.lakes()) == 1
+    (k,) = graph.lakes()
+    assert len({graph.curves[c].potential for c, _ in graph.areas[k].curves}) == 1
+    field = rf.FlowField(graph)
+    ends = np.array([br.centerline_m[-1] for br in graph_branch_ends(graph)])
+    rng = np.random.default_rng(3)
+    pts = rng.uniform(-150, 150, (3000, 2))
+    pts = pts[(np.hypot(*pts.T) < 148)
+              & (np.hypot(*(pts[:, None] - ends[None]).transpose(2, 0, 1)).min(axis=1) > 20.0)]
+    status, v = field.query(pts)
+    assert (status == rf.FlowStatus.INSIDE).all()
+    assert np.isfinite(v).all() and np.abs(v).max() < 1e-6
+    # the rivers still run towards it
+    status, v = field.query(np.array([[-400.0, 80.0], [-73.3, -400.0]]))
+    assert (status == rf.FlowStatus.INSIDE).all() and v[0, 0] > 0.1 and v[1, 1] > 0.1
+    assert np.ptp(rf.landscape(graph, seed=0).water.level(pts)) < 1e-9
+
+
+def graph_branch_ends(graph):
+    """The river axes' polylines as objects with ``centerline_m`` (their downstream ends)."""
+    from types import SimpleNamespace
+
+    return [SimpleNamespace(centerline_m=graph.polyline(a)) for a in graph.axes()
+            if graph.curves[a].width_m < 100.0]
