@@ -403,8 +403,9 @@ class RiverNetworkBuilder:
         it is the potential flow from its inlets to its outlets, tangent to the shore
         (:mod:`riverflow.hydro._lakes`, :mod:`riverflow.hydro.lake_flow`). Holes in the polygon
         are islands: their shore gets the ψ of zero circulation round them. A lake that no
-        river touches is still water; one with inflow but no outlet (or outflow but no inflow)
-        is refused. ``level_m``: its water level [m] (None: from the terrain,
+        river touches is still water, and so is one with inflow but no outlet (its inlets end
+        on free ends at its shore: :attr:`terminal_lakes`); one with outflow but no inflow is
+        refused. ``level_m``: its water level [m] (None: from the terrain,
         :func:`riverflow.landscape`).
 
         Raises:
