@@ -379,3 +379,23 @@ def graph_branch_ends(graph):
 
     return [SimpleNamespace(centerline_m=graph.polyline(a)) for a in graph.axes()
             if graph.curves[a].width_m < 100.0]
+
+
+def test_lake_tiles_agree_across_their_borders(lake):
+    """Either side of a flow tile's border in the lake, ψ and the velocity are continuous
+    (each tile writes the lake's solution at its own lattice points, the same nodes)."""
+    _, graph, field, shore = lake
+    t = field.tiles
+    size = t.tile_size_m(field.max_level)
+    xs = t.root_x_m + size * np.arange(np.ceil((-140 - t.root_x_m) / size),
+                                       np.floor((140 - t.root_x_m) / size) + 1)
+    ys = np.linspace(-140, 140, 200)
+    pts = np.array([(x, y) for x in xs for y in ys])
+    pts = pts[shapely.contains_xy(shore.buffer(-3.0), pts[:, 0], pts[:, 1])]
+    assert len(xs) >= 2 and len(pts) > 100
+    e = 1e-6 * size
+    sa, va = field.query(pts - (e, 0))
+    sb, vb = field.query(pts + (e, 0))
+    assert (sa == rf.FlowStatus.INSIDE).all() and (sb == rf.FlowStatus.INSIDE).all()
+    assert np.abs(va - vb).max() < 1e-3 * np.abs(va).max()
+    assert np.abs(field.potential(pts - (e, 0)) - field.potential(pts + (e, 0))).max() < 1e-4
