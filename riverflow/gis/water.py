@@ -553,9 +553,8 @@ def _lakes_of(features, polygons, water, report: RiverImport, tolerance_m: float
         x, y = p.representative_point().coords[0]
         if len(p.interiors):
             report.repair("lake", None, None, f"the lake near ({x:.1f}, {y:.1f}) has "
-                          f"{len(p.interiors)} islands; islands in lakes are not modelled yet: "
-                          f"filled (water)")
-            p = shapely.Polygon(p.exterior)
+                          f"{len(p.interiors)} islands: kept (the flow goes round them, "
+                          f"hydro/lake_flow.py)")
         lakes.append(p)
     if not lakes:
         return [], water

@@ -67,9 +67,6 @@ def check_lake(polygon, level_m, index: int) -> Lake:
     if poly.is_empty or not poly.area > 0 or not poly.is_valid:
         raise GraphError(f"{name}: its outline is not a simple polygon with an area "
                          f"({shapely.is_valid_reason(poly)})")
-    if len(poly.interiors):
-        raise GraphError(f"{name}: has {len(poly.interiors)} island(s); islands in lakes are not "
-                         f"supported yet (give the lake without them)")
     if level_m is not None:
         level_m = float(level_m)
         if not np.isfinite(level_m):
@@ -148,6 +145,48 @@ def _on_lake(lakes: list[Lake], p: np.ndarray) -> int:
         if lk.polygon.boundary.distance(shapely.Point(p)) <= 1e-6 * max(1.0, np.abs(p).max()):
             return k
     return -1
+
+
+def end_at_terminal_lakes(branches: list, lakes: list[Lake], lake_ends: list, allowed: bool):
+    """A lake that rivers flow into and none out of (a terminal, endorheic lake) is still
+    water: its inlets end on free ends (caps: their water leaves there, as at any river end)
+    just short of its shore, each drawn back from the lake until its strip's last stretch is
+    0.02 widths clear of it, and the lake is one shore, one ψ. Returns the branches, the lake
+    ends (those inlets no longer end on the lake) and the terminal lakes' indices; GraphError
+    when not ``allowed`` (water polygons given: the rivers' water meets the lake's)."""
+    from riverflow.hydro._strips import strip_polygon
+
+    branches, lake_ends = list(branches), list(lake_ends)
+    terminal = []
+    for k, lake in enumerate(lakes):
+        ins = [i for i, (_, e) in enumerate(lake_ends) if e == k]
+        outs = [i for i, (s, _) in enumerate(lake_ends) if s == k]
+        if not ins or outs:
+            continue
+        names = [branches[i].name for i in ins]
+        if not allowed:
+            raise GraphError(f"{lake.name}: rivers {names} flow into it but none flows out; a "
+                             f"lake without an outlet is still water only in networks built "
+                             f"from lines (the water polygons given meet its shore)")
+        for i in ins:
+            b = branches[i]
+            line, w = b.centerline_m.copy(), b.widths_m
+            width = float(w[-1])
+            for _ in range(200):
+                strip = strip_polygon(line[-2:], w[-2:])
+                if lake.polygon.distance(strip) > 0.02 * width:
+                    break
+                t = line[-1] - line[-2]
+                seg = float(np.hypot(*t))
+                if seg <= 0.1 * width:
+                    raise GraphError(f"branch {b.name!r}: its last stretch ({seg:.1f} m) lies "
+                                     f"along the shore of {lake.name} (a lake with no outlet): "
+                                     f"end the branch square to the shore")
+                line[-1] = line[-1] - t / seg * 0.05 * width
+            branches[i] = type(b)(b.name, line, w, b.discharge_m2s)
+            lake_ends[i] = (lake_ends[i][0], -1)
+        terminal.append(k)
+    return branches, lake_ends, terminal
 
 
 def lake_junctions(branches, lakes: list[Lake], lake_ends, start_j, end_j, junctions):

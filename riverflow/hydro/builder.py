@@ -138,6 +138,9 @@ class RiverNetworkBuilder:
         self.end_cuts_m2: list[float] = []
         self.islands_cut: list[int] = []
         self._lakes: list[_lakes.Lake] = []
+        self.terminal_lakes: list[int] = []
+        """After build(): the lakes with inflow and no outlet (still water, their inlets ending
+        on free ends at the shore)."""
 
     # -- input --------------------------------------------------------------------------
 
@@ -396,15 +399,17 @@ class RiverNetworkBuilder:
         Branches that reach its shore run into it (an end inside the lake or within 0.75
         of the river's width of its shore is cut or drawn to the shore; a branch that runs
         through it becomes an inlet and an outlet). The lake is a junction of its inlets and
-        outlets for the discharges; its shore carries one ψ between two mouths, so the flow in
-        it runs slowly from its inlets to its outlets, tangent to the shore
-        (:mod:`riverflow.hydro._lakes`). A lake that no river touches is still water; one with
-        inflow but no outlet (or outflow but no inflow) is refused. ``level_m``: its water
-        level [m] (None: from the terrain, :func:`riverflow.landscape`).
+        outlets for the discharges; its shore carries one ψ between two mouths, and the flow in
+        it is the potential flow from its inlets to its outlets, tangent to the shore
+        (:mod:`riverflow.hydro._lakes`, :mod:`riverflow.hydro.lake_flow`). Holes in the polygon
+        are islands: their shore gets the ψ of zero circulation round them. A lake that no
+        river touches is still water, and so is one with inflow but no outlet (its inlets end
+        on free ends at its shore: :attr:`terminal_lakes`); one with outflow but no inflow is
+        refused. ``level_m``: its water level [m] (None: from the terrain,
+        :func:`riverflow.landscape`).
 
         Raises:
-            GraphError: not a simple polygon with an area, a non-finite level, or islands in
-                the polygon (not supported yet).
+            GraphError: not a simple polygon with an area, or a non-finite level.
         """
         lake = _lakes.check_lake(polygon, level_m, len(self._lakes))
         for other in self._lakes:
@@ -469,6 +474,13 @@ class RiverNetworkBuilder:
                     for b in self._branches]
         lakes = self._lakes
         branches, lake_ends, origin = _lakes.cut_branches(branches, lakes, self.tolerance_m)
+        branches, lake_ends, self.terminal_lakes = _lakes.end_at_terminal_lakes(
+            branches, lakes, lake_ends, allowed=self._water_area is None)
+        if self.terminal_lakes and getattr(self, "report", None) is not None:
+            self.report.derived["terminal lakes"] = (
+                f"{len(self.terminal_lakes)} lake(s) with inflow and no outlet "
+                f"({', '.join(lakes[k].name for k in self.terminal_lakes)}): still water, "
+                f"their inlets end on free ends at the shore")
         if branches:
             start_j, end_j, junctions = _find_junctions(branches)
         else:
@@ -508,6 +520,9 @@ class RiverNetworkBuilder:
             lake_parts = _lakes_of_graph(geoms, lakes, lake_ends, polygon_lake, self.tolerance_m)
         graph = assemble_graph(geoms, rings, pieces, islands, all_junctions[:n_junctions],
                                inlets, lake_parts)
+        if lakes:   # islands in lakes: the ψ of zero circulation round them
+            from riverflow.hydro.lake_flow import set_island_potentials
+            set_island_potentials(graph, self.tolerance_m)
         problems = graph_problems(graph, [(g.centerline_m, g.widths_m, g.discharge_m2s) for g in geoms],
                                   axes_cover_banks=True)
         if problems:

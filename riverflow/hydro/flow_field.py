@@ -180,6 +180,10 @@ class FlowField:
                                               self.max_level))
         self.segments = Segments(*self.network.geometry_args(), self.network.segment_psi())
         self._builder = TileBuilder(self)
+        self.lakes = self._solve_lakes(tol)
+        """Per lake area, its potential flow (:class:`riverflow.hydro.lake_flow.LakeGrid`),
+        which the tiles take as the ψ of their lattice points in the lake."""
+        self._builder.lakes = self.lakes
         self._obstacle_sets: dict[str, np.ndarray] = {}
         self.obstacles: np.ndarray = _NO_OBSTACLES
         """(K, OBSTACLE_FIELDS) float64: every obstacle, set by set_obstacles (read-only)."""
@@ -488,12 +492,45 @@ class FlowField:
         return np.delete(self.obstacles, sorted(drop), axis=0)
 
     def exact_potential(self, xy: np.ndarray) -> np.ndarray:
-        """ψ [m²/s] evaluated from the banks at each point, no lattice (slow; for tests/tools)."""
+        """ψ [m²/s] evaluated from the banks at each point, no lattice (slow; for tests/tools);
+        in a lake, its potential flow's ψ (bilinear on the lake's grid)."""
+        psi = self._banks_potential(xy)
+        pts = self._points(xy)
+        for lake in self.lakes:
+            v = lake.sample(pts)
+            use = np.isfinite(v) & np.isfinite(psi)
+            psi[use] = v[use]
+        return psi
+
+    def _banks_potential(self, xy: np.ndarray) -> np.ndarray:
+        """Proland's ψ from the banks at each point (no lattice, no lake flow)."""
         pts = self._points(xy)
         psi = np.empty(len(pts))
         b = self._builder
         kf.evaluate_potential(pts, psi, *self.network.kernel_args(), self.slip, *b.block_scratch())
         return psi
+
+    def _solve_lakes(self, tolerance_m: float) -> list:
+        """The potential flow of each lake a river runs through (:mod:`riverflow.hydro.lake_flow`);
+        a lake no river touches is still water (one ψ) and needs none."""
+        from riverflow.hydro import lake_flow
+        from riverflow.hydro.areas import area_ring
+
+        out = []
+        for k in self.graph.lakes():
+            area = self.graph.areas[k]
+            shore = {self.graph.curves[c].potential for c, _ in area.curves
+                     if self.graph.curves[c].is_bank}
+            if len(shore) < 2:
+                continue
+            islands = lake_flow.lake_islands(self.graph, k, tolerance_m)
+            out.append(lake_flow.solve_lake(
+                self.graph, k, (self.tiles.root_x_m, self.tiles.root_y_m),
+                self.tiles.spacing_m(self.max_level), self._banks_potential, tolerance_m,
+                [area_ring(self.graph, a, tolerance_m) for a in islands],
+                [self.graph.curves[self.graph.areas[a].curves[0][0]].potential
+                 for a in islands]))
+        return out
 
     # -- tiles ---------------------------------------------------------------------------------
 
@@ -627,6 +664,7 @@ class TileBuilder:
         self.blk_dmin2 = np.empty(net.n_curves)
         self.tmp_d2 = np.empty(net.n_segments)
         self.gval = np.empty(max(net.n_groups, 1))
+        self.lakes: list = list(getattr(field, "lakes", []))   # set by the field once solved
 
     def block_scratch(self) -> tuple:
         return (self.blk_curve, self.blk_start, self.blk_count, self.blk_seg, self.blk_dmin2,
@@ -652,7 +690,35 @@ class TileBuilder:
         n = t.n_cells
         if shore is None:
             shore = np.empty((n + 3, n + 3), np.float32)
-        return int(kf.build_flow_tile(
+        inside = int(kf.build_flow_tile(
             t.root_x_m, t.root_y_m, t.spacing_m(level), n, tx * n, ty * n,
             *f.network.kernel_args(), f.slip, *self.block_scratch(), self.psi_full,
             self.inside_full, self.cell_d2, psi, cell_status, cell_segments, shore))
+        if self.lakes:
+            self._lake_lattice(level, tx, ty, psi)
+        return inside
+
+    def _lake_lattice(self, level: int, tx: int, ty: int, psi: np.ndarray) -> None:
+        """The lattice points of the tile in a lake take the lake's potential flow
+        (:mod:`riverflow.hydro.lake_flow`); the ghosts are then extrapolated again."""
+        t = self.field.tiles
+        n = t.n_cells
+        ring = kf.LATTICE_RING
+        h = t.spacing_m(level)
+        m = self.psi_full.shape[0]
+        gi = tx * n - ring + np.arange(m)
+        gj = ty * n - ring + np.arange(m)
+        x0, y0 = t.root_x_m + gi[0] * h, t.root_y_m + gj[0] * h
+        x1, y1 = t.root_x_m + gi[-1] * h, t.root_y_m + gj[-1] * h
+        changed = False
+        for lake in self.lakes:
+            bx0, by0, bx1, by1 = lake.box_m
+            if bx0 > x1 or bx1 < x0 or by0 > y1 or by1 < y0:
+                continue
+            v = lake.lattice_psi(gi, gj, h)
+            use = self.inside_full & np.isfinite(v)
+            if use.any():
+                self.psi_full[use] = v[use]
+                changed = True
+        if changed:
+            kf._extrapolate_ghosts(self.psi_full, self.inside_full, n, psi)

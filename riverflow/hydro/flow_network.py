@@ -147,10 +147,17 @@ def build_flow_network(graph: HydroGraph, search_radius_factor: float,
     for group in by_node.values():
         for a in group[1:]:
             parent[find(a)] = find(group[0])
+    # a still lake (its whole shore one ψ: no river runs through it) is a network of its
+    # own, even where a river ends by its shore within its axes' width (a terminal lake)
+    still = set()
+    for k in graph.lakes():
+        shore = [graph.curves[c] for c, _ in graph.areas[k].curves]
+        if all(c.is_bank for c in shore) and len({c.potential for c in shore}) == 1:
+            still |= {c.river for c in shore if c.river >= 0}
     for a in axes:
         ends = poly[a][[0, -1]]
         for b in axes:
-            if find(a) != find(b):
+            if find(a) != find(b) and (a in still) == (b in still):
                 hw = 0.5 * graph.curves[b].width_m
                 if np.min(_points_to_polyline(ends, poly[b])) < hw:
                     parent[find(a)] = find(b)
