@@ -812,7 +812,8 @@ def _round_junctions(river, parts: list, geoms: list[BranchGeometry], junctions:
     whole water once at the end (left out if that changed the water's topology)."""
     cut_lines = shapely.linestrings(np.asarray(cuts).reshape(-1, 2, 2))
     cut_tree = shapely.STRtree(cut_lines)
-    tree = shapely.STRtree(parts)
+    parts_array = np.asarray(parts, dtype=object)
+    tree = shapely.STRtree(parts_array)
     pieces = []
     at_junction: dict[int, list[float]] = {}
     for g in geoms:
@@ -824,7 +825,12 @@ def _round_junctions(river, parts: list, geoms: list[BranchGeometry], junctions:
         radius = fraction * min(widths)
         reach = FILLET_REACH_WIDTHS * max(widths)
         window = shapely.Point(p).buffer(reach + 3.0 * radius, quad_segs=_strips.FILLET_QUAD_SEGS)
-        near = [parts[i] for i in tree.query(window, predicate="intersects")]
+        # each part is first cut to a square a little larger than the window (a cheap clip:
+        # a whole branch's strip has hundreds of vertices far away), then the union to the
+        # window itself: the same set as the window's cut of the union of the whole parts
+        half = 1.01 * (reach + 3.0 * radius)
+        box = (p[0] - half, p[1] - half, p[0] + half, p[1] + half)
+        near = shapely.clip_by_rect(parts_array[tree.query(window, predicate="intersects")], *box)
         local = _strips.drop_slivers(shapely.intersection(shapely.union_all(near), window),
                                      sliver_m2)
         # the free-end cuts a fillet must keep away from: those within 2 radii of the window
