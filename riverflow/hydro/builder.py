@@ -888,6 +888,7 @@ def _water(geoms: list[BranchGeometry], junctions: np.ndarray, islands: list[_Is
         discs.append(_strips.junction_disc(p, halves_at.get(j, [])))
     # strips may only overlap around a junction their branches share
     tree = shapely.STRtree(strips)
+    bounds = shapely.bounds(strips)
     for a, b in zip(*tree.query(strips, predicate="intersects")):
         if a >= b:
             continue
@@ -899,8 +900,14 @@ def _water(geoms: list[BranchGeometry], junctions: np.ndarray, islands: list[_Is
             raise GraphError(f"branches {ga.name!r} and {gb.name!r} overlap but do not meet at a "
                              f"junction (end points must coincide to join; split a branch where "
                              f"another one flows into it)")
-        common = shapely.intersection(strips[a], strips[b])
-        near = shapely.union_all([discs[j] for j in sorted(shared)] + in_lakes)
+        # both strips cut to the box their boxes share first (the same overlap: a cheap clip
+        # drops the long stretches of strip far from it, which the overlay would visit)
+        box = np.concatenate([np.maximum(bounds[a, :2], bounds[b, :2]) - 1.0,
+                              np.minimum(bounds[a, 2:], bounds[b, 2:]) + 1.0])
+        common = shapely.intersection(shapely.clip_by_rect(strips[a], *box),
+                                      shapely.clip_by_rect(strips[b], *box))
+        near_parts = [discs[j] for j in sorted(shared)] + in_lakes
+        near = near_parts[0] if len(near_parts) == 1 else shapely.union_all(near_parts)
         for part in getattr(common, "geoms", [common]):
             if part.area > tolerance_m ** 2 and not part.intersects(near):
                 x, y = part.representative_point().coords[0]
