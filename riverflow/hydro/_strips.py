@@ -249,6 +249,11 @@ FILLET_QUAD_SEGS = 32
 """Segments per quarter circle of a fillet arc (2.8° of turn per segment)."""
 FILLET_OVERLAP_M = 1e-3
 """The pieces of water a fillet adds are grown this much before they are added."""
+FILLET_GAP_M = 1e-4
+"""The closed water is compared with the water grown this much: the closing's outline runs
+along the water's own edges up to rounding, and an overlay of two nearly equal outlines costs
+GEOS several noding passes (2.5 times the time); grown, their common edges lie apart. The
+pieces found lose this much along the water's edges, and get it back when they are grown."""
 
 
 def fillet_pieces(local: shapely.Geometry, center_m: np.ndarray, radius_m: float,
@@ -271,8 +276,9 @@ def fillet_pieces(local: shapely.Geometry, center_m: np.ndarray, radius_m: float
     rounding along gentle bends), fits in a circle of radius ``extent_m`` (default two radii:
     a point of land of 28° or more; a slimmer one would be eaten far back) and leaves the
     water's topology as it was (it neither joins two shores nor fills an island). Each is
-    grown by FILLET_OVERLAP_M: it shares an edge with the outline up to rounding, and an
-    overlay of two nearly equal edges can leave a needle between them; grown, it overlaps.
+    grown by FILLET_OVERLAP_M (beyond the FILLET_GAP_M it was found with): it shares an edge
+    with the outline up to rounding, and an overlay of two nearly equal edges can leave a
+    needle between them; grown, it overlaps.
 
     A corner is *refused* when a piece thicker than the chord error that reaches into the
     ``reach_m`` disc fails one of the other tests: only then can a smaller arc round it
@@ -291,7 +297,8 @@ def fillet_pieces(local: shapely.Geometry, center_m: np.ndarray, radius_m: float
     thin = 4.0 * radius_m * (1.0 - np.cos(half))
     small = 4.0 * radius_m ** 2 * (2.0 * half) ** 3
     shape = topology(local)
-    changed = shapely.get_parts(shapely.difference(rounded, local))
+    grown = local.buffer(FILLET_GAP_M, join_style="mitre")
+    changed = shapely.get_parts(shapely.difference(rounded, grown))
     # the tests below, cheapest first, each on the parts the previous ones kept
     changed = changed[(shapely.get_type_id(changed) == 3) & (shapely.area(changed) >= small)]
     shapely.prepare(inner)
@@ -304,7 +311,7 @@ def fillet_pieces(local: shapely.Geometry, center_m: np.ndarray, radius_m: float
     # a slim point of land: its rounding would eat it far back
     changed = changed[~(shapely.minimum_bounding_radius(changed) > (extent_m or 2.0 * radius_m))]
     out = []
-    for part in shapely.buffer(changed, FILLET_OVERLAP_M, join_style="mitre"):
+    for part in shapely.buffer(changed, FILLET_GAP_M + FILLET_OVERLAP_M, join_style="mitre"):
         if topology(shapely.union(local, part)) != shape:
             continue        # it joins two shores across a neck of land, or fills an island
         out.append(part)

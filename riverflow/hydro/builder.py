@@ -827,7 +827,8 @@ def _round_junctions(river, parts: list, geoms: list[BranchGeometry], junctions:
     whole water once at the end (left out if that changed the water's topology)."""
     cut_lines = shapely.linestrings(np.asarray(cuts).reshape(-1, 2, 2))
     cut_tree = shapely.STRtree(cut_lines)
-    tree = shapely.STRtree(parts)
+    parts_array = np.asarray(parts, dtype=object)
+    tree = shapely.STRtree(parts_array)
     pieces = []
     at_junction: dict[int, list[float]] = {}
     for g in geoms:
@@ -839,7 +840,12 @@ def _round_junctions(river, parts: list, geoms: list[BranchGeometry], junctions:
         radius = fraction * min(widths)
         reach = FILLET_REACH_WIDTHS * max(widths)
         window = shapely.Point(p).buffer(reach + 3.0 * radius, quad_segs=_strips.FILLET_QUAD_SEGS)
-        near = [parts[i] for i in tree.query(window, predicate="intersects")]
+        # each part is first cut to a square a little larger than the window (a cheap clip:
+        # a whole branch's strip has hundreds of vertices far away), then the union to the
+        # window itself: the same set as the window's cut of the union of the whole parts
+        half = 1.01 * (reach + 3.0 * radius)
+        box = (p[0] - half, p[1] - half, p[0] + half, p[1] + half)
+        near = shapely.clip_by_rect(parts_array[tree.query(window, predicate="intersects")], *box)
         local = _strips.drop_slivers(shapely.intersection(shapely.union_all(near), window),
                                      sliver_m2)
         # the free-end cuts a fillet must keep away from: those within 2 radii of the window
@@ -897,6 +903,7 @@ def _water(geoms: list[BranchGeometry], junctions: np.ndarray, islands: list[_Is
         discs.append(_strips.junction_disc(p, halves_at.get(j, [])))
     # strips may only overlap around a junction their branches share
     tree = shapely.STRtree(strips)
+    bounds = shapely.bounds(strips)
     for a, b in zip(*tree.query(strips, predicate="intersects")):
         if a >= b:
             continue
@@ -908,8 +915,14 @@ def _water(geoms: list[BranchGeometry], junctions: np.ndarray, islands: list[_Is
             raise GraphError(f"branches {ga.name!r} and {gb.name!r} overlap but do not meet at a "
                              f"junction (end points must coincide to join; split a branch where "
                              f"another one flows into it)")
-        common = shapely.intersection(strips[a], strips[b])
-        near = shapely.union_all([discs[j] for j in sorted(shared)] + in_lakes)
+        # both strips cut to the box their boxes share first (the same overlap: a cheap clip
+        # drops the long stretches of strip far from it, which the overlay would visit)
+        box = np.concatenate([np.maximum(bounds[a, :2], bounds[b, :2]) - 1.0,
+                              np.minimum(bounds[a, 2:], bounds[b, 2:]) + 1.0])
+        common = shapely.intersection(shapely.clip_by_rect(strips[a], *box),
+                                      shapely.clip_by_rect(strips[b], *box))
+        near_parts = [discs[j] for j in sorted(shared)] + in_lakes
+        near = near_parts[0] if len(near_parts) == 1 else shapely.union_all(near_parts)
         for part in getattr(common, "geoms", [common]):
             if part.area > tolerance_m ** 2 and not part.intersects(near):
                 x, y = part.representative_point().coords[0]

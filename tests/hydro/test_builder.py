@@ -259,3 +259,22 @@ def test_bad_input_raises_graph_error(make, message):
     with pytest.raises(GraphError, match=message):
         make(b)
         b.build()
+
+
+def test_strips_that_overlap_away_from_a_shared_junction_are_refused():
+    """Branches whose strips overlap must meet at a junction, and overlap only around it
+    (their overlap is found on the strips cut to the box their boxes share)."""
+    crossing = RiverNetworkBuilder()
+    crossing.add_branch([[0.0, 0.0], [400.0, 0.0]], 20.0, 50.0, name="east")
+    crossing.add_branch([[200.0, -200.0], [200.0, 200.0]], 20.0, 50.0, name="north")
+    with pytest.raises(GraphError, match="'east' and 'north' overlap but do not meet"):
+        crossing.build()
+    # a tributary that joins at (400, 0) from the north but runs beside the river first, 8 m
+    # from its axis, between x = 100 and 250 m
+    beside = RiverNetworkBuilder()
+    beside.add_branch([[0.0, 0.0], [400.0, 0.0]], 20.0, 50.0, name="river")
+    beside.add_branch([[100.0, 300.0], [100.0, 8.0], [250.0, 8.0], [250.0, 100.0],
+                       [400.0, 100.0], [400.0, 0.0]], 10.0, 20.0, name="trib")
+    beside.add_branch([[400.0, 0.0], [800.0, 0.0]], 25.0, name="lower")
+    with pytest.raises(GraphError, match=r"'river' and 'trib' overlap near \(.*\), away from"):
+        beside.build()

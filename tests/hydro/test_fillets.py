@@ -145,6 +145,34 @@ def test_sharp_corners_when_asked_and_bad_fraction():
             RiverNetworkBuilder(fillet_fraction=bad)
 
 
+def test_right_angle_corners_get_the_full_arc_at_any_heading():
+    """A tributary meeting a river at a right angle, turned to 13 headings and at 3 widths:
+    :func:`_strips.fillet_pieces` rounds both corners with the full radius (two pieces of
+    r²(1 − π/4) each, nothing refused). The closed water's outline runs along the water's own
+    edges up to rounding; overlaid with the water itself it left needles along them, joined
+    to the corner pieces, which then reached out of the junction's disc and were refused
+    (10 of these 39 cases fell back to smaller arcs)."""
+    from shapely import affinity
+
+    from riverflow.hydro import _strips
+    from riverflow.hydro.builder import FILLET_EXTENT, FILLET_REACH_WIDTHS
+
+    failed = []
+    for heading in range(0, 90, 7):
+        for w in (7.3, 23.0, 61.0):
+            r, reach = 0.4 * w, FILLET_REACH_WIDTHS * w
+            parts = [shapely.box(-400, -w / 2, 400, w / 2), shapely.box(-0.4 * w, 0, 0.4 * w, 400)]
+            local = shapely.intersection(
+                shapely.union_all([affinity.rotate(g, heading, origin=(0, 0)) for g in parts]),
+                shapely.Point(0, 0).buffer(reach + 3 * r, quad_segs=_strips.FILLET_QUAD_SEGS))
+            out, refused = _strips.fillet_pieces(local, np.zeros(2), r, reach, None,
+                                                 FILLET_EXTENT * r)
+            areas = sorted(round(p.area / r ** 2, 4) for p in out)
+            if refused or len(out) != 2 or not np.allclose(areas, 1 - np.pi / 4, atol=0.01):
+                failed.append((heading, w, refused, areas))
+    assert not failed
+
+
 @pytest.mark.parametrize("name", ["confluence", "bifurcation", "default"])
 def test_rounded_networks_are_valid(built, name):
     graph, b, _ = built[name]
