@@ -4,9 +4,12 @@ For each leaf of a cut: its own resident tile, or its finest resident ancestor; 
 distinct tiles in (level, tx, ty) order, less every tile that another one listed contains (an
 ancestor stands in for leaves around it: its descendants are not drawn too).
 :func:`near_to_far` orders a frame's tiles for drawing; :func:`coarser_across` finds the coarser
-tile across each edge of every drawn tile (the terrain's stitching).
+tile across each edge of every drawn tile (the terrain's stitching) and :func:`edge_parts`
+picks each tile's edge index ranges for those level differences.
 """
 from __future__ import annotations
+
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -171,3 +174,40 @@ def coarser_across(keys, out):
                 if found >= 0:
                     out[r, e] = order[found]
                     break
+
+
+class EdgeParts(NamedTuple):
+    """The terrain tiles' index ranges by edge (:func:`edge_parts`). ``lut_counts`` (U, 4, M)
+    int32 and ``lut_offsets`` (U, 4, M) int64: by level difference 0 … U − 1 (all beyond: the
+    last), edge and mesh, the index count and first index's byte offset of that edge variant;
+    ``counts`` (S, M, 5) int32 and ``offsets`` (S, M, 5) int64: by arena slot and mesh, the
+    five ranges (core, then the four edges) each tile draws, written for the edges."""
+    lut_counts: np.ndarray
+    lut_offsets: np.ndarray
+    counts: np.ndarray
+    offsets: np.ndarray
+
+
+@njit(**JIT_OPTIONS)
+def edge_parts(keys, across, aslots, parts):
+    """For the drawn tiles ``keys`` (K, 3) int64 and their :func:`coarser_across` rows
+    ``across`` (K, 4) int64, write into ``parts.counts`` and ``parts.offsets`` at rows
+    ``aslots`` (K,) int32 (each tile's arena slot), columns 1 … 4, the edge variant of each
+    edge for its level difference (the level of the tile minus that of the coarser tile
+    across, 0 where none is coarser; clamped to the tables' last); return the largest level
+    difference (beyond the tables' last: the tile's vertices need stitching)."""
+    last = parts.lut_counts.shape[0] - 1
+    meshes = parts.lut_counts.shape[2]
+    worst = 0
+    for r in range(keys.shape[0]):
+        a = aslots[r]
+        for e in range(4):
+            m = across[r, e]
+            up = 0 if m < 0 else keys[r, 0] - keys[m, 0]
+            if up > worst:
+                worst = up
+            u = min(up, last)
+            for mesh in range(meshes):
+                parts.counts[a, mesh, 1 + e] = parts.lut_counts[u, e, mesh]
+                parts.offsets[a, mesh, 1 + e] = parts.lut_offsets[u, e, mesh]
+    return worst

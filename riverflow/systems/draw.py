@@ -72,13 +72,13 @@ from riverflow.systems.draw_falls import FallSheets, SprayQuads
 from riverflow.hydro.falls import RAPIDS_FULL_SLOPE, RAPIDS_MIN_SLOPE
 from riverflow.hydro.spills import TINT_TEXELS, SpillTint
 from riverflow.kernels.foam import foam_pattern_mips
-from riverflow.kernels.tile_cut import near_to_far
+from riverflow.kernels.tile_cut import EdgeParts, coarser_across, edge_parts, near_to_far
 from riverflow.kernels.wake import wake_texture
 from riverflow.kernels.sprites import (MAX_PER_CELL, NO_PARTICLE, PARTICLES_PER_ROW,
                                        SPRITE_RADIUS_FACTOR, TEXELS_PER_PARTICLE, bin_texels,
                                        build_sprite_tables, empty_sprite_tables, slot_span,
                                        sprite_bins, sprite_grid_shape, sprite_source)
-from riverflow.scenes.meshes import (coarser_neighbours, edge_levels_up, level_count,
+from riverflow.scenes.meshes import (edge_levels_up, level_count,
                                      stitch_tile, tile_index_parts)
 from riverflow.scenes.props import SHAPES
 from riverflow.scenes.reflection import (MIN_EYE_HEIGHT_M, MIRROR_CUT_M, MIRROR_REFRESH_M,
@@ -426,8 +426,12 @@ class _TerrainTiles(_PoolSync):
         ups = np.arange(self.max_up + 2)
         lut = np.stack([edge[:, np.minimum(ups, edge.shape[1] - 1)].transpose(1, 0, 2)
                         for _, edge in tables.values()], axis=2)        # (U, 4, M, 2)
-        self._lut_counts = lut[..., 0].astype(np.int32)
-        self._lut_offsets = 4 * lut[..., 1].astype(np.int64)          # bytes
+        self._lut_counts = np.ascontiguousarray(lut[..., 0], np.int32)
+        self._lut_offsets = np.ascontiguousarray(4 * lut[..., 1], np.int64)   # bytes
+        self._keys = np.empty((0, 3), np.int64)
+        self._across = np.empty((0, 4), np.int64)
+        """Scratch for the keys of the set drawn and the coarser tile across each edge
+        (no allocation per set)."""
         self._core = np.array([core for core, _ in tables.values()], np.int64)   # (M, 2)
         # position, normal, water level seen, distance to the shore
         self.arena = gl.SlotArena((cells + 1) ** 2 + 4 * cells, {0: 3, 1: 3, 2: 1, 3: 1},
@@ -490,17 +494,21 @@ class _TerrainTiles(_PoolSync):
         neighbours among ``tiles`` (:func:`edge_levels_up`), and stitch the vertices of those
         with a neighbour more than ``max_up`` levels coarser (:meth:`_stitch`)."""
         self.revision += 1
-        across = coarser_neighbours(tiles.keys)
-        up = edge_levels_up(tiles.keys, across)
-        aslots = self.arena_slot[tiles.slots]
+        k = len(tiles.keys)
+        if len(self._across) < k:
+            self._across = np.empty((2 * k, 4), np.int64)
+            self._keys = np.empty((2 * k, 3), np.int64)
+        keys, across = self._keys[:k], self._across[:k]
+        keys[:] = tiles.keys
+        coarser_across(keys, across)
         if len(self.counts) < self.arena.capacity:
             self._grow_parts(self.arena.capacity)
-        kk = np.minimum(up, self.max_up + 1)
-        e4 = np.arange(4)
-        self.counts[aslots, :, 1:] = self._lut_counts[kk, e4].transpose(0, 2, 1)
-        self.offsets[aslots, :, 1:] = self._lut_offsets[kk, e4].transpose(0, 2, 1)
-        if self.stitched or up.max(initial=0) > self.max_up:      # rare: a neighbour
-            self._stitch(pool, tiles, np.where(up > self.max_up, across, -1))  # far coarser
+        worst = edge_parts(keys, across, self.arena_slot[tiles.slots],
+                           EdgeParts(self._lut_counts, self._lut_offsets,
+                                     self.counts, self.offsets))
+        if self.stitched or worst > self.max_up:                  # rare: a neighbour
+            up = edge_levels_up(keys, across)                     # far coarser
+            self._stitch(pool, tiles, np.where(up > self.max_up, across, -1))
 
 
     def _stitch(self, pool: TilePool, tiles: Standins, across: np.ndarray) -> None:

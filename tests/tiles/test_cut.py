@@ -172,3 +172,47 @@ def test_coarser_neighbours_match_the_twin(rng):
     assert found > 100
     assert coarser_neighbours(np.zeros((0, 3), np.int64)).shape == (0, 4)
     np.testing.assert_array_equal(coarser_neighbours([[0, 0, 0]]), [[-1, -1, -1, -1]])
+
+
+def _edge_parts_twin(keys, across, aslots, lut_counts, lut_offsets, counts, offsets):
+    """Plain numpy twin of kernels.tile_cut.edge_parts (the draw system's gathers as they
+    were written first): level differences, clamped, looked up by (difference, edge)."""
+    level = keys[:, 0]
+    up = np.where(across >= 0, level[:, None] - level[np.maximum(across, 0)], 0)
+    kk = np.minimum(up, len(lut_counts) - 1)
+    e4 = np.arange(4)
+    counts[aslots, :, 1:] = lut_counts[kk, e4].transpose(0, 2, 1)
+    offsets[aslots, :, 1:] = lut_offsets[kk, e4].transpose(0, 2, 1)
+    return int(up.max(initial=0))
+
+
+def test_edge_parts_match_the_twin(rng):
+    """Each drawn tile's edge index ranges (numba, one pass) as the numpy twin picks them,
+    into the rows of the tiles' arena slots, with the largest level difference: 20 random
+    cuts (some thinned, so that neighbours 2+ levels coarser occur), tables with fewer
+    levels than the cut's differences (clamped); rows of other slots untouched."""
+    from riverflow.kernels.tile_cut import EdgeParts, coarser_across, edge_parts
+    worst_seen = 0
+    for k in range(20):
+        leaves = _random_cut(rng, int(rng.integers(3, 8)))
+        keys = np.array(leaves, np.int64)
+        if k % 2:
+            keys = keys[rng.random(len(keys)) < 0.6]
+        rng.shuffle(keys)
+        across = np.empty((len(keys), 4), np.int64)
+        coarser_across(keys, across)
+        u, meshes, slots = int(rng.integers(2, 5)), 3, 3 * len(keys) + 2
+        lut_counts = rng.integers(0, 1000, (u, 4, meshes)).astype(np.int32)
+        lut_offsets = rng.integers(0, 10**6, (u, 4, meshes)).astype(np.int64)
+        aslots = rng.permutation(slots)[:len(keys)].astype(np.int32)
+        counts = rng.integers(0, 9, (slots, meshes, 5)).astype(np.int32)
+        offsets = rng.integers(0, 9, (slots, meshes, 5)).astype(np.int64)
+        want_c, want_o = counts.copy(), offsets.copy()
+        want = _edge_parts_twin(keys, across, aslots, lut_counts, lut_offsets, want_c, want_o)
+        got = edge_parts(keys, across, aslots,
+                         EdgeParts(lut_counts, lut_offsets, counts, offsets))
+        assert got == want
+        np.testing.assert_array_equal(counts, want_c)
+        np.testing.assert_array_equal(offsets, want_o)
+        worst_seen = max(worst_seen, got)
+    assert worst_seen >= 3                  # beyond the smallest tables' last difference
