@@ -117,7 +117,8 @@ def default_scene(seed: int = 0, size_km: float = 4.0, *, falls: bool = False,
     rapid below it (RAPIDS_AT, RAPIDS_SLOPE); the water above them is raised to make their
     drop, so the rest of the network is the scene without them. With ``dam=True`` the main
     river's first reach runs through a reservoir (a lake, :func:`dam_lake`: DAM_AT along it,
-    DAM_LAKE_M, flat at the inflowing river's level) carved as water with a flat bed, and the
+    DAM_LAKE_M, flat at the inflowing river's level) drawn as water, its bed carved below it
+    (the reservoir's samples are as wide as the lake: :func:`cut_at_lake`), and the
     scene's branches are cut at its shore: the river above, the ``"reservoir"`` through it
     and DAM_OUTLET below the dam (where a release starts, :func:`riverflow.hydro.flood.
     level_pool_release`, ``demos/dam_break.py``)."""
@@ -156,7 +157,7 @@ def default_scene(seed: int = 0, size_km: float = 4.0, *, falls: bool = False,
     if lake is not None:
         branches = cut_at_lake(branches, lake)
         # the reservoir stands at the level its river comes in at (a first pass for that)
-        s_in, z_in = water_surface(branches, along, builder.water_polygon, graph.falls,
+        _, z_in = water_surface(branches, along, builder.water_polygon, graph.falls,
                                    graph.rapids).profiles[branches[0].name]
         lakes = [(lake, float(z_in[-1]))]
     else:
