@@ -93,3 +93,22 @@ def test_the_dams_release_starts_at_the_outlet_and_runs_downstream(world):
     assert peak > base_down + 2.0 * q0                             # the wave got there
     assert float(router.discharge(above)[0]) == pytest.approx(q0, rel=1e-6)  # held above
     assert np.isfinite(router.a).all()
+
+
+def test_release_dam_sets_the_outlets_hydrograph_and_refuses_a_scene_without_a_dam(world):
+    from types import SimpleNamespace
+
+    from riverflow.demo import release_dam
+
+    now = world.flood_time_s
+    link, times, flows = release_dam(world, factor=4.0, after_s=10.0)
+    router = world.flood
+    q0 = float(router.net.link_q0[router.link_index(DAM_OUTLET)])
+    assert link == DAM_OUTLET
+    assert times[0] == now and times[1] == pytest.approx(now + 11.0)
+    assert flows[0] == pytest.approx(q0) and flows[1] == pytest.approx(4.0 * q0)
+    assert np.all(np.diff(flows[1:]) <= 1e-9)                 # falls as the reservoir empties
+    with pytest.raises(ValueError, match="no branch 'main_below_dam'"):
+        release_dam(SimpleNamespace(scene=rf.default_scene(seed=0)))
+    with pytest.raises(ValueError, match="factor"):
+        release_dam(world, factor=float("nan"))
