@@ -58,7 +58,8 @@ def test_the_lake_is_water_with_a_flat_level_over_a_carved_bed(world, lake):
     bed = scene.terrain.height(p)                             # what the terrain tiles draw
     assert (bed < level - 0.5).all()                          # no land left in the lake
     # the reservoir stands at its inflowing river's level: the water steps down at the dam
-    below = scene.branch(DAM_OUTLET).centerline_m[len(scene.branch(DAM_OUTLET).centerline_m) // 2]
+    outlet = scene.branch(DAM_OUTLET).centerline_m
+    below = outlet[len(outlet) // 2]
     assert float(world.water_level(below[None])[0]) < level[0] - 0.5
 
 
@@ -81,7 +82,8 @@ def test_the_dams_release_starts_at_the_outlet_and_runs_downstream(world):
         line = scene.branch(name).centerline_m
         return line[int(frac * (len(line) - 1))][None, :]
 
-    above, below_dam, downstream = at("main_upper", 0.5), at(DAM_OUTLET, 0.1), at("main_middle", 0.6)
+    above, below_dam = at("main_upper", 0.5), at(DAM_OUTLET, 0.1)
+    downstream = at("main_middle", 0.6)
     base_down = float(router.discharge(downstream)[0])
     world.advance_flood(120.0)
     assert float(router.discharge(below_dam)[0]) > 3.0 * q0        # at once below the dam
