@@ -114,3 +114,12 @@ def test_release_dam_sets_the_outlets_hydrograph_and_refuses_a_scene_without_a_d
         release_dam(SimpleNamespace(scene=rf.default_scene(seed=0)))
     with pytest.raises(ValueError, match="factor"):
         release_dam(world, factor=float("nan"))
+
+
+def test_the_command_lines_dam_flag_loads_the_dam_scene():
+    from riverflow.__main__ import _load_scene, _parser
+
+    scene, title = _load_scene(_parser().parse_args(["demo", "--dam"]))
+    assert title.endswith(", dam") and scene.branch(DAM_OUTLET) is not None
+    scene, title = _load_scene(_parser().parse_args(["demo"]))
+    assert "dam" not in title and all(b.name != DAM_OUTLET for b in scene.branches)
