@@ -1,15 +1,16 @@
-"""Dam break: a dam on the built-in scene's main river breaches; its reservoir's outflow jumps
-from base flow to ``--factor`` times it and falls back as the reservoir empties (level-pool
-routing, :func:`riverflow.hydro.flood.level_pool_release`: a ``--head`` m deep reservoir of
-``--area`` m², a breach as wide as makes that peak), and the flood wave runs down the river
-past the demo camera.
+"""Dam break: the built-in scene with a reservoir on its main river
+(``rf.default_scene(dam=True)``) whose dam breaches: the outflow jumps from base flow to
+``--factor`` times it and falls back as the reservoir empties (level-pool routing,
+:func:`riverflow.hydro.flood.level_pool_release`: a ``--head`` m deep reservoir of ``--area``
+m², a breach as wide as makes that peak), and the flood wave runs down the river.
 
-The dam stands at the head of the river link the demo camera looks at
-(``world.set_hydrograph(link, …)`` replaces that link's inflow: the water above is held, its
-release follows the hydrograph). The wave is routed by the kinematic wave
-(:mod:`riverflow.hydro.flood`): it reaches the camera after its travel time; there the flow
-speeds up by (Q/Q₀)^(2/5), the water level rises by the rating curve and the drawn water with
-it, over its banks where the valley is lower than the level. Velocity arrows show the flow.
+The release is the hydrograph of the link that leaves the reservoir
+(:data:`riverflow.scenes.default.DAM_OUTLET`, :func:`riverflow.demo.release_dam`): it starts
+at the dam, not upstream of the lake. The wave is routed by the kinematic wave
+(:mod:`riverflow.hydro.flood`); where the camera looks, below the dam, the flow speeds up by
+(Q/Q₀)^(2/5), the water level rises by the rating curve and the drawn water with it, over its
+banks where the valley is lower than the level. Velocity arrows show the flow.
+``riverflow demo --dam`` plays it with the boat.
 
     python demos/dam_break.py --out /tmp/dam        # before.png, after.png and the numbers
 """
@@ -25,7 +26,8 @@ os.environ.setdefault("PYGLET_HEADLESS", "1")
 import numpy as np  # noqa: E402
 
 import riverflow as rf  # noqa: E402
-from riverflow.hydro.flood import BROAD_CRESTED_WEIR, level_pool_release  # noqa: E402
+from riverflow.demo import release_dam  # noqa: E402
+from riverflow.scenes.default import DAM_OUTLET  # noqa: E402
 from riverflow.images import save_png  # noqa: E402
 
 STEP_S = 1.0 / 60.0
@@ -43,27 +45,26 @@ def main(argv=None) -> int:
     w, h = (int(v) for v in args.size.split("x"))
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    scene = rf.default_scene(seed=args.seed)
+    scene = rf.default_scene(seed=args.seed, dam=True)
+    below = scene.branch(DAM_OUTLET).centerline_m
     with rf.RiverWorld(scene, size=(w, h), gl=True, seed=args.seed) as world:
         world.display.show_velocities = True
-        target = np.asarray(world.camera.target, np.float64)[None, :2]
+        target = below[int(0.35 * (len(below) - 1))][None, :]        # below the dam
+        look = below[0] - below[-1]
+        look = look / np.hypot(*look)
+        z = float(world.water_level(target)[0])
+        eye = target[0] - 420.0 * look + 260.0 * np.array([-look[1], look[0]])
+        world.camera.look_at((*eye, z + 260.0), (*(target[0] + 150.0 * look), z))
         for _ in range(120):
             world.step(STEP_S)
         save_png(world.render(), out / "before.png")
         level0 = float(world.water_level(target)[0])
         v0 = float(np.hypot(*world.field.query(target)[1][0]))
-        world.set_hydrograph(None, [], None)                # the flood router, no change yet
+        link, t, q = release_dam(world, factor=args.factor, head_m=args.head,
+                                 area_m2=args.area)                    # the dam goes
         router = world.flood
-        link, s, _ = router.network.locate(target)
-        link, s = int(link[0]), float(s[0])
-        q0 = float(router.net.link_q0[link])
-        now = world.flood_time_s
-        width = args.factor * q0 / (BROAD_CRESTED_WEIR * args.head ** 1.5)
-        t, q = level_pool_release(args.area, args.head, width, q0, 4 * 3600.0)
-        world.set_hydrograph(link, np.concatenate([[now], now + 1.0 + t]),
-                             np.concatenate([[q0], q]))                      # the dam goes
-        print(f"dam on {router.network.names[link]!r}, {s:.0f} m above the camera's target; "
-              f"base {q0:.1f} m³/s, breach {width:.1f} m wide: release {q[0]:.1f} m³/s, "
+        q0 = float(q[0])
+        print(f"dam at the head of {link!r}: base {q0:.1f} m³/s, release {q[1]:.1f} m³/s, "
               f"{q[len(q) // 4]:.1f} m³/s an hour later")
         max_q = 0.0
         for minute in range(1, 241):

@@ -161,6 +161,9 @@ def _scene_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--falls", action="store_true",
                    help="the built-in scene with a 6 m fall and a rapid on its tributary "
                         "(the demo's boat starts above the fall)")
+    p.add_argument("--dam", action="store_true",
+                   help="the built-in scene with a reservoir on its main river; the demo's "
+                        "dam breaks a few seconds in and the flood runs down past the boat")
 
 
 def _positive(text: str) -> float:
@@ -403,8 +406,10 @@ def _load_scene(args: argparse.Namespace) -> tuple[Any, str]:
     from riverflow.scenes.default import default_scene
 
     falls = bool(getattr(args, "falls", False))
-    return (default_scene(seed=args.seed, falls=falls),
-            f"built-in scene, seed {args.seed}{', falls' if falls else ''}")
+    dam = bool(getattr(args, "dam", False))
+    return (default_scene(seed=args.seed, falls=falls, dam=dam),
+            f"built-in scene, seed {args.seed}{', falls' if falls else ''}"
+            f"{', dam' if dam else ''}")
 
 
 if __name__ == "__main__":

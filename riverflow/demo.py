@@ -151,6 +151,9 @@ class BoatDemo:
         position, heading = _start_pose(scene)
         self.boat = self.world.add_boat(position, heading_rad=heading,
                                         **_boat_size(scene, position))
+        self.dam = release_dam(self.world, after_s=DAM_BREAK_AFTER_S) if _has_dam(scene) else None
+        """The dam's release (the outlet link, its times [s] and discharges [m³/s]) in a
+        ``default_scene(dam=True)`` (``riverflow demo --dam``), else None."""
         self.chase = ChaseCamera()
         self.free = FreeFlyCamera()         # placed at the chase view when switched to
         self.camera_mode = "chase"
@@ -271,6 +274,51 @@ class BoatDemo:
         if self.world is not None:
             self.world.close()
             self.world = None
+
+
+DAM_BREAK_AFTER_S = 5.0
+"""In a scene with a dam (``riverflow demo --dam``) the dam breaks this long after the start."""
+
+
+def _has_dam(scene) -> bool:
+    from riverflow.scenes.default import DAM_OUTLET
+
+    return any(b.name == DAM_OUTLET for b in getattr(scene, "branches", ()))
+
+
+def release_dam(world, *, factor: float = 8.0, head_m: float = 6.0, area_m2: float = 4e5,
+                after_s: float = 0.0, duration_s: float = 4 * 3600.0):
+    """Break the dam of a ``default_scene(dam=True)`` world ``after_s`` [s] of the flood's
+    clock from now: its outflow jumps from the base flow Q₀ of the outlet link
+    (:data:`~riverflow.scenes.default.DAM_OUTLET`) to ``factor`` Q₀ and falls back as the
+    reservoir (``area_m2`` [m²], ``head_m`` [m] over the breach) empties
+    (:func:`~riverflow.hydro.flood.level_pool_release`: a breach as wide as makes that peak);
+    the release is the outlet's hydrograph (``world.set_hydrograph``), routed downstream from
+    the dam. Returns (link name, times [s], discharges [m³/s]).
+
+    Raises:
+        ValueError: the world's scene has no dam, or a bad number (naming it).
+    """
+    from riverflow.hydro.flood import BROAD_CRESTED_WEIR, level_pool_release
+    from riverflow.scenes.default import DAM_OUTLET
+
+    if not _has_dam(world.scene):
+        raise ValueError(f"release_dam: the scene has no branch {DAM_OUTLET!r}: build it with "
+                         f"default_scene(..., dam=True)")
+    if not (math.isfinite(factor) and factor > 0 and math.isfinite(after_s) and after_s >= 0):
+        raise ValueError(f"release_dam: factor must be > 0 and after_s ≥ 0, got {factor!r}, "
+                         f"{after_s!r}")
+    if world.flood is None:
+        world.set_hydrograph(None, [], None)            # the flood router, no change yet
+    router = world.flood
+    q0 = float(router.net.link_q0[router.link_index(DAM_OUTLET)])
+    width = factor * q0 / (BROAD_CRESTED_WEIR * head_m ** 1.5)
+    t, q = level_pool_release(area_m2, head_m, width, q0, duration_s)
+    now = world.flood_time_s
+    times = np.concatenate([[now], now + after_s + 1.0 + t])
+    flows = np.concatenate([[q0], q])
+    world.set_hydrograph(DAM_OUTLET, times, flows)
+    return DAM_OUTLET, times, flows
 
 
 FALL_START_M = 45.0

@@ -38,17 +38,17 @@ def _share_built_in_scenes() -> None:
     real = default.default_scene
 
     @functools.lru_cache(maxsize=6)
-    def built(seed, size_km, falls):
-        scene = real(seed=seed, size_km=size_km, falls=falls)
+    def built(seed, size_km, falls, dam):
+        scene = real(seed=seed, size_km=size_km, falls=falls, dam=dam)
         scene.tile_memo = TileMemo(SHARED_MEMO_MB)
         return scene
 
     @functools.wraps(real)
-    def shared(seed=0, size_km=4.0, *, falls=False):
+    def shared(seed=0, size_km=4.0, *, falls=False, dam=False):
         try:
-            scene = built(seed, size_km, falls)
+            scene = built(seed, size_km, falls, dam)
         except TypeError:            # an unhashable argument: the real one says what is wrong
-            return real(seed=seed, size_km=size_km, falls=falls)
+            return real(seed=seed, size_km=size_km, falls=falls, dam=dam)
         return dataclasses.replace(scene)
 
     default.default_scene = shared

@@ -19,6 +19,7 @@ makes tiles of it where the camera looks. Same seed → bitwise the same scene.
 from __future__ import annotations
 
 import numpy as np
+import shapely
 
 from riverflow._validate import check_allocation, finite
 from riverflow.hydro.builder import RiverNetworkBuilder
@@ -30,7 +31,7 @@ from riverflow.scenes.sources import FbmSource, HeightSource
 from riverflow.scenes.water import point_tree
 from riverflow.tiles.quadtree import Quadtree
 
-__all__ = ["DefaultGround", "RiverBranch", "Scene", "default_scene"]
+__all__ = ["DAM_OUTLET", "DefaultGround", "RiverBranch", "Scene", "default_scene"]
 
 HALF_SIZE_M = 0.5 * DEFAULT_SIZE_M
 """The 4 km scene covers [-HALF_SIZE_M, HALF_SIZE_M]² [m]."""
@@ -98,12 +99,29 @@ RAPIDS_SLOPE = 0.06
 """…this steep (6 %: whitewater, not a cascade)."""
 
 
-def default_scene(seed: int = 0, size_km: float = 4.0, *, falls: bool = False) -> Landscape:
+DAM_AT = 0.45
+"""With ``dam=True`` a reservoir lies this far along the main river's first reach…"""
+DAM_LAKE_M = (520.0, 300.0)
+"""…an ellipse this long along the river and this wide [m] round it; its level is the
+river's where it comes in, so the water steps down at the outlet (the dam)."""
+DAM_OUTLET = "main_below_dam"
+"""The name of the link that leaves the reservoir: the dam's release is its hydrograph
+(``world.set_hydrograph(DAM_OUTLET, …)``)."""
+
+
+def default_scene(seed: int = 0, size_km: float = 4.0, *, falls: bool = False,
+                  dam: bool = False) -> Landscape:
     """The built-in scene for ``seed`` on a ``size_km`` square (deterministic; the 4 km one in
     about a second, larger ones in seconds: only the network is made up front). With
     ``falls=True`` the first tributary has a fall (FALL_DROP_M high, FALL_AT along it) and a
     rapid below it (RAPIDS_AT, RAPIDS_SLOPE); the water above them is raised to make their
-    drop, so the rest of the network is the scene without them."""
+    drop, so the rest of the network is the scene without them. With ``dam=True`` the main
+    river's first reach runs through a reservoir (a lake, :func:`dam_lake`: DAM_AT along it,
+    DAM_LAKE_M, flat at the inflowing river's level) drawn as water, its bed carved below it
+    (the reservoir's samples are as wide as the lake: :func:`cut_at_lake`), and the
+    scene's branches are cut at its shore: the river above, the ``"reservoir"`` through it
+    and DAM_OUTLET below the dam (where a release starts, :func:`riverflow.hydro.flood.
+    level_pool_release`, ``demos/dam_break.py``)."""
     size_km = finite(size_km, "default_scene: size_km")
     size_m = DEFAULT_SIZE_M if abs(size_km - 4.0) < 1e-9 else 1000.0 * float(size_km)
     if not size_m >= 500.0:
@@ -117,6 +135,9 @@ def default_scene(seed: int = 0, size_km: float = 4.0, *, falls: bool = False) -
         builder.add_branch(b.centerline_m, b.widths_m, b.discharge_m2s, name=b.name)
     for outline in islands:
         builder.add_island(outline)
+    lake = dam_lake(branches) if dam else None
+    if lake is not None:
+        builder.add_lake(lake)
     if falls:
         k = next((i for i, b in enumerate(branches) if b.kind == "tributary"), None)
         if k is None:
@@ -132,8 +153,17 @@ def default_scene(seed: int = 0, size_km: float = 4.0, *, falls: bool = False) -
     main = np.vstack([b.centerline_m for b in branches if b.kind == "main"])
     ground = DefaultGround(main, size_m, noise_seed, hills_seed)
     base = ground.without_hills()
-    water = water_surface(branches, lambda xy: base.heights(xy[:, 0], xy[:, 1]),
-                          builder.water_polygon, graph.falls, graph.rapids)
+    along = lambda xy: base.heights(xy[:, 0], xy[:, 1])  # noqa: E731
+    if lake is not None:
+        branches = cut_at_lake(branches, lake)
+        # the reservoir stands at the level its river comes in at (a first pass for that)
+        _, z_in = water_surface(branches, along, builder.water_polygon, graph.falls,
+                                   graph.rapids).profiles[branches[0].name]
+        lakes = [(lake, float(z_in[-1]))]
+    else:
+        lakes = []
+    water = water_surface(branches, along, builder.water_polygon, graph.falls, graph.rapids,
+                          lakes)
     half = 0.5 * size_m
     quadtree = Quadtree(-half, -half, size_m)
     carving = Carving()
@@ -141,3 +171,57 @@ def default_scene(seed: int = 0, size_km: float = 4.0, *, falls: bool = False) -
     return Landscape(graph, terrain, water, quadtree.bounds_m, int(seed), branches, islands,
                      z_range(ground, water, carving),
                      profile_ground=SourceGround(base))
+
+
+def dam_lake(branches: list[RiverBranch]) -> shapely.Polygon:
+    """The ``dam=True`` reservoir: an ellipse DAM_LAKE_M round the point DAM_AT along the first
+    main branch, its long axis along the river there."""
+    main = next(b for b in branches if b.kind == "main")
+    line = main.centerline_m
+    s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(line, axis=0).T))])
+    at = DAM_AT * s[-1]
+    centre = np.array([np.interp(at, s, line[:, 0]), np.interp(at, s, line[:, 1])])
+    k = min(int(np.searchsorted(s, at)), len(line) - 1)
+    t = line[k] - line[max(k - 1, 0)]
+    t = t / np.hypot(*t)
+    a = np.linspace(0.0, 2.0 * np.pi, 64, endpoint=False)
+    u, v = 0.5 * DAM_LAKE_M[0] * np.cos(a), 0.5 * DAM_LAKE_M[1] * np.sin(a)
+    pts = centre + np.outer(u, t) + np.outer(v, [-t[1], t[0]])
+    return shapely.Polygon(pts)
+
+
+def cut_at_lake(branches: list[RiverBranch], lake: shapely.Polygon) -> list[RiverBranch]:
+    """The branches with the one through ``lake`` cut at its shore into the river above
+    (its name), ``"reservoir"`` (inside, as wide as the lake there, so its water covers the
+    whole lake) and DAM_OUTLET below; two new junctions at the shore."""
+    k = next(i for i, b in enumerate(branches)
+             if shapely.LineString(b.centerline_m).intersects(lake))
+    b = branches[k]
+    line = b.centerline_m
+    s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(line, axis=0).T))])
+    ls = shapely.LineString(line)
+    inside = ls.intersection(lake)
+    if inside.geom_type != "LineString":
+        raise ValueError(f"default_scene: branch {b.name!r} crosses the reservoir more than "
+                         f"once")
+    ends = shapely.line_locate_point(ls, shapely.points(np.asarray(inside.coords)[[0, -1]]))
+    s_in, s_out = float(ends.min()), float(ends.max())
+
+    def piece(a: float, e: float) -> tuple[np.ndarray, np.ndarray]:
+        keep = (s > a) & (s < e)
+        ss = np.concatenate([[a], s[keep], [e]])
+        pts = np.stack([np.interp(ss, s, line[:, 0]), np.interp(ss, s, line[:, 1])], axis=1)
+        return pts, np.interp(ss, s, b.widths_m)
+
+    j_in = 1 + max(max(x.start_junction, x.end_junction) for x in branches)
+    j_out = j_in + 1
+    above, w_above = piece(0.0, s_in)
+    through, w_through = piece(s_in, s_out)
+    below, w_below = piece(s_out, s[-1])
+    shore = shapely.distance(lake.exterior, shapely.points(through))
+    w_through = np.maximum(w_through, 2.0 * shore)
+    q = b.discharge_m2s
+    cut = [RiverBranch(b.name, above, w_above, q, b.kind, b.start_junction, j_in),
+           RiverBranch("reservoir", through, w_through, q, b.kind, j_in, j_out),
+           RiverBranch(DAM_OUTLET, below, w_below, q, b.kind, j_out, b.end_junction)]
+    return branches[:k] + cut + branches[k + 1:]
