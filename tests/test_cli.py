@@ -178,11 +178,11 @@ def test_demo_rejects_a_bad_script(tmp_path):
 
 def test_demo_rejects_an_unknown_key_with_its_line(tmp_path):
     script = tmp_path / "keys.txt"
-    script.write_text("# a comment\n0 W down\n10 3 tap\n20 X tap\n")
+    script.write_text("# a comment\n0 W down\n10 3 tap\n20 Z tap\n")
     result = cli("demo", "--headless", "--frames", "2", "--script", str(script),
                      "--out", str(tmp_path / "demo"))
     assert result.returncode == 1
-    assert "keys.txt:4: unknown key 'X'" in result.stderr, result.stderr
+    assert "keys.txt:4: unknown key 'Z'" in result.stderr, result.stderr
     assert "Traceback" not in result.stderr and not (tmp_path / "demo").exists()
 
 
