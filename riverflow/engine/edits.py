@@ -348,7 +348,7 @@ def plan_edit(old_scene: Landscape, old_field: FlowField, new_scene: Landscape,
 HEIGHT_CHANGE_M = 0.02
 """A terrain change smaller than this [m] (compared on a grid of HEIGHT_GRID_M) leaves the
 resident terrain tiles as they are (deviation E2)."""
-HEIGHT_GRID_M = 16.0
+HEIGHT_GRID_M = 32.0
 
 
 def _height_change_boxes(old: CarvedTerrain, new: CarvedTerrain, boxes: np.ndarray
