@@ -334,8 +334,42 @@ def plan_edit(old_scene: Landscape, old_field: FlowField, new_scene: Landscape,
     reach = max(old_scene.terrain.carving.reach_m, LEVEL_REACH_M)
     boxes, changed = _water_boxes(old_scene.water, old_scene.branches, new_scene.water,
                                   new_scene.branches, reach)
+    if reach > LEVEL_REACH_M and len(boxes):
+        # the carving's far reach changes the ground by centimetres: only where the heights
+        # actually differ (on a coarse grid) is made again; the water kinds' level reach stays
+        level, _ = _water_boxes(old_scene.water, old_scene.branches, new_scene.water,
+                                new_scene.branches, LEVEL_REACH_M)
+        boxes = np.concatenate([level, _height_change_boxes(old_scene.terrain,
+                                                            new_scene.terrain, boxes)])
     seg_map, flow_boxes = _segment_changes(old_field.network, new_field.network)
     return EditPlan(new_scene, new_field, boxes, flow_boxes, seg_map, changed)
+
+
+HEIGHT_CHANGE_M = 0.02
+"""A terrain change smaller than this [m] (compared on a grid of HEIGHT_GRID_M) leaves the
+resident terrain tiles as they are (deviation E2)."""
+HEIGHT_GRID_M = 32.0
+
+
+def _height_change_boxes(old: CarvedTerrain, new: CarvedTerrain, boxes: np.ndarray
+                         ) -> np.ndarray:
+    """Boxes [m] (one per grid cell, merged) around the points of a HEIGHT_GRID_M grid over
+    ``boxes`` where the old and new terrain differ by more than HEIGHT_CHANGE_M."""
+    s = HEIGHT_GRID_M
+    lo, hi = boxes[:, :2].min(axis=0), boxes[:, 2:].max(axis=0)
+    xs = np.arange(lo[0], hi[0] + s, s)
+    ys = np.arange(lo[1], hi[1] + s, s)
+    gx, gy = np.meshgrid(xs, ys)
+    p = np.column_stack([gx.ravel(), gy.ravel()])
+    inside = np.zeros(len(p), bool)
+    for b in boxes:
+        inside |= (p[:, 0] >= b[0]) & (p[:, 0] <= b[2]) & (p[:, 1] >= b[1]) & (p[:, 1] <= b[3])
+    p = p[inside]
+    if not len(p):
+        return np.zeros((0, 4))
+    moved = p[np.abs(new.height(p) - old.height(p)) > HEIGHT_CHANGE_M]
+    # a grid cell of changed points widened by one spacing (a change between points is seen)
+    return _merge_boxes(np.hstack([moved - s, moved + s]))
 
 
 def _branch_samples(water: WaterSurface, k: int) -> np.ndarray:
