@@ -951,28 +951,21 @@ class Texture:
         gl.glTexParameteri(self.target, gl.GL_TEXTURE_MAX_LEVEL, levels - 1)
 
     def upload(self, data: np.ndarray, *, rows: int | None = None, level: int = 0,
-               layer: int | None = None, first_row: int = 0) -> None:
+               layer: int | None = None) -> None:
         """Write ``data`` ((H, W, C) or (H, W) for one channel) into the texture from row 0;
-        ``rows`` limits the upload to the first rows, ``first_row`` (2-D textures) starts it
-        further on (rows ``first_row`` to ``rows`` of ``data`` into the same rows of the
-        texture: a band refreshed). For array textures ``layer`` picks one layer, or ``data``
-        is (L, H, W, C) for all layers."""
+        ``rows`` limits the upload to the first rows. For array textures ``layer`` picks one
+        layer, or ``data`` is (L, H, W, C) for all layers."""
         data = np.ascontiguousarray(data, dtype=self.fmt.dtype)
         w, h = max(1, self.width >> level), max(1, self.height >> level)
         n = h if rows is None else min(int(rows), h)
-        first_row = int(first_row)
-        if first_row and (self.layers is not None or not 0 <= first_row <= n):
-            raise ValueError(f"Texture.upload: first_row {first_row} must lie in 0..{n} "
-                             "(2-D textures only)")
-        if n - first_row <= 0:
+        if n <= 0:
             return
         _bind_scratch(self.target, self.id)
         gl.glPixelStorei(gl.GL_UNPACK_ALIGNMENT, 1)
         if self.layers is None:
             _check_shape(data, (h, w), self.fmt.channels, n)
-            address = self._address(data) + first_row * (data.nbytes // data.shape[0])
-            gl.glTexSubImage2D(self.target, level, 0, first_row, w, n - first_row,
-                               self.fmt.upload, self.fmt.gl_type, address)
+            gl.glTexSubImage2D(self.target, level, 0, 0, w, n, self.fmt.upload,
+                               self.fmt.gl_type, self._address(data))
         else:
             count = 1 if layer is not None else self.layers
             if layer is None:

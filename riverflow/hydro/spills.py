@@ -218,83 +218,6 @@ TINT_REFRESH_S = 5.0
 metres: less than a texel)."""
 TINT_MIN_SIDE_M = 256.0
 """Smallest side of the square the tint covers [m] (sides are this × a power of two)."""
-TINT_BAND_ROWS = 16
-"""Rows of the texture refreshed (computed and uploaded) per call of :meth:`SpillTint.update`:
-a refresh is spread over TINT_TEXELS / TINT_BAND_ROWS frames."""
-TINT_LOCATE_ROWS = 4
-"""Rows of a new square whose texels are placed on the network per call (the slow part: the
-nearest centre-line sample and the stream function of each texel near a river)."""
-
-
-@dataclass(eq=False)
-class _TintLayout:
-    """Where the texels of one square lie on the network, found TINT_LOCATE_ROWS rows a call:
-    the wet texels (flat index, link, arc length, ψ, interpolation cells) and, once every row
-    is placed, the dry texels along the banks with the wet texel each copies (so that the
-    texture's bilinear filter does not darken the water along the banks)."""
-
-    rect: tuple[float, float, float]
-    rows_done: int = 0
-    parts: list = field(default_factory=list)
-    near_dry: list = field(default_factory=list)
-    texel: np.ndarray | None = None
-    """Flat indices of the texels written (wet and bank), ascending (rows in bands)."""
-    src: np.ndarray | None = None
-    """For each of ``texel``, the wet texel (index into the wet arrays) whose value it takes."""
-    link: np.ndarray | None = None
-    s: np.ndarray | None = None
-    psi: np.ndarray | None = None
-    ia: np.ndarray | None = None
-    ib: np.ndarray | None = None
-    iw: np.ndarray | None = None
-
-    @property
-    def done(self) -> bool:
-        return self.texel is not None
-
-    @property
-    def texel_m(self) -> float:
-        return self.rect[2] / TINT_TEXELS
-
-    def locate_rows(self, solver: SpillSolver, potential, rows: int) -> None:
-        """Place the next ``rows`` rows; the last call finishes the layout."""
-        n = TINT_TEXELS
-        net = solver.network
-        x0, y0, side = self.rect
-        r0, r1 = self.rows_done, (min(self.rows_done + rows, n) if side > 0 else n)
-        if side > 0 and r1 > r0:
-            g = (np.arange(n) + 0.5) * self.texel_m
-            gx, gy = np.meshgrid(x0 + g, y0 + (np.arange(r0, r1) + 0.5) * self.texel_m)
-            xy = np.column_stack([gx.ravel(), gy.ravel()])
-            # only texels near a centre line can be water: the stream function there alone
-            near = np.flatnonzero(net.locate(xy, float(net.cell_width_m.max()))[0] >= 0)
-            psi = potential(xy[near]) if len(near) else np.zeros(0)
-            wet = np.isfinite(psi)
-            link, s, _ = net.locate(xy[near[wet]])
-            self.parts.append((near[wet] + r0 * n, link, s, psi[wet]))
-            self.near_dry.append((near[~wet] + r0 * n, xy[near[~wet]]))
-        self.rows_done = r1
-        if r1 == n:
-            self._finish(solver)
-
-    def _finish(self, solver: SpillSolver) -> None:
-        def cat(parts, k, dtype):
-            return np.concatenate([p[k] for p in parts]) if parts else np.zeros(0, dtype)
-        wet = cat(self.parts, 0, np.int64)
-        self.link, self.s = cat(self.parts, 1, np.int64), cat(self.parts, 2, np.float64)
-        self.psi = cat(self.parts, 3, np.float64)
-        self.ia, self.ib, self.iw = solver.network.weights(self.link, self.s)
-        dry = cat(self.near_dry, 0, np.int64)
-        src = np.arange(len(wet))
-        if len(wet) and len(dry):
-            n, cell = TINT_TEXELS, self.texel_m
-            wet_xy = np.column_stack([self.rect[0] + (wet % n + 0.5) * cell,
-                                      self.rect[1] + (wet // n + 0.5) * cell])
-            _, k = cKDTree(wet_xy).query(np.concatenate([p[1] for p in self.near_dry]))
-            wet, src = np.concatenate([wet, dry]), np.concatenate([src, k])
-        order = np.argsort(wet, kind="stable")
-        self.texel, self.src = wet[order], src[order]
-        self.parts, self.near_dry = [], []
 
 
 @dataclass(eq=False)
@@ -303,101 +226,93 @@ class SpillTint:
     the world that holds the plumes (what the water shader samples; ``shaders/spill.glsl``):
     RGB the concentration-weighted mean colour of the spills there, A the total concentration
     [kg/m³]. The square's side is TINT_MIN_SIDE_M × a power of two and its corner a multiple
-    of a quarter of it, so it changes only when the plumes outgrow it or leave it.
-
-    The work is spread over frames, so that no frame pays for a whole texture (issue 24): when
-    the spills have stepped by TINT_REFRESH_S a refresh starts from a copy of the solver's
-    cell concentrations; if the plumes need a new square its texels are first placed on the
-    network TINT_LOCATE_ROWS rows a call (:class:`_TintLayout`), then each call writes
-    TINT_BAND_ROWS rows of ``rgba`` and returns them: the draw system uploads those rows into
-    the texture not drawn (the back one). When the last band is written ``rect_m`` becomes the
-    new square and ``version`` increases: the draw system swaps the two textures. ``blocking``
-    (RiverConfig.tile_production == "blocking", tests) does a whole refresh in one call.
+    of a quarter of it, so it changes only when the plumes outgrow it or leave it; each texel's
+    place on the network (link, arc length, ψ) is found once per square (the slow part: the
+    stream function at the texels near a river), its concentration again when the spills have
+    stepped by TINT_REFRESH_S.
     """
 
     rect_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    """(x0, y0, side) [m] of the square drawn (side 0: nothing to tint)."""
+    """(x0, y0, side) [m] of the square (side 0: nothing to tint)."""
     rgba: np.ndarray = field(default_factory=lambda: np.zeros((TINT_TEXELS, TINT_TEXELS, 4),
                                                               np.float32))
-    """The texture being written (its rows go to the back texture as they are written)."""
     version: int = 0
-    """Increases whenever a refresh is complete (the draw system swaps the textures then)."""
+    """Increases whenever ``rgba`` or ``rect_m`` changed (the draw system uploads then)."""
     _key: tuple = ()
-    _layout: _TintLayout | None = None
+    _wet: np.ndarray | None = None
+    _psi: np.ndarray | None = None
+    _link: np.ndarray | None = None
+    _s: np.ndarray | None = None
+    _fringe: np.ndarray | None = None
+    _fringe_from: np.ndarray | None = None
+    _texel_m: float = 0.0
+    _ia: np.ndarray | None = None
+    _ib: np.ndarray | None = None
+    _iw: np.ndarray | None = None
     _prof: np.ndarray | None = None
-    _prof_key: tuple = ()
-    _conc: np.ndarray | None = None
-    _colours: np.ndarray | None = None
-    _row: int = -1
-    """The next row of the refresh under way (−1: none)."""
 
-    @property
-    def busy(self) -> bool:
-        """A refresh is under way."""
-        return self._row >= 0
-
-    def update(self, solver: SpillSolver, potential, colours, *, blocking: bool = False
-               ) -> tuple[int, int] | None:
+    def update(self, solver: SpillSolver, potential, colours) -> bool:
         """Follow the solver (``potential(xy) -> ψ`` the flow field's; ``colours`` (S, 3) the
-        spills' RGB) by one call's share of work; the rows (r0, r1) of ``rgba`` written (to
-        upload to the back texture), or None."""
-        lo = hi = None
-        while True:
-            rows = self._work(solver, potential, colours)
-            if rows is not None:
-                lo = rows[0] if lo is None else min(lo, rows[0])
-                hi = rows[1] if hi is None else max(hi, rows[1])
-            if not blocking or not self.busy:
-                return None if lo is None else (lo, hi)
-
-    def _work(self, solver: SpillSolver, potential, colours) -> tuple[int, int] | None:
-        if not self.busy:
-            if self._key and self._key[1] == solver.n_spills \
-                    and 0.0 <= solver.time_s - self._key[0] < TINT_REFRESH_S:
-                return None
-            self._key = (solver.time_s, solver.n_spills)
-            rect = self._square(solver)
-            if self._layout is None or rect != self._layout.rect:
-                self._layout = _TintLayout(rect)
-                self._prof = None
-            self._conc = solver.cell_concentration().copy()
-            self._colours = np.asarray(colours, np.float64).reshape(-1, 3)[:, :3].copy()
-            self._row = 0
-        lay = self._layout
-        if not lay.done:
-            lay.locate_rows(solver, potential, TINT_LOCATE_ROWS)
-            return None
-        if self._prof is None or self._prof_key != (id(lay), len(self._conc)):
-            self._profiles(solver, lay)
-        r0, r1 = self._row, min(self._row + TINT_BAND_ROWS, TINT_TEXELS)
-        out = self.rgba[r0:r1].reshape(-1, 4)
-        out[:] = 0.0
-        n = TINT_TEXELS
-        a, b = np.searchsorted(lay.texel, (r0 * n, r1 * n))
-        if b > a and len(self._conc):
-            k = lay.src[a:b]
-            conc = self._conc
-            c = (conc[:, lay.ia[k]] * (1.0 - lay.iw[k]) + conc[:, lay.ib[k]] * lay.iw[k]) \
-                * self._prof[:, k]
+        spills' RGB); True if the texture changed."""
+        if self._key and self._key[1] == solver.n_spills \
+                and 0.0 <= solver.time_s - self._key[0] < TINT_REFRESH_S:
+            return False
+        rect = self._square(solver)
+        if rect != self.rect_m or self._wet is None:
+            self._locate(solver, potential, rect)
+        if not self._key or self._key[1] != solver.n_spills or self._prof is None:
+            self._profiles(solver)
+        self._key = (solver.time_s, solver.n_spills)
+        if len(self._wet) and solver.n_spills:
+            conc = solver.cell_concentration()
+            c = (conc[:, self._ia] * (1.0 - self._iw) + conc[:, self._ib] * self._iw) * self._prof
             total = c.sum(axis=0)
-            here = lay.texel[a:b] - r0 * n
-            out[here, :3] = ((self._colours.T @ c) / np.maximum(total, 1e-30)).T
-            out[here, 3] = total
-        self._row = r1
-        if r1 == TINT_TEXELS:
-            self._row = -1
-            self.rect_m = lay.rect
-            self.version += 1
-        return (r0, r1)
+            out = self.rgba.reshape(-1, 4)
+            rgb = (np.asarray(colours, np.float64)[:, :3].T @ c) / np.maximum(total, 1e-30)
+            out[self._wet, :3] = rgb.T
+            out[self._wet, 3] = total
+            out[self._fringe] = out[self._fringe_from]
+        self.version += 1
+        return True
 
-    def _profiles(self, solver: SpillSolver, lay: _TintLayout) -> None:
+    def _locate(self, solver: SpillSolver, potential, rect) -> None:
+        """Each texel's place on the network for the square ``rect`` (the slow part)."""
+        self.rect_m = rect
+        self.rgba[:] = 0.0
+        x0, y0, side = rect
+        n = TINT_TEXELS
+        cell = side / n if side > 0 else 0.0
+        g = (np.arange(n) + 0.5) * cell
+        gx, gy = np.meshgrid(x0 + g, y0 + g)
+        xy = np.column_stack([gx.ravel(), gy.ravel()])
+        net = solver.network
+        # only texels near a centre line can be water: the stream function there alone
+        near = np.flatnonzero(net.locate(xy, float(net.cell_width_m.max()))[0] >= 0) \
+            if side > 0 else np.zeros(0, np.int64)
+        psi = potential(xy[near]) if len(near) else np.zeros(0)
+        self._wet = near[np.isfinite(psi)]
+        self._psi = psi[np.isfinite(psi)]
+        self._link, self._s, _ = net.locate(xy[self._wet])
+        self._ia, self._ib, self._iw = net.weights(self._link, self._s)
+        # the dry texels next to the water take their nearest wet texel's value, so that
+        # the texture's bilinear filter does not darken the water along the banks
+        self._fringe = near[~np.isfinite(psi)]
+        self._fringe_from = np.zeros(0, np.int64)
+        if len(self._wet) and len(self._fringe):
+            _, k = cKDTree(xy[self._wet]).query(xy[self._fringe])
+            self._fringe_from = self._wet[k]
+        self._texel_m = cell
+        self._prof = None
+
+    def _profiles(self, solver: SpillSolver) -> None:
         """Each spill's transverse profile at each wet texel (S, W): steady, like the flow."""
-        prof = np.ones((len(self._conc), len(lay.link)))
-        for k, src in enumerate(solver.sources[:len(self._conc)]):
-            here = lay.link == src.link
+        prof = np.ones((solver.n_spills, len(self._wet)))
+        for k, src in enumerate(solver.sources):
+            here = self._link == src.link
             if here.any():
-                prof[k, here] = solver._profile(src, lay.s[here], lay.psi[here], lay.texel_m)
-        self._prof, self._prof_key = prof, (id(lay), len(self._conc))
+                prof[k, here] = solver._profile(src, self._s[here], self._psi[here],
+                                                self._texel_m)
+        self._prof = prof
 
     @staticmethod
     def _square(solver: SpillSolver) -> tuple[float, float, float]:

@@ -202,11 +202,8 @@ class _Gpu:
         self.wakes_cpu = np.zeros((MAX_WAKES, 1 + 2 * TRAIL_POINTS, 4), np.float32)
         self.wakes = gl.Texture((1 + 2 * TRAIL_POINTS, MAX_WAKES), gl.RGBA32F)
         self.spill_tint = SpillTint()
-        # the tint drawn and the one its refresh is written into, band by band (swapped when
-        # the refresh is complete: SpillTint)
         self.spill = gl.Texture((TINT_TEXELS, TINT_TEXELS), gl.RGBA32F, linear=True)
-        self.spill_back = gl.Texture((TINT_TEXELS, TINT_TEXELS), gl.RGBA32F, linear=True)
-        self.spill_version = 0
+        self.spill_version = -1
         self.flood_cells: gl.Texture | None = None      # made by the first flood drawn
         self.flood_rise: gl.Texture | None = None
         self.flood_rise_cpu: np.ndarray | None = None
@@ -323,7 +320,7 @@ class _Gpu:
         self.water.delete()
         for obj in [self.empty, self.view, self.params, self.bins, self.grid_fb, self.grid,
                     self.drops, self.ripples, self.foam_pattern, self.wakes, self.spill,
-                    self.spill_back, self.flood_cells, self.flood_rise,
+                    self.flood_cells, self.flood_rise,
                     *self.targets,
                     *(tex for _, tex in self.waves.values())]:
             if obj is not None:
@@ -924,20 +921,15 @@ class DrawRivers(System):
                 "u_crest_foam": 1.0 if foam is not None and foam.enabled else 0.0}
 
     def _upload_spill(self, world: RiverWorld, gpu: _Gpu, settings: DisplaySettings) -> dict:
-        """The water shader's spill uniforms; the spills' tint refreshed a band a frame into
-        the back texture, the textures swapped when a refresh is complete
-        (:class:`~riverflow.hydro.spills.SpillTint`; no spill: u_spill_on = 0)."""
+        """The water shader's spill uniforms; the spills' tint texture uploaded when the spills
+        have stepped (:class:`~riverflow.hydro.spills.SpillTint`; no spill: u_spill_on = 0)."""
         solver = world.spill_solver
         on = solver is not None and solver.n_spills > 0
         if on:
             colours = sorted((s.row, s.colour) for _, s in esper.get_component(Spill))
-            rows = gpu.spill_tint.update(
-                solver, world.field.potential, [c for _, c in colours],
-                blocking=world.config.tile_production == "blocking")
-            if rows is not None:
-                gpu.spill_back.upload(gpu.spill_tint.rgba, first_row=rows[0], rows=rows[1])
+            gpu.spill_tint.update(solver, world.field.potential, [c for _, c in colours])
             if gpu.spill_tint.version != gpu.spill_version:
-                gpu.spill, gpu.spill_back = gpu.spill_back, gpu.spill
+                gpu.spill.upload(gpu.spill_tint.rgba)
                 gpu.spill_version = gpu.spill_tint.version
             on = gpu.spill_tint.rect_m[2] > 0.0
         gpu.spill.bind(SPILL_UNIT)

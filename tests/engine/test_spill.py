@@ -311,10 +311,8 @@ def test_the_tint_texture_holds_the_concentrations(spilled):
     world.advance_spills(0.0)
     tint = SpillTint()
     colours = [(1.0, 0.0, 0.0), (0.0, 0.0, 1.0)]
-    assert tint.update(solver, world.field.potential, colours, blocking=True) \
-        == (0, TINT_TEXELS)
-    assert tint.version == 1 and not tint.busy
-    assert tint.update(solver, world.field.potential, colours) is None   # nothing stepped
+    assert tint.update(solver, world.field.potential, colours)
+    assert not tint.update(solver, world.field.potential, colours)    # nothing stepped
     x0, y0, side = tint.rect_m
     assert side > 0
     g = (np.arange(TINT_TEXELS) + 0.5) * side / TINT_TEXELS
@@ -407,42 +405,3 @@ def test_dispersion_settings():
             Dispersion(**bad)
     with pytest.raises(ValueError, match="discharge"):
         build_spill_network([branch("c", line, 30.0)], [float("nan")])
-
-
-def test_the_tint_is_refreshed_a_band_a_call_and_swapped_when_whole(spilled):
-    """Spread over frames (issue 24): each call places a few rows of a new square or writes
-    one band; the square drawn changes only when every band is written, and the texture
-    then is the one a blocking refresh makes."""
-    from riverflow.hydro.spills import TINT_BAND_ROWS, TINT_REFRESH_S, TINT_TEXELS, SpillTint
-
-    world, _, _, _ = spilled
-    solver = world.spill_solver
-    colours = [(1.0, 0.0, 0.0), (0.0, 0.0, 1.0)]
-    whole = SpillTint()
-    whole.update(solver, world.field.potential, colours, blocking=True)
-    tint = SpillTint()
-    bands, calls = [], 0
-    while True:
-        rows = tint.update(solver, world.field.potential, colours)
-        calls += 1
-        assert calls < 1000
-        if rows is not None:
-            assert 0 < rows[1] - rows[0] <= TINT_BAND_ROWS
-            bands.append(rows)
-        if tint.version:
-            break
-        assert tint.rect_m == (0.0, 0.0, 0.0)                 # the old square until done
-    assert bands == [(r, min(r + TINT_BAND_ROWS, TINT_TEXELS))
-                     for r in range(0, TINT_TEXELS, TINT_BAND_ROWS)]
-    assert calls > len(bands)                                   # the square placed first
-    assert tint.rect_m == whole.rect_m and tint.rect_m[2] > 0
-    np.testing.assert_array_equal(tint.rgba, whole.rgba)
-    assert tint.rgba[..., 3].max() > 0
-    # the next refresh starts when the spills have stepped; the old square is drawn meanwhile
-    assert tint.update(solver, world.field.potential, colours) is None and not tint.busy
-    solver.advance(TINT_REFRESH_S + solver.dt_s)          # whole steps
-    rows = None
-    while rows is None:
-        rows = tint.update(solver, world.field.potential, colours)
-        assert tint.busy and tint.version == 1 and tint.rect_m == whole.rect_m
-    assert rows == (0, TINT_BAND_ROWS)
