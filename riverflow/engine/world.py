@@ -66,6 +66,16 @@ class _FloodRouterKey:
     """The resource key of the world's flood router (made by the first hydrograph)."""
 
 
+def _seconds_ahead(seconds, what: str) -> float:
+    """``seconds`` as a float for the ``advance_*`` calls: ValueError (naming ``what``) for a
+    negative, NaN or infinite time or a value that is not a number."""
+    if isinstance(seconds, bool) or not isinstance(seconds, (int, float, np.integer,
+                                                              np.floating)) \
+            or not (math.isfinite(seconds) and seconds >= 0):
+        raise ValueError(f"{what}: seconds must be a finite number ≥ 0, got {seconds!r}")
+    return float(seconds)
+
+
 class RiverWorld:
     """A landscape with rivers, simulated (and, with ``gl=True``, drawn) frame by frame.
 
@@ -472,13 +482,9 @@ class RiverWorld:
     def advance_flood(self, seconds: float) -> None:
         """Run the flood ``seconds`` [s] ahead (hours in one call), nothing else moving
         (ValueError for a negative, NaN or infinite time)."""
-        if isinstance(seconds, bool) or not isinstance(seconds, (int, float, np.integer,
-                                                                  np.floating)) \
-                or not (math.isfinite(seconds) and seconds >= 0):
-            raise ValueError(f"advance_flood: seconds must be a finite number ≥ 0, got "
-                             f"{seconds!r}")
+        seconds = _seconds_ahead(seconds, "advance_flood")
         if self.flood is not None:
-            self.flood.advance(float(seconds))
+            self.flood.advance(seconds)
 
     def set_discharge(self, link, q_m3s: float) -> None:
         """A constant inflow ``q_m3s`` [m³/s] at the start of ``link`` from now on
@@ -837,14 +843,10 @@ class RiverWorld:
     def advance_spills(self, seconds: float) -> None:
         """Run the spills ``seconds`` [s] ahead (hours in one call), nothing else moving
         (ValueError for a negative, NaN or infinite time)."""
-        if isinstance(seconds, bool) or not isinstance(seconds, (int, float, np.integer,
-                                                                  np.floating)) \
-                or not (math.isfinite(seconds) and seconds >= 0):
-            raise ValueError(f"advance_spills: seconds must be a finite number ≥ 0, got "
-                             f"{seconds!r}")
+        seconds = _seconds_ahead(seconds, "advance_spills")
         solver = self.spill_solver
         if solver is not None:
-            solver.advance(float(seconds))
+            solver.advance(seconds)
 
     def concentration(self, xy_m, *, per_spill: bool = False) -> np.ndarray:
         """Tracer concentration [kg/m³] at points (N, 2) [m]: (N,) summed over the spills
