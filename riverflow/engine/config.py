@@ -82,11 +82,13 @@ class RiverConfig:
     surface tables) are chosen per tile from its distance to the camera, coarser far away."""
 
     freeze_gc_on_load: bool = True
-    """:meth:`RiverWorld.load_view` ends with ``gc.unfreeze(); gc.collect(); gc.freeze()``:
-    what is alive once a level is loaded (the world's tiles and entities, numba's and the
-    host's objects) is left out of later garbage collections, so a full collection over them
-    cannot pause a frame (48–66 ms measured in a 100 km flight); unfreezing first lets the
-    previous level's garbage go. False: the host runs the collector as it likes."""
+    """:meth:`RiverWorld.load_view` ends with a collection and ``gc.freeze()``: what is alive
+    once a level is loaded (the world's tiles and entities, numba's and the host's objects) is
+    left out of later garbage collections, so a full collection over them cannot pause a frame
+    (48–66 ms measured in a 100 km flight). The collection is a full one (unfreezing first, so
+    the previous level's garbage goes) on the first load after a world was released or when
+    much is new; a load of another view of the same level collects only what is new since the
+    last. False: the host runs the collector as it likes."""
 
     tile_production: str = "background"
     """"background": tiles of every kind are made by a worker thread, never stalling a frame

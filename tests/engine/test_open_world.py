@@ -428,7 +428,7 @@ def test_loading_a_view_freezes_the_collector_only_when_asked(freeze):
         assert (frozen > 0) == freeze
         if freeze:     # what the world holds is left out of collections
             assert frozen > 1000
-        world.load_view(60.0)       # a second load unfreezes, collects and freezes again
+        world.load_view(60.0)       # a second load collects and freezes again
         assert (gc.get_freeze_count() > 0) == freeze
     finally:
         world.close()
