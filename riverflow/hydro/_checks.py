@@ -256,9 +256,11 @@ def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6,
 
 def _discharge_problems(graph: HydroGraph, branches, rel_tol: float) -> list[str]:
     """ψ(right bank) − ψ(left bank) = discharge at the middle of every branch (every
-    station's two rays in one bulk query, :func:`_bank_psi`)."""
+    station's two rays in one bulk query, :func:`_bank_psi`). A free island's shore (a bank
+    that closes on itself) is no branch's bank: a ray that reaches it, where the branch's
+    width read across it falls short of the far bank, must not take its ψ for the bank's."""
     problems = []
-    bank_ids = graph.banks()
+    bank_ids = [i for i in graph.banks() if graph.curves[i].start != graph.curves[i].end]
     tree = shapely.STRtree([LineString(graph.vertices(i)) for i in bank_ids])
     potential = np.array([graph.curves[i].potential for i in bank_ids])
     fractions = np.array([0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8])

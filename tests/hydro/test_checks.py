@@ -182,3 +182,21 @@ def test_tiled_point_location_equals_shapely(monkeypatch):
     got = _checks.contains_xy_tiled(river, xy)
     assert want.sum() > 1000 and (~want).sum() > 1000
     assert np.array_equal(got, want)
+
+
+def test_a_free_island_near_a_bank_is_not_taken_for_the_bank():
+    """A width read short across a free island near a bank (a water mask's skeleton measures
+    it to the island) must not make the check take the island's ψ for the bank's: it looks
+    for banks within 0.75-1.25 half-widths, and the island lies there, the bank beyond."""
+    b = RiverNetworkBuilder()
+    b.add_branch([(0.0, 0.0), (1000.0, 0.0)], 100.0, discharge_m2s=2.0)
+    t = np.linspace(0.0, 2.0 * np.pi, 24, endpoint=False)
+    b.add_island(np.c_[500.0 + 150.0 * np.cos(t), 32.0 + 6.0 * np.sin(t)])
+    graph = b.build()
+    # an axis 10 m off the middle, read 70 m wide along the island: the right bank 40 m away,
+    # the island's near shore 36 m, the left bank 60 m (banks count from 26 to 45 m)
+    line = np.array([(0.0, -10.0), (300.0, -10.0), (400.0, -10.0), (600.0, -10.0),
+                     (700.0, -10.0), (1000.0, -10.0)])
+    short = np.array([100.0, 100.0, 70.0, 70.0, 100.0, 100.0])
+    assert graph_problems(graph, [(line, short, 2.0)]) == []
+    assert graph_problems(graph, [(line, short, 3.0)])   # a wrong discharge is still found
