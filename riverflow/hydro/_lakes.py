@@ -18,9 +18,12 @@ with no river is one shore piece: one ψ, still water.
   the rivers). Each mouth is one closing segment of both areas; banks that meet at its ends
   have one ψ (reference §1.2 rule 2), which ties the lake's shore pieces to the rivers' banks.
 * **Axes**: a star of axes from the lake's centre (the pole of inaccessibility) to each mouth
-  (the river's axis end), or one short axis from the centre for a lake with no river. Their
-  widths grow to cover the shore linked to them, so every point of a lake that is star-shaped
-  about its centre is inside one (reference §1.2 rule 1).
+  (the river's axis end), or one short axis from the centre for a lake with no river. An
+  axis is the straight line where it stays in the lake, else the path along the middle of
+  the water (:func:`_path_through`: round an island, along a reservoir's arm). Their widths
+  grow to cover the shore linked to them, so every point of the lake is inside one
+  (reference §1.2 rule 1). The flow itself is the lake's potential flow
+  (:mod:`riverflow.hydro.lake_flow`), whatever its shape.
 * The lake's area in the graph is marked with ``Area.info`` = LAKE_INFO, or LAKE_LEVEL_INFO
   and ``Area.level_m`` when its level is given.
 """
@@ -395,10 +398,78 @@ def lake_axes(lake: Lake, mouths_m: list[np.ndarray], outlet: list[bool], tolera
         return [np.array([c, c + 0.5 * (q - c)])]
     axes = []
     for m, out in zip(mouths_m, outlet):
-        line = np.array([c, m]) if out else np.array([m, c])
-        if not inside.contains(LineString(line)):
-            raise GraphError(f"{lake.name}: the straight line from its mouth at ({m[0]:.1f}, "
-                             f"{m[1]:.1f}) to its centre ({c[0]:.1f}, {c[1]:.1f}) leaves the "
-                             f"lake; lakes must be star-shaped about their centre")
-        axes.append(line)
+        line = np.array([m, c])
+        if not inside.contains(LineString(line)):      # a bay, an arm, an island in the way
+            line = _path_through(lake, inside, m, c, tolerance_m)
+        axes.append(line[::-1] if out else line)
     return axes
+
+
+PATH_CELLS = 160
+""":func:`_path_through` finds its path on a raster of the lake this many cells along its
+longer side."""
+
+
+def _path_through(lake: Lake, inside, a: np.ndarray, b: np.ndarray, tolerance_m: float
+                  ) -> np.ndarray:
+    """A path (K, 2) from ``a`` to ``b`` (both in the lake) that keeps to the middle of the
+    water: the cheapest path through the lake's raster, each step costing its length over the
+    clearance there (the distance to the nearest shore), so it runs along the middle of an
+    arm or a channel between islands, simplified to a fraction of the narrowest clearance it
+    passes and checked to stay in ``inside`` (the lake grown by the tolerance). An axis in a
+    lake that is not star-shaped about its centre (a reservoir's flooded side valleys, an
+    island between a mouth and the centre) follows it."""
+    from scipy import ndimage
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import dijkstra
+
+    x0, y0, x1, y1 = lake.polygon.bounds
+    cell = max(max(x1 - x0, y1 - y0) / PATH_CELLS, tolerance_m, 1e-6)
+    nx, ny = int(np.ceil((x1 - x0) / cell)) + 1, int(np.ceil((y1 - y0) / cell)) + 1
+    gx, gy = np.meshgrid(0.5 * (x0 + x1) + (np.arange(nx) - 0.5 * (nx - 1)) * cell,
+                         0.5 * (y0 + y1) + (np.arange(ny) - 0.5 * (ny - 1)) * cell)
+    wet = shapely.contains_xy(lake.polygon, gx, gy)
+    clear = ndimage.distance_transform_edt(wet) * cell
+    index = -np.ones(wet.shape, np.int64)
+    index[wet] = np.arange(int(wet.sum()))
+    xy = np.c_[gx[wet], gy[wet]]
+    rows, cols, cost = [], [], []
+    for di, dj in ((0, 1), (1, 0), (1, 1), (1, -1)):
+        i0, i1 = max(0, -di), ny - max(0, di)
+        j0, j1 = max(0, -dj), nx - max(0, dj)
+        here = index[i0:i1, j0:j1]
+        there = index[i0 + di:i1 + di, j0 + dj:j1 + dj]
+        ok = (here >= 0) & (there >= 0)
+        c = 0.5 * (clear[i0:i1, j0:j1] + clear[i0 + di:i1 + di, j0 + dj:j1 + dj])[ok]
+        rows.append(here[ok])
+        cols.append(there[ok])
+        cost.append(np.hypot(di, dj) * cell / np.maximum(c, 1e-9))
+    rows, cols, cost = np.concatenate(rows), np.concatenate(cols), np.concatenate(cost)
+    n = len(xy)
+    graph = coo_matrix((cost, (rows, cols)), shape=(n, n)).tocsr()
+    ends = []
+    for p in (a, b):
+        d = np.hypot(*(xy - p).T)
+        near = np.argsort(d)[:8]            # the nearest cell the straight step to is wet
+        seen = [k for k in near if inside.contains(LineString([p, xy[k]]))]
+        if not seen:
+            raise GraphError(f"{lake.name}: no way through the lake from ({p[0]:.1f}, "
+                             f"{p[1]:.1f}) (a mouth or its centre in a part of the lake "
+                             f"narrower than {cell:.2f} m)")
+        ends.append(int(seen[0]))
+    dist, pred = dijkstra(graph, directed=False, indices=ends[0], return_predecessors=True)
+    if not np.isfinite(dist[ends[1]]):
+        raise GraphError(f"{lake.name}: its mouth at ({a[0]:.1f}, {a[1]:.1f}) and its centre "
+                         f"({b[0]:.1f}, {b[1]:.1f}) are in parts of the lake that do not meet")
+    path, k = [], ends[1]
+    while k >= 0:
+        path.append(k)
+        k = pred[k] if k != ends[0] else -1
+    line = np.vstack([a, xy[path[::-1]], b])
+    narrow = float(clear[wet][path].min())
+    for tol in (0.5 * narrow, 0.25 * narrow, 0.0):
+        simple = np.asarray(shapely.simplify(LineString(line), tol).coords) if tol else line
+        if inside.contains(LineString(simple)):
+            return simple
+    raise GraphError(f"{lake.name}: the path from its mouth at ({a[0]:.1f}, {a[1]:.1f}) to its "
+                     f"centre leaves the lake")

@@ -399,3 +399,57 @@ def test_lake_tiles_agree_across_their_borders(lake):
     assert (sa == rf.FlowStatus.INSIDE).all() and (sb == rf.FlowStatus.INSIDE).all()
     assert np.abs(va - vb).max() < 1e-3 * np.abs(va).max()
     assert np.abs(field.potential(pts - (e, 0)) - field.potential(pts + (e, 0))).max() < 1e-4
+
+
+# a reservoir that is no star about its centre: two arms (flooded valleys) joined in the south,
+# the river coming into the west arm and leaving from the east one, and an island in the west
+# arm between its mouth and the centre
+U_LAKE = shapely.union_all([shapely.box(-250, -200, 250, -60), shapely.box(-250, -200, -130, 300),
+                            shapely.box(130, -200, 250, 300)]).buffer(20, quad_segs=16).buffer(
+                                -20, quad_segs=16)
+U_ISLAND = shapely.Point(-175, 120).buffer(22, quad_segs=12)
+
+
+@pytest.fixture(scope="module")
+def u_lake():
+    b = RiverNetworkBuilder()
+    b.add_branch([(-190, 800), (-190, 500), (-190, 290)], 30.0, discharge_m2s=20.0, name="in")
+    b.add_branch([(190, 290), (190, 500), (190, 800)], 36.0, name="out")
+    b.add_lake(U_LAKE.difference(U_ISLAND))
+    graph = b.build()
+    return b, graph, rf.FlowField(graph), shapely.Polygon(area_ring(graph, graph.lakes()[0]))
+
+
+def test_a_lake_of_any_shape_has_its_axes_in_the_water_and_its_flow(u_lake):
+    """The straight line from either mouth to the lake's centre crosses land (and the
+    island); the axes go round through the water instead, the island keeps its ψ, and the
+    flow is the lake's potential flow: divergence-free, along the shore, carrying tracers
+    from the inlet round the island and through the bend to the outlet, none leaving the
+    water. Before, such a lake was a GraphError ("lakes must be star-shaped")."""
+    _, graph, field, shore = u_lake
+    (k,) = graph.lakes()
+    assert shore.symmetric_difference(U_LAKE).area < 1e-3 * U_LAKE.area
+    assert lake_flow.lake_islands(graph, k, 0.25)              # the island is the lake's
+    water = U_LAKE.difference(U_ISLAND).buffer(0.5)
+    lake_axes = [i for i, c in enumerate(graph.curves) if c.is_axis
+                 and shapely.LineString(graph.vertices(i)).within(U_LAKE.buffer(1.0))]
+    assert len(lake_axes) == 2
+    assert all(shapely.LineString(graph.vertices(i)).within(water) for i in lake_axes)
+    assert any(len(graph.vertices(i)) > 2 for i in lake_axes)  # one goes round the island
+    h = field.tiles.spacing_m(field.max_level)
+    rng = np.random.default_rng(3)
+    pts = rng.uniform((-250, -200), (250, 300), (3000, 2))
+    pts = pts[shapely.contains_xy(shore.buffer(-3 * h).difference(U_ISLAND.buffer(3 * h)),
+                                  pts[:, 0], pts[:, 1])][:300]
+    status, v = field.query(pts)
+    assert (status == rf.FlowStatus.INSIDE).all() and np.isfinite(v).all()
+    div, grad = divergence_and_gradient(field, pts, 0.05 * h)
+    assert np.abs(div).max() < 0.05 * np.median(grad)
+    q, n = _shore_samples(shore, graph, 0.25)
+    status, v = field.query(q)
+    assert (status == rf.FlowStatus.INSIDE).all()
+    speed = np.hypot(*v.T)
+    assert (np.abs((v * n).sum(axis=1)) / np.maximum(speed, np.median(speed))).max() <= 0.02
+    seeds = np.c_[-190.0 + 30.0 * np.linspace(-0.4, 0.4, 7), np.full(7, 600.0)]
+    reached, left = _trace(field, seeds, lambda p: (p[:, 0] > 0.0) & (p[:, 1] > 500.0))
+    assert reached.all() and not left.any()
