@@ -151,45 +151,59 @@ def _on_lake(lakes: list[Lake], p: np.ndarray) -> int:
 
 
 def end_at_terminal_lakes(branches: list, lakes: list[Lake], lake_ends: list, allowed: bool):
-    """A lake that rivers flow into and none out of (a terminal, endorheic lake) is still
-    water: its inlets end on free ends (caps: their water leaves there, as at any river end)
-    just short of its shore, each drawn back from the lake until its strip's last stretch is
-    0.02 widths clear of it, and the lake is one shore, one ψ. Returns the branches, the lake
-    ends (those inlets no longer end on the lake) and the terminal lakes' indices; GraphError
-    when not ``allowed`` (water polygons given: the rivers' water meets the lake's)."""
-    from riverflow.hydro._strips import strip_polygon
-
+    """A lake that rivers flow into and none out of (a terminal, endorheic lake), or out of
+    and none into (a source lake: a spring-fed or headwater lake whose feeders the data does
+    not hold), is still water: its inlets end on free ends (caps: their water leaves there,
+    as at any river end) and its outlets start on free ends (their water comes in there, as
+    at any river's source), just off its shore, each drawn back from the lake until its
+    strip's stretch there is 0.02 widths clear of it; the lake is one shore, one ψ. Returns
+    the branches, the lake ends (those rivers no longer end or start on the lake) and the
+    indices of the terminal and of the source lakes; GraphError when not ``allowed`` (water
+    polygons given: the rivers' water meets the lake's)."""
     branches, lake_ends = list(branches), list(lake_ends)
-    terminal = []
+    terminal, source = [], []
     for k, lake in enumerate(lakes):
         ins = [i for i, (_, e) in enumerate(lake_ends) if e == k]
         outs = [i for i, (s, _) in enumerate(lake_ends) if s == k]
-        if not ins or outs:
+        if bool(ins) == bool(outs):
             continue
-        names = [branches[i].name for i in ins]
+        names = [branches[i].name for i in ins + outs]
         if not allowed:
-            raise GraphError(f"{lake.name}: rivers {names} flow into it but none flows out; a "
-                             f"lake without an outlet is still water only in networks built "
-                             f"from lines (the water polygons given meet its shore)")
-        for i in ins:
+            raise GraphError(f"{lake.name}: rivers {names} flow {'into' if ins else 'out of'} "
+                             f"it but none flows {'out' if ins else 'in'}; a lake without an "
+                             f"{'outlet' if ins else 'inlet'} is still water only in networks "
+                             f"built from lines (the water polygons given meet its shore)")
+        for i in ins + outs:
             b = branches[i]
-            line, w = b.centerline_m.copy(), b.widths_m
-            width = float(w[-1])
-            for _ in range(200):
-                strip = strip_polygon(line[-2:], w[-2:])
-                if lake.polygon.distance(strip) > 0.02 * width:
-                    break
-                t = line[-1] - line[-2]
-                seg = float(np.hypot(*t))
-                if seg <= 0.1 * width:
-                    raise GraphError(f"branch {b.name!r}: its last stretch ({seg:.1f} m) lies "
-                                     f"along the shore of {lake.name} (a lake with no outlet): "
-                                     f"end the branch square to the shore")
-                line[-1] = line[-1] - t / seg * 0.05 * width
-            branches[i] = type(b)(b.name, line, w, b.discharge_m2s)
-            lake_ends[i] = (lake_ends[i][0], -1)
-        terminal.append(k)
-    return branches, lake_ends, terminal
+            at_start = not ins
+            line = _clear_of(lake, b.centerline_m.copy(), b.widths_m, at_start, b.name)
+            branches[i] = type(b)(b.name, line, b.widths_m, b.discharge_m2s)
+            lake_ends[i] = (-1, lake_ends[i][1]) if at_start else (lake_ends[i][0], -1)
+        (terminal if ins else source).append(k)
+    return branches, lake_ends, terminal, source
+
+
+def _clear_of(lake: Lake, line: np.ndarray, w: np.ndarray, at_start: bool, name: str
+              ) -> np.ndarray:
+    """``line`` with its end (its start if ``at_start``) drawn back from ``lake`` until the
+    strip of its last (first) stretch is 0.02 widths clear of it."""
+    from riverflow.hydro._strips import strip_polygon
+
+    e, f = (0, 1) if at_start else (-1, -2)
+    width = float(w[e])
+    for _ in range(200):
+        strip = strip_polygon(line[[e, f]], w[[e, f]])
+        if lake.polygon.distance(strip) > 0.02 * width:
+            return line
+        t = line[e] - line[f]
+        seg = float(np.hypot(*t))
+        if seg <= 0.1 * width:
+            raise GraphError(f"branch {name!r}: its {'first' if at_start else 'last'} stretch "
+                             f"({seg:.1f} m) lies along the shore of {lake.name} (a lake with "
+                             f"no {'inlet' if at_start else 'outlet'}): "
+                             f"{'start' if at_start else 'end'} the branch square to the shore")
+        line[e] = line[e] - t / seg * 0.05 * width
+    return line
 
 
 def lake_junctions(branches, lakes: list[Lake], lake_ends, start_j, end_j, junctions):

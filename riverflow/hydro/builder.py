@@ -141,6 +141,9 @@ class RiverNetworkBuilder:
         self.terminal_lakes: list[int] = []
         """After build(): the lakes with inflow and no outlet (still water, their inlets ending
         on free ends at the shore)."""
+        self.source_lakes: list[int] = []
+        """After build(): the lakes with outflow and no inflow (still water, their outlets
+        starting on free ends at the shore)."""
 
     # -- input --------------------------------------------------------------------------
 
@@ -404,8 +407,9 @@ class RiverNetworkBuilder:
         (:mod:`riverflow.hydro._lakes`, :mod:`riverflow.hydro.lake_flow`). Holes in the polygon
         are islands: their shore gets the ψ of zero circulation round them. A lake that no
         river touches is still water, and so is one with inflow but no outlet (its inlets end
-        on free ends at its shore: :attr:`terminal_lakes`); one with outflow but no inflow is
-        refused. ``level_m``: its water level [m] (None: from the terrain,
+        on free ends at its shore: :attr:`terminal_lakes`) or outflow but no inflow (a source
+        lake: its outlets start on free ends at its shore, with their own discharges,
+        :attr:`source_lakes`). ``level_m``: its water level [m] (None: from the terrain,
         :func:`riverflow.landscape`).
 
         Raises:
@@ -474,13 +478,19 @@ class RiverNetworkBuilder:
                     for b in self._branches]
         lakes = self._lakes
         branches, lake_ends, origin = _lakes.cut_branches(branches, lakes, self.tolerance_m)
-        branches, lake_ends, self.terminal_lakes = _lakes.end_at_terminal_lakes(
-            branches, lakes, lake_ends, allowed=self._water_area is None)
+        branches, lake_ends, self.terminal_lakes, self.source_lakes = \
+            _lakes.end_at_terminal_lakes(branches, lakes, lake_ends,
+                                         allowed=self._water_area is None)
         if self.terminal_lakes and getattr(self, "report", None) is not None:
             self.report.derived["terminal lakes"] = (
                 f"{len(self.terminal_lakes)} lake(s) with inflow and no outlet "
                 f"({', '.join(lakes[k].name for k in self.terminal_lakes)}): still water, "
                 f"their inlets end on free ends at the shore")
+        if self.source_lakes and getattr(self, "report", None) is not None:
+            self.report.derived["source lakes"] = (
+                f"{len(self.source_lakes)} lake(s) with outflow and no inflow "
+                f"({', '.join(lakes[k].name for k in self.source_lakes)}): still water, "
+                f"their outlets start on free ends at the shore")
         if branches:
             start_j, end_j, junctions = _find_junctions(branches)
         else:

@@ -197,7 +197,7 @@ def water_surface(branches: list[RiverBranch],
         lv.append(np.minimum.accumulate(zz))
         wd.append(ww)
         index.append(np.full(len(pts), k))
-    _flat_lakes(samples, lv, lakes)
+    _flat_lakes(samples, lv, lakes, wd)
     junctions = np.zeros((max(n_junctions, 0), 2))
     members: list[tuple[int, ...]] = []
     for j in range(max(n_junctions, 0)):
@@ -272,10 +272,20 @@ def _resample_over_falls(line: np.ndarray, s: np.ndarray, z: np.ndarray, widths:
     return pts, np.interp(t, s, z + nappe_s) - nappe_t, np.interp(t, s, widths)
 
 
-def _flat_lakes(samples: list[np.ndarray], levels: list[np.ndarray], lakes) -> None:
-    """Put the samples in each lake at its level, in place (:func:`water_surface`)."""
+def _flat_lakes(samples: list[np.ndarray], levels: list[np.ndarray], lakes,
+                widths: list[np.ndarray]) -> None:
+    """Put the samples in each lake at its level, in place (:func:`water_surface`). A river
+    that starts or ends just off a lake's shore (an outlet of a source lake, an inlet of a
+    terminal one: their free ends) has that end sample at the lake's level too, so no river
+    runs uphill out of a lake."""
     for poly, given in lakes:
-        inside = [shapely.contains_xy(poly, p[:, 0], p[:, 1]) for p in samples]
+        inside = []
+        for p, w in zip(samples, widths):
+            m = shapely.contains_xy(poly, p[:, 0], p[:, 1])
+            if not m.any():
+                for k in (0, -1):
+                    m[k] = shapely.distance(poly, shapely.Point(p[k])) <= 0.75 * w[k]
+            inside.append(m)
         found = [z[m] for z, m in zip(levels, inside) if m.any()]
         if not found:
             continue

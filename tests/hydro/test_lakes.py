@@ -224,8 +224,6 @@ def test_lakes_round_trip_through_graph_files(tmp_path, level):
     (lambda b: (b.add_branch([(-500, 0), (-100, 0)], 30.0, discharge_m2s=5.0),
                 b.set_water_area(shapely.box(-500, -15, -140, 15)), b.add_lake(LAKE)),
      "none flows out"),
-    (lambda b: (b.add_branch([(100, 0), (500, 0)], 30.0, discharge_m2s=5.0),
-                b.add_lake(LAKE)), "none flows in"),
     (lambda b: b.add_lake([(0, 0), (10, 10), (10, 0), (0, 10)]), "not a simple polygon"),
     (lambda b: (b.add_lake(LAKE), b.add_lake(shapely.Point(100, 0).buffer(100))), "overlaps"),
     (lambda b: (b.add_branch([(-50, 0), (50, 0)], 30.0, discharge_m2s=5.0),
@@ -346,20 +344,28 @@ def test_an_island_in_a_lake_has_the_psi_of_zero_circulation(island_lake):
     assert reached.all() and not left.any()
 
 
-def test_a_lake_with_no_outlet_is_still_water():
+@pytest.mark.parametrize("kind", ["terminal", "source"])
+def test_a_lake_with_no_outlet_or_no_inlet_is_still_water(kind):
     """A terminal lake: its two inlets end on free ends just short of its shore (their water
-    leaves there, as at any river end), the lake is one shore, one ψ: still water, flat, in a
-    network of its own; the builder says which lakes are terminal."""
+    leaves there, as at any river end); a source lake (spring-fed, or its feeders not in the
+    data): its outlet starts on a free end just off its shore (its water comes in there, as
+    at any river's source). Either is one shore, one ψ: still water, flat, in a network of its
+    own; the builder says which lakes are terminal and which are sources."""
     b = RiverNetworkBuilder()
-    b.add_branch(WEST, 30.0, discharge_m2s=20.0, name="west")
-    b.add_branch(SOUTH, 24.0, discharge_m2s=10.0, name="south")
+    if kind == "terminal":
+        b.add_branch(WEST, 30.0, discharge_m2s=20.0, name="west")
+        b.add_branch(SOUTH, 24.0, discharge_m2s=10.0, name="south")
+    else:
+        b.add_branch(OUT, 36.0, discharge_m2s=30.0, name="out")
     b.add_lake(LAKE)
     graph = b.build()
-    assert b.terminal_lakes == [0] and len(graph.lakes()) == 1
+    assert (b.terminal_lakes, b.source_lakes) == (([0], []) if kind == "terminal" else ([], [0]))
+    assert len(graph.lakes()) == 1
     (k,) = graph.lakes()
     assert len({graph.curves[c].potential for c, _ in graph.areas[k].curves}) == 1
     field = rf.FlowField(graph)
-    ends = np.array([br.centerline_m[-1] for br in graph_branch_ends(graph)])
+    ends = np.vstack([graph.polyline(a)[[0, -1]] for a in graph.axes()
+                      if graph.curves[a].width_m < 100.0])
     rng = np.random.default_rng(3)
     pts = rng.uniform(-150, 150, (3000, 2))
     pts = pts[(np.hypot(*pts.T) < 148)
@@ -367,9 +373,13 @@ def test_a_lake_with_no_outlet_is_still_water():
     status, v = field.query(pts)
     assert (status == rf.FlowStatus.INSIDE).all()
     assert np.isfinite(v).all() and np.abs(v).max() < 1e-6
-    # the rivers still run towards it
-    status, v = field.query(np.array([[-400.0, 80.0], [-73.3, -400.0]]))
-    assert (status == rf.FlowStatus.INSIDE).all() and v[0, 0] > 0.1 and v[1, 1] > 0.1
+    # the rivers still run towards it, or away from it
+    if kind == "terminal":
+        status, v = field.query(np.array([[-400.0, 80.0], [-73.3, -400.0]]))
+        assert (status == rf.FlowStatus.INSIDE).all() and v[0, 0] > 0.1 and v[1, 1] > 0.1
+    else:
+        status, v = field.query(np.array([[350.0, 40.0]]))
+        assert status[0] == rf.FlowStatus.INSIDE and v[0, 0] > 0.1
     assert np.ptp(rf.landscape(graph, seed=0).water.level(pts)) < 1e-9
 
 
