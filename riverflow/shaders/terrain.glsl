@@ -204,17 +204,25 @@ void main() {
     vec3 h = normalize(normalize(to_eye) + u_sun_dir);
     colour += SUN_COLOUR * (wet * (1.0 - under) * 0.35) * pow(max(dot(n, h), 0.0), 40.0);
     // a flood (issue 25) over the ground below its level: the floodplain, and the channel's
-    // banks and bed (seen between the raised water mesh and the shore): muddy water, more
-    // opaque as it deepens, the sky's sheen and the sun's glint on its flat surface
-    float plain = (1.0 - smoothstep(-0.03, 0.0, above)) * smoothstep(0.0, 0.05, v_rise);
+    // banks and bed (seen between the raised water mesh and the shore), shaded as the river's
+    // water is (water.glsl): the sky's Fresnel reflection and the sun's glint on a surface a
+    // light wind ruffles (the ground's grain as ripples), over turbid, silt-laden water that
+    // hides the ground within a few decimetres; its edge fades in over the first 0.4 m of
+    // depth (the ground's wet sheen shows through), so no hard line marks where the level
+    // meets the ground, nor the terrain's triangles that line follows
+    float plain = smoothstep(0.0, 0.4, -above) * smoothstep(0.0, 0.05, v_rise);
     {
         vec3 e = normalize(to_eye);
-        float fresnel = 0.2 + 0.8 * pow(1.0 - max(e.z, 0.0), 5.0);   // a rough surface
-        vec3 muddy = vec3(0.42, 0.37, 0.27) * (SUN_COLOUR * 0.6 * max(u_sun_dir.z, 0.0)
-                                               + vec3(0.32, 0.38, 0.46));
-        vec3 flood = mix(colour, muddy, 0.55 + 0.4 * (1.0 - exp(-depth / 0.7)));
-        flood = mix(flood, vec3(0.36, 0.47, 0.58), fresnel * 0.85);
-        flood += SUN_COLOUR * pow(max(h.z, 0.0), 300.0) * 0.8;
+        vec3 nw = normalize(vec3(-0.05 * grain_d.yz - 0.02 * detail_d.yz, 1.0));
+        float fresnel = 0.02 + 0.98 * pow(1.0 - max(dot(e, nw), 0.0), 5.0);
+        vec3 r = reflect(-e, nw);
+        r.z = abs(r.z);
+        vec3 silt = mix(vec3(0.03, 0.19, 0.22), vec3(0.36, 0.31, 0.21), 0.45)  // the river's
+                    * (SUN_COLOUR * 0.55 * max(u_sun_dir.z, 0.0)          // deep colour,
+                       + vec3(0.32, 0.38, 0.46) * 0.8);                  // silted
+        vec3 body = mix(colour, silt, 1.0 - exp(-depth / 0.25));
+        vec3 flood = mix(body, sky_colour(r), fresnel);
+        flood += SUN_COLOUR * pow(max(dot(nw, normalize(e + u_sun_dir)), 0.0), 300.0) * 1.5;
         colour = mix(colour, flood, plain);
     }
     frag = vec4(apply_fog(colour, v_world), 1.0);
