@@ -153,7 +153,9 @@ def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6,
     # water on the left of every bank: a point just left of each segment is in the water
     # described by the areas and a point just right is not (all banks' points in one prepared
     # query); the linked axis lies on the left of every shore bank (island loops may straddle
-    # their axis: their test is the first one)
+    # their axis: their test is the first one; so may a lake's shore, whose axes only tie it
+    # to the lake's component: its flow is the lake's own potential flow, and a jagged shore's
+    # bays and spits face its axes every way)
     ccw = [p for p, a in zip(polys, poly_area) if signed[a] > 0]
     cw = [p for p, a in zip(polys, poly_area) if signed[a] < 0]
     # (the loops of a sound graph are disjoint: a union by disjoint subsets leaves them as
@@ -162,6 +164,7 @@ def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6,
     if cw:
         water = shapely.difference(water, shapely.disjoint_subset_union_all(cw))
     in_hole = {c for a in range(len(loops)) if signed[a] < 0 for c, _ in graph.areas[a].curves}
+    in_hole |= {c for a in graph.lakes() for c, _ in graph.areas[a].curves}
     del loops, polys, ccw, cw, first     # (copies of the whole outline: the peak is below)
     linked = [i for i in banks if 0 <= curves[i].river < len(curves)]
     # every linked bank's segments in bulk, banks grouped by their axis (one nearest-point

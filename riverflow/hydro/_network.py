@@ -493,6 +493,12 @@ def assemble_graph(geoms: list[BranchGeometry], rings: list[Ring], pieces: list[
     axis_index = [PolylineIndex.of(line) for line in axis_lines]
     for i, piece in enumerate(pieces):
         piece_banks.append([])
+        if not piece_axes.get(i):
+            x, y = piece.points.mean(axis=0)
+            raise GraphError(f"the water has a shore near ({x:.1f}, {y:.1f}) that no branch "
+                             f"runs along (a piece of a river's strip left outside a lake, "
+                             f"where the river crosses a spit of its shore: end the branch "
+                             f"at the shore, or smooth the shore there)")
         candidates = sorted(piece_axes[i])
         # a bank's own axis is within half its width (axis widths include a margin): rows
         # whose best cost is over this are looked at again unbounded (_axis_cost)

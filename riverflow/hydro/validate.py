@@ -169,9 +169,14 @@ class _Validator:
                 for i in loop:
                     self.add(i, "wrong-side", f"island loop {loop} runs counter-clockwise: "
                              "the water (outside) is on its right; reverse it")
+        # a lake's shore faces its axes every way (bays, spits): its axes only tie it to the
+        # lake's network, its flow is the lake's own, and its area's orientation says where
+        # its water is
+        lake_shore = {c for a in g.lakes() for c, _ in g.areas[a].curves}
         for i in banks:
             river = g.curves[i].river
-            if i in in_loop or (river != NO_CURVE and self._axis_of(i) is None):
+            if i in in_loop or i in lake_shore or (river != NO_CURVE
+                                                   and self._axis_of(i) is None):
                 continue
             if river == NO_CURVE:
                 river = self._covering_axis(i)

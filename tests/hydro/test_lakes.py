@@ -463,3 +463,34 @@ def test_a_lake_of_any_shape_has_its_axes_in_the_water_and_its_flow(u_lake):
     seeds = np.c_[-190.0 + 30.0 * np.linspace(-0.4, 0.4, 7), np.full(7, 600.0)]
     reached, left = _trace(field, seeds, lambda p: (p[:, 0] > 0.0) & (p[:, 1] > 500.0))
     assert reached.all() and not left.any()
+
+
+def test_lakes_with_jagged_shores_build():
+    """Shores as real lake outlines come (random radii at 12 to 30 angles: spits, notches,
+    bays facing every way), with two inlets and an outlet: every one builds, and its graph
+    validates. The axis-on-the-left rule is not asked of a lake's shore (its flow is the
+    lake's own: test_a_lake_of_any_shape_has_its_axes_in_the_water_and_its_flow), where
+    before 4 of 5 such lakes were refused ("its axis lies on its right")."""
+    rng = np.random.default_rng(11)
+    built = 0
+    for _ in range(6):
+        n = int(rng.integers(12, 31))
+        angle = np.sort(rng.uniform(0.0, 2.0 * np.pi, n))
+        radius = rng.uniform(120.0, 300.0, n)
+        lake = shapely.Polygon(np.c_[radius * np.cos(angle), radius * np.sin(angle)])
+        if not lake.is_valid:
+            continue
+        b = RiverNetworkBuilder()
+        for k, a in enumerate((0.3, 2.4, 4.4)):
+            d = np.array([np.cos(a), np.sin(a)])
+            line = [d * 1200.0, d * 700.0, d * 60.0]
+            if k < 2:
+                b.add_branch(line, 20.0, discharge_m2s=10.0)
+            else:
+                b.add_branch(line[::-1], 30.0)
+        b.add_lake(lake)
+        graph = b.build()
+        assert rf.validate_graph(graph) == []
+        assert len(graph.lakes()) == 1
+        built += 1
+    assert built >= 5
