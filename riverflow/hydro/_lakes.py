@@ -150,7 +150,7 @@ def _on_lake(lakes: list[Lake], p: np.ndarray) -> int:
     return -1
 
 
-def end_at_terminal_lakes(branches: list, lakes: list[Lake], lake_ends: list, allowed: bool):
+def end_at_terminal_lakes(branches: list, lakes: list[Lake], lake_ends: list):
     """A lake that rivers flow into and none out of (a terminal, endorheic lake), or out of
     and none into (a source lake: a spring-fed or headwater lake whose feeders the data does
     not hold), is still water: its inlets end on free ends (caps: their water leaves there,
@@ -158,8 +158,8 @@ def end_at_terminal_lakes(branches: list, lakes: list[Lake], lake_ends: list, al
     at any river's source), just off its shore, each drawn back from the lake until its
     strip's stretch there is 0.02 widths clear of it; the lake is one shore, one ψ. Returns
     the branches, the lake ends (those rivers no longer end or start on the lake) and the
-    indices of the terminal and of the source lakes; GraphError when not ``allowed`` (water
-    polygons given: the rivers' water meets the lake's)."""
+    indices of the terminal and of the source lakes. Where the water polygons are given, the
+    builder cuts the rivers' water back from these lakes' shores too (CLOSED_LAKE_GAP)."""
     branches, lake_ends = list(branches), list(lake_ends)
     terminal, source = [], []
     for k, lake in enumerate(lakes):
@@ -167,12 +167,6 @@ def end_at_terminal_lakes(branches: list, lakes: list[Lake], lake_ends: list, al
         outs = [i for i, (s, _) in enumerate(lake_ends) if s == k]
         if bool(ins) == bool(outs):
             continue
-        names = [branches[i].name for i in ins + outs]
-        if not allowed:
-            raise GraphError(f"{lake.name}: rivers {names} flow {'into' if ins else 'out of'} "
-                             f"it but none flows {'out' if ins else 'in'}; a lake without an "
-                             f"{'outlet' if ins else 'inlet'} is still water only in networks "
-                             f"built from lines (the water polygons given meet its shore)")
         for i in ins + outs:
             b = branches[i]
             at_start = not ins
@@ -181,6 +175,23 @@ def end_at_terminal_lakes(branches: list, lakes: list[Lake], lake_ends: list, al
             lake_ends[i] = (-1, lake_ends[i][1]) if at_start else (lake_ends[i][0], -1)
         (terminal if ins else source).append(k)
     return branches, lake_ends, terminal, source
+
+
+CLOSED_LAKE_GAP_TOLERANCES = 1.0
+"""Given water polygons are cut back from the shore of a terminal or source lake by this many
+builder tolerances (0.25 m by default): a strip of land between the river's end and the
+still lake, as the lines' square ends leave one."""
+
+
+def cut_from_closed_lakes(water, lakes: list[Lake], closed: list[int], tolerance_m: float):
+    """The given water without what lies within CLOSED_LAKE_GAP_TOLERANCES tolerances of the
+    lakes ``closed`` (terminal and source lakes: still water, their rivers ending or starting
+    on free ends off their shores); the lakes themselves are added back by the builder."""
+    if not closed:
+        return water
+    gap = CLOSED_LAKE_GAP_TOLERANCES * tolerance_m
+    return shapely.difference(water, shapely.union_all([lakes[k].polygon.buffer(gap)
+                                                        for k in closed]))
 
 
 def _clear_of(lake: Lake, line: np.ndarray, w: np.ndarray, at_start: bool, name: str

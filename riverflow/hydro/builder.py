@@ -479,8 +479,7 @@ class RiverNetworkBuilder:
         lakes = self._lakes
         branches, lake_ends, origin = _lakes.cut_branches(branches, lakes, self.tolerance_m)
         branches, lake_ends, self.terminal_lakes, self.source_lakes = \
-            _lakes.end_at_terminal_lakes(branches, lakes, lake_ends,
-                                         allowed=self._water_area is None)
+            _lakes.end_at_terminal_lakes(branches, lakes, lake_ends)
         if self.terminal_lakes and getattr(self, "report", None) is not None:
             self.report.derived["terminal lakes"] = (
                 f"{len(self.terminal_lakes)} lake(s) with inflow and no outlet "
@@ -510,7 +509,9 @@ class RiverNetworkBuilder:
                                              self.fillet_fraction, lakes, lake_ends)
             end_cuts: list[float] = []
         else:
-            water = self._water_area
+            water = _lakes.cut_from_closed_lakes(self._water_area, lakes,
+                                                 self.terminal_lakes + self.source_lakes,
+                                                 self.tolerance_m)
             if lakes:   # the lakes are water too
                 water = shapely.union_all([water] + [lk.polygon for lk in lakes])
             polygons, cuts, islands, (end_cuts, cut_islands) = _given_water(

@@ -79,3 +79,20 @@ def test_stream_lines_through_a_lake_given_with_them(tmp_path):
     assert len(graph.lakes()) == 1 and "lakes" in b.report.derived
     qa, qb, qc = b.discharges_m2s
     assert abs(qb - (qa + qc)) < 1e-9
+
+
+def test_a_river_polygon_into_a_lake_with_no_outlet(tmp_path):
+    """A river's polygon that ends in a lake's (tagged water=lake) with nothing leaving it: a
+    terminal lake, still water; the river runs into it and its water stops a tolerance off
+    the shore (before, a GraphError: still water only in networks built from lines)."""
+    path = write_tagged(tmp_path / "t.gpkg", [WEST, LAKE], ["river", "lake"])
+    b = rf.read_water(path, inlets=[tuple(ORIGIN + (0, 20))])
+    graph = b.build()
+    assert "terminal lakes" in b.report.derived and len(graph.lakes()) == 1
+    field = rf.FlowField(graph)
+    (k,) = graph.lakes()
+    river = max((graph.polyline(a) for a in graph.axes()), key=lambda p: np.ptp(p[:, 0]))
+    at = np.array([river[len(river) // 2], shapely.Polygon(area_ring(graph, k)).centroid.coords[0]])
+    status, v = field.query(at)
+    assert (status == rf.FlowStatus.INSIDE).all()
+    assert v[0, 0] > 0.0 and np.abs(v[1]).max() < 1e-6
