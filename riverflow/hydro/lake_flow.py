@@ -282,7 +282,8 @@ def solve_lake(graph: HydroGraph, area: int, root_xy: tuple[float, float], fines
     data.append(diag)
     A = sparse.csc_matrix((np.concatenate(data), (np.concatenate(rows), np.concatenate(cols))),
                           shape=(n, n))
-    sol = splu(A).solve(rhs)
+    # (minimum degree on AᵀA's pattern, which is A's here: half COLAMD's fill, as fast)
+    sol = splu(A, permc_spec="MMD_AT_PLUS_A").solve(rhs)
     psi_nodes = sol[:, 0]
     island_psi: list[float] = []
     if n_islands:
