@@ -615,11 +615,13 @@ class RiverWorld:
         edits.fill_discharges(scene, field)
         branches, islands, graph = make(scene)
         between_frames()
-        new_scene, graph = edits.edited_scene(scene, branches, islands, graph)
+        dropped: list[str] = []
+        new_scene, graph = edits.edited_scene(scene, branches, islands, graph, dropped)
         between_frames()
         new_field = edits.edited_field(field, graph)
         between_frames()
         plan = edits.plan_edit(scene, field, new_scene, new_field)
+        plan.dropped = dropped
         between_frames()
         pool = field.tiles.pool                # the resident flow tiles, renumbered here
         slots = np.flatnonzero(pool.slot_code >= 0)
@@ -634,6 +636,15 @@ class RiverWorld:
 
             plan.cell_network = build_spill_network(
                 new_scene.branches, [b.discharge_m2s for b in new_scene.branches])
+            between_frames()
+        solver = self.spill_solver
+        if solver is not None:                   # the spills' cells on the new network
+            from riverflow.hydro.spill_network import build_spill_network
+
+            dispersion = solver.network.dispersion
+            same = plan.cell_network is not None and plan.cell_network.dispersion == dispersion
+            plan.spill_network = plan.cell_network if same else build_spill_network(
+                new_scene.branches, [b.discharge_m2s for b in new_scene.branches], dispersion)
             between_frames()
         producers = [*terrain_producers(new_scene), FlowProducer(new_field)]
         between_frames()
@@ -735,9 +746,13 @@ class RiverWorld:
         router = self.flood
         if router is not None:
             self._carry_flood(router, plan.cell_network)
+        solver = self.spill_solver
+        if solver is not None:      # the spills' mass carried to the new cells (conserved)
+            self.resources[_SpillSolverKey] = solver.carried_to(
+                plan.spill_network or self._cell_network(solver.network.dispersion))
         live = self._edits
         live.applied += 1
-        live.last = {"changed": list(plan.changed),
+        live.last = {"changed": list(plan.changed), "dropped": list(plan.dropped),
                      "marked": {k: len(v) for k, v in stale.items()},
                      "applied_s": time.perf_counter(),
                      "swap_ms": (time.perf_counter() - t0) * 1e3}
@@ -835,8 +850,7 @@ class RiverWorld:
         lo, hi = section_psi_range(self.field.potential, network.lines[link], s,
                                    float(np.interp(s, network.cell_s_m[network.cell_link == link],
                                                    network.cell_width_m[network.cell_link == link])))
-        c0, c1 = int(network.net.link_c0[link]), int(network.net.link_c1[link])
-        cell = min(c0 + int(s / network.link_dx_m[link]), c1 - 1)
+        cell = int(network.cell_of(np.array([link]), np.array([s]))[0])
         eta = float(np.clip((psi - lo) / (hi - lo), 0.0, 1.0)) if hi > lo else 0.5
         return SpillSource(xy.copy(), moved, link, s, cell, eta, lo, hi)
 

@@ -109,6 +109,13 @@ class SpillNetwork:
         s = np.where(ok, self._sample_s[kk], np.nan)
         return link.astype(np.int64), s, d
 
+    def cell_of(self, link: np.ndarray, s_m: np.ndarray) -> np.ndarray:
+        """The cell holding arc length ``s_m`` [m] along ``link`` (link ≥ 0), (P,) int64."""
+        link = np.asarray(link, np.int64)
+        c0, c1 = self.net.link_c0[link], self.net.link_c1[link]
+        k = np.floor(np.maximum(np.asarray(s_m, np.float64), 0.0) / self.link_dx_m[link])
+        return np.minimum(c0 + k.astype(np.int64), c1 - 1).astype(np.int64)
+
     def weights(self, link: np.ndarray, s_m: np.ndarray
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The two cells (P,) and the weight (P,) of the second that linearly interpolate
