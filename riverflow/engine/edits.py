@@ -271,6 +271,8 @@ class Carried:
     river's width), kind), …): a fall moves with its branch (same fraction along it)."""
     rapids: tuple = ()
     """((branch name, start fraction, end fraction, drop [m]), …)."""
+    lost: tuple = ()
+    """Falls and rapids no branch of the scene lies under, in words (not kept)."""
 
 
 def _arc_length(line: np.ndarray) -> float:
@@ -279,8 +281,8 @@ def _arc_length(line: np.ndarray) -> float:
 
 def carried_by(scene: Landscape) -> Carried:
     """The lakes (their outline in the graph, their level) and the falls and rapids given by
-    hand (not found in water levels: ``in_levels``) of ``scene``'s network, by branch name
-    and fraction of its length."""
+    hand (not found in water levels: ``in_levels``) of ``scene``'s network, by the scene's
+    branch under them and their fraction of its length."""
     import shapely
 
     from riverflow.hydro.areas import area_ring
@@ -293,17 +295,35 @@ def carried_by(scene: Landscape) -> Carried:
         at = np.asarray(poly.representative_point().coords, np.float64)
         surface = float(given) if given is not None else float(scene.water.level(at)[0])
         lakes.append((poly, given, surface))
-    length = {b.name: _arc_length(b.centerline_m) for b in scene.branches}
-    falls, rapids = [], []
+    lines = [shapely.LineString(b.centerline_m) for b in scene.branches]
+
+    def along(points) -> tuple[str | None, list[float]]:
+        """The scene's branch nearest the points (a scene made from a graph names its branches
+        after the graph's axes, not the builder's names) and their fractions along it."""
+        pts = shapely.points(np.asarray(points, np.float64))
+        k = int(np.argmin([shapely.distance(line, pts).max() for line in lines]))
+        b = scene.branches[k]
+        if shapely.distance(lines[k], pts).max() > 0.5 * float(b.widths_m.max()):
+            return None, []
+        return b.name, list(shapely.line_locate_point(lines[k], pts, normalized=True))
+
+    falls, rapids, lost = [], [], []
     for f in graph.falls:
-        if not f.in_levels and length.get(f.branch, 0.0) > 0:
+        if not f.in_levels:
+            name, (at,) = along([f.centre_m]) if lines else (None, [0.0])
             lip = f.lip_m if f.lip_m < f.width_m * (1.0 - 1e-6) else None
-            falls.append((f.branch, f.at_m / length[f.branch], f.drop_m, lip, f.kind))
+            if name is None:
+                lost.append(f"the {f.kind} on {f.branch!r} (no branch of the scene under it)")
+            else:
+                falls.append((name, float(at), f.drop_m, lip, f.kind))
     for r in graph.rapids:
-        if not r.in_levels and length.get(r.branch, 0.0) > 0:
-            n = length[r.branch]
-            rapids.append((r.branch, r.from_m / n, r.to_m / n, r.drop_m))
-    return Carried(tuple(lakes), tuple(falls), tuple(rapids))
+        if not r.in_levels:
+            name, ends = along([r.start_m, r.end_m]) if lines else (None, [])
+            if name is None:
+                lost.append(f"the rapid on {r.branch!r} (no branch of the scene under it)")
+            else:
+                rapids.append((name, float(min(ends)), float(max(ends)), r.drop_m))
+    return Carried(tuple(lakes), tuple(falls), tuple(rapids), tuple(lost))
 
 
 def _in_lake(b: RiverBranch, lakes) -> bool:
@@ -363,7 +383,7 @@ def _build(branches: list[RiverBranch], islands, tolerance_m: float,
         builder.add_island(outline)
     for poly, level, _ in carried.lakes:
         builder.add_lake(poly, level)
-    dropped = []
+    dropped = list(carried.lost)
     by_name = {b.name: b for b in built}
     for name, at, drop, lip, kind in carried.falls:
         b = by_name.get(name)
