@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import copy
 import math
+import weakref
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -517,20 +518,47 @@ def _height_change_boxes(old: CarvedTerrain, new: CarvedTerrain, boxes: np.ndarr
     """Boxes [m] (one per grid cell, merged) around the points of a HEIGHT_GRID_M grid over
     ``boxes`` where the old and new terrain differ by more than HEIGHT_CHANGE_M."""
     s = HEIGHT_GRID_M
-    lo, hi = boxes[:, :2].min(axis=0), boxes[:, 2:].max(axis=0)
-    xs = np.arange(lo[0], hi[0] + s, s)
-    ys = np.arange(lo[1], hi[1] + s, s)
-    gx, gy = np.meshgrid(xs, ys)
-    p = np.column_stack([gx.ravel(), gy.ravel()])
+    lo = np.floor(boxes[:, :2].min(axis=0) / s).astype(np.int64)
+    hi = np.ceil(boxes[:, 2:].max(axis=0) / s).astype(np.int64)
+    gx, gy = np.meshgrid(np.arange(lo[0], hi[0] + 1), np.arange(lo[1], hi[1] + 1))
+    ij = np.column_stack([gx.ravel(), gy.ravel()])      # on one grid for every edit
+    p = ij * s
     inside = np.zeros(len(p), bool)
     for b in boxes:
         inside |= (p[:, 0] >= b[0]) & (p[:, 0] <= b[2]) & (p[:, 1] >= b[1]) & (p[:, 1] <= b[3])
-    p = p[inside]
+    p, ij = p[inside], ij[inside]
     if not len(p):
         return np.zeros((0, 4))
-    moved = p[np.abs(new.height(p) - old.height(p)) > HEIGHT_CHANGE_M]
+    keys = (ij[:, 0] << 32) + (ij[:, 1] & 0xFFFFFFFF)
+    moved = p[np.abs(_grid_heights(new, p, keys) - _grid_heights(old, p, keys))
+              > HEIGHT_CHANGE_M]
     # a grid cell of changed points widened by one spacing (a change between points is seen)
     return _merge_boxes(np.hstack([moved - s, moved + s]))
+
+
+_GRID_HEIGHTS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+"""terrain → (sorted grid keys, heights [m]): the heights :func:`_height_change_boxes`
+computed on a terrain, kept while it lives (the next edit of a drag compares against them:
+half the grid's cost)."""
+GRID_HEIGHTS_KEPT = 1 << 20
+
+
+def _grid_heights(terrain: CarvedTerrain, p: np.ndarray, keys: np.ndarray) -> np.ndarray:
+    """``terrain.height(p)`` at HEIGHT_GRID_M grid points (their ``keys``), those computed
+    before on this terrain read back."""
+    known_keys, known = _GRID_HEIGHTS.get(terrain, (np.zeros(0, np.int64), np.zeros(0)))
+    at = np.minimum(np.searchsorted(known_keys, keys), max(len(known_keys) - 1, 0))
+    hit = known_keys[at] == keys if len(known_keys) else np.zeros(len(keys), bool)
+    z = np.empty(len(keys))
+    z[hit] = known[at[hit]]
+    miss = ~hit
+    if miss.any():
+        z[miss] = terrain.height(p[miss])
+        all_keys = np.concatenate([known_keys, keys[miss]])
+        if len(all_keys) <= GRID_HEIGHTS_KEPT:
+            order = np.argsort(all_keys, kind="stable")
+            _GRID_HEIGHTS[terrain] = (all_keys[order], np.concatenate([known, z[miss]])[order])
+    return z
 
 
 def _branch_samples(water: WaterSurface, k: int) -> np.ndarray:
