@@ -633,10 +633,9 @@ def _merge_boxes(boxes: np.ndarray, limit: int = 512) -> np.ndarray:
     are consecutive, so the merged boxes still follow the river)."""
     if len(boxes) <= limit:
         return boxes
-    step = -(-len(boxes) // limit)
-    out = [np.r_[boxes[s:s + step, :2].min(axis=0), boxes[s:s + step, 2:].max(axis=0)]
-           for s in range(0, len(boxes), step)]
-    return np.array(out)
+    starts = np.arange(0, len(boxes), -(-len(boxes) // limit))
+    return np.hstack([np.minimum.reduceat(boxes[:, :2], starts, axis=0),
+                      np.maximum.reduceat(boxes[:, 2:], starts, axis=0)])
 
 
 def renumbered_segments(segments: np.ndarray, slots: np.ndarray, seg_map: np.ndarray
