@@ -528,8 +528,10 @@ class RiverWorld:
         again, in the background, their old versions standing in until then; the other tiles
         are kept. The particles keep flowing: one that finds itself on land once the new
         flow tiles are in leaves the water as at any shore (LEAVING, then OUTSIDE, recycled
-        by the NEAR rule). A running flood is carried over by branch name (its waves start
-        again from the base flow).
+        by the NEAR rule). A running flood is carried over (hydrographs by branch name, its
+        waves by place along the river), and so are the spills (their mass, conserved), the
+        lakes and the falls and rapids placed by hand (moved with their branch; one whose
+        branch is removed is dropped: ``world.edits.last["dropped"]``).
 
         ``wait`` True: made now and in place when this returns. False: made in a background
         thread and swapped in at the start of the first :meth:`step` after it is ready (the
@@ -760,15 +762,23 @@ class RiverWorld:
 
     def _carry_flood(self, old, network=None) -> None:
         """A flood router on the edited network (``network``: its cells, made in the edit's
-        thread), with the old one's hydrographs of the branches still there (by name) and its
-        clock."""
+        thread), with the old one's hydrographs of the branches still there (by name), its
+        clock and its state: each new cell's cross-section ratio and wet-looking rise are
+        the old cell's at the same place along the river
+        (:func:`~riverflow.hydro.spill_network.cell_map`)."""
         from riverflow.hydro.flood import FloodRouter
+        from riverflow.hydro.spill_network import cell_map
 
         router = FloodRouter(network or self._cell_network(), old.clock_s)
         names = old.network.names
         for b, (t, q) in old.hydrographs.items():
             if names[b] in router.network.names:
                 router.set_hydrograph(names[b], t, q)
+        source = cell_map(router.network, old.network)     # each new cell's old cell
+        router.a[:] = old.a[source]
+        router.wet_rise_m[:] = old.wet_rise_m[source]
+        router.time_s = old.time_s
+        router.dt_s = min(router.dt_s, router._step_for(1.0))     # a's highest counts
         self.resources[_FloodRouterKey] = router
         self.field.discharge_scale = router.scale_velocity
 

@@ -159,6 +159,31 @@ class SpillNetwork:
         return out
 
 
+def same_place(old: SpillNetwork, new: SpillNetwork, link: np.ndarray, s_m: np.ndarray,
+               xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Points of ``old`` (its ``link`` (P,), arc length ``s_m`` (P,) along it, position
+    ``xy`` (P, 2)) on ``new`` (a live edit's network): the link of the same name at the same
+    fraction of its length, or where a link is gone the nearest sample of ``new`` to ``xy``.
+    Returns (P,) links and (P,) arc lengths [m] of ``new``."""
+    index = {name: k for k, name in enumerate(new.names)}
+    link = np.asarray(link, np.int64).reshape(-1)
+    to = np.array([index.get(old.names[k], -1) for k in link.tolist()], np.int64)
+    s_new = np.empty(len(to))
+    kept = to >= 0
+    s_new[kept] = (np.asarray(s_m, np.float64)[kept] / old.link_length_m[link[kept]]
+                   * new.link_length_m[to[kept]])
+    if (~kept).any():
+        to[~kept], s_new[~kept], _ = new.locate(np.asarray(xy, np.float64)[~kept])
+    return to, s_new
+
+
+def cell_map(old: SpillNetwork, new: SpillNetwork) -> np.ndarray:
+    """(N_old,) the cell of ``new`` at the same place as each cell of ``old``
+    (:func:`same_place`)."""
+    link, s = same_place(old, new, old.cell_link, old.cell_s_m, old.cell_xy_m)
+    return new.cell_of(link, s)
+
+
 def build_spill_network(branches, discharges_m2s, dispersion: Dispersion | None = None
                         ) -> SpillNetwork:
     """Cells of the ``branches`` (objects with ``name``, ``centerline_m`` (K, 2) drawn

@@ -156,29 +156,20 @@ class SpillSolver:
         counts go on; what left through an outlet that is gone stays counted
         (:attr:`gone_out_kg`). Same clock, same step (the new network's stable step if
         smaller)."""
+        from riverflow.hydro.spill_network import cell_map, same_place
+
         old, b = self.network, self.book
         new = SpillSolver(network, dt_s=min(self.dt_s, network.dt_max_s), time_s=self.time_s,
                           pending_s=self.pending_s)
         index = {name: k for k, name in enumerate(network.names)}
-
-        def moved(link: np.ndarray, s_m: np.ndarray, xy: np.ndarray):
-            """(new link, new s) of points (link, s) of the old network at ``xy``."""
-            to = np.array([index.get(old.names[k], -1) for k in link], np.int64).reshape(-1)
-            s_new = np.empty(len(to))
-            kept = to >= 0
-            s_new[kept] = (s_m[kept] / old.link_length_m[link[kept]]
-                           * network.link_length_m[to[kept]])
-            if (~kept).any():
-                to[~kept], s_new[~kept], _ = network.locate(xy[~kept])
-            return to, s_new
-        link, s_new = moved(old.cell_link.astype(np.int64), old.cell_s_m, old.cell_xy_m)
-        cells = network.cell_of(link, s_new)
+        cells = cell_map(old, network)
         n = network.n_cells
         mass = np.array([np.bincount(cells, weights=m, minlength=n) for m in b.mass]
                         ).reshape(len(b.mass), n)
         sources = []
         for src in self.sources:
-            (k,), (s,) = moved(np.array([src.link]), np.array([src.s_m]), src.xy_m[None, :])
+            (k,), (s,) = same_place(old, network, np.array([src.link]), np.array([src.s_m]),
+                                    src.xy_m[None, :])
             sources.append(SpillSource(src.xy_m.copy(), src.moved_m, int(k), float(s),
                                        int(network.cell_of(np.array([k]), np.array([s]))[0]),
                                        src.eta, src.psi_left, src.psi_right))

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from riverflow.engine.config import RiverConfig
-from riverflow.engine.edits import edited_branches, edited_scene
+from riverflow.engine.edits import edited_branches, edited_scene, fill_discharges
 from riverflow.engine.world import RiverWorld
 from riverflow.hydro.builder import RiverNetworkBuilder
 from riverflow.scenes.landscape import landscape
@@ -82,6 +82,7 @@ def test_a_fall_and_a_rapid_move_with_their_branch(world):
 
 def test_a_fall_is_dropped_and_said_so_only_when_its_branch_goes(world):
     scene = world.scene
+    fill_discharges(scene, world.field)       # (a scene made from a graph: as an edit does)
     dropped = []
     new, graph = edited_scene(scene, edited_branches(scene, "remove", 0),
                               dropped=dropped)
@@ -120,3 +121,25 @@ def test_a_spills_mass_is_the_same_after_an_edit(world):
     w.advance_spills(60.0)                       # and it goes on, conserved
     assert abs(w.spill(row).balance_kg) < 1e-9
     assert w.concentration(after.front_xy_m[None, :])[0] >= 0.0
+
+
+def test_a_running_flood_keeps_its_wave_across_an_edit(world):
+    w = world
+    calm = w.scene.branches[1].name
+    w.set_hydrograph(calm, [w.flood_time_s, w.flood_time_s + 30.0], [20.0, 60.0])
+    w.advance_flood(90.0)                        # a wave part-way down the river
+    router = w.flood
+    net = router.network
+    on = net.cell_link == net.names.index(calm)
+    rise = router.cell_level_rise_m()[on]
+    assert rise.max() > 0.05 and rise.min() < 0.5 * rise.max()
+    w.set_width(0, 18.0)                          # the other river edited
+    router = w.flood
+    net = router.network
+    on = net.cell_link == net.names.index(calm)
+    assert np.array_equal(router.cell_level_rise_m()[on], rise)   # the same wave, carried
+    assert router.time_s == pytest.approx(w.flood_time_s, abs=router.dt_s)
+    before = router.cell_level_rise_m()[on].copy()
+    w.advance_flood(30.0)                         # and it goes on moving
+    assert not np.array_equal(w.flood.cell_level_rise_m()[on], before)
+    w.set_hydrograph(calm, None, None)            # (the module's world back to base flow)
