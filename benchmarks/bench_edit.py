@@ -24,7 +24,8 @@ Target (the issue brief): an edit's new tiles in view within 0.5 s at 1080p; no 
 2× the median while edits and a flood run (one core, paced 60 fps).
 
 Run: ``NUMBA_NUM_THREADS=1 taskset -c 0 python benchmarks/bench_edit.py`` (``--json out.json``
-to keep the figures). Figures go to docs/performance.md.
+to keep the figures; ``--in-place 7``: only the CPU of 7 edits made in place, the edit's own
+work without its tiles). Figures go to docs/performance.md.
 """
 from __future__ import annotations
 
@@ -165,6 +166,38 @@ def run(size, edits: int, every: int, bump_m: float, warm: int, seed: int) -> di
     return out
 
 
+def in_place(size, n: int, bump_m: float, seed: int) -> dict:
+    """``--in-place N``: N edits made in place (``move_axis(..., wait=True)``: the builder,
+    the water surface, the plan and the swap, no tile made), alternating ±``bump_m`` bumps
+    of the branch in view as a drag makes them; CPU seconds (the load of a shared machine
+    changes them less than wall seconds): the first one and the median of the others."""
+    import riverflow as rf
+
+    world = rf.RiverWorld(rf.default_scene(seed=seed), size=size, gl=False, seed=seed)
+    world.load_view()
+    _flood(world)
+    world.step(1.0 / 60.0)
+    target = np.asarray(world.camera.target[:2])
+    link = int(np.argmin([float(np.hypot(*(b.centerline_m - target).T).min())
+                          for b in world.scene.branches]))
+    line0 = world.scene.branches[link].centerline_m.copy()
+    arc = np.r_[0.0, np.cumsum(np.hypot(*np.diff(line0, axis=0).T))]
+    at = float(arc[int(np.argmin(np.hypot(*(line0 - target).T)))])
+    width = 4.0 * float(np.median(world.scene.branches[link].widths_m))
+    cpu, wall = [], []
+    for k in range(n):
+        c0, w0 = time.process_time(), time.perf_counter()
+        world.move_axis(link, _bumped(line0, bump_m * (-1) ** k, at, width))
+        cpu.append(time.process_time() - c0)
+        wall.append(time.perf_counter() - w0)
+    out = {"in_place_edits": n, "first_cpu_s": cpu[0],
+           "next_cpu_s_median": float(np.median(cpu[1:])) if n > 1 else float("nan"),
+           "next_wall_s_median": float(np.median(wall[1:])) if n > 1 else float("nan"),
+           "marked": sum(world.edits.last["marked"].values())}
+    world.close()
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--size", type=int, nargs=2, default=(1920, 1080))
@@ -174,8 +207,13 @@ def main() -> None:
     ap.add_argument("--warm", type=int, default=120)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", default=None)
+    ap.add_argument("--in-place", type=int, default=0,
+                    help="only time this many edits made in place (CPU s), no frames")
     args = ap.parse_args()
-    out = run(tuple(args.size), args.edits, args.every, args.bump, args.warm, args.seed)
+    if args.in_place:
+        out = in_place(tuple(args.size), args.in_place, args.bump, args.seed)
+    else:
+        out = run(tuple(args.size), args.edits, args.every, args.bump, args.warm, args.seed)
     for k, v in out.items():
         print(f"{k:>30}: {v:.4g}" if isinstance(v, float) else f"{k:>30}: {v}")
     if args.json:

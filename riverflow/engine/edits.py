@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import copy
 import math
+import weakref
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -76,6 +77,11 @@ class EditPlan:
     cell_network: object = None
     """The new network's cells for a running flood (:mod:`riverflow.hydro.spill_network`),
     None without one."""
+    spill_network: object = None
+    """The new network's cells for the spills (their dispersion), None without spills."""
+    dropped: list[str] = field(default_factory=list)
+    """What the old network carried that the new one cannot (a fall or rapid whose branch
+    was removed), in words."""
 
 
 # -- step 1: the new network ------------------------------------------------------------------
@@ -254,40 +260,196 @@ def fill_discharges(scene: Landscape, field: FlowField) -> None:
         b.discharge_m2s = float(section_discharge_m2s(potential, b.centerline_m, b.widths_m))
 
 
-def _build(branches: list[RiverBranch], islands, tolerance_m: float
-           ) -> tuple[HydroGraph, RiverNetworkBuilder]:
+@dataclass(frozen=True)
+class Carried:
+    """What a network carries besides its branches and islands, kept by an edit of its
+    branches (:func:`carried_by`): its lakes and the falls and rapids placed by hand."""
+
+    lakes: tuple = ()
+    """((polygon, the builder's level [m] or None, the water surface's level [m]), …)."""
+    falls: tuple = ()
+    """((branch name, lip's fraction of the branch's length, drop [m], lip [m] or None (the
+    river's width), kind), …): a fall moves with its branch (same fraction along it)."""
+    rapids: tuple = ()
+    """((branch name, start fraction, end fraction, drop [m]), …)."""
+    lost: tuple = ()
+    """Falls and rapids no branch of the scene lies under, in words (not kept)."""
+
+
+def _arc_length(line: np.ndarray) -> float:
+    return float(np.hypot(*np.diff(line, axis=0).T).sum())
+
+
+def carried_by(scene: Landscape) -> Carried:
+    """The lakes (their outline in the graph, their level) and the falls and rapids given by
+    hand (not found in water levels: ``in_levels``) of ``scene``'s network, by the scene's
+    branch under them and their fraction of its length."""
+    import shapely
+
+    from riverflow.hydro.areas import area_ring
+
+    graph = scene.graph
+    lakes = []
+    for a in graph.lakes():
+        poly = shapely.Polygon(area_ring(graph, a))
+        given = graph.areas[a].level_m
+        at = np.asarray(poly.representative_point().coords, np.float64)
+        surface = float(given) if given is not None else float(scene.water.level(at)[0])
+        lakes.append((poly, given, surface))
+    lines = [shapely.LineString(b.centerline_m) for b in scene.branches]
+
+    def along(points) -> tuple[str | None, list[float]]:
+        """The scene's branch nearest the points (a scene made from a graph names its branches
+        after the graph's axes, not the builder's names) and their fractions along it."""
+        pts = shapely.points(np.asarray(points, np.float64))
+        k = int(np.argmin([shapely.distance(line, pts).max() for line in lines]))
+        b = scene.branches[k]
+        if shapely.distance(lines[k], pts).max() > 0.5 * float(b.widths_m.max()):
+            return None, []
+        return b.name, list(shapely.line_locate_point(lines[k], pts, normalized=True))
+
+    falls, rapids, lost = [], [], []
+    for f in graph.falls:
+        if not f.in_levels:
+            name, (at,) = along([f.centre_m]) if lines else (None, [0.0])
+            lip = f.lip_m if f.lip_m < f.width_m * (1.0 - 1e-6) else None
+            if name is None:
+                lost.append(f"the {f.kind} on {f.branch!r} (no branch of the scene under it)")
+            else:
+                falls.append((name, float(at), f.drop_m, lip, f.kind))
+    for r in graph.rapids:
+        if not r.in_levels:
+            name, ends = along([r.start_m, r.end_m]) if lines else (None, [])
+            if name is None:
+                lost.append(f"the rapid on {r.branch!r} (no branch of the scene under it)")
+            else:
+                rapids.append((name, float(min(ends)), float(max(ends)), r.drop_m))
+    return Carried(tuple(lakes), tuple(falls), tuple(rapids), tuple(lost))
+
+
+def _in_lake(b: RiverBranch, lakes) -> bool:
+    """A branch lying in a lake (the dam scene's ``reservoir``: the water surface's samples
+    there, not a river for the builder, which cuts what enters a lake at its shore)."""
+    import shapely
+
+    line = shapely.LineString(b.centerline_m)
+    return any(line.within(poly.buffer(JUNCTION_SNAP_M)) for poly, _, _ in lakes)
+
+
+def _through_lakes(branches: list[RiverBranch], in_lake: list[bool]) -> dict:
+    """The rivers through a lake (the dam scene's, :func:`~riverflow.scenes.default.
+    cut_at_lake`: a branch into the lake's shore, one in it, one out of it) joined again as
+    the builder was given them: {the outlet's name: (the inlet branch, (its centre line
+    through the lake to the outlet's end, widths: the lake's part between the mouths'))}."""
+    joined = {}
+    for k, lake in enumerate(in_lake):
+        b = branches[k]
+        if not lake or b.start_junction < 0 or b.end_junction < 0:
+            continue
+        up = [x for x in branches if x.end_junction == b.start_junction]
+        down = [x for x in branches if x.start_junction == b.end_junction]
+        if len(up) != 1 or len(down) != 1:
+            continue
+        up, down = up[0], down[0]
+        w_in = np.interp(_arc_fraction(b.centerline_m), [0.0, 1.0],
+                         [up.widths_m[-1], down.widths_m[0]])
+        line = np.vstack([up.centerline_m, b.centerline_m[1:], down.centerline_m[1:]])
+        widths = np.r_[up.widths_m, w_in[1:], down.widths_m[1:]]
+        keep = np.r_[True, np.hypot(*np.diff(line, axis=0).T) > 1e-9]
+        joined[down.name] = (up, (line[keep], widths[keep]))
+    return joined
+
+
+def _build(branches: list[RiverBranch], islands, tolerance_m: float,
+           carried: Carried = Carried()) -> tuple[HydroGraph, RiverNetworkBuilder, list[str]]:
+    """The network of ``branches`` with ``carried``'s lakes, falls and rapids; also what of
+    them could not be kept (a fall on a branch gone), in words."""
     builder = RiverNetworkBuilder(tolerance_m=tolerance_m)
-    sources = {b.end_junction for b in branches if b.end_junction >= 0}
-    for b in branches:
+    in_lake = [_in_lake(b, carried.lakes) for b in branches]
+    built = [b for b, lake in zip(branches, in_lake) if not lake]
+    through = _through_lakes(branches, in_lake)
+    sources = {b.end_junction for b in built if b.end_junction >= 0}
+    for b in built:
+        if b.name in through:      # (a river through a lake: given whole, as it was built)
+            continue
+        line, widths = b.centerline_m, b.widths_m
+        outlet = next((o for o, (up, _) in through.items() if up is b), None)
+        if outlet is not None:
+            line, widths = through[outlet][1]
         # a branch below a junction takes what flows into it (the builder splits it by width)
         fed = b.start_junction >= 0 and b.start_junction in sources
-        builder.add_branch(b.centerline_m, b.widths_m, None if fed else b.discharge_m2s,
-                           name=b.name)
+        builder.add_branch(line, widths, None if fed else b.discharge_m2s, name=b.name)
+    built = [b for b in built if b.name not in through]
     for outline in islands:
         builder.add_island(outline)
+    for poly, level, _ in carried.lakes:
+        builder.add_lake(poly, level)
+    dropped = list(carried.lost)
+    by_name = {b.name: b for b in built}
+    for name, at, drop, lip, kind in carried.falls:
+        b = by_name.get(name)
+        if b is None:
+            dropped.append(f"the {kind} {at:.0%} along {name!r} (its branch is gone)")
+            continue
+        arc = np.r_[0.0, np.cumsum(np.hypot(*np.diff(b.centerline_m, axis=0).T))]
+        station = at * arc[-1]
+        if lip is not None:               # a lip given: no longer than the river is wide now
+            lip = min(lip, 0.999 * float(np.interp(station, arc, b.widths_m)))
+        builder.add_fall(station, drop, branch=name, lip_m=lip, kind=kind)
+    for name, a, e, drop in carried.rapids:
+        b = by_name.get(name)
+        if b is None:
+            dropped.append(f"the rapid {a:.0%}–{e:.0%} along {name!r} (its branch is gone)")
+            continue
+        n = _arc_length(b.centerline_m)
+        builder.add_rapids(a * n, e * n, drop, branch=name)
     graph = builder.build()
-    for b, q in zip(branches, builder.discharges_m2s):
+    for b, q in zip(built, builder.discharges_m2s):
         b.discharge_m2s = q
-    return graph, builder
+    for name, (up, _) in through.items():      # through a lake: what comes in goes out
+        for b in branches:
+            if b.name == name or (b.start_junction == up.end_junction and b is not up):
+                b.discharge_m2s = up.discharge_m2s
+    return graph, builder, dropped
 
 
 def edited_scene(scene: Landscape, branches: list[RiverBranch], islands=None,
-                 graph: HydroGraph | None = None) -> tuple[Landscape, HydroGraph]:
+                 graph: HydroGraph | None = None, dropped: list[str] | None = None
+                 ) -> tuple[Landscape, HydroGraph]:
     """A landscape like ``scene`` (height source, carving, quadtree, cell size, seed) over the
-    network of ``branches`` (built here unless ``graph`` is given) with its own, empty tile
-    memo. Raises :class:`GraphError` for a network that cannot carry a flow."""
+    network of ``branches`` (built here unless ``graph`` is given: then with ``scene``'s
+    lakes, falls and rapids, :func:`carried_by`; what cannot be kept is appended to
+    ``dropped``) with its own, empty tile memo. Its lakes are flat at their old level (a
+    new graph's: at their given level, else the old one where a lake was). Raises
+    :class:`GraphError` for a network that cannot carry a flow."""
+    import shapely
+
+    from riverflow.hydro.areas import area_ring
+
     islands = scene.islands if islands is None else islands
-    polygon = None
+    carried = carried_by(scene)
     if graph is None:
-        graph, builder = _build(branches, islands, getattr(scene, "tolerance_m", 0.25))
+        graph, builder, lost = _build(branches, islands, getattr(scene, "tolerance_m", 0.25),
+                                      carried)
         polygon = builder.water_polygon
+        if dropped is not None:
+            dropped.extend(lost)
     else:
         from riverflow.hydro.areas import water_polygon
 
         polygon = water_polygon(graph)
+    lakes = []
+    for a in graph.lakes():
+        poly = shapely.Polygon(area_ring(graph, a))
+        level = graph.areas[a].level_m
+        if level is None:                  # the old level of the lake it overlaps most
+            over = [(poly.intersection(p).area, z) for p, _, z in carried.lakes]
+            best = max(over, default=(0.0, None))
+            level = best[1] if best[0] > 0.5 * poly.area else None
+        lakes.append((poly, level))
     ground = scene.profile_ground or _LevelGround(scene.water)
     old = scene.terrain
-    water = water_surface(branches, ground, polygon, graph.falls, graph.rapids)
+    water = water_surface(branches, ground, polygon, graph.falls, graph.rapids, lakes)
     terrain = CarvedTerrain(old.source, water, old.carving, old.quadtree, old.cell_m,
                             old.tile_cells)
     lo, hi = z_range(old.source, water, old.carving)
@@ -356,20 +518,47 @@ def _height_change_boxes(old: CarvedTerrain, new: CarvedTerrain, boxes: np.ndarr
     """Boxes [m] (one per grid cell, merged) around the points of a HEIGHT_GRID_M grid over
     ``boxes`` where the old and new terrain differ by more than HEIGHT_CHANGE_M."""
     s = HEIGHT_GRID_M
-    lo, hi = boxes[:, :2].min(axis=0), boxes[:, 2:].max(axis=0)
-    xs = np.arange(lo[0], hi[0] + s, s)
-    ys = np.arange(lo[1], hi[1] + s, s)
-    gx, gy = np.meshgrid(xs, ys)
-    p = np.column_stack([gx.ravel(), gy.ravel()])
+    lo = np.floor(boxes[:, :2].min(axis=0) / s).astype(np.int64)
+    hi = np.ceil(boxes[:, 2:].max(axis=0) / s).astype(np.int64)
+    gx, gy = np.meshgrid(np.arange(lo[0], hi[0] + 1), np.arange(lo[1], hi[1] + 1))
+    ij = np.column_stack([gx.ravel(), gy.ravel()])      # on one grid for every edit
+    p = ij * s
     inside = np.zeros(len(p), bool)
     for b in boxes:
         inside |= (p[:, 0] >= b[0]) & (p[:, 0] <= b[2]) & (p[:, 1] >= b[1]) & (p[:, 1] <= b[3])
-    p = p[inside]
+    p, ij = p[inside], ij[inside]
     if not len(p):
         return np.zeros((0, 4))
-    moved = p[np.abs(new.height(p) - old.height(p)) > HEIGHT_CHANGE_M]
+    keys = (ij[:, 0] << 32) + (ij[:, 1] & 0xFFFFFFFF)
+    moved = p[np.abs(_grid_heights(new, p, keys) - _grid_heights(old, p, keys))
+              > HEIGHT_CHANGE_M]
     # a grid cell of changed points widened by one spacing (a change between points is seen)
     return _merge_boxes(np.hstack([moved - s, moved + s]))
+
+
+_GRID_HEIGHTS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+"""terrain → (sorted grid keys, heights [m]): the heights :func:`_height_change_boxes`
+computed on a terrain, kept while it lives (the next edit of a drag compares against them:
+half the grid's cost)."""
+GRID_HEIGHTS_KEPT = 1 << 20
+
+
+def _grid_heights(terrain: CarvedTerrain, p: np.ndarray, keys: np.ndarray) -> np.ndarray:
+    """``terrain.height(p)`` at HEIGHT_GRID_M grid points (their ``keys``), those computed
+    before on this terrain read back."""
+    known_keys, known = _GRID_HEIGHTS.get(terrain, (np.zeros(0, np.int64), np.zeros(0)))
+    at = np.minimum(np.searchsorted(known_keys, keys), max(len(known_keys) - 1, 0))
+    hit = known_keys[at] == keys if len(known_keys) else np.zeros(len(keys), bool)
+    z = np.empty(len(keys))
+    z[hit] = known[at[hit]]
+    miss = ~hit
+    if miss.any():
+        z[miss] = terrain.height(p[miss])
+        all_keys = np.concatenate([known_keys, keys[miss]])
+        if len(all_keys) <= GRID_HEIGHTS_KEPT:
+            order = np.argsort(all_keys, kind="stable")
+            _GRID_HEIGHTS[terrain] = (all_keys[order], np.concatenate([known, z[miss]])[order])
+    return z
 
 
 def _branch_samples(water: WaterSurface, k: int) -> np.ndarray:
@@ -444,10 +633,9 @@ def _merge_boxes(boxes: np.ndarray, limit: int = 512) -> np.ndarray:
     are consecutive, so the merged boxes still follow the river)."""
     if len(boxes) <= limit:
         return boxes
-    step = -(-len(boxes) // limit)
-    out = [np.r_[boxes[s:s + step, :2].min(axis=0), boxes[s:s + step, 2:].max(axis=0)]
-           for s in range(0, len(boxes), step)]
-    return np.array(out)
+    starts = np.arange(0, len(boxes), -(-len(boxes) // limit))
+    return np.hstack([np.minimum.reduceat(boxes[:, :2], starts, axis=0),
+                      np.maximum.reduceat(boxes[:, 2:], starts, axis=0)])
 
 
 def renumbered_segments(segments: np.ndarray, slots: np.ndarray, seg_map: np.ndarray

@@ -526,8 +526,10 @@ class RiverWorld:
         again, in the background, their old versions standing in until then; the other tiles
         are kept. The particles keep flowing: one that finds itself on land once the new
         flow tiles are in leaves the water as at any shore (LEAVING, then OUTSIDE, recycled
-        by the NEAR rule). A running flood is carried over by branch name (its waves start
-        again from the base flow).
+        by the NEAR rule). A running flood is carried over (hydrographs by branch name, its
+        waves by place along the river), and so are the spills (their mass, conserved), the
+        lakes and the falls and rapids placed by hand (moved with their branch; one whose
+        branch is removed is dropped: ``world.edits.last["dropped"]``).
 
         ``wait`` True: made now and in place when this returns. False: made in a background
         thread and swapped in at the start of the first :meth:`step` after it is ready (the
@@ -613,11 +615,13 @@ class RiverWorld:
         edits.fill_discharges(scene, field)
         branches, islands, graph = make(scene)
         between_frames()
-        new_scene, graph = edits.edited_scene(scene, branches, islands, graph)
+        dropped: list[str] = []
+        new_scene, graph = edits.edited_scene(scene, branches, islands, graph, dropped)
         between_frames()
         new_field = edits.edited_field(field, graph)
         between_frames()
         plan = edits.plan_edit(scene, field, new_scene, new_field)
+        plan.dropped = dropped
         between_frames()
         pool = field.tiles.pool                # the resident flow tiles, renumbered here
         slots = np.flatnonzero(pool.slot_code >= 0)
@@ -632,6 +636,15 @@ class RiverWorld:
 
             plan.cell_network = build_spill_network(
                 new_scene.branches, [b.discharge_m2s for b in new_scene.branches])
+            between_frames()
+        solver = self.spill_solver
+        if solver is not None:                   # the spills' cells on the new network
+            from riverflow.hydro.spill_network import build_spill_network
+
+            dispersion = solver.network.dispersion
+            same = plan.cell_network is not None and plan.cell_network.dispersion == dispersion
+            plan.spill_network = plan.cell_network if same else build_spill_network(
+                new_scene.branches, [b.discharge_m2s for b in new_scene.branches], dispersion)
             between_frames()
         producers = [*terrain_producers(new_scene), FlowProducer(new_field)]
         between_frames()
@@ -733,9 +746,13 @@ class RiverWorld:
         router = self.flood
         if router is not None:
             self._carry_flood(router, plan.cell_network)
+        solver = self.spill_solver
+        if solver is not None:      # the spills' mass carried to the new cells (conserved)
+            self.resources[_SpillSolverKey] = solver.carried_to(
+                plan.spill_network or self._cell_network(solver.network.dispersion))
         live = self._edits
         live.applied += 1
-        live.last = {"changed": list(plan.changed),
+        live.last = {"changed": list(plan.changed), "dropped": list(plan.dropped),
                      "marked": {k: len(v) for k, v in stale.items()},
                      "applied_s": time.perf_counter(),
                      "swap_ms": (time.perf_counter() - t0) * 1e3}
@@ -743,15 +760,23 @@ class RiverWorld:
 
     def _carry_flood(self, old, network=None) -> None:
         """A flood router on the edited network (``network``: its cells, made in the edit's
-        thread), with the old one's hydrographs of the branches still there (by name) and its
-        clock."""
+        thread), with the old one's hydrographs of the branches still there (by name), its
+        clock and its state: each new cell's cross-section ratio and wet-looking rise are
+        the old cell's at the same place along the river
+        (:func:`~riverflow.hydro.spill_network.cell_map`)."""
         from riverflow.hydro.flood import FloodRouter
+        from riverflow.hydro.spill_network import cell_map
 
         router = FloodRouter(network or self._cell_network(), old.clock_s)
         names = old.network.names
         for b, (t, q) in old.hydrographs.items():
             if names[b] in router.network.names:
                 router.set_hydrograph(names[b], t, q)
+        source = cell_map(router.network, old.network)     # each new cell's old cell
+        router.a[:] = old.a[source]
+        router.wet_rise_m[:] = old.wet_rise_m[source]
+        router.time_s = old.time_s
+        router.dt_s = min(router.dt_s, router._step_for(1.0))     # a's highest counts
         self.resources[_FloodRouterKey] = router
         self.field.discharge_scale = router.scale_velocity
 
@@ -833,8 +858,7 @@ class RiverWorld:
         lo, hi = section_psi_range(self.field.potential, network.lines[link], s,
                                    float(np.interp(s, network.cell_s_m[network.cell_link == link],
                                                    network.cell_width_m[network.cell_link == link])))
-        c0, c1 = int(network.net.link_c0[link]), int(network.net.link_c1[link])
-        cell = min(c0 + int(s / network.link_dx_m[link]), c1 - 1)
+        cell = int(network.cell_of(np.array([link]), np.array([s]))[0])
         eta = float(np.clip((psi - lo) / (hi - lo), 0.0, 1.0)) if hi > lo else 0.5
         return SpillSource(xy.copy(), moved, link, s, cell, eta, lo, hi)
 

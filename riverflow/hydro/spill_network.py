@@ -109,6 +109,13 @@ class SpillNetwork:
         s = np.where(ok, self._sample_s[kk], np.nan)
         return link.astype(np.int64), s, d
 
+    def cell_of(self, link: np.ndarray, s_m: np.ndarray) -> np.ndarray:
+        """The cell holding arc length ``s_m`` [m] along ``link`` (link ≥ 0), (P,) int64."""
+        link = np.asarray(link, np.int64)
+        c0, c1 = self.net.link_c0[link], self.net.link_c1[link]
+        k = np.floor(np.maximum(np.asarray(s_m, np.float64), 0.0) / self.link_dx_m[link])
+        return np.minimum(c0 + k.astype(np.int64), c1 - 1).astype(np.int64)
+
     def weights(self, link: np.ndarray, s_m: np.ndarray
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The two cells (P,) and the weight (P,) of the second that linearly interpolate
@@ -150,6 +157,31 @@ class SpillNetwork:
                     far = start[b] + float(self.link_length_m[b])
                     start[d] = max(start.get(d, -np.inf), far)
         return out
+
+
+def same_place(old: SpillNetwork, new: SpillNetwork, link: np.ndarray, s_m: np.ndarray,
+               xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Points of ``old`` (its ``link`` (P,), arc length ``s_m`` (P,) along it, position
+    ``xy`` (P, 2)) on ``new`` (a live edit's network): the link of the same name at the same
+    fraction of its length, or where a link is gone the nearest sample of ``new`` to ``xy``.
+    Returns (P,) links and (P,) arc lengths [m] of ``new``."""
+    index = {name: k for k, name in enumerate(new.names)}
+    link = np.asarray(link, np.int64).reshape(-1)
+    to = np.array([index.get(old.names[k], -1) for k in link.tolist()], np.int64)
+    s_new = np.empty(len(to))
+    kept = to >= 0
+    s_new[kept] = (np.asarray(s_m, np.float64)[kept] / old.link_length_m[link[kept]]
+                   * new.link_length_m[to[kept]])
+    if (~kept).any():
+        to[~kept], s_new[~kept], _ = new.locate(np.asarray(xy, np.float64)[~kept])
+    return to, s_new
+
+
+def cell_map(old: SpillNetwork, new: SpillNetwork) -> np.ndarray:
+    """(N_old,) the cell of ``new`` at the same place as each cell of ``old``
+    (:func:`same_place`)."""
+    link, s = same_place(old, new, old.cell_link, old.cell_s_m, old.cell_xy_m)
+    return new.cell_of(link, s)
 
 
 def build_spill_network(branches, discharges_m2s, dispersion: Dispersion | None = None

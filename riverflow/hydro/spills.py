@@ -94,6 +94,9 @@ class SpillSolver:
     book: SpillBook = field(init=False)
     sources: list[SpillSource] = field(default_factory=list)
     names: list[str] = field(default_factory=list)
+    gone_out_kg: dict[str, np.ndarray] = field(default_factory=dict)
+    """Mass [kg] each spill (by row) let out through an outlet that a live edit removed,
+    by the outlet's name (:meth:`carried_to`): still in the reports' ``out_kg``."""
 
     def __post_init__(self) -> None:
         if not self.dt_s:
@@ -143,6 +146,53 @@ class SpillSolver:
         self.time_s += n * self.dt_s
         self.pending_s = max(self.pending_s - n * self.dt_s, 0.0)
         return n
+
+    def carried_to(self, network: SpillNetwork) -> SpillSolver:
+        """This solver's spills on ``network`` (a live edit's, :mod:`riverflow.engine.edits`):
+        each cell's mass goes to the new cell at the same place along the river (its link by
+        name at the same fraction of its length; a link gone: the new cell nearest its
+        centre), so the mass in the water is the same; each source goes with its link alike
+        (its point: to the nearest new cell when its link is gone); the releases, decay and
+        counts go on; what left through an outlet that is gone stays counted
+        (:attr:`gone_out_kg`). Same clock, same step (the new network's stable step if
+        smaller)."""
+        from riverflow.hydro.spill_network import cell_map, same_place
+
+        old, b = self.network, self.book
+        new = SpillSolver(network, dt_s=min(self.dt_s, network.dt_max_s), time_s=self.time_s,
+                          pending_s=self.pending_s)
+        index = {name: k for k, name in enumerate(network.names)}
+        cells = cell_map(old, network)
+        n = network.n_cells
+        mass = np.array([np.bincount(cells, weights=m, minlength=n) for m in b.mass]
+                        ).reshape(len(b.mass), n)
+        sources = []
+        for src in self.sources:
+            (k,), (s,) = same_place(old, network, np.array([src.link]), np.array([src.s_m]),
+                                    src.xy_m[None, :])
+            sources.append(SpillSource(src.xy_m.copy(), src.moved_m, int(k), float(s),
+                                       int(network.cell_of(np.array([k]), np.array([s]))[0]),
+                                       src.eta, src.psi_left, src.psi_right))
+        outlets = {name: k for k, name in enumerate(old.outlets)}
+        outflow = np.zeros((len(b.mass), len(network.outlets)))
+        for j, name in enumerate(network.outlets):
+            if name in outlets:
+                outflow[:, j] = b.outflow[:, outlets[name]]
+        gone = {name: np.array(v, np.float64) for name, v in self.gone_out_kg.items()}
+        for name, k in outlets.items():
+            if name not in network.outlets:
+                gone[name] = gone.get(name, np.zeros(0))
+                gone[name] = np.r_[gone[name], np.zeros(len(b.mass) - len(gone[name]))] \
+                    + b.outflow[:, k]
+        passed = np.zeros((len(b.mass), len(network.names)))
+        for k, name in enumerate(old.names):
+            if name in index:
+                passed[:, index[name]] = b.passed[:, k]
+        new.book = SpillBook(*(np.ascontiguousarray(r) for r in (
+            mass, np.array([s.cell for s in sources], np.int32), b.release_t0, b.release_t1,
+            b.release_kg, b.decay_per_s, b.released, outflow, b.decayed, passed)))
+        new.sources, new.names, new.gone_out_kg = sources, list(self.names), gone
+        return new
 
     def cell_concentration(self) -> np.ndarray:
         """(S, N) cross-section mean concentration of each spill in each cell [kg/m³]."""
@@ -205,7 +255,9 @@ class SpillSolver:
         return SpillReport(
             name=self.names[row], time_s=self.time_s, released_kg=float(b.released[row]),
             in_water_kg=float(b.mass[row].sum()),
-            out_kg={name: float(v) for name, v in zip(net.outlets, b.outflow[row])},
+            out_kg={**{name: float(v) for name, v in zip(net.outlets, b.outflow[row])},
+                    **{name: float(v[row]) for name, v in self.gone_out_kg.items()
+                       if row < len(v)}},
             passed_kg={name: float(v) for name, v in zip(net.names, b.passed[row])},
             decayed_kg=float(b.decayed[row]), front_m=front, tail_m=tail, front_xy_m=fxy,
             tail_xy_m=txy, peak_kg_m3=peak, source_xy_m=src.xy_m.copy(), moved_m=src.moved_m)
@@ -250,10 +302,13 @@ class SpillTint:
     _ib: np.ndarray | None = None
     _iw: np.ndarray | None = None
     _prof: np.ndarray | None = None
+    _network: object = None
 
     def update(self, solver: SpillSolver, potential, colours) -> bool:
         """Follow the solver (``potential(xy) -> ψ`` the flow field's; ``colours`` (S, 3) the
         spills' RGB); True if the texture changed."""
+        if self._network is not solver.network:      # a live edit's new cells: placed again
+            self._network, self._key, self._wet = solver.network, (), None
         if self._key and self._key[1] == solver.n_spills \
                 and 0.0 <= solver.time_s - self._key[0] < TINT_REFRESH_S:
             return False

@@ -123,3 +123,29 @@ def test_the_command_lines_dam_flag_loads_the_dam_scene():
     assert title.endswith(", dam") and scene.branch(DAM_OUTLET) is not None
     scene, title = _load_scene(_parser().parse_args(["demo"]))
     assert "dam" not in title and all(b.name != DAM_OUTLET for b in scene.branches)
+
+
+def test_an_edit_of_the_river_above_keeps_the_reservoir(world, lake):
+    """A live edit rebuilds the network from the scene's branches (issue 25): the lake goes
+    with it, same shore, same flat level, and the reservoir's branch stays in it. Made at the
+    scene's level (what ``world.set_width`` swaps in), the module's world left as it is."""
+    from riverflow.engine.edits import edited_branches, edited_scene
+
+    scene = world.scene
+    above = scene.branch("main_upper")
+    dropped = []
+    new, graph = edited_scene(scene, edited_branches(scene, "width", above.name,
+                                                     widths=0.9 * above.widths_m),
+                              dropped=dropped)
+    assert not dropped
+    (area,) = graph.lakes()
+    kept = shapely.Polygon(area_ring(graph, area))
+    assert kept.symmetric_difference(lake).area < 1e-6 * lake.area
+    p = _inside(lake, n=300)
+    _, old_level, _ = scene.water.nearest(p)
+    _, level, _ = new.water.nearest(p)
+    assert np.ptp(level) < 1e-9 and level[0] == pytest.approx(old_level[0], abs=1e-9)
+    assert new.water.contains(p).all()
+    assert new.branch("main_upper").widths_m == pytest.approx(0.9 * above.widths_m)
+    assert [b.name for b in new.branches] == [b.name for b in scene.branches]
+    assert new.branch(DAM_OUTLET).discharge_m2s == pytest.approx(above.discharge_m2s)
