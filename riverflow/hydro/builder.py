@@ -549,16 +549,40 @@ class RiverNetworkBuilder:
         self.end_cuts_m2 = end_cuts
         graph.crs = self.crs
         graph.water_levels = self.water_levels
-        graph.falls, graph.rapids = self._resolve_falls(geoms)
+        graph.falls, graph.rapids = self._resolve_falls(geoms, self._pieces_of(geoms, origin))
         return graph
 
-    def _resolve_falls(self, geoms: list[BranchGeometry]) -> tuple[list[Fall], list[Rapid]]:
+    def _pieces_of(self, geoms: list[BranchGeometry], origin: list[int]):
+        """``(b, station [m]) -> (piece, station on it)``: where a distance along input branch
+        ``b`` lies on the built branches (a lake cuts a branch into pieces, its part in the
+        lake dropped; a piece's station 0 is where its start lies along the input branch).
+        GraphError when the station is in the part a lake took."""
+        spans: dict[int, list] = {}
+        for k, (g, b) in enumerate(zip(geoms, origin)):
+            given = PolylineIndex(self._branches[b].centerline_m)
+            s0, s1 = (float(v) for v in given.nearest(g.centerline_m[[0, -1]])[2])
+            spans.setdefault(b, []).append((s0, s1, k))
+
+        def on(b: int, station: float, where: str) -> tuple[int, float]:
+            for s0, s1, k in spans.get(b, []):
+                if s0 <= self.tolerance_m:           # (a start snapped to a junction)
+                    s0 = 0.0
+                if s0 - 1e-6 <= station <= s1 + self.tolerance_m:
+                    return k, station - s0
+            raise GraphError(f"{where}: {station:.1f} m along branch "
+                             f"{self._branches[b].name!r} lies in a lake (the branch is cut "
+                             f"at its shores)")
+        return on
+
+    def _resolve_falls(self, geoms: list[BranchGeometry], on) -> tuple[list[Fall], list[Rapid]]:
         """The falls and rapids given and those found in ``water_levels``, on the built
-        (junction-snapped) centre lines, upstream first along each branch."""
+        (junction-snapped, lake-cut: ``on``, :meth:`_pieces_of`) centre lines, upstream first
+        along each branch."""
         falls = []
         for k, f in enumerate(self._falls):
-            fall = _fall_on(geoms[f.branch], f.at, f.drop_m, f.lip_m, f.kind, False)
-            length = float(_arc(geoms[f.branch].centerline_m)[-1])
+            piece, at = on(f.branch, f.at, f"fall {k}")
+            fall = _fall_on(geoms[piece], at, f.drop_m, f.lip_m, f.kind, False)
+            length = float(_arc(geoms[piece].centerline_m)[-1])
             if fall.at_m + fall.throw_m > length:
                 raise GraphError(f"fall {k}: its nappe ({fall.throw_m:.1f} m long) runs past "
                                  f"the end of branch {fall.branch!r} ({length - fall.at_m:.1f} m "
@@ -570,7 +594,14 @@ class RiverNetworkBuilder:
                                      f"{abs(other.at_m - fall.at_m):.1f} m apart, less than a "
                                      f"nappe's length; make them one fall")
             falls.append(fall)
-        rapids = [_rapid_on(geoms[b], a, e, drop, False) for b, a, e, drop in self._rapids]
+        rapids = []
+        for k, (b, a, e, drop) in enumerate(self._rapids):
+            piece, a_on = on(b, a, f"rapids {k}")
+            piece_e, e_on = on(b, e, f"rapids {k}")
+            if piece_e != piece:
+                raise GraphError(f"rapids {k}: from {a:.1f} to {e:.1f} m along branch "
+                                 f"{self._branches[b].name!r} runs through a lake")
+            rapids.append(_rapid_on(geoms[piece], a_on, e_on, drop, False))
         if self.water_levels is not None and (self.fall_min_drop_m is not None
                                               or self.rapids_min_slope is not None):
             for g in geoms:

@@ -523,3 +523,26 @@ def test_lakes_with_jagged_shores_build():
         assert len(graph.lakes()) == 1
         built += 1
     assert built >= 5
+
+
+def test_falls_and_rapids_given_along_a_branch_a_lake_cuts():
+    """A fall and a rapid given by distance along the input branch land where they were
+    given, on the piece of it below the lake (the pieces' stations start at their own
+    starts); one inside the lake is a clear GraphError. Before, the index named a piece
+    (``default_scene(dam=True, falls=True)`` failed)."""
+    b = RiverNetworkBuilder()
+    b.add_branch([(-800.0, 0.0), (800.0, 0.0)], 30.0, discharge_m2s=10.0, name="through")
+    b.add_lake(LAKE)
+    b.add_fall(1300.0, 2.0, branch="through")                 # 500 m below the lake
+    b.add_rapids(1100.0, 1200.0, 1.0, branch="through")
+    graph = b.build()
+    (fall,) = graph.falls
+    assert np.allclose(fall.centre_m, (500.0, 0.0), atol=0.5)
+    (rapid,) = graph.rapids
+    assert rapid.branch == fall.branch and rapid.from_m < rapid.to_m < fall.at_m
+    inside = RiverNetworkBuilder()
+    inside.add_branch([(-800.0, 0.0), (800.0, 0.0)], 30.0, discharge_m2s=10.0, name="through")
+    inside.add_lake(LAKE)
+    inside.add_fall(800.0, 2.0, branch="through")             # the lake's centre
+    with pytest.raises(GraphError, match="lies in a lake"):
+        inside.build()
