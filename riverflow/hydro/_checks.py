@@ -220,8 +220,12 @@ def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6,
             to = q[:s1 - s0] - mid[s0:s1]
             dd = d[s0:s1]
             cross = dd[:, 0] * to[:, 1] - dd[:, 1] * to[:, 0]
+            # a segment shorter than a thousandth of the axis' width (an overlay's rounding
+            # step, a centimetre back and forth along a bank) has no direction to judge
+            judged = length[s0:s1] > 1e-3 * curves[river].width_m
             with np.errstate(invalid="ignore"):   # (segments beyond reach fail the reach test)
-                cross_bad[s0:s1] = cross < -1e-9 * length[s0:s1] * np.hypot(to[:, 0], to[:, 1])
+                cross_bad[s0:s1] = judged & (
+                    cross < -1e-9 * length[s0:s1] * np.hypot(to[:, 0], to[:, 1]))
             if not axes_cover_banks:
                 far[p0:p1] = ~np.isfinite(dist[s1 - s0:])
         holes = np.array([i in in_hole for i in chunk], bool)

@@ -200,3 +200,19 @@ def test_a_free_island_near_a_bank_is_not_taken_for_the_bank():
     short = np.array([100.0, 100.0, 70.0, 70.0, 100.0, 100.0])
     assert graph_problems(graph, [(line, short, 2.0)]) == []
     assert graph_problems(graph, [(line, short, 3.0)])   # a wrong discharge is still found
+
+
+def test_a_centimetre_step_back_along_a_bank_is_not_a_bank_on_the_wrong_side(confluence):
+    """Overlays of nearly equal outlines (a river's strip drawn on to a lake's shore) leave
+    a vertex a centimetre back along a bank: that step's direction is rounding, not a bank
+    whose axis lies on its right (the dam scene's main river widened by 10 % was refused)."""
+    graph, branches = confluence
+    stepped = copy.deepcopy(graph)
+    main, banks = _main_banks(stepped)
+    c = stepped.curves[banks[0]]
+    k = len(c.points) // 2
+    t = (c.points[k + 1] - c.points[k]) / np.hypot(*(c.points[k + 1] - c.points[k]))
+    left = np.array([-t[1], t[0]])
+    # as measured there: 3 mm back along the bank and 14 mm to the water's side
+    c.points = np.insert(c.points, k + 1, c.points[k] - 0.003 * t + 0.014 * left, axis=0)
+    assert graph_problems(stepped, branches) == []
