@@ -383,22 +383,190 @@ def _clean_ring(v: np.ndarray, eps_m: float) -> np.ndarray:
     return np.vstack([v, v[:1]])
 
 
+AXIS_CELLS = 160
+"""The grid a lake's axes are routed on has about this many cells across the lake."""
+MAX_BAY_AXES = 24
+"""At most this many bay axes per lake."""
+
+
+@dataclass
+class _Grid:
+    """The lake on a square grid: node points (N, 2) [m] of the nodes inside, their clearance
+    (distance to the shore) [m], the 8-neighbour graph weighted by length / clearance² (paths
+    keep to the middle of the water) and by length alone."""
+
+    points: np.ndarray
+    clearance: np.ndarray
+    cost: object
+    length: object
+    h: float
+
+
+def _lake_grid(polygon: shapely.Polygon, tolerance_m: float) -> _Grid:
+    from scipy.sparse import coo_matrix
+
+    x0, y0, x1, y1 = polygon.bounds
+    h = max(max(x1 - x0, y1 - y0) / AXIS_CELLS, tolerance_m, 1e-3)
+    xs = np.arange(x0 + 0.5 * h, x1, h)
+    ys = np.arange(y0 + 0.5 * h, y1, h)
+    gx, gy = np.meshgrid(xs, ys)
+    inside = shapely.contains_xy(polygon, gx, gy)
+    ids = np.full(inside.shape, -1)
+    ids[inside] = np.arange(int(inside.sum()))
+    pts = np.c_[gx[inside], gy[inside]]
+    clear = shapely.distance(polygon.boundary, shapely.points(pts))
+    rows, cols, step = [], [], []
+    ny, nx = inside.shape
+    for di, dj in ((0, 1), (1, 0), (1, 1), (1, -1)):
+        a = ids[max(0, -di):ny - max(0, di), max(0, -dj):nx - max(0, dj)]
+        b = ids[max(0, di):ny - max(0, -di), max(0, dj):nx - max(0, -dj)]
+        ok = (a >= 0) & (b >= 0)
+        rows.append(a[ok])
+        cols.append(b[ok])
+        step.append(np.full(int(ok.sum()), h * np.hypot(di, dj)))
+    r, c, s = np.concatenate(rows), np.concatenate(cols), np.concatenate(step)
+    # an edge that crosses the shore (a thin spit between two grid nodes) is no edge
+    keep = ~shapely.crosses(shapely.linestrings(np.stack([pts[r], pts[c]], axis=1)),
+                            polygon.boundary) if len(r) else np.zeros(0, bool)
+    r, c, s = r[keep], c[keep], s[keep]
+    w = s / (0.5 * (clear[r] + clear[c])) ** 2
+    n = len(pts)
+    cost = coo_matrix((np.r_[w, w], (np.r_[r, c], np.r_[c, r])), shape=(n, n)).tocsr()
+    length = coo_matrix((np.r_[s, s], (np.r_[r, c], np.r_[c, r])), shape=(n, n)).tocsr()
+    return _Grid(pts, clear, cost, length, h)
+
+
+def _route(grid: _Grid, pred: np.ndarray, start: int) -> np.ndarray:
+    """The grid path from node ``start`` back along ``pred`` to its source, as points."""
+    path = [start]
+    while pred[path[-1]] >= 0:
+        path.append(int(pred[path[-1]]))
+    return grid.points[path]
+
+
+def _tidy(line: np.ndarray, inside, h: float) -> np.ndarray:
+    """The routed polyline simplified (within a cell) as long as it stays in the water."""
+    ls = LineString(line)
+    for tol in (2.0 * h, h, 0.5 * h):
+        s = ls.simplify(tol, preserve_topology=True)
+        if inside.contains(s):
+            return np.asarray(s.coords)
+    return line
+
+
 def lake_axes(lake: Lake, mouths_m: list[np.ndarray], outlet: list[bool], tolerance_m: float
               ) -> list[np.ndarray]:
     """The lake's axes: from each mouth point (a river's axis end on the shore) to the lake's
     centre (drawn downstream: into the centre for inlets, out of it for outlets), or one short
-    axis from the centre towards the nearest shore for a lake with no river."""
+    axis from the centre towards the nearest shore for a lake with no river; plus one axis into
+    each bay that lies round a corner from them (from the nearest axis to the bay's far end).
+
+    The axis from a mouth is the straight line where that stays in the lake (a lake that is
+    star-shaped about its centre), else the way through the middle of the water (the least
+    length / clearance² path on a grid of the lake, round islands and bends), simplified.
+    The axes only say which shore belongs to which part of the lake (the banks' links, their
+    water side): the flow in the lake is its potential flow (:mod:`lake_flow`)."""
+    from scipy.sparse.csgraph import dijkstra
+
+    poly = lake.polygon
     c = lake.centre(tolerance_m)
-    inside = lake.polygon.buffer(max(tolerance_m, 1e-6))
-    if not mouths_m:
-        q = np.asarray(shapely.ops.nearest_points(lake.polygon.exterior, shapely.Point(c))[0].coords[0])
-        return [np.array([c, c + 0.5 * (q - c)])]
+    inside = poly.buffer(max(tolerance_m, 1e-6))
     axes = []
-    for m, out in zip(mouths_m, outlet):
-        line = np.array([c, m]) if out else np.array([m, c])
-        if not inside.contains(LineString(line)):
-            raise GraphError(f"{lake.name}: the straight line from its mouth at ({m[0]:.1f}, "
-                             f"{m[1]:.1f}) to its centre ({c[0]:.1f}, {c[1]:.1f}) leaves the "
-                             f"lake; lakes must be star-shaped about their centre")
-        axes.append(line)
+    if not mouths_m:
+        q = np.asarray(shapely.ops.nearest_points(poly.exterior, shapely.Point(c))[0].coords[0])
+        axes.append(np.array([c, c + 0.5 * (q - c)]))
+    straight = [inside.contains(LineString([m, c])) for m in mouths_m]
+    grid = None
+    if not all(straight) or len(_unserved(poly, axes + [np.array([m, c]) for m in mouths_m])[0]):
+        grid = _lake_grid(poly, tolerance_m)
+    if grid is not None and len(grid.points) < 2:
+        grid = None
+    for m, out, ok in zip(mouths_m, outlet, straight):
+        if ok or grid is None:
+            if not ok:
+                raise GraphError(f"{lake.name}: the lake is too small for its mouth at "
+                                 f"({m[0]:.1f}, {m[1]:.1f}) to reach its centre")
+            line = np.array([m, c])
+        else:
+            centre = int(np.argmin(np.hypot(*(grid.points - c).T)))
+            dist, pred = dijkstra(grid.cost, indices=centre, return_predecessors=True)
+            near = np.argsort(np.hypot(*(grid.points - m).T))[:8]
+            near = near[np.isfinite(dist[near])]
+            if not len(near):
+                raise GraphError(f"{lake.name}: its mouth at ({m[0]:.1f}, {m[1]:.1f}) is not "
+                                 f"connected to its centre through the water")
+            start = int(near[0])
+            path = _route(grid, pred, start)
+            line = _tidy(np.vstack([m, path[1:-1], c]) if len(path) > 2 else np.array([m, c]),
+                         inside, grid.h)
+        axes.append(line[::-1] if out else line)
+    if grid is not None:
+        axes += _bay_axes(grid, axes, poly, inside)
     return axes
+
+
+def _unserved(poly: shapely.Polygon, axes: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """The outer shore's segments whose best axis (as the banks choose theirs:
+    :func:`riverflow.hydro._network._axis_cost`) lies on their right, the land side:
+    (their midpoints (S, 2), their inward unit normals (S, 2)), the deepest (farthest from
+    every axis) first."""
+    v = np.asarray(shapely.segmentize(poly.exterior, 0.02 * poly.exterior.length).coords)
+    a, b = v[:-1], v[1:]
+    mid, d = 0.5 * (a + b), b - a
+    keep = np.hypot(*d.T) > 0
+    mid, d = mid[keep], d[keep]
+    cost = np.empty((len(mid), len(axes)))
+    right = np.empty((len(mid), len(axes)), bool)
+    far = np.empty(len(mid))
+    pm = shapely.points(mid)
+    for k, line in enumerate(axes):
+        ls = LineString(line)
+        s = shapely.line_locate_point(ls, pm)
+        q = shapely.get_coordinates(shapely.line_interpolate_point(ls, s))
+        to = q - mid
+        dist = np.hypot(*to.T)
+        right[:, k] = d[:, 0] * to[:, 1] - d[:, 1] * to[:, 0] < -1e-9 * np.hypot(*d.T) * dist
+        beyond = (s <= 1e-9) | (s >= ls.length - 1e-9)
+        cost[:, k] = dist * (1.0 + beyond) * (1.0 + 9.0 * right[:, k])
+    best = np.argmin(cost, axis=1)
+    bad = right[np.arange(len(mid)), best]
+    far = cost.min(axis=1)
+    order = np.flatnonzero(bad)[np.argsort(-far[bad])]
+    n = np.c_[-d[:, 1], d[:, 0]] / np.hypot(*d.T)[:, None]    # inward: the ring is CCW
+    return mid[order], n[order]
+
+
+def _bay_axes(grid: _Grid, axes: list[np.ndarray], poly: shapely.Polygon, inside
+              ) -> list[np.ndarray]:
+    """Axes into the bays: while a stretch of the outer shore has no axis on its water side
+    (:func:`_unserved`: a bay round a corner from the axes, an arm of a reservoir), the
+    deepest such stretch gets an axis: the middle-of-the-water path from the nearest axis to
+    the grid node a cell in from it."""
+    from scipy.sparse.csgraph import dijkstra
+
+    out = []
+    pts = grid.points
+    for _ in range(MAX_BAY_AXES):
+        mid, n = _unserved(poly, axes + out)
+        if not len(mid):
+            break
+        lines = shapely.MultiLineString([LineString(a) for a in axes + out])
+        src = np.flatnonzero(shapely.distance(lines, shapely.points(pts)) <= 0.75 * grid.h)
+        if not len(src):
+            break
+        dist, pred, _ = dijkstra(grid.cost, indices=src, min_only=True,
+                                 return_predecessors=True)
+        # a point just in from the stretch (a narrow spike may be thinner than a cell), and
+        # the nearest node joined to the axes that sees it
+        goal = next((g for g in (mid[0] + n[0] * t for t in (grid.h, 0.5 * grid.h, 0.1 * grid.h))
+                     if poly.contains(shapely.Point(g))), mid[0])
+        near = np.flatnonzero(np.isfinite(dist))
+        near = near[np.argsort(np.hypot(*(pts[near] - goal).T))][:64]
+        sees = shapely.covers(inside, shapely.linestrings(np.stack(
+            [pts[near], np.broadcast_to(goal, (len(near), 2))], axis=1)))
+        if not sees.any():
+            break
+        path = _route(grid, pred, int(near[np.argmax(sees)]))[::-1]
+        path = np.vstack([path, goal])
+        out.append(_tidy(path, inside, grid.h))
+    return out

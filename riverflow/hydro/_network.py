@@ -493,6 +493,11 @@ def assemble_graph(geoms: list[BranchGeometry], rings: list[Ring], pieces: list[
     axis_index = [PolylineIndex.of(line) for line in axis_lines]
     for i, piece in enumerate(pieces):
         piece_banks.append([])
+        if i not in piece_axes:     # a stretch of river water no branch runs along
+            x, y = piece.points[len(piece.points) // 2]
+            raise GraphError(f"a piece of water outline near ({x:.1f}, {y:.1f}) belongs to no "
+                             f"river nor lake (a river crossing a lake's bays leaves water "
+                             f"between them): end the branch on the lake's shore")
         candidates = sorted(piece_axes[i])
         # a bank's own axis is within half its width (axis widths include a margin): rows
         # whose best cost is over this are looked at again unbounded (_axis_cost)

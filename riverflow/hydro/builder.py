@@ -644,6 +644,9 @@ def _lakes_of_graph(geoms, lakes, lake_ends, polygon_lake, tolerance_m):
         lines = _lakes.lake_axes(lake, points, outlet, tolerance_m)
         if not widths:
             widths = [2.0 * float(np.hypot(*(lines[0][1] - lines[0][0])))]
+        # the bays' axes (after the mouths'): the narrowest mouth's width, grown to cover
+        # their shore like every lake axis
+        widths += [min(widths)] * (len(lines) - len(widths))
         axes.append(list(zip(lines, widths)))
     return LakeParts(lakes, axes, polygon_lake)
 
