@@ -477,7 +477,8 @@ def lake_axes(lake: Lake, mouths_m: list[np.ndarray], outlet: list[bool], tolera
         axes.append(np.array([c, c + 0.5 * (q - c)]))
     straight = [inside.contains(LineString([m, c])) for m in mouths_m]
     grid = None
-    if not all(straight) or len(_unserved(poly, axes + [np.array([m, c]) for m in mouths_m])[0]):
+    if (not all(straight) or len(poly.interiors)
+            or len(_unserved(poly, axes + [np.array([m, c]) for m in mouths_m])[0])):
         grid = _lake_grid(poly, tolerance_m)
     if grid is not None and len(grid.points) < 2:
         grid = None
@@ -547,19 +548,28 @@ def _bay_axes(grid: _Grid, axes: list[np.ndarray], poly: shapely.Polygon, inside
     out = []
     pts = grid.points
     for _ in range(MAX_BAY_AXES):
-        mid, n = _unserved(poly, axes + out)
-        if not len(mid):
-            break
         lines = shapely.MultiLineString([LineString(a) for a in axes + out])
+        mid, n = _unserved(poly, axes + out)
+        if len(mid):
+            # a point just in from the stretch (a narrow spike may be thinner than a cell)
+            goal = next((g for g in (mid[0] + n[0] * t for t in (grid.h, 0.5 * grid.h,
+                                                                   0.1 * grid.h))
+                         if poly.contains(shapely.Point(g))), mid[0])
+        else:
+            # water that does not see its nearest axis (behind an island, round a corner):
+            # the flow's inside test looks from a point to its nearest axis
+            to_axis = shapely.shortest_line(shapely.points(pts), lines)
+            hidden = shapely.crosses(to_axis, poly.boundary)
+            if not hidden.any():
+                break
+            far = shapely.length(to_axis)
+            goal = pts[np.flatnonzero(hidden)[np.argmax(far[hidden])]]
         src = np.flatnonzero(shapely.distance(lines, shapely.points(pts)) <= 0.75 * grid.h)
         if not len(src):
             break
         dist, pred, _ = dijkstra(grid.cost, indices=src, min_only=True,
                                  return_predecessors=True)
-        # a point just in from the stretch (a narrow spike may be thinner than a cell), and
-        # the nearest node joined to the axes that sees it
-        goal = next((g for g in (mid[0] + n[0] * t for t in (grid.h, 0.5 * grid.h, 0.1 * grid.h))
-                     if poly.contains(shapely.Point(g))), mid[0])
+        # the nearest node joined to the axes that sees the goal
         near = np.flatnonzero(np.isfinite(dist))
         near = near[np.argsort(np.hypot(*(pts[near] - goal).T))][:64]
         sees = shapely.covers(inside, shapely.linestrings(np.stack(
