@@ -383,7 +383,7 @@ def _clean_ring(v: np.ndarray, eps_m: float) -> np.ndarray:
     return np.vstack([v, v[:1]])
 
 
-AXIS_CELLS = 160
+AXIS_CELLS = 100
 """The grid a lake's axes are routed on has about this many cells across the lake."""
 MAX_BAY_AXES = 24
 """At most this many bay axes per lake."""
@@ -426,8 +426,10 @@ def _lake_grid(polygon: shapely.Polygon, tolerance_m: float) -> _Grid:
         step.append(np.full(int(ok.sum()), h * np.hypot(di, dj)))
     r, c, s = np.concatenate(rows), np.concatenate(cols), np.concatenate(step)
     # an edge that crosses the shore (a thin spit between two grid nodes) is no edge
-    keep = ~shapely.crosses(shapely.linestrings(np.stack([pts[r], pts[c]], axis=1)),
-                            polygon.boundary) if len(r) else np.zeros(0, bool)
+    water = polygon.buffer(0.0)
+    shapely.prepare(water)
+    keep = shapely.covers(water, shapely.linestrings(np.stack([pts[r], pts[c]], axis=1))
+                          ) if len(r) else np.zeros(0, bool)
     r, c, s = r[keep], c[keep], s[keep]
     w = s / (0.5 * (clear[r] + clear[c])) ** 2
     n = len(pts)
@@ -547,6 +549,8 @@ def _bay_axes(grid: _Grid, axes: list[np.ndarray], poly: shapely.Polygon, inside
 
     out = []
     pts = grid.points
+    nodes = shapely.points(pts)
+    shapely.prepare(inside)
     for _ in range(MAX_BAY_AXES):
         lines = shapely.MultiLineString([LineString(a) for a in axes + out])
         mid, n = _unserved(poly, axes + out)
@@ -558,13 +562,13 @@ def _bay_axes(grid: _Grid, axes: list[np.ndarray], poly: shapely.Polygon, inside
         else:
             # water that does not see its nearest axis (behind an island, round a corner):
             # the flow's inside test looks from a point to its nearest axis
-            to_axis = shapely.shortest_line(shapely.points(pts), lines)
-            hidden = shapely.crosses(to_axis, poly.boundary)
+            to_axis = shapely.shortest_line(nodes, lines)
+            hidden = ~shapely.covers(inside, to_axis)
             if not hidden.any():
                 break
             far = shapely.length(to_axis)
             goal = pts[np.flatnonzero(hidden)[np.argmax(far[hidden])]]
-        src = np.flatnonzero(shapely.distance(lines, shapely.points(pts)) <= 0.75 * grid.h)
+        src = np.flatnonzero(shapely.distance(lines, nodes) <= 0.75 * grid.h)
         if not len(src):
             break
         dist, pred, _ = dijkstra(grid.cost, indices=src, min_only=True,
