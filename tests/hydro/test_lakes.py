@@ -415,9 +415,9 @@ BAY = shapely.box(255, 125, 330, 260)
 @pytest.fixture(scope="module")
 def reservoir():
     b = RiverNetworkBuilder()
-    b.add_branch([(-190, 550), (-190, 290)], 30.0, discharge_m2s=20.0, name="north")
-    b.add_branch([(-500, -130), (-240, -130)], 24.0, discharge_m2s=10.0, name="west")
-    b.add_branch([(190, 290), (190, 550)], 36.0, name="out")
+    b.add_branch([(-190, 550), (-190, 290)], 40.0, discharge_m2s=20.0, name="north")
+    b.add_branch([(-500, -130), (-240, -130)], 36.0, discharge_m2s=10.0, name="west")
+    b.add_branch([(190, 290), (190, 550)], 44.0, name="out")
     b.add_lake(RESERVOIR.difference(RESERVOIR_ISLAND))
     graph = b.build()
     return graph, rf.FlowField(graph)
@@ -442,8 +442,8 @@ def test_a_reservoir_that_is_not_star_shaped_carries_its_rivers(reservoir):
     div, grad = divergence_and_gradient(field, pts[water][:300], 0.05 * h)
     assert np.abs(div).max() < 0.05 * np.median(grad)
     # land next to the lake (a metre or more from its shore and from the rivers) is not water
-    rivers = shapely.union_all([shapely.box(-205, 300, -175, 560), shapely.box(-510, -142, -250, -118),
-                                shapely.box(172, 300, 208, 560)]).buffer(2.0)
+    rivers = shapely.union_all([shapely.box(-210, 300, -170, 560), shapely.box(-510, -148, -250, -112),
+                                shapely.box(168, 300, 212, 560)]).buffer(2.0)
     land = pts[~shapely.contains_xy(lake.buffer(1.0), *pts.T) & ~shapely.contains_xy(rivers, *pts.T)]
     assert len(land) > 300 and (field.query(land)[0] != rf.FlowStatus.INSIDE).all()
     # tangent to the shore (the island's bar: the stream lines turn round the inner corners,
@@ -460,8 +460,8 @@ def test_a_reservoir_that_is_not_star_shaped_carries_its_rivers(reservoir):
     assert np.percentile(ratios[0], 99) < 0.02              # measured 1.5 %
     # tracers from both inlets reach the outlet, none leaves the water
     across = np.linspace(-0.4, 0.4, 5)
-    north = np.c_[-190.0 + 30.0 * across, np.full(5, 400.0)]
-    west = np.c_[np.full(5, -400.0), -130.0 + 24.0 * across]
+    north = np.c_[-190.0 + 40.0 * across, np.full(5, 400.0)]
+    west = np.c_[np.full(5, -400.0), -130.0 + 36.0 * across]
     reached, left = _trace(field, np.vstack([north, west]), lambda p: p[:, 1] > 400.0)
     assert reached.all() and not left.any()
     # the bay: slow water (under a tenth of the lake's median speed) that still moves, and
