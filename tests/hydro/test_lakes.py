@@ -447,7 +447,7 @@ def test_a_reservoir_that_is_not_star_shaped_carries_its_rivers(reservoir):
     land = pts[~shapely.contains_xy(lake.buffer(1.0), *pts.T) & ~shapely.contains_xy(rivers, *pts.T)]
     assert len(land) > 300 and (field.query(land)[0] != rf.FlowStatus.INSIDE).all()
     # tangent to the shore (the island's bar: the stream lines turn round the inner corners,
-    # so the normal part, 3.0 % a quarter metre in and 1.5 % an eighth, vanishes at the shore)
+    # so the normal part, 3.3 % a quarter metre in and 1.8 % an eighth, vanishes at the shore)
     ratios = []
     for offset in (0.25, 0.125):
         q, n = _shore_samples(shore, graph, offset)
@@ -457,7 +457,7 @@ def test_a_reservoir_that_is_not_star_shaped_carries_its_rivers(reservoir):
         ratios.append(np.abs((v * n).sum(axis=1)) / np.maximum(speed, np.median(speed)))
     assert ratios[1].max() <= 0.02, ratios[1].max()
     assert ratios[1].max() < 0.65 * ratios[0].max()
-    assert np.percentile(ratios[0], 99) < 0.02              # measured 1.5 %
+    assert np.percentile(ratios[0], 99) < 0.02              # measured 1.3 %
     # tracers from both inlets reach the outlet, none leaves the water
     across = np.linspace(-0.4, 0.4, 5)
     north = np.c_[-190.0 + 40.0 * across, np.full(5, 400.0)]
