@@ -17,10 +17,14 @@ with no river is one shore piece: one ψ, still water.
   river polygons and lake polygons, which share the *mouths* (the stretches of shore across
   the rivers). Each mouth is one closing segment of both areas; banks that meet at its ends
   have one ψ (reference §1.2 rule 2), which ties the lake's shore pieces to the rivers' banks.
-* **Axes**: a star of axes from the lake's centre (the pole of inaccessibility) to each mouth
-  (the river's axis end), or one short axis from the centre for a lake with no river. Their
-  widths grow to cover the shore linked to them, so every point of a lake that is star-shaped
-  about its centre is inside one (reference §1.2 rule 1).
+* **Axes** (:func:`lake_axes`): the lake may be any simple polygon with islands. Its axes
+  only give its shore banks their axis links (on their water side) and the flow's inside
+  test a nearest axis that each water point sees: one from each mouth (the river's axis
+  end) to the lake's centre (the pole of inaccessibility), straight where that stays in the
+  lake, else through the middle of the water; one into each bay and behind each island that
+  those do not serve; one short axis from the centre for a lake with no river. Their widths
+  grow to cover the shore linked to them (reference §1.2 rule 1). The flow in the lake is
+  its potential flow (:mod:`riverflow.hydro.lake_flow`), whatever the axes.
 * The lake's area in the graph is marked with ``Area.info`` = LAKE_INFO, or LAKE_LEVEL_INFO
   and ``Area.level_m`` when its level is given.
 """
@@ -386,19 +390,17 @@ def _clean_ring(v: np.ndarray, eps_m: float) -> np.ndarray:
 AXIS_CELLS = 100
 """The grid a lake's axes are routed on has about this many cells across the lake."""
 MAX_BAY_AXES = 24
-"""At most this many bay axes per lake."""
+"""At most this many axes into bays and behind islands per lake."""
 
 
 @dataclass
 class _Grid:
-    """The lake on a square grid: node points (N, 2) [m] of the nodes inside, their clearance
-    (distance to the shore) [m], the 8-neighbour graph weighted by length / clearance² (paths
-    keep to the middle of the water) and by length alone."""
+    """The lake on a square grid of spacing ``h`` [m]: the points (N, 2) [m] of the nodes
+    inside and the 8-neighbour graph (a SciPy sparse matrix) weighted by length / clearance²
+    (the distance to the shore: paths keep to the middle of the water)."""
 
     points: np.ndarray
-    clearance: np.ndarray
     cost: object
-    length: object
     h: float
 
 
@@ -434,8 +436,7 @@ def _lake_grid(polygon: shapely.Polygon, tolerance_m: float) -> _Grid:
     w = s / (0.5 * (clear[r] + clear[c])) ** 2
     n = len(pts)
     cost = coo_matrix((np.r_[w, w], (np.r_[r, c], np.r_[c, r])), shape=(n, n)).tocsr()
-    length = coo_matrix((np.r_[s, s], (np.r_[r, c], np.r_[c, r])), shape=(n, n)).tocsr()
-    return _Grid(pts, clear, cost, length, h)
+    return _Grid(pts, cost, h)
 
 
 def _route(grid: _Grid, pred: np.ndarray, start: int) -> np.ndarray:
@@ -447,7 +448,8 @@ def _route(grid: _Grid, pred: np.ndarray, start: int) -> np.ndarray:
 
 
 def _tidy(line: np.ndarray, inside, h: float) -> np.ndarray:
-    """The routed polyline simplified (within a cell) as long as it stays in the water."""
+    """The routed polyline simplified (by two cells, one or half of one) where it then stays
+    in the water."""
     ls = LineString(line)
     for tol in (2.0 * h, h, 0.5 * h):
         s = ls.simplify(tol, preserve_topology=True)

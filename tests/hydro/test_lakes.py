@@ -442,9 +442,11 @@ def test_a_reservoir_that_is_not_star_shaped_carries_its_rivers(reservoir):
     div, grad = divergence_and_gradient(field, pts[water][:300], 0.05 * h)
     assert np.abs(div).max() < 0.05 * np.median(grad)
     # land next to the lake (a metre or more from its shore and from the rivers) is not water
-    rivers = shapely.union_all([shapely.box(-210, 300, -170, 560), shapely.box(-510, -148, -250, -112),
+    rivers = shapely.union_all([shapely.box(-210, 300, -170, 560),
+                                shapely.box(-510, -148, -250, -112),
                                 shapely.box(168, 300, 212, 560)]).buffer(2.0)
-    land = pts[~shapely.contains_xy(lake.buffer(1.0), *pts.T) & ~shapely.contains_xy(rivers, *pts.T)]
+    land = pts[~shapely.contains_xy(lake.buffer(1.0), *pts.T)
+               & ~shapely.contains_xy(rivers, *pts.T)]
     assert len(land) > 300 and (field.query(land)[0] != rf.FlowStatus.INSIDE).all()
     # tangent to the shore (the island's bar: the stream lines turn round the inner corners,
     # so the normal part, 3.3 % a quarter metre in and 1.8 % an eighth, vanishes at the shore)
