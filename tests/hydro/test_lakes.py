@@ -437,7 +437,10 @@ def test_a_reservoir_that_is_not_star_shaped_carries_its_rivers(reservoir):
     h = field.tiles.spacing_m(field.max_level)
     pts = rng.uniform((-250, -200), (330, 300), (3000, 2))
     water = shapely.contains_xy(lake.buffer(-3 * h), *pts.T)
-    status, v = field.query(pts[water][:300])
+    # all of the water is water (behind the island and in the bay too: each point sees its
+    # nearest axis), no NaN
+    status, v = field.query(pts[water])
+    assert water.sum() > 1000
     assert (status == rf.FlowStatus.INSIDE).all() and np.isfinite(v).all()
     div, grad = divergence_and_gradient(field, pts[water][:300], 0.05 * h)
     assert np.abs(div).max() < 0.05 * np.median(grad)
