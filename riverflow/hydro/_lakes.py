@@ -515,7 +515,7 @@ def _unserved(poly: shapely.Polygon, axes: list[np.ndarray]) -> tuple[np.ndarray
     :func:`riverflow.hydro._network._axis_cost`) lies on their right, the land side:
     (their midpoints (S, 2), their inward unit normals (S, 2)), the deepest (farthest from
     every axis) first."""
-    v = np.asarray(shapely.segmentize(poly.exterior, 0.02 * poly.exterior.length).coords)
+    v = np.asarray(poly.exterior.coords)
     a, b = v[:-1], v[1:]
     mid, d = 0.5 * (a + b), b - a
     keep = np.hypot(*d.T) > 0
