@@ -397,7 +397,8 @@ class RiverNetworkBuilder:
 
     def add_lake(self, polygon, level_m: float | None = None) -> int:
         """Add a lake: a water body with a flat surface (``polygon``: a shapely Polygon or an
-        (M, 2) outline [m]); returns its index.
+        (M, 2) outline [m], any simple polygon: bays, arms and islands anywhere); returns its
+        index.
 
         Branches that reach its shore run into it (an end inside the lake or within 0.75
         of the river's width of its shore is cut or drawn to the shore; a branch that runs

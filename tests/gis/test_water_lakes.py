@@ -96,3 +96,20 @@ def test_a_river_polygon_into_a_lake_with_no_outlet(tmp_path):
     status, v = field.query(at)
     assert (status == rf.FlowStatus.INSIDE).all()
     assert v[0, 0] > 0.0 and np.abs(v[1]).max() < 1e-6
+
+
+def test_a_lake_with_an_island_between_its_centre_and_a_mouth_builds(tmp_path):
+    """The lake file of the first test with an island in front of the west mouth (it built
+    with the island filled; kept as a hole, it was refused as not star-shaped): it builds,
+    the island is a hole of the lake's area with one ψ between the shores'."""
+    from riverflow.hydro import lake_flow
+
+    lake = LAKE.difference(shapely.Point(515, 0).buffer(20, quad_segs=8))
+    path = write_tagged(tmp_path / "w.geojson", [WEST, lake, EAST], ["river", "lake", "river"])
+    b = rf.read_water(path, inlets=[tuple(ORIGIN + (0, 20))],
+                      outlets=[tuple(ORIGIN + (1200, -30))])
+    graph = b.build()
+    (k,) = graph.lakes()
+    (isl,) = lake_flow.lake_islands(graph, k, 0.25)
+    psi = {graph.curves[c].potential for c, _ in graph.areas[isl].curves}
+    assert len(psi) == 1 and 0.0 < psi.pop() < b.discharges_m2s[0]
