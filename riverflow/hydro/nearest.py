@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 import shapely
 
-from riverflow.kernels.polyline import nearest_segments, segment_boxes
+from riverflow.kernels.polyline import Nearest, Polyline, nearest_points, segment_boxes
 
 
 class PolylineIndex:
@@ -34,6 +34,7 @@ class PolylineIndex:
         self.seg_len = seg_len
         self.length = float(seg_len.sum())
         self.boxes = segment_boxes(self.a, self.d)
+        self.line = Polyline(np.ascontiguousarray(self.a), self.d, self.boxes, self.s0, seg_len)
 
     @classmethod
     def of(cls, line) -> PolylineIndex:
@@ -45,32 +46,13 @@ class PolylineIndex:
         """For points (N, 2) [m]: (distance (N,), nearest point (N, 2), its arc length from
         the line's start (N,)) [m]. With ``max_distance`` [m], points farther than that from
         the line get distance inf (point and arc NaN): far queries are then almost free."""
-        xy = np.asarray(xy, np.float64).reshape(-1, 2)
-        if not len(xy):
-            return np.zeros(0), np.zeros((0, 2)), np.zeros(0)
-        seg = np.empty(len(xy), np.int64)
-        limit = np.inf if max_distance is None else float(max_distance) ** 2
-        nearest_segments(self.a, self.d, self.boxes, np.ascontiguousarray(xy), limit, seg)
-        found = seg >= 0
-        if not found.all():     # only the points within reach are projected
-            dist = np.full(len(xy), np.inf)
-            q = np.full((len(xy), 2), np.nan)
-            arc = np.full(len(xy), np.nan)
-            if found.any():
-                dist[found], q[found], arc[found] = self._project(xy[found], seg[found])
-            return dist, q, arc
-        return self._project(xy, seg)
-
-    def _project(self, xy: np.ndarray, seg: np.ndarray
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Distance, nearest point and arc length of points (N, 2) on their segments (N,)."""
-        a, d = self.a[seg], self.d[seg]
-        dd = np.einsum("ij,ij->i", d, d)
-        t = np.where(dd > 0.0, np.einsum("ij,ij->i", xy - a, d) / np.where(dd > 0, dd, 1.0), 0.0)
-        t = np.clip(t, 0.0, 1.0)
-        q = a + t[:, None] * d
-        dist = np.hypot(q[:, 0] - xy[:, 0], q[:, 1] - xy[:, 1])
-        return dist, q, self.s0[seg] + t * self.seg_len[seg]
+        xy = np.ascontiguousarray(np.asarray(xy, np.float64).reshape(-1, 2))
+        n = len(xy)
+        out = Nearest(np.empty(n, np.int64), np.empty(n), np.empty((n, 2)), np.empty(n))
+        if n:
+            limit = np.inf if max_distance is None else float(max_distance) ** 2
+            nearest_points(self.line, xy, limit, out)
+        return out.dist, out.point, out.arc
 
     def distance(self, xy: np.ndarray) -> np.ndarray:
         """Distance [m] from points (N, 2) to the polyline, (N,)."""
