@@ -100,13 +100,15 @@ def _bank_segments(graph: HydroGraph, chunk: list[int]):
 
 
 def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6,
-                   axes_cover_banks: bool = False) -> list[str]:
+                   axes_cover_banks: bool = False, axis_index=None) -> list[str]:
     """Check a builder-made graph. ``branches``: optional [(centre line (K, 2), widths (K,)
     or None, discharge m²/s)] drawn downstream (widths may be omitted as a 2-tuple).
     ``axes_cover_banks``: the caller made every axis' width cover its banks' points (the
     builder sets it from the farthest of them, :func:`~riverflow.hydro._network.assemble_graph`),
     so the test that they lie within half an axis' width is skipped (the test that the axis
-    lies on each bank's left stays)."""
+    lies on each bank's left stays). ``axis_index``: the axes' :class:`PolylineIndex` of their
+    :meth:`~HydroGraph.vertices`, curve i's at i, as :func:`assemble_graph` gives them (else
+    made here)."""
     problems: list[str] = []
     curves = graph.curves
     banks = graph.banks()
@@ -209,7 +211,8 @@ def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6,
         pt_at = np.searchsorted(vb, np.arange(n + 1))
         for g0, g1 in zip(groups, np.append(groups[1:], n)):
             river = int(rivers[g0])
-            axis = PolylineIndex(graph.vertices(river))
+            axis = (axis_index[river] if axis_index is not None and river < len(axis_index)
+                    else PolylineIndex(graph.vertices(river)))
             covers = 0.5 * curves[river].width_m + 1e-6
             s0, s1, p0, p1 = seg_at[g0], seg_at[g1], pt_at[g0], pt_at[g1]
             dist, q, _ = axis.nearest(mid[s0:s1] if axes_cover_banks

@@ -415,10 +415,13 @@ def _meeting_ties(pieces: list[Piece], eps_m: float) -> list:
 
 def assemble_graph(geoms: list[BranchGeometry], rings: list[Ring], pieces: list[Piece],
                    islands: list, junctions: np.ndarray, inlets: dict[int, float] | None = None,
-                   lakes: LakeParts | None = None) -> HydroGraph:
+                   lakes: LakeParts | None = None, axis_index: list | None = None) -> HydroGraph:
     """Make the hydro graph from the branches and the cut water outline; ``inlets``: lateral
     inflow [m²/s] per junction (module docstring); ``lakes``: the lakes' axes and polygons
-    (:mod:`riverflow.hydro._lakes`)."""
+    (:mod:`riverflow.hydro._lakes`). ``axis_index``: a list that gets each axis'
+    :class:`PolylineIndex` (the axes are the graph's first curves, in order; each index is of
+    the axis' :meth:`~HydroGraph.vertices` exactly, the nodes being keyed by exact
+    coordinates), for the self-check to reuse."""
     island_of: dict[int, int] = {}
     for i, piece in enumerate(pieces):
         if piece.closed and rings[piece.ring].hole:
@@ -490,7 +493,8 @@ def assemble_graph(geoms: list[BranchGeometry], rings: list[Ring], pieces: list[
 
     banks: list[tuple[np.ndarray, int, float]] = []  # points, axis, psi
     piece_banks: list[list[int]] = []
-    axis_index = [PolylineIndex.of(line) for line in axis_lines]
+    axis_index = [] if axis_index is None else axis_index
+    axis_index[:] = [PolylineIndex.of(line) for line in axis_lines]
     for i, piece in enumerate(pieces):
         piece_banks.append([])
         candidates = sorted(piece_axes[i])
