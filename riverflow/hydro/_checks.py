@@ -15,7 +15,7 @@ from shapely.geometry import LineString, MultiLineString
 
 from riverflow.hydro.areas import area_ring
 from riverflow.hydro.graph import HydroGraph
-from riverflow.hydro.nearest import PolylineIndex, first_per_group, ray_hits, stations
+from riverflow.hydro.nearest import LineChunks, PolylineIndex, first_per_group, ray_hits, stations
 
 
 def _signed_area(loop: np.ndarray) -> float:
@@ -262,7 +262,7 @@ def _discharge_problems(graph: HydroGraph, branches, rel_tol: float) -> list[str
     station's two rays in one bulk query, :func:`_bank_psi`)."""
     problems = []
     bank_ids = graph.banks()
-    tree = shapely.STRtree([LineString(graph.vertices(i)) for i in bank_ids])
+    lines = LineChunks([graph.vertices(i) for i in bank_ids])
     potential = np.array([graph.curves[i].potential for i in bank_ids])
     fractions = np.array([0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8])
     origins, normals, widths = [], [], []
@@ -274,7 +274,7 @@ def _discharge_problems(graph: HydroGraph, branches, rel_tol: float) -> list[str
         widths.append(w)
     origins, normals = np.vstack(origins), np.vstack(normals)
     # rays: left then right at every station, branch by branch
-    psi = _bank_psi(tree, potential, np.repeat(origins, 2, axis=0),
+    psi = _bank_psi(lines, potential, np.repeat(origins, 2, axis=0),
                     np.stack([normals, -normals], axis=1).reshape(-1, 2),
                     np.repeat(np.concatenate(widths), 2))
     psi = psi.reshape(len(branches), len(fractions), 2)
@@ -290,7 +290,7 @@ def _discharge_problems(graph: HydroGraph, branches, rel_tol: float) -> list[str
     return problems
 
 
-def _bank_psi(tree: shapely.STRtree, potential: np.ndarray, origins: np.ndarray,
+def _bank_psi(lines: LineChunks, potential: np.ndarray, origins: np.ndarray,
               directions: np.ndarray, widths: np.ndarray) -> np.ndarray:
     """ψ of the bank each ray from the centre line meets (R,), NaN if none is found. With the
     local width known, only a bank between 0.75 and 1.25 half-widths counts (the farthest
@@ -300,7 +300,7 @@ def _bank_psi(tree: shapely.STRtree, potential: np.ndarray, origins: np.ndarray,
     known = np.isfinite(widths)
     lo = np.where(known, 0.75 * 0.5 * widths, 0.0)
     reach = np.where(known, 1.25 * 0.5 * widths + 1.0, 1e5)
-    ray, hit, dist = ray_hits(origins, directions, reach, tree)
+    ray, hit, dist = ray_hits(origins, directions, reach, lines)
     ok = dist >= lo[ray]
     ray, hit, dist = ray[ok], hit[ok], dist[ok]
     far = first_per_group(ray, dist, len(origins), largest=True)
