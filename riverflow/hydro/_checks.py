@@ -15,7 +15,7 @@ from shapely.geometry import LineString, MultiLineString
 
 from riverflow.hydro.areas import area_ring
 from riverflow.hydro.graph import HydroGraph
-from riverflow.hydro.nearest import PolylineIndex, first_per_group, ray_hits, stations
+from riverflow.hydro.nearest import LineChunks, PolylineIndex, first_per_group, ray_hits, stations
 
 
 def _signed_area(loop: np.ndarray) -> float:
@@ -100,13 +100,15 @@ def _bank_segments(graph: HydroGraph, chunk: list[int]):
 
 
 def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6,
-                   axes_cover_banks: bool = False) -> list[str]:
+                   axes_cover_banks: bool = False, axis_index=None) -> list[str]:
     """Check a builder-made graph. ``branches``: optional [(centre line (K, 2), widths (K,)
     or None, discharge m²/s)] drawn downstream (widths may be omitted as a 2-tuple).
     ``axes_cover_banks``: the caller made every axis' width cover its banks' points (the
     builder sets it from the farthest of them, :func:`~riverflow.hydro._network.assemble_graph`),
     so the test that they lie within half an axis' width is skipped (the test that the axis
-    lies on each bank's left stays)."""
+    lies on each bank's left stays). ``axis_index``: the axes' :class:`PolylineIndex` of their
+    :meth:`~HydroGraph.vertices`, curve i's at i, as :func:`assemble_graph` gives them (else
+    made here)."""
     problems: list[str] = []
     curves = graph.curves
     banks = graph.banks()
@@ -212,7 +214,8 @@ def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6,
         pt_at = np.searchsorted(vb, np.arange(n + 1))
         for g0, g1 in zip(groups, np.append(groups[1:], n)):
             river = int(rivers[g0])
-            axis = PolylineIndex(graph.vertices(river))
+            axis = (axis_index[river] if axis_index is not None and river < len(axis_index)
+                    else PolylineIndex(graph.vertices(river)))
             covers = 0.5 * curves[river].width_m + 1e-6
             s0, s1, p0, p1 = seg_at[g0], seg_at[g1], pt_at[g0], pt_at[g1]
             dist, q, _ = axis.nearest(mid[s0:s1] if axes_cover_banks
@@ -268,7 +271,7 @@ def _discharge_problems(graph: HydroGraph, branches, rel_tol: float) -> list[str
     width read across it falls short of the far bank, must not take its ψ for the bank's."""
     problems = []
     bank_ids = [i for i in graph.banks() if graph.curves[i].start != graph.curves[i].end]
-    tree = shapely.STRtree([LineString(graph.vertices(i)) for i in bank_ids])
+    lines = LineChunks([graph.vertices(i) for i in bank_ids])
     potential = np.array([graph.curves[i].potential for i in bank_ids])
     fractions = np.array([0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8])
     origins, normals, widths = [], [], []
@@ -280,7 +283,7 @@ def _discharge_problems(graph: HydroGraph, branches, rel_tol: float) -> list[str
         widths.append(w)
     origins, normals = np.vstack(origins), np.vstack(normals)
     # rays: left then right at every station, branch by branch
-    psi = _bank_psi(tree, potential, np.repeat(origins, 2, axis=0),
+    psi = _bank_psi(lines, potential, np.repeat(origins, 2, axis=0),
                     np.stack([normals, -normals], axis=1).reshape(-1, 2),
                     np.repeat(np.concatenate(widths), 2))
     psi = psi.reshape(len(branches), len(fractions), 2)
@@ -296,7 +299,7 @@ def _discharge_problems(graph: HydroGraph, branches, rel_tol: float) -> list[str
     return problems
 
 
-def _bank_psi(tree: shapely.STRtree, potential: np.ndarray, origins: np.ndarray,
+def _bank_psi(lines: LineChunks, potential: np.ndarray, origins: np.ndarray,
               directions: np.ndarray, widths: np.ndarray) -> np.ndarray:
     """ψ of the bank each ray from the centre line meets (R,), NaN if none is found. With the
     local width known, only a bank between 0.75 and 1.25 half-widths counts (the farthest
@@ -306,7 +309,7 @@ def _bank_psi(tree: shapely.STRtree, potential: np.ndarray, origins: np.ndarray,
     known = np.isfinite(widths)
     lo = np.where(known, 0.75 * 0.5 * widths, 0.0)
     reach = np.where(known, 1.25 * 0.5 * widths + 1.0, 1e5)
-    ray, hit, dist = ray_hits(origins, directions, reach, tree)
+    ray, hit, dist = ray_hits(origins, directions, reach, lines)
     ok = dist >= lo[ray]
     ray, hit, dist = ray[ok], hit[ok], dist[ok]
     far = first_per_group(ray, dist, len(origins), largest=True)

@@ -24,7 +24,7 @@ from shapely.geometry import LineString, Point
 from riverflow.hydro._strips import Piece, Ring
 from riverflow.hydro.graph import (LAKE_INFO, LAKE_LEVEL_INFO, NO_CURVE, NO_POTENTIAL, Area, Curve,
                                    CurveType, GraphError, HydroGraph)
-from riverflow.hydro.nearest import PolylineIndex, first_per_group, ray_hits, stations
+from riverflow.hydro.nearest import LineChunks, PolylineIndex, first_per_group, ray_hits, stations
 
 AXIS_WIDTH_FACTOR = 1.1
 """Axis width = largest river width along it × this + AXIS_MARGIN_M (reference rule 1)."""
@@ -68,17 +68,17 @@ class LakeParts:
 
 
 def _first_hits(origins: np.ndarray, directions: np.ndarray, reach_m: np.ndarray,
-                tree: shapely.STRtree) -> np.ndarray:
+                lines: LineChunks) -> np.ndarray:
     """For each ray (origins, unit directions (R, 2), lengths (R,) [m]), the index of the
-    first of the tree's lines it crosses, or of the line nearest its far end if it crosses
-    none (the first of equally near ones), (R,)."""
-    ray, hit, dist = ray_hits(origins, directions, reach_m, tree)
+    first of the lines it crosses (of equally near crossings, the lowest line), or of the
+    line nearest its far end if it crosses none (the first of equally near ones), (R,)."""
+    ray, hit, dist = ray_hits(origins, directions, reach_m, lines)
     first = first_per_group(ray, dist, len(origins))
     out = np.where(first >= 0, hit[np.maximum(first, 0)] if len(hit) else -1, -1)
     missed = np.flatnonzero(out < 0)
     if len(missed):
         ends = origins[missed] + directions[missed] * reach_m[missed][:, None]
-        at, nearest = tree.query_nearest(shapely.points(ends))
+        at, nearest = lines.line_tree.query_nearest(shapely.points(ends))
         pick = first_per_group(at, np.zeros(len(at)), len(missed))
         out[missed] = nearest[pick]
     return out
@@ -89,7 +89,8 @@ def _branch_sides(geoms: list[BranchGeometry], pieces: list[Piece], island_of: d
     """(left piece, right piece) of each branch, facing downstream (majority over stations;
     every station's rays in one bulk query)."""
     ids = [i for i in range(len(pieces)) if i not in island_of]
-    tree = shapely.STRtree([pieces[i].line() for i in ids])
+    lines = LineChunks([np.vstack([pieces[i].points, pieces[i].points[:1]]) if pieces[i].closed
+                        else pieces[i].points for i in ids])
     at = [stations(g.centerline_m, np.asarray(_STATIONS), g.widths_m) for g in geoms]
     origins = np.vstack([p for p, _, _ in at])
     normals = np.vstack([n for _, n, _ in at])
@@ -97,7 +98,7 @@ def _branch_sides(geoms: list[BranchGeometry], pieces: list[Piece], island_of: d
     # rays: left then right at every station
     hits = _first_hits(np.repeat(origins, 2, axis=0),
                        np.stack([normals, -normals], axis=1).reshape(-1, 2),
-                       np.repeat(reach, 2), tree).reshape(len(geoms), len(_STATIONS), 2)
+                       np.repeat(reach, 2), lines).reshape(len(geoms), len(_STATIONS), 2)
     sides = []
     for g, station_hits in zip(geoms, hits):
         votes = [(ids[left], ids[right]) for left, right in station_hits]
@@ -415,10 +416,13 @@ def _meeting_ties(pieces: list[Piece], eps_m: float) -> list:
 
 def assemble_graph(geoms: list[BranchGeometry], rings: list[Ring], pieces: list[Piece],
                    islands: list, junctions: np.ndarray, inlets: dict[int, float] | None = None,
-                   lakes: LakeParts | None = None) -> HydroGraph:
+                   lakes: LakeParts | None = None, axis_index: list | None = None) -> HydroGraph:
     """Make the hydro graph from the branches and the cut water outline; ``inlets``: lateral
     inflow [m²/s] per junction (module docstring); ``lakes``: the lakes' axes and polygons
-    (:mod:`riverflow.hydro._lakes`)."""
+    (:mod:`riverflow.hydro._lakes`). ``axis_index``: a list that gets each axis'
+    :class:`PolylineIndex` (the axes are the graph's first curves, in order; each index is of
+    the axis' :meth:`~HydroGraph.vertices` exactly, the nodes being keyed by exact
+    coordinates), for the self-check to reuse."""
     island_of: dict[int, int] = {}
     for i, piece in enumerate(pieces):
         if piece.closed and rings[piece.ring].hole:
@@ -490,7 +494,8 @@ def assemble_graph(geoms: list[BranchGeometry], rings: list[Ring], pieces: list[
 
     banks: list[tuple[np.ndarray, int, float]] = []  # points, axis, psi
     piece_banks: list[list[int]] = []
-    axis_index = [PolylineIndex.of(line) for line in axis_lines]
+    axis_index = [] if axis_index is None else axis_index
+    axis_index[:] = [PolylineIndex.of(line) for line in axis_lines]
     for i, piece in enumerate(pieces):
         piece_banks.append([])
         if not piece_axes.get(i):

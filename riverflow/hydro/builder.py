@@ -530,13 +530,14 @@ class RiverNetworkBuilder:
         lake_parts = None
         if lakes:
             lake_parts = _lakes_of_graph(geoms, lakes, lake_ends, polygon_lake, self.tolerance_m)
+        axis_index: list = []
         graph = assemble_graph(geoms, rings, pieces, islands, all_junctions[:n_junctions],
-                               inlets, lake_parts)
+                               inlets, lake_parts, axis_index)
         if lakes:   # islands in lakes: the ψ of zero circulation round them
             from riverflow.hydro.lake_flow import set_island_potentials
             set_island_potentials(graph, self.tolerance_m)
         problems = graph_problems(graph, [(g.centerline_m, g.widths_m, g.discharge_m2s) for g in geoms],
-                                  axes_cover_banks=True)
+                                  axes_cover_banks=True, axis_index=axis_index)
         if problems:
             raise GraphError("the network gives an invalid hydro graph: " + "; ".join(problems[:5]))
         first = {}

@@ -1,6 +1,6 @@
 """The builder's self-check (:func:`graph_problems`) finds what it is meant to find, and its
-bulk ray queries (:mod:`riverflow.hydro.nearest`: ``ray_hits``, ``first_per_group``) give what
-one shapely query per ray gives."""
+bulk ray queries (:mod:`riverflow.hydro.nearest`: ``ray_hits`` over ``LineChunks``,
+``first_per_group``) give what one shapely query per ray gives."""
 from __future__ import annotations
 
 import copy
@@ -13,7 +13,7 @@ from shapely.geometry import LineString, Point
 from riverflow.hydro._checks import graph_problems
 from riverflow.hydro.builder import RiverNetworkBuilder
 from riverflow.hydro.graph import Area, Curve, CurveType, HydroGraph
-from riverflow.hydro.nearest import first_per_group, ray_hits
+from riverflow.hydro.nearest import CHUNK_SEGMENTS, LineChunks, first_per_group, ray_hits
 
 
 @pytest.fixture(scope="module")
@@ -123,28 +123,37 @@ def test_a_bank_with_its_axis_on_the_right_is_found(confluence):
 
 
 def _scalar_hits(origin, direction, reach, lines, tree):
-    """One ray the way the builder asked before: its crossings in tree order, distances."""
+    """One ray the way the builder asked before: the lines it crosses, the distance to each
+    line's crossing (shapely on the whole line)."""
     ray = LineString([origin, origin + direction * reach])
     hits = tree.query(ray, predicate="intersects")
     return hits, [shapely.distance(Point(origin), ray.intersection(lines[i])) for i in hits]
 
 
 def test_bulk_ray_hits_equal_one_query_per_ray():
+    """Lines of many chunks (and of one, and a ring): the same lines crossed, each at exactly
+    the distance shapely gives for the whole line."""
     rng = np.random.default_rng(3)
-    lines = [LineString(rng.uniform(0, 100, (4, 2))) for _ in range(40)]
+    sizes = rng.integers(2, 5 * CHUNK_SEGMENTS, 40)
+    coords = [np.cumsum(rng.normal(0.0, 6.0, (n, 2)), axis=0) + rng.uniform(0, 100, 2)
+              for n in sizes]
+    coords[0] = np.vstack([coords[0], coords[0][:1]])        # a closed ring
+    lines = [LineString(c) for c in coords]
     tree = shapely.STRtree(lines)
     origins = rng.uniform(0, 100, (60, 2))
     angle = rng.uniform(0, 2 * np.pi, 60)
     directions = np.stack([np.cos(angle), np.sin(angle)], axis=1)
     reach = rng.uniform(1, 60, 60)
-    ray, hit, dist = ray_hits(origins, directions, reach, tree)
+    ray, hit, dist = ray_hits(origins, directions, reach, LineChunks(coords))
     assert len(ray) > 60
     nearest = first_per_group(ray, dist, 60)
     farthest = first_per_group(ray, dist, 60, largest=True)
     for r in range(60):
         want_hits, want_dist = _scalar_hits(origins[r], directions[r], reach[r], lines, tree)
-        assert list(hit[ray == r]) == list(want_hits)
-        assert list(dist[ray == r]) == want_dist        # exactly the same numbers
+        order = np.argsort(want_hits)
+        want_hits, want_dist = np.asarray(want_hits)[order], np.asarray(want_dist)[order]
+        assert list(hit[ray == r]) == list(want_hits)        # by line
+        assert list(dist[ray == r]) == list(want_dist)       # exactly the same numbers
         if len(want_hits):
             assert hit[nearest[r]] == want_hits[int(np.argmin(want_dist))]
             assert hit[farthest[r]] == want_hits[int(np.argmax(want_dist))]

@@ -1,5 +1,5 @@
-"""The nearest-segment kernel (:mod:`riverflow.kernels.polyline`) against its plain-numpy twin
-(every segment tried, the first of the nearest taken), and :class:`PolylineIndex` against
+"""The nearest-point kernel (:mod:`riverflow.kernels.polyline`) against its plain-numpy twin
+(every segment tried, the first of the nearest taken, the point projected on it), and :class:`PolylineIndex` against
 shapely's own distances."""
 from __future__ import annotations
 
@@ -8,12 +8,13 @@ import pytest
 import shapely
 
 from riverflow.hydro.nearest import PolylineIndex
-from riverflow.kernels.polyline import LEAF, nearest_segments, segment_boxes
+from riverflow.kernels.polyline import LEAF, Nearest, Polyline, nearest_points, segment_boxes
 
 
-def nearest_segments_twin(a, d, xy, max_d2):
+def nearest_points_twin(a, d, xy, max_d2):
     """Brute force: for each point the first segment of least squared distance, in the
-    kernel's operations; −1 where that exceeds ``max_d2``."""
+    kernel's operations; −1 where that exceeds ``max_d2``. Returns (segment, distance, nearest
+    point, arc length), inf / NaN where none."""
     x, y = xy[:, 0:1], xy[:, 1:2]
     ax, ay, dx, dy = a[:, 0], a[:, 1], d[:, 0], d[:, 1]
     dd = dx * dx + dy * dy
@@ -24,8 +25,17 @@ def nearest_segments_twin(a, d, xy, max_d2):
     qy = ay + t * dy - y
     d2 = qx * qx + qy * qy
     seg = np.argmin(d2, axis=1)
-    best = d2[np.arange(len(xy)), seg]
-    return np.where(best <= max_d2, seg, -1)
+    rows = np.arange(len(xy))
+    best = d2[rows, seg]
+    found = best <= max_d2
+    tb = t[rows, seg]
+    point = a[seg] + tb[:, None] * d[seg]
+    dist = np.hypot(point[:, 0] - xy[:, 0], point[:, 1] - xy[:, 1])
+    seg_len = np.hypot(dx, dy)
+    s0 = np.concatenate([[0.0], np.cumsum(seg_len)[:-1]])
+    arc = s0[seg] + tb * seg_len[seg]
+    return (np.where(found, seg, -1), np.where(found, dist, np.inf),
+            np.where(found[:, None], point, np.nan), np.where(found, arc, np.nan))
 
 
 def _line(rng, n, rounded):
@@ -49,10 +59,14 @@ def test_kernel_matches_twin(trial):
     q = p[rng.integers(0, len(p), 400)] + rng.normal(size=(400, 2)) * rng.uniform(0.1, 500.0)
     if rounded:
         q = np.round(q)
+    seg_len = np.hypot(d[:, 0], d[:, 1])
+    line = Polyline(a, d, boxes, np.concatenate([[0.0], np.cumsum(seg_len)[:-1]]), seg_len)
     for max_d2 in (np.inf, float(rng.uniform(1.0, 200.0)) ** 2, 0.0):
-        got = np.empty(len(q), np.int64)
-        nearest_segments(a, d, boxes, q, max_d2, got)
-        np.testing.assert_array_equal(got, nearest_segments_twin(a, d, q, max_d2))
+        n = len(q)
+        got = Nearest(np.empty(n, np.int64), np.empty(n), np.empty((n, 2)), np.empty(n))
+        nearest_points(line, q, max_d2, got)
+        for g, want in zip(got, nearest_points_twin(a, d, q, max_d2)):
+            np.testing.assert_array_equal(g, want)     # bit for bit, inf and NaN included
 
 
 def test_box_hierarchy_bounds_its_segments():
