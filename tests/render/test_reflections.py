@@ -381,3 +381,50 @@ def test_the_mirror_eases_to_the_level_of_the_water_in_view(world, scene):
     steps = -np.diff(levels)
     assert steps.min() > -1e-6                   # down only: no overshoot, no wobble
     assert steps.max() <= 1.43 * 21.0 / MIRROR_SETTLE_S * DT_S, np.round(steps, 2)
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "issue 29 item 2, open: the far water's reflection depends erratically on the mirror's "
+    "level (the per-pixel level correction is ill-conditioned for grazing far water), so it "
+    "flickers while the mirror eases (19-27/255 a frame here; docs/deviations.md, "
+    "the mirror's level)"))
+def test_the_far_water_does_not_flicker_while_the_mirror_eases(world, scene):
+    """The flight of the test above from right over the tributary looking 150 m ahead: the
+    tributary leaves the view and the mirror eases ~20 m down to the far main river's level
+    (34 m). The main river's water (the pixels whose water lies under 40 m) is a thin sliver
+    ~500 m off; its mean colour changes by at most 4/255 from one frame to the next. The bar:
+    with the mirror held at one level (34, 44 or 54 m) on this flight, the same pixels change
+    by at most 1.3, 3.7 and 1.3/255 a frame (the view's own change)."""
+    from riverflow.engine import gl
+    pose, _ = _tributary_flight(scene)
+    saved = (world.camera.position.copy(), world.camera.target.copy())
+    drawer = world._drawer()
+    x = (np.arange(W) + 0.5) / W * 2 - 1
+    y = 1 - (np.arange(H) + 0.5) / H * 2
+
+    def frame(k):
+        if k < 4:                                # the tributary in view: the mirror at ~54 m
+            world.draw()
+            return None
+        on = _render(world, mode=DisplayMode.NON_ADVECTED)
+        level = drawer.last_mirror_level_m
+        off = _render(world, mode=DisplayMode.NON_ADVECTED, reflections=False)
+        water = (_render(world, mode=DisplayMode.MESH) != off).any(axis=2)
+        depth = gl.read_texture(drawer.gpu.depth)[::-1].astype(np.float64)
+        _, world_from_clip = world.camera.matrices_for_kernels()
+        ndc = np.stack(np.broadcast_arrays(x[None, :], y[:, None], 2 * depth - 1,
+                                           np.ones_like(depth)), -1)
+        p = ndc @ np.asarray(world_from_clip, np.float64).T
+        return level, water & (p[..., 2] / p[..., 3] < 40.0), on
+    try:
+        frames = _fly(world, pose, 0.0, 150.0, 12, frame)[4:]
+    finally:
+        world.camera.look_at(*saved)
+    levels = [level for level, _, _ in frames]
+    assert levels[0] - levels[-1] > 8.0, levels          # the mirror eased on the way
+    steps = []
+    for (_, far0, on0), (_, far1, on1) in zip(frames, frames[1:]):
+        both = far0 & far1
+        assert both.sum() > 50
+        steps.append(np.abs(on1[both].mean(axis=0) - on0[both].mean(axis=0)).max())
+    assert max(steps) <= 4.0, np.round(steps, 1)
