@@ -29,6 +29,10 @@ in gradually, never at once, and water off the screen does not weigh."""
 FRESNEL_F0 = 0.02
 """Water's reflectance seen from straight above (Schlick's approximation, as
 ``shaders/water.glsl``)."""
+REFLECTION_FAINT = 0.05
+"""The reflectance under which the water shader shows no land in the water (its
+REFLECTION_FAINT, ``shaders/reflection.glsl``: faded in from half of it): water seen more
+steeply than that does not look into the mirror, and its level does not weigh."""
 
 
 class LevelSamples(NamedTuple):
@@ -62,7 +66,9 @@ def view_level(samples, clip_from_world, eye, near_m, min_height_m, fallback_lev
     water lies h below the eye, at depth w, covers A·h / w³ × sx·sy / 4 of the screen (the
     solid angle it subtends, A·h / d³, times the pixels per steradian, ∝ 1 / cos³ of its
     angle off the view axis, d·cos = w); its reflectance is Schlick's F0 + (1 − F0)(1 − h/d)⁵
-    (seen from above, 2 %: the water right under a camera shows little reflection). Only
+    (seen from above, 2 %: the water right under a camera shows little reflection), faded
+    out as the water shader fades out the land in it (from REFLECTION_FAINT down to half of
+    it: that water does not look into the mirror, so its level must not move it). Only
     water more than ``min_height_m`` below the eye weighs (h measured from there for the
     share). A sample fades in over VIEW_EDGE_NDC inside the screen's edges moved out by its
     river's half width, and between the near plane ``near_m`` and twice it: the result is
@@ -101,7 +107,8 @@ def view_level(samples, clip_from_world, eye, near_m, min_height_m, fallback_lev
         dx, dy, dz = x - eye[0], y - eye[1], z - eye[2]
         c = 1.0 - min((eye[2] - z) / math.sqrt(dx * dx + dy * dy + dz * dz), 1.0)
         c2 = c * c
-        weight = share * (FRESNEL_F0 + (1.0 - FRESNEL_F0) * c2 * c2 * c)
+        fresnel = FRESNEL_F0 + (1.0 - FRESNEL_F0) * c2 * c2 * c
+        weight = share * fresnel * _fade(fresnel / (0.5 * REFLECTION_FAINT) - 1.0)
         total += weight
         acc += weight * z
     if not total > 0.0:

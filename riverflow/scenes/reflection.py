@@ -5,7 +5,8 @@ the choice and its measurements: ``docs/deviations.md``, ``docs/performance.md``
 the props are drawn once more, mirrored in the horizontal plane z = L, into a texture the
 water shader samples. A river's level falls along its course, so one plane is exact only
 where the water is at L; L is the mean level of the water in view, weighted by the share of
-the screen it covers (:func:`mirror_level`: continuous as the camera moves), and the water
+the screen it covers and its reflectance, none where the water shader shows no land in it
+(:func:`mirror_level`: continuous as the camera moves), and the water
 shader corrects every pixel for its own level (``shaders/reflection.glsl``).
 """
 from __future__ import annotations

@@ -85,7 +85,7 @@ def test_the_mirrored_matrix_is_the_mirror_times_the_view_projection(rng):
 
 def _view_level_twin(samples, m, eye, near_m, min_height_m, fallback_level, fallback_share):
     """Plain numpy twin of riverflow.kernels.centre_line.view_level."""
-    from riverflow.kernels.centre_line import FRESNEL_F0, VIEW_EDGE_NDC
+    from riverflow.kernels.centre_line import FRESNEL_F0, REFLECTION_FAINT, VIEW_EDGE_NDC
 
     def fade(x):
         x = np.clip(x, 0.0, 1.0)
@@ -103,7 +103,8 @@ def _view_level_twin(samples, m, eye, near_m, min_height_m, fallback_level, fall
     share = samples.area * h / w ** 3 * 0.25 * sx * sy * fx * fy * fade(w / near_m - 1.0)
     d = np.linalg.norm(p[:, :3] - eye, axis=1)
     c = 1.0 - np.minimum((eye[2] - samples.level) / d, 1.0)
-    weight = np.where(ok, share * (FRESNEL_F0 + (1 - FRESNEL_F0) * c ** 5), 0.0)
+    fresnel = FRESNEL_F0 + (1 - FRESNEL_F0) * c ** 5
+    weight = np.where(ok, share * fresnel * fade(fresnel / (0.5 * REFLECTION_FAINT) - 1.0), 0.0)
     total = weight.sum() + fallback_share
     if not total > 0:
         return np.nan, 0.0
