@@ -405,3 +405,52 @@ def test_dispersion_settings():
             Dispersion(**bad)
     with pytest.raises(ValueError, match="discharge"):
         build_spill_network([branch("c", line, 30.0)], [float("nan")])
+
+
+# -- mixing below a confluence -----------------------------------------------------------------
+
+def test_a_tributary_plume_hugs_its_bank_below_the_confluence_then_mixes():
+    """Below a confluence the tributary's plume stays on the tributary's side of the ψ range
+    (its share of the discharge), spreads by the transverse mixing and is mixed after several
+    mixing lengths 0.4 U W² / ε_t; across the section its mean is the 1-D solver's (1)."""
+    from riverflow.hydro.spills import plume_sections
+    net = build_spill_network(
+        [branch("main", straight(1000.0, 11), 40.0, -1, 0),
+         branch("trib", straight(1000.0, 11, 400.0), 20.0, -1, 0),
+         branch("below", straight(60000.0, 61, 0.0, 1000.0), 50.0, 0, -1)],
+        [60.0, 20.0, 80.0])
+    net.link_psi_m2s = np.array([[20.0, 80.0], [0.0, 20.0], [0.0, 80.0]])   # trib: low ψ
+    trib, below = net.names.index("trib"), net.names.index("below")
+    src = _source(net, trib, 100.0)
+    src.psi_left, src.psi_right = 0.0, 20.0
+    sections = plume_sections(net, src)
+    assert list(sections) == [below]
+    solver = SpillSolver(net)
+    solver.add(src, "t", 1.0, 0.0, 0.0)
+    cells = net.cell_link == below
+    u, w, eps = (float(np.median(v[cells])) for v in (net.cell_speed_mps, net.cell_width_m,
+                                                       net.cell_eps_m2s))
+    mixing_m = 0.4 * u * w * w / eps
+    assert 3.5 * mixing_m < net.link_length_m[below]
+    psi = np.linspace(0.0, 80.0, 401)
+
+    def across(s_m):
+        return solver.transverse(0, np.full(len(psi), below), np.full(len(psi), s_m), psi)
+
+    near = across(0.05 * mixing_m)
+    assert near[psi < 10].mean() > 3.0 * near[psi > 70].mean()       # the tributary's bank
+    assert near[psi > 70].max() < 0.2                                 # little on the far side
+    far = across(3.0 * mixing_m)
+    assert np.abs(far - 1.0).max() < 0.03                             # mixed within 3 %
+    for s in (0.0, 0.05 * mixing_m, 0.3 * mixing_m, mixing_m, 3.0 * mixing_m):
+        assert np.trapezoid(across(s), psi) / 80.0 == pytest.approx(1.0, abs=2e-3)
+    # the tributary's side by its share: a quarter of the discharge, a quarter of the range
+    mid = across(0.3 * mixing_m)
+    assert np.trapezoid(mid * psi, psi) / np.trapezoid(mid, psi) < 0.5 * 80.0
+    # a spill on the main river is on the other side
+    src2 = _source(net, net.names.index("main"), 100.0)
+    src2.psi_left, src2.psi_right, src2.eta = 20.0, 80.0, 0.5
+    solver.add(src2, "m", 1.0, 0.0, 0.0)
+    other = solver.transverse(1, np.full(len(psi), below), np.full(len(psi), 0.05 * mixing_m),
+                              psi)
+    assert other[psi > 40].mean() > 1.2 > 0.5 > other[psi < 5].mean()
