@@ -61,12 +61,17 @@ class PlumeSection:
     var_s: np.ndarray
     """(cells + 1,) σ² at the link's start, its cell boundaries and its end (s = 0, dx, … L)."""
     dx_m: float
+    width_m: float
+    """The link's median width [m]."""
 
-    def profile(self, s_m: np.ndarray, psi: np.ndarray) -> np.ndarray:
+    def profile(self, s_m: np.ndarray, psi: np.ndarray, min_sigma_m: float = 0.0
+                ) -> np.ndarray:
+        """f at points (s (P,), ψ (P,)); σ at least ``min_sigma_m`` [m] (a texel)."""
         span = self.psi_hi - self.psi_lo
         eta = np.clip((np.asarray(psi, np.float64) - self.psi_lo) / span, 0.0, 1.0)
-        var = np.interp(np.asarray(s_m, np.float64) / self.dx_m,
-                        np.arange(len(self.var_s)), self.var_s)
+        var = np.maximum(np.interp(np.asarray(s_m, np.float64) / self.dx_m,
+                                   np.arange(len(self.var_s)), self.var_s),
+                         (min_sigma_m / self.width_m) ** 2)
         n = np.arange(1, len(self.coeffs) + 1)
         damp = np.exp(-0.5 * (n * math.pi) ** 2 * var[:, None]) * self.coeffs
         return np.maximum(1.0 + np.einsum("pn,pn->p", np.cos(math.pi * eta[:, None] * n), damp),
@@ -224,7 +229,7 @@ class SpillSolver:
         for b, section in src.sections.items():
             here = link == b
             if here.any():
-                f[here] = section.profile(s_m[here], psi[here])
+                f[here] = section.profile(s_m[here], psi[here], min_sigma_m)
         return f
 
     def report(self, row: int) -> SpillReport:
@@ -450,7 +455,8 @@ def plume_sections(network: SpillNetwork, source: SpillSource) -> dict[int, Plum
                                                     * network.cell_width_m[cells] ** 2)
         dx = float(network.link_dx_m[b])
         var = MIN_SIGMA_ETA ** 2 + np.concatenate([[0.0], np.cumsum(rate * dx)])
-        out[b] = section = PlumeSection(lo, hi, coeffs, var, dx)
+        out[b] = section = PlumeSection(lo, hi, coeffs, var, dx,
+                                        float(np.median(network.cell_width_m[cells])))
         ends[b] = _flat_or(lambda p, sec=section, s=float(network.link_length_m[b]):
                            sec.profile(np.full(len(p), s), p), lo, hi)
     return out
