@@ -283,6 +283,11 @@ class SpillTint:
                                                               np.float32))
     version: int = 0
     """Increases whenever ``rgba`` or ``rect_m`` changed (the draw system uploads then)."""
+    rows: tuple[int, int] = (0, TINT_TEXELS)
+    """The rows [first, last + 1) of ``rgba`` that the last change can have changed (those
+    holding a tinted texel before or after it; all of them when the square moved): the
+    draw system uploads those alone."""
+    _tinted_rows: tuple[int, int] = (0, 0)
     _key: tuple = ()
     _wet: np.ndarray | None = None
     _psi: np.ndarray | None = None
@@ -303,7 +308,8 @@ class SpillTint:
                 and 0.0 <= solver.time_s - self._key[0] < TINT_REFRESH_S:
             return False
         rect = self._square(solver)
-        if rect != self.rect_m or self._wet is None:
+        moved = rect != self.rect_m or self._wet is None
+        if moved:
             self._locate(solver, potential, rect)
         if not self._key or self._key[1] != solver.n_spills or self._prof is None:
             self._profiles(solver)
@@ -317,6 +323,16 @@ class SpillTint:
             out[self._wet, :3] = rgb.T
             out[self._wet, 3] = total
             out[self._fringe] = out[self._fringe_from]
+        tinted = np.flatnonzero(self.rgba[:, :, 3].any(axis=1))
+        now = (int(tinted[0]), int(tinted[-1]) + 1) if len(tinted) else (0, 0)
+        was = self._tinted_rows
+        if moved:
+            self.rows = (0, TINT_TEXELS)
+        elif now[1] > now[0] and was[1] > was[0]:
+            self.rows = (min(now[0], was[0]), max(now[1], was[1]))
+        else:
+            self.rows = now if now[1] > now[0] else was
+        self._tinted_rows = now
         self.version += 1
         return True
 

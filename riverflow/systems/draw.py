@@ -936,9 +936,13 @@ class DrawRivers(System):
         if on:
             colours = sorted((s.row, s.colour) for _, s in esper.get_component(Spill))
             gpu.spill_tint.update(solver, world.field.potential, [c for _, c in colours])
-            if gpu.spill_tint.version != gpu.spill_version:
-                gpu.spill.upload(gpu.spill_tint.rgba)
-                gpu.spill_version = gpu.spill_tint.version
+            tint = gpu.spill_tint
+            if tint.version != gpu.spill_version:
+                # the rows it changed, unless a change was missed (then all)
+                first, end = tint.rows if tint.version == gpu.spill_version + 1 \
+                    else (0, TINT_TEXELS)
+                gpu.spill.upload(tint.rgba, first_row=first, rows=end - first)
+                gpu.spill_version = tint.version
             on = gpu.spill_tint.rect_m[2] > 0.0
         gpu.spill.bind(SPILL_UNIT)
         lo, hi = settings.concentration_range_kg_m3

@@ -336,6 +336,16 @@ def test_the_tint_texture_holds_the_concentrations(spilled):
     query = world.concentration(xy[wet], per_spill=True).sum(axis=0)
     untouched = np.abs(query - c.sum(axis=0)) <= 1e-6 * query.max()
     assert untouched.mean() > 0.5
+    # a refresh changes only the rows it says (the draw system uploads those alone)
+    assert tint.rows == (0, TINT_TEXELS)                    # a new square: all of them
+    before = tint.rgba.copy()
+    world.advance_spills(60.0)
+    assert tint.update(solver, world.field.potential, colours)
+    if tint.rect_m == (x0, y0, side):
+        first, end = tint.rows
+        changed = np.flatnonzero((tint.rgba != before).any(axis=(1, 2)))
+        assert len(changed) and first <= changed.min() and changed.max() < end
+        assert end - first < TINT_TEXELS
 
 
 def test_a_graph_file_scene_gets_its_discharges_from_the_stream_function(tiny_channel_path):
