@@ -33,7 +33,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from riverflow.hydro.spill_network import SpillNetwork
-from riverflow.kernels.spill import SpillBook, spill_steps
+from riverflow.kernels.spill import SpillBook, TintTexels, spill_steps, tint_texels
 
 MIN_SIGMA_ETA = 0.02
 """Smallest transverse standard deviation (in river widths) of a plume at its source."""
@@ -300,6 +300,7 @@ class SpillTint:
     _ib: np.ndarray | None = None
     _iw: np.ndarray | None = None
     _prof: np.ndarray | None = None
+    _texels: TintTexels | None = None
 
     def update(self, solver: SpillSolver, potential, colours) -> bool:
         """Follow the solver (``potential(xy) -> ψ`` the flow field's; ``colours`` (S, 3) the
@@ -314,17 +315,11 @@ class SpillTint:
         if not self._key or self._key[1] != solver.n_spills or self._prof is None:
             self._profiles(solver)
         self._key = (solver.time_s, solver.n_spills)
+        now = (0, 0)
         if len(self._wet) and solver.n_spills:
-            conc = solver.cell_concentration()
-            c = (conc[:, self._ia] * (1.0 - self._iw) + conc[:, self._ib] * self._iw) * self._prof
-            total = c.sum(axis=0)
-            out = self.rgba.reshape(-1, 4)
-            rgb = (np.asarray(colours, np.float64)[:, :3].T @ c) / np.maximum(total, 1e-30)
-            out[self._wet, :3] = rgb.T
-            out[self._wet, 3] = total
-            out[self._fringe] = out[self._fringe_from]
-        tinted = np.flatnonzero(self.rgba[:, :, 3].any(axis=1))
-        now = (int(tinted[0]), int(tinted[-1]) + 1) if len(tinted) else (0, 0)
+            now = tint_texels(self._texels, solver.cell_concentration(),
+                              np.asarray(colours, np.float64)[:, :3].copy(),
+                              self.rgba.reshape(-1, 4))
         was = self._tinted_rows
         if moved:
             self.rows = (0, TINT_TEXELS)
@@ -371,6 +366,10 @@ class SpillTint:
         for k in range(solver.n_spills):
             prof[k] = solver.transverse(k, self._link, self._s, self._psi, self._texel_m)
         self._prof = prof
+        as64 = lambda a: np.ascontiguousarray(a, np.int64)       # noqa: E731
+        self._texels = TintTexels(as64(self._wet), as64(self._ia), as64(self._ib),
+                                  np.ascontiguousarray(self._iw, np.float64), prof,
+                                  as64(self._fringe), as64(self._fringe_from))
 
     @staticmethod
     def _square(solver: SpillSolver) -> tuple[float, float, float]:

@@ -472,3 +472,30 @@ def test_a_tributary_plume_hugs_its_bank_below_the_confluence_then_mixes():
     other = solver.transverse(1, np.full(len(psi), below), np.full(len(psi), 0.05 * mixing_m),
                               psi)
     assert other[psi > 40].mean() > 1.2 > 0.5 > other[psi < 5].mean()
+
+
+def test_tint_kernel_matches_numpy_twin():
+    """riverflow.kernels.spill.tint_texels against the plain-numpy way it replaced."""
+    from riverflow.kernels.spill import TintTexels, tint_texels
+    rng = np.random.default_rng(5)
+    side, n_cells, n_spills = 16, 30, 3
+    wet = rng.choice(np.arange(3 * side, 11 * side), 40, replace=False).astype(np.int64)
+    ia = rng.integers(0, n_cells - 1, 40).astype(np.int64)
+    texels = TintTexels(wet, ia, ia + 1, rng.uniform(0, 1, 40), rng.uniform(0, 2, (n_spills, 40)),
+                        np.array([2 * side + 1, 12 * side], np.int64), wet[:2].copy())
+    conc = rng.uniform(0, 1e-3, (n_spills, n_cells))
+    conc[:, ia[5]] = conc[:, ia[5] + 1] = 0.0            # a texel with nothing: (0, 0, 0, 0)
+    colours = rng.uniform(0, 1, (n_spills, 3))
+    out = np.zeros((side * side, 4), np.float32)
+    rows = tint_texels(texels, conc, colours, out)
+    twin = np.zeros_like(out)
+    c = (conc[:, texels.cell_a] * (1 - texels.weight_b) + conc[:, texels.cell_b]
+         * texels.weight_b) * texels.profile
+    total = c.sum(axis=0)
+    twin[wet, :3] = ((colours.T @ c) / np.maximum(total, 1e-30)).T
+    twin[wet, 3] = total
+    twin[texels.fringe] = twin[texels.fringe_from]
+    np.testing.assert_allclose(out, twin, rtol=1e-6, atol=1e-12)
+    tinted = np.flatnonzero((twin.reshape(side, side, 4)[:, :, 3] > 0).any(axis=1))
+    assert rows == (tinted[0], tinted[-1] + 1) == (2, 13)
+    assert tint_texels(texels, np.zeros_like(conc), colours, out) == (0, 0)
