@@ -150,6 +150,8 @@ def drawn(frames: int) -> dict:
             "drawn_tint_wall_ms_mean": float(wall.mean()),
             "drawn_tint_cpu_ms_mean": float(cpu.mean()),
             "drawn_tint_wall_ms_max": float(wall.max()),
+            "drawn_tint_cpu_ms_max": float(cpu.max()),
+            "drawn_added_ms_max": float(added.max()),
             "drawn_added_ms_mean": float(added.mean()),
             "drawn_added_ms_p50": float(np.median(added)),
             "drawn_added_ms_p99": float(np.percentile(added, 99))}
