@@ -175,7 +175,8 @@ def spill_steps(net, book, t_start, dt, n_steps, work, node_mass):
 
 
 class TintTexels(NamedTuple):
-    """Where the spill tint's texels sit on the network (:class:`riverflow.hydro.spills.SpillTint`)."""
+    """Where the spill tint's texels sit on the network
+    (:class:`riverflow.hydro.spills.SpillTint`)."""
 
     wet: np.ndarray
     """(W,) int64 flat index of each wet texel."""
