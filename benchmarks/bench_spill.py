@@ -33,6 +33,8 @@ def main() -> None:
     ap.add_argument("--json", default=None)
     ap.add_argument("--drawn-frames", type=int, default=120,
                     help="frames of the drawn 1080p world (0: skip it)")
+    ap.add_argument("--tint-refreshes", type=int, default=60,
+                    help="refreshes of the spill tint timed alone (0: skip)")
     args = ap.parse_args()
 
     import numpy as np
@@ -90,6 +92,8 @@ def main() -> None:
     out["frame_spill_ms_p99"] = float(np.percentile(ms, 99))
     out["frame_spill_ms_max"] = float(np.max(ms))
     world.close()
+    if args.tint_refreshes:
+        out.update(tint_alone(args.tint_refreshes))
     if args.drawn_frames:
         out.update(drawn(args.drawn_frames))
     for k, v in out.items():
@@ -150,9 +154,66 @@ def drawn(frames: int) -> dict:
             "drawn_tint_wall_ms_mean": float(wall.mean()),
             "drawn_tint_cpu_ms_mean": float(cpu.mean()),
             "drawn_tint_wall_ms_max": float(wall.max()),
+            "drawn_tint_cpu_ms_max": float(cpu.max()),
+            "drawn_added_ms_max": float(added.max()),
             "drawn_added_ms_mean": float(added.mean()),
             "drawn_added_ms_p50": float(np.median(added)),
             "drawn_added_ms_p99": float(np.percentile(added, 99))}
+
+
+def tint_alone(refreshes: int) -> dict:
+    """The spill tint's refresh (``SpillTint.update``) and upload (the whole texture and the
+    rows it changed, each followed by ``glFinish``) timed alone: the drawn part's two plumes
+    in a 64×36 world, a refresh every 5 s of spill time; CPU time. Refreshes where the tint's
+    square moved (its texels placed on the network again) are counted apart."""
+    import numpy as np
+    from pyglet import gl as pgl
+
+    import riverflow as rf
+    from riverflow.engine import gl
+    from riverflow.hydro.spills import TINT_TEXELS, SpillTint
+
+    scene = rf.default_scene(seed=0)
+    world = rf.RiverWorld(scene, size=(64, 36), gl=True, seed=0)
+    trib = scene.branch("tributary").centerline_m
+    upper = scene.branch("main_upper").centerline_m
+    world.add_spill(trib[int(len(trib) * 0.75)], 300.0, 3600.0, name="dye")
+    world.add_spill(upper[int(len(upper) * 0.7)], 200.0, 3600.0, name="mud")
+    world.advance_spills(900.0)
+    world.step(1 / 60)
+    world.draw()
+    gl.make_current(world.context)
+    solver = world.spill_solver
+    tint = SpillTint()
+    colours = [(1.0, 0.0, 0.0), (0.0, 0.0, 1.0)]
+    tint.update(solver, world.field.potential, colours)
+    tex = gl.Texture((TINT_TEXELS, TINT_TEXELS), gl.RGBA32F, linear=True)
+    tex.upload(tint.rgba)
+    update, moved_ms, whole, rows = [], [], [], []
+    for _ in range(refreshes):
+        solver.advance(5.0)
+        c0 = time.process_time()
+        tint.update(solver, world.field.potential, colours)
+        ms = (time.process_time() - c0) * 1e3
+        (moved_ms if tint.rows == (0, TINT_TEXELS) else update).append(ms)
+        pgl.glFinish()
+        c0 = time.process_time()
+        tex.upload(tint.rgba)
+        pgl.glFinish()
+        whole.append((time.process_time() - c0) * 1e3)
+        first, end = tint.rows
+        c0 = time.process_time()
+        tex.upload(tint.rgba, first_row=first, rows=end - first)
+        pgl.glFinish()
+        rows.append((time.process_time() - c0) * 1e3)
+    tex.delete()
+    world.close()
+    return {"tint_refresh_cpu_ms_mean": float(np.mean(update)),
+            "tint_refresh_cpu_ms_max": float(np.max(update)),
+            "tint_square_moves": len(moved_ms),
+            "tint_square_move_cpu_ms_max": float(max(moved_ms, default=0.0)),
+            "tint_upload_whole_cpu_ms_p50": float(np.median(whole)),
+            "tint_upload_rows_cpu_ms_p50": float(np.median(rows))}
 
 
 if __name__ == "__main__":

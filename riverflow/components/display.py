@@ -70,6 +70,9 @@ class DisplaySettings:
     in the normal look."""
     concentration_range_kg_m3: tuple[float, float] = (1e-6, 1e-2)
     """The concentrations [kg/m³] at the two ends of the concentration mode's colour ramp."""
+    concentration_legend: bool = True
+    """The concentration mode draws its colour bar, with its values in kg/m³, into the frame
+    (lower right; :mod:`riverflow.systems.legend`)."""
     # -- reflections (issue 12 item 3) --
     reflections: bool = True
     """Banks, props and sky mirrored in the water (a planar reflection pass at the level of

@@ -951,21 +951,28 @@ class Texture:
         gl.glTexParameteri(self.target, gl.GL_TEXTURE_MAX_LEVEL, levels - 1)
 
     def upload(self, data: np.ndarray, *, rows: int | None = None, level: int = 0,
-               layer: int | None = None) -> None:
+               layer: int | None = None, first_row: int = 0) -> None:
         """Write ``data`` ((H, W, C) or (H, W) for one channel) into the texture from row 0;
-        ``rows`` limits the upload to the first rows. For array textures ``layer`` picks one
-        layer, or ``data`` is (L, H, W, C) for all layers."""
+        ``rows`` limits the upload to the first rows (from ``first_row`` on: rows
+        first_row … first_row + rows − 1 of ``data`` into the same rows; 2-D textures only).
+        For array textures ``layer`` picks one layer, or ``data`` is (L, H, W, C) for all
+        layers."""
         data = np.ascontiguousarray(data, dtype=self.fmt.dtype)
         w, h = max(1, self.width >> level), max(1, self.height >> level)
-        n = h if rows is None else min(int(rows), h)
+        first = int(first_row)
+        if not 0 <= first <= h or (first and self.layers is not None):
+            raise ValueError(f"Texture.upload: first_row {first_row!r} is not a row of this "
+                             "2-D texture")
+        n = h - first if rows is None else min(int(rows), h - first)
         if n <= 0:
             return
         _bind_scratch(self.target, self.id)
         gl.glPixelStorei(gl.GL_UNPACK_ALIGNMENT, 1)
         if self.layers is None:
-            _check_shape(data, (h, w), self.fmt.channels, n)
-            gl.glTexSubImage2D(self.target, level, 0, 0, w, n, self.fmt.upload,
-                               self.fmt.gl_type, self._address(data))
+            _check_shape(data, (h, w), self.fmt.channels, first + n)
+            address = self._address(data) if not first else data[first].ctypes.data
+            gl.glTexSubImage2D(self.target, level, 0, first, w, n, self.fmt.upload,
+                               self.fmt.gl_type, address)
         else:
             count = 1 if layer is not None else self.layers
             if layer is None:

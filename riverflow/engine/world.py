@@ -853,6 +853,11 @@ class RiverWorld:
                                  "water was found at the nearest shore")
             xy = p
             moved = float(np.hypot(*(xy - np.asarray(xy_m, np.float64))))
+        if network.link_psi_m2s is None:     # (for the mixing below junctions)
+            network.link_psi_m2s = np.array([
+                section_psi_range(self.field.potential, line, 0.5 * length,
+                                  float(np.median(network.cell_width_m[network.cell_link == k])))
+                for k, (line, length) in enumerate(zip(network.lines, network.link_length_m))])
         link, s, _ = network.locate(xy[None, :])
         link, s = int(link[0]), float(s[0])
         lo, hi = section_psi_range(self.field.potential, network.lines[link], s,

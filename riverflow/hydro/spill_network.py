@@ -92,6 +92,11 @@ class SpillNetwork:
     _tree: cKDTree
     _sample_link: np.ndarray
     _sample_s: np.ndarray
+    link_psi_m2s: np.ndarray | None = None
+    """(B, 2) the smallest and largest ψ across each link's middle section [m²/s] (the
+    stream function is one over the network: a tributary's range is its side of the range
+    below the confluence); filled by the world with :func:`section_psi_range` for the
+    mixing below junctions (:func:`riverflow.hydro.spills.plume_sections`); None: not known."""
 
     @property
     def n_cells(self) -> int:

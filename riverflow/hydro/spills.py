@@ -12,7 +12,17 @@ point is the mean times a transverse profile, a Gaussian in the cross-river coor
 constant η, so the plume follows the bends, islands and banks) centred on the source's η₀,
 reflected at both banks, of standard deviation σ = √(2 ε_t τ) / W, τ = |s − s₀| / U the travel
 time from the source. Its mean across the river is 1, so the cross-section mean stays the
-solver's; once σ ≳ W it is flat (fully mixed). Downstream of the source's link it is 1.
+solver's; once σ ≳ W it is flat (fully mixed).
+
+**Below junctions** (:func:`plume_sections`). The stream function is one over the network:
+below a confluence a tributary's water keeps its ψ range, its side of the river (its share of
+the discharge), and a bifurcation's arms take theirs. So the profile at the start of a link
+downstream is the upstream profile(s) at their ends, carried over in ψ (a clean tributary's
+range at 0; links carrying the same spill taken at equal mean concentration), expressed in the
+link's η, and from there it spreads by the same transverse mixing: a cosine series in η
+(reflecting banks), mode n damped by exp(−n²π² σ²/2), σ² = ∫ 2 ε_t / (U W²) ds along the
+link. Its mean across the river is 1 as well (the 1-D solver keeps the mass). Fully mixed
+(within 1 %) after about 0.4 U W² / ε_t; then 1, and so on downstream.
 """
 from __future__ import annotations
 
@@ -23,7 +33,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from riverflow.hydro.spill_network import SpillNetwork
-from riverflow.kernels.spill import SpillBook, spill_steps
+from riverflow.kernels.spill import SpillBook, TintTexels, spill_steps, tint_texels
 
 MIN_SIGMA_ETA = 0.02
 """Smallest transverse standard deviation (in river widths) of a plume at its source."""
@@ -31,6 +41,41 @@ FRONT_FRACTION = 1e-3
 """A plume's front and tail: the farthest cells downstream and upstream whose concentration is
 at least this fraction of its peak."""
 _IMAGES = 3
+SECTION_MODES = 64
+"""Cosine modes of a plume's transverse profile below a junction."""
+_SECTION_GRID = 256
+MIXED_WITHIN = 0.01
+"""A profile is fully mixed when it is within this of 1 across the river."""
+
+
+@dataclass(frozen=True)
+class PlumeSection:
+    """A spill's transverse profile on one link below its source's (:func:`plume_sections`):
+    f(η, s) = 1 + Σₙ aₙ cos(nπη) exp(−n²π² σ²(s) / 2), η = (ψ − ψ_lo) / (ψ_hi − ψ_lo),
+    σ²(s) = σ₀² + ∫₀ˢ 2 ε_t / (U W²) ds."""
+
+    psi_lo: float
+    psi_hi: float
+    coeffs: np.ndarray
+    """(SECTION_MODES,) a₁ … aₙ at the link's start."""
+    var_s: np.ndarray
+    """(cells + 1,) σ² at the link's start, its cell boundaries and its end (s = 0, dx, … L)."""
+    dx_m: float
+    width_m: float
+    """The link's median width [m]."""
+
+    def profile(self, s_m: np.ndarray, psi: np.ndarray, min_sigma_m: float = 0.0
+                ) -> np.ndarray:
+        """f at points (s (P,), ψ (P,)); σ at least ``min_sigma_m`` [m] (a texel)."""
+        span = self.psi_hi - self.psi_lo
+        eta = np.clip((np.asarray(psi, np.float64) - self.psi_lo) / span, 0.0, 1.0)
+        var = np.maximum(np.interp(np.asarray(s_m, np.float64) / self.dx_m,
+                                   np.arange(len(self.var_s)), self.var_s),
+                         (min_sigma_m / self.width_m) ** 2)
+        n = np.arange(1, len(self.coeffs) + 1)
+        damp = np.exp(-0.5 * (n * math.pi) ** 2 * var[:, None]) * self.coeffs
+        return np.maximum(1.0 + np.einsum("pn,pn->p", np.cos(math.pi * eta[:, None] * n), damp),
+                          0.0)
 
 
 @dataclass
@@ -46,6 +91,9 @@ class SpillSource:
     eta: float
     psi_left: float
     psi_right: float
+    sections: dict = field(default_factory=dict)
+    """{link: :class:`PlumeSection`} below the source's link where the plume is not yet mixed
+    across the river (:func:`plume_sections`; empty: mixed at once below the source's link)."""
 
 
 @dataclass
@@ -129,6 +177,8 @@ class SpillSolver:
                 np.append(b.released, 0.0), np.vstack([b.outflow, np.zeros((1, b.outflow.shape[1]))]),
                 np.append(b.decayed, 0.0), np.vstack([b.passed, np.zeros((1, b.passed.shape[1]))])]
         self.book = SpillBook(*(np.ascontiguousarray(r) for r in rows))
+        if not source.sections and self.network.link_psi_m2s is not None:
+            source.sections = plume_sections(self.network, source)
         self.sources.append(source)
         self.names.append(name)
         return len(self.sources) - 1
@@ -210,32 +260,27 @@ class SpillSolver:
         if self.n_spills and wet.any():
             link, s, _ = net.locate(xy[wet])
             c = net.interpolate(self.cell_concentration(), link, s)
-            for k, src in enumerate(self.sources):
-                here = link == src.link
-                if here.any():
-                    c[k, here] *= self._profile(src, s[here], psi[wet][here])
+            for k in range(self.n_spills):
+                c[k] *= self.transverse(k, link, s, psi[wet])
             out[:, wet] = c
         return out if per_spill else out.sum(axis=0)
 
-    def _profile(self, src: SpillSource, s_m: np.ndarray, psi: np.ndarray,
-                 min_sigma_m: float = 0.0) -> np.ndarray:
-        """The transverse profile (mean 1 across the river) on the source's link; its standard
-        deviation at least ``min_sigma_m`` [m] (a texture's texel: no plume narrower than what
-        can be drawn, which would alias into beads)."""
-        net = self.network
-        lk = np.full(len(s_m), src.link)
-        u = net.interpolate(net.cell_speed_mps, lk, s_m)
-        eps = net.interpolate(net.cell_eps_m2s, lk, s_m)
-        w = net.interpolate(net.cell_width_m, lk, s_m)
-        tau = np.abs(s_m - src.s_m) / np.maximum(u, 1e-9)
-        sigma = np.maximum(np.sqrt(2.0 * eps * tau + min_sigma_m ** 2) / w, MIN_SIGMA_ETA)
-        span = src.psi_right - src.psi_left
-        eta = np.clip((psi - src.psi_left) / span, 0.0, 1.0) if span > 0 else np.full(len(psi), 0.5)
-        f = np.zeros(len(s_m))
-        for k in range(-_IMAGES, _IMAGES + 1):
-            for centre in (src.eta + 2 * k, -src.eta + 2 * k):
-                f += np.exp(-0.5 * ((eta - centre) / sigma) ** 2)
-        return f / (sigma * math.sqrt(2.0 * math.pi))
+    def transverse(self, row: int, link: np.ndarray, s_m: np.ndarray, psi: np.ndarray,
+                   min_sigma_m: float = 0.0) -> np.ndarray:
+        """Spill ``row``'s transverse profile (mean 1 across the river) at points on the
+        network (link (P,), arc length s (P,), stream function ψ (P,)): its near field on the
+        source's link, its sections below junctions, 1 where it is mixed (module docstring)."""
+        src = self.sources[row]
+        f = np.ones(len(link))
+        here = link == src.link
+        if here.any():
+            f[here] = near_field_profile(self.network, src, s_m[here], psi[here],
+                                         min_sigma_m)
+        for b, section in src.sections.items():
+            here = link == b
+            if here.any():
+                f[here] = section.profile(s_m[here], psi[here], min_sigma_m)
+        return f
 
     def report(self, row: int) -> SpillReport:
         net = self.network
@@ -290,6 +335,11 @@ class SpillTint:
                                                               np.float32))
     version: int = 0
     """Increases whenever ``rgba`` or ``rect_m`` changed (the draw system uploads then)."""
+    rows: tuple[int, int] = (0, TINT_TEXELS)
+    """The rows [first, last + 1) of ``rgba`` that the last change can have changed (those
+    holding a tinted texel before or after it; all of them when the square moved): the
+    draw system uploads those alone."""
+    _tinted_rows: tuple[int, int] = (0, 0)
     _key: tuple = ()
     _wet: np.ndarray | None = None
     _psi: np.ndarray | None = None
@@ -303,6 +353,7 @@ class SpillTint:
     _iw: np.ndarray | None = None
     _prof: np.ndarray | None = None
     _network: object = None
+    _texels: TintTexels | None = None
 
     def update(self, solver: SpillSolver, potential, colours) -> bool:
         """Follow the solver (``potential(xy) -> ψ`` the flow field's; ``colours`` (S, 3) the
@@ -313,20 +364,25 @@ class SpillTint:
                 and 0.0 <= solver.time_s - self._key[0] < TINT_REFRESH_S:
             return False
         rect = self._square(solver)
-        if rect != self.rect_m or self._wet is None:
+        moved = rect != self.rect_m or self._wet is None
+        if moved:
             self._locate(solver, potential, rect)
         if not self._key or self._key[1] != solver.n_spills or self._prof is None:
             self._profiles(solver)
         self._key = (solver.time_s, solver.n_spills)
+        now = (0, 0)
         if len(self._wet) and solver.n_spills:
-            conc = solver.cell_concentration()
-            c = (conc[:, self._ia] * (1.0 - self._iw) + conc[:, self._ib] * self._iw) * self._prof
-            total = c.sum(axis=0)
-            out = self.rgba.reshape(-1, 4)
-            rgb = (np.asarray(colours, np.float64)[:, :3].T @ c) / np.maximum(total, 1e-30)
-            out[self._wet, :3] = rgb.T
-            out[self._wet, 3] = total
-            out[self._fringe] = out[self._fringe_from]
+            now = tint_texels(self._texels, solver.cell_concentration(),
+                              np.asarray(colours, np.float64)[:, :3].copy(),
+                              self.rgba.reshape(-1, 4))
+        was = self._tinted_rows
+        if moved:
+            self.rows = (0, TINT_TEXELS)
+        elif now[1] > now[0] and was[1] > was[0]:
+            self.rows = (min(now[0], was[0]), max(now[1], was[1]))
+        else:
+            self.rows = now if now[1] > now[0] else was
+        self._tinted_rows = now
         self.version += 1
         return True
 
@@ -362,12 +418,13 @@ class SpillTint:
     def _profiles(self, solver: SpillSolver) -> None:
         """Each spill's transverse profile at each wet texel (S, W): steady, like the flow."""
         prof = np.ones((solver.n_spills, len(self._wet)))
-        for k, src in enumerate(solver.sources):
-            here = self._link == src.link
-            if here.any():
-                prof[k, here] = solver._profile(src, self._s[here], self._psi[here],
-                                                self._texel_m)
+        for k in range(solver.n_spills):
+            prof[k] = solver.transverse(k, self._link, self._s, self._psi, self._texel_m)
         self._prof = prof
+        as64 = lambda a: np.ascontiguousarray(a, np.int64)       # noqa: E731
+        self._texels = TintTexels(as64(self._wet), as64(self._ia), as64(self._ib),
+                                  np.ascontiguousarray(self._iw, np.float64), prof,
+                                  as64(self._fringe), as64(self._fringe_from))
 
     @staticmethod
     def _square(solver: SpillSolver) -> tuple[float, float, float]:
@@ -390,3 +447,100 @@ class SpillTint:
             if x0 + side >= hi[0] and y0 + side >= hi[1]:
                 return (float(x0), float(y0), float(side))
             side *= 2.0
+
+
+def near_field_profile(net: SpillNetwork, src: SpillSource, s_m: np.ndarray, psi: np.ndarray,
+                       min_sigma_m: float = 0.0) -> np.ndarray:
+    """The transverse profile (mean 1 across the river) on the source's link; its standard
+    deviation at least ``min_sigma_m`` [m] (a texture's texel: no plume narrower than what
+    can be drawn, which would alias into beads)."""
+    lk = np.full(len(s_m), src.link)
+    u = net.interpolate(net.cell_speed_mps, lk, s_m)
+    eps = net.interpolate(net.cell_eps_m2s, lk, s_m)
+    w = net.interpolate(net.cell_width_m, lk, s_m)
+    tau = np.abs(s_m - src.s_m) / np.maximum(u, 1e-9)
+    sigma = np.maximum(np.sqrt(2.0 * eps * tau + min_sigma_m ** 2) / w, MIN_SIGMA_ETA)
+    span = src.psi_right - src.psi_left
+    eta = np.clip((psi - src.psi_left) / span, 0.0, 1.0) if span > 0 else np.full(len(psi), 0.5)
+    f = np.zeros(len(s_m))
+    for k in range(-_IMAGES, _IMAGES + 1):
+        for centre in (src.eta + 2 * k, -src.eta + 2 * k):
+            f += np.exp(-0.5 * ((eta - centre) / sigma) ** 2)
+    return f / (sigma * math.sqrt(2.0 * math.pi))
+
+
+def plume_sections(network: SpillNetwork, source: SpillSource) -> dict[int, PlumeSection]:
+    """The transverse profiles of a spill released at ``source`` on the links below its own,
+    down to where it is fully mixed (module docstring); needs ``network.link_psi_m2s``.
+
+    Walks the links in their upstream-first order: a link reached by the spill starts with the
+    profiles of the reached links ending at its start junction, carried over in ψ (a reached
+    link's profile at its end, 1 if mixed; 0 over the ψ range of a link the spill has not
+    reached), normalised to mean 1 over the link's ψ range (each reached link is taken at the
+    same mean concentration), as cosine coefficients; a flat one (within MIXED_WITHIN) is not
+    kept."""
+    psi = network.link_psi_m2s
+    if psi is None:
+        return {}
+    net = network.net
+    eta = (np.arange(_SECTION_GRID) + 0.5) / _SECTION_GRID
+    n = np.arange(1, SECTION_MODES + 1)
+    basis = np.cos(math.pi * eta[:, None] * n)                      # (G, M)
+    reached = {source.link}
+    ends: dict[int, object] = {}        # reached link -> its profile at its end (None: flat)
+    ends[source.link] = _source_end(network, source)
+    out: dict[int, PlumeSection] = {}
+    for b in range(source.link + 1, len(network.names)):
+        j = int(net.link_start[b])
+        if j < 0:
+            continue
+        into = [int(a) for a in np.flatnonzero(net.link_end == j)]
+        if not any(a in reached for a in into):
+            continue
+        reached.add(b)
+        lo, hi = (float(v) for v in psi[b])
+        if not hi > lo:
+            ends[b] = None
+            continue
+        here = lo + eta * (hi - lo)
+        # each point of the section takes the water of the link whose ψ range is nearest
+        # (the ranges, measured mid-link, tile the section to a fraction of a percent)
+        gap = np.stack([np.maximum(np.maximum(psi[a, 0] - here, here - psi[a, 1]), 0.0)
+                        for a in into])
+        nearest = np.asarray(into)[np.argmin(gap, axis=0)]
+        g = np.zeros(_SECTION_GRID)
+        for a in into:
+            inside = nearest == a
+            if a not in reached or not inside.any():
+                continue
+            g[inside] = 1.0 if ends[a] is None else ends[a](here[inside])
+        mean = g.mean()
+        if not mean > 0 or np.abs(g / mean - 1.0).max() <= MIXED_WITHIN:
+            ends[b] = None                 # mixed (or the spill's water is not here)
+            continue
+        g = g / mean
+        coeffs = 2.0 * (basis * (g - 1.0)[:, None]).mean(axis=0)
+        cells = slice(int(net.link_c0[b]), int(net.link_c1[b]))
+        rate = 2.0 * network.cell_eps_m2s[cells] / (network.cell_speed_mps[cells]
+                                                    * network.cell_width_m[cells] ** 2)
+        dx = float(network.link_dx_m[b])
+        var = MIN_SIGMA_ETA ** 2 + np.concatenate([[0.0], np.cumsum(rate * dx)])
+        out[b] = section = PlumeSection(lo, hi, coeffs, var, dx,
+                                        float(np.median(network.cell_width_m[cells])))
+        ends[b] = _flat_or(lambda p, sec=section, s=float(network.link_length_m[b]):
+                           sec.profile(np.full(len(p), s), p), lo, hi)
+    return out
+
+
+def _flat_or(profile, lo: float, hi: float):
+    """``profile`` (a function of ψ), or None if it is flat within MIXED_WITHIN over [lo, hi]."""
+    f = profile(lo + np.linspace(0.0, 1.0, 65) * (hi - lo))
+    return None if np.abs(f - 1.0).max() <= MIXED_WITHIN else profile
+
+
+def _source_end(network: SpillNetwork, source: SpillSource):
+    """The near field at the end of the source's link as a function of ψ (None: flat)."""
+    s = float(network.link_length_m[source.link])
+    return _flat_or(lambda p: near_field_profile(network, source, np.full(len(p), s),
+                                                 np.asarray(p, np.float64)),
+                    source.psi_left, source.psi_right)

@@ -172,3 +172,68 @@ def spill_steps(net, book, t_start, dt, n_steps, work, node_mass):
             else:
                 for i in range(m.shape[0]):
                     m[i] = work[i]
+
+
+class TintTexels(NamedTuple):
+    """Where the spill tint's texels sit on the network
+    (:class:`riverflow.hydro.spills.SpillTint`)."""
+
+    wet: np.ndarray
+    """(W,) int64 flat index of each wet texel."""
+    cell_a: np.ndarray
+    """(W,) int64 the first of the two cells interpolated at it."""
+    cell_b: np.ndarray
+    """(W,) int64 the second."""
+    weight_b: np.ndarray
+    """(W,) float64 the second cell's weight."""
+    profile: np.ndarray
+    """(S, W) float64 each spill's transverse profile there."""
+    fringe: np.ndarray
+    """(F,) int64 dry texels next to the water, which take ..."""
+    fringe_from: np.ndarray
+    """(F,) int64 ... the value of this wet texel."""
+
+
+@njit(**JIT_OPTIONS)
+def tint_texels(texels, conc, colours, out):
+    """Write the tint at the wet texels and their fringe into ``out`` (T, 4) float32 (RGB:
+    the concentration-weighted mean of the spills' ``colours`` (S, 3); A: the total
+    concentration, each spill's ``conc`` (S, N) [kg/m³] interpolated between the texel's two
+    cells times its profile). Returns (first, last + 1) of the texture rows (of
+    ``row_texels`` texels: ``out`` is square) holding a texel with A > 0 ((0, 0): none)."""
+    n_spills = conc.shape[0]
+    side = int(math.sqrt(out.shape[0]) + 0.5)
+    first, end = side, 0
+    for k in range(texels.wet.shape[0]):
+        a, b, w = texels.cell_a[k], texels.cell_b[k], texels.weight_b[k]
+        total = 0.0
+        r = 0.0
+        g = 0.0
+        bl = 0.0
+        for s in range(n_spills):
+            c = (conc[s, a] * (1.0 - w) + conc[s, b] * w) * texels.profile[s, k]
+            total += c
+            r += colours[s, 0] * c
+            g += colours[s, 1] * c
+            bl += colours[s, 2] * c
+        inv = 1.0 / max(total, 1e-30)
+        t = texels.wet[k]
+        out[t, 0] = r * inv
+        out[t, 1] = g * inv
+        out[t, 2] = bl * inv
+        out[t, 3] = total
+        if out[t, 3] > 0.0:
+            row = t // side
+            first = min(first, row)
+            end = max(end, row + 1)
+    for k in range(texels.fringe.shape[0]):
+        t, f = texels.fringe[k], texels.fringe_from[k]
+        for ch in range(4):
+            out[t, ch] = out[f, ch]
+        if out[t, 3] > 0.0:
+            row = t // side
+            first = min(first, row)
+            end = max(end, row + 1)
+    if end == 0:
+        return 0, 0
+    return first, end

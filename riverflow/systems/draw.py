@@ -69,6 +69,7 @@ from riverflow.components.waves import WaveTile
 from riverflow.engine import gl
 from riverflow.engine.system import System
 from riverflow.systems.draw_falls import FallSheets, SprayQuads
+from riverflow.systems.legend import concentration_bar, legend_panel_rgba
 from riverflow.hydro.falls import RAPIDS_FULL_SLOPE, RAPIDS_MIN_SLOPE
 from riverflow.hydro.spills import TINT_TEXELS, SpillTint
 from riverflow.kernels.foam import foam_pattern_mips
@@ -179,6 +180,7 @@ class _Gpu:
             "falls": gl.Program("falls.glsl", defines),
             "spray": gl.Program("spray.glsl", defines),
             "composite": gl.Program("composite.glsl"),
+            "legend": gl.Program("legend.glsl"),
         }
         # the uniforms that never change (texture units, constants), set once: not checked
         # again every frame
@@ -204,6 +206,9 @@ class _Gpu:
         self.spill_tint = SpillTint()
         self.spill = gl.Texture((TINT_TEXELS, TINT_TEXELS), gl.RGBA32F, linear=True)
         self.spill_version = -1
+        self.legend: gl.Texture | None = None           # the concentration legend's panel
+        self.legend_for: tuple = ()                     # (frame size, range) it was made for
+        self.legend_bar = None
         self.flood_cells: gl.Texture | None = None      # made by the first flood drawn
         self.flood_rise: gl.Texture | None = None
         self.flood_rise_cpu: np.ndarray | None = None
@@ -320,7 +325,7 @@ class _Gpu:
         self.water.delete()
         for obj in [self.empty, self.view, self.params, self.bins, self.grid_fb, self.grid,
                     self.drops, self.ripples, self.foam_pattern, self.wakes, self.spill,
-                    self.flood_cells, self.flood_rise,
+                    self.flood_cells, self.flood_rise, self.legend,
                     *self.targets,
                     *(tex for _, tex in self.waves.values())]:
             if obj is not None:
@@ -683,6 +688,7 @@ _CONSTANT_UNIFORMS = dict(
     u_params=PARAMS_UNIT, u_grid=GRID_UNIT, u_wave=WAVE_UNIT, u_accum=ACCUM_UNIT,
     u_water_position=WATER_POSITION_UNIT, u_ripples=RIPPLES_UNIT, u_drops=DROPS_UNIT,
     u_bins=BINS_UNIT, u_foam_pattern=FOAM_PATTERN_UNIT, u_wakes=WAKES_UNIT, u_spill=SPILL_UNIT,
+    u_legend=SPILL_UNIT,
     u_spray=SPRAY_UNIT, u_flood_cells=FLOOD_CELLS_UNIT, u_flood_rise=FLOOD_RISE_UNIT,
     u_reflection=REFLECTION_UNIT, u_reflection_depth=REFLECTION_DEPTH_UNIT,
     u_colour=COMPOSITE_COLOUR_UNIT, u_depth=COMPOSITE_DEPTH_UNIT,
@@ -846,6 +852,8 @@ class DrawRivers(System):
             gl.enable_program_point_size()
             gl.set_blend(gl.BLEND_ADD)
             gpu.empty.draw(gl.POINTS, count=n_entries)
+        if mode == DisplayMode.CONCENTRATION and settings.concentration_legend:
+            self._draw_legend(gpu, settings)
         gl.set_blend(gl.BLEND_OFF)
         gl.set_depth(False)
 
@@ -928,15 +936,47 @@ class DrawRivers(System):
         if on:
             colours = sorted((s.row, s.colour) for _, s in esper.get_component(Spill))
             gpu.spill_tint.update(solver, world.field.potential, [c for _, c in colours])
-            if gpu.spill_tint.version != gpu.spill_version:
-                gpu.spill.upload(gpu.spill_tint.rgba)
-                gpu.spill_version = gpu.spill_tint.version
+            tint = gpu.spill_tint
+            if tint.version != gpu.spill_version:
+                # the rows it changed, unless a change was missed (then all)
+                first, end = tint.rows if tint.version == gpu.spill_version + 1 \
+                    else (0, TINT_TEXELS)
+                gpu.spill.upload(tint.rgba, first_row=first, rows=end - first)
+                gpu.spill_version = tint.version
             on = gpu.spill_tint.rect_m[2] > 0.0
         gpu.spill.bind(SPILL_UNIT)
         lo, hi = settings.concentration_range_kg_m3
         return {"u_spill_on": int(on), "u_spill_rect": gpu.spill_tint.rect_m,
                 "u_spill_visible": float(settings.spill_visible_kg_m3),
                 "u_spill_range": (math.log10(lo), math.log10(hi))}
+
+    def _draw_legend(self, gpu: _Gpu, settings: DisplaySettings) -> None:
+        """The concentration mode's colour bar with its ticks and values in kg/m³, in the
+        frame's lower right corner (:mod:`riverflow.systems.legend`, ``shaders/legend.glsl``);
+        its panel image remade when the frame's size or the range changes."""
+        key = (gpu.size, tuple(settings.concentration_range_kg_m3))
+        if key != gpu.legend_for:
+            gpu.legend_for = key
+            if gpu.legend is not None:
+                gpu.legend.delete()
+                gpu.legend = None
+            gpu.legend_bar = concentration_bar(settings.concentration_range_kg_m3, gpu.size)
+            if gpu.legend_bar is not None:
+                rgba = legend_panel_rgba(gpu.legend_bar)
+                gpu.legend = gl.Texture(rgba.shape[1::-1], gl.RGBA8)
+                gpu.legend.upload(rgba)
+        bar = gpu.legend_bar
+        if bar is None:
+            return
+        gpu.legend.bind(SPILL_UNIT)
+        program = gpu.programs["legend"]
+        program.use()
+        program.set(u_legend_panel=bar.panel_px, u_legend_bar=bar.bar_px,
+                    u_legend_frame=(float(gpu.size[0]), float(gpu.size[1])))
+        gl.set_depth(True, write=True)
+        gl.set_blend(gl.BLEND_ALPHA)
+        gpu.empty.draw(gl.TRIANGLES, count=6)
+        gl.set_depth(False, write=False)
 
     def _upload_flood(self, world: RiverWorld, gpu: _Gpu) -> dict:
         """The water and terrain shaders' flood uniforms (``shaders/flood.glsl``): the

@@ -318,16 +318,34 @@ def test_the_tint_texture_holds_the_concentrations(spilled):
     g = (np.arange(TINT_TEXELS) + 0.5) * side / TINT_TEXELS
     gx, gy = np.meshgrid(x0 + g, y0 + g)
     xy = np.column_stack([gx.ravel(), gy.ravel()])
-    c = world.concentration(xy, per_spill=True)
     rgba = tint.rgba.reshape(-1, 4)
-    # off the sources' links (where the tint widens the plume to a texel, not to alias)
-    link, _, _ = solver.network.locate(xy)
-    off = ~np.isin(link, [s.link for s in solver.sources]) & np.isfinite(
-        world.field.potential(xy))
-    assert off.sum() > 100
-    np.testing.assert_allclose(rgba[off, 3], c.sum(axis=0)[off], rtol=1e-5, atol=1e-12)
-    wet = off & (c.sum(axis=0) > 0)
-    np.testing.assert_allclose(rgba[wet, 0], c[0, wet] / c[:, wet].sum(axis=0), rtol=1e-4)
+    # the query's way (locate, interpolate, transverse profile) with the plume widened to a
+    # texel as the tint does (not to alias); the query itself where that changes nothing
+    net = solver.network
+    link, s, _ = net.locate(xy)
+    psi = world.field.potential(xy)
+    wet = np.isfinite(psi) & (link >= 0)
+    assert wet.sum() > 100
+    cells = solver.cell_concentration()
+    c = np.array([net.interpolate(cells[k], link[wet], s[wet])
+                  * solver.transverse(k, link[wet], s[wet], psi[wet], side / TINT_TEXELS)
+                  for k in range(solver.n_spills)])
+    np.testing.assert_allclose(rgba[wet, 3], c.sum(axis=0), rtol=1e-4, atol=1e-12)
+    on = c.sum(axis=0) > 1e-20
+    np.testing.assert_allclose(rgba[wet][on, 0], c[0, on] / c[:, on].sum(axis=0), rtol=1e-4)
+    query = world.concentration(xy[wet], per_spill=True).sum(axis=0)
+    untouched = np.abs(query - c.sum(axis=0)) <= 1e-6 * query.max()
+    assert untouched.mean() > 0.5
+    # a refresh changes only the rows it says (the draw system uploads those alone)
+    assert tint.rows == (0, TINT_TEXELS)                    # a new square: all of them
+    before = tint.rgba.copy()
+    world.advance_spills(60.0)
+    assert tint.update(solver, world.field.potential, colours)
+    if tint.rect_m == (x0, y0, side):
+        first, end = tint.rows
+        changed = np.flatnonzero((tint.rgba != before).any(axis=(1, 2)))
+        assert len(changed) and first <= changed.min() and changed.max() < end
+        assert end - first < TINT_TEXELS
 
 
 def test_a_graph_file_scene_gets_its_discharges_from_the_stream_function(tiny_channel_path):
@@ -405,3 +423,79 @@ def test_dispersion_settings():
             Dispersion(**bad)
     with pytest.raises(ValueError, match="discharge"):
         build_spill_network([branch("c", line, 30.0)], [float("nan")])
+
+
+# -- mixing below a confluence -----------------------------------------------------------------
+
+def test_a_tributary_plume_hugs_its_bank_below_the_confluence_then_mixes():
+    """Below a confluence the tributary's plume stays on the tributary's side of the ψ range
+    (its share of the discharge), spreads by the transverse mixing and is mixed after several
+    mixing lengths 0.4 U W² / ε_t; across the section its mean is the 1-D solver's (1)."""
+    from riverflow.hydro.spills import plume_sections
+    net = build_spill_network(
+        [branch("main", straight(1000.0, 11), 40.0, -1, 0),
+         branch("trib", straight(1000.0, 11, 400.0), 20.0, -1, 0),
+         branch("below", straight(60000.0, 61, 0.0, 1000.0), 50.0, 0, -1)],
+        [60.0, 20.0, 80.0])
+    net.link_psi_m2s = np.array([[20.0, 80.0], [0.0, 20.0], [0.0, 80.0]])   # trib: low ψ
+    trib, below = net.names.index("trib"), net.names.index("below")
+    src = _source(net, trib, 100.0)
+    src.psi_left, src.psi_right = 0.0, 20.0
+    sections = plume_sections(net, src)
+    assert list(sections) == [below]
+    solver = SpillSolver(net)
+    solver.add(src, "t", 1.0, 0.0, 0.0)
+    cells = net.cell_link == below
+    u, w, eps = (float(np.median(v[cells])) for v in (net.cell_speed_mps, net.cell_width_m,
+                                                       net.cell_eps_m2s))
+    mixing_m = 0.4 * u * w * w / eps
+    assert 3.5 * mixing_m < net.link_length_m[below]
+    psi = np.linspace(0.0, 80.0, 401)
+
+    def across(s_m):
+        return solver.transverse(0, np.full(len(psi), below), np.full(len(psi), s_m), psi)
+
+    near = across(0.05 * mixing_m)
+    assert near[psi < 10].mean() > 3.0 * near[psi > 70].mean()       # the tributary's bank
+    assert near[psi > 70].max() < 0.2                                 # little on the far side
+    far = across(3.0 * mixing_m)
+    assert np.abs(far - 1.0).max() < 0.03                             # mixed within 3 %
+    for s in (0.0, 0.05 * mixing_m, 0.3 * mixing_m, mixing_m, 3.0 * mixing_m):
+        assert np.trapezoid(across(s), psi) / 80.0 == pytest.approx(1.0, abs=2e-3)
+    # the tributary's side by its share: a quarter of the discharge, a quarter of the range
+    mid = across(0.3 * mixing_m)
+    assert np.trapezoid(mid * psi, psi) / np.trapezoid(mid, psi) < 0.5 * 80.0
+    # a spill on the main river is on the other side
+    src2 = _source(net, net.names.index("main"), 100.0)
+    src2.psi_left, src2.psi_right, src2.eta = 20.0, 80.0, 0.5
+    solver.add(src2, "m", 1.0, 0.0, 0.0)
+    other = solver.transverse(1, np.full(len(psi), below), np.full(len(psi), 0.05 * mixing_m),
+                              psi)
+    assert other[psi > 40].mean() > 1.2 > 0.5 > other[psi < 5].mean()
+
+
+def test_tint_kernel_matches_numpy_twin():
+    """riverflow.kernels.spill.tint_texels against the plain-numpy way it replaced."""
+    from riverflow.kernels.spill import TintTexels, tint_texels
+    rng = np.random.default_rng(5)
+    side, n_cells, n_spills = 16, 30, 3
+    wet = rng.choice(np.arange(3 * side, 11 * side), 40, replace=False).astype(np.int64)
+    ia = rng.integers(0, n_cells - 1, 40).astype(np.int64)
+    texels = TintTexels(wet, ia, ia + 1, rng.uniform(0, 1, 40), rng.uniform(0, 2, (n_spills, 40)),
+                        np.array([2 * side + 1, 12 * side], np.int64), wet[:2].copy())
+    conc = rng.uniform(0, 1e-3, (n_spills, n_cells))
+    conc[:, ia[5]] = conc[:, ia[5] + 1] = 0.0            # a texel with nothing: (0, 0, 0, 0)
+    colours = rng.uniform(0, 1, (n_spills, 3))
+    out = np.zeros((side * side, 4), np.float32)
+    rows = tint_texels(texels, conc, colours, out)
+    twin = np.zeros_like(out)
+    c = (conc[:, texels.cell_a] * (1 - texels.weight_b) + conc[:, texels.cell_b]
+         * texels.weight_b) * texels.profile
+    total = c.sum(axis=0)
+    twin[wet, :3] = ((colours.T @ c) / np.maximum(total, 1e-30)).T
+    twin[wet, 3] = total
+    twin[texels.fringe] = twin[texels.fringe_from]
+    np.testing.assert_allclose(out, twin, rtol=1e-6, atol=1e-12)
+    tinted = np.flatnonzero((twin.reshape(side, side, 4)[:, :, 3] > 0).any(axis=1))
+    assert rows == (tinted[0], tinted[-1] + 1) == (2, 13)
+    assert tint_texels(texels, np.zeros_like(conc), colours, out) == (0, 0)

@@ -94,6 +94,13 @@ def test_texture_round_trip_is_exact(gl_context, fmt_name, rng):
     tex.upload(np.zeros_like(data), rows=2)
     back = gl.read_texture(tex)
     assert not back[:2].any() and np.array_equal(back[2:], data[2:])
+    # and from a row on: those rows of the array into the same rows
+    tex.upload(data, first_row=1, rows=1)
+    back = gl.read_texture(tex)
+    assert not back[0].any() and np.array_equal(back[1:], data[1:])
+    tex.upload(np.zeros_like(data), first_row=3, rows=1)
+    back = gl.read_texture(tex)
+    assert not back[3].any() and np.array_equal(back[[1, 2, 4]], data[[1, 2, 4]])
     tex.delete()
     gl.check_errors("texture round trip")
 

@@ -38,6 +38,7 @@ def _frames(world, mode):
 def test_a_plume_discolours_the_water_and_only_the_water(setup):
     world, scene = setup
     world.paused = True                        # the particles hold still: only the tint changes
+    world.display.concentration_legend = False     # (its own test below)
     before = _frames(world, DisplayMode.ADVECTED)
     ramp_before = _frames(world, DisplayMode.CONCENTRATION)
     mesh = _frames(world, DisplayMode.MESH)
@@ -61,3 +62,39 @@ def test_a_plume_discolours_the_water_and_only_the_water(setup):
     tinted = (np.abs(ramp_after[:, :, :3] - ramp_before[:, :, :3]).sum(axis=2) > 60)
     assert tinted.sum() > 50 and not (tinted & ~water).any()
     world.paused = False
+    world.display.concentration_legend = True
+
+
+def test_the_concentration_mode_draws_its_colour_bar_with_values(setup):
+    """The legend in the frame (lower right): only there does the frame change; the bar's
+    pixels are the mode's ramp (the numpy twin) at the value of their row, also at each
+    labelled decade; a white tick beside the bar at each decade."""
+    from riverflow.systems.legend import concentration_bar
+    world, _ = setup
+    world.paused = True
+    world.display.concentration_legend = False
+    bare = _frames(world, DisplayMode.CONCENTRATION)
+    world.display.concentration_legend = True
+    shown = _frames(world, DisplayMode.CONCENTRATION)
+    world.paused = False
+    bar = concentration_bar(world.display.concentration_range_kg_m3, (W, H))
+    x0, y0, pw, ph = bar.panel_px
+    inside = np.zeros((H, W), bool)
+    inside[H - y0 - ph:H - y0, x0:x0 + pw] = True
+    changed = (shown[:, :, :3] != bare[:, :, :3]).any(axis=2)
+    assert changed[inside].mean() > 0.5 and not changed[~inside].any()
+    bx, by, bw, bh = bar.bar_px
+    column = x0 + bx + bw // 2
+    rows = range(by, by + bh)
+    got = np.array([shown[H - 1 - (y0 + r), column, :3] for r in rows])
+    want = np.array([255 * concentration_colour(bar.row_value(r) * (1 + 1e-9), world.display)
+                     for r in rows])
+    assert np.abs(got - want).max() <= 2
+    assert len(bar.ticks) == 5                                  # 1e-6 … 1e-2: a tick a decade
+    step = np.abs(np.diff(want, axis=0)).max()                  # the ramp's change in a row
+    for value, row in bar.ticks:
+        y = H - 1 - (y0 + row)
+        at = 255 * concentration_colour(value * (1 + 1e-9), world.display)
+        assert np.abs(shown[y, column, :3] - at).max() <= step + 2
+        tick = shown[y, x0 + bx - 2, :3]
+        assert tick.min() > 200                                 # white, left of the bar
