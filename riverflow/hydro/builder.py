@@ -566,10 +566,13 @@ class RiverNetworkBuilder:
             spans.setdefault(b, []).append((s0, s1, k))
 
         def on(b: int, station: float, where: str) -> tuple[int, float]:
-            for s0, s1, k in spans.get(b, []):
+            pieces = sorted(spans.get(b, []))
+            for i, (s0, s1, k) in enumerate(pieces):
                 if s0 <= self.tolerance_m:           # (a start snapped to a junction)
                     s0 = 0.0
-                if s0 - 1e-6 <= station <= s1 + self.tolerance_m:
+                # past the last piece's end (an end snapped back) the fall's own checks speak
+                if s0 - 1e-6 <= station and (i == len(pieces) - 1
+                                             or station <= s1 + self.tolerance_m):
                     return k, station - s0
             raise GraphError(f"{where}: {station:.1f} m along branch "
                              f"{self._branches[b].name!r} lies in a lake (the branch is cut "
