@@ -34,7 +34,30 @@ def main(argv: list[str] | None = None) -> int:
     if args.command is None:
         parser.print_help()
         return 2
+    wrong = _scene_option_misuse(args)
+    if wrong:
+        print(f"riverflow {args.command}: error: {wrong}", file=sys.stderr)
+        return 2
     return args.run(args)
+
+
+def _scene_option_misuse(args: argparse.Namespace) -> str | None:
+    """What is wrong with the scene options together (an option that the chosen scene would
+    silently ignore), or None."""
+    if not hasattr(args, "scene") or not hasattr(args, "seed"):
+        return None
+    if args.scene is None:
+        given = [f"--{name}" for name in ("layer", "terrain", "inlet", "outlet", "lines")
+                 if getattr(args, name, None) is not None]
+        if given:
+            return (f"{', '.join(given)} {'apply' if len(given) > 1 else 'applies'} to a "
+                    f"--scene FILE; the built-in scene makes its own network and hills")
+        return None
+    given = [f"--{name}" for name in ("falls", "dam") if getattr(args, name, False)]
+    if given:
+        return (f"{' and '.join(given)} shape{'s' if len(given) == 1 else ''} the built-in "
+                f"scene; with --scene {args.scene} the file decides")
+    return None
 
 
 # -- parser -------------------------------------------------------------------------------------
@@ -156,7 +179,7 @@ def _scene_args(p: argparse.ArgumentParser) -> None:
 
     p.add_argument("--scene", type=Path, metavar="FILE", help=SCENE_HELP)
     add_scene_options(p)
-    p.add_argument("--seed", type=int, default=0, metavar="N",
+    p.add_argument("--seed", type=_seed, default=0, metavar="N",
                    help="seed of the built-in scene (default: %(default)s)")
     p.add_argument("--falls", action="store_true",
                    help="the built-in scene with a 6 m fall and a rapid on its tributary "
@@ -180,6 +203,17 @@ MAX_COUNT = 10_000_000
 """Most frames (--frames, --every) a command takes: 46 hours at 60 frames a second."""
 MAX_SIDE_PX = 1 << 15
 """Widest picture or window side [px] (--size, --size-px): RiverWorld's limit."""
+
+
+def _seed(text: str) -> int:
+    """A seed: a whole number ≥ 0 (what numpy's generators take)."""
+    try:
+        value = int(text)
+    except ValueError:             # also past Python's 4,300-digit limit
+        raise argparse.ArgumentTypeError(f"not an integer: {text[:40]!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must be a whole number ≥ 0, got {text[:40]!r}")
+    return value
 
 
 def _positive_int(text: str) -> int:
@@ -274,9 +308,18 @@ def _demo(args: argparse.Namespace) -> int:
             from riverflow.engine.controls import KeyScript
 
             try:
-                script = KeyScript.from_text(args.script.read_text(), str(args.script),
-                                             keys=demo.KEYS)
-            except (OSError, ValueError) as exc:
+                text = args.script.read_text(encoding="utf-8")
+            except UnicodeDecodeError as exc:
+                print(f"riverflow demo: --script {args.script}: not a text key script "
+                      f"(byte {exc.start} is not UTF-8)", file=sys.stderr)
+                return 1
+            except OSError as exc:
+                print(f"riverflow demo: --script {args.script}: cannot read it: "
+                      f"{exc.strerror or exc}", file=sys.stderr)
+                return 1
+            try:
+                script = KeyScript.from_text(text, str(args.script), keys=demo.KEYS)
+            except ValueError as exc:
                 print(f"riverflow demo: {exc}", file=sys.stderr)
                 return 1
         try:

@@ -113,6 +113,15 @@ def non_negative(value, name: str) -> float:
     return v
 
 
+def seed(value, name: str) -> int:
+    """A random seed: a whole number ≥ 0 (what numpy's generators take)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, np.integer)):
+        raise ValueError(f"{name} must be a whole number ≥ 0, got {value!r:.80}")
+    if value < 0:
+        raise ValueError(f"{name} must be ≥ 0, got {value!r}")
+    return int(value)
+
+
 def choice(value, name: str, options) -> object:
     """``value`` if it is one of ``options``, else a ValueError listing them."""
     try:

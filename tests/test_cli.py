@@ -336,6 +336,11 @@ def test_bad_arguments_are_usage_errors():
     (["bake", "--cell-m", "-1"], "--cell-m"),
     (["bake", "--cell-m", "inf"], "--cell-m"),
     (["bake", "--cell-m", "one"], "--cell-m"),
+    (["render", "--seed=-1"], "--seed"),
+    (["demo", "--seed", "0.5"], "--seed"),
+    (["spill", "--at", "0,0", "--mass", "1", "--every", "1", "--hours", "1e9"], "--hours"),
+    (["view", "tiles", "--port", "70000"], "--port"),
+    (["view", "tiles", "--port=-1"], "--port"),
 ])
 def test_bad_numbers_are_usage_errors_naming_the_option(argv, option, capsys):
     from riverflow.__main__ import _parser
@@ -346,6 +351,39 @@ def test_bad_numbers_are_usage_errors_naming_the_option(argv, option, capsys):
     err = capsys.readouterr().err
     assert f"argument {option}:" in err and "Traceback" not in err, err
     assert len(err) < 2000                      # a 5000-digit number is not echoed
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["render", "--terrain", "dem.tif"], "--terrain applies to a --scene FILE"),
+    (["flowmap", "--inlet", "1,2", "--lines", "l.shp"], "--inlet, --lines apply to a --scene"),
+    (["profile", "--layer", "rivers"], "--layer applies to a --scene FILE"),
+    (["render", "--scene", "a.graph", "--falls", "--dam"], "--falls and --dam shape the built-in"),
+    (["spill", "--at", "0,0", "--mass", "1", "--hours", "100", "--every", "0.5"],
+     "makes 12,000 maps; at most 10,000"),
+])
+def test_options_the_scene_would_ignore_are_usage_errors(argv, words, capsys):
+    from riverflow.__main__ import main
+
+    assert main(argv) == 2                      # before any scene is made or file read
+    err = capsys.readouterr().err
+    assert words in err and "Traceback" not in err, err
+
+
+def test_water_options_on_a_line_network_are_refused(tiny_channel_path, capsys):
+    from riverflow.__main__ import main
+
+    assert main(["render", "--scene", str(tiny_channel_path), "--inlet", "1,2"]) == 1
+    err = capsys.readouterr().err
+    assert "--inlet: for water polygons and masks only" in err and "Traceback" not in err
+
+
+def test_a_script_that_is_no_text_names_itself(tmp_path):
+    script = tmp_path / "keys.bin"
+    script.write_bytes(b"\x00\xb4\xff binary")
+    result = cli("demo", "--headless", "--frames", "2", "--script", str(script),
+                 "--out", str(tmp_path / "demo"))
+    assert result.returncode == 1 and "Traceback" not in result.stderr
+    assert "--script" in result.stderr and "keys.bin: not a text key script" in result.stderr
 
 
 def test_good_numbers_parse():

@@ -33,6 +33,7 @@ import esper
 import numpy as np
 
 from riverflow._validate import check_allocation, size_px
+from riverflow._validate import seed as seed_value
 from riverflow.components.display import DisplaySettings
 from riverflow.components.foam import FoamSettings
 from riverflow.components.particles import LiveParticles, ParticlePool
@@ -99,6 +100,7 @@ class RiverWorld:
                  gl: bool | str = False, seed: int = 0, config: RiverConfig | None = None,
                  systems: list[System] | None = None) -> None:
         size = size_px(size, "RiverWorld: size")       # (W, H) ≥ 1 px, whole, bounded
+        seed = seed_value(seed, "RiverWorld: seed")
         if not (gl is True or gl is False or gl == "current"):
             raise ValueError(f"RiverWorld: gl must be False, True or \"current\", got {gl!r}")
         self.config = config if config is not None else RiverConfig()
@@ -110,7 +112,7 @@ class RiverWorld:
             from riverflow.engine import gl as gl_module
 
             self.context = gl_module.acquire_host_context()
-        self.seed = int(seed)
+        self.seed = seed
         self.rng = np.random.default_rng(self.seed)
         self.scene = scene
         self.name = f"riverflow-{uuid.uuid4().hex}"

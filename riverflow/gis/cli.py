@@ -65,6 +65,14 @@ def scene_graph(args: argparse.Namespace, config=None):
     config = RiverConfig.from_env() if config is None else config
     if holds_water_areas(args.scene, getattr(args, "layer", None)):
         return read_water_args(args.scene, args).use_config(config).build()
+    given = [f"--{name}" for name in ("inlet", "outlet", "lines")
+             if getattr(args, name, None) is not None]
+    if given:
+        from riverflow.hydro.graph import GraphError
+
+        raise GraphError(f"{', '.join(given)}: for water polygons and masks only; "
+                         f"{args.scene} holds no water areas (its lines or graph give the "
+                         f"direction)")
     if is_gis_path(args.scene):
         from riverflow.gis.rivers import read_rivers
 
@@ -193,8 +201,8 @@ def add_spill_command(sub, scene_args, positive) -> None:
     p.add_argument("--at", type=_point, required=True, metavar="X,Y",
                    help="the release point [m] in the scene's coordinates")
     p.add_argument("--mass", type=positive, required=True, metavar="KG", help="mass released [kg]")
-    p.add_argument("--hours", type=positive, required=True, metavar="H",
-                   help="how long to run the spill [h]")
+    p.add_argument("--hours", type=_spill_hours(positive), required=True, metavar="H",
+                   help=f"how long to run the spill [h], at most {MAX_SPILL_HOURS:,}")
     p.add_argument("--every", type=positive, required=True, metavar="MIN",
                    help="minutes between two maps")
     p.add_argument("--duration-min", type=float, default=0.0, metavar="MIN",
@@ -213,6 +221,22 @@ def add_spill_command(sub, scene_args, positive) -> None:
     p.set_defaults(run=run_spill)
 
 
+MAX_SPILL_HOURS = 8760
+"""Longest spill ``riverflow spill --hours`` runs: a year."""
+MAX_SPILL_MAPS = 10_000
+"""Most maps one ``riverflow spill`` writes (``--hours`` × 60 / ``--every``)."""
+
+
+def _spill_hours(positive):
+    def hours(text: str) -> float:
+        value = positive(text)
+        if value > MAX_SPILL_HOURS:
+            raise argparse.ArgumentTypeError(f"must be at most {MAX_SPILL_HOURS:,} h (a year), "
+                                             f"got {text[:40]!r}")
+        return value
+    return hours
+
+
 def _point(text: str) -> tuple[float, float]:
     try:
         x, y = (float(v) for v in text.split(","))
@@ -226,6 +250,12 @@ def _point(text: str) -> tuple[float, float]:
 def run_spill(args: argparse.Namespace) -> int:
     from riverflow.__main__ import _load_scene
 
+    maps = 60.0 * args.hours / args.every
+    if maps > MAX_SPILL_MAPS:
+        print(f"riverflow spill: error: --hours {args.hours:g} every {args.every:g} min makes "
+              f"{maps:,.0f} maps; at most {MAX_SPILL_MAPS:,}: give a larger --every",
+              file=sys.stderr)
+        return 2
     scene, title = _load_scene(args)
     if scene is None:
         return 1
@@ -306,7 +336,7 @@ def add_view_command(sub) -> None:
     p.add_argument("folder", type=Path, metavar="DIR", help="the tile pyramid's folder")
     p.add_argument("--serve", action="store_true",
                    help="serve DIR on http://127.0.0.1:PORT/ until interrupted")
-    p.add_argument("--port", type=int, default=8000, metavar="PORT",
+    p.add_argument("--port", type=_port, default=8000, metavar="PORT",
                    help="--serve: the port (0: any free one; default: %(default)s)")
     p.add_argument("--basemap", default=None, metavar="URL",
                    help="an XYZ basemap URL (https://…/{z}/{x}/{y}.png) under the water "
@@ -314,6 +344,16 @@ def add_view_command(sub) -> None:
     p.add_argument("--attribution", default="", metavar="TEXT",
                    help="--basemap: its attribution, shown in the corner")
     p.set_defaults(run=run_view)
+
+
+def _port(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a port number, got {text[:40]!r}") from None
+    if not 0 <= value <= 65535:
+        raise argparse.ArgumentTypeError(f"must be 0 … 65535, got {text[:40]!r}")
+    return value
 
 
 def run_view(args: argparse.Namespace) -> int:
@@ -410,6 +450,22 @@ def lake_lines(graph) -> list[str]:
         lines.append(f"  lake (area {k}) near ({x:.1f}, {y:.1f}): {poly.area:,.0f} m², {level}, "
                      + (f"{mouths} river mouths" if mouths else "no river (still water)"))
     return lines
+
+
+MAX_SPILL_HOURS = 8760
+"""Longest spill ``riverflow spill --hours`` runs: a year."""
+MAX_SPILL_MAPS = 10_000
+"""Most maps one ``riverflow spill`` writes (``--hours`` × 60 / ``--every``)."""
+
+
+def _spill_hours(positive):
+    def hours(text: str) -> float:
+        value = positive(text)
+        if value > MAX_SPILL_HOURS:
+            raise argparse.ArgumentTypeError(f"must be at most {MAX_SPILL_HOURS:,} h (a year), "
+                                             f"got {text[:40]!r}")
+        return value
+    return hours
 
 
 def _point(text: str) -> tuple[float, float]:

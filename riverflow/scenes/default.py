@@ -22,6 +22,7 @@ import numpy as np
 import shapely
 
 from riverflow._validate import check_allocation, finite
+from riverflow._validate import seed as seed_value
 from riverflow.hydro.builder import RiverNetworkBuilder
 from riverflow.scenes.carving import Carving
 from riverflow.scenes.landscape import (DEFAULT_CELL_M, CarvedTerrain, Landscape, SourceGround,
@@ -122,6 +123,7 @@ def default_scene(seed: int = 0, size_km: float = 4.0, *, falls: bool = False,
     scene's branches are cut at its shore: the river above, the ``"reservoir"`` through it
     and DAM_OUTLET below the dam (where a release starts, :func:`riverflow.hydro.flood.
     level_pool_release`, ``demos/dam_break.py``)."""
+    seed = seed_value(seed, "default_scene: seed")
     size_km = finite(size_km, "default_scene: size_km")
     size_m = DEFAULT_SIZE_M if abs(size_km - 4.0) < 1e-9 else 1000.0 * float(size_km)
     if not size_m >= 500.0:

@@ -44,21 +44,21 @@ def write_viewer(folder, *, basemap: str | None = None, attribution: str = "",
     folder = Path(folder)
     tilejson = folder / "tiles.json"
     if not tilejson.is_file():
-        raise FileNotFoundError(f"riverflow view: {tilejson} not found; bake tiles first "
+        raise FileNotFoundError(f"write_viewer: {tilejson} not found; bake tiles first "
                                 "(riverflow bake --tiles DIR)")
     try:
         meta = json.loads(tilejson.read_text())
         meta["riverflow"]["max_speed_mps"], meta["tiles"][0], meta["bounds"]
     except (ValueError, KeyError, IndexError, TypeError) as exc:
-        raise ValueError(f"riverflow view: {tilejson} is not a riverflow TileJSON ({exc!r})") \
+        raise ValueError(f"write_viewer: {tilejson} is not a riverflow TileJSON ({exc!r})") \
             from None
     if basemap is not None and (not basemap.startswith(("http://", "https://"))
                                 or not all(k in basemap for k in ("{z}", "{x}", "{y}"))):
-        raise ValueError(f"riverflow view: basemap must be an http(s) XYZ URL with {{z}}, "
+        raise ValueError(f"write_viewer: basemap must be an http(s) XYZ URL with {{z}}, "
                          f"{{x}} and {{y}}, got {basemap!r:.120}")
     if isinstance(particles, bool) or not isinstance(particles, int) or not \
             1 <= particles <= 100_000:
-        raise ValueError(f"riverflow view: particles must be 1 … 100000, got {particles!r}")
+        raise ValueError(f"write_viewer: particles must be 1 … 100000, got {particles!r}")
     config = {"tilejson": meta, "basemap": basemap, "attribution": attribution,
               "particles": particles}
     licence = (LEAFLET / "LICENSE").read_text(encoding="utf-8")
@@ -147,7 +147,9 @@ def serve(folder, port: int = 8000, *, host: str = "127.0.0.1", verbose: bool = 
     ``server.shutdown()``); else until interrupted."""
     folder = Path(folder)
     if not folder.is_dir():
-        raise NotADirectoryError(f"riverflow view: {folder} is not a folder")
+        raise NotADirectoryError(f"serve: {folder} is not a folder")
+    if isinstance(port, bool) or not isinstance(port, int) or not 0 <= port <= 65535:
+        raise ValueError(f"serve: port must be a whole number 0 … 65535, got {port!r}")
     handler = functools.partial(_Handler, directory=str(folder))
     server = http.server.ThreadingHTTPServer((host, port), handler)
     server.verbose = verbose
