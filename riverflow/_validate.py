@@ -188,6 +188,17 @@ def as_points(xy, name: str = "xy", *, allow_nan: bool = False,
     return _check_finite(pts, name, allow_nan) if finite else pts
 
 
+def as_floats(value, name: str, error: type[Exception] = ValueError) -> np.ndarray:
+    """``value`` as a float64 array; ``error`` naming ``name`` when it holds anything but real
+    numbers (text, None, ragged lists, numbers past float's range)."""
+    if isinstance(value, (str, bytes)):
+        raise error(f"{name} must be numbers, got {type(value).__name__} {value!r:.60}")
+    try:
+        return np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise error(f"{name} must be numbers, got {value!r:.60} ({exc})") from None
+
+
 def _check_finite(pts: np.ndarray, name: str, allow_nan: bool) -> np.ndarray:
     bad = ~np.isfinite(pts)
     if allow_nan:

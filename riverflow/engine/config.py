@@ -152,11 +152,21 @@ class RiverConfig:
     def __post_init__(self) -> None:
         # an int where a float is meant (RiverConfig(radius_px=8)) reaches the kernels as an
         # int and numba compiles them again for it (~25 s cold for the Poisson fill): floats
+        for f in dataclasses.fields(self):    # text or None where a number is meant: say which
+            value = getattr(self, f.name)
+            if isinstance(f.default, (int, float)) and not isinstance(f.default, bool) and (
+                    isinstance(value, bool) or not isinstance(value, numbers.Real)):
+                raise TypeError(f"RiverConfig.{f.name} must be a number, got "
+                                f"{type(value).__name__} {value!r:.60}")
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
             if isinstance(f.default, float) and isinstance(value, numbers.Integral) \
                     and not isinstance(value, bool):
-                object.__setattr__(self, f.name, float(value))
+                try:
+                    object.__setattr__(self, f.name, float(value))
+                except OverflowError:
+                    raise ValueError(f"RiverConfig.{f.name} must be finite, got an integer of "
+                                     f"{len(str(value))} digits") from None
         for f in dataclasses.fields(self):   # NaN passes "not (x > 0)"-style checks: refuse it
             value = getattr(self, f.name)
             items = value if isinstance(value, tuple) else (value,)

@@ -81,6 +81,9 @@ class KeyScript:
         """Parse the module's script format; errors name the source and the line. ``keys``:
         the pyglet names a game reacts to; any other key is an error (a typo would otherwise
         do nothing, silently)."""
+        if not isinstance(text, str):
+            raise TypeError(f"KeyScript.from_text: text must be the script's text (str), got "
+                            f"{type(text).__name__} {text!r:.60}")
         events = []
         for number, line in enumerate(text.splitlines(), start=1):
             words = line.split("#", 1)[0].split()

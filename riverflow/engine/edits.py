@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from riverflow._validate import as_floats
 from riverflow.hydro.builder import RiverNetworkBuilder
 from riverflow.hydro.flow_field import FlowField
 from riverflow.hydro.flow_network import FlowNetwork
@@ -103,7 +104,7 @@ def _link_index(branches: list[RiverBranch], link, what: str) -> int:
 
 
 def _points(points, what: str) -> np.ndarray:
-    pts = np.asarray(points, np.float64)
+    pts = as_floats(points, f"{what}: points")
     if pts.ndim != 2 or pts.shape[1] != 2 or len(pts) < 2:
         raise ValueError(f"{what}: points must be (K ≥ 2, 2) [m], got shape {pts.shape}")
     if not np.isfinite(pts).all():
@@ -113,7 +114,7 @@ def _points(points, what: str) -> np.ndarray:
 
 
 def _widths(widths, k: int, what: str) -> np.ndarray:
-    w = np.asarray(widths, np.float64)
+    w = as_floats(widths, f"{what}: widths")
     if w.ndim == 0:
         w = np.full(k, float(w))
     if w.shape != (k,):

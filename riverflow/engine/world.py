@@ -32,7 +32,8 @@ from typing import Any, TypeVar
 import esper
 import numpy as np
 
-from riverflow._validate import check_allocation, size_px
+from riverflow._validate import (as_points, check_allocation, finite_positive, non_negative,
+                                 size_px)
 from riverflow._validate import seed as seed_value
 from riverflow.components.display import DisplaySettings
 from riverflow.components.foam import FoamSettings
@@ -70,11 +71,18 @@ class _FloodRouterKey:
 def _seconds_ahead(seconds, what: str) -> float:
     """``seconds`` as a float for the ``advance_*`` calls: ValueError (naming ``what``) for a
     negative, NaN or infinite time or a value that is not a number."""
-    if isinstance(seconds, bool) or not isinstance(seconds, (int, float, np.integer,
-                                                              np.floating)) \
-            or not (math.isfinite(seconds) and seconds >= 0):
-        raise ValueError(f"{what}: seconds must be a finite number ≥ 0, got {seconds!r}")
-    return float(seconds)
+    try:
+        value = non_negative(seconds, f"{what}: seconds")
+    except TypeError as exc:
+        raise ValueError(str(exc)) from None
+    if value > MAX_AHEAD_S:
+        raise ValueError(f"{what}: seconds must be at most {MAX_AHEAD_S:.4g} (a year) a call, "
+                         f"got {seconds!r:.40}")
+    return value
+
+
+MAX_AHEAD_S = 366 * 86400.0
+"""Longest jump of one ``advance_spills`` / ``advance_flood`` call [s]: a year."""
 
 
 class RiverWorld:
@@ -228,10 +236,7 @@ class RiverWorld:
 
     @speed_factor.setter
     def speed_factor(self, value: float) -> None:
-        value = float(value)
-        if not (math.isfinite(value) and value >= 0.0):
-            raise ValueError(f"speed_factor must be a finite number ≥ 0, got {value!r}")
-        self.clock.speed_factor = value
+        self.clock.speed_factor = non_negative(value, "speed_factor")
 
     def step(self, dt_s: float) -> None:
         """Advance the world by ``dt_s`` seconds and run every system once, in order.
@@ -243,7 +248,10 @@ class RiverWorld:
                 dt_s, (int, np.integer, np.floating))):
             raise TypeError(f"step: dt_s must be a number of seconds, got "
                             f"{type(dt_s).__name__} {dt_s!r:.80}")
-        dt = float(dt_s) if math.isfinite(dt_s) else 0.0
+        try:
+            dt = float(dt_s) if math.isfinite(dt_s) else 0.0
+        except OverflowError:              # an int past float's range: a very long hitch
+            dt = self.config.max_step_s if dt_s > 0 else 0.0
         dt = min(max(dt, 0.0), self.config.max_step_s)
         if self._edits is not None:
             self._land_edit()              # a background edit made meanwhile: swapped in now
@@ -285,7 +293,7 @@ class RiverWorld:
         if not timeout_s >= 0:                       # NaN and negatives
             raise ValueError(f"load_view: timeout_s must be ≥ 0 seconds, got {timeout_s!r}")
         scheduler = self.tiles.scheduler
-        end = time.perf_counter() + timeout_s
+        end = time.perf_counter() + min(float(timeout_s), 1e18) if timeout_s < 1e18 else math.inf
         starts = scheduler.max_starts
         scheduler.max_starts = 1 << 30      # no frame to keep short: queue the whole view
         try:
@@ -335,8 +343,7 @@ class RiverWorld:
         """The :class:`~riverflow.components.props.Pose` of a prop entity (mutable)."""
         from riverflow.components.props import Pose
 
-        with self.active():
-            return esper.component_for_entity(entity, Pose)
+        return self._component_of(entity, Pose, "pose", "a prop")
 
     def add_boat(self, position_m, heading_rad: float = 0.0, *, drawn: bool = True,
                  **params) -> int:
@@ -362,8 +369,7 @@ class RiverWorld:
         slope, foam, minimum speed, life; its trail)."""
         from riverflow.components.wake import Wake
 
-        with self.active():
-            return esper.component_for_entity(entity, Wake)
+        return self._component_of(entity, Wake, "wake", "a boat")
 
     @property
     def foam(self) -> FoamSettings:
@@ -376,8 +382,17 @@ class RiverWorld:
         ``throttle`` and ``rudder``, read its position, heading, altitude, pitch, roll)."""
         from riverflow.components.boat import Boat
 
+        return self._component_of(entity, Boat, "boat", "a boat")
+
+    def _component_of(self, entity, kind: type[T], what: str, holder: str) -> T:
+        """The ``kind`` component of ``entity``; a KeyError saying what was asked otherwise."""
         with self.active():
-            return esper.component_for_entity(entity, Boat)
+            try:
+                return esper.component_for_entity(entity, kind)
+            except (KeyError, TypeError):
+                pass
+        raise KeyError(f"{what}: {entity!r:.80} is not {holder} entity of this world (its "
+                       f"{kind.__name__} was never made or the entity was deleted)")
 
     def set_rain(self, drops_per_s: float, variance: float = 0.1,
                  wind_mps: tuple[float, float] = (0.0, 0.0)) -> None:
@@ -387,11 +402,11 @@ class RiverWorld:
         with a constant acceleration, carried by the wind ``wind_mps`` (vx, vy) [m/s], and die
         on the ground or the water (ripple rings there) or out of view. ``set_rain(0)`` stops
         the rain at once: every drop and ripple is removed. See :attr:`rain_drops`."""
-        values = (float(drops_per_s), float(variance), *(float(v) for v in wind_mps))
-        if len(values) != 4 or not all(math.isfinite(v) for v in values) \
-                or values[0] < 0.0 or values[1] < 0.0:
-            raise ValueError("set_rain needs drops_per_s ≥ 0, variance ≥ 0 and a finite "
-                             f"wind (vx, vy), got {drops_per_s!r}, {variance!r}, {wind_mps!r}")
+        wind = as_points(wind_mps, "set_rain: wind_mps (vx, vy) [m/s]")
+        if len(wind) != 1:
+            raise ValueError(f"set_rain: wind_mps must be one (vx, vy) [m/s], got {wind_mps!r:.80}")
+        values = (non_negative(drops_per_s, "set_rain: drops_per_s"),
+                  non_negative(variance, "set_rain: variance"), *map(float, wind[0]))
         check_allocation(values[0] * self.config.max_step_s * (1.0 + values[1]) * 8 * 24,
                          f"set_rain: drops_per_s={drops_per_s!r} (per frame of up to "
                          f"{self.config.max_step_s:g} s)")
@@ -420,10 +435,16 @@ class RiverWorld:
         the network's stable step): before the first spill only (ValueError after). Returns it."""
         from riverflow.hydro.spills import SpillSolver
 
+        from riverflow.hydro.spill_network import Dispersion
+
+        if dispersion is not None and not isinstance(dispersion, Dispersion):
+            raise TypeError(f"configure_spills: dispersion must be a Dispersion or None, got "
+                            f"{type(dispersion).__name__} {dispersion!r:.80}")
+        dt = 0.0 if dt_s is None else finite_positive(dt_s, "configure_spills: dt_s")
         if self.spill_solver is not None and self.spill_solver.n_spills:
             raise ValueError("configure_spills: this world has spills already (configure first)")
         network = self._cell_network(dispersion)
-        solver = SpillSolver(network, dt_s=float(dt_s) if dt_s is not None else 0.0)
+        solver = SpillSolver(network, dt_s=dt)
         self.resources[_SpillSolverKey] = solver
         return solver
 
@@ -785,7 +806,7 @@ class RiverWorld:
     def water_level(self, xy_m) -> np.ndarray:
         """(N,) water level [m] of the nearest river point to each (N, 2) [m]: the scene's
         base-flow level plus the flood's rise there."""
-        xy = np.asarray(xy_m, np.float64).reshape(-1, 2)
+        xy = as_points(xy_m, "water_level: xy_m")
         level = np.asarray(self.scene.water.level(xy), np.float64)
         router = self.flood
         return level + router.level_rise(xy) if router is not None else level
@@ -809,9 +830,11 @@ class RiverWorld:
 
         values = {"mass_kg": mass_kg, "duration_s": duration_s, "decay_per_s": decay_per_s}
         for key, v in values.items():
-            if isinstance(v, bool) or not isinstance(v, (int, float, np.integer, np.floating)) \
-                    or not (math.isfinite(v) and v >= 0):
-                raise ValueError(f"add_spill: {key} must be a finite number ≥ 0, got {v!r}")
+            try:
+                values[key] = non_negative(v, f"add_spill: {key}")
+            except TypeError as exc:
+                raise ValueError(str(exc)) from None
+        mass_kg, duration_s, decay_per_s = values.values()
         if not mass_kg > 0:
             raise ValueError(f"add_spill: mass_kg must be > 0, got {mass_kg!r}")
         solver = self.spill_solver or self.configure_spills()
@@ -828,9 +851,13 @@ class RiverWorld:
         from riverflow.hydro.spill_network import section_psi_range
         from riverflow.hydro.spills import SpillSource
 
-        xy = np.asarray(xy_m, np.float64)
-        if xy.shape != (2,) or not np.isfinite(xy).all():
-            raise ValueError(f"add_spill: xy_m must be two finite numbers [m], got {xy_m!r}")
+        try:
+            xy = as_points(xy_m, "add_spill: xy_m")
+        except TypeError as exc:
+            raise ValueError(str(exc)) from None
+        if len(xy) != 1:
+            raise ValueError(f"add_spill: xy_m must be two finite numbers [m], got {xy_m!r:.80}")
+        xy = xy[0]
         psi = self.field.potential(xy[None, :])[0]
         moved = 0.0
         if not np.isfinite(psi):
@@ -880,7 +907,7 @@ class RiverWorld:
     def concentration(self, xy_m, *, per_spill: bool = False) -> np.ndarray:
         """Tracer concentration [kg/m³] at points (N, 2) [m]: (N,) summed over the spills
         (0 on land and with no spill), or (S, N) per spill in order of release."""
-        xy = np.asarray(xy_m, np.float64).reshape(-1, 2)
+        xy = as_points(xy_m, "concentration: xy_m", finite=False)
         solver = self.spill_solver
         if solver is None or not solver.n_spills:
             n = solver.n_spills if (per_spill and solver is not None) else 0
@@ -892,8 +919,7 @@ class RiverWorld:
         the water, out per outlet, decayed; its front and tail along the river; its peak."""
         from riverflow.components.spill import Spill
 
-        with self.active():
-            component = esper.component_for_entity(entity, Spill)
+        component = self._component_of(entity, Spill, "spill", "a spill")
         return self.spill_solver.report(component.row)
 
     @property

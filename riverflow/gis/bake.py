@@ -386,7 +386,7 @@ def _sample(field, region_m, cell_m, where: str):
         raise ValueError(f"{where}: {fx:.4g}×{fy:.4g} px is over {MAX_SIDE_PX} px a "
                          f"side; use a larger cell_m than {cell_m:g} m or a smaller "
                          "region_m")
-    nx, ny = math.ceil(fx), math.ceil(fy)
+    nx, ny = max(1, math.ceil(fx)), max(1, math.ceil(fy))   # a cell wider than the region: 1 px
     # centres 16, status 1, velocity 8, speed 4, distance 8 + temporaries, RGBA ≤ 8 B a pixel
     check_allocation(64.0 * nx * ny, f"{where}: a {nx}×{ny} px map (cell_m={cell_m:g})")
     centres = pixel_centres((x0, y0), cell_m, (nx, ny))

@@ -36,6 +36,7 @@ import shapely
 from shapely.geometry import LineString
 from shapely.ops import polylabel
 
+from riverflow._validate import as_floats
 from riverflow.hydro.graph import GraphError
 
 
@@ -60,7 +61,7 @@ def check_lake(polygon, level_m, index: int) -> Lake:
     if isinstance(polygon, shapely.Polygon):
         poly = polygon
     else:
-        pts = np.asarray(polygon, dtype=np.float64)
+        pts = as_floats(polygon, f"{name}: its outline", GraphError)
         if pts.ndim != 2 or pts.shape[1] != 2 or len(pts) < 3:
             raise GraphError(f"{name}: its outline must be a shapely Polygon or an (M >= 3, 2) "
                              f"array, got shape {pts.shape}")

@@ -45,6 +45,7 @@ import shapely.geometry
 import shapely.ops
 from scipy.spatial import cKDTree
 
+from riverflow._validate import as_floats
 from riverflow.hydro import _lakes, _strips
 from riverflow.hydro._checks import graph_problems
 from riverflow.hydro._network import BranchGeometry, LakeParts, assemble_graph
@@ -186,7 +187,7 @@ class RiverNetworkBuilder:
         """
         index = len(self._branches)
         name = f"branch{index}" if name is None else str(name)
-        pts = np.asarray(centerline, dtype=np.float64)
+        pts = as_floats(centerline, f"branch {name!r}: centerline", GraphError)
         if pts.ndim != 2 or pts.shape[1] != 2:
             raise GraphError(f"branch {name!r}: centerline must have shape (K, 2), got {pts.shape}")
         if not np.isfinite(pts).all():
@@ -201,7 +202,7 @@ class RiverNetworkBuilder:
             regular = pts
         if len(regular) < 2:
             raise GraphError(f"branch {name!r}: needs at least 2 points, got {len(regular)}")
-        w = np.asarray(widths_m, dtype=np.float64)
+        w = as_floats(widths_m, f"branch {name!r}: widths_m", GraphError)
         if w.ndim == 0:
             w = np.full(len(regular), float(w))
         if w.shape != (len(regular),):
@@ -211,7 +212,11 @@ class RiverNetworkBuilder:
             bad = int(np.flatnonzero(~(np.isfinite(w) & (w > 0)))[0])
             raise GraphError(f"branch {name!r}: width at point {bad} must be a positive number, got {w[bad]}")
         if discharge_m2s is not None:
-            q = float(discharge_m2s)
+            q = as_floats(discharge_m2s, f"branch {name!r}: discharge", GraphError)
+            if q.ndim != 0:
+                raise GraphError(f"branch {name!r}: discharge must be one number [m²/s], got "
+                                 f"shape {q.shape}")
+            q = float(q)
             if not (np.isfinite(q) and 0 < q <= MAX_PSI):
                 raise GraphError(f"branch {name!r}: discharge must be a positive number "
                                  f"(discharge_m2s, up to {MAX_PSI:g} m²/s), got {discharge_m2s!r}")

@@ -53,7 +53,7 @@ of flood time): ground the flood covered looks wet for a while after the water l
 def _as_float_array(values, what: str) -> np.ndarray:
     try:
         arr = np.asarray(values, np.float64)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise ValueError(f"set_hydrograph: {what} must be numbers, got {values!r:.80}") from None
     if arr.ndim != 1 or len(arr) < 1:
         raise ValueError(f"set_hydrograph: {what} must be a 1-D sequence of one value or more, "

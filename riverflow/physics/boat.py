@@ -39,6 +39,7 @@ import math
 import numpy as np
 import shapely
 
+from riverflow._validate import as_points, finite
 from riverflow.components.boat import Boat
 from riverflow.components.props import Pose, Prop
 from riverflow.components.status import FlowStatus
@@ -228,8 +229,11 @@ def boat_components(scene, position_m, heading_rad: float = 0.0, *, drawn: bool 
     unknown = set(params) - fields
     if unknown:
         raise ValueError(f"Boat has no field(s) {sorted(unknown)}; known: {sorted(fields)}")
-    boat = Boat(position_m=np.array(position_m, np.float64).reshape(2),
-                heading_rad=float(heading_rad), **params)
+    position = as_points(position_m, "add_boat: position_m (x, y) [m]")
+    if len(position) != 1:
+        raise ValueError(f"add_boat: position_m must be one (x, y) [m], got {position_m!r:.80}")
+    boat = Boat(position_m=position[0].copy(),
+                heading_rad=finite(heading_rad, "add_boat: heading_rad"), **params)
     boat.velocity_mps = np.array(boat.velocity_mps, np.float64).reshape(2)
     if not (boat.beam_m > 0.0 and boat.length_m >= boat.beam_m and boat.reach_beams > 0.0):
         raise ValueError("a boat needs beam_m > 0, length_m ≥ beam_m and reach_beams > 0")

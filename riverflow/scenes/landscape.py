@@ -29,6 +29,7 @@ import shapely
 from scipy.spatial import cKDTree
 
 from riverflow._validate import check_allocation, finite_positive
+from riverflow._validate import seed as seed_value
 from riverflow.hydro.areas import area_ring, water_polygon
 from riverflow.hydro.falls import Fall, Rapid, drop_along
 from riverflow.hydro.graph import GraphError, HydroGraph
@@ -364,6 +365,7 @@ def landscape(graph: HydroGraph, terrain=None, *, seed: int = 0, cell_m: float |
     """
     if not isinstance(graph, HydroGraph):
         raise TypeError(f"landscape: graph must be a HydroGraph, got {type(graph).__name__}")
+    seed = seed_value(seed, "landscape: seed")
     axes = graph.axes()
     if not axes:
         raise GraphError(f"{graph.source or 'graph'}: no river axis to make a landscape around")

@@ -230,3 +230,71 @@ def test_bake_cells(field, tmp_path_factory, cell, region):
         rf.bake_flow_map(field, region, cell, out / "f.png")
     assert_names(info, "cell_m")
     assert list(out.iterdir()) == []                   # nothing written
+
+
+# -- the world's calls: a wrong value of any kind is an error naming the call ------------------
+
+HUGE = 10 ** 400                      # an int past float's range
+WRONG = [float("nan"), float("inf"), -1.0, "abc", None, [1, 2], HUGE, object()]
+
+
+@pytest.fixture(scope="module")
+def small_world():
+    b = RiverNetworkBuilder()
+    b.add_branch([(0, 0), (200, 30), (400, 0)], 40.0, discharge_m2s=40.0)
+    world = rf.RiverWorld(rf.landscape(b.build()), size=(16, 16))
+    yield world
+    world.close()
+
+
+def _calls(world):
+    return {
+        "speed_factor": lambda v: setattr(world, "speed_factor", v),
+        "set_rain: drops_per_s": lambda v: world.set_rain(v),
+        "set_rain: variance": lambda v: world.set_rain(1.0, v),
+        "configure_spills: dt_s": lambda v: world.configure_spills(dt_s=v),
+        "configure_spills: dispersion": lambda v: world.configure_spills(v),
+        "add_spill: mass_kg": lambda v: world.add_spill((200.0, 20.0), v),
+        "add_spill: xy_m": lambda v: world.add_spill(v, 1.0),
+        "advance_spills": lambda v: world.advance_spills(v),
+        "advance_flood": lambda v: world.advance_flood(v),
+        "set_hydrograph": lambda v: world.set_hydrograph(None, [0.0, v], [1.0, 2.0]),
+        "add_boat": lambda v: world.add_boat((200.0, 20.0), v),
+        "water_level": lambda v: world.water_level([[v, 0.0]]),
+        "pose": lambda v: world.pose(v),
+        "boat": lambda v: world.boat(v),
+        "wake": lambda v: world.wake(v),
+        "spill": lambda v: world.spill(v),
+        "RiverWorld: seed": lambda v: rf.RiverWorld(world.scene, size=(8, 8), seed=v),
+        "landscape: seed": lambda v: rf.landscape(world.scene.graph, seed=v),
+        "KeyScript.from_text": lambda v: rf.KeyScript.from_text(v if v != "abc" else "1 W"),
+        "RiverConfig.radius_px": lambda v: RiverConfig(radius_px=v),
+        "branch 'b'": lambda v: RiverNetworkBuilder().add_branch([(0, 0), (v, 0)], 5.0, name="b"),
+    }
+
+
+CALLS = list(_calls(None))
+VALID = {"speed_factor": [HUGE], "RiverWorld: seed": [HUGE], "landscape: seed": [HUGE],
+         "add_boat": [-1.0], "water_level": [-1.0], "branch 'b'": [-1.0],
+         "configure_spills: dt_s": [None], "configure_spills: dispersion": [None],
+         "add_spill: xy_m": [[1, 2]], "set_hydrograph": [-1.0]}
+"""What each call takes among the wrong values (a huge seed, a negative heading or
+coordinate, None for a default, [1, 2] for a point, a hydrograph time before now)."""
+
+
+@pytest.mark.parametrize("call", CALLS)
+def test_wrong_values_are_errors_naming_the_call(small_world, call):
+    """NaN, ±inf, a negative, text, None, a list, an int past float's range, an object: each
+    a ValueError, TypeError or (entities) KeyError whose message names the call (a key
+    script's: its source and line), never a library's error (an OverflowError,
+    AttributeError, numba's TypingError) — and the world still steps after it."""
+    make = _calls(small_world)[call]
+    named = "<script>" if call == "KeyScript.from_text" else call.split(":")[0]
+    for value in WRONG:
+        if any(value is v or (type(value) is type(v) and value == v)
+               for v in VALID.get(call, ())):
+            continue
+        with pytest.raises((ValueError, TypeError, KeyError)) as info:
+            make(value)
+        assert named in str(info.value) or call in str(info.value), (value, info.value)
+        small_world.step(1 / 60)
