@@ -93,6 +93,7 @@ from riverflow.gis import require
 from riverflow.hydro.builder import (MAX_TURN_DEG, RiverNetworkBuilder, by_junction,
                                      upstream_first)
 from riverflow.hydro.graph import GraphError
+from riverflow.hydro.nearest import PolylineIndex
 
 SUFFIXES = (".shp", ".gpkg", ".geojson", ".json", ".osm", ".pbf")
 """File suffixes :func:`read_rivers` takes (the command line's ``--scene`` sends these here)."""
@@ -177,6 +178,12 @@ KNOWN_ATTRIBUTES: dict[str, tuple] = {
     "stream_order": ("stream_order", "strmOrder", "StreamOrde", "ORD_STRA", "strahler"),
     "elevation_m": (("uselev_m", "dselev_m"), ("elev_up_m", "elev_down_m")),
 }
+PLAUSIBLE_MAX = {"width_m": 1e5, "discharge_m3s": 1e7, "discharge_m2s": 1e8,
+                 "drainage_area_km2": 1e8, "stream_order": 30.0, "elevation_m": 2e4}
+"""Largest magnitude of each attribute a river can have (the Amazon: 2·10⁵ m³/s, 7·10⁶ km²,
+order 12; a bed 11 km below to 9 km above the sea) with a wide margin: a value beyond it
+lies (a unit slip, a no-data code such as 1e30) and is not used, as a negative one is."""
+
 """Attribute names looked for (case-insensitive) when a keyword is left as None: TauDEM
 (``strmOrder``), NHDPlus (``TotDASqKM``, ``StreamOrde``), HydroRIVERS (``UPLAND_SKM``,
 ``ORD_STRA``), MERIT Hydro (``uparea``), the Red Butte example (``usarea_km2``,
@@ -548,7 +555,9 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
         links.append(link)
     links = _clean(links, report)
     if not links:
-        raise GraphError(f"{where}: no line with two distinct points")
+        last = report.repairs[-1] if report.repairs else None
+        raise GraphError(f"{where}: no line with two distinct points"
+                         + (f": {last.feature}: {last.what}" if last else ""))
     links = _drop_duplicates(links, snap_m, report)
     links, crossings = _topology(links, snap_m, report)
     links = _direct(links, report)
@@ -853,6 +862,9 @@ def _attribute_spec(key: str, value, names: list[str], where: str, report: River
     if not math.isfinite(number) or (number <= 0 and key != "elevation_m"):
         raise GraphError(f"{where}: {key}={value!r} must be a "
                          + ("finite number" if key == "elevation_m" else "positive number"))
+    if abs(number) > PLAUSIBLE_MAX.get(key, math.inf):
+        raise GraphError(f"{where}: {key}={value!r} is beyond any river's (at most "
+                         f"{PLAUSIBLE_MAX[key]:g})")
     return number
 
 
@@ -890,7 +902,9 @@ def _values(spec, table, k: int, name: str, attrs: dict, where: str,
             why = ("missing (NaN)" if not math.isfinite(v) else
                    f"{v:g} is not positive" if v <= 0 and key != "elevation_m" else
                    f"{v:g} is below 1 (Strahler orders start at 1)"
-                   if v < 1 and key == "stream_order" else None)
+                   if v < 1 and key == "stream_order" else
+                   f"{v:g} is beyond any river's (at most {PLAUSIBLE_MAX[key]:g})"
+                   if key in PLAUSIBLE_MAX and abs(v) > PLAUSIBLE_MAX[key] else None)
             if why is not None:
                 v = math.nan
         if why is not None and report is not None and attr not in told and not (
@@ -965,11 +979,14 @@ def _lines(geoms, fids, attrs_of, where: str, report: RiverImport, invalid=None
         for part, line in parts:
             c3 = shapely.get_coordinates(line, include_z=True)
             c = np.ascontiguousarray(c3[:, :2])
-            bad = ~np.isfinite(c).all(axis=1)
+            with np.errstate(invalid="ignore"):
+                bad = ~(np.abs(c) <= MAX_COORDINATE).all(axis=1)     # also NaN
             name = label + ('' if part is None else f' part {part}')
             if bad.any():
                 i = int(np.flatnonzero(bad)[0])
-                what = (f"has non-finite coordinates at vertex {i} "
+                kind = ("non-finite coordinates" if not np.isfinite(c[i]).all() else
+                        f"a coordinate beyond ±{MAX_COORDINATE:g} (no map's)")
+                what = (f"has {kind} at vertex {i} "
                         f"{tuple(float(v) for v in c[i])}: {int(bad.sum())} such vertices "
                         "left out")
                 problem(k, name, what)
@@ -985,6 +1002,13 @@ def _lines(geoms, fids, attrs_of, where: str, report: RiverImport, invalid=None
 
 
 # -- coordinates ---------------------------------------------------------------------------------
+
+MAX_COORDINATE = 1e12
+"""Largest coordinate a vertex may have in its file (degrees, metres or feet of any CRS are
+far below; past it float64 keeps less than a millimetre): beyond, the vertex is left out as
+a NaN one is."""
+MAX_EXTENT_M = 1e8
+"""Widest network [m] once projected: 100,000 km, over twice round the Earth."""
 
 
 def _lake_polygons(lakes, source_crs, where: str) -> list:
@@ -1055,6 +1079,11 @@ def _move_to_origin(xy: np.ndarray, origin_m, crs_out, crs_note: str, where: str
                     report: RiverImport) -> np.ndarray:
     """The projected coordinates moved by ``origin_m`` (:func:`_origin`), the report's CRS,
     origin and "coordinates" note written to match."""
+    extent = float((xy.max(axis=0) - xy.min(axis=0)).max()) if len(xy) else 0.0
+    if not extent <= MAX_EXTENT_M:
+        raise GraphError(f"{where}: its lines span {extent / 1000:.4g} km once projected, "
+                         f"more than {MAX_EXTENT_M / 1000:.0f} km: coordinates in another unit "
+                         "or CRS than the file says?")
     offset = _origin(origin_m, xy, where)
     if offset is not None:
         xy = xy - offset
@@ -1075,6 +1104,8 @@ def _origin(origin_m, xy: np.ndarray, where: str) -> np.ndarray | None:
     if isinstance(origin_m, str):
         if origin_m != "auto":
             raise GraphError(f"{where}: origin_m must be 'auto', None or (x, y), got {origin_m!r}")
+        if not len(xy):                 # no coordinates at all: said later, feature by feature
+            return None
         lo, hi = xy.min(axis=0), xy.max(axis=0)
         if max(np.abs(lo).max(), np.abs(hi).max()) <= AUTO_ORIGIN_M:
             return None
@@ -1128,10 +1159,11 @@ def _raise_at(bad: np.ndarray, features, where: str, xy: np.ndarray, what: str):
     start = 0
     for fid, attrs, n in features:
         if i < start + n:
-            raise GraphError(f"{where}: feature {fid}: vertex {i - start} {tuple(xy[i])} {what} "
+            point = tuple(float(v) for v in xy[i])
+            raise GraphError(f"{where}: feature {fid}: vertex {i - start} {point} {what} "
                              f"[{_attrs_text(attrs)}]")
         start += n
-    raise GraphError(f"{where}: a vertex {tuple(xy[i])} {what}")
+    raise GraphError(f"{where}: a vertex {tuple(float(v) for v in xy[i])} {what}")
 
 
 GEOJSON_HEAD_BYTES = 1 << 20
@@ -1253,6 +1285,12 @@ def _clean(links: list[_Link], report: RiverImport) -> list[_Link]:
                           "a line of zero length (one distinct vertex): left out")
             continue
         p, n = _drop_spikes(p)
+        if n and _length(p) <= 1e-9:
+            report.repair(link.name, link.fid, link.attrs,
+                          f"a line that turns back on itself at every vertex ({n} turns "
+                          f"sharper than {MAX_TURN_DEG:.0f}°, nothing left between them): "
+                          "left out")
+            continue
         spikes += n
         link.points = p
         out.append(link)
@@ -1337,10 +1375,21 @@ def _topology(links: list[_Link], snap_m: float, report: RiverImport
                 raise GraphError(f"{report.path}: {lk.name}: its two ends meet (a closed loop "
                                  f"of one line) [{_attrs_text(lk.attrs)}]")
             loops = {m // 2 for m in members if sum(1 for n in members if n // 2 == m // 2) > 1}
-            for i in loops:
+            # a line within a few snapping distances end to end is no river (and its halves
+            # would meet again, forever): left out; longer loops are cut in two halves
+            tiny = {i for i in loops if _length(links[i].points) <= 4.0 * max(snap_m, 1e-9)}
+            for i in sorted(loops):
                 report.repair(links[i].name, links[i].fid, links[i].attrs,
+                              f"a line of {_length(links[i].points):.3g} m, its ends within "
+                              f"{snap_m:g} m: left out" if i in tiny else
                               "its two ends meet (a closed loop of one line): cut in two halves")
-            return _topology(_halve(links, loops), snap_m, report)
+            index = [i for i in range(len(links)) if i not in tiny]
+            kept = [links[i] for i in index]
+            loops = {k for k, i in enumerate(index) if i in loops}
+            if not kept:
+                raise GraphError(f"{report.path} (layer {report.layer!r}): no usable line: every line is shorter than "
+                                 f"{4 * snap_m:g} m (snap_m={snap_m:g})")
+            return _topology(_halve(kept, loops), snap_m, report)
         centre = ends[members].mean(axis=0)
         for m in members:
             lk = links[m // 2]
@@ -2371,19 +2420,19 @@ def _narrow_branches(branches, report: RiverImport, attempt: int) -> bool:
     disc = (1.0, 0.6, 0.3, 0.15)[min(attempt, 3)]
     fids = {lk.name: lk.fid for lk in report.links}
     changed = {}
-    for a, b in zip(a_idx.tolist(), b_idx.tolist()):
+    indexes: dict[int, PolylineIndex] = {}     # segment boxes: a star of long densified
+    for a, b in zip(a_idx.tolist(), b_idx.tolist()):    # lines stays linear, not N·M
         if a == b:
             continue
         ba, bb = branches[a], branches[b]
         pts = ba.centerline_m
-        points = shapely.points(pts)
-        d = shapely.distance(points, lines[b])
         w = ba.widths_m
+        if b not in indexes:
+            indexes[b] = PolylineIndex(bb.centerline_m)
+        d, nearest, _ = indexes[b].nearest(pts, 0.5 * (float(w.max()) + widest[b]))
         close = d < 0.5 * (w + widest[b])
         if not close.any():
             continue
-        nearest = shapely.get_coordinates(shapely.line_interpolate_point(
-            lines[b], shapely.line_locate_point(lines[b], points)))
         for pa, wa in ((ba.centerline_m[0], ba.widths_m[0]), (ba.centerline_m[-1], ba.widths_m[-1])):
             for pb, wb in ((bb.centerline_m[0], bb.widths_m[0]),
                            (bb.centerline_m[-1], bb.widths_m[-1])):

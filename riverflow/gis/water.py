@@ -250,6 +250,10 @@ def is_raster_path(path) -> bool:
     return isinstance(path, (str, Path)) and Path(path).suffix.lower() in RASTER_SUFFIXES
 
 
+def _xy_text(point) -> str:
+    return f"({float(point[0]):.1f}, {float(point[1]):.1f})"
+
+
 def read_water(path, *, layer: str | int | None = None, lines=None, inlets=None, outlets=None,
                dem=None, discharge_m3s: float | None = None, crs=None, origin_m="auto",
                simplify_m: float | None = None, tolerance_m: float = 0.25,
@@ -356,7 +360,9 @@ def read_water(path, *, layer: str | int | None = None, lines=None, inlets=None,
         except GraphError as exc:
             hole = _hole_in_loop(builder, str(exc))
             if hole is None or len(forced) == MAX_ISLAND_RETRIES:
-                raise
+                text = str(exc)
+                raise (exc if text.startswith(str(path)) else
+                       GraphError(f"{where}: {text}")) from None
             forced.append(hole)
             report.repair("island", None, None,
                           f"the island near ({hole[0]:.1f}, {hole[1]:.1f}) between channels "
@@ -794,7 +800,7 @@ class _Network:
             rule = "from the DEM (highest free end in, lowest out)"
         else:
             if len(leaves) < 2:
-                raise GraphError(f"the water near {tuple(np.round(self.nodes[0], 1))} has "
+                raise GraphError(f"the water near {_xy_text(self.nodes[0])} has "
                                  f"fewer than two free ends: no way in and out")
             d0 = dijkstra(adj, indices=leaves[0])
             a = max(leaves, key=lambda k: d0[k])
@@ -809,7 +815,7 @@ class _Network:
         if not inlets:
             inlets = [k for k in leaves if k not in outlets]
         if not inlets or not outlets:
-            raise GraphError(f"the water near {tuple(np.round(self.nodes[0], 1))} needs a free "
+            raise GraphError(f"the water near {_xy_text(self.nodes[0])} needs a free "
                              f"end where water comes in and another where it leaves")
         phi = _harmonic(adj, inlets, outlets)
         self.inlets, self.outlets = set(inlets), set(outlets)
@@ -1011,7 +1017,7 @@ def _skeleton_channels(part, k: int, tolerance_m: float, report, frame=None,
     channels = [_Channel(pts, w, "skeleton", a, b, f"water {k} channel {i}")
                 for i, (pts, w, a, b) in enumerate(chains)]
     if not channels:
-        raise GraphError(f"water body {k} near {tuple(np.round(water.centroid.coords[0], 1))}: "
+        raise GraphError(f"water body {k} near {_xy_text(water.centroid.coords[0])}: "
                          f"its skeleton has no channel (a blob with no way in or out)")
     net = _Network(water, free, channels, nodes)
     _extend_free_ends(net, water)

@@ -29,7 +29,8 @@ from riverflow._validate import as_points, check_allocation, finite_positive
 from riverflow.components.flow_tiles import FLOW_KIND, FlowTiles, flow_fields
 from riverflow.components.status import FlowStatus
 from riverflow.hydro.flow_network import FlowNetwork, build_flow_network
-from riverflow.hydro.graph import GraphError, HydroGraph
+from riverflow.hydro.graph import CurveType, GraphError, HydroGraph
+from riverflow.hydro.nearest import PolylineIndex
 from riverflow.hydro.falls import RAPIDS_RAMP
 from riverflow.kernels import falls as kfalls
 from riverflow.kernels import flow as kf
@@ -73,6 +74,30 @@ class Obstacle:
         return np.array([self.centre_m[0], self.centre_m[1], self.heading_rad, self.length_m,
                          self.beam_m, self.psi, self.velocity_mps[0], self.velocity_mps[1],
                          self.yaw_rate_rps, reach], np.float64)
+
+
+WATER_WIDTH_FACTOR = 2.0
+"""The default lattice follows the narrowest axis width or this many times the narrowest
+water (:func:`narrowest_water_m`), whichever is smaller: an axis's width spans every bank it
+owns, so a 0.6 m creek's axis that also owns the bank of the river it joins across the
+confluence is 24 m wide, and a lattice of 1 m left the creek's water between its corners (ψ
+NaN, no flow, every 56 m). Where axes are as wide as their water (with Proland's margin,
+1.4 - 1.7 times it), this changes nothing."""
+
+
+def narrowest_water_m(graph: HydroGraph, axes: list[int], per_bank: int = 64) -> float:
+    """The narrowest water across any axis [m]: for each axis, twice the 10th percentile of its
+    banks' distances to it (up to ``per_bank`` points a bank), the smallest over the axes."""
+    banks: dict[int, list[np.ndarray]] = {}
+    for curve in graph.curves:
+        if curve.type == CurveType.BANK and curve.river in axes and len(curve.points):
+            pts = np.asarray(curve.points, np.float64)
+            banks.setdefault(curve.river, []).append(pts[::max(1, len(pts) // per_bank)])
+    best = math.inf
+    for axis, parts in banks.items():
+        distance = PolylineIndex(graph.polyline(axis)).distance(np.concatenate(parts))
+        best = min(best, 2.0 * float(np.percentile(distance, 10.0)))
+    return best if best > 0.0 else math.inf
 
 
 class FlowField:
@@ -147,7 +172,8 @@ class FlowField:
         self.tolerance_m = float(tol)
         """The Bézier flattening tolerance the network was made with [m]."""
         self.network: FlowNetwork = build_flow_network(graph, self.search_radius_factor, tol)
-        delta = potential_delta_m if potential_delta_m is not None else min_width / 24.0
+        delta = potential_delta_m if potential_delta_m is not None else min(
+            min_width, WATER_WIDTH_FACTOR * narrowest_water_m(graph, axes)) / 24.0
         if not (math.isfinite(delta) and delta > 0.0):
             raise ValueError(f"FlowField: potential_delta_m must be positive, got {delta!r}")
         if domain_m is None:

@@ -312,10 +312,30 @@ def test_attributes_that_lie_fall_back_to_the_next_rule(tmp_path):
         rf.read_rivers(path, origin_m=None, drainage_area_km2="A", width_m="W", strict=True)
 
 
+def test_values_beyond_any_river_and_lines_shorter_than_the_snap_are_left_out(tmp_path):
+    """A unit slip or a no-data code (a width of 1e9 m, a stream order of 1e30) is not used,
+    as a negative value is; a line whose ends lie within the snapping distance (0.3 m long)
+    is left out, reported (it made the topology halve it forever); a vertex at 1e300 is
+    left out as a NaN one is."""
+    lines = [*confluence(), np.array([(2000.0, 2000.0), (2000.3, 2000.0)])]
+    far = shapely.LineString(np.vstack([np.asarray(lines[2]) + ORIGIN, [(1e300, 0.0)]]))
+    geoms = [shapely.LineString(np.asarray(p) + ORIGIN) for p in lines]
+    geoms[2] = far
+    attrs = {"W": np.array([1e9, 20.0, 30.0, 5.0]), "strmOrder": np.array([1.0, 1e30, 3.0, 1.0])}
+    path = write_lines(tmp_path / "odd.gpkg", None, attrs, geoms=geoms)
+    builder = rf.read_rivers(path, origin_m=None, width_m="W")
+    graph = built(builder)
+    assert any("'W': 1e+09 is beyond any river's" in w for w in repairs_of(builder, "feature 1"))
+    assert any("'strmOrder': 1e+30 is beyond" in w for w in repairs_of(builder, "feature 2"))
+    assert any("beyond ±1e+12" in w for w in repairs_of(builder, "feature 3"))
+    assert any("ends within 1 m: left out" in w for w in repairs_of(builder, "feature 4"))
+    check_flows_downstream(graph, lines[:3])
+
+
 # -- what cannot be used -----------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("case", ["empty", "points", "polygons", "not-gis", "all-nan"])
+@pytest.mark.parametrize("case", ["empty", "points", "polygons", "not-gis", "all-nan", "far"])
 def test_unusable_input_names_file_and_layer_and_writes_nothing(tmp_path, case):
     data = tmp_path / "data"
     data.mkdir()
@@ -335,6 +355,9 @@ def test_unusable_input_names_file_and_layer_and_writes_nothing(tmp_path, case):
         path = data / "notes.geojson"
         path.write_text("these are not rivers\n")
         expect = r"notes.geojson: cannot read it"
+    elif case == "far":                       # metres read as millimetres, say
+        path = write_lines(data / "far.gpkg", [np.array([(0.0, 0.0), (3e11, 0.0)])])
+        expect = r"far.gpkg \(layer 'far'\): its lines span 3e\+08 km once projected"
     else:
         with np.errstate(invalid="ignore"):
             geoms = [shapely.LineString([(np.nan, np.nan), (np.nan, np.nan)])] * 2
