@@ -6,8 +6,10 @@ the props are drawn once more, mirrored in the horizontal plane z = L, into a te
 water shader samples. A river's level falls along its course, so one plane is exact only
 where the water is at L; L is the mean level of the water in view, weighted by the share of
 the screen it covers and its reflectance, none where the water shader shows no land in it
-(:func:`mirror_level`: continuous as the camera moves), and the water
-shader corrects every pixel for its own level (``shaders/reflection.glsl``).
+(:func:`mirror_level`: continuous as the camera moves), eased in time (:func:`ease_level`),
+and the water shader corrects every pixel for its own level (``shaders/reflection.glsl``).
+The passes are drawn at a held level, a second pass at a new level cross-faded in when the
+eased one moves away (:func:`hold_levels`): never at a level that moves every frame.
 """
 from __future__ import annotations
 

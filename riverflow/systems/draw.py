@@ -30,7 +30,8 @@ Per frame (reference §4; no one-frame latency: the tables are built from this f
 Reflections (issue 12 item 3; :attr:`DisplaySettings.reflections`, shaded water modes, the eye
 above the water), before step 2: the terrain tiles (through every 2nd node) and the props
 drawn mirrored in the mean level of the water in view (weighted by its share of the screen:
-continuous as the camera moves), each cut at its own water
+continuous as the camera moves; held, a second pass at a new level cross-faded in while it
+changes), each cut at its own water
 level, into a reduced-resolution colour + depth target with mip levels
 (:mod:`riverflow.scenes.reflection`); in step 4 the water shader follows each pixel's
 wave-bent reflected ray through it and Fresnel-weights what it finds over the sky
