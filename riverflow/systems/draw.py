@@ -1118,7 +1118,9 @@ class DrawRivers(System):
                          clip_from_world: np.ndarray) -> dict:
         """The planar reflection pass (``shaders/reflection.glsl``): terrain and props mirrored
         in the level of the water in view (:func:`mirror_level`, eased in time:
-        :meth:`_ease_mirror`), cut at their water level, into the reflection target; returns
+        :meth:`_ease_mirror`, held: :func:`hold_levels`; while a new level is faded in, a
+        second pass at it into the second target), cut at their water level, into the
+        reflection target; returns
         the water shader's reflection uniforms (``u_reflect`` false, and no
         pass, when reflections are off, the water mode is not shaded, or the eye is not above
         the mirror). With a pass, the view block is written (its copy 0 packed by the caller,
