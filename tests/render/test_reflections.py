@@ -440,13 +440,13 @@ def test_the_far_water_does_not_flicker_while_the_mirror_changes_level(world, sc
     river's water at ~34 m, a sliver ~500 m off, under 40 m on screen), with the level of the
     water in view made to rise by 1 m for every 1.5 m flown from the 3rd frame on (as where
     the near, reflecting water climbs a fall or a rapid: the eased mirror rises ~4.8 m in 13
-    frames at 30 frames a second). The far water's mean colour changes by at most 4/255
-    from one frame to the next: with the mirror held at 34.2 m (its own level) on this
-    flight it changes by at most 2.5/255 (3.7 held at 37 m, 2.6 at 40 m: the view's own
-    change). The reflection is drawn at a held level and cross-faded to a pass at the new
-    one (scenes.reflection.hold_levels). Before, the mirror followed the eased level every
-    frame and the far water's reflection, an erratic function of it, flickered by up to
-    19.7/255 a frame (106/255 in single pixels)."""
+    frames at 30 frames a second). The far water's mean colour changes by at most 5/255
+    from one frame to the next (measured: 2.3): no more than with the mirror fixed at a
+    level the flight passes through, the view's own change (fixed at 34.2, 36, 37 and 40 m
+    on this flight: at most 1.1, 2.3, 4.9 and 3.4/255). The reflection is drawn at a held
+    level and cross-faded to a pass at the new one (scenes.reflection.hold_levels).
+    Before, the mirror followed the eased level every frame and the far water's
+    reflection, an erratic function of it, flickered by up to 18/255 a frame."""
     from riverflow.engine import gl
     real = draw_module.mirror_level
     flight, _ = _tributary_flight(scene)
@@ -487,5 +487,5 @@ def test_the_far_water_does_not_flicker_while_the_mirror_changes_level(world, sc
     assert far.sum() > 50
     on = np.array([f[3][far] for f in frames], np.float64)
     steps = np.abs(np.diff(on.mean(axis=1), axis=0)).max(axis=1)
-    assert steps.max() <= 4.0, np.round(steps, 1)
+    assert steps.max() <= 5.0, np.round(steps, 1)
     assert any(f[1][1] is not None for f in frames)        # a second pass was faded in
