@@ -6,8 +6,10 @@ the props are drawn once more, mirrored in the horizontal plane z = L, into a te
 water shader samples. A river's level falls along its course, so one plane is exact only
 where the water is at L; L is the mean level of the water in view, weighted by the share of
 the screen it covers and its reflectance, none where the water shader shows no land in it
-(:func:`mirror_level`: continuous as the camera moves), and the water
-shader corrects every pixel for its own level (``shaders/reflection.glsl``).
+(:func:`mirror_level`: continuous as the camera moves), eased in time (:func:`ease_level`),
+and the water shader corrects every pixel for its own level (``shaders/reflection.glsl``).
+The passes are drawn at a held level, a second pass at a new level cross-faded in when the
+eased one moves away (:func:`hold_levels`): never at a level that moves every frame.
 """
 from __future__ import annotations
 
@@ -35,6 +37,15 @@ MIRROR_REFRESH_RAD = math.radians(0.5)
 """In a moving view the level of the water in view is found again once the eye moved more
 than MIRROR_REFRESH_M [m] or the view turned more than MIRROR_REFRESH_RAD since it was last
 found (at 12 m/s and 60 frames a second, every 5th frame; the easing smooths the steps)."""
+MIRROR_HOLD_M = 0.25
+"""The mirror is drawn at a *held* level until the eased level of the water in view
+(:func:`ease_level`) is more than this [m] away from it; then a second pass at the eased
+level is cross-faded in (:func:`hold_levels`). The water's per-pixel correction is exact to
+well within this; far water at another level (its reflected ray within a few texels of the
+reflection texture) shows an erratic function of the mirror's level, so a mirror that moves
+every frame makes it flicker (issue 29 item 2)."""
+MIRROR_FADE_S = 0.25
+"""The cross-fade from the held mirror's pass to the new level's takes this long [s]."""
 FALLBACK_SHARE = 1e-4
 """The share of the screen with which the nearest river's level joins the level of the water
 in view (:func:`mirror_level`): it decides where less water than that is in view."""
@@ -115,6 +126,39 @@ def ease_level(level_m: float, rate_mps: float, target_m: float, dt_s: float,
     x0 = level_m - target_m
     c = rate_mps + omega * x0
     return target_m + (x0 + c * dt_s) * e, (rate_mps - omega * c * dt_s) * e
+
+
+def hold_levels(held: tuple | None, level_m: float, dt_s: float, eye_z_m: float,
+                hold_m: float = MIRROR_HOLD_M, fade_s: float = MIRROR_FADE_S) -> tuple:
+    """The levels the reflection is drawn at this frame, (a, b, fade): the water shows
+    mix(reflection at a, reflection at b, fade); b is None (one pass) when fade is 0.
+    ``held`` is the last frame's answer (None: a cut, the mirror at ``level_m`` at once),
+    ``level_m`` the eased level of the water in view, ``dt_s`` the time since that frame.
+
+    The mirror stays at a while ``level_m`` is within ``hold_m`` of it; once it is farther,
+    b = ``level_m`` is drawn too and faded in over ``fade_s`` (fixed meanwhile), then it is
+    the held level. Each pass is at a fixed level, so each pixel's reflection changes with
+    the view alone, and by the fade's step times the two passes' difference: however fast
+    the level of the water in view changes, the water's reflection changes smoothly (a
+    mirror moving every frame made far water at another level flicker, issue 29 item 2).
+    A level at or above the eye (less than MIN_EYE_HEIGHT_M under it: the eye came down
+    fast) is dropped for ``level_m`` at once."""
+    if held is None or not dt_s >= 0.0:
+        return (level_m, None, 0.0)
+    a, b, fade = held
+    low = eye_z_m - MIN_EYE_HEIGHT_M
+    if not a < low:                             # the eye came down to the held mirror
+        a, b, fade = (b, None, 0.0) if b is not None and b < low else (level_m, None, 0.0)
+    elif b is not None and not b < low:
+        b, fade = None, 0.0
+    if b is not None:
+        fade += dt_s / fade_s
+        if fade >= 1.0:                         # the new level is the held one
+            return (b, None, 0.0)
+        return (a, b, fade)
+    if abs(level_m - a) > hold_m and dt_s > 0.0:
+        return (a, level_m, dt_s / fade_s) if dt_s < fade_s else (level_m, None, 0.0)
+    return (a, None, 0.0)
 
 
 def reflection_size(width_px: int, height_px: int, scale: float) -> tuple[int, int]:

@@ -18,10 +18,21 @@
 // and the hit is kept if the surface drawn there lies on the ray (else the ray only passed
 // behind an edge, seen from the eye, and the march goes on). Where the level matches and the
 // water is flat the segment is a point, and one step finds the plain planar reflection.
+//
+// The mirror's level is held while the level of the water in view changes by less than
+// MIRROR_HOLD_M (riverflow.scenes.reflection.hold_levels); beyond that a second pass at the
+// new level (u_reflection_b, u_mirror_level_b_m) is cross-faded in (u_reflection_fade), each
+// pass at a fixed level: far water at another level than the mirror reflects an erratic
+// function of that level (its ray spans a few texels), so a mirror moving every frame made
+// it flicker (issue 29 item 2).
 uniform bool u_reflect;                // a reflection was drawn this frame
 uniform sampler2D u_reflection;        // premultiplied RGB, alpha = covered (LINEAR, mips)
 uniform sampler2D u_reflection_depth;  // depth of the mirrored pass (NEAREST)
 uniform float u_mirror_level_m;        // L [m]
+uniform sampler2D u_reflection_b;      // the same, mirrored at u_mirror_level_b_m
+uniform sampler2D u_reflection_depth_b;
+uniform float u_mirror_level_b_m;
+uniform float u_reflection_fade;       // 0: the first pass alone; else its weight is 1 − this
 uniform float u_reflection_distortion; // 1: rays bent by the wave normal; 0: flat mirror
 
 const int REFLECTION_MAX_STEPS = 12;   // march steps at most
@@ -35,15 +46,15 @@ const float REFLECTION_MAX_LOD = 4.0;  // blur rough water over at most 16 texel
 
 // True when the ray point at normalised device coordinates ndc lies behind what the
 // texture shows there.
-bool behind(vec3 ndc) {
-    float stored = textureLod(u_reflection_depth, clamp(ndc.xy * 0.5 + 0.5, 0.0, 1.0),
+bool behind(sampler2D depth, vec3 ndc) {
+    float stored = textureLod(depth, clamp(ndc.xy * 0.5 + 0.5, 0.0, 1.0),
                               0.0).r * 2.0 - 1.0;
     return ndc.z >= stored;
 }
 
 // The point of the texture's world drawn at uv [m] (the far plane where nothing was drawn).
-vec3 mirror_image(vec2 uv) {
-    float d = textureLod(u_reflection_depth, clamp(uv, 0.0, 1.0), 0.0).r;
+vec3 mirror_image(sampler2D depth, vec2 uv) {
+    float d = textureLod(depth, clamp(uv, 0.0, 1.0), 0.0).r;
     vec4 w = u_world_from_clip * vec4(uv * 2.0 - 1.0, d * 2.0 - 1.0, 1.0);
     return w.xyz / w.w;
 }
@@ -56,17 +67,17 @@ vec3 mirror_image(vec2 uv) {
 // uniform control flow: the texture's level of detail comes from how far the reflected ray's
 // direction moves between neighbouring pixels (rough water: the mip level then averages what
 // the waves show, instead of one speckled sample per pixel).
-vec3 reflected_scene(vec3 p, vec3 v, vec3 n, vec3 sky, float weight) {
-    if (!u_reflect) return sky;        // a uniform: the derivatives below stay in uniform flow
+vec3 reflected_in(sampler2D colour, sampler2D depth, float level, vec3 p, vec3 v, vec3 n,
+                  vec3 sky, float weight) {
     vec3 nd = normalize(vec3(n.xy * u_reflection_distortion, n.z));
     vec3 r = reflect(-v, nd);
     r.z = abs(r.z);            // bent down into the water: up again off the next wave (as the sky)
     vec3 rv = vec3(r.xy, -r.z);
-    vec3 o = p + vec3(0.0, 0.0, 2.0 * (u_mirror_level_m - p.z));
+    vec3 o = p + vec3(0.0, 0.0, 2.0 * (level - p.z));
     vec4 c_o = u_view_projection * vec4(o, 1.0);
     vec4 c_d = u_view_projection * vec4(rv, 0.0);
     vec3 ndc_d = c_d.xyz / max(abs(c_d.w), 1e-4);
-    vec2 texels = vec2(textureSize(u_reflection, 0));
+    vec2 texels = vec2(textureSize(colour, 0));
     vec2 du = dFdx(ndc_d.xy) * 0.5 * texels, dv = dFdy(ndc_d.xy) * 0.5 * texels;
     float lod = clamp(0.5 * log2(max(max(dot(du, du), dot(dv, dv)), 1e-8)), 0.0,
                       REFLECTION_MAX_LOD);
@@ -81,7 +92,7 @@ vec3 reflected_scene(vec3 p, vec3 v, vec3 n, vec3 sky, float weight) {
     vec3 a = mix(ndc_o, ndc_d, l0);                  // the segment a → ndc_d (t = ∞)
     float span = length((ndc_d.xy - a.xy) * 0.5 * texels);
     // nothing drawn anywhere near the segment (a mip level whose texels span it): the sky
-    float around = textureLod(u_reflection, (a.xy + ndc_d.xy) * 0.25 + 0.5,
+    float around = textureLod(colour, (a.xy + ndc_d.xy) * 0.25 + 0.5,
                               log2(max(span, 1.0)) + 1.0).a;
     if (around <= 0.0) return sky;
     int steps = int(clamp(ceil(span / REFLECTION_STRIDE), 1.0, float(REFLECTION_MAX_STEPS)));
@@ -91,16 +102,16 @@ vec3 reflected_scene(vec3 p, vec3 v, vec3 n, vec3 sky, float weight) {
         float f = float(k) / float(steps);
         vec3 c = mix(a, ndc_d, f);
         if (any(greaterThan(abs(c.xy), vec2(1.0)))) break;   // off the texture
-        if (!behind(c)) { f_in = f; continue; }
+        if (!behind(depth, c)) { f_in = f; continue; }
         float f_out = f;               // behind: bisect between f_in and here
         for (int j = 0; j < REFLECTION_REFINE && k > 0; ++j) {
             float m = 0.5 * (f_in + f_out);
-            if (behind(mix(a, ndc_d, m))) f_out = m; else f_in = m;
+            if (behind(depth, mix(a, ndc_d, m))) f_out = m; else f_in = m;
         }
         // a hit if the surface drawn there is on the ray (within REFLECTION_MISS_TEXELS);
         // else the ray only passed behind an edge (seen from the eye): march on
         vec2 uv_hit = mix(a, ndc_d, f_out).xy * 0.5 + 0.5;
-        vec3 x = mirror_image(uv_hit);
+        vec3 x = mirror_image(depth, uv_hit);
         vec4 c_near = u_view_projection * vec4(o + max(dot(x - o, rv), 0.0) * rv, 1.0);
         if (c_near.w > 1e-4 && length((c_near.xy / c_near.w * 0.5 + 0.5 - uv_hit) * texels)
                 < REFLECTION_MISS_TEXELS)
@@ -113,7 +124,18 @@ vec3 reflected_scene(vec3 p, vec3 v, vec3 n, vec3 sky, float weight) {
     vec2 uv = mix(a, ndc_d, f_hit).xy * 0.5 + 0.5;
     vec2 edge = min(uv, 1.0 - uv) / REFLECTION_EDGE;
     float inside = clamp(min(edge.x, edge.y), 0.0, 1.0);
-    vec4 c = textureLod(u_reflection, clamp(uv, 0.0, 1.0), lod) * (inside * shown);
+    vec4 c = textureLod(colour, clamp(uv, 0.0, 1.0), lod) * (inside * shown);
     float fog = 1.0 - exp(-t * u_fog_density);
     return sky * (1.0 - c.a) + mix(c.rgb, FOG_COLOUR * c.a, fog);
+}
+
+// reflected_in through the held mirror's pass, cross-faded with the second pass while one
+// is faded in (u_reflection_fade, a uniform: both calls in uniform control flow).
+vec3 reflected_scene(vec3 p, vec3 v, vec3 n, vec3 sky, float weight) {
+    if (!u_reflect) return sky;        // a uniform: the derivatives stay in uniform flow
+    vec3 held = reflected_in(u_reflection, u_reflection_depth, u_mirror_level_m, p, v, n, sky,
+                             weight);
+    if (u_reflection_fade <= 0.0) return held;
+    return mix(held, reflected_in(u_reflection_b, u_reflection_depth_b, u_mirror_level_b_m, p,
+                                  v, n, sky, weight), u_reflection_fade);
 }

@@ -30,7 +30,8 @@ Per frame (reference §4; no one-frame latency: the tables are built from this f
 Reflections (issue 12 item 3; :attr:`DisplaySettings.reflections`, shaded water modes, the eye
 above the water), before step 2: the terrain tiles (through every 2nd node) and the props
 drawn mirrored in the mean level of the water in view (weighted by its share of the screen:
-continuous as the camera moves), each cut at its own water
+continuous as the camera moves; held, a second pass at a new level cross-faded in while it
+changes), each cut at its own water
 level, into a reduced-resolution colour + depth target with mip levels
 (:mod:`riverflow.scenes.reflection`); in step 4 the water shader follows each pixel's
 wave-bent reflected ray through it and Fresnel-weights what it finds over the sky
@@ -83,6 +84,7 @@ from riverflow.scenes.meshes import (edge_levels_up, level_count,
                                      stitch_tile, tile_index_parts)
 from riverflow.scenes.props import SHAPES
 from riverflow.scenes.reflection import (MIN_EYE_HEIGHT_M, MIRROR_CUT_M, MIRROR_REFRESH_M,
+                                          hold_levels,
                                          MIRROR_REFRESH_RAD, TERRAIN_STRIDE, ease_level, mirror_level, mirrored_view_projection,
                                          reflection_size)
 from riverflow.scenes.tile_kinds import TERRAIN_MESH, WATER_MESH
@@ -226,6 +228,7 @@ class _Gpu:
         self.params_cpu = self.starts_cpu = self.scratch = None
         self.targets: list = []
         self.reflection = _Reflection()
+        self.reflection_b = _Reflection()       # the level faded in (hold_levels)
         self.fall_sheets = FallSheets()
         self.spray = SprayQuads()
         gl.check_errors("creating the river draw resources")
@@ -333,6 +336,7 @@ class _Gpu:
         self.waves.clear()
         self.targets = []
         self.reflection.delete()
+        self.reflection_b.delete()
         self.fall_sheets.delete()
         self.spray.delete()
 
@@ -648,7 +652,9 @@ class _WaterBatch:
 # -- reflections (issue 12 item 3) -----------------------------------------------------------
 
 REFLECTION_UNIT, REFLECTION_DEPTH_UNIT = 10, 11
-"""Texture units of the reflection's colour and depth while the water is drawn."""
+REFLECTION_B_UNIT, REFLECTION_B_DEPTH_UNIT = 18, 19
+"""Texture units of the reflection's colour and depth while the water is drawn (B: the
+second pass, at the level being faded in: :func:`~riverflow.scenes.reflection.hold_levels`)."""
 
 
 class _Reflection:
@@ -691,6 +697,7 @@ _CONSTANT_UNIFORMS = dict(
     u_legend=SPILL_UNIT,
     u_spray=SPRAY_UNIT, u_flood_cells=FLOOD_CELLS_UNIT, u_flood_rise=FLOOD_RISE_UNIT,
     u_reflection=REFLECTION_UNIT, u_reflection_depth=REFLECTION_DEPTH_UNIT,
+    u_reflection_b=REFLECTION_B_UNIT, u_reflection_depth_b=REFLECTION_B_DEPTH_UNIT,
     u_colour=COMPOSITE_COLOUR_UNIT, u_depth=COMPOSITE_DEPTH_UNIT,
     u_sprite_radius_factor=SPRITE_RADIUS_FACTOR, u_foam_scale_m=FOAM_SCALE_M,
     u_foam_size_px=float(FOAM_PATTERN_PX))
@@ -731,7 +738,15 @@ class DrawRivers(System):
         self._flood_uniforms = {"u_flood_on": 0, "u_flood_rect": (0.0, 0.0, 1.0)}
         self.context = None
         self.last_mirror_level_m: float | None = None
-        """The reflection's mirror height [m] in the last frame (None: no reflection)."""
+        """The reflection's mirror height [m] in the last frame (None: no reflection): the
+        level of the water in view, eased; the passes are drawn at held levels near it
+        (:attr:`last_mirror_levels`)."""
+        self.last_mirror_levels: tuple | None = None
+        """(a, b, fade) the last frame's reflection was drawn at (:func:`hold_levels`; b None
+        with one pass), flood rise included; None: no reflection."""
+        self._mirror_held = None
+        """(clock time [s], camera revision, eye [m], hold_levels' answer) of the last frame
+        drawn with a reflection (None: the next one is a cut, as in :meth:`_ease_mirror`)."""
         self._mirror_for: tuple = (-1, None, -math.inf, ())
         """(camera revision, the level of the water in view, clock time, pose) when the
         mirror's target was last found (:func:`_moved`)."""
@@ -1103,13 +1118,15 @@ class DrawRivers(System):
                          clip_from_world: np.ndarray) -> dict:
         """The planar reflection pass (``shaders/reflection.glsl``): terrain and props mirrored
         in the level of the water in view (:func:`mirror_level`, eased in time:
-        :meth:`_ease_mirror`), cut at their water level, into the reflection target; returns
+        :meth:`_ease_mirror`, held: :func:`hold_levels`; while a new level is faded in, a
+        second pass at it into the second target), cut at their water level, into the
+        reflection target; returns
         the water shader's reflection uniforms (``u_reflect`` false, and no
         pass, when reflections are off, the water mode is not shaded, or the eye is not above
         the mirror). With a pass, the view block is written (its copy 0 packed by the caller,
         copy 1 the mirrored view, bound for the pass)."""
         off = {"u_reflect": False}
-        self.last_mirror_level_m = None
+        self.last_mirror_level_m = self.last_mirror_levels = None
         if not settings.reflections or settings.mode not in _SHADED_MODES:
             return off
         camera = world.camera
@@ -1125,24 +1142,57 @@ class DrawRivers(System):
             self._mirror_for = (camera.revision,
                                 mirror_level(getattr(world.scene, "water", None), eye,
                                              clip_from_world, camera.near_m), now, pose)
-        level = self._ease_mirror(self._mirror_for[1], now, camera.revision, pose[:3])
-        if level is None:
+        eased = self._ease_mirror(self._mirror_for[1], now, camera.revision, pose[:3])
+        held = self._mirror_held
+        if eased is None:
+            self._mirror_held = None
             return off
+        if held is None or (not now > held[0] and held[1] != camera.revision) \
+                or math.dist(held[2], pose[:3]) > MIRROR_CUT_M:
+            levels = hold_levels(None, eased, 0.0, pose[2])     # a cut: as _ease_mirror
+        else:
+            levels = hold_levels(held[3], eased, now - held[0], pose[2])
+        self._mirror_held = (now, camera.revision, pose[:3], levels)
+        level, level_b, fade = levels
         if world.flood is not None and world.flood.active:      # the flood's rise near the eye
-            level += float(world.flood.level_rise(np.array([eye[:2]], np.float64))[0])
-        self.last_mirror_level_m = level
-        reflection = gpu.reflection
+            rise = float(world.flood.level_rise(np.array([eye[:2]], np.float64))[0])
+            eased, level = eased + rise, level + rise
+            level_b = None if level_b is None else level_b + rise
+        self.last_mirror_level_m = eased
+        self.last_mirror_levels = (level, level_b, fade)
         exact = self.debug_exact_reflection
+        view = gpu.view.data                # copy 1: copy 0 (pack_view) but for
+        view[1] = view[0]
+        view[1, 39] = 1.0                   # (no fog: fogged in the water shader, over the
+        #                                     ray) cut what is under the water
+        self._mirror_pass(world, gpu, settings, clip_from_world, gpu.reflection, level, exact)
+        gpu.reflection.colour.bind(REFLECTION_UNIT)
+        gpu.reflection.depth.bind(REFLECTION_DEPTH_UNIT)
+        uniforms = {"u_reflect": True, "u_mirror_level_m": float(level),
+                    "u_reflection_distortion": float(settings.reflection_distortion),
+                    "u_reflection_fade": 0.0}
+        if level_b is not None:
+            self._mirror_pass(world, gpu, settings, clip_from_world, gpu.reflection_b, level_b,
+                              exact)
+            gpu.reflection_b.colour.bind(REFLECTION_B_UNIT)
+            gpu.reflection_b.depth.bind(REFLECTION_B_DEPTH_UNIT)
+            uniforms.update(u_mirror_level_b_m=float(level_b), u_reflection_fade=float(fade))
+        return uniforms
+
+    def _mirror_pass(self, world: RiverWorld, gpu: _Gpu, settings: DisplaySettings,
+                     clip_from_world: np.ndarray, reflection: _Reflection, level: float,
+                     exact: bool) -> None:
+        """One mirrored pass at ``level`` into ``reflection`` (the view block's copy 1 made
+        from copy 0 by the caller: its mirrored matrix and eye written here)."""
+        eye = world.camera.position
         reflection.fit(*gpu.size, 1.0 if exact else settings.reflection_scale)
         mirrored_eye = (float(eye[0]), float(eye[1]), 2.0 * level - float(eye[2]))
         # the frame's own world → clip matrix (pyrr's view_projection in closed form, as the
         # main pass draws with), mirrored
         vp = mirrored_view_projection(clip_from_world.T, level)
-        view = gpu.view.data                # copy 1: copy 0 (pack_view) but for
-        view[1] = view[0]
+        view = gpu.view.data
         view[1, :16] = vp.ravel()           # the mirrored world → clip
-        view[1, 32:36] = (*mirrored_eye, 0.0)   # the eye; no fog: fogged in the water shader,
-        view[1, 39] = 1.0                   # over the ray; cut what is under the water
+        view[1, 32:36] = (*mirrored_eye, 0.0)   # the eye
         gpu.view.write()
         gpu.view.bind(1, gpu.view_binding)
         reflection.fb.bind()
@@ -1157,10 +1207,6 @@ class DrawRivers(System):
                                  clip_level_m=level)
         gl.set_clip_distance(False)
         reflection.colour.generate_mipmaps()        # blurred levels for rough water
-        reflection.colour.bind(REFLECTION_UNIT)
-        reflection.depth.bind(REFLECTION_DEPTH_UNIT)
-        return {"u_reflect": True, "u_mirror_level_m": float(level),
-                "u_reflection_distortion": float(settings.reflection_distortion)}
 
     def _ease_mirror(self, target: float | None, now_s: float, revision: int,
                      eye: tuple[float, float, float]) -> float | None:

@@ -185,3 +185,38 @@ def test_the_mirror_eases_without_overshoot():
     two = ease_level(*ease_level(3.0, -4.0, 10.0, 0.05), 10.0, 0.05)
     np.testing.assert_allclose(one, two, rtol=1e-12)
     assert ease_level(7.0, 0.0, 7.0, 0.5) == (7.0, 0.0)
+
+
+def test_the_mirror_is_held_and_the_new_level_faded_in():
+    """hold_levels: the drawn level stays put while the eased level is within MIRROR_HOLD_M
+    of it; beyond, the eased level of that frame is drawn too and faded in over
+    MIRROR_FADE_S (a fixed second level, the fade rising by dt / MIRROR_FADE_S a frame),
+    then held. A cut takes the level at once; the same view again (no time) keeps the
+    answer; a held or fading level the eye came down to is dropped."""
+    from riverflow.scenes.reflection import MIRROR_FADE_S, MIRROR_HOLD_M, hold_levels
+    dt = 1 / 30
+    state = hold_levels(None, 40.0, 0.0, 100.0)
+    assert state == (40.0, None, 0.0)
+    state = hold_levels(state, 40.0 + 0.9 * MIRROR_HOLD_M, dt, 100.0)
+    assert state == (40.0, None, 0.0)                        # within the hold
+    assert hold_levels(state, 45.0, 0.0, 100.0) == state     # no time passed: as it was
+    level, fades, seen = 40.0, [], {40.0}
+    for _ in range(30):                                      # the level rises 0.3 m a frame
+        level += 0.3
+        seen.add(level)
+        state = hold_levels(state, level, dt, 100.0)
+        fades.append(state)
+    a = np.array([s[0] for s in fades])
+    fade = np.array([s[2] for s in fades])
+    assert set(a.tolist()) <= seen                          # levels it was given
+    assert np.diff(fade)[np.diff(a) == 0].max() <= dt / MIRROR_FADE_S + 1e-12
+    assert all(b is None and f == 0.0 or a0 < 100 and f > 0 for a0, b, f in fades)
+    bs = [s[1] for s in fades if s[1] is not None]
+    assert len(bs) > 20 and len(set(bs)) < 8                 # a few fixed second levels
+    # it follows, a fade or two behind (b is the level where a fade began)
+    assert a[-1] > 45.0 and level - a[-1] <= 0.3 / dt * (2 * MIRROR_FADE_S + 2 * dt)
+    # the eye came down to the held level: the eased level at once
+    assert hold_levels((60.0, 70.0, 0.5), 50.0, dt, 55.0) == (50.0, None, 0.0)
+    assert hold_levels((50.0, 70.0, 0.5), 50.0, dt, 60.0) == (50.0, None, 0.0)
+    # a long frame: no fade
+    assert hold_levels((40.0, None, 0.0), 45.0, MIRROR_FADE_S, 100.0) == (45.0, None, 0.0)
