@@ -1121,6 +1121,8 @@ def _open_edge(water, frame, width: float, tolerance_m: float):
     if frame is None:
         return None
     band = shapely.buffer(frame.boundary, 1e-6 * max(width, 1.0) + 1e-9, cap_style="flat")
+    if shapely.difference(water.exterior, band).is_empty:
+        return None     # the water is its own frame (a rectangle): the data's edge says nothing
     on = shapely.intersection(water.boundary, band)
     rest = shapely.difference(water.boundary, band)
     pieces = [g for g in shapely.get_parts(shapely.line_merge(on) if on.geom_type in (

@@ -276,6 +276,20 @@ def test_an_outlet_sets_the_direction(tmp_path):
     assert status[0] == INSIDE and v[0, 0] < 0
 
 
+def test_a_rectangle_with_islands_that_fills_its_own_frame(tmp_path):
+    """A canal polygon that is its own bounding box: every side lies on the data's frame, so
+    the frame tells nothing of where the water is cut off (it was taken as cut everywhere,
+    and an island near an end left the skeleton with no channel)."""
+    islands = [shapely.box(x, 40.0, x + 5.0, 60.0).exterior.coords for x in (10.0, 500.0)]
+    canal = shapely.Polygon([(0, 0), (1000, 0), (1000, 100), (0, 100)], islands)
+    poly = write_polygons(tmp_path / "canal.geojson",      # written at (0, 0) … (1000, 100)
+                          [shapely.affinity.translate(canal, *-ORIGIN)])
+    graph = rf.read_water(poly, origin_m=None).build()
+    probes = np.array([[100.0, 50.0], [502.0, 20.0], [502.0, 80.0], [900.0, 50.0]])
+    status, v = rf.FlowField(graph).query(probes)
+    assert (status == INSIDE).all() and (v[:, 0] > 0).all()
+
+
 # -- masks ----------------------------------------------------------------------------------
 
 
