@@ -1081,7 +1081,7 @@ def _move_to_origin(xy: np.ndarray, origin_m, crs_out, crs_note: str, where: str
     origin and "coordinates" note written to match."""
     extent = float((xy.max(axis=0) - xy.min(axis=0)).max()) if len(xy) else 0.0
     if not extent <= MAX_EXTENT_M:
-        raise GraphError(f"{where}: its lines span {extent / 1000:.4g} km once projected, "
+        raise GraphError(f"{where}: its features span {extent / 1000:.4g} km once projected, "
                          f"more than {MAX_EXTENT_M / 1000:.0f} km: coordinates in another unit "
                          "or CRS than the file says?")
     offset = _origin(origin_m, xy, where)

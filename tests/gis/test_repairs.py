@@ -357,7 +357,7 @@ def test_unusable_input_names_file_and_layer_and_writes_nothing(tmp_path, case):
         expect = r"notes.geojson: cannot read it"
     elif case == "far":                       # metres read as millimetres, say
         path = write_lines(data / "far.gpkg", [np.array([(0.0, 0.0), (3e11, 0.0)])])
-        expect = r"far.gpkg \(layer 'far'\): its lines span 3e\+08 km once projected"
+        expect = r"far.gpkg \(layer 'far'\): its features span 3e\+08 km once projected"
     else:
         with np.errstate(invalid="ignore"):
             geoms = [shapely.LineString([(np.nan, np.nan), (np.nan, np.nan)])] * 2
