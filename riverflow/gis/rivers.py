@@ -1572,11 +1572,15 @@ def _zigzags(p: np.ndarray, width_m: float) -> bool:
     them turning by GRID_TURN_DEG or more."""
     if len(p) < 5:
         return False
-    d = np.diff(p, axis=0)
+    d = p[1:] - p[:-1]
+    seg = np.hypot(d[:, 0], d[:, 1])
+    n = len(seg)                      # the median, as np.median has it, without its overhead
+    part = np.partition(seg, [(n - 1) // 2, n // 2])
+    if not 0.5 * (part[(n - 1) // 2] + part[n // 2]) < 0.5 * width_m:
+        return False
     turn = np.degrees(np.abs(np.arctan2(d[:-1, 0] * d[1:, 1] - d[:-1, 1] * d[1:, 0],
                                         np.einsum("ij,ij->i", d[:-1], d[1:]))))
-    return bool(np.median(np.hypot(*d.T)) < 0.5 * width_m
-                and (turn >= GRID_TURN_DEG).mean() >= GRID_TURN_SHARE)
+    return bool((turn >= GRID_TURN_DEG).mean() >= GRID_TURN_SHARE)
 
 
 def _smooth_traced(links: list[_Link], plan, report: RiverImport) -> None:
@@ -2310,6 +2314,39 @@ def _cut_crossings(links: list[_Link], plan, crossings, geometry: HydraulicGeome
     return links, _plan(links, geometry, specs, report)
 
 
+def _first_gaps(links: list[_Link], width, pairs) -> dict:
+    """For each pair (a, b) of links flowing into one junction: the first FIRST_GAPS
+    distances back from its end along a, every quarter of the narrower width, and a's
+    distance there to b (what :func:`_merge_close_channels` measured first pair by pair; in
+    one GEOS call for all pairs)."""
+    if not pairs:
+        return {}
+    geoms = {i: shapely.LineString(links[i].points) for pair in pairs for i in pair}
+    a_rows, b_rows, backs = [], [], []
+    for a, b in pairs:
+        step = 0.25 * min(width[a], width[b])
+        more = np.arange(FIRST_GAPS) * step
+        more = more[more < geoms[a].length]
+        backs.append(more)
+        a_rows += [a] * len(more)
+        b_rows += [b] * len(more)
+    back = np.concatenate(backs)
+    line_a = np.array([geoms[i] for i in a_rows], dtype=object)
+    line_b = np.array([geoms[i] for i in b_rows], dtype=object)
+    d = shapely.distance(shapely.line_interpolate_point(line_a, shapely.length(line_a) - back),
+                         line_b)
+    out, k = {}, 0
+    for pair, more in zip(pairs, backs):
+        out[pair] = (more, d[k:k + len(more)])
+        k += len(more)
+    return out
+
+
+FIRST_GAPS = 8
+"""Points measured at once per pair of channels into a junction (most part within a few
+widths; those that do not are followed in batches that double)."""
+
+
 def _merge_close_channels(links: list[_Link], plan, geometry: HydraulicGeometry, specs,
                           report: RiverImport):
     """Two channels that flow into one junction and run closer together than MERGE_GAP ×
@@ -2324,6 +2361,8 @@ def _merge_close_channels(links: list[_Link], plan, geometry: HydraulicGeometry,
     width = [p[0] for p in plan]
     next_j = 1 + max([max(lk.start, lk.end) for lk in links], default=-1)
     added, told = [], []
+    first = _first_gaps(links, width, [(a, b) for j in sorted(ins)
+                                       for a, b in itertools.combinations(ins[j], 2)])
     for j in sorted(ins):
         group = ins[j]
         used: set[int] = set()
@@ -2334,9 +2373,10 @@ def _merge_close_channels(links: list[_Link], plan, geometry: HydraulicGeometry,
             wa, wb = width[a], width[b]
             line_a, line_b = shapely.LineString(la.points), shapely.LineString(lb.points)
             step = 0.25 * min(wa, wb)
-            back, d = np.zeros(0), np.zeros(0)
-            batch = 8           # most pairs part within a few widths: batches that double
-            while len(back) * step < line_a.length:    # from the junction up, till they part
+            back, d = first[a, b]
+            batch = 16          # most pairs part within a few widths: batches that double
+            while len(back) * step < line_a.length and not (
+                    d >= MERGE_GAP * (wa + wb)).any():     # from the junction up, till they part
                 more = np.arange(len(back), len(back) + batch) * step
                 batch = min(2 * batch, 64)
                 more = more[more < line_a.length]
