@@ -464,10 +464,18 @@ class RiverWorld:
 
             router = FloodRouter(self._cell_network(), self.clock.now_s)
             router.set_hydrograph(link, times_s, discharge_m3s)    # raises before it is kept
+            router.ground = self._flood_ground
             self.resources[_FloodRouterKey] = router
             self.field.discharge_scale = router.scale_velocity
             return
         router.set_hydrograph(link, times_s, discharge_m3s)
+
+    def _flood_ground(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The flood's view of the ground at points (P, 2) [m] (``FloodRouter.ground``): the
+        scene's terrain height and the base-flow level of the nearest river (as the terrain
+        shader reads them); the current scene's, after an edit too."""
+        scene = self.scene
+        return scene.terrain.height(xy), scene.water.level(xy)
 
     @property
     def flood_time_s(self) -> float:
@@ -777,6 +785,7 @@ class RiverWorld:
         router.wet_rise_m[:] = old.wet_rise_m[source]
         router.time_s = old.time_s
         router.dt_s = min(router.dt_s, router._step_for(1.0))     # a's highest counts
+        router.ground = old.ground
         self.resources[_FloodRouterKey] = router
         self.field.discharge_scale = router.scale_velocity
 

@@ -10,7 +10,12 @@ the rest of the world reads from it, per cell, relative to base flow:
   depth-averaged speed Q / (W h) grows as Q^(2/5)); the flow field multiplies its velocities
   by it (:meth:`FlowField.query`, the particles' query) — the ψ tiles are not re-made;
 * the level rise Δz = h₀ (r^(3/5) − 1) [m] (the rating curve h = h₀ (Q / Q₀)^(3/5), i.e.
-  Manning's h = (Q n / (W √S))^(3/5) with the slope and roughness the base state implies).
+  Manning's h = (Q n / (W √S))^(3/5) with the slope and roughness the base state implies);
+* on the floodplain (ground beside the river below the raised level, given :attr:`FloodRouter.
+  ground`), a slow flow down the valley: the nearest centre line's downstream direction at
+  Manning's speed for the water's depth there and the floodplain's roughness,
+  U = U_c (h / h_c)^(2/3) / FLOODPLAIN_ROUGHNESS (U_c, h_c: the channel's mean speed and
+  depth now; the slope cancels), 0 at the wet edge (:meth:`FloodRouter.floodplain_flow`).
 
 The router steps in whole fixed steps (Courant number ≤ ``COURANT`` at the highest discharge
 any hydrograph reaches), so a run depends on the world time only, never on how frames cut it.
@@ -45,6 +50,12 @@ FLOODPLAIN_REACH_M = 250.0
 beyond the cell raster, the nearest cell by the KD-tree); the terrain shader floods the ground
 below the level there (it knows the level within 200 m of a shore,
 ``scenes.tile_kinds.LEVEL_REACH_M``)."""
+FLOODPLAIN_ROUGHNESS = 2.0
+"""The floodplain's Manning n over the channel's (pasture or light brush, n ≈ 0.035–0.07,
+against a clean natural channel's 0.03: Chow 1959, table 5-6): its water flows at most half
+the channel's mean speed at the channel's depth."""
+FLOODPLAIN_MIN_DEPTH_M = 1e-3
+"""Ground under less water than this [m] is dry for the flow (the wet edge)."""
 WET_FALL_MPS = 0.5 / 3600.0
 """How fast the line of wet-looking ground falls behind a falling flood [m/s] (0.5 m an hour
 of flood time): ground the flood covered looks wet for a while after the water left it."""
@@ -212,6 +223,12 @@ class FloodRouter:
         """(N,) the rise [m] up to which the ground looks wet (the highest rise, falling
         behind a falling level by WET_FALL_MPS)."""
         self._missed = np.zeros(0, np.int64)
+        self.ground = None
+        """None, or a callable xy (P, 2) [m] → (terrain height (P,) [m], base-flow water level
+        of the nearest river (P,) [m]) — what the terrain shader floods by — that the world
+        sets: with it, :meth:`scale_velocity` gives flooded ground its
+        :meth:`floodplain_flow`."""
+        self._tangents: np.ndarray | None = None
 
     # -- input -------------------------------------------------------------------------------
 
@@ -431,3 +448,82 @@ class FloodRouter:
             rest = self._missed[:n_missed]
             f = self._at(factor, pts[rest], 1.0)
             velocity[rest] *= f[:, None].astype(velocity.dtype)
+        if status is not None and self.ground is not None:
+            self.floodplain_flow(pts, status, velocity, n)
+
+    def floodplain_flow(self, xy: np.ndarray, status: np.ndarray, velocity: np.ndarray,
+                        n: int | None = None) -> int:
+        """Give the flooded ground among the first ``n`` points its flow (in place): points
+        the flow field left OUTSIDE (beside the base banks, not beyond the domain) within
+        FLOODPLAIN_REACH_M of a centre line whose level rise puts water over the ground
+        (:attr:`ground`: depth = base level + rise − terrain > FLOODPLAIN_MIN_DEPTH_M) become
+        INSIDE, moving along the nearest centre line's downstream direction at
+        U_c (h / h_c)^(2/3) / FLOODPLAIN_ROUGHNESS (module docstring; h at most h_c). Points
+        already INSIDE (the channel's own flow) are not touched; dry ground stays OUTSIDE.
+        Returns how many points became INSIDE."""
+        from riverflow.components.status import FlowStatus
+
+        n = len(xy) if n is None else int(n)
+        if self.ground is None or not n:
+            return 0
+        rise_cells = self.cell_level_rise_m()
+        if not np.any(rise_cells > FLOODPLAIN_MIN_DEPTH_M):
+            return 0
+        cand = np.flatnonzero(status[:n] == FlowStatus.OUTSIDE)
+        if not len(cand):
+            return 0
+        pts = np.asarray(xy[cand], np.float64)
+        ok = np.isfinite(pts).all(axis=1)
+        cand, pts = cand[ok], pts[ok]
+        net = self.network
+        link, s, _ = net.locate(pts, FLOODPLAIN_REACH_M)
+        near = np.flatnonzero(link >= 0)
+        if not len(near):
+            return 0
+        link, s, cand, pts = link[near], s[near], cand[near], pts[near]
+        a, b, w = net.weights(link, s)
+        rise = rise_cells[a] * (1.0 - w) + rise_cells[b] * w
+        risen = np.flatnonzero(rise > FLOODPLAIN_MIN_DEPTH_M)
+        if not len(risen):
+            return 0
+        link, s, cand, pts = link[risen], s[risen], cand[risen], pts[risen]
+        a, b, w, rise = a[risen], b[risen], w[risen], rise[risen]
+        ground, level = self.ground(pts)
+        depth = np.asarray(level, np.float64) + rise - np.asarray(ground, np.float64)
+        wet = np.flatnonzero(depth > FLOODPLAIN_MIN_DEPTH_M)
+        if not len(wet):
+            return 0
+        a, b, w, depth, cand = a[wet], b[wet], w[wet], depth[wet], cand[wet]
+        u_channel = self._channel_speed()
+        h_channel = net.link_depth_m[net.cell_link] * self.a
+        u_c = u_channel[a] * (1.0 - w) + u_channel[b] * w
+        h_c = h_channel[a] * (1.0 - w) + h_channel[b] * w
+        speed = u_c * (np.minimum(depth, h_c) / h_c) ** (2.0 / 3.0) / FLOODPLAIN_ROUGHNESS
+        tangent = self._sample_tangents()[net._tree.query(pts[wet])[1]]
+        velocity[cand] = (tangent * speed[:, None]).astype(velocity.dtype)
+        status[cand] = FlowStatus.INSIDE
+        return len(cand)
+
+    def _channel_speed(self) -> np.ndarray:
+        """(N,) each cell's depth-averaged speed now [m/s]: U₀ a^(2/3), U₀ = Q₀ / A₀."""
+        u0 = self.net.link_q0[self.network.cell_link] / self.net.cell_area0
+        return u0 * self.cell_speed_factor()
+
+    def _sample_tangents(self) -> np.ndarray:
+        """(S, 2) the downstream unit direction of the network's centre line at each of its
+        KD-tree's samples (central differences along the sample's link, by arc length)."""
+        if self._tangents is None:
+            net = self.network
+            xy, link, s = net._tree.data, net._sample_link, net._sample_s
+            order = np.lexsort((s, link))
+            p, lk = xy[order], link[order]
+            prev = np.r_[0, np.arange(len(p) - 1)]
+            nxt = np.r_[np.arange(1, len(p)), len(p) - 1]
+            prev = np.where(lk[prev] == lk, prev, np.arange(len(p)))
+            nxt = np.where(lk[nxt] == lk, nxt, np.arange(len(p)))
+            d = p[nxt] - p[prev]
+            d /= np.maximum(np.hypot(*d.T), 1e-12)[:, None]
+            out = np.empty_like(d)
+            out[order] = d
+            self._tangents = out
+        return self._tangents

@@ -13,9 +13,10 @@ import pytest
 
 import riverflow as rf
 from riverflow.hydro.falls import channel_depth_m
-from riverflow.hydro.flood import FloodRouter, cell_raster
+from riverflow.hydro.flood import FLOODPLAIN_ROUGHNESS, FloodRouter, cell_raster
 from riverflow.hydro.spill_network import build_spill_network
 from riverflow.kernels.flood import flood_steps, sample_by_cells, scale_by_cells
+from riverflow.scenes.carving import Carving
 from tests.engine import cell_networks
 from tests.engine.cell_networks import branch, straight
 
@@ -349,3 +350,90 @@ def test_the_ground_stays_wet_looking_behind_a_falling_flood(diamond):
     assert router.wet_rise_m.max() > 0.0 and router.drawn   # still wet-looking
     router.advance(12 * 3600.0)
     assert router.wet_rise_m.max() < 1e-9 and not router.drawn   # dry again
+
+
+# -- water over its banks: the floodplain's flow (item 3) -------------------------------------
+# With the flood's level 1 m above the bank top in the built-in valley, the ground below the
+# raised level beside the tributary's banks is INSIDE the flow, moving slowly (faster than 0,
+# slower than the channel, down the valley); the channel's own flow is the base field's,
+# scaled; it dries (OUTSIDE) when the flood falls back. No NaN.
+
+WET_M = 0.05
+"""Points this much below (above) the raised level count as flooded (dry): the terrain the
+test reads and the flood's interpolation of its rise agree to well within it."""
+
+
+@pytest.fixture(scope="module")
+def flooded(world):
+    """The module's world with the tributary's level 1 m above its bank top (steady), after
+    what the tests above left settled back to base flow."""
+    if world.flood is not None:                           # back to base flow first
+        world.set_hydrograph(None, [], None)
+        world.advance_flood(12 * 3600.0)
+    scene = world.scene
+    line = scene.branch("tributary").centerline_m
+    k = len(line) // 2
+    t = line[k + 1] - line[k - 1]
+    t = t / np.hypot(*t)
+    normal = np.array([-t[1], t[0]])
+    # five sections across the valley, 30 m apart, 1 m steps out to 130 m from the axis
+    off = np.arange(-130.0, 130.5, 1.0)
+    pts = np.concatenate([line[k] + 30.0 * j * t + off[:, None] * normal
+                          for j in range(-2, 3)])
+    base_status, base_v = world.field.query(pts)
+    world.set_hydrograph(None, [], None)
+    router = world.flood
+    b = router.network.names.index("tributary")
+    h0 = float(router.network.link_depth_m[b])
+    rise = Carving().bank_rise_m + 1.0                    # 1 m above the bank top
+    ratio = (1.0 + rise / h0) ** (5.0 / 3.0)              # the rating curve, inverted
+    sources = [s for s in range(len(router.network.names)) if router.net.link_start[s] < 0]
+    q0 = float(router.net.link_q0[sources].sum())
+    now = world.flood_time_s
+    world.set_hydrograph(None, [now, now + 1.0], [q0, ratio * q0])
+    world.advance_flood(6 * 3600.0)                       # steady
+    return world, pts, t, base_status, base_v, (ratio, q0), rise
+
+
+def test_flooded_ground_flows_slowly_down_the_valley(flooded):
+    world, pts, t, base_status, base_v, _, rise = flooded
+    router = world.flood
+    centre = pts[len(pts) // 2][None]
+    assert float(router.level_rise(centre)[0]) == pytest.approx(rise, rel=0.02)
+    status, v = world.field.query(pts)
+    assert np.isfinite(v).all()
+    depth = world.water_level(pts) - world.scene.terrain.height(pts)
+    plain = (base_status == rf.FlowStatus.OUTSIDE) & (depth > WET_M)
+    dry = (base_status == rf.FlowStatus.OUTSIDE) & (depth < -WET_M)
+    assert plain.sum() > 100 and dry.sum() > 100          # the water is over its banks
+    assert np.all(status[plain] == rf.FlowStatus.INSIDE)
+    assert np.all(status[dry] == rf.FlowStatus.OUTSIDE) and not v[dry].any()
+    speed = np.hypot(*v.T.astype(np.float64))
+    channel = base_status == rf.FlowStatus.INSIDE
+    u_mid = float(np.median(speed[channel]))
+    assert np.all(speed[plain] > 0.0)
+    assert speed[plain].max() < u_mid / FLOODPLAIN_ROUGHNESS * 1.01
+    down = (v[plain] @ t) / speed[plain]
+    assert np.mean(down > np.cos(np.radians(30.0))) >= 0.95   # down the valley
+    # slower where shallower: the speed rises with the depth on each section
+    shallow = plain & (depth < 0.5)
+    deep = plain & (depth > 1.5)
+    assert speed[shallow].mean() < speed[deep].mean()
+    # the channel's own flow: the base field, scaled by the discharge's speed factor only
+    router.ground, ground = None, router.ground
+    try:
+        _, v_channel = world.field.query(pts[channel])
+    finally:
+        router.ground = ground
+    assert np.array_equal(v[channel], v_channel)
+    assert np.all(status[channel] == rf.FlowStatus.INSIDE)
+
+
+def test_the_floodplain_dries_when_the_flood_falls_back(flooded):
+    world, pts, _, base_status, base_v, (ratio, q0), _ = flooded
+    now = world.flood_time_s
+    world.set_hydrograph(None, [now, now + 1.0], [ratio * q0, q0])
+    world.advance_flood(12 * 3600.0)
+    status, v = world.field.query(pts)
+    assert np.array_equal(status, base_status)
+    assert np.allclose(v, base_v, rtol=1e-4, atol=1e-6)
