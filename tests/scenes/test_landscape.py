@@ -39,3 +39,24 @@ def test_a_narrow_creek_is_resampled_finer_than_it_is_wide():
     # its bends are kept: the resampled line stays well inside the creek
     off = shapely.distance(shapely.LineString(xy), shapely.points(branch.centerline_m))
     assert off.max() < 0.1 * width, off.max()
+
+
+def test_the_land_level_lattice_is_one_function_of_the_point():
+    """carving.lattice_land_level reads a compact batch (a tile's nodes) from the lattice's
+    whole box around it and a spread one through its unique nodes: the same value at the same
+    point either way, and the water's own land level at lattice nodes."""
+    from riverflow.scenes.carving import lattice_land_level
+
+    scene = rf.default_scene(seed=0)
+    water = scene.water
+    anchor = (scene.quadtree.root_x_m, scene.quadtree.root_y_m)
+    centre = scene.branch("tributary").centerline_m[40]
+    gx, gy = np.meshgrid(centre[0] + np.arange(-33, 34) * 4.0, centre[1] + np.arange(-33, 34) * 4.0)
+    tile = np.column_stack([gx.ravel(), gy.ravel()])                 # a tile of 4 m cells
+    spread = np.vstack([tile[::37], centre + [[1500.0, -900.0]]])    # sparse, far apart
+    compact = lattice_land_level(water, tile, 16.0, anchor)[::37]
+    sparse = lattice_land_level(water, spread, 16.0, anchor)
+    assert np.array_equal(compact, sparse[:-1])
+    nodes = np.asarray(anchor) + 16.0 * np.round((tile[::97] - anchor) / 16.0)
+    assert np.allclose(lattice_land_level(water, nodes, 16.0, anchor), water.land_level(nodes),
+                       rtol=0, atol=1e-9)
