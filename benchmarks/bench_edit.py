@@ -25,7 +25,9 @@ Target (the issue brief): an edit's new tiles in view within 0.5 s at 1080p; no 
 
 Run: ``NUMBA_NUM_THREADS=1 taskset -c 0 python benchmarks/bench_edit.py`` (``--json out.json``
 to keep the figures; ``--in-place 7``: only the CPU of 7 edits made in place, the edit's own
-work without its tiles). Figures go to docs/performance.md.
+work without its tiles; ``--remake 4``: the CPU of remaking 4 edits' tiles in view, made in
+the frame's thread, per kind: what the tile process has to do, whatever the load). Figures go
+to docs/performance.md.
 """
 from __future__ import annotations
 
@@ -198,6 +200,65 @@ def in_place(size, n: int, bump_m: float, seed: int) -> dict:
     return out
 
 
+def remake(size, n: int, bump_m: float, seed: int) -> dict:
+    """``--remake N``: the CPU seconds that remaking one edit's tiles in view costs, whatever
+    the machine's load: tiles made in the frame's thread (``tile_production="blocking"``), N
+    edits made in place (alternating ±``bump_m`` bumps of the branch in view), after each
+    ``load_view()`` remakes every tile of the view the edit dropped
+    (``time.process_time()``, one thread, KD-tree queries on one thread as in the tile
+    process); per kind the tiles remade and their CPU
+    (the scheduler's producers timed)."""
+    import riverflow as rf
+    from riverflow.engine.config import RiverConfig
+
+    world = rf.RiverWorld(rf.default_scene(seed=seed), size=size, gl=False, seed=seed,
+                          config=RiverConfig(tile_production="blocking"))
+    world.load_view()
+    _flood(world)
+    world.step(1.0 / 60.0)
+    from riverflow.tiles import remote
+    remote.IN_WORKER_PROCESS = True      # one-thread KD-tree queries, as in the tile process
+    spent: dict[str, list[float]] = {}
+
+    def timed_producers() -> None:        # an edit makes new producers: time those
+        for kind, producer in world.tiles.scheduler.producers.items():
+            if getattr(producer, "_bench_timed", False):
+                continue
+            spent.setdefault(kind, [0.0, 0])
+
+            def timed(key, deps, _make=producer.produce, _kind=kind):
+                c0 = time.process_time()
+                try:
+                    return _make(key, deps)
+                finally:
+                    spent[_kind][0] += time.process_time() - c0
+                    spent[_kind][1] += 1
+            producer.produce, producer._bench_timed = timed, True
+
+    target = np.asarray(world.camera.target[:2])
+    link = int(np.argmin([float(np.hypot(*(b.centerline_m - target).T).min())
+                          for b in world.scene.branches]))
+    line0 = world.scene.branches[link].centerline_m.copy()
+    arc = np.r_[0.0, np.cumsum(np.hypot(*np.diff(line0, axis=0).T))]
+    at = float(arc[int(np.argmin(np.hypot(*(line0 - target).T)))])
+    width = 4.0 * float(np.median(world.scene.branches[link].widths_m))
+    cpu = []
+    for k in range(n):
+        world.move_axis(link, _bumped(line0, bump_m * (-1) ** k, at, width))
+        timed_producers()
+        c0 = time.process_time()
+        world.load_view()
+        cpu.append(time.process_time() - c0)
+    out = {"remake_edits": n, "remake_cpu_s_median": float(np.median(cpu)),
+           "remake_cpu_s_max": float(np.max(cpu))}
+    for kind, (seconds, count) in spent.items():
+        if count:
+            out[f"{kind}_tiles_per_edit"] = count / n
+            out[f"{kind}_ms_per_tile"] = 1e3 * seconds / count
+    world.close()
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--size", type=int, nargs=2, default=(1920, 1080))
@@ -209,8 +270,13 @@ def main() -> None:
     ap.add_argument("--json", default=None)
     ap.add_argument("--in-place", type=int, default=0,
                     help="only time this many edits made in place (CPU s), no frames")
+    ap.add_argument("--remake", type=int, default=0,
+                    help="only the CPU of remaking this many edits' tiles in view, made in "
+                         "the frame's thread (tile_production='blocking')")
     args = ap.parse_args()
-    if args.in_place:
+    if args.remake:
+        out = remake(tuple(args.size), args.remake, args.bump, args.seed)
+    elif args.in_place:
         out = in_place(tuple(args.size), args.in_place, args.bump, args.seed)
     else:
         out = run(tuple(args.size), args.edits, args.every, args.bump, args.warm, args.seed)

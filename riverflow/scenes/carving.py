@@ -59,14 +59,22 @@ class Carving:
 
 
 def carve(water: WaterSurface, xy: np.ndarray, source_m: np.ndarray,
-          carving: Carving = Carving(), anchor_m: tuple[float, float] = (0.0, 0.0)
-          ) -> np.ndarray:
+          carving: Carving = Carving(), anchor_m: tuple[float, float] = (0.0, 0.0),
+          shore_m: np.ndarray | None = None) -> np.ndarray:
     """Carved terrain heights [m], (N,) float64, at points xy (N, 2) [m] whose uncarved
     source heights are ``source_m`` (N,); ``anchor_m`` is a node of the land-level lattice
-    (the quadtree root's corner)."""
+    (the quadtree root's corner); ``shore_m`` (N,): the points' distance to the shore if
+    known (:meth:`WaterSurface.distance_to_shore`, inf or any value from
+    ``carving.reach_m`` on: beyond reach)."""
     p = np.asarray(xy, np.float64).reshape(-1, 2)
     out = np.asarray(source_m, np.float64).reshape(-1).copy()
-    shore = water.distance_to_shore(p, upper_bound_m=carving.reach_m)
+    if shore_m is None:
+        shore = water.distance_to_shore(p, upper_bound_m=carving.reach_m)
+    else:
+        shore = np.asarray(shore_m, np.float64).reshape(-1)
+        if shore.shape != (len(p),):
+            raise ValueError(f"carve: shore_m has {shore.size} values for {len(p)} points")
+        shore = np.where(shore < carving.reach_m, shore, np.inf)
     near = np.flatnonzero(np.isfinite(shore))
     if not len(near):
         return out

@@ -60,3 +60,29 @@ def test_the_land_level_lattice_is_one_function_of_the_point():
     nodes = np.asarray(anchor) + 16.0 * np.round((tile[::97] - anchor) / 16.0)
     assert np.allclose(lattice_land_level(water, nodes, 16.0, anchor), water.land_level(nodes),
                        rtol=0, atol=1e-9)
+
+
+def test_height_and_water_tiles_share_their_shore_query_and_match_the_pointwise_terrain():
+    """tile_kinds.LandscapeTiles.shore: one shore-distance query for a tile's height and water
+    producers (whichever comes first); their tiles are the pointwise terrain's and water's."""
+    from riverflow.scenes.tile_kinds import LEVEL_REACH_M, terrain_producers
+
+    scene = rf.default_scene(seed=0)
+    height, water = terrain_producers(scene)[:2]
+    tiles = height.tiles
+    centre = scene.branch("tributary").centerline_m[40]
+    level = tiles.max_level
+    key = (level, *tiles.quadtree.tile_of(*centre, level))
+    n = tiles.n
+    for first, second in ((height, water), (water, height)):
+        got = {p.kind: p.produce(key, {}) for p in (first, second)}
+        assert not tiles._shores                       # handed on, not kept
+        nodes = tiles.nodes(key, n, ring=1)
+        assert np.array_equal(got["height"]["z"].ravel(),
+                              scene.terrain.height(nodes).astype(np.float32))
+        inner = tiles.nodes(key, n)
+        d = scene.water.distance_to_shore(inner, upper_bound_m=LEVEL_REACH_M)
+        inside = scene.water.contains(inner, d)
+        signed = np.where(np.isfinite(d), np.where(inside, -d, d), LEVEL_REACH_M)
+        assert np.array_equal(got["water"]["shore"].ravel(), signed.astype(np.float32))
+        assert (signed < 0).any() and (signed > 20).any()  # the tile holds water and land
