@@ -93,6 +93,7 @@ def run(size, edits: int, every: int, bump_m: float, warm: int, seed: int) -> di
     width = 4.0 * float(np.median(branch.widths_m))
     tick = 1.0 / 60.0
     next_tick = time.perf_counter()
+    systems: list[dict[str, float]] = []      # each frame's systems' wall ms
 
     def frame() -> tuple[float, float]:
         nonlocal next_tick
@@ -102,11 +103,13 @@ def run(size, edits: int, every: int, bump_m: float, warm: int, seed: int) -> di
         next_tick = max(next_tick + tick, time.perf_counter() - tick)
         w0, c0 = time.perf_counter(), time.thread_time()
         world.step(tick)
+        systems.append(dict(world.timings_ms))
         return (time.perf_counter() - w0) * 1e3, (time.thread_time() - c0) * 1e3
 
     for _ in range(60):
         frame()
     quiet = np.array([frame() for _ in range(warm)])
+    edit_from = len(systems)
     out: dict = {"size": f"{size[0]}x{size[1]}", "branch": branch.name,
                  "particles": len(world.particles),
                  "quiet_ms_median": float(np.median(quiet[:, 0])),
@@ -164,8 +167,26 @@ def run(size, edits: int, every: int, bump_m: float, warm: int, seed: int) -> di
         "frames_over_2x_median": int(np.sum(during[:, 0] > 2.0 * med)),
         "frames_over_2x_quiet_median": int(np.sum(during[:, 0] > 2.0 * out["quiet_ms_median"])),
         "particles_end": len(world.particles)})
+    out.update(_spikes(during, systems[edit_from:], med))
     world.close()
     return out
+
+
+def _spikes(during: np.ndarray, systems: list[dict[str, float]], median_ms: float) -> dict:
+    """Which frames spike (wall over 2x the median) and why: those whose own thread's CPU
+    is over 2x its median too (the frame's own work: the system that took longest) and
+    those that waited (CPU normal: another thread or process held the interpreter lock or
+    the core)."""
+    over = np.flatnonzero(during[:, 0] > 2.0 * median_ms)
+    cpu_med = float(np.median(during[:, 1]))
+    own = [k for k in over.tolist() if during[k, 1] > 2.0 * cpu_med]
+    top: dict[str, int] = {}
+    for k in own:
+        if k < len(systems) and systems[k]:
+            name = max(systems[k], key=systems[k].get)
+            top[name] = top.get(name, 0) + 1
+    return {"spikes_own_cpu": len(own), "spikes_waiting": len(over) - len(own),
+            "spikes_own_cpu_by_system": top}
 
 
 def in_place(size, n: int, bump_m: float, seed: int) -> dict:

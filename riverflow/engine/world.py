@@ -472,10 +472,21 @@ class RiverWorld:
 
     def _flood_ground(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The flood's view of the ground at points (P, 2) [m] (``FloodRouter.ground``): the
-        scene's terrain height and the base-flow level of the nearest river (as the terrain
-        shader reads them); the current scene's, after an edit too."""
+        terrain height and the base-flow level seen from it as the terrain shader draws them
+        (:func:`~riverflow.scenes.tile_kinds.ground_and_level`: the resident height and water
+        tiles, bilinear; a few µs a point), the scene's own pointwise functions where no
+        tile is resident (the current scene's, after an edit too)."""
+        from riverflow.scenes.tile_kinds import ground_and_level
+
         scene = self.scene
-        return scene.terrain.height(xy), scene.water.level(xy)
+        xy = np.asarray(xy, np.float64).reshape(-1, 2)
+        terrain = scene.terrain
+        ground, level, missed = ground_and_level(self.tiles.cache, scene.quadtree,
+                                                 terrain.tile_cells, terrain.max_level, xy)
+        if len(missed):
+            ground[missed] = terrain.height(xy[missed])
+            level[missed] = scene.water.level(xy[missed])
+        return ground, level
 
     @property
     def flood_time_s(self) -> float:

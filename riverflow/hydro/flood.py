@@ -476,30 +476,30 @@ class FloodRouter:
         ok = np.isfinite(pts).all(axis=1)
         cand, pts = cand[ok], pts[ok]
         net = self.network
-        link, s, _ = net.locate(pts, FLOODPLAIN_REACH_M)
-        near = np.flatnonzero(link >= 0)
+        d, k = net._tree.query(pts, distance_upper_bound=FLOODPLAIN_REACH_M)   # as locate
+        near = np.flatnonzero(np.isfinite(d))
         if not len(near):
             return 0
-        link, s, cand, pts = link[near], s[near], cand[near], pts[near]
-        a, b, w = net.weights(link, s)
+        k, cand, pts = k[near], cand[near], pts[near]
+        a, b, w = net.weights(net._sample_link[k], net._sample_s[k])
         rise = rise_cells[a] * (1.0 - w) + rise_cells[b] * w
         risen = np.flatnonzero(rise > FLOODPLAIN_MIN_DEPTH_M)
         if not len(risen):
             return 0
-        link, s, cand, pts = link[risen], s[risen], cand[risen], pts[risen]
+        k, cand, pts = k[risen], cand[risen], pts[risen]
         a, b, w, rise = a[risen], b[risen], w[risen], rise[risen]
         ground, level = self.ground(pts)
         depth = np.asarray(level, np.float64) + rise - np.asarray(ground, np.float64)
         wet = np.flatnonzero(depth > FLOODPLAIN_MIN_DEPTH_M)
         if not len(wet):
             return 0
-        a, b, w, depth, cand = a[wet], b[wet], w[wet], depth[wet], cand[wet]
+        a, b, w, depth, cand, k = a[wet], b[wet], w[wet], depth[wet], cand[wet], k[wet]
         u_channel = self._channel_speed()
         h_channel = net.link_depth_m[net.cell_link] * self.a
         u_c = u_channel[a] * (1.0 - w) + u_channel[b] * w
         h_c = h_channel[a] * (1.0 - w) + h_channel[b] * w
         speed = u_c * (np.minimum(depth, h_c) / h_c) ** (2.0 / 3.0) / FLOODPLAIN_ROUGHNESS
-        tangent = self._sample_tangents()[net._tree.query(pts[wet])[1]]
+        tangent = self._sample_tangents()[k]
         velocity[cand] = (tangent * speed[:, None]).astype(velocity.dtype)
         status[cand] = FlowStatus.INSIDE
         return len(cand)

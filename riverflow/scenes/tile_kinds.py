@@ -341,6 +341,52 @@ class WaterMeshProducer(TerrainProducer):
         return int(mesh.positions.nbytes + mesh.indices.nbytes + ground.nbytes)
 
 
+def ground_and_level(cache, quadtree: Quadtree, n: int, max_level: int, xy: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The terrain height and the level seen from it [m] at points xy (N, 2) [m] as the
+    terrain is drawn: bilinear between the nodes of the finest resident height and water
+    tiles (n cells) of ``cache`` over each point (their ``z`` and ``level_seen``; a stale
+    tile standing in after an edit counts; DRY_LEVEL_M far from the water). Returns
+    (ground (N,), level (N,), the indices of the points no resident pair covers: NaN and
+    DRY_LEVEL_M there)."""
+    p = np.asarray(xy, np.float64).reshape(-1, 2)
+    ground = np.full(len(p), np.nan)
+    level = np.full(len(p), DRY_LEVEL_M)
+    todo = np.flatnonzero(np.isfinite(p).all(axis=1))
+    missed = [np.flatnonzero(~np.isfinite(p).all(axis=1))]
+    heights, waters = cache.pools.get(HEIGHT), cache.pools.get(WATER)
+    if heights is None or waters is None:
+        return ground, level, np.arange(len(p))
+    for lv in range(int(max_level), -1, -1):
+        if not len(todo):
+            break
+        cell = quadtree.cell_m(lv, n)
+        u = (p[todo, 0] - quadtree.root_x_m) / cell
+        v = (p[todo, 1] - quadtree.root_y_m) / cell
+        tx, ty = np.floor(u / n).astype(np.int64), np.floor(v / n).astype(np.int64)
+        inside = (tx >= 0) & (ty >= 0) & (tx < (1 << lv)) & (ty < (1 << lv))
+        codes = (np.int64(lv) << 56) | (np.where(inside, ty, 0) << 28) | np.where(inside, tx, 0)
+        hs, ws = heights.table.find_many(codes), waters.table.find_many(codes)
+        ok = np.flatnonzero(inside & (hs >= 0) & (ws >= 0))
+        if len(ok):
+            fu, fv = u[ok] - tx[ok] * n, v[ok] - ty[ok] * n
+            i = np.clip(np.floor(fu).astype(np.int64), 0, n - 1)
+            j = np.clip(np.floor(fv).astype(np.int64), 0, n - 1)
+            fu, fv = fu - i, fv - j
+            for out, arr, slots, off in ((ground, heights.z, hs[ok], 1),
+                                         (level, waters.level_seen, ws[ok], 0)):
+                a = arr[slots, j + off, i + off]
+                b = arr[slots, j + off, i + off + 1]
+                c = arr[slots, j + off + 1, i + off]
+                d = arr[slots, j + off + 1, i + off + 1]
+                out[todo[ok]] = ((1 - fv) * ((1 - fu) * a + fu * b)
+                                 + fv * ((1 - fu) * c + fu * d))
+        keep = np.ones(len(todo), bool)
+        keep[ok] = False
+        todo = todo[keep]
+    return ground, level, np.concatenate(missed + [todo])
+
+
 def terrain_producers(scene: Landscape) -> list[Producer]:
     """The producers of every terrain kind of ``scene`` (TERRAIN_KINDS order)."""
     tiles = LandscapeTiles(scene)

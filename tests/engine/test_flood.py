@@ -17,6 +17,7 @@ from riverflow.hydro.flood import FLOODPLAIN_ROUGHNESS, FloodRouter, cell_raster
 from riverflow.hydro.spill_network import build_spill_network
 from riverflow.kernels.flood import flood_steps, sample_by_cells, scale_by_cells
 from riverflow.scenes.carving import Carving
+from riverflow.tiles.table import tile_code
 from tests.engine import cell_networks
 from tests.engine.cell_networks import branch, straight
 
@@ -402,7 +403,8 @@ def test_flooded_ground_flows_slowly_down_the_valley(flooded):
     assert float(router.level_rise(centre)[0]) == pytest.approx(rise, rel=0.02)
     status, v = world.field.query(pts)
     assert np.isfinite(v).all()
-    depth = world.water_level(pts) - world.scene.terrain.height(pts)
+    ground, level = router.ground(pts)      # the terrain as drawn: its resident tiles
+    depth = level + router.level_rise(pts) - ground
     plain = (base_status == rf.FlowStatus.OUTSIDE) & (depth > WET_M)
     dry = (base_status == rf.FlowStatus.OUTSIDE) & (depth < -WET_M)
     assert plain.sum() > 100 and dry.sum() > 100          # the water is over its banks
@@ -437,3 +439,24 @@ def test_the_floodplain_dries_when_the_flood_falls_back(flooded):
     status, v = world.field.query(pts)
     assert np.array_equal(status, base_status)
     assert np.allclose(v, base_v, rtol=1e-4, atol=1e-6)
+
+
+def test_the_floods_ground_is_the_resident_tiles_bilinear(world):
+    """tile_kinds.ground_and_level (the flood's ground): at the nodes of the finest resident
+    height and water tiles, their heights and levels seen; no resident pair: reported."""
+    from riverflow.scenes.tile_kinds import ground_and_level
+
+    cache, scene = world.tiles.cache, world.scene
+    n, top = scene.terrain.tile_cells, scene.terrain.max_level
+    both = set(cache.pools["height"].keys()) & set(cache.pools["water"].keys())
+    key = max(both)                                    # the finest level resident
+    x, y = scene.quadtree.node_coords(*key, n)
+    gx, gy = np.meshgrid(x[1:-1], y[1:-1])             # inner nodes: no neighbour's edge
+    xy = np.column_stack([gx.ravel(), gy.ravel()])
+    ground, level, missed = ground_and_level(cache, scene.quadtree, n, top,
+                                             np.vstack([xy, [[np.nan, 0.0], [1e7, 1e7]]]))
+    z = cache.pools["height"].get(tile_code(*key))["z"][2:-2, 2:-2]
+    seen = cache.pools["water"].get(tile_code(*key))["level_seen"][1:-1, 1:-1]
+    assert np.allclose(ground[:-2], z.ravel(), rtol=0, atol=1e-4)
+    assert np.allclose(level[:-2], seen.ravel(), rtol=0, atol=1e-4)
+    assert sorted(missed.tolist()) == [len(xy), len(xy) + 1]
