@@ -460,3 +460,40 @@ def test_the_floods_ground_is_the_resident_tiles_bilinear(world):
     assert np.allclose(ground[:-2], z.ravel(), rtol=0, atol=1e-4)
     assert np.allclose(level[:-2], seen.ravel(), rtol=0, atol=1e-4)
     assert sorted(missed.tolist()) == [len(xy), len(xy) + 1]
+
+
+def test_the_drawn_rise_ramps_across_the_line_where_the_nearest_link_changes(world):
+    """hydro.flood.FloodRouter._blend_links (issue 25, F7's saw-tooth): with one branch
+    flooded and the one beside it not, the rise the shaders draw (drawn_rise, the CPU twin
+    of flood.glsl's flood_at) crosses the line between them on a ramp of FLOOD_BLEND_M,
+    where the nearest cell's rise (level_rise) steps."""
+    from riverflow.hydro.flood import FLOOD_BLEND_M
+
+    world.set_hydrograph(None, [], None)
+    router = world.flood
+    names = router.network.names
+    b = names.index("tributary")
+    q0 = float(router.net.link_q0[b])
+    now = world.flood_time_s
+    world.set_hydrograph("tributary", [now, now + 1.0], [q0, 4.0 * q0])
+    world.advance_flood(6 * 3600.0)
+    trib = router.network.lines[b]
+    main = np.concatenate([router.network.lines[k] for k in range(len(names)) if k != b])
+    a = trib[-1] + 0.0
+    for p in trib[::-1]:                          # 150 m up the tributary from its end
+        if np.hypot(*(p - trib[-1])) > 150.0:
+            a = p
+            break
+    c = main[np.argmin(np.hypot(*(main - a).T))]  # the nearest point of another link
+    t = np.linspace(0.0, 1.0, 400)[:, None]
+    xy = a + t * (c - a)
+    step = router.level_rise(xy)
+    drawn = router.drawn_rise(xy)
+    jump = np.abs(np.diff(step)).max()
+    assert jump > 0.5                             # the nearest cell's rise steps...
+    spacing = float(np.hypot(*(c - a))) / 399
+    texel = router.level_textures()[0][2] / router.level_textures()[1].shape[0]
+    ramp = np.abs(np.diff(drawn)).max()
+    # ...the drawn one ramps: at most ½ the step over a gap change of 2·(spacing + texel)
+    assert ramp < jump * 2.0 * (spacing + texel) / FLOOD_BLEND_M
+    assert drawn[0] == pytest.approx(step[0], abs=1e-6) and np.isfinite(drawn).all()
