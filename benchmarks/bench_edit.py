@@ -56,6 +56,18 @@ def _bumped(line: np.ndarray, dy_m: float, at: float, width_m: float) -> np.ndar
     return line + (dy_m * weight)[:, None] * normal
 
 
+def _branch_in_view(world) -> tuple[int, np.ndarray, float, float]:
+    """The branch nearest the view's centre: its index, its centre line (a copy), the arc
+    length [m] of its point nearest that centre and a bump's width (4 river widths) [m]."""
+    target = np.asarray(world.camera.target[:2])
+    link = int(np.argmin([float(np.hypot(*(b.centerline_m - target).T).min())
+                          for b in world.scene.branches]))
+    line0 = world.scene.branches[link].centerline_m.copy()
+    arc = np.r_[0.0, np.cumsum(np.hypot(*np.diff(line0, axis=0).T))]
+    at = float(arc[int(np.argmin(np.hypot(*(line0 - target).T)))])
+    return link, line0, at, 4.0 * float(np.median(world.scene.branches[link].widths_m))
+
+
 RIVER_KINDS = ("flow", "water", "water_mesh")
 """The tiles of the river itself (its flow, its level, its surface's mesh)."""
 
@@ -83,14 +95,8 @@ def run(size, edits: int, every: int, bump_m: float, warm: int, seed: int) -> di
     world = rf.RiverWorld(rf.default_scene(seed=seed), size=size, gl=False, seed=seed)
     world.load_view()
     _flood(world)
-    target = np.asarray(world.camera.target[:2])
-    dist = [float(np.hypot(*(b.centerline_m - target).T).min()) for b in world.scene.branches]
-    link = int(np.argmin(dist))
+    link, line0, at, width = _branch_in_view(world)
     branch = world.scene.branches[link]
-    line0 = branch.centerline_m.copy()
-    arc = np.r_[0.0, np.cumsum(np.hypot(*np.diff(line0, axis=0).T))]
-    at = float(arc[int(np.argmin(np.hypot(*(line0 - target).T)))])
-    width = 4.0 * float(np.median(branch.widths_m))
     tick = 1.0 / 60.0
     next_tick = time.perf_counter()
     systems: list[dict[str, float]] = []      # each frame's systems' wall ms
@@ -200,13 +206,7 @@ def in_place(size, n: int, bump_m: float, seed: int) -> dict:
     world.load_view()
     _flood(world)
     world.step(1.0 / 60.0)
-    target = np.asarray(world.camera.target[:2])
-    link = int(np.argmin([float(np.hypot(*(b.centerline_m - target).T).min())
-                          for b in world.scene.branches]))
-    line0 = world.scene.branches[link].centerline_m.copy()
-    arc = np.r_[0.0, np.cumsum(np.hypot(*np.diff(line0, axis=0).T))]
-    at = float(arc[int(np.argmin(np.hypot(*(line0 - target).T)))])
-    width = 4.0 * float(np.median(world.scene.branches[link].widths_m))
+    link, line0, at, width = _branch_in_view(world)
     cpu, wall = [], []
     for k in range(n):
         c0, w0 = time.process_time(), time.perf_counter()
@@ -256,13 +256,7 @@ def remake(size, n: int, bump_m: float, seed: int) -> dict:
                     spent[_kind][1] += 1
             producer.produce, producer._bench_timed = timed, True
 
-    target = np.asarray(world.camera.target[:2])
-    link = int(np.argmin([float(np.hypot(*(b.centerline_m - target).T).min())
-                          for b in world.scene.branches]))
-    line0 = world.scene.branches[link].centerline_m.copy()
-    arc = np.r_[0.0, np.cumsum(np.hypot(*np.diff(line0, axis=0).T))]
-    at = float(arc[int(np.argmin(np.hypot(*(line0 - target).T)))])
-    width = 4.0 * float(np.median(world.scene.branches[link].widths_m))
+    link, line0, at, width = _branch_in_view(world)
     cpu = []
     for k in range(n):
         world.move_axis(link, _bumped(line0, bump_m * (-1) ** k, at, width))

@@ -295,6 +295,18 @@ class FloodRouter:
                    for b, (_, hq) in self.hydrographs.items())
         self.dt_s = min(self.dt_s, self._step_for(max(peak, 1.0)))
 
+    def base_inflow_m3s(self) -> float:
+        """The base discharge entering the network [m³/s]: its source links' Q₀ together (what
+        ``set_hydrograph(None, ...)`` shares among them)."""
+        return float(sum(self.net.link_q0[b] for b in range(len(self.network.names))
+                         if int(self.net.link_start[b]) < 0))
+
+    def ratio_for_rise(self, link, rise_m: float) -> float:
+        """The steady discharge over base flow, Q / Q₀, that raises ``link``'s (a name or
+        index) level by ``rise_m`` [m]: the rating curve inverted, (1 + Δz / h₀)^(5/3)."""
+        h0 = float(self.network.link_depth_m[self.link_index(link)])
+        return (1.0 + float(rise_m) / h0) ** (5.0 / 3.0)
+
     def _pack(self) -> Hydrographs:
         links = sorted(self.hydrographs)
         times = [self.hydrographs[b][0] for b in links]
