@@ -656,6 +656,12 @@ class RiverWorld:
             plan.cell_network = build_spill_network(
                 new_scene.branches, [b.discharge_m2s for b in new_scene.branches])
             between_frames()
+            if self.gl and self.flood.drawn:    # its drawn level's textures, made here: not
+                from riverflow.hydro.flood import FloodRouter   # in the frame that draws it
+
+                plan.flood_router = FloodRouter(plan.cell_network)
+                plan.flood_router.level_textures()
+                between_frames()
         solver = self.spill_solver
         if solver is not None:                   # the spills' cells on the new network
             from riverflow.hydro.spill_network import build_spill_network
@@ -764,7 +770,7 @@ class RiverWorld:
         terrain.z_max = max(terrain.z_max, float(plan.scene.z_range_m[1]))
         router = self.flood
         if router is not None:
-            self._carry_flood(router, plan.cell_network)
+            self._carry_flood(router, plan.cell_network, plan.flood_router)
         solver = self.spill_solver
         if solver is not None:      # the spills' mass carried to the new cells (conserved)
             self.resources[_SpillSolverKey] = solver.carried_to(
@@ -777,16 +783,21 @@ class RiverWorld:
                      "swap_ms": (time.perf_counter() - t0) * 1e3}
         return list(plan.changed)
 
-    def _carry_flood(self, old, network=None) -> None:
+    def _carry_flood(self, old, network=None, prepared=None) -> None:
         """A flood router on the edited network (``network``: its cells, made in the edit's
-        thread), with the old one's hydrographs of the branches still there (by name), its
+        thread; ``prepared``: a router on them made there too, its drawn level's textures
+        made), with the old one's hydrographs of the branches still there (by name), its
         clock and its state: each new cell's cross-section ratio and wet-looking rise are
         the old cell's at the same place along the river
         (:func:`~riverflow.hydro.spill_network.cell_map`)."""
         from riverflow.hydro.flood import FloodRouter
         from riverflow.hydro.spill_network import cell_map
 
-        router = FloodRouter(network or self._cell_network(), old.clock_s)
+        if prepared is not None:
+            router = prepared
+            router.time_s = router.clock_s = old.clock_s
+        else:
+            router = FloodRouter(network or self._cell_network(), old.clock_s)
         names = old.network.names
         for b, (t, q) in old.hydrographs.items():
             if names[b] in router.network.names:
