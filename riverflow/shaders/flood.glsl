@@ -4,7 +4,8 @@
 // u_flood_rect = (x0, y0, side) [m], each texel the flood-cell coordinate c + w of its centre
 // (-1: none; within FLOODPLAIN_REACH_M of a centre line), the nearest other link's (-1: none)
 // and the weight of that one's rise (up to 1/2 where both are equally near: the rise blends
-// across the line where the nearest link changes, FLOOD_BLEND_M wide); u_flood_rise: RG32F per cell, row
+// across the line where the nearest link changes, FLOOD_BLEND_M wide);
+// u_flood_rise: RG32F per cell, row
 // major (rows of its width): R the level's rise [m], G the rise up to which the ground
 // looks wet (it lags behind a falling level). u_flood_on = 0: no flood (nothing sampled).
 uniform sampler2D u_flood_cells;

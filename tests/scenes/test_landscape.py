@@ -51,7 +51,8 @@ def test_the_land_level_lattice_is_one_function_of_the_point():
     water = scene.water
     anchor = (scene.quadtree.root_x_m, scene.quadtree.root_y_m)
     centre = scene.branch("tributary").centerline_m[40]
-    gx, gy = np.meshgrid(centre[0] + np.arange(-33, 34) * 4.0, centre[1] + np.arange(-33, 34) * 4.0)
+    k = np.arange(-33, 34) * 4.0
+    gx, gy = np.meshgrid(centre[0] + k, centre[1] + k)
     tile = np.column_stack([gx.ravel(), gy.ravel()])                 # a tile of 4 m cells
     spread = np.vstack([tile[::37], centre + [[1500.0, -900.0]]])    # sparse, far apart
     compact = lattice_land_level(water, tile, 16.0, anchor)[::37]
