@@ -25,7 +25,9 @@ Target (the issue brief): an edit's new tiles in view within 0.5 s at 1080p; no 
 
 Run: ``NUMBA_NUM_THREADS=1 taskset -c 0 python benchmarks/bench_edit.py`` (``--json out.json``
 to keep the figures; ``--in-place 7``: only the CPU of 7 edits made in place, the edit's own
-work without its tiles). Figures go to docs/performance.md.
+work without its tiles; ``--remake 4``: the CPU of remaking 4 edits' tiles in view, made in
+the frame's thread, per kind: what the tile process has to do, whatever the load). Figures go
+to docs/performance.md.
 """
 from __future__ import annotations
 
@@ -52,6 +54,18 @@ def _bumped(line: np.ndarray, dy_m: float, at: float, width_m: float) -> np.ndar
     d = np.gradient(line, axis=0)
     normal = np.c_[-d[:, 1], d[:, 0]] / np.maximum(np.hypot(*d.T), 1e-9)[:, None]
     return line + (dy_m * weight)[:, None] * normal
+
+
+def _branch_in_view(world) -> tuple[int, np.ndarray, float, float]:
+    """The branch nearest the view's centre: its index, its centre line (a copy), the arc
+    length [m] of its point nearest that centre and a bump's width (4 river widths) [m]."""
+    target = np.asarray(world.camera.target[:2])
+    link = int(np.argmin([float(np.hypot(*(b.centerline_m - target).T).min())
+                          for b in world.scene.branches]))
+    line0 = world.scene.branches[link].centerline_m.copy()
+    arc = np.r_[0.0, np.cumsum(np.hypot(*np.diff(line0, axis=0).T))]
+    at = float(arc[int(np.argmin(np.hypot(*(line0 - target).T)))])
+    return link, line0, at, 4.0 * float(np.median(world.scene.branches[link].widths_m))
 
 
 RIVER_KINDS = ("flow", "water", "water_mesh")
@@ -81,16 +95,11 @@ def run(size, edits: int, every: int, bump_m: float, warm: int, seed: int) -> di
     world = rf.RiverWorld(rf.default_scene(seed=seed), size=size, gl=False, seed=seed)
     world.load_view()
     _flood(world)
-    target = np.asarray(world.camera.target[:2])
-    dist = [float(np.hypot(*(b.centerline_m - target).T).min()) for b in world.scene.branches]
-    link = int(np.argmin(dist))
+    link, line0, at, width = _branch_in_view(world)
     branch = world.scene.branches[link]
-    line0 = branch.centerline_m.copy()
-    arc = np.r_[0.0, np.cumsum(np.hypot(*np.diff(line0, axis=0).T))]
-    at = float(arc[int(np.argmin(np.hypot(*(line0 - target).T)))])
-    width = 4.0 * float(np.median(branch.widths_m))
     tick = 1.0 / 60.0
     next_tick = time.perf_counter()
+    systems: list[dict[str, float]] = []      # each frame's systems' wall ms
 
     def frame() -> tuple[float, float]:
         nonlocal next_tick
@@ -100,11 +109,13 @@ def run(size, edits: int, every: int, bump_m: float, warm: int, seed: int) -> di
         next_tick = max(next_tick + tick, time.perf_counter() - tick)
         w0, c0 = time.perf_counter(), time.thread_time()
         world.step(tick)
+        systems.append(dict(world.timings_ms))
         return (time.perf_counter() - w0) * 1e3, (time.thread_time() - c0) * 1e3
 
     for _ in range(60):
         frame()
     quiet = np.array([frame() for _ in range(warm)])
+    edit_from = len(systems)
     out: dict = {"size": f"{size[0]}x{size[1]}", "branch": branch.name,
                  "particles": len(world.particles),
                  "quiet_ms_median": float(np.median(quiet[:, 0])),
@@ -162,8 +173,26 @@ def run(size, edits: int, every: int, bump_m: float, warm: int, seed: int) -> di
         "frames_over_2x_median": int(np.sum(during[:, 0] > 2.0 * med)),
         "frames_over_2x_quiet_median": int(np.sum(during[:, 0] > 2.0 * out["quiet_ms_median"])),
         "particles_end": len(world.particles)})
+    out.update(_spikes(during, systems[edit_from:], med))
     world.close()
     return out
+
+
+def _spikes(during: np.ndarray, systems: list[dict[str, float]], median_ms: float) -> dict:
+    """Which frames spike (wall over 2x the median) and why: those whose own thread's CPU
+    is over 2x its median too (the frame's own work: the system that took longest) and
+    those that waited (CPU normal: another thread or process held the interpreter lock or
+    the core)."""
+    over = np.flatnonzero(during[:, 0] > 2.0 * median_ms)
+    cpu_med = float(np.median(during[:, 1]))
+    own = [k for k in over.tolist() if during[k, 1] > 2.0 * cpu_med]
+    top: dict[str, int] = {}
+    for k in own:
+        if k < len(systems) and systems[k]:
+            name = max(systems[k], key=systems[k].get)
+            top[name] = top.get(name, 0) + 1
+    return {"spikes_own_cpu": len(own), "spikes_waiting": len(over) - len(own),
+            "spikes_own_cpu_by_system": top}
 
 
 def in_place(size, n: int, bump_m: float, seed: int) -> dict:
@@ -177,13 +206,7 @@ def in_place(size, n: int, bump_m: float, seed: int) -> dict:
     world.load_view()
     _flood(world)
     world.step(1.0 / 60.0)
-    target = np.asarray(world.camera.target[:2])
-    link = int(np.argmin([float(np.hypot(*(b.centerline_m - target).T).min())
-                          for b in world.scene.branches]))
-    line0 = world.scene.branches[link].centerline_m.copy()
-    arc = np.r_[0.0, np.cumsum(np.hypot(*np.diff(line0, axis=0).T))]
-    at = float(arc[int(np.argmin(np.hypot(*(line0 - target).T)))])
-    width = 4.0 * float(np.median(world.scene.branches[link].widths_m))
+    link, line0, at, width = _branch_in_view(world)
     cpu, wall = [], []
     for k in range(n):
         c0, w0 = time.process_time(), time.perf_counter()
@@ -194,6 +217,59 @@ def in_place(size, n: int, bump_m: float, seed: int) -> dict:
            "next_cpu_s_median": float(np.median(cpu[1:])) if n > 1 else float("nan"),
            "next_wall_s_median": float(np.median(wall[1:])) if n > 1 else float("nan"),
            "marked": sum(world.edits.last["marked"].values())}
+    world.close()
+    return out
+
+
+def remake(size, n: int, bump_m: float, seed: int) -> dict:
+    """``--remake N``: the CPU seconds that remaking one edit's tiles in view costs, whatever
+    the machine's load: tiles made in the frame's thread (``tile_production="blocking"``), N
+    edits made in place (alternating ±``bump_m`` bumps of the branch in view), after each
+    ``load_view()`` remakes every tile of the view the edit dropped
+    (``time.process_time()``, one thread, KD-tree queries on one thread as in the tile
+    process); per kind the tiles remade and their CPU
+    (the scheduler's producers timed)."""
+    import riverflow as rf
+    from riverflow.engine.config import RiverConfig
+
+    world = rf.RiverWorld(rf.default_scene(seed=seed), size=size, gl=False, seed=seed,
+                          config=RiverConfig(tile_production="blocking"))
+    world.load_view()
+    _flood(world)
+    world.step(1.0 / 60.0)
+    from riverflow.tiles import remote
+    remote.IN_WORKER_PROCESS = True      # one-thread KD-tree queries, as in the tile process
+    spent: dict[str, list[float]] = {}
+
+    def timed_producers() -> None:        # an edit makes new producers: time those
+        for kind, producer in world.tiles.scheduler.producers.items():
+            if getattr(producer, "_bench_timed", False):
+                continue
+            spent.setdefault(kind, [0.0, 0])
+
+            def timed(key, deps, _make=producer.produce, _kind=kind):
+                c0 = time.process_time()
+                try:
+                    return _make(key, deps)
+                finally:
+                    spent[_kind][0] += time.process_time() - c0
+                    spent[_kind][1] += 1
+            producer.produce, producer._bench_timed = timed, True
+
+    link, line0, at, width = _branch_in_view(world)
+    cpu = []
+    for k in range(n):
+        world.move_axis(link, _bumped(line0, bump_m * (-1) ** k, at, width))
+        timed_producers()
+        c0 = time.process_time()
+        world.load_view()
+        cpu.append(time.process_time() - c0)
+    out = {"remake_edits": n, "remake_cpu_s_median": float(np.median(cpu)),
+           "remake_cpu_s_max": float(np.max(cpu))}
+    for kind, (seconds, count) in spent.items():
+        if count:
+            out[f"{kind}_tiles_per_edit"] = count / n
+            out[f"{kind}_ms_per_tile"] = 1e3 * seconds / count
     world.close()
     return out
 
@@ -209,8 +285,13 @@ def main() -> None:
     ap.add_argument("--json", default=None)
     ap.add_argument("--in-place", type=int, default=0,
                     help="only time this many edits made in place (CPU s), no frames")
+    ap.add_argument("--remake", type=int, default=0,
+                    help="only the CPU of remaking this many edits' tiles in view, made in "
+                         "the frame's thread (tile_production='blocking')")
     args = ap.parse_args()
-    if args.in_place:
+    if args.remake:
+        out = remake(tuple(args.size), args.remake, args.bump, args.seed)
+    elif args.in_place:
         out = in_place(tuple(args.size), args.in_place, args.bump, args.seed)
     else:
         out = run(tuple(args.size), args.edits, args.every, args.bump, args.warm, args.seed)

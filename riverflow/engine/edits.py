@@ -78,6 +78,9 @@ class EditPlan:
     cell_network: object = None
     """The new network's cells for a running flood (:mod:`riverflow.hydro.spill_network`),
     None without one."""
+    flood_router: object = None
+    """A flood router on :attr:`cell_network` with its drawn level's textures made (a
+    running flood drawn by a GL world), None otherwise: the swap carries the flood onto it."""
     spill_network: object = None
     """The new network's cells for the spills (their dispersion), None without spills."""
     dropped: list[str] = field(default_factory=list)

@@ -892,6 +892,7 @@ class TexFormat:
 RGBA8 = TexFormat(gl.GL_RGBA8, gl.GL_RGBA, gl.GL_UNSIGNED_BYTE, np.uint8, 4)
 RGBA32F = TexFormat(gl.GL_RGBA32F, gl.GL_RGBA, gl.GL_FLOAT, np.float32, 4)
 RGBA16F = TexFormat(gl.GL_RGBA16F, gl.GL_RGBA, gl.GL_FLOAT, np.float32, 4)
+RGB32F = TexFormat(gl.GL_RGB32F, gl.GL_RGB, gl.GL_FLOAT, np.float32, 3)
 RG32F = TexFormat(gl.GL_RG32F, gl.GL_RG, gl.GL_FLOAT, np.float32, 2)
 R32F = TexFormat(gl.GL_R32F, gl.GL_RED, gl.GL_FLOAT, np.float32, 1)
 RGBA32I = TexFormat(gl.GL_RGBA32I, gl.GL_RGBA_INTEGER, gl.GL_INT, np.int32, 4, integer=True)

@@ -487,10 +487,29 @@ class RiverWorld:
 
             router = FloodRouter(self._cell_network(), self.clock.now_s)
             router.set_hydrograph(link, times_s, discharge_m3s)    # raises before it is kept
+            router.ground = self._flood_ground
             self.resources[_FloodRouterKey] = router
             self.field.discharge_scale = router.scale_velocity
             return
         router.set_hydrograph(link, times_s, discharge_m3s)
+
+    def _flood_ground(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The flood's view of the ground at points (P, 2) [m] (``FloodRouter.ground``): the
+        terrain height and the base-flow level seen from it as the terrain shader draws them
+        (:func:`~riverflow.scenes.tile_kinds.ground_and_level`: the resident height and water
+        tiles, bilinear; a few µs a point), the scene's own pointwise functions where no
+        tile is resident (the current scene's, after an edit too)."""
+        from riverflow.scenes.tile_kinds import ground_and_level
+
+        scene = self.scene
+        xy = np.asarray(xy, np.float64).reshape(-1, 2)
+        terrain = scene.terrain
+        ground, level, missed = ground_and_level(self.tiles.cache, scene.quadtree,
+                                                 terrain.tile_cells, terrain.max_level, xy)
+        if len(missed):
+            ground[missed] = terrain.height(xy[missed])
+            level[missed] = scene.water.level(xy[missed])
+        return ground, level
 
     @property
     def flood_time_s(self) -> float:
@@ -660,6 +679,12 @@ class RiverWorld:
             plan.cell_network = build_spill_network(
                 new_scene.branches, [b.discharge_m2s for b in new_scene.branches])
             between_frames()
+            if self.gl and self.flood.drawn:    # its drawn level's textures, made here: not
+                from riverflow.hydro.flood import FloodRouter   # in the frame that draws it
+
+                plan.flood_router = FloodRouter(plan.cell_network)
+                plan.flood_router.level_textures()
+                between_frames()
         solver = self.spill_solver
         if solver is not None:                   # the spills' cells on the new network
             from riverflow.hydro.spill_network import build_spill_network
@@ -768,7 +793,7 @@ class RiverWorld:
         terrain.z_max = max(terrain.z_max, float(plan.scene.z_range_m[1]))
         router = self.flood
         if router is not None:
-            self._carry_flood(router, plan.cell_network)
+            self._carry_flood(router, plan.cell_network, plan.flood_router)
         solver = self.spill_solver
         if solver is not None:      # the spills' mass carried to the new cells (conserved)
             self.resources[_SpillSolverKey] = solver.carried_to(
@@ -781,16 +806,21 @@ class RiverWorld:
                      "swap_ms": (time.perf_counter() - t0) * 1e3}
         return list(plan.changed)
 
-    def _carry_flood(self, old, network=None) -> None:
+    def _carry_flood(self, old, network=None, prepared=None) -> None:
         """A flood router on the edited network (``network``: its cells, made in the edit's
-        thread), with the old one's hydrographs of the branches still there (by name), its
+        thread; ``prepared``: a router on them made there too, its drawn level's textures
+        made), with the old one's hydrographs of the branches still there (by name), its
         clock and its state: each new cell's cross-section ratio and wet-looking rise are
         the old cell's at the same place along the river
         (:func:`~riverflow.hydro.spill_network.cell_map`)."""
         from riverflow.hydro.flood import FloodRouter
         from riverflow.hydro.spill_network import cell_map
 
-        router = FloodRouter(network or self._cell_network(), old.clock_s)
+        if prepared is not None:
+            router = prepared
+            router.time_s = router.clock_s = old.clock_s
+        else:
+            router = FloodRouter(network or self._cell_network(), old.clock_s)
         names = old.network.names
         for b, (t, q) in old.hydrographs.items():
             if names[b] in router.network.names:
@@ -800,6 +830,7 @@ class RiverWorld:
         router.wet_rise_m[:] = old.wet_rise_m[source]
         router.time_s = old.time_s
         router.dt_s = min(router.dt_s, router._step_for(1.0))     # a's highest counts
+        router.ground = old.ground
         self.resources[_FloodRouterKey] = router
         self.field.discharge_scale = router.scale_velocity
 

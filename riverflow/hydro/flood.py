@@ -10,7 +10,12 @@ the rest of the world reads from it, per cell, relative to base flow:
   depth-averaged speed Q / (W h) grows as Q^(2/5)); the flow field multiplies its velocities
   by it (:meth:`FlowField.query`, the particles' query) — the ψ tiles are not re-made;
 * the level rise Δz = h₀ (r^(3/5) − 1) [m] (the rating curve h = h₀ (Q / Q₀)^(3/5), i.e.
-  Manning's h = (Q n / (W √S))^(3/5) with the slope and roughness the base state implies).
+  Manning's h = (Q n / (W √S))^(3/5) with the slope and roughness the base state implies);
+* on the floodplain (ground beside the river below the raised level, given :attr:`FloodRouter.
+  ground`), a slow flow down the valley: the nearest centre line's downstream direction at
+  Manning's speed for the water's depth there and the floodplain's roughness,
+  U = U_c (h / h_c)^(2/3) / FLOODPLAIN_ROUGHNESS (U_c, h_c: the channel's mean speed and
+  depth now; the slope cancels), 0 at the wet edge (:meth:`FloodRouter.floodplain_flow`).
 
 The router steps in whole fixed steps (Courant number ≤ ``COURANT`` at the highest discharge
 any hydrograph reaches), so a run depends on the world time only, never on how frames cut it.
@@ -45,6 +50,16 @@ FLOODPLAIN_REACH_M = 250.0
 beyond the cell raster, the nearest cell by the KD-tree); the terrain shader floods the ground
 below the level there (it knows the level within 200 m of a shore,
 ``scenes.tile_kinds.LEVEL_REACH_M``)."""
+FLOODPLAIN_ROUGHNESS = 2.0
+"""The floodplain's Manning n over the channel's (pasture or light brush, n ≈ 0.035–0.07,
+against a clean natural channel's 0.03: Chow 1959, table 5-6): its water flows at most half
+the channel's mean speed at the channel's depth."""
+FLOODPLAIN_MIN_DEPTH_M = 1e-3
+"""Ground under less water than this [m] is dry for the flow (the wet edge)."""
+FLOOD_BLEND_M = 30.0
+"""The drawn rise blends over this band [m] around the line where the nearest link changes
+(:meth:`FloodRouter.level_textures`): a flooded river beside one that is not meets it on a
+ramp, not a step along the terrain's triangles."""
 WET_FALL_MPS = 0.5 / 3600.0
 """How fast the line of wet-looking ground falls behind a falling flood [m/s] (0.5 m an hour
 of flood time): ground the flood covered looks wet for a while after the water left it."""
@@ -208,10 +223,17 @@ class FloodRouter:
         self.dt_s = self._step_for(1.0)
         self._raster: CellRaster | None = None
         self._level_tex = None
+        self._link_trees = None
         self.wet_rise_m = np.zeros(n)
         """(N,) the rise [m] up to which the ground looks wet (the highest rise, falling
         behind a falling level by WET_FALL_MPS)."""
         self._missed = np.zeros(0, np.int64)
+        self.ground = None
+        """None, or a callable xy (P, 2) [m] → (terrain height (P,) [m], base-flow water level
+        of the nearest river (P,) [m]) — what the terrain shader floods by — that the world
+        sets: with it, :meth:`scale_velocity` gives flooded ground its
+        :meth:`floodplain_flow`."""
+        self._tangents: np.ndarray | None = None
 
     # -- input -------------------------------------------------------------------------------
 
@@ -272,6 +294,18 @@ class FloodRouter:
         peak = max(float(np.max(hq / self.net.link_q0[b]))
                    for b, (_, hq) in self.hydrographs.items())
         self.dt_s = min(self.dt_s, self._step_for(max(peak, 1.0)))
+
+    def base_inflow_m3s(self) -> float:
+        """The base discharge entering the network [m³/s]: its source links' Q₀ together (what
+        ``set_hydrograph(None, ...)`` shares among them)."""
+        return float(sum(self.net.link_q0[b] for b in range(len(self.network.names))
+                         if int(self.net.link_start[b]) < 0))
+
+    def ratio_for_rise(self, link, rise_m: float) -> float:
+        """The steady discharge over base flow, Q / Q₀, that raises ``link``'s (a name or
+        index) level by ``rise_m`` [m]: the rating curve inverted, (1 + Δz / h₀)^(5/3)."""
+        h0 = float(self.network.link_depth_m[self.link_index(link)])
+        return (1.0 + float(rise_m) / h0) ** (5.0 / 3.0)
 
     def _pack(self) -> Hydrographs:
         links = sorted(self.hydrographs)
@@ -346,9 +380,11 @@ class FloodRouter:
     def level_textures(self) -> tuple[tuple[float, float, float], np.ndarray]:
         """What the water and terrain shaders read to draw the level's rise
         (``shaders/flood.glsl``): the square (x0, y0, side) [m] around the network and its
-        floodplain (FLOODPLAIN_REACH_M), and its (LEVEL_TEXELS, LEVEL_TEXELS) float32 cell
-        coordinates c + w at each texel's centre (the :attr:`raster`'s, beyond it the
-        KD-tree's within FLOODPLAIN_REACH_M; −1: no cell), made once; :meth:`rise_texels`
+        floodplain (FLOODPLAIN_REACH_M), and its (LEVEL_TEXELS, LEVEL_TEXELS, 3) float32
+        texels: the cell coordinate c + w at each texel's centre (the :attr:`raster`'s,
+        beyond it the KD-tree's within FLOODPLAIN_REACH_M; −1: no cell), the nearest other
+        link's and the weight of its rise where the two are within FLOOD_BLEND_M of equally
+        near (:meth:`_blend_links`; −1 and 0 elsewhere), made once; :meth:`rise_texels`
         holds the per-cell rises."""
         if self._level_tex is None:
             r = self.raster
@@ -376,9 +412,116 @@ class FloodRouter:
             ok = link >= 0
             a, b, w = self.network.weights(link[ok], s[ok])
             cells[far[ok]] = np.where(b > a, a + w, a)
-            self._level_tex = ((float(x0), float(y0), float(side)),
-                               cells.reshape(n, n).astype(np.float32))
+            texels = np.zeros((n * n, 3), np.float32)
+            texels[:, 0] = cells
+            texels[:, 1] = -1.0
+            self._blend_links(xy, cells, x0 + centres, y0 + centres, side / nb * 0.7072,
+                              texels)
+            self._level_tex = ((float(x0), float(y0), float(side)), texels.reshape(n, n, 3))
         return self._level_tex
+
+    def _blend_links(self, xy: np.ndarray, cells: np.ndarray, bx: np.ndarray, by: np.ndarray,
+                     half_diag: float, texels: np.ndarray) -> None:
+        """Fill the level texture's second cell coordinate and its weight (columns 1, 2 of
+        ``texels`` (T, 3)) where two links' centre lines are within FLOOD_BLEND_M of being
+        equally near a texel (xy (T, 2) [m]; ``cells`` its nearest cell coordinate, −1
+        none): the second link's nearest sample's cell coordinate and
+        ½ (1 − smoothstep(0, FLOOD_BLEND_M, d₂ − d₁)), so the rise drawn crosses the line
+        where the nearest link changes as a ramp, not a step (½ of each on the line). Only
+        the blocks of texels (centres bx × by, half-diagonal ``half_diag`` [m]) where two
+        links' nearest samples are that close are asked, per link."""
+        net = self.network
+        links = len(net.names)
+        if links < 2:
+            return
+        xs, lk, ss = net._tree.data, net._sample_link, net._sample_s
+        if self._link_trees is None:
+            from scipy.spatial import cKDTree
+            self._link_trees = [(cKDTree(xs[lk == b]), np.flatnonzero(lk == b))
+                                for b in range(links)]
+        gx, gy = np.meshgrid(bx, by)
+        centres = np.column_stack([gx.ravel(), gy.ravel()])
+        reach = FLOODPLAIN_REACH_M + half_diag + FLOOD_BLEND_M
+        d_block = np.stack([tree.query(centres, distance_upper_bound=reach)[0]
+                            for tree, _ in self._link_trees])          # (B, blocks)
+        order = np.sort(d_block, axis=0)
+        # a block where the second-nearest link is within the blend of the nearest anywhere
+        # in it (each distance moves by at most half_diag inside the block)
+        finite = np.isfinite(order[1])
+        cand = np.flatnonzero(finite)
+        cand = cand[order[1, cand] - order[0, cand] < FLOOD_BLEND_M + 2.0 * half_diag]
+        if not len(cand):
+            return
+        nb = len(bx)
+        blk = int(round(np.sqrt(len(xy)))) // nb
+        n = nb * blk
+        rows, cols = np.divmod(cand, nb)
+        j, i = np.mgrid[0:blk, 0:blk]
+        tex = ((rows[:, None, None] * blk + j[None]) * n + cols[:, None, None] * blk
+               + i[None]).reshape(-1)
+        keep = cells[tex] >= 0
+        tex = tex[keep]
+        if not len(tex):
+            return
+        p = xy[tex]
+        # the links near enough to matter in each texel's block
+        near = d_block[:, cand] <= order[0, cand] + FLOOD_BLEND_M + 2.0 * half_diag
+        per_block = np.repeat(near, blk * blk, axis=1)[:, keep]          # (B, texels)
+        d = np.full((links, len(tex)), np.inf)
+        coord = np.full((links, len(tex)), -1.0)
+        for b, (tree, index) in enumerate(self._link_trees):
+            ask = np.flatnonzero(per_block[b])
+            if not len(ask):
+                continue
+            db, k = tree.query(p[ask], distance_upper_bound=reach)
+            ok = np.isfinite(db)
+            ask, k = ask[ok], index[k[ok]]
+            d[b, ask] = db[ok]
+            a, c, w = net.weights(lk[k], ss[k])
+            coord[b, ask] = np.where(c > a, a + w, a)
+        first = np.argmin(d, axis=0)
+        col = np.arange(len(tex))
+        d1 = d[first, col]
+        d[first, col] = np.inf
+        second = np.argmin(d, axis=0)
+        d2 = d[second, col]
+        blend = np.flatnonzero(np.isfinite(d1) & np.isfinite(d2))
+        gap = d2[blend] - d1[blend]
+        blend = blend[gap < FLOOD_BLEND_M]
+        gap = d2[blend] - d1[blend]
+        t = np.clip(gap / FLOOD_BLEND_M, 0.0, 1.0)
+        # the nearest link's own coordinate too (the raster's may be the other link's, a
+        # pixel's centre away from the line): the pair swaps across the line, both at ½
+        texels[tex[blend], 0] = coord[first[blend], col[blend]]
+        texels[tex[blend], 1] = coord[second[blend], col[blend]]
+        texels[tex[blend], 2] = 0.5 * (1.0 - t * t * (3.0 - 2.0 * t))
+
+    def drawn_rise(self, xy) -> np.ndarray:
+        """(N,) the level rise [m] the shaders draw at points (N, 2) [m]
+        (``shaders/flood.glsl`` ``flood_at``: the level texture's texel under each point,
+        its cell coordinate's rise blended with the nearest other link's by its weight; 0 off
+        the texture or its cells): what :meth:`level_rise` gives but for the blend across
+        the line where the nearest link changes (:meth:`_blend_links`)."""
+        (x0, y0, side), texels = self.level_textures()
+        xy = np.asarray(xy, np.float64).reshape(-1, 2)
+        n = texels.shape[0]
+        ij = np.floor((xy - [x0, y0]) / side * n)
+        ok = np.isfinite(ij).all(axis=1) & (ij >= 0).all(axis=1) & (ij < n).all(axis=1)
+        out = np.zeros(len(xy))
+        t = texels[ij[ok, 1].astype(np.int64), ij[ok, 0].astype(np.int64)].astype(np.float64)
+        rise = np.append(self.cell_level_rise_m(), 0.0)          # the padding cell: 0
+
+        def at(p):
+            c = np.floor(p).astype(np.int64)
+            return rise[c] * (1.0 - (p - c)) + rise[np.minimum(c + 1, len(rise) - 1)] * (p - c)
+
+        got = np.zeros(len(t))
+        has = t[:, 0] >= 0
+        got[has] = at(t[has, 0])
+        two = has & (t[:, 1] >= 0)
+        got[two] = (1.0 - t[two, 2]) * got[two] + t[two, 2] * at(t[two, 1])
+        out[ok] = got
+        return out
 
     def rise_texels(self, out: np.ndarray | None = None) -> np.ndarray:
         """(R, RISE_ROW, 2) float32 each cell's level rise [m] (:meth:`cell_level_rise_m`) and
@@ -431,3 +574,82 @@ class FloodRouter:
             rest = self._missed[:n_missed]
             f = self._at(factor, pts[rest], 1.0)
             velocity[rest] *= f[:, None].astype(velocity.dtype)
+        if status is not None and self.ground is not None:
+            self.floodplain_flow(pts, status, velocity, n)
+
+    def floodplain_flow(self, xy: np.ndarray, status: np.ndarray, velocity: np.ndarray,
+                        n: int | None = None) -> int:
+        """Give the flooded ground among the first ``n`` points its flow (in place): points
+        the flow field left OUTSIDE (beside the base banks, not beyond the domain) within
+        FLOODPLAIN_REACH_M of a centre line whose level rise puts water over the ground
+        (:attr:`ground`: depth = base level + rise − terrain > FLOODPLAIN_MIN_DEPTH_M) become
+        INSIDE, moving along the nearest centre line's downstream direction at
+        U_c (h / h_c)^(2/3) / FLOODPLAIN_ROUGHNESS (module docstring; h at most h_c). Points
+        already INSIDE (the channel's own flow) are not touched; dry ground stays OUTSIDE.
+        Returns how many points became INSIDE."""
+        from riverflow.components.status import FlowStatus
+
+        n = len(xy) if n is None else int(n)
+        if self.ground is None or not n:
+            return 0
+        rise_cells = self.cell_level_rise_m()
+        if not np.any(rise_cells > FLOODPLAIN_MIN_DEPTH_M):
+            return 0
+        cand = np.flatnonzero(status[:n] == FlowStatus.OUTSIDE)
+        if not len(cand):
+            return 0
+        pts = np.asarray(xy[cand], np.float64)
+        ok = np.isfinite(pts).all(axis=1)
+        cand, pts = cand[ok], pts[ok]
+        net = self.network
+        d, k = net._tree.query(pts, distance_upper_bound=FLOODPLAIN_REACH_M)   # as locate
+        near = np.flatnonzero(np.isfinite(d))
+        if not len(near):
+            return 0
+        k, cand, pts = k[near], cand[near], pts[near]
+        a, b, w = net.weights(net._sample_link[k], net._sample_s[k])
+        rise = rise_cells[a] * (1.0 - w) + rise_cells[b] * w
+        risen = np.flatnonzero(rise > FLOODPLAIN_MIN_DEPTH_M)
+        if not len(risen):
+            return 0
+        k, cand, pts = k[risen], cand[risen], pts[risen]
+        a, b, w, rise = a[risen], b[risen], w[risen], rise[risen]
+        ground, level = self.ground(pts)
+        depth = np.asarray(level, np.float64) + rise - np.asarray(ground, np.float64)
+        wet = np.flatnonzero(depth > FLOODPLAIN_MIN_DEPTH_M)
+        if not len(wet):
+            return 0
+        a, b, w, depth, cand, k = a[wet], b[wet], w[wet], depth[wet], cand[wet], k[wet]
+        u_channel = self._channel_speed()
+        h_channel = net.link_depth_m[net.cell_link] * self.a
+        u_c = u_channel[a] * (1.0 - w) + u_channel[b] * w
+        h_c = h_channel[a] * (1.0 - w) + h_channel[b] * w
+        speed = u_c * (np.minimum(depth, h_c) / h_c) ** (2.0 / 3.0) / FLOODPLAIN_ROUGHNESS
+        tangent = self._sample_tangents()[k]
+        velocity[cand] = (tangent * speed[:, None]).astype(velocity.dtype)
+        status[cand] = FlowStatus.INSIDE
+        return len(cand)
+
+    def _channel_speed(self) -> np.ndarray:
+        """(N,) each cell's depth-averaged speed now [m/s]: U₀ a^(2/3), U₀ = Q₀ / A₀."""
+        u0 = self.net.link_q0[self.network.cell_link] / self.net.cell_area0
+        return u0 * self.cell_speed_factor()
+
+    def _sample_tangents(self) -> np.ndarray:
+        """(S, 2) the downstream unit direction of the network's centre line at each of its
+        KD-tree's samples (central differences along the sample's link, by arc length)."""
+        if self._tangents is None:
+            net = self.network
+            xy, link, s = net._tree.data, net._sample_link, net._sample_s
+            order = np.lexsort((s, link))
+            p, lk = xy[order], link[order]
+            prev = np.r_[0, np.arange(len(p) - 1)]
+            nxt = np.r_[np.arange(1, len(p)), len(p) - 1]
+            prev = np.where(lk[prev] == lk, prev, np.arange(len(p)))
+            nxt = np.where(lk[nxt] == lk, nxt, np.arange(len(p)))
+            d = p[nxt] - p[prev]
+            d /= np.maximum(np.hypot(*d.T), 1e-12)[:, None]
+            out = np.empty_like(d)
+            out[order] = d
+            self._tangents = out
+        return self._tangents

@@ -225,7 +225,8 @@ class FlowField:
         self._rapid_table: kfalls.FallTable | None = None
         self.discharge_scale = None
         """None, or a callable (xy, status, velocity, n) that scales the first n velocities in
-        place by the local discharge's speed factor (a running flood:
+        place by the local discharge's speed factor and gives flooded ground beside the banks
+        its slow flow (status INSIDE) (a running flood:
         :meth:`riverflow.hydro.flood.FloodRouter.scale_velocity`); :meth:`query` and the
         particles' query call it after the falls."""
 

@@ -59,14 +59,22 @@ class Carving:
 
 
 def carve(water: WaterSurface, xy: np.ndarray, source_m: np.ndarray,
-          carving: Carving = Carving(), anchor_m: tuple[float, float] = (0.0, 0.0)
-          ) -> np.ndarray:
+          carving: Carving = Carving(), anchor_m: tuple[float, float] = (0.0, 0.0),
+          shore_m: np.ndarray | None = None) -> np.ndarray:
     """Carved terrain heights [m], (N,) float64, at points xy (N, 2) [m] whose uncarved
     source heights are ``source_m`` (N,); ``anchor_m`` is a node of the land-level lattice
-    (the quadtree root's corner)."""
+    (the quadtree root's corner); ``shore_m`` (N,): the points' distance to the shore if
+    known (:meth:`WaterSurface.distance_to_shore`, inf or any value from
+    ``carving.reach_m`` on: beyond reach)."""
     p = np.asarray(xy, np.float64).reshape(-1, 2)
     out = np.asarray(source_m, np.float64).reshape(-1).copy()
-    shore = water.distance_to_shore(p, upper_bound_m=carving.reach_m)
+    if shore_m is None:
+        shore = water.distance_to_shore(p, upper_bound_m=carving.reach_m)
+    else:
+        shore = np.asarray(shore_m, np.float64).reshape(-1)
+        if shore.shape != (len(p),):
+            raise ValueError(f"carve: shore_m has {shore.size} values for {len(p)} points")
+        shore = np.where(shore < carving.reach_m, shore, np.inf)
     near = np.flatnonzero(np.isfinite(shore))
     if not len(near):
         return out
@@ -109,13 +117,21 @@ def lattice_land_level(water: WaterSurface, xy: np.ndarray, lattice_m: float,
     f = g - ij
     on_x, on_y = f[:, 0] == 0.0, f[:, 1] == 0.0
     corners = np.concatenate([ij, ij + [1, 0], ij + [0, 1], ij + [1, 1]])
-    # unique nodes through one int64 key per node (ordered as np.unique(axis=0) orders the
-    # rows: by i, then j), several times faster than sorting rows
     lo = corners.min(axis=0)
-    span = int(corners[:, 1].max() - lo[1]) + 1
-    keys, inverse = np.unique((corners[:, 0] - lo[0]) * span + (corners[:, 1] - lo[1]),
-                              return_inverse=True)
-    nodes = np.stack([keys // span + lo[0], keys % span + lo[1]], axis=1)
+    extent = corners.max(axis=0) - lo + 1
+    local = corners - lo
+    if int(extent[0]) * int(extent[1]) <= len(corners):
+        # a compact batch (a tile's nodes, finer than the lattice): every node of the
+        # lattice's box around it, indexed directly, not sorted out (same nodes, same values)
+        gi, gj = np.meshgrid(np.arange(extent[0]), np.arange(extent[1]), indexing="ij")
+        nodes = lo + np.column_stack([gi.ravel(), gj.ravel()])
+        inverse = local[:, 0] * extent[1] + local[:, 1]
+    else:
+        # unique nodes through one int64 key per node (ordered as np.unique(axis=0) orders
+        # the rows: by i, then j), several times faster than sorting rows
+        span = int(extent[1])
+        keys, inverse = np.unique(local[:, 0] * span + local[:, 1], return_inverse=True)
+        nodes = np.stack([keys // span + lo[0], keys % span + lo[1]], axis=1)
     pts = np.asarray(anchor_m, np.float64) + nodes * lattice_m
     values = water.land_level(pts)[inverse.reshape(-1)].reshape(4, -1)
     fx = np.where(on_x, 0.0, f[:, 0])

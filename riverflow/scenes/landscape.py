@@ -72,11 +72,12 @@ class CarvedTerrain:
     cell_m: float
     tile_cells: int = TILE_CELLS
 
-    def height(self, xy: np.ndarray) -> np.ndarray:
-        """Terrain altitude [m] at points (N, 2) [m], (N,) float64."""
+    def height(self, xy: np.ndarray, shore_m: np.ndarray | None = None) -> np.ndarray:
+        """Terrain altitude [m] at points (N, 2) [m], (N,) float64; ``shore_m`` (N,): their
+        distance to the shore if known (:func:`~riverflow.scenes.carving.carve`)."""
         p = np.asarray(xy, np.float64).reshape(-1, 2)
         return carve(self.water, p, self.source.heights(p[:, 0], p[:, 1]), self.carving,
-                     (self.quadtree.root_x_m, self.quadtree.root_y_m))
+                     (self.quadtree.root_x_m, self.quadtree.root_y_m), shore_m)
 
     @property
     def tile_size_m(self) -> float:

@@ -61,6 +61,10 @@ not on the cell grid."""
 DEEP_M = 4.0
 """Water hints point this far inside the water from its edge (where the river is wide enough
 to keep any)."""
+SHORE_KEEP = 256
+"""Tiles whose nodes' shore distances :meth:`LandscapeTiles.shore` keeps for their second
+producer (36 KB each at 64 cells: 9 MB at most; a view's terrain kinds are made kind by kind,
+~300 tiles of each at 1080p)."""
 WATER_MESH_CELLS = 32
 """Grid cells per tile side of the water mesh (8 m on the finest 256 m tiles)."""
 
@@ -89,6 +93,27 @@ class LandscapeTiles:
         self.water_cover = coverage_table(self.quadtree, np.concatenate([segs, centre]), radius,
                                           self.max_level)
         self.pieces = PolygonPieces(water.polygon, self.quadtree)
+        self._shores: OrderedDict[TileKey, np.ndarray] = OrderedDict()
+        self._shore_lock = threading.Lock()
+
+    def shore(self, key: TileKey) -> tuple[np.ndarray, np.ndarray]:
+        """The tile's nodes with their one-node ring ((n + 3)², 2) [m] and their distance to
+        the shore [m] (inf beyond the carving's reach or LEVEL_REACH_M, the larger), made
+        once for the height and water producers of a tile (one KD-tree query, not two: the
+        water tile's nodes are the inner ones): kept from the first producer's call to the
+        second's (at most SHORE_KEEP tiles', oldest out first)."""
+        p = self.nodes(key, self.n, ring=1)
+        with self._shore_lock:
+            shore = self._shores.pop(key, None)     # each producer asks once: handed on
+        if shore is None:
+            reach = max(self.scene.terrain.carving.reach_m, LEVEL_REACH_M)
+            shore = self.scene.water.distance_to_shore(p, upper_bound_m=reach)
+            shore.flags.writeable = False
+            with self._shore_lock:
+                self._shores[key] = shore
+                while len(self._shores) > SHORE_KEEP:
+                    self._shores.popitem(last=False)
+        return p, shore
 
     def has_water(self, key: TileKey) -> bool:
         """False when no water comes within reach of the tile."""
@@ -158,7 +183,8 @@ class HeightProducer(TerrainProducer):
 
     def produce(self, key: TileKey, deps: Mapping) -> dict:
         n = self.tiles.n
-        z = self.scene.terrain.height(self.tiles.nodes(key, n, ring=1))
+        nodes, shore = self.tiles.shore(key)
+        z = self.scene.terrain.height(nodes, shore)
         return {"z": z.reshape(n + 3, n + 3).astype(np.float32)}
 
 
@@ -183,12 +209,15 @@ class WaterProducer(TerrainProducer):
     def produce(self, key: TileKey, deps: Mapping) -> dict:
         n = self.tiles.n
         water = self.scene.water
-        p = self.tiles.nodes(key, n)
+        ring, ring_shore = self.tiles.shore(key)       # the inner nodes are the tile's
+        inner = (slice(1, -1), slice(1, -1), slice(None))
+        p = ring.reshape(n + 3, n + 3, 2)[inner].reshape(-1, 2)
+        shore = ring_shore.reshape(n + 3, n + 3, 1)[inner].reshape(-1)
+        shore = np.where(shore < LEVEL_REACH_M, shore, np.inf)
         level = np.full(len(p), np.nan, np.float32)
         seen = np.full(len(p), DRY_LEVEL_M, np.float32)
         signed = np.full(len(p), LEVEL_REACH_M, np.float32)
         scale = np.ones(len(p), np.float32)
-        shore = water.distance_to_shore(p, upper_bound_m=LEVEL_REACH_M)
         near = np.flatnonzero(np.isfinite(shore))
         if len(near):
             _, value, width = water.nearest(p[near])
@@ -310,6 +339,52 @@ class WaterMeshProducer(TerrainProducer):
     def nbytes(self, data) -> int:
         mesh, ground = data
         return int(mesh.positions.nbytes + mesh.indices.nbytes + ground.nbytes)
+
+
+def ground_and_level(cache, quadtree: Quadtree, n: int, max_level: int, xy: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The terrain height and the level seen from it [m] at points xy (N, 2) [m] as the
+    terrain is drawn: bilinear between the nodes of the finest resident height and water
+    tiles (n cells) of ``cache`` over each point (their ``z`` and ``level_seen``; a stale
+    tile standing in after an edit counts; DRY_LEVEL_M far from the water). Returns
+    (ground (N,), level (N,), the indices of the points no resident pair covers: NaN and
+    DRY_LEVEL_M there)."""
+    p = np.asarray(xy, np.float64).reshape(-1, 2)
+    ground = np.full(len(p), np.nan)
+    level = np.full(len(p), DRY_LEVEL_M)
+    todo = np.flatnonzero(np.isfinite(p).all(axis=1))
+    missed = [np.flatnonzero(~np.isfinite(p).all(axis=1))]
+    heights, waters = cache.pools.get(HEIGHT), cache.pools.get(WATER)
+    if heights is None or waters is None:
+        return ground, level, np.arange(len(p))
+    for lv in range(int(max_level), -1, -1):
+        if not len(todo):
+            break
+        cell = quadtree.cell_m(lv, n)
+        u = (p[todo, 0] - quadtree.root_x_m) / cell
+        v = (p[todo, 1] - quadtree.root_y_m) / cell
+        tx, ty = np.floor(u / n).astype(np.int64), np.floor(v / n).astype(np.int64)
+        inside = (tx >= 0) & (ty >= 0) & (tx < (1 << lv)) & (ty < (1 << lv))
+        codes = (np.int64(lv) << 56) | (np.where(inside, ty, 0) << 28) | np.where(inside, tx, 0)
+        hs, ws = heights.table.find_many(codes), waters.table.find_many(codes)
+        ok = np.flatnonzero(inside & (hs >= 0) & (ws >= 0))
+        if len(ok):
+            fu, fv = u[ok] - tx[ok] * n, v[ok] - ty[ok] * n
+            i = np.clip(np.floor(fu).astype(np.int64), 0, n - 1)
+            j = np.clip(np.floor(fv).astype(np.int64), 0, n - 1)
+            fu, fv = fu - i, fv - j
+            for out, arr, slots, off in ((ground, heights.z, hs[ok], 1),
+                                         (level, waters.level_seen, ws[ok], 0)):
+                a = arr[slots, j + off, i + off]
+                b = arr[slots, j + off, i + off + 1]
+                c = arr[slots, j + off + 1, i + off]
+                d = arr[slots, j + off + 1, i + off + 1]
+                out[todo[ok]] = ((1 - fv) * ((1 - fu) * a + fu * b)
+                                 + fv * ((1 - fu) * c + fu * d))
+        keep = np.ones(len(todo), bool)
+        keep[ok] = False
+        todo = todo[keep]
+    return ground, level, np.concatenate(missed + [todo])
 
 
 def terrain_producers(scene: Landscape) -> list[Producer]:

@@ -1007,7 +1007,7 @@ class DrawRivers(System):
                 for tex in (gpu.flood_cells, gpu.flood_rise):
                     if tex is not None:
                         tex.delete()
-                gpu.flood_cells = gl.Texture(cells.shape[::-1], gl.R32F)
+                gpu.flood_cells = gl.Texture(cells.shape[1::-1], gl.RGB32F)
                 gpu.flood_cells.upload(cells)
                 gpu.flood_rise_cpu = router.rise_texels()
                 gpu.flood_rise = gl.Texture(gpu.flood_rise_cpu.shape[1::-1], gl.RG32F)

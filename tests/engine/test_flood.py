@@ -13,9 +13,11 @@ import pytest
 
 import riverflow as rf
 from riverflow.hydro.falls import channel_depth_m
-from riverflow.hydro.flood import FloodRouter, cell_raster
+from riverflow.hydro.flood import FLOODPLAIN_ROUGHNESS, FloodRouter, cell_raster
 from riverflow.hydro.spill_network import build_spill_network
 from riverflow.kernels.flood import flood_steps, sample_by_cells, scale_by_cells
+from riverflow.scenes.carving import Carving
+from riverflow.tiles.table import tile_code
 from tests.engine import cell_networks
 from tests.engine.cell_networks import branch, straight
 
@@ -349,3 +351,146 @@ def test_the_ground_stays_wet_looking_behind_a_falling_flood(diamond):
     assert router.wet_rise_m.max() > 0.0 and router.drawn   # still wet-looking
     router.advance(12 * 3600.0)
     assert router.wet_rise_m.max() < 1e-9 and not router.drawn   # dry again
+
+
+# -- water over its banks: the floodplain's flow (item 3) -------------------------------------
+# With the flood's level 1 m above the bank top in the built-in valley, the ground below the
+# raised level beside the tributary's banks is INSIDE the flow, moving slowly (faster than 0,
+# slower than the channel, down the valley); the channel's own flow is the base field's,
+# scaled; it dries (OUTSIDE) when the flood falls back. No NaN.
+
+WET_M = 0.05
+"""Points this much below (above) the raised level count as flooded (dry): the terrain the
+test reads and the flood's interpolation of its rise agree to well within it."""
+
+
+@pytest.fixture(scope="module")
+def flooded(world):
+    """The module's world with the tributary's level 1 m above its bank top (steady), after
+    what the tests above left settled back to base flow."""
+    if world.flood is not None:                           # back to base flow first
+        world.set_hydrograph(None, [], None)
+        world.advance_flood(12 * 3600.0)
+    scene = world.scene
+    line = scene.branch("tributary").centerline_m
+    k = len(line) // 2
+    t = line[k + 1] - line[k - 1]
+    t = t / np.hypot(*t)
+    normal = np.array([-t[1], t[0]])
+    # five sections across the valley, 30 m apart, 1 m steps out to 130 m from the axis
+    off = np.arange(-130.0, 130.5, 1.0)
+    pts = np.concatenate([line[k] + 30.0 * j * t + off[:, None] * normal
+                          for j in range(-2, 3)])
+    base_status, base_v = world.field.query(pts)
+    world.set_hydrograph(None, [], None)
+    router = world.flood
+    rise = Carving().bank_rise_m + 1.0                    # 1 m above the bank top
+    ratio = router.ratio_for_rise("tributary", rise)      # the rating curve, inverted
+    q0 = router.base_inflow_m3s()
+    now = world.flood_time_s
+    world.set_hydrograph(None, [now, now + 1.0], [q0, ratio * q0])
+    world.advance_flood(6 * 3600.0)                       # steady
+    return world, pts, t, base_status, base_v, (ratio, q0), rise
+
+
+def test_flooded_ground_flows_slowly_down_the_valley(flooded):
+    world, pts, t, base_status, base_v, _, rise = flooded
+    router = world.flood
+    centre = pts[len(pts) // 2][None]
+    assert float(router.level_rise(centre)[0]) == pytest.approx(rise, rel=0.02)
+    status, v = world.field.query(pts)
+    assert np.isfinite(v).all()
+    ground, level = router.ground(pts)      # the terrain as drawn: its resident tiles
+    depth = level + router.level_rise(pts) - ground
+    plain = (base_status == rf.FlowStatus.OUTSIDE) & (depth > WET_M)
+    dry = (base_status == rf.FlowStatus.OUTSIDE) & (depth < -WET_M)
+    assert plain.sum() > 100 and dry.sum() > 100          # the water is over its banks
+    assert np.all(status[plain] == rf.FlowStatus.INSIDE)
+    assert np.all(status[dry] == rf.FlowStatus.OUTSIDE) and not v[dry].any()
+    speed = np.hypot(*v.T.astype(np.float64))
+    channel = base_status == rf.FlowStatus.INSIDE
+    u_mid = float(np.median(speed[channel]))
+    assert np.all(speed[plain] > 0.0)
+    assert speed[plain].max() < u_mid / FLOODPLAIN_ROUGHNESS * 1.01
+    down = (v[plain] @ t) / speed[plain]
+    assert np.mean(down > np.cos(np.radians(30.0))) >= 0.95   # down the valley
+    # slower where shallower: the speed rises with the depth on each section
+    shallow = plain & (depth < 0.5)
+    deep = plain & (depth > 1.5)
+    assert speed[shallow].mean() < speed[deep].mean()
+    # the channel's own flow: the base field, scaled by the discharge's speed factor only
+    router.ground, ground = None, router.ground
+    try:
+        _, v_channel = world.field.query(pts[channel])
+    finally:
+        router.ground = ground
+    assert np.array_equal(v[channel], v_channel)
+    assert np.all(status[channel] == rf.FlowStatus.INSIDE)
+
+
+def test_the_floodplain_dries_when_the_flood_falls_back(flooded):
+    world, pts, _, base_status, base_v, (ratio, q0), _ = flooded
+    now = world.flood_time_s
+    world.set_hydrograph(None, [now, now + 1.0], [ratio * q0, q0])
+    world.advance_flood(12 * 3600.0)
+    status, v = world.field.query(pts)
+    assert np.array_equal(status, base_status)
+    assert np.allclose(v, base_v, rtol=1e-4, atol=1e-6)
+
+
+def test_the_floods_ground_is_the_resident_tiles_bilinear(world):
+    """tile_kinds.ground_and_level (the flood's ground): at the nodes of the finest resident
+    height and water tiles, their heights and levels seen; no resident pair: reported."""
+    from riverflow.scenes.tile_kinds import ground_and_level
+
+    cache, scene = world.tiles.cache, world.scene
+    n, top = scene.terrain.tile_cells, scene.terrain.max_level
+    both = set(cache.pools["height"].keys()) & set(cache.pools["water"].keys())
+    key = max(both)                                    # the finest level resident
+    x, y = scene.quadtree.node_coords(*key, n)
+    gx, gy = np.meshgrid(x[1:-1], y[1:-1])             # inner nodes: no neighbour's edge
+    xy = np.column_stack([gx.ravel(), gy.ravel()])
+    ground, level, missed = ground_and_level(cache, scene.quadtree, n, top,
+                                             np.vstack([xy, [[np.nan, 0.0], [1e7, 1e7]]]))
+    z = cache.pools["height"].get(tile_code(*key))["z"][2:-2, 2:-2]
+    seen = cache.pools["water"].get(tile_code(*key))["level_seen"][1:-1, 1:-1]
+    assert np.allclose(ground[:-2], z.ravel(), rtol=0, atol=1e-4)
+    assert np.allclose(level[:-2], seen.ravel(), rtol=0, atol=1e-4)
+    assert sorted(missed.tolist()) == [len(xy), len(xy) + 1]
+
+
+def test_the_drawn_rise_ramps_across_the_line_where_the_nearest_link_changes(world):
+    """hydro.flood.FloodRouter._blend_links (issue 25, F7's saw-tooth): with one branch
+    flooded and the one beside it not, the rise the shaders draw (drawn_rise, the CPU twin
+    of flood.glsl's flood_at) crosses the line between them on a ramp of FLOOD_BLEND_M,
+    where the nearest cell's rise (level_rise) steps."""
+    from riverflow.hydro.flood import FLOOD_BLEND_M
+
+    world.set_hydrograph(None, [], None)
+    router = world.flood
+    names = router.network.names
+    b = names.index("tributary")
+    q0 = float(router.net.link_q0[b])
+    now = world.flood_time_s
+    world.set_hydrograph("tributary", [now, now + 1.0], [q0, 4.0 * q0])
+    world.advance_flood(6 * 3600.0)
+    trib = router.network.lines[b]
+    main = np.concatenate([router.network.lines[k] for k in range(len(names)) if k != b])
+    a = trib[-1] + 0.0
+    for p in trib[::-1]:                          # 150 m up the tributary from its end
+        if np.hypot(*(p - trib[-1])) > 150.0:
+            a = p
+            break
+    c = main[np.argmin(np.hypot(*(main - a).T))]  # the nearest point of another link
+    t = np.linspace(0.0, 1.0, 400)[:, None]
+    xy = a + t * (c - a)
+    step = router.level_rise(xy)
+    drawn = router.drawn_rise(xy)
+    jump = np.abs(np.diff(step)).max()
+    assert jump > 0.5                             # the nearest cell's rise steps...
+    spacing = float(np.hypot(*(c - a))) / 399
+    texel = router.level_textures()[0][2] / router.level_textures()[1].shape[0]
+    ramp = np.abs(np.diff(drawn)).max()
+    # ...the drawn one ramps: at most ½ the step over a gap change of 2·(spacing + texel)
+    assert ramp < jump * 2.0 * (spacing + texel) / FLOOD_BLEND_M
+    assert drawn[0] == pytest.approx(step[0], abs=1e-6) and np.isfinite(drawn).all()

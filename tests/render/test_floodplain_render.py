@@ -71,12 +71,9 @@ def test_the_flooded_width_matches_the_valley_section(setup):
     dry, dry_expected = _wet_width(world, centre, normal, base)
     world.set_hydrograph(None, [], None)
     router = world.flood
-    b = router.network.names.index("tributary")
-    h0 = float(router.network.link_depth_m[b])
     rise = Carving().bank_rise_m + 1.0                    # 1 m above the bank top
-    ratio = (1.0 + rise / h0) ** (5.0 / 3.0)              # the rating curve, inverted
-    sources = [k for k in range(len(router.network.names)) if router.net.link_start[k] < 0]
-    q0 = float(router.net.link_q0[sources].sum())
+    ratio = router.ratio_for_rise("tributary", rise)      # the rating curve, inverted
+    q0 = router.base_inflow_m3s()
     t = world.flood_time_s
     world.set_hydrograph(None, [t, t + 1.0], [q0, ratio * q0])
     world.advance_flood(6 * 3600.0)                       # steady

@@ -39,3 +39,51 @@ def test_a_narrow_creek_is_resampled_finer_than_it_is_wide():
     # its bends are kept: the resampled line stays well inside the creek
     off = shapely.distance(shapely.LineString(xy), shapely.points(branch.centerline_m))
     assert off.max() < 0.1 * width, off.max()
+
+
+def test_the_land_level_lattice_is_one_function_of_the_point():
+    """carving.lattice_land_level reads a compact batch (a tile's nodes) from the lattice's
+    whole box around it and a spread one through its unique nodes: the same value at the same
+    point either way, and the water's own land level at lattice nodes."""
+    from riverflow.scenes.carving import lattice_land_level
+
+    scene = rf.default_scene(seed=0)
+    water = scene.water
+    anchor = (scene.quadtree.root_x_m, scene.quadtree.root_y_m)
+    centre = scene.branch("tributary").centerline_m[40]
+    k = np.arange(-33, 34) * 4.0
+    gx, gy = np.meshgrid(centre[0] + k, centre[1] + k)
+    tile = np.column_stack([gx.ravel(), gy.ravel()])                 # a tile of 4 m cells
+    spread = np.vstack([tile[::37], centre + [[1500.0, -900.0]]])    # sparse, far apart
+    compact = lattice_land_level(water, tile, 16.0, anchor)[::37]
+    sparse = lattice_land_level(water, spread, 16.0, anchor)
+    assert np.array_equal(compact, sparse[:-1])
+    nodes = np.asarray(anchor) + 16.0 * np.round((tile[::97] - anchor) / 16.0)
+    assert np.allclose(lattice_land_level(water, nodes, 16.0, anchor), water.land_level(nodes),
+                       rtol=0, atol=1e-9)
+
+
+def test_height_and_water_tiles_share_their_shore_query_and_match_the_pointwise_terrain():
+    """tile_kinds.LandscapeTiles.shore: one shore-distance query for a tile's height and water
+    producers (whichever comes first); their tiles are the pointwise terrain's and water's."""
+    from riverflow.scenes.tile_kinds import LEVEL_REACH_M, terrain_producers
+
+    scene = rf.default_scene(seed=0)
+    height, water = terrain_producers(scene)[:2]
+    tiles = height.tiles
+    centre = scene.branch("tributary").centerline_m[40]
+    level = tiles.max_level
+    key = (level, *tiles.quadtree.tile_of(*centre, level))
+    n = tiles.n
+    for first, second in ((height, water), (water, height)):
+        got = {p.kind: p.produce(key, {}) for p in (first, second)}
+        assert not tiles._shores                       # handed on, not kept
+        nodes = tiles.nodes(key, n, ring=1)
+        assert np.array_equal(got["height"]["z"].ravel(),
+                              scene.terrain.height(nodes).astype(np.float32))
+        inner = tiles.nodes(key, n)
+        d = scene.water.distance_to_shore(inner, upper_bound_m=LEVEL_REACH_M)
+        inside = scene.water.contains(inner, d)
+        signed = np.where(np.isfinite(d), np.where(inside, -d, d), LEVEL_REACH_M)
+        assert np.array_equal(got["water"]["shore"].ravel(), signed.astype(np.float32))
+        assert (signed < 0).any() and (signed > 20).any()  # the tile holds water and land
