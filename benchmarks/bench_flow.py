@@ -51,6 +51,9 @@ def main(argv: list[str] | None = None) -> dict:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
     parser.add_argument("--points", type=int, default=2_000_000, help="cached query batch size")
+    parser.add_argument("--large-km", type=float, default=0.0, metavar="KM",
+                        help="also time finest flow tiles along the rivers of a default scene "
+                             "this large (e.g. 1000: its banks have ~500,000 segments)")
     args = parser.parse_args(argv)
 
     import riverflow as rf
@@ -113,6 +116,8 @@ def main(argv: list[str] | None = None) -> dict:
                                                         len(pts_water))
     results["lattice_spacing_m"] = tiles.spacing_m(lv)
     results["max_level"] = lv
+    if args.large_km > 0:
+        results.update(large_tiles(rf, args.large_km))
 
     if args.json:
         print(json.dumps(results, indent=2))
@@ -120,6 +125,25 @@ def main(argv: list[str] | None = None) -> dict:
         for k, v in results.items():
             print(f"{k:40s} {v:14,.3f}" if isinstance(v, float) else f"{k:40s} {v:>14}")
     return results
+
+
+def large_tiles(rf, size_km: float, count: int = 40) -> dict[str, float]:
+    """CPU ms per finest flow tile (made afresh) at ``count`` wet tiles along the rivers of the
+    default scene of ``size_km``: what a view pays per new tile there."""
+    scene = rf.default_scene(seed=0, size_km=size_km)
+    field = rf.FlowField.for_scene(scene, cache_tiles=4 * count)
+    lv = field.max_level
+    centre = np.concatenate([np.asarray(field.graph.curves[a].points)[:, :2]
+                             for a in field.graph.axes()])
+    rng = np.random.default_rng(0)
+    keys = np.unique(field.tile_of(centre[rng.choice(len(centre), 8 * count)], lv), axis=0)
+    keys = [(int(x), int(y)) for x, y in keys if field.tiles.is_wet(lv, x, y)][:count]
+    field.ensure_tiles(lv, keys[:1])                      # kernels loaded
+    field.clear_tiles()
+    t0 = time.process_time()
+    field.ensure_tiles(lv, keys)
+    return {"large_scene_km": size_km, "large_segments": field.network.n_segments,
+            "large_tile_build_ms_cpu": 1e3 * (time.process_time() - t0) / len(keys)}
 
 
 if __name__ == "__main__":

@@ -90,7 +90,7 @@ def test_help_of_every_subcommand_imports_no_pyglet():
 
 def test_help_texts_are_current():
     for sub in [None, *SUBCOMMANDS]:
-        out = run_cli(*([sub] if sub else []), "--help").stdout
+        out = cli(*([sub] if sub else []), "--help").stdout
         assert "in progress" not in out and "not yet" not in out, (sub, out)
 
 
@@ -159,8 +159,11 @@ def test_demo_headless_writes_frames_and_an_animation(tiny_channel_path, tmp_pat
 
 
 @pytest.mark.gl
-def test_demo_without_a_display_says_so_and_renders_headless(tiny_channel_path, tmp_path):
-    result = run_cli("demo", "--scene", str(tiny_channel_path), "--frames", "2",
+def test_demo_without_a_display_says_so_and_renders_headless(tiny_channel_path, tmp_path,
+                                                            monkeypatch):
+    monkeypatch.delenv("DISPLAY", raising=False)         # as run_cli's environment has it
+    monkeypatch.delenv("WAYLAND_DISPLAY", raising=False)
+    result = cli("demo", "--scene", str(tiny_channel_path), "--frames", "2",
                      "--size", "64x48", "--out", str(tmp_path / "demo"))
     assert result.returncode == 0, result.stderr
     assert "no display found" in result.stdout
@@ -204,7 +207,7 @@ def test_out_means_a_file_where_it_says_file(tmp_path):
 @pytest.mark.gl
 @pytest.mark.slow
 def test_bare_render_runs_on_the_defaults_and_says_what_it_did(tmp_path):
-    result = run_cli("render", cwd=tmp_path)
+    result = cli("render", cwd=tmp_path)
     assert result.returncode == 0, result.stderr
     out = tmp_path / "out" / "render.png"
     from PIL import Image

@@ -205,9 +205,24 @@ def gather_box_segments(
     ``blk_seg`` and ``blk_dmin2``, the curve's smallest squared distance to the box (a lower
     bound for every box point); ``tmp_d2`` is (S,) scratch. Returns n, the number of curves kept.
     """
+    return _gather_listed(x0, y0, x1, y1, seg_ax, seg_ay, seg_bx, seg_by, curve_seg0,
+                          curve_seg1, curve_seg0, False, curve_bbox, curve_cutoff, blk_curve,
+                          blk_start, blk_count, blk_seg, blk_dmin2, tmp_d2)
+
+
+@njit(**JIT_OPTIONS)
+def _gather_listed(
+    x0, y0, x1, y1,
+    seg_ax, seg_ay, seg_bx, seg_by,
+    list_lo, list_hi, listed, indexed, curve_bbox, curve_cutoff,
+    blk_curve, blk_start, blk_count, blk_seg, blk_dmin2, tmp_d2,
+):
+    """:func:`gather_box_segments` over the segments of each curve c at positions
+    ``list_lo[c]`` … ``list_hi[c]``: the segments themselves (``indexed`` False: the curve's
+    range) or ``listed[position]`` (True: a list from :func:`segments_near_box`)."""
     nb = 0
     ns = 0
-    for c in range(curve_seg0.shape[0]):
+    for c in range(curve_bbox.shape[0]):
         cut = curve_cutoff[c]
         cut2 = cut * cut
         dx = max(curve_bbox[c, 0] - x1, 0.0, x0 - curve_bbox[c, 2])
@@ -215,7 +230,8 @@ def gather_box_segments(
         if dx * dx + dy * dy > cut2:
             continue
         upper = np.inf
-        for s in range(curve_seg0[c], curve_seg1[c]):
+        for q in range(list_lo[c], list_hi[c]):
+            s = listed[q] if indexed else q
             dmin = _segment_box_dist2(seg_ax[s], seg_ay[s], seg_bx[s], seg_by[s], x0, y0, x1, y1)
             tmp_d2[s] = dmin
             if dmin <= cut2:
@@ -227,7 +243,8 @@ def gather_box_segments(
         limit = min(upper * (1.0 + 1e-9) + 1e-12, cut2)
         start = ns
         lower = np.inf
-        for s in range(curve_seg0[c], curve_seg1[c]):
+        for q in range(list_lo[c], list_hi[c]):
+            s = listed[q] if indexed else q
             if tmp_d2[s] <= limit:
                 blk_seg[ns] = s
                 ns += 1
@@ -239,6 +256,40 @@ def gather_box_segments(
             blk_count[nb] = ns - start
             nb += 1
     return nb
+
+
+NEAR_BOX_SLACK = 1e-6
+"""Relative slack of :func:`segments_near_box` on a curve's squared cutoff (and 1e-6 m² more):
+far above the rounding of the distances, so every segment a box inside it keeps is listed."""
+
+
+@njit(**JIT_OPTIONS)
+def segments_near_box(
+    x0, y0, x1, y1,
+    seg_ax, seg_ay, seg_bx, seg_by,
+    curve_seg0, curve_seg1, curve_bbox, curve_cutoff,
+    list_lo, list_hi, listed,
+):
+    """The segments of each curve c within (a hair more than) its cutoff of the box, in order,
+    in ``listed[list_lo[c]:list_hi[c]]``; returns how many. For any box inside this one,
+    :func:`_gather_listed` over these lists keeps what :func:`gather_box_segments` keeps, bit
+    for bit (a segment left out is beyond the cutoff of every point of the box): a flow tile
+    scans a long river's bank once, not once for every block of its lattice."""
+    n = 0
+    for c in range(curve_bbox.shape[0]):
+        list_lo[c] = n
+        cut = curve_cutoff[c]
+        reach2 = cut * cut * (1.0 + NEAR_BOX_SLACK) + NEAR_BOX_SLACK
+        dx = max(curve_bbox[c, 0] - x1, 0.0, x0 - curve_bbox[c, 2])
+        dy = max(curve_bbox[c, 1] - y1, 0.0, y0 - curve_bbox[c, 3])
+        if dx * dx + dy * dy <= reach2:
+            for s in range(curve_seg0[c], curve_seg1[c]):
+                if _segment_box_dist2(seg_ax[s], seg_ay[s], seg_bx[s], seg_by[s],
+                                      x0, y0, x1, y1) <= reach2:
+                    listed[n] = s
+                    n += 1
+        list_hi[c] = n
+    return n
 
 
 # -- ψ at one point -----------------------------------------------------------------------------
@@ -463,6 +514,14 @@ def build_flow_tile(
     n_inside = 0
     out_cell_status[:, :] = _CELL_UNSET
     out_cell_segments[:, :, :] = -1
+    # the segments near the whole lattice, once: each block picks from these
+    list_lo = np.empty(curve_bbox.shape[0], np.int32)
+    list_hi = np.empty(curve_bbox.shape[0], np.int32)
+    listed = np.empty(seg_ax.shape[0], np.int32)
+    segments_near_box(origin_x + (gi0 - ring) * h, origin_y + (gj0 - ring) * h,
+                      origin_x + (gi0 + m - 1 - ring) * h, origin_y + (gj0 + m - 1 - ring) * h,
+                      seg_ax, seg_ay, seg_bx, seg_by, curve_seg0, curve_seg1, curve_bbox,
+                      curve_cutoff, list_lo, list_hi, listed)
     for bj in range(0, m, BLOCK):
         for bi in range(0, m, BLOCK):
             i_hi = min(bi + BLOCK, m)
@@ -471,9 +530,9 @@ def build_flow_tile(
             y0 = origin_y + (gj0 + bj - ring) * h
             x1 = origin_x + (gi0 + min(i_hi, m - 1) - ring) * h
             y1 = origin_y + (gj0 + min(j_hi, m - 1) - ring) * h
-            nb = gather_box_segments(x0, y0, x1, y1, seg_ax, seg_ay, seg_bx, seg_by,
-                                     curve_seg0, curve_seg1, curve_bbox, curve_cutoff,
-                                     blk_curve, blk_start, blk_count, blk_seg, blk_dmin2, tmp_d2)
+            nb = _gather_listed(x0, y0, x1, y1, seg_ax, seg_ay, seg_bx, seg_by, list_lo,
+                                list_hi, listed, True, curve_bbox, curve_cutoff, blk_curve,
+                                blk_start, blk_count, blk_seg, blk_dmin2, tmp_d2)
             near_cap = False
             for k in range(nb):
                 if curve_kind[blk_curve[k]] == KIND_CAP:

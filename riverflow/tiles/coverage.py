@@ -15,6 +15,19 @@ from riverflow.tiles.table import TileTable
 _MAX_PER_BATCH = 1 << 22
 
 
+def unique_codes(codes: np.ndarray) -> np.ndarray:
+    """Sorted unique int64 tile codes, by sorting. numpy >= 2.3's ``np.unique`` hashes int64
+    values, and tile codes (level << 56 | ty << 28 | tx) differ in their high bits: its table
+    collides (1000 km scene's flow coverage: 0.4 s against 0.02 s for 700,000 codes)."""
+    c = np.sort(np.asarray(codes, np.int64).ravel())
+    if len(c) < 2:
+        return c
+    keep = np.empty(len(c), np.bool_)
+    keep[0] = True
+    np.not_equal(c[1:], c[:-1], out=keep[1:])
+    return c[keep]
+
+
 def touched_codes(quadtree: Quadtree, segments_m: np.ndarray, radius_m: np.ndarray | float,
                   level: int) -> np.ndarray:
     """Sorted unique codes of the tiles of ``level`` that the boxes of the capsules touch.
@@ -65,15 +78,15 @@ def touched_codes(quadtree: Quadtree, segments_m: np.ndarray, radius_m: np.ndarr
         q = np.arange(len(piece)) - np.repeat(np.cumsum(c) - c, c)
         ii = i0[piece] + q % nx[piece]
         jj = j0[piece] + q // nx[piece]
-        out.append(np.unique((np.int64(level) << 56) | (jj << 28) | ii))
+        out.append(unique_codes((np.int64(level) << 56) | (jj << 28) | ii))
         start = stop
-    return np.unique(np.concatenate(out)) if out else np.zeros(0, np.int64)
+    return unique_codes(np.concatenate(out)) if out else np.zeros(0, np.int64)
 
 
 def with_ancestors(codes: np.ndarray) -> np.ndarray:
     """The codes and every ancestor's code, up to level 0 (sorted, unique). The codes may be
     of mixed levels (a view's cut): each one's ancestors are taken from its own level."""
-    c = np.unique(np.asarray(codes, np.int64))
+    c = unique_codes(codes)
     if not len(c):
         return c
     mask = np.int64((1 << 28) - 1)
@@ -82,7 +95,7 @@ def with_ancestors(codes: np.ndarray) -> np.ndarray:
     up = np.arange(int(lv.max()) + 1, dtype=np.int64)[None, :]   # 0: the code itself
     alv = lv[:, None] - up
     anc = (alv << 56) | ((ty[:, None] >> up) << 28) | (tx[:, None] >> up)
-    return np.unique(anc[alv >= 0])
+    return unique_codes(anc[alv >= 0])
 
 
 def coverage_table(quadtree: Quadtree, segments_m: np.ndarray, radius_m, level: int

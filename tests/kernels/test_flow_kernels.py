@@ -65,6 +65,57 @@ def test_gather_box_segments_keeps_each_curves_nearest_segment(field, rng):
                 assert reference._dist2(p, a[kept[c]], b[kept[c]]).min() == d.min()
 
 
+def test_a_tiles_segment_list_gives_each_block_what_a_full_scan_keeps(field, rng):
+    """``segments_near_box`` lists, once for a tile's lattice, each curve's segments within its
+    cutoff of the box, or a hair beyond (its twin: shapely's distances), and a block inside
+    the box gathering from that list (what ``build_flow_tile`` does) keeps what
+    ``gather_box_segments`` keeps scanning every segment of every curve: the same curves,
+    segments, order and distances."""
+    net = field.network
+    n, m = net.n_curves, net.n_segments
+    lo, hi, listed = np.empty(n, np.int32), np.empty(n, np.int32), np.empty(m, np.int32)
+    geometry = (*net.geometry_args(), net.curve_seg0, net.curve_seg1, net.curve_bbox,
+                net.curve_cutoff)
+    segments = shapely.linestrings(np.stack([np.c_[net.seg_ax, net.seg_ay],
+                                             np.c_[net.seg_bx, net.seg_by]], axis=1))
+    curve_of = np.repeat(np.arange(n), net.curve_seg1 - net.curve_seg0)
+    full = [np.empty(n, np.int32) for _ in range(3)] + [np.empty(m, np.int32), np.empty(n),
+                                                        np.empty(m)]
+    part = [np.empty_like(a) for a in full]
+    checked = 0
+    for p0 in _sample(field, rng, 12):
+        size = rng.uniform(5.0, 120.0)
+        tile = (p0[0], p0[1], p0[0] + size, p0[1] + size)
+        count = kf.segments_near_box(*tile, *geometry, lo, hi, listed)
+        d2 = shapely.distance(shapely.box(*tile), segments) ** 2
+        cut2 = net.curve_cutoff[curve_of] ** 2
+        got = set(listed[:count].tolist())
+        assert set(np.flatnonzero(d2 <= cut2).tolist()) <= got      # a hair more: the slack
+        assert got <= set(np.flatnonzero(d2 <= cut2 * (1.0 + kf.NEAR_BOX_SLACK)
+                                         + kf.NEAR_BOX_SLACK).tolist())
+        for c in range(n):
+            assert (np.diff(listed[lo[c]:hi[c]]) > 0).all()
+            assert ((listed[lo[c]:hi[c]] >= net.curve_seg0[c])
+                    & (listed[lo[c]:hi[c]] < net.curve_seg1[c])).all()
+        for k in range(6):      # blocks inside the tile, on its edges and corners too
+            u = np.sort(rng.uniform(0.0, 1.0, (2, 2)), axis=1)
+            if k < 2:
+                u[:, k] = k
+            x0, x1 = tile[0] + u[0] * size
+            y0, y1 = tile[1] + u[1] * size
+            a = kf.gather_box_segments(x0, y0, x1, y1, *geometry, *full)
+            b = kf._gather_listed(x0, y0, x1, y1, *net.geometry_args()[:4], lo, hi, listed,
+                                  True, net.curve_bbox, net.curve_cutoff, *part)
+            assert a == b
+            for x, y in zip(full[:3] + [full[4]], part[:3] + [part[4]]):
+                npt.assert_array_equal(x[:a], y[:a])
+            used = full[1][:a] + full[2][:a]
+            ns = int(used.max()) if a else 0
+            npt.assert_array_equal(full[3][:ns], part[3][:ns])
+            checked += ns
+    assert checked > 100
+
+
 def _lattice_of_a_river_tile(field):
     """(tiles, slot, gx, gy): the finest flow tile at the middle of the first river, made,
     and its stored ψ window's lattice points (one ghost ring and the far edge included)."""

@@ -95,6 +95,23 @@ def test_with_ancestors_of_a_mixed_level_cut_is_exactly_the_keys_parents_chains(
     assert len(with_ancestors(np.zeros(0, np.int64))) == 0
 
 
+def test_unique_codes_is_numpys_unique(rng):
+    """The tile tables' sort-based unique (numpy's hashed one collides on tile codes) against
+    np.unique: codes of every level, repeated and shuffled, and the empty and single cases."""
+    from riverflow.tiles.coverage import unique_codes
+    from riverflow.tiles.table import codes
+
+    for n in (0, 1, 2, 3000):
+        levels = rng.integers(0, 29, n)
+        keys = np.stack([levels, rng.integers(0, 1 << np.minimum(levels, 6)),
+                         rng.integers(0, 1 << levels)], 1)
+        c = codes(keys.astype(np.int32))
+        c = rng.permutation(np.concatenate([c, c[::3], c[:1]]))
+        got = unique_codes(c)
+        assert got.dtype == np.int64
+        np.testing.assert_array_equal(got, np.unique(c))
+
+
 def test_near_to_far_is_numpys_stable_argsort_of_the_same_distances():
     """The draw system's tile order (kernels.tile_cut.near_to_far) against its numpy twin,
     bit for bit: random centres, with repeated ones and ties in distance (kept in their
