@@ -41,12 +41,15 @@ from riverflow.hydro.graph import GraphError
 
 @dataclass
 class Lake:
-    """A lake given to the builder: its polygon [m], its level [m] (None: from the terrain)
-    and a name for messages."""
+    """A lake given to the builder: its polygon [m], its level [m] (None: from the terrain),
+    a name for messages and whether it is a river's basin."""
 
     polygon: shapely.Polygon
     level_m: float | None
     name: str
+    basin: bool = False
+    """A basin of a river's given water (:mod:`riverflow.hydro._basins`): still water whose
+    mouth is a bank shared with the river."""
 
     def centre(self, tolerance_m: float) -> np.ndarray:
         """The pole of inaccessibility (the point farthest inside), (2,) [m]."""

@@ -144,6 +144,9 @@ class RiverNetworkBuilder:
         self.source_lakes: list[int] = []
         """After build(): the lakes with outflow and no inflow (still water, their outlets
         starting on free ends at the shore)."""
+        self.basins: list = []
+        """After build(): the basins found in the given water (harbours, docks, side basins:
+        :class:`riverflow.hydro._basins.Basin`), made still lakes joined to the river."""
 
     # -- input --------------------------------------------------------------------------
 
@@ -477,7 +480,7 @@ class RiverNetworkBuilder:
             raise GraphError("no branches: add at least one with add_branch()")
         branches = [_BranchInput(b.name, b.centerline_m.copy(), b.widths_m.copy(), b.discharge_m2s)
                     for b in self._branches]
-        lakes = self._lakes
+        lakes = self._lakes + self._basin_lakes(branches)
         branches, lake_ends, origin = _lakes.cut_branches(branches, lakes, self.tolerance_m)
         branches, lake_ends, self.terminal_lakes, self.source_lakes = \
             _lakes.end_at_terminal_lakes(branches, lakes, lake_ends)
@@ -553,6 +556,26 @@ class RiverNetworkBuilder:
         graph.water_levels = self.water_levels
         graph.falls, graph.rapids = self._resolve_falls(geoms, self._pieces_of(geoms, origin))
         return graph
+
+    def _basin_lakes(self, branches: list[_BranchInput]) -> list[_lakes.Lake]:
+        """The basins of the given water (:mod:`riverflow.hydro._basins`) as still lakes,
+        after the given lakes; each is reported (``report.derived["basins"]``)."""
+        from riverflow.hydro._basins import find_basins
+
+        self.basins = []
+        if self._water_area is None or not branches:
+            return []
+        self.basins = find_basins(self._water_area,
+                                  [(b.centerline_m, b.widths_m) for b in branches],
+                                  [lk.polygon for lk in self._lakes], self.tolerance_m)
+        report = getattr(self, "report", None)
+        if report is not None:
+            report.derived.pop("basins", None)
+            if self.basins:
+                report.derived["basins"] = [f"basin {i}: {b.describe()}"
+                                            for i, b in enumerate(self.basins)]
+        return [_lakes.Lake(b.polygon, None, f"basin {i}", basin=True)
+                for i, b in enumerate(self.basins)]
 
     def _pieces_of(self, geoms: list[BranchGeometry], origin: list[int]):
         """``(b, station [m]) -> (piece, station on it)``: where a distance along input branch
