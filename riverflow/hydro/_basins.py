@@ -141,11 +141,13 @@ def _basin(v, run, before, after, excess, width, poly, lines, tolerance_m) -> Ba
 
     def corner(inner: int, outer: int) -> np.ndarray:
         # the outline point the channel's bank reaches: the last one beside the channel,
-        # or where a long edge (longer than half a width) crosses the bank's line
+        # or where a long edge (longer than half a width) running obliquely away from the
+        # bank crosses the bank's line
         a, b = v[inner], v[outer]
-        if np.hypot(*(b - a)) <= 0.5 * w:
-            return a
         ea, eb = excess[inner], excess[outer]
+        length = float(np.hypot(*(b - a)))
+        if length <= 0.5 * w or eb - ea >= 0.5 * length:
+            return a
         t = np.clip(-ea / max(eb - ea, 1e-12), 0.0, 1.0)     # on the bank's line
         return a + t * (b - a)
 
