@@ -874,7 +874,7 @@ not a tributary: it is dropped from the axes and the builder makes it still wate
 def _drop_basin_spurs(net: _Network, frame, tolerance_m: float, report: RiverImport) -> None:
     """Drop the skeleton's spurs into basins (BASIN_SPUR_WIDTHS); where the junction they left
     is then between two channels only, those two become one. Reported as notes."""
-    edge = frame.exterior if frame is not None else None
+    edge = frame.boundary if frame is not None else None
     for _ in range(len(net.channels)):
         deg = net.degree()
         spur = None

@@ -10,7 +10,9 @@ and the graph's rule that a bank has its axis on its left fails behind a point o
 farther from its nearest axis than that channel's half width allows (by more than
 BASIN_MIN_DEPTH widths at its deepest) is a basin, closed across its opening by a straight
 *mouth* between the last outline points on either side that the channel's half width
-reaches. The builder then makes each basin a **still lake** with the river passing its mouth
+reaches, when it is a pocket: as deep beyond its mouth as BASIN_POCKET of the mouth's width
+(a long shallow bulge of a bank, or the far side of a free island from a line running past
+it, stays the channel's water). The builder then makes each basin a **still lake** with the river passing its mouth
 (:mod:`riverflow.hydro._lakes`: one mechanism): its shore is one boundary piece tied to the
 bank it opens from, so its ψ is that bank's ψ and its water is still (velocity 0, tangent to
 its walls); the mouth is one bank curve shared by the river's area and the basin's (Proland's
@@ -28,6 +30,9 @@ from shapely.geometry.polygon import orient
 
 BASIN_MIN_DEPTH = 0.25
 """A basin reaches at least this many of its channel's widths beyond the channel's bank."""
+BASIN_POCKET = 0.4
+"""A basin reaches at least this many of its mouth's widths beyond its mouth (a pocket, not a
+wide bulge of the bank: that is water the channel's flow runs along)."""
 BASIN_MIN_AREA = 0.05
 """A basin's area is at least this many squared widths of its channel."""
 BANK_MARGIN = 0.02
@@ -152,6 +157,11 @@ def _basin(v, run, before, after, excess, width, poly, lines, tolerance_m) -> Ba
         return a + t * (b - a)
 
     a, b = corner(before, run[0]), corner(after, run[-1])
+    mouth_m = float(np.hypot(*(b - a)))
+    t = (b - a) / max(mouth_m, 1e-12)
+    pocket = float(np.abs((v[run] - a) @ np.array([-t[1], t[0]])).max())
+    if not pocket >= max(BASIN_MIN_DEPTH * w, BASIN_POCKET * mouth_m):
+        return None         # a bulge of the bank along the channel, not a pocket
     ring = np.vstack([a, v[run], b])
     basin = shapely.Polygon(ring)
     if not basin.is_valid:
