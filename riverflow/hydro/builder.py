@@ -574,7 +574,7 @@ class RiverNetworkBuilder:
             if self.basins:
                 report.derived["basins"] = [f"basin {i}: {b.describe()}"
                                             for i, b in enumerate(self.basins)]
-        return [_lakes.Lake(b.polygon, None, f"basin {i}", basin=True)
+        return [_lakes.Lake(b.polygon, None, f"basin {i}", basin=True, mouth=b.mouth)
                 for i, b in enumerate(self.basins)]
 
     def _pieces_of(self, geoms: list[BranchGeometry], origin: list[int]):
@@ -701,6 +701,10 @@ def _lakes_of_graph(geoms, lakes, lake_ends, polygon_lake, tolerance_m):
     each water polygon."""
     axes = []
     for k, lake in enumerate(lakes):
+        if lake.basin:      # its own axis, down its length (grown to cover its walls)
+            line = _lakes.basin_axis(lake, tolerance_m)
+            axes.append([(line, float(np.hypot(*(lake.mouth[1] - lake.mouth[0]))))])
+            continue
         points, outlet, widths = [], [], []
         for g, (ls, le) in zip(geoms, lake_ends):
             if le == k:
