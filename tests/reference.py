@@ -45,6 +45,9 @@ def potential(net: FlowNetwork, xy: np.ndarray, slip: float) -> np.ndarray:
         tried: list[int] = []
         for _ in range(MAX_NETWORK_TRIES):    # behind a network's shore: the next network's
             ok = is_axis & (d2 < net.curve_hw2[owner]) & ~np.isin(net.curve_comp[owner], tried)
+            groups = net.comp_group1 - net.comp_group0
+            river = ok & (groups[net.curve_comp[owner]] >= 2)   # rivers before still water
+            ok = river if river.any() else ok
             if not ok.any():
                 break
             axis = owner[ok][np.argmin(d2[ok])]

@@ -6,9 +6,9 @@ Re-does Proland's ``HydroFlowTile`` (reference §2.3) with the corrections of SP
   (Yu et al. 2009; Proland's product form divided through, f clamped);
 * dᵢ is the distance to boundary i, where banks of equal ψ are merged into one boundary and the
   signed nearest-segment distance uses Proland's vertex tie rule (positive wins);
-* the inside test takes the *nearest* axis that covers the point, not the first one found;
-  where the point lies behind that network's shore, the nearest covering axis of another
-  network (a basin's still water beside its river, across the mouth they share);
+* the inside test takes the *nearest* axis that covers the point, not the first one found
+  (a river's before still water's); where the point lies behind that network's shore, the
+  next network's (a basin's still water beside its river, across the mouth they share);
 * velocity = (−∂ψ/∂y, ∂ψ/∂x), the true curl of a Catmull-Rom bicubic interpolant of the ψ
   lattice: continuous (C⁰) everywhere, exactly divergence-free inside each lattice cell.
 
@@ -282,30 +282,37 @@ def potential_and_shore_at(
     the distance is to the nearest bank or island shore of p's river network (the ψ-groups'
     nearest segments, which the weighting finds anyway), inf where p is not in the water.
 
-    p's network is that of the nearest axis covering it; where p lies behind that network's
-    shore (a bank or cap with p on its dry side within a river width), the nearest covering
-    axis of another network is tried, up to MAX_NETWORK_TRIES networks: where two networks'
-    axes overlap across a shore they share (a basin's mouth beside its river), each point
-    takes the one whose water it is in."""
+    p's network is that of the nearest axis covering it, a river's (a network with two shore
+    ψ or more) before still water's (a lake or basin whose whole shore has one ψ); where p
+    lies behind that network's shore (a bank or cap with p on its dry side within a river
+    width), the next network is tried so, up to MAX_NETWORK_TRIES networks: where two
+    networks' axes overlap across a shore they share (a basin's mouth beside its river), each
+    point takes the one whose water it is in, and a river's water is never taken for a
+    basin's by Proland's vertex tie rule at the basin's corners."""
     tried0 = -1
     tried1 = -1
     for _ in range(MAX_NETWORK_TRIES):
-        best = np.inf
         axis = -1
-        for k in range(nb):
-            c = blk_curve[k]
-            if curve_kind[c] != KIND_AXIS:
-                continue
-            ck = curve_comp[c]
-            if ck == tried0 or ck == tried1:
-                continue
-            hw2 = curve_hw2[c]
-            for m in range(blk_start[k], blk_start[k] + blk_count[k]):
-                s = blk_seg[m]
-                d2 = _dist2(px, py, seg_ax[s], seg_ay[s], seg_bx[s], seg_by[s])
-                if d2 < hw2 and d2 < best:
-                    best = d2
-                    axis = c
+        for rivers in (True, False):     # rivers first, then still water (one shore ψ)
+            best = np.inf
+            for k in range(nb):
+                c = blk_curve[k]
+                if curve_kind[c] != KIND_AXIS:
+                    continue
+                ck = curve_comp[c]
+                if ck == tried0 or ck == tried1:
+                    continue
+                if rivers and comp_group1[ck] - comp_group0[ck] < 2:
+                    continue
+                hw2 = curve_hw2[c]
+                for m in range(blk_start[k], blk_start[k] + blk_count[k]):
+                    s = blk_seg[m]
+                    d2 = _dist2(px, py, seg_ax[s], seg_ay[s], seg_bx[s], seg_by[s])
+                    if d2 < hw2 and d2 < best:
+                        best = d2
+                        axis = c
+            if axis >= 0:
+                break
         if axis < 0:
             return np.nan, np.inf
         psi, near2, behind = _network_potential(
