@@ -90,8 +90,9 @@ def _basin_points(basin, spacing):
 def test_the_basins_water_is_near_still_and_tangent_to_their_walls(harbour):
     """Beyond the mixing layer at the mouth (four spacings of the finest ψ lattice, 7.2 m
     here: its bicubic's reach, where the river's speed along the mouth fades to the basin's
-    stillness) the basin's water moves at under 10 % of the river's mean speed (issue: 30 %),
-    and 1 m in from its walls its flow's normal part is under 2 % of it."""
+    stillness) the basin's water moves at under 1 % of the river's mean speed, and under 10 %
+    anywhere in it (issue: 30 %); 1 m in from its walls its flow's normal part is under 2 % of
+    it."""
     water, basins, builder, graph, field = harbour
     mean_speed = builder.discharges_m2s[0] / W
     layer = 4.0 * field.tiles.spacing_m(field.max_level)
@@ -104,8 +105,9 @@ def test_the_basins_water_is_near_still_and_tangent_to_their_walls(harbour):
         speed = np.hypot(*v.T)
         beyond = shapely.distance(mouth, shapely.points(pts)) > layer
         assert beyond.sum() > 50
-        assert speed[beyond].max() < 0.1 * mean_speed, (name, speed[beyond].max() / mean_speed)
-        assert np.median(speed) < 0.01 * mean_speed
+        # measured: under 5.2 % anywhere (the mixing layer), 0 beyond it
+        assert speed.max() < 0.1 * mean_speed, (name, speed.max() / mean_speed)
+        assert speed[beyond].max() < 0.01 * mean_speed, (name, speed[beyond].max() / mean_speed)
         walls = shapely.difference(basin.exterior, river.buffer(layer))
         s = np.arange(0.5, walls.length, 1.0)
         on = shapely.get_coordinates(walls.interpolate(s))
