@@ -442,6 +442,9 @@ class RiverNetworkBuilder:
         median width (and at most END_CHORD_LONGEST widths); the water beyond (the rounded
         or slanted tip of a mapped channel) is left out, its area in ``end_cuts_m2`` after
         :meth:`build`; islands there are left out too (their indices in ``islands_cut``).
+        Water off the channels (a harbour basin, a dock, a marina: a pocket of the outline
+        beyond a channel's bank) is made still water joined to the river at its mouth
+        (:mod:`riverflow.hydro._basins`; :attr:`basins` after :meth:`build`).
 
         Raises:
             GraphError: not a polygon, empty, invalid, or without area.
