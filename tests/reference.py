@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from riverflow.hydro.flow_network import FlowNetwork
-from riverflow.kernels.flow import KIND_AXIS, KIND_BANK, KIND_CAP
+from riverflow.kernels.flow import KIND_AXIS, KIND_BANK, KIND_CAP, MAX_NETWORK_TRIES
 
 TIE = 1e-4
 
@@ -42,45 +42,61 @@ def potential(net: FlowNetwork, xy: np.ndarray, slip: float) -> np.ndarray:
     for k, p in enumerate(np.asarray(xy, float)):
         d2 = _dist2(p, a, b)
         is_axis = net.curve_kind[owner] == KIND_AXIS
-        ok = is_axis & (d2 < net.curve_hw2[owner])
-        if not ok.any():
-            continue
-        axis = owner[ok][np.argmin(d2[ok])]
-        comp = net.curve_comp[axis]
-        radius = net.comp_radius[comp]
-        width2 = 4 * net.curve_hw2[axis]
-        signed = _signed(p, a, b)
-        groups: dict[int, float] = {}
-        cap = np.inf
-        for c in range(net.n_curves):
-            if net.curve_kind[c] == KIND_AXIS or net.curve_comp[c] != comp:
-                continue
-            segs = range(net.curve_seg0[c], net.curve_seg1[c])
-            if min(d2[s] for s in segs) > net.curve_cutoff[c] ** 2:
-                continue
-            cur = groups.get(net.curve_group[c], np.inf) if net.curve_kind[c] == KIND_BANK else cap
-            for s in segs:
-                cur = _nearer(cur, signed[s])
-            if net.curve_kind[c] == KIND_BANK:
-                groups[net.curve_group[c]] = cur
-            elif net.curve_kind[c] == KIND_CAP:
-                cap = cur
-        if cap < 0 and -cap < width2:
-            continue
-        vals = np.array([groups[g] for g in sorted(groups)])
-        psis = net.group_psi[sorted(groups)]
-        one = net.comp_group1[comp] - net.comp_group0[comp] == 1   # a still lake's one shore
-        if (len(vals) < 2 and not (len(vals) == 1 and one)) or np.any((vals < 0) & (-vals < width2)):
-            continue
-        d = np.sqrt(np.abs(vals))
-        if np.any(d <= 1e-9 * radius):
-            out[k] = psis[np.argmax(d <= 1e-9 * radius)]
-            continue
-        t = np.clip(1 - d / radius, 0, 1)
-        w = (6 * t**5 - 15 * t**4 + 10 * t**3) * (radius / d) ** slip
-        if w.sum() > 0:
-            out[k] = (w * psis).sum() / w.sum()
+        tried: list[int] = []
+        for _ in range(MAX_NETWORK_TRIES):    # behind a network's shore: the next network's
+            ok = is_axis & (d2 < net.curve_hw2[owner]) & ~np.isin(net.curve_comp[owner], tried)
+            groups = net.comp_group1 - net.comp_group0
+            river = ok & (groups[net.curve_comp[owner]] >= 2)   # rivers before still water
+            ok = river if river.any() else ok
+            if not ok.any():
+                break
+            axis = owner[ok][np.argmin(d2[ok])]
+            psi, behind = _network_potential(net, p, a, b, d2, axis, slip)
+            if not behind:
+                out[k] = psi
+                break
+            tried.append(net.curve_comp[axis])
     return out
+
+
+def _network_potential(net, p, a, b, d2, axis, slip):
+    """(ψ, behind its shore) at p in the network of ``axis``."""
+    comp = net.curve_comp[axis]
+    radius = net.comp_radius[comp]
+    width2 = 4 * net.curve_hw2[axis]
+    signed = _signed(p, a, b)
+    groups: dict[int, float] = {}
+    cap = np.inf
+    for c in range(net.n_curves):
+        if net.curve_kind[c] == KIND_AXIS or net.curve_comp[c] != comp:
+            continue
+        segs = range(net.curve_seg0[c], net.curve_seg1[c])
+        if min(d2[s] for s in segs) > net.curve_cutoff[c] ** 2:
+            continue
+        cur = groups.get(net.curve_group[c], np.inf) if net.curve_kind[c] == KIND_BANK else cap
+        for s in segs:
+            cur = _nearer(cur, signed[s])
+        if net.curve_kind[c] == KIND_BANK:
+            groups[net.curve_group[c]] = cur
+        elif net.curve_kind[c] == KIND_CAP:
+            cap = cur
+    if cap < 0 and -cap < width2:
+        return np.nan, True
+    vals = np.array([groups[g] for g in sorted(groups)])
+    psis = net.group_psi[sorted(groups)]
+    one = net.comp_group1[comp] - net.comp_group0[comp] == 1   # a still lake's one shore
+    if np.any((vals < 0) & (-vals < width2)):
+        return np.nan, True
+    if len(vals) < 2 and not (len(vals) == 1 and one):
+        return np.nan, False
+    d = np.sqrt(np.abs(vals))
+    if np.any(d <= 1e-9 * radius):
+        return psis[np.argmax(d <= 1e-9 * radius)], False
+    t = np.clip(1 - d / radius, 0, 1)
+    w = (6 * t**5 - 15 * t**4 + 10 * t**3) * (radius / d) ** slip
+    if w.sum() > 0:
+        return (w * psis).sum() / w.sum(), False
+    return np.nan, False
 
 
 def catmull_rom(t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

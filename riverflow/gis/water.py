@@ -432,6 +432,8 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
     ends = [e for net in networks for e in net.free_ends()]
     _match_points(ends, inlet_xy, "inlet", where, water)
     _match_points(ends, outlet_xy, "outlet", where, water)
+    for net in networks:
+        _drop_basin_spurs(net, frame, tolerance_m, report)
     elevations = _dem_elevations(dem, ends, crs_out, report, where) if dem is not None else None
     rules = set()
     for k, net in enumerate(networks):
@@ -865,6 +867,69 @@ class _Network:
         s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(c.points, axis=0).T))])
         lo, hi = (0.1, 0.3) if node == c.a else (0.7, 0.9)
         return float(np.median(np.interp(np.linspace(lo, hi, 11) * s[-1], s, c.widths)))
+
+
+BASIN_SPUR_WIDTHS = 3.0
+"""A skeleton channel from a junction to a dead end (its free end neither on the data's edge
+nor given as an inlet or outlet) no longer than this many widths of the channel it leaves
+(counted from that channel's bank) is a basin (a harbour, a dock, a marina, a side basin),
+not a tributary: it is dropped from the axes and the builder makes it still water
+(:mod:`riverflow.hydro._basins`)."""
+
+
+def _drop_basin_spurs(net: _Network, frame, tolerance_m: float, report: RiverImport) -> None:
+    """Drop the skeleton's spurs into basins (BASIN_SPUR_WIDTHS); where the junction they left
+    is then between two channels only, those two become one. Reported as notes."""
+    edge = frame.boundary if frame is not None else None
+    for _ in range(len(net.channels)):
+        deg = net.degree()
+        spur = None
+        for c in net.channels:
+            if c.source != "skeleton":
+                continue
+            for end, other in ((c.a, c.b), (c.b, c.a)):
+                if deg[end] != 1 or deg[other] < 3 or end in net.inlets or end in net.outlets:
+                    continue
+                p = net.nodes[end]
+                if edge is not None and edge.distance(shapely.Point(p)) <= max(
+                        4.0 * tolerance_m, 0.05 * c.width):
+                    continue            # an open end: the data's edge cuts the water there
+                main = max((d.width for d in net.channels
+                            if d is not c and other in (d.a, d.b)), default=0.0)
+                if c.length - 0.5 * main <= BASIN_SPUR_WIDTHS * main:
+                    spur = c
+                    break
+            if spur is not None:
+                break
+        if spur is None:
+            return
+        junction = spur.a if deg[spur.a] > 1 else spur.b
+        end = spur.b if junction == spur.a else spur.a
+        x, y = net.nodes[end]
+        report.notes.append(
+            f"{spur.name}: a dead end {spur.length:.1f} m long off the channel at "
+            f"({net.nodes[junction][0]:.1f}, {net.nodes[junction][1]:.1f}), ending at "
+            f"({x:.1f}, {y:.1f}), is a basin (a harbour, dock or side basin: still water), not "
+            f"a channel (give an inlet there, or lines=, to keep it a channel)")
+        net.channels.remove(spur)
+        rest = [c for c in net.channels if junction in (c.a, c.b)]
+        if len(rest) == 2 and rest[0] is not rest[1]:
+            one, two = rest
+            if one.b != junction:
+                one.flip()
+            if two.a != junction:
+                two.flip()
+            one.points = np.vstack([one.points, two.points[1:]])
+            one.widths = np.concatenate([one.widths, two.widths[1:]])
+            one.b = two.b
+            net.channels.remove(two)
+        used = sorted({n for c in net.channels for n in (c.a, c.b)})
+        new = {n: i for i, n in enumerate(used)}
+        for c in net.channels:
+            c.a, c.b = new[c.a], new[c.b]
+        net.nodes = net.nodes[used]
+        net.inlets = {new[n] for n in net.inlets if n in new}
+        net.outlets = {new[n] for n in net.outlets if n in new}
 
 
 def _harmonic(adj, inlets: list[int], outlets: list[int]) -> np.ndarray:

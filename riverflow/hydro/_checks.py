@@ -167,6 +167,12 @@ def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6,
         water = shapely.difference(water, shapely.disjoint_subset_union_all(cw))
     in_hole = {c for a in range(len(loops)) if signed[a] < 0 for c, _ in graph.areas[a].curves}
     in_hole |= {c for a in graph.lakes() for c, _ in graph.areas[a].curves}
+    # a bank of two areas (a basin's mouth, riverflow.hydro._basins) has water on both sides
+    n_areas: dict[int, int] = {}
+    for area in graph.areas:
+        for c in {c for c, _ in area.curves}:
+            n_areas[c] = n_areas.get(c, 0) + 1
+    two_sided = {c for c, n in n_areas.items() if n > 1}
     del loops, polys, ccw, cw, first     # (copies of the whole outline: the peak is below)
     linked = [i for i in banks if 0 <= curves[i].river < len(curves)]
     # every linked bank's segments in bulk, banks grouped by their axis (one nearest-point
@@ -202,7 +208,9 @@ def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6,
         left, right = inside[at:at + 2 * n_seg:2], inside[at + 1:at + 2 * n_seg:2]
         at += 2 * n_seg
         n = len(chunk)
-        bad_side = np.bincount(sb, ~left | right, n).astype(np.int64)
+        both = np.array([i in two_sided for i in chunk], bool)[sb]
+        bad_side = np.bincount(sb, ~left | (right & ~both) | (~right & both),
+                               n).astype(np.int64)
         seg_count = np.bincount(sb, minlength=n)
         cross_bad = np.zeros(len(mid), bool)
         far = np.zeros(len(v), bool)
@@ -246,8 +254,8 @@ def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6,
     for i in sorted(set(wrong_side) | set(on_right) | set(too_far), key=rank.__getitem__):
         c = curves[i]
         if i in wrong_side:
-            problems.append(f"bank {i}: water is not on its left at {wrong_side[i][0]} of "
-                            f"{wrong_side[i][1]} segments")
+            problems.append(f"bank {i}: water is not on its left{' and right' if i in two_sided else ''}"
+                            f" at {wrong_side[i][0]} of {wrong_side[i][1]} segments")
         if i in on_right:
             problems.append(f"bank {i}: its axis {c.river} lies on its right at {on_right[i][0]} "
                             f"of {on_right[i][1]} segments (water must be on the left)")

@@ -42,12 +42,17 @@ from riverflow.hydro.graph import GraphError
 
 @dataclass
 class Lake:
-    """A lake given to the builder: its polygon [m], its level [m] (None: from the terrain)
-    and a name for messages."""
+    """A lake given to the builder: its polygon [m], its level [m] (None: from the terrain),
+    a name for messages and whether it is a river's basin."""
 
     polygon: shapely.Polygon
     level_m: float | None
     name: str
+    basin: bool = False
+    """A basin of a river's given water (:mod:`riverflow.hydro._basins`): still water whose
+    mouth is a bank shared with the river."""
+    mouth: np.ndarray | None = None
+    """A basin's mouth (2, 2) [m]."""
 
     def centre(self, tolerance_m: float) -> np.ndarray:
         """The pole of inaccessibility (the point farthest inside), (2,) [m]."""
@@ -429,6 +434,32 @@ def lake_axes(lake: Lake, mouths_m: list[np.ndarray], outlet: list[bool], tolera
             line = _path_through(lake, inside, m, c, tolerance_m)
         axes.append(line[::-1] if out else line)
     return axes
+
+
+def basin_axis(lake: Lake, tolerance_m: float) -> np.ndarray:
+    """A basin's axis: from its mouth's middle along the middle of its water to its far end
+    (the point farthest from the mouth that is at least half as far from the walls as the
+    basin's widest point), so that its width, grown to cover the basin's walls, stays about
+    the basin's own width (an L-shaped dock's axis runs down both of its arms)."""
+    from scipy import ndimage
+
+    a = 0.5 * (lake.mouth[0] + lake.mouth[1])
+    inside = lake.polygon.buffer(max(tolerance_m, 1e-6))
+    x0, y0, x1, y1 = lake.polygon.bounds
+    cell = max(max(x1 - x0, y1 - y0) / 64.0, tolerance_m, 1e-6)
+    gx, gy = np.meshgrid(np.arange(x0 + 0.5 * cell, x1, cell), np.arange(y0 + 0.5 * cell, y1, cell))
+    wet = shapely.contains_xy(lake.polygon, gx, gy)
+    if not wet.any():
+        return np.array([a, lake.centre(tolerance_m)])
+    clear = ndimage.distance_transform_edt(np.pad(wet, 1))[1:-1, 1:-1] * cell
+    ok = wet & (clear >= 0.5 * clear[wet].max())
+    far = np.hypot(gx - a[0], gy - a[1])
+    k = np.unravel_index(int(np.argmax(np.where(ok, far, -1.0))), far.shape)
+    b = np.array([gx[k], gy[k]])
+    line = np.array([a, b])
+    if not inside.contains(LineString(line)):
+        line = _path_through(lake, inside, a, b, tolerance_m)
+    return line
 
 
 PATH_CELLS = 160

@@ -414,6 +414,40 @@ def _meeting_ties(pieces: list[Piece], eps_m: float) -> list:
     return ties
 
 
+def _basin_mouths(rings, pieces, lakes, basin_of, piece_axes, axis_index, axis_width, psi,
+                  nodes) -> dict:
+    """The mouths of the basins (:mod:`riverflow.hydro._basins`): {(start node, end node) as the
+    river's outline runs: (points (M, 2), the river's axis it links to, ψ)}. A mouth is one
+    bank curve of both areas (the river's, traversed forward, and the basin's, backward), with
+    the ψ of the basin's shore (the bank it opens from); the axis it links to is the river's
+    nearest axis among those of the banks beside it, widened to cover it."""
+    out = {}
+    for ring in rings:
+        k = lakes.polygon_lake[ring.polygon]
+        if k >= 0:
+            continue
+        n = len(ring.items)
+        for j, (kind, item) in enumerate(ring.items):
+            if kind != "closing":
+                continue
+            beside = [ring.items[(j + d) % n] for d in (-1, 1)]
+            mine = {a for kd, pc in beside if kd == "piece" for a in piece_axes.get(pc, ())}
+            basin = [pc for r in rings if lakes.polygon_lake[r.polygon] >= 0
+                     and lakes.lakes[lakes.polygon_lake[r.polygon]].basin
+                     for kd, it in r.items if kd == "closing"
+                     and np.array_equal(it[0], item[-1]) and np.array_equal(it[-1], item[0])
+                     for kd2, pc in r.items if kd2 == "piece"]
+            if not basin or not mine:
+                continue
+            pts = np.asarray(item)
+            mid = 0.5 * (pts[0] + pts[-1])[None]
+            axis = min(sorted(mine), key=lambda a: float(axis_index[a].distance(mid)[0]))
+            reach = float(axis_index[axis].distance(pts).max())
+            axis_width[axis] = max(axis_width[axis], 2.0 * reach * 1.001 + AXIS_MARGIN_M)
+            out[(nodes(pts[0]), nodes(pts[-1]))] = (pts, axis, float(psi[basin[0]]))
+    return out
+
+
 def assemble_graph(geoms: list[BranchGeometry], rings: list[Ring], pieces: list[Piece],
                    islands: list, junctions: np.ndarray, inlets: dict[int, float] | None = None,
                    lakes: LakeParts | None = None, axis_index: list | None = None) -> HydroGraph:
@@ -491,6 +525,19 @@ def assemble_graph(geoms: list[BranchGeometry], rings: list[Ring], pieces: list[
         extra.setdefault(dn, set()).update(piece_axes.get(up, ()))
     for a, more in extra.items():
         piece_axes[a] = piece_axes.get(a, set()) | more
+    basin_of = {pc: k for pc, k in lake_of.items() if lakes.lakes[k].basin} if lakes else {}
+    if basin_of:    # a bank a basin cuts in two: both parts take the axes of either
+        beside: dict[int, set[int]] = {}
+        for up, dn, step, _ in ties:
+            if step == 0.0 and (up in basin_of) != (dn in basin_of):
+                b, r = (up, dn) if up in basin_of else (dn, up)
+                if r not in lake_of:
+                    beside.setdefault(b, set()).add(r)
+        for _ in range(len(beside)):      # (a bank between two basins passes them on)
+            for group in beside.values():
+                both = set().union(*(piece_axes.get(r, set()) for r in group))
+                for r in group:
+                    piece_axes[r] = piece_axes.get(r, set()) | both
 
     banks: list[tuple[np.ndarray, int, float]] = []  # points, axis, psi
     piece_banks: list[list[int]] = []
@@ -513,10 +560,18 @@ def assemble_graph(geoms: list[BranchGeometry], rings: list[Ring], pieces: list[
             banks.append((pts, axis, float(psi[i])))
             reach = float(axis_index[axis].distance(pts).max())
             axis_width[axis] = max(axis_width[axis], 2.0 * reach * 1.001 + AXIS_MARGIN_M)
+    mouths = _basin_mouths(rings, pieces, lakes, basin_of, piece_axes, axis_index, axis_width,
+                           psi, nodes) if basin_of else {}
     for a, w in zip(axes, axis_width):
         a.width_m = w
 
     curves: list[Curve] = list(axes)
+    mouth_curve: dict[tuple[int, int], int] = {}
+    for key, (pts, axis, value) in mouths.items():
+        mouth_curve[key] = len(curves)
+        curves.append(Curve(key[0], key[1], pts[1:-1], np.zeros(len(pts) - 2, bool),
+                            width_m=axis_width[axis], type=CurveType.BANK, potential=value,
+                            river=axis))
     areas: list[Area] = []
     ring_curves: list[list] = []
     closing_at: dict[tuple[int, int], int] = {}
@@ -525,6 +580,10 @@ def assemble_graph(geoms: list[BranchGeometry], rings: list[Ring], pieces: list[
         for kind, item in ring.items:
             if kind == "closing":
                 ends = (nodes(item[0]), nodes(item[-1]))
+                if ends in mouth_curve or ends[::-1] in mouth_curve:   # a basin's mouth
+                    ring_curves[-1].append((mouth_curve[ends], 0) if ends in mouth_curve
+                                           else (mouth_curve[ends[::-1]], 1))
+                    continue
                 if ends[::-1] in closing_at:    # a mouth, shared with a lake: one curve
                     ring_curves[-1].append((closing_at[ends[::-1]], 1))
                     continue
@@ -550,6 +609,9 @@ def assemble_graph(geoms: list[BranchGeometry], rings: list[Ring], pieces: list[
             else:
                 flat.append(entry)
         k = lakes.polygon_lake[ring.polygon] if lakes is not None else -1
+        if k >= 0 and lakes.lakes[k].basin:    # begin with a wall: the water on its left
+            first = next((i for i, (c, o) in enumerate(flat) if o == 0 and curves[c].is_bank), 0)
+            flat = flat[first:] + flat[:first]
         if k >= 0 and not ring.hole:
             level = lakes.lakes[k].level_m
             areas.append(Area(flat, LAKE_INFO if level is None else LAKE_LEVEL_INFO,

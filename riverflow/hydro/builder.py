@@ -145,6 +145,9 @@ class RiverNetworkBuilder:
         self.source_lakes: list[int] = []
         """After build(): the lakes with outflow and no inflow (still water, their outlets
         starting on free ends at the shore)."""
+        self.basins: list = []
+        """After build(): the basins found in the given water (harbours, docks, side basins:
+        :class:`riverflow.hydro._basins.Basin`), made still lakes joined to the river."""
 
     # -- input --------------------------------------------------------------------------
 
@@ -444,6 +447,9 @@ class RiverNetworkBuilder:
         median width (and at most END_CHORD_LONGEST widths); the water beyond (the rounded
         or slanted tip of a mapped channel) is left out, its area in ``end_cuts_m2`` after
         :meth:`build`; islands there are left out too (their indices in ``islands_cut``).
+        Water off the channels (a harbour basin, a dock, a marina: a pocket of the outline
+        beyond a channel's bank) is made still water joined to the river at its mouth
+        (:mod:`riverflow.hydro._basins`; :attr:`basins` after :meth:`build`).
 
         Raises:
             GraphError: not a polygon, empty, invalid, or without area.
@@ -482,7 +488,7 @@ class RiverNetworkBuilder:
             raise GraphError("no branches: add at least one with add_branch()")
         branches = [_BranchInput(b.name, b.centerline_m.copy(), b.widths_m.copy(), b.discharge_m2s)
                     for b in self._branches]
-        lakes = self._lakes
+        lakes = self._lakes + self._basin_lakes(branches)
         branches, lake_ends, origin = _lakes.cut_branches(branches, lakes, self.tolerance_m)
         branches, lake_ends, self.terminal_lakes, self.source_lakes = \
             _lakes.end_at_terminal_lakes(branches, lakes, lake_ends)
@@ -558,6 +564,26 @@ class RiverNetworkBuilder:
         graph.water_levels = self.water_levels
         graph.falls, graph.rapids = self._resolve_falls(geoms, self._pieces_of(geoms, origin))
         return graph
+
+    def _basin_lakes(self, branches: list[_BranchInput]) -> list[_lakes.Lake]:
+        """The basins of the given water (:mod:`riverflow.hydro._basins`) as still lakes,
+        after the given lakes; each is reported (``report.derived["basins"]``)."""
+        from riverflow.hydro._basins import find_basins
+
+        self.basins = []
+        if self._water_area is None or not branches:
+            return []
+        self.basins = find_basins(self._water_area,
+                                  [(b.centerline_m, b.widths_m) for b in branches],
+                                  [lk.polygon for lk in self._lakes], self.tolerance_m)
+        report = getattr(self, "report", None)
+        if report is not None:
+            report.derived.pop("basins", None)
+            if self.basins:
+                report.derived["basins"] = [f"basin {i}: {b.describe()}"
+                                            for i, b in enumerate(self.basins)]
+        return [_lakes.Lake(b.polygon, None, f"basin {i}", basin=True, mouth=b.mouth)
+                for i, b in enumerate(self.basins)]
 
     def _pieces_of(self, geoms: list[BranchGeometry], origin: list[int]):
         """``(b, station [m]) -> (piece, station on it)``: where a distance along input branch
@@ -683,6 +709,10 @@ def _lakes_of_graph(geoms, lakes, lake_ends, polygon_lake, tolerance_m):
     each water polygon."""
     axes = []
     for k, lake in enumerate(lakes):
+        if lake.basin:      # its own axis, down its length (grown to cover its walls)
+            line = _lakes.basin_axis(lake, tolerance_m)
+            axes.append([(line, float(np.hypot(*(lake.mouth[1] - lake.mouth[0]))))])
+            continue
         points, outlet, widths = [], [], []
         for g, (ls, le) in zip(geoms, lake_ends):
             if le == k:

@@ -149,11 +149,28 @@ def build_flow_network(graph: HydroGraph, search_radius_factor: float,
             parent[find(a)] = find(group[0])
     # a still lake (its whole shore one ψ: no river runs through it) is a network of its
     # own, even where a river ends by its shore within its axes' width (a terminal lake)
+    # a basin's mouth (:mod:`riverflow.hydro._basins`) is a bank of two areas, the river's and
+    # the still basin's, linked to the river's axis: the basin's side gets a copy of it drawn
+    # the other way (water on its left) linked to the basin's axis, so each network sees a
+    # closed shore there and the inside test finds water on both sides (equal distances: the
+    # positive one wins)
+    uses: dict[int, list[int]] = {}
+    for k, area in enumerate(graph.areas):
+        for c, _ in area.curves:
+            uses.setdefault(c, []).append(k)
+    shared = {c for c, areas in uses.items() if len(areas) > 1 and 0 <= c < len(graph.curves)
+              and graph.curves[c].is_bank}
     still = set()
+    mouth_copy: dict[int, int] = {}
     for k in graph.lakes():
         shore = [graph.curves[c] for c, _ in graph.areas[k].curves]
         if all(c.is_bank for c in shore) and len({c.potential for c in shore}) == 1:
-            still |= {c.river for c in shore if c.river >= 0}
+            own = {graph.curves[c].river for c, _ in graph.areas[k].curves
+                   if c not in shared and graph.curves[c].river >= 0}
+            still |= own
+            for c, _ in graph.areas[k].curves:
+                if c in shared and own:
+                    mouth_copy[c] = min(own)
     for a in axes:
         ends = poly[a][[0, -1]]
         for b in axes:
@@ -200,35 +217,43 @@ def build_flow_network(graph: HydroGraph, search_radius_factor: float,
     comp_group0 = np.zeros(n_comp, np.int32)
     comp_group1 = np.zeros(n_comp, np.int32)
     bank_group: dict[int, int] = {}
+    copy_group: dict[int, int] = {}
     for k in range(n_comp):
         comp_group0[k] = len(group_psi)
         banks = [b for b, a in bank_axis.items() if comp_of_axis[a] == k]
-        values = sorted({graph.curves[b].potential for b in banks})
+        copies = [b for b, a in mouth_copy.items() if comp_of_axis[a] == k]
+        values = sorted({graph.curves[b].potential for b in banks + copies})
         for b in banks:
             bank_group[b] = len(group_psi) + values.index(graph.curves[b].potential)
+        for b in copies:
+            copy_group[b] = len(group_psi) + values.index(graph.curves[b].potential)
         group_psi.extend(values)
         comp_group1[k] = len(group_psi)
 
-    # kernel curves: axes, then banks, then caps
+    # kernel curves: axes, then banks, then caps, then the basins' sides of their mouths
     order = ([(a, KIND_AXIS) for a in axes] + [(b, KIND_BANK) for b in sorted(bank_axis)]
-             + [(c, KIND_CAP) for c in sorted(cap_axis)])
+             + [(c, KIND_CAP) for c in sorted(cap_axis)]
+             + [(c, -1) for c in sorted(mouth_copy)])
     seg_a, seg_b, polylines = [], [], []
     kind, comp, group, hw2, seg0, seg1, bbox, cutoff, source = ([] for _ in range(9))
     n_seg = 0
     for i, k in order:
-        p = caps[i] if k == KIND_CAP else poly[i]
+        is_copy = k == -1
+        p = caps[i] if k == KIND_CAP else poly[i][::-1].copy() if is_copy else poly[i]
         keep = np.any(p[1:] != p[:-1], axis=1)
         a_pts, b_pts = p[:-1][keep], p[1:][keep]
         if len(a_pts) == 0:
             continue
-        axis = i if k == KIND_AXIS else (bank_axis[i] if k == KIND_BANK else cap_axis[i])
+        axis = (i if k == KIND_AXIS else mouth_copy[i] if is_copy else
+                bank_axis[i] if k == KIND_BANK else cap_axis[i])
+        k = KIND_BANK if is_copy else k
         ck = comp_of_axis[axis]
         seg_a.append(a_pts)
         seg_b.append(b_pts)
         polylines.append(p)
         kind.append(k)
         comp.append(ck)
-        group.append(bank_group[i] if k == KIND_BANK else -1)
+        group.append(copy_group[i] if is_copy else bank_group[i] if k == KIND_BANK else -1)
         hw2.append((0.5 * graph.curves[i].width_m) ** 2 if k == KIND_AXIS else 0.0)
         seg0.append(n_seg)
         n_seg += len(a_pts)

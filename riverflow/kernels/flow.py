@@ -6,7 +6,9 @@ Re-does Proland's ``HydroFlowTile`` (reference §2.3) with the corrections of SP
   (Yu et al. 2009; Proland's product form divided through, f clamped);
 * dᵢ is the distance to boundary i, where banks of equal ψ are merged into one boundary and the
   signed nearest-segment distance uses Proland's vertex tie rule (positive wins);
-* the inside test takes the *nearest* axis that covers the point, not the first one found;
+* the inside test takes the *nearest* axis that covers the point, not the first one found
+  (a river's before still water's); where the point lies behind that network's shore, the
+  next network's (a basin's still water beside its river, across the mouth they share);
 * velocity = (−∂ψ/∂y, ∂ψ/∂x), the true curl of a Catmull-Rom bicubic interpolant of the ψ
   lattice: continuous (C⁰) everywhere, exactly divergence-free inside each lattice cell.
 
@@ -84,6 +86,8 @@ STATUS_OUTSIDE_DOMAIN = 6
 STATUS_UNKNOWN = 0
 
 _TIE = 1e-4  # Proland's relative tolerance for "same distance" at a shared vertex
+MAX_NETWORK_TRIES = 3
+"""How many river networks :func:`potential_and_shore_at` tries at a point behind a shore."""
 
 
 # -- geometry helpers -------------------------------------------------------------------------
@@ -327,22 +331,63 @@ def potential_and_shore_at(
 ):
     """(ψ [m²/s], squared distance to the nearest bank [m²]) at p, as :func:`potential_at`;
     the distance is to the nearest bank or island shore of p's river network (the ψ-groups'
-    nearest segments, which the weighting finds anyway), inf where p is not in the water."""
-    best = np.inf
-    axis = -1
-    for k in range(nb):
-        c = blk_curve[k]
-        if curve_kind[c] != KIND_AXIS:
-            continue
-        hw2 = curve_hw2[c]
-        for m in range(blk_start[k], blk_start[k] + blk_count[k]):
-            s = blk_seg[m]
-            d2 = _dist2(px, py, seg_ax[s], seg_ay[s], seg_bx[s], seg_by[s])
-            if d2 < hw2 and d2 < best:
-                best = d2
-                axis = c
-    if axis < 0:
-        return np.nan, np.inf
+    nearest segments, which the weighting finds anyway), inf where p is not in the water.
+
+    p's network is that of the nearest axis covering it, a river's (a network with two shore
+    ψ or more) before still water's (a lake or basin whose whole shore has one ψ); where p
+    lies behind that network's shore (a bank or cap with p on its dry side within a river
+    width), the next network is tried so, up to MAX_NETWORK_TRIES networks: where two
+    networks' axes overlap across a shore they share (a basin's mouth beside its river), each
+    point takes the one whose water it is in, and a river's water is never taken for a
+    basin's by Proland's vertex tie rule at the basin's corners."""
+    tried0 = -1
+    tried1 = -1
+    for _ in range(MAX_NETWORK_TRIES):
+        axis = -1
+        for rivers in (True, False):     # rivers first, then still water (one shore ψ)
+            best = np.inf
+            for k in range(nb):
+                c = blk_curve[k]
+                if curve_kind[c] != KIND_AXIS:
+                    continue
+                ck = curve_comp[c]
+                if ck == tried0 or ck == tried1:
+                    continue
+                if rivers and comp_group1[ck] - comp_group0[ck] < 2:
+                    continue
+                hw2 = curve_hw2[c]
+                for m in range(blk_start[k], blk_start[k] + blk_count[k]):
+                    s = blk_seg[m]
+                    d2 = _dist2(px, py, seg_ax[s], seg_ay[s], seg_bx[s], seg_by[s])
+                    if d2 < hw2 and d2 < best:
+                        best = d2
+                        axis = c
+            if axis >= 0:
+                break
+        if axis < 0:
+            return np.nan, np.inf
+        psi, near2, behind = _network_potential(
+            px, py, nb, blk_curve, blk_start, blk_count, blk_seg, blk_dmin2, seg_ax, seg_ay,
+            seg_bx, seg_by, curve_kind, curve_comp, curve_group, curve_hw2, comp_radius,
+            comp_group0, comp_group1, group_psi, slip, gval, axis)
+        if not behind:
+            return psi, near2
+        if tried0 < 0:
+            tried0 = curve_comp[axis]
+        else:
+            tried1 = curve_comp[axis]
+    return np.nan, np.inf
+
+
+@njit(**JIT_OPTIONS)
+def _network_potential(
+    px, py, nb, blk_curve, blk_start, blk_count, blk_seg, blk_dmin2,
+    seg_ax, seg_ay, seg_bx, seg_by,
+    curve_kind, curve_comp, curve_group, curve_hw2,
+    comp_radius, comp_group0, comp_group1, group_psi, slip, gval, axis,
+):
+    """(ψ, squared distance to the nearest bank, behind) at p in the network of ``axis``:
+    ``behind`` when p lies on the dry side of one of its shores (then ψ is NaN)."""
     comp = curve_comp[axis]
     radius = comp_radius[comp]
     width2 = 4.0 * curve_hw2[axis]  # sign tests only within one river width
@@ -371,7 +416,7 @@ def potential_and_shore_at(
         else:
             cap = cur
     if cap < 0.0 and -cap < width2:
-        return np.nan, np.inf
+        return np.nan, np.inf, True
     count = 0
     near2 = np.inf
     on_bank = -1
@@ -382,7 +427,7 @@ def potential_and_shore_at(
         if v == np.inf:
             continue
         if v < 0.0 and -v < width2:
-            return np.nan, np.inf
+            return np.nan, np.inf, True
         count += 1
         near2 = min(near2, abs(v))
         d = math.sqrt(abs(v))
@@ -400,12 +445,12 @@ def potential_and_shore_at(
     if count < 2 and not (count == 1 and g1 - g0 == 1):
         # water lies between two shores of different ψ; a network whose whole shore has one
         # ψ (a lake no river touches) is still water
-        return np.nan, np.inf
+        return np.nan, np.inf, False
     if on_bank >= 0:
-        return group_psi[on_bank], 0.0
+        return group_psi[on_bank], 0.0, False
     if sw <= 0.0:
-        return np.nan, np.inf
-    return swp / sw, near2
+        return np.nan, np.inf, False
+    return swp / sw, near2, False
 
 
 @njit(**JIT_OPTIONS)

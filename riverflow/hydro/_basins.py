@@ -1,0 +1,180 @@
+"""Basins in a river's given water (issue 22): a harbour, a dock, a marina, a side basin.
+
+A river polygon (:meth:`RiverNetworkBuilder.set_water_area`) may hold water off its channels:
+a notch in a bank whose far side faces away from the channel's axis, which Proland's ψ
+interpolation (a weighted mean of the banks' ψ, reference §2) cannot carry: between the basin's
+far wall and the river's other bank it makes the basin's water run as fast as the river's,
+and the graph's rule that a bank has its axis on its left fails behind a point of land.
+
+:func:`find_basins` finds them from the channels' axes: a stretch of the outline (of any ring)
+farther from its nearest axis than that channel's half width allows (by more than
+BASIN_MIN_DEPTH widths at its deepest) is a basin, closed across its opening by a straight
+*mouth* between the last outline points on either side that the channel's half width
+reaches, when it is a pocket: as deep beyond its mouth as BASIN_POCKET of the mouth's width
+(a long shallow bulge of a bank, or the far side of a free island from a line running past
+it, stays the channel's water). The builder then makes each basin a **still lake** with the river passing its mouth
+(:mod:`riverflow.hydro._lakes`: one mechanism): its shore is one boundary piece tied to the
+bank it opens from, so its ψ is that bank's ψ and its water is still (velocity 0, tangent to
+its walls); the mouth is one bank curve shared by the river's area and the basin's (Proland's
+curves may have an area on each side): for the river it continues its bank straight across the
+opening (its flow goes by, unchanged, continuous along the bank), for the basin it closes its
+shore (:func:`riverflow.hydro.flow_network.build_flow_network` gives each side its copy).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+from shapely.geometry.polygon import orient
+
+BASIN_MIN_DEPTH = 0.25
+"""A basin reaches at least this many of its channel's widths beyond the channel's bank."""
+BASIN_POCKET = 0.4
+"""A basin reaches at least this many of its mouth's widths beyond its mouth (a pocket, not a
+wide bulge of the bank: that is water the channel's flow runs along)."""
+BASIN_MIN_AREA = 0.05
+"""A basin's area is at least this many squared widths of its channel."""
+BANK_MARGIN = 0.02
+"""An outline point is off the channel when it lies farther than the half width plus this many
+widths (and the builder's tolerance) from the axis."""
+WIDTH_WINDOW = 1.0
+"""The channel's width by a point is the median of its axis' widths within this many widths
+along the axis (a basin widens the skeleton's inscribed circles beside its mouth)."""
+
+
+@dataclass
+class Basin:
+    """A basin found in the given water: its polygon [m] (closed by its mouth), the mouth
+    (2, 2) [m], its depth beyond the channel's bank [m] and the channel's width there [m]."""
+
+    polygon: shapely.Polygon
+    mouth: np.ndarray
+    depth_m: float
+    width_m: float
+
+    def describe(self) -> str:
+        x, y = 0.5 * (self.mouth[0] + self.mouth[1])
+        return (f"a basin of {self.polygon.area:.0f} m² reaching {self.depth_m:.1f} m beyond the "
+                f"bank of a {self.width_m:.1f} m channel, its mouth "
+                f"{float(np.hypot(*(self.mouth[1] - self.mouth[0]))):.1f} m wide at "
+                f"({x:.1f}, {y:.1f}): still water (a lake joined to the river at its mouth, "
+                f"its ψ the bank's)")
+
+
+def _robust_widths(line: np.ndarray, widths: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Arc lengths (K,) and the running median of the widths over WIDTH_WINDOW widths."""
+    s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(line, axis=0).T))])
+    out = np.empty(len(widths))
+    for i in range(len(widths)):
+        near = np.abs(s - s[i]) <= 0.5 * WIDTH_WINDOW * widths[i]
+        out[i] = np.median(widths[near])
+    return s, out
+
+
+def _excess(points: np.ndarray, axes: list[tuple[np.ndarray, np.ndarray]]):
+    """For each point, how far beyond its channel's bank it lies (distance to the nearest axis
+    minus the half width there) [m], -inf where no axis has it beside its interior, and that
+    channel's width [m]."""
+    best = np.full(len(points), np.inf)
+    out = np.full(len(points), -np.inf)
+    width = np.zeros(len(points))
+    pts = shapely.points(points)
+    for line, w in axes:
+        ls = shapely.LineString(line)
+        s, rw = _robust_widths(line, w)
+        d = shapely.distance(ls, pts)
+        t = shapely.line_locate_point(ls, pts)
+        inner = (t > 1e-9 * max(1.0, s[-1])) & (t < s[-1] * (1.0 - 1e-9))
+        hw = 0.5 * np.interp(t, s, rw)
+        take = d < best                 # the nearest axis decides (beside a junction too)
+        best = np.where(take, d, best)
+        out = np.where(take, np.where(inner, d - hw, -np.inf), out)
+        width = np.where(take, 2.0 * hw, width)
+    return out, width
+
+
+def find_basins(water, axes: list[tuple[np.ndarray, np.ndarray]], avoid=(),
+                tolerance_m: float = 0.25) -> list[Basin]:
+    """The basins of ``water`` (a Polygon or MultiPolygon [m]) beside the channels ``axes``
+    [(centre line (K, 2), widths (K,))] (module docstring); outline points within ``avoid``
+    (polygons: lakes) are never in a basin."""
+    if not axes:
+        return []
+    avoid_u = shapely.union_all(list(avoid)) if len(avoid) else None
+    lines = shapely.union_all([shapely.LineString(a) for a, _ in axes])
+    found: list[Basin] = []
+    for poly in getattr(water, "geoms", [water]):
+        poly = orient(poly, 1.0)
+        for ring in [poly.exterior, *poly.interiors]:
+            v = np.asarray(ring.coords)[:-1]
+            if len(v) < 4:
+                continue
+            excess, width = _excess(v, axes)
+            margin = BANK_MARGIN * width + tolerance_m
+            out = excess > margin
+            if avoid_u is not None:
+                out &= ~shapely.dwithin(avoid_u, shapely.points(v), tolerance_m)
+            if not out.any() or out.all():
+                continue
+            start = int(np.flatnonzero(~out)[0])
+            order = np.roll(np.arange(len(v)), -start)      # begins off any basin
+            k = 0
+            while k < len(order):
+                if not out[order[k]]:
+                    k += 1
+                    continue
+                j = k
+                while j < len(order) and out[order[j]]:
+                    j += 1
+                run = order[k:j]
+                before, after = order[k - 1], order[j % len(order)]
+                k = j
+                basin = _basin(v, run, before, after, excess, width, poly, lines, tolerance_m)
+                if basin is not None:
+                    found.append(basin)
+    return found
+
+
+def _basin(v, run, before, after, excess, width, poly, lines, tolerance_m) -> Basin | None:
+    """The basin of one run of outline points off the channel, or None when it is too small,
+    or its mouth does not lie in the water."""
+    w = float(np.median(width[run]))
+    depth = float(excess[run].max())
+    if not depth >= BASIN_MIN_DEPTH * w:
+        return None
+
+    def corner(inner: int, outer: int) -> np.ndarray:
+        # the outline point the channel's bank reaches: the last one beside the channel,
+        # or where a long edge (longer than half a width) running obliquely away from the
+        # bank crosses the bank's line
+        a, b = v[inner], v[outer]
+        ea, eb = excess[inner], excess[outer]
+        length = float(np.hypot(*(b - a)))
+        if length <= 0.5 * w or eb - ea >= 0.5 * length:
+            return a
+        t = np.clip(-ea / max(eb - ea, 1e-12), 0.0, 1.0)     # on the bank's line
+        return a + t * (b - a)
+
+    a, b = corner(before, run[0]), corner(after, run[-1])
+    mouth_m = float(np.hypot(*(b - a)))
+    t = (b - a) / max(mouth_m, 1e-12)
+    pocket = float(np.abs((v[run] - a) @ np.array([-t[1], t[0]])).max())
+    if not pocket >= max(BASIN_MIN_DEPTH * w, BASIN_POCKET * mouth_m):
+        return None         # a bulge of the bank along the channel, not a pocket
+    ring = np.vstack([a, v[run], b])
+    basin = shapely.Polygon(ring)
+    if not basin.is_valid:
+        basin = shapely.make_valid(basin)
+        basin = max(getattr(basin, "geoms", [basin]), key=lambda g: g.area)
+        if not isinstance(basin, shapely.Polygon):
+            return None
+    if basin.area < BASIN_MIN_AREA * w * w:
+        return None
+    mouth = shapely.LineString([a, b])
+    eps = max(1e-6 * max(1.0, float(np.abs(v).max())), 1e-3 * tolerance_m)
+    if (shapely.difference(basin, poly.buffer(eps)).area > 1e-6 * basin.area
+            or shapely.intersects(basin, lines)
+            or not poly.buffer(eps).contains(mouth)):
+        return None
+    return Basin(orient(basin, 1.0), np.array([a, b]), depth, w)
