@@ -375,19 +375,52 @@ def corner_fillets(local: shapely.Geometry, center_m: np.ndarray, radius_m: floa
     r = float(radius_m) * sc[0]
     c = np.asarray(center_m, float)
     status, f = _kernel.corner_fillets(outline, float(c[0]), float(c[1]), r, float(reach_m),
-                                       FILLET_MIN_TURN, FILLET_BALL_TOL, sc / sc[0])
+                                       FILLET_MIN_TURN, FILLET_BALL_TOL, sc / sc[0],
+                                       FILLET_GAP_M + FILLET_OVERLAP_M)
     if status:
         return None
     if not len(f.corner):
         return [], False
-    polys = shapely.polygons(shapely.linearrings(
-        f.coords, indices=np.repeat(np.arange(len(f.corner)), np.diff(f.start))))
-    if not shapely.is_valid(polys[f.scale == 0]).all():
+    counts = np.diff(f.start)
+
+    def rings(coords, idx):
+        rows = np.concatenate([np.arange(f.start[k], f.start[k + 1]) for k in idx])
+        return shapely.polygons(shapely.linearrings(
+            coords[rows], indices=np.repeat(np.arange(len(idx)), counts[idx])))
+
+    polys = np.full(len(f.corner), None, dtype=object)
+
+    def pieces(idx):
+        """The pieces ``idx`` as polygons (made when a test needs them)."""
+        missing = idx[polys[idx] == None]  # noqa: E711
+        if len(missing):
+            polys[missing] = rings(f.coords, missing)
+        return polys[idx]
+
+    # a corner of one vertex between straight edges makes a valid piece; the others are
+    # checked
+    other = np.flatnonzero((f.scale == 0) & (f.inscribed_m < 0.0))
+    if len(other) and not shapely.is_valid(pieces(other)).all():
         return None
-    inner = Point(center_m).buffer(reach_m, quad_segs=FILLET_QUAD_SEGS)
-    shapely.prepare(inner)
+    # the reach disc is a polygon of 4·FILLET_QUAD_SEGS sides: a piece surely meets it
+    # (lies in it) when its nearest (farthest) point lies within the inscribed circle, surely
+    # not beyond the circumscribed one; GEOS decides between the two
+    apothem = reach_m * np.cos(np.pi / (4 * FILLET_QUAD_SEGS))
+    inner = None
+
+    def in_reach(idx, dist, test):
+        nonlocal inner
+        out = dist[idx] < apothem if test is shapely.intersects else dist[idx] <= apothem
+        unsure = (dist[idx] >= apothem) & (dist[idx] <= reach_m)
+        if unsure.any():
+            if inner is None:
+                inner = Point(center_m).buffer(reach_m, quad_segs=FILLET_QUAD_SEGS)
+            out[unsure] = test(inner, pieces(idx[unsure]))
+        return out
+
     todo = np.unique(f.corner[f.scale == 0])
     out, refused = [], False
+    half = 0.5 * np.pi / (2.0 * FILLET_QUAD_SEGS)
     for s in range(len(sc)):
         rs = float(radius_m) * sc[s]
         if not f.solved[todo, s].all():
@@ -395,20 +428,31 @@ def corner_fillets(local: shapely.Geometry, center_m: np.ndarray, radius_m: floa
         sel = np.flatnonzero((f.scale == s) & np.isin(f.corner, todo) & f.inside_reach)
         if not len(sel):
             return out, False
-        changed = polys[sel]
-        # the tests of fillet_pieces, in its order
-        half = 0.5 * np.pi / (2.0 * FILLET_QUAD_SEGS)
+        # the tests of fillet_pieces, in its order (the thickness in closed form where known)
         thin = 4.0 * rs * (1.0 - np.cos(half))
         small = 4.0 * rs ** 2 * (2.0 * half) ** 3
-        ok = (shapely.area(changed) >= small) & shapely.intersects(inner, changed)
-        ok[ok] = ~shapely.is_empty(shapely.buffer(changed[ok], -thin))
-        sel, changed = sel[ok], changed[ok]
-        kept = shapely.contains(inner, changed)
+        sel = sel[f.area_m2[sel] >= small]
+        sel = sel[in_reach(sel, f.near_m, shapely.intersects)]
+        known = f.inscribed_m[sel]
+        thick = known > 1.01 * thin
+        unsure = (known < 0.0) | ((known >= 0.99 * thin) & ~thick)
+        if unsure.any():
+            thick[unsure] = ~shapely.is_empty(shapely.buffer(pieces(sel[unsure]), -thin))
+        sel = sel[thick]
+        kept = in_reach(sel, f.far_m, shapely.contains)
         if keep_out is not None:
-            kept &= ~(shapely.distance(changed, keep_out) < 2.0 * rs)
-        kept &= ~(shapely.minimum_bounding_radius(changed) > (extent_m or 2.0 * rs))
-        out += list(shapely.buffer(changed[kept], FILLET_GAP_M + FILLET_OVERLAP_M,
-                                   join_style="mitre"))
+            kept &= ~(shapely.distance(pieces(sel), keep_out) < 2.0 * rs)
+        # the smallest circle around a piece has a radius between half its diameter and the
+        # diameter / √3
+        extent = extent_m or 2.0 * rs
+        d = f.diameter_m[sel]
+        slim = d / 2.0 > extent
+        unsure = kept & ~slim & (d / np.sqrt(3.0) > extent)
+        if unsure.any():
+            slim[unsure] = shapely.minimum_bounding_radius(pieces(sel[unsure])) > extent
+        kept &= ~slim
+        if kept.any():
+            out += list(rings(f.grown, sel[kept]))
         refused = not kept.all()
         todo = f.corner[sel[~kept]]
         if not refused:
@@ -419,16 +463,11 @@ def corner_fillets(local: shapely.Geometry, center_m: np.ndarray, radius_m: floa
 def fillet_outline(local: shapely.Geometry):
     """The rings of a (multi)polygon as :class:`riverflow.kernels.fillets.Outline` (water on
     the left: exteriors counter-clockwise, holes clockwise)."""
-    from riverflow.kernels.fillets import Outline
+    from riverflow.kernels.fillets import outline
 
-    rings = shapely.get_rings(shapely.get_parts(shapely.orient_polygons(local)))
+    parts = shapely.get_parts(local)
+    rings = shapely.get_rings(parts)
     xy, ring_of = shapely.get_coordinates(rings, return_index=True)
-    last = np.r_[ring_of[1:] != ring_of[:-1], True]       # each ring repeats its first point
-    v, ring_of = np.ascontiguousarray(xy[~last]), ring_of[~last]
-    n_v = len(v)
-    start = np.r_[True, ring_of[1:] != ring_of[:-1]]
-    first = np.maximum.accumulate(np.where(start, np.arange(n_v), 0))
-    nxt = np.where(np.r_[start[1:], True], first, np.arange(n_v) + 1).astype(np.int64)
-    prv = np.empty_like(nxt)
-    prv[nxt] = np.arange(n_v)
-    return Outline(v, nxt, prv)
+    exterior = np.zeros(len(rings), bool)
+    exterior[np.cumsum(np.r_[0, 1 + shapely.get_num_interior_rings(parts)[:-1]])] = True
+    return outline(xy, ring_of.astype(np.int64), exterior)

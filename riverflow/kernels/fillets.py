@@ -38,16 +38,60 @@ class Outline(NamedTuple):
 
 
 class Fillets(NamedTuple):
-    """The pieces: ring coordinates (K, 2) [m] (closed), per piece its first coordinate
-    (M + 1,), corner, radius index, apex distance to the centre minus the piece's reach, and
-    per corner whether each radius could be solved (C, S)."""
+    """The pieces: ring coordinates (K, 2) [m] (closed) and those of the grown pieces, per
+    piece its first coordinate
+    (M + 1,), corner, radius index, whether it may reach within ``reach`` of the junction
+    (its apex's distance less its tangent length), its nearest and farthest distance from the
+    junction, its diameter, for a corner of one vertex between straight edges the radius of
+    the largest disc in it (else −1), and its area; per corner whether each radius could be
+    solved (C, S)."""
 
     coords: np.ndarray
+    grown: np.ndarray
     start: np.ndarray
     corner: np.ndarray
     scale: np.ndarray
     inside_reach: np.ndarray
+    near_m: np.ndarray
+    far_m: np.ndarray
+    diameter_m: np.ndarray
+    inscribed_m: np.ndarray
+    area_m2: np.ndarray
     solved: np.ndarray
+
+
+@njit(**EXACT_JIT_OPTIONS)
+def outline(xy, ring_of, exterior):
+    """The :class:`Outline` of rings given as their coordinates (K, 2) (each ring closed: its
+    first point repeated), each coordinate's ring (K,) and whether each ring is an exterior
+    (its polygon's first ring); exteriors are walked counter-clockwise, holes clockwise."""
+    k_all = len(xy)
+    n = 0
+    for i in range(k_all):
+        if i + 1 < k_all and ring_of[i + 1] == ring_of[i]:
+            n += 1
+    v = np.empty((n, 2))
+    nxt = np.empty(n, np.int64)
+    prv = np.empty(n, np.int64)
+    at = 0
+    i = 0
+    while i < k_all:
+        j = i
+        while j + 1 < k_all and ring_of[j + 1] == ring_of[i]:
+            j += 1
+        m = j - i                         # the ring's points, its last one repeating its first
+        a2 = 0.0
+        for q in range(m):
+            v[at + q, 0], v[at + q, 1] = xy[i + q, 0], xy[i + q, 1]
+            a2 += ((xy[i + q, 0] - xy[i, 0]) * (xy[i + q + 1, 1] - xy[i, 1])
+                   - (xy[i + q + 1, 0] - xy[i, 0]) * (xy[i + q, 1] - xy[i, 1]))
+        forward = (a2 > 0.0) == exterior[ring_of[i]]
+        for q in range(m):
+            a, b = at + (q + 1) % m, at + (q - 1) % m
+            nxt[at + q], prv[at + q] = (a, b) if forward else (b, a)
+        at += m
+        i = j + 1
+    return Outline(v, nxt, prv)
 
 
 @njit(inline="always", **EXACT_JIT_OPTIONS)
@@ -280,38 +324,59 @@ def _solve(o, u, length, g0, cnt, turn, r, path, st_k, st_lo, st_hi, out):
 
 
 @njit(**EXACT_JIT_OPTIONS)
-def _ring(o, path, n_path, out, r, coords, at, with_path_vertices):
-    """Write a piece's ring (t1, the shore's vertices, t2, the arc back to t1) from ``at``;
-    returns the next free row."""
-    v = o.v
+def _ring(o, u, path, n_path, out, r, grow, coords, grown, at):
+    """Write a piece's ring (t1, the shore's vertices, t2, the arc back to t1; t1 and t2
+    twice) to ``coords`` and the piece grown by ``grow`` to ``grown`` (its shore pushed into
+    the water, mitred, its arc drawn in by ``grow``: t1 and t2 become a step across the
+    shore), both from row ``at``; returns the next free row."""
+    v, prv = o.v, o.prv
+    cx, cy = out[0], out[1]
+    m1x, m1y = (cx - out[2]) / r, (cy - out[3]) / r      # the land side at t1 and t2
+    m2x, m2y = (cx - out[4]) / r, (cy - out[5]) / r
     coords[at, 0], coords[at, 1] = out[2], out[3]
+    grown[at, 0], grown[at, 1] = out[2] - grow * m1x, out[3] - grow * m1y
     at += 1
-    if with_path_vertices:
-        for m in range(n_path):
-            coords[at, 0], coords[at, 1] = v[path[m], 0], v[path[m], 1]
-            at += 1
+    for m in range(n_path):
+        k = path[m]
+        ax, ay, bx, by = u[prv[k], 0], u[prv[k], 1], u[k, 0], u[k, 1]
+        den = max(1.0 + ax * bx + ay * by, 1e-3)
+        coords[at, 0], coords[at, 1] = v[k, 0], v[k, 1]
+        grown[at, 0] = v[k, 0] + grow * (-ay - by) / den
+        grown[at, 1] = v[k, 1] + grow * (ax + bx) / den
+        at += 1
     coords[at, 0], coords[at, 1] = out[4], out[5]
+    grown[at, 0], grown[at, 1] = out[4] - grow * m2x, out[5] - grow * m2y
     at += 1
     n = max(1, int(math.ceil(out[6] / ARC_STEP - 1e-9)))
-    phi0 = math.atan2(out[5] - out[1], out[4] - out[0])
-    for m in range(1, n):
+    phi0 = math.atan2(out[5] - cy, out[4] - cx)
+    for m in range(n + 1):
         phi = phi0 + out[6] * m / n
-        coords[at, 0], coords[at, 1] = out[0] + r * math.cos(phi), out[1] + r * math.sin(phi)
+        if m == 0:
+            coords[at, 0], coords[at, 1] = out[4], out[5]
+        elif m == n:
+            coords[at, 0], coords[at, 1] = out[2], out[3]
+        else:
+            coords[at, 0], coords[at, 1] = cx + r * math.cos(phi), cy + r * math.sin(phi)
+        grown[at, 0] = cx + (r - grow) * math.cos(phi)
+        grown[at, 1] = cy + (r - grow) * math.sin(phi)
         at += 1
     coords[at, 0], coords[at, 1] = out[2], out[3]
+    grown[at, 0], grown[at, 1] = out[2] - grow * m1x, out[3] - grow * m1y
     return at + 1
 
 
 @njit(**EXACT_JIT_OPTIONS)
-def corner_fillets(o, cx, cy, r, reach, min_turn, tol, scales):
+def corner_fillets(o, cx, cy, r, reach, min_turn, tol, scales, grow):
     """(status, :class:`Fillets`) of the outline ``o`` around the junction (cx, cy): arcs of
     radius r × each of ``scales`` (largest first, ``scales[0]`` = 1) at every corner turning
-    by ``min_turn`` or more whose piece may reach within ``reach`` of the junction."""
+    by ``min_turn`` or more whose piece may reach within ``reach`` of the junction; each piece
+    also grown by ``grow`` [m]."""
     v, nxt, prv = o.v, o.nxt, o.prv
     n = len(v)
     n_sc = len(scales)
-    empty = Fillets(np.zeros((0, 2)), np.zeros(1, np.int64), np.zeros(0, np.int64),
-                    np.zeros(0, np.int64), np.zeros(0, np.bool_), np.zeros((0, n_sc), np.bool_))
+    empty = Fillets(np.zeros((0, 2)), np.zeros((0, 2)), np.zeros(1, np.int64), np.zeros(0, np.int64),
+                    np.zeros(0, np.int64), np.zeros(0, np.bool_), np.zeros(0), np.zeros(0),
+                    np.zeros(0), np.zeros(0), np.zeros(0), np.zeros((0, n_sc), np.bool_))
     u = np.empty((n, 2))
     length = np.empty(n)
     for i in range(n):
@@ -360,46 +425,111 @@ def corner_fillets(o, cx, cy, r, reach, min_turn, tol, scales):
         n_c += 1
     if covered_short != n_short:
         return 3, empty
-    # the tangent stretches at the largest radius
+    # the tangent stretches at the largest radius; two corners whose stretches meet (a
+    # point of land whose tip is a small bump of water, the arc of a junction disc between
+    # two strips) are one blunt corner: the run of vertices from the first to the last
     covered = np.zeros(n, np.bool_)
     cut_start = np.zeros(n)
     cut_end = np.zeros(n)
+    own_full = np.empty(n, np.int64)
+    own_start = np.empty(n, np.int64)
+    own_end = np.empty(n, np.int64)
     path = np.empty(n + MAX_CHAIN + 2, np.int64)
     st_k = np.empty(n + MAX_CHAIN + 2, np.int64)
     st_lo = np.empty(n + MAX_CHAIN + 2)
     st_hi = np.empty(n + MAX_CHAIN + 2)
     sol = np.zeros((n_c, 10))
     big = np.zeros(n_c, np.bool_)
-    for c in range(n_c):
-        turn = c_turn[c]
-        if turn < min_turn:               # too slight to round: only its tangent stretches
-            t = r * math.tan(0.5 * turn)
-            k = c_start[c]
-            n_st = 0
-            for m in range(c_cnt[c] - 1):
-                st_k[n_st], st_lo[n_st], st_hi[n_st] = k, 0.0, length[k]
-                n_st += 1
-                k = nxt[k]
-            k_in = prv[c_start[c]]
-            st_k[n_st], st_lo[n_st], st_hi[n_st] = k_in, max(length[k_in] - t, 0.0), length[k_in]
-            st_k[n_st + 1], st_lo[n_st + 1], st_hi[n_st + 1] = k, 0.0, min(t, length[k])
-            n_st += 2
-        else:
-            status, n_path, n_st = _solve(o, u, length, c_start[c], c_cnt[c], turn, r, path,
-                                          st_k, st_lo, st_hi, sol[c])
-            if status != 0:
-                return 4, empty
-            big[c] = True
-        for m in range(n_st):
-            k = st_k[m]
-            if covered[k]:
-                return 5, empty
-            if st_lo[m] <= 1e-12 and st_hi[m] >= length[k] - 1e-12:
-                covered[k] = True
-            elif st_lo[m] <= 1e-12:
-                cut_start[k] = max(cut_start[k], st_hi[m])
+    for _ in range(n + 1):
+        covered[:] = False
+        cut_start[:] = 0.0
+        cut_end[:] = 0.0
+        own_full[:] = -1
+        own_start[:] = -1
+        own_end[:] = -1
+        big[:] = False
+        ca, cb = -1, -1
+        for c in range(n_c):
+            turn = c_turn[c]
+            if turn < min_turn:           # too slight to round: only its tangent stretches
+                t = r * math.tan(0.5 * turn)
+                k = c_start[c]
+                n_st = 0
+                for m in range(c_cnt[c] - 1):
+                    st_k[n_st], st_lo[n_st], st_hi[n_st] = k, 0.0, length[k]
+                    n_st += 1
+                    k = nxt[k]
+                k_in = prv[c_start[c]]
+                st_k[n_st], st_lo[n_st], st_hi[n_st] = k_in, max(length[k_in] - t, 0.0), length[k_in]
+                st_k[n_st + 1], st_lo[n_st + 1], st_hi[n_st + 1] = k, 0.0, min(t, length[k])
+                n_st += 2
             else:
-                cut_end[k] = max(cut_end[k], length[k] - st_lo[m])
+                status, n_path, n_st = _solve(o, u, length, c_start[c], c_cnt[c], turn, r, path,
+                                              st_k, st_lo, st_hi, sol[c])
+                if status != 0:
+                    return 4, empty
+                big[c] = True
+            for m in range(n_st):
+                k = st_k[m]
+                if st_lo[m] <= 1e-12 and st_hi[m] >= length[k] - 1e-12:
+                    for other in (own_full[k], own_start[k], own_end[k]):
+                        if other >= 0 and other != c:
+                            ca, cb = other, c
+                    own_full[k] = c
+                    covered[k] = True
+                elif st_lo[m] <= 1e-12:
+                    if own_full[k] >= 0 and own_full[k] != c:
+                        ca, cb = own_full[k], c
+                    elif (own_end[k] >= 0 and own_end[k] != c
+                          and st_hi[m] + cut_end[k] > length[k] - 1e-9):
+                        ca, cb = own_end[k], c
+                    own_start[k] = c
+                    cut_start[k] = max(cut_start[k], st_hi[m])
+                else:
+                    if own_full[k] >= 0 and own_full[k] != c:
+                        ca, cb = own_full[k], c
+                    elif (own_start[k] >= 0 and own_start[k] != c
+                          and length[k] - st_lo[m] + cut_start[k] > length[k] - 1e-9):
+                        ca, cb = own_start[k], c
+                    own_end[k] = c
+                    cut_end[k] = max(cut_end[k], length[k] - st_lo[m])
+            if ca >= 0:
+                break
+        if ca < 0:
+            break
+        # merge corners ca and cb: the run from the one that comes first along the ring
+        steps_ab, steps_ba = -1, -1
+        k = c_start[ca]
+        for m in range(1, n + 1):
+            k = nxt[k]
+            if k == c_start[cb]:
+                steps_ab = m
+                break
+        k = c_start[cb]
+        for m in range(1, n + 1):
+            k = nxt[k]
+            if k == c_start[ca]:
+                steps_ba = m
+                break
+        if steps_ab < 0:
+            return 5, empty               # on two rings
+        first, second, steps = (ca, cb, steps_ab) if steps_ab <= steps_ba else (cb, ca, steps_ba)
+        cnt = max(steps + c_cnt[second], c_cnt[first])
+        turn = 0.0
+        k = c_start[first]
+        for m in range(cnt):
+            turn += theta[k] if right[k] else -theta[k]
+            k = nxt[k]
+        if not (0.0 < turn < math.pi - 1e-6) or cnt >= n:
+            return 5, empty
+        c_cnt[first], c_turn[first] = cnt, turn
+        n_c -= 1
+        if second != n_c:
+            c_start[second], c_cnt[second], c_turn[second] = c_start[n_c], c_cnt[n_c], c_turn[n_c]
+    else:
+        return 5, empty
+    sol = sol[:n_c]
+    big = big[:n_c]
     # the rolling-disc test: discs of radius r tangent to a straight stretch of shore have
     # their centres on the stretch offset by r to the land side
     lim = reach + 2.0 * r
@@ -428,10 +558,16 @@ def corner_fillets(o, cx, cy, r, reach, min_turn, tol, scales):
     # the pieces: at each radius, each corner's ring
     max_ring = n + MAX_CHAIN + 72
     coords = np.empty((n_big * n_sc * max_ring, 2))
+    grown = np.empty((n_big * n_sc * max_ring, 2))
     start = np.zeros(n_big * n_sc + 1, np.int64)
     corner = np.empty(n_big * n_sc, np.int64)
     scale = np.empty(n_big * n_sc, np.int64)
     inside_reach = np.empty(n_big * n_sc, np.bool_)
+    near_m = np.empty(n_big * n_sc)
+    far_m = np.empty(n_big * n_sc)
+    diameter_m = np.empty(n_big * n_sc)
+    inscribed_m = np.empty(n_big * n_sc)
+    area_m2 = np.empty(n_big * n_sc)
     solved = np.zeros((n_c, n_sc), np.bool_)
     n_p = 0
     at = 0
@@ -448,7 +584,7 @@ def corner_fillets(o, cx, cy, r, reach, min_turn, tol, scales):
                 continue
             solved[c, s] = True
             first = at
-            at = _ring(o, path, n_path, out, rs, coords, at, True)
+            at = _ring(o, u, path, n_path, out, rs, grow, coords, grown, at)
             if s == 0:
                 # no other vertex of the water in the piece (on its edges included)
                 for m in range(n_path):
@@ -473,7 +609,26 @@ def corner_fillets(o, cx, cy, r, reach, min_turn, tol, scales):
                     mark[path[m]] = False
             corner[n_p], scale[n_p] = c, s
             inside_reach[n_p] = math.hypot(out[7] - cx, out[8] - cy) - out[9] < reach
+            lo, hi, diam = np.inf, 0.0, 0.0
+            for m in range(first, at - 1):
+                lo = min(lo, _seg_point(coords[m, 0], coords[m, 1], coords[m + 1, 0],
+                                        coords[m + 1, 1], cx, cy))
+                hi = max(hi, math.hypot(coords[m, 0] - cx, coords[m, 1] - cy))
+                for q in range(m + 1, at - 1):
+                    diam = max(diam, math.hypot(coords[m, 0] - coords[q, 0],
+                                                coords[m, 1] - coords[q, 1]))
+            near_m[n_p], far_m[n_p], diameter_m[n_p] = lo, hi, diam
+            a2 = 0.0
+            for m in range(first, at - 1):
+                a2 += ((coords[m, 0] - coords[first, 0]) * (coords[m + 1, 1] - coords[first, 1])
+                       - (coords[m + 1, 0] - coords[first, 0]) * (coords[m, 1] - coords[first, 1]))
+            area_m2[n_p] = 0.5 * abs(a2)
+            inscribed_m[n_p] = -1.0
+            if c_cnt[c] == 1 and n_path == 1:
+                half_c = math.cos(0.5 * c_turn[c])
+                inscribed_m[n_p] = rs * (1.0 - half_c) / (1.0 + half_c)
             n_p += 1
             start[n_p] = at
-    return 0, Fillets(coords[:at], start[:n_p + 1], corner[:n_p], scale[:n_p],
-                      inside_reach[:n_p], solved)
+    return 0, Fillets(coords[:at], grown[:at], start[:n_p + 1], corner[:n_p], scale[:n_p],
+                      inside_reach[:n_p], near_m[:n_p], far_m[:n_p], diameter_m[:n_p],
+                      inscribed_m[:n_p], area_m2[:n_p], solved)
