@@ -4,11 +4,12 @@ closing with a disc of radius r adds the land between the two shores and the arc
 tangent to both. This kernel finds the corners, solves their arcs (between straight edges, or
 where one shore is a polygonal arc bending away from the land), checks that nothing else is
 closed near the junction (the rolling-disc test) and writes each corner's piece at each
-radius as a ring. Its plain-numpy twin is in ``tests/hydro/test_fillets.py``.
+radius as a ring. Its plain-numpy twin is ``tests/hydro/fillet_twin.py``.
 
 Status codes (0: the junction is made of simple corners; else the closing must do it):
 1 a zero-length edge, 2 a point of land of 0°, 3 a ring of edges shorter than their arcs,
-4 a corner's arc cannot be solved at the largest radius, 5 two corners' arcs overlap,
+4 a corner's arc cannot be solved at the largest radius, 5 two corners' arcs overlap and
+do not make one blunt corner,
 6 a disc tangent to the shore reaches water (a neck of land, a tight inner bend), 7 a
 corner's disc reaches water, 8 another vertex of the water lies in a corner's piece.
 """

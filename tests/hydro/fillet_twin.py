@@ -7,7 +7,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
-from shapely.geometry import LineString
 
 from riverflow.hydro._strips import FILLET_BALL_TOL, FILLET_MIN_TURN, FILLET_QUAD_SEGS
 
