@@ -323,3 +323,151 @@ def topology(geom: shapely.Geometry) -> list[int]:
     parts = [g for g in getattr(geom, "geoms", [geom]) if isinstance(g, Polygon) and not g.is_empty]
     parts.sort(key=lambda g: -g.area)
     return [len(g.interiors) for g in parts]
+
+
+FILLET_MIN_TURN = np.radians(5.0)
+"""Corners that turn less than this are not rounded by :func:`corner_fillets` (the closing's
+piece there is under a tenth of the chord-error area that :func:`fillet_pieces` keeps)."""
+FILLET_BALL_TOL = 1e-3
+"""Relative slack of :func:`corner_fillets`' rolling-disc test: a disc of radius r tangent to
+the shore must keep r·(1 − this) from the water (the closing's own pieces thinner than its
+chord error, 1.2e-3 r, are dropped anyway)."""
+
+
+def corner_fillets(local: shapely.Geometry, center_m: np.ndarray, radius_m: float,
+                   reach_m: float, keep_out: shapely.Geometry | None = None,
+                   extent_m: float | None = None, scales: tuple[float, ...] = (1.0,)
+                   ) -> tuple[list[Polygon], bool] | None:
+    """:func:`fillet_pieces` in closed form where the water's outline near the junction is made
+    of simple corners, or None where it is not (then the closing must do it).
+
+    At a corner where the outline (water on the left) turns right by θ — a point of land of
+    angle π − θ — the closing with a disc of radius r adds the land between the two shores and
+    the arc of radius r tangent to both: its centre C lies on the land side at r from both
+    shores. Between straight edges C is where the edges' lines offset by r cross and the
+    tangent points lie r·tan(θ/2) from the corner; where one shore bends away from the land
+    (the polygonal arc of a junction disc) C lies on the other edge's offset line at r from
+    the bent shore. A blunt point (a run of right turns joined by edges shorter than their
+    arcs' tangents) is one corner, θ the sum of its turns. That is all the closing adds near
+    the junction when (checked, else None): the corners' tangent stretches do not overlap; a
+    disc of radius r tangent to the shore on the land side anywhere along the edges within
+    ``reach_m`` + r of ``center_m``, outside the tangent stretches, keeps clear of the water
+    (no neck of land thinner than 2r, no inner bend tighter than r, no water reaching into an
+    arc), and so do the corners' discs; and no other vertex of the water lies in a corner's
+    piece (it would join two shores or fill an island). Each piece then leaves the water's
+    topology as it was. Corners turning less than FILLET_MIN_TURN between straight edges are
+    not rounded (the closing's piece there is under a tenth of the smallest area it keeps).
+    The geometry is :func:`riverflow.kernels.fillets.corner_fillets`.
+
+    The pieces meet the same tests as :func:`fillet_pieces`' (area, thickness, within the
+    ``reach_m`` disc, away from ``keep_out``, within ``extent_m``) and are grown the same
+    FILLET_GAP_M + FILLET_OVERLAP_M. ``scales``: the arcs' radii tried in turn (× ``radius_m``),
+    each smaller one only at the corners the larger one refused (the tests above at the
+    largest radius hold for the smaller ones). Returns the pieces and whether a corner was
+    refused at the last scale.
+    """
+    from riverflow.kernels import fillets as _kernel
+
+    if local.is_empty:
+        return [], False
+    outline = fillet_outline(local)
+    sc = np.sort(np.asarray(scales, float))[::-1]
+    r = float(radius_m) * sc[0]
+    c = np.asarray(center_m, float)
+    status, f = _kernel.corner_fillets(outline, float(c[0]), float(c[1]), r, float(reach_m),
+                                       FILLET_MIN_TURN, FILLET_BALL_TOL, sc / sc[0],
+                                       FILLET_GAP_M + FILLET_OVERLAP_M)
+    if status:
+        return None
+    if not len(f.corner):
+        return [], False
+    counts = np.diff(f.start)
+
+    def rings(coords, idx):
+        rows = np.concatenate([np.arange(f.start[k], f.start[k + 1]) for k in idx])
+        return shapely.polygons(shapely.linearrings(
+            coords[rows], indices=np.repeat(np.arange(len(idx)), counts[idx])))
+
+    polys = np.full(len(f.corner), None, dtype=object)
+
+    def pieces(idx):
+        """The pieces ``idx`` as polygons (made when a test needs them)."""
+        missing = idx[polys[idx] == None]  # noqa: E711
+        if len(missing):
+            polys[missing] = rings(f.coords, missing)
+        return polys[idx]
+
+    # a corner of one vertex between straight edges makes a valid piece; the others are
+    # checked
+    other = np.flatnonzero((f.scale == 0) & (f.inscribed_m < 0.0))
+    if len(other) and not shapely.is_valid(pieces(other)).all():
+        return None
+    # the reach disc is a polygon of 4·FILLET_QUAD_SEGS sides: a piece surely meets it
+    # (lies in it) when its nearest (farthest) point lies within the inscribed circle, surely
+    # not beyond the circumscribed one; GEOS decides between the two
+    apothem = reach_m * np.cos(np.pi / (4 * FILLET_QUAD_SEGS))
+    inner = None
+
+    def in_reach(idx, dist, test):
+        nonlocal inner
+        out = dist[idx] < apothem if test is shapely.intersects else dist[idx] <= apothem
+        unsure = (dist[idx] >= apothem) & (dist[idx] <= reach_m)
+        if unsure.any():
+            if inner is None:
+                inner = Point(center_m).buffer(reach_m, quad_segs=FILLET_QUAD_SEGS)
+            out[unsure] = test(inner, pieces(idx[unsure]))
+        return out
+
+    todo = np.unique(f.corner[f.scale == 0])
+    out, refused = [], False
+    half = 0.5 * np.pi / (2.0 * FILLET_QUAD_SEGS)
+    for s in range(len(sc)):
+        rs = float(radius_m) * sc[s]
+        if not f.solved[todo, s].all():
+            return None                   # a smaller arc would touch a blunt point's vertices
+        sel = np.flatnonzero((f.scale == s) & np.isin(f.corner, todo) & f.inside_reach)
+        if not len(sel):
+            return out, False
+        # the tests of fillet_pieces, in its order (the thickness in closed form where known)
+        thin = 4.0 * rs * (1.0 - np.cos(half))
+        small = 4.0 * rs ** 2 * (2.0 * half) ** 3
+        sel = sel[f.area_m2[sel] >= small]
+        sel = sel[in_reach(sel, f.near_m, shapely.intersects)]
+        known = f.inscribed_m[sel]
+        thick = known > 1.01 * thin
+        unsure = (known < 0.0) | ((known >= 0.99 * thin) & ~thick)
+        if unsure.any():
+            thick[unsure] = ~shapely.is_empty(shapely.buffer(pieces(sel[unsure]), -thin))
+        sel = sel[thick]
+        kept = in_reach(sel, f.far_m, shapely.contains)
+        if keep_out is not None:
+            kept &= ~(shapely.distance(pieces(sel), keep_out) < 2.0 * rs)
+        # the smallest circle around a piece has a radius between half its diameter and the
+        # diameter / √3
+        extent = extent_m or 2.0 * rs
+        d = f.diameter_m[sel]
+        slim = d / 2.0 > extent
+        unsure = kept & ~slim & (d / np.sqrt(3.0) > extent)
+        if unsure.any():
+            slim[unsure] = shapely.minimum_bounding_radius(pieces(sel[unsure])) > extent
+        kept &= ~slim
+        if kept.any():
+            out += list(rings(f.grown, sel[kept]))
+        refused = not kept.all()
+        todo = f.corner[sel[~kept]]
+        if not refused:
+            break
+    return out, refused
+
+
+def fillet_outline(local: shapely.Geometry):
+    """The rings of a (multi)polygon as :class:`riverflow.kernels.fillets.Outline` (water on
+    the left: exteriors counter-clockwise, holes clockwise)."""
+    from riverflow.kernels.fillets import outline
+
+    parts = shapely.get_parts(local)
+    rings = shapely.get_rings(parts)
+    xy, ring_of = shapely.get_coordinates(rings, return_index=True)
+    exterior = np.zeros(len(rings), bool)
+    exterior[np.cumsum(np.r_[0, 1 + shapely.get_num_interior_rings(parts)[:-1]])] = True
+    return outline(xy, ring_of.astype(np.int64), exterior)

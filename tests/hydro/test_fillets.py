@@ -84,16 +84,32 @@ def _max_turn_near(water, points: np.ndarray, radius_m: float) -> float:
     return worst
 
 
+JUNCTION_WATER = []
+"""(local water, corner_fillets' arguments) of every junction the ``built`` networks round."""
+
+
 @pytest.fixture(scope="module")
 def built():
     """{name: (rounded graph, its builder, sharp builder)} for the three networks."""
+    from riverflow.hydro import _strips
+
     out = {}
-    for name, make in (("confluence", confluence), ("bifurcation", bifurcation),
-                       ("default", default_layout)):
-        b = make()
-        sharp = make(0.0)
-        sharp.build()
-        out[name] = (b.build(), b, sharp)
+    closed_form = _strips.corner_fillets
+
+    def record(local, *args):
+        JUNCTION_WATER.append((local, args))
+        return closed_form(local, *args)
+
+    _strips.corner_fillets = record
+    try:
+        for name, make in (("confluence", confluence), ("bifurcation", bifurcation),
+                           ("default", default_layout)):
+            b = make()
+            sharp = make(0.0)
+            sharp.build()
+            out[name] = (b.build(), b, sharp)
+    finally:
+        _strips.corner_fillets = closed_form
     return out
 
 
@@ -171,6 +187,106 @@ def test_right_angle_corners_get_the_full_arc_at_any_heading():
             if refused or len(out) != 2 or not np.allclose(areas, 1 - np.pi / 4, atol=0.01):
                 failed.append((heading, w, refused, areas))
     assert not failed
+
+
+def _t_junction(heading_deg: float, w: float, r: float, extra=()):
+    """A tributary 0.8 w wide meeting a river w wide at a right angle, turned by the heading,
+    within the junction's window (as the builder cuts it)."""
+    from shapely import affinity
+
+    from riverflow.hydro import _strips
+    from riverflow.hydro.builder import FILLET_REACH_WIDTHS
+
+    reach = FILLET_REACH_WIDTHS * w
+    parts = [shapely.box(-400, -w / 2, 400, w / 2), shapely.box(-0.4 * w, 0, 0.4 * w, 400), *extra]
+    local = shapely.intersection(
+        shapely.union_all([affinity.rotate(g, heading_deg, origin=(0, 0)) for g in parts]),
+        shapely.Point(0, 0).buffer(reach + 3 * r, quad_segs=_strips.FILLET_QUAD_SEGS))
+    return local, reach
+
+
+def test_closed_form_right_angle_corners():
+    """:func:`_strips.corner_fillets` rounds both corners of the right-angled junction at every
+    heading with the full arc (r²(1 − π/4) each, nothing refused, no fall-back to the
+    closing); with a strip of water 1.5 r from the river's bank (a neck of land thinner than
+    2r) the junction is not one of simple corners."""
+    from riverflow.hydro import _strips
+    from riverflow.hydro.builder import FILLET_EXTENT
+
+    failed = []
+    for heading in range(0, 90, 11):
+        for w in (7.3, 61.0):
+            r = 0.4 * w
+            local, reach = _t_junction(heading, w, r)
+            found = _strips.corner_fillets(local, np.zeros(2), r, reach, None, FILLET_EXTENT * r)
+            areas = None if found is None else sorted(round(p.area / r ** 2, 3) for p in found[0])
+            if found is None or found[1] or not np.allclose(areas, 1 - np.pi / 4, atol=0.01):
+                failed.append((heading, w, areas))
+            neck = shapely.box(0.8 * w, -w / 2 - 1.5 * r - 3.0, 3 * w, -w / 2 - 1.5 * r)
+            local, reach = _t_junction(heading, w, r, [neck])
+            if _strips.corner_fillets(local, np.zeros(2), r, reach, None, FILLET_EXTENT * r):
+                failed.append((heading, w, "neck"))
+    assert not failed
+
+
+def test_fillet_kernel_matches_its_numpy_twin(built):
+    """At every junction of the three networks and of the right-angled one (with and without
+    a neck of land), the kernel and its plain-numpy twin (``tests/hydro/fillet_twin.py``)
+    agree on whether the corners are simple and on every piece at the largest radius."""
+    from riverflow.hydro import _strips
+    from riverflow.hydro.builder import FILLET_EXTENT
+    from riverflow.kernels import fillets
+    from tests.hydro.fillet_twin import twin_fillets
+
+    cases = [(local, args[:3]) for local, args in JUNCTION_WATER]
+    for heading, extra in ((17, ()), (33, ()), (61, ()), (40, (shapely.box(8.0, -14.0, 30.0, -10.0),))):
+        local, reach = _t_junction(heading, 10.0, 4.0, extra)
+        cases.append((local, (np.zeros(2), 4.0, reach)))
+    assert len(cases) >= 10
+    simple = 0
+    for local, (center, radius, reach) in cases:
+        status, f = fillets.corner_fillets(
+            _strips.fillet_outline(local), float(center[0]), float(center[1]), float(radius),
+            float(reach), _strips.FILLET_MIN_TURN, _strips.FILLET_BALL_TOL, np.array([1.0]), 0.0)
+        twin = twin_fillets(local, center, radius, reach)
+        assert (status == 0) == (twin is not None), (status, center)
+        if twin is None:
+            continue
+        simple += 1
+        rings = [shapely.Polygon(f.coords[a:b]) for a, b in zip(f.start[:-1], f.start[1:])]
+        assert len(rings) == len(twin)
+        key = lambda g: tuple(np.round(g.centroid.coords[0], 6))  # noqa: E731
+        for a, b in zip(sorted(rings, key=key), sorted(twin, key=key)):
+            assert shapely.hausdorff_distance(a, b) < 1e-9
+            assert a.area == pytest.approx(b.area, rel=1e-9)
+    assert 4 <= simple < len(cases)
+
+
+def test_closed_form_fillets_match_the_closing(built):
+    """Where the corners are simple the closed-form pieces change the water's outline as the
+    closing's do, within 1 cm (the closing's own polygonal buffers), at the junctions of the
+    three networks (the confluence's; the others have shores that bend on both sides of a
+    corner within its arc's reach, and fall back to the closing)."""
+    from riverflow.hydro import _strips
+
+    simple = 0
+    for local, (center, radius, reach, keep_out, extent, scales) in JUNCTION_WATER:
+        found = _strips.corner_fillets(local, center, radius, reach, keep_out, extent, scales)
+        if found is None:
+            continue
+        simple += 1
+        closed, water = [], local
+        for scale in scales:
+            added, refused = _strips.fillet_pieces(water, center, scale * radius, reach,
+                                                   keep_out, extent)
+            closed += added
+            if not refused:
+                break
+            water = shapely.union_all([water, *added])
+        a = shapely.union_all([local, *found[0]]).boundary
+        b = shapely.union_all([local, *closed]).boundary
+        assert shapely.hausdorff_distance(a, b, densify=0.1) < 0.01
+    assert simple >= 1
 
 
 @pytest.mark.parametrize("name", ["confluence", "bifurcation", "default"])
