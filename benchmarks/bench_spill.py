@@ -186,14 +186,14 @@ def tint_alone(refreshes: int) -> dict:
     solver = world.spill_solver
     tint = SpillTint()
     colours = [(1.0, 0.0, 0.0), (0.0, 0.0, 1.0)]
-    tint.update(solver, world.field.potential, colours)
+    tint.update(solver, world.field, colours)
     tex = gl.Texture((TINT_TEXELS, TINT_TEXELS), gl.RGBA32F, linear=True)
     tex.upload(tint.rgba)
     update, moved_ms, whole, rows = [], [], [], []
     for _ in range(refreshes):
         solver.advance(5.0)
         c0 = time.process_time()
-        tint.update(solver, world.field.potential, colours)
+        tint.update(solver, world.field, colours)
         ms = (time.process_time() - c0) * 1e3
         (moved_ms if tint.rows == (0, TINT_TEXELS) else update).append(ms)
         pgl.glFinish()
