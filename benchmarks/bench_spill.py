@@ -107,24 +107,31 @@ def drawn(frames: int) -> dict:
     """What the spills add to a drawn frame: a 1920×1080 ``gl=True`` world of the built-in
     4 km scene looking at the confluence, two plumes on screen, ``speed_factor`` 60; per frame
     the spill system's time (``timings_ms["spill"]``) and the draw system's spill part (the
-    tint texture's update and upload, ``DrawRivers._upload_spill``, timed by wrapping it), CPU
-    time (``time.process_time_ns``) and wall."""
+    spills' grid followed and sampled by the wave particles, ``DrawRivers._tint_particles``,
+    and the concentration mode's texture uniforms, ``DrawRivers._upload_spill``, both timed
+    by wrapping them), CPU time (``time.process_time_ns``) and wall."""
     import numpy as np
 
     import riverflow as rf
     from riverflow.systems import draw as draw_module
 
     spent = []
-    original = draw_module.DrawRivers._upload_spill
+    acc = [0.0, 0.0]
+    originals = {name: getattr(draw_module.DrawRivers, name)
+                 for name in ("_tint_particles", "_upload_spill")}
 
-    def timed(self, world, gpu, settings):
-        w0, c0 = time.perf_counter_ns(), time.process_time_ns()
-        try:
-            return original(self, world, gpu, settings)
-        finally:
-            spent.append(((time.perf_counter_ns() - w0) * 1e-6, (time.process_time_ns() - c0) * 1e-6))
+    def timing(original):
+        def timed(self, *args):
+            w0, c0 = time.perf_counter_ns(), time.process_time_ns()
+            try:
+                return original(self, *args)
+            finally:
+                acc[0] += (time.perf_counter_ns() - w0) * 1e-6
+                acc[1] += (time.process_time_ns() - c0) * 1e-6
+        return timed
 
-    draw_module.DrawRivers._upload_spill = timed
+    for name, original in originals.items():
+        setattr(draw_module.DrawRivers, name, timing(original))
     scene = rf.default_scene(seed=0)
     world = rf.RiverWorld(scene, size=(1920, 1080), gl=True, seed=0)
     j = scene.water.junctions_m[0]
@@ -139,14 +146,16 @@ def drawn(frames: int) -> dict:
     for _ in range(10):
         world.step(1 / 60)
         world.draw()
-    spent.clear()
     system = []
     for _ in range(frames):
         world.step(1 / 60)
         system.append(world.timings_ms["spill"])
+        acc[:] = 0.0, 0.0
         world.draw()
+        spent.append(tuple(acc))
     world.close()
-    draw_module.DrawRivers._upload_spill = original
+    for name, original in originals.items():
+        setattr(draw_module.DrawRivers, name, original)
     wall = np.array([w for w, _ in spent])
     cpu = np.array([c for _, c in spent])
     added = np.array(system) + wall
