@@ -410,7 +410,7 @@ class SpillTint:
         xy = np.column_stack([gx.ravel(), gy.ravel()])
         net = solver.network
         # only texels near a centre line can be water: the stream function there alone
-        near = np.flatnonzero(net.locate(xy, float(net.cell_width_m.max()))[0] >= 0) \
+        near = _near_texels(net, xy, n, cell, float(net.cell_width_m.max())) \
             if side > 0 else np.zeros(0, np.int64)
         psi = flow.potential(xy[near], level=flow.level_for_spacing(0.5 * cell)) \
             if len(near) else np.zeros(0)
@@ -460,6 +460,20 @@ class SpillTint:
             if x0 + side >= hi[0] and y0 + side >= hi[1]:
                 return (float(x0), float(y0), float(side))
             side *= 2.0
+
+
+def _near_texels(net: SpillNetwork, xy: np.ndarray, n: int, cell: float, reach: float
+                 ) -> np.ndarray:
+    """The texels (flat indices into ``xy``, the centres of an n × n grid of ``cell`` [m]
+    texels, row-major) within ``reach`` [m] of a centre-line sample of ``net``: those of the
+    blocks of 8 × 8 texels whose centre is within ``reach`` + half their diagonal of one
+    (a few of them) looked up alone, the same texels as looking up every one."""
+    b = 8 if n % 8 == 0 else 1
+    m = n // b
+    centres = xy.reshape(m, b, m, b, 2).mean(axis=(1, 3)).reshape(-1, 2)
+    blocks = net.locate(centres, reach + 0.5 * math.sqrt(2.0) * b * cell * (1 + 1e-9))[0] >= 0
+    candidates = np.flatnonzero(np.repeat(np.repeat(blocks.reshape(m, m), b, 0), b, 1))
+    return candidates[net.locate(xy[candidates], reach)[0] >= 0]
 
 
 def near_field_profile(net: SpillNetwork, src: SpillSource, s_m: np.ndarray, psi: np.ndarray,
