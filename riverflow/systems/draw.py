@@ -24,7 +24,10 @@ Per frame (reference §4; no one-frame latency: the tables are built from this f
    foam and wakes in step 4 too: each particle's foam (texel 3 of its sprite entry) blended
    through the sprite weights with a lace texture, the waterline's foam from the depth, and
    every boat's Kelvin wake added to the slopes (the wake table,
-   :class:`~riverflow.components.wake.Wakes`);
+   :class:`~riverflow.components.wake.Wakes`); the spills' tint (issue 24) each particle
+   carries (texel 3 too, sampled from the spills' grid before the tables are built:
+   :meth:`DrawRivers._tint_particles`) blended alike (the concentration mode shows that grid
+   as a texture);
 6. overlays: particles as points, velocity arrows.
 
 Reflections (issue 12 item 3; :attr:`DisplaySettings.reflections`, shaded water modes, the eye
@@ -143,9 +146,10 @@ FLOOD_CELLS_UNIT, FLOOD_RISE_UNIT = 16, 17
 module's scratch unit)."""
 FOAM_PATTERN_UNIT, WAKES_UNIT = 12, 13
 SPILL_UNIT = 9
-"""Texture unit of the spills' tint (issue 24, ``shaders/spill.glsl``). The falls' spray
-(SPRAY_UNIT) shares it: each binds its texture right before the program that reads it draws
-(the tint before every water pass, the spray after the water)."""
+"""Texture unit of the spills' grid, the concentration mode's texture (issue 24,
+``shaders/spill.glsl``). The falls' spray (SPRAY_UNIT) shares it: each binds its texture right
+before the program that reads it draws (the grid before every water pass, the spray after the
+water)."""
 """Texture units of the foam's lace pattern and the wake table (issue 12 items 1, 2)."""
 FOAM_PATTERN_PX = 256
 FOAM_SCALE_M = 3.0
