@@ -314,9 +314,10 @@ TINT_REFRESH_S = 5.0
 """The tint follows the spills every this many seconds of spill time (a plume moves a few
 metres: less than a texel)."""
 TINT_SAMPLE_EVERY = 16
-"""A wave particle samples the spills' grid for the tint it carries when it is made, when the
-grid changes and every this many frames (a power of two; staggered by slot): between samples
-it carries its tint along (:func:`riverflow.kernels.spill.sample_tint`)."""
+"""A wave particle samples the spills' grid for the tint it carries when it is made and every
+this many frames (a power of two; staggered by slot), all of them when the grid changes while
+the frame stands still (a paused world): between samples it carries its tint along
+(:func:`riverflow.kernels.spill.sample_tint`)."""
 TINT_MIN_SIDE_M = 256.0
 """Smallest side of the square the tint covers [m] (sides are this × a power of two)."""
 

@@ -309,7 +309,7 @@ def sample_tint(grid, particles, n_slots, frame, every, everyone):
     """Each live particle with a world position below slot ``n_slots`` samples the spill
     tint at its position (:func:`_tint_at`) into its ``tint``: a new one (``tint_id`` not its
     id) at once, the others every ``every`` frames (a power of two; staggered by slot: slot i
-    when i ≡ ``frame`` mod ``every``), or all of them when ``everyone`` (the tint changed).
+    when i ≡ ``frame`` mod ``every``), or all of them when ``everyone``.
     Between samples a particle carries its tint with it. Returns the particles sampled."""
     sampled = 0
     mask = every - 1
