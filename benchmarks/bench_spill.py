@@ -107,24 +107,35 @@ def drawn(frames: int) -> dict:
     """What the spills add to a drawn frame: a 1920×1080 ``gl=True`` world of the built-in
     4 km scene looking at the confluence, two plumes on screen, ``speed_factor`` 60; per frame
     the spill system's time (``timings_ms["spill"]``) and the draw system's spill part (the
-    tint texture's update and upload, ``DrawRivers._upload_spill``, timed by wrapping it), CPU
-    time (``time.process_time_ns``) and wall."""
+    spills' grid followed and sampled by the wave particles, ``DrawRivers._tint_particles``,
+    and the concentration mode's texture uniforms, ``DrawRivers._upload_spill``, both timed
+    by wrapping them), wall, CPU time of the process (``time.process_time_ns``: llvmpipe's
+    threads still drawing the previous frame count in it) and of the calling thread alone
+    (``time.thread_time_ns``: the spill part's own)."""
     import numpy as np
 
     import riverflow as rf
     from riverflow.systems import draw as draw_module
 
     spent = []
-    original = draw_module.DrawRivers._upload_spill
+    acc = [0.0, 0.0, 0.0]
+    originals = {name: getattr(draw_module.DrawRivers, name)
+                 for name in ("_tint_particles", "_upload_spill")
+                 if hasattr(draw_module.DrawRivers, name)}     # (an older draw: the latter)
 
-    def timed(self, world, gpu, settings):
-        w0, c0 = time.perf_counter_ns(), time.process_time_ns()
-        try:
-            return original(self, world, gpu, settings)
-        finally:
-            spent.append(((time.perf_counter_ns() - w0) * 1e-6, (time.process_time_ns() - c0) * 1e-6))
+    def timing(original):
+        def timed(self, *args):
+            w0, c0, t0 = time.perf_counter_ns(), time.process_time_ns(), time.thread_time_ns()
+            try:
+                return original(self, *args)
+            finally:
+                acc[0] += (time.perf_counter_ns() - w0) * 1e-6
+                acc[1] += (time.process_time_ns() - c0) * 1e-6
+                acc[2] += (time.thread_time_ns() - t0) * 1e-6
+        return timed
 
-    draw_module.DrawRivers._upload_spill = timed
+    for name, original in originals.items():
+        setattr(draw_module.DrawRivers, name, timing(original))
     scene = rf.default_scene(seed=0)
     world = rf.RiverWorld(scene, size=(1920, 1080), gl=True, seed=0)
     j = scene.water.junctions_m[0]
@@ -139,22 +150,29 @@ def drawn(frames: int) -> dict:
     for _ in range(10):
         world.step(1 / 60)
         world.draw()
-    spent.clear()
     system = []
     for _ in range(frames):
         world.step(1 / 60)
         system.append(world.timings_ms["spill"])
+        acc[:] = 0.0, 0.0, 0.0
         world.draw()
+        spent.append(tuple(acc))
     world.close()
-    draw_module.DrawRivers._upload_spill = original
-    wall = np.array([w for w, _ in spent])
-    cpu = np.array([c for _, c in spent])
+    for name, original in originals.items():
+        setattr(draw_module.DrawRivers, name, original)
+    wall = np.array([w for w, _, _ in spent])
+    cpu = np.array([c for _, c, _ in spent])
+    thread = np.array([t for _, _, t in spent])
     added = np.array(system) + wall
     return {"drawn_spill_system_ms_mean": float(np.mean(system)),
             "drawn_tint_wall_ms_mean": float(wall.mean()),
             "drawn_tint_cpu_ms_mean": float(cpu.mean()),
             "drawn_tint_wall_ms_max": float(wall.max()),
             "drawn_tint_cpu_ms_max": float(cpu.max()),
+            "drawn_tint_thread_cpu_ms_mean": float(thread.mean()),
+            "drawn_tint_thread_cpu_ms_p50": float(np.median(thread)),
+            "drawn_tint_thread_cpu_ms_p99": float(np.percentile(thread, 99)),
+            "drawn_tint_thread_cpu_ms_max": float(thread.max()),
             "drawn_added_ms_max": float(added.max()),
             "drawn_added_ms_mean": float(added.mean()),
             "drawn_added_ms_p50": float(np.median(added)),
@@ -186,14 +204,14 @@ def tint_alone(refreshes: int) -> dict:
     solver = world.spill_solver
     tint = SpillTint()
     colours = [(1.0, 0.0, 0.0), (0.0, 0.0, 1.0)]
-    tint.update(solver, world.field.potential, colours)
+    tint.update(solver, world.field, colours)
     tex = gl.Texture((TINT_TEXELS, TINT_TEXELS), gl.RGBA32F, linear=True)
     tex.upload(tint.rgba)
     update, moved_ms, whole, rows = [], [], [], []
     for _ in range(refreshes):
         solver.advance(5.0)
         c0 = time.process_time()
-        tint.update(solver, world.field.potential, colours)
+        tint.update(solver, world.field, colours)
         ms = (time.process_time() - c0) * 1e3
         (moved_ms if tint.rows == (0, TINT_TEXELS) else update).append(ms)
         pgl.glFinish()

@@ -67,7 +67,7 @@ class DisplaySettings:
     # -- spills (issue 24) --
     spill_visible_kg_m3: float = 1e-4
     """Concentration [kg/m³] at which a spill's colour covers 1 − 1/e of the water's (×0.75)
-    in the normal look."""
+    in the normal look (per wave sprite, from the concentration its particle carries)."""
     concentration_range_kg_m3: tuple[float, float] = (1e-6, 1e-2)
     """The concentrations [kg/m³] at the two ends of the concentration mode's colour ramp."""
     concentration_legend: bool = True

@@ -4,7 +4,8 @@ Particles are entities of a packed archetype (SPEC §3): each is a row (slot) wi
 and its components are the pool's columns, one group per Proland particle layer
 (reference §3.3): LifeCycle (birth time, intensity), Screen (screen position, fade reason),
 World (world position, velocity), Terrain (flow status, first-query flag), Random (sprite
-offset), and ours, Foam (the foam it carries). Nothing is allocated per frame; a new particle
+offset), and ours, Foam (the foam it carries) and Tint (the spills' colour it carries).
+Nothing is allocated per frame; a new particle
 takes the lowest free slot (Proland's ``pack``), so live rows stay dense at the front and a
 slot is the particle's GPU row.
 """
@@ -68,6 +69,10 @@ class ParticlePool:
     foam_shore: np.ndarray = field(init=False)   # (C,) float32 its closeness to a shore
     foam_near: np.ndarray = field(init=False)    # (C,) float32 … to a hull or its wash
     foam_id: np.ndarray = field(init=False)      # (C,) int64 id whose foam the slot holds
+    # Spill tint (kernels/spill.py sample_tint, issue 24)
+    tint: np.ndarray = field(init=False)         # (C, 4) float32 the spills' colour (r, g, b)
+                                                 # and concentration [kg/m³] where it sampled
+    tint_id: np.ndarray = field(init=False)      # (C,) int64 id whose tint the slot holds
 
     def __post_init__(self) -> None:
         c = int(self.capacity)
@@ -94,6 +99,8 @@ class ParticlePool:
         self.foam_shore = np.zeros(c, np.float32)
         self.foam_near = np.zeros(c, np.float32)
         self.foam_id = np.full(c, -1, np.int64)
+        self.tint = np.zeros((c, 4), np.float32)
+        self.tint_id = np.full(c, -1, np.int64)
 
     @property
     def count(self) -> int:
@@ -112,7 +119,7 @@ class ParticlePool:
         names = ("alive", "ids", "counters", "birth_s", "intensity", "screen_px", "fade_reason",
                  "world_m", "has_world", "velocity_mps", "status", "first_query", "water_hint_m",
                  "hint_id", "offset_m", "foam", "foam_flow", "foam_shore", "foam_near",
-                 "foam_id")
+                 "foam_id", "tint", "tint_id")
         return {n: getattr(self, n) for n in names}
 
 

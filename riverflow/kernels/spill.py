@@ -237,3 +237,89 @@ def tint_texels(texels, conc, colours, out):
     if end == 0:
         return 0, 0
     return first, end
+
+
+class TintGrid(NamedTuple):
+    """The spill tint's texels (:class:`riverflow.hydro.spills.SpillTint`) as the particles
+    sample them."""
+
+    rgba: np.ndarray
+    """(n, n, 4) float32: RGB the spills' concentration-weighted colour, A the concentration
+    [kg/m³]; texel (row j, column i) centred at (x0 + (i + ½)·side/n, y0 + (j + ½)·side/n)."""
+    rect: np.ndarray
+    """(3,) float64 (x0, y0, side) [m] of the square (side 0: nothing is tinted)."""
+
+
+class ParticleTint(NamedTuple):
+    """The particle pool's columns that the spill tint reads and writes
+    (:class:`riverflow.components.particles.ParticlePool`)."""
+
+    alive: np.ndarray
+    has_world: np.ndarray
+    ids: np.ndarray
+    world_m: np.ndarray
+    tint: np.ndarray
+    """(C, 4) float32, written: (r, g, b, c): the spills' colour and concentration [kg/m³]
+    where the particle was when it last sampled."""
+    tint_id: np.ndarray
+    """(C,) int64, written: the id of the particle whose tint the slot holds."""
+
+
+@njit(**JIT_OPTIONS)
+def _tint_at(grid, x, y, out):
+    """Bilinear (between texel centres, clamped at the square's edge texels as GL's linear
+    filter with clamp-to-edge) of the premultiplied colour A·RGB and of A at (x, y); 0
+    outside the square. Writes (r, g, b, c) into ``out`` (4,)."""
+    for ch in range(4):
+        out[ch] = 0.0
+    x0, y0, side = grid.rect[0], grid.rect[1], grid.rect[2]
+    n = grid.rgba.shape[0]
+    if not side > 0.0 or not (x0 <= x <= x0 + side and y0 <= y <= y0 + side):
+        return
+    u = min(max((x - x0) / side * n - 0.5, 0.0), n - 1.0)
+    v = min(max((y - y0) / side * n - 0.5, 0.0), n - 1.0)
+    i0 = min(int(u), n - 2) if n > 1 else 0
+    j0 = min(int(v), n - 2) if n > 1 else 0
+    fu = u - i0
+    fv = v - j0
+    a = 0.0
+    r = 0.0
+    g = 0.0
+    b = 0.0
+    for dj in range(2):
+        wj = fv if dj else 1.0 - fv
+        j = min(j0 + dj, n - 1)
+        for di in range(2):
+            w = wj * (fu if di else 1.0 - fu)
+            i = min(i0 + di, n - 1)
+            c = w * grid.rgba[j, i, 3]
+            a += c
+            r += c * grid.rgba[j, i, 0]
+            g += c * grid.rgba[j, i, 1]
+            b += c * grid.rgba[j, i, 2]
+    if a > 0.0:
+        out[0] = r / a
+        out[1] = g / a
+        out[2] = b / a
+        out[3] = a
+
+
+@njit(**JIT_OPTIONS)
+def sample_tint(grid, particles, n_slots, frame, every, everyone):
+    """Each live particle with a world position below slot ``n_slots`` samples the spill
+    tint at its position (:func:`_tint_at`) into its ``tint``: a new one (``tint_id`` not its
+    id) at once, the others every ``every`` frames (a power of two; staggered by slot: slot i
+    when i ≡ ``frame`` mod ``every``), or all of them when ``everyone``.
+    Between samples a particle carries its tint with it. Returns the particles sampled."""
+    sampled = 0
+    mask = every - 1
+    phase = frame & mask
+    for i in range(n_slots):
+        if not (particles.alive[i] and particles.has_world[i]):
+            continue
+        if not (everyone or particles.tint_id[i] != particles.ids[i] or (i & mask) == phase):
+            continue
+        _tint_at(grid, particles.world_m[i, 0], particles.world_m[i, 1], particles.tint[i])
+        particles.tint_id[i] = particles.ids[i]
+        sampled += 1
+    return sampled

@@ -16,8 +16,12 @@ use) and 4 bytes a bin, not the 64 bytes a cell of the grid:
   0      screen x px  screen y px  world x m    world y m
   1      offset x m   offset y m   intensity    r px (not ×3)
   2      status       velocity x   velocity y   world z m
-  3      foam 0…1     0            0            0
+  3      foam 0…1     spill c      spill RGB    0
   ====== ============ ============ ============ ============
+
+  The spill tint (issue 24, :func:`riverflow.kernels.spill.sample_tint`) is the concentration
+  c [kg/m³] the particle carries and its colour, 8 bits a channel packed into one exact float
+  (r·65536 + g·256 + b, r, g, b in 0…255 of linear RGB; ``spill.glsl`` unpacks it).
 
   The entries are the particles with a usable position (alive, with a world position, finite
   screen, world and intensity values after the cast to float32), in this order: first the
@@ -88,7 +92,8 @@ class SpriteSource(NamedTuple):
     ``alive``, ``has_world`` (C,) bool; ``screen_px`` (C, 2) float32 [px], origin bottom-left;
     ``world_m`` (C, 3) float64 [m]; ``offset_m`` (C, 2) float32 [m]; ``intensity`` (C,)
     float32; ``status`` (C,) uint8 FlowStatus; ``velocity_mps`` (C, 2) float32 [m/s];
-    ``foam`` (C,) float32 in [0, 1] (:mod:`riverflow.kernels.foam`).
+    ``foam`` (C,) float32 in [0, 1] (:mod:`riverflow.kernels.foam`); ``tint`` (C, 4) float32
+    the spills' colour and concentration (:func:`riverflow.kernels.spill.sample_tint`).
     """
 
     alive: np.ndarray
@@ -100,12 +105,13 @@ class SpriteSource(NamedTuple):
     status: np.ndarray
     velocity_mps: np.ndarray
     foam: np.ndarray
+    tint: np.ndarray
 
 
 def sprite_source(pool) -> SpriteSource:
     """The :class:`SpriteSource` of a :class:`~riverflow.components.particles.ParticlePool`."""
     return SpriteSource(pool.alive, pool.has_world, pool.screen_px, pool.world_m, pool.offset_m,
-                        pool.intensity, pool.status, pool.velocity_mps, pool.foam)
+                        pool.intensity, pool.status, pool.velocity_mps, pool.foam, pool.tint)
 
 
 class SpriteBins(NamedTuple):
@@ -200,6 +206,12 @@ def _finite_or_zero(v):
 
 
 @njit(inline="always", **JIT_OPTIONS)
+def _channel8(v):
+    """A colour channel in [0, 1] as 0…255 (0 if not finite)."""
+    return int(min(max(v, 0.0), 1.0) * 255.0 + 0.5) if is_finite(v) else 0
+
+
+@njit(inline="always", **JIT_OPTIONS)
 def _write_free(out, e):
     row = e // PARTICLES_PER_ROW
     t = (e % PARTICLES_PER_ROW) * TEXELS_PER_PARTICLE
@@ -229,8 +241,15 @@ def _write_entry(out, e, src, i, r):
     foam = np.float32(src.foam[i])
     out[row, t + 3, 0] = min(max(foam, np.float32(0.0)), np.float32(1.0)) if is_finite(foam) \
         else np.float32(0.0)
-    out[row, t + 3, 1] = 0.0
-    out[row, t + 3, 2] = 0.0
+    c = np.float32(src.tint[i, 3])
+    if is_finite(c) and c > np.float32(0.0):
+        out[row, t + 3, 1] = c
+        out[row, t + 3, 2] = np.float32(_channel8(src.tint[i, 0]) * 65536
+                                        + _channel8(src.tint[i, 1]) * 256
+                                        + _channel8(src.tint[i, 2]))
+    else:
+        out[row, t + 3, 1] = 0.0
+        out[row, t + 3, 2] = 0.0
     out[row, t + 3, 3] = 0.0
 
 

@@ -12,10 +12,6 @@ uniform float u_time_s;
 const vec3 FOAM_ALBEDO = vec3(0.93, 0.96, 0.98);
 const float FOAM_MIN = 0.02;        // a sprite with less foam samples no pattern
 
-float sprite_foam(int entry) {
-    return sprite_param(entry, 3).x;
-}
-
 // The pattern at uv (pattern periods) with its screen derivatives.
 float foam_lace(vec2 uv, vec2 duv_dx, vec2 duv_dy) {
     float a = textureGrad(u_foam_pattern, uv, duv_dx, duv_dy).r;

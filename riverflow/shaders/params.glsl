@@ -3,7 +3,7 @@
 //   0: screen x [px], screen y [px], world x [m], world y [m]
 //   1: offset x [m], offset y [m], intensity, r [px]
 //   2: flow status (-1: free entry), velocity x [m/s], velocity y [m/s], world z [m]
-//   3: foam in [0, 1], 0, 0, 0
+//   3: foam in [0, 1], spill concentration c [kg/m3], spill colour (packed: spill.glsl), 0
 // The sprites drawn on the water come first (sorted by screen bin: sprite_bins.glsl), then the
 // other particles when an overlay shows them.
 uniform samplerBuffer u_params;

@@ -1,10 +1,14 @@
 // Spills (issue 24): the water discoloured by the tracers the spill solver carries down the
-// network (riverflow.hydro.spills.SpillTint). u_spill is an RGBA32F texture over the square
-// u_spill_rect = (x0, y0, side) [m] of the world: RGB the spills' mean colour there, A the
-// total concentration [kg/m3]; u_spill_on = 0 when there is no spill (nothing sampled).
-// The normal look mixes the spill's colour into the water by 1 - exp(-c / u_spill_visible);
-// the "concentration" display mode shows log10(c) on a colour ramp over u_spill_range
-// (log10 of the lowest and highest concentration shown [kg/m3]).
+// network. In the normal look the wave sprites carry it: each particle holds the spills'
+// colour and concentration where it sampled them (riverflow.kernels.spill.sample_tint; the
+// sprite table's texel 3: c and the colour packed 8 bits a channel), and the water shader
+// blends them with the sprites' own weights (water.glsl blend_sprites), mixing the spill's
+// colour into the water by 0.75 (1 - exp(-c / u_spill_visible)) per sprite.
+// The "concentration" display mode (a measurement view) samples u_spill, an RGBA32F texture
+// over the square u_spill_rect = (x0, y0, side) [m] of the world (riverflow.hydro.spills.
+// SpillTint: RGB the spills' mean colour there, A the total concentration [kg/m3]; u_spill_on
+// = 0 when there is no spill) and shows log10(c) on a colour ramp over u_spill_range (log10 of
+// the lowest and highest concentration shown [kg/m3]).
 uniform sampler2D u_spill;
 uniform vec3 u_spill_rect;
 uniform int u_spill_on;
@@ -19,9 +23,16 @@ vec4 spill_at(vec2 xy) {
     return texture(u_spill, uv);
 }
 
-// How much of the water's colour the spill replaces, and by what (normal look).
-float spill_cover(vec4 s) {
-    return s.a > 0.0 ? 0.75 * (1.0 - exp(-s.a / u_spill_visible)) : 0.0;
+// How much of the water's colour a spill of concentration c [kg/m3] replaces (normal look).
+float spill_cover(float c) {
+    return c > 0.0 ? 0.75 * (1.0 - exp(-c / u_spill_visible)) : 0.0;
+}
+
+// A sprite's spill colour, packed as r * 65536 + g * 256 + b (0..255 each, an exact float).
+vec3 spill_unpack(float rgb) {
+    float r = floor(rgb / 65536.0);
+    float g = floor((rgb - r * 65536.0) / 256.0);
+    return vec3(r, g, rgb - r * 65536.0 - g * 256.0) / 255.0;
 }
 
 // The colour ramp of the concentration mode (also the legend's): dark water below the range,

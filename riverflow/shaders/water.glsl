@@ -50,14 +50,18 @@ uniform float u_clarity_m;
 // full = the cell's list holds MAX_PER_CELL particles. foam (advected and foam modes): the
 // sprites' foam amount (sum w f / max(sum w, 1): their weighted mean, fading out with the
 // coverage where sum w < 1), then for their lace patterns (foam.glsl; advected mode) sum
-// w (lace - 0.5), sum w^2 and sum w over the sprites with foam (foam_lace_at).
-vec4 blend_sprites(vec2 uv_dx, vec2 uv_dy, out bool full, out vec4 foam, out float weight) {
+// w (lace - 0.5), sum w^2 and sum w over the sprites with foam (foam_lace_at). tint
+// (advected mode): the spills' discolouring the sprites carry, sum w cover rgb and sum w cover
+// (cover = spill_cover(c) of each sprite's concentration c, rgb its spill colour).
+vec4 blend_sprites(vec2 uv_dx, vec2 uv_dy, out bool full, out vec4 foam, out float weight,
+                   out vec4 tint) {
     ivec2 cell = clamp(ivec2(gl_FragCoord.xy / u_grid_cell_px), ivec2(0), u_grid_size - 1);
     vec2 A = vec2(0.0);
     float B = 0.0;
     float covering = 0.0;
     float S = 0.0;
     float S_lace = 0.0;                 // sum w of the sprites with foam
+    tint = vec4(0.0);
     int listed = 0;
     // foam: sum w, sum w f, sum w (lace - 0.5) and its sum w^2; the lace's uv derivatives
     vec4 F = vec4(0.0);
@@ -78,9 +82,14 @@ vec4 blend_sprites(vec2 uv_dx, vec2 uv_dy, out bool full, out vec4 foam, out flo
                 if (u_mode == DISPLAY_MODE_ADVECTED || u_mode == DISPLAY_MODE_FOAM) {
                     vec2 uv = (v_world.xy - p0.zw + p1.xy) / u_wave_length_m;
                     float w = fade5(1.0 - s) * fade5(p1.z);
-                    float f = sprite_foam(id);
+                    vec4 p3 = sprite_param(id, 3);     // foam, spill c, spill colour
+                    float f = p3.x;
                     F.xy += w * vec2(1.0, f);
                     if (u_mode == DISPLAY_MODE_FOAM) continue;
+                    if (p3.y > 0.0) {
+                        float cover = w * spill_cover(p3.y);
+                        tint += vec4(cover * spill_unpack(p3.z), cover);
+                    }
                     A += w * wave_slopes(uv, uv_dx, uv_dy);
                     B += w * w;
                     S += w;
@@ -146,17 +155,18 @@ void main() {
     vec2 slopes = vec2(0.0);
     float weight = 0.0;
     vec4 foam = vec4(0.0);                                 // amount, lace sums (blend_sprites)
+    vec4 tint = vec4(0.0);                                 // the sprites' spill tint sums
     if (u_mode == DISPLAY_MODE_COVERAGE) {
-        vec4 b = blend_sprites(uv_dx, uv_dy, full, foam, weight);
+        vec4 b = blend_sprites(uv_dx, uv_dy, full, foam, weight, tint);
         frag = vec4(min(b.w / float(MAX_PER_CELL), 1.0), b.w == 0.0 ? 1.0 : 0.0,
                     full ? 1.0 : 0.0, 0.0);
         return;
     } else if (u_mode == DISPLAY_MODE_FOAM) {              // the foam amount alone
-        blend_sprites(uv_dx, uv_dy, full, foam, weight);
+        blend_sprites(uv_dx, uv_dy, full, foam, weight, tint);
         frag = vec4(mix(vec3(0.02, 0.05, 0.16), vec3(1.0), foam.x), 0.0);
         return;
     } else if (u_mode == DISPLAY_MODE_ADVECTED) {
-        vec4 b = blend_sprites(uv_dx, uv_dy, full, foam, weight);
+        vec4 b = blend_sprites(uv_dx, uv_dy, full, foam, weight, tint);
         slopes = covered_slopes(b.xy, b.z, weight, uv0, uv_dx, uv_dy);
     } else if (u_mode == DISPLAY_MODE_PRE_ADVECTED) {
         vec4 a = texelFetch(u_accum, ivec2(gl_FragCoord.xy), 0);
@@ -195,11 +205,11 @@ void main() {
     float fog = fog_amount(v_world);
     vec3 added = fresnel * reflected + SUN_COLOUR * spec + (1.0 - fresnel) * (1.0 - clarity) * deep;
     float through = (1.0 - fresnel) * clarity;             // share of the bed seen through
-    // spills: turbid, coloured water (spill.glsl) hides the bed under its colour
-    vec4 spill = spill_at(v_world.xy);
-    float stain = spill_cover(spill);
+    // spills: turbid, coloured water (spill.glsl) hides the bed under its colour, carried by
+    // the sprites (their weighted mean, fading out with the coverage where sum w < 1, as foam)
+    float stain = tint.a / max(weight, 1.0);
     if (stain > 0.0) {
-        vec3 lit = spill.rgb * (0.3 + 0.7 * max(dot(n, u_sun_dir), 0.0));   // waves shade it
+        vec3 lit = tint.rgb / tint.a * (0.3 + 0.7 * max(dot(n, u_sun_dir), 0.0));   // shaded
         added = mix(added, fresnel * reflected + (1.0 - fresnel) * lit, stain);
         through *= 1.0 - stain;
     }

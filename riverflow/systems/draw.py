@@ -24,7 +24,10 @@ Per frame (reference §4; no one-frame latency: the tables are built from this f
    foam and wakes in step 4 too: each particle's foam (texel 3 of its sprite entry) blended
    through the sprite weights with a lace texture, the waterline's foam from the depth, and
    every boat's Kelvin wake added to the slopes (the wake table,
-   :class:`~riverflow.components.wake.Wakes`);
+   :class:`~riverflow.components.wake.Wakes`); the spills' tint (issue 24) each particle
+   carries (texel 3 too, sampled from the spills' grid before the tables are built:
+   :meth:`DrawRivers._tint_particles`) blended alike (the concentration mode shows that grid
+   as a texture);
 6. overlays: particles as points, velocity arrows.
 
 Reflections (issue 12 item 3; :attr:`DisplaySettings.reflections`, shaded water modes, the eye
@@ -72,8 +75,9 @@ from riverflow.engine.system import System
 from riverflow.systems.draw_falls import FallSheets, SprayQuads
 from riverflow.systems.legend import concentration_bar, legend_panel_rgba
 from riverflow.hydro.falls import RAPIDS_FULL_SLOPE, RAPIDS_MIN_SLOPE
-from riverflow.hydro.spills import TINT_TEXELS, SpillTint
+from riverflow.hydro.spills import TINT_SAMPLE_EVERY, TINT_TEXELS, SpillTint
 from riverflow.kernels.foam import foam_pattern_mips
+from riverflow.kernels.spill import ParticleTint, TintGrid, sample_tint
 from riverflow.kernels.tile_cut import EdgeParts, coarser_across, edge_parts, near_to_far
 from riverflow.kernels.wake import wake_texture
 from riverflow.kernels.sprites import (MAX_PER_CELL, NO_PARTICLE, PARTICLES_PER_ROW,
@@ -144,9 +148,10 @@ FLOOD_CELLS_UNIT, FLOOD_RISE_UNIT = 16, 17
 module's scratch unit)."""
 FOAM_PATTERN_UNIT, WAKES_UNIT = 12, 13
 SPILL_UNIT = 9
-"""Texture unit of the spills' tint (issue 24, ``shaders/spill.glsl``). The falls' spray
-(SPRAY_UNIT) shares it: each binds its texture right before the program that reads it draws
-(the tint before every water pass, the spray after the water)."""
+"""Texture unit of the spills' grid, the concentration mode's texture (issue 24,
+``shaders/spill.glsl``). The falls' spray (SPRAY_UNIT) shares it: each binds its texture right
+before the program that reads it draws (the grid before every water pass, the spray after the
+water)."""
 """Texture units of the foam's lace pattern and the wake table (issue 12 items 1, 2)."""
 FOAM_PATTERN_PX = 256
 FOAM_SCALE_M = 3.0
@@ -208,6 +213,7 @@ class _Gpu:
         self.spill_tint = SpillTint()
         self.spill = gl.Texture((TINT_TEXELS, TINT_TEXELS), gl.RGBA32F, linear=True)
         self.spill_version = -1
+        self.tint_frame = -1                            # the frame the particles sampled it
         self.legend: gl.Texture | None = None           # the concentration legend's panel
         self.legend_for: tuple = ()                     # (frame size, range) it was made for
         self.legend_bar = None
@@ -785,6 +791,7 @@ class DrawRivers(System):
         width, height = camera.size_px
         config = world.config
         gpu.fit(width, height, config.radius_px, world.pool.capacity)
+        self._tint_particles(world, gpu)
         t0 = time.perf_counter_ns()
         n_drawn, n_entries = self._upload_tables(
             world, gpu, settings.show_particles or settings.show_velocities)
@@ -943,14 +950,42 @@ class DrawRivers(System):
                 "u_shoreline": shoreline,
                 "u_crest_foam": 1.0 if foam is not None and foam.enabled else 0.0}
 
-    def _upload_spill(self, world: RiverWorld, gpu: _Gpu, settings: DisplaySettings) -> dict:
-        """The water shader's spill uniforms; the spills' tint texture uploaded when the spills
-        have stepped (:class:`~riverflow.hydro.spills.SpillTint`; no spill: u_spill_on = 0)."""
+    def _tint_particles(self, world: RiverWorld, gpu: _Gpu) -> None:
+        """The spills' discolouring the wave particles carry (issue 24; the water shader blends
+        it with the sprites' weights): the spills' grid follows the spills
+        (:class:`~riverflow.hydro.spills.SpillTint`, every TINT_REFRESH_S of spill time), each
+        particle samples it where it is (:func:`~riverflow.kernels.spill.sample_tint`) when
+        new and every TINT_SAMPLE_EVERY frames (staggered: a changed grid reaches them all
+        within those frames, ~0.05 ms a frame for 5000 particles where all of them cost
+        0.4 ms), all of them when the grid changed while the frame stood still (a paused
+        world's spills advanced); once a frame otherwise (a second draw of the same frame
+        samples nothing)."""
         solver = world.spill_solver
-        on = solver is not None and solver.n_spills > 0
+        if solver is None or not solver.n_spills:
+            return
+        colours = sorted((s.row, s.colour) for _, s in esper.get_component(Spill))
+        tint = gpu.spill_tint
+        changed = tint.update(solver, world.field, [c for _, c in colours])
+        frame = int(world.clock.frame)
+        still = frame == gpu.tint_frame
+        if still and not changed:
+            return
+        gpu.tint_frame = frame
+        pool = world.pool
+        sample_tint(TintGrid(tint.rgba, np.asarray(tint.rect_m, np.float64)),
+                    ParticleTint(pool.alive, pool.has_world, pool.ids, pool.world_m, pool.tint,
+                                 pool.tint_id),
+                    slot_span(pool.alive), frame, TINT_SAMPLE_EVERY, bool(changed and still))
+
+    def _upload_spill(self, world: RiverWorld, gpu: _Gpu, settings: DisplaySettings) -> dict:
+        """The concentration mode's spill uniforms, the spills' grid uploaded as its texture
+        when it changed (:class:`~riverflow.hydro.spills.SpillTint`, kept by
+        :meth:`_tint_particles`); the other modes read no texture (u_spill_on = 0: the normal
+        look's tint is the sprites')."""
+        solver = world.spill_solver
+        on = settings.mode == DisplayMode.CONCENTRATION and solver is not None \
+            and solver.n_spills > 0
         if on:
-            colours = sorted((s.row, s.colour) for _, s in esper.get_component(Spill))
-            gpu.spill_tint.update(solver, world.field.potential, [c for _, c in colours])
             tint = gpu.spill_tint
             if tint.version != gpu.spill_version:
                 # the rows it changed, unless a change was missed (then all)

@@ -311,8 +311,8 @@ def test_the_tint_texture_holds_the_concentrations(spilled):
     world.advance_spills(0.0)
     tint = SpillTint()
     colours = [(1.0, 0.0, 0.0), (0.0, 0.0, 1.0)]
-    assert tint.update(solver, world.field.potential, colours)
-    assert not tint.update(solver, world.field.potential, colours)    # nothing stepped
+    assert tint.update(solver, world.field, colours)
+    assert not tint.update(solver, world.field, colours)    # nothing stepped
     x0, y0, side = tint.rect_m
     assert side > 0
     g = (np.arange(TINT_TEXELS) + 0.5) * side / TINT_TEXELS
@@ -323,7 +323,8 @@ def test_the_tint_texture_holds_the_concentrations(spilled):
     # texel as the tint does (not to alias); the query itself where that changes nothing
     net = solver.network
     link, s, _ = net.locate(xy)
-    psi = world.field.potential(xy)
+    # ψ from the flow tiles whose lattice is at most half a texel, as the tint reads it
+    psi = world.field.potential(xy, level=world.field.level_for_spacing(0.5 * side / TINT_TEXELS))
     wet = np.isfinite(psi) & (link >= 0)
     assert wet.sum() > 100
     cells = solver.cell_concentration()
@@ -340,7 +341,7 @@ def test_the_tint_texture_holds_the_concentrations(spilled):
     assert tint.rows == (0, TINT_TEXELS)                    # a new square: all of them
     before = tint.rgba.copy()
     world.advance_spills(60.0)
-    assert tint.update(solver, world.field.potential, colours)
+    assert tint.update(solver, world.field, colours)
     if tint.rect_m == (x0, y0, side):
         first, end = tint.rows
         changed = np.flatnonzero((tint.rgba != before).any(axis=(1, 2)))

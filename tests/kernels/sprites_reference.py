@@ -15,9 +15,10 @@ def _finite_or_zero(a: np.ndarray) -> np.ndarray:
 
 
 def sprite_entries(alive, has_world, screen_px, world_m, offset_m, intensity, status,
-                   velocity_mps, radius_px, n, foam=None) -> tuple[np.ndarray, np.ndarray]:
+                   velocity_mps, radius_px, n, foam=None, tint=None
+                   ) -> tuple[np.ndarray, np.ndarray]:
     """Every slot's entry of the sprite table (n, 4, 4) float32 and whether it is usable
-    (``foam``: each slot's foam, None for none)."""
+    (``foam``: each slot's foam, ``tint`` (r, g, b, c) its spill tint; None for none)."""
     with np.errstate(over="ignore", invalid="ignore"):
         screen = screen_px[:n].astype(np.float32)
         world = world_m[:n].astype(np.float32)
@@ -38,18 +39,26 @@ def sprite_entries(alive, has_world, screen_px, world_m, offset_m, intensity, st
     if foam is not None:
         f = np.asarray(foam[:n], np.float32)
         vals[:, 3, 0] = np.where(np.isfinite(f), np.clip(f, 0, 1), 0)
+    if tint is not None:
+        t = np.asarray(tint[:n], np.float32)
+        on = np.isfinite(t[:, 3]) & (t[:, 3] > 0)
+        with np.errstate(invalid="ignore"):
+            rgb = np.where(np.isfinite(t[:, :3]), np.clip(t[:, :3], 0, 1), 0)
+        q = np.floor(rgb.astype(np.float64) * 255.0 + 0.5).astype(np.int64)
+        vals[:, 3, 1] = np.where(on, t[:, 3], 0)
+        vals[:, 3, 2] = np.where(on, q[:, 0] * 65536 + q[:, 1] * 256 + q[:, 2], 0)
     return vals, usable
 
 
 def build_sprite_tables(alive, has_world, screen_px, world_m, offset_m, intensity, status,
                         velocity_mps, radius_px, n_slots, bins, capacity_rows, with_tail=True,
-                        foam=None):
+                        foam=None, tint=None):
     """Twin of ``build_sprite_tables`` (sorting by Python's stable sort, not counting):
     (table (rows·256, 4, 4) float32, starts (bh, bw + 1) int32, n_drawn, n_entries, rows)."""
     n = max(min(n_slots, len(alive)), 0)
     capacity = capacity_rows * PER_ROW
     vals, usable = sprite_entries(alive, has_world, screen_px, world_m, offset_m, intensity,
-                                  status, velocity_mps, radius_px, n, foam)
+                                  status, velocity_mps, radius_px, n, foam, tint)
     bw, bh = bins.bw, bins.bh
     radius = float(radius_px)
     drawing = (bw > 0 and bh > 0 and bins.bin_w > 0 and bins.bin_h > 0 and np.isfinite(radius)

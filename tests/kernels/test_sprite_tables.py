@@ -53,7 +53,8 @@ def _build(pool, radius, n_slots, bins, rows=None, fill=7.0, with_tail=True):
 def _build_ref(pool, radius, n_slots, bins, rows, with_tail=True):
     return ref.build_sprite_tables(pool.alive, pool.has_world, pool.screen_px, pool.world_m,
                                    pool.offset_m, pool.intensity, pool.status, pool.velocity_mps,
-                                   radius, n_slots, bins, rows, with_tail, pool.foam)
+                                   radius, n_slots, bins, rows, with_tail, pool.foam,
+                                   pool.tint)
 
 
 def _check_against_reference(pool, radius, n_slots, bins, rows=None, with_tail=True):
@@ -136,6 +137,9 @@ def test_table_layout_of_hand_made_particles():
         pool.velocity_mps[i] = (1.5, -0.125 * i)
         pool.foam[i] = 0.5
     pool.foam[3] = np.nan                           # written 0, never NaN
+    pool.tint[1] = (0.55, 0.33, 0.12, 2e-3)         # a spill's colour and concentration
+    pool.tint[3] = (1.5, np.nan, -1.0, 1e-4)        # clamped: 255, 0, 0
+    pool.tint[0] = (0.2, 0.2, 0.2, np.nan)          # no concentration: no tint
     pool.status[300] = FlowStatus.NEAR              # usable, not drawn: the tail
     pool.alive[256] = True                          # alive, no world position: left out
     pool.screen_px[256] = (5.0, 5.0)
@@ -153,7 +157,9 @@ def test_table_layout_of_hand_made_particles():
     npt.assert_array_equal(table[4], [[95.0, 63.0, 103.0, -203.0],
                                       [0.75, -0.5, 0.75, 4.0],
                                       [2.0, 1.5, -0.375, 15.5],
-                                      [0.0, 0.0, 0.0, 0.0]])
+                                      [0.0, np.float32(1e-4), 255 * 65536, 0.0]])
+    # the spill tint: its concentration, its colour 8 bits a channel in one exact float
+    npt.assert_array_equal(table[0, 3], np.float32([0.5, 2e-3, 140 * 65536 + 84 * 256 + 31, 0]))
     npt.assert_array_equal(table[5, 2, 0], FlowStatus.NEAR)
     free = np.array([[0, 0, 0, 0], [0, 0, 0, 0], [-1, 0, 0, 0], [0, 0, 0, 0]], np.float32)
     for e in (6, 100, 255):
@@ -175,6 +181,8 @@ def test_tables_match_reference_on_random_pools(rng):
     pool.has_world[rng.random(pool.capacity) < 0.1] = False
     pool.status[:] = rng.integers(0, 8, pool.capacity)
     pool.intensity[rng.random(pool.capacity) < 0.05] = 0.0
+    pool.tint[:] = rng.random((pool.capacity, 4)) * (1.2, 1.2, 1.2, 1e-3)
+    pool.tint[rng.random(pool.capacity) < 0.5, 3] = 0.0
     for radius, size in ((2.5, (300, 200)), (3.0, (120, 90)), (7.0, (300, 200))):
         bins = ks.sprite_bins(*size, radius)
         for n_slots in (0, 1, 255, 256, 257, n, pool.capacity, pool.capacity + 99, -5):

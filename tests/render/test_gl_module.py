@@ -148,7 +148,8 @@ def _particles(rng, n, width, height, radius):
     velocity = rng.normal(0, 1, (n, 2)).astype(np.float32)
     foam = rng.random(n).astype(np.float32)
     return SpriteSource(alive, has_world, screen, world, offset, intensity,
-                        status.astype(np.uint8), velocity, foam)
+                        status.astype(np.uint8), velocity, foam,
+                        np.zeros((n, 4), np.float32))
 
 
 def _tables(src, radius, width, height):
