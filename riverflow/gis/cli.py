@@ -237,16 +237,6 @@ def _spill_hours(positive):
     return hours
 
 
-def _point(text: str) -> tuple[float, float]:
-    try:
-        x, y = (float(v) for v in text.split(","))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected X,Y in metres, got {text!r}") from None
-    if not (math.isfinite(x) and math.isfinite(y)):
-        raise argparse.ArgumentTypeError(f"expected finite X,Y in metres, got {text!r}")
-    return x, y
-
-
 def run_spill(args: argparse.Namespace) -> int:
     from riverflow.__main__ import _load_scene
 
@@ -450,22 +440,6 @@ def lake_lines(graph) -> list[str]:
         lines.append(f"  lake (area {k}) near ({x:.1f}, {y:.1f}): {poly.area:,.0f} m², {level}, "
                      + (f"{mouths} river mouths" if mouths else "no river (still water)"))
     return lines
-
-
-MAX_SPILL_HOURS = 8760
-"""Longest spill ``riverflow spill --hours`` runs: a year."""
-MAX_SPILL_MAPS = 10_000
-"""Most maps one ``riverflow spill`` writes (``--hours`` × 60 / ``--every``)."""
-
-
-def _spill_hours(positive):
-    def hours(text: str) -> float:
-        value = positive(text)
-        if value > MAX_SPILL_HOURS:
-            raise argparse.ArgumentTypeError(f"must be at most {MAX_SPILL_HOURS:,} h (a year), "
-                                             f"got {text[:40]!r}")
-        return value
-    return hours
 
 
 def _point(text: str) -> tuple[float, float]:
