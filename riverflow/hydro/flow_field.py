@@ -76,13 +76,13 @@ class Obstacle:
                          self.yaw_rate_rps, reach], np.float64)
 
 
-WATER_WIDTH_FACTOR = 2.0
-"""The default lattice follows the narrowest axis width or this many times the narrowest
-water (:func:`narrowest_water_m`), whichever is smaller: an axis's width spans every bank it
+WATER_WIDTH_FACTOR = 8.0
+"""The default lattice follows the narrowest axis width, or this many times the narrowest
+water (:func:`narrowest_water_m`) where that is smaller: an axis's width spans every bank it
 owns, so a 0.6 m creek's axis that also owns the bank of the river it joins across the
 confluence is 24 m wide, and a lattice of 1 m left the creek's water between its corners (ψ
-NaN, no flow, every 56 m). Where axes are as wide as their water (with Proland's margin,
-1.4 - 1.7 times it), this changes nothing."""
+NaN, no flow, every 56 m). Where axes are about as wide as their water (Proland's margin:
+1.4 - 1.7 times it; the arms beside an island: 2 - 3 times) this changes nothing."""
 
 
 def narrowest_water_m(graph: HydroGraph, axes: list[int], per_bank: int = 64) -> float:
