@@ -32,3 +32,19 @@ def diamond():
          branch("trib", straight(800.0, 17, 300.0, 1900.0), 15.0, -1, 1),
          branch("bottom", straight(1500.0, 31, 0.0, 2700.0), 45.0, 1, -1)],
         [40.0, 25.0, 15.0, 10.0, 50.0])
+
+
+def flood_over_the_banks(world, above_m: float = 1.0):
+    """Flood ``world``'s tributary ``above_m`` over its bank top and run it to steady: every
+    source's inflow raised by the rating curve's inverse. Returns (rise [m], ratio, q0)."""
+    from riverflow.scenes.carving import Carving
+
+    world.set_hydrograph(None, [], None)
+    router = world.flood
+    rise = Carving().bank_rise_m + above_m
+    ratio = router.ratio_for_rise("tributary", rise)      # the rating curve, inverted
+    q0 = router.base_inflow_m3s()
+    now = world.flood_time_s
+    world.set_hydrograph(None, [now, now + 1.0], [q0, ratio * q0])
+    world.advance_flood(6 * 3600.0)                       # steady
+    return rise, ratio, q0

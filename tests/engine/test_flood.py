@@ -16,7 +16,6 @@ from riverflow.hydro.falls import channel_depth_m
 from riverflow.hydro.flood import FLOODPLAIN_ROUGHNESS, FloodRouter, cell_raster
 from riverflow.hydro.spill_network import build_spill_network
 from riverflow.kernels.flood import flood_steps, sample_by_cells, scale_by_cells
-from riverflow.scenes.carving import Carving
 from riverflow.tiles.table import tile_code
 from tests.engine import cell_networks
 from tests.engine.cell_networks import branch, straight
@@ -382,14 +381,7 @@ def flooded(world):
     pts = np.concatenate([line[k] + 30.0 * j * t + off[:, None] * normal
                           for j in range(-2, 3)])
     base_status, base_v = world.field.query(pts)
-    world.set_hydrograph(None, [], None)
-    router = world.flood
-    rise = Carving().bank_rise_m + 1.0                    # 1 m above the bank top
-    ratio = router.ratio_for_rise("tributary", rise)      # the rating curve, inverted
-    q0 = router.base_inflow_m3s()
-    now = world.flood_time_s
-    world.set_hydrograph(None, [now, now + 1.0], [q0, ratio * q0])
-    world.advance_flood(6 * 3600.0)                       # steady
+    rise, ratio, q0 = cell_networks.flood_over_the_banks(world)    # 1 m above the bank top
     return world, pts, t, base_status, base_v, (ratio, q0), rise
 
 
@@ -443,6 +435,7 @@ def test_the_floods_ground_is_the_resident_tiles_bilinear(world):
     height and water tiles, their heights and levels seen; no resident pair: reported."""
     from riverflow.scenes.tile_kinds import ground_and_level
 
+    world.load_view()                                  # alone or first: the view's tiles
     cache, scene = world.tiles.cache, world.scene
     n, top = scene.terrain.tile_cells, scene.terrain.max_level
     both = set(cache.pools["height"].keys()) & set(cache.pools["water"].keys())

@@ -9,8 +9,8 @@ import pytest
 
 from riverflow.components.display import DisplayMode
 from riverflow.engine.config import RiverConfig
-from riverflow.scenes.carving import Carving
 from riverflow.scenes.default import default_scene
+from tests.engine.cell_networks import flood_over_the_banks
 
 pytestmark = pytest.mark.gl
 W, H = 256, 256
@@ -69,14 +69,8 @@ def test_the_flooded_width_matches_the_valley_section(setup):
     base = float(scene.water.level(centre[None])[0])
     cell = float(scene.terrain.cell_m)                    # the finest terrain cell [m]
     dry, dry_expected = _wet_width(world, centre, normal, base)
-    world.set_hydrograph(None, [], None)
+    rise, ratio, q0 = flood_over_the_banks(world)          # 1 m above the bank top
     router = world.flood
-    rise = Carving().bank_rise_m + 1.0                    # 1 m above the bank top
-    ratio = router.ratio_for_rise("tributary", rise)      # the rating curve, inverted
-    q0 = router.base_inflow_m3s()
-    t = world.flood_time_s
-    world.set_hydrograph(None, [t, t + 1.0], [q0, ratio * q0])
-    world.advance_flood(6 * 3600.0)                       # steady
     assert float(router.level_rise(centre[None])[0]) == pytest.approx(rise, rel=0.02)
     level = float(world.water_level(centre[None])[0])
     drawn, expected = _wet_width(world, centre, normal, level)
