@@ -256,22 +256,62 @@ def remake(size, n: int, bump_m: float, seed: int) -> dict:
                     spent[_kind][1] += 1
             producer.produce, producer._bench_timed = timed, True
 
+    # the stale tiles' data as the edit found them (blocking mode drops them at once):
+    # a remade tile bit for bit the same as its stand-in need not have been remade
+    scheduler = world.tiles.scheduler
+    before: dict[str, dict[int, bytes]] = {}
+    invalidate = scheduler.invalidate
+
+    def kept_invalidate(stale, *args, **kwargs):
+        for kind, codes in stale.items():
+            pool = world.tiles.cache.pools[kind]
+            for code in np.asarray(codes, np.int64).tolist():
+                data = pool.get(code)
+                if data is not None:
+                    before.setdefault(kind, {})[code] = _tile_bytes(data)
+        return invalidate(stale, *args, **kwargs)
+    scheduler.invalidate = kept_invalidate
+    same: dict[str, int] = {}
+
     link, line0, at, width = _branch_in_view(world)
     cpu = []
     for k in range(n):
+        before.clear()
         world.move_axis(link, _bumped(line0, bump_m * (-1) ** k, at, width))
         timed_producers()
         c0 = time.process_time()
         world.load_view()
         cpu.append(time.process_time() - c0)
+        for kind, old in before.items():
+            pool = world.tiles.cache.pools[kind]
+            for code, data in old.items():
+                now = pool.get(code)
+                if now is not None and _tile_bytes(now) == data:
+                    same[kind] = same.get(kind, 0) + 1
     out = {"remake_edits": n, "remake_cpu_s_median": float(np.median(cpu)),
            "remake_cpu_s_max": float(np.max(cpu))}
     for kind, (seconds, count) in spent.items():
         if count:
             out[f"{kind}_tiles_per_edit"] = count / n
             out[f"{kind}_ms_per_tile"] = 1e3 * seconds / count
+            out[f"{kind}_same_per_edit"] = same.get(kind, 0) / n
     world.close()
     return out
+
+
+def _tile_bytes(data) -> bytes:
+    """A tile's content as bytes (arrays, meshes, numbers), to compare two versions."""
+    import dataclasses
+
+    if isinstance(data, np.ndarray):
+        return data.dtype.str.encode() + str(data.shape).encode() + data.tobytes()
+    if isinstance(data, dict):
+        return b"|".join(k.encode() + b"=" + _tile_bytes(v) for k, v in data.items())
+    if isinstance(data, (tuple, list)):
+        return b"(" + b"|".join(_tile_bytes(v) for v in data) + b")"
+    if dataclasses.is_dataclass(data):
+        return _tile_bytes({f.name: getattr(data, f.name) for f in dataclasses.fields(data)})
+    return repr(data).encode()
 
 
 def main() -> None:
