@@ -84,9 +84,21 @@ def _process_cpu_s(pid) -> float:
         return float("nan")
 
 
-def _stale_in_view(world, kinds=None) -> int:
+def _stale_in_view(world, kinds=None, drawn: bool = False) -> int:
+    """Stale tiles the latest frame asked for; ``drawn``: only those it draws (of the terrain
+    kinds, the leaves of the view's cut, not their ancestors)."""
+    from riverflow.components.flow_tiles import FLOW_KIND
+    from riverflow.components.river import TerrainView
+    from riverflow.tiles.table import codes as codes_of
+
     sched = world.tiles.scheduler
-    return sum(len(sched.stale(k, wanted=True)) for k in (kinds or sched.producers))
+    cut = None
+    if drawn:
+        with world.active():
+            cut = set(codes_of(world.resource(TerrainView).cut).tolist())
+    return sum(len(sched.stale(k, wanted=True) if cut is None or k == FLOW_KIND
+                   else sched.stale(k, wanted=True) & cut)
+               for k in (kinds or sched.producers))
 
 
 def run(size, edits: int, every: int, bump_m: float, warm: int, seed: int) -> dict:
@@ -122,13 +134,14 @@ def run(size, edits: int, every: int, bump_m: float, warm: int, seed: int) -> di
                  "quiet_cpu_ms_median": float(np.median(quiet[:, 1])),
                  "quiet_ms_max": float(quiet[:, 0].max())}
     during, swap_s, in_view_s, marked, swap_ms, river_s = [], [], [], [], [], []
+    drawn_s = []
     worker_cpu_s: list[float] = []
     for e in range(edits):
         sign = 1.0 if e % 2 == 0 else -1.0
         t0 = time.perf_counter()
         applied = world.edits.applied if world.edits is not None else 0
         future = world.move_axis(link, _bumped(line0, sign * bump_m, at, width), wait=False)
-        swapped = river = None
+        swapped = river = drawn = None
         for k in range(every):
             during.append(frame())
             if swapped is None and world.edits.applied > applied:
@@ -139,6 +152,9 @@ def run(size, edits: int, every: int, bump_m: float, warm: int, seed: int) -> di
             if swapped is not None and river is None \
                     and _stale_in_view(world, RIVER_KINDS) == 0:
                 river = time.perf_counter() - t0
+            if swapped is not None and drawn is None \
+                    and _stale_in_view(world, drawn=True) == 0:
+                drawn = time.perf_counter() - t0
             if swapped is not None and _stale_in_view(world) == 0:
                 in_view_s.append(time.perf_counter() - t0)
                 break
@@ -147,6 +163,7 @@ def run(size, edits: int, every: int, bump_m: float, warm: int, seed: int) -> di
         if swapped is not None:
             worker_cpu_s.append(_process_cpu_s(pid))
         river_s.append(river if river is not None else np.nan)
+        drawn_s.append(drawn if drawn is not None else np.nan)
         swap_s.append(swapped if swapped is not None else np.nan)
         future.result(0) if future.done() else None
         for _ in range(every - 1 - k):
@@ -162,6 +179,8 @@ def run(size, edits: int, every: int, bump_m: float, warm: int, seed: int) -> di
         if worker_cpu_s else float("nan"),
         "river_in_view_s_median": float(np.nanmedian(river_s)),
         "river_in_view_s_max": float(np.nanmax(river_s)),
+        "drawn_in_view_s_median": float(np.nanmedian(drawn_s)),
+        "drawn_in_view_s_max": float(np.nanmax(drawn_s)),
         "in_view_s_median": float(np.nanmedian(in_view_s)),
         "in_view_s_max": float(np.nanmax(in_view_s)),
         "in_view_late": int(np.sum(~(np.array(in_view_s) <= 0.5))),
@@ -230,7 +249,10 @@ def remake(size, n: int, bump_m: float, seed: int) -> dict:
     process); per kind the tiles remade and their CPU
     (the scheduler's producers timed)."""
     import riverflow as rf
+    from riverflow.components.flow_tiles import FLOW_KIND
+    from riverflow.components.river import TerrainView
     from riverflow.engine.config import RiverConfig
+    from riverflow.tiles.table import codes as codes_of, tile_code
 
     world = rf.RiverWorld(rf.default_scene(seed=seed), size=size, gl=False, seed=seed,
                           config=RiverConfig(tile_production="blocking"))
@@ -245,15 +267,19 @@ def remake(size, n: int, bump_m: float, seed: int) -> dict:
         for kind, producer in world.tiles.scheduler.producers.items():
             if getattr(producer, "_bench_timed", False):
                 continue
-            spent.setdefault(kind, [0.0, 0])
+            spent.setdefault(kind, [0.0, 0, 0.0, 0])
 
             def timed(key, deps, _make=producer.produce, _kind=kind):
                 c0 = time.process_time()
                 try:
                     return _make(key, deps)
                 finally:
-                    spent[_kind][0] += time.process_time() - c0
+                    used = time.process_time() - c0
+                    spent[_kind][0] += used
                     spent[_kind][1] += 1
+                    if _kind == FLOW_KIND or tile_code(*key) in drawn:     # a leaf of the cut
+                        spent[_kind][2] += used
+                        spent[_kind][3] += 1
             producer.produce, producer._bench_timed = timed, True
 
     # the stale tiles' data as the edit found them (blocking mode drops them at once):
@@ -275,9 +301,12 @@ def remake(size, n: int, bump_m: float, seed: int) -> dict:
 
     link, line0, at, width = _branch_in_view(world)
     cpu = []
+    drawn: set[int] = set()
     for k in range(n):
         before.clear()
         world.move_axis(link, _bumped(line0, bump_m * (-1) ** k, at, width))
+        with world.active():       # the cut's leaves (what is drawn: not their ancestors)
+            drawn = set(codes_of(world.resource(TerrainView).cut).tolist())
         timed_producers()
         c0 = time.process_time()
         world.load_view()
@@ -290,11 +319,14 @@ def remake(size, n: int, bump_m: float, seed: int) -> dict:
                     same[kind] = same.get(kind, 0) + 1
     out = {"remake_edits": n, "remake_cpu_s_median": float(np.median(cpu)),
            "remake_cpu_s_max": float(np.max(cpu))}
-    for kind, (seconds, count) in spent.items():
+    for kind, (seconds, count, _, drawn_count) in spent.items():
         if count:
             out[f"{kind}_tiles_per_edit"] = count / n
+            out[f"{kind}_drawn_per_edit"] = drawn_count / n
             out[f"{kind}_ms_per_tile"] = 1e3 * seconds / count
             out[f"{kind}_same_per_edit"] = same.get(kind, 0) / n
+    out["drawn_cpu_s_per_edit"] = sum(v[2] for v in spent.values()) / n
+    out["all_cpu_s_per_edit"] = sum(v[0] for v in spent.values()) / n
     world.close()
     return out
 

@@ -740,6 +740,7 @@ class RiverWorld:
         from riverflow.components.flow_tiles import FLOW_KIND
         from riverflow.engine.edits import renumbered_segments, tile_distances, tiles_meeting
         from riverflow.scenes.tile_kinds import TERRAIN_KINDS, WATER, WATER_MESH
+        from riverflow.tiles.table import codes as tile_codes
 
         t0 = time.perf_counter()
         scheduler = self.tiles.scheduler
@@ -778,11 +779,16 @@ class RiverWorld:
         old_process = scheduler.replace_producers(producers, process, close_old=False)
         if old_process is not None:     # closed in the edits' thread, not in this frame
             self._edits.run_later(old_process.close)
-        # the river's kinds first, each kind's tiles nearest the change first
+        # the river's kinds first, each kind's tiles nearest the change first; of the terrain
+        # kinds, the leaves of the view's cut (drawn) before their ancestors (drawn only
+        # where a leaf is missing: the leaves stand in resident)
         centres = np.concatenate([plan.terrain_boxes, plan.flow_boxes])
         centres = 0.5 * (centres[:, :2] + centres[:, 2:])
         rank = {kind: tile_distances(codes_, q, centres) for kind, codes_ in stale.items()}
-        scheduler.invalidate(stale, first=(FLOW_KIND, WATER, WATER_MESH), rank=rank)
+        cut = tile_codes(self.resource(TerrainView).cut)
+        later = {kind: stale[kind][~np.isin(stale[kind], cut)] for kind in TERRAIN_KINDS}
+        scheduler.invalidate(stale, first=(FLOW_KIND, WATER, WATER_MESH), rank=rank,
+                             later=later)
         self.scene = plan.scene
         self.field = plan.field
         with self.active():
