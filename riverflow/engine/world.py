@@ -738,8 +738,9 @@ class RiverWorld:
         """Swap an edit in (main thread, between frames): module docstring of
         :mod:`riverflow.engine.edits`, step 3. Returns the changed branches' names."""
         from riverflow.components.flow_tiles import FLOW_KIND
-        from riverflow.engine.edits import renumbered_segments, tile_distances, tiles_meeting
-        from riverflow.scenes.tile_kinds import TERRAIN_KINDS, WATER, WATER_MESH
+        from riverflow.engine.edits import (hints_near_changes, renumbered_segments,
+                                            tile_distances, tiles_meeting)
+        from riverflow.scenes.tile_kinds import HINTS, TERRAIN_KINDS, WATER, WATER_MESH
         from riverflow.tiles.table import codes as tile_codes
 
         t0 = time.perf_counter()
@@ -775,7 +776,10 @@ class RiverWorld:
         n = self.scene.terrain.tile_cells
         for kind in TERRAIN_KINDS:
             kcodes = cache.pools[kind].codes()
-            stale[kind] = kcodes[tiles_meeting(kcodes, q, plan.terrain_boxes, n)]
+            near = tiles_meeting(kcodes, q, plan.terrain_boxes, n)
+            if kind == HINTS:     # a hint reads the nearest centre line, however far
+                near |= hints_near_changes(kcodes, q, self.scene, plan.scene, plan.changed)
+            stale[kind] = kcodes[near]
         old_process = scheduler.replace_producers(producers, process, close_old=False)
         if old_process is not None:     # closed in the edits' thread, not in this frame
             self._edits.run_later(old_process.close)
