@@ -15,7 +15,9 @@ the edits' thread's, which run in its idle time).
    frames, each a centre-line bump of ±``--bump`` m (the demo's drag, made in the
    background: ``move_axis(..., wait=False)``): per edit the seconds from the call to its
    swap (the new network made), to the river's last new tile in view (flow, water, water
-   mesh) and to the last new tile in view (no stale tile the frame asks for), the CPU
+   mesh), to the last new tile drawn (of the terrain kinds, the leaves of the view's cut;
+   with the tile process's CPU seconds then) and to the last new tile in view (no stale
+   tile the frame asks for, ancestors included), the CPU
    seconds the tile process (forked again for the edit) spent until then or until the next
    edit (what remaking the tiles costs, whatever the machine's load), and every frame's
    wall and CPU ms while edits run.
@@ -134,7 +136,7 @@ def run(size, edits: int, every: int, bump_m: float, warm: int, seed: int) -> di
                  "quiet_cpu_ms_median": float(np.median(quiet[:, 1])),
                  "quiet_ms_max": float(quiet[:, 0].max())}
     during, swap_s, in_view_s, marked, swap_ms, river_s = [], [], [], [], [], []
-    drawn_s = []
+    drawn_s, drawn_cpu_s = [], []
     worker_cpu_s: list[float] = []
     for e in range(edits):
         sign = 1.0 if e % 2 == 0 else -1.0
@@ -155,6 +157,7 @@ def run(size, edits: int, every: int, bump_m: float, warm: int, seed: int) -> di
             if swapped is not None and drawn is None \
                     and _stale_in_view(world, drawn=True) == 0:
                 drawn = time.perf_counter() - t0
+                drawn_cpu_s.append(_process_cpu_s(pid))
             if swapped is not None and _stale_in_view(world) == 0:
                 in_view_s.append(time.perf_counter() - t0)
                 break
@@ -179,6 +182,8 @@ def run(size, edits: int, every: int, bump_m: float, warm: int, seed: int) -> di
         if worker_cpu_s else float("nan"),
         "river_in_view_s_median": float(np.nanmedian(river_s)),
         "river_in_view_s_max": float(np.nanmax(river_s)),
+        "drawn_worker_cpu_s_median": float(np.nanmedian(drawn_cpu_s))
+        if drawn_cpu_s else float("nan"),
         "drawn_in_view_s_median": float(np.nanmedian(drawn_s)),
         "drawn_in_view_s_max": float(np.nanmax(drawn_s)),
         "in_view_s_median": float(np.nanmedian(in_view_s)),
