@@ -14,7 +14,7 @@ the edits' thread's, which run in its idle time).
 2. ``--edits`` edits of the branch nearest the view's centre, one every ``--every``
    frames, each a centre-line bump of ±``--bump`` m (the demo's drag, made in the
    background: ``move_axis(..., wait=False)``): per edit the seconds from the call to its
-   swap (the new network made), to the river's last new tile in view (flow, water, water
+   swap (the new network made), to the river's last new tile drawn (flow, water, water
    mesh), to the last new tile drawn (of the terrain kinds, the leaves of the view's cut;
    with the tile process's CPU seconds then) and to the last new tile in view (no stale
    tile the frame asks for, ancestors included), the CPU
@@ -152,7 +152,7 @@ def run(size, edits: int, every: int, bump_m: float, warm: int, seed: int) -> di
                 marked.append(sum(world.edits.last["marked"].values()))
                 swap_ms.append(world.edits.last["swap_ms"])
             if swapped is not None and river is None \
-                    and _stale_in_view(world, RIVER_KINDS) == 0:
+                    and _stale_in_view(world, RIVER_KINDS, drawn=True) == 0:
                 river = time.perf_counter() - t0
             if swapped is not None and drawn is None \
                     and _stale_in_view(world, drawn=True) == 0:
