@@ -14,8 +14,10 @@ the edits' thread's, which run in its idle time).
 2. ``--edits`` edits of the branch nearest the view's centre, one every ``--every``
    frames, each a centre-line bump of ±``--bump`` m (the demo's drag, made in the
    background: ``move_axis(..., wait=False)``): per edit the seconds from the call to its
-   swap (the new network made), to the river's last new tile in view (flow, water, water
-   mesh) and to the last new tile in view (no stale tile the frame asks for), the CPU
+   swap (the new network made), to the river's last new tile drawn (flow, water, water
+   mesh), to the last new tile drawn (of the terrain kinds, the leaves of the view's cut;
+   with the tile process's CPU seconds then) and to the last new tile in view (no stale
+   tile the frame asks for, ancestors included), the CPU
    seconds the tile process (forked again for the edit) spent until then or until the next
    edit (what remaking the tiles costs, whatever the machine's load), and every frame's
    wall and CPU ms while edits run.
@@ -84,9 +86,21 @@ def _process_cpu_s(pid) -> float:
         return float("nan")
 
 
-def _stale_in_view(world, kinds=None) -> int:
+def _stale_in_view(world, kinds=None, drawn: bool = False) -> int:
+    """Stale tiles the latest frame asked for; ``drawn``: only those it draws (of the terrain
+    kinds, the leaves of the view's cut, not their ancestors)."""
+    from riverflow.components.flow_tiles import FLOW_KIND
+    from riverflow.components.river import TerrainView
+    from riverflow.tiles.table import codes as codes_of
+
     sched = world.tiles.scheduler
-    return sum(len(sched.stale(k, wanted=True)) for k in (kinds or sched.producers))
+    cut = None
+    if drawn:
+        with world.active():
+            cut = set(codes_of(world.resource(TerrainView).cut).tolist())
+    return sum(len(sched.stale(k, wanted=True) if cut is None or k == FLOW_KIND
+                   else sched.stale(k, wanted=True) & cut)
+               for k in (kinds or sched.producers))
 
 
 def run(size, edits: int, every: int, bump_m: float, warm: int, seed: int) -> dict:
@@ -122,13 +136,14 @@ def run(size, edits: int, every: int, bump_m: float, warm: int, seed: int) -> di
                  "quiet_cpu_ms_median": float(np.median(quiet[:, 1])),
                  "quiet_ms_max": float(quiet[:, 0].max())}
     during, swap_s, in_view_s, marked, swap_ms, river_s = [], [], [], [], [], []
+    drawn_s, drawn_cpu_s = [], []
     worker_cpu_s: list[float] = []
     for e in range(edits):
         sign = 1.0 if e % 2 == 0 else -1.0
         t0 = time.perf_counter()
         applied = world.edits.applied if world.edits is not None else 0
         future = world.move_axis(link, _bumped(line0, sign * bump_m, at, width), wait=False)
-        swapped = river = None
+        swapped = river = drawn = None
         for k in range(every):
             during.append(frame())
             if swapped is None and world.edits.applied > applied:
@@ -137,8 +152,12 @@ def run(size, edits: int, every: int, bump_m: float, warm: int, seed: int) -> di
                 marked.append(sum(world.edits.last["marked"].values()))
                 swap_ms.append(world.edits.last["swap_ms"])
             if swapped is not None and river is None \
-                    and _stale_in_view(world, RIVER_KINDS) == 0:
+                    and _stale_in_view(world, RIVER_KINDS, drawn=True) == 0:
                 river = time.perf_counter() - t0
+            if swapped is not None and drawn is None \
+                    and _stale_in_view(world, drawn=True) == 0:
+                drawn = time.perf_counter() - t0
+                drawn_cpu_s.append(_process_cpu_s(pid))
             if swapped is not None and _stale_in_view(world) == 0:
                 in_view_s.append(time.perf_counter() - t0)
                 break
@@ -147,6 +166,7 @@ def run(size, edits: int, every: int, bump_m: float, warm: int, seed: int) -> di
         if swapped is not None:
             worker_cpu_s.append(_process_cpu_s(pid))
         river_s.append(river if river is not None else np.nan)
+        drawn_s.append(drawn if drawn is not None else np.nan)
         swap_s.append(swapped if swapped is not None else np.nan)
         future.result(0) if future.done() else None
         for _ in range(every - 1 - k):
@@ -162,6 +182,10 @@ def run(size, edits: int, every: int, bump_m: float, warm: int, seed: int) -> di
         if worker_cpu_s else float("nan"),
         "river_in_view_s_median": float(np.nanmedian(river_s)),
         "river_in_view_s_max": float(np.nanmax(river_s)),
+        "drawn_worker_cpu_s_median": float(np.nanmedian(drawn_cpu_s))
+        if drawn_cpu_s else float("nan"),
+        "drawn_in_view_s_median": float(np.nanmedian(drawn_s)),
+        "drawn_in_view_s_max": float(np.nanmax(drawn_s)),
         "in_view_s_median": float(np.nanmedian(in_view_s)),
         "in_view_s_max": float(np.nanmax(in_view_s)),
         "in_view_late": int(np.sum(~(np.array(in_view_s) <= 0.5))),
@@ -230,7 +254,10 @@ def remake(size, n: int, bump_m: float, seed: int) -> dict:
     process); per kind the tiles remade and their CPU
     (the scheduler's producers timed)."""
     import riverflow as rf
+    from riverflow.components.flow_tiles import FLOW_KIND
+    from riverflow.components.river import TerrainView
     from riverflow.engine.config import RiverConfig
+    from riverflow.tiles.table import codes as codes_of, tile_code
 
     world = rf.RiverWorld(rf.default_scene(seed=seed), size=size, gl=False, seed=seed,
                           config=RiverConfig(tile_production="blocking"))
@@ -245,33 +272,83 @@ def remake(size, n: int, bump_m: float, seed: int) -> dict:
         for kind, producer in world.tiles.scheduler.producers.items():
             if getattr(producer, "_bench_timed", False):
                 continue
-            spent.setdefault(kind, [0.0, 0])
+            spent.setdefault(kind, [0.0, 0, 0.0, 0])
 
             def timed(key, deps, _make=producer.produce, _kind=kind):
                 c0 = time.process_time()
                 try:
                     return _make(key, deps)
                 finally:
-                    spent[_kind][0] += time.process_time() - c0
+                    used = time.process_time() - c0
+                    spent[_kind][0] += used
                     spent[_kind][1] += 1
+                    if _kind == FLOW_KIND or tile_code(*key) in drawn:     # a leaf of the cut
+                        spent[_kind][2] += used
+                        spent[_kind][3] += 1
             producer.produce, producer._bench_timed = timed, True
+
+    # the stale tiles' data as the edit found them (blocking mode drops them at once):
+    # a remade tile bit for bit the same as its stand-in need not have been remade
+    scheduler = world.tiles.scheduler
+    before: dict[str, dict[int, bytes]] = {}
+    invalidate = scheduler.invalidate
+
+    def kept_invalidate(stale, *args, **kwargs):
+        for kind, codes in stale.items():
+            pool = world.tiles.cache.pools[kind]
+            for code in np.asarray(codes, np.int64).tolist():
+                data = pool.get(code)
+                if data is not None:
+                    before.setdefault(kind, {})[code] = _tile_bytes(data)
+        return invalidate(stale, *args, **kwargs)
+    scheduler.invalidate = kept_invalidate
+    same: dict[str, int] = {}
 
     link, line0, at, width = _branch_in_view(world)
     cpu = []
+    drawn: set[int] = set()
     for k in range(n):
+        before.clear()
         world.move_axis(link, _bumped(line0, bump_m * (-1) ** k, at, width))
+        with world.active():       # the cut's leaves (what is drawn: not their ancestors)
+            drawn = set(codes_of(world.resource(TerrainView).cut).tolist())
         timed_producers()
         c0 = time.process_time()
         world.load_view()
         cpu.append(time.process_time() - c0)
+        for kind, old in before.items():
+            pool = world.tiles.cache.pools[kind]
+            for code, data in old.items():
+                now = pool.get(code)
+                if now is not None and _tile_bytes(now) == data:
+                    same[kind] = same.get(kind, 0) + 1
     out = {"remake_edits": n, "remake_cpu_s_median": float(np.median(cpu)),
            "remake_cpu_s_max": float(np.max(cpu))}
-    for kind, (seconds, count) in spent.items():
+    for kind, (seconds, count, _, drawn_count) in spent.items():
         if count:
             out[f"{kind}_tiles_per_edit"] = count / n
+            out[f"{kind}_drawn_per_edit"] = drawn_count / n
             out[f"{kind}_ms_per_tile"] = 1e3 * seconds / count
+            out[f"{kind}_same_per_edit"] = same.get(kind, 0) / n
+    out["drawn_cpu_s_per_edit"] = sum(v[2] for v in spent.values()) / n
+    out["all_cpu_s_per_edit"] = sum(v[0] for v in spent.values()) / n
     world.close()
     return out
+
+
+def _tile_bytes(data) -> bytes:
+    """A tile's content as bytes (arrays, meshes, numbers), to compare two versions."""
+    import dataclasses
+
+    if isinstance(data, np.ndarray):
+        return data.dtype.str.encode() + str(data.shape).encode() + data.tobytes()
+    if isinstance(data, dict):
+        return b"|".join(k.encode() + b"=" + _tile_bytes(v) for k, v in data.items())
+    if isinstance(data, (tuple, list)):
+        return b"(" + b"|".join(_tile_bytes(v) for v in data) + b")"
+    if dataclasses.is_dataclass(data):
+        return _tile_bytes({f.name: getattr(data, f.name) for f in dataclasses.fields(data)})
+    return repr(data).encode()
 
 
 def main() -> None:

@@ -697,6 +697,52 @@ def tiles_meeting(codes: np.ndarray, quadtree, boxes: np.ndarray, cells: int) ->
     return out
 
 
+def hints_near_changes(codes: np.ndarray, quadtree, old: Landscape, new: Landscape,
+                       changed: list[str]) -> np.ndarray:
+    """(K,) bool: the hints tiles of ``codes`` some node of which may have its nearest
+    centre-line sample (:meth:`WaterSurface.nearest_sample`, which a hint is made from, at any
+    distance) on a changed branch, before or after the edit: a tile whose centre c (half
+    diagonal h) is no nearer the changed samples than d + 2h, d its distance to the nearest
+    unchanged one, is not (every node is within h of c)."""
+    from scipy.spatial import cKDTree
+
+    from riverflow.scenes.water import NEAREST_SAMPLE_STRIDE
+
+    codes = np.asarray(codes, np.int64)
+    if not len(codes) or not changed:
+        return np.zeros(len(codes), bool)
+    names = set(changed)
+    moved, kept = [], None
+    for scene in (old, new):
+        s = scene.water.decimated(NEAREST_SAMPLE_STRIDE)
+        on = np.isin(s.branch, [k for k, b in enumerate(scene.branches) if b.name in names])
+        moved.append(s.samples[on])
+        if scene is new:
+            kept = s.samples[~on]
+    moved = np.concatenate(moved)
+    if not len(moved):
+        return np.zeros(len(codes), bool)
+    if not len(kept):
+        return np.ones(len(codes), bool)
+    rects = _tile_rects(codes, quadtree, 1 << 30)        # the footprint (no edge)
+    centre = 0.5 * (rects[:, :2] + rects[:, 2:])
+    half = 0.5 * np.hypot(*(rects[:, 2:] - rects[:, :2]).T)
+    d_moved, _ = cKDTree(moved).query(centre)
+    d_kept, _ = cKDTree(kept).query(centre)
+    return d_moved <= d_kept + 2.0 * half + 1e-6
+
+
+def _tile_rects(codes: np.ndarray, quadtree, cells: int) -> np.ndarray:
+    """(K, 4) x0, y0, x1, y1 [m]: each tile's footprint widened by EDGE_CELLS of its
+    ``cells`` cells a side."""
+    mask = (1 << 28) - 1
+    size = quadtree.root_size_m / np.exp2((codes >> 56).astype(np.float64))
+    edge = size * EDGE_CELLS / cells
+    x0 = quadtree.root_x_m + (codes & mask).astype(np.float64) * size - edge
+    y0 = quadtree.root_y_m + ((codes >> 28) & mask).astype(np.float64) * size - edge
+    return np.column_stack([x0, y0, x0 + size + 2 * edge, y0 + size + 2 * edge])
+
+
 # -- step 3: in the background, then swapped in between frames --------------------------------
 
 

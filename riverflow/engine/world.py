@@ -738,8 +738,10 @@ class RiverWorld:
         """Swap an edit in (main thread, between frames): module docstring of
         :mod:`riverflow.engine.edits`, step 3. Returns the changed branches' names."""
         from riverflow.components.flow_tiles import FLOW_KIND
-        from riverflow.engine.edits import renumbered_segments, tile_distances, tiles_meeting
-        from riverflow.scenes.tile_kinds import TERRAIN_KINDS, WATER, WATER_MESH
+        from riverflow.engine.edits import (hints_near_changes, renumbered_segments,
+                                            tile_distances, tiles_meeting)
+        from riverflow.scenes.tile_kinds import HINTS, TERRAIN_KINDS, WATER, WATER_MESH
+        from riverflow.tiles.table import codes as tile_codes
 
         t0 = time.perf_counter()
         scheduler = self.tiles.scheduler
@@ -774,15 +776,23 @@ class RiverWorld:
         n = self.scene.terrain.tile_cells
         for kind in TERRAIN_KINDS:
             kcodes = cache.pools[kind].codes()
-            stale[kind] = kcodes[tiles_meeting(kcodes, q, plan.terrain_boxes, n)]
+            near = tiles_meeting(kcodes, q, plan.terrain_boxes, n)
+            if kind == HINTS:     # a hint reads the nearest centre line, however far
+                near |= hints_near_changes(kcodes, q, self.scene, plan.scene, plan.changed)
+            stale[kind] = kcodes[near]
         old_process = scheduler.replace_producers(producers, process, close_old=False)
         if old_process is not None:     # closed in the edits' thread, not in this frame
             self._edits.run_later(old_process.close)
-        # the river's kinds first, each kind's tiles nearest the change first
+        # the river's kinds first, each kind's tiles nearest the change first; of the terrain
+        # kinds, the leaves of the view's cut (drawn) before their ancestors (drawn only
+        # where a leaf is missing: the leaves stand in resident)
         centres = np.concatenate([plan.terrain_boxes, plan.flow_boxes])
         centres = 0.5 * (centres[:, :2] + centres[:, 2:])
         rank = {kind: tile_distances(codes_, q, centres) for kind, codes_ in stale.items()}
-        scheduler.invalidate(stale, first=(FLOW_KIND, WATER, WATER_MESH), rank=rank)
+        cut = tile_codes(self.resource(TerrainView).cut)
+        later = {kind: stale[kind][~np.isin(stale[kind], cut)] for kind in TERRAIN_KINDS}
+        scheduler.invalidate(stale, first=(FLOW_KIND, WATER, WATER_MESH), rank=rank,
+                             later=later)
         self.scene = plan.scene
         self.field = plan.field
         with self.active():

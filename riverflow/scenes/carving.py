@@ -116,11 +116,15 @@ def lattice_land_level(water: WaterSurface, xy: np.ndarray, lattice_m: float,
     ij = np.floor(g).astype(np.int64)
     f = g - ij
     on_x, on_y = f[:, 0] == 0.0, f[:, 1] == 0.0
-    corners = np.concatenate([ij, ij + [1, 0], ij + [0, 1], ij + [1, 1]])
+    # a corner whose weight is exactly 0 (a point on a lattice line) is not read: its value
+    # only ever counts as 0 · value (a point on a lattice node, as the height-change grid's
+    # are, reads one node, not four)
+    need = np.concatenate([np.ones(len(ij), bool), ~on_x, ~on_y, ~(on_x | on_y)])
+    corners = np.concatenate([ij, ij + [1, 0], ij + [0, 1], ij + [1, 1]])[need]
     lo = corners.min(axis=0)
     extent = corners.max(axis=0) - lo + 1
     local = corners - lo
-    if int(extent[0]) * int(extent[1]) <= len(corners):
+    if int(extent[0]) * int(extent[1]) <= 4 * len(ij):
         # a compact batch (a tile's nodes, finer than the lattice): every node of the
         # lattice's box around it, indexed directly, not sorted out (same nodes, same values)
         gi, gj = np.meshgrid(np.arange(extent[0]), np.arange(extent[1]), indexing="ij")
@@ -133,7 +137,9 @@ def lattice_land_level(water: WaterSurface, xy: np.ndarray, lattice_m: float,
         keys, inverse = np.unique(local[:, 0] * span + local[:, 1], return_inverse=True)
         nodes = np.stack([keys // span + lo[0], keys % span + lo[1]], axis=1)
     pts = np.asarray(anchor_m, np.float64) + nodes * lattice_m
-    values = water.land_level(pts)[inverse.reshape(-1)].reshape(4, -1)
+    values = np.zeros(len(need))
+    values[need] = water.land_level(pts)[inverse.reshape(-1)]
+    values = values.reshape(4, -1)
     fx = np.where(on_x, 0.0, f[:, 0])
     fy = np.where(on_y, 0.0, f[:, 1])
     return ((1 - fy) * ((1 - fx) * values[0] + fx * values[1])

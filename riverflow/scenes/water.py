@@ -40,6 +40,10 @@ LAND_LEVEL_NEIGHBOURS = 24
 """… the LAND_LEVEL_NEIGHBOURS nearest of them, weighted down to 0 at the farthest one."""
 
 
+NEAREST_SAMPLE_STRIDE = 5
+""":meth:`WaterSurface.nearest_sample` picks among every this-many-th centre-line sample."""
+
+
 def point_tree(points: np.ndarray) -> cKDTree:
     """A KD-tree over points the tiles query at run time (shores, centre lines, the ground's
     valley): built unbalanced, with uncompacted nodes. The answers are the same; queries far
@@ -209,11 +213,7 @@ class WaterSurface:
         visits many leaves).
         """
         p = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
-        if stride not in self._decimated:
-            sel = slice(None, None, stride)
-            self._decimated[stride] = _Samples(self.samples_m[sel], self.levels_m[sel],
-                                               self.widths_m[sel], self.branch[sel])
-        dist, level, width = self._decimated[stride].project(p)
+        dist, level, width = self.decimated(stride).project(p)
         if stride == 1 and len(p) and len(self.junctions_m):
             lo, hi = p.min(axis=0), p.max(axis=0)
             c, r = self.junctions_m, self._junction_radius
@@ -222,17 +222,30 @@ class WaterSurface:
                 self._blend_junction(p, j, self.junctions_m[j], dist, level, width)
         return dist, level, width
 
-    def nearest_sample(self, xy: np.ndarray, stride: int = 5) -> tuple[np.ndarray, np.ndarray]:
+    def nearest_sample(self, xy: np.ndarray, stride: int = NEAREST_SAMPLE_STRIDE
+                       ) -> tuple[np.ndarray, np.ndarray]:
         """The nearest of every stride-th centre-line sample (N, 2) [m] and the river width
         there (N,) [m]."""
         p = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
-        if stride not in self._decimated:
-            sel = slice(None, None, stride)
-            self._decimated[stride] = _Samples(self.samples_m[sel], self.levels_m[sel],
-                                               self.widths_m[sel], self.branch[sel])
-        samples = self._decimated[stride]
+        samples = self.decimated(stride)
         _, k = samples.tree.query(p, workers=_workers(len(p)))
         return samples.samples[k], samples.widths[k]
+
+    def decimated(self, stride: int) -> _Samples:
+        """Every stride-th centre-line sample of each branch, from its first one (per branch:
+        a live edit that adds samples to one branch leaves the others' picks as they were)."""
+        got = self._decimated.get(stride)
+        if got is None:
+            if stride == 1:
+                sel = slice(None)
+            else:
+                k = np.arange(len(self.branch))
+                first = np.r_[True, self.branch[1:] != self.branch[:-1]]
+                start = np.maximum.accumulate(np.where(first, k, 0))
+                sel = (k - start) % stride == 0
+            got = self._decimated[stride] = _Samples(self.samples_m[sel], self.levels_m[sel],
+                                                     self.widths_m[sel], self.branch[sel])
+        return got
 
     def _blend_junction(self, p, j, centre, dist, level, width) -> None:
         """Blend levels / widths (in place) of the branches of junction j near it."""
@@ -361,12 +374,7 @@ class WaterSurface:
         (a neighbour enters or leaves the set with weight 0), smooth across the place where the
         nearest branch changes, pointwise (a tile needs nothing around it)."""
         p = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
-        stride = LAND_LEVEL_STRIDE
-        if -stride not in self._decimated:
-            sel = slice(None, None, stride)
-            self._decimated[-stride] = _Samples(self.samples_m[sel], self.levels_m[sel],
-                                                self.widths_m[sel], self.branch[sel])
-        samples = self._decimated[-stride]
+        samples = self.decimated(LAND_LEVEL_STRIDE)
         k = min(LAND_LEVEL_NEIGHBOURS, len(samples.samples))
         if k < 2:
             return np.full(len(p), float(samples.levels[0]) if k else 0.0)
@@ -385,10 +393,7 @@ class WaterSurface:
         across the grass); at the shore the nearest samples only (the level there within a
         sample spacing's fall), the mix widening with the distance."""
         p = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
-        if 1 not in self._decimated:
-            self._decimated[1] = _Samples(self.samples_m, self.levels_m, self.widths_m,
-                                          self.branch)
-        samples = self._decimated[1]
+        samples = self.decimated(1)
         k = min(BANK_LEVEL_NEIGHBOURS, len(samples.samples))
         if k < 2 or not len(p):
             return self.nearest(p)[1]

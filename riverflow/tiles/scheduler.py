@@ -205,6 +205,7 @@ class TileScheduler:
         self._invalidated_at = 0
         self._first: frozenset[str] = frozenset()
         self._rank: dict[str, dict[int, float]] = {}      # kind → code → [0, 1) (invalidate)
+        self._later: dict[str, set[int]] = {}             # kind → codes made last (invalidate)
         self._stale_codes: dict[str, np.ndarray] = {}     # the stale sets as arrays (request)
         for producer in producers:
             self.add(producer)
@@ -258,16 +259,21 @@ class TileScheduler:
 
     def invalidate(self, stale: Mapping[str, np.ndarray], release: Iterable[str] = (),
                    first: Iterable[str] = (),
-                   rank: Mapping[str, np.ndarray] | None = None) -> int:
+                   rank: Mapping[str, np.ndarray] | None = None,
+                   later: Mapping[str, np.ndarray] | None = None) -> int:
         """Start a new generation (module docstring): the resident tiles of ``stale`` (kind →
         codes) stand in until they are made again, before any other tile (those of the kinds
         in ``first`` first of all), those of the kinds in ``release`` (and every one in
         blocking mode) are dropped at once, as are those the current producer says are
         empty; every tile queued or being made is let go (asked again, it is made from the
         current producers). ``rank`` (kind → a number per code of ``stale``, smaller first:
-        the distance to the change) orders the stale tiles of a kind. Returns how many
-        resident tiles were marked or dropped."""
+        the distance to the change) orders the stale tiles of a kind; those of ``later`` (kind →
+        codes: the ancestors of the view's cut, drawn only where a leaf is missing) are made
+        after every other stale tile. Returns how many resident tiles were marked or
+        dropped."""
         release = set(release)
+        self._later = {kind: set(np.asarray(codes, np.int64).tolist())
+                       for kind, codes in (later or {}).items()}
         self._rank = {}
         for kind, values in (rank or {}).items():
             values = np.asarray(values, np.float64)
@@ -388,8 +394,15 @@ class TileScheduler:
         new = missing[self._state[kind].find_many(missing) < 0]   # neither pending nor failed
         if self.mode == "background" and len(new) > self.max_starts:
             # the worker makes tens of tiles a second: more would go stale unmade, and the
-            # view asks again next frame; coarse first, so the view fills from coarse to fine
-            new = new[np.argsort(new >> 56, kind="stable")[:self.max_starts]]
+            # view asks again next frame; coarse first, so the view fills from coarse to fine,
+            # but stale tiles (a live edit) before any, in the order _start queues them
+            order = (new >> 56).astype(np.float64)
+            if stale:
+                again = np.isin(new, self._stale_codes[kind])
+                order[again] = np.fromiter((self._stale_priority(kind, c)
+                                            for c in new[again].tolist()), np.float64,
+                                           int(again.sum()))
+            new = new[np.argsort(order, kind="stable")[:self.max_starts]]
         for code in new.tolist():
             started += self._start(kind, code_key(code), code)
         return started
@@ -429,11 +442,19 @@ class TileScheduler:
         self._state[kind].set(code, _PENDING)
         self.requested += 1
         self._ensure_thread()
-        # coarse first; a stale tile (a live edit) before any, the kinds asked first first
-        priority = key[0] if code not in self._stale[kind] else (
-            (-2 if kind in self._first else -1) + self._rank.get(kind, {}).get(code, 0.0))
+        # coarse first; a stale tile (a live edit) before any (_stale_priority)
+        priority = key[0] if code not in self._stale[kind] else self._stale_priority(kind, code)
         self._queue.put((priority, next(self._seq), job))
         return started
+
+    def _stale_priority(self, kind: str, code: int) -> float:
+        """A stale tile's place in the queue, before any other tile's (those are made coarse
+        first: their level, ≥ 0): the kinds asked ``first`` first, each kind's by its rank,
+        the ones made ``later`` after every other stale tile (:meth:`invalidate`)."""
+        rank = self._rank.get(kind, {}).get(code, 0.0)
+        if code in self._later.get(kind, ()):
+            return -1.0 + rank
+        return (-3.0 if kind in self._first else -2.0) + rank
 
     def _make_now(self, kind: str, key: TileKey, code: int) -> None:
         """Blocking mode: make the dependencies that are not resident, then the tile; install."""

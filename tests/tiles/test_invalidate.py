@@ -197,3 +197,32 @@ def test_stale_tiles_are_made_again_nearest_first():
         assert sorted(order) == sorted(rank) and later == sorted(later)
     finally:
         sched.close()
+
+
+def test_stale_tiles_made_later_come_after_every_other_even_when_few_are_queued():
+    # four stale tiles: two at level 2 (a cut's leaves), two of level 1 and 0 (their
+    # ancestors, made ``later``); the frame queues one new tile at a time (max_starts = 1),
+    # so the one it picks decides the order: the leaves, nearest first, then the ancestors,
+    # never coarse first as missing tiles are, though an ancestor is nearer the change
+    keys = np.array([[2, 0, 0], [2, 1, 1], [1, 0, 0], [0, 0, 0]], np.int32)
+    sched = TileScheduler(TileCache(1 << 20), [Level(1.0)])
+    try:
+        _made(sched, keys)
+        new = Level(2.0)
+        order = []
+        produce = new.produce
+        new.produce = lambda key, deps: (order.append(tuple(key)), produce(key, deps))[1]
+        sched.replace_producers([new])
+        stale = codes(keys)
+        sched.invalidate({"a": stale}, rank={"a": np.array([5.0, 1.0, 0.0, 3.0])},
+                         later={"a": stale[2:]})
+        sched.max_starts = 1
+        for _ in range(50):
+            sched.collect()
+            sched.request("a", keys)
+            sched.wait(5.0)
+            if len(order) == 4:
+                break
+        assert order == [(2, 1, 1), (2, 0, 0), (1, 0, 0), (0, 0, 0)]
+    finally:
+        sched.close()
