@@ -443,8 +443,10 @@ def _load_scene(args: argparse.Namespace) -> tuple[Any, str]:
 
         try:    # a graph file or GIS lines, on --terrain or procedural hills
             return landscape(scene_graph(args), args.terrain, seed=args.seed), args.scene.name
-        except (GraphError, OSError, ImportError) as exc:
-            print(f"riverflow {args.command}: cannot load {args.scene}: {exc}", file=sys.stderr)
+        except (GraphError, ValueError, OSError, ImportError) as exc:  # a bad --terrain too
+            print(f"riverflow {args.command}: cannot load {args.scene}"
+                  f"{f' on --terrain {args.terrain}' if args.terrain else ''}: {exc}",
+                  file=sys.stderr)
             return None, ""
     from riverflow.scenes.default import default_scene
 

@@ -1,0 +1,144 @@
+"""Wrong elevation rasters (issue: input hardening): every one gets a clear error naming the
+file and what is wrong, from rf.landscape(terrain=), rf.read_water(dem=) and --terrain; the
+odd-but-valid ones (1×N, south-up, integer dtypes, NaN cells) give finite heights."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import shapely
+
+import riverflow as rf
+from riverflow.gis.rasters import RasterSource
+from riverflow.hydro.graph import GraphError
+from tests.gis.conftest import ORIGIN, UTM, polyline, require_gis, write_lines
+
+require_gis()
+rasterio = pytest.importorskip("rasterio")
+png = pytest.importorskip("png")
+
+
+def dem(path, nx=8, ny=6, *, dtype="float32", crs=UTM, cell=100.0, west=ORIGIN[0] - 300.0,
+        north=ORIGIN[1] + 300.0, transform=None, values=None, nodata=None):
+    """A tiny GeoTIFF; ``values`` (ny, nx) or a ramp rising eastwards."""
+    z = 100.0 + np.arange(nx)[None, :] + np.zeros((ny, 1)) if values is None else values
+    with rasterio.open(path, "w", driver="GTiff", width=nx, height=ny, count=1, dtype=dtype,
+                       crs=crs, nodata=nodata,
+                       transform=transform or rasterio.Affine(cell, 0, west, 0, -cell, north)) as f:
+        f.write(np.asarray(z).astype(dtype), 1)
+    return path
+
+
+def not_a_tiff(path, kind):
+    if kind == "png":
+        with open(path, "wb") as f:
+            png.Writer(4, 4, greyscale=True, bitdepth=8).write(f, [[1, 2, 3, 4]] * 4)
+    elif kind == "truncated":
+        whole = dem(path.with_name("whole.tif"), 64, 64).read_bytes()
+        path.write_bytes(whole[: len(whole) // 2])
+    elif kind == "empty":
+        path.write_bytes(b"")
+    elif kind == "directory":
+        path.mkdir()
+    return path
+
+
+@pytest.fixture(scope="module")
+def river(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("river")
+    net = write_lines(tmp / "river.gpkg", [polyline((-250, 0), (250, 0), step=50.0)],
+                      {"W": np.array([12.0])})
+    graph = rf.read_rivers(net, origin_m=None, width_m="W").build()
+    from tests.gis.test_water import write_polygons
+
+    water = write_polygons(tmp / "w.geojson",
+                           [shapely.Polygon([(0, -15), (400, -40), (400, 40), (0, 15)])])
+    return graph, water
+
+
+BAD = {   # name: (make the file, the error's words)
+    "all no-data": (lambda p: dem(p, nodata=-9999.0, values=np.full((6, 8), -9999.0)),
+                    "no valid cell"),
+    "all NaN": (lambda p: dem(p, values=np.full((6, 8), np.nan)), "no valid cell"),
+    "complex": (lambda p: dem(p, dtype="complex64"), "complex numbers"),
+    "rotated": (lambda p: dem(p, transform=rasterio.Affine(100, 20, ORIGIN[0], 20, -100,
+                                                           ORIGIN[1])), "rotated raster"),
+    "a PNG renamed .tif": (lambda p: not_a_tiff(p, "png"), "not georeferenced"),
+    "truncated": (lambda p: not_a_tiff(p, "truncated"), "truncated or corrupt"),
+    "empty file": (lambda p: not_a_tiff(p, "empty"), "cannot read it as a raster"),
+    "a directory": (lambda p: not_a_tiff(p, "directory"), "not a file"),
+    "away from the rivers": (lambda p: dem(p, west=ORIGIN[0] + 1e5), "away from the river"),
+    "no CRS and elsewhere": (lambda p: dem(p, crs=None, west=0.0, north=0.0), "has no CRS"),
+}
+
+
+@pytest.mark.parametrize("name", BAD)
+def test_a_bad_terrain_raster_is_a_clear_error(tmp_path, river, name):
+    make, words = BAD[name]
+    path = make(tmp_path / "dem.tif")
+    with pytest.raises(ValueError, match=words) as err:
+        rf.landscape(river[0], terrain=path, pad_m=100.0)
+    assert "dem.tif" in str(err.value)
+
+
+@pytest.mark.parametrize("name", ["complex", "a PNG renamed .tif", "empty file", "a directory",
+                                  "all no-data", "away from the rivers"])
+def test_a_bad_dem_for_water_polygons_is_a_clear_error(tmp_path, river, name):
+    path = BAD[name][0](tmp_path / "dem.tif")
+    with pytest.raises(GraphError, match="DEM") as err:
+        rf.read_water(river[1], dem=path, origin_m=ORIGIN)
+    assert "dem.tif" in str(err.value) or "free ends" in str(err.value)
+
+
+def test_a_dem_flat_at_the_free_ends_does_not_choose_one_end_twice(tmp_path, river):
+    """A 1×1 DEM gives both ends one height: the width rule decides (before, the same end
+    was made inlet and outlet)."""
+    path = dem(tmp_path / "one.tif", 1, 1, cell=2000.0, west=ORIGIN[0] - 1000.0,
+               north=ORIGIN[1] + 1000.0)
+    builder = rf.read_water(river[1], dem=path, origin_m=ORIGIN)
+    assert builder.report.derived["direction"].startswith("the DEM is flat at the free ends")
+
+
+@pytest.mark.parametrize("shape,dtype,transform", [
+    ((1, 9), "float32", None), ((9, 1), "int8", None), ((6, 8), "uint16", None),
+    ((6, 8), "float64", "south-up"), ((6, 8), "float32", "nan cells")])
+def test_odd_but_valid_rasters_give_finite_heights(tmp_path, shape, dtype, transform):
+    ny, nx = shape
+    values = 10.0 + np.arange(nx)[None, :] + np.zeros((ny, 1))
+    t = None
+    if transform == "south-up":
+        t = rasterio.Affine(100.0, 0, ORIGIN[0] - 300, 0, 100.0, ORIGIN[1] - 300)
+    elif transform == "nan cells":
+        values[0, :3], values[1, 1], values[2, 2] = np.nan, np.inf, -np.inf
+    source = RasterSource(dem(tmp_path / "d.tif", nx, ny, dtype=dtype, values=values,
+                              transform=t))
+    z = source.heights(ORIGIN[0] + np.linspace(-400, 600, 7), ORIGIN[1] + np.linspace(-300, 300, 7))
+    assert np.isfinite(z).all() and (z >= 10.0).all() and (z <= 10.0 + nx).all()
+    source.close()
+
+
+def test_bad_raster_options_name_the_argument(tmp_path):
+    path = dem(tmp_path / "d.tif")
+    with pytest.raises(ValueError, match="z_range_m"):
+        RasterSource(path, z_range_m=(5.0, float("nan")))
+    with pytest.raises(TypeError, match="nodata"):
+        RasterSource(path, nodata="zero")
+    with pytest.raises(ValueError, match="no band 0"):
+        RasterSource(path, band=0)
+    with pytest.raises(ValueError, match="cannot reproject"):
+        RasterSource(path, crs="EPSG:999999")
+
+
+def test_a_bad_terrain_on_the_command_line_is_an_error_not_a_traceback(tmp_path, capsys):
+    from riverflow.__main__ import main
+
+    graph = tmp_path / "tiny.graph"
+    graph.write_text("0 2 5 3 1 3 2 0\n6\n0 0 1 0\n100 0 1 0\n0 -10 2 1 4\n100 -10 2 1 2\n"
+                     "100 10 2 2 3\n0 10 2 3 4\n5\n2 24 1 -1 -1 0 1 -1 -1 -1\n"
+                     "2 24 2 100 0 2 3 0 -1 -1\n2 0 1 -1 -1 3 4 0 -1 -1\n"
+                     "2 24 2 0 0 4 5 0 -1 -1\n2 0 1 -1 -1 5 2 0 -1 -1\n1\n4 0 0 1 0 2 0 3 0 4 0 -1\n")
+    bad = not_a_tiff(tmp_path / "dem.tif", "png")
+    out = tmp_path / "o.png"
+    assert main(["flowmap", "--scene", str(graph), "--terrain", str(bad), "--out", str(out)]) == 1
+    err = capsys.readouterr().err
+    assert "--terrain" in err and "not georeferenced" in err and "Traceback" not in err
+    assert not out.exists()
