@@ -189,7 +189,13 @@ class FlowField:
         try:
             self.max_level = quadtree.level_for_cell(delta, lattice_cells)
         except ValueError as exc:
-            raise ValueError(f"FlowField: potential_delta_m={delta!r}: {exc}") from None
+            if potential_delta_m is not None:
+                raise ValueError(f"FlowField: potential_delta_m={delta!r}: {exc}") from None
+            narrow = min(axes, key=lambda a: graph.curves[a].width_m)
+            raise GraphError(f"{graph.source or 'graph'}: its narrowest axis (curve {narrow}, "
+                             f"{graph.curves[narrow].width_m:g} m wide) in a network "
+                             f"{root_size:g} m across asks for a ψ lattice of {delta:g} m: "
+                             f"{exc}") from None
         if cache is None:
             tile_bytes = sum(f.nbytes for f in flow_fields(lattice_cells).values())
             cache = TileCache(cache_tiles * tile_bytes)
