@@ -366,6 +366,8 @@ def _profile(args: argparse.Namespace) -> int:
 
 
 def _render(args: argparse.Namespace) -> int:
+    if not _can_write(args):
+        return 1
     scene, title = _load_scene(args)
     if scene is None:
         return 1
@@ -412,6 +414,8 @@ def _render(args: argparse.Namespace) -> int:
 
 def _draw(args: argparse.Namespace, out: Path, *, size_px: int, slip: float = 1.0,
           radius_factor: float = 5.0, arrows: bool = False) -> int:
+    if not _can_write(args):
+        return 1
     scene, title = _load_scene(args)
     if scene is None:
         return 1
@@ -430,6 +434,18 @@ def _draw(args: argparse.Namespace, out: Path, *, size_px: int, slip: float = 1.
         return 1
     print(f"wrote {path.resolve()}")
     return 0
+
+
+def _can_write(args: argparse.Namespace) -> bool:
+    """Whether --out can be written (checked before any work; else says why)."""
+    from riverflow._atomic import writable_path
+
+    try:
+        writable_path(args.out)
+    except OSError as exc:
+        print(f"riverflow {args.command}: --out: {exc}", file=sys.stderr)
+        return False
+    return True
 
 
 def _load_scene(args: argparse.Namespace) -> tuple[Any, str]:

@@ -140,6 +140,10 @@ def run_bake(args: argparse.Namespace) -> int:
 
     try:
         preset_spec(args.preset, "riverflow bake --preset")
+        if args.tiles is None:
+            from riverflow._atomic import writable_path
+
+            writable_path(args.out)          # before the scene is made and baked
         if args.tiles is not None:
             from riverflow.gis.tiles import parse_zooms
 
@@ -246,6 +250,13 @@ def run_spill(args: argparse.Namespace) -> int:
               f"{maps:,.0f} maps; at most {MAX_SPILL_MAPS:,}: give a larger --every",
               file=sys.stderr)
         return 2
+    from riverflow._atomic import writable_path
+
+    try:
+        writable_path(args.out, folder=True)   # before the scene is made and the spill run
+    except OSError as exc:
+        print(f"riverflow spill: --out: {exc}", file=sys.stderr)
+        return 1
     scene, title = _load_scene(args)
     if scene is None:
         return 1
