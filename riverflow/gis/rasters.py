@@ -43,6 +43,12 @@ BLOCK_CELLS = 512
 raster (a long river's profile) reads only the blocks it touches."""
 
 
+SCAN_BLOCKS = 1024
+"""A raster without overviews whose strided height-range read would touch more blocks than
+this reads this many of its blocks instead, spread evenly (a 200 000² raster: 1 024 block
+reads, not 600 000)."""
+
+
 class RasterSource(HeightSource):
     """Bilinear heights [m] from band ``band`` of a north-up raster file.
 
@@ -132,14 +138,34 @@ class RasterSource(HeightSource):
 
         ny, nx = self._shape
         stride = max(1, math.ceil(math.sqrt(ny * nx / FULL_SCAN_CELLS)))
+        bh, bw = self._ds.block_shapes[self.band - 1]
         with self._lock, _read_errors(self.path, "reading its height range"):
-            data = self._ds.read(self.band, out_shape=(max(1, ny // stride), max(1, nx // stride)),
-                                 resampling=Resampling.nearest).astype(np.float64)
+            if stride > 1 and not self._ds.overviews(self.band) \
+                    and math.ceil(ny / bh) * math.ceil(nx / bw) > SCAN_BLOCKS:
+                data = self._block_sample(bh, bw)    # a strided read would touch every block
+            else:
+                data = self._ds.read(self.band, out_shape=(max(1, ny // stride),
+                                                           max(1, nx // stride)),
+                                     resampling=Resampling.nearest).astype(np.float64)
         valid = data[self._valid(data)]
         if not valid.size:
             raise ValueError(f"{self.path}: no valid cell (all are no-data = {self.nodata})")
         lo, hi = float(valid.min()), float(valid.max())
         return padded_range(lo, hi, stride)
+
+    def _block_sample(self, bh: int, bw: int) -> np.ndarray:
+        """The cells of SCAN_BLOCKS of the raster's own blocks spread evenly over it (a huge
+        raster without overviews: reading them costs SCAN_BLOCKS block reads, never all)."""
+        from rasterio.windows import Window
+
+        ny, nx = self._shape
+        k = math.isqrt(SCAN_BLOCKS)
+        rows = np.unique(np.linspace(0, math.ceil(ny / bh) - 1, k).round().astype(int)) * bh
+        cols = np.unique(np.linspace(0, math.ceil(nx / bw) - 1, k).round().astype(int)) * bw
+        parts = [self._ds.read(self.band, window=Window(int(c), int(r), min(bw, nx - int(c)),
+                                                        min(bh, ny - int(r)))).ravel()
+                 for r in rows for c in cols]
+        return np.concatenate(parts).astype(np.float64)
 
     def heights(self, x_m, y_m) -> np.ndarray:
         shape, x, y = _points(x_m, y_m, f"RasterSource({self.path.name})")

@@ -142,3 +142,31 @@ def test_a_bad_terrain_on_the_command_line_is_an_error_not_a_traceback(tmp_path,
     err = capsys.readouterr().err
     assert "--terrain" in err and "not georeferenced" in err and "Traceback" not in err
     assert not out.exists()
+
+
+def test_a_huge_raster_without_overviews_is_ranged_from_a_few_blocks(tmp_path, monkeypatch):
+    """A strided scan reads every block of a tiled raster without overviews (minutes for a
+    200 000² one): past SCAN_BLOCKS blocks a spread of whole blocks is read instead."""
+    import riverflow.gis.rasters as rasters
+
+    values = 50.0 + np.add.outer(np.arange(64.0), np.arange(64.0))       # 50 … 176
+    path = tmp_path / "tiled.tif"
+    with rasterio.open(path, "w", driver="GTiff", width=64, height=64, count=1, dtype="float32",
+                       crs=UTM, transform=rasterio.Affine(1, 0, 0, 0, -1, 64), tiled=True,
+                       blockxsize=16, blockysize=16) as f:
+        f.write(values.astype("float32"), 1)
+    monkeypatch.setattr(rasters, "FULL_SCAN_CELLS", 64)      # stride 8: a subsample
+    monkeypatch.setattr(rasters, "SCAN_BLOCKS", 4)           # 16 blocks > 4
+    reads, original = [], RasterSource._block_sample
+
+    def spy(self, bh, bw):
+        reads.append((bh, bw))
+        return original(self, bh, bw)
+
+    monkeypatch.setattr(RasterSource, "_block_sample", spy)
+    source = RasterSource(path)
+    assert reads == [(16, 16)]
+    lo, hi = source.z_range_m
+    assert lo <= 50.0 and hi >= 176.0 and source.fill_m >= 50.0   # the corners' blocks are read
+    source.close()
+
