@@ -305,14 +305,25 @@ class PngHeightSource(ArraySource):
         planes = int(info.get("planes", 1))
         if not info.get("greyscale", False):
             raise ValueError(f"{path}: a heightmap must be a greyscale PNG (this one has colour)")
+        need = 4.0 * width * height            # the float32 scratch array [bytes]
+        free = shutil.disk_usage(tempfile.gettempdir()).free
+        if need > free:
+            raise ValueError(f"{path}: a {width}×{height} heightmap needs {need / 2**30:,.1f} GiB "
+                             f"of scratch space in {tempfile.gettempdir()}, which has "
+                             f"{free / 2**30:,.1f} GiB free (a damaged header?)")
         scratch = tempfile.mkdtemp(prefix="riverflow-png-")
         self._cleanup = weakref.finalize(self, shutil.rmtree, scratch, True)
-        array = np.lib.format.open_memmap(Path(scratch) / "heights.npy", mode="w+",
-                                          dtype=np.float32, shape=(height, width))
-        for k, row in enumerate(rows):   # north-up image: row k is y index height - 1 - k
-            values = np.asarray(row, dtype=np.float64)[::planes]
-            array[height - 1 - k] = offset_m + scale_m * values
-        array.flush()
+        try:
+            array = np.lib.format.open_memmap(Path(scratch) / "heights.npy", mode="w+",
+                                              dtype=np.float32, shape=(height, width))
+            for k, row in enumerate(rows):   # north-up image: row k is y index height - 1 - k
+                values = np.asarray(row, dtype=np.float64)[::planes]
+                array[height - 1 - k] = offset_m + scale_m * values
+            array.flush()
+        except Exception as exc:   # png.FormatError / ChunkError of a truncated or corrupt file
+            self._cleanup()
+            raise ValueError(f"{path}: cannot read it as a PNG heightmap (truncated or "
+                             f"corrupt?): {type(exc).__name__}: {exc}") from None
         self.scale_m, self.offset_m, self.bitdepth = float(scale_m), float(offset_m), info["bitdepth"]
         super().__init__(array, origin_m, cell_m)
         self.path = path

@@ -170,3 +170,31 @@ def test_a_huge_raster_without_overviews_is_ranged_from_a_few_blocks(tmp_path, m
     assert lo <= 50.0 and hi >= 176.0 and source.fill_m >= 50.0   # the corners' blocks are read
     source.close()
 
+
+
+def _png_bytes(width, height, idat=b"\0" * 100):
+    """A 16-bit greyscale PNG header declaring width × height over a tiny image stream."""
+    import struct
+    import zlib
+
+    def chunk(kind, data):
+        return (struct.pack(">I", len(data)) + kind + data
+                + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF))
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", width, height, 16, 0,
+                                                               0, 0, 0))
+            + chunk(b"IDAT", zlib.compress(idat)) + chunk(b"IEND", b""))
+
+
+@pytest.mark.parametrize("data,words", [
+    (_png_bytes(2000, 2000), "cannot read it as a PNG heightmap"),     # rows missing
+    (_png_bytes(2**31 - 1, 2**31 - 1), "GiB of scratch space"),
+    (_png_bytes(4, 3, b"\0" * 30)[:-30], "cannot read it as a PNG")],
+    ids=["huge header, tiny file", "header past any disk", "truncated"])
+def test_a_damaged_png_heightmap_is_a_clear_error(tmp_path, data, words):
+    from riverflow.gis.rasters import PngHeightSource
+
+    path = tmp_path / "heights.png"
+    path.write_bytes(data)
+    with pytest.raises(ValueError, match=words) as err:
+        PngHeightSource(path, (0.0, 0.0), 1.0)
+    assert "heights.png" in str(err.value)
