@@ -19,6 +19,7 @@ source_cell_m=…`` a :class:`PngHeightSource`.
 from __future__ import annotations
 
 import math
+import os
 import shutil
 import tempfile
 import threading
@@ -73,8 +74,8 @@ class RasterSource(HeightSource):
 
     def __init__(self, path, *, band: int = 1, crs=None, nodata: float | None = None,
                  z_range_m=None) -> None:
+        dataset = open_raster(path, band)
         self.path = Path(path)
-        dataset = open_raster(self.path, band)
         self._file = self._ds = dataset
         try:
             self._open(dataset, band, crs, nodata, z_range_m)
@@ -221,6 +222,9 @@ def open_raster(path, band: int = 1, what: str = "elevation raster"):
     Raises:
         FileNotFoundError: no such file. ValueError: any check failed.
     """
+    if not isinstance(path, (str, os.PathLike)):
+        raise TypeError(f"the {what} must be a file name, got {type(path).__name__} "
+                        f"{path!r:.60}")
     rasterio = require("rasterio", f"reading the raster {path}")
     path = Path(path)
     if not path.exists():

@@ -1437,7 +1437,7 @@ def _dem_elevations(dem, ends, crs_wkt, report: RiverImport, where: str) -> dict
     xy = np.array([net.nodes[n] for net, n, _ in ends]) + np.asarray(report.origin_m)
     try:
         src = open_raster(dem, what="DEM")
-    except (ValueError, FileNotFoundError) as exc:
+    except (ValueError, FileNotFoundError, TypeError) as exc:
         raise GraphError(f"{where}: the DEM: {exc}") from None
     try:
         with src:

@@ -89,6 +89,13 @@ def test_a_bad_dem_for_water_polygons_is_a_clear_error(tmp_path, river, name):
     assert "dem.tif" in str(err.value) or "free ends" in str(err.value)
 
 
+def test_a_dem_that_is_not_a_file_name_is_named(river):
+    with pytest.raises(GraphError, match="the DEM must be a file name, got int 5"):
+        rf.read_water(river[1], dem=5, origin_m=ORIGIN)
+    with pytest.raises(TypeError, match="elevation raster must be a file name"):
+        RasterSource(np.zeros((3, 3)))
+
+
 def test_a_dem_flat_at_the_free_ends_does_not_choose_one_end_twice(tmp_path, river):
     """A 1×1 DEM gives both ends one height: the width rule decides (before, the same end
     was made inlet and outlet)."""
