@@ -142,7 +142,8 @@ def test_a_bad_terrain_on_the_command_line_is_an_error_not_a_traceback(tmp_path,
     graph.write_text("0 2 5 3 1 3 2 0\n6\n0 0 1 0\n100 0 1 0\n0 -10 2 1 4\n100 -10 2 1 2\n"
                      "100 10 2 2 3\n0 10 2 3 4\n5\n2 24 1 -1 -1 0 1 -1 -1 -1\n"
                      "2 24 2 100 0 2 3 0 -1 -1\n2 0 1 -1 -1 3 4 0 -1 -1\n"
-                     "2 24 2 0 0 4 5 0 -1 -1\n2 0 1 -1 -1 5 2 0 -1 -1\n1\n4 0 0 1 0 2 0 3 0 4 0 -1\n")
+                     "2 24 2 0 0 4 5 0 -1 -1\n2 0 1 -1 -1 5 2 0 -1 -1\n1\n"
+                     "4 0 0 1 0 2 0 3 0 4 0 -1\n")
     bad = not_a_tiff(tmp_path / "dem.tif", "png")
     out = tmp_path / "o.png"
     assert main(["flowmap", "--scene", str(graph), "--terrain", str(bad), "--out", str(out)]) == 1
