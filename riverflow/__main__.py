@@ -387,6 +387,9 @@ def _render(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     try:
         world = RiverWorld(scene, size=args.size, gl=True, seed=args.seed, config=config)
+    except ValueError as exc:  # the scene (a GraphError: a graph no flow can run in)
+        print(f"riverflow render: {exc}", file=sys.stderr)
+        return 1
     except Exception as exc:  # no OpenGL context: say what would help
         print(f"riverflow render: cannot draw: {exc}", file=sys.stderr)
         return 1

@@ -56,3 +56,34 @@ def test_a_missing_folder_is_made_and_an_old_file_replaced(places):
     assert atomic_write_bytes(places / "new" / "deeper" / "a.bin", b"1").read_bytes() == b"1"
     assert atomic_write_bytes(places / "old.png", b"new").read_bytes() == b"new"
     assert not [p for p in places.rglob(".*")]                  # no temporaries, no probes
+
+
+@pytest.mark.parametrize("command", [
+    ["render", "--size", "32x24", "--frames", "1"],
+    ["spill", "--at", "50,0", "--mass", "1", "--hours", "0.05", "--every", "1", "--png"]])
+def test_a_graph_no_flow_runs_in_is_an_error_not_a_traceback(tmp_path, capsys, monkeypatch,
+                                                             command):
+    """A hand-edited graph whose axis is a self-loop of zero length: the world refuses it with
+    a GraphError, which the command line prints (render said 'cannot draw', spill dumped a
+    traceback)."""
+    from riverflow.engine import world
+    from riverflow.hydro.flow_field import FlowField
+    from tests.hydro.test_graph_values import TINY
+
+    class NoGL(world.RiverWorld):      # render: the world's flow field, without a GL context
+        def __init__(self, scene, **_):
+            FlowField(scene.graph)
+
+    if command[0] == "render":
+        monkeypatch.setattr(world, "RiverWorld", NoGL)
+    if not TINY.exists():
+        pytest.skip(f"shared data absent: {TINY}")
+    lines = TINY.read_text().splitlines()
+    lines[9] = "2 24.000 1 -1.000 -1 0 0 -1 -1 -1"
+    graph = tmp_path / "loop.graph"
+    graph.write_text("\n".join(lines) + "\n")
+    out = tmp_path / ("r.png" if command[0] == "render" else "spill")
+    assert main([*command, "--scene", str(graph), "--out", str(out)]) == 1
+    err = capsys.readouterr().err
+    assert "curve 0 (an axis, nodes 0->0) has zero length" in err and "cannot draw" not in err
+    assert not out.exists()

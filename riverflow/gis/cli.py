@@ -265,7 +265,11 @@ def run_spill(args: argparse.Namespace) -> int:
     from riverflow.engine.world import RiverWorld
     from riverflow.gis.spill import bake_concentration
 
-    world = RiverWorld(scene, size=(16, 16), gl=False, seed=args.seed)
+    try:
+        world = RiverWorld(scene, size=(16, 16), gl=False, seed=args.seed)
+    except (ImportError, ValueError, OSError) as exc:   # a graph no flow can run in
+        print(f"riverflow spill: {exc}", file=sys.stderr)
+        return 1
     try:
         entity = world.add_spill(args.at, args.mass, 60.0 * args.duration_min,
                                  decay_per_s=args.decay_per_s, name="spill")

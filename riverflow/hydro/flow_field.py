@@ -163,7 +163,6 @@ class FlowField:
         axes = graph.axes()
         if not axes:
             raise GraphError(f"{graph.source or 'graph'}: no river axis to carry a flow")
-        compile_kernels("field")          # before the first query; says so while compiling
         min_width = min(graph.curves[a].width_m for a in axes)
         self.graph = graph
         self.slip = float(slip)
@@ -172,6 +171,7 @@ class FlowField:
         self.tolerance_m = float(tol)
         """The Bézier flattening tolerance the network was made with [m]."""
         self.network: FlowNetwork = build_flow_network(graph, self.search_radius_factor, tol)
+        compile_kernels("field")          # before the first query; says so while compiling
         delta = potential_delta_m if potential_delta_m is not None else min(
             min_width, WATER_WIDTH_FACTOR * narrowest_water_m(graph, axes)) / 24.0
         if not (math.isfinite(delta) and delta > 0.0):
