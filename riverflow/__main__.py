@@ -366,6 +366,8 @@ def _profile(args: argparse.Namespace) -> int:
 
 
 def _render(args: argparse.Namespace) -> int:
+    if not _can_write(args):
+        return 1
     scene, title = _load_scene(args)
     if scene is None:
         return 1
@@ -385,6 +387,9 @@ def _render(args: argparse.Namespace) -> int:
     start = time.perf_counter()
     try:
         world = RiverWorld(scene, size=args.size, gl=True, seed=args.seed, config=config)
+    except ValueError as exc:  # the scene (a GraphError: a graph no flow can run in)
+        print(f"riverflow render: {exc}", file=sys.stderr)
+        return 1
     except Exception as exc:  # no OpenGL context: say what would help
         print(f"riverflow render: cannot draw: {exc}", file=sys.stderr)
         return 1
@@ -412,6 +417,8 @@ def _render(args: argparse.Namespace) -> int:
 
 def _draw(args: argparse.Namespace, out: Path, *, size_px: int, slip: float = 1.0,
           radius_factor: float = 5.0, arrows: bool = False) -> int:
+    if not _can_write(args):
+        return 1
     scene, title = _load_scene(args)
     if scene is None:
         return 1
@@ -432,6 +439,18 @@ def _draw(args: argparse.Namespace, out: Path, *, size_px: int, slip: float = 1.
     return 0
 
 
+def _can_write(args: argparse.Namespace) -> bool:
+    """Whether --out can be written (checked before any work; else says why)."""
+    from riverflow._atomic import writable_path
+
+    try:
+        writable_path(args.out)
+    except OSError as exc:
+        print(f"riverflow {args.command}: --out: {exc}", file=sys.stderr)
+        return False
+    return True
+
+
 def _load_scene(args: argparse.Namespace) -> tuple[Any, str]:
     """The landscape of --scene (a graph file on procedural hills, :func:`landscape`), or the
     built-in scene of --seed; (None, message) after an error."""
@@ -443,8 +462,10 @@ def _load_scene(args: argparse.Namespace) -> tuple[Any, str]:
 
         try:    # a graph file or GIS lines, on --terrain or procedural hills
             return landscape(scene_graph(args), args.terrain, seed=args.seed), args.scene.name
-        except (GraphError, OSError, ImportError) as exc:
-            print(f"riverflow {args.command}: cannot load {args.scene}: {exc}", file=sys.stderr)
+        except (GraphError, ValueError, OSError, ImportError) as exc:  # a bad --terrain too
+            print(f"riverflow {args.command}: cannot load {args.scene}"
+                  f"{f' on --terrain {args.terrain}' if args.terrain else ''}: {exc}",
+                  file=sys.stderr)
             return None, ""
     from riverflow.scenes.default import default_scene
 

@@ -26,7 +26,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 __all__ = ["atomic_files", "atomic_write_bytes", "atomic_write_text", "require_suffix",
-           "strict_json"]
+           "strict_json", "writable_path"]
 
 
 def _temporary(path: Path) -> Path:
@@ -47,15 +47,44 @@ def _sync(path: Path) -> None:
         os.close(fd)
 
 
+def writable_path(path: str | os.PathLike, *, folder: bool = False) -> Path:
+    """``path`` as a Path after checking, before any work, that a file (``folder``: a folder)
+    can be written there: not a folder where a file is meant (or a file where a folder is),
+    its nearest existing folder above a folder and writable (an empty file is made there and
+    removed). Raises an OSError naming the path and what is in the way; returns the path."""
+    p = Path(path)
+    if folder and p.exists() and not p.is_dir():
+        raise NotADirectoryError(f"{p}: is a file, expected a folder")
+    if not folder and p.is_dir():
+        raise IsADirectoryError(f"{p}: is a folder, expected a file name")
+    above = p if folder else p.parent
+    above = above if str(above) else Path(".")
+    while not above.exists() and above != above.parent:
+        above = above.parent
+    if not above.is_dir():
+        raise NotADirectoryError(f"cannot write {p}: {above} is a file, not a folder")
+    probe = above / f".riverflow-probe-{secrets.token_hex(4)}"
+    try:                   # a real try: os.access says yes to root on a read-only file system
+        os.close(os.open(probe, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o600))
+    except OSError as exc:
+        raise PermissionError(exc.errno, f"cannot write {p}: the folder {above} is not "
+                                         f"writable ({exc.strerror or exc})") from None
+    probe.unlink(missing_ok=True)
+    return p
+
+
 @contextmanager
 def atomic_files(*paths: str | os.PathLike) -> Iterator[list[Path]]:
     """Temporary paths to write ``paths`` through; renamed into place when the block ends
     without an error, removed when it raises (module docstring). Makes the folders."""
     finals = [Path(p) for p in paths]
     for final in finals:
-        if final.is_dir():
-            raise IsADirectoryError(f"{final}: is a folder, expected a file name")
-        final.parent.mkdir(parents=True, exist_ok=True)
+        writable_path(final)
+        try:
+            final.parent.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise type(exc)(exc.errno, f"cannot write {final}: cannot make its folder: "
+                                       f"{exc.strerror or exc}") from None
     temps = [_temporary(p) for p in finals]
     done: list[Path] = []
     try:
@@ -67,11 +96,17 @@ def atomic_files(*paths: str | os.PathLike) -> Iterator[list[Path]]:
         for temp, final in zip(temps, finals):
             os.replace(temp, final)
             done.append(final)
-    except BaseException:
+    except BaseException as exc:
         for temp in temps:
             temp.unlink(missing_ok=True)
         for final in done:                   # a later rename failed: all or nothing
             final.unlink(missing_ok=True)
+        named = getattr(exc, "filename", None)
+        if isinstance(exc, OSError) and named is not None and exc.strerror:
+            for temp, final in zip(temps, finals):   # name the file asked for, not a temporary
+                if os.fspath(named) == os.fspath(temp):
+                    raise type(exc)(exc.errno, f"cannot write {final}: {exc.strerror}") \
+                        from None
         raise
 
 

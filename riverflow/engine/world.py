@@ -529,6 +529,7 @@ class RiverWorld:
     def set_discharge(self, link, q_m3s: float) -> None:
         """A constant inflow ``q_m3s`` [m³/s] at the start of ``link`` from now on
         (:meth:`set_hydrograph` with one point)."""
+        q_m3s = non_negative(q_m3s, "set_discharge: q_m3s")
         self.set_hydrograph(link, [self.flood_time_s], [q_m3s])
 
     # -- live edits (issue 25) ---------------------------------------------------------------

@@ -140,6 +140,10 @@ def run_bake(args: argparse.Namespace) -> int:
 
     try:
         preset_spec(args.preset, "riverflow bake --preset")
+        if args.tiles is None:
+            from riverflow._atomic import writable_path
+
+            writable_path(args.out)          # before the scene is made and baked
         if args.tiles is not None:
             from riverflow.gis.tiles import parse_zooms
 
@@ -246,6 +250,13 @@ def run_spill(args: argparse.Namespace) -> int:
               f"{maps:,.0f} maps; at most {MAX_SPILL_MAPS:,}: give a larger --every",
               file=sys.stderr)
         return 2
+    from riverflow._atomic import writable_path
+
+    try:
+        writable_path(args.out, folder=True)   # before the scene is made and the spill run
+    except OSError as exc:
+        print(f"riverflow spill: --out: {exc}", file=sys.stderr)
+        return 1
     scene, title = _load_scene(args)
     if scene is None:
         return 1
@@ -254,7 +265,11 @@ def run_spill(args: argparse.Namespace) -> int:
     from riverflow.engine.world import RiverWorld
     from riverflow.gis.spill import bake_concentration
 
-    world = RiverWorld(scene, size=(16, 16), gl=False, seed=args.seed)
+    try:
+        world = RiverWorld(scene, size=(16, 16), gl=False, seed=args.seed)
+    except (ImportError, ValueError, OSError) as exc:   # a graph no flow can run in
+        print(f"riverflow spill: {exc}", file=sys.stderr)
+        return 1
     try:
         entity = world.add_spill(args.at, args.mass, 60.0 * args.duration_min,
                                  decay_per_s=args.decay_per_s, name="spill")

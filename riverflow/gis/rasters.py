@@ -19,14 +19,17 @@ source_cell_m=…`` a :class:`PngHeightSource`.
 from __future__ import annotations
 
 import math
+import os
 import shutil
 import tempfile
 import threading
+import warnings
 import weakref
 from pathlib import Path
 
 import numpy as np
 
+from riverflow._validate import _number, as_floats
 from riverflow.gis import require
 from riverflow.scenes.sources import (
     FULL_SCAN_CELLS,
@@ -39,6 +42,12 @@ from riverflow.scenes.sources import (
 BLOCK_CELLS = 512
 """Points are read in blocks of at most this many cells a side, so a batch spread over a huge
 raster (a long river's profile) reads only the blocks it touches."""
+
+
+SCAN_BLOCKS = 1024
+"""A raster without overviews whose strided height-range read would touch more blocks than
+this reads this many of its blocks instead, spread evenly (a 200 000² raster: 1 024 block
+reads, not 600 000)."""
 
 
 class RasterSource(HeightSource):
@@ -65,29 +74,32 @@ class RasterSource(HeightSource):
 
     def __init__(self, path, *, band: int = 1, crs=None, nodata: float | None = None,
                  z_range_m=None) -> None:
-        rasterio = require("rasterio", f"reading the raster {path}")
+        dataset = open_raster(path, band)
         self.path = Path(path)
-        if not self.path.exists():
-            raise FileNotFoundError(f"elevation raster not found: {str(self.path)!r}")
+        self._file = self._ds = dataset
         try:
-            dataset = rasterio.open(self.path)
-        except Exception as exc:  # rasterio.errors.RasterioIOError
-            raise ValueError(f"{self.path}: cannot read it as a raster: {exc}") from None
-        self._file = dataset
+            self._open(dataset, band, crs, nodata, z_range_m)
+        except Exception:
+            self.close()
+            raise
+
+    def _open(self, dataset, band, crs, nodata, z_range_m) -> None:
         self.reprojected = False
         if crs is not None and dataset.crs is not None:
             from rasterio.crs import CRS
             from rasterio.enums import Resampling
             from rasterio.vrt import WarpedVRT
 
-            target = CRS.from_user_input(crs)
-            if target != dataset.crs:
-                dataset = WarpedVRT(dataset, crs=target, resampling=Resampling.bilinear)
-                self.reprojected = True
+            try:
+                target = CRS.from_user_input(crs)
+                if target != dataset.crs:
+                    dataset = WarpedVRT(dataset, crs=target, resampling=Resampling.bilinear)
+                    self.reprojected = True
+            except Exception as exc:  # rasterio.errors.CRSError, a failed warp
+                raise ValueError(f"{self.path}: cannot reproject it from its CRS "
+                                 f"({dataset.crs}) to {str(crs)[:80]!r}: {exc}") from None
         self._ds = dataset
         self.crs = None if dataset.crs is None else dataset.crs.to_wkt()
-        if not 1 <= band <= dataset.count:
-            raise ValueError(f"{self.path}: no band {band} (it has {dataset.count})")
         self.band = int(band)
         t = dataset.transform
         if t.b != 0.0 or t.d != 0.0:
@@ -98,6 +110,8 @@ class RasterSource(HeightSource):
         self._x0, self._dx = t.c + 0.5 * t.a, t.a      # pixel-centre x of column 0, step
         self._y0, self._dy = t.f + 0.5 * t.e, t.e      # pixel-centre y of row 0, step (< 0)
         self._shape = (dataset.height, dataset.width)
+        if nodata is not None:
+            nodata = _number(nodata, f"RasterSource({self.path.name}): nodata")
         self.nodata = nodata if nodata is not None else dataset.nodatavals[band - 1]
         self.cell_m = float(min(abs(t.a), abs(t.e)))
         xs = (self._x0, self._x0 + (dataset.width - 1) * self._dx)
@@ -105,7 +119,13 @@ class RasterSource(HeightSource):
         self.bounds_m = (min(xs), min(ys), max(xs), max(ys))
         self._lock = threading.Lock()   # a GDAL dataset is not to be read from two threads
         lo, hi, self.fill_m = self._scan()
-        self.z_range_m = (lo, hi) if z_range_m is None else tuple(float(v) for v in z_range_m)
+        if z_range_m is not None:
+            z = as_floats(z_range_m, f"RasterSource({self.path.name}): z_range_m")
+            if z.shape != (2,) or not np.isfinite(z).all() or not z[0] <= z[1]:
+                raise ValueError(f"RasterSource({self.path.name}): z_range_m must be finite "
+                                 f"(lo, hi) with lo ≤ hi [m], got {z_range_m!r:.80}")
+            lo, hi = float(z[0]), float(z[1])
+        self.z_range_m = (lo, hi)
 
     def _valid(self, block: np.ndarray) -> np.ndarray:
         ok = np.isfinite(block)
@@ -119,14 +139,34 @@ class RasterSource(HeightSource):
 
         ny, nx = self._shape
         stride = max(1, math.ceil(math.sqrt(ny * nx / FULL_SCAN_CELLS)))
-        with self._lock:
-            data = self._ds.read(self.band, out_shape=(max(1, ny // stride), max(1, nx // stride)),
-                                 resampling=Resampling.nearest).astype(np.float64)
+        bh, bw = self._ds.block_shapes[self.band - 1]
+        with self._lock, _read_errors(self.path, "reading its height range"):
+            if stride > 1 and not self._ds.overviews(self.band) \
+                    and math.ceil(ny / bh) * math.ceil(nx / bw) > SCAN_BLOCKS:
+                data = self._block_sample(bh, bw)    # a strided read would touch every block
+            else:
+                data = self._ds.read(self.band, out_shape=(max(1, ny // stride),
+                                                           max(1, nx // stride)),
+                                     resampling=Resampling.nearest).astype(np.float64)
         valid = data[self._valid(data)]
         if not valid.size:
             raise ValueError(f"{self.path}: no valid cell (all are no-data = {self.nodata})")
         lo, hi = float(valid.min()), float(valid.max())
         return padded_range(lo, hi, stride)
+
+    def _block_sample(self, bh: int, bw: int) -> np.ndarray:
+        """The cells of SCAN_BLOCKS of the raster's own blocks spread evenly over it (a huge
+        raster without overviews: reading them costs SCAN_BLOCKS block reads, never all)."""
+        from rasterio.windows import Window
+
+        ny, nx = self._shape
+        k = math.isqrt(SCAN_BLOCKS)
+        rows = np.unique(np.linspace(0, math.ceil(ny / bh) - 1, k).round().astype(int)) * bh
+        cols = np.unique(np.linspace(0, math.ceil(nx / bw) - 1, k).round().astype(int)) * bw
+        parts = [self._ds.read(self.band, window=Window(int(c), int(r), min(bw, nx - int(c)),
+                                                        min(bh, ny - int(r)))).ravel()
+                 for r in rows for c in cols]
+        return np.concatenate(parts).astype(np.float64)
 
     def heights(self, x_m, y_m) -> np.ndarray:
         shape, x, y = _points(x_m, y_m, f"RasterSource({self.path.name})")
@@ -152,7 +192,8 @@ class RasterSource(HeightSource):
         """Rows [r0, r1) and columns [c0, c1) as float64 [m], no-data filled."""
         from rasterio.windows import Window
 
-        with self._lock:
+        with self._lock, _read_errors(self.path, f"reading rows {r0}…{r1 - 1}, columns "
+                                                  f"{c0}…{c1 - 1}"):
             block = self._ds.read(self.band, window=Window(c0, r0, c1 - c0, r1 - r0))
         block = block.astype(np.float64)
         bad = ~self._valid(block)
@@ -170,6 +211,72 @@ class RasterSource(HeightSource):
         ny, nx = self._shape
         return (f"RasterSource({str(self.path)!r}, {nx}×{ny} cells of {self.cell_m:g} m"
                 f"{', reprojected' if self.reprojected else ''})")
+
+
+def open_raster(path, band: int = 1, what: str = "elevation raster"):
+    """Open ``path`` with rasterio for its heights, band ``band``, after the checks every
+    elevation raster passes (:class:`RasterSource`, ``rf.read_water(dem=)``): a file GDAL
+    reads as a raster, the band present, real numbers (not complex), georeferenced (a PNG /
+    JPEG renamed .tif has no geotransform), finite non-zero pixel sides. Errors name the file.
+
+    Raises:
+        FileNotFoundError: no such file. ValueError: any check failed.
+    """
+    if not isinstance(path, (str, os.PathLike)):
+        raise TypeError(f"the {what} must be a file name, got {type(path).__name__} "
+                        f"{path!r:.60}")
+    rasterio = require("rasterio", f"reading the raster {path}")
+    path = Path(path)
+    if not path.exists():
+        raise FileNotFoundError(f"{what} not found: {str(path)!r}")
+    if not path.is_file():
+        raise ValueError(f"{path}: the {what} is not a file (a directory?)")
+    try:
+        with warnings.catch_warnings():      # no georeferencing is refused below, by name
+            warnings.simplefilter("ignore", rasterio.errors.NotGeoreferencedWarning)
+            dataset = rasterio.open(path)
+    except Exception as exc:  # rasterio.errors.RasterioIOError
+        raise ValueError(f"{path}: cannot read it as a raster: {exc}") from None
+    try:
+        if isinstance(band, bool) or not isinstance(band, (int, np.integer)) \
+                or not 1 <= band <= dataset.count:
+            raise ValueError(f"{path}: no band {band!r} (it has {dataset.count})")
+        dtype = dataset.dtypes[band - 1]
+        if "complex" in dtype:
+            raise ValueError(f"{path}: band {band} holds complex numbers ({dtype}), not "
+                             "heights; give a raster of real elevations [m]")
+        t = dataset.transform
+        if not all(math.isfinite(v) for v in tuple(t)[:6]):
+            raise ValueError(f"{path}: its geotransform {tuple(t)[:6]} is not finite")
+        if dataset.crs is None and t.is_identity and not dataset.gcps[0]:
+            raise ValueError(f"{path}: not georeferenced (no geotransform and no CRS; "
+                             f"{dataset.driver} data, an image renamed?): give a GeoTIFF, or "
+                             "a PNG heightmap with origin_m and cell_m")
+        if abs(t.a * t.e - t.b * t.d) == 0.0:
+            raise ValueError(f"{path}: its pixels have no area (geotransform {tuple(t)[:6]})")
+    except Exception:
+        dataset.close()
+        raise
+    return dataset
+
+
+class _read_errors:
+    """Turn a failed read of a raster (a truncated or corrupt file, read lazily) into a
+    ValueError naming the file and what was read."""
+
+    def __init__(self, path: Path, what: str) -> None:
+        self.path, self.what = path, what
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, kind, exc, tb):
+        from rasterio.errors import RasterioError
+
+        if exc is not None and isinstance(exc, RasterioError):
+            raise ValueError(f"{self.path}: cannot read the raster ({self.what}): {exc}; "
+                             "the file is truncated or corrupt") from None
+        return False
 
 
 def _axis(g: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -202,14 +309,25 @@ class PngHeightSource(ArraySource):
         planes = int(info.get("planes", 1))
         if not info.get("greyscale", False):
             raise ValueError(f"{path}: a heightmap must be a greyscale PNG (this one has colour)")
+        need = 4.0 * width * height            # the float32 scratch array [bytes]
+        free = shutil.disk_usage(tempfile.gettempdir()).free
+        if need > free:
+            raise ValueError(f"{path}: a {width}×{height} heightmap needs {need / 2**30:,.1f} GiB "
+                             f"of scratch space in {tempfile.gettempdir()}, which has "
+                             f"{free / 2**30:,.1f} GiB free (a damaged header?)")
         scratch = tempfile.mkdtemp(prefix="riverflow-png-")
         self._cleanup = weakref.finalize(self, shutil.rmtree, scratch, True)
-        array = np.lib.format.open_memmap(Path(scratch) / "heights.npy", mode="w+",
-                                          dtype=np.float32, shape=(height, width))
-        for k, row in enumerate(rows):   # north-up image: row k is y index height - 1 - k
-            values = np.asarray(row, dtype=np.float64)[::planes]
-            array[height - 1 - k] = offset_m + scale_m * values
-        array.flush()
+        try:
+            array = np.lib.format.open_memmap(Path(scratch) / "heights.npy", mode="w+",
+                                              dtype=np.float32, shape=(height, width))
+            for k, row in enumerate(rows):   # north-up image: row k is y index height - 1 - k
+                values = np.asarray(row, dtype=np.float64)[::planes]
+                array[height - 1 - k] = offset_m + scale_m * values
+            array.flush()
+        except Exception as exc:   # png.FormatError / ChunkError of a truncated or corrupt file
+            self._cleanup()
+            raise ValueError(f"{path}: cannot read it as a PNG heightmap (truncated or "
+                             f"corrupt?): {type(exc).__name__}: {exc}") from None
         self.scale_m, self.offset_m, self.bitdepth = float(scale_m), float(offset_m), info["bitdepth"]
         super().__init__(array, origin_m, cell_m)
         self.path = path

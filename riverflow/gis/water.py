@@ -790,17 +790,26 @@ class _Network:
         lens = [c.length for c in self.channels] * 2
         adj = coo_matrix((lens, (rows, cols)), shape=(n, n)).tocsr()
         inlets, outlets = sorted(self.inlets), sorted(self.outlets)
+        flat = ""
         if inlets or outlets:
             rule = "from the inlets / outlets given"
         elif elevations is not None and len(leaves) >= 2:
             z = {k: elevations.get((id(self), k), math.nan) for k in leaves}
             known = [k for k in leaves if math.isfinite(z[k])]
             if len(known) < 2:
-                raise GraphError("the DEM has no elevation at two free ends of the water")
-            inlets = [max(known, key=lambda k: z[k])]
-            outlets = [min(known, key=lambda k: z[k])]
-            rule = "from the DEM (highest free end in, lowest out)"
-        else:
+                off = [_xy_text(self.nodes[k]) for k in leaves if k not in known]
+                raise GraphError(f"the DEM gives an elevation at {len(known)} of the "
+                                 f"{len(leaves)} free ends of the water, two are needed: "
+                                 f"{', '.join(off[:4])}{' …' if len(off) > 4 else ''} lie off "
+                                 "it or on no-data (check that the DEM covers the water, in "
+                                 "its CRS), or give inlet_xy / outlet_xy")
+            top, low = max(known, key=lambda k: z[k]), min(known, key=lambda k: z[k])
+            if z[top] > z[low]:
+                inlets, outlets = [top], [low]
+                rule = "from the DEM (highest free end in, lowest out)"
+            else:                          # a DEM flat at the free ends cannot tell
+                flat = f"the DEM is flat at the free ends ({z[top]:g} m), so "
+        if not inlets and not outlets:
             if len(leaves) < 2:
                 raise GraphError(f"the water near {_xy_text(self.nodes[0])} has "
                                  f"fewer than two free ends: no way in and out")
@@ -810,7 +819,7 @@ class _Network:
             b = max(leaves, key=lambda k: da[k])
             wa, wb = self._end_width(a), self._end_width(b)
             inlets, outlets = ([a], [b]) if wa <= wb else ([b], [a])
-            rule = ("the longest path along the axes, from its narrower end "
+            rule = (f"{flat}the longest path along the axes, from its narrower end "
                     f"({min(wa, wb):.1f} m) to its wider ({max(wa, wb):.1f} m)")
         if not outlets:          # water enters where it is said to; it leaves by the rest
             outlets = [k for k in leaves if k not in inlets]
@@ -1423,10 +1432,15 @@ def _match_points(ends, pts: np.ndarray, what: str, where: str, water) -> None:
 
 def _dem_elevations(dem, ends, crs_wkt, report: RiverImport, where: str) -> dict:
     """Elevation of the DEM at every free end: {(id(network), node): z} (NaN off the DEM)."""
-    rasterio = require("rasterio", f"reading the DEM {dem}")
+    from riverflow.gis.rasters import open_raster
+
     xy = np.array([net.nodes[n] for net, n, _ in ends]) + np.asarray(report.origin_m)
     try:
-        with rasterio.open(dem) as src:
+        src = open_raster(dem, what="DEM")
+    except (ValueError, FileNotFoundError, TypeError) as exc:
+        raise GraphError(f"{where}: the DEM: {exc}") from None
+    try:
+        with src:
             if crs_wkt and src.crs:
                 pyproj = require("pyproj", "projecting to the DEM")
                 to = pyproj.Transformer.from_crs(pyproj.CRS.from_wkt(report.crs),

@@ -52,10 +52,12 @@ from riverflow.hydro._network import BranchGeometry, LakeParts, assemble_graph
 from riverflow.hydro.bezier import flatten_curve
 from riverflow.hydro.falls import (FALL_KINDS, FALL_MIN_DROP_M, RAPIDS_MIN_SLOPE, Fall, Rapid,
                                    channel_depth_m, find_falls, find_rapids)
-from riverflow.hydro.flow_network import MAX_PSI
+from riverflow.hydro.flow_network import MAX_PSI, MAX_WIDTH_M
 from riverflow.hydro.graph import GraphError, HydroGraph
 from riverflow.hydro.nearest import PolylineIndex
 
+MIN_WIDTH_M = 1e-3
+"""Narrowest branch width [m] the builder takes (a millimetre: narrower is a unit mistake)."""
 MAX_TURN_DEG = 135.0
 """Sharpest turn of a centre line at one point; sharper ones fold the strip onto itself."""
 JOIN_FRACTION = 0.25
@@ -217,6 +219,10 @@ class RiverNetworkBuilder:
         if not (np.isfinite(w).all() and (w > 0).all()):
             bad = int(np.flatnonzero(~(np.isfinite(w) & (w > 0)))[0])
             raise GraphError(f"branch {name!r}: width at point {bad} must be a positive number, got {w[bad]}")
+        if not ((w >= MIN_WIDTH_M) & (w <= MAX_WIDTH_M)).all():
+            bad = int(np.flatnonzero((w < MIN_WIDTH_M) | (w > MAX_WIDTH_M))[0])
+            raise GraphError(f"branch {name!r}: width at point {bad} is {w[bad]:g} m, outside "
+                             f"{MIN_WIDTH_M:g} … {MAX_WIDTH_M:g} m (no river's width)")
         if discharge_m2s is not None:
             q = as_floats(discharge_m2s, f"branch {name!r}: discharge", GraphError)
             if q.ndim != 0:
@@ -487,6 +493,16 @@ class RiverNetworkBuilder:
 
     def build(self) -> HydroGraph:
         """Make the hydro graph. Raises :class:`GraphError` naming the branch or junction."""
+        import shapely.errors
+
+        try:
+            return self._build()
+        except shapely.errors.GEOSException as exc:   # degenerate geometry: no GEOS traceback
+            raise GraphError(f"the network's banks could not be made ({exc}): a width far "
+                             f"below tolerance_m = {self.tolerance_m:g} m, or strips that "
+                             "nearly touch?") from None
+
+    def _build(self) -> HydroGraph:
         if not self._branches and not self._lakes:
             raise GraphError("no branches: add at least one with add_branch()")
         branches = [_BranchInput(b.name, b.centerline_m.copy(), b.widths_m.copy(), b.discharge_m2s)

@@ -29,6 +29,10 @@ import numpy as np
 from riverflow.kernels.flood import (CellRaster, FloodNet, Hydrographs, flood_steps,
                                      sample_by_cells, scale_by_cells)
 
+MAX_FLOOD_RATIO = 1e4
+"""Largest hydrograph discharge over a link's base flow Q₀ (floods reach tens of times their
+base flow): the fixed step shrinks as ratio^(-2/5), so a larger ratio (a unit mistake) would
+stall the frames and overflow the step count."""
 COURANT = 0.9
 """Largest Courant number c dt / Δx of the router's fixed step."""
 ACTIVE_EPS = 1e-9
@@ -288,6 +292,14 @@ class FloodRouter:
             raise ValueError(f"set_hydrograph: times_s must increase strictly, but times_s[{k + 1}]"
                              f" = {t[k + 1]!r} ≤ times_s[{k}] = {t[k]!r}")
         base = self.net.link_q0[targets]
+        k = int(np.argmax(q))
+        if q[k] > MAX_FLOOD_RATIO * base.sum():      # checked before anything changes
+            where = ("the sources' base flow together" if link is None else
+                     f"link {self.network.names[targets[0]]!r}'s base flow")
+            raise ValueError(f"set_hydrograph: discharge_m3s[{k}] = {q[k]:g} m³/s is "
+                             f"{q[k] / base.sum():.3g} × {where} ({base.sum():g} m³/s); at "
+                             f"most {MAX_FLOOD_RATIO:g} × is routed (the wave's time step "
+                             "would shrink without end)")
         for b, share in zip(targets, base / base.sum()):
             self.hydrographs[b] = (t.copy(), q * share)
         self._table = self._pack()

@@ -163,7 +163,6 @@ class FlowField:
         axes = graph.axes()
         if not axes:
             raise GraphError(f"{graph.source or 'graph'}: no river axis to carry a flow")
-        compile_kernels("field")          # before the first query; says so while compiling
         min_width = min(graph.curves[a].width_m for a in axes)
         self.graph = graph
         self.slip = float(slip)
@@ -172,6 +171,7 @@ class FlowField:
         self.tolerance_m = float(tol)
         """The Bézier flattening tolerance the network was made with [m]."""
         self.network: FlowNetwork = build_flow_network(graph, self.search_radius_factor, tol)
+        compile_kernels("field")          # before the first query; says so while compiling
         delta = potential_delta_m if potential_delta_m is not None else min(
             min_width, WATER_WIDTH_FACTOR * narrowest_water_m(graph, axes)) / 24.0
         if not (math.isfinite(delta) and delta > 0.0):
@@ -189,7 +189,13 @@ class FlowField:
         try:
             self.max_level = quadtree.level_for_cell(delta, lattice_cells)
         except ValueError as exc:
-            raise ValueError(f"FlowField: potential_delta_m={delta!r}: {exc}") from None
+            if potential_delta_m is not None:
+                raise ValueError(f"FlowField: potential_delta_m={delta!r}: {exc}") from None
+            narrow = min(axes, key=lambda a: graph.curves[a].width_m)
+            raise GraphError(f"{graph.source or 'graph'}: its narrowest axis (curve {narrow}, "
+                             f"{graph.curves[narrow].width_m:g} m wide) in a network "
+                             f"{root_size:g} m across asks for a ψ lattice of {delta:g} m: "
+                             f"{exc}") from None
         if cache is None:
             tile_bytes = sum(f.nbytes for f in flow_fields(lattice_cells).values())
             cache = TileCache(cache_tiles * tile_bytes)

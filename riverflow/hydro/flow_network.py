@@ -107,6 +107,13 @@ MAX_PSI = 1e9
 about 1e4 m²/s), and ψ is stored in float32 lattices."""
 
 
+MAX_COORD_M = 1e8
+"""Largest |coordinate| [m] of a graph's curves (the Earth is 4e7 m round): beyond it a
+file's numbers are a mistake, and the quadtree could not reach a river's scale."""
+MAX_WIDTH_M = 1e6
+"""Largest axis width [m] (the widest estuaries are about 2e5 m)."""
+
+
 def build_flow_network(graph: HydroGraph, search_radius_factor: float,
                        tolerance_m: float) -> FlowNetwork:
     """Prepare ``graph`` for the flow kernels.
@@ -124,6 +131,19 @@ def build_flow_network(graph: HydroGraph, search_radius_factor: float,
     for i, p in poly.items():
         if not np.all(np.isfinite(p)):
             raise GraphError(f"{name}: curve {i} has a non-finite coordinate")
+        far = np.abs(p).max(initial=0.0)
+        if far > MAX_COORD_M:
+            raise GraphError(f"{name}: curve {i} has a coordinate {far:g} m from the origin, "
+                             f"beyond {MAX_COORD_M:g} m (no map is that large; a unit or "
+                             "origin mistake?)")
+        c = graph.curves[i]
+        if (c.is_bank or c.is_axis) and (len(p) < 2 or not np.any(p[1:] != p[0])):
+            raise GraphError(f"{name}: curve {i} ({'a bank' if c.is_bank else 'an axis'}, "
+                             f"nodes {c.start}->{c.end}) has zero length: all its points lie at "
+                             f"({p[0, 0]:g}, {p[0, 1]:g})")
+        if c.is_axis and not c.width_m <= MAX_WIDTH_M:
+            raise GraphError(f"{name}: curve {i} (an axis) has the width {c.width_m:g} m, "
+                             f"beyond {MAX_WIDTH_M:g} m (no river is that wide)")
     for i, c in enumerate(graph.curves):
         if c.is_bank and not abs(c.potential) <= MAX_PSI:   # NaN too
             raise GraphError(f"{name}: curve {i} (a bank) has the potential {c.potential!r} "

@@ -385,6 +385,7 @@ def landscape(graph: HydroGraph, terrain=None, *, seed: int = 0, cell_m: float |
         pad_m = max(0.25 * max(x1 - x0, y1 - y0), 512.0)
     quadtree = Quadtree.around((x0, y0, x1, y1), pad_m=pad_m)
     source = as_height_source(terrain, origin_m=origin_m, cell_m=source_cell_m, crs=graph.crs)
+    _check_overlap(source, (x0, y0, x1, y1), graph)
     narrowest = min(float(b.widths_m.min()) for b in branches)
     if cell_m is None:
         cell_m = min(DEFAULT_CELL_M, max(0.25 * narrowest, 0.5))
@@ -408,6 +409,24 @@ def landscape(graph: HydroGraph, terrain=None, *, seed: int = 0, cell_m: float |
     terrain_ = CarvedTerrain(source, water, carving, quadtree, float(cell_m))
     return Landscape(graph, terrain_, water, quadtree.bounds_m, int(seed), branches, [],
                      z_range(source, water, carving), profile_ground=profile_ground)
+
+
+def _check_overlap(source, bounds, graph: HydroGraph) -> None:
+    """A terrain whose data lies wholly away from the rivers (another CRS, a wrong origin) is
+    an error naming both boxes, not a flat plain of edge values."""
+    box = getattr(source, "bounds_m", None)
+    if box is None:
+        return
+    x0, y0, x1, y1 = bounds
+    if box[0] <= x1 and x0 <= box[2] and box[1] <= y1 and y0 <= box[3]:
+        return
+    hint = ""
+    if getattr(source, "crs", "given") is None and graph.crs:
+        hint = ("; the raster has no CRS, so its coordinates were taken in the network's: "
+                "give it one (gdal_edit.py -a_srs)")
+    raise ValueError(f"landscape: the terrain {source!r} covers x {box[0]:,.1f} … "
+                     f"{box[2]:,.1f}, y {box[1]:,.1f} … {box[3]:,.1f} [m], away from the river "
+                     f"network (x {x0:,.1f} … {x1:,.1f}, y {y0:,.1f} … {y1:,.1f}){hint}")
 
 
 def branches_of_graph(graph: HydroGraph, polygon) -> list[RiverBranch]:

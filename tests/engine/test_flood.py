@@ -165,7 +165,9 @@ def test_bad_hydrographs_raise_and_keep_the_old_state(diamond):
             ("top", [0.0, 1.0], [1.0], "2 values"),
             ("top", "soon", [1.0], "numbers"),
             ("nowhere", [0.0], [1.0], "no link named 'nowhere'"),
-            (7, [0.0], [1.0], "out of range")):
+            (7, [0.0], [1.0], "out of range"),
+            ("top", [0.0, 1.0], [20.0, 1e300], "at most 10000 ×"),   # overflowed the step count
+            (None, [0.0], [1e12], "at most 10000 ×")):
         with pytest.raises(ValueError, match=match):
             router.set_hydrograph(link, t, q)
     assert np.array_equal(router.a, before[0]) and router.dt_s == before[1]
