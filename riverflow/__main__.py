@@ -15,7 +15,8 @@ import argparse
 import sys
 import time
 from pathlib import Path
-from typing import Any
+
+from riverflow.gis.cli import load_scene
 
 DISPLAY_MODES = ("none", "mesh", "coverage", "advected", "pre-advected", "non-advected",
                  "foam", "concentration", "grid", "particles", "velocities")
@@ -297,7 +298,7 @@ def _demo(args: argparse.Namespace) -> int:
         headless = True
     if headless:
         os.environ["PYGLET_HEADLESS"] = "1"      # before anything imports pyglet's GL
-    scene, title = _load_scene(args)
+    scene, title = load_scene(args)
     if scene is None:
         return 1
     from riverflow import demo
@@ -341,7 +342,7 @@ def _demo(args: argparse.Namespace) -> int:
 def _profile(args: argparse.Namespace) -> int:
     import json
 
-    scene, title = _load_scene(args)
+    scene, title = load_scene(args)
     if scene is None:
         return 1
     from riverflow.engine.profiling import format_profile, profile_flight
@@ -368,7 +369,7 @@ def _profile(args: argparse.Namespace) -> int:
 def _render(args: argparse.Namespace) -> int:
     if not _can_write(args):
         return 1
-    scene, title = _load_scene(args)
+    scene, title = load_scene(args)
     if scene is None:
         return 1
     import dataclasses
@@ -419,7 +420,7 @@ def _draw(args: argparse.Namespace, out: Path, *, size_px: int, slip: float = 1.
           radius_factor: float = 5.0, arrows: bool = False) -> int:
     if not _can_write(args):
         return 1
-    scene, title = _load_scene(args)
+    scene, title = load_scene(args)
     if scene is None:
         return 1
     try:
@@ -449,31 +450,6 @@ def _can_write(args: argparse.Namespace) -> bool:
         print(f"riverflow {args.command}: --out: {exc}", file=sys.stderr)
         return False
     return True
-
-
-def _load_scene(args: argparse.Namespace) -> tuple[Any, str]:
-    """The landscape of --scene (a graph file on procedural hills, :func:`landscape`), or the
-    built-in scene of --seed; (None, message) after an error."""
-    from riverflow.hydro.graph import GraphError
-
-    if args.scene is not None:
-        from riverflow.gis.cli import scene_graph
-        from riverflow.scenes.landscape import landscape
-
-        try:    # a graph file or GIS lines, on --terrain or procedural hills
-            return landscape(scene_graph(args), args.terrain, seed=args.seed), args.scene.name
-        except (GraphError, ValueError, OSError, ImportError) as exc:  # a bad --terrain too
-            print(f"riverflow {args.command}: cannot load {args.scene}"
-                  f"{f' on --terrain {args.terrain}' if args.terrain else ''}: {exc}",
-                  file=sys.stderr)
-            return None, ""
-    from riverflow.scenes.default import default_scene
-
-    falls = bool(getattr(args, "falls", False))
-    dam = bool(getattr(args, "dam", False))
-    return (default_scene(seed=args.seed, falls=falls, dam=dam),
-            f"built-in scene, seed {args.seed}{', falls' if falls else ''}"
-            f"{', dam' if dam else ''}")
 
 
 if __name__ == "__main__":

@@ -43,7 +43,7 @@ import shapely
 from riverflow._atomic import atomic_files, require_suffix, strict_json
 from riverflow._validate import check_allocation, finite_positive
 from riverflow.components.status import FlowStatus
-from riverflow.gis import require
+from riverflow._extras import require
 from riverflow.hydro.graph import HydroGraph
 
 MAX_SIDE_PX = 16384

@@ -1,5 +1,7 @@
-"""The command line's GIS parts (``riverflow/__main__.py`` calls these): ``--scene`` with GIS
-stream lines, ``--layer``, ``--terrain`` and the ``bake`` subcommand.
+"""The command line's scene and GIS parts (``riverflow/__main__.py`` calls these; nothing here
+imports it): the scene a command runs on (:func:`load_scene`: ``--scene`` with a graph file,
+GIS stream lines or water areas, ``--layer``, ``--terrain``, or the built-in scene), and the
+``bake``, ``check`` and ``spill`` subcommands.
 
 Nothing heavy is imported here at import time (``--help`` stays free of numba and pyglet).
 """
@@ -9,6 +11,7 @@ import argparse
 import math
 import sys
 from pathlib import Path
+from typing import Any
 
 
 def add_scene_options(p: argparse.ArgumentParser) -> None:
@@ -50,6 +53,31 @@ def read_water_args(path, args: argparse.Namespace):
     return read_water(path, layer=getattr(args, "layer", None),
                       lines=getattr(args, "lines", None),
                       inlets=getattr(args, "inlet", None), outlets=getattr(args, "outlet", None))
+
+
+def load_scene(args: argparse.Namespace) -> tuple[Any, str]:
+    """The landscape of --scene (a graph file on procedural hills, :func:`landscape`), or the
+    built-in scene of --seed; (None, message) after an error."""
+    from riverflow.hydro.graph import GraphError
+
+    if args.scene is not None:
+        from riverflow.scenes.landscape import landscape
+
+        try:    # a graph file or GIS lines, on --terrain or procedural hills
+            return landscape(scene_graph(args), args.terrain, seed=args.seed), args.scene.name
+        except (GraphError, ValueError, OSError, ImportError) as exc:  # a bad --terrain too
+            print(f"riverflow {args.command}: cannot load {args.scene}"
+                  f"{f' on --terrain {args.terrain}' if args.terrain else ''}: {exc}",
+                  file=sys.stderr)
+            return None, ""
+    from riverflow.scenes.default import default_scene
+
+    falls = bool(getattr(args, "falls", False))
+    dam = bool(getattr(args, "dam", False))
+    return (default_scene(seed=args.seed, falls=falls, dam=dam),
+            f"built-in scene, seed {args.seed}{', falls' if falls else ''}"
+            f"{', dam' if dam else ''}")
+
 
 
 def scene_graph(args: argparse.Namespace, config=None):
@@ -135,7 +163,6 @@ def add_bake_command(sub, scene_args, positive) -> None:
 
 
 def run_bake(args: argparse.Namespace) -> int:
-    from riverflow.__main__ import _load_scene
     from riverflow.gis.bake import direction_test_map, preset_spec
 
     try:
@@ -157,7 +184,7 @@ def run_bake(args: argparse.Namespace) -> int:
     except (ImportError, ValueError, OSError) as exc:
         print(f"riverflow bake: {exc}", file=sys.stderr)
         return 1
-    scene, title = _load_scene(args)
+    scene, title = load_scene(args)
     if scene is None:
         return 1
     if args.tiles is not None:
@@ -242,7 +269,6 @@ def _spill_hours(positive):
 
 
 def run_spill(args: argparse.Namespace) -> int:
-    from riverflow.__main__ import _load_scene
 
     maps = 60.0 * args.hours / args.every
     if maps > MAX_SPILL_MAPS:
@@ -257,7 +283,7 @@ def run_spill(args: argparse.Namespace) -> int:
     except OSError as exc:
         print(f"riverflow spill: --out: {exc}", file=sys.stderr)
         return 1
-    scene, title = _load_scene(args)
+    scene, title = load_scene(args)
     if scene is None:
         return 1
     import numpy as np

@@ -89,7 +89,7 @@ import shapely.ops
 from scipy.spatial import cKDTree
 
 from riverflow import _validate
-from riverflow.gis import require
+from riverflow._extras import require
 from riverflow.hydro.builder import (MAX_TURN_DEG, RiverNetworkBuilder, by_junction,
                                      upstream_first)
 from riverflow.hydro.graph import GraphError

@@ -202,7 +202,7 @@ def read_concentration(path) -> tuple[np.ndarray, dict]:
 
         with rasterio.open(path) as ds:
             return ds.read(1).astype(np.float64), {"transform": ds.transform, "crs": ds.crs}
-    from riverflow.gis import require
+    from riverflow._extras import require
 
     meta = json.loads(path.with_suffix(".json").read_text())
     png = require("png", "reading a 16-bit concentration map")

@@ -41,7 +41,7 @@ from typing import NamedTuple
 import numpy as np
 
 from riverflow._atomic import atomic_write_bytes, atomic_write_text, strict_json
-from riverflow.gis import require
+from riverflow._extras import require
 
 TILE_PX = 256
 MAX_ZOOM = 22

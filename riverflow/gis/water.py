@@ -64,7 +64,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import cKDTree
 
-from riverflow.gis import require
+from riverflow._extras import require
 from riverflow.gis.rivers import (DEFAULT_GEOMETRY, HydraulicGeometry, ImportedLink,
                                   RiverImport, _from_wkb, _hstore, _is_osm, _move_to_origin,
                                   _osm_waterways, _pick_layer, _project, _wkt)
@@ -1432,7 +1432,7 @@ def _match_points(ends, pts: np.ndarray, what: str, where: str, water) -> None:
 
 def _dem_elevations(dem, ends, crs_wkt, report: RiverImport, where: str) -> dict:
     """Elevation of the DEM at every free end: {(id(network), node): z} (NaN off the DEM)."""
-    from riverflow.gis.rasters import open_raster
+    from riverflow.scenes.rasters import open_raster
 
     xy = np.array([net.nodes[n] for net, n, _ in ends]) + np.asarray(report.origin_m)
     try:

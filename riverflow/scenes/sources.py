@@ -9,7 +9,7 @@ whatever batch, order or array shape the point comes in.
 - :class:`ArraySource`: a heightfield array (in memory, ``np.memmap`` or a ``.npy`` file),
   read one window per batch, so a raster larger than memory works with small tiles.
 - :func:`as_height_source`: turns what a user passes as "terrain" into a source (GeoTIFF and
-  16-bit PNG files through :mod:`riverflow.gis.rasters`).
+  16-bit PNG files through :mod:`riverflow.scenes.rasters`).
 """
 from __future__ import annotations
 
@@ -55,7 +55,7 @@ ESTIMATE_PAD = 0.5
 range by this fraction of its span (plus ESTIMATE_PAD_M) on each side."""
 ESTIMATE_PAD_M = 1.0
 RASTER_SUFFIXES = (".tif", ".tiff", ".vrt", ".asc", ".img")
-"""Elevation rasters read by rasterio (:class:`riverflow.gis.rasters.RasterSource`)."""
+"""Elevation rasters read by rasterio (:class:`riverflow.scenes.rasters.RasterSource`)."""
 _ROW_BLOCK_CELLS = 1 << 20
 
 
@@ -400,9 +400,9 @@ def as_height_source(terrain, *, origin_m=None, cell_m=None, crs=None) -> Height
     - an ndarray / np.memmap, or a str / Path of a ``.npy`` file → :class:`ArraySource`
       (``origin_m`` (x, y) [m] and ``cell_m`` [m] required);
     - a str / Path of a ``.tif`` / ``.tiff`` (any of RASTER_SUFFIXES) raster →
-      :class:`riverflow.gis.rasters.RasterSource` (riverflow[gis]; reprojected on the fly to
+      :class:`riverflow.scenes.rasters.RasterSource` (riverflow[gis]; reprojected on the fly to
       ``crs`` when given and different from the raster's);
-    - a str / Path of a 16-bit ``.png`` heightmap → :class:`riverflow.gis.rasters.PngHeightSource`
+    - a str / Path of a 16-bit ``.png`` heightmap → :class:`riverflow.scenes.rasters.PngHeightSource`
       (``origin_m`` of its south-west corner and ``cell_m`` required; values in metres);
     - any other callable → :class:`CallableSource` (height range estimated, see there).
 
@@ -413,11 +413,11 @@ def as_height_source(terrain, *, origin_m=None, cell_m=None, crs=None) -> Height
     if isinstance(terrain, (str, Path)):
         suffix = Path(terrain).suffix.lower()
         if suffix in RASTER_SUFFIXES:
-            from riverflow.gis.rasters import RasterSource
+            from riverflow.scenes.rasters import RasterSource
 
             return RasterSource(terrain, crs=crs)
         if suffix == ".png":
-            from riverflow.gis.rasters import PngHeightSource
+            from riverflow.scenes.rasters import PngHeightSource
 
             missing = [n for n, v in (("origin_m", origin_m), ("cell_m", cell_m)) if v is None]
             if missing:

@@ -52,8 +52,9 @@ def test_a_scene_on_a_dem_from_the_command_line(tmp_path, capsys):
     """--terrain: the DEM (UTM 33N) under rivers whose coordinates were moved near 0 (their
     CRS's false origin with them): the raster is warped to the rivers' CRS."""
     pytest.importorskip("rasterio")
-    from riverflow.__main__ import _load_scene, _parser
-    from riverflow.gis.rasters import RasterSource
+    from riverflow.__main__ import _parser
+    from riverflow.gis.cli import load_scene
+    from riverflow.scenes.rasters import RasterSource
     from tests.gis.test_rasters import plane, write_dem
 
     net = write_lines(tmp_path / "net.gpkg", [polyline((-250, 0), (250, 0))],
@@ -62,7 +63,7 @@ def test_a_scene_on_a_dem_from_the_command_line(tmp_path, capsys):
                     north=ORIGIN[1] + 400.0)
     args = _parser().parse_args(["bake", "--scene", str(net), "--layer", "streams",
                                  "--terrain", str(dem)])
-    scene, title = _load_scene(args)
+    scene, title = load_scene(args)
     assert title == "net.gpkg" and isinstance(scene.terrain.source, RasterSource)
     assert scene.terrain.source.reprojected
     far = np.array([[-200.0, 350.0], [100.0, -350.0]])        # moved coordinates

@@ -8,7 +8,7 @@ import pytest
 import shapely
 
 import riverflow as rf
-from riverflow.gis.rasters import RasterSource
+from riverflow.scenes.rasters import RasterSource
 from riverflow.hydro.graph import GraphError
 from tests.gis.conftest import ORIGIN, UTM, polyline, require_gis, write_lines
 
@@ -155,7 +155,7 @@ def test_a_bad_terrain_on_the_command_line_is_an_error_not_a_traceback(tmp_path,
 def test_a_huge_raster_without_overviews_is_ranged_from_a_few_blocks(tmp_path, monkeypatch):
     """A strided scan reads every block of a tiled raster without overviews (minutes for a
     200 000² one): past SCAN_BLOCKS blocks a spread of whole blocks is read instead."""
-    import riverflow.gis.rasters as rasters
+    import riverflow.scenes.rasters as rasters
 
     values = 50.0 + np.add.outer(np.arange(64.0), np.arange(64.0))       # 50 … 176
     path = tmp_path / "tiled.tif"
@@ -199,7 +199,7 @@ def _png_bytes(width, height, idat=b"\0" * 100):
     (_png_bytes(4, 3, b"\0" * 30)[:-30], "cannot read it as a PNG")],
     ids=["huge header, tiny file", "header past any disk", "truncated"])
 def test_a_damaged_png_heightmap_is_a_clear_error(tmp_path, data, words):
-    from riverflow.gis.rasters import PngHeightSource
+    from riverflow.scenes.rasters import PngHeightSource
 
     path = tmp_path / "heights.png"
     path.write_bytes(data)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import riverflow as rf
-from riverflow.gis.rasters import BLOCK_CELLS, PngHeightSource, RasterSource
+from riverflow.scenes.rasters import BLOCK_CELLS, PngHeightSource, RasterSource
 from tests.gis.conftest import ORIGIN, UTM, polyline, require_gis, write_lines
 
 require_gis()

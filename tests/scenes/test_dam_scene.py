@@ -117,11 +117,12 @@ def test_release_dam_sets_the_outlets_hydrograph_and_refuses_a_scene_without_a_d
 
 
 def test_the_command_lines_dam_flag_loads_the_dam_scene():
-    from riverflow.__main__ import _load_scene, _parser
+    from riverflow.__main__ import _parser
+    from riverflow.gis.cli import load_scene
 
-    scene, title = _load_scene(_parser().parse_args(["demo", "--dam"]))
+    scene, title = load_scene(_parser().parse_args(["demo", "--dam"]))
     assert title.endswith(", dam") and scene.branch(DAM_OUTLET) is not None
-    scene, title = _load_scene(_parser().parse_args(["demo"]))
+    scene, title = load_scene(_parser().parse_args(["demo"]))
     assert "dam" not in title and all(b.name != DAM_OUTLET for b in scene.branches)
 
 

@@ -453,7 +453,7 @@ def test_as_height_source_errors(grid):
         as_height_source(grid)
     with pytest.raises(ValueError, match="cell_m"):
         as_height_source("dem.npy", origin_m=ORIGIN)
-    # rasters go to riverflow.gis.rasters: a missing file, or the missing extra, is named
+    # rasters go to riverflow.scenes.rasters: a missing file, or the missing extra, is named
     with pytest.raises((FileNotFoundError, ImportError), match=r"dem.tif|riverflow\[gis\]"):
         as_height_source("dem.tif", origin_m=ORIGIN, cell_m=CELL)
     with pytest.raises((FileNotFoundError, ImportError), match=r"DEM.TIFF|riverflow\[gis\]"):

@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from riverflow._validate import _number, as_floats
-from riverflow.gis import require
+from riverflow._extras import require
 from riverflow.scenes.sources import (
     FULL_SCAN_CELLS,
     ArraySource,
