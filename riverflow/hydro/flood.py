@@ -496,12 +496,15 @@ class FloodRouter:
         texels[tex[blend], 1] = coord[second[blend], col[blend]]
         texels[tex[blend], 2] = 0.5 * (1.0 - t * t * (3.0 - 2.0 * t))
 
-    def drawn_rise(self, xy) -> np.ndarray:
-        """(N,) the level rise [m] the shaders draw at points (N, 2) [m]
-        (``shaders/flood.glsl`` ``flood_at``: the level texture's texel under each point,
-        its cell coordinate's rise blended with the nearest other link's by its weight; 0 off
-        the texture or its cells): what :meth:`level_rise` gives but for the blend across
-        the line where the nearest link changes (:meth:`_blend_links`)."""
+    def level_rise(self, xy) -> np.ndarray:
+        """(N,) the level rise [m] at points (N, 2) [m], as the shaders draw it
+        (``shaders/flood.glsl`` ``flood_at``, of which this is the CPU twin: the level
+        texture's texel under each point, its cell coordinate's rise blended with the nearest
+        other link's by its weight, :meth:`_blend_links`; 0 off the texture or its cells,
+        i.e. farther than FLOODPLAIN_REACH_M from every centre line). One mechanism for
+        everything that reads the raised level (boats, the mirror, ``world.water_level``,
+        the floodplain's depth, the particles' placement): where two rivers' rises meet it
+        ramps over FLOOD_BLEND_M as the drawn water does, never steps."""
         (x0, y0, side), texels = self.level_textures()
         xy = np.asarray(xy, np.float64).reshape(-1, 2)
         n = texels.shape[0]
@@ -545,10 +548,6 @@ class FloodRouter:
         got[link < 0] = fill
         out[finite] = got
         return out
-
-    def level_rise(self, xy) -> np.ndarray:
-        """(N,) the level rise [m] at points (N, 2) [m] (of the nearest centre line)."""
-        return self._at(self.cell_level_rise_m(), xy, 0.0)
 
     def discharge(self, xy) -> np.ndarray:
         """(N,) the discharge [m³/s] at points (N, 2) [m] (of the nearest centre line)."""
@@ -608,7 +607,7 @@ class FloodRouter:
             return 0
         k, cand, pts = k[near], cand[near], pts[near]
         a, b, w = net.weights(net._sample_link[k], net._sample_s[k])
-        rise = rise_cells[a] * (1.0 - w) + rise_cells[b] * w
+        rise = self.level_rise(pts)                               # as drawn
         risen = np.flatnonzero(rise > FLOODPLAIN_MIN_DEPTH_M)
         if not len(risen):
             return 0

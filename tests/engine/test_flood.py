@@ -116,7 +116,7 @@ def long_river():
     while router.time_s < 5 * 3600.0:
         router.advance(router.dt_s)
         times.append(router.time_s)
-        rise.append(float(router.level_rise(at)[0]))
+        rise.append(float(router._at(router.cell_level_rise_m(), at, 0.0)[0]))   # routed
     return router, q0, np.array(times), np.array(rise)
 
 
@@ -454,9 +454,9 @@ def test_the_floods_ground_is_the_resident_tiles_bilinear(world):
 
 def test_the_drawn_rise_ramps_across_the_line_where_the_nearest_link_changes(world):
     """hydro.flood.FloodRouter._blend_links (issue 25, F7's saw-tooth): with one branch
-    flooded and the one beside it not, the rise the shaders draw (drawn_rise, the CPU twin
+    flooded and the one beside it not, the rise the shaders draw (level_rise, the CPU twin
     of flood.glsl's flood_at) crosses the line between them on a ramp of FLOOD_BLEND_M,
-    where the nearest cell's rise (level_rise) steps."""
+    where the nearest cell's rise steps."""
     from riverflow.hydro.flood import FLOOD_BLEND_M
 
     world.set_hydrograph(None, [], None)
@@ -477,8 +477,8 @@ def test_the_drawn_rise_ramps_across_the_line_where_the_nearest_link_changes(wor
     c = main[np.argmin(np.hypot(*(main - a).T))]  # the nearest point of another link
     t = np.linspace(0.0, 1.0, 400)[:, None]
     xy = a + t * (c - a)
-    step = router.level_rise(xy)
-    drawn = router.drawn_rise(xy)
+    step = router._at(router.cell_level_rise_m(), xy, 0.0)   # the nearest cell's
+    drawn = router.level_rise(xy)
     jump = np.abs(np.diff(step)).max()
     assert jump > 0.5                             # the nearest cell's rise steps...
     spacing = float(np.hypot(*(c - a))) / 399
@@ -487,3 +487,17 @@ def test_the_drawn_rise_ramps_across_the_line_where_the_nearest_link_changes(wor
     # ...the drawn one ramps: at most ½ the step over a gap change of 2·(spacing + texel)
     assert ramp < jump * 2.0 * (spacing + texel) / FLOOD_BLEND_M
     assert drawn[0] == pytest.approx(step[0], abs=1e-6) and np.isfinite(drawn).all()
+    # the CPU's level (boats, the mirror, world.water_level) is the drawn one (issue 25):
+    # against a twin of flood.glsl's flood_at written here from the level textures
+    (x0, y0, side), tex = router.level_textures()
+    ij = np.floor((xy - (x0, y0)) / side * tex.shape[0]).astype(np.int64)
+    p = tex[ij[:, 1], ij[:, 0]].astype(np.float64)
+    cells = np.append(router.cell_level_rise_m(), 0.0)
+    at = lambda q: np.interp(q, np.arange(len(cells)), cells)      # noqa: E731
+    twin = np.where(p[:, 0] >= 0, at(np.maximum(p[:, 0], 0.0)), 0.0)
+    two = (p[:, 0] >= 0) & (p[:, 1] >= 0)
+    twin[two] = (1.0 - p[two, 2]) * twin[two] + p[two, 2] * at(p[two, 1])
+    assert two.sum() > 20                         # the line crosses the blend
+    level = world.water_level(xy) - world.scene.water.level(xy)
+    np.testing.assert_allclose(level, twin, rtol=0, atol=0.01)
+    assert np.abs(step - twin).max() > 0.3        # (the nearest cell's rise did not)
