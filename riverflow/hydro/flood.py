@@ -554,16 +554,23 @@ class FloodRouter:
         return self._at(self.cell_discharge_m3s(), xy, 0.0)
 
     def scale_velocity(self, xy: np.ndarray, status: np.ndarray, velocity: np.ndarray,
-                       n: int | None = None) -> None:
+                       n: int | None = None, n_status: int | None = None) -> None:
         """Multiply the nonzero velocities (N, 2) float32 of the first ``n`` points by the
         speed factor of the nearest cell (in place; only while :attr:`active`): read through
         the :attr:`raster` (:func:`~riverflow.kernels.flood.scale_by_cells`), the KD-tree
-        for the few points beyond it."""
+        for the few points beyond it; then the first ``n_status`` (default ``n``; the
+        particles that ask for their status alone come after the first ``n``) get the
+        floodplain's status and flow (:meth:`floodplain_flow`)."""
         if not self.active:
             return
         n = len(xy) if n is None else int(n)
-        if not n:
-            return
+        n_status = n if n_status is None else max(int(n_status), n)
+        if n:
+            self._scale(xy, velocity, n)
+        if n_status and status is not None and self.ground is not None:
+            self.floodplain_flow(xy, status, velocity, n_status)
+
+    def _scale(self, xy: np.ndarray, velocity: np.ndarray, n: int) -> None:
         if len(self._missed) < n:
             self._missed = np.empty(max(n, 2 * len(self._missed)), np.int64)
         factor = self.cell_speed_factor()
@@ -573,8 +580,6 @@ class FloodRouter:
             rest = self._missed[:n_missed]
             f = self._at(factor, pts[rest], 1.0)
             velocity[rest] *= f[:, None].astype(velocity.dtype)
-        if status is not None and self.ground is not None:
-            self.floodplain_flow(pts, status, velocity, n)
 
     def floodplain_flow(self, xy: np.ndarray, status: np.ndarray, velocity: np.ndarray,
                         n: int | None = None) -> int:
@@ -628,6 +633,53 @@ class FloodRouter:
         velocity[cand] = (tangent * speed[:, None]).astype(velocity.dtype)
         status[cand] = FlowStatus.INSIDE
         return len(cand)
+
+    def lift_hits(self, directions: np.ndarray, hit_xyz: np.ndarray,
+                  hit_kind: np.ndarray) -> int:
+        """Move rays' hits on the base surface (:func:`~riverflow.kernels.raycast_tiles.
+        cast_rays_onto_tiles`: max(terrain, base-flow water)) back along their ray
+        (``directions`` (N, 3), unit) to the flood's raised water where it covers them (in
+        place; only while :attr:`active` and with a :attr:`ground`): a hit below the raised
+        level (base level seen from the ground + :meth:`level_rise`) is where the ray went
+        under the water; it crossed the surface ``(level − z) / −dz`` before (the level
+        read again there, twice: it is nearly flat). Land hits so moved become water hits
+        (HIT_WATER): a new particle lands on the flooded floodplain's water, as on the
+        channel's. Returns how many moved."""
+        from riverflow.kernels.raycast import HIT_LAND, HIT_WATER
+
+        if self.ground is None or not self.active:
+            return 0
+        hit = np.flatnonzero(((hit_kind == HIT_LAND) | (hit_kind == HIT_WATER))
+                             & (directions[:, 2] < -1e-6))
+        if not len(hit):
+            return 0
+        z = hit_xyz[hit, 2]
+        d = directions[hit]
+        p = hit_xyz[hit].copy()
+        back = np.zeros(len(hit))
+        for _ in range(3):
+            ground, base = self.ground(p[:, :2])
+            level = np.asarray(base, np.float64) + self.level_rise(p[:, :2])
+            back = np.maximum((level - z) / -d[:, 2], 0.0)
+            p = hit_xyz[hit] - back[:, None] * d
+        wet = (back * -d[:, 2] > FLOODPLAIN_MIN_DEPTH_M) & (level > np.asarray(ground) +
+                                                             FLOODPLAIN_MIN_DEPTH_M)
+        moved = hit[wet]
+        hit_xyz[moved] = p[wet]
+        hit_kind[moved] = HIT_WATER
+        return len(moved)
+
+    def lift_altitudes(self, world_m: np.ndarray, rows: np.ndarray) -> None:
+        """Raise the altitude of particles ``rows`` of ``world_m`` (C, 3) [m] (their altitude
+        just read from the base surface, max(terrain, base-flow water)) to the flood's raised
+        water where it is above them (in place; only while :attr:`active` and with a
+        :attr:`ground`): the particles ride on the drawn water, the floodplain's too."""
+        if self.ground is None or not self.active or not len(rows):
+            return
+        xy = world_m[rows, :2]
+        _, base = self.ground(xy)
+        level = np.asarray(base, np.float64) + self.level_rise(xy)
+        world_m[rows, 2] = np.maximum(world_m[rows, 2], level)
 
     def _channel_speed(self) -> np.ndarray:
         """(N,) each cell's depth-averaged speed now [m/s]: U₀ a^(2/3), U₀ = Q₀ / A₀."""
