@@ -742,6 +742,7 @@ class DrawRivers(System):
     def __init__(self) -> None:
         self.gpu: _Gpu | None = None
         self._flood_uniforms = {"u_flood_on": 0, "u_flood_rect": (0.0, 0.0, 1.0)}
+        self._flood_waves: dict = {"u_flood_waves": 0}
         self.context = None
         self.last_mirror_level_m: float | None = None
         """The reflection's mirror height [m] in the last frame (None: no reflection): the
@@ -829,15 +830,20 @@ class DrawRivers(System):
             sky = gpu.programs["sky"]
             sky.use()
             gpu.empty.draw(gl.TRIANGLES, count=3)
-        # terrain
-        gl.set_depth(True)
-        self._draw_terrain(world, gpu)
-        self._draw_props(gpu)
-
+        # terrain (a flooded floodplain's waves: the sprites', as the water's)
         mode = settings.mode
         gpu.params.bind(PARAMS_UNIT)
         gpu.grid.bind(GRID_UNIT)
         wave_tex.bind(WAVE_UNIT)
+        waves = (0 if not flood_uniforms["u_flood_on"] or mode not in _SHADED_MODES
+                 else 2 if mode == DisplayMode.ADVECTED else 1)
+        self._flood_waves = dict(u_flood_waves=waves, u_slope_factor=settings.wave_slope_factor,
+                                 u_grid_cell_px=float(gpu.grid_shape[0]),
+                                 u_grid_size=gpu.grid_shape[1:], **wave_uniforms)
+        gl.set_depth(True)
+        self._draw_terrain(world, gpu)
+        self._draw_props(gpu)
+
         if mode == DisplayMode.PRE_ADVECTED:
             self._pre_advect(gpu, wave_uniforms, n_drawn, water_meshes, flood_uniforms)
         if mode != DisplayMode.NONE:
@@ -1123,6 +1129,7 @@ class DrawRivers(System):
         program.use()
         if detail == "full":
             program.set(u_debug_materials=self.debug_materials)   # sent only when changed
+            program.set_if_used(**self._flood_waves)
         program.set_if_used(**self._flood_uniforms)
         gpu.terrain.draw(self._terrain_slots, detail)
         if detail == "full":
