@@ -197,6 +197,7 @@ class _Gpu:
         if len(bindings) != 1:
             raise gl.GLError(f"the programs' view blocks have binding points {bindings}")
         self.view_binding = bindings.pop()
+        self._defines = defines
         self.view = gl.UniformBuffer(VIEW_FLOATS, 2)
         """The view block: copy 0 for the frame's passes, 1 for the mirrored reflection pass."""
         self.drops = self.drops_cpu = None
@@ -286,6 +287,19 @@ class _Gpu:
             self.grid_fb = gl.Framebuffer([(self.grid, k) for k in range(layers)])
             self.grid_shape = shape
         self.fitted = fitted
+
+    def flood_terrain(self) -> gl.Program:
+        """The terrain's program with the flooded floodplain's waves (``FLOOD_WAVES``), made
+        the first time a flood is drawn (the dry ground's program has none of its cost)."""
+        program = self.programs.get("terrain_flood")
+        if program is None:
+            program = gl.Program("terrain.glsl", {**self._defines, "FLOOD_WAVES": 1})
+            program.set_if_used(**_CONSTANT_UNIFORMS)
+            if program.view_binding != self.view_binding:
+                raise gl.GLError(f"the flood terrain's view block has binding point "
+                                 f"{program.view_binding}, not {self.view_binding}")
+            self.programs["terrain_flood"] = program
+        return program
 
     def resident_codes(self, kind: str) -> set[int]:
         """Codes of the tiles of ``kind`` that have GPU data now."""
@@ -1125,10 +1139,13 @@ class DrawRivers(System):
         """This frame's terrain tiles, through all their nodes (``detail`` "full") or the
         reflection's coarser mesh ("coarse", or "exact": every node, with the reflection's
         own program object), near to far, in one multi-draw."""
-        program = gpu.programs["terrain" if detail == "full" else "terrain_reflection"]
+        waves = detail == "full" and self._flood_waves["u_flood_waves"] > 0
+        program = (gpu.flood_terrain() if waves
+                   else gpu.programs["terrain" if detail == "full" else "terrain_reflection"])
         program.use()
         if detail == "full":
             program.set(u_debug_materials=self.debug_materials)   # sent only when changed
+        if waves:
             program.set_if_used(**self._flood_waves)
         program.set_if_used(**self._flood_uniforms)
         gpu.terrain.draw(self._terrain_slots, detail)
