@@ -558,17 +558,29 @@ class FloodRouter:
         """Multiply the nonzero velocities (N, 2) float32 of the first ``n`` points by the
         speed factor of the nearest cell (in place; only while :attr:`active`): read through
         the :attr:`raster` (:func:`~riverflow.kernels.flood.scale_by_cells`), the KD-tree
-        for the few points beyond it; then the first ``n_status`` (default ``n``; the
-        particles that ask for their status alone come after the first ``n``) get the
-        floodplain's status and flow (:meth:`floodplain_flow`)."""
+        for the few points beyond it; then the first ``n`` get the floodplain's status and
+        flow (:meth:`floodplain_flow`). Points ``n`` to ``n_status`` (the particles, INSIDE,
+        that ask whether they still are, ``kernels.advection.move_particles``) the base
+        field calls OUTSIDE stay INSIDE while the flood raises a level anywhere: on the
+        floodplain, or leaving the water, their next velocity question (within
+        ``VELOCITY_EVERY`` frames, a few centimetres on) says which (the floodplain's status
+        is found per point: asked every frame for every particle on it, it cost more than
+        the rest of the frame)."""
         if not self.active:
             return
         n = len(xy) if n is None else int(n)
         n_status = n if n_status is None else max(int(n_status), n)
         if n:
             self._scale(xy, velocity, n)
-        if n_status and status is not None and self.ground is not None:
-            self.floodplain_flow(xy, status, velocity, n_status)
+        if status is None or self.ground is None:
+            return
+        if n:
+            self.floodplain_flow(xy, status, velocity, n)
+        if n_status > n and np.any(self.cell_level_rise_m() > FLOODPLAIN_MIN_DEPTH_M):
+            from riverflow.components.status import FlowStatus
+
+            rows = status[n:n_status]
+            rows[rows == FlowStatus.OUTSIDE] = FlowStatus.INSIDE
 
     def _scale(self, xy: np.ndarray, velocity: np.ndarray, n: int) -> None:
         if len(self._missed) < n:
@@ -640,11 +652,13 @@ class FloodRouter:
         cast_rays_onto_tiles`: max(terrain, base-flow water)) back along their ray
         (``directions`` (N, 3), unit) to the flood's raised water where it covers them (in
         place; only while :attr:`active` and with a :attr:`ground`): a hit below the raised
-        level (base level seen from the ground + :meth:`level_rise`) is where the ray went
-        under the water; it crossed the surface ``(level − z) / −dz`` before (the level
-        read again there, twice: it is nearly flat). Land hits so moved become water hits
-        (HIT_WATER): a new particle lands on the flooded floodplain's water, as on the
-        channel's. Returns how many moved."""
+        level there (base level seen from the ground + :meth:`level_rise`) is where the ray
+        went under the water; it crossed the surface ``(level − z) / −dz`` before (the
+        level is nearly flat: the one at the hit, within millimetres of the one where it
+        crossed; the ray was above the ground all the way to the hit, so the ground there is
+        under the water). Land hits so moved become water hits (HIT_WATER): a new particle
+        lands on the flooded floodplain's water, as on the channel's. Returns how many
+        moved."""
         from riverflow.kernels.raycast import HIT_LAND, HIT_WATER
 
         if self.ground is None or not self.active:
@@ -655,17 +669,12 @@ class FloodRouter:
             return 0
         z = hit_xyz[hit, 2]
         d = directions[hit]
-        p = hit_xyz[hit].copy()
-        back = np.zeros(len(hit))
-        for _ in range(3):
-            ground, base = self.ground(p[:, :2])
-            level = np.asarray(base, np.float64) + self.level_rise(p[:, :2])
-            back = np.maximum((level - z) / -d[:, 2], 0.0)
-            p = hit_xyz[hit] - back[:, None] * d
-        wet = (back * -d[:, 2] > FLOODPLAIN_MIN_DEPTH_M) & (level > np.asarray(ground) +
-                                                             FLOODPLAIN_MIN_DEPTH_M)
+        _, base = self.ground(hit_xyz[hit, :2])
+        level = np.asarray(base, np.float64) + self.level_rise(hit_xyz[hit, :2])
+        back = (level - z) / -d[:, 2]
+        wet = back * -d[:, 2] > FLOODPLAIN_MIN_DEPTH_M
         moved = hit[wet]
-        hit_xyz[moved] = p[wet]
+        hit_xyz[moved] -= back[wet, None] * d[wet]
         hit_kind[moved] = HIT_WATER
         return len(moved)
 
