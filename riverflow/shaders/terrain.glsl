@@ -231,9 +231,9 @@ void main() {
     vec2 q = p + e.xy * (depth / max(e.z, 0.1));
     vec2 quv = q / max(u_wave_length_m, 1e-3);
     vec2 quv_dx = dFdx(quv), quv_dy = dFdy(quv);
-    if (plain > 0.0)
-        tilt = u_slope_factor * sprite_wave_slopes(q, quv_dx, quv_dy,
-                                                   u_flood_waves > 1 ? MAX_PER_CELL : 0);
+    if (plain > 0.0)     // (a software rasteriser runs it masked: the dry lanes list none)
+        tilt = u_slope_factor * sprite_wave_slopes(
+            q, quv_dx, quv_dy, plain > 0.0 && u_flood_waves > 1 ? MAX_PER_CELL : 0);
 #endif
     {
         vec3 nw = normalize(vec3(-tilt, 1.0));
