@@ -56,6 +56,12 @@ against a clean natural channel's 0.03: Chow 1959, table 5-6): its water flows a
 the channel's mean speed at the channel's depth."""
 FLOODPLAIN_MIN_DEPTH_M = 1e-3
 """Ground under less water than this [m] is dry for the flow (the wet edge)."""
+FLOODPLAIN_SHEAR_M = 10.0
+"""Width [m] of the shear layer beside a flooded channel's bank: the floodplain's water
+runs at the channel's mean speed at the bank (the base field's speed there, within a few
+per cent: its flow is nearly uniform across) and slows to its own Manning speed over this
+distance (smoothstep), so the flow is continuous across the bank (a compound channel's
+mixing layer spans a few channel depths: Knight & Shiono 1990)."""
 FLOOD_BLEND_M = 30.0
 """The drawn rise blends over this band [m] around the line where the nearest link changes
 (:meth:`FloodRouter.level_textures`): a flooded river beside one that is not meets it on a
@@ -600,7 +606,9 @@ class FloodRouter:
         FLOODPLAIN_REACH_M of a centre line whose level rise puts water over the ground
         (:attr:`ground`: depth = base level + rise − terrain > FLOODPLAIN_MIN_DEPTH_M) become
         INSIDE, moving along the nearest centre line's downstream direction at
-        U_c (h / h_c)^(2/3) / FLOODPLAIN_ROUGHNESS (module docstring; h at most h_c). Points
+        U_c (h / h_c)^(2/3) / FLOODPLAIN_ROUGHNESS (module docstring; h at most h_c), and at
+        the channel's U_c at its bank, blended over FLOODPLAIN_SHEAR_M (smoothstep of the
+        distance beyond the bank, the centre line's distance less half the width there). Points
         already INSIDE (the channel's own flow) are not touched; dry ground stays OUTSIDE.
         Returns how many points became INSIDE."""
         from riverflow.components.status import FlowStatus
@@ -622,13 +630,13 @@ class FloodRouter:
         near = np.flatnonzero(np.isfinite(d))
         if not len(near):
             return 0
-        k, cand, pts = k[near], cand[near], pts[near]
+        k, cand, pts, d = k[near], cand[near], pts[near], d[near]
         a, b, w = net.weights(net._sample_link[k], net._sample_s[k])
         rise = self.level_rise(pts)                               # as drawn
         risen = np.flatnonzero(rise > FLOODPLAIN_MIN_DEPTH_M)
         if not len(risen):
             return 0
-        k, cand, pts = k[risen], cand[risen], pts[risen]
+        k, cand, pts, d = k[risen], cand[risen], pts[risen], d[risen]
         a, b, w, rise = a[risen], b[risen], w[risen], rise[risen]
         ground, level = self.ground(pts)
         depth = np.asarray(level, np.float64) + rise - np.asarray(ground, np.float64)
@@ -636,11 +644,16 @@ class FloodRouter:
         if not len(wet):
             return 0
         a, b, w, depth, cand, k = a[wet], b[wet], w[wet], depth[wet], cand[wet], k[wet]
+        d = d[wet]
         u_channel = self._channel_speed()
         h_channel = net.link_depth_m[net.cell_link] * self.a
         u_c = u_channel[a] * (1.0 - w) + u_channel[b] * w
         h_c = h_channel[a] * (1.0 - w) + h_channel[b] * w
         speed = u_c * (np.minimum(depth, h_c) / h_c) ** (2.0 / 3.0) / FLOODPLAIN_ROUGHNESS
+        # the shear layer: from the channel's speed at its bank to the floodplain's own
+        half = 0.5 * (net.cell_width_m[a] * (1.0 - w) + net.cell_width_m[b] * w)
+        x = np.clip((d - half) / FLOODPLAIN_SHEAR_M, 0.0, 1.0)
+        speed += (u_c - speed) * (1.0 - x * x * (3.0 - 2.0 * x))
         tangent = self._sample_tangents()[k]
         velocity[cand] = (tangent * speed[:, None]).astype(velocity.dtype)
         status[cand] = FlowStatus.INSIDE

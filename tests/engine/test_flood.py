@@ -13,7 +13,8 @@ import pytest
 
 import riverflow as rf
 from riverflow.hydro.falls import channel_depth_m
-from riverflow.hydro.flood import FLOODPLAIN_ROUGHNESS, FloodRouter, cell_raster
+from riverflow.hydro.flood import (FLOODPLAIN_ROUGHNESS, FLOODPLAIN_SHEAR_M, FloodRouter,
+                                   cell_raster)
 from riverflow.hydro.spill_network import build_spill_network
 from riverflow.kernels.flood import flood_steps, sample_by_cells, scale_by_cells
 from riverflow.tiles.table import tile_code
@@ -355,7 +356,8 @@ def test_the_ground_stays_wet_looking_behind_a_falling_flood(diamond):
 # -- water over its banks: the floodplain's flow (item 3) -------------------------------------
 # With the flood's level 1 m above the bank top in the built-in valley, the ground below the
 # raised level beside the tributary's banks is INSIDE the flow, moving slowly (faster than 0,
-# slower than the channel, down the valley); the channel's own flow is the base field's,
+# slower than the channel beyond the shear layer at its bank, down the valley), continuous
+# with the channel's flow across the bank; the channel's own flow is the base field's,
 # scaled; it dries (OUTSIDE) when the flood falls back. No NaN.
 
 WET_M = 0.05
@@ -403,7 +405,20 @@ def test_flooded_ground_flows_slowly_down_the_valley(flooded):
     channel = base_status == rf.FlowStatus.INSIDE
     u_mid = float(np.median(speed[channel]))
     assert np.all(speed[plain] > 0.0)
-    assert speed[plain].max() < u_mid / FLOODPLAIN_ROUGHNESS * 1.01
+    assert speed[plain].max() < u_mid * 1.01
+    # beyond the shear layer beside the bank, the floodplain's own slow flow
+    off = np.tile(np.arange(-130.0, 130.5, 1.0), 5)        # the fixture's sections
+    edge = np.abs(np.where(channel, off, 0.0)).reshape(5, -1).max(axis=1)
+    beyond = plain & (np.abs(off) > np.repeat(edge, len(off) // 5) + FLOODPLAIN_SHEAR_M + 1.0)
+    assert beyond.sum() > 50
+    assert speed[beyond].max() < u_mid / FLOODPLAIN_ROUGHNESS * 1.01
+    # continuous across the bank (issue 25): neighbours 1 m apart on either side of it
+    status_grid = base_status.reshape(5, -1)
+    grid = speed.reshape(5, -1)
+    across = status_grid[:, 1:] != status_grid[:, :-1]
+    assert across.sum() >= 10
+    jump = np.abs(grid[:, 1:] - grid[:, :-1])[across]
+    assert jump.max() < 0.1 * u_mid                      # (it was 1.1 m/s of 1.75)
     down = (v[plain] @ t) / speed[plain]
     assert np.mean(down > np.cos(np.radians(30.0))) >= 0.95   # down the valley
     # slower where shallower: the speed rises with the depth on each section

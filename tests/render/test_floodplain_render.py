@@ -132,8 +132,8 @@ def test_the_flooded_floodplain_has_particles_and_waves(setup):
     assert (inside & (base == rf.FlowStatus.OUTSIDE) & (depth > 0.05)).sum() >= 20
     assert not (inside & (depth < -0.05)).any()
     on_plain = inside & (base == rf.FlowStatus.OUTSIDE)    # riding on the raised water
-    ground = router.ground(p.world_m[on_plain, :2])[0]
-    np.testing.assert_allclose(p.world_m[on_plain, 2], ground + depth[on_plain], atol=0.05)
+    ground = router.ground(p.world_m[on_plain, :2])[0]     # (read every 16 frames: 0.25 m)
+    np.testing.assert_allclose(p.world_m[on_plain, 2], ground + depth[on_plain], atol=0.25)
 
     # the flooded bank's pixels: each pixel's ray onto the plain's height, the same test
     view_projection = world.camera.view_projection(np.float64)
