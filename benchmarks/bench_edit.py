@@ -28,8 +28,9 @@ Target (the issue brief): an edit's new tiles in view within 0.5 s at 1080p; no 
 Run: ``NUMBA_NUM_THREADS=1 taskset -c 0 python benchmarks/bench_edit.py`` (``--json out.json``
 to keep the figures; ``--in-place 7``: only the CPU of 7 edits made in place, the edit's own
 work without its tiles; ``--remake 4``: the CPU of remaking 4 edits' tiles in view, made in
-the frame's thread, per kind: what the tile process has to do, whatever the load). Figures go
-to docs/performance.md.
+the frame's thread, per kind: what the tile process has to do, whatever the load;
+``--floodplain 120 [--drawn]``: the frame's CPU over a flooded floodplain, dry and flooded).
+Figures go to docs/performance.md.
 """
 from __future__ import annotations
 
@@ -351,6 +352,77 @@ def _tile_bytes(data) -> bytes:
     return repr(data).encode()
 
 
+def floodplain(size, frames: int, seed: int, drawn: bool) -> dict:
+    """``--floodplain N``: the frame's cost on a flooded floodplain (issue 25): the camera
+    over the tributary's floodplain (35 m up, 35 m back, as tests/render/
+    test_floodplain_render), N frames at 1/60 s dry, then N with the level 1 m over the bank
+    top (steady: the router run ahead 6 h) after N to settle; tiles made in the frame's
+    thread (``tile_production="blocking"``: the view's tiles are all made before timing).
+    Per phase the frame's own thread's CPU (``time.thread_time``) and the process's
+    (``time.process_time``: llvmpipe's threads too with ``--drawn``, which renders every frame
+    with gl=True) median and p95 [ms], the advection and placement systems' median [ms], and
+    the particles INSIDE on flooded ground beside the base banks."""
+    import riverflow as rf
+    from riverflow.engine.config import RiverConfig
+    from riverflow.scenes.carving import Carving
+
+    scene = rf.default_scene(seed=seed)
+    world = rf.RiverWorld(scene, size=size, gl=drawn, seed=seed,
+                          config=RiverConfig(tile_production="blocking"))
+    line = scene.branch("tributary").centerline_m
+    k = len(line) // 2
+    t = line[k + 1] - line[k - 1]
+    t = t / np.hypot(*t)
+    normal = np.array([-t[1], t[0]])
+    target = line[k] + 40.0 * normal                      # over the flooded plain
+    z = float(scene.terrain.height(target[None])[0])
+    eye = target - 35.0 * t
+    world.camera.look_at((eye[0], eye[1], z + 35.0), (target[0], target[1], z))
+    world.load_view()
+
+    def frames_ms(n: int) -> dict:
+        thread, process, systems = [], [], {"advection": [], "placement": []}
+        for _ in range(n):
+            c0, p0 = time.thread_time(), time.process_time()
+            world.step(1.0 / 60.0)
+            if drawn:
+                world.render()
+            thread.append(1e3 * (time.thread_time() - c0))
+            process.append(1e3 * (time.process_time() - p0))
+            for name in systems:
+                systems[name].append(world.timings_ms.get(name, 0.0))
+        out = {"thread_ms_p50": float(np.median(thread)),
+               "thread_ms_p95": float(np.percentile(thread, 95)),
+               "process_ms_p50": float(np.median(process)),
+               "process_ms_p95": float(np.percentile(process, 95))}
+        out.update({f"{name}_ms_p50": float(np.median(v)) for name, v in systems.items()})
+        return out
+
+    frames_ms(frames)                                     # particles settle
+    out = {f"dry_{k}": v for k, v in frames_ms(frames).items()}
+    world.set_hydrograph(None, [], None)
+    router = world.flood
+    ratio = router.ratio_for_rise("tributary", Carving().bank_rise_m + 1.0)
+    q0 = router.base_inflow_m3s()
+    now = world.flood_time_s
+    world.set_hydrograph(None, [now, now + 1.0], [q0, ratio * q0])
+    world.advance_flood(6 * 3600.0)
+    frames_ms(frames)
+    out.update({f"flooded_{k}": v for k, v in frames_ms(frames).items()})
+    p = world.particles
+    xy = p.world_m[:, :2]
+    ground, level = router.ground(xy)
+    depth = level + router.level_rise(xy) - ground
+    router.ground, keep = None, router.ground
+    base, _ = world.field.query(xy)
+    router.ground = keep
+    out["particles"] = len(p.status)
+    out["inside_on_floodplain"] = int(((p.status == rf.FlowStatus.INSIDE)
+                                       & (base == rf.FlowStatus.OUTSIDE) & (depth > 0.05)).sum())
+    world.close()
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--size", type=int, nargs=2, default=(1920, 1080))
@@ -365,8 +437,15 @@ def main() -> None:
     ap.add_argument("--remake", type=int, default=0,
                     help="only the CPU of remaking this many edits' tiles in view, made in "
                          "the frame's thread (tile_production='blocking')")
+    ap.add_argument("--floodplain", type=int, default=0,
+                    help="only the frame cost over a flooded floodplain: this many frames dry, "
+                         "then flooded 1 m over the banks")
+    ap.add_argument("--drawn", action="store_true",
+                    help="with --floodplain: gl=True, every frame rendered (llvmpipe)")
     args = ap.parse_args()
-    if args.remake:
+    if args.floodplain:
+        out = floodplain(tuple(args.size), args.floodplain, args.seed, args.drawn)
+    elif args.remake:
         out = remake(tuple(args.size), args.remake, args.bump, args.seed)
     elif args.in_place:
         out = in_place(tuple(args.size), args.in_place, args.bump, args.seed)

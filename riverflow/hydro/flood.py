@@ -60,6 +60,12 @@ against a clean natural channel's 0.03: Chow 1959, table 5-6): its water flows a
 the channel's mean speed at the channel's depth."""
 FLOODPLAIN_MIN_DEPTH_M = 1e-3
 """Ground under less water than this [m] is dry for the flow (the wet edge)."""
+FLOODPLAIN_SHEAR_M = 10.0
+"""Width [m] of the shear layer beside a flooded channel's bank: the floodplain's water
+runs at the channel's mean speed at the bank (the base field's speed there, within a few
+per cent: its flow is nearly uniform across) and slows to its own Manning speed over this
+distance (smoothstep), so the flow is continuous across the bank (a compound channel's
+mixing layer spans a few channel depths: Knight & Shiono 1990)."""
 FLOOD_BLEND_M = 30.0
 """The drawn rise blends over this band [m] around the line where the nearest link changes
 (:meth:`FloodRouter.level_textures`): a flooded river beside one that is not meets it on a
@@ -508,12 +514,15 @@ class FloodRouter:
         texels[tex[blend], 1] = coord[second[blend], col[blend]]
         texels[tex[blend], 2] = 0.5 * (1.0 - t * t * (3.0 - 2.0 * t))
 
-    def drawn_rise(self, xy) -> np.ndarray:
-        """(N,) the level rise [m] the shaders draw at points (N, 2) [m]
-        (``shaders/flood.glsl`` ``flood_at``: the level texture's texel under each point,
-        its cell coordinate's rise blended with the nearest other link's by its weight; 0 off
-        the texture or its cells): what :meth:`level_rise` gives but for the blend across
-        the line where the nearest link changes (:meth:`_blend_links`)."""
+    def level_rise(self, xy) -> np.ndarray:
+        """(N,) the level rise [m] at points (N, 2) [m], as the shaders draw it
+        (``shaders/flood.glsl`` ``flood_at``, of which this is the CPU twin: the level
+        texture's texel under each point, its cell coordinate's rise blended with the nearest
+        other link's by its weight, :meth:`_blend_links`; 0 off the texture or its cells,
+        i.e. farther than FLOODPLAIN_REACH_M from every centre line). One mechanism for
+        everything that reads the raised level (boats, the mirror, ``world.water_level``,
+        the floodplain's depth, the particles' placement): where two rivers' rises meet it
+        ramps over FLOOD_BLEND_M as the drawn water does, never steps."""
         (x0, y0, side), texels = self.level_textures()
         xy = np.asarray(xy, np.float64).reshape(-1, 2)
         n = texels.shape[0]
@@ -558,25 +567,40 @@ class FloodRouter:
         out[finite] = got
         return out
 
-    def level_rise(self, xy) -> np.ndarray:
-        """(N,) the level rise [m] at points (N, 2) [m] (of the nearest centre line)."""
-        return self._at(self.cell_level_rise_m(), xy, 0.0)
-
     def discharge(self, xy) -> np.ndarray:
         """(N,) the discharge [m³/s] at points (N, 2) [m] (of the nearest centre line)."""
         return self._at(self.cell_discharge_m3s(), xy, 0.0)
 
     def scale_velocity(self, xy: np.ndarray, status: np.ndarray, velocity: np.ndarray,
-                       n: int | None = None) -> None:
+                       n: int | None = None, n_status: int | None = None) -> None:
         """Multiply the nonzero velocities (N, 2) float32 of the first ``n`` points by the
         speed factor of the nearest cell (in place; only while :attr:`active`): read through
         the :attr:`raster` (:func:`~riverflow.kernels.flood.scale_by_cells`), the KD-tree
-        for the few points beyond it."""
+        for the few points beyond it; then the first ``n`` get the floodplain's status and
+        flow (:meth:`floodplain_flow`). Points ``n`` to ``n_status`` (the particles, INSIDE,
+        that ask whether they still are, ``kernels.advection.move_particles``) the base
+        field calls OUTSIDE stay INSIDE while the flood raises a level anywhere: on the
+        floodplain, or leaving the water, their next velocity question (within
+        ``VELOCITY_EVERY`` frames, a few centimetres on) says which (the floodplain's status
+        is found per point: asked every frame for every particle on it, it cost more than
+        the rest of the frame)."""
         if not self.active:
             return
         n = len(xy) if n is None else int(n)
-        if not n:
+        n_status = n if n_status is None else max(int(n_status), n)
+        if n:
+            self._scale(xy, velocity, n)
+        if status is None or self.ground is None:
             return
+        if n:
+            self.floodplain_flow(xy, status, velocity, n)
+        if n_status > n and np.any(self.cell_level_rise_m() > FLOODPLAIN_MIN_DEPTH_M):
+            from riverflow.components.status import FlowStatus
+
+            rows = status[n:n_status]
+            rows[rows == FlowStatus.OUTSIDE] = FlowStatus.INSIDE
+
+    def _scale(self, xy: np.ndarray, velocity: np.ndarray, n: int) -> None:
         if len(self._missed) < n:
             self._missed = np.empty(max(n, 2 * len(self._missed)), np.int64)
         factor = self.cell_speed_factor()
@@ -586,8 +610,6 @@ class FloodRouter:
             rest = self._missed[:n_missed]
             f = self._at(factor, pts[rest], 1.0)
             velocity[rest] *= f[:, None].astype(velocity.dtype)
-        if status is not None and self.ground is not None:
-            self.floodplain_flow(pts, status, velocity, n)
 
     def floodplain_flow(self, xy: np.ndarray, status: np.ndarray, velocity: np.ndarray,
                         n: int | None = None) -> int:
@@ -596,7 +618,9 @@ class FloodRouter:
         FLOODPLAIN_REACH_M of a centre line whose level rise puts water over the ground
         (:attr:`ground`: depth = base level + rise − terrain > FLOODPLAIN_MIN_DEPTH_M) become
         INSIDE, moving along the nearest centre line's downstream direction at
-        U_c (h / h_c)^(2/3) / FLOODPLAIN_ROUGHNESS (module docstring; h at most h_c). Points
+        U_c (h / h_c)^(2/3) / FLOODPLAIN_ROUGHNESS (module docstring; h at most h_c), and at
+        the channel's U_c at its bank, blended over FLOODPLAIN_SHEAR_M (smoothstep of the
+        distance beyond the bank, the centre line's distance less half the width there). Points
         already INSIDE (the channel's own flow) are not touched; dry ground stays OUTSIDE.
         Returns how many points became INSIDE."""
         from riverflow.components.status import FlowStatus
@@ -618,13 +642,13 @@ class FloodRouter:
         near = np.flatnonzero(np.isfinite(d))
         if not len(near):
             return 0
-        k, cand, pts = k[near], cand[near], pts[near]
+        k, cand, pts, d = k[near], cand[near], pts[near], d[near]
         a, b, w = net.weights(net._sample_link[k], net._sample_s[k])
-        rise = rise_cells[a] * (1.0 - w) + rise_cells[b] * w
+        rise = self.level_rise(pts)                               # as drawn
         risen = np.flatnonzero(rise > FLOODPLAIN_MIN_DEPTH_M)
         if not len(risen):
             return 0
-        k, cand, pts = k[risen], cand[risen], pts[risen]
+        k, cand, pts, d = k[risen], cand[risen], pts[risen], d[risen]
         a, b, w, rise = a[risen], b[risen], w[risen], rise[risen]
         ground, level = self.ground(pts)
         depth = np.asarray(level, np.float64) + rise - np.asarray(ground, np.float64)
@@ -632,15 +656,64 @@ class FloodRouter:
         if not len(wet):
             return 0
         a, b, w, depth, cand, k = a[wet], b[wet], w[wet], depth[wet], cand[wet], k[wet]
+        d = d[wet]
         u_channel = self._channel_speed()
         h_channel = net.link_depth_m[net.cell_link] * self.a
         u_c = u_channel[a] * (1.0 - w) + u_channel[b] * w
         h_c = h_channel[a] * (1.0 - w) + h_channel[b] * w
         speed = u_c * (np.minimum(depth, h_c) / h_c) ** (2.0 / 3.0) / FLOODPLAIN_ROUGHNESS
+        # the shear layer: from the channel's speed at its bank to the floodplain's own
+        half = 0.5 * (net.cell_width_m[a] * (1.0 - w) + net.cell_width_m[b] * w)
+        x = np.clip((d - half) / FLOODPLAIN_SHEAR_M, 0.0, 1.0)
+        speed += (u_c - speed) * (1.0 - x * x * (3.0 - 2.0 * x))
         tangent = self._sample_tangents()[k]
         velocity[cand] = (tangent * speed[:, None]).astype(velocity.dtype)
         status[cand] = FlowStatus.INSIDE
         return len(cand)
+
+    def lift_hits(self, directions: np.ndarray, hit_xyz: np.ndarray,
+                  hit_kind: np.ndarray) -> int:
+        """Move rays' hits on the base surface (:func:`~riverflow.kernels.raycast_tiles.
+        cast_rays_onto_tiles`: max(terrain, base-flow water)) back along their ray
+        (``directions`` (N, 3), unit) to the flood's raised water where it covers them (in
+        place; only while :attr:`active` and with a :attr:`ground`): a hit below the raised
+        level there (base level seen from the ground + :meth:`level_rise`) is where the ray
+        went under the water; it crossed the surface ``(level − z) / −dz`` before (the
+        level is nearly flat: the one at the hit, within millimetres of the one where it
+        crossed; the ray was above the ground all the way to the hit, so the ground there is
+        under the water). Land hits so moved become water hits (HIT_WATER): a new particle
+        lands on the flooded floodplain's water, as on the channel's. Returns how many
+        moved."""
+        from riverflow.kernels.raycast import HIT_LAND, HIT_WATER
+
+        if self.ground is None or not self.active:
+            return 0
+        hit = np.flatnonzero(((hit_kind == HIT_LAND) | (hit_kind == HIT_WATER))
+                             & (directions[:, 2] < -1e-6))
+        if not len(hit):
+            return 0
+        z = hit_xyz[hit, 2]
+        d = directions[hit]
+        _, base = self.ground(hit_xyz[hit, :2])
+        level = np.asarray(base, np.float64) + self.level_rise(hit_xyz[hit, :2])
+        back = (level - z) / -d[:, 2]
+        wet = back * -d[:, 2] > FLOODPLAIN_MIN_DEPTH_M
+        moved = hit[wet]
+        hit_xyz[moved] -= back[wet, None] * d[wet]
+        hit_kind[moved] = HIT_WATER
+        return len(moved)
+
+    def lift_altitudes(self, world_m: np.ndarray, rows: np.ndarray) -> None:
+        """Raise the altitude of particles ``rows`` of ``world_m`` (C, 3) [m] (their altitude
+        just read from the base surface, max(terrain, base-flow water)) to the flood's raised
+        water where it is above them (in place; only while :attr:`active` and with a
+        :attr:`ground`): the particles ride on the drawn water, the floodplain's too."""
+        if self.ground is None or not self.active or not len(rows):
+            return
+        xy = world_m[rows, :2]
+        _, base = self.ground(xy)
+        level = np.asarray(base, np.float64) + self.level_rise(xy)
+        world_m[rows, 2] = np.maximum(world_m[rows, 2], level)
 
     def _channel_speed(self) -> np.ndarray:
         """(N,) each cell's depth-averaged speed now [m/s]: U₀ a^(2/3), U₀ = Q₀ / A₀."""

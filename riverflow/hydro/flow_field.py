@@ -230,9 +230,9 @@ class FlowField:
         (:meth:`rapid_table`)."""
         self._rapid_table: kfalls.FallTable | None = None
         self.discharge_scale = None
-        """None, or a callable (xy, status, velocity, n) that scales the first n velocities in
-        place by the local discharge's speed factor and gives flooded ground beside the banks
-        its slow flow (status INSIDE) (a running flood:
+        """None, or a callable (xy, status, velocity, n, n_status=n) that scales the first n
+        velocities in place by the local discharge's speed factor and gives flooded ground
+        beside the banks among the first n_status its slow flow (status INSIDE) (a running flood:
         :meth:`riverflow.hydro.flood.FloodRouter.scale_velocity`); :meth:`query` and the
         particles' query call it after the falls."""
 

@@ -53,6 +53,17 @@ in float v_rise;
 in float v_shore;
 out vec4 frag;
 uniform bool u_debug_materials;  // tests: (rock, drawn slope / 90°, bed, 0.5) for the colour
+#ifdef FLOOD_WAVES
+// the program drawn while a flood is (systems/draw.py: a software rasteriser runs every
+// branch, masked, so the dry ground's program has none of this)
+#include "wave.glsl"
+#include "params.glsl"
+#include "sprite_waves.glsl"
+// the flooded floodplain's surface (issue 25): 1 the world-fixed waves, 2 the wave sprites
+// of its particles (the water's advected mode)
+uniform int u_flood_waves;
+uniform float u_slope_factor;   // the water's wave slopes' scale (DisplaySettings)
+#endif
 
 // -- detail -------------------------------------------------------------------------------
 
@@ -211,9 +222,21 @@ void main() {
     // depth (the ground's wet sheen shows through), so no hard line marks where the level
     // meets the ground, nor the terrain's triangles that line follows
     float plain = smoothstep(0.0, 0.4, -above) * smoothstep(0.0, 0.05, v_rise);
+    vec3 e = normalize(to_eye);
+    // a surface the ground's grain ruffles, or (FLOOD_WAVES) the water's waves at the point
+    // of its surface on this pixel's line of sight, carried by the particles on the flooded
+    // ground in the advected mode (sprite_waves.glsl; the grid read only where it is drawn)
+    vec2 tilt = 0.05 * grain_d.yz + 0.02 * detail_d.yz;
+#ifdef FLOOD_WAVES
+    vec2 q = p + e.xy * (depth / max(e.z, 0.1));
+    vec2 quv = q / max(u_wave_length_m, 1e-3);
+    vec2 quv_dx = dFdx(quv), quv_dy = dFdy(quv);
+    if (plain > 0.0)     // (a software rasteriser runs it masked: the dry lanes list none)
+        tilt = u_slope_factor * sprite_wave_slopes(
+            q, quv_dx, quv_dy, plain > 0.0 && u_flood_waves > 1 ? MAX_PER_CELL : 0);
+#endif
     {
-        vec3 e = normalize(to_eye);
-        vec3 nw = normalize(vec3(-0.05 * grain_d.yz - 0.02 * detail_d.yz, 1.0));
+        vec3 nw = normalize(vec3(-tilt, 1.0));
         float fresnel = 0.02 + 0.98 * pow(1.0 - max(dot(e, nw), 0.0), 5.0);
         vec3 r = reflect(-e, nw);
         r.z = abs(r.z);

@@ -35,12 +35,10 @@ void main() {
 #include "rapids.glsl"
 #include "spill.glsl"
 
+#include "sprite_waves.glsl"
+
 uniform int u_mode;                 // DISPLAY_MODE_*
 uniform bool u_show_grid;
-uniform isampler2DArray u_grid;     // sprite lists: cell (cx, cy) = texel (cx, cy) of layers 0..3
-uniform float u_grid_cell_px;
-uniform ivec2 u_grid_size;          // cells (gw, gh)
-uniform float u_sprite_radius_factor;
 uniform sampler2D u_accum;          // pre-advected sums (w·slope.x, w·slope.y, w², w)
 uniform float u_slope_factor;
 uniform float u_clarity_m;
@@ -55,7 +53,7 @@ uniform float u_clarity_m;
 // (cover = spill_cover(c) of each sprite's concentration c, rgb its spill colour).
 vec4 blend_sprites(vec2 uv_dx, vec2 uv_dy, out bool full, out vec4 foam, out float weight,
                    out vec4 tint) {
-    ivec2 cell = clamp(ivec2(gl_FragCoord.xy / u_grid_cell_px), ivec2(0), u_grid_size - 1);
+    ivec2 cell = sprite_cell();
     vec2 A = vec2(0.0);
     float B = 0.0;
     float covering = 0.0;
@@ -119,23 +117,6 @@ float foam_lace_at(vec3 sums, vec2 fuv, vec2 fuv_dx, vec2 fuv_dy) {
         sums.y += wl * wl;
     }
     return 0.5 + sums.x / sqrt(sums.y);
-}
-
-// The advected wave slopes of a pixel from its sprites' sums A = sum w slope, B = sum w^2 and
-// S = sum w, continuous where the sprites' coverage ends (issue 29). Sprites sum to
-// A / sqrt(B): the variance-normalised blend of independent patterns (Yu et al. 2009 §5), RMS
-// 1 whatever their number. Where they thin out (S < 1: the rim of the last disc, a particle
-// fading in, a gap between particles), the world-fixed waves join as one more independent
-// pattern of weight fade5(1 - S), in the same normalisation: at S = 0 they are the waves
-// alone, from S = 1 on the sprites alone, and the RMS slope (the shade) is the same
-// throughout. A hard switch where S reaches 0 drew a line along the coverage's jagged edge.
-vec2 covered_slopes(vec2 A, float B, float S, vec2 uv0, vec2 uv_dx, vec2 uv_dy) {
-    float wf = fade5(1.0 - S);
-    if (wf > 0.0) {
-        A += wf * wave_slopes(uv0, uv_dx, uv_dy);
-        B += wf * wf;
-    }
-    return B > 0.0 ? A / sqrt(B) : vec2(0.0);
 }
 
 void main() {

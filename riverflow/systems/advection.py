@@ -77,9 +77,24 @@ class AdvectParticles(System):
                 grid.query_xy[n_velocity:n_velocity + n_status] = grid.query_xy[tail][::-1]
             self.waiting = ask_flow(node.field, pool, grid, n_velocity + n_status, reach_px,
                                     n_velocity)
+            router = world.flood
+            if router is not None and router.active:   # the altitudes just read: onto the
+                self._flood_altitude(router, pool, grid, clock.frame, n_velocity, n_status)
             self._near_water(world, node.field, pool, grid, surface, reach_px)
         # the screen positions the next frame starts from were projected with this view
         self._view = (view.clip_from_world.copy(), view.world_from_clip.copy())
+
+    @staticmethod
+    def _flood_altitude(router, pool: ParticlePool, grid: ScreenGrid, frame: int,
+                        n_velocity: int, n_status: int) -> None:
+        """The moving particles whose altitude ``move_particles`` read from the base surface
+        this frame (every ALTITUDE_EVERY frames, staggered by slot) raised onto the flood's
+        water (:meth:`~riverflow.hydro.flood.FloodRouter.lift_altitudes`)."""
+        rows = grid.query_index[:n_velocity + n_status]
+        rows = rows[((rows + frame) & (ALTITUDE_EVERY - 1)) == 0]
+        moving = pool.status[rows]
+        rows = rows[(moving == FlowStatus.INSIDE) | (moving == FlowStatus.LEAVING)]
+        router.lift_altitudes(pool.world_m, rows)
 
     def _near_water(self, world, field: FlowField, pool: ParticlePool, grid: ScreenGrid,
                     surface, reach_px: float) -> None:
@@ -166,8 +181,8 @@ def query_flow(field: FlowField, xy: np.ndarray, status: np.ndarray, velocity: n
                    field.segments, n_velocity, status[:n], velocity[:n])
     if (field.falls or field.rapids) and n_velocity:     # sped up over falls and rapids
         field.apply_falls(xy, status, velocity, n_velocity)
-    if field.discharge_scale is not None and n_velocity:
-        field.discharge_scale(xy, status, velocity, n_velocity)
+    if field.discharge_scale is not None and n:   # (the status-only askers: the floodplain)
+        field.discharge_scale(xy, status, velocity, n_velocity, n)
     if len(field.obstacles) and n_velocity:
         field.apply_obstacles(xy[:n_velocity], status[:n_velocity], velocity[:n_velocity],
                               level=level, fallback=level)

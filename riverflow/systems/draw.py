@@ -197,6 +197,7 @@ class _Gpu:
         if len(bindings) != 1:
             raise gl.GLError(f"the programs' view blocks have binding points {bindings}")
         self.view_binding = bindings.pop()
+        self._defines = defines
         self.view = gl.UniformBuffer(VIEW_FLOATS, 2)
         """The view block: copy 0 for the frame's passes, 1 for the mirrored reflection pass."""
         self.drops = self.drops_cpu = None
@@ -286,6 +287,19 @@ class _Gpu:
             self.grid_fb = gl.Framebuffer([(self.grid, k) for k in range(layers)])
             self.grid_shape = shape
         self.fitted = fitted
+
+    def flood_terrain(self) -> gl.Program:
+        """The terrain's program with the flooded floodplain's waves (``FLOOD_WAVES``), made
+        the first time a flood is drawn (the dry ground's program has none of its cost)."""
+        program = self.programs.get("terrain_flood")
+        if program is None:
+            program = gl.Program("terrain.glsl", {**self._defines, "FLOOD_WAVES": 1})
+            program.set_if_used(**_CONSTANT_UNIFORMS)
+            if program.view_binding != self.view_binding:
+                raise gl.GLError(f"the flood terrain's view block has binding point "
+                                 f"{program.view_binding}, not {self.view_binding}")
+            self.programs["terrain_flood"] = program
+        return program
 
     def resident_codes(self, kind: str) -> set[int]:
         """Codes of the tiles of ``kind`` that have GPU data now."""
@@ -742,6 +756,7 @@ class DrawRivers(System):
     def __init__(self) -> None:
         self.gpu: _Gpu | None = None
         self._flood_uniforms = {"u_flood_on": 0, "u_flood_rect": (0.0, 0.0, 1.0)}
+        self._flood_waves: dict = {"u_flood_waves": 0}
         self.context = None
         self.last_mirror_level_m: float | None = None
         """The reflection's mirror height [m] in the last frame (None: no reflection): the
@@ -829,15 +844,20 @@ class DrawRivers(System):
             sky = gpu.programs["sky"]
             sky.use()
             gpu.empty.draw(gl.TRIANGLES, count=3)
-        # terrain
-        gl.set_depth(True)
-        self._draw_terrain(world, gpu)
-        self._draw_props(gpu)
-
+        # terrain (a flooded floodplain's waves: the sprites', as the water's)
         mode = settings.mode
         gpu.params.bind(PARAMS_UNIT)
         gpu.grid.bind(GRID_UNIT)
         wave_tex.bind(WAVE_UNIT)
+        waves = (0 if not flood_uniforms["u_flood_on"] or mode not in _SHADED_MODES
+                 else 2 if mode == DisplayMode.ADVECTED else 1)
+        self._flood_waves = dict(u_flood_waves=waves, u_slope_factor=settings.wave_slope_factor,
+                                 u_grid_cell_px=float(gpu.grid_shape[0]),
+                                 u_grid_size=gpu.grid_shape[1:], **wave_uniforms)
+        gl.set_depth(True)
+        self._draw_terrain(world, gpu)
+        self._draw_props(gpu)
+
         if mode == DisplayMode.PRE_ADVECTED:
             self._pre_advect(gpu, wave_uniforms, n_drawn, water_meshes, flood_uniforms)
         if mode != DisplayMode.NONE:
@@ -1119,10 +1139,14 @@ class DrawRivers(System):
         """This frame's terrain tiles, through all their nodes (``detail`` "full") or the
         reflection's coarser mesh ("coarse", or "exact": every node, with the reflection's
         own program object), near to far, in one multi-draw."""
-        program = gpu.programs["terrain" if detail == "full" else "terrain_reflection"]
+        waves = detail == "full" and self._flood_waves["u_flood_waves"] > 0
+        program = (gpu.flood_terrain() if waves
+                   else gpu.programs["terrain" if detail == "full" else "terrain_reflection"])
         program.use()
         if detail == "full":
             program.set(u_debug_materials=self.debug_materials)   # sent only when changed
+        if waves:
+            program.set_if_used(**self._flood_waves)
         program.set_if_used(**self._flood_uniforms)
         gpu.terrain.draw(self._terrain_slots, detail)
         if detail == "full":

@@ -44,6 +44,8 @@ class PlaceNewParticles(System):
                        view.height_px, self._origin, self._dir)
             cast_rays_onto_tiles(self._origin[:n], self._dir[:n], surface, world.config.far_m,
                                  self._hit_xyz[:n], self._hit[:n])
+            if world.flood is not None:         # a flood's raised water over the surface
+                world.flood.lift_hits(self._dir[:n], self._hit_xyz[:n], self._hit[:n])
             self.sky = place_particles(grid.new_slots, n, self._hit_xyz, self._hit, pool.world_m,
                                        pool.has_world, pool.status, pool.first_query)
             self.unseen = drop_unseen(grid.new_slots, n, self._hit, HIT_UNKNOWN, pool.alive,

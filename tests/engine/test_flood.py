@@ -13,7 +13,8 @@ import pytest
 
 import riverflow as rf
 from riverflow.hydro.falls import channel_depth_m
-from riverflow.hydro.flood import FLOODPLAIN_ROUGHNESS, FloodRouter, cell_raster
+from riverflow.hydro.flood import (FLOODPLAIN_ROUGHNESS, FLOODPLAIN_SHEAR_M, FloodRouter,
+                                   cell_raster)
 from riverflow.hydro.spill_network import build_spill_network
 from riverflow.kernels.flood import flood_steps, sample_by_cells, scale_by_cells
 from riverflow.tiles.table import tile_code
@@ -116,7 +117,7 @@ def long_river():
     while router.time_s < 5 * 3600.0:
         router.advance(router.dt_s)
         times.append(router.time_s)
-        rise.append(float(router.level_rise(at)[0]))
+        rise.append(float(router._at(router.cell_level_rise_m(), at, 0.0)[0]))   # routed
     return router, q0, np.array(times), np.array(rise)
 
 
@@ -357,7 +358,8 @@ def test_the_ground_stays_wet_looking_behind_a_falling_flood(diamond):
 # -- water over its banks: the floodplain's flow (item 3) -------------------------------------
 # With the flood's level 1 m above the bank top in the built-in valley, the ground below the
 # raised level beside the tributary's banks is INSIDE the flow, moving slowly (faster than 0,
-# slower than the channel, down the valley); the channel's own flow is the base field's,
+# slower than the channel beyond the shear layer at its bank, down the valley), continuous
+# with the channel's flow across the bank; the channel's own flow is the base field's,
 # scaled; it dries (OUTSIDE) when the flood falls back. No NaN.
 
 WET_M = 0.05
@@ -405,7 +407,20 @@ def test_flooded_ground_flows_slowly_down_the_valley(flooded):
     channel = base_status == rf.FlowStatus.INSIDE
     u_mid = float(np.median(speed[channel]))
     assert np.all(speed[plain] > 0.0)
-    assert speed[plain].max() < u_mid / FLOODPLAIN_ROUGHNESS * 1.01
+    assert speed[plain].max() < u_mid * 1.01
+    # beyond the shear layer beside the bank, the floodplain's own slow flow
+    off = np.tile(np.arange(-130.0, 130.5, 1.0), 5)        # the fixture's sections
+    edge = np.abs(np.where(channel, off, 0.0)).reshape(5, -1).max(axis=1)
+    beyond = plain & (np.abs(off) > np.repeat(edge, len(off) // 5) + FLOODPLAIN_SHEAR_M + 1.0)
+    assert beyond.sum() > 50
+    assert speed[beyond].max() < u_mid / FLOODPLAIN_ROUGHNESS * 1.01
+    # continuous across the bank (issue 25): neighbours 1 m apart on either side of it
+    status_grid = base_status.reshape(5, -1)
+    grid = speed.reshape(5, -1)
+    across = status_grid[:, 1:] != status_grid[:, :-1]
+    assert across.sum() >= 10
+    jump = np.abs(grid[:, 1:] - grid[:, :-1])[across]
+    assert jump.max() < 0.1 * u_mid                      # (it was 1.1 m/s of 1.75)
     down = (v[plain] @ t) / speed[plain]
     assert np.mean(down > np.cos(np.radians(30.0))) >= 0.95   # down the valley
     # slower where shallower: the speed rises with the depth on each section
@@ -456,9 +471,9 @@ def test_the_floods_ground_is_the_resident_tiles_bilinear(world):
 
 def test_the_drawn_rise_ramps_across_the_line_where_the_nearest_link_changes(world):
     """hydro.flood.FloodRouter._blend_links (issue 25, F7's saw-tooth): with one branch
-    flooded and the one beside it not, the rise the shaders draw (drawn_rise, the CPU twin
+    flooded and the one beside it not, the rise the shaders draw (level_rise, the CPU twin
     of flood.glsl's flood_at) crosses the line between them on a ramp of FLOOD_BLEND_M,
-    where the nearest cell's rise (level_rise) steps."""
+    where the nearest cell's rise steps."""
     from riverflow.hydro.flood import FLOOD_BLEND_M
 
     world.set_hydrograph(None, [], None)
@@ -479,8 +494,8 @@ def test_the_drawn_rise_ramps_across_the_line_where_the_nearest_link_changes(wor
     c = main[np.argmin(np.hypot(*(main - a).T))]  # the nearest point of another link
     t = np.linspace(0.0, 1.0, 400)[:, None]
     xy = a + t * (c - a)
-    step = router.level_rise(xy)
-    drawn = router.drawn_rise(xy)
+    step = router._at(router.cell_level_rise_m(), xy, 0.0)   # the nearest cell's
+    drawn = router.level_rise(xy)
     jump = np.abs(np.diff(step)).max()
     assert jump > 0.5                             # the nearest cell's rise steps...
     spacing = float(np.hypot(*(c - a))) / 399
@@ -489,3 +504,17 @@ def test_the_drawn_rise_ramps_across_the_line_where_the_nearest_link_changes(wor
     # ...the drawn one ramps: at most ½ the step over a gap change of 2·(spacing + texel)
     assert ramp < jump * 2.0 * (spacing + texel) / FLOOD_BLEND_M
     assert drawn[0] == pytest.approx(step[0], abs=1e-6) and np.isfinite(drawn).all()
+    # the CPU's level (boats, the mirror, world.water_level) is the drawn one (issue 25):
+    # against a twin of flood.glsl's flood_at written here from the level textures
+    (x0, y0, side), tex = router.level_textures()
+    ij = np.floor((xy - (x0, y0)) / side * tex.shape[0]).astype(np.int64)
+    p = tex[ij[:, 1], ij[:, 0]].astype(np.float64)
+    cells = np.append(router.cell_level_rise_m(), 0.0)
+    at = lambda q: np.interp(q, np.arange(len(cells)), cells)      # noqa: E731
+    twin = np.where(p[:, 0] >= 0, at(np.maximum(p[:, 0], 0.0)), 0.0)
+    two = (p[:, 0] >= 0) & (p[:, 1] >= 0)
+    twin[two] = (1.0 - p[two, 2]) * twin[two] + p[two, 2] * at(p[two, 1])
+    assert two.sum() > 20                         # the line crosses the blend
+    level = world.water_level(xy) - world.scene.water.level(xy)
+    np.testing.assert_allclose(level, twin, rtol=0, atol=0.01)
+    assert np.abs(step - twin).max() > 0.3        # (the nearest cell's rise did not)

@@ -1,13 +1,15 @@
 """Water over its banks (issue 25): with the flood's level 1 m above the bank top, the ground
 drawn flooded (the terrain shader's under-water material, ``shaders/flood.glsl``) across a
 section of the valley is as wide as the section's terrain below that level, within one
-terrain cell; it falls back with the water."""
+terrain cell; it falls back with the water. The flooded floodplain is moving water: particles
+land on it (INSIDE, never on dry ground) and their wave sprites are drawn there."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from riverflow.components.display import DisplayMode
+import riverflow as rf
+from riverflow.components.display import DisplayMode, DisplaySettings
 from riverflow.engine.config import RiverConfig
 from riverflow.scenes.default import default_scene
 from tests.engine.cell_networks import flood_over_the_banks
@@ -83,3 +85,105 @@ def test_the_flooded_width_matches_the_valley_section(setup):
     back, _ = _wet_width(world, centre, normal, base)
     assert back == pytest.approx(dry, abs=1.0)
 
+
+def test_the_flooded_floodplain_has_particles_and_waves(setup):
+    """Particles land on the flooded floodplain (their rays stop at the raised water) and flow
+    there INSIDE, never on dry ground, and none is left INSIDE on it once it dries; the
+    flooded bank is drawn with the water's waves carried by their sprites: its pixels vary
+    from their neighbours well above the flat water's (wave slopes off), and they change when
+    the sprites are taken away (the world-fixed waves instead)."""
+    world, scene, centre, normal = setup
+    t = np.array([normal[1], -normal[0]])
+    rise, ratio, q0 = flood_over_the_banks(world)          # 1 m above the bank top
+    router = world.flood
+
+    def depth_and_base(xy):
+        ground, level = router.ground(xy)
+        router.ground, keep = None, router.ground          # the base field's status
+        try:
+            base, _ = world.field.query(xy)
+        finally:
+            router.ground = keep
+        return level + router.level_rise(xy) - ground, base
+
+    # the flooded bank: more than 0.3 m deep, 8 m or more beside the base banks (the raised
+    # channel's water, seen at an angle, covers the ground next to it), on one side
+    off = np.arange(0.0, 60.0, 0.5)
+    along = np.arange(-30.0, 30.0, 0.5)
+    pts = (centre + along[:, None, None] * t + off[None, :, None] * normal).reshape(-1, 2)
+    d, b = depth_and_base(pts)
+    channel = (b == rf.FlowStatus.INSIDE).reshape(len(along), len(off))
+    edge = np.where(channel, off[None, :], 0.0).max(axis=1)            # per section
+    beside = (off[None, :] > edge[:, None] + 8.0).ravel()
+    plain = (b == rf.FlowStatus.OUTSIDE) & (d > 0.3) & beside
+    target = pts[plain].mean(axis=0)                       # looking at it from above it
+    z = float(scene.terrain.height(target[None])[0])
+    eye = target - 35.0 * t
+    world.camera.look_at((eye[0], eye[1], z + 35.0), (target[0], target[1], z))
+    world.load_view()
+    world.paused = False
+    for _ in range(30):
+        world.step(1 / 30)
+    world.paused = True
+
+    p = world.particles
+    depth, base = depth_and_base(p.world_m[:, :2])
+    inside = p.status == rf.FlowStatus.INSIDE
+    assert (inside & (base == rf.FlowStatus.OUTSIDE) & (depth > 0.05)).sum() >= 20
+    assert not (inside & (depth < -0.05)).any()
+    on_plain = inside & (base == rf.FlowStatus.OUTSIDE)    # riding on the raised water
+    ground = router.ground(p.world_m[on_plain, :2])[0]     # (read every 16 frames: 0.25 m)
+    np.testing.assert_allclose(p.world_m[on_plain, 2], ground + depth[on_plain], atol=0.25)
+
+    # the flooded bank's pixels: each pixel's ray onto the plain's height, the same test
+    view_projection = world.camera.view_projection(np.float64)
+    j, i = np.mgrid[0:H, 0:W]
+    ndc = np.column_stack([(i.ravel() + 0.5) / W * 2 - 1, 1 - (j.ravel() + 0.5) / H * 2])
+    ends = [np.column_stack([ndc, np.full(len(ndc), s), np.ones(len(ndc))])
+            @ np.linalg.inv(view_projection) for s in (-1.0, 1.0)]
+    near, far = (e[:, :3] / e[:, 3:] for e in ends)
+    level = float(np.median(ground + depth[on_plain]))
+    xy = (near + ((level - near[:, 2]) / (far[:, 2] - near[:, 2]))[:, None] * (far - near))[:, :2]
+    d, b = depth_and_base(xy)
+    rel = xy - centre
+    side = rel @ normal
+    sec = np.clip(np.searchsorted(along, rel @ t), 0, len(along) - 1)
+    mask = ((b == rf.FlowStatus.OUTSIDE) & (d > 0.3) & (side > edge[sec] + 8.0)).reshape(H, W)
+    pairs = mask[:, 1:] & mask[:, :-1]
+    assert pairs.sum() > 3000
+
+    def lum():
+        return world.render()[..., :3].astype(np.float64).mean(axis=-1)
+
+    def texture(img):                                     # neighbour differences, squared
+        return float(np.mean((img[:, 1:] - img[:, :-1])[pairs] ** 2))
+
+    waves = lum()
+    settings = world.resource(DisplaySettings)
+    slope, settings.wave_slope_factor = settings.wave_slope_factor, 0.0
+    try:
+        flat = lum()
+    finally:
+        settings.wave_slope_factor = slope
+    pool = world.pool
+    intensity = pool.intensity.copy()
+    pool.intensity[:] = 0.0                               # no sprite drawn
+    try:
+        bare = lum()
+    finally:
+        pool.intensity[:] = intensity
+    assert texture(waves) > 4.0 * texture(flat) + 10.0
+    assert np.abs(waves - bare)[mask].mean() > 5.0        # the sprites' waves, not fixed ones
+
+    # the flood falls back: nothing stays INSIDE on the ground it leaves
+    now = world.flood_time_s
+    world.set_hydrograph(None, [now, now + 1.0], [ratio * q0, q0])
+    world.advance_flood(12 * 3600.0)
+    world.paused = False
+    for _ in range(20):
+        world.step(1 / 30)
+    world.paused = True
+    p = world.particles
+    depth, _ = depth_and_base(p.world_m[:, :2])
+    inside = p.status == rf.FlowStatus.INSIDE
+    assert inside.sum() >= 20 and not (inside & (depth < -0.05)).any()
