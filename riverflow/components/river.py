@@ -2,14 +2,17 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from riverflow.hydro.flow_field import FlowField
-from riverflow.hydro.graph import HydroGraph
 from riverflow.kernels.surface_tiles import SurfaceTiles
 from riverflow.tiles.cache import TileCache
 from riverflow.tiles.scheduler import TileScheduler
+
+if TYPE_CHECKING:      # components are plain data: the river's types name the layer above
+    from riverflow.hydro.flow_field import FlowField
+    from riverflow.hydro.graph import HydroGraph
 
 
 @dataclass(eq=False)

@@ -61,8 +61,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from riverflow.components.status import FlowStatus
 from riverflow.kernels._jit import JIT_OPTIONS, is_finite
+from riverflow.kernels.advection import STATUS_INSIDE, STATUS_LEAVING
 
 PARTICLES_PER_ROW = 256
 """Sprite entries per row of the sprite table."""
@@ -81,8 +81,6 @@ BIN_H_FACTOR = 7.0
 r px lie within 7r of rows, so a cell gathers from 2 or 3 bin rows, one range of entries each
 (bins of r × 3r, 2r × 2r or r × r cost the GPU pass 10–70 % more on llvmpipe)."""
 
-STATUS_INSIDE = int(FlowStatus.INSIDE)
-STATUS_LEAVING = int(FlowStatus.LEAVING)
 _TEXELS_PER_ROW = PARTICLES_PER_ROW * TEXELS_PER_PARTICLE
 
 

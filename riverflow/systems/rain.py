@@ -14,7 +14,7 @@ from riverflow.components.rain import Rain
 from riverflow.components.river import FrameView, TerrainView
 from riverflow.engine.system import System
 from riverflow.kernels.rain import SPAWN_TRIES, drops_this_frame, step_rain
-from riverflow.kernels.surface_tiles import one_tile_surface
+from riverflow.tiles.surface import one_tile_surface
 
 if TYPE_CHECKING:
     from riverflow.engine.world import RiverWorld

@@ -12,7 +12,8 @@ from riverflow.components.river import TerrainView
 from riverflow.engine.camera import Camera
 from riverflow.engine.config import RiverConfig
 from riverflow.kernels.rain import SPAWN_TRIES, drops_this_frame, empty_drops, step_rain
-from riverflow.kernels.surface_tiles import one_tile_surface, surface_altitude
+from riverflow.kernels.surface_tiles import surface_altitude
+from riverflow.tiles.surface import one_tile_surface
 from riverflow.scenes.default import default_scene
 from riverflow.scenes.flight import main_centerline
 from tests.engine.flight import river_view

@@ -16,7 +16,8 @@ from riverflow.hydro.flow_field import FlowField
 from riverflow.kernels import flow as kf
 from riverflow.kernels import foam as kfoam
 from riverflow.kernels.lifecycle import allocate_particle
-from riverflow.kernels.surface_tiles import one_tile_surface, water_slope_at
+from riverflow.kernels.surface_tiles import water_slope_at
+from riverflow.tiles.surface import one_tile_surface
 from riverflow.kernels.wake import TR_FIELDS, advance_trail, pack_trail
 from riverflow.systems.foam import foam_params
 from tests.flow.networks import bend_with_island, straight_channel

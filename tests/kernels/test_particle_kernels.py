@@ -16,7 +16,7 @@ from riverflow.kernels import placement as kpl
 from riverflow.kernels import poisson_cull as kc
 from riverflow.kernels import poisson_fill as kf
 from riverflow.kernels import screen as ks
-from riverflow.kernels.surface_tiles import one_tile_surface
+from riverflow.tiles.surface import one_tile_surface
 from tests import reference
 
 FI, AC, FO = 2.0, 30.0, 2.0
