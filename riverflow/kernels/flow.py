@@ -5,7 +5,9 @@ Re-does Proland's ``HydroFlowTile`` (reference §2.3) with the corrections of SP
 * ψ(p) = Σ wᵢ ψᵢ / Σ wᵢ, wᵢ = (R/dᵢ)^slip · f(clamp(1 − dᵢ/R, 0, 1)), f(t) = 6t⁵ − 15t⁴ + 10t³
   (Yu et al. 2009; Proland's product form divided through, f clamped);
 * dᵢ is the distance to boundary i, where banks of equal ψ are merged into one boundary and the
-  signed nearest-segment distance uses Proland's vertex tie rule (positive wins);
+  signed nearest-segment distance settles a tie at a shared vertex by the vertex's
+  pseudo-normal (the sign of the segment whose line p is farther from), not Proland's
+  "positive wins", which reads land beyond a convex corner of the water as water;
 * the inside test takes the *nearest* axis that covers the point, not the first one found
   (a river's before still water's); where the point lies behind that network's shore, the
   next network's (a basin's still water beside its river, across the mouth they share);
@@ -110,23 +112,43 @@ def _dist2(px, py, ax, ay, bx, by):
 
 @njit(**JIT_OPTIONS)
 def _signed_dist2(px, py, ax, ay, bx, by):
-    """Squared distance from p to ab, negative when p is on the right of a → b (dry side)."""
+    """(squared distance from p to ab, negative when p is on the right of a → b (dry side);
+    the squared distance from p to the line ab, the *lead* that settles ties, :func:`_nearer`)."""
     d2 = _dist2(px, py, ax, ay, bx, by)
-    if (bx - ax) * (py - ay) - (by - ay) * (px - ax) < 0.0:
-        return -d2
-    return d2
+    ex = bx - ax
+    ey = by - ay
+    cross = ex * (py - ay) - ey * (px - ax)
+    l2 = ex * ex + ey * ey
+    lead = cross * cross / l2 if l2 > 0.0 else 0.0
+    if cross < 0.0:
+        return -d2, lead
+    return d2, lead
 
 
 @njit(**JIT_OPTIONS)
-def _nearer(cur, s):
-    """Keep the signed squared distance of smaller magnitude; at a tie, positive wins."""
+def _nearer(cur, cur_lead, s, lead):
+    """(signed squared distance, lead) of the nearer of two shore segments, signed as
+    :func:`_signed_dist2`. At a tie of distances (p nearest to a vertex the two share) of
+    opposite signs, the one whose *line* p is farther from wins: its sign is that of
+    (p − v)·(n₁ + n₂), the vertex's pseudo-normal test (n the segments' unit normals towards
+    the water), right at a convex corner (p beyond it on one wall's extension is dry) as at a
+    reflex one; where the lines are as far (two copies of one bank drawn either way: a basin's
+    mouth), the positive one wins (Proland's rule)."""
     a = abs(s)
     b = abs(cur)
     if a < b * (1.0 - _TIE):
-        return s
-    if a <= b * (1.0 + _TIE) and s > 0.0:
-        return s
-    return cur
+        return s, lead
+    if a > b * (1.0 + _TIE):
+        return cur, cur_lead
+    if (s > 0.0) == (cur > 0.0):
+        if lead > cur_lead:
+            return s, lead
+        return cur, cur_lead
+    if lead > cur_lead * (1.0 + _TIE) + 1e-300:
+        return s, lead
+    if lead >= cur_lead * (1.0 - _TIE) and s > 0.0:
+        return s, lead
+    return cur, cur_lead
 
 
 @njit(**JIT_OPTIONS)
@@ -314,7 +336,8 @@ def potential_at(
 ):
     """ψ at p [m²/s] from the pruned lists of a box containing p; NaN when p is not in the water.
 
-    ``gval`` is (G,) scratch for the merged signed squared distance of each ψ-group.
+    ``gval`` is (2·G,) scratch: the merged signed squared distance of each ψ-group, then
+    each group's lead (:func:`_nearer`).
     """
     return potential_and_shore_at(px, py, nb, blk_curve, blk_start, blk_count, blk_seg,
                                   blk_dmin2, seg_ax, seg_ay, seg_bx, seg_by, curve_kind,
@@ -393,28 +416,37 @@ def _network_potential(
     width2 = 4.0 * curve_hw2[axis]  # sign tests only within one river width
     g0 = comp_group0[comp]
     g1 = comp_group1[comp]
+    n_groups = group_psi.shape[0]           # gval[n_groups + g]: group g's lead
     for g in range(g0, g1):
         gval[g] = np.inf
+        gval[n_groups + g] = 0.0
     cap = np.inf
+    cap_lead = 0.0
     for k in range(nb):
         c = blk_curve[k]
         kind = curve_kind[c]
         if kind == KIND_AXIS or curve_comp[c] != comp:
             continue
         cur = np.inf
+        cur_lead = 0.0
         if kind == KIND_BANK:
             cur = gval[curve_group[c]]
+            cur_lead = gval[n_groups + curve_group[c]]
         else:
             cur = cap
+            cur_lead = cap_lead
         if blk_dmin2[k] > abs(cur) * (1.0 + _TIE):  # no point of this curve can be nearer
             continue
         for m in range(blk_start[k], blk_start[k] + blk_count[k]):
             s = blk_seg[m]
-            cur = _nearer(cur, _signed_dist2(px, py, seg_ax[s], seg_ay[s], seg_bx[s], seg_by[s]))
+            sd2, lead = _signed_dist2(px, py, seg_ax[s], seg_ay[s], seg_bx[s], seg_by[s])
+            cur, cur_lead = _nearer(cur, cur_lead, sd2, lead)
         if kind == KIND_BANK:
             gval[curve_group[c]] = cur
+            gval[n_groups + curve_group[c]] = cur_lead
         else:
             cap = cur
+            cap_lead = cur_lead
     if cap < 0.0 and -cap < width2:
         return np.nan, np.inf, True
     count = 0
@@ -886,11 +918,13 @@ def _boundary_inside(px, py, slot, ci, cj, fx, fy, cell_segments, psi_pool, segs
     reference counting of array arguments makes a helper call per point several times slower).
     """
     cur = np.inf
+    cur_lead = 0.0
     for q in range(CELL_SEGMENTS):
         s = cell_segments[slot, cj, ci, q]
         if s < 0:
             break
-        cur = _nearer(cur, _signed_dist2(px, py, segs.ax[s], segs.ay[s], segs.bx[s], segs.by[s]))
+        sd2, lead = _signed_dist2(px, py, segs.ax[s], segs.ay[s], segs.bx[s], segs.by[s])
+        cur, cur_lead = _nearer(cur, cur_lead, sd2, lead)
     if cur != np.inf:
         return cur >= 0.0
     # mixed corners, no boundary segment: the nearest lattice corner decides
