@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from riverflow.hydro.graph import CurveType, GraphError, HydroGraph
-from riverflow.kernels.flow import KIND_AXIS, KIND_BANK, KIND_CAP
+from riverflow.kernels.flow import KIND_AXIS, KIND_BANK, KIND_CAP, OPEN_BANK
 
 
 @dataclass(eq=False)
@@ -254,7 +254,8 @@ def build_flow_network(graph: HydroGraph, search_radius_factor: float,
         kind.append(k)
         comp.append(ck)
         group.append(copy_group[i] if is_copy else bank_group[i] if k == KIND_BANK else -1)
-        hw2.append((0.5 * graph.curves[i].width_m) ** 2 if k == KIND_AXIS else 0.0)
+        hw2.append((0.5 * graph.curves[i].width_m) ** 2 if k == KIND_AXIS
+                   else OPEN_BANK if i in mouth_copy else 0.0)   # a mouth: no shore
         seg0.append(n_seg)
         n_seg += len(a_pts)
         seg1.append(n_seg)

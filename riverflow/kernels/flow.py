@@ -22,7 +22,9 @@ K connected components:
     curve_kind      (C,) int32    KIND_AXIS / KIND_BANK / KIND_CAP
     curve_comp      (C,) int32    connected river network the curve belongs to
     curve_group     (C,) int32    ψ-group of a bank (-1 otherwise)
-    curve_hw2       (C,) float64  squared half-width of an axis [m²] (0 otherwise)
+    curve_hw2       (C,) float64  squared half-width of an axis [m²]; OPEN_BANK on a bank that
+                                  is an open boundary (a basin's mouth: a bank for ψ and the
+                                  inside test, no shore for the distance to it); 0 otherwise
     curve_seg0/1    (C,) int32    the curve's segments are seg0 ≤ s < seg1
     curve_bbox      (C, 4) float64 xmin, ymin, xmax, ymax [m]
     curve_cutoff    (C,) float64  farther than this [m] the curve never matters
@@ -89,6 +91,11 @@ STATUS_UNKNOWN = 0
 
 _TIE = 1e-4  # Proland's relative tolerance for "same distance" at a shared vertex
 MAX_NETWORK_TRIES = 3
+OPEN_BANK = -1.0
+"""``curve_hw2`` of a bank that is an open boundary: a basin's mouth, one bank of the river's
+area and the basin's (:mod:`riverflow.hydro._basins`). It carries ψ and closes each network's
+shore for the inside test like any bank, but the water goes on across it, so the distance to
+the shore (:func:`potential_and_shore_at`: foam, the distance map) does not count it."""
 """How many river networks :func:`potential_and_shore_at` tries at a point behind a shore."""
 
 
@@ -354,7 +361,8 @@ def potential_and_shore_at(
 ):
     """(ψ [m²/s], squared distance to the nearest bank [m²]) at p, as :func:`potential_at`;
     the distance is to the nearest bank or island shore of p's river network (the ψ-groups'
-    nearest segments, which the weighting finds anyway), inf where p is not in the water.
+    nearest segments, which the weighting finds anyway; an open bank, OPEN_BANK, a basin's
+    mouth, is no shore), inf where p is not in the water.
 
     p's network is that of the nearest axis covering it, a river's (a network with two shore
     ψ or more) before still water's (a lake or basin whose whole shore has one ψ); where p
@@ -410,7 +418,8 @@ def _network_potential(
     comp_radius, comp_group0, comp_group1, group_psi, slip, gval, axis,
 ):
     """(ψ, squared distance to the nearest bank, behind) at p in the network of ``axis``:
-    ``behind`` when p lies on the dry side of one of its shores (then ψ is NaN)."""
+    ``behind`` when p lies on the dry side of one of its shores (then ψ is NaN). The distance
+    leaves out open banks (OPEN_BANK: a basin's mouth, which the water crosses)."""
     comp = curve_comp[axis]
     radius = comp_radius[comp]
     width2 = 4.0 * curve_hw2[axis]  # sign tests only within one river width
@@ -422,11 +431,15 @@ def _network_potential(
         gval[n_groups + g] = 0.0
     cap = np.inf
     cap_lead = 0.0
+    shore2 = np.inf         # to the nearest bank segment that is not open
+    saw_open = False
     for k in range(nb):
         c = blk_curve[k]
         kind = curve_kind[c]
         if kind == KIND_AXIS or curve_comp[c] != comp:
             continue
+        shore = kind == KIND_BANK and curve_hw2[c] != OPEN_BANK
+        saw_open = saw_open or (kind == KIND_BANK and not shore)
         cur = np.inf
         cur_lead = 0.0
         if kind == KIND_BANK:
@@ -435,12 +448,17 @@ def _network_potential(
         else:
             cur = cap
             cur_lead = cap_lead
-        if blk_dmin2[k] > abs(cur) * (1.0 + _TIE):  # no point of this curve can be nearer
+        # no point of this curve can be nearer (nor nearer than the nearest shore, where an
+        # open bank may have been its group's nearest: otherwise that is never farther)
+        if blk_dmin2[k] > abs(cur) * (1.0 + _TIE) and not (
+                shore and saw_open and blk_dmin2[k] < shore2):
             continue
         for m in range(blk_start[k], blk_start[k] + blk_count[k]):
             s = blk_seg[m]
             sd2, lead = _signed_dist2(px, py, seg_ax[s], seg_ay[s], seg_bx[s], seg_by[s])
             cur, cur_lead = _nearer(cur, cur_lead, sd2, lead)
+            if shore:
+                shore2 = min(shore2, abs(sd2))
         if kind == KIND_BANK:
             gval[curve_group[c]] = cur
             gval[n_groups + curve_group[c]] = cur_lead
@@ -478,8 +496,10 @@ def _network_potential(
         # water lies between two shores of different ψ; a network whose whole shore has one
         # ψ (a lake no river touches) is still water
         return np.nan, np.inf, False
+    if saw_open and shore2 < np.inf:
+        near2 = shore2      # the water goes on across an open bank
     if on_bank >= 0:
-        return group_psi[on_bank], 0.0, False
+        return group_psi[on_bank], near2 if saw_open else 0.0, False
     if sw <= 0.0:
         return np.nan, np.inf, False
     return swp / sw, near2, False
