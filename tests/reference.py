@@ -7,6 +7,7 @@ from riverflow.hydro.flow_network import FlowNetwork
 from riverflow.kernels.flow import KIND_AXIS, KIND_BANK, KIND_CAP, MAX_NETWORK_TRIES
 
 TIE = 1e-4
+ON_LINE = 1e-12
 
 
 def _dist2(p, a, b):
@@ -23,7 +24,10 @@ def _signed(p, a, b):
     """Signed squared distances (negative on the dry side, the right of a → b) and leads (the
     squared distances to the segments' lines)."""
     d2 = _dist2(p, a, b)
-    cross = (b[:, 0] - a[:, 0]) * (p[1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (p[0] - a[:, 0])
+    t1 = (b[:, 0] - a[:, 0]) * (p[1] - a[:, 1])
+    t2 = (b[:, 1] - a[:, 1]) * (p[0] - a[:, 0])
+    cross = t1 - t2
+    cross = np.where(np.abs(cross) <= ON_LINE * (np.abs(t1) + np.abs(t2)), 0.0, cross)
     l2 = ((b - a) ** 2).sum(1)
     lead = np.where(l2 > 0, cross**2 / np.where(l2 > 0, l2, 1), 0.0)
     return np.where(cross < 0, -d2, d2), lead

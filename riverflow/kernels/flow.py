@@ -90,6 +90,10 @@ STATUS_OUTSIDE_DOMAIN = 6
 STATUS_UNKNOWN = 0
 
 _TIE = 1e-4  # Proland's relative tolerance for "same distance" at a shared vertex
+_ON_LINE = 1e-12
+"""A point whose cross product with a segment is under this fraction of its two terms lies on
+the segment's line (rounding): it is on the water side, so a point on a basin's mouth, whose
+two copies run either way, is water for both (not, by the rounding of each, dry for one)."""
 MAX_NETWORK_TRIES = 3
 OPEN_BANK = -1.0
 """``curve_hw2`` of a bank that is an open boundary: a basin's mouth, one bank of the river's
@@ -124,7 +128,11 @@ def _signed_dist2(px, py, ax, ay, bx, by):
     d2 = _dist2(px, py, ax, ay, bx, by)
     ex = bx - ax
     ey = by - ay
-    cross = ex * (py - ay) - ey * (px - ax)
+    t1 = ex * (py - ay)
+    t2 = ey * (px - ax)
+    cross = t1 - t2
+    if abs(cross) <= _ON_LINE * (abs(t1) + abs(t2)):
+        cross = 0.0     # on the line within rounding: the water side (a mouth's two copies agree)
     l2 = ex * ex + ey * ey
     lead = cross * cross / l2 if l2 > 0.0 else 0.0
     if cross < 0.0:

@@ -165,6 +165,24 @@ def test_no_land_reads_as_water_on_a_metre_grid(harbour):
     assert water_as_land.sum() == 0, pts[far][water_as_land][:5]
 
 
+def test_a_mouth_is_no_shore(harbour):
+    """The water goes on across a basin's mouth: the distance to the shore that foam reads
+    (``FlowField.shore_distance``, the flow tiles' lattice) is the distance to the polygon's
+    outline there, within a lattice spacing, not 0 along the mouth line (a band of shore foam
+    drawn across each harbour entrance); on the mouth line itself the water is water."""
+    water, basins, builder, graph, field = harbour
+    h = field.tiles.spacing_m(field.max_level)
+    for b in builder.basins:
+        a, e = b.mouth
+        t = (e - a) / np.linalg.norm(e - a)
+        n = np.array([-t[1], t[0]])
+        s = np.linspace(0.3, 0.7, 5)[:, None]
+        pts = np.vstack([a + s * (e - a) + d * n for d in (-1.0, -0.3, 0.0, 0.3, 1.0)])
+        got = field.shore_distance(pts)
+        want = shapely.distance(water.boundary, shapely.points(pts))
+        assert np.abs(got - want).max() < h, (got, want)
+
+
 def test_the_flow_past_each_mouth_is_continuous(harbour):
     """3 m into the river along its bank, from 60 m above a mouth to 60 m below it, the
     velocity (1 m apart) has no step and runs along the bank: the river passes the mouth as
