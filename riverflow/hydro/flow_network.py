@@ -152,8 +152,9 @@ def build_flow_network(graph: HydroGraph, search_radius_factor: float,
     # a basin's mouth (:mod:`riverflow.hydro._basins`) is a bank of two areas, the river's and
     # the still basin's, linked to the river's axis: the basin's side gets a copy of it drawn
     # the other way (water on its left) linked to the basin's axis, so each network sees a
-    # closed shore there and the inside test finds water on both sides (equal distances: the
-    # positive one wins)
+    # closed shore there and the inside test finds water on both sides (equal distances, lines
+    # as far: the positive one wins); both copies are open banks (OPEN_BANK: no shore for the
+    # distance to the shore, the water goes on across the mouth)
     uses: dict[int, list[int]] = {}
     for k, area in enumerate(graph.areas):
         for c, _ in area.curves:

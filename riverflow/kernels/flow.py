@@ -378,7 +378,7 @@ def potential_and_shore_at(
     width), the next network is tried so, up to MAX_NETWORK_TRIES networks: where two
     networks' axes overlap across a shore they share (a basin's mouth beside its river), each
     point takes the one whose water it is in, and a river's water is never taken for a
-    basin's by Proland's vertex tie rule at the basin's corners."""
+    basin's at the basin's corners (the vertex tie rule, :func:`_nearer`)."""
     tried0 = -1
     tried1 = -1
     for _ in range(MAX_NETWORK_TRIES):
