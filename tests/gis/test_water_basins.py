@@ -208,3 +208,44 @@ def test_the_flow_past_each_mouth_is_continuous(harbour):
         assert np.abs(speed[at_mouth] / np.median(speed) - 1).max() < 0.03
         along = np.abs(v @ t)
         assert (along > 0.98 * speed).all()
+
+
+def _stub_river(tmp_path, rise_per_m: float):
+    """A straight 30 m river polygon along T (slope 1/2 from the origin, cut by x = 0 and
+    x = 240) with a 14 m wide stub 50 m long off its left bank 120 m down it, no lines, on a
+    DEM that falls 1 cm/m downstream and whose ground rises ``rise_per_m`` per metre beyond
+    the left bank's line."""
+    from tests.gis.test_rasters import write_dem
+
+    def frame(c):
+        return c[:, :1] * T + c[:, 1:2] * N
+
+    water = shapely.union_all([box(-40, -15, 300, 15), box(113, 14, 127, 65)])
+    water = shapely.intersection(shapely.transform(water, frame), box(0, -100, 240, 300))
+    poly = write_polygons(tmp_path / "stub.geojson", [water])
+
+    def ground(x, y):
+        p = np.stack([x - ORIGIN[0], y - ORIGIN[1]], -1)
+        return 100.0 - 0.01 * (p @ T) + rise_per_m * np.maximum(p @ N - 15.0, 0.0)
+
+    dem = write_dem(tmp_path / "dem.tif", nx=30, ny=26, west=ORIGIN[0] - 30.0,
+                    north=ORIGIN[1] + 220.0, cell=10.0, fn=ground)
+    return water, rf.read_water(poly, dem=dem, origin_m=ORIGIN)
+
+
+def test_a_stub_the_dem_rises_along_is_a_tributary(tmp_path):
+    """A short dead-end stub off a polygon river (no lines, no inlet there) is a basin,
+    unless the DEM given has its ground rising away from the river: then it is a tributary
+    (noted), a channel whose water runs into the river."""
+    water, flat = _stub_river(tmp_path, 0.0)
+    flat.build()
+    assert len(flat.basins) == 1 and flat.report.derived["axes"] == {"skeleton": 1}
+    assert sum("is a basin" in n for n in flat.report.notes) == 1
+    water, rising = _stub_river(tmp_path, 0.03)      # 1.2 m from the junction to its end
+    graph = rising.build()
+    assert rising.basins == [] and rising.report.derived["axes"] == {"skeleton": 3}
+    assert sum("is a tributary" in n for n in rising.report.notes) == 1
+    assert not any("is a basin" in n for n in rising.report.notes)
+    pts = np.array([120.0 * T + 35.0 * N, 120.0 * T + 45.0 * N])
+    status, v = rf.FlowField(graph).query(pts)
+    assert (status == INSIDE).all() and (v @ N < 0).all()      # into the river
