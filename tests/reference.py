@@ -40,10 +40,8 @@ def _nearer(cur, s):
     (c, cl), (v, vl) = cur, s
     if abs(v) < abs(c) * (1 - TIE):
         return s
-    if abs(v) > abs(c) * (1 + TIE):
+    if abs(v) > abs(c) * (1 + TIE) or (v > 0) == (c > 0):
         return cur
-    if (v > 0) == (c > 0):
-        return s if vl > cl else cur
     if vl > cl * (1 + TIE) + 1e-300:
         return s
     if vl >= cl * (1 - TIE) and v > 0:

@@ -123,47 +123,52 @@ def _dist2(px, py, ax, ay, bx, by):
 
 @njit(**JIT_OPTIONS)
 def _signed_dist2(px, py, ax, ay, bx, by):
-    """(squared distance from p to ab, negative when p is on the right of a → b (dry side);
-    the squared distance from p to the line ab, the *lead* that settles ties, :func:`_nearer`)."""
+    """Squared distance from p to ab, negative when p is on the right of a → b (dry side); a
+    point on the line within rounding (_ON_LINE) is on the left."""
     d2 = _dist2(px, py, ax, ay, bx, by)
-    ex = bx - ax
-    ey = by - ay
-    t1 = ex * (py - ay)
-    t2 = ey * (px - ax)
-    cross = t1 - t2
-    if abs(cross) <= _ON_LINE * (abs(t1) + abs(t2)):
-        cross = 0.0     # on the line within rounding: the water side (a mouth's two copies agree)
-    l2 = ex * ex + ey * ey
-    lead = cross * cross / l2 if l2 > 0.0 else 0.0
-    if cross < 0.0:
-        return -d2, lead
-    return d2, lead
+    t1 = (bx - ax) * (py - ay)
+    t2 = (by - ay) * (px - ax)
+    if t2 - t1 > _ON_LINE * (abs(t1) + abs(t2)):      # cross < 0 beyond rounding
+        return -d2
+    return d2
 
 
 @njit(**JIT_OPTIONS)
-def _nearer(cur, cur_lead, s, lead):
-    """(signed squared distance, lead) of the nearer of two shore segments, signed as
-    :func:`_signed_dist2`. At a tie of distances (p nearest to a vertex the two share) of
-    opposite signs, the one whose *line* p is farther from wins: its sign is that of
-    (p − v)·(n₁ + n₂), the vertex's pseudo-normal test (n the segments' unit normals towards
-    the water), right at a convex corner (p beyond it on one wall's extension is dry) as at a
-    reflex one; where the lines are as far (two copies of one bank drawn either way: a basin's
-    mouth), the positive one wins (Proland's rule)."""
+def _lead2(px, py, ax, ay, bx, by):
+    """Squared distance from p to the line through a and b (0 for a point segment)."""
+    ex = bx - ax
+    ey = by - ay
+    l2 = ex * ex + ey * ey
+    if l2 <= 0.0:
+        return 0.0
+    cross = ex * (py - ay) - ey * (px - ax)
+    return cross * cross / l2
+
+
+@njit(**JIT_OPTIONS)
+def _nearer(cur, cur_seg, s, seg, px, py, seg_ax, seg_ay, seg_bx, seg_by):
+    """(signed squared distance, segment) of the nearer of the current best ``cur`` (of
+    segment ``cur_seg``) and ``s`` (of ``seg``), signed as :func:`_signed_dist2`. At a tie of
+    distances (p nearest to a vertex the two share) of opposite signs, the segment whose
+    *line* p is farther from wins: its sign is that of (p − v)·(n₁ + n₂), the vertex's
+    pseudo-normal test (n the segments' unit normals towards the water), right at a convex
+    corner (p beyond it on one wall's extension is dry) as at a reflex one; where the lines
+    are as far (two copies of one bank drawn either way: a basin's mouth), the positive one
+    wins (Proland's rule, which it keeps at every tie: wrong at convex corners)."""
     a = abs(s)
     b = abs(cur)
     if a < b * (1.0 - _TIE):
-        return s, lead
-    if a > b * (1.0 + _TIE):
-        return cur, cur_lead
-    if (s > 0.0) == (cur > 0.0):
-        if lead > cur_lead:
-            return s, lead
-        return cur, cur_lead
+        return s, seg
+    if a > b * (1.0 + _TIE) or (s > 0.0) == (cur > 0.0):
+        return cur, cur_seg
+    lead = _lead2(px, py, seg_ax[seg], seg_ay[seg], seg_bx[seg], seg_by[seg])
+    cur_lead = _lead2(px, py, seg_ax[cur_seg], seg_ay[cur_seg], seg_bx[cur_seg],
+                      seg_by[cur_seg])
     if lead > cur_lead * (1.0 + _TIE) + 1e-300:
-        return s, lead
+        return s, seg
     if lead >= cur_lead * (1.0 - _TIE) and s > 0.0:
-        return s, lead
-    return cur, cur_lead
+        return s, seg
+    return cur, cur_seg
 
 
 @njit(**JIT_OPTIONS)
@@ -352,7 +357,7 @@ def potential_at(
     """ψ at p [m²/s] from the pruned lists of a box containing p; NaN when p is not in the water.
 
     ``gval`` is (2·G,) scratch: the merged signed squared distance of each ψ-group, then
-    each group's lead (:func:`_nearer`).
+    the segment it is to (:func:`_nearer`).
     """
     return potential_and_shore_at(px, py, nb, blk_curve, blk_start, blk_count, blk_seg,
                                   blk_dmin2, seg_ax, seg_ay, seg_bx, seg_by, curve_kind,
@@ -433,12 +438,12 @@ def _network_potential(
     width2 = 4.0 * curve_hw2[axis]  # sign tests only within one river width
     g0 = comp_group0[comp]
     g1 = comp_group1[comp]
-    n_groups = group_psi.shape[0]           # gval[n_groups + g]: group g's lead
+    n_groups = group_psi.shape[0]           # gval[n_groups + g]: group g's nearest segment
     for g in range(g0, g1):
         gval[g] = np.inf
-        gval[n_groups + g] = 0.0
+        gval[n_groups + g] = -1.0
     cap = np.inf
-    cap_lead = 0.0
+    cap_seg = -1
     shore2 = np.inf         # to the nearest bank segment that is not open
     saw_open = False
     for k in range(nb):
@@ -449,13 +454,13 @@ def _network_potential(
         shore = kind == KIND_BANK and curve_hw2[c] != OPEN_BANK
         saw_open = saw_open or (kind == KIND_BANK and not shore)
         cur = np.inf
-        cur_lead = 0.0
+        cur_seg = -1
         if kind == KIND_BANK:
             cur = gval[curve_group[c]]
-            cur_lead = gval[n_groups + curve_group[c]]
+            cur_seg = int(gval[n_groups + curve_group[c]])
         else:
             cur = cap
-            cur_lead = cap_lead
+            cur_seg = cap_seg
         # no point of this curve can be nearer (nor nearer than the nearest shore, where an
         # open bank may have been its group's nearest: otherwise that is never farther)
         if blk_dmin2[k] > abs(cur) * (1.0 + _TIE) and not (
@@ -463,16 +468,16 @@ def _network_potential(
             continue
         for m in range(blk_start[k], blk_start[k] + blk_count[k]):
             s = blk_seg[m]
-            sd2, lead = _signed_dist2(px, py, seg_ax[s], seg_ay[s], seg_bx[s], seg_by[s])
-            cur, cur_lead = _nearer(cur, cur_lead, sd2, lead)
+            sd2 = _signed_dist2(px, py, seg_ax[s], seg_ay[s], seg_bx[s], seg_by[s])
+            cur, cur_seg = _nearer(cur, cur_seg, sd2, s, px, py, seg_ax, seg_ay, seg_bx, seg_by)
             if shore:
                 shore2 = min(shore2, abs(sd2))
         if kind == KIND_BANK:
             gval[curve_group[c]] = cur
-            gval[n_groups + curve_group[c]] = cur_lead
+            gval[n_groups + curve_group[c]] = cur_seg
         else:
             cap = cur
-            cap_lead = cur_lead
+            cap_seg = cur_seg
     if cap < 0.0 and -cap < width2:
         return np.nan, np.inf, True
     count = 0
@@ -946,13 +951,14 @@ def _boundary_inside(px, py, slot, ci, cj, fx, fy, cell_segments, psi_pool, segs
     reference counting of array arguments makes a helper call per point several times slower).
     """
     cur = np.inf
-    cur_lead = 0.0
+    cur_seg = -1
     for q in range(CELL_SEGMENTS):
         s = cell_segments[slot, cj, ci, q]
         if s < 0:
             break
-        sd2, lead = _signed_dist2(px, py, segs.ax[s], segs.ay[s], segs.bx[s], segs.by[s])
-        cur, cur_lead = _nearer(cur, cur_lead, sd2, lead)
+        sd2 = _signed_dist2(px, py, segs.ax[s], segs.ay[s], segs.bx[s], segs.by[s])
+        cur, cur_seg = _nearer(cur, cur_seg, sd2, s, px, py, segs.ax, segs.ay, segs.bx,
+                               segs.by)
     if cur != np.inf:
         return cur >= 0.0
     # mixed corners, no boundary segment: the nearest lattice corner decides
