@@ -7,6 +7,7 @@ from riverflow.hydro.flow_network import FlowNetwork
 from riverflow.kernels.flow import KIND_AXIS, KIND_BANK, KIND_CAP, MAX_NETWORK_TRIES
 
 TIE = 1e-4
+ON_LINE = 1e-12
 
 
 def _dist2(p, a, b):
@@ -20,15 +21,30 @@ def _dist2(p, a, b):
 
 
 def _signed(p, a, b):
+    """Signed squared distances (negative on the dry side, the right of a → b) and leads (the
+    squared distances to the segments' lines)."""
     d2 = _dist2(p, a, b)
-    cross = (b[:, 0] - a[:, 0]) * (p[1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (p[0] - a[:, 0])
-    return np.where(cross < 0, -d2, d2)
+    t1 = (b[:, 0] - a[:, 0]) * (p[1] - a[:, 1])
+    t2 = (b[:, 1] - a[:, 1]) * (p[0] - a[:, 0])
+    cross = t1 - t2
+    cross = np.where(np.abs(cross) <= ON_LINE * (np.abs(t1) + np.abs(t2)), 0.0, cross)
+    l2 = ((b - a) ** 2).sum(1)
+    lead = np.where(l2 > 0, cross**2 / np.where(l2 > 0, l2, 1), 0.0)
+    return np.where(cross < 0, -d2, d2), lead
 
 
 def _nearer(cur, s):
-    if abs(s) < abs(cur) * (1 - TIE):
+    """The nearer of two (signed squared distance, lead) pairs: at a tie of distances with
+    opposite signs (a vertex both segments share), the one whose line p is farther from (the
+    vertex's pseudo-normal); lines as far: the positive one."""
+    (c, cl), (v, vl) = cur, s
+    if abs(v) < abs(c) * (1 - TIE):
         return s
-    if abs(s) <= abs(cur) * (1 + TIE) and s > 0:
+    if abs(v) > abs(c) * (1 + TIE) or (v > 0) == (c > 0):
+        return cur
+    if vl > cl * (1 + TIE) + 1e-300:
+        return s
+    if vl >= cl * (1 - TIE) and v > 0:
         return s
     return cur
 
@@ -64,25 +80,26 @@ def _network_potential(net, p, a, b, d2, axis, slip):
     comp = net.curve_comp[axis]
     radius = net.comp_radius[comp]
     width2 = 4 * net.curve_hw2[axis]
-    signed = _signed(p, a, b)
-    groups: dict[int, float] = {}
-    cap = np.inf
+    signed, lead = _signed(p, a, b)
+    groups: dict[int, tuple[float, float]] = {}
+    cap = (np.inf, 0.0)
     for c in range(net.n_curves):
         if net.curve_kind[c] == KIND_AXIS or net.curve_comp[c] != comp:
             continue
         segs = range(net.curve_seg0[c], net.curve_seg1[c])
         if min(d2[s] for s in segs) > net.curve_cutoff[c] ** 2:
             continue
-        cur = groups.get(net.curve_group[c], np.inf) if net.curve_kind[c] == KIND_BANK else cap
+        cur = (groups.get(net.curve_group[c], (np.inf, 0.0)) if net.curve_kind[c] == KIND_BANK
+               else cap)
         for s in segs:
-            cur = _nearer(cur, signed[s])
+            cur = _nearer(cur, (signed[s], lead[s]))
         if net.curve_kind[c] == KIND_BANK:
             groups[net.curve_group[c]] = cur
         elif net.curve_kind[c] == KIND_CAP:
             cap = cur
-    if cap < 0 and -cap < width2:
+    if cap[0] < 0 and -cap[0] < width2:
         return np.nan, True
-    vals = np.array([groups[g] for g in sorted(groups)])
+    vals = np.array([groups[g][0] for g in sorted(groups)])
     psis = net.group_psi[sorted(groups)]
     one = net.comp_group1[comp] - net.comp_group0[comp] == 1   # a still lake's one shore
     if np.any((vals < 0) & (-vals < width2)):

@@ -399,7 +399,6 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
     ``lakes``: the lakes (polygons [m]) the water runs into and out of; a channel that starts
     on a lake's shore takes its discharge from the lake."""
     report = builder.report
-    crs_out = report.crs
     builder._branches.clear()
     builder._islands.clear()
     builder._lakes.clear()
@@ -432,9 +431,12 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
     ends = [e for net in networks for e in net.free_ends()]
     _match_points(ends, inlet_xy, "inlet", where, water)
     _match_points(ends, outlet_xy, "outlet", where, water)
+    heights = ((lambda xy: _dem_heights(dem, xy, report, where)) if dem is not None else None)
     for net in networks:
-        _drop_basin_spurs(net, frame, tolerance_m, report)
-    elevations = _dem_elevations(dem, ends, crs_out, report, where) if dem is not None else None
+        _drop_basin_spurs(net, frame, tolerance_m, report, heights)
+    # the free ends once the spurs are gone (their nodes are numbered anew)
+    elevations = (_dem_elevations(dem, [e for net in networks for e in net.free_ends()],
+                                  report, where) if dem is not None else None)
     rules = set()
     for k, net in enumerate(networks):
         rules.add(net.orient(elevations))
@@ -759,6 +761,9 @@ class _Network:
         self.nodes = nodes
         self.inlets: set[int] = set()
         self.outlets: set[int] = set()
+        self.tributaries: set[int] = set()
+        """Free ends of short dead-end channels kept as tributaries because the DEM rises
+        towards them (:func:`_drop_basin_spurs`): inlets when the DEM orients the water."""
         self.rule = ""
 
     def degree(self) -> np.ndarray:
@@ -806,6 +811,8 @@ class _Network:
             top, low = max(known, key=lambda k: z[k]), min(known, key=lambda k: z[k])
             if z[top] > z[low]:
                 inlets, outlets = [top], [low]
+                inlets += [k for k in sorted(self.tributaries) if k in leaves
+                           and k not in inlets + outlets]      # a stub the DEM rises along
                 rule = "from the DEM (highest free end in, lowest out)"
             else:                          # a DEM flat at the free ends cannot tell
                 flat = f"the DEM is flat at the free ends ({z[top]:g} m), so "
@@ -883,12 +890,34 @@ BASIN_SPUR_WIDTHS = 3.0
 nor given as an inlet or outlet) no longer than this many widths of the channel it leaves
 (counted from that channel's bank) is a basin (a harbour, a dock, a marina, a side basin),
 not a tributary: it is dropped from the axes and the builder makes it still water
-(:mod:`riverflow.hydro._basins`)."""
+(:mod:`riverflow.hydro._basins`). With a DEM, a spur whose water the DEM has rising towards
+its end by TRIBUTARY_RISE_M or more is a tributary and stays a channel."""
+TRIBUTARY_RISE_M = 0.5
+"""With a DEM (``dem=``), a short dead-end channel (BASIN_SPUR_WIDTHS) whose ground rises by at
+least this much [m] from the junction to its end is a tributary, not a basin (a basin's water
+is level with its river's)."""
 
 
-def _drop_basin_spurs(net: _Network, frame, tolerance_m: float, report: RiverImport) -> None:
+def _spur_rise(c: _Channel, end: int, junction: int, nodes: np.ndarray, heights) -> float:
+    """How much the DEM rises [m] from a spur's junction to its end, both read in the water:
+    at the junction node (the main channel's axis) and at the spur's last axis point at least
+    its half width short of its end (a skeleton's end reaches into the corner of the shore,
+    where a DEM cell may hold the bank's ground). NaN where the DEM has no value."""
+    pts = c.points if c.b == end else c.points[::-1]
+    widths = c.widths if c.b == end else c.widths[::-1]
+    back = np.concatenate([np.cumsum(np.hypot(*np.diff(pts, axis=0).T)[::-1])[::-1], [0.0]])
+    inner = np.flatnonzero(back >= 0.5 * widths)
+    at = pts[inner[-1]] if len(inner) else pts[len(pts) // 2]
+    z = heights(np.vstack([nodes[junction], at]))
+    return float(z[1] - z[0])
+
+
+def _drop_basin_spurs(net: _Network, frame, tolerance_m: float, report: RiverImport,
+                      heights=None) -> None:
     """Drop the skeleton's spurs into basins (BASIN_SPUR_WIDTHS); where the junction they left
-    is then between two channels only, those two become one. Reported as notes."""
+    is then between two channels only, those two become one. Reported as notes. ``heights``:
+    the DEM's heights at points (N, 2) [m], or None: a spur the DEM rises along
+    (TRIBUTARY_RISE_M) is kept, a tributary (noted)."""
     edge = frame.boundary if frame is not None else None
     for _ in range(len(net.channels)):
         deg = net.degree()
@@ -903,9 +932,22 @@ def _drop_basin_spurs(net: _Network, frame, tolerance_m: float, report: RiverImp
                 if edge is not None and edge.distance(shapely.Point(p)) <= max(
                         4.0 * tolerance_m, 0.05 * c.width):
                     continue            # an open end: the data's edge cuts the water there
+                if end in net.tributaries:
+                    continue
                 main = max((d.width for d in net.channels
                             if d is not c and other in (d.a, d.b)), default=0.0)
                 if c.length - 0.5 * main <= BASIN_SPUR_WIDTHS * main:
+                    rise = (_spur_rise(c, end, other, net.nodes, heights)
+                            if heights is not None else math.nan)
+                    if rise >= TRIBUTARY_RISE_M:
+                        x, y = net.nodes[end]
+                        report.notes.append(
+                            f"{c.name}: a dead end {c.length:.1f} m long off the channel at "
+                            f"({net.nodes[other][0]:.1f}, {net.nodes[other][1]:.1f}), ending "
+                            f"at ({x:.1f}, {y:.1f}), is a tributary, not a basin: the DEM "
+                            f"rises {rise:.2f} m along it")
+                        net.tributaries.add(end)
+                        continue
                     spur = c
                     break
             if spur is not None:
@@ -939,6 +981,7 @@ def _drop_basin_spurs(net: _Network, frame, tolerance_m: float, report: RiverImp
         net.nodes = net.nodes[used]
         net.inlets = {new[n] for n in net.inlets if n in new}
         net.outlets = {new[n] for n in net.outlets if n in new}
+        net.tributaries = {new[n] for n in net.tributaries if n in new}
 
 
 def _harmonic(adj, inlets: list[int], outlets: list[int]) -> np.ndarray:
@@ -1430,18 +1473,27 @@ def _match_points(ends, pts: np.ndarray, what: str, where: str, water) -> None:
         (net.inlets if what == "inlet" else net.outlets).add(n)
 
 
-def _dem_elevations(dem, ends, crs_wkt, report: RiverImport, where: str) -> dict:
+def _dem_elevations(dem, ends, report: RiverImport, where: str) -> dict:
     """Elevation of the DEM at every free end: {(id(network), node): z} (NaN off the DEM)."""
+    z = _dem_heights(dem, np.array([net.nodes[n] for net, n, _ in ends]).reshape(-1, 2),
+                     report, where)
+    return {(id(net), n): float(v) for (net, n, _), v in zip(ends, z)}
+
+
+def _dem_heights(dem, xy_m: np.ndarray, report: RiverImport, where: str) -> np.ndarray:
+    """The DEM's heights at points (N, 2) [m] of the water's frame, (N,) (NaN off the DEM)."""
     from riverflow.scenes.rasters import open_raster
 
-    xy = np.array([net.nodes[n] for net, n, _ in ends]) + np.asarray(report.origin_m)
+    xy = np.asarray(xy_m, np.float64) + np.asarray(report.origin_m)
+    if not len(xy):
+        return np.zeros(0)
     try:
         src = open_raster(dem, what="DEM")
     except (ValueError, FileNotFoundError, TypeError) as exc:
         raise GraphError(f"{where}: the DEM: {exc}") from None
     try:
         with src:
-            if crs_wkt and src.crs:
+            if report.crs and src.crs:
                 pyproj = require("pyproj", "projecting to the DEM")
                 to = pyproj.Transformer.from_crs(pyproj.CRS.from_wkt(report.crs),
                                                  pyproj.CRS.from_user_input(src.crs.to_wkt()),
@@ -1454,10 +1506,7 @@ def _dem_elevations(dem, ends, crs_wkt, report: RiverImport, where: str) -> dict
         raise
     except Exception as exc:
         raise GraphError(f"{where}: cannot read the DEM {dem}: {exc}") from None
-    out = {}
-    for (net, n, _), v in zip(ends, z):
-        out[(id(net), n)] = math.nan if np.ma.is_masked(v) else float(v)
-    return out
+    return np.array([math.nan if np.ma.is_masked(v) else float(v) for v in z])
 
 
 def _discharges(networks: list[_Network], total_m3s, geometry: HydraulicGeometry,

@@ -696,7 +696,7 @@ class TileBuilder:
         self.blk_seg = np.empty(net.n_segments, np.int32)
         self.blk_dmin2 = np.empty(net.n_curves)
         self.tmp_d2 = np.empty(net.n_segments)
-        self.gval = np.empty(max(net.n_groups, 1))
+        self.gval = np.empty(2 * max(net.n_groups, 1))   # ψ-groups' distances, then leads
         self.lakes: list = list(getattr(field, "lakes", []))   # set by the field once solved
 
     def block_scratch(self) -> tuple:

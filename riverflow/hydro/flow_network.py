@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from riverflow.hydro.graph import CurveType, GraphError, HydroGraph
-from riverflow.kernels.flow import KIND_AXIS, KIND_BANK, KIND_CAP
+from riverflow.kernels.flow import KIND_AXIS, KIND_BANK, KIND_CAP, OPEN_BANK
 
 
 @dataclass(eq=False)
@@ -172,8 +172,9 @@ def build_flow_network(graph: HydroGraph, search_radius_factor: float,
     # a basin's mouth (:mod:`riverflow.hydro._basins`) is a bank of two areas, the river's and
     # the still basin's, linked to the river's axis: the basin's side gets a copy of it drawn
     # the other way (water on its left) linked to the basin's axis, so each network sees a
-    # closed shore there and the inside test finds water on both sides (equal distances: the
-    # positive one wins)
+    # closed shore there and the inside test finds water on both sides (equal distances, lines
+    # as far: the positive one wins); both copies are open banks (OPEN_BANK: no shore for the
+    # distance to the shore, the water goes on across the mouth)
     uses: dict[int, list[int]] = {}
     for k, area in enumerate(graph.areas):
         for c, _ in area.curves:
@@ -274,7 +275,8 @@ def build_flow_network(graph: HydroGraph, search_radius_factor: float,
         kind.append(k)
         comp.append(ck)
         group.append(copy_group[i] if is_copy else bank_group[i] if k == KIND_BANK else -1)
-        hw2.append((0.5 * graph.curves[i].width_m) ** 2 if k == KIND_AXIS else 0.0)
+        hw2.append((0.5 * graph.curves[i].width_m) ** 2 if k == KIND_AXIS
+                   else OPEN_BANK if i in mouth_copy else 0.0)   # a mouth: no shore
         seg0.append(n_seg)
         n_seg += len(a_pts)
         seg1.append(n_seg)

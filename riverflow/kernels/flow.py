@@ -5,7 +5,9 @@ Re-does Proland's ``HydroFlowTile`` (reference §2.3) with the corrections of SP
 * ψ(p) = Σ wᵢ ψᵢ / Σ wᵢ, wᵢ = (R/dᵢ)^slip · f(clamp(1 − dᵢ/R, 0, 1)), f(t) = 6t⁵ − 15t⁴ + 10t³
   (Yu et al. 2009; Proland's product form divided through, f clamped);
 * dᵢ is the distance to boundary i, where banks of equal ψ are merged into one boundary and the
-  signed nearest-segment distance uses Proland's vertex tie rule (positive wins);
+  signed nearest-segment distance settles a tie at a shared vertex by the vertex's
+  pseudo-normal (the sign of the segment whose line p is farther from), not Proland's
+  "positive wins", which reads land beyond a convex corner of the water as water;
 * the inside test takes the *nearest* axis that covers the point, not the first one found
   (a river's before still water's); where the point lies behind that network's shore, the
   next network's (a basin's still water beside its river, across the mouth they share);
@@ -20,7 +22,9 @@ K connected components:
     curve_kind      (C,) int32    KIND_AXIS / KIND_BANK / KIND_CAP
     curve_comp      (C,) int32    connected river network the curve belongs to
     curve_group     (C,) int32    ψ-group of a bank (-1 otherwise)
-    curve_hw2       (C,) float64  squared half-width of an axis [m²] (0 otherwise)
+    curve_hw2       (C,) float64  squared half-width of an axis [m²]; OPEN_BANK on a bank that
+                                  is an open boundary (a basin's mouth: a bank for ψ and the
+                                  inside test, no shore for the distance to it); 0 otherwise
     curve_seg0/1    (C,) int32    the curve's segments are seg0 ≤ s < seg1
     curve_bbox      (C, 4) float64 xmin, ymin, xmax, ymax [m]
     curve_cutoff    (C,) float64  farther than this [m] the curve never matters
@@ -86,7 +90,16 @@ STATUS_OUTSIDE_DOMAIN = 6
 STATUS_UNKNOWN = 0
 
 _TIE = 1e-4  # Proland's relative tolerance for "same distance" at a shared vertex
+_ON_LINE = 1e-12
+"""A point whose cross product with a segment is under this fraction of its two terms lies on
+the segment's line (rounding): it is on the water side, so a point on a basin's mouth, whose
+two copies run either way, is water for both (not, by the rounding of each, dry for one)."""
 MAX_NETWORK_TRIES = 3
+OPEN_BANK = -1.0
+"""``curve_hw2`` of a bank that is an open boundary: a basin's mouth, one bank of the river's
+area and the basin's (:mod:`riverflow.hydro._basins`). It carries ψ and closes each network's
+shore for the inside test like any bank, but the water goes on across it, so the distance to
+the shore (:func:`potential_and_shore_at`: foam, the distance map) does not count it."""
 """How many river networks :func:`potential_and_shore_at` tries at a point behind a shore."""
 
 
@@ -110,23 +123,52 @@ def _dist2(px, py, ax, ay, bx, by):
 
 @njit(**JIT_OPTIONS)
 def _signed_dist2(px, py, ax, ay, bx, by):
-    """Squared distance from p to ab, negative when p is on the right of a → b (dry side)."""
+    """Squared distance from p to ab, negative when p is on the right of a → b (dry side); a
+    point on the line within rounding (_ON_LINE) is on the left."""
     d2 = _dist2(px, py, ax, ay, bx, by)
-    if (bx - ax) * (py - ay) - (by - ay) * (px - ax) < 0.0:
+    t1 = (bx - ax) * (py - ay)
+    t2 = (by - ay) * (px - ax)
+    if t2 - t1 > _ON_LINE * (abs(t1) + abs(t2)):      # cross < 0 beyond rounding
         return -d2
     return d2
 
 
 @njit(**JIT_OPTIONS)
-def _nearer(cur, s):
-    """Keep the signed squared distance of smaller magnitude; at a tie, positive wins."""
+def _lead2(px, py, ax, ay, bx, by):
+    """Squared distance from p to the line through a and b (0 for a point segment)."""
+    ex = bx - ax
+    ey = by - ay
+    l2 = ex * ex + ey * ey
+    if l2 <= 0.0:
+        return 0.0
+    cross = ex * (py - ay) - ey * (px - ax)
+    return cross * cross / l2
+
+
+@njit(**JIT_OPTIONS)
+def _nearer(cur, cur_seg, s, seg, px, py, seg_ax, seg_ay, seg_bx, seg_by):
+    """(signed squared distance, segment) of the nearer of the current best ``cur`` (of
+    segment ``cur_seg``) and ``s`` (of ``seg``), signed as :func:`_signed_dist2`. At a tie of
+    distances (p nearest to a vertex the two share) of opposite signs, the segment whose
+    *line* p is farther from wins: its sign is that of (p − v)·(n₁ + n₂), the vertex's
+    pseudo-normal test (n the segments' unit normals towards the water), right at a convex
+    corner (p beyond it on one wall's extension is dry) as at a reflex one; where the lines
+    are as far (two copies of one bank drawn either way: a basin's mouth), the positive one
+    wins (Proland's rule, which it keeps at every tie: wrong at convex corners)."""
     a = abs(s)
     b = abs(cur)
     if a < b * (1.0 - _TIE):
-        return s
-    if a <= b * (1.0 + _TIE) and s > 0.0:
-        return s
-    return cur
+        return s, seg
+    if a > b * (1.0 + _TIE) or (s > 0.0) == (cur > 0.0):
+        return cur, cur_seg
+    lead = _lead2(px, py, seg_ax[seg], seg_ay[seg], seg_bx[seg], seg_by[seg])
+    cur_lead = _lead2(px, py, seg_ax[cur_seg], seg_ay[cur_seg], seg_bx[cur_seg],
+                      seg_by[cur_seg])
+    if lead > cur_lead * (1.0 + _TIE) + 1e-300:
+        return s, seg
+    if lead >= cur_lead * (1.0 - _TIE) and s > 0.0:
+        return s, seg
+    return cur, cur_seg
 
 
 @njit(**JIT_OPTIONS)
@@ -314,7 +356,8 @@ def potential_at(
 ):
     """ψ at p [m²/s] from the pruned lists of a box containing p; NaN when p is not in the water.
 
-    ``gval`` is (G,) scratch for the merged signed squared distance of each ψ-group.
+    ``gval`` is (2·G,) scratch: the merged signed squared distance of each ψ-group, then
+    the segment it is to (:func:`_nearer`).
     """
     return potential_and_shore_at(px, py, nb, blk_curve, blk_start, blk_count, blk_seg,
                                   blk_dmin2, seg_ax, seg_ay, seg_bx, seg_by, curve_kind,
@@ -331,7 +374,8 @@ def potential_and_shore_at(
 ):
     """(ψ [m²/s], squared distance to the nearest bank [m²]) at p, as :func:`potential_at`;
     the distance is to the nearest bank or island shore of p's river network (the ψ-groups'
-    nearest segments, which the weighting finds anyway), inf where p is not in the water.
+    nearest segments, which the weighting finds anyway; an open bank, OPEN_BANK, a basin's
+    mouth, is no shore), inf where p is not in the water.
 
     p's network is that of the nearest axis covering it, a river's (a network with two shore
     ψ or more) before still water's (a lake or basin whose whole shore has one ψ); where p
@@ -339,7 +383,7 @@ def potential_and_shore_at(
     width), the next network is tried so, up to MAX_NETWORK_TRIES networks: where two
     networks' axes overlap across a shore they share (a basin's mouth beside its river), each
     point takes the one whose water it is in, and a river's water is never taken for a
-    basin's by Proland's vertex tie rule at the basin's corners."""
+    basin's at the basin's corners (the vertex tie rule, :func:`_nearer`)."""
     tried0 = -1
     tried1 = -1
     for _ in range(MAX_NETWORK_TRIES):
@@ -387,34 +431,53 @@ def _network_potential(
     comp_radius, comp_group0, comp_group1, group_psi, slip, gval, axis,
 ):
     """(ψ, squared distance to the nearest bank, behind) at p in the network of ``axis``:
-    ``behind`` when p lies on the dry side of one of its shores (then ψ is NaN)."""
+    ``behind`` when p lies on the dry side of one of its shores (then ψ is NaN). The distance
+    leaves out open banks (OPEN_BANK: a basin's mouth, which the water crosses)."""
     comp = curve_comp[axis]
     radius = comp_radius[comp]
     width2 = 4.0 * curve_hw2[axis]  # sign tests only within one river width
     g0 = comp_group0[comp]
     g1 = comp_group1[comp]
+    n_groups = group_psi.shape[0]           # gval[n_groups + g]: group g's nearest segment
     for g in range(g0, g1):
         gval[g] = np.inf
+        gval[n_groups + g] = -1.0
     cap = np.inf
+    cap_seg = -1
+    shore2 = np.inf         # to the nearest bank segment that is not open
+    saw_open = False
     for k in range(nb):
         c = blk_curve[k]
         kind = curve_kind[c]
         if kind == KIND_AXIS or curve_comp[c] != comp:
             continue
+        shore = kind == KIND_BANK and curve_hw2[c] != OPEN_BANK
+        saw_open = saw_open or (kind == KIND_BANK and not shore)
         cur = np.inf
+        cur_seg = -1
         if kind == KIND_BANK:
             cur = gval[curve_group[c]]
+            cur_seg = int(gval[n_groups + curve_group[c]])
         else:
             cur = cap
-        if blk_dmin2[k] > abs(cur) * (1.0 + _TIE):  # no point of this curve can be nearer
+            cur_seg = cap_seg
+        # no point of this curve can be nearer (nor nearer than the nearest shore, where an
+        # open bank may have been its group's nearest: otherwise that is never farther)
+        if blk_dmin2[k] > abs(cur) * (1.0 + _TIE) and not (
+                shore and saw_open and blk_dmin2[k] < shore2):
             continue
         for m in range(blk_start[k], blk_start[k] + blk_count[k]):
             s = blk_seg[m]
-            cur = _nearer(cur, _signed_dist2(px, py, seg_ax[s], seg_ay[s], seg_bx[s], seg_by[s]))
+            sd2 = _signed_dist2(px, py, seg_ax[s], seg_ay[s], seg_bx[s], seg_by[s])
+            cur, cur_seg = _nearer(cur, cur_seg, sd2, s, px, py, seg_ax, seg_ay, seg_bx, seg_by)
+            if shore:
+                shore2 = min(shore2, abs(sd2))
         if kind == KIND_BANK:
             gval[curve_group[c]] = cur
+            gval[n_groups + curve_group[c]] = cur_seg
         else:
             cap = cur
+            cap_seg = cur_seg
     if cap < 0.0 and -cap < width2:
         return np.nan, np.inf, True
     count = 0
@@ -446,8 +509,10 @@ def _network_potential(
         # water lies between two shores of different ψ; a network whose whole shore has one
         # ψ (a lake no river touches) is still water
         return np.nan, np.inf, False
+    if saw_open and shore2 < np.inf:
+        near2 = shore2      # the water goes on across an open bank
     if on_bank >= 0:
-        return group_psi[on_bank], 0.0, False
+        return group_psi[on_bank], near2 if saw_open else 0.0, False
     if sw <= 0.0:
         return np.nan, np.inf, False
     return swp / sw, near2, False
@@ -886,11 +951,14 @@ def _boundary_inside(px, py, slot, ci, cj, fx, fy, cell_segments, psi_pool, segs
     reference counting of array arguments makes a helper call per point several times slower).
     """
     cur = np.inf
+    cur_seg = -1
     for q in range(CELL_SEGMENTS):
         s = cell_segments[slot, cj, ci, q]
         if s < 0:
             break
-        cur = _nearer(cur, _signed_dist2(px, py, segs.ax[s], segs.ay[s], segs.bx[s], segs.by[s]))
+        sd2 = _signed_dist2(px, py, segs.ax[s], segs.ay[s], segs.bx[s], segs.by[s])
+        cur, cur_seg = _nearer(cur, cur_seg, sd2, s, px, py, segs.ax, segs.ay, segs.bx,
+                               segs.by)
     if cur != np.inf:
         return cur >= 0.0
     # mixed corners, no boundary segment: the nearest lattice corner decides

@@ -249,7 +249,7 @@ def test_lattice_points_beyond_an_open_end_mirror_the_water(field):
     for k, p in enumerate(pts):
         d2 = reference._dist2(p, a, b)
         q = int(np.argmin(d2))
-        if d2[q] > (3 * h) ** 2 or reference._signed(p, a[q:q + 1], b[q:q + 1])[0] >= 0:
+        if d2[q] > (3 * h) ** 2 or reference._signed(p, a[q:q + 1], b[q:q + 1])[0][0] >= 0:
             continue
         e = b[q] - a[q]
         cand.append(k)
