@@ -258,6 +258,7 @@ def remake(size, n: int, bump_m: float, seed: int) -> dict:
     from riverflow.components.flow_tiles import FLOW_KIND
     from riverflow.components.river import TerrainView
     from riverflow.engine.config import RiverConfig
+    from riverflow.tiles.cache import tile_bytes
     from riverflow.tiles.table import codes as codes_of, tile_code
 
     world = rf.RiverWorld(rf.default_scene(seed=seed), size=size, gl=False, seed=seed,
@@ -300,7 +301,7 @@ def remake(size, n: int, bump_m: float, seed: int) -> dict:
             for code in np.asarray(codes, np.int64).tolist():
                 data = pool.get(code)
                 if data is not None:
-                    before.setdefault(kind, {})[code] = _tile_bytes(data)
+                    before.setdefault(kind, {})[code] = tile_bytes(data)
         return invalidate(stale, *args, **kwargs)
     scheduler.invalidate = kept_invalidate
     same: dict[str, int] = {}
@@ -321,7 +322,7 @@ def remake(size, n: int, bump_m: float, seed: int) -> dict:
             pool = world.tiles.cache.pools[kind]
             for code, data in old.items():
                 now = pool.get(code)
-                if now is not None and _tile_bytes(now) == data:
+                if now is not None and tile_bytes(now) == data:
                     same[kind] = same.get(kind, 0) + 1
     out = {"remake_edits": n, "remake_cpu_s_median": float(np.median(cpu)),
            "remake_cpu_s_max": float(np.max(cpu))}
@@ -336,20 +337,6 @@ def remake(size, n: int, bump_m: float, seed: int) -> dict:
     world.close()
     return out
 
-
-def _tile_bytes(data) -> bytes:
-    """A tile's content as bytes (arrays, meshes, numbers), to compare two versions."""
-    import dataclasses
-
-    if isinstance(data, np.ndarray):
-        return data.dtype.str.encode() + str(data.shape).encode() + data.tobytes()
-    if isinstance(data, dict):
-        return b"|".join(k.encode() + b"=" + _tile_bytes(v) for k, v in data.items())
-    if isinstance(data, (tuple, list)):
-        return b"(" + b"|".join(_tile_bytes(v) for v in data) + b")"
-    if dataclasses.is_dataclass(data):
-        return _tile_bytes({f.name: getattr(data, f.name) for f in dataclasses.fields(data)})
-    return repr(data).encode()
 
 
 def floodplain(size, frames: int, seed: int, drawn: bool) -> dict:

@@ -24,6 +24,7 @@ from riverflow.components.status import FlowStatus
 from riverflow.scenes.carving import Carving
 from riverflow.scenes.landscape import landscape
 from riverflow.scenes.tile_kinds import LEVEL_REACH_M, TERRAIN_KINDS
+from riverflow.tiles.cache import tile_bytes
 
 WIDTH_M = 24.0
 TOLERANCE_M = 0.25
@@ -147,19 +148,6 @@ def test_an_edit_remakes_only_the_tiles_within_reach_of_its_link(restore):
     _as_made_from_scratch(w)
 
 
-def _tile_bytes(data) -> bytes:
-    import dataclasses
-
-    if isinstance(data, np.ndarray):
-        return data.dtype.str.encode() + str(data.shape).encode() + data.tobytes()
-    if isinstance(data, dict):
-        return b"|".join(k.encode() + b"=" + _tile_bytes(v) for k, v in data.items())
-    if isinstance(data, (tuple, list)):
-        return b"(" + b"|".join(_tile_bytes(v) for v in data) + b")"
-    if dataclasses.is_dataclass(data):
-        return _tile_bytes({f.name: getattr(data, f.name) for f in dataclasses.fields(data)})
-    return repr(data).encode()
-
 
 def _as_made_from_scratch(w) -> None:
     """Every resident tile not standing in equals, bit for bit, the one a fresh producer of the current network makes (the height kinds within the carving's far reach
@@ -188,7 +176,7 @@ def _as_made_from_scratch(w) -> None:
             if kind == HEIGHT:
                 assert np.abs(made["z"] - resident["z"]).max() <= HEIGHT_CHANGE_M, key
             else:
-                assert _tile_bytes(made) == _tile_bytes(resident), (kind, key)
+                assert tile_bytes(made) == tile_bytes(resident), (kind, key)
             compared[kind] = compared.get(kind, 0) + 1
     assert set(compared) == set(fresh), compared
 

@@ -106,6 +106,17 @@ def test_the_flooded_floodplain_has_particles_and_waves(setup):
             router.ground = keep
         return level + router.level_rise(xy) - ground, base
 
+    def particles_after(frames):
+        """The particles after ``frames`` steps of 1/30 s: positions, depth, base status,
+        INSIDE."""
+        world.paused = False
+        for _ in range(frames):
+            world.step(1 / 30)
+        world.paused = True
+        p = world.particles
+        depth, base = depth_and_base(p.world_m[:, :2])
+        return p, depth, base, p.status == rf.FlowStatus.INSIDE
+
     # the flooded bank: more than 0.3 m deep, 8 m or more beside the base banks (the raised
     # channel's water, seen at an angle, covers the ground next to it), on one side
     off = np.arange(0.0, 60.0, 0.5)
@@ -121,14 +132,7 @@ def test_the_flooded_floodplain_has_particles_and_waves(setup):
     eye = target - 35.0 * t
     world.camera.look_at((eye[0], eye[1], z + 35.0), (target[0], target[1], z))
     world.load_view()
-    world.paused = False
-    for _ in range(30):
-        world.step(1 / 30)
-    world.paused = True
-
-    p = world.particles
-    depth, base = depth_and_base(p.world_m[:, :2])
-    inside = p.status == rf.FlowStatus.INSIDE
+    p, depth, base, inside = particles_after(30)
     assert (inside & (base == rf.FlowStatus.OUTSIDE) & (depth > 0.05)).sum() >= 20
     assert not (inside & (depth < -0.05)).any()
     on_plain = inside & (base == rf.FlowStatus.OUTSIDE)    # riding on the raised water
@@ -179,11 +183,5 @@ def test_the_flooded_floodplain_has_particles_and_waves(setup):
     now = world.flood_time_s
     world.set_hydrograph(None, [now, now + 1.0], [ratio * q0, q0])
     world.advance_flood(12 * 3600.0)
-    world.paused = False
-    for _ in range(20):
-        world.step(1 / 30)
-    world.paused = True
-    p = world.particles
-    depth, _ = depth_and_base(p.world_m[:, :2])
-    inside = p.status == rf.FlowStatus.INSIDE
+    p, depth, _, inside = particles_after(20)
     assert inside.sum() >= 20 and not (inside & (depth < -0.05)).any()
