@@ -344,9 +344,12 @@ def _lock_index_updates(caching) -> None:
     together) may add different signatures of one helper to its index at once: numba's
     read-modify-write of the index could then name one data file for both, and a signature
     would load the other's machine code. Saves and loads in riverflow's folders hold the
-    folder's lock file."""
+    folder's lock file. Wrapped once per process, whatever imports this module (a second
+    copy of riverflow imported from another path would otherwise take the lock again inside
+    its own hold, and a second flock of one file in one process waits for ever)."""
     cls = getattr(caching, "IndexDataCacheFile", None)
-    if cls is None or not hasattr(cls, "save") or not hasattr(cls, "load"):
+    if cls is None or not hasattr(cls, "save") or not hasattr(cls, "load") \
+            or getattr(cls.save, "riverflow_locked", False):
         return
     save, load = cls.save, cls.load
 
@@ -358,6 +361,7 @@ def _lock_index_updates(caching) -> None:
         with _folder_lock(getattr(self, "_cache_path", "")):
             return load(self, key)
 
+    locked_save.riverflow_locked = locked_load.riverflow_locked = True
     cls.save, cls.load = locked_save, locked_load
 
 
@@ -395,11 +399,22 @@ def _folder_lock(folder: str, wait_s: float = 60.0):
         else:
             import fcntl
 
-            fcntl.flock(f.fileno(), fcntl.LOCK_EX)
+            end = time.monotonic() + wait_s
+            locked = False
+            while True:
+                try:
+                    fcntl.flock(f.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+                    locked = True
+                    break
+                except OSError:
+                    if time.monotonic() >= end:
+                        break
+                    time.sleep(0.01)
             try:
                 yield
             finally:
-                fcntl.flock(f.fileno(), fcntl.LOCK_UN)
+                if locked:
+                    fcntl.flock(f.fileno(), fcntl.LOCK_UN)
     finally:
         f.close()
 

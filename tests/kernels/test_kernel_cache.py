@@ -437,3 +437,23 @@ def test_the_loading_screen_keeps_drawing_while_kernels_compile(xvfb, tmp_path):
     assert loading["frames"] >= 5 and loading["longest_s"] < 1.0, loading
     assert max(loading["bright_pixels"], default=0) > 50         # the text is drawn
     assert warmup.MESSAGE in loading["stderr"]
+
+
+def test_a_kernel_folder_lock_held_twice_in_one_process_gives_up_waiting(tmp_path, monkeypatch):
+    """A second hold of one folder's lock in one process (a second copy of riverflow imported
+    from another path wrapped numba's saves again) waited for ever on POSIX: it now gives up
+    after its wait, as a lock left by a killed process does; numba's saves are wrapped once."""
+    import time
+
+    from numba.core import caching
+
+    folder = tmp_path / "root" / "kernels-x"
+    folder.mkdir(parents=True)
+    monkeypatch.setattr(_cache, "_made_roots", {str(folder.parent)})
+    t0 = time.monotonic()
+    with _cache._folder_lock(str(folder)), _cache._folder_lock(str(folder), wait_s=0.2):
+        pass
+    assert time.monotonic() - t0 < 30.0
+    save = caching.IndexDataCacheFile.save
+    _cache._lock_index_updates(caching)               # what a second copy would do
+    assert caching.IndexDataCacheFile.save is save
