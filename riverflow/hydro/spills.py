@@ -443,12 +443,13 @@ class SpillTint:
     Without frames (``update(..., frame=None)``) the square is the smallest that holds the
     plumes, placed at once when that changes. With frames (the draw system) a square is
     never placed in a frame: it is kept while it holds the plumes grown by what they can
-    travel before the next square could be swapped in (twice the network's fastest flow over
-    TINT_REFRESH_S and TINT_SWAP_FRAMES frames of spill time); when they would outgrow it
+    travel before the next square could be swapped in (twice the network's fastest flow, or
+    the plumes' growth if faster, over TINT_REFRESH_S and TINT_SWAP_FRAMES frames of spill
+    time); when they would outgrow it
     (or a smaller one would do, or a spill was added) the next square is placed in a thread
     and swapped in TINT_SWAP_FRAMES frames later, the old one drawn meanwhile (a plume that
-    has left it meanwhile, only after a jump in spill time, is drawn in part for those
-    frames). What a frame draws depends on the frames and the spills only, never on when the
+    has left it meanwhile, after a jump in spill time or a young plume's first square, placed
+    before its growth was measured, is drawn in part for those frames). What a frame draws depends on the frames and the spills only, never on when the
     thread ended.
     """
 
@@ -473,6 +474,7 @@ class SpillTint:
     _flow: object = None
     _twin: object = None
     _pace: tuple = ()
+    _origin: tuple = ()
 
     def update(self, solver: SpillSolver, flow, colours, frame: int | None = None,
                again: bool = False) -> bool:
@@ -484,6 +486,7 @@ class SpillTint:
         changed."""
         if self._network is not solver.network:      # a live edit's new cells: placed again
             self._network, self._key, self.placed, self._job = solver.network, (), None, None
+            self._origin = ()
         job = self._job
         due = job is not None and frame is not None and frame >= job.swap_frame
         if not due and self._key and self._key[1] == solver.n_spills \
@@ -562,25 +565,36 @@ class SpillTint:
 
     def _next_square(self, solver: SpillSolver, extent, frame: int):
         """The square to place next in the background (class docstring), or None: the plumes'
-        extent grown by ``grow``, twice the fastest flow over TINT_REFRESH_S and
-        TINT_SWAP_FRAMES frames of spill time (the spill time per frame measured since the
-        last refresh), fits the square drawn, no smaller square would hold it grown by twice
-        that, and every spill is placed. The next square holds the extent grown by twice
-        that (a margin both ways: no square flickers between two sizes)."""
+        extent grown by ``grow``, twice the fastest flow (or the box's mean growth since these
+        spills were first seen, if faster) over TINT_REFRESH_S and TINT_SWAP_FRAMES frames of
+        spill time (the spill time per frame measured since the last refresh), fits the
+        square drawn, no smaller square would hold it grown by four times that, and every
+        spill is placed. The next square holds the extent grown by twice that (a margin both
+        ways: no square flickers between two sizes)."""
         placed = self.placed
         if extent is None:
             return (0.0, 0.0, 0.0) if placed.rect[2] > 0.0 else None
         per_frame = 0.0
         if self._pace and frame > self._pace[1]:
             per_frame = max(solver.time_s - self._pace[0], 0.0) / (frame - self._pace[1])
+        speed = float(solver.network.cell_speed_mps.max())
+        if self._origin and self._origin[1] == solver.n_spills:
+            # how fast the plumes' box has grown since these spills were first seen (a young
+            # plume's faint edge spreads faster than the flow)
+            t, _, lo, hi = self._origin
+            if solver.time_s - t >= TINT_REFRESH_S:
+                speed = max(speed, float(np.max(np.r_[lo - extent[0], extent[1] - hi]))
+                            / (solver.time_s - t))
+        else:
+            self._origin = (solver.time_s, solver.n_spills, *extent)
         ahead_s = TINT_REFRESH_S + TINT_SWAP_FRAMES * per_frame
-        grow = 2.0 * float(solver.network.cell_speed_mps.max()) * ahead_s
-        rect = _square_of((extent[0] - 2.0 * grow, extent[1] + 2.0 * grow))
+        grow = 2.0 * speed * ahead_s
         held = _holds(placed.rect, (extent[0] - grow, extent[1] + grow)) \
-            and rect[2] >= placed.rect[2]
+            and _square_of((extent[0] - 4.0 * grow, extent[1] + 4.0 * grow))[2] \
+            >= placed.rect[2]
         if held and placed.n_spills == solver.n_spills:
             return None
-        return rect
+        return _square_of((extent[0] - 2.0 * grow, extent[1] + 2.0 * grow))
 
 
 def _extent(solver: SpillSolver):
