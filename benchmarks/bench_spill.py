@@ -36,6 +36,9 @@ def main() -> None:
     ap.add_argument("--drawn-speed", type=float, default=60.0,
                     help="clock.speed_factor of the drawn world (the plumes outgrow their "
                          "square sooner the faster)")
+    ap.add_argument("--drawn-young", action="store_true",
+                    help="add a third spill once the drawn frames start: a young plume that "
+                         "outgrows its tint square within them (the square's moves timed)")
     ap.add_argument("--tint-refreshes", type=int, default=60,
                     help="refreshes of the spill tint timed alone (0: skip)")
     args = ap.parse_args()
@@ -98,7 +101,7 @@ def main() -> None:
     if args.tint_refreshes:
         out.update(tint_alone(args.tint_refreshes))
     if args.drawn_frames:
-        out.update(drawn(args.drawn_frames, args.drawn_speed))
+        out.update(drawn(args.drawn_frames, args.drawn_speed, args.drawn_young))
     for k, v in out.items():
         print(f"{k:>24}: {v:.6g}" if isinstance(v, float) else f"{k:>24}: {v}")
     if args.json:
@@ -106,7 +109,7 @@ def main() -> None:
             json.dump(out, f, indent=2)
 
 
-def drawn(frames: int, speed: float = 60.0) -> dict:
+def drawn(frames: int, speed: float = 60.0, young: bool = False) -> dict:
     """What the spills add to a drawn frame: a 1920×1080 ``gl=True`` world of the built-in
     4 km scene looking at the confluence, two plumes on screen, ``speed_factor`` 60; per frame
     the spill system's time (``timings_ms["spill"]``) and the draw system's spill part (the
@@ -153,6 +156,9 @@ def drawn(frames: int, speed: float = 60.0) -> dict:
     for _ in range(10):
         world.step(1 / 60)
         world.draw()
+    if young:       # on screen, below the confluence: released now, outgrows its square soon
+        middle = scene.branch("main_middle").centerline_m
+        world.add_spill(middle[int(len(middle) * 0.1)], 100.0, name="young")
     system = []
     whole = []
     tint = world._drawer().gpu.spill_tint
