@@ -37,7 +37,7 @@ def main() -> None:
                     help="clock.speed_factor of the drawn world (the plumes outgrow their "
                          "square sooner the faster)")
     ap.add_argument("--drawn-young", action="store_true",
-                    help="add a third spill once the drawn frames start: a young plume that "
+                    help="the drawn world's only plume released as the drawn frames start: it "
                          "outgrows its tint square within them (the square's moves timed)")
     ap.add_argument("--tint-refreshes", type=int, default=60,
                     help="refreshes of the spill tint timed alone (0: skip)")
@@ -148,17 +148,18 @@ def drawn(frames: int, speed: float = 60.0, young: bool = False) -> dict:
     world.camera.look_at((j[0] - 150.0, j[1] - 450.0, 380.0), (j[0] + 150.0, j[1], 0.0))
     trib = scene.branch("tributary").centerline_m
     upper = scene.branch("main_upper").centerline_m
-    world.add_spill(trib[int(len(trib) * 0.75)], 300.0, 3600.0, name="dye")
-    world.add_spill(upper[int(len(upper) * 0.7)], 200.0, 3600.0, name="mud")
-    world.advance_spills(900.0)
+    if not young:
+        world.add_spill(trib[int(len(trib) * 0.75)], 300.0, 3600.0, name="dye")
+        world.add_spill(upper[int(len(upper) * 0.7)], 200.0, 3600.0, name="mud")
+        world.advance_spills(900.0)
     world.speed_factor = speed
     world.load_view()
     for _ in range(10):
         world.step(1 / 60)
         world.draw()
-    if young:       # on screen, below the confluence: released now, outgrows its square soon
+    if young:       # the only plume, below the confluence, released now: it outgrows its
         middle = scene.branch("main_middle").centerline_m
-        world.add_spill(middle[int(len(middle) * 0.1)], 100.0, name="young")
+        world.add_spill(middle[int(len(middle) * 0.1)], 100.0, name="young")   # square soon
     system = []
     whole = []
     tint = world._drawer().gpu.spill_tint
