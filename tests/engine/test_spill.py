@@ -398,6 +398,13 @@ def test_the_tint_places_its_squares_in_a_thread_and_the_frames_stay_determinist
     solver.advance(6.0)
     assert a.update(solver, world.field, colours * 2, frame, again=True)
     assert in_frame and in_frame[-1][2] > 0.0 and a.placed.n_spills == 2
+    # the thread's field: the world's tiles in a cache of its own, the same ψ bit for bit
+    xy = solver.network.cell_xy_m[::7]
+    level = world.field.level_for_spacing(8.0)
+    twin = world.field.detached(4)
+    assert twin.tiles.cache is not world.field.tiles.cache
+    np.testing.assert_array_equal(twin.potential(xy, level=level),
+                                  world.field.potential(xy, level=level))
 
 
 def test_a_graph_file_scene_gets_its_discharges_from_the_stream_function(tiny_channel_path):
