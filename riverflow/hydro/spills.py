@@ -442,15 +442,15 @@ class SpillTint:
 
     Without frames (``update(..., frame=None)``) the square is the smallest that holds the
     plumes, placed at once when that changes. With frames (the draw system) a square is
-    never placed in a frame: it is kept while it holds the plumes grown by what they can
+    never placed in a frame (but in a frame drawn again: ``update``'s ``again``): it is kept while it holds the plumes grown by what they can
     travel before the next square could be swapped in (twice the network's fastest flow, or
     the plumes' growth if faster, over TINT_REFRESH_S and TINT_SWAP_FRAMES frames of spill
-    time); when they would outgrow it
-    (or a smaller one would do, or a spill was added) the next square is placed in a thread
-    and swapped in TINT_SWAP_FRAMES frames later, the old one drawn meanwhile (a plume that
-    has left it meanwhile, after a jump in spill time or a young plume's first square, placed
-    before its growth was measured, is drawn in part for those frames). What a frame draws depends on the frames and the spills only, never on when the
-    thread ended.
+    time); when they would outgrow it (or a smaller one would do, or a spill was added) the
+    next square is placed in a thread and swapped in TINT_SWAP_FRAMES frames later, the old
+    one drawn meanwhile (a plume that has left it meanwhile, after a jump in spill time or a
+    young plume's first square, placed before its growth was measured, is drawn in part for
+    those frames). What a frame draws depends on the frames and the spills only, never on
+    when the thread ended.
     """
 
     rect_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
