@@ -33,6 +33,12 @@ def main() -> None:
     ap.add_argument("--json", default=None)
     ap.add_argument("--drawn-frames", type=int, default=120,
                     help="frames of the drawn 1080p world (0: skip it)")
+    ap.add_argument("--drawn-speed", type=float, default=60.0,
+                    help="clock.speed_factor of the drawn world (the plumes outgrow their "
+                         "square sooner the faster)")
+    ap.add_argument("--drawn-young", action="store_true",
+                    help="the drawn world's only plume released as the drawn frames start: it "
+                         "outgrows its tint square within them (the square's moves timed)")
     ap.add_argument("--tint-refreshes", type=int, default=60,
                     help="refreshes of the spill tint timed alone (0: skip)")
     args = ap.parse_args()
@@ -95,7 +101,7 @@ def main() -> None:
     if args.tint_refreshes:
         out.update(tint_alone(args.tint_refreshes))
     if args.drawn_frames:
-        out.update(drawn(args.drawn_frames))
+        out.update(drawn(args.drawn_frames, args.drawn_speed, args.drawn_young))
     for k, v in out.items():
         print(f"{k:>24}: {v:.6g}" if isinstance(v, float) else f"{k:>24}: {v}")
     if args.json:
@@ -103,7 +109,7 @@ def main() -> None:
             json.dump(out, f, indent=2)
 
 
-def drawn(frames: int) -> dict:
+def drawn(frames: int, speed: float = 60.0, young: bool = False) -> dict:
     """What the spills add to a drawn frame: a 1920×1080 ``gl=True`` world of the built-in
     4 km scene looking at the confluence, two plumes on screen, ``speed_factor`` 60; per frame
     the spill system's time (``timings_ms["spill"]``) and the draw system's spill part (the
@@ -142,21 +148,33 @@ def drawn(frames: int) -> dict:
     world.camera.look_at((j[0] - 150.0, j[1] - 450.0, 380.0), (j[0] + 150.0, j[1], 0.0))
     trib = scene.branch("tributary").centerline_m
     upper = scene.branch("main_upper").centerline_m
-    world.add_spill(trib[int(len(trib) * 0.75)], 300.0, 3600.0, name="dye")
-    world.add_spill(upper[int(len(upper) * 0.7)], 200.0, 3600.0, name="mud")
-    world.advance_spills(900.0)
-    world.speed_factor = 60.0
+    if not young:
+        world.add_spill(trib[int(len(trib) * 0.75)], 300.0, 3600.0, name="dye")
+        world.add_spill(upper[int(len(upper) * 0.7)], 200.0, 3600.0, name="mud")
+        world.advance_spills(900.0)
+    world.speed_factor = speed
     world.load_view()
     for _ in range(10):
         world.step(1 / 60)
         world.draw()
+    if young:       # the only plume, below the confluence, released now: it outgrows its
+        middle = scene.branch("main_middle").centerline_m
+        world.add_spill(middle[int(len(middle) * 0.1)], 100.0, name="young")   # square soon
     system = []
+    whole = []
+    tint = world._drawer().gpu.spill_tint
+    rect, moves, placed0 = tint.rect_m, 0, getattr(tint, "placements", 0)
     for _ in range(frames):
+        w0, c0 = time.perf_counter_ns(), time.thread_time_ns()
         world.step(1 / 60)
         system.append(world.timings_ms["spill"])
         acc[:] = 0.0, 0.0, 0.0
         world.draw()
+        whole.append(((time.perf_counter_ns() - w0) * 1e-6, (time.thread_time_ns() - c0) * 1e-6))
         spent.append(tuple(acc))
+        moves += tint.rect_m != rect
+        rect = tint.rect_m
+    placements = getattr(tint, "placements", placed0) - placed0
     world.close()
     for name, original in originals.items():
         setattr(draw_module.DrawRivers, name, original)
@@ -164,7 +182,18 @@ def drawn(frames: int) -> dict:
     cpu = np.array([c for _, c, _ in spent])
     thread = np.array([t for _, _, t in spent])
     added = np.array(system) + wall
-    return {"drawn_spill_system_ms_mean": float(np.mean(system)),
+    frame_wall = np.array([w for w, _ in whole])
+    frame_cpu = np.array([c for _, c in whole])
+    return {"drawn_square_moves": int(moves),
+            "drawn_square_placements": int(placements),
+            "drawn_frame_wall_ms_p50": float(np.median(frame_wall)),
+            "drawn_frame_wall_ms_p99": float(np.percentile(frame_wall, 99)),
+            "drawn_frame_wall_ms_max": float(frame_wall.max()),
+            "drawn_frame_thread_cpu_ms_p50": float(np.median(frame_cpu)),
+            "drawn_frame_thread_cpu_ms_max": float(frame_cpu.max()),
+            "drawn_spill_system_ms_mean": float(np.mean(system)),
+            "drawn_tint_wall_ms_p50": float(np.median(wall)),
+            "drawn_tint_wall_ms_p99": float(np.percentile(wall, 99)),
             "drawn_tint_wall_ms_mean": float(wall.mean()),
             "drawn_tint_cpu_ms_mean": float(cpu.mean()),
             "drawn_tint_wall_ms_max": float(wall.max()),

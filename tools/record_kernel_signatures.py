@@ -210,8 +210,8 @@ def _draw() -> None:
 
 
 def _boat_run(scene, gl: bool) -> None:
-    """The demo's boat under the chase camera (particles meet the hull), with drawing: every
-    display mode and wave tile."""
+    """The demo's boat under the chase camera (particles meet the hull) and a spill, with
+    drawing: every display mode and wave tile."""
     import dataclasses
 
     import riverflow as rf
@@ -223,6 +223,11 @@ def _boat_run(scene, gl: bool) -> None:
     demo = BoatDemo(scene, (320, 180), config=config, gl=gl)
     try:
         demo.world.load_view()
+        # a spill (issue 24): its steps (world) and, drawn, its tint grid and the particles'
+        # sampling of it (draw), so that the first spill does not compile them in a frame
+        main = next(b for b in scene.branches if b.kind == "main").centerline_m
+        demo.world.add_spill(main[len(main) // 2], 100.0, 60.0, name="record")
+        demo.world.advance_spills(60.0)
         demo.input.key_down("W")
         for _ in range(30):
             demo.step()

@@ -18,6 +18,7 @@ Example::
 """
 from __future__ import annotations
 
+import copy
 import math
 import weakref
 from collections.abc import Iterable, Iterator
@@ -612,6 +613,25 @@ class FlowField:
     def clear_tiles(self) -> None:
         """Drop every cached tile (e.g. after editing the graph or the options)."""
         self.tiles.pool.clear()
+
+    def detached(self, cache_tiles: int = 64) -> FlowField:
+        """This field with a tile cache of its own (``cache_tiles`` tiles) and no obstacles
+        nor flood hook, sharing everything else (the network, the wet-tile table, the lakes:
+        read only): another thread may query it while the frames query this one (a cache
+        and a tile builder are not to be shared between threads). Its tiles are the same
+        tiles (a tile depends on its key and the network only), so it answers
+        :meth:`potential` bit for bit as this field without obstacles."""
+        twin = copy.copy(self)
+        t = self.tiles
+        tile_bytes = sum(f.nbytes for f in flow_fields(t.n_cells).values())
+        twin.tiles = FlowTiles(t.quadtree, t.n_cells, t.max_level,
+                               TileCache(int(cache_tiles) * tile_bytes), t.wet)
+        twin._builder = TileBuilder(twin)
+        twin._builder.lakes = self.lakes
+        twin._obstacle_sets = {}
+        twin.obstacles = _NO_OBSTACLES
+        twin.discharge_scale = None
+        return twin
 
     # -- internals -----------------------------------------------------------------------------
 

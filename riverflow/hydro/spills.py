@@ -320,6 +320,111 @@ the frame stands still (a paused world): between samples it carries its tint alo
 (:func:`riverflow.kernels.spill.sample_tint`)."""
 TINT_MIN_SIDE_M = 256.0
 """Smallest side of the square the tint covers [m] (sides are this × a power of two)."""
+TINT_SWAP_FRAMES = 8
+"""A square placed in the background (:class:`SpillTint` with frames) is swapped in this many
+frames after it was asked for, its thread waited for then: a frame fixed when it is asked for,
+never the time the thread took, so the frames stay deterministic (~30 ms of work has 8
+frames to run)."""
+TINT_PLACE_CACHE_TILES = 32
+"""Flow tiles the tint's own cache holds (:meth:`riverflow.FlowField.detached`): the coarse
+level's tiles under a square, kept for the next square (~3 MB)."""
+
+
+@dataclass(eq=False)
+class TintPlacement:
+    """Each texel of one square on the network (:func:`place_texels`), found once per square:
+    the costly part of a square move."""
+
+    rect: tuple[float, float, float]
+    """(x0, y0, side) [m] (side 0: nothing to tint)."""
+    network: SpillNetwork
+    texels: TintTexels
+    """The wet texels (flat indices, row-major), their two cells and weight, the spills'
+    profiles there, the fringe (:func:`riverflow.kernels.spill.tint_texels`)."""
+    psi: np.ndarray
+    link: np.ndarray
+    s: np.ndarray
+    texel_m: float
+
+    @property
+    def n_spills(self) -> int:
+        """The spills whose profiles it holds (the first ones)."""
+        return len(self.texels.profile)
+
+
+def place_texels(solver: SpillSolver, flow, rect: tuple[float, float, float],
+                 n_spills: int | None = None) -> TintPlacement:
+    """Each texel's place on the network for the square ``rect`` and the first ``n_spills``
+    spills' transverse profiles there (default: all). It reads ``solver``'s network and
+    sources only, never its masses: a thread may run it while the frames step the solver.
+
+    The stream function at the texels near a river comes from the flow tiles of the coarsest
+    level whose lattice is at most half a texel (``FlowField.level_for_spacing``): a 32 m
+    texel reads 16 m tiles, a few of them, not the finest level's hundreds; the η it gives
+    differs from the finest level's by ~0.2 % of the river's ψ range (p95; a texel is tens of
+    percent of it). ``flow`` is the world's field or its :meth:`~riverflow.FlowField.detached`
+    twin (the same tiles); without obstacles (a boat passing when the square is placed is not
+    frozen into it). The dry texels next to the water take their nearest wet texel's value,
+    so that the texture's bilinear filter does not darken the water along the banks."""
+    net = solver.network
+    n_spills = solver.n_spills if n_spills is None else int(n_spills)
+    x0, y0, side = rect
+    n = TINT_TEXELS
+    cell = side / n if side > 0 else 0.0
+    xy, near = np.zeros((0, 2)), np.zeros(0, np.int64)
+    if side > 0:
+        g = (np.arange(n) + 0.5) * cell
+        gx, gy = np.meshgrid(x0 + g, y0 + g)
+        xy = np.column_stack([gx.ravel(), gy.ravel()])
+        # only texels near a centre line can be water: the stream function there alone
+        near = _near_texels(net, xy, n, cell, float(net.cell_width_m.max()))
+    psi = flow.potential(xy[near], level=flow.level_for_spacing(0.5 * cell),
+                         exclude_obstacles=True) if len(near) else np.zeros(0)
+    water = np.isfinite(psi)
+    wet, psi = near[water], psi[water]
+    link, s, _ = net.locate(xy[wet])
+    ia, ib, iw = net.weights(link, s)
+    fringe = near[~water]
+    fringe_from = np.zeros(0, np.int64)
+    if len(wet) and len(fringe):
+        _, k = cKDTree(xy[wet]).query(xy[fringe])
+        fringe_from = wet[k]
+    prof = np.ones((n_spills, len(wet)))
+    for k in range(n_spills):
+        prof[k] = solver.transverse(k, link, s, psi, cell)
+    as64 = lambda a: np.ascontiguousarray(a, np.int64)           # noqa: E731
+    texels = TintTexels(as64(wet), as64(ia), as64(ib), np.ascontiguousarray(iw, np.float64),
+                        prof, as64(fringe), as64(fringe_from))
+    return TintPlacement(rect, net, texels, psi, link, s, cell)
+
+
+class _PlaceJob:
+    """:func:`place_texels` in a thread of its own, waited for at frame ``swap_frame``."""
+
+    def __init__(self, solver: SpillSolver, flow, rect, swap_frame: int) -> None:
+        import threading
+
+        self.rect = rect
+        self.n_spills = solver.n_spills
+        self.swap_frame = int(swap_frame)
+        self.flow = flow
+        self.result: TintPlacement | None = None
+        self.error: BaseException | None = None
+        self.thread = threading.Thread(target=self._run, args=(solver,), daemon=True,
+                                       name="riverflow-spill-tint")
+        self.thread.start()
+
+    def _run(self, solver: SpillSolver) -> None:
+        try:
+            self.result = place_texels(solver, self.flow, self.rect, self.n_spills)
+        except BaseException as exc:  # noqa: BLE001 - raised in the frame that waits for it
+            self.error = exc
+
+    def join(self) -> TintPlacement:
+        self.thread.join()
+        if self.error is not None:
+            raise self.error
+        return self.result
 
 
 @dataclass(eq=False)
@@ -330,10 +435,22 @@ class SpillTint:
     mode's texture (``shaders/spill.glsl``):
     RGB the concentration-weighted mean colour of the spills there, A the total concentration
     [kg/m³]. The square's side is TINT_MIN_SIDE_M × a power of two and its corner a multiple
-    of a quarter of it, so it changes only when the plumes outgrow it or leave it; each texel's
-    place on the network (link, arc length, ψ) is found once per square (the slow part: the
-    stream function at the texels near a river, :meth:`_locate`), its concentration again when
-    the spills have stepped by TINT_REFRESH_S.
+    of a quarter of it; each texel's place on the network (link, arc length, ψ, the spills'
+    transverse profiles) is found once per square (the slow part, ~30 ms:
+    :func:`place_texels`), its concentration again when the spills have stepped by
+    TINT_REFRESH_S.
+
+    Without frames (``update(..., frame=None)``) the square is the smallest that holds the
+    plumes, placed at once when that changes. With frames (the draw system) a square is
+    never placed in a frame (but in a frame drawn again: ``update``'s ``again``): it is kept while it holds the plumes grown by what they can
+    travel before the next square could be swapped in (twice the network's fastest flow, or
+    the plumes' growth if faster, over TINT_REFRESH_S and TINT_SWAP_FRAMES frames of spill
+    time); when they would outgrow it (or a smaller one would do, or a spill was added) the
+    next square is placed in a thread and swapped in TINT_SWAP_FRAMES frames later, the old
+    one drawn meanwhile (a plume that has left it meanwhile, after a jump in spill time or a
+    young plume's first square, placed before its growth was measured, is drawn in part for
+    those frames). What a frame draws depends on the frames and the spills only, never on
+    when the thread ended.
     """
 
     rect_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
@@ -346,43 +463,82 @@ class SpillTint:
     """The rows [first, last + 1) of ``rgba`` that the last change can have changed (those
     holding a tinted texel before or after it; all of them when the square moved): the
     draw system uploads those alone."""
+    placed: TintPlacement | None = None
+    """The square drawn now and its texels on the network."""
+    placements: int = 0
+    """Squares placed so far (in a thread or not)."""
     _tinted_rows: tuple[int, int] = (0, 0)
     _key: tuple = ()
-    _wet: np.ndarray | None = None
-    _psi: np.ndarray | None = None
-    _link: np.ndarray | None = None
-    _s: np.ndarray | None = None
-    _fringe: np.ndarray | None = None
-    _fringe_from: np.ndarray | None = None
-    _texel_m: float = 0.0
-    _ia: np.ndarray | None = None
-    _ib: np.ndarray | None = None
-    _iw: np.ndarray | None = None
-    _prof: np.ndarray | None = None
+    _job: _PlaceJob | None = None
     _network: object = None
-    _texels: TintTexels | None = None
+    _flow: object = None
+    _twin: object = None
+    _pace: tuple = ()
+    _origin: tuple = ()
 
-    def update(self, solver: SpillSolver, flow, colours) -> bool:
+    def update(self, solver: SpillSolver, flow, colours, frame: int | None = None,
+               again: bool = False) -> bool:
         """Follow the solver (``flow`` the world's :class:`~riverflow.hydro.flow_field.
-        FlowField`, for ψ at the texels; ``colours`` (S, 3) the spills' RGB); True if the
-        texture changed."""
+        FlowField`, for ψ at the texels; ``colours`` (S, 3) the spills' RGB; ``frame`` the
+        world's frame: squares placed in a thread, None: at once; ``again``: this frame was
+        drawn before (a paused host, a screenshot): a square the plumes have left, or a
+        spill not placed yet, is placed at once, as without frames); True if the texture
+        changed."""
         if self._network is not solver.network:      # a live edit's new cells: placed again
-            self._network, self._key, self._wet = solver.network, (), None
-        if self._key and self._key[1] == solver.n_spills \
+            self._network, self._key, self.placed, self._job = solver.network, (), None, None
+            self._origin = ()
+        job = self._job
+        due = job is not None and frame is not None and frame >= job.swap_frame
+        if not due and self._key and self._key[1] == solver.n_spills \
                 and 0.0 <= solver.time_s - self._key[0] < TINT_REFRESH_S:
             return False
-        rect = self._square(solver)
-        moved = rect != self.rect_m or self._wet is None
-        if moved:
-            self._locate(solver, flow, rect)
-        if not self._key or self._key[1] != solver.n_spills or self._prof is None:
-            self._profiles(solver)
+        extent = _extent(solver)
+        moved = False
+        if frame is None:
+            rect = _square_of(extent)
+            placed = self.placed
+            if placed is None or rect != placed.rect or placed.n_spills != solver.n_spills:
+                self._install(place_texels(solver, self._twin_of(flow, fresh=False), rect))
+                moved = True
+        else:
+            if due:
+                self._install(job.join())
+                self._job = job = None
+                moved = True
+            placed = self.placed
+            if again and (placed is None or placed.n_spills != solver.n_spills
+                          or extent is not None and not _holds(placed.rect, extent)):
+                self._install(place_texels(solver, self._twin_of(
+                    flow, fresh=job is not None and job.thread.is_alive()),
+                    _square_of(extent)))
+                self._job = job = None
+                moved = True
+            elif placed is None:                     # nothing drawn until the first swap
+                self._install(place_texels(solver, flow, (0.0, 0.0, 0.0), 0))
+                moved = True
+            job = self._job
+            if job is None or job.n_spills != solver.n_spills:
+                rect = self._next_square(solver, extent, frame)
+                if rect is not None:
+                    if rect[2] == 0.0:               # no plume left: nothing to place
+                        self._install(place_texels(solver, flow, rect))
+                        self._job = None
+                        moved = True
+                    else:
+                        busy = job is not None and job.thread.is_alive()
+                        self._job = _PlaceJob(solver, self._twin_of(flow, fresh=busy), rect,
+                                              frame + TINT_SWAP_FRAMES)
+            self._pace = (solver.time_s, frame)
         self._key = (solver.time_s, solver.n_spills)
+        placed = self.placed
         now = (0, 0)
-        if len(self._wet) and solver.n_spills:
-            now = tint_texels(self._texels, solver.cell_concentration(),
-                              np.asarray(colours, np.float64)[:, :3].copy(),
-                              self.rgba.reshape(-1, 4))
+        if moved:
+            self.rgba[:] = 0.0
+        rows = placed.n_spills                       # (with frames: those placed so far)
+        if len(placed.texels.wet) and rows:
+            now = tint_texels(placed.texels, np.ascontiguousarray(
+                solver.cell_concentration()[:rows]),
+                np.asarray(colours, np.float64)[:rows, :3].copy(), self.rgba.reshape(-1, 4))
         was = self._tinted_rows
         if moved:
             self.rows = (0, TINT_TEXELS)
@@ -394,73 +550,87 @@ class SpillTint:
         self.version += 1
         return True
 
-    def _locate(self, solver: SpillSolver, flow, rect) -> None:
-        """Each texel's place on the network for the square ``rect``: the stream function at
-        the texels near a river from the flow tiles of the coarsest level whose lattice is at
-        most half a texel (``FlowField.level_for_spacing``): a 32 m texel reads 16 m tiles, a
-        few of them, not the finest level's hundreds (making those was a 0.1–0.5 s hitch);
-        the η it gives differs from the finest level's by ~0.2 % of the river's ψ range
-        (p95; a texel is tens of percent of it)."""
-        self.rect_m = rect
-        self.rgba[:] = 0.0
-        x0, y0, side = rect
-        n = TINT_TEXELS
-        cell = side / n if side > 0 else 0.0
-        g = (np.arange(n) + 0.5) * cell
-        gx, gy = np.meshgrid(x0 + g, y0 + g)
-        xy = np.column_stack([gx.ravel(), gy.ravel()])
-        net = solver.network
-        # only texels near a centre line can be water: the stream function there alone
-        near = _near_texels(net, xy, n, cell, float(net.cell_width_m.max())) \
-            if side > 0 else np.zeros(0, np.int64)
-        psi = flow.potential(xy[near], level=flow.level_for_spacing(0.5 * cell)) \
-            if len(near) else np.zeros(0)
-        self._wet = near[np.isfinite(psi)]
-        self._psi = psi[np.isfinite(psi)]
-        self._link, self._s, _ = net.locate(xy[self._wet])
-        self._ia, self._ib, self._iw = net.weights(self._link, self._s)
-        # the dry texels next to the water take their nearest wet texel's value, so that
-        # the texture's bilinear filter does not darken the water along the banks
-        self._fringe = near[~np.isfinite(psi)]
-        self._fringe_from = np.zeros(0, np.int64)
-        if len(self._wet) and len(self._fringe):
-            _, k = cKDTree(xy[self._wet]).query(xy[self._fringe])
-            self._fringe_from = self._wet[k]
-        self._texel_m = cell
-        self._prof = None
+    def _install(self, placed: TintPlacement) -> None:
+        self.placed = placed
+        self.rect_m = placed.rect
+        self.placements += 1
 
-    def _profiles(self, solver: SpillSolver) -> None:
-        """Each spill's transverse profile at each wet texel (S, W): steady, like the flow."""
-        prof = np.ones((solver.n_spills, len(self._wet)))
-        for k in range(solver.n_spills):
-            prof[k] = solver.transverse(k, self._link, self._s, self._psi, self._texel_m)
-        self._prof = prof
-        as64 = lambda a: np.ascontiguousarray(a, np.int64)       # noqa: E731
-        self._texels = TintTexels(as64(self._wet), as64(self._ia), as64(self._ib),
-                                  np.ascontiguousarray(self._iw, np.float64), prof,
-                                  as64(self._fringe), as64(self._fringe_from))
+    def _twin_of(self, flow, fresh: bool):
+        """The world's field with a tile cache of the tint's own (a new one when ``fresh``:
+        a thread still uses the old one)."""
+        if self._twin is None or self._flow is not flow or fresh:
+            self._flow = flow
+            self._twin = flow.detached(TINT_PLACE_CACHE_TILES)
+        return self._twin
 
-    @staticmethod
-    def _square(solver: SpillSolver) -> tuple[float, float, float]:
-        """The aligned square around every cell holding a spill (module docstring)."""
-        if not solver.n_spills:
-            return (0.0, 0.0, 0.0)
-        c = solver.cell_concentration()
-        peak = c.max(axis=1, keepdims=True)
-        on = np.flatnonzero(np.any((c > 0) & (c >= FRONT_FRACTION * peak), axis=0))
-        if not len(on):
-            return (0.0, 0.0, 0.0)
-        net = solver.network
-        pad = float(net.cell_width_m[on].max()) + float(net.link_dx_m.max())
-        lo = net.cell_xy_m[on].min(axis=0) - pad
-        hi = net.cell_xy_m[on].max(axis=0) + pad
-        side = TINT_MIN_SIDE_M
-        while True:
-            step = 0.25 * side
-            x0, y0 = (math.floor(v / step) * step for v in lo)
-            if x0 + side >= hi[0] and y0 + side >= hi[1]:
-                return (float(x0), float(y0), float(side))
-            side *= 2.0
+    def _next_square(self, solver: SpillSolver, extent, frame: int):
+        """The square to place next in the background (class docstring), or None: the plumes'
+        extent grown by ``grow``, twice the fastest flow (or the box's mean growth since these
+        spills were first seen, if faster) over TINT_REFRESH_S and TINT_SWAP_FRAMES frames of
+        spill time (the spill time per frame measured since the last refresh), fits the
+        square drawn, no smaller square would hold it grown by four times that, and every
+        spill is placed. The next square holds the extent grown by twice that (a margin both
+        ways: no square flickers between two sizes)."""
+        placed = self.placed
+        if extent is None:
+            return (0.0, 0.0, 0.0) if placed.rect[2] > 0.0 else None
+        per_frame = 0.0
+        if self._pace and frame > self._pace[1]:
+            per_frame = max(solver.time_s - self._pace[0], 0.0) / (frame - self._pace[1])
+        speed = float(solver.network.cell_speed_mps.max())
+        if self._origin and self._origin[1] == solver.n_spills:
+            # how fast the plumes' box has grown since these spills were first seen (a young
+            # plume's faint edge spreads faster than the flow)
+            t, _, lo, hi = self._origin
+            if solver.time_s - t >= TINT_REFRESH_S:
+                speed = max(speed, float(np.max(np.r_[lo - extent[0], extent[1] - hi]))
+                            / (solver.time_s - t))
+        else:
+            self._origin = (solver.time_s, solver.n_spills, *extent)
+        ahead_s = TINT_REFRESH_S + TINT_SWAP_FRAMES * per_frame
+        grow = 2.0 * speed * ahead_s
+        held = _holds(placed.rect, (extent[0] - grow, extent[1] + grow)) \
+            and _square_of((extent[0] - 4.0 * grow, extent[1] + 4.0 * grow))[2] \
+            >= placed.rect[2]
+        if held and placed.n_spills == solver.n_spills:
+            return None
+        return _square_of((extent[0] - 2.0 * grow, extent[1] + 2.0 * grow))
+
+
+def _extent(solver: SpillSolver):
+    """(lo (2,), hi (2,)) [m]: the box around every cell holding a spill (at least
+    FRONT_FRACTION of its peak), padded by the widest river and a cell; None: no plume."""
+    if not solver.n_spills:
+        return None
+    c = solver.cell_concentration()
+    peak = c.max(axis=1, keepdims=True)
+    on = np.flatnonzero(np.any((c > 0) & (c >= FRONT_FRACTION * peak), axis=0))
+    if not len(on):
+        return None
+    net = solver.network
+    pad = float(net.cell_width_m[on].max()) + float(net.link_dx_m.max())
+    return net.cell_xy_m[on].min(axis=0) - pad, net.cell_xy_m[on].max(axis=0) + pad
+
+
+def _square_of(extent) -> tuple[float, float, float]:
+    """The smallest aligned square (SpillTint's docstring) holding ``extent``; side 0: None."""
+    if extent is None:
+        return (0.0, 0.0, 0.0)
+    lo, hi = extent
+    side = TINT_MIN_SIDE_M
+    while True:
+        step = 0.25 * side
+        x0, y0 = (math.floor(v / step) * step for v in lo)
+        if x0 + side >= hi[0] and y0 + side >= hi[1]:
+            return (float(x0), float(y0), float(side))
+        side *= 2.0
+
+
+def _holds(rect, extent) -> bool:
+    x0, y0, side = rect
+    lo, hi = extent
+    return side > 0 and x0 <= lo[0] and y0 <= lo[1] and x0 + side >= hi[0] \
+        and y0 + side >= hi[1]
 
 
 def _near_texels(net: SpillNetwork, xy: np.ndarray, n: int, cell: float, reach: float

@@ -179,6 +179,9 @@ SIGNATURES = {
         'obstacles.apply_obstacles': [
             "(A(float64, 2, 'C'), A(int64, 1, 'C'), int64, A(float64, 1, 'C'), A(float64, 2, 'C'), A(uint8, 1, 'C'), A(float32, 2, 'C'))",
         ],
+        'spill.spill_steps': [
+            "(Named(riverflow.kernels.spill.SpillNet, (A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), A(int32, 1, 'C'), A(int32, 1, 'C'), A(int32, 1, 'C'), A(int32, 1, 'C'), A(int32, 1, 'C'), A(float64, 1, 'C'), )), Named(riverflow.kernels.spill.SpillBook, (A(float64, 2, 'C'), A(int32, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 2, 'C'), A(float64, 1, 'C'), A(float64, 2, 'C'), )), float64, float64, int64, A(float64, 1, 'C'), A(float64, 1, 'C'))",
+        ],
     },
     'draw': {
         'waves.ripple_heights': [
@@ -211,6 +214,9 @@ SIGNATURES = {
         'sprites.slot_span': [
             "(A(bool, 1, 'C'),)",
         ],
+        'spill.sample_tint': [
+            "(Named(riverflow.kernels.spill.TintGrid, (A(float32, 3, 'C'), A(float64, 1, 'C'), )), Named(riverflow.kernels.spill.ParticleTint, (A(bool, 1, 'C'), A(bool, 1, 'C'), A(int64, 1, 'C'), A(float64, 2, 'C'), A(float32, 2, 'C'), A(int64, 1, 'C'), )), int64, int64, int64, bool)",
+        ],
         'sprites.build_sprite_tables': [
             "(Named(riverflow.kernels.sprites.SpriteSource, (A(bool, 1, 'C'), A(bool, 1, 'C'), A(float32, 2, 'C'), A(float64, 2, 'C'), A(float32, 2, 'C'), A(float32, 1, 'C'), A(uint8, 1, 'C'), A(float32, 2, 'C'), A(float32, 1, 'C'), A(float32, 2, 'C'), )), float64, int64, Named(riverflow.kernels.sprites.SpriteBins, (int64, int64, int64, int64, int64, int64, )), A(float32, 3, 'C'), A(int32, 1, 'C'), A(int32, 1, 'C'), bool)",
         ],
@@ -225,6 +231,9 @@ SIGNATURES = {
         ],
         'tile_cut.near_to_far': [
             "(A(int32, 1, 'C'), A(float64, 2, 'C'), A(float64, 1, 'C', readonly=True), A(int32, 1, 'C'))",
+        ],
+        'spill.tint_texels': [
+            "(Named(riverflow.kernels.spill.TintTexels, (A(int64, 1, 'C'), A(int64, 1, 'C'), A(int64, 1, 'C'), A(float64, 1, 'C'), A(float64, 2, 'C'), A(int64, 1, 'C'), A(int64, 1, 'C'), )), A(float64, 2, 'C'), A(float64, 2, 'C'), A(float32, 2, 'C'))",
         ],
         'centre_line.nearest_level': [
             "(A(float64, 2, 'C'), A(float64, 1, 'C'), A(int64, 1, 'C'), float64, float64)",
@@ -253,7 +262,9 @@ COSTS = {
     'tile_cut.near_to_far': 2.67,
     'tile_cut.cut_standins': 2.32,
     'advection.move_particles': 2.22,
+    'spill.spill_steps': 2.14,
     'advection.place_at_seen_water': 1.67,
+    'spill.sample_tint': 1.59,
     'waves.perlin_frames_3d': 1.30,
     'view_tiles.select_view_tiles': 1.26,
     'polyline.nearest_points': 1.22,
@@ -262,6 +273,7 @@ COSTS = {
     'waves.perlin_tile_2d': 1.08,
     'placement.pixel_rays': 1.01,
     'surface_tiles.water_level_at': 0.98,
+    'spill.tint_texels': 0.95,
     'centre_line.view_level': 0.86,
     'raycast.fill_height_pyramid': 0.79,
     'screen.project_particles': 0.74,

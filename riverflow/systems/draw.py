@@ -215,6 +215,7 @@ class _Gpu:
         self.spill = gl.Texture((TINT_TEXELS, TINT_TEXELS), gl.RGBA32F, linear=True)
         self.spill_version = -1
         self.tint_frame = -1                            # the frame the particles sampled it
+        self.drawn_frame = -1                           # the last frame drawn
         self.legend: gl.Texture | None = None           # the concentration legend's panel
         self.legend_for: tuple = ()                     # (frame size, range) it was made for
         self.legend_bar = None
@@ -973,20 +974,24 @@ class DrawRivers(System):
     def _tint_particles(self, world: RiverWorld, gpu: _Gpu) -> None:
         """The spills' discolouring the wave particles carry (issue 24; the water shader blends
         it with the sprites' weights): the spills' grid follows the spills
-        (:class:`~riverflow.hydro.spills.SpillTint`, every TINT_REFRESH_S of spill time), each
+        (:class:`~riverflow.hydro.spills.SpillTint`, every TINT_REFRESH_S of spill time; its
+        square placed in a thread, swapped in at a fixed later frame; at once when a frame is
+        drawn again), each
         particle samples it where it is (:func:`~riverflow.kernels.spill.sample_tint`) when
         new and every TINT_SAMPLE_EVERY frames (staggered: a changed grid reaches them all
         within those frames, ~0.05 ms a frame for 5000 particles where all of them cost
         0.4 ms), all of them when the grid changed while the frame stood still (a paused
         world's spills advanced); once a frame otherwise (a second draw of the same frame
         samples nothing)."""
+        frame = int(world.clock.frame)
+        again = frame == gpu.drawn_frame            # (a paused host's, a screenshot's)
+        gpu.drawn_frame = frame
         solver = world.spill_solver
         if solver is None or not solver.n_spills:
             return
         colours = sorted((s.row, s.colour) for _, s in esper.get_component(Spill))
         tint = gpu.spill_tint
-        changed = tint.update(solver, world.field, [c for _, c in colours])
-        frame = int(world.clock.frame)
+        changed = tint.update(solver, world.field, [c for _, c in colours], frame, again)
         still = frame == gpu.tint_frame
         if still and not changed:
             return

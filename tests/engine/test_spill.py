@@ -349,6 +349,64 @@ def test_the_tint_texture_holds_the_concentrations(spilled):
         assert end - first < TINT_TEXELS
 
 
+def test_the_tint_places_its_squares_in_a_thread_and_the_frames_stay_deterministic(
+        spilled, monkeypatch):
+    """With frames (the draw system's way) no square with texels is placed in a frame: a
+    thread places it, swapped in TINT_SWAP_FRAMES frames later whatever its time (two tints
+    whose threads take random times give the same texture at every frame, bit for bit); the
+    plume outgrows its square and the square drawn holds it at every frame once its growth
+    is known (nothing cut off); a frame drawn again places at once."""
+    import threading
+    import time
+
+    from riverflow.hydro import spills
+
+    world = spilled[0]
+    net = world.spill_solver.network
+    solver = SpillSolver(net)
+    up = world.scene.branch("main_upper").centerline_m
+    solver.add(world._spill_source(up[len(up) // 5], net), "young", 1000.0, 0.0, 0.0)
+    place = spills.place_texels
+    delays = iter(np.random.default_rng(0).uniform(0.0, 0.04, 1000))
+    in_frame = []
+
+    def slow(*args, **kwargs):
+        if threading.current_thread() is threading.main_thread():
+            in_frame.append(args[2])
+        else:
+            time.sleep(next(delays))
+        return place(*args, **kwargs)
+
+    monkeypatch.setattr(spills, "place_texels", slow)
+    a, b = spills.SpillTint(), spills.SpillTint()
+    colours = [(1.0, 0.0, 0.0)]
+    sides = []
+    for frame in range(300):                    # 2 s a frame: clock.speed_factor 120 at 60 Hz
+        solver.advance(2.0)
+        a.update(solver, world.field, colours, frame)
+        b.update(solver, world.field, colours, frame)
+        assert a.rect_m == b.rect_m and a.version == b.version
+        assert a.rgba.tobytes() == b.rgba.tobytes()
+        if frame >= 2 * spills.TINT_SWAP_FRAMES:   # (the first square: before its growth
+            assert spills._holds(a.rect_m, spills._extent(solver))      # was measured)
+        sides.append(a.rect_m[2])
+    assert all(rect[2] == 0.0 for rect in in_frame)     # (the empty square before the first)
+    assert a.placements >= 3 and len(set(sides)) >= 3
+    assert a.rgba[..., 3].max() > 0
+    # a frame drawn again with a spill not placed yet: placed at once
+    solver.add(world._spill_source(up[len(up) // 2], net), "late", 10.0, 0.0, 0.0)
+    solver.advance(6.0)
+    assert a.update(solver, world.field, colours * 2, frame, again=True)
+    assert in_frame and in_frame[-1][2] > 0.0 and a.placed.n_spills == 2
+    # the thread's field: the world's tiles in a cache of its own, the same ψ bit for bit
+    xy = solver.network.cell_xy_m[::7]
+    level = world.field.level_for_spacing(8.0)
+    twin = world.field.detached(4)
+    assert twin.tiles.cache is not world.field.tiles.cache
+    np.testing.assert_array_equal(twin.potential(xy, level=level),
+                                  world.field.potential(xy, level=level))
+
+
 def test_a_graph_file_scene_gets_its_discharges_from_the_stream_function(tiny_channel_path):
     """A scene read from a graph file has no discharges in its branches: the spill network
     measures them across each link (ψ difference), and the spill runs out of its outlet."""
