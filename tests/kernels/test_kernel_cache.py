@@ -130,7 +130,7 @@ def test_a_modules_key_covers_what_it_imports():
     assert {"riverflow/kernels/advection.py", "riverflow/kernels/lifecycle.py",
             "riverflow/kernels/surface_tiles.py", "riverflow/kernels/_jit.py"} <= closure
     sprites = {Path(p).name for p in _cache.source_closure(str(KERNELS / "sprites.py"))}
-    assert "status.py" in sprites             # FlowStatus values are frozen into the code
+    assert "advection.py" in sprites          # the flow statuses are frozen into the code
     noise = {Path(p).name for p in _cache.source_closure(str(KERNELS / "noise.py"))}
     assert "flow.py" not in noise             # an unrelated edit keeps noise's machine code
     assert _cache.kernel_folder(REPO / "riverflow" / "engine" / "world.py") is None
