@@ -1012,7 +1012,8 @@ class BufferTexture:
     """A buffer texture (``GL_TEXTURE_BUFFER``, core since OpenGL 3.1): ``texels`` texels of
     ``fmt`` in a buffer object, read in GLSL with ``texelFetch(samplerBuffer, i)`` (an
     ``isamplerBuffer`` for integer formats): a plain copy of the bytes when written
-    (:meth:`write`, ``glBufferSubData``), no texture layout or row pitch. Raises
+    (:meth:`write`, ``glBufferSubData`` into fresh storage), no texture layout or row pitch.
+    Raises
     :class:`GLError` past the driver's ``GL_MAX_TEXTURE_BUFFER_SIZE`` (at least 65536 texels;
     2^27 and more on desktop GPUs and Mesa)."""
 
@@ -1038,7 +1039,11 @@ class BufferTexture:
 
     def write(self, data: np.ndarray, nbytes: int | None = None) -> None:
         """Copy the first ``nbytes`` (default: all) of C-contiguous ``data`` into the buffer
-        from its start."""
+        from its start; the bytes past them are undefined after it. The buffer's storage is
+        orphaned first (``glBufferData`` with no data): a draw of the previous frame may still
+        read the old storage, and writing into it would wait for that draw to finish (a sync
+        of the CPU with the GPU every frame; on llvmpipe the whole previous frame's
+        rasterisation)."""
         n = data.nbytes if nbytes is None else min(int(nbytes), data.nbytes)
         if n > self.nbytes or not data.flags.c_contiguous:
             raise ValueError(f"{n} bytes into a buffer texture of {self.nbytes}")
@@ -1048,6 +1053,7 @@ class BufferTexture:
         if last is None or last[0] is not data:     # the same array every frame
             last = self._last_write = (data, data.ctypes.data)
         gl.glBindBuffer(gl.GL_COPY_WRITE_BUFFER, self.buffer)
+        gl.glBufferData(gl.GL_COPY_WRITE_BUFFER, self.nbytes, None, gl.GL_STREAM_DRAW)
         gl.glBufferSubData(gl.GL_COPY_WRITE_BUFFER, 0, n, last[1])
         gl.glBindBuffer(gl.GL_COPY_WRITE_BUFFER, 0)
 

@@ -183,6 +183,14 @@ def test_sprite_table_upload_reads_back_exactly_in_glsl(gl_context, rng):
     h, w = bins_texels.shape
     got = _probe(program, 3, w, h)[..., 0]
     assert np.array_equal(got.astype(np.int64), bins_texels.astype(np.int64))
+    # the next frame's table goes into fresh storage (orphaned: no wait for the draws that
+    # read this one), and what is drawn then reads it
+    again = np.ascontiguousarray(params[:2] * 2.0)
+    tex.write(again)
+    got = _probe(program, 0, width, height).reshape(-1, 4)[:2 * PARTICLES_PER_ROW]
+    want = again.reshape(-1, PARTICLES_PER_ROW, TEXELS_PER_PARTICLE, 4)[:, :, 0]
+    assert np.array_equal(got, want.reshape(-1, 4))
+    assert np.array_equal(tex.read()[:again.size // 4], again.reshape(-1, 4))
     for obj in (program, tex, bins):
         obj.delete()
 
