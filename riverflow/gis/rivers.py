@@ -90,6 +90,7 @@ from scipy.spatial import cKDTree
 
 from riverflow import _validate
 from riverflow._extras import require
+from riverflow._memory import without_collector
 from riverflow.hydro.builder import (MAX_TURN_DEG, RiverNetworkBuilder, by_junction,
                                      upstream_first)
 from riverflow.hydro.graph import GraphError
@@ -405,6 +406,7 @@ class _Link:
     line that is not grid-traced."""
 
 
+@without_collector
 def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge_m2s=None,
                 drainage_area_km2=None, elevation_m=None, crs=None, discharge_m3s=None,
                 stream_order=None, reverse=None, origin_m="auto",

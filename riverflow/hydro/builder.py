@@ -495,8 +495,11 @@ class RiverNetworkBuilder:
         """Make the hydro graph. Raises :class:`GraphError` naming the branch or junction."""
         import shapely.errors
 
+        from riverflow._memory import collector_paused
+
         try:
-            return self._build()
+            with collector_paused():     # millions of containers: no full passes over them
+                return self._build()
         except shapely.errors.GEOSException as exc:   # degenerate geometry: no GEOS traceback
             raise GraphError(f"the network's banks could not be made ({exc}): a width far "
                              f"below tolerance_m = {self.tolerance_m:g} m, or strips that "
