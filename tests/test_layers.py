@@ -11,7 +11,7 @@ import riverflow
 from riverflow.components.status import FlowStatus
 
 LAYERS = {
-    "_validate": 0, "_atomic": 0, "_extras": 0, "kernels": 0,
+    "_validate": 0, "_atomic": 0, "_extras": 0, "_memory": 0, "kernels": 0,
     "tiles": 1,
     "components": 2,
     "hydro": 3, "physics": 3,
