@@ -20,17 +20,34 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 import secrets
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
 __all__ = ["atomic_files", "atomic_write_bytes", "atomic_write_text", "require_suffix",
-           "strict_json", "writable_path"]
+           "remove_temporaries", "strict_json", "writable_path"]
 
 
 def _temporary(path: Path) -> Path:
     return path.with_name(f".{path.name}.tmp-{secrets.token_hex(4)}{path.suffix}")
+
+
+_TEMPORARY = re.compile(r"^\..+\.tmp-[0-9a-f]{8}(\.[^.]*)?$")
+
+
+def remove_temporaries(folder: str | os.PathLike) -> int:
+    """Remove the temporaries of :func:`atomic_files` under ``folder`` (every depth) that a
+    writer killed mid-write left behind (a SIGKILLed worker process: nothing of it runs to
+    clean up); returns how many. Only for a folder no one else is writing into now (a bake's
+    own output once its workers are done)."""
+    n = 0
+    for path in Path(folder).rglob(".*.tmp-*"):
+        if _TEMPORARY.match(path.name) and path.is_file():
+            path.unlink(missing_ok=True)
+            n += 1
+    return n
 
 
 def _sync(path: Path) -> None:

@@ -160,3 +160,18 @@ def test_atomic_files_refuses_a_folder_and_needs_every_file(tmp_path):
         with _atomic.atomic_files(tmp_path / "a.txt", tmp_path / "b.txt") as (a, _b):
             a.write_text("only one")
     assert leftovers(tmp_path) == []
+
+
+def test_temporaries_a_killed_writer_left_are_removed_and_nothing_else(tmp_path):
+    """A worker killed between writing a tile's temporary and renaming it leaves the
+    temporary: the bake sweeps its own folder once its workers are done."""
+    from riverflow._atomic import _temporary, remove_temporaries
+
+    left = _temporary(tmp_path / "14" / "3" / "7.png")
+    left.parent.mkdir(parents=True)
+    left.write_bytes(b"half a tile")
+    keep = [tmp_path / "14" / "3" / "8.png", tmp_path / ".hidden", tmp_path / ".a.tmp-xyz.png"]
+    for path in keep:
+        path.write_bytes(b"x")
+    assert remove_temporaries(tmp_path) == 1
+    assert not left.exists() and all(p.exists() for p in keep)

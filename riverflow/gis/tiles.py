@@ -40,7 +40,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from riverflow._atomic import atomic_write_bytes, atomic_write_text, strict_json
+from riverflow._atomic import (atomic_write_bytes, atomic_write_text, remove_temporaries,
+                               strict_json)
 from riverflow._extras import require
 
 TILE_PX = 256
@@ -228,6 +229,7 @@ def bake_tiles(field_or_scene, folder, zooms=(0, 14), *, crs: str | None = None,
     finally:
         if client is not None and own_client:
             _close(client)
+    remove_temporaries(folder)   # what a worker killed mid-write left (its tiles were redone)
     # empty tiles: what was to do and is still not on disk
     empty = sum(1 for t in todo if not tile_path(folder, *t).exists())
     written = len(todo) - empty
