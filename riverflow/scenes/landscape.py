@@ -72,12 +72,19 @@ class CarvedTerrain:
     cell_m: float
     tile_cells: int = TILE_CELLS
 
-    def height(self, xy: np.ndarray, shore_m: np.ndarray | None = None) -> np.ndarray:
+    def height(self, xy: np.ndarray, shore_m: np.ndarray | None = None,
+               inside: np.ndarray | None = None, nearest=None) -> np.ndarray:
         """Terrain altitude [m] at points (N, 2) [m], (N,) float64; ``shore_m`` (N,): their
-        distance to the shore if known (:func:`~riverflow.scenes.carving.carve`)."""
+        distance to the shore, ``inside`` whether they are in the water and ``nearest`` the
+        centre line's level and width, if known (:func:`~riverflow.scenes.carving.carve`).
+        The source is read only where it counts (not under the water)."""
         p = np.asarray(xy, np.float64).reshape(-1, 2)
-        return carve(self.water, p, self.source.heights(p[:, 0], p[:, 1]), self.carving,
-                     (self.quadtree.root_x_m, self.quadtree.root_y_m), shore_m)
+        return carve(self.water, p, self._source_at, self.carving,
+                     (self.quadtree.root_x_m, self.quadtree.root_y_m), shore_m, inside,
+                     nearest)
+
+    def _source_at(self, p: np.ndarray) -> np.ndarray:
+        return np.asarray(self.source.heights(p[:, 0], p[:, 1]), np.float64).reshape(-1)
 
     @property
     def tile_size_m(self) -> float:
