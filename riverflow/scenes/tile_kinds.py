@@ -308,7 +308,8 @@ class HintsProducer(TerrainProducer):
         reach = np.clip(0.5 * width - DEEP_M, 0.0, None)
         step = np.where(length > 1e-9, np.minimum(length, reach) / np.maximum(length, 1e-9), 0.0)
         hint = centre + away * step[:, None]
-        shore = water.distance_to_shore(p)
+        # (a distance counts in the water only, which is nearer than water.contains looks)
+        shore = water.distance_to_shore(p, upper_bound_m=max(water.contains_reach_m, DEEP_M))
         deep = water.contains(p, shore) & (shore >= DEEP_M)
         hint[deep] = p[deep]
         ok = water.contains(hint)

@@ -200,6 +200,12 @@ class WaterSurface:
         self._boundary_next = np.append(ring[1:] == ring[:-1], False)
         self._reach_m = 0.75 * float(self.widths_m.max()) + 2.0 * self.boundary_spacing_m
 
+    @property
+    def contains_reach_m(self) -> float:
+        """:meth:`contains` tests the points nearer the shore than this [m] only (farther
+        ones are dry: no river is that wide)."""
+        return self._reach_m
+
     # -- queries (all take xy (N, 2) [m] and return (N,) float64) -------------------------
 
     def nearest(self, xy: np.ndarray, stride: int = 1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -409,7 +415,9 @@ class WaterSurface:
     def contains(self, xy: np.ndarray, shore_m: np.ndarray | None = None) -> np.ndarray:
         """(N,) bool: points in the water. ``shore_m``: distance_to_shore(xy) if known."""
         p = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
-        d = self.distance_to_shore(p) if shore_m is None else shore_m
+        # (only distances under _reach_m count: the query need not look farther)
+        d = self.distance_to_shore(p, upper_bound_m=self._reach_m) if shore_m is None \
+            else shore_m
         near = d < self._reach_m
         inside = np.zeros(len(p), bool)
         inside[near] = shapely.contains_xy(self._thread_polygon(), p[near, 0], p[near, 1])
