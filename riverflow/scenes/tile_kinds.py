@@ -215,7 +215,10 @@ class HeightProducer(TerrainProducer):
     def produce(self, key: TileKey, deps: Mapping) -> dict:
         n = self.tiles.n
         got = self.tiles.shore(key)
-        z = self.scene.terrain.height(got.nodes, got.shore, got.inside, got.centre)
+        terrain = self.scene.terrain
+        kept = terrain.source_tiles if n == terrain.tile_cells else None
+        z = terrain.height(got.nodes, got.shore, got.inside, got.centre,
+                           None if kept is None else kept.heights(key, got.nodes))
         return {"z": z.reshape(n + 3, n + 3).astype(np.float32)}
 
 
@@ -369,6 +372,28 @@ class WaterMeshProducer(TerrainProducer):
     def nbytes(self, data) -> int:
         mesh, ground = data
         return int(mesh.positions.nbytes + mesh.indices.nbytes + ground.nbytes)
+
+
+def keep_sources(scene: Landscape, codes: np.ndarray) -> int:
+    """Make and keep the source's heights at the nodes of the height tiles ``codes``
+    (:class:`~riverflow.scenes.landscape.SourceTiles`) that are not kept yet: a live edit does
+    before it forks the tile process for its new tiles, so the next edits of a drag find them
+    there (a tile process's own are lost with it). Returns how many were made."""
+    from riverflow.tiles.table import code_key
+
+    terrain = scene.terrain
+    kept = terrain.source_tiles
+    n = terrain.tile_cells
+    made = 0
+    for code in np.asarray(codes, np.int64).tolist():
+        key = code_key(code)
+        if key in kept:
+            continue
+        x, y = scene.quadtree.node_coords(*key, n, 1)
+        gx, gy = np.meshgrid(x, y)
+        kept.heights(key, np.stack([gx.ravel(), gy.ravel()], axis=1))
+        made += 1
+    return made
 
 
 def ground_and_level(cache, quadtree: Quadtree, n: int, max_level: int, xy: np.ndarray
