@@ -705,8 +705,8 @@ class RiverWorld:
         cut = tile_codes(self.resource(TerrainView).cut)
         keep_sources(new_scene, cut[edits.tiles_meeting(cut, new_scene.quadtree,
                                                         plan.terrain_boxes,
-                                                        new_scene.terrain.tile_cells)])
-        between_frames()
+                                                        new_scene.terrain.tile_cells)],
+                     between_frames)
         # the tile process: forked here with the new producers (the frames go on meanwhile)
         process = self.tiles.scheduler.fork_for(producers)
         return plan, producers, process

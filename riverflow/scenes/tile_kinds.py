@@ -374,11 +374,12 @@ class WaterMeshProducer(TerrainProducer):
         return int(mesh.positions.nbytes + mesh.indices.nbytes + ground.nbytes)
 
 
-def keep_sources(scene: Landscape, codes: np.ndarray) -> int:
+def keep_sources(scene: Landscape, codes: np.ndarray, between=None) -> int:
     """Make and keep the source's heights at the nodes of the height tiles ``codes``
     (:class:`~riverflow.scenes.landscape.SourceTiles`) that are not kept yet: a live edit does
     before it forks the tile process for its new tiles, so the next edits of a drag find them
-    there (a tile process's own are lost with it). Returns how many were made."""
+    there (a tile process's own are lost with it). ``between``: called before each tile made
+    (an edit's thread waits for the frame in progress to end). Returns how many were made."""
     from riverflow.tiles.table import code_key
 
     terrain = scene.terrain
@@ -389,6 +390,8 @@ def keep_sources(scene: Landscape, codes: np.ndarray) -> int:
         key = code_key(code)
         if key in kept:
             continue
+        if between is not None:
+            between()
         x, y = scene.quadtree.node_coords(*key, n, 1)
         gx, gy = np.meshgrid(x, y)
         kept.heights(key, np.stack([gx.ravel(), gy.ravel()], axis=1))

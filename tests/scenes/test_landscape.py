@@ -150,7 +150,9 @@ def test_the_source_under_height_tiles_is_kept_across_edits_and_dropped_with_its
     again = terrain_producers(new)[0].produce(key, {})
     assert np.array_equal(again["z"], first["z"])             # (the same network)
     codes = np.array([tile_code(*key), tile_code(level, key[1] + 1, key[2])], np.int64)
-    assert keep_sources(new, codes) == 1 and keep_sources(new, codes) == 0
+    waits = []                                 # (an edit's thread waits for the frame)
+    assert keep_sources(new, codes, lambda: waits.append(1)) == 1 and waits == [1]
+    assert keep_sources(new, codes, lambda: waits.append(1)) == 0 and waits == [1]
     t = scene.terrain
     other = CarvedTerrain(FbmSource(7), t.water, t.carving, t.quadtree, t.cell_m, t.tile_cells,
                           kept)
