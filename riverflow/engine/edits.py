@@ -455,7 +455,7 @@ def edited_scene(scene: Landscape, branches: list[RiverBranch], islands=None,
     old = scene.terrain
     water = water_surface(branches, ground, polygon, graph.falls, graph.rapids, lakes)
     terrain = CarvedTerrain(old.source, water, old.carving, old.quadtree, old.cell_m,
-                            old.tile_cells)
+                            old.tile_cells, old.source_tiles)    # (the source is the same)
     lo, hi = z_range(old.source, water, old.carving)
     new = Landscape(graph, terrain, water, scene.bounds_m, scene.seed, branches, list(islands),
                     (min(lo, scene.z_range_m[0]), max(hi, scene.z_range_m[1])),

@@ -697,6 +697,16 @@ class RiverWorld:
             between_frames()
         producers = [*terrain_producers(new_scene), FlowProducer(new_field)]
         between_frames()
+        # the source under the drawn height tiles the edit makes again, kept here (the tile
+        # process's own go with it): the next edits of a drag read them back
+        from riverflow.scenes.tile_kinds import keep_sources
+        from riverflow.tiles.table import codes as tile_codes
+
+        cut = tile_codes(self.resource(TerrainView).cut)
+        keep_sources(new_scene, cut[edits.tiles_meeting(cut, new_scene.quadtree,
+                                                        plan.terrain_boxes,
+                                                        new_scene.terrain.tile_cells)],
+                     between_frames)
         # the tile process: forked here with the new producers (the frames go on meanwhile)
         process = self.tiles.scheduler.fork_for(producers)
         return plan, producers, process

@@ -92,6 +92,9 @@ SIGNATURES = {
         'raycast.pyramid_size': [
             '(int64, int64)',
         ],
+        'centre_line.project_to_centre': [
+            "(Named(riverflow.kernels.centre_line.CentreSamples, (A(float64, 2, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), A(int64, 1, 'C'), )), A(int64, 1, 'C'), A(float64, 2, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'), A(float64, 1, 'C'))",
+        ],
         'view_tiles.select_view_tiles': [
             "(A(float64, 2, 'C'), float64, float64, float64, float64, float64, float64, float64, float64, int64, int64, float64, float64, A(int64, 1, 'C'), A(int32, 1, 'C'), A(int32, 2, 'C'))",
         ],
@@ -276,6 +279,7 @@ COSTS = {
     'spill.tint_texels': 0.95,
     'centre_line.view_level': 0.86,
     'raycast.fill_height_pyramid': 0.79,
+    'centre_line.project_to_centre': 0.78,
     'screen.project_particles': 0.74,
     'obstacles.apply_obstacles': 0.67,
     'poisson_fill.blocked_direction_table': 0.67,

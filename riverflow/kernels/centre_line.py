@@ -154,3 +154,48 @@ def nearest_level(samples, levels, branch, x, y):
             best_d = d
             level = (1 - t) * levels[a] + t * levels[b]
     return level
+
+
+class CentreSamples(NamedTuple):
+    """Centre-line samples as :func:`project_to_centre` reads them (S of them; the samples of
+    a branch consecutive, upstream first)."""
+
+    xy: np.ndarray          # (S, 2) float64 position [m]
+    level: np.ndarray       # (S,) float64 water level [m]
+    width: np.ndarray       # (S,) float64 river width [m]
+    branch: np.ndarray      # (S,) int64 branch index
+
+
+@njit(**EXACT_JIT_OPTIONS)
+def project_to_centre(samples, nearest, p, out_d, out_level, out_width):
+    """The nearest point on the sampled centre lines of points ``p`` (N, 2) [m] whose nearest
+    sample is ``nearest`` (N,) (a KD-tree's answer): the segments on either side of that
+    sample (not across a branch's end), the nearer projection; its distance, level and width
+    (linear along the segment) into ``out_d``, ``out_level``, ``out_width`` (N,). The same
+    floating-point operations as the vectorised ``_Samples.project`` (no fast-math: the same
+    numbers bit for bit)."""
+    xy, levels, widths, branch = samples.xy, samples.level, samples.width, samples.branch
+    n = xy.shape[0]
+    for i in range(p.shape[0]):
+        k = nearest[i]
+        x, y = p[i, 0], p[i, 1]
+        best_d = math.inf
+        level = np.nan
+        width = np.nan
+        for a_off in (-1, 0):
+            a = min(max(k + a_off, 0), max(n - 2, 0))
+            b = min(a + 1, n - 1)
+            sax, say = xy[a, 0], xy[a, 1]
+            abx, aby = xy[b, 0] - sax, xy[b, 1] - say
+            ab2 = max(abx * abx + aby * aby, 1e-12)
+            t = min(max(((x - sax) * abx + (y - say) * aby) / ab2, 0.0), 1.0)
+            if branch[a] != branch[b]:
+                t = 0.0 if a == k else 1.0
+            d = np.hypot(sax + t * abx - x, say + t * aby - y)
+            if d < best_d:
+                best_d = d
+                level = (1 - t) * levels[a] + t * levels[b]
+                width = (1 - t) * widths[a] + t * widths[b]
+        out_d[i] = best_d
+        out_level[i] = level
+        out_width[i] = width

@@ -58,16 +58,25 @@ class Carving:
         return max(self.raise_until_m, self.blend_m[1])
 
 
-def carve(water: WaterSurface, xy: np.ndarray, source_m: np.ndarray,
+def carve(water: WaterSurface, xy: np.ndarray, source_m,
           carving: Carving = Carving(), anchor_m: tuple[float, float] = (0.0, 0.0),
-          shore_m: np.ndarray | None = None) -> np.ndarray:
+          shore_m: np.ndarray | None = None, inside: np.ndarray | None = None,
+          nearest=None) -> np.ndarray:
     """Carved terrain heights [m], (N,) float64, at points xy (N, 2) [m] whose uncarved
-    source heights are ``source_m`` (N,); ``anchor_m`` is a node of the land-level lattice
-    (the quadtree root's corner); ``shore_m`` (N,): the points' distance to the shore if
-    known (:meth:`WaterSurface.distance_to_shore`, inf or any value from
-    ``carving.reach_m`` on: beyond reach)."""
+    source heights are ``source_m`` (N,), or a function of points (K, 2) giving them (then
+    read only where they count: not under the water); ``anchor_m`` is a node of the
+    land-level lattice (the quadtree root's corner); ``shore_m`` (N,): the points' distance
+    to the shore if known (:meth:`WaterSurface.distance_to_shore`, inf or any value from
+    ``carving.reach_m`` on: beyond reach); ``inside`` (N,) bool: the points in the water
+    (:meth:`WaterSurface.contains` on that distance) if known; ``nearest``: a function of
+    indices (K,) into xy giving :meth:`WaterSurface.nearest`'s level and width there (a
+    tile's producers share them, :class:`~riverflow.scenes.tile_kinds.LandscapeTiles`).
+    Every value is the point's alone, however it was given."""
     p = np.asarray(xy, np.float64).reshape(-1, 2)
-    out = np.asarray(source_m, np.float64).reshape(-1).copy()
+    if callable(source_m):
+        out = np.zeros(len(p))
+    else:
+        out = np.asarray(source_m, np.float64).reshape(-1).copy()
     if shore_m is None:
         shore = water.distance_to_shore(p, upper_bound_m=carving.reach_m)
     else:
@@ -76,10 +85,18 @@ def carve(water: WaterSurface, xy: np.ndarray, source_m: np.ndarray,
             raise ValueError(f"carve: shore_m has {shore.size} values for {len(p)} points")
         shore = np.where(shore < carving.reach_m, shore, np.inf)
     near = np.flatnonzero(np.isfinite(shore))
+    if inside is None:
+        inside = water.contains(p[near], shore[near])
+    else:
+        inside = np.asarray(inside, bool).reshape(-1)[near]
+    if callable(source_m):          # the source where it counts: not under the water
+        land = np.ones(len(p), bool)
+        land[near[inside]] = False
+        if land.any():
+            out[land] = source_m(p[land])
     if not len(near):
         return out
     q, d, far = p[near], shore[near], out[near]
-    inside = water.contains(q, d)
     exact0, exact1 = carving.exact_level_m
     beta = _smoothstep(exact0, exact1, d)
     # the nearest river's level and width count in the water and where the land's level is
@@ -89,12 +106,15 @@ def carve(water: WaterSurface, xy: np.ndarray, source_m: np.ndarray,
     width = np.ones(len(q))
     wanted = np.flatnonzero(inside | (beta < 1.0))
     if len(wanted):
-        _, level[wanted], width[wanted] = water.nearest(q[wanted])
+        if nearest is None:
+            _, level[wanted], width[wanted] = water.nearest(q[wanted])
+        else:
+            level[wanted], width[wanted] = nearest(near[wanted])
     land_level = level.copy()
     dry = np.flatnonzero(~inside & (beta < 1.0))
     if len(dry):                    # continuous where the nearest reach changes (bends)
         land_level[dry] = water.bank_level(q[dry], d[dry])
-    mixed = np.flatnonzero(beta > 0.0)
+    mixed = np.flatnonzero(~inside & (beta > 0.0))      # (the land's level: not in the water)
     if len(mixed):
         smooth = lattice_land_level(water, q[mixed], carving.land_lattice_m, anchor_m)
         land_level[mixed] = (1.0 - beta[mixed]) * land_level[mixed] + beta[mixed] * smooth

@@ -21,6 +21,8 @@ tiles agree bitwise at shared nodes, whatever their level and whatever was made 
 from __future__ import annotations
 
 import math
+import threading
+from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -56,6 +58,64 @@ PROFILE_HALF_WINDOW = 12
 """Box-smoothing half window of the profiles [samples]."""
 
 
+SOURCE_KEEP = 256
+"""Tiles whose nodes' source heights a terrain keeps (:class:`SourceTiles`; 36 KB each at 64
+cells: 9 MB at most; a 1080p view draws ~150 terrain tiles)."""
+
+
+class SourceTiles:
+    """The source's heights at the nodes (with their one-node ring) of recently made height
+    tiles, kept across the live edits of the network (:func:`riverflow.engine.edits.
+    edited_scene` hands them to the new terrain): the rivers change, the source does not, so
+    the edits of a drag read a tile's source back rather than make it again. They belong to
+    one source and one tile grid (quadtree, cells a tile): a terrain on another one starts
+    its own (:meth:`fits`). At most ``keep`` tiles, the least recently read out first."""
+
+    def __init__(self, source: HeightSource, quadtree: Quadtree, n: int,
+                 keep: int = SOURCE_KEEP) -> None:
+        self.source, self.quadtree, self.n, self.keep = source, quadtree, int(n), int(keep)
+        self._tiles: OrderedDict[tuple[int, int, int], np.ndarray] = OrderedDict()
+        self._lock = threading.Lock()
+
+    def fits(self, source: HeightSource, quadtree: Quadtree, n: int) -> bool:
+        """Whether these are the heights of ``source`` on the tiles of ``quadtree`` with ``n``
+        cells a side."""
+        return source is self.source and quadtree is self.quadtree and int(n) == self.n
+
+    def __contains__(self, key) -> bool:
+        return tuple(key) in self._tiles
+
+    def __len__(self) -> int:
+        return len(self._tiles)
+
+    def heights(self, key, nodes: np.ndarray) -> np.ndarray:
+        """The source's heights (N,) float64 [m] at tile ``key``'s ``nodes`` (N, 2) [m] (its
+        (n + 3)² nodes with their ring), read back if kept, else made and kept."""
+        key = tuple(int(k) for k in key)
+        with self._lock:
+            got = self._tiles.get(key)
+            if got is not None and len(got) == len(nodes):
+                self._tiles.move_to_end(key)
+                return got
+        p = np.asarray(nodes, np.float64).reshape(-1, 2)
+        z = np.asarray(self.source.heights(p[:, 0], p[:, 1]), np.float64).reshape(-1)
+        z.flags.writeable = False
+        with self._lock:
+            self._tiles[key] = z
+            while len(self._tiles) > self.keep:
+                self._tiles.popitem(last=False)
+        return z
+
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)
+        del state["_lock"]
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        self._lock = threading.Lock()
+
+
 @dataclass(eq=False)
 class CarvedTerrain:
     """The terrain of a landscape: the source with the rivers carved in, at any point.
@@ -71,13 +131,31 @@ class CarvedTerrain:
     quadtree: Quadtree
     cell_m: float
     tile_cells: int = TILE_CELLS
+    source_tiles: SourceTiles | None = None
+    """The source at recently made height tiles' nodes (:class:`SourceTiles`): an edited
+    network's terrain is given its predecessor's; one that does not fit this terrain's source
+    and grid is replaced by an empty one."""
 
-    def height(self, xy: np.ndarray, shore_m: np.ndarray | None = None) -> np.ndarray:
+    def __post_init__(self) -> None:
+        if self.source_tiles is None or not self.source_tiles.fits(
+                self.source, self.quadtree, self.tile_cells):
+            self.source_tiles = SourceTiles(self.source, self.quadtree, self.tile_cells)
+
+    def height(self, xy: np.ndarray, shore_m: np.ndarray | None = None,
+               inside: np.ndarray | None = None, nearest=None, source_m=None) -> np.ndarray:
         """Terrain altitude [m] at points (N, 2) [m], (N,) float64; ``shore_m`` (N,): their
-        distance to the shore if known (:func:`~riverflow.scenes.carving.carve`)."""
+        distance to the shore, ``inside`` whether they are in the water and ``nearest`` the
+        centre line's level and width, if known (:func:`~riverflow.scenes.carving.carve`);
+        ``source_m`` (N,): the source's heights there if known, else the source is read
+        only where it counts (not under the water)."""
         p = np.asarray(xy, np.float64).reshape(-1, 2)
-        return carve(self.water, p, self.source.heights(p[:, 0], p[:, 1]), self.carving,
-                     (self.quadtree.root_x_m, self.quadtree.root_y_m), shore_m)
+        return carve(self.water, p, self._source_at if source_m is None else source_m,
+                     self.carving,
+                     (self.quadtree.root_x_m, self.quadtree.root_y_m), shore_m, inside,
+                     nearest)
+
+    def _source_at(self, p: np.ndarray) -> np.ndarray:
+        return np.asarray(self.source.heights(p[:, 0], p[:, 1]), np.float64).reshape(-1)
 
     @property
     def tile_size_m(self) -> float:

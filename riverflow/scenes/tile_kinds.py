@@ -96,24 +96,27 @@ class LandscapeTiles:
         self._shores: OrderedDict[TileKey, np.ndarray] = OrderedDict()
         self._shore_lock = threading.Lock()
 
-    def shore(self, key: TileKey) -> tuple[np.ndarray, np.ndarray]:
-        """The tile's nodes with their one-node ring ((n + 3)², 2) [m] and their distance to
-        the shore [m] (inf beyond the carving's reach or LEVEL_REACH_M, the larger), made
-        once for the height and water producers of a tile (one KD-tree query, not two: the
-        water tile's nodes are the inner ones): kept from the first producer's call to the
-        second's (at most SHORE_KEEP tiles', oldest out first)."""
-        p = self.nodes(key, self.n, ring=1)
+    def shore(self, key: TileKey) -> TileShore:
+        """The tile's nodes with their one-node ring ((n + 3)², 2) [m], their distance to the
+        shore [m] (inf beyond the carving's reach or LEVEL_REACH_M, the larger), whether they
+        are in the water, and the centre line's level and width where asked
+        (:meth:`TileShore.centre`), made once for the height and water producers of a tile
+        (one KD-tree query, not two: the water tile's nodes are the inner ones): kept from the
+        first producer's call to the second's (at most SHORE_KEEP tiles', oldest out first)."""
         with self._shore_lock:
-            shore = self._shores.pop(key, None)     # each producer asks once: handed on
-        if shore is None:
+            got = self._shores.pop(key, None)     # each producer asks once: handed on
+        if got is None:
+            p = self.nodes(key, self.n, ring=1)
             reach = max(self.scene.terrain.carving.reach_m, LEVEL_REACH_M)
-            shore = self.scene.water.distance_to_shore(p, upper_bound_m=reach)
+            water = self.scene.water
+            shore = water.distance_to_shore(p, upper_bound_m=reach)
             shore.flags.writeable = False
+            got = TileShore(p, shore, water.contains(p, shore), water)
             with self._shore_lock:
-                self._shores[key] = shore
+                self._shores[key] = got
                 while len(self._shores) > SHORE_KEEP:
                     self._shores.popitem(last=False)
-        return p, shore
+        return got
 
     def has_water(self, key: TileKey) -> bool:
         """False when no water comes within reach of the tile."""
@@ -124,6 +127,34 @@ class LandscapeTiles:
         x, y = self.quadtree.node_coords(*key, n, ring)
         gx, gy = np.meshgrid(x, y)
         return np.stack([gx.ravel(), gy.ravel()], axis=1)
+
+
+class TileShore:
+    """What a tile's height and water producers both read at its nodes with their ring
+    (:meth:`LandscapeTiles.shore`): ``nodes`` ((n + 3)², 2) [m], ``shore`` their distance to
+    the shore [m] (inf beyond reach), ``inside`` (bool: in the water) and, made for the nodes
+    either producer asks for and kept for the other, the centre line's level and width
+    (:meth:`~riverflow.scenes.water.WaterSurface.nearest`, a function of the point alone)."""
+
+    def __init__(self, nodes: np.ndarray, shore: np.ndarray, inside: np.ndarray,
+                 water) -> None:
+        self.nodes, self.shore, self.inside, self._water = nodes, shore, inside, water
+        self._level = np.full(len(nodes), np.nan)
+        self._width = np.full(len(nodes), np.nan)
+        self._known = np.zeros(len(nodes), bool)
+        self._lock = threading.Lock()
+
+    def centre(self, idx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The nearest centre line's level and width [m] at the nodes ``idx`` (K,), those not
+        asked for before made now."""
+        idx = np.asarray(idx, np.intp)
+        with self._lock:
+            missing = idx[~self._known[idx]]
+            if len(missing):
+                _, self._level[missing], self._width[missing] = \
+                    self._water.nearest(self.nodes[missing])
+                self._known[missing] = True
+            return self._level[idx], self._width[idx]
 
 
 class PolygonPieces:
@@ -183,8 +214,11 @@ class HeightProducer(TerrainProducer):
 
     def produce(self, key: TileKey, deps: Mapping) -> dict:
         n = self.tiles.n
-        nodes, shore = self.tiles.shore(key)
-        z = self.scene.terrain.height(nodes, shore)
+        got = self.tiles.shore(key)
+        terrain = self.scene.terrain
+        kept = terrain.source_tiles if n == terrain.tile_cells else None
+        z = terrain.height(got.nodes, got.shore, got.inside, got.centre,
+                           None if kept is None else kept.heights(key, got.nodes))
         return {"z": z.reshape(n + 3, n + 3).astype(np.float32)}
 
 
@@ -208,23 +242,21 @@ class WaterProducer(TerrainProducer):
 
     def produce(self, key: TileKey, deps: Mapping) -> dict:
         n = self.tiles.n
-        water = self.scene.water
-        ring, ring_shore = self.tiles.shore(key)       # the inner nodes are the tile's
-        inner = (slice(1, -1), slice(1, -1), slice(None))
-        p = ring.reshape(n + 3, n + 3, 2)[inner].reshape(-1, 2)
-        shore = ring_shore.reshape(n + 3, n + 3, 1)[inner].reshape(-1)
+        got = self.tiles.shore(key)        # the inner nodes are the tile's
+        index = np.arange((n + 3) ** 2).reshape(n + 3, n + 3)[1:-1, 1:-1].reshape(-1)
+        shore = got.shore[index]
         shore = np.where(shore < LEVEL_REACH_M, shore, np.inf)
-        level = np.full(len(p), np.nan, np.float32)
-        seen = np.full(len(p), DRY_LEVEL_M, np.float32)
-        signed = np.full(len(p), LEVEL_REACH_M, np.float32)
-        scale = np.ones(len(p), np.float32)
+        level = np.full(len(index), np.nan, np.float32)
+        seen = np.full(len(index), DRY_LEVEL_M, np.float32)
+        signed = np.full(len(index), LEVEL_REACH_M, np.float32)
+        scale = np.ones(len(index), np.float32)
         near = np.flatnonzero(np.isfinite(shore))
         if len(near):
-            _, value, width = water.nearest(p[near])
+            value, width = got.centre(index[near])
             seen[near] = value
             scale[near] = river_scale(width)
             reach = WET_REACH_CELLS * self.tiles.quadtree.cell_m(key[0], n)
-            inside = water.contains(p[near], shore[near])
+            inside = got.inside[index[near]]
             wet = (shore[near] < reach) | inside
             level[near[wet]] = value[wet]
             signed[near] = np.where(inside, -shore[near], shore[near])
@@ -279,7 +311,8 @@ class HintsProducer(TerrainProducer):
         reach = np.clip(0.5 * width - DEEP_M, 0.0, None)
         step = np.where(length > 1e-9, np.minimum(length, reach) / np.maximum(length, 1e-9), 0.0)
         hint = centre + away * step[:, None]
-        shore = water.distance_to_shore(p)
+        # (a distance counts in the water only, which is nearer than water.contains looks)
+        shore = water.distance_to_shore(p, upper_bound_m=max(water.contains_reach_m, DEEP_M))
         deep = water.contains(p, shore) & (shore >= DEEP_M)
         hint[deep] = p[deep]
         ok = water.contains(hint)
@@ -339,6 +372,31 @@ class WaterMeshProducer(TerrainProducer):
     def nbytes(self, data) -> int:
         mesh, ground = data
         return int(mesh.positions.nbytes + mesh.indices.nbytes + ground.nbytes)
+
+
+def keep_sources(scene: Landscape, codes: np.ndarray, between=None) -> int:
+    """Make and keep the source's heights at the nodes of the height tiles ``codes``
+    (:class:`~riverflow.scenes.landscape.SourceTiles`) that are not kept yet: a live edit does
+    before it forks the tile process for its new tiles, so the next edits of a drag find them
+    there (a tile process's own are lost with it). ``between``: called before each tile made
+    (an edit's thread waits for the frame in progress to end). Returns how many were made."""
+    from riverflow.tiles.table import code_key
+
+    terrain = scene.terrain
+    kept = terrain.source_tiles
+    n = terrain.tile_cells
+    made = 0
+    for code in np.asarray(codes, np.int64).tolist():
+        key = code_key(code)
+        if key in kept:
+            continue
+        if between is not None:
+            between()
+        x, y = scene.quadtree.node_coords(*key, n, 1)
+        gx, gy = np.meshgrid(x, y)
+        kept.heights(key, np.stack([gx.ravel(), gy.ravel()], axis=1))
+        made += 1
+    return made
 
 
 def ground_and_level(cache, quadtree: Quadtree, n: int, max_level: int, xy: np.ndarray

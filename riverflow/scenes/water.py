@@ -19,7 +19,8 @@ import shapely
 from scipy.spatial import cKDTree
 
 from riverflow.hydro.falls import channel_depth_m, drop_along
-from riverflow.kernels.centre_line import LevelSamples, nearest_level
+from riverflow.kernels.centre_line import (CentreSamples, LevelSamples, nearest_level,
+                                           project_to_centre)
 from riverflow.tiles import remote
 
 JUNCTION_BLEND = 1.25
@@ -199,6 +200,12 @@ class WaterSurface:
         # boundary point i and i + 1 make a segment where they are on one ring
         self._boundary_next = np.append(ring[1:] == ring[:-1], False)
         self._reach_m = 0.75 * float(self.widths_m.max()) + 2.0 * self.boundary_spacing_m
+
+    @property
+    def contains_reach_m(self) -> float:
+        """:meth:`contains` tests the points nearer the shore than this [m] only (farther
+        ones are dry: no river is that wide)."""
+        return self._reach_m
 
     # -- queries (all take xy (N, 2) [m] and return (N,) float64) -------------------------
 
@@ -409,7 +416,9 @@ class WaterSurface:
     def contains(self, xy: np.ndarray, shore_m: np.ndarray | None = None) -> np.ndarray:
         """(N,) bool: points in the water. ``shore_m``: distance_to_shore(xy) if known."""
         p = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
-        d = self.distance_to_shore(p) if shore_m is None else shore_m
+        # (only distances under _reach_m count: the query need not look farther)
+        d = self.distance_to_shore(p, upper_bound_m=self._reach_m) if shore_m is None \
+            else shore_m
         near = d < self._reach_m
         inside = np.zeros(len(p), bool)
         inside[near] = shapely.contains_xy(self._thread_polygon(), p[near, 0], p[near, 1])
@@ -449,29 +458,21 @@ class _Samples:
     def __init__(self, samples, levels, widths, branch) -> None:
         self.samples, self.levels, self.widths, self.branch = samples, levels, widths, branch
         self.tree = point_tree(samples)
+        self.kernel_samples = CentreSamples(np.ascontiguousarray(samples, np.float64),
+                                            np.ascontiguousarray(levels, np.float64),
+                                            np.ascontiguousarray(widths, np.float64),
+                                            np.ascontiguousarray(branch, np.int64))
 
     def project(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(distance, level, width) (N,) of the nearest point on the sampled centre lines."""
+        """(distance, level, width) (N,) of the nearest point on the sampled centre lines:
+        the nearest sample's KD-tree query, then the segments on either side of it
+        (:func:`riverflow.kernels.centre_line.project_to_centre`)."""
+        p = np.ascontiguousarray(p, np.float64).reshape(-1, 2)
         _, k = self.tree.query(p, workers=_workers(len(p)))
-        n = len(self.samples)
-        best_d = np.full(len(p), np.inf)
-        level = np.empty(len(p))
-        width = np.empty(len(p))
-        for a_off in (-1, 0):
-            a = np.clip(k + a_off, 0, max(n - 2, 0))
-            b = np.minimum(a + 1, n - 1)
-            same = self.branch[a] == self.branch[b]
-            sa, sb = self.samples[a], self.samples[b]
-            ab = sb - sa
-            ab2 = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-12)
-            t = np.clip(np.einsum("ij,ij->i", p - sa, ab) / ab2, 0, 1)
-            t = np.where(same, t, np.where(a == k, 0.0, 1.0))
-            d = np.hypot(*(sa + t[:, None] * ab - p).T)
-            better = d < best_d
-            best_d = np.where(better, d, best_d)
-            level = np.where(better, (1 - t) * self.levels[a] + t * self.levels[b], level)
-            width = np.where(better, (1 - t) * self.widths[a] + t * self.widths[b], width)
-        return best_d, level, width
+        out = np.empty((3, len(p)))
+        project_to_centre(self.kernel_samples, np.ascontiguousarray(k, np.int64), p, out[0],
+                          out[1], out[2])
+        return out[0], out[1], out[2]
 
 
 def _smoothstep(e0: float, e1: float, x: np.ndarray) -> np.ndarray:

@@ -87,3 +87,77 @@ def test_height_and_water_tiles_share_their_shore_query_and_match_the_pointwise_
         signed = np.where(np.isfinite(d), np.where(inside, -d, d), LEVEL_REACH_M)
         assert np.array_equal(got["water"]["shore"].ravel(), signed.astype(np.float32))
         assert (signed < 0).any() and (signed > 20).any()  # the tile holds water and land
+
+
+def test_a_tiles_shore_record_makes_each_nodes_centre_line_query_once():
+    """TileShore.centre: the level and width of WaterSurface.nearest at the nodes asked for,
+    each node queried once whichever producer asks first (carve's nodes, then the water
+    tile's, which include most of them)."""
+    from riverflow.scenes.tile_kinds import TileShore
+
+    scene = rf.default_scene(seed=0)
+    water = scene.water
+    centre = scene.branch("tributary").centerline_m[40]
+    k = np.arange(-12, 13) * 6.0
+    gx, gy = np.meshgrid(centre[0] + k, centre[1] + k)
+    nodes = np.column_stack([gx.ravel(), gy.ravel()])
+    shore = water.distance_to_shore(nodes, upper_bound_m=200.0)
+    asked = []
+    real = water.nearest
+
+    class Counting:
+        def __getattr__(self, name):
+            return getattr(water, name)
+
+        def nearest(self, xy):
+            asked.append(len(xy))
+            return real(xy)
+
+    record = TileShore(nodes, shore, water.contains(nodes, shore), Counting())
+    first, second = np.arange(0, 400), np.arange(200, len(nodes))
+    for idx in (first, second, first):
+        level, width = record.centre(idx)
+        _, want_level, want_width = real(nodes[idx])
+        assert np.array_equal(level, want_level) and np.array_equal(width, want_width)
+    assert asked == [400, len(nodes) - 400]
+
+
+def test_the_source_under_height_tiles_is_kept_across_edits_and_dropped_with_its_source():
+    """SourceTiles: a height tile's source heights are made once and read back (bit for bit
+    the source's), an edited network's terrain takes them over (the source is the same),
+    keep_sources makes only the missing ones, and a terrain on another source or another
+    tile grid starts empty."""
+    from riverflow.engine.edits import edited_scene
+    from riverflow.scenes.landscape import CarvedTerrain
+    from riverflow.scenes.sources import FbmSource
+    from riverflow.scenes.tile_kinds import keep_sources, terrain_producers
+    from riverflow.tiles.table import tile_code
+
+    scene = rf.default_scene(seed=0)
+    height = terrain_producers(scene)[0]
+    kept = scene.terrain.source_tiles
+    centre = scene.branch("tributary").centerline_m[40]
+    level = height.tiles.max_level
+    key = (level, *scene.quadtree.tile_of(*centre, level))
+    first = height.produce(key, {})
+    assert key in kept
+    nodes = height.tiles.nodes(key, height.tiles.n, ring=1)
+    z = kept.heights(key, nodes)
+    assert np.array_equal(z, scene.terrain.source.heights(nodes[:, 0], nodes[:, 1]))
+    assert kept.heights(key, nodes) is z                       # read back, not made again
+    new, _ = edited_scene(scene, scene.branches)
+    assert new.terrain.source_tiles is kept
+    again = terrain_producers(new)[0].produce(key, {})
+    assert np.array_equal(again["z"], first["z"])             # (the same network)
+    codes = np.array([tile_code(*key), tile_code(level, key[1] + 1, key[2])], np.int64)
+    waits = []                                 # (an edit's thread waits for the frame)
+    assert keep_sources(new, codes, lambda: waits.append(1)) == 1 and waits == [1]
+    assert keep_sources(new, codes, lambda: waits.append(1)) == 0 and waits == [1]
+    t = scene.terrain
+    other = CarvedTerrain(FbmSource(7), t.water, t.carving, t.quadtree, t.cell_m, t.tile_cells,
+                          kept)
+    assert other.source_tiles is not kept and len(other.source_tiles) == 0
+    coarser = CarvedTerrain(t.source, t.water, t.carving, t.quadtree, t.cell_m, 32, kept)
+    assert coarser.source_tiles is not kept
+    same = CarvedTerrain(t.source, t.water, t.carving, t.quadtree, t.cell_m, t.tile_cells, kept)
+    assert same.source_tiles is kept

@@ -488,3 +488,24 @@ def test_the_tile_process_is_paused_in_frames_on_one_core_and_tiles_are_still_ma
     auto.close()
     with pytest.raises(ValueError, match="pause_in_frames"):
         TileScheduler(TileCache(1 << 20), [], "background", pause_in_frames="sometimes")
+
+
+@needs_fork
+def test_the_process_is_handed_tiles_while_a_frame_runs_the_thread_waits_for_its_end(
+        monkeypatch):
+    """The worker thread starts a tile of its own between frames only (it would take the
+    interpreter from the frame); a tile the process makes is handed to it at once (a live
+    edit's tiles were each held back a frame's time)."""
+    import riverflow.tiles.scheduler as scheduler_module
+
+    monkeypatch.setattr(scheduler_module, "IDLE_WAIT_S", 30.0)   # a frame that never ends
+    for worker, made in (("process", True), ("thread", False)):
+        sched = TileScheduler(TileCache(1 << 24), [Heights()], "background", worker=worker,
+                              pause_in_frames=False)
+        sched.frame_ends()
+        sched.frame_begins()
+        sched.request("h", [(0, 0, 0)])
+        assert sched.wait(0.5 if not made else 20.0) == made, worker
+        sched.frame_ends()
+        assert sched.wait(20.0) and len(sched.cache.pools["h"]) == 1
+        sched.close()
