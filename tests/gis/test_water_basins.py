@@ -183,6 +183,62 @@ def test_a_mouth_is_no_shore(harbour):
         assert np.abs(got - want).max() < h, (got, want)
 
 
+def test_no_foam_where_the_river_passes_a_mouth(harbour):
+    """The river passing a basin's mouth makes no more foam than along its bank (the foam
+    kernel's target from the flow tiles: shore closeness and impinging water): 2 to 20 m into
+    the river, from 5 m above the mouth to 25 m below it, against the same offsets 40 to 80 m
+    above it. The flow runs along the mouth as along a bank, so the water heading for the
+    basin's downstream corner beyond the mouth (the nearest shore there) does not run into it:
+    the impinging term reads the distance to the flow's banks, the mouth counted (the pool's
+    ``bank`` lattice), whose gradient is the bank's normal there (it read the shore's, and
+    drew an arc of foam 5 to 20 m into the river below each mouth: up to 0.22 over the
+    bank's)."""
+    from riverflow.components.foam import FoamSettings
+    from riverflow.kernels import flow as kf
+    from riverflow.systems.foam import foam_params
+    from tests.kernels import foam_reference as ref
+
+    water, basins, builder, graph, field = harbour
+    p = foam_params(FoamSettings())
+    t_ = field.tiles
+
+    def foam(pts):
+        status, v = field.query(pts)
+        assert (status == INSIDE).all()
+        field.shore_distance(pts)                       # the tiles cached
+        out = np.empty((len(pts), 5))
+        assert kf.sample_flow_details(np.ascontiguousarray(pts), field.max_level, 0, t_.view(),
+                                      t_.shore, t_.bank, out) == 0
+        terms = np.array([ref.flow_terms(True, *o[:4], 0.0, *vk, p)
+                          for o, vk in zip(out, v.astype(float))])
+        return p.base + p.k_distance * terms[:, 1] + p.k_pressure * terms[:, 2], terms, out
+
+    offsets = np.array([2.0, 3.5, 5.0, 7.5, 10.0, 15.0, 20.0])
+    for b in builder.basins:
+        a, e = b.mouth
+        length = float(np.linalg.norm(e - a))
+        t = (e - a) / length
+        n = np.array([-t[1], t[0]])
+        if not shapely.contains_xy(water, *(0.5 * (a + e) + 5.0 * n)):
+            n = -n                                      # into the river
+        v_mid = field.query((0.5 * (a + e) + 10.0 * n)[None])[1][0]
+        down = 1.0 if v_mid @ t > 0 else -1.0           # along the flow, from a
+        start = a if down > 0 else e
+        t = down * t
+        s_mouth = np.arange(-5.0, length + 25.0, 1.0)
+        s_away = np.arange(-80.0, -40.0, 1.0)
+        ss, dd = np.meshgrid(s_mouth, offsets)
+        at_mouth, terms, out = foam(start + ss.reshape(-1, 1) * t + dd.reshape(-1, 1) * n)
+        ss, dd = np.meshgrid(s_away, offsets)
+        away, _, _ = foam(start + ss.reshape(-1, 1) * t + dd.reshape(-1, 1) * n)
+        at_mouth = at_mouth.reshape(len(offsets), -1)
+        away = away.reshape(len(offsets), -1)
+        assert (at_mouth.max(axis=1) <= away.max(axis=1) + 0.01).all(), (
+            at_mouth.max(axis=1), away.max(axis=1))
+        assert terms[:, 2].max() < 0.01                  # no impinging water there
+        assert np.abs(out[:, 1:3] @ t).max() < 0.05      # ∇ bank distance: the bank's normal
+
+
 def test_the_flow_past_each_mouth_is_continuous(harbour):
     """3 m into the river along its bank, from 60 m above a mouth to 60 m below it, the
     velocity (1 m apart) has no step and runs along the bank: the river passes the mouth as
