@@ -359,3 +359,37 @@ def test_a_wide_shallow_bay_is_still_water(tmp_path):
     speed = np.hypot(*v.T)
     assert np.abs(speed / np.median(speed) - 1).max() < 0.01
     assert (np.abs(v @ t) > 0.99 * speed).all()
+
+
+def test_a_basin_is_level_with_its_river_at_its_mouth(harbour):
+    """The scene's water surface (rf.landscape: the level foam's steepness term reads through
+    the water-level tiles): each basin stands at its river's level at its mouth, so 1 to 20 m
+    into the river along each mouth the level is the river's beside it within the river's own
+    fall along the band (measured 0.014 m). A basin took the lowest level of its own axis'
+    profile (20.0 m on the test's hills, its river 20.1 to 20.3 m there): the river's points
+    nearest the basin's axis took that level, a step of 0.06 to 0.27 m round each mouth whose
+    slope (5 % in the CLI's render) drew an arc of foam into the river (steepness foam from
+    1 %)."""
+    from riverflow.hydro.areas import basin_mouth
+
+    water, basins, builder, graph, field = harbour
+    scene = rf.landscape(graph, seed=0)
+    mouths = [basin_mouth(graph, a) for a in graph.lakes()]
+    assert len(mouths) == 3 and all(m is not None for m in mouths)
+    for b in builder.basins:
+        a, e = b.mouth
+        t = (e - a) / np.linalg.norm(e - a)
+        n = np.array([-t[1], t[0]])
+        if not shapely.contains_xy(water, *(0.5 * (a + e) + 5.0 * n)):
+            n = -n
+        inside = _basin_points(b.polygon, 3.0)
+        river = 0.5 * (a + e) + 10.0 * n
+        level = scene.water.level(np.vstack([inside, river[None]]))
+        assert np.abs(level[:-1] - level[-1]).max() < 0.01            # level with the river
+        ss, dd = np.meshgrid(np.arange(-10.0, np.linalg.norm(e - a) + 20.0, 1.0),
+                             np.arange(1.0, 21.0, 1.0))
+        pts = a + ss.reshape(-1, 1) * t + dd.reshape(-1, 1) * n
+        mid = a + ss.reshape(-1, 1) * t + 0.5 * W * n       # the river's middle, beside each
+        step = np.abs(scene.water.level(pts) - scene.water.level(mid))
+        # measured: 0.014 m (the river falls 0.05 %), 0.06 to 0.27 m before
+        assert step.max() < 0.025, step.max()
