@@ -1287,11 +1287,12 @@ def flow_details_at(px, py, tiles, level, fallback, shore_pool, bank_pool, patch
     points); the gradient is that of the bank lattice (``bank_pool``, the pool's "bank"
     column: the same with a basin's open mouth counted as the bank it is for the flow), the
     direction away from the bank the water runs along: across a mouth the shore is the basin's
-    far side or its corners, which the river passes, not runs into; strain is the principal strain rate of the velocity, √(ψ_xy² +
-    ¼(ψ_xx − ψ_yy)²), vorticity ψ_xx + ψ_yy, from the second derivatives of the ψ bicubic
-    (piecewise linear: the interpolant is C¹). ``patch`` is (4, 4) float64 scratch. found is
-    False where no tile is cached, outside the domain or in a dry tile; a point in a tile but
-    outside the water gets what the lattice extrapolates (the caller knows its status).
+    far side or its corners, which the river passes, not runs into; strain is the principal
+    strain rate of the velocity, √(ψ_xy² + ¼(ψ_xx − ψ_yy)²), vorticity ψ_xx + ψ_yy, from the
+    second derivatives of the ψ bicubic (piecewise linear: the interpolant is C¹). ``patch`` is
+    (4, 4) float64 scratch. found is False where no tile is cached, outside the domain or in a
+    dry tile; a point in a tile but outside the water gets what the lattice extrapolates (the
+    caller knows its status).
     """
     slot, lv, ci, cj, fx, fy = _locate(px, py, tiles, level, fallback)
     if slot < 0:

@@ -20,9 +20,9 @@ foam the slot holds, so a new particle in a reused slot is seen). :func:`update_
 * **pressure**: the water running into a shore (island noses, outer bends, a bifurcation's
   tip: −v·∇b / impinge_mps, fading over 2·shore_m from the shore; b the distance to the
   flow's nearest bank, which is d's but for a basin's open mouth, which b counts: the river
-  runs along a harbour's mouth as along its bank, not into the basin's corner beyond it) or turning sharply (the
-  strain rate of the velocity from the ψ bicubic's second derivatives, beyond a quarter of
-  ``strain_ps``, × speed), or landing in a fall's plunge pool
+  runs along a harbour's mouth as along its bank, not into the basin's corner beyond it) or
+  turning sharply (the strain rate of the velocity from the ψ bicubic's second derivatives,
+  beyond a quarter of ``strain_ps``, × speed), or landing in a fall's plunge pool
   (:func:`riverflow.kernels.falls.plunge_closeness`);
 
 speed = min(|v| / speed_mps, 1). Every frame the foam relaxes toward the target, foam +=

@@ -125,7 +125,8 @@ def test_flow_terms_match_the_twin(channel):
     pts = np.c_[rng.uniform(0, 400, 500), rng.uniform(-21, 21, 500)]
     vel = rng.normal(0, 1.5, (500, 2))
     out = np.empty((500, 5))
-    kf.sample_flow_details(pts, field.max_level, field.max_level, flow.tiles, flow.shore, flow.bank, out)
+    kf.sample_flow_details(pts, field.max_level, field.max_level, flow.tiles, flow.shore,
+                           flow.bank, out)
     patch = np.empty((4, 4))
     for k in range(500):
         got = kfoam.flow_terms(pts[k, 0], pts[k, 1], vel[k, 0], vel[k, 1], params, flow,
