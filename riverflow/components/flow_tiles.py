@@ -29,6 +29,7 @@ def flow_fields(n_cells: int) -> dict[str, FieldSpec]:
             "cell_status": FieldSpec((n, n), np.uint8, 0),                 # CELL_*
             "cell_segments": FieldSpec((n, n, CELL_SEGMENTS), np.int32, -1),
             "shore": FieldSpec((n + 3, n + 3), np.float32, 0.0),          # to the nearest bank [m]
+            "bank": FieldSpec((n + 3, n + 3), np.float32, 0.0),           # ... a mouth counted
             "inside_points": FieldSpec((), np.int32, 0),                   # lattice points in water
             "in_cut": FieldSpec((), np.uint8, 0)}     # a leaf of this frame's flow cut (tiles system)
 
@@ -100,6 +101,12 @@ class FlowTiles:
         """(P, n+3, n+3) float32: distance to the nearest bank or island shore [m] at each
         tile's lattice points −1 … n+1 (0 where dry)."""
         return self.pool.arrays["shore"]
+
+    @property
+    def bank(self) -> np.ndarray:
+        """(P, n+3, n+3) float32: as :attr:`shore` with a basin's open mouth counted as the
+        bank it is for the flow (:data:`riverflow.kernels.flow.OPEN_BANK`)."""
+        return self.pool.arrays["bank"]
 
     @property
     def cached(self) -> int:

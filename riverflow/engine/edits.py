@@ -428,7 +428,7 @@ def edited_scene(scene: Landscape, branches: list[RiverBranch], islands=None,
     :class:`GraphError` for a network that cannot carry a flow."""
     import shapely
 
-    from riverflow.hydro.areas import area_ring
+    from riverflow.hydro.areas import area_ring, basin_mouth
 
     islands = scene.islands if islands is None else islands
     carried = carried_by(scene)
@@ -450,7 +450,7 @@ def edited_scene(scene: Landscape, branches: list[RiverBranch], islands=None,
             over = [(poly.intersection(p).area, z) for p, _, z in carried.lakes]
             best = max(over, default=(0.0, None))
             level = best[1] if best[0] > 0.5 * poly.area else None
-        lakes.append((poly, level))
+        lakes.append((poly, level, basin_mouth(graph, a)))
     ground = scene.profile_ground or _LevelGround(scene.water)
     old = scene.terrain
     water = water_surface(branches, ground, polygon, graph.falls, graph.rapids, lakes)

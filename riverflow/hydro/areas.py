@@ -20,6 +20,22 @@ def area_ring(graph: HydroGraph, area: int, tolerance_m: float = 0.25) -> np.nda
     return np.vstack(parts)
 
 
+def basin_mouth(graph: HydroGraph, area: int, tolerance_m: float = 0.25) -> np.ndarray | None:
+    """The middle (2,) [m] of a basin's mouth: the bank curve lake ``area`` shares with a river
+    area (riverflow.hydro._basins: a harbour, a dock, a bay), or None (a lake rivers run into
+    and out of across closing segments, or none)."""
+    if not graph.areas[area].is_lake:
+        return None
+    for c, _ in graph.areas[area].curves:
+        if not graph.curves[c].is_bank:
+            continue
+        if any(a != area and not other.is_lake and any(k == c for k, _ in other.curves)
+               for a, other in enumerate(graph.areas)):
+            p = graph.polyline(c, tolerance_m)
+            return 0.5 * (p[0] + p[-1])
+    return None
+
+
 def water_polygon(graph: HydroGraph, tolerance_m: float = 0.25) -> shapely.Geometry:
     """The water: the symmetric difference of every area's polygon (odd winding rule)."""
     water = shapely.Polygon()

@@ -337,7 +337,8 @@ class FlowField:
         if kf.query_velocity(pts, _NO_LEVELS, lv, 0, self.tiles.view(), tick, self.segments,
                              0, status, velocity):  # some tiles are not cached
             known = status != FlowStatus.UNKNOWN
-            kf.sample_flow_details(pts, lv, 0, self.tiles.view(), self.tiles.shore, details)
+            kf.sample_flow_details(pts, lv, 0, self.tiles.view(), self.tiles.shore,
+                                   self.tiles.bank, details)
             for idx in self._batches(pts, lv, np.flatnonzero(~known)):
                 sub = np.ascontiguousarray(pts[idx])
                 s_out = np.empty(len(idx), np.uint8)
@@ -345,11 +346,13 @@ class FlowField:
                 view = self.tiles.view()
                 kf.query_velocity(sub, _NO_LEVELS, lv, 0, view, self.tiles.cache.tick,
                                   self.segments, 0, s_out, np.empty((len(idx), 2), np.float32))
-                kf.sample_flow_details(sub, lv, 0, view, self.tiles.shore, d_out)
+                kf.sample_flow_details(sub, lv, 0, view, self.tiles.shore, self.tiles.bank,
+                                       d_out)
                 status[idx] = s_out
                 details[idx] = d_out
         else:
-            kf.sample_flow_details(pts, lv, 0, self.tiles.view(), self.tiles.shore, details)
+            kf.sample_flow_details(pts, lv, 0, self.tiles.view(), self.tiles.shore,
+                                   self.tiles.bank, details)
         return np.where(status == FlowStatus.INSIDE, np.maximum(details[:, 0], 0.0), np.nan)
 
     # -- obstacles -----------------------------------------------------------------------------
@@ -730,23 +733,28 @@ class TileBuilder:
         status = np.empty((n, n), np.uint8)
         segments = np.empty((n, n, kf.CELL_SEGMENTS), np.int32)
         shore = np.empty((n + 3, n + 3), np.float32)
-        inside = self.build(level, tx, ty, psi, status, segments, shore)
+        bank = np.empty((n + 3, n + 3), np.float32)
+        inside = self.build(level, tx, ty, psi, status, segments, shore, bank)
         return {"psi": psi, "cell_status": status, "cell_segments": segments, "shore": shore,
-                "inside_points": np.int32(inside), "in_cut": np.uint8(0)}
+                "bank": bank, "inside_points": np.int32(inside), "in_cut": np.uint8(0)}
 
     def build(self, level: int, tx: int, ty: int, psi: np.ndarray, cell_status: np.ndarray,
-              cell_segments: np.ndarray, shore: np.ndarray | None = None) -> int:
+              cell_segments: np.ndarray, shore: np.ndarray | None = None,
+              bank: np.ndarray | None = None) -> int:
         """Fill tile (level, tx, ty) into the given arrays (``shore``: the distance to the
-        nearest bank at the lattice points, or None); returns its water lattice points."""
+        nearest shore at the lattice points, ``bank`` to the nearest bank, a basin's mouth
+        counted, or None); returns its water lattice points."""
         f = self.field
         t = f.tiles
         n = t.n_cells
         if shore is None:
             shore = np.empty((n + 3, n + 3), np.float32)
+        if bank is None:
+            bank = np.empty((n + 3, n + 3), np.float32)
         inside = int(kf.build_flow_tile(
             t.root_x_m, t.root_y_m, t.spacing_m(level), n, tx * n, ty * n,
             *f.network.kernel_args(), f.slip, *self.block_scratch(), self.psi_full,
-            self.inside_full, self.cell_d2, psi, cell_status, cell_segments, shore))
+            self.inside_full, self.cell_d2, psi, cell_status, cell_segments, shore, bank))
         if self.lakes:
             self._lake_lattice(level, tx, ty, psi)
         return inside

@@ -99,7 +99,9 @@ OPEN_BANK = -1.0
 """``curve_hw2`` of a bank that is an open boundary: a basin's mouth, one bank of the river's
 area and the basin's (:mod:`riverflow.hydro._basins`). It carries ψ and closes each network's
 shore for the inside test like any bank, but the water goes on across it, so the distance to
-the shore (:func:`potential_and_shore_at`: foam, the distance map) does not count it."""
+the shore (:func:`potential_and_shore_at`: foam's shore closeness, the distance map) does not
+count it; the distance to the flow's banks (foam's impinging water: the river runs along the
+mouth as along a bank, not into the basin's corner beyond it) does."""
 """How many river networks :func:`potential_and_shore_at` tries at a point behind a shore."""
 
 
@@ -372,10 +374,12 @@ def potential_and_shore_at(
     curve_kind, curve_comp, curve_group, curve_hw2,
     comp_radius, comp_group0, comp_group1, group_psi, slip, gval,
 ):
-    """(ψ [m²/s], squared distance to the nearest bank [m²]) at p, as :func:`potential_at`;
-    the distance is to the nearest bank or island shore of p's river network (the ψ-groups'
-    nearest segments, which the weighting finds anyway; an open bank, OPEN_BANK, a basin's
-    mouth, is no shore), inf where p is not in the water.
+    """(ψ [m²/s], squared distance to the nearest shore [m²], squared distance to the nearest
+    bank [m²]) at p, as :func:`potential_at`; the distances are to the nearest bank or island
+    shore of p's river network (the ψ-groups' nearest segments, which the weighting finds
+    anyway), the shore's leaving out open banks (OPEN_BANK, a basin's mouth: the water goes on
+    across it), the bank's counting them (the flow runs along them); inf where p is not in the
+    water. They differ only where a mouth is nearer than every shore.
 
     p's network is that of the nearest axis covering it, a river's (a network with two shore
     ψ or more) before still water's (a lake or basin whose whole shore has one ψ); where p
@@ -409,18 +413,18 @@ def potential_and_shore_at(
             if axis >= 0:
                 break
         if axis < 0:
-            return np.nan, np.inf
-        psi, near2, behind = _network_potential(
+            return np.nan, np.inf, np.inf
+        psi, near2, bank2, behind = _network_potential(
             px, py, nb, blk_curve, blk_start, blk_count, blk_seg, blk_dmin2, seg_ax, seg_ay,
             seg_bx, seg_by, curve_kind, curve_comp, curve_group, curve_hw2, comp_radius,
             comp_group0, comp_group1, group_psi, slip, gval, axis)
         if not behind:
-            return psi, near2
+            return psi, near2, bank2
         if tried0 < 0:
             tried0 = curve_comp[axis]
         else:
             tried1 = curve_comp[axis]
-    return np.nan, np.inf
+    return np.nan, np.inf, np.inf
 
 
 @njit(**JIT_OPTIONS)
@@ -430,9 +434,10 @@ def _network_potential(
     curve_kind, curve_comp, curve_group, curve_hw2,
     comp_radius, comp_group0, comp_group1, group_psi, slip, gval, axis,
 ):
-    """(ψ, squared distance to the nearest bank, behind) at p in the network of ``axis``:
-    ``behind`` when p lies on the dry side of one of its shores (then ψ is NaN). The distance
-    leaves out open banks (OPEN_BANK: a basin's mouth, which the water crosses)."""
+    """(ψ, squared distance to the nearest shore, to the nearest bank, behind) at p in the
+    network of ``axis``: ``behind`` when p lies on the dry side of one of its shores (then ψ is
+    NaN). The shore's distance leaves out open banks (OPEN_BANK: a basin's mouth, which the
+    water crosses), the bank's counts them."""
     comp = curve_comp[axis]
     radius = comp_radius[comp]
     width2 = 4.0 * curve_hw2[axis]  # sign tests only within one river width
@@ -479,7 +484,7 @@ def _network_potential(
             cap = cur
             cap_seg = cur_seg
     if cap < 0.0 and -cap < width2:
-        return np.nan, np.inf, True
+        return np.nan, np.inf, np.inf, True
     count = 0
     near2 = np.inf
     on_bank = -1
@@ -490,7 +495,7 @@ def _network_potential(
         if v == np.inf:
             continue
         if v < 0.0 and -v < width2:
-            return np.nan, np.inf, True
+            return np.nan, np.inf, np.inf, True
         count += 1
         near2 = min(near2, abs(v))
         d = math.sqrt(abs(v))
@@ -508,14 +513,15 @@ def _network_potential(
     if count < 2 and not (count == 1 and g1 - g0 == 1):
         # water lies between two shores of different ψ; a network whose whole shore has one
         # ψ (a lake no river touches) is still water
-        return np.nan, np.inf, False
+        return np.nan, np.inf, np.inf, False
+    bank2 = near2
     if saw_open and shore2 < np.inf:
         near2 = shore2      # the water goes on across an open bank
     if on_bank >= 0:
-        return group_psi[on_bank], near2 if saw_open else 0.0, False
+        return group_psi[on_bank], near2 if saw_open else 0.0, 0.0, False
     if sw <= 0.0:
-        return np.nan, np.inf, False
-    return swp / sw, near2, False
+        return np.nan, np.inf, np.inf, False
+    return swp / sw, near2, bank2, False
 
 
 @njit(**JIT_OPTIONS)
@@ -598,7 +604,7 @@ def build_flow_tile(
     curve_cutoff, comp_radius, comp_group0, comp_group1, group_psi, slip,
     blk_curve, blk_start, blk_count, blk_seg, blk_dmin2, tmp_d2, gval, psi_full, inside_full,
     cell_d2,
-    out_psi, out_cell_status, out_cell_segments, out_shore,
+    out_psi, out_cell_status, out_cell_segments, out_shore, out_bank,
 ):
     """Fill one flow tile: its ψ lattice (with extrapolated ghosts), per-cell inside data and
     the distance to the nearest bank or island shore at its lattice points.
@@ -615,8 +621,9 @@ def build_flow_tile(
     for boundary cells the nearest bank / cap segments (−1 padded); ``out_shore`` (n+3, n+3)
     float32, lattice points −1 … n+1: the distance [m] to the nearest bank or island shore
     (found by the ψ weighting anyway: :func:`potential_and_shore_at`), 0 at dry points, so
-    that a bilinear blend falls to about 0 at the bank. Returns the number of lattice points
-    inside the water.
+    that a bilinear blend falls to about 0 at the bank; ``out_bank`` (n+3, n+3) float32 the
+    same with open banks (a basin's mouth) counted: the distance to the flow's nearest bank.
+    Returns the number of lattice points inside the water.
     """
     ring = LATTICE_RING
     m = n_cells + 1 + 2 * ring
@@ -653,8 +660,9 @@ def build_flow_tile(
                     px = origin_x + (gi0 + i - ring) * h
                     psi = np.nan
                     near2 = np.inf
+                    bank2 = np.inf
                     if nb > 0:
-                        psi, near2 = potential_and_shore_at(
+                        psi, near2, bank2 = potential_and_shore_at(
                             px, py, nb, blk_curve, blk_start, blk_count, blk_seg, blk_dmin2,
                             seg_ax, seg_ay, seg_bx, seg_by, curve_kind, curve_comp,
                             curve_group, curve_hw2, comp_radius, comp_group0, comp_group1,
@@ -668,6 +676,8 @@ def build_flow_tile(
                     if 0 <= sj <= n_cells + 2 and 0 <= si <= n_cells + 2:
                         out_shore[sj, si] = (math.sqrt(near2) if inside_full[j, i]
                                              and near2 < np.inf else 0.0)
+                        out_bank[sj, si] = (math.sqrt(bank2) if inside_full[j, i]
+                                            and bank2 < np.inf else 0.0)
                     if inside_full[j, i] and ring <= i < m - ring and ring <= j < m - ring:
                         n_inside += 1
     # beyond a cap (a river's open end) the water would go on: ψ there is ψ at the point
@@ -1267,18 +1277,22 @@ def _catmull_rom_dd(t):
 
 
 @njit(inline="always", **JIT_OPTIONS)
-def flow_details_at(px, py, tiles, level, fallback, shore_pool, patch):
+def flow_details_at(px, py, tiles, level, fallback, shore_pool, bank_pool, patch):
     """What the flow knows at p besides its velocity, from the cached tile under it (level
     ``level``, up to ``fallback`` coarser levels when that one is not cached): returns
-    (found, shore [m], ∂shore/∂x, ∂shore/∂y, strain [1/s], vorticity [1/s]).
+    (found, shore [m], ∂bank/∂x, ∂bank/∂y, strain [1/s], vorticity [1/s]).
 
     ``shore`` is the bilinear blend of the tile's distance lattice (``shore_pool``, the flow
     pool's "shore" column: distance to the nearest bank or island shore, 0 at dry lattice
-    points) with its gradient; strain is the principal strain rate of the velocity, √(ψ_xy² +
-    ¼(ψ_xx − ψ_yy)²), vorticity ψ_xx + ψ_yy, from the second derivatives of the ψ bicubic
-    (piecewise linear: the interpolant is C¹). ``patch`` is (4, 4) float64 scratch. found is
-    False where no tile is cached, outside the domain or in a dry tile; a point in a tile but
-    outside the water gets what the lattice extrapolates (the caller knows its status).
+    points); the gradient is that of the bank lattice (``bank_pool``, the pool's "bank"
+    column: the same with a basin's open mouth counted as the bank it is for the flow), the
+    direction away from the bank the water runs along: across a mouth the shore is the basin's
+    far side or its corners, which the river passes, not runs into; strain is the principal
+    strain rate of the velocity, √(ψ_xy² + ¼(ψ_xx − ψ_yy)²), vorticity ψ_xx + ψ_yy, from the
+    second derivatives of the ψ bicubic (piecewise linear: the interpolant is C¹). ``patch`` is
+    (4, 4) float64 scratch. found is False where no tile is cached, outside the domain or in a
+    dry tile; a point in a tile but outside the water gets what the lattice extrapolates (the
+    caller knows its status).
     """
     slot, lv, ci, cj, fx, fy = _locate(px, py, tiles, level, fallback)
     if slot < 0:
@@ -1289,8 +1303,12 @@ def flow_details_at(px, py, tiles, level, fallback, shore_pool, patch):
     s01 = shore_pool[slot, cj + 2, ci + 1]
     s11 = shore_pool[slot, cj + 2, ci + 2]
     shore = ((1.0 - fy) * ((1.0 - fx) * s00 + fx * s10) + fy * ((1.0 - fx) * s01 + fx * s11))
-    sx = ((1.0 - fy) * (s10 - s00) + fy * (s11 - s01)) * inv_h
-    sy = ((1.0 - fx) * (s01 - s00) + fx * (s11 - s10)) * inv_h
+    b00 = bank_pool[slot, cj + 1, ci + 1]
+    b10 = bank_pool[slot, cj + 1, ci + 2]
+    b01 = bank_pool[slot, cj + 2, ci + 1]
+    b11 = bank_pool[slot, cj + 2, ci + 2]
+    sx = ((1.0 - fy) * (b10 - b00) + fy * (b11 - b01)) * inv_h
+    sy = ((1.0 - fx) * (b01 - b00) + fx * (b11 - b10)) * inv_h
     total = 0.0
     for r in range(4):
         for q in range(4):
@@ -1326,15 +1344,16 @@ def flow_details_at(px, py, tiles, level, fallback, shore_pool, patch):
 
 
 @njit(**JIT_OPTIONS)
-def sample_flow_details(xy, level, fallback, tiles, shore_pool, out):
+def sample_flow_details(xy, level, fallback, tiles, shore_pool, bank_pool, out):
     """:func:`flow_details_at` at each point of ``xy`` (N, 2) float64 [m] into ``out`` (N, 5)
-    float64: shore [m], ∂shore/∂x, ∂shore/∂y, strain [1/s], vorticity [1/s]; NaN rows where
+    float64: shore [m], ∂bank/∂x, ∂bank/∂y, strain [1/s], vorticity [1/s]; NaN rows where
     no tile answers. Returns the number of points with no tile."""
     patch = np.empty((4, 4))
     missing = 0
     for k in range(xy.shape[0]):
         found, shore, sx, sy, strain, vort = flow_details_at(xy[k, 0], xy[k, 1], tiles, level,
-                                                             fallback, shore_pool, patch)
+                                                             fallback, shore_pool, bank_pool,
+                                                             patch)
         if not found:
             missing += 1
             for c in range(5):

@@ -18,9 +18,11 @@ foam the slot holds, so a new particle in a reused slot is seen). :func:`update_
     boat's trail (:mod:`riverflow.kernels.wake`) where it is under ``wash_s`` old, w its
     half-width, strength its speed gate × fade with age;
 * **pressure**: the water running into a shore (island noses, outer bends, a bifurcation's
-  tip: −v·∇d / impinge_mps, fading over 2·shore_m from the shore) or turning sharply (the
-  strain rate of the velocity from the ψ bicubic's second derivatives, beyond a quarter of
-  ``strain_ps``, × speed), or landing in a fall's plunge pool
+  tip: −v·∇b / impinge_mps, fading over 2·shore_m from the shore; b the distance to the
+  flow's nearest bank, which is d's but for a basin's open mouth, which b counts: the river
+  runs along a harbour's mouth as along its bank, not into the basin's corner beyond it) or
+  turning sharply (the strain rate of the velocity from the ψ bicubic's second derivatives,
+  beyond a quarter of ``strain_ps``, × speed), or landing in a fall's plunge pool
   (:func:`riverflow.kernels.falls.plunge_closeness`);
 
 speed = min(|v| / speed_mps, 1). Every frame the foam relaxes toward the target, foam +=
@@ -88,11 +90,13 @@ class FoamParams(NamedTuple):
 
 class FoamFlow(NamedTuple):
     """The flow tiles as foam reads them: the query view, the pool's distance lattices
-    (P, n+3, n+3) float32, the level a frame's queries start from with its fallback, and the
-    field's falls (their plunge pools foam)."""
+    (P, n+3, n+3) float32 to the shore and to the flow's banks (a basin's mouth counted), the
+    level a frame's queries start from with its fallback, and the field's falls (their plunge
+    pools foam)."""
 
     tiles: CachedTiles
     shore: np.ndarray
+    bank: np.ndarray
     level: int
     fallback: int
     falls: FallTable
@@ -147,7 +151,8 @@ def flow_terms(x, y, vx, vy, params, flow, surface, patch):
     in [0, 1] (module docstring). ``patch`` (4, 4) float64 scratch."""
     speed = _unit(math.sqrt(vx * vx + vy * vy) / params.speed_mps)
     found, shore, sx, sy, strain, _ = flow_details_at(x, y, flow.tiles, flow.level,
-                                                      flow.fallback, flow.shore, patch)
+                                                      flow.fallback, flow.shore, flow.bank,
+                                                      patch)
     shore_c = 0.0
     pressure = 0.0
     if found and is_finite(shore):

@@ -32,7 +32,7 @@ from scipy.spatial import cKDTree
 
 from riverflow._validate import check_allocation, finite_positive
 from riverflow._validate import seed as seed_value
-from riverflow.hydro.areas import area_ring, water_polygon
+from riverflow.hydro.areas import area_ring, basin_mouth, water_polygon
 from riverflow.hydro.falls import Fall, Rapid, drop_along
 from riverflow.hydro.graph import GraphError, HydroGraph
 from riverflow.hydro.nearest import PolylineIndex
@@ -253,9 +253,10 @@ def water_surface(branches: list[RiverBranch],
     points) lowered by FREEBOARD_M, as a :class:`WaterSurface`. ``falls`` and ``rapids``
     (the graph's) drop the water along their nappes and slopes (:func:`monotone_profiles`);
     the surface is sampled finely along each nappe (NAPPE_SAMPLES). ``lakes``: [(polygon,
-    level [m] or None)]: the samples in a lake are at its level (given, else the lowest the
-    profiles reach in it), those upstream of it no lower and those downstream no higher: the
-    lake is flat and no river runs uphill into or out of it."""
+    level [m] or None)] or [(polygon, None, mouth (2,) [m])] for a basin: the samples in a lake
+    are at its level (given; a basin's the river's at its mouth; else the lowest the profiles
+    reach in it), those upstream of it no lower and those downstream no higher: the lake is
+    flat and no river runs uphill into or out of it."""
     n_junctions = 1 + max(max(b.start_junction, b.end_junction) for b in branches)
     along = ground if isinstance(ground, list) else [ground(b.centerline_m) for b in branches]
     sampled = [np.asarray(z, np.float64) - FREEBOARD_M for z in along]
@@ -357,8 +358,13 @@ def _flat_lakes(samples: list[np.ndarray], levels: list[np.ndarray], lakes,
     """Put the samples in each lake at its level, in place (:func:`water_surface`). A river
     that starts or ends just off a lake's shore (an outlet of a source lake, an inlet of a
     terminal one: their free ends) has that end sample at the lake's level too, so no river
-    runs uphill out of a lake."""
-    for poly, given in lakes:
+    runs uphill out of a lake. A basin (a lake given as ``(polygon, None, mouth)``) stands at
+    the level of the nearest sample to its mouth's middle of the branches with none in it
+    (its river's: its water is level with the river's there, and the surface has no step
+    where the river passes its mouth)."""
+    for lake in lakes:
+        poly, given = lake[0], lake[1]
+        mouth = lake[2] if len(lake) > 2 else None
         inside = []
         for p, w in zip(samples, widths):
             m = shapely.contains_xy(poly, p[:, 0], p[:, 1])
@@ -369,6 +375,12 @@ def _flat_lakes(samples: list[np.ndarray], levels: list[np.ndarray], lakes,
         found = [z[m] for z, m in zip(levels, inside) if m.any()]
         if not found:
             continue
+        if given is None and mouth is not None:
+            outside = [(p, z) for p, z, m in zip(samples, levels, inside) if not m.any()]
+            if outside:
+                d = [np.hypot(*(p - np.asarray(mouth, np.float64)).T) for p, _ in outside]
+                k = min(range(len(outside)), key=lambda i: float(d[i].min()))
+                given = float(outside[k][1][int(np.argmin(d[k]))])
         level = float(given) if given is not None else float(min(f.min() for f in found))
         for z, m in zip(levels, inside):
             if not m.any():
@@ -470,7 +482,8 @@ def landscape(graph: HydroGraph, terrain=None, *, seed: int = 0, cell_m: float |
         if source is not None and source.cell_m:
             cell_m = min(cell_m, max(source.cell_m, 0.5))
     given = graph.water_levels
-    lakes = [(shapely.Polygon(area_ring(graph, a)), graph.areas[a].level_m) for a in graph.lakes()]
+    lakes = [(shapely.Polygon(area_ring(graph, a)), graph.areas[a].level_m,
+              basin_mouth(graph, a)) for a in graph.lakes()]
     if source is None:
         water = water_surface(branches, _synthetic_ground(branches) if given is None
                               else lambda xy: given(xy) + FREEBOARD_M, polygon, graph.falls,

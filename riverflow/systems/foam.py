@@ -78,7 +78,8 @@ class UpdateFoam(System):
             field = node.field
             tiles = field.tiles
             level = tiles.query_level
-            flow = FoamFlow(tiles.view(), tiles.shore, level, level, field.fall_table())
+            flow = FoamFlow(tiles.view(), tiles.shore, tiles.bank, level, level,
+                            field.fall_table())
             self.computed, self.near_hulls, self.born = update_foam(
                 int(pool.counters[2]), pool.alive, pool.ids, pool.has_world, pool.world_m,
                 pool.velocity_mps, pool.status, pool.screen_px, pool.intensity, pool.foam,

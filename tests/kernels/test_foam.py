@@ -43,7 +43,7 @@ def channel():
 
 def _flow(field):
     t = field.tiles
-    return kfoam.FoamFlow(t.view(), t.shore, field.max_level, field.max_level,
+    return kfoam.FoamFlow(t.view(), t.shore, t.bank, field.max_level, field.max_level,
                           field.fall_table())
 
 
@@ -108,7 +108,7 @@ def test_strain_and_vorticity_are_the_velocity_gradient_s(channel):
     out = np.empty((len(pts), 5))
     t = field.tiles
     assert kf.sample_flow_details(np.ascontiguousarray(pts), field.max_level, 0, t.view(),
-                                  t.shore, out) == 0
+                                  t.shore, t.bank, out) == 0
     # float32 velocities: differences over 2 mm are good to a few 1e-3 /s
     npt.assert_allclose(out[:, 3], strain, atol=5e-3)
     npt.assert_allclose(out[:, 4], vorticity, atol=5e-3)
@@ -125,7 +125,8 @@ def test_flow_terms_match_the_twin(channel):
     pts = np.c_[rng.uniform(0, 400, 500), rng.uniform(-21, 21, 500)]
     vel = rng.normal(0, 1.5, (500, 2))
     out = np.empty((500, 5))
-    kf.sample_flow_details(pts, field.max_level, field.max_level, flow.tiles, flow.shore, out)
+    kf.sample_flow_details(pts, field.max_level, field.max_level, flow.tiles, flow.shore,
+                           flow.bank, out)
     patch = np.empty((4, 4))
     for k in range(500):
         got = kfoam.flow_terms(pts[k, 0], pts[k, 1], vel[k, 0], vel[k, 1], params, flow,
