@@ -123,6 +123,34 @@ def drop_slivers(geom: shapely.Geometry, min_area_m2: float) -> shapely.Geometry
     return parts[0] if len(parts) == 1 else shapely.MultiPolygon(parts)
 
 
+def union_by_groups(a: shapely.Geometry, b: shapely.Geometry) -> list[Polygon]:
+    """The polygons of ``shapely.union(a, b)`` for two polygonal geometries, overlaid group by
+    group: the polygons of both whose boxes overlap, directly or through others, are one
+    group, and each group is one overlay of its polygons of ``a`` with its polygons of ``b``
+    (with nothing, where it has none: the overlay still redraws their rings as the whole one
+    does). The overlay of a group nodes the same segments as the overlay of the whole
+    (polygons of different groups are apart), so its polygons are those of the whole one,
+    vertex for vertex; its cost grows with the group, not the whole network."""
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    pa, pb = shapely.get_parts(a), shapely.get_parts(b)
+    parts = np.concatenate([pa, pb])
+    n = len(parts)
+    i, j = shapely.STRtree(parts).query(parts)
+    _, label = connected_components(coo_matrix((np.ones(len(i)), (i, j)), shape=(n, n)),
+                                    directed=False)
+    order = np.argsort(label, kind="stable")
+    cuts = np.flatnonzero(np.diff(label[order])) + 1
+    out: list[Polygon] = []
+    for group in np.split(order, cuts):
+        ga, gb = parts[group[group < len(pa)]], parts[group[group >= len(pa)]]
+        u = shapely.union(ga[0] if len(ga) == 1 else shapely.multipolygons(ga),
+                          gb[0] if len(gb) == 1 else shapely.multipolygons(gb))
+        out.extend(shapely.get_parts(u))
+    return out
+
+
 def free_end_cut(centerline_m: np.ndarray, widths_m: np.ndarray, at_start: bool) -> np.ndarray:
     """The flat cut across a free river end, (2, 2) [m]: the future closing segment's line."""
     n = _unit_normals(centerline_m)

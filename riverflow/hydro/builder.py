@@ -978,9 +978,12 @@ def _round_junctions(river, parts: list, geoms: list[BranchGeometry], junctions:
         return river
     # the pieces lie in small groups (one per junction): their union by disjoint subsets is
     # some 40 times faster than GEOS's cascaded union, and one overlay with the water then
-    # costs less than adding them to it in a cascade
+    # costs less than adding them to it in a cascade (made group by group: the same polygons,
+    # at a cost that does not grow with the network)
     added = shapely.disjoint_subset_union_all(pieces)
-    rounded = _strips.drop_slivers(shapely.union(river, added), sliver_m2)
+    merged = _strips.union_by_groups(river, added)
+    rounded = _strips.drop_slivers(merged[0] if len(merged) == 1 else shapely.MultiPolygon(merged),
+                                   sliver_m2)
     return rounded if _strips.topology(rounded) == _strips.topology(river) else river
 
 

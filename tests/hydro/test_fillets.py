@@ -401,3 +401,22 @@ def test_flux_and_divergence_around_the_rounded_confluence(confluence_flow, rng)
     eps = 0.05 * h
     div, grad = divergence_and_gradient(field, pts, eps)
     assert np.max(np.abs(div)) < 0.05 * (np.median(grad) + 1e-9)
+
+
+def test_union_by_groups_is_the_whole_overlay():
+    """The fillets join the water group by group (issue 21): the polygons of one overlay of
+    the whole, byte for byte and in the same order, whether a group has pieces of both
+    sides, only water (its rings are still redrawn as the whole overlay redraws them) or two
+    water polygons bridged by one piece."""
+    from riverflow.hydro._strips import union_by_groups
+
+    def blob(x, y, r=10.0):
+        return shapely.Point(x, y).buffer(r, quad_segs=8)
+
+    water = shapely.MultiPolygon([blob(0, 0), blob(100, 0), blob(200, 0), blob(230, 0)])
+    pieces = shapely.MultiPolygon([blob(8, 5, 4), blob(-8, -5, 3), blob(215, 0, 8),
+                                   blob(400, 0, 5)])
+    whole = shapely.get_parts(shapely.union(water, pieces))
+    grouped = union_by_groups(water, pieces)
+    assert len(grouped) == len(whole) == 4       # (200, 0) and (230, 0) bridged by a piece
+    assert [shapely.to_wkb(g) for g in grouped] == [shapely.to_wkb(g) for g in whole]
