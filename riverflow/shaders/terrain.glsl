@@ -216,15 +216,15 @@ void main() {
     vec3 colour = albedo * light;
     vec3 h = normalize(normalize(to_eye) + u_sun_dir);
     colour += SUN_COLOUR * (wet * (1.0 - under) * 0.35) * pow(max(dot(n, h), 0.0), 40.0);
-    // a flood (issue 25) over the ground below its level that the water mesh does not cover
-    // (the floodplain and the channel's banks above the unflooded level; the mesh, raised,
-    // covers the channel): shaded by the river's water's own model (water_look.glsl: the
-    // sky's Fresnel reflection, the sun's glint, the deep colour over the ground seen through
-    // water of the same clarity), so that it meets the channel's water across the old bank
-    // without a seam. At the flood's edge the depth fades the water's look out over its last
-    // 0.5 m as at the river's shore: no hard line where the level meets the ground
-    float plain = smoothstep(0.0, 0.05, v_rise)
-                  * smoothstep(-0.05, 0.05, v_world.z - (v_level - v_rise));
+    // a flood (issue 25) over the ground below its level (the floodplain, and the channel's
+    // banks and bed: the raised water mesh need not cover them, far tiles' coarse meshes
+    // leave strips along the old banks) shaded by the river's water's own model
+    // (water_look.glsl: the sky's Fresnel reflection, the sun's glint, the deep colour over
+    // the ground seen through water of the same clarity), so that it meets the channel's
+    // water across the old bank without a seam. At the flood's edge the depth fades the
+    // water's look out over its last 0.5 m as at the river's shore: no hard line where the
+    // level meets the ground (dry ground: no water, and no wave sprites read)
+    float plain = depth > 0.0 ? smoothstep(0.0, 0.05, v_rise) : 0.0;
     vec3 e = normalize(to_eye);
     // a surface the ground's grain ruffles, or (FLOOD_WAVES) the water's waves at the point
     // of its surface on this pixel's line of sight, carried by the particles on the flooded
