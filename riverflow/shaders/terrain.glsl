@@ -45,6 +45,7 @@ void main() {
 #endif
 
 #ifdef FRAGMENT
+#include "water_look.glsl"
 in vec3 v_world;
 in vec3 v_normal;
 in float v_level;
@@ -52,6 +53,7 @@ in float v_wet_level;
 in float v_rise;
 in float v_shore;
 out vec4 frag;
+uniform float u_clarity_m;      // the water's clarity [m] (DisplaySettings; a flood's water)
 uniform bool u_debug_materials;  // tests: (rock, drawn slope / 90°, bed, 0.5) for the colour
 #ifdef FLOOD_WAVES
 // the program drawn while a flood is (systems/draw.py: a software rasteriser runs every
@@ -214,14 +216,15 @@ void main() {
     vec3 colour = albedo * light;
     vec3 h = normalize(normalize(to_eye) + u_sun_dir);
     colour += SUN_COLOUR * (wet * (1.0 - under) * 0.35) * pow(max(dot(n, h), 0.0), 40.0);
-    // a flood (issue 25) over the ground below its level: the floodplain, and the channel's
-    // banks and bed (seen between the raised water mesh and the shore), shaded as the river's
-    // water is (water.glsl): the sky's Fresnel reflection and the sun's glint on a surface a
-    // light wind ruffles (the ground's grain as ripples), over turbid, silt-laden water that
-    // hides the ground within a few decimetres; its edge fades in over the first 0.4 m of
-    // depth (the ground's wet sheen shows through), so no hard line marks where the level
-    // meets the ground, nor the terrain's triangles that line follows
-    float plain = smoothstep(0.0, 0.4, -above) * smoothstep(0.0, 0.05, v_rise);
+    // a flood (issue 25) over the ground below its level (the floodplain, and the channel's
+    // banks and bed: the raised water mesh need not cover them, far tiles' coarse meshes
+    // leave strips along the old banks) shaded by the river's water's own model
+    // (water_look.glsl: the sky's Fresnel reflection, the sun's glint, the deep colour over
+    // the ground seen through water of the same clarity), so that it meets the channel's
+    // water across the old bank without a seam. At the flood's edge the depth fades the
+    // water's look out over its last 0.5 m as at the river's shore: no hard line where the
+    // level meets the ground (dry ground: no water, and no wave sprites read)
+    float plain = depth > 0.0 ? smoothstep(0.0, 0.05, v_rise) : 0.0;
     vec3 e = normalize(to_eye);
     // a surface the ground's grain ruffles, or (FLOOD_WAVES) the water's waves at the point
     // of its surface on this pixel's line of sight, carried by the particles on the flooded
@@ -237,16 +240,12 @@ void main() {
 #endif
     {
         vec3 nw = normalize(vec3(-tilt, 1.0));
-        float fresnel = 0.02 + 0.98 * pow(1.0 - max(dot(e, nw), 0.0), 5.0);
+        float edge = smoothstep(0.0, 0.5, depth);        // the water's shore fade (water.glsl)
+        float fresnel = water_fresnel(e, nw, edge);
         vec3 r = reflect(-e, nw);
         r.z = abs(r.z);
-        vec3 silt = mix(vec3(0.03, 0.19, 0.22), vec3(0.36, 0.31, 0.21), 0.45)  // the river's
-                    * (SUN_COLOUR * 0.55 * max(u_sun_dir.z, 0.0)          // deep colour,
-                       + vec3(0.32, 0.38, 0.46) * 0.8);                  // silted
-        vec3 body = mix(colour, silt, 1.0 - exp(-depth / 0.25));
-        vec3 flood = mix(body, sky_colour(r), fresnel);
-        flood += SUN_COLOUR * pow(max(dot(nw, normalize(e + u_sun_dir)), 0.0), 300.0) * 1.5;
-        colour = mix(colour, flood, plain);
+        vec4 look = water_look(e, nw, sky_colour(r), fresnel, edge, depth, u_clarity_m);
+        colour = mix(colour, look.rgb + look.a * colour, plain);
     }
     frag = vec4(apply_fog(colour, v_world), 1.0);
     if (u_debug_materials) {   // uniform: derivatives stay defined

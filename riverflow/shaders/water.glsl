@@ -34,6 +34,7 @@ void main() {
 #include "wake.glsl"
 #include "rapids.glsl"
 #include "spill.glsl"
+#include "water_look.glsl"
 
 #include "sprite_waves.glsl"
 
@@ -174,18 +175,14 @@ void main() {
     vec3 n = normalize(vec3(-tilt, 1.0));
     vec3 v = normalize(u_eye_m - v_world);
     float shore = smoothstep(0.0, 0.5, depth_m);            // soft shore: fade in over 0.5 m
-    float cos_v = max(dot(v, n), 0.0);
-    float fresnel = (0.02 + 0.98 * pow(1.0 - cos_v, 5.0)) * shore;
+    float fresnel = water_fresnel(v, n, shore);
     vec3 r = reflect(-v, n);
     r.z = abs(r.z);
     vec3 reflected = reflected_scene(v_world, v, n, sky_colour(r), fresnel);  // + banks, props
-    vec3 h = normalize(v + u_sun_dir);
-    float spec = pow(max(dot(n, h), 0.0), 400.0) * 2.0 * shore;
-    float clarity = exp(-depth_m / max(u_clarity_m, 1e-3));
-    vec3 deep = vec3(0.03, 0.19, 0.22) * (0.4 + 0.6 * max(u_sun_dir.z, 0.0));
+    vec4 look = water_look(v, n, reflected, fresnel, shore, depth_m, u_clarity_m);
     float fog = fog_amount(v_world);
-    vec3 added = fresnel * reflected + SUN_COLOUR * spec + (1.0 - fresnel) * (1.0 - clarity) * deep;
-    float through = (1.0 - fresnel) * clarity;             // share of the bed seen through
+    vec3 added = look.rgb;
+    float through = look.a;                                // share of the bed seen through
     // spills: turbid, coloured water (spill.glsl) hides the bed under its colour, carried by
     // the sprites (their weighted mean, fading out with the coverage where sum w < 1, as foam)
     float stain = tint.a / max(weight, 1.0);

@@ -757,6 +757,7 @@ class DrawRivers(System):
     def __init__(self) -> None:
         self.gpu: _Gpu | None = None
         self._flood_uniforms = {"u_flood_on": 0, "u_flood_rect": (0.0, 0.0, 1.0)}
+        self._clarity_m = 1.0
         self._flood_waves: dict = {"u_flood_waves": 0}
         self.context = None
         self.last_mirror_level_m: float | None = None
@@ -828,6 +829,7 @@ class DrawRivers(System):
         foam_uniforms = self._upload_foam_and_wakes(world, gpu)
         foam_uniforms.update(self._upload_spill(world, gpu, settings))
         flood_uniforms = self._upload_flood(world, gpu)
+        self._clarity_m = float(settings.water_clarity_m)      # a flood's water (terrain)
         water_meshes = self._tile_meshes(world, gpu)
         reflection_uniforms = self._draw_reflection(world, gpu, settings, clip_from_world)
         if not reflection_uniforms["u_reflect"]:
@@ -1152,7 +1154,7 @@ class DrawRivers(System):
             program.set(u_debug_materials=self.debug_materials)   # sent only when changed
         if waves:
             program.set_if_used(**self._flood_waves)
-        program.set_if_used(**self._flood_uniforms)
+        program.set_if_used(**self._flood_uniforms, u_clarity_m=self._clarity_m)
         gpu.terrain.draw(self._terrain_slots, detail)
         if detail == "full":
             self.last_tiles = len(self._terrain_slots)

@@ -86,6 +86,51 @@ def test_the_flooded_width_matches_the_valley_section(setup):
     assert back == pytest.approx(dry, abs=1.0)
 
 
+def _bank_steps(world, scene, centre, normal):
+    """Colour steps [0–255, length of the RGB difference] across each old bank of the
+    flooded section through ``centre`` (the mean colour 0.5–2 m outside the bank's line
+    against 0.5–2 m inside) and, for scale, inside the channel (2–3.5 m against 0.5–2 m)."""
+    image = world.render()[..., :3].astype(float)
+    base = float(scene.water.level(centre[None])[0])
+    level = float(world.water_level(centre[None])[0])
+    off = np.arange(-40.0, 40.0, 0.25)
+    pts = centre[None, :] + off[:, None] * normal[None, :]
+    z = scene.terrain.height(pts)
+    clip = np.column_stack([pts, np.full(len(pts), level), np.ones(len(pts))]) \
+        @ world.camera.view_projection(np.float64)
+    ndc = clip[:, :2] / clip[:, 3:4]
+    px = np.clip(((ndc[:, 0] + 1) * 0.5 * W).astype(int), 0, W - 1)
+    py = np.clip(((1 - ndc[:, 1]) * 0.5 * H).astype(int), 0, H - 1)
+    rgb = image[py, px]
+    wet = z < base
+    bank, channel = [], []
+    for s in np.nonzero(np.diff(wet))[0]:
+        d = (off - 0.5 * (off[s] + off[s + 1])) * (1 if wet[s] else -1)   # > 0: outside
+        mean = lambda lo, hi: rgb[(d > lo) & (d < hi)].mean(0)  # noqa: E731
+        assert level > z[(d > 0) & (d < 2)].max()         # flooded over the bank
+        bank.append(np.linalg.norm(mean(0.5, 2.0) - mean(-2.0, -0.5)))
+        channel.append(np.linalg.norm(mean(-2.0, -0.5) - mean(-3.5, -2.0)))
+    return np.array(bank), np.array(channel)
+
+
+def test_no_seam_between_the_channel_and_the_flooded_floodplain(setup):
+    """Issue 25: the flooded floodplain is shaded as the channel's water is (one model,
+    shaders/water_look.glsl): across the old bank the colour steps by a few units of 255,
+    not by the ~18 that two looks meeting there made."""
+    world, scene, centre, normal = setup
+    t = np.array([normal[1], -normal[0]])
+    world.camera.look_at((centre[0], centre[1], 420.0), (centre[0], centre[1], 0.0),
+                         up=(t[0], t[1], 0.0))                 # the fixture's view
+    world.load_view()
+    world.display.mode = DisplayMode.ADVECTED
+    flood_over_the_banks(world)
+    bank, channel = _bank_steps(world, scene, centre, normal)
+    assert len(bank) == 2
+    # measured on llvmpipe: 18.3 and 18.1 with the floodplain's own water look (before),
+    # 8.2 and 9.7 with the water's (the steps inside the channel 0.3 to 1.1)
+    assert bank.max() < 13.0
+
+
 def test_the_flooded_floodplain_has_particles_and_waves(setup):
     """Particles land on the flooded floodplain (their rays stop at the raised water) and flow
     there INSIDE, never on dry ground, and none is left INSIDE on it once it dries; the
@@ -185,3 +230,4 @@ def test_the_flooded_floodplain_has_particles_and_waves(setup):
     world.advance_flood(12 * 3600.0)
     p, depth, _, inside = particles_after(20)
     assert inside.sum() >= 20 and not (inside & (depth < -0.05)).any()
+
