@@ -1047,12 +1047,7 @@ def _water(geoms: list[BranchGeometry], junctions: np.ndarray, islands: list[_Is
                                  f"{y:.1f}), away from the junction they share")
     min_width = min(float(g.widths_m.min()) for g in geoms)
     extra = (_lakes.mouth_strips(geoms, lake_ends, lakes) + lake_polys) if lakes else []
-    # the union by disjoint subsets: the parts that touch, directly or through others, are
-    # unioned apart (disjoint networks; GEOS's one cascade over all of them merged ever larger
-    # pieces of far apart networks, its time per link growing with the network). The same
-    # water, nodes where three or more parts overlap rounded apart in the last bits (~1e-11 m)
-    river = _strips.drop_slivers(shapely.disjoint_subset_union_all(strips + discs + extra),
-                                 1e-4 * min_width ** 2)
+    river = _strips.drop_slivers(shapely.union_all(strips + discs + extra), 1e-4 * min_width ** 2)
     if fillet_fraction > 0.0:
         river = _round_junctions(river, strips + discs + extra, geoms, junctions, cuts,
                                  fillet_fraction, 1e-4 * min_width ** 2)
