@@ -116,6 +116,28 @@ def view_level(samples, clip_from_world, eye, near_m, min_height_m, fallback_lev
     return acc / total, total
 
 
+@njit(inline="always", **EXACT_JIT_OPTIONS)
+def _nearer_segment(xy, branch, k, x, y):
+    """The nearer of the two centre-line segments on either side of sample ``k`` (not across
+    a branch's end) to (x, y): (distance, its samples a and b, the projection's t along a → b);
+    an infinite distance where neither is finite."""
+    n = xy.shape[0]
+    best_d, best_a, best_b, best_t = math.inf, 0, 0, 0.0
+    for a_off in (-1, 0):
+        a = min(max(k + a_off, 0), max(n - 2, 0))
+        b = min(a + 1, n - 1)
+        sax, say = xy[a, 0], xy[a, 1]
+        abx, aby = xy[b, 0] - sax, xy[b, 1] - say
+        ab2 = max(abx * abx + aby * aby, 1e-12)
+        t = min(max(((x - sax) * abx + (y - say) * aby) / ab2, 0.0), 1.0)
+        if branch[a] != branch[b]:
+            t = 0.0 if a == k else 1.0
+        d = np.hypot(sax + t * abx - x, say + t * aby - y)
+        if d < best_d:
+            best_d, best_a, best_b, best_t = d, a, b, t
+    return best_d, best_a, best_b, best_t
+
+
 @njit(**EXACT_JIT_OPTIONS)
 def nearest_level(samples, levels, branch, x, y):
     """The level [m] at the point of the sampled centre lines (``samples`` (S, 2) [m] with
@@ -138,22 +160,10 @@ def nearest_level(samples, levels, branch, x, y):
             tie = True
     if k < 0 or tie:
         return np.nan
-    best_d = math.inf
-    level = np.nan
-    for a_off in (-1, 0):
-        a = min(max(k + a_off, 0), max(n - 2, 0))
-        b = min(a + 1, n - 1)
-        sax, say = samples[a, 0], samples[a, 1]
-        abx, aby = samples[b, 0] - sax, samples[b, 1] - say
-        ab2 = max(abx * abx + aby * aby, 1e-12)
-        t = min(max(((x - sax) * abx + (y - say) * aby) / ab2, 0.0), 1.0)
-        if branch[a] != branch[b]:
-            t = 0.0 if a == k else 1.0
-        d = np.hypot(sax + t * abx - x, say + t * aby - y)
-        if d < best_d:
-            best_d = d
-            level = (1 - t) * levels[a] + t * levels[b]
-    return level
+    d, a, b, t = _nearer_segment(samples, branch, k, x, y)
+    if not d < math.inf:
+        return np.nan
+    return (1 - t) * levels[a] + t * levels[b]
 
 
 class CentreSamples(NamedTuple):
@@ -175,27 +185,12 @@ def project_to_centre(samples, nearest, p, out_d, out_level, out_width):
     floating-point operations as the vectorised ``_Samples.project`` (no fast-math: the same
     numbers bit for bit)."""
     xy, levels, widths, branch = samples.xy, samples.level, samples.width, samples.branch
-    n = xy.shape[0]
     for i in range(p.shape[0]):
-        k = nearest[i]
-        x, y = p[i, 0], p[i, 1]
-        best_d = math.inf
-        level = np.nan
-        width = np.nan
-        for a_off in (-1, 0):
-            a = min(max(k + a_off, 0), max(n - 2, 0))
-            b = min(a + 1, n - 1)
-            sax, say = xy[a, 0], xy[a, 1]
-            abx, aby = xy[b, 0] - sax, xy[b, 1] - say
-            ab2 = max(abx * abx + aby * aby, 1e-12)
-            t = min(max(((x - sax) * abx + (y - say) * aby) / ab2, 0.0), 1.0)
-            if branch[a] != branch[b]:
-                t = 0.0 if a == k else 1.0
-            d = np.hypot(sax + t * abx - x, say + t * aby - y)
-            if d < best_d:
-                best_d = d
-                level = (1 - t) * levels[a] + t * levels[b]
-                width = (1 - t) * widths[a] + t * widths[b]
-        out_d[i] = best_d
-        out_level[i] = level
-        out_width[i] = width
+        d, a, b, t = _nearer_segment(xy, branch, nearest[i], p[i, 0], p[i, 1])
+        out_d[i] = d
+        if d < math.inf:
+            out_level[i] = (1 - t) * levels[a] + t * levels[b]
+            out_width[i] = (1 - t) * widths[a] + t * widths[b]
+        else:
+            out_level[i] = np.nan
+            out_width[i] = np.nan
