@@ -167,6 +167,25 @@ def junction_disc(center_m: np.ndarray, half_widths_m: list[float]) -> Polygon:
     return Point(center_m).buffer(r, quad_segs=_DISC_SEGMENTS)
 
 
+def canonical_rings(water: shapely.Geometry) -> shapely.Geometry:
+    """``water`` with every ring started at its least vertex (smallest x, then y), its
+    direction kept: an outline that does not depend on where the overlay that made it happened
+    to start each ring (a simplification keeps a ring's first vertex and splits from it)."""
+    parts = []
+    for poly in getattr(water, "geoms", [water]):
+        if not isinstance(poly, Polygon) or poly.is_empty:
+            continue
+        rings = []
+        for ring in [poly.exterior, *poly.interiors]:
+            xy = shapely.get_coordinates(ring)[:-1]
+            least = np.flatnonzero(xy[:, 0] == xy[:, 0].min())
+            k = int(least[np.argmin(xy[least, 1])])
+            xy = np.roll(xy, -k, axis=0)
+            rings.append(np.vstack([xy, xy[:1]]))
+        parts.append(Polygon(rings[0], rings[1:]))
+    return parts[0] if len(parts) == 1 else shapely.MultiPolygon(parts)
+
+
 def oriented_polygons(water: shapely.Geometry, simplify_m: float) -> list[Polygon]:
     """The polygons of a (multi)polygon, exterior counter-clockwise and holes clockwise, so
     that the water lies on the left of every ring traversal.
@@ -179,6 +198,7 @@ def oriented_polygons(water: shapely.Geometry, simplify_m: float) -> list[Polygo
     used where the plain one breaks the outline.
     """
     shape = topology(water)
+    water = canonical_rings(water)
     simple = shapely.remove_repeated_points(
         shapely.simplify(water, simplify_m, preserve_topology=False), tolerance=1e-6)
     if not (simple.is_valid and topology(simple) == shape):

@@ -1047,7 +1047,8 @@ def _water(geoms: list[BranchGeometry], junctions: np.ndarray, islands: list[_Is
                                  f"{y:.1f}), away from the junction they share")
     min_width = min(float(g.widths_m.min()) for g in geoms)
     extra = (_lakes.mouth_strips(geoms, lake_ends, lakes) + lake_polys) if lakes else []
-    river = _strips.drop_slivers(shapely.union_all(strips + discs + extra), 1e-4 * min_width ** 2)
+    river = _strips.drop_slivers(shapely.disjoint_subset_union_all(strips + discs + extra),
+                                 1e-4 * min_width ** 2)
     if fillet_fraction > 0.0:
         river = _round_junctions(river, strips + discs + extra, geoms, junctions, cuts,
                                  fillet_fraction, 1e-4 * min_width ** 2)

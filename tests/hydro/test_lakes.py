@@ -71,18 +71,23 @@ def test_a_lake_is_an_area_whose_shore_carries_the_rivers_psi(lake):
 
 
 def _shore_samples(shore, graph, offset_m: float, away_m: float = 40.0):
-    """Points ``offset_m`` inside the shore every ~0.6 m, and their inward normals, farther
-    than ``away_m`` from every mouth's ends."""
+    """Points ``offset_m`` inside the shore every ~0.6 m, farther than ``away_m`` from every
+    mouth's ends, and the shore's inward normal there: from the nearest point of the shore to
+    the sample (the segment's normal, or at a corner of the polygon the direction from the
+    corner: a normal taken from one segment there would measure the corner's turn, not the
+    flow, and the figure would depend on where the samples fall)."""
     ring = shore.exterior
     s = np.linspace(0.0, ring.length, 1500, endpoint=False)
     p = shapely.get_coordinates(shapely.line_interpolate_point(ring, s))
     t = shapely.get_coordinates(shapely.line_interpolate_point(ring, s + 0.01)) - p
     t /= np.hypot(*t.T)[:, None]
-    n = np.c_[-t[:, 1], t[:, 0]]                               # inward (the ring is CCW)
-    q = p + offset_m * n
+    q = p + offset_m * np.c_[-t[:, 1], t[:, 0]]                # inward (the ring is CCW)
     ends = _mouth_ends(graph)
-    keep = np.hypot(*(q[:, None] - ends[None]).transpose(2, 0, 1)).min(axis=1) > away_m
-    return q[keep], n[keep]
+    q = q[np.hypot(*(q[:, None] - ends[None]).transpose(2, 0, 1)).min(axis=1) > away_m]
+    foot = shapely.get_coordinates(
+        shapely.line_interpolate_point(ring, shapely.line_locate_point(ring, shapely.points(q))))
+    n = q - foot
+    return q, n / np.hypot(*n.T)[:, None]
 
 
 def _normal_ratios(field, graph, shore, offsets) -> list[np.ndarray]:
