@@ -420,3 +420,27 @@ def test_union_by_groups_is_the_whole_overlay():
     grouped = union_by_groups(water, pieces)
     assert len(grouped) == len(whole) == 4       # (200, 0) and (230, 0) bridged by a piece
     assert [shapely.to_wkb(g) for g in grouped] == [shapely.to_wkb(g) for g in whole]
+
+
+def test_the_outline_does_not_depend_on_where_its_rings_start():
+    """The water's outline is simplified after the union of the strips (issue 21): the same
+    polygon whose rings start at other vertices (as one overlay or another draws them) gives
+    the same outline, vertex for vertex, so that an edit far away leaves a tile's water as
+    it was."""
+    from riverflow.hydro._strips import oriented_polygons
+
+    rng = np.random.default_rng(3)
+
+    def ring(r, n, shift):
+        a = np.linspace(0.0, 2.0 * np.pi, n, endpoint=False)
+        xy = np.c_[r * np.cos(a), 0.5 * r * np.sin(a)] + rng.normal(0.0, 0.02, (n, 2))
+        return np.roll(xy, shift, axis=0)
+
+    outer, hole = ring(100.0, 400, 0), ring(20.0, 120, 0)[::-1]
+    made = [oriented_polygons(shapely.Polygon(np.roll(outer, s, axis=0), [np.roll(hole, t, axis=0)]),
+                              0.05)
+            for s, t in ((0, 0), (37, 5), (211, 90))]
+    assert all(len(m) == 1 for m in made)
+    n_kept = shapely.get_num_coordinates(made[0][0])
+    assert 0 < n_kept < 400 + 120                 # the simplification dropped some vertices
+    assert [shapely.to_wkb(m[0]) for m in made[1:]] == [shapely.to_wkb(made[0][0])] * 2
