@@ -912,6 +912,28 @@ def _spur_rise(c: _Channel, end: int, junction: int, nodes: np.ndarray, heights)
     return float(z[1] - z[0])
 
 
+def _leaving(c: _Channel, node: int, reach_m: float) -> np.ndarray:
+    """The unit direction in which channel ``c`` leaves ``node`` (one of its ends): towards
+    its point ``reach_m`` along it (its end, if shorter)."""
+    pts = c.points if c.a == node else c.points[::-1]
+    s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(pts, axis=0).T))])
+    at = min(reach_m, float(s[-1]))
+    q = np.array([np.interp(at, s, pts[:, 0]), np.interp(at, s, pts[:, 1])]) - pts[0]
+    return q / max(float(np.hypot(*q)), 1e-12)
+
+
+def _passes_by(net: _Network, spur: _Channel, junction: int, width_m: float) -> bool:
+    """Whether the water at ``junction`` goes on past a dead end ``spur``: two of the other
+    channels there leave it in directions more than a right angle apart (a channel running
+    through, the dead end off its side: a basin). Where they all leave on one side (the
+    channels round an island, a dead end the end of the water upstream or downstream of
+    them: the data's end), the dead end is where the water comes in or goes out."""
+    dirs = [_leaving(d, junction, width_m) for d in net.channels
+            if d is not spur and junction in (d.a, d.b)]
+    return any(float(dirs[i] @ dirs[j]) < 0.0
+               for i in range(len(dirs)) for j in range(i + 1, len(dirs)))
+
+
 def _drop_basin_spurs(net: _Network, frame, tolerance_m: float, report: RiverImport,
                       heights=None) -> None:
     """Drop the skeleton's spurs into basins (BASIN_SPUR_WIDTHS); where the junction they left
@@ -936,6 +958,8 @@ def _drop_basin_spurs(net: _Network, frame, tolerance_m: float, report: RiverImp
                     continue
                 main = max((d.width for d in net.channels
                             if d is not c and other in (d.a, d.b)), default=0.0)
+                if not _passes_by(net, c, other, main):
+                    continue            # the water goes on from its end only: a channel's end
                 if c.length - 0.5 * main <= BASIN_SPUR_WIDTHS * main:
                     rise = (_spur_rise(c, end, other, net.nodes, heights)
                             if heights is not None else math.nan)

@@ -393,3 +393,31 @@ def test_a_basin_is_level_with_its_river_at_its_mouth(harbour):
         step = np.abs(scene.water.level(pts) - scene.water.level(mid))
         # measured: 0.014 m (the river falls 0.05 %), 0.06 to 0.27 m before
         assert step.max() < 0.025, step.max()
+
+
+def test_the_water_ending_beside_an_island_is_no_basin(tmp_path):
+    """A gently meandering river polygon whose ends are cut square across it (not along the
+    data's edge) with a long thin island near its left bank a short way from its upstream
+    end: the stub from that end to where the channels part round the island is where the
+    water comes in, not a basin (the channels there both leave on its far side; a basin is
+    off the side of a channel that runs past it). It was taken for one, and the water was
+    left with one free end ("no way in and out")."""
+    x = np.linspace(0.0, 600.0, 40)
+    a = np.array([153.0, 16.0 * np.sin(153.0 / 242.0) + 21.7])
+    island = shapely.LineString([a, a + 150.0 * np.array([np.cos(-0.11), np.sin(-0.11)])])
+    river = shapely.LineString(np.c_[x, 16.0 * np.sin(x / 242.0)]).buffer(37.0, cap_style="flat")
+    water = shapely.normalize(_world(river.difference(island.buffer(2.0, quad_segs=6))))
+    builder = rf.read_water(write_polygons(tmp_path / "island.geojson", [water]),
+                            origin_m=ORIGIN)
+    graph = builder.build()
+    assert builder.basins == [] and not any("is a basin" in n for n in builder.report.notes)
+    assert builder.report.derived["axes"] == {"skeleton": 4}
+    assert builder.report.derived["islands"]["between channels"] == 1
+    # the water runs one way along the river: above the island, beside it, below it
+    u = np.array([30.0, 230.0, 560.0])
+    pts = shapely.get_coordinates(_world(shapely.points(np.c_[u, 16.0 * np.sin(u / 242.0)
+                                                              - [0.0, 12.0, 0.0]])))
+    status, v = rf.FlowField(graph).query(pts)
+    assert (status == INSIDE).all()
+    along = v @ T
+    assert (np.abs(along) > 0.9 * np.hypot(*v.T)).all() and len(set(np.sign(along))) == 1
