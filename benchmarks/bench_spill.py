@@ -16,7 +16,8 @@ simulated minute a second) over 600 frames of 1/60 s (its ``timings_ms["spill"]`
 the spill system plus the draw system's spill part per frame.
 
 Run: ``NUMBA_NUM_THREADS=1 taskset -c 0 python benchmarks/bench_spill.py`` (``--network-km 100``
-for a quicker one, ``--json out.json`` to keep the figures). Figures go to docs/performance.md.
+for a quicker one, ``--json out.json`` to keep the figures; ``--drawn-ab 200``: the plumes'
+addition to a whole finished frame, paired within one run, :func:`drawn_ab`). Figures go to docs/performance.md.
 """
 from __future__ import annotations
 
