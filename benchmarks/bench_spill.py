@@ -16,7 +16,8 @@ simulated minute a second) over 600 frames of 1/60 s (its ``timings_ms["spill"]`
 the spill system plus the draw system's spill part per frame.
 
 Run: ``NUMBA_NUM_THREADS=1 taskset -c 0 python benchmarks/bench_spill.py`` (``--network-km 100``
-for a quicker one, ``--json out.json`` to keep the figures). Figures go to docs/performance.md.
+for a quicker one, ``--json out.json`` to keep the figures; ``--drawn-ab 200``: the plumes'
+addition to a whole finished frame, paired within one run, :func:`drawn_ab`). Figures go to docs/performance.md.
 """
 from __future__ import annotations
 
@@ -39,6 +40,10 @@ def main() -> None:
     ap.add_argument("--drawn-young", action="store_true",
                     help="the drawn world's only plume released as the drawn frames start: it "
                          "outgrows its tint square within them (the square's moves timed)")
+    ap.add_argument("--drawn-ab", type=int, default=0,
+                    help="frames of a paired A/B run of the drawn world (0: skip): the spills "
+                         "on and off in alternate frames (ABBA), each frame finished "
+                         "(glFinish), the difference of the means with its 95 %% interval")
     ap.add_argument("--tint-refreshes", type=int, default=60,
                     help="refreshes of the spill tint timed alone (0: skip)")
     args = ap.parse_args()
@@ -102,6 +107,8 @@ def main() -> None:
         out.update(tint_alone(args.tint_refreshes))
     if args.drawn_frames:
         out.update(drawn(args.drawn_frames, args.drawn_speed, args.drawn_young))
+    if args.drawn_ab:
+        out.update(drawn_ab(args.drawn_ab, args.drawn_speed))
     for k, v in out.items():
         print(f"{k:>24}: {v:.6g}" if isinstance(v, float) else f"{k:>24}: {v}")
     if args.json:
@@ -206,6 +213,95 @@ def drawn(frames: int, speed: float = 60.0, young: bool = False) -> dict:
             "drawn_added_ms_mean": float(added.mean()),
             "drawn_added_ms_p50": float(np.median(added)),
             "drawn_added_ms_p99": float(np.percentile(added, 99))}
+
+
+def _drawn_world(speed: float):
+    """:func:`drawn`'s world: 1920×1080, the confluence, two plumes 15 minutes old."""
+    import riverflow as rf
+
+    scene = rf.default_scene(seed=0)
+    world = rf.RiverWorld(scene, size=(1920, 1080), gl=True, seed=0)
+    j = scene.water.junctions_m[0]
+    world.camera.look_at((j[0] - 150.0, j[1] - 450.0, 380.0), (j[0] + 150.0, j[1], 0.0))
+    trib = scene.branch("tributary").centerline_m
+    upper = scene.branch("main_upper").centerline_m
+    world.add_spill(trib[int(len(trib) * 0.75)], 300.0, 3600.0, name="dye")
+    world.add_spill(upper[int(len(upper) * 0.7)], 200.0, 3600.0, name="mud")
+    world.advance_spills(900.0)
+    world.speed_factor = speed
+    world.load_view()
+    return world
+
+
+def drawn_ab(frames: int, speed: float = 60.0) -> dict:
+    """What the plumes add to a whole drawn frame, paired within one run so that the
+    machine's load cancels: :func:`drawn`'s world (two plumes on screen, 1080p), the frames
+    alternately with the spills on (as always) and off (the spill system and the draw's
+    tint sampling skipped, the particles' tint zeroed for that frame and put back after it,
+    outside the timing) in the order ABBA ABBA…, each frame's step + draw followed by
+    ``glFinish`` (its own rasterisation counted in it, not the next frame's). Per frame the
+    wall time and the calling thread's CPU time; reported: the mean of on − off over the
+    adjacent pairs (on, off) with its 95 % interval (normal, 1.96 standard errors), and the
+    frame's mean. On llvmpipe the wall time is mostly the rasteriser's: an addition under
+    its noise shows as an interval around 0."""
+    import numpy as np
+    from pyglet import gl as pgl
+
+    from riverflow.systems import draw as draw_module
+    from riverflow.systems import spill as spill_module
+
+    state = {"on": True}
+    tint_particles = draw_module.DrawRivers._tint_particles
+    advance = spill_module.AdvanceSpills.process
+
+    def maybe_tint(self, *args):
+        if state["on"]:
+            return tint_particles(self, *args)
+
+    def maybe_advance(self, *args):
+        if state["on"]:
+            return advance(self, *args)
+
+    draw_module.DrawRivers._tint_particles = maybe_tint
+    spill_module.AdvanceSpills.process = maybe_advance
+    try:
+        world = _drawn_world(speed)
+        for _ in range(10):
+            world.step(1 / 60)
+            world.draw()
+        pgl.glFinish()
+        pool = world.pool
+        kept = np.empty_like(pool.tint)
+        wall, cpu, on = [], [], []
+        for i in range(frames + frames % 2):
+            state["on"] = i % 4 in (0, 3)               # ABBA
+            if not state["on"]:
+                kept[:] = pool.tint
+                pool.tint[:] = 0.0
+            w0, c0 = time.perf_counter_ns(), time.thread_time_ns()
+            world.step(1 / 60)
+            world.draw()
+            pgl.glFinish()
+            wall.append((time.perf_counter_ns() - w0) * 1e-6)
+            cpu.append((time.thread_time_ns() - c0) * 1e-6)
+            on.append(state["on"])
+            if not state["on"]:
+                pool.tint[:] = kept
+        world.close()
+    finally:
+        draw_module.DrawRivers._tint_particles = tint_particles
+        spill_module.AdvanceSpills.process = advance
+    on = np.array(on)
+    out = {"ab_pairs": int(len(on) // 2)}
+    for name, v in (("wall", np.array(wall)), ("thread_cpu", np.array(cpu))):
+        pairs = v.reshape(-1, 2)
+        d = np.where(on[0::2], pairs[:, 0] - pairs[:, 1], pairs[:, 1] - pairs[:, 0])
+        half = 1.96 * d.std(ddof=1) / np.sqrt(len(d))
+        out[f"ab_{name}_ms_frame_mean"] = float(v.mean())
+        out[f"ab_{name}_ms_added_mean"] = float(d.mean())
+        out[f"ab_{name}_ms_added_ci95_lo"] = float(d.mean() - half)
+        out[f"ab_{name}_ms_added_ci95_hi"] = float(d.mean() + half)
+    return out
 
 
 def tint_alone(refreshes: int) -> dict:

@@ -475,6 +475,7 @@ class SpillTint:
     _twin: object = None
     _pace: tuple = ()
     _origin: tuple = ()
+    _reach: tuple = ()           # (the network's fastest flow, its longest cell) [m/s, m]
 
     def update(self, solver: SpillSolver, flow, colours, frame: int | None = None,
                again: bool = False) -> bool:
@@ -487,12 +488,14 @@ class SpillTint:
         if self._network is not solver.network:      # a live edit's new cells: placed again
             self._network, self._key, self.placed, self._job = solver.network, (), None, None
             self._origin = ()
+            net = solver.network
+            self._reach = (float(net.cell_speed_mps.max()), float(net.link_dx_m.max()))
         job = self._job
         due = job is not None and frame is not None and frame >= job.swap_frame
         if not due and self._key and self._key[1] == solver.n_spills \
                 and 0.0 <= solver.time_s - self._key[0] < TINT_REFRESH_S:
             return False
-        extent = _extent(solver)
+        extent = _extent(solver, self._reach[1])
         moved = False
         if frame is None:
             rect = _square_of(extent)
@@ -577,14 +580,14 @@ class SpillTint:
         per_frame = 0.0
         if self._pace and frame > self._pace[1]:
             per_frame = max(solver.time_s - self._pace[0], 0.0) / (frame - self._pace[1])
-        speed = float(solver.network.cell_speed_mps.max())
+        speed = self._reach[0]
         if self._origin and self._origin[1] == solver.n_spills:
             # how fast the plumes' box has grown since these spills were first seen (a young
             # plume's faint edge spreads faster than the flow)
             t, _, lo, hi = self._origin
             if solver.time_s - t >= TINT_REFRESH_S:
-                speed = max(speed, float(np.max(np.r_[lo - extent[0], extent[1] - hi]))
-                            / (solver.time_s - t))
+                (lx, ly), (hx, hy) = lo - extent[0], extent[1] - hi
+                speed = max(speed, float(max(lx, ly, hx, hy)) / (solver.time_s - t))
         else:
             self._origin = (solver.time_s, solver.n_spills, *extent)
         ahead_s = TINT_REFRESH_S + TINT_SWAP_FRAMES * per_frame
@@ -597,19 +600,25 @@ class SpillTint:
         return _square_of((extent[0] - 2.0 * grow, extent[1] + 2.0 * grow))
 
 
-def _extent(solver: SpillSolver):
+def _extent(solver: SpillSolver, dx_max: float | None = None):
     """(lo (2,), hi (2,)) [m]: the box around every cell holding a spill (at least
-    FRONT_FRACTION of its peak), padded by the widest river and a cell; None: no plume."""
+    FRONT_FRACTION of its peak), padded by the widest river and a cell (``dx_max``: the
+    network's longest, if known); None: no plume."""
     if not solver.n_spills:
         return None
     c = solver.cell_concentration()
-    peak = c.max(axis=1, keepdims=True)
-    on = np.flatnonzero(np.any((c > 0) & (c >= FRONT_FRACTION * peak), axis=0))
+    # c > 0 and c ≥ FRONT_FRACTION × peak in one comparison: the least positive double is
+    # the threshold where that product is not positive (a spill with nothing left)
+    least = np.maximum(FRONT_FRACTION * c.max(axis=1, keepdims=True), 5e-324)
+    on = np.flatnonzero((c >= least).any(axis=0))
     if not len(on):
         return None
     net = solver.network
-    pad = float(net.cell_width_m[on].max()) + float(net.link_dx_m.max())
-    return net.cell_xy_m[on].min(axis=0) - pad, net.cell_xy_m[on].max(axis=0) + pad
+    if dx_max is None:
+        dx_max = float(net.link_dx_m.max())
+    pad = float(net.cell_width_m[on].max()) + dx_max
+    xy = net.cell_xy_m[on]
+    return xy.min(axis=0) - pad, xy.max(axis=0) + pad
 
 
 def _square_of(extent) -> tuple[float, float, float]:

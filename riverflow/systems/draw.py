@@ -808,10 +808,11 @@ class DrawRivers(System):
         width, height = camera.size_px
         config = world.config
         gpu.fit(width, height, config.radius_px, world.pool.capacity)
-        self._tint_particles(world, gpu)
+        span = slot_span(world.pool.alive)      # (the tint's and the tables' slots)
+        self._tint_particles(world, gpu, span)
         t0 = time.perf_counter_ns()
         n_drawn, n_entries = self._upload_tables(
-            world, gpu, settings.show_particles or settings.show_velocities)
+            world, gpu, settings.show_particles or settings.show_velocities, span)
         if settings.mode in _GRID_MODES:
             self._make_grid(gpu, config.radius_px)
         self.last_tables_ms = (time.perf_counter_ns() - t0) * 1e-6
@@ -904,15 +905,16 @@ class DrawRivers(System):
 
     # -- passes -----------------------------------------------------------------------------
 
-    def _upload_tables(self, world: RiverWorld, gpu: _Gpu, overlays: bool) -> tuple[int, int]:
+    def _upload_tables(self, world: RiverWorld, gpu: _Gpu, overlays: bool, span: int
+                       ) -> tuple[int, int]:
         """Build this frame's sprite table and bins and copy them into their buffer textures
         (the table's rows in use, all the bins); returns (entries drawn on the water, all
         entries). The particles that are not drawn on the water are in the table only for
         ``overlays`` (the particle points and velocity arrows): ~3/4 of the pool in a chase
-        view."""
+        view. ``span``: the slots that hold every live particle (``slot_span``)."""
         pool = world.pool
         n_drawn, n_entries, rows = build_sprite_tables(
-            sprite_source(pool), float(world.config.radius_px), slot_span(pool.alive),
+            sprite_source(pool), float(world.config.radius_px), span,
             gpu.bins_shape, gpu.params_cpu, gpu.starts_cpu, gpu.scratch, bool(overlays))
         if rows:
             gpu.params.write(gpu.params_cpu, rows * gpu.params_cpu[0].nbytes)
@@ -973,7 +975,7 @@ class DrawRivers(System):
                 "u_shoreline": shoreline,
                 "u_crest_foam": 1.0 if foam is not None and foam.enabled else 0.0}
 
-    def _tint_particles(self, world: RiverWorld, gpu: _Gpu) -> None:
+    def _tint_particles(self, world: RiverWorld, gpu: _Gpu, span: int) -> None:
         """The spills' discolouring the wave particles carry (issue 24; the water shader blends
         it with the sprites' weights): the spills' grid follows the spills
         (:class:`~riverflow.hydro.spills.SpillTint`, every TINT_REFRESH_S of spill time; its
@@ -984,7 +986,7 @@ class DrawRivers(System):
         within those frames, ~0.05 ms a frame for 5000 particles where all of them cost
         0.4 ms), all of them when the grid changed while the frame stood still (a paused
         world's spills advanced); once a frame otherwise (a second draw of the same frame
-        samples nothing)."""
+        samples nothing). ``span``: the slots that hold every live particle."""
         frame = int(world.clock.frame)
         again = frame == gpu.drawn_frame            # (a paused host's, a screenshot's)
         gpu.drawn_frame = frame
@@ -1002,7 +1004,7 @@ class DrawRivers(System):
         sample_tint(TintGrid(tint.rgba, np.asarray(tint.rect_m, np.float64)),
                     ParticleTint(pool.alive, pool.has_world, pool.ids, pool.world_m, pool.tint,
                                  pool.tint_id),
-                    slot_span(pool.alive), frame, TINT_SAMPLE_EVERY, bool(changed and still))
+                    span, frame, TINT_SAMPLE_EVERY, bool(changed and still))
 
     def _upload_spill(self, world: RiverWorld, gpu: _Gpu, settings: DisplaySettings) -> dict:
         """The concentration mode's spill uniforms, the spills' grid uploaded as its texture
@@ -1021,7 +1023,8 @@ class DrawRivers(System):
                 gpu.spill.upload(tint.rgba, first_row=first, rows=end - first)
                 gpu.spill_version = tint.version
             on = gpu.spill_tint.rect_m[2] > 0.0
-        gpu.spill.bind(SPILL_UNIT)
+        if on:              # (off, the shaders read no texture there: the spray's unit too)
+            gpu.spill.bind(SPILL_UNIT)
         lo, hi = settings.concentration_range_kg_m3
         return {"u_spill_on": int(on), "u_spill_rect": gpu.spill_tint.rect_m,
                 "u_spill_visible": float(settings.spill_visible_kg_m3),

@@ -14,6 +14,7 @@ import pytest
 
 import riverflow as rf
 from riverflow.hydro.spill_network import Dispersion, build_spill_network
+from riverflow.hydro import spills
 from riverflow.hydro.spills import SpillSolver, SpillSource
 from riverflow.kernels.spill import SpillBook, spill_steps
 from tests.engine import cell_networks
@@ -558,3 +559,30 @@ def test_tint_kernel_matches_numpy_twin():
     tinted = np.flatnonzero((twin.reshape(side, side, 4)[:, :, 3] > 0).any(axis=1))
     assert rows == (tinted[0], tinted[-1] + 1) == (2, 13)
     assert tint_texels(texels, np.zeros_like(conc), colours, out) == (0, 0)
+
+
+def test_the_plumes_box_takes_the_cells_above_the_front_fraction_of_each_peak():
+    """``_extent``'s one comparison (c ≥ max(FRONT_FRACTION × peak, least double)) picks the
+    cells with c > 0 and c ≥ FRONT_FRACTION × peak: a spill with nothing left, negative
+    rounding and subnormal masses included."""
+    from types import SimpleNamespace
+
+    rng = np.random.default_rng(3)
+    n = 50
+    net = SimpleNamespace(cell_width_m=rng.uniform(5, 40, n), link_dx_m=rng.uniform(10, 30, 4),
+                          cell_xy_m=rng.uniform(-1e3, 1e3, (n, 2)))
+    for mass in (np.zeros((2, n)), rng.normal(0, 1, (3, n)) * 1e-320,
+                 np.where(rng.random((2, n)) < 0.2, rng.exponential(1.0, (2, n)), 0.0),
+                 np.vstack([np.zeros(n), np.full(n, -1e-12), rng.exponential(1e-3, n)])):
+        solver = SimpleNamespace(n_spills=len(mass), network=net,
+                                 cell_concentration=lambda m=mass: m)
+        peak = mass.max(axis=1, keepdims=True)
+        on = np.flatnonzero(np.any((mass > 0) & (mass >= spills.FRONT_FRACTION * peak), axis=0))
+        got = spills._extent(solver)
+        if not len(on):
+            assert got is None
+            continue
+        pad = net.cell_width_m[on].max() + net.link_dx_m.max()
+        np.testing.assert_array_equal(got[0], net.cell_xy_m[on].min(axis=0) - pad)
+        np.testing.assert_array_equal(got[1], net.cell_xy_m[on].max(axis=0) + pad)
+        assert spills._extent(solver, float(net.link_dx_m.max()))[0].tolist() == got[0].tolist()
