@@ -149,18 +149,8 @@ def drawn(frames: int, speed: float = 60.0, young: bool = False) -> dict:
 
     for name, original in originals.items():
         setattr(draw_module.DrawRivers, name, timing(original))
-    scene = rf.default_scene(seed=0)
-    world = rf.RiverWorld(scene, size=(1920, 1080), gl=True, seed=0)
-    j = scene.water.junctions_m[0]
-    world.camera.look_at((j[0] - 150.0, j[1] - 450.0, 380.0), (j[0] + 150.0, j[1], 0.0))
-    trib = scene.branch("tributary").centerline_m
-    upper = scene.branch("main_upper").centerline_m
-    if not young:
-        world.add_spill(trib[int(len(trib) * 0.75)], 300.0, 3600.0, name="dye")
-        world.add_spill(upper[int(len(upper) * 0.7)], 200.0, 3600.0, name="mud")
-        world.advance_spills(900.0)
-    world.speed_factor = speed
-    world.load_view()
+    world = _drawn_world(speed, plumes=not young)
+    scene = world.scene
     for _ in range(10):
         world.step(1 / 60)
         world.draw()
@@ -215,19 +205,21 @@ def drawn(frames: int, speed: float = 60.0, young: bool = False) -> dict:
             "drawn_added_ms_p99": float(np.percentile(added, 99))}
 
 
-def _drawn_world(speed: float):
-    """:func:`drawn`'s world: 1920×1080, the confluence, two plumes 15 minutes old."""
+def _drawn_world(speed: float, plumes: bool = True):
+    """:func:`drawn`'s world: 1920×1080, the confluence, two plumes 15 minutes old (none
+    if not ``plumes``)."""
     import riverflow as rf
 
     scene = rf.default_scene(seed=0)
     world = rf.RiverWorld(scene, size=(1920, 1080), gl=True, seed=0)
     j = scene.water.junctions_m[0]
     world.camera.look_at((j[0] - 150.0, j[1] - 450.0, 380.0), (j[0] + 150.0, j[1], 0.0))
-    trib = scene.branch("tributary").centerline_m
-    upper = scene.branch("main_upper").centerline_m
-    world.add_spill(trib[int(len(trib) * 0.75)], 300.0, 3600.0, name="dye")
-    world.add_spill(upper[int(len(upper) * 0.7)], 200.0, 3600.0, name="mud")
-    world.advance_spills(900.0)
+    if plumes:
+        trib = scene.branch("tributary").centerline_m
+        upper = scene.branch("main_upper").centerline_m
+        world.add_spill(trib[int(len(trib) * 0.75)], 300.0, 3600.0, name="dye")
+        world.add_spill(upper[int(len(upper) * 0.7)], 200.0, 3600.0, name="mud")
+        world.advance_spills(900.0)
     world.speed_factor = speed
     world.load_view()
     return world
