@@ -1225,7 +1225,7 @@ def skeleton(water, tolerance_m: float = 0.25, frame=None, ends=None):
         d = float(np.hypot(*(uniq[a] - uniq[b])))
         nbr[a][b] = d
         nbr[b][a] = d
-    _prune(nbr, radius, _open_ends(nbr, uniq, radius, open_edge, ends, spacing))
+    _prune(nbr, radius, _open_ends(nbr, uniq, radius, open_edge, ends, spacing), uniq)
     _keep_longest_piece(nbr)
     chains = _chains(nbr)
     chains, loops = _merge_junctions(chains, uniq, radius)
@@ -1292,10 +1292,15 @@ def _open_ends(nbr, xy: np.ndarray, radius: np.ndarray, open_edge, ends, spacing
     return keep
 
 
-def _prune(nbr: list[dict[int, float]], radius: np.ndarray, keep=None) -> None:
+def _prune(nbr: list[dict[int, float]], radius: np.ndarray, keep=None, xy=None) -> None:
     """Remove spurs (chains from a free end to a junction) shorter than SPUR_WIDTHS local
     widths, at most all but one at each junction per pass, until none is left; free ends
-    marked in ``keep`` (the water's open ends) are never removed."""
+    marked in ``keep`` (the water's open ends) are never removed. Where that leaves fewer
+    than two free ends (a short wide river cut square across at its ends, islands near
+    them: each end's spur is shorter than the channels round the islands are wide, and the
+    skeleton prunes back to the loops round them), :func:`_restore_ends` gives them back."""
+    leaves_before = sum(len(n) == 1 for n in nbr)
+    gone: list[tuple[int, int, float]] = []
     while True:
         spurs: dict[int, list[tuple[float, list[int]]]] = {}
         for leaf in range(len(nbr)):
@@ -1315,14 +1320,56 @@ def _prune(nbr: list[dict[int, float]], radius: np.ndarray, keep=None) -> None:
             if len(nbr[cur]) >= 3 and length < SPUR_WIDTHS * 2.0 * radius[cur]:
                 spurs.setdefault(cur, []).append((length, path))
         if not spurs:
-            return
+            break
         for j, items in spurs.items():
             items.sort(key=lambda t: t[0])
             drop = items if len(items) < len(nbr[j]) else items[:-1]
             for _, path in drop:
                 for a, b in zip(path[:-1], path[1:]):
-                    nbr[a].pop(b, None)
+                    if b in nbr[a]:
+                        gone.append((a, b, nbr[a].pop(b)))
                     nbr[b].pop(a, None)
+    if xy is not None and leaves_before >= 2 and sum(len(n) == 1 for n in nbr) < 2:
+        _restore_ends(nbr, gone, xy)
+
+
+def _restore_ends(nbr: list[dict[int, float]], gone: list[tuple[int, int, float]],
+                  xy: np.ndarray) -> None:
+    """Give a pruned skeleton back the free ends it needs (two at least): from the nodes
+    still in it, the pruned branches' trunks (each followed until it forks, where a river's
+    end cut square across parts into its two corners, or ends), the trunks whose ends lie
+    farthest from each other and from the free ends left."""
+    pruned: dict[int, dict[int, float]] = {}
+    for a, b, d in gone:
+        pruned.setdefault(a, {})[b] = d
+        pruned.setdefault(b, {})[a] = d
+    trunks = []                                  # (node path from the skeleton outwards)
+    for k in [k for k in pruned if nbr[k]]:
+        for first in pruned[k]:
+            if nbr[first]:
+                continue
+            path, prev, cur = [k, first], k, first
+            while len(pruned[cur]) == 2:
+                prev, cur = cur, next(v for v in pruned[cur] if v != prev)
+                path.append(cur)
+            trunks.append(path)
+    leaves = [i for i in range(len(nbr)) if len(nbr[i]) == 1]
+    chosen: list[list[int]] = []
+    while len(leaves) + len(chosen) < 2 and len(chosen) < len(trunks):
+        ends = xy[leaves + [p[-1] for p in chosen]]
+        if len(ends):
+            def score(p, ends=ends):
+                return float(np.hypot(*(ends - xy[p[-1]]).T).min())
+        else:              # none left: the one farthest from another trunk's end
+            tips = xy[[q[-1] for q in trunks]]
+
+            def score(p):
+                return float(np.hypot(*(tips - xy[p[-1]]).T).max())
+        best = max((p for p in trunks if p not in chosen), key=score)
+        chosen.append(best)
+    for path in chosen:
+        for a, b in zip(path[:-1], path[1:]):
+            nbr[a][b] = nbr[b][a] = pruned[a][b]
 
 
 def _keep_longest_piece(nbr: list[dict[int, float]]) -> None:

@@ -530,6 +530,33 @@ def test_a_braid_of_three_channels(tmp_path):
     assert (status == INSIDE).all() and (v[:, 0] > 0).all()
 
 
+def test_a_short_river_cut_across_keeps_its_ends_beside_a_long_island(tmp_path):
+    """A 100 m river, 800 m long, cut square across at both ends (slanted: not along the
+    data's edge) with a 430 m island 185 m from its upstream end: each end's axis is shorter
+    than the channels round the island are wide, so pruning spurs took both back to the loop
+    round the island ("its skeleton has no channel"). The pruned ends come back: an axis down
+    the middle of each end reach, four axes in all, the water one way through."""
+    t, n = np.array([2.0, 1.0]) / np.sqrt(5.0), np.array([-1.0, 2.0]) / np.sqrt(5.0)
+    island = shapely.LineString([(185.0, -10.0), (615.0, -10.0)]).buffer(6.0, quad_segs=6)
+    water = shapely.box(0.0, -50.0, 800.0, 50.0).difference(island)
+    water = shapely.normalize(shapely.transform(water, lambda c: c[:, :1] * t + c[:, 1:2] * n))
+    builder = rf.read_water(write_polygons(tmp_path / "short.geojson", [water]),
+                            origin_m=ORIGIN)
+    graph = builder.build()
+    assert builder.report.derived["axes"] == {"skeleton": 4}
+    assert builder.report.derived["islands"]["between channels"] == 1
+    ends = np.array([p for _, c in _channels(builder) for p in (c[0], c[-1])])
+    ends = np.c_[ends @ t, ends @ n]                          # in the river's frame
+    for x in (0.0, 800.0):                                    # mid-way across each end
+        at = ends[np.abs(ends[:, 0] - x) < 1.0]
+        assert len(at) == 1 and abs(at[0, 1]) < 5.0, ends.round(1)
+    u = np.array([60.0, 400.0, 400.0, 740.0])
+    status, v = rf.FlowField(graph).query(np.c_[u, [0.0, 25.0, -35.0, 0.0]] @ np.array([t, n]))
+    assert (status == INSIDE).all()
+    along = v @ t
+    assert (np.abs(along) > 0.9 * np.hypot(*v.T)).all() and len(set(np.sign(along))) == 1
+
+
 def island_river(islands: int, seed: int = 4):
     """A 160 m meandering river across a 1 200 m square (x 0 - 1 200, cut by its west and east
     edges) with ``islands`` small elliptic islands (12 - 40 m long) scattered in it, none
