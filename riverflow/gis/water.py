@@ -167,8 +167,9 @@ class WaterBuilder(RiverNetworkBuilder):
     def _hole_by(self, text: str):
         """For an error naming a branch whose banks the builder could not tell apart (its
         ψ does not add up round a loop, both its banks one shore, their ψ difference not its
-        discharge, no banks found across it), or branches that do not meet (the axes round
-        an island near where the water is cut): a point inside the hole
+        discharge, no banks found across it), or branches that do not meet or one that
+        starts and ends at one point (the axes round an island near where the water is cut
+        meet too close to its end for a channel between): a point inside the hole
         between channels nearest that branch's middle, or None."""
         import re
 
@@ -177,7 +178,7 @@ class WaterBuilder(RiverNetworkBuilder):
         if k is not None and int(k.group(1)) < len(self._branches):
             branch = self._branches[int(k.group(1))]     # its banks not found, or wrong
         elif m is None or ("inconsistent" not in text and "one continuous shore" not in text
-                           and "do not meet" not in text):
+                           and "do not meet" not in text and "the same point" not in text):
             return None
         else:
             branch = next((b for b in self._branches if b.name == m.group(1)), None)

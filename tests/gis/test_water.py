@@ -557,6 +557,38 @@ def test_a_short_river_cut_across_keeps_its_ends_beside_a_long_island(tmp_path):
     assert (np.abs(along) > 0.9 * np.hypot(*v.T)).all() and len(set(np.sign(along))) == 1
 
 
+def test_channels_meeting_at_the_datas_edge_make_their_island_free(tmp_path):
+    """A 246 m river with a 178 m island, cut by the data's box so that its downstream edge
+    crosses the river just below where the channels round the island meet (from the
+    survey's seed 106): the axis from that junction out to the edge is shorter than a
+    quarter of its width, which the builder cannot tell from a point. The island is taken as
+    a free island in one channel (reported), as for channels that do not meet: the network
+    builds and its water flows one way past the island."""
+    x = np.linspace(0.0, 636.0, 40)
+    river = shapely.LineString(np.c_[x, 30.0 * np.sin(x / 266.0)]).buffer(123.0,
+                                                                          cap_style="flat")
+    a, t = np.array([134.0, -11.0]), np.array([math.cos(-0.18), math.sin(-0.18)])
+    island = shapely.LineString([a, a + 178.0 * t]).buffer(9.0, quad_segs=6)
+    slope = np.array([[2.0, 1.0], [-1.0, 2.0]]) / np.sqrt(5.0)
+    water = shapely.transform(river.difference(island), lambda c: c @ slope)
+    x0, _, x1, _ = water.bounds
+    water = shapely.normalize(shapely.intersection(water, shapely.box(
+        x0 + 0.02 * (x1 - x0), -1e4, x1 - 0.29 * (x1 - x0), 1e4)))
+    builder = rf.read_water(write_polygons(tmp_path / "edge.geojson", [water]),
+                            origin_m=ORIGIN)
+    graph = builder.build()
+    assert builder.report.derived["islands"] == {"free (in one channel)": 1,
+                                                 "between channels": 0}
+    assert any("starts and ends at the same point" in r.what and "free island" in r.what
+               for r in builder.report.repairs)
+    # beside the island, on either side: down the river
+    pts = np.array([[134.0 + 89.0 * t[0], y] for y in (-80.0, 70.0)]) @ slope
+    status, v = rf.FlowField(graph).query(pts)
+    assert (status == INSIDE).all()
+    along = v @ slope[0]
+    assert (np.abs(along) > 0.8 * np.hypot(*v.T)).all() and len(set(np.sign(along))) == 1
+
+
 def island_river(islands: int, seed: int = 4):
     """A 160 m meandering river across a 1 200 m square (x 0 - 1 200, cut by its west and east
     edges) with ``islands`` small elliptic islands (12 - 40 m long) scattered in it, none
