@@ -824,11 +824,15 @@ class _Network:
             d0 = dijkstra(adj, indices=leaves[0])
             a = max(leaves, key=lambda k: d0[k])
             da = dijkstra(adj, indices=a)
-            b = max(leaves, key=lambda k: da[k])
+            # not an end beside a (the other channel round an island the edge cuts open)
+            b = max([k for k in leaves if k != a and not self._beside(k, a)] or leaves,
+                    key=lambda k: da[k])
             wa, wb = self._end_width(a), self._end_width(b)
             inlets, outlets = ([a], [b]) if wa <= wb else ([b], [a])
             rule = (f"{flat}the longest path along the axes, from its narrower end "
                     f"({min(wa, wb):.1f} m) to its wider ({max(wa, wb):.1f} m)")
+        if rule != "from the inlets / outlets given":
+            self._same_end(leaves, inlets, outlets)
         if not outlets:          # water enters where it is said to; it leaves by the rest
             outlets = [k for k in leaves if k not in inlets]
         if not inlets:
@@ -851,6 +855,25 @@ class _Network:
         self._fix_junctions(adj)
         self.rule = rule
         return rule
+
+    def _same_end(self, leaves: list[int], inlets: list[int], outlets: list[int]) -> None:
+        """Free ends beside the chosen outlet (inlet), nearer to it than the two ends' widths
+        together, are outlets (inlets) too: the channels on either side of an island the
+        data's edge cuts open leave (enter) together; left to the distances along the axes,
+        the one beside the outlet was taken for a tributary."""
+        for k in leaves:
+            if k in inlets or k in outlets:
+                continue
+            for group in (outlets, inlets):
+                if group and self._beside(k, group[0]):
+                    group.append(k)
+                    break
+
+    def _beside(self, k: int, e: int) -> bool:
+        """Whether free ends k and e lie nearer than their widths together (one end of the
+        water, parted by an island)."""
+        return k != e and bool(np.hypot(*(self.nodes[k] - self.nodes[e]))
+                               <= self._end_width(k) + self._end_width(e))
 
     def _fix_junctions(self, adj) -> None:
         """Where a junction only receives (or only sends) water, which the distances along a
@@ -1199,14 +1222,15 @@ def skeleton(water, tolerance_m: float = 0.25, frame=None, ends=None):
     per_ring = [np.asarray(shapely.segmentize(r, spacing).coords)[:-1] for r in rings]
     pts = np.vstack(per_ring)
     open_edge = _open_edge(water, frame, approx_width, tolerance_m)
+    banks = pts
     if open_edge is not None:
         # no outline point on it, nor on the banks' last quarter width beside it: the axis
         # runs out straight between the banks instead of bending into a corner (islands'
-        # shores near it stay)
+        # shores near it stay); the widths are read from the banks up to the edge
         outer = np.arange(len(pts)) < len(per_ring[0])
-        pts = pts[~outer | (shapely.distance(open_edge, shapely.points(pts))
-                            > 0.25 * approx_width)]
-    all_pts = pts
+        off = shapely.distance(open_edge, shapely.points(pts))
+        banks = pts[~outer | (off > 1e-6 * approx_width)]
+        pts = pts[~outer | (off > 0.25 * approx_width)]
     edges = shapely.get_parts(shapely.voronoi_polygons(shapely.MultiPoint(pts), only_edges=True))
     seg = shapely.get_coordinates(edges).reshape(-1, 2, 2)
     ok = (shapely.contains_xy(water, seg[:, 0, 0], seg[:, 0, 1])
@@ -1235,7 +1259,7 @@ def skeleton(water, tolerance_m: float = 0.25, frame=None, ends=None):
         for j, hole in enumerate(water.interiors):
             if ring.is_valid and ring.contains(shapely.Polygon(hole).representative_point()):
                 return [], np.zeros((0, 2)), j
-    tree = cKDTree(all_pts)
+    tree = cKDTree(banks)
     out = []
     ids: dict[int, int] = {}
     for chain in chains:
@@ -1277,19 +1301,31 @@ def _open_edge(water, frame, width: float, tolerance_m: float):
 def _open_ends(nbr, xy: np.ndarray, radius: np.ndarray, open_edge, ends, spacing: float):
     """Which skeleton nodes are ends never to prune: for each piece of ``open_edge`` and
     each point of ``ends``, the widest free end whose inscribed circle reaches it (the axis
-    running out between the banks; the spurs into the corners beside it are narrower)."""
+    running out between the banks; the spurs into the corners beside it are narrower). Two
+    pieces of the edge (an island cut open by it between them) take two ends where there
+    are: a piece whose widest end is another piece's takes the widest of the rest that is
+    at least a quarter of the piece wide (the channel on its side of the island), the longer
+    pieces first."""
     keep = np.zeros(len(xy), bool)
     leaves = np.array([i for i in range(len(nbr)) if len(nbr[i]) == 1], dtype=np.int64)
     if not len(leaves):
         return keep
-    targets = list(shapely.get_parts(open_edge)) if open_edge is not None else []
-    targets += [shapely.Point(p) for p in (ends if ends is not None else ())]
+    pieces = sorted(shapely.get_parts(open_edge) if open_edge is not None else [],
+                    key=lambda g: -g.length)
+    targets = pieces + [shapely.Point(p) for p in (ends if ends is not None else ())]
     reach = radius[leaves] + 2.0 * spacing
-    for t in targets:
+    taken = np.zeros(len(leaves), bool)
+    for k, t in enumerate(targets):
         d = shapely.distance(t, shapely.points(xy[leaves]))
-        near = d <= reach
-        if near.any():
-            keep[leaves[near][int(np.argmax(radius[leaves[near]]))]] = True
+        near = np.flatnonzero(d <= reach)
+        if not len(near):
+            continue
+        best = near[int(np.argmax(radius[leaves[near]]))]
+        if k < len(pieces) and taken[best]:
+            rest = near[~taken[near] & (radius[leaves[near]] >= 0.25 * t.length)]
+            best = rest[int(np.argmax(radius[leaves[rest]]))] if len(rest) else best
+        taken[best] = k < len(pieces)
+        keep[leaves[best]] = True
     return keep
 
 

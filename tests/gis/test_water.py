@@ -589,6 +589,79 @@ def test_channels_meeting_at_the_datas_edge_make_their_island_free(tmp_path):
     assert (np.abs(along) > 0.8 * np.hypot(*v.T)).all() and len(set(np.sign(along))) == 1
 
 
+def test_an_island_cut_open_by_the_datas_edge_has_a_channel_out_on_each_side(tmp_path):
+    """A meandering 185 m river whose data's edge cuts through a 150 m island near its end
+    (from the survey's seed 15): the edge is two open pieces, one on each side of the
+    island's stub, and each takes its own channel's end. The wider channel's end was kept for
+    both and the other channel had no axis ("its axis lies on its right"); its widths at the
+    edge were read from the island's and banks' shores only beyond a quarter width of it.
+    The two ends are one end of the river: both channels enter there or both leave."""
+    x = np.linspace(0.0, 1334.0, 40)
+    river = shapely.LineString(np.c_[x, 63.9 * np.sin(x / 161.2)]).buffer(92.7,
+                                                                         cap_style="flat")
+    a, t = np.array([1082.5, 14.3]), np.array([math.cos(0.178), math.sin(0.178)])
+    island = shapely.LineString([a, a + 150.2 * t]).buffer(9.2, quad_segs=6)
+    slope = np.array([[2.0, 1.0], [-1.0, 2.0]]) / np.sqrt(5.0)
+    water = shapely.transform(river.difference(island), lambda c: c @ slope)
+    x0, _, x1, _ = water.bounds
+    edge = x1 - 0.1402 * (x1 - x0)
+    water = shapely.normalize(shapely.intersection(water, shapely.box(
+        x0 + 0.2726 * (x1 - x0), -1e4, edge, 1e4)))
+    assert len(water.interiors) == 0                  # the island is a notch from the edge
+    builder = rf.read_water(write_polygons(tmp_path / "cut.geojson", [water]),
+                            origin_m=ORIGIN)
+    graph = builder.build()
+    assert builder.report.derived["axes"] == {"skeleton": 3} and not builder.report.repairs
+    lines = [c for _, c in _channels(builder)]
+    on_edge = sorted(p[1] for ln in lines for p in (ln[0], ln[-1]) if abs(p[0] - edge) < 1e-6)
+    stub = shapely.intersection(shapely.transform(island, lambda c: c @ slope),
+                                shapely.LineString([(edge, -1e4), (edge, 1e4)]))
+    lo, hi = stub.bounds[1], stub.bounds[3]
+    assert len(on_edge) == 2 and on_edge[0] < lo and on_edge[1] > hi    # one on each side
+    # both enter there or both leave: one end of the river, not a loop round the island
+    starts = [abs(ln[0, 0] - edge) < 1e-6 for ln in lines if abs(ln[0, 0] - edge) < 1e-6
+              or abs(ln[-1, 0] - edge) < 1e-6]
+    assert len(set(starts)) == 1
+    q = builder.discharges_m2s
+    assert sorted(q)[-1] == pytest.approx(sorted(q)[0] + sorted(q)[1])   # split, conserved
+    field = rf.FlowField(graph)
+    for y in on_edge:                         # water in both channels near the edge
+        status, _ = field.query(np.array([[edge - 20.0, y]]))
+        assert status[0] == INSIDE
+
+
+def test_both_channels_round_a_cut_island_run_one_way(tmp_path):
+    """A straight 160 m river whose data's edge cuts a long island off-centre 350 m from its
+    upstream end: the two ends on the edge are farther apart along the axes than either is
+    from the river's other end, so the longest path ran from one channel's end round the
+    island to the other's (one channel flowing in, the other out). An end beside another
+    (nearer than their widths) is one end of the river: the path runs from the other end,
+    and both channels run the same way."""
+    t, n = np.array([2.0, 1.0]) / np.sqrt(5.0), np.array([-1.0, 2.0]) / np.sqrt(5.0)
+
+    def world(g):
+        return shapely.transform(g, lambda c: c[:, :1] * t + c[:, 1:2] * n)
+
+    river = world(shapely.LineString([(-300, 0), (1300, 0)]).buffer(80.0, cap_style="flat"))
+    island = world(shapely.LineString([(550, -20), (1100, -20)]).buffer(10.0, quad_segs=6))
+    water = shapely.normalize(shapely.intersection(river.difference(island),
+                                                   shapely.box(0, -1e4, 900, 1e4)))
+    builder = rf.read_water(write_polygons(tmp_path / "cut.geojson", [water]),
+                            origin_m=ORIGIN)
+    graph = builder.build()
+    lines = [c for _, c in _channels(builder)]
+    assert len(lines) == 3
+    at_edge = [(abs(ln[0, 0] - 900.0) < 1e-6, abs(ln[-1, 0] - 900.0) < 1e-6) for ln in lines]
+    assert sorted(at_edge) == [(False, False), (True, False), (True, False)] or \
+        sorted(at_edge) == [(False, False), (False, True), (False, True)]
+    q = sorted(builder.discharges_m2s)
+    assert q[2] == pytest.approx(q[0] + q[1])
+    # beside the island on both sides, the flow runs one way
+    pts = np.array([[700.0, 45.0], [700.0, -60.0]]) @ np.array([t, n])
+    status, v = rf.FlowField(graph).query(pts)
+    assert (status == INSIDE).all() and len(set(np.sign(v @ t))) == 1
+
+
 def island_river(islands: int, seed: int = 4):
     """A 160 m meandering river across a 1 200 m square (x 0 - 1 200, cut by its west and east
     edges) with ``islands`` small elliptic islands (12 - 40 m long) scattered in it, none
