@@ -139,12 +139,15 @@ class WaterBuilder(RiverNetworkBuilder):
                 if hole is None or len(forced) == MAX_ISLAND_RETRIES:
                     self._raise_named(exc)
                 forced.append(hole)
-                self._fill(tuple(forced))
                 self.report.repair("island", None, None,
                                    f"the island near ({hole[0]:.1f}, {hole[1]:.1f}) between "
                                    f"channels cannot be told from the other shores there "
                                    f"({str(exc)[:100]}…): taken as a free island in one "
                                    f"channel")
+                try:
+                    self._refill(forced)
+                except GraphError as again:
+                    self._raise_named(again)
         graph.source = self.report.path
         cut = sum(self.end_cuts_m2)
         if cut > 0:
@@ -153,6 +156,23 @@ class WaterBuilder(RiverNetworkBuilder):
             self.report.notes.append(f"{len(self.islands_cut)} islands at the water's open "
                                      f"ends, where it is cut across, left out")
         return graph
+
+    def _refill(self, forced: list) -> None:
+        """Find the channels again with the holes at ``forced`` free islands; while their axes
+        flow round a loop, the island nearest the loop is made free too."""
+        while True:
+            try:
+                self._fill(tuple(forced))
+                return
+            except GraphError as exc:
+                hole = _hole_in_loop(self, str(exc))
+                if hole is None or len(forced) >= MAX_ISLAND_RETRIES:
+                    raise
+                forced.append(hole)
+                self.report.repair("island", None, None,
+                                   f"the island near ({hole[0]:.1f}, {hole[1]:.1f}) between "
+                                   f"channels leaves its axes flowing round a loop: taken as "
+                                   f"a free island in one channel")
 
     def _hole_at(self, point):
         """A point inside the hole of the water that holds ``point`` or whose ring passes
@@ -353,22 +373,11 @@ def read_water(path, *, layer: str | int | None = None, lines=None, inlets=None,
     builder._fill = lambda forced: _fill(builder, rivers, line_geoms, inlet_xy, outlet_xy, dem,
                                          discharge_m3s, geometry, tolerance_m, where, forced,
                                          extent, lakes)
-    forced: list[tuple[float, float]] = []
-    while True:
-        try:
-            builder._fill(tuple(forced))
-            break
-        except GraphError as exc:
-            hole = _hole_in_loop(builder, str(exc))
-            if hole is None or len(forced) == MAX_ISLAND_RETRIES:
-                text = str(exc)
-                raise (exc if text.startswith(str(path)) else
-                       GraphError(f"{where}: {text}")) from None
-            forced.append(hole)
-            report.repair("island", None, None,
-                          f"the island near ({hole[0]:.1f}, {hole[1]:.1f}) between channels "
-                          f"leaves its axes flowing round a loop: taken as a free island in "
-                          f"one channel")
+    try:
+        builder._refill([])
+    except GraphError as exc:
+        text = str(exc)
+        raise (exc if text.startswith(str(path)) else GraphError(f"{where}: {text}")) from None
     return builder
 
 
@@ -858,16 +867,20 @@ class _Network:
 
     def _same_end(self, leaves: list[int], inlets: list[int], outlets: list[int]) -> None:
         """Free ends beside the chosen outlet (inlet), nearer to it than the two ends' widths
-        together, are outlets (inlets) too: the channels on either side of an island the
-        data's edge cuts open leave (enter) together; left to the distances along the axes,
-        the one beside the outlet was taken for a tributary."""
-        for k in leaves:
-            if k in inlets or k in outlets:
-                continue
-            for group in (outlets, inlets):
-                if group and self._beside(k, group[0]):
-                    group.append(k)
-                    break
+        together, are outlets (inlets) too, and those beside them: the channels on either
+        side of islands the data's edge cuts open leave (enter) together; left to the
+        distances along the axes, the one beside the outlet was taken for a tributary."""
+        grew = True
+        while grew:              # (and beside those: the channels between several islands)
+            grew = False
+            for k in leaves:
+                if k in inlets or k in outlets:
+                    continue
+                for group in (outlets, inlets):
+                    if any(self._beside(k, e) for e in group):
+                        group.append(k)
+                        grew = True
+                        break
 
     def _beside(self, k: int, e: int) -> bool:
         """Whether free ends k and e lie nearer than their widths together (one end of the
