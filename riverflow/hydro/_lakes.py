@@ -99,19 +99,20 @@ def cut_branches(branches: list, lakes: list[Lake], tolerance_m: float):
     if not lakes:
         return branches, [(-1, -1)] * len(branches), list(range(len(branches)))
     union = shapely.union_all([lk.polygon for lk in lakes])
+    shores = shapely.union_all([lk.polygon for lk in lakes if not lk.basin])
     out, ends, origin = [], [], []
     for i, b in enumerate(branches):
         line, w = b.centerline_m, b.widths_m
-        # an end just outside a shore is drawn on to it
+        # an end just outside a (lake's, not a basin's) shore is drawn on to it
         for at_start in (True, False):
             p = line[0] if at_start else line[-1]
             width = w[0] if at_start else w[-1]
             pt = shapely.Point(p)
-            if union.contains(pt):
+            if shores.is_empty or shores.contains(pt):
                 continue
-            d = union.boundary.distance(pt)
+            d = shores.boundary.distance(pt)
             if 1e-6 * max(1.0, np.abs(p).max()) < d <= END_SNAP * width:
-                q = np.asarray(shapely.ops.nearest_points(union.boundary, pt)[0].coords[0])
+                q = np.asarray(shapely.ops.nearest_points(shores.boundary, pt)[0].coords[0])
                 t = q - p
                 q = q + t / np.hypot(*t) * min(tolerance_m, 0.05 * width)   # just inside
                 line = np.vstack([q, line]) if at_start else np.vstack([line, q])
@@ -149,8 +150,12 @@ def cut_branches(branches: list, lakes: list[Lake], tolerance_m: float):
 
 
 def _on_lake(lakes: list[Lake], p: np.ndarray) -> int:
-    """The lake whose shore ``p`` lies on (-1: none)."""
+    """The lake whose shore ``p`` lies on (-1: none); never a basin (still water off the side
+    of a river: no branch starts or ends on it, one that meets its mouth at a junction goes on
+    past it)."""
     for k, lk in enumerate(lakes):
+        if lk.basin:
+            continue
         if lk.polygon.boundary.distance(shapely.Point(p)) <= 1e-6 * max(1.0, np.abs(p).max()):
             return k
     return -1

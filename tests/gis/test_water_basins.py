@@ -395,6 +395,45 @@ def test_a_basin_is_level_with_its_river_at_its_mouth(harbour):
         assert step.max() < 0.025, step.max()
 
 
+def test_a_basin_whose_mouth_is_at_a_junction(tmp_path):
+    """A 194 m meandering river (from the survey's seed 84 of islands that may cross a bank):
+    a 179 m spit off its left bank closes a 417 m backwater behind it, whose mouth takes in
+    the junction where the channels round a 235 m island upstream meet. The builder drew that
+    junction's branch ends on to the basin's shore and then refused a branch ending both at
+    a junction and on the basin. A basin is still water off the side of a river: no branch
+    starts or ends on its shore. The network builds, the backwater is still, the river
+    past its mouth runs on."""
+    x = np.linspace(0.0, 1410.2, 40)
+    amp, period = 0.7493 * 193.7, 371.0
+    river = shapely.LineString(np.c_[x, amp * np.sin(x / period)]).buffer(96.87,
+                                                                         cap_style="flat")
+    spit = shapely.LineString([(970.3, 90.2), (970.3 + 178.7 * np.cos(0.1359),
+                                               90.2 + 178.7 * np.sin(0.1359))]).buffer(6.89,
+                                                                                   quad_segs=6)
+    island = shapely.LineString([(384.7, 111.3), (384.7 + 235.4 * np.cos(-0.0583),
+                                                  111.3 + 235.4 * np.sin(-0.0583))]
+                                ).buffer(7.15, quad_segs=6)
+    slope = np.array([[2.0, 1.0], [-1.0, 2.0]]) / np.sqrt(5.0)
+    water = shapely.transform(river.difference(shapely.union_all([spit, island])),
+                              lambda c: c @ slope + (0.0, 150.0))
+    builder = rf.read_water(write_polygons(tmp_path / "spit.geojson",
+                                           [shapely.normalize(water)]), origin_m=ORIGIN)
+    graph = builder.build()
+    assert len(builder.basins) == 1
+    basin = builder.basins[0].polygon
+    field = rf.FlowField(graph)
+    inner = basin.buffer(-20.0)
+    pts = shapely.get_coordinates(shapely.points(np.c_[
+        np.linspace(*inner.bounds[::2], 40), np.linspace(*inner.bounds[1::2], 40)]))
+    pts = pts[shapely.contains_xy(inner, *pts.T)]
+    status, v = field.query(pts)
+    assert len(pts) > 5 and (status == INSIDE).all() and np.hypot(*v.T).max() < 0.05
+    # the river past the mouth, mid-way across it below the spit
+    below = np.array([[1100.0, amp * np.sin(1100.0 / period) - 40.0]]) @ slope + (0.0, 150.0)
+    status, v = field.query(below)
+    assert status[0] == INSIDE and np.hypot(*v[0]) > 0.5
+
+
 def test_the_water_ending_beside_an_island_is_no_basin(tmp_path):
     """A gently meandering river polygon whose ends are cut square across it (not along the
     data's edge) with a long thin island near its left bank a short way from its upstream
