@@ -86,6 +86,17 @@ class EditPlan:
     dropped: list[str] = field(default_factory=list)
     """What the old network carried that the new one cannot (a fall or rapid whose branch
     was removed), in words."""
+    marked_ahead: dict = field(default_factory=dict)
+    """kind → (codes sorted, made again or not, rank): :func:`marked_tiles` for the tiles
+    resident when the edit was planned, worked out in the edit's thread; the swap works out
+    only the tiles installed since (:func:`marked_at_swap`)."""
+
+    @property
+    def change_centres(self) -> np.ndarray:
+        """(B, 2) [m]: the middles of the changed boxes (a stale tile's rank is its distance
+        to the nearest)."""
+        boxes = np.concatenate([self.terrain_boxes, self.flow_boxes])
+        return 0.5 * (boxes[:, :2] + boxes[:, 2:])
 
 
 # -- step 1: the new network ------------------------------------------------------------------
@@ -730,6 +741,57 @@ def hints_near_changes(codes: np.ndarray, quadtree, old: Landscape, new: Landsca
     d_moved, _ = cKDTree(moved).query(centre)
     d_kept, _ = cKDTree(kept).query(centre)
     return d_moved <= d_kept + 2.0 * half + 1e-6
+
+
+def marked_tiles(plan: EditPlan, old: Landscape, kind: str, codes: np.ndarray, cells: int
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """(K,) bool: which ``kind`` tiles of ``codes`` the edit makes again (footprint widened by
+    EDGE_CELLS of ``cells`` a side meeting the changed boxes; a hints tile also where its
+    nearest centre line may have moved), and (K,) their ranks (:func:`tile_distances`). A
+    function of the codes alone (and the plan): it may be worked out for any snapshot of the
+    resident tiles, in any thread."""
+    from riverflow.components.flow_tiles import FLOW_KIND
+    from riverflow.scenes.tile_kinds import HINTS
+
+    codes = np.asarray(codes, np.int64)
+    q = plan.scene.quadtree
+    if kind == FLOW_KIND:
+        near = tiles_meeting(codes, q, plan.flow_boxes, cells)
+    else:
+        near = tiles_meeting(codes, q, plan.terrain_boxes, cells)
+        if kind == HINTS:     # a hint reads the nearest centre line, however far
+            near |= hints_near_changes(codes, q, old, plan.scene, plan.changed)
+    rank = np.zeros(len(codes))
+    rank[near] = tile_distances(codes[near], q, plan.change_centres)
+    return near, rank
+
+
+def marked_ahead(plan: EditPlan, old: Landscape, kind: str, codes: np.ndarray, cells: int
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`marked_tiles` of a snapshot of the resident codes, sorted by code (for
+    :func:`marked_at_swap`)."""
+    codes = np.unique(np.asarray(codes, np.int64))
+    return (codes, *marked_tiles(plan, old, kind, codes, cells))
+
+
+def marked_at_swap(plan: EditPlan, old: Landscape, kind: str, codes: np.ndarray, cells: int
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """(the codes of ``codes`` the edit makes again, their ranks): the ones the edit's thread
+    saw read from :attr:`EditPlan.marked_ahead`, the rest (installed since) worked out now."""
+    codes = np.asarray(codes, np.int64)
+    near = np.zeros(len(codes), bool)
+    rank = np.zeros(len(codes))
+    rest = np.ones(len(codes), bool)
+    ahead = plan.marked_ahead.get(kind)
+    if ahead is not None and len(ahead[0]) and len(codes):
+        known, known_near, known_rank = ahead
+        at = np.minimum(np.searchsorted(known, codes), len(known) - 1)
+        found = known[at] == codes
+        near[found], rank[found] = known_near[at[found]], known_rank[at[found]]
+        rest = ~found
+    if rest.any():
+        near[rest], rank[rest] = marked_tiles(plan, old, kind, codes[rest], cells)
+    return codes[near], rank[near]
 
 
 def _tile_rects(codes: np.ndarray, quadtree, cells: int) -> np.ndarray:

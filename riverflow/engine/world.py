@@ -674,6 +674,19 @@ class RiverWorld:
         plan.renumbered = (renumber, pool.slot_code[renumber].copy(), lists)
         plan.renumbered_all = (slots, codes)
         between_frames()
+        # which resident tiles the edit makes again, worked out here for those resident now
+        # (the swap works out only those installed since)
+        from riverflow.components.flow_tiles import FLOW_KIND
+        from riverflow.scenes.tile_kinds import TERRAIN_KINDS
+
+        plan.marked_ahead[FLOW_KIND] = edits.marked_ahead(plan, scene, FLOW_KIND, codes,
+                                                          field.tiles.n_cells)
+        for kind in TERRAIN_KINDS:
+            between_frames()
+            plan.marked_ahead[kind] = edits.marked_ahead(
+                plan, scene, kind, self.tiles.cache.pools[kind].codes(),
+                scene.terrain.tile_cells)
+        between_frames()
         if self.flood is not None:              # the flood's cells on the new network
             from riverflow.hydro.spill_network import build_spill_network
 
@@ -749,9 +762,8 @@ class RiverWorld:
         """Swap an edit in (main thread, between frames): module docstring of
         :mod:`riverflow.engine.edits`, step 3. Returns the changed branches' names."""
         from riverflow.components.flow_tiles import FLOW_KIND
-        from riverflow.engine.edits import (hints_near_changes, renumbered_segments,
-                                            tile_distances, tiles_meeting)
-        from riverflow.scenes.tile_kinds import HINTS, TERRAIN_KINDS, WATER, WATER_MESH
+        from riverflow.engine.edits import marked_at_swap, renumbered_segments
+        from riverflow.scenes.tile_kinds import TERRAIN_KINDS, WATER, WATER_MESH
         from riverflow.tiles.table import codes as tile_codes
 
         t0 = time.perf_counter()
@@ -775,31 +787,29 @@ class RiverWorld:
                 (ready, ready_codes, lists), (seen, seen_codes) = (plan.renumbered,
                                                                    plan.renumbered_all)
                 same = pool.slot_code[ready] == ready_codes
-                segments[ready[same]] = lists[same]
+                if same.all():       # (the usual case: no copy of the lists to copy them)
+                    segments[ready] = lists
+                else:
+                    segments[ready[same]] = lists[same]
                 done = seen[pool.slot_code[seen] == seen_codes]
             seen_now = np.zeros(len(pool.slot_code), bool)
             seen_now[done] = True
             rest = slots[~seen_now[slots]]
             rest, lists = renumbered_segments(segments, rest, plan.segment_map)
             segments[rest] = lists
-            near = tiles_meeting(codes, q, plan.flow_boxes, old.tiles.n_cells)
-            stale[FLOW_KIND] = codes[near]
+        # the tiles the edit makes again, each with its distance to the change (worked out in
+        # the edit's thread for the tiles resident then)
+        rank: dict[str, np.ndarray] = {}
         n = self.scene.terrain.tile_cells
-        for kind in TERRAIN_KINDS:
-            kcodes = cache.pools[kind].codes()
-            near = tiles_meeting(kcodes, q, plan.terrain_boxes, n)
-            if kind == HINTS:     # a hint reads the nearest centre line, however far
-                near |= hints_near_changes(kcodes, q, self.scene, plan.scene, plan.changed)
-            stale[kind] = kcodes[near]
+        for kind, kcodes, cells in [(FLOW_KIND, codes, old.tiles.n_cells)] + [
+                (kind, cache.pools[kind].codes(), n) for kind in TERRAIN_KINDS]:
+            stale[kind], rank[kind] = marked_at_swap(plan, self.scene, kind, kcodes, cells)
         old_process = scheduler.replace_producers(producers, process, close_old=False)
         if old_process is not None:     # closed in the edits' thread, not in this frame
             self._edits.run_later(old_process.close)
         # the river's kinds first, each kind's tiles nearest the change first; of the terrain
         # kinds, the leaves of the view's cut (drawn) before their ancestors (drawn only
         # where a leaf is missing: the leaves stand in resident)
-        centres = np.concatenate([plan.terrain_boxes, plan.flow_boxes])
-        centres = 0.5 * (centres[:, :2] + centres[:, 2:])
-        rank = {kind: tile_distances(codes_, q, centres) for kind, codes_ in stale.items()}
         cut = tile_codes(self.resource(TerrainView).cut)
         later = {kind: stale[kind][~np.isin(stale[kind], cut)] for kind in TERRAIN_KINDS}
         scheduler.invalidate(stale, first=(FLOW_KIND, WATER, WATER_MESH), rank=rank,
