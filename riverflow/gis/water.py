@@ -128,7 +128,9 @@ class WaterBuilder(RiverNetworkBuilder):
 
     def build(self):
         """Make the hydro graph (``graph.source``: the file); errors name the file."""
-        forced: list[tuple[float, float]] = []
+        # the islands read_water already made free stay free (else the loops they broke
+        # come back and take the retries)
+        forced: list[tuple[float, float]] = list(getattr(self, "_forced", ()))
         for _ in range(MAX_ISLAND_RETRIES + 1):
             try:
                 graph = super().build()
@@ -136,7 +138,7 @@ class WaterBuilder(RiverNetworkBuilder):
             except GraphError as exc:
                 point = _shore_point(str(exc))
                 hole = self._hole_at(point) if point is not None else self._hole_by(str(exc))
-                if hole is None or len(forced) == MAX_ISLAND_RETRIES:
+                if hole is None or len(forced) >= MAX_ISLAND_RETRIES:
                     self._raise_named(exc)
                 forced.append(hole)
                 self.report.repair("island", None, None,
@@ -373,8 +375,9 @@ def read_water(path, *, layer: str | int | None = None, lines=None, inlets=None,
     builder._fill = lambda forced: _fill(builder, rivers, line_geoms, inlet_xy, outlet_xy, dem,
                                          discharge_m3s, geometry, tolerance_m, where, forced,
                                          extent, lakes)
+    builder._forced = []
     try:
-        builder._refill([])
+        builder._refill(builder._forced)
     except GraphError as exc:
         text = str(exc)
         raise (exc if text.startswith(str(path)) else GraphError(f"{where}: {text}")) from None
