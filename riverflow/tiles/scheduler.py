@@ -206,6 +206,7 @@ class TileScheduler:
         self._first: frozenset[str] = frozenset()
         self._rank: dict[str, dict[int, float]] = {}      # kind → code → [0, 1) (invalidate)
         self._later: dict[str, set[int]] = {}             # kind → codes made last (invalidate)
+        self._priority: dict[str, tuple[np.ndarray, np.ndarray]] = {}   # (invalidate)
         self._stale_codes: dict[str, np.ndarray] = {}     # the stale sets as arrays (request)
         for producer in producers:
             self.add(producer)
@@ -282,6 +283,20 @@ class TileScheduler:
             self._rank[kind] = dict(zip(np.asarray(stale[kind], np.int64).tolist(),
                                         (values / (top + 1.0)).tolist()))
         self._first = frozenset(first)
+        # each stale tile's place in the queue as sorted arrays: a frame that queues the
+        # stale tiles again looks them up at once (_stale_priorities)
+        self._priority = {}
+        for kind, codes in stale.items():
+            codes = np.asarray(codes, np.int64)
+            ranks = self._rank.get(kind, {})
+            r = (np.fromiter(map(ranks.get, codes.tolist(), [0.0] * len(codes)), np.float64,
+                             len(codes)) if ranks else np.zeros(len(codes)))
+            later_codes = self._later.get(kind)
+            made_later = (np.isin(codes, np.fromiter(later_codes, np.int64, len(later_codes)))
+                          if later_codes else np.zeros(len(codes), bool))
+            place = np.where(made_later, -1.0, -3.0 if kind in self._first else -2.0) + r
+            keys, at = np.unique(codes, return_index=True)
+            self._priority[kind] = (keys, place[at])
         self._stale_codes.clear()        # (only invalidate adds to a stale set)
         self.generation += 1
         self._invalidated_at = self.frame
@@ -399,9 +414,7 @@ class TileScheduler:
             order = (new >> 56).astype(np.float64)
             if stale:
                 again = np.isin(new, self._stale_codes[kind])
-                order[again] = np.fromiter((self._stale_priority(kind, c)
-                                            for c in new[again].tolist()), np.float64,
-                                           int(again.sum()))
+                order[again] = self._stale_priorities(kind, new[again])
             new = new[np.argsort(order, kind="stable")[:self.max_starts]]
         for code in new.tolist():
             started += self._start(kind, code_key(code), code)
@@ -455,6 +468,17 @@ class TileScheduler:
         if code in self._later.get(kind, ()):
             return -1.0 + rank
         return (-3.0 if kind in self._first else -2.0) + rank
+
+    def _stale_priorities(self, kind: str, codes: np.ndarray) -> np.ndarray:
+        """:meth:`_stale_priority` of many stale tiles (from the table :meth:`invalidate`
+        made; a tile left standing in by an earlier edit gets its kind's plain place)."""
+        out = np.full(len(codes), -3.0 if kind in self._first else -2.0)
+        keys, values = self._priority.get(kind, (None, None))
+        if keys is not None and len(keys) and len(codes):
+            at = np.minimum(np.searchsorted(keys, codes), len(keys) - 1)
+            hit = keys[at] == codes
+            out[hit] = values[at[hit]]
+        return out
 
     def _make_now(self, kind: str, key: TileKey, code: int) -> None:
         """Blocking mode: make the dependencies that are not resident, then the tile; install."""

@@ -226,3 +226,27 @@ def test_stale_tiles_made_later_come_after_every_other_even_when_few_are_queued(
         assert order == [(2, 1, 1), (2, 0, 0), (1, 0, 0), (0, 0, 0)]
     finally:
         sched.close()
+
+
+def test_the_stale_tiles_places_looked_up_at_once_are_their_places_one_by_one():
+    """A frame queues its stale tiles in the order of their places looked up at once (the
+    table :meth:`invalidate` makes); each equals the place worked out one tile at a time
+    (rank, made later, the kinds asked first), also for a tile left standing in by an earlier
+    edit, which has no rank in the latest one."""
+    sched = TileScheduler(TileCache(1 << 20), [Level(1.0), Twice()])
+    try:
+        _made(sched)
+        sched.replace_producers([Level(2.0), Twice()])
+        stale = codes(KEYS)
+        sched.invalidate({"a": stale[:10], "b": stale}, first=("b",))
+        rng = np.random.default_rng(3)
+        sched.invalidate({"a": stale[4:], "b": stale[::2]}, first=("a",),
+                         rank={"a": rng.uniform(0, 50, 12), "b": rng.uniform(0, 50, 8)},
+                         later={"a": stale[10:13], "b": stale[:4:2]})
+        for kind in ("a", "b"):
+            many = sched._stale_priorities(kind, stale)
+            one = [sched._stale_priority(kind, c) for c in stale.tolist()]
+            assert many.tolist() == one
+        assert len(set(sched._stale_priorities("a", stale[4:]).tolist())) > 3
+    finally:
+        sched.close()
