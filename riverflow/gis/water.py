@@ -189,18 +189,21 @@ class WaterBuilder(RiverNetworkBuilder):
     def _hole_by(self, text: str):
         """For an error naming a branch whose banks the builder could not tell apart (its
         ψ does not add up round a loop, both its banks one shore, their ψ difference not its
-        discharge, no banks found across it), or branches that do not meet or one that
-        starts and ends at one point (the axes round an island near where the water is cut
-        meet too close to its end for a channel between): a point inside the hole
+        discharge, no banks found across it), or branches that do not meet, one that
+        starts and ends at one point, or a junction that only sends or only takes water (the
+        axes round an island near where the water is cut meet too close to its end, or on
+        it, for a channel between): a point inside the hole
         between channels nearest that branch's middle, or None."""
         import re
 
-        m = re.search(r"branch(?:es)? '([^']+)'", text)
+        m = (re.search(r"branches \['([^']+)'.*all (?:start|end) there", text)
+             or re.search(r"branch(?:es)? '([^']+)'", text))
         k = re.search(r"branch (\d+): (?:ψ\(right\) − ψ\(left\)|no banks found)", text)
         if k is not None and int(k.group(1)) < len(self._branches):
             branch = self._branches[int(k.group(1))]     # its banks not found, or wrong
         elif m is None or ("inconsistent" not in text and "one continuous shore" not in text
-                           and "do not meet" not in text and "the same point" not in text):
+                           and "do not meet" not in text and "the same point" not in text
+                           and " there but none " not in text):
             return None
         else:
             branch = next((b for b in self._branches if b.name == m.group(1)), None)

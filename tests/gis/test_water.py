@@ -662,6 +662,39 @@ def test_both_channels_round_a_cut_island_run_one_way(tmp_path):
     assert (status == INSIDE).all() and len(set(np.sign(v @ t))) == 1
 
 
+def test_channels_meeting_on_the_datas_edge_make_their_island_free(tmp_path):
+    """A 127 m meandering river with three islands (from the survey's seed 67), its data's
+    edge 65 m past the last island's tip: the circle touching both banks and that tip has
+    its centre on the edge, so the channels round the island meet there with no reach out.
+    Their ends on the edge, 9 m apart, became one junction that only sends water ("all
+    start there but none ends there"). The island there is taken as a free island in one
+    channel (reported), as for channels that do not meet: the network builds, the water
+    runs one way."""
+    x = np.linspace(0.0, 714.24, 40)
+    centre = np.c_[x, 65.28 * np.sin(x / 224.31)]
+    river = shapely.LineString(centre).buffer(63.5, cap_style="flat")
+    islands = [shapely.LineString([(cx, cy), (cx + size * math.cos(a), cy + size * math.sin(a))]
+                                  ).buffer(w / 2, quad_segs=6)
+               for cx, cy, size, w, a in [(317.9, 49.9, 137.4, 6.32, 0.1649),
+                                          (482.1, 42.3, 143.5, 8.26, -0.0655),
+                                          (388.0, 87.5, 67.0, 6.46, 0.0198)]]
+    slope = np.array([[2.0, 1.0], [-1.0, 2.0]]) / np.sqrt(5.0)
+    water = shapely.transform(river.difference(shapely.union_all(islands)),
+                              lambda c: c @ slope + (0.0, 150.0))
+    x0, _, x1, _ = water.bounds
+    water = shapely.normalize(shapely.intersection(water, shapely.box(
+        x0 + 0.258 * (x1 - x0), -1e4, x1 - 0.0502 * (x1 - x0), 1e4)))
+    builder = rf.read_water(write_polygons(tmp_path / "edge.geojson", [water]),
+                            origin_m=ORIGIN)
+    graph = builder.build()
+    assert any("all start there" in r.what and "free island" in r.what
+               for r in builder.report.repairs)
+    pts = centre[[12, 20, 28]] @ slope + (0.0, 150.0)
+    status, v = rf.FlowField(graph).query(pts)
+    along = np.einsum("ij,ij->i", v, np.gradient(centre, axis=0)[[12, 20, 28]] @ slope)
+    assert (status == INSIDE).all() and len(set(np.sign(along))) == 1
+
+
 def braid_in_three_lanes(seed: int):
     """A 200 m river with long thin islands (200 - 400 m) in three staggered lanes (y = -50,
     0, 50 m), cut obliquely at both ends by a trapezoid (its ends not along the bounding box:
