@@ -1355,7 +1355,7 @@ def _prune(nbr: list[dict[int, float]], radius: np.ndarray, keep=None, xy=None) 
     than two free ends (a short wide river cut square across at its ends, islands near
     them: each end's spur is shorter than the channels round the islands are wide, and the
     skeleton prunes back to the loops round them), :func:`_restore_ends` gives them back."""
-    leaves_before = sum(len(n) == 1 for n in nbr)
+    ends_before = _end_groups(nbr, radius, xy)
     gone: list[tuple[int, int, float]] = []
     while True:
         spurs: dict[int, list[tuple[float, list[int]]]] = {}
@@ -1385,16 +1385,37 @@ def _prune(nbr: list[dict[int, float]], radius: np.ndarray, keep=None, xy=None) 
                     if b in nbr[a]:
                         gone.append((a, b, nbr[a].pop(b)))
                     nbr[b].pop(a, None)
-    if xy is not None and leaves_before >= 2 and sum(len(n) == 1 for n in nbr) < 2:
-        _restore_ends(nbr, gone, xy)
+    if xy is not None and ends_before >= 2 and _end_groups(nbr, radius, xy) < 2:
+        _restore_ends(nbr, gone, xy, radius)
+
+
+def _end_groups(nbr: list[dict[int, float]], radius: np.ndarray, xy) -> int:
+    """How many ends the skeleton's free ends make: free ends nearer each other than their
+    widths together are one end (the channels on either side of an island the data's edge
+    cuts open); without ``xy``, the free ends."""
+    leaves = [i for i in range(len(nbr)) if len(nbr[i]) == 1]
+    if xy is None or len(leaves) < 2:
+        return len(leaves)
+    group = list(range(len(leaves)))
+
+    def root(a: int) -> int:
+        while group[a] != a:
+            a = group[a]
+        return a
+    for i in range(len(leaves)):
+        for j in range(i + 1, len(leaves)):
+            a, b = leaves[i], leaves[j]
+            if np.hypot(*(xy[a] - xy[b])) <= 2.0 * (radius[a] + radius[b]):
+                group[root(i)] = root(j)
+    return len({root(i) for i in range(len(leaves))})
 
 
 def _restore_ends(nbr: list[dict[int, float]], gone: list[tuple[int, int, float]],
-                  xy: np.ndarray) -> None:
-    """Give a pruned skeleton back the free ends it needs (two at least): from the nodes
-    still in it, the pruned branches' trunks (each followed until it forks, where a river's
-    end cut square across parts into its two corners, or ends), the trunks whose ends lie
-    farthest from each other and from the free ends left."""
+                  xy: np.ndarray, radius: np.ndarray) -> None:
+    """Give a pruned skeleton back the ends it needs (two at least, :func:`_end_groups`):
+    from the nodes still in it, the pruned branches' trunks (each followed until it forks,
+    where a river's end cut square across parts into its two corners, or ends), the trunks
+    whose ends lie farthest from each other and from the free ends left."""
     pruned: dict[int, dict[int, float]] = {}
     for a, b, d in gone:
         pruned.setdefault(a, {})[b] = d
@@ -1411,7 +1432,8 @@ def _restore_ends(nbr: list[dict[int, float]], gone: list[tuple[int, int, float]
             trunks.append(path)
     leaves = [i for i in range(len(nbr)) if len(nbr[i]) == 1]
     chosen: list[list[int]] = []
-    while len(leaves) + len(chosen) < 2 and len(chosen) < len(trunks):
+    while (_end_groups(nbr, radius, xy) + len(chosen) < 2 if leaves else len(chosen) < 2) \
+            and len(chosen) < len(trunks):
         ends = xy[leaves + [p[-1] for p in chosen]]
         if len(ends):
             def score(p, ends=ends):

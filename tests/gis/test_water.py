@@ -695,6 +695,40 @@ def test_channels_meeting_on_the_datas_edge_make_their_island_free(tmp_path):
     assert (status == INSIDE).all() and len(set(np.sign(along))) == 1
 
 
+def test_an_end_pruned_away_comes_back_beside_two_ends_at_the_edge(tmp_path):
+    """A 190 m river with a 464 m island along one bank and a 114 m one mid-stream, cut by
+    the data's box at both ends (from the survey's seed 299): at the downstream edge the
+    channels on either side of the long island end beside each other, one end of the river;
+    upstream, the box cuts the water along a bank and the skeleton's end there was pruned.
+    Two free ends were left, both at the downstream edge, so nothing was given back, and the
+    build failed (one channel's end there does not reach across the water). Free ends
+    nearer each other than their widths together count as one end: the upstream end is
+    given back, the network builds and the water runs one way."""
+    x = np.linspace(0.0, 944.22, 40)
+    centre = np.c_[x, 5.32 * np.sin(x / 329.93)]
+    river = shapely.LineString(centre).buffer(94.76, cap_style="flat")
+    islands = [shapely.LineString([(cx, cy), (cx + size * math.cos(a), cy + size * math.sin(a))]
+                                  ).buffer(w / 2, quad_segs=6)
+               for cx, cy, size, w, a in [(365.2, 18.8, 114.0, 17.19, 0.1631),
+                                          (192.7, -45.4, 463.7, 15.77, -0.0525)]]
+    slope = np.array([[2.0, 1.0], [-1.0, 2.0]]) / np.sqrt(5.0)
+    water = shapely.transform(river.difference(shapely.union_all(islands)),
+                              lambda c: c @ slope + (0.0, 150.0))
+    x0, _, x1, _ = water.bounds
+    edge0, edge1 = x0 + 0.2256 * (x1 - x0), x1 - 0.2398 * (x1 - x0)
+    water = shapely.normalize(shapely.intersection(water, shapely.box(edge0, -1e4, edge1, 1e4)))
+    builder = rf.read_water(write_polygons(tmp_path / "edge.geojson", [water]),
+                            origin_m=ORIGIN)
+    graph = builder.build()
+    lines = [c for _, c in _channels(builder)]
+    ends = [p for ln in lines for p in (ln[0], ln[-1])]
+    assert sum(abs(p[0] - edge0) < 30.0 for p in ends) >= 1      # an end upstream again
+    pts = centre[[15, 22]] @ slope + (0.0, 150.0)
+    status, v = rf.FlowField(graph).query(pts)
+    along = np.einsum("ij,ij->i", v, np.gradient(centre, axis=0)[[15, 22]] @ slope)
+    assert (status == INSIDE).all() and len(set(np.sign(along))) == 1
+
+
 def braid_in_three_lanes(seed: int):
     """A 200 m river with long thin islands (200 - 400 m) in three staggered lanes (y = -50,
     0, 50 m), cut obliquely at both ends by a trapezoid (its ends not along the bounding box:
