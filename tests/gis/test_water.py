@@ -6,6 +6,7 @@ clear GraphError or a reported repair."""
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 import pytest
@@ -530,6 +531,45 @@ def test_a_braid_of_three_channels(tmp_path):
     assert (status == INSIDE).all() and (v[:, 0] > 0).all()
 
 
+SLOPE = np.array([[2.0, 1.0], [-1.0, 2.0]]) / np.sqrt(5.0)
+"""The survey's river frame in the map's (rows: downstream, to its left; a slope of 1/2, so
+that its ends cut square across it do not lie on its box's edges)."""
+
+
+class SurveyRiver(NamedTuple):
+    water: shapely.Geometry
+    centre: np.ndarray
+    """(40, 2) the centre line, in the river's frame [m] (``@ SLOPE + shift``: the map's)."""
+    islands: list
+    """The islands, in the map's frame."""
+    edges: tuple[float, float] | None
+    """x [m] of the data's box's upstream and downstream edges (None: not cut)."""
+
+
+def survey_river(length: float, width: float, amplitude: float, period: float, islands,
+                 clip=None, shift=(0.0, 0.0)) -> SurveyRiver:
+    """A river polygon as ``benchmarks/survey_water.py`` draws one: a sine meander (40
+    points) buffered with flat ends, long thin islands ``(x, y, length, width, angle)`` in
+    the river's frame taken out, turned to SLOPE and shifted by ``shift``, and with ``clip``
+    ``(a, b)`` cut by the box from ``a`` of its extent in from the left to ``b`` in from the
+    right (the data's edge)."""
+    x = np.linspace(0.0, length, 40)
+    centre = np.c_[x, amplitude * np.sin(x / period)]
+    river = shapely.LineString(centre).buffer(width / 2, cap_style="flat")
+    holes = [shapely.LineString([(cx, cy), (cx + size * math.cos(a), cy + size * math.sin(a))]
+                                ).buffer(w / 2, quad_segs=6) for cx, cy, size, w, a in islands]
+
+    def to_map(g):
+        return shapely.transform(g, lambda c: c @ SLOPE + shift)
+    water = to_map(river.difference(shapely.union_all(holes)))
+    edges = None
+    if clip is not None:
+        x0, _, x1, _ = water.bounds
+        edges = (x0 + clip[0] * (x1 - x0), x1 - clip[1] * (x1 - x0))
+        water = shapely.intersection(water, shapely.box(edges[0], -1e4, edges[1], 1e4))
+    return SurveyRiver(shapely.normalize(water), centre, [to_map(h) for h in holes], edges)
+
+
 def test_a_short_river_cut_across_keeps_its_ends_beside_a_long_island(tmp_path):
     """A 100 m river, 800 m long, cut square across at both ends (slanted: not along the
     data's edge) with a 430 m island 185 m from its upstream end: each end's axis is shorter
@@ -564,16 +604,8 @@ def test_channels_meeting_at_the_datas_edge_make_their_island_free(tmp_path):
     quarter of its width, which the builder cannot tell from a point. The island is taken as
     a free island in one channel (reported), as for channels that do not meet: the network
     builds and its water flows one way past the island."""
-    x = np.linspace(0.0, 636.0, 40)
-    river = shapely.LineString(np.c_[x, 30.0 * np.sin(x / 266.0)]).buffer(123.0,
-                                                                          cap_style="flat")
-    a, t = np.array([134.0, -11.0]), np.array([math.cos(-0.18), math.sin(-0.18)])
-    island = shapely.LineString([a, a + 178.0 * t]).buffer(9.0, quad_segs=6)
-    slope = np.array([[2.0, 1.0], [-1.0, 2.0]]) / np.sqrt(5.0)
-    water = shapely.transform(river.difference(island), lambda c: c @ slope)
-    x0, _, x1, _ = water.bounds
-    water = shapely.normalize(shapely.intersection(water, shapely.box(
-        x0 + 0.02 * (x1 - x0), -1e4, x1 - 0.29 * (x1 - x0), 1e4)))
+    water = survey_river(636.0, 246.0, 30.0, 266.0, [(134.0, -11.0, 178.0, 18.0, -0.18)],
+                         clip=(0.02, 0.29)).water
     builder = rf.read_water(write_polygons(tmp_path / "edge.geojson", [water]),
                             origin_m=ORIGIN)
     graph = builder.build()
@@ -582,10 +614,10 @@ def test_channels_meeting_at_the_datas_edge_make_their_island_free(tmp_path):
     assert any("starts and ends at the same point" in r.what and "free island" in r.what
                for r in builder.report.repairs)
     # beside the island, on either side: down the river
-    pts = np.array([[134.0 + 89.0 * t[0], y] for y in (-80.0, 70.0)]) @ slope
+    pts = np.array([[134.0 + 89.0 * math.cos(-0.18), y] for y in (-80.0, 70.0)]) @ SLOPE
     status, v = rf.FlowField(graph).query(pts)
     assert (status == INSIDE).all()
-    along = v @ slope[0]
+    along = v @ SLOPE[0]
     assert (np.abs(along) > 0.8 * np.hypot(*v.T)).all() and len(set(np.sign(along))) == 1
 
 
@@ -596,17 +628,9 @@ def test_an_island_cut_open_by_the_datas_edge_has_a_channel_out_on_each_side(tmp
     both and the other channel had no axis ("its axis lies on its right"); its widths at the
     edge were read from the island's and banks' shores only beyond a quarter width of it.
     The two ends are one end of the river: both channels enter there or both leave."""
-    x = np.linspace(0.0, 1334.0, 40)
-    river = shapely.LineString(np.c_[x, 63.9 * np.sin(x / 161.2)]).buffer(92.7,
-                                                                         cap_style="flat")
-    a, t = np.array([1082.5, 14.3]), np.array([math.cos(0.178), math.sin(0.178)])
-    island = shapely.LineString([a, a + 150.2 * t]).buffer(9.2, quad_segs=6)
-    slope = np.array([[2.0, 1.0], [-1.0, 2.0]]) / np.sqrt(5.0)
-    water = shapely.transform(river.difference(island), lambda c: c @ slope)
-    x0, _, x1, _ = water.bounds
-    edge = x1 - 0.1402 * (x1 - x0)
-    water = shapely.normalize(shapely.intersection(water, shapely.box(
-        x0 + 0.2726 * (x1 - x0), -1e4, edge, 1e4)))
+    river = survey_river(1334.0, 185.4, 63.9, 161.2, [(1082.5, 14.3, 150.2, 18.4, 0.178)],
+                         clip=(0.2726, 0.1402))
+    water, edge = river.water, river.edges[1]
     assert len(water.interiors) == 0                  # the island is a notch from the edge
     builder = rf.read_water(write_polygons(tmp_path / "cut.geojson", [water]),
                             origin_m=ORIGIN)
@@ -614,8 +638,8 @@ def test_an_island_cut_open_by_the_datas_edge_has_a_channel_out_on_each_side(tmp
     assert builder.report.derived["axes"] == {"skeleton": 3} and not builder.report.repairs
     lines = [c for _, c in _channels(builder)]
     on_edge = sorted(p[1] for ln in lines for p in (ln[0], ln[-1]) if abs(p[0] - edge) < 1e-6)
-    stub = shapely.intersection(shapely.transform(island, lambda c: c @ slope),
-                                shapely.LineString([(edge, -1e4), (edge, 1e4)]))
+    stub = shapely.intersection(river.islands[0], shapely.LineString([(edge, -1e4),
+                                                                     (edge, 1e4)]))
     lo, hi = stub.bounds[1], stub.bounds[3]
     assert len(on_edge) == 2 and on_edge[0] < lo and on_edge[1] > hi    # one on each side
     # both enter there or both leave: one end of the river, not a loop round the island
@@ -670,28 +694,19 @@ def test_channels_meeting_on_the_datas_edge_make_their_island_free(tmp_path):
     start there but none ends there"). The island there is taken as a free island in one
     channel (reported), as for channels that do not meet: the network builds, the water
     runs one way."""
-    x = np.linspace(0.0, 714.24, 40)
-    centre = np.c_[x, 65.28 * np.sin(x / 224.31)]
-    river = shapely.LineString(centre).buffer(63.5, cap_style="flat")
-    islands = [shapely.LineString([(cx, cy), (cx + size * math.cos(a), cy + size * math.sin(a))]
-                                  ).buffer(w / 2, quad_segs=6)
-               for cx, cy, size, w, a in [(317.9, 49.9, 137.4, 6.32, 0.1649),
-                                          (482.1, 42.3, 143.5, 8.26, -0.0655),
-                                          (388.0, 87.5, 67.0, 6.46, 0.0198)]]
-    slope = np.array([[2.0, 1.0], [-1.0, 2.0]]) / np.sqrt(5.0)
-    water = shapely.transform(river.difference(shapely.union_all(islands)),
-                              lambda c: c @ slope + (0.0, 150.0))
-    x0, _, x1, _ = water.bounds
-    water = shapely.normalize(shapely.intersection(water, shapely.box(
-        x0 + 0.258 * (x1 - x0), -1e4, x1 - 0.0502 * (x1 - x0), 1e4)))
+    water, centre, _, _ = survey_river(
+        714.24, 127.0, 65.28, 224.31, [(317.9, 49.9, 137.4, 6.32, 0.1649),
+                                       (482.1, 42.3, 143.5, 8.26, -0.0655),
+                                       (388.0, 87.5, 67.0, 6.46, 0.0198)],
+        clip=(0.258, 0.0502), shift=(0.0, 150.0))
     builder = rf.read_water(write_polygons(tmp_path / "edge.geojson", [water]),
                             origin_m=ORIGIN)
     graph = builder.build()
     assert any("all start there" in r.what and "free island" in r.what
                for r in builder.report.repairs)
-    pts = centre[[12, 20, 28]] @ slope + (0.0, 150.0)
+    pts = centre[[12, 20, 28]] @ SLOPE + (0.0, 150.0)
     status, v = rf.FlowField(graph).query(pts)
-    along = np.einsum("ij,ij->i", v, np.gradient(centre, axis=0)[[12, 20, 28]] @ slope)
+    along = np.einsum("ij,ij->i", v, np.gradient(centre, axis=0)[[12, 20, 28]] @ SLOPE)
     assert (status == INSIDE).all() and len(set(np.sign(along))) == 1
 
 
@@ -704,28 +719,19 @@ def test_an_end_pruned_away_comes_back_beside_two_ends_at_the_edge(tmp_path):
     build failed (one channel's end there does not reach across the water). Free ends
     nearer each other than their widths together count as one end: the upstream end is
     given back, the network builds and the water runs one way."""
-    x = np.linspace(0.0, 944.22, 40)
-    centre = np.c_[x, 5.32 * np.sin(x / 329.93)]
-    river = shapely.LineString(centre).buffer(94.76, cap_style="flat")
-    islands = [shapely.LineString([(cx, cy), (cx + size * math.cos(a), cy + size * math.sin(a))]
-                                  ).buffer(w / 2, quad_segs=6)
-               for cx, cy, size, w, a in [(365.2, 18.8, 114.0, 17.19, 0.1631),
-                                          (192.7, -45.4, 463.7, 15.77, -0.0525)]]
-    slope = np.array([[2.0, 1.0], [-1.0, 2.0]]) / np.sqrt(5.0)
-    water = shapely.transform(river.difference(shapely.union_all(islands)),
-                              lambda c: c @ slope + (0.0, 150.0))
-    x0, _, x1, _ = water.bounds
-    edge0, edge1 = x0 + 0.2256 * (x1 - x0), x1 - 0.2398 * (x1 - x0)
-    water = shapely.normalize(shapely.intersection(water, shapely.box(edge0, -1e4, edge1, 1e4)))
+    water, centre, _, (edge0, _) = survey_river(
+        944.22, 189.52, 5.32, 329.93, [(365.2, 18.8, 114.0, 17.19, 0.1631),
+                                       (192.7, -45.4, 463.7, 15.77, -0.0525)],
+        clip=(0.2256, 0.2398), shift=(0.0, 150.0))
     builder = rf.read_water(write_polygons(tmp_path / "edge.geojson", [water]),
                             origin_m=ORIGIN)
     graph = builder.build()
     lines = [c for _, c in _channels(builder)]
     ends = [p for ln in lines for p in (ln[0], ln[-1])]
     assert sum(abs(p[0] - edge0) < 30.0 for p in ends) >= 1      # an end upstream again
-    pts = centre[[15, 22]] @ slope + (0.0, 150.0)
+    pts = centre[[15, 22]] @ SLOPE + (0.0, 150.0)
     status, v = rf.FlowField(graph).query(pts)
-    along = np.einsum("ij,ij->i", v, np.gradient(centre, axis=0)[[15, 22]] @ slope)
+    along = np.einsum("ij,ij->i", v, np.gradient(centre, axis=0)[[15, 22]] @ SLOPE)
     assert (status == INSIDE).all() and len(set(np.sign(along))) == 1
 
 

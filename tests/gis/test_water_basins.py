@@ -12,7 +12,8 @@ from shapely.geometry import box
 
 import riverflow as rf
 from tests.gis.conftest import ORIGIN, require_gis
-from tests.gis.test_water import closing_segments, outline_samples, write_polygons
+from tests.gis.test_water import (SLOPE, closing_segments, outline_samples, survey_river,
+                                  write_polygons)
 
 require_gis()
 
@@ -403,21 +404,12 @@ def test_a_basin_whose_mouth_is_at_a_junction(tmp_path):
     a junction and on the basin. A basin is still water off the side of a river: no branch
     starts or ends on its shore. The network builds, the backwater is still, the river
     past its mouth runs on."""
-    x = np.linspace(0.0, 1410.2, 40)
     amp, period = 0.7493 * 193.7, 371.0
-    river = shapely.LineString(np.c_[x, amp * np.sin(x / period)]).buffer(96.87,
-                                                                         cap_style="flat")
-    spit = shapely.LineString([(970.3, 90.2), (970.3 + 178.7 * np.cos(0.1359),
-                                               90.2 + 178.7 * np.sin(0.1359))]).buffer(6.89,
-                                                                                   quad_segs=6)
-    island = shapely.LineString([(384.7, 111.3), (384.7 + 235.4 * np.cos(-0.0583),
-                                                  111.3 + 235.4 * np.sin(-0.0583))]
-                                ).buffer(7.15, quad_segs=6)
-    slope = np.array([[2.0, 1.0], [-1.0, 2.0]]) / np.sqrt(5.0)
-    water = shapely.transform(river.difference(shapely.union_all([spit, island])),
-                              lambda c: c @ slope + (0.0, 150.0))
-    builder = rf.read_water(write_polygons(tmp_path / "spit.geojson",
-                                           [shapely.normalize(water)]), origin_m=ORIGIN)
+    water = survey_river(1410.2, 193.74, amp, period, [(970.3, 90.2, 178.7, 13.78, 0.1359),
+                                                       (384.7, 111.3, 235.4, 14.3, -0.0583)],
+                         shift=(0.0, 150.0)).water
+    builder = rf.read_water(write_polygons(tmp_path / "spit.geojson", [water]),
+                            origin_m=ORIGIN)
     graph = builder.build()
     assert len(builder.basins) == 1
     basin = builder.basins[0].polygon
@@ -429,7 +421,7 @@ def test_a_basin_whose_mouth_is_at_a_junction(tmp_path):
     status, v = field.query(pts)
     assert len(pts) > 5 and (status == INSIDE).all() and np.hypot(*v.T).max() < 0.05
     # the river past the mouth, mid-way across it below the spit
-    below = np.array([[1100.0, amp * np.sin(1100.0 / period) - 40.0]]) @ slope + (0.0, 150.0)
+    below = np.array([[1100.0, amp * np.sin(1100.0 / period) - 40.0]]) @ SLOPE + (0.0, 150.0)
     status, v = field.query(below)
     assert status[0] == INSIDE and np.hypot(*v[0]) > 0.5
 
