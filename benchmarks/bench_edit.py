@@ -17,7 +17,9 @@ the edits' thread's, which run in its idle time).
    swap (the new network made), to the river's last new tile drawn (flow, water, water
    mesh), to the last new tile drawn (of the terrain kinds, the leaves of the view's cut;
    with the tile process's CPU seconds then) and to the last new tile in view (no stale
-   tile the frame asks for, ancestors included), the CPU
+   tile the frame asks for, ancestors included; an edit whose tiles are not in view by the
+   next edit's time delays that edit, up to ``--wait`` s, so each edit reports a figure:
+   ``in_view_past_next_edit`` counts them), the CPU
    seconds the tile process (forked again for the edit) spent until then or until the next
    edit (what remaking the tiles costs, whatever the machine's load), and every frame's
    wall and CPU ms while edits run.
@@ -104,7 +106,8 @@ def _stale_in_view(world, kinds=None, drawn: bool = False) -> int:
                for k in (kinds or sched.producers))
 
 
-def run(size, edits: int, every: int, bump_m: float, warm: int, seed: int) -> dict:
+def run(size, edits: int, every: int, bump_m: float, warm: int, seed: int,
+        wait_s: float = 30.0) -> dict:
     import riverflow as rf
 
     world = rf.RiverWorld(rf.default_scene(seed=seed), size=size, gl=False, seed=seed)
@@ -139,13 +142,16 @@ def run(size, edits: int, every: int, bump_m: float, warm: int, seed: int) -> di
     during, swap_s, in_view_s, marked, swap_ms, river_s = [], [], [], [], [], []
     drawn_s, drawn_cpu_s = [], []
     worker_cpu_s: list[float] = []
+    late = 0          # edits whose tiles were not in view by the next edit's time
     for e in range(edits):
         sign = 1.0 if e % 2 == 0 else -1.0
         t0 = time.perf_counter()
         applied = world.edits.applied if world.edits is not None else 0
         future = world.move_axis(link, _bumped(line0, sign * bump_m, at, width), wait=False)
         swapped = river = drawn = None
-        for k in range(every):
+        for k in range(max(every, int(wait_s * 60.0))):
+            if k == every:
+                late += 1        # not in view by the next edit's time: the edit waits
             during.append(frame())
             if swapped is None and world.edits.applied > applied:
                 swapped = time.perf_counter() - t0
@@ -170,7 +176,7 @@ def run(size, edits: int, every: int, bump_m: float, warm: int, seed: int) -> di
         drawn_s.append(drawn if drawn is not None else np.nan)
         swap_s.append(swapped if swapped is not None else np.nan)
         future.result(0) if future.done() else None
-        for _ in range(every - 1 - k):
+        for _ in range(every - 1 - k):        # none once past the next edit's time
             during.append(frame())
     during = np.array(during)
     med = float(np.median(during[:, 0]))
@@ -190,6 +196,7 @@ def run(size, edits: int, every: int, bump_m: float, warm: int, seed: int) -> di
         "in_view_s_median": float(np.nanmedian(in_view_s)),
         "in_view_s_max": float(np.nanmax(in_view_s)),
         "in_view_late": int(np.sum(~(np.array(in_view_s) <= 0.5))),
+        "in_view_past_next_edit": late,
         "edit_frames": len(during), "edit_ms_median": med,
         "edit_cpu_ms_median": float(np.median(during[:, 1])),
         "edit_ms_p99": float(np.percentile(during[:, 0], 99)),
@@ -417,6 +424,8 @@ def main() -> None:
     ap.add_argument("--every", type=int, default=60, help="frames between edits")
     ap.add_argument("--bump", type=float, default=20.0, help="[m]")
     ap.add_argument("--warm", type=int, default=120)
+    ap.add_argument("--wait", type=float, default=30.0,
+                    help="[s] longest an edit waits for its tiles in view (then NaN)")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--json", default=None)
     ap.add_argument("--in-place", type=int, default=0,
@@ -437,7 +446,8 @@ def main() -> None:
     elif args.in_place:
         out = in_place(tuple(args.size), args.in_place, args.bump, args.seed)
     else:
-        out = run(tuple(args.size), args.edits, args.every, args.bump, args.warm, args.seed)
+        out = run(tuple(args.size), args.edits, args.every, args.bump, args.warm, args.seed,
+                  args.wait)
     for k, v in out.items():
         print(f"{k:>30}: {v:.4g}" if isinstance(v, float) else f"{k:>30}: {v}")
     if args.json:

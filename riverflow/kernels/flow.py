@@ -651,9 +651,19 @@ def build_flow_tile(
                                 list_hi, listed, True, curve_bbox, curve_cutoff, blk_curve,
                                 blk_start, blk_count, blk_seg, blk_dmin2, tmp_d2)
             near_cap = False
+            wet = False     # an axis within its half width of the block: else all is dry
             for k in range(nb):
-                if curve_kind[blk_curve[k]] == KIND_CAP:
+                c = blk_curve[k]
+                if curve_kind[c] == KIND_CAP:
                     near_cap = True
+                elif curve_kind[c] == KIND_AXIS and not wet:
+                    reach2 = curve_hw2[c] * (1.0 + NEAR_BOX_SLACK) + NEAR_BOX_SLACK
+                    for q in range(blk_start[k], blk_start[k] + blk_count[k]):
+                        s = blk_seg[q]
+                        if _segment_box_dist2(seg_ax[s], seg_ay[s], seg_bx[s], seg_by[s],
+                                              x0, y0, x1, y1) < reach2:
+                            wet = True
+                            break
             for j in range(bj, j_hi):
                 py = origin_y + (gj0 + j - ring) * h
                 for i in range(bi, i_hi):
@@ -661,7 +671,7 @@ def build_flow_tile(
                     psi = np.nan
                     near2 = np.inf
                     bank2 = np.inf
-                    if nb > 0:
+                    if wet:
                         psi, near2, bank2 = potential_and_shore_at(
                             px, py, nb, blk_curve, blk_start, blk_count, blk_seg, blk_dmin2,
                             seg_ax, seg_ay, seg_bx, seg_by, curve_kind, curve_comp,
