@@ -79,8 +79,9 @@ class EditPlan:
     """The new network's cells for a running flood (:mod:`riverflow.hydro.spill_network`),
     None without one."""
     flood_router: object = None
-    """A flood router on :attr:`cell_network` with its drawn level's textures made (a
-    running flood drawn by a GL world), None otherwise: the swap carries the flood onto it."""
+    """A flood router on :attr:`cell_network` with its level's textures made (what the
+    shaders draw the rise from and the particles are lifted by), None without a flood: the
+    swap carries the flood onto it."""
     spill_network: object = None
     """The new network's cells for the spills (their dispersion), None without spills."""
     dropped: list[str] = field(default_factory=list)

@@ -693,12 +693,13 @@ class RiverWorld:
             plan.cell_network = build_spill_network(
                 new_scene.branches, [b.discharge_m2s for b in new_scene.branches])
             between_frames()
-            if self.gl and self.flood.drawn:    # its drawn level's textures, made here: not
-                from riverflow.hydro.flood import FloodRouter   # in the frame that draws it
+            # its level's textures, made here: not in the frame that first reads the raised
+            # level (that draws it, or lifts the particles onto it: ~0.2 s in a frame)
+            from riverflow.hydro.flood import FloodRouter
 
-                plan.flood_router = FloodRouter(plan.cell_network)
-                plan.flood_router.level_textures()
-                between_frames()
+            plan.flood_router = FloodRouter(plan.cell_network)
+            plan.flood_router.level_textures()
+            between_frames()
         solver = self.spill_solver
         if solver is not None:                   # the spills' cells on the new network
             from riverflow.hydro.spill_network import build_spill_network

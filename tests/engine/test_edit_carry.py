@@ -135,6 +135,9 @@ def test_a_running_flood_keeps_its_wave_across_an_edit(world):
     assert rise.max() > 0.05 and rise.min() < 0.5 * rise.max()
     w.set_width(0, 18.0)                          # the other river edited
     router = w.flood
+    # its level's textures made with the edit, not by the first frame that reads the
+    # raised level (the particles' altitudes: ~0.2 s in that frame, drawn or not)
+    assert router._level_tex is not None
     net = router.network
     on = net.cell_link == net.names.index(calm)
     assert np.array_equal(router.cell_level_rise_m()[on], rise)   # the same wave, carried
