@@ -80,8 +80,9 @@ class EditPlan:
     None without one."""
     flood_router: object = None
     """A flood router on :attr:`cell_network` with its level's textures made (what the
-    shaders draw the rise from and the particles are lifted by), None without a flood: the
-    swap carries the flood onto it."""
+    shaders draw the rise from and the particles are lifted by) as the old router had them
+    (:meth:`RiverWorld.set_hydrograph` makes them), None otherwise: the swap carries the
+    flood onto it."""
     spill_network: object = None
     """The new network's cells for the spills (their dispersion), None without spills."""
     dropped: list[str] = field(default_factory=list)

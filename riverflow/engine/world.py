@@ -488,6 +488,9 @@ class RiverWorld:
             router = FloodRouter(self._cell_network(), self.clock.now_s)
             router.set_hydrograph(link, times_s, discharge_m3s)    # raises before it is kept
             router.ground = self._flood_ground
+            # the level's textures now (~0.2 s, in this call): not in the frame in which
+            # the flood first steps and the particles are lifted onto its level
+            router.level_textures()
             self.resources[_FloodRouterKey] = router
             self.field.discharge_scale = router.scale_velocity
             return
@@ -693,13 +696,15 @@ class RiverWorld:
             plan.cell_network = build_spill_network(
                 new_scene.branches, [b.discharge_m2s for b in new_scene.branches])
             between_frames()
-            # its level's textures, made here: not in the frame that first reads the raised
-            # level (that draws it, or lifts the particles onto it: ~0.2 s in a frame)
-            from riverflow.hydro.flood import FloodRouter
+            if self.flood.textures_made:
+                # its level's textures, made here as the old router had them: not in the
+                # frame that first reads the raised level (draws it, or lifts the particles
+                # onto it: ~0.2 s in a frame)
+                from riverflow.hydro.flood import FloodRouter
 
-            plan.flood_router = FloodRouter(plan.cell_network)
-            plan.flood_router.level_textures()
-            between_frames()
+                plan.flood_router = FloodRouter(plan.cell_network)
+                plan.flood_router.level_textures()
+                between_frames()
         solver = self.spill_solver
         if solver is not None:                   # the spills' cells on the new network
             from riverflow.hydro.spill_network import build_spill_network

@@ -371,6 +371,11 @@ class FloodRouter:
         return bool(np.any(np.abs(self.a - 1.0) > ACTIVE_EPS))
 
     @property
+    def textures_made(self) -> bool:
+        """Whether :meth:`level_textures` has been made (it is made once, on first need)."""
+        return self._level_tex is not None
+
+    @property
     def drawn(self) -> bool:
         """Whether the drawn water or ground differs from base flow (:attr:`active`, or
         ground still wet from a flood)."""
