@@ -127,6 +127,8 @@ def test_a_running_flood_keeps_its_wave_across_an_edit(world):
     w = world
     calm = w.scene.branches[1].name
     w.set_hydrograph(calm, [w.flood_time_s, w.flood_time_s + 30.0], [20.0, 60.0])
+    # the level's textures made with the router, in this call, not in a frame
+    assert w.flood.textures_made
     w.advance_flood(90.0)                        # a wave part-way down the river
     router = w.flood
     net = router.network
@@ -137,7 +139,7 @@ def test_a_running_flood_keeps_its_wave_across_an_edit(world):
     router = w.flood
     # its level's textures made with the edit, not by the first frame that reads the
     # raised level (the particles' altitudes: ~0.2 s in that frame, drawn or not)
-    assert router._level_tex is not None
+    assert router.textures_made
     net = router.network
     on = net.cell_link == net.names.index(calm)
     assert np.array_equal(router.cell_level_rise_m()[on], rise)   # the same wave, carried
