@@ -1355,7 +1355,7 @@ def _prune(nbr: list[dict[int, float]], radius: np.ndarray, keep=None, xy=None) 
     than two free ends (a short wide river cut square across at its ends, islands near
     them: each end's spur is shorter than the channels round the islands are wide, and the
     skeleton prunes back to the loops round them), :func:`_restore_ends` gives them back."""
-    ends_before = _end_groups(nbr, radius, xy)
+    leaves_before = [i for i in range(len(nbr)) if len(nbr[i]) == 1]
     gone: list[tuple[int, int, float]] = []
     while True:
         spurs: dict[int, list[tuple[float, list[int]]]] = {}
@@ -1385,29 +1385,29 @@ def _prune(nbr: list[dict[int, float]], radius: np.ndarray, keep=None, xy=None) 
                     if b in nbr[a]:
                         gone.append((a, b, nbr[a].pop(b)))
                     nbr[b].pop(a, None)
-    if xy is not None and ends_before >= 2 and _end_groups(nbr, radius, xy) < 2:
+    if xy is None:
+        return
+    leaves = [i for i in range(len(nbr)) if len(nbr[i]) == 1]
+    if _end_groups(leaves, radius, xy) < 2 and _end_groups(leaves_before, radius, xy) >= 2:
         _restore_ends(nbr, gone, xy, radius)
 
 
-def _end_groups(nbr: list[dict[int, float]], radius: np.ndarray, xy) -> int:
-    """How many ends the skeleton's free ends make: free ends nearer each other than their
-    widths together are one end (the channels on either side of an island the data's edge
-    cuts open); without ``xy``, the free ends."""
-    leaves = [i for i in range(len(nbr)) if len(nbr[i]) == 1]
-    if xy is None or len(leaves) < 2:
+def _end_groups(leaves: list[int], radius: np.ndarray, xy: np.ndarray) -> int:
+    """How many ends the free ends ``leaves`` (skeleton nodes) make: free ends nearer each
+    other than their widths together are one end (the channels on either side of an island
+    the data's edge cuts open)."""
+    if len(leaves) < 2:
         return len(leaves)
-    group = list(range(len(leaves)))
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
 
-    def root(a: int) -> int:
-        while group[a] != a:
-            a = group[a]
-        return a
-    for i in range(len(leaves)):
-        for j in range(i + 1, len(leaves)):
-            a, b = leaves[i], leaves[j]
-            if np.hypot(*(xy[a] - xy[b])) <= 2.0 * (radius[a] + radius[b]):
-                group[root(i)] = root(j)
-    return len({root(i) for i in range(len(leaves))})
+    p, r = xy[leaves], radius[leaves]
+    pairs = cKDTree(p).query_pairs(4.0 * float(r.max()), output_type="ndarray")
+    a, b = pairs[:, 0], pairs[:, 1]
+    near = np.hypot(*(p[a] - p[b]).T) <= 2.0 * (r[a] + r[b])
+    n = len(leaves)
+    return connected_components(coo_matrix((np.ones(int(near.sum())), (a[near], b[near])),
+                                           shape=(n, n)), directed=False)[0]
 
 
 def _restore_ends(nbr: list[dict[int, float]], gone: list[tuple[int, int, float]],
@@ -1432,8 +1432,8 @@ def _restore_ends(nbr: list[dict[int, float]], gone: list[tuple[int, int, float]
             trunks.append(path)
     leaves = [i for i in range(len(nbr)) if len(nbr[i]) == 1]
     chosen: list[list[int]] = []
-    while (_end_groups(nbr, radius, xy) + len(chosen) < 2 if leaves else len(chosen) < 2) \
-            and len(chosen) < len(trunks):
+    have = _end_groups(leaves, radius, xy)
+    while have + len(chosen) < 2 and len(chosen) < len(trunks):
         ends = xy[leaves + [p[-1] for p in chosen]]
         if len(ends):
             def score(p, ends=ends):
