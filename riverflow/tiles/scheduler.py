@@ -207,7 +207,8 @@ class TileScheduler:
         self._rank: dict[str, dict[int, float]] = {}      # kind → code → [0, 1) (invalidate)
         self._later: dict[str, set[int]] = {}             # kind → codes made last (invalidate)
         self._priority: dict[str, tuple[np.ndarray, np.ndarray]] = {}   # (invalidate)
-        self._stale_codes: dict[str, np.ndarray] = {}     # the stale sets as arrays (request)
+        # the stale sets as hash tables (request: a frame's codes looked up in one call)
+        self._stale_codes: dict[str, tuple[int, TileTable]] = {}
         for producer in producers:
             self.add(producer)
 
@@ -339,6 +340,17 @@ class TileScheduler:
                 out = {c for c in out if self._wanted[kind].get(c) == self.frame}
         return out
 
+    def _stale_table(self, kind: str) -> TileTable:
+        """The stale tiles of ``kind`` as a :class:`TileTable` (made again when the set has
+        shrunk: only :meth:`invalidate` adds to it, and it clears these)."""
+        stale = self._stale[kind]
+        known = self._stale_codes.get(kind)
+        if known is None or known[0] != len(stale):
+            table = TileTable(len(stale))
+            table.set_many(np.fromiter(stale, np.int64, len(stale)), 0)
+            known = self._stale_codes[kind] = (len(stale), table)
+        return known[1]
+
     def _let_stale_go(self) -> None:
         """Stale tiles no frame asked for since the edit (or within stale_frames) are
         released: a stand-in nobody reads is not kept to be read later."""
@@ -392,10 +404,8 @@ class TileScheduler:
         missing = pool.mark_used(codes, self.cache.tick)
         stale = self._stale[kind]
         if stale:                       # standing in: made again like missing ones
-            known = self._stale_codes.get(kind)
-            if known is None or len(known) != len(stale):
-                known = self._stale_codes[kind] = np.fromiter(stale, np.int64, len(stale))
-            again = codes[np.isin(codes, known)]
+            known = self._stale_table(kind)
+            again = codes[known.find_many(codes) >= 0]
             if len(again):
                 missing = np.concatenate([missing, again])
         started = 0
@@ -413,7 +423,7 @@ class TileScheduler:
             # but stale tiles (a live edit) before any, in the order _start queues them
             order = (new >> 56).astype(np.float64)
             if stale:
-                again = np.isin(new, self._stale_codes[kind])
+                again = known.find_many(new) >= 0
                 order[again] = self._stale_priorities(kind, new[again])
             new = new[np.argsort(order, kind="stable")[:self.max_starts]]
         for code in new.tolist():
