@@ -699,11 +699,12 @@ class RiverWorld:
             if self.flood.textures_made:
                 # its level's textures, made here as the old router had them: not in the
                 # frame that first reads the raised level (draws it, or lifts the particles
-                # onto it: ~0.2 s in a frame)
+                # onto it: ~0.2 s in a frame); from the old router's, where the network is
+                # the same (only the texels near the changed links are made)
                 from riverflow.hydro.flood import FloodRouter
 
                 plan.flood_router = FloodRouter(plan.cell_network)
-                plan.flood_router.level_textures()
+                plan.flood_router.level_textures(self.flood)
                 between_frames()
         solver = self.spill_solver
         if solver is not None:                   # the spills' cells on the new network

@@ -47,6 +47,9 @@ powers of two until both fit (about 130 MB at most)."""
 RASTER_BLOCK_PX = 16
 LEVEL_TEXELS = 1024
 """Side [texels] of the drawn level's cell texture (:meth:`FloodRouter.level_textures`)."""
+LEVEL_BLOCK = 16
+"""The level texture is made in square blocks of this many texels a side (a block far from
+every centre line asks no KD-tree; an edit makes again only the blocks near what changed)."""
 RISE_ROW = 1024
 """Cells per row of the drawn level's rise texture."""
 FLOODPLAIN_REACH_M = 250.0
@@ -84,6 +87,22 @@ def _as_float_array(values, what: str) -> np.ndarray:
         raise ValueError(f"set_hydrograph: {what} must be a 1-D sequence of one value or more, "
                          f"got shape {arr.shape}")
     return arr
+
+
+def _same_link(old, ob: int, new, b: int) -> bool:
+    """Whether link ``ob`` of spill network ``old`` and link ``b`` of ``new`` are the same
+    link: the same cells (count, length, widths) and centre-line samples (places and arc
+    lengths), so every lookup near it finds the same place and cell (up to where its cells
+    are numbered)."""
+    o0, o1 = int(old.net.link_c0[ob]), int(old.net.link_c1[ob])
+    n0, n1 = int(new.net.link_c0[b]), int(new.net.link_c1[b])
+    if o1 - o0 != n1 - n0 or old.link_dx_m[ob] != new.link_dx_m[b]:
+        return False
+    if not np.array_equal(old.cell_width_m[o0:o1], new.cell_width_m[n0:n1]):
+        return False
+    so, sn = old._sample_link == ob, new._sample_link == b
+    return (np.array_equal(old._tree.data[so], new._tree.data[sn])
+            and np.array_equal(old._sample_s[so], new._sample_s[sn]))
 
 
 def base_discharges_m3s(network) -> np.ndarray:
@@ -400,7 +419,8 @@ class FloodRouter:
             self._raster = cell_raster(self.network)
         return self._raster
 
-    def level_textures(self) -> tuple[tuple[float, float, float], np.ndarray]:
+    def level_textures(self, previous: FloodRouter | None = None
+                       ) -> tuple[tuple[float, float, float], np.ndarray]:
         """What the water and terrain shaders read to draw the level's rise
         (``shaders/flood.glsl``): the square (x0, y0, side) [m] around the network and its
         floodplain (FLOODPLAIN_REACH_M), and its (LEVEL_TEXELS, LEVEL_TEXELS, 3) float32
@@ -408,51 +428,144 @@ class FloodRouter:
         beyond it the KD-tree's within FLOODPLAIN_REACH_M; −1: no cell), the nearest other
         link's and the weight of its rise where the two are within FLOOD_BLEND_M of equally
         near (:meth:`_blend_links`; −1 and 0 elsewhere), made once; :meth:`rise_texels`
-        holds the per-cell rises."""
+        holds the per-cell rises.
+
+        ``previous``: the router on the network a live edit changed into this one's, its
+        textures made: where the square and the raster's pixels are the same, only the
+        blocks of texels within reach of a link that changed (its old or new centre line)
+        are made; the others are its texels with their cell coordinates moved to this
+        network's numbering (:meth:`_texels_after_edit`: the same texels as made anew, to
+        a float32 rounding of the coordinate)."""
         if self._level_tex is None:
-            r = self.raster
-            by, bx = r.blocks.shape
-            x0, y0 = r.x0 - FLOODPLAIN_REACH_M, r.y0 - FLOODPLAIN_REACH_M
-            side = max(bx, by) * r.block_px * r.pixel_m + 2.0 * FLOODPLAIN_REACH_M
+            frame = self._level_frame()
             n = LEVEL_TEXELS
-            g = (np.arange(n) + 0.5) * (side / n)
-            gx, gy = np.meshgrid(x0 + g, y0 + g)
-            xy = np.column_stack([gx.ravel(), gy.ravel()])
-            cells = np.empty(len(xy))
-            sample_by_cells(xy, len(xy), r, np.arange(self.network.n_cells, dtype=np.float64),
-                            -1.0, cells)
-            # the floodplain: the nearest cell within reach, asked only in the blocks of 16²
-            # texels whose centre is within reach + half their diagonal of a centre line
-            blk = 16
-            nb = n // blk
-            centres = (np.arange(nb) + 0.5) * (side / nb)
-            bx, by = np.meshgrid(x0 + centres, y0 + centres)
-            near = self.network.locate(np.column_stack([bx.ravel(), by.ravel()]),
-                                       FLOODPLAIN_REACH_M + side / nb)[0] >= 0
-            near = np.repeat(np.repeat(near.reshape(nb, nb), blk, 0), blk, 1).ravel()
-            far = np.flatnonzero((cells < 0) & near)
-            link, s, _ = self.network.locate(xy[far], FLOODPLAIN_REACH_M)
-            ok = link >= 0
-            a, b, w = self.network.weights(link[ok], s[ok])
-            cells[far[ok]] = np.where(b > a, a + w, a)
-            texels = np.zeros((n * n, 3), np.float32)
-            texels[:, 0] = cells
-            texels[:, 1] = -1.0
-            self._blend_links(xy, cells, x0 + centres, y0 + centres, side / nb * 0.7072,
-                              texels)
-            self._level_tex = ((float(x0), float(y0), float(side)), texels.reshape(n, n, 3))
+            texels = None
+            if previous is not None and previous._level_tex is not None:
+                texels = self._texels_after_edit(previous, frame)
+            if texels is None:
+                texels = np.zeros((n * n, 3), np.float32)
+                self._fill_blocks(frame, np.arange((n // LEVEL_BLOCK) ** 2), texels)
+            self._level_tex = (frame, texels.reshape(n, n, 3))
         return self._level_tex
 
-    def _blend_links(self, xy: np.ndarray, cells: np.ndarray, bx: np.ndarray, by: np.ndarray,
+    def _level_frame(self) -> tuple[float, float, float]:
+        """The level texture's square (x0, y0, side) [m]: the raster's with the floodplain."""
+        r = self.raster
+        by, bx = r.blocks.shape
+        x0, y0 = r.x0 - FLOODPLAIN_REACH_M, r.y0 - FLOODPLAIN_REACH_M
+        side = max(bx, by) * r.block_px * r.pixel_m + 2.0 * FLOODPLAIN_REACH_M
+        return float(x0), float(y0), float(side)
+
+    def _fill_blocks(self, frame: tuple[float, float, float], blocks: np.ndarray,
+                     texels: np.ndarray) -> None:
+        """Make the level texture's texels (LEVEL_TEXELS², 3) in ``blocks`` (M,) (of
+        LEVEL_BLOCK² texels, row major), in place (:meth:`level_textures`): each texel's
+        value is its own, whichever blocks are made with it."""
+        x0, y0, side = frame
+        n, blk = LEVEL_TEXELS, LEVEL_BLOCK
+        nb = n // blk
+        blocks = np.asarray(blocks, np.int64)
+        rows, cols = np.divmod(blocks, nb)
+        j, i = np.mgrid[0:blk, 0:blk]
+        # each block's texels together, in its own row-major order
+        tx = np.ravel(x0 + ((cols[:, None, None] * blk + i[None]) + 0.5) * (side / n))
+        ty = np.ravel(y0 + ((rows[:, None, None] * blk + j[None]) + 0.5) * (side / n))
+        xy = np.column_stack([tx, ty])
+        cells = np.empty(len(xy))
+        sample_by_cells(xy, len(xy), self.raster,
+                        np.arange(self.network.n_cells, dtype=np.float64), -1.0, cells)
+        # the floodplain: the nearest cell within reach, asked only in the blocks whose
+        # centre is within reach + half their diagonal of a centre line
+        centres = np.column_stack([x0 + (cols + 0.5) * (side / nb),
+                                   y0 + (rows + 0.5) * (side / nb)])
+        near = self.network.locate(centres, FLOODPLAIN_REACH_M + side / nb)[0] >= 0
+        far = np.flatnonzero((cells < 0) & np.repeat(near, blk * blk))
+        link, s, _ = self.network.locate(xy[far], FLOODPLAIN_REACH_M)
+        ok = link >= 0
+        a, b, w = self.network.weights(link[ok], s[ok])
+        cells[far[ok]] = np.where(b > a, a + w, a)
+        made = np.empty((len(xy), 3), np.float32)
+        made[:, 0] = cells
+        made[:, 1] = -1.0
+        made[:, 2] = 0.0
+        self._blend_links(xy, cells, centres, side / nb * 0.7072, made)
+        if len(blocks) == nb * nb and np.array_equal(blocks, np.arange(nb * nb)):
+            texels.reshape(nb, blk, nb, blk, 3)[...] = \
+                made.reshape(nb, nb, blk, blk, 3).transpose(0, 2, 1, 3, 4)
+        else:
+            tex = ((rows[:, None, None] * blk + j[None]) * n
+                   + cols[:, None, None] * blk + i[None]).reshape(-1)
+            texels[tex] = made
+
+    def _texels_after_edit(self, previous: FloodRouter, frame: tuple[float, float, float]
+                           ) -> np.ndarray | None:
+        """:meth:`level_textures` from ``previous``'s (LEVEL_TEXELS², 3), or None where its
+        square or its raster's pixels differ (then all are made). A link is the same where
+        its name, cells, samples and widths are: a texel farther than every lookup reaches
+        (the raster's blocks, the floodplain's, the blend's) from each other link's samples,
+        old and new, reads the same sample, so the same place on the same link; its cell
+        coordinates are moved by the link's new first cell. The blocks within reach of a
+        changed link, and any whose texels read one, are made anew."""
+        (x0, y0, side), old_tex = previous._level_tex
+        if (x0, y0, side) != frame:
+            return None
+        old, new = previous.network, self.network
+        r_old, r_new = previous.raster, self.raster
+        if (r_old.x0, r_old.y0, r_old.pixel_m, r_old.block_px) != (
+                r_new.x0, r_new.y0, r_new.pixel_m, r_new.block_px):
+            return None
+        shift = np.full(len(old.names), np.nan)   # per old link: new first cell − old's
+        moved = []
+        old_index = {name: b for b, name in enumerate(old.names)}
+        kept = set()
+        for b, name in enumerate(new.names):
+            ob = old_index.get(name)
+            if ob is not None and _same_link(old, ob, new, b):
+                shift[ob] = float(new.net.link_c0[b] - old.net.link_c0[ob])
+                kept.add(ob)
+            else:
+                moved.append(new._tree.data[new._sample_link == b])
+        moved += [old._tree.data[old._sample_link == ob] for ob in range(len(old.names))
+                  if ob not in kept]
+        n, blk = LEVEL_TEXELS, LEVEL_BLOCK
+        nb = n // blk
+        size = side / nb
+        region = np.zeros((nb, nb), bool)
+        if moved:
+            half = max(float(net.cell_width_m.max()) for net in (old, new)) * 0.5
+            block_m = r_new.block_px * r_new.pixel_m
+            reach = max(RASTER_REACH * half + 2.0 * r_new.pixel_m + 3.0 * block_m,
+                        FLOODPLAIN_REACH_M + FLOOD_BLEND_M + 3.0 * size)
+            k = int(math.ceil(reach / size)) + 1
+            pts = np.concatenate(moved)
+            ij = np.floor((pts - [x0, y0]) / size).astype(np.int64)
+            ij = ij[np.all((ij >= -k) & (ij < nb + k), axis=1)]
+            for bx, by in np.unique(ij, axis=0).tolist():
+                region[max(by - k, 0):max(by + k + 1, 0), max(bx - k, 0):max(bx + k + 1, 0)] = True
+        texels = old_tex.reshape(-1, 3).copy()
+        for col in (0, 1):
+            c = texels[:, col]
+            has = np.flatnonzero(c >= 0)
+            d = shift[old.cell_link[np.floor(c[has]).astype(np.int64)]]
+            lost = np.isnan(d)
+            c[has[~lost]] = (c[has[~lost]].astype(np.float64) + d[~lost]).astype(np.float32)
+            t = has[lost]                   # a changed link's: its block is made anew
+            region[(t // n) // blk, (t % n) // blk] = True
+        blocks = np.flatnonzero(region.reshape(-1))
+        if len(blocks):
+            self._fill_blocks(frame, blocks, texels)
+        return texels
+
+    def _blend_links(self, xy: np.ndarray, cells: np.ndarray, centres: np.ndarray,
                      half_diag: float, texels: np.ndarray) -> None:
         """Fill the level texture's second cell coordinate and its weight (columns 1, 2 of
-        ``texels`` (T, 3)) where two links' centre lines are within FLOOD_BLEND_M of being
-        equally near a texel (xy (T, 2) [m]; ``cells`` its nearest cell coordinate, −1
-        none): the second link's nearest sample's cell coordinate and
+        ``texels`` (P, 3)) where two links' centre lines are within FLOOD_BLEND_M of being
+        equally near a texel (xy (P, 2) [m] of blocks of LEVEL_BLOCK² texels, each block's
+        together; ``cells`` (P,) their nearest cell coordinate, −1 none): the second link's nearest sample's cell coordinate and
         ½ (1 − smoothstep(0, FLOOD_BLEND_M, d₂ − d₁)), so the rise drawn crosses the line
         where the nearest link changes as a ramp, not a step (½ of each on the line). Only
-        the blocks of texels (centres bx × by, half-diagonal ``half_diag`` [m]) where two
-        links' nearest samples are that close are asked, per link."""
+        the blocks (centres (M, 2), half-diagonal ``half_diag`` [m]) where two links'
+        nearest samples are that close are asked, per link."""
         net = self.network
         links = len(net.names)
         if links < 2:
@@ -462,8 +575,6 @@ class FloodRouter:
             from scipy.spatial import cKDTree
             self._link_trees = [(cKDTree(xs[lk == b]), np.flatnonzero(lk == b))
                                 for b in range(links)]
-        gx, gy = np.meshgrid(bx, by)
-        centres = np.column_stack([gx.ravel(), gy.ravel()])
         reach = FLOODPLAIN_REACH_M + half_diag + FLOOD_BLEND_M
         d_block = np.stack([tree.query(centres, distance_upper_bound=reach)[0]
                             for tree, _ in self._link_trees])          # (B, blocks)
@@ -475,23 +586,18 @@ class FloodRouter:
         cand = cand[order[1, cand] - order[0, cand] < FLOOD_BLEND_M + 2.0 * half_diag]
         if not len(cand):
             return
-        nb = len(bx)
-        blk = int(round(np.sqrt(len(xy)))) // nb
-        n = nb * blk
-        rows, cols = np.divmod(cand, nb)
-        j, i = np.mgrid[0:blk, 0:blk]
-        tex = ((rows[:, None, None] * blk + j[None]) * n + cols[:, None, None] * blk
-               + i[None]).reshape(-1)
-        keep = cells[tex] >= 0
-        tex = tex[keep]
-        if not len(tex):
+        per = LEVEL_BLOCK * LEVEL_BLOCK
+        local = (cand[:, None] * per + np.arange(per)[None]).reshape(-1)
+        keep = cells[local] >= 0
+        local = local[keep]
+        if not len(local):
             return
-        p = xy[tex]
+        p = xy[local]
         # the links near enough to matter in each texel's block
         near = d_block[:, cand] <= order[0, cand] + FLOOD_BLEND_M + 2.0 * half_diag
-        per_block = np.repeat(near, blk * blk, axis=1)[:, keep]          # (B, texels)
-        d = np.full((links, len(tex)), np.inf)
-        coord = np.full((links, len(tex)), -1.0)
+        per_block = np.repeat(near, per, axis=1)[:, keep]          # (B, texels)
+        d = np.full((links, len(local)), np.inf)
+        coord = np.full((links, len(local)), -1.0)
         for b, (tree, index) in enumerate(self._link_trees):
             ask = np.flatnonzero(per_block[b])
             if not len(ask):
@@ -503,7 +609,7 @@ class FloodRouter:
             a, c, w = net.weights(lk[k], ss[k])
             coord[b, ask] = np.where(c > a, a + w, a)
         first = np.argmin(d, axis=0)
-        col = np.arange(len(tex))
+        col = np.arange(len(local))
         d1 = d[first, col]
         d[first, col] = np.inf
         second = np.argmin(d, axis=0)
@@ -515,9 +621,10 @@ class FloodRouter:
         t = np.clip(gap / FLOOD_BLEND_M, 0.0, 1.0)
         # the nearest link's own coordinate too (the raster's may be the other link's, a
         # pixel's centre away from the line): the pair swaps across the line, both at ½
-        texels[tex[blend], 0] = coord[first[blend], col[blend]]
-        texels[tex[blend], 1] = coord[second[blend], col[blend]]
-        texels[tex[blend], 2] = 0.5 * (1.0 - t * t * (3.0 - 2.0 * t))
+        at = local[blend]
+        texels[at, 0] = coord[first[blend], col[blend]]
+        texels[at, 1] = coord[second[blend], col[blend]]
+        texels[at, 2] = 0.5 * (1.0 - t * t * (3.0 - 2.0 * t))
 
     def level_rise(self, xy) -> np.ndarray:
         """(N,) the level rise [m] at points (N, 2) [m], as the shaders draw it

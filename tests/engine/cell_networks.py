@@ -22,15 +22,17 @@ def straight(length_m, n=201, y=0.0, x0=0.0):
     return np.stack([x, np.full(n, y)], 1)
 
 
-def diamond():
+def diamond(left=None, bottom_m: float = 1500.0):
     """A source splitting at a bifurcation into two arms of different discharges that meet
-    again, a tributary joining below, and an outlet."""
+    again, a tributary joining below, and an outlet (``left``: the left arm's centre line
+    instead of its straight one; ``bottom_m``: the outlet's length)."""
     return build_spill_network(
         [branch("top", straight(1500.0, 31), 40.0, -1, 0),
-         branch("left", straight(1200.0, 25, 60.0, 1500.0), 30.0, 0, 1),
+         branch("left", straight(1200.0, 25, 60.0, 1500.0) if left is None else left, 30.0,
+                0, 1),
          branch("right", straight(900.0, 19, -60.0, 1500.0), 20.0, 0, 1),
          branch("trib", straight(800.0, 17, 300.0, 1900.0), 15.0, -1, 1),
-         branch("bottom", straight(1500.0, 31, 0.0, 2700.0), 45.0, 1, -1)],
+         branch("bottom", straight(bottom_m, 31, 0.0, 2700.0), 45.0, 1, -1)],
         [40.0, 25.0, 15.0, 10.0, 50.0])
 
 

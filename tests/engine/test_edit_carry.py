@@ -124,6 +124,8 @@ def test_a_spills_mass_is_the_same_after_an_edit(world):
 
 
 def test_a_running_flood_keeps_its_wave_across_an_edit(world):
+    from riverflow.hydro.flood import FloodRouter
+
     w = world
     calm = w.scene.branches[1].name
     w.set_hydrograph(calm, [w.flood_time_s, w.flood_time_s + 30.0], [20.0, 60.0])
@@ -138,8 +140,13 @@ def test_a_running_flood_keeps_its_wave_across_an_edit(world):
     w.set_width(0, 18.0)                          # the other river edited
     router = w.flood
     # its level's textures made with the edit, not by the first frame that reads the
-    # raised level (the particles' altitudes: ~0.2 s in that frame, drawn or not)
+    # raised level (the particles' altitudes: ~0.2 s in that frame, drawn or not): the
+    # textures a router made afresh on that network has (tests/engine/test_flood.py: only
+    # the blocks near what changed are made again)
     assert router.textures_made
+    fresh = FloodRouter(router.network).level_textures()
+    assert fresh[0] == router.level_textures()[0]
+    assert np.array_equal(fresh[1], router.level_textures()[1])
     net = router.network
     on = net.cell_link == net.names.index(calm)
     assert np.array_equal(router.cell_level_rise_m()[on], rise)   # the same wave, carried

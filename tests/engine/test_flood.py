@@ -210,6 +210,34 @@ def flooded_diamond(diamond):
     return router, xy
 
 
+def test_an_edits_level_textures_are_made_near_what_changed_only(diamond, monkeypatch):
+    """The drawn level's textures after a live edit (``level_textures(previous)``): the
+    blocks of texels near the changed link made again, the others the old ones with their
+    cell coordinates moved to the new numbering: the textures a router made afresh on the
+    new network has, bit for bit; where the square or the raster's pixels changed, all made."""
+    from riverflow.hydro.flood import LEVEL_BLOCK, LEVEL_TEXELS
+
+    old = FloodRouter(diamond)
+    old.level_textures()
+    line = straight(1200.0, 25, 60.0, 1500.0)
+    line[1:-1, 1] += 20.0 * np.sin(np.linspace(0.0, np.pi, 25)[1:-1])   # the left arm bent
+    made = []
+    fill = FloodRouter._fill_blocks
+    monkeypatch.setattr(FloodRouter, "_fill_blocks", lambda self, frame, blocks, texels: (
+        made.append(len(blocks)), fill(self, frame, blocks, texels)))
+    every = (LEVEL_TEXELS // LEVEL_BLOCK) ** 2
+    for edited, some in ((cell_networks.diamond(left=line), True),
+                         (cell_networks.diamond(bottom_m=2500.0), False)):   # a longer outlet
+        made.clear()
+        got = FloodRouter(edited).level_textures(old)
+        assert len(made) == 1 and (0 < made[0] < 0.6 * every if some else made[0] == every)
+        fresh = fill.__get__(FloodRouter(edited))          # (the spy left out)
+        texels = np.zeros((LEVEL_TEXELS ** 2, 3), np.float32)
+        fresh(got[0], np.arange(every), texels)
+        assert np.array_equal(got[1].reshape(-1, 3), texels)
+        assert (got[1][..., 0] >= 0).any() and (got[1][..., 1] >= 0).any()    # a blend
+
+
 def test_raster_kernels_match_their_numpy_twin(flooded_diamond):
     router, xy = flooded_diamond
     raster = router.raster
