@@ -16,11 +16,11 @@ the edits' thread's, which run in its idle time).
    background: ``move_axis(..., wait=False)``): per edit the seconds from the call to its
    swap (the new network made), to the river's last new tile drawn (flow, water, water
    mesh), to the last new tile drawn (of the terrain kinds, the leaves of the view's cut;
-   with the tile process's CPU seconds then) and to the last new tile in view (no stale
+   with the tile processes' CPU seconds then) and to the last new tile in view (no stale
    tile the frame asks for, ancestors included; an edit whose tiles are not in view by the
    next edit's time delays that edit, up to ``--wait`` s, so each edit reports a figure:
    ``in_view_past_next_edit`` counts them), the CPU
-   seconds the tile process (forked again for the edit) spent until then or until the next
+   seconds the tile processes (forked again for the edit) spent until then or until the next
    edit (what remaking the tiles costs, whatever the machine's load), and every frame's
    wall and CPU ms while edits run.
 
@@ -135,6 +135,7 @@ def run(size, edits: int, every: int, bump_m: float, warm: int, seed: int,
     quiet = np.array([frame() for _ in range(warm)])
     edit_from = len(systems)
     out: dict = {"size": f"{size[0]}x{size[1]}", "branch": branch.name,
+                 "tile_workers": world.tiles.scheduler.workers,
                  "particles": len(world.particles),
                  "quiet_ms_median": float(np.median(quiet[:, 0])),
                  "quiet_cpu_ms_median": float(np.median(quiet[:, 1])),
@@ -155,7 +156,7 @@ def run(size, edits: int, every: int, bump_m: float, warm: int, seed: int,
             during.append(frame())
             if swapped is None and world.edits.applied > applied:
                 swapped = time.perf_counter() - t0
-                pid = world.tiles.scheduler.worker_pid     # forked for this edit
+                pids = world.tiles.scheduler.worker_pids    # forked for this edit
                 marked.append(sum(world.edits.last["marked"].values()))
                 swap_ms.append(world.edits.last["swap_ms"])
             if swapped is not None and river is None \
@@ -164,14 +165,14 @@ def run(size, edits: int, every: int, bump_m: float, warm: int, seed: int,
             if swapped is not None and drawn is None \
                     and _stale_in_view(world, drawn=True) == 0:
                 drawn = time.perf_counter() - t0
-                drawn_cpu_s.append(_process_cpu_s(pid))
+                drawn_cpu_s.append(sum(map(_process_cpu_s, pids)))
             if swapped is not None and _stale_in_view(world) == 0:
                 in_view_s.append(time.perf_counter() - t0)
                 break
         else:
             in_view_s.append(np.nan)
         if swapped is not None:
-            worker_cpu_s.append(_process_cpu_s(pid))
+            worker_cpu_s.append(sum(map(_process_cpu_s, pids)))
         river_s.append(river if river is not None else np.nan)
         drawn_s.append(drawn if drawn is not None else np.nan)
         swap_s.append(swapped if swapped is not None else np.nan)

@@ -169,10 +169,8 @@ class _WaitProbe:
 
     def __init__(self, scheduler) -> None:
         self.me = f"/proc/self/task/{threading.get_native_id()}/schedstat"
-        pid = scheduler.worker_pid
-        thread = scheduler._thread
-        self.world = ([f"/proc/{pid}/schedstat"] if pid else []) + (
-            [f"/proc/self/task/{thread.native_id}/schedstat"] if thread is not None else [])
+        self.world = [f"/proc/{pid}/schedstat" for pid in scheduler.worker_pids] + [
+            f"/proc/self/task/{thread.native_id}/schedstat" for thread in scheduler._threads]
         self.others = _other_tasks()
 
     def read(self) -> tuple[int, int, int]:
@@ -481,7 +479,8 @@ def measure(length_km: float, args) -> dict:
             "pinned_tiles": int(sum(int(np.count_nonzero(p.pins)) for p in cache.pools.values())),
             "errors": len(scheduler.errors), "first_errors": scheduler.errors[:3]}
         res["rss_world_after_flight_mb"] = _rss_mb()
-        res["rss_worker_private_mb"] = _private_mb(scheduler.worker_pid)
+        res["rss_worker_private_mb"] = sum(_private_mb(pid) for pid in scheduler.worker_pids)
+        res["tile_workers"] = scheduler.workers
         res["rss_after_flight_mb"] = res["rss_world_after_flight_mb"] + \
             res["rss_worker_private_mb"]
         res["tile_worker"] = scheduler.worker

@@ -110,12 +110,20 @@ class RiverConfig:
     fast flight has no lock stalls; "thread": the worker thread itself (a height source that
     cannot be used from a forked process: a callable holding a socket or a GPU context)."""
 
+    tile_workers: int | str = "auto"
+    """Background tiles are made by this many worker threads (each with its forked process,
+    ``tile_worker="process"``) taking the queue in turn: a live edit's ~300 tiles, a flight's
+    new view. "auto": one where this process may use one core (they would share the frame's),
+    else one per core but one, at least two and at most four (they run at the lowest
+    priority: the frame's thread comes first)."""
+
     tile_process_pause: bool | str = "auto"
-    """With ``tile_worker="process"``: stop the tile process while a frame runs (SIGSTOP at the
-    frame's start, SIGCONT at its end) so it never takes the frame's core for a scheduler
-    tick. "auto": only when this process may use one core (it then shares that core with the
-    frame; a paced host leaves it the rest of the frame time) and the host left it 2 ms idle
-    since the last frame; True: whenever it was left 2 ms; False: never."""
+    """With ``tile_worker="process"``: stop the tile processes while a frame runs (SIGSTOP at
+    the frame's start, SIGCONT at its end) so they never take the frame's core for a scheduler
+    tick. "auto": those beyond one per core but the frame's (the one process where this
+    process may use one core: it then shares that core with the frame; a paced host leaves it
+    the rest of the frame time), when the host left them 2 ms idle since the last frame; True:
+    all, whenever they were left 2 ms; False: never."""
 
     random_offset_min_m: tuple[float, float] = (-1.0, -1.0)
     """Lower corner of the per-particle random sprite offset box [m] (Proland RandomParticleLayer
@@ -188,6 +196,13 @@ class RiverConfig:
         if self.tile_process_pause not in (True, False, "auto"):
             raise ValueError("RiverConfig.tile_process_pause must be True, False or 'auto', "
                              f"got {self.tile_process_pause!r}")
+        if isinstance(self.tile_workers, str) and self.tile_workers.strip().isdigit():
+            object.__setattr__(self, "tile_workers", int(self.tile_workers))   # from_env
+        if not (self.tile_workers == "auto" or (
+                isinstance(self.tile_workers, numbers.Integral)
+                and not isinstance(self.tile_workers, bool) and self.tile_workers >= 1)):
+            raise ValueError("RiverConfig.tile_workers must be a whole number ≥ 1 or 'auto', "
+                             f"got {self.tile_workers!r}")
         if self.tile_worker not in ("process", "thread"):
             raise ValueError("RiverConfig.tile_worker must be 'process' or 'thread', "
                              f"got {self.tile_worker!r}")

@@ -144,7 +144,8 @@ class RiverWorld:
         producers = [*terrain_producers(scene), FlowProducer(field)]
         self.tiles = Tiles(cache, TileScheduler(cache, producers, c.tile_production,
                                                    worker=c.tile_worker,
-                                                   pause_in_frames=c.tile_process_pause))
+                                                   pause_in_frames=c.tile_process_pause,
+                                                   workers=c.tile_workers))
         self._owned = _Owned(self.name, self.tiles.scheduler)
         self._finalizer = weakref.finalize(self, _release, self._owned)
         self._finalizer.atexit = False     # at exit the worker is a daemon, GL may be gone
@@ -727,9 +728,9 @@ class RiverWorld:
                                                         plan.terrain_boxes,
                                                         new_scene.terrain.tile_cells)],
                      between_frames)
-        # the tile process: forked here with the new producers (the frames go on meanwhile)
-        process = self.tiles.scheduler.fork_for(producers)
-        return plan, producers, process
+        # the tile processes: forked here with the new producers (the frames go on meanwhile)
+        processes = self.tiles.scheduler.fork_for(producers)
+        return plan, producers, processes
 
     def _land_edit(self, block: bool = False) -> None:
         """Swap in a background edit that is ready (or, ``block``, wait for it), then start
@@ -765,7 +766,7 @@ class RiverWorld:
             live.future = future
             live.start(run)
 
-    def _apply_edit(self, plan, producers, process=None) -> list[str]:
+    def _apply_edit(self, plan, producers, processes=None) -> list[str]:
         """Swap an edit in (main thread, between frames): module docstring of
         :mod:`riverflow.engine.edits`, step 3. Returns the changed branches' names."""
         from riverflow.components.flow_tiles import FLOW_KIND
@@ -811,9 +812,11 @@ class RiverWorld:
         for kind, kcodes, cells in [(FLOW_KIND, codes, old.tiles.n_cells)] + [
                 (kind, cache.pools[kind].codes(), n) for kind in TERRAIN_KINDS]:
             stale[kind], rank[kind] = marked_at_swap(plan, self.scene, kind, kcodes, cells)
-        old_process = scheduler.replace_producers(producers, process, close_old=False)
-        if old_process is not None:     # closed in the edits' thread, not in this frame
-            self._edits.run_later(old_process.close)
+        old_processes = scheduler.replace_producers(producers, processes, close_old=False)
+        if old_processes:               # closed in the edits' thread, not in this frame
+            from riverflow.tiles.scheduler import close_all
+
+            self._edits.run_later(lambda: close_all(old_processes, 5.0))
         # the river's kinds first, each kind's tiles nearest the change first; of the terrain
         # kinds, the leaves of the view's cut (drawn) before their ancestors (drawn only
         # where a leaf is missing: the leaves stand in resident)

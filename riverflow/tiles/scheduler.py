@@ -76,6 +76,8 @@ IDLE_WAIT_S = 0.02
 """Longest a worker waits for the frame to end before starting a tile (a host that steps
 back to back, with no idle time, still gets tiles made)."""
 """A wanted-frame stamp no frame is near (the tile is let go)."""
+MAX_WORKERS = 4
+"""Worker threads (and processes) "auto" gives at most (:func:`worker_count`)."""
 WORKER_NICE = int(os.environ.get("RIVERFLOW_WORKER_NICE", "19"))
 """The tile worker thread's nice value (19: the lowest priority; 0 keeps the frame's)."""
 
@@ -139,7 +141,8 @@ class TileScheduler:
 
     def __init__(self, cache: TileCache, producers: Iterable[Producer] = (),
                  mode: str = "background", stale_frames: int = 30,
-                 worker: str = "thread", pause_in_frames: bool | str = "auto") -> None:
+                 worker: str = "thread", pause_in_frames: bool | str = "auto",
+                 workers: int | str = 1) -> None:
         if mode not in ("background", "blocking"):
             raise ValueError(f"mode must be 'background' or 'blocking', got {mode!r}")
         if worker not in ("thread", "process"):
@@ -154,6 +157,9 @@ class TileScheduler:
             raise ValueError("pause_in_frames must be True, False or 'auto', "
                              f"got {pause_in_frames!r}")
         self.pause_in_frames = pause_in_frames
+        self.workers = worker_count(workers)
+        """Background mode: worker threads, each with its process (``worker="process"``),
+        taking the queued tiles in turn (:func:`worker_count`)."""
         """With a worker process: stop it from :meth:`frame_begins` to :meth:`frame_ends`, so
         that it never takes the frame's core for a scheduler tick (4 ms at 250 Hz: even at
         nice 19 it was given one now and then, ~20 frames of a 60 s flight on one core).
@@ -163,7 +169,7 @@ class TileScheduler:
         process is left running when the frame before began less than 2 ms after the last
         one ended."""
         self._idle_since = 0.0
-        self._paused = False
+        self._paused: list[ProducerProcess] = []       # paused for this frame
         self.stale_frames = int(stale_frames)
         self.max_starts = MAX_STARTS
         """Background mode: at most this many new tiles of a kind are queued a frame."""
@@ -192,8 +198,8 @@ class TileScheduler:
         self._lock = threading.Lock()
         self._idle = threading.Event()     # set between frames: the worker starts jobs then
         self._idle.set()
-        self._thread: threading.Thread | None = None
-        self._process: ProducerProcess | None = None
+        self._threads: list[threading.Thread] = []
+        self._processes: list[ProducerProcess] = []     # one per worker thread, or none
         self._closed = False
         self._process_kinds: frozenset[str] = frozenset()
         self.generation = 0
@@ -222,24 +228,26 @@ class TileScheduler:
         self._state[producer.kind] = TileTable(1024)
         self._stale[producer.kind] = set()
 
-    def fork_for(self, producers: Iterable[Producer]) -> ProducerProcess | None:
-        """A worker process forked now with ``producers`` in place of the current ones of
-        their kinds, for :meth:`replace_producers` (any thread may fork it: a live edit does,
-        in its background thread); None when tiles are not made in a process."""
-        if self.worker != "process" or self._process is None or self._closed:
+    def fork_for(self, producers: Iterable[Producer]) -> list[ProducerProcess] | None:
+        """The worker processes (one per worker thread) forked now with ``producers`` in
+        place of the current ones of their kinds, for :meth:`replace_producers` (any thread
+        may fork them: a live edit does, in its background thread); None when tiles are not
+        made in processes."""
+        if self.worker != "process" or not self._processes or self._closed:
             return None
-        return ProducerProcess({**self.producers, **{p.kind: p for p in producers}},
-                               WORKER_NICE)
+        producers = {**self.producers, **{p.kind: p for p in producers}}
+        return [ProducerProcess(producers, WORKER_NICE) for _ in self._processes]
 
     def replace_producers(self, producers: Iterable[Producer],
-                          process: ProducerProcess | None = None, *,
-                          close_old: bool = True) -> ProducerProcess | None:
+                          processes: list[ProducerProcess] | None = None, *,
+                          close_old: bool = True) -> list[ProducerProcess] | None:
         """Make the tiles of the given kinds with these producers from now on (same kinds and
         fields as the ones they replace; call :meth:`invalidate` for the tiles this changes).
-        The worker process, forked with the old producers, is let go (closed in a thread of
-        its own: its end is not waited for in a frame); ``process`` (:meth:`fork_for` with
-        these producers) takes its place, else the tiles are made in the worker thread.
-        ``close_old`` False: the old process is handed back for the caller to close."""
+        The worker processes, forked with the old producers, are let go (closed in a thread
+        of their own: their end is not waited for in a frame); ``processes`` (:meth:`fork_for`
+        with these producers) take their place, else the tiles are made in the worker
+        threads. ``close_old`` False: the old processes are handed back for the caller to
+        close (None if there were none)."""
         producers = list(producers)
         for producer in producers:
             old = self.producers.get(producer.kind)
@@ -251,13 +259,13 @@ class TileScheduler:
                                  "have other fields than the old one's")
         for producer in producers:
             self.producers[producer.kind] = producer
-        old, self._process = self._process, process
-        self._process_kinds = frozenset(self.producers) if process is not None else frozenset()
-        if old is not None and close_old:
-            threading.Thread(target=old.close, kwargs={"timeout_s": 1.0}, daemon=True,
+        old, self._processes = self._processes, list(processes or [])
+        self._process_kinds = frozenset(self.producers) if self._processes else frozenset()
+        if old and close_old:
+            threading.Thread(target=close_all, args=(old, 1.0), daemon=True,
                              name="riverflow-tiles-close").start()
             return None
-        return old
+        return old or None
 
     def invalidate(self, stale: Mapping[str, np.ndarray], release: Iterable[str] = (),
                    first: Iterable[str] = (),
@@ -531,17 +539,21 @@ class TileScheduler:
             self._ensure_thread()
 
     def _ensure_thread(self) -> None:
-        if self._thread is None:
-            if self.worker == "process" and self._process is None:
-                # forked before the worker thread starts: the child has no lock it holds
-                self._process = ProducerProcess(self.producers, WORKER_NICE)
+        if not self._threads:
+            if self.worker == "process" and not self._processes:
+                # forked before the worker threads start: the children hold no lock of theirs
+                self._processes = [ProducerProcess(self.producers, WORKER_NICE)
+                                   for _ in range(self.workers)]
                 self._process_kinds = frozenset(self.producers)
-            self._thread = threading.Thread(target=_work, args=(weakref.ref(self), self._queue),
-                                            name="riverflow-tiles", daemon=True)
-            self._thread.start()
+            self._threads = [threading.Thread(target=_work, args=(weakref.ref(self),
+                                                                  self._queue, lane),
+                                              name="riverflow-tiles", daemon=True)
+                             for lane in range(self.workers)]
+            for thread in self._threads:
+                thread.start()
 
-    def _run(self, job: _Job) -> None:
-        """Worker side: make one queued tile (or drop it if no frame wants it any more, nor
+    def _run(self, job: _Job, lane: int = 0) -> None:
+        """Worker side (worker thread ``lane``): make one queued tile (or drop it if no frame wants it any more, nor
         any wanted tile that waits for it)."""
         item = (job.kind, job.code)
         producer = self.producers[job.kind]     # with the generation: one edit's sources
@@ -572,7 +584,7 @@ class TileScheduler:
         data = None
         if error is None:
             try:
-                data = self._produce(job.kind, job.key, deps, producer)
+                data = self._produce(job.kind, job.key, deps, producer, lane)
             except Exception as exc:  # reported on the main thread by collect()
                 # (by its type and message: its traceback's frames hold this scheduler, a
                 # cycle that would keep a dropped world's tiles until the collector ran)
@@ -604,15 +616,18 @@ class TileScheduler:
                 memo.put(tag, data)
         return data
 
-    def _produce(self, kind: str, key: TileKey, deps: dict, producer: Producer) -> Any:
+    def _produce(self, kind: str, key: TileKey, deps: dict, producer: Producer,
+                 lane: int = 0) -> Any:
         """Worker side: the tile (:meth:`_from_memo`)."""
-        return self._from_memo(kind, key, lambda: self._make(kind, key, deps, producer),
+        return self._from_memo(kind, key, lambda: self._make(kind, key, deps, producer, lane),
                                producer)
 
-    def _make(self, kind: str, key: TileKey, deps: dict, producer: Producer) -> Any:
-        """Worker side: make the tile, in the worker process if there is one (a producer added
-        after it was forked, or a process that died, makes it here)."""
-        process = self._process
+    def _make(self, kind: str, key: TileKey, deps: dict, producer: Producer,
+              lane: int = 0) -> Any:
+        """Worker side: make the tile, in worker thread ``lane``'s process if there is one (a
+        producer added after it was forked, or a process that died, makes it here)."""
+        processes = self._processes
+        process = processes[lane] if lane < len(processes) else None
         if self._closed:         # closed since the job was taken: dropped, like a stale one
             return None
         if producer is not self.producers[kind]:
@@ -625,18 +640,24 @@ class TileScheduler:
             except (EOFError, OSError, ValueError) as exc:
                 if self._closed or producer is not self.producers[kind]:
                     return None                    # closed or replaced meanwhile: dropped
-                if self._process is process:       # not closed meanwhile: it died
-                    self._process = None
-                    self.errors.append(f"the tile process ended ({type(exc).__name__}: {exc}); "
-                                       "tiles are made in the worker thread from now on")
-                    process.close(timeout_s=0.5)
+                if self._processes is processes:   # not replaced meanwhile: it died
+                    self._processes = []
+                    self.errors.append(f"a tile process ended ({type(exc).__name__}: {exc}); "
+                                       "tiles are made in the worker threads from now on")
+                    close_all(processes, 0.5)
         return producer.produce(key, deps)
 
     @property
     def worker_pid(self) -> int | None:
-        """The tile process's id while there is one (its memory is the world's too)."""
-        process = self._process
-        return process.pid if process is not None and process.alive else None
+        """The first tile process's id while there is one (its memory is the world's too)."""
+        pids = self.worker_pids
+        return pids[0] if pids else None
+
+    @property
+    def worker_pids(self) -> list[int]:
+        """The tile processes' ids (one per worker thread; none when tiles are made in the
+        worker threads)."""
+        return [p.pid for p in self._processes if p.alive and p.pid is not None]
 
     def _is_wanted(self, item) -> bool:
         """(under _lock) Some frame asked for ``item`` within stale_frames."""
@@ -670,16 +691,16 @@ class TileScheduler:
         interval; the tiles the process makes are handed to it meanwhile (it holds no lock
         of the frame's)."""
         self._idle.clear()
-        process = self._process
-        if process is not None and self._pause_now():
-            process.pause()
-            self._paused = True
+        processes = self._processes
+        if processes and self._pause_now():
+            self._paused = processes[len(processes) - self._sharing_frame_core():]
+            for process in self._paused:
+                process.pause()
 
     def frame_ends(self) -> None:
         if self._paused:
-            self._paused = False
-            process = self._process
-            if process is not None:
+            paused, self._paused = self._paused, []
+            for process in paused:
                 process.resume()
         self._idle_since = time.perf_counter()
         self._idle.set()
@@ -689,9 +710,19 @@ class TileScheduler:
         live edit) starts its next piece between frames, as the worker starts its tiles."""
         self._idle.wait(timeout_s)
 
+    def _sharing_frame_core(self) -> int:
+        """How many worker processes ``pause_in_frames`` stops in a frame: all (True); "auto":
+        those beyond one per core but the frame's (none where they all have a core of their
+        own; the one on a single core)."""
+        n = len(self._processes)
+        if self.pause_in_frames != "auto":
+            return n
+        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else n + 1
+        return min(max(n - (cores - 1), 0), n)
+
     def _pause_now(self) -> bool:
         if self.pause_in_frames == "auto":
-            if not hasattr(os, "sched_getaffinity") or len(os.sched_getaffinity(0)) != 1:
+            if self._sharing_frame_core() == 0:
                 return False
         elif not self.pause_in_frames:
             return False
@@ -839,19 +870,40 @@ class TileScheduler:
         return not self._pending
 
     def close(self) -> None:
-        """Stop the worker thread and process (queued tiles are dropped). Safe from any thread,
-        the worker's own included (a world's finalizer may run where the collector ran)."""
+        """Stop the worker threads and processes (queued tiles are dropped). Safe from any
+        thread, a worker's own included (a world's finalizer may run where the collector
+        ran)."""
         self._closed = True
-        thread, self._thread = self._thread, None
-        if thread is not None:
+        threads, self._threads = self._threads, []
+        for _ in threads:
             self._queue.put((-1, -1, None))
-        process, self._process = self._process, None
-        if process is not None:
-            # first, and at once: the thread may be waiting for the tile the process makes at
-            # its low priority (seconds on a busy machine); a tile dropped loses nothing
-            process.close(timeout_s=0.1)
-        if thread is not None and thread is not threading.current_thread():
-            thread.join(timeout=10.0)
+        processes, self._processes = self._processes, []
+        # first, and at once: a thread may be waiting for the tile its process makes at its
+        # low priority (seconds on a busy machine); a tile dropped loses nothing
+        close_all(processes, 0.1)
+        for thread in threads:
+            if thread is not threading.current_thread():
+                thread.join(timeout=10.0)
+
+
+def worker_count(workers: int | str) -> int:
+    """Worker threads (and processes) for ``workers``: a number ≥ 1, or "auto": one on a
+    machine (or an affinity) of one core, where they share the frame's; else one per core
+    but the frame's, at least two and at most MAX_WORKERS (the frame's thread outranks them:
+    they run at WORKER_NICE)."""
+    if workers == "auto":
+        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (
+            os.cpu_count() or 1)
+        return 1 if cores <= 1 else min(max(cores - 1, 2), MAX_WORKERS)
+    if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
+        raise ValueError(f"workers must be a whole number ≥ 1 or 'auto', got {workers!r}")
+    return int(workers)
+
+
+def close_all(processes, timeout_s: float) -> None:
+    """Close tile processes (:meth:`ProducerProcess.close`), one after the other."""
+    for process in processes:
+        process.close(timeout_s=timeout_s)
 
 
 def _lower_priority() -> None:
@@ -868,9 +920,9 @@ def _lower_priority() -> None:
         pass
 
 
-def _work(ref: weakref.ref, jobs: queue.PriorityQueue) -> None:
-    """The worker loop, at a low CPU priority. It holds the scheduler only while making a
-    tile, so a scheduler nobody uses any more is collected (and its thread ends)."""
+def _work(ref: weakref.ref, jobs: queue.PriorityQueue, lane: int = 0) -> None:
+    """Worker thread ``lane``'s loop, at a low CPU priority. It holds the scheduler only while
+    making a tile, so a scheduler nobody uses any more is collected (and its thread ends)."""
     _lower_priority()
     while True:
         try:
@@ -888,12 +940,12 @@ def _work(ref: weakref.ref, jobs: queue.PriorityQueue) -> None:
         # a tile the process makes is handed to it at once (its own interpreter, beside the
         # frame; paused in frames where it shares the frame's core): waiting for the frame to
         # end left it idle a frame's time at every tile (a live edit's ~240 tiles: ~0.5 s)
-        remote = scheduler._process is not None and job.kind in scheduler._process_kinds
+        remote = lane < len(scheduler._processes) and job.kind in scheduler._process_kinds
         del scheduler
         if not remote:
             idle.wait(IDLE_WAIT_S)
         scheduler = ref()
         if scheduler is None:
             return
-        scheduler._run(job)
+        scheduler._run(job, lane)
         del scheduler

@@ -158,7 +158,7 @@ def test_the_worker_ends_when_the_scheduler_is_dropped():
     sched = TileScheduler(TileCache(1 << 20), [Heights()], "background")
     sched.request("h", [(0, 0, 0)])
     sched.wait(5.0)
-    thread = sched._thread
+    (thread,) = sched._threads
     del sched
     gc.collect()
     thread.join(timeout=5.0)
@@ -321,6 +321,58 @@ def test_a_worker_process_makes_the_same_tiles_as_the_thread_and_the_frame_proce
         assert np.array_equal(z, made["process"][key]), key
 
 
+class SlowWhereMade(WhereMade):
+    def produce(self, key, deps):
+        threading.Event().wait(0.002)          # long enough for the workers to take turns
+        return super().produce(key, deps)
+
+
+@needs_fork
+def test_several_worker_processes_share_the_queue_and_make_the_same_tiles():
+    """workers=3 (RiverConfig.tile_workers): three threads, each with its forked process,
+    take the queued tiles in turn; a tile whose dependency another process is still making is
+    let go and made when asked again (as a frame asks every frame); the tiles are the one
+    worker's, bit for bit."""
+    keys = np.concatenate([_keys(0), _keys(1), _keys(2), _keys(3)])
+    made = {}
+    for workers in (1, 3):
+        cache = TileCache(1 << 30)
+        sched = TileScheduler(cache, [Heights(), SlowWhereMade()], "background",
+                              worker="process", workers=workers)
+        sched.max_starts = 1000
+        pool = cache.pools["p"]
+        for _ in range(20):                      # frames: what is missing asked again
+            sched.request("p", keys)
+            assert sched.wait(20.0)
+            if all(pool.get(tile_code(*k)) is not None for k in map(tuple, keys)):
+                break
+        made[workers] = {k: pool.get(tile_code(*k))["z"].copy() for k in map(tuple, keys)}
+        pids = {int(pool.get(tile_code(*k))["pid"][0]) for k in map(tuple, keys)}
+        assert len(sched.worker_pids) == workers and pids <= set(sched.worker_pids)
+        assert len(pids) == workers and os.getpid() not in pids
+        threads = sched._threads
+        assert len(threads) == workers
+        sched.close()
+        assert not any(t.is_alive() for t in threads) and not sched.worker_pids
+    for key, z in made[1].items():
+        assert np.array_equal(z, made[3][key]), key
+
+
+def test_worker_counts_auto_and_bad_ones():
+    from riverflow.engine.config import RiverConfig
+    from riverflow.tiles.scheduler import MAX_WORKERS, worker_count
+
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    assert worker_count("auto") == (1 if cores <= 1 else min(max(cores - 1, 2), MAX_WORKERS))
+    assert worker_count(3) == 3
+    for bad in (0, -1, 1.5, True, "two", None):
+        with pytest.raises(ValueError, match="workers"):
+            worker_count(bad)
+        with pytest.raises(ValueError, match="tile_workers"):
+            RiverConfig(tile_workers=bad)
+    assert RiverConfig(tile_workers="2").tile_workers == 2            # as from_env gives it
+
+
 @needs_fork
 def test_a_producer_error_in_the_process_is_reported_and_the_process_keeps_working():
     sched = TileScheduler(TileCache(1 << 20), [Broken(), Heights()], "background",
@@ -384,7 +436,7 @@ def test_closing_while_the_process_makes_a_tile_ends_both_at_once():
     sees it go, drops the tile rather than making it itself, and ends."""
     sched = TileScheduler(TileCache(1 << 20), [Stuck()], "background", worker="process")
     sched.request("stuck", [(0, 0, 0)])
-    thread = sched._thread
+    (thread,) = sched._threads
     while sched.worker_pid is None:
         threading.Event().wait(0.01)
     pid = sched.worker_pid
@@ -481,11 +533,29 @@ def test_the_tile_process_is_paused_in_frames_on_one_core_and_tiles_are_still_ma
             os.sched_setaffinity(0, allowed)
             time.sleep(0.005)
             auto.frame_begins()
-            assert auto._paused == paused
+            assert bool(auto._paused) == paused
             auto.frame_ends()
     finally:
         os.sched_setaffinity(0, cores)
     auto.close()
+    # several workers: "auto" stops those beyond one per core but the frame's
+    two = TileScheduler(TileCache(1 << 30), [Heights()], "background", worker="process",
+                        workers=2)
+    two.request("h", [(0, 0, 0)])
+    assert two.wait(20.0)
+    try:
+        for allowed in ({min(cores)}, set(sorted(cores)[:2])):
+            os.sched_setaffinity(0, allowed)
+            time.sleep(0.005)
+            two.frame_begins()
+            want = max(2 - (len(allowed) - 1), 0)
+            assert two._paused == two._processes[2 - want:]
+            assert [_state(p.pid) == "T" for p in two._processes] in (
+                [False] * (2 - want) + [True] * want, [False] * 2)     # (stopping takes a moment)
+            two.frame_ends()
+    finally:
+        os.sched_setaffinity(0, cores)
+    two.close()
     with pytest.raises(ValueError, match="pause_in_frames"):
         TileScheduler(TileCache(1 << 20), [], "background", pause_in_frames="sometimes")
 
