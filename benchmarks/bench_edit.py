@@ -144,6 +144,7 @@ def run(size, edits: int, every: int, bump_m: float, warm: int, seed: int,
     drawn_s, drawn_cpu_s = [], []
     worker_cpu_s: list[float] = []
     late = 0          # edits whose tiles were not in view by the next edit's time
+    between = 0       # edits the edits' thread swapped in between frames
     for e in range(edits):
         sign = 1.0 if e % 2 == 0 else -1.0
         t0 = time.perf_counter()
@@ -159,6 +160,7 @@ def run(size, edits: int, every: int, bump_m: float, warm: int, seed: int,
                 pids = world.tiles.scheduler.worker_pids    # forked for this edit
                 marked.append(sum(world.edits.last["marked"].values()))
                 swap_ms.append(world.edits.last["swap_ms"])
+                between += bool(world.edits.last.get("between_frames"))
             if swapped is not None and river is None \
                     and _stale_in_view(world, RIVER_KINDS, drawn=True) == 0:
                 river = time.perf_counter() - t0
@@ -184,7 +186,8 @@ def run(size, edits: int, every: int, bump_m: float, warm: int, seed: int,
     out.update({
         "edits": edits, "edit_errors": len(world.edit_errors),
         "tiles_marked_per_edit_mean": float(np.mean(marked)) if marked else 0.0,
-        "swap_main_thread_ms_max": float(np.max(swap_ms)) if swap_ms else 0.0,
+        "swap_ms_max": float(np.max(swap_ms)) if swap_ms else 0.0,
+        "swapped_between_frames": between,
         "swap_s_median": float(np.nanmedian(swap_s)), "swap_s_max": float(np.nanmax(swap_s)),
         "worker_cpu_s_per_edit_median": float(np.nanmedian(worker_cpu_s))
         if worker_cpu_s else float("nan"),

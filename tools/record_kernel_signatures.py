@@ -228,6 +228,13 @@ def _boat_run(scene, gl: bool) -> None:
         main = next(b for b in scene.branches if b.kind == "main").centerline_m
         demo.world.add_spill(main[len(main) // 2], 100.0, 60.0, name="record")
         demo.world.advance_spills(60.0)
+        # a flood (issue 25): its routing steps and what reads its speed and level (world),
+        # its drawn level (draw), so that a first flood does not load them in a frame
+        world = demo.world
+        world.set_hydrograph(None, [], None)
+        q, now = world.flood.base_inflow_m3s(), world.flood_time_s
+        world.set_hydrograph(None, [now, now + 60.0], [q, 3.0 * q])
+        world.advance_flood(120.0)
         demo.input.key_down("W")
         for _ in range(30):
             demo.step()

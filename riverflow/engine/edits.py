@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import copy
 import math
+import sys
 import weakref
 from dataclasses import dataclass, field
 
@@ -92,6 +93,10 @@ class EditPlan:
     """kind → (codes sorted, made again or not, rank): :func:`marked_tiles` for the tiles
     resident when the edit was planned, worked out in the edit's thread; the swap works out
     only the tiles installed since (:func:`marked_at_swap`)."""
+    flow_ahead: dict = field(default_factory=dict)
+    """code → flow tile: the view's flow tiles the edit makes wet (none resident when it was
+    planned), made in the edit's thread with the new producer; the swap installs them (the
+    frame after it would make them itself, in deterministic mode)."""
 
     @property
     def change_centres(self) -> np.ndarray:
@@ -876,6 +881,13 @@ class LiveEdits:
             self._worker = None
 
 
+EDIT_SWITCH_INTERVAL_S = 0.0005
+"""While the edits' thread runs a job, the interpreter's switch interval is at most this
+[s] (``sys.setswitchinterval``; put back after): a frame that wants the interpreter while
+the edit's Python runs gets it within this, not the default 5 ms (over twice a frame's own
+work)."""
+
+
 def _serve_edits(ref, jobs) -> None:
     """The edits' thread: runs what :meth:`LiveEdits.start` hands it until told to stop or
     its LiveEdits is gone."""
@@ -891,7 +903,13 @@ def _serve_edits(ref, jobs) -> None:
         if job is None:
             return
         run, done = job
+        # the frame's thread takes the interpreter back within this while the edits' thread
+        # runs Python (the default 5 ms is over twice a frame's work)
+        interval = sys.getswitchinterval()
+        sys.setswitchinterval(min(interval, EDIT_SWITCH_INTERVAL_S))
         try:
             run()
         finally:
+            if sys.getswitchinterval() == min(interval, EDIT_SWITCH_INTERVAL_S):
+                sys.setswitchinterval(interval)       # (unless the host set another since)
             done.set()

@@ -21,8 +21,10 @@ Example::
 from __future__ import annotations
 
 import contextlib
+import functools
 import gc
 import math
+import threading
 import time
 import uuid
 import weakref
@@ -128,6 +130,14 @@ class RiverWorld:
         self.timings_ms: dict[str, float] = {}
         self._view_loaded = False
         self._edits = None          # riverflow.engine.edits.LiveEdits, on the first edit
+        self._lock = threading.RLock()
+        """Held while the world runs or is read (a frame, a draw, every call of its API,
+        :data:`_SERIALIZED`): a background edit is swapped in by the edits' thread only while
+        none runs (:meth:`_swap_between_frames`)."""
+        self._between_frames = threading.Event()   # the host's frame is over (not drawing)
+        self._frames_begun = 0
+        self._frame_ended_at = 0.0
+        self._closed_world = False
         c = self.config
         if not hasattr(scene, "quadtree"):
             raise TypeError("RiverWorld needs a streamed landscape (riverflow.default_scene(), "
@@ -160,9 +170,10 @@ class RiverWorld:
                          DisplaySettings(), self.tiles, Rain(seed=self.seed), FoamSettings(),
                          Wakes(), Spray(seed=self.seed)):
             self.insert(resource)
+        self._river_node = RiverNode(scene.graph, field)     # (an edit swaps without esper)
         with self.active():
-            self.river = esper.create_entity(RiverNode(scene.graph, field),
-                                             ParticlePool(c.capacity), ScreenGrid(c.capacity))
+            self.river = esper.create_entity(self._river_node, ParticlePool(c.capacity),
+                                             ScreenGrid(c.capacity))
             if self.gl:
                 _add_wave_tiles(self.seed)
         if systems is None:
@@ -205,6 +216,21 @@ class RiverWorld:
         """The river node's component of ``kind`` (e.g. :class:`ParticlePool`)."""
         with self.active():
             return esper.component_for_entity(self.river, kind)
+
+    @contextlib.contextmanager
+    def _frame(self, drawn: bool = False) -> Iterator[None]:
+        """A frame's step (``drawn``: its draw) runs, holding the world's lock; after it the
+        host's frame is over where the world is not drawn, or after its draw
+        (:meth:`_swap_between_frames` waits for that)."""
+        self._between_frames.clear()
+        self._frames_begun += 1
+        with self._lock:
+            try:
+                yield
+            finally:
+                if drawn or not self.gl:
+                    self._frame_ended_at = time.perf_counter()
+                    self._between_frames.set()
 
     @contextlib.contextmanager
     def active(self) -> Iterator[None]:
@@ -254,6 +280,10 @@ class RiverWorld:
         except OverflowError:              # an int past float's range: a very long hitch
             dt = self.config.max_step_s if dt_s > 0 else 0.0
         dt = min(max(dt, 0.0), self.config.max_step_s)
+        with self._frame():
+            self._step(dt)
+
+    def _step(self, dt: float) -> None:
         if self._edits is not None:
             self._land_edit()              # a background edit made meanwhile: swapped in now
         clock = self.clock
@@ -718,6 +748,8 @@ class RiverWorld:
             between_frames()
         producers = [*terrain_producers(new_scene), FlowProducer(new_field)]
         between_frames()
+        plan.flow_ahead = self._flow_tiles_ahead(new_field, producers[-1])
+        between_frames()
         # the source under the drawn height tiles the edit makes again, kept here (the tile
         # process's own go with it): the next edits of a drag read them back
         from riverflow.scenes.tile_kinds import keep_sources
@@ -731,6 +763,27 @@ class RiverWorld:
         # the tile processes: forked here with the new producers (the frames go on meanwhile)
         processes = self.tiles.scheduler.fork_for(producers)
         return plan, producers, processes
+
+    def _flow_tiles_ahead(self, field: FlowField, producer) -> dict:
+        """The flow tiles the latest frame's view asks for of ``field`` (an edit's new flow)
+        that are not resident (the edit made them wet), made now with ``producer``
+        (:attr:`~riverflow.engine.edits.EditPlan.flow_ahead`)."""
+        from riverflow.kernels.view_tiles import MAX_VIEW_TILES, select_view_tiles
+        from riverflow.tiles.table import code_key, codes as tile_codes
+
+        view, terrain = self.resource(FrameView), self.resource(TerrainView)
+        if not (view.width_px > 0 and view.height_px > 0):
+            return {}
+        t = field.tiles
+        keys = np.zeros((MAX_VIEW_TILES, 3), np.int32)
+        n = select_view_tiles(np.array(view.clip_from_world, np.float64),
+                              *np.array(view.eye_m, np.float64), float(view.rad_per_px),
+                              self.config.flow_tile_px, t.root_x_m, t.root_y_m, t.root_size_m,
+                              t.n_cells, field.max_level, terrain.z_min, terrain.z_max,
+                              t.wet.keys, t.wet.values, keys)
+        wanted = tile_codes(keys[:n])
+        missing = wanted[t.pool.table.find_many(wanted) < 0]
+        return {code: producer.produce(code_key(code), {}) for code in missing.tolist()}
 
     def _land_edit(self, block: bool = False) -> None:
         """Swap in a background edit that is ready (or, ``block``, wait for it), then start
@@ -747,6 +800,8 @@ class RiverWorld:
             if isinstance(result, BaseException):
                 live.errors.append(f"{type(result).__name__}: {result}")
                 future.set_exception(result)
+            elif isinstance(result, _Swapped):  # swapped in by the edits' thread already
+                future.set_result(result.changed)
             else:
                 try:
                     future.set_result(self._apply_edit(*result))
@@ -763,12 +818,70 @@ class RiverWorld:
                     live.result = self._plan(make, scene, field)
                 except BaseException as exc:
                     live.result = exc.with_traceback(None)
+                    return
+                self._swap_between_frames(live)
             live.future = future
             live.start(run)
 
-    def _apply_edit(self, plan, producers, processes=None) -> list[str]:
-        """Swap an edit in (main thread, between frames): module docstring of
-        :mod:`riverflow.engine.edits`, step 3. Returns the changed branches' names."""
+    def _swap_between_frames(self, live) -> None:
+        """The edits' thread: swap the edit just made (``live.result``) in between the host's
+        frames, not in the next frame (~5–10 ms of bookkeeping: over twice a frame's): once
+        a frame's step (a drawn world: its draw) has ended and no call of the world has
+        begun for SWAP_QUIET_S, if the world's lock is free and still no frame began; else
+        the next frame swaps it in at its start, as before (a host that steps back to back,
+        a world that is not drawn within SWAP_WAIT_S)."""
+        if not self._quiet_lock():
+            return
+        try:
+            plan = live.result
+            try:
+                live.result = _Swapped(self._apply_edit(*plan, between_frames=True))
+            except BaseException as exc:   # the swap itself failed: said so by the frame
+                live.result = exc.with_traceback(None)
+        finally:
+            self._lock.release()
+
+    def _quiet_lock(self, after: int = -1) -> bool:
+        """The edits' thread: hold the world's lock in a gap between the host's frames and
+        return True: a gap that began (a frame's step ended, a drawn world's draw) at most
+        GAP_FRESH_S ago, after frame number ``after``, with no call of the world begun for
+        SWAP_QUIET_S; a frame that began meanwhile is waited for and the next gap taken;
+        False (without the lock) if none came within SWAP_WAIT_S."""
+        end = time.perf_counter() + SWAP_WAIT_S
+        while not self._closed_world:
+            if not self._between_frames.wait(max(end - time.perf_counter(), 0.0)):
+                return False
+            begun = self._frames_begun
+            fresh = time.perf_counter() - self._frame_ended_at <= GAP_FRESH_S
+            time.sleep(SWAP_QUIET_S)          # (a draw right after its step, a blit after it)
+            if fresh and begun > after and self._frames_begun == begun \
+                    and self._lock.acquire(blocking=False):
+                if self._frames_begun == begun and self._between_frames.is_set() \
+                        and not self._closed_world:
+                    return True
+                self._lock.release()
+            if time.perf_counter() > end:
+                return False
+        return False
+
+    def _queue_stale_between_frames(self) -> None:
+        """The edits' thread, after an edit it swapped in: the view's stale tiles queued
+        between the frames, QUEUE_STALE_BATCH at a time (:meth:`TileScheduler.queue_stale`),
+        until none is left (or the host gives no quiet time: the frames queue them then)."""
+        after = self._frames_begun
+        while self._quiet_lock(after):          # a gap of its own for each batch
+            after = self._frames_begun
+            try:
+                if not self.tiles.scheduler.queue_stale(QUEUE_STALE_BATCH):
+                    return
+            finally:
+                self._lock.release()
+
+    def _apply_edit(self, plan, producers, processes=None, *, between_frames: bool = False
+                    ) -> list[str]:
+        """Swap an edit in (at a frame's start, or ``between_frames`` by the edits' thread
+        holding the world's lock): module docstring of :mod:`riverflow.engine.edits`, step 3.
+        Returns the changed branches' names."""
         from riverflow.components.flow_tiles import FLOW_KIND
         from riverflow.engine.edits import marked_at_swap, renumbered_segments
         from riverflow.scenes.tile_kinds import TERRAIN_KINDS, WATER, WATER_MESH
@@ -824,10 +937,15 @@ class RiverWorld:
         later = {kind: stale[kind][~np.isin(stale[kind], cut)] for kind in TERRAIN_KINDS}
         scheduler.invalidate(stale, first=(FLOW_KIND, WATER, WATER_MESH), rank=rank,
                              later=later)
+        flow_pool = cache.pools[FLOW_KIND]
+        for code, tile in plan.flow_ahead.items():     # the view's newly wet flow tiles
+            if code not in flow_pool:
+                scheduler.install(FLOW_KIND, code, tile)
+        if between_frames:      # the view's stale tiles queued by the edits' thread
+            self._edits.run_later(self._queue_stale_between_frames)
         self.scene = plan.scene
         self.field = plan.field
-        with self.active():
-            node = esper.component_for_entity(self.river, RiverNode)
+        node = self._river_node          # (no esper world switch: any thread may swap)
         node.graph, node.field = plan.scene.graph, plan.field
         terrain = self.resource(TerrainView)
         terrain.z_min = min(terrain.z_min, float(plan.scene.z_range_m[0]))
@@ -843,7 +961,7 @@ class RiverWorld:
         live.applied += 1
         live.last = {"changed": list(plan.changed), "dropped": list(plan.dropped),
                      "marked": {k: len(v) for k, v in stale.items()},
-                     "applied_s": time.perf_counter(),
+                     "applied_s": time.perf_counter(), "between_frames": between_frames,
                      "swap_ms": (time.perf_counter() - t0) * 1e3}
         return list(plan.changed)
 
@@ -1023,6 +1141,10 @@ class RiverWorld:
             raise RuntimeError("drawing needs a world made with gl=True")
         if not self.host and framebuffer is not None:
             raise ValueError("draw(framebuffer=...) is for a world made with gl=\"current\"")
+        with self._frame(drawn=True):
+            self._draw(view, projection, framebuffer, sky)
+
+    def _draw(self, view, projection, framebuffer, sky: bool) -> None:
         if not self.host:
             if view is not None or projection is not None:
                 self.camera.set_matrices(view, projection)
@@ -1090,7 +1212,7 @@ class RiverWorld:
         if self.camera.is_empty:                    # a minimised window: nothing to draw
             w, h = self.camera.size_px
             return np.zeros((h, w, 4), np.uint8)
-        with self._offscreen():
+        with self._frame(drawn=True), self._offscreen():
             self._draw_systems()
             return self._drawer().read_rgba8()
 
@@ -1104,7 +1226,7 @@ class RiverWorld:
         host's state as it was."""
         if not self.gl:
             raise RuntimeError("render_to_texture() needs a world made with gl=True")
-        with self._offscreen():
+        with self._frame(drawn=True), self._offscreen():
             self._draw_systems()
             return self._drawer().colour_texture()
 
@@ -1131,12 +1253,14 @@ class RiverWorld:
             from riverflow.engine import gl as gl_module
 
             gl_module.check_blit_target(self.context)
-        self._drawer().blit_to_window(width_px or w, height_px or h)
+        with self._frame(drawn=True):
+            self._drawer().blit_to_window(width_px or w, height_px or h)
 
     def close(self) -> None:
         """Stop the tile worker thread, release GPU objects (while their OpenGL context lives)
         and delete the esper world. Idempotent; a world dropped without it does the same
         when it is collected."""
+        self._closed_world = True
         if self._edits is not None:
             self._edits.stop()
         self._finalizer()
@@ -1146,6 +1270,53 @@ class RiverWorld:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+class _Swapped:
+    """An edit the edits' thread swapped in (:meth:`RiverWorld._swap_between_frames`): the
+    changed branches' names, for its future."""
+
+    __slots__ = ("changed",)
+
+    def __init__(self, changed: list[str]) -> None:
+        self.changed = changed
+
+
+SWAP_WAIT_S = 0.1
+"""The edits' thread waits this long [s] for a gap between the host's frames before leaving
+an edit it made to the next frame to swap in."""
+SWAP_QUIET_S = 0.001
+"""…and swaps it in only if no call of the world began this long [s] after the frame
+ended."""
+GAP_FRESH_S = 0.003
+"""…in a gap that began at most this long [s] before (the rest of it may be too short)."""
+QUEUE_STALE_BATCH = 30
+"""Stale tiles the edits' thread queues in a gap between two frames after an edit's swap
+(~40 µs each)."""
+
+_SERIALIZED = ("load_view", "close", "add_prop", "pose", "add_boat", "wake", "boat",
+               "set_rain", "configure_spills", "set_hydrograph", "advance_flood",
+               "set_discharge", "edit_network", "set_width", "move_axis", "add_branch",
+               "remove_branch", "water_level", "add_spill", "advance_spills", "concentration",
+               "spill", "component", "insert")
+"""RiverWorld's calls that hold its lock (a frame's step and draws hold it too): none runs
+while the edits' thread swaps an edit in."""
+
+
+def _serialized(method):
+    @functools.wraps(method)
+    def holding_lock(self, *args, **kwargs):
+        lock = getattr(self, "_lock", None)      # (none before __init__ made it)
+        if lock is None:
+            return method(self, *args, **kwargs)
+        with lock:
+            return method(self, *args, **kwargs)
+    return holding_lock
+
+
+for _name in _SERIALIZED:
+    setattr(RiverWorld, _name, _serialized(getattr(RiverWorld, _name)))
+del _name
 
 
 class _Owned:

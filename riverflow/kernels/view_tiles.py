@@ -11,6 +11,9 @@ from numba import njit
 from riverflow.kernels._jit import JIT_OPTIONS
 from riverflow.kernels.tile_table import table_find, tile_code
 
+MAX_VIEW_TILES = 4096
+"""At most this many tiles of one cut are asked for a frame (the callers' key buffers)."""
+
 
 @njit(**JIT_OPTIONS)
 def _box_outside_frustum(m, x0, y0, x1, y1, z0, z1):

@@ -23,13 +23,11 @@ from riverflow.components.flow_tiles import FLOW_KIND
 from riverflow.components.river import FrameView, RiverNode, TerrainView, Tile, Tiles
 from riverflow.engine.system import System
 from riverflow.kernels.surface_tiles import SurfaceTiles, leaf_standins
-from riverflow.kernels.view_tiles import select_view_tiles
+from riverflow.kernels.view_tiles import MAX_VIEW_TILES, select_view_tiles
 from riverflow.scenes.tile_kinds import HINT_CELLS, HINTS, RAYCAST, TERRAIN_KINDS
 from riverflow.tiles.coverage import with_ancestors
 from riverflow.tiles.table import TileTable, code_key, codes
 
-MAX_VIEW_TILES = 4096
-"""At most this many tiles of one cut are asked for a frame."""
 _ALL_KEYS = np.zeros(0, np.int64)     # an empty filter: every tile is a candidate
 _ALL_VALUES = np.zeros(0, np.int32)
 _NO_CODES = np.zeros(0, np.int64)

@@ -65,6 +65,9 @@ a kind) is still far more than the worker makes (60-110 tiles a second of all ki
 1000 km), so the queue never runs dry; queuing more only made work for the frame (a job and
 its dependencies set up in Python) for tiles that went stale unmade (half of those queued in
 a 200 m/s flight with 16)."""
+STALE_ELSEWHERE_FRAMES = 10
+"""After a :meth:`TileScheduler.queue_stale` call that left stale tiles unqueued, the frames
+leave them to the next call for this many frames (then queue them themselves again)."""
 PAUSE_MIN_IDLE_S = 0.002
 """The worker process is paused in a frame only if the frame before left it this much idle
 time (:attr:`TileScheduler.pause_in_frames`)."""
@@ -215,6 +218,7 @@ class TileScheduler:
         self._priority: dict[str, tuple[np.ndarray, np.ndarray]] = {}   # (invalidate)
         # the stale sets as hash tables (request: a frame's codes looked up in one call)
         self._stale_codes: dict[str, tuple[int, TileTable]] = {}
+        self._stale_elsewhere_until = -1      # frames leave the stale tiles to queue_stale
         for producer in producers:
             self.add(producer)
 
@@ -307,6 +311,7 @@ class TileScheduler:
             keys, at = np.unique(codes, return_index=True)
             self._priority[kind] = (keys, place[at])
         self._stale_codes.clear()        # (only invalidate adds to a stale set)
+        self._stale_elsewhere_until = -1
         self.generation += 1
         self._invalidated_at = self.frame
         with self._lock:
@@ -358,6 +363,55 @@ class TileScheduler:
             table.set_many(np.fromiter(stale, np.int64, len(stale)), 0)
             known = self._stale_codes[kind] = (len(stale), table)
         return known[1]
+
+    def install(self, kind: str, code: int, data) -> bool:
+        """Install a tile made elsewhere with the current producer of ``kind`` (a live edit's
+        thread made it ahead), as if the worker had: resident from now on unless it is or
+        its old version is (a stale one is made again as usual). Returns whether it was."""
+        pool = self.cache.pools[kind]
+        if code in pool or (kind, code) in self._pending:
+            return False
+        stored = self._store(kind, code, data, self.cache.tick)
+        if stored:
+            self.cache.evict_to_budget()
+        return stored
+
+    def queue_stale(self, limit: int | None = None) -> int:
+        """Queue the stale tiles the latest frame read (background mode), each in its place,
+        the river's kinds first, at most ``limit`` (and their dependencies) in this call; the
+        frames leave them to these calls meanwhile (STALE_ELSEWHERE_FRAMES after the last).
+        A live edit's swap between frames has its thread do it between the frames after it:
+        an edit's ~300 tiles' set-up is not the frames'. Returns how many are left to
+        queue (0: done, the frames queue what they ask for again)."""
+        if self.mode != "background":
+            return 0
+        todo = []
+        for kind, stale in self._stale.items():
+            if not stale:
+                continue
+            pool = self.cache.pools[kind]
+            codes = np.fromiter(stale, np.int64, len(stale))
+            slots = pool.table.find_many(codes)
+            codes = codes[(slots >= 0) & (pool.last_used[np.maximum(slots, 0)]
+                                          >= self.cache.tick - 1)]
+            codes = codes[self._state[kind].find_many(codes) < 0]
+            if len(codes):
+                todo.append((kind, codes, self._stale_priorities(kind, codes)))
+        if not todo:
+            self._stale_elsewhere_until = -1
+            return 0
+        kinds = np.concatenate([np.full(len(c), k) for k, (_, c, _) in enumerate(todo)])
+        codes = np.concatenate([c for _, c, _ in todo])
+        order = np.argsort(np.concatenate([p for _, _, p in todo]), kind="stable")
+        take = order if limit is None else order[:limit]
+        for k in np.unique(kinds[take]).tolist():
+            with self._lock:
+                self._wanted[todo[k][0]].set_many(codes[take[kinds[take] == k]], self.frame)
+        for at in take.tolist():
+            self._start(todo[kinds[at]][0], code_key(int(codes[at])), int(codes[at]))
+        left = len(order) - len(take)
+        self._stale_elsewhere_until = self.frame + STALE_ELSEWHERE_FRAMES if left else -1
+        return left
 
     def _let_stale_go(self) -> None:
         """Stale tiles no frame asked for since the edit (or within stale_frames) are
@@ -425,6 +479,8 @@ class TileScheduler:
         with self._lock:
             self._wanted[kind].set_many(missing, self.frame)
         new = missing[self._state[kind].find_many(missing) < 0]   # neither pending nor failed
+        if stale and self.frame <= self._stale_elsewhere_until:
+            new = new[known.find_many(new) < 0]        # queued by queue_stale's caller
         if self.mode == "background" and len(new) > self.max_starts:
             # the worker makes tens of tiles a second: more would go stale unmade, and the
             # view asks again next frame; coarse first, so the view fills from coarse to fine,

@@ -9,6 +9,7 @@ from __future__ import annotations
 import gc
 import resource
 import sys
+import threading
 import time
 
 import numpy as np
@@ -179,6 +180,44 @@ def _as_made_from_scratch(w) -> None:
                 assert tile_bytes(made) == tile_bytes(resident), (kind, key)
             compared[kind] = compared.get(kind, 0) + 1
     assert set(compared) == set(fresh), compared
+
+
+def test_a_background_edit_is_swapped_in_between_frames(restore):
+    """A background edit (``wait=False``) made while the host idles between its frames is
+    swapped in then by the edits' thread (holding the world's lock), not in the next frame;
+    its view's stale tiles are queued in later gaps, not by the frames; the tiles after it
+    are the new network's. A call of the world in that gap waits for the swap: the world is
+    never half swapped."""
+    w = restore
+    _look_at(w, 0.0, frames=1)
+    old = w.scene
+    applied = w.edits.applied
+    interval = sys.getswitchinterval()
+    future = w.move_axis(0, _bumped(old.branches[0].centerline_m, 12.0), wait=False)
+    end = time.perf_counter() + 60.0
+    while w.edits.applied == applied:            # a frame, then the host idles
+        assert time.perf_counter() < end, "the edit was not swapped in"
+        w.step(1 / 30)
+        time.sleep(0.03)
+    assert w.edits.last["between_frames"]        # the edits' thread did it, between frames
+    assert w.scene is not old and w.field.graph is w.scene.graph
+    assert w._river_node.field is w.field
+    assert not future.done() or future.result(0)
+    w.step(1 / 30)
+    assert future.result(5.0) == [old.branches[0].name]
+    _settle(w)
+    _as_made_from_scratch(w)
+    # the switch interval the edits' thread shortened while it ran is the host's again
+    assert sys.getswitchinterval() == interval
+    # a call of the world while the edits' thread holds the lock waits for it
+    with w._lock:
+        got = []
+        t = threading.Thread(target=lambda: got.append(w.water_level([[0.0, 0.0]])))
+        t.start()
+        t.join(0.2)
+        assert t.is_alive() and not got          # held off
+    t.join(5.0)
+    assert got and np.isfinite(got[0]).all()
 
 
 def test_the_new_banks_are_where_asked(restore):

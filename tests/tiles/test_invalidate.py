@@ -250,3 +250,4 @@ def test_the_stale_tiles_places_looked_up_at_once_are_their_places_one_by_one():
         assert len(set(sched._stale_priorities("a", stale[4:]).tolist())) > 3
     finally:
         sched.close()
+

@@ -550,8 +550,6 @@ def test_the_tile_process_is_paused_in_frames_on_one_core_and_tiles_are_still_ma
             two.frame_begins()
             want = max(2 - (len(allowed) - 1), 0)
             assert two._paused == two._processes[2 - want:]
-            assert [_state(p.pid) == "T" for p in two._processes] in (
-                [False] * (2 - want) + [True] * want, [False] * 2)     # (stopping takes a moment)
             two.frame_ends()
     finally:
         os.sched_setaffinity(0, cores)
