@@ -79,6 +79,9 @@ IDLE_WAIT_S = 0.02
 """Longest a worker waits for the frame to end before starting a tile (a host that steps
 back to back, with no idle time, still gets tiles made)."""
 """A wanted-frame stamp no frame is near (the tile is let go)."""
+DEPENDENCY_WAIT_S = 5.0
+"""A worker whose tile's dependency another worker is making waits for it this long at most
+(then lets its tile go, to be asked again)."""
 MAX_WORKERS = 4
 """Worker threads (and processes) "auto" gives at most (:func:`worker_count`)."""
 WORKER_NICE = int(os.environ.get("RIVERFLOW_WORKER_NICE", "19"))
@@ -199,6 +202,8 @@ class TileScheduler:
         self._fresh: dict[tuple[str, int], Any] = {}
         self._awaiting: dict[tuple[str, int], set] = {}   # dep → the jobs waiting for it
         self._lock = threading.Lock()
+        self._making: set[tuple[str, int]] = set()     # (kind, code) a worker makes now
+        self._made = threading.Condition(self._lock)   # notified as each is done
         self._idle = threading.Event()     # set between frames: the worker starts jobs then
         self._idle.set()
         self._threads: list[threading.Thread] = []
@@ -627,6 +632,12 @@ class TileScheduler:
             for dep in job.awaited:
                 dcode = tile_code(*dep[1])
                 data = self._fresh.get((dep[0], dcode))
+                if data is None and (dep[0], dcode) in self._making:
+                    # another worker makes it now: waited for, not let go (with several
+                    # workers a tile and its dependency are often taken one after the other)
+                    self._made.wait_for(lambda d=(dep[0], dcode): d not in self._making,
+                                        timeout=DEPENDENCY_WAIT_S)
+                    data = self._fresh.get((dep[0], dcode))
                 if data is None:
                     if (dep[0], dcode) in self._failed:
                         error = RuntimeError(f"its {dep[0]} tile {dep[1]} was not made")
@@ -639,16 +650,20 @@ class TileScheduler:
             return
         data = None
         if error is None:
+            with self._lock:
+                self._making.add(item)
             try:
                 data = self._produce(job.kind, job.key, deps, producer, lane)
             except Exception as exc:  # reported on the main thread by collect()
                 # (by its type and message: its traceback's frames hold this scheduler, a
                 # cycle that would keep a dropped world's tiles until the collector ran)
                 error = exc.with_traceback(None)
-        if data is not None:
-            with self._lock:
-                if job.generation == self.generation:
-                    self._fresh[item] = data
+            finally:
+                with self._lock:
+                    if data is not None and job.generation == self.generation:
+                        self._fresh[item] = data
+                    self._making.discard(item)
+                    self._made.notify_all()
         self._release_awaited(job)
         self._hand_back(job, data, error)
 

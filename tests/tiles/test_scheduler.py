@@ -330,8 +330,8 @@ class SlowWhereMade(WhereMade):
 @needs_fork
 def test_several_worker_processes_share_the_queue_and_make_the_same_tiles():
     """workers=3 (RiverConfig.tile_workers): three threads, each with its forked process,
-    take the queued tiles in turn; a tile whose dependency another process is still making is
-    let go and made when asked again (as a frame asks every frame); the tiles are the one
+    take the queued tiles in turn; a tile whose dependency another process is making now
+    waits for it (none is let go: all are made for one request); the tiles are the one
     worker's, bit for bit."""
     keys = np.concatenate([_keys(0), _keys(1), _keys(2), _keys(3)])
     made = {}
@@ -341,11 +341,9 @@ def test_several_worker_processes_share_the_queue_and_make_the_same_tiles():
                               worker="process", workers=workers)
         sched.max_starts = 1000
         pool = cache.pools["p"]
-        for _ in range(20):                      # frames: what is missing asked again
-            sched.request("p", keys)
-            assert sched.wait(20.0)
-            if all(pool.get(tile_code(*k)) is not None for k in map(tuple, keys)):
-                break
+        sched.request("p", keys)                 # once: nothing let go, nothing asked again
+        assert sched.wait(20.0)
+        assert all(pool.get(tile_code(*k)) is not None for k in map(tuple, keys))
         made[workers] = {k: pool.get(tile_code(*k))["z"].copy() for k in map(tuple, keys)}
         pids = {int(pool.get(tile_code(*k))["pid"][0]) for k in map(tuple, keys)}
         assert len(sched.worker_pids) == workers and pids <= set(sched.worker_pids)
