@@ -220,6 +220,30 @@ def test_a_background_edit_is_swapped_in_between_frames(restore):
     assert got and np.isfinite(got[0]).all()
 
 
+def test_the_views_newly_wet_flow_tiles_are_made_with_the_edit(restore, monkeypatch):
+    """The flow tiles of the view an edit makes wet (none resident before) are made in the
+    edit with its new producer and installed by its swap (the first frame after it made them
+    itself): each the tile a fresh producer makes."""
+    from riverflow.hydro.tile_producer import FlowProducer
+    from riverflow.tiles.table import code_key
+
+    w = restore
+    _look_at(w, 0.0, frames=1)
+    made = []
+    ahead = RiverWorld._flow_tiles_ahead
+    monkeypatch.setattr(RiverWorld, "_flow_tiles_ahead", lambda self, field, producer: (
+        made.append(ahead(self, field, producer)), made[-1])[1])
+    before = set(w.tiles.cache.pools["flow"].codes().tolist())
+    w.move_axis(0, _bumped(w.scene.branches[0].centerline_m, 40.0))
+    (tiles,) = made
+    assert tiles and not set(tiles) & before, "the bump made no flow tile of the view wet"
+    pool = w.tiles.cache.pools["flow"]
+    fresh = FlowProducer(w.field)
+    for code, tile in tiles.items():
+        assert pool.get(code) is not None                     # installed by the swap
+        assert tile_bytes(fresh.produce(code_key(code), {})) == tile_bytes(tile)
+
+
 def test_the_new_banks_are_where_asked(restore):
     w = restore
     b = w.scene.branches[0]
