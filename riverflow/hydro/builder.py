@@ -776,6 +776,7 @@ def _find_junctions(branches: list[_BranchInput]):
     points = np.array([e[2] for e in ends])
     reach = max(float(e[3]) for e in ends)       # no pair farther apart than this matters
     pairs = sorted(cKDTree(points).query_pairs(reach, output_type="set"))
+    apart = []
     for a, c in pairs:
         ia, ea, pa, wa = ends[a]
         ic, ec, pc, wc = ends[c]
@@ -785,11 +786,20 @@ def _find_junctions(branches: list[_BranchInput]):
                 raise GraphError(f"branch {branches[ia].name!r} starts and ends at the same point")
             parent[root(a)] = root(c)
         elif d < 0.5 * (wa + wc) and ia != ic:
-            which = ["start", "end"]
-            raise GraphError(
-                f"branches {branches[ia].name!r} and {branches[ic].name!r} do not meet: the "
-                f"{which[ea]} of one is {d:.2f} m from the {which[ec]} of the other; end points "
-                f"must coincide within {JOIN_FRACTION * min(wa, wc):.2f} m to join")
+            apart.append((a, c, d))
+    for a, c, d in apart:
+        # ends[a ^ 1] is the other end of a's branch: one of the two branches joins the two
+        # points itself (it is shorter than the junction at its other end is wide, as an
+        # axis from a junction to where the data's edge cuts the water can be)
+        if root(a ^ 1) == root(c) or root(c ^ 1) == root(a):
+            continue
+        ia, ea, pa, wa = ends[a]
+        ic, ec, pc, wc = ends[c]
+        which = ["start", "end"]
+        raise GraphError(
+            f"branches {branches[ia].name!r} and {branches[ic].name!r} do not meet: the "
+            f"{which[ea]} of one is {d:.2f} m from the {which[ec]} of the other; end points "
+            f"must coincide within {JOIN_FRACTION * min(wa, wc):.2f} m to join")
     groups: dict[int, list[int]] = {}
     for a in range(len(ends)):
         groups.setdefault(root(a), []).append(a)

@@ -735,6 +735,38 @@ def test_an_end_pruned_away_comes_back_beside_two_ends_at_the_edge(tmp_path):
     assert (status == INSIDE).all() and len(set(np.sign(along))) == 1
 
 
+def test_an_end_reach_shorter_than_its_junction_is_wide_joins(tmp_path):
+    """A 93 m meandering river with four long islands, whose data's edge upstream cuts a 69 m
+    island open 45 m from where the channels round it meet (from the survey's seed 71): the
+    axis from that junction out to the edge is shorter than half the junction's and the
+    end's widths together, so its end on the edge lay within the junction's reach without
+    joining it ("branches … do not meet", the same with any island made free). That end is
+    joined to the junction by the reach itself, which is no miss: the network builds with
+    the channel round the stub's other side out to its own piece of the edge, and the water
+    runs one way."""
+    river = survey_river(1074.78, 93.22, 70.94, 308.69,
+                         [(146.83, 33.75, 69.27, 9.8, -0.1845),
+                          (802.34, 29.72, 92.32, 10.52, 0.1642),
+                          (402.07, 51.7, 168.98, 7.91, 0.1856),
+                          (563.67, 58.8, 187.25, 13.45, 0.0021)],
+                         clip=(0.1886, 0.1559), shift=(0.0, 150.0))
+    water, centre, edge = river.water, river.centre, river.edges[0]
+    stub = shapely.intersection(river.islands[0], shapely.LineString([(edge, -1e4),
+                                                                     (edge, 1e4)]))
+    assert not stub.is_empty and len(water.interiors) == 3    # the first: cut open
+    builder = rf.read_water(write_polygons(tmp_path / "edge.geojson", [water]),
+                            origin_m=ORIGIN)
+    graph = builder.build()
+    ends = np.array([p for _, c in _channels(builder) for p in (c[0], c[-1])])
+    near = ends[np.abs(ends[:, 0] - edge) < 20.0]      # one end each side of the stub
+    assert (near[:, 1] < stub.bounds[1]).sum() == 1 and (near[:, 1] > stub.bounds[3]).sum() == 1
+    pts = centre[[8, 12, 28, 32]] @ SLOPE + (0.0, 150.0)
+    status, v = rf.FlowField(graph).query(pts)
+    along = np.einsum("ij,ij->i", v, np.gradient(centre, axis=0)[[8, 12, 28, 32]] @ SLOPE)
+    assert (status == INSIDE).all() and len(set(np.sign(along))) == 1
+    assert (np.abs(along) > 0.5 * np.hypot(*v.T)).all()
+
+
 def braid_in_three_lanes(seed: int):
     """A 200 m river with long thin islands (200 - 400 m) in three staggered lanes (y = -50,
     0, 50 m), cut obliquely at both ends by a trapezoid (its ends not along the bounding box:
