@@ -119,6 +119,12 @@ class RiverNetworkBuilder:
     its ``rapids``.
     """
 
+    short_reaches_join = True
+    """Two branch ends nearer than half their widths together that one of the branches
+    joins itself (a reach shorter than the junction at its other end is wide) are no miss."""
+    short_reach_joined = False
+    """Set by :meth:`build` when such a short reach joined its ends."""
+
     def __init__(self, tolerance_m: float = 0.25, *, lateral_inflow: bool = False,
                  fillet_fraction: float = FILLET_FRACTION,
                  fall_min_drop_m: float | None = FALL_MIN_DROP_M,
@@ -525,7 +531,7 @@ class RiverNetworkBuilder:
                 f"({', '.join(lakes[k].name for k in self.source_lakes)}): still water, "
                 f"their outlets start on free ends at the shore")
         if branches:
-            start_j, end_j, junctions = _find_junctions(branches)
+            start_j, end_j, junctions = _find_junctions(branches, self)
         else:
             start_j, end_j, junctions = [], [], np.zeros((0, 2))
         n_junctions = len(junctions)
@@ -755,8 +761,12 @@ def _lakes_of_graph(geoms, lakes, lake_ends, polygon_lake, tolerance_m):
 # -- topology -----------------------------------------------------------------------------
 
 
-def _find_junctions(branches: list[_BranchInput]):
-    """Cluster branch end points into junctions and snap them together.
+def _find_junctions(branches: list[_BranchInput], builder=None):
+    """Cluster branch end points into junctions and snap them together. Two ends nearer
+    than half their widths together that do not join are an error, unless one of their
+    branches joins them itself (a reach shorter than its junction is wide) and ``builder``'s
+    ``short_reaches_join`` is true (the default); ``builder.short_reach_joined`` says whether
+    that happened.
 
     Returns (start junction per branch, end junction per branch, junction points (J, 2));
     -1 marks a free end.
@@ -787,11 +797,14 @@ def _find_junctions(branches: list[_BranchInput]):
             parent[root(a)] = root(c)
         elif d < 0.5 * (wa + wc) and ia != ic:
             apart.append((a, c, d))
+    short = getattr(builder, "short_reaches_join", True)
     for a, c, d in apart:
         # ends[a ^ 1] is the other end of a's branch: one of the two branches joins the two
         # points itself (it is shorter than the junction at its other end is wide, as an
         # axis from a junction to where the data's edge cuts the water can be)
-        if root(a ^ 1) == root(c) or root(c ^ 1) == root(a):
+        if short and (root(a ^ 1) == root(c) or root(c ^ 1) == root(a)):
+            if builder is not None:
+                builder.short_reach_joined = True
             continue
         ia, ea, pa, wa = ends[a]
         ic, ec, pc, wc = ends[c]
