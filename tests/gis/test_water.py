@@ -766,6 +766,29 @@ def test_an_end_reach_shorter_than_its_junction_is_wide_joins(tmp_path):
     assert (np.abs(along) > 0.5 * np.hypot(*v.T)).all()
 
 
+def test_a_short_reach_that_leads_nowhere_is_taken_as_a_miss(tmp_path):
+    """A 234 m river with three long islands, cut by the data's box 126 m past the first
+    island's tail (from the survey's seed 275): the reach from the junction there out to
+    the edge joins its ends, but the channels found then do not build (an end does not
+    reach across the water). The build is made again with that end taken as missing its
+    junction, the island there made free (reported, as before short reaches joined): it
+    builds, the water runs one way."""
+    water, centre, _, _ = survey_river(
+        1318.48, 234.23, 7.18, 160.42, [(973.9, -9.02, 209.44, 13.11, -0.0709),
+                                        (486.47, -35.87, 436.3, 25.7, -0.1206),
+                                        (179.17, 23.99, 300.7, 12.81, -0.043)],
+        clip=(0.0066, 0.2545), shift=(0.0, 150.0))
+    builder = rf.read_water(write_polygons(tmp_path / "edge.geojson", [water]),
+                            origin_m=ORIGIN)
+    graph = builder.build()
+    assert any("do not meet" in r.what and "free island" in r.what
+               for r in builder.report.repairs)
+    pts = centre[[4, 20, 26]] @ SLOPE + (0.0, 150.0)
+    status, v = rf.FlowField(graph).query(pts)
+    along = np.einsum("ij,ij->i", v, np.gradient(centre, axis=0)[[4, 20, 26]] @ SLOPE)
+    assert (status == INSIDE).all() and len(set(np.sign(along))) == 1
+
+
 def braid_in_three_lanes(seed: int):
     """A 200 m river with long thin islands (200 - 400 m) in three staggered lanes (y = -50,
     0, 50 m), cut obliquely at both ends by a trapezoid (its ends not along the bounding box:
