@@ -121,6 +121,7 @@ class WaterBuilder(RiverNetworkBuilder):
 
     report: RiverImport
     water: shapely.Geometry
+    short_reaches_join = True
 
     @property
     def derived(self) -> dict[str, Any]:

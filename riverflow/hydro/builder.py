@@ -119,9 +119,11 @@ class RiverNetworkBuilder:
     its ``rapids``.
     """
 
-    short_reaches_join = True
-    """Two branch ends nearer than half their widths together that one of the branches
-    joins itself (a reach shorter than the junction at its other end is wide) are no miss."""
+    short_reaches_join = False
+    """Whether two branch ends nearer than half their widths together that one of the
+    branches joins itself (a reach shorter than the junction at its other end is wide) are
+    no miss (:func:`~riverflow.gis.read_water`'s builder: an axis from a junction to where
+    the data's edge cuts the water); else they "do not meet"."""
     short_reach_joined = False
     """Set by :meth:`build` when such a short reach joined its ends."""
 
@@ -765,8 +767,8 @@ def _find_junctions(branches: list[_BranchInput], builder=None):
     """Cluster branch end points into junctions and snap them together. Two ends nearer
     than half their widths together that do not join are an error, unless one of their
     branches joins them itself (a reach shorter than its junction is wide) and ``builder``'s
-    ``short_reaches_join`` is true (the default); ``builder.short_reach_joined`` says whether
-    that happened.
+    ``short_reaches_join`` is true; ``builder.short_reach_joined`` says whether that
+    happened.
 
     Returns (start junction per branch, end junction per branch, junction points (J, 2));
     -1 marks a free end.
@@ -797,7 +799,7 @@ def _find_junctions(branches: list[_BranchInput], builder=None):
             parent[root(a)] = root(c)
         elif d < 0.5 * (wa + wc) and ia != ic:
             apart.append((a, c, d))
-    short = getattr(builder, "short_reaches_join", True)
+    short = getattr(builder, "short_reaches_join", False)
     for a, c, d in apart:
         # ends[a ^ 1] is the other end of a's branch: one of the two branches joins the two
         # points itself (it is shorter than the junction at its other end is wide, as an
