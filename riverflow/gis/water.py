@@ -121,16 +121,49 @@ class WaterBuilder(RiverNetworkBuilder):
 
     report: RiverImport
     water: shapely.Geometry
+    short_reaches_join = True
 
     @property
     def derived(self) -> dict[str, Any]:
         return self.report.derived
 
     def build(self):
-        """Make the hydro graph (``graph.source``: the file); errors name the file."""
+        """Make the hydro graph (``graph.source``: the file); errors name the file. Where
+        that fails after a reach shorter than its junction is wide joined its ends (a
+        channel's end where the data's edge cuts the water just past an island), the
+        channels are found again and built with those ends taken as missing their junction
+        (the island there made free)."""
         # the islands read_water already made free stay free (else the loops they broke
         # come back and take the retries)
         forced: list[tuple[float, float]] = list(getattr(self, "_forced", ()))
+        repairs = len(self.report.repairs)
+        self.short_reach_joined = False
+        try:
+            graph = self._build_retrying(list(forced))
+        except GraphError:
+            if not self.short_reach_joined:
+                raise
+            del self.report.repairs[repairs:]
+            self.short_reaches_join = False
+            try:
+                self._refill(list(forced))
+            except GraphError as again:
+                self._raise_named(again)
+            graph = self._build_retrying(list(forced))
+        finally:
+            self.short_reaches_join = True
+        graph.source = self.report.path
+        cut = sum(self.end_cuts_m2)
+        if cut > 0:
+            self.report.derived["ends_cut_m2"] = round(cut, 2)
+        if self.islands_cut:
+            self.report.notes.append(f"{len(self.islands_cut)} islands at the water's open "
+                                     f"ends, where it is cut across, left out")
+        return graph
+
+    def _build_retrying(self, forced: list):
+        """Build; while it fails at an island (named, or nearest a branch named), make that
+        island free (``forced``) and find the channels again."""
         for _ in range(MAX_ISLAND_RETRIES + 1):
             try:
                 graph = super().build()
@@ -150,13 +183,6 @@ class WaterBuilder(RiverNetworkBuilder):
                     self._refill(forced)
                 except GraphError as again:
                     self._raise_named(again)
-        graph.source = self.report.path
-        cut = sum(self.end_cuts_m2)
-        if cut > 0:
-            self.report.derived["ends_cut_m2"] = round(cut, 2)
-        if self.islands_cut:
-            self.report.notes.append(f"{len(self.islands_cut)} islands at the water's open "
-                                     f"ends, where it is cut across, left out")
         return graph
 
     def _refill(self, forced: list) -> None:

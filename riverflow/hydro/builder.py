@@ -119,6 +119,14 @@ class RiverNetworkBuilder:
     its ``rapids``.
     """
 
+    short_reaches_join = False
+    """Whether two branch ends nearer than half their widths together that one of the
+    branches joins itself (a reach shorter than the junction at its other end is wide) are
+    no miss (:func:`~riverflow.gis.read_water`'s builder: an axis from a junction to where
+    the data's edge cuts the water); else they "do not meet"."""
+    short_reach_joined = False
+    """Set by :meth:`build` when such a short reach joined its ends."""
+
     def __init__(self, tolerance_m: float = 0.25, *, lateral_inflow: bool = False,
                  fillet_fraction: float = FILLET_FRACTION,
                  fall_min_drop_m: float | None = FALL_MIN_DROP_M,
@@ -525,7 +533,7 @@ class RiverNetworkBuilder:
                 f"({', '.join(lakes[k].name for k in self.source_lakes)}): still water, "
                 f"their outlets start on free ends at the shore")
         if branches:
-            start_j, end_j, junctions = _find_junctions(branches)
+            start_j, end_j, junctions = _find_junctions(branches, self)
         else:
             start_j, end_j, junctions = [], [], np.zeros((0, 2))
         n_junctions = len(junctions)
@@ -755,8 +763,12 @@ def _lakes_of_graph(geoms, lakes, lake_ends, polygon_lake, tolerance_m):
 # -- topology -----------------------------------------------------------------------------
 
 
-def _find_junctions(branches: list[_BranchInput]):
-    """Cluster branch end points into junctions and snap them together.
+def _find_junctions(branches: list[_BranchInput], builder=None):
+    """Cluster branch end points into junctions and snap them together. Two ends nearer
+    than half their widths together that do not join are an error, unless one of their
+    branches joins them itself (a reach shorter than its junction is wide) and ``builder``'s
+    ``short_reaches_join`` is true; ``builder.short_reach_joined`` says whether that
+    happened.
 
     Returns (start junction per branch, end junction per branch, junction points (J, 2));
     -1 marks a free end.
@@ -776,6 +788,7 @@ def _find_junctions(branches: list[_BranchInput]):
     points = np.array([e[2] for e in ends])
     reach = max(float(e[3]) for e in ends)       # no pair farther apart than this matters
     pairs = sorted(cKDTree(points).query_pairs(reach, output_type="set"))
+    apart = []
     for a, c in pairs:
         ia, ea, pa, wa = ends[a]
         ic, ec, pc, wc = ends[c]
@@ -785,11 +798,23 @@ def _find_junctions(branches: list[_BranchInput]):
                 raise GraphError(f"branch {branches[ia].name!r} starts and ends at the same point")
             parent[root(a)] = root(c)
         elif d < 0.5 * (wa + wc) and ia != ic:
-            which = ["start", "end"]
-            raise GraphError(
-                f"branches {branches[ia].name!r} and {branches[ic].name!r} do not meet: the "
-                f"{which[ea]} of one is {d:.2f} m from the {which[ec]} of the other; end points "
-                f"must coincide within {JOIN_FRACTION * min(wa, wc):.2f} m to join")
+            apart.append((a, c, d))
+    short = getattr(builder, "short_reaches_join", False)
+    for a, c, d in apart:
+        # ends[a ^ 1] is the other end of a's branch: one of the two branches joins the two
+        # points itself (it is shorter than the junction at its other end is wide, as an
+        # axis from a junction to where the data's edge cuts the water can be)
+        if short and (root(a ^ 1) == root(c) or root(c ^ 1) == root(a)):
+            if builder is not None:
+                builder.short_reach_joined = True
+            continue
+        ia, ea, pa, wa = ends[a]
+        ic, ec, pc, wc = ends[c]
+        which = ["start", "end"]
+        raise GraphError(
+            f"branches {branches[ia].name!r} and {branches[ic].name!r} do not meet: the "
+            f"{which[ea]} of one is {d:.2f} m from the {which[ec]} of the other; end points "
+            f"must coincide within {JOIN_FRACTION * min(wa, wc):.2f} m to join")
     groups: dict[int, list[int]] = {}
     for a in range(len(ends)):
         groups.setdefault(root(a), []).append(a)

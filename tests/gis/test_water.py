@@ -687,16 +687,15 @@ def test_both_channels_round_a_cut_island_run_one_way(tmp_path):
 
 
 def test_channels_meeting_on_the_datas_edge_make_their_island_free(tmp_path):
-    """A 127 m meandering river with three islands (from the survey's seed 67), its data's
-    edge 65 m past the last island's tip: the circle touching both banks and that tip has
-    its centre on the edge, so the channels round the island meet there with no reach out.
-    Their ends on the edge, 9 m apart, became one junction that only sends water ("all
-    start there but none ends there"). The island there is taken as a free island in one
-    channel (reported), as for channels that do not meet: the network builds, the water
-    runs one way."""
+    """A 127 m meandering river with two islands (from the survey's seed 67, less an island
+    upstream), its data's edge 65 m past the last island's tip: the circle touching both
+    banks and that tip has its centre on the edge, so the channels round the island meet
+    there with no reach out. Their ends on the edge, 9 m apart, became one junction that
+    only sends water ("all start there but none ends there"). The island there is taken as
+    a free island in one channel (reported), as for channels that do not meet: the network
+    builds, the water runs one way."""
     water, centre, _, _ = survey_river(
-        714.24, 127.0, 65.28, 224.31, [(317.9, 49.9, 137.4, 6.32, 0.1649),
-                                       (482.1, 42.3, 143.5, 8.26, -0.0655),
+        714.24, 127.0, 65.28, 224.31, [(482.1, 42.3, 143.5, 8.26, -0.0655),
                                        (388.0, 87.5, 67.0, 6.46, 0.0198)],
         clip=(0.258, 0.0502), shift=(0.0, 150.0))
     builder = rf.read_water(write_polygons(tmp_path / "edge.geojson", [water]),
@@ -732,6 +731,61 @@ def test_an_end_pruned_away_comes_back_beside_two_ends_at_the_edge(tmp_path):
     pts = centre[[15, 22]] @ SLOPE + (0.0, 150.0)
     status, v = rf.FlowField(graph).query(pts)
     along = np.einsum("ij,ij->i", v, np.gradient(centre, axis=0)[[15, 22]] @ SLOPE)
+    assert (status == INSIDE).all() and len(set(np.sign(along))) == 1
+
+
+def test_an_end_reach_shorter_than_its_junction_is_wide_joins(tmp_path):
+    """A 93 m meandering river with four long islands, whose data's edge upstream cuts a 69 m
+    island open 45 m from where the channels round it meet (from the survey's seed 71): the
+    axis from that junction out to the edge is shorter than half the junction's and the
+    end's widths together, so its end on the edge lay within the junction's reach without
+    joining it ("branches … do not meet", the same with any island made free). That end is
+    joined to the junction by the reach itself, which is no miss: the network builds with
+    the channel round the stub's other side out to its own piece of the edge, and the water
+    runs one way."""
+    river = survey_river(1074.78, 93.22, 70.94, 308.69,
+                         [(146.83, 33.75, 69.27, 9.8, -0.1845),
+                          (802.34, 29.72, 92.32, 10.52, 0.1642),
+                          (402.07, 51.7, 168.98, 7.91, 0.1856),
+                          (563.67, 58.8, 187.25, 13.45, 0.0021)],
+                         clip=(0.1886, 0.1559), shift=(0.0, 150.0))
+    water, centre, edge = river.water, river.centre, river.edges[0]
+    stub = shapely.intersection(river.islands[0], shapely.LineString([(edge, -1e4),
+                                                                     (edge, 1e4)]))
+    assert not stub.is_empty and len(water.interiors) == 3    # the first: cut open
+    builder = rf.read_water(write_polygons(tmp_path / "edge.geojson", [water]),
+                            origin_m=ORIGIN)
+    graph = builder.build()
+    ends = np.array([p for _, c in _channels(builder) for p in (c[0], c[-1])])
+    near = ends[np.abs(ends[:, 0] - edge) < 20.0]      # one end each side of the stub
+    assert (near[:, 1] < stub.bounds[1]).sum() == 1 and (near[:, 1] > stub.bounds[3]).sum() == 1
+    pts = centre[[8, 12, 28, 32]] @ SLOPE + (0.0, 150.0)
+    status, v = rf.FlowField(graph).query(pts)
+    along = np.einsum("ij,ij->i", v, np.gradient(centre, axis=0)[[8, 12, 28, 32]] @ SLOPE)
+    assert (status == INSIDE).all() and len(set(np.sign(along))) == 1
+    assert (np.abs(along) > 0.5 * np.hypot(*v.T)).all()
+
+
+def test_a_short_reach_that_leads_nowhere_is_taken_as_a_miss(tmp_path):
+    """A 234 m river with three long islands, cut by the data's box 126 m past the first
+    island's tail (from the survey's seed 275): the reach from the junction there out to
+    the edge joins its ends, but the channels found then do not build (an end does not
+    reach across the water). The build is made again with that end taken as missing its
+    junction, the island there made free (reported, as before short reaches joined): it
+    builds, the water runs one way."""
+    water, centre, _, _ = survey_river(
+        1318.48, 234.23, 7.18, 160.42, [(973.9, -9.02, 209.44, 13.11, -0.0709),
+                                        (486.47, -35.87, 436.3, 25.7, -0.1206),
+                                        (179.17, 23.99, 300.7, 12.81, -0.043)],
+        clip=(0.0066, 0.2545), shift=(0.0, 150.0))
+    builder = rf.read_water(write_polygons(tmp_path / "edge.geojson", [water]),
+                            origin_m=ORIGIN)
+    graph = builder.build()
+    assert any("do not meet" in r.what and "free island" in r.what
+               for r in builder.report.repairs)
+    pts = centre[[4, 20, 26]] @ SLOPE + (0.0, 150.0)
+    status, v = rf.FlowField(graph).query(pts)
+    along = np.einsum("ij,ij->i", v, np.gradient(centre, axis=0)[[4, 20, 26]] @ SLOPE)
     assert (status == INSIDE).all() and len(set(np.sign(along))) == 1
 
 
