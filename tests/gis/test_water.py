@@ -698,15 +698,7 @@ def test_channels_meeting_on_the_datas_edge_make_their_island_free(tmp_path):
         714.24, 127.0, 65.28, 224.31, [(482.1, 42.3, 143.5, 8.26, -0.0655),
                                        (388.0, 87.5, 67.0, 6.46, 0.0198)],
         clip=(0.258, 0.0502), shift=(0.0, 150.0))
-    builder = rf.read_water(write_polygons(tmp_path / "edge.geojson", [water]),
-                            origin_m=ORIGIN)
-    graph = builder.build()
-    assert any("all start there" in r.what and "free island" in r.what
-               for r in builder.report.repairs)
-    pts = centre[[12, 20, 28]] @ SLOPE + (0.0, 150.0)
-    status, v = rf.FlowField(graph).query(pts)
-    along = np.einsum("ij,ij->i", v, np.gradient(centre, axis=0)[[12, 20, 28]] @ SLOPE)
-    assert (status == INSIDE).all() and len(set(np.sign(along))) == 1
+    _builds_running_one_way(tmp_path, water, centre, [12, 20, 28], "all start there")
 
 
 def test_an_end_pruned_away_comes_back_beside_two_ends_at_the_edge(tmp_path):
@@ -778,14 +770,21 @@ def test_a_short_reach_that_leads_nowhere_is_taken_as_a_miss(tmp_path):
                                         (486.47, -35.87, 436.3, 25.7, -0.1206),
                                         (179.17, 23.99, 300.7, 12.81, -0.043)],
         clip=(0.0066, 0.2545), shift=(0.0, 150.0))
+    _builds_running_one_way(tmp_path, water, centre, [4, 20, 26], "do not meet")
+
+
+def _builds_running_one_way(tmp_path, water, centre, rows, repaired: str) -> None:
+    """``water`` (a survey river, shifted as :func:`survey_river` draws it) reads and builds
+    with an island made free for ``repaired`` (reported), and the flow at its centre line's
+    points ``rows`` is in the water and runs one way."""
     builder = rf.read_water(write_polygons(tmp_path / "edge.geojson", [water]),
                             origin_m=ORIGIN)
     graph = builder.build()
-    assert any("do not meet" in r.what and "free island" in r.what
+    assert any(repaired in r.what and "free island" in r.what
                for r in builder.report.repairs)
-    pts = centre[[4, 20, 26]] @ SLOPE + (0.0, 150.0)
+    pts = centre[rows] @ SLOPE + (0.0, 150.0)
     status, v = rf.FlowField(graph).query(pts)
-    along = np.einsum("ij,ij->i", v, np.gradient(centre, axis=0)[[4, 20, 26]] @ SLOPE)
+    along = np.einsum("ij,ij->i", v, np.gradient(centre, axis=0)[rows] @ SLOPE)
     assert (status == INSIDE).all() and len(set(np.sign(along))) == 1
 
 
