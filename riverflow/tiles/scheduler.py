@@ -614,8 +614,8 @@ class TileScheduler:
                 thread.start()
 
     def _run(self, job: _Job, lane: int = 0) -> None:
-        """Worker side (worker thread ``lane``): make one queued tile (or drop it if no frame wants it any more, nor
-        any wanted tile that waits for it)."""
+        """Worker side (worker thread ``lane``): make one queued tile (or drop it if no frame
+        wants it any more, nor any wanted tile that waits for it)."""
         item = (job.kind, job.code)
         producer = self.producers[job.kind]     # with the generation: one edit's sources
         with self._lock:
