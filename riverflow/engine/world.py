@@ -689,6 +689,7 @@ class RiverWorld:
         def between_frames():           # each piece starts in a frame's idle time
             if background:
                 scheduler.wait_idle()
+        between_frames()                # (started from a frame: its first piece after it)
         edits.fill_discharges(scene, field)
         branches, islands, graph = make(scene)
         between_frames()

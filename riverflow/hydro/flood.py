@@ -250,6 +250,10 @@ class FloodRouter:
         self._inflow = np.zeros(len(q0))
         self._table = self._pack()
         self.dt_s = self._step_for(1.0)
+        # no step: numba's first look at these argument types (~4 ms: its type dispatch
+        # for each NamedTuple class), here and not in the frame of the flood's first step
+        flood_steps(self.net, self._table, self.a, self.time_s, self.dt_s, 0, self._outflow,
+                    self._node_q, self._inflow)
         self._raster: CellRaster | None = None
         self._level_tex = None
         self._link_trees = None
