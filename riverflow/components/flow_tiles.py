@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from riverflow.kernels.flow import CELL_SEGMENTS, CachedTiles
+from riverflow.kernels.view_tiles import select_view_tiles
 from riverflow.tiles.cache import FieldSpec, TileCache, TilePool
 from riverflow.tiles.quadtree import Quadtree
 from riverflow.tiles.table import TileTable, codes, tile_code
@@ -152,3 +153,18 @@ class FlowTiles:
                            p.table.values, self.wet.keys, self.wet.values, p.arrays["psi"],
                            p.arrays["cell_status"], p.arrays["cell_segments"], p.last_used,
                            p.arrays["in_cut"])
+
+
+def flow_view_tiles(view, terrain, field, tile_px: float, out: np.ndarray) -> int:
+    """Fill ``out`` (K, 3) int32 with the wet flow tiles of ``field`` (a
+    :class:`~riverflow.hydro.flow_field.FlowField`) the view (a
+    :class:`~riverflow.components.river.FrameView`, its terrain's
+    :class:`~riverflow.components.river.TerrainView` height range) needs at ``tile_px``
+    pixels a lattice cell; returns their number (the tiles system each frame, a live edit
+    for the tiles it makes wet)."""
+    t = field.tiles
+    return select_view_tiles(np.asarray(view.clip_from_world, np.float64),
+                             *np.asarray(view.eye_m, np.float64), float(view.rad_per_px),
+                             tile_px, t.root_x_m, t.root_y_m, t.root_size_m, t.n_cells,
+                             field.max_level, terrain.z_min, terrain.z_max, t.wet.keys,
+                             t.wet.values, out)

@@ -769,21 +769,17 @@ class RiverWorld:
         """The flow tiles the latest frame's view asks for of ``field`` (an edit's new flow)
         that are not resident (the edit made them wet), made now with ``producer``
         (:attr:`~riverflow.engine.edits.EditPlan.flow_ahead`)."""
-        from riverflow.kernels.view_tiles import MAX_VIEW_TILES, select_view_tiles
+        from riverflow.components.flow_tiles import flow_view_tiles
+        from riverflow.kernels.view_tiles import MAX_VIEW_TILES
         from riverflow.tiles.table import code_key, codes as tile_codes
 
         view, terrain = self.resource(FrameView), self.resource(TerrainView)
         if not (view.width_px > 0 and view.height_px > 0):
             return {}
-        t = field.tiles
         keys = np.zeros((MAX_VIEW_TILES, 3), np.int32)
-        n = select_view_tiles(np.array(view.clip_from_world, np.float64),
-                              *np.array(view.eye_m, np.float64), float(view.rad_per_px),
-                              self.config.flow_tile_px, t.root_x_m, t.root_y_m, t.root_size_m,
-                              t.n_cells, field.max_level, terrain.z_min, terrain.z_max,
-                              t.wet.keys, t.wet.values, keys)
+        n = flow_view_tiles(view, terrain, field, self.config.flow_tile_px, keys)
         wanted = tile_codes(keys[:n])
-        missing = wanted[t.pool.table.find_many(wanted) < 0]
+        missing = wanted[field.tiles.pool.table.find_many(wanted) < 0]
         return {code: producer.produce(code_key(code), {}) for code in missing.tolist()}
 
     def _land_edit(self, block: bool = False) -> None:

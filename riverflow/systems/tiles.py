@@ -19,7 +19,7 @@ from __future__ import annotations
 import esper
 import numpy as np
 
-from riverflow.components.flow_tiles import FLOW_KIND
+from riverflow.components.flow_tiles import FLOW_KIND, flow_view_tiles
 from riverflow.components.river import FrameView, RiverNode, TerrainView, Tile, Tiles
 from riverflow.engine.system import System
 from riverflow.kernels.surface_tiles import SurfaceTiles, leaf_standins
@@ -78,10 +78,7 @@ class ProduceTiles(System):
             t = field.tiles
             n = 0
             if seen:
-                n = select_view_tiles(
-                    view.clip_from_world, *view.eye_m, view.rad_per_px, config.flow_tile_px,
-                    t.root_x_m, t.root_y_m, t.root_size_m, t.n_cells, field.max_level,
-                    terrain.z_min, terrain.z_max, t.wet.keys, t.wet.values, self._keys)
+                n = flow_view_tiles(view, terrain, field, config.flow_tile_px, self._keys)
             self.visible[FLOW_KIND] = int(n)
             flow_keys = self._keys[:n].copy()
             flow_codes = codes(flow_keys)
