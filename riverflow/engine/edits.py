@@ -893,6 +893,8 @@ def _serve_edits(ref, jobs) -> None:
     its LiveEdits is gone."""
     import queue
 
+    from riverflow.tiles.scheduler import _lower_priority
+    _lower_priority()
     while True:
         try:
             job = jobs.get(timeout=1.0)

@@ -831,10 +831,11 @@ class RiverWorld:
             return
         try:
             plan = live.result
-            try:
-                live.result = _Swapped(self._apply_edit(*plan, between_frames=True))
-            except BaseException as exc:   # the swap itself failed: said so by the frame
-                live.result = exc.with_traceback(None)
+            with self.tiles.scheduler.frame_work():    # the tile process on its core stopped
+                try:
+                    live.result = _Swapped(self._apply_edit(*plan, between_frames=True))
+                except BaseException as exc:   # the swap itself failed: said so by the frame
+                    live.result = exc.with_traceback(None)
         finally:
             self._lock.release()
 
@@ -866,13 +867,17 @@ class RiverWorld:
         between the frames, QUEUE_STALE_BATCH at a time (:meth:`TileScheduler.queue_stale`),
         until none is left (or the host gives no quiet time: the frames queue them then)."""
         after = self._frames_begun
+        scheduler = self.tiles.scheduler
         while self._quiet_lock(after):          # a gap of its own for each batch
             after = self._frames_begun
             try:
-                if not self.tiles.scheduler.queue_stale(QUEUE_STALE_BATCH):
-                    return
+                with scheduler.frame_work():
+                    left = scheduler.queue_stale(QUEUE_STALE_BATCH)
             finally:
                 self._lock.release()
+            scheduler.learn_written()           # (a frame ran since the swap: its pages)
+            if not left:
+                return
 
     def _apply_edit(self, plan, producers, processes=None, *, between_frames: bool = False
                     ) -> list[str]:

@@ -34,6 +34,7 @@ is not asked for again.
 """
 from __future__ import annotations
 
+import contextlib
 import itertools
 import os
 import queue
@@ -52,7 +53,8 @@ from riverflow.tiles.cache import FieldSpec, TileCache
 from riverflow.tiles.memo import TileMemo
 from riverflow.kernels.tile_table import NOT_FOUND
 from riverflow.tiles.quadtree import TileKey
-from riverflow.tiles.remote import ProducerProcess, TileProcessError, fork_available
+from riverflow.tiles.remote import (WRITTEN_MAX_PAGES, ProducerProcess, TileProcessError,
+                                    fork_available, forked, written_pages)
 from riverflow.tiles.table import TileTable, code_key, codes as codes_of, tile_code
 
 Dep = tuple[str, TileKey]
@@ -84,6 +86,9 @@ DEPENDENCY_WAIT_S = 5.0
 (then lets its tile go, to be asked again)."""
 MAX_WORKERS = 4
 """Worker threads (and processes) "auto" gives at most (:func:`worker_count`)."""
+FRAME_PAGES = 4096
+"""At most this many pages (16 MiB; a 1080p frame writes ~1,700) are copied ahead of the
+frames after a fork (:meth:`TileScheduler.learn_written`)."""
 WORKER_NICE = int(os.environ.get("RIVERFLOW_WORKER_NICE", "19"))
 """The tile worker thread's nice value (19: the lowest priority; 0 keeps the frame's)."""
 
@@ -176,6 +181,8 @@ class TileScheduler:
         one ended."""
         self._idle_since = 0.0
         self._paused: list[ProducerProcess] = []       # paused for this frame
+        self._frame_pages = np.zeros(0, np.int64)      # copied ahead after a fork
+        self._learn_from = -1                          # learn_written: from this frame on
         self.stale_frames = int(stale_frames)
         self.max_starts = MAX_STARTS
         """Background mode: at most this many new tiles of a kind are queued a frame."""
@@ -241,11 +248,36 @@ class TileScheduler:
         """The worker processes (one per worker thread) forked now with ``producers`` in
         place of the current ones of their kinds, for :meth:`replace_producers` (any thread
         may fork them: a live edit does, in its background thread); None when tiles are not
-        made in processes."""
+        made in processes. The pages :meth:`learn_written` found the frames write are
+        copied after it, in this thread (:func:`~riverflow.tiles.remote.forked`)."""
         if self.worker != "process" or not self._processes or self._closed:
             return None
         producers = {**self.producers, **{p.kind: p for p in producers}}
-        return [ProducerProcess(producers, WORKER_NICE) for _ in self._processes]
+        self._learn_from = self.frame + 1
+        with forked(self._frame_pages):
+            return [ProducerProcess(producers, WORKER_NICE) for _ in self._processes]
+
+    def learn_written(self) -> None:
+        """After the first frame that followed :meth:`fork_for`: the pages written since the
+        fork (:func:`~riverflow.tiles.remote.written_pages`: those that frame wrote, and the
+        ones copied ahead for it) are the ones the next fork copies ahead, those not known
+        before first, at most FRAME_PAGES (the ones learnt longest ago go); too many to be a
+        frame's (a world just made) and none are, so the fork after learns them afresh. Any
+        thread, outside a frame (it reads ``/proc/self/pagemap``: ~10 ms)."""
+        if self._learn_from < 0 or self.frame < self._learn_from:
+            return
+        self._learn_from = -1
+        pages = written_pages()
+        if len(pages) > WRITTEN_MAX_PAGES:        # not a frame's: learnt afresh next time
+            self._frame_pages = pages[:0]
+            return
+        known = self._frame_pages
+        new = pages[~np.isin(pages, known, assume_unique=True)]
+        # the newest first, the oldest dropped: what the frames have not written for
+        # several forks goes
+        self._frame_pages = np.concatenate([new, known[np.isin(known, pages,
+                                                               assume_unique=True)]]
+                                           )[:FRAME_PAGES]
 
     def replace_producers(self, producers: Iterable[Producer],
                           processes: list[ProducerProcess] | None = None, *,
@@ -762,11 +794,28 @@ class TileScheduler:
         interval; the tiles the process makes are handed to it meanwhile (it holds no lock
         of the frame's)."""
         self._idle.clear()
+        if self._processes and self._pause_now():
+            self._pause_sharing()
+
+    def _pause_sharing(self) -> None:
         processes = self._processes
-        if processes and self._pause_now():
-            self._paused = processes[len(processes) - self._sharing_frame_core():]
-            for process in self._paused:
-                process.pause()
+        self._paused = processes[len(processes) - self._sharing_frame_core():]
+        for process in self._paused:
+            process.pause()
+
+    @contextlib.contextmanager
+    def frame_work(self):
+        """The world's own work outside its frames (a live edit swapped in between them by
+        the edits' thread): as in a frame (:meth:`frame_begins`), the worker threads start
+        no tile, and the processes sharing the frame's core are stopped (whatever the idle
+        time before it: the work is short and a frame may be waiting for it)."""
+        self._idle.clear()
+        if self._processes and self.pause_in_frames:
+            self._pause_sharing()
+        try:
+            yield
+        finally:
+            self.frame_ends()
 
     def frame_ends(self) -> None:
         if self._paused:

@@ -7,6 +7,7 @@ by the module; each test puts the rivers back where they were when it ends."""
 from __future__ import annotations
 
 import gc
+import os
 import resource
 import sys
 import threading
@@ -209,6 +210,13 @@ def test_a_background_edit_is_swapped_in_between_frames(restore):
     _as_made_from_scratch(w)
     # the switch interval the edits' thread shortened while it ran is the host's again
     assert sys.getswitchinterval() == interval
+    # the edits' thread runs at the tile workers' low priority: on a core it shares with the
+    # frames, a frame's thread runs first whenever both could
+    if sys.platform.startswith("linux"):
+        from riverflow.tiles.scheduler import WORKER_NICE
+
+        tid = w.edits._worker.native_id
+        assert os.getpriority(os.PRIO_PROCESS, tid) >= min(WORKER_NICE, 19)
     # a call of the world while the edits' thread holds the lock waits for it
     with w._lock:
         got = []

@@ -557,6 +557,89 @@ def test_the_tile_process_is_paused_in_frames_on_one_core_and_tiles_are_still_ma
 
 
 @needs_fork
+def test_frame_work_stops_the_process_whatever_the_idle_time_before():
+    """The world's own work between frames (a live edit's swap, by the edits' thread) stops
+    the process sharing the frame's core as a frame does, even right after a frame (no idle
+    gap), and lets it go on after; the worker threads start no tile meanwhile."""
+    import time
+
+    sched = TileScheduler(TileCache(1 << 30), [Heights()], "background", worker="process",
+                          pause_in_frames=True)
+    sched.request("h", [(0, 0, 0)])
+    assert sched.wait(20.0)
+    pid = sched.worker_pid
+    sched.frame_begins()
+    sched.frame_ends()                                  # no idle gap after it
+    with sched.frame_work():
+        deadline = time.perf_counter() + 2.0
+        while _state(pid) != "T" and time.perf_counter() < deadline:
+            time.sleep(0.001)
+        assert _state(pid) == "T" and not sched._idle.is_set()
+    assert _state(pid) != "T" and sched._idle.is_set() and not sched._paused
+    sched.close()
+
+
+@needs_fork
+def test_the_pages_a_frame_writes_are_copied_by_the_fork_not_the_frame():
+    """After a fork every page is shared with the child until written: ``written_pages``
+    lists those this process wrote since (and not the others); ``copy_ahead`` copies pages
+    without writing them (their bytes unchanged), so a frame writing them after the fork
+    takes no page fault; ``learn_written`` keeps the newest pages first, at most
+    FRAME_PAGES, and none where there are too many to be a frame's."""
+    from riverflow.tiles import remote, scheduler as sched_module
+
+    if not os.path.exists("/proc/self/pagemap"):
+        pytest.skip("no /proc/self/pagemap here")
+    page = remote.PAGE
+    block = np.zeros(64 * page // 8 + page // 8, np.float64)
+    start = -block.ctypes.data % page // 8            # 64 whole pages of it
+    data = block[start:start + 64 * page // 8]
+    data[:] = np.arange(len(data))
+    first = data.ctypes.data
+    ours = first + page * np.arange(64, dtype=np.int64)
+
+    def listed():
+        got = remote.written_pages()
+        return ours[np.isin(ours, got)]
+
+    assert len(listed()) == 64                           # no child shares them
+    ctx = multiprocessing.get_context("fork")
+    go = ctx.Event()
+    child = ctx.Process(target=go.wait, args=(20.0,), daemon=True)
+    child.start()
+    try:
+        assert len(listed()) == 0                        # shared with the child
+        data[::page // 8 * 2] += 0.5                      # even pages written
+        assert listed().tolist() == ours[::2].tolist()
+        before = data.copy()
+        copied = remote.copy_ahead(ours[1::2][::-1].copy())   # any order
+        if copied == 0:
+            pytest.skip("no MADV_POPULATE_WRITE here (Linux < 5.14)")
+        assert copied == 32 and len(listed()) == 64
+        assert np.array_equal(data, before)
+        assert remote.copy_ahead(np.array([page], np.int64)) == 0    # unmapped: skipped
+    finally:
+        go.set()
+        child.join(10.0)
+    # learning: the newest pages first, the known ones kept after them, at most FRAME_PAGES
+    sched = TileScheduler(TileCache(1 << 20), [Heights()], "blocking")
+    seen = iter([np.array([10, 20, 30]) * page, np.array([5, 10, 20, 30, 40]) * page,
+                 np.arange(remote.WRITTEN_MAX_PAGES + 1) * page])
+    real = sched_module.written_pages
+    sched_module.written_pages = lambda: next(seen)
+    try:
+        for expected in ([10, 20, 30], [5, 40, 10, 20, 30], []):
+            sched._learn_from = sched.frame
+            sched.learn_written()
+            assert (sched._frame_pages // page).tolist() == expected
+            sched.learn_written()                         # once a fork: nothing more
+        assert sched._learn_from == -1
+    finally:
+        sched_module.written_pages = real
+    sched.close()
+
+
+@needs_fork
 def test_the_process_is_handed_tiles_while_a_frame_runs_the_thread_waits_for_its_end(
         monkeypatch):
     """The worker thread starts a tile of its own between frames only (it would take the
