@@ -157,8 +157,8 @@ def edited_branches(scene: Landscape, op: str, link=None, **args) -> list[RiverB
 
     * ``"width"``: ``widths`` (one number or one per centre-line point) [m];
     * ``"axis"``: ``points`` (K, 2) [m], the new centre line drawn downstream; an end that
-      meets a junction must stay there; ``widths`` (optional: else the old ones, carried along
-      the arc length);
+      meets a junction must stay there; ``widths`` (optional: else the old ones, each point's
+      its own where the line keeps its number of points, else carried along the arc length);
     * ``"add"``: ``points``, ``widths``, ``discharge_m2s`` (needed for a source), ``name``;
     * ``"remove"``: the branch ``link``.
 
@@ -198,9 +198,11 @@ def edited_branches(scene: Landscape, op: str, link=None, **args) -> list[RiverB
             pts[-1] = b.centerline_m[-1]
         if args.get("widths") is not None:
             b.widths_m = _widths(args["widths"], len(pts), what)
-        else:
+        elif len(pts) != len(b.centerline_m):
             b.widths_m = np.interp(_arc_fraction(pts), _arc_fraction(b.centerline_m),
                                    b.widths_m)
+        # else each point keeps its width (a drag moves points): the water beyond the
+        # points moved stays as it was
         b.centerline_m = pts
     elif op == "remove":
         del branches[k]

@@ -124,6 +124,13 @@ def _solve_potentials(geoms, sides, pieces, island_of, ties=(), still=frozenset(
     for k, (up, down, step, _) in enumerate(ties):
         adj.setdefault(up, []).append((down, step, -1 - k))
         adj.setdefault(down, []).append((up, -step, -1 - k))
+    # the search runs in the branches' order, not the pieces' numbering: the sums (and their
+    # last bits) are the same when an edit of one branch renumbers the pieces, so the flow
+    # tiles far from it stay as they were
+    first_seen = {}
+    for pair in sides:
+        for piece in pair:
+            first_seen.setdefault(piece, len(first_seen))
     psi = np.full(len(pieces), np.nan)
     for i, piece in enumerate(pieces):
         if i in still and i not in adj:
@@ -132,7 +139,7 @@ def _solve_potentials(geoms, sides, pieces, island_of, ties=(), still=frozenset(
             x, y = piece.points.mean(axis=0)
             raise GraphError(f"the water has a shore near ({x:.1f}, {y:.1f}) that no branch runs "
                              f"along (a branch loops onto itself or branches overlap)")
-    for start in sorted(adj):
+    for start in sorted(adj, key=lambda p: (first_seen.get(p, len(first_seen)), p)):
         if not np.isnan(psi[start]):
             continue
         psi[start] = 0.0
@@ -155,7 +162,7 @@ def _solve_potentials(geoms, sides, pieces, island_of, ties=(), still=frozenset(
                         f"differ by {psi[c] - psi[a]:g} m²/s along another path, not {dq:g}")
         psi[component] -= psi[component].min()
     # pieces tied with no step (meeting end to end) hold one value, bit for bit (their ψ came
-    # along different paths of the search and may differ in the last bits)
+    # along different paths of the search and may differ in the last bits): the least
     same = {}
     for up, down, step, _ in ties:
         if step == 0.0:
@@ -166,11 +173,14 @@ def _solve_potentials(geoms, sides, pieces, island_of, ties=(), still=frozenset(
                 b = same[b]
             if a != b:
                 same[max(a, b)] = min(a, b)
+    groups: dict[int, list[int]] = {}
     for i in sorted(same):
         r = i
         while same.get(r, r) != r:
             r = same[r]
-        psi[i] = psi[r]
+        groups.setdefault(r, [r]).append(i)
+    for members in groups.values():
+        psi[members] = psi[members].min()
     return psi
 
 

@@ -449,3 +449,34 @@ def test_branches_added_removed_and_a_whole_network(restore):
     assert np.isfinite(w.field.potential(_line(650.0)[10][None, :]))[0]
     with pytest.raises(TypeError, match="RiverNetworkBuilder or a HydroGraph"):
         w.edit_network("rivers.gpkg")
+
+
+def test_a_moved_centre_line_keeps_each_points_width(world):
+    """move_axis without widths: where the new line has the old number of points each point
+    keeps its own width (a drag moves points; the water beyond the moved ones stays as it
+    was, bit for bit); with another number of points the widths are carried along the arc."""
+    from riverflow.engine.edits import edited_branches
+
+    scene = world.original
+    b = scene.branches[0]
+    moved = _bumped(b.centerline_m, 15.0)
+    widths = np.linspace(20.0, 30.0, len(b.centerline_m))
+    scene_w = _with_widths(scene, widths)
+    new = edited_branches(scene_w, "axis", 0, points=moved)[0]
+    assert np.array_equal(new.widths_m, widths)
+    fewer = moved[::2]
+    if len(moved) % 2 == 0:
+        fewer = np.vstack([fewer, moved[-1:]])
+    carried = edited_branches(scene_w, "axis", 0, points=fewer)[0].widths_m
+    assert len(carried) == len(fewer) and carried[0] == 20.0 and carried[-1] == 30.0
+    assert np.all(np.diff(carried) > 0)
+
+
+def _with_widths(scene, widths):
+    """A shallow copy of ``scene`` whose first branch has ``widths``."""
+    import copy
+
+    out = copy.copy(scene)
+    out.branches = [copy.copy(b) for b in scene.branches]
+    out.branches[0].widths_m = widths
+    return out

@@ -278,3 +278,30 @@ def test_strips_that_overlap_away_from_a_shared_junction_are_refused():
     beside.add_branch([[400.0, 0.0], [800.0, 0.0]], 25.0, name="lower")
     with pytest.raises(GraphError, match=r"'river' and 'trib' overlap near \(.*\), away from"):
         beside.build()
+
+
+def test_bank_potentials_do_not_depend_on_the_pieces_numbering():
+    """ψ of the shore pieces is summed along a search over the branches: in the branches'
+    order, not the pieces' numbering, so an edit of one branch that renumbers the pieces
+    leaves every ψ elsewhere the same bit for bit (discharges whose sums differ in the last
+    bits by order: 0.1 + 0.2 ≠ 0.3); pieces tied end to end hold one value."""
+    from types import SimpleNamespace
+
+    from riverflow.hydro._network import _solve_potentials
+
+    # three sources into one river, then a split round an island: pieces 0..6
+    q = [0.1, 0.2, 0.3, 0.6000000000000001]
+    geoms = [SimpleNamespace(name=f"b{k}", discharge_m2s=v) for k, v in enumerate(q)]
+    sides = [(0, 1), (1, 2), (2, 3), (0, 4)]
+    ties = [(3, 4, 0.0, (0.0, 0.0)), (5, 6, 0.0, (1.0, 1.0))]
+    pieces = [SimpleNamespace(points=np.zeros((2, 2))) for _ in range(7)]
+    island_of = {5: 0, 6: 0}
+    psi = _solve_potentials(geoms, sides, pieces, island_of, ties)
+    assert psi[3] == psi[4]                                     # tied: one value
+    for seed in range(5):
+        perm = np.random.default_rng(seed).permutation(7)      # piece i is now perm[i]
+        moved = _solve_potentials(
+            geoms, [(perm[a], perm[b]) for a, b in sides], pieces,
+            {int(perm[k]): v for k, v in island_of.items()},
+            [(perm[a], perm[b], s, p) for a, b, s, p in ties])
+        assert [moved[perm[i]] for i in range(5)] == psi[:5].tolist()
