@@ -53,8 +53,12 @@ def _flood(world, peak: float = 3.0) -> None:
 
 
 def _bumped(line: np.ndarray, dy_m: float, at: float, width_m: float) -> np.ndarray:
+    """The line moved ``dy_m`` sideways at arc length ``at``, the demo drag's way
+    (:func:`~riverflow.engine.controls.drag_weight`, ``width_m`` its spread)."""
+    from riverflow.engine.controls import drag_weight
+
     arc = np.r_[0.0, np.cumsum(np.hypot(*np.diff(line, axis=0).T))]
-    weight = np.exp(-((arc - at) / width_m) ** 2)
+    weight = drag_weight((arc - at) / width_m)
     weight[[0, -1]] = 0.0
     d = np.gradient(line, axis=0)
     normal = np.c_[-d[:, 1], d[:, 0]] / np.maximum(np.hypot(*d.T), 1e-9)[:, None]

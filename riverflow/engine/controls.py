@@ -122,13 +122,29 @@ def _spoken(name: str) -> str:
     return name[1:] if len(name) == 2 and name[0] == "_" and name[1].isdigit() else name
 
 
+DRAG_REACH = 1.83
+"""drag_weight is 0 beyond this many spreads (it is ½ at 0.83, as a Gaussian exp(−u²))."""
+
+
+def drag_weight(u):
+    """How far a point ``u`` spreads along the arc from the one dragged moves with it: 1 there,
+    smoothly (twice differentiable) down to exactly 0 at DRAG_REACH spreads, a Gaussian's
+    shape with compact support (a Gaussian moves every point of the river by some 1e-13 m,
+    so an edit would change its water, and remake its tiles, for kilometres)."""
+    import numpy as np
+
+    t = np.clip(1.0 - (np.asarray(u, np.float64) / DRAG_REACH) ** 2, 0.0, None)
+    return t * t * t
+
+
 class CentreLineDrag:
     """The mouse drags a river's centre line (the demo's edit mode; issue 25 live edits).
 
     :meth:`press` picks the centre-line point nearest the cursor on screen (within
     ``reach_px``), :meth:`drag` moves it under the cursor on the water's plane there and
-    bends the line around it (a Gaussian along the arc, ``falloff`` river widths wide; the
-    ends stay put), asking the world for the edit in the background
+    bends the line around it (:func:`drag_weight` along the arc, ``falloff`` river widths
+    wide: the points farther than ~1.8 × that stay exactly where they were, and so does the
+    water there; the ends stay put), asking the world for the edit in the background
     (:meth:`~riverflow.engine.world.RiverWorld.move_axis` with ``wait=False``: a drag asks
     each frame, only the newest waiting edit is made), :meth:`release` lets go. Pixels have
     their origin at the bottom left, as the camera's.
@@ -185,7 +201,7 @@ class CentreLineDrag:
         arc = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(line, axis=0).T))])
         width = float(np.asarray(world.scene.branches[self.link].widths_m)[self._index])
         spread = max(self.falloff * width, 2.0 * float(arc[-1]) / max(len(line) - 1, 1))
-        weight = np.exp(-((arc - arc[self._index]) / spread) ** 2)
+        weight = drag_weight((arc - arc[self._index]) / spread)
         weight[[0, -1]] = 0.0
         moved = line + weight[:, None] * (target - line[self._index])[None, :]
         self.last = world.move_axis(self.link, moved, wait=False)

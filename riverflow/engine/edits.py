@@ -601,6 +601,11 @@ def _water_boxes(old: WaterSurface, old_branches, new: WaterSurface, new_branche
         if a.shape == b.shape and np.array_equal(a, b):
             continue
         changed.append(name)
+        # the samples both have from the start and to the end are the same water: only
+        # those between (and their neighbours) changed (a drag of a few points)
+        head, tail = _same_ends(a, b)
+        a = a[max(head - 1, 0):len(a) - max(tail - 1, 0)]
+        b = b[max(head - 1, 0):len(b) - max(tail - 1, 0)]
         for rows in (a, b):
             for s in range(0, len(rows), BOX_SAMPLES):
                 chunk = rows[s:s + BOX_SAMPLES + 1]
@@ -608,6 +613,19 @@ def _water_boxes(old: WaterSurface, old_branches, new: WaterSurface, new_branche
                 lo, hi = chunk[:, :2].min(axis=0) - pad, chunk[:, :2].max(axis=0) + pad
                 boxes.append([lo[0], lo[1], hi[0], hi[1]])
     return np.array(boxes, np.float64).reshape(-1, 4), changed
+
+
+def _same_ends(a: np.ndarray, b: np.ndarray) -> tuple[int, int]:
+    """How many rows ``a`` and ``b`` have equal from their starts, and from their ends (the
+    two not overlapping in the shorter)."""
+    n = min(len(a), len(b))
+    if n == 0:
+        return 0, 0
+    head = np.flatnonzero(np.any(a[:n] != b[:n], axis=1))
+    head = int(head[0]) if len(head) else n
+    tail = np.flatnonzero(np.any(a[len(a) - n:][::-1] != b[len(b) - n:][::-1], axis=1))
+    tail = int(tail[0]) if len(tail) else n
+    return head, min(tail, n - head)
 
 
 def _segment_rows(net: FlowNetwork) -> tuple[np.ndarray, np.ndarray]:
@@ -721,7 +739,8 @@ def hints_near_changes(codes: np.ndarray, quadtree, old: Landscape, new: Landsca
                        changed: list[str]) -> np.ndarray:
     """(K,) bool: the hints tiles of ``codes`` some node of which may have its nearest
     centre-line sample (:meth:`WaterSurface.nearest_sample`, which a hint is made from, at any
-    distance) on a changed branch, before or after the edit: a tile whose centre c (half
+    distance) among those of a changed branch the edit moved (or whose width or level it
+    changed), before or after it: a tile whose centre c (half
     diagonal h) is no nearer the changed samples than d + 2h, d its distance to the nearest
     unchanged one, is not (every node is within h of c)."""
     from scipy.spatial import cKDTree
@@ -732,14 +751,21 @@ def hints_near_changes(codes: np.ndarray, quadtree, old: Landscape, new: Landsca
     if not len(codes) or not changed:
         return np.zeros(len(codes), bool)
     names = set(changed)
-    moved, kept = [], None
+    rows, kept = [], None
     for scene in (old, new):
         s = scene.water.decimated(NEAREST_SAMPLE_STRIDE)
         on = np.isin(s.branch, [k for k, b in enumerate(scene.branches) if b.name in names])
-        moved.append(s.samples[on])
+        rows.append(np.ascontiguousarray(np.column_stack([s.samples[on], s.widths[on],
+                                                          s.levels[on]])))
         if scene is new:
             kept = s.samples[~on]
-    moved = np.concatenate(moved)
+    # a changed branch's picks that are the same before and after (a drag leaves those
+    # beyond its reach) are kept ones too
+    keys = [{r.tobytes() for r in side} for side in rows]
+    same = [np.array([r.tobytes() in keys[1 - i] for r in side], bool).reshape(len(side))
+            for i, side in enumerate(rows)]
+    moved = np.concatenate([rows[0][~same[0], :2], rows[1][~same[1], :2]])
+    kept = np.concatenate([kept, rows[1][same[1], :2]])
     if not len(moved):
         return np.zeros(len(codes), bool)
     if not len(kept):
@@ -831,6 +857,8 @@ class LiveEdits:
         self.queued = None          # (make_plan, future)
         self._worker = None         # the edits' thread (start)
         self._jobs = None
+        self._planner = None        # the planner thread (planned)
+        self._plans = None
         self.errors: list[str] = []
         self.applied = 0
         """Edits swapped in so far."""
@@ -860,6 +888,37 @@ class LiveEdits:
         self.thread = done                   # busy until ``run`` has set the result
         self._jobs.put((run, done))
 
+    def planned(self, plan):
+        """``plan()`` run in the planner thread, its result returned here (or its exception
+        raised): a thread for the world's life (the tile processes an edit forks there die
+        with it) at a low priority (PLANNER_NICE), so that on a core it shares with the
+        frames a frame's thread runs first whenever both could. The swap is not made there:
+        a thread at that priority holding the world's lock would keep a frame waiting
+        whenever anything else on the machine wants the core."""
+        import queue
+        import threading
+        import weakref
+
+        if self._planner is None or not self._planner.is_alive():
+            self._plans = queue.Queue()
+            self._planner = threading.Thread(target=_serve_edits,
+                                             args=(weakref.ref(self), self._plans, True),
+                                             name="riverflow-edit-plans", daemon=True)
+            self._planner.start()
+        done, out = threading.Event(), []
+
+        def job():
+            try:
+                out.append((True, plan()))
+            except BaseException as exc:  # noqa: BLE001 - raised again in the caller's thread
+                out.append((False, exc))
+        self._plans.put((job, done))
+        done.wait()
+        ok, value = out[0]
+        if not ok:
+            raise value
+        return value
+
     def run_later(self, fn) -> None:
         """Run ``fn()`` in the edits' thread after what it does now (closing a tile process
         replaced by an edit: its end is not waited for in a frame)."""
@@ -881,8 +940,15 @@ class LiveEdits:
         if self._worker is not None:
             self._jobs.put(None)
             self._worker = None
+        if self._planner is not None:
+            self._plans.put(None)
+            self._planner = None
 
 
+PLANNER_NICE = 10
+"""The planner thread's nice value: a frame's thread (0) gets ~90 % of a core they share
+and it ~88 % of one it shares with a tile process (19, making the last edit's tiles); at 19
+it shared that core half and half, and an edit took 0.39 s to its swap, not 0.27 s."""
 EDIT_SWITCH_INTERVAL_S = 0.0005
 """While the edits' thread runs a job, the interpreter's switch interval is at most this
 [s] (``sys.setswitchinterval``; put back after): a frame that wants the interpreter while
@@ -890,13 +956,16 @@ the edit's Python runs gets it within this, not the default 5 ms (over twice a f
 work)."""
 
 
-def _serve_edits(ref, jobs) -> None:
-    """The edits' thread: runs what :meth:`LiveEdits.start` hands it until told to stop or
+def _serve_edits(ref, jobs, low_priority: bool = False) -> None:
+    """The edits' thread (the planner thread: ``low_priority``, at PLANNER_NICE): runs
+    what :meth:`LiveEdits.start` (:meth:`LiveEdits.planned`) hands it until told to stop or
     its LiveEdits is gone."""
     import queue
 
-    from riverflow.tiles.scheduler import _lower_priority
-    _lower_priority()
+    if low_priority:
+        from riverflow.tiles.scheduler import _lower_priority
+
+        _lower_priority(PLANNER_NICE)
     while True:
         try:
             job = jobs.get(timeout=1.0)

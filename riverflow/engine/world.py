@@ -812,7 +812,7 @@ class RiverWorld:
 
             def run():
                 try:
-                    live.result = self._plan(make, scene, field)
+                    live.result = live.planned(lambda: self._plan(make, scene, field))
                 except BaseException as exc:
                     live.result = exc.with_traceback(None)
                     return

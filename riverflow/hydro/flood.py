@@ -128,14 +128,15 @@ def cell_raster(network, pixel_m: float | None = None) -> CellRaster:
     centre line's sample is within ``RASTER_REACH`` half-widths (+ one pixel) of the block;
     each pixel holds the cell coordinate its centre reads by :meth:`SpillNetwork.locate`
     (the nearest centre-line sample), so a point reads what the KD-tree gives the pixel's
-    centre: within half a pixel diagonal of the point."""
+    centre: within half a pixel diagonal of the point. The blocks lie on a lattice of their
+    side from (0, 0)."""
     sample_xy = network._tree.data
     link = network._sample_link
     half = np.array([float(network.cell_width_m[network.net.link_c0[b]:
                                                 network.net.link_c1[b]].max())
                      for b in range(len(network.names))]) * 0.5
     reach = RASTER_REACH * half[link]
-    lo = (sample_xy - reach[:, None]).min(axis=0)
+    low = (sample_xy - reach[:, None]).min(axis=0)
     hi = (sample_xy + reach[:, None]).max(axis=0)
     px = float(pixel_m) if pixel_m is not None else \
         float(network.link_dx_m.min()) / RASTER_PIXELS_PER_CELL
@@ -144,6 +145,9 @@ def cell_raster(network, pixel_m: float | None = None) -> CellRaster:
     B = RASTER_BLOCK_PX
     while True:
         block_m = B * px
+        # its corner on a lattice of blocks: a live edit that moves the network's extent by
+        # millimetres leaves the raster, and the level texture made from it, where it was
+        lo = np.floor(low / block_m) * block_m
         nb = np.ceil((hi - lo) / block_m).astype(np.int64) + 2
         # blocks within reach of each sample (reach + one pixel, a square around it)
         r = reach + px

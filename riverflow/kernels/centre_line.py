@@ -113,6 +113,8 @@ def view_level(samples, clip_from_world, eye, near_m, min_height_m, fallback_lev
         acc += weight * z
     if not total > 0.0:
         return np.nan, 0.0
+    if total == fallback_share:           # no water weighed: the fallback itself, exactly
+        return fallback_level, total
     return acc / total, total
 
 

@@ -40,7 +40,7 @@ from riverflow.scenes.carving import Carving, carve
 from riverflow.scenes.layout import RiverBranch
 from riverflow.scenes.sources import FbmSource, HeightSource, as_height_source
 from riverflow.scenes.water import (WaterSurface, bed_depth, monotone_profiles, point_tree,
-                                    resample)
+                                    resample, resample_segments)
 from riverflow.tiles.memo import TileMemo
 from riverflow.tiles.quadtree import Quadtree
 
@@ -266,14 +266,17 @@ def water_surface(branches: list[RiverBranch],
                                [b.end_junction for b in branches], max(n_junctions, 0),
                                half_window=PROFILE_HALF_WINDOW, caps_m=junction_caps(branches),
                                falls=on_branch)
-    samples, lv, wd, index, profiles = [], [], [], [], {}
+    samples, lv, wd, index, profiles, anchors = [], [], [], [], {}, []
     for k, (b, z) in enumerate(zip(branches, levels)):
         s = _arc(b.centerline_m)
         profiles[b.name] = (s, z)
         if on_branch[k]:
             pts, zz, ww = _resample_over_falls(b.centerline_m, s, z, b.widths_m, on_branch[k])
+            vertex = np.zeros(len(pts), bool)
         else:
-            pts, zz, ww = resample(b.centerline_m, SURFACE_SPACING_M, z, b.widths_m)
+            pts, zz, ww, vertex = resample_segments(b.centerline_m, SURFACE_SPACING_M, z,
+                                                    b.widths_m)
+        anchors.append(vertex)
         samples.append(pts)
         lv.append(np.minimum.accumulate(zz))
         wd.append(ww)
@@ -287,7 +290,8 @@ def water_surface(branches: list[RiverBranch],
         b = branches[members[-1][0]]
         junctions[j] = b.centerline_m[0] if b.start_junction == j else b.centerline_m[-1]
     return WaterSurface(np.vstack(samples), np.concatenate(lv), np.concatenate(wd),
-                        np.concatenate(index), polygon, profiles, junctions, members)
+                        np.concatenate(index), polygon, profiles, junctions, members,
+                        anchors=np.concatenate(anchors))
 
 
 NAPPE_SAMPLES = 16

@@ -164,6 +164,22 @@ def resample(points: np.ndarray, spacing_m: float, *values: np.ndarray):
     return (pts, *[np.interp(t, s, v) for v in values])
 
 
+def resample_segments(points: np.ndarray, spacing_m: float, *values: np.ndarray):
+    """Resample a polyline (K, 2) at most ``spacing_m`` apart, each of its segments on its
+    own (cut into equal parts; its vertices kept), interpolating per-point ``values`` (K,)
+    linearly. A change of some vertices changes only the samples of their segments (a live
+    edit's drag: :func:`resample` would move every sample after it). Returns the points
+    (M, 2), the values (M,), then whether each point is a vertex (M,) bool."""
+    step = np.hypot(*np.diff(points, axis=0).T)
+    parts = np.maximum(np.ceil(step / spacing_m), 1).astype(np.int64)
+    seg = np.repeat(np.arange(len(step)), parts)
+    t = (np.arange(len(seg)) - np.repeat(np.cumsum(parts) - parts, parts)) / parts[seg]
+    seg = np.append(seg, len(step) - 1)
+    t = np.append(t, 1.0)
+    pts = points[seg] + t[:, None] * (points[seg + 1] - points[seg])
+    return (pts, *[v[seg] + t * (v[seg + 1] - v[seg]) for v in values], (t == 0.0) | (t == 1.0))
+
+
 @dataclass(eq=False)
 class WaterSurface:
     """The water of a scene.
@@ -185,6 +201,10 @@ class WaterSurface:
     junctions_m: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     junction_branches: list[tuple[int, ...]] = field(default_factory=list)
     boundary_spacing_m: float = 1.0
+    anchors: np.ndarray | None = None
+    """(S,) bool: the samples :meth:`decimated` counts its strides from (the vertices of the
+    centre lines :func:`resample_segments` sampled: a live edit that moves some leaves the
+    picks elsewhere as they were); None: each branch's first sample."""
 
     def __post_init__(self) -> None:
         shapely.prepare(self.polygon)
@@ -239,8 +259,9 @@ class WaterSurface:
         return samples.samples[k], samples.widths[k]
 
     def decimated(self, stride: int) -> _Samples:
-        """Every stride-th centre-line sample of each branch, from its first one (per branch:
-        a live edit that adds samples to one branch leaves the others' picks as they were)."""
+        """Every stride-th centre-line sample of each branch, counted from its first one and
+        from each of :attr:`anchors` (a live edit that adds samples to one segment of one
+        branch leaves the picks elsewhere as they were)."""
         got = self._decimated.get(stride)
         if got is None:
             if stride == 1:
@@ -248,6 +269,8 @@ class WaterSurface:
             else:
                 k = np.arange(len(self.branch))
                 first = np.r_[True, self.branch[1:] != self.branch[:-1]]
+                if self.anchors is not None:
+                    first |= self.anchors
                 start = np.maximum.accumulate(np.where(first, k, 0))
                 sel = (k - start) % stride == 0
             got = self._decimated[stride] = _Samples(self.samples_m[sel], self.levels_m[sel],

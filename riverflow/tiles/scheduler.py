@@ -1026,16 +1026,17 @@ def close_all(processes, timeout_s: float) -> None:
         process.close(timeout_s=timeout_s)
 
 
-def _lower_priority() -> None:
-    """Run the calling thread at WORKER_NICE (Linux, where a thread has a priority of its
-    own; elsewhere nothing): on a core it shares with the frame, the frame's thread runs first
-    whenever both could (a nogil tile kernel takes only the frame's idle time)."""
-    if not sys.platform.startswith("linux") or WORKER_NICE <= 0:
+def _lower_priority(nice: int | None = None) -> None:
+    """Run the calling thread at ``nice`` (default WORKER_NICE; Linux, where a thread has a
+    priority of its own; elsewhere nothing): on a core it shares with the frame, the frame's
+    thread runs first whenever both could (a nogil tile kernel takes only the frame's idle
+    time)."""
+    nice = WORKER_NICE if nice is None else nice
+    if not sys.platform.startswith("linux") or nice <= 0:
         return
     tid = threading.get_native_id()
     try:
-        os.setpriority(os.PRIO_PROCESS, tid, max(os.getpriority(os.PRIO_PROCESS, tid),
-                                                 WORKER_NICE))
+        os.setpriority(os.PRIO_PROCESS, tid, max(os.getpriority(os.PRIO_PROCESS, tid), nice))
     except OSError:   # not allowed here: the worker keeps the frame's priority
         pass
 

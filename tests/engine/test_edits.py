@@ -210,13 +210,15 @@ def test_a_background_edit_is_swapped_in_between_frames(restore):
     _as_made_from_scratch(w)
     # the switch interval the edits' thread shortened while it ran is the host's again
     assert sys.getswitchinterval() == interval
-    # the edits' thread runs at the tile workers' low priority: on a core it shares with the
-    # frames, a frame's thread runs first whenever both could
+    # the edit is planned at a low priority (on a core it shares with the frames, a frame's
+    # thread runs first whenever both could), swapped in at the host's
     if sys.platform.startswith("linux"):
-        from riverflow.tiles.scheduler import WORKER_NICE
+        from riverflow.engine.edits import PLANNER_NICE
 
-        tid = w.edits._worker.native_id
-        assert os.getpriority(os.PRIO_PROCESS, tid) >= min(WORKER_NICE, 19)
+        host = os.getpriority(os.PRIO_PROCESS, threading.get_native_id())
+        planner = os.getpriority(os.PRIO_PROCESS, w.edits._planner.native_id)
+        assert planner == max(host, PLANNER_NICE)
+        assert os.getpriority(os.PRIO_PROCESS, w.edits._worker.native_id) == host
     # a call of the world while the edits' thread holds the lock waits for it
     with w._lock:
         got = []
@@ -423,6 +425,18 @@ def test_the_mouse_drags_a_centre_line(restore):
     assert np.hypot(*(moved[k] - (origin[0, :2] + t * direction[0, :2]))) < 1e-6
     assert np.array_equal(moved[[0, -1]], line[[0, -1]])        # the ends stay
     assert np.abs(moved - line).max() > 5.0
+    # the points beyond the drag's reach stay exactly where they were (and their water)
+    from riverflow.engine.controls import DRAG_REACH, drag_weight
+
+    arc = np.r_[0.0, np.cumsum(np.hypot(*np.diff(line, axis=0).T))]
+    width = float(w.scene.branches[0].widths_m[k])
+    far = np.abs(arc - arc[k]) > DRAG_REACH * drag.falloff * width
+    assert far.any() and np.array_equal(moved[far], line[far])
+    u = np.linspace(-3.0, 3.0, 601)
+    weight = drag_weight(u)
+    assert weight.max() == 1.0 and weight[np.abs(u) >= DRAG_REACH].max() == 0.0
+    assert np.all(np.diff(weight[u <= 0]) >= 0) and np.all(np.diff(weight[u >= 0]) <= 0)
+    assert drag_weight(np.array([0.83]))[0] == pytest.approx(0.5, abs=0.01)   # a Gaussian's
 
 
 def test_branches_added_removed_and_a_whole_network(restore):

@@ -108,6 +108,8 @@ def _view_level_twin(samples, m, eye, near_m, min_height_m, fallback_level, fall
     total = weight.sum() + fallback_share
     if not total > 0:
         return np.nan, 0.0
+    if not weight.any():
+        return fallback_level, total
     return (weight @ samples.level + fallback_share * fallback_level) / total, total
 
 
