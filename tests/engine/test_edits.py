@@ -151,6 +151,43 @@ def test_an_edit_remakes_only_the_tiles_within_reach_of_its_link(restore):
 
 
 
+def test_a_local_drag_changes_the_water_only_near_the_points_it_moved(restore):
+    """A drag moves a few points of a centre line (drag_weight: the others stay exactly):
+    the water surface changes only near them (its samples are made segment by segment, each
+    point keeps its width), so the water kinds are made again only there (the boxes the
+    edit marks them by); what is kept and what is remade is the new network's, bit for
+    bit."""
+    from riverflow.engine.controls import drag_weight
+    from riverflow.engine.edits import _water_boxes
+
+    w = restore
+    _look_at(w, 0.0, frames=1, back_m=400.0)             # the whole link in view
+    old_scene = w.scene
+    line = old_scene.branches[0].centerline_m
+    arc = np.r_[0.0, np.cumsum(np.hypot(*np.diff(line, axis=0).T))]
+    k = int(0.75 * len(line))
+    spread = 3.5 * float(arc[k + 1] - arc[k]) / 1.83
+    weight = drag_weight((arc - arc[k]) / spread)         # seven points move, smoothly
+    assert 0 < np.count_nonzero(weight) <= 7
+    new_line = line + np.c_[np.zeros(len(line)), 4.0 * weight]
+    w.move_axis(0, new_line)
+    near = np.vstack([line[k - 4:k + 5], new_line[weight > 0]])
+    boxes, changed = _water_boxes(old_scene.water, old_scene.branches, w.scene.water,
+                                  w.scene.branches, LEVEL_REACH_M)
+    assert changed == [old_scene.branches[0].name]
+    pad = LEVEL_REACH_M + WIDTH_M
+    assert (boxes[:, :2] >= near.min(axis=0) - pad).all()
+    assert (boxes[:, 2:] <= near.max(axis=0) + pad).all()
+    old_s = old_scene.water.samples_m[old_scene.water.branch == 0]
+    new_s = w.scene.water.samples_m[w.scene.water.branch == 0]
+    lo = np.searchsorted(arc, arc[k] - 1.83 * spread) - 1    # the samples before the drag
+    head = np.flatnonzero(np.any(old_s != new_s[:len(old_s)], axis=1))[0]
+    assert head > 0 and np.array_equal(old_s[:head], new_s[:head])
+    assert old_s[head - 1, 0] >= line[max(lo - 1, 0), 0] - 1e-9
+    _settle(w)
+    _as_made_from_scratch(w)
+
+
 def _as_made_from_scratch(w) -> None:
     """Every resident tile not standing in equals, bit for bit, the one a fresh producer of the current network makes (the height kinds within the carving's far reach
     excepted: deviation E2 keeps a tile whose ground moved by less than HEIGHT_CHANGE_M)."""

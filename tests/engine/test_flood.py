@@ -287,6 +287,12 @@ def test_the_raster_reads_the_nearest_cell_like_the_kd_tree(flooded_diamond):
     assert far.sum() > 1000 and err[far].max() <= tol
     with pytest.raises(ValueError, match="pixel_m"):
         cell_raster(net, pixel_m=0.0)
+    # its blocks lie on a lattice of their side: an edit that moves the network's extent a
+    # little leaves the raster (and the level texture made from it) where it was
+    r = router.raster
+    block = r.block_px * r.pixel_m
+    for corner in (r.x0, r.y0):
+        assert abs(corner / block - round(corner / block)) < 1e-9
 
 
 # -- the world ---------------------------------------------------------------------------------

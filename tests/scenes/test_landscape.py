@@ -163,3 +163,24 @@ def test_the_source_under_height_tiles_is_kept_across_edits_and_dropped_with_its
     assert coarser.source_tiles is not kept
     same = CarvedTerrain(t.source, t.water, t.carving, t.quadtree, t.cell_m, t.tile_cells, kept)
     assert same.source_tiles is kept
+
+
+def test_the_water_surface_is_sampled_segment_by_segment():
+    """resample_segments keeps every vertex, samples each segment at most the spacing apart
+    (values linear along it), so moving one vertex changes only its two segments' samples."""
+    from riverflow.scenes.water import resample_segments
+
+    rng = np.random.default_rng(3)
+    line = np.cumsum(rng.uniform(3.0, 9.0, (12, 2)), axis=0)
+    value = np.arange(12, dtype=np.float64)
+    pts, v, vertex = resample_segments(line, 2.0, value)
+    assert np.array_equal(pts[vertex], line) and np.array_equal(v[vertex], value)
+    assert np.hypot(*np.diff(pts, axis=0).T).max() <= 2.0 + 1e-12
+    np.testing.assert_allclose(np.interp(np.arange(len(v)), np.flatnonzero(vertex), value), v)
+    moved = line.copy()
+    moved[6] += (3.0, -2.0)
+    pts2, _, vertex2 = resample_segments(moved, 2.0, value)
+    first = np.flatnonzero(vertex)[5]                     # vertex 5: its samples before kept
+    last = len(pts) - np.flatnonzero(vertex)[7]            # from vertex 7 on: kept
+    assert np.array_equal(pts[:first + 1], pts2[:first + 1])
+    assert np.array_equal(pts[-last:], pts2[-last:])
