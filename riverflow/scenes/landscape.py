@@ -266,17 +266,15 @@ def water_surface(branches: list[RiverBranch],
                                [b.end_junction for b in branches], max(n_junctions, 0),
                                half_window=PROFILE_HALF_WINDOW, caps_m=junction_caps(branches),
                                falls=on_branch)
-    samples, lv, wd, index, profiles, anchors = [], [], [], [], {}, []
+    samples, lv, wd, index, profiles = [], [], [], [], {}
     for k, (b, z) in enumerate(zip(branches, levels)):
         s = _arc(b.centerline_m)
         profiles[b.name] = (s, z)
         if on_branch[k]:
             pts, zz, ww = _resample_over_falls(b.centerline_m, s, z, b.widths_m, on_branch[k])
-            vertex = np.zeros(len(pts), bool)
         else:
-            pts, zz, ww, vertex = resample_segments(b.centerline_m, SURFACE_SPACING_M, z,
-                                                    b.widths_m)
-        anchors.append(vertex)
+            pts, zz, ww, _ = resample_segments(b.centerline_m, SURFACE_SPACING_M, z,
+                                               b.widths_m)
         samples.append(pts)
         lv.append(np.minimum.accumulate(zz))
         wd.append(ww)
@@ -290,8 +288,7 @@ def water_surface(branches: list[RiverBranch],
         b = branches[members[-1][0]]
         junctions[j] = b.centerline_m[0] if b.start_junction == j else b.centerline_m[-1]
     return WaterSurface(np.vstack(samples), np.concatenate(lv), np.concatenate(wd),
-                        np.concatenate(index), polygon, profiles, junctions, members,
-                        anchors=np.concatenate(anchors))
+                        np.concatenate(index), polygon, profiles, junctions, members)
 
 
 NAPPE_SAMPLES = 16

@@ -41,6 +41,9 @@ LAND_LEVEL_NEIGHBOURS = 24
 """… the LAND_LEVEL_NEIGHBOURS nearest of them, weighted down to 0 at the farthest one."""
 
 
+DECIMATE_CELLS = 2.5
+""":meth:`WaterSurface.decimated` counts its strides again where the samples enter another
+square of this many strides' length (~1 pick per 4 samples at stride 5)."""
 NEAREST_SAMPLE_STRIDE = 5
 """:meth:`WaterSurface.nearest_sample` picks among every this-many-th centre-line sample."""
 
@@ -201,10 +204,6 @@ class WaterSurface:
     junctions_m: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     junction_branches: list[tuple[int, ...]] = field(default_factory=list)
     boundary_spacing_m: float = 1.0
-    anchors: np.ndarray | None = None
-    """(S,) bool: the samples :meth:`decimated` counts its strides from (the vertices of the
-    centre lines :func:`resample_segments` sampled: a live edit that moves some leaves the
-    picks elsewhere as they were); None: each branch's first sample."""
 
     def __post_init__(self) -> None:
         shapely.prepare(self.polygon)
@@ -260,8 +259,10 @@ class WaterSurface:
 
     def decimated(self, stride: int) -> _Samples:
         """Every stride-th centre-line sample of each branch, counted from its first one and
-        from each of :attr:`anchors` (a live edit that adds samples to one segment of one
-        branch leaves the picks elsewhere as they were)."""
+        again from each sample in another square of DECIMATE_CELLS × stride samples' spacing
+        than the one before it (a place, not a count from the branch's start: a live edit
+        that adds samples to one stretch of a branch leaves the picks elsewhere as they
+        were)."""
         got = self._decimated.get(stride)
         if got is None:
             if stride == 1:
@@ -269,8 +270,10 @@ class WaterSurface:
             else:
                 k = np.arange(len(self.branch))
                 first = np.r_[True, self.branch[1:] != self.branch[:-1]]
-                if self.anchors is not None:
-                    first |= self.anchors
+                step = np.hypot(*np.diff(self.samples_m, axis=0).T)
+                side = DECIMATE_CELLS * stride * float(np.median(step)) if len(step) else 1.0
+                cell = np.floor(self.samples_m / max(side, 1e-6))
+                first[1:] |= np.any(cell[1:] != cell[:-1], axis=1)
                 start = np.maximum.accumulate(np.where(first, k, 0))
                 sel = (k - start) % stride == 0
             got = self._decimated[stride] = _Samples(self.samples_m[sel], self.levels_m[sel],
