@@ -484,6 +484,7 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
         rules.add(net.orient(elevations))
     report.derived["direction"] = "; ".join(sorted(rules))
     builder._networks = networks       # (for _hole_in_loop, when _discharges fails)
+    builder.basin_axes = [a for net in networks for a in net.basin_axes]
     _discharges(networks, discharge_m3s, geometry, report)
     kept = []
     for net in networks:
@@ -806,6 +807,9 @@ class _Network:
         self.tributaries: set[int] = set()
         """Free ends of short dead-end channels kept as tributaries because the DEM rises
         towards them (:func:`_drop_basin_spurs`): inlets when the DEM orients the water."""
+        self.basin_axes: list[tuple[np.ndarray, np.ndarray]] = []
+        """The dropped spurs' axes beyond their channel's bank, (points, widths) [m]: basins
+        (the builder's ``basin_axes``)."""
         self.rule = ""
 
     def degree(self) -> np.ndarray:
@@ -1003,6 +1007,25 @@ def _passes_by(net: _Network, spur: _Channel, junction: int, width_m: float) -> 
                for i in range(len(dirs)) for j in range(i + 1, len(dirs)))
 
 
+def _end_beside(net: _Network, c: _Channel, end: int, deg: np.ndarray) -> bool:
+    """Whether the free end ``end`` of ``c`` is part of one of the water's ends, parted from
+    the rest by a spit of land (an island joined to the bank there): it lies beside another
+    free end (:meth:`_Network._beside`) and runs into a straight edge of the outline across
+    it (at least half its width long, at least 45° to its axis: the water's end cut across,
+    not a pocket's tip tapering shut)."""
+    if not any(deg[k] == 1 and k not in (c.a, c.b) and net._beside(end, k)
+               for k in range(len(net.nodes))):
+        return False
+    ring = np.asarray(net.water.exterior.coords)
+    segs = shapely.linestrings(np.stack([ring[:-1], ring[1:]], axis=1))
+    i = int(np.argmin(shapely.distance(segs, shapely.Point(net.nodes[end]))))
+    edge = ring[i + 1] - ring[i]
+    length = float(np.hypot(*edge))
+    axis = _leaving(c, end, 0.5 * net._end_width(end))
+    return (length >= 0.5 * net._end_width(end)
+            and abs(float(edge @ axis)) <= math.cos(math.radians(45.0)) * length)
+
+
 def _drop_basin_spurs(net: _Network, frame, tolerance_m: float, report: RiverImport,
                       heights=None) -> None:
     """Drop the skeleton's spurs into basins (BASIN_SPUR_WIDTHS); where the junction they left
@@ -1023,7 +1046,7 @@ def _drop_basin_spurs(net: _Network, frame, tolerance_m: float, report: RiverImp
                 if edge is not None and edge.distance(shapely.Point(p)) <= max(
                         4.0 * tolerance_m, 0.05 * c.width):
                     continue            # an open end: the data's edge cuts the water there
-                if end in net.tributaries:
+                if end in net.tributaries or _end_beside(net, c, end, deg):
                     continue
                 main = max((d.width for d in net.channels
                             if d is not c and other in (d.a, d.b)), default=0.0)
@@ -1056,6 +1079,8 @@ def _drop_basin_spurs(net: _Network, frame, tolerance_m: float, report: RiverImp
             f"({x:.1f}, {y:.1f}), is a basin (a harbour, dock or side basin: still water), not "
             f"a channel (give an inlet there, or lines=, to keep it a channel)")
         net.channels.remove(spur)
+        net.basin_axes.append(_beyond(spur, junction, 0.5 * max(
+            (d.width for d in net.channels if junction in (d.a, d.b)), default=0.0)))
         rest = [c for c in net.channels if junction in (c.a, c.b)]
         if len(rest) == 2 and rest[0] is not rest[1]:
             one, two = rest
@@ -1075,6 +1100,18 @@ def _drop_basin_spurs(net: _Network, frame, tolerance_m: float, report: RiverImp
         net.inlets = {new[n] for n in net.inlets if n in new}
         net.outlets = {new[n] for n in net.outlets if n in new}
         net.tributaries = {new[n] for n in net.tributaries if n in new}
+
+
+def _beyond(c: _Channel, junction: int, reach_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """(points, widths) of channel ``c`` from ``reach_m`` along it from ``junction`` (one of
+    its ends) to its other end: a spur's axis beyond the bank of the channel it leaves."""
+    pts, widths = (c.points, c.widths) if c.a == junction else (c.points[::-1], c.widths[::-1])
+    s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(pts, axis=0).T))])
+    at = min(reach_m, 0.5 * float(s[-1]))
+    k = int(np.searchsorted(s, at, side="right"))
+    start = np.array([np.interp(at, s, pts[:, 0]), np.interp(at, s, pts[:, 1])])
+    return (np.vstack([start, pts[k:]]),
+            np.concatenate([[np.interp(at, s, widths)], widths[k:]]))
 
 
 def _harmonic(adj, inlets: list[int], outlets: list[int]) -> np.ndarray:

@@ -99,22 +99,29 @@ def _excess(points: np.ndarray, axes: list[tuple[np.ndarray, np.ndarray]]):
 
 
 def find_basins(water, axes: list[tuple[np.ndarray, np.ndarray]], avoid=(),
-                tolerance_m: float = 0.25) -> list[Basin]:
+                tolerance_m: float = 0.25, dead=()) -> list[Basin]:
     """The basins of ``water`` (a Polygon or MultiPolygon [m]) beside the channels ``axes``
     [(centre line (K, 2), widths (K,))] (module docstring); outline points within ``avoid``
     (polygons: lakes) are never in a basin, nor is the outline within a channel's width of
     a free end of the axes (an open end: the data's edge, drawn slanted across the water by
-    a mask's cells, is no bank)."""
+    a mask's cells, is no bank; another polygon's free end is none of its). ``dead``: axes like ``axes``' of dead ends known to be
+    basins (a pocket behind a spit of land, whose inner shore lies within the channel's half
+    width of its axis across the spit): outline points nearer one of them than any channel's
+    axis are off the channel too."""
     if not axes:
         return []
+    dead_lines = [shapely.LineString(a) for a, _ in dead if len(a) >= 2]
     avoid_u = shapely.union_all(list(avoid)) if len(avoid) else None
     lines = shapely.union_all([shapely.LineString(a) for a, _ in axes])
     ends = np.array([a[i] for a, _ in axes for i in (0, -1)], dtype=float).reshape(-1, 2)
     near = np.hypot(*(ends[:, None, :] - ends[None, :, :]).transpose(2, 0, 1)) <= tolerance_m
-    free_ends = shapely.multipoints(ends[near.sum(axis=1) == 1]) if len(ends) else None
+    free = ends[near.sum(axis=1) == 1] if len(ends) else ends
     found: list[Basin] = []
     for poly in getattr(water, "geoms", [water]):
         poly = orient(poly, 1.0)
+        # (the free ends in this water: another water body's end is no open end of it)
+        free_ends = shapely.multipoints(free[shapely.dwithin(poly, shapely.points(free),
+                                                             tolerance_m)]) if len(free) else None
         for ring in [poly.exterior, *poly.interiors]:
             v = np.asarray(ring.coords)[:-1]
             if len(v) < 4:
@@ -122,6 +129,12 @@ def find_basins(water, axes: list[tuple[np.ndarray, np.ndarray]], avoid=(),
             excess, width = _excess(v, axes)
             margin = BANK_MARGIN * width + tolerance_m
             out = excess > margin
+            if dead_lines:
+                pts = shapely.points(v)
+                live = shapely.distance(lines, pts)
+                behind = np.min([shapely.distance(g, pts) for g in dead_lines], axis=0) < live
+                excess = np.where(behind, np.maximum(excess, live - 0.5 * width), excess)
+                out |= behind
             if avoid_u is not None:
                 out &= ~shapely.dwithin(avoid_u, shapely.points(v), tolerance_m)
             if not out.any() or out.all():
