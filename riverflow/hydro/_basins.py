@@ -42,6 +42,9 @@ BASIN_MIN_AREA = 0.05
 BANK_MARGIN = 0.02
 """An outline point is off the channel when it lies farther than the half width plus this many
 widths (and the builder's tolerance) from the axis."""
+OPEN_END_REACH = 0.25
+"""A pocket of a dead end known to be a basin (``find_basins``' ``dead``) is one if it lies
+farther than this many widths from the axes' free ends (other basins: a width)."""
 WIDTH_WINDOW = 1.0
 """The channel's width by a point is the median of its axis' widths within this many widths
 along the axis (a basin widens the skeleton's inscribed circles beside its mouth)."""
@@ -119,6 +122,12 @@ def find_basins(water, axes: list[tuple[np.ndarray, np.ndarray]], avoid=(),
     found: list[Basin] = []
     for poly in getattr(water, "geoms", [water]):
         poly = orient(poly, 1.0)
+        wet = poly.buffer(max(1e-6 * float(np.abs(np.asarray(poly.exterior.coords)).max()),
+                              1e-3 * tolerance_m)) if dead_lines else None
+        if wet is not None:
+            shapely.prepare(wet)
+            mine = [g for g in shapely.get_parts(lines) if shapely.intersects(wet, g)]
+            local = shapely.union_all(mine) if mine else lines
         # (the free ends in this water: another water body's end is no open end of it)
         free_ends = shapely.multipoints(free[shapely.dwithin(poly, shapely.points(free),
                                                              tolerance_m)]) if len(free) else None
@@ -129,10 +138,10 @@ def find_basins(water, axes: list[tuple[np.ndarray, np.ndarray]], avoid=(),
             excess, width = _excess(v, axes)
             margin = BANK_MARGIN * width + tolerance_m
             out = excess > margin
+            behind = np.zeros(len(v), bool)
             if dead_lines:
-                pts = shapely.points(v)
-                live = shapely.distance(lines, pts)
-                behind = np.min([shapely.distance(g, pts) for g in dead_lines], axis=0) < live
+                behind = _behind(v, local, dead_lines, wet)
+                live = shapely.distance(local, shapely.points(v))
                 excess = np.where(behind, np.maximum(excess, live - 0.5 * width), excess)
                 out |= behind
             if avoid_u is not None:
@@ -149,16 +158,41 @@ def find_basins(water, axes: list[tuple[np.ndarray, np.ndarray]], avoid=(),
                 j = k
                 while j < len(order) and out[order[j]]:
                     j += 1
+                sel = np.flatnonzero(behind[order[k:j]])
+                if len(sel):     # a dead end's pocket: its own points (not the bank beside)
+                    k, j, nxt = k + sel[0], k + sel[-1] + 1, j
+                else:
+                    nxt = j
                 run = order[k:j]
                 before, after = order[k - 1], order[j % len(order)]
-                k = j
+                k = nxt
                 basin = _basin(v, run, before, after, excess, width, poly, lines, tolerance_m)
+                # beside an open end: the data's edge, no bank (a known dead end's pocket
+                # is one wherever it ends)
+                reach = OPEN_END_REACH * basin.width_m if basin is not None and behind[
+                    run].any() else basin.width_m if basin is not None else 0.0
                 if basin is not None and free_ends is not None and not free_ends.is_empty and (
-                        shapely.distance(basin.polygon, free_ends) < basin.width_m):
-                    basin = None         # beside an open end: the data's edge, no bank
+                        shapely.distance(basin.polygon, free_ends) < reach):
+                    basin = None
                 if basin is not None:
                     found.append(basin)
     return found
+
+
+def _behind(v: np.ndarray, lines, dead_lines: list, wet) -> np.ndarray:
+    """Which outline points ``v`` lie in the pocket of a dead end known to be a basin: the
+    straight line to the nearest point of its axis stays in the water (``wet``, prepared) and
+    the one to the nearest channel's axis crosses land (a spit) or is longer."""
+    pts = shapely.points(v)
+    to_live = shapely.shortest_line(lines, pts)
+    live_seen = shapely.covers(wet, to_live)
+    live = shapely.length(to_live)
+    out = np.zeros(len(v), bool)
+    for g in dead_lines:
+        to_dead = shapely.shortest_line(g, pts)
+        d = shapely.length(to_dead)
+        out |= shapely.covers(wet, to_dead) & (~live_seen | (d < live))
+    return out
 
 
 def _basin(v, run, before, after, excess, width, poly, lines, tolerance_m) -> Basin | None:
