@@ -112,6 +112,13 @@ MAX_OUTLINE_SAMPLES = 200_000
 OPEN_EDGE_WIDTHS = 0.25
 """A piece of the water's outline along the data's extent at least this many mean widths
 long is an open end (the water cut by the map's edge), not a bank."""
+OVERHANG_WIDTHS = 0.04
+"""An edge of the outline at most this many widths of its channel long that faces away from
+the channel's axis (the far side of an island's round end where it crosses a bank, leaning
+over the water) loses a vertex, moving the outline by at most a quarter as much."""
+OVERHANG_MARGIN = math.sin(math.radians(20.0))
+"""Such an edge faces away unless the axis lies at least 20° to its left (the builder reads
+the axis piece by piece: beside a piece's end its nearest point lies farther back)."""
 
 
 class WaterBuilder(RiverNetworkBuilder):
@@ -487,7 +494,8 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
     builder.basin_axes = [a for net in networks for a in net.basin_axes]
     _discharges(networks, discharge_m3s, geometry, report)
     kept = []
-    for net in networks:
+    for k, net in enumerate(networks):
+        net.water = _trim_overhangs(net, report, k)
         kept.append(net.water)
         for hole in net.islands:
             builder.add_island(np.asarray(hole.exterior.coords)[:-1])
@@ -508,6 +516,69 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
                                  "between channels": sum(len(n.water.interiors) for n in networks)}
     report.derived["length_m"] = round(sum(float(shapely.LineString(c.points).length)
                                            for n in networks for c in n.channels), 1)
+
+
+def _trim_overhangs(net: _Network, report: RiverImport, k: int):
+    """The water of ``net`` with the short edges that face away from their channel's axis
+    (seen across the water, but for as much land as the edge is long: the axis on their
+    right, which the hydro graph does not allow)
+    taken out: where an island's round end crosses a bank, its last edges lean over the water
+    beyond the bank's normal. An end vertex of such an edge (OVERHANG_WIDTHS) is dropped,
+    the one nearer the chord its neighbours make, while that moves the outline by at most
+    a quarter of that; reported. The water as it was where that leaves it invalid."""
+    water = net.water
+    axes = [shapely.LineString(c.points) for c in net.channels if len(c.points) >= 2]
+    if not axes:
+        return water
+    widths = np.array([c.width for c in net.channels if len(c.points) >= 2])
+    tree = shapely.STRtree(axes)
+    wet = water.buffer(1e-6 * math.sqrt(water.area))
+    shapely.prepare(wet)
+    oriented = shapely.geometry.polygon.orient(water, 1.0)    # water on each ring's left
+    rings, moved, dropped = [], 0.0, 0
+    for ring in [oriented.exterior, *oriented.interiors]:
+        v = np.asarray(ring.coords)[:-1]
+        for _ in range(len(v)):
+            if len(v) < 4:
+                break
+            a, b = v, np.roll(v, -1, axis=0)
+            mid = shapely.points(0.5 * (a + b))
+            near = tree.nearest(mid)
+            to = shapely.shortest_line(np.take(axes, near), mid)
+            q = shapely.get_coordinates(to).reshape(-1, 2, 2)
+            tv = q[:, 0] - q[:, 1]                   # from the edge's middle to the axis
+            d = b - a
+            length = np.hypot(*d.T)
+            limit = OVERHANG_WIDTHS * widths[near]
+            bad = ((d[:, 0] * tv[:, 1] - d[:, 1] * tv[:, 0]
+                    < OVERHANG_MARGIN * length * np.hypot(*tv.T)) & (length <= limit))
+            bad[bad] &= shapely.length(shapely.difference(to[bad], wet)) <= limit[bad]
+            best = None
+            for i in np.flatnonzero(bad):
+                for j in (i, (i + 1) % len(v)):       # the edge's ends
+                    p0, p1 = v[j - 1], v[(j + 1) % len(v)]
+                    chord = p1 - p0
+                    off = abs(float(chord[0] * (v[j] - p0)[1] - chord[1] * (v[j] - p0)[0])
+                              ) / max(float(np.hypot(*chord)), 1e-12)
+                    if off <= 0.25 * limit[i] and (best is None or off < best[1]):
+                        best = (j, off)
+                if best is not None:
+                    break
+            if best is None:
+                break
+            v = np.delete(v, best[0], axis=0)
+            moved, dropped = max(moved, best[1]), dropped + 1
+        rings.append(v)
+    if not dropped:
+        return water
+    out = shapely.Polygon(rings[0], rings[1:])
+    if not out.is_valid or len(out.interiors) != len(water.interiors):
+        return water
+    report.repair(f"water body {k}", None, None,
+                  f"{dropped} vertices of short edges facing away from their channel's axis "
+                  f"(an island's round end leaning over the water where it crosses a bank) "
+                  f"dropped, moving the outline by at most {moved:.2f} m")
+    return out
 
 
 # -- reading -------------------------------------------------------------------------------------
