@@ -520,24 +520,24 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
 
 def _trim_overhangs(net: _Network, report: RiverImport, k: int):
     """The water of ``net`` with the short edges that face away from their channel's axis
-    (seen across the water, but for as much land as the edge is long: the axis on their
-    right, which the hydro graph does not allow)
+    (the axis on their right, or less than OVERHANG_MARGIN to their left: which the hydro
+    graph does not allow)
     taken out: where an island's round end crosses a bank, its last edges lean over the water
     beyond the bank's normal. An end vertex of such an edge (OVERHANG_WIDTHS) is dropped,
     the one nearer the chord its neighbours make, while that moves the outline by at most
-    a quarter of that; reported. The water as it was where that leaves it invalid."""
+    a quarter of that (no given vertex farther from the ring left; else the ring stays as
+    given); reported. The water as it was where that leaves it invalid."""
     water = net.water
     axes = [shapely.LineString(c.points) for c in net.channels if len(c.points) >= 2]
     if not axes:
         return water
     widths = np.array([c.width for c in net.channels if len(c.points) >= 2])
     tree = shapely.STRtree(axes)
-    wet = water.buffer(1e-6 * math.sqrt(water.area))
-    shapely.prepare(wet)
     oriented = shapely.geometry.polygon.orient(water, 1.0)    # water on each ring's left
     rings, moved, dropped = [], 0.0, 0
     for ring in [oriented.exterior, *oriented.interiors]:
-        v = np.asarray(ring.coords)[:-1]
+        v = given = np.asarray(ring.coords)[:-1]
+        bound = np.inf
         for _ in range(len(v)):
             if len(v) < 4:
                 break
@@ -552,7 +552,6 @@ def _trim_overhangs(net: _Network, report: RiverImport, k: int):
             limit = OVERHANG_WIDTHS * widths[near]
             bad = ((d[:, 0] * tv[:, 1] - d[:, 1] * tv[:, 0]
                     < OVERHANG_MARGIN * length * np.hypot(*tv.T)) & (length <= limit))
-            bad[bad] &= shapely.length(shapely.difference(to[bad], wet)) <= limit[bad]
             best = None
             for i in np.flatnonzero(bad):
                 for j in (i, (i + 1) % len(v)):       # the edge's ends
@@ -563,11 +562,17 @@ def _trim_overhangs(net: _Network, report: RiverImport, k: int):
                     if off <= 0.25 * limit[i] and (best is None or off < best[1]):
                         best = (j, off)
                 if best is not None:
+                    bound = min(bound, 0.25 * float(limit[i]))
                     break
             if best is None:
                 break
             v = np.delete(v, best[0], axis=0)
-            moved, dropped = max(moved, best[1]), dropped + 1
+        if len(v) < len(given):    # every vertex dropped within the bound of the new ring
+            off = float(shapely.distance(shapely.LinearRing(v), shapely.points(given)).max())
+            if off <= bound:
+                moved, dropped = max(moved, off), dropped + len(given) - len(v)
+            else:
+                v = given
         rings.append(v)
     if not dropped:
         return water

@@ -42,6 +42,9 @@ BASIN_MIN_AREA = 0.05
 BANK_MARGIN = 0.02
 """An outline point is off the channel when it lies farther than the half width plus this many
 widths (and the builder's tolerance) from the axis."""
+DEAD_STEP = 0.5
+"""With dead ends known to be basins, the outline is read at points at most this many of the
+narrowest one's widths apart (a pocket's straight shores have no vertices of their own)."""
 OPEN_END_REACH = 0.25
 """A pocket of a dead end known to be a basin (``find_basins``' ``dead``) is one if it lies
 farther than this many widths from the axes' free ends (other basins: a width)."""
@@ -106,14 +109,12 @@ def find_basins(water, axes: list[tuple[np.ndarray, np.ndarray]], avoid=(),
     """The basins of ``water`` (a Polygon or MultiPolygon [m]) beside the channels ``axes``
     [(centre line (K, 2), widths (K,))] (module docstring); outline points within ``avoid``
     (polygons: lakes) are never in a basin, nor is the outline within a channel's width of
-    a free end of the axes (an open end: the data's edge, drawn slanted across the water by
-    a mask's cells, is no bank; another polygon's free end is none of its). ``dead``: axes like ``axes``' of dead ends known to be
-    basins (a pocket behind a spit of land, whose inner shore lies within the channel's half
-    width of its axis across the spit): outline points nearer one of them than any channel's
-    axis are off the channel too."""
+    a free end of the axes in that water (an open end: the data's edge, drawn slanted across
+    the water by a mask's cells, is no bank). ``dead``: axes like ``axes``' of dead ends
+    known to be basins; one whose far end no basin found so holds is a backwater behind a
+    spit of land (:func:`_backwater`)."""
     if not axes:
         return []
-    dead_lines = [shapely.LineString(a) for a, _ in dead if len(a) >= 2]
     avoid_u = shapely.union_all(list(avoid)) if len(avoid) else None
     lines = shapely.union_all([shapely.LineString(a) for a, _ in axes])
     ends = np.array([a[i] for a, _ in axes for i in (0, -1)], dtype=float).reshape(-1, 2)
@@ -122,12 +123,6 @@ def find_basins(water, axes: list[tuple[np.ndarray, np.ndarray]], avoid=(),
     found: list[Basin] = []
     for poly in getattr(water, "geoms", [water]):
         poly = orient(poly, 1.0)
-        wet = poly.buffer(max(1e-6 * float(np.abs(np.asarray(poly.exterior.coords)).max()),
-                              1e-3 * tolerance_m)) if dead_lines else None
-        if wet is not None:
-            shapely.prepare(wet)
-            mine = [g for g in shapely.get_parts(lines) if shapely.intersects(wet, g)]
-            local = shapely.union_all(mine) if mine else lines
         # (the free ends in this water: another water body's end is no open end of it)
         free_ends = shapely.multipoints(free[shapely.dwithin(poly, shapely.points(free),
                                                              tolerance_m)]) if len(free) else None
@@ -138,12 +133,6 @@ def find_basins(water, axes: list[tuple[np.ndarray, np.ndarray]], avoid=(),
             excess, width = _excess(v, axes)
             margin = BANK_MARGIN * width + tolerance_m
             out = excess > margin
-            behind = np.zeros(len(v), bool)
-            if dead_lines:
-                behind = _behind(v, local, dead_lines, wet)
-                live = shapely.distance(local, shapely.points(v))
-                excess = np.where(behind, np.maximum(excess, live - 0.5 * width), excess)
-                out |= behind
             if avoid_u is not None:
                 out &= ~shapely.dwithin(avoid_u, shapely.points(v), tolerance_m)
             if not out.any() or out.all():
@@ -158,41 +147,72 @@ def find_basins(water, axes: list[tuple[np.ndarray, np.ndarray]], avoid=(),
                 j = k
                 while j < len(order) and out[order[j]]:
                     j += 1
-                sel = np.flatnonzero(behind[order[k:j]])
-                if len(sel):     # a dead end's pocket: its own points (not the bank beside)
-                    k, j, nxt = k + sel[0], k + sel[-1] + 1, j
-                else:
-                    nxt = j
                 run = order[k:j]
                 before, after = order[k - 1], order[j % len(order)]
-                k = nxt
+                k = j
                 basin = _basin(v, run, before, after, excess, width, poly, lines, tolerance_m)
-                # beside an open end: the data's edge, no bank (a known dead end's pocket
-                # is one wherever it ends)
-                reach = OPEN_END_REACH * basin.width_m if basin is not None and behind[
-                    run].any() else basin.width_m if basin is not None else 0.0
                 if basin is not None and free_ends is not None and not free_ends.is_empty and (
-                        shapely.distance(basin.polygon, free_ends) < reach):
-                    basin = None
+                        shapely.distance(basin.polygon, free_ends) < basin.width_m):
+                    basin = None         # beside an open end: the data's edge, no bank
                 if basin is not None:
                     found.append(basin)
+        for a, w in dead:
+            if len(a) < 2 or not poly.buffer(tolerance_m).contains(shapely.Point(a[-1])) or any(
+                    b.polygon.buffer(tolerance_m).contains(shapely.Point(a[-1])) for b in found):
+                continue
+            basin = _backwater(poly, a, w, axes, lines, avoid_u, tolerance_m)
+            if basin is not None and free_ends is not None and not free_ends.is_empty and (
+                    shapely.distance(basin.polygon, free_ends) < OPEN_END_REACH * basin.width_m):
+                basin = None             # (the data's edge cutting across it)
+            if basin is not None and not any(b.polygon.intersection(basin.polygon).area
+                                             > 1e-6 * basin.polygon.area for b in found):
+                found.append(basin)
     return found
 
 
-def _behind(v: np.ndarray, lines, dead_lines: list, wet) -> np.ndarray:
-    """Which outline points ``v`` lie in the pocket of a dead end known to be a basin: the
-    straight line to the nearest point of its axis stays in the water (``wet``, prepared) and
-    the one to the nearest channel's axis crosses land (a spit) or is longer."""
+def _backwater(poly, dead: np.ndarray, dead_widths: np.ndarray, axes, lines, avoid_u,
+               tolerance_m: float) -> Basin | None:
+    """The basin of a dead end known to be one (``dead``: its axis beyond its channel's bank,
+    (K, 2) [m]) that the channels' half widths do not find: a backwater behind a spit of land,
+    whose inner shore lies nearer the channel's axis (across the spit) than its half width.
+    It is the stretch of the outline (read at points DEAD_STEP of its width apart) round the
+    dead end's far end that sees the dead end's axis across the water and not the channels'
+    axes (the spit between), closed by a mouth between its last points (from the spit's tip
+    across the backwater), or None."""
+    wet = poly.buffer(max(1e-6 * float(np.abs(np.asarray(poly.exterior.coords)).max()),
+                          1e-3 * tolerance_m))
+    shapely.prepare(wet)
+    mine = [g for g in shapely.get_parts(lines) if shapely.intersects(wet, g)]
+    if not mine:
+        return None
+    local = shapely.union_all(mine)
+    axis = shapely.LineString(dead)
+    tip = shapely.Point(dead[-1])
+    ring = min([poly.exterior, *poly.interiors], key=lambda r: r.distance(tip))
+    v = np.asarray(shapely.segmentize(ring, max(DEAD_STEP * float(np.median(dead_widths)),
+                                                tolerance_m)).coords)[:-1]
     pts = shapely.points(v)
-    to_live = shapely.shortest_line(lines, pts)
-    live_seen = shapely.covers(wet, to_live)
-    live = shapely.length(to_live)
-    out = np.zeros(len(v), bool)
-    for g in dead_lines:
-        to_dead = shapely.shortest_line(g, pts)
-        d = shapely.length(to_dead)
-        out |= shapely.covers(wet, to_dead) & (~live_seen | (d < live))
-    return out
+    to_live = shapely.shortest_line(local, pts)
+    behind = (~shapely.covers(wet, to_live)
+              & shapely.covers(wet, shapely.shortest_line(axis, pts)))
+    if avoid_u is not None:
+        behind &= ~shapely.dwithin(avoid_u, pts, tolerance_m)
+    if not behind.any() or behind.all():
+        return None
+    # the run of hidden points holding the outline point nearest the dead end's far end
+    at = int(np.argmin(shapely.distance(tip, pts)))
+    if not behind[at]:
+        return None
+    n = len(v)
+    k0, k1 = at, at
+    while behind[(k0 - 1) % n] and k1 - k0 < n - 1:
+        k0 -= 1
+    while behind[(k1 + 1) % n] and k1 - k0 < n - 1:
+        k1 += 1
+    run = np.arange(k0, k1 + 1) % n
+    excess, width = _excess(v, axes)
+    excess = np.where(behind, np.maximum(excess, shapely.length(to_live) - 0.5 * width), excess)
+    return _basin(v, run, (k0 - 1) % n, (k1 + 1) % n, excess, width, poly, lines, tolerance_m)
 
 
 def _basin(v, run, before, after, excess, width, poly, lines, tolerance_m) -> Basin | None:
