@@ -43,11 +43,11 @@ BANK_MARGIN = 0.02
 """An outline point is off the channel when it lies farther than the half width plus this many
 widths (and the builder's tolerance) from the axis."""
 DEAD_STEP = 0.5
-"""With dead ends known to be basins, the outline is read at points at most this many of the
-narrowest one's widths apart (a pocket's straight shores have no vertices of their own)."""
+"""A backwater (:func:`_backwater`) is read from its outline at points at most this many of
+its dead end's widths apart (a straight shore has no vertices of its own along it)."""
 OPEN_END_REACH = 0.25
-"""A pocket of a dead end known to be a basin (``find_basins``' ``dead``) is one if it lies
-farther than this many widths from the axes' free ends (other basins: a width)."""
+"""A backwater is a basin when it lies at least this many of its channel's widths from the
+axes' free ends (other basins: a width; nearer, the data's edge cuts across it)."""
 WIDTH_WINDOW = 1.0
 """The channel's width by a point is the median of its axis' widths within this many widths
 along the axis (a basin widens the skeleton's inscribed circles beside its mouth)."""
@@ -109,23 +109,20 @@ def find_basins(water, axes: list[tuple[np.ndarray, np.ndarray]], avoid=(),
     """The basins of ``water`` (a Polygon or MultiPolygon [m]) beside the channels ``axes``
     [(centre line (K, 2), widths (K,))] (module docstring); outline points within ``avoid``
     (polygons: lakes) are never in a basin, nor is the outline within a channel's width of
-    a free end of the axes in that water (an open end: the data's edge, drawn slanted across
-    the water by a mask's cells, is no bank). ``dead``: axes like ``axes``' of dead ends
-    known to be basins; one whose far end no basin found so holds is a backwater behind a
-    spit of land (:func:`_backwater`)."""
+    a free end of the axes (an open end: the data's edge, drawn slanted across the water by
+    a mask's cells, is no bank). ``dead``: axes like ``axes``' of dead ends known to be
+    basins (the skeleton's spurs dropped as basins, from their channel's bank on); one whose
+    far end no basin found so holds is a backwater behind a spit (:func:`_backwater`)."""
     if not axes:
         return []
     avoid_u = shapely.union_all(list(avoid)) if len(avoid) else None
     lines = shapely.union_all([shapely.LineString(a) for a, _ in axes])
     ends = np.array([a[i] for a, _ in axes for i in (0, -1)], dtype=float).reshape(-1, 2)
     near = np.hypot(*(ends[:, None, :] - ends[None, :, :]).transpose(2, 0, 1)) <= tolerance_m
-    free = ends[near.sum(axis=1) == 1] if len(ends) else ends
+    free_ends = shapely.multipoints(ends[near.sum(axis=1) == 1]) if len(ends) else None
     found: list[Basin] = []
     for poly in getattr(water, "geoms", [water]):
         poly = orient(poly, 1.0)
-        # (the free ends in this water: another water body's end is no open end of it)
-        free_ends = shapely.multipoints(free[shapely.dwithin(poly, shapely.points(free),
-                                                             tolerance_m)]) if len(free) else None
         for ring in [poly.exterior, *poly.interiors]:
             v = np.asarray(ring.coords)[:-1]
             if len(v) < 4:
