@@ -117,8 +117,9 @@ OVERHANG_WIDTHS = 0.04
 the channel's axis (the far side of an island's round end where it crosses a bank, leaning
 over the water) loses a vertex, moving the outline by at most a quarter as much."""
 OVERHANG_MARGIN = math.sin(math.radians(20.0))
-"""Such an edge faces away unless the axis lies at least 20° to its left (the builder reads
-the axis piece by piece: beside a piece's end its nearest point lies farther back)."""
+"""Within OVERHANG_WIDTHS of such an edge, an edge faces away unless the axis lies at least
+20° to its left (the builder reads the axis piece by piece: beside a piece's end its nearest
+point lies farther back)."""
 
 
 class WaterBuilder(RiverNetworkBuilder):
@@ -129,6 +130,8 @@ class WaterBuilder(RiverNetworkBuilder):
     report: RiverImport
     water: shapely.Geometry
     short_reaches_join = True
+    ends_beside = True
+    kept_beside = False
 
     @property
     def derived(self) -> dict[str, Any]:
@@ -139,26 +142,39 @@ class WaterBuilder(RiverNetworkBuilder):
         that fails after a reach shorter than its junction is wide joined its ends (a
         channel's end where the data's edge cuts the water just past an island), the
         channels are found again and built with those ends taken as missing their junction
-        (the island there made free)."""
+        (the island there made free); where it fails after a dead end was kept as part of
+        one of the water's ends (:func:`_end_beside`), again with such dead ends taken as
+        basins (after the first, with both)."""
         # the islands read_water already made free stay free (else the loops they broke
         # come back and take the retries)
         forced: list[tuple[float, float]] = list(getattr(self, "_forced", ()))
-        repairs = len(self.report.repairs)
+        repairs = list(self.report.repairs)
         self.short_reach_joined = False
         try:
             graph = self._build_retrying(list(forced))
-        except GraphError:
-            if not self.short_reach_joined:
-                raise
-            del self.report.repairs[repairs:]
-            self.short_reaches_join = False
-            try:
-                self._refill(list(forced))
-            except GraphError as again:
-                self._raise_named(again)
-            graph = self._build_retrying(list(forced))
+        except GraphError as exc:
+            graph, last = None, exc
+            # again without a reading that may have failed it (then without both): short
+            # reaches joined, dead ends kept as parts of the water's ends
+            for flag, used in (("short_reaches_join", "short_reach_joined"),
+                               ("ends_beside", "kept_beside")):
+                if not getattr(self, used):
+                    continue
+                setattr(self, flag, False)
+                self.report.repairs[:] = repairs
+                try:
+                    try:
+                        self._refill(list(forced))
+                    except GraphError as again:
+                        self._raise_named(again)
+                    graph = self._build_retrying(list(forced))
+                    break
+                except GraphError as again:
+                    last = again
+            if graph is None:
+                raise last from None
         finally:
-            self.short_reaches_join = True
+            self.short_reaches_join = self.ends_beside = True
         graph.source = self.report.path
         cut = sum(self.end_cuts_m2)
         if cut > 0:
@@ -481,8 +497,10 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
     _match_points(ends, inlet_xy, "inlet", where, water)
     _match_points(ends, outlet_xy, "outlet", where, water)
     heights = ((lambda xy: _dem_heights(dem, xy, report, where)) if dem is not None else None)
+    builder.kept_beside = False
     for net in networks:
-        _drop_basin_spurs(net, frame, tolerance_m, report, heights)
+        builder.kept_beside |= _drop_basin_spurs(net, frame, tolerance_m, report, heights,
+                                                 builder.ends_beside)
     # the free ends once the spurs are gone (their nodes are numbered anew)
     elevations = (_dem_elevations(dem, [e for net in networks for e in net.free_ends()],
                                   report, where) if dem is not None else None)
@@ -519,14 +537,15 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
 
 
 def _trim_overhangs(net: _Network, report: RiverImport, k: int):
-    """The water of ``net`` with the short edges that face away from their channel's axis
-    (the axis on their right, or less than OVERHANG_MARGIN to their left: which the hydro
-    graph does not allow)
-    taken out: where an island's round end crosses a bank, its last edges lean over the water
-    beyond the bank's normal. An end vertex of such an edge (OVERHANG_WIDTHS) is dropped,
-    the one nearer the chord its neighbours make, while that moves the outline by at most
-    a quarter of that (no given vertex farther from the ring left; else the ring stays as
-    given); reported. The water as it was where that leaves it invalid."""
+    """The water of ``net`` without the short edges (OVERHANG_WIDTHS) of its outer ring that
+    face away from their channel's axis (the axis on their right, which the hydro graph does
+    not allow of a bank; an island's shore may):
+    where an island's round end crosses a bank, its last edges lean over the water beyond
+    the bank's normal. Round each such edge, while an edge there faces the axis by less
+    than OVERHANG_MARGIN, one of its end vertices is dropped (the one nearer the chord its
+    neighbours make); a ring is kept as given where that would move it by more than a
+    quarter of OVERHANG_WIDTHS (a given vertex that far from the new ring), and the water as
+    given where that leaves it invalid. Reported."""
     water = net.water
     axes = [shapely.LineString(c.points) for c in net.channels if len(c.points) >= 2]
     if not axes:
@@ -534,10 +553,11 @@ def _trim_overhangs(net: _Network, report: RiverImport, k: int):
     widths = np.array([c.width for c in net.channels if len(c.points) >= 2])
     tree = shapely.STRtree(axes)
     oriented = shapely.geometry.polygon.orient(water, 1.0)    # water on each ring's left
-    rings, moved, dropped = [], 0.0, 0
-    for ring in [oriented.exterior, *oriented.interiors]:
+    moved, dropped = 0.0, 0
+    rings = [np.asarray(r.coords)[:-1] for r in oriented.interiors]    # (islands' shores:
+    for ring in [oriented.exterior]:                 # the builder does not ask that of them)
         v = given = np.asarray(ring.coords)[:-1]
-        bound = np.inf
+        bound, seeds = np.inf, None
         for _ in range(len(v)):
             if len(v) < 4:
                 break
@@ -550,8 +570,13 @@ def _trim_overhangs(net: _Network, report: RiverImport, k: int):
             d = b - a
             length = np.hypot(*d.T)
             limit = OVERHANG_WIDTHS * widths[near]
-            bad = ((d[:, 0] * tv[:, 1] - d[:, 1] * tv[:, 0]
-                    < OVERHANG_MARGIN * length * np.hypot(*tv.T)) & (length <= limit))
+            cross = d[:, 0] * tv[:, 1] - d[:, 1] * tv[:, 0]
+            if seeds is None:       # the edges facing away as given: trimmed round them
+                seeds = shapely.multipoints(0.5 * (a + b)[(cross < 0.0) & (length <= limit)])
+                if seeds.is_empty:
+                    break
+            bad = ((cross < OVERHANG_MARGIN * length * np.hypot(*tv.T)) & (length <= limit)
+                   & shapely.dwithin(seeds, mid, limit))
             best = None
             for i in np.flatnonzero(bad):
                 for j in (i, (i + 1) % len(v)):       # the edge's ends
@@ -573,7 +598,7 @@ def _trim_overhangs(net: _Network, report: RiverImport, k: int):
                 moved, dropped = max(moved, off), dropped + len(given) - len(v)
             else:
                 v = given
-        rings.append(v)
+        rings.insert(0, v)
     if not dropped:
         return water
     out = shapely.Polygon(rings[0], rings[1:])
@@ -1103,12 +1128,14 @@ def _end_beside(net: _Network, c: _Channel, end: int, deg: np.ndarray) -> bool:
 
 
 def _drop_basin_spurs(net: _Network, frame, tolerance_m: float, report: RiverImport,
-                      heights=None) -> None:
+                      heights=None, beside: bool = True) -> bool:
     """Drop the skeleton's spurs into basins (BASIN_SPUR_WIDTHS); where the junction they left
     is then between two channels only, those two become one. Reported as notes. ``heights``:
     the DEM's heights at points (N, 2) [m], or None: a spur the DEM rises along
-    (TRIBUTARY_RISE_M) is kept, a tributary (noted)."""
+    (TRIBUTARY_RISE_M) is kept, a tributary (noted). With ``beside``, a spur whose end is
+    part of one of the water's ends (:func:`_end_beside`) is kept; returns whether one was."""
     edge = frame.boundary if frame is not None else None
+    kept = False
     for _ in range(len(net.channels)):
         deg = net.degree()
         spur = None
@@ -1122,7 +1149,10 @@ def _drop_basin_spurs(net: _Network, frame, tolerance_m: float, report: RiverImp
                 if edge is not None and edge.distance(shapely.Point(p)) <= max(
                         4.0 * tolerance_m, 0.05 * c.width):
                     continue            # an open end: the data's edge cuts the water there
-                if end in net.tributaries or _end_beside(net, c, end, deg):
+                if end in net.tributaries:
+                    continue
+                if beside and _end_beside(net, c, end, deg):
+                    kept = True
                     continue
                 main = max((d.width for d in net.channels
                             if d is not c and other in (d.a, d.b)), default=0.0)
@@ -1145,7 +1175,7 @@ def _drop_basin_spurs(net: _Network, frame, tolerance_m: float, report: RiverImp
             if spur is not None:
                 break
         if spur is None:
-            return
+            return kept
         junction = spur.a if deg[spur.a] > 1 else spur.b
         end = spur.b if junction == spur.a else spur.a
         x, y = net.nodes[end]
@@ -1176,6 +1206,7 @@ def _drop_basin_spurs(net: _Network, frame, tolerance_m: float, report: RiverImp
         net.inlets = {new[n] for n in net.inlets if n in new}
         net.outlets = {new[n] for n in net.outlets if n in new}
         net.tributaries = {new[n] for n in net.tributaries if n in new}
+    return kept
 
 
 def _beyond(c: _Channel, junction: int, reach_m: float) -> tuple[np.ndarray, np.ndarray]:
