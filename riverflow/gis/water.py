@@ -132,6 +132,7 @@ class WaterBuilder(RiverNetworkBuilder):
     short_reaches_join = True
     ends_beside = True
     kept_beside = False
+    backwaters = True
 
     @property
     def derived(self) -> dict[str, Any]:
@@ -144,7 +145,8 @@ class WaterBuilder(RiverNetworkBuilder):
         channels are found again and built with those ends taken as missing their junction
         (the island there made free); where it fails after a dead end was kept as part of
         one of the water's ends (:func:`_end_beside`), again with such dead ends taken as
-        basins (after the first, with both)."""
+        basins; then again without backwaters behind spits (the dropped dead ends' pockets,
+        :func:`riverflow.hydro._basins.find_basins`' ``dead``), each after the last."""
         # the islands read_water already made free stay free (else the loops they broke
         # come back and take the retries)
         forced: list[tuple[float, float]] = list(getattr(self, "_forced", ()))
@@ -154,10 +156,11 @@ class WaterBuilder(RiverNetworkBuilder):
             graph = self._build_retrying(list(forced))
         except GraphError as exc:
             graph, last = None, exc
-            # again without a reading that may have failed it (then without both): short
-            # reaches joined, dead ends kept as parts of the water's ends
+            # again without a reading that may have failed it (then without the next too):
+            # short reaches joined, dead ends kept as parts of the water's ends, backwaters
+            # behind spits (their basins)
             for flag, used in (("short_reaches_join", "short_reach_joined"),
-                               ("ends_beside", "kept_beside")):
+                               ("ends_beside", "kept_beside"), ("backwaters", "basin_axes")):
                 if not getattr(self, used):
                     continue
                 setattr(self, flag, False)
@@ -174,7 +177,7 @@ class WaterBuilder(RiverNetworkBuilder):
             if graph is None:
                 raise last from None
         finally:
-            self.short_reaches_join = self.ends_beside = True
+            self.short_reaches_join = self.ends_beside = self.backwaters = True
         graph.source = self.report.path
         cut = sum(self.end_cuts_m2)
         if cut > 0:
@@ -509,7 +512,8 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
         rules.add(net.orient(elevations))
     report.derived["direction"] = "; ".join(sorted(rules))
     builder._networks = networks       # (for _hole_in_loop, when _discharges fails)
-    builder.basin_axes = [a for net in networks for a in net.basin_axes]
+    builder.basin_axes = ([a for net in networks for a in net.basin_axes]
+                          if builder.backwaters else [])
     _discharges(networks, discharge_m3s, geometry, report)
     kept = []
     for k, net in enumerate(networks):
@@ -539,69 +543,72 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
 def _trim_overhangs(net: _Network, report: RiverImport, k: int):
     """The water of ``net`` without the short edges (OVERHANG_WIDTHS) of its outer ring that
     face away from their channel's axis (the axis on their right, which the hydro graph does
-    not allow of a bank; an island's shore may):
-    where an island's round end crosses a bank, its last edges lean over the water beyond
-    the bank's normal. Round each such edge, while an edge there faces the axis by less
-    than OVERHANG_MARGIN, one of its end vertices is dropped (the one nearer the chord its
-    neighbours make); a ring is kept as given where that would move it by more than a
-    quarter of OVERHANG_WIDTHS (a given vertex that far from the new ring), and the water as
-    given where that leaves it invalid. Reported."""
+    not allow of a bank; an island's shore may): where an island's round end crosses a bank,
+    its last edges lean over the water beyond the bank's normal. Within twice OVERHANG_WIDTHS
+    of such an edge, while a short edge there faces the axis by less than OVERHANG_MARGIN,
+    one of its end vertices is dropped (the one nearer the chord its neighbours make). The
+    water is kept as given where that would move its outline by more than a quarter of
+    OVERHANG_WIDTHS (a given vertex that far from the new ring) or leave it invalid.
+    Reported."""
     water = net.water
     axes = [shapely.LineString(c.points) for c in net.channels if len(c.points) >= 2]
     if not axes:
         return water
     widths = np.array([c.width for c in net.channels if len(c.points) >= 2])
     tree = shapely.STRtree(axes)
-    oriented = shapely.geometry.polygon.orient(water, 1.0)    # water on each ring's left
-    moved, dropped = 0.0, 0
-    rings = [np.asarray(r.coords)[:-1] for r in oriented.interiors]    # (islands' shores:
-    for ring in [oriented.exterior]:                 # the builder does not ask that of them)
-        v = given = np.asarray(ring.coords)[:-1]
-        bound, seeds = np.inf, None
-        for _ in range(len(v)):
-            if len(v) < 4:
-                break
-            a, b = v, np.roll(v, -1, axis=0)
-            mid = shapely.points(0.5 * (a + b))
-            near = tree.nearest(mid)
-            to = shapely.shortest_line(np.take(axes, near), mid)
-            q = shapely.get_coordinates(to).reshape(-1, 2, 2)
-            tv = q[:, 0] - q[:, 1]                   # from the edge's middle to the axis
-            d = b - a
-            length = np.hypot(*d.T)
-            limit = OVERHANG_WIDTHS * widths[near]
-            cross = d[:, 0] * tv[:, 1] - d[:, 1] * tv[:, 0]
-            if seeds is None:       # the edges facing away as given: trimmed round them
-                seeds = shapely.multipoints(0.5 * (a + b)[(cross < 0.0) & (length <= limit)])
-                if seeds.is_empty:
-                    break
-            bad = ((cross < OVERHANG_MARGIN * length * np.hypot(*tv.T)) & (length <= limit)
-                   & shapely.dwithin(seeds, mid, limit))
-            best = None
-            for i in np.flatnonzero(bad):
-                for j in (i, (i + 1) % len(v)):       # the edge's ends
-                    p0, p1 = v[j - 1], v[(j + 1) % len(v)]
-                    chord = p1 - p0
-                    off = abs(float(chord[0] * (v[j] - p0)[1] - chord[1] * (v[j] - p0)[0])
-                              ) / max(float(np.hypot(*chord)), 1e-12)
-                    if off <= 0.25 * limit[i] and (best is None or off < best[1]):
-                        best = (j, off)
-                if best is not None:
-                    bound = min(bound, 0.25 * float(limit[i]))
-                    break
-            if best is None:
-                break
-            v = np.delete(v, best[0], axis=0)
-        if len(v) < len(given):    # every vertex dropped within the bound of the new ring
-            off = float(shapely.distance(shapely.LinearRing(v), shapely.points(given)).max())
-            if off <= bound:
-                moved, dropped = max(moved, off), dropped + len(given) - len(v)
-            else:
-                v = given
-        rings.insert(0, v)
-    if not dropped:
+
+    def facing(v: np.ndarray, at: np.ndarray):
+        """For edges ``at`` (from vertex i to i + 1) of ring ``v``: how far the axis lies to
+        their left (cross product / edge length / distance: the sine of its angle), their
+        lengths and OVERHANG_WIDTHS of their channel's width."""
+        a, b = v[at], v[(at + 1) % len(v)]
+        mid = shapely.points(0.5 * (a + b))
+        near = tree.nearest(mid)
+        q = shapely.get_coordinates(shapely.shortest_line(np.take(axes, near), mid))
+        tv = q[0::2] - q[1::2]                       # from the edge's middle to the axis
+        d = b - a
+        length = np.hypot(*d.T)
+        sine = (d[:, 0] * tv[:, 1] - d[:, 1] * tv[:, 0]) / np.maximum(
+            length * np.hypot(*tv.T), 1e-300)
+        return sine, length, OVERHANG_WIDTHS * widths[near]
+
+    ring = shapely.geometry.polygon.orient(water, 1.0).exterior     # water on its left
+    v = given = np.asarray(ring.coords)[:-1]
+    sine, length, limit = facing(v, np.arange(len(v)))
+    seed = (sine < 0.0) & (length <= limit)
+    if not seed.any():
         return water
-    out = shapely.Polygon(rings[0], rings[1:])
+    # the edges round them (their vertices keep their marks as others are dropped)
+    zone = np.zeros(len(v), bool)
+    for i in np.flatnonzero(seed):
+        zone |= np.hypot(*(v - v[i]).T) <= 2.0 * limit[i]
+    bound = 0.25 * float(limit[seed].min())
+    for _ in range(len(v)):
+        at = np.flatnonzero(zone)
+        if len(v) < 4 or not len(at):
+            break
+        sine, length, limit = facing(v, at)
+        best = None
+        for k in np.flatnonzero((sine < OVERHANG_MARGIN) & (length <= limit)):
+            for j in (at[k], (at[k] + 1) % len(v)):       # the edge's ends
+                p0, p1 = v[j - 1], v[(j + 1) % len(v)]
+                chord = p1 - p0
+                off = abs(float(chord[0] * (v[j] - p0)[1] - chord[1] * (v[j] - p0)[0])
+                          ) / max(float(np.hypot(*chord)), 1e-12)
+                if off <= 0.25 * limit[k] and (best is None or off < best[1]):
+                    best = (j, off)
+            if best is not None:
+                break
+        if best is None:
+            break
+        v = np.delete(v, best[0], axis=0)
+        zone = np.delete(zone, best[0])
+    dropped = len(given) - len(v)
+    moved = float(shapely.distance(shapely.LinearRing(v), shapely.points(given)).max()
+                  ) if dropped else 0.0
+    if not dropped or moved > bound:    # (every vertex given within the bound of the ring)
+        return water
+    out = shapely.Polygon(v, [np.asarray(r.coords)[:-1] for r in water.interiors])
     if not out.is_valid or len(out.interiors) != len(water.interiors):
         return water
     report.repair(f"water body {k}", None, None,

@@ -172,10 +172,11 @@ def _backwater(poly, dead: np.ndarray, dead_widths: np.ndarray, axes, lines, avo
     """The basin of a dead end known to be one (``dead``: its axis beyond its channel's bank,
     (K, 2) [m]) that the channels' half widths do not find: a backwater behind a spit of land,
     whose inner shore lies nearer the channel's axis (across the spit) than its half width.
-    It is the stretch of the outline (read at points DEAD_STEP of its width apart) round the
+    It is the stretch of the outer ring (read at points DEAD_STEP of its width apart) round the
     dead end's far end that sees the dead end's axis across the water and not the channels'
     axes (the spit between), closed by a mouth between its last points (from the spit's tip
-    across the backwater), or None."""
+    across the backwater), or None (also where none of it faces away from the channels'
+    axes: the channel's water as it is)."""
     wet = poly.buffer(max(1e-6 * float(np.abs(np.asarray(poly.exterior.coords)).max()),
                           1e-3 * tolerance_m))
     shapely.prepare(wet)
@@ -185,7 +186,9 @@ def _backwater(poly, dead: np.ndarray, dead_widths: np.ndarray, axes, lines, avo
     local = shapely.union_all(mine)
     axis = shapely.LineString(dead)
     tip = shapely.Point(dead[-1])
-    ring = min([poly.exterior, *poly.interiors], key=lambda r: r.distance(tip))
+    ring = poly.exterior
+    if any(r.distance(tip) < ring.distance(tip) for r in poly.interiors):
+        return None     # (a notch in an island's shore: the builder asks no more of it)
     v = np.asarray(shapely.segmentize(ring, max(DEAD_STEP * float(np.median(dead_widths)),
                                                 tolerance_m)).coords)[:-1]
     pts = shapely.points(v)
@@ -207,6 +210,13 @@ def _backwater(poly, dead: np.ndarray, dead_widths: np.ndarray, axes, lines, avo
     while behind[(k1 + 1) % n] and k1 - k0 < n - 1:
         k1 += 1
     run = np.arange(k0, k1 + 1) % n
+    # only where some of it faces away from the channels' axes (a spit's inner shore, the
+    # axis on its right: which no bank may); else the channel's water as it is
+    q = shapely.get_coordinates(to_live).reshape(-1, 2, 2)
+    d = v[(run + 1) % n] - v[run]
+    tv = 0.5 * (q[run, 0] + q[(run + 1) % n, 0]) - 0.5 * (v[run] + v[(run + 1) % n])
+    if not (d[:-1, 0] * tv[:-1, 1] - d[:-1, 1] * tv[:-1, 0] < 0.0).any():
+        return None
     excess, width = _excess(v, axes)
     excess = np.where(behind, np.maximum(excess, shapely.length(to_live) - 0.5 * width), excess)
     return _basin(v, run, (k0 - 1) % n, (k1 + 1) % n, excess, width, poly, lines, tolerance_m)
