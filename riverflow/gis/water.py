@@ -112,6 +112,14 @@ MAX_OUTLINE_SAMPLES = 200_000
 OPEN_EDGE_WIDTHS = 0.25
 """A piece of the water's outline along the data's extent at least this many mean widths
 long is an open end (the water cut by the map's edge), not a bank."""
+OVERHANG_WIDTHS = 0.04
+"""An edge of the outline at most this many widths of its channel long that faces away from
+the channel's axis (the far side of an island's round end where it crosses a bank, leaning
+over the water) loses a vertex, moving the outline by at most a quarter as much."""
+OVERHANG_MARGIN = math.sin(math.radians(20.0))
+"""Within OVERHANG_WIDTHS of such an edge, an edge faces away unless the axis lies at least
+20° to its left (the builder reads the axis piece by piece: beside a piece's end its nearest
+point lies farther back)."""
 
 
 class WaterBuilder(RiverNetworkBuilder):
@@ -122,6 +130,9 @@ class WaterBuilder(RiverNetworkBuilder):
     report: RiverImport
     water: shapely.Geometry
     short_reaches_join = True
+    ends_beside = True
+    kept_beside = False
+    backwaters = True
 
     @property
     def derived(self) -> dict[str, Any]:
@@ -132,26 +143,41 @@ class WaterBuilder(RiverNetworkBuilder):
         that fails after a reach shorter than its junction is wide joined its ends (a
         channel's end where the data's edge cuts the water just past an island), the
         channels are found again and built with those ends taken as missing their junction
-        (the island there made free)."""
+        (the island there made free); where it fails after a dead end was kept as part of
+        one of the water's ends (:func:`_end_beside`), again with such dead ends taken as
+        basins; then again without backwaters behind spits (the dropped dead ends' pockets,
+        :func:`riverflow.hydro._basins.find_basins`' ``dead``), each after the last."""
         # the islands read_water already made free stay free (else the loops they broke
         # come back and take the retries)
         forced: list[tuple[float, float]] = list(getattr(self, "_forced", ()))
-        repairs = len(self.report.repairs)
+        repairs = list(self.report.repairs)
         self.short_reach_joined = False
         try:
             graph = self._build_retrying(list(forced))
-        except GraphError:
-            if not self.short_reach_joined:
-                raise
-            del self.report.repairs[repairs:]
-            self.short_reaches_join = False
-            try:
-                self._refill(list(forced))
-            except GraphError as again:
-                self._raise_named(again)
-            graph = self._build_retrying(list(forced))
+        except GraphError as exc:
+            graph, last = None, exc
+            # again without a reading that may have failed it (then without the next too):
+            # short reaches joined, dead ends kept as parts of the water's ends, backwaters
+            # behind spits (their basins)
+            for flag, used in (("short_reaches_join", "short_reach_joined"),
+                               ("ends_beside", "kept_beside"), ("backwaters", "basin_axes")):
+                if not getattr(self, used):
+                    continue
+                setattr(self, flag, False)
+                self.report.repairs[:] = repairs
+                try:
+                    try:
+                        self._refill(list(forced))
+                    except GraphError as again:
+                        self._raise_named(again)
+                    graph = self._build_retrying(list(forced))
+                    break
+                except GraphError as again:
+                    last = again
+            if graph is None:
+                raise last from None
         finally:
-            self.short_reaches_join = True
+            self.short_reaches_join = self.ends_beside = self.backwaters = True
         graph.source = self.report.path
         cut = sum(self.end_cuts_m2)
         if cut > 0:
@@ -474,8 +500,10 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
     _match_points(ends, inlet_xy, "inlet", where, water)
     _match_points(ends, outlet_xy, "outlet", where, water)
     heights = ((lambda xy: _dem_heights(dem, xy, report, where)) if dem is not None else None)
+    builder.kept_beside = False
     for net in networks:
-        _drop_basin_spurs(net, frame, tolerance_m, report, heights)
+        builder.kept_beside |= _drop_basin_spurs(net, frame, tolerance_m, report, heights,
+                                                 builder.ends_beside)
     # the free ends once the spurs are gone (their nodes are numbered anew)
     elevations = (_dem_elevations(dem, [e for net in networks for e in net.free_ends()],
                                   report, where) if dem is not None else None)
@@ -484,9 +512,12 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
         rules.add(net.orient(elevations))
     report.derived["direction"] = "; ".join(sorted(rules))
     builder._networks = networks       # (for _hole_in_loop, when _discharges fails)
+    builder.basin_axes = ([a for net in networks for a in net.basin_axes]
+                          if builder.backwaters else [])
     _discharges(networks, discharge_m3s, geometry, report)
     kept = []
-    for net in networks:
+    for k, net in enumerate(networks):
+        net.water = _trim_overhangs(net, report, k)
         kept.append(net.water)
         for hole in net.islands:
             builder.add_island(np.asarray(hole.exterior.coords)[:-1])
@@ -507,6 +538,84 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
                                  "between channels": sum(len(n.water.interiors) for n in networks)}
     report.derived["length_m"] = round(sum(float(shapely.LineString(c.points).length)
                                            for n in networks for c in n.channels), 1)
+
+
+def _trim_overhangs(net: _Network, report: RiverImport, k: int):
+    """The water of ``net`` without the short edges (OVERHANG_WIDTHS) of its outer ring that
+    face away from their channel's axis (the axis on their right, which the hydro graph does
+    not allow of a bank; an island's shore may): where an island's round end crosses a bank,
+    its last edges lean over the water beyond the bank's normal. Within twice OVERHANG_WIDTHS
+    of such an edge, while a short edge there faces the axis by less than OVERHANG_MARGIN,
+    one of its end vertices is dropped (the one nearer the chord its neighbours make). The
+    water is kept as given where that would move its outline by more than a quarter of
+    OVERHANG_WIDTHS (a given vertex that far from the new ring) or leave it invalid.
+    Reported."""
+    water = net.water
+    axes = [shapely.LineString(c.points) for c in net.channels if len(c.points) >= 2]
+    if not axes:
+        return water
+    widths = np.array([c.width for c in net.channels if len(c.points) >= 2])
+    tree = shapely.STRtree(axes)
+
+    def facing(v: np.ndarray, at: np.ndarray):
+        """For edges ``at`` (from vertex i to i + 1) of ring ``v``: how far the axis lies to
+        their left (cross product / edge length / distance: the sine of its angle), their
+        lengths and OVERHANG_WIDTHS of their channel's width."""
+        a, b = v[at], v[(at + 1) % len(v)]
+        mid = shapely.points(0.5 * (a + b))
+        near = tree.nearest(mid)
+        q = shapely.get_coordinates(shapely.shortest_line(np.take(axes, near), mid))
+        tv = q[0::2] - q[1::2]                       # from the edge's middle to the axis
+        d = b - a
+        length = np.hypot(*d.T)
+        sine = (d[:, 0] * tv[:, 1] - d[:, 1] * tv[:, 0]) / np.maximum(
+            length * np.hypot(*tv.T), 1e-300)
+        return sine, length, OVERHANG_WIDTHS * widths[near]
+
+    ring = shapely.geometry.polygon.orient(water, 1.0).exterior     # water on its left
+    v = given = np.asarray(ring.coords)[:-1]
+    sine, length, limit = facing(v, np.arange(len(v)))
+    seed = (sine < 0.0) & (length <= limit)
+    if not seed.any():
+        return water
+    # the edges round them (their vertices keep their marks as others are dropped)
+    zone = np.zeros(len(v), bool)
+    for i in np.flatnonzero(seed):
+        zone |= np.hypot(*(v - v[i]).T) <= 2.0 * limit[i]
+    bound = 0.25 * float(limit[seed].min())
+    for _ in range(len(v)):
+        at = np.flatnonzero(zone)
+        if len(v) < 4 or not len(at):
+            break
+        sine, length, limit = facing(v, at)
+        best = None
+        for k in np.flatnonzero((sine < OVERHANG_MARGIN) & (length <= limit)):
+            for j in (at[k], (at[k] + 1) % len(v)):       # the edge's ends
+                p0, p1 = v[j - 1], v[(j + 1) % len(v)]
+                chord = p1 - p0
+                off = abs(float(chord[0] * (v[j] - p0)[1] - chord[1] * (v[j] - p0)[0])
+                          ) / max(float(np.hypot(*chord)), 1e-12)
+                if off <= 0.25 * limit[k] and (best is None or off < best[1]):
+                    best = (j, off)
+            if best is not None:
+                break
+        if best is None:
+            break
+        v = np.delete(v, best[0], axis=0)
+        zone = np.delete(zone, best[0])
+    dropped = len(given) - len(v)
+    moved = float(shapely.distance(shapely.LinearRing(v), shapely.points(given)).max()
+                  ) if dropped else 0.0
+    if not dropped or moved > bound:    # (every vertex given within the bound of the ring)
+        return water
+    out = shapely.Polygon(v, [np.asarray(r.coords)[:-1] for r in water.interiors])
+    if not out.is_valid or len(out.interiors) != len(water.interiors):
+        return water
+    report.repair(f"water body {k}", None, None,
+                  f"{dropped} vertices of short edges facing away from their channel's axis "
+                  f"(an island's round end leaning over the water where it crosses a bank) "
+                  f"dropped, moving the outline by at most {moved:.2f} m")
+    return out
 
 
 # -- reading -------------------------------------------------------------------------------------
@@ -806,6 +915,9 @@ class _Network:
         self.tributaries: set[int] = set()
         """Free ends of short dead-end channels kept as tributaries because the DEM rises
         towards them (:func:`_drop_basin_spurs`): inlets when the DEM orients the water."""
+        self.basin_axes: list[tuple[np.ndarray, np.ndarray]] = []
+        """The dropped spurs' axes beyond their channel's bank, (points, widths) [m]: basins
+        (the builder's ``basin_axes``)."""
         self.rule = ""
 
     def degree(self) -> np.ndarray:
@@ -1003,13 +1115,34 @@ def _passes_by(net: _Network, spur: _Channel, junction: int, width_m: float) -> 
                for i in range(len(dirs)) for j in range(i + 1, len(dirs)))
 
 
+def _end_beside(net: _Network, c: _Channel, end: int, deg: np.ndarray) -> bool:
+    """Whether the free end ``end`` of ``c`` is part of one of the water's ends, parted from
+    the rest by a spit of land (an island joined to the bank there): it lies beside another
+    free end (:meth:`_Network._beside`) and runs into a straight edge of the outline across
+    it (at least half its width long, at least 45° to its axis: the water's end cut across,
+    not a pocket's tip tapering shut)."""
+    if not any(deg[k] == 1 and k not in (c.a, c.b) and net._beside(end, k)
+               for k in range(len(net.nodes))):
+        return False
+    ring = np.asarray(net.water.exterior.coords)
+    segs = shapely.linestrings(np.stack([ring[:-1], ring[1:]], axis=1))
+    i = int(np.argmin(shapely.distance(segs, shapely.Point(net.nodes[end]))))
+    edge = ring[i + 1] - ring[i]
+    length = float(np.hypot(*edge))
+    axis = _leaving(c, end, 0.5 * net._end_width(end))
+    return (length >= 0.5 * net._end_width(end)
+            and abs(float(edge @ axis)) <= math.cos(math.radians(45.0)) * length)
+
+
 def _drop_basin_spurs(net: _Network, frame, tolerance_m: float, report: RiverImport,
-                      heights=None) -> None:
+                      heights=None, beside: bool = True) -> bool:
     """Drop the skeleton's spurs into basins (BASIN_SPUR_WIDTHS); where the junction they left
     is then between two channels only, those two become one. Reported as notes. ``heights``:
     the DEM's heights at points (N, 2) [m], or None: a spur the DEM rises along
-    (TRIBUTARY_RISE_M) is kept, a tributary (noted)."""
+    (TRIBUTARY_RISE_M) is kept, a tributary (noted). With ``beside``, a spur whose end is
+    part of one of the water's ends (:func:`_end_beside`) is kept; returns whether one was."""
     edge = frame.boundary if frame is not None else None
+    kept = False
     for _ in range(len(net.channels)):
         deg = net.degree()
         spur = None
@@ -1024,6 +1157,9 @@ def _drop_basin_spurs(net: _Network, frame, tolerance_m: float, report: RiverImp
                         4.0 * tolerance_m, 0.05 * c.width):
                     continue            # an open end: the data's edge cuts the water there
                 if end in net.tributaries:
+                    continue
+                if beside and _end_beside(net, c, end, deg):
+                    kept = True
                     continue
                 main = max((d.width for d in net.channels
                             if d is not c and other in (d.a, d.b)), default=0.0)
@@ -1046,7 +1182,7 @@ def _drop_basin_spurs(net: _Network, frame, tolerance_m: float, report: RiverImp
             if spur is not None:
                 break
         if spur is None:
-            return
+            return kept
         junction = spur.a if deg[spur.a] > 1 else spur.b
         end = spur.b if junction == spur.a else spur.a
         x, y = net.nodes[end]
@@ -1056,6 +1192,8 @@ def _drop_basin_spurs(net: _Network, frame, tolerance_m: float, report: RiverImp
             f"({x:.1f}, {y:.1f}), is a basin (a harbour, dock or side basin: still water), not "
             f"a channel (give an inlet there, or lines=, to keep it a channel)")
         net.channels.remove(spur)
+        net.basin_axes.append(_beyond(spur, junction, 0.5 * max(
+            (d.width for d in net.channels if junction in (d.a, d.b)), default=0.0)))
         rest = [c for c in net.channels if junction in (c.a, c.b)]
         if len(rest) == 2 and rest[0] is not rest[1]:
             one, two = rest
@@ -1075,6 +1213,19 @@ def _drop_basin_spurs(net: _Network, frame, tolerance_m: float, report: RiverImp
         net.inlets = {new[n] for n in net.inlets if n in new}
         net.outlets = {new[n] for n in net.outlets if n in new}
         net.tributaries = {new[n] for n in net.tributaries if n in new}
+    return kept
+
+
+def _beyond(c: _Channel, junction: int, reach_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """(points, widths) of channel ``c`` from ``reach_m`` along it from ``junction`` (one of
+    its ends) to its other end: a spur's axis beyond the bank of the channel it leaves."""
+    pts, widths = (c.points, c.widths) if c.a == junction else (c.points[::-1], c.widths[::-1])
+    s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(pts, axis=0).T))])
+    at = min(reach_m, 0.5 * float(s[-1]))
+    k = int(np.searchsorted(s, at, side="right"))
+    start = np.array([np.interp(at, s, pts[:, 0]), np.interp(at, s, pts[:, 1])])
+    return (np.vstack([start, pts[k:]]),
+            np.concatenate([[np.interp(at, s, widths)], widths[k:]]))
 
 
 def _harmonic(adj, inlets: list[int], outlets: list[int]) -> np.ndarray:

@@ -42,6 +42,12 @@ BASIN_MIN_AREA = 0.05
 BANK_MARGIN = 0.02
 """An outline point is off the channel when it lies farther than the half width plus this many
 widths (and the builder's tolerance) from the axis."""
+DEAD_STEP = 0.5
+"""A backwater (:func:`_backwater`) is read from its outline at points at most this many of
+its dead end's widths apart (a straight shore has no vertices of its own along it)."""
+OPEN_END_REACH = 0.25
+"""A backwater is a basin when it lies at least this many of its channel's widths from the
+axes' free ends (other basins: a width; nearer, the data's edge cuts across it)."""
 WIDTH_WINDOW = 1.0
 """The channel's width by a point is the median of its axis' widths within this many widths
 along the axis (a basin widens the skeleton's inscribed circles beside its mouth)."""
@@ -99,12 +105,14 @@ def _excess(points: np.ndarray, axes: list[tuple[np.ndarray, np.ndarray]]):
 
 
 def find_basins(water, axes: list[tuple[np.ndarray, np.ndarray]], avoid=(),
-                tolerance_m: float = 0.25) -> list[Basin]:
+                tolerance_m: float = 0.25, dead=()) -> list[Basin]:
     """The basins of ``water`` (a Polygon or MultiPolygon [m]) beside the channels ``axes``
     [(centre line (K, 2), widths (K,))] (module docstring); outline points within ``avoid``
     (polygons: lakes) are never in a basin, nor is the outline within a channel's width of
     a free end of the axes (an open end: the data's edge, drawn slanted across the water by
-    a mask's cells, is no bank)."""
+    a mask's cells, is no bank). ``dead``: axes like ``axes``' of dead ends known to be
+    basins (the skeleton's spurs dropped as basins, from their channel's bank on); one whose
+    far end no basin found so holds is a backwater behind a spit (:func:`_backwater`)."""
     if not axes:
         return []
     avoid_u = shapely.union_all(list(avoid)) if len(avoid) else None
@@ -145,7 +153,73 @@ def find_basins(water, axes: list[tuple[np.ndarray, np.ndarray]], avoid=(),
                     basin = None         # beside an open end: the data's edge, no bank
                 if basin is not None:
                     found.append(basin)
+        for a, w in dead:
+            if len(a) < 2 or not poly.buffer(tolerance_m).contains(shapely.Point(a[-1])) or any(
+                    b.polygon.buffer(tolerance_m).contains(shapely.Point(a[-1])) for b in found):
+                continue
+            basin = _backwater(poly, a, w, axes, lines, avoid_u, tolerance_m)
+            if basin is not None and free_ends is not None and not free_ends.is_empty and (
+                    shapely.distance(basin.polygon, free_ends) < OPEN_END_REACH * basin.width_m):
+                basin = None             # (the data's edge cutting across it)
+            if basin is not None and not any(b.polygon.intersection(basin.polygon).area
+                                             > 1e-6 * basin.polygon.area for b in found):
+                found.append(basin)
     return found
+
+
+def _backwater(poly, dead: np.ndarray, dead_widths: np.ndarray, axes, lines, avoid_u,
+               tolerance_m: float) -> Basin | None:
+    """The basin of a dead end known to be one (``dead``: its axis beyond its channel's bank,
+    (K, 2) [m]) that the channels' half widths do not find: a backwater behind a spit of land,
+    whose inner shore lies nearer the channel's axis (across the spit) than its half width.
+    It is the stretch of the outer ring (read at points DEAD_STEP of its width apart) round the
+    dead end's far end that sees the dead end's axis across the water and not the channels'
+    axes (the spit between), closed by a mouth between its last points (from the spit's tip
+    across the backwater), or None (also where none of it faces away from the channels'
+    axes: the channel's water as it is)."""
+    wet = poly.buffer(max(1e-6 * float(np.abs(np.asarray(poly.exterior.coords)).max()),
+                          1e-3 * tolerance_m))
+    shapely.prepare(wet)
+    mine = [g for g in shapely.get_parts(lines) if shapely.intersects(wet, g)]
+    if not mine:
+        return None
+    local = shapely.union_all(mine)
+    axis = shapely.LineString(dead)
+    tip = shapely.Point(dead[-1])
+    ring = poly.exterior
+    if any(r.distance(tip) < ring.distance(tip) for r in poly.interiors):
+        return None     # (a notch in an island's shore: the builder asks no more of it)
+    v = np.asarray(shapely.segmentize(ring, max(DEAD_STEP * float(np.median(dead_widths)),
+                                                tolerance_m)).coords)[:-1]
+    pts = shapely.points(v)
+    to_live = shapely.shortest_line(local, pts)
+    behind = (~shapely.covers(wet, to_live)
+              & shapely.covers(wet, shapely.shortest_line(axis, pts)))
+    if avoid_u is not None:
+        behind &= ~shapely.dwithin(avoid_u, pts, tolerance_m)
+    if not behind.any() or behind.all():
+        return None
+    # the run of hidden points holding the outline point nearest the dead end's far end
+    at = int(np.argmin(shapely.distance(tip, pts)))
+    if not behind[at]:
+        return None
+    n = len(v)
+    k0, k1 = at, at
+    while behind[(k0 - 1) % n] and k1 - k0 < n - 1:
+        k0 -= 1
+    while behind[(k1 + 1) % n] and k1 - k0 < n - 1:
+        k1 += 1
+    run = np.arange(k0, k1 + 1) % n
+    # only where some of it faces away from the channels' axes (a spit's inner shore, the
+    # axis on its right: which no bank may); else the channel's water as it is
+    q = shapely.get_coordinates(to_live).reshape(-1, 2, 2)
+    d = v[(run + 1) % n] - v[run]
+    tv = 0.5 * (q[run, 0] + q[(run + 1) % n, 0]) - 0.5 * (v[run] + v[(run + 1) % n])
+    if not (d[:-1, 0] * tv[:-1, 1] - d[:-1, 1] * tv[:-1, 0] < 0.0).any():
+        return None
+    excess, width = _excess(v, axes)
+    excess = np.where(behind, np.maximum(excess, shapely.length(to_live) - 0.5 * width), excess)
+    return _basin(v, run, (k0 - 1) % n, (k1 + 1) % n, excess, width, poly, lines, tolerance_m)
 
 
 def _basin(v, run, before, after, excess, width, poly, lines, tolerance_m) -> Basin | None:

@@ -161,6 +161,9 @@ class RiverNetworkBuilder:
         self.basins: list = []
         """After build(): the basins found in the given water (harbours, docks, side basins:
         :class:`riverflow.hydro._basins.Basin`), made still lakes joined to the river."""
+        self.basin_axes: list = []
+        """Axes ``(centre line (K, 2), widths (K,))`` [m] of the given water's dead ends that
+        are basins, not channels (:func:`riverflow.hydro._basins.find_basins`' ``dead``)."""
 
     # -- input --------------------------------------------------------------------------
 
@@ -605,7 +608,8 @@ class RiverNetworkBuilder:
             return []
         self.basins = find_basins(self._water_area,
                                   [(b.centerline_m, b.widths_m) for b in branches],
-                                  [lk.polygon for lk in self._lakes], self.tolerance_m)
+                                  [lk.polygon for lk in self._lakes], self.tolerance_m,
+                                  self.basin_axes)
         report = getattr(self, "report", None)
         if report is not None:
             report.derived.pop("basins", None)

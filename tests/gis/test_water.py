@@ -972,3 +972,40 @@ def test_a_polygon_of_ten_thousand_vertices_and_500_holes_meshes_per_tile(tmp_pa
             assert np.abs(mine - theirs).max(initial=0.0) < 5e-3, (lv, tx, ty, axis)
             checked += len(mine) > 0
     assert checked >= 20
+
+
+def test_an_islands_round_end_leaning_over_the_water_is_trimmed(tmp_path):
+    """An 83 m meandering river cut square across at its ends with an 83 m island whose far
+    end crosses its right bank (from the survey's seed 88 of islands that may cross a bank):
+    more than half of the island's round end pokes into the water, and the edges of its
+    outline next to the bank lean over the water beyond the bank's normal, facing away from
+    the river's axis ("its axis lies on its right", as in the survey's seed 91). Those edges
+    lose vertices, moving the outline by under a metre (reported): the network builds (the
+    water behind the island a basin), the water ends within a metre of the polygon round the
+    island's end and runs along the river."""
+    water, centre, _, _ = survey_river(1232.87, 83.31, 57.36, 322.22,
+                                       [(243.87, 22.99, 82.62, 5.22, -0.1758)],
+                                       shift=(0.0, 150.0))
+    builder = rf.read_water(write_polygons(tmp_path / "end.geojson", [water]),
+                            origin_m=ORIGIN)
+    graph = builder.build()
+    trims = [r.what for r in builder.report.repairs if "facing away" in r.what]
+    assert len(trims) == 1 and float(trims[0].split("at most ")[1].split(" m")[0]) < 1.0
+    field = rf.FlowField(graph)
+    # round the island's end: the water's edge within a metre of the polygon's
+    end = np.array([243.87 + 82.62 * math.cos(-0.1758), 22.99 + 82.62 * math.sin(-0.1758)])
+    pts, normals = outline_samples(shapely.geometry.polygon.orient(water, 1.0), 6000)
+    near = np.hypot(*(pts - (end @ SLOPE + (0.0, 150.0))).T) < 8.0
+    # (not where the backwater behind the island tapers shut, narrower than 2 m)
+    edge = water.boundary
+    near &= (shapely.distance(edge, shapely.points(pts + normals)) > 0.9) & (
+        shapely.distance(edge, shapely.points(pts - normals)) > 0.9)
+    assert near.sum() >= 8
+    status_in, _ = field.query(pts[near] + normals[near])
+    status_out, _ = field.query(pts[near] - normals[near])
+    assert (status_in == INSIDE).all() and (status_out != INSIDE).all()
+    rows = [5, 15, 25, 35]
+    status, v = field.query(centre[rows] @ SLOPE + (0.0, 150.0))
+    along = np.einsum("ij,ij->i", v, np.gradient(centre, axis=0)[rows] @ SLOPE)
+    assert (status == INSIDE).all() and (np.abs(along) > 0.8 * np.hypot(*v.T)).all()
+    assert len(set(np.sign(along))) == 1

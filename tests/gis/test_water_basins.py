@@ -452,3 +452,60 @@ def test_the_water_ending_beside_an_island_is_no_basin(tmp_path):
     assert (status == INSIDE).all()
     along = v @ T
     assert (np.abs(along) > 0.9 * np.hypot(*v.T)).all() and len(set(np.sign(along))) == 1
+
+
+def test_a_channel_parted_from_the_waters_end_by_a_spit_is_no_basin(tmp_path):
+    """A straight 100 m river cut square across at its ends (not along the data's edge) whose
+    downstream end a long thin island crosses (from the survey's seed 0 of islands that may
+    cross a bank): the 20 m channel between the island and the left bank is no dead end but
+    leaves across the river's end beside the main one. It was dropped as a basin spur (a
+    dead end off a channel running past it, shorter than three widths) and its water, whose
+    far side faces away from the main axis, left the graph invalid ("its axis lies on its
+    right"). A dead end beside another free end, running into a straight edge across it,
+    is one end of the water: both channels leave there, the water runs one way."""
+    river = survey_river(800.0, 100.0, 0.0, 1.0, [(550.0, 25.0, 350.0, 10.0, 0.0)],
+                         shift=(0.0, 150.0))
+    builder = rf.read_water(write_polygons(tmp_path / "end.geojson", [river.water]),
+                            origin_m=ORIGIN)
+    graph = builder.build()
+    assert builder.basins == [] and not any("is a basin" in n for n in builder.report.notes)
+    assert builder.report.derived["axes"] == {"skeleton": 3}
+    # beside the island: in the left channel, in the main one, and upstream: one way
+    pts = np.array([[700.0, 40.0], [700.0, -15.0], [200.0, 0.0]]) @ SLOPE + (0.0, 150.0)
+    status, v = rf.FlowField(graph).query(pts)
+    assert (status == INSIDE).all()
+    along = v @ SLOPE[0]
+    assert (np.abs(along) > 0.8 * np.hypot(*v.T)).all() and len(set(np.sign(along))) == 1
+
+
+def test_a_backwater_behind_a_spit_is_still_water(tmp_path):
+    """A straight 100 m river with a long thin island crossing its left bank at a sharp
+    angle (0.15 rad; from the survey's seeds 31 and 91 of islands that may cross a bank): a
+    spit of land 230 m long off the bank, a 170 m backwater behind it tapering shut. The
+    skeleton's spur into it is a basin's, but the basin was not found (the spit's inner
+    shore lies within the river's half width of its axis, across the spit) and that shore,
+    facing away from the axis, left the graph invalid ("its axis lies on its right"). The
+    outline that the dropped spur's axis sees across the water and the river's axis does
+    not is the basin's: it is still water joined to the river at a mouth from the spit's
+    tip across the backwater, and the river runs past."""
+    river = survey_river(800.0, 100.0, 0.0, 1.0, [(300.0, 20.0, 400.0, 8.0, 0.15)],
+                         shift=(0.0, 150.0))
+    builder = rf.read_water(write_polygons(tmp_path / "spit.geojson", [river.water]),
+                            origin_m=ORIGIN)
+    graph = builder.build()
+    assert len(builder.basins) == 1 and builder.report.derived["axes"] == {"skeleton": 1}
+    basin = builder.basins[0].polygon
+    deep = np.array([[400.0, 42.0], [440.0, 46.0]]) @ SLOPE + (0.0, 150.0)
+    assert shapely.contains_xy(basin, *deep.T).all()
+    # the spit's inner shore is the basin's: its mouth runs from the spit's tip
+    tip = np.array([300.0 - 4.0, 20.0]) @ SLOPE + (0.0, 150.0)
+    assert min(np.hypot(*(builder.basins[0].mouth - tip).T)) < 8.0
+    field = rf.FlowField(graph)
+    status, v = field.query(deep)
+    assert (status == INSIDE).all() and np.hypot(*v.T).max() < 0.01 * np.hypot(*field.query(
+        np.array([[400.0, -20.0]]) @ SLOPE + (0.0, 150.0))[1][0])
+    pts = np.array([[200.0, 0.0], [400.0, -20.0], [600.0, 0.0]]) @ SLOPE + (0.0, 150.0)
+    status, v = field.query(pts)
+    along = v @ SLOPE[0]
+    assert (status == INSIDE).all() and (np.abs(along) > 0.9 * np.hypot(*v.T)).all()
+    assert len(set(np.sign(along))) == 1
