@@ -74,9 +74,6 @@ class EditPlan:
     renumbered: tuple | None = None
     """(slots, their codes, their new bank lists): the flow tiles resident when the edit was
     planned, renumbered (:func:`renumbered_segments`) in the edit's thread."""
-    flow_changed: tuple | None = None
-    """(old network, its segments gone (S_old,) bool, new network, its segments added
-    (S_new,) bool): what :func:`flow_tiles_near_changes` tells the flow tiles by."""
     renumbered_all: tuple | None = None
     """(slots, codes) of every flow tile resident when the edit was planned."""
     cell_network: object = None
@@ -530,10 +527,8 @@ def plan_edit(old_scene: Landscape, old_field: FlowField, new_scene: Landscape,
                                 new_scene.branches, LEVEL_REACH_M)
         boxes = np.concatenate([level, _height_change_boxes(old_scene.terrain,
                                                             new_scene.terrain, boxes)])
-    seg_map, flow_boxes, gone, added = _segment_changes(old_field.network, new_field.network)
-    plan = EditPlan(new_scene, new_field, boxes, flow_boxes, seg_map, changed)
-    plan.flow_changed = (old_field.network, gone, new_field.network, added)
-    return plan
+    seg_map, flow_boxes = _segment_changes(old_field.network, new_field.network)
+    return EditPlan(new_scene, new_field, boxes, flow_boxes, seg_map, changed)
 
 
 HEIGHT_CHANGE_M = 0.02
@@ -648,11 +643,8 @@ def _segment_rows(net: FlowNetwork) -> tuple[np.ndarray, np.ndarray]:
     return np.ascontiguousarray(rows), np.asarray(net.curve_cutoff[curve], np.float64)
 
 
-def _segment_changes(old: FlowNetwork, new: FlowNetwork
-                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The old → new segment map, the boxes of the segments that changed, which old ones are
-    gone and which new ones were added (everything a flow tile reads of a segment, its
-    curve's too, compared: :func:`_segment_rows`). A segment gone
+def _segment_changes(old: FlowNetwork, new: FlowNetwork) -> tuple[np.ndarray, np.ndarray]:
+    """The old → new segment map and the boxes of the segments that changed. A segment gone
     maps to the nearest new segment (by midpoint): the flow tiles that list it are near the
     change, so they stand in (stale) until they are made again, and a stand-in's inside test
     near the moved bank reads a bank nearby rather than a number past the new list."""
@@ -672,11 +664,10 @@ def _segment_changes(old: FlowNetwork, new: FlowNetwork
             hi = np.maximum(rows[:, :2], rows[:, 2:4]) + cut[:, None]
             boxes.append(np.hstack([lo, hi]))
     boxes = np.concatenate(boxes) if boxes else np.zeros((0, 4))
-    gone_mask = gone.copy()
     if gone.any() and len(b):
         _, near = cKDTree(0.5 * (b[:, :2] + b[:, 2:4])).query(0.5 * (a[gone, :2] + a[gone, 2:4]))
         seg_map[gone] = near
-    return seg_map, _merge_boxes(boxes), gone_mask, ~kept
+    return seg_map, _merge_boxes(boxes)
 
 
 def _merge_boxes(boxes: np.ndarray, limit: int = 512) -> np.ndarray:
@@ -744,104 +735,6 @@ def tiles_meeting(codes: np.ndarray, quadtree, boxes: np.ndarray, cells: int) ->
     return out
 
 
-FLOW_SPLIT = 4
-""":func:`flow_tiles_near_changes` tests a flow tile as FLOW_SPLIT × FLOW_SPLIT blocks."""
-FLOW_EDGE_CELLS = 8
-"""A flow tile's footprint is widened by this many of its cells for
-:func:`flow_tiles_near_changes`: its lattice ring (3), the ghosts beyond it and the points
-mirrored across a cap (3 more)."""
-
-
-def flow_tiles_near_changes(codes: np.ndarray, quadtree, cells: int, old: FlowNetwork,
-                            gone: np.ndarray, new: FlowNetwork, added: np.ndarray
-                            ) -> np.ndarray:
-    """(K,) bool: the flow tiles of ``codes`` a changed segment can reach: one of the old
-    network's ``gone`` segments or the new one's ``added`` ones that can be its curve's
-    nearest segment for some point of the tile's footprint (widened by FLOW_EDGE_CELLS of
-    its cells): no farther from it than its curve's cut-off, nor than the smallest farthest
-    distance of that curve's segments (the pruning the tile's kernel makes itself,
-    :func:`~riverflow.kernels.flow.gather_box_segments`: a segment beyond it is never a
-    nearest one there). A tile far down a bank whose changed stretch is never the nearest
-    part of it is kept (the cut-off alone marked it: 35 of the 46 flow tiles a drag in the
-    4 km scene made again came out the same)."""
-    codes = np.asarray(codes, np.int64)
-    out = np.zeros(len(codes), bool)
-    if not len(codes):
-        return out
-    mask = (1 << 28) - 1
-    size = quadtree.root_size_m / np.exp2((codes >> 56).astype(np.float64))
-    edge = size * FLOW_EDGE_CELLS / cells
-    x0 = quadtree.root_x_m + (codes & mask).astype(np.float64) * size - edge
-    y0 = quadtree.root_y_m + ((codes >> 28) & mask).astype(np.float64) * size - edge
-    # each tile as FLOW_SPLIT² blocks (a block's farthest distances are shorter: the test
-    # tighter), a tile reached where one of its blocks is
-    k = np.arange(FLOW_SPLIT)
-    side = (size + 2 * edge) / FLOW_SPLIT
-    bx0 = (x0[:, None, None] + side[:, None, None] * k[None, None, :]).repeat(FLOW_SPLIT, 1)
-    by0 = (y0[:, None, None] + side[:, None, None] * k[None, :, None]).repeat(FLOW_SPLIT, 2)
-    rect = np.column_stack([bx0.ravel(), by0.ravel(), (bx0 + side[:, None, None]).ravel(),
-                            (by0 + side[:, None, None]).ravel()])
-    tile = np.repeat(np.arange(len(codes)), FLOW_SPLIT * FLOW_SPLIT)
-    for net, changed in ((old, gone), (new, added)):
-        changed = np.flatnonzero(changed)
-        if not len(changed):
-            continue
-        curve = np.repeat(np.arange(net.n_curves),
-                          (net.curve_seg1 - net.curve_seg0).astype(np.int64))
-        seg = np.column_stack([net.seg_ax, net.seg_ay, net.seg_bx, net.seg_by])
-        for c in np.unique(curve[changed]).tolist():
-            own = np.arange(net.curve_seg0[c], net.curve_seg1[c])
-            farthest = np.min(_segment_rect_dist2(seg[own], rect, farthest=True), axis=1)
-            nearest = np.min(_segment_rect_dist2(seg[changed[curve[changed] == c]], rect),
-                             axis=1)
-            bound = np.minimum(farthest * (1.0 + 1e-6) + 1e-9,
-                               float(net.curve_cutoff[c]) ** 2 * (1.0 + 1e-6) + 1e-9)
-            hit = nearest <= bound
-            out[tile[hit]] = True
-    return out
-
-
-def _point_segment_dist2(px, py, seg: np.ndarray) -> np.ndarray:
-    """(K, S) squared distances from points (K, 1) to segments (S, 4)."""
-    ax, ay, bx, by = (seg[:, k][None, :] for k in range(4))
-    ex, ey = bx - ax, by - ay
-    l2 = ex * ex + ey * ey
-    t = np.clip(((px - ax) * ex + (py - ay) * ey) / np.where(l2 > 0, l2, 1.0), 0.0, 1.0)
-    t = np.where(l2 > 0, t, 0.0)
-    dx, dy = ax + t * ex - px, ay + t * ey - py
-    return dx * dx + dy * dy
-
-
-def _segment_rect_dist2(seg: np.ndarray, rect: np.ndarray, farthest: bool = False
-                        ) -> np.ndarray:
-    """(K, S): the squared distance between each rectangle (K, 4) and segment (S, 4): the
-    smallest (0 where they meet), or ``farthest`` the largest from a rectangle's point (at a
-    corner: the distance to a segment is convex)."""
-    x0, y0, x1, y1 = (rect[:, k][:, None] for k in range(4))
-    corners = [_point_segment_dist2(x, y, seg) for x, y in ((x0, y0), (x1, y0), (x0, y1),
-                                                             (x1, y1))]
-    if farthest:
-        return np.maximum.reduce(corners)
-    ax, ay, bx, by = (seg[:, k][None, :] for k in range(4))
-
-    def box_point(px, py):
-        dx = np.maximum(np.maximum(x0 - px, 0.0), px - x1)
-        dy = np.maximum(np.maximum(y0 - py, 0.0), py - y1)
-        return dx * dx + dy * dy
-    d = np.minimum.reduce(corners + [box_point(ax, ay), box_point(bx, by)])
-    # a segment crossing the rectangle with both ends outside it (Liang–Barsky)
-    t0, t1 = np.zeros_like(d), np.ones_like(d)
-    ex, ey = bx - ax, by - ay
-    for p, q in ((-ex, ax - x0), (ex, x1 - ax), (-ey, ay - y0), (ey, y1 - ay)):
-        p, q = np.broadcast_to(p, d.shape), np.broadcast_to(q, d.shape)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            r = q / p
-        t0 = np.where(p < 0, np.maximum(t0, r), t0)
-        t1 = np.where(p > 0, np.minimum(t1, r), t1)
-        t0 = np.where((p == 0) & (q < 0), np.inf, t0)
-    return np.where(t0 <= t1, 0.0, d)
-
-
 def hints_near_changes(codes: np.ndarray, quadtree, old: Landscape, new: Landscape,
                        changed: list[str]) -> np.ndarray:
     """(K,) bool: the hints tiles of ``codes`` some node of which may have its nearest
@@ -899,8 +792,6 @@ def marked_tiles(plan: EditPlan, old: Landscape, kind: str, codes: np.ndarray, c
     q = plan.scene.quadtree
     if kind == FLOW_KIND:
         near = tiles_meeting(codes, q, plan.flow_boxes, cells)
-        if plan.flow_changed is not None and near.any():
-            near[near] = flow_tiles_near_changes(codes[near], q, cells, *plan.flow_changed)
     else:
         near = tiles_meeting(codes, q, plan.terrain_boxes, cells)
         if kind == HINTS:     # a hint reads the nearest centre line, however far

@@ -531,28 +531,3 @@ def _with_widths(scene, widths):
     out.branches = [copy.copy(b) for b in scene.branches]
     out.branches[0].widths_m = widths
     return out
-
-
-def test_segment_rectangle_distances_match_shapely():
-    """The flow tiles' edit test measures segments against rectangles: the smallest distance
-    (0 where they meet) and the farthest from a rectangle's point, as shapely has them."""
-    from riverflow.engine.edits import _segment_rect_dist2
-
-    rng = np.random.default_rng(7)
-    seg = rng.uniform(-10.0, 10.0, (60, 4))
-    seg[0] = (1.0, 1.0, 1.0, 1.0)                          # a point segment
-    seg[1] = (-9.0, 0.5, 9.0, 0.5)                         # crossing a rectangle, ends outside
-    lo = rng.uniform(-6.0, 4.0, (12, 2))
-    rect = np.hstack([lo, lo + rng.uniform(0.5, 4.0, (12, 2))])
-    rect[0] = (-1.0, 0.0, 1.0, 1.0)
-    near = _segment_rect_dist2(seg, rect)
-    far = _segment_rect_dist2(seg, rect, farthest=True)
-    lines = shapely.linestrings(seg.reshape(-1, 2, 2))
-    boxes = shapely.box(*rect.T)
-    want = shapely.distance(boxes[:, None], lines[None, :]) ** 2
-    np.testing.assert_allclose(near, want, atol=1e-9)
-    assert near[0, 1] == 0.0
-    corners = shapely.points(np.stack([rect[:, [0, 1]], rect[:, [2, 1]], rect[:, [0, 3]],
-                                       rect[:, [2, 3]]], axis=1))
-    want_far = (shapely.distance(corners[:, :, None], lines[None, None, :]) ** 2).max(axis=1)
-    np.testing.assert_allclose(far, want_far, atol=1e-9)
