@@ -97,13 +97,14 @@ def _network_potential(net, p, a, b, d2, axis, slip):
             groups[net.curve_group[c]] = cur
         elif net.curve_kind[c] == KIND_CAP:
             cap = cur
-    if cap[0] < 0 and -cap[0] < width2:
+    nearest = cap                      # the network's nearest shore: behind it?
+    for g in sorted(groups):
+        nearest = _nearer(nearest, groups[g])
+    if nearest[0] < 0 and -nearest[0] < width2:
         return np.nan, True
     vals = np.array([groups[g][0] for g in sorted(groups)])
     psis = net.group_psi[sorted(groups)]
     one = net.comp_group1[comp] - net.comp_group0[comp] == 1   # a still lake's one shore
-    if np.any((vals < 0) & (-vals < width2)):
-        return np.nan, True
     if len(vals) < 2 and not (len(vals) == 1 and one):
         return np.nan, False
     d = np.sqrt(np.abs(vals))

@@ -483,7 +483,18 @@ def _network_potential(
         else:
             cap = cur
             cap_seg = cur_seg
-    if cap < 0.0 and -cap < width2:
+    # behind a shore: the nearest shore of the network (its nearest cap or a ψ-group's
+    # nearest bank, the vertex tie rule between them) has p on its dry side, within a river
+    # width. Not any group's nearest: a pocket of water beside the river whose shore shares
+    # a bank's ψ is nearer than that bank to some of the river's water, which lies on the
+    # pocket's dry side
+    best = cap
+    best_seg = cap_seg
+    for g in range(g0, g1):
+        if gval[g] != np.inf:
+            best, best_seg = _nearer(best, best_seg, gval[g], int(gval[n_groups + g]), px, py,
+                                     seg_ax, seg_ay, seg_bx, seg_by)
+    if best < 0.0 and -best < width2:
         return np.nan, np.inf, np.inf, True
     count = 0
     near2 = np.inf
@@ -494,8 +505,6 @@ def _network_potential(
         v = gval[g]
         if v == np.inf:
             continue
-        if v < 0.0 and -v < width2:
-            return np.nan, np.inf, np.inf, True
         count += 1
         near2 = min(near2, abs(v))
         d = math.sqrt(abs(v))

@@ -1009,3 +1009,26 @@ def test_an_islands_round_end_leaning_over_the_water_is_trimmed(tmp_path):
     along = np.einsum("ij,ij->i", v, np.gradient(centre, axis=0)[rows] @ SLOPE)
     assert (status == INSIDE).all() and (np.abs(along) > 0.8 * np.hypot(*v.T)).all()
     assert len(set(np.sign(along))) == 1
+
+
+def test_river_water_beside_a_pocket_sharing_its_banks_psi_is_not_read_as_land(tmp_path):
+    """A meandering 185 m river with three islands, cut by the data's box (the survey's seed
+    15 with islands that may cross a bank): a small pocket of water the data's edge cuts off
+    beside the river's end has axes of its own and shares a river bank's ψ. The flow kernel
+    took river water on the pocket's dry side within a river width for water behind a shore
+    (any ψ-group's nearest bank on its dry side): 37 % of the water read as land. Now only
+    the network's nearest shore decides: what reads as land is what the end cuts leave out."""
+    river = survey_river(1334.2, 185.5, 63.9, 161.2,
+                         [(289.5, 86.3, 196.6, 16.7, 0.19), (967.6, 20.6, 282.2, 26.6, -0.193),
+                          (1082.5, 14.3, 150.2, 18.3, 0.178)], clip=(0.2726, 0.1402))
+    builder = rf.read_water(write_polygons(tmp_path / "pocket.geojson", [river.water]),
+                            origin_m=ORIGIN)
+    graph = builder.build()
+    lost = river.water.difference(builder.water_polygon)
+    rng = np.random.default_rng(0)
+    x0, y0, x1, y1 = river.water.bounds
+    pts = np.c_[rng.uniform(x0, x1, 6000), rng.uniform(y0, y1, 6000)]
+    kept = shapely.contains_xy(river.water, *pts.T) & ~shapely.contains_xy(
+        lost.buffer(2.0), *pts.T)
+    status, _ = rf.FlowField(graph).query(pts[kept])
+    assert kept.sum() > 1000 and np.mean(status != INSIDE) < 0.01
