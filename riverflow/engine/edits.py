@@ -946,9 +946,9 @@ class LiveEdits:
 
 
 PLANNER_NICE = 10
-"""The planner thread's nice value: a frame's thread (0) gets ~90 % of a core they share
-and it ~88 % of one it shares with a tile process (19, making the last edit's tiles); at 19
-it shared that core half and half, and an edit took 0.39 s to its swap, not 0.27 s."""
+"""The planner thread's nice value: a frame's thread (0) gets ~90 % of a core they share,
+and it ~88 % of one it shares with a tile process (19, making the last edit's tiles; at 19
+too they would share it half and half)."""
 EDIT_SWITCH_INTERVAL_S = 0.0005
 """While the edits' thread runs a job, the interpreter's switch interval is at most this
 [s] (``sys.setswitchinterval``; put back after): a frame that wants the interpreter while
