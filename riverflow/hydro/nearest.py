@@ -18,28 +18,48 @@ from riverflow.kernels.polyline import Nearest, Polyline, nearest_points, segmen
 
 
 class PolylineIndex:
-    """The segments of one polyline (K, 2) [m], for nearest-point queries."""
+    """The segments of one polyline (K, 2) [m], for nearest-point queries; or of several
+    (``line`` (K,): each point's line, its points consecutive), their segments one list
+    (none joins two lines; arc lengths run on from one line to the next)."""
 
-    def __init__(self, points: np.ndarray) -> None:
+    def __init__(self, points: np.ndarray, line: np.ndarray | None = None) -> None:
         p = np.asarray(points, np.float64).reshape(-1, 2)
-        keep = np.concatenate([[True], np.any(np.diff(p, axis=0) != 0.0, axis=1)])
+        keep = np.concatenate([[True], np.any(np.diff(p, axis=0) != 0.0, axis=1)])[:len(p)]
+        if line is not None:
+            line = np.asarray(line).reshape(-1)
+            keep[1:] |= line[1:] != line[:-1]
+            line = line[keep]
         p = p[keep]
         if len(p) < 2:
             p = np.vstack([p, p])
+            line = None
         self.points = p
-        self.a = p[:-1]
-        self.d = p[1:] - p[:-1]
+        joined = slice(None) if line is None else line[1:] == line[:-1]
+        self.a = np.ascontiguousarray(p[:-1][joined])
+        self.d = np.ascontiguousarray((p[1:] - p[:-1])[joined])
+        if not len(self.a):                         # lines of one point each
+            self.a, self.d = p[:1].copy(), np.zeros((1, 2))
         seg_len = np.hypot(self.d[:, 0], self.d[:, 1])
         self.s0 = np.concatenate([[0.0], np.cumsum(seg_len)[:-1]])
         self.seg_len = seg_len
         self.length = float(seg_len.sum())
         self.boxes = segment_boxes(self.a, self.d)
-        self.line = Polyline(np.ascontiguousarray(self.a), self.d, self.boxes, self.s0, seg_len)
+        self.line = Polyline(self.a, self.d, self.boxes, self.s0, seg_len)
 
     @classmethod
     def of(cls, line) -> PolylineIndex:
         """The index of a shapely LineString."""
         return cls(shapely.get_coordinates(line))
+
+    @classmethod
+    def of_rings(cls, geometry) -> PolylineIndex:
+        """The index of every ring or line of a shapely geometry (a (multi)polygon's shore:
+        its outer rings and holes, each closed)."""
+        parts = shapely.get_parts(geometry)
+        rings = shapely.get_rings(parts[shapely.get_type_id(parts) == 3])
+        lines = parts[np.isin(shapely.get_type_id(parts), (1, 2))]
+        xy, which = shapely.get_coordinates(np.concatenate([rings, lines]), return_index=True)
+        return cls(xy, which)
 
     def nearest(self, xy: np.ndarray, max_distance: float | None = None
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -19,6 +19,7 @@ import shapely
 from scipy.spatial import cKDTree
 
 from riverflow.hydro.falls import channel_depth_m, drop_along
+from riverflow.hydro.nearest import PolylineIndex
 from riverflow.kernels.centre_line import (CentreSamples, LevelSamples, nearest_level,
                                            project_to_centre)
 from riverflow.tiles import remote
@@ -46,6 +47,9 @@ DECIMATE_CELLS = 2.5
 square of this many strides' length (~1 pick per 4 samples at stride 5)."""
 NEAREST_SAMPLE_STRIDE = 5
 """:meth:`WaterSurface.nearest_sample` picks among every this-many-th centre-line sample."""
+CONTAINS_MARGIN_M = 2.0
+""":meth:`WaterSurface.contains` looks this much farther from the shore than 0.75 × the
+widest river's width."""
 
 
 def point_tree(points: np.ndarray) -> cKDTree:
@@ -203,7 +207,6 @@ class WaterSurface:
     profiles: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
     junctions_m: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     junction_branches: list[tuple[int, ...]] = field(default_factory=list)
-    boundary_spacing_m: float = 1.0
 
     def __post_init__(self) -> None:
         shapely.prepare(self.polygon)
@@ -213,12 +216,8 @@ class WaterSurface:
             for members in self.junction_branches]) if len(self.junction_branches) else np.zeros(0)
         self._decimated: dict[int, _Samples] = {}
         self._per_branch: dict[int, _Samples] = {}
-        edge = shapely.segmentize(self.polygon.boundary, self.boundary_spacing_m)
-        xy, ring = shapely.get_coordinates(shapely.get_parts(edge), return_index=True)
-        self._boundary_trees = {1: point_tree(xy)}
-        # boundary point i and i + 1 make a segment where they are on one ring
-        self._boundary_next = np.append(ring[1:] == ring[:-1], False)
-        self._reach_m = 0.75 * float(self.widths_m.max()) + 2.0 * self.boundary_spacing_m
+        self._shore = PolylineIndex.of_rings(self.polygon)
+        self._reach_m = 0.75 * float(self.widths_m.max()) + CONTAINS_MARGIN_M
 
     @property
     def contains_reach_m(self) -> float:
@@ -357,48 +356,13 @@ class WaterSurface:
                 0.5 * width)
         return cached
 
-    def distance_to_shore(self, xy: np.ndarray, stride: int = 1,
-                          upper_bound_m: float = np.inf) -> np.ndarray:
-        """Distance to the nearest bank or island shore [m] (unsigned); ``stride`` > 1 uses
-        every stride-th shore sample only (faster far away, error up to stride × the shore
-        sample spacing); beyond ``upper_bound_m`` it is inf (much faster far away)."""
-        if stride not in self._boundary_trees:
-            self._boundary_trees[stride] = point_tree(self._boundary_trees[1].data[::stride])
-        tree = self._boundary_trees[stride]
+    def distance_to_shore(self, xy: np.ndarray, upper_bound_m: float = np.inf) -> np.ndarray:
+        """Distance to the nearest bank or island shore [m] (unsigned): to the polygon's
+        rings' segments, exact (:class:`~riverflow.hydro.nearest.PolylineIndex`: the same
+        numbers for a point in any batch); beyond ``upper_bound_m`` it is inf (much faster
+        far away)."""
         p = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
-        if np.isfinite(upper_bound_m) and len(p) > 1:
-            # a batch far from every shore (most terrain tiles of a big world): one query
-            # from its box's centre tells (exact: every point is within half the box's
-            # diagonal of it), not one per point
-            lo, hi = p.min(axis=0), p.max(axis=0)
-            reach = upper_bound_m + 0.5 * float(np.hypot(*(hi - lo)))
-            if np.isfinite(reach) and not np.isfinite(
-                    tree.query(0.5 * (lo + hi), distance_upper_bound=reach)[0]):
-                return np.full(len(p), np.inf)
-        d, i = tree.query(p, distance_upper_bound=upper_bound_m, workers=_workers(len(p)))
-        if stride == 1:
-            # near the shore, the distance to the boundary's segments on either side of the
-            # nearest boundary point, not to the point (off by up to half the spacing: a
-            # creek's bank stepped at the water's edge)
-            near = np.flatnonzero(d < 2.0 * self.boundary_spacing_m)
-            if len(near):
-                d[near] = self._segment_distance(p[near], i[near], d[near])
-        return d
-
-    def _segment_distance(self, p: np.ndarray, i: np.ndarray, d: np.ndarray) -> np.ndarray:
-        """Distance from points p (N, 2) to the boundary segments that end at their nearest
-        boundary point i (N,) (distance d), the smaller."""
-        xy = self._boundary_trees[1].data
-        nxt = self._boundary_next
-        best = d.copy()
-        for a, ok in ((i - 1, nxt[np.maximum(i - 1, 0)] & (i > 0)), (i, nxt[i])):
-            a = np.where(ok, a, i)
-            b = np.where(ok, a + 1, i)
-            sa, ab = xy[a], xy[b] - xy[a]
-            t = np.clip(np.einsum("ij,ij->i", p - sa, ab)
-                        / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-18), 0.0, 1.0)
-            best = np.minimum(best, np.hypot(*(sa + t[:, None] * ab - p).T))
-        return best
+        return self._shore.nearest(p, max_distance=upper_bound_m)[0]
 
     def land_level(self, xy: np.ndarray) -> np.ndarray:
         """The water level seen from the land [m], (N,): the levels of the

@@ -116,3 +116,28 @@ def test_index_of_a_point_and_of_nan_queries():
     dist, near, arc = index.nearest(np.array([[0.0, 0.0], [np.nan, 1.0]]))
     assert dist[0] == 5.0 and np.array_equal(near[0], [3.0, 4.0]) and arc[0] == 0.0
     assert np.isinf(dist[1])
+
+
+def test_index_of_rings_is_a_polygons_shore_whatever_the_batch():
+    """:meth:`PolylineIndex.of_rings`: the distance to a multipolygon's outer rings and holes
+    is shapely's to its boundary (no segment joins two rings), and a point's distance is the
+    same bit for bit in any batch of points (tiles that share nodes agree on them)."""
+    rng = np.random.default_rng(11)
+    outer = shapely.Point(0.0, 0.0).buffer(400.0, 64)
+    holes = [shapely.Point(x, y).buffer(r, 16) for x, y, r in
+             ((-150.0, 0.0, 60.0), (120.0, 80.0, 40.0), (100.0, -150.0, 25.0))]
+    water = shapely.union(shapely.difference(outer, shapely.union_all(holes)),
+                          shapely.box(600.0, -50.0, 900.0, 50.0))       # a second polygon
+    index = PolylineIndex.of_rings(water)
+    rings = shapely.get_rings(shapely.get_parts(water))
+    assert len(index.a) == int(sum(shapely.get_num_coordinates(rings) - 1))
+    q = rng.uniform([-500.0, -500.0], [1000.0, 500.0], (2000, 2))
+    dist = index.distance(q)
+    np.testing.assert_allclose(dist, shapely.distance(shapely.points(q), water.boundary),
+                               rtol=1e-9, atol=1e-9)
+    order = rng.permutation(len(q))
+    for part in np.array_split(order, 7):
+        np.testing.assert_array_equal(index.nearest(q[part], 150.0)[0],
+                                      np.where(dist[part] < 150.0, dist[part], np.inf))
+    empty = PolylineIndex.of_rings(shapely.Polygon())
+    assert np.isinf(empty.distance(q[:3])).all()
