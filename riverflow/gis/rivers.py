@@ -165,6 +165,11 @@ AUTO_ORIGIN_M = 100_000.0
 OSM_WATERWAYS = ("river", "stream", "canal", "ditch", "drain")
 """The OpenStreetMap ``waterway=*`` values read as river centre lines (other ways are left
 out, and the report says which)."""
+OSM_SOURCE_WIDTH_M = {"stream": 2.0, "ditch": 1.0, "drain": 1.0, "canal": 6.0}
+"""A source way's width [m] by its ``waterway=`` class where it has no ``width`` tag (rule 4
+of the module docstring; ``river`` and any other: the geometry's ``default_width_m``): a
+stream is one a person can jump across, a ditch or drain a field's channel (OSM wiki,
+Key:waterway). Read as 10 m rivers, the ditches beside a stream overlapped it."""
 OSM_FALLS = {"waterfall": "fall", "weir": "weir", "dam": "dam"}
 """OpenStreetMap ``waterway=*`` nodes and ways read as falls (:meth:`RiverNetworkBuilder.
 add_fall`), with the kind each becomes. A node is the lip; a way (a weir's or dam's crest
@@ -404,6 +409,9 @@ class _Link:
     cell_m: float = math.nan
     """The raster cell [m] its source line was traced on (:func:`_lattice_cells`), NaN for a
     line that is not grid-traced."""
+    source_width_m: float = math.nan
+    """The width [m] it has as a source where nothing is given (OSM_SOURCE_WIDTH_M by its
+    OSM class); NaN: the geometry's ``default_width_m``."""
 
 
 @without_collector
@@ -552,6 +560,8 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
         link = _Link(name, int(fids[k]), np.ascontiguousarray(p), attrs, values)
         link.z = z
         link.fixed = users or osm or (flip is not None)   # the user's word, or OSM's rule
+        if osm:
+            link.source_width_m = OSM_SOURCE_WIDTH_M.get(str(attrs.get("waterway")), math.nan)
         if math.isfinite(cell):                           # the cell in metres, as projected
             link.cell_m = cell * _length(p) / max(_length(pts), 1e-300)
         links.append(link)
@@ -563,6 +573,8 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
     links = _drop_duplicates(links, snap_m, report)
     links, crossings = _topology(links, snap_m, report)
     links = _direct(links, report)
+    links = _join_runs(links, report, shapely.union_all(lake_geoms) if lake_geoms else None,
+                       None if osm else geometry.default_width_m)
     plan = _plan(links, geometry, specs, report)
     links, plan = _close_clipped_ends(links, plan, geometry, specs, report)
     links, plan = _merge_close_junctions(links, plan, geometry, specs, report)
@@ -652,7 +664,7 @@ def _add_osm_falls(builder: RiverNetworkBuilder, falls, report) -> None:
     if not falls:
         return
     lines = [b.centerline_m for b in builder._branches]
-    tree = shapely.STRtree(shapely.linestrings(lines)) if lines else None
+    tree = shapely.STRtree([shapely.LineString(ln) for ln in lines]) if lines else None
     added, assumed, left = [], [], []
     for name, pts, kind, drop in ((f[0], f[1], f[2], f[3]) for f in falls):
         if len(pts) == 1:
@@ -1408,6 +1420,81 @@ def _topology(links: list[_Link], snap_m: float, report: RiverImport
     return links, crossings
 
 
+def _join_runs(links: list[_Link], report: RiverImport, lakes=None,
+               short_m: float | None = None) -> list[_Link]:
+    """Lines that run on into one another where nothing else meets (one line in and one out
+    of a junction: OpenStreetMap splits a river's way at every bridge, culvert, weir or
+    change of its tags) joined into one link, named (and attributed) after the longest of
+    them: a piece shorter than the river is wide would otherwise be a branch of its own,
+    its far end within the river of the next one's start (``build()`` cannot make that).
+    ``short_m``: only where one of the two is shorter than twice this width [m] (or its
+    given width), so that a file's features stay links (None: every such junction, as for
+    OpenStreetMap, whose ways are no links). Lines are joined only where their attributes
+    give the same kinds of values (each value given on both or on neither: a width given
+    on one and derived on the next stays two links), neither was added by a repair, and
+    neither runs into a lake (``lakes``: the lakes' area, the lines cut at their shores).
+    Not in strict mode (lines as drawn). A note says how many were joined."""
+    if report.strict or len(links) < 2:
+        return links
+    ins: dict[int, list[int]] = {}
+    outs: dict[int, list[int]] = {}
+    for i, lk in enumerate(links):
+        if lk.end >= 0:
+            ins.setdefault(lk.end, []).append(i)
+        if lk.start >= 0:
+            outs.setdefault(lk.start, []).append(i)
+
+    def kinds(lk: _Link, at: int) -> tuple:
+        return tuple(bool(np.isfinite(lk.values[key][at])) for key in sorted(lk.values)) + (
+            math.isnan(lk.cell_m),)
+
+    def short(lk: _Link) -> bool:
+        return _length(lk.points) < 2.0 * (_given_width(lk) or short_m)
+
+    def joinable(a: _Link, b: _Link) -> bool:
+        return (not (a.added or b.added) and sorted(a.values) == sorted(b.values)
+                and (short_m is None or short(a) or short(b))
+                and kinds(a, 0) == kinds(b, 0) and kinds(a, 1) == kinds(b, 1)
+                and (math.isnan(a.cell_m) or abs(a.cell_m - b.cell_m) <= 1e-9 * a.cell_m)
+                and (lakes is None or not (lakes.intersects(shapely.LineString(a.points))
+                                           or lakes.intersects(shapely.LineString(b.points)))))
+
+    after: dict[int, int] = {}
+    for j, came in ins.items():
+        went = outs.get(j, [])
+        if len(came) == 1 and len(went) == 1 and came[0] != went[0] \
+                and joinable(links[came[0]], links[went[0]]):
+            after[came[0]] = went[0]
+    if not after:
+        return links
+    before = {b: a for a, b in after.items()}
+    out, joined, seen = [], 0, set()
+    for i, lk in enumerate(links):
+        if i in before or i in seen:
+            continue                    # not the first of its run (or a ring: kept as is)
+        run = [i]
+        while run[-1] in after and after[run[-1]] not in seen and after[run[-1]] != i:
+            run.append(after[run[-1]])
+        seen.update(run)
+        if len(run) == 1:
+            out.append(lk)
+            continue
+        pieces = [links[k] for k in run]
+        main = max(pieces, key=lambda p: _length(p.points))
+        first, last = pieces[0], pieces[-1]
+        points = np.concatenate([pieces[0].points] + [p.points[1:] for p in pieces[1:]])
+        values = {key: (first.values[key][0], last.values[key][1]) for key in first.values}
+        link = _Link(main.name, main.fid, np.ascontiguousarray(points), main.attrs, values,
+                     first.start, last.end, (first.z[0], last.z[1]),
+                     any(p.fixed for p in pieces), False, first.cell_m, first.source_width_m)
+        out.append(link)
+        joined += len(run) - 1
+    out += [links[i] for i in range(len(links)) if i not in seen and i in before]  # rings
+    report.notes.append(f"{joined} junctions where one line runs on into the next and nothing "
+                        f"else meets: the lines joined into one link (named after the longest)")
+    return out
+
+
 def _halve(links: list[_Link], which: set[int]) -> list[_Link]:
     out = []
     for i, lk in enumerate(links):
@@ -1739,9 +1826,12 @@ def _plan(links: list[_Link], geometry: HydraulicGeometry, specs: dict, report: 
         siblings = outs.get(lk.start, [i]) if lk.start >= 0 else [i]
         if not upstream:
             if own[i] is None:
-                q3 = geometry.discharge_of_width(geometry.default_width_m)
-                own[i] = (q3, geometry.psi(q3),
-                          f"default (a source {geometry.default_width_m:g} m wide)")
+                width = lk.source_width_m if math.isfinite(lk.source_width_m) \
+                    else geometry.default_width_m
+                q3 = geometry.discharge_of_width(width)
+                own[i] = (q3, geometry.psi(q3), f"default (a source {width:g} m wide"
+                          + (f": OSM waterway={lk.attrs.get('waterway')})"
+                             if math.isfinite(lk.source_width_m) else ")"))
             volume[i], psi[i], source[i] = own[i]
             continue
         q_in, psi_in = sum(volume[k] for k in upstream), sum(psi[k] for k in upstream)

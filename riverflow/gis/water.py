@@ -81,9 +81,11 @@ flow cross the polygon by 3 % of its speed 1 m in (issue 22's ≤ 2 %); 0.02 m t
 collinear vertices and keeps that under 1 %."""
 OSM_WATER = ("river", "canal", "lake", "reservoir", "pond", "oxbow", "stream", "riverbank")
 """``water=`` values of OSM ``natural=water`` areas that are read (and ``waterway=riverbank``)."""
-LAKE_WATER = ("lake", "reservoir", "pond")
+LAKE_WATER = ("lake", "reservoir", "pond", "oxbow")
 """``water=`` values (an OSM tag, or a polygon file's ``water`` attribute) read as lakes: flat
-water bodies (:meth:`~riverflow.RiverNetworkBuilder.add_lake`)."""
+water bodies (:meth:`~riverflow.RiverNetworkBuilder.add_lake`). An OSM ``natural=water``
+area without ``water=`` is a lake too (the tag's documented default, OSM wiki Key:water); a
+polygon file's feature without the attribute is a river's water."""
 LAKE_FLAG = "_riverflow_lake"
 """The attribute :func:`_read_polygons` sets on the features tagged as lakes."""
 SPUR_WIDTHS = 1.0
@@ -487,15 +489,24 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
         several = len(getattr(water, "geoms", [])) > 1
         if several and (speck or longest < MIN_CHANNEL_WIDTHS * widest):
             x, y = part.representative_point().coords[0]
+            # a pond (not a piece a lake's cut left beside it): still water, as a lake
+            pond = not speck and (not lakes or shapely.union_all(lakes).distance(part)
+                                  > tolerance_m)
+            if pond:
+                builder.add_lake(part)
             report.repair(f"water body {k}", None, None,
                           f"{part.area:.1f} m² of water near ({x:.1f}, {y:.1f}), apart from the "
-                          f"rest: " + (f"a speck (under {SPECK_FRACTION:g} of the water)"
-                                       if speck else
+                          f"rest: " + (f"a speck (under {SPECK_FRACTION:g} of the water): left "
+                                       f"out" if speck else
                                        f"no channel longer than {MIN_CHANNEL_WIDTHS:g} times "
-                                       f"its width (a pond; tag it water=pond to read it as a lake)")
-                          + ": left out")
+                                       f"its width: " + ("a pond, read as still water (a lake)"
+                                                         if pond else "left out")))
             continue
         networks.append(net)
+    if not networks:                # ponds only: still water
+        report.derived["axes"] = {}
+        report.derived["length_m"] = 0.0
+        return
     ends = [e for net in networks for e in net.free_ends()]
     _match_points(ends, inlet_xy, "inlet", where, water)
     _match_points(ends, outlet_xy, "outlet", where, water)
@@ -723,7 +734,8 @@ def _lakes_of(features, polygons, water, report: RiverImport, tolerance_m: float
     rest = shapely.union_all([p for p in shapely.get_parts(rest)
                               if p.geom_type == "Polygon" and p.area > (4.0 * tolerance_m) ** 2])
     report.derived["lakes"] = (f"{len(lakes)} (polygons tagged water="
-                               f"{'|'.join(LAKE_WATER)}): flat water bodies")
+                               f"{'|'.join(LAKE_WATER)}, or OSM natural=water areas without "
+                               f"water=, a lake by OSM's convention): flat water bodies")
     return lakes, (None if rest.is_empty else rest)
 
 
@@ -755,14 +767,17 @@ def _read_polygons(path: Path, layer):
         natural = table.get("natural", [None] * len(fids))
         for i in range(len(fids)):
             tags = _hstore(other[i])
-            keep[i] = ((natural[i] == "water" and tags.get("water", "river") in OSM_WATER)
+            keep[i] = ((natural[i] == "water" and tags.get("water", "lake") in OSM_WATER)
                        or tags.get("waterway") == "riverbank")
     geoms, _ = _from_wkb(wkb)
     out = []
     for i in np.flatnonzero(keep):
         attrs = {n: _plain(table[n][i]) for n in names}
-        water = (_hstore(table["other_tags"][i]).get("water") if osm and "other_tags" in table
-                 else attrs.get("water"))
+        water = attrs.get("water")
+        if osm:
+            tags = _hstore(table["other_tags"][i]) if "other_tags" in table else {}
+            water = tags.get("water", "lake" if attrs.get("natural") == "water"
+                             and tags.get("waterway") != "riverbank" else None)
         if isinstance(water, str) and water.strip().lower() in LAKE_WATER:
             attrs[LAKE_FLAG] = True
         out.append((int(fids[i]), geoms[i], attrs))

@@ -124,3 +124,37 @@ def test_osm_waterfalls_weirs_and_dams_become_falls(tmp_path):
     assert "way 102" in notes and "2 m assumed" in notes
     assert "node 9002" in notes and "falls left out" in notes and "off the river" in notes
     assert "ways left out" not in notes          # the weir is a fall, not a left-out way
+
+
+def test_a_river_cut_at_a_culvert_a_ditch_beside_a_stream_and_a_weir(tmp_path):
+    """What Liechtenstein's extract holds and the reader refused: a river's way cut where a
+    culvert ends 9 m below its source (that piece alone a branch shorter than the river is
+    wide: "do not meet"), joined to the next one (named after it); a ditch 8 m beside a
+    stream, each a source as wide as its class is (they were 10 m rivers, overlapping);
+    and a weir across one of several ways of different lengths (the weir's search over
+    the lines raised a ValueError from shapely)."""
+    culvert = np.array([[0.0, -9.0], [0.0, 0.0]])
+    river = polyline((0, 0), (0, 400), step=50.0)
+    stream = polyline((200, 0), (200, 600), step=100.0)
+    ditch = polyline((208, 50), (208, 550), step=100.0)
+    path = write_osm(tmp_path / "culvert.osm", [
+        (201, culvert, {"waterway": "river", "tunnel": "culvert", "layer": "-1"}),
+        (202, river, {"waterway": "river"}),
+        (203, stream, {"waterway": "stream"}),
+        (204, ditch, {"waterway": "ditch"}),
+        (205, np.array([[-20.0, 200.0], [20.0, 200.0]]), {"waterway": "weir"})])
+    builder = rf.read_rivers(path)
+    graph = builder.build()
+    assert rf.validate_graph(graph) == []
+    report = builder.report
+    widths = {lk.name: lk.width_m for lk in report.links}
+    assert set(widths) == {"feature 202", "feature 203", "feature 204"}
+    assert any(n.startswith("1 junctions where one line runs on into the next") for n in report.notes)
+    assert widths["feature 204"] < widths["feature 203"] < 3.0 < widths["feature 202"]
+    assert "default (a source 1 m wide: OSM waterway=ditch)" in report.derived["discharge"]
+    (fall,) = graph.falls
+    assert fall.kind == "weir"
+    status, velocity = rf.FlowField(graph).query(
+        np.array([[0.0, -4.0], [0.0, 300.0], [200.0, 300.0], [208.0, 300.0]])
+        + ORIGIN - np.asarray(report.origin_m or (0.0, 0.0)))
+    assert (status == rf.FlowStatus.INSIDE).all() and (velocity[:, 1] > 0).all()

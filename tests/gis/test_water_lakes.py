@@ -113,3 +113,43 @@ def test_a_lake_with_an_island_between_its_centre_and_a_mouth_builds(tmp_path):
     (isl,) = lake_flow.lake_islands(graph, k, 0.25)
     psi = {graph.curves[c].potential for c, _ in graph.areas[isl].curves}
     assert len(psi) == 1 and 0.0 < psi.pop() < b.discharges_m2s[0]
+
+
+def test_osm_water_without_a_water_tag_and_oxbows_are_lakes(tmp_path):
+    """OpenStreetMap's ``natural=water`` without ``water=`` is a lake (the tag's documented
+    default: Liechtenstein's extract holds 20 such ponds and lakes, which came in as rivers
+    or were left out); ``water=oxbow`` is an oxbow lake: still water."""
+    from tests.gis.test_osm import write_osm
+
+    pond = np.asarray(shapely.Point(0, 0).buffer(40, quad_segs=8).exterior.coords)
+    oxbow = np.asarray(shapely.LineString([(300, 0), (300, 150), (450, 150), (450, 0)])
+                       .buffer(12, cap_style="flat").exterior.coords)
+    path = write_osm(tmp_path / "ponds.osm", [(301, pond, {"natural": "water"}),
+                                               (302, oxbow, {"natural": "water",
+                                                             "water": "oxbow"})])
+    builder = rf.read_water(path)
+    graph = builder.build()
+    assert len(graph.lakes()) == 2 and builder.report.derived["lakes"].startswith("2 ")
+    assert "OSM natural=water areas without water=" in builder.report.derived["lakes"]
+    centres = [shapely.Polygon(area_ring(graph, k)).representative_point().coords[0]
+               for k in graph.lakes()]
+    status, v = rf.FlowField(graph).query(np.array(centres))
+    assert (status == rf.FlowStatus.INSIDE).all() and np.abs(v).max() < 1e-6
+
+
+def test_a_pond_apart_from_a_river_polygon_is_still_water(tmp_path):
+    """A round pond beside a river in one untagged polygon file (a water mask's gravel pit):
+    still water (a lake, reported), where it was left out; a speck is still left out."""
+    pond = shapely.Point(300, 200).buffer(40, quad_segs=8)
+    speck = shapely.Point(700, 200).buffer(1.5, quad_segs=4)
+    path = write_tagged(tmp_path / "w.geojson", [WEST, pond, speck], ["river", None, None])
+    builder = rf.read_water(path, inlets=[tuple(ORIGIN + (0, 20))])
+    graph = builder.build()
+    (k,) = graph.lakes()
+    assert abs(shapely.Polygon(area_ring(graph, k)).area - pond.area) < 0.01 * pond.area
+    said = [r.what for r in builder.report.repairs if r.feature.startswith("water body")]
+    assert any("a pond, read as still water" in w for w in said)
+    assert any("a speck" in w and "left out" in w for w in said)
+    status, v = rf.FlowField(graph).query(np.array([[300.0, 200.0], [150.0, 10.0]]))
+    assert (status == rf.FlowStatus.INSIDE).all()
+    assert np.abs(v[0]).max() < 1e-6 and v[1, 0] > 0.0        # the pond still, the river on
