@@ -521,3 +521,20 @@ def test_a_braid_splits_its_flow_by_the_arms_widths(tmp_path):
     check_flows_downstream(built(builder), lines, skip_m=3.0)
     q = builder.discharges_m2s
     assert q[1] == pytest.approx(2.0 * q[2]) and q[1] + q[2] == pytest.approx(q[0])
+
+
+def test_narrowing_densifies_without_a_segment_of_no_length():
+    """``build()``'s narrowing densifies the lines (a quarter width apart): a sample a
+    rounding error from a vertex (a line 14 m + 2e-15 long at 1.75 m steps) made a segment
+    of no length, which the builder refused ("degenerates when its ends are snapped")
+    after the first narrowing of Liechtenstein's OSM extract."""
+    from riverflow.gis.rivers import _densify
+
+    line = np.array([[0.0, 0.0], [14.000000000000002, 0.0], [14.000000000000002, 3.5]])
+    for step in (1.75, 0.7, 3.5):
+        dense, widths = _densify(line, np.array([4.0, 6.0, 8.0]), step)
+        seg = np.hypot(*np.diff(dense, axis=0).T)
+        assert seg.min() > 1e-6 * step and seg.max() <= step + 1e-9
+        assert np.array_equal(dense[[0, -1]], line[[0, -1]])
+        assert any(np.array_equal(p, line[1]) for p in dense)           # vertices kept
+        assert np.all(np.diff(widths[:-1]) >= 0) and widths[-1] == 8.0
