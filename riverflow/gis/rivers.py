@@ -53,7 +53,10 @@ duplicates are left out; lines drawn upstream are turned (:func:`_direct`: one o
 connected piece, found from drainage areas or stream orders, elevations, else the drawing and
 the junction angles; a delta keeps its several outlets); rivers that meet where nothing
 leaves (clipped data) get a short outlet; lines crossing without a shared vertex are cut
-where the narrower crosses the wider one's water (no junction); two channels flowing into
+where the narrower crosses the wider one's water (no junction); lines that run on into one
+another where nothing else meets are one link where one of them is short (OSM: always;
+:func:`_join_runs`); a line in land the network's loops close round is left out
+(:func:`_drop_enclosed`); two channels flowing into
 one junction that run closer than their widths above it merge into one reach there
 (:func:`_merge_close_channels`); attribute values that are text, NaN or ≤ 0 (stream orders
 below 1, OSM width tags that are no width) are not used (the next rule applies); a given
@@ -575,6 +578,7 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
     links = _direct(links, report)
     links = _join_runs(links, report, shapely.union_all(lake_geoms) if lake_geoms else None,
                        None if osm else geometry.default_width_m)
+    links = _drop_enclosed(links, report)
     plan = _plan(links, geometry, specs, report)
     links, plan = _close_clipped_ends(links, plan, geometry, specs, report)
     links, plan = _merge_close_junctions(links, plan, geometry, specs, report)
@@ -1493,6 +1497,34 @@ def _join_runs(links: list[_Link], report: RiverImport, lakes=None,
     report.notes.append(f"{joined} junctions where one line runs on into the next and nothing "
                         f"else meets: the lines joined into one link (named after the longest)")
     return out
+
+
+def _drop_enclosed(links: list[_Link], report: RiverImport) -> list[_Link]:
+    """Links that lie in land the network's loops close round (a ditch rising in a field
+    between two canals, a drain ending in an island of a braid: a line that is no side of
+    any face of the network, inside one) left out, each a reported repair: water entering
+    or leaving through such an island's land would make ψ many-valued round it (the
+    island's shore is one bank from the line's free end round to it again), which no
+    network of banks can hold. Not in strict mode."""
+    if report.strict or len(links) < 3:
+        return links
+    lines = [shapely.LineString(lk.points) for lk in links]
+    faces = shapely.get_parts(shapely.polygonize(lines))
+    if not len(faces):
+        return links
+    land = shapely.union_all(faces)
+    sides = shapely.multilinestrings(shapely.get_rings(faces))     # every face's, inner too
+    shapely.prepare(land)
+    middle = shapely.line_interpolate_point(lines, 0.5, normalized=True)
+    inside = shapely.contains(land, middle) & (shapely.distance(sides, middle) > 1e-6)
+    if not inside.any():
+        return links
+    for i in np.flatnonzero(inside):
+        lk = links[i]
+        report.repair(lk.name, lk.fid, lk.attrs,
+                      "lies in land the network's channels close round (an island), one of its "
+                      "ends there: no banks can carry water into or out of that land: left out")
+    return [lk for lk, enclosed in zip(links, inside) if not enclosed]
 
 
 def _halve(links: list[_Link], which: set[int]) -> list[_Link]:

@@ -538,3 +538,27 @@ def test_narrowing_densifies_without_a_segment_of_no_length():
         assert np.array_equal(dense[[0, -1]], line[[0, -1]])
         assert any(np.array_equal(p, line[1]) for p in dense)           # vertices kept
         assert np.all(np.diff(widths[:-1]) >= 0) and widths[-1] == 8.0
+
+
+def test_a_ditch_rising_in_an_island_between_two_arms_is_left_out(tmp_path):
+    """A river splits round a 400 m island and meets again; a ditch rises inside the island
+    and flows into the north arm (Liechtenstein's OSM extract: a drain ending in the land
+    between two canals). Its source would put water into the island's land, whose shore is
+    one bank round to it again (ψ many-valued): the build failed ("both of its banks are one
+    continuous shore"). The ditch is left out, reported; the rest builds and flows on."""
+    lines = [polyline((-400, 0), (0, 0)),
+             polyline((0, 0), (100, 150), (300, 150)),
+             polyline((300, 150), (500, 150), (600, 0)),
+             polyline((0, 0), (100, -150), (500, -150), (600, 0)),
+             polyline((600, 0), (1000, 0)),
+             polyline((250, -60), (300, 40), (300, 150))]          # the ditch in the island
+    path = write_lines(tmp_path / "island.geojson", lines,
+                       {"W": np.array([30.0, 20.0, 20.0, 20.0, 30.0, 4.0])})
+    builder = rf.read_rivers(path, origin_m=None, width_m="W")
+    graph = built(builder)
+    assert len(repairs_of(builder, "feature 5")) == 1
+    assert "lies in land the network's channels close round" in repairs_of(builder, "feature 5")[0]
+    assert "feature 5" not in {lk.name for lk in builder.report.links}
+    check_flows_downstream(graph, lines[:5], skip_m=3.0)
+    status, _ = rf.FlowField(graph).query(np.array([[300.0, 0.0]]) + ORIGIN)
+    assert status[0] != rf.FlowStatus.INSIDE                       # the island is land
