@@ -26,9 +26,6 @@ multiply-adds, no reassociation)."""
 WORKER_JIT_OPTIONS = dict(JIT_OPTIONS, nogil=True)
 """Options of the kernels the tile worker runs (tile production): they release the GIL, so
 the frame goes on meanwhile."""
-EXACT_WORKER_JIT_OPTIONS = dict(EXACT_JIT_OPTIONS, nogil=True)
-"""Options of an exact kernel that tile production and the builder call, never a frame (the
-shore's distance, :func:`riverflow.kernels.polyline.nearest_points`): it releases the GIL."""
 
 
 @njit(inline="always", **JIT_OPTIONS)

@@ -22,7 +22,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from riverflow.kernels._jit import EXACT_JIT_OPTIONS, EXACT_WORKER_JIT_OPTIONS
+from riverflow.kernels._jit import EXACT_JIT_OPTIONS
 
 LEAF = 8
 """Consecutive segments in one leaf box."""
@@ -86,7 +86,7 @@ class Nearest(NamedTuple):
     arc: np.ndarray
 
 
-@njit(**EXACT_WORKER_JIT_OPTIONS)
+@njit(**EXACT_JIT_OPTIONS)
 def nearest_points(line, xy, max_d2, out):
     """For each point ``xy[i]`` (N, 2): its nearest segment of ``line`` (a :class:`Polyline`)
     within ``max_d2`` [m²] (inf: no limit), and the distance, nearest point and arc length
