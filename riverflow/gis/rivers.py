@@ -595,6 +595,9 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
     for link, (width, q, q3, wfrom, qfrom, lateral) in zip(links, plan):
         _report_substitutions(link, wfrom, qfrom, report)
         line = _simplify(link.points, width)
+        line, hooks = _trim_hooks(line, width, link.start < 0, link.end < 0)
+        if hooks:
+            report.repair(link.name, link.fid, link.attrs, "; ".join(hooks))
         if lake_area is not None:
             if lake_area.buffer(tolerance_m).contains(shapely.LineString(line)):
                 report.repair(link.name, link.fid, link.attrs, "inside a lake: left out (the "
@@ -1527,6 +1530,37 @@ def _drop_enclosed(links: list[_Link], report: RiverImport) -> list[_Link]:
     return [lk for lk, enclosed in zip(links, inside) if not enclosed]
 
 
+HOOK_TURN_DEG = 45.0
+"""A free end's last segment shorter than its river is wide that turns off the line by more
+than this is a hook (:func:`_trim_hooks`)."""
+
+
+def _trim_hooks(p: np.ndarray, width_m: float, start_free: bool, end_free: bool
+                ) -> tuple[np.ndarray, list[str]]:
+    """A line (K, 2) [m] without the hooks at its free ends: a last segment shorter than the
+    river is wide that turns off the line by more than HOOK_TURN_DEG (a flick of the
+    digitiser's pen: Helsinki's OSM drains; the end's cap, across that segment, crossed the
+    river's own banks and ``build()`` refused the branch), its end vertex dropped, again
+    while one is left and at least two vertices remain. Returns the line and what was done."""
+    said = []
+    for free, name in ((start_free, "start"), (end_free, "end")):
+        q = p if name == "end" else p[::-1]
+        while free and len(q) > 2:
+            u, v = q[-2] - q[-3], q[-1] - q[-2]
+            last, before = float(np.hypot(*v)), float(np.hypot(*u))
+            if last >= width_m or before <= 0.0:
+                break
+            turn = math.degrees(math.acos(max(-1.0, min(1.0, float(u @ v) / max(last * before,
+                                                                             1e-300)))))
+            if turn <= HOOK_TURN_DEG:
+                break
+            said.append(f"a hook at its free {name} ({last:.2f} m turning by {turn:.0f}°, "
+                        f"shorter than its {width_m:.1f} m width): that vertex dropped")
+            q = q[:-1]
+        p = q if name == "end" else q[::-1]
+    return np.ascontiguousarray(p), said
+
+
 def _halve(links: list[_Link], which: set[int]) -> list[_Link]:
     out = []
     for i, lk in enumerate(links):
@@ -1618,6 +1652,7 @@ def _split(link: _Link, at: list[float]) -> list[_Link]:
         piece.z = (z0 + (z1 - z0) * a / s[-1], z0 + (z1 - z0) * b / s[-1])
         piece.fixed = link.fixed
         piece.cell_m = link.cell_m
+        piece.source_width_m = link.source_width_m
         out.append(piece)
     return out
 
@@ -2416,6 +2451,7 @@ def _cut_crossings(links: list[_Link], plan, crossings, geometry: HydraulicGeome
                           start=lk.start if k == 0 else -1, end=-1 if k == 0 else lk.end)
             piece.fixed = True
             piece.cell_m = lk.cell_m
+            piece.source_width_m = lk.source_width_m
             if k == 1 and not math.isfinite(lk.values["discharge_m2s"][1]):
                 piece.values["discharge_m3s"] = (volume[id(lk)], volume[id(lk)])
             width[id(piece)], volume[id(piece)] = w_n, volume[id(lk)]

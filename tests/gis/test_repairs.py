@@ -5,6 +5,7 @@ test into a small file (shapefile, GeoPackage, GeoJSON)."""
 from __future__ import annotations
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -562,3 +563,19 @@ def test_a_ditch_rising_in_an_island_between_two_arms_is_left_out(tmp_path):
     check_flows_downstream(graph, lines[:5], skip_m=3.0)
     status, _ = rf.FlowField(graph).query(np.array([[300.0, 0.0]]) + ORIGIN)
     assert status[0] != rf.FlowStatus.INSIDE                       # the island is land
+
+
+def test_a_hook_at_a_free_end_is_trimmed(tmp_path):
+    """Helsinki's OSM drains: an outlet 9 m long whose last 0.77 m turns by 89° (shorter than
+    its 1.4 m width): the end's cap, across that flick, crossed the drain's own banks and the
+    build failed ("both of its banks are one continuous shore"). The hook's vertex is
+    dropped, a reported repair; a hook at a junction is the junction's, left alone."""
+    lines = [np.array([[-542.39, 55.03], [-549.89, 66.92]]),
+             np.array([[-492.39, 97.94], [-512.89, 84.92], [-520.81, 85.3], [-549.89, 66.92]]),
+             np.array([[-549.89, 66.92], [-554.08, 73.48], [-554.73, 73.07]])]
+    path = write_lines(tmp_path / "drains.geojson", lines, {"W": np.array([1.0, 1.0, 1.41])})
+    builder = rf.read_rivers(path, origin_m=None, width_m="W")
+    built(builder)
+    (said,) = repairs_of(builder, "feature 2")
+    assert re.match(r"a hook at its free end \(0\.77 m turning by (89|90)°", said)
+    assert repairs_of(builder, "feature 0") == repairs_of(builder, "feature 1") == []
