@@ -56,7 +56,8 @@ leaves (clipped data) get a short outlet; lines crossing without a shared vertex
 where the narrower crosses the wider one's water (no junction); lines that run on into one
 another where nothing else meets are one link where one of them is short (OSM: always;
 :func:`_join_runs`); a line in land the network's loops close round is left out
-(:func:`_drop_enclosed`); two channels flowing into
+(:func:`_drop_enclosed`); a hook at a free end is trimmed (:func:`_trim_hooks`); two
+channels flowing into
 one junction that run closer than their widths above it merge into one reach there
 (:func:`_merge_close_channels`); attribute values that are text, NaN or ≤ 0 (stream orders
 below 1, OSM width tags that are no width) are not used (the next rule applies); a given
