@@ -67,7 +67,7 @@ from scipy.spatial import cKDTree
 from riverflow._extras import require
 from riverflow.gis.rivers import (DEFAULT_GEOMETRY, HydraulicGeometry, ImportedLink,
                                   RiverImport, _from_wkb, _hstore, _is_osm, _move_to_origin,
-                                  _osm_waterways, _pick_layer, _project, _wkt)
+                                  _osm_waterways, _pick_layer, _project, _wkt, read_raw)
 from riverflow.hydro.builder import MAX_TURN_DEG, RiverNetworkBuilder, upstream_first
 from riverflow.hydro.graph import GraphError
 
@@ -756,7 +756,7 @@ def _read_polygons(path: Path, layer):
         name = _pick_layer(pyogrio, path, layer)
     where = f"{path} (layer {name!r})"
     try:
-        meta, fids, wkb, columns = pyogrio.raw.read(str(path), layer=name, return_fids=True)
+        meta, fids, wkb, columns = read_raw(pyogrio, path, name)
     except Exception as exc:
         raise GraphError(f"{where}: cannot read it: {exc}") from None
     names = [str(n) for n in meta["fields"]]
@@ -804,7 +804,7 @@ def _read_lines(path: Path, lines, source_crs, where: str) -> list:
     name = ("lines" if _is_osm(lpath) and lname is None else _pick_layer(pyogrio, lpath, lname))
     lwhere = f"{lpath} (layer {name!r})"
     try:
-        meta, fids, wkb, columns = pyogrio.raw.read(str(lpath), layer=name, return_fids=True)
+        meta, fids, wkb, columns = read_raw(pyogrio, lpath, name)
     except Exception as exc:
         raise GraphError(f"{lwhere}: cannot read it: {exc}") from None
     if _is_osm(lpath):

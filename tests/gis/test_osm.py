@@ -158,3 +158,20 @@ def test_a_river_cut_at_a_culvert_a_ditch_beside_a_stream_and_a_weir(tmp_path):
         np.array([[0.0, -4.0], [0.0, 300.0], [200.0, 300.0], [208.0, 300.0]])
         + ORIGIN - np.asarray(report.origin_m or (0.0, 0.0)))
     assert (status == rf.FlowStatus.INSIDE).all() and (velocity[:, 1] > 0).all()
+
+
+def test_an_osm_file_whose_node_ids_do_not_increase(tmp_path):
+    """An editor's export lists its nodes in any order (graphhopper's moscow.osm): GDAL's OSM
+    driver refuses it ("Non increasing node id. Use OSM_USE_CUSTOM_INDEXING=NO"); the
+    readers retry with that option."""
+    river = polyline((-500, 0), (500, 0), step=100.0)
+    stream = polyline((0, 400), (0, 0), step=100.0)
+    path = write_osm(tmp_path / "shuffled.osm", [(101, river, {"waterway": "river"}),
+                                                 (102, stream, {"waterway": "stream"})])
+    lines = path.read_text().splitlines()
+    nodes = [ln for ln in lines if ln.startswith("<node")]
+    rest = [ln for ln in lines if not ln.startswith("<node")]
+    path.write_text("\n".join(rest[:2] + nodes[::-1] + rest[2:]) + "\n")
+    builder = rf.read_rivers(path)
+    assert len(builder.report.links) == 3
+    assert rf.validate_graph(builder.build()) == []
