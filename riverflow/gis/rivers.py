@@ -56,7 +56,8 @@ leaves (clipped data) get a short outlet; lines crossing without a shared vertex
 where the narrower crosses the wider one's water (no junction); lines that run on into one
 another where nothing else meets are one link where one of them is short (OSM: always;
 :func:`_join_runs`); a line in land the network's loops close round is left out
-(:func:`_drop_enclosed`); a hook at a free end is trimmed (:func:`_trim_hooks`); two
+(:func:`_drop_enclosed`); a hook at a free end is trimmed (:func:`_trim_hooks`); an OSM
+way closing a loop that flows back into itself is turned (:func:`_break_osm_loops`); two
 channels flowing into
 one junction that run closer than their widths above it merge into one reach there
 (:func:`_merge_close_channels`); attribute values that are text, NaN or ≤ 0 (stream orders
@@ -580,6 +581,8 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
     links = _join_runs(links, report, shapely.union_all(lake_geoms) if lake_geoms else None,
                        None if osm else geometry.default_width_m)
     links = _drop_enclosed(links, report)
+    if osm and flip is None:
+        _break_osm_loops(links, report)
     plan = _plan(links, geometry, specs, report)
     links, plan = _close_clipped_ends(links, plan, geometry, specs, report)
     links, plan = _merge_close_junctions(links, plan, geometry, specs, report)
@@ -2115,6 +2118,68 @@ def _turn(link: _Link) -> None:
     link.values = {key: (v[1], v[0]) for key, v in link.values.items()}
     link.z = (link.z[1], link.z[0])
     link.start, link.end = link.end, link.start
+
+
+OSM_CLASS_RANK = {"drain": 0, "ditch": 0, "stream": 1, "canal": 2, "river": 3}
+"""The order in which :func:`_break_osm_loops` turns ways: the smallest class first."""
+
+
+def _break_osm_loops(links: list[_Link], report: RiverImport) -> None:
+    """OpenStreetMap ways are drawn downstream and never turned, but a way drawn the wrong
+    way round closes a loop that flows back into itself (graphhopper's north-bayreuth.osm:
+    a stream leaving the Roter Main and drawn back up to join it 1.4 km upstream): in each
+    such loop the way of the smallest class (a ditch before a stream, a canal, a river),
+    the shortest of those, is turned (a reported repair) until none is left. Not in strict
+    mode."""
+    if report.strict:
+        return
+    for _ in range(len(links)):
+        _, left = upstream_first([lk.start for lk in links], [lk.end for lk in links])
+        if not left:
+            return
+        cycle = _a_cycle(links, left)
+        if not cycle:
+            return
+        k = min(cycle, key=lambda i: (OSM_CLASS_RANK.get(str(links[i].attrs.get("waterway")), 1),
+                                      _length(links[i].points)))
+        lk = links[k]
+        _turn(lk)
+        report.repair(lk.name, lk.fid, lk.attrs, "closed a loop that flows back into itself "
+                      f"with {', '.join(links[i].name for i in cycle if i != k)} (drawn the "
+                      "wrong way round, against OpenStreetMap's rule): turned, the smallest "
+                      "and shortest way of the loop")
+
+
+def _a_cycle(links: list[_Link], among: list[int]) -> list[int]:
+    """The links of one directed cycle among ``among`` (each leads on to the links starting
+    where it ends), or [] if none (depth first, iteratively)."""
+    outs: dict[int, list[int]] = {}
+    for i in among:
+        if links[i].start >= 0:
+            outs.setdefault(links[i].start, []).append(i)
+    colour: dict[int, int] = {}          # 1: on the path, 2: done
+    for root in among:
+        if root in colour:
+            continue
+        colour[root] = 1
+        path, stack = [root], [(root, 0)]
+        while stack:
+            node, k = stack[-1]
+            succ = outs.get(links[node].end, []) if links[node].end >= 0 else []
+            if k < len(succ):
+                stack[-1] = (node, k + 1)
+                nxt = succ[k]
+                if colour.get(nxt) == 1:
+                    return path[path.index(nxt):]
+                if nxt not in colour:
+                    colour[nxt] = 1
+                    path.append(nxt)
+                    stack.append((nxt, 0))
+            else:
+                stack.pop()
+                path.pop()
+                colour[node] = 2
+    return []
 
 
 def _direct(links: list[_Link], report: RiverImport) -> list[_Link]:

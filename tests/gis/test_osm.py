@@ -175,3 +175,22 @@ def test_an_osm_file_whose_node_ids_do_not_increase(tmp_path):
     builder = rf.read_rivers(path)
     assert len(builder.report.links) == 3
     assert rf.validate_graph(builder.build()) == []
+
+
+def test_an_osm_way_drawn_the_wrong_way_round_a_loop_is_turned(tmp_path):
+    """graphhopper's north-bayreuth.osm: a stream leaves the Roter Main and is drawn back up
+    to join it 1.4 km upstream, a loop that flows back into itself ("form a loop": refused,
+    OSM ways being never turned). The loop's smallest, shortest way is turned (a side arm
+    from upstream to downstream), a reported repair."""
+    river = polyline((0, 0), (1500, 0), step=100.0)
+    arm = polyline((1200, 0), (1100, 150), (400, 150), (300, 0), step=100.0)   # drawn upstream
+    path = write_osm(tmp_path / "loop.osm", [(101, river, {"waterway": "river", "width": "20"}),
+                                             (102, arm, {"waterway": "stream", "width": "6"})])
+    builder = rf.read_rivers(path)
+    graph = builder.build()
+    assert rf.validate_graph(graph) == []
+    (said,) = [r.what for r in builder.report.repairs if r.feature == "feature 102"]
+    assert said.startswith("closed a loop that flows back into itself") and "turned" in said
+    shift = ORIGIN - np.asarray(builder.report.origin_m or (0.0, 0.0))
+    status, velocity = rf.FlowField(graph).query(np.array([[700.0, 150.0], [700.0, 0.0]]) + shift)
+    assert (status == rf.FlowStatus.INSIDE).all() and (velocity[:, 0] > 0).all()
