@@ -57,7 +57,8 @@ where the narrower crosses the wider one's water (no junction); lines that run o
 another where nothing else meets are one link where one of them is short (OSM: always;
 :func:`_join_runs`); a line in land the network's loops close round is left out
 (:func:`_drop_enclosed`); a hook at a free end is trimmed (:func:`_trim_hooks`); an OSM
-way closing a loop that flows back into itself is turned (:func:`_break_osm_loops`); two
+way closing a loop that flows back into itself is turned (:func:`_break_osm_loops`); a free
+end in another river's water is cut back out of it (:func:`_cut_ends_in_water`); two
 channels flowing into
 one junction that run closer than their widths above it merge into one reach there
 (:func:`_merge_close_channels`); attribute values that are text, NaN or ≤ 0 (stream orders
@@ -371,6 +372,8 @@ class GisRiverBuilder(RiverNetworkBuilder):
         a braid converging at an acute angle, neighbouring rivers, a bend tighter than the
         river is wide), the widths narrow there and it tries again (up to NARROW_TRIES
         times, a reported repair per branch; not in strict mode)."""
+        if not self.report.strict:
+            _cut_ends_in_water(self._branches, self.report)
         for attempt in range(NARROW_TRIES + 1):
             try:
                 graph = super().build()
@@ -2681,6 +2684,72 @@ def _merge_close_channels(links: list[_Link], plan, geometry: HydraulicGeometry,
                           f"for its last {reach:.0f} m: merged with it there ({gap:.1f} m "
                           f"apart) into one reach {plan[i][0]:.1f} m wide that carries both")
     return links, plan
+
+
+def _cut_ends_in_water(branches, report: RiverImport) -> None:
+    """A source or an outlet (an end no other branch shares) that lies in another branch's
+    water (nearer its centre line than half the two widths) but off its junctions (Andorra's
+    OSM: a stream rising 5 m from the Valira del Nord, 15 m wide: "overlap but do not meet")
+    is cut back along its own line to where it is clear of that water (a reported repair);
+    a branch whose whole length lies in it is left alone (the build says what is wrong)."""
+    if len(branches) < 2:
+        return
+    lines = _geoms([b.centerline_m for b in branches])
+    tree = shapely.STRtree(lines)
+    ends = np.array([[b.centerline_m[0], b.centerline_m[-1]] for b in branches])
+    flat = ends.reshape(-1, 2)
+    fids = {lk.name: lk.fid for lk in report.links}
+    widest = max(float(b.widths_m.max()) for b in branches)
+    for i, b in enumerate(branches):
+        for at in (0, 1):
+            p = ends[i, at]
+            w = float(b.widths_m[0 if at == 0 else -1])
+            shared = np.hypot(*(flat - p).T) <= 0.25 * w + 1e-6
+            shared[2 * i + at] = False
+            if shared.any():
+                continue                                       # a junction
+            for j in tree.query(shapely.Point(p), predicate="dwithin",
+                                distance=0.5 * (w + widest)):
+                if j == i:
+                    continue
+                other = branches[j]
+                clear = 0.5 * (w + float(other.widths_m.max()))
+                d = float(lines[j].distance(shapely.Point(p)))
+                if d >= clear:
+                    continue
+                # the line with that end last, its points in the water from k + 1 on
+                line = b.centerline_m if at == 1 else b.centerline_m[::-1]
+                widths = b.widths_m if at == 1 else b.widths_m[::-1]
+                arc = np.r_[0.0, np.cumsum(np.hypot(*np.diff(line, axis=0).T))]
+                inside = shapely.distance(lines[j], shapely.points(line)) < clear
+                k = len(line) - 1
+                while k > 0 and inside[k]:
+                    k -= 1
+                if inside[k]:
+                    break                                      # all of it in that water
+                seg = shapely.LineString(line)
+                lo, hi = float(arc[k]), float(arc[k + 1])
+                for _ in range(40):                            # where it enters the water
+                    mid = 0.5 * (lo + hi)
+                    if lines[j].distance(seg.interpolate(mid)) >= clear:
+                        lo = mid
+                    else:
+                        hi = mid
+                kept = np.vstack([line[:k + 1], np.asarray(seg.interpolate(lo).coords)])
+                keep_w = np.r_[widths[:k + 1], widths[k]]
+                if at == 0:
+                    kept, keep_w = kept[::-1], keep_w[::-1]
+                b.centerline_m = np.ascontiguousarray(kept)
+                b.widths_m = np.ascontiguousarray(keep_w)
+                s_end = float(arc[-1])
+                report.repair(b.name, fids.get(b.name), report.attributes.get(b.name, {}),
+                              f"its {'start' if at == 0 else 'end'} lies in the water of "
+                              f"{other.name} ({d:.1f} m from its centre line, off its "
+                              f"junctions): cut back by {s_end - lo:.1f} m to where it is "
+                              f"clear of it")
+                lines[i] = shapely.LineString(b.centerline_m)
+                ends[i] = [b.centerline_m[0], b.centerline_m[-1]]
+                break
 
 
 def _narrow_branches(branches, report: RiverImport, attempt: int) -> bool:

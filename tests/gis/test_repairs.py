@@ -579,3 +579,23 @@ def test_a_hook_at_a_free_end_is_trimmed(tmp_path):
     (said,) = repairs_of(builder, "feature 2")
     assert re.match(r"a hook at its free end \(0\.77 m turning by (89|90)°", said)
     assert repairs_of(builder, "feature 0") == repairs_of(builder, "feature 1") == []
+
+
+def test_a_source_rising_in_a_rivers_water_is_cut_back_to_its_bank(tmp_path):
+    """Andorra's OSM: a stream 2 m wide rises 5.2 m from the centre line of the Valira del
+    Nord, 15 m wide, with no junction ("overlap but do not meet"; the narrowing then made
+    it 0.5 m wide there, and in Andorra's network its retries failed at other junctions).
+    Its start is cut back along it to where it is clear of the river's water, a reported
+    repair, before any narrowing; the river and the stream both flow."""
+    lines = [polyline((0, 0), (1000, 0)),
+             polyline((500, 5.2), (520, 60), (600, 400))]
+    path = write_lines(tmp_path / "spring.geojson", lines, {"W": np.array([15.0, 2.0])})
+    builder = rf.read_rivers(path, origin_m=None, width_m="W")
+    graph = built(builder)
+    (said,) = repairs_of(builder, "feature 1")
+    assert re.match(r"its start lies in the water of feature 0 \(5\.2 m from its centre line, "
+                    r"off its junctions\): cut back by [0-9.]+ m", said)
+    assert not any("narrowed" in r.what for r in builder.report.repairs)
+    start = builder._branches[1].centerline_m[0] - ORIGIN      # clear of the river's water:
+    assert start[1] >= 8.5 - 1e-6 and np.hypot(*(start - [500.0, 5.2])) < 5.0   # 7.5 + 1 m
+    check_flows_downstream(graph, [lines[0]], skip_m=3.0)
