@@ -726,6 +726,34 @@ def test_an_end_pruned_away_comes_back_beside_two_ends_at_the_edge(tmp_path):
     assert (status == INSIDE).all() and len(set(np.sign(along))) == 1
 
 
+def test_a_piece_of_the_datas_edge_no_axis_reaches_gets_one(tmp_path):
+    """A 187 m river with three long islands, cut by the data's box upstream just short of
+    where two of them start (from the survey's seed 27 of islands that may cross a bank):
+    the Voronoi edges from both banks meet just inside that edge in a triangle with the
+    channels round the islands, so the skeleton had no free end there to keep (the edge
+    out between the banks crosses it), and a pocket by the third island left it two ends
+    until that was dropped as a basin ("fewer than two free ends"). The Voronoi edge across
+    that piece of the edge, cut at it, is its end: the water comes in (or leaves) there and
+    runs one way."""
+    river = survey_river(882.43, 186.52, 22.61, 230.9,
+                         [(645.71, -47.2, 137.59, 13.48, 0.1774),
+                          (373.05, -13.05, 409.02, 26.07, -0.0793),
+                          (338.99, 50.86, 166.07, 23.66, -0.0197)],
+                         clip=(0.2685, 0.0088), shift=(0.0, 150.0))
+    water, centre, edge = river.water, river.centre, river.edges[0]
+    builder = rf.read_water(write_polygons(tmp_path / "edge.geojson", [water]),
+                            origin_m=ORIGIN)
+    graph = builder.build()
+    ends = np.array([p for _, c in _channels(builder) for p in (c[0], c[-1])])
+    assert (np.abs(ends[:, 0] - edge) < 1e-6).sum() == 1
+    rows = [14, 20, 30]
+    pts = centre[rows] @ SLOPE + (0.0, 150.0)
+    status, v = rf.FlowField(graph).query(pts)
+    along = np.einsum("ij,ij->i", v, np.gradient(centre, axis=0)[rows] @ SLOPE)
+    assert (status == INSIDE).all() and len(set(np.sign(along))) == 1
+    assert (np.abs(along) > 0.5 * np.hypot(*v.T)).all()
+
+
 def test_an_end_reach_shorter_than_its_junction_is_wide_joins(tmp_path):
     """A 93 m meandering river with four long islands, whose data's edge upstream cuts a 69 m
     island open 45 m from where the channels round it meet (from the survey's seed 71): the
