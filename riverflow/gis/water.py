@@ -927,9 +927,41 @@ def _repair(features, polygons, report: RiverImport, where: str, simplify_m: flo
         if len(holes) < len(p.interiors):
             report.notes.append(f"{len(p.interiors) - len(holes)} holes smaller than "
                                 f"{(4.0 * tolerance_m) ** 2:g} m² filled (specks, not islands)")
-        clean.append(shapely.Polygon(p.exterior, holes))
+        clean.append(_islands_apart(shapely.Polygon(p.exterior, holes), tolerance_m, report))
     clean.sort(key=lambda p: (-p.area, p.bounds))
     return clean[0] if len(clean) == 1 else shapely.MultiPolygon(clean)
+
+
+def _islands_apart(poly, tolerance_m: float, report: RiverImport):
+    """``poly`` once each island within ``tolerance_m`` of the outer shore or of
+    another island has its shore there moved back to twice that (the builder needs an island
+    to lie farther than its tolerance from every other shore; an island touching a bank at
+    a point, as map data often has, is valid but not that). Reported."""
+    rings = [poly.exterior, *poly.interiors]
+    if len(rings) < 2:
+        return poly
+    lines = [shapely.LinearRing(r) for r in rings]
+    a, b = shapely.STRtree(lines).query(lines, predicate="dwithin", distance=tolerance_m)
+    pair = a < b
+    if not pair.any():
+        return poly
+    holes = [shapely.Polygon(r) for r in poly.interiors]
+    for i, j in zip(a[pair], b[pair]):
+        # the island j (the smaller of two islands) moved back from the other shore
+        if i > 0 and holes[i - 1].area < holes[j - 1].area:
+            i, j = j, i
+        line = shapely.shortest_line(lines[i], lines[j])
+        x, y = line.interpolate(0.5, normalized=True).coords[0]
+        report.repair("island", None, None,
+                      f"the island near ({x:.1f}, {y:.1f}) is {line.length:.2f} m from "
+                      + ("the outer shore" if i == 0 else "another island")
+                      + f", within the tolerance ({tolerance_m:g} m): its shore there moved "
+                        f"back to {2.0 * tolerance_m:g} m from it")
+        holes[j - 1] = shapely.difference(holes[j - 1], shapely.buffer(
+            lines[i] if i == 0 else holes[i - 1], 2.0 * tolerance_m))
+    kept = [g for h in holes for g in shapely.get_parts(h)
+            if g.geom_type == "Polygon" and g.area > (4.0 * tolerance_m) ** 2]
+    return shapely.Polygon(poly.exterior, [g.exterior for g in kept])
 
 
 # -- channels ------------------------------------------------------------------------------------

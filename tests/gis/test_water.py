@@ -361,6 +361,34 @@ def test_a_self_intersecting_polygon_is_made_valid_and_reported(tmp_path):
     assert "a speck" in speck.what
 
 
+def test_an_island_touching_a_bank_at_a_point_is_moved_back_and_reported(tmp_path):
+    """A 40 m river 300 m long (slanted: not along the data's edge) with an island whose tip
+    touches its left bank at a point, as map data often has (a valid polygon; from the
+    survey's seed 53 of islands that may cross a bank, 0.09 m from it): the builder needs
+    an island farther than its tolerance from every other shore ("island 0 is not strictly
+    inside the water"). Its shore there is moved back to twice the tolerance (reported):
+    the network builds, and the water runs one way on both sides of the island."""
+    island = shapely.Polygon([(100.0, 4.0), (170.0, 20.0), (165.0, 9.0), (105.0, -6.0)])
+    water = shapely.normalize(shapely.transform(shapely.box(0.0, -20.0, 300.0, 20.0)
+                                                .difference(island),
+                                                lambda c: c @ SLOPE + (0.0, 150.0)))
+    assert water.is_valid and shapely.Polygon(water.interiors[0]).distance(water.exterior) == 0
+    builder = rf.read_water(write_polygons(tmp_path / "touch.geojson", [water]),
+                            origin_m=ORIGIN)
+    graph = builder.build()
+    moved = [r.what for r in builder.report.repairs if "moved back" in r.what]
+    assert len(moved) == 1 and "0.00 m from the outer shore" in moved[0]
+    given = shapely.Polygon(water.interiors[0])
+    kept = [r for poly in shapely.get_parts(builder.water_polygon) for r in poly.interiors]
+    assert len(kept) == 1 and given.difference(shapely.Polygon(kept[0])).area < 1.0
+    pts = np.array([[50.0, 0.0], [140.0, -14.0], [140.0, 17.0], [250.0, 0.0]]) @ SLOPE + (
+        0.0, 150.0)
+    status, v = rf.FlowField(graph).query(pts)
+    along = v @ SLOPE[0]
+    assert (status == INSIDE).all() and len(set(np.sign(along))) == 1
+    assert (np.abs(along) > 0.8 * np.hypot(*v.T)).all()
+
+
 def test_a_polygon_without_area_is_an_error(tmp_path):
     flat = shapely.Polygon([(0, 0), (100, 0), (200, 0), (0, 0)])
     poly = write_polygons(tmp_path / "flat.geojson", [flat])
