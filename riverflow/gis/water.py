@@ -478,43 +478,26 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
     report.links.clear()
     report.attributes.clear()
     report.repairs[:] = [r for r in report.repairs if not r.feature.startswith("water body")]
-    networks = []
     frame = extent if extent is not None else shapely.box(*water.bounds)
-    for k, part in enumerate(getattr(water, "geoms", [water])):
-        net = _channels(part, k, line_geoms, tolerance_m, report, frame, forced,
-                        np.vstack([inlet_xy, outlet_xy]))
-        longest = max(c.length for c in net.channels)
-        widest = max(float(c.widths.max()) for c in net.channels)
-        speck = part.area < SPECK_FRACTION * water.area
-        several = len(getattr(water, "geoms", [])) > 1
-        if several and (speck or longest < MIN_CHANNEL_WIDTHS * widest):
-            x, y = part.representative_point().coords[0]
-            # a pond (not a piece a lake's cut left beside it): still water, as a lake
-            pond = not speck and (not lakes or shapely.union_all(lakes).distance(part)
-                                  > tolerance_m)
-            if pond:
-                builder.add_lake(part)
-            report.repair(f"water body {k}", None, None,
-                          f"{part.area:.1f} m² of water near ({x:.1f}, {y:.1f}), apart from the "
-                          f"rest: " + (f"a speck (under {SPECK_FRACTION:g} of the water): left "
-                                       f"out" if speck else
-                                       f"no channel longer than {MIN_CHANNEL_WIDTHS:g} times "
-                                       f"its width: " + ("a pond, read as still water (a lake)"
-                                                         if pond else "left out")))
-            continue
-        networks.append(net)
+    dead: dict[int, np.ndarray] = {}
+    notes, repairs, given = list(report.notes), list(report.repairs), len(builder._lakes)
+    for _ in range(2):
+        # a skeleton left with one end once its dead ends are basins is made again with
+        # their tips not counted as ends (its pruned ends given back, _prune)
+        report.notes[:], report.repairs[:] = notes, repairs
+        del builder._lakes[given:]
+        networks = _find_networks(builder, water, line_geoms, inlet_xy, outlet_xy, dem,
+                                  tolerance_m, where, forced, frame, dead, lakes)
+        again = {net.part: np.array([p[-1] for p, _ in net.basin_axes])
+                 for net in networks if net.part not in dead and net.basin_axes
+                 and net.end_groups() < 2}
+        if not again:
+            break
+        dead.update(again)
     if not networks:                # ponds only: still water
         report.derived["axes"] = {}
         report.derived["length_m"] = 0.0
         return
-    ends = [e for net in networks for e in net.free_ends()]
-    _match_points(ends, inlet_xy, "inlet", where, water)
-    _match_points(ends, outlet_xy, "outlet", where, water)
-    heights = ((lambda xy: _dem_heights(dem, xy, report, where)) if dem is not None else None)
-    builder.kept_beside = False
-    for net in networks:
-        builder.kept_beside |= _drop_basin_spurs(net, frame, tolerance_m, report, heights,
-                                                 builder.ends_beside)
     # the free ends once the spurs are gone (their nodes are numbered anew)
     elevations = (_dem_elevations(dem, [e for net in networks for e in net.free_ends()],
                                   report, where) if dem is not None else None)
@@ -549,6 +532,53 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
                                  "between channels": sum(len(n.water.interiors) for n in networks)}
     report.derived["length_m"] = round(sum(float(shapely.LineString(c.points).length)
                                            for n in networks for c in n.channels), 1)
+
+
+def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem,
+                   tolerance_m: float, where: str, forced, frame, dead: dict,
+                   lakes=()) -> list:
+    """The networks of the water's parts (specks left out, ponds made lakes, reported),
+    inlets and outlets matched to their free ends, the skeleton's spurs into basins dropped
+    (none: ponds only). ``dead``: {part index: (N, 2) tips of dead ends that are basins, not
+    counted as the water's ends}; ``lakes``: the lakes given (a piece their cut left beside
+    one is no pond)."""
+    report = builder.report
+    networks = []
+    for k, part in enumerate(getattr(water, "geoms", [water])):
+        net = _channels(part, k, line_geoms, tolerance_m, report, frame, forced,
+                        np.vstack([inlet_xy, outlet_xy]), dead.get(k))
+        net.part = k
+        longest = max(c.length for c in net.channels)
+        widest = max(float(c.widths.max()) for c in net.channels)
+        speck = part.area < SPECK_FRACTION * water.area
+        several = len(getattr(water, "geoms", [])) > 1
+        if several and (speck or longest < MIN_CHANNEL_WIDTHS * widest):
+            x, y = part.representative_point().coords[0]
+            # a pond (not a piece a lake's cut left beside it): still water, as a lake
+            pond = not speck and (not lakes or shapely.union_all(lakes).distance(part)
+                                  > tolerance_m)
+            if pond:
+                builder.add_lake(part)
+            report.repair(f"water body {k}", None, None,
+                          f"{part.area:.1f} m² of water near ({x:.1f}, {y:.1f}), apart from the "
+                          f"rest: " + (f"a speck (under {SPECK_FRACTION:g} of the water): left "
+                                       f"out" if speck else
+                                       f"no channel longer than {MIN_CHANNEL_WIDTHS:g} times "
+                                       f"its width: " + ("a pond, read as still water (a lake)"
+                                                         if pond else "left out")))
+            continue
+        networks.append(net)
+    if not networks:
+        return networks
+    ends = [e for net in networks for e in net.free_ends()]
+    _match_points(ends, inlet_xy, "inlet", where, water)
+    _match_points(ends, outlet_xy, "outlet", where, water)
+    heights = ((lambda xy: _dem_heights(dem, xy, report, where)) if dem is not None else None)
+    builder.kept_beside = False
+    for net in networks:
+        builder.kept_beside |= _drop_basin_spurs(net, frame, tolerance_m, report, heights,
+                                                 builder.ends_beside)
+    return networks
 
 
 def _trim_overhangs(net: _Network, report: RiverImport, k: int):
@@ -897,9 +927,41 @@ def _repair(features, polygons, report: RiverImport, where: str, simplify_m: flo
         if len(holes) < len(p.interiors):
             report.notes.append(f"{len(p.interiors) - len(holes)} holes smaller than "
                                 f"{(4.0 * tolerance_m) ** 2:g} m² filled (specks, not islands)")
-        clean.append(shapely.Polygon(p.exterior, holes))
+        clean.append(_islands_apart(shapely.Polygon(p.exterior, holes), tolerance_m, report))
     clean.sort(key=lambda p: (-p.area, p.bounds))
     return clean[0] if len(clean) == 1 else shapely.MultiPolygon(clean)
+
+
+def _islands_apart(poly, tolerance_m: float, report: RiverImport):
+    """``poly`` once each island within ``tolerance_m`` of the outer shore or of
+    another island has its shore there moved back to twice that (the builder needs an island
+    to lie farther than its tolerance from every other shore; an island touching a bank at
+    a point, as map data often has, is valid but not that). Reported."""
+    rings = [poly.exterior, *poly.interiors]
+    if len(rings) < 2:
+        return poly
+    lines = [shapely.LinearRing(r) for r in rings]
+    a, b = shapely.STRtree(lines).query(lines, predicate="dwithin", distance=tolerance_m)
+    pair = a < b
+    if not pair.any():
+        return poly
+    holes = [shapely.Polygon(r) for r in poly.interiors]
+    for i, j in zip(a[pair], b[pair]):
+        # the island j (the smaller of two islands) moved back from the other shore
+        if i > 0 and holes[i - 1].area < holes[j - 1].area:
+            i, j = j, i
+        line = shapely.shortest_line(lines[i], lines[j])
+        x, y = line.interpolate(0.5, normalized=True).coords[0]
+        report.repair("island", None, None,
+                      f"the island near ({x:.1f}, {y:.1f}) is {line.length:.2f} m from "
+                      + ("the outer shore" if i == 0 else "another island")
+                      + f", within the tolerance ({tolerance_m:g} m): its shore there moved "
+                        f"back to {2.0 * tolerance_m:g} m from it")
+        holes[j - 1] = shapely.difference(holes[j - 1], shapely.buffer(
+            lines[i] if i == 0 else holes[i - 1], 2.0 * tolerance_m))
+    kept = [g for h in holes for g in shapely.get_parts(h)
+            if g.geom_type == "Polygon" and g.area > (4.0 * tolerance_m) ** 2]
+    return shapely.Polygon(poly.exterior, [g.exterior for g in kept])
 
 
 # -- channels ------------------------------------------------------------------------------------
@@ -956,6 +1018,8 @@ class _Network:
         """The dropped spurs' axes beyond their channel's bank, (points, widths) [m]: basins
         (the builder's ``basin_axes``)."""
         self.rule = ""
+        self.part = 0
+        """The index of its polygon among the water's."""
 
     def degree(self) -> np.ndarray:
         deg = np.zeros(len(self.nodes), int)
@@ -1062,6 +1126,18 @@ class _Network:
                         group.append(k)
                         grew = True
                         break
+
+    def end_groups(self) -> int:
+        """How many ends of the water its free ends make (free ends beside each other,
+        :meth:`_beside`, and those beside them are one)."""
+        ends = [n for _, n, _ in self.free_ends()]
+        group = {n: n for n in ends}
+        for i, k in enumerate(ends):
+            for e in ends[i + 1:]:
+                if self._beside(k, e):
+                    a, b = group[k], group[e]
+                    group = {n: (a if g == b else g) for n, g in group.items()}
+        return len(set(group.values()))
 
     def _beside(self, k: int, e: int) -> bool:
         """Whether free ends k and e lie nearer than their widths together (one end of the
@@ -1304,14 +1380,15 @@ def _distance_from(adj, nodes) -> np.ndarray:
 
 
 def _channels(part, k: int, lines: list, tolerance_m: float, report: RiverImport,
-              frame=None, forced=(), ends=None) -> _Network:
-    """The channels of one water polygon: along the lines in it, else its skeleton."""
+              frame=None, forced=(), ends=None, dead=None) -> _Network:
+    """The channels of one water polygon: along the lines in it, else its skeleton
+    (``dead``: tips of dead ends that are no ends of the water, :func:`skeleton`)."""
     inside = [g for g in lines if g.intersects(part)]
     if inside:
         return _line_channels(part, k, inside, tolerance_m, report, forced)
     if lines:
         report.notes.append(f"water body {k}: no line runs through it: its axes are its skeleton")
-    return _skeleton_channels(part, k, tolerance_m, report, frame, forced, ends)
+    return _skeleton_channels(part, k, tolerance_m, report, frame, forced, ends, dead)
 
 
 def _split_holes(part, enclosed=None, forced=(), open_edge=None):
@@ -1399,13 +1476,13 @@ def _chord_widths(line: np.ndarray, water) -> np.ndarray:
 
 
 def _skeleton_channels(part, k: int, tolerance_m: float, report, frame=None,
-                       forced=(), ends=None) -> _Network:
+                       forced=(), ends=None, dead=None) -> _Network:
     """Channels along the water's skeleton; holes whose loop of axes collapses become free
     islands and the skeleton is made again."""
     open_edge = _open_edge(part, frame, 2.0 * part.area / max(part.length, 1e-9), tolerance_m)
     water, free = _split_holes(part, None, forced, open_edge)
     for _ in range(len(part.interiors) + 1):
-        chains, nodes, collapsed = skeleton(water, tolerance_m, frame, ends)
+        chains, nodes, collapsed = skeleton(water, tolerance_m, frame, ends, dead)
         if collapsed is None:
             break
         hole = water.interiors[collapsed]
@@ -1422,7 +1499,7 @@ def _skeleton_channels(part, k: int, tolerance_m: float, report, frame=None,
     return net
 
 
-def skeleton(water, tolerance_m: float = 0.25, frame=None, ends=None):
+def skeleton(water, tolerance_m: float = 0.25, frame=None, ends=None, dead=None):
     """The medial axis of a polygon as channels: ([(points (K, 2), widths (K,), start node,
     end node)], node points (N, 2), the index of a hole whose loop collapsed or None).
 
@@ -1437,7 +1514,9 @@ def skeleton(water, tolerance_m: float = 0.25, frame=None, ends=None):
     OPEN_EDGE_WIDTHS times the mean width, that piece is no bank (no outline point is put on
     it, so the axis runs straight out between the banks) and the axis's end there is kept;
     so is, for each of ``ends`` (the inlets and outlets given), the widest free end whose
-    inscribed circle (grown by two sample spacings) reaches it."""
+    inscribed circle (grown by two sample spacings) reaches it. ``dead`` (points (N, 2)):
+    tips of dead ends known to be basins; the free end nearest each is not counted among
+    the water's ends when pruning leaves too few (:func:`_prune`)."""
     rings = [water.exterior, *water.interiors]
     length = sum(r.length for r in rings)
     approx_width = 2.0 * water.area / max(length, 1e-9)
@@ -1466,12 +1545,17 @@ def skeleton(water, tolerance_m: float = 0.25, frame=None, ends=None):
         pts = pts[~outer | (off > 0.25 * approx_width)]
     edges = shapely.get_parts(shapely.voronoi_polygons(shapely.MultiPoint(pts), only_edges=True))
     seg = shapely.get_coordinates(edges).reshape(-1, 2, 2)
-    ok = (shapely.contains_xy(water, seg[:, 0, 0], seg[:, 0, 1])
-          & shapely.contains_xy(water, seg[:, 1, 0], seg[:, 1, 1]))
+    inside = np.stack([shapely.contains_xy(water, seg[:, 0, 0], seg[:, 0, 1]),
+                       shapely.contains_xy(water, seg[:, 1, 0], seg[:, 1, 1])], axis=1)
+    ok = inside.all(axis=1)
     boundary = water.boundary
     shapely.prepare(boundary)
     ok[ok] &= ~shapely.intersects(boundary, edges[ok])
-    seg = seg[ok]
+    if open_edge is not None:
+        seg = np.concatenate([seg[ok], _out_through(seg, inside, seg[ok], open_edge, boundary,
+                                                    cKDTree(pts), spacing)])
+    else:
+        seg = seg[ok]
     flat = np.round(seg.reshape(-1, 2), 6)
     uniq, inv = np.unique(flat, axis=0, return_inverse=True)
     inv = inv.reshape(-1, 2)
@@ -1483,7 +1567,7 @@ def skeleton(water, tolerance_m: float = 0.25, frame=None, ends=None):
         d = float(np.hypot(*(uniq[a] - uniq[b])))
         nbr[a][b] = d
         nbr[b][a] = d
-    _prune(nbr, radius, _open_ends(nbr, uniq, radius, open_edge, ends, spacing), uniq)
+    _prune(nbr, radius, _open_ends(nbr, uniq, radius, open_edge, ends, spacing), uniq, dead)
     _keep_longest_piece(nbr)
     chains = _chains(nbr)
     chains, loops = _merge_junctions(chains, uniq, radius)
@@ -1509,6 +1593,37 @@ def skeleton(water, tolerance_m: float = 0.25, frame=None, ends=None):
         out.append((p, w, a, b))
     nodes = np.array([uniq[i] for i in sorted(ids, key=ids.get)]).reshape(-1, 2)
     return out, nodes, None
+
+
+def _out_through(seg: np.ndarray, inside: np.ndarray, kept: np.ndarray, open_edge, boundary,
+                 tree: cKDTree, spacing: float) -> np.ndarray:
+    """Voronoi edges (M, 2, 2) cut at the pieces of ``open_edge`` that no free end of the
+    skeleton ``kept`` (its edges inside the water) reaches (its inscribed circle grown by
+    two spacings, as :func:`_open_ends` asks): each edge ``seg`` from a vertex inside the
+    water (``inside``: (M, 2) of its ends) across such a piece, up to it. Where the axes on
+    either side of the water meet just inside the data's edge (islands near it), the edge
+    between the banks running out to it was all the skeleton had there."""
+    flat = np.round(kept, 6)
+    flat = flat[(flat[:, 0] != flat[:, 1]).any(axis=1)].reshape(-1, 2)
+    uniq, count = np.unique(flat, axis=0, return_counts=True)
+    leaves = uniq[count == 1]
+    reach = tree.query(leaves)[0] + 2.0 * spacing if len(leaves) else np.zeros(0)
+    lacking = [g for g in shapely.get_parts(open_edge)
+               if not (shapely.distance(g, shapely.points(leaves)) <= reach).any()]
+    cross = np.flatnonzero(inside[:, 0] != inside[:, 1])
+    out = []
+    for piece in lacking:
+        for i in cross:
+            p = seg[i, 0] if inside[i, 0] else seg[i, 1]
+            hit = shapely.get_coordinates(shapely.intersection(shapely.LineString(seg[i]),
+                                                               piece))
+            if not len(hit):
+                continue
+            q = hit[int(np.argmin(np.hypot(*(hit - p).T)))]
+            short = shapely.LineString([p, p + (1.0 - 1e-6) * (q - p)])
+            if np.hypot(*(q - p)) > 0 and not shapely.intersects(boundary, short):
+                out.append([p, q])
+    return np.array(out).reshape(-1, 2, 2)
 
 
 def _open_edge(water, frame, width: float, tolerance_m: float):
@@ -1562,13 +1677,16 @@ def _open_ends(nbr, xy: np.ndarray, radius: np.ndarray, open_edge, ends, spacing
     return keep
 
 
-def _prune(nbr: list[dict[int, float]], radius: np.ndarray, keep=None, xy=None) -> None:
+def _prune(nbr: list[dict[int, float]], radius: np.ndarray, keep=None, xy=None,
+           dead=None) -> None:
     """Remove spurs (chains from a free end to a junction) shorter than SPUR_WIDTHS local
     widths, at most all but one at each junction per pass, until none is left; free ends
     marked in ``keep`` (the water's open ends) are never removed. Where that leaves fewer
     than two free ends (a short wide river cut square across at its ends, islands near
     them: each end's spur is shorter than the channels round the islands are wide, and the
-    skeleton prunes back to the loops round them), :func:`_restore_ends` gives them back."""
+    skeleton prunes back to the loops round them), :func:`_restore_ends` gives them back.
+    The free ends nearest the points ``dead`` (tips of dead ends that are basins) are not
+    counted: a pocket off the water is no way in or out."""
     leaves_before = [i for i in range(len(nbr)) if len(nbr[i]) == 1]
     gone: list[tuple[int, int, float]] = []
     while True:
@@ -1602,8 +1720,14 @@ def _prune(nbr: list[dict[int, float]], radius: np.ndarray, keep=None, xy=None) 
     if xy is None:
         return
     leaves = [i for i in range(len(nbr)) if len(nbr[i]) == 1]
+    pockets: set[int] = set()
+    if dead is not None and len(dead) and leaves:
+        _, at = cKDTree(xy[leaves]).query(np.asarray(dead, np.float64).reshape(-1, 2))
+        pockets = {leaves[i] for i in np.atleast_1d(at)}
+    leaves = [i for i in leaves if i not in pockets]
+    leaves_before = [i for i in leaves_before if i not in pockets]
     if _end_groups(leaves, radius, xy) < 2 and _end_groups(leaves_before, radius, xy) >= 2:
-        _restore_ends(nbr, gone, xy, radius)
+        _restore_ends(nbr, gone, xy, radius, pockets)
 
 
 def _end_groups(leaves: list[int], radius: np.ndarray, xy: np.ndarray) -> int:
@@ -1625,17 +1749,18 @@ def _end_groups(leaves: list[int], radius: np.ndarray, xy: np.ndarray) -> int:
 
 
 def _restore_ends(nbr: list[dict[int, float]], gone: list[tuple[int, int, float]],
-                  xy: np.ndarray, radius: np.ndarray) -> None:
+                  xy: np.ndarray, radius: np.ndarray, pockets=()) -> None:
     """Give a pruned skeleton back the ends it needs (two at least, :func:`_end_groups`):
     from the nodes still in it, the pruned branches' trunks (each followed until it forks,
     where a river's end cut square across parts into its two corners, or ends), the trunks
-    whose ends lie farthest from each other and from the free ends left."""
+    whose ends lie farthest from each other and from the free ends left. ``pockets``: free
+    ends of dead ends that are no ends of the water (neither counted nor carried on)."""
     pruned: dict[int, dict[int, float]] = {}
     for a, b, d in gone:
         pruned.setdefault(a, {})[b] = d
         pruned.setdefault(b, {})[a] = d
     trunks = []                                  # (node path from the skeleton outwards)
-    for k in [k for k in pruned if nbr[k]]:
+    for k in [k for k in pruned if nbr[k] and k not in pockets]:
         for first in pruned[k]:
             if nbr[first]:
                 continue
@@ -1644,7 +1769,7 @@ def _restore_ends(nbr: list[dict[int, float]], gone: list[tuple[int, int, float]
                 prev, cur = cur, next(v for v in pruned[cur] if v != prev)
                 path.append(cur)
             trunks.append(path)
-    leaves = [i for i in range(len(nbr)) if len(nbr[i]) == 1]
+    leaves = [i for i in range(len(nbr)) if len(nbr[i]) == 1 and i not in pockets]
     chosen: list[list[int]] = []
     have = _end_groups(leaves, radius, xy)
     while have + len(chosen) < 2 and len(chosen) < len(trunks):

@@ -361,6 +361,34 @@ def test_a_self_intersecting_polygon_is_made_valid_and_reported(tmp_path):
     assert "a speck" in speck.what
 
 
+def test_an_island_touching_a_bank_at_a_point_is_moved_back_and_reported(tmp_path):
+    """A 40 m river 300 m long (slanted: not along the data's edge) with an island whose tip
+    touches its left bank at a point, as map data often has (a valid polygon; from the
+    survey's seed 53 of islands that may cross a bank, 0.09 m from it): the builder needs
+    an island farther than its tolerance from every other shore ("island 0 is not strictly
+    inside the water"). Its shore there is moved back to twice the tolerance (reported):
+    the network builds, and the water runs one way on both sides of the island."""
+    island = shapely.Polygon([(100.0, 4.0), (170.0, 20.0), (165.0, 9.0), (105.0, -6.0)])
+    water = shapely.normalize(shapely.transform(shapely.box(0.0, -20.0, 300.0, 20.0)
+                                                .difference(island),
+                                                lambda c: c @ SLOPE + (0.0, 150.0)))
+    assert water.is_valid and shapely.Polygon(water.interiors[0]).distance(water.exterior) == 0
+    builder = rf.read_water(write_polygons(tmp_path / "touch.geojson", [water]),
+                            origin_m=ORIGIN)
+    graph = builder.build()
+    moved = [r.what for r in builder.report.repairs if "moved back" in r.what]
+    assert len(moved) == 1 and "0.00 m from the outer shore" in moved[0]
+    given = shapely.Polygon(water.interiors[0])
+    kept = [r for poly in shapely.get_parts(builder.water_polygon) for r in poly.interiors]
+    assert len(kept) == 1 and given.difference(shapely.Polygon(kept[0])).area < 1.0
+    pts = np.array([[50.0, 0.0], [140.0, -14.0], [140.0, 17.0], [250.0, 0.0]]) @ SLOPE + (
+        0.0, 150.0)
+    status, v = rf.FlowField(graph).query(pts)
+    along = v @ SLOPE[0]
+    assert (status == INSIDE).all() and len(set(np.sign(along))) == 1
+    assert (np.abs(along) > 0.8 * np.hypot(*v.T)).all()
+
+
 def test_a_polygon_without_area_is_an_error(tmp_path):
     flat = shapely.Polygon([(0, 0), (100, 0), (200, 0), (0, 0)])
     poly = write_polygons(tmp_path / "flat.geojson", [flat])
@@ -724,6 +752,34 @@ def test_an_end_pruned_away_comes_back_beside_two_ends_at_the_edge(tmp_path):
     status, v = rf.FlowField(graph).query(pts)
     along = np.einsum("ij,ij->i", v, np.gradient(centre, axis=0)[[15, 22]] @ SLOPE)
     assert (status == INSIDE).all() and len(set(np.sign(along))) == 1
+
+
+def test_a_piece_of_the_datas_edge_no_axis_reaches_gets_one(tmp_path):
+    """A 187 m river with three long islands, cut by the data's box upstream just short of
+    where two of them start (from the survey's seed 27 of islands that may cross a bank):
+    the Voronoi edges from both banks meet just inside that edge in a triangle with the
+    channels round the islands, so the skeleton had no free end there to keep (the edge
+    out between the banks crosses it), and a pocket by the third island left it two ends
+    until that was dropped as a basin ("fewer than two free ends"). The Voronoi edge across
+    that piece of the edge, cut at it, is its end: the water comes in (or leaves) there and
+    runs one way."""
+    river = survey_river(882.43, 186.52, 22.61, 230.9,
+                         [(645.71, -47.2, 137.59, 13.48, 0.1774),
+                          (373.05, -13.05, 409.02, 26.07, -0.0793),
+                          (338.99, 50.86, 166.07, 23.66, -0.0197)],
+                         clip=(0.2685, 0.0088), shift=(0.0, 150.0))
+    water, centre, edge = river.water, river.centre, river.edges[0]
+    builder = rf.read_water(write_polygons(tmp_path / "edge.geojson", [water]),
+                            origin_m=ORIGIN)
+    graph = builder.build()
+    ends = np.array([p for _, c in _channels(builder) for p in (c[0], c[-1])])
+    assert (np.abs(ends[:, 0] - edge) < 1e-6).sum() == 1
+    rows = [14, 20, 30]
+    pts = centre[rows] @ SLOPE + (0.0, 150.0)
+    status, v = rf.FlowField(graph).query(pts)
+    along = np.einsum("ij,ij->i", v, np.gradient(centre, axis=0)[rows] @ SLOPE)
+    assert (status == INSIDE).all() and len(set(np.sign(along))) == 1
+    assert (np.abs(along) > 0.5 * np.hypot(*v.T)).all()
 
 
 def test_an_end_reach_shorter_than_its_junction_is_wide_joins(tmp_path):

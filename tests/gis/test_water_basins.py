@@ -478,6 +478,41 @@ def test_a_channel_parted_from_the_waters_end_by_a_spit_is_no_basin(tmp_path):
     assert (np.abs(along) > 0.8 * np.hypot(*v.T)).all() and len(set(np.sign(along))) == 1
 
 
+def test_a_side_channel_beside_an_end_pruned_away_is_no_basin(tmp_path):
+    """An 85 m meandering river cut square across at its ends (not along the data's edge),
+    a long thin island crossing its downstream end near the left bank (a 20 m channel
+    between them leaving beside the main one) and a 140 m island in the main channel short
+    of that end (from the survey's seed 75 of islands that may cross a bank): the main
+    end's spur is shorter than the channels round the island are wide and was pruned; the
+    side channel's end was left as the second free end, so nothing was given back, and it
+    was then dropped as a basin ("fewer than two free ends"). The skeleton is made again
+    with that dead end's tip not counted: the main end comes back, the side channel beside
+    it is a channel, and the water runs one way."""
+    river = survey_river(737.82, 84.79, 56.32, 321.08, [(517.35, 77.97, 140.0, 11.48, -0.195),
+                                                        (660.34, 66.15, 182.74, 7.13, 0.0669)],
+                         shift=(0.0, 150.0))
+    builder = rf.read_water(write_polygons(tmp_path / "end.geojson", [river.water]),
+                            origin_m=ORIGIN)
+    graph = builder.build()
+    assert builder.basins == [] and not any("is a basin" in n for n in builder.report.notes)
+    assert builder.report.derived["islands"]["between channels"] == 1
+    # two axes end on the downstream cut: one each side of the island crossing it
+    ends = np.array([p for c in builder._branches for p in (c.centerline_m[0],
+                                                             c.centerline_m[-1])])
+    ends = (ends - (0.0, 150.0)) @ SLOPE.T                    # in the river's frame
+    crossing = 66.15 - 56.32 * np.sin(737.82 / 321.08) + 0.0669 * (737.82 - 660.34)
+    off = ends[ends[:, 0] > 700.0, 1] - 56.32 * np.sin(ends[ends[:, 0] > 700.0, 0] / 321.08)
+    assert len(off) == 2 and off.min() < crossing < off.max(), ends.round(1)
+    # in the side channel, either side of the island, upstream: one way down the river
+    x = np.array([700.0, 560.0, 560.0, 200.0])
+    y = 56.32 * np.sin(x / 321.08) + np.array([33.0, 31.0, -20.0, 0.0])
+    status, v = rf.FlowField(graph).query(np.c_[x, y] @ SLOPE + (0.0, 150.0))
+    assert (status == INSIDE).all()
+    along = np.einsum("ij,ij->i", v, np.c_[np.ones(4), 56.32 / 321.08 * np.cos(x / 321.08)]
+                      @ SLOPE)
+    assert (np.abs(along) > 0.5 * np.hypot(*v.T)).all() and len(set(np.sign(along))) == 1
+
+
 def test_a_backwater_behind_a_spit_is_still_water(tmp_path):
     """A straight 100 m river with a long thin island crossing its left bank at a sharp
     angle (0.15 rad; from the survey's seeds 31 and 91 of islands that may cross a bank): a
