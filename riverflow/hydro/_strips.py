@@ -84,7 +84,15 @@ def strip_polygon(centerline_m: np.ndarray, widths_m: np.ndarray) -> shapely.Geo
 
 
 def _strip_union(p: np.ndarray, h: np.ndarray, n: np.ndarray, widths_m: np.ndarray) -> shapely.Geometry:
-    """Strip as a union of segment quads and vertex bevels (robust for any bend)."""
+    """Strip as a union of segment quads and vertex bevels (robust for any bend); of one
+    width, GEOS's buffer of the line (flat ends, mitred joins clipped at MITER_LIMIT): the
+    same strip but at the mitre-clipped outer corners (0.3 m at most on graphhopper's Beatty
+    washes, 0.01 % of the area) in one operation, not a union of thousands of pieces (a
+    real line with a vertex every few metres and a few tight bends: 16 s of unions there)."""
+    if np.all(widths_m == widths_m[0]):
+        return drop_slivers(shapely.buffer(shapely.LineString(p), float(h[0]), cap_style="flat",
+                                           join_style="mitre", mitre_limit=MITER_LIMIT),
+                            0.25 * float(widths_m[0]) ** 2)
     t = np.stack([n[:, 1], -n[:, 0]], axis=1)
     # consecutive quads overlap by 2 ε at interior vertices: exactly shared edges computed
     # from nearly equal normals would leave floating-point cracks in the union
