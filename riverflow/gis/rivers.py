@@ -490,7 +490,7 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
     layer_name = "lines" if osm and layer is None else _pick_layer(pyogrio, path, layer)
     where = f"{path} (layer {layer_name!r})"
     try:
-        meta, fids, wkb, columns = read_raw(pyogrio, path, layer_name)
+        meta, fids, wkb, columns = _read_raw(pyogrio, path, layer_name)
     except Exception as exc:  # pyogrio's DataSourceError and friends: say which file
         raise GraphError(f"{where}: cannot read it: {exc}") from None
     names = [str(n) for n in meta["fields"]]
@@ -643,7 +643,7 @@ def _osm_fall_features(pyogrio, path: Path, fids, wkb, table: dict):
         return None
 
     try:
-        meta, pfids, pwkb, pcols = read_raw(pyogrio, path, "points")
+        meta, pfids, pwkb, pcols = _read_raw(pyogrio, path, "points")
         pnames = [str(n) for n in meta["fields"]]
     except Exception:  # noqa: BLE001 - no points layer: no falls from nodes
         pfids, pwkb, pcols, pnames = [], [], [], []
@@ -828,7 +828,7 @@ def _osm_width(text) -> float:
         return math.nan
 
 
-def read_raw(pyogrio, path: Path, layer: str):
+def _read_raw(pyogrio, path: Path, layer: str):
     """``pyogrio.raw.read`` of a layer with its fids; an OpenStreetMap file whose node ids
     do not increase (an editor's export, not a planet extract: GDAL's OSM driver then asks
     for OSM_USE_CUSTOM_INDEXING=NO) is read again with that option (its slower index)."""

@@ -67,7 +67,7 @@ from scipy.spatial import cKDTree
 from riverflow._extras import require
 from riverflow.gis.rivers import (DEFAULT_GEOMETRY, HydraulicGeometry, ImportedLink,
                                   RiverImport, _from_wkb, _hstore, _is_osm, _move_to_origin,
-                                  _osm_waterways, _pick_layer, _project, _wkt, read_raw)
+                                  _osm_waterways, _pick_layer, _project, _read_raw, _wkt)
 from riverflow.hydro.builder import MAX_TURN_DEG, RiverNetworkBuilder, upstream_first
 from riverflow.hydro.graph import GraphError
 
@@ -544,6 +544,7 @@ def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy
     one is no pond)."""
     report = builder.report
     networks = []
+    lake_area = shapely.union_all(lakes) if len(lakes) else None
     for k, part in enumerate(getattr(water, "geoms", [water])):
         net = _channels(part, k, line_geoms, tolerance_m, report, frame, forced,
                         np.vstack([inlet_xy, outlet_xy]), dead.get(k))
@@ -555,8 +556,7 @@ def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy
         if several and (speck or longest < MIN_CHANNEL_WIDTHS * widest):
             x, y = part.representative_point().coords[0]
             # a pond (not a piece a lake's cut left beside it): still water, as a lake
-            pond = not speck and (not lakes or shapely.union_all(lakes).distance(part)
-                                  > tolerance_m)
+            pond = not speck and (lake_area is None or lake_area.distance(part) > tolerance_m)
             if pond:
                 builder.add_lake(part)
             report.repair(f"water body {k}", None, None,
@@ -808,7 +808,7 @@ def _read_polygons(path: Path, layer):
         name = _pick_layer(pyogrio, path, layer)
     where = f"{path} (layer {name!r})"
     try:
-        meta, fids, wkb, columns = read_raw(pyogrio, path, name)
+        meta, fids, wkb, columns = _read_raw(pyogrio, path, name)
     except Exception as exc:
         raise GraphError(f"{where}: cannot read it: {exc}") from None
     names = [str(n) for n in meta["fields"]]
@@ -856,7 +856,7 @@ def _read_lines(path: Path, lines, source_crs, where: str) -> list:
     name = ("lines" if _is_osm(lpath) and lname is None else _pick_layer(pyogrio, lpath, lname))
     lwhere = f"{lpath} (layer {name!r})"
     try:
-        meta, fids, wkb, columns = read_raw(pyogrio, lpath, name)
+        meta, fids, wkb, columns = _read_raw(pyogrio, lpath, name)
     except Exception as exc:
         raise GraphError(f"{lwhere}: cannot read it: {exc}") from None
     if _is_osm(lpath):
