@@ -49,7 +49,8 @@ results can be mapped back; ``builder.report.origin_m`` the shift.
 Repairs (``strict=False``, the default): real data is repaired as it comes and every repair
 is a :class:`Repair` in ``builder.report.repairs`` naming the feature (id and attributes) and
 what was done: features that are not lines, non-finite vertices, zero-length lines and
-duplicates are left out; lines drawn upstream are turned (:func:`_direct`: one outlet per
+duplicates are left out; the loop of a line that crosses itself is cut out
+(:func:`_cut_self_loops`); lines drawn upstream are turned (:func:`_direct`: one outlet per
 connected piece, found from drainage areas or stream orders, elevations, else the drawing and
 the junction angles; a delta keeps its several outlets); rivers that meet where nothing
 leaves (clipped data) get a short outlet; lines crossing without a shared vertex are cut
@@ -1318,7 +1319,7 @@ def _wkt(crs) -> str | None:
 
 def _clean(links: list[_Link], report: RiverImport) -> list[_Link]:
     """Drop repeated vertices, zero-length lines and spikes (turns sharper than the builder
-    takes)."""
+    takes); cut out the loops of a line that crosses itself (not in strict mode)."""
     out, spikes = [], 0
     for link in links:
         p = link.points
@@ -1336,12 +1337,44 @@ def _clean(links: list[_Link], report: RiverImport) -> list[_Link]:
                           "left out")
             continue
         spikes += n
+        p, cut_m = (p, 0.0) if report.strict else _cut_self_loops(p)
+        if cut_m > 0.0:
+            p, n = _drop_spikes(p)          # where the loop's two legs met: a turn back
+            spikes += n
+            report.repair(link.name, link.fid, link.attrs,
+                          f"crosses itself (drawn out and back over itself, or with a twist): "
+                          f"the loop between the crossings cut out ({cut_m:.0f} m of line)")
         link.points = p
         out.append(link)
     if spikes:
         report.notes.append(f"{spikes} vertices dropped where a line turned back on itself "
                             f"(a turn sharper than {MAX_TURN_DEG:.0f}°)")
     return out
+
+
+def _cut_self_loops(p: np.ndarray) -> tuple[np.ndarray, float]:
+    """A line that crosses (or touches) itself with each loop cut out: from the first
+    segment another one meets to the last segment that meets it, joined at their crossing,
+    until the line is simple; a closed ring is left as it is. Returns the line and the
+    length cut out [m]."""
+    line = shapely.LineString(p)
+    if line.is_simple or line.is_ring:
+        return p, 0.0
+    before = _length(p)
+    for _ in range(len(p)):
+        segs = shapely.linestrings(np.stack([p[:-1], p[1:]], axis=1))
+        a, b = shapely.STRtree(segs).query(segs, predicate="intersects")
+        keep = b > a + 1                     # not itself, not its neighbour (a shared vertex)
+        a, b = a[keep], b[keep]
+        if not len(a):
+            break
+        i = int(a.min())
+        j = int(b[a == i].max())
+        x = shapely.intersection(segs[i], segs[j])
+        at = np.asarray(shapely.get_coordinates(x)[0]) if not x.is_empty else p[i + 1]
+        p = np.vstack([p[:i + 1], at, p[j + 1:]])
+        p = p[np.concatenate([[True], np.any(np.abs(np.diff(p, axis=0)) > 1e-9, axis=1)])]
+    return p, max(before - _length(p), 0.0)
 
 
 def _drop_spikes(p: np.ndarray) -> tuple[np.ndarray, int]:
@@ -1498,7 +1531,7 @@ def _join_runs(links: list[_Link], report: RiverImport, lakes=None,
     if not after:
         return links
     before = {b: a for a, b in after.items()}
-    out, joined, seen = [], 0, set()
+    out, joined, seen, spikes = [], 0, set(), 0
     for i, lk in enumerate(links):
         if i in before or i in seen:
             continue                    # not the first of its run (or a ring: kept as is)
@@ -1513,6 +1546,8 @@ def _join_runs(links: list[_Link], report: RiverImport, lakes=None,
         main = max(pieces, key=lambda p: _length(p.points))
         first, last = pieces[0], pieces[-1]
         points = np.concatenate([pieces[0].points] + [p.points[1:] for p in pieces[1:]])
+        points, n = _drop_spikes(points)        # a joint may turn back (two ways' ends)
+        spikes += n
         values = {key: (first.values[key][0], last.values[key][1]) for key in first.values}
         link = _Link(main.name, main.fid, np.ascontiguousarray(points), main.attrs, values,
                      first.start, last.end, (first.z[0], last.z[1]),
@@ -1521,7 +1556,9 @@ def _join_runs(links: list[_Link], report: RiverImport, lakes=None,
         joined += len(run) - 1
     out += [links[i] for i in range(len(links)) if i not in seen and i in before]  # rings
     report.notes.append(f"{joined} junctions where one line runs on into the next and nothing "
-                        f"else meets: the lines joined into one link (named after the longest)")
+                        f"else meets: the lines joined into one link (named after the longest)"
+                        + (f"; {spikes} vertices dropped where the joined line turned back on "
+                           f"itself (sharper than {MAX_TURN_DEG:.0f}°)" if spikes else ""))
     return out
 
 
@@ -2132,19 +2169,23 @@ def _break_osm_loops(links: list[_Link], report: RiverImport) -> None:
     way round closes a loop that flows back into itself (graphhopper's north-bayreuth.osm:
     a stream leaving the Roter Main and drawn back up to join it 1.4 km upstream): in each
     such loop the way of the smallest class (a ditch before a stream, a canal, a river),
-    the shortest of those, is turned (a reported repair) until none is left. Not in strict
+    the shortest of those, is turned (a reported repair) until none is left; a way is turned
+    once at most (three ways between two junctions drawn →, ←, →: turning the shortest
+    closes the loop with the third, which turned it back, on and on). Not in strict
     mode."""
     if report.strict:
         return
+    turned: set[int] = set()
     for _ in range(len(links)):
         _, left = upstream_first([lk.start for lk in links], [lk.end for lk in links])
         if not left:
             return
-        cycle = _a_cycle(links, left)
-        if not cycle:
+        cycle = [i for i in _a_cycle(links, left) if i not in turned]
+        if not cycle:           # (each way turned once at most: no turning back and forth)
             return
         k = min(cycle, key=lambda i: (OSM_CLASS_RANK.get(str(links[i].attrs.get("waterway")), 1),
                                       _length(links[i].points)))
+        turned.add(k)
         lk = links[k]
         _turn(lk)
         report.repair(lk.name, lk.fid, lk.attrs, "closed a loop that flows back into itself "

@@ -578,7 +578,23 @@ def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy
     for net in networks:
         builder.kept_beside |= _drop_basin_spurs(net, frame, tolerance_m, report, heights,
                                                  builder.ends_beside)
-    return networks
+    kept = []
+    for net in networks:
+        ends = net.free_ends()
+        if len(ends) >= 2 or net.inlets or net.outlets:
+            kept.append(net)
+            continue
+        # a ring of water round its islands (a moat; Liechtenstein's OSM: a riverbank
+        # polygon round an island, cut off from its river), its dead ends basins: no way in
+        # or out, still water
+        part = getattr(water, "geoms", [water])[net.part]
+        x, y = part.representative_point().coords[0]
+        builder.add_lake(part)
+        report.repair(f"water body {net.part}", None, None,
+                      f"{part.area:.1f} m² of water near ({x:.1f}, {y:.1f}), a ring round "
+                      f"{len(part.interiors)} islands with {len(ends)} free ends beside its "
+                      f"dead ends: no way in and out, read as still water (a lake)")
+    return kept
 
 
 def _trim_overhangs(net: _Network, report: RiverImport, k: int):

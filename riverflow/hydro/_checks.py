@@ -137,20 +137,21 @@ def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6,
     signed = [_signed_area(lp) for lp in loops]
     polys = [shapely.Polygon(lp) for lp in loops if len(lp) >= 3]
     poly_area = [a for a, lp in enumerate(loops) if len(lp) >= 3]
-    # the counter-clockwise loops containing each loop's first point (one tree query)
+    # how many other loops hold each loop's first point (one tree query): water (counter-
+    # clockwise) at an even depth, islands (clockwise) at an odd one (odd winding rule: a
+    # pond on a river's island is water again)
     first = shapely.points(np.array([lp[0] for lp in loops]).reshape(-1, 2))
-    ccw_around: dict[int, set[int]] = {}
+    depth = np.zeros(len(loops), int)
     if polys:
         at, by = shapely.STRtree(polys).query(first, predicate="within")
         for a, j in zip(at, by):
-            if signed[poly_area[j]] > 0:
-                ccw_around.setdefault(int(a), set()).add(poly_area[j])
+            if poly_area[j] != a:
+                depth[a] += 1
     for a, lp in enumerate(loops):
         sa = signed[a]
-        inside_other = bool(ccw_around.get(a, set()) - {a})
-        if sa > 0 and inside_other:
+        if sa > 0 and depth[a] % 2:
             problems.append(f"area {a}: counter-clockwise loop inside another area")
-        if sa < 0 and not inside_other:
+        if sa < 0 and not depth[a] % 2:
             problems.append(f"area {a}: clockwise loop that is not an island (water on its right)")
     # water on the left of every bank: a point just left of each segment is in the water
     # described by the areas and a point just right is not (all banks' points in one prepared
@@ -158,13 +159,18 @@ def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6,
     # their axis: their test is the first one; so may a lake's shore, whose axes only tie it
     # to the lake's component: its flow is the lake's own potential flow, and a jagged shore's
     # bays and spits face its axes every way)
-    ccw = [p for p, a in zip(polys, poly_area) if signed[a] > 0]
-    cw = [p for p, a in zip(polys, poly_area) if signed[a] < 0]
     # (the loops of a sound graph are disjoint: a union by disjoint subsets leaves them as
-    # they are, where the cascaded union nodes every edge again, holding ~150 B per vertex)
-    water = shapely.disjoint_subset_union_all(ccw)
-    if cw:
-        water = shapely.difference(water, shapely.disjoint_subset_union_all(cw))
+    # they are, where the cascaded union nodes every edge again, holding ~150 B per vertex);
+    # each level of nesting in turn: the water at depth 2k less the islands at 2k + 1
+    levels = []
+    for level in range(0, int(depth.max(initial=0)) + 1, 2):
+        ccw = [p for p, a in zip(polys, poly_area) if signed[a] > 0 and depth[a] == level]
+        cw = [p for p, a in zip(polys, poly_area) if signed[a] < 0 and depth[a] == level + 1]
+        part = shapely.disjoint_subset_union_all(ccw)
+        if cw:
+            part = shapely.difference(part, shapely.disjoint_subset_union_all(cw))
+        levels.append(part)
+    water = levels[0] if len(levels) == 1 else shapely.union_all(levels)
     in_hole = {c for a in range(len(loops)) if signed[a] < 0 for c, _ in graph.areas[a].curves}
     in_hole |= {c for a in graph.lakes() for c, _ in graph.areas[a].curves}
     # a bank of two areas (a basin's mouth, riverflow.hydro._basins) has water on both sides
@@ -173,7 +179,7 @@ def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6,
         for c in {c for c, _ in area.curves}:
             n_areas[c] = n_areas.get(c, 0) + 1
     two_sided = {c for c, n in n_areas.items() if n > 1}
-    del loops, polys, ccw, cw, first     # (copies of the whole outline: the peak is below)
+    del loops, polys, levels, first     # (copies of the whole outline: the peak is below)
     linked = [i for i in banks if 0 <= curves[i].river < len(curves)]
     # every linked bank's segments in bulk, banks grouped by their axis (one nearest-point
     # query per axis), in chunks of about CHUNK_SEGMENTS segments (the arrays of a chunk are

@@ -162,17 +162,19 @@ class _Validator:
         g = self.g
         banks = [i for i in g.banks() if i in self.poly]
         in_loop: set[int] = set()
+        # a lake's shore faces its axes every way (bays, spits): its axes only tie it to the
+        # lake's network, its flow is the lake's own, and its area's orientation says where
+        # its water is
+        lake_shore = {c for a in g.lakes() for c, _ in g.areas[a].curves}
         for loop in _loops(g, banks):  # bank-only loops are islands: water outside
             in_loop.update(loop)
+            if all(i in lake_shore for i in loop):
+                continue            # a lake's whole shore (still water, no river): water inside
             pts = np.vstack([self.poly[i][:-1] for i in loop])
             if _signed_area(pts) > 0:
                 for i in loop:
                     self.add(i, "wrong-side", f"island loop {loop} runs counter-clockwise: "
                              "the water (outside) is on its right; reverse it")
-        # a lake's shore faces its axes every way (bays, spits): its axes only tie it to the
-        # lake's network, its flow is the lake's own, and its area's orientation says where
-        # its water is
-        lake_shore = {c for a in g.lakes() for c, _ in g.areas[a].curves}
         for i in banks:
             river = g.curves[i].river
             if i in in_loop or i in lake_shore or (river != NO_CURVE
