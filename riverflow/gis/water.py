@@ -549,14 +549,18 @@ def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy
         net = _channels(part, k, line_geoms, tolerance_m, report, frame, forced,
                         np.vstack([inlet_xy, outlet_xy]), dead.get(k))
         net.part = k
-        longest = max(c.length for c in net.channels)
-        widest = max(float(c.widths.max()) for c in net.channels)
         speck = part.area < SPECK_FRACTION * water.area
+        beside_lake = lake_area is not None and lake_area.distance(part) <= tolerance_m
+        if not net.channels and not (speck or beside_lake):
+            _still(builder, part, k, "no channel in its skeleton")
+            continue
+        longest = max((c.length for c in net.channels), default=0.0)
+        widest = max((float(c.widths.max()) for c in net.channels), default=0.0)
         several = len(getattr(water, "geoms", [])) > 1
-        if several and (speck or longest < MIN_CHANNEL_WIDTHS * widest):
+        if not net.channels or several and (speck or longest < MIN_CHANNEL_WIDTHS * widest):
             x, y = part.representative_point().coords[0]
             # a pond (not a piece a lake's cut left beside it): still water, as a lake
-            pond = not speck and (lake_area is None or lake_area.distance(part) > tolerance_m)
+            pond = not (speck or beside_lake)
             if pond:
                 builder.add_lake(part)
             report.repair(f"water body {k}", None, None,
@@ -585,16 +589,21 @@ def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy
             kept.append(net)
             continue
         # a ring of water round its islands (a moat; Liechtenstein's OSM: a riverbank
-        # polygon round an island, cut off from its river), its dead ends basins: no way in
-        # or out, still water
-        part = getattr(water, "geoms", [water])[net.part]
-        x, y = part.representative_point().coords[0]
-        builder.add_lake(part)
-        report.repair(f"water body {net.part}", None, None,
-                      f"{part.area:.1f} m² of water near ({x:.1f}, {y:.1f}), a ring round "
-                      f"{len(part.interiors)} islands with {len(ends)} free ends beside its "
-                      f"dead ends: no way in and out, read as still water (a lake)")
+        # polygon round an island, cut off from its river), its dead ends basins
+        _still(builder, getattr(water, "geoms", [water])[net.part], net.part,
+               f"{len(ends)} free ends beside its dead ends")
     return kept
+
+
+def _still(builder: WaterBuilder, part, k: int, why: str) -> None:
+    """Water body ``k`` with no way in or out (``why``) as still water: a lake (reported)."""
+    x, y = part.representative_point().coords[0]
+    builder.add_lake(part)
+    builder.report.repair(f"water body {k}", None, None,
+                          f"{part.area:.1f} m² of water near ({x:.1f}, {y:.1f})"
+                          + (f", a ring round {len(part.interiors)} islands" if part.interiors
+                             else "") + f", {why}: no way in and out, read as still water "
+                          "(a lake)")
 
 
 def _trim_overhangs(net: _Network, report: RiverImport, k: int):
@@ -1507,9 +1516,8 @@ def _skeleton_channels(part, k: int, tolerance_m: float, report, frame=None,
                                                  if j != collapsed])
     channels = [_Channel(pts, w, "skeleton", a, b, f"water {k} channel {i}")
                 for i, (pts, w, a, b) in enumerate(chains)]
-    if not channels:
-        raise GraphError(f"water body {k} near {_xy_text(water.centroid.coords[0])}: "
-                         f"its skeleton has no channel (a blob with no way in or out)")
+    if not channels:        # a blob, a ring round an island: still water (_find_networks)
+        return _Network(part, [], [], np.zeros((0, 2)))
     net = _Network(water, free, channels, nodes)
     _extend_free_ends(net, water)
     return net

@@ -101,15 +101,19 @@ def cut_branches(branches: list, lakes: list[Lake], tolerance_m: float):
     union = shapely.union_all([lk.polygon for lk in lakes])
     shores = shapely.union_all([lk.polygon for lk in lakes if not lk.basin])
     out, ends, origin = [], [], []
+    tips = np.array([[b.centerline_m[0], b.centerline_m[-1]] for b in branches]).reshape(-1, 2)
     for i, b in enumerate(branches):
         line, w = b.centerline_m, b.widths_m
-        # an end just outside a (lake's, not a basin's) shore is drawn on to it
+        # a free end just outside a (lake's, not a basin's) shore is drawn on to it (not a
+        # junction: a pond on the island two channels part round lies near where they part)
         for at_start in (True, False):
             p = line[0] if at_start else line[-1]
             width = w[0] if at_start else w[-1]
             pt = shapely.Point(p)
             if shores.is_empty or shores.contains(pt):
                 continue
+            if int(np.sum(np.hypot(*(tips - p).T) <= 0.25 * width + 1e-9)) > 1:
+                continue                                # (itself and another end: a junction)
             d = shores.boundary.distance(pt)
             if 1e-6 * max(1.0, np.abs(p).max()) < d <= END_SNAP * width:
                 q = np.asarray(shapely.ops.nearest_points(shores.boundary, pt)[0].coords[0])

@@ -125,7 +125,9 @@ def _pieces(graph: HydroGraph, area: int, tolerance_m: float):
 
 
 def lake_islands(graph: HydroGraph, area: int, tolerance_m: float) -> list[int]:
-    """The areas that are islands in lake ``area`` (loops inside its outline, odd winding)."""
+    """The areas that are islands in lake ``area`` (loops inside its outline, odd winding:
+    a loop's vertex inside it, not a point inside the loop: a pond on a river's island is
+    inside the loops of the river and the island)."""
     from riverflow.hydro.areas import area_ring
 
     outline = shapely.Polygon(area_ring(graph, area, tolerance_m))
@@ -134,7 +136,7 @@ def lake_islands(graph: HydroGraph, area: int, tolerance_m: float) -> list[int]:
         if a == area or graph.areas[a].is_lake:
             continue
         ring = area_ring(graph, a, tolerance_m)
-        if len(ring) >= 3 and outline.contains(shapely.Polygon(ring).representative_point()):
+        if len(ring) >= 3 and outline.contains(shapely.Point(ring[0])):
             out.append(a)
     return out
 

@@ -194,3 +194,61 @@ def test_an_osm_way_drawn_the_wrong_way_round_a_loop_is_turned(tmp_path):
     shift = ORIGIN - np.asarray(builder.report.origin_m or (0.0, 0.0))
     status, velocity = rf.FlowField(graph).query(np.array([[700.0, 150.0], [700.0, 0.0]]) + shift)
     assert (status == rf.FlowStatus.INSIDE).all() and (velocity[:, 0] > 0).all()
+
+
+def test_an_osm_way_drawn_out_and_back_over_itself(tmp_path):
+    """Liechtenstein's OSM extract of today: a stream's way drawn up a valley and back down
+    across its own line (it crosses itself twice), beside a stream drawn down the same
+    valley: the crossings made pieces between the same two nodes in both directions, and
+    turning one closed the loop again with the next ("a loop that flows back into itself",
+    the whole file refused). The loop between its crossings is cut out, a reported repair."""
+    river = polyline((0, 0), (1500, 0), step=100.0)
+    hairpin = polyline((300, 400), (500, 800), (520, 790), (380, 620), (300, 300), (250, 0),
+                       step=20.0)
+    path = write_osm(tmp_path / "hairpin.osm", [(101, river, {"waterway": "river", "width": "20"}),
+                                                (102, hairpin, {"waterway": "stream"})])
+    builder = rf.read_rivers(path)
+    graph = builder.build()
+    assert rf.validate_graph(graph) == []
+    (said,) = [r.what for r in builder.report.repairs if r.feature == "feature 102"]
+    assert said.startswith("crosses itself") and "loop between the crossings cut out" in said
+    shift = ORIGIN - np.asarray(builder.report.origin_m or (0.0, 0.0))
+    status, velocity = rf.FlowField(graph).query(np.array([[275.0, 150.0]]) + shift)
+    assert status[0] == rf.FlowStatus.INSIDE and velocity[0, 1] < 0.0     # down to the river
+
+
+def test_osm_ways_joined_where_the_line_turns_back(tmp_path):
+    """Two ways of one stream meeting where the line turns back on itself (170°: drawn to a
+    point and back out beside itself): joined into one link, the builder refused the turn
+    ("turns back on itself"); the joint's spike is dropped, as a single line's are."""
+    river = polyline((0, 0), (1500, 0), step=100.0)
+    upper = polyline((600, 700), (600, 320), step=50.0)
+    lower = np.array([[600.0, 320.0], [612.0, 390.0], [700.0, 300.0], [750.0, 0.0]])
+    path = write_osm(tmp_path / "joint.osm", [(101, river, {"waterway": "river", "width": "20"}),
+                                              (102, upper, {"waterway": "stream"}),
+                                              (103, lower, {"waterway": "stream"})])
+    builder = rf.read_rivers(path)
+    assert rf.validate_graph(builder.build()) == []
+    assert any("joined into one link" in n and "turned back on itself" in n
+               for n in builder.report.notes)
+
+
+def test_a_loop_of_three_ways_between_two_junctions_is_broken_once_each():
+    """Three OSM ways between two junctions drawn →, ←, →, the first the shortest: turning it
+    closed a loop with the third, which turned it back, and so on until the loop was left
+    ("flows back into itself"). A way is turned once at most."""
+    from riverflow.gis.rivers import RiverImport, _break_osm_loops, _Link
+    from riverflow.hydro.builder import upstream_first
+
+    def link(name, pts, start, end):
+        return _Link(name, 0, np.asarray(pts, float), {"waterway": "stream"}, {}, start, end)
+
+    links = [link("in", [(0, 0), (100, 0)], -1, 0),
+             link("a", [(100, 0), (300, 0)], 0, 1),
+             link("b", [(300, 0), (200, 80), (100, 0)], 1, 0),
+             link("c", [(100, 0), (200, -150), (300, 0)], 0, 1),
+             link("out", [(300, 0), (400, 0)], 1, -1)]
+    report = RiverImport("x.osm", "lines", len(links), None, None)
+    _break_osm_loops(links, report)
+    _, left = upstream_first([lk.start for lk in links], [lk.end for lk in links])
+    assert left == [] and len(report.repairs) <= 2

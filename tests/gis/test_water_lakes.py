@@ -177,3 +177,45 @@ def test_osm_ponds_whose_rings_cross_themselves_or_each_other(tmp_path):
     areas = sorted(shapely.Polygon(area_ring(graph, k)).area for k in graph.lakes())
     assert areas[-1] > shapely.Point(0, 0).buffer(40, quad_segs=7).area      # the two as one
     assert 1400.0 < areas[0] <= areas[1] < 1500.0                           # bow tie's halves
+
+
+def test_a_ring_of_water_round_an_island_beside_a_river_is_still_water(tmp_path):
+    """Liechtenstein's OSM extract of today: a riverbank polygon round an island, cut off
+    from its river (a ring of water, its skeleton a loop): no way in or out, and the whole
+    file was refused ("fewer than two free ends"). It is still water, a lake with its
+    island (reported); the river beside it builds and flows."""
+    moat = shapely.Point(600, 300).buffer(45).difference(shapely.Point(600, 300).buffer(20))
+    river = shapely.LineString([(0, 0), (1200, 0)]).buffer(15, cap_style="flat")
+    path = write_tagged(tmp_path / "moat.gpkg", [river, moat], ["river", "river"])
+    b = rf.read_water(path, inlets=[tuple(ORIGIN + (0, 0))])
+    graph = b.build()
+    assert rf.validate_graph(graph) == []
+    (said,) = [r.what for r in b.report.repairs if "no way in and out" in r.what]
+    assert "a ring round 1 islands" in said and "still water (a lake)" in said
+    (k,) = graph.lakes()
+    assert abs(shapely.Polygon(area_ring(graph, k)).area - moat.exterior.convex_hull.area) \
+        < 0.02 * moat.exterior.convex_hull.area
+    shift = ORIGIN - np.asarray(b.report.origin_m or (0.0, 0.0))
+    status, v = rf.FlowField(graph).query(np.array([[600.0, 332.0], [600.0, 300.0],
+                                                    [600.0, 0.0]]) + shift)
+    assert list(status) == [rf.FlowStatus.INSIDE, rf.FlowStatus.OUTSIDE, rf.FlowStatus.INSIDE]
+    assert np.abs(v[0]).max() < 1e-6 and v[2, 0] > 0.0
+
+
+def test_a_pond_on_a_rivers_island_is_water_again(tmp_path):
+    """Liechtenstein's OSM extract of today: a pond on an island of the Rhine's riverbank
+    polygon. The graph checks took its shore for a loop inside the river's area ("counter-
+    clockwise loop inside another area") and its water for the island's land; by the odd
+    winding rule the hydro graph's areas follow, water inside an island is water again."""
+    river = shapely.box(0, -100, 1200, 100).difference(shapely.Point(600, 0).buffer(60))
+    pond = shapely.Point(600, 0).buffer(25)
+    path = write_tagged(tmp_path / "pond.gpkg", [river, pond], ["river", "pond"])
+    b = rf.read_water(path, inlets=[tuple(ORIGIN + (0, 0))])
+    graph = b.build()
+    assert rf.validate_graph(graph) == []
+    assert len(graph.lakes()) == 1
+    shift = ORIGIN - np.asarray(b.report.origin_m or (0.0, 0.0))
+    status, v = rf.FlowField(graph).query(np.array([[600.0, 0.0], [600.0, 45.0],
+                                                    [600.0, 80.0]]) + shift)
+    assert list(status) == [rf.FlowStatus.INSIDE, rf.FlowStatus.OUTSIDE, rf.FlowStatus.INSIDE]
+    assert np.abs(v[0]).max() < 1e-6 and v[2, 0] > 0.0

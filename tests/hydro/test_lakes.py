@@ -589,3 +589,13 @@ def test_a_reservoir_that_is_not_star_shaped_carries_its_rivers(reservoir):
     assert not left.any()
     # across the flow tiles' borders in the lake: ψ and the velocity continuous
     _across_tile_borders(field, lake.buffer(-3.0), (-250, 330), (-200, 300), 120)
+
+
+def test_a_lake_alone_passes_validation_with_or_without_an_island():
+    """A lake no river touches is still water; its shore is a loop of banks only, which
+    validate_graph took for an island running counter-clockwise ("reverse it")."""
+    for lake in (shapely.Point(0, 0).buffer(30),
+                 shapely.Point(0, 0).buffer(30).difference(shapely.Point(0, 0).buffer(15))):
+        b = RiverNetworkBuilder()
+        b.add_lake(lake)
+        assert rf.validate_graph(b.build()) == []
