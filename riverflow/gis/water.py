@@ -494,6 +494,15 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
         if not again:
             break
         dead.update(again)
+    for net in list(networks):
+        ends = net.free_ends()
+        if len(ends) < 2 and not (net.inlets or net.outlets):
+            # a ring of water round its islands (a moat; Liechtenstein's OSM: a riverbank
+            # polygon round an island, cut off from its river), its dead ends basins even
+            # with their tips not counted as ends
+            _still(builder, getattr(water, "geoms", [water])[net.part], net.part,
+                   f"{len(ends)} free ends beside its dead ends")
+            networks.remove(net)
     if not networks:                # ponds only: still water
         report.derived["axes"] = {}
         report.derived["length_m"] = 0.0
@@ -582,17 +591,7 @@ def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy
     for net in networks:
         builder.kept_beside |= _drop_basin_spurs(net, frame, tolerance_m, report, heights,
                                                  builder.ends_beside)
-    kept = []
-    for net in networks:
-        ends = net.free_ends()
-        if len(ends) >= 2 or net.inlets or net.outlets:
-            kept.append(net)
-            continue
-        # a ring of water round its islands (a moat; Liechtenstein's OSM: a riverbank
-        # polygon round an island, cut off from its river), its dead ends basins
-        _still(builder, getattr(water, "geoms", [water])[net.part], net.part,
-               f"{len(ends)} free ends beside its dead ends")
-    return kept
+    return networks
 
 
 def _still(builder: WaterBuilder, part, k: int, why: str) -> None:
