@@ -100,7 +100,7 @@ def mixed_levels(samples, k, p, band, out):
         # within it (a little wider than the triangle inequality: rounding), so its k
         # nearest are too
         step = math.hypot(x - prev_x, y - prev_y)
-        bound = (prev_r + step) * (1.0 + 1e-9) + 1e-9
+        bound = (prev_r + step) * (1.0 + 1e-9) + 1e-6
         limit = bound * bound if bound < math.inf else math.inf
         count = 0
         top = 1
