@@ -170,3 +170,73 @@ def mixed_levels(samples, k, p, band, out):
         for m in range(k):
             wl[m] = w[m] * levels[best_j[m]]
         out[i] = _numpy_sum(wl, k) / _numpy_sum(w, k)
+
+
+@njit(**dict(EXACT_JIT_OPTIONS, nogil=True))    # a tile worker's: the frame goes on
+def nearest_samples(samples, p, out_nearest, out_tie):
+    """For each point ``p[i]`` (N, 2) [m]: its nearest of ``samples`` (:class:`MixSamples`)
+    into ``out_nearest[i]`` (N,) int64, the first of the nearest ones, and ``out_tie[i]``
+    (N,) bool: whether another one is as near (a KD-tree may answer either) or none was
+    found (the point is not finite)."""
+    xy = samples.xy
+    boxes = samples.boxes
+    n = xy.shape[0]
+    first_leaf = (boxes.shape[0] + 1) // 2 - 1
+    stack = np.empty(128, np.int64)
+    stack_d2 = np.empty(128)
+    prev_x = math.nan
+    prev_y = math.nan
+    prev_r = math.inf
+    for i in range(p.shape[0]):
+        x = p[i, 0]
+        y = p[i, 1]
+        # bounded by the previous point's nearest distance plus the step (a little wider)
+        bound = (prev_r + math.hypot(x - prev_x, y - prev_y)) * (1.0 + 1e-9) + 1e-6
+        best = bound * bound if bound < math.inf else math.inf
+        best_j = -1
+        tie = False
+        top = 1
+        stack[0] = 0
+        stack_d2[0] = _box_d2(boxes, 0, x, y)
+        while top > 0:
+            top -= 1
+            node = stack[top]
+            if stack_d2[top] > best:
+                continue
+            if node >= first_leaf:
+                j0 = (node - first_leaf) * LEAF
+                for j in range(j0, min(j0 + LEAF, n)):
+                    dx = x - xy[j, 0]
+                    dy = y - xy[j, 1]
+                    d2 = dx * dx + dy * dy
+                    if d2 < best or (best_j < 0 and d2 == best):
+                        best = d2
+                        best_j = j
+                        tie = False
+                    elif d2 == best:
+                        tie = True
+                        best_j = min(best_j, j)
+                continue
+            c0 = 2 * node + 1
+            c1 = c0 + 1
+            d0 = _box_d2(boxes, c0, x, y)
+            d1 = _box_d2(boxes, c1, x, y)
+            if d0 <= d1:    # the nearer child on top, searched first
+                stack[top] = c1
+                stack_d2[top] = d1
+                stack[top + 1] = c0
+                stack_d2[top + 1] = d0
+            else:
+                stack[top] = c0
+                stack_d2[top] = d0
+                stack[top + 1] = c1
+                stack_d2[top + 1] = d1
+            top += 2
+        out_nearest[i] = max(best_j, 0)
+        out_tie[i] = tie or best_j < 0
+        if best_j < 0:
+            prev_r = math.inf
+        else:
+            prev_x = x
+            prev_y = y
+            prev_r = math.sqrt(best)

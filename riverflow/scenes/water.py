@@ -22,7 +22,7 @@ from riverflow.hydro.falls import channel_depth_m, drop_along
 from riverflow.hydro.nearest import PolylineIndex
 from riverflow.kernels.centre_line import (CentreSamples, LevelSamples, nearest_level,
                                            project_to_centre)
-from riverflow.kernels.level_mix import mix_samples, mixed_levels
+from riverflow.kernels.level_mix import mix_samples, mixed_levels, nearest_samples
 from riverflow.tiles import remote
 
 JUNCTION_BLEND = 1.25
@@ -461,10 +461,15 @@ class _Samples:
 
     def project(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(distance, level, width) (N,) of the nearest point on the sampled centre lines:
-        the nearest sample's KD-tree query, then the segments on either side of it
+        the nearest sample (:func:`riverflow.kernels.level_mix.nearest_samples`; the KD-tree's
+        where two are as near), then the segments on either side of it
         (:func:`riverflow.kernels.centre_line.project_to_centre`)."""
         p = np.ascontiguousarray(p, np.float64).reshape(-1, 2)
-        _, k = self.tree.query(p, workers=_workers(len(p)))
+        k = np.empty(len(p), np.int64)
+        tie = np.empty(len(p), bool)
+        nearest_samples(self.mix, p, k, tie)
+        if tie.any():       # two nearest: the KD-tree's choice, as it always was
+            k[tie] = self.tree.query(p[tie])[1]
         out = np.empty((3, len(p)))
         project_to_centre(self.kernel_samples, np.ascontiguousarray(k, np.int64), p, out[0],
                           out[1], out[2])
