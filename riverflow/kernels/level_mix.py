@@ -1,7 +1,8 @@
 """The level seen from the land: the levels of a point's k nearest centre-line samples, mixed
-(:meth:`riverflow.scenes.water.WaterSurface.land_level` and ``bank_level``).
+(:func:`mixed_levels`: :meth:`riverflow.scenes.water.WaterSurface.land_level` and
+``bank_level``), and a point's nearest sample (:func:`nearest_samples`: ``_Samples.project``).
 
-The k nearest samples are found through a box hierarchy over runs of consecutive samples
+The samples are found through a box hierarchy over runs of consecutive samples
 (:func:`riverflow.kernels.polyline.segment_boxes` of zero-length segments: a branch's samples
 lie side by side), walked depth first, nearer child first, skipping every box farther than
 the k-th sample so far. A batch's consecutive points are mostly neighbours (a tile's lattice
@@ -10,7 +11,8 @@ one's, so its walk skips the far boxes from the start. The answer is each point'
 whatever batch it is in: the k least (squared distance, index), boxes as near as the k-th
 still searched. The mix is done in numpy's floating-point operations and order (no
 fast-math; a row of k summed as numpy sums it), so it is the KD-tree and numpy code's number
-wherever no two samples tie for the k-th place (a tie there weighs 0 either way).
+bit for bit wherever no two of the k samples are equally near (the KD-tree may list those in
+another order: the last bit; a tie for the k-th place weighs 0 either way).
 """
 from __future__ import annotations
 
@@ -29,7 +31,7 @@ MAX_NEIGHBOURS = 128
 
 class MixSamples(NamedTuple):
     """Samples as :func:`mixed_levels` reads them: ``xy`` (S, 2) [m], their ``level`` (S,) [m]
-    and ``boxes`` over runs of consecutive ones (:func:`sample_boxes`)."""
+    and ``boxes`` over runs of consecutive ones (:func:`mix_samples`)."""
 
     xy: np.ndarray
     level: np.ndarray
