@@ -134,36 +134,35 @@ def lattice_land_level(water: WaterSurface, xy: np.ndarray, lattice_m: float,
     interpolated bilinearly at xy (N, 2) [m]; exact at lattice nodes."""
     g = (xy - np.asarray(anchor_m, np.float64)) / lattice_m
     ij = np.floor(g).astype(np.int64)
-    f = g - ij
-    on_x, on_y = f[:, 0] == 0.0, f[:, 1] == 0.0
-    # a corner whose weight is exactly 0 (a point on a lattice line) is not read: its value
-    # only ever counts as 0 · value (a point on a lattice node, as the height-change grid's
-    # are, reads one node, not four)
-    need = np.concatenate([np.ones(len(ij), bool), ~on_x, ~on_y, ~(on_x | on_y)])
-    corners = np.concatenate([ij, ij + [1, 0], ij + [0, 1], ij + [1, 1]])[need]
-    lo = corners.min(axis=0)
-    extent = corners.max(axis=0) - lo + 1
-    local = corners - lo
-    if int(extent[0]) * int(extent[1]) <= 4 * len(ij):
+    fx, fy = g[:, 0] - ij[:, 0], g[:, 1] - ij[:, 1]
+    # a corner whose weight is exactly 0 (a point on a lattice line) is not read: the node
+    # before it is read in its place (x + 0 · x is x), so a point on a lattice node, as the
+    # height-change grid's are, reads one node, not four
+    i0, j0 = ij[:, 0], ij[:, 1]
+    i1, j1 = i0 + (fx != 0.0), j0 + (fy != 0.0)
+    lo_i, lo_j = int(i0.min()), int(j0.min())
+    ni, nj = int(i1.max()) - lo_i + 1, int(j1.max()) - lo_j + 1
+    if ni * nj <= 4 * len(ij):
         # a compact batch (a tile's nodes, finer than the lattice): every node of the
         # lattice's box around it, indexed directly, not sorted out (same nodes, same values)
-        gi, gj = np.meshgrid(np.arange(extent[0]), np.arange(extent[1]), indexing="ij")
-        nodes = lo + np.column_stack([gi.ravel(), gj.ravel()])
-        inverse = local[:, 0] * extent[1] + local[:, 1]
+        gi, gj = np.divmod(np.arange(ni * nj), nj)
+        nodes = np.stack([gi + lo_i, gj + lo_j], axis=1)
+        table = water.land_level(np.asarray(anchor_m, np.float64) + nodes * lattice_m)
+        v00 = table[(i0 - lo_i) * nj + (j0 - lo_j)]
+        v10 = table[(i1 - lo_i) * nj + (j0 - lo_j)]
+        v01 = table[(i0 - lo_i) * nj + (j1 - lo_j)]
+        v11 = table[(i1 - lo_i) * nj + (j1 - lo_j)]
     else:
-        # unique nodes through one int64 key per node (ordered as np.unique(axis=0) orders
-        # the rows: by i, then j), several times faster than sorting rows
-        span = int(extent[1])
-        keys, inverse = np.unique(local[:, 0] * span + local[:, 1], return_inverse=True)
-        nodes = np.stack([keys // span + lo[0], keys % span + lo[1]], axis=1)
-    pts = np.asarray(anchor_m, np.float64) + nodes * lattice_m
-    values = np.zeros(len(need))
-    values[need] = water.land_level(pts)[inverse.reshape(-1)]
-    values = values.reshape(4, -1)
-    fx = np.where(on_x, 0.0, f[:, 0])
-    fy = np.where(on_y, 0.0, f[:, 1])
-    return ((1 - fy) * ((1 - fx) * values[0] + fx * values[1])
-            + fy * ((1 - fx) * values[2] + fx * values[3]))
+        # the corners read, once each, through one int64 key per node (ordered as
+        # np.unique(axis=0) orders the rows: by i, then j), several times faster than
+        # sorting rows
+        keys = np.concatenate([(i0 - lo_i) * nj + (j0 - lo_j), (i1 - lo_i) * nj + (j0 - lo_j),
+                               (i0 - lo_i) * nj + (j1 - lo_j), (i1 - lo_i) * nj + (j1 - lo_j)])
+        keys, inverse = np.unique(keys, return_inverse=True)
+        nodes = np.stack([keys // nj + lo_i, keys % nj + lo_j], axis=1)
+        v00, v10, v01, v11 = water.land_level(
+            np.asarray(anchor_m, np.float64) + nodes * lattice_m)[inverse].reshape(4, -1)
+    return (1 - fy) * ((1 - fx) * v00 + fx * v10) + fy * ((1 - fx) * v01 + fx * v11)
 
 
 def _smoothstep(e0: float, e1: float, x: np.ndarray) -> np.ndarray:

@@ -22,6 +22,7 @@ from riverflow.hydro.falls import channel_depth_m, drop_along
 from riverflow.hydro.nearest import PolylineIndex
 from riverflow.kernels.centre_line import (CentreSamples, LevelSamples, nearest_level,
                                            project_to_centre)
+from riverflow.kernels.level_mix import mix_samples, mixed_levels, nearest_samples
 from riverflow.tiles import remote
 
 JUNCTION_BLEND = 1.25
@@ -370,15 +371,14 @@ class WaterSurface:
         weighted by (1 − (d − d_nearest) / (d_farthest − d_nearest))². Continuous everywhere
         (a neighbour enters or leaves the set with weight 0), smooth across the place where the
         nearest branch changes, pointwise (a tile needs nothing around it)."""
-        p = np.asarray(xy, dtype=np.float64).reshape(-1, 2)
+        p = np.ascontiguousarray(xy, dtype=np.float64).reshape(-1, 2)
         samples = self.decimated(LAND_LEVEL_STRIDE)
         k = min(LAND_LEVEL_NEIGHBOURS, len(samples.samples))
         if k < 2:
             return np.full(len(p), float(samples.levels[0]) if k else 0.0)
-        d, idx = samples.tree.query(p, k=k, workers=_workers(len(p)))
-        span = np.maximum(d[:, -1:] - d[:, :1], 1e-9)
-        w = (1.0 - (d - d[:, :1]) / span) ** 2
-        return (w * samples.levels[idx]).sum(axis=1) / w.sum(axis=1)
+        out = np.empty(len(p))
+        mixed_levels(samples.mix, k, p, np.full(len(p), np.inf), out)
+        return out
 
     def bank_level(self, xy: np.ndarray, shore_m: np.ndarray) -> np.ndarray:
         """The water level seen from the land near a shore [m], (N,), at points xy (N, 2) a
@@ -394,14 +394,11 @@ class WaterSurface:
         k = min(BANK_LEVEL_NEIGHBOURS, len(samples.samples))
         if k < 2 or not len(p):
             return self.nearest(p)[1]
-        d, idx = samples.tree.query(p, k=k, workers=_workers(len(p)))
-        extra = d - d[:, :1]
-        span = np.maximum(extra[:, -1:], 1e-9)
-        band = BANK_BLEND * np.maximum(np.asarray(shore_m, np.float64).reshape(-1, 1), 0.0) \
-            + BANK_BLEND_MIN_M
-        w = (1.0 - extra / span) ** 2 * np.clip(1.0 - extra / band, 0.0, 1.0) ** 2
-        w[:, 0] = np.maximum(w[:, 0], 1e-12)     # the nearest sample always counts
-        return (w * samples.levels[idx]).sum(axis=1) / w.sum(axis=1)
+        shore = np.broadcast_to(np.asarray(shore_m, np.float64).reshape(-1), len(p))
+        band = BANK_BLEND * np.maximum(shore, 0.0) + BANK_BLEND_MIN_M
+        out = np.empty(len(p))
+        mixed_levels(samples.mix, k, np.ascontiguousarray(p), band, out)
+        return out
 
     def contains(self, xy: np.ndarray, shore_m: np.ndarray | None = None) -> np.ndarray:
         """(N,) bool: points in the water. ``shore_m``: distance_to_shore(xy) if known."""
@@ -453,12 +450,26 @@ class _Samples:
                                             np.ascontiguousarray(widths, np.float64),
                                             np.ascontiguousarray(branch, np.int64))
 
+    @property
+    def mix(self):
+        """The samples and their levels for :func:`~riverflow.kernels.level_mix.mixed_levels`
+        (made on first use)."""
+        got = self.__dict__.get("_mix")
+        if got is None:
+            got = self._mix = mix_samples(self.samples, self.levels)
+        return got
+
     def project(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(distance, level, width) (N,) of the nearest point on the sampled centre lines:
-        the nearest sample's KD-tree query, then the segments on either side of it
+        the nearest sample (:func:`riverflow.kernels.level_mix.nearest_samples`; the KD-tree's
+        where two are as near), then the segments on either side of it
         (:func:`riverflow.kernels.centre_line.project_to_centre`)."""
         p = np.ascontiguousarray(p, np.float64).reshape(-1, 2)
-        _, k = self.tree.query(p, workers=_workers(len(p)))
+        k = np.empty(len(p), np.int64)
+        tie = np.empty(len(p), bool)
+        nearest_samples(self.mix, p, k, tie)
+        if tie.any():       # two nearest: the KD-tree's choice, as it always was
+            k[tie] = self.tree.query(p[tie])[1]
         out = np.empty((3, len(p)))
         project_to_centre(self.kernel_samples, np.ascontiguousarray(k, np.int64), p, out[0],
                           out[1], out[2])

@@ -63,6 +63,78 @@ def test_the_land_level_lattice_is_one_function_of_the_point():
                        rtol=0, atol=1e-9)
 
 
+def _old_land_and_bank_levels(water, p, shore):
+    """WaterSurface.land_level and bank_level as they were: a KD-tree's k nearest samples,
+    mixed in numpy (the numpy reference of riverflow.kernels.level_mix)."""
+    from riverflow.scenes import water as w
+
+    out = []
+    for stride, k, band in ((w.LAND_LEVEL_STRIDE, w.LAND_LEVEL_NEIGHBOURS, np.inf),
+                            (1, w.BANK_LEVEL_NEIGHBOURS,
+                             w.BANK_BLEND * np.maximum(shore, 0.0)[:, None] + w.BANK_BLEND_MIN_M)):
+        samples = water.decimated(stride)
+        d, idx = samples.tree.query(p, k=k)
+        extra = d - d[:, :1]
+        span = np.maximum(extra[:, -1:], 1e-9)
+        wt = (1.0 - extra / span) ** 2 * np.clip(1.0 - extra / band, 0.0, 1.0) ** 2
+        wt[:, 0] = np.maximum(wt[:, 0], 1e-12)
+        out.append((wt * samples.levels[idx]).sum(axis=1) / wt.sum(axis=1))
+    return out
+
+
+def _old_lattice_land_level(water, xy, lattice_m, anchor_m):
+    """carving.lattice_land_level as it was: every needed corner's land level, by masks."""
+    g = (xy - np.asarray(anchor_m, np.float64)) / lattice_m
+    ij = np.floor(g).astype(np.int64)
+    f = g - ij
+    on_x, on_y = f[:, 0] == 0.0, f[:, 1] == 0.0
+    need = np.concatenate([np.ones(len(ij), bool), ~on_x, ~on_y, ~(on_x | on_y)])
+    corners = np.concatenate([ij, ij + [1, 0], ij + [0, 1], ij + [1, 1]])[need]
+    values = np.zeros(len(need))
+    values[need] = water.land_level(np.asarray(anchor_m) + corners * lattice_m)
+    v = values.reshape(4, -1)
+    fx, fy = np.where(on_x, 0.0, f[:, 0]), np.where(on_y, 0.0, f[:, 1])
+    return (1 - fy) * ((1 - fx) * v[0] + fx * v[1]) + fy * ((1 - fx) * v[2] + fx * v[3])
+
+
+def test_the_land_levels_and_the_nearest_centre_line_point_are_the_kd_tree_formulas():
+    """WaterSurface.land_level, bank_level and nearest (box-hierarchy kernels) give the
+    numbers of the KD-tree and numpy formulas they replace, within rounding, at points near
+    and far from the rivers, on samples (junctions' shared points: ties) and at a tile's
+    nodes, in one batch or in shuffled chunks; lattice_land_level gives its masked
+    version's."""
+    from riverflow.kernels.centre_line import project_to_centre
+    from riverflow.scenes.carving import lattice_land_level
+
+    scene = rf.default_scene(seed=0)
+    water = scene.water
+    rng = np.random.default_rng(11)
+    s = water.samples_m
+    centre = scene.branch("tributary").centerline_m[40]
+    gx, gy = np.meshgrid(centre[0] + np.arange(-33, 34) * 4.0, centre[1] + np.arange(-33, 34) * 4.0)
+    p = np.vstack([s[rng.integers(0, len(s), 1500)] + rng.normal(size=(1500, 2)) * 20.0,
+                   s[rng.integers(0, len(s), 1500)] + rng.normal(size=(1500, 2)) * 500.0,
+                   s[rng.integers(0, len(s), 200)], water.junctions_m,
+                   np.column_stack([gx.ravel(), gy.ravel()])[::3]])
+    shore = rng.uniform(0.0, 30.0, len(p))
+    want_land, want_bank = _old_land_and_bank_levels(water, p, shore)
+    samples = water.decimated(1)
+    _, k = samples.tree.query(p)
+    want_near = np.empty((3, len(p)))
+    project_to_centre(samples.kernel_samples, k, p, *want_near)
+    order = rng.permutation(len(p))
+    for piece in [np.arange(len(p))] + np.split(order, [7, 500, 2100]):
+        np.testing.assert_allclose(water.land_level(p[piece]), want_land[piece], rtol=1e-12)
+        np.testing.assert_allclose(water.bank_level(p[piece], shore[piece]), want_bank[piece],
+                                   rtol=1e-12)
+        assert np.array_equal(np.array(samples.project(p[piece])), want_near[:, piece])
+    anchor = (scene.quadtree.root_x_m, scene.quadtree.root_y_m)
+    tile = np.column_stack([gx.ravel(), gy.ravel()])
+    for batch in (tile, tile[::5], p, np.round(p / 8.0) * 8.0):
+        np.testing.assert_allclose(lattice_land_level(water, batch, 16.0, anchor),
+                                   _old_lattice_land_level(water, batch, 16.0, anchor), rtol=1e-12)
+
+
 def test_height_and_water_tiles_share_their_shore_query_and_match_the_pointwise_terrain():
     """tile_kinds.LandscapeTiles.shore: one shore-distance query for a tile's height and water
     producers (whichever comes first); their tiles are the pointwise terrain's and water's."""
