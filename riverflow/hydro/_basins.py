@@ -45,6 +45,8 @@ widths (and the builder's tolerance) from the axis."""
 DEAD_STEP = 0.5
 """A backwater (:func:`_backwater`) is read from its outline at points at most this many of
 its dead end's widths apart (a straight shore has no vertices of its own along it)."""
+DEAD_CHUNK = 64
+"""Outline points :func:`_backwater` asks at a time, walking out from the dead end's far end."""
 OPEN_END_REACH = 0.25
 """A backwater is a basin when it lies at least this many of its channel's widths from the
 axes' free ends (other basins: a width; nearer, the data's edge cuts across it)."""
@@ -194,13 +196,19 @@ def _backwater(poly, dead: np.ndarray, dead_widths: np.ndarray, axes, lines, avo
     axes (the spit between), closed by a mouth between its last points (from the spit's tip
     across the backwater), or None (also where none of it faces away from the channels'
     axes: the channel's water as it is)."""
+    from riverflow.hydro.nearest import PolylineIndex
+
     wet = poly.buffer(max(1e-6 * float(np.abs(np.asarray(poly.exterior.coords)).max()),
                           1e-3 * tolerance_m))
     shapely.prepare(wet)
     mine = [g for g in shapely.get_parts(lines) if shapely.intersects(wet, g)]
     if not mine:
         return None
-    local = shapely.union_all(mine)
+    # the nearest point of this water's axes to each outline point through their segments'
+    # box hierarchy (GEOS's shortest_line visits every vertex of every axis for each point:
+    # minutes for London's Thames, its docks dead ends each)
+    xy, which = shapely.get_coordinates(np.array(mine, dtype=object), return_index=True)
+    local = PolylineIndex(xy, which)
     axis = shapely.LineString(dead)
     tip = shapely.Point(dead[-1])
     ring = poly.exterior
@@ -208,34 +216,57 @@ def _backwater(poly, dead: np.ndarray, dead_widths: np.ndarray, axes, lines, avo
         return None     # (a notch in an island's shore: the builder asks no more of it)
     v = np.asarray(shapely.segmentize(ring, max(DEAD_STEP * float(np.median(dead_widths)),
                                                 tolerance_m)).coords)[:-1]
-    pts = shapely.points(v)
-    to_live = shapely.shortest_line(local, pts)
-    behind = (~shapely.covers(wet, to_live)
-              & shapely.covers(wet, shapely.shortest_line(axis, pts)))
-    if avoid_u is not None:
-        behind &= ~shapely.dwithin(avoid_u, pts, tolerance_m)
-    if not behind.any() or behind.all():
-        return None
-    # the run of hidden points holding the outline point nearest the dead end's far end
-    at = int(np.argmin(shapely.distance(tip, pts)))
-    if not behind[at]:
-        return None
     n = len(v)
+    # whether each outline point is hidden from the channels' axes (its shortest line to them
+    # leaves the water) and sees the dead end's: learnt outward from the point nearest the
+    # dead end's far end, a chunk at a time, only as far as the hidden run reaches (the
+    # rest of a long ring, London's Thames, need not be asked)
+    state = np.full(n, -1, np.int8)
+    near = np.full((n, 2), np.nan)
+
+    def learn(idx: np.ndarray) -> None:
+        idx = idx[state[idx] < 0]
+        if not len(idx):
+            return
+        p = v[idx]
+        pts = shapely.points(p)
+        q = local.nearest(p)[1]
+        hidden = (~shapely.covers(wet, shapely.linestrings(np.stack([q, p], axis=1)))
+                  & shapely.covers(wet, shapely.shortest_line(axis, pts)))
+        if avoid_u is not None:
+            hidden &= ~shapely.dwithin(avoid_u, pts, tolerance_m)
+        state[idx] = hidden
+        near[idx] = q
+
+    at = int(np.argmin(np.hypot(*(v - dead[-1]).T)))
+    learn(np.array([at]))
+    if state[at] != 1:
+        return None
     k0, k1 = at, at
-    while behind[(k0 - 1) % n] and k1 - k0 < n - 1:
-        k0 -= 1
-    while behind[(k1 + 1) % n] and k1 - k0 < n - 1:
-        k1 += 1
+    for step in (-1, 1):
+        while k1 - k0 < n - 1:
+            j = ((k0 if step < 0 else k1) + step) % n
+            if state[j] < 0:
+                learn(((k0 if step < 0 else k1) + step * np.arange(1, DEAD_CHUNK + 1)) % n)
+            if state[j] != 1:
+                break
+            k0, k1 = (k0 - 1, k1) if step < 0 else (k0, k1 + 1)
+    if k1 - k0 >= n - 1:
+        return None                                     # (all of it hidden)
+    learn(np.array([(k0 - 1) % n, (k1 + 1) % n]))
     run = np.arange(k0, k1 + 1) % n
     # only where some of it faces away from the channels' axes (a spit's inner shore, the
     # axis on its right: which no bank may); else the channel's water as it is
-    q = shapely.get_coordinates(to_live).reshape(-1, 2, 2)
     d = v[(run + 1) % n] - v[run]
-    tv = 0.5 * (q[run, 0] + q[(run + 1) % n, 0]) - 0.5 * (v[run] + v[(run + 1) % n])
+    tv = 0.5 * (near[run] + near[(run + 1) % n]) - 0.5 * (v[run] + v[(run + 1) % n])
     if not (d[:-1, 0] * tv[:-1, 1] - d[:-1, 1] * tv[:-1, 0] < 0.0).any():
         return None
-    excess, width = _excess(v, axes)
-    excess = np.where(behind, np.maximum(excess, shapely.length(to_live) - 0.5 * width), excess)
+    ends = np.concatenate([run, [(k0 - 1) % n, (k1 + 1) % n]])
+    excess, width = np.full(n, -np.inf), np.zeros(n)
+    excess[ends], width[ends] = _excess(v[ends], axes)
+    behind = ends[state[ends] == 1]
+    excess[behind] = np.maximum(excess[behind], np.hypot(*(near[behind] - v[behind]).T)
+                                - 0.5 * width[behind])
     return _basin(v, run, (k0 - 1) % n, (k1 + 1) % n, excess, width, poly, lines, tolerance_m)
 
 
