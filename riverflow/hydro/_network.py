@@ -4,7 +4,10 @@ bank curves split by nearest axis, closing segments, nodes and areas (reference 
 The boundary pieces (stretches of water outline between closing segments, and whole island
 loops) are the nodes of a small graph whose edges are the branches: facing downstream,
 ψ(right piece) − ψ(left piece) = the branch's discharge. ψ is solved by breadth-first search
-from 0 on one piece, checked around every loop, and shifted so that its minimum is 0.
+from 0 on one piece, checked around every loop, and shifted so that its minimum is 0. A
+branch's banks are the pieces the rays across its middle meet; where those do not solve (a
+branch beside a short island meets the shore beyond it), the pieces facing each branch
+(:func:`_sides_by_shores`).
 
 Lateral inflow (``inlets``: surplus discharge entering at a junction) cuts the two banks of the
 junction's outgoing branch with a short closing segment each (an inlet across from the
@@ -535,24 +538,27 @@ def assemble_graph(geoms: list[BranchGeometry], rings: list[Ring], pieces: list[
             k = lakes.polygon_lake[rings[piece.ring].polygon]
             if k >= 0:
                 lake_of[i] = k
+    def meeting() -> list:
+        return _meeting_ties(pieces, 1e-6 * max(1.0, float(np.abs(
+            np.vstack([p.points for p in pieces])).max()))) if lakes is not None else []
+
     ties: list = []
     try:
         sides = _branch_sides(geoms, pieces, {**island_of, **lake_of}) if geoms else []
         if inlets:
             sides, ties = _cut_inlets(geoms, sides, rings, pieces, island_of, junctions, inlets)
-        if lakes is not None:
-            ties = list(ties) + _meeting_ties(pieces, 1e-6 * max(1.0, float(np.abs(
-                np.vstack([p.points for p in pieces])).max())))
+        ties = list(ties) + meeting()
         psi = _solve_potentials(geoms, sides, pieces, island_of, ties, frozenset(lake_of))
     except GraphError as exc:
         # the rays across the branches' middles took a shore beyond the one beside them
-        # (a short island, a point of land): the shores nearest each branch, where that
+        # (a short island, a point of land): the shores facing each branch, where that
         # solves (without lateral inflow, whose inlets are cut by the rays' sides)
         if not geoms or inlets or not any(t in str(exc) for t in (
                 "inconsistent", "no branch runs along", "one continuous shore")):
             raise
         try:
             sides = _sides_by_shores(geoms, pieces, {**island_of, **lake_of})
+            ties = meeting()
             psi = _solve_potentials(geoms, sides, pieces, island_of, ties, frozenset(lake_of))
         except GraphError:
             raise exc from None
