@@ -13,8 +13,8 @@ river built at 6,000 random points of its bounding box: of those in the polygon'
 the water the end cuts leave out, and 2 m round it) the share that does not read as water
 (``FlowStatus.INSIDE``) must be 0.
 
-Run: ``python benchmarks/survey_water.py --seeds 0 100 --islands inside`` (~20 s; ``any``:
-~5 min; ``--land`` about doubles it). Figures go to docs/gis.md ("Limits").
+Run: ``python benchmarks/survey_water.py --seeds 0 100 --islands inside`` (~10 s; ``any``:
+~20 s; ``--land`` about four times as long). Figures go to docs/gis.md ("Limits").
 """
 from __future__ import annotations
 
