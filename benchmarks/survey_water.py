@@ -8,10 +8,13 @@ its extent (the data's edge: its open ends there, islands cut open). ``--islands
 keeps only islands at least 5 % of the width inside the banks and apart (islands as a
 braided river has them); ``any`` lets them cross a bank (a long notch in it) or each other.
 Every case must give a network or a ``GraphError`` (anything else is a bug); the survey
-counts both and groups the errors by what they say.
+counts both and groups the errors by what they say. ``--land`` also asks the flow of each
+river built at 6,000 random points of its bounding box: of those in the polygon's water (less
+the water the end cuts leave out, and 2 m round it) the share that does not read as water
+(``FlowStatus.INSIDE``) must be 0.
 
-Run: ``python benchmarks/survey_water.py --seeds 0 40 --islands inside`` (~30 s; ``any``:
-~3 min). Figures go to docs/gis.md ("Limits").
+Run: ``python benchmarks/survey_water.py --seeds 0 100 --islands inside`` (~10 s; ``any``:
+~20 s; ``--land`` about four times as long). Figures go to docs/gis.md ("Limits").
 """
 from __future__ import annotations
 
@@ -70,6 +73,8 @@ def main(argv=None) -> int:
     ap.add_argument("--seeds", type=int, nargs=2, default=(0, 40), metavar=("FIRST", "END"))
     ap.add_argument("--islands", choices=("inside", "any"), default="inside")
     ap.add_argument("--list", action="store_true", help="print every failing seed")
+    ap.add_argument("--land", action="store_true",
+                    help="check that no water of the rivers built reads as land")
     args = ap.parse_args(argv)
 
     import pyogrio.raw
@@ -78,7 +83,7 @@ def main(argv=None) -> int:
     import riverflow as rf
     from riverflow.hydro.graph import GraphError
 
-    built, errors, failing, other = 0, collections.Counter(), [], []
+    built, errors, failing, other, land = 0, collections.Counter(), [], [], []
     t = time.perf_counter()
     with tempfile.TemporaryDirectory() as tmp:
         for seed in range(*args.seeds):
@@ -90,8 +95,11 @@ def main(argv=None) -> int:
                 water, lambda c: c + ORIGIN))], dtype=object), [], [], driver="GPKG",
                 crs="EPSG:32633", geometry_type=water.geom_type)
             try:
-                rf.read_water(path, origin_m=ORIGIN).build()
+                builder = rf.read_water(path, origin_m=ORIGIN)
+                graph = builder.build()
                 built += 1
+                if args.land:
+                    land.append((_land_share(rf, water, builder, graph), seed))
             except GraphError as exc:
                 text = str(exc).split("): ", 1)[-1]
                 errors[re.sub(r"[-\d.]+", "#", re.sub(r"'[^']*'", "'…'", text))[:70]] += 1
@@ -102,11 +110,32 @@ def main(argv=None) -> int:
     print(f"{n} river polygons (islands {args.islands}), seeds {args.seeds[0]} - "
           f"{args.seeds[1] - 1}: {built} built, {len(failing)} GraphError, {len(other)} other "
           f"exceptions ({time.perf_counter() - t:.0f} s)")
+    if land:
+        worst, seed = max(land)
+        print(f"  water read as land (end cuts left out): {sum(v > 0 for v, _ in land)} of "
+              f"{len(land)} rivers, at most {100 * worst:.2f} %"
+              + (f" (seed {seed})" if worst > 0 else ""))
     for text, k in errors.most_common():
         print(f"  {k:3d} × {text}")
     for seed, what, text in (failing if args.list else []) + other:
         print(f"  seed {seed} ({what}): {text}")
     return 1 if other else 0
+
+
+def _land_share(rf, water, builder, graph) -> float:
+    """The share of 6,000 random points of the river's water (less what the end cuts leave
+    out, and 2 m round it) whose flow does not read as water."""
+    import shapely
+
+    lost = water.difference(builder.water_polygon)
+    x0, y0, x1, y1 = water.bounds
+    rng = np.random.default_rng(0)
+    pts = np.c_[rng.uniform(x0, x1, 6000), rng.uniform(y0, y1, 6000)]
+    kept = shapely.contains_xy(water, *pts.T) & ~shapely.contains_xy(lost.buffer(2.0), *pts.T)
+    if not kept.any():
+        return 0.0
+    status, _ = rf.FlowField(graph).query(pts[kept])
+    return float(np.mean(status != rf.FlowStatus.INSIDE))
 
 
 if __name__ == "__main__":

@@ -135,6 +135,9 @@ class WaterBuilder(RiverNetworkBuilder):
     ends_beside = True
     kept_beside = False
     backwaters = True
+    free_by_ends = False
+    """Whether an island beside a channel's free end that does not reach across the water
+    is made free (:meth:`build`'s last reading)."""
 
     @property
     def derived(self) -> dict[str, Any]:
@@ -148,7 +151,11 @@ class WaterBuilder(RiverNetworkBuilder):
         (the island there made free); where it fails after a dead end was kept as part of
         one of the water's ends (:func:`_end_beside`), again with such dead ends taken as
         basins; then again without backwaters behind spits (the dropped dead ends' pockets,
-        :func:`riverflow.hydro._basins.find_basins`' ``dead``), each after the last."""
+        :func:`riverflow.hydro._basins.find_basins`' ``dead``), each after the last. Where
+        all that fails and a channel's free end did not reach across the water, last with
+        every reading back and the island beside such an end made free (``free_by_ends``:
+        the channels on either side of an island just inside the data's edge run out to it
+        apart, with no junction between them)."""
         # the islands read_water already made free stay free (else the loops they broke
         # come back and take the retries)
         forced: list[tuple[float, float]] = list(getattr(self, "_forced", ()))
@@ -157,15 +164,23 @@ class WaterBuilder(RiverNetworkBuilder):
         try:
             graph = self._build_retrying(list(forced))
         except GraphError as exc:
-            graph, last = None, exc
+            graph, last, seen = None, exc, [str(exc)]
             # again without a reading that may have failed it (then without the next too):
             # short reaches joined, dead ends kept as parts of the water's ends, backwaters
-            # behind spits (their basins)
+            # behind spits (their basins); last, every reading back and the islands beside
+            # ends that do not reach across the water made free
             for flag, used in (("short_reaches_join", "short_reach_joined"),
-                               ("ends_beside", "kept_beside"), ("backwaters", "basin_axes")):
-                if not getattr(self, used):
+                               ("ends_beside", "kept_beside"), ("backwaters", "basin_axes"),
+                               ("free_by_ends", None)):
+                if used is None:
+                    if not any("does not reach across" in t for t in seen):
+                        continue
+                    self.short_reaches_join = self.ends_beside = self.backwaters = True
+                    self.free_by_ends = True
+                elif not getattr(self, used):
                     continue
-                setattr(self, flag, False)
+                else:
+                    setattr(self, flag, False)
                 self.report.repairs[:] = repairs
                 try:
                     try:
@@ -175,11 +190,14 @@ class WaterBuilder(RiverNetworkBuilder):
                     graph = self._build_retrying(list(forced))
                     break
                 except GraphError as again:
-                    last = again
+                    seen.append(str(again))
+                    if used is not None:
+                        last = again
             if graph is None:
                 raise last from None
         finally:
             self.short_reaches_join = self.ends_beside = self.backwaters = True
+            self.free_by_ends = False
         graph.source = self.report.path
         cut = sum(self.end_cuts_m2)
         if cut > 0:
@@ -199,7 +217,8 @@ class WaterBuilder(RiverNetworkBuilder):
             except GraphError as exc:
                 point = _shore_point(str(exc))
                 hole = self._hole_at(point) if point is not None else self._hole_by(str(exc))
-                if hole is None or len(forced) >= MAX_ISLAND_RETRIES:
+                # (an island already free that the error names again: no other to try)
+                if hole is None or hole in forced or len(forced) >= MAX_ISLAND_RETRIES:
                     self._raise_named(exc)
                 forced.append(hole)
                 self.report.repair("island", None, None,
@@ -246,7 +265,8 @@ class WaterBuilder(RiverNetworkBuilder):
         discharge, no banks found across it), or branches that do not meet, one that
         starts and ends at one point, or a junction that only sends or only takes water (the
         axes round an island near where the water is cut meet too close to its end, or on
-        it, for a channel between): a point inside the hole
+        it, for a channel between), or with ``free_by_ends`` a branch whose free end does
+        not reach across the water: a point inside the hole
         between channels nearest that branch's middle, or None."""
         import re
 
@@ -257,7 +277,8 @@ class WaterBuilder(RiverNetworkBuilder):
             branch = self._branches[int(k.group(1))]     # its banks not found, or wrong
         elif m is None or ("inconsistent" not in text and "one continuous shore" not in text
                            and "do not meet" not in text and "the same point" not in text
-                           and " there but none " not in text):
+                           and " there but none " not in text
+                           and not (self.free_by_ends and "does not reach across" in text)):
             return None
         else:
             branch = next((b for b in self._branches if b.name == m.group(1)), None)
@@ -469,6 +490,10 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
     ``lakes``: the lakes (polygons [m]) the water runs into and out of; a channel that starts
     on a lake's shore takes its discharge from the lake."""
     report = builder.report
+    # the notes of the reading, without those of an earlier fill (each fill notes anew)
+    if not hasattr(builder, "_read_notes"):
+        builder._read_notes = list(report.notes)
+    report.notes[:] = builder._read_notes
     builder._branches.clear()
     builder._islands.clear()
     builder._lakes.clear()
@@ -494,6 +519,13 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
         if not again:
             break
         dead.update(again)
+    for k, tips in sorted(dead.items()):
+        x, y = tips[0]
+        report.repair(f"water body {k}", None, None,
+                      f"its skeleton was left with one end of the water once its dead ends "
+                      f"(the first ending near ({x:.1f}, {y:.1f})) were taken as basins: made "
+                      f"again with those {len(tips)} dead ends not counted as ends of the "
+                      f"water, the ends its pruning took given back")
     for net in list(networks):
         ends = net.free_ends()
         if len(ends) < 2 and not (net.inlets or net.outlets):

@@ -4,7 +4,10 @@ bank curves split by nearest axis, closing segments, nodes and areas (reference 
 The boundary pieces (stretches of water outline between closing segments, and whole island
 loops) are the nodes of a small graph whose edges are the branches: facing downstream,
 ψ(right piece) − ψ(left piece) = the branch's discharge. ψ is solved by breadth-first search
-from 0 on one piece, checked around every loop, and shifted so that its minimum is 0.
+from 0 on one piece, checked around every loop, and shifted so that its minimum is 0. A
+branch's banks are the pieces the rays across its middle meet; where those do not solve (a
+branch beside a short island meets the shore beyond it), the pieces facing each branch
+(:func:`_sides_by_shores`).
 
 Lateral inflow (``inlets``: surplus discharge entering at a junction) cuts the two banks of the
 junction's outgoing branch with a short closing segment each (an inlet across from the
@@ -109,6 +112,61 @@ def _branch_sides(geoms: list[BranchGeometry], pieces: list[Piece], island_of: d
                              f"its width, or a branch that doubles back)")
         sides.append(best)
     return sides
+
+
+def _sides_by_shores(geoms: list[BranchGeometry], pieces: list[Piece],
+                     island_of: dict[int, int]) -> list[tuple[int, int]]:
+    """(left piece, right piece) of each branch, facing downstream, seen from the shores:
+    from points along each piece a ray runs out across the water (the piece's normal) to the
+    first branch it meets, which has that piece on the side the ray comes from; a branch's
+    bank on each side is the piece that reaches it over the most length. Where a branch runs
+    beside a short island, or past a point of land whose tip lies off its middle, the rays
+    from its middle (:func:`_branch_sides`) miss that shore and meet the one beyond."""
+    lines = [np.asarray(g.centerline_m, np.float64) for g in geoms]
+    chunks = LineChunks(lines)
+    width = min(float(np.median(g.widths_m)) for g in geoms)
+    reach = 2.0 * max(float(np.max(g.widths_m)) for g in geoms) + 1.0
+    ids = [i for i in range(len(pieces)) if i not in island_of]
+    total = sum(shapely.length(pieces[i].line()) for i in ids)
+    step = max(0.125 * width, total / 20_000.0, 1e-6)
+    weight = np.zeros((len(geoms), 2, len(pieces)))
+    for i in ids:
+        v = shapely.get_coordinates(shapely.segmentize(pieces[i].line(), step))
+        if len(v) < 2:
+            continue
+        d = np.diff(v, axis=0)
+        length = np.hypot(*d.T)
+        ok = length > 0
+        mid, d, length = (0.5 * (v[1:] + v[:-1]))[ok], d[ok], length[ok]
+        inward = np.stack([-d[:, 1], d[:, 0]], axis=1) / length[:, None]  # water on the left
+        ray, hit, dist = ray_hits(mid, inward, np.full(len(mid), reach), chunks)
+        first = first_per_group(ray, dist, len(mid))
+        got = np.flatnonzero(first >= 0)
+        if not len(got):
+            continue
+        b = hit[first[got]]
+        at = mid[got] + inward[got] * dist[first[got]][:, None]
+        # the branch's direction where the ray meets it: coming from its left, the ray runs
+        # against its left normal
+        tangent = np.array([_tangent_at(lines[k], p) for k, p in zip(b, at)])
+        from_right = (tangent[:, 0] * inward[got, 1] - tangent[:, 1] * inward[got, 0]) > 0.0
+        np.add.at(weight, (b, from_right.astype(int), np.full(len(b), i)), length[got])
+    sides = []
+    for k, g in enumerate(geoms):
+        left, right = (int(np.argmax(weight[k, side])) for side in (0, 1))
+        if not (weight[k, 0, left] > 0 and weight[k, 1, right] > 0) or left == right:
+            raise GraphError(f"branch {g.name!r}: no shore faces it on both sides")
+        sides.append((left, right))
+    return sides
+
+
+def _tangent_at(line: np.ndarray, point: np.ndarray) -> np.ndarray:
+    """The direction (2,) of the segment of polyline ``line`` (K, 2) nearest ``point``."""
+    a, d = line[:-1], np.diff(line, axis=0)
+    dd = np.maximum(np.einsum("ij,ij->i", d, d), 1e-300)
+    u = np.clip(np.einsum("ij,ij->i", point - a, d) / dd, 0.0, 1.0)
+    k = int(np.argmin(np.hypot(*(a + u[:, None] * d - point).T)))
+    return d[k]
 
 
 def _solve_potentials(geoms, sides, pieces, island_of, ties=(), still=frozenset()) -> np.ndarray:
@@ -480,14 +538,30 @@ def assemble_graph(geoms: list[BranchGeometry], rings: list[Ring], pieces: list[
             k = lakes.polygon_lake[rings[piece.ring].polygon]
             if k >= 0:
                 lake_of[i] = k
-    sides = _branch_sides(geoms, pieces, {**island_of, **lake_of}) if geoms else []
+    def meeting() -> list:
+        return _meeting_ties(pieces, 1e-6 * max(1.0, float(np.abs(
+            np.vstack([p.points for p in pieces])).max()))) if lakes is not None else []
+
     ties: list = []
-    if inlets:
-        sides, ties = _cut_inlets(geoms, sides, rings, pieces, island_of, junctions, inlets)
-    if lakes is not None:
-        ties = list(ties) + _meeting_ties(pieces, 1e-6 * max(1.0, float(np.abs(
-            np.vstack([p.points for p in pieces])).max())))
-    psi = _solve_potentials(geoms, sides, pieces, island_of, ties, frozenset(lake_of))
+    try:
+        sides = _branch_sides(geoms, pieces, {**island_of, **lake_of}) if geoms else []
+        if inlets:
+            sides, ties = _cut_inlets(geoms, sides, rings, pieces, island_of, junctions, inlets)
+        ties = list(ties) + meeting()
+        psi = _solve_potentials(geoms, sides, pieces, island_of, ties, frozenset(lake_of))
+    except GraphError as exc:
+        # the rays across the branches' middles took a shore beyond the one beside them
+        # (a short island, a point of land): the shores facing each branch, where that
+        # solves (without lateral inflow, whose inlets are cut by the rays' sides)
+        if not geoms or inlets or not any(t in str(exc) for t in (
+                "inconsistent", "no branch runs along", "one continuous shore")):
+            raise
+        try:
+            sides = _sides_by_shores(geoms, pieces, {**island_of, **lake_of})
+            ties = meeting()
+            psi = _solve_potentials(geoms, sides, pieces, island_of, ties, frozenset(lake_of))
+        except GraphError:
+            raise exc from None
     _island_potentials(geoms, sides, pieces, islands, island_of, psi)
 
     nodes = _Nodes()

@@ -844,6 +844,74 @@ def _builds_running_one_way(tmp_path, water, centre, rows, repaired: str) -> Non
     assert (status == INSIDE).all() and len(set(np.sign(along))) == 1
 
 
+def test_channels_out_apart_to_the_datas_edge_make_their_island_free(tmp_path):
+    """A 238 m river whose data's edge cuts it 24 m past the tip of a 400 m island near its
+    left bank (from the survey's seed 64): no outline point lies on the edge, so the axes
+    either side of the island run out to it apart, with no junction between them, and the
+    narrow channel's end there does not reach across the water (no chord across it). With
+    every other reading tried, the island beside that end is made free (reported): the
+    network builds and the water runs one way past it."""
+    water, centre, _, _ = survey_river(1071.01, 238.13, 15.65, 229.64,
+                                       [(179.55, 80.36, 399.07, 13.47, -0.1865)],
+                                       clip=(0.1454, 0.0162), shift=(0.0, 150.0))
+    assert len(water.interiors) == 1                      # the island is inside the water
+    _builds_running_one_way(tmp_path, water, centre, [6, 14, 30], "does not reach across")
+
+
+def test_a_channel_beside_a_short_shore_takes_the_shores_facing_it(tmp_path):
+    """A 120 m meandering river with an island crossing its left bank and two long islands
+    side by side in it (from the survey's seed 70 of islands that may cross a bank): the
+    rays across the middle of a channel round the islands miss the short shore beside it
+    and meet the one beyond, so its banks' ψ did not add up round the islands ("a shore …
+    that no branch runs along" once one was made free). The banks are then read from the
+    shores: each shore, sampled, faces the first channel a ray across the water from it
+    meets. Both islands stay between channels (none is made free) and the water runs one
+    way."""
+    water, centre, _, _ = survey_river(
+        1251.43, 119.95, 38.65, 391.31, [(438.06, 50.38, 80.38, 5.07, -0.1664),
+                                         (268.12, 11.68, 155.46, 7.84, -0.1129),
+                                         (438.31, 3.2, 156.93, 11.58, -0.1672)],
+        shift=(0.0, 150.0))
+    builder = rf.read_water(write_polygons(tmp_path / "short.geojson", [water]),
+                            origin_m=ORIGIN)
+    graph = builder.build()
+    assert builder.report.derived["islands"] == {"free (in one channel)": 0,
+                                                 "between channels": 2}
+    assert not any("free island" in r.what for r in builder.report.repairs)
+    rows = [4, 20, 34]
+    pts = centre[rows] @ SLOPE + (0.0, 150.0)
+    status, v = rf.FlowField(graph).query(pts)
+    along = np.einsum("ij,ij->i", v, np.gradient(centre, axis=0)[rows] @ SLOPE)
+    assert (status == INSIDE).all() and len(set(np.sign(along))) == 1
+    assert (np.abs(along) > 0.8 * np.hypot(*v.T)).all()
+
+
+def test_an_island_already_free_named_again_ends_the_retries(tmp_path, monkeypatch):
+    """Where a build fails at an island already made free (the error names its shore
+    again), there is no other island to try: the retries end there with a GraphError
+    naming the file, the island made free once (it was made free again and again, 20
+    times, each reported). Made to happen on the river above without reading banks from
+    the shores."""
+    from riverflow.hydro import _network
+
+    def no_shores(*args):
+        raise GraphError("no shores")
+
+    monkeypatch.setattr(_network, "_sides_by_shores", no_shores, raising=False)
+    water = survey_river(
+        1251.43, 119.95, 38.65, 391.31, [(438.06, 50.38, 80.38, 5.07, -0.1664),
+                                         (268.12, 11.68, 155.46, 7.84, -0.1129),
+                                         (438.31, 3.2, 156.93, 11.58, -0.1672)],
+        shift=(0.0, 150.0)).water
+    path = write_polygons(tmp_path / "again.geojson", [water])
+    builder = rf.read_water(path, origin_m=ORIGIN)
+    with pytest.raises(GraphError, match="again.geojson"):
+        builder.build()
+    free = [r.what.split(" between")[0] for r in builder.report.repairs
+            if "free island" in r.what]
+    assert free and len(free) == len(set(free)), free
+
+
 def braid_in_three_lanes(seed: int):
     """A 200 m river with long thin islands (200 - 400 m) in three staggered lanes (y = -50,
     0, 50 m), cut obliquely at both ends by a trapezoid (its ends not along the bounding box:

@@ -496,6 +496,8 @@ def test_a_side_channel_beside_an_end_pruned_away_is_no_basin(tmp_path):
     graph = builder.build()
     assert builder.basins == [] and not any("is a basin" in n for n in builder.report.notes)
     assert builder.report.derived["islands"]["between channels"] == 1
+    assert sum("not counted as ends of the water" in r.what        # the retry, reported
+               for r in builder.report.repairs) == 1
     # two axes end on the downstream cut: one each side of the island crossing it
     ends = np.array([p for c in builder._branches for p in (c.centerline_m[0],
                                                              c.centerline_m[-1])])
