@@ -1558,10 +1558,15 @@ def _voronoi_edges(pts: np.ndarray) -> np.ndarray:
     """The edges of the Voronoi diagram of points (N ≥ 3, 2) [m] as segments (E, 2, 2):
     Qhull's (``scipy.spatial.Voronoi``; GEOS's ``voronoi_polygons`` took over a minute for
     the 200,000 outline points of London's Thames, Qhull 3 s), an unbounded edge cut at
-    twice the points' extent beyond its vertex (outside any water they outline)."""
-    from scipy.spatial import Voronoi
+    twice the points' extent beyond its vertex (outside any water they outline); GEOS's
+    where Qhull cannot start (points all in a line)."""
+    from scipy.spatial import QhullError, Voronoi
 
-    vor = Voronoi(pts)
+    try:
+        vor = Voronoi(pts)
+    except QhullError:           # all in a line (a sliver's outline): GEOS's, as it was
+        edges = shapely.voronoi_polygons(shapely.MultiPoint(pts), only_edges=True)
+        return shapely.get_coordinates(shapely.get_parts(edges)).reshape(-1, 2, 2)
     ridges = np.asarray(vor.ridge_vertices, dtype=np.int64).reshape(-1, 2)
     pairs = np.asarray(vor.ridge_points, dtype=np.int64).reshape(-1, 2)
     finite = (ridges >= 0).all(axis=1)

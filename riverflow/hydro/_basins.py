@@ -107,8 +107,11 @@ def _excess(points: np.ndarray, axes: _Axes):
     """For each point, how far beyond its channel's bank it lies (distance to the nearest axis
     minus the half width there) [m], -inf where no axis has it beside its interior, and that
     channel's width [m]."""
-    d, _, arc = axes.index.nearest(np.asarray(points, np.float64).reshape(-1, 2))
-    k = np.clip(np.searchsorted(axes.start, arc, side="right") - 1, 0, len(axes.arcs) - 1)
+    near = axes.index.nearest_segments(np.asarray(points, np.float64).reshape(-1, 2))
+    d, arc = near.dist, near.arc
+    k = (axes.index.segment_line[near.seg] if axes.index.segment_line is not None
+         else np.zeros(len(d), np.int64))           # (the segment's axis, not the arc's:
+    #                                                 an end's arc is the next one's start)
     out = np.full(len(d), -np.inf)
     width = np.zeros(len(d))
     for j in np.unique(k).tolist():

@@ -35,6 +35,8 @@ class PolylineIndex:
             line = None
         self.points = p
         joined = slice(None) if line is None else line[1:] == line[:-1]
+        self.segment_line = None if line is None else line[:-1][joined]
+        """Each segment's line (several lines), else None."""
         self.a = np.ascontiguousarray(p[:-1][joined])
         self.d = np.ascontiguousarray((p[1:] - p[:-1])[joined])
         if not len(self.a):                         # lines of one point each
@@ -66,13 +68,19 @@ class PolylineIndex:
         """For points (N, 2) [m]: (distance (N,), nearest point (N, 2), its arc length from
         the line's start (N,)) [m]. With ``max_distance`` [m], points farther than that from
         the line get distance inf (point and arc NaN): far queries are then almost free."""
+        out = self.nearest_segments(xy, max_distance)
+        return out.dist, out.point, out.arc
+
+    def nearest_segments(self, xy: np.ndarray, max_distance: float | None = None) -> Nearest:
+        """:meth:`nearest` with each point's nearest segment (``seg``, −1: none within
+        ``max_distance``; ``segment_line[seg]``: its line)."""
         xy = np.ascontiguousarray(np.asarray(xy, np.float64).reshape(-1, 2))
         n = len(xy)
         out = Nearest(np.empty(n, np.int64), np.empty(n), np.empty((n, 2)), np.empty(n))
         if n:
             limit = np.inf if max_distance is None else float(max_distance) ** 2
             nearest_points(self.line, xy, limit, out)
-        return out.dist, out.point, out.arc
+        return out
 
     def distance(self, xy: np.ndarray) -> np.ndarray:
         """Distance [m] from points (N, 2) to the polyline, (N,)."""

@@ -546,3 +546,44 @@ def test_a_backwater_behind_a_spit_is_still_water(tmp_path):
     along = v @ SLOPE[0]
     assert (status == INSIDE).all() and (np.abs(along) > 0.9 * np.hypot(*v.T)).all()
     assert len(set(np.sign(along))) == 1
+
+
+def test_the_excess_beyond_a_bank_through_the_axes_box_hierarchy():
+    """``_basins._excess`` finds each outline point's nearest axis through one box hierarchy
+    of every axis' segments (each axis' distance to every point took minutes for London's
+    Thames): the numbers of the old loop over the axes (its shapely twin here) for points
+    off the axes' ends."""
+    from riverflow.hydro import _basins
+
+    rng = np.random.default_rng(5)
+    axes = []
+    for k in range(6):
+        x = np.linspace(0.0, 400.0, 40)
+        line = np.column_stack([x, 150.0 * k + 20.0 * np.sin(x / 60.0 + k)])
+        axes.append((line, rng.uniform(20.0, 40.0, len(line))))
+    pts = rng.uniform([-20.0, -80.0], [420.0, 830.0], (2000, 2))
+
+    def twin(points):
+        best = np.full(len(points), np.inf)
+        out = np.full(len(points), -np.inf)
+        width = np.zeros(len(points))
+        p = shapely.points(points)
+        for line, w in axes:
+            ls = shapely.LineString(line)
+            s, rw = _basins._robust_widths(line, w)
+            d = shapely.distance(ls, p)
+            t = shapely.line_locate_point(ls, p)
+            inner = (t > 1e-9 * max(1.0, s[-1])) & (t < s[-1] * (1.0 - 1e-9))
+            hw = 0.5 * np.interp(t, s, rw)
+            take = d < best
+            best = np.where(take, d, best)
+            out = np.where(take, np.where(inner, d - hw, -np.inf), out)
+            width = np.where(take, 2.0 * hw, width)
+        return out, width
+
+    got, got_w = _basins._excess(pts, _basins._Axes(axes))
+    want, want_w = twin(pts)
+    finite = np.isfinite(want)
+    assert (np.isfinite(got) == finite).all()
+    np.testing.assert_allclose(got[finite], want[finite], atol=1e-9)
+    np.testing.assert_allclose(got_w, want_w, atol=1e-9)
