@@ -23,7 +23,8 @@ import numpy as np
 from numba import njit
 
 from riverflow.kernels._jit import EXACT_JIT_OPTIONS
-from riverflow.kernels.polyline import LEAF, _box_d2, segment_boxes
+from riverflow.kernels.polyline import (LEAF, _box_d2, _push_children, _walk_bound,
+                                        segment_boxes)
 
 MAX_NEIGHBOURS = 128
 """The most samples one point mixes (numpy's pairwise sum is one block up to this many)."""
@@ -101,8 +102,7 @@ def mixed_levels(samples, k, p, band, out):
         # every sample within the bound is searched: the previous point's k nearest are
         # within it (a little wider than the triangle inequality: rounding), so its k
         # nearest are too
-        step = math.hypot(x - prev_x, y - prev_y)
-        bound = (prev_r + step) * (1.0 + 1e-9) + 1e-6
+        bound = _walk_bound(prev_r, prev_x, prev_y, x, y)
         limit = bound * bound if bound < math.inf else math.inf
         count = 0
         top = 1
@@ -139,21 +139,7 @@ def mixed_levels(samples, k, p, band, out):
                     best_d2[m] = d2
                     best_j[m] = j
                 continue
-            c0 = 2 * node + 1
-            c1 = c0 + 1
-            d0 = _box_d2(boxes, c0, x, y)
-            d1 = _box_d2(boxes, c1, x, y)
-            if d0 <= d1:    # the nearer child on top, searched first
-                stack[top] = c1
-                stack_d2[top] = d1
-                stack[top + 1] = c0
-                stack_d2[top + 1] = d0
-            else:
-                stack[top] = c0
-                stack_d2[top] = d0
-                stack[top + 1] = c1
-                stack_d2[top + 1] = d1
-            top += 2
+            top = _push_children(boxes, node, x, y, stack, stack_d2, top)
         if count < k:       # not finite (a NaN point): no bound for the next one either
             out[i] = math.nan
             prev_r = math.inf
@@ -192,8 +178,7 @@ def nearest_samples(samples, p, out_nearest, out_tie):
     for i in range(p.shape[0]):
         x = p[i, 0]
         y = p[i, 1]
-        # bounded by the previous point's nearest distance plus the step (a little wider)
-        bound = (prev_r + math.hypot(x - prev_x, y - prev_y)) * (1.0 + 1e-9) + 1e-6
+        bound = _walk_bound(prev_r, prev_x, prev_y, x, y)
         best = bound * bound if bound < math.inf else math.inf
         best_j = -1
         tie = False
@@ -219,21 +204,7 @@ def nearest_samples(samples, p, out_nearest, out_tie):
                         tie = True
                         best_j = min(best_j, j)
                 continue
-            c0 = 2 * node + 1
-            c1 = c0 + 1
-            d0 = _box_d2(boxes, c0, x, y)
-            d1 = _box_d2(boxes, c1, x, y)
-            if d0 <= d1:    # the nearer child on top, searched first
-                stack[top] = c1
-                stack_d2[top] = d1
-                stack[top + 1] = c0
-                stack_d2[top + 1] = d0
-            else:
-                stack[top] = c0
-                stack_d2[top] = d0
-                stack[top + 1] = c1
-                stack_d2[top + 1] = d1
-            top += 2
+            top = _push_children(boxes, node, x, y, stack, stack_d2, top)
         out_nearest[i] = max(best_j, 0)
         out_tie[i] = tie or best_j < 0
         if best_j < 0:

@@ -66,6 +66,35 @@ def _box_d2(boxes, node, x, y):
     return dx * dx + dy * dy
 
 
+@njit(inline="always", **EXACT_JIT_OPTIONS)
+def _walk_bound(prev_r, prev_x, prev_y, x, y):
+    """A bound on a point's answer [m] from the previous point's (``prev_r`` at ``prev_x,
+    prev_y``; inf or NaN: none): that distance plus the step between them, a little wider
+    (rounding); boxes beyond it are skipped from the start."""
+    return (prev_r + math.hypot(x - prev_x, y - prev_y)) * (1.0 + 1e-9) + 1e-6
+
+
+@njit(inline="always", **EXACT_JIT_OPTIONS)
+def _push_children(boxes, node, x, y, stack, stack_d2, top):
+    """Push a node's two children on the search stack at ``top`` with their boxes' squared
+    distances, the nearer on top (searched first); returns the new top."""
+    c0 = 2 * node + 1
+    c1 = c0 + 1
+    d0 = _box_d2(boxes, c0, x, y)
+    d1 = _box_d2(boxes, c1, x, y)
+    if d0 <= d1:
+        stack[top] = c1
+        stack_d2[top] = d1
+        stack[top + 1] = c0
+        stack_d2[top + 1] = d0
+    else:
+        stack[top] = c0
+        stack_d2[top] = d0
+        stack[top + 1] = c1
+        stack_d2[top + 1] = d1
+    return top + 2
+
+
 class Polyline(NamedTuple):
     """One polyline's segments for :func:`nearest_points`: segment ``j`` runs from ``a[j]``
     (n, 2) by ``d[j]`` (n, 2); ``boxes`` from :func:`segment_boxes`; ``s0`` (n,) the arc
@@ -109,9 +138,7 @@ def nearest_points(line, xy, max_d2, out):
     for i in range(xy.shape[0]):
         x = xy[i, 0]
         y = xy[i, 1]
-        # the previous point's distance plus the step between them (a little wider: rounding)
-        # bounds this one's: boxes beyond it are skipped from the start
-        bound = (prev_d + math.hypot(x - prev_x, y - prev_y)) * (1.0 + 1e-9) + 1e-6
+        bound = _walk_bound(prev_d, prev_x, prev_y, x, y)
         best = min(max_d2, bound * bound) if bound < math.inf else max_d2
         best_seg = -1
         best_t = 0.0
@@ -144,21 +171,7 @@ def nearest_points(line, xy, max_d2, out):
                         best_seg = j
                         best_t = t
                 continue
-            c0 = 2 * node + 1
-            c1 = c0 + 1
-            d0 = _box_d2(boxes, c0, x, y)
-            d1 = _box_d2(boxes, c1, x, y)
-            if d0 <= d1:    # the nearer child on top, searched first
-                stack[top] = c1
-                stack_d2[top] = d1
-                stack[top + 1] = c0
-                stack_d2[top + 1] = d0
-            else:
-                stack[top] = c0
-                stack_d2[top] = d0
-                stack[top + 1] = c1
-                stack_d2[top + 1] = d1
-            top += 2
+            top = _push_children(boxes, node, x, y, stack, stack_d2, top)
         out.seg[i] = best_seg
         if best_seg < 0:
             prev_d = math.inf

@@ -39,6 +39,12 @@ def write_osm(path, ways):
     return path
 
 
+def flow_at(builder, graph, pts):
+    """(status, velocity) of the built network's flow at points [m] relative to ORIGIN."""
+    shift = ORIGIN - np.asarray(builder.report.origin_m or (0.0, 0.0))
+    return rf.FlowField(graph).query(np.asarray(pts, float) + shift)
+
+
 def to_pbf(osm_path):
     """The .osm file converted to .osm.pbf (protobuf, as planet extracts come) by pyosmium."""
     osmium = pytest.importorskip("osmium", reason="pyosmium writes the .osm.pbf "
@@ -191,8 +197,7 @@ def test_an_osm_way_drawn_the_wrong_way_round_a_loop_is_turned(tmp_path):
     assert rf.validate_graph(graph) == []
     (said,) = [r.what for r in builder.report.repairs if r.feature == "feature 102"]
     assert said.startswith("closed a loop that flows back into itself") and "turned" in said
-    shift = ORIGIN - np.asarray(builder.report.origin_m or (0.0, 0.0))
-    status, velocity = rf.FlowField(graph).query(np.array([[700.0, 150.0], [700.0, 0.0]]) + shift)
+    status, velocity = flow_at(builder, graph, [[700.0, 150.0], [700.0, 0.0]])
     assert (status == rf.FlowStatus.INSIDE).all() and (velocity[:, 0] > 0).all()
 
 
@@ -212,8 +217,7 @@ def test_an_osm_way_drawn_out_and_back_over_itself(tmp_path):
     assert rf.validate_graph(graph) == []
     (said,) = [r.what for r in builder.report.repairs if r.feature == "feature 102"]
     assert said.startswith("crosses itself") and "loop between the crossings cut out" in said
-    shift = ORIGIN - np.asarray(builder.report.origin_m or (0.0, 0.0))
-    status, velocity = rf.FlowField(graph).query(np.array([[275.0, 150.0]]) + shift)
+    status, velocity = flow_at(builder, graph, [[275.0, 150.0]])
     assert status[0] == rf.FlowStatus.INSIDE and velocity[0, 1] < 0.0     # down to the river
 
 

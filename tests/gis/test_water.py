@@ -754,6 +754,15 @@ def test_an_end_pruned_away_comes_back_beside_two_ends_at_the_edge(tmp_path):
     assert (status == INSIDE).all() and len(set(np.sign(along))) == 1
 
 
+def _flows_one_way(graph, centre, rows, share):
+    """At the survey river's centre points ``rows``: in the water, all one way along it, the
+    along-river part over ``share`` of the speed."""
+    pts = centre[rows] @ SLOPE + (0.0, 150.0)
+    status, v = rf.FlowField(graph).query(pts)
+    along = np.einsum("ij,ij->i", v, np.gradient(centre, axis=0)[rows] @ SLOPE)
+    assert (status == INSIDE).all() and len(set(np.sign(along))) == 1
+    assert (np.abs(along) > share * np.hypot(*v.T)).all()
+
 def test_a_piece_of_the_datas_edge_no_axis_reaches_gets_one(tmp_path):
     """A 187 m river with three long islands, cut by the data's box upstream just short of
     where two of them start (from the survey's seed 27 of islands that may cross a bank):
@@ -774,12 +783,7 @@ def test_a_piece_of_the_datas_edge_no_axis_reaches_gets_one(tmp_path):
     graph = builder.build()
     ends = np.array([p for _, c in _channels(builder) for p in (c[0], c[-1])])
     assert (np.abs(ends[:, 0] - edge) < 1e-6).sum() == 1
-    rows = [14, 20, 30]
-    pts = centre[rows] @ SLOPE + (0.0, 150.0)
-    status, v = rf.FlowField(graph).query(pts)
-    along = np.einsum("ij,ij->i", v, np.gradient(centre, axis=0)[rows] @ SLOPE)
-    assert (status == INSIDE).all() and len(set(np.sign(along))) == 1
-    assert (np.abs(along) > 0.5 * np.hypot(*v.T)).all()
+    _flows_one_way(graph, centre, [14, 20, 30], 0.5)
 
 
 def test_an_end_reach_shorter_than_its_junction_is_wide_joins(tmp_path):
@@ -878,12 +882,7 @@ def test_a_channel_beside_a_short_shore_takes_the_shores_facing_it(tmp_path):
     assert builder.report.derived["islands"] == {"free (in one channel)": 0,
                                                  "between channels": 2}
     assert not any("free island" in r.what for r in builder.report.repairs)
-    rows = [4, 20, 34]
-    pts = centre[rows] @ SLOPE + (0.0, 150.0)
-    status, v = rf.FlowField(graph).query(pts)
-    along = np.einsum("ij,ij->i", v, np.gradient(centre, axis=0)[rows] @ SLOPE)
-    assert (status == INSIDE).all() and len(set(np.sign(along))) == 1
-    assert (np.abs(along) > 0.8 * np.hypot(*v.T)).all()
+    _flows_one_way(graph, centre, [4, 20, 34], 0.8)
 
 
 def test_an_island_already_free_named_again_ends_the_retries(tmp_path, monkeypatch):
