@@ -92,14 +92,20 @@ def _arc(line: np.ndarray) -> np.ndarray:
     return np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(line, axis=0).T))])
 
 
-def cut_branches(branches: list, lakes: list[Lake], tolerance_m: float):
+def cut_branches(branches: list, lakes: list[Lake], tolerance_m: float, water=None):
     """Cut the branches at the lakes' shores. Returns the new branch list (objects of the same
     kind: ``name``, ``centerline_m``, ``widths_m``, ``discharge_m2s``), for each the lake its
-    start / end lies on (-1: none), and for each the index of the branch it came from."""
-    if not lakes:
+    start / end lies on (-1: none), and for each the index of the branch it came from.
+    ``water``: the rivers' water where given (a builder's water area less its free islands):
+    a lake apart from it (a pond on a free island, which its channel's axis crosses) cuts
+    nothing."""
+    if water is not None:
+        lakes = [lk if lk.polygon.distance(water) <= tolerance_m else None for lk in lakes]
+    kept = [lk for lk in lakes if lk is not None]
+    if not kept:
         return branches, [(-1, -1)] * len(branches), list(range(len(branches)))
-    union = shapely.union_all([lk.polygon for lk in lakes])
-    shores = shapely.union_all([lk.polygon for lk in lakes if not lk.basin])
+    union = shapely.union_all([lk.polygon for lk in kept])
+    shores = shapely.union_all([lk.polygon for lk in kept if not lk.basin])
     out, ends, origin = [], [], []
     tips = np.array([[b.centerline_m[0], b.centerline_m[-1]] for b in branches]).reshape(-1, 2)
     for i, b in enumerate(branches):
@@ -153,12 +159,12 @@ def cut_branches(branches: list, lakes: list[Lake], tolerance_m: float):
     return out, ends, origin
 
 
-def _on_lake(lakes: list[Lake], p: np.ndarray) -> int:
+def _on_lake(lakes: list[Lake | None], p: np.ndarray) -> int:
     """The lake whose shore ``p`` lies on (-1: none); never a basin (still water off the side
     of a river: no branch starts or ends on it, one that meets its mouth at a junction goes on
-    past it)."""
+    past it), nor a lake apart from the rivers (None)."""
     for k, lk in enumerate(lakes):
-        if lk.basin:
+        if lk is None or lk.basin:
             continue
         if lk.polygon.boundary.distance(shapely.Point(p)) <= 1e-6 * max(1.0, np.abs(p).max()):
             return k

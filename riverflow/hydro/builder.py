@@ -522,7 +522,12 @@ class RiverNetworkBuilder:
         branches = [_BranchInput(b.name, b.centerline_m.copy(), b.widths_m.copy(), b.discharge_m2s)
                     for b in self._branches]
         lakes = self._lakes + self._basin_lakes(branches)
-        branches, lake_ends, origin = _lakes.cut_branches(branches, lakes, self.tolerance_m)
+        rivers = self._water_area       # (their water: less the free islands' land)
+        if rivers is not None and self._islands:
+            rivers = shapely.difference(rivers, shapely.union_all(
+                [isl.outline for isl in self._islands]))
+        branches, lake_ends, origin = _lakes.cut_branches(branches, lakes, self.tolerance_m,
+                                                          rivers)
         branches, lake_ends, self.terminal_lakes, self.source_lakes = \
             _lakes.end_at_terminal_lakes(branches, lakes, lake_ends)
         if self.terminal_lakes and getattr(self, "report", None) is not None:
@@ -562,6 +567,11 @@ class RiverNetworkBuilder:
             polygons, cuts, islands, (end_cuts, cut_islands) = _given_water(
                 geoms, water, self._islands, self.tolerance_m)
             self.islands_cut = cut_islands
+            if lakes:   # a pond on a free island: its water again (the island's land is cut)
+                kept = shapely.union_all(polygons)
+                polygons = list(polygons) + [
+                    lk.polygon for lk in lakes
+                    if shapely.difference(lk.polygon, kept).area > 1e-6 * lk.polygon.area]
         if lakes:   # river areas and lake areas, sharing the mouths
             min_area = (0.01 * min(float(g.widths_m.min()) for g in geoms) ** 2
                         if geoms else eps ** 2)

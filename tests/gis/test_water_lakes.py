@@ -219,3 +219,23 @@ def test_a_pond_on_a_rivers_island_is_water_again(tmp_path):
                                                     [600.0, 80.0]]) + shift)
     assert list(status) == [rf.FlowStatus.INSIDE, rf.FlowStatus.OUTSIDE, rf.FlowStatus.INSIDE]
     assert np.abs(v[0]).max() < 1e-6 and v[2, 0] > 0.0
+
+
+def test_a_pond_on_a_free_island_is_water_again(tmp_path):
+    """A pond on a small island in one channel (a free island: the channel's axis runs
+    across it): the axis was cut at the pond's shore ("ends both at a junction and on the
+    shore of lake 0") and the island's land cut the pond's water away ("the rivers cut it
+    into 0 pieces"). A lake apart from the rivers' water cuts no axis, and its water is
+    water again inside the island."""
+    river = shapely.box(0, -100, 1200, 100).difference(shapely.Point(600, 0).buffer(30))
+    pond = shapely.Point(600, 0).buffer(12)
+    path = write_tagged(tmp_path / "pond.gpkg", [river, pond], ["river", "pond"])
+    b = rf.read_water(path, inlets=[tuple(ORIGIN + (0, 0))])
+    graph = b.build()
+    assert rf.validate_graph(graph) == []
+    assert b.report.derived["islands"]["free (in one channel)"] == 1 and len(graph.lakes()) == 1
+    shift = ORIGIN - np.asarray(b.report.origin_m or (0.0, 0.0))
+    status, v = rf.FlowField(graph).query(np.array([[600.0, 0.0], [600.0, 20.0],
+                                                    [600.0, 60.0]]) + shift)
+    assert status[0] == rf.FlowStatus.INSIDE and status[1] != rf.FlowStatus.INSIDE
+    assert status[2] == rf.FlowStatus.INSIDE and np.abs(v[0]).max() < 1e-6 and v[2, 0] > 0.0
