@@ -29,6 +29,12 @@ def write_tagged(path, geoms, water):
     return path
 
 
+def flow_at(builder, graph, pts):
+    """(status, velocity) of the built network's flow at points [m] relative to ORIGIN."""
+    shift = ORIGIN - np.asarray(builder.report.origin_m or (0.0, 0.0))
+    return rf.FlowField(graph).query(np.asarray(pts, float) + shift)
+
+
 def test_a_polygon_tagged_lake_between_two_rivers_is_a_lake(tmp_path):
     path = write_tagged(tmp_path / "w.geojson", [WEST, LAKE, EAST], ["river", "lake", "river"])
     b = rf.read_water(path, inlets=[tuple(ORIGIN + (0, 20))],
@@ -195,9 +201,7 @@ def test_a_ring_of_water_round_an_island_beside_a_river_is_still_water(tmp_path)
     (k,) = graph.lakes()
     assert abs(shapely.Polygon(area_ring(graph, k)).area - moat.exterior.convex_hull.area) \
         < 0.02 * moat.exterior.convex_hull.area
-    shift = ORIGIN - np.asarray(b.report.origin_m or (0.0, 0.0))
-    status, v = rf.FlowField(graph).query(np.array([[600.0, 332.0], [600.0, 300.0],
-                                                    [600.0, 0.0]]) + shift)
+    status, v = flow_at(b, graph, [[600.0, 332.0], [600.0, 300.0], [600.0, 0.0]])
     assert list(status) == [rf.FlowStatus.INSIDE, rf.FlowStatus.OUTSIDE, rf.FlowStatus.INSIDE]
     assert np.abs(v[0]).max() < 1e-6 and v[2, 0] > 0.0
 
@@ -214,9 +218,7 @@ def test_a_pond_on_a_rivers_island_is_water_again(tmp_path):
     graph = b.build()
     assert rf.validate_graph(graph) == []
     assert len(graph.lakes()) == 1
-    shift = ORIGIN - np.asarray(b.report.origin_m or (0.0, 0.0))
-    status, v = rf.FlowField(graph).query(np.array([[600.0, 0.0], [600.0, 45.0],
-                                                    [600.0, 80.0]]) + shift)
+    status, v = flow_at(b, graph, [[600.0, 0.0], [600.0, 45.0], [600.0, 80.0]])
     assert list(status) == [rf.FlowStatus.INSIDE, rf.FlowStatus.OUTSIDE, rf.FlowStatus.INSIDE]
     assert np.abs(v[0]).max() < 1e-6 and v[2, 0] > 0.0
 
@@ -234,8 +236,6 @@ def test_a_pond_on_a_free_island_is_water_again(tmp_path):
     graph = b.build()
     assert rf.validate_graph(graph) == []
     assert b.report.derived["islands"]["free (in one channel)"] == 1 and len(graph.lakes()) == 1
-    shift = ORIGIN - np.asarray(b.report.origin_m or (0.0, 0.0))
-    status, v = rf.FlowField(graph).query(np.array([[600.0, 0.0], [600.0, 20.0],
-                                                    [600.0, 60.0]]) + shift)
+    status, v = flow_at(b, graph, [[600.0, 0.0], [600.0, 20.0], [600.0, 60.0]])
     assert status[0] == rf.FlowStatus.INSIDE and status[1] != rf.FlowStatus.INSIDE
     assert status[2] == rf.FlowStatus.INSIDE and np.abs(v[0]).max() < 1e-6 and v[2, 0] > 0.0
