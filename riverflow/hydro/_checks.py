@@ -23,6 +23,37 @@ def _signed_area(loop: np.ndarray) -> float:
     return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
 
 
+def loop_depths(loops: list[np.ndarray], polys: list, poly_area: list[int]) -> np.ndarray:
+    """How many other loops hold each loop (one tree query), asked a hair left of the middle
+    of its first edge, the side its water is on (a vertex may lie on another loop: München's
+    basins at an island's tip, their mouths on its shore): water (counter-clockwise loops)
+    lies at an even depth, islands (clockwise) at an odd one (odd winding rule: a pond on a
+    river's island is water again)."""
+    probe = shapely.points(np.array([_left_of_first_edge(lp) for lp in loops]).reshape(-1, 2))
+    depth = np.zeros(len(loops), int)
+    if polys:
+        at, by = shapely.STRtree(polys).query(probe, predicate="within")
+        for a, j in zip(at, by):
+            if poly_area[j] != a:
+                depth[a] += 1
+    return depth
+
+
+def _left_of_first_edge(loop: np.ndarray) -> np.ndarray:
+    """A point a hair left of the middle of a loop's first edge of some length, or its first
+    vertex."""
+    if len(loop) < 2:
+        return loop[0] if len(loop) else np.zeros(2)
+    d = np.diff(loop, axis=0)
+    length = np.hypot(*d.T)
+    k = int(np.argmax(length > 0.0))
+    if not length[k] > 0.0:
+        return loop[0]
+    t = d[k] / length[k]
+    eps = min(1e-3 * length[k], 1e-6 * max(1.0, float(np.abs(loop[k]).max())) + 1e-9)
+    return 0.5 * (loop[k] + loop[k + 1]) + eps * np.array([-t[1], t[0]])
+
+
 def area_loop(graph: HydroGraph, area: int) -> np.ndarray:
     """The closed polyline of an area (M, 2) [m], first point not repeated (builder graphs
     have no Bézier control points, so this is the raw vertex loop)."""
@@ -137,16 +168,7 @@ def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6,
     signed = [_signed_area(lp) for lp in loops]
     polys = [shapely.Polygon(lp) for lp in loops if len(lp) >= 3]
     poly_area = [a for a, lp in enumerate(loops) if len(lp) >= 3]
-    # how many other loops hold each loop's first point (one tree query): water (counter-
-    # clockwise) at an even depth, islands (clockwise) at an odd one (odd winding rule: a
-    # pond on a river's island is water again)
-    first = shapely.points(np.array([lp[0] for lp in loops]).reshape(-1, 2))
-    depth = np.zeros(len(loops), int)
-    if polys:
-        at, by = shapely.STRtree(polys).query(first, predicate="within")
-        for a, j in zip(at, by):
-            if poly_area[j] != a:
-                depth[a] += 1
+    depth = loop_depths(loops, polys, poly_area)
     for a, lp in enumerate(loops):
         sa = signed[a]
         if sa > 0 and depth[a] % 2:
@@ -179,7 +201,7 @@ def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6,
         for c in {c for c, _ in area.curves}:
             n_areas[c] = n_areas.get(c, 0) + 1
     two_sided = {c for c, n in n_areas.items() if n > 1}
-    del loops, polys, levels, first     # (copies of the whole outline: the peak is below)
+    del loops, polys, levels            # (copies of the whole outline: the peak is below)
     linked = [i for i in banks if 0 <= curves[i].river < len(curves)]
     # every linked bank's segments in bulk, banks grouped by their axis (one nearest-point
     # query per axis), in chunks of about CHUNK_SEGMENTS segments (the arrays of a chunk are

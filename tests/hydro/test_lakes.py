@@ -599,3 +599,18 @@ def test_a_lake_alone_passes_validation_with_or_without_an_island():
         b = RiverNetworkBuilder()
         b.add_lake(lake)
         assert rf.validate_graph(b.build()) == []
+
+
+def test_loop_depths_ask_on_the_water_side_of_a_loop():
+    """München's OSM: a basin at an island's tip, its mouth on the island's shore (its loop's
+    first vertex on the island's loop): asked at that vertex, only the river's loop held it
+    ("counter-clockwise loop inside another area"); asked a hair inside its water, the island
+    holds it too: depth 2, water again. The river's outer loop 0, the island 1."""
+    from riverflow.hydro._checks import loop_depths
+
+    river = np.array([[0, 0], [100, 0], [100, 100], [0, 100], [0, 0]], float)       # ccw
+    island = np.array([[30, 30], [30, 70], [70, 70], [70, 30], [30, 30]], float)     # cw
+    basin = np.array([[70, 40], [70, 50], [60, 45], [70, 40]], float)  # ccw, in the island
+    loops = [river, island, basin]
+    polys = [shapely.Polygon(lp) for lp in loops]
+    assert list(loop_depths(loops, polys, [0, 1, 2])) == [0, 1, 2]
