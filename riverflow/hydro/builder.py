@@ -522,7 +522,7 @@ class RiverNetworkBuilder:
         branches = [_BranchInput(b.name, b.centerline_m.copy(), b.widths_m.copy(), b.discharge_m2s)
                     for b in self._branches]
         lakes = self._lakes + self._basin_lakes(branches)
-        rivers = self._water_area       # (their water: less the free islands' land)
+        rivers = self._water_area if lakes else None    # (less the free islands' land)
         if rivers is not None and self._islands:
             rivers = shapely.difference(rivers, shapely.union_all(
                 [isl.outline for isl in self._islands]))
