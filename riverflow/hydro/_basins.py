@@ -93,12 +93,11 @@ class _Axes:
     def __init__(self, axes: list[tuple[np.ndarray, np.ndarray]]) -> None:
         from riverflow.hydro.nearest import PolylineIndex
 
-        self.axes = axes
         lines = [np.asarray(a, np.float64).reshape(-1, 2) for a, _ in axes]
         self.index = PolylineIndex(np.vstack(lines), np.repeat(np.arange(len(lines)),
                                                                [len(a) for a in lines]))
-        self.arcs = [_robust_widths(a, np.asarray(w, np.float64)) for a, w in zip(lines, [
-            w for _, w in axes])]
+        self.arcs = [_robust_widths(a, np.asarray(w, np.float64))
+                     for a, (_, w) in zip(lines, axes)]
         lengths = np.array([arc[-1] for arc, _ in self.arcs])
         self.start = np.concatenate([[0.0], np.cumsum(lengths)[:-1]])
 
