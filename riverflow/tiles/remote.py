@@ -21,12 +21,13 @@ source that cannot be used from a forked process (a callable holding a socket, a
 ``RiverConfig(tile_worker="thread")``.
 
 After a fork every page of the world's process is shared with the child until either writes
-it: the first frame after it pays a page fault and a 4 KiB copy for each page it writes (~3
-ms at 1080p, over its own work). :func:`forked` has the forking thread pay them instead: the
-pages the first frame after the last fork wrote (those no child shares then, read from
-``/proc/self/pagemap``: the frames' working set) are copied right after the fork
-(``MADV_POPULATE_WRITE``: no byte is written, so no thread's data is touched; Linux ≥ 5.14,
-elsewhere nothing is done).
+it: the first frame after it pays a page fault and a 4 KiB copy for each page it writes (~2.5
+ms at 1080p, over its own work). :func:`forked` has the forking thread pay them instead, in
+the gap between frames the fork began in (:meth:`~riverflow.tiles.scheduler.TileScheduler.
+fork_for`): the pages the frames write (the misses of the first frame after the last fork,
+read from ``/proc/self/pagemap``: :meth:`~riverflow.tiles.scheduler.TileScheduler.
+learn_written`) are copied until the next frame begins (``MADV_POPULATE_WRITE``: no byte is
+written, so no thread's data is touched; Linux ≥ 5.14, elsewhere nothing is done).
 """
 from __future__ import annotations
 
