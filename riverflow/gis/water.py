@@ -132,6 +132,7 @@ class WaterBuilder(RiverNetworkBuilder):
     report: RiverImport
     water: shapely.Geometry
     short_reaches_join = True
+    one_stream = False
     ends_beside = True
     kept_beside = False
     backwaters = True

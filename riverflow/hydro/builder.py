@@ -126,6 +126,11 @@ class RiverNetworkBuilder:
     the data's edge cuts the water); else they "do not meet"."""
     short_reach_joined = False
     """Set by :meth:`build` when such a short reach joined its ends."""
+    one_stream = True
+    """Whether branches may run in one stream where they leave or join a junction at a small
+    angle (the graph checks then read across both: :func:`~riverflow.hydro._checks.
+    graph_problems`); :func:`~riverflow.gis.read_water`'s builder: no (its skeleton's axes
+    never do; where they seem to, their directions are wrong and the build retries)."""
 
     def __init__(self, tolerance_m: float = 0.25, *, lateral_inflow: bool = False,
                  fillet_fraction: float = FILLET_FRACTION,
@@ -591,7 +596,8 @@ class RiverNetworkBuilder:
             from riverflow.hydro.lake_flow import set_island_potentials
             set_island_potentials(graph, self.tolerance_m)
         problems = graph_problems(graph, [(g.centerline_m, g.widths_m, g.discharge_m2s) for g in geoms],
-                                  axes_cover_banks=True, axis_index=axis_index)
+                                  axes_cover_banks=True, axis_index=axis_index,
+                                  one_stream=self.one_stream)
         if problems:
             raise GraphError("the network gives an invalid hydro graph: " + "; ".join(problems[:5]))
         first = {}
