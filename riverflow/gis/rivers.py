@@ -2737,16 +2737,22 @@ def _merge_close_channels(links: list[_Link], plan, geometry: HydraulicGeometry,
             values["elevation_m"] = (z0, z_cut) if outflow else (z_cut, z1)
             for lk, line, at in ((la, line_a, along(line_a, reach)), (lb, line_b, at_b)):
                 f = at / line.length                 # values given per end: at the cut
+                # each arm leaves its line a gap's length before the cut and meets the
+                # merged reach at its end slantwise (≤ 27°), not square across the gap: two
+                # arms running side by side would end in a T whose strips overlap beyond the
+                # junction
+                lead = min(gap, 0.5 * (line.length - at if outflow else at))
                 if outflow:
-                    beyond = shapely.get_coordinates(shapely.ops.substring(line, at,
-                                                                           line.length))
-                    lk.points = np.vstack([mid, beyond[1:]])
+                    beyond = shapely.get_coordinates(shapely.ops.substring(
+                        line, at + lead, line.length))
+                    lk.points = np.vstack([mid, beyond])
                     lk.start = next_j
                     lk.values = {key: (v0 + (v1 - v0) * f, v1) for key, (v0, v1) in
                                  lk.values.items()}
                     lk.z = (lk.z[0] + (lk.z[1] - lk.z[0]) * f, lk.z[1])
                 else:
-                    above = shapely.get_coordinates(shapely.ops.substring(line, 0.0, at))
+                    above = shapely.get_coordinates(shapely.ops.substring(line, 0.0,
+                                                                          at - lead))
                     lk.points = np.vstack([above, mid])
                     lk.end = next_j
                     lk.values = {key: (v0, v0 + (v1 - v0) * f) for key, (v0, v1) in

@@ -60,6 +60,14 @@ def test_braid_arms_closer_than_their_width_merge_around_an_island(tmp_path):
     (merged,) = [lk for lk in builder.report.links if lk.name.endswith("merged")]
     assert merged.width_m == pytest.approx(50.0)      # their discharge: the river above's
     assert min(b.widths_m.min() for b in builder._branches) >= 40.0
+    # each arm meets the merged reach slantwise (it leaves its line a gap's length before
+    # the cut), not square across the gap: side by side, a T's strips overlap past the disc
+    branches = {b.name: b.centerline_m for b in builder._branches}
+    reach = branches[merged.name]
+    ahead = (reach[-1] - reach[0]) / np.hypot(*(reach[-1] - reach[0]))
+    for name in ("feature 2", "feature 3"):              # (square: 75° and 105° here)
+        last = branches[name][-1] - branches[name][-2]
+        assert np.dot(last, ahead) / np.hypot(*last) > np.cos(np.radians(60.0)), name
     # the water between the arms above the merge is an island: land inside the braid
     field = check_flows_downstream(graph, braid_arms(), skip_m=3.0)
     status, _ = field.query(np.array([[60.0, 0.0]]) + ORIGIN)
