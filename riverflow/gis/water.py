@@ -86,6 +86,11 @@ LAKE_WATER = ("lake", "reservoir", "pond", "oxbow")
 water bodies (:meth:`~riverflow.RiverNetworkBuilder.add_lake`). An OSM ``natural=water``
 area without ``water=`` is a lake too (the tag's documented default, OSM wiki Key:water); a
 polygon file's feature without the attribute is a river's water."""
+NHD_LAKE_FTYPES = ("lakepond", "reservoir", "swampmarsh", "playa", "390", "436", "466", "361")
+"""The USGS National Hydrography Dataset's ``FTYPE`` of standing water (NHDWaterbody:
+LakePond 390, Reservoir 436, SwampMarsh 466, Playa 361; NHDPlus writes the names, NHD HR the
+codes): a polygon file's feature with one of them is a lake, as ``water=lake`` is; NHDArea's
+StreamRiver (460), CanalDitch (336), … are a river's water."""
 LAKE_FLAG = "_riverflow_lake"
 """The attribute :func:`_read_polygons` sets on the features tagged as lakes."""
 SPUR_WIDTHS = 1.0
@@ -887,6 +892,12 @@ def _read_polygons(path: Path, layer):
             tags = _hstore(table["other_tags"][i]) if "other_tags" in table else {}
             water = tags.get("water", "lake" if attrs.get("natural") == "water"
                              and tags.get("waterway") != "riverbank" else None)
+        if not osm and water is None:       # NHD's feature type, where the file has one
+            ftype = next((v for k, v in attrs.items() if k.lower() == "ftype"), None)
+            if ftype is not None and str(int(ftype) if isinstance(ftype, float) and
+                                         ftype.is_integer() else ftype).strip().lower() \
+                    in NHD_LAKE_FTYPES:
+                water = "lake"
         if isinstance(water, str) and water.strip().lower() in LAKE_WATER:
             attrs[LAKE_FLAG] = True
         out.append((int(fids[i]), geoms[i], attrs))
