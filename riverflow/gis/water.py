@@ -111,6 +111,12 @@ repair left): left out, reported."""
 SAMPLES_PER_WIDTH = 8.0
 """Outline points per narrowest channel width for the skeleton's Voronoi diagram."""
 MAX_OUTLINE_SAMPLES = 200_000
+NARROW_SAMPLES = 4.0
+"""Where the water is narrower than this many outline points' spacings, the skeleton's
+points are put closer (:func:`_narrow_samples`; islands' passages: the spacing of the whole)."""
+NARROW_AREA = 8.0
+"""...in pieces of water at least this many squared half widths of that (not a corner the
+opening rounds off, nor a notch)."""
 OPEN_EDGE_WIDTHS = 0.25
 """A piece of the water's outline along the data's extent at least this many mean widths
 long is an open end (the water cut by the map's edge), not a bank."""
@@ -1617,6 +1623,8 @@ def skeleton(water, tolerance_m: float = 0.25, frame=None, ends=None, dead=None)
     spacing = max(min(approx_width, 2.0 * gap) / SAMPLES_PER_WIDTH,
                   length / MAX_OUTLINE_SAMPLES, tolerance_m)
     per_ring = [np.asarray(shapely.segmentize(r, spacing).coords)[:-1] for r in rings]
+    per_ring = _narrow_samples(water, rings, per_ring, spacing,
+                               max(length / MAX_OUTLINE_SAMPLES, tolerance_m))
     pts = np.vstack(per_ring)
     open_edge = _open_edge(water, frame, approx_width, tolerance_m)
     banks = pts
@@ -1666,7 +1674,10 @@ def skeleton(water, tolerance_m: float = 0.25, frame=None, ends=None, dead=None)
     ids: dict[int, int] = {}
     for chain in chains:
         p = uniq[chain]
-        p = _smooth(p, radius[chain[0]], radius[chain[-1]], spacing)
+        # (simplified at the spacing, or finer along a channel narrower than the points'
+        # spacing allows for: a quarter of its median inscribed radius)
+        p = _smooth(p, radius[chain[0]], radius[chain[-1]],
+                    min(spacing, 0.25 * float(np.median(radius[chain]))))
         # widths all along it, not only at the points simplification kept (a straight
         # channel keeps only its ends, which lie in the wider junctions)
         step = max(2.0 * spacing, 0.5 * float(radius[chain].min()))
@@ -1678,6 +1689,38 @@ def skeleton(water, tolerance_m: float = 0.25, frame=None, ends=None, dead=None)
         out.append((p, w, a, b))
     nodes = np.array([uniq[i] for i in sorted(ids, key=ids.get)]).reshape(-1, 2)
     return out, nodes, None
+
+
+def _narrow_samples(water, rings, per_ring: list[np.ndarray], spacing: float,
+                    finest: float) -> list[np.ndarray]:
+    """The outline points ``per_ring`` with more where the water is narrower than
+    NARROW_SAMPLES × ``spacing``: a side channel or a tributary far narrower than the water's
+    mean width, whose skeleton the points at ``spacing`` do not hold (its Voronoi edges
+    cross its banks: the channel was lost, its water left to the nearest axis as a bank that
+    faces away). Such water (where the water less its opening by half that width, in
+    pieces of at least NARROW_AREA squared half widths: not a corner or a notch) has its
+    outline sampled at half the spacing, and so on within it down to ``finest``."""
+    out = [p for p in per_ring]
+    step = spacing
+    zone = water
+    while 0.5 * step >= finest:
+        h = 0.5 * NARROW_SAMPLES * step
+        opened = shapely.buffer(shapely.buffer(water, -h), h * (1.0 + 1e-3))
+        narrow = shapely.difference(zone, opened)
+        keep = [g for g in shapely.get_parts(narrow) if g.area >= NARROW_AREA * h * h]
+        if not keep:
+            break
+        zone = shapely.union_all(keep)
+        step *= 0.5
+        near = shapely.buffer(zone, step)
+        for k, r in enumerate(rings):
+            part = shapely.intersection(r, near)
+            if part.is_empty:
+                continue
+            more = shapely.get_coordinates(shapely.segmentize(part, step))
+            if len(more):
+                out[k] = np.unique(np.vstack([out[k], more]), axis=0)
+    return out
 
 
 def _out_through(seg: np.ndarray, inside: np.ndarray, kept: np.ndarray, open_edge, boundary,

@@ -131,7 +131,7 @@ def _bank_segments(graph: HydroGraph, chunk: list[int]):
 
 
 def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6,
-                   axes_cover_banks: bool = False, axis_index=None) -> list[str]:
+                   axes_cover_banks: bool = False, axis_index=None, away=None) -> list[str]:
     """Check a builder-made graph. ``branches``: optional [(centre line (K, 2), widths (K,)
     or None, discharge m²/s)] drawn downstream (widths may be omitted as a 2-tuple).
     ``axes_cover_banks``: the caller made every axis' width cover its banks' points (the
@@ -139,7 +139,8 @@ def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6,
     so the test that they lie within half an axis' width is skipped (the test that the axis
     lies on each bank's left stays). ``axis_index``: the axes' :class:`PolylineIndex` of their
     :meth:`~HydroGraph.vertices`, curve i's at i, as :func:`assemble_graph` gives them (else
-    made here)."""
+    made here). ``away``: a list to which the middle of every bank segment whose axis lies
+    on its right is appended with that axis' vertices, ``(point (2,), axis (K, 2))``."""
     problems: list[str] = []
     curves = graph.curves
     banks = graph.banks()
@@ -268,7 +269,11 @@ def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6,
             if not axes_cover_banks:
                 far[p0:p1] = ~np.isfinite(dist[s1 - s0:])
         holes = np.array([i in in_hole for i in chunk], bool)
-        bad_axis = np.bincount(sb, cross_bad, n).astype(np.int64) * ~holes
+        cross_bad &= ~holes[sb]
+        if away is not None and cross_bad.any():
+            away += [(p, graph.vertices(int(rivers[k])))
+                     for p, k in zip(mid[cross_bad], sb[cross_bad].tolist())]
+        bad_axis = np.bincount(sb, cross_bad, n).astype(np.int64)
         bad_far = np.bincount(vb, far, n).astype(np.int64)
         pt_count = np.bincount(vb, minlength=n)
         for k, i in enumerate(chunk):
