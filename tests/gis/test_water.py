@@ -1182,3 +1182,50 @@ def test_the_skeletons_voronoi_edges_are_geos_ones():
     assert far.sum() >= 3                           # the unbounded edges, cut far outside
     line = np.column_stack([np.arange(5.0), np.zeros(5)])
     assert _voronoi_edges(line).shape == (4, 2, 2)
+
+
+def test_an_end_drawn_as_nearly_straight_edges_is_cut_along_them(tmp_path):
+    """A river whose end is drawn obliquely across it as two edges meeting at a bend of a few
+    degrees (a map's end of the water: München's Isar). The closing segment is the whole
+    straight run of edges the axis runs into, as the data draws it (END_STRAIGHT), not a
+    chord across the channel that cut off 580 m² beyond it (nor the one edge, which left the
+    other a bank facing away from the axis: "its axis lies on its right")."""
+    w = 60.0
+    a, c = np.array([300.0, -w / 2]), np.array([280.0, w / 2])
+    n = np.array([-(c - a)[1], (c - a)[0]]) / np.hypot(*(c - a))
+    bend = a + 0.8 * (c - a) + 0.6 * n                   # 0.6 m into the water
+    water = shapely.Polygon([(-60.0, -w / 2), a, bend, c, (-60.0, w / 2)])
+    water = shapely.normalize(shapely.clip_by_rect(shapely.affinity.rotate(
+        water, 30.0, origin=(0, 0)), 0.0, -1000.0, 1000.0, 1000.0))
+    builder = rf.read_water(write_polygons(tmp_path / "end.geojson", [water]), origin_m=ORIGIN)
+    graph = builder.build()
+    assert "ends_cut_m2" not in builder.report.derived
+    end = shapely.affinity.rotate(shapely.LineString([a, bend, c]), 30.0, origin=(0, 0))
+    assert shapely.hausdorff_distance(closing_segments(graph), end) < 1e-6 or any(
+        shapely.hausdorff_distance(g, end) < 1e-6 for g in closing_segments(graph).geoms)
+
+
+def test_a_tributary_far_narrower_than_the_river_has_its_axis(tmp_path):
+    """A 14 m tributary meandering 700 m off a 250 m river: the skeleton's outline points,
+    spaced for the river's mean width (over 20 m apart), do not hold the tributary's medial
+    axis (its Voronoi edges cross its banks), which was lost: its water was left to the
+    river's axis as a bank that faces away from it (Porto's Douro). Where the water is
+    narrower than NARROW_SAMPLES spacings its outline is sampled finer, and its chains are
+    simplified at their own width: the tributary is a channel of its own, its axis inside
+    its water."""
+    r = 250.0
+    u = np.linspace(0.0, 700.0, 141)
+    line = shapely.LineString(np.c_[700.0 + 0.3 * u + 40.0 * np.sin(u / 90.0), r / 2 - 5.0 + u])
+    water = shapely.union_all([shapely.box(-100.0, -r / 2, 1600.0, r / 2),
+                               line.buffer(7.0, cap_style="flat")])
+    water = shapely.normalize(shapely.clip_by_rect(water, 0.0, -1000.0, 1400.0, 2000.0))
+    builder = rf.read_water(write_polygons(tmp_path / "trib.geojson", [water]), origin_m=ORIGIN)
+    graph = builder.build()
+    assert builder.report.derived["axes"] == {"skeleton": 3}
+    narrow = [b for b in builder._branches if float(np.median(b.widths_m)) < 30.0]
+    assert len(narrow) == 1
+    # (its axis runs on into the river to the junction)
+    axis = shapely.difference(shapely.LineString(narrow[0].centerline_m),
+                              shapely.box(-100.0, -r / 2, 1600.0, r / 2))
+    assert axis.length > 650.0 and axis.within(water.buffer(0.5))
+    assert len(graph.lakes()) == 0
