@@ -602,7 +602,7 @@ def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy
             _still(builder, part, k, "no channel in its skeleton")
             continue
         longest = max((c.length for c in net.channels), default=0.0)
-        widest = max((float(c.widths.max()) for c in net.channels), default=0.0)
+        widest = max((c.width for c in net.channels), default=0.0)
         several = len(getattr(water, "geoms", [])) > 1
         if not net.channels or several and (speck or longest < MIN_CHANNEL_WIDTHS * widest):
             x, y = part.representative_point().coords[0]

@@ -191,8 +191,9 @@ def end_at_terminal_lakes(branches: list, lakes: list[Lake], lake_ends: list):
         for i in ins + outs:
             b = branches[i]
             at_start = not ins
-            line = _clear_of(lake, b.centerline_m.copy(), b.widths_m, at_start, b.name)
-            branches[i] = type(b)(b.name, line, b.widths_m, b.discharge_m2s)
+            line, widths = _clear_of(lake, b.centerline_m.copy(), b.widths_m.copy(), at_start,
+                                     b.name)
+            branches[i] = type(b)(b.name, line, widths, b.discharge_m2s)
             lake_ends[i] = (-1, lake_ends[i][1]) if at_start else (lake_ends[i][0], -1)
         (terminal if ins else source).append(k)
     return branches, lake_ends, terminal, source
@@ -216,26 +217,32 @@ def cut_from_closed_lakes(water, lakes: list[Lake], closed: list[int], tolerance
 
 
 def _clear_of(lake: Lake, line: np.ndarray, w: np.ndarray, at_start: bool, name: str
-              ) -> np.ndarray:
-    """``line`` with its end (its start if ``at_start``) drawn back from ``lake`` until the
-    strip of its last (first) stretch is 0.02 widths clear of it."""
+              ) -> tuple[np.ndarray, np.ndarray]:
+    """``line`` and its widths ``w`` with its end (its start if ``at_start``) drawn back from
+    ``lake`` until the strip of its last (first) stretch is 0.02 widths clear of it: a
+    stretch drawn back to a tenth of its width still beside the shore (a line running along
+    the shore before it ends there: München's Isar) is dropped, and the one before drawn
+    back."""
     from riverflow.hydro._strips import strip_polygon
 
-    e, f = (0, 1) if at_start else (-1, -2)
-    width = float(w[e])
-    for _ in range(200):
+    for _ in range(200 + len(line)):
+        e, f = (0, 1) if at_start else (len(line) - 1, len(line) - 2)
+        width = float(w[e])
         strip = strip_polygon(line[[e, f]], w[[e, f]])
         if lake.polygon.distance(strip) > 0.02 * width:
-            return line
+            return line, w
         t = line[e] - line[f]
         seg = float(np.hypot(*t))
         if seg <= 0.1 * width:
+            if len(line) > 2:
+                line, w = (line[1:], w[1:]) if at_start else (line[:-1], w[:-1])
+                continue
             raise GraphError(f"branch {name!r}: its {'first' if at_start else 'last'} stretch "
                              f"({seg:.1f} m) lies along the shore of {lake.name} (a lake with "
                              f"no {'inlet' if at_start else 'outlet'}): "
                              f"{'start' if at_start else 'end'} the branch square to the shore")
         line[e] = line[e] - t / seg * 0.05 * width
-    return line
+    return line, w
 
 
 def lake_junctions(branches, lakes: list[Lake], lake_ends, start_j, end_j, junctions):

@@ -1229,3 +1229,21 @@ def test_a_tributary_far_narrower_than_the_river_has_its_axis(tmp_path):
                               shapely.box(-100.0, -r / 2, 1600.0, r / 2))
     assert axis.length > 650.0 and axis.within(water.buffer(0.5))
     assert len(graph.lakes()) == 0
+
+
+def test_a_river_with_a_pond_beside_it_is_no_pond_for_a_line_across_it(tmp_path):
+    """A 1 km river (50 m wide) with its line, a pond apart from it: a water body whose
+    channels are no longer than twice their width is a pond. The width was the widest chord
+    of any line point, and the line's 2 m zigzag (München's Isar lines start with one) had a
+    chord along the whole river (1 km): the river was read as a still pond. A channel's
+    width is its median over its middle."""
+    water = write_polygons(tmp_path / "water.geojson",
+                           [shapely.box(0, -25, 1000, 25), shapely.box(100, 200, 130, 230)])
+    line = shapely.LineString([(0, 0), (500, -1), (500, 0), (500, 1), (1000, 0)])
+    builder = rf.read_water(water, lines=write_polygons(tmp_path / "line.geojson", [line]),
+                            origin_m=ORIGIN)
+    assert builder.report.derived["axes"] == {"lines": 1}
+    assert sum("a pond" in str(r) for r in builder.report.repairs) == 1      # the pond only
+    field = rf.FlowField(builder.build(), potential_delta_m=2.0)
+    status, v = field.query(np.array([[250.0, 0.0], [115.0, 215.0]]))
+    assert (status == rf.FlowStatus.INSIDE).all() and v[0, 0] > 0.1 and np.abs(v[1]).max() < 1e-6

@@ -614,3 +614,21 @@ def test_loop_depths_ask_on_the_water_side_of_a_loop():
     loops = [river, island, basin]
     polys = [shapely.Polygon(lp) for lp in loops]
     assert list(loop_depths(loops, polys, [0, 1, 2])) == [0, 1, 2]
+
+
+def test_an_inlet_that_runs_along_a_terminal_lakes_shore_is_drawn_back():
+    """An inlet of a terminal lake whose last stretch (6 m) runs along the lake's shore
+    before it ends (München's Isar lines): drawn back along that stretch to a tenth of its
+    width it is still beside the shore, so the stretch is dropped and the one before drawn
+    back until its strip is clear of the lake (it was "end the branch square to the
+    shore"). Still water, the river running towards it."""
+    b = RiverNetworkBuilder()
+    b.add_branch([(-600.0, 0.0), (-151.0, 0.0), (-150.5, 6.0)], 30.0, discharge_m2s=10.0)
+    b.add_lake(LAKE)
+    graph = b.build()
+    assert b.terminal_lakes == [0]
+    (axis,) = [graph.polyline(a) for a in graph.axes() if graph.curves[a].width_m < 100.0]
+    end = axis[np.argmax(axis[:, 0])]
+    assert -175.0 < end[0] < -150.0 and abs(end[1]) < 1e-6
+    status, v = rf.FlowField(graph).query(np.array([[-400.0, 0.0], [0.0, 0.0]]))
+    assert (status == rf.FlowStatus.INSIDE).all() and v[0, 0] > 0.1 and np.abs(v[1]).max() < 1e-6
