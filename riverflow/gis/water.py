@@ -1674,8 +1674,9 @@ def skeleton(water, tolerance_m: float = 0.25, frame=None, ends=None, dead=None)
     ids: dict[int, int] = {}
     for chain in chains:
         p = uniq[chain]
-        # (simplified at the spacing, or finer along a channel narrower than the points'
-        # spacing allows for: a quarter of its median inscribed radius)
+        # (simplified by half the spacing, or by an eighth of its median inscribed radius if
+        # less: by half the spacing, the axis of a channel much narrower than the spacing,
+        # whose points _narrow_samples put closer, left its water)
         p = _smooth(p, radius[chain[0]], radius[chain[-1]],
                     min(spacing, 0.25 * float(np.median(radius[chain]))))
         # widths all along it, not only at the points simplification kept (a straight
