@@ -555,6 +555,7 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
     builder._networks = networks       # (for _hole_in_loop, when _discharges fails)
     builder.basin_axes = ([a for net in networks for a in net.basin_axes]
                           if builder.backwaters else [])
+    builder.lees = []        # (the lees of these channels: found by their builds)
     _discharges(networks, discharge_m3s, geometry, report)
     kept = []
     for k, net in enumerate(networks):

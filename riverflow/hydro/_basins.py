@@ -220,8 +220,9 @@ def _lees(poly, axes: _Axes, lines, found: list[Basin], lees, free_ends,
     away) to a point of the outline on the other side, no longer than LEE_MOUTH_WIDTHS of
     the channel's width, with all the outline between on its land side and facing that axis
     by at least LEE_SINE, in the water; of those, the one that closes the least water (more
-    than ``least_m2``): the pocket behind it is still water, a basin. None where a basin found holds the edge, nor
-    within LEE_END_WIDTHS of a free end of the axes (the water's open end)."""
+    than ``least_m2``): the pocket behind it is still water, a basin. None that overlaps a
+    basin found, nor within LEE_END_WIDTHS of a free end of the axes (the water's open
+    end)."""
     from riverflow.hydro.nearest import PolylineIndex
 
     ring = poly.exterior
@@ -295,7 +296,7 @@ def _lee(v: np.ndarray, s: int, e: int, w: float, axis, wet, lines, least_m2: fl
     crs = fine[:-1, 0] * fine[1:, 1] - fine[:-1, 1] * fine[1:, 0]
     acc = np.concatenate([[0.0], np.cumsum(crs)])
     best = []
-    tips_before = vertex[(vertex <= first) & (vertex >= 0)]
+    tips_before = vertex[vertex <= first]
     tips_after = vertex[vertex >= last]
     for tips, forward in ((tips_before, True), (tips_after, False)):
         for t in tips.tolist():

@@ -605,6 +605,8 @@ class RiverNetworkBuilder:
         problems = graph_problems(graph, [(g.centerline_m, g.widths_m, g.discharge_m2s) for g in geoms],
                                   axes_cover_banks=True, axis_index=axis_index,
                                   away=away if self._water_area is not None else None)
+        seen = {tuple(p) for p, _ in self.lees}
+        away = [a for a in away if tuple(a[0]) not in seen]
         if problems and away and self._lee_rounds < LEE_ROUNDS:
             # the lees of the given water's points of land: basins, and built again
             self._lee_rounds += 1
