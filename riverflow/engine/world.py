@@ -762,7 +762,7 @@ class RiverWorld:
                                                         new_scene.terrain.tile_cells)],
                      between_frames)
         # the tile processes: forked here with the new producers (the frames go on meanwhile)
-        processes = self.tiles.scheduler.fork_for(producers)
+        processes = self.tiles.scheduler.fork_for(producers, in_gap=background)
         return plan, producers, processes
 
     def _flow_tiles_ahead(self, field: FlowField, producer) -> dict:
@@ -831,6 +831,8 @@ class RiverWorld:
             return
         try:
             plan = live.result
+            # the frame after the fork's misses, before the swap writes its own pages
+            self.tiles.scheduler.learn_written()
             with self.tiles.scheduler.frame_work():    # the tile process on its core stopped
                 try:
                     live.result = _Swapped(self._apply_edit(*plan, between_frames=True))

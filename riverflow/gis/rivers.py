@@ -594,6 +594,7 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
         links, plan = _cut_crossings(links, plan, crossings, geometry, specs, report)
     if not report.strict:
         links, plan = _merge_close_channels(links, plan, geometry, specs, report)
+        links, plan = _merge_close_channels(links, plan, geometry, specs, report, outflow=True)
 
     builder = GisRiverBuilder(tolerance_m, lateral_inflow=True)
     builder.report = report
@@ -2600,11 +2601,11 @@ def _cut_crossings(links: list[_Link], plan, crossings, geometry: HydraulicGeome
     return links, _plan(links, geometry, specs, report)
 
 
-def _first_gaps(links: list[_Link], width, pairs) -> dict:
-    """For each pair (a, b) of links flowing into one junction: the first FIRST_GAPS
-    distances back from its end along a, every quarter of the narrower width, and a's
-    distance there to b (what :func:`_merge_close_channels` measured first pair by pair; in
-    one GEOS call for all pairs)."""
+def _first_gaps(links: list[_Link], width, pairs, outflow: bool = False) -> dict:
+    """For each pair (a, b) of links flowing into one junction (``outflow``: out of it): the
+    first FIRST_GAPS distances back from its end along a (on from its start), every quarter
+    of the narrower width, and a's distance there to b (what :func:`_merge_close_channels`
+    measured first pair by pair; in one GEOS call for all pairs)."""
     if not pairs:
         return {}
     geoms = {i: shapely.LineString(links[i].points) for pair in pairs for i in pair}
@@ -2619,8 +2620,8 @@ def _first_gaps(links: list[_Link], width, pairs) -> dict:
     back = np.concatenate(backs)
     line_a = np.array([geoms[i] for i in a_rows], dtype=object)
     line_b = np.array([geoms[i] for i in b_rows], dtype=object)
-    d = shapely.distance(shapely.line_interpolate_point(line_a, shapely.length(line_a) - back),
-                         line_b)
+    d = shapely.distance(shapely.line_interpolate_point(
+        line_a, back if outflow else shapely.length(line_a) - back), line_b)
     out, k = {}, 0
     for pair, more in zip(pairs, backs):
         out[pair] = (more, d[k:k + len(more)])
@@ -2634,23 +2635,31 @@ widths; those that do not are followed in batches that double)."""
 
 
 def _merge_close_channels(links: list[_Link], plan, geometry: HydraulicGeometry, specs,
-                          report: RiverImport):
+                          report: RiverImport, outflow: bool = False):
     """Two channels that flow into one junction and run closer together than MERGE_GAP ×
     the sum of their widths w_a + w_b (between centre lines) over more than MERGE_REACH ×
     the wider one's width above it meet earlier: from where they come that close, they are
     one reach along their mid line that carries both discharges, its width by the rules of
     a link below a confluence (the hydraulic geometry of the sum), at least the wider one's
     (wider than the gap: it holds both centre lines). Two arms of a braid keep their island
-    above that point. Each merged channel is a reported repair. Returns the links and their
-    plan."""
-    ins, _ = by_junction([lk.start for lk in links], [lk.end for lk in links])
+    above that point. ``outflow``: two channels that flow out of one junction at a small
+    angle and run that close below it (Sydney's OSM: two drains 14° apart, 1 m wide) part
+    later: one reach carries both from the junction to where they part. Each merged channel
+    is a reported repair. Returns the links and their plan."""
+    ins, outs = by_junction([lk.start for lk in links], [lk.end for lk in links])
+    groups = outs if outflow else ins
     width = [p[0] for p in plan]
     next_j = 1 + max([max(lk.start, lk.end) for lk in links], default=-1)
     added, told = [], []
-    first = _first_gaps(links, width, [(a, b) for j in sorted(ins)
-                                       for a, b in itertools.combinations(ins[j], 2)])
-    for j in sorted(ins):
-        group = ins[j]
+    first = _first_gaps(links, width, [(a, b) for j in sorted(groups)
+                                       for a, b in itertools.combinations(groups[j], 2)],
+                        outflow)
+
+    def along(line, s):           # s back from the junction along the line (its arc length)
+        return s if outflow else line.length - s
+
+    for j in sorted(groups):
+        group = groups[j]
         used: set[int] = set()
         for a, b in itertools.combinations(group, 2):
             if a in used or b in used:
@@ -2662,13 +2671,13 @@ def _merge_close_channels(links: list[_Link], plan, geometry: HydraulicGeometry,
             back, d = first[a, b]
             batch = 16          # most pairs part within a few widths: batches that double
             while len(back) * step < line_a.length and not (
-                    d >= MERGE_GAP * (wa + wb)).any():     # from the junction up, till they part
+                    d >= MERGE_GAP * (wa + wb)).any():     # from the junction on, till they part
                 more = np.arange(len(back), len(back) + batch) * step
                 batch = min(2 * batch, 64)
                 more = more[more < line_a.length]
                 back = np.concatenate([back, more])
                 d = np.concatenate([d, shapely.distance(shapely.line_interpolate_point(
-                    line_a, line_a.length - more), line_b)])
+                    line_a, along(line_a, more)), line_b)])
                 if (d >= MERGE_GAP * (wa + wb)).any():
                     break
             close = d < MERGE_GAP * (wa + wb)
@@ -2677,32 +2686,46 @@ def _merge_close_channels(links: list[_Link], plan, geometry: HydraulicGeometry,
             reach = min(reach, 0.8 * line_a.length)
             if reach <= MERGE_REACH * max(wa, wb):
                 continue                     # close only around the junction: its own shape
-            cut_a = np.array(line_a.interpolate(line_a.length - reach).coords[0])
+            cut_a = np.array(line_a.interpolate(along(line_a, reach)).coords[0])
             at_b = float(line_b.project(shapely.Point(cut_a)))
-            if at_b <= 0.2 * line_b.length:
-                continue                     # b would be left with nothing above
+            if line_b.length - along(line_b, at_b) <= 0.2 * line_b.length:
+                continue                     # b would be left with nothing beyond
             cut_b = np.array(line_b.interpolate(at_b).coords[0])
             gap = float(np.hypot(*(cut_a - cut_b)))
             mid = 0.5 * (cut_a + cut_b)
-            s = np.arange(line_a.length - reach, line_a.length, step)
+            s = (np.arange(reach, 0.0, -step) if outflow          # from the cut on
+                 else np.arange(line_a.length - reach, line_a.length, step))
             on_a = shapely.get_coordinates(shapely.line_interpolate_point(line_a, s))
             on_b = shapely.get_coordinates(shapely.line_interpolate_point(
                 line_b, shapely.line_locate_point(line_b, shapely.points(on_a))))
-            midline = np.vstack([mid, 0.5 * (on_a + on_b)[1:], la.points[-1]])
-            f_a = (line_a.length - reach) / line_a.length
+            junction = la.points[0] if outflow else la.points[-1]
+            midline = np.vstack([mid, 0.5 * (on_a + on_b)[1:], junction])
+            f_a = along(line_a, reach) / line_a.length
             z0, z1 = la.values.get("elevation_m", (math.nan, math.nan))
             values = {key: (math.nan, math.nan) for key in la.values}   # by the rules
-            values["elevation_m"] = (z0 + (z1 - z0) * f_a, z1)
-            for lk, line, at in ((la, line_a, line_a.length - reach), (lb, line_b, at_b)):
-                above = shapely.get_coordinates(shapely.ops.substring(line, 0.0, at))
-                lk.points = np.vstack([above, mid])
-                lk.end = next_j
+            z_cut = z0 + (z1 - z0) * f_a
+            values["elevation_m"] = (z0, z_cut) if outflow else (z_cut, z1)
+            for lk, line, at in ((la, line_a, along(line_a, reach)), (lb, line_b, at_b)):
                 f = at / line.length                 # values given per end: at the cut
-                lk.values = {key: (v0, v0 + (v1 - v0) * f) for key, (v0, v1) in
-                             lk.values.items()}
-                lk.z = (lk.z[0], lk.z[0] + (lk.z[1] - lk.z[0]) * f)
+                if outflow:
+                    beyond = shapely.get_coordinates(shapely.ops.substring(line, at,
+                                                                           line.length))
+                    lk.points = np.vstack([mid, beyond[1:]])
+                    lk.start = next_j
+                    lk.values = {key: (v0 + (v1 - v0) * f, v1) for key, (v0, v1) in
+                                 lk.values.items()}
+                    lk.z = (lk.z[0] + (lk.z[1] - lk.z[0]) * f, lk.z[1])
+                else:
+                    above = shapely.get_coordinates(shapely.ops.substring(line, 0.0, at))
+                    lk.points = np.vstack([above, mid])
+                    lk.end = next_j
+                    lk.values = {key: (v0, v0 + (v1 - v0) * f) for key, (v0, v1) in
+                                 lk.values.items()}
+                    lk.z = (lk.z[0], lk.z[0] + (lk.z[1] - lk.z[0]) * f)
+            if outflow:
+                midline = midline[::-1]
             link = _Link(f"{la.name} and {lb.name} merged", la.fid, midline, {}, values,
-                         start=next_j, end=j)
+                         start=j if outflow else next_j, end=next_j if outflow else j)
             closest = float(d[(back > max(wa, wb)) & (back <= reach)].min())
             told.append((la, lb, wa, wb, closest, reach, gap, len(links) + len(added)))
             added.append(link)
@@ -2722,8 +2745,9 @@ def _merge_close_channels(links: list[_Link], plan, geometry: HydraulicGeometry,
             report.repair(lk.name, lk.fid, lk.attrs,
                           f"runs closer to {other.name} than their widths allow ({closest:.1f} m "
                           f"between centre lines at the closest, {wa:.1f} and {wb:.1f} m wide) "
-                          f"for its last {reach:.0f} m: merged with it there ({gap:.1f} m "
-                          f"apart) into one reach {plan[i][0]:.1f} m wide that carries both")
+                          f"for its {'first' if outflow else 'last'} {reach:.0f} m: merged with "
+                          f"it there ({gap:.1f} m apart) into one reach {plan[i][0]:.1f} m "
+                          f"wide that carries both")
     return links, plan
 
 

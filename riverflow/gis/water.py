@@ -138,6 +138,7 @@ class WaterBuilder(RiverNetworkBuilder):
     report: RiverImport
     water: shapely.Geometry
     short_reaches_join = True
+    one_stream = False
     ends_beside = True
     kept_beside = False
     backwaters = True
@@ -555,7 +556,6 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
     builder._networks = networks       # (for _hole_in_loop, when _discharges fails)
     builder.basin_axes = ([a for net in networks for a in net.basin_axes]
                           if builder.backwaters else [])
-    builder.lees = []        # (the lees of these channels: found by their builds)
     _discharges(networks, discharge_m3s, geometry, report)
     kept = []
     for k, net in enumerate(networks):
@@ -603,7 +603,10 @@ def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy
             _still(builder, part, k, "no channel in its skeleton")
             continue
         longest = max((c.length for c in net.channels), default=0.0)
-        widest = max((c.width for c in net.channels), default=0.0)
+        # (a line's width is its median chord over its middle: the chord of a zigzag's point
+        # runs along the water; the skeleton's, its widest inscribed circle)
+        widest = max((c.width if c.source == "lines" else float(c.widths.max())
+                      for c in net.channels), default=0.0)
         several = len(getattr(water, "geoms", [])) > 1
         if not net.channels or several and (speck or longest < MIN_CHANNEL_WIDTHS * widest):
             x, y = part.representative_point().coords[0]

@@ -15,7 +15,8 @@ from shapely.geometry import LineString, MultiLineString
 
 from riverflow.hydro.areas import area_ring
 from riverflow.hydro.graph import HydroGraph
-from riverflow.hydro.nearest import LineChunks, PolylineIndex, first_per_group, ray_hits, stations
+from riverflow.hydro.nearest import (LineChunks, PolylineIndex, first_per_group, ray_hits, stations,
+                                     tangent_at)
 
 
 def _signed_area(loop: np.ndarray) -> float:
@@ -131,7 +132,8 @@ def _bank_segments(graph: HydroGraph, chunk: list[int]):
 
 
 def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6,
-                   axes_cover_banks: bool = False, axis_index=None, away=None) -> list[str]:
+                   axes_cover_banks: bool = False, axis_index=None,
+                   one_stream: bool = True, away=None) -> list[str]:
     """Check a builder-made graph. ``branches``: optional [(centre line (K, 2), widths (K,)
     or None, discharge m²/s)] drawn downstream (widths may be omitted as a 2-tuple).
     ``axes_cover_banks``: the caller made every axis' width cover its banks' points (the
@@ -139,8 +141,12 @@ def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6,
     so the test that they lie within half an axis' width is skipped (the test that the axis
     lies on each bank's left stays). ``axis_index``: the axes' :class:`PolylineIndex` of their
     :meth:`~HydroGraph.vertices`, curve i's at i, as :func:`assemble_graph` gives them (else
-    made here). ``away``: a list to which the middle of every bank segment whose axis lies
-    on its right is appended with that axis' vertices, ``(point (2,), axis (K, 2))``."""
+    made here). ``one_stream``: a ray across a branch that crosses other branches' centre
+    lines running the same way before it meets a bank reads their discharges too
+    (:func:`_discharge_problems`); False: such a reading is an error (the axes of a water
+    area's skeleton never run in one stream: where they seem to, their directions are
+    wrong). ``away``: a list to which the middle of every bank segment whose axis lies on its
+    right is appended with that axis' vertices, ``(point (2,), axis (K, 2))``."""
     problems: list[str] = []
     curves = graph.curves
     banks = graph.banks()
@@ -301,11 +307,12 @@ def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6,
     if not MultiLineString([ln for ln in lines if len(ln) >= 2]).is_simple:
         problems.append("banks or closing segments cross each other")
     if branches:
-        problems += _discharge_problems(graph, branches, rel_tol)
+        problems += _discharge_problems(graph, branches, rel_tol, one_stream)
     return problems
 
 
-def _discharge_problems(graph: HydroGraph, branches, rel_tol: float) -> list[str]:
+def _discharge_problems(graph: HydroGraph, branches, rel_tol: float,
+                        one_stream: bool = True) -> list[str]:
     """ψ(right bank) − ψ(left bank) = discharge at the middle of every branch (every
     station's two rays in one bulk query, :func:`_bank_psi`). A free island's shore (a bank
     that closes on itself) is no branch's bank: a ray that reaches it, where the branch's
@@ -324,16 +331,38 @@ def _discharge_problems(graph: HydroGraph, branches, rel_tol: float) -> list[str
         widths.append(w)
     origins, normals = np.vstack(origins), np.vstack(normals)
     # rays: left then right at every station, branch by branch
-    psi = _bank_psi(lines, potential, np.repeat(origins, 2, axis=0),
-                    np.stack([normals, -normals], axis=1).reshape(-1, 2),
-                    np.repeat(np.concatenate(widths), 2))
+    rays = (np.repeat(origins, 2, axis=0), np.stack([normals, -normals], axis=1).reshape(-1, 2),
+            np.repeat(np.concatenate(widths), 2))
+    psi, dist = _bank_psi(lines, potential, *rays)
+    # a ray that crosses other branches' centre lines before its bank, each running the
+    # same way as this one (within 45°), reads the water of them all (two branches leaving
+    # a junction at a small angle run in one stream until their strips part): its ψ
+    # difference is the sum of their discharges
+    owner = np.repeat(np.arange(len(branches)), 2 * len(fractions))
+    centre = [np.asarray(br[0], dtype=float) for br in branches]
+    axes = LineChunks(centre)
+    reach = np.where(np.isfinite(dist), dist, 0.0)
+    ray, hit, at = ray_hits(*rays[:2], reach, axes)
+    other = np.flatnonzero((hit != owner[ray]) & (at < reach[ray]) & one_stream)
+    if len(other):
+        along = np.stack([rays[1][:, 1], -rays[1][:, 0]], axis=1)   # the ray's normal
+        along *= np.where(np.arange(len(owner)) % 2 == 0, 1.0, -1.0)[:, None]  # downstream
+        at_pt = rays[0][ray[other]] + rays[1][ray[other]] * at[other][:, None]
+        theirs = np.array([tangent_at(centre[h], p) for h, p in zip(hit[other], at_pt)])
+        cos = np.einsum("ij,ij->i", theirs, along[ray[other]]) / np.hypot(*theirs.T)
+        other = other[cos > np.sqrt(0.5)]
+    ray, hit = ray[other], hit[other]
+    other = np.ones(len(ray), bool)
+    extra = np.zeros(len(owner))
+    np.add.at(extra, ray[other], np.array([branches[h][-1] for h in hit[other]], float))
     psi = psi.reshape(len(branches), len(fractions), 2)
+    extra = extra.reshape(len(branches), len(fractions), 2).sum(axis=2)
     for k, br in enumerate(branches):
         q = br[-1]
-        found = [p[1] - p[0] for p in psi[k] if not np.isnan(p).any()]
+        found = [(p[1] - p[0], q + e) for p, e in zip(psi[k], extra[k]) if not np.isnan(p).any()]
         if not found:
             problems.append(f"branch {k}: no banks found across its middle")
-        for dpsi in found:
+        for dpsi, q in found:
             if not abs(dpsi - q) <= rel_tol * max(1.0, abs(q)):
                 problems.append(f"branch {k}: ψ(right) − ψ(left) = {dpsi:g}, discharge {q:g}")
                 break
@@ -341,12 +370,12 @@ def _discharge_problems(graph: HydroGraph, branches, rel_tol: float) -> list[str
 
 
 def _bank_psi(lines: LineChunks, potential: np.ndarray, origins: np.ndarray,
-              directions: np.ndarray, widths: np.ndarray) -> np.ndarray:
-    """ψ of the bank each ray from the centre line meets (R,), NaN if none is found. With the
-    local width known, only a bank between 0.75 and 1.25 half-widths counts (the farthest
-    such hit): nearer shores are islands in the stream; a station where the bank is elsewhere
-    (tight bends, junctions) gives NaN and is skipped. Without it (NaN), the nearest bank
-    within 100 km."""
+              directions: np.ndarray, widths: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """ψ of the bank each ray from the centre line meets (R,), NaN if none is found, and its
+    distance [m] (NaN with it). With the local width known, only a bank between 0.75 and
+    1.25 half-widths counts (the farthest such hit): nearer shores are islands in the
+    stream; a station where the bank is elsewhere (tight bends, junctions) gives NaN and is
+    skipped. Without it (NaN), the nearest bank within 100 km."""
     known = np.isfinite(widths)
     lo = np.where(known, 0.75 * 0.5 * widths, 0.0)
     reach = np.where(known, 1.25 * 0.5 * widths + 1.0, 1e5)
@@ -356,5 +385,8 @@ def _bank_psi(lines: LineChunks, potential: np.ndarray, origins: np.ndarray,
     far = first_per_group(ray, dist, len(origins), largest=True)
     near = first_per_group(ray, dist, len(origins))
     pick = np.where(known, far, near)
-    return np.where(pick >= 0, potential[hit[np.maximum(pick, 0)]] if len(hit) else np.nan,
-                    np.nan)
+    found = pick >= 0
+    if not len(hit):
+        return np.full(len(origins), np.nan), np.full(len(origins), np.nan)
+    return (np.where(found, potential[hit[np.maximum(pick, 0)]], np.nan),
+            np.where(found, dist[np.maximum(pick, 0)], np.nan))

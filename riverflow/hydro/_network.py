@@ -27,7 +27,8 @@ from shapely.geometry import LineString, Point
 from riverflow.hydro._strips import Piece, Ring
 from riverflow.hydro.graph import (LAKE_INFO, LAKE_LEVEL_INFO, NO_CURVE, NO_POTENTIAL, Area, Curve,
                                    CurveType, GraphError, HydroGraph)
-from riverflow.hydro.nearest import LineChunks, PolylineIndex, first_per_group, ray_hits, stations
+from riverflow.hydro.nearest import (LineChunks, PolylineIndex, first_per_group, ray_hits, stations,
+                                     tangent_at)
 
 AXIS_WIDTH_FACTOR = 1.1
 """Axis width = largest river width along it × this + AXIS_MARGIN_M (reference rule 1)."""
@@ -148,7 +149,7 @@ def _sides_by_shores(geoms: list[BranchGeometry], pieces: list[Piece],
         at = mid[got] + inward[got] * dist[first[got]][:, None]
         # the branch's direction where the ray meets it: coming from its left, the ray runs
         # against its left normal
-        tangent = np.array([_tangent_at(lines[k], p) for k, p in zip(b, at)])
+        tangent = np.array([tangent_at(lines[k], p) for k, p in zip(b, at)])
         from_right = (tangent[:, 0] * inward[got, 1] - tangent[:, 1] * inward[got, 0]) > 0.0
         np.add.at(weight, (b, from_right.astype(int), np.full(len(b), i)), length[got])
     sides = []
@@ -158,15 +159,6 @@ def _sides_by_shores(geoms: list[BranchGeometry], pieces: list[Piece],
             raise GraphError(f"branch {g.name!r}: no shore faces it on both sides")
         sides.append((left, right))
     return sides
-
-
-def _tangent_at(line: np.ndarray, point: np.ndarray) -> np.ndarray:
-    """The direction (2,) of the segment of polyline ``line`` (K, 2) nearest ``point``."""
-    a, d = line[:-1], np.diff(line, axis=0)
-    dd = np.maximum(np.einsum("ij,ij->i", d, d), 1e-300)
-    u = np.clip(np.einsum("ij,ij->i", point - a, d) / dd, 0.0, 1.0)
-    k = int(np.argmin(np.hypot(*(a + u[:, None] * d - point).T)))
-    return d[k]
 
 
 def _solve_potentials(geoms, sides, pieces, island_of, ties=(), still=frozenset()) -> np.ndarray:

@@ -132,6 +132,11 @@ class RiverNetworkBuilder:
     the data's edge cuts the water); else they "do not meet"."""
     short_reach_joined = False
     """Set by :meth:`build` when such a short reach joined its ends."""
+    one_stream = True
+    """Whether branches may run in one stream where they leave or join a junction at a small
+    angle (the graph checks then read across both: :func:`~riverflow.hydro._checks.
+    graph_problems`); :func:`~riverflow.gis.read_water`'s builder: no (its skeleton's axes
+    never do; where they seem to, their directions are wrong and the build retries)."""
 
     def __init__(self, tolerance_m: float = 0.25, *, lateral_inflow: bool = False,
                  fillet_fraction: float = FILLET_FRACTION,
@@ -604,6 +609,7 @@ class RiverNetworkBuilder:
         away: list = []
         problems = graph_problems(graph, [(g.centerline_m, g.widths_m, g.discharge_m2s) for g in geoms],
                                   axes_cover_banks=True, axis_index=axis_index,
+                                  one_stream=self.one_stream,
                                   away=away if self._water_area is not None else None)
         seen = {tuple(p) for p, _ in self.lees}
         away = [a for a in away if tuple(a[0]) not in seen]

@@ -166,6 +166,16 @@ def first_per_group(group: np.ndarray, key: np.ndarray, n_groups: int,
     return out
 
 
+def tangent_at(line: np.ndarray, point: np.ndarray) -> np.ndarray:
+    """The direction (2,) (not normalised) of the segment of polyline ``line`` (K, 2) nearest
+    ``point``."""
+    a, d = line[:-1], np.diff(line, axis=0)
+    dd = np.maximum(np.einsum("ij,ij->i", d, d), 1e-300)
+    u = np.clip(np.einsum("ij,ij->i", point - a, d) / dd, 0.0, 1.0)
+    k = int(np.argmin(np.hypot(*(a + u[:, None] * d - point).T)))
+    return d[k]
+
+
 def stations(line: np.ndarray, fractions: np.ndarray, widths=None):
     """Points (F, 2), unit left normals (F, 2) and widths [m] (F,) (NaN if ``widths`` is None;
     else a scalar, one value or one per point) at arc-length fractions (F,) of a polyline

@@ -21,12 +21,13 @@ source that cannot be used from a forked process (a callable holding a socket, a
 ``RiverConfig(tile_worker="thread")``.
 
 After a fork every page of the world's process is shared with the child until either writes
-it: the first frame after it pays a page fault and a 4 KiB copy for each page it writes (~3
-ms at 1080p, over its own work). :func:`forked` has the forking thread pay them instead: the
-pages the first frame after the last fork wrote (those no child shares then, read from
-``/proc/self/pagemap``: the frames' working set) are copied right after the fork
-(``MADV_POPULATE_WRITE``: no byte is written, so no thread's data is touched; Linux ≥ 5.14,
-elsewhere nothing is done).
+it: the first frame after it pays a page fault and a 4 KiB copy for each page it writes (~2.5
+ms at 1080p, over its own work). :func:`forked` has the forking thread pay them instead, in
+the gap between frames the fork began in (:meth:`~riverflow.tiles.scheduler.TileScheduler.
+fork_for`): the pages the frames write (the misses of the first frame after the last fork,
+read from ``/proc/self/pagemap``: :meth:`~riverflow.tiles.scheduler.TileScheduler.
+learn_written`) are copied until the next frame begins (``MADV_POPULATE_WRITE``: no byte is
+written, so no thread's data is touched; Linux ≥ 5.14, elsewhere nothing is done).
 """
 from __future__ import annotations
 
@@ -70,6 +71,9 @@ MADV_POPULATE_WRITE = 23
 """Linux's madvise advice (5.14): fault the pages in writable, as a write would, writing
 nothing."""
 PAGE = 4096
+COPY_CHUNK = 64
+"""Pages :func:`copy_ahead` copies a call (~0.25 ms here): it stops at a frame's start
+between calls."""
 WRITTEN_MAX_PAGES = 1 << 14
 """At most this many pages (64 MiB) are copied ahead of the frames after a fork: more is
 not a frame's working set (~1,700 pages at 1080p) but a world just made or an edit's own
@@ -128,11 +132,14 @@ def _madvise():
     return fn
 
 
-def copy_ahead(pages: np.ndarray) -> int:
-    """Break the sharing of ``pages`` (in their order) with the children forked since they were listed
-    (``MADV_POPULATE_WRITE`` on each run of consecutive pages, the interpreter lock
-    released): the page faults a frame would take writing them are taken here. A run
-    unmapped since is skipped. Returns the pages copied (0 where the kernel lacks it)."""
+def copy_ahead(pages: np.ndarray, stop=None) -> int:
+    """Break the sharing of ``pages`` (in their order) with the children forked since they
+    were listed (``MADV_POPULATE_WRITE``, at most COPY_CHUNK consecutive pages a call, the
+    interpreter lock released): the page faults a frame would take writing them are taken
+    here. ``stop``, if given, is asked before each call: True (a frame began) ends the copy
+    there (the frame takes the faults of the pages it writes; copying the rest beside it
+    would only take its core). A run unmapped since is skipped. Returns how many of
+    ``pages`` were dealt with, a prefix (0 where the kernel lacks the advice)."""
     if not len(pages) or len(pages) > WRITTEN_MAX_PAGES:
         return 0
     madvise = _madvise()
@@ -144,22 +151,47 @@ def copy_ahead(pages: np.ndarray) -> int:
     ends = (np.concatenate([pages[cut - 1], pages[-1:]]) + PAGE).tolist()
     done = 0
     for lo, hi in zip(starts, ends):
-        if madvise(lo, hi - lo, MADV_POPULATE_WRITE) == 0:
-            done += (hi - lo) // PAGE
-        elif ctypes.get_errno() == 22 and done == 0:   # EINVAL: no such advice (< 5.14)
-            return 0
+        for a in range(lo, hi, COPY_CHUNK * PAGE):
+            if stop is not None and stop():
+                return done
+            b = min(a + COPY_CHUNK * PAGE, hi)
+            if madvise(a, b - a, MADV_POPULATE_WRITE) != 0 and ctypes.get_errno() == 22 \
+                    and done == 0:      # EINVAL: no such advice (< 5.14)
+                return 0
+            done += (b - a) // PAGE
     return done
 
 
+def writable_regions() -> np.ndarray:
+    """(K, 2) int64 start and end addresses of this process's private writable mappings
+    now (:func:`written_pages` of those alone: the pages written since a fork that were
+    there at the fork, not memory mapped since, which no child shares)."""
+    try:
+        return np.array(_writable_regions(), np.int64).reshape(-1, 2)
+    except OSError:
+        return np.zeros((0, 2), np.int64)
+
+
+def within(pages: np.ndarray, regions: np.ndarray) -> np.ndarray:
+    """The ``pages`` that lie in one of ``regions`` (sorted, disjoint: writable_regions)."""
+    k = np.searchsorted(regions[:, 0], pages, side="right") - 1
+    inside = k >= 0
+    inside[inside] = pages[inside] < regions[k[inside], 1]
+    return pages[inside]
+
+
 @contextlib.contextmanager
-def forked(pages: np.ndarray):
+def forked(pages: np.ndarray, stop=None):
     """Fork the tile processes in the block; ``pages`` (those the frames write: what
     :func:`written_pages` listed after the first frame that followed the last fork) are
-    copied at its end rather than by the first frame after it (module docstring). Linux
-    only; elsewhere (or with ``RIVERFLOW_COPY_AHEAD=0``) a plain block."""
-    yield
+    copied at its end rather than by the first frame after it (module docstring; ``stop``:
+    :func:`copy_ahead`'s). Yields a list that holds, after the block, how many of
+    ``pages`` were copied (a prefix). Linux only; elsewhere (or with
+    ``RIVERFLOW_COPY_AHEAD=0``) nothing is copied."""
+    copied = [0]
+    yield copied
     if sys.platform.startswith("linux") and os.environ.get("RIVERFLOW_COPY_AHEAD") != "0":
-        copy_ahead(pages)
+        copied[0] = copy_ahead(pages, stop)
 
 
 class TileProcessError(RuntimeError):

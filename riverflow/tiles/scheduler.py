@@ -54,7 +54,8 @@ from riverflow.tiles.memo import TileMemo
 from riverflow.kernels.tile_table import NOT_FOUND
 from riverflow.tiles.quadtree import TileKey
 from riverflow.tiles.remote import (WRITTEN_MAX_PAGES, ProducerProcess, TileProcessError,
-                                    fork_available, forked, written_pages)
+                                    fork_available, forked, within, writable_regions,
+                                    written_pages)
 from riverflow.tiles.table import TileTable, code_key, codes as codes_of, tile_code
 
 Dep = tuple[str, TileKey]
@@ -77,6 +78,8 @@ INSTALL_BUDGET_S = 0.0004
 """Default :attr:`TileScheduler.install_budget_s`: a frame copies at most ~0.4 ms of finished
 tiles into the pools (a burst of a dozen tiles arriving together would otherwise cost a
 millisecond or more in one frame; at 1000 km they come ~2 a frame on average)."""
+GAP_WAIT_S = 0.1
+"""Longest :meth:`TileScheduler.wait_gap` waits for a frame to end."""
 IDLE_WAIT_S = 0.02
 """Longest a worker waits for the frame to end before starting a tile (a host that steps
 back to back, with no idle time, still gets tiles made)."""
@@ -183,6 +186,8 @@ class TileScheduler:
         self._paused: list[ProducerProcess] = []       # paused for this frame
         self._frame_pages = np.zeros(0, np.int64)      # copied ahead after a fork
         self._learn_from = -1                          # learn_written: from this frame on
+        self._copied = self._frame_pages               # of those, copied after the last fork
+        self._fork_regions = np.zeros((0, 2), np.int64)  # the writable mappings at that fork
         self.stale_frames = int(stale_frames)
         self.max_starts = MAX_STARTS
         """Background mode: at most this many new tiles of a kind are queued a frame."""
@@ -213,6 +218,8 @@ class TileScheduler:
         self._made = threading.Condition(self._lock)   # notified as each is done
         self._idle = threading.Event()     # set between frames: the worker starts jobs then
         self._idle.set()
+        self._gap = threading.Condition()   # notified as each frame ends (wait_gap)
+        self._frames_ended = 0
         self._threads: list[threading.Thread] = []
         self._processes: list[ProducerProcess] = []     # one per worker thread, or none
         self._closed = False
@@ -244,40 +251,56 @@ class TileScheduler:
         self._state[producer.kind] = TileTable(1024)
         self._stale[producer.kind] = set()
 
-    def fork_for(self, producers: Iterable[Producer]) -> list[ProducerProcess] | None:
+    def fork_for(self, producers: Iterable[Producer], *, in_gap: bool = False
+                 ) -> list[ProducerProcess] | None:
         """The worker processes (one per worker thread) forked now with ``producers`` in
         place of the current ones of their kinds, for :meth:`replace_producers` (any thread
         may fork them: a live edit does, in its background thread); None when tiles are not
         made in processes. The pages :meth:`learn_written` found the frames write are
-        copied after it, in this thread (:func:`~riverflow.tiles.remote.forked`)."""
+        copied after it, in this thread, until a frame begins
+        (:func:`~riverflow.tiles.remote.forked`). ``in_gap``: forked at the start of the
+        next gap between frames (waited for up to GAP_WAIT_S), not across a frame: the fork
+        holds the interpreter lock (~6 ms at 1080p) and the copy has the rest of the gap."""
         if self.worker != "process" or not self._processes or self._closed:
             return None
         producers = {**self.producers, **{p.kind: p for p in producers}}
+        regions = writable_regions()
+        if in_gap:
+            self.wait_gap()
         self._learn_from = self.frame + 1
-        with forked(self._frame_pages):
-            return [ProducerProcess(producers, WORKER_NICE) for _ in self._processes]
+        with forked(self._frame_pages, lambda: not self._idle.is_set()) as copied:
+            processes = [ProducerProcess(producers, WORKER_NICE) for _ in self._processes]
+        self._fork_regions = regions
+        self._copied = self._frame_pages[:copied[0]]
+        return processes
+
+    def wait_gap(self, timeout_s: float = GAP_WAIT_S) -> bool:
+        """Wait until a frame that ends after this call has ended (at most ``timeout_s``: a
+        host that does not step); True if one did."""
+        with self._gap:
+            ended = self._frames_ended
+            return self._gap.wait_for(lambda: self._frames_ended > ended and self._idle.is_set(),
+                                      timeout_s)
 
     def learn_written(self) -> None:
-        """After the first frame that followed :meth:`fork_for`: the pages written since the
-        fork (:func:`~riverflow.tiles.remote.written_pages`: those that frame wrote, and the
-        ones copied ahead for it) are the ones the next fork copies ahead, those not known
-        before first, at most FRAME_PAGES (the ones learnt longest ago go); too many to be a
-        frame's (a world just made) and none are, so the fork after learns them afresh. Any
-        thread, outside a frame (it reads ``/proc/self/pagemap``: ~10 ms)."""
+        """After the first frame that followed :meth:`fork_for`, before other work between
+        frames: the pages written since the fork (:func:`~riverflow.tiles.remote.
+        written_pages`, of the mappings there at the fork) that were not copied ahead are
+        the frame's misses: the next fork copies those first, then the ones copied ahead
+        this time, at most FRAME_PAGES (those not copied and not written go: what the
+        frames no longer write leaves the list once the copy stops short of it); too many to
+        be a frame's (a world just made) and the next fork learns them afresh. Any thread,
+        outside a frame (it reads ``/proc/self/pagemap``: 3–5 ms)."""
         if self._learn_from < 0 or self.frame < self._learn_from:
             return
         self._learn_from = -1
-        pages = written_pages()
+        pages = within(written_pages(), self._fork_regions)
         if len(pages) > WRITTEN_MAX_PAGES:        # not a frame's: learnt afresh next time
             self._frame_pages = pages[:0]
             return
-        known = self._frame_pages
-        new = pages[~np.isin(pages, known, assume_unique=True)]
-        # the newest first, the oldest dropped: what the frames have not written for
-        # several forks goes
-        self._frame_pages = np.concatenate([new, known[np.isin(known, pages,
-                                                               assume_unique=True)]]
-                                           )[:FRAME_PAGES]
+        copied = self._copied
+        misses = pages[~np.isin(pages, copied)]
+        self._frame_pages = np.concatenate([misses, copied])[:FRAME_PAGES]
 
     def replace_producers(self, producers: Iterable[Producer],
                           processes: list[ProducerProcess] | None = None, *,
@@ -824,6 +847,9 @@ class TileScheduler:
                 process.resume()
         self._idle_since = time.perf_counter()
         self._idle.set()
+        with self._gap:
+            self._frames_ended += 1
+            self._gap.notify_all()
 
     def wait_idle(self, timeout_s: float = IDLE_WAIT_S) -> None:
         """Wait (at most ``timeout_s``) until no frame runs: background work in Python (a

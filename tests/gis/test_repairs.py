@@ -66,6 +66,39 @@ def test_braid_arms_closer_than_their_width_merge_around_an_island(tmp_path):
     assert status[0] != rf.FlowStatus.INSIDE
 
 
+def split_arms():
+    """A river splitting into two 40 m arms that leave at an acute angle and run 12 - 24 m
+    apart for their first 200 m before they part round an island (the mirror of
+    :func:`braid_arms`; Sydney's OSM drains do it at 1 m)."""
+    return [polyline((-500, 0), (0, 0)),
+            polyline((0, 0), (50, 6), (200, 12), (240, 40), (300, 0)),
+            polyline((0, 0), (50, -6), (200, -12), (240, -40), (300, 0)),
+            polyline((300, 0), (900, 0))]
+
+
+def test_arms_leaving_a_junction_closer_than_their_width_merge_below_it(tmp_path):
+    """Two arms that leave one junction running closer than their widths allow are one
+    reach from the junction to where they part (as two that join are, above it): each a
+    reported repair ("for its first … m"); the island between them below that point stays
+    land, and the flow runs downstream everywhere."""
+    path = write_lines(tmp_path / "split.gpkg", split_arms(),
+                       {"name": np.array(["up", "left", "right", "down"], dtype=object),
+                        "W": np.array([50.0, 40.0, 40.0, 60.0])})
+    with pytest.raises(rf.GraphError, match=r"split.gpkg \(layer 'split'\)"):
+        rf.read_rivers(path, width_m="W", strict=True).build()
+    builder = rf.read_rivers(path, origin_m=None, width_m="W")
+    graph = built(builder)
+    for feature, other in (("feature 2", "feature 3"), ("feature 3", "feature 2")):
+        (what,) = repairs_of(builder, feature)
+        assert f"runs closer to {other}" in what and "for its first" in what, what
+        assert "merged with it there" in what and "that carries both" in what, what
+    (merged,) = [lk for lk in builder.report.links if lk.name.endswith("merged")]
+    assert merged.width_m >= 40.0
+    field = check_flows_downstream(graph, split_arms(), skip_m=3.0)
+    status, _ = field.query(np.array([[250.0, 0.0]]) + ORIGIN)
+    assert status[0] != rf.FlowStatus.INSIDE
+
+
 def test_neighbouring_rivers_closer_than_their_width(tmp_path):
     lines = [polyline((0, 0), (1000, 0)), polyline((0, 30), (1000, 30))]
     path = write_lines(tmp_path / "pair.shp", lines, {"W": np.array([50.0, 50.0])})

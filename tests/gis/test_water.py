@@ -1235,8 +1235,8 @@ def test_a_river_with_a_pond_beside_it_is_no_pond_for_a_line_across_it(tmp_path)
     """A 1 km river (50 m wide) with its line, a pond apart from it: a water body whose
     channels are no longer than twice their width is a pond. The width was the widest chord
     of any line point, and the line's 2 m zigzag (München's Isar lines start with one) had a
-    chord along the whole river (1 km): the river was read as a still pond. A channel's
-    width is its median over its middle."""
+    chord along the whole river (1 km): the river was read as a still pond. A line's
+    width is its median chord over its middle."""
     water = write_polygons(tmp_path / "water.geojson",
                            [shapely.box(0, -25, 1000, 25), shapely.box(100, 200, 130, 230)])
     line = shapely.LineString([(0, 0), (500, -1), (500, 0), (500, 1), (1000, 0)])

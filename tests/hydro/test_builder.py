@@ -338,3 +338,35 @@ def test_a_strip_too_bent_to_mitre_is_its_quads_union_whatever_the_way_made():
     assert shapely.hausdorff_distance(strip.boundary, union.boundary) < reach
     varying = _strips.strip_polygon(p, np.linspace(4.0, 5.0, len(p)))
     assert varying.is_valid and varying.area > union.area
+
+
+def test_two_branches_leaving_a_junction_at_a_small_angle_build():
+    """Two drains leave a junction 8° apart and run in one stream for a few metres before
+    their strips part round a sliver of land (OpenStreetMap's Sydney extract: the drains of
+    ways 532637503 and 532638010); the short one meets a tributary and runs on beside the
+    other. A ray across the short drain's middle, where both run in one stream, crosses the
+    other's centre line before it meets a bank: it reads the water of both (ψ twice the
+    discharge) and says nothing of its banks; the check skips it (it refused the network).
+    The banks beside the sliver still carry each drain's discharge."""
+    ways = {
+        "in_a": ([(-62.3, 420.4), (-16.0, 368.6), (-10.1, 358.8), (-7.1, 348.9),
+                  (-6.4, 343.8), (-5.8, 332.8), (-8.3, 321.4), (-14.0, 311.9)], 1.73, 1.0),
+        "in_b": ([(32.5, 350.5), (24.8, 344.3), (-1.7, 322.0)], 1.41, 0.67),
+        "a": ([(-1.7, 322.0), (-14.0, 311.9)], 1.0, None),
+        "b": ([(-1.7, 322.0), (-12.6, 307.4), (-24.7, 297.5), (-39.2, 285.0),
+               (-124.8, 212.7), (-138.2, 187.2), (-149.0, 140.6)], 1.0, None),
+        "c": ([(-14.0, 311.9), (-118.5, 223.1), (-131.9, 211.3), (-139.6, 198.7),
+               (-144.1, 180.1), (-150.8, 151.5), (-149.0, 140.6)], 2.0, None),
+        "out": ([(-149.0, 140.6), (-155.8, 123.0), (-167.1, 109.5), (-248.1, 42.6)], 2.24, None),
+    }
+    builder = RiverNetworkBuilder()
+    for name, (points, width, q) in ways.items():
+        builder.add_branch(np.array(points), width, q, name=name)
+    graph = builder.build()
+    q = dict(zip(ways, builder.discharges_m2s))
+    assert q["a"] == pytest.approx(0.5 * 0.67) and q["c"] == pytest.approx(1.0 + q["a"])
+    # beside the sliver, well past where the strips part, each drain carries its own share
+    for name in ("b", "c"):
+        points, width, _ = ways[name]
+        for f in (0.3, 0.5, 0.7):
+            assert _psi_across(graph, points, 0.98 * width, f) == pytest.approx(q[name], rel=1e-9)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import multiprocessing
 import os
 import threading
+import time
 
 import numpy as np
 import pytest
@@ -584,51 +585,67 @@ def test_the_pages_a_frame_writes_are_copied_by_the_fork_not_the_frame():
     """After a fork every page is shared with the child until written: ``written_pages``
     lists those this process wrote since (and not the others); ``copy_ahead`` copies pages
     without writing them (their bytes unchanged), so a frame writing them after the fork
-    takes no page fault; ``learn_written`` keeps the newest pages first, at most
-    FRAME_PAGES, and none where there are too many to be a frame's."""
+    takes no page fault, and stops where ``stop`` says a frame began (a prefix of the
+    list); ``learn_written`` lists the frame's misses (written, not copied) first, then
+    the pages copied, drops those neither copied nor written, the pages of mappings made
+    since the fork and the lot where there are too many to be a frame's."""
     from riverflow.tiles import remote, scheduler as sched_module
 
     if not os.path.exists("/proc/self/pagemap"):
         pytest.skip("no /proc/self/pagemap here")
     page = remote.PAGE
-    block = np.zeros(64 * page // 8 + page // 8, np.float64)
-    start = -block.ctypes.data % page // 8            # 64 whole pages of it
-    data = block[start:start + 64 * page // 8]
+    block = np.zeros(256 * page // 8 + page // 8, np.float64)
+    start = -block.ctypes.data % page // 8            # 256 whole pages of it
+    data = block[start:start + 256 * page // 8]
     data[:] = np.arange(len(data))
     first = data.ctypes.data
-    ours = first + page * np.arange(64, dtype=np.int64)
+    ours = first + page * np.arange(256, dtype=np.int64)
 
     def listed():
         got = remote.written_pages()
         return ours[np.isin(ours, got)]
 
-    assert len(listed()) == 64                           # no child shares them
+    assert len(listed()) == 256                          # no child shares them
     ctx = multiprocessing.get_context("fork")
     go = ctx.Event()
     child = ctx.Process(target=go.wait, args=(20.0,), daemon=True)
     child.start()
     try:
         assert len(listed()) == 0                        # shared with the child
-        data[::page // 8 * 2] += 0.5                      # even pages written
-        assert listed().tolist() == ours[::2].tolist()
+        data[:64 * page // 8][::page // 8 * 2] += 0.5     # even pages of the first 64 written
+        assert listed().tolist() == ours[:64:2].tolist()
         before = data.copy()
-        copied = remote.copy_ahead(ours[1::2][::-1].copy())   # any order
+        copied = remote.copy_ahead(ours[1:64:2][::-1].copy())   # any order
         if copied == 0:
             pytest.skip("no MADV_POPULATE_WRITE here (Linux < 5.14)")
         assert copied == 32 and len(listed()) == 64
         assert np.array_equal(data, before)
-        assert remote.copy_ahead(np.array([page], np.int64)) == 0    # unmapped: skipped
+        assert remote.copy_ahead(np.array([page], np.int64)) == 1    # unmapped: skipped
+        # a frame begins after the first call: the copy stops there, a prefix copied
+        asked = []
+        rest = ours[64:].copy()
+        n = remote.copy_ahead(rest, stop=lambda: asked.append(1) or len(asked) > 1)
+        assert n == remote.COPY_CHUNK and listed().tolist() == ours[:64 + n].tolist()
+        assert np.array_equal(data, before)
     finally:
         go.set()
         child.join(10.0)
-    # learning: the newest pages first, the known ones kept after them, at most FRAME_PAGES
+    regions = remote.writable_regions()
+    assert len(remote.within(ours, regions)) == 256 and not len(
+        remote.within(np.array([0, page], np.int64), regions))
+    # learning: the misses first, then the pages copied; at most FRAME_PAGES
     sched = TileScheduler(TileCache(1 << 20), [Heights()], "blocking")
-    seen = iter([np.array([10, 20, 30]) * page, np.array([5, 10, 20, 30, 40]) * page,
-                 np.arange(remote.WRITTEN_MAX_PAGES + 1) * page])
+    top = remote.WRITTEN_MAX_PAGES + 10
+    sched._fork_regions = np.array([[5 * page, top * page]], np.int64)
+    seen = iter([np.array([10, 20, 30, top]) * page, np.array([5, 10, 20, 40]) * page,
+                 np.arange(top) * page])
     real = sched_module.written_pages
     sched_module.written_pages = lambda: next(seen)
     try:
-        for expected in ([10, 20, 30], [5, 40, 10, 20, 30], []):
+        for copied, expected in ((0, [10, 20, 30]),     # (page top: mapped since the fork)
+                                 (2, [5, 40, 10, 20]),   # 30: neither copied nor written
+                                 (0, [])):
+            sched._copied = sched._frame_pages[:copied]
             sched._learn_from = sched.frame
             sched.learn_written()
             assert (sched._frame_pages // page).tolist() == expected
@@ -636,6 +653,21 @@ def test_the_pages_a_frame_writes_are_copied_by_the_fork_not_the_frame():
         assert sched._learn_from == -1
     finally:
         sched_module.written_pages = real
+    sched.close()
+
+
+def test_wait_gap_waits_for_a_frame_to_end():
+    """``wait_gap`` returns once a frame that ends after the call has ended (a fork then
+    has the gap's whole time), or False when none does within its time."""
+    sched = TileScheduler(TileCache(1 << 20), [Heights()], "blocking")
+    assert not sched.wait_gap(0.05)                      # no frame: it gives up
+    sched.frame_begins()
+    ended = threading.Timer(0.05, sched.frame_ends)
+    ended.start()
+    t0 = time.perf_counter()
+    assert sched.wait_gap(20.0) and sched._idle.is_set()
+    assert time.perf_counter() - t0 >= 0.04
+    ended.join()
     sched.close()
 
 
