@@ -59,9 +59,6 @@ LEE_SINE = float(np.sin(np.radians(10.0)))
 the flow's direction to give)."""
 LEE_STEPS = 32.0
 """A lee's mouth ends on the outline at points this many per width."""
-LEE_SLIVERS = 2.0
-"""A lee's basin holds more water than this many of the builder's slivers (less, the lake
-machinery drops it)."""
 LEE_TRIES = 8
 """The smallest pockets tried in turn as a lee's basin (its mouth in the water)."""
 LEE_END_WIDTHS = 0.25
@@ -141,8 +138,7 @@ def _excess(points: np.ndarray, axes: _Axes):
 
 
 def find_basins(water, axes: list[tuple[np.ndarray, np.ndarray]], avoid=(),
-                tolerance_m: float = 0.25, dead=(), lees=(), sliver_m2: float = 0.0
-                ) -> list[Basin]:
+                tolerance_m: float = 0.25, dead=(), lees=()) -> list[Basin]:
     """The basins of ``water`` (a Polygon or MultiPolygon [m]) beside the channels ``axes``
     [(centre line (K, 2), widths (K,))] (module docstring); outline points within ``avoid``
     (polygons: lakes) are never in a basin, nor is the outline within a channel's width of
@@ -151,8 +147,7 @@ def find_basins(water, axes: list[tuple[np.ndarray, np.ndarray]], avoid=(),
     basins (the skeleton's spurs dropped as basins, from their channel's bank on); one whose
     far end no basin found so holds is a backwater behind a spit (:func:`_backwater`).
     ``lees``: [(point (2,), axis (K, 2))], bank segments a built graph found facing away from
-    their axis; the pockets behind them are basins too (:func:`_lees`), each more than
-    LEE_SLIVERS × ``sliver_m2`` [m²] (the water the builder drops as a sliver)."""
+    their axis; the pockets behind them are basins too (:func:`_lees`)."""
     if not axes:
         return []
     index = _Axes(axes)
@@ -205,13 +200,12 @@ def find_basins(water, axes: list[tuple[np.ndarray, np.ndarray]], avoid=(),
             if basin is not None and not any(b.polygon.intersection(basin.polygon).area
                                              > 1e-6 * basin.polygon.area for b in found):
                 found.append(basin)
-        found += _lees(poly, index, lines, found, lees, free_ends, tolerance_m,
-                       LEE_SLIVERS * sliver_m2)
+        found += _lees(poly, index, lines, found, lees, free_ends, tolerance_m)
     return found
 
 
 def _lees(poly, axes: _Axes, lines, found: list[Basin], lees, free_ends,
-          tolerance_m: float, least_m2: float = 0.0) -> list[Basin]:
+          tolerance_m: float) -> list[Basin]:
     """The lees of ``poly``'s outer shore: ``lees`` [(point (2,), axis (K, 2))] are the
     middles of bank segments that a built graph found facing away from the axis it read them
     with (the axis on their right, which no bank may have: the far side of a point of land,
@@ -219,9 +213,10 @@ def _lees(poly, axes: _Axes, lines, found: list[Basin], lees, free_ends,
     a *mouth* from a vertex on one side of it (the point of land's tip, at most LEE_VERTICES
     away) to a point of the outline on the other side, no longer than LEE_MOUTH_WIDTHS of
     the channel's width, with all the outline between on its land side and facing that axis
-    by at least LEE_SINE, in the water; of those, the one that closes the least water (more
-    than ``least_m2``): the pocket behind it is still water, a basin. None that overlaps a
-    basin found, nor within LEE_END_WIDTHS of a free end of the axes (the water's open
+    by at least LEE_SINE, in the water; of those, the one that closes the least water: the
+    pocket behind it is still water, a basin, in place of the basins found that it holds (a
+    creek's inner reach beyond the walls of its mouth; ``found`` loses them). None across a
+    basin's mouth, nor within LEE_END_WIDTHS of a free end of the axes (the water's open
     end)."""
     from riverflow.hydro.nearest import PolylineIndex
 
@@ -265,19 +260,23 @@ def _lees(poly, axes: _Axes, lines, found: list[Basin], lees, free_ends,
         if not w > 0.0:
             continue
         basin = _lee(v, s, e, w, PolylineIndex(np.asarray(axis_of[s % n], np.float64)), wet,
-                     lines, least_m2)
-        if basin is None or any(bs.polygon.intersection(basin.polygon).area
-                                > 1e-6 * basin.polygon.area for bs in found + out):
-            continue
-        if free_ends is not None and not free_ends.is_empty and (
-                shapely.distance(basin.polygon, free_ends) < LEE_END_WIDTHS * w):
+                     lines)
+        if basin is None or (free_ends is not None and not free_ends.is_empty and (
+                shapely.distance(basin.polygon, free_ends) < LEE_END_WIDTHS * w)):
             continue                  # (the water's open end, cut across there)
-        out.append(basin)
+        area = basin.polygon.area
+        meets = [bs for bs in found + out
+                 if bs.polygon.intersection(basin.polygon).area > 1e-6 * area]
+        if any(shapely.difference(bs.polygon, basin.polygon).area > 1e-6 * bs.polygon.area
+               for bs in meets):
+            continue                  # (across a basin's mouth)
+        # (in place of the basins it holds: a creek's inner reach)
+        found[:] = [b for b in found if not any(b is m for m in meets)]
+        out = [b for b in out if not any(b is m for m in meets)] + [basin]
     return out
 
 
-def _lee(v: np.ndarray, s: int, e: int, w: float, axis, wet, lines, least_m2: float
-         ) -> Basin | None:
+def _lee(v: np.ndarray, s: int, e: int, w: float, axis, wet, lines) -> Basin | None:
     """The basin behind edges s..e (unwrapped indices) of ring ``v`` (:func:`_lees`)."""
     n = len(v)
     reach = LEE_MOUTH_WIDTHS * w
@@ -325,8 +324,7 @@ def _lee(v: np.ndarray, s: int, e: int, w: float, axis, wet, lines, least_m2: fl
             ok = _sine(chord, axis.nearest(mid)[1] - mid) >= LEE_SINE
             i, j = i[ok], j[ok]
             area = 0.5 * (acc[j] - acc[i] + fine[j, 0] * fine[i, 1] - fine[j, 1] * fine[i, 0])
-            ok = area > least_m2
-            best += list(zip(area[ok].tolist(), i[ok].tolist(), j[ok].tolist()))
+            best += list(zip(area.tolist(), i.tolist(), j.tolist()))
     for area, i, j in sorted(best)[:LEE_TRIES]:
         pocket = fine[i:j + 1]
         mouth = shapely.LineString([pocket[0], pocket[-1]])

@@ -73,9 +73,6 @@ FILLET_SCALES = (1.0, 0.5, 0.25)
 larger one refused a corner."""
 FILLET_REACH_WIDTHS = 5.0
 """Corners are rounded within this many of the widest branch's widths from a junction."""
-SLIVER_WIDTHS2 = 0.01
-"""Where lakes split the water, a piece of it under this many squared widths (of the
-narrowest branch) is a sliver along a shore, dropped."""
 LEE_ROUNDS = 3
 """A graph from given water whose banks face away from their axes is built again with the
 pockets behind them as basins (``RiverNetworkBuilder.lees``) at most this many times."""
@@ -589,7 +586,7 @@ class RiverNetworkBuilder:
                     lk.polygon for lk in lakes
                     if shapely.difference(lk.polygon, kept).area > 1e-6 * lk.polygon.area]
         if lakes:   # river areas and lake areas, sharing the mouths
-            min_area = (SLIVER_WIDTHS2 * min(float(g.widths_m.min()) for g in geoms) ** 2
+            min_area = (0.01 * min(float(g.widths_m.min()) for g in geoms) ** 2
                         if geoms else eps ** 2)
             polygons, polygon_lake, mouths = _lakes.split_water(polygons, lakes, eps, min_area)
             cuts = list(cuts) + mouths
@@ -648,8 +645,7 @@ class RiverNetworkBuilder:
         self.basins = find_basins(self._water_area,
                                   [(b.centerline_m, b.widths_m) for b in branches],
                                   [lk.polygon for lk in self._lakes], self.tolerance_m,
-                                  self.basin_axes, self.lees, SLIVER_WIDTHS2 * min(
-                                      float(b.widths_m.min()) for b in branches) ** 2)
+                                  self.basin_axes, self.lees)
         report = getattr(self, "report", None)
         if report is not None:
             report.derived.pop("basins", None)

@@ -1247,3 +1247,34 @@ def test_a_river_with_a_pond_beside_it_is_no_pond_for_a_line_across_it(tmp_path)
     field = rf.FlowField(builder.build(), potential_delta_m=2.0)
     status, v = field.query(np.array([[250.0, 0.0], [115.0, 215.0]]))
     assert (status == rf.FlowStatus.INSIDE).all() and v[0, 0] > 0.1 and np.abs(v[1]).max() < 1e-6
+
+
+def test_a_line_that_stops_in_its_estuary_is_carried_on(tmp_path):
+    """A river's line that stops where its water widens into an estuary 500 m wide (Porto's
+    Douro): no chord across the water near its end ("does not reach across the water").
+    It is carried on along the water's skeleton to the water's end, reported."""
+    water = shapely.union_all([shapely.box(0, -50, 700, 50), shapely.Polygon(
+        [(600, -50), (1000, -250), (1000, 250), (600, 50)])])
+    line = shapely.LineString([(0, 0), (650, 0)])
+    builder = rf.read_water(write_polygons(tmp_path / "estuary.geojson", [water]),
+                            lines=write_polygons(tmp_path / "line.geojson", [line]),
+                            origin_m=ORIGIN)
+    builder.build()
+    assert sum("carried on" in n for n in builder.report.notes) == 1
+    (branch,) = builder._branches
+    assert abs(branch.centerline_m[-1, 0] - 1000.0) < 1.0
+
+
+def test_a_streams_line_come_over_the_bank_is_left_out(tmp_path):
+    """A stream's line crossing the land into a 200 m river and on to the river's line: its
+    piece in the water (100 m) was a channel of its own, across the river, as wide as the
+    river is long ("do not meet"). It is left out (its water is the river's), reported."""
+    water = write_polygons(tmp_path / "river.geojson", [shapely.box(0, -100, 1000, 100)])
+    lines = [shapely.LineString([(x, 0) for x in range(-50, 1051, 50)]),
+             shapely.LineString([(480, 400), (500, 100), (500, 0)])]
+    builder = rf.read_water(water, lines=write_polygons(tmp_path / "lines.geojson", lines),
+                            origin_m=ORIGIN)
+    builder.build()
+    assert sum("left out (its water is the river's)" in n for n in builder.report.notes) == 1
+    (branch,) = builder._branches
+    assert np.abs(branch.centerline_m[:, 1]).max() < 1e-6

@@ -618,3 +618,22 @@ def test_the_lee_of_a_point_of_land_is_still_water(tmp_path):
     assert (status == INSIDE).all()
     speed = np.hypot(*v.T)
     assert speed[1] < 0.05 * speed[0] and (v[[0, 2]] @ T > 0.9 * speed[[0, 2]]).all()
+
+
+def test_a_creek_whose_mouth_faces_away_is_one_basin(tmp_path):
+    """A creek 12 m wide leaning 100 m back into the bank of a 300 m river (Porto's creeks):
+    the basin found beyond the channel's half width starts inside it, and the creek's walls
+    below, the river's bank, face away from its axis. The lee behind them holds that basin:
+    it takes its place, one basin from the creek's mouth to its head, still water."""
+    creek = shapely.Polygon([(500, 149), (512, 149), (532, 260), (520, 260)])
+    water = shapely.union_all([box(-100, -150, 1100, 150), creek])
+    water = shapely.normalize(shapely.clip_by_rect(water, 0, -1000, 1000, 1000))
+    builder = rf.read_water(write_polygons(tmp_path / "creek.geojson", [water]), origin_m=ORIGIN)
+    graph = builder.build()
+    assert len(builder.basins) == 1
+    (b,) = builder.basins
+    assert b.mouth[:, 1].min() < 151.0                     # from the bank at the mouth
+    head = shapely.difference(creek, box(0, 0, 1000, 180))
+    assert shapely.difference(head, b.polygon.buffer(0.01)).area < 1e-3 * head.area
+    status, v = rf.FlowField(graph, potential_delta_m=2.0).query(np.array([[520.0, 230.0]]))
+    assert status[0] == INSIDE and np.hypot(*v[0]) < 1e-6
