@@ -1018,27 +1018,20 @@ def _round_junctions(river, parts: list, geoms: list[BranchGeometry], junctions:
         half = 1.01 * (reach + 3.0 * radius)
         box = (p[0] - half, p[1] - half, p[0] + half, p[1] + half)
         near = shapely.clip_by_rect(parts_array[tree.query(window, predicate="intersects")], *box)
-        merged = shapely.union_all(near)
         # the free-end cuts a fillet must keep away from: those within 2 radii of the window
         # (a fillet lies inside it); all of them made each test visit every cut
         close = cut_tree.query(window, predicate="dwithin", distance=2.0 * radius + 1.0)
         keep_out = shapely.MultiLineString(list(cut_lines[np.sort(close)])) if len(close) else None
-        # the arcs in closed form where the corners are simple (they look at the water within
-        # reach + 2 radii only: the square will do)
-        found = _strips.corner_fillets(_strips.drop_slivers(merged, sliver_m2), p, radius, reach,
-                                       keep_out, FILLET_EXTENT * radius, FILLET_SCALES)
-        if found is not None:
-            pieces += found[0]
-            continue
-        local = _strips.drop_slivers(shapely.intersection(merged, window), sliver_m2)
-        for scale in FILLET_SCALES:  # not a junction of simple corners: the closing
-            added, refused = _strips.fillet_pieces(local, p, scale * radius, reach, keep_out,
-                                                   FILLET_EXTENT * radius)
-            pieces += added
-            if not refused:
-                break       # a smaller closing of the rounded water adds nothing
-            if added:
-                local = shapely.union_all([local, *added])
+        # a junction whose water near it is as it was (a network built again) has the same
+        # corners: looked up (the strips' memo)
+        key = _strips.MEMO.key("corners", np.asarray(p, np.float64), radius, reach, sliver_m2,
+                               FILLET_EXTENT, FILLET_SCALES, list(near), keep_out)
+        made = _strips.MEMO.get(key)
+        if made is None:
+            made = _junction_corners(near, p, radius, reach, window, keep_out, sliver_m2)
+            _strips.MEMO.put(key, made,
+                             sum(int(shapely.get_num_coordinates(g)) for g in made) + 1)
+        pieces += made
     if not pieces:
         return river
     # the pieces lie in small groups (one per junction): their union by disjoint subsets is
@@ -1051,6 +1044,30 @@ def _round_junctions(river, parts: list, geoms: list[BranchGeometry], junctions:
                                    sliver_m2)
     return rounded if _strips.topology(rounded) == _strips.topology(river) else river
 
+
+
+def _junction_corners(near, p, radius: float, reach: float, window, keep_out,
+                      sliver_m2: float) -> list:
+    """The pieces that round the corners of one junction (:func:`_round_junctions`): the
+    water ``near`` it (its parts clipped to a square round ``window``), arcs of ``radius``."""
+    merged = shapely.union_all(near)
+    # the arcs in closed form where the corners are simple (they look at the water within
+    # reach + 2 radii only: the square will do)
+    found = _strips.corner_fillets(_strips.drop_slivers(merged, sliver_m2), p, radius, reach,
+                                   keep_out, FILLET_EXTENT * radius, FILLET_SCALES)
+    if found is not None:
+        return list(found[0])
+    pieces = []
+    local = _strips.drop_slivers(shapely.intersection(merged, window), sliver_m2)
+    for scale in FILLET_SCALES:  # not a junction of simple corners: the closing
+        added, refused = _strips.fillet_pieces(local, p, scale * radius, reach, keep_out,
+                                               FILLET_EXTENT * radius)
+        pieces += added
+        if not refused:
+            break       # a smaller closing of the rounded water adds nothing
+        if added:
+            local = shapely.union_all([local, *added])
+    return pieces
 
 def _water(geoms: list[BranchGeometry], junctions: np.ndarray, islands: list[_Island],
            tolerance_m: float, fillet_fraction: float = FILLET_FRACTION, lakes=(),
