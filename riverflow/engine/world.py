@@ -347,9 +347,12 @@ class RiverWorld:
                     break
                 if not scheduler.wait(max(end - time.perf_counter(), 0.0)):
                     return False
-            for system in self.systems:     # the screen's particles: seeded with no time passing
-                if system.phase == "update" and not (system.needs_gl and not self.gl):
-                    system.process(self, 0.0)
+            def seed() -> None:             # the screen's particles: seeded with no time passing
+                for system in self.systems:
+                    if system.phase == "update" and not (system.needs_gl and not self.gl):
+                        system.process(self, 0.0)
+            # (the pages a frame writes, learnt on the way: an edit's fork copies them)
+            scheduler.learn_frame(seed)
         self._view_loaded = True
         if self.config.freeze_gc_on_load:
             _collect_and_freeze()

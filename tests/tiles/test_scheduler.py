@@ -687,6 +687,38 @@ def test_an_edits_processes_are_forked_in_the_gap_after_a_frame():
     sched.close()
 
 
+@needs_fork
+def test_a_loading_frames_pages_are_learnt_for_the_first_fork():
+    """``learn_frame(run)`` (a world's loading screen) runs ``run`` with a child forked
+    beside it and lists the pages ``run`` wrote: the first edit's fork copies them ahead."""
+    from riverflow.tiles import remote
+
+    if not os.path.exists("/proc/self/pagemap"):
+        pytest.skip("no /proc/self/pagemap here")
+    page = remote.PAGE
+    block = np.zeros(32 * page // 8 + page // 8, np.float64)
+    start = -block.ctypes.data % page // 8
+    data = block[start:start + 32 * page // 8]
+    data[:] = 1.0                                         # mapped before the child
+    ours = data.ctypes.data + page * np.arange(32, dtype=np.int64)
+    sched = TileScheduler(TileCache(1 << 20), [Heights()], "background", worker="process")
+    sched.start()
+
+    def run():
+        data[::page // 8 * 4] += 1.0                      # every fourth page written
+
+    sched.learn_frame(run)
+    learnt = sched._frame_pages
+    assert set(ours[::4].tolist()) <= set(learnt.tolist())
+    assert not set(ours[1::4].tolist()) & set(learnt.tolist())
+    assert (data[::page // 8 * 4] == 2.0).all()
+    sched.close()
+    done = []
+    TileScheduler(TileCache(1 << 20), [Heights()], "blocking").learn_frame(
+        lambda: done.append(1))                           # no processes: just run
+    assert done == [1]
+
+
 def test_wait_gap_waits_for_a_frame_to_end():
     """``wait_gap`` returns once a frame that ends after the call has ended (a fork then
     has the gap's whole time), or False when none does within its time."""
