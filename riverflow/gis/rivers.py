@@ -155,6 +155,11 @@ MERGE_REACH × the wider one's width above the junction are merged there into on
 (:func:`_merge_close_channels`): narrowing them (:func:`_narrow_branches`, NARROW_GAP · d ·
 w / (w + w_other)) would leave each less than a third of its width."""
 MERGE_REACH = 2.0
+SIDE_ANGLE_DEG = 45.0
+"""An inflow that enters a junction less than this far from an outflow's course, no wider
+than it, its water in the outflow's beyond the junction (NHDPlus: a 10 m canal's last 41 m
+laid back up a 22 m river's line, 29° off it), joins the outflow farther down instead
+(:func:`_move_side_inflows`)."""
 CONTINUATION_WIDTHS = 2.0
 """The outlet added where rivers meet at the edge of clipped data (nothing leaves the
 junction) is this many times the widest inflow's width long."""
@@ -625,6 +630,7 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
     if not report.strict:
         links, plan = _merge_close_channels(links, plan, geometry, specs, report)
         links, plan = _merge_close_channels(links, plan, geometry, specs, report, outflow=True)
+        links, plan = _move_side_inflows(links, plan, geometry, specs, report)
 
     builder = GisRiverBuilder(tolerance_m, lateral_inflow=True)
     builder.report = report
@@ -2785,6 +2791,97 @@ def _merge_close_channels(links: list[_Link], plan, geometry: HydraulicGeometry,
                           f"it there ({gap:.1f} m apart) into one reach {plan[i][0]:.1f} m "
                           f"wide that carries both")
     return links, plan
+
+
+def _move_side_inflows(links: list[_Link], plan, geometry: HydraulicGeometry, specs,
+                       report: RiverImport):
+    """An inflow a that enters a junction beside an outflow b (their lines leave it less than
+    SIDE_ANGLE_DEG apart, over the wider one's width; a no wider than b; another inflow
+    there) lies in b's water beyond the junction: its banks would be b's. It joins b farther
+    down instead: a is cut back to where its strip clears b's (centre lines half their widths
+    apart) and led straight to b's nearest point there, b split at that point (at b's end
+    junction when that is nearer than half their widths). Each moved inflow is a reported
+    repair. Returns the links and their plan."""
+    ins, outs = by_junction([lk.start for lk in links], [lk.end for lk in links])
+    width = [p[0] for p in plan]
+    next_j = 1 + max([max(lk.start, lk.end) for lk in links], default=-1)
+    touched: set[int] = set()
+    dropped: set[int] = set()
+    added: list[_Link] = []
+    cos_side = math.cos(math.radians(SIDE_ANGLE_DEG))
+    for j in sorted(set(ins) & set(outs)):
+        if len(ins[j]) < 2:
+            continue
+        for a, b in itertools.product(ins[j], outs[j]):
+            if a in touched or b in touched or width[a] > width[b]:
+                continue
+            la, lb = links[a], links[b]
+            wa, wb = width[a], width[b]
+            line_a, line_b = shapely.LineString(la.points), shapely.LineString(lb.points)
+            reach = max(wa, wb)
+            at = la.points[-1]
+            da = np.asarray(line_a.interpolate(max(line_a.length - reach, 0.0)).coords[0]) - at
+            db = np.asarray(line_b.interpolate(min(reach, line_b.length)).coords[0]) - at
+            cos = float(da @ db) / max(np.hypot(*da) * np.hypot(*db), 1e-12)
+            if cos < cos_side:
+                continue
+            clear = 0.5 * (wa + wb)
+            back = np.arange(0.0, line_a.length, 0.25 * wa)[1:]
+            d = shapely.distance(shapely.line_interpolate_point(line_a, line_a.length - back),
+                                 line_b)
+            if not (d >= clear).any():
+                continue                   # all of it in b's water: the build says so
+            s_clear = float(back[int(np.argmax(d >= clear))])
+            cut = np.asarray(line_a.interpolate(line_a.length - s_clear).coords[0])
+            t = float(line_b.project(shapely.Point(cut)))
+            if line_b.length - t < clear:
+                if lb.end < 0:
+                    continue               # b's outlet: no junction to join there
+                target, end_j, pieces, t = lb.points[-1], lb.end, [], line_b.length
+            else:
+                above, below = _split(lb, [t])
+                above.start, above.end = lb.start, next_j
+                below.start, below.end = next_j, lb.end
+                links[b] = above
+                target, end_j, pieces = above.points[-1], next_j, [below]
+                next_j += 1
+            told, above_it = (la.name, la.fid, la.attrs), ""
+            ups = ins.get(la.start, [])
+            if (line_a.length - s_clear < np.hypot(*(cut - target)) and len(ups) == 1
+                    and outs.get(la.start) == [a] and ups[0] not in touched):
+                # what is left of a would lie mostly in b's water (its middle too): a short
+                # link goes on from the one line above it, nothing else meeting there
+                u = links[ups[0]]
+                la = _Link((u if _length(u.points) > line_a.length else la).name, la.fid,
+                           np.vstack([u.points, la.points[1:]]), la.attrs,
+                           {key: (u.values[key][0], v[1]) for key, v in la.values.items()},
+                           u.start, la.end, (u.z[0], la.z[1]), u.fixed or la.fixed,
+                           cell_m=la.cell_m, source_width_m=u.source_width_m)
+                links[a] = la
+                above_it = f" (joined with {u.name}, the one line above it)"
+                dropped.add(ups[0])
+                touched.add(ups[0])
+                line_a = shapely.LineString(la.points)
+            f = (line_a.length - s_clear) / line_a.length
+            kept = shapely.get_coordinates(shapely.ops.substring(line_a, 0.0,
+                                                                 line_a.length - s_clear))
+            la.points = np.vstack([kept, target])
+            la.end = end_j
+            la.values = {key: (v0, v0 + (v1 - v0) * f) for key, (v0, v1) in la.values.items()}
+            la.z = (la.z[0], la.z[0] + (la.z[1] - la.z[0]) * f)
+            angle = math.degrees(math.acos(min(cos, 1.0)))
+            report.repair(*told,
+                          f"flows into ({at[0]:.1f}, {at[1]:.1f}) {angle:.0f}° off the course of "
+                          f"{lb.name}, which leaves it ({wa:.1f} and {wb:.1f} m wide): its last "
+                          f"{s_clear:.0f} m lay in that river's water; cut back to where it is "
+                          f"clear of it{above_it} and led into it {t:.0f} m downstream at "
+                          f"({target[0]:.1f}, {target[1]:.1f})")
+            touched |= {a, b}
+            added += pieces
+    if not touched:
+        return links, plan
+    links = [lk for i, lk in enumerate(links) if i not in dropped] + added
+    return links, _plan(links, geometry, specs, report)
 
 
 def _cut_ends_in_water(branches, report: RiverImport) -> None:

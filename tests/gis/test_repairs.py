@@ -678,3 +678,31 @@ def test_a_source_rising_in_a_rivers_water_is_cut_back_to_its_bank(tmp_path):
     start = builder._branches[1].centerline_m[0] - ORIGIN      # clear of the river's water:
     assert start[1] >= 8.5 - 1e-6 and np.hypot(*(start - [500.0, 5.2])) < 5.0   # 7.5 + 1 m
     check_flows_downstream(graph, [lines[0]], skip_m=3.0)
+
+
+def test_an_inflow_laid_up_an_outflows_line_joins_it_farther_down(tmp_path):
+    """NHDPlus (Yazoo basin, feature 233): a canal's last link, 10 m wide and 40 m long, runs
+    back up a 22 m river leaving the junction, 29° off its course, in its water: its banks
+    were the river's ("both of its banks are one continuous shore"). It is cut back to where
+    it clears the river's water and led into the river farther down (here at the river's
+    next junction), joined with the canal above it (what is left of it would lie mostly in
+    the river), a reported repair; strict mode still refuses it; the flow runs downstream."""
+    lines = [polyline((-600, 440), (-59.6, 44), (0, 0)),                # a river, 20 m
+             polyline((0, 0), (17.3, -37.3)),                           # on from the junction
+             polyline((17.3, -37.3), (72.5, -104.4), (300, -400)),
+             polyline((500, 300), (102.3, 13.3), (34.6, -19.1)),        # a canal, 10 m
+             polyline((34.6, -19.1), (27.7, -20.5), (0, 0))]            # its last link
+    path = write_lines(tmp_path / "side.gpkg", lines,       # widths 20, 22.4, 24.5, 10, 10 m
+                       {"A": np.array([839.0, 1052.0, 1052.0, 210.0, 210.0])})
+    with pytest.raises(rf.GraphError, match=r"side.gpkg \(layer 'side'\): branch 'feature 5'"):
+        rf.read_rivers(path, drainage_area_km2="A", strict=True).build()
+    builder = rf.read_rivers(path, origin_m=None, drainage_area_km2="A")
+    graph = built(builder)
+    (said,) = repairs_of(builder, "feature 5")
+    assert re.match(r"flows into \(500000\.0, 5000000\.0\) 29° off the course of feature 2, "
+                    r"which leaves it \(10\.0 and 22\.4 m wide\): its last 35 m lay in that "
+                    r"river's water; cut back to where it is clear of it \(joined with feature "
+                    r"4, the one line above it\) and led into it 41 m downstream", said), said
+    canal = next(b for b in builder._branches if b.name == "feature 4").centerline_m - ORIGIN
+    assert np.allclose(canal[-1], (17.3, -37.3)) and np.allclose(canal[0], (500, 300))
+    check_flows_downstream(graph, lines[:4], skip_m=3.0)
