@@ -1608,13 +1608,11 @@ def _drop_enclosed(links: list[_Link], report: RiverImport) -> list[_Link]:
     network of banks can hold. Not in strict mode."""
     if report.strict or len(links) < 3:
         return links
-    lines = [shapely.LineString(lk.points) for lk in links]
-    faces = shapely.get_parts(shapely.polygonize(lines))
-    if not len(faces):
+    enclosed = _enclosed_land(links)
+    if enclosed is False:
         return links
-    land = shapely.union_all(faces)
-    sides = shapely.multilinestrings(shapely.get_rings(faces))     # every face's, inner too
-    shapely.prepare(land)
+    land, sides = enclosed
+    lines = [shapely.LineString(lk.points) for lk in links]
     middle = shapely.line_interpolate_point(lines, 0.5, normalized=True)
     inside = shapely.contains(land, middle) & (shapely.distance(sides, middle) > 1e-6)
     if not inside.any():
@@ -2526,9 +2524,12 @@ def _close_clipped_ends(links: list[_Link], plan, geometry: HydraulicGeometry, s
                         report: RiverImport):
     """Where rivers meet and nothing leaves (the data was clipped there) add a short outlet
     (CONTINUATION_WIDTHS × the widest inflow long, along their mean direction); where rivers
-    leave a junction that nothing enters, a short inflow. Returns the links and their plan."""
+    leave a junction that nothing enters, a short inflow; either from the other side where it
+    would lie in land the network's loops close round (arms that leave the junction and meet
+    again: water cannot enter or leave through an island). Returns the links and their plan."""
     ins, outs = by_junction([lk.start for lk in links], [lk.end for lk in links])
     added = []
+    land, turned, dropped = None, False, set()
     for j in sorted(set(ins) | set(outs)):
         into, out_of = ins.get(j, []), outs.get(j, [])
         if into and out_of:
@@ -2549,6 +2550,25 @@ def _close_clipped_ends(links: list[_Link], plan, geometry: HydraulicGeometry, s
         q3 = sum(plan[i][2] for i in group)
         length = CONTINUATION_WIDTHS * max(width, geometry.width(q3))
         line = np.array([p, p + d * length]) if at_end else np.array([p - d * length, p])
+        if land is None:
+            land = _enclosed_land(links)
+        other_side = land is not False and _in_land(land, line)
+        if other_side:              # the arms of a loop close round that side: from the other
+            line = 2.0 * p - line
+            if _in_land(land, line):                   # loops on every side
+                if _turn_one_of(links, group, at_end, ins, outs, report):
+                    turned = True
+                    continue
+                i = min(group, key=lambda k: _length(links[k].points))
+                report.repair(links[i].name, links[i].fid, links[i].attrs,
+                              f"{' and '.join(links[k].name for k in group)} "
+                              + ("end where nothing leaves" if at_end else
+                                 "start where nothing enters")
+                              + f" ({p[0]:.1f}, {p[1]:.1f}), between loops of the network on "
+                                "every side, and none can be turned without closing a loop "
+                                "that flows back into itself: left out, the shortest of them")
+                dropped.add(i)
+                continue
         names = [links[i].name for i in group]
         lead = links[group[0]]
         values = {key: (math.nan, math.nan) for key in lead.values}
@@ -2562,12 +2582,83 @@ def _close_clipped_ends(links: list[_Link], plan, geometry: HydraulicGeometry, s
                        f"leaves (the data is clipped there): an outlet {length:.0f} m long "
                        "added" if at_end else
                        f"{' and '.join(names)} start at ({p[0]:.1f}, {p[1]:.1f}) where nothing "
-                       f"enters: an inflow {length:.0f} m long added"))
+                       f"enters: an inflow {length:.0f} m long added")
+                      + (" (on the side away from the land their loop closes round)"
+                         if other_side else ""))
         added.append(link)
-    if not added:
+    if dropped:             # what is left of them may lie in land now: left out, and again
+        links = _drop_enclosed([lk for i, lk in enumerate(links) if i not in dropped] + added,
+                               report)
+        return _close_clipped_ends(links, _plan(links, geometry, specs, report), geometry,
+                                   specs, report)
+    if not added and not turned:
         return links, plan
     links = links + added
     return links, _plan(links, geometry, specs, report)
+
+
+def _turn_one_of(links: list[_Link], group: list[int], at_end: bool, ins: dict, outs: dict,
+                 report: RiverImport) -> bool:
+    """Where lines leave a junction nothing enters and the network's loops close round it
+    on every side (no inflow can reach it but through an island: a divide between two
+    streams drawn from one point, NHDPlus), turn the shortest of them that runs on from a
+    junction something else enters (``at_end``: lines that meet where nothing leaves, the
+    shortest that comes from one something else leaves) and closes no loop that flows back
+    into itself: it feeds the others (a reported repair, even against the file's word).
+    ``ins``/``outs`` are kept current. Returns whether one was turned."""
+    for i in sorted(group, key=lambda k: _length(links[k].points)):
+        lk = links[i]
+        j, k = (lk.end, lk.start) if at_end else (lk.start, lk.end)
+        if k < 0 or len((outs if at_end else ins).get(k, [])) < 2:
+            continue
+        # a loop if the far junction k is reached from j along the flow (the other lines)
+        step = ins if at_end else outs
+        seen, todo = {j}, [j]
+        while todo:
+            n = todo.pop()
+            for m in step.get(n, []):
+                if m == i:
+                    continue
+                nxt = links[m].start if at_end else links[m].end
+                if nxt >= 0 and nxt not in seen:
+                    seen.add(nxt)
+                    todo.append(nxt)
+        if k in seen:
+            continue
+        (outs if at_end else ins)[k].remove(i)
+        (ins if at_end else outs).setdefault(k, []).append(i)
+        group.remove(i)
+        (outs if at_end else ins).setdefault(j, []).append(i)
+        _turn(lk)
+        others = " and ".join(links[m].name for m in group)
+        report.repair(lk.name, lk.fid, lk.attrs,
+                      (f"it and {others} end where nothing leaves" if at_end else
+                       f"it and {others} start where nothing enters")
+                      + f" ({links[i].points[0 if at_end else -1][0]:.1f}, "
+                        f"{links[i].points[0 if at_end else -1][1]:.1f}), between loops of the "
+                        f"network on every side (no water can come or go there but through an "
+                        f"island): turned, the shortest of them, to "
+                      + ("carry their water on" if at_end else "feed the others"))
+        return True
+    return False
+
+
+def _enclosed_land(links: list[_Link]):
+    """The land the links' loops close round (the faces of the network, prepared) and the
+    channels round it (every face's rings, inner too), or False where there are no loops."""
+    faces = shapely.get_parts(shapely.polygonize([shapely.LineString(lk.points)
+                                                  for lk in links]))
+    if not len(faces):
+        return False
+    land = shapely.union_all(faces)
+    shapely.prepare(land)
+    return land, shapely.multilinestrings(shapely.get_rings(faces))
+
+
+def _in_land(land, line: np.ndarray) -> bool:
+    """Whether the middle of ``line`` lies in that land, off the channels round it."""
+    middle = shapely.Point(0.5 * (line[0] + line[-1]))
+    return bool(land[0].contains(middle) and land[1].distance(middle) > 1e-6)
 
 
 def _cut_crossings(links: list[_Link], plan, crossings, geometry: HydraulicGeometry, specs,
@@ -2797,7 +2888,8 @@ def _move_side_inflows(links: list[_Link], plan, geometry: HydraulicGeometry, sp
                        report: RiverImport):
     """An inflow a that enters a junction beside an outflow b (their lines leave it less than
     SIDE_ANGLE_DEG apart, over the wider one's width; a no wider than b; another inflow
-    there) lies in b's water beyond the junction: its banks would be b's. It joins b farther
+    there) whose last half or more lies in b's water has no banks of its own across its
+    middle: they would be b's. It joins b farther
     down instead: a is cut back to where its strip clears b's (centre lines half their widths
     apart) and led straight to b's nearest point there, b split at that point (at b's end
     junction when that is nearer than half their widths). Each moved inflow is a reported
@@ -2832,6 +2924,8 @@ def _move_side_inflows(links: list[_Link], plan, geometry: HydraulicGeometry, sp
             if not (d >= clear).any():
                 continue                   # all of it in b's water: the build says so
             s_clear = float(back[int(np.argmax(d >= clear))])
+            if s_clear <= 0.5 * line_a.length:
+                continue                   # its middle clear of it: banks of its own there
             cut = np.asarray(line_a.interpolate(line_a.length - s_clear).coords[0])
             t = float(line_b.project(shapely.Point(cut)))
             if line_b.length - t < clear:

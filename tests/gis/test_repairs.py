@@ -134,6 +134,25 @@ def test_an_outlet_where_two_rivers_meet_and_nothing_leaves(tmp_path):
         rf.read_rivers(path, origin_m=None, drainage_area_km2="A", strict=True)
 
 
+def test_an_inflow_added_where_a_loops_arms_leave_comes_from_outside_the_loop(tmp_path):
+    """NHDPlus Shellmound, feature 844: two arms leave a junction nothing enters and meet
+    again, the loop closing round the side the added inflow would come from (along their
+    mean direction): rising in that island, its banks were one shore. It comes from the
+    other side (the repair says so), and the flow runs downstream."""
+    lines = [polyline((0, 0), (200, -100), (400, 200), (0, 500)),
+             polyline((0, 0), (-200, 0), (-200, 300), (0, 500)),
+             polyline((0, 500), (0, 900))]
+    path = write_lines(tmp_path / "loop.gpkg", lines, {"W": np.array([10.0, 10.0, 14.0])})
+    builder = rf.read_rivers(path, origin_m=None, width_m="W")
+    graph = built(builder)
+    (what,) = repairs_of(builder, "feature 1")
+    assert what.endswith("an inflow 28 m long added (on the side away from the land their "
+                         "loop closes round)"), what
+    inflow = next(b for b in builder._branches if b.name == "inflow of feature 1").centerline_m
+    assert (inflow[:, 1] - ORIGIN[1] <= 1e-6).all()                 # from the south
+    check_flows_downstream(graph, lines, skip_m=3.0)
+
+
 def test_disconnected_pieces_and_rivers_entering_from_outside(tmp_path):
     east = [p + (5000.0, 0.0) for p in confluence()]
     lines = [*confluence(), *east, polyline((0, 2000), (1500, 2500))]
