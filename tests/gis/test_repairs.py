@@ -153,6 +153,46 @@ def test_an_inflow_added_where_a_loops_arms_leave_comes_from_outside_the_loop(tm
     check_flows_downstream(graph, lines, skip_m=3.0)
 
 
+def divide(west: bool):
+    """Two lines drawn (FLOWDIR) from one point, east and west, nothing entering it, between
+    two loops (north and south) that leave the west end and meet at the east one (NHDPlus
+    Shellmound, features 844 and 878); ``west``: a river comes into the west end too."""
+    lines = [polyline((0, 0), (-200, 0)), polyline((0, 0), (300, 0)),
+             polyline((-200, 0), (-100, 200), (200, 200), (300, 0)),
+             polyline((-200, 0), (-100, -200), (200, -200), (300, 0)),
+             polyline((300, 0), (700, 0))]
+    return lines + [polyline((-600, 0), (-200, 0))] * west
+
+
+@pytest.mark.parametrize("west", [True, False])
+def test_lines_leaving_a_point_between_loops_are_turned_or_left_out(tmp_path, west):
+    """No inflow can reach a junction that loops close round on every side (it would rise in
+    an island). The shortest line leaving it is turned where it comes from a junction that
+    something else enters and no loop flows back into itself (``west``), so it feeds the
+    other; else it is left out, and the other with it (it lies in land then). Each a
+    reported repair; strict mode refuses it."""
+    lines = divide(west)
+    flowdir = np.array(["With Digitized"] * len(lines), dtype=object)
+    path = write_lines(tmp_path / "divide.gpkg", lines, {"FLOWDIR": flowdir})
+    with pytest.raises(rf.GraphError, match=r"start where nothing enters.*strict=True"):
+        rf.read_rivers(path, strict=True)
+    builder = rf.read_rivers(path, origin_m=None)
+    graph = built(builder)
+    (what,) = repairs_of(builder, "feature 1")
+    names = [b.name for b in builder._branches]
+    if west:
+        assert what.startswith("it and feature 2 start where nothing enters") and what.endswith(
+            "turned, the shortest of them, to feed the others"), what
+        assert len(names) == 6
+        check_flows_downstream(graph, [lines[0][::-1]] + lines[1:], skip_m=3.0)
+    else:
+        assert "none can be turned without closing a loop that flows back into itself: left " \
+               "out, the shortest of them" in what, what
+        assert "lies in land" in repairs_of(builder, "feature 2")[0]
+        assert sorted(names) == ["feature 3", "feature 4", "feature 5", "inflow of feature 3"]
+        check_flows_downstream(graph, lines[2:], skip_m=3.0)
+
+
 def test_disconnected_pieces_and_rivers_entering_from_outside(tmp_path):
     east = [p + (5000.0, 0.0) for p in confluence()]
     lines = [*confluence(), *east, polyline((0, 2000), (1500, 2500))]
