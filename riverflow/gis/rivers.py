@@ -2099,8 +2099,10 @@ def _own_estimate(link: _Link, g: HydraulicGeometry) -> tuple[float, float, str]
 
 def _merge_close_junctions(links, plan, geometry, specs, report):
     """Merge junctions closer together than half the sum of their rivers' widths (the
-    builder cannot tell them apart: one lies inside the other's confluence); the links
-    between them are dropped. Repeats until none is left (at most a few passes)."""
+    builder cannot tell them apart: one lies inside the other's confluence), or joined by a
+    link shorter than the sum (its middle lies in their water: no banks of its own there;
+    not in strict mode, nor where they are a braid's); the links between them are dropped.
+    Repeats until none is left (at most a few passes)."""
     for _ in range(8):
         widths = [p[0] for p in plan]
         pts: dict[int, np.ndarray] = {}
@@ -2129,6 +2131,13 @@ def _merge_close_junctions(links, plan, geometry, specs, report):
             if np.hypot(*(xy[a] - xy[b])) < 0.5 * (reach[ja] + reach[jb]) and root(ja) != root(jb):
                 parent[max(root(ja), root(jb))] = min(root(ja), root(jb))
                 merged += 1
+        for lk in links:        # a link between them shorter than their widths: its middle
+            ja, jb = lk.start, lk.end           # lies in their confluences' water
+            if (not report.strict and ja >= 0 and jb >= 0 and root(ja) != root(jb)
+                    and _length(lk.points) < reach[ja] + reach[jb]
+                    and not _another_path(links, lk)):
+                parent[max(root(ja), root(jb))] = min(root(ja), root(jb))
+                merged += 1
         if not merged:
             return links, plan
         groups: dict[int, list[int]] = {}
@@ -2140,7 +2149,8 @@ def _merge_close_junctions(links, plan, geometry, specs, report):
             s, e = (root(lk.start) if lk.start >= 0 else -1), (root(lk.end) if lk.end >= 0 else -2)
             if s == e:
                 report.notes.append(f"{lk.name}: dropped (it lies inside a confluence: its "
-                                    f"ends are closer than the rivers there are wide) "
+                                    f"ends are closer, or it is shorter, than the rivers "
+                                    f"there are wide) "
                                     f"[{_attrs_text(lk.attrs)}]")
                 continue
             if lk.start >= 0:
@@ -2155,6 +2165,24 @@ def _merge_close_junctions(links, plan, geometry, specs, report):
         links = kept
         plan = _plan(links, geometry, specs, report)
     return links, plan
+
+
+def _another_path(links: list[_Link], link: _Link) -> bool:
+    """Whether the flow also runs from ``link``'s start to its end along other links (a
+    braid: its two junctions merged would make a loop that flows back into itself)."""
+    outs: dict[int, list[_Link]] = {}
+    for lk in links:
+        if lk is not link and lk.start >= 0:
+            outs.setdefault(lk.start, []).append(lk)
+    seen, todo = {link.start}, [link.start]
+    while todo:
+        for lk in outs.get(todo.pop(), []):
+            if lk.end == link.end:
+                return True
+            if lk.end >= 0 and lk.end not in seen:
+                seen.add(lk.end)
+                todo.append(lk.end)
+    return False
 
 
 def _finder(parent: dict[int, int]):
@@ -2785,6 +2813,11 @@ def _merge_close_channels(links: list[_Link], plan, geometry: HydraulicGeometry,
     def along(line, s):           # s back from the junction along the line (its arc length)
         return s if outflow else line.length - s
 
+    widest = {}                              # the widest river at each junction: its water
+    for i, lk in enumerate(links):
+        for j in (lk.start, lk.end):
+            widest[j] = max(widest.get(j, 0.0), width[i])
+
     for j in sorted(groups):
         group = groups[j]
         used: set[int] = set()
@@ -2811,7 +2844,7 @@ def _merge_close_channels(links: list[_Link], plan, geometry: HydraulicGeometry,
             k = int(np.argmin(close)) if not close.all() else len(close)
             reach = back[k - 1] if k else 0.0
             reach = min(reach, 0.8 * line_a.length)
-            if reach <= MERGE_REACH * max(wa, wb):
+            if reach <= max(MERGE_REACH * max(wa, wb), widest[j]):
                 continue                     # close only around the junction: its own shape
             cut_a = np.array(line_a.interpolate(along(line_a, reach)).coords[0])
             at_b = float(line_b.project(shapely.Point(cut_a)))

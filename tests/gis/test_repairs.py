@@ -742,26 +742,48 @@ def test_a_source_rising_in_a_rivers_water_is_cut_back_to_its_bank(tmp_path):
 def test_an_inflow_laid_up_an_outflows_line_joins_it_farther_down(tmp_path):
     """NHDPlus (Yazoo basin, feature 233): a canal's last link, 10 m wide and 40 m long, runs
     back up a 22 m river leaving the junction, 29° off its course, in its water: its banks
-    were the river's ("both of its banks are one continuous shore"). It is cut back to where
-    it clears the river's water and led into the river farther down (here at the river's
-    next junction), joined with the canal above it (what is left of it would lie mostly in
-    the river), a reported repair; strict mode still refuses it; the flow runs downstream."""
+    were the river's ("both of its banks are one continuous shore"; with the river's first
+    41 m joined to the rest, the builder's rounding of junctions broke). It is cut back to
+    where it clears the river's water, joined with the canal above it (what is left of it
+    would lie mostly in the river) and led into the river farther down (the river split
+    there), a reported repair; strict mode still refuses it; the flow runs downstream."""
     lines = [polyline((-600, 440), (-59.6, 44), (0, 0)),                # a river, 20 m
              polyline((0, 0), (17.3, -37.3)),                           # on from the junction
              polyline((17.3, -37.3), (72.5, -104.4), (300, -400)),
              polyline((500, 300), (102.3, 13.3), (34.6, -19.1)),        # a canal, 10 m
              polyline((34.6, -19.1), (27.7, -20.5), (0, 0))]            # its last link
-    path = write_lines(tmp_path / "side.gpkg", lines,       # widths 20, 22.4, 24.5, 10, 10 m
-                       {"A": np.array([839.0, 1052.0, 1052.0, 210.0, 210.0])})
+    path = write_lines(tmp_path / "side.gpkg", lines,
+                       {"W": np.array([20.0, 22.4, 22.4, 10.0, 10.0])})
     with pytest.raises(rf.GraphError, match=r"side.gpkg \(layer 'side'\): branch 'feature 5'"):
-        rf.read_rivers(path, drainage_area_km2="A", strict=True).build()
-    builder = rf.read_rivers(path, origin_m=None, drainage_area_km2="A")
+        rf.read_rivers(path, width_m="W", strict=True).build()
+    builder = rf.read_rivers(path, origin_m=None, width_m="W")
     graph = built(builder)
     (said,) = repairs_of(builder, "feature 5")
-    assert re.match(r"flows into \(500000\.0, 5000000\.0\) 29° off the course of feature 2, "
+    assert re.match(r"flows into \(500000\.0, 5000000\.0\) 29° off the course of feature 3, "
                     r"which leaves it \(10\.0 and 22\.4 m wide\): its last 35 m lay in that "
                     r"river's water; cut back to where it is clear of it \(joined with feature "
-                    r"4, the one line above it\) and led into it 41 m downstream", said), said
-    canal = next(b for b in builder._branches if b.name == "feature 4").centerline_m - ORIGIN
-    assert np.allclose(canal[-1], (17.3, -37.3)) and np.allclose(canal[0], (500, 300))
+                    r"4, the one line above it\) and led into it 30 m downstream", said), said
+    canal = next(b for b in builder._branches if b.name == "feature 4").centerline_m
+    below = next(b for b in builder._branches if b.name == "feature 3 piece 1").centerline_m
+    assert np.allclose(canal[0] - ORIGIN, (500, 300)) and np.allclose(canal[-1], below[0])
+    assert np.hypot(*(canal[-1] - ORIGIN)) > 25.0
     check_flows_downstream(graph, lines[:4], skip_m=3.0)
+
+
+def test_a_link_shorter_than_the_rivers_at_its_ends_are_wide_is_dropped(tmp_path):
+    """NHDPlus Shellmound, feature 56: a link 38 m long, 23.5 m wide, from where nothing
+    else meets to a confluence of rivers 31.6 and 39.4 m wide: its middle lay in the
+    confluence's water ("no banks found across its middle"). Its junctions are merged and
+    it is dropped (a note), and the flow runs downstream."""
+    lines = [polyline((700, 400), (82.3, 60.1), (19.6, 33.0)), polyline((19.6, 33.0), (0, 0)),
+             polyline((-300, 600), (-53.0, 99.2), (0, 0)),
+             polyline((0, 0), (10.3, -111.6), (76.9, -225.2), (300, -700))]
+    path = write_lines(tmp_path / "short.gpkg", lines,       # 23.5, 23.5, 31.6, 39.4 m wide
+                       {"A": np.array([1158.0, 1158.0, 2094.0, 3252.0])})
+    builder = rf.read_rivers(path, origin_m=None, drainage_area_km2="A")
+    graph = built(builder)
+    assert [b.name for b in builder._branches] == ["feature 1", "feature 3", "feature 4"]
+    assert any(n.startswith("feature 2: dropped (it lies inside a confluence: its ends are "
+                            "closer, or it is shorter, than the rivers there are wide)")
+               for n in builder.report.notes)
+    check_flows_downstream(graph, [lines[0][:2], lines[2], lines[3]], skip_m=3.0)
