@@ -787,3 +787,21 @@ def test_a_link_shorter_than_the_rivers_at_its_ends_are_wide_is_dropped(tmp_path
                             "closer, or it is shorter, than the rivers there are wide)")
                for n in builder.report.notes)
     check_flows_downstream(graph, [lines[0][:2], lines[2], lines[3]], skip_m=3.0)
+
+
+def test_streams_close_only_within_a_wide_confluence_are_not_merged(tmp_path):
+    """NHDPlus Shellmound, features 761 and 762: two 10 m streams meet 19° apart where a 38 m
+    river joins and a 41 m one leaves, close together for 24 m above it, inside the
+    confluence's water: merged there, their 24 m reach had no banks of its own ("no banks
+    found across its middle"). Channels close only within the widest river's width of their
+    junction keep their own lines (as they do within twice their own width)."""
+    lines = [polyline((-300, 600), (-98.8, 189.3), (-29.2, 48.8), (-21.0, 26.1), (0, 0)),
+             polyline((0, 0), (3.1, -24.1), (16.7, -59.3), (31.4, -135.2), (100, -600)),
+             polyline((400, -300), (139.0, -74.0), (112.9, -44.2), (66.5, -19.9), (0, 0)),
+             polyline((900, 300), (873.2, 33.5), (0, 0))]
+    path = write_lines(tmp_path / "wide.gpkg", lines, {"W": np.array([38.1, 40.6, 10.0, 10.0])})
+    builder = rf.read_rivers(path, origin_m=None, width_m="W")
+    graph = built(builder)
+    assert builder.report.repairs == []
+    field = check_flows_downstream(graph, lines[:2], skip_m=3.0)
+    check_flows_downstream(graph, lines[2:], skip_m=20.0, field=field)   # ends in the confluence
