@@ -13,8 +13,9 @@ link). The builder that comes back is filled and may take more branches before `
 Topology comes from the geometry only: end points closer than ``snap_m`` are one junction, an
 end point within ``snap_m`` of another line's interior splits that line there (a tributary
 digitised onto its river), the line's direction is the flow direction (``reverse`` names an
-attribute that says otherwise). Junctions closer together than their rivers are wide are
-merged (the links between them lie inside the confluence and are dropped). No id, node or
+attribute that says otherwise). Junctions closer together than their rivers are wide, or
+joined by a link shorter than that, are merged (the links between them lie inside the
+confluence and are dropped). No id, node or
 "to-link" attribute is needed or trusted.
 
 Widths and discharges (per link, first that applies):
@@ -53,7 +54,9 @@ duplicates are left out; the loop of a line that crosses itself is cut out
 (:func:`_cut_self_loops`); lines drawn upstream are turned (:func:`_direct`: one outlet per
 connected piece, found from drainage areas or stream orders, elevations, else the drawing and
 the junction angles; a delta keeps its several outlets); rivers that meet where nothing
-leaves (clipped data) get a short outlet; lines crossing without a shared vertex are cut
+leaves (clipped data) get a short outlet, not in land the network's loops close round (where
+they close round every side, one of the lines is turned or left out:
+:func:`_close_clipped_ends`); lines crossing without a shared vertex are cut
 where the narrower crosses the wider one's water (no junction); lines that run on into one
 another where nothing else meets are one link where one of them is short (OSM: always;
 :func:`_join_runs`); a line in land the network's loops close round is left out
@@ -62,7 +65,8 @@ way closing a loop that flows back into itself is turned (:func:`_break_osm_loop
 end in another river's water is cut back out of it (:func:`_cut_ends_in_water`); two
 channels flowing into
 one junction that run closer than their widths above it merge into one reach there
-(:func:`_merge_close_channels`); attribute values that are text, NaN or ≤ 0 (stream orders
+(:func:`_merge_close_channels`); an inflow laid back up an outflow's line, in its water,
+joins it farther down (:func:`_move_side_inflows`); attribute values that are text, NaN or ≤ 0 (stream orders
 below 1, OSM width tags that are no width) are not used (the next rule applies); a given
 width under MIN_WIDTH_M is raised to it; and ``build()`` narrows channels that lie closer
 together than their widths where the network cannot be built otherwise. Lines traced on a
