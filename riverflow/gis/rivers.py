@@ -2104,8 +2104,9 @@ def _own_estimate(link: _Link, g: HydraulicGeometry) -> tuple[float, float, str]
 def _merge_close_junctions(links, plan, geometry, specs, report):
     """Merge junctions closer together than half the sum of their rivers' widths (the
     builder cannot tell them apart: one lies inside the other's confluence), or joined by a
-    link shorter than the sum (its middle lies in their water: no banks of its own there;
-    not in strict mode, nor where they are a braid's); the links between them are dropped.
+    link shorter than the sum and than half every other line there (its middle lies in their
+    water: no banks of its own there; not a chain of such links, not in strict mode, nor
+    where they are a braid's); the links between them are dropped.
     Repeats until none is left (at most a few passes)."""
     for _ in range(8):
         widths = [p[0] for p in plan]
@@ -2135,12 +2136,20 @@ def _merge_close_junctions(links, plan, geometry, specs, report):
             if np.hypot(*(xy[a] - xy[b])) < 0.5 * (reach[ja] + reach[jb]) and root(ja) != root(jb):
                 parent[max(root(ja), root(jb))] = min(root(ja), root(jb))
                 merged += 1
-        for lk in links:        # a link between them shorter than their widths: its middle
-            ja, jb = lk.start, lk.end           # lies in their confluences' water
-            if (not report.strict and ja >= 0 and jb >= 0 and root(ja) != root(jb)
-                    and _length(lk.points) < reach[ja] + reach[jb]
+        at: dict[int, list[tuple[float, int]]] = {}     # the lines at each junction
+        for k, lk in enumerate(links):
+            for j in (lk.start, lk.end):
+                if j >= 0 and not lk.added:
+                    at.setdefault(j, []).append((_length(lk.points), k))
+        for k, lk in enumerate(links):      # a link between them shorter than their widths:
+            ja, jb = lk.start, lk.end           # its middle lies in their confluences' water
+            if report.strict or ja < 0 or jb < 0 or root(ja) != ja or root(jb) != jb:
+                continue                        # (one merge a pass at a junction: no chains)
+            length = _length(lk.points)
+            others = [x for j in (ja, jb) for x, m in at.get(j, []) if m != k]
+            if (length < reach[ja] + reach[jb] and length < 0.5 * min(others, default=math.inf)
                     and not _another_path(links, lk)):
-                parent[max(root(ja), root(jb))] = min(root(ja), root(jb))
+                parent[max(ja, jb)] = min(ja, jb)
                 merged += 1
         if not merged:
             return links, plan
