@@ -66,8 +66,9 @@ end in another river's water is cut back out of it (:func:`_cut_ends_in_water`);
 channels flowing into
 one junction that run closer than their widths above it merge into one reach there
 (:func:`_merge_close_channels`); an inflow laid back up an outflow's line, in its water,
-joins it farther down (:func:`_move_side_inflows`); attribute values that are text, NaN or ≤ 0 (stream orders
-below 1, OSM width tags that are no width) are not used (the next rule applies); a given
+joins it farther down (:func:`_move_side_inflows`); attribute values that are text, NaN or
+≤ 0 (stream orders below 1, OSM width tags that are no width) are not used (the next rule
+applies); a given
 width under MIN_WIDTH_M is raised to it; and ``build()`` narrows channels that lie closer
 together than their widths where the network cannot be built otherwise. Lines traced on a
 raster's cells (a staircase) are smoothed at the scale of the cell or the width
