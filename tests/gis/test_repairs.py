@@ -805,3 +805,16 @@ def test_streams_close_only_within_a_wide_confluence_are_not_merged(tmp_path):
     assert builder.report.repairs == []
     field = check_flows_downstream(graph, lines[:2], skip_m=3.0)
     check_flows_downstream(graph, lines[2:], skip_m=20.0, field=field)   # ends in the confluence
+
+
+def test_a_river_of_links_shorter_than_it_is_wide_is_no_chain_to_collapse(tmp_path):
+    """A link shorter than the rivers at its ends are wide, but not shorter than half the
+    lines beside it (a model grid's routing lines: a 50 m river in 60 m steps, a tributary
+    at each), is kept: merged, the river's junctions would chain into one."""
+    river = [polyline((60 * k, 0), (60 * (k + 1), 0)) for k in range(4)]
+    tributaries = [polyline((60 * k, 400), (60 * k, 0)) for k in (1, 2, 3)]
+    path = write_lines(tmp_path / "grid.gpkg", river + tributaries,
+                       {"W": np.array([50.0] * 4 + [10.0] * 3)})
+    builder = rf.read_rivers(path, origin_m=None, width_m="W")
+    assert len(builder._branches) == 7
+    assert not any("dropped" in n for n in builder.report.notes)
