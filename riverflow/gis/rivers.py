@@ -13,8 +13,9 @@ link). The builder that comes back is filled and may take more branches before `
 Topology comes from the geometry only: end points closer than ``snap_m`` are one junction, an
 end point within ``snap_m`` of another line's interior splits that line there (a tributary
 digitised onto its river), the line's direction is the flow direction (``reverse`` names an
-attribute that says otherwise). Junctions closer together than their rivers are wide are
-merged (the links between them lie inside the confluence and are dropped). No id, node or
+attribute that says otherwise). Junctions closer together than their rivers are wide, or
+joined by a link shorter than that, are merged (the links between them lie inside the
+confluence and are dropped). No id, node or
 "to-link" attribute is needed or trusted.
 
 Widths and discharges (per link, first that applies):
@@ -53,7 +54,9 @@ duplicates are left out; the loop of a line that crosses itself is cut out
 (:func:`_cut_self_loops`); lines drawn upstream are turned (:func:`_direct`: one outlet per
 connected piece, found from drainage areas or stream orders, elevations, else the drawing and
 the junction angles; a delta keeps its several outlets); rivers that meet where nothing
-leaves (clipped data) get a short outlet; lines crossing without a shared vertex are cut
+leaves (clipped data) get a short outlet, not in land the network's loops close round (where
+they close round every side, one of the lines is turned or left out:
+:func:`_close_clipped_ends`); lines crossing without a shared vertex are cut
 where the narrower crosses the wider one's water (no junction); lines that run on into one
 another where nothing else meets are one link where one of them is short (OSM: always;
 :func:`_join_runs`); a line in land the network's loops close round is left out
@@ -62,8 +65,10 @@ way closing a loop that flows back into itself is turned (:func:`_break_osm_loop
 end in another river's water is cut back out of it (:func:`_cut_ends_in_water`); two
 channels flowing into
 one junction that run closer than their widths above it merge into one reach there
-(:func:`_merge_close_channels`); attribute values that are text, NaN or ≤ 0 (stream orders
-below 1, OSM width tags that are no width) are not used (the next rule applies); a given
+(:func:`_merge_close_channels`); an inflow laid back up an outflow's line, in its water,
+joins it farther down (:func:`_move_side_inflows`); attribute values that are text, NaN or
+≤ 0 (stream orders below 1, OSM width tags that are no width) are not used (the next rule
+applies); a given
 width under MIN_WIDTH_M is raised to it; and ``build()`` narrows channels that lie closer
 together than their widths where the network cannot be built otherwise. Lines traced on a
 raster's cells (a staircase) are smoothed at the scale of the cell or the width
@@ -155,6 +160,11 @@ MERGE_REACH × the wider one's width above the junction are merged there into on
 (:func:`_merge_close_channels`): narrowing them (:func:`_narrow_branches`, NARROW_GAP · d ·
 w / (w + w_other)) would leave each less than a third of its width."""
 MERGE_REACH = 2.0
+SIDE_ANGLE_DEG = 45.0
+"""An inflow that enters a junction less than this far from an outflow's course, no wider
+than it, its water in the outflow's beyond the junction (NHDPlus: a 10 m canal's last 41 m
+laid back up a 22 m river's line, 29° off it), joins the outflow farther down instead
+(:func:`_move_side_inflows`)."""
 CONTINUATION_WIDTHS = 2.0
 """The outlet added where rivers meet at the edge of clipped data (nothing leaves the
 junction) is this many times the widest inflow's width long."""
@@ -625,6 +635,7 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
     if not report.strict:
         links, plan = _merge_close_channels(links, plan, geometry, specs, report)
         links, plan = _merge_close_channels(links, plan, geometry, specs, report, outflow=True)
+        links, plan = _move_side_inflows(links, plan, geometry, specs, report)
 
     builder = GisRiverBuilder(tolerance_m, lateral_inflow=True)
     builder.report = report
@@ -1602,13 +1613,11 @@ def _drop_enclosed(links: list[_Link], report: RiverImport) -> list[_Link]:
     network of banks can hold. Not in strict mode."""
     if report.strict or len(links) < 3:
         return links
-    lines = [shapely.LineString(lk.points) for lk in links]
-    faces = shapely.get_parts(shapely.polygonize(lines))
-    if not len(faces):
+    enclosed = _enclosed_land(links)
+    if enclosed is False:
         return links
-    land = shapely.union_all(faces)
-    sides = shapely.multilinestrings(shapely.get_rings(faces))     # every face's, inner too
-    shapely.prepare(land)
+    land, sides = enclosed
+    lines = [shapely.LineString(lk.points) for lk in links]
     middle = shapely.line_interpolate_point(lines, 0.5, normalized=True)
     inside = shapely.contains(land, middle) & (shapely.distance(sides, middle) > 1e-6)
     if not inside.any():
@@ -2095,8 +2104,11 @@ def _own_estimate(link: _Link, g: HydraulicGeometry) -> tuple[float, float, str]
 
 def _merge_close_junctions(links, plan, geometry, specs, report):
     """Merge junctions closer together than half the sum of their rivers' widths (the
-    builder cannot tell them apart: one lies inside the other's confluence); the links
-    between them are dropped. Repeats until none is left (at most a few passes)."""
+    builder cannot tell them apart: one lies inside the other's confluence), or joined by a
+    link shorter than the sum and than half every other line there (its middle lies in their
+    water: no banks of its own there; not a chain of such links, not in strict mode, nor
+    where they are a braid's); the links between them are dropped.
+    Repeats until none is left (at most a few passes)."""
     for _ in range(8):
         widths = [p[0] for p in plan]
         pts: dict[int, np.ndarray] = {}
@@ -2125,6 +2137,21 @@ def _merge_close_junctions(links, plan, geometry, specs, report):
             if np.hypot(*(xy[a] - xy[b])) < 0.5 * (reach[ja] + reach[jb]) and root(ja) != root(jb):
                 parent[max(root(ja), root(jb))] = min(root(ja), root(jb))
                 merged += 1
+        at: dict[int, list[tuple[float, int]]] = {}     # the lines at each junction
+        for k, lk in enumerate(links):
+            for j in (lk.start, lk.end):
+                if j >= 0 and not lk.added:
+                    at.setdefault(j, []).append((_length(lk.points), k))
+        for k, lk in enumerate(links):      # a link between them shorter than their widths:
+            ja, jb = lk.start, lk.end           # its middle lies in their confluences' water
+            if report.strict or ja < 0 or jb < 0 or root(ja) != ja or root(jb) != jb:
+                continue                        # (one merge a pass at a junction: no chains)
+            length = _length(lk.points)
+            others = [x for j in (ja, jb) for x, m in at.get(j, []) if m != k]
+            if (length < reach[ja] + reach[jb] and length < 0.5 * min(others, default=math.inf)
+                    and not _another_path(links, lk)):
+                parent[max(ja, jb)] = min(ja, jb)
+                merged += 1
         if not merged:
             return links, plan
         groups: dict[int, list[int]] = {}
@@ -2136,7 +2163,8 @@ def _merge_close_junctions(links, plan, geometry, specs, report):
             s, e = (root(lk.start) if lk.start >= 0 else -1), (root(lk.end) if lk.end >= 0 else -2)
             if s == e:
                 report.notes.append(f"{lk.name}: dropped (it lies inside a confluence: its "
-                                    f"ends are closer than the rivers there are wide) "
+                                    f"ends are closer, or it is shorter, than the rivers "
+                                    f"there are wide) "
                                     f"[{_attrs_text(lk.attrs)}]")
                 continue
             if lk.start >= 0:
@@ -2151,6 +2179,24 @@ def _merge_close_junctions(links, plan, geometry, specs, report):
         links = kept
         plan = _plan(links, geometry, specs, report)
     return links, plan
+
+
+def _another_path(links: list[_Link], link: _Link) -> bool:
+    """Whether the flow also runs from ``link``'s start to its end along other links (a
+    braid: its two junctions merged would make a loop that flows back into itself)."""
+    outs: dict[int, list[_Link]] = {}
+    for lk in links:
+        if lk is not link and lk.start >= 0:
+            outs.setdefault(lk.start, []).append(lk)
+    seen, todo = {link.start}, [link.start]
+    while todo:
+        for lk in outs.get(todo.pop(), []):
+            if lk.end == link.end:
+                return True
+            if lk.end >= 0 and lk.end not in seen:
+                seen.add(lk.end)
+                todo.append(lk.end)
+    return False
 
 
 def _finder(parent: dict[int, int]):
@@ -2520,9 +2566,12 @@ def _close_clipped_ends(links: list[_Link], plan, geometry: HydraulicGeometry, s
                         report: RiverImport):
     """Where rivers meet and nothing leaves (the data was clipped there) add a short outlet
     (CONTINUATION_WIDTHS × the widest inflow long, along their mean direction); where rivers
-    leave a junction that nothing enters, a short inflow. Returns the links and their plan."""
+    leave a junction that nothing enters, a short inflow; either from the other side where it
+    would lie in land the network's loops close round (arms that leave the junction and meet
+    again: water cannot enter or leave through an island). Returns the links and their plan."""
     ins, outs = by_junction([lk.start for lk in links], [lk.end for lk in links])
     added = []
+    land, turned, dropped = None, False, set()
     for j in sorted(set(ins) | set(outs)):
         into, out_of = ins.get(j, []), outs.get(j, [])
         if into and out_of:
@@ -2543,6 +2592,25 @@ def _close_clipped_ends(links: list[_Link], plan, geometry: HydraulicGeometry, s
         q3 = sum(plan[i][2] for i in group)
         length = CONTINUATION_WIDTHS * max(width, geometry.width(q3))
         line = np.array([p, p + d * length]) if at_end else np.array([p - d * length, p])
+        if land is None:
+            land = _enclosed_land(links)
+        other_side = land is not False and _in_land(land, line)
+        if other_side:              # the arms of a loop close round that side: from the other
+            line = 2.0 * p - line
+            if _in_land(land, line):                   # loops on every side
+                if _turn_one_of(links, group, at_end, ins, outs, report):
+                    turned = True
+                    continue
+                i = min(group, key=lambda k: _length(links[k].points))
+                report.repair(links[i].name, links[i].fid, links[i].attrs,
+                              f"{' and '.join(links[k].name for k in group)} "
+                              + ("end where nothing leaves" if at_end else
+                                 "start where nothing enters")
+                              + f" ({p[0]:.1f}, {p[1]:.1f}), between loops of the network on "
+                                "every side, and none can be turned without closing a loop "
+                                "that flows back into itself: left out, the shortest of them")
+                dropped.add(i)
+                continue
         names = [links[i].name for i in group]
         lead = links[group[0]]
         values = {key: (math.nan, math.nan) for key in lead.values}
@@ -2556,12 +2624,83 @@ def _close_clipped_ends(links: list[_Link], plan, geometry: HydraulicGeometry, s
                        f"leaves (the data is clipped there): an outlet {length:.0f} m long "
                        "added" if at_end else
                        f"{' and '.join(names)} start at ({p[0]:.1f}, {p[1]:.1f}) where nothing "
-                       f"enters: an inflow {length:.0f} m long added"))
+                       f"enters: an inflow {length:.0f} m long added")
+                      + (" (on the side away from the land their loop closes round)"
+                         if other_side else ""))
         added.append(link)
-    if not added:
+    if dropped:             # what is left of them may lie in land now: left out, and again
+        links = _drop_enclosed([lk for i, lk in enumerate(links) if i not in dropped] + added,
+                               report)
+        return _close_clipped_ends(links, _plan(links, geometry, specs, report), geometry,
+                                   specs, report)
+    if not added and not turned:
         return links, plan
     links = links + added
     return links, _plan(links, geometry, specs, report)
+
+
+def _turn_one_of(links: list[_Link], group: list[int], at_end: bool, ins: dict, outs: dict,
+                 report: RiverImport) -> bool:
+    """Where lines leave a junction nothing enters and the network's loops close round it
+    on every side (no inflow can reach it but through an island: a divide between two
+    streams drawn from one point, NHDPlus), turn the shortest of them that runs on from a
+    junction something else enters (``at_end``: lines that meet where nothing leaves, the
+    shortest that comes from one something else leaves) and closes no loop that flows back
+    into itself: it feeds the others (a reported repair, even against the file's word).
+    ``ins``/``outs`` are kept current. Returns whether one was turned."""
+    for i in sorted(group, key=lambda k: _length(links[k].points)):
+        lk = links[i]
+        j, k = (lk.end, lk.start) if at_end else (lk.start, lk.end)
+        if k < 0 or len((outs if at_end else ins).get(k, [])) < 2:
+            continue
+        # a loop if the far junction k is reached from j along the flow (the other lines)
+        step = ins if at_end else outs
+        seen, todo = {j}, [j]
+        while todo:
+            n = todo.pop()
+            for m in step.get(n, []):
+                if m == i:
+                    continue
+                nxt = links[m].start if at_end else links[m].end
+                if nxt >= 0 and nxt not in seen:
+                    seen.add(nxt)
+                    todo.append(nxt)
+        if k in seen:
+            continue
+        (outs if at_end else ins)[k].remove(i)
+        (ins if at_end else outs).setdefault(k, []).append(i)
+        group.remove(i)
+        (outs if at_end else ins).setdefault(j, []).append(i)
+        _turn(lk)
+        others = " and ".join(links[m].name for m in group)
+        report.repair(lk.name, lk.fid, lk.attrs,
+                      (f"it and {others} end where nothing leaves" if at_end else
+                       f"it and {others} start where nothing enters")
+                      + f" ({links[i].points[0 if at_end else -1][0]:.1f}, "
+                        f"{links[i].points[0 if at_end else -1][1]:.1f}), between loops of the "
+                        f"network on every side (no water can come or go there but through an "
+                        f"island): turned, the shortest of them, to "
+                      + ("carry their water on" if at_end else "feed the others"))
+        return True
+    return False
+
+
+def _enclosed_land(links: list[_Link]):
+    """The land the links' loops close round (the faces of the network, prepared) and the
+    channels round it (every face's rings, inner too), or False where there are no loops."""
+    faces = shapely.get_parts(shapely.polygonize([shapely.LineString(lk.points)
+                                                  for lk in links]))
+    if not len(faces):
+        return False
+    land = shapely.union_all(faces)
+    shapely.prepare(land)
+    return land, shapely.multilinestrings(shapely.get_rings(faces))
+
+
+def _in_land(land, line: np.ndarray) -> bool:
+    """Whether the middle of ``line`` lies in that land, off the channels round it."""
+    middle = shapely.Point(0.5 * (line[0] + line[-1]))
+    return bool(land[0].contains(middle) and land[1].distance(middle) > 1e-6)
 
 
 def _cut_crossings(links: list[_Link], plan, crossings, geometry: HydraulicGeometry, specs,
@@ -2688,6 +2827,11 @@ def _merge_close_channels(links: list[_Link], plan, geometry: HydraulicGeometry,
     def along(line, s):           # s back from the junction along the line (its arc length)
         return s if outflow else line.length - s
 
+    widest = {}                              # the widest river at each junction: its water
+    for i, lk in enumerate(links):
+        for j in (lk.start, lk.end):
+            widest[j] = max(widest.get(j, 0.0), width[i])
+
     for j in sorted(groups):
         group = groups[j]
         used: set[int] = set()
@@ -2714,7 +2858,7 @@ def _merge_close_channels(links: list[_Link], plan, geometry: HydraulicGeometry,
             k = int(np.argmin(close)) if not close.all() else len(close)
             reach = back[k - 1] if k else 0.0
             reach = min(reach, 0.8 * line_a.length)
-            if reach <= MERGE_REACH * max(wa, wb):
+            if reach <= max(MERGE_REACH * max(wa, wb), widest[j]):
                 continue                     # close only around the junction: its own shape
             cut_a = np.array(line_a.interpolate(along(line_a, reach)).coords[0])
             at_b = float(line_b.project(shapely.Point(cut_a)))
@@ -2785,6 +2929,100 @@ def _merge_close_channels(links: list[_Link], plan, geometry: HydraulicGeometry,
                           f"it there ({gap:.1f} m apart) into one reach {plan[i][0]:.1f} m "
                           f"wide that carries both")
     return links, plan
+
+
+def _move_side_inflows(links: list[_Link], plan, geometry: HydraulicGeometry, specs,
+                       report: RiverImport):
+    """An inflow a that enters a junction beside an outflow b (their lines leave it less than
+    SIDE_ANGLE_DEG apart, over the wider one's width; a no wider than b; another inflow
+    there) whose last half or more lies in b's water has no banks of its own across its
+    middle: they would be b's. It joins b farther
+    down instead: a is cut back to where its strip clears b's (centre lines half their widths
+    apart) and led straight to b's nearest point there, b split at that point (at b's end
+    junction when that is nearer than half their widths). Each moved inflow is a reported
+    repair. Returns the links and their plan."""
+    ins, outs = by_junction([lk.start for lk in links], [lk.end for lk in links])
+    width = [p[0] for p in plan]
+    next_j = 1 + max([max(lk.start, lk.end) for lk in links], default=-1)
+    touched: set[int] = set()
+    dropped: set[int] = set()
+    added: list[_Link] = []
+    cos_side = math.cos(math.radians(SIDE_ANGLE_DEG))
+    for j in sorted(set(ins) & set(outs)):
+        if len(ins[j]) < 2:
+            continue
+        for a, b in itertools.product(ins[j], outs[j]):
+            if a in touched or b in touched or width[a] > width[b]:
+                continue
+            la, lb = links[a], links[b]
+            wa, wb = width[a], width[b]
+            line_a, line_b = shapely.LineString(la.points), shapely.LineString(lb.points)
+            reach = max(wa, wb)
+            at = la.points[-1]
+            da = np.asarray(line_a.interpolate(max(line_a.length - reach, 0.0)).coords[0]) - at
+            db = np.asarray(line_b.interpolate(min(reach, line_b.length)).coords[0]) - at
+            cos = float(da @ db) / max(np.hypot(*da) * np.hypot(*db), 1e-12)
+            if cos < cos_side:
+                continue
+            clear = 0.5 * (wa + wb)
+            back = np.arange(0.0, line_a.length, 0.25 * wa)[1:]
+            d = shapely.distance(shapely.line_interpolate_point(line_a, line_a.length - back),
+                                 line_b)
+            if not (d >= clear).any():
+                continue                   # all of it in b's water: the build says so
+            s_clear = float(back[int(np.argmax(d >= clear))])
+            if s_clear <= 0.5 * line_a.length:
+                continue                   # its middle clear of it: banks of its own there
+            cut = np.asarray(line_a.interpolate(line_a.length - s_clear).coords[0])
+            t = float(line_b.project(shapely.Point(cut)))
+            if line_b.length - t < clear:
+                if lb.end < 0:
+                    continue               # b's outlet: no junction to join there
+                target, end_j, pieces, t = lb.points[-1], lb.end, [], line_b.length
+            else:
+                above, below = _split(lb, [t])
+                above.start, above.end = lb.start, next_j
+                below.start, below.end = next_j, lb.end
+                links[b] = above
+                target, end_j, pieces = above.points[-1], next_j, [below]
+                next_j += 1
+            told, above_it = (la.name, la.fid, la.attrs), ""
+            ups = ins.get(la.start, [])
+            if (line_a.length - s_clear < np.hypot(*(cut - target)) and len(ups) == 1
+                    and outs.get(la.start) == [a] and ups[0] not in touched):
+                # what is left of a would lie mostly in b's water (its middle too): a short
+                # link goes on from the one line above it, nothing else meeting there
+                u = links[ups[0]]
+                la = _Link((u if _length(u.points) > line_a.length else la).name, la.fid,
+                           np.vstack([u.points, la.points[1:]]), la.attrs,
+                           {key: (u.values[key][0], v[1]) for key, v in la.values.items()},
+                           u.start, la.end, (u.z[0], la.z[1]), u.fixed or la.fixed,
+                           cell_m=la.cell_m, source_width_m=u.source_width_m)
+                links[a] = la
+                above_it = f" (joined with {u.name}, the one line above it)"
+                dropped.add(ups[0])
+                touched.add(ups[0])
+                line_a = shapely.LineString(la.points)
+            f = (line_a.length - s_clear) / line_a.length
+            kept = shapely.get_coordinates(shapely.ops.substring(line_a, 0.0,
+                                                                 line_a.length - s_clear))
+            la.points = np.vstack([kept, target])
+            la.end = end_j
+            la.values = {key: (v0, v0 + (v1 - v0) * f) for key, (v0, v1) in la.values.items()}
+            la.z = (la.z[0], la.z[0] + (la.z[1] - la.z[0]) * f)
+            angle = math.degrees(math.acos(min(cos, 1.0)))
+            report.repair(*told,
+                          f"flows into ({at[0]:.1f}, {at[1]:.1f}) {angle:.0f}° off the course of "
+                          f"{lb.name}, which leaves it ({wa:.1f} and {wb:.1f} m wide): its last "
+                          f"{s_clear:.0f} m lay in that river's water; cut back to where it is "
+                          f"clear of it{above_it} and led into it {t:.0f} m downstream at "
+                          f"({target[0]:.1f}, {target[1]:.1f})")
+            touched |= {a, b}
+            added += pieces
+    if not touched:
+        return links, plan
+    links = [lk for i, lk in enumerate(links) if i not in dropped] + added
+    return links, _plan(links, geometry, specs, report)
 
 
 def _cut_ends_in_water(branches, report: RiverImport) -> None:

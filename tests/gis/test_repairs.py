@@ -134,6 +134,65 @@ def test_an_outlet_where_two_rivers_meet_and_nothing_leaves(tmp_path):
         rf.read_rivers(path, origin_m=None, drainage_area_km2="A", strict=True)
 
 
+def test_an_inflow_added_where_a_loops_arms_leave_comes_from_outside_the_loop(tmp_path):
+    """NHDPlus Shellmound, feature 844: two arms leave a junction nothing enters and meet
+    again, the loop closing round the side the added inflow would come from (along their
+    mean direction): rising in that island, its banks were one shore. It comes from the
+    other side (the repair says so), and the flow runs downstream."""
+    lines = [polyline((0, 0), (200, -100), (400, 200), (0, 500)),
+             polyline((0, 0), (-200, 0), (-200, 300), (0, 500)),
+             polyline((0, 500), (0, 900))]
+    path = write_lines(tmp_path / "loop.gpkg", lines, {"W": np.array([10.0, 10.0, 14.0])})
+    builder = rf.read_rivers(path, origin_m=None, width_m="W")
+    graph = built(builder)
+    (what,) = repairs_of(builder, "feature 1")
+    assert what.endswith("an inflow 28 m long added (on the side away from the land their "
+                         "loop closes round)"), what
+    inflow = next(b for b in builder._branches if b.name == "inflow of feature 1").centerline_m
+    assert (inflow[:, 1] - ORIGIN[1] <= 1e-6).all()                 # from the south
+    check_flows_downstream(graph, lines, skip_m=3.0)
+
+
+def divide(west: bool):
+    """Two lines drawn (FLOWDIR) from one point, east and west, nothing entering it, between
+    two loops (north and south) that leave the west end and meet at the east one (NHDPlus
+    Shellmound, features 844 and 878); ``west``: a river comes into the west end too."""
+    lines = [polyline((0, 0), (-200, 0)), polyline((0, 0), (300, 0)),
+             polyline((-200, 0), (-100, 200), (200, 200), (300, 0)),
+             polyline((-200, 0), (-100, -200), (200, -200), (300, 0)),
+             polyline((300, 0), (700, 0))]
+    return lines + [polyline((-600, 0), (-200, 0))] * west
+
+
+@pytest.mark.parametrize("west", [True, False])
+def test_lines_leaving_a_point_between_loops_are_turned_or_left_out(tmp_path, west):
+    """No inflow can reach a junction that loops close round on every side (it would rise in
+    an island). The shortest line leaving it is turned where it comes from a junction that
+    something else enters and no loop flows back into itself (``west``), so it feeds the
+    other; else it is left out, and the other with it (it lies in land then). Each a
+    reported repair; strict mode refuses it."""
+    lines = divide(west)
+    flowdir = np.array(["With Digitized"] * len(lines), dtype=object)
+    path = write_lines(tmp_path / "divide.gpkg", lines, {"FLOWDIR": flowdir})
+    with pytest.raises(rf.GraphError, match=r"start where nothing enters.*strict=True"):
+        rf.read_rivers(path, strict=True)
+    builder = rf.read_rivers(path, origin_m=None)
+    graph = built(builder)
+    (what,) = repairs_of(builder, "feature 1")
+    names = [b.name for b in builder._branches]
+    if west:
+        assert what.startswith("it and feature 2 start where nothing enters") and what.endswith(
+            "turned, the shortest of them, to feed the others"), what
+        assert len(names) == 6
+        check_flows_downstream(graph, [lines[0][::-1]] + lines[1:], skip_m=3.0)
+    else:
+        assert "none can be turned without closing a loop that flows back into itself: left " \
+               "out, the shortest of them" in what, what
+        assert "lies in land" in repairs_of(builder, "feature 2")[0]
+        assert sorted(names) == ["feature 3", "feature 4", "feature 5", "inflow of feature 3"]
+        check_flows_downstream(graph, lines[2:], skip_m=3.0)
+
+
 def test_disconnected_pieces_and_rivers_entering_from_outside(tmp_path):
     east = [p + (5000.0, 0.0) for p in confluence()]
     lines = [*confluence(), *east, polyline((0, 2000), (1500, 2500))]
@@ -678,3 +737,84 @@ def test_a_source_rising_in_a_rivers_water_is_cut_back_to_its_bank(tmp_path):
     start = builder._branches[1].centerline_m[0] - ORIGIN      # clear of the river's water:
     assert start[1] >= 8.5 - 1e-6 and np.hypot(*(start - [500.0, 5.2])) < 5.0   # 7.5 + 1 m
     check_flows_downstream(graph, [lines[0]], skip_m=3.0)
+
+
+def test_an_inflow_laid_up_an_outflows_line_joins_it_farther_down(tmp_path):
+    """NHDPlus (Yazoo basin, feature 233): a canal's last link, 10 m wide and 40 m long, runs
+    back up a 22 m river leaving the junction, 29° off its course, in its water: its banks
+    were the river's ("both of its banks are one continuous shore"; with the river's first
+    41 m joined to the rest, the builder's rounding of junctions broke). It is cut back to
+    where it clears the river's water, joined with the canal above it (what is left of it
+    would lie mostly in the river) and led into the river farther down (the river split
+    there), a reported repair; strict mode still refuses it; the flow runs downstream."""
+    lines = [polyline((-600, 440), (-59.6, 44), (0, 0)),                # a river, 20 m
+             polyline((0, 0), (17.3, -37.3)),                           # on from the junction
+             polyline((17.3, -37.3), (72.5, -104.4), (300, -400)),
+             polyline((500, 300), (102.3, 13.3), (34.6, -19.1)),        # a canal, 10 m
+             polyline((34.6, -19.1), (27.7, -20.5), (0, 0))]            # its last link
+    path = write_lines(tmp_path / "side.gpkg", lines,
+                       {"W": np.array([20.0, 22.4, 22.4, 10.0, 10.0])})
+    with pytest.raises(rf.GraphError, match=r"side.gpkg \(layer 'side'\): branch 'feature 5'"):
+        rf.read_rivers(path, width_m="W", strict=True).build()
+    builder = rf.read_rivers(path, origin_m=None, width_m="W")
+    graph = built(builder)
+    (said,) = repairs_of(builder, "feature 5")
+    assert re.match(r"flows into \(500000\.0, 5000000\.0\) 29° off the course of feature 3, "
+                    r"which leaves it \(10\.0 and 22\.4 m wide\): its last 35 m lay in that "
+                    r"river's water; cut back to where it is clear of it \(joined with feature "
+                    r"4, the one line above it\) and led into it 30 m downstream", said), said
+    canal = next(b for b in builder._branches if b.name == "feature 4").centerline_m
+    below = next(b for b in builder._branches if b.name == "feature 3 piece 1").centerline_m
+    assert np.allclose(canal[0] - ORIGIN, (500, 300)) and np.allclose(canal[-1], below[0])
+    assert np.hypot(*(canal[-1] - ORIGIN)) > 25.0
+    check_flows_downstream(graph, lines[:4], skip_m=3.0)
+
+
+def test_a_link_shorter_than_the_rivers_at_its_ends_are_wide_is_dropped(tmp_path):
+    """NHDPlus Shellmound, feature 56: a link 38 m long, 23.5 m wide, from where nothing
+    else meets to a confluence of rivers 31.6 and 39.4 m wide: its middle lay in the
+    confluence's water ("no banks found across its middle"). Its junctions are merged and
+    it is dropped (a note), and the flow runs downstream."""
+    lines = [polyline((700, 400), (82.3, 60.1), (19.6, 33.0)), polyline((19.6, 33.0), (0, 0)),
+             polyline((-300, 600), (-53.0, 99.2), (0, 0)),
+             polyline((0, 0), (10.3, -111.6), (76.9, -225.2), (300, -700))]
+    path = write_lines(tmp_path / "short.gpkg", lines,       # 23.5, 23.5, 31.6, 39.4 m wide
+                       {"A": np.array([1158.0, 1158.0, 2094.0, 3252.0])})
+    builder = rf.read_rivers(path, origin_m=None, drainage_area_km2="A")
+    graph = built(builder)
+    assert [b.name for b in builder._branches] == ["feature 1", "feature 3", "feature 4"]
+    assert any(n.startswith("feature 2: dropped (it lies inside a confluence: its ends are "
+                            "closer, or it is shorter, than the rivers there are wide)")
+               for n in builder.report.notes)
+    check_flows_downstream(graph, [lines[0][:2], lines[2], lines[3]], skip_m=3.0)
+
+
+def test_streams_close_only_within_a_wide_confluence_are_not_merged(tmp_path):
+    """NHDPlus Shellmound, features 761 and 762: two 10 m streams meet 19° apart where a 38 m
+    river joins and a 41 m one leaves, close together for 24 m above it, inside the
+    confluence's water: merged there, their 24 m reach had no banks of its own ("no banks
+    found across its middle"). Channels close only within the widest river's width of their
+    junction keep their own lines (as they do within twice their own width)."""
+    lines = [polyline((-300, 600), (-98.8, 189.3), (-29.2, 48.8), (-21.0, 26.1), (0, 0)),
+             polyline((0, 0), (3.1, -24.1), (16.7, -59.3), (31.4, -135.2), (100, -600)),
+             polyline((400, -300), (139.0, -74.0), (112.9, -44.2), (66.5, -19.9), (0, 0)),
+             polyline((900, 300), (873.2, 33.5), (0, 0))]
+    path = write_lines(tmp_path / "wide.gpkg", lines, {"W": np.array([38.1, 40.6, 10.0, 10.0])})
+    builder = rf.read_rivers(path, origin_m=None, width_m="W")
+    graph = built(builder)
+    assert builder.report.repairs == []
+    field = check_flows_downstream(graph, lines[:2], skip_m=3.0)
+    check_flows_downstream(graph, lines[2:], skip_m=20.0, field=field)   # ends in the confluence
+
+
+def test_a_river_of_links_shorter_than_it_is_wide_is_no_chain_to_collapse(tmp_path):
+    """A link shorter than the rivers at its ends are wide, but not shorter than half the
+    lines beside it (a model grid's routing lines: a 50 m river in 60 m steps, a tributary
+    at each), is kept: merged, the river's junctions would chain into one."""
+    river = [polyline((60 * k, 0), (60 * (k + 1), 0)) for k in range(4)]
+    tributaries = [polyline((60 * k, 400), (60 * k, 0)) for k in (1, 2, 3)]
+    path = write_lines(tmp_path / "grid.gpkg", river + tributaries,
+                       {"W": np.array([50.0] * 4 + [10.0] * 3)})
+    builder = rf.read_rivers(path, origin_m=None, width_m="W")
+    assert len(builder._branches) == 7
+    assert not any("dropped" in n for n in builder.report.notes)
