@@ -231,7 +231,9 @@ def union_by_groups(a: shapely.Geometry, b: shapely.Geometry) -> list[Polygon]:
         ga, gb = parts[group[group < len(pa)]], parts[group[group >= len(pa)]]
         u = shapely.union(ga[0] if len(ga) == 1 else shapely.multipolygons(ga),
                           gb[0] if len(gb) == 1 else shapely.multipolygons(gb))
-        out.extend(shapely.get_parts(u))
+        # (an overlay of nearly touching pieces may also give lines and points: no water)
+        out.extend(p for p in shapely.get_parts(shapely.get_parts(u))
+                   if p.geom_type == "Polygon" and not p.is_empty)
     return out
 
 

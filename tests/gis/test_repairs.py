@@ -770,6 +770,23 @@ def test_an_inflow_laid_up_an_outflows_line_joins_it_farther_down(tmp_path):
     check_flows_downstream(graph, lines[:4], skip_m=3.0)
 
 
+def test_the_rounding_of_junctions_keeps_only_the_water_of_an_overlay(tmp_path, monkeypatch):
+    """The same canal led up the river with the river's first 41 m one line with the rest
+    and no repair of it: GEOS's overlay of the junction's rounded corners with the water
+    gave a line beside the polygons and the builder raised a ValueError ("MultiPolygon ...
+    got a LineString"); lines and points of an overlay are no water: it builds."""
+    from riverflow.gis import rivers
+
+    monkeypatch.setattr(rivers, "_move_side_inflows", lambda links, plan, *a, **k: (links, plan))
+    lines = [polyline((-600, 440), (-59.6, 44), (0, 0)),
+             polyline((0, 0), (17.3, -37.3), (72.5, -104.4), (300, -400)),
+             polyline((500, 300), (102.3, 13.3), (34.6, -19.1)),
+             polyline((34.6, -19.1), (27.7, -20.5), (0, 0))]
+    path = write_lines(tmp_path / "joined.gpkg", lines,
+                       {"W": np.array([20.0, 22.4, 10.0, 10.0])})
+    built(rf.read_rivers(path, origin_m=None, width_m="W"))
+
+
 def test_a_link_shorter_than_the_rivers_at_its_ends_are_wide_is_dropped(tmp_path):
     """NHDPlus Shellmound, feature 56: a link 38 m long, 23.5 m wide, from where nothing
     else meets to a confluence of rivers 31.6 and 39.4 m wide: its middle lay in the
