@@ -114,6 +114,12 @@ MAX_OUTLINE_SAMPLES = 200_000
 OPEN_EDGE_WIDTHS = 0.25
 """A piece of the water's outline along the data's extent at least this many mean widths
 long is an open end (the water cut by the map's edge), not a bank."""
+SEA_WIDTHS = 8.0
+"""Water is open water (a sea, a lake the data's edge cuts) where circles of this many times
+the channels' typical width fit in it (the median of its inscribed circles' local maxima),
+grown from circles at least half as wide as the widest, reaching the data's edge."""
+SEA_GRID = 2048
+"""The most cells along the water's longer side on which open water is looked for."""
 OVERHANG_WIDTHS = 0.04
 """An edge of the outline at most this many widths of its channel long that faces away from
 the channel's axis (the far side of an island's round end where it crosses a bank, leaning
@@ -440,7 +446,20 @@ def read_water(path, *, layer: str | int | None = None, lines=None, inlets=None,
                                  + (f" (half of the mask's {cell:g} m cells, its stairs "
                                     f"smoothed over {MASK_SMOOTH_CELLS:g} cells)" if cell else ""))
     lakes, rivers = _lakes_of(features, polygons, water, report, tolerance_m)
+    seas = []
+    if rivers is not None:
+        seas, rivers = _seas(rivers, extent if extent is not None else shapely.box(*water.bounds),
+                             cell, report, tolerance_m)
+        lakes = lakes + seas
+        if seas and len(outlet_xy):     # an outlet in the sea: the sea is the outlet
+            sea = shapely.union_all(seas)
+            out = shapely.contains_xy(sea, outlet_xy[:, 0], outlet_xy[:, 1])
+            if out.any():
+                report.notes.append(f"{int(out.sum())} outlets given in open water: its shore "
+                                    f"is where the channels leave")
+            outlet_xy = outlet_xy[~out]
     builder = WaterBuilder(tolerance_m)
+    builder.seas = seas
     builder.report = report
     builder.crs = report.crs
     builder.water = water
@@ -619,6 +638,11 @@ def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy
     ends = [e for net in networks for e in net.free_ends()]
     _match_points(ends, inlet_xy, "inlet", where, water)
     _match_points(ends, outlet_xy, "outlet", where, water)
+    seas = shapely.union_all(getattr(builder, "seas", [])) if getattr(builder, "seas", []) else None
+    if seas is not None:        # the channels opening into open water leave there
+        for net, n, w in ends:
+            if seas.distance(shapely.Point(net.nodes[n])) <= max(w, tolerance_m):
+                net.outlets.add(n)
     heights = ((lambda xy: _dem_heights(dem, xy, report, where)) if dem is not None else None)
     builder.kept_beside = False
     for net in networks:
@@ -772,8 +796,13 @@ def _read_mask(path: Path):
                                  connectivity=4)
     cell = float(min(abs(transform.a), abs(transform.e)))
     polys = [_smooth_cells(shapely.geometry.shape(s), cell) for s, _ in shapes]
-    extent = shapely.segmentize(shapely.box(*rasterio.transform.array_bounds(
-        *mask.shape, transform)), 0.5 * cell)
+    # the data's edge: the raster's border, or the water cells' bounding box where a border
+    # of empty cells lies round them (RivGraph's masks have one)
+    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    window = rasterio.windows.Window(cols[0], rows[0], cols[-1] + 1 - cols[0],
+                                     rows[-1] + 1 - rows[0])
+    extent = shapely.segmentize(shapely.box(*rasterio.windows.bounds(window, transform)),
+                                0.5 * cell)
     return ([(k, p, {}) for k, p in enumerate(polys)], crs.to_wkt() if crs else None,
             "band 1", cell, extent)
 
@@ -846,6 +875,70 @@ def _lakes_of(features, polygons, water, report: RiverImport, tolerance_m: float
                                f"{'|'.join(LAKE_WATER)}, or OSM natural=water areas without "
                                f"water=, a lake by OSM's convention): flat water bodies")
     return lakes, (None if rest.is_empty else rest)
+
+
+def _seas(water, frame, cell, report: RiverImport, tolerance_m: float):
+    """(the open water: polygons [m] where circles SEA_WIDTHS times the channels' typical
+    width fit, grown from circles half as wide as the widest, that reach ``frame``'s edge (a
+    sea the channels open into, a lake the data's edge cuts), each a lake; the rest of the
+    water, None when nothing is left). The water is rasterized on cells of ``cell`` [m] (a
+    mask's; at most SEA_GRID along the longer side); the open water's outline is that of its
+    cells simplified and grown by 1.5 cells, cut by the water's (its coast is the data's; a
+    channel's mouth a line across it)."""
+    from rasterio import features as rio_features
+    from rasterio.transform import from_origin
+    from scipy import ndimage
+
+    x0, y0, x1, y1 = water.bounds
+    size = max(x1 - x0, y1 - y0)
+    cell = max(cell or 0.0, size / SEA_GRID, tolerance_m)
+    shape = (int(math.ceil((y1 - y0) / cell)) + 2, int(math.ceil((x1 - x0) / cell)) + 2)
+    tr = from_origin(x0 - cell, y1 + cell, cell, cell)
+    wet = rio_features.rasterize([water], out_shape=shape, transform=tr).astype(bool)
+    d = ndimage.distance_transform_edt(wet)
+    ridge = wet & (d == ndimage.maximum_filter(d, size=3))
+    if not ridge.any():
+        return [], water
+    typical = float(np.median(d[ridge]))
+    r = SEA_WIDTHS * max(typical, 1.0)
+    if not d.max() >= r:
+        return [], water
+    core = d >= max(r, 0.5 * float(d.max()))
+    opened = ndimage.distance_transform_edt(d < r) <= r
+    labels, _ = ndimage.label(opened & wet)
+    keep = np.unique(labels[core & (labels > 0)])
+    frame_edge = frame.boundary
+    seas, rest = [], water
+    for k in keep:
+        cells = shapely.union_all([shapely.geometry.shape(g) for g, v in rio_features.shapes(
+            (labels == k).astype(np.uint8), mask=labels == k, transform=tr) if v])
+        if cells.distance(frame_edge) > 2.0 * cell:
+            continue        # a lake inside the data: the channels' skeleton runs through it
+        grown = cells.simplify(cell).buffer(1.5 * cell)
+        parts = [p for p in shapely.get_parts(shapely.intersection(rest, grown))
+                 if p.geom_type == "Polygon" and shapely.intersection(p, cells).area
+                 > 0.5 * p.area]
+        if not parts:
+            continue
+        sea = max(parts, key=lambda p: p.area)
+        sea = shapely.Polygon(sea.exterior)     # its islands are the sea's
+        seas.append(sea)
+        rest = shapely.difference(rest, sea)
+    if not seas:
+        return [], water
+    rest = shapely.union_all([p for p in shapely.get_parts(rest) if p.geom_type == "Polygon"
+                              and p.area > (4.0 * tolerance_m) ** 2])
+    for sea in seas:
+        x, y = sea.representative_point().coords[0]
+        report.repair("open water", None, None,
+                      f"{sea.area / 1e6:.2f} km² of water near ({x:.1f}, {y:.1f}) reaching the "
+                      f"data's edge is wider than {SEA_WIDTHS:g} times the channels' typical "
+                      f"width ({2 * typical * cell:.1f} m): open water (a sea, a lake), still, "
+                      f"the channels opening into it leave there")
+    report.derived["open water"] = (f"{len(seas)} (water wider than {SEA_WIDTHS:g} channel "
+                                    f"widths reaching the data's edge): still, the channels' "
+                                    f"outlet")
+    return seas, (None if rest.is_empty else rest)
 
 
 def _read_polygons(path: Path, layer):
