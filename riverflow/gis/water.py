@@ -922,8 +922,8 @@ def _seas(water, frame, cell, report: RiverImport, tolerance_m: float):
             continue
         sea = max(parts, key=lambda p: p.area)
         sea = shapely.Polygon(sea.exterior)     # its islands are the sea's
+        sea, rest = _straight_mouths(sea, shapely.difference(rest, sea), cell)
         seas.append(sea)
-        rest = shapely.difference(rest, sea)
     if not seas:
         return [], water
     rest = shapely.union_all([p for p in shapely.get_parts(rest) if p.geom_type == "Polygon"
@@ -939,6 +939,38 @@ def _seas(water, frame, cell, report: RiverImport, tolerance_m: float):
                                     f"widths reaching the data's edge): still, the channels' "
                                     f"outlet")
     return seas, (None if rest.is_empty else rest)
+
+
+def _straight_mouths(sea, rest, cell: float):
+    """(``sea``, ``rest``) with each stretch of their common boundary (a channel's mouth)
+    made the straight line between its ends, where that line lies in the water: the
+    water between the two goes to the side the line leaves it on."""
+    contact = shapely.intersection(sea.boundary, rest.boundary)
+    lines = [g for g in shapely.get_parts(shapely.line_merge(shapely.union_all(
+        [g for g in shapely.get_parts(contact) if g.geom_type == "LineString"])))
+        if g.geom_type == "LineString" and g.length > 2.0 * cell]
+    both = shapely.union(sea, rest).buffer(1e-6 * cell)
+    to_sea, to_rest = [], []
+    for line in lines:
+        c = np.asarray(line.coords)
+        chord = shapely.LineString([c[0], c[-1]])
+        if not both.contains(chord) or chord.length < 1e-9:
+            continue
+        for q in shapely.get_parts(shapely.polygonize(shapely.get_parts(shapely.node(
+                shapely.MultiLineString([c, np.asarray(chord.coords)]))))):
+            inside = shapely.intersection(q, rest).area
+            (to_sea if inside > 0.5 * q.area else to_rest).append(q)
+    if to_sea:
+        moved = shapely.union_all(to_sea)
+        sea, rest = shapely.union(sea, shapely.intersection(moved, rest)), \
+            shapely.difference(rest, moved)
+    if to_rest:
+        moved = shapely.union_all(to_rest)
+        rest, sea = shapely.union(rest, shapely.intersection(moved, sea)), \
+            shapely.difference(sea, moved)
+    parts = [p for p in shapely.get_parts(sea) if p.geom_type == "Polygon"]
+    sea = max(parts, key=lambda p: p.area)
+    return sea, rest
 
 
 def _read_polygons(path: Path, layer):
@@ -1632,7 +1664,7 @@ def _skeleton_channels(part, k: int, tolerance_m: float, report, frame=None,
     open_edge = _open_edge(part, frame, 2.0 * part.area / max(part.length, 1e-9), tolerance_m)
     water, free = _split_holes(part, None, forced, open_edge)
     for _ in range(len(part.interiors) + 1):
-        chains, nodes, collapsed = skeleton(water, tolerance_m, frame, ends, dead)
+        chains, nodes, collapsed = _skeleton_once(water, tolerance_m, frame, ends, dead)
         if collapsed is None:
             break
         hole = water.interiors[collapsed]
@@ -1646,6 +1678,31 @@ def _skeleton_channels(part, k: int, tolerance_m: float, report, frame=None,
     net = _Network(water, free, channels, nodes)
     _extend_free_ends(net, water)
     return net
+
+
+_SKELETONS: dict[bytes, tuple] = {}
+SKELETON_CACHE = 256
+"""How many skeletons :func:`_skeleton_once` remembers."""
+
+
+def _skeleton_once(water, tolerance_m: float, frame, ends, dead):
+    """:func:`skeleton`, remembered for the last SKELETON_CACHE inputs (a reading made again,
+    an island freed, finds every part of the water it did not change as it was); a copy."""
+    import hashlib
+
+    h = hashlib.blake2b(digest_size=20)
+    for item in (water, frame):
+        h.update(b"-" if item is None else shapely.to_wkb(item))
+    for item in (ends, dead):
+        h.update(b"-" if item is None else np.ascontiguousarray(item, np.float64).tobytes())
+    h.update(np.float64(tolerance_m).tobytes())
+    key = h.digest()
+    if key not in _SKELETONS:
+        if len(_SKELETONS) >= SKELETON_CACHE:
+            del _SKELETONS[next(iter(_SKELETONS))]
+        _SKELETONS[key] = skeleton(water, tolerance_m, frame, ends, dead)
+    chains, nodes, collapsed = _SKELETONS[key]
+    return ([(p.copy(), w.copy(), a, b) for p, w, a, b in chains], nodes.copy(), collapsed)
 
 
 def _voronoi_edges(pts: np.ndarray) -> np.ndarray:
@@ -1790,19 +1847,31 @@ def _out_through(seg: np.ndarray, inside: np.ndarray, kept: np.ndarray, open_edg
     lacking = [g for g in shapely.get_parts(open_edge)
                if not (shapely.distance(g, shapely.points(leaves)) <= reach).any()]
     cross = np.flatnonzero(inside[:, 0] != inside[:, 1])
+    if not lacking or not len(cross):
+        return np.zeros((0, 2, 2))
+    lines = shapely.linestrings(seg[cross])
+    crossing = shapely.STRtree(lines)
     out = []
     for piece in lacking:
-        for i in cross:
+        # (only the edges that cross the piece: a query, not a call per edge)
+        near = np.sort(crossing.query(piece, predicate="intersects"))
+        if not len(near):
+            continue
+        hits = shapely.intersection(lines[near], piece)
+        for j, i, h in zip(near, cross[near], hits):
             p = seg[i, 0] if inside[i, 0] else seg[i, 1]
-            hit = shapely.get_coordinates(shapely.intersection(shapely.LineString(seg[i]),
-                                                               piece))
+            hit = shapely.get_coordinates(h)
             if not len(hit):
                 continue
             q = hit[int(np.argmin(np.hypot(*(hit - p).T)))]
-            short = shapely.LineString([p, p + (1.0 - 1e-6) * (q - p)])
-            if np.hypot(*(q - p)) > 0 and not shapely.intersects(boundary, short):
+            if np.hypot(*(q - p)) > 0:
                 out.append([p, q])
-    return np.array(out).reshape(-1, 2, 2)
+    out = np.array(out).reshape(-1, 2, 2)
+    if not len(out):
+        return out
+    p, q = out[:, 0], out[:, 1]
+    short = shapely.linestrings(np.stack([p, p + (1.0 - 1e-6) * (q - p)], axis=1))
+    return out[~shapely.intersects(boundary, short)]
 
 
 def _open_edge(water, frame, width: float, tolerance_m: float):
