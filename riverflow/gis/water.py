@@ -116,9 +116,10 @@ OPEN_EDGE_WIDTHS = 0.25
 long is an open end (the water cut by the map's edge), not a bank."""
 SEA_WIDTHS = 8.0
 """Water is open water (a sea, a lake the data's edge cuts) where circles of this many times
-the channels' typical width fit in it (the median of its inscribed circles' local maxima),
-grown from circles at least half as wide as the widest, reaching the data's edge."""
-SEA_GRID = 2048
+the channels' wide width fit in it (the upper quartile of its inscribed circles' local
+maxima) and at least half as wide as the widest, that reach the data's edge, grown by the
+circles of this many times their median width that fit in the water."""
+SEA_GRID = 768
 """The most cells along the water's longer side on which open water is looked for."""
 OVERHANG_WIDTHS = 0.04
 """An edge of the outline at most this many widths of its channel long that faces away from
@@ -648,6 +649,7 @@ def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy
     for net in networks:
         builder.kept_beside |= _drop_basin_spurs(net, frame, tolerance_m, report, heights,
                                                  builder.ends_beside)
+        _drop_stubs(net, report)
     return networks
 
 
@@ -879,7 +881,8 @@ def _lakes_of(features, polygons, water, report: RiverImport, tolerance_m: float
 
 def _seas(water, frame, cell, report: RiverImport, tolerance_m: float):
     """(the open water: polygons [m] where circles SEA_WIDTHS times the channels' typical
-    width fit, grown from circles half as wide as the widest, that reach ``frame``'s edge (a
+    width fit (the data's edge no shore), grown from circles half as wide as the widest, that
+    reach ``frame``'s edge (a
     sea the channels open into, a lake the data's edge cuts), each a lake; the rest of the
     water, None when nothing is left). The water is rasterized on cells of ``cell`` [m] (a
     mask's; at most SEA_GRID along the longer side); the open water's outline is that of its
@@ -895,15 +898,20 @@ def _seas(water, frame, cell, report: RiverImport, tolerance_m: float):
     shape = (int(math.ceil((y1 - y0) / cell)) + 2, int(math.ceil((x1 - x0) / cell)) + 2)
     tr = from_origin(x0 - cell, y1 + cell, cell, cell)
     wet = rio_features.rasterize([water], out_shape=shape, transform=tr).astype(bool)
-    d = ndimage.distance_transform_edt(wet)
+    # the data's edge is no shore: beyond it counts as water for the distances
+    beyond = ~rio_features.rasterize([frame], out_shape=shape, transform=tr).astype(bool)
+    d = ndimage.distance_transform_edt(wet | beyond)
+    d[~wet] = 0.0
     ridge = wet & (d == ndimage.maximum_filter(d, size=3))
     if not ridge.any():
         return [], water
+    typical = float(np.percentile(d[ridge], 75.0))
+    if not d.max() >= SEA_WIDTHS * max(typical, 1.0):
+        return [], water
+    # grown from its core by circles SEA_WIDTHS times the channels' median width
+    core = d >= max(SEA_WIDTHS * typical, 0.5 * float(d.max()))
     typical = float(np.median(d[ridge]))
     r = SEA_WIDTHS * max(typical, 1.0)
-    if not d.max() >= r:
-        return [], water
-    core = d >= max(r, 0.5 * float(d.max()))
     opened = ndimage.distance_transform_edt(d < r) <= r
     labels, _ = ndimage.label(opened & wet)
     keep = np.unique(labels[core & (labels > 0)])
@@ -1489,26 +1497,57 @@ def _drop_basin_spurs(net: _Network, frame, tolerance_m: float, report: RiverImp
         net.channels.remove(spur)
         net.basin_axes.append(_beyond(spur, junction, 0.5 * max(
             (d.width for d in net.channels if junction in (d.a, d.b)), default=0.0)))
-        rest = [c for c in net.channels if junction in (c.a, c.b)]
-        if len(rest) == 2 and rest[0] is not rest[1]:
-            one, two = rest
-            if one.b != junction:
-                one.flip()
-            if two.a != junction:
-                two.flip()
-            one.points = np.vstack([one.points, two.points[1:]])
-            one.widths = np.concatenate([one.widths, two.widths[1:]])
-            one.b = two.b
-            net.channels.remove(two)
-        used = sorted({n for c in net.channels for n in (c.a, c.b)})
-        new = {n: i for i, n in enumerate(used)}
-        for c in net.channels:
-            c.a, c.b = new[c.a], new[c.b]
-        net.nodes = net.nodes[used]
-        net.inlets = {new[n] for n in net.inlets if n in new}
-        net.outlets = {new[n] for n in net.outlets if n in new}
-        net.tributaries = {new[n] for n in net.tributaries if n in new}
+        _join_at(net, junction)
     return kept
+
+
+def _join_at(net: _Network, junction: int) -> None:
+    """After a channel off ``junction`` was removed: the two channels left there joined into
+    one, the nodes numbered anew."""
+    rest = [c for c in net.channels if junction in (c.a, c.b)]
+    if len(rest) == 2 and rest[0] is not rest[1]:
+        one, two = rest
+        if one.b != junction:
+            one.flip()
+        if two.a != junction:
+            two.flip()
+        one.points = np.vstack([one.points, two.points[1:]])
+        one.widths = np.concatenate([one.widths, two.widths[1:]])
+        one.b = two.b
+        net.channels.remove(two)
+    used = sorted({n for c in net.channels for n in (c.a, c.b)})
+    new = {n: i for i, n in enumerate(used)}
+    for c in net.channels:
+        c.a, c.b = new[c.a], new[c.b]
+    net.nodes = net.nodes[used]
+    net.inlets = {new[n] for n in net.inlets if n in new}
+    net.outlets = {new[n] for n in net.outlets if n in new}
+    net.tributaries = {new[n] for n in net.tributaries if n in new}
+
+
+def _drop_stubs(net: _Network, report: RiverImport) -> None:
+    """Drop channels from a junction to a free end whose ends lie closer than JOIN_FRACTION
+    of their widths (a fork just inside a wide mouth cut straight across: the builder cannot
+    tell its start from its end); the junction's other channels reach the water's end."""
+    from riverflow.hydro.builder import JOIN_FRACTION
+
+    while True:
+        deg = net.degree()
+        stub = next((c for c in net.channels
+                     if sorted((deg[c.a], deg[c.b]))[0] == 1 and max(deg[c.a], deg[c.b]) >= 3
+                     and np.hypot(*(c.points[-1] - c.points[0]))
+                     <= JOIN_FRACTION * min(float(c.widths[0]), float(c.widths[-1]))), None)
+        if stub is None:
+            return
+        junction = stub.a if deg[stub.a] > 1 else stub.b
+        x, y = net.nodes[junction]
+        report.repair(stub.name, None, None,
+                      f"a channel {stub.length:.1f} m long from the junction at ({x:.1f}, "
+                      f"{y:.1f}) to a free end, shorter than a quarter of its width "
+                      f"({stub.width:.1f} m): left out (the junction's other channels reach "
+                      f"the water's end)")
+        net.channels.remove(stub)
+        _join_at(net, junction)
 
 
 def _beyond(c: _Channel, junction: int, reach_m: float) -> tuple[np.ndarray, np.ndarray]:

@@ -258,7 +258,8 @@ def _clear_of(lake: Lake, line: np.ndarray, w: np.ndarray, at_start: bool, name:
     """(``line`` with its end (its start if ``at_start``) drawn back from ``lake`` until the
     strip of its last (first) stretch is 0.02 widths clear of it, its widths): a last
     stretch drawn back to under a tenth of the width is dropped and the one before drawn
-    back (an axis bending along the shore at its end)."""
+    back (an axis bending along the shore at its end); GraphError where it cannot be, or its
+    ends would come within 0.3 widths (the builder's junctions join ends closer than 0.25)."""
     from riverflow.hydro._strips import strip_polygon
 
     e, f = (0, 1) if at_start else (-1, -2)
@@ -272,6 +273,10 @@ def _clear_of(lake: Lake, line: np.ndarray, w: np.ndarray, at_start: bool, name:
             return line, w
         t = line[e] - line[f]
         seg = float(np.hypot(*t))
+        if np.hypot(*(line[-1] - line[0])) <= 0.3 * min(float(w[0]), float(w[-1])):
+            raise GraphError(f"branch {name!r}: drawn back from the shore of {lake.name} (a "
+                             f"lake with no {'inlet' if at_start else 'outlet'}), its ends "
+                             f"come within 0.3 of its width")
         if seg <= 0.1 * width and len(line) > 2:
             line, w = (line[1:], w[1:]) if at_start else (line[:-1], w[:-1])
             continue
