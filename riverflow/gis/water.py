@@ -556,6 +556,22 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
             _still(builder, getattr(water, "geoms", [water])[net.part], net.part,
                    f"{len(ends)} free ends beside its dead ends")
             networks.remove(net)
+    seas = getattr(builder, "seas", [])
+    for net in list(networks):
+        ends = {n for _, n, _ in net.free_ends()}
+        if seas and ends and ends <= net.outlets and not net.inlets:
+            # water that opens only into open water (a lagoon, a creek between two mouths)
+            # is the open water's
+            part = getattr(water, "geoms", [water])[net.part]
+            k = max(range(len(seas)), key=lambda i: seas[i].distance(part) == 0.0)
+            inside = seas[k].representative_point()
+            lake = next(lk for lk in builder._lakes if lk.polygon.contains(inside))
+            lake.polygon = _joined(lake.polygon, part)
+            x, y = part.representative_point().coords[0]
+            report.repair(f"water body {net.part}", None, None,
+                          f"{part.area:.1f} m² of water near ({x:.1f}, {y:.1f}) opens only into "
+                          f"open water: joined to it (still water)")
+            networks.remove(net)
     if not networks:                # ponds only: still water
         report.derived["axes"] = {}
         report.derived["length_m"] = 0.0
@@ -639,7 +655,8 @@ def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy
     ends = [e for net in networks for e in net.free_ends()]
     _match_points(ends, inlet_xy, "inlet", where, water)
     _match_points(ends, outlet_xy, "outlet", where, water)
-    seas = shapely.union_all(getattr(builder, "seas", [])) if getattr(builder, "seas", []) else None
+    seas = getattr(builder, "seas", [])
+    seas = shapely.union_all(seas) if seas else None
     if seas is not None:        # the channels opening into open water leave there
         for net, n, w in ends:
             if seas.distance(shapely.Point(net.nodes[n])) <= max(w, tolerance_m):
@@ -649,7 +666,7 @@ def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy
     for net in networks:
         builder.kept_beside |= _drop_basin_spurs(net, frame, tolerance_m, report, heights,
                                                  builder.ends_beside)
-        _drop_stubs(net, report)
+        _drop_stubs(net, report, seas)
     return networks
 
 
@@ -947,6 +964,13 @@ def _seas(water, frame, cell, report: RiverImport, tolerance_m: float):
                                     f"widths reaching the data's edge): still, the channels' "
                                     f"outlet")
     return seas, (None if rest.is_empty else rest)
+
+
+def _joined(sea, part):
+    """``sea`` and the water ``part`` beside it as one polygon (its largest piece)."""
+    both = shapely.union(sea, part)
+    return max((p for p in shapely.get_parts(both) if p.geom_type == "Polygon"),
+               key=lambda p: p.area)
 
 
 def _straight_mouths(sea, rest, cell: float):
@@ -1525,27 +1549,37 @@ def _join_at(net: _Network, junction: int) -> None:
     net.tributaries = {new[n] for n in net.tributaries if n in new}
 
 
-def _drop_stubs(net: _Network, report: RiverImport) -> None:
+def _drop_stubs(net: _Network, report: RiverImport, open_water=None) -> None:
     """Drop channels from a junction to a free end whose ends lie closer than JOIN_FRACTION
     of their widths (a fork just inside a wide mouth cut straight across: the builder cannot
-    tell its start from its end); the junction's other channels reach the water's end."""
+    tell its start from its end), or, where that end opens into ``open_water`` (a polygon),
+    shorter than half their widest (a lake's shore cuts such a channel off,
+    :func:`riverflow.hydro._lakes.cut_branches`); the junction's other channels reach the
+    water's end."""
     from riverflow.hydro.builder import JOIN_FRACTION
+
+    def stubby(c: _Channel, deg) -> bool:
+        if sorted((deg[c.a], deg[c.b]))[0] != 1 or max(deg[c.a], deg[c.b]) < 3:
+            return False
+        if (np.hypot(*(c.points[-1] - c.points[0]))
+                <= JOIN_FRACTION * min(float(c.widths[0]), float(c.widths[-1]))):
+            return True
+        end = c.a if deg[c.a] == 1 else c.b
+        return (open_water is not None and end in net.outlets
+                and c.length < 0.5 * float(c.widths.max())
+                and open_water.distance(shapely.Point(net.nodes[end])) <= c.width)
 
     while True:
         deg = net.degree()
-        stub = next((c for c in net.channels
-                     if sorted((deg[c.a], deg[c.b]))[0] == 1 and max(deg[c.a], deg[c.b]) >= 3
-                     and np.hypot(*(c.points[-1] - c.points[0]))
-                     <= JOIN_FRACTION * min(float(c.widths[0]), float(c.widths[-1]))), None)
+        stub = next((c for c in net.channels if stubby(c, deg)), None)
         if stub is None:
             return
         junction = stub.a if deg[stub.a] > 1 else stub.b
         x, y = net.nodes[junction]
         report.repair(stub.name, None, None,
                       f"a channel {stub.length:.1f} m long from the junction at ({x:.1f}, "
-                      f"{y:.1f}) to a free end, shorter than a quarter of its width "
-                      f"({stub.width:.1f} m): left out (the junction's other channels reach "
-                      f"the water's end)")
+                      f"{y:.1f}) to a free end, short beside its width ({stub.width:.1f} "
+                      f"m): left out (the junction's other channels reach the water's end)")
         net.channels.remove(stub)
         _join_at(net, junction)
 
