@@ -562,15 +562,8 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
         if seas and ends and ends <= net.outlets and not net.inlets:
             # water that opens only into open water (a lagoon, a creek between two mouths)
             # is the open water's
-            part = getattr(water, "geoms", [water])[net.part]
-            k = max(range(len(seas)), key=lambda i: seas[i].distance(part) == 0.0)
-            inside = seas[k].representative_point()
-            lake = next(lk for lk in builder._lakes if lk.polygon.contains(inside))
-            lake.polygon = _joined(lake.polygon, part)
-            x, y = part.representative_point().coords[0]
-            report.repair(f"water body {net.part}", None, None,
-                          f"{part.area:.1f} m² of water near ({x:.1f}, {y:.1f}) opens only into "
-                          f"open water: joined to it (still water)")
+            _join_open_water(builder, getattr(water, "geoms", [water])[net.part], net.part,
+                             "opens only into open water")
             networks.remove(net)
     if not networks:                # ponds only: still water
         report.derived["axes"] = {}
@@ -636,6 +629,9 @@ def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy
         widest = max((float(c.widths.max()) for c in net.channels), default=0.0)
         several = len(getattr(water, "geoms", [])) > 1
         if not net.channels or several and (speck or longest < MIN_CHANNEL_WIDTHS * widest):
+            if _join_open_water(builder, part, k, "beside open water, with no channel "
+                                f"longer than {MIN_CHANNEL_WIDTHS:g} times its width"):
+                continue
             x, y = part.representative_point().coords[0]
             # a pond (not a piece a lake's cut left beside it): still water, as a lake
             pond = not (speck or beside_lake)
@@ -818,9 +814,10 @@ def _read_mask(path: Path):
     # the data's edge: the raster's border, or the water cells' bounding box where a border
     # of empty cells lies round them (RivGraph's masks have one)
     rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
-    window = rasterio.windows.Window(cols[0], rows[0], cols[-1] + 1 - cols[0],
-                                     rows[-1] + 1 - rows[0])
-    extent = shapely.segmentize(shapely.box(*rasterio.windows.bounds(window, transform)),
+    corners = [(transform.c + transform.a * c + transform.b * r,
+                transform.f + transform.d * c + transform.e * r)
+               for c, r in ((cols[0], rows[0]), (cols[-1] + 1, rows[-1] + 1))]
+    extent = shapely.segmentize(shapely.box(*np.min(corners, axis=0), *np.max(corners, axis=0)),
                                 0.5 * cell)
     return ([(k, p, {}) for k, p in enumerate(polys)], crs.to_wkt() if crs else None,
             "band 1", cell, extent)
@@ -897,29 +894,29 @@ def _lakes_of(features, polygons, water, report: RiverImport, tolerance_m: float
 
 
 def _seas(water, frame, cell, report: RiverImport, tolerance_m: float):
-    """(the open water: polygons [m] where circles SEA_WIDTHS times the channels' typical
-    width fit (the data's edge no shore), grown from circles half as wide as the widest, that
-    reach ``frame``'s edge (a
-    sea the channels open into, a lake the data's edge cuts), each a lake; the rest of the
-    water, None when nothing is left). The water is rasterized on cells of ``cell`` [m] (a
-    mask's; at most SEA_GRID along the longer side); the open water's outline is that of its
-    cells simplified and grown by 1.5 cells, cut by the water's (its coast is the data's; a
-    channel's mouth a line across it)."""
+    """(the open water (SEA_WIDTHS): polygons [m], each a lake, the channels' outlet; the
+    rest of the water, None when nothing is left). The water is rasterized on cells of
+    ``cell`` [m] (a mask's; at least 1/SEA_GRID of the longer side), beyond ``frame`` (the
+    data's extent) counted as water; the open water's outline is that of its cells
+    simplified and grown by 1.5 cells, cut by the water's (its coast is the data's), each
+    channel's mouth then straight (:func:`_straight_mouths`)."""
     from rasterio import features as rio_features
-    from rasterio.transform import from_origin
+    from affine import Affine
     from scipy import ndimage
 
     x0, y0, x1, y1 = water.bounds
     size = max(x1 - x0, y1 - y0)
     cell = max(cell or 0.0, size / SEA_GRID, tolerance_m)
     shape = (int(math.ceil((y1 - y0) / cell)) + 2, int(math.ceil((x1 - x0) / cell)) + 2)
-    tr = from_origin(x0 - cell, y1 + cell, cell, cell)
+    tr = Affine(cell, 0.0, x0 - cell, 0.0, -cell, y1 + cell)
     wet = rio_features.rasterize([water], out_shape=shape, transform=tr).astype(bool)
     # the data's edge is no shore: beyond it counts as water for the distances
     beyond = ~rio_features.rasterize([frame], out_shape=shape, transform=tr).astype(bool)
     d = ndimage.distance_transform_edt(wet | beyond)
     d[~wet] = 0.0
-    ridge = wet & (d == ndimage.maximum_filter(d, size=3))
+    # (not at the data's edge: open water's distances grow up to it)
+    ridge = (wet & (d == ndimage.maximum_filter(d, size=3))
+             & ~ndimage.binary_dilation(beyond, iterations=2))
     if not ridge.any():
         return [], water
     typical = float(np.percentile(d[ridge], 75.0))
@@ -966,11 +963,23 @@ def _seas(water, frame, cell, report: RiverImport, tolerance_m: float):
     return seas, (None if rest.is_empty else rest)
 
 
-def _joined(sea, part):
-    """``sea`` and the water ``part`` beside it as one polygon (its largest piece)."""
-    both = shapely.union(sea, part)
-    return max((p for p in shapely.get_parts(both) if p.geom_type == "Polygon"),
-               key=lambda p: p.area)
+def _join_open_water(builder: WaterBuilder, part, k: int, why: str) -> bool:
+    """Join water body ``k`` (``part``, ``why``: no channel of its own) to the open water
+    (builder.seas) it touches, still water (reported); False where it touches none."""
+    seas = getattr(builder, "seas", [])
+    near = [s for s in seas if s.distance(part) <= builder.tolerance_m]
+    if not near:
+        return False
+    inside = near[0].representative_point()
+    lake = next(lk for lk in builder._lakes if lk.polygon.contains(inside))
+    both = shapely.union(lake.polygon, part)
+    lake.polygon = max((p for p in shapely.get_parts(both) if p.geom_type == "Polygon"),
+                       key=lambda p: p.area)
+    x, y = part.representative_point().coords[0]
+    builder.report.repair(f"water body {k}", None, None,
+                          f"{part.area:.1f} m² of water near ({x:.1f}, {y:.1f}) {why}: joined to "
+                          f"the open water beside it (still water)")
+    return True
 
 
 def _straight_mouths(sea, rest, cell: float):

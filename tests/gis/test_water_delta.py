@@ -1,0 +1,59 @@
+"""A delta reaching the sea (issue 22, RivGraph's Colville mask): open water wider than
+many channel widths that reaches the data's edge is a still lake the distributaries end in
+(``report.derived["open water"]``): their mouths are cut straight across, the ends on its
+shore are the outlets, with or without ``outlets=``."""
+from __future__ import annotations
+
+import numpy as np
+import shapely
+
+import riverflow as rf
+from tests.gis.conftest import ORIGIN, require_gis
+from tests.gis.test_water import write_mask, write_polygons
+
+require_gis()
+
+SEA = shapely.box(-600.0, 900.0, 1400.0, 1500.0)
+"""The sea: 2 km wide, reaching the data's top, left and right edges [m]."""
+RIVER = shapely.LineString([(400, 0), (400, 500)]).buffer(30, cap_style="flat")
+ARMS = shapely.union(shapely.LineString([(400, 480), (150, 950)]).buffer(20, cap_style="flat"),
+                     shapely.LineString([(400, 480), (650, 950)]).buffer(20, cap_style="flat"))
+DELTA = shapely.union_all([SEA, RIVER, ARMS])
+"""A river entering at the data's bottom edge, parting into two distributaries that open
+into the sea."""
+
+
+def flow_at(builder, graph, pts):
+    shift = ORIGIN - np.asarray(builder.report.origin_m or (0.0, 0.0))
+    return rf.FlowField(graph).query(np.asarray(pts, float) + shift)
+
+
+def check_delta(b, graph):
+    assert "open water" in b.report.derived and len(graph.lakes()) == 1
+    assert "terminal lakes" in b.report.derived
+    status, v = flow_at(b, graph, [(400, 250), (230, 800), (570, 800), (400, 1300)])
+    assert (status == rf.FlowStatus.INSIDE).all()
+    assert v[0, 1] > 0.0 and v[1, 1] > 0.0 and v[2, 1] > 0.0      # downstream, to the sea
+    assert np.hypot(*v[3]) < 1e-6                                 # the sea is still
+
+
+def test_a_delta_into_the_sea_ends_on_open_water(tmp_path):
+    """No inlet or outlet given: the river comes in at the bottom, its two arms leave into
+    the sea (before: the longest path from the narrower end, into the sea and back)."""
+    b = rf.read_water(write_polygons(tmp_path / "d.gpkg", [DELTA]))
+    check_delta(b, b.build())
+
+
+def test_an_outlet_given_in_the_sea_is_the_sea(tmp_path):
+    b = rf.read_water(write_polygons(tmp_path / "d.gpkg", [DELTA]),
+                      outlets=[tuple(ORIGIN + (400, 1300))])
+    check_delta(b, b.build())
+    assert any("open water" in n for n in b.report.notes)
+
+
+def test_a_mask_with_an_empty_border_ends_at_its_water(tmp_path):
+    """RivGraph's masks have a border of empty cells: the data's edge is the water cells'
+    bounding box, so the sea reaches it and the river enters across it."""
+    path = write_mask(tmp_path / "d.tif", DELTA, 10.0, bounds=(-700.0, -100.0, 1500.0, 1600.0))
+    b = rf.read_water(path)
+    check_delta(b, b.build())
