@@ -811,14 +811,8 @@ def _read_mask(path: Path):
                                  connectivity=4)
     cell = float(min(abs(transform.a), abs(transform.e)))
     polys = [_smooth_cells(shapely.geometry.shape(s), cell) for s, _ in shapes]
-    # the data's edge: the raster's border, or the water cells' bounding box where a border
-    # of empty cells lies round them (RivGraph's masks have one)
-    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
-    corners = [(transform.c + transform.a * c + transform.b * r,
-                transform.f + transform.d * c + transform.e * r)
-               for c, r in ((cols[0], rows[0]), (cols[-1] + 1, rows[-1] + 1))]
-    extent = shapely.segmentize(shapely.box(*np.min(corners, axis=0), *np.max(corners, axis=0)),
-                                0.5 * cell)
+    extent = shapely.segmentize(shapely.box(*rasterio.transform.array_bounds(
+        *mask.shape, transform)), 0.5 * cell)
     return ([(k, p, {}) for k, p in enumerate(polys)], crs.to_wkt() if crs else None,
             "band 1", cell, extent)
 
@@ -896,8 +890,8 @@ def _lakes_of(features, polygons, water, report: RiverImport, tolerance_m: float
 def _seas(water, frame, cell, report: RiverImport, tolerance_m: float):
     """(the open water (SEA_WIDTHS): polygons [m], each a lake, the channels' outlet; the
     rest of the water, None when nothing is left). The water is rasterized on cells of
-    ``cell`` [m] (a mask's; at least 1/SEA_GRID of the longer side), beyond ``frame`` (the
-    data's extent) counted as water; the open water's outline is that of its cells
+    ``cell`` [m] (a mask's; at least 1/SEA_GRID of the longer side), ``frame`` the data's
+    extent; the open water's outline is that of its cells
     simplified and grown by 1.5 cells, cut by the water's (its coast is the data's), each
     channel's mouth then straight (:func:`_straight_mouths`)."""
     from rasterio import features as rio_features
@@ -910,13 +904,8 @@ def _seas(water, frame, cell, report: RiverImport, tolerance_m: float):
     shape = (int(math.ceil((y1 - y0) / cell)) + 2, int(math.ceil((x1 - x0) / cell)) + 2)
     tr = Affine(cell, 0.0, x0 - cell, 0.0, -cell, y1 + cell)
     wet = rio_features.rasterize([water], out_shape=shape, transform=tr).astype(bool)
-    # the data's edge is no shore: beyond it counts as water for the distances
-    beyond = ~rio_features.rasterize([frame], out_shape=shape, transform=tr).astype(bool)
-    d = ndimage.distance_transform_edt(wet | beyond)
-    d[~wet] = 0.0
-    # (not at the data's edge: open water's distances grow up to it)
-    ridge = (wet & (d == ndimage.maximum_filter(d, size=3))
-             & ~ndimage.binary_dilation(beyond, iterations=2))
+    d = ndimage.distance_transform_edt(wet)
+    ridge = wet & (d == ndimage.maximum_filter(d, size=3))
     if not ridge.any():
         return [], water
     typical = float(np.percentile(d[ridge], 75.0))
@@ -929,7 +918,9 @@ def _seas(water, frame, cell, report: RiverImport, tolerance_m: float):
     opened = ndimage.distance_transform_edt(d < r) <= r
     labels, _ = ndimage.label(opened & wet)
     keep = np.unique(labels[core & (labels > 0)])
-    frame_edge = frame.boundary
+    # the data's edge: its extent's, or the water's bounding box (a mask's border of empty
+    # cells round the water: RivGraph's masks have one)
+    frame_edge = shapely.union(frame.boundary, shapely.box(*water.bounds).boundary)
     seas, rest = [], water
     for k in keep:
         cells = shapely.union_all([shapely.geometry.shape(g) for g, v in rio_features.shapes(
@@ -1559,25 +1550,27 @@ def _join_at(net: _Network, junction: int) -> None:
 
 
 def _drop_stubs(net: _Network, report: RiverImport, open_water=None) -> None:
-    """Drop channels from a junction to a free end whose ends lie closer than JOIN_FRACTION
-    of their widths (a fork just inside a wide mouth cut straight across: the builder cannot
-    tell its start from its end), or, where that end opens into ``open_water`` (a polygon),
-    shorter than half their widest (a lake's shore cuts such a channel off,
+    """Drop channels from a junction to a free end opening into ``open_water`` (a polygon)
+    whose ends lie closer than JOIN_FRACTION of their widths (a fork just inside a wide mouth
+    cut straight across: the builder cannot tell its start from its end) or that are shorter
+    than half their widest (a lake's shore cuts such a channel off,
     :func:`riverflow.hydro._lakes.cut_branches`); the junction's other channels reach the
-    water's end."""
+    open water."""
     from riverflow.hydro.builder import JOIN_FRACTION
 
     def stubby(c: _Channel, deg) -> bool:
         if sorted((deg[c.a], deg[c.b]))[0] != 1 or max(deg[c.a], deg[c.b]) < 3:
             return False
-        if (np.hypot(*(c.points[-1] - c.points[0]))
-                <= JOIN_FRACTION * min(float(c.widths[0]), float(c.widths[-1]))):
-            return True
         end = c.a if deg[c.a] == 1 else c.b
-        return (open_water is not None and end in net.outlets
-                and c.length < 0.5 * float(c.widths.max())
-                and open_water.distance(shapely.Point(net.nodes[end])) <= c.width)
+        if not (end in net.outlets
+                and open_water.distance(shapely.Point(net.nodes[end])) <= c.width):
+            return False
+        return (c.length < 0.5 * float(c.widths.max())
+                or np.hypot(*(c.points[-1] - c.points[0]))
+                <= JOIN_FRACTION * min(float(c.widths[0]), float(c.widths[-1])))
 
+    if open_water is None:
+        return
     while True:
         deg = net.degree()
         stub = next((c for c in net.channels if stubby(c, deg)), None)
