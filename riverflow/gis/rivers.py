@@ -197,6 +197,16 @@ PLAUSIBLE_MAX = {"width_m": 1e5, "discharge_m3s": 1e7, "discharge_m2s": 1e8,
 order 12; a bed 11 km below to 9 km above the sea) with a wide margin: a value beyond it
 lies (a unit slip, a no-data code such as 1e30) and is not used, as a negative one is."""
 
+FLOW_DIRECTION_ATTRIBUTES = ("FLOWDIR", "flowDirection")
+"""Attributes that say, line by line, whether a line is drawn in the flow's direction (looked
+for, case-insensitive, when ``reverse`` is None): NHD's and NHDPlus's ``FLOWDIR`` ("With
+Digitized"; NHDPlus HR: 1), the Ordnance Survey's (OS Open Rivers, INSPIRE hydrography)
+``flowDirection`` ("inDirection", "inOppositeDirection"). A line they say is drawn with
+the flow, or against it, is never turned; one they leave open ("Uninitialized", 0, "both",
+empty) is directed by the topology (:func:`_direct`)."""
+FLOW_AS_DRAWN = ("with digitized", "withdigitized", "1", "indirection")
+FLOW_AGAINST = ("against digitized", "againstdigitized", "inoppositedirection")
+
 """Attribute names looked for (case-insensitive) when a keyword is left as None: TauDEM
 (``strmOrder``), NHDPlus (``TotDASqKM``, ``StreamOrde``), HydroRIVERS (``UPLAND_SKM``,
 ``ORD_STRA``), MERIT Hydro (``uparea``), the Red Butte example (``usarea_km2``,
@@ -526,6 +536,12 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
             "elevation_m": elevation_m}
     specs = {k: _attribute_spec(k, v, names, where, report) for k, v in keys.items()}
     flip = _reverse_spec(reverse, names, where)
+    flow_dir = None
+    if flip is None:                # the file's own word on each line's direction, if any
+        lower = {n.lower(): n for n in names}
+        flow_dir = next((lower[a.lower()] for a in FLOW_DIRECTION_ATTRIBUTES
+                         if a.lower() in lower), None)
+    said = {"as drawn": 0, "against": 0, "open": 0}
 
     geoms, invalid = _from_wkb(wkb)
     raw = _lines(geoms, fids, attrs_of, where, report, invalid)
@@ -563,17 +579,31 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
         values = {key: _values(spec, table, k, name, attrs, where, report, int(fids[k]), key)
                   for key, spec in specs.items()}
         users = flip is not None and _truthy(flip if isinstance(flip, bool) else table[flip][k])
-        if users:
+        told = None
+        if flow_dir is not None:
+            word = _plain(table[flow_dir][k])
+            word = str(int(word) if isinstance(word, float) and word.is_integer() else word)
+            told = ("as drawn" if word.strip().lower() in FLOW_AS_DRAWN else "against"
+                    if word.strip().lower() in FLOW_AGAINST else "open")
+            said[told] += 1
+        if users or told == "against":
             p, z = p[::-1], (z[1], z[0])
             values = {key: (v[1], v[0]) for key, v in values.items()}
         link = _Link(name, int(fids[k]), np.ascontiguousarray(p), attrs, values)
         link.z = z
-        link.fixed = users or osm or (flip is not None)   # the user's word, or OSM's rule
+        # the user's word, the file's, or OSM's rule
+        link.fixed = users or osm or (flip is not None) or told in ("as drawn", "against")
         if osm:
             link.source_width_m = OSM_SOURCE_WIDTH_M.get(str(attrs.get("waterway")), math.nan)
         if math.isfinite(cell):                           # the cell in metres, as projected
             link.cell_m = cell * _length(p) / max(_length(pts), 1e-300)
         links.append(link)
+    if flow_dir is not None:
+        report.derived["direction"] = (
+            f"by the attribute {flow_dir!r}: {said['as drawn']} line(s) drawn with the flow"
+            + (f", {said['against']} against it (turned)" if said["against"] else "")
+            + (f"; {said['open']} it leaves open, directed by the topology"
+               if said["open"] else ""))
     links = _clean(links, report)
     if not links:
         last = report.repairs[-1] if report.repairs else None
@@ -2707,16 +2737,22 @@ def _merge_close_channels(links: list[_Link], plan, geometry: HydraulicGeometry,
             values["elevation_m"] = (z0, z_cut) if outflow else (z_cut, z1)
             for lk, line, at in ((la, line_a, along(line_a, reach)), (lb, line_b, at_b)):
                 f = at / line.length                 # values given per end: at the cut
+                # each arm leaves its line a gap's length before the cut and meets the
+                # merged reach at its end slantwise (≤ 27°), not square across the gap: two
+                # arms running side by side would end in a T whose strips overlap beyond the
+                # junction
+                lead = min(gap, 0.5 * (line.length - at if outflow else at))
                 if outflow:
-                    beyond = shapely.get_coordinates(shapely.ops.substring(line, at,
-                                                                           line.length))
-                    lk.points = np.vstack([mid, beyond[1:]])
+                    beyond = shapely.get_coordinates(shapely.ops.substring(
+                        line, at + lead, line.length))
+                    lk.points = np.vstack([mid, beyond])
                     lk.start = next_j
                     lk.values = {key: (v0 + (v1 - v0) * f, v1) for key, (v0, v1) in
                                  lk.values.items()}
                     lk.z = (lk.z[0] + (lk.z[1] - lk.z[0]) * f, lk.z[1])
                 else:
-                    above = shapely.get_coordinates(shapely.ops.substring(line, 0.0, at))
+                    above = shapely.get_coordinates(shapely.ops.substring(line, 0.0,
+                                                                          at - lead))
                     lk.points = np.vstack([above, mid])
                     lk.end = next_j
                     lk.values = {key: (v0, v0 + (v1 - v0) * f) for key, (v0, v1) in

@@ -86,6 +86,11 @@ LAKE_WATER = ("lake", "reservoir", "pond", "oxbow")
 water bodies (:meth:`~riverflow.RiverNetworkBuilder.add_lake`). An OSM ``natural=water``
 area without ``water=`` is a lake too (the tag's documented default, OSM wiki Key:water); a
 polygon file's feature without the attribute is a river's water."""
+NHD_LAKE_FTYPES = ("lakepond", "reservoir", "swampmarsh", "playa", "390", "436", "466", "361")
+"""The USGS National Hydrography Dataset's ``FTYPE`` of standing water (NHDWaterbody:
+LakePond 390, Reservoir 436, SwampMarsh 466, Playa 361; NHDPlus writes the names, NHD HR the
+codes): a polygon file's feature with one of them is a lake, as ``water=lake`` is; NHDArea's
+StreamRiver (460), CanalDitch (336), … are a river's water."""
 LAKE_FLAG = "_riverflow_lake"
 """The attribute :func:`_read_polygons` sets on the features tagged as lakes."""
 SPUR_WIDTHS = 1.0
@@ -111,6 +116,12 @@ repair left): left out, reported."""
 SAMPLES_PER_WIDTH = 8.0
 """Outline points per narrowest channel width for the skeleton's Voronoi diagram."""
 MAX_OUTLINE_SAMPLES = 200_000
+NARROW_SAMPLES = 4.0
+"""Where the water is narrower than this many outline points' spacings, the skeleton's
+points are put closer (:func:`_narrow_samples`; islands' passages: the spacing of the whole)."""
+NARROW_AREA = 8.0
+"""...in pieces of water at least this many squared half widths of that (not a corner the
+opening rounds off, nor a notch)."""
 OPEN_EDGE_WIDTHS = 0.25
 """A piece of the water's outline along the data's extent at least this many mean widths
 long is an open end (the water cut by the map's edge), not a bank."""
@@ -626,7 +637,10 @@ def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy
             _still(builder, part, k, "no channel in its skeleton")
             continue
         longest = max((c.length for c in net.channels), default=0.0)
-        widest = max((float(c.widths.max()) for c in net.channels), default=0.0)
+        # (a line's width is its median chord over its middle: the chord of a zigzag's point
+        # runs along the water; the skeleton's, its widest inscribed circle)
+        widest = max((c.width if c.source == "lines" else float(c.widths.max())
+                      for c in net.channels), default=0.0)
         several = len(getattr(water, "geoms", [])) > 1
         if not net.channels or several and (speck or longest < MIN_CHANNEL_WIDTHS * widest):
             if _join_open_water(builder, part, k, "beside open water, with no channel "
@@ -1044,6 +1058,12 @@ def _read_polygons(path: Path, layer):
             tags = _hstore(table["other_tags"][i]) if "other_tags" in table else {}
             water = tags.get("water", "lake" if attrs.get("natural") == "water"
                              and tags.get("waterway") != "riverbank" else None)
+        if not osm and water is None:       # NHD's feature type, where the file has one
+            ftype = next((v for k, v in attrs.items() if k.lower() == "ftype"), None)
+            if ftype is not None and str(int(ftype) if isinstance(ftype, float) and
+                                         ftype.is_integer() else ftype).strip().lower() \
+                    in NHD_LAKE_FTYPES:
+                water = "lake"
         if isinstance(water, str) and water.strip().lower() in LAKE_WATER:
             attrs[LAKE_FLAG] = True
         out.append((int(fids[i]), geoms[i], attrs))
@@ -1642,7 +1662,7 @@ def _channels(part, k: int, lines: list, tolerance_m: float, report: RiverImport
     (``dead``: tips of dead ends that are no ends of the water, :func:`skeleton`)."""
     inside = [g for g in lines if g.intersects(part)]
     if inside:
-        return _line_channels(part, k, inside, tolerance_m, report, forced)
+        return _line_channels(part, k, inside, tolerance_m, report, forced, frame)
     if lines:
         report.notes.append(f"water body {k}: no line runs through it: its axes are its skeleton")
     return _skeleton_channels(part, k, tolerance_m, report, frame, forced, ends, dead)
@@ -1674,8 +1694,11 @@ def _split_holes(part, enclosed=None, forced=(), open_edge=None):
     return shapely.Polygon(part.exterior, keep), free
 
 
-def _line_channels(part, k: int, lines: list, tolerance_m: float, report, forced=()) -> _Network:
-    """Channels along the given lines, cut to the water and noded where they meet."""
+def _line_channels(part, k: int, lines: list, tolerance_m: float, report, forced=(),
+                   frame=None) -> _Network:
+    """Channels along the given lines, cut to the water and noded where they meet; a line
+    that ends (or starts) in the water short of its ends is carried on along the water's
+    skeleton (:func:`_carry_on`)."""
     merged = shapely.line_merge(shapely.node(shapely.MultiLineString(
         [np.asarray(g.coords) for g in lines])), directed=True)
     # free islands lie inside their channel: the lines are cut by the outer shore only
@@ -1697,6 +1720,7 @@ def _line_channels(part, k: int, lines: list, tolerance_m: float, report, forced
     merged = shapely.line_merge(shapely.MultiLineString([np.asarray(g.coords) for g in directed]),
                                 directed=True)
     segs = [np.asarray(g.coords) for g in shapely.get_parts(merged)]
+    segs = _without_stubs(segs, water, tolerance_m, report, k)
     key: dict[tuple[float, float], int] = {}
 
     def node(p) -> int:
@@ -1710,8 +1734,131 @@ def _line_channels(part, k: int, lines: list, tolerance_m: float, report, forced
                                  f"water {k} line {i}"))
     nodes = np.array(sorted(key, key=key.get), dtype=np.float64).reshape(-1, 2)
     net = _Network(water, free, channels, nodes)
+    _carry_on(net, water, k, tolerance_m, report, frame)
     _extend_free_ends(net, water)
     return net
+
+
+def _without_stubs(segs: list[np.ndarray], water, tolerance_m: float, report, k: int
+                   ) -> list[np.ndarray]:
+    """The line pieces without stubs: a piece from the outer shore to a junction of the
+    others, shorter than the water is wide across it (its median chord): a stream's line
+    come over the bank of a wider river to meet the river's line, whose water is the
+    river's (it was a channel as wide as the river, across it). The others are joined anew
+    where only two of them meet (reported)."""
+    ends = np.array([p for c in segs for p in (c[0], c[-1])]).reshape(-1, 2)
+    key = [tuple(np.round(p, 6)) for p in ends]
+    count = {t: key.count(t) for t in set(key)}
+    shore = water.exterior
+    keep = []
+    for i, c in enumerate(segs):
+        a, b = key[2 * i], key[2 * i + 1]
+        free = [p for p, t in ((c[0], a), (c[-1], b)) if count[t] == 1]
+        joined = [t for t in (a, b) if count[t] >= 3]
+        length = float(np.hypot(*np.diff(c, axis=0).T).sum())
+        if (len(free) == 1 and joined and shore.distance(shapely.Point(free[0])) <= tolerance_m
+                and length < float(np.median(_chord_widths(c, water)))):
+            report.notes.append(f"water body {k}: a line piece {length:.0f} m long from the shore "
+                                f"at ({free[0][0]:.1f}, {free[0][1]:.1f}) to the lines' junction, "
+                                f"across water wider than it is long, is a stream come over the "
+                                f"bank: left out (its water is the river's)")
+            continue
+        keep.append(c)
+    if len(keep) == len(segs):
+        return segs
+    merged = shapely.line_merge(shapely.MultiLineString(keep), directed=True)
+    return [np.asarray(g.coords) for g in shapely.get_parts(merged)]
+
+
+def _carry_on(net: _Network, water, k: int, tolerance_m: float, report, frame) -> None:
+    """Each free end of the lines with no chord across the water within two widths of it (a
+    river's line that stops in its estuary, short of the water's end: Porto's Douro) carried
+    on along the water's skeleton: from the skeleton's point nearest the end, along its
+    chains to the free end of the skeleton that is farthest along them, leaving the way the
+    line runs out (reported). An end whose way on runs into the lines' other ways on is left
+    as it is."""
+    from riverflow.hydro.builder import _end_chord
+
+    eps = max(1e-3, 1e-3 * tolerance_m)
+    deg = net.degree()
+    short = []
+    for c in net.channels:
+        for at_start in (True, False):
+            if deg[c.a if at_start else c.b] == 1 and _end_chord(
+                    water, c.points, float(np.median(c.widths)), at_start, eps) is None:
+                short.append((c, at_start))
+    if not short:
+        return
+    chains, nodes, collapsed = skeleton(water, tolerance_m, frame)
+    if collapsed is not None or not chains:
+        return
+    n = len(nodes)
+    lengths = [float(np.hypot(*np.diff(p, axis=0).T).sum()) for p, _, _, _ in chains]
+    a = np.array([c[2] for c in chains] + [c[3] for c in chains])
+    b = np.array([c[3] for c in chains] + [c[2] for c in chains])
+    cost = np.array(lengths * 2) + 1e-9
+    leaves = np.flatnonzero(np.bincount(a, minlength=n) == 1)
+    added = []
+    for c, at_start in short:
+        end = c.points[0] if at_start else c.points[-1]
+        out = end - (c.points[1] if at_start else c.points[-2])
+        out = out / max(float(np.hypot(*out)), 1e-12)
+        # the skeleton's point nearest the end, and the ways on from it along its chain
+        near = [(float(np.hypot(*(p - end).T).min()), i, int(np.argmin(np.hypot(*(p - end).T))))
+                for i, (p, _, _, _) in enumerate(chains)]
+        _, i, at = min(near)
+        p, w, na, nb = chains[i]
+        other = np.tile(np.arange(len(chains)) != i, 2)        # (not back along this one)
+        adj = coo_matrix((cost[other], (a[other], b[other])), shape=(n, n)).tocsr()
+        best = None
+        for part, pw, node in ((p[at::-1], w[at::-1], na), (p[at:], w[at:], nb)):
+            d, pred = dijkstra(adj, indices=node, return_predecessors=True)
+            for leaf in leaves.tolist():
+                if not np.isfinite(d[leaf]):
+                    continue
+                way, ww, cur = [part], [pw], leaf
+                steps = []
+                while cur != node:
+                    steps.append(cur)
+                    cur = int(pred[cur])
+                prev = node
+                for nxt in reversed(steps):
+                    j = next(j for j, ch in enumerate(chains)
+                             if j != i and {ch[2], ch[3]} == {prev, nxt})
+                    q, qw = chains[j][0], chains[j][1]
+                    if chains[j][2] != prev:
+                        q, qw = q[::-1], qw[::-1]
+                    way.append(q[1:])
+                    ww.append(qw[1:])
+                    prev = nxt
+                way, ww = np.vstack(way), np.concatenate(ww)
+                if len(way) < 2:
+                    continue
+                length = float(np.hypot(*np.diff(way, axis=0).T).sum())
+                s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(way, axis=0).T))])
+                ahead = way[min(int(np.searchsorted(s, c.width)), len(way) - 1)] - end
+                if ahead @ out <= 0.0 or (best is not None and length <= best[0]):
+                    continue
+                best = (length, way, ww)
+        if best is None:
+            continue
+        _, way, ww = best
+        line = shapely.LineString(way)
+        if any(shapely.distance(line, g) < 0.5 * c.width for g in added):
+            continue                    # (runs into another end's way on)
+        added.append(line)
+        if at_start:
+            c.points = np.vstack([way[::-1], c.points])
+            c.widths = np.concatenate([ww[::-1], c.widths])
+            net.nodes[c.a] = way[-1]
+        else:
+            c.points = np.vstack([c.points, way])
+            c.widths = np.concatenate([c.widths, ww])
+            net.nodes[c.b] = way[-1]
+        report.notes.append(f"water body {k}: {c.name} {'starts' if at_start else 'ends'} in the "
+                            f"water at ({end[0]:.1f}, {end[1]:.1f}), short of its end: carried "
+                            f"on {float(np.hypot(*np.diff(way, axis=0).T).sum()):.0f} m along "
+                            f"the water's skeleton")
 
 
 def _chord_widths(line: np.ndarray, water) -> np.ndarray:
@@ -1843,6 +1990,8 @@ def skeleton(water, tolerance_m: float = 0.25, frame=None, ends=None, dead=None)
     spacing = max(min(approx_width, 2.0 * gap) / SAMPLES_PER_WIDTH,
                   length / MAX_OUTLINE_SAMPLES, tolerance_m)
     per_ring = [np.asarray(shapely.segmentize(r, spacing).coords)[:-1] for r in rings]
+    per_ring = _narrow_samples(water, rings, per_ring, spacing,
+                               max(length / MAX_OUTLINE_SAMPLES, tolerance_m))
     pts = np.vstack(per_ring)
     open_edge = _open_edge(water, frame, approx_width, tolerance_m)
     banks = pts
@@ -1892,7 +2041,11 @@ def skeleton(water, tolerance_m: float = 0.25, frame=None, ends=None, dead=None)
     ids: dict[int, int] = {}
     for chain in chains:
         p = uniq[chain]
-        p = _smooth(p, radius[chain[0]], radius[chain[-1]], spacing)
+        # (simplified by half the spacing, or by an eighth of its median inscribed radius if
+        # less: by half the spacing, the axis of a channel much narrower than the spacing,
+        # whose points _narrow_samples put closer, left its water)
+        p = _smooth(p, radius[chain[0]], radius[chain[-1]],
+                    min(spacing, 0.25 * float(np.median(radius[chain]))))
         # widths all along it, not only at the points simplification kept (a straight
         # channel keeps only its ends, which lie in the wider junctions)
         step = max(2.0 * spacing, 0.5 * float(radius[chain].min()))
@@ -1904,6 +2057,38 @@ def skeleton(water, tolerance_m: float = 0.25, frame=None, ends=None, dead=None)
         out.append((p, w, a, b))
     nodes = np.array([uniq[i] for i in sorted(ids, key=ids.get)]).reshape(-1, 2)
     return out, nodes, None
+
+
+def _narrow_samples(water, rings, per_ring: list[np.ndarray], spacing: float,
+                    finest: float) -> list[np.ndarray]:
+    """The outline points ``per_ring`` with more where the water is narrower than
+    NARROW_SAMPLES × ``spacing``: a side channel or a tributary far narrower than the water's
+    mean width, whose skeleton the points at ``spacing`` do not hold (its Voronoi edges
+    cross its banks: the channel was lost, its water left to the nearest axis as a bank that
+    faces away). Such water (where the water less its opening by half that width, in
+    pieces of at least NARROW_AREA squared half widths: not a corner or a notch) has its
+    outline sampled at half the spacing, and so on within it down to ``finest``."""
+    out = [p for p in per_ring]
+    step = spacing
+    zone = water
+    while 0.5 * step >= finest:
+        h = 0.5 * NARROW_SAMPLES * step
+        opened = shapely.buffer(shapely.buffer(water, -h), h * (1.0 + 1e-3))
+        narrow = shapely.difference(zone, opened)
+        keep = [g for g in shapely.get_parts(narrow) if g.area >= NARROW_AREA * h * h]
+        if not keep:
+            break
+        zone = shapely.union_all(keep)
+        step *= 0.5
+        near = shapely.buffer(zone, step)
+        for k, r in enumerate(rings):
+            part = shapely.intersection(r, near)
+            if part.is_empty:
+                continue
+            more = shapely.get_coordinates(shapely.segmentize(part, step))
+            if len(more):
+                out[k] = np.unique(np.vstack([out[k], more]), axis=0)
+    return out
 
 
 def _out_through(seg: np.ndarray, inside: np.ndarray, kept: np.ndarray, open_edge, boundary,

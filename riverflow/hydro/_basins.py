@@ -50,6 +50,19 @@ DEAD_CHUNK = 64
 OPEN_END_REACH = 0.25
 """A backwater is a basin when it lies at least this many of its channel's widths from the
 axes' free ends (other basins: a width; nearer, the data's edge cuts across it)."""
+LEE_VERTICES = 24
+"""A lee's mouth (:func:`_lees`) starts at most this many outline vertices from it."""
+LEE_MOUTH_WIDTHS = 1.0
+"""A lee's mouth is at most this many of its channel's widths long..."""
+LEE_SINE = float(np.sin(np.radians(10.0)))
+"""...and faces its axis by at least 10° (a bank whose axis lies ahead along it has none of
+the flow's direction to give)."""
+LEE_STEPS = 32.0
+"""A lee's mouth ends on the outline at points this many per width."""
+LEE_TRIES = 8
+"""The smallest pockets tried in turn as a lee's basin (its mouth in the water)."""
+LEE_END_WIDTHS = 0.25
+"""No lee lies nearer than this many of its channel's widths to a free end of the axes."""
 WIDTH_WINDOW = 1.0
 """The channel's width by a point is the median of its axis' widths within this many widths
 along the axis (a basin widens the skeleton's inscribed circles beside its mouth)."""
@@ -125,14 +138,16 @@ def _excess(points: np.ndarray, axes: _Axes):
 
 
 def find_basins(water, axes: list[tuple[np.ndarray, np.ndarray]], avoid=(),
-                tolerance_m: float = 0.25, dead=()) -> list[Basin]:
+                tolerance_m: float = 0.25, dead=(), lees=()) -> list[Basin]:
     """The basins of ``water`` (a Polygon or MultiPolygon [m]) beside the channels ``axes``
     [(centre line (K, 2), widths (K,))] (module docstring); outline points within ``avoid``
     (polygons: lakes) are never in a basin, nor is the outline within a channel's width of
     a free end of the axes (an open end: the data's edge, drawn slanted across the water by
     a mask's cells, is no bank). ``dead``: axes like ``axes``' of dead ends known to be
     basins (the skeleton's spurs dropped as basins, from their channel's bank on); one whose
-    far end no basin found so holds is a backwater behind a spit (:func:`_backwater`)."""
+    far end no basin found so holds is a backwater behind a spit (:func:`_backwater`).
+    ``lees``: [(point (2,), axis (K, 2))], bank segments a built graph found facing away from
+    their axis; the pockets behind them are basins too (:func:`_lees`)."""
     if not axes:
         return []
     index = _Axes(axes)
@@ -185,7 +200,148 @@ def find_basins(water, axes: list[tuple[np.ndarray, np.ndarray]], avoid=(),
             if basin is not None and not any(b.polygon.intersection(basin.polygon).area
                                              > 1e-6 * basin.polygon.area for b in found):
                 found.append(basin)
+        found += _lees(poly, index, lines, found, lees, free_ends, tolerance_m)
     return found
+
+
+def _lees(poly, axes: _Axes, lines, found: list[Basin], lees, free_ends,
+          tolerance_m: float) -> list[Basin]:
+    """The lees of ``poly``'s outer shore: ``lees`` [(point (2,), axis (K, 2))] are the
+    middles of bank segments that a built graph found facing away from the axis it read them
+    with (the axis on their right, which no bank may have: the far side of a point of land,
+    a step in a bank, a bay's back wall). Each run of such edges of the outline is closed by
+    a *mouth* from a vertex on one side of it (the point of land's tip, at most LEE_VERTICES
+    away) to a point of the outline on the other side, no longer than LEE_MOUTH_WIDTHS of
+    the channel's width, with all the outline between on its land side and facing that axis
+    by at least LEE_SINE, in the water; of those, the one that closes the least water: the
+    pocket behind it is still water, a basin, in place of the basins found that it holds (a
+    creek's inner reach beyond the walls of its mouth; ``found`` loses them). None across a
+    basin's mouth, nor within LEE_END_WIDTHS of a free end of the axes (the water's open
+    end)."""
+    from riverflow.hydro.nearest import PolylineIndex
+
+    ring = poly.exterior
+    v = np.asarray(ring.coords)[:-1]
+    n = len(v)
+    if n < 4 or not len(lees):
+        return []
+    eps = max(1e-6 * float(np.abs(v).max()), 1e-3 * tolerance_m)
+    pts = np.array([p for p, _ in lees], np.float64).reshape(-1, 2)
+    on = np.flatnonzero(shapely.distance(ring, shapely.points(pts)) <= eps)
+    if not len(on):
+        return []
+    seg = PolylineIndex(np.vstack([v, v[:1]])).nearest_segments(pts[on]).seg
+    axis_of = {}
+    for i, k in zip(on.tolist(), seg.tolist()):
+        axis_of.setdefault(int(k) % n, lees[i][1])
+    away = np.zeros(n, bool)
+    away[list(axis_of)] = True
+    if away.all():
+        return []
+    wet = poly.buffer(eps)
+    shapely.prepare(wet)
+    out: list[Basin] = []
+    start = int(np.flatnonzero(~away)[0])
+    order = np.roll(np.arange(n), -start)
+    runs, k = [], 0
+    while k < n:
+        if not away[order[k]]:
+            k += 1
+            continue
+        j = k
+        while j < n and away[order[j]]:
+            j += 1
+        runs.append((k + start, j - 1 + start))       # (first, last edge, unwrapped)
+        k = j
+    for s, e in runs:
+        _, width = _excess(0.5 * (v[np.arange(s, e + 1) % n] + v[np.arange(s + 1, e + 2) % n]),
+                           axes)
+        w = float(np.median(width))
+        if not w > 0.0:
+            continue
+        basin = _lee(v, s, e, w, PolylineIndex(np.asarray(axis_of[s % n], np.float64)), wet,
+                     lines)
+        if basin is None or (free_ends is not None and not free_ends.is_empty and (
+                shapely.distance(basin.polygon, free_ends) < LEE_END_WIDTHS * w)):
+            continue                  # (the water's open end, cut across there)
+        area = basin.polygon.area
+        meets = [bs for bs in found + out
+                 if bs.polygon.intersection(basin.polygon).area > 1e-6 * area]
+        if any(shapely.difference(bs.polygon, basin.polygon).area > 1e-6 * bs.polygon.area
+               for bs in meets):
+            continue                  # (across a basin's mouth)
+        # (in place of the basins it holds: a creek's inner reach)
+        found[:] = [b for b in found if not any(b is m for m in meets)]
+        out = [b for b in out if not any(b is m for m in meets)] + [basin]
+    return out
+
+
+def _lee(v: np.ndarray, s: int, e: int, w: float, axis, wet, lines) -> Basin | None:
+    """The basin behind edges s..e (unwrapped indices) of ring ``v`` (:func:`_lees`)."""
+    n = len(v)
+    reach = LEE_MOUTH_WIDTHS * w
+    # the outline round the run, its edges cut to LEE_STEPS per width, and which of its
+    # points are the ring's vertices
+    k = min(LEE_VERTICES, (n - 2 - (e + 1 - s)) // 2)
+    if k < 0:
+        return None
+    given = v[np.arange(s - k, e + 2 + k) % n]
+    step = np.maximum(np.ceil(np.hypot(*np.diff(given, axis=0).T) * LEE_STEPS / w), 1).astype(int)
+    fine = np.vstack([given[a] + np.linspace(0.0, 1.0, m, endpoint=False)[:, None]
+                      * (given[a + 1] - given[a]) for a, m in enumerate(step.tolist())]
+                     + [given[-1:]])
+    vertex = np.concatenate([[0], np.cumsum(step)])
+    first, last = int(vertex[k]), int(vertex[k + 1 + e - s])        # the run's ends
+    crs = fine[:-1, 0] * fine[1:, 1] - fine[:-1, 1] * fine[1:, 0]
+    acc = np.concatenate([[0.0], np.cumsum(crs)])
+    best = []
+    tips_before = vertex[vertex <= first]
+    tips_after = vertex[vertex >= last]
+    for tips, forward in ((tips_before, True), (tips_after, False)):
+        for t in tips.tolist():
+            ends = np.arange(last, len(fine)) if forward else np.arange(0, first + 1)
+            if not len(ends):
+                continue
+            i, j = (np.full(len(ends), t), ends) if forward else (ends, np.full(len(ends), t))
+            chord = fine[j] - fine[i]
+            length = np.hypot(*chord.T)
+            ok = (length > 0.0) & (length <= reach)
+            if not ok.any():
+                continue
+            i, j, chord, length = i[ok], j[ok], chord[ok], length[ok]
+            # every point between on the land side (the right: the water is on the ring's left)
+            lo_k, hi_k = int(i.min()) + 1, int(j.max())
+            between = fine[lo_k:hi_k]
+            side = (chord[:, None, 0] * (between[None, :, 1] - fine[i][:, None, 1])
+                    - chord[:, None, 1] * (between[None, :, 0] - fine[i][:, None, 0]))
+            kk = np.arange(lo_k, hi_k)[None, :]
+            inside = (kk > i[:, None]) & (kk < j[:, None])
+            ok = ~((side > 1e-9 * (length ** 2)[:, None]) & inside).any(axis=1)
+            if not ok.any():
+                continue
+            i, j, chord = i[ok], j[ok], chord[ok]
+            mid = 0.5 * (fine[i] + fine[j])
+            ok = _sine(chord, axis.nearest(mid)[1] - mid) >= LEE_SINE
+            i, j = i[ok], j[ok]
+            area = 0.5 * (acc[j] - acc[i] + fine[j, 0] * fine[i, 1] - fine[j, 1] * fine[i, 0])
+            best += list(zip(area.tolist(), i.tolist(), j.tolist()))
+    for area, i, j in sorted(best)[:LEE_TRIES]:
+        pocket = fine[i:j + 1]
+        mouth = shapely.LineString([pocket[0], pocket[-1]])
+        basin = shapely.Polygon(pocket)
+        if (not basin.is_valid or not basin.area > 0.0 or not wet.contains(mouth)
+                or shapely.intersects(basin, lines)):
+            continue
+        t = (pocket[-1] - pocket[0]) / float(np.hypot(*(pocket[-1] - pocket[0])))
+        depth = float(np.abs((pocket - pocket[0]) @ np.array([-t[1], t[0]])).max())
+        return Basin(orient(basin, 1.0), np.array([pocket[0], pocket[-1]]), depth, w)
+    return None
+
+
+def _sine(d: np.ndarray, to: np.ndarray) -> np.ndarray:
+    """How far ``to`` lies left of directions ``d`` (N, 2): the sine of their angle."""
+    return (d[:, 0] * to[:, 1] - d[:, 1] * to[:, 0]) / np.maximum(
+        np.hypot(*d.T) * np.hypot(*to.T), 1e-300)
 
 
 def _backwater(poly, dead: np.ndarray, dead_widths: np.ndarray, axes, lines, avoid_u,

@@ -133,7 +133,7 @@ def _bank_segments(graph: HydroGraph, chunk: list[int]):
 
 def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6,
                    axes_cover_banks: bool = False, axis_index=None,
-                   one_stream: bool = True) -> list[str]:
+                   one_stream: bool = True, away=None) -> list[str]:
     """Check a builder-made graph. ``branches``: optional [(centre line (K, 2), widths (K,)
     or None, discharge m²/s)] drawn downstream (widths may be omitted as a 2-tuple).
     ``axes_cover_banks``: the caller made every axis' width cover its banks' points (the
@@ -145,7 +145,8 @@ def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6,
     lines running the same way before it meets a bank reads their discharges too
     (:func:`_discharge_problems`); False: such a reading is an error (the axes of a water
     area's skeleton never run in one stream: where they seem to, their directions are
-    wrong)."""
+    wrong). ``away``: a list to which the middle of every bank segment whose axis lies on its
+    right is appended with that axis' vertices, ``(point (2,), axis (K, 2))``."""
     problems: list[str] = []
     curves = graph.curves
     banks = graph.banks()
@@ -274,7 +275,11 @@ def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6,
             if not axes_cover_banks:
                 far[p0:p1] = ~np.isfinite(dist[s1 - s0:])
         holes = np.array([i in in_hole for i in chunk], bool)
-        bad_axis = np.bincount(sb, cross_bad, n).astype(np.int64) * ~holes
+        cross_bad &= ~holes[sb]
+        if away is not None and cross_bad.any():
+            away += [(p, graph.vertices(int(rivers[k])))
+                     for p, k in zip(mid[cross_bad], sb[cross_bad].tolist())]
+        bad_axis = np.bincount(sb, cross_bad, n).astype(np.int64)
         bad_far = np.bincount(vb, far, n).astype(np.int64)
         pt_count = np.bincount(vb, minlength=n)
         for k, i in enumerate(chunk):

@@ -195,13 +195,14 @@ def end_at_terminal_lakes(branches: list, lakes: list[Lake], lake_ends: list):
             b = branches[i]
             at_start = not ins
             try:
-                line, w = _clear_of(lake, b.centerline_m.copy(), b.widths_m, at_start, b.name)
+                line, widths = _clear_of(lake, b.centerline_m.copy(), b.widths_m.copy(),
+                                         at_start, b.name)
             except GraphError:
                 lake = lakes[k] = _give_way(lake, b.centerline_m, b.widths_m, at_start)
                 if lake is None:
                     raise
-                line, w = b.centerline_m, b.widths_m
-            branches[i] = type(b)(b.name, line, w, b.discharge_m2s)
+                line, widths = b.centerline_m, b.widths_m
+            branches[i] = type(b)(b.name, line, widths, b.discharge_m2s)
             lake_ends[i] = (-1, lake_ends[i][1]) if at_start else (lake_ends[i][0], -1)
         (terminal if ins else source).append(k)
     return branches, lake_ends, terminal, source
@@ -255,38 +256,37 @@ def _give_way(lake: Lake, line: np.ndarray, w: np.ndarray, at_start: bool) -> La
 
 def _clear_of(lake: Lake, line: np.ndarray, w: np.ndarray, at_start: bool, name: str
               ) -> tuple[np.ndarray, np.ndarray]:
-    """(``line`` with its end (its start if ``at_start``) drawn back from ``lake`` until the
-    strip of its last (first) stretch is 0.02 widths clear of it, its widths): a last
-    stretch drawn back to under a tenth of the width is dropped and the one before drawn
-    back (an axis bending along the shore at its end); GraphError where it cannot be, or its
-    ends would come within 0.3 widths (the builder's junctions join ends closer than 0.25)."""
+    """``line`` and its widths ``w`` with its end (its start if ``at_start``) drawn back from
+    ``lake`` until the strip of its last (first) stretch is 0.02 widths clear of it: a
+    stretch drawn back to a tenth of its width still beside the shore (a line running along
+    the shore before it ends there: München's Isar) is dropped, and the one before drawn
+    back; GraphError where it cannot be, or where its ends would come within a quarter of
+    its width (which the builder joins: :func:`end_at_terminal_lakes` moves the shore back
+    instead)."""
     from riverflow.hydro._strips import strip_polygon
 
-    e, f = (0, 1) if at_start else (-1, -2)
-    w = np.asarray(w, dtype=np.float64)
-    if w.ndim == 0:
-        w = np.full(len(line), float(w))
-    width = float(w[e])
-    for _ in range(400):
+    for _ in range(200 + len(line)):
+        e, f = (0, 1) if at_start else (len(line) - 1, len(line) - 2)
+        width = float(w[e])
         strip = strip_polygon(line[[e, f]], w[[e, f]])
         if lake.polygon.distance(strip) > 0.02 * width:
             return line, w
         t = line[e] - line[f]
         seg = float(np.hypot(*t))
-        if np.hypot(*(line[-1] - line[0])) <= 0.3 * min(float(w[0]), float(w[-1])):
+        if np.hypot(*(line[-1] - line[0])) <= 0.25 * min(float(w[0]), float(w[-1])):
             raise GraphError(f"branch {name!r}: drawn back from the shore of {lake.name} (a "
                              f"lake with no {'inlet' if at_start else 'outlet'}), its ends "
-                             f"come within 0.3 of its width")
-        if seg <= 0.1 * width and len(line) > 2:
-            line, w = (line[1:], w[1:]) if at_start else (line[:-1], w[:-1])
-            continue
+                             f"come within a quarter of its width")
         if seg <= 0.1 * width:
+            if len(line) > 2:
+                line, w = (line[1:], w[1:]) if at_start else (line[:-1], w[:-1])
+                continue
             raise GraphError(f"branch {name!r}: its {'first' if at_start else 'last'} stretch "
                              f"({seg:.1f} m) lies along the shore of {lake.name} (a lake with "
                              f"no {'inlet' if at_start else 'outlet'}): "
                              f"{'start' if at_start else 'end'} the branch square to the shore")
         line[e] = line[e] - t / seg * 0.05 * width
-    return line
+    return line, w
 
 
 def lake_junctions(branches, lakes: list[Lake], lake_ends, start_j, end_j, junctions):
@@ -373,8 +373,10 @@ def split_water(polygons: list, lakes: list[Lake], eps_m: float, min_area_m2: fl
     for lk in lakes:
         part = shapely.difference(water, shapely.union_all([river] + [o.polygon for o in lakes
                                                                      if o is not lk]))
+        # (a lake smaller than a river's sliver is no sliver: its pieces of half its area)
+        least = min(min_area_m2, 0.5 * lk.polygon.area)
         polys = [p for p in getattr(part, "geoms", [part])
-                 if isinstance(p, shapely.Polygon) and p.area > min_area_m2]
+                 if isinstance(p, shapely.Polygon) and p.area > least]
         if len(polys) != 1:
             raise GraphError(f"{lk.name}: the rivers cut it into {len(polys)} pieces (a river "
                              f"runs along or across its shore)")
@@ -530,7 +532,11 @@ def basin_axis(lake: Lake, tolerance_m: float) -> np.ndarray:
 
 PATH_CELLS = 160
 """:func:`_path_through` finds its path on a raster of the lake this many cells along its
-longer side."""
+longer side, or finer: PATH_CELLS_ACROSS cells across its mean width (twice its area over
+its outline's length: a long narrow basin, a tributary with no line of its own, had no cell
+in its water), with at most PATH_MAX_CELLS cells."""
+PATH_CELLS_ACROSS = 4.0
+PATH_MAX_CELLS = 1_000_000
 
 
 def _path_through(lake: Lake, inside, a: np.ndarray, b: np.ndarray, tolerance_m: float
@@ -539,15 +545,39 @@ def _path_through(lake: Lake, inside, a: np.ndarray, b: np.ndarray, tolerance_m:
     water: the cheapest path through the lake's raster, each step costing its length over the
     clearance there (the distance to the nearest shore), so it runs along the middle of an
     arm or a channel between islands, simplified to a fraction of the narrowest clearance it
-    passes and checked to stay in ``inside`` (the lake grown by the tolerance). An axis in a
-    lake that is not star-shaped about its centre (a reservoir's flooded side valleys, an
-    island between a mouth and the centre) follows it."""
+    passes and checked to stay in ``inside`` (the lake grown by the tolerance; a step between
+    cells beside the shore only where it does; where no path is found, on a raster of half the
+    cells' size, twice). An axis in a lake that is not star-shaped about its centre (a reservoir's
+    flooded side valleys, an island between a mouth and the centre) follows it."""
+    x0, y0, x1, y1 = lake.polygon.bounds
+    width = 2.0 * lake.polygon.area / max(lake.polygon.length, 1e-9)
+    cell = max(min(max(x1 - x0, y1 - y0) / PATH_CELLS, width / PATH_CELLS_ACROSS),
+               float(np.sqrt((x1 - x0) * (y1 - y0) / PATH_MAX_CELLS)), tolerance_m, 1e-6)
+    failed = GraphError(f"{lake.name}: the path from its mouth at ({a[0]:.1f}, {a[1]:.1f}) to "
+                        f"its centre leaves the lake")
+    for scale in (1.0, 0.5, 0.25):
+        if (x1 - x0) * (y1 - y0) > PATH_MAX_CELLS * (scale * cell) ** 2 and scale < 1.0:
+            break
+        try:
+            line, narrow = _raster_path(lake, inside, a, b, scale * cell)
+        except GraphError as exc:           # (a passage narrower than the cells: finer)
+            failed = exc
+            continue
+        for tol in (0.5 * narrow, 0.25 * narrow, 0.0):
+            simple = np.asarray(shapely.simplify(LineString(line), tol).coords) if tol else line
+            if inside.contains(LineString(simple)):
+                return simple
+    raise failed
+
+
+def _raster_path(lake: Lake, inside, a: np.ndarray, b: np.ndarray, cell: float):
+    """The cheapest path (K, 2) from ``a`` to ``b`` through the lake's raster of ``cell``
+    [m] (:func:`_path_through`) and the least clearance along it [m]."""
     from scipy import ndimage
     from scipy.sparse import coo_matrix
     from scipy.sparse.csgraph import dijkstra
 
     x0, y0, x1, y1 = lake.polygon.bounds
-    cell = max(max(x1 - x0, y1 - y0) / PATH_CELLS, tolerance_m, 1e-6)
     nx, ny = int(np.ceil((x1 - x0) / cell)) + 1, int(np.ceil((y1 - y0) / cell)) + 1
     gx, gy = np.meshgrid(0.5 * (x0 + x1) + (np.arange(nx) - 0.5 * (nx - 1)) * cell,
                          0.5 * (y0 + y1) + (np.arange(ny) - 0.5 * (ny - 1)) * cell)
@@ -564,8 +594,16 @@ def _path_through(lake: Lake, inside, a: np.ndarray, b: np.ndarray, tolerance_m:
         there = index[i0 + di:i1 + di, j0 + dj:j1 + dj]
         ok = (here >= 0) & (there >= 0)
         c = 0.5 * (clear[i0:i1, j0:j1] + clear[i0 + di:i1 + di, j0 + dj:j1 + dj])[ok]
-        rows.append(here[ok])
-        cols.append(there[ok])
+        h, t = here[ok], there[ok]
+        # (a step beside the shore must not cross a point of land thinner than a cell)
+        near = np.flatnonzero(c < 2.0 * cell)
+        if len(near):
+            steps = shapely.linestrings(np.stack([xy[h[near]], xy[t[near]]], axis=1))
+            keep = np.ones(len(c), bool)
+            keep[near] = shapely.contains(inside, steps)
+            h, t, c = h[keep], t[keep], c[keep]
+        rows.append(h)
+        cols.append(t)
         cost.append(np.hypot(di, dj) * cell / np.maximum(c, 1e-9))
     rows, cols, cost = np.concatenate(rows), np.concatenate(cols), np.concatenate(cost)
     n = len(xy)
@@ -588,11 +626,4 @@ def _path_through(lake: Lake, inside, a: np.ndarray, b: np.ndarray, tolerance_m:
     while k >= 0:
         path.append(k)
         k = pred[k] if k != ends[0] else -1
-    line = np.vstack([a, xy[path[::-1]], b])
-    narrow = float(clear[wet][path].min())
-    for tol in (0.5 * narrow, 0.25 * narrow, 0.0):
-        simple = np.asarray(shapely.simplify(LineString(line), tol).coords) if tol else line
-        if inside.contains(LineString(simple)):
-            return simple
-    raise GraphError(f"{lake.name}: the path from its mouth at ({a[0]:.1f}, {a[1]:.1f}) to its "
-                     f"centre leaves the lake")
+    return np.vstack([a, xy[path[::-1]], b]), float(clear[wet][path].min())

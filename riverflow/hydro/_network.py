@@ -28,7 +28,7 @@ from riverflow.hydro._strips import Piece, Ring
 from riverflow.hydro.graph import (LAKE_INFO, LAKE_LEVEL_INFO, NO_CURVE, NO_POTENTIAL, Area, Curve,
                                    CurveType, GraphError, HydroGraph)
 from riverflow.hydro.nearest import (LineChunks, PolylineIndex, first_per_group, ray_hits, stations,
-                                     tangent_at)
+                                     tangents_at)
 
 AXIS_WIDTH_FACTOR = 1.1
 """Axis width = largest river width along it × this + AXIS_MARGIN_M (reference rule 1)."""
@@ -149,7 +149,10 @@ def _sides_by_shores(geoms: list[BranchGeometry], pieces: list[Piece],
         at = mid[got] + inward[got] * dist[first[got]][:, None]
         # the branch's direction where the ray meets it: coming from its left, the ray runs
         # against its left normal
-        tangent = np.array([tangent_at(lines[k], p) for k, p in zip(b, at)])
+        tangent = np.empty((len(b), 2))
+        for k in np.unique(b).tolist():          # each branch's points at once
+            on = np.flatnonzero(b == k)
+            tangent[on] = tangents_at(lines[k], at[on])
         from_right = (tangent[:, 0] * inward[got, 1] - tangent[:, 1] * inward[got, 0]) > 0.0
         np.add.at(weight, (b, from_right.astype(int), np.full(len(b), i)), length[got])
     sides = []

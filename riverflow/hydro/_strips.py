@@ -10,6 +10,9 @@ segments).
 """
 from __future__ import annotations
 
+import hashlib
+import threading
+from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
@@ -25,6 +28,69 @@ MITER_LIMIT = 3.0
 
 _DISC_SEGMENTS = 32
 """Quarter-circle segments of a junction disc (chord error ≈ 3e-4 × radius)."""
+
+
+class GeometryMemo:
+    """What a pure function of geometry made, by a digest of its inputs, least recently used
+    first out beyond ``budget`` coordinates; thread-safe. A network built again (a live
+    edit of one branch, the narrowing's retries, a water area's retries) makes the same
+    strips and junction corners for everything the change did not touch: they are looked
+    up, not made again, and come out the same whatever was built before (the function is
+    pure: the same inputs give the same geometry)."""
+
+    def __init__(self, budget: int) -> None:
+        self.budget = int(budget)
+        self.size = 0
+        self.hits = 0
+        self.misses = 0
+        self._kept: OrderedDict[bytes, tuple[object, int]] = OrderedDict()
+        self._lock = threading.Lock()
+
+    @staticmethod
+    def key(*parts) -> bytes:
+        """A digest of ``parts``: arrays (their dtype, shape and bytes), geometries (WKB),
+        sequences of those, numbers, None."""
+        h = hashlib.blake2b(digest_size=20)
+        stack = list(parts)
+        while stack:
+            part = stack.pop(0)
+            if isinstance(part, np.ndarray):
+                h.update(f"{part.dtype.str}{part.shape}".encode())
+                h.update(np.ascontiguousarray(part).tobytes())
+            elif isinstance(part, shapely.Geometry):
+                h.update(b"g" + shapely.to_wkb(part))
+            elif isinstance(part, (list, tuple)):
+                h.update(f"[{len(part)}".encode())
+                stack[:0] = list(part)
+            else:
+                h.update(repr(part).encode())
+        return h.digest()
+
+    def get(self, key: bytes):
+        with self._lock:
+            entry = self._kept.get(key)
+            if entry is None:
+                self.misses += 1
+                return None
+            self._kept.move_to_end(key)
+            self.hits += 1
+            return entry[0]
+
+    def put(self, key: bytes, value, size: int) -> None:
+        with self._lock:
+            if key in self._kept or size > self.budget:
+                return
+            self._kept[key] = (value, size)
+            self.size += size
+            while self.size > self.budget:
+                _, (_, dropped) = self._kept.popitem(last=False)
+                self.size -= dropped
+
+
+GEOMETRY_MEMO_COORDS = 250_000
+"""Coordinates the strips' and junction corners' memo keeps (~6 MB with shapely's objects):
+a network of a few hundred branches, built again after an edit of one."""
+MEMO = GeometryMemo(GEOMETRY_MEMO_COORDS)
 
 
 def _unit_normals(centerline_m: np.ndarray) -> np.ndarray:
@@ -60,8 +126,18 @@ def strip_polygon(centerline_m: np.ndarray, widths_m: np.ndarray) -> shapely.Geo
     The two sides are offset polylines with mitred vertices when that makes a simple polygon
     (smooth centre lines); where a bend is too tight for that (an offset side folds over
     itself, or a mitre is longer than MITER_LIMIT half-widths), the strip is the union of
-    one quadrilateral per segment and bevel triangles at the vertices instead.
+    one quadrilateral per segment and bevel triangles at the vertices instead. Kept in
+    :data:`MEMO` (a branch built again unchanged is looked up).
     """
+    key = MEMO.key("strip", np.asarray(centerline_m, np.float64), np.asarray(widths_m, np.float64))
+    strip = MEMO.get(key)
+    if strip is None:
+        strip = _strip_polygon(centerline_m, widths_m)
+        MEMO.put(key, strip, int(shapely.get_num_coordinates(strip)))
+    return strip
+
+
+def _strip_polygon(centerline_m: np.ndarray, widths_m: np.ndarray) -> shapely.Geometry:
     p = centerline_m
     h = 0.5 * widths_m
     n = _unit_normals(p)

@@ -73,6 +73,9 @@ FILLET_SCALES = (1.0, 0.5, 0.25)
 larger one refused a corner."""
 FILLET_REACH_WIDTHS = 5.0
 """Corners are rounded within this many of the widest branch's widths from a junction."""
+LEE_ROUNDS = 3
+"""A graph from given water whose banks face away from their axes is built again with the
+pockets behind them as basins (``RiverNetworkBuilder.lees``) at most this many times."""
 
 
 @dataclass
@@ -169,6 +172,11 @@ class RiverNetworkBuilder:
         self.basin_axes: list = []
         """Axes ``(centre line (K, 2), widths (K,))`` [m] of the given water's dead ends that
         are basins, not channels (:func:`riverflow.hydro._basins.find_basins`' ``dead``)."""
+        self.lees: list = []
+        """Bank segments of the given water that a graph built from it found facing away from
+        their axis, ``(middle (2,), axis (K, 2))`` [m]: the pockets behind them are basins
+        (:func:`riverflow.hydro._basins.find_basins`' ``lees``); kept for the builds after."""
+        self._lee_rounds = 0
 
     # -- input --------------------------------------------------------------------------
 
@@ -595,9 +603,21 @@ class RiverNetworkBuilder:
         if lakes:   # islands in lakes: the ψ of zero circulation round them
             from riverflow.hydro.lake_flow import set_island_potentials
             set_island_potentials(graph, self.tolerance_m)
+        away: list = []
         problems = graph_problems(graph, [(g.centerline_m, g.widths_m, g.discharge_m2s) for g in geoms],
                                   axes_cover_banks=True, axis_index=axis_index,
-                                  one_stream=self.one_stream)
+                                  one_stream=self.one_stream,
+                                  away=away if self._water_area is not None else None)
+        seen = {tuple(p) for p, _ in self.lees}
+        away = [a for a in away if tuple(a[0]) not in seen]
+        if problems and away and self._lee_rounds < LEE_ROUNDS:
+            # the lees of the given water's points of land: basins, and built again
+            self._lee_rounds += 1
+            self.lees += away
+            try:
+                return self._build()
+            finally:
+                self._lee_rounds -= 1
         if problems:
             raise GraphError("the network gives an invalid hydro graph: " + "; ".join(problems[:5]))
         first = {}
@@ -625,7 +645,7 @@ class RiverNetworkBuilder:
         self.basins = find_basins(self._water_area,
                                   [(b.centerline_m, b.widths_m) for b in branches],
                                   [lk.polygon for lk in self._lakes], self.tolerance_m,
-                                  self.basin_axes)
+                                  self.basin_axes, self.lees)
         report = getattr(self, "report", None)
         if report is not None:
             report.derived.pop("basins", None)
@@ -998,27 +1018,20 @@ def _round_junctions(river, parts: list, geoms: list[BranchGeometry], junctions:
         half = 1.01 * (reach + 3.0 * radius)
         box = (p[0] - half, p[1] - half, p[0] + half, p[1] + half)
         near = shapely.clip_by_rect(parts_array[tree.query(window, predicate="intersects")], *box)
-        merged = shapely.union_all(near)
         # the free-end cuts a fillet must keep away from: those within 2 radii of the window
         # (a fillet lies inside it); all of them made each test visit every cut
         close = cut_tree.query(window, predicate="dwithin", distance=2.0 * radius + 1.0)
         keep_out = shapely.MultiLineString(list(cut_lines[np.sort(close)])) if len(close) else None
-        # the arcs in closed form where the corners are simple (they look at the water within
-        # reach + 2 radii only: the square will do)
-        found = _strips.corner_fillets(_strips.drop_slivers(merged, sliver_m2), p, radius, reach,
-                                       keep_out, FILLET_EXTENT * radius, FILLET_SCALES)
-        if found is not None:
-            pieces += found[0]
-            continue
-        local = _strips.drop_slivers(shapely.intersection(merged, window), sliver_m2)
-        for scale in FILLET_SCALES:  # not a junction of simple corners: the closing
-            added, refused = _strips.fillet_pieces(local, p, scale * radius, reach, keep_out,
-                                                   FILLET_EXTENT * radius)
-            pieces += added
-            if not refused:
-                break       # a smaller closing of the rounded water adds nothing
-            if added:
-                local = shapely.union_all([local, *added])
+        # a junction whose water near it is as it was (a network built again) has the same
+        # corners: looked up (the strips' memo)
+        key = _strips.MEMO.key("corners", np.asarray(p, np.float64), radius, reach, sliver_m2,
+                               FILLET_EXTENT, FILLET_SCALES, list(near), keep_out)
+        made = _strips.MEMO.get(key)
+        if made is None:
+            made = _junction_corners(near, p, radius, reach, window, keep_out, sliver_m2)
+            _strips.MEMO.put(key, made,
+                             sum(int(shapely.get_num_coordinates(g)) for g in made) + 1)
+        pieces += made
     if not pieces:
         return river
     # the pieces lie in small groups (one per junction): their union by disjoint subsets is
@@ -1031,6 +1044,30 @@ def _round_junctions(river, parts: list, geoms: list[BranchGeometry], junctions:
                                    sliver_m2)
     return rounded if _strips.topology(rounded) == _strips.topology(river) else river
 
+
+
+def _junction_corners(near, p, radius: float, reach: float, window, keep_out,
+                      sliver_m2: float) -> list:
+    """The pieces that round the corners of one junction (:func:`_round_junctions`): the
+    water ``near`` it (its parts clipped to a square round ``window``), arcs of ``radius``."""
+    merged = shapely.union_all(near)
+    # the arcs in closed form where the corners are simple (they look at the water within
+    # reach + 2 radii only: the square will do)
+    found = _strips.corner_fillets(_strips.drop_slivers(merged, sliver_m2), p, radius, reach,
+                                   keep_out, FILLET_EXTENT * radius, FILLET_SCALES)
+    if found is not None:
+        return list(found[0])
+    pieces = []
+    local = _strips.drop_slivers(shapely.intersection(merged, window), sliver_m2)
+    for scale in FILLET_SCALES:  # not a junction of simple corners: the closing
+        added, refused = _strips.fillet_pieces(local, p, scale * radius, reach, keep_out,
+                                               FILLET_EXTENT * radius)
+        pieces += added
+        if not refused:
+            break       # a smaller closing of the rounded water adds nothing
+        if added:
+            local = shapely.union_all([local, *added])
+    return pieces
 
 def _water(geoms: list[BranchGeometry], junctions: np.ndarray, islands: list[_Island],
            tolerance_m: float, fillet_fraction: float = FILLET_FRACTION, lakes=(),
@@ -1123,6 +1160,9 @@ END_CHORD_REACH = 1.5
 """...looked for within this many widths of the branch's free end..."""
 END_CHORD_LONGEST = 1.6
 """...and no longer than this many widths (a longer one runs across a bend)."""
+END_STRAIGHT = 0.02
+"""The straight edge a free end runs into (the data's edge) goes on over the outline's next
+edges while their vertices lie within this many widths of a line."""
 _END_STATIONS = 48
 
 
@@ -1182,21 +1222,23 @@ def _end_chord(water, line: np.ndarray, width_m: float, at_start: bool, eps_m: f
         return None
     chord = np.where(ok, chord, 0.0)
     ref = min(chord.max(), width_m)
-    edge = _edge_at(water, start + t * tip[0], eps_m)
-    span = np.hypot(*(edge[1] - edge[0])) if edge is not None else 0.0
+    edge = _edge_at(water, start + t * tip[0], eps_m, END_STRAIGHT * width_m)
+    span = np.hypot(*(edge[-1] - edge[0])) if edge is not None else 0.0
     if END_CHORD_FRACTION * ref <= span <= END_CHORD_LONGEST * width_m:
         # the water ends on a straight edge across the channel (the data's edge): that edge
-        u, v = edge
-        if ((v - u) @ n < 0) != at_start:
-            u, v = v, u
-        return np.array([u, v]), float(tip[0] - back), t
+        if ((edge[-1] - edge[0]) @ n < 0) != at_start:
+            edge = edge[::-1]
+        return edge, float(tip[0] - back), t
     k = int(np.flatnonzero(chord >= END_CHORD_FRACTION * ref)[0])
     a, b = q[k] + n * left[k], q[k] - n * right[k]
     return np.array([a, b]) if at_start else np.array([b, a]), float(s[k] - back), t
 
 
-def _edge_at(water, point: np.ndarray, eps_m: float):
-    """The straight edge (2, 2) of the water's outline through ``point``, or None."""
+def _edge_at(water, point: np.ndarray, eps_m: float, straight_m: float = 0.0):
+    """The straight edge of the water's outline through ``point``, (M, 2), or None: the edge
+    there, and the edges on from it while the vertices between lie within ``straight_m`` of
+    the line between the ends (a map's end of the water drawn as a nearly straight line of
+    several edges: the one edge left a corner of it a bank facing away from the axis)."""
     p = shapely.Point(point)
     for poly in getattr(water, "geoms", [water]):
         for ring in [poly.exterior, *poly.interiors]:
@@ -1210,8 +1252,32 @@ def _edge_at(water, point: np.ndarray, eps_m: float):
             dist = np.hypot(*(a + u[:, None] * d - point).T)
             k = int(np.argmin(dist))
             if dist[k] <= eps_m:
-                return np.array([a[k], b[k]])
+                return _straight_run(v[:-1], k, straight_m)
     return None
+
+
+def _straight_run(v: np.ndarray, k: int, straight_m: float) -> np.ndarray:
+    """Ring ``v``'s (M, 2) edge k and the edges on from it either way while every vertex
+    between the run's ends lies within ``straight_m`` of the line through them, (R, 2)."""
+    m = len(v)
+    i, j = k, k + 1
+
+    def straight(i: int, j: int) -> bool:
+        p = v[np.arange(i, j + 1) % m]
+        d = p[-1] - p[0]
+        length = float(np.hypot(*d))
+        return length > 0.0 and bool((np.abs(d[0] * (p[1:-1] - p[0])[:, 1] - d[1] * (
+            p[1:-1] - p[0])[:, 0]) <= straight_m * length).all())
+
+    while straight_m > 0.0 and j - i < m - 2:
+        if straight(i - 1, j) and (not straight(i, j + 1) or np.hypot(*(v[(i - 1) % m] - v[i % m]))
+                                   <= np.hypot(*(v[(j + 1) % m] - v[j % m]))):
+            i -= 1
+        elif straight(i, j + 1):
+            j += 1
+        else:
+            break
+    return v[np.arange(i, j + 1) % m].copy()
 
 
 def _trim_to_chord(line: np.ndarray, widths: np.ndarray, chord: np.ndarray, at_start: bool):
@@ -1220,7 +1286,7 @@ def _trim_to_chord(line: np.ndarray, widths: np.ndarray, chord: np.ndarray, at_s
     if not at_start:
         line2, w2 = _trim_to_chord(line[::-1], widths[::-1], chord, True)
         return line2[::-1].copy(), w2[::-1].copy()
-    a, b = chord
+    a, b = chord[0], chord[-1]
     n = np.array([-(b - a)[1], (b - a)[0]])
     side = (line - a) @ n
     sign = np.sign(side[-1]) or 1.0
@@ -1255,7 +1321,8 @@ def _given_water(geoms: list[BranchGeometry], water, islands: list[_Island], tol
                                  f"(no chord across the channel within two widths of it)")
             chord = found[0]
             line = shapely.LineString(np.vstack([chord[0] - (chord[1] - chord[0]) * 1e-6,
-                                                 chord[1] + (chord[1] - chord[0]) * 1e-6]))
+                                                 chord[1:-1],
+                                                 chord[-1] + (chord[-1] - chord[-2]) * 1e-6]))
             pieces = list(shapely.get_parts(shapely.ops.split(water, line)))
             t = found[2]
             mid = chord.mean(axis=0)

@@ -207,7 +207,11 @@ class FlowField:
                                          quadtree.tile_size_m(self.max_level), self.max_level),
                          f"FlowField: the wet-tile table of a network {root_size:,.0f} m across "
                          f"at lattice spacing potential_delta_m={delta:g} m "
-                         f"(quadtree level {self.max_level})")
+                         f"(quadtree level {self.max_level}"
+                         + ("" if potential_delta_m is not None else
+                            f"; by default a 24th of its narrowest water: a coarser "
+                            f"potential_delta_m, RiverConfig.potential_delta_m for a world, "
+                            f"leaves water narrower than a few lattice cells dry") + ")")
         self.tiles = FlowTiles(quadtree, lattice_cells, self.max_level, cache,
                                coverage_table(quadtree, axis_segments, axis_half_widths,
                                               self.max_level))

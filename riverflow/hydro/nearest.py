@@ -169,11 +169,16 @@ def first_per_group(group: np.ndarray, key: np.ndarray, n_groups: int,
 def tangent_at(line: np.ndarray, point: np.ndarray) -> np.ndarray:
     """The direction (2,) (not normalised) of the segment of polyline ``line`` (K, 2) nearest
     ``point``."""
-    a, d = line[:-1], np.diff(line, axis=0)
-    dd = np.maximum(np.einsum("ij,ij->i", d, d), 1e-300)
-    u = np.clip(np.einsum("ij,ij->i", point - a, d) / dd, 0.0, 1.0)
-    k = int(np.argmin(np.hypot(*(a + u[:, None] * d - point).T)))
-    return d[k]
+    return tangents_at(line, np.asarray(point, np.float64).reshape(1, 2))[0]
+
+
+def tangents_at(line: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """The directions (P, 2) (not normalised) of the segments of polyline ``line`` (K, 2)
+    nearest each of ``points`` (P, 2), the first of equally near ones (through the
+    :class:`PolylineIndex`'s box hierarchy: the lowest segment of a tie, as ``np.argmin``
+    over them all)."""
+    seg = PolylineIndex(np.asarray(line, np.float64)).nearest_segments(points).seg
+    return np.diff(line, axis=0)[seg]
 
 
 def stations(line: np.ndarray, fractions: np.ndarray, widths=None):

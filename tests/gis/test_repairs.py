@@ -60,6 +60,14 @@ def test_braid_arms_closer_than_their_width_merge_around_an_island(tmp_path):
     (merged,) = [lk for lk in builder.report.links if lk.name.endswith("merged")]
     assert merged.width_m == pytest.approx(50.0)      # their discharge: the river above's
     assert min(b.widths_m.min() for b in builder._branches) >= 40.0
+    # each arm meets the merged reach slantwise (it leaves its line a gap's length before
+    # the cut), not square across the gap: side by side, a T's strips overlap past the disc
+    branches = {b.name: b.centerline_m for b in builder._branches}
+    reach = branches[merged.name]
+    ahead = (reach[-1] - reach[0]) / np.hypot(*(reach[-1] - reach[0]))
+    for name in ("feature 2", "feature 3"):              # (square: 75° and 105° here)
+        last = branches[name][-1] - branches[name][-2]
+        assert np.dot(last, ahead) / np.hypot(*last) > np.cos(np.radians(60.0)), name
     # the water between the arms above the merge is an island: land inside the braid
     field = check_flows_downstream(graph, braid_arms(), skip_m=3.0)
     status, _ = field.query(np.array([[60.0, 0.0]]) + ORIGIN)
@@ -191,6 +199,44 @@ def test_lines_drawn_upstream_found_from_the_topology(tmp_path):
     assert [r.feature for r in builder.report.repairs] == ["feature 1"]   # (ids from 1)
     assert "drawn upstream (by the topology" in builder.report.repairs[0].what
     check_flows_downstream(graph, lines)
+
+
+def test_a_files_flow_direction_attribute_is_its_word(tmp_path):
+    """Two rivers leaving the data, joined by a canal (a delta's or a clipped network's
+    several outlets): the topology alone takes one outlet per piece and turns one river's
+    lower reach up into the canal. NHD's ``FLOWDIR`` ("With Digitized") and the Ordnance
+    Survey's ``flowDirection`` ("inDirection", "inOppositeDirection": turned) say each
+    line's direction: kept as they say, never turned; lines they leave open
+    ("Uninitialized") are directed by the topology."""
+    lines = [polyline((0, 1000), (0, 0)), polyline((0, 0), (0, -1000)),
+             polyline((800, 1000), (800, 200)), polyline((800, 200), (800, -1000)),
+             polyline((0, 0), (400, 150), (800, 200))]
+    for word, turned in (("Uninitialized", ["feature 1"]), ("With Digitized", [])):
+        path = write_lines(tmp_path / f"nhd {word}.shp", lines,
+                           {"FLOWDIR": np.array([word] * 5, dtype=object)})
+        builder = rf.read_rivers(path, origin_m=None)
+        graph = built(builder)
+        assert [r.feature for r in builder.report.repairs] == turned, word
+    assert builder.report.derived["direction"] == (
+        "by the attribute 'FLOWDIR': 5 line(s) drawn with the flow")
+    check_flows_downstream(graph, lines, skip_m=20.0)    # (the canal leaves in the river)
+    lines = lines[:2] + [lines[4]]                          # one river and the canal
+    drawn = [lines[0], lines[1][::-1], lines[2]]
+    os_dir = np.array(["inDirection", "inOppositeDirection", "inDirection"], dtype=object)
+    builder = rf.read_rivers(write_lines(tmp_path / "os.gpkg", drawn,
+                                         {"flowDirection": os_dir}), origin_m=None)
+    check_flows_downstream(built(builder), lines, skip_m=20.0)
+    assert not builder.report.repairs and "1 against it (turned)" in builder.report.derived[
+        "direction"]
+    joined = confluence()
+    drawn = [joined[0][::-1], joined[1], joined[2]]      # a tributary drawn upstream
+    open_ = np.array(["Uninitialized", "With Digitized", "With Digitized"], dtype=object)
+    builder = rf.read_rivers(write_lines(tmp_path / "open.shp", drawn, {"FLOWDIR": open_}),
+                             origin_m=None)
+    check_flows_downstream(built(builder), joined)
+    assert "; 1 it leaves open, directed by the topology" in builder.report.derived["direction"]
+    (what,) = repairs_of(builder, "feature 0")
+    assert "drawn upstream (by the topology" in what
 
 
 def test_lines_drawn_upstream_found_from_drainage_areas(tmp_path):

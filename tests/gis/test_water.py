@@ -1182,3 +1182,99 @@ def test_the_skeletons_voronoi_edges_are_geos_ones():
     assert far.sum() >= 3                           # the unbounded edges, cut far outside
     line = np.column_stack([np.arange(5.0), np.zeros(5)])
     assert _voronoi_edges(line).shape == (4, 2, 2)
+
+
+def test_an_end_drawn_as_nearly_straight_edges_is_cut_along_them(tmp_path):
+    """A river whose end is drawn obliquely across it as two edges meeting at a bend of a few
+    degrees (a map's end of the water: München's Isar). The closing segment is the whole
+    straight run of edges the axis runs into, as the data draws it (END_STRAIGHT), not a
+    chord across the channel that cut off 580 m² beyond it (nor the one edge, which left the
+    other a bank facing away from the axis: "its axis lies on its right")."""
+    w = 60.0
+    a, c = np.array([300.0, -w / 2]), np.array([280.0, w / 2])
+    n = np.array([-(c - a)[1], (c - a)[0]]) / np.hypot(*(c - a))
+    bend = a + 0.8 * (c - a) + 0.6 * n                   # 0.6 m into the water
+    water = shapely.Polygon([(-60.0, -w / 2), a, bend, c, (-60.0, w / 2)])
+    water = shapely.normalize(shapely.clip_by_rect(shapely.affinity.rotate(
+        water, 30.0, origin=(0, 0)), 0.0, -1000.0, 1000.0, 1000.0))
+    builder = rf.read_water(write_polygons(tmp_path / "end.geojson", [water]), origin_m=ORIGIN)
+    graph = builder.build()
+    assert "ends_cut_m2" not in builder.report.derived
+    end = shapely.affinity.rotate(shapely.LineString([a, bend, c]), 30.0, origin=(0, 0))
+    assert shapely.hausdorff_distance(closing_segments(graph), end) < 1e-6 or any(
+        shapely.hausdorff_distance(g, end) < 1e-6 for g in closing_segments(graph).geoms)
+
+
+def test_a_tributary_far_narrower_than_the_river_has_its_axis(tmp_path):
+    """A 14 m tributary meandering 700 m off a 250 m river: the skeleton's outline points,
+    spaced for the river's mean width (over 20 m apart), do not hold the tributary's medial
+    axis (its Voronoi edges cross its banks), which was lost: its water was left to the
+    river's axis as a bank that faces away from it (Porto's Douro). Where the water is
+    narrower than NARROW_SAMPLES spacings its outline is sampled finer, and its chains are
+    simplified at their own width: the tributary is a channel of its own, its axis inside
+    its water."""
+    r = 250.0
+    u = np.linspace(0.0, 700.0, 141)
+    line = shapely.LineString(np.c_[700.0 + 0.3 * u + 40.0 * np.sin(u / 90.0), r / 2 - 5.0 + u])
+    water = shapely.union_all([shapely.box(-100.0, -r / 2, 1600.0, r / 2),
+                               line.buffer(7.0, cap_style="flat")])
+    water = shapely.normalize(shapely.clip_by_rect(water, 0.0, -1000.0, 1400.0, 2000.0))
+    builder = rf.read_water(write_polygons(tmp_path / "trib.geojson", [water]), origin_m=ORIGIN)
+    graph = builder.build()
+    assert builder.report.derived["axes"] == {"skeleton": 3}
+    narrow = [b for b in builder._branches if float(np.median(b.widths_m)) < 30.0]
+    assert len(narrow) == 1
+    # (its axis runs on into the river to the junction)
+    axis = shapely.difference(shapely.LineString(narrow[0].centerline_m),
+                              shapely.box(-100.0, -r / 2, 1600.0, r / 2))
+    assert axis.length > 650.0 and axis.within(water.buffer(0.5))
+    assert len(graph.lakes()) == 0
+
+
+def test_a_river_with_a_pond_beside_it_is_no_pond_for_a_line_across_it(tmp_path):
+    """A 1 km river (50 m wide) with its line, a pond apart from it: a water body whose
+    channels are no longer than twice their width is a pond. The width was the widest chord
+    of any line point, and the line's 2 m zigzag (München's Isar lines start with one) had a
+    chord along the whole river (1 km): the river was read as a still pond. A line's
+    width is its median chord over its middle."""
+    water = write_polygons(tmp_path / "water.geojson",
+                           [shapely.box(0, -25, 1000, 25), shapely.box(100, 200, 130, 230)])
+    line = shapely.LineString([(0, 0), (500, -1), (500, 0), (500, 1), (1000, 0)])
+    builder = rf.read_water(water, lines=write_polygons(tmp_path / "line.geojson", [line]),
+                            origin_m=ORIGIN)
+    assert builder.report.derived["axes"] == {"lines": 1}
+    assert sum("a pond" in str(r) for r in builder.report.repairs) == 1      # the pond only
+    field = rf.FlowField(builder.build(), potential_delta_m=2.0)
+    status, v = field.query(np.array([[250.0, 0.0], [115.0, 215.0]]))
+    assert (status == rf.FlowStatus.INSIDE).all() and v[0, 0] > 0.1 and np.abs(v[1]).max() < 1e-6
+
+
+def test_a_line_that_stops_in_its_estuary_is_carried_on(tmp_path):
+    """A river's line that stops where its water widens into an estuary 500 m wide (Porto's
+    Douro): no chord across the water near its end ("does not reach across the water").
+    It is carried on along the water's skeleton to the water's end, reported."""
+    water = shapely.union_all([shapely.box(0, -50, 700, 50), shapely.Polygon(
+        [(600, -50), (1000, -250), (1000, 250), (600, 50)])])
+    line = shapely.LineString([(0, 0), (650, 0)])
+    builder = rf.read_water(write_polygons(tmp_path / "estuary.geojson", [water]),
+                            lines=write_polygons(tmp_path / "line.geojson", [line]),
+                            origin_m=ORIGIN)
+    builder.build()
+    assert sum("carried on" in n for n in builder.report.notes) == 1
+    (branch,) = builder._branches
+    assert abs(branch.centerline_m[-1, 0] - 1000.0) < 1.0
+
+
+def test_a_streams_line_come_over_the_bank_is_left_out(tmp_path):
+    """A stream's line crossing the land into a 200 m river and on to the river's line: its
+    piece in the water (100 m) was a channel of its own, across the river, as wide as the
+    river is long ("do not meet"). It is left out (its water is the river's), reported."""
+    water = write_polygons(tmp_path / "river.geojson", [shapely.box(0, -100, 1000, 100)])
+    lines = [shapely.LineString([(x, 0) for x in range(-50, 1051, 50)]),
+             shapely.LineString([(480, 400), (500, 100), (500, 0)])]
+    builder = rf.read_water(water, lines=write_polygons(tmp_path / "lines.geojson", lines),
+                            origin_m=ORIGIN)
+    builder.build()
+    assert sum("left out (its water is the river's)" in n for n in builder.report.notes) == 1
+    (branch,) = builder._branches
+    assert np.abs(branch.centerline_m[:, 1]).max() < 1e-6

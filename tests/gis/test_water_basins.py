@@ -587,3 +587,53 @@ def test_the_excess_beyond_a_bank_through_the_axes_box_hierarchy():
     assert (np.isfinite(got) == finite).all()
     np.testing.assert_allclose(got[finite], want[finite], atol=1e-9)
     np.testing.assert_allclose(got_w, want_w, atol=1e-9)
+
+
+def test_the_lee_of_a_point_of_land_is_still_water(tmp_path):
+    """A point of land on a straight 60 m river's bank whose downstream face leans back
+    (from its tip 6 m out it returns 3 m upstream to a bank 4 m further back: Porto's and
+    München's bank steps and piers). That face has the river's axis on its right, which no
+    bank may ("its axis lies on its right"); the graph that finds it is built again with the
+    pocket behind the smallest mouth from the tip that faces the axis (by at least 10°) as
+    a basin: still water joined to the river, the river running past."""
+    bank = [(-60.0, -W / 2), (195.0, -W / 2), (200.0, -W / 2 + 6.0), (197.0, -W / 2 - 4.0),
+            (400.0, -W / 2 - 4.0), (400.0, W / 2), (-60.0, W / 2)]
+    water = shapely.normalize(shapely.intersection(_world(shapely.Polygon(bank)),
+                                                   box(0, -1000, 300, 1000)))
+    builder = rf.read_water(write_polygons(tmp_path / "lee.geojson", [water]), origin_m=ORIGIN)
+    graph = builder.build()
+    assert len(builder.basins) == 1 and len(builder.report.derived["basins"]) == 1
+    (b,) = builder.basins
+    tip, foot = _world(shapely.MultiPoint([(200.0, -W / 2 + 6.0), (198.5, -W / 2 - 3.0)])).geoms
+    assert min(np.hypot(*(b.mouth - np.asarray(tip.coords[0])).T)) < 1e-6
+    assert b.polygon.buffer(1e-6).contains(foot)
+    assert b.polygon.area < 200.0                # the pocket behind the tip, no more
+    # the mouth faces the axis: the river's bank downstream of the tip
+    t = np.asarray(b.mouth[1] - b.mouth[0]) @ T
+    assert abs(t) > np.sin(np.radians(10.0)) * float(np.hypot(*(b.mouth[1] - b.mouth[0])))
+    assert len(graph.lakes()) == 1
+    field = rf.FlowField(graph)
+    pts = _world(shapely.MultiPoint([(100.0, 0.0), (199.5, -W / 2 - 2.0), (250.0, 0.0)]))
+    status, v = field.query(shapely.get_coordinates(pts))
+    assert (status == INSIDE).all()
+    speed = np.hypot(*v.T)
+    assert speed[1] < 0.05 * speed[0] and (v[[0, 2]] @ T > 0.9 * speed[[0, 2]]).all()
+
+
+def test_a_creek_whose_mouth_faces_away_is_one_basin(tmp_path):
+    """A creek 12 m wide leaning 100 m back into the bank of a 300 m river (Porto's creeks):
+    the basin found beyond the channel's half width starts inside it, and the creek's walls
+    below, the river's bank, face away from its axis. The lee behind them holds that basin:
+    it takes its place, one basin from the creek's mouth to its head, still water."""
+    creek = shapely.Polygon([(500, 149), (512, 149), (532, 260), (520, 260)])
+    water = shapely.union_all([box(-100, -150, 1100, 150), creek])
+    water = shapely.normalize(shapely.clip_by_rect(water, 0, -1000, 1000, 1000))
+    builder = rf.read_water(write_polygons(tmp_path / "creek.geojson", [water]), origin_m=ORIGIN)
+    graph = builder.build()
+    assert len(builder.basins) == 1
+    (b,) = builder.basins
+    assert b.mouth[:, 1].min() < 151.0                     # from the bank at the mouth
+    head = shapely.difference(creek, box(0, 0, 1000, 180))
+    assert shapely.difference(head, b.polygon.buffer(0.01)).area < 1e-3 * head.area
+    status, v = rf.FlowField(graph, potential_delta_m=2.0).query(np.array([[520.0, 230.0]]))
+    assert status[0] == INSIDE and np.hypot(*v[0]) < 1e-6

@@ -18,13 +18,15 @@ WEST = shapely.LineString([(0, 20), (300, 0), (520, 0)]).buffer(15, cap_style="f
 EAST = shapely.LineString([(680, 0), (900, -30), (1200, -30)]).buffer(20, cap_style="flat")
 
 
-def write_tagged(path, geoms, water):
-    """Polygons (relative to ORIGIN) with a ``water`` attribute."""
+def write_tagged(path, geoms, water, field="water"):
+    """Polygons (relative to ORIGIN) with a ``water`` attribute (``field``: another name;
+    numbers are written as numbers)."""
     import pyogrio.raw
 
     geoms = [shapely.transform(g, lambda p: p + ORIGIN) for g in geoms]
+    values = np.array(water, dtype=None if isinstance(water[0], (int, float)) else object)
     pyogrio.raw.write(str(path), np.array([shapely.to_wkb(g) for g in geoms], dtype=object),
-                      [np.array(water, dtype=object)], ["water"], driver=DRIVERS[path.suffix],
+                      [values], [field], driver=DRIVERS[path.suffix],
                       crs=UTM, geometry_type="Polygon")
     return path
 
@@ -51,6 +53,26 @@ def test_a_polygon_tagged_lake_between_two_rivers_is_a_lake(tmp_path):
     field = rf.FlowField(graph)
     status, v = field.query(np.array(lake.centroid.coords))
     assert status[0] == rf.FlowStatus.INSIDE and v[0, 0] > 0.0   # west to east across it
+
+
+def test_nhd_feature_types_of_standing_water_are_lakes(tmp_path):
+    """The National Hydrography Dataset's polygons say what they are in ``FTYPE``: NHDPlus
+    by name (LakePond, Reservoir, SwampMarsh; StreamRiver is a river's water), NHD HR by
+    code (390, 436; 460): its waterbodies are lakes (a real NHDPlus waterbody layer came in
+    as rivers and was refused, "do not meet")."""
+    for name, ftypes in (("plus.shp", ["StreamRiver", "LakePond", "StreamRiver"]),
+                         ("hr.gpkg", [460, 390, 460])):
+        path = write_tagged(tmp_path / name, [WEST, LAKE, EAST], ftypes, field="FTYPE")
+        b = rf.read_water(path, inlets=[tuple(ORIGIN + (0, 20))],
+                          outlets=[tuple(ORIGIN + (1200, -30))])
+        graph = b.build()
+        (k,) = graph.lakes()
+        assert len(b.discharges_m2s) == 2, name
+        lake = shapely.Polygon(area_ring(graph, k))
+        assert abs(lake.area - LAKE.area) < 0.01 * LAKE.area, name
+    ponds = [shapely.Point(0, 0).buffer(60), shapely.Point(400, 0).buffer(40)]
+    path = write_tagged(tmp_path / "wb.shp", ponds, ["SwampMarsh", "Reservoir"], field="FType")
+    assert len(rf.read_water(path).build().lakes()) == 2
 
 
 def test_lakes_alone_are_still_water_and_check_lists_them(tmp_path, capsys):

@@ -91,6 +91,34 @@ def test_building_twice_gives_equal_graphs():
     assert make() == make()
 
 
+def test_a_network_built_again_looks_up_what_did_not_change(monkeypatch):
+    """The strips and the junctions' corners are kept by a digest of their inputs
+    (``_strips.MEMO``): a network built again (a live edit of one branch, a retry) looks
+    up the strips and corners of what did not change, and the graph is the one a cold
+    build makes, bit for bit (equal graphs)."""
+    from riverflow.hydro import _strips
+
+    def make(down_end):
+        b = RiverNetworkBuilder()
+        b.add_branch([[0, 0], [100, 0], [200, 10]], 30.0, 60.0)
+        b.add_branch([[120, -150], [150, -60], [200, 10]], 20.0, 30.0)
+        b.add_branch([[200, 10], [300, 0], [400, down_end]], 40.0)
+        b.add_branch([[400, down_end], [500, down_end + 10], [900, down_end]], 40.0)
+        return b.build()
+
+    monkeypatch.setattr(_strips, "MEMO", _strips.GeometryMemo(10**6))
+    cold = make(20.0)
+    assert _strips.MEMO.hits == 0 and _strips.MEMO.misses == 4 + 2   # 4 strips, 2 junctions
+    assert make(20.0) == cold and _strips.MEMO.misses == 6          # all looked up
+    moved = make(35.0)        # the last two branches and both junctions near them moved
+    assert _strips.MEMO.misses == 6 + 4 and _strips.MEMO.hits == 6 + 2
+    monkeypatch.setattr(_strips, "MEMO", _strips.GeometryMemo(10**6))
+    assert make(35.0) == moved                                      # as made cold
+    tiny = _strips.GeometryMemo(0)                                  # over its budget: none kept
+    monkeypatch.setattr(_strips, "MEMO", tiny)
+    assert make(20.0) == cold and len(tiny._kept) == 0
+
+
 def test_bend_with_free_island():
     th = np.linspace(0.0, np.pi / 2, 40)
     line = np.c_[200 * np.cos(th), 200 * np.sin(th)]

@@ -13,7 +13,8 @@ from shapely.geometry import LineString, Point
 from riverflow.hydro._checks import graph_problems
 from riverflow.hydro.builder import RiverNetworkBuilder
 from riverflow.hydro.graph import Area, Curve, CurveType, HydroGraph
-from riverflow.hydro.nearest import CHUNK_SEGMENTS, LineChunks, first_per_group, ray_hits
+from riverflow.hydro.nearest import (CHUNK_SEGMENTS, LineChunks, first_per_group, ray_hits,
+                                     tangents_at)
 
 
 @pytest.fixture(scope="module")
@@ -159,6 +160,23 @@ def test_bulk_ray_hits_equal_one_query_per_ray():
             assert hit[farthest[r]] == want_hits[int(np.argmax(want_dist))]
         else:
             assert nearest[r] == farthest[r] == -1
+
+
+def test_tangents_at_equal_the_nearest_segment_point_by_point():
+    """The batch of nearest segments' directions (the box hierarchy) equals the one-point
+    loop over every segment it replaced (the first of equally near segments: a polyline's
+    vertices are shared by two)."""
+    rng = np.random.default_rng(3)
+    line = np.cumsum(rng.normal(0.0, 10.0, (40, 2)), axis=0)
+    points = np.vstack([rng.uniform(line.min(axis=0) - 20, line.max(axis=0) + 20, (300, 2)),
+                        line])                                   # vertices: ties
+    a, d = line[:-1], np.diff(line, axis=0)
+    dd = np.maximum(np.einsum("ij,ij->i", d, d), 1e-300)
+    looped = []
+    for p in points:
+        u = np.clip(np.einsum("ij,ij->i", p - a, d) / dd, 0.0, 1.0)
+        looped.append(d[int(np.argmin(np.hypot(*(a + u[:, None] * d - p).T)))])
+    assert np.array_equal(tangents_at(line, points), np.array(looped))
 
 
 def test_first_per_group_takes_the_first_of_equal_keys():

@@ -101,6 +101,7 @@ def built():
         return closed_form(local, *args)
 
     _strips.corner_fillets = record
+    memo, _strips.MEMO = _strips.MEMO, _strips.GeometryMemo(0)   # every junction made here
     try:
         for name, make in (("confluence", confluence), ("bifurcation", bifurcation),
                            ("default", default_layout)):
@@ -110,6 +111,7 @@ def built():
             out[name] = (b.build(), b, sharp)
     finally:
         _strips.corner_fillets = closed_form
+        _strips.MEMO = memo
     return out
 
 

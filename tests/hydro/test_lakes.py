@@ -614,3 +614,54 @@ def test_loop_depths_ask_on_the_water_side_of_a_loop():
     loops = [river, island, basin]
     polys = [shapely.Polygon(lp) for lp in loops]
     assert list(loop_depths(loops, polys, [0, 1, 2])) == [0, 1, 2]
+
+
+def test_an_inlet_that_runs_along_a_terminal_lakes_shore_is_drawn_back():
+    """An inlet of a terminal lake whose last stretch (6 m) runs along the lake's shore
+    before it ends (München's Isar lines): drawn back along that stretch to a tenth of its
+    width it is still beside the shore, so the stretch is dropped and the one before drawn
+    back until its strip is clear of the lake (it was "end the branch square to the
+    shore"). Still water, the river running towards it."""
+    b = RiverNetworkBuilder()
+    b.add_branch([(-600.0, 0.0), (-151.0, 0.0), (-150.5, 6.0)], 30.0, discharge_m2s=10.0)
+    b.add_lake(LAKE)
+    graph = b.build()
+    assert b.terminal_lakes == [0]
+    (axis,) = [graph.polyline(a) for a in graph.axes() if graph.curves[a].width_m < 100.0]
+    end = axis[np.argmax(axis[:, 0])]
+    assert -175.0 < end[0] < -150.0 and abs(end[1]) < 1e-6
+    status, v = rf.FlowField(graph).query(np.array([[-400.0, 0.0], [0.0, 0.0]]))
+    assert (status == rf.FlowStatus.INSIDE).all() and v[0, 0] > 0.1 and np.abs(v[1]).max() < 1e-6
+
+
+def test_a_lake_smaller_than_a_rivers_sliver_is_kept():
+    """Where lakes split the water, a river's piece under 0.01 squared widths is a sliver,
+    dropped; a lake smaller than that (a 15 m pond on the bank of a 200 m river: Porto's
+    with its lines) was dropped too ("cut it into 0 pieces"): its own piece is kept."""
+    from shapely.geometry.polygon import orient
+
+    from riverflow.hydro import _lakes
+
+    pond = shapely.box(480, 90, 495, 105)
+    water = orient(shapely.union_all([shapely.box(0, -100, 1000, 100), pond]), 1.0)
+    polys, which, _ = _lakes.split_water([water], [_lakes.Lake(pond, None, "lake 0")], 1e-3,
+                                         400.0)
+    assert sorted(which) == [-1, 0]
+    assert abs(polys[which.index(0)].area - pond.area) < 1e-6
+
+
+def test_a_long_narrow_basins_axis_is_found():
+    """A dock 4 m wide and 1.3 km long with two bends: the raster the path through a lake is
+    found on had 6 m cells (a 160th of its extent), none in its water ("no way through");
+    it has a quarter of the basin's mean width."""
+    from shapely.geometry import LineString
+
+    from riverflow.hydro import _lakes
+
+    dock = LineString([(0, 0), (500, 0), (500, 300), (1000, 300)]).buffer(
+        2.0, cap_style="flat", join_style="mitre")
+    lake = _lakes.Lake(dock, None, "basin 0", basin=True, mouth=np.array([[0.0, -2.0], [0.0, 2.0]]))
+    inside = dock.buffer(0.25)
+    path = _lakes._path_through(lake, inside, np.array([0.0, 0.0]), np.array([999.0, 300.0]),
+                                0.25)
+    assert inside.contains(LineString(path)) and LineString(path).length < 1310.0

@@ -12,7 +12,7 @@ import pytest
 
 from riverflow.tiles.cache import FieldSpec, TileCache
 from riverflow.tiles.quadtree import Quadtree, parent
-from riverflow.tiles.scheduler import Producer, TileScheduler
+from riverflow.tiles.scheduler import Producer, TileScheduler, close_all
 from riverflow.tiles.table import code_key, tile_code
 
 N = 8
@@ -653,6 +653,37 @@ def test_the_pages_a_frame_writes_are_copied_by_the_fork_not_the_frame():
         assert sched._learn_from == -1
     finally:
         sched_module.written_pages = real
+    sched.close()
+
+
+class Shifted(Heights):
+    """An edit's new producer: the same kind, other heights."""
+
+    def produce(self, key, deps):
+        return {"z": super().produce(key, deps)["z"] + 1.0}
+
+
+@needs_fork
+def test_an_edits_processes_are_forked_in_the_gap_after_a_frame():
+    """``fork_for(..., in_gap=True)`` (a live edit's thread) forks once the frame running
+    when it is called has ended, and the processes it hands back make the new producer's
+    tiles once they replace the old ones."""
+    sched = TileScheduler(TileCache(1 << 24), [Heights()], "background", worker="process",
+                          pause_in_frames=False)
+    sched.start()
+    sched.frame_begins()
+    ends = threading.Timer(0.1, sched.frame_ends)
+    ends.start()
+    t0 = time.perf_counter()
+    processes = sched.fork_for([Shifted()], in_gap=True)
+    assert time.perf_counter() - t0 >= 0.09 and processes and all(p.alive for p in processes)
+    ends.join()
+    old = sched.replace_producers([Shifted()], processes, close_old=False)
+    sched.request("h", [(0, 0, 0)])
+    assert sched.wait(20.0)
+    z = sched.cache.pools["h"].get(tile_code(0, 0, 0))["z"]
+    assert np.array_equal(z, Shifted().produce((0, 0, 0), {})["z"])
+    close_all(old, 5.0)
     sched.close()
 
 
