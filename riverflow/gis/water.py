@@ -905,11 +905,11 @@ def _seas(water, frame, cell, report: RiverImport, tolerance_m: float):
     """(the open water (SEA_WIDTHS): polygons [m], each a lake, the channels' outlet; the
     rest of the water, None when nothing is left). The water is rasterized on cells of
     ``cell`` [m] (a mask's; at least 1/SEA_GRID of the longer side), ``frame`` the data's
-    extent; the open water's outline is that of its cells
-    simplified and grown by 1.5 cells, cut by the water's (its coast is the data's), each
-    channel's mouth then straight (:func:`_straight_mouths`)."""
-    from rasterio import features as rio_features
+    extent; the open water's outline is that of its cells simplified and grown by 1.5 cells,
+    cut by the water's (its coast and islands are the data's), each channel's mouth then
+    straight (:func:`_straight_mouths`)."""
     from affine import Affine
+    from rasterio import features as rio_features
     from scipy import ndimage
 
     x0, y0, x1, y1 = water.bounds
@@ -922,13 +922,12 @@ def _seas(water, frame, cell, report: RiverImport, tolerance_m: float):
     ridge = wet & (d == ndimage.maximum_filter(d, size=3))
     if not ridge.any():
         return [], water
-    typical = float(np.percentile(d[ridge], 75.0))
-    if not d.max() >= SEA_WIDTHS * max(typical, 1.0):
+    wide = float(np.percentile(d[ridge], 75.0))
+    if not d.max() >= SEA_WIDTHS * max(wide, 1.0):
         return [], water
     # grown from its core by circles SEA_WIDTHS times the channels' median width
-    core = d >= max(SEA_WIDTHS * typical, 0.5 * float(d.max()))
-    typical = float(np.median(d[ridge]))
-    r = SEA_WIDTHS * max(typical, 1.0)
+    core = d >= max(SEA_WIDTHS * wide, 0.5 * float(d.max()))
+    r = SEA_WIDTHS * max(float(np.median(d[ridge])), 1.0)
     opened = ndimage.distance_transform_edt(d < r) <= r
     labels, _ = ndimage.label(opened & wet)
     keep = np.unique(labels[core & (labels > 0)])
@@ -948,7 +947,6 @@ def _seas(water, frame, cell, report: RiverImport, tolerance_m: float):
         if not parts:
             continue
         sea = max(parts, key=lambda p: p.area)
-        sea = shapely.Polygon(sea.exterior)     # its islands are the sea's
         sea, rest = _straight_mouths(sea, shapely.difference(rest, sea), cell)
         seas.append(sea)
     if not seas:
@@ -959,9 +957,9 @@ def _seas(water, frame, cell, report: RiverImport, tolerance_m: float):
         x, y = sea.representative_point().coords[0]
         report.repair("open water", None, None,
                       f"{sea.area / 1e6:.2f} km² of water near ({x:.1f}, {y:.1f}) reaching the "
-                      f"data's edge is wider than {SEA_WIDTHS:g} times the channels' typical "
-                      f"width ({2 * typical * cell:.1f} m): open water (a sea, a lake), still, "
-                      f"the channels opening into it leave there")
+                      f"data's edge is wider than {SEA_WIDTHS:g} times the channels' wide "
+                      f"width ({2 * wide * cell:.1f} m, the upper quartile): open water (a sea, "
+                      f"a lake), still, the channels opening into it leave there")
     report.derived["open water"] = (f"{len(seas)} (water wider than {SEA_WIDTHS:g} channel "
                                     f"widths reaching the data's edge): still, the channels' "
                                     f"outlet")
