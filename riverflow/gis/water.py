@@ -125,6 +125,13 @@ opening rounds off, nor a notch)."""
 OPEN_EDGE_WIDTHS = 0.25
 """A piece of the water's outline along the data's extent at least this many mean widths
 long is an open end (the water cut by the map's edge), not a bank."""
+SEA_WIDTHS = 8.0
+"""Water is open water (a sea, a lake the data's edge cuts) where circles of this many times
+the channels' wide width fit in it (the upper quartile of its inscribed circles' local
+maxima) and at least half as wide as the widest, that reach the data's edge, grown by the
+circles of this many times their median width that fit in the water."""
+SEA_GRID = 768
+"""The most cells along the water's longer side on which open water is looked for."""
 OVERHANG_WIDTHS = 0.04
 """An edge of the outline at most this many widths of its channel long that faces away from
 the channel's axis (the far side of an island's round end where it crosses a bank, leaning
@@ -451,7 +458,20 @@ def read_water(path, *, layer: str | int | None = None, lines=None, inlets=None,
                                  + (f" (half of the mask's {cell:g} m cells, its stairs "
                                     f"smoothed over {MASK_SMOOTH_CELLS:g} cells)" if cell else ""))
     lakes, rivers = _lakes_of(features, polygons, water, report, tolerance_m)
+    seas = []
+    if rivers is not None:
+        seas, rivers = _seas(rivers, extent if extent is not None else shapely.box(*water.bounds),
+                             cell, report, tolerance_m)
+        lakes = lakes + seas
+        if seas and len(outlet_xy):     # an outlet in the sea: the sea is the outlet
+            sea = shapely.union_all(seas)
+            out = shapely.contains_xy(sea, outlet_xy[:, 0], outlet_xy[:, 1])
+            if out.any():
+                report.notes.append(f"{int(out.sum())} outlets given in open water: its shore "
+                                    f"is where the channels leave")
+            outlet_xy = outlet_xy[~out]
     builder = WaterBuilder(tolerance_m)
+    builder.seas = seas
     builder.report = report
     builder.crs = report.crs
     builder.water = water
@@ -547,6 +567,15 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
             _still(builder, getattr(water, "geoms", [water])[net.part], net.part,
                    f"{len(ends)} free ends beside its dead ends")
             networks.remove(net)
+    seas = getattr(builder, "seas", [])
+    for net in list(networks):
+        ends = {n for _, n, _ in net.free_ends()}
+        if seas and ends and ends <= net.outlets and not net.inlets:
+            # water that opens only into open water (a lagoon, a creek between two mouths)
+            # is the open water's
+            _join_open_water(builder, getattr(water, "geoms", [water])[net.part], net.part,
+                             "opens only into open water")
+            networks.remove(net)
     if not networks:                # ponds only: still water
         report.derived["axes"] = {}
         report.derived["length_m"] = 0.0
@@ -614,6 +643,9 @@ def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy
                       for c in net.channels), default=0.0)
         several = len(getattr(water, "geoms", [])) > 1
         if not net.channels or several and (speck or longest < MIN_CHANNEL_WIDTHS * widest):
+            if _join_open_water(builder, part, k, "beside open water, with no channel "
+                                f"longer than {MIN_CHANNEL_WIDTHS:g} times its width"):
+                continue
             x, y = part.representative_point().coords[0]
             # a pond (not a piece a lake's cut left beside it): still water, as a lake
             pond = not (speck or beside_lake)
@@ -633,11 +665,18 @@ def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy
     ends = [e for net in networks for e in net.free_ends()]
     _match_points(ends, inlet_xy, "inlet", where, water)
     _match_points(ends, outlet_xy, "outlet", where, water)
+    seas = getattr(builder, "seas", [])
+    seas = shapely.union_all(seas) if seas else None
+    if seas is not None:        # the channels opening into open water leave there
+        for net, n, w in ends:
+            if seas.distance(shapely.Point(net.nodes[n])) <= max(w, tolerance_m):
+                net.outlets.add(n)
     heights = ((lambda xy: _dem_heights(dem, xy, report, where)) if dem is not None else None)
     builder.kept_beside = False
     for net in networks:
         builder.kept_beside |= _drop_basin_spurs(net, frame, tolerance_m, report, heights,
                                                  builder.ends_beside)
+        _drop_stubs(net, report, seas)
     return networks
 
 
@@ -860,6 +899,122 @@ def _lakes_of(features, polygons, water, report: RiverImport, tolerance_m: float
                                f"{'|'.join(LAKE_WATER)}, or OSM natural=water areas without "
                                f"water=, a lake by OSM's convention): flat water bodies")
     return lakes, (None if rest.is_empty else rest)
+
+
+def _seas(water, frame, cell, report: RiverImport, tolerance_m: float):
+    """(the open water (SEA_WIDTHS): polygons [m], each a lake, the channels' outlet; the
+    rest of the water, None when nothing is left). The water is rasterized on cells of
+    ``cell`` [m] (a mask's; at least 1/SEA_GRID of the longer side), ``frame`` the data's
+    extent; the open water's outline is that of its cells simplified and grown by 1.5 cells,
+    cut by the water's (its coast and islands are the data's), each channel's mouth then
+    straight (:func:`_straight_mouths`)."""
+    from affine import Affine
+    from rasterio import features as rio_features
+    from scipy import ndimage
+
+    x0, y0, x1, y1 = water.bounds
+    size = max(x1 - x0, y1 - y0)
+    cell = max(cell or 0.0, size / SEA_GRID, tolerance_m)
+    shape = (int(math.ceil((y1 - y0) / cell)) + 2, int(math.ceil((x1 - x0) / cell)) + 2)
+    tr = Affine(cell, 0.0, x0 - cell, 0.0, -cell, y1 + cell)
+    wet = rio_features.rasterize([water], out_shape=shape, transform=tr).astype(bool)
+    d = ndimage.distance_transform_edt(wet)
+    ridge = wet & (d == ndimage.maximum_filter(d, size=3))
+    if not ridge.any():
+        return [], water
+    wide = float(np.percentile(d[ridge], 75.0))
+    if not d.max() >= SEA_WIDTHS * max(wide, 1.0):
+        return [], water
+    # grown from its core by circles SEA_WIDTHS times the channels' median width
+    core = d >= max(SEA_WIDTHS * wide, 0.5 * float(d.max()))
+    r = SEA_WIDTHS * max(float(np.median(d[ridge])), 1.0)
+    opened = ndimage.distance_transform_edt(d < r) <= r
+    labels, _ = ndimage.label(opened & wet)
+    keep = np.unique(labels[core & (labels > 0)])
+    # the data's edge: its extent's, or the water's bounding box (a mask's border of empty
+    # cells round the water: RivGraph's masks have one)
+    frame_edge = shapely.union(frame.boundary, shapely.box(*water.bounds).boundary)
+    seas, rest = [], water
+    for k in keep:
+        cells = shapely.union_all([shapely.geometry.shape(g) for g, v in rio_features.shapes(
+            (labels == k).astype(np.uint8), mask=labels == k, transform=tr) if v])
+        if cells.distance(frame_edge) > 2.0 * cell:
+            continue        # a lake inside the data: the channels' skeleton runs through it
+        grown = cells.simplify(cell).buffer(1.5 * cell)
+        parts = [p for p in shapely.get_parts(shapely.intersection(rest, grown))
+                 if p.geom_type == "Polygon" and shapely.intersection(p, cells).area
+                 > 0.5 * p.area]
+        if not parts:
+            continue
+        sea = max(parts, key=lambda p: p.area)
+        sea, rest = _straight_mouths(sea, shapely.difference(rest, sea), cell)
+        seas.append(sea)
+    if not seas:
+        return [], water
+    rest = shapely.union_all([p for p in shapely.get_parts(rest) if p.geom_type == "Polygon"
+                              and p.area > (4.0 * tolerance_m) ** 2])
+    for sea in seas:
+        x, y = sea.representative_point().coords[0]
+        report.repair("open water", None, None,
+                      f"{sea.area / 1e6:.2f} km² of water near ({x:.1f}, {y:.1f}) reaching the "
+                      f"data's edge is wider than {SEA_WIDTHS:g} times the channels' wide "
+                      f"width ({2 * wide * cell:.1f} m, the upper quartile): open water (a sea, "
+                      f"a lake), still, the channels opening into it leave there")
+    report.derived["open water"] = (f"{len(seas)} (water wider than {SEA_WIDTHS:g} channel "
+                                    f"widths reaching the data's edge): still, the channels' "
+                                    f"outlet")
+    return seas, (None if rest.is_empty else rest)
+
+
+def _join_open_water(builder: WaterBuilder, part, k: int, why: str) -> bool:
+    """Join water body ``k`` (``part``, ``why``: no channel of its own) to the open water
+    (builder.seas) it touches, still water (reported); False where it touches none."""
+    seas = getattr(builder, "seas", [])
+    near = [s for s in seas if s.distance(part) <= builder.tolerance_m]
+    if not near:
+        return False
+    inside = near[0].representative_point()
+    lake = next(lk for lk in builder._lakes if lk.polygon.contains(inside))
+    both = shapely.union(lake.polygon, part)
+    lake.polygon = max((p for p in shapely.get_parts(both) if p.geom_type == "Polygon"),
+                       key=lambda p: p.area)
+    x, y = part.representative_point().coords[0]
+    builder.report.repair(f"water body {k}", None, None,
+                          f"{part.area:.1f} m² of water near ({x:.1f}, {y:.1f}) {why}: joined to "
+                          f"the open water beside it (still water)")
+    return True
+
+
+def _straight_mouths(sea, rest, cell: float):
+    """(``sea``, ``rest``) with each stretch of their common boundary (a channel's mouth)
+    made the straight line between its ends, where that line lies in the water: the
+    water between the two goes to the side the line leaves it on."""
+    contact = shapely.intersection(sea.boundary, rest.boundary)
+    lines = [g for g in shapely.get_parts(shapely.line_merge(shapely.union_all(
+        [g for g in shapely.get_parts(contact) if g.geom_type == "LineString"])))
+        if g.geom_type == "LineString" and g.length > 2.0 * cell]
+    both = shapely.union(sea, rest).buffer(1e-6 * cell)
+    to_sea, to_rest = [], []
+    for line in lines:
+        c = np.asarray(line.coords)
+        chord = shapely.LineString([c[0], c[-1]])
+        if not both.contains(chord) or chord.length < 1e-9:
+            continue
+        for q in shapely.get_parts(shapely.polygonize(shapely.get_parts(shapely.node(
+                shapely.MultiLineString([c, np.asarray(chord.coords)]))))):
+            inside = shapely.intersection(q, rest).area
+            (to_sea if inside > 0.5 * q.area else to_rest).append(q)
+    if to_sea:
+        moved = shapely.union_all(to_sea)
+        sea, rest = shapely.union(sea, shapely.intersection(moved, rest)), \
+            shapely.difference(rest, moved)
+    if to_rest:
+        moved = shapely.union_all(to_rest)
+        rest, sea = shapely.union(rest, shapely.intersection(moved, sea)), \
+            shapely.difference(sea, moved)
+    parts = [p for p in shapely.get_parts(sea) if p.geom_type == "Polygon"]
+    sea = max(parts, key=lambda p: p.area)
+    return sea, rest
 
 
 def _read_polygons(path: Path, layer):
@@ -1384,26 +1539,69 @@ def _drop_basin_spurs(net: _Network, frame, tolerance_m: float, report: RiverImp
         net.channels.remove(spur)
         net.basin_axes.append(_beyond(spur, junction, 0.5 * max(
             (d.width for d in net.channels if junction in (d.a, d.b)), default=0.0)))
-        rest = [c for c in net.channels if junction in (c.a, c.b)]
-        if len(rest) == 2 and rest[0] is not rest[1]:
-            one, two = rest
-            if one.b != junction:
-                one.flip()
-            if two.a != junction:
-                two.flip()
-            one.points = np.vstack([one.points, two.points[1:]])
-            one.widths = np.concatenate([one.widths, two.widths[1:]])
-            one.b = two.b
-            net.channels.remove(two)
-        used = sorted({n for c in net.channels for n in (c.a, c.b)})
-        new = {n: i for i, n in enumerate(used)}
-        for c in net.channels:
-            c.a, c.b = new[c.a], new[c.b]
-        net.nodes = net.nodes[used]
-        net.inlets = {new[n] for n in net.inlets if n in new}
-        net.outlets = {new[n] for n in net.outlets if n in new}
-        net.tributaries = {new[n] for n in net.tributaries if n in new}
+        _join_at(net, junction)
     return kept
+
+
+def _join_at(net: _Network, junction: int) -> None:
+    """After a channel off ``junction`` was removed: the two channels left there joined into
+    one, the nodes numbered anew."""
+    rest = [c for c in net.channels if junction in (c.a, c.b)]
+    if len(rest) == 2 and rest[0] is not rest[1]:
+        one, two = rest
+        if one.b != junction:
+            one.flip()
+        if two.a != junction:
+            two.flip()
+        one.points = np.vstack([one.points, two.points[1:]])
+        one.widths = np.concatenate([one.widths, two.widths[1:]])
+        one.b = two.b
+        net.channels.remove(two)
+    used = sorted({n for c in net.channels for n in (c.a, c.b)})
+    new = {n: i for i, n in enumerate(used)}
+    for c in net.channels:
+        c.a, c.b = new[c.a], new[c.b]
+    net.nodes = net.nodes[used]
+    net.inlets = {new[n] for n in net.inlets if n in new}
+    net.outlets = {new[n] for n in net.outlets if n in new}
+    net.tributaries = {new[n] for n in net.tributaries if n in new}
+
+
+def _drop_stubs(net: _Network, report: RiverImport, open_water=None) -> None:
+    """Drop channels from a junction to a free end opening into ``open_water`` (a polygon)
+    whose ends lie closer than JOIN_FRACTION of their widths (a fork just inside a wide mouth
+    cut straight across: the builder cannot tell its start from its end) or that are shorter
+    than half their widest (a lake's shore cuts such a channel off,
+    :func:`riverflow.hydro._lakes.cut_branches`); the junction's other channels reach the
+    open water."""
+    from riverflow.hydro.builder import JOIN_FRACTION
+
+    def stubby(c: _Channel, deg) -> bool:
+        if sorted((deg[c.a], deg[c.b]))[0] != 1 or max(deg[c.a], deg[c.b]) < 3:
+            return False
+        end = c.a if deg[c.a] == 1 else c.b
+        if not (end in net.outlets
+                and open_water.distance(shapely.Point(net.nodes[end])) <= c.width):
+            return False
+        return (c.length < 0.5 * float(c.widths.max())
+                or np.hypot(*(c.points[-1] - c.points[0]))
+                <= JOIN_FRACTION * min(float(c.widths[0]), float(c.widths[-1])))
+
+    if open_water is None:
+        return
+    while True:
+        deg = net.degree()
+        stub = next((c for c in net.channels if stubby(c, deg)), None)
+        if stub is None:
+            return
+        junction = stub.a if deg[stub.a] > 1 else stub.b
+        x, y = net.nodes[junction]
+        report.repair(stub.name, None, None,
+                      f"a channel {stub.length:.1f} m long from the junction at ({x:.1f}, "
+                      f"{y:.1f}) to a free end, short beside its width ({stub.width:.1f} "
+                      f"m): left out (the junction's other channels reach the water's end)")
+        net.channels.remove(stub)
+        _join_at(net, junction)
 
 
 def _beyond(c: _Channel, junction: int, reach_m: float) -> tuple[np.ndarray, np.ndarray]:
@@ -1686,7 +1884,7 @@ def _skeleton_channels(part, k: int, tolerance_m: float, report, frame=None,
     open_edge = _open_edge(part, frame, 2.0 * part.area / max(part.length, 1e-9), tolerance_m)
     water, free = _split_holes(part, None, forced, open_edge)
     for _ in range(len(part.interiors) + 1):
-        chains, nodes, collapsed = skeleton(water, tolerance_m, frame, ends, dead)
+        chains, nodes, collapsed = _skeleton_once(water, tolerance_m, frame, ends, dead)
         if collapsed is None:
             break
         hole = water.interiors[collapsed]
@@ -1700,6 +1898,31 @@ def _skeleton_channels(part, k: int, tolerance_m: float, report, frame=None,
     net = _Network(water, free, channels, nodes)
     _extend_free_ends(net, water)
     return net
+
+
+_SKELETONS: dict[bytes, tuple] = {}
+SKELETON_CACHE = 256
+"""How many skeletons :func:`_skeleton_once` remembers."""
+
+
+def _skeleton_once(water, tolerance_m: float, frame, ends, dead):
+    """:func:`skeleton`, remembered for the last SKELETON_CACHE inputs (a reading made again,
+    an island freed, finds every part of the water it did not change as it was); a copy."""
+    import hashlib
+
+    h = hashlib.blake2b(digest_size=20)
+    for item in (water, frame):
+        h.update(b"-" if item is None else shapely.to_wkb(item))
+    for item in (ends, dead):
+        h.update(b"-" if item is None else np.ascontiguousarray(item, np.float64).tobytes())
+    h.update(np.float64(tolerance_m).tobytes())
+    key = h.digest()
+    if key not in _SKELETONS:
+        if len(_SKELETONS) >= SKELETON_CACHE:
+            del _SKELETONS[next(iter(_SKELETONS))]
+        _SKELETONS[key] = skeleton(water, tolerance_m, frame, ends, dead)
+    chains, nodes, collapsed = _SKELETONS[key]
+    return ([(p.copy(), w.copy(), a, b) for p, w, a, b in chains], nodes.copy(), collapsed)
 
 
 def _voronoi_edges(pts: np.ndarray) -> np.ndarray:
@@ -1882,19 +2105,31 @@ def _out_through(seg: np.ndarray, inside: np.ndarray, kept: np.ndarray, open_edg
     lacking = [g for g in shapely.get_parts(open_edge)
                if not (shapely.distance(g, shapely.points(leaves)) <= reach).any()]
     cross = np.flatnonzero(inside[:, 0] != inside[:, 1])
+    if not lacking or not len(cross):
+        return np.zeros((0, 2, 2))
+    lines = shapely.linestrings(seg[cross])
+    crossing = shapely.STRtree(lines)
     out = []
     for piece in lacking:
-        for i in cross:
+        # (only the edges that cross the piece: a query, not a call per edge)
+        near = np.sort(crossing.query(piece, predicate="intersects"))
+        if not len(near):
+            continue
+        hits = shapely.intersection(lines[near], piece)
+        for j, i, h in zip(near, cross[near], hits):
             p = seg[i, 0] if inside[i, 0] else seg[i, 1]
-            hit = shapely.get_coordinates(shapely.intersection(shapely.LineString(seg[i]),
-                                                               piece))
+            hit = shapely.get_coordinates(h)
             if not len(hit):
                 continue
             q = hit[int(np.argmin(np.hypot(*(hit - p).T)))]
-            short = shapely.LineString([p, p + (1.0 - 1e-6) * (q - p)])
-            if np.hypot(*(q - p)) > 0 and not shapely.intersects(boundary, short):
+            if np.hypot(*(q - p)) > 0:
                 out.append([p, q])
-    return np.array(out).reshape(-1, 2, 2)
+    out = np.array(out).reshape(-1, 2, 2)
+    if not len(out):
+        return out
+    p, q = out[:, 0], out[:, 1]
+    short = shapely.linestrings(np.stack([p, p + (1.0 - 1e-6) * (q - p)], axis=1))
+    return out[~shapely.intersects(boundary, short)]
 
 
 def _open_edge(water, frame, width: float, tolerance_m: float):

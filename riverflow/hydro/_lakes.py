@@ -53,6 +53,9 @@ class Lake:
     mouth is a bank shared with the river."""
     mouth: np.ndarray | None = None
     """A basin's mouth (2, 2) [m]."""
+    given: shapely.Geometry | None = None
+    """Water of the lake given to the rivers that end in it (:func:`end_at_terminal_lakes`:
+    an end too short to be drawn back from its shore), or None."""
 
     def centre(self, tolerance_m: float) -> np.ndarray:
         """The pole of inaccessibility (the point farthest inside), (2,) [m]."""
@@ -191,8 +194,14 @@ def end_at_terminal_lakes(branches: list, lakes: list[Lake], lake_ends: list):
         for i in ins + outs:
             b = branches[i]
             at_start = not ins
-            line, widths = _clear_of(lake, b.centerline_m.copy(), b.widths_m.copy(), at_start,
-                                     b.name)
+            try:
+                line, widths = _clear_of(lake, b.centerline_m.copy(), b.widths_m.copy(),
+                                         at_start, b.name)
+            except GraphError:
+                lake = lakes[k] = _give_way(lake, b.centerline_m, b.widths_m, at_start)
+                if lake is None:
+                    raise
+                line, widths = b.centerline_m, b.widths_m
             branches[i] = type(b)(b.name, line, widths, b.discharge_m2s)
             lake_ends[i] = (-1, lake_ends[i][1]) if at_start else (lake_ends[i][0], -1)
         (terminal if ins else source).append(k)
@@ -212,8 +221,37 @@ def cut_from_closed_lakes(water, lakes: list[Lake], closed: list[int], tolerance
     if not closed:
         return water
     gap = CLOSED_LAKE_GAP_TOLERANCES * tolerance_m
+    given = [lakes[k].given for k in closed if lakes[k].given is not None]
+    if given:       # the lakes' water given to the rivers' ends
+        water = shapely.union_all([water] + given)
     return shapely.difference(water, shapely.union_all([lakes[k].polygon.buffer(gap)
                                                         for k in closed]))
+
+
+def _give_way(lake: Lake, line: np.ndarray, w: np.ndarray, at_start: bool) -> Lake | None:
+    """``lake`` (a copy) with its shore moved back 0.02 widths from the strip of the river's
+    last (first if ``at_start``) stretch, a stretch too short to be drawn back from it (a
+    fork just inside a delta's mouth): that water is the river's (``Lake.given``); None where
+    the lake would lose more than half its area or fall in pieces of which the largest is
+    under nine tenths."""
+    from dataclasses import replace
+
+    from riverflow.hydro._strips import strip_polygon
+
+    e, f = (0, 1) if at_start else (-1, -2)
+    strip = strip_polygon(line[[e, f]], w[[e, f]])
+    cut = shapely.intersection(lake.polygon, strip.buffer(0.02 * float(w[e])))
+    rest = shapely.difference(lake.polygon, cut)
+    parts = [p for p in shapely.get_parts(rest) if p.geom_type == "Polygon"]
+    if not parts or rest.area < 0.5 * lake.polygon.area:
+        return None
+    main = max(parts, key=lambda p: p.area)
+    if main.area < 0.9 * rest.area:
+        return None
+    given = shapely.intersection(lake.polygon, strip)
+    if lake.given is not None:
+        given = shapely.union(lake.given, given)
+    return replace(lake, polygon=main, given=given)
 
 
 def _clear_of(lake: Lake, line: np.ndarray, w: np.ndarray, at_start: bool, name: str
@@ -222,7 +260,9 @@ def _clear_of(lake: Lake, line: np.ndarray, w: np.ndarray, at_start: bool, name:
     ``lake`` until the strip of its last (first) stretch is 0.02 widths clear of it: a
     stretch drawn back to a tenth of its width still beside the shore (a line running along
     the shore before it ends there: München's Isar) is dropped, and the one before drawn
-    back."""
+    back; GraphError where it cannot be, or where its ends would come within a quarter of
+    its width (which the builder joins: :func:`end_at_terminal_lakes` moves the shore back
+    instead)."""
     from riverflow.hydro._strips import strip_polygon
 
     for _ in range(200 + len(line)):
@@ -233,6 +273,10 @@ def _clear_of(lake: Lake, line: np.ndarray, w: np.ndarray, at_start: bool, name:
             return line, w
         t = line[e] - line[f]
         seg = float(np.hypot(*t))
+        if np.hypot(*(line[-1] - line[0])) <= 0.25 * min(float(w[0]), float(w[-1])):
+            raise GraphError(f"branch {name!r}: drawn back from the shore of {lake.name} (a "
+                             f"lake with no {'inlet' if at_start else 'outlet'}), its ends "
+                             f"come within a quarter of its width")
         if seg <= 0.1 * width:
             if len(line) > 2:
                 line, w = (line[1:], w[1:]) if at_start else (line[:-1], w[:-1])
