@@ -11,14 +11,14 @@ segments).
 from __future__ import annotations
 
 import hashlib
-import threading
-from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
 import shapely
 from shapely.geometry import LineString, Point, Polygon
 from shapely.geometry.polygon import orient
+
+from riverflow.tiles.memo import BudgetMemo
 
 JUNCTION_EXTENSION = 0.05
 """How far a strip is pushed into a junction, as a fraction of its half-width."""
@@ -30,21 +30,13 @@ _DISC_SEGMENTS = 32
 """Quarter-circle segments of a junction disc (chord error ≈ 3e-4 × radius)."""
 
 
-class GeometryMemo:
-    """What a pure function of geometry made, by a digest of its inputs, least recently used
-    first out beyond ``budget`` coordinates; thread-safe. A network built again (a live
+class GeometryMemo(BudgetMemo):
+    """What a pure function of geometry made, by a digest of its inputs (:meth:`key`), least
+    recently used first out beyond ``budget`` coordinates. A network built again (a live
     edit of one branch, the narrowing's retries, a water area's retries) makes the same
     strips and junction corners for everything the change did not touch: they are looked
     up, not made again, and come out the same whatever was built before (the function is
     pure: the same inputs give the same geometry)."""
-
-    def __init__(self, budget: int) -> None:
-        self.budget = int(budget)
-        self.size = 0
-        self.hits = 0
-        self.misses = 0
-        self._kept: OrderedDict[bytes, tuple[object, int]] = OrderedDict()
-        self._lock = threading.Lock()
 
     @staticmethod
     def key(*parts) -> bytes:
@@ -66,25 +58,8 @@ class GeometryMemo:
                 h.update(repr(part).encode())
         return h.digest()
 
-    def get(self, key: bytes):
-        with self._lock:
-            entry = self._kept.get(key)
-            if entry is None:
-                self.misses += 1
-                return None
-            self._kept.move_to_end(key)
-            self.hits += 1
-            return entry[0]
-
     def put(self, key: bytes, value, size: int) -> None:
-        with self._lock:
-            if key in self._kept or size > self.budget:
-                return
-            self._kept[key] = (value, size)
-            self.size += size
-            while self.size > self.budget:
-                _, (_, dropped) = self._kept.popitem(last=False)
-                self.size -= dropped
+        self.keep(key, value, size)
 
 
 GEOMETRY_MEMO_COORDS = 250_000

@@ -25,7 +25,56 @@ of 18 KB with their water, ray-cast and hint tiles) and some of a flight's aroun
 mostly opens where the first one did."""
 
 
-class TileMemo:
+class BudgetMemo:
+    """Values by key, least recently used first out once their sizes add up to more than
+    ``budget`` (in the unit the sizes are given in); thread-safe. What a pure function made
+    is kept by its inputs: :class:`TileMemo` (tiles, in bytes), the builder's strips and
+    junction corners (:class:`riverflow.hydro._strips.GeometryMemo`, in coordinates)."""
+
+    def __init__(self, budget: float) -> None:
+        self.budget = budget
+        self.used = 0
+        self.hits = 0
+        self.misses = 0
+        self._kept: OrderedDict[Hashable, tuple[Any, int]] = OrderedDict()
+        self._lock = threading.Lock()
+
+    def __len__(self) -> int:
+        return len(self._kept)
+
+    def get(self, key: Hashable) -> Any:
+        """The value kept under ``key``, or None."""
+        with self._lock:
+            entry = self._kept.get(key)
+            if entry is None:
+                self.misses += 1
+                return None
+            self._kept.move_to_end(key)
+            self.hits += 1
+            return entry[0]
+
+    def keep(self, key: Hashable, value: Any, size: int) -> None:
+        """Keep ``value`` of ``size`` under ``key`` (in place of what was there), dropping the
+        least recently used beyond the budget; one larger than the whole budget is not kept."""
+        if size > self.budget:
+            return
+        with self._lock:
+            old = self._kept.pop(key, None)
+            if old is not None:
+                self.used -= old[1]
+            self._kept[key] = (value, size)
+            self.used += size
+            while self.used > self.budget:
+                _, (_, dropped) = self._kept.popitem(last=False)
+                self.used -= dropped
+
+    def clear(self) -> None:
+        with self._lock:
+            self._kept.clear()
+            self.used = 0
+
+
+class TileMemo(BudgetMemo):
     """Array tiles (a mapping or tuple of numpy arrays) by key, least recently used first out
     beyond ``budget_mb``; thread-safe (the tile worker fills it). What it keeps is made
     read-only: a tile is shared by every world that asks for it."""
@@ -33,26 +82,19 @@ class TileMemo:
     def __init__(self, budget_mb: float = DEFAULT_BUDGET_MB) -> None:
         if not budget_mb >= 0.0:
             raise ValueError(f"TileMemo: budget_mb must be >= 0, got {budget_mb!r}")
-        self.budget_bytes = int(budget_mb * 1e6)
-        self.bytes = 0
-        self.hits = 0
-        self.misses = 0
-        self._tiles: OrderedDict[Hashable, tuple[Any, int]] = OrderedDict()
-        self._lock = threading.Lock()
+        super().__init__(int(budget_mb * 1e6))
 
-    def __len__(self) -> int:
-        return len(self._tiles)
+    @property
+    def budget_bytes(self) -> int:
+        return self.budget
 
-    def get(self, key: Hashable) -> Any:
-        """The tile kept under ``key``, or None."""
-        with self._lock:
-            entry = self._tiles.get(key)
-            if entry is None:
-                self.misses += 1
-                return None
-            self._tiles.move_to_end(key)
-            self.hits += 1
-            return entry[0]
+    @property
+    def bytes(self) -> int:
+        return self.used
+
+    @property
+    def _tiles(self) -> OrderedDict:
+        return self._kept
 
     def put(self, key: Hashable, data: Any) -> None:
         """Keep ``data`` (its arrays become read-only) under ``key``, dropping the least
@@ -62,24 +104,11 @@ class TileMemo:
         if not arrays or not all(isinstance(a, np.ndarray) for a in arrays):
             return
         size = sum(a.nbytes for a in arrays)
-        if size > self.budget_bytes:
+        if size > self.budget:
             return
         for a in arrays:
             a.flags.writeable = False
-        with self._lock:
-            old = self._tiles.pop(key, None)
-            if old is not None:
-                self.bytes -= old[1]
-            self._tiles[key] = (data, size)
-            self.bytes += size
-            while self.bytes > self.budget_bytes:
-                _, (_, dropped) = self._tiles.popitem(last=False)
-                self.bytes -= dropped
-
-    def clear(self) -> None:
-        with self._lock:
-            self._tiles.clear()
-            self.bytes = 0
+        self.keep(key, data, size)
 
     def __reduce__(self):
         """Pickled (a scene sent to another process): an empty memo of the same budget."""
