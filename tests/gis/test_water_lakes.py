@@ -228,17 +228,24 @@ def test_a_ring_of_water_round_an_island_beside_a_river_is_still_water(tmp_path)
     assert np.abs(v[0]).max() < 1e-6 and v[2, 0] > 0.0
 
 
+def pond_on_an_island(tmp_path, island_m: float, pond_m: float):
+    """(builder, graph) of a 200 m river with a round island (radius ``island_m``) in its
+    middle and a pond (radius ``pond_m``) on the island, built and checked."""
+    river = shapely.box(0, -100, 1200, 100).difference(shapely.Point(600, 0).buffer(island_m))
+    pond = shapely.Point(600, 0).buffer(pond_m)
+    path = write_tagged(tmp_path / "pond.gpkg", [river, pond], ["river", "pond"])
+    b = rf.read_water(path, inlets=[tuple(ORIGIN + (0, 0))])
+    graph = b.build()
+    assert rf.validate_graph(graph) == []
+    return b, graph
+
+
 def test_a_pond_on_a_rivers_island_is_water_again(tmp_path):
     """Liechtenstein's OSM extract of today: a pond on an island of the Rhine's riverbank
     polygon. The graph checks took its shore for a loop inside the river's area ("counter-
     clockwise loop inside another area") and its water for the island's land; by the odd
     winding rule the hydro graph's areas follow, water inside an island is water again."""
-    river = shapely.box(0, -100, 1200, 100).difference(shapely.Point(600, 0).buffer(60))
-    pond = shapely.Point(600, 0).buffer(25)
-    path = write_tagged(tmp_path / "pond.gpkg", [river, pond], ["river", "pond"])
-    b = rf.read_water(path, inlets=[tuple(ORIGIN + (0, 0))])
-    graph = b.build()
-    assert rf.validate_graph(graph) == []
+    b, graph = pond_on_an_island(tmp_path, 60.0, 25.0)
     assert len(graph.lakes()) == 1
     status, v = flow_at(b, graph, [[600.0, 0.0], [600.0, 45.0], [600.0, 80.0]])
     assert list(status) == [rf.FlowStatus.INSIDE, rf.FlowStatus.OUTSIDE, rf.FlowStatus.INSIDE]
@@ -251,12 +258,7 @@ def test_a_pond_on_a_free_island_is_water_again(tmp_path):
     shore of lake 0") and the island's land cut the pond's water away ("the rivers cut it
     into 0 pieces"). A lake apart from the rivers' water cuts no axis, and its water is
     water again inside the island."""
-    river = shapely.box(0, -100, 1200, 100).difference(shapely.Point(600, 0).buffer(30))
-    pond = shapely.Point(600, 0).buffer(12)
-    path = write_tagged(tmp_path / "pond.gpkg", [river, pond], ["river", "pond"])
-    b = rf.read_water(path, inlets=[tuple(ORIGIN + (0, 0))])
-    graph = b.build()
-    assert rf.validate_graph(graph) == []
+    b, graph = pond_on_an_island(tmp_path, 30.0, 12.0)
     assert b.report.derived["islands"]["free (in one channel)"] == 1 and len(graph.lakes()) == 1
     status, v = flow_at(b, graph, [[600.0, 0.0], [600.0, 20.0], [600.0, 60.0]])
     assert status[0] == rf.FlowStatus.INSIDE and status[1] != rf.FlowStatus.INSIDE
