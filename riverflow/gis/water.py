@@ -151,6 +151,8 @@ class WaterBuilder(RiverNetworkBuilder):
     water: shapely.Geometry
     short_reaches_join = True
     one_stream = False
+    seas: list = []
+    """The open water found (:func:`_seas`): polygons [m], lakes the channels leave into."""
     ends_beside = True
     kept_beside = False
     backwaters = True
@@ -567,7 +569,7 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
             _still(builder, getattr(water, "geoms", [water])[net.part], net.part,
                    f"{len(ends)} free ends beside its dead ends")
             networks.remove(net)
-    seas = getattr(builder, "seas", [])
+    seas = builder.seas
     for net in list(networks):
         ends = {n for _, n, _ in net.free_ends()}
         if seas and ends and ends <= net.outlets and not net.inlets:
@@ -665,7 +667,7 @@ def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy
     ends = [e for net in networks for e in net.free_ends()]
     _match_points(ends, inlet_xy, "inlet", where, water)
     _match_points(ends, outlet_xy, "outlet", where, water)
-    seas = getattr(builder, "seas", [])
+    seas = builder.seas
     seas = shapely.union_all(seas) if seas else None
     if seas is not None:        # the channels opening into open water leave there
         for net, n, w in ends:
@@ -969,7 +971,7 @@ def _seas(water, frame, cell, report: RiverImport, tolerance_m: float):
 def _join_open_water(builder: WaterBuilder, part, k: int, why: str) -> bool:
     """Join water body ``k`` (``part``, ``why``: no channel of its own) to the open water
     (builder.seas) it touches, still water (reported); False where it touches none."""
-    seas = getattr(builder, "seas", [])
+    seas = builder.seas
     near = [s for s in seas if s.distance(part) <= builder.tolerance_m]
     if not near:
         return False
