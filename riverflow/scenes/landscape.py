@@ -266,6 +266,14 @@ def water_surface(branches: list[RiverBranch],
                                [b.end_junction for b in branches], max(n_junctions, 0),
                                half_window=PROFILE_HALF_WINDOW, caps_m=junction_caps(branches),
                                falls=on_branch)
+    lost = [k for k, z in enumerate(levels) if not np.isfinite(z).all()]
+    if lost:       # (a NaN level hides the whole water and terrain: a world of fog)
+        k = lost[0]
+        raise ValueError(f"water_surface: no finite water level along {len(lost)} branch(es), "
+                         f"first {branches[k].name!r} (its ground from "
+                         f"{np.nanmin(sampled[k]):g} to {np.nanmax(sampled[k]):g} m, "
+                         f"{int(np.sum(~np.isfinite(sampled[k])))} of {len(sampled[k])} "
+                         "heights not finite)")
     samples, lv, wd, index, profiles = [], [], [], [], {}
     for k, (b, z) in enumerate(zip(branches, levels)):
         s = _arc(b.centerline_m)

@@ -108,6 +108,11 @@ def monotone_profiles(samples: list[np.ndarray], ground_m: list[np.ndarray],
     for k, z in enumerate(ground_m):
         z = np.asarray(z, dtype=np.float64).copy()
         if start_of[k] >= 0:
+            if not junction[start_of[k]] < np.inf:
+                # a junction no branch flows into (channels parting where the water comes
+                # in: Porto's Douro split round an island at the data's edge): the first
+                # branch's own level there is the junction's
+                junction[start_of[k]] = z[0]
             z[0] = junction[start_of[k]]
         z = np.minimum.accumulate(z)
         s = _arc_length(samples[k])
