@@ -370,7 +370,9 @@ def _flat_lakes(samples: list[np.ndarray], levels: list[np.ndarray], lakes,
     runs uphill out of a lake. A basin (a lake given as ``(polygon, None, mouth)``) stands at
     the level of the nearest sample to its mouth's middle of the branches with none in it
     (its river's: its water is level with the river's there, and the surface has no step
-    where the river passes its mouth)."""
+    where the river passes its mouth) and is as deep: its samples are at least that
+    sample's width (the bed's depth follows the width, :func:`~riverflow.scenes.water.bed_depth`).
+    """
     for lake in lakes:
         poly, given = lake[0], lake[1]
         mouth = lake[2] if len(lake) > 2 else None
@@ -384,20 +386,34 @@ def _flat_lakes(samples: list[np.ndarray], levels: list[np.ndarray], lakes,
         found = [z[m] for z, m in zip(levels, inside) if m.any()]
         if not found:
             continue
-        if given is None and mouth is not None:
-            outside = [(p, z) for p, z, m in zip(samples, levels, inside) if not m.any()]
+        river_width = None
+        if mouth is not None:
+            outside = [(p, z, w) for p, z, w, m in zip(samples, levels, widths, inside)
+                       if not m.any()]
             if outside:
-                d = [np.hypot(*(p - np.asarray(mouth, np.float64)).T) for p, _ in outside]
+                d = [np.hypot(*(p - np.asarray(mouth, np.float64)).T) for p, _, _ in outside]
                 k = min(range(len(outside)), key=lambda i: float(d[i].min()))
-                given = float(outside[k][1][int(np.argmin(d[k]))])
+                at = int(np.argmin(d[k]))
+                river_width = float(outside[k][2][at])
+                if given is None:
+                    given = float(outside[k][1][at])
         level = float(given) if given is not None else float(min(f.min() for f in found))
-        for z, m in zip(levels, inside):
+        for z, w, m in zip(levels, widths, inside):
             if not m.any():
                 continue
             first, last = np.flatnonzero(m)[[0, -1]]
             z[:first] = np.maximum(z[:first], level)
             z[m] = level
             z[last + 1:] = np.minimum(z[last + 1:], level)
+        if river_width is not None:
+            # a basin's bed is its river's at the mouth (its own axis's width made it a
+            # shallow shelf, and the river's water beside the mouth nearer that axis's end
+            # than the river's: a straight step in the bed, drawn lighter, Porto's docks):
+            # its samples and those within a width of it
+            for p, w, m in zip(samples, widths, inside):
+                if m.any():
+                    near = m | (shapely.distance(poly, shapely.points(p)) <= w)
+                    w[near] = np.maximum(w[near], river_width)
 
 
 def junction_caps(branches: list[RiverBranch]) -> list[tuple[float, float]]:

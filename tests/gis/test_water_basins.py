@@ -396,6 +396,28 @@ def test_a_basin_is_level_with_its_river_at_its_mouth(harbour):
         assert step.max() < 0.025, step.max()
 
 
+def test_a_basin_is_as_deep_as_its_river_at_its_mouth(harbour):
+    """The bed's depth follows the width the water reads (``scene.water.nearest``): the
+    river's water beside a mouth nearer the basin axis's end than the river's axis read that
+    axis's width (Porto's docks: a shallow shelf drawn lighter, with a straight edge, out
+    into the Douro). Along each mouth, 1 to 20 m into the river and 1 to 5 m into the basin,
+    the width is the river's."""
+    water, basins, builder, graph, field = harbour
+    scene = rf.landscape(graph, seed=0)
+    for b in builder.basins:
+        a, e = b.mouth
+        t = (e - a) / np.linalg.norm(e - a)
+        n = np.array([-t[1], t[0]])
+        if not shapely.contains_xy(water, *(0.5 * (a + e) + 5.0 * n)):
+            n = -n
+        ss, dd = np.meshgrid(np.arange(1.0, np.linalg.norm(e - a) - 1.0, 1.0),
+                             np.arange(-5.0, 21.0, 1.0))
+        pts = a + ss.reshape(-1, 1) * t + dd.reshape(-1, 1) * n
+        pts = pts[shapely.contains_xy(water, *pts.T)]
+        width = scene.water.nearest(pts)[2]
+        assert np.abs(width / W - 1.0).max() < 0.1, (width.min(), width.max())
+
+
 def test_a_basin_whose_mouth_is_at_a_junction(tmp_path):
     """A 194 m meandering river (from the survey's seed 84 of islands that may cross a bank):
     a 179 m spit off its left bank closes a 417 m backwater behind it, whose mouth takes in
