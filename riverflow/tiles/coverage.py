@@ -13,7 +13,7 @@ import numpy as np
 from riverflow.tiles.quadtree import Quadtree
 from riverflow.tiles.table import TileTable
 
-_MAX_PER_BATCH = 1 << 22
+_MAX_PER_BATCH = 1 << 20
 
 
 def unique_codes(codes: np.ndarray) -> np.ndarray:
@@ -56,13 +56,13 @@ def _box_counts(pieces: np.ndarray, radius: np.ndarray, size: float) -> np.ndarr
 
 def touched_bytes(segments_m: np.ndarray, radius_m, size: float) -> float:
     """About the bytes :func:`coverage_table` needs for capsules at tiles of side ``size``
-    [m]: the candidates of the pieces' boxes (a batch's temporaries at most),
-    the touched tiles and their ancestors, and the table."""
+    [m]: a batch of candidates' temporaries (~160 bytes each), the touched tiles among the
+    candidates of the pieces' boxes, their ancestors and the table."""
     if not len(np.asarray(segments_m).reshape(-1, 4)):
         return 0.0
     pieces, radius = _pieces(segments_m, radius_m, size)
     boxes = float(_box_counts(pieces, radius, size).sum())
-    return 48.0 * min(boxes, float(_MAX_PER_BATCH)) + 8.0 * boxes + 64.0 * boxes / 3.0
+    return 160.0 * min(boxes, float(_MAX_PER_BATCH)) + 24.0 * boxes
 
 
 def touched_codes(quadtree: Quadtree, segments_m: np.ndarray, radius_m: np.ndarray | float,
