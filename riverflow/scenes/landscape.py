@@ -552,9 +552,13 @@ def branches_of_graph(graph: HydroGraph, polygon) -> list[RiverBranch]:
     axes = graph.axes()
     lines = {a: graph.polyline(a) for a in axes}
     ends = {}
+    banks: dict[int, list[int]] = {}
+    for i, c in enumerate(graph.curves):
+        if c.is_bank and c.has_potential:
+            banks.setdefault(c.river, []).append(i)
     for a in axes:
         c = graph.curves[a]
-        if _flows_backwards(graph, a, lines[a]):
+        if _flows_backwards(graph, a, lines[a], banks.get(a, [])):
             lines[a] = lines[a][::-1].copy()
             ends[a] = (c.end, c.start)
         else:
@@ -631,13 +635,17 @@ def _longest_path(branches: list[RiverBranch]) -> list[RiverBranch]:
     return path[::-1]
 
 
-def _flows_backwards(graph: HydroGraph, axis: int, line: np.ndarray) -> bool:
-    """True when the axis is drawn upstream: its right-hand banks have the smaller ψ."""
+def _flows_backwards(graph: HydroGraph, axis: int, line: np.ndarray,
+                     banks: list[int] | None = None) -> bool:
+    """True when the axis is drawn upstream: its right-hand banks have the smaller ψ.
+    ``banks``: the curves that are its banks with a ψ, if known (else looked for)."""
     left, right = [], []
     tangents = np.diff(line, axis=0)
-    for i, c in enumerate(graph.curves):
-        if not (c.is_bank and c.river == axis and c.has_potential):
-            continue
+    if banks is None:
+        banks = [i for i, c in enumerate(graph.curves)
+                 if c.is_bank and c.river == axis and c.has_potential]
+    for i in banks:
+        c = graph.curves[i]
         p = graph.polyline(i)
         mid = p[len(p) // 2]
         d = np.hypot(*(line[:-1] - mid).T)
@@ -655,14 +663,21 @@ def _upstream_first(branches: list[RiverBranch]) -> list[RiverBranch]:
     (cycles, which bad data may hold, are broken where found)."""
     done: list[RiverBranch] = []
     left = list(branches)
+    waiting: dict[int, int] = {}       # junction → branches ending there not yet done
+    for b in branches:
+        if b.end_junction >= 0:
+            waiting[b.end_junction] = waiting.get(b.end_junction, 0) + 1
     while left:
         ready = [b for b in left if b.start_junction < 0
-                 or all(o.end_junction != b.start_junction or o in done for o in branches)]
+                 or not waiting.get(b.start_junction, 0)]
         if not ready:
             ready = [left[0]]
         for b in ready:
             done.append(b)
-            left.remove(b)
+            if b.end_junction >= 0:
+                waiting[b.end_junction] -= 1
+        taken = {id(b) for b in ready}
+        left = [b for b in left if id(b) not in taken]
     return done
 
 
