@@ -637,3 +637,35 @@ def test_a_creek_whose_mouth_faces_away_is_one_basin(tmp_path):
     assert shapely.difference(head, b.polygon.buffer(0.01)).area < 1e-3 * head.area
     status, v = rf.FlowField(graph, potential_delta_m=2.0).query(np.array([[520.0, 230.0]]))
     assert status[0] == INSIDE and np.hypot(*v[0]) < 1e-6
+
+
+def test_a_marina_of_slips_joined_behind_their_piers_is_still_water(tmp_path):
+    """Five 4 m slips 40 m long between piers off the bank of a 60 m river, joined behind the
+    piers by a 4 m channel, with a creek of two branches off it (London's marinas and docks
+    on the Thames): the skeleton ran a maze of narrow channels round the piers (islands
+    between channels), its dead ends sources, and gave it a share of the river by width (up
+    to 1.4 m/s in its slips against the river's 0.82). It is side water (SIDE_FRACTION): one
+    still basin with a mouth at each slip, the piers' faces the river's bank between them;
+    the river has one axis and runs past."""
+    slips = [box(100 + 16 * k, W / 2 - 1, 104 + 16 * k, W / 2 + 44) for k in range(5)]
+    behind = box(100, W / 2 + 40, 168, W / 2 + 44)
+    creek = [box(166, W / 2 + 42, 170, W / 2 + 80), box(166, W / 2 + 62, 200, W / 2 + 66)]
+    river = box(-60, -W / 2, 400, W / 2)
+    water = shapely.union_all([river, *slips, behind, *creek])
+    water = shapely.normalize(shapely.intersection(_world(water), box(0, -1000, 300, 1000)))
+    assert len(water.interiors) == 4                        # the piers
+    builder = rf.read_water(write_polygons(tmp_path / "marina.geojson", [water]), origin_m=ORIGIN)
+    graph = builder.build()
+    assert builder.report.derived["axes"] == {"skeleton": 1}
+    assert any("side water" in n for n in builder.report.notes)
+    (b,) = builder.basins
+    assert len(b.mouths) == 5
+    marina = shapely.difference(water, _world(river))
+    assert shapely.symmetric_difference(b.polygon, marina).area < 0.05 * marina.area
+    field = rf.FlowField(graph)
+    pts = _basin_points(shapely.difference(marina, _world(river).buffer(8.0)), 1.0)
+    assert len(pts) > 500
+    status, v = field.query(pts)
+    assert (status == INSIDE).all()
+    mean_speed = builder.discharges_m2s[0] / W
+    assert np.hypot(*v.T).max() < 0.01 * mean_speed
