@@ -1598,10 +1598,12 @@ def _side_water(net: _Network, deg: np.ndarray, edge, tolerance_m: float, beside
     Side water is a connected set of skeleton channels (joined at nodes no wider channel
     touches) whose narrowest water away from its ends (:func:`_narrowest`) is at most
     SIDE_FRACTION of every channel it opens off (a braid's arm is as wide as the arms beside
-    it), at junctions where two of those meet (the channel runs on past it), none of whose free ends is a way in or out (on the data's
-    edge, an inlet, an outlet, a tributary, with ``beside`` part of one of the water's ends:
-    :func:`_end_beside`) and none of whose nodes lies farther along it from those junctions
-    than BASIN_SPUR_WIDTHS of their channels' widths beyond their bank."""
+    it), at junctions where two of those meet (the channel runs on past it), with dead ends
+    where it opens off more than one (else it is an arm the water runs through, however
+    narrow: a side channel behind an island), none of its free ends a way in or out (on
+    the data's edge, an inlet, an outlet, a tributary, with ``beside`` part of one of the
+    water's ends: :func:`_end_beside`), and no point of it farther along its axes from those
+    junctions than BASIN_SPUR_WIDTHS of their channels' widths beyond their bank."""
     width = {id(c): c.width for c in net.channels}
     narrowest = {id(c): _narrowest(c, deg) for c in net.channels}
     real = net.inlets | net.outlets | net.tributaries
@@ -1620,7 +1622,8 @@ def _side_water(net: _Network, deg: np.ndarray, edge, tolerance_m: float, beside
                 continue              # (off nothing, or where the water comes in or goes out)
             main = min(min(wide_at[n]) for n in attach)
             ends = [(c, n) for c in side for n in (c.a, c.b) if deg[n] == 1]
-            if (max(narrowest[id(c)] for c in side) > SIDE_FRACTION * main
+            if (not ends and len(attach) > 1          # an arm the water runs through
+                    or max(narrowest[id(c)] for c in side) > SIDE_FRACTION * main
                     or any(n in real for _, n in ends)
                     or edge is not None and any(
                         edge.distance(shapely.Point(net.nodes[n])) <= max(

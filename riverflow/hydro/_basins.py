@@ -38,7 +38,9 @@ of the river's speed, faster than the river at its corners and upstream beside i
 bay with a quarter of its width in depth is the river's dead water (still, joined at its
 mouth)."""
 BASIN_MIN_AREA = 0.05
-"""A basin's area is at least this many squared widths of its channel."""
+"""A basin's area is at least this many squared widths of its channel, unless it is deeper
+beyond its mouth than its mouth is wide (a slip 4 m wide and 30 m deep off a 150 m river: as
+the channel's water its walls faced away from the axis)."""
 BANK_MARGIN = 0.02
 """An outline point is off the channel when it lies farther than the half width plus this many
 widths (and the builder's tolerance) from the axis."""
@@ -466,7 +468,8 @@ def _basin(v, run, before, after, excess, width, poly, lines, tolerance_m) -> Ba
         basin = max(getattr(basin, "geoms", [basin]), key=lambda g: g.area)
         if not isinstance(basin, shapely.Polygon):
             return None
-    if basin.area < BASIN_MIN_AREA * w * w:
+    slip = pocket >= mouth_m
+    if basin.area < BASIN_MIN_AREA * w * w and not slip:
         return None
     mouth = shapely.LineString([a, b])
     eps = max(1e-6 * max(1.0, float(np.abs(v).max())), 1e-3 * tolerance_m)
@@ -480,7 +483,8 @@ def _basin(v, run, before, after, excess, width, poly, lines, tolerance_m) -> Ba
             return None
         basin = shapely.intersection(basin, poly)
         basin = max(getattr(basin, "geoms", [basin]), key=lambda g: g.area)
-        if not isinstance(basin, shapely.Polygon) or basin.area < BASIN_MIN_AREA * w * w:
+        if not isinstance(basin, shapely.Polygon) or (basin.area < BASIN_MIN_AREA * w * w
+                                                      and not slip):
             return None
         cut = shapely.intersection(shapely.intersection(mouth, wet), basin.buffer(eps))
         mouths = [np.asarray(g.coords)[[0, -1]] for g in shapely.get_parts(

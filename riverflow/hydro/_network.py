@@ -477,6 +477,27 @@ def _meeting_ties(pieces: list[Piece], eps_m: float) -> list:
     return ties
 
 
+def _split_at_basin_mouths(rings, lakes) -> None:
+    """Two basins whose mouths meet end to end (a point of land between them touching the
+    river's bank) leave the river's outline one closing segment across both: it is split
+    where a basin's mouth ends, so that each mouth is one closing segment of both areas."""
+    ends = {tuple(p) for r in rings if lakes.polygon_lake[r.polygon] >= 0
+            and lakes.lakes[lakes.polygon_lake[r.polygon]].basin
+            for kind, item in r.items if kind == "closing" for p in (item[0], item[-1])}
+    if not ends:
+        return
+    for ring in rings:
+        if lakes.polygon_lake[ring.polygon] >= 0:
+            continue
+        items = []
+        for kind, item in ring.items:
+            cut = ([k for k in range(1, len(item) - 1) if tuple(item[k]) in ends]
+                   if kind == "closing" else [])
+            items += ([(kind, item[a:b + 1]) for a, b in zip([0] + cut, cut + [len(item) - 1])]
+                      if cut else [(kind, item)])
+        ring.items = items
+
+
 def _basin_mouths(rings, pieces, lakes, basin_of, piece_axes, axis_index, axis_width, psi,
                   nodes) -> dict:
     """The mouths of the basins (:mod:`riverflow.hydro._basins`): {(start node, end node) as the
@@ -520,6 +541,8 @@ def assemble_graph(geoms: list[BranchGeometry], rings: list[Ring], pieces: list[
     :class:`PolylineIndex` (the axes are the graph's first curves, in order; each index is of
     the axis' :meth:`~HydroGraph.vertices` exactly, the nodes being keyed by exact
     coordinates), for the self-check to reuse."""
+    if lakes is not None:
+        _split_at_basin_mouths(rings, lakes)
     island_of: dict[int, int] = {}
     for i, piece in enumerate(pieces):
         if piece.closed and rings[piece.ring].hole:
