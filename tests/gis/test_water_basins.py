@@ -639,6 +639,15 @@ def test_a_creek_whose_mouth_faces_away_is_one_basin(tmp_path):
     assert status[0] == INSIDE and np.hypot(*v[0]) < 1e-6
 
 
+def _river_with(tmp_path, name: str, extra: list):
+    """The straight 60 m river of these tests with ``extra`` polygons off its bank (in its
+    frame), read and built: (water, builder, graph)."""
+    water = shapely.union_all([box(-60, -W / 2, 400, W / 2), *extra])
+    water = shapely.normalize(shapely.intersection(_world(water), box(0, -1000, 300, 1000)))
+    builder = rf.read_water(write_polygons(tmp_path / f"{name}.geojson", [water]), origin_m=ORIGIN)
+    return water, builder, builder.build()
+
+
 def test_a_marina_of_slips_joined_behind_their_piers_is_still_water(tmp_path):
     """Five 4 m slips 40 m long between piers off the bank of a 60 m river, joined behind the
     piers by a 4 m channel, with a creek of two branches off it (London's marinas and docks
@@ -650,34 +659,22 @@ def test_a_marina_of_slips_joined_behind_their_piers_is_still_water(tmp_path):
     slips = [box(100 + 16 * k, W / 2 - 1, 104 + 16 * k, W / 2 + 44) for k in range(5)]
     behind = box(100, W / 2 + 40, 168, W / 2 + 44)
     creek = [box(166, W / 2 + 42, 170, W / 2 + 80), box(166, W / 2 + 62, 200, W / 2 + 66)]
-    river = box(-60, -W / 2, 400, W / 2)
-    water = shapely.union_all([river, *slips, behind, *creek])
-    water = shapely.normalize(shapely.intersection(_world(water), box(0, -1000, 300, 1000)))
+    water, builder, graph = _river_with(tmp_path, "marina", [*slips, behind, *creek])
     assert len(water.interiors) == 4                        # the piers
-    builder = rf.read_water(write_polygons(tmp_path / "marina.geojson", [water]), origin_m=ORIGIN)
-    graph = builder.build()
     assert builder.report.derived["axes"] == {"skeleton": 1}
     assert any("side water" in n for n in builder.report.notes)
     (b,) = builder.basins
     assert len(b.mouths) == 5
-    marina = shapely.difference(water, _world(river))
+    river = _world(box(-60, -W / 2, 400, W / 2))
+    marina = shapely.difference(water, river)
     assert shapely.symmetric_difference(b.polygon, marina).area < 0.05 * marina.area
-    field = rf.FlowField(graph)
-    pts = _basin_points(shapely.difference(marina, _world(river).buffer(8.0)), 1.0)
+    field = rf.FlowField(graph, potential_delta_m=1.0)
+    pts = _basin_points(shapely.difference(marina, river.buffer(8.0)), 1.0)
     assert len(pts) > 500
     status, v = field.query(pts)
     assert (status == INSIDE).all()
     mean_speed = builder.discharges_m2s[0] / W
     assert np.hypot(*v.T).max() < 0.01 * mean_speed
-
-
-def _river_with(tmp_path, name: str, extra: list):
-    """The straight 60 m river of these tests with ``extra`` polygons off its bank (in its
-    frame), read and built: (water, builder, graph)."""
-    water = shapely.union_all([box(-60, -W / 2, 400, W / 2), *extra])
-    water = shapely.normalize(shapely.intersection(_world(water), box(0, -1000, 300, 1000)))
-    builder = rf.read_water(write_polygons(tmp_path / f"{name}.geojson", [water]), origin_m=ORIGIN)
-    return water, builder, builder.build()
 
 
 def test_a_slip_deeper_than_its_mouth_is_one_basin(tmp_path):
@@ -690,7 +687,8 @@ def test_a_slip_deeper_than_its_mouth_is_one_basin(tmp_path):
     (b,) = builder.basins
     want = shapely.difference(_world(slip), _world(box(-60, -W / 2, 400, W / 2)))
     assert shapely.symmetric_difference(b.polygon, want).area < 0.02 * want.area
-    status, v = rf.FlowField(graph).query(np.array(_world(shapely.Point(151.5, W / 2 + 20)).coords))
+    inside = np.array(_world(shapely.Point(151.5, W / 2 + 20)).coords)
+    status, v = rf.FlowField(graph).query(inside)
     assert status[0] == INSIDE and np.hypot(*v[0]) < 1e-6
 
 
