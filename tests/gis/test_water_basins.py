@@ -362,6 +362,16 @@ def test_a_wide_shallow_bay_is_still_water(tmp_path):
     assert (np.abs(v @ t) > 0.99 * speed).all()
 
 
+def _mouth_frame(water, basin):
+    """A basin's mouth's ends a, e (2,), its direction t and its normal n into the river."""
+    a, e = basin.mouth
+    t = (e - a) / np.linalg.norm(e - a)
+    n = np.array([-t[1], t[0]])
+    if not shapely.contains_xy(water, *(0.5 * (a + e) + 5.0 * n)):
+        n = -n
+    return a, e, t, n
+
+
 def test_a_basin_is_level_with_its_river_at_its_mouth(harbour):
     """The scene's water surface (rf.landscape: the level foam's steepness term reads through
     the water-level tiles): each basin stands at its river's level at its mouth, so 1 to 20 m
@@ -378,11 +388,7 @@ def test_a_basin_is_level_with_its_river_at_its_mouth(harbour):
     mouths = [basin_mouth(graph, a) for a in graph.lakes()]
     assert len(mouths) == 3 and all(m is not None for m in mouths)
     for b in builder.basins:
-        a, e = b.mouth
-        t = (e - a) / np.linalg.norm(e - a)
-        n = np.array([-t[1], t[0]])
-        if not shapely.contains_xy(water, *(0.5 * (a + e) + 5.0 * n)):
-            n = -n
+        a, e, t, n = _mouth_frame(water, b)
         inside = _basin_points(b.polygon, 3.0)
         river = 0.5 * (a + e) + 10.0 * n
         level = scene.water.level(np.vstack([inside, river[None]]))
@@ -405,11 +411,7 @@ def test_a_basin_is_as_deep_as_its_river_at_its_mouth(harbour):
     water, basins, builder, graph, field = harbour
     scene = rf.landscape(graph, seed=0)
     for b in builder.basins:
-        a, e = b.mouth
-        t = (e - a) / np.linalg.norm(e - a)
-        n = np.array([-t[1], t[0]])
-        if not shapely.contains_xy(water, *(0.5 * (a + e) + 5.0 * n)):
-            n = -n
+        a, e, t, n = _mouth_frame(water, b)
         ss, dd = np.meshgrid(np.arange(1.0, np.linalg.norm(e - a) - 1.0, 1.0),
                              np.arange(-5.0, 21.0, 1.0))
         pts = a + ss.reshape(-1, 1) * t + dd.reshape(-1, 1) * n
