@@ -348,7 +348,12 @@ def _cut_piece(rings: list[Ring], pieces: list[Piece], pc: int, point: np.ndarra
 
 
 def _island_potentials(geoms, sides, pieces, islands, island_of, psi) -> None:
-    """Fill ψ of the free islands (given, or the plug-flow estimate at the centroid)."""
+    """Fill ψ of the free islands (given, or the plug-flow estimate at the centroid: between
+    the ψ of its channel's banks, by its distances to the nearest shores with each: a bank
+    cut into pieces (London's, at every basin's mouth) has one ψ, and its piece the branch
+    names may lie far from the island: an island 2 m off the bank took 78 % of the
+    channel's discharge on that side, 100 m/s through the gap)."""
+    lines = None
     for piece_index, k in sorted(island_of.items()):
         outline = islands[k].outline
         c = outline.centroid
@@ -358,8 +363,11 @@ def _island_potentials(geoms, sides, pieces, islands, island_of, psi) -> None:
         left, right = sides[b]
         lo, hi = psi[left], psi[right]
         if islands[k].potential is None:
-            dl = shapely.distance(c, pieces[left].line())
-            dr = shapely.distance(c, pieces[right].line())
+            if lines is None:
+                lines = np.array([p.line() for p in pieces], dtype=object)
+            banks = np.array([j not in island_of for j in range(len(pieces))])
+            dl = float(shapely.distance(c, lines[banks & (psi == lo)]).min())
+            dr = float(shapely.distance(c, lines[banks & (psi == hi)]).min())
             psi[piece_index] = lo + (hi - lo) * dl / max(dl + dr, 1e-12)
         else:
             p = islands[k].potential
