@@ -541,6 +541,7 @@ class RiverNetworkBuilder:
                 [isl.outline for isl in self._islands]))
         branches, lake_ends, origin = _lakes.cut_branches(branches, lakes, self.tolerance_m,
                                                           rivers)
+        shores = list(lake_ends)        # (the lakes the ends lie on, before the caps)
         branches, lake_ends, self.terminal_lakes, self.source_lakes = \
             _lakes.end_at_terminal_lakes(branches, lakes, lake_ends)
         if self.terminal_lakes and getattr(self, "report", None) is not None:
@@ -554,7 +555,7 @@ class RiverNetworkBuilder:
                 f"({', '.join(lakes[k].name for k in self.source_lakes)}): still water, "
                 f"their outlets start on free ends at the shore")
         if branches:
-            start_j, end_j, junctions = _find_junctions(branches, self)
+            start_j, end_j, junctions = _find_junctions(branches, self, shores)
         else:
             start_j, end_j, junctions = [], [], np.zeros((0, 2))
         n_junctions = len(junctions)
@@ -803,12 +804,15 @@ def _lakes_of_graph(geoms, lakes, lake_ends, polygon_lake, tolerance_m):
 # -- topology -----------------------------------------------------------------------------
 
 
-def _find_junctions(branches: list[_BranchInput], builder=None):
+def _find_junctions(branches: list[_BranchInput], builder=None, shores=None):
     """Cluster branch end points into junctions and snap them together. Two ends nearer
     than half their widths together that do not join are an error, unless one of their
     branches joins them itself (a reach shorter than its junction is wide) and ``builder``'s
-    ``short_reaches_join`` is true; ``builder.short_reach_joined`` says whether that
-    happened.
+    ``short_reaches_join`` is true (``builder.short_reach_joined`` says whether that
+    happened). Two ends on one lake's shore (``shores``: per branch the lakes its start and
+    end lie on, -1: none, as :func:`_lakes.cut_branches` finds them; a terminal lake's
+    inlets capped off its shore too) are never joined nor apart: the lake joins them (mouths
+    side by side, an island's tip between them or none).
 
     Returns (start junction per branch, end junction per branch, junction points (J, 2));
     -1 marks a free end.
@@ -833,6 +837,8 @@ def _find_junctions(branches: list[_BranchInput], builder=None):
         ia, ea, pa, wa = ends[a]
         ic, ec, pc, wc = ends[c]
         d = float(np.hypot(*(pa - pc)))
+        if shores is not None and shores[ia][ea] == shores[ic][ec] >= 0:
+            continue        # (both on one lake's shore: the lake joins them)
         if d <= JOIN_FRACTION * min(wa, wc):
             if ia == ic:
                 raise GraphError(f"branch {branches[ia].name!r} starts and ends at the same point")

@@ -58,3 +58,31 @@ def test_a_mask_with_an_empty_border_ends_at_its_water(tmp_path):
     path = write_mask(tmp_path / "d.tif", DELTA, 5.0, bounds=(-300.0, -100.0, 1100.0, 1600.0))
     b = rf.read_water(path)
     check_delta(b, b.build())
+
+
+def test_mouths_side_by_side_meet_through_the_sea():
+    """Two distributaries either side of an island whose tip nearly reaches the sea: their
+    axes' ends on the shore lie nearer than half their widths together (a skeleton's widths
+    at a mouth are the flared mouth's, Colville's many such mouths), yet they do not miss a
+    junction: the sea joins them (before: "branches 'north' and 'south' do not meet")."""
+    from riverflow.hydro.builder import RiverNetworkBuilder
+
+    sea = shapely.box(0, -300, 400, 300)
+    water = shapely.difference(
+        shapely.union(shapely.box(-600, -30, -250, 30),
+                      shapely.Polygon([(-260, -70), (-100, -70), (0, -88), (0, 88), (-100, 70),
+                                       (-260, 70)])),
+        shapely.Polygon([(-200, -8), (-2, -2), (-2, 2), (-200, 8)]))
+    b = RiverNetworkBuilder()
+    b.add_branch([(-600, 0), (-260, 0)], 60.0, discharge_m2s=5.0, name="river")
+    for side, name in ((1.0, "north"), (-1.0, "south")):
+        b.add_branch([(-260, 0), (-200, 40 * side), (-100, 40 * side), (0, 45 * side)],
+                     [62.0, 62.0, 62.0, 100.0], name=name)
+    b.set_water_area(water)
+    b.add_lake(sea)
+    graph = b.build()
+    assert b.terminal_lakes == [0]
+    status, v = rf.FlowField(graph).query(np.array([[-400.0, 0.0], [-150.0, 40.0],
+                                                   [-150.0, -40.0], [200.0, 0.0]]))
+    assert (status == rf.FlowStatus.INSIDE).all()
+    assert (v[:3, 0] > 0.01).all() and np.abs(v[3]).max() < 1e-6
