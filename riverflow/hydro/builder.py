@@ -578,8 +578,10 @@ class RiverNetworkBuilder:
                                                  self.tolerance_m)
             if lakes:   # the lakes are water too
                 water = shapely.union_all([water] + [lk.polygon for lk in lakes])
+            mouths = {(i, e == 0) for i, (was, now) in enumerate(zip(shores, lake_ends))
+                      for e in (0, 1) if was[e] >= 0 and now[e] < 0}
             polygons, cuts, islands, (end_cuts, cut_islands) = _given_water(
-                geoms, water, self._islands, self.tolerance_m)
+                geoms, water, self._islands, self.tolerance_m, mouths)
             self.islands_cut = cut_islands
             if lakes:   # a pond on a free island: its water again (the island's land is cut)
                 kept = shapely.union_all(polygons)
@@ -1193,10 +1195,14 @@ def _first_hits(water, origins: np.ndarray, direction: np.ndarray, reach_m: floa
     return best, outer
 
 
-def _end_chord(water, line: np.ndarray, width_m: float, at_start: bool, eps_m: float):
+def _end_chord(water, line: np.ndarray, width_m: float, at_start: bool, eps_m: float,
+               mouth: bool = False):
     """The straight closing segment across a free end of a given water area: (chord (2, 2),
     station along the end's tangent from the end point [m], unit tangent pointing out of the
-    channel). None when no chord across the channel is found within two widths of the end."""
+    channel). None when no chord across the channel is found within two widths of the end.
+    ``mouth``: the end is capped off a still lake's shore (the water cut back along it): the
+    straight edge it runs into is its chord however long (a delta's mouth flaring into a
+    bay, wider than END_CHORD_LONGEST widths of its channel, opens on the sea along it)."""
     if len(line) < 2:
         return None
     if at_start:
@@ -1220,17 +1226,15 @@ def _end_chord(water, line: np.ndarray, width_m: float, at_start: bool, eps_m: f
     left, lo = _first_hits(water, q, n, reach)
     right, ro = _first_hits(water, q, -n, reach)
     ok = inside & lo & ro & np.isfinite(left) & np.isfinite(right)
-    if not ok.any():
-        return None
     chord = np.where(ok, left + right, 0.0)
-    ok &= chord <= END_CHORD_LONGEST * width_m       # not across a bend
-    if not ok.any():
-        return None
-    chord = np.where(ok, chord, 0.0)
-    ref = min(chord.max(), width_m)
     edge = _edge_at(water, start + t * tip[0], eps_m, END_STRAIGHT * width_m)
     span = np.hypot(*(edge[-1] - edge[0])) if edge is not None else 0.0
-    if END_CHORD_FRACTION * ref <= span <= END_CHORD_LONGEST * width_m:
+    ok &= chord <= END_CHORD_LONGEST * width_m       # not across a bend
+    if not ok.any() and not (mouth and span >= END_CHORD_FRACTION * width_m):
+        return None
+    chord = np.where(ok, chord, 0.0)
+    ref = min(chord.max(), width_m) if ok.any() else width_m
+    if END_CHORD_FRACTION * ref <= span and (mouth or span <= END_CHORD_LONGEST * width_m):
         # the water ends on a straight edge across the channel (the data's edge): that edge
         if ((edge[-1] - edge[0]) @ n < 0) != at_start:
             edge = edge[::-1]
@@ -1307,20 +1311,24 @@ def _trim_to_chord(line: np.ndarray, widths: np.ndarray, chord: np.ndarray, at_s
     return np.vstack([x, rest]), np.concatenate([[widths[k]], wrest])
 
 
-def _given_water(geoms: list[BranchGeometry], water, islands: list[_Island], tolerance_m: float):
+def _given_water(geoms: list[BranchGeometry], water, islands: list[_Island], tolerance_m: float,
+                 mouths=frozenset()):
     """:meth:`RiverNetworkBuilder.set_water_area`: the oriented water polygons cut at the free
-    ends, the closing segments, the validated islands and the area cut off at each end."""
+    ends, the closing segments, the validated islands and the area cut off at each end.
+    ``mouths``: {(branch index, at its start)} of the free ends capped off a terminal or
+    source lake's shore (:func:`_lakes.end_at_terminal_lakes`), cut along that shore."""
     eps = max(1e-3, 1e-3 * tolerance_m)
     cuts, cut_area, cut_islands = [], [], []
     given = water
-    for g in geoms:
+    for k, g in enumerate(geoms):
         for at_start in (True, False):
             if (g.start_junction if at_start else g.end_junction) >= 0:
                 continue
             where = "start" if at_start else "end"
             c = g.centerline_m[0 if at_start else -1]
             width = float(np.median(g.widths_m))
-            found = _end_chord(water, g.centerline_m, width, at_start, eps)
+            found = _end_chord(water, g.centerline_m, width, at_start, eps,
+                               (k, at_start) in mouths)
             if found is None:
                 raise GraphError(f"branch {g.name!r}: its free {where} at ({c[0]:.1f}, "
                                  f"{c[1]:.1f}) does not reach across the water to its banks "
@@ -1333,9 +1341,13 @@ def _given_water(geoms: list[BranchGeometry], water, islands: list[_Island], tol
             t = found[2]
             mid = chord.mean(axis=0)
             chord_line = shapely.LineString(chord)
+            # (less than half the water body it is cut from: a delta's arm beside a sea, a
+            # small part of all the water, is not cut off whole beyond one of its ends)
+            body = max((p.area for p in getattr(water, "geoms", [water])
+                        if p.distance(chord_line) <= eps), default=water.area)
             beyond = [p for p in pieces
                       if (np.asarray(p.representative_point().coords[0]) - mid) @ t > 0
-                      and p.distance(chord_line) <= eps and p.area < 0.5 * water.area]
+                      and p.distance(chord_line) <= eps and p.area < 0.5 * body]
             if len(pieces) > 1 and beyond:
                 water = shapely.union_all([p for p in pieces if not any(p is q for q in beyond)])
                 cut_area.append(float(sum(p.area for p in beyond)))
