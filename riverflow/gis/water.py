@@ -673,17 +673,9 @@ def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy
     _match_points(ends, outlet_xy, "outlet", where, water)
     seas = builder.seas
     seas = shapely.union_all(seas) if seas else None
-    if seas is not None:
-        # the channels opening into open water leave there, and those ending so near it that
-        # the builder draws their ends on to its shore (END_SNAP of their end's width: a bar
-        # of land a cell or two wide between a creek and the sea; as a way in, the sea would
-        # feed the delta)
-        from riverflow.hydro._lakes import END_SNAP
-
+    if seas is not None:        # the channels opening into open water leave there
         for net, n, w in ends:
-            c = next(c for c in net.channels if n in (c.a, c.b))
-            snap = END_SNAP * float(c.widths[0 if c.a == n else -1])
-            if seas.distance(shapely.Point(net.nodes[n])) <= max(w, snap, tolerance_m):
+            if seas.distance(shapely.Point(net.nodes[n])) <= max(w, tolerance_m):
                 net.outlets.add(n)
     heights = ((lambda xy: _dem_heights(dem, xy, report, where)) if dem is not None else None)
     builder.kept_beside = False

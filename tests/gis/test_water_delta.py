@@ -86,3 +86,44 @@ def test_mouths_side_by_side_meet_through_the_sea():
                                                    [-150.0, -40.0], [200.0, 0.0]]))
     assert (status == rf.FlowStatus.INSIDE).all()
     assert (v[:3, 0] > 0.01).all() and np.abs(v[3]).max() < 1e-6
+
+
+def test_a_mouth_flaring_into_a_bay_is_cut_along_the_sea():
+    """A 60 m river flaring over its last 150 m into a bay 300 m wide on the sea (a terminal
+    lake): its end, capped off the sea's shore, is cut along that shore, however much wider
+    than its channel (before: "does not reach across the water to its banks"); the bay stays
+    water, the river runs, the sea is still."""
+    from riverflow.hydro.areas import water_polygon
+    from riverflow.hydro.builder import RiverNetworkBuilder
+
+    sea = shapely.box(0, -400, 500, 400)
+    water = shapely.union(shapely.box(-800, -30, -140, 30),
+                          shapely.Polygon([(-150, -30), (0, -150), (0, 150), (-150, 30)]))
+    b = RiverNetworkBuilder()
+    b.add_branch([(-800, 0), (-60, 0), (0, 0)], [60.0, 60.0, 200.0], discharge_m2s=5.0)
+    b.set_water_area(water)
+    b.add_lake(sea)
+    graph = b.build()
+    assert b.terminal_lakes == [0]
+    status, v = rf.FlowField(graph).query(np.array([[-400.0, 0.0], [-60.0, 0.0], [200.0, 0.0]]))
+    assert (status == rf.FlowStatus.INSIDE).all()
+    assert v[0, 0] > 0.01 and v[1, 0] > 0.01 and np.abs(v[2]).max() < 1e-6
+    # only the gap along the shore (a tolerance, 0.25 m, over the bay's 300 m) is left out
+    gone = shapely.difference(shapely.union(water, sea), water_polygon(graph))
+    assert gone.area < 0.3 * 300.0
+
+
+def test_a_creek_ending_beside_the_sea_is_not_drawn_across_the_land(tmp_path):
+    """A creek off a distributary ends in a round pocket 12 m of land short of the sea (a
+    bar a mask's cell or two wide): its dead end is not drawn on to the sea's shore over
+    that land (before: drawn on, its water fed from the sea into the delta, "… form a loop
+    that flows back into itself"); the delta builds, the sea stays still."""
+    c, u = np.array([400.0, 1500.0]), np.array([0.6247, -0.7809])
+    pocket = c + (600.0 + 12.0 + 25.0) * u          # the sea: 600 m round c
+    creek = shapely.union(shapely.LineString([(560, 780), pocket]).buffer(10, cap_style="flat"),
+                          shapely.Point(pocket).buffer(25))
+    b = rf.read_water(write_polygons(tmp_path / "d.gpkg", [shapely.union(DELTA, creek)]))
+    graph = b.build()
+    check_delta(b, graph)
+    status, _ = flow_at(b, graph, [0.5 * (np.array([560.0, 780.0]) + pocket)])
+    assert status[0] == rf.FlowStatus.INSIDE
