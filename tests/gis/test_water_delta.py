@@ -127,3 +127,32 @@ def test_a_creek_ending_beside_the_sea_is_not_drawn_across_the_land(tmp_path):
     check_delta(b, graph)
     status, _ = flow_at(b, graph, [0.5 * (np.array([560.0, 780.0]) + pocket)])
     assert status[0] == rf.FlowStatus.INSIDE
+
+
+def test_a_side_channel_leaving_a_mouths_bay_is_led_into_the_mouth():
+    """A side channel whose axis starts in the flared bay of a wider channel's mouth on the
+    open water, its start nearer the mouth's end than half their widths together (the
+    skeleton puts no point on a mouth, so their axes need not meet: Colville's east mouths),
+    is led on into the mouth's channel, which is split there, half the mouth's width back
+    from the sea or more (a junction: a distributary, not a source beside the mouth)."""
+    from riverflow.gis.rivers import RiverImport
+    from riverflow.gis.water import _Channel, _lead_into_mouths, _Network
+
+    bay = shapely.Polygon([(-50, 0), (50, 0), (50, 600), (300, 1000), (-300, 1000), (-50, 600)])
+    water = shapely.union(bay, shapely.box(150, 760, 1000, 840))
+    sea = shapely.box(-400, 1000, 400, 1400)
+    main = _Channel([(0, 0), (0, 600), (0, 1000)], [100.0, 120.0, 600.0], "skeleton", 0, 1,
+                    "main")
+    side = _Channel([(250, 800), (600, 800), (1000, 800)], [200.0, 80.0, 80.0], "skeleton",
+                    2, 3, "side")
+    net = _Network(water, [], [main, side], np.array([(0, 0), (0, 1000), (250, 800),
+                                                       (1000, 800)], float))
+    net.outlets = {1}
+    report = RiverImport("x", "y", 1, None, None)
+    _lead_into_mouths(net, report, sea, 0.25)
+    assert len(net.channels) == 3 and net.degree().tolist().count(3) == 1
+    j = net.nodes[int(np.flatnonzero(net.degree() == 3)[0])]
+    assert np.allclose(j, (0, 700))                   # half the mouth's 600 m back
+    assert np.allclose(side.points[0], j) and side.a == main.b
+    assert any("led on" in r.what for r in report.repairs)
+    assert len(net.outlets) == 1 and np.allclose(net.nodes[next(iter(net.outlets))], (0, 1000))
