@@ -1976,10 +1976,9 @@ def _skeleton_channels(part, k: int, tolerance_m: float, report, frame=None,
         chains, nodes, collapsed = _skeleton_once(water, tolerance_m, frame, ends, dead)
         if collapsed is None:
             break
-        hole = water.interiors[collapsed]
-        free.append(shapely.Polygon(hole))
+        free += [shapely.Polygon(water.interiors[j]) for j in collapsed]
         water = shapely.Polygon(water.exterior, [r for j, r in enumerate(water.interiors)
-                                                 if j != collapsed])
+                                                 if j not in collapsed])
     channels = [_Channel(pts, w, "skeleton", a, b, f"water {k} channel {i}")
                 for i, (pts, w, a, b) in enumerate(chains)]
     if not channels:        # a blob, a ring round an island: still water (_find_networks)
@@ -2046,7 +2045,8 @@ def _voronoi_edges(pts: np.ndarray) -> np.ndarray:
 
 def skeleton(water, tolerance_m: float = 0.25, frame=None, ends=None, dead=None):
     """The medial axis of a polygon as channels: ([(points (K, 2), widths (K,), start node,
-    end node)], node points (N, 2), the index of a hole whose loop collapsed or None).
+    end node)], node points (N, 2), the indices of the holes whose loops collapsed or None:
+    every one the diagram shows at once, each made a free island before it is made again).
 
     The Voronoi diagram of points along the outline (spaced a SAMPLES_PER_WIDTH-th of the
     narrowest width) has its edges inside the water along the medial axis; those are kept, the
@@ -2118,11 +2118,16 @@ def skeleton(water, tolerance_m: float = 0.25, frame=None, ends=None, dead=None)
     _keep_longest_piece(nbr)
     chains = _chains(nbr, uniq)
     chains, loops = _merge_junctions(chains, uniq, radius)
+    collapsed = []
     for loop in loops:        # a loop round a hole collapsed: the hole becomes a free island
         ring = shapely.Polygon(uniq[loop]) if len(loop) >= 3 else shapely.Polygon()
         for j, hole in enumerate(water.interiors):
-            if ring.is_valid and ring.contains(shapely.Polygon(hole).representative_point()):
-                return [], np.zeros((0, 2)), j
+            if (j not in collapsed and ring.is_valid
+                    and ring.contains(shapely.Polygon(hole).representative_point())):
+                collapsed.append(j)
+                break
+    if collapsed:
+        return [], np.zeros((0, 2)), tuple(collapsed)
     tree = cKDTree(banks)
     out = []
     ids: dict[int, int] = {}
