@@ -1176,13 +1176,13 @@ _END_STATIONS = 48
 
 def _first_hits(water, origins: np.ndarray, direction: np.ndarray, reach_m: float):
     """Distance along ``direction`` (unit, (2,)) from each origin (N, 2) to the water's
-    boundary (inf where none within ``reach_m``), and whether that boundary is the exterior of
-    its polygon."""
+    boundary (inf where none within ``reach_m``), and which ring that boundary is (its
+    polygon's index × 2^20 + its ring's, 0 the exterior; -1 where none)."""
     rays = shapely.linestrings(np.stack([origins, origins + direction * reach_m], axis=1))
     parts = [p for p in getattr(water, "geoms", [water])]
     best = np.full(len(origins), np.inf)
-    outer = np.zeros(len(origins), bool)
-    for poly in parts:
+    ring_of = np.full(len(origins), -1, np.int64)
+    for j, poly in enumerate(parts):
         for k, ring in enumerate([poly.exterior, *poly.interiors]):
             hits = shapely.intersection(rays, ring)
             for i, h in enumerate(hits):
@@ -1191,8 +1191,8 @@ def _first_hits(water, origins: np.ndarray, direction: np.ndarray, reach_m: floa
                 pts = shapely.get_coordinates(h)
                 d = float(((pts - origins[i]) @ direction).min())
                 if d < best[i]:
-                    best[i], outer[i] = d, k == 0
-    return best, outer
+                    best[i], ring_of[i] = d, (j << 20) + k
+    return best, ring_of
 
 
 def _end_chord(water, line: np.ndarray, width_m: float, at_start: bool, eps_m: float,
@@ -1225,7 +1225,9 @@ def _end_chord(water, line: np.ndarray, width_m: float, at_start: bool, eps_m: f
     inside = shapely.contains_xy(water, q[:, 0], q[:, 1])
     left, lo = _first_hits(water, q, n, reach)
     right, ro = _first_hits(water, q, -n, reach)
-    ok = inside & lo & ro & np.isfinite(left) & np.isfinite(right)
+    # both ends on one shore: the outer one, or one island's (a creek's dead end cut into
+    # it, the island's rim its banks); not from a bank to an island
+    ok = inside & (lo == ro) & (lo >= 0) & np.isfinite(left) & np.isfinite(right)
     chord = np.where(ok, left + right, 0.0)
     edge = _edge_at(water, start + t * tip[0], eps_m, END_STRAIGHT * width_m)
     span = np.hypot(*(edge[-1] - edge[0])) if edge is not None else 0.0
