@@ -682,6 +682,7 @@ def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy
     for net in networks:
         builder.kept_beside |= _drop_basin_spurs(net, frame, tolerance_m, report, heights,
                                                  builder.ends_beside)
+        _drop_side_waters(net, frame, tolerance_m, report, builder.ends_beside)
         _drop_stubs(net, report, seas)
         _lead_into_mouths(net, report, seas, tolerance_m)
     return networks
@@ -708,22 +709,27 @@ def _trim_overhangs(net: _Network, report: RiverImport, k: int):
     water is kept as given where that would move its outline by more than a quarter of
     OVERHANG_WIDTHS (a given vertex that far from the new ring) or leave it invalid.
     Reported."""
+    from riverflow.hydro.nearest import PolylineIndex
+
     water = net.water
-    axes = [shapely.LineString(c.points) for c in net.channels if len(c.points) >= 2]
-    if not axes:
+    lines = [c.points for c in net.channels if len(c.points) >= 2]
+    if not lines:
         return water
     widths = np.array([c.width for c in net.channels if len(c.points) >= 2])
-    tree = shapely.STRtree(axes)
+    # the axes' segments in one box hierarchy (GEOS's nearest line to a point measured every
+    # vertex of London's 14 km axis for each edge asked: 11 s of its build)
+    index = PolylineIndex(np.vstack(lines), np.repeat(np.arange(len(lines)),
+                                                      [len(p) for p in lines]))
 
     def facing(v: np.ndarray, at: np.ndarray):
         """For edges ``at`` (from vertex i to i + 1) of ring ``v``: how far the axis lies to
         their left (cross product / edge length / distance: the sine of its angle), their
         lengths and OVERHANG_WIDTHS of their channel's width."""
         a, b = v[at], v[(at + 1) % len(v)]
-        mid = shapely.points(0.5 * (a + b))
-        near = tree.nearest(mid)
-        q = shapely.get_coordinates(shapely.shortest_line(np.take(axes, near), mid))
-        tv = q[0::2] - q[1::2]                       # from the edge's middle to the axis
+        mid = 0.5 * (a + b)
+        out = index.nearest_segments(mid)
+        near = index.segment_line[out.seg]
+        tv = out.point - mid                         # from the edge's middle to the axis
         d = b - a
         length = np.hypot(*d.T)
         sine = (d[:, 0] * tv[:, 1] - d[:, 1] * tv[:, 0]) / np.maximum(
@@ -1473,10 +1479,13 @@ def _end_beside(net: _Network, c: _Channel, end: int, deg: np.ndarray) -> bool:
     free end (:meth:`_Network._beside`) and runs into a straight edge of the outline across
     it (at least half its width long, at least 45° to its axis: the water's end cut across,
     not a pocket's tip tapering shut)."""
-    # (only free ends within the widest channel's width twice may lie beside it)
-    reach = 2.0 * max(float(ch.widths.max()) for ch in net.channels)
-    near = np.flatnonzero(np.hypot(*(net.nodes - net.nodes[end]).T) <= reach)
-    if not any(deg[k] == 1 and k not in (c.a, c.b) and net._beside(end, k) for k in near):
+    # (only free ends nearer than their channels' widest and this one's together can be
+    # beside it: London's hundreds of free ends, each asked of every other, took 10 s)
+    widest = {n: float(d.widths.max()) for d in net.channels for n in (d.a, d.b) if deg[n] == 1}
+    ends = np.array(sorted(widest), np.int64)
+    reach = np.array([widest[n] for n in ends.tolist()]) + widest[end]
+    near = ends[np.hypot(*(net.nodes[ends] - net.nodes[end]).T) <= reach]
+    if not any(k not in (c.a, c.b) and net._beside(end, k) for k in near.tolist()):
         return False
     ring = np.asarray(net.water.exterior.coords)
     segs = shapely.linestrings(np.stack([ring[:-1], ring[1:]], axis=1))
@@ -1550,6 +1559,145 @@ def _drop_basin_spurs(net: _Network, frame, tolerance_m: float, report: RiverImp
             (d.width for d in net.channels if junction in (d.a, d.b)), default=0.0)))
         _join_at(net, junction)
     return kept
+
+
+SIDE_FRACTION = 0.25
+"""Channels no wider than this fraction of the channels they open off, within
+BASIN_SPUR_WIDTHS of those channels' widths of them and with no way in or out but through
+them, are side water (:func:`_drop_side_waters`): still, basins."""
+
+
+def _drop_side_waters(net: _Network, frame, tolerance_m: float, report: RiverImport,
+                      beside: bool = True) -> None:
+    """Drop the skeleton's channels of side water (:func:`_side_water`: a marina's slips and
+    the water joined behind its piers, docks, a creek's branches): still water with one or
+    several mouths on the river, which the builder finds as basins beyond the river's bank
+    (:mod:`riverflow.hydro._basins`). As channels the network gave it a share of the
+    discharge by width through a maze of narrow channels, and a source at each dead end,
+    whose ψ London's marina could not make add up. Noted; the junctions left with two
+    channels join them (:func:`_join_at`)."""
+    edge = frame.boundary if frame is not None else None
+    while True:
+        deg = net.degree()
+        found = _side_water(net, deg, edge, tolerance_m, beside)
+        if found is None:
+            return
+        side, attach, main, far = found
+        at = [net.nodes[n].copy() for n in attach]
+        x, y = at[0]
+        report.notes.append(
+            f"{side[0].name}" + (f" and {len(side) - 1} more channels" if len(side) > 1 else "")
+            + f": side water off the channel at ({x:.1f}, {y:.1f})"
+            + (f" and {len(attach) - 1} more junctions" if len(attach) > 1 else "")
+            + f", reaching {far:.1f} m along its axes, no wider than {SIDE_FRACTION:g} of "
+            f"the channel's {main:.1f} m and no way in or out but through it, is still water "
+            f"(basins: a marina, docks, creeks), not channels (give an inlet there, or "
+            f"lines=, to keep them channels)")
+        for c in side:
+            net.channels.remove(c)
+            for end, other in ((c.b, c.a), (c.a, c.b)):
+                if deg[end] == 1:          # a dead end's axis: a basin (a backwater's too)
+                    net.basin_axes.append(
+                        _beyond(c, other, 0.5 * main) if other in attach
+                        else (c.points, c.widths) if c.b == end
+                        else (c.points[::-1], c.widths[::-1]))
+        for p in at:
+            hit = np.flatnonzero(np.all(net.nodes == p, axis=1))
+            if len(hit):
+                _join_at(net, int(hit[0]))
+
+
+def _side_water(net: _Network, deg: np.ndarray, edge, tolerance_m: float, beside: bool):
+    """The first side water of ``net``, (channels, junctions it opens off, the narrowest
+    channel there [m], how far it reaches along its axes from them [m]), or None.
+    Side water is a connected set of skeleton channels (joined at nodes no wider channel
+    touches) whose narrowest water away from its ends (:func:`_narrowest`) is at most
+    SIDE_FRACTION of every channel it opens off (a braid's arm is as wide as the arms beside
+    it), at junctions where two of those meet (the channel runs on past it), with dead ends
+    where it opens off more than one (else it is an arm the water runs through, however
+    narrow: a side channel behind an island), none of its free ends a way in or out (on
+    the data's edge, an inlet, an outlet, a tributary, with ``beside`` part of one of the
+    water's ends: :func:`_end_beside`), and no point of it farther along its axes from those
+    junctions than BASIN_SPUR_WIDTHS of their channels' widths beyond their bank."""
+    width = {id(c): c.width for c in net.channels}
+    narrowest = {id(c): _narrowest(c, deg) for c in net.channels}
+    real = net.inlets | net.outlets | net.tributaries
+    for cut in sorted({SIDE_FRACTION * w for w in width.values()}, reverse=True):
+        narrow = [c for c in net.channels if narrowest[id(c)] <= cut and c.source == "skeleton"]
+        mine = {id(c) for c in narrow}
+        wide_at: dict[int, list[float]] = {}
+        for c in net.channels:
+            if id(c) not in mine:
+                for n in (c.a, c.b):
+                    wide_at.setdefault(n, []).append(width[id(c)])
+        for side in _joined(narrow, wide_at):
+            nodes = sorted({n for c in side for n in (c.a, c.b)})
+            attach = [n for n in nodes if n in wide_at]
+            if not attach or not all(_runs_past(net, n, mine) for n in attach):
+                continue              # (off nothing, or where the water comes in or goes out)
+            main = min(min(wide_at[n]) for n in attach)
+            ends = [(c, n) for c in side for n in (c.a, c.b) if deg[n] == 1]
+            if (not ends and len(attach) > 1          # an arm the water runs through
+                    or max(narrowest[id(c)] for c in side) > SIDE_FRACTION * main
+                    or any(n in real for _, n in ends)
+                    or edge is not None and any(
+                        edge.distance(shapely.Point(net.nodes[n])) <= max(
+                            4.0 * tolerance_m, 0.05 * width[id(c)]) for c, n in ends)
+                    or beside and any(_end_beside(net, c, n, deg) for c, n in ends)):
+                continue
+            index = {n: k for k, n in enumerate(nodes)}
+            rows = [index[c.a] for c in side] + [index[c.b] for c in side]
+            adj = coo_matrix(([c.length for c in side] * 2, (rows, rows[len(side):]
+                                                              + rows[:len(side)])),
+                             shape=(len(nodes), len(nodes))).tocsr()
+            d = np.min(np.atleast_2d(dijkstra(adj, indices=[index[n] for n in attach])), axis=0)
+            # (the farthest point of each channel from the junctions, along the axes)
+            far = max(0.5 * (d[index[c.a]] + d[index[c.b]] + c.length) for c in side)
+            if far - 0.5 * main <= BASIN_SPUR_WIDTHS * main:
+                return side, attach, main, far
+    return None
+
+
+def _runs_past(net: _Network, junction: int, ignore: set) -> bool:
+    """Whether the water at ``junction`` runs on past the channels ``ignore`` (ids): two of
+    the others leave it more than a right angle apart (:func:`_passes_by`)."""
+    others = [d for d in net.channels if id(d) not in ignore and junction in (d.a, d.b)]
+    reach = max((d.width for d in others), default=0.0)
+    dirs = [_leaving(d, junction, reach) for d in others]
+    return any(float(dirs[i] @ dirs[j]) < 0.0
+               for i in range(len(dirs)) for j in range(i + 1, len(dirs)))
+
+
+def _joined(channels: list[_Channel], apart: dict) -> list[list[_Channel]]:
+    """``channels`` in groups joined at their nodes, but at the nodes in ``apart``."""
+    parent = list(range(len(channels)))
+
+    def root(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    first: dict[int, int] = {}
+    for i, c in enumerate(channels):
+        for n in (c.a, c.b):
+            if n not in apart:
+                parent[root(i)] = root(first.setdefault(n, i))
+    groups: dict[int, list[_Channel]] = {}
+    for i, c in enumerate(channels):
+        groups.setdefault(root(i), []).append(c)
+    return list(groups.values())
+
+
+def _narrowest(c: _Channel, deg: np.ndarray) -> float:
+    """The narrowest width [m] of a channel away from its ends: outside the inscribed circles
+    of its junctions (the skeleton's way from a wide river's axis into a narrow mouth runs
+    through the river's water first) and half its width from a free end (where the skeleton
+    runs into the shore's corner); its width where none of it is."""
+    r = [0.5 * (c.widths[k] if deg[n] > 1 else c.width) for k, n in ((0, c.a), (-1, c.b))]
+    out = ((np.hypot(*(c.points - c.points[0]).T) > r[0])
+           & (np.hypot(*(c.points - c.points[-1]).T) > r[1]))
+    return float(c.widths[out].min()) if out.any() else c.width
 
 
 def _join_at(net: _Network, junction: int) -> None:

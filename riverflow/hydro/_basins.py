@@ -38,7 +38,9 @@ of the river's speed, faster than the river at its corners and upstream beside i
 bay with a quarter of its width in depth is the river's dead water (still, joined at its
 mouth)."""
 BASIN_MIN_AREA = 0.05
-"""A basin's area is at least this many squared widths of its channel."""
+"""A basin's area is at least this many squared widths of its channel, unless it is deeper
+beyond its mouth than its mouth is wide (a slip 4 m wide and 30 m deep off a 150 m river: as
+the channel's water its walls faced away from the axis)."""
 BANK_MARGIN = 0.02
 """An outline point is off the channel when it lies farther than the half width plus this many
 widths (and the builder's tolerance) from the axis."""
@@ -77,14 +79,19 @@ class Basin:
     mouth: np.ndarray
     depth_m: float
     width_m: float
+    mouths: list | None = None
+    """All its mouths [(2, 2)] [m], the widest (``mouth``) first: several where islands part
+    it from the channel (a marina's piers joined behind them)."""
 
     def describe(self) -> str:
         x, y = 0.5 * (self.mouth[0] + self.mouth[1])
         return (f"a basin of {self.polygon.area:.0f} m² reaching {self.depth_m:.1f} m beyond the "
                 f"bank of a {self.width_m:.1f} m channel, its mouth "
                 f"{float(np.hypot(*(self.mouth[1] - self.mouth[0]))):.1f} m wide at "
-                f"({x:.1f}, {y:.1f}): still water (a lake joined to the river at its mouth, "
-                f"its ψ the bank's)")
+                f"({x:.1f}, {y:.1f})"
+                + (f" and {len(self.mouths) - 1} more" if self.mouths and len(self.mouths) > 1
+                   else "")
+                + ": still water (a lake joined to the river at its mouth, its ψ the bank's)")
 
 
 class _Grown:
@@ -480,13 +487,34 @@ def _basin(v, run, before, after, excess, width, grown: _Grown, lines, tolerance
         basin = max(getattr(basin, "geoms", [basin]), key=lambda g: g.area)
         if not isinstance(basin, shapely.Polygon):
             return None
-    if basin.area < BASIN_MIN_AREA * w * w:
+    slip = pocket >= mouth_m
+    if basin.area < BASIN_MIN_AREA * w * w and not slip:
         return None
     mouth = shapely.LineString([a, b])
     eps = max(1e-6 * max(1.0, float(np.abs(v).max())), 1e-3 * tolerance_m)
-    wet = grown(eps)
+    poly, wet = grown.poly, grown(eps)
+    mouths = [np.array([a, b])]
+    if shapely.difference(basin, wet).area > 1e-6 * basin.area:
+        # islands in it (a marina's piers between its slips, joined behind them): its water,
+        # open to the channel where the straight line across it is in the water
+        if shapely.difference(basin, shapely.Polygon(poly.exterior).buffer(eps)).area > (
+                1e-6 * basin.area):
+            return None
+        basin = shapely.intersection(basin, poly)
+        basin = max(getattr(basin, "geoms", [basin]), key=lambda g: g.area)
+        if not isinstance(basin, shapely.Polygon) or (basin.area < BASIN_MIN_AREA * w * w
+                                                      and not slip):
+            return None
+        cut = shapely.intersection(shapely.intersection(mouth, wet), basin.buffer(eps))
+        mouths = [np.asarray(g.coords)[[0, -1]] for g in shapely.get_parts(
+            shapely.line_merge(cut) if cut.geom_type == "MultiLineString" else cut)
+                  if g.geom_type == "LineString" and g.length > 2.0 * eps]
+        if not mouths:
+            return None
+        mouths.sort(key=lambda m: -float(np.hypot(*(m[1] - m[0]))))
+        mouth = shapely.LineString(mouths[0])
     if (shapely.difference(basin, wet).area > 1e-6 * basin.area
             or shapely.intersects(basin, lines)
             or not wet.contains(mouth)):
         return None
-    return Basin(orient(basin, 1.0), np.array([a, b]), depth, w)
+    return Basin(orient(basin, 1.0), mouths[0], depth, w, mouths)

@@ -477,6 +477,27 @@ def _meeting_ties(pieces: list[Piece], eps_m: float) -> list:
     return ties
 
 
+def _split_at_basin_mouths(rings, lakes) -> None:
+    """Two basins whose mouths meet end to end (a point of land between them touching the
+    river's bank) leave the river's outline one closing segment across both: it is split
+    where a basin's mouth ends, so that each mouth is one closing segment of both areas."""
+    ends = {tuple(p) for r in rings if lakes.polygon_lake[r.polygon] >= 0
+            and lakes.lakes[lakes.polygon_lake[r.polygon]].basin
+            for kind, item in r.items if kind == "closing" for p in (item[0], item[-1])}
+    if not ends:
+        return
+    for ring in rings:
+        if lakes.polygon_lake[ring.polygon] >= 0:
+            continue
+        items = []
+        for kind, item in ring.items:
+            cut = ([k for k in range(1, len(item) - 1) if tuple(item[k]) in ends]
+                   if kind == "closing" else [])
+            items += ([(kind, item[a:b + 1]) for a, b in zip([0] + cut, cut + [len(item) - 1])]
+                      if cut else [(kind, item)])
+        ring.items = items
+
+
 def _basin_mouths(rings, pieces, lakes, basin_of, piece_axes, axis_index, axis_width, psi,
                   nodes) -> dict:
     """The mouths of the basins (:mod:`riverflow.hydro._basins`): {(start node, end node) as the
@@ -520,6 +541,8 @@ def assemble_graph(geoms: list[BranchGeometry], rings: list[Ring], pieces: list[
     :class:`PolylineIndex` (the axes are the graph's first curves, in order; each index is of
     the axis' :meth:`~HydroGraph.vertices` exactly, the nodes being keyed by exact
     coordinates), for the self-check to reuse."""
+    if lakes is not None:
+        _split_at_basin_mouths(rings, lakes)
     island_of: dict[int, int] = {}
     for i, piece in enumerate(pieces):
         if piece.closed and rings[piece.ring].hole:
@@ -534,8 +557,19 @@ def assemble_graph(geoms: list[BranchGeometry], rings: list[Ring], pieces: list[
             if k >= 0:
                 lake_of[i] = k
     def meeting() -> list:
-        return _meeting_ties(pieces, 1e-6 * max(1.0, float(np.abs(
-            np.vstack([p.points for p in pieces])).max()))) if lakes is not None else []
+        if lakes is None:
+            return []
+        ties = _meeting_ties(pieces, 1e-6 * max(1.0, float(np.abs(
+            np.vstack([p.points for p in pieces])).max())))
+        # a basin is still water: its shore's pieces (between its mouths) have one ψ
+        first: dict[int, int] = {}
+        for i, k in sorted(lake_of.items()):
+            if lakes.lakes[k].basin and not rings[pieces[i].ring].hole:
+                if k in first:
+                    ties.append((first[k], i, 0.0, tuple(pieces[i].points[0])))
+                else:
+                    first[k] = i
+        return ties
 
     ties: list = []
     try:
@@ -605,13 +639,25 @@ def assemble_graph(geoms: list[BranchGeometry], rings: list[Ring], pieces: list[
     for a, more in extra.items():
         piece_axes[a] = piece_axes.get(a, set()) | more
     basin_of = {pc: k for pc, k in lake_of.items() if lakes.lakes[k].basin} if lakes else {}
-    if basin_of:    # a bank a basin cuts in two: both parts take the axes of either
+    if basin_of:    # a bank a basin cuts in two: both parts take the axes of either (and
+        #             the shores between the mouths of one basin: an island's, a pier's)
+        # (basins that touch, a mouth's end on the next one's, pass it on too)
+        joined = {k: k for k in set(basin_of.values())}
+
+        def root(k: int) -> int:
+            while joined[k] != k:
+                k = joined[k]
+            return k
+
+        for up, dn, step, _ in ties:
+            if step == 0.0 and up in basin_of and dn in basin_of:
+                joined[root(basin_of[up])] = root(basin_of[dn])
         beside: dict[int, set[int]] = {}
         for up, dn, step, _ in ties:
             if step == 0.0 and (up in basin_of) != (dn in basin_of):
                 b, r = (up, dn) if up in basin_of else (dn, up)
                 if r not in lake_of:
-                    beside.setdefault(b, set()).add(r)
+                    beside.setdefault(root(basin_of[b]), set()).add(r)
         for _ in range(len(beside)):      # (a bank between two basins passes them on)
             for group in beside.values():
                 both = set().union(*(piece_axes.get(r, set()) for r in group))

@@ -37,10 +37,15 @@ def basin_mouth(graph: HydroGraph, area: int, tolerance_m: float = 0.25) -> np.n
 
 
 def water_polygon(graph: HydroGraph, tolerance_m: float = 0.25) -> shapely.Geometry:
-    """The water: the symmetric difference of every area's polygon (odd winding rule)."""
-    water = shapely.Polygon()
+    """The water: the symmetric difference of every area's polygon (odd winding rule),
+    normalized (:func:`shapely.normalize`). Taken in pairs, then pairs of those (one at a
+    time onto the whole so far, NHD's Shellmound's 123 areas took 1.9 s, now 0.14 s)."""
+    parts = []
     for a in range(len(graph.areas)):
         ring = area_ring(graph, a, tolerance_m)
         if len(ring) >= 3:
-            water = shapely.symmetric_difference(water, shapely.make_valid(shapely.Polygon(ring)))
-    return water
+            parts.append(shapely.make_valid(shapely.Polygon(ring)))
+    while len(parts) > 1:
+        parts = [shapely.symmetric_difference(*parts[i:i + 2]) if i + 1 < len(parts)
+                 else parts[i] for i in range(0, len(parts), 2)]
+    return shapely.normalize(parts[0]) if parts else shapely.Polygon()

@@ -39,7 +39,7 @@ from riverflow.kernels import obstacles as ko
 from riverflow.kernels.flow import Segments
 from riverflow.kernels.warmup import compile_kernels
 from riverflow.tiles.cache import TileCache
-from riverflow.tiles.coverage import coverage_table
+from riverflow.tiles.coverage import coverage_table, touched_bytes
 from riverflow.tiles.quadtree import Quadtree
 from riverflow.tiles.table import tile_code
 
@@ -203,8 +203,8 @@ class FlowField:
         self.river_boxes = self.network.river_boxes()
         axis_segments = self.network.axis_segments()
         axis_half_widths = self.network.axis_half_widths()
-        check_allocation(_coverage_bytes(axis_segments, axis_half_widths,
-                                         quadtree.tile_size_m(self.max_level), self.max_level),
+        check_allocation(touched_bytes(axis_segments, axis_half_widths,
+                                       quadtree.tile_size_m(self.max_level)),
                          f"FlowField: the wet-tile table of a network {root_size:,.0f} m across "
                          f"at lattice spacing potential_delta_m={delta:g} m "
                          f"(quadtree level {self.max_level}"
@@ -679,21 +679,6 @@ class FlowField:
             batch = unique[start:start + cap]
             self.ensure_tiles(level, [(int(k % n), int(k // n)) for k in batch])
             yield index if len(unique) <= cap else index[np.isin(flat, batch)]
-
-
-def _coverage_bytes(segments: np.ndarray, half_widths: np.ndarray, tile_m: float,
-                    level: int) -> float:
-    """About the bytes :func:`~riverflow.tiles.coverage.coverage_table` needs: the finest
-    tiles the axis capsules' boxes touch (as it rasterises them), with their ancestors and
-    its temporaries."""
-    if not len(segments):
-        return 0.0
-    dx = np.abs(segments[:, 2] - segments[:, 0])
-    dy = np.abs(segments[:, 3] - segments[:, 1])
-    pieces = np.maximum(np.ceil(np.hypot(dx, dy) / tile_m), 1.0)
-    r2 = 2.0 * np.broadcast_to(half_widths, (len(segments),))
-    boxes = pieces * ((dx / pieces + r2) / tile_m + 2.0) * ((dy / pieces + r2) / tile_m + 2.0)
-    return float(boxes.sum()) * (level + 1) * 16.0
 
 
 def _never_unknown(status: np.ndarray, pts: np.ndarray) -> None:

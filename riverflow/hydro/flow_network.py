@@ -192,9 +192,14 @@ def build_flow_network(graph: HydroGraph, search_radius_factor: float,
             for c, _ in graph.areas[k].curves:
                 if c in shared and own:
                     mouth_copy[c] = min(own)
+    # (each axis's box: an axis whose box lies farther than its half width from both ends
+    # of another is not looked at; the same unions, in the same order, as asking every pair)
+    axis_box = np.array([[*poly[a].min(axis=0), *poly[a].max(axis=0)] for a in axes])
+    axis_hw = np.array([0.5 * graph.curves[a].width_m for a in axes])
     for a in axes:
         ends = poly[a][[0, -1]]
-        for b in axes:
+        near = np.flatnonzero(_box_distance(ends, axis_box).min(axis=0) < axis_hw)
+        for b in (axes[k] for k in near.tolist()):
             if find(a) != find(b) and (a in still) == (b in still):
                 hw = 0.5 * graph.curves[b].width_m
                 if np.min(_points_to_polyline(ends, poly[b])) < hw:
@@ -223,7 +228,7 @@ def build_flow_network(graph: HydroGraph, search_radius_factor: float,
     cap_axis = {}
     for i, p in caps.items():
         mid = 0.5 * (p[0] + p[-1])[None, :]
-        best = min(axes, key=lambda a: float(_points_to_polyline(mid, poly[a])[0]))
+        best = _nearest_axis(mid, axes, poly, axis_box)
         if _points_to_polyline(mid, poly[best])[0] <= 0.5 * graph.curves[best].width_m + 1e-6:
             cap_axis[i] = best
 
@@ -304,6 +309,31 @@ def build_flow_network(graph: HydroGraph, search_radius_factor: float,
     )
 
 
+def _box_distance(pts: np.ndarray, boxes: np.ndarray) -> np.ndarray:
+    """(N, B) distance [m] from each of ``pts`` (N, 2) to each box (B, 4) [x0, y0, x1, y1]:
+    no more than to anything in the box."""
+    dx = np.maximum(np.maximum(boxes[None, :, 0] - pts[:, None, 0], 0.0),
+                    pts[:, None, 0] - boxes[None, :, 2])
+    dy = np.maximum(np.maximum(boxes[None, :, 1] - pts[:, None, 1], 0.0),
+                    pts[:, None, 1] - boxes[None, :, 3])
+    return np.hypot(dx, dy)
+
+
+def _nearest_axis(pt: np.ndarray, axes: list[int], poly: dict, boxes: np.ndarray) -> int:
+    """The axis nearest the point (1, 2), the first in ``axes`` of the equally near: as
+    ``min(axes, key=distance)``, asking the axes in the order of their boxes' distances
+    until a box lies farther than the nearest found."""
+    lower = _box_distance(pt, boxes)[0]
+    best, best_d = -1, np.inf
+    for k in np.argsort(lower, kind="stable").tolist():
+        if lower[k] > best_d:
+            break
+        d = float(_points_to_polyline(pt, poly[axes[k]])[0])
+        if d < best_d or (d == best_d and k < best):
+            best, best_d = k, d
+    return axes[best]
+
+
 def _points_to_polyline(pts: np.ndarray, line: np.ndarray) -> np.ndarray:
     """Distance [m] from each of ``pts`` (N, 2) to the polyline ``line`` (M, 2)."""
     a = line[:-1][None, :, :]
@@ -320,7 +350,12 @@ def _points_to_polyline(pts: np.ndarray, line: np.ndarray) -> np.ndarray:
 def _covering_axis(bank: np.ndarray, axes: list[int], poly: dict, graph: HydroGraph) -> int | None:
     """The axis nearest to an unlinked bank (island, obstacle), if it covers most of it."""
     best, best_d = None, np.inf
-    for a in axes:
+    boxes = np.array([[*poly[a].min(axis=0), *poly[a].max(axis=0)] for a in axes])
+    # (an axis farther than its half width from most of the bank's points, by its box, is
+    # not looked at: its median distance is farther still)
+    hw = np.array([0.5 * graph.curves[a].width_m for a in axes])
+    maybe = np.median(_box_distance(bank, boxes), axis=0) <= hw
+    for a in (a for a, ok in zip(axes, maybe.tolist()) if ok):
         d = _points_to_polyline(bank, poly[a])
         hw = 0.5 * graph.curves[a].width_m
         if np.median(d) <= hw and d.mean() < best_d:

@@ -2,14 +2,14 @@
 (:func:`mixed_levels`: :meth:`riverflow.scenes.water.WaterSurface.land_level` and
 ``bank_level``), and a point's nearest sample (:func:`nearest_samples`: ``_Samples.project``).
 
-The samples are found through a box hierarchy over runs of consecutive samples
-(:func:`riverflow.kernels.polyline.segment_boxes` of zero-length segments: a branch's samples
-lie side by side), walked depth first, nearer child first, skipping every box farther than
+The samples are found through a box hierarchy over runs of LEAF samples stored in their own
+order or in Z order (:func:`mix_samples`; :func:`riverflow.kernels.polyline.segment_boxes`
+of zero-length segments: each run and each box above lie in one place), walked depth first, nearer child first, skipping every box farther than
 the k-th sample so far. A batch's consecutive points are mostly neighbours (a tile's lattice
 nodes): the previous point's k-th distance plus the step between the two bounds the next
 one's, so its walk skips the far boxes from the start. The answer is each point's alone
 whatever batch it is in: the k least (squared distance, index), boxes as near as the k-th
-still searched. The mix is done in numpy's floating-point operations and order (no
+still searched (the index the samples were given, not their stored place, breaks ties). The mix is done in numpy's floating-point operations and order (no
 fast-math; a row of k summed as numpy sums it), so it is the KD-tree and numpy code's number
 bit for bit wherever no two of the k samples are equally near (the KD-tree may list those in
 another order: the last bit; a tie for the k-th place weighs 0 either way).
@@ -32,18 +32,52 @@ MAX_NEIGHBOURS = 128
 
 class MixSamples(NamedTuple):
     """Samples as :func:`mixed_levels` reads them: ``xy`` (S, 2) [m], their ``level`` (S,) [m]
-    and ``boxes`` over runs of consecutive ones (:func:`mix_samples`)."""
-
+    and ``boxes`` over runs of consecutive ones, stored in a spatial order
+    (:func:`mix_samples`); ``index`` (S,) each stored sample's own index (the order the
+    kernels answer in and break ties by)."""
     xy: np.ndarray
     level: np.ndarray
     boxes: np.ndarray
+    index: np.ndarray
+
+
+def _morton(xy: np.ndarray) -> np.ndarray:
+    """(N,) uint64 Z-order codes of points (N, 2) on a 2¹⁶ grid over their box."""
+    lo = xy.min(axis=0)
+    span = np.maximum(xy.max(axis=0) - lo, 1e-300)
+    q = np.minimum((xy - lo) / span * 65535.0, 65535.0).astype(np.uint64)
+    code = np.zeros(len(xy), np.uint64)
+    for bit in range(16):
+        b = np.uint64(bit)
+        code |= ((q[:, 0] >> b) & np.uint64(1)) << np.uint64(2 * bit)
+        code |= ((q[:, 1] >> b) & np.uint64(1)) << np.uint64(2 * bit + 1)
+    return code
+
+
+def _boxes_area(boxes: np.ndarray) -> float:
+    """The summed area of a box hierarchy's boxes (what a walk's visits grow with)."""
+    live = boxes[:, 0] <= boxes[:, 2]
+    return float(np.sum((boxes[live, 2] - boxes[live, 0]) * (boxes[live, 3] - boxes[live, 1])))
 
 
 def mix_samples(xy: np.ndarray, level: np.ndarray) -> MixSamples:
-    """:class:`MixSamples` of samples ``xy`` (S ≥ 1, 2) [m] with their ``level`` (S,) [m]."""
+    """:class:`MixSamples` of samples ``xy`` (S ≥ 1, 2) [m] with their ``level`` (S,) [m],
+    stored in their own order or in Z order (:func:`_morton`), whichever gives the boxes the
+    smaller summed area. A river's samples in their own order make boxes along it; a
+    network's branches, listed upstream first, lie all over the map, and a run of LEAF
+    samples straddling two of them had a box across it, which every walk entered (NHD's
+    Shellmound, 952,000 samples of 1,000 branches: 14 µs a point, a KD-tree's 0.5; in Z
+    order, 2.5 µs)."""
     xy = np.ascontiguousarray(xy, np.float64).reshape(-1, 2)
-    return MixSamples(xy, np.ascontiguousarray(level, np.float64).reshape(-1),
-                      segment_boxes(xy, np.zeros_like(xy)))
+    level = np.ascontiguousarray(level, np.float64).reshape(-1)
+    boxes = segment_boxes(xy, np.zeros_like(xy))
+    if len(xy) > LEAF and np.isfinite(xy).all():
+        order = np.argsort(_morton(xy), kind="stable")
+        z_xy = np.ascontiguousarray(xy[order])
+        z_boxes = segment_boxes(z_xy, np.zeros_like(z_xy))
+        if _boxes_area(z_boxes) < _boxes_area(boxes):
+            return MixSamples(z_xy, np.ascontiguousarray(level[order]), z_boxes, order)
+    return MixSamples(xy, level, boxes, np.arange(len(xy), dtype=np.int64))
 
 
 @njit(inline="always", **EXACT_JIT_OPTIONS)
@@ -85,6 +119,7 @@ def mixed_levels(samples, k, p, band, out):
     xy = samples.xy
     levels = samples.level
     boxes = samples.boxes
+    index = samples.index
     n = xy.shape[0]
     first_leaf = (boxes.shape[0] + 1) // 2 - 1
     stack = np.empty(128, np.int64)
@@ -122,7 +157,7 @@ def mixed_levels(samples, k, p, band, out):
                     d2 = dx * dx + dy * dy
                     if count == k:
                         last = best_d2[k - 1]
-                        if d2 > last or (d2 == last and j > best_j[k - 1]):
+                        if d2 > last or (d2 == last and index[j] > index[best_j[k - 1]]):
                             continue
                         m = k - 1
                     else:
@@ -132,7 +167,8 @@ def mixed_levels(samples, k, p, band, out):
                         count += 1
                     # insert (d2, j) in order, the last one out when full
                     while m > 0 and (best_d2[m - 1] > d2
-                                     or (best_d2[m - 1] == d2 and best_j[m - 1] > j)):
+                                     or (best_d2[m - 1] == d2
+                                         and index[best_j[m - 1]] > index[j])):
                         best_d2[m] = best_d2[m - 1]
                         best_j[m] = best_j[m - 1]
                         m -= 1
@@ -168,6 +204,7 @@ def nearest_samples(samples, p, out_nearest, out_tie):
     found (the point is not finite)."""
     xy = samples.xy
     boxes = samples.boxes
+    index = samples.index
     n = xy.shape[0]
     first_leaf = (boxes.shape[0] + 1) // 2 - 1
     stack = np.empty(128, np.int64)
@@ -202,10 +239,11 @@ def nearest_samples(samples, p, out_nearest, out_tie):
                         tie = False
                     elif d2 == best:
                         tie = True
-                        best_j = min(best_j, j)
+                        if index[j] < index[best_j]:
+                            best_j = j
                 continue
             top = _push_children(boxes, node, x, y, stack, stack_d2, top)
-        out_nearest[i] = max(best_j, 0)
+        out_nearest[i] = index[best_j] if best_j >= 0 else 0
         out_tie[i] = tie or best_j < 0
         if best_j < 0:
             prev_r = math.inf

@@ -266,6 +266,14 @@ def water_surface(branches: list[RiverBranch],
                                [b.end_junction for b in branches], max(n_junctions, 0),
                                half_window=PROFILE_HALF_WINDOW, caps_m=junction_caps(branches),
                                falls=on_branch)
+    lost = [k for k, z in enumerate(levels) if not np.isfinite(z).all()]
+    if lost:       # (a NaN level hides the whole water and terrain: a world of fog)
+        k = lost[0]
+        raise ValueError(f"water_surface: no finite water level along {len(lost)} branch(es), "
+                         f"first {branches[k].name!r} (its ground from "
+                         f"{np.nanmin(sampled[k]):g} to {np.nanmax(sampled[k]):g} m, "
+                         f"{int(np.sum(~np.isfinite(sampled[k])))} of {len(sampled[k])} "
+                         "heights not finite)")
     samples, lv, wd, index, profiles = [], [], [], [], {}
     for k, (b, z) in enumerate(zip(branches, levels)):
         s = _arc(b.centerline_m)
@@ -362,7 +370,9 @@ def _flat_lakes(samples: list[np.ndarray], levels: list[np.ndarray], lakes,
     runs uphill out of a lake. A basin (a lake given as ``(polygon, None, mouth)``) stands at
     the level of the nearest sample to its mouth's middle of the branches with none in it
     (its river's: its water is level with the river's there, and the surface has no step
-    where the river passes its mouth)."""
+    where the river passes its mouth) and is as deep: its samples are at least that
+    sample's width (the bed's depth follows the width, :func:`~riverflow.scenes.water.bed_depth`).
+    """
     for lake in lakes:
         poly, given = lake[0], lake[1]
         mouth = lake[2] if len(lake) > 2 else None
@@ -376,20 +386,34 @@ def _flat_lakes(samples: list[np.ndarray], levels: list[np.ndarray], lakes,
         found = [z[m] for z, m in zip(levels, inside) if m.any()]
         if not found:
             continue
-        if given is None and mouth is not None:
-            outside = [(p, z) for p, z, m in zip(samples, levels, inside) if not m.any()]
+        river_width = None
+        if mouth is not None:
+            outside = [(p, z, w) for p, z, w, m in zip(samples, levels, widths, inside)
+                       if not m.any()]
             if outside:
-                d = [np.hypot(*(p - np.asarray(mouth, np.float64)).T) for p, _ in outside]
+                d = [np.hypot(*(p - np.asarray(mouth, np.float64)).T) for p, _, _ in outside]
                 k = min(range(len(outside)), key=lambda i: float(d[i].min()))
-                given = float(outside[k][1][int(np.argmin(d[k]))])
+                at = int(np.argmin(d[k]))
+                river_width = float(outside[k][2][at])
+                if given is None:
+                    given = float(outside[k][1][at])
         level = float(given) if given is not None else float(min(f.min() for f in found))
-        for z, m in zip(levels, inside):
+        for z, w, m in zip(levels, widths, inside):
             if not m.any():
                 continue
             first, last = np.flatnonzero(m)[[0, -1]]
             z[:first] = np.maximum(z[:first], level)
             z[m] = level
             z[last + 1:] = np.minimum(z[last + 1:], level)
+        if river_width is not None:
+            # a basin's bed is its river's at the mouth (its own axis's width made it a
+            # shallow shelf, and the river's water beside the mouth nearer that axis's end
+            # than the river's: a straight step in the bed, drawn lighter, Porto's docks):
+            # its samples and those within a width of it
+            for p, w, m in zip(samples, widths, inside):
+                if m.any():
+                    near = m | (shapely.distance(poly, shapely.points(p)) <= w)
+                    w[near] = np.maximum(w[near], river_width)
 
 
 def junction_caps(branches: list[RiverBranch]) -> list[tuple[float, float]]:
@@ -528,9 +552,13 @@ def branches_of_graph(graph: HydroGraph, polygon) -> list[RiverBranch]:
     axes = graph.axes()
     lines = {a: graph.polyline(a) for a in axes}
     ends = {}
+    banks: dict[int, list[int]] = {}
+    for i, c in enumerate(graph.curves):
+        if c.is_bank and c.has_potential:
+            banks.setdefault(c.river, []).append(i)
     for a in axes:
         c = graph.curves[a]
-        if _flows_backwards(graph, a, lines[a]):
+        if _flows_backwards(graph, a, lines[a], banks.get(a, [])):
             lines[a] = lines[a][::-1].copy()
             ends[a] = (c.end, c.start)
         else:
@@ -607,13 +635,17 @@ def _longest_path(branches: list[RiverBranch]) -> list[RiverBranch]:
     return path[::-1]
 
 
-def _flows_backwards(graph: HydroGraph, axis: int, line: np.ndarray) -> bool:
-    """True when the axis is drawn upstream: its right-hand banks have the smaller ψ."""
+def _flows_backwards(graph: HydroGraph, axis: int, line: np.ndarray,
+                     banks: list[int] | None = None) -> bool:
+    """True when the axis is drawn upstream: its right-hand banks have the smaller ψ.
+    ``banks``: the curves that are its banks with a ψ, if known (else looked for)."""
     left, right = [], []
     tangents = np.diff(line, axis=0)
-    for i, c in enumerate(graph.curves):
-        if not (c.is_bank and c.river == axis and c.has_potential):
-            continue
+    if banks is None:
+        banks = [i for i, c in enumerate(graph.curves)
+                 if c.is_bank and c.river == axis and c.has_potential]
+    for i in banks:
+        c = graph.curves[i]
         p = graph.polyline(i)
         mid = p[len(p) // 2]
         d = np.hypot(*(line[:-1] - mid).T)
@@ -631,14 +663,21 @@ def _upstream_first(branches: list[RiverBranch]) -> list[RiverBranch]:
     (cycles, which bad data may hold, are broken where found)."""
     done: list[RiverBranch] = []
     left = list(branches)
+    waiting: dict[int, int] = {}       # junction → branches ending there not yet done
+    for b in branches:
+        if b.end_junction >= 0:
+            waiting[b.end_junction] = waiting.get(b.end_junction, 0) + 1
     while left:
         ready = [b for b in left if b.start_junction < 0
-                 or all(o.end_junction != b.start_junction or o in done for o in branches)]
+                 or not waiting.get(b.start_junction, 0)]
         if not ready:
             ready = [left[0]]
         for b in ready:
             done.append(b)
-            left.remove(b)
+            if b.end_junction >= 0:
+                waiting[b.end_junction] -= 1
+        taken = {id(b) for b in ready}
+        left = [b for b in left if id(b) not in taken]
     return done
 
 

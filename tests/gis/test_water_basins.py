@@ -396,6 +396,28 @@ def test_a_basin_is_level_with_its_river_at_its_mouth(harbour):
         assert step.max() < 0.025, step.max()
 
 
+def test_a_basin_is_as_deep_as_its_river_at_its_mouth(harbour):
+    """The bed's depth follows the width the water reads (``scene.water.nearest``): the
+    river's water beside a mouth nearer the basin axis's end than the river's axis read that
+    axis's width (Porto's docks: a shallow shelf drawn lighter, with a straight edge, out
+    into the Douro). Along each mouth, 1 to 20 m into the river and 1 to 5 m into the basin,
+    the width is the river's."""
+    water, basins, builder, graph, field = harbour
+    scene = rf.landscape(graph, seed=0)
+    for b in builder.basins:
+        a, e = b.mouth
+        t = (e - a) / np.linalg.norm(e - a)
+        n = np.array([-t[1], t[0]])
+        if not shapely.contains_xy(water, *(0.5 * (a + e) + 5.0 * n)):
+            n = -n
+        ss, dd = np.meshgrid(np.arange(1.0, np.linalg.norm(e - a) - 1.0, 1.0),
+                             np.arange(-5.0, 21.0, 1.0))
+        pts = a + ss.reshape(-1, 1) * t + dd.reshape(-1, 1) * n
+        pts = pts[shapely.contains_xy(water, *pts.T)]
+        width = scene.water.nearest(pts)[2]
+        assert np.abs(width / W - 1.0).max() < 0.1, (width.min(), width.max())
+
+
 def test_a_basin_whose_mouth_is_at_a_junction(tmp_path):
     """A 194 m meandering river (from the survey's seed 84 of islands that may cross a bank):
     a 179 m spit off its left bank closes a 417 m backwater behind it, whose mouth takes in
@@ -637,3 +659,80 @@ def test_a_creek_whose_mouth_faces_away_is_one_basin(tmp_path):
     assert shapely.difference(head, b.polygon.buffer(0.01)).area < 1e-3 * head.area
     status, v = rf.FlowField(graph, potential_delta_m=2.0).query(np.array([[520.0, 230.0]]))
     assert status[0] == INSIDE and np.hypot(*v[0]) < 1e-6
+
+
+def _river_with(tmp_path, name: str, extra: list):
+    """The straight 60 m river of these tests with ``extra`` polygons off its bank (in its
+    frame), read and built: (water, builder, graph)."""
+    water = shapely.union_all([box(-60, -W / 2, 400, W / 2), *extra])
+    water = shapely.normalize(shapely.intersection(_world(water), box(0, -1000, 300, 1000)))
+    builder = rf.read_water(write_polygons(tmp_path / f"{name}.geojson", [water]), origin_m=ORIGIN)
+    return water, builder, builder.build()
+
+
+def test_a_marina_of_slips_joined_behind_their_piers_is_still_water(tmp_path):
+    """Five 4 m slips 40 m long between piers off the bank of a 60 m river, joined behind the
+    piers by a 4 m channel, with a creek of two branches off it (London's marinas and docks
+    on the Thames): the skeleton ran a maze of narrow channels round the piers (islands
+    between channels), its dead ends sources, and gave it a share of the river by width (up
+    to 1.4 m/s in its slips against the river's 0.82). It is side water (SIDE_FRACTION): one
+    still basin with a mouth at each slip, the piers' faces the river's bank between them;
+    the river has one axis and runs past."""
+    slips = [box(100 + 16 * k, W / 2 - 1, 104 + 16 * k, W / 2 + 44) for k in range(5)]
+    behind = box(100, W / 2 + 40, 168, W / 2 + 44)
+    creek = [box(166, W / 2 + 42, 170, W / 2 + 80), box(166, W / 2 + 62, 200, W / 2 + 66)]
+    water, builder, graph = _river_with(tmp_path, "marina", [*slips, behind, *creek])
+    assert len(water.interiors) == 4                        # the piers
+    assert builder.report.derived["axes"] == {"skeleton": 1}
+    assert any("side water" in n for n in builder.report.notes)
+    (b,) = builder.basins
+    assert len(b.mouths) == 5
+    river = _world(box(-60, -W / 2, 400, W / 2))
+    marina = shapely.difference(water, river)
+    assert shapely.symmetric_difference(b.polygon, marina).area < 0.05 * marina.area
+    field = rf.FlowField(graph, potential_delta_m=1.0)
+    pts = _basin_points(shapely.difference(marina, river.buffer(8.0)), 1.0)
+    assert len(pts) > 500
+    status, v = field.query(pts)
+    assert (status == INSIDE).all()
+    mean_speed = builder.discharges_m2s[0] / W
+    assert np.hypot(*v.T).max() < 0.01 * mean_speed
+
+
+def test_a_slip_deeper_than_its_mouth_is_one_basin(tmp_path):
+    """A slip 3 m wide and 30 m deep off a 60 m river (90 m², under BASIN_MIN_AREA's 0.05
+    squared widths): as the channel's water its walls face away from the axis; a lee round
+    then closed only its inner 65 m². A pocket deeper than its mouth is wide is a basin
+    whatever its area: the whole slip, from its mouth on the bank."""
+    slip = box(150, W / 2 - 1, 153, W / 2 + 30)
+    _, builder, graph = _river_with(tmp_path, "slip", [slip])
+    (b,) = builder.basins
+    want = shapely.difference(_world(slip), _world(box(-60, -W / 2, 400, W / 2)))
+    assert shapely.symmetric_difference(b.polygon, want).area < 0.02 * want.area
+    inside = np.array(_world(shapely.Point(151.5, W / 2 + 20)).coords)
+    status, v = rf.FlowField(graph).query(inside)
+    assert status[0] == INSIDE and np.hypot(*v[0]) < 1e-6
+
+
+def test_a_slip_ending_in_a_needle_builds(tmp_path):
+    """A slip whose walls close to a point over its last 4 m (6 cm apart there: OSM draws
+    such tips): the graph check's probes a few centimetres either side of each wall segment
+    both fell on land there ("water is not on its left"); asked again fifty times closer,
+    the water is on the left."""
+    needle = shapely.Polygon([(150, W / 2 - 1), (153, W / 2 - 1), (151.53, W / 2 + 38),
+                              (151.5, W / 2 + 42), (151.47, W / 2 + 38)])
+    _, builder, _ = _river_with(tmp_path, "needle", [needle])
+    assert len(builder.basins) == 1
+
+
+def test_two_basins_touching_at_a_point_of_land(tmp_path):
+    """Two triangular notches whose mouths meet at a point of the bank (the land between them
+    a wedge touching the river there): the river's outline had one closing segment across
+    both mouths, matching neither basin's; and its bank beyond them, between them and the
+    river's open end, had no axis to take ("a shore … that no branch runs along"): the
+    banks beside either of two touching basins take each other's axes."""
+    notches = [shapely.Polygon([(100, W / 2), (120, W / 2), (110, W / 2 + 40)]),
+               shapely.Polygon([(120, W / 2), (140, W / 2), (130, W / 2 + 40)])]
+    _, builder, graph = _river_with(tmp_path, "touch", notches)
+    assert len(builder.basins) == 2
+    assert len(graph.lakes()) == 2

@@ -256,3 +256,23 @@ def test_the_water_surface_is_sampled_segment_by_segment():
     last = len(pts) - np.flatnonzero(vertex)[7]            # from vertex 7 on: kept
     assert np.array_equal(pts[:first + 1], pts2[:first + 1])
     assert np.array_equal(pts[-last:], pts2[-last:])
+
+
+def test_channels_parting_where_no_branch_flows_in_get_one_finite_level():
+    """Two channels leaving a junction no branch ends at (a river split round an island at
+    the data's edge, as Porto's Douro comes in): the junction's level was never set (inf),
+    and inf × 0 made every level NaN (the world drew nothing but fog)."""
+    from riverflow.scenes.water import monotone_profiles
+
+    up = np.c_[np.linspace(0.0, 500.0, 26), np.zeros(26)]
+    arm = [up + (0.0, 40.0), up - (0.0, 40.0)]
+    below = np.c_[np.linspace(500.0, 900.0, 21), np.zeros(21)]
+    ground = [12.0 - 0.01 * a[:, 0] for a in arm] + [12.0 - 0.01 * below[:, 0]]
+    ground[1] = ground[1] - 0.5                      # the second arm's ground lower
+    with np.errstate(all="raise"):
+        levels = monotone_profiles([*arm, below], ground, [0, 0, 1], [1, 1, -1], 2,
+                                   half_window=3, caps_m=[(30.0, 30.0)] * 3)
+    assert all(np.isfinite(z).all() for z in levels)
+    assert levels[0][0] == levels[1][0]                  # one level where they part
+    assert levels[0][-1] == levels[1][-1] == levels[2][0]
+    assert all((np.diff(z) <= 0).all() for z in levels)
