@@ -599,8 +599,12 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
         kept.append(net.water)
         for hole in net.islands:
             builder.add_island(np.asarray(hole.exterior.coords)[:-1])
+        deg = net.degree()
         for ch in net.channels:
-            from_lake = (shores is not None and shores.distance(shapely.Point(ch.points[0]))
+            # (a channel from a free end on a lake's shore takes the lake's outflow; one from
+            # a junction near a shore, the junction's)
+            from_lake = (shores is not None and deg[ch.a] == 1
+                         and shores.distance(shapely.Point(ch.points[0]))
                          <= 0.5 * float(ch.widths[0]))
             builder.add_branch(ch.points, ch.widths, name=ch.name,
                                discharge_m2s=None if from_lake else ch.discharge_m2s)
@@ -680,6 +684,7 @@ def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy
                                                  builder.ends_beside)
         _drop_side_waters(net, frame, tolerance_m, report, builder.ends_beside)
         _drop_stubs(net, report, seas)
+        _lead_into_mouths(net, report, seas, tolerance_m)
     return networks
 
 
@@ -1756,6 +1761,86 @@ def _drop_stubs(net: _Network, report: RiverImport, open_water=None) -> None:
         _join_at(net, junction)
 
 
+def _lead_into_mouths(net: _Network, report: RiverImport, open_water, tolerance_m: float
+                      ) -> None:
+    """Lead each free end of ``net`` off ``open_water`` that lies nearer the free end of a
+    wider channel opening into it (a mouth, an outlet) than half their widths together into
+    that channel: its axis goes on straight to the point of the wider channel's axis nearest
+    it, but at least half the mouth's width back from the mouth, where the wider channel is
+    split (a junction). A side channel leaving a mouth's flared bay has no axis joining the
+    mouth's (the skeleton puts no point on the mouth, its open end): left alone, its end
+    would be a source in the delta, beside the mouth (two ends the builder finds not
+    meeting). Only where that straight piece lies in the water; reported. (Two mouths side
+    by side meet through the open water: :func:`riverflow.hydro.builder._find_junctions`.)"""
+    if open_water is None:
+        return
+    water = net.water.buffer(tolerance_m)
+    shapely.prepare(water)
+    done: set[tuple[float, float]] = set()        # (free ends tried)
+    while True:
+        deg = net.degree()
+        ends = [(c, n, (0 if n == c.a else -1)) for c in net.channels for n in (c.a, c.b)
+                if deg[n] == 1 and c.source == "skeleton"
+                and tuple(net.nodes[n]) not in done]
+        pair = None
+        for cm, m, em in ends:
+            wm = float(cm.widths[em])
+            if m not in net.outlets or open_water.distance(shapely.Point(net.nodes[m])) > max(
+                    0.5 * wm, tolerance_m):
+                continue
+            for c, n, e in ends:
+                w = float(c.widths[e])
+                if c is cm or w > wm or n in net.outlets or not (
+                        np.hypot(*(net.nodes[n] - net.nodes[m])) < 0.5 * (w + wm)):
+                    continue
+                pair = (cm, m, wm, c, n, e)
+                break
+            if pair is not None:
+                break
+        if pair is None:
+            return
+        cm, m, wm, c, n, e = pair
+        done.add(tuple(net.nodes[n]))
+        # the wider channel drawn towards its mouth; the junction on it
+        p, w = (cm.points, cm.widths) if cm.b == m else (cm.points[::-1], cm.widths[::-1])
+        line = shapely.LineString(p)
+        at = min(line.project(shapely.Point(net.nodes[n])),
+                 line.length - 0.5 * float(w[-1]))
+        if not at > 0.0:
+            continue
+        j = np.asarray(line.interpolate(at).coords[0])
+        lead = shapely.LineString([net.nodes[n], j])
+        if not water.covers(lead):
+            continue
+        s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(p, axis=0).T))])
+        k = int(np.searchsorted(s, at, side="right"))
+        wj = float(np.interp(at, s, w))
+        up = (np.vstack([p[:k], j]), np.concatenate([w[:k], [wj]]))
+        down = (np.vstack([j, p[k:]]), np.concatenate([[wj], w[k:]]))
+        other = cm.a if cm.b == m else cm.b
+        jn = len(net.nodes)
+        net.nodes = np.vstack([net.nodes, j])
+        cm.points, cm.widths, cm.a, cm.b = up[0], up[1], other, jn
+        net.channels.append(_Channel(down[0], down[1], cm.source, jn, m, f"{cm.name} mouth"))
+        x, y = net.nodes[n]
+        if e == 0:
+            c.points = np.vstack([j, c.points])
+            c.widths = np.concatenate([[c.widths[0]], c.widths])
+            c.a = jn
+        else:
+            c.points = np.vstack([c.points, j])
+            c.widths = np.concatenate([c.widths, [c.widths[-1]]])
+            c.b = jn
+        net.inlets.discard(n)
+        net.outlets.discard(n)
+        report.repair(c.name, None, None,
+                      f"its free end at ({x:.1f}, {y:.1f}) lies beside the mouth of "
+                      f"{cm.name!r} ({wm:.1f} m wide) into open water: led on "
+                      f"{lead.length:.1f} m into that channel, {line.length - at:.1f} m from "
+                      f"its mouth")
+        _join_at(net, n)        # (the end left no channel: the nodes numbered anew)
+
+
 def _beyond(c: _Channel, junction: int, reach_m: float) -> tuple[np.ndarray, np.ndarray]:
     """(points, widths) of channel ``c`` from ``reach_m`` along it from ``junction`` (one of
     its ends) to its other end: a spur's axis beyond the bank of the channel it leaves."""
@@ -2039,10 +2124,9 @@ def _skeleton_channels(part, k: int, tolerance_m: float, report, frame=None,
         chains, nodes, collapsed = _skeleton_once(water, tolerance_m, frame, ends, dead)
         if collapsed is None:
             break
-        hole = water.interiors[collapsed]
-        free.append(shapely.Polygon(hole))
+        free += [shapely.Polygon(water.interiors[j]) for j in collapsed]
         water = shapely.Polygon(water.exterior, [r for j, r in enumerate(water.interiors)
-                                                 if j != collapsed])
+                                                 if j not in collapsed])
     channels = [_Channel(pts, w, "skeleton", a, b, f"water {k} channel {i}")
                 for i, (pts, w, a, b) in enumerate(chains)]
     if not channels:        # a blob, a ring round an island: still water (_find_networks)
@@ -2109,7 +2193,8 @@ def _voronoi_edges(pts: np.ndarray) -> np.ndarray:
 
 def skeleton(water, tolerance_m: float = 0.25, frame=None, ends=None, dead=None):
     """The medial axis of a polygon as channels: ([(points (K, 2), widths (K,), start node,
-    end node)], node points (N, 2), the index of a hole whose loop collapsed or None).
+    end node)], node points (N, 2), the indices of the holes whose loops collapsed or None:
+    every one the diagram shows at once, each made a free island before it is made again).
 
     The Voronoi diagram of points along the outline (spaced a SAMPLES_PER_WIDTH-th of the
     narrowest width) has its edges inside the water along the medial axis; those are kept, the
@@ -2181,11 +2266,16 @@ def skeleton(water, tolerance_m: float = 0.25, frame=None, ends=None, dead=None)
     _keep_longest_piece(nbr)
     chains = _chains(nbr, uniq)
     chains, loops = _merge_junctions(chains, uniq, radius)
+    collapsed = []
     for loop in loops:        # a loop round a hole collapsed: the hole becomes a free island
         ring = shapely.Polygon(uniq[loop]) if len(loop) >= 3 else shapely.Polygon()
         for j, hole in enumerate(water.interiors):
-            if ring.is_valid and ring.contains(shapely.Polygon(hole).representative_point()):
-                return [], np.zeros((0, 2)), j
+            if (j not in collapsed and ring.is_valid
+                    and ring.contains(shapely.Polygon(hole).representative_point())):
+                collapsed.append(j)
+                break
+    if collapsed:
+        return [], np.zeros((0, 2)), tuple(collapsed)
     tree = cKDTree(banks)
     out = []
     ids: dict[int, int] = {}

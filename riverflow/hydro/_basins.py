@@ -94,6 +94,23 @@ class Basin:
                 + ": still water (a lake joined to the river at its mouth, its ψ the bank's)")
 
 
+class _Grown:
+    """A water polygon ``poly`` and, called with a distance, its outline grown by that much
+    (``poly.buffer``, prepared), made once per distance: the basin tests ask it of the whole
+    water (thousands of vertices) for every candidate."""
+
+    def __init__(self, poly) -> None:
+        self.poly = poly
+        self._by: dict[float, shapely.Geometry] = {}
+
+    def __call__(self, distance: float):
+        wet = self._by.get(distance)
+        if wet is None:
+            wet = self._by[distance] = self.poly.buffer(distance)
+            shapely.prepare(wet)
+        return wet
+
+
 def _robust_widths(line: np.ndarray, widths: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Arc lengths (K,) and the running median of the widths over WIDTH_WINDOW widths."""
     s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(line, axis=0).T))])
@@ -166,6 +183,7 @@ def find_basins(water, axes: list[tuple[np.ndarray, np.ndarray]], avoid=(),
     found: list[Basin] = []
     for poly in getattr(water, "geoms", [water]):
         poly = orient(poly, 1.0)
+        grown = _Grown(poly)
         for ring in [poly.exterior, *poly.interiors]:
             v = np.asarray(ring.coords)[:-1]
             if len(v) < 4:
@@ -190,30 +208,30 @@ def find_basins(water, axes: list[tuple[np.ndarray, np.ndarray]], avoid=(),
                 run = order[k:j]
                 before, after = order[k - 1], order[j % len(order)]
                 k = j
-                basin = _basin(v, run, before, after, excess, width, poly, lines, tolerance_m)
+                basin = _basin(v, run, before, after, excess, width, grown, lines, tolerance_m)
                 if basin is not None and free_ends is not None and not free_ends.is_empty and (
                         shapely.distance(basin.polygon, free_ends) < basin.width_m):
                     basin = None         # beside an open end: the data's edge, no bank
                 if basin is not None:
                     found.append(basin)
         for a, w in dead:
-            if len(a) < 2 or not poly.buffer(tolerance_m).contains(shapely.Point(a[-1])) or any(
+            if len(a) < 2 or not grown(tolerance_m).contains(shapely.Point(a[-1])) or any(
                     b.polygon.buffer(tolerance_m).contains(shapely.Point(a[-1])) for b in found):
                 continue
-            basin = _backwater(poly, a, w, index, lines, avoid_u, tolerance_m)
+            basin = _backwater(grown, a, w, index, lines, avoid_u, tolerance_m)
             if basin is not None and free_ends is not None and not free_ends.is_empty and (
                     shapely.distance(basin.polygon, free_ends) < OPEN_END_REACH * basin.width_m):
                 basin = None             # (the data's edge cutting across it)
             if basin is not None and not any(b.polygon.intersection(basin.polygon).area
                                              > 1e-6 * basin.polygon.area for b in found):
                 found.append(basin)
-        found += _lees(poly, index, lines, found, lees, free_ends, tolerance_m)
+        found += _lees(grown, index, lines, found, lees, free_ends, tolerance_m)
     return found
 
 
-def _lees(poly, axes: _Axes, lines, found: list[Basin], lees, free_ends,
+def _lees(grown: _Grown, axes: _Axes, lines, found: list[Basin], lees, free_ends,
           tolerance_m: float) -> list[Basin]:
-    """The lees of ``poly``'s outer shore: ``lees`` [(point (2,), axis (K, 2))] are the
+    """The lees of ``grown.poly``'s outer shore: ``lees`` [(point (2,), axis (K, 2))] are the
     middles of bank segments that a built graph found facing away from the axis it read them
     with (the axis on their right, which no bank may have: the far side of a point of land,
     a step in a bank, a bay's back wall). Each run of such edges of the outline is closed by
@@ -227,7 +245,7 @@ def _lees(poly, axes: _Axes, lines, found: list[Basin], lees, free_ends,
     end)."""
     from riverflow.hydro.nearest import PolylineIndex
 
-    ring = poly.exterior
+    ring = grown.poly.exterior
     v = np.asarray(ring.coords)[:-1]
     n = len(v)
     if n < 4 or not len(lees):
@@ -245,8 +263,7 @@ def _lees(poly, axes: _Axes, lines, found: list[Basin], lees, free_ends,
     away[list(axis_of)] = True
     if away.all():
         return []
-    wet = poly.buffer(eps)
-    shapely.prepare(wet)
+    wet = grown(eps)
     out: list[Basin] = []
     start = int(np.flatnonzero(~away)[0])
     order = np.roll(np.arange(n), -start)
@@ -351,7 +368,7 @@ def _sine(d: np.ndarray, to: np.ndarray) -> np.ndarray:
         np.hypot(*d.T) * np.hypot(*to.T), 1e-300)
 
 
-def _backwater(poly, dead: np.ndarray, dead_widths: np.ndarray, axes, lines, avoid_u,
+def _backwater(grown: _Grown, dead: np.ndarray, dead_widths: np.ndarray, axes, lines, avoid_u,
                tolerance_m: float) -> Basin | None:
     """The basin of a dead end known to be one (``dead``: its axis beyond its channel's bank,
     (K, 2) [m]) that the channels' half widths do not find: a backwater behind a spit of land,
@@ -363,9 +380,9 @@ def _backwater(poly, dead: np.ndarray, dead_widths: np.ndarray, axes, lines, avo
     axes: the channel's water as it is)."""
     from riverflow.hydro.nearest import PolylineIndex
 
-    wet = poly.buffer(max(1e-6 * float(np.abs(np.asarray(poly.exterior.coords)).max()),
-                          1e-3 * tolerance_m))
-    shapely.prepare(wet)
+    poly = grown.poly
+    wet = grown(max(1e-6 * float(np.abs(np.asarray(poly.exterior.coords)).max()),
+                    1e-3 * tolerance_m))
     mine = [g for g in shapely.get_parts(lines) if shapely.intersects(wet, g)]
     if not mine:
         return None
@@ -432,10 +449,12 @@ def _backwater(poly, dead: np.ndarray, dead_widths: np.ndarray, axes, lines, avo
     behind = ends[state[ends] == 1]
     excess[behind] = np.maximum(excess[behind], np.hypot(*(near[behind] - v[behind]).T)
                                 - 0.5 * width[behind])
-    return _basin(v, run, (k0 - 1) % n, (k1 + 1) % n, excess, width, poly, lines, tolerance_m)
+    return _basin(v, run, (k0 - 1) % n, (k1 + 1) % n, excess, width, grown, lines,
+                  tolerance_m)
 
 
-def _basin(v, run, before, after, excess, width, poly, lines, tolerance_m) -> Basin | None:
+def _basin(v, run, before, after, excess, width, grown: _Grown, lines, tolerance_m
+           ) -> Basin | None:
     """The basin of one run of outline points off the channel, or None when it is too small,
     or its mouth does not lie in the water."""
     w = float(np.median(width[run]))
@@ -473,7 +492,7 @@ def _basin(v, run, before, after, excess, width, poly, lines, tolerance_m) -> Ba
         return None
     mouth = shapely.LineString([a, b])
     eps = max(1e-6 * max(1.0, float(np.abs(v).max())), 1e-3 * tolerance_m)
-    wet = poly.buffer(eps)
+    poly, wet = grown.poly, grown(eps)
     mouths = [np.array([a, b])]
     if shapely.difference(basin, wet).area > 1e-6 * basin.area:
         # islands in it (a marina's piers between its slips, joined behind them): its water,

@@ -101,7 +101,7 @@ def cut_branches(branches: list, lakes: list[Lake], tolerance_m: float, water=No
     start / end lies on (-1: none), and for each the index of the branch it came from.
     ``water``: the rivers' water where given (a builder's water area less its free islands):
     a lake apart from it (a pond on a free island, which its channel's axis crosses) cuts
-    nothing."""
+    nothing, and a free end is drawn on to a shore (END_SNAP) only over water."""
     if water is not None:
         lakes = [lk if lk.polygon.distance(water) <= tolerance_m else None for lk in lakes]
     kept = [lk for lk in lakes if lk is not None]
@@ -109,6 +109,9 @@ def cut_branches(branches: list, lakes: list[Lake], tolerance_m: float, water=No
         return branches, [(-1, -1)] * len(branches), list(range(len(branches)))
     union = shapely.union_all([lk.polygon for lk in kept])
     shores = shapely.union_all([lk.polygon for lk in kept if not lk.basin])
+    wet = None if water is None else shapely.union(water, union).buffer(tolerance_m)
+    if wet is not None:
+        shapely.prepare(wet)
     out, ends, origin = [], [], []
     tips = np.array([[b.centerline_m[0], b.centerline_m[-1]] for b in branches]).reshape(-1, 2)
     for i, b in enumerate(branches):
@@ -126,6 +129,8 @@ def cut_branches(branches: list, lakes: list[Lake], tolerance_m: float, water=No
             d = shores.boundary.distance(pt)
             if 1e-6 * max(1.0, np.abs(p).max()) < d <= END_SNAP * width:
                 q = np.asarray(shapely.ops.nearest_points(shores.boundary, pt)[0].coords[0])
+                if wet is not None and not wet.covers(LineString([p, q])):
+                    continue        # (land between: a creek's dead end beside the lake)
                 t = q - p
                 q = q + t / np.hypot(*t) * min(tolerance_m, 0.05 * width)   # just inside
                 line = np.vstack([q, line]) if at_start else np.vstack([line, q])

@@ -541,6 +541,7 @@ class RiverNetworkBuilder:
                 [isl.outline for isl in self._islands]))
         branches, lake_ends, origin = _lakes.cut_branches(branches, lakes, self.tolerance_m,
                                                           rivers)
+        shores = list(lake_ends)        # (the lakes the ends lie on, before the caps)
         branches, lake_ends, self.terminal_lakes, self.source_lakes = \
             _lakes.end_at_terminal_lakes(branches, lakes, lake_ends)
         if self.terminal_lakes and getattr(self, "report", None) is not None:
@@ -554,7 +555,7 @@ class RiverNetworkBuilder:
                 f"({', '.join(lakes[k].name for k in self.source_lakes)}): still water, "
                 f"their outlets start on free ends at the shore")
         if branches:
-            start_j, end_j, junctions = _find_junctions(branches, self)
+            start_j, end_j, junctions = _find_junctions(branches, self, shores)
         else:
             start_j, end_j, junctions = [], [], np.zeros((0, 2))
         n_junctions = len(junctions)
@@ -577,8 +578,10 @@ class RiverNetworkBuilder:
                                                  self.tolerance_m)
             if lakes:   # the lakes are water too
                 water = shapely.union_all([water] + [lk.polygon for lk in lakes])
+            mouths = {(i, e == 0) for i, (was, now) in enumerate(zip(shores, lake_ends))
+                      for e in (0, 1) if was[e] >= 0 and now[e] < 0}
             polygons, cuts, islands, (end_cuts, cut_islands) = _given_water(
-                geoms, water, self._islands, self.tolerance_m)
+                geoms, water, self._islands, self.tolerance_m, mouths)
             self.islands_cut = cut_islands
             if lakes:   # a pond on a free island: its water again (the island's land is cut)
                 kept = shapely.union_all(polygons)
@@ -803,12 +806,15 @@ def _lakes_of_graph(geoms, lakes, lake_ends, polygon_lake, tolerance_m):
 # -- topology -----------------------------------------------------------------------------
 
 
-def _find_junctions(branches: list[_BranchInput], builder=None):
+def _find_junctions(branches: list[_BranchInput], builder=None, shores=None):
     """Cluster branch end points into junctions and snap them together. Two ends nearer
     than half their widths together that do not join are an error, unless one of their
     branches joins them itself (a reach shorter than its junction is wide) and ``builder``'s
-    ``short_reaches_join`` is true; ``builder.short_reach_joined`` says whether that
-    happened.
+    ``short_reaches_join`` is true (``builder.short_reach_joined`` says whether that
+    happened). Two ends on one lake's shore (``shores``: per branch the lakes its start and
+    end lie on, -1: none, as :func:`_lakes.cut_branches` finds them; a terminal lake's
+    inlets capped off its shore too) are never joined nor apart: the lake joins them (mouths
+    side by side, an island's tip between them or none).
 
     Returns (start junction per branch, end junction per branch, junction points (J, 2));
     -1 marks a free end.
@@ -833,6 +839,8 @@ def _find_junctions(branches: list[_BranchInput], builder=None):
         ia, ea, pa, wa = ends[a]
         ic, ec, pc, wc = ends[c]
         d = float(np.hypot(*(pa - pc)))
+        if shores is not None and shores[ia][ea] == shores[ic][ec] >= 0:
+            continue        # (both on one lake's shore: the lake joins them)
         if d <= JOIN_FRACTION * min(wa, wc):
             if ia == ic:
                 raise GraphError(f"branch {branches[ia].name!r} starts and ends at the same point")
@@ -1168,13 +1176,13 @@ _END_STATIONS = 48
 
 def _first_hits(water, origins: np.ndarray, direction: np.ndarray, reach_m: float):
     """Distance along ``direction`` (unit, (2,)) from each origin (N, 2) to the water's
-    boundary (inf where none within ``reach_m``), and whether that boundary is the exterior of
-    its polygon."""
+    boundary (inf where none within ``reach_m``), and which ring that boundary is (its
+    polygon's index × 2^20 + its ring's, 0 the exterior; -1 where none)."""
     rays = shapely.linestrings(np.stack([origins, origins + direction * reach_m], axis=1))
     parts = [p for p in getattr(water, "geoms", [water])]
     best = np.full(len(origins), np.inf)
-    outer = np.zeros(len(origins), bool)
-    for poly in parts:
+    ring_of = np.full(len(origins), -1, np.int64)
+    for j, poly in enumerate(parts):
         for k, ring in enumerate([poly.exterior, *poly.interiors]):
             hits = shapely.intersection(rays, ring)
             for i, h in enumerate(hits):
@@ -1183,14 +1191,18 @@ def _first_hits(water, origins: np.ndarray, direction: np.ndarray, reach_m: floa
                 pts = shapely.get_coordinates(h)
                 d = float(((pts - origins[i]) @ direction).min())
                 if d < best[i]:
-                    best[i], outer[i] = d, k == 0
-    return best, outer
+                    best[i], ring_of[i] = d, (j << 20) + k
+    return best, ring_of
 
 
-def _end_chord(water, line: np.ndarray, width_m: float, at_start: bool, eps_m: float):
+def _end_chord(water, line: np.ndarray, width_m: float, at_start: bool, eps_m: float,
+               mouth: bool = False):
     """The straight closing segment across a free end of a given water area: (chord (2, 2),
     station along the end's tangent from the end point [m], unit tangent pointing out of the
-    channel). None when no chord across the channel is found within two widths of the end."""
+    channel). None when no chord across the channel is found within two widths of the end.
+    ``mouth``: the end is capped off a still lake's shore (the water cut back along it): the
+    straight edge it runs into is its chord however long (a delta's mouth flaring into a
+    bay, wider than END_CHORD_LONGEST widths of its channel, opens on the sea along it)."""
     if len(line) < 2:
         return None
     if at_start:
@@ -1213,18 +1225,18 @@ def _end_chord(water, line: np.ndarray, width_m: float, at_start: bool, eps_m: f
     inside = shapely.contains_xy(water, q[:, 0], q[:, 1])
     left, lo = _first_hits(water, q, n, reach)
     right, ro = _first_hits(water, q, -n, reach)
-    ok = inside & lo & ro & np.isfinite(left) & np.isfinite(right)
-    if not ok.any():
-        return None
+    # both ends on one shore: the outer one, or one island's (a creek's dead end cut into
+    # it, the island's rim its banks); not from a bank to an island
+    ok = inside & (lo == ro) & (lo >= 0) & np.isfinite(left) & np.isfinite(right)
     chord = np.where(ok, left + right, 0.0)
-    ok &= chord <= END_CHORD_LONGEST * width_m       # not across a bend
-    if not ok.any():
-        return None
-    chord = np.where(ok, chord, 0.0)
-    ref = min(chord.max(), width_m)
     edge = _edge_at(water, start + t * tip[0], eps_m, END_STRAIGHT * width_m)
     span = np.hypot(*(edge[-1] - edge[0])) if edge is not None else 0.0
-    if END_CHORD_FRACTION * ref <= span <= END_CHORD_LONGEST * width_m:
+    ok &= chord <= END_CHORD_LONGEST * width_m       # not across a bend
+    if not ok.any() and not (mouth and span >= END_CHORD_FRACTION * width_m):
+        return None
+    chord = np.where(ok, chord, 0.0)
+    ref = min(chord.max(), width_m) if ok.any() else width_m
+    if END_CHORD_FRACTION * ref <= span and (mouth or span <= END_CHORD_LONGEST * width_m):
         # the water ends on a straight edge across the channel (the data's edge): that edge
         if ((edge[-1] - edge[0]) @ n < 0) != at_start:
             edge = edge[::-1]
@@ -1301,20 +1313,24 @@ def _trim_to_chord(line: np.ndarray, widths: np.ndarray, chord: np.ndarray, at_s
     return np.vstack([x, rest]), np.concatenate([[widths[k]], wrest])
 
 
-def _given_water(geoms: list[BranchGeometry], water, islands: list[_Island], tolerance_m: float):
+def _given_water(geoms: list[BranchGeometry], water, islands: list[_Island], tolerance_m: float,
+                 mouths=frozenset()):
     """:meth:`RiverNetworkBuilder.set_water_area`: the oriented water polygons cut at the free
-    ends, the closing segments, the validated islands and the area cut off at each end."""
+    ends, the closing segments, the validated islands and the area cut off at each end.
+    ``mouths``: {(branch index, at its start)} of the free ends capped off a terminal or
+    source lake's shore (:func:`_lakes.end_at_terminal_lakes`), cut along that shore."""
     eps = max(1e-3, 1e-3 * tolerance_m)
     cuts, cut_area, cut_islands = [], [], []
     given = water
-    for g in geoms:
+    for k, g in enumerate(geoms):
         for at_start in (True, False):
             if (g.start_junction if at_start else g.end_junction) >= 0:
                 continue
             where = "start" if at_start else "end"
             c = g.centerline_m[0 if at_start else -1]
             width = float(np.median(g.widths_m))
-            found = _end_chord(water, g.centerline_m, width, at_start, eps)
+            found = _end_chord(water, g.centerline_m, width, at_start, eps,
+                               (k, at_start) in mouths)
             if found is None:
                 raise GraphError(f"branch {g.name!r}: its free {where} at ({c[0]:.1f}, "
                                  f"{c[1]:.1f}) does not reach across the water to its banks "
@@ -1327,9 +1343,13 @@ def _given_water(geoms: list[BranchGeometry], water, islands: list[_Island], tol
             t = found[2]
             mid = chord.mean(axis=0)
             chord_line = shapely.LineString(chord)
+            # (less than half the water body it is cut from: a delta's arm beside a sea, a
+            # small part of all the water, is not cut off whole beyond one of its ends)
+            body = max((p.area for p in getattr(water, "geoms", [water])
+                        if p.distance(chord_line) <= eps), default=water.area)
             beyond = [p for p in pieces
                       if (np.asarray(p.representative_point().coords[0]) - mid) @ t > 0
-                      and p.distance(chord_line) <= eps and p.area < 0.5 * water.area]
+                      and p.distance(chord_line) <= eps and p.area < 0.5 * body]
             if len(pieces) > 1 and beyond:
                 water = shapely.union_all([p for p in pieces if not any(p is q for q in beyond)])
                 cut_area.append(float(sum(p.area for p in beyond)))

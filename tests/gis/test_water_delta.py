@@ -58,3 +58,101 @@ def test_a_mask_with_an_empty_border_ends_at_its_water(tmp_path):
     path = write_mask(tmp_path / "d.tif", DELTA, 5.0, bounds=(-300.0, -100.0, 1100.0, 1600.0))
     b = rf.read_water(path)
     check_delta(b, b.build())
+
+
+def test_mouths_side_by_side_meet_through_the_sea():
+    """Two distributaries either side of an island whose tip nearly reaches the sea: their
+    axes' ends on the shore lie nearer than half their widths together (a skeleton's widths
+    at a mouth are the flared mouth's, Colville's many such mouths), yet they do not miss a
+    junction: the sea joins them (before: "branches 'north' and 'south' do not meet")."""
+    from riverflow.hydro.builder import RiverNetworkBuilder
+
+    sea = shapely.box(0, -300, 400, 300)
+    water = shapely.difference(
+        shapely.union(shapely.box(-600, -30, -250, 30),
+                      shapely.Polygon([(-260, -70), (-100, -70), (0, -88), (0, 88), (-100, 70),
+                                       (-260, 70)])),
+        shapely.Polygon([(-200, -8), (-2, -2), (-2, 2), (-200, 8)]))
+    b = RiverNetworkBuilder()
+    b.add_branch([(-600, 0), (-260, 0)], 60.0, discharge_m2s=5.0, name="river")
+    for side, name in ((1.0, "north"), (-1.0, "south")):
+        b.add_branch([(-260, 0), (-200, 40 * side), (-100, 40 * side), (0, 45 * side)],
+                     [62.0, 62.0, 62.0, 100.0], name=name)
+    b.set_water_area(water)
+    b.add_lake(sea)
+    graph = b.build()
+    assert b.terminal_lakes == [0]
+    status, v = rf.FlowField(graph).query(np.array([[-400.0, 0.0], [-150.0, 40.0],
+                                                   [-150.0, -40.0], [200.0, 0.0]]))
+    assert (status == rf.FlowStatus.INSIDE).all()
+    assert (v[:3, 0] > 0.01).all() and np.abs(v[3]).max() < 1e-6
+
+
+def test_a_mouth_flaring_into_a_bay_is_cut_along_the_sea():
+    """A 60 m river flaring over its last 150 m into a bay 300 m wide on the sea (a terminal
+    lake): its end, capped off the sea's shore, is cut along that shore, however much wider
+    than its channel (before: "does not reach across the water to its banks"); the bay stays
+    water, the river runs, the sea is still."""
+    from riverflow.hydro.areas import water_polygon
+    from riverflow.hydro.builder import RiverNetworkBuilder
+
+    sea = shapely.box(0, -400, 500, 400)
+    water = shapely.union(shapely.box(-800, -30, -140, 30),
+                          shapely.Polygon([(-150, -30), (0, -150), (0, 150), (-150, 30)]))
+    b = RiverNetworkBuilder()
+    b.add_branch([(-800, 0), (-60, 0), (0, 0)], [60.0, 60.0, 200.0], discharge_m2s=5.0)
+    b.set_water_area(water)
+    b.add_lake(sea)
+    graph = b.build()
+    assert b.terminal_lakes == [0]
+    status, v = rf.FlowField(graph).query(np.array([[-400.0, 0.0], [-60.0, 0.0], [200.0, 0.0]]))
+    assert (status == rf.FlowStatus.INSIDE).all()
+    assert v[0, 0] > 0.01 and v[1, 0] > 0.01 and np.abs(v[2]).max() < 1e-6
+    # only the gap along the shore (a tolerance, 0.25 m, over the bay's 300 m) is left out
+    gone = shapely.difference(shapely.union(water, sea), water_polygon(graph))
+    assert gone.area < 0.3 * 300.0
+
+
+def test_a_creek_ending_beside_the_sea_is_not_drawn_across_the_land(tmp_path):
+    """A creek off a distributary ends in a round pocket 12 m of land short of the sea (a
+    bar a mask's cell or two wide): its dead end is not drawn on to the sea's shore over
+    that land (before: drawn on, its water fed from the sea into the delta, "… form a loop
+    that flows back into itself"); the delta builds, the sea stays still."""
+    c, u = np.array([400.0, 1500.0]), np.array([0.6247, -0.7809])
+    pocket = c + (600.0 + 12.0 + 25.0) * u          # the sea: 600 m round c
+    creek = shapely.union(shapely.LineString([(560, 780), pocket]).buffer(10, cap_style="flat"),
+                          shapely.Point(pocket).buffer(25))
+    b = rf.read_water(write_polygons(tmp_path / "d.gpkg", [shapely.union(DELTA, creek)]))
+    graph = b.build()
+    check_delta(b, graph)
+    status, _ = flow_at(b, graph, [0.5 * (np.array([560.0, 780.0]) + pocket)])
+    assert status[0] == rf.FlowStatus.INSIDE
+
+
+def test_a_side_channel_leaving_a_mouths_bay_is_led_into_the_mouth():
+    """A side channel whose axis starts in the flared bay of a wider channel's mouth on the
+    open water, its start nearer the mouth's end than half their widths together (the
+    skeleton puts no point on a mouth, so their axes need not meet: Colville's east mouths),
+    is led on into the mouth's channel, which is split there, half the mouth's width back
+    from the sea or more (a junction: a distributary, not a source beside the mouth)."""
+    from riverflow.gis.rivers import RiverImport
+    from riverflow.gis.water import _Channel, _lead_into_mouths, _Network
+
+    bay = shapely.Polygon([(-50, 0), (50, 0), (50, 600), (300, 1000), (-300, 1000), (-50, 600)])
+    water = shapely.union(bay, shapely.box(150, 760, 1000, 840))
+    sea = shapely.box(-400, 1000, 400, 1400)
+    main = _Channel([(0, 0), (0, 600), (0, 1000)], [100.0, 120.0, 600.0], "skeleton", 0, 1,
+                    "main")
+    side = _Channel([(250, 800), (600, 800), (1000, 800)], [200.0, 80.0, 80.0], "skeleton",
+                    2, 3, "side")
+    net = _Network(water, [], [main, side], np.array([(0, 0), (0, 1000), (250, 800),
+                                                       (1000, 800)], float))
+    net.outlets = {1}
+    report = RiverImport("x", "y", 1, None, None)
+    _lead_into_mouths(net, report, sea, 0.25)
+    assert len(net.channels) == 3 and net.degree().tolist().count(3) == 1
+    j = net.nodes[int(np.flatnonzero(net.degree() == 3)[0])]
+    assert np.allclose(j, (0, 700))                   # half the mouth's 600 m back
+    assert np.allclose(side.points[0], j) and side.a == main.b
+    assert any("led on" in r.what for r in report.repairs)
+    assert len(net.outlets) == 1 and np.allclose(net.nodes[next(iter(net.outlets))], (0, 1000))
