@@ -738,3 +738,30 @@ def test_two_basins_touching_at_a_point_of_land(tmp_path):
     _, builder, graph = _river_with(tmp_path, "touch", notches)
     assert len(builder.basins) == 2
     assert len(graph.lakes()) == 2
+
+
+def test_an_island_off_a_bank_cut_by_basins_mouths_takes_that_banks_psi(tmp_path):
+    """A free island 4 m off the left bank, between two basins' mouths (which cut the bank
+    into pieces of one ψ): its ψ was read between its channel's banks by its distances to
+    the pieces the branch names, the left one ending at the first basin 70 m away, so the
+    island took about half the discharge and the 4 m gap beside the bank carried it (London:
+    108 m/s). By its distances to the nearest shores with each ψ, the gap's flow is the
+    river's beside the bank."""
+    island = _world(box(225, W / 2 - 7, 245, W / 2 - 4))
+    water, _ = harbour_river()
+    water = shapely.difference(water, island)
+    path = write_polygons(tmp_path / "island.geojson", [water])
+    builder = rf.read_water(path, origin_m=ORIGIN)
+    graph = builder.build()
+    field = rf.FlowField(graph)
+    mean_speed = builder.discharges_m2s[0] / W
+    gap = _world(box(228, W / 2 - 3.5, 242, W / 2 - 0.5))
+    pts = shapely.get_coordinates(shapely.points(
+        np.stack(np.meshgrid(*[np.linspace(a, b, 8) for a, b in zip(gap.bounds[:2],
+                                                                      gap.bounds[2:])]), -1)
+        .reshape(-1, 2)))
+    pts = pts[shapely.contains_xy(gap, *pts.T)]
+    status, v = field.query(pts)
+    ok = status == INSIDE
+    assert ok.sum() > 10
+    assert np.hypot(*v[ok].T).max() < 2.0 * mean_speed
