@@ -283,8 +283,11 @@ class RaycastProducer(TerrainProducer):
         return [(HEIGHT, key), (WATER, key)]
 
     def produce(self, key: TileKey, deps: Mapping) -> dict:
-        ground = np.ascontiguousarray(deps[(HEIGHT, key)]["z"][1:-1, 1:-1])
-        water = np.ascontiguousarray(deps[(WATER, key)]["level"])
+        # copies, never views of the dependencies (a pool's slot, which the cache gives to
+        # another tile once it evicts this one: the memo's ray-cast tile then read another
+        # tile's water, particles metres off the surface in the next world of the level)
+        ground = np.array(deps[(HEIGHT, key)]["z"][1:-1, 1:-1], np.float32, order="C")
+        water = np.array(deps[(WATER, key)]["level"], np.float32, order="C")
         pyramid = np.empty(self.fields["pyramid"].shape, np.float32)
         fill_height_pyramid(ground, water, pyramid)
         return {"ground": ground, "water": water, "pyramid": pyramid}

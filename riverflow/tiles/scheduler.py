@@ -769,7 +769,7 @@ class TileScheduler:
         if data is None:
             data = make()
             if data is not None:
-                memo.put(tag, data)
+                memo.put(tag, _owned(data))
         return data
 
     def _produce(self, kind: str, key: TileKey, deps: dict, producer: Producer,
@@ -1126,3 +1126,14 @@ def _work(ref: weakref.ref, jobs: queue.PriorityQueue, lane: int = 0) -> None:
             return
         scheduler._run(job, lane)
         del scheduler
+
+
+def _owned(data):
+    """A tile's data as the memo keeps it: its arrays that are views of other memory (a
+    producer's dependency: a slot of a pool, given to another tile once evicted) copied."""
+    if isinstance(data, dict):
+        return {k: v.copy() if isinstance(v, np.ndarray) and v.base is not None else v
+                for k, v in data.items()}
+    if isinstance(data, np.ndarray) and data.base is not None:
+        return data.copy()
+    return data

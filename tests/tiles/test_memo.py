@@ -63,3 +63,31 @@ def test_a_pickled_memo_is_empty_and_threads_share_one():
     assert len(memo) == 800 and memo.bytes == 800 * (400 + 4)
     copy = pickle.loads(pickle.dumps(memo))
     assert len(copy) == 0 and copy.budget_bytes == memo.budget_bytes
+
+
+def test_the_memo_never_keeps_a_view_of_a_pools_slot():
+    """A ray-cast tile's water was its water tile's level array itself, a view of the water
+    pool's slot; the memo kept it, and once the cache evicted the water tile and gave the
+    slot to another, the memo's ray-cast tile read that one's levels: the next world of
+    the level (a game reopening it, the test suite's shared scenes) had particles metres
+    off the water. A tile is kept with its arrays owned; the ray-cast producer copies."""
+    from riverflow.scenes.default import default_scene
+    from riverflow.scenes.tile_kinds import HEIGHT, RAYCAST, WATER, terrain_producers
+    from riverflow.tiles.scheduler import _owned
+
+    pool = np.zeros((4, 3, 3))
+    kept = _owned({"a": pool[1], "b": np.ones(2), "c": 3})
+    pool[1] = 7.0
+    assert (kept["a"] == 0.0).all() and kept["c"] == 3
+    assert _owned(pool[2]).base is None
+
+    scene = default_scene(seed=0)
+    producers = {p.kind: p for p in terrain_producers(scene)}
+    key = (scene.terrain.max_level, *scene.quadtree.tile_of(*scene.water.samples_m[0],
+                                                             scene.terrain.max_level))
+    deps = {(kind, key): producers[kind].produce(key, {}) for kind in (HEIGHT, WATER)}
+    made = producers[RAYCAST].produce(key, deps)
+    for dep in deps.values():
+        for arr in dep.values():
+            for mine in made.values():
+                assert not np.shares_memory(arr, mine)
