@@ -67,6 +67,9 @@ def main() -> None:
     ap.add_argument("--frames", type=int, default=60)
     ap.add_argument("--json", type=Path, default=None)
     args = ap.parse_args()
+    if not args.file.exists():
+        ap.error(f"{args.file}: no such file (pass a GIS file's path; the default is the Red "
+                 "Butte network of ../shared/data)")
     out = run(args.file, args.layer, args.blocking, args.frames)
     for key, value in out.items():
         print(f"{key:>22}: {value}")
