@@ -353,7 +353,7 @@ def _island_potentials(geoms, sides, pieces, islands, island_of, psi) -> None:
     cut into pieces (London's, at every basin's mouth) has one ψ, and its piece the branch
     names may lie far from the island: an island 2 m off the bank took 78 % of the
     channel's discharge on that side, 100 m/s through the gap)."""
-    lines = None
+    lines = banks = None
     for piece_index, k in sorted(island_of.items()):
         outline = islands[k].outline
         c = outline.centroid
@@ -363,9 +363,9 @@ def _island_potentials(geoms, sides, pieces, islands, island_of, psi) -> None:
         left, right = sides[b]
         lo, hi = psi[left], psi[right]
         if islands[k].potential is None:
-            if lines is None:
+            if lines is None:          # (made once, for the first island that needs them)
                 lines = np.array([p.line() for p in pieces], dtype=object)
-            banks = np.array([j not in island_of for j in range(len(pieces))])
+                banks = np.array([j not in island_of for j in range(len(pieces))])
             dl = float(shapely.distance(c, lines[banks & (psi == lo)]).min())
             dr = float(shapely.distance(c, lines[banks & (psi == hi)]).min())
             psi[piece_index] = lo + (hi - lo) * dl / max(dl + dr, 1e-12)
