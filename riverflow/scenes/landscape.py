@@ -558,7 +558,7 @@ def branches_of_graph(graph: HydroGraph, polygon) -> list[RiverBranch]:
             banks.setdefault(c.river, []).append(i)
     for a in axes:
         c = graph.curves[a]
-        if _flows_backwards(graph, a, lines[a], banks.get(a, [])):
+        if _flows_backwards(graph, lines[a], banks.get(a, [])):
             lines[a] = lines[a][::-1].copy()
             ends[a] = (c.end, c.start)
         else:
@@ -635,15 +635,11 @@ def _longest_path(branches: list[RiverBranch]) -> list[RiverBranch]:
     return path[::-1]
 
 
-def _flows_backwards(graph: HydroGraph, axis: int, line: np.ndarray,
-                     banks: list[int] | None = None) -> bool:
-    """True when the axis is drawn upstream: its right-hand banks have the smaller ψ.
-    ``banks``: the curves that are its banks with a ψ, if known (else looked for)."""
+def _flows_backwards(graph: HydroGraph, line: np.ndarray, banks: list[int]) -> bool:
+    """True when the axis ``line`` is drawn upstream: its right-hand banks (``banks``: the
+    curves that are its banks with a ψ) have the smaller ψ."""
     left, right = [], []
     tangents = np.diff(line, axis=0)
-    if banks is None:
-        banks = [i for i, c in enumerate(graph.curves)
-                 if c.is_bank and c.river == axis and c.has_potential]
     for i in banks:
         c = graph.curves[i]
         p = graph.polyline(i)
