@@ -911,6 +911,37 @@ def test_an_island_already_free_named_again_ends_the_retries(tmp_path, monkeypat
     assert free and len(free) == len(set(free)), free
 
 
+def test_a_build_that_fails_every_way_says_its_first_failure(tmp_path, monkeypatch):
+    """Where the water as read fails to build and each other reading fails too, the error
+    says the first failure (the water as read), how it was read again and the last
+    reading's own failure (it said the last retry's alone, which named what the user's data
+    never had: a reading the reader chose). Made to happen with a builder that fails every
+    build, each time with its own message, after short reaches were joined and dead ends
+    kept."""
+    from riverflow.hydro.builder import RiverNetworkBuilder
+
+    calls = []
+
+    def failing(self):
+        calls.append(len(calls) + 1)
+        self.short_reach_joined = self.kept_beside = True
+        raise GraphError(f"failure number {len(calls)}")
+
+    monkeypatch.setattr(RiverNetworkBuilder, "build", failing)
+    path = write_polygons(tmp_path / "every.geojson", [y_shape()])
+    builder = rf.read_water(path, inlets=[ORIGIN + (10.0, 0.0)], origin_m=ORIGIN)
+    with pytest.raises(GraphError) as raised:
+        builder.build()
+    text = str(raised.value)
+    assert len(calls) == 3, calls
+    assert text.startswith(f"{path} (layer "), text
+    assert text.count("every.geojson") == 1, text
+    assert "with no dead end kept as part of the water's ends, it failed there too: " \
+        "failure number 3" in text, text
+    assert "failure number 1; read again with no short reach joining its ends; then also " \
+        "with no dead end" in text, text
+
+
 def braid_in_three_lanes(seed: int):
     """A 200 m river with long thin islands (200 - 400 m) in three staggered lanes (y = -50,
     0, 50 m), cut obliquely at both ends by a trapezoid (its ends not along the bounding box:
