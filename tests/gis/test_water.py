@@ -1213,6 +1213,15 @@ def test_the_skeletons_voronoi_edges_are_geos_ones():
     assert far.sum() >= 3                           # the unbounded edges, cut far outside
     line = np.column_stack([np.arange(5.0), np.zeros(5)])
     assert _voronoi_edges(line).shape == (4, 2, 2)
+    # points on a grid (an outline's evenly spaced points along parallel banks): four on
+    # each circle, two triangles to a cell, one Voronoi vertex, no edge of no length
+    grid = np.stack(np.meshgrid(np.arange(12.0), np.arange(9.0)), axis=-1).reshape(-1, 2)
+    ours = _voronoi_edges(grid)
+    hull = shapely.MultiPoint(grid).convex_hull
+    geos = shapely.get_coordinates(shapely.get_parts(shapely.voronoi_polygons(
+        shapely.MultiPoint(grid), only_edges=True))).reshape(-1, 2, 2)
+    assert inside(ours) == inside(geos) and len(inside(ours)) == 11 * 7 + 10 * 8
+    assert np.hypot(*(ours[:, 1] - ours[:, 0]).T).min() > 0.5
 
 
 def test_an_end_drawn_as_nearly_straight_edges_is_cut_along_them(tmp_path):
@@ -1309,3 +1318,35 @@ def test_a_streams_line_come_over_the_bank_is_left_out(tmp_path):
     assert sum("left out (its water is the river's)" in n for n in builder.report.notes) == 1
     (branch,) = builder._branches
     assert np.abs(branch.centerline_m[:, 1]).max() < 1e-6
+
+
+def test_holes_whose_loops_collapsed_are_free_when_the_channels_are_found_again(monkeypatch):
+    """Once a hole's loop of axes collapsed (a small island near a bank), finding the
+    part's channels again (after another island was made free) starts with it free: one
+    skeleton, not two (each is a Voronoi diagram of the whole outline: 4 s for London's
+    Thames), and the same channels as found afresh."""
+    from riverflow.gis import water as W
+
+    river = shapely.box(0.0, -50.0, 1000.0, 50.0)
+    small = shapely.Point(300.0, 35.0).buffer(10.0)            # its loop collapses
+    long_ = shapely.affinity.scale(shapely.Point(700.0, 0.0).buffer(10.0), 6.0, 1.0)
+    part = river.difference(shapely.union_all([small, long_]))
+    made = []
+    skeleton = W.skeleton
+    monkeypatch.setattr(W, "skeleton", lambda *a, **k: made.append(1) or skeleton(*a, **k))
+    monkeypatch.setattr(W, "_SKELETONS", {})
+    memo: dict = {}
+    first = W._skeleton_channels(part, 0, 0.25, None, collapsed=memo)
+    assert len(made) == 2 and len(first.islands) == 1 and len(first.water.interiors) == 1
+    assert list(memo.values()) == [[first.islands[0].representative_point().coords[0]]]
+    forced = [(700.0, 0.0)]
+    again = W._skeleton_channels(part, 0, 0.25, None, forced=forced, collapsed=memo)
+    assert len(made) == 3                                      # one skeleton more
+    monkeypatch.setattr(W, "_SKELETONS", {})
+    fresh = W._skeleton_channels(part, 0, 0.25, None, forced=forced)
+    assert len(made) == 5 and len(again.channels) == len(fresh.channels) == 1
+    assert again.water.equals(fresh.water) and not again.water.interiors
+    assert sorted(f.area for f in again.islands) == sorted(f.area for f in fresh.islands)
+    for a, b in zip(again.channels, fresh.channels):
+        np.testing.assert_array_equal(a.points, b.points)
+        np.testing.assert_array_equal(a.widths, b.widths)
