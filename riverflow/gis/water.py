@@ -222,8 +222,7 @@ class WaterBuilder(RiverNetworkBuilder):
                     break
                 except GraphError as again:
                     seen.append(str(again))
-                    if used is not None:
-                        last = again
+                    last = again
             if graph is None:
                 raise self._failed(first, tried, last) from None
         finally:
@@ -330,7 +329,7 @@ class WaterBuilder(RiverNetworkBuilder):
                 ) -> GraphError:
         """The error of a build that failed as read and again each way in ``tried``: the
         first failure's (the water as read), then how it was read again and the last
-        reading's own failure (``last``; None: the same as the first's or not told)."""
+        reading's own failure (``last``; not told where it is the first's)."""
         if not tried:
             return first
         named = f"{self.report.path} (layer {self.report.layer!r}): "
