@@ -622,8 +622,14 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
     links = _drop_duplicates(links, snap_m, report)
     links, crossings = _topology(links, snap_m, report)
     links = _direct(links, report)
+    widths = None                   # a file's lines as wide as the discharges summed down say
+    if not (osm or report.strict):
+        try:
+            widths = [p[0] for p in _plan(links, geometry, specs, report)]
+        except GraphError:          # a loop the user's or the file's directions close: later
+            pass
     links = _join_runs(links, report, shapely.union_all(lake_geoms) if lake_geoms else None,
-                       None if osm else geometry.default_width_m)
+                       None if osm else geometry.default_width_m, widths)
     links = _drop_enclosed(links, report)
     if osm and flip is None:
         _break_osm_loops(links, report)
@@ -1526,15 +1532,17 @@ def _topology(links: list[_Link], snap_m: float, report: RiverImport
 
 
 def _join_runs(links: list[_Link], report: RiverImport, lakes=None,
-               short_m: float | None = None) -> list[_Link]:
+               short_m: float | None = None, widths: list[float] | None = None) -> list[_Link]:
     """Lines that run on into one another where nothing else meets (one line in and one out
     of a junction: OpenStreetMap splits a river's way at every bridge, culvert, weir or
     change of its tags) joined into one link, named (and attributed) after the longest of
     them: a piece shorter than the river is wide would otherwise be a branch of its own,
     its far end within the river of the next one's start (``build()`` cannot make that).
     ``short_m``: only where one of the two is shorter than twice this width [m] (or its
-    given width), so that a file's features stay links (None: every such junction, as for
-    OpenStreetMap, whose ways are no links). Lines are joined only where their attributes
+    given width), or both are shorter than twice their widths as planned (``widths``, per
+    link, from the discharges summed down the network: a river drawn in pieces shorter than
+    it is wide, a model grid's routing lines, one per cell), so that a file's features stay
+    links (None: every such junction, as for OpenStreetMap, whose ways are no links). Lines are joined only where their attributes
     give the same kinds of values (each value given on both or on neither: a width given
     on one and derived on the next stays two links), neither was added by a repair, and
     neither runs into a lake (``lakes``: the lakes' area, the lines cut at their shores).
@@ -1553,12 +1561,15 @@ def _join_runs(links: list[_Link], report: RiverImport, lakes=None,
         return tuple(bool(np.isfinite(lk.values[key][at])) for key in sorted(lk.values)) + (
             math.isnan(lk.cell_m),)
 
-    def short(lk: _Link) -> bool:
-        return _length(lk.points) < 2.0 * (_given_width(lk) or short_m)
+    def short(i: int, planned: bool = False) -> bool:
+        width = widths[i] if planned else _given_width(links[i]) or short_m
+        return _length(links[i].points) < 2.0 * width
 
-    def joinable(a: _Link, b: _Link) -> bool:
+    def joinable(i: int, k: int) -> bool:
+        a, b = links[i], links[k]
         return (not (a.added or b.added) and sorted(a.values) == sorted(b.values)
-                and (short_m is None or short(a) or short(b))
+                and (short_m is None or short(i) or short(k)
+                     or widths is not None and short(i, True) and short(k, True))
                 and kinds(a, 0) == kinds(b, 0) and kinds(a, 1) == kinds(b, 1)
                 and (math.isnan(a.cell_m) or abs(a.cell_m - b.cell_m) <= 1e-9 * a.cell_m)
                 and (lakes is None or not (lakes.intersects(shapely.LineString(a.points))
@@ -1568,7 +1579,7 @@ def _join_runs(links: list[_Link], report: RiverImport, lakes=None,
     for j, came in ins.items():
         went = outs.get(j, [])
         if len(came) == 1 and len(went) == 1 and came[0] != went[0] \
-                and joinable(links[came[0]], links[went[0]]):
+                and joinable(came[0], went[0]):
             after[came[0]] = went[0]
     if not after:
         return links
