@@ -1576,11 +1576,14 @@ def _join_runs(links: list[_Link], report: RiverImport, lakes=None,
                                            or lakes.intersects(shapely.LineString(b.points)))))
 
     after: dict[int, int] = {}
+    by_width = set()                    # joined by their planned widths only: repairs
     for j, came in ins.items():
         went = outs.get(j, [])
         if len(came) == 1 and len(went) == 1 and came[0] != went[0] \
                 and joinable(came[0], went[0]):
             after[came[0]] = went[0]
+            if short_m is not None and not (short(came[0]) or short(went[0])):
+                by_width.add(came[0])
     if not after:
         return links
     before = {b: a for a, b in after.items()}
@@ -1606,12 +1609,23 @@ def _join_runs(links: list[_Link], report: RiverImport, lakes=None,
                      first.start, last.end, (first.z[0], last.z[1]),
                      any(p.fixed for p in pieces), False, first.cell_m, first.source_width_m)
         out.append(link)
-        joined += len(run) - 1
+        if by_width.intersection(run):
+            others = [p.name for p in pieces if p is not main]
+            report.repair(main.name, main.fid, main.attrs,
+                          f"drawn in {len(run)} pieces (with {', '.join(others[:6])}"
+                          f"{', …' if len(others) > 6 else ''}) that run on into one another "
+                          f"where nothing else meets, shorter than twice the river's width "
+                          f"({max(widths[k] for k in run):.1f} m at most): joined into one "
+                          "link (such a piece has no banks of its own)")
+        else:
+            joined += len(run) - 1
     out += [links[i] for i in range(len(links)) if i not in seen and i in before]  # rings
-    report.notes.append(f"{joined} junctions where one line runs on into the next and nothing "
-                        f"else meets: the lines joined into one link (named after the longest)"
-                        + (f"; {spikes} vertices dropped where the joined line turned back on "
-                           f"itself (sharper than {MAX_TURN_DEG:.0f}°)" if spikes else ""))
+    if joined or spikes:
+        report.notes.append(f"{joined} junctions where one line runs on into the next and nothing "
+                            f"else meets: the lines joined into one link (named after the "
+                            f"longest)" + (f"; {spikes} vertices dropped where the joined line "
+                                           f"turned back on itself (sharper than "
+                                           f"{MAX_TURN_DEG:.0f}°)" if spikes else ""))
     return out
 
 
