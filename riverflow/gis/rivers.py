@@ -58,12 +58,12 @@ leaves (clipped data) get a short outlet, not in land the network's loops close 
 they close round every side, one of the lines is turned or left out:
 :func:`_close_clipped_ends`); lines crossing without a shared vertex are cut
 where the narrower crosses the wider one's water (no junction); lines that run on into one
-another where nothing else meets are one link where one of them is short (OSM: always;
-:func:`_join_runs`); a line in land the network's loops close round is left out
-(:func:`_drop_enclosed`); a hook at a free end is trimmed (:func:`_trim_hooks`); an OSM
-way closing a loop that flows back into itself is turned (:func:`_break_osm_loops`); a free
-end in another river's water is cut back out of it (:func:`_cut_ends_in_water`); two
-channels flowing into
+another where nothing else meets are one link where one of them is short, or both are
+shorter than twice their planned widths (OSM: always; :func:`_join_runs`); a line in land
+the network's loops close round is left out (:func:`_drop_enclosed`); a hook at a free end
+is trimmed (:func:`_trim_hooks`); an OSM way closing a loop that flows back into itself is
+turned (:func:`_break_osm_loops`); a free end in another river's water is cut back out of it
+(:func:`_cut_ends_in_water`); two channels flowing into
 one junction that run closer than their widths above it merge into one reach there
 (:func:`_merge_close_channels`); an inflow laid back up an outflow's line, in its water,
 joins it farther down (:func:`_move_side_inflows`); attribute values that are text, NaN or
@@ -1542,11 +1542,12 @@ def _join_runs(links: list[_Link], report: RiverImport, lakes=None,
     given width), or both are shorter than twice their widths as planned (``widths``, per
     link, from the discharges summed down the network: a river drawn in pieces shorter than
     it is wide, a model grid's routing lines, one per cell), so that a file's features stay
-    links (None: every such junction, as for OpenStreetMap, whose ways are no links). Lines are joined only where their attributes
-    give the same kinds of values (each value given on both or on neither: a width given
-    on one and derived on the next stays two links), neither was added by a repair, and
-    neither runs into a lake (``lakes``: the lakes' area, the lines cut at their shores).
-    Not in strict mode (lines as drawn). A note says how many were joined."""
+    links (None: every such junction, as for OpenStreetMap, whose ways are no links). Lines
+    are joined only where their attributes give the same kinds of values (each value given
+    on both or on neither: a width given on one and derived on the next stays two links),
+    neither was added by a repair, and neither runs into a lake (``lakes``: the lakes' area,
+    the lines cut at their shores). Not in strict mode (lines as drawn). A note says how
+    many were joined; a run joined by its planned widths is a repair."""
     if report.strict or len(links) < 2:
         return links
     ins: dict[int, list[int]] = {}
