@@ -425,3 +425,16 @@ def test_two_branches_leaving_a_junction_at_a_small_angle_build():
         points, width, _ = ways[name]
         for f in (0.3, 0.5, 0.7):
             assert _psi_across(graph, points, 0.98 * width, f) == pytest.approx(q[name], rel=1e-9)
+
+
+def test_a_straight_bank_along_branches_end_to_end_links_to_each_axis():
+    """Three 10 m branches drawn end to end in a straight line: each bank is one straight
+    segment along all three. Linked whole to the middle axis, it made that axis 201 m wide
+    (the flow field then read banks a kilometre away: NHD HR routing lines, a 10 m stream
+    flowing +3.3 to -2.2 m/s across its width). It is cut where it passes the axes' ends."""
+    b = RiverNetworkBuilder()
+    for k in range(3):
+        b.add_branch(np.array([[100.0 * k, 0.0], [100.0 * (k + 1), 0.0]]), 10.0,
+                     discharge_m2s=5.0 if k == 0 else None)
+    graph = b.build()
+    assert [round(graph.curves[i].width_m, 1) for i in graph.axes()] == [12.0, 12.0, 12.0]
