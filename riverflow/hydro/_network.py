@@ -369,8 +369,11 @@ def _island_potentials(geoms, sides, pieces, islands, island_of, psi) -> None:
             if lines is None:          # (made once, for the first island that needs them)
                 lines = np.array([p.line() for p in pieces], dtype=object)
                 banks = np.array([j not in island_of for j in range(len(pieces))])
-            dl = float(shapely.distance(outline, lines[banks & (psi == lo)]).min())
-            dr = float(shapely.distance(outline, lines[banks & (psi == hi)]).min())
+            # (not the shores of water inside it: a pond on the island)
+            solid = shapely.Polygon(outline.exterior)
+            off = banks & ~shapely.within(lines, solid)
+            dl = float(shapely.distance(solid, lines[off & (psi == lo)]).min())
+            dr = float(shapely.distance(solid, lines[off & (psi == hi)]).min())
             psi[piece_index] = lo + (hi - lo) * dl / max(dl + dr, 1e-12)
         else:
             p = islands[k].potential
