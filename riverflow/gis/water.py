@@ -1123,7 +1123,14 @@ def _read_lines(path: Path, lines, source_crs, where: str) -> list:
         lpath, lname = path, lines
     else:
         raise GraphError(f"{where}: lines={lines!r} is neither a file nor a layer of it")
-    name = ("lines" if _is_osm(lpath) and lname is None else _pick_layer(pyogrio, lpath, lname))
+    try:
+        name = ("lines" if _is_osm(lpath) and lname is None
+                else _pick_layer(pyogrio, lpath, lname))
+    except GraphError as exc:
+        if lname is not None and ("/" in str(lname) or Path(str(lname)).suffix):
+            raise GraphError(f"{where}: lines={lines!r}: no such file (nor a layer of "
+                             f"{path.name}: {exc})") from None      # (a path mistyped)
+        raise
     lwhere = f"{lpath} (layer {name!r})"
     try:
         meta, fids, wkb, columns = _read_raw(pyogrio, lpath, name)

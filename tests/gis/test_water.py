@@ -436,6 +436,17 @@ def test_a_missing_file(tmp_path):
         rf.read_water(tmp_path / "nothing.gpkg")
 
 
+def test_a_missing_lines_file_is_named_as_a_file(tmp_path):
+    """``lines=`` is a file or a layer of the water's file: a path to no file was reported as
+    "no layer '…/streams.shp'", which says nothing of the file the user meant."""
+    poly = write_polygons(tmp_path / "y.geojson", [y_shape()])
+    with pytest.raises(GraphError, match=r"lines='[^']*streams.shp': no such file \(nor a "
+                                         r"layer of y.geojson: .*its layers: \['y'\]"):
+        rf.read_water(poly, lines=str(tmp_path / "streams.shp"))
+    with pytest.raises(GraphError, match=r"no layer 'rivers'; its layers: \['y'\]"):
+        rf.read_water(poly, lines="rivers")
+
+
 # -- command line ---------------------------------------------------------------------------
 
 
