@@ -602,6 +602,13 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
             _join_open_water(builder, getattr(water, "geoms", [water])[net.part], net.part,
                              "opens only into open water")
             networks.remove(net)
+    if not networks and not builder._lakes:
+        gone = [r for r in report.repairs if r.feature.startswith("water body")]
+        raise GraphError(f"{where}: no water is left to build: its "
+                         f"{len(getattr(water, 'geoms', [water]))} pieces were all left out"
+                         + (f" ({gone[0].feature}: {gone[0].what}"
+                            + (f"; and {len(gone) - 1} more" if len(gone) > 1 else "") + ")"
+                            if gone else ""))
     if not networks:                # ponds only: still water
         report.derived["axes"] = {}
         report.derived["length_m"] = 0.0
@@ -657,12 +664,16 @@ def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy
     report = builder.report
     networks = []
     lake_area = shapely.union_all(lakes) if len(lakes) else None
+    several = len(getattr(water, "geoms", [])) > 1
     for k, part in enumerate(getattr(water, "geoms", [water])):
-        net = _channels(part, k, line_geoms, tolerance_m, report, frame, forced,
-                        np.vstack([inlet_xy, outlet_xy]), dead.get(k),
-                        builder.__dict__.setdefault("_collapsed", {}))
-        net.part = k
         speck = part.area < SPECK_FRACTION * water.area
+        # (a speck is left out or joins open water whatever its channels: none are looked
+        # for, a skeleton a speck; a noisy mask has thousands)
+        net = _Network(part, [], [], np.zeros((0, 2))) if speck and several else _channels(
+            part, k, line_geoms, tolerance_m, report, frame, forced,
+            np.vstack([inlet_xy, outlet_xy]), dead.get(k),
+            builder.__dict__.setdefault("_collapsed", {}))
+        net.part = k
         beside_lake = lake_area is not None and lake_area.distance(part) <= tolerance_m
         if not net.channels and not (speck or beside_lake):
             _still(builder, part, k, "no channel in its skeleton")
@@ -672,7 +683,6 @@ def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy
         # runs along the water; the skeleton's, its widest inscribed circle)
         widest = max((c.width if c.source == "lines" else float(c.widths.max())
                       for c in net.channels), default=0.0)
-        several = len(getattr(water, "geoms", [])) > 1
         if not net.channels or several and (speck or longest < MIN_CHANNEL_WIDTHS * widest):
             if _join_open_water(builder, part, k, "beside open water, with no channel "
                                 f"longer than {MIN_CHANNEL_WIDTHS:g} times its width"):
@@ -859,6 +869,10 @@ def _read_mask(path: Path):
     mask = np.isfinite(data) & (data > 0)
     if not mask.any():
         raise GraphError(f"{path}: the mask has no water (no cell > 0 of {mask.size})")
+    if mask.all() and mask.size > 1:
+        raise GraphError(f"{path}: the mask is water in every one of its {mask.size} cells: "
+                         f"no shore to read a river's banks from (a crop inside a lake or the "
+                         f"sea? give the water's shores, or a wider mask)")
     shapes = rio_features.shapes(mask.astype(np.uint8), mask=mask, transform=transform,
                                  connectivity=4)
     cell = float(min(abs(transform.a), abs(transform.e)))

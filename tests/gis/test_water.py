@@ -413,6 +413,28 @@ def test_a_mask_with_no_water_is_an_error(tmp_path):
         rf.read_water(mask)
 
 
+def test_a_mask_of_water_everywhere_or_of_specks_only_is_an_error(tmp_path):
+    """A mask that is water in every cell has no shore (it said "branch 0: no banks found
+    across its middle"); one whose water cells touch only at corners is specks, each left
+    out (it said "no branches: add at least one with add_branch()", the builder's words to
+    a programmer): each a GraphError that says what the mask is."""
+    bounds = (-20.0, -160.0, 280.0, 140.0)
+    full = write_mask(tmp_path / "full.tif", shapely.box(*bounds).buffer(50.0), 5.0, bounds)
+    with pytest.raises(GraphError, match=r"full.tif: the mask is water in every one of its "
+                                         r"3600 cells: no shore"):
+        rf.read_water(full)
+    cells = shapely.union_all([shapely.box(x, y, x + 5.0, y + 5.0)
+                               for x in np.arange(-20.0, 280.0, 10.0)
+                               for y in np.arange(-160.0, 140.0, 10.0)]
+                              + [shapely.box(x + 5.0, y + 5.0, x + 10.0, y + 10.0)
+                                 for x in np.arange(-20.0, 280.0, 10.0)
+                                 for y in np.arange(-160.0, 140.0, 10.0)])
+    checker = write_mask(tmp_path / "checker.tif", cells.buffer(-0.5), 5.0, bounds)
+    with pytest.raises(GraphError, match=r"checker.tif .*no water is left to build: its 1800 "
+                                         r"pieces were all left out \(water body 0: .*a speck"):
+        rf.read_water(checker)
+
+
 def test_an_inlet_outside_the_water_is_an_error(tmp_path):
     poly = write_polygons(tmp_path / "y.geojson", [y_shape()])
     with pytest.raises(GraphError, match=r"inlet \(1500.0, 0.0\) lies outside every water "
