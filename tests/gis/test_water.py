@@ -15,7 +15,7 @@ import shapely.affinity
 
 import riverflow as rf
 from riverflow.hydro.graph import GraphError
-from tests.gis.conftest import ORIGIN, UTM, require_gis
+from tests.gis.conftest import ORIGIN, UTM, require_gis, write_lines
 
 require_gis()
 
@@ -973,6 +973,35 @@ def test_a_build_that_fails_every_way_says_its_first_failure(tmp_path, monkeypat
         "failure number 3" in text, text
     assert "failure number 1; read again with no short reach joining its ends; then also " \
         "with no dead end" in text, text
+
+
+def test_lines_that_make_no_network_still_give_the_waters_direction(tmp_path):
+    """München's Isar with its OSM lines: two lines either side of a long island, meeting at
+    neither end (one starts in the water beside the island's tip), do not make a network of
+    the water ("do not meet" / "does not reach across"), so the river was refused; without
+    its lines its skeleton ran from its narrower end to its wider one: upstream. The lines'
+    reading failing, the water's skeleton gives its axes and the lines where it enters and
+    leaves: it builds, reported, flowing the way the lines run."""
+    outer = shapely.Polygon([(0, -70), (1000, -45), (1000, 45), (0, 70)])  # wider upstream
+    island = shapely.Polygon([(250, -12), (960, -8), (975, 0), (960, 8), (250, 12), (235, 0)])
+    poly = write_polygons(tmp_path / "isar.geojson", [outer.difference(island)])
+    lines = write_lines(tmp_path / "isar_lines.geojson",
+                        [[(-20.0, -30.0), (500.0, -28.0), (1020.0, -25.0)],
+                         [(215.0, 6.0), (500.0, 28.0), (1020.0, 22.0)]])
+    alone = rf.read_water(poly, origin_m=ORIGIN)
+    alone.build()
+    assert "from its narrower end" in alone.report.derived["direction"]
+    assert all(b.centerline_m[0, 0] > b.centerline_m[-1, 0] for b in alone._branches)
+    builder = rf.read_water(poly, lines=lines, origin_m=ORIGIN)
+    graph = builder.build()
+    (note,) = [r for r in builder.report.repairs if r.feature == "lines"]
+    assert "do not make a network of the water" in note.what and "its axes are its skeleton" \
+        in note.what and "enters (1) and leaves (2)" in note.what, note.what
+    assert builder.report.derived["direction"] == "from the inlets / outlets given"
+    assert all(b.centerline_m[0, 0] < b.centerline_m[-1, 0] for b in builder._branches)
+    pts = np.array([[100.0, 0.0], [500.0, 30.0], [500.0, -30.0], [900.0, -25.0]])
+    status, v = rf.FlowField(graph).query(pts)
+    assert (status == INSIDE).all() and (v[:, 0] > 0.0).all(), v
 
 
 def braid_in_three_lanes(seed: int):
