@@ -495,11 +495,18 @@ def read_water(path, *, layer: str | int | None = None, lines=None, inlets=None,
         source_crs = crs
     report = RiverImport(str(path), layer_name, len(features), None, None)
     line_geoms = _read_lines(path, lines, source_crs, where) if lines is not None else []
+    hints = []          # an OSM extract's waterways, for the way its areas flow
+    if lines is None and _is_osm(path) and not (len(inlet_xy) or len(outlet_xy)):
+        try:
+            hints = _read_lines(path, "lines", source_crs, where)
+        except GraphError:
+            hints = []  # (an extract with no waterway line)
 
     _check_points_crs(source_crs, inlet_xy, outlet_xy, where)
     # project everything at once (one local CRS for polygons, lines and points)
     # the raster's extent (where water touching it is cut by the data's edge) goes with them
-    geoms = [g for _, g, _ in features] + line_geoms + ([extent] if extent is not None else [])
+    geoms = ([g for _, g, _ in features] + line_geoms + hints
+             + ([extent] if extent is not None else []))
     coords = shapely.get_coordinates(geoms)
     extra = np.vstack([inlet_xy, outlet_xy])
     xy, crs_out, crs_note = _project(np.vstack([coords, extra]), source_crs, where,
@@ -513,7 +520,8 @@ def read_water(path, *, layer: str | int | None = None, lines=None, inlets=None,
     polygons = geoms[:len(features)]
     if extent is not None:
         extent = geoms.pop()
-    line_geoms = geoms[len(features):]
+    hints = geoms[len(geoms) - len(hints):]
+    line_geoms = geoms[len(features):len(geoms) - len(hints)]
 
     water = _repair(features, polygons, report, where, simplify_m, tolerance_m)
     report.derived["outline"] = (f"the polygons' rings, simplified by at most {simplify_m:g} m"
@@ -552,6 +560,8 @@ def read_water(path, *, layer: str | int | None = None, lines=None, inlets=None,
     if line_geoms:
         builder._by_skeleton = (lambda forced: fill([], forced),
                                 _line_ends(rivers, line_geoms, tolerance_m))
+    elif hints:
+        builder.by_line_ends = _line_ends(rivers, hints, tolerance_m)
     builder._forced = []
     try:
         try:
@@ -1402,7 +1412,8 @@ class _Network:
         inlets, outlets = sorted(self.inlets), sorted(self.outlets)
         flat = ""
         if inlets or outlets:
-            rule = "from the inlets / outlets given"
+            rule = ("from where the lines enter and leave the water" if self.hinted
+                    else "from the inlets / outlets given")
         elif elevations is not None and len(leaves) >= 2:
             z = {k: elevations.get((id(self), k), math.nan) for k in leaves}
             known = [k for k in leaves if math.isfinite(z[k])]
@@ -1435,7 +1446,8 @@ class _Network:
             inlets, outlets = ([a], [b]) if wa <= wb else ([b], [a])
             rule = (f"{flat}the longest path along the axes, from its narrower end "
                     f"({min(wa, wb):.1f} m) to its wider ({max(wa, wb):.1f} m)")
-        if rule != "from the inlets / outlets given":
+        if rule not in ("from the inlets / outlets given",
+                        "from where the lines enter and leave the water"):
             self._same_end(leaves, inlets, outlets)
         if not outlets:          # water enters where it is said to; it leaves by the rest
             outlets = [k for k in leaves if k not in inlets]
