@@ -31,8 +31,11 @@ def add_water_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--inlet", type=_point, action="append", default=None, metavar="X,Y",
                    help="water polygons / masks: where water enters, in the data's CRS "
                         "(repeatable; default: the narrower end of the longest channel)")
-    p.add_argument("--outlet", type=_point, action="append", default=None, metavar="X,Y",
-                   help="water polygons / masks: where water leaves (repeatable)")
+    p.add_argument("--outlet", type=_point_or_lines, action="append", default=None,
+                   metavar="X,Y|FILE",
+                   help="water polygons / masks: where water leaves (repeatable): a point, or "
+                        "a file of lines (a coastline, a dam: every free end of the water on "
+                        "them)")
     p.add_argument("--lines", default=None, metavar="FILE|LAYER",
                    help="water polygons: the waterway lines that give the channels' axes and "
                         "direction (a file, or a layer of the polygon file; default: the "
@@ -493,6 +496,18 @@ def _point(text: str) -> tuple[float, float]:
     if not (math.isfinite(x) and math.isfinite(y)):
         raise argparse.ArgumentTypeError(f"X,Y must be finite numbers, got {text[:80]!r}")
     return x, y
+
+
+def _point_or_lines(text: str):
+    """X,Y, or a GIS file of lines (a coastline, a dam: :func:`~riverflow.read_water`'s
+    outlet lines)."""
+    try:
+        return _point(text)
+    except argparse.ArgumentTypeError:
+        if Path(text).is_file():
+            return text
+        raise argparse.ArgumentTypeError(f"expected X,Y (two numbers, the data's CRS) or a "
+                                         f"file of lines, got {text[:80]!r}") from None
 
 
 def _region(text: str) -> tuple[float, float, float, float]:

@@ -170,6 +170,9 @@ class WaterBuilder(RiverNetworkBuilder):
     free_by_ends = False
     """Whether an island beside a channel's free end that does not reach across the water
     is made free (:meth:`build`'s last reading)."""
+    outlet_lines: list = []
+    """The outlets given as lines [m] (a coastline, a dam): every free end of the water within
+    its channel's width of one is an outlet."""
     by_line_ends = None
     """(starts (N, 2), ends (M, 2)) [m]: where the lines given enter and leave the water,
     once the lines do not make a network there and the water's skeleton gives its axes
@@ -452,6 +455,9 @@ def read_water(path, *, layer: str | int | None = None, lines=None, inlets=None,
             or the name of a layer of ``path`` (OSM: ``"lines"``, its ``waterway=`` ways).
         inlets, outlets: points (x, y) where water enters / leaves, in the data's CRS (as in
             the file, or ``crs``); each is matched to the nearest free end of the water.
+            ``outlets`` may also hold lines where water leaves (a coastline, a dam): shapely
+            lines in the data's CRS, or GIS files of lines (a path, in their own CRS); every
+            free end of the water within its channel's width of one is an outlet.
         dem: an elevation raster: water runs from the highest free end to the lowest.
         discharge_m3s: total volume discharge [m³/s] entering at the sources (default: each
             source's from its width by ``geometry``).
@@ -469,7 +475,7 @@ def read_water(path, *, layer: str | int | None = None, lines=None, inlets=None,
         ImportError: the ``gis`` extra is not installed.
     """
     inlet_xy = _points(inlets, "inlets")
-    outlet_xy = _points(outlets, "outlets")
+    outlet_xy, outlet_lines, outlet_files = _outlets(outlets)
     if discharge_m3s is not None and not (isinstance(discharge_m3s, (int, float))
                                           and math.isfinite(discharge_m3s) and discharge_m3s > 0):
         raise GraphError(f"read_water: discharge_m3s must be a positive number, got "
@@ -495,17 +501,29 @@ def read_water(path, *, layer: str | int | None = None, lines=None, inlets=None,
         source_crs = crs
     report = RiverImport(str(path), layer_name, len(features), None, None)
     line_geoms = _read_lines(path, lines, source_crs, where) if lines is not None else []
+    for f in outlet_files:                  # (in the data's CRS, near its water)
+        outlet_lines += _read_lines(path, f, source_crs, where)
+    if outlet_lines:
+        near = shapely.box(*shapely.bounds(shapely.union_all([g for _, g, _ in features])))
+        grow = 0.1 * max(near.bounds[2] - near.bounds[0], near.bounds[3] - near.bounds[1])
+        outlet_lines = [g for g in shapely.get_parts(shapely.intersection(
+            outlet_lines, near.buffer(grow, join_style="mitre"))) if not g.is_empty
+            and g.length > 0]
+        if not outlet_lines:
+            raise GraphError(f"{where}: the outlet lines given pass nowhere near its water")
     hints = []          # an OSM extract's waterways, for the way its areas flow
-    if lines is None and _is_osm(path) and not (len(inlet_xy) or len(outlet_xy)):
+    if lines is None and _is_osm(path) and not (len(inlet_xy) or len(outlet_xy)
+                                                or outlet_lines):
         try:
             hints = _read_lines(path, "lines", source_crs, where)
         except GraphError:
             hints = []  # (an extract with no waterway line)
 
-    _check_points_crs(source_crs, inlet_xy, outlet_xy, where)
+    _check_points_crs(source_crs, inlet_xy, np.vstack(
+        [outlet_xy, shapely.get_coordinates(outlet_lines).reshape(-1, 2)]), where)
     # project everything at once (one local CRS for polygons, lines and points)
     # the raster's extent (where water touching it is cut by the data's edge) goes with them
-    geoms = ([g for _, g, _ in features] + line_geoms + hints
+    geoms = ([g for _, g, _ in features] + line_geoms + hints + outlet_lines
              + ([extent] if extent is not None else []))
     coords = shapely.get_coordinates(geoms)
     extra = np.vstack([inlet_xy, outlet_xy])
@@ -520,6 +538,8 @@ def read_water(path, *, layer: str | int | None = None, lines=None, inlets=None,
     polygons = geoms[:len(features)]
     if extent is not None:
         extent = geoms.pop()
+    outlet_lines = geoms[len(geoms) - len(outlet_lines):]
+    del geoms[len(geoms) - len(outlet_lines):]
     hints = geoms[len(geoms) - len(hints):]
     line_geoms = geoms[len(features):len(geoms) - len(hints)]
 
@@ -541,6 +561,7 @@ def read_water(path, *, layer: str | int | None = None, lines=None, inlets=None,
                                     f"is where the channels leave")
             outlet_xy = outlet_xy[~out]
     builder = WaterBuilder(tolerance_m)
+    builder.outlet_lines = outlet_lines
     builder.seas = seas
     builder.report = report
     builder.crs = report.crs
@@ -762,7 +783,10 @@ def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy
     ends = [e for net in networks for e in net.free_ends()]
     _match_points(ends, inlet_xy, "inlet", where, water)
     _match_points(ends, outlet_xy, "outlet", where, water)
-    if builder.by_line_ends is not None and not (len(inlet_xy) or len(outlet_xy)):
+    for line in builder.outlet_lines:
+        _match_line(ends, line, where)
+    if builder.by_line_ends is not None and not (len(inlet_xy) or len(outlet_xy)
+                                                  or builder.outlet_lines):
         # the lines' ends in the water (none far off); an end they both enter and leave by
         # (a stream across a pond) says nothing (:meth:`_Network.orient`: nor do they where
         # they leave a piece no way in or out)
@@ -900,6 +924,60 @@ def _points(value, name: str) -> np.ndarray:
     if pts.ndim != 2 or pts.shape[1] != 2 or not np.isfinite(pts).all():
         raise GraphError(f"read_water: {name} must be finite points (x, y), got {value!r}")
     return pts
+
+
+def _outlets(value) -> tuple[np.ndarray, list, list]:
+    """``read_water``'s ``outlets``: (points (N, 2), lines (shapely), files of lines): points
+    (x, y), shapely lines, or GIS files of lines (a path), alone or in a list; GraphError
+    naming what is none of these."""
+    if value is None:
+        return np.zeros((0, 2)), [], []
+    items = ([value] if isinstance(value, (str, Path, shapely.Geometry))
+             else list(value) if isinstance(value, (list, tuple)) else None)
+    if items is None or not any(isinstance(v, (str, Path, shapely.Geometry)) for v in items):
+        return _points(value, "outlets"), [], []
+    pts, lines, files = [], [], []
+    for v in items:
+        if isinstance(v, (str, Path)):
+            if not Path(v).exists():
+                raise GraphError(f"read_water: outlets must be points (x, y), lines or files "
+                                 f"of lines: no file {str(v)!r}")
+            files.append(Path(v))
+        elif isinstance(v, shapely.Geometry):
+            parts = [p for p in shapely.get_parts(shapely.line_merge(shapely.boundary(v))
+                                                  if v.geom_type.endswith("Polygon") else v)
+                     if p.geom_type in ("LineString", "LinearRing") and p.length > 0]
+            if not parts or not np.isfinite(shapely.get_coordinates(parts)).all():
+                raise GraphError(f"read_water: outlets: {v.geom_type} {str(v)[:60]!r} is no "
+                                 f"line (a coastline, a dam) with finite coordinates")
+            lines += parts
+        elif np.size(v) == 2:
+            pts.append(_points(v, "outlets")[0])
+        else:
+            raise GraphError(f"read_water: outlets must be points (x, y), lines or files of "
+                             f"lines, got {v!r}")
+    return np.array(pts, dtype=np.float64).reshape(-1, 2), lines, files
+
+
+def _match_line(ends, line, where: str) -> None:
+    """Mark every free end within its channel's width (1 m at least) of an outlet line as an
+    outlet; GraphError for a line that passes none."""
+    if not ends:
+        raise GraphError(f"{where}: the water has no free end to put an outlet at")
+    xy = np.array([net.nodes[n] for net, n, _ in ends])
+    d = shapely.distance(line, shapely.points(xy))
+    w = np.maximum([e[2] for e in ends], 1.0)
+    near = np.flatnonzero(d <= w)
+    if not len(near):
+        i = int(np.argmin(d - w))
+        x, y = shapely.get_coordinates(line)[0]
+        raise GraphError(f"{where}: the outlet line from ({x:.1f}, {y:.1f}) passes no free "
+                         f"end of the water: the nearest, ({xy[i, 0]:.1f}, {xy[i, 1]:.1f}), "
+                         f"lies {d[i]:.1f} m from it, more than the channel's width there "
+                         f"({w[i]:.1f} m)")
+    for i in near:
+        net, n, _ = ends[i]
+        net.outlets.add(n)
 
 
 def _check_points_crs(source_crs, inlets: np.ndarray, outlets: np.ndarray, where: str) -> None:

@@ -259,6 +259,56 @@ def test_the_skeleton_of_a_y(tmp_path, inlets, outflows):
         assert d[1:-1].min() > 20.0
 
 
+def test_a_coastline_given_as_an_outlet_line(tmp_path):
+    """``outlets`` may be lines (a coastline, a dam): every free end of the water within its
+    channel's width of one is an outlet, the ends given none the inlets. A delta's two arms
+    reach the coast: both leave there and the stem brings the water; without the coast the
+    narrower end (an arm's) was the inlet and the delta ran inland. The coast as a shapely
+    line, as a file of lines (in its own CRS), and on the command line (``--outlet FILE``)."""
+    from riverflow.gis.cli import add_water_options, read_water_args
+
+    poly = write_polygons(tmp_path / "delta.geojson", [y_shape()])
+    coast = shapely.LineString([(900.0, -500.0), (905.0, 0.0), (900.0, 500.0)])
+    alone = rf.read_water(poly, origin_m=ORIGIN)
+    alone.build()
+    fork = np.array([500.0, 0.0])
+    assert sum(np.linalg.norm(c[0] - fork) < 60.0 for _, c in _channels(alone)) == 1
+    lonlat = write_lines(tmp_path / "coast.geojson", [np.asarray(coast.coords)], lonlat=True)
+    import argparse
+    parser = argparse.ArgumentParser()
+    add_water_options(parser)
+    for outlets in ([shapely.transform(coast, lambda p: p + ORIGIN)], str(lonlat),
+                    read_water_args(poly, parser.parse_args(["--outlet", str(lonlat)]))):
+        builder = outlets if isinstance(outlets, rf.RiverNetworkBuilder) else rf.read_water(
+            poly, outlets=outlets, origin_m=ORIGIN)
+        graph = builder.build()
+        lines = [c for _, c in _channels(builder)]
+        assert sum(np.linalg.norm(c[0] - fork) < 60.0 for c in lines) == 2     # it parts
+        assert builder.report.derived["direction"] == "from the inlets / outlets given"
+        shift = ORIGIN - np.asarray(builder.report.origin_m or (0.0, 0.0))
+        status, v = rf.FlowField(graph).query(np.array([[200.0, 0.0], [800.0, 240.0],
+                                                        [800.0, -240.0]]) + shift)
+        assert (status == INSIDE).all() and (v[:, 0] > 0.0).all(), v
+
+
+@pytest.mark.parametrize("outlets, error, match", [
+    ([shapely.LineString([(3000.0, -500.0), (3000.0, 500.0)])], GraphError,
+     "the outlet lines given pass nowhere near its water"),
+    ([shapely.LineString([(700.0, -500.0), (700.0, 500.0)])], GraphError,
+     r"the outlet line from \(700.0, .* passes no free end of the water: the nearest, "
+     r"\(900.0, -300.0\), lies 200.0 m from it"),
+    ([shapely.Point(1.0, 2.0)], GraphError, "Point .* is no line"),
+    ("nowhere.shp", GraphError, "files of lines: no file 'nowhere.shp'"),
+    ([(1.0, 2.0, 3.0)], GraphError, "outlets must be finite points"),
+])
+def test_bad_outlet_lines_are_named(tmp_path, outlets, error, match):
+    poly = write_polygons(tmp_path / "delta.geojson", [y_shape()])
+    if isinstance(outlets, list) and isinstance(outlets[0], shapely.Geometry):
+        outlets = [shapely.transform(g, lambda p: p + ORIGIN) for g in outlets]
+    with pytest.raises(error, match=match):
+        rf.read_water(poly, outlets=outlets, origin_m=ORIGIN).build()
+
+
 def test_direction_without_points_runs_from_the_narrow_end_to_the_wide(tmp_path):
     widening = shapely.Polygon([(0, -15), (600, -50), (600, 50), (0, 15)])
     poly = write_polygons(tmp_path / "widening.geojson", [widening])
