@@ -601,15 +601,16 @@ class RiverNetworkBuilder:
         if lakes:
             lake_parts = _lakes_of_graph(geoms, lakes, lake_ends, polygon_lake, self.tolerance_m)
         axis_index: list = []
+        free_banks: list = []
         graph = assemble_graph(geoms, rings, pieces, islands, all_junctions[:n_junctions],
-                               inlets, lake_parts, axis_index)
+                               inlets, lake_parts, axis_index, free_banks)
         if lakes:   # islands in lakes: the ψ of zero circulation round them
             from riverflow.hydro.lake_flow import set_island_potentials
             set_island_potentials(graph, self.tolerance_m)
         away: list = []
         problems = graph_problems(graph, [(g.centerline_m, g.widths_m, g.discharge_m2s) for g in geoms],
                                   axes_cover_banks=True, axis_index=axis_index,
-                                  one_stream=self.one_stream,
+                                  one_stream=self.one_stream, free_banks=free_banks,
                                   away=away if self._water_area is not None else None)
         seen = {tuple(p) for p, _ in self.lees}
         away = [a for a in away if tuple(a[0]) not in seen]

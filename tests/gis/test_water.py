@@ -1278,3 +1278,27 @@ def test_a_streams_line_come_over_the_bank_is_left_out(tmp_path):
     assert sum("left out (its water is the river's)" in n for n in builder.report.notes) == 1
     (branch,) = builder._branches
     assert np.abs(branch.centerline_m[:, 1]).max() < 1e-6
+
+
+def test_a_free_islands_shore_read_by_two_axes_is_no_branchs_bank(tmp_path):
+    """A 128 m meandering river whose data's edge cuts a 190 m island open (a slot from the
+    edge) and with a 163 m island just upstream of the slot's tip, made free (from the
+    survey's seed 19): the free island's shore lies nearest two axes, so it is two bank
+    curves, which do not close on themselves. The check across a channel leaving the
+    junction beside it took one for that channel's bank ("ψ(right) − ψ(left) = 57.3,
+    discharge 30.4"): a free island's shore is no branch's bank, in whatever curves it is
+    drawn. The network builds and the water runs one way."""
+    water, centre, _, _ = survey_river(
+        1433.28, 128.28, 35.13, 165.01, [(966.82, 7.24, 190.51, 9.53, 0.1665),
+                                         (854.37, -36.42, 163.19, 14.25, 0.1671)],
+        clip=(0.0269, 0.2285), shift=(0.0, 150.0))
+    builder = rf.read_water(write_polygons(tmp_path / "free.geojson", [water]),
+                            origin_m=ORIGIN)
+    graph = builder.build()
+    assert builder.report.derived["islands"] == {"free (in one channel)": 1,
+                                                 "between channels": 0}
+    island = shapely.Polygon(water.interiors[0])
+    shore = [i for i in graph.banks() if island.exterior.distance(
+        shapely.Point(graph.vertices(i)[1])) < 1e-6]
+    assert len(shore) >= 2                      # the island's shore in more than one curve
+    _flows_one_way(graph, centre, [5, 15, 22], 0.8)
