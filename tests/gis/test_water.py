@@ -719,14 +719,16 @@ def test_channels_meeting_on_the_datas_edge_make_their_island_free(tmp_path):
     upstream), its data's edge 65 m past the last island's tip: the circle touching both
     banks and that tip has its centre on the edge, so the channels round the island meet
     there with no reach out. Their ends on the edge, 9 m apart, became one junction that
-    only sends water ("all start there but none ends there"). The island there is taken as
-    a free island in one channel (reported), as for channels that do not meet: the network
-    builds, the water runs one way."""
+    only sends water ("all start there but none ends there"; with the skeleton's junctions
+    merged only nearer than their circles together, a channel round the island from that
+    junction back to it). The island there is taken as a free island in one channel
+    (reported), as for channels that do not meet: the network builds, the water runs one
+    way."""
     water, centre, _, _ = survey_river(
         714.24, 127.0, 65.28, 224.31, [(482.1, 42.3, 143.5, 8.26, -0.0655),
                                        (388.0, 87.5, 67.0, 6.46, 0.0198)],
         clip=(0.258, 0.0502), shift=(0.0, 150.0))
-    _builds_running_one_way(tmp_path, water, centre, [12, 20, 28], "all start there")
+    _builds_running_one_way(tmp_path, water, centre, [12, 20, 28], "(478.4, 431.3)")
 
 
 def test_an_end_pruned_away_comes_back_beside_two_ends_at_the_edge(tmp_path):
@@ -1302,3 +1304,27 @@ def test_a_free_islands_shore_read_by_two_axes_is_no_branchs_bank(tmp_path):
         shapely.Point(graph.vertices(i)[1])) < 1e-6]
     assert len(shore) >= 2                      # the island's shore in more than one curve
     _flows_one_way(graph, centre, [5, 15, 22], 0.8)
+
+
+def test_junctions_as_far_apart_as_their_circles_stay_two(tmp_path):
+    """A 215 m river whose data's edge cuts two long islands open (two slots from the edge,
+    from the survey's seed 14 of islands that may cross a bank): the skeleton's fork below
+    the first slot's tip (inscribed radius 107 m) and the one between the slots (65 m) lie
+    178 m apart, more than their radii together, which the builder tells apart. Merged (at 5
+    % more), the channels of the second fork ran from the first side by side for 178 m, and
+    the check across one of them read the other's water ("ψ(right) − ψ(left) = 197,
+    discharge 105"). Two forks, five axes: the network builds and the water runs one way."""
+    water, centre, _, _ = survey_river(
+        924.85, 214.51, 150.74, 365.03, [(498.21, 181.31, 402.39, 19.6, 0.029),
+                                         (644.68, 91.66, 369.62, 25.95, -0.0405)],
+        clip=(0.0686, 0.1951), shift=(0.0, 150.0))
+    assert len(water.interiors) == 0                   # both islands are slots from the edge
+    builder = rf.read_water(write_polygons(tmp_path / "forks.geojson", [water]),
+                            origin_m=ORIGIN)
+    graph = builder.build()
+    assert builder.report.derived["axes"] == {"skeleton": 5}
+    junctions = {tuple(np.round(p, 6)) for _, c in _channels(builder) for p in (c[0], c[-1])}
+    ends = [p for _, c in _channels(builder) for p in (c[0], c[-1])]
+    forks = [j for j in junctions if sum(np.allclose(j, p, atol=1e-6) for p in ends) == 3]
+    assert len(forks) == 2
+    _flows_one_way(graph, centre, [6, 12, 18], 0.8)
