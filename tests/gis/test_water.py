@@ -1328,3 +1328,24 @@ def test_junctions_as_far_apart_as_their_circles_stay_two(tmp_path):
     forks = [j for j in junctions if sum(np.allclose(j, p, atol=1e-6) for p in ends) == 3]
     assert len(forks) == 2
     _flows_one_way(graph, centre, [6, 12, 18], 0.8)
+
+
+def test_a_river_whose_channels_are_each_short_is_no_pond(tmp_path):
+    """A 135 m meandering river with islands crossing its banks and each other (from the
+    survey's seed 130 of islands that may cross a bank, less one island), two polygons of
+    water: the river's skeleton has channels round its islands, none longer than twice the
+    widest inscribed circle, so the river (31 000 m²) was taken for a pond apart from the
+    rest, still water. Its channels together run 2.6 widths from end to end: the longest
+    path along its axes decides, and the river has its axes."""
+    isl = [(311.74, -0.7, 191.27, 16.04, -0.1998), (290.19, 58.92, 248.25, 8.0, 0.1827),
+           (324.24, 38.0, 141.88, 17.07, 0.1195), (90.33, 9.46, 221.89, 17.84, -0.048),
+           (168.44, 60.34, 113.58, 9.15, -0.0144)]
+    water, centre, _, _ = survey_river(670.23, 135.19, 41.36, 251.76, isl,
+                                       clip=(0.2551, 0.1652), shift=(0.0, 150.0))
+    assert water.geom_type == "MultiPolygon"
+    builder = rf.read_water(write_polygons(tmp_path / "pond.geojson", [water]),
+                            origin_m=ORIGIN)
+    graph = builder.build()
+    assert not any("a pond" in r.what for r in builder.report.repairs)
+    assert builder.report.derived["axes"]["skeleton"] >= 4 and not graph.lakes()
+    _flows_one_way(graph, centre, [12, 16, 29, 32], 0.5)
