@@ -1349,3 +1349,25 @@ def test_a_river_whose_channels_are_each_short_is_no_pond(tmp_path):
     assert not any("a pond" in r.what for r in builder.report.repairs)
     assert builder.report.derived["axes"]["skeleton"] >= 4 and not graph.lakes()
     _flows_one_way(graph, centre, [12, 16, 29, 32], 0.5)
+
+
+def test_a_channel_beside_a_stub_on_the_datas_edge_ends_on_the_edge(tmp_path):
+    """A 234 m river with two islands and a third the data's edge cuts open, a stub 42 m into
+    the water (from the survey's seed 66): the fork at the stub's tip has an inscribed
+    radius of 117 m, so the channel beside the stub, 155 m from the fork to the edge, lies
+    within the fork's water and its median width (165 m) is the fork's; the edge there,
+    115 m between the bank and the stub, fell short of it and the channel's end was cut at
+    full width behind the stub's tip, leaving the channel no bank of its own ("no banks
+    found across its middle"; the retries then freed the other island too and the ends did
+    not meet). The edge spans a channel within its junction's water that is no wider where
+    it ends: the network builds, no water is cut off at the edge and the river runs one way."""
+    water, centre, _, _ = survey_river(
+        1223.54, 233.98, 17.07, 306.06, [(897.37, 7.72, 141.25, 28.19, -0.1082),
+                                         (449.18, -33.18, 200.8, 21.44, -0.0947),
+                                         (363.32, 35.6, 358.8, 11.74, 0.0661)],
+        clip=(0.2207, 0.2625), shift=(0.0, 150.0))
+    builder = rf.read_water(write_polygons(tmp_path / "stub.geojson", [water]),
+                            origin_m=ORIGIN)
+    graph = builder.build()
+    assert builder.report.derived.get("ends_cut_m2", 0.0) < 50.0
+    _flows_one_way(graph, centre, [12, 16, 24], 0.5)
