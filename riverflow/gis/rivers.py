@@ -58,12 +58,12 @@ leaves (clipped data) get a short outlet, not in land the network's loops close 
 they close round every side, one of the lines is turned or left out:
 :func:`_close_clipped_ends`); lines crossing without a shared vertex are cut
 where the narrower crosses the wider one's water (no junction); lines that run on into one
-another where nothing else meets are one link where one of them is short (OSM: always;
-:func:`_join_runs`); a line in land the network's loops close round is left out
-(:func:`_drop_enclosed`); a hook at a free end is trimmed (:func:`_trim_hooks`); an OSM
-way closing a loop that flows back into itself is turned (:func:`_break_osm_loops`); a free
-end in another river's water is cut back out of it (:func:`_cut_ends_in_water`); two
-channels flowing into
+another where nothing else meets are one link where one of them is short, or both are
+shorter than twice their planned widths (OSM: always; :func:`_join_runs`); a line in land
+the network's loops close round is left out (:func:`_drop_enclosed`); a hook at a free end
+is trimmed (:func:`_trim_hooks`); an OSM way closing a loop that flows back into itself is
+turned (:func:`_break_osm_loops`); a free end in another river's water is cut back out of it
+(:func:`_cut_ends_in_water`); two channels flowing into
 one junction that run closer than their widths above it merge into one reach there
 (:func:`_merge_close_channels`); an inflow laid back up an outflow's line, in its water,
 joins it farther down (:func:`_move_side_inflows`); attribute values that are text, NaN or
@@ -622,8 +622,14 @@ def read_rivers(path, *, layer: str | int | None = None, width_m=None, discharge
     links = _drop_duplicates(links, snap_m, report)
     links, crossings = _topology(links, snap_m, report)
     links = _direct(links, report)
+    widths = None                   # a file's lines as wide as the discharges summed down say
+    if not (osm or report.strict):
+        try:
+            widths = [p[0] for p in _plan(links, geometry, specs, report)]
+        except GraphError:          # a loop the user's or the file's directions close: later
+            pass
     links = _join_runs(links, report, shapely.union_all(lake_geoms) if lake_geoms else None,
-                       None if osm else geometry.default_width_m)
+                       None if osm else geometry.default_width_m, widths)
     links = _drop_enclosed(links, report)
     if osm and flip is None:
         _break_osm_loops(links, report)
@@ -1526,19 +1532,22 @@ def _topology(links: list[_Link], snap_m: float, report: RiverImport
 
 
 def _join_runs(links: list[_Link], report: RiverImport, lakes=None,
-               short_m: float | None = None) -> list[_Link]:
+               short_m: float | None = None, widths: list[float] | None = None) -> list[_Link]:
     """Lines that run on into one another where nothing else meets (one line in and one out
     of a junction: OpenStreetMap splits a river's way at every bridge, culvert, weir or
     change of its tags) joined into one link, named (and attributed) after the longest of
     them: a piece shorter than the river is wide would otherwise be a branch of its own,
     its far end within the river of the next one's start (``build()`` cannot make that).
     ``short_m``: only where one of the two is shorter than twice this width [m] (or its
-    given width), so that a file's features stay links (None: every such junction, as for
-    OpenStreetMap, whose ways are no links). Lines are joined only where their attributes
-    give the same kinds of values (each value given on both or on neither: a width given
-    on one and derived on the next stays two links), neither was added by a repair, and
-    neither runs into a lake (``lakes``: the lakes' area, the lines cut at their shores).
-    Not in strict mode (lines as drawn). A note says how many were joined."""
+    given width), or both are shorter than twice their widths as planned (``widths``, per
+    link, from the discharges summed down the network: a river drawn in pieces shorter than
+    it is wide, a model grid's routing lines, one per cell), so that a file's features stay
+    links (None: every such junction, as for OpenStreetMap, whose ways are no links). Lines
+    are joined only where their attributes give the same kinds of values (each value given
+    on both or on neither: a width given on one and derived on the next stays two links),
+    neither was added by a repair, and neither runs into a lake (``lakes``: the lakes' area,
+    the lines cut at their shores). Not in strict mode (lines as drawn). A note says how
+    many were joined; a run joined by its planned widths is a repair."""
     if report.strict or len(links) < 2:
         return links
     ins: dict[int, list[int]] = {}
@@ -1553,23 +1562,29 @@ def _join_runs(links: list[_Link], report: RiverImport, lakes=None,
         return tuple(bool(np.isfinite(lk.values[key][at])) for key in sorted(lk.values)) + (
             math.isnan(lk.cell_m),)
 
-    def short(lk: _Link) -> bool:
-        return _length(lk.points) < 2.0 * (_given_width(lk) or short_m)
+    def short(i: int, planned: bool = False) -> bool:
+        width = widths[i] if planned else _given_width(links[i]) or short_m
+        return _length(links[i].points) < 2.0 * width
 
-    def joinable(a: _Link, b: _Link) -> bool:
+    def joinable(i: int, k: int) -> bool:
+        a, b = links[i], links[k]
         return (not (a.added or b.added) and sorted(a.values) == sorted(b.values)
-                and (short_m is None or short(a) or short(b))
+                and (short_m is None or short(i) or short(k)
+                     or widths is not None and short(i, True) and short(k, True))
                 and kinds(a, 0) == kinds(b, 0) and kinds(a, 1) == kinds(b, 1)
                 and (math.isnan(a.cell_m) or abs(a.cell_m - b.cell_m) <= 1e-9 * a.cell_m)
                 and (lakes is None or not (lakes.intersects(shapely.LineString(a.points))
                                            or lakes.intersects(shapely.LineString(b.points)))))
 
     after: dict[int, int] = {}
+    by_width = set()                    # joined by their planned widths only: repairs
     for j, came in ins.items():
         went = outs.get(j, [])
         if len(came) == 1 and len(went) == 1 and came[0] != went[0] \
-                and joinable(links[came[0]], links[went[0]]):
+                and joinable(came[0], went[0]):
             after[came[0]] = went[0]
+            if short_m is not None and not (short(came[0]) or short(went[0])):
+                by_width.add(came[0])
     if not after:
         return links
     before = {b: a for a, b in after.items()}
@@ -1595,12 +1610,23 @@ def _join_runs(links: list[_Link], report: RiverImport, lakes=None,
                      first.start, last.end, (first.z[0], last.z[1]),
                      any(p.fixed for p in pieces), False, first.cell_m, first.source_width_m)
         out.append(link)
-        joined += len(run) - 1
+        if by_width.intersection(run):
+            others = [p.name for p in pieces if p is not main]
+            report.repair(main.name, main.fid, main.attrs,
+                          f"drawn in {len(run)} pieces (with {', '.join(others[:6])}"
+                          f"{', …' if len(others) > 6 else ''}) that run on into one another "
+                          f"where nothing else meets, shorter than twice the river's width "
+                          f"({max(widths[k] for k in run):.1f} m at most): joined into one "
+                          "link (such a piece has no banks of its own)")
+        else:
+            joined += len(run) - 1
     out += [links[i] for i in range(len(links)) if i not in seen and i in before]  # rings
-    report.notes.append(f"{joined} junctions where one line runs on into the next and nothing "
-                        f"else meets: the lines joined into one link (named after the longest)"
-                        + (f"; {spikes} vertices dropped where the joined line turned back on "
-                           f"itself (sharper than {MAX_TURN_DEG:.0f}°)" if spikes else ""))
+    if joined or spikes:
+        report.notes.append(f"{joined} junctions where one line runs on into the next and nothing "
+                            f"else meets: the lines joined into one link (named after the "
+                            f"longest)" + (f"; {spikes} vertices dropped where the joined line "
+                                           f"turned back on itself (sharper than "
+                                           f"{MAX_TURN_DEG:.0f}°)" if spikes else ""))
     return out
 
 

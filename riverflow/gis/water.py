@@ -144,6 +144,15 @@ OVERHANG_MARGIN = math.sin(math.radians(20.0))
 point lies farther back)."""
 
 
+RETRIED = {"short_reaches_join": "with no short reach joining its ends",
+           "ends_beside": "with no dead end kept as part of the water's ends",
+           "backwaters": "with no backwater behind a spit",
+           "free_by_ends": "with every reading back and the islands beside free ends "
+                           "that do not reach across the water made free"}
+"""How :meth:`WaterBuilder.build` reads the water again after a failure, as its error
+says."""
+
+
 class WaterBuilder(RiverNetworkBuilder):
     """The :class:`~riverflow.RiverNetworkBuilder` :func:`read_water` returns: ``report`` (a
     :class:`~riverflow.gis.rivers.RiverImport`), ``water`` (the water polygons read, [m]),
@@ -187,7 +196,7 @@ class WaterBuilder(RiverNetworkBuilder):
         try:
             graph = self._build_retrying(list(forced))
         except GraphError as exc:
-            graph, last, seen = None, exc, [str(exc)]
+            graph, first, last, seen, tried = None, exc, None, [str(exc)], []
             # again without a reading that may have failed it (then without the next too):
             # short reaches joined, dead ends kept as parts of the water's ends, backwaters
             # behind spits (their basins); last, every reading back and the islands beside
@@ -204,6 +213,7 @@ class WaterBuilder(RiverNetworkBuilder):
                     continue
                 else:
                     setattr(self, flag, False)
+                tried.append(RETRIED[flag])
                 self.report.repairs[:] = repairs
                 try:
                     try:
@@ -214,10 +224,9 @@ class WaterBuilder(RiverNetworkBuilder):
                     break
                 except GraphError as again:
                     seen.append(str(again))
-                    if used is not None:
-                        last = again
+                    last = again
             if graph is None:
-                raise last from None
+                raise self._failed(first, tried, last) from None
         finally:
             self.short_reaches_join = self.ends_beside = self.backwaters = True
             self.free_by_ends = False
@@ -317,6 +326,21 @@ class WaterBuilder(RiverNetworkBuilder):
         if k is None and best.distance(line) > float(branch.widths_m.max()):
             return None      # (a branch whose banks are wrong: its ψ comes from the islands)
         return best.representative_point().coords[0]
+
+    def _failed(self, first: GraphError, tried: list[str], last: GraphError | None
+                ) -> GraphError:
+        """The error of a build that failed as read and again each way in ``tried``: the
+        first failure's (the water as read), then how it was read again and the last
+        reading's own failure (``last``; not told where it is the first's)."""
+        if not tried:
+            return first
+        named = f"{self.report.path} (layer {self.report.layer!r}): "
+        again = str(last) if last is not None else ""
+        again = again[len(named):] if again.startswith(named) else again
+        told = f": {again}" if again and again != str(first)[len(named):] else ""
+        ways = "; then ".join(t if i == 0 or t.startswith("with every") else f"also {t}"
+                              for i, t in enumerate(tried))
+        return GraphError(f"{first}; read again {ways}, it failed there too{told}")
 
     def _raise_named(self, exc: GraphError):
         hint = ""
@@ -580,6 +604,13 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
             _join_open_water(builder, getattr(water, "geoms", [water])[net.part], net.part,
                              "opens only into open water")
             networks.remove(net)
+    if not networks and not builder._lakes:
+        gone = [r for r in report.repairs if r.feature.startswith("water body")]
+        raise GraphError(f"{where}: no water is left to build: its "
+                         f"{len(getattr(water, 'geoms', [water]))} pieces were all left out"
+                         + (f" ({gone[0].feature}: {gone[0].what}"
+                            + (f"; and {len(gone) - 1} more" if len(gone) > 1 else "") + ")"
+                            if gone else ""))
     if not networks:                # ponds only: still water
         report.derived["axes"] = {}
         report.derived["length_m"] = 0.0
@@ -635,11 +666,16 @@ def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy
     report = builder.report
     networks = []
     lake_area = shapely.union_all(lakes) if len(lakes) else None
+    several = len(getattr(water, "geoms", [])) > 1
     for k, part in enumerate(getattr(water, "geoms", [water])):
-        net = _channels(part, k, line_geoms, tolerance_m, report, frame, forced,
-                        np.vstack([inlet_xy, outlet_xy]), dead.get(k))
-        net.part = k
         speck = part.area < SPECK_FRACTION * water.area
+        # (a speck is left out or joins open water whatever its channels: none are looked
+        # for, a skeleton a speck; a noisy mask has thousands)
+        net = _Network(part, [], [], np.zeros((0, 2))) if speck and several else _channels(
+            part, k, line_geoms, tolerance_m, report, frame, forced,
+            np.vstack([inlet_xy, outlet_xy]), dead.get(k),
+            builder.__dict__.setdefault("_collapsed", {}))
+        net.part = k
         beside_lake = lake_area is not None and lake_area.distance(part) <= tolerance_m
         if not net.channels and not (speck or beside_lake):
             _still(builder, part, k, "no channel in its skeleton")
@@ -649,7 +685,6 @@ def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy
         # runs along the water; the skeleton's, its widest inscribed circle)
         widest = max((c.width if c.source == "lines" else float(c.widths.max())
                       for c in net.channels), default=0.0)
-        several = len(getattr(water, "geoms", [])) > 1
         if several and net.channels and longest < MIN_CHANNEL_WIDTHS * widest:
             # (a river's channels between its islands and points of land, each short: the
             # river itself was read as a pond)
@@ -668,8 +703,9 @@ def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy
                           f"rest: " + (f"a speck (under {SPECK_FRACTION:g} of the water): left "
                                        f"out" if speck else
                                        f"no path along its channels longer than "
-                                       f"{MIN_CHANNEL_WIDTHS:g} times its width: " + ("a pond, read as still water (a lake)"
-                                                         if pond else "left out")))
+                                       f"{MIN_CHANNEL_WIDTHS:g} times its width: "
+                                       + ("a pond, read as still water (a lake)"
+                                          if pond else "left out")))
             continue
         networks.append(net)
     if not networks:
@@ -840,6 +876,10 @@ def _read_mask(path: Path):
     mask = np.isfinite(data) & (data > 0)
     if not mask.any():
         raise GraphError(f"{path}: the mask has no water (no cell > 0 of {mask.size})")
+    if mask.all() and mask.size > 1:
+        raise GraphError(f"{path}: the mask is water in every one of its {mask.size} cells: "
+                         f"no shore to read a river's banks from (a crop inside a lake or the "
+                         f"sea? give the water's shores, or a wider mask)")
     shapes = rio_features.shapes(mask.astype(np.uint8), mask=mask, transform=transform,
                                  connectivity=4)
     cell = float(min(abs(transform.a), abs(transform.e)))
@@ -1104,7 +1144,14 @@ def _read_lines(path: Path, lines, source_crs, where: str) -> list:
         lpath, lname = path, lines
     else:
         raise GraphError(f"{where}: lines={lines!r} is neither a file nor a layer of it")
-    name = ("lines" if _is_osm(lpath) and lname is None else _pick_layer(pyogrio, lpath, lname))
+    try:
+        name = ("lines" if _is_osm(lpath) and lname is None
+                else _pick_layer(pyogrio, lpath, lname))
+    except GraphError as exc:
+        if lname is not None and ("/" in str(lname) or Path(str(lname)).suffix):
+            raise GraphError(f"{where}: lines={lines!r}: no such file (nor a layer of "
+                             f"{path.name}: {exc})") from None      # (a path mistyped)
+        raise
     lwhere = f"{lpath} (layer {name!r})"
     try:
         meta, fids, wkb, columns = _read_raw(pyogrio, lpath, name)
@@ -1908,15 +1955,17 @@ def _distance_from(adj, nodes) -> np.ndarray:
 
 
 def _channels(part, k: int, lines: list, tolerance_m: float, report: RiverImport,
-              frame=None, forced=(), ends=None, dead=None) -> _Network:
+              frame=None, forced=(), ends=None, dead=None, collapsed=None) -> _Network:
     """The channels of one water polygon: along the lines in it, else its skeleton
-    (``dead``: tips of dead ends that are no ends of the water, :func:`skeleton`)."""
+    (``dead``: tips of dead ends that are no ends of the water, :func:`skeleton`;
+    ``collapsed``: :func:`_skeleton_channels`')."""
     inside = [g for g in lines if g.intersects(part)]
     if inside:
         return _line_channels(part, k, inside, tolerance_m, report, forced, frame)
     if lines:
         report.notes.append(f"water body {k}: no line runs through it: its axes are its skeleton")
-    return _skeleton_channels(part, k, tolerance_m, report, frame, forced, ends, dead)
+    return _skeleton_channels(part, k, tolerance_m, report, frame, forced, ends, dead,
+                              collapsed)
 
 
 def _split_holes(part, enclosed=None, forced=(), open_edge=None):
@@ -2131,18 +2180,34 @@ def _chord_widths(line: np.ndarray, water) -> np.ndarray:
 
 
 def _skeleton_channels(part, k: int, tolerance_m: float, report, frame=None,
-                       forced=(), ends=None, dead=None) -> _Network:
+                       forced=(), ends=None, dead=None, collapsed=None) -> _Network:
     """Channels along the water's skeleton; holes whose loop of axes collapses become free
-    islands and the skeleton is made again."""
+    islands and the skeleton is made again. ``collapsed`` ({part's WKB: points in holes},
+    one reading's): the holes whose loops collapsed when the part's channels were found
+    before, free from the start when they are found again (an island made free, a reading
+    left out: a skeleton of 200,000 outline points less, 4 s on London's Thames; freeing
+    another island only widens the water round them)."""
+    key = shapely.to_wkb(part) if collapsed is not None else None
+    known = tuple(collapsed.get(key, ())) if collapsed is not None else ()
     open_edge = _open_edge(part, frame, 2.0 * part.area / max(part.length, 1e-9), tolerance_m)
     water, free = _split_holes(part, None, forced, open_edge)
-    for _ in range(len(part.interiors) + 1):
-        chains, nodes, collapsed = _skeleton_once(water, tolerance_m, frame, ends, dead)
-        if collapsed is None:
-            break
-        free += [shapely.Polygon(water.interiors[j]) for j in collapsed]
+    if known:
+        drop = [j for j, r in enumerate(water.interiors)
+                if any(shapely.Polygon(r).contains(shapely.Point(p)) for p in known)]
+        free += [shapely.Polygon(water.interiors[j]) for j in drop]
         water = shapely.Polygon(water.exterior, [r for j, r in enumerate(water.interiors)
-                                                 if j not in collapsed])
+                                                 if j not in drop])
+    for _ in range(len(part.interiors) + 1):
+        chains, nodes, collapsed_now = _skeleton_once(water, tolerance_m, frame, ends, dead)
+        if collapsed_now is None:
+            break
+        gone = [shapely.Polygon(water.interiors[j]) for j in collapsed_now]
+        free += gone
+        if collapsed is not None:
+            collapsed[key] = [*known, *(g.representative_point().coords[0] for g in gone)]
+            known = tuple(collapsed[key])
+        water = shapely.Polygon(water.exterior, [r for j, r in enumerate(water.interiors)
+                                                 if j not in collapsed_now])
     channels = [_Channel(pts, w, "skeleton", a, b, f"water {k} channel {i}")
                 for i, (pts, w, a, b) in enumerate(chains)]
     if not channels:        # a blob, a ring round an island: still water (_find_networks)
@@ -2179,30 +2244,52 @@ def _skeleton_once(water, tolerance_m: float, frame, ends, dead):
 
 def _voronoi_edges(pts: np.ndarray) -> np.ndarray:
     """The edges of the Voronoi diagram of points (N ≥ 3, 2) [m] as segments (E, 2, 2):
-    Qhull's (``scipy.spatial.Voronoi``; GEOS's ``voronoi_polygons`` took over a minute for
-    the 200,000 outline points of London's Thames, Qhull 3 s), an unbounded edge cut at
-    twice the points' extent beyond its vertex (outside any water they outline); GEOS's
-    where Qhull cannot start (points all in a line)."""
-    from scipy.spatial import QhullError, Voronoi
+    between the circumcentres of each two Delaunay triangles that share a side (Qhull's
+    triangulation, ``scipy.spatial.Delaunay``: GEOS's ``voronoi_polygons`` took over a minute
+    for the 200,000 outline points of London's Thames, Qhull's Voronoi diagram 3.2 s, its
+    triangulation 1.8 s), an unbounded edge (a side on the hull) from its triangle's
+    circumcentre outward across that side, cut at twice the points' extent beyond it (outside
+    any water they outline); GEOS's where Qhull cannot start (points all in a line)."""
+    from scipy.spatial import Delaunay, QhullError
 
     try:
-        vor = Voronoi(pts)
+        tri = Delaunay(pts, qhull_options="Qbb Qc Qz Q12")
     except QhullError:           # all in a line (a sliver's outline): GEOS's, as it was
         edges = shapely.voronoi_polygons(shapely.MultiPoint(pts), only_edges=True)
         return shapely.get_coordinates(shapely.get_parts(edges)).reshape(-1, 2, 2)
-    ridges = np.asarray(vor.ridge_vertices, dtype=np.int64).reshape(-1, 2)
-    pairs = np.asarray(vor.ridge_points, dtype=np.int64).reshape(-1, 2)
-    finite = (ridges >= 0).all(axis=1)
-    seg = vor.vertices[ridges[finite]]
-    open_ = ~finite
-    if open_.any():
-        v = vor.vertices[ridges[open_].max(axis=1)]          # the edge's one finite vertex
-        p, q = pts[pairs[open_, 0]], pts[pairs[open_, 1]]
-        t = q - p
-        n = np.column_stack([-t[:, 1], t[:, 0]]) / np.hypot(*t.T)[:, None]
-        out = np.sign(np.einsum("ij,ij->i", 0.5 * (p + q) - pts.mean(axis=0), n))
-        n *= np.where(out == 0.0, 1.0, out)[:, None]        # away from the points' middle
+    simplices = tri.simplices
+    corners = tri.points[simplices]                           # (T, 3, 2)
+    a = corners[:, 1] - corners[:, 0]
+    b = corners[:, 2] - corners[:, 0]
+    d = 2.0 * (a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])
+    aa, bb = np.einsum("ij,ij->i", a, a), np.einsum("ij,ij->i", b, b)
+    # the triangles of one Delaunay cell of more than three points on a circle (Qhull
+    # merges nearly co-circular ones, then cuts the cell in triangles: they keep its
+    # plane) are one Voronoi vertex, the circumcentre of the best-shaped of them
+    _, cell = np.unique(tri.equations, axis=0, return_inverse=True)
+    cell = cell.ravel()
+    best = np.full(cell.max() + 1, -1.0)
+    np.maximum.at(best, cell, np.abs(d))
+    first = np.full(len(best), len(d))
+    np.minimum.at(first, cell, np.where(np.abs(d) == best[cell], np.arange(len(d)), len(d)))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        own = corners[:, 0] + np.column_stack([b[:, 1] * aa - a[:, 1] * bb,
+                                               a[:, 0] * bb - b[:, 0] * aa]) / d[:, None]
+    centre = own[first][cell]
+    nbr = tri.neighbors                                       # opposite each corner
+    t, k = np.nonzero(nbr > np.arange(len(simplices))[:, None])
+    t, k = t[cell[t] != cell[nbr[t, k]]], k[cell[t] != cell[nbr[t, k]]]
+    seg = np.stack([centre[t], centre[nbr[t, k]]], axis=1)
+    t, k = np.nonzero(nbr < 0)
+    if len(t):
+        p = corners[t, (k + 1) % 3]                           # the hull side's ends
+        q = corners[t, (k + 2) % 3]
+        side = q - p
+        n = np.column_stack([-side[:, 1], side[:, 0]]) / np.hypot(*side.T)[:, None]
+        away = np.einsum("ij,ij->i", 0.5 * (p + q) - corners[t, k], n)
+        n *= np.where(away < 0.0, -1.0, 1.0)[:, None]         # away from the third corner
         reach = 2.0 * float(np.hypot(*np.ptp(pts, axis=0)))
+        v = centre[t]
         seg = np.concatenate([seg, np.stack([v, v + reach * n], axis=1)])
     return seg
 
@@ -2255,13 +2342,12 @@ def skeleton(water, tolerance_m: float = 0.25, frame=None, ends=None, dead=None)
         banks = pts[~outer | (off > 1e-6 * approx_width)]
         pts = pts[~outer | (off > 0.25 * approx_width)]
     seg = _voronoi_edges(pts)
-    edges = shapely.linestrings(seg)
     inside = np.stack([shapely.contains_xy(water, seg[:, 0, 0], seg[:, 0, 1]),
                        shapely.contains_xy(water, seg[:, 1, 0], seg[:, 1, 1])], axis=1)
     ok = inside.all(axis=1)
     boundary = water.boundary
     shapely.prepare(boundary)
-    ok[ok] &= ~shapely.intersects(boundary, edges[ok])
+    ok[ok] &= ~shapely.intersects(boundary, shapely.linestrings(seg[ok]))
     if open_edge is not None:
         seg = np.concatenate([seg[ok], _out_through(seg, inside, seg[ok], open_edge, boundary,
                                                     cKDTree(pts), spacing)])
@@ -2274,8 +2360,9 @@ def skeleton(water, tolerance_m: float = 0.25, frame=None, ends=None, dead=None)
     radius = cKDTree(pts).query(uniq)[0]
     # adjacency
     nbr: list[dict[int, float]] = [dict() for _ in range(len(uniq))]
-    for a, b in inv:
-        d = float(np.hypot(*(uniq[a] - uniq[b])))
+    step = uniq[inv[:, 0]] - uniq[inv[:, 1]]
+    for a, b, d in zip(inv[:, 0].tolist(), inv[:, 1].tolist(),
+                       np.hypot(step[:, 0], step[:, 1]).tolist()):
         nbr[a][b] = d
         nbr[b][a] = d
     _prune(nbr, radius, _open_ends(nbr, uniq, radius, open_edge, ends, spacing), uniq, dead)

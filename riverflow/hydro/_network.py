@@ -348,11 +348,14 @@ def _cut_piece(rings: list[Ring], pieces: list[Piece], pc: int, point: np.ndarra
 
 
 def _island_potentials(geoms, sides, pieces, islands, island_of, psi) -> None:
-    """Fill ψ of the free islands (given, or the plug-flow estimate at the centroid: between
-    the ψ of its channel's banks, by its distances to the nearest shores with each: a bank
-    cut into pieces (London's, at every basin's mouth) has one ψ, and its piece the branch
-    names may lie far from the island: an island 2 m off the bank took 78 % of the
-    channel's discharge on that side, 100 m/s through the gap)."""
+    """Fill ψ of the free islands (given, or the plug-flow estimate: between the ψ of its
+    channel's banks as the gaps between its shore and the nearest shores with each, each
+    gap carrying the discharge of its width (a bank cut into pieces, London's at every
+    basin's mouth, has one ψ, and its piece the branch names may lie far from the island:
+    an island 2 m off the bank took 78 % of the channel's discharge on that side, 100 m/s
+    through the gap; measured from its centre, an island's own width counted in the gap on
+    each side: a small island 0.1–2 m from a pocket's shore sent a tenth of the discharge
+    round it, a ring of water at 9 m/s)."""
     lines = banks = None
     for piece_index, k in sorted(island_of.items()):
         outline = islands[k].outline
@@ -366,8 +369,11 @@ def _island_potentials(geoms, sides, pieces, islands, island_of, psi) -> None:
             if lines is None:          # (made once, for the first island that needs them)
                 lines = np.array([p.line() for p in pieces], dtype=object)
                 banks = np.array([j not in island_of for j in range(len(pieces))])
-            dl = float(shapely.distance(c, lines[banks & (psi == lo)]).min())
-            dr = float(shapely.distance(c, lines[banks & (psi == hi)]).min())
+            # (not the shores of water inside it: a pond on the island)
+            solid = shapely.Polygon(outline.exterior)
+            off = banks & ~shapely.within(lines, solid)
+            dl = float(shapely.distance(solid, lines[off & (psi == lo)]).min())
+            dr = float(shapely.distance(solid, lines[off & (psi == hi)]).min())
             psi[piece_index] = lo + (hi - lo) * dl / max(dl + dr, 1e-12)
         else:
             p = islands[k].potential
@@ -431,14 +437,32 @@ def _cost_to(mid: np.ndarray, d: np.ndarray, index: PolylineIndex, use_side: boo
 
 
 def _bank_runs(piece: Piece, axis_ids: list[int], axis_index: list[PolylineIndex],
-               island: bool, reach_m: float | None = None) -> list[tuple[np.ndarray, int]]:
+               island: bool, reach_m: float | None = None,
+               widths: list[float] | None = None) -> list[tuple[np.ndarray, int]]:
     """Split a piece where its nearest axis changes: [(points (M, 2), axis)]; a closed piece
-    with one axis stays one closed curve (its points repeat the first point at the end)."""
+    with one axis stays one closed curve (its points repeat the first point at the end).
+    A segment that runs on past its axis's end farther from it than the axis is wide
+    (``widths``, per axis: a straight bank along branches drawn end to end is one segment)
+    is cut where it passes the candidate axes' ends, and its parts linked again."""
     v = piece.points
-    seg_end = np.roll(v, -1, axis=0) if piece.closed else v[1:]
-    seg_start = v if piece.closed else v[:-1]
-    cost = _axis_cost(seg_start, seg_end, axis_ids, axis_index, not island, reach_m)
-    labels = np.asarray(axis_ids)[np.argmin(cost, axis=1)]
+    for again in (False, True):
+        seg_end = np.roll(v, -1, axis=0) if piece.closed else v[1:]
+        seg_start = v if piece.closed else v[:-1]
+        cost = _axis_cost(seg_start, seg_end, axis_ids, axis_index, not island, reach_m)
+        labels = np.asarray(axis_ids)[np.argmin(cost, axis=1)]
+        if again or widths is None:
+            break
+        cut = _cuts_past_axis_ends(seg_start, seg_end, labels, axis_ids, axis_index, widths)
+        if not cut:
+            break
+        out = []
+        for k in range(len(seg_start)):
+            out.append(seg_start[k:k + 1])
+            if k in cut:
+                out.append(cut[k])
+        if not piece.closed:
+            out.append(v[-1:])
+        v = np.vstack(out)
     runs = _runs(labels)
     if piece.closed:
         if len(runs) == 1:
@@ -449,6 +473,28 @@ def _bank_runs(piece: Piece, axis_ids: list[int], axis_index: list[PolylineIndex
         runs = _runs(labels)
         v = np.vstack([v, v[:1]])
     return [(v[a:b + 1], lab) for a, b, lab in runs]
+
+
+def _cuts_past_axis_ends(seg_start: np.ndarray, seg_end: np.ndarray, labels: np.ndarray,
+                         axis_ids: list[int], axis_index: list[PolylineIndex],
+                         widths: list[float]) -> dict[int, np.ndarray]:
+    """{segment: points (n, 2) in order along it}: where each segment whose end lies farther
+    from its linked axis than that axis is wide passes the candidate axes' end nodes (their
+    feet on it, strictly inside)."""
+    ends = np.array([p for a in axis_ids for p in (axis_index[a].points[0],
+                                                   axis_index[a].points[-1])])
+    cut: dict[int, np.ndarray] = {}
+    for a in set(labels.tolist()):
+        ks = np.flatnonzero(labels == a)
+        far = np.maximum(axis_index[a].nearest(seg_start[ks])[0],
+                         axis_index[a].nearest(seg_end[ks])[0]) > widths[a]
+        for k in ks[far]:
+            d = seg_end[k] - seg_start[k]
+            t = (ends - seg_start[k]) @ d / max(float(d @ d), 1e-300)
+            t = np.unique(np.round(t[(t > 1e-6) & (t < 1.0 - 1e-6)], 9))
+            if len(t):
+                cut[int(k)] = seg_start[k] + t[:, None] * d
+    return cut
 
 
 class _Nodes:
@@ -690,7 +736,8 @@ def assemble_graph(geoms: list[BranchGeometry], rings: list[Ring], pieces: list[
         # a bank's own axis is within half its width (axis widths include a margin): rows
         # whose best cost is over this are looked at again unbounded (_axis_cost)
         reach = 0.75 * max(axis_width[a] for a in candidates) + 50.0
-        for pts, axis in _bank_runs(piece, candidates, axis_index, i in island_of, reach):
+        for pts, axis in _bank_runs(piece, candidates, axis_index, i in island_of, reach,
+                                    axis_width):
             piece_banks[-1].append(len(banks))
             banks.append((pts, axis, float(psi[i])))
             reach = float(axis_index[axis].distance(pts).max())

@@ -186,7 +186,9 @@ def test_long_scripted_run_never_leaves_the_water(scene, river):
             last_contact = frame
         assert np.isfinite(boat.position_m).all() and np.isfinite(boat.velocity_mps).all()
     assert worst < 1e-3, worst
-    assert bank_hits >= 4 and island_hits >= 5, (bank_hits, island_hits)
+    # (how often each is hit follows the current round the island: 4 and 12 with the
+    # island's ψ by its centre's distances to the banks, 3 and 10 by its shore's)
+    assert bank_hits >= 3 and island_hits >= 5, (bank_hits, island_hits)
     world.close()
 
 

@@ -835,3 +835,31 @@ def test_a_river_of_links_shorter_than_it_is_wide_is_no_chain_to_collapse(tmp_pa
     builder = rf.read_rivers(path, origin_m=None, width_m="W")
     assert len(builder._branches) == 7
     assert not any("dropped" in n for n in builder.report.notes)
+
+
+def test_a_river_drawn_in_pieces_shorter_than_it_is_wide_is_joined(tmp_path):
+    """NHD HR routing lines of a model grid (sfrmaker's example, features 1711, 1654, 1656,
+    1775): a 77 m river (its width from the drainage area) in one 100 m piece per cell,
+    turning west and south again where a 10 m stream comes in head-on from below. The pieces
+    were links of their own: the one between the turns had no banks across its middle.
+    Pieces that run on into one another where nothing else meets, both shorter than twice
+    their river's width as planned, are joined into one link (a repair per joined link)."""
+    river = [polyline((0, 300), (0, 200), step=100), polyline((0, 200), (0, 100), step=100),
+             polyline((0, 100), (-100, 100), step=100), polyline((-100, 100), (-100, 0), step=100),
+             polyline((-100, 0), (-100, -100), step=100)]
+    stream = polyline((0, 0), (0, 100), step=100)
+    path = write_lines(tmp_path / "cells.gpkg", river + [stream],
+                       {"A": np.array([12400.0] * 5 + [1.0])})          # 77 m and 0.7 m wide
+    with pytest.raises(rf.GraphError, match="no banks found across its middle"):
+        rf.read_rivers(path, origin_m=None, drainage_area_km2="A", strict=True).build()
+    builder = rf.read_rivers(path, origin_m=None, drainage_area_km2="A")
+    graph = built(builder)
+    assert [b.name for b in builder._branches] == ["feature 1", "feature 3", "feature 6"]
+    (up,) = repairs_of(builder, "feature 1")
+    assert up.startswith("drawn in 2 pieces (with feature 2) that run on into one another "
+                         "where nothing else meets, shorter than twice the river's width"), up
+    (down,) = repairs_of(builder, "feature 3")
+    assert "drawn in 3 pieces (with feature 4, feature 5)" in down, down
+    assert len(builder.report.repairs) == 2
+    check_flows_downstream(graph, [polyline((0, 300), (0, 100), (-100, 100), (-100, -100))],
+                           skip_m=5.0)

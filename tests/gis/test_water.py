@@ -413,6 +413,28 @@ def test_a_mask_with_no_water_is_an_error(tmp_path):
         rf.read_water(mask)
 
 
+def test_a_mask_of_water_everywhere_or_of_specks_only_is_an_error(tmp_path):
+    """A mask that is water in every cell has no shore (it said "branch 0: no banks found
+    across its middle"); one whose water cells touch only at corners is specks, each left
+    out (it said "no branches: add at least one with add_branch()", the builder's words to
+    a programmer): each a GraphError that says what the mask is."""
+    bounds = (-20.0, -160.0, 280.0, 140.0)
+    full = write_mask(tmp_path / "full.tif", shapely.box(*bounds).buffer(50.0), 5.0, bounds)
+    with pytest.raises(GraphError, match=r"full.tif: the mask is water in every one of its "
+                                         r"3600 cells: no shore"):
+        rf.read_water(full)
+    cells = shapely.union_all([shapely.box(x, y, x + 5.0, y + 5.0)
+                               for x in np.arange(-20.0, 280.0, 10.0)
+                               for y in np.arange(-160.0, 140.0, 10.0)]
+                              + [shapely.box(x + 5.0, y + 5.0, x + 10.0, y + 10.0)
+                                 for x in np.arange(-20.0, 280.0, 10.0)
+                                 for y in np.arange(-160.0, 140.0, 10.0)])
+    checker = write_mask(tmp_path / "checker.tif", cells.buffer(-0.5), 5.0, bounds)
+    with pytest.raises(GraphError, match=r"checker.tif .*no water is left to build: its 1800 "
+                                         r"pieces were all left out \(water body 0: .*a speck"):
+        rf.read_water(checker)
+
+
 def test_an_inlet_outside_the_water_is_an_error(tmp_path):
     poly = write_polygons(tmp_path / "y.geojson", [y_shape()])
     with pytest.raises(GraphError, match=r"inlet \(1500.0, 0.0\) lies outside every water "
@@ -434,6 +456,17 @@ def test_bad_arguments_are_named(tmp_path, kwargs, match):
 def test_a_missing_file(tmp_path):
     with pytest.raises(FileNotFoundError, match="nothing.gpkg"):
         rf.read_water(tmp_path / "nothing.gpkg")
+
+
+def test_a_missing_lines_file_is_named_as_a_file(tmp_path):
+    """``lines=`` is a file or a layer of the water's file: a path to no file was reported as
+    "no layer '…/streams.shp'", which says nothing of the file the user meant."""
+    poly = write_polygons(tmp_path / "y.geojson", [y_shape()])
+    with pytest.raises(GraphError, match=r"lines='[^']*streams.shp': no such file \(nor a "
+                                         r"layer of y.geojson: .*its layers: \['y'\]"):
+        rf.read_water(poly, lines=str(tmp_path / "streams.shp"))
+    with pytest.raises(GraphError, match=r"no layer 'rivers'; its layers: \['y'\]"):
+        rf.read_water(poly, lines="rivers")
 
 
 # -- command line ---------------------------------------------------------------------------
@@ -913,6 +946,37 @@ def test_an_island_already_free_named_again_ends_the_retries(tmp_path, monkeypat
     assert free and len(free) == len(set(free)), free
 
 
+def test_a_build_that_fails_every_way_says_its_first_failure(tmp_path, monkeypatch):
+    """Where the water as read fails to build and each other reading fails too, the error
+    says the first failure (the water as read), how it was read again and the last
+    reading's own failure (it said the last retry's alone, which named what the user's data
+    never had: a reading the reader chose). Made to happen with a builder that fails every
+    build, each time with its own message, after short reaches were joined and dead ends
+    kept."""
+    from riverflow.hydro.builder import RiverNetworkBuilder
+
+    calls = []
+
+    def failing(self):
+        calls.append(len(calls) + 1)
+        self.short_reach_joined = self.kept_beside = True
+        raise GraphError(f"failure number {len(calls)}")
+
+    monkeypatch.setattr(RiverNetworkBuilder, "build", failing)
+    path = write_polygons(tmp_path / "every.geojson", [y_shape()])
+    builder = rf.read_water(path, inlets=[ORIGIN + (10.0, 0.0)], origin_m=ORIGIN)
+    with pytest.raises(GraphError) as raised:
+        builder.build()
+    text = str(raised.value)
+    assert len(calls) == 3, calls
+    assert text.startswith(f"{path} (layer "), text
+    assert text.count("every.geojson") == 1, text
+    assert "with no dead end kept as part of the water's ends, it failed there too: " \
+        "failure number 3" in text, text
+    assert "failure number 1; read again with no short reach joining its ends; then also " \
+        "with no dead end" in text, text
+
+
 def braid_in_three_lanes(seed: int):
     """A 200 m river with long thin islands (200 - 400 m) in three staggered lanes (y = -50,
     0, 50 m), cut obliquely at both ends by a trapezoid (its ends not along the bounding box:
@@ -1184,6 +1248,15 @@ def test_the_skeletons_voronoi_edges_are_geos_ones():
     assert far.sum() >= 3                           # the unbounded edges, cut far outside
     line = np.column_stack([np.arange(5.0), np.zeros(5)])
     assert _voronoi_edges(line).shape == (4, 2, 2)
+    # points on a grid (an outline's evenly spaced points along parallel banks): four on
+    # each circle, two triangles to a cell, one Voronoi vertex, no edge of no length
+    grid = np.stack(np.meshgrid(np.arange(12.0), np.arange(9.0)), axis=-1).reshape(-1, 2)
+    ours = _voronoi_edges(grid)
+    hull = shapely.MultiPoint(grid).convex_hull
+    geos = shapely.get_coordinates(shapely.get_parts(shapely.voronoi_polygons(
+        shapely.MultiPoint(grid), only_edges=True))).reshape(-1, 2, 2)
+    assert inside(ours) == inside(geos) and len(inside(ours)) == 11 * 7 + 10 * 8
+    assert np.hypot(*(ours[:, 1] - ours[:, 0]).T).min() > 0.5
 
 
 def test_an_end_drawn_as_nearly_straight_edges_is_cut_along_them(tmp_path):
@@ -1371,3 +1444,35 @@ def test_a_channel_beside_a_stub_on_the_datas_edge_ends_on_the_edge(tmp_path):
     graph = builder.build()
     assert builder.report.derived.get("ends_cut_m2", 0.0) < 50.0
     _flows_one_way(graph, centre, [12, 16, 24], 0.5)
+
+
+def test_holes_whose_loops_collapsed_are_free_when_the_channels_are_found_again(monkeypatch):
+    """Once a hole's loop of axes collapsed (a small island near a bank), finding the
+    part's channels again (after another island was made free) starts with it free: one
+    skeleton, not two (each is a Voronoi diagram of the whole outline: 4 s for London's
+    Thames), and the same channels as found afresh."""
+    from riverflow.gis import water as W
+
+    river = shapely.box(0.0, -50.0, 1000.0, 50.0)
+    small = shapely.Point(300.0, 35.0).buffer(10.0)            # its loop collapses
+    long_ = shapely.affinity.scale(shapely.Point(700.0, 0.0).buffer(10.0), 6.0, 1.0)
+    part = river.difference(shapely.union_all([small, long_]))
+    made = []
+    skeleton = W.skeleton
+    monkeypatch.setattr(W, "skeleton", lambda *a, **k: made.append(1) or skeleton(*a, **k))
+    monkeypatch.setattr(W, "_SKELETONS", {})
+    memo: dict = {}
+    first = W._skeleton_channels(part, 0, 0.25, None, collapsed=memo)
+    assert len(made) == 2 and len(first.islands) == 1 and len(first.water.interiors) == 1
+    assert list(memo.values()) == [[first.islands[0].representative_point().coords[0]]]
+    forced = [(700.0, 0.0)]
+    again = W._skeleton_channels(part, 0, 0.25, None, forced=forced, collapsed=memo)
+    assert len(made) == 3                                      # one skeleton more
+    monkeypatch.setattr(W, "_SKELETONS", {})
+    fresh = W._skeleton_channels(part, 0, 0.25, None, forced=forced)
+    assert len(made) == 5 and len(again.channels) == len(fresh.channels) == 1
+    assert again.water.equals(fresh.water) and not again.water.interiors
+    assert sorted(f.area for f in again.islands) == sorted(f.area for f in fresh.islands)
+    for a, b in zip(again.channels, fresh.channels):
+        np.testing.assert_array_equal(a.points, b.points)
+        np.testing.assert_array_equal(a.widths, b.widths)

@@ -139,6 +139,33 @@ def test_bend_with_free_island():
         assert g.curves[c].is_bank and g.curves[c].river in g.axes()
 
 
+def test_a_free_island_near_a_bank_sends_the_gaps_share_of_the_discharge_round_it():
+    """A free island 20 m wide 1.5 m off the left bank of a 100 m river: its ψ by the gaps
+    between its shore and each bank (1.5 and 78.5 m), so the gap carries the discharge of
+    its width, the river's own speed. By its centre's distances (11.5 and 88.5 m: its own
+    width counted on each side) the 1.5 m gap carried 11.5 % of the discharge, 7.6 times the
+    river's speed (London: a ring of 9 m/s round a small island in a pocket)."""
+    import riverflow as rf
+
+    line = np.c_[np.linspace(0.0, 600.0, 61), np.zeros(61)]
+    b = RiverNetworkBuilder()
+    b.add_branch(line, np.full(61, 100.0), 100.0)
+    b.add_island(shapely.box(290.0, 28.5, 310.0, 48.5).exterior.coords[:-1])
+    graph = b.build()
+    holes = [a for a in range(len(graph.areas)) if _signed_area(area_loop(graph, a)) < 0]
+    psi = graph.curves[graph.areas[holes[0]].curves[0][0]].potential
+    left = _bank_psi_near(graph, (300.0, 50.0))
+    right = _bank_psi_near(graph, (300.0, -50.0))
+    assert abs(psi - left) == pytest.approx(100.0 * 1.5 / 80.0, rel=0.02)
+    assert abs(psi - right) == pytest.approx(100.0 * 78.5 / 80.0, rel=0.02)
+    xs, ys = np.meshgrid(np.linspace(295.0, 305.0, 5), np.linspace(48.8, 49.7, 4))
+    status, v = rf.FlowField(graph).query(np.c_[xs.ravel(), ys.ravel()])
+    inside = status == rf.FlowStatus.INSIDE
+    assert inside.sum() >= 10
+    mean = 100.0 / 100.0
+    assert np.hypot(*v[inside].T).max() < 1.6 * mean
+
+
 def test_island_with_given_potential_and_bad_potential():
     b = RiverNetworkBuilder()
     b.add_branch([[0, 0], [100, 0]], 40.0, 80.0)
@@ -398,3 +425,16 @@ def test_two_branches_leaving_a_junction_at_a_small_angle_build():
         points, width, _ = ways[name]
         for f in (0.3, 0.5, 0.7):
             assert _psi_across(graph, points, 0.98 * width, f) == pytest.approx(q[name], rel=1e-9)
+
+
+def test_a_straight_bank_along_branches_end_to_end_links_to_each_axis():
+    """Three 10 m branches drawn end to end in a straight line: each bank is one straight
+    segment along all three. Linked whole to the middle axis, it made that axis 201 m wide
+    (the flow field then read banks a kilometre away: NHD HR routing lines, a 10 m stream
+    flowing +3.3 to -2.2 m/s across its width). It is cut where it passes the axes' ends."""
+    b = RiverNetworkBuilder()
+    for k in range(3):
+        b.add_branch(np.array([[100.0 * k, 0.0], [100.0 * (k + 1), 0.0]]), 10.0,
+                     discharge_m2s=5.0 if k == 0 else None)
+    graph = b.build()
+    assert [round(graph.curves[i].width_m, 1) for i in graph.axes()] == [12.0, 12.0, 12.0]
