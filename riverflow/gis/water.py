@@ -148,7 +148,9 @@ RETRIED = {"short_reaches_join": "with no short reach joining its ends",
            "ends_beside": "with no dead end kept as part of the water's ends",
            "backwaters": "with no backwater behind a spit",
            "free_by_ends": "with every reading back and the islands beside free ends "
-                           "that do not reach across the water made free"}
+                           "that do not reach across the water made free",
+           "lines": "with the water's skeleton for its axes, the lines giving where it "
+                    "enters and leaves"}
 """How :meth:`WaterBuilder.build` reads the water again after a failure, as its error
 says."""
 
@@ -170,6 +172,11 @@ class WaterBuilder(RiverNetworkBuilder):
     free_by_ends = False
     """Whether an island beside a channel's free end that does not reach across the water
     is made free (:meth:`build`'s last reading)."""
+    by_line_ends = None
+    """(starts (N, 2), ends (M, 2)) [m]: where the lines given enter and leave the water,
+    once the lines do not make a network there and the water's skeleton gives its axes
+    (:meth:`_read_by_line_ends`): inlets and outlets at the free ends they lie at."""
+    _by_skeleton = None
 
     @property
     def derived(self) -> dict[str, Any]:
@@ -225,6 +232,15 @@ class WaterBuilder(RiverNetworkBuilder):
                 except GraphError as again:
                     seen.append(str(again))
                     last = again
+            if graph is None and self._by_skeleton is not None:
+                tried.append(RETRIED["lines"])
+                self.short_reaches_join = self.ends_beside = self.backwaters = True
+                self.free_by_ends = False
+                try:
+                    self._read_by_line_ends(first)
+                    return self.build()
+                except GraphError as again:
+                    last = again
             if graph is None:
                 raise self._failed(first, tried, last) from None
         finally:
@@ -238,6 +254,26 @@ class WaterBuilder(RiverNetworkBuilder):
             self.report.notes.append(f"{len(self.islands_cut)} islands at the water's open "
                                      f"ends, where it is cut across, left out")
         return graph
+
+    def _read_by_line_ends(self, failed: GraphError) -> None:
+        """Find the channels again along the water's skeleton, the lines given only saying
+        where the water enters and leaves (:attr:`by_line_ends`): where the lines do not
+        make a network of the water (München's Isar: two lines either side of an island
+        that meet at neither end, one starting in the water beside the other), which the
+        skeleton does, the lines still know which way it flows (its skeleton's narrower end
+        was its wider, and the Isar ran south). Reported."""
+        fill, self.by_line_ends = self._by_skeleton
+        self._by_skeleton = None
+        self._fill, self._forced = fill, []
+        starts, stops = self.by_line_ends
+        named = f"{self.report.path} (layer {self.report.layer!r}): "
+        text = str(failed)
+        self.report.repair("lines", None, None,
+                           f"the lines do not make a network of the water "
+                           f"({text[len(named):] if text.startswith(named) else text}): its "
+                           f"axes are its skeleton, the lines giving where it enters "
+                           f"({len(starts)}) and leaves ({len(stops)}) it")
+        self._refill(self._forced)
 
     def _build_retrying(self, forced: list):
         """Build; while it fails at an island (named, or nearest a branch named), make that
@@ -461,11 +497,18 @@ def read_water(path, *, layer: str | int | None = None, lines=None, inlets=None,
         source_crs = crs
     report = RiverImport(str(path), layer_name, len(features), None, None)
     line_geoms = _read_lines(path, lines, source_crs, where) if lines is not None else []
+    hints = []          # an OSM extract's waterways, for the way its areas flow
+    if lines is None and _is_osm(path) and not (len(inlet_xy) or len(outlet_xy)):
+        try:
+            hints = _read_lines(path, "lines", source_crs, where)
+        except GraphError:
+            hints = []  # (an extract with no waterway line)
 
     _check_points_crs(source_crs, inlet_xy, outlet_xy, where)
     # project everything at once (one local CRS for polygons, lines and points)
     # the raster's extent (where water touching it is cut by the data's edge) goes with them
-    geoms = [g for _, g, _ in features] + line_geoms + ([extent] if extent is not None else [])
+    geoms = ([g for _, g, _ in features] + line_geoms + hints
+             + ([extent] if extent is not None else []))
     coords = shapely.get_coordinates(geoms)
     extra = np.vstack([inlet_xy, outlet_xy])
     xy, crs_out, crs_note = _project(np.vstack([coords, extra]), source_crs, where,
@@ -479,7 +522,8 @@ def read_water(path, *, layer: str | int | None = None, lines=None, inlets=None,
     polygons = geoms[:len(features)]
     if extent is not None:
         extent = geoms.pop()
-    line_geoms = geoms[len(features):]
+    hints = geoms[len(geoms) - len(hints):]
+    line_geoms = geoms[len(features):len(geoms) - len(hints)]
 
     water = _repair(features, polygons, report, where, simplify_m, tolerance_m)
     report.derived["outline"] = (f"the polygons' rings, simplified by at most {simplify_m:g} m"
@@ -510,12 +554,24 @@ def read_water(path, *, layer: str | int | None = None, lines=None, inlets=None,
     if lakes:   # the rivers' water is cut open where it meets a lake
         extent = shapely.difference(extent if extent is not None else shapely.box(*water.bounds),
                                     shapely.union_all(lakes))
-    builder._fill = lambda forced: _fill(builder, rivers, line_geoms, inlet_xy, outlet_xy, dem,
-                                         discharge_m3s, geometry, tolerance_m, where, forced,
-                                         extent, lakes)
+    def fill(lines, forced):
+        _fill(builder, rivers, lines, inlet_xy, outlet_xy, dem, discharge_m3s, geometry,
+              tolerance_m, where, forced, extent, lakes)
+
+    builder._fill = lambda forced: fill(line_geoms, forced)
+    if line_geoms:
+        builder._by_skeleton = (lambda forced: fill([], forced),
+                                _line_ends(rivers, line_geoms, tolerance_m))
+    elif hints:
+        builder.by_line_ends = _line_ends(rivers, hints, tolerance_m)
     builder._forced = []
     try:
-        builder._refill(builder._forced)
+        try:
+            builder._refill(builder._forced)
+        except GraphError as exc:
+            if builder._by_skeleton is None:
+                raise
+            builder._read_by_line_ends(exc)
     except GraphError as exc:
         text = str(exc)
         raise (exc if text.startswith(str(path)) else GraphError(f"{where}: {text}")) from None
@@ -588,7 +644,7 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
                       f"water, the ends its pruning took given back")
     for net in list(networks):
         ends = net.free_ends()
-        if len(ends) < 2 and not (net.inlets or net.outlets):
+        if len(ends) < 2 and (net.hinted or not (net.inlets or net.outlets)):
             # a ring of water round its islands (a moat; Liechtenstein's OSM: a riverbank
             # polygon round an island, cut off from its river), its dead ends basins even
             # with their tips not counted as ends
@@ -713,6 +769,17 @@ def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy
     ends = [e for net in networks for e in net.free_ends()]
     _match_points(ends, inlet_xy, "inlet", where, water)
     _match_points(ends, outlet_xy, "outlet", where, water)
+    if builder.by_line_ends is not None and not (len(inlet_xy) or len(outlet_xy)):
+        # the lines' ends in the water (none far off); an end they both enter and leave by
+        # (a stream across a pond) says nothing (:meth:`_Network.orient`: nor do they where
+        # they leave a piece no way in or out)
+        _match_points(ends, builder.by_line_ends[0], "inlet", where, water, strict=False)
+        _match_points(ends, builder.by_line_ends[1], "outlet", where, water, strict=False)
+        for net in networks:
+            both = net.inlets & net.outlets
+            net.inlets -= both
+            net.outlets -= both
+            net.hinted = bool(net.inlets or net.outlets)
     seas = builder.seas
     seas = shapely.union_all(seas) if seas else None
     if seas is not None:        # the channels opening into open water leave there
@@ -1309,6 +1376,8 @@ class _Network:
         self.nodes = nodes
         self.inlets: set[int] = set()
         self.outlets: set[int] = set()
+        self.hinted = False
+        """Whether inlets / outlets are the lines' ends (:attr:`WaterBuilder.by_line_ends`)."""
         self.tributaries: set[int] = set()
         """Free ends of short dead-end channels kept as tributaries because the DEM rises
         towards them (:func:`_drop_basin_spurs`): inlets when the DEM orients the water."""
@@ -1360,7 +1429,8 @@ class _Network:
         inlets, outlets = sorted(self.inlets), sorted(self.outlets)
         flat = ""
         if inlets or outlets:
-            rule = "from the inlets / outlets given"
+            rule = ("from where the lines enter and leave the water" if self.hinted
+                    else "from the inlets / outlets given")
         elif elevations is not None and len(leaves) >= 2:
             z = {k: elevations.get((id(self), k), math.nan) for k in leaves}
             known = [k for k in leaves if math.isfinite(z[k])]
@@ -1393,12 +1463,17 @@ class _Network:
             inlets, outlets = ([a], [b]) if wa <= wb else ([b], [a])
             rule = (f"{flat}the longest path along the axes, from its narrower end "
                     f"({min(wa, wb):.1f} m) to its wider ({max(wa, wb):.1f} m)")
-        if rule != "from the inlets / outlets given":
+        if rule not in ("from the inlets / outlets given",
+                        "from where the lines enter and leave the water"):
             self._same_end(leaves, inlets, outlets)
         if not outlets:          # water enters where it is said to; it leaves by the rest
             outlets = [k for k in leaves if k not in inlets]
         if not inlets:
             inlets = [k for k in leaves if k not in outlets]
+        if (not inlets or not outlets) and self.hinted:
+            self.inlets, self.outlets, self.hinted = set(), set(), False
+            return ("the lines' ends gave no way in and out: "   # (every end one kind)
+                    + self.orient(elevations))
         if not inlets or not outlets:
             raise GraphError(f"the water near {_xy_text(self.nodes[0])} needs a free "
                              f"end where water comes in and another where it leaves")
@@ -2793,10 +2868,35 @@ def _extend_free_ends(net: _Network, water) -> None:
             net.nodes[node] = q
 
 
-def _match_points(ends, pts: np.ndarray, what: str, where: str, water) -> None:
+def _line_ends(water, lines: list, tolerance_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """(starts (N, 2), ends (M, 2)) [m]: where the lines (drawn downstream) enter and leave
+    the water: the ends of their pieces inside it that lie on its outer shores (not the
+    lines' own ends in the water, nor where they cross an island)."""
+    merged = shapely.line_merge(shapely.node(shapely.MultiLineString(
+        [np.asarray(g.coords) for g in lines])), directed=True)
+    shores = shapely.MultiLineString([p.exterior for p in getattr(water, "geoms", [water])])
+    near = max(1.0, 4.0 * tolerance_m)
+    starts, stops = [], []
+    for p in shapely.get_parts(shapely.intersection(merged, shapely.Polygon(
+            shores.geoms[0]) if len(shores.geoms) == 1 else shapely.MultiPolygon(
+            [shapely.Polygon(r) for r in shores.geoms]))):
+        if p.geom_type != "LineString" or p.length <= tolerance_m:
+            continue
+        c = np.asarray(p.coords)
+        src = min(lines, key=lambda g: g.distance(shapely.Point(c[len(c) // 2])))
+        if src.project(shapely.Point(c[-1])) < src.project(shapely.Point(c[0])):
+            c = c[::-1]
+        for at, out in ((c[0], starts), (c[-1], stops)):
+            if shores.distance(shapely.Point(at)) <= near:
+                out.append(at)
+    return np.array(starts).reshape(-1, 2), np.array(stops).reshape(-1, 2)
+
+
+def _match_points(ends, pts: np.ndarray, what: str, where: str, water,
+                  strict: bool = True) -> None:
     """Mark the free end nearest each point as an inlet / outlet; GraphError for a point far
-    from every free end."""
-    if not len(pts):
+    from every free end (not ``strict``: such a point is passed over)."""
+    if not len(pts) or not (ends or strict):
         return
     if not ends:
         raise GraphError(f"{where}: the water has no free end to put an {what} at")
@@ -2805,6 +2905,8 @@ def _match_points(ends, pts: np.ndarray, what: str, where: str, water) -> None:
         d = np.hypot(*(xy - p).T)
         i = int(np.argmin(d))
         net, n, w = ends[i]
+        if d[i] > max(w, 1.0) and not strict:
+            continue
         if d[i] > max(w, 1.0):
             off = water.distance(shapely.Point(p))
             place = ("outside every water polygon, " if off > 0 else "in the water but ")

@@ -15,7 +15,7 @@ import shapely.affinity
 
 import riverflow as rf
 from riverflow.hydro.graph import GraphError
-from tests.gis.conftest import ORIGIN, UTM, require_gis
+from tests.gis.conftest import ORIGIN, UTM, require_gis, write_lines
 
 require_gis()
 
@@ -566,6 +566,34 @@ def test_osm_water_areas(tmp_path):
     assert builder.water.area == pytest.approx(800 * 60, rel=0.01)
 
 
+def test_an_osm_areas_waterway_gives_its_direction(tmp_path):
+    """An OpenStreetMap extract's river area flows the way its waterway line is drawn
+    (OSM draws waterways downstream), read from the extract's own lines with no ``lines=``:
+    the area alone ran from its narrower end to its wider, here upstream (München's Isar ran
+    south). The axes stay the area's skeleton."""
+    from tests.gis.test_osm import write_osm
+
+    area = np.array([(0, -70), (800, -40), (800, 40), (0, 70), (0, -70)], float)
+    line = np.array([(-60.0, 5.0), (400.0, 0.0), (860.0, -5.0)])
+    alone = write_osm(tmp_path / "area.osm", [(201, area, {"natural": "water",
+                                                           "water": "river"})])
+    both = write_osm(tmp_path / "both.osm", [
+        (201, area, {"natural": "water", "water": "river"}),
+        (202, line, {"waterway": "river", "name": "Isar"})])
+    seen = {}
+    for path in (alone, both):
+        builder = rf.read_water(path)
+        graph = builder.build()
+        assert builder.report.derived["axes"] == {"skeleton": 1}
+        shift = ORIGIN - np.asarray(builder.report.origin_m or (0.0, 0.0))
+        status, v = rf.FlowField(graph).query(np.array([[400.0, 0.0]]) + shift)
+        assert status[0] == INSIDE
+        seen[path.name] = (builder.report.derived["direction"], float(v[0, 0]))
+    assert seen["area.osm"][0].startswith("the longest path") and seen["area.osm"][1] < 0.0
+    assert seen["both.osm"] == ("from where the lines enter and leave the water",
+                                pytest.approx(-seen["area.osm"][1], rel=0.05))
+
+
 def test_a_braid_of_three_channels(tmp_path):
     """Two long islands side by side split a 120 m river into three channels: three axes
     between the same two junctions, the discharge split by their widths (the middle one is
@@ -975,6 +1003,35 @@ def test_a_build_that_fails_every_way_says_its_first_failure(tmp_path, monkeypat
         "failure number 3" in text, text
     assert "failure number 1; read again with no short reach joining its ends; then also " \
         "with no dead end" in text, text
+
+
+def test_lines_that_make_no_network_still_give_the_waters_direction(tmp_path):
+    """München's Isar with its OSM lines: two lines either side of a long island, meeting at
+    neither end (one starts in the water beside the island's tip), do not make a network of
+    the water ("do not meet" / "does not reach across"), so the river was refused; without
+    its lines its skeleton ran from its narrower end to its wider one: upstream. The lines'
+    reading failing, the water's skeleton gives its axes and the lines where it enters and
+    leaves: it builds, reported, flowing the way the lines run."""
+    outer = shapely.Polygon([(0, -70), (1000, -45), (1000, 45), (0, 70)])  # wider upstream
+    island = shapely.Polygon([(250, -12), (960, -8), (975, 0), (960, 8), (250, 12), (235, 0)])
+    poly = write_polygons(tmp_path / "isar.geojson", [outer.difference(island)])
+    lines = write_lines(tmp_path / "isar_lines.geojson",
+                        [[(-20.0, -30.0), (500.0, -28.0), (1020.0, -25.0)],
+                         [(215.0, 6.0), (500.0, 28.0), (1020.0, 22.0)]])
+    alone = rf.read_water(poly, origin_m=ORIGIN)
+    alone.build()
+    assert "from its narrower end" in alone.report.derived["direction"]
+    assert all(b.centerline_m[0, 0] > b.centerline_m[-1, 0] for b in alone._branches)
+    builder = rf.read_water(poly, lines=lines, origin_m=ORIGIN)
+    graph = builder.build()
+    (note,) = [r for r in builder.report.repairs if r.feature == "lines"]
+    assert "do not make a network of the water" in note.what and "its axes are its skeleton" \
+        in note.what and "enters (1) and leaves (2)" in note.what, note.what
+    assert builder.report.derived["direction"] == "from where the lines enter and leave the water"
+    assert all(b.centerline_m[0, 0] < b.centerline_m[-1, 0] for b in builder._branches)
+    pts = np.array([[100.0, 0.0], [500.0, 30.0], [500.0, -30.0], [900.0, -25.0]])
+    status, v = rf.FlowField(graph).query(pts)
+    assert (status == INSIDE).all() and (v[:, 0] > 0.0).all(), v
 
 
 def braid_in_three_lanes(seed: int):
