@@ -96,9 +96,11 @@ LAKE_FLAG = "_riverflow_lake"
 SPUR_WIDTHS = 1.0
 """Skeleton spurs shorter than this many local widths (2 × the inscribed radius where they
 branch off) are pruned."""
-JOIN_WIDTHS = 1.05
+JOIN_WIDTHS = 1.0
 """Skeleton junctions closer than this × the sum of their inscribed radii are one junction
-(the builder's junctions must lie farther apart than half their widths' sum)."""
+(the builder's junctions must lie farther apart than half their widths' sum, and a channel's
+width at a junction is at most twice its inscribed radius there; merged at 5 % more, two
+forks 178 m apart became one and the second one's channels ran side by side from it)."""
 ISLAND_SPLIT_WIDTHS = 2.0
 """A hole longer (2 × its bounding radius) than this many times the water beside it splits
 the river into two channels; a smaller one is a free island in its channel."""
@@ -106,8 +108,8 @@ MAX_ISLAND_RETRIES = 20
 """How many islands between channels :meth:`WaterBuilder.build` may turn into free islands
 when no channel's banks reach their shores."""
 MIN_CHANNEL_WIDTHS = 2.0
-"""A separate water body whose longest axis is shorter than this many widths is no river (a
-pond, a speck left by a repair): left out, reported."""
+"""A separate water body whose longest path along its axes is shorter than this many widths
+is no river (a pond, a speck left by a repair): left out, reported."""
 MASK_SMOOTH_CELLS = 1.5
 """A mask's outline is averaged over this many cells (:func:`_smooth_cells`)."""
 SPECK_FRACTION = 1e-3
@@ -760,9 +762,13 @@ def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy
         # runs along the water; the skeleton's, its widest inscribed circle)
         widest = max((c.width if c.source == "lines" else float(c.widths.max())
                       for c in net.channels), default=0.0)
+        if several and net.channels and longest < MIN_CHANNEL_WIDTHS * widest:
+            # (a river's channels between its islands and points of land, each short: the
+            # river itself was read as a pond)
+            longest = net.longest_path()
         if not net.channels or several and (speck or longest < MIN_CHANNEL_WIDTHS * widest):
-            if _join_open_water(builder, part, k, "beside open water, with no channel "
-                                f"longer than {MIN_CHANNEL_WIDTHS:g} times its width"):
+            if _join_open_water(builder, part, k, "beside open water, with no path along its "
+                                f"channels longer than {MIN_CHANNEL_WIDTHS:g} times its width"):
                 continue
             x, y = part.representative_point().coords[0]
             # a pond (not a piece a lake's cut left beside it): still water, as a lake
@@ -773,9 +779,10 @@ def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy
                           f"{part.area:.1f} m² of water near ({x:.1f}, {y:.1f}), apart from the "
                           f"rest: " + (f"a speck (under {SPECK_FRACTION:g} of the water): left "
                                        f"out" if speck else
-                                       f"no channel longer than {MIN_CHANNEL_WIDTHS:g} times "
-                                       f"its width: " + ("a pond, read as still water (a lake)"
-                                                         if pond else "left out")))
+                                       f"no path along its channels longer than "
+                                       f"{MIN_CHANNEL_WIDTHS:g} times its width: "
+                                       + ("a pond, read as still water (a lake)"
+                                          if pond else "left out")))
             continue
         networks.append(net)
     if not networks:
@@ -1465,6 +1472,16 @@ class _Network:
             deg[c.a] += 1
             deg[c.b] += 1
         return deg
+
+    def longest_path(self) -> float:
+        """The longest of the shortest paths along the channels between two nodes [m]."""
+        n = len(self.nodes)
+        rows = [c.a for c in self.channels] + [c.b for c in self.channels]
+        cols = [c.b for c in self.channels] + [c.a for c in self.channels]
+        adj = coo_matrix(([c.length for c in self.channels] * 2, (rows, cols)),
+                         shape=(n, n)).tocsr()
+        d = dijkstra(adj)
+        return float(d[np.isfinite(d)].max(initial=0.0))
 
     def free_ends(self) -> list[tuple[_Network, int, float]]:
         """(network, node, width) of every free end (a node of one channel)."""

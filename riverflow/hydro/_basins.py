@@ -174,16 +174,19 @@ def find_basins(water, axes: list[tuple[np.ndarray, np.ndarray]], avoid=(),
     their axis; the pockets behind them are basins too (:func:`_lees`)."""
     if not axes:
         return []
-    index = _Axes(axes)
     avoid_u = shapely.union_all(list(avoid)) if len(avoid) else None
-    lines = shapely.union_all([shapely.LineString(a) for a, _ in axes])
-    ends = np.array([a[i] for a, _ in axes for i in (0, -1)], dtype=float).reshape(-1, 2)
-    near = np.hypot(*(ends[:, None, :] - ends[None, :, :]).transpose(2, 0, 1)) <= tolerance_m
-    free_ends = shapely.multipoints(ends[near.sum(axis=1) == 1]) if len(ends) else None
+    polys = getattr(water, "geoms", [water])
     found: list[Basin] = []
-    for poly in getattr(water, "geoms", [water]):
+    for poly in polys:
         poly = orient(poly, 1.0)
         grown = _Grown(poly)
+        # each polygon's own channels: a neighbour's axis across a strip of land is no
+        # channel of its water (a sliver between an island and the bank it crosses: its
+        # dead end beside a lee of the river took the lee for the open end of the water)
+        own = axes if len(polys) == 1 else _own_axes(axes, grown(tolerance_m))
+        if not own:
+            continue
+        index, lines, free_ends = _axes_of(own, tolerance_m)
         for ring in [poly.exterior, *poly.interiors]:
             v = np.asarray(ring.coords)[:-1]
             if len(v) < 4:
@@ -227,6 +230,26 @@ def find_basins(water, axes: list[tuple[np.ndarray, np.ndarray]], avoid=(),
                 found.append(basin)
         found += _lees(grown, index, lines, found, lees, free_ends, tolerance_m)
     return found
+
+
+def _own_axes(axes: list[tuple[np.ndarray, np.ndarray]], wet) -> list:
+    """The axes whose middle (by arc length) lies in ``wet`` (a prepared polygon)."""
+    out = []
+    for a, w in axes:
+        line = shapely.LineString(np.asarray(a, np.float64).reshape(-1, 2))
+        if wet.contains(line.interpolate(0.5, normalized=True)):
+            out.append((a, w))
+    return out
+
+
+def _axes_of(axes: list[tuple[np.ndarray, np.ndarray]], tolerance_m: float):
+    """(:class:`_Axes`, the axes' lines in one geometry, their free ends: the ends that meet
+    no other axis' end within ``tolerance_m``, a MultiPoint)."""
+    lines = shapely.union_all([shapely.LineString(a) for a, _ in axes])
+    ends = np.array([a[i] for a, _ in axes for i in (0, -1)], dtype=float).reshape(-1, 2)
+    near = np.hypot(*(ends[:, None, :] - ends[None, :, :]).transpose(2, 0, 1)) <= tolerance_m
+    free_ends = shapely.multipoints(ends[near.sum(axis=1) == 1]) if len(ends) else None
+    return _Axes(axes), lines, free_ends
 
 
 def _lees(grown: _Grown, axes: _Axes, lines, found: list[Basin], lees, free_ends,

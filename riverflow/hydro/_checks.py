@@ -133,7 +133,7 @@ def _bank_segments(graph: HydroGraph, chunk: list[int]):
 
 def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6,
                    axes_cover_banks: bool = False, axis_index=None,
-                   one_stream: bool = True, away=None) -> list[str]:
+                   one_stream: bool = True, away=None, free_banks=()) -> list[str]:
     """Check a builder-made graph. ``branches``: optional [(centre line (K, 2), widths (K,)
     or None, discharge m²/s)] drawn downstream (widths may be omitted as a 2-tuple).
     ``axes_cover_banks``: the caller made every axis' width cover its banks' points (the
@@ -146,7 +146,9 @@ def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6,
     (:func:`_discharge_problems`); False: such a reading is an error (the axes of a water
     area's skeleton never run in one stream: where they seem to, their directions are
     wrong). ``away``: a list to which the middle of every bank segment whose axis lies on its
-    right is appended with that axis' vertices, ``(point (2,), axis (K, 2))``."""
+    right is appended with that axis' vertices, ``(point (2,), axis (K, 2))``.
+    ``free_banks``: the curves of free islands' shores, no branch's bank (a shore cut into
+    runs by its nearest axes does not close on itself; :func:`_discharge_problems`)."""
     problems: list[str] = []
     curves = graph.curves
     banks = graph.banks()
@@ -316,18 +318,21 @@ def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6,
     if not MultiLineString([ln for ln in lines if len(ln) >= 2]).is_simple:
         problems.append("banks or closing segments cross each other")
     if branches:
-        problems += _discharge_problems(graph, branches, rel_tol, one_stream)
+        problems += _discharge_problems(graph, branches, rel_tol, one_stream, free_banks)
     return problems
 
 
 def _discharge_problems(graph: HydroGraph, branches, rel_tol: float,
-                        one_stream: bool = True) -> list[str]:
+                        one_stream: bool = True, free_banks=()) -> list[str]:
     """ψ(right bank) − ψ(left bank) = discharge at the middle of every branch (every
     station's two rays in one bulk query, :func:`_bank_psi`). A free island's shore (a bank
     that closes on itself) is no branch's bank: a ray that reaches it, where the branch's
-    width read across it falls short of the far bank, must not take its ψ for the bank's."""
+    width read across it falls short of the far bank, must not take its ψ for the bank's; nor
+    is any curve of ``free_banks`` (such a shore cut into runs by the axes nearest them)."""
     problems = []
-    bank_ids = [i for i in graph.banks() if graph.curves[i].start != graph.curves[i].end]
+    free = set(free_banks)
+    bank_ids = [i for i in graph.banks()
+                if graph.curves[i].start != graph.curves[i].end and i not in free]
     lines = LineChunks([graph.vertices(i) for i in bank_ids])
     potential = np.array([graph.curves[i].potential for i in bank_ids])
     fractions = np.array([0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8])

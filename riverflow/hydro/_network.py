@@ -588,13 +588,15 @@ def _basin_mouths(rings, pieces, lakes, basin_of, piece_axes, axis_index, axis_w
 
 def assemble_graph(geoms: list[BranchGeometry], rings: list[Ring], pieces: list[Piece],
                    islands: list, junctions: np.ndarray, inlets: dict[int, float] | None = None,
-                   lakes: LakeParts | None = None, axis_index: list | None = None) -> HydroGraph:
+                   lakes: LakeParts | None = None, axis_index: list | None = None,
+                   free_banks: list | None = None) -> HydroGraph:
     """Make the hydro graph from the branches and the cut water outline; ``inlets``: lateral
     inflow [m²/s] per junction (module docstring); ``lakes``: the lakes' axes and polygons
     (:mod:`riverflow.hydro._lakes`). ``axis_index``: a list that gets each axis'
     :class:`PolylineIndex` (the axes are the graph's first curves, in order; each index is of
     the axis' :meth:`~HydroGraph.vertices` exactly, the nodes being keyed by exact
-    coordinates), for the self-check to reuse."""
+    coordinates), for the self-check to reuse. ``free_banks``: a list that gets the curve
+    indices of the free islands' shores (one curve per run of a shore's nearest axis)."""
     if lakes is not None:
         _split_at_basin_mouths(rings, lakes)
     island_of: dict[int, int] = {}
@@ -781,6 +783,8 @@ def assemble_graph(geoms: list[BranchGeometry], rings: list[Ring], pieces: list[
         curves.append(Curve(nodes(pts[0]), nodes(pts[-1]), pts[1:-1], np.zeros(len(pts) - 2, bool),
                             width_m=axis_width[axis], type=CurveType.BANK, potential=value,
                             river=axis))
+    if free_banks is not None:
+        free_banks[:] = sorted(bank_index[b] for pc in island_of for b in piece_banks[pc])
     for ring, loop in zip(rings, ring_curves):
         flat = []
         for entry in loop:

@@ -601,15 +601,16 @@ class RiverNetworkBuilder:
         if lakes:
             lake_parts = _lakes_of_graph(geoms, lakes, lake_ends, polygon_lake, self.tolerance_m)
         axis_index: list = []
+        free_banks: list = []
         graph = assemble_graph(geoms, rings, pieces, islands, all_junctions[:n_junctions],
-                               inlets, lake_parts, axis_index)
+                               inlets, lake_parts, axis_index, free_banks)
         if lakes:   # islands in lakes: the ψ of zero circulation round them
             from riverflow.hydro.lake_flow import set_island_potentials
             set_island_potentials(graph, self.tolerance_m)
         away: list = []
         problems = graph_problems(graph, [(g.centerline_m, g.widths_m, g.discharge_m2s) for g in geoms],
                                   axes_cover_banks=True, axis_index=axis_index,
-                                  one_stream=self.one_stream,
+                                  one_stream=self.one_stream, free_banks=free_banks,
                                   away=away if self._water_area is not None else None)
         seen = {tuple(p) for p, _ in self.lees}
         away = [a for a in away if tuple(a[0]) not in seen]
@@ -1196,13 +1197,18 @@ def _first_hits(water, origins: np.ndarray, direction: np.ndarray, reach_m: floa
 
 
 def _end_chord(water, line: np.ndarray, width_m: float, at_start: bool, eps_m: float,
-               mouth: bool = False):
+               mouth: bool = False, within: bool = False):
     """The straight closing segment across a free end of a given water area: (chord (2, 2),
     station along the end's tangent from the end point [m], unit tangent pointing out of the
     channel). None when no chord across the channel is found within two widths of the end.
     ``mouth``: the end is capped off a still lake's shore (the water cut back along it): the
     straight edge it runs into is its chord however long (a delta's mouth flaring into a
-    bay, wider than END_CHORD_LONGEST widths of its channel, opens on the sea along it)."""
+    bay, wider than END_CHORD_LONGEST widths of its channel, opens on the sea along it).
+    ``within``: the channel lies within its junction's water (no longer than its widest):
+    its median width is the junction's, and a straight edge at least half that wide and as
+    wide as the chord where it ends spans it (beside an island's stub on the data's edge the
+    channel is narrower at its end than behind it: its chord at full width lay behind the
+    stub's tip, and no bank of its own was left to it)."""
     if len(line) < 2:
         return None
     if at_start:
@@ -1236,7 +1242,10 @@ def _end_chord(water, line: np.ndarray, width_m: float, at_start: bool, eps_m: f
         return None
     chord = np.where(ok, chord, 0.0)
     ref = min(chord.max(), width_m) if ok.any() else width_m
-    if END_CHORD_FRACTION * ref <= span and (mouth or span <= END_CHORD_LONGEST * width_m):
+    spans = END_CHORD_FRACTION * ref <= span
+    if within and ok.any() and not spans:
+        spans = 0.5 * ref <= span and END_CHORD_FRACTION * chord[np.flatnonzero(ok)[0]] <= span
+    if spans and (mouth or span <= END_CHORD_LONGEST * width_m):
         # the water ends on a straight edge across the channel (the data's edge): that edge
         if ((edge[-1] - edge[0]) @ n < 0) != at_start:
             edge = edge[::-1]
@@ -1329,8 +1338,10 @@ def _given_water(geoms: list[BranchGeometry], water, islands: list[_Island], tol
             where = "start" if at_start else "end"
             c = g.centerline_m[0 if at_start else -1]
             width = float(np.median(g.widths_m))
+            within = (g.start_junction if not at_start else g.end_junction) >= 0 and float(
+                np.hypot(*np.diff(g.centerline_m, axis=0).T).sum()) <= float(g.widths_m.max())
             found = _end_chord(water, g.centerline_m, width, at_start, eps,
-                               (k, at_start) in mouths)
+                               (k, at_start) in mouths, within)
             if found is None:
                 raise GraphError(f"branch {g.name!r}: its free {where} at ({c[0]:.1f}, "
                                  f"{c[1]:.1f}) does not reach across the water to its banks "

@@ -830,14 +830,16 @@ def test_channels_meeting_on_the_datas_edge_make_their_island_free(tmp_path):
     upstream), its data's edge 65 m past the last island's tip: the circle touching both
     banks and that tip has its centre on the edge, so the channels round the island meet
     there with no reach out. Their ends on the edge, 9 m apart, became one junction that
-    only sends water ("all start there but none ends there"). The island there is taken as
-    a free island in one channel (reported), as for channels that do not meet: the network
-    builds, the water runs one way."""
+    only sends water ("all start there but none ends there"; with the skeleton's junctions
+    merged only nearer than their circles together, a channel round the island from that
+    junction back to it). The island there is taken as a free island in one channel
+    (reported), as for channels that do not meet: the network builds, the water runs one
+    way."""
     water, centre, _, _ = survey_river(
         714.24, 127.0, 65.28, 224.31, [(482.1, 42.3, 143.5, 8.26, -0.0655),
                                        (388.0, 87.5, 67.0, 6.46, 0.0198)],
         clip=(0.258, 0.0502), shift=(0.0, 150.0))
-    _builds_running_one_way(tmp_path, water, centre, [12, 20, 28], "all start there")
+    _builds_running_one_way(tmp_path, water, centre, [12, 20, 28], "(478.4, 431.3)")
 
 
 def test_an_end_pruned_away_comes_back_beside_two_ends_at_the_edge(tmp_path):
@@ -1458,6 +1460,97 @@ def test_a_streams_line_come_over_the_bank_is_left_out(tmp_path):
     assert sum("left out (its water is the river's)" in n for n in builder.report.notes) == 1
     (branch,) = builder._branches
     assert np.abs(branch.centerline_m[:, 1]).max() < 1e-6
+
+
+def test_a_free_islands_shore_read_by_two_axes_is_no_branchs_bank(tmp_path):
+    """A 128 m meandering river whose data's edge cuts a 190 m island open (a slot from the
+    edge) and with a 163 m island just upstream of the slot's tip, made free (from the
+    survey's seed 19): the free island's shore lies nearest two axes, so it is two bank
+    curves, which do not close on themselves. The check across a channel leaving the
+    junction beside it took one for that channel's bank ("ψ(right) − ψ(left) = 57.3,
+    discharge 30.4"): a free island's shore is no branch's bank, in whatever curves it is
+    drawn. The network builds and the water runs one way."""
+    water, centre, _, _ = survey_river(
+        1433.28, 128.28, 35.13, 165.01, [(966.82, 7.24, 190.51, 9.53, 0.1665),
+                                         (854.37, -36.42, 163.19, 14.25, 0.1671)],
+        clip=(0.0269, 0.2285), shift=(0.0, 150.0))
+    builder = rf.read_water(write_polygons(tmp_path / "free.geojson", [water]),
+                            origin_m=ORIGIN)
+    graph = builder.build()
+    assert builder.report.derived["islands"] == {"free (in one channel)": 1,
+                                                 "between channels": 0}
+    island = shapely.Polygon(water.interiors[0])
+    shore = [i for i in graph.banks() if island.exterior.distance(
+        shapely.Point(graph.vertices(i)[1])) < 1e-6]
+    assert len(shore) >= 2                      # the island's shore in more than one curve
+    _flows_one_way(graph, centre, [5, 15, 22], 0.8)
+
+
+def test_junctions_as_far_apart_as_their_circles_stay_two(tmp_path):
+    """A 215 m river whose data's edge cuts two long islands open (two slots from the edge,
+    from the survey's seed 14 of islands that may cross a bank): the skeleton's fork below
+    the first slot's tip (inscribed radius 107 m) and the one between the slots (65 m) lie
+    178 m apart, more than their radii together, which the builder tells apart. Merged (at 5
+    % more), the channels of the second fork ran from the first side by side for 178 m, and
+    the check across one of them read the other's water ("ψ(right) − ψ(left) = 197,
+    discharge 105"). Two forks, five axes: the network builds and the water runs one way."""
+    water, centre, _, _ = survey_river(
+        924.85, 214.51, 150.74, 365.03, [(498.21, 181.31, 402.39, 19.6, 0.029),
+                                         (644.68, 91.66, 369.62, 25.95, -0.0405)],
+        clip=(0.0686, 0.1951), shift=(0.0, 150.0))
+    assert len(water.interiors) == 0                   # both islands are slots from the edge
+    builder = rf.read_water(write_polygons(tmp_path / "forks.geojson", [water]),
+                            origin_m=ORIGIN)
+    graph = builder.build()
+    assert builder.report.derived["axes"] == {"skeleton": 5}
+    junctions = {tuple(np.round(p, 6)) for _, c in _channels(builder) for p in (c[0], c[-1])}
+    ends = [p for _, c in _channels(builder) for p in (c[0], c[-1])]
+    forks = [j for j in junctions if sum(np.allclose(j, p, atol=1e-6) for p in ends) == 3]
+    assert len(forks) == 2
+    _flows_one_way(graph, centre, [6, 12, 18], 0.8)
+
+
+def test_a_river_whose_channels_are_each_short_is_no_pond(tmp_path):
+    """A 135 m meandering river with islands crossing its banks and each other (from the
+    survey's seed 130 of islands that may cross a bank, less one island), two polygons of
+    water: the river's skeleton has channels round its islands, none longer than twice the
+    widest inscribed circle, so the river (31 000 m²) was taken for a pond apart from the
+    rest, still water. Its channels together run 2.6 widths from end to end: the longest
+    path along its axes decides, and the river has its axes."""
+    isl = [(311.74, -0.7, 191.27, 16.04, -0.1998), (290.19, 58.92, 248.25, 8.0, 0.1827),
+           (324.24, 38.0, 141.88, 17.07, 0.1195), (90.33, 9.46, 221.89, 17.84, -0.048),
+           (168.44, 60.34, 113.58, 9.15, -0.0144)]
+    water, centre, _, _ = survey_river(670.23, 135.19, 41.36, 251.76, isl,
+                                       clip=(0.2551, 0.1652), shift=(0.0, 150.0))
+    assert water.geom_type == "MultiPolygon"
+    builder = rf.read_water(write_polygons(tmp_path / "pond.geojson", [water]),
+                            origin_m=ORIGIN)
+    graph = builder.build()
+    assert not any("a pond" in r.what for r in builder.report.repairs)
+    assert builder.report.derived["axes"]["skeleton"] >= 4 and not graph.lakes()
+    _flows_one_way(graph, centre, [12, 16, 29, 32], 0.5)
+
+
+def test_a_channel_beside_a_stub_on_the_datas_edge_ends_on_the_edge(tmp_path):
+    """A 234 m river with two islands and a third the data's edge cuts open, a stub 42 m into
+    the water (from the survey's seed 66): the fork at the stub's tip has an inscribed
+    radius of 117 m, so the channel beside the stub, 155 m from the fork to the edge, lies
+    within the fork's water and its median width (165 m) is the fork's; the edge there,
+    115 m between the bank and the stub, fell short of it and the channel's end was cut at
+    full width behind the stub's tip, leaving the channel no bank of its own ("no banks
+    found across its middle"; the retries then freed the other island too and the ends did
+    not meet). The edge spans a channel within its junction's water that is no wider where
+    it ends: the network builds, no water is cut off at the edge and the river runs one way."""
+    water, centre, _, _ = survey_river(
+        1223.54, 233.98, 17.07, 306.06, [(897.37, 7.72, 141.25, 28.19, -0.1082),
+                                         (449.18, -33.18, 200.8, 21.44, -0.0947),
+                                         (363.32, 35.6, 358.8, 11.74, 0.0661)],
+        clip=(0.2207, 0.2625), shift=(0.0, 150.0))
+    builder = rf.read_water(write_polygons(tmp_path / "stub.geojson", [water]),
+                            origin_m=ORIGIN)
+    graph = builder.build()
+    assert builder.report.derived.get("ends_cut_m2", 0.0) < 50.0
+    _flows_one_way(graph, centre, [12, 16, 24], 0.5)
 
 
 def test_holes_whose_loops_collapsed_are_free_when_the_channels_are_found_again(monkeypatch):

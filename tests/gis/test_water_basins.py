@@ -765,3 +765,30 @@ def test_an_island_off_a_bank_cut_by_basins_mouths_takes_that_banks_psi(tmp_path
     ok = status == INSIDE
     assert ok.sum() > 10
     assert np.hypot(*v[ok].T).max() < 2.0 * mean_speed
+
+
+def test_a_rivers_basins_are_read_against_its_own_channels(tmp_path):
+    """A 97 m meandering river whose long island crosses its bank and leaves a sliver of
+    water, 0 - 17 m wide, between them as a polygon of its own (from the survey's seed 168
+    of islands that may cross a bank): the sliver's dead end lies 6 m across the island's
+    round end from the river's bank, where that end leans over the river's water (a lee,
+    "its axis lies on its right"). A basin of the river was read against the sliver's axis,
+    the nearest (a pocket 10 m deep off "a 5.3 m channel"), and its lee lay within a quarter
+    width of the sliver's free end, taken for the open end of the river's water: no basin,
+    and the build failed. Each polygon's basins are read against its own channels: the lee
+    behind the island's end is still water, the network builds and the river runs one way."""
+    water, centre, _, _ = survey_river(
+        634.94, 96.75, 79.06, 351.64, [(240.18, 26.26, 133.8, 4.96, -0.0301),
+                                       (103.49, -3.91, 231.63, 14.48, 0.1659)],
+        clip=(0.2484, 0.2883), shift=(0.0, 150.0))
+    assert water.geom_type == "MultiPolygon"
+    builder = rf.read_water(write_polygons(tmp_path / "sliver.geojson", [water]),
+                            origin_m=ORIGIN)
+    graph = builder.build()
+    river = max(water.geoms, key=lambda p: p.area)
+    assert builder.basins and all(b.width_m > 50.0 for b in builder.basins)
+    assert all(river.buffer(1.0).contains(b.polygon) for b in builder.basins)
+    rows = [14, 18, 22]
+    status, v = rf.FlowField(graph).query(centre[rows] @ SLOPE + (0.0, 150.0))
+    along = np.einsum("ij,ij->i", v, np.gradient(centre, axis=0)[rows] @ SLOPE)
+    assert (status == INSIDE).all() and len(set(np.sign(along))) == 1
