@@ -265,8 +265,8 @@ class WaterBuilder(RiverNetworkBuilder):
         that meet at neither end, one starting in the water beside the other), which the
         skeleton does, the lines still know which way it flows (its skeleton's narrower end
         was its wider, and the Isar ran south). Reported."""
-        fill, self.by_line_ends = self._by_skeleton
-        self._by_skeleton = None
+        fill, ends = self._by_skeleton
+        self._by_skeleton, self.by_line_ends = None, ends()
         self._fill, self._forced = fill, []
         starts, stops = self.by_line_ends
         named = f"{self.report.path} (layer {self.report.layer!r}): "
@@ -582,7 +582,7 @@ def read_water(path, *, layer: str | int | None = None, lines=None, inlets=None,
     builder._fill = lambda forced: fill(line_geoms, forced)
     if line_geoms:
         builder._by_skeleton = (lambda forced: fill([], forced),
-                                _line_ends(rivers, line_geoms, tolerance_m))
+                                lambda: _line_ends(rivers, line_geoms, tolerance_m))
     elif hints:
         builder.by_line_ends = _line_ends(rivers, hints, tolerance_m)
     builder._forced = []
@@ -592,7 +592,11 @@ def read_water(path, *, layer: str | int | None = None, lines=None, inlets=None,
         except GraphError as exc:
             if builder._by_skeleton is None:
                 raise
-            builder._read_by_line_ends(exc)
+            try:
+                builder._read_by_line_ends(exc)
+            except GraphError as again:
+                raise GraphError(f"{exc}; read again {RETRIED['lines']}, it failed there "
+                                 f"too: {again}") from None
     except GraphError as exc:
         text = str(exc)
         raise (exc if text.startswith(str(path)) else GraphError(f"{where}: {text}")) from None
