@@ -930,6 +930,8 @@ def _points(value, name: str) -> np.ndarray:
         pts = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError):
         raise GraphError(f"read_water: {name} must be points (x, y), got {value!r}") from None
+    if pts.size == 0:                   # (an empty list: none)
+        return np.zeros((0, 2))
     if pts.ndim == 1 and pts.shape == (2,):
         pts = pts[None]
     if pts.ndim != 2 or pts.shape[1] != 2 or not np.isfinite(pts).all():

@@ -302,11 +302,13 @@ def test_a_coastline_given_as_an_outlet_line(tmp_path):
     ([(1.0, 2.0, 3.0)], GraphError, "outlets must be finite points"),
 ])
 def test_bad_outlet_lines_are_named(tmp_path, outlets, error, match):
+    """(``outlets=[]`` and ``inlets=[]`` are none, not an error.)"""
     poly = write_polygons(tmp_path / "delta.geojson", [y_shape()])
     if isinstance(outlets, list) and isinstance(outlets[0], shapely.Geometry):
         outlets = [shapely.transform(g, lambda p: p + ORIGIN) for g in outlets]
     with pytest.raises(error, match=match):
         rf.read_water(poly, outlets=outlets, origin_m=ORIGIN).build()
+    rf.read_water(poly, inlets=[], outlets=[], origin_m=ORIGIN).build()
 
 
 def test_direction_without_points_runs_from_the_narrow_end_to_the_wide(tmp_path):
