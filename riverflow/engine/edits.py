@@ -32,6 +32,7 @@ import math
 import sys
 import weakref
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -93,6 +94,9 @@ class EditPlan:
     """kind → (codes sorted, made again or not, rank): :func:`marked_tiles` for the tiles
     resident when the edit was planned, worked out in the edit's thread; the swap works out
     only the tiles installed since (:func:`marked_at_swap`)."""
+    flow_changes: FlowChanges | None = None
+    """The flow segments the edit changed: of the flow tiles meeting :attr:`flow_boxes`, only
+    those that read one are made again (:func:`flow_tiles_reached`); None: all."""
     flow_ahead: dict = field(default_factory=dict)
     """code → flow tile: the view's flow tiles the edit makes wet (none resident when it was
     planned), made in the edit's thread with the new producer; the swap installs them (the
@@ -527,8 +531,9 @@ def plan_edit(old_scene: Landscape, old_field: FlowField, new_scene: Landscape,
                                 new_scene.branches, LEVEL_REACH_M)
         boxes = np.concatenate([level, _height_change_boxes(old_scene.terrain,
                                                             new_scene.terrain, boxes)])
-    seg_map, flow_boxes = _segment_changes(old_field.network, new_field.network)
-    return EditPlan(new_scene, new_field, boxes, flow_boxes, seg_map, changed)
+    seg_map, flow_boxes, flow_changes = _segment_changes(old_field.network, new_field.network)
+    return EditPlan(new_scene, new_field, boxes, flow_boxes, seg_map, changed,
+                    flow_changes=flow_changes)
 
 
 HEIGHT_CHANGE_M = 0.02
@@ -643,11 +648,13 @@ def _segment_rows(net: FlowNetwork) -> tuple[np.ndarray, np.ndarray]:
     return np.ascontiguousarray(rows), np.asarray(net.curve_cutoff[curve], np.float64)
 
 
-def _segment_changes(old: FlowNetwork, new: FlowNetwork) -> tuple[np.ndarray, np.ndarray]:
-    """The old → new segment map and the boxes of the segments that changed. A segment gone
-    maps to the nearest new segment (by midpoint): the flow tiles that list it are near the
-    change, so they stand in (stale) until they are made again, and a stand-in's inside test
-    near the moved bank reads a bank nearby rather than a number past the new list."""
+def _segment_changes(old: FlowNetwork, new: FlowNetwork
+                     ) -> tuple[np.ndarray, np.ndarray, FlowChanges]:
+    """The old → new segment map, the boxes of the segments that changed and what they are
+    (:class:`FlowChanges`). A segment gone maps to the nearest new segment (by midpoint):
+    the flow tiles that list it are near the change, so they stand in (stale) until they are
+    made again, and a stand-in's inside test near the moved bank reads a bank nearby rather
+    than a number past the new list."""
     from scipy.spatial import cKDTree
 
     a, cut_a = _segment_rows(old)
@@ -664,10 +671,164 @@ def _segment_changes(old: FlowNetwork, new: FlowNetwork) -> tuple[np.ndarray, np
             hi = np.maximum(rows[:, :2], rows[:, 2:4]) + cut[:, None]
             boxes.append(np.hstack([lo, hi]))
     boxes = np.concatenate(boxes) if boxes else np.zeros((0, 4))
+    boxes = _merge_boxes(boxes)
+    changes = _flow_changes([(old, ~gone), (new, kept)], boxes)
     if gone.any() and len(b):
         _, near = cKDTree(0.5 * (b[:, :2] + b[:, 2:4])).query(0.5 * (a[gone, :2] + a[gone, 2:4]))
         seg_map[gone] = near
-    return seg_map, _merge_boxes(boxes)
+    return seg_map, boxes, changes
+
+
+class FlowChanges(NamedTuple):
+    """The flow network's segments an edit changed (those gone from the old network and
+    those new in the new one), for :func:`flow_tiles_reached`.
+
+    A flow tile reads a bank segment only through its ψ-group's nearest segment at each of
+    its points (the ψ weighting, the inside test, the shore's distance; the boundary cells'
+    lists hold segments within a cell's diagonal): where, everywhere in the tile, a segment
+    the edit kept is nearer than every changed segment of the group, old and new, the tile
+    comes out as it was. An axis is read within its half width (which network a point is
+    in); a cap, and a bank of a network with a basin's mouth (whose shore's distance skips
+    the mouth's group), within its cut-off radius."""
+
+    reached: list
+    """(changed segments, reach [m]): a tile that comes within ``reach`` of one is made
+    again; changed segments as a :class:`~riverflow.hydro.nearest.PolylineIndex` of
+    two-point lines."""
+    groups: list
+    """(changed segments, kept segments or None, cut-off [m]) per ψ-group of a changed bank
+    segment: the group's segments the edit changed and those it kept within the changed
+    boxes (None: none)."""
+
+
+TIE_MARGIN = 1e-3
+"""A kept segment counts as nearer than a changed one where it is nearer by this share
+(and a millimetre): well past the kernel's tie rule (_TIE, on squared distances)."""
+
+
+def _segment_lines(ends: np.ndarray):
+    """Segments (S, 4) as a :class:`~riverflow.hydro.nearest.PolylineIndex` of two-point
+    lines."""
+    from riverflow.hydro.nearest import PolylineIndex
+
+    return PolylineIndex(ends.reshape(-1, 2), np.repeat(np.arange(len(ends)), 2))
+
+
+def _flow_changes(networks, boxes: np.ndarray) -> FlowChanges:
+    """:class:`FlowChanges` of (network, kept (S,) bool) pairs (the old network with the
+    segments it keeps, the new one with those it kept); ``boxes`` (B, 4) [m] hold every
+    changed segment's cut-off reach."""
+    from riverflow.kernels.flow import KIND_AXIS, KIND_BANK, NEAR_BOX_SLACK, OPEN_BANK
+
+    reached: dict[float, list] = {}
+    groups: dict[tuple, list] = {}
+    for which, (net, kept) in enumerate(networks):
+        changed = np.flatnonzero(~kept)
+        if not len(changed):
+            continue
+        curve = np.repeat(np.arange(net.n_curves),
+                          (net.curve_seg1 - net.curve_seg0).astype(np.int64))
+        kind = net.curve_kind[curve]
+        ends = np.column_stack([net.seg_ax, net.seg_ay, net.seg_bx, net.seg_by])
+        mouths = np.unique(net.curve_comp[(net.curve_kind == KIND_BANK)
+                                          & (net.curve_hw2 == OPEN_BANK)])
+        c = curve[changed]
+        by_group = (kind[changed] == KIND_BANK) & ~np.isin(net.curve_comp[c], mouths)
+        hw = np.sqrt(net.curve_hw2[c] * (1.0 + NEAR_BOX_SLACK) + NEAR_BOX_SLACK)
+        reach = np.where(kind[changed] == KIND_AXIS, hw * (1.0 + TIE_MARGIN) + 1e-3,
+                         net.curve_cutoff[c])
+        for r in np.unique(reach[~by_group]):
+            reached.setdefault(float(r), []).append(ends[changed[~by_group & (reach == r)]])
+        seg_group = net.curve_group[curve]
+        touched = np.unique(seg_group[changed[by_group]])
+        near = np.flatnonzero(kept & (kind == KIND_BANK) & np.isin(seg_group, touched))
+        near = near[_in_boxes(ends[near], boxes)]
+        for g in touched:
+            mine = changed[by_group & (seg_group[changed] == g)]
+            others = near[seg_group[near] == g]
+            groups[(which, int(g))] = [
+                _segment_lines(ends[mine]),
+                _segment_lines(ends[others]) if len(others) else None,
+                float(net.curve_cutoff[curve[mine]].min())]
+    return FlowChanges([(_segment_lines(np.concatenate(e)), r) for r, e in reached.items()],
+                       [tuple(v) for v in groups.values()])
+
+
+def _in_boxes(ends: np.ndarray, boxes: np.ndarray) -> np.ndarray:
+    """(S,) bool: segments (S, 4) whose box meets one of ``boxes`` (B, 4)."""
+    out = np.zeros(len(ends), bool)
+    lo = np.minimum(ends[:, :2], ends[:, 2:])
+    hi = np.maximum(ends[:, :2], ends[:, 2:])
+    for s in range(0, len(boxes), 64):
+        bx = boxes[s:s + 64]
+        out |= ((lo[:, None, 0] <= bx[None, :, 2]) & (hi[:, None, 0] >= bx[None, :, 0])
+                & (lo[:, None, 1] <= bx[None, :, 3]) & (hi[:, None, 1] >= bx[None, :, 1])
+                ).any(axis=1)
+    return out
+
+
+FLOW_READ_CELLS = 8
+"""How far beyond its footprint a flow tile reads the banks, in its cells: its ψ ring
+(LATTICE_RING), ψ mirrored across a cap from there (three cells more) and the boundary
+cells' lists (a cell's diagonal), rounded up."""
+
+
+FLOW_SPLITS = 2
+"""A flow tile's bounds are tried on its square, then on its quarters where they fail, down
+to (2^FLOW_SPLITS)² squares: a bound from a square's centre is loose by twice its
+half-diagonal (the 4 km scene's edits: 37 flow tiles within the changed boxes, 27 made
+again with no split, 26 with two splits or more, 14 of them changed)."""
+
+
+def flow_tiles_reached(changes: FlowChanges, codes: np.ndarray, quadtree, cells: int
+                       ) -> np.ndarray:
+    """(K,) bool: the flow tiles of ``codes`` that may read a changed segment
+    (:class:`FlowChanges`): one within its reach of a point the tile reads (its footprint
+    widened by FLOW_READ_CELLS), or within its cut-off where its ψ-group's nearest kept
+    segment is not nearer. Bounds from a square's centre (± its half-diagonal), on the
+    tile's square and where they fail on its quarters (FLOW_SPLITS times)."""
+    codes = np.asarray(codes, np.int64)
+    if not len(codes) or not (changes.reached or changes.groups):
+        return np.zeros(len(codes), bool)
+    mask = (1 << 28) - 1
+    size = quadtree.root_size_m / np.exp2((codes >> 56).astype(np.float64))
+    centre = np.column_stack([
+        quadtree.root_x_m + ((codes & mask).astype(np.float64) + 0.5) * size,
+        quadtree.root_y_m + (((codes >> 28) & mask).astype(np.float64) + 0.5) * size])
+    side = size * (1.0 + 2.0 * FLOW_READ_CELLS / cells)
+    owner = np.arange(len(codes))
+    for split in range(FLOW_SPLITS + 1):
+        fails = _square_reads(changes, centre, 0.5 * np.sqrt(2.0) * side)
+        owner, centre, side = owner[fails], centre[fails], side[fails]
+        if split == FLOW_SPLITS or not len(owner):
+            break
+        centre = (centre[:, None, :] + 0.25 * side[:, None, None] * QUARTERS).reshape(-1, 2)
+        owner, side = np.repeat(owner, 4), np.repeat(0.5 * side, 4)
+    out = np.zeros(len(codes), bool)
+    out[owner] = True
+    return out
+
+
+QUARTERS = np.array([[-1.0, -1.0], [1.0, -1.0], [-1.0, 1.0], [1.0, 1.0]])
+"""A square's quarters' centres from its own, in quarters of its side."""
+
+
+def _square_reads(changes: FlowChanges, centre: np.ndarray, half: np.ndarray) -> np.ndarray:
+    """(K,) bool: squares (centres (K, 2), half-diagonals (K,) [m]) where a point may read a
+    changed segment (:func:`flow_tiles_reached`)."""
+    out = np.zeros(len(centre), bool)
+    for line, reach in changes.reached:
+        out |= line.distance(centre) - half < reach
+    for changed, kept, cut in changes.groups:
+        ask = np.flatnonzero(~out)
+        if not len(ask):
+            break
+        near = changed.distance(centre[ask]) - half[ask]         # the changed: no nearer
+        ask, near = ask[near < cut], near[near < cut]
+        hi = (kept.distance(centre[ask]) if kept is not None
+              else np.full(len(ask), np.inf)) + half[ask]       # a kept one: no farther
+        out[ask] = ~((hi < cut) & (near > hi * (1.0 + TIE_MARGIN) + 1e-3))
+    return out
 
 
 def _merge_boxes(boxes: np.ndarray, limit: int = 512) -> np.ndarray:
@@ -792,6 +953,8 @@ def marked_tiles(plan: EditPlan, old: Landscape, kind: str, codes: np.ndarray, c
     q = plan.scene.quadtree
     if kind == FLOW_KIND:
         near = tiles_meeting(codes, q, plan.flow_boxes, cells)
+        if plan.flow_changes is not None and near.any():
+            near[near] = flow_tiles_reached(plan.flow_changes, codes[near], q, cells)
     else:
         near = tiles_meeting(codes, q, plan.terrain_boxes, cells)
         if kind == HINTS:     # a hint reads the nearest centre line, however far

@@ -188,7 +188,7 @@ def test_a_local_drag_changes_the_water_only_near_the_points_it_moved(restore):
     _as_made_from_scratch(w)
 
 
-def _as_made_from_scratch(w) -> None:
+def _as_made_from_scratch(w, kinds=None) -> None:
     """Every resident tile not standing in equals, bit for bit, the one a fresh producer of the current network makes (the height kinds within the carving's far reach
     excepted: deviation E2 keeps a tile whose ground moved by less than HEIGHT_CHANGE_M)."""
     from riverflow.engine.edits import HEIGHT_CHANGE_M
@@ -199,6 +199,7 @@ def _as_made_from_scratch(w) -> None:
     sched = w.tiles.scheduler
     fresh = {p.kind: p for p in [*terrain_producers(w.scene), FlowProducer(w.field)]}
     compared = {}
+    fresh = {k: p for k, p in fresh.items() if kinds is None or k in kinds}
     for kind, producer in fresh.items():
         pool = w.tiles.cache.pools[kind]
         standing_in = sched.stale(kind)
@@ -218,6 +219,55 @@ def _as_made_from_scratch(w) -> None:
                 assert tile_bytes(made) == tile_bytes(resident), (kind, key)
             compared[kind] = compared.get(kind, 0) + 1
     assert set(compared) == set(fresh), compared
+
+
+@pytest.mark.parametrize("edit", ["drag", "widen"])
+def test_of_the_flow_tiles_within_reach_only_those_that_read_a_changed_bank_are_made_again(
+        restore, edit):
+    """A flow tile reads a bank through its ψ-group's nearest segment at each point: of the
+    flow tiles within a changed segment's cut-off radius, those where a kept segment of the
+    group is nearer everywhere are kept. Every tile the edit keeps (every tile of two fine
+    levels within the changed boxes) is, bit for bit, the new network's, its bank lists
+    renumbered; some are kept; the resident ones kept are the world's."""
+    from riverflow.engine.controls import drag_weight
+    from riverflow.engine.edits import flow_tiles_reached, plan_edit
+    from riverflow.hydro.tile_producer import FlowProducer
+    from riverflow.tiles.table import code_key, tile_code
+
+    w = restore
+    _look_at(w, 0.0, frames=2, back_m=400.0)              # the whole link's flow tiles
+    old_scene, old_field = w.scene, w.field
+    b = old_scene.branches[0]
+    resident = w.tiles.cache.pools["flow"].codes()
+    if edit == "drag":
+        arc = np.r_[0.0, np.cumsum(np.hypot(*np.diff(b.centerline_m, axis=0).T))]
+        weight = drag_weight((arc - arc[-1] / 3.0) / (2.0 * WIDTH_M))
+        w.move_axis(0, b.centerline_m + np.c_[np.zeros(len(arc)), 6.0 * weight])
+    else:
+        widths = b.widths_m.copy()
+        widths[len(widths) // 2:] *= 1.25                  # the downstream half wider
+        w.set_width(0, widths)
+    stale = w.tiles.scheduler.stale("flow")
+    plan = plan_edit(old_scene, old_field, w.scene, w.field)
+    q, cells = w.scene.quadtree, w.field.tiles.n_cells
+    boxed = resident[tiles_meeting(resident, q, plan.flow_boxes, cells)]
+    reached = boxed[flow_tiles_reached(plan.flow_changes, boxed, q, cells)]
+    assert len(reached) and stale & set(resident.tolist()) == set(reached.tolist())
+    kept = 0
+    old_p, new_p = FlowProducer(old_field), FlowProducer(w.field)
+    lookup = np.r_[-1, plan.segment_map].astype(np.int32)
+    for level in (5, 6):
+        n = 1 << level
+        every = np.array([tile_code(level, i, j) for j in range(n) for i in range(n)])
+        every = every[tiles_meeting(every, q, plan.flow_boxes, cells)]
+        for code in every[~flow_tiles_reached(plan.flow_changes, every, q, cells)].tolist():
+            was, now = old_p.produce(code_key(code), {}), new_p.produce(code_key(code), {})
+            was["cell_segments"] = lookup[was["cell_segments"] + 1]
+            assert tile_bytes(was) == tile_bytes(now), code_key(code)
+            kept += 1
+    assert kept > 10, kept
+    _settle(w)
+    _as_made_from_scratch(w)
 
 
 def test_a_background_edit_is_swapped_in_between_frames(restore):
