@@ -589,6 +589,7 @@ def _raster_path(lake: Lake, inside, a: np.ndarray, b: np.ndarray, cell: float):
     from scipy.sparse.csgraph import dijkstra
 
     x0, y0, x1, y1 = lake.polygon.bounds
+    shapely.prepare(inside)                  # (its many steps' tests: GEOS's prepared form)
     nx, ny = int(np.ceil((x1 - x0) / cell)) + 1, int(np.ceil((y1 - y0) / cell)) + 1
     gx, gy = np.meshgrid(0.5 * (x0 + x1) + (np.arange(nx) - 0.5 * (nx - 1)) * cell,
                          0.5 * (y0 + y1) + (np.arange(ny) - 0.5 * (ny - 1)) * cell)

@@ -558,13 +558,16 @@ class FlowField:
         from riverflow.hydro.areas import area_ring
 
         out = []
+        starts = None
         for k in self.graph.lakes():
             area = self.graph.areas[k]
             shore = {self.graph.curves[c].potential for c, _ in area.curves
                      if self.graph.curves[c].is_bank}
             if len(shore) < 2:
                 continue
-            islands = lake_flow.lake_islands(self.graph, k, tolerance_m)
+            if starts is None:
+                starts = lake_flow.loop_starts(self.graph, tolerance_m)
+            islands = lake_flow.lake_islands(self.graph, k, tolerance_m, starts)
             out.append(lake_flow.solve_lake(
                 self.graph, k, (self.tiles.root_x_m, self.tiles.root_y_m),
                 self.tiles.spacing_m(self.max_level), self._banks_potential, tolerance_m,

@@ -124,21 +124,34 @@ def _pieces(graph: HydroGraph, area: int, tolerance_m: float):
     return np.vstack(ring), lines, values, ends
 
 
-def lake_islands(graph: HydroGraph, area: int, tolerance_m: float) -> list[int]:
+def lake_islands(graph: HydroGraph, area: int, tolerance_m: float, starts=None) -> list[int]:
     """The areas that are islands in lake ``area`` (loops inside its outline, odd winding:
     a loop's vertex inside it, not a point inside the loop: a pond on a river's island is
-    inside the loops of the river and the island)."""
+    inside the loops of the river and the island). ``starts``: :func:`loop_starts` of the
+    graph, made once for all its lakes."""
     from riverflow.hydro.areas import area_ring
 
+    areas, first = starts if starts is not None else loop_starts(graph, tolerance_m)
     outline = shapely.Polygon(area_ring(graph, area, tolerance_m))
-    out = []
+    other = areas != area
+    inside = shapely.contains_xy(outline, first[other, 0], first[other, 1])
+    return areas[other][inside].tolist()
+
+
+def loop_starts(graph: HydroGraph, tolerance_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """(the areas that are not lakes and whose loops have 3 points or more (K,), each loop's
+    first point (K, 2) [m]): what :func:`lake_islands` tests."""
+    from riverflow.hydro.areas import area_ring
+
+    areas, first = [], []
     for a in range(len(graph.areas)):
-        if a == area or graph.areas[a].is_lake:
+        if graph.areas[a].is_lake:
             continue
         ring = area_ring(graph, a, tolerance_m)
-        if len(ring) >= 3 and outline.contains(shapely.Point(ring[0])):
-            out.append(a)
-    return out
+        if len(ring) >= 3:
+            areas.append(a)
+            first.append(ring[0])
+    return np.asarray(areas, np.int64), np.asarray(first, np.float64).reshape(-1, 2)
 
 
 def set_island_potentials(graph: HydroGraph, tolerance_m: float, nodes: int = 40_000) -> None:
@@ -148,8 +161,10 @@ def set_island_potentials(graph: HydroGraph, tolerance_m: float, nodes: int = 40
     curves' ``potential`` in ``graph``."""
     from riverflow.hydro.areas import area_ring
 
+    starts = None
     for k in graph.lakes():
-        isl = lake_islands(graph, k, tolerance_m)
+        starts = loop_starts(graph, tolerance_m) if starts is None else starts
+        isl = lake_islands(graph, k, tolerance_m, starts)
         if not isl:
             continue
         ring, _, values, _ = _pieces(graph, k, tolerance_m)
