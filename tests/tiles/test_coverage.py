@@ -41,9 +41,43 @@ def test_every_tile_a_capsule_overlaps_is_touched_and_few_others(rng):
         assert np.array_equal(got, np.unique(got)) and (got >> 56 == level).all()
 
 
+def test_the_touched_tiles_are_those_whose_centre_is_within_reach_of_a_segment(rng):
+    """Twin by brute force: every tile whose centre lies within its capsule's radius plus
+    half the tile's diagonal of a segment (the rule), none other, whatever the segments'
+    directions (level, vertical, a point) and their capsules' overlaps (but for centres
+    within a micrometre of that reach)."""
+    tree = Quadtree(-50.0, -50.0, 1024.0)
+    level = 6
+    size = tree.tile_size_m(level)
+    i, j = np.meshgrid(np.arange(64), np.arange(64))
+    i, j = i.ravel(), j.ravel()
+    cx, cy = -50.0 + (i + 0.5) * size, -50.0 + (j + 0.5) * size
+    for case in range(30):
+        seg = rng.uniform(-100.0, 1000.0, (int(rng.integers(1, 6)), 4))
+        if case % 5 == 1:
+            seg[:, 3] = seg[:, 1]                               # level
+        if case % 5 == 2:
+            seg[:, 2] = seg[:, 0]                               # vertical
+        if case % 5 == 3:
+            seg[:, 2:] = seg[:, :2]                             # a point
+        r = rng.choice([0.5, 5.0, 40.0, 200.0], len(seg))
+        got = touched_codes(tree, seg, r, level)
+        ax, ay, bx, by = seg.T[:, :, None]
+        dx, dy = bx - ax, by - ay
+        t = np.clip(((cx - ax) * dx + (cy - ay) * dy) / np.maximum(dx * dx + dy * dy, 1e-300),
+                    0.0, 1.0)
+        d = np.hypot(cx - ax - t * dx, cy - ay - t * dy) - (r[:, None] + size * np.sqrt(0.5))
+        code = (np.int64(level) << 56) | (j << 28) | i
+        assert np.isin(code[(d < -1e-6).any(axis=0)], got).all()
+        assert not np.isin(code[(d > 1e-6).all(axis=0)], got).any()
+        assert np.array_equal(got, np.unique(got))
+
+
 def test_a_wide_river_at_a_fine_level_costs_its_area_not_its_width_squared():
     """A 2 km wide river 10 km long at 4 m tiles: ~1.3 million tiles touched; cut into pieces
-    a tile long, their boxes held ~500 times that (Porto's river area was refused at 28 GiB)."""
+    a tile long, their boxes held ~500 times that (Porto's river area was refused at 28 GiB).
+    And one drawn in short segments (London's basins: 6 m segments of axes 200 - 1300 m
+    wide) is estimated by its extent, not its capsules' sum of areas."""
     tree = Quadtree(-1000.0, -6000.0, 16384.0)
     level = 12                                                 # 4 m tiles
     seg = np.array([[0.0, 0.0, 10_000.0, 0.0]])
@@ -54,6 +88,9 @@ def test_a_wide_river_at_a_fine_level_costs_its_area_not_its_width_squared():
     got = touched_codes(tree, short, 1000.0, 10)        # 16 m tiles
     capsule = (1000.0 * 2000.0 + np.pi * 1000.0 ** 2) / 16.0 ** 2
     assert capsule < len(got) < 1.1 * capsule
+    x = np.linspace(0.0, 10_000.0, 1668)                   # 6 m segments
+    many = np.column_stack([x[:-1], np.zeros(len(x) - 1), x[1:], np.zeros(len(x) - 1)])
+    assert touched_bytes(many, 1000.0, tree.tile_size_m(level)) < 3.0 * estimate   # not 200x
 
 
 def test_coverage_table_holds_the_touched_tiles_and_their_ancestors(rng):
