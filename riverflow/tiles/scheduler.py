@@ -930,7 +930,13 @@ class TileScheduler:
                 continue
             missing = missing[~self.producers[kind].empty_mask(missing)]
             missing = missing[self._state[kind].find_many(missing) != _FAILED]
-            for code in missing.tolist():
+            # from the last: the workers take the queue from its first, and what they finish
+            # meanwhile is installed as this goes (a view's hundreds of new tiles, a world's
+            # first view, shared with them: on a machine with cores to spare, made sooner);
+            # none is waited for (a busy machine starves the nice-19 workers)
+            for code in reversed(missing.tolist()):
+                if self._threads and self._done:
+                    self._install(replacements_s=0.0)
                 if pool.slot(code) >= 0 or (kind, code) in self._failed:
                     continue                   # made meanwhile, as another tile's dependency
                 if (kind, code) in self._pending:
