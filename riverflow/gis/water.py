@@ -2524,7 +2524,8 @@ def skeleton(water, tolerance_m: float = 0.25, frame=None, ends=None, dead=None)
                        np.hypot(step[:, 0], step[:, 1]).tolist()):
         nbr[a][b] = d
         nbr[b][a] = d
-    _prune(nbr, radius, _open_ends(nbr, uniq, radius, open_edge, ends, spacing), uniq, dead)
+    _prune(nbr, radius, _open_ends(nbr, uniq, radius, open_edge, ends, spacing, boundary),
+           uniq, dead)
     _keep_longest_piece(nbr)
     chains = _chains(nbr, uniq)
     chains, loops = _merge_junctions(chains, uniq, radius)
@@ -2641,29 +2642,62 @@ def _open_edge(water, frame, width: float, tolerance_m: float):
     the water: no bank), or None. A piece counts when it is at least OPEN_EDGE_WIDTHS ×
     ``width`` long and runs across the water, not along it: the rest of the outline lies at
     least a quarter of its length from its middle (a straight bank on the frame's edge has
-    the other bank much nearer)."""
+    the other bank much nearer), times the sine of the acute angle a bank leaves one of its
+    ends at (:func:`_leaving_sine`: the edge cutting a river obliquely, the water a wedge
+    between it and that bank, whose middle lies nearer the bank by that sine)."""
     if frame is None:
         return None
-    band = shapely.buffer(frame.boundary, 1e-6 * max(width, 1.0) + 1e-9, cap_style="flat")
+    tol = 1e-6 * max(width, 1.0) + 1e-9
+    band = shapely.buffer(frame.boundary, tol, cap_style="flat")
     if shapely.difference(water.exterior, band).is_empty:
         return None     # the water is its own frame (a rectangle): the data's edge says nothing
     on = shapely.intersection(water.boundary, band)
     rest = shapely.difference(water.boundary, band)
     pieces = [g for g in shapely.get_parts(shapely.line_merge(on) if on.geom_type in (
         "MultiLineString", "LineString") else on)
-        if g.geom_type == "LineString" and g.length >= OPEN_EDGE_WIDTHS * width
-        and shapely.distance(g.interpolate(0.5, normalized=True), rest) >= 0.25 * g.length]
+        if g.geom_type == "LineString" and g.length >= OPEN_EDGE_WIDTHS * width]
+    near = [shapely.distance(g.interpolate(0.5, normalized=True), rest) for g in pieces]
+    pieces = [g for g, d in zip(pieces, near) if d >= 0.25 * g.length
+              or d >= 0.25 * g.length * _leaving_sine(g, rest, tol)]
     return shapely.MultiLineString(pieces) if pieces else None
 
 
-def _open_ends(nbr, xy: np.ndarray, radius: np.ndarray, open_edge, ends, spacing: float):
+def _leaving_sine(piece, rest, tol: float) -> float:
+    """The sine of the sharpest acute angle at which the outline ``rest`` leaves an end of
+    ``piece`` (the water's side of the angle; its direction from the end to its point half
+    the piece's length along it), or 1 where both are right or obtuse."""
+    parts = [g for g in shapely.get_parts(shapely.line_merge(rest) if rest.geom_type
+                                           == "MultiLineString" else rest)
+             if g.geom_type == "LineString" and g.length > 0]
+    c = np.asarray(piece.coords)
+    sine = 1.0
+    for a, b in ((c[0], c[-1]), (c[-1], c[0])):
+        for g in parts:
+            e = np.asarray(g.coords)[[0, -1]]
+            d = np.hypot(*(e - a).T)
+            if d.min() > 4.0 * tol:
+                continue
+            at = min(0.5 * piece.length, g.length)
+            q = np.asarray(g.interpolate(at if d[0] <= d[1] else g.length - at).coords[0])
+            u, v = b - a, q - a
+            cos = float(u @ v) / max(float(np.hypot(*u) * np.hypot(*v)), 1e-300)
+            if cos > 0.0:
+                sine = min(sine, math.sqrt(max(0.0, 1.0 - cos * cos)))
+    return sine
+
+
+def _open_ends(nbr, xy: np.ndarray, radius: np.ndarray, open_edge, ends, spacing: float,
+               boundary=None):
     """Which skeleton nodes are ends never to prune: for each piece of ``open_edge`` and
     each point of ``ends``, the widest free end whose inscribed circle reaches it (the axis
-    running out between the banks; the spurs into the corners beside it are narrower). Two
-    pieces of the edge (an island cut open by it between them) take two ends where there
-    are: a piece whose widest end is another piece's takes the widest of the rest that is
-    at least a quarter of the piece wide (the channel on its side of the island), the longer
-    pieces first."""
+    running out between the banks; the spurs into the corners beside it are narrower) and,
+    for a piece, reaches it over water: the way from the end to the piece's nearest point
+    crosses no shore (``boundary``: the water's; a corner of the water beside an island the
+    edge cuts open, its circle wide for want of outline points by the edge, reached over the
+    island the piece of the channel on its other side). Two pieces of the edge (an island
+    cut open by it between them) take two ends where there are: a piece whose widest end is
+    another piece's takes the widest of the rest that is at least a quarter of the piece wide
+    (the channel on its side of the island), the longer pieces first."""
     keep = np.zeros(len(xy), bool)
     leaves = np.array([i for i in range(len(nbr)) if len(nbr[i]) == 1], dtype=np.int64)
     if not len(leaves):
@@ -2676,6 +2710,12 @@ def _open_ends(nbr, xy: np.ndarray, radius: np.ndarray, open_edge, ends, spacing
     for k, t in enumerate(targets):
         d = shapely.distance(t, shapely.points(xy[leaves]))
         near = np.flatnonzero(d <= reach)
+        if k < len(pieces) and boundary is not None and len(near):
+            p = xy[leaves[near]]
+            q = shapely.get_coordinates(shapely.shortest_line(shapely.points(p), t)
+                                        ).reshape(-1, 2, 2)[:, 1]
+            way = shapely.linestrings(np.stack([p, p + (1.0 - 1e-6) * (q - p)], axis=1))
+            near = near[(np.hypot(*(q - p).T) == 0.0) | ~shapely.intersects(boundary, way)]
         if not len(near):
             continue
         best = near[int(np.argmax(radius[leaves[near]]))]
