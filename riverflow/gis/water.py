@@ -770,6 +770,13 @@ def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy
             # (a river's channels between its islands and points of land, each short: the
             # river itself was read as a pond)
             longest = net.longest_path()
+        if several and net.channels and longest < MIN_CHANNEL_WIDTHS * widest and sum(
+                frame.boundary.distance(shapely.Point(net.nodes[n])) <= max(4.0 * tolerance_m,
+                                                                            0.05 * w)
+                for _, n, w in net.free_ends()) >= 2:
+            # (a short river the data's edge cuts twice, obliquely, its ends there wide: it
+            # runs on beyond both, no pond)
+            longest = math.inf
         if not net.channels or several and (speck or longest < MIN_CHANNEL_WIDTHS * widest):
             if _join_open_water(builder, part, k, "beside open water, with no path along its "
                                 f"channels longer than {MIN_CHANNEL_WIDTHS:g} times its width"):
