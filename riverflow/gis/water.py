@@ -2810,8 +2810,10 @@ def _restore_ends(nbr: list[dict[int, float]], gone: list[tuple[int, int, float]
     """Give a pruned skeleton back the ends it needs (two at least, :func:`_end_groups`):
     from the nodes still in it, the pruned branches' trunks (each followed until it forks,
     where a river's end cut square across parts into its two corners, or ends), the trunks
-    whose ends lie farthest from each other and from the free ends left. ``pockets``: free
-    ends of dead ends that are no ends of the water (neither counted nor carried on)."""
+    whose ends' inscribed circles reach farthest from each other and from the free ends left
+    (a river's end, wide, not a spur into a bend of its bank beside it, a little farther off
+    but narrow). ``pockets``: free ends of dead ends that are no ends of the water (neither
+    counted nor carried on)."""
     pruned: dict[int, dict[int, float]] = {}
     for a, b, d in gone:
         pruned.setdefault(a, {})[b] = d
@@ -2833,12 +2835,12 @@ def _restore_ends(nbr: list[dict[int, float]], gone: list[tuple[int, int, float]
         ends = xy[leaves + [p[-1] for p in chosen]]
         if len(ends):
             def score(p, ends=ends):
-                return float(np.hypot(*(ends - xy[p[-1]]).T).min())
+                return float(np.hypot(*(ends - xy[p[-1]]).T).min()) + float(radius[p[-1]])
         else:              # none left: the one farthest from another trunk's end
             tips = xy[[q[-1] for q in trunks]]
 
             def score(p):
-                return float(np.hypot(*(tips - xy[p[-1]]).T).max())
+                return float(np.hypot(*(tips - xy[p[-1]]).T).max()) + float(radius[p[-1]])
         best = max((p for p in trunks if p not in chosen), key=score)
         chosen.append(best)
     for path in chosen:

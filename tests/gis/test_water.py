@@ -1015,6 +1015,31 @@ def test_an_end_on_the_datas_edge_is_reached_over_water(tmp_path):
     _runs_down_its_centre(graph, centre, [24, 26, 28])
 
 
+def test_a_river_end_given_back_is_the_wide_one(tmp_path):
+    """The survey's seed 145 of islands that may cross a bank: a 166 m river cut square
+    across at both ends (not on the data's edge), two long islands near its upstream end
+    and four crossing its left bank (slots, dead ends). Pruning took the upstream end's
+    short reach, and once the slots were basins the skeleton had one end: of the pruned
+    trunks given back, the one whose end lay farthest from the other end was a spur into a
+    bend of the bank beside the river's end, a basin again, and the river was read as still
+    water (a lake). The trunk given back is the one whose end's inscribed circle reaches
+    farthest: the river's end. The river builds, none of it still, and runs one way."""
+    water, centre, _, _ = survey_river(
+        841.74, 166.13, 144.6, 202.35, [(543.0037, 41.1249, 331.4931, 11.4649, 0.1642),
+                                        (273.7906, 133.5763, 153.4774, 18.3332, -0.1999),
+                                        (429.3499, 136.5156, 120.7559, 18.9408, -0.1411),
+                                        (520.9561, 96.0457, 94.8965, 21.8957, 0.1393),
+                                        (648.8994, 25.9922, 404.3253, 14.2791, 0.1701),
+                                        (103.0103, 70.9492, 225.6351, 21.4389, 0.1384)],
+        shift=(0.0, 150.0))
+    builder = rf.read_water(write_polygons(tmp_path / "ends.geojson", [water]),
+                            origin_m=ORIGIN)
+    graph = builder.build()
+    assert builder.report.derived["axes"]
+    assert not any("still water" in r.what for r in builder.report.repairs)
+    _runs_down_its_centre(graph, centre, [2, 10, 31, 34, 37])
+
+
 def _builds_running_one_way(tmp_path, water, centre, rows, repaired: str) -> None:
     """``water`` (a survey river, shifted as :func:`survey_river` draws it) reads and builds
     with an island made free for ``repaired`` (reported), and the flow at its centre line's
