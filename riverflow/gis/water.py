@@ -2665,31 +2665,42 @@ def _open_edge(water, frame, width: float, tolerance_m: float):
         if g.geom_type == "LineString" and g.length >= OPEN_EDGE_WIDTHS * width]
     near = [shapely.distance(g.interpolate(0.5, normalized=True), rest) for g in pieces]
     pieces = [g for g, d in zip(pieces, near) if d >= 0.25 * g.length
-              or d >= 0.25 * g.length * _leaving_sine(g, rest, tol)]
+              or d >= 0.25 * g.length * _leaving_sine(g, rest)]
     return shapely.MultiLineString(pieces) if pieces else None
 
 
-def _leaving_sine(piece, rest, tol: float) -> float:
+def _leaving_sine(piece, rest) -> float:
     """The sine of the sharpest acute angle at which the outline ``rest`` leaves an end of
-    ``piece`` (the water's side of the angle; its direction from the end to its point half
-    the piece's length along it), or 1 where both are right or obtuse."""
+    ``piece`` (the water's side of the angle, between the piece's way from that end over a
+    hundredth of its length and the way from the end to the outline's point half the
+    piece's length along it), or 1 where both are right or obtuse."""
     parts = [g for g in shapely.get_parts(shapely.line_merge(rest) if rest.geom_type
                                            == "MultiLineString" else rest)
              if g.geom_type == "LineString" and g.length > 0]
     c = np.asarray(piece.coords)
+    if not piece.length > 0:
+        return 1.0
+    # (a piece round a corner of the frame runs along the edge at each end, not along its
+    # chord; the band's cut leaves slivers of edges at its ends)
+    near = shapely.get_coordinates(shapely.line_interpolate_point(
+        piece, [0.01 * piece.length, 0.99 * piece.length]))
     sine = 1.0
-    for a, b in ((c[0], c[-1]), (c[-1], c[0])):
-        for g in parts:
-            e = np.asarray(g.coords)[[0, -1]]
-            d = np.hypot(*(e - a).T)
-            if d.min() > 4.0 * tol:
-                continue
-            at = min(0.5 * piece.length, g.length)
-            q = np.asarray(g.interpolate(at if d[0] <= d[1] else g.length - at).coords[0])
-            u, v = b - a, q - a
-            cos = float(u @ v) / max(float(np.hypot(*u) * np.hypot(*v)), 1e-300)
-            if cos > 0.0:
-                sine = min(sine, math.sqrt(max(0.0, 1.0 - cos * cos)))
+    for a, b in ((c[0], near[0]), (c[-1], near[1])):
+        # (the outline leaving the end: the part whose end is nearest it; a bank at an
+        # angle θ leaves the band round the frame tol / sin θ from the end)
+        if not parts:
+            break
+        d = [np.hypot(*(np.asarray(g.coords)[[0, -1]] - a).T) for g in parts]
+        k = int(np.argmin([x.min() for x in d]))
+        g, d = parts[k], d[k]
+        if d.min() > 0.01 * piece.length:
+            continue
+        at = min(0.5 * piece.length, g.length)
+        q = np.asarray(g.interpolate(at if d[0] <= d[1] else g.length - at).coords[0])
+        u, v = b - a, q - a
+        cos = float(u @ v) / max(float(np.hypot(*u) * np.hypot(*v)), 1e-300)
+        if cos > 0.0:
+            sine = min(sine, math.sqrt(max(0.0, 1.0 - cos * cos)))
     return sine
 
 
