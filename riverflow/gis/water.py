@@ -770,6 +770,13 @@ def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy
             # (a river's channels between its islands and points of land, each short: the
             # river itself was read as a pond)
             longest = net.longest_path()
+        if several and net.channels and longest < MIN_CHANNEL_WIDTHS * widest and sum(
+                frame.boundary.distance(shapely.Point(net.nodes[n])) <= max(4.0 * tolerance_m,
+                                                                            0.05 * w)
+                for _, n, w in net.free_ends()) >= 2:
+            # (a short river the data's edge cuts twice, obliquely, its ends there wide: it
+            # runs on beyond both, no pond)
+            longest = math.inf
         if not net.channels or several and (speck or longest < MIN_CHANNEL_WIDTHS * widest):
             if _join_open_water(builder, part, k, "beside open water, with no path along its "
                                 f"channels longer than {MIN_CHANNEL_WIDTHS:g} times its width"):
@@ -2524,7 +2531,8 @@ def skeleton(water, tolerance_m: float = 0.25, frame=None, ends=None, dead=None)
                        np.hypot(step[:, 0], step[:, 1]).tolist()):
         nbr[a][b] = d
         nbr[b][a] = d
-    _prune(nbr, radius, _open_ends(nbr, uniq, radius, open_edge, ends, spacing), uniq, dead)
+    _prune(nbr, radius, _open_ends(nbr, uniq, radius, open_edge, ends, spacing, boundary),
+           uniq, dead)
     _keep_longest_piece(nbr)
     chains = _chains(nbr, uniq)
     chains, loops = _merge_junctions(chains, uniq, radius)
@@ -2641,29 +2649,73 @@ def _open_edge(water, frame, width: float, tolerance_m: float):
     the water: no bank), or None. A piece counts when it is at least OPEN_EDGE_WIDTHS ×
     ``width`` long and runs across the water, not along it: the rest of the outline lies at
     least a quarter of its length from its middle (a straight bank on the frame's edge has
-    the other bank much nearer)."""
+    the other bank much nearer), times the sine of the acute angle a bank leaves one of its
+    ends at (:func:`_leaving_sine`: the edge cutting a river obliquely, the water a wedge
+    between it and that bank, whose middle lies nearer the bank by that sine)."""
     if frame is None:
         return None
-    band = shapely.buffer(frame.boundary, 1e-6 * max(width, 1.0) + 1e-9, cap_style="flat")
+    tol = 1e-6 * max(width, 1.0) + 1e-9
+    band = shapely.buffer(frame.boundary, tol, cap_style="flat")
     if shapely.difference(water.exterior, band).is_empty:
         return None     # the water is its own frame (a rectangle): the data's edge says nothing
     on = shapely.intersection(water.boundary, band)
     rest = shapely.difference(water.boundary, band)
     pieces = [g for g in shapely.get_parts(shapely.line_merge(on) if on.geom_type in (
         "MultiLineString", "LineString") else on)
-        if g.geom_type == "LineString" and g.length >= OPEN_EDGE_WIDTHS * width
-        and shapely.distance(g.interpolate(0.5, normalized=True), rest) >= 0.25 * g.length]
+        if g.geom_type == "LineString" and g.length >= OPEN_EDGE_WIDTHS * width]
+    near = [shapely.distance(g.interpolate(0.5, normalized=True), rest) for g in pieces]
+    pieces = [g for g, d in zip(pieces, near) if d >= 0.25 * g.length
+              or d >= 0.25 * g.length * _leaving_sine(g, rest)]
     return shapely.MultiLineString(pieces) if pieces else None
 
 
-def _open_ends(nbr, xy: np.ndarray, radius: np.ndarray, open_edge, ends, spacing: float):
+def _leaving_sine(piece, rest) -> float:
+    """The sine of the sharpest acute angle at which the outline ``rest`` leaves an end of
+    ``piece`` (the water's side of the angle, between the piece's way from that end over a
+    hundredth of its length and the way from the end to the outline's point half the
+    piece's length along it), or 1 where both are right or obtuse."""
+    parts = [g for g in shapely.get_parts(shapely.line_merge(rest) if rest.geom_type
+                                           == "MultiLineString" else rest)
+             if g.geom_type == "LineString" and g.length > 0]
+    c = np.asarray(piece.coords)
+    if not piece.length > 0:
+        return 1.0
+    # (a piece round a corner of the frame runs along the edge at each end, not along its
+    # chord; the band's cut leaves slivers of edges at its ends)
+    near = shapely.get_coordinates(shapely.line_interpolate_point(
+        piece, [0.01 * piece.length, 0.99 * piece.length]))
+    sine = 1.0
+    for a, b in ((c[0], near[0]), (c[-1], near[1])):
+        # (the outline leaving the end: the part whose end is nearest it; a bank at an
+        # angle θ leaves the band round the frame tol / sin θ from the end)
+        if not parts:
+            break
+        d = [np.hypot(*(np.asarray(g.coords)[[0, -1]] - a).T) for g in parts]
+        k = int(np.argmin([x.min() for x in d]))
+        g, d = parts[k], d[k]
+        if d.min() > 0.01 * piece.length:
+            continue
+        at = min(0.5 * piece.length, g.length)
+        q = np.asarray(g.interpolate(at if d[0] <= d[1] else g.length - at).coords[0])
+        u, v = b - a, q - a
+        cos = float(u @ v) / max(float(np.hypot(*u) * np.hypot(*v)), 1e-300)
+        if cos > 0.0:
+            sine = min(sine, math.sqrt(max(0.0, 1.0 - cos * cos)))
+    return sine
+
+
+def _open_ends(nbr, xy: np.ndarray, radius: np.ndarray, open_edge, ends, spacing: float,
+               boundary=None):
     """Which skeleton nodes are ends never to prune: for each piece of ``open_edge`` and
     each point of ``ends``, the widest free end whose inscribed circle reaches it (the axis
-    running out between the banks; the spurs into the corners beside it are narrower). Two
-    pieces of the edge (an island cut open by it between them) take two ends where there
-    are: a piece whose widest end is another piece's takes the widest of the rest that is
-    at least a quarter of the piece wide (the channel on its side of the island), the longer
-    pieces first."""
+    running out between the banks; the spurs into the corners beside it are narrower) and,
+    for a piece, reaches it over water: the way from the end to the piece's nearest point
+    crosses no shore (``boundary``: the water's; a corner of the water beside an island the
+    edge cuts open, its circle wide for want of outline points by the edge, reached over the
+    island the piece of the channel on its other side). Two pieces of the edge (an island
+    cut open by it between them) take two ends where there are: a piece whose widest end is
+    another piece's takes the widest of the rest that is at least a quarter of the piece wide
+    (the channel on its side of the island), the longer pieces first."""
     keep = np.zeros(len(xy), bool)
     leaves = np.array([i for i in range(len(nbr)) if len(nbr[i]) == 1], dtype=np.int64)
     if not len(leaves):
@@ -2676,6 +2728,12 @@ def _open_ends(nbr, xy: np.ndarray, radius: np.ndarray, open_edge, ends, spacing
     for k, t in enumerate(targets):
         d = shapely.distance(t, shapely.points(xy[leaves]))
         near = np.flatnonzero(d <= reach)
+        if k < len(pieces) and boundary is not None and len(near):
+            p = xy[leaves[near]]
+            q = shapely.get_coordinates(shapely.shortest_line(shapely.points(p), t)
+                                        ).reshape(-1, 2, 2)[:, 1]
+            way = shapely.linestrings(np.stack([p, p + (1.0 - 1e-6) * (q - p)], axis=1))
+            near = near[(np.hypot(*(q - p).T) == 0.0) | ~shapely.intersects(boundary, way)]
         if not len(near):
             continue
         best = near[int(np.argmax(radius[leaves[near]]))]
@@ -2763,8 +2821,10 @@ def _restore_ends(nbr: list[dict[int, float]], gone: list[tuple[int, int, float]
     """Give a pruned skeleton back the ends it needs (two at least, :func:`_end_groups`):
     from the nodes still in it, the pruned branches' trunks (each followed until it forks,
     where a river's end cut square across parts into its two corners, or ends), the trunks
-    whose ends lie farthest from each other and from the free ends left. ``pockets``: free
-    ends of dead ends that are no ends of the water (neither counted nor carried on)."""
+    whose ends' inscribed circles reach farthest from each other and from the free ends left
+    (a river's end, wide, not a spur into a bend of its bank beside it, a little farther off
+    but narrow). ``pockets``: free ends of dead ends that are no ends of the water (neither
+    counted nor carried on)."""
     pruned: dict[int, dict[int, float]] = {}
     for a, b, d in gone:
         pruned.setdefault(a, {})[b] = d
@@ -2786,12 +2846,12 @@ def _restore_ends(nbr: list[dict[int, float]], gone: list[tuple[int, int, float]
         ends = xy[leaves + [p[-1] for p in chosen]]
         if len(ends):
             def score(p, ends=ends):
-                return float(np.hypot(*(ends - xy[p[-1]]).T).min())
+                return float(np.hypot(*(ends - xy[p[-1]]).T).min()) + float(radius[p[-1]])
         else:              # none left: the one farthest from another trunk's end
             tips = xy[[q[-1] for q in trunks]]
 
             def score(p):
-                return float(np.hypot(*(tips - xy[p[-1]]).T).max())
+                return float(np.hypot(*(tips - xy[p[-1]]).T).max()) + float(radius[p[-1]])
         best = max((p for p in trunks if p not in chosen), key=score)
         chosen.append(best)
     for path in chosen:

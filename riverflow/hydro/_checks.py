@@ -307,8 +307,10 @@ def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6,
             problems.append(f"bank {i}: water is not on its left{' and right' if i in two_sided else ''}"
                             f" at {wrong_side[i][0]} of {wrong_side[i][1]} segments")
         if i in on_right:
+            x, y = graph.vertices(i).mean(axis=0)
             problems.append(f"bank {i}: its axis {c.river} lies on its right at {on_right[i][0]} "
-                            f"of {on_right[i][1]} segments (water must be on the left)")
+                            f"of {on_right[i][1]} segments (water must be on the left), near "
+                            f"({x:.1f}, {y:.1f})")
         if i in too_far:
             problems.append(f"bank {i}: {too_far[i][0]} of its {too_far[i][1]} points "
                             f"lie farther from axis {c.river} than the "
@@ -375,7 +377,9 @@ def _discharge_problems(graph: HydroGraph, branches, rel_tol: float,
         q = br[-1]
         found = [(p[1] - p[0], q + e) for p, e in zip(psi[k], extra[k]) if not np.isnan(p).any()]
         if not found:
-            problems.append(f"branch {k}: no banks found across its middle")
+            x, y = origins[k * len(fractions) + len(fractions) // 2]
+            problems.append(f"branch {k}: no banks found across its middle, near ({x:.1f}, "
+                            f"{y:.1f})")
         for dpsi, q in found:
             if not abs(dpsi - q) <= rel_tol * max(1.0, abs(q)):
                 problems.append(f"branch {k}: ψ(right) − ψ(left) = {dpsi:g}, discharge {q:g}")

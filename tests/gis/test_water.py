@@ -948,6 +948,98 @@ def test_a_short_reach_that_leads_nowhere_is_taken_as_a_miss(tmp_path):
     _builds_running_one_way(tmp_path, water, centre, [4, 20, 26], "do not meet")
 
 
+SEED_79 = (664.46, 233.12, 215.19, 158.94)
+"""The survey's seed 79 of islands that may cross a bank: a 233 m river 664 m long whose
+data's box cuts its upstream end obliquely, the upstream bank meeting the edge at 14°."""
+SEED_79_ISLANDS = [(133.2652, 156.7672, 262.254, 11.9739, 0.0485),
+                   (96.7447, 175.5158, 499.5374, 16.3684, 0.1775),
+                   (465.4947, -18.2029, 404.22, 33.045, -0.1771)]
+
+
+def _runs_down_its_centre(graph, centre, rows) -> None:
+    """At the survey river's centre points ``rows``: in the water, running down the river
+    (its centre line's way)."""
+    pts = centre[rows] @ SLOPE + (0.0, 150.0)
+    status, v = rf.FlowField(graph).query(pts)
+    down = np.gradient(centre, axis=0)[rows] @ SLOPE
+    along = np.einsum("ij,ij->i", v, down / np.hypot(*down.T)[:, None])
+    assert (status == INSIDE).all() and len(set(np.sign(along))) == 1
+    assert (np.abs(along) > 0.5 * np.hypot(*v.T)).all()
+
+
+def test_a_river_cut_obliquely_by_the_datas_edge_ends_across_it(tmp_path):
+    """The survey's seed 79 with only the island that cuts off a pond at its upstream
+    corner: the data's edge cuts the river obliquely, a wedge of water between the edge and
+    the upstream bank, whose middle lies 25 m from that bank (less than a quarter of the
+    edge's 270 m). That piece of the edge was read as a straight bank lying on the data's
+    edge, and the river's end was the wedge's tip. It is an open end (its middle as far
+    from the bank as the angle the bank leaves it at allows), and the river, short for its
+    width between the two edges that cut it, is no pond: its axis ends on the edge away
+    from the tip and the water runs one way."""
+    river = survey_river(*SEED_79, SEED_79_ISLANDS[1:2], clip=(0.2912, 0.2245),
+                         shift=(0.0, 150.0))
+    water, centre, edge = river.water, river.centre, river.edges[0]
+    assert water.geom_type == "MultiPolygon"             # the river and the pond
+    builder = rf.read_water(write_polygons(tmp_path / "oblique.geojson", [water]),
+                            origin_m=ORIGIN)
+    graph = builder.build()
+    assert builder.report.derived["axes"] == {"skeleton": 1}
+    ends = np.array([p for _, c in _channels(builder) for p in (c[0], c[-1])])
+    at = ends[np.abs(ends[:, 0] - edge) < 1e-6]
+    river_part = max(water.geoms, key=lambda g: g.area)
+    lo = min(y for x, y in river_part.exterior.coords if abs(x - edge) < 1e-6)
+    assert len(at) == 1 and at[0, 1] > lo + 100.0, (at, lo)     # not in the wedge's tip
+    _runs_down_its_centre(graph, centre, [21, 24, 27, 30])
+
+
+def test_an_end_on_the_datas_edge_is_reached_over_water(tmp_path):
+    """The survey's seed 79 with three islands: one crossing the data's oblique edge (two
+    pieces of it, one either side of its stub), one cutting off a pond. A corner of the
+    water below the stub, its inscribed circle wide for want of outline points by the
+    edge, reached the piece above the stub across it and was kept as that piece's end: the
+    channel above had none, its end left beside the corner's ("branches … do not meet").
+    An end reaches a piece only over water: one end either side of the stub, the network
+    builds and the water runs one way."""
+    river = survey_river(*SEED_79, SEED_79_ISLANDS, clip=(0.2912, 0.2245),
+                         shift=(0.0, 150.0))
+    water, centre, edge = river.water, river.centre, river.edges[0]
+    builder = rf.read_water(write_polygons(tmp_path / "stub.geojson", [water]),
+                            origin_m=ORIGIN)
+    graph = builder.build()
+    stub = shapely.intersection(river.islands[0], shapely.LineString([(edge, -1e4),
+                                                                     (edge, 1e4)]))
+    assert not stub.is_empty
+    ends = np.array([p for _, c in _channels(builder) for p in (c[0], c[-1])])
+    at = ends[np.abs(ends[:, 0] - edge) < 1e-6, 1]
+    assert (at < stub.bounds[1]).sum() == 1 and (at > stub.bounds[3]).sum() == 1, at
+    _runs_down_its_centre(graph, centre, [24, 26, 28])
+
+
+def test_a_river_end_given_back_is_the_wide_one(tmp_path):
+    """The survey's seed 145 of islands that may cross a bank: a 166 m river cut square
+    across at both ends (not on the data's edge), two long islands near its upstream end
+    and four crossing its left bank (slots, dead ends). Pruning took the upstream end's
+    short reach, and once the slots were basins the skeleton had one end: of the pruned
+    trunks given back, the one whose end lay farthest from the other end was a spur into a
+    bend of the bank beside the river's end, a basin again, and the river was read as still
+    water (a lake). The trunk given back is the one whose end's inscribed circle reaches
+    farthest: the river's end. The river builds, none of it still, and runs one way."""
+    water, centre, _, _ = survey_river(
+        841.74, 166.13, 144.6, 202.35, [(543.0037, 41.1249, 331.4931, 11.4649, 0.1642),
+                                        (273.7906, 133.5763, 153.4774, 18.3332, -0.1999),
+                                        (429.3499, 136.5156, 120.7559, 18.9408, -0.1411),
+                                        (520.9561, 96.0457, 94.8965, 21.8957, 0.1393),
+                                        (648.8994, 25.9922, 404.3253, 14.2791, 0.1701),
+                                        (103.0103, 70.9492, 225.6351, 21.4389, 0.1384)],
+        shift=(0.0, 150.0))
+    builder = rf.read_water(write_polygons(tmp_path / "ends.geojson", [water]),
+                            origin_m=ORIGIN)
+    graph = builder.build()
+    assert builder.report.derived["axes"]
+    assert not any("still water" in r.what for r in builder.report.repairs)
+    _runs_down_its_centre(graph, centre, [2, 10, 31, 34, 37])
+
+
 def _builds_running_one_way(tmp_path, water, centre, rows, repaired: str) -> None:
     """``water`` (a survey river, shifted as :func:`survey_river` draws it) reads and builds
     with an island made free for ``repaired`` (reported), and the flow at its centre line's

@@ -110,7 +110,8 @@ def test_a_bank_beyond_its_axis_reach_is_found(confluence):
 
 def test_a_bank_with_its_axis_on_the_right_is_found(confluence):
     """A bank mirrored across its axis (same direction): the axis lies on its right there
-    (the water the areas describe changes too, so other banks' tests fail as well)."""
+    (the water the areas describe changes too, so other banks' tests fail as well); the
+    problem says where the bank lies (its vertices' mean)."""
     graph, branches = confluence
     bad = copy.deepcopy(graph)
     main, banks = _main_banks(bad)
@@ -119,8 +120,9 @@ def test_a_bank_with_its_axis_on_the_right_is_found(confluence):
     y_axis = np.interp(c.points[:, 0], axis[:, 0], axis[:, 1])
     c.points = np.stack([c.points[:, 0], 2.0 * y_axis - c.points[:, 1]], axis=1)
     problems = graph_problems(bad, branches)
-    assert any(p.startswith(f"bank {banks[1]}: its axis {main} lies on its right") for p in problems), \
-        problems
+    x, y = bad.vertices(banks[1]).mean(axis=0)
+    assert any(p.startswith(f"bank {banks[1]}: its axis {main} lies on its right")
+               and p.endswith(f"near ({x:.1f}, {y:.1f})") for p in problems), problems
 
 
 def _scalar_hits(origin, direction, reach, lines, tree):
