@@ -2499,7 +2499,9 @@ def skeleton(water, tolerance_m: float = 0.25, frame=None, ends=None, dead=None)
         outer = np.arange(len(pts)) < len(per_ring[0])
         off = shapely.distance(open_edge, shapely.points(pts))
         banks = pts[~outer | (off > 1e-6 * approx_width)]
-        pts = pts[~outer | (off > 0.25 * approx_width)]
+        near = outer & (off <= 0.25 * approx_width)
+        near[near] = _sees(water, pts[near], open_edge, spacing)
+        pts = pts[~near]
     seg = _voronoi_edges(pts)
     inside = np.stack([shapely.contains_xy(water, seg[:, 0, 0], seg[:, 0, 1]),
                        shapely.contains_xy(water, seg[:, 1, 0], seg[:, 1, 1])], axis=1)
@@ -2634,6 +2636,25 @@ def _out_through(seg: np.ndarray, inside: np.ndarray, kept: np.ndarray, open_edg
     p, q = out[:, 0], out[:, 1]
     short = shapely.linestrings(np.stack([p, p + (1.0 - 1e-6) * (q - p)], axis=1))
     return out[~shapely.intersects(boundary, short)]
+
+
+def _sees(water, pts: np.ndarray, open_edge, spacing: float) -> np.ndarray:
+    """Which outline points ``pts`` (N, 2) see ``open_edge`` over the water: the straight
+    line to its nearest point keeps to the water (a land's length under it at most a
+    spacing). A shore behind a point of land beside the edge (Colville's delta: a channel
+    beside a point of land running out to the sea, within a quarter of the delta's mean
+    width of its open edge) is a bank of its own channel, not the end of the one cut."""
+    if not len(pts):
+        return np.zeros(0, bool)
+    to = shapely.get_coordinates(shapely.shortest_line(shapely.points(pts), open_edge))
+    p, q = to[0::2], to[1::2]
+    f = np.linspace(0.0, 1.0, 10)[1:-1]
+    xy = (p[:, None, :] + f[None, :, None] * (q - p)[:, None, :]).reshape(-1, 2)
+    land = ~shapely.contains_xy(water, xy[:, 0], xy[:, 1])
+    if land.any():
+        land[land] = shapely.distance(water.boundary, shapely.points(xy[land])) > 1e-3 * spacing
+    step = np.hypot(*(q - p).T) / (len(f) + 1)
+    return land.reshape(len(p), len(f)).sum(axis=1) * step <= spacing
 
 
 def _open_edge(water, frame, width: float, tolerance_m: float):
