@@ -2680,11 +2680,13 @@ def _open_edge(water, frame, width: float, tolerance_m: float):
 def _open_ends(nbr, xy: np.ndarray, radius: np.ndarray, open_edge, ends, spacing: float):
     """Which skeleton nodes are ends never to prune: for each piece of ``open_edge`` and
     each point of ``ends``, the widest free end whose inscribed circle reaches it (the axis
-    running out between the banks; the spurs into the corners beside it are narrower). Two
-    pieces of the edge (an island cut open by it between them) take two ends where there
-    are: a piece whose widest end is another piece's takes the widest of the rest that is
-    at least a quarter of the piece wide (the channel on its side of the island), the longer
-    pieces first."""
+    running out between the banks; the spurs into the corners beside it are narrower), of
+    those nearer it than any other piece where there are (a wide channel's end beside a
+    mouth, its circle reaching the next mouth's piece: Colville's delta). Two pieces of the
+    edge (an island cut open by it between them) take two ends where there are: a piece
+    whose widest end is another piece's takes the widest of the rest that is at least a
+    quarter of the piece wide (the channel on its side of the island), the longer pieces
+    first."""
     keep = np.zeros(len(xy), bool)
     leaves = np.array([i for i in range(len(nbr)) if len(nbr[i]) == 1], dtype=np.int64)
     if not len(leaves):
@@ -2694,9 +2696,14 @@ def _open_ends(nbr, xy: np.ndarray, radius: np.ndarray, open_edge, ends, spacing
     targets = pieces + [shapely.Point(p) for p in (ends if ends is not None else ())]
     reach = radius[leaves] + 2.0 * spacing
     taken = np.zeros(len(leaves), bool)
+    at = shapely.points(xy[leaves])
+    own = (np.argmin([shapely.distance(t, at) for t in pieces], axis=0) if pieces
+           else np.zeros(0, np.int64))
     for k, t in enumerate(targets):
-        d = shapely.distance(t, shapely.points(xy[leaves]))
+        d = shapely.distance(t, at)
         near = np.flatnonzero(d <= reach)
+        if k < len(pieces) and (own[near] == k).any():
+            near = near[own[near] == k]
         if not len(near):
             continue
         best = near[int(np.argmax(radius[leaves[near]]))]
