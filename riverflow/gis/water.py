@@ -328,7 +328,15 @@ class WaterBuilder(RiverNetworkBuilder):
             for ring in poly.interiors:
                 if ring.distance(p) <= 1.0 or shapely.Polygon(ring).contains(p):
                     return shapely.Polygon(ring).representative_point().coords[0]
-        return None
+        # (the mean of a piece of a ring's vertices, a piece between where it meets open
+        # water and the water's cut, may lie off its ring: the ring nearest it, a hole's)
+        rings = [(ring.distance(p), k, ring)
+                 for poly in getattr(self.water, "geoms", [self.water])
+                 for k, ring in enumerate([poly.exterior, *poly.interiors])]
+        if not rings:
+            return None
+        _, k, ring = min(rings, key=lambda t: t[0])
+        return shapely.Polygon(ring).representative_point().coords[0] if k > 0 else None
 
     def _hole_by(self, text: str):
         """For an error naming a branch whose banks the builder could not tell apart (its
@@ -2526,6 +2534,8 @@ def skeleton(water, tolerance_m: float = 0.25, frame=None, ends=None, dead=None)
                        np.hypot(step[:, 0], step[:, 1]).tolist()):
         nbr[a][b] = d
         nbr[b][a] = d
+    if open_edge is not None:
+        _join_pieces(nbr, uniq, radius, boundary)
     _prune(nbr, radius, _open_ends(nbr, uniq, radius, open_edge, ends, spacing), uniq, dead)
     _keep_longest_piece(nbr)
     chains = _chains(nbr, uniq)
@@ -2827,10 +2837,8 @@ def _restore_ends(nbr: list[dict[int, float]], gone: list[tuple[int, int, float]
             nbr[a][b] = nbr[b][a] = pruned[a][b]
 
 
-def _keep_longest_piece(nbr: list[dict[int, float]]) -> None:
-    """Keep the longest connected piece of the skeleton (a polygon pinched to a point, as
-    make_valid leaves a knot in an outline, has another behind the pinch: its water is
-    left without an axis of its own and flows with its neighbours)."""
+def _pieces(nbr: list[dict[int, float]]) -> tuple[np.ndarray, list[float]]:
+    """(each node's piece of the skeleton (-1: none), each piece's length)."""
     label = np.full(len(nbr), -1)
     lengths = []
     for s in range(len(nbr)):
@@ -2847,6 +2855,52 @@ def _keep_longest_piece(nbr: list[dict[int, float]]) -> None:
                     label[b] = k
                     stack.append(b)
         lengths.append(total)
+    return label, lengths
+
+
+def _join_pieces(nbr: list[dict[int, float]], xy: np.ndarray, radius: np.ndarray,
+                 boundary) -> None:
+    """Join each piece of the skeleton longer than it is wide to the longest piece, by the
+    straight line between their nodes nearest each other over the water (it crosses no
+    shore; at most twice their inscribed radii together; not the longest's free ends, its
+    open ends kept): beside the water's open edge,
+    where no outline point is, the axis of a channel and that of the reach it opens into
+    meet only beyond the edge, outside the water (Colville's delta: a channel between a
+    point of land and the sea opening into a reach open to the sea was cut off and left
+    out). A polygon pinched to a point keeps its pieces apart (the line crosses the pinch)."""
+    label, lengths = _pieces(nbr)
+    if len(lengths) <= 1:
+        return
+    best = int(np.argmax(lengths))
+    main = np.flatnonzero((label == best) & (np.array([len(n) for n in nbr]) > 1))
+    if not len(main):
+        return
+    tree = cKDTree(xy[main])
+    for k in range(len(lengths)):
+        mine = np.flatnonzero(label == k)
+        if k == best or lengths[k] <= 2.0 * float(radius[mine].max()):
+            continue
+        d, at = tree.query(xy[mine], k=min(8, len(main)))
+        d, at = d.reshape(len(mine), -1), at.reshape(len(mine), -1)
+        a = np.repeat(mine, d.shape[1])
+        b = main[at.ravel()]
+        d = d.ravel()
+        near = np.flatnonzero(d <= 2.0 * (radius[a] + radius[b]))
+        near = near[np.argsort(d[near], kind="stable")][:64]
+        if not len(near):
+            continue
+        clear = ~shapely.intersects(boundary, shapely.linestrings(
+            np.stack([xy[a[near]], xy[b[near]]], axis=1)))
+        if clear.any():
+            j = near[int(np.argmax(clear))]
+            nbr[a[j]][b[j]] = nbr[b[j]][a[j]] = float(d[j])
+
+
+def _keep_longest_piece(nbr: list[dict[int, float]]) -> None:
+    """Keep the longest connected piece of the skeleton (a polygon pinched to a point, as
+    make_valid leaves a knot in an outline, has another behind the pinch: its water is
+    left without an axis of its own and flows with its neighbours)."""
+    label, lengths = _pieces(nbr)
     if len(lengths) <= 1:
         return
     best = int(np.argmax(lengths))
