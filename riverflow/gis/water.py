@@ -2650,10 +2650,11 @@ def _out_through(seg: np.ndarray, inside: np.ndarray, kept: np.ndarray, open_edg
 
 def _sees(water, pts: np.ndarray, open_edge, spacing: float) -> np.ndarray:
     """Which outline points ``pts`` (N, 2) see ``open_edge`` over the water: the straight
-    line to its nearest point keeps to the water (a land's length under it at most a
-    spacing). A shore behind a point of land beside the edge (Colville's delta: a channel
-    beside a point of land running out to the sea, within a quarter of the delta's mean
-    width of its open edge) is a bank of its own channel, not the end of the one cut."""
+    line to its nearest point keeps to the water (it passes at most a quarter spacing inside
+    the land: a chord of a bank curving round the water does). A shore behind a point of
+    land beside the edge (Colville's delta: a channel beside a point of land running out to
+    the sea, within a quarter of the delta's mean width of its open edge) is a bank of its
+    own channel, not the end of the one cut."""
     if not len(pts):
         return np.zeros(0, bool)
     to = shapely.get_coordinates(shapely.shortest_line(shapely.points(pts), open_edge))
@@ -2661,10 +2662,9 @@ def _sees(water, pts: np.ndarray, open_edge, spacing: float) -> np.ndarray:
     f = np.linspace(0.0, 1.0, 10)[1:-1]
     xy = (p[:, None, :] + f[None, :, None] * (q - p)[:, None, :]).reshape(-1, 2)
     land = ~shapely.contains_xy(water, xy[:, 0], xy[:, 1])
-    if land.any():
-        land[land] = shapely.distance(water.boundary, shapely.points(xy[land])) > 1e-3 * spacing
-    step = np.hypot(*(q - p).T) / (len(f) + 1)
-    return land.reshape(len(p), len(f)).sum(axis=1) * step <= spacing
+    depth = np.zeros(len(xy))
+    depth[land] = shapely.distance(water.boundary, shapely.points(xy[land]))
+    return depth.reshape(len(p), len(f)).max(axis=1) <= 0.25 * spacing
 
 
 def _open_edge(water, frame, width: float, tolerance_m: float):
