@@ -2503,12 +2503,20 @@ def skeleton(water, tolerance_m: float = 0.25, frame=None, ends=None, dead=None)
     if open_edge is not None:
         # no outline point on it, nor on the banks' last quarter width beside it: the axis
         # runs out straight between the banks instead of bending into a corner (islands'
-        # shores near it stay); the widths are read from the banks up to the edge
+        # shores near it stay, and shores behind a point of land beside one piece of it,
+        # whose line to it passes more than an eighth of that quarter width inside the
+        # land); the widths are read from the banks up to the edge
         outer = np.arange(len(pts)) < len(per_ring[0])
         off = shapely.distance(open_edge, shapely.points(pts))
         banks = pts[~outer | (off > 1e-6 * approx_width)]
         near = outer & (off <= 0.25 * approx_width)
-        near[near] = _sees(water, pts[near], open_edge, spacing)
+        # (beside one piece: an island the edge cuts open between two is no point of land)
+        at = shapely.points(pts[near])
+        one = sum(shapely.distance(g, at) <= 0.25 * approx_width
+                  for g in shapely.get_parts(open_edge)) == 1
+        hidden = np.zeros(int(near.sum()), bool)
+        hidden[one] = ~_sees(water, pts[near][one], open_edge, approx_width / 32.0)
+        near[near] = ~hidden
         pts = pts[~near]
     seg = _voronoi_edges(pts)
     inside = np.stack([shapely.contains_xy(water, seg[:, 0, 0], seg[:, 0, 1]),
@@ -2536,7 +2544,10 @@ def skeleton(water, tolerance_m: float = 0.25, frame=None, ends=None, dead=None)
         nbr[b][a] = d
     if open_edge is not None:
         _join_pieces(nbr, uniq, radius, boundary)
-    _prune(nbr, radius, _open_ends(nbr, uniq, radius, open_edge, ends, spacing), uniq, dead)
+    keep = _open_ends(nbr, uniq, radius, open_edge, ends, spacing)
+    _prune(nbr, radius, keep, uniq, dead)
+    if open_edge is not None:
+        _join_stranded(nbr, uniq, radius, boundary, keep, open_edge, 0.25 * approx_width)
     _keep_longest_piece(nbr)
     chains = _chains(nbr, uniq)
     chains, loops = _merge_junctions(chains, uniq, radius)
@@ -2648,10 +2659,10 @@ def _out_through(seg: np.ndarray, inside: np.ndarray, kept: np.ndarray, open_edg
     return out[~shapely.intersects(boundary, short)]
 
 
-def _sees(water, pts: np.ndarray, open_edge, spacing: float) -> np.ndarray:
+def _sees(water, pts: np.ndarray, open_edge, deep: float) -> np.ndarray:
     """Which outline points ``pts`` (N, 2) see ``open_edge`` over the water: the straight
-    line to its nearest point keeps to the water (it passes at most a quarter spacing inside
-    the land: a chord of a bank curving round the water does). A shore behind a point of
+    line to its nearest point keeps to the water (it passes at most ``deep`` inside the
+    land, as a chord of a bank curving round the water does). A shore behind a point of
     land beside the edge (Colville's delta: a channel beside a point of land running out to
     the sea, within a quarter of the delta's mean width of its open edge) is a bank of its
     own channel, not the end of the one cut."""
@@ -2664,7 +2675,7 @@ def _sees(water, pts: np.ndarray, open_edge, spacing: float) -> np.ndarray:
     land = ~shapely.contains_xy(water, xy[:, 0], xy[:, 1])
     depth = np.zeros(len(xy))
     depth[land] = shapely.distance(water.boundary, shapely.points(xy[land]))
-    return depth.reshape(len(p), len(f)).max(axis=1) <= 0.25 * spacing
+    return depth.reshape(len(p), len(f)).max(axis=1) <= deep
 
 
 def _open_edge(water, frame, width: float, tolerance_m: float):
@@ -2894,6 +2905,46 @@ def _join_pieces(nbr: list[dict[int, float]], xy: np.ndarray, radius: np.ndarray
         if clear.any():
             j = near[int(np.argmax(clear))]
             nbr[a[j]][b[j]] = nbr[b[j]][a[j]] = float(d[j])
+
+
+def _join_stranded(nbr: list[dict[int, float]], xy: np.ndarray, radius: np.ndarray,
+                   boundary, keep: np.ndarray, open_edge, reach: float) -> None:
+    """Join each free end left by pruning within ``reach`` of ``open_edge`` (its outline
+    points left out) that is not one of the water's ends (``keep``) to the nearest node of
+    another chain of the skeleton over the water (at most twice their inscribed radii
+    together; not a free end): a channel opening into a reach beside the edge whose banks
+    there were left out (a point of land beside the sea) stops in the water, its axis cut
+    off from the reach's (Colville's delta)."""
+    deg = np.array([len(n) for n in nbr])
+    ends = np.flatnonzero((deg == 1) & ~keep)
+    if not len(ends):
+        return
+    ends = ends[shapely.distance(open_edge, shapely.points(xy[ends])) <= reach]
+    inner = np.flatnonzero(deg >= 2)
+    if not len(ends) or not len(inner):
+        return
+    tree = cKDTree(xy[inner])
+    for e in ends.tolist():
+        # the nodes of its own chain up to its junction are not another chain's
+        own, prev, cur = {e}, -1, e
+        while True:
+            nxt = [v for v in nbr[cur] if v != prev]
+            if len(nbr[cur]) > 2 or not nxt:
+                break
+            prev, cur = cur, nxt[0]
+            own.add(cur)
+        d, at = tree.query(xy[e], k=min(64, len(inner)))
+        d, at = np.atleast_1d(d), inner[np.atleast_1d(at)]
+        ok = np.array([b not in own for b in at.tolist()]) & (
+            d <= 2.0 * (radius[e] + radius[at]))
+        if not ok.any():
+            continue
+        d, at = d[ok], at[ok]
+        clear = ~shapely.intersects(boundary, shapely.linestrings(
+            np.stack([np.broadcast_to(xy[e], (len(at), 2)), xy[at]], axis=1)))
+        if clear.any():
+            j = int(np.argmax(clear))
+            nbr[e][int(at[j])] = nbr[int(at[j])][e] = float(d[j])
 
 
 def _keep_longest_piece(nbr: list[dict[int, float]]) -> None:
