@@ -2910,7 +2910,9 @@ def _join_pieces(nbr: list[dict[int, float]], xy: np.ndarray, radius: np.ndarray
 def _join_stranded(nbr: list[dict[int, float]], xy: np.ndarray, radius: np.ndarray,
                    boundary, keep: np.ndarray, open_edge, reach: float) -> None:
     """Join each free end left by pruning within ``reach`` of ``open_edge`` (its outline
-    points left out) that is not one of the water's ends (``keep``) to the nearest node of
+    points left out) that is not one of the water's ends (``keep``) and stops short of the
+    edge (farther from it than its inscribed radius: not a channel's end run out to it
+    beside the one kept, as either side of an island near it) to the nearest node of
     another chain of the skeleton over the water (at most twice their inscribed radii
     together; not a free end): a channel opening into a reach beside the edge whose banks
     there were left out (a point of land beside the sea) stops in the water, its axis cut
@@ -2919,7 +2921,8 @@ def _join_stranded(nbr: list[dict[int, float]], xy: np.ndarray, radius: np.ndarr
     ends = np.flatnonzero((deg == 1) & ~keep)
     if not len(ends):
         return
-    ends = ends[shapely.distance(open_edge, shapely.points(xy[ends])) <= reach]
+    d = shapely.distance(open_edge, shapely.points(xy[ends]))
+    ends = ends[(d <= reach) & (d > radius[ends])]
     inner = np.flatnonzero(deg >= 2)
     if not len(ends) or not len(inner):
         return
