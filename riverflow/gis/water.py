@@ -2504,8 +2504,8 @@ def skeleton(water, tolerance_m: float = 0.25, frame=None, ends=None, dead=None)
         # no outline point on it, nor on the banks' last quarter width beside it: the axis
         # runs out straight between the banks instead of bending into a corner (islands'
         # shores near it stay, and shores behind a point of land beside one piece of it,
-        # whose line to it passes more than an eighth of that quarter width inside the
-        # land); the widths are read from the banks up to the edge
+        # whose line to it passes more than a quarter spacing inside the land); the widths
+        # are read from the banks up to the edge
         outer = np.arange(len(pts)) < len(per_ring[0])
         off = shapely.distance(open_edge, shapely.points(pts))
         banks = pts[~outer | (off > 1e-6 * approx_width)]
@@ -2515,7 +2515,7 @@ def skeleton(water, tolerance_m: float = 0.25, frame=None, ends=None, dead=None)
         one = sum(shapely.distance(g, at) <= 0.25 * approx_width
                   for g in shapely.get_parts(open_edge)) == 1
         hidden = np.zeros(int(near.sum()), bool)
-        hidden[one] = ~_sees(water, pts[near][one], open_edge, approx_width / 32.0)
+        hidden[one] = ~_sees(water, pts[near][one], open_edge, 0.25 * spacing)
         near[near] = ~hidden
         pts = pts[~near]
     seg = _voronoi_edges(pts)
@@ -2542,12 +2542,7 @@ def skeleton(water, tolerance_m: float = 0.25, frame=None, ends=None, dead=None)
                        np.hypot(step[:, 0], step[:, 1]).tolist()):
         nbr[a][b] = d
         nbr[b][a] = d
-    if open_edge is not None:
-        _join_pieces(nbr, uniq, radius, boundary)
-    keep = _open_ends(nbr, uniq, radius, open_edge, ends, spacing)
-    _prune(nbr, radius, keep, uniq, dead)
-    if open_edge is not None:
-        _join_stranded(nbr, uniq, radius, boundary, keep, open_edge, 0.25 * approx_width)
+    _prune(nbr, radius, _open_ends(nbr, uniq, radius, open_edge, ends, spacing), uniq, dead)
     _keep_longest_piece(nbr)
     chains = _chains(nbr, uniq)
     chains, loops = _merge_junctions(chains, uniq, radius)
@@ -2848,8 +2843,10 @@ def _restore_ends(nbr: list[dict[int, float]], gone: list[tuple[int, int, float]
             nbr[a][b] = nbr[b][a] = pruned[a][b]
 
 
-def _pieces(nbr: list[dict[int, float]]) -> tuple[np.ndarray, list[float]]:
-    """(each node's piece of the skeleton (-1: none), each piece's length)."""
+def _keep_longest_piece(nbr: list[dict[int, float]]) -> None:
+    """Keep the longest connected piece of the skeleton (a polygon pinched to a point, as
+    make_valid leaves a knot in an outline, has another behind the pinch: its water is
+    left without an axis of its own and flows with its neighbours)."""
     label = np.full(len(nbr), -1)
     lengths = []
     for s in range(len(nbr)):
@@ -2866,95 +2863,6 @@ def _pieces(nbr: list[dict[int, float]]) -> tuple[np.ndarray, list[float]]:
                     label[b] = k
                     stack.append(b)
         lengths.append(total)
-    return label, lengths
-
-
-def _join_pieces(nbr: list[dict[int, float]], xy: np.ndarray, radius: np.ndarray,
-                 boundary) -> None:
-    """Join each piece of the skeleton longer than it is wide to the longest piece, by the
-    straight line between their nodes nearest each other over the water (it crosses no
-    shore; at most twice their inscribed radii together; not the longest's free ends, its
-    open ends kept): beside the water's open edge,
-    where no outline point is, the axis of a channel and that of the reach it opens into
-    meet only beyond the edge, outside the water (Colville's delta: a channel between a
-    point of land and the sea opening into a reach open to the sea was cut off and left
-    out). A polygon pinched to a point keeps its pieces apart (the line crosses the pinch)."""
-    label, lengths = _pieces(nbr)
-    if len(lengths) <= 1:
-        return
-    best = int(np.argmax(lengths))
-    main = np.flatnonzero((label == best) & (np.array([len(n) for n in nbr]) > 1))
-    if not len(main):
-        return
-    tree = cKDTree(xy[main])
-    for k in range(len(lengths)):
-        mine = np.flatnonzero(label == k)
-        if k == best or lengths[k] <= 2.0 * float(radius[mine].max()):
-            continue
-        d, at = tree.query(xy[mine], k=min(8, len(main)))
-        d, at = d.reshape(len(mine), -1), at.reshape(len(mine), -1)
-        a = np.repeat(mine, d.shape[1])
-        b = main[at.ravel()]
-        d = d.ravel()
-        near = np.flatnonzero(d <= 2.0 * (radius[a] + radius[b]))
-        near = near[np.argsort(d[near], kind="stable")][:64]
-        if not len(near):
-            continue
-        clear = ~shapely.intersects(boundary, shapely.linestrings(
-            np.stack([xy[a[near]], xy[b[near]]], axis=1)))
-        if clear.any():
-            j = near[int(np.argmax(clear))]
-            nbr[a[j]][b[j]] = nbr[b[j]][a[j]] = float(d[j])
-
-
-def _join_stranded(nbr: list[dict[int, float]], xy: np.ndarray, radius: np.ndarray,
-                   boundary, keep: np.ndarray, open_edge, reach: float) -> None:
-    """Join each free end left by pruning within ``reach`` of ``open_edge`` (its outline
-    points left out) that is not one of the water's ends (``keep``) and stops short of the
-    edge (farther from it than its inscribed radius: not a channel's end run out to it
-    beside the one kept, as either side of an island near it) to the nearest node of
-    another chain of the skeleton over the water (at most twice their inscribed radii
-    together; not a free end): a channel opening into a reach beside the edge whose banks
-    there were left out (a point of land beside the sea) stops in the water, its axis cut
-    off from the reach's (Colville's delta)."""
-    deg = np.array([len(n) for n in nbr])
-    ends = np.flatnonzero((deg == 1) & ~keep)
-    if not len(ends):
-        return
-    d = shapely.distance(open_edge, shapely.points(xy[ends]))
-    ends = ends[(d <= reach) & (d > radius[ends])]
-    inner = np.flatnonzero(deg >= 2)
-    if not len(ends) or not len(inner):
-        return
-    tree = cKDTree(xy[inner])
-    for e in ends.tolist():
-        # the nodes of its own chain up to its junction are not another chain's
-        own, prev, cur = {e}, -1, e
-        while True:
-            nxt = [v for v in nbr[cur] if v != prev]
-            if len(nbr[cur]) > 2 or not nxt:
-                break
-            prev, cur = cur, nxt[0]
-            own.add(cur)
-        d, at = tree.query(xy[e], k=min(64, len(inner)))
-        d, at = np.atleast_1d(d), inner[np.atleast_1d(at)]
-        ok = np.array([b not in own for b in at.tolist()]) & (
-            d <= 2.0 * (radius[e] + radius[at]))
-        if not ok.any():
-            continue
-        d, at = d[ok], at[ok]
-        clear = ~shapely.intersects(boundary, shapely.linestrings(
-            np.stack([np.broadcast_to(xy[e], (len(at), 2)), xy[at]], axis=1)))
-        if clear.any():
-            j = int(np.argmax(clear))
-            nbr[e][int(at[j])] = nbr[int(at[j])][e] = float(d[j])
-
-
-def _keep_longest_piece(nbr: list[dict[int, float]]) -> None:
-    """Keep the longest connected piece of the skeleton (a polygon pinched to a point, as
-    make_valid leaves a knot in an outline, has another behind the pinch: its water is
-    left without an axis of its own and flows with its neighbours)."""
-    label, lengths = _pieces(nbr)
     if len(lengths) <= 1:
         return
     best = int(np.argmax(lengths))
