@@ -159,27 +159,26 @@ def test_a_side_channel_leaving_a_mouths_bay_is_led_into_the_mouth():
 
 
 def test_a_channel_beside_a_point_of_land_at_the_open_edge_joins_the_reach():
-    """A channel opening into a reach beside the reach's open end, a thin point of land
-    between it and the data's edge (Colville's channel 80, beside the sea): the point's
-    shore, within a quarter of the water's mean width of the edge but behind the land, stays
-    a bank (the channel's axis keeps to its middle), and the channel's axis, which meets the
-    reach's only beyond the edge (no outline point there), joins it in the water (before:
-    the channel was a piece of the skeleton apart, left out)."""
+    """A 90 m channel opening into a 250 m reach beside the reach's open end, a 60 m point
+    of land between it and the data's edge (Colville's channel 80, beside the sea): the
+    point's shore lies within a quarter of the water's mean width (608 m: wide water
+    upstream) of the edge, but behind the land, so it stays a bank and the channel's axis
+    runs up its middle into the reach's (before: no outline point on it, the channel's axis
+    stopped short, cut off from the reach's, and was left out)."""
     from riverflow.gis.water import skeleton
 
-    water = shapely.union_all([shapely.box(-3000, 600, 1000, 900),     # the reach, open east
-                               shapely.box(870, -1500, 970, 600),      # the channel
-                               shapely.box(-4500, -3000, -3000, 900)])  # wide water upstream
-    frame = shapely.box(-4600, -3100, 1000, 1300)
-    chains, nodes, collapsed = skeleton(water, 0.25, frame)
+    water = shapely.union_all([shapely.box(-3000, 600, 1000, 850),      # the reach, open east
+                               shapely.box(850, -1500, 940, 600),       # the channel
+                               shapely.box(-4500, -3000, -3000, 850)])  # wide water upstream
+    chains, nodes, collapsed = skeleton(water, 0.25, shapely.box(-4600, -3100, 1000, 950))
     assert collapsed is None and len(chains) == 3
-    top = shapely.LineString([(870, 560), (970, 560)])
-    crossing = [shapely.LineString(p).intersection(top) for p, _, _, _ in chains]
-    crossing = [c for c in crossing if not c.is_empty]
-    assert len(crossing) == 1 and abs(crossing[0].x - 920.0) < 10.0     # the channel's middle
+    top = shapely.LineString([(850, 560), (940, 560)])
+    crossing = [c for c in (shapely.LineString(p).intersection(top) for p, _, _, _ in chains)
+                if not c.is_empty]
+    assert len(crossing) == 1 and abs(crossing[0].x - 895.0) < 10.0     # the channel's middle
     deg = np.bincount([n for _, _, a, b in chains for n in (a, b)], minlength=len(nodes))
     ends = nodes[deg == 1]
-    assert ((ends[:, 0] > 700.0) & (ends[:, 1] > 600.0)).sum() == 1   # the reach's open end
+    assert ((ends[:, 0] > 990.0) & (ends[:, 1] > 600.0)).sum() == 1   # the reach's open end
     assert ((ends[:, 0] > 800.0) & (ends[:, 1] < -1000.0)).sum() == 1   # the channel's dead end
 
 
