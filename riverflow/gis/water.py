@@ -328,15 +328,7 @@ class WaterBuilder(RiverNetworkBuilder):
             for ring in poly.interiors:
                 if ring.distance(p) <= 1.0 or shapely.Polygon(ring).contains(p):
                     return shapely.Polygon(ring).representative_point().coords[0]
-        # (the mean of a piece of a ring's vertices, a piece between where it meets open
-        # water and the water's cut, may lie off its ring: the ring nearest it, a hole's)
-        rings = [(ring.distance(p), k, ring)
-                 for poly in getattr(self.water, "geoms", [self.water])
-                 for k, ring in enumerate([poly.exterior, *poly.interiors])]
-        if not rings:
-            return None
-        _, k, ring = min(rings, key=lambda t: t[0])
-        return shapely.Polygon(ring).representative_point().coords[0] if k > 0 else None
+        return None
 
     def _hole_by(self, text: str):
         """For an error naming a branch whose banks the builder could not tell apart (its

@@ -197,16 +197,3 @@ def test_each_piece_of_the_open_edge_keeps_its_own_channels_end():
     keep = _open_ends(nbr, xy, radius, shapely.MultiLineString([west, east]), None, 52.0)
     assert keep[1] and keep[3]
 
-
-def test_a_shore_named_off_its_ring_is_its_islands(tmp_path):
-    """The builder names a shore no branch runs along by the mean of its piece's vertices,
-    which may lie off the ring (a piece of an island's ring between open water and the cut):
-    the island nearest it is the one made free."""
-    from riverflow.gis.water import WaterBuilder
-
-    b = WaterBuilder()
-    b.water = shapely.Polygon([(0, 0), (1000, 0), (1000, 1000), (0, 1000)],
-                              [[(400, 400), (600, 400), (600, 600), (400, 600)]])
-    at = b._hole_at((500, 660))
-    assert at is not None and shapely.Polygon(b.water.interiors[0]).contains(shapely.Point(at))
-    assert b._hole_at((500, 960)) is None                       # the outer shore's
