@@ -196,4 +196,3 @@ def test_each_piece_of_the_open_edge_keeps_its_own_channels_end():
     nbr = [{1: 1.0, 2: 1.0, 3: 1.0}, {0: 1.0}, {0: 1.0}, {0: 1.0}]
     keep = _open_ends(nbr, xy, radius, shapely.MultiLineString([west, east]), None, 52.0)
     assert keep[1] and keep[3]
-
