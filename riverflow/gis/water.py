@@ -2502,11 +2502,21 @@ def skeleton(water, tolerance_m: float = 0.25, frame=None, ends=None, dead=None)
     if open_edge is not None:
         # no outline point on it, nor on the banks' last quarter width beside it: the axis
         # runs out straight between the banks instead of bending into a corner (islands'
-        # shores near it stay); the widths are read from the banks up to the edge
+        # shores near it stay, and shores behind a point of land beside one piece of it,
+        # whose line to it passes more than a quarter spacing inside the land); the widths
+        # are read from the banks up to the edge
         outer = np.arange(len(pts)) < len(per_ring[0])
         off = shapely.distance(open_edge, shapely.points(pts))
         banks = pts[~outer | (off > 1e-6 * approx_width)]
-        pts = pts[~outer | (off > 0.25 * approx_width)]
+        near = outer & (off <= 0.25 * approx_width)
+        # (beside one piece: an island the edge cuts open between two is no point of land)
+        at = shapely.points(pts[near])
+        one = sum(shapely.distance(g, at) <= 0.25 * approx_width
+                  for g in shapely.get_parts(open_edge)) == 1
+        hidden = np.zeros(int(near.sum()), bool)
+        hidden[one] = ~_sees(water, pts[near][one], open_edge, 0.25 * spacing)
+        near[near] = ~hidden
+        pts = pts[~near]
     seg = _voronoi_edges(pts)
     inside = np.stack([shapely.contains_xy(water, seg[:, 0, 0], seg[:, 0, 1]),
                        shapely.contains_xy(water, seg[:, 1, 0], seg[:, 1, 1])], axis=1)
@@ -2644,6 +2654,25 @@ def _out_through(seg: np.ndarray, inside: np.ndarray, kept: np.ndarray, open_edg
     return out[~shapely.intersects(boundary, short)]
 
 
+def _sees(water, pts: np.ndarray, open_edge, deep: float) -> np.ndarray:
+    """Which outline points ``pts`` (N, 2) see ``open_edge`` over the water: the straight
+    line to its nearest point keeps to the water (it passes at most ``deep`` inside the
+    land, as a chord of a bank curving round the water does). A shore behind a point of
+    land beside the edge (Colville's delta: a channel beside a point of land running out to
+    the sea, within a quarter of the delta's mean width of its open edge) is a bank of its
+    own channel, not the end of the one cut."""
+    if not len(pts):
+        return np.zeros(0, bool)
+    to = shapely.get_coordinates(shapely.shortest_line(shapely.points(pts), open_edge))
+    p, q = to[0::2], to[1::2]
+    f = np.linspace(0.0, 1.0, 10)[1:-1]
+    xy = (p[:, None, :] + f[None, :, None] * (q - p)[:, None, :]).reshape(-1, 2)
+    land = ~shapely.contains_xy(water, xy[:, 0], xy[:, 1])
+    depth = np.zeros(len(xy))
+    depth[land] = shapely.distance(water.boundary, shapely.points(xy[land]))
+    return depth.reshape(len(p), len(f)).max(axis=1) <= deep
+
+
 def _open_edge(water, frame, width: float, tolerance_m: float):
     """The pieces of the water's outline along ``frame``'s edge (where the data's extent cuts
     the water: no bank), or None. A piece counts when it is at least OPEN_EDGE_WIDTHS ×
@@ -2712,10 +2741,12 @@ def _open_ends(nbr, xy: np.ndarray, radius: np.ndarray, open_edge, ends, spacing
     for a piece, reaches it over water: the way from the end to the piece's nearest point
     crosses no shore (``boundary``: the water's; a corner of the water beside an island the
     edge cuts open, its circle wide for want of outline points by the edge, reached over the
-    island the piece of the channel on its other side). Two pieces of the edge (an island
-    cut open by it between them) take two ends where there are: a piece whose widest end is
-    another piece's takes the widest of the rest that is at least a quarter of the piece wide
-    (the channel on its side of the island), the longer pieces first."""
+    island the piece of the channel on its other side), of those nearer it than any other
+    piece where there are (a wide channel's end beside a mouth, its circle reaching the next
+    mouth's piece: Colville's delta). Two pieces of the edge (an island cut open by it
+    between them) take two ends where there are: a piece whose widest end is another
+    piece's takes the widest of the rest that is at least a quarter of the piece wide (the
+    channel on its side of the island), the longer pieces first."""
     keep = np.zeros(len(xy), bool)
     leaves = np.array([i for i in range(len(nbr)) if len(nbr[i]) == 1], dtype=np.int64)
     if not len(leaves):
@@ -2725,8 +2756,11 @@ def _open_ends(nbr, xy: np.ndarray, radius: np.ndarray, open_edge, ends, spacing
     targets = pieces + [shapely.Point(p) for p in (ends if ends is not None else ())]
     reach = radius[leaves] + 2.0 * spacing
     taken = np.zeros(len(leaves), bool)
+    at = shapely.points(xy[leaves])
+    own = (np.argmin([shapely.distance(t, at) for t in pieces], axis=0) if pieces
+           else np.zeros(0, np.int64))
     for k, t in enumerate(targets):
-        d = shapely.distance(t, shapely.points(xy[leaves]))
+        d = shapely.distance(t, at)
         near = np.flatnonzero(d <= reach)
         if k < len(pieces) and boundary is not None and len(near):
             p = xy[leaves[near]]
@@ -2734,6 +2768,8 @@ def _open_ends(nbr, xy: np.ndarray, radius: np.ndarray, open_edge, ends, spacing
                                         ).reshape(-1, 2, 2)[:, 1]
             way = shapely.linestrings(np.stack([p, p + (1.0 - 1e-6) * (q - p)], axis=1))
             near = near[(np.hypot(*(q - p).T) == 0.0) | ~shapely.intersects(boundary, way)]
+        if k < len(pieces) and (own[near] == k).any():
+            near = near[own[near] == k]
         if not len(near):
             continue
         best = near[int(np.argmax(radius[leaves[near]]))]

@@ -156,3 +156,43 @@ def test_a_side_channel_leaving_a_mouths_bay_is_led_into_the_mouth():
     assert np.allclose(side.points[0], j) and side.a == main.b
     assert any("led on" in r.what for r in report.repairs)
     assert len(net.outlets) == 1 and np.allclose(net.nodes[next(iter(net.outlets))], (0, 1000))
+
+
+def test_a_channel_beside_a_point_of_land_at_the_open_edge_joins_the_reach():
+    """A 90 m channel opening into a 250 m reach beside the reach's open end, a 60 m point
+    of land between it and the data's edge (Colville's channel 80, beside the sea): the
+    point's shore lies within a quarter of the water's mean width (608 m: wide water
+    upstream) of the edge, but behind the land, so it stays a bank and the channel's axis
+    runs up its middle into the reach's (before: no outline point on it, the channel's axis
+    stopped short, cut off from the reach's, and was left out)."""
+    from riverflow.gis.water import skeleton
+
+    water = shapely.union_all([shapely.box(-3000, 600, 1000, 850),      # the reach, open east
+                               shapely.box(850, -1500, 940, 600),       # the channel
+                               shapely.box(-4500, -3000, -3000, 850)])  # wide water upstream
+    chains, nodes, collapsed = skeleton(water, 0.25, shapely.box(-4600, -3100, 1000, 950))
+    assert collapsed is None and len(chains) == 3
+    top = shapely.LineString([(850, 560), (940, 560)])
+    crossing = [c for c in (shapely.LineString(p).intersection(top) for p, _, _, _ in chains)
+                if not c.is_empty]
+    assert len(crossing) == 1 and abs(crossing[0].x - 895.0) < 10.0     # the channel's middle
+    deg = np.bincount([n for _, _, a, b in chains for n in (a, b)], minlength=len(nodes))
+    ends = nodes[deg == 1]
+    assert ((ends[:, 0] > 990.0) & (ends[:, 1] > 600.0)).sum() == 1   # the reach's open end
+    assert ((ends[:, 0] > 800.0) & (ends[:, 1] < -1000.0)).sum() == 1   # the channel's dead end
+
+
+def test_each_piece_of_the_open_edge_keeps_its_own_channels_end():
+    """Two pieces of the open edge either side of a point of land (Colville's mouths at
+    (2500, 16800)): the west piece keeps the free end nearest it, not a wider channel's end
+    on the east piece whose inscribed circle reaches it too (before: the west mouth's axis
+    was pruned, its water a shore no branch runs along)."""
+    from riverflow.gis.water import _open_ends
+
+    west = shapely.LineString([(2277, 16808), (2688, 16857)])
+    east = shapely.LineString([(2751, 16770), (3348, 17493)])
+    xy = np.array([(2700, 16000), (2492, 16793), (2919, 16965), (3055, 17129)], float)
+    radius = np.array([300.0, 195.0, 294.0, 438.0])
+    nbr = [{1: 1.0, 2: 1.0, 3: 1.0}, {0: 1.0}, {0: 1.0}, {0: 1.0}]
+    keep = _open_ends(nbr, xy, radius, shapely.MultiLineString([west, east]), None, 52.0)
+    assert keep[1] and keep[3]
