@@ -540,16 +540,22 @@ class FloodRouter:
         size = side / nb
         region = np.zeros((nb, nb), bool)
         if moved:
+            from scipy.spatial import cKDTree
+
+            # a texel reads the raster's pixel under it (each the nearest sample's cell within
+            # RASTER_REACH half widths, in blocks of block_m), the nearest sample within
+            # FLOODPLAIN_REACH_M and the links' nearest within FLOOD_BLEND_M more, asked per
+            # block by its centre (± its half-diagonal): a block farther than that from
+            # every changed link's sample, its centre by a diagonal more, reads none
             half = max(float(net.cell_width_m.max()) for net in (old, new)) * 0.5
             block_m = r_new.block_px * r_new.pixel_m
-            reach = max(RASTER_REACH * half + 2.0 * r_new.pixel_m + 3.0 * block_m,
-                        FLOODPLAIN_REACH_M + FLOOD_BLEND_M + 3.0 * size)
-            k = int(math.ceil(reach / size)) + 1
-            pts = np.concatenate(moved)
-            ij = np.floor((pts - [x0, y0]) / size).astype(np.int64)
-            ij = ij[np.all((ij >= -k) & (ij < nb + k), axis=1)]
-            for bx, by in np.unique(ij, axis=0).tolist():
-                region[max(by - k, 0):max(by + k + 1, 0), max(bx - k, 0):max(bx + k + 1, 0)] = True
+            reach = max(RASTER_REACH * half + 2.0 * r_new.pixel_m + math.sqrt(2.0) * block_m,
+                        FLOODPLAIN_REACH_M + FLOOD_BLEND_M) + math.sqrt(2.0) * size
+            centre = (np.arange(nb) + 0.5) * size
+            gx, gy = np.meshgrid(x0 + centre, y0 + centre)
+            d, _ = cKDTree(np.concatenate(moved)).query(np.column_stack([gx.ravel(), gy.ravel()]),
+                                                        distance_upper_bound=reach)
+            region |= np.isfinite(d).reshape(nb, nb)
         texels = old_tex.reshape(-1, 3).copy()
         for col in (0, 1):
             c = texels[:, col]
