@@ -39,6 +39,10 @@ def touched_bytes(segments_m: np.ndarray, radius_m, size: float) -> float:
     if not len(seg):
         return 0.0
     reach = np.broadcast_to(np.asarray(radius_m, np.float64), (len(seg),)) + size * np.sqrt(0.5)
+    finite = np.isfinite(seg).all(axis=1) & np.isfinite(reach)
+    seg, reach = seg[finite], reach[finite]
+    if not len(seg):
+        return 0.0
     length = np.hypot(seg[:, 2] - seg[:, 0], seg[:, 3] - seg[:, 1])
     area = float(np.sum(2.0 * reach * length + np.pi * reach * reach))
     lo = np.minimum(seg[:, :2], seg[:, 2:]) - reach[:, None]
@@ -71,6 +75,8 @@ def touched_codes(quadtree: Quadtree, segments_m: np.ndarray, radius_m: np.ndarr
     side = 1 << level
     x0, y0 = quadtree.root_x_m, quadtree.root_y_m
     reach = np.broadcast_to(np.asarray(radius_m, np.float64), (len(seg),)) + size * np.sqrt(0.5)
+    finite = np.isfinite(seg).all(axis=1) & np.isfinite(reach)     # (no tile for a NaN)
+    seg, reach = seg[finite], reach[finite]
     ax, ay, bx, by = seg.T
     j0 = np.clip(np.ceil((np.minimum(ay, by) - reach - y0) / size - 0.5), 0, side)
     j1 = np.clip(np.floor((np.maximum(ay, by) + reach - y0) / size - 0.5), -1, side - 1)

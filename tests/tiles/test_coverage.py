@@ -71,6 +71,11 @@ def test_the_touched_tiles_are_those_whose_centre_is_within_reach_of_a_segment(r
         assert np.isin(code[(d < -1e-6).any(axis=0)], got).all()
         assert not np.isin(code[(d > 1e-6).all(axis=0)], got).any()
         assert np.array_equal(got, np.unique(got))
+    # a segment or radius that is not finite touches nothing (never a garbage row's tiles)
+    bad = np.array([[np.nan, 0.0, 10.0, 10.0], [0.0, 0.0, 10.0, 10.0], [np.inf, 0.0, 1.0, 1.0]])
+    ok = touched_codes(tree, bad[1:2], 5.0, level)
+    assert np.array_equal(touched_codes(tree, bad, 5.0, level), ok) and len(ok)
+    assert not len(touched_codes(tree, bad[1:2], np.nan, level))
 
 
 def test_a_wide_river_at_a_fine_level_costs_its_area_not_its_width_squared():
