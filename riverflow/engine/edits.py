@@ -851,10 +851,10 @@ def renumbered_segments(segments: np.ndarray, slots: np.ndarray, seg_map: np.nda
     if not moved.any() or not len(slots):
         return slots[:0], segments[:0]
     first = int(np.argmax(moved))          # the segments before it keep their numbers
-    top = segments[slots].reshape(len(slots), -1).max(axis=1)
+    top = np.array([segments[s].max() for s in slots.tolist()])    # (no copy of every list)
     slots = slots[top >= first]
-    lookup = np.concatenate([[-1], seg_map]).astype(segments.dtype)      # −1 stays −1
-    return slots, lookup[segments[slots] + 1]
+    lookup = np.concatenate([seg_map, [-1]]).astype(segments.dtype)     # −1 (the last) stays
+    return slots, lookup[segments[slots]]
 
 
 def tile_distances(codes: np.ndarray, quadtree, points: np.ndarray) -> np.ndarray:
