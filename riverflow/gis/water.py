@@ -1230,8 +1230,27 @@ def _straight_mouths(sea, rest, cell: float):
         rest, sea = shapely.union(rest, shapely.intersection(moved, sea)), \
             shapely.difference(sea, moved)
     parts = [p for p in shapely.get_parts(sea) if p.geom_type == "Polygon"]
-    sea = max(parts, key=lambda p: p.area)
+    sea = _without_spikes(max(parts, key=lambda p: p.area), 1e-6 * cell)
     return sea, rest
+
+
+def _without_spikes(poly, within: float):
+    """``poly`` without the spikes of no width its rings may have (a vertex its ring goes
+    out to and back from to within ``within`` [m], as a difference can leave: Colville's
+    sea had one 409 m into a mouth, which as the data's edge cut the mouth's channel short
+    of its water)."""
+    def ring(r):
+        c = list(np.asarray(r.coords)[:-1])
+        i = 0
+        while len(c) > 3 and i < len(c):
+            if np.hypot(*(c[i - 1] - c[(i + 1) % len(c)])) <= within:
+                del c[max(i, (i + 1) % len(c))], c[min(i, (i + 1) % len(c))]
+                i = max(i - 1, 0)
+            else:
+                i += 1
+        return c
+
+    return shapely.Polygon(ring(poly.exterior), [ring(h) for h in poly.interiors])
 
 
 def _read_polygons(path: Path, layer):
