@@ -196,3 +196,15 @@ def test_each_piece_of_the_open_edge_keeps_its_own_channels_end():
     nbr = [{1: 1.0, 2: 1.0, 3: 1.0}, {0: 1.0}, {0: 1.0}, {0: 1.0}]
     keep = _open_ends(nbr, xy, radius, shapely.MultiLineString([west, east]), None, 52.0)
     assert keep[1] and keep[3]
+
+
+def test_a_seas_spike_of_no_width_is_no_edge():
+    """A sea's ring may go out along a line and straight back (a difference left one 409 m
+    into one of Colville's mouths; as the data's edge it cut the mouth's channel short of
+    its water): such spikes go, the rest of the ring stays."""
+    from riverflow.gis.water import _without_spikes
+
+    sea = shapely.Polygon([(0, 0), (4, 0), (4, 2), (2, 2), (1, 3.5), (2 + 1e-12, 2), (0, 2)])
+    clean = _without_spikes(sea, 1e-9)
+    assert clean.equals(shapely.box(0, 0, 4, 2)) and len(clean.exterior.coords) == 6
+    assert _without_spikes(shapely.box(0, 0, 4, 2), 1e-9).equals(shapely.box(0, 0, 4, 2))
