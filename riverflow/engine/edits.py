@@ -742,7 +742,9 @@ def _flow_changes(networks, boxes: np.ndarray) -> FlowChanges:
         seg_group = net.curve_group[curve]
         touched = np.unique(seg_group[changed[by_group]])
         near = np.flatnonzero(kept & (kind == KIND_BANK) & np.isin(seg_group, touched))
-        near = near[_in_boxes(ends[near], boxes)]
+        seg = ends[near]
+        near = near[_rects_meeting(np.hstack([np.minimum(seg[:, :2], seg[:, 2:]),
+                                              np.maximum(seg[:, :2], seg[:, 2:])]), boxes)]
         for g in touched:
             mine = changed[by_group & (seg_group[changed] == g)]
             others = near[seg_group[near] == g]
@@ -752,19 +754,6 @@ def _flow_changes(networks, boxes: np.ndarray) -> FlowChanges:
                 float(net.curve_cutoff[curve[mine]].min())]
     return FlowChanges([(_segment_lines(np.concatenate(e)), r) for r, e in reached.items()],
                        [tuple(v) for v in groups.values()])
-
-
-def _in_boxes(ends: np.ndarray, boxes: np.ndarray) -> np.ndarray:
-    """(S,) bool: segments (S, 4) whose box meets one of ``boxes`` (B, 4)."""
-    out = np.zeros(len(ends), bool)
-    lo = np.minimum(ends[:, :2], ends[:, 2:])
-    hi = np.maximum(ends[:, :2], ends[:, 2:])
-    for s in range(0, len(boxes), 64):
-        bx = boxes[s:s + 64]
-        out |= ((lo[:, None, 0] <= bx[None, :, 2]) & (hi[:, None, 0] >= bx[None, :, 0])
-                & (lo[:, None, 1] <= bx[None, :, 3]) & (hi[:, None, 1] >= bx[None, :, 1])
-                ).any(axis=1)
-    return out
 
 
 FLOW_READ_CELLS = 8
@@ -790,11 +779,7 @@ def flow_tiles_reached(changes: FlowChanges, codes: np.ndarray, quadtree, cells:
     codes = np.asarray(codes, np.int64)
     if not len(codes) or not (changes.reached or changes.groups):
         return np.zeros(len(codes), bool)
-    mask = (1 << 28) - 1
-    size = quadtree.root_size_m / np.exp2((codes >> 56).astype(np.float64))
-    centre = np.column_stack([
-        quadtree.root_x_m + ((codes & mask).astype(np.float64) + 0.5) * size,
-        quadtree.root_y_m + (((codes >> 28) & mask).astype(np.float64) + 0.5) * size])
+    centre, size = _tile_centres(codes, quadtree)
     side = size * (1.0 + 2.0 * FLOW_READ_CELLS / cells)
     owner = np.arange(len(codes))
     for split in range(FLOW_SPLITS + 1):
@@ -865,12 +850,17 @@ def tile_distances(codes: np.ndarray, quadtree, points: np.ndarray) -> np.ndarra
         return np.full(len(codes), np.inf)
     from scipy.spatial import cKDTree
 
+    d, _ = cKDTree(points).query(_tile_centres(codes, quadtree)[0])
+    return d
+
+
+def _tile_centres(codes: np.ndarray, quadtree) -> tuple[np.ndarray, np.ndarray]:
+    """((K, 2) each tile's centre [m], (K,) its side [m])."""
     mask = (1 << 28) - 1
     size = quadtree.root_size_m / np.exp2((codes >> 56).astype(np.float64))
-    x = quadtree.root_x_m + ((codes & mask).astype(np.float64) + 0.5) * size
-    y = quadtree.root_y_m + (((codes >> 28) & mask).astype(np.float64) + 0.5) * size
-    d, _ = cKDTree(points).query(np.column_stack([x, y]))
-    return d
+    return np.column_stack([
+        quadtree.root_x_m + ((codes & mask).astype(np.float64) + 0.5) * size,
+        quadtree.root_y_m + (((codes >> 28) & mask).astype(np.float64) + 0.5) * size]), size
 
 
 def tiles_meeting(codes: np.ndarray, quadtree, boxes: np.ndarray, cells: int) -> np.ndarray:
@@ -879,16 +869,14 @@ def tiles_meeting(codes: np.ndarray, quadtree, boxes: np.ndarray, cells: int) ->
     codes = np.asarray(codes, np.int64)
     if not len(codes) or not len(boxes):
         return np.zeros(len(codes), bool)
-    mask = (1 << 28) - 1
-    level = (codes >> 56).astype(np.int64)
-    tx = (codes & mask).astype(np.float64)
-    ty = ((codes >> 28) & mask).astype(np.float64)
-    size = quadtree.root_size_m / np.exp2(level)
-    edge = size * EDGE_CELLS / cells
-    x0 = quadtree.root_x_m + tx * size - edge
-    y0 = quadtree.root_y_m + ty * size - edge
-    x1, y1 = x0 + size + 2 * edge, y0 + size + 2 * edge
-    out = np.zeros(len(codes), bool)
+    return _rects_meeting(_tile_rects(codes, quadtree, cells), boxes)
+
+
+def _rects_meeting(rects: np.ndarray, boxes: np.ndarray) -> np.ndarray:
+    """(K,) bool: the rectangles (K, 4) x0, y0, x1, y1 [m] that meet one of ``boxes``
+    (B, 4)."""
+    out = np.zeros(len(rects), bool)
+    x0, y0, x1, y1 = rects.T
     for s in range(0, len(boxes), 256):       # (K, 256) at a time: bounded temporaries
         bx = boxes[s:s + 256]
         out |= ((x0[:, None] <= bx[None, :, 2]) & (x1[:, None] >= bx[None, :, 0])
