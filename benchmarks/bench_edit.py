@@ -325,6 +325,7 @@ def remake(size, n: int, bump_m: float, seed: int) -> dict:
         return invalidate(stale, *args, **kwargs)
     scheduler.invalidate = kept_invalidate
     same: dict[str, int] = {}
+    same_drawn: dict[str, int] = {}       # of them, the drawn ones (the cut's leaves, flow)
 
     link, line0, at, width = _branch_in_view(world)
     cpu = []
@@ -344,6 +345,8 @@ def remake(size, n: int, bump_m: float, seed: int) -> dict:
                 now = pool.get(code)
                 if now is not None and tile_bytes(now) == data:
                     same[kind] = same.get(kind, 0) + 1
+                    if kind == FLOW_KIND or code in drawn:
+                        same_drawn[kind] = same_drawn.get(kind, 0) + 1
     out = {"remake_edits": n, "remake_cpu_s_median": float(np.median(cpu)),
            "remake_cpu_s_max": float(np.max(cpu))}
     for kind, (seconds, count, _, drawn_count) in spent.items():
@@ -352,6 +355,7 @@ def remake(size, n: int, bump_m: float, seed: int) -> dict:
             out[f"{kind}_drawn_per_edit"] = drawn_count / n
             out[f"{kind}_ms_per_tile"] = 1e3 * seconds / count
             out[f"{kind}_same_per_edit"] = same.get(kind, 0) / n
+            out[f"{kind}_same_drawn_per_edit"] = same_drawn.get(kind, 0) / n
     out["drawn_cpu_s_per_edit"] = sum(v[2] for v in spent.values()) / n
     out["all_cpu_s_per_edit"] = sum(v[0] for v in spent.values()) / n
     world.close()
