@@ -1134,6 +1134,8 @@ def _project(xy: np.ndarray, source, where: str, features) -> tuple[np.ndarray, 
     """Coordinates in a metric CRS: (xy (N, 2) [m], its WKT or None, how)."""
     if source is None:
         return xy, None, "no CRS in the file: coordinates taken as metres as they are"
+    if not len(xy):             # no geometry at all: what is missing is said by the reader
+        return xy, None, "no coordinates to project"
     pyproj = require("pyproj", f"projecting {where}")
     try:
         src = pyproj.CRS.from_user_input(source)
@@ -1151,10 +1153,15 @@ def _project(xy: np.ndarray, source, where: str, features) -> tuple[np.ndarray, 
         raise GraphError(f"{where}: cannot project from its CRS {_short_crs(src)}: {exc}") from None
     lon, lat = np.asarray(lon, float), np.asarray(lat, float)
     bad = ~(np.isfinite(lon) & np.isfinite(lat) & (np.abs(lat) <= 90.0))
+    what = f"cannot be projected from {_short_crs(src)}"
     if src.is_geographic:
-        bad |= ~((np.abs(xy[:, 0]) <= 360.0) & (np.abs(xy[:, 1]) <= 90.0))
+        degrees = (np.abs(xy[:, 0]) <= 360.0) & (np.abs(xy[:, 1]) <= 90.0)
+        bad |= ~degrees
+        if (np.isfinite(xy).all(axis=1) & ~degrees).any():    # not degrees: metres?
+            what += (" (not a longitude and latitude: a file in metres that does not say "
+                     "its CRS, as a GeoJSON may not? give it: crs=\"EPSG:…\")")
     if bad.any():
-        _raise_at(bad, features, where, xy, f"cannot be projected from {_short_crs(src)}")
+        _raise_at(bad, features, where, xy, what)
     dst = _local_crs(pyproj, lon, lat)
     try:
         out = pyproj.Transformer.from_crs(src, dst, always_xy=True).transform(

@@ -1076,22 +1076,9 @@ def _lakes_of(features, polygons, water, report: RiverImport, tolerance_m: float
         return [], water
     area = whole = shapely.intersection(water, shapely.union_all(
         shapely.make_valid(np.array(tagged, dtype=object))))
-    parts = shapely.get_parts(area)
-    parts = parts[shapely.get_type_id(parts) == 3]
-    if len(parts) > 1:
-        # parts that touch (a self-crossing ring made valid: a bow tie's two halves meet at
-        # a point) each moved off the other by the tolerance (lakes may not touch)
-        tree = shapely.STRtree(parts)
-        i, j = tree.query(parts, predicate="dwithin", distance=tolerance_m)
-        near = np.unique(i[i != j])
-        if len(near):
-            x, y = shapely.get_coordinates(parts[near[0]].representative_point())[0]
-            report.repair("lake", None, None, f"{len(near)} lakes touching near ({x:.1f}, "
-                          f"{y:.1f}) (a ring that crosses itself, made valid): each moved off "
-                          f"the others by {tolerance_m:g} m")
-            parts = parts.copy()
-            parts[near] = shapely.buffer(parts[near], -tolerance_m, join_style="mitre")
-            area = shapely.union_all(shapely.get_parts(parts))
+    # lakes that touch (two ponds at a point inside water that joins them) moved apart
+    area = shapely.union_all(_parts_apart([p for p in shapely.get_parts(area)
+                                           if p.geom_type == "Polygon"], tolerance_m, report))
     lakes = []
     for p in shapely.get_parts(area):
         if p.geom_type != "Polygon" or not p.area > (4.0 * tolerance_m) ** 2:
@@ -1403,8 +1390,38 @@ def _repair(features, polygons, report: RiverImport, where: str, simplify_m: flo
             report.notes.append(f"{len(p.interiors) - len(holes)} holes smaller than "
                                 f"{(4.0 * tolerance_m) ** 2:g} m² filled (specks, not islands)")
         clean.append(_islands_apart(shapely.Polygon(p.exterior, holes), tolerance_m, report))
+    clean = _parts_apart(clean, tolerance_m, report)
     clean.sort(key=lambda p: (-p.area, p.bounds))
     return clean[0] if len(clean) == 1 else shapely.MultiPolygon(clean)
+
+
+def _parts_apart(parts: list, tolerance_m: float, report: RiverImport) -> list:
+    """``parts`` (Polygons) once each that comes within ``tolerance_m`` of a larger one has
+    its shore there moved back to twice that from it (water does not pass through a point:
+    two polygons touching at a corner, a figure-eight outline made valid, are two water
+    bodies; the builder needs their shores farther apart than its tolerance). Pieces left
+    smaller than the tolerance's square go. Reported."""
+    if len(parts) < 2:
+        return parts
+    order = sorted(range(len(parts)), key=lambda k: (-parts[k].area, parts[k].bounds))
+    parts = [parts[k] for k in order]
+    a, b = shapely.STRtree(parts).query(parts, predicate="dwithin", distance=tolerance_m)
+    pair = a < b                          # (a larger, b smaller: sorted by area)
+    if not pair.any():
+        return parts
+    for i, j in zip(a[pair].tolist(), b[pair].tolist()):
+        if parts[i].is_empty or parts[j].is_empty:
+            continue
+        line = shapely.shortest_line(parts[i].exterior, parts[j].exterior)
+        x, y = line.interpolate(0.5, normalized=True).coords[0]
+        parts[j] = shapely.difference(parts[j], shapely.buffer(parts[i], 2.0 * tolerance_m))
+        report.repair("water", None, None,
+                      f"two parts of the water touch or come within the tolerance "
+                      f"({tolerance_m:g} m) near ({x:.1f}, {y:.1f}): the smaller one's shore "
+                      f"there moved back to {2.0 * tolerance_m:g} m from the other (water "
+                      f"does not pass through a point: two water bodies)")
+    return [g for part in parts for g in shapely.get_parts(part)
+            if g.geom_type == "Polygon" and g.area > tolerance_m ** 2]
 
 
 def _islands_apart(poly, tolerance_m: float, report: RiverImport):
@@ -2536,6 +2553,10 @@ def skeleton(water, tolerance_m: float = 0.25, frame=None, ends=None, dead=None)
         hidden[one] = ~_sees(water, pts[near][one], open_edge, 0.25 * spacing)
         near[near] = ~hidden
         pts = pts[~near]
+    if len(pts) < 4:
+        x, y = water.representative_point().coords[0]
+        raise GraphError(f"the water near ({x:.1f}, {y:.1f}): {len(pts)} points of its outline "
+                         f"are banks, the rest lies on the data's edge: no channel to read")
     seg = _voronoi_edges(pts)
     inside = np.stack([shapely.contains_xy(water, seg[:, 0, 0], seg[:, 0, 1]),
                        shapely.contains_xy(water, seg[:, 1, 0], seg[:, 1, 1])], axis=1)
@@ -2704,8 +2725,12 @@ def _open_edge(water, frame, width: float, tolerance_m: float):
         return None
     tol = 1e-6 * max(width, 1.0) + 1e-9
     band = shapely.buffer(frame.boundary, tol, cap_style="flat")
-    if shapely.difference(water.exterior, band).is_empty:
-        return None     # the water is its own frame (a rectangle): the data's edge says nothing
+    # the water is its own frame (a rectangle, reprojected: within a thousandth of the
+    # tolerance of it, bar less than the tolerance): the data's edge says nothing
+    own = shapely.difference(water.exterior, shapely.buffer(
+        frame.boundary, max(tol, 1e-3 * tolerance_m), cap_style="flat"))
+    if own.is_empty or own.length < tolerance_m:
+        return None
     on = shapely.intersection(water.boundary, band)
     rest = shapely.difference(water.boundary, band)
     pieces = [g for g in shapely.get_parts(shapely.line_merge(on) if on.geom_type in (

@@ -405,12 +405,13 @@ def test_a_self_intersecting_polygon_is_made_valid_and_reported(tmp_path):
     poly = write_polygons(tmp_path / "bowtie.geojson", [bad])
     builder = rf.read_water(poly, inlets=[ORIGIN], origin_m=ORIGIN)
     builder.build()
-    repair, speck = builder.report.repairs
+    repair, apart, speck = builder.report.repairs
     assert repair.feature == "feature 0" and "made valid" in repair.what
     assert "Self-intersection" in repair.what
-    # the knot's loop is a triangle of water touching the river at a point: left out
-    assert speck.feature == "water body 1" and "25.0 m² of water" in speck.what
-    assert "a speck" in speck.what
+    # the knot's loop is a triangle of water touching the river at a point: a water body of
+    # its own (moved back from the river there), left out as a speck
+    assert apart.feature == "water" and "near (305.0, 35.0)" in apart.what
+    assert speck.feature == "water body 1" and "a speck" in speck.what
 
 
 def test_an_island_touching_a_bank_at_a_point_is_moved_back_and_reported(tmp_path):

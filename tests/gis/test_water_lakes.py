@@ -186,8 +186,8 @@ def test_a_pond_apart_from_a_river_polygon_is_still_water(tmp_path):
 def test_osm_ponds_whose_rings_cross_themselves_or_each_other(tmp_path):
     """Real OSM ponds (graphhopper's krems.osm: 27 untagged ponds, a sliver of their union
     was read as a river and refused): a ring drawn as a bow tie (made valid: two triangles
-    meeting at a point, lakes that touch: refused) is two lakes moved off each other by the
-    tolerance, reported; two ponds drawn overlapping are one lake; nothing is read as a
+    meeting at a point, lakes that touch: refused) is two lakes, one's shore moved back
+    from the other round the point, reported; two ponds drawn overlapping are one lake; nothing is read as a
     river."""
     from tests.gis.test_osm import write_osm
 
@@ -200,11 +200,15 @@ def test_osm_ponds_whose_rings_cross_themselves_or_each_other(tmp_path):
     builder = rf.read_water(path)
     graph = builder.build()
     assert len(graph.lakes()) == 3 and builder.discharges_m2s == []
-    said = [r.what for r in builder.report.repairs if r.feature == "lake"]
-    assert any("2 lakes touching" in w and "moved off the others by 0.25 m" in w for w in said)
-    areas = sorted(shapely.Polygon(area_ring(graph, k)).area for k in graph.lakes())
-    assert areas[-1] > shapely.Point(0, 0).buffer(40, quad_segs=7).area      # the two as one
-    assert 1400.0 < areas[0] <= areas[1] < 1500.0                           # bow tie's halves
+    said = [r.what for r in builder.report.repairs if r.feature == "water"]
+    assert len(said) == 1 and "two parts of the water touch" in said[0]
+    assert "near (50.0, 30.0)" in said[0] and "moved back to 0.5 m from the other" in said[0]
+    rings = [shapely.Polygon(area_ring(graph, k)) for k in graph.lakes()]
+    rings.sort(key=lambda p: p.area)
+    assert rings[-1].area > shapely.Point(0, 0).buffer(40, quad_segs=7).area   # the two as one
+    # the bow tie's halves (1,500 m² each): one cut back round the point where they met
+    assert 1499.0 < rings[0].area <= rings[1].area < 1501.0
+    assert rings[0].distance(rings[1]) > 0.45        # (the buffer's chords: 0.498 m)
 
 
 def test_a_ring_of_water_round_an_island_beside_a_river_is_still_water(tmp_path):
