@@ -110,7 +110,8 @@ def test_crs_that_cannot_be_projected(tmp_path):
     with pytest.raises(rf.GraphError) as err:
         rf.read_rivers(path, crs="EPSG:4326")
     message = str(err.value)
-    for part in ("crs.geojson", "feature 0", "vertex 0", "cannot be projected", "name='north'"):
+    for part in ("crs.geojson", "feature 0", "vertex 0", "cannot be projected", "name='north'",
+                 "not a longitude and latitude", 'give it: crs="EPSG:'):
         assert part in message, message
     with pytest.raises(rf.GraphError, match="EPSG:4978.*cannot be projected to a map in metres"):
         rf.read_rivers(path, crs="EPSG:4978")     # geocentric

@@ -442,6 +442,44 @@ def test_an_island_touching_a_bank_at_a_point_is_moved_back_and_reported(tmp_pat
     assert (np.abs(along) > 0.8 * np.hypot(*v.T)).all()
 
 
+def test_water_that_touches_itself_at_a_point_is_two_water_bodies(tmp_path):
+    """Two river polygons that touch at a corner (a valid pair: water does not pass through
+    a point) were refused ("lake 1 touches or overlaps lake 0"): the smaller one's shore is
+    moved back from the other there (reported) and each reads on its own."""
+    a = shapely.box(0.0, 0.0, 600.0, 60.0)
+    b = shapely.box(600.0, 60.0, 1000.0, 100.0)
+    builder = rf.read_water(write_polygons(tmp_path / "corner.geojson", [a, b]),
+                            origin_m=ORIGIN)
+    builder.build()
+    (said,) = [r.what for r in builder.report.repairs if r.feature == "water"]
+    assert "near (600.0, 60.0)" in said and "moved back to 0.5 m" in said
+    parts = shapely.get_parts(builder.water_polygon)
+    assert len(parts) == 2 and parts[0].distance(parts[1]) > 0.45
+
+
+def test_a_rectangle_in_longitudes_and_latitudes_is_its_own_frame(tmp_path):
+    """A 111 × 11 m rectangle given in degrees (at 0° N 0° E): reprojected, its sides lie a
+    hundredth of a millimetre off its own bounding box, which was then taken for the data's
+    edge all round (no bank left: scipy's "No points given")."""
+    poly = shapely.box(0.0, 0.0, 0.001, 0.0001)
+    path = write_polygons(tmp_path / "ll.geojson", [shapely.transform(poly, lambda p: p - ORIGIN)],
+                          crs="EPSG:4326")
+    graph = rf.read_water(path).build()
+    assert len(graph.curves) > 0
+
+
+def test_no_geometry_in_degrees_is_said_plainly(tmp_path):
+    """A file in degrees whose only feature has no geometry (numpy's "zero-size array" from
+    choosing the projection)."""
+    import json
+
+    path = tmp_path / "null.geojson"
+    path.write_text(json.dumps({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "properties": {}, "geometry": None}]}))
+    with pytest.raises(GraphError, match=r"null.geojson .*no polygon with an area.*no geometry"):
+        rf.read_water(path)
+
+
 def test_a_polygon_without_area_is_an_error(tmp_path):
     flat = shapely.Polygon([(0, 0), (100, 0), (200, 0), (0, 0)])
     poly = write_polygons(tmp_path / "flat.geojson", [flat])
