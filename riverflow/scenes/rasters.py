@@ -39,6 +39,10 @@ from riverflow.scenes.sources import (
     padded_range,
 )
 
+HEIGHT_LIMIT_M = 1.0e7
+"""A raster cell farther from 0 than this [m] is no-data: beyond any height on Earth even in
+millimetres (an undeclared no-data value: float32's lowest, −1e30, …)."""
+
 BLOCK_CELLS = 512
 """Points are read in blocks of at most this many cells a side, so a batch spread over a huge
 raster (a long river's profile) reads only the blocks it touches."""
@@ -64,7 +68,9 @@ class RasterSource(HeightSource):
             :class:`~riverflow.scenes.sources.ArraySource` does).
 
     Heights are the bilinear interpolation of the pixel centres; points outside the raster
-    take the value at the nearest edge. ``cell_m`` is the finer pixel side, ``bounds_m`` the
+    take the value at the nearest edge. Cells that are not finite or lie beyond
+    ±HEIGHT_LIMIT_M are no-data too (a float raster's undeclared no-data, such as float32's
+    lowest value, −3.4·10³⁸). ``cell_m`` is the finer pixel side, ``bounds_m`` the
     box of the pixel centres, ``crs`` the WKT of the coordinates.
 
     Raises:
@@ -128,7 +134,7 @@ class RasterSource(HeightSource):
         self.z_range_m = (lo, hi)
 
     def _valid(self, block: np.ndarray) -> np.ndarray:
-        ok = np.isfinite(block)
+        ok = np.isfinite(block) & (np.abs(block) <= HEIGHT_LIMIT_M)
         if self.nodata is not None and np.isfinite(self.nodata):
             ok &= block != self.nodata
         return ok
@@ -150,7 +156,8 @@ class RasterSource(HeightSource):
                                      resampling=Resampling.nearest).astype(np.float64)
         valid = data[self._valid(data)]
         if not valid.size:
-            raise ValueError(f"{self.path}: no valid cell (all are no-data = {self.nodata})")
+            raise ValueError(f"{self.path}: no valid cell (all are no-data = {self.nodata}, "
+                             f"not finite or beyond ±{HEIGHT_LIMIT_M:g} m)")
         lo, hi = float(valid.min()), float(valid.max())
         return padded_range(lo, hi, stride)
 

@@ -59,6 +59,8 @@ BAD = {   # name: (make the file, the error's words)
     "all no-data": (lambda p: dem(p, nodata=-9999.0, values=np.full((6, 8), -9999.0)),
                     "no valid cell"),
     "all NaN": (lambda p: dem(p, values=np.full((6, 8), np.nan)), "no valid cell"),
+    "all beyond any height": (lambda p: dem(p, values=np.full((6, 8), -3.4e38)),
+                              "no valid cell.*beyond ±1e\\+07 m"),
     "complex": (lambda p: dem(p, dtype="complex64"), "complex numbers"),
     "rotated": (lambda p: dem(p, transform=rasterio.Affine(100, 20, ORIGIN[0], 20, -100,
                                                            ORIGIN[1])), "rotated raster"),

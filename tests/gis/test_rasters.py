@@ -79,6 +79,17 @@ def test_nodata_is_filled_with_the_lowest_height(tmp_path):
     assert source.z_range_m[0] > -100.0
 
 
+def test_an_undeclared_no_data_value_is_no_data(tmp_path):
+    """A float DEM whose holes hold float32's lowest value with no no-data tag (a common
+    export): those cells are no-data (filled with the lowest height), not pits 3·10³⁸ m deep."""
+    lowest = float(np.finfo(np.float32).min)
+    source = RasterSource(write_dem(tmp_path / "undeclared.tif", fn=lambda x, y: np.where(
+        (x < ORIGIN[0] - 290.0) & (y > ORIGIN[1] + 190.0), lowest, plane(x, y))))
+    assert source.nodata is None
+    corner = source.heights(ORIGIN[0] - 298.0, ORIGIN[1] + 198.0)
+    assert corner == pytest.approx(source.fill_m) and source.z_range_m[0] > -100.0
+
+
 def test_a_raster_in_another_crs_is_reprojected(tmp_path, rng):
     import pyproj
 
