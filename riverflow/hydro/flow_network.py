@@ -127,8 +127,8 @@ def build_flow_network(graph: HydroGraph, search_radius_factor: float,
     if not axes:
         raise GraphError(f"{name}: no river axis (a non-bank curve with a width > 0)")
     axis_set = set(axes)
-    poly = {i: graph.polyline(i, tolerance_m) for i in range(len(graph.curves))}
-    for i, p in poly.items():
+    for i in range(len(graph.curves)):      # (the control points: before they are flattened)
+        p = graph.vertices(i)
         if not np.all(np.isfinite(p)):
             raise GraphError(f"{name}: curve {i} has a non-finite coordinate")
         far = np.abs(p).max(initial=0.0)
@@ -136,6 +136,8 @@ def build_flow_network(graph: HydroGraph, search_radius_factor: float,
             raise GraphError(f"{name}: curve {i} has a coordinate {far:g} m from the origin, "
                              f"beyond {MAX_COORD_M:g} m (no map is that large; a unit or "
                              "origin mistake?)")
+    poly = {i: graph.polyline(i, tolerance_m) for i in range(len(graph.curves))}
+    for i, p in poly.items():
         c = graph.curves[i]
         if (c.is_bank or c.is_axis) and (len(p) < 2 or not np.any(p[1:] != p[0])):
             raise GraphError(f"{name}: curve {i} ({'a bank' if c.is_bank else 'an axis'}, "

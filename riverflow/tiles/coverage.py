@@ -117,8 +117,9 @@ def _row_intervals(seg: np.ndarray, reach: np.ndarray, yc: np.ndarray
     length2 = dx * dx + dy * dy
     length = np.sqrt(length2)
     v = yc - ay
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         # along it: 0 ≤ (x − ax) dx + v dy ≤ L²; across it: |(x − ax) dy − v dx| ≤ reach L
+        # (a denormal dx or dy overflows to ±inf: the limit of the flat segment's row)
         a1, a2 = ax - v * dy / dx, ax + (length2 - v * dy) / dx
         c1, c2 = ax + (v * dx - reach * length) / dy, ax + (v * dx + reach * length) / dy
     flat_x = dx == 0.0

@@ -108,3 +108,19 @@ def test_coverage_table_holds_the_touched_tiles_and_their_ancestors(rng):
     every = with_ancestors(fine)
     assert (table.find_many(every) >= 0).all()
     assert len(table) == len(every)
+
+
+def test_a_segment_flat_but_for_a_denormal_is_the_flat_ones_without_overflow():
+    """A segment whose dy (or dx) is a denormal (a graph file's 0.0 read as 1e-320) overflows
+    the row's band to ±inf, the flat segment's limit: the same tiles, no RuntimeWarning."""
+    import warnings
+
+    q = Quadtree(-512.0, -512.0, 1024.0)
+    flat = np.array([[-300.0, 0.0, 300.0, 0.0], [0.0, -300.0, 0.0, 300.0]])
+    tiny = flat.copy()
+    tiny[0, 3] = tiny[1, 2] = 1e-320          # (0 + 1e-320: the denormal stays)
+    assert tiny[0, 3] - tiny[0, 1] == 1e-320
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        got = touched_codes(q, tiny, np.array([20.0, 20.0]), 6)
+    assert np.array_equal(got, touched_codes(q, flat, np.array([20.0, 20.0]), 6))
