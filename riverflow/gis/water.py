@@ -1077,8 +1077,10 @@ def _lakes_of(features, polygons, water, report: RiverImport, tolerance_m: float
     area = whole = shapely.intersection(water, shapely.union_all(
         shapely.make_valid(np.array(tagged, dtype=object))))
     # lakes that touch (two ponds at a point inside water that joins them) moved apart
-    area = shapely.union_all(_parts_apart([p for p in shapely.get_parts(area)
-                                           if p.geom_type == "Polygon"], tolerance_m, report))
+    parts = [p for p in shapely.get_parts(area) if p.geom_type == "Polygon"]
+    apart = _parts_apart(parts, tolerance_m, report)
+    if apart is not parts:
+        area = shapely.union_all(apart)
     lakes = []
     for p in shapely.get_parts(area):
         if p.geom_type != "Polygon" or not p.area > (4.0 * tolerance_m) ** 2:
@@ -1403,12 +1405,13 @@ def _parts_apart(parts: list, tolerance_m: float, report: RiverImport) -> list:
     smaller than the tolerance's square go. Reported."""
     if len(parts) < 2:
         return parts
+    a, b = shapely.STRtree(parts).query(parts, predicate="dwithin", distance=tolerance_m)
+    if not (a != b).any():
+        return parts                      # (as they were: none near another)
     order = sorted(range(len(parts)), key=lambda k: (-parts[k].area, parts[k].bounds))
     parts = [parts[k] for k in order]
     a, b = shapely.STRtree(parts).query(parts, predicate="dwithin", distance=tolerance_m)
     pair = a < b                          # (a larger, b smaller: sorted by area)
-    if not pair.any():
-        return parts
     for i, j in zip(a[pair].tolist(), b[pair].tolist()):
         if parts[i].is_empty or parts[j].is_empty:
             continue
