@@ -1385,6 +1385,7 @@ def _repair(features, polygons, report: RiverImport, where: str, simplify_m: flo
         water = shapely.make_valid(water)
     parts = [p for p in shapely.get_parts(water)
              if p.geom_type == "Polygon" and p.area > tolerance_m ** 2]
+    parts = _bridged(parts, tolerance_m, report)
     clean = []
     for p in parts:    # holes smaller than the tolerance are specks of the data, not islands
         holes = [r for r in p.interiors if shapely.Polygon(r).area > (4.0 * tolerance_m) ** 2]
@@ -1395,6 +1396,92 @@ def _repair(features, polygons, report: RiverImport, where: str, simplify_m: flo
     clean = _parts_apart(clean, tolerance_m, report)
     clean.sort(key=lambda p: (-p.area, p.bounds))
     return clean[0] if len(clean) == 1 else shapely.MultiPolygon(clean)
+
+
+BRIDGE_MAX_M = 100.0
+"""Longest gap [m] :func:`_bridged` joins the water across (a bridge's deck, a weir, a road's
+embankment over a culvert the data left as land)."""
+BRIDGE_WIDTHS = 2.0
+"""…and at most this many times the narrower channel's width (its inscribed circle's
+diameter)."""
+BRIDGE_SPAN = (0.5, 1.5)
+"""…where the land between the two pieces of water is (lo, hi) times that width across: it
+spans one channel, bank to bank (two ponds side by side along a dyke face each other along
+their length: not a bridge)."""
+BRIDGE_ELONGATION = 2.0
+"""…and both pieces are channels: at least this many times as long as they are wide (area
+over the width squared)."""
+
+
+def _bridged(parts: list, tolerance_m: float, report: RiverImport) -> list:
+    """``parts`` (Polygons) with the water joined across each gap where two pieces of a
+    channel face each other, cut apart by a strip of land about as long as the channel is
+    wide and shorter than BRIDGE_WIDTHS widths (BRIDGE_MAX_M at most): a bridge, a weir or a
+    culvert's embankment that the data (a mask classified from images, riverbank polygons
+    cut at a bridge's deck) left as land. The strip is what a closing of the two pieces
+    (a disc of twice the gap) adds between them, within two widths of the gap. Reported."""
+    if len(parts) < 2:
+        return parts
+    a, b = shapely.STRtree(parts).query(parts, predicate="dwithin", distance=BRIDGE_MAX_M)
+    pairs = [(i, j) for i, j in zip(a.tolist(), b.tolist()) if i < j]
+    if not pairs:
+        return parts
+    radius: dict[int, float] = {}
+
+    def width(k: int) -> float:          # the channel's width: its inscribed circle's
+        if k not in radius:
+            circle = shapely.maximum_inscribed_circle(parts[k], tolerance_m)
+            radius[k] = float(shapely.length(circle))
+        return 2.0 * radius[k]
+
+    parent = list(range(len(parts)))
+
+    def root(k: int) -> int:
+        while parent[k] != k:
+            parent[k] = parent[parent[k]]
+            k = parent[k]
+        return k
+
+    fills = []
+    for i, j in pairs:
+        pi, pj = parts[i], parts[j]
+        gap = float(shapely.distance(pi, pj))
+        if gap > BRIDGE_MAX_M or root(i) == root(j):
+            continue
+        w = min(width(i), width(j))
+        if gap > BRIDGE_WIDTHS * w or min(pi.area, pj.area) < BRIDGE_ELONGATION * w * w:
+            continue
+        mid = shapely.shortest_line(pi, pj).interpolate(0.5, normalized=True)
+        # a disc of twice the gap: the banks run on straight across it (within a 16th of
+        # the gap; a disc of half the gap would cut the strip's corners off)
+        r = 2.0 * gap + tolerance_m
+        window = shapely.buffer(mid, 2.0 * r + 2.0 * w)
+        near = shapely.union_all([shapely.intersection(pi, window),
+                                  shapely.intersection(pj, window)])
+        closed = shapely.buffer(shapely.buffer(near, r), -r)
+        fill = shapely.intersection(shapely.difference(closed, near),
+                                    shapely.buffer(mid, 2.0 * w))
+        for piece in shapely.get_parts(fill):
+            if piece.geom_type != "Polygon" or not (
+                    shapely.distance(piece, pi) <= tolerance_m
+                    and shapely.distance(piece, pj) <= tolerance_m):
+                continue
+            span = piece.area / max(gap, tolerance_m)
+            if not BRIDGE_SPAN[0] * w <= span <= BRIDGE_SPAN[1] * w:
+                continue
+            fills.append(piece)
+            parent[root(j)] = root(i)
+            x, y = piece.representative_point().coords[0]
+            report.repair("water", None, None,
+                          f"two pieces of a channel {gap:.1f} m apart near ({x:.1f}, {y:.1f}), "
+                          f"the land between them {span:.1f} m across (the channel {w:.1f} m "
+                          f"wide): joined across it (a bridge, a weir or a culvert the data "
+                          f"left as land)")
+    if not fills:
+        return parts
+    joined = shapely.union_all([*parts, *fills])
+    return [p for p in shapely.get_parts(joined)
+            if p.geom_type == "Polygon" and p.area > tolerance_m ** 2]
 
 
 def _parts_apart(parts: list, tolerance_m: float, report: RiverImport) -> list:
@@ -2716,6 +2803,11 @@ def _sees(water, pts: np.ndarray, open_edge, deep: float) -> np.ndarray:
     return depth.reshape(len(p), len(f)).max(axis=1) <= deep
 
 
+OWN_FRAME_SHARE = 0.05
+"""Water whose outline lies on its data's frame but for less than this share is its own
+frame (:func:`_open_edge`): no piece of it is an open end."""
+
+
 def _open_edge(water, frame, width: float, tolerance_m: float):
     """The pieces of the water's outline along ``frame``'s edge (where the data's extent cuts
     the water: no bank), or None. A piece counts when it is at least OPEN_EDGE_WIDTHS ×
@@ -2729,10 +2821,11 @@ def _open_edge(water, frame, width: float, tolerance_m: float):
     tol = 1e-6 * max(width, 1.0) + 1e-9
     band = shapely.buffer(frame.boundary, tol, cap_style="flat")
     # the water is its own frame (a rectangle, reprojected: within a thousandth of the
-    # tolerance of it, bar less than the tolerance): the data's edge says nothing
+    # tolerance of it, bar less than the tolerance or OWN_FRAME_SHARE of its outline: a
+    # rectangle's sides sag where a bridge's gap was joined): the data's edge says nothing
     own = shapely.difference(water.exterior, shapely.buffer(
         frame.boundary, max(tol, 1e-3 * tolerance_m), cap_style="flat"))
-    if own.is_empty or own.length < tolerance_m:
+    if own.is_empty or own.length < max(tolerance_m, OWN_FRAME_SHARE * water.exterior.length):
         return None
     on = shapely.intersection(water.boundary, band)
     rest = shapely.difference(water.boundary, band)

@@ -480,6 +480,51 @@ def test_no_geometry_in_degrees_is_said_plainly(tmp_path):
         rf.read_water(path)
 
 
+def test_a_river_cut_by_a_bridge_is_joined_across_it(tmp_path):
+    """A 1 km river's polygon in two features with a 12 m gap where a bridge's deck was left
+    out (refused: its two channels' ends were snapped into a junction whose inflow was not
+    its outflow): joined across the gap (reported), one river whose water runs through it."""
+    river = shapely.LineString([(0.0, 0.0), (1000.0, 60.0)]).buffer(25.0, cap_style="flat")
+    gap = shapely.LineString([(494.0, 0.0), (506.0, 0.0)]).buffer(200.0, cap_style="flat")
+    up, down = sorted(shapely.get_parts(river.difference(gap)), key=lambda p: p.bounds)
+    builder = rf.read_water(write_polygons(tmp_path / "bridge.geojson", [up, down]),
+                            inlets=[ORIGIN], origin_m=ORIGIN)
+    graph = builder.build()
+    (said,) = [r.what for r in builder.report.repairs if r.feature == "water"]
+    assert "12.0 m apart near (500." in said and "joined across it" in said
+    assert len(builder.report.links) == 1
+    assert builder.water_polygon.geom_type == "Polygon"
+    assert abs(builder.water_polygon.area - river.area) < 0.01 * river.area
+    status, v = rf.FlowField(graph).query(np.array([[500.0, 30.0], [500.0, 20.0]]))
+    assert (status == INSIDE).all() and (v[:, 0] > 0.5 * np.hypot(*v.T)).all()
+
+
+def test_a_mask_with_a_bridge_reads_as_the_river_without_it(tmp_path):
+    """A water mask (10 m cells) of a 60 m river crossed by a road bridge two cells wide, as
+    masks classified from images have them: one river, as the mask without the bridge."""
+    river = shapely.LineString([(0.0, 0.0), (1200.0, 0.0)]).buffer(30.0, cap_style="flat")
+    deck = shapely.box(600.0, -100.0, 620.0, 100.0)
+    whole = rf.read_water(write_mask(tmp_path / "river.tif", river, 10.0), origin_m=ORIGIN)
+    cut = rf.read_water(write_mask(tmp_path / "bridge.tif", river.difference(deck), 10.0),
+                        origin_m=ORIGIN)
+    whole.build(), cut.build()
+    assert any("joined across it" in r.what for r in cut.report.repairs)
+    assert len(cut.report.links) == len(whole.report.links) == 1
+    assert cut.water_polygon.geom_type == "Polygon"
+    assert cut.water_polygon.hausdorff_distance(whole.water_polygon) <= 10.0     # a cell
+
+
+def test_two_ponds_along_a_dyke_are_not_joined(tmp_path):
+    """Two long ponds side by side, a 20 m dyke between them along their length: not a
+    bridge (the land between them is 8 widths across, not one), two water bodies."""
+    a = shapely.box(0.0, 0.0, 400.0, 50.0)
+    b = shapely.box(0.0, 70.0, 400.0, 120.0)
+    builder = rf.read_water(write_polygons(tmp_path / "ponds.geojson", [a, b]), origin_m=ORIGIN)
+    builder.build()
+    assert not any("joined across" in r.what for r in builder.report.repairs)
+    assert builder.water_polygon.geom_type == "MultiPolygon"
+
+
 def test_a_polygon_without_area_is_an_error(tmp_path):
     flat = shapely.Polygon([(0, 0), (100, 0), (200, 0), (0, 0)])
     poly = write_polygons(tmp_path / "flat.geojson", [flat])
