@@ -387,18 +387,42 @@ def _discharge_problems(graph: HydroGraph, branches, rel_tol: float,
     return problems
 
 
+def _leaves_water(lines: LineChunks, hit: np.ndarray, at: np.ndarray,
+                  directions: np.ndarray) -> np.ndarray:
+    """(H,) bool: whether a ray along ``directions`` (H, 2) crossing line ``hit`` (H,) of
+    ``lines`` (banks: the water on their left) at ``at`` (H, 2) [m] crosses from its left to
+    its right (the direction of the line's segment nearest the crossing)."""
+    if not len(hit):
+        return np.zeros(0, bool)
+    sizes = [len(ln) for ln in lines.lines]
+    geoms = shapely.linestrings(np.vstack(lines.lines),
+                                indices=np.repeat(np.arange(len(sizes)), sizes))[hit]
+    pts = shapely.points(at)
+    s = shapely.line_locate_point(geoms, pts)
+    length = shapely.length(geoms)
+    step = np.minimum(1e-3 * length, 0.01)
+    a = shapely.get_coordinates(shapely.line_interpolate_point(geoms, np.maximum(s - step, 0.0)))
+    b = shapely.get_coordinates(shapely.line_interpolate_point(geoms, np.minimum(s + step,
+                                                                                  length)))
+    t = b - a
+    return t[:, 0] * directions[:, 1] - t[:, 1] * directions[:, 0] <= 0.0
+
+
 def _bank_psi(lines: LineChunks, potential: np.ndarray, origins: np.ndarray,
               directions: np.ndarray, widths: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """ψ of the bank each ray from the centre line meets (R,), NaN if none is found, and its
     distance [m] (NaN with it). With the local width known, only a bank between 0.75 and
     1.25 half-widths counts (the farthest such hit): nearer shores are islands in the
     stream; a station where the bank is elsewhere (tight bends, junctions) gives NaN and is
-    skipped. Without it (NaN), the nearest bank within 100 km."""
+    skipped. Without it (NaN), the nearest bank within 100 km. Only a bank the ray leaves
+    the water at counts (crossing it from its left, the water's side, to its right): the
+    far shore of a strip of land, the bank of the river beyond a dyke, is not its own."""
     known = np.isfinite(widths)
     lo = np.where(known, 0.75 * 0.5 * widths, 0.0)
     reach = np.where(known, 1.25 * 0.5 * widths + 1.0, 1e5)
     ray, hit, dist = ray_hits(origins, directions, reach, lines)
-    ok = dist >= lo[ray]
+    ok = (dist >= lo[ray]) & _leaves_water(lines, hit, origins[ray] + directions[ray]
+                                            * dist[:, None], directions[ray])
     ray, hit, dist = ray[ok], hit[ok], dist[ok]
     far = first_per_group(ray, dist, len(origins), largest=True)
     near = first_per_group(ray, dist, len(origins))

@@ -525,6 +525,20 @@ def test_two_ponds_along_a_dyke_are_not_joined(tmp_path):
     assert builder.water_polygon.geom_type == "MultiPolygon"
 
 
+def test_two_channels_beside_a_narrow_dyke_each_read_their_own_banks(tmp_path):
+    """Two 50 m channels side by side with a 6 m dyke between them (a canal beside a river):
+    the graph check's ray across one channel read the far shore of the dyke, the other
+    channel's bank, within its window and took it for its own ("ψ(right) − ψ(left) = 0"):
+    a bank counts only where the ray leaves the water."""
+    a = shapely.box(0.0, 0.0, 400.0, 50.0)
+    b = shapely.box(0.0, 56.0, 400.0, 106.0)
+    builder = rf.read_water(write_polygons(tmp_path / "dyke.geojson", [a, b]), origin_m=ORIGIN)
+    graph = builder.build()
+    assert len(builder.report.links) == 2
+    status, v = rf.FlowField(graph).query(np.array([[200.0, 25.0], [200.0, 81.0]]))
+    assert (status == INSIDE).all() and (np.abs(v[:, 0]) > 0.9 * np.hypot(*v.T)).all()
+
+
 def test_a_polygon_without_area_is_an_error(tmp_path):
     flat = shapely.Polygon([(0, 0), (100, 0), (200, 0), (0, 0)])
     poly = write_polygons(tmp_path / "flat.geojson", [flat])
