@@ -1466,7 +1466,11 @@ def _bridged(parts: list, tolerance_m: float, report: RiverImport) -> list:
                     shapely.distance(piece, pi) <= tolerance_m
                     and shapely.distance(piece, pj) <= tolerance_m):
                 continue
-            span = piece.area / max(gap, tolerance_m)
+            # across: the shores that face each other over it (the gap may cut the channel
+            # obliquely: its area over the shortest gap would overstate it)
+            edge = shapely.buffer(piece, tolerance_m)
+            span = 0.5 * float(shapely.length(shapely.intersection(pi.exterior, edge))
+                               + shapely.length(shapely.intersection(pj.exterior, edge)))
             if not BRIDGE_SPAN[0] * w <= span <= BRIDGE_SPAN[1] * w:
                 continue
             fills.append(piece)
