@@ -391,13 +391,23 @@ def _leaves_water(lines: LineChunks, hit: np.ndarray, at: np.ndarray,
                   directions: np.ndarray) -> np.ndarray:
     """(H,) bool: whether a ray along ``directions`` (H, 2) crossing line ``hit`` (H,) of
     ``lines`` (banks: the water on their left) at ``at`` (H, 2) [m] crosses from its left to
-    its right (the direction of the line's segment nearest the crossing)."""
+    its right (the direction of the line's segment nearest the crossing, found on the run of
+    a few segments the crossing lies on: locating a point on a whole bank costs its
+    length)."""
     if not len(hit):
         return np.zeros(0, bool)
-    sizes = [len(ln) for ln in lines.lines]
-    geoms = shapely.linestrings(np.vstack(lines.lines),
-                                indices=np.repeat(np.arange(len(sizes)), sizes))[hit]
     pts = shapely.points(at)
+    k, chunk = lines.tree.query(pts, predicate="dwithin", distance=1e-6)
+    mine = lines.owner[chunk] == hit[k]
+    k, chunk = k[mine], chunk[mine]
+    first = np.ones(len(k), bool)
+    first[1:] = k[1:] != k[:-1]
+    geoms = np.empty(len(hit), dtype=object)
+    found = np.zeros(len(hit), bool)
+    geoms[k[first]] = lines.chunks[chunk[first]]
+    found[k[first]] = True
+    for r in np.flatnonzero(~found).tolist():     # (none within a micrometre: the line)
+        geoms[r] = shapely.LineString(lines.lines[int(hit[r])])
     s = shapely.line_locate_point(geoms, pts)
     length = shapely.length(geoms)
     step = np.minimum(1e-3 * length, 0.01)
