@@ -414,14 +414,14 @@ def _river_view(rng, r=5.0, w=320, h=180, n=700):
     water = np.where(np.abs(gx)[None, :] < 40, 0.0, np.nan).astype(np.float32) + ground
     grids = one_tile_surface(ground, water, -400.0, -400.0, 10.0, _valley_hints())
     g = _grid(w, h, 4 * r, pool.capacity)
-    gw, gh, count, items, removed = g.gw, g.gh, g.cell_count, g.cell_items, g.removed_cells
+    gw, gh, count, items = g.gw, g.gh, g.cell_count, g.cell_items
     cells = (np.floor(pool.screen_px[:n, 1] / (4 * r)) * gw
              + np.floor(pool.screen_px[:n, 0] / (4 * r))).astype(int)
     for i in np.argsort(cells, kind="stable"):
         items[cells[i], count[cells[i]]] = i
         count[cells[i]] += 1
     order = np.concatenate([items[c, :count[c]] for c in range(gw * gh)])
-    return pool, (fwd, inv), grids, (gw, gh, count, items, removed), order
+    return pool, (fwd, inv), grids, g, order
 
 
 def _valley_hints() -> np.ndarray:
@@ -452,20 +452,20 @@ def test_one_tile_surface_serves_the_kernels():
 
 
 def _near_args(pool, grid, r):
-    """The NEAR check's arguments up to ``removed_cells``: the grid's particles as the cull's
+    """The NEAR check's arguments up to ``reach_px``, the grid's particles as the cull's
     accepted ones (compact by cell) with their carrier flags."""
-    gw, gh, count, items, removed_cells = grid
+    gw, gh, count, items = grid.gw, grid.gh, grid.cell_count, grid.cell_items
     start = np.r_[0, np.cumsum(count)].astype(np.int32)
     slots = np.concatenate([items[c, :count[c]] for c in range(gw * gh)]).astype(np.int32)
+    grid.acc_start[:] = start
+    grid.acc_slot[:len(slots)] = slots
+    grid.acc_xy[:len(slots)] = pool.screen_px[slots]
     s = pool.status[slots]
-    flags = np.zeros(gw * gh, np.uint8)
     for c in range(gw * gh):
         cs = s[start[c]:start[c + 1]]
-        flags[c] = 3 if (cs == FlowStatus.INSIDE).any() else (
+        grid.carrier_cells[c] = 3 if (cs == FlowStatus.INSIDE).any() else (
             2 if (cs == FlowStatus.LEAVING).any() else 0)
-    return (pool.alive, pool.ids, pool.counters, pool.status, pool.screen_px, pool.world_m,
-            pool.birth_s, pool.water_hint_m, pool.hint_id, 1.0, FI + AC, 4 * r, gw, gh, start,
-            slots, pool.screen_px[slots].copy(), flags, 4 * r, removed_cells)
+    return pool.arrays, grid, 1.0, FI + AC, 4 * r
 
 
 def test_near_water_check_matches_reference(rng):
@@ -526,7 +526,7 @@ def test_near_water_probes_find_the_river_with_no_particle_on_it(rng):
 
 def test_place_at_seen_water_matches_reference(rng):
     r = 5.0
-    pool, _, _, (gw, gh, count, items, removed_cells), order = _river_view(rng, n=500)
+    pool, _, _, grid, order = _river_view(rng, n=500)
     pool.status[pool.status == FlowStatus.INSIDE] = FlowStatus.OUTSIDE  # a dry river to fill
     pool.status[:20] = FlowStatus.UNKNOWN
     pool.birth_s[:] = 0.0
@@ -540,14 +540,12 @@ def test_place_at_seen_water_matches_reference(rng):
         hit, flow, 1.92 * r)
     before = pool.alive.copy()
     ids = pool.ids.copy()
-    new = np.zeros(pool.capacity, np.int32)
     xyz = rng.uniform(-5, 5, (200, 3))
     vel = rng.uniform(-1, 1, (200, 2)).astype(np.float32)
     placed, removed = ka.place_at_seen_water(
-        pool.alive, pool.ids, pool.counters, pool.birth_s, pool.intensity, pool.screen_px,
-        pool.fade_reason, pool.has_world, pool.world_m, pool.velocity_mps, pool.status,
-        pool.first_query, pool.offset_m, 1.0, FI, AC, 1.92 * r, 4 * r, gw, gh, count, items,
-        200, probes, hit, xyz, flow, vel, removed_cells, 3, -1.0, -1.0, 1.0, 1.0, new)
+        pool.arrays, grid, ka.Probes(probes, hit, xyz, flow, vel), 200, 1.0, FI, AC, 1.92 * r, 3,
+        -1.0, -1.0, 1.0, 1.0)
+    new = grid.new_slots
     assert placed == len(want_rows) > 10 and removed == len(want_removed)
     gone = before & (~pool.alive | (pool.ids != ids))  # (a freed slot may take a new one)
     npt.assert_array_equal(np.flatnonzero(gone), np.sort(want_removed))
