@@ -71,8 +71,8 @@ def cull_crowded_particles(pool, grid, now_s, dt_s, fade_in_s, active_s, fade_ou
     """Rebuild the neighbour grid with the accepted particles of ``pool``
     (:class:`~riverflow.kernels.lifecycle.Pool`); fade out the crowded ones.
 
-    Of ``grid`` (:class:`Grid`): ``cell_count`` (gw·gh,) int32 and ``cell_items`` (gw·gh, K) int32 are rebuilt, and the
-    same compactly for the fill's scans: the accepted particles of cell c are rows
+    Of ``grid`` (:class:`Grid`): ``cell_count`` (gw·gh,) int32 and ``cell_items`` (gw·gh, K)
+    int32 are rebuilt, and the same compactly for the fill's scans: the accepted particles of cell c are rows
     ``acc_start[c]`` … ``acc_start[c + 1]`` (gw·gh + 1,) int32 of ``acc_slot`` (C,) int32 and
     ``acc_xy`` (C, 2) float32 (their screen positions); ``removed_cells`` (gw·gh,) uint8 marks
     cells where other systems removed particles since the last pass (read, then cleared);
