@@ -74,10 +74,10 @@ def _inside_neighbour(i, screen_px, status, alive, cell_px, gw, gh, cell_count, 
 
 
 @njit(**JIT_OPTIONS)
-def move_particles(n_slots, pool, dt_s, surface, frame, z_every, velocity_every, always_box,
-                   z_box, out_index, out_xy):
-    """Explicit Euler step of the INSIDE and LEAVING particles of ``pool``
-    (:class:`~riverflow.kernels.lifecycle.Pool`) with the velocity of their last flow query, ``dt_s`` [s] (speed factor included), and the list of the particles that ask
+def move_particles(n_slots, alive, has_world, world_m, velocity_mps, status, dt_s, surface,
+                   frame, z_every, velocity_every, always_box, z_box, out_index, out_xy):
+    """Explicit Euler step of the INSIDE and LEAVING particles with the velocity of their last
+    flow query, ``dt_s`` [s] (speed factor included), and the list of the particles that ask
     the flow this frame, in the same pass over slots [0, ``n_slots``) (the pool's slot bound).
 
     ``surface`` is the view's :class:`~riverflow.kernels.surface_tiles.SurfaceTiles`: a moved
@@ -98,8 +98,6 @@ def move_particles(n_slots, pool, dt_s, surface, frame, z_every, velocity_every,
     level, is the view's choice: ``select_view_tiles``). Returns (moved, n_velocity,
     n_status).
     """
-    alive, has_world, world_m = pool.alive, pool.has_world, pool.world_m
-    velocity_mps, status = pool.velocity_mps, pool.status
     moved = 0
     n = 0
     n_status = 0
@@ -151,21 +149,19 @@ def move_particles(n_slots, pool, dt_s, surface, frame, z_every, velocity_every,
 
 
 @njit(**JIT_OPTIONS)
-def apply_flow_status(pool, grid, n_query, query_index, query_status, query_velocity,
-                      keep_velocity_from, reach_px):
+def apply_flow_status(
+    alive, velocity_mps, status, first_query, screen_px,
+    n_query, query_index, query_status, query_velocity, keep_velocity_from,
+    cell_px, gw, gh, cell_count, cell_items, reach_px,
+):
     """The status machine, from the flow's answers at the particles' current positions.
 
-    ``query_index[:n_query]`` are the particles of ``pool``
-    (:class:`~riverflow.kernels.lifecycle.Pool`) that asked, with the answers ``query_status``
+    ``query_index[:n_query]`` are the particles that asked, with the answers ``query_status``
     (N,) uint8 and ``query_velocity`` (N, 2) float32 [m/s]; those from ``keep_velocity_from``
-    on asked for their status alone and keep their velocity. The neighbour grid ``grid``
-    (:class:`~riverflow.kernels.poisson_cull.Grid`: ``cell_count``, ``cell_items``) is the last
-    Poisson grid. Returns the number whose flow tile is not ready (they wait, unchanged).
+    on asked for their status alone and keep their velocity. The neighbour grid (``cell_count``,
+    ``cell_items``, cells of ``cell_px``) is the last Poisson grid. Returns the number whose
+    flow tile is not ready (they wait, unchanged).
     """
-    alive, velocity_mps, status = pool.alive, pool.velocity_mps, pool.status
-    first_query, screen_px = pool.first_query, pool.screen_px
-    cell_px, gw, gh, cell_count, cell_items = (grid.cell_px, grid.gw, grid.gh, grid.cell_count,
-                                               grid.cell_items)
     waiting = 0
     for k in range(n_query):
         i = query_index[k]

@@ -16,19 +16,16 @@ REASON_OUTSIDE_VIEWPORT = 2
 
 
 @njit(**JIT_OPTIONS)
-def project_particles(pool, clip_from_world, width_px, height_px, kill_margin_px, now_s,
-                      fade_in_s, active_s, fade_out_s):
-    """Project every live particle of ``pool`` (:class:`~riverflow.kernels.lifecycle.Pool`)
-    that has a world position.
+def project_particles(
+    alive, ids, counters, has_world, world_m, screen_px, birth_s, fade_reason,
+    clip_from_world, width_px, height_px, kill_margin_px, now_s, fade_in_s, active_s, fade_out_s,
+):
+    """Project every live particle that has a world position.
 
-    Its ``world_m`` (C, 3) float64 [m] is read, ``screen_px`` (C, 2) float32 written [px],
-    origin at the bottom-left; ``clip_from_world`` (4, 4) float64 column-vector matrix
-    (clip = M @ [x y z 1]). A zero-size viewport kills every projected particle. Returns
-    (killed, faded).
+    ``world_m`` (C, 3) float64 [m]; ``screen_px`` (C, 2) float32 written [px], origin at the
+    bottom-left; ``clip_from_world`` (4, 4) float64 column-vector matrix (clip = M @ [x y z 1]).
+    A zero-size viewport kills every projected particle. Returns (killed, faded).
     """
-    alive, ids, counters, has_world = pool.alive, pool.ids, pool.counters, pool.has_world
-    world_m, screen_px, birth_s, fade_reason = (pool.world_m, pool.screen_px, pool.birth_s,
-                                                pool.fade_reason)
     killed = 0
     faded = 0
     m = clip_from_world

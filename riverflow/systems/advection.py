@@ -66,8 +66,10 @@ class AdvectParticles(System):
         for _, (node, pool, grid) in esper.get_components(RiverNode, ParticlePool, ScreenGrid):
             cap = len(grid.query_index)
             self.moved, n_velocity, n_status = move_particles(
-                int(pool.counters[2]), pool.arrays, dt_s * clock.speed_factor, surface,
-                clock.frame, ALTITUDE_EVERY, VELOCITY_EVERY, always_velocity_box(node.field),
+                int(pool.counters[2]), pool.alive, pool.has_world, pool.world_m,
+                pool.velocity_mps, pool.status, dt_s * clock.speed_factor, surface, clock.frame,
+                ALTITUDE_EVERY,
+                VELOCITY_EVERY, always_velocity_box(node.field),
                 node.field.falls_box() if node.field.falls else _NO_BOX, grid.query_index,
                 grid.query_xy)
             if n_status:  # the status-only askers, listed from the end, after the others
@@ -192,5 +194,7 @@ def ask_flow(field: FlowField, pool: ParticlePool, grid: ScreenGrid, n: int,
     n_velocity = n if n_velocity is None else n_velocity
     query_flow(field, grid.query_xy[:n], grid.query_status[:n], grid.query_velocity[:n],
                n_velocity)
-    return apply_flow_status(pool.arrays, grid.arrays, n, grid.query_index, grid.query_status,
-                             grid.query_velocity, n_velocity, reach_px)
+    return apply_flow_status(pool.alive, pool.velocity_mps, pool.status, pool.first_query,
+                             pool.screen_px, n, grid.query_index, grid.query_status,
+                             grid.query_velocity, n_velocity, grid.cell_px, grid.gw, grid.gh,
+                             grid.cell_count, grid.cell_items, reach_px)

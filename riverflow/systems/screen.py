@@ -21,6 +21,7 @@ class ProjectParticles(System):
         c = world.config
         for _, pool in esper.get_component(ParticlePool):
             self.killed, self.faded = project_particles(
-                pool.arrays, view.clip_from_world, view.width_px, view.height_px,
-                c.offscreen_kill_factor * c.radius_px, clock.now_s, c.fade_in_s, c.active_s,
-                c.fade_out_s)
+                pool.alive, pool.ids, pool.counters, pool.has_world, pool.world_m,
+                pool.screen_px, pool.birth_s, pool.fade_reason, view.clip_from_world,
+                view.width_px, view.height_px, c.offscreen_kill_factor * c.radius_px,
+                clock.now_s, c.fade_in_s, c.active_s, c.fade_out_s)

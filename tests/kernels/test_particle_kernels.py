@@ -95,7 +95,9 @@ def test_projection_matches_reference_and_fades_or_kills_off_screen(rng):
     pool.world_m[:500] = rng.uniform((-400, -400, -10), (400, 400, 50), (500, 3))
     pool.has_world[:500] = True
     screen, w = reference.project(pool.world_m[:500], m, 320, 180)
-    killed, faded = ks.project_particles(pool.arrays, m, 320, 180, 20.0, 10.0, FI, AC, FO)
+    killed, faded = ks.project_particles(
+        pool.alive, pool.ids, pool.counters, pool.has_world, pool.world_m, pool.screen_px,
+        pool.birth_s, pool.fade_reason, m, 320, 180, 20.0, 10.0, FI, AC, FO)
     on = (w > 0) & np.all((screen >= 0) & (screen < (320, 180)), axis=1)
     margin = (w > 0) & np.all((screen >= -20) & (screen < (340, 200)), axis=1)
     npt.assert_array_equal(pool.alive[:500], margin)
@@ -110,7 +112,9 @@ def test_projection_matches_reference_and_fades_or_kills_off_screen(rng):
 def test_zero_viewport_kills_projected_particles_without_nan(rng):
     pool = _pool(rng, 50)
     pool.has_world[:50] = True
-    ks.project_particles(pool.arrays, np.eye(4), 0, 0, 20.0, 0.0, FI, AC, FO)
+    ks.project_particles(pool.alive, pool.ids, pool.counters, pool.has_world, pool.world_m,
+                         pool.screen_px, pool.birth_s, pool.fade_reason, np.eye(4), 0, 0, 20.0,
+                         0.0, FI, AC, FO)
     assert pool.count == 0 and np.isfinite(pool.screen_px).all()
 
 
@@ -298,8 +302,9 @@ def test_move_matches_reference(rng):
     index = np.zeros(300, np.int32)
     xy = np.zeros((300, 2))
     no_box = np.array([np.inf, np.inf, -np.inf, -np.inf])
-    moved, n, n_status = ka.move_particles(pool.counters[2], pool.arrays, 0.25, surface, 0, 1, 1,
-                                           no_box, no_box, index, xy)
+    moved, n, n_status = ka.move_particles(
+        pool.counters[2], pool.alive, pool.has_world, pool.world_m, pool.velocity_mps,
+        pool.status, 0.25, surface, 0, 1, 1, no_box, no_box, index, xy)
     assert moved == moving.sum() and n_status == 0
     npt.assert_allclose(pool.world_m[moving, :2], want[moving, :2], rtol=1e-6)
     npt.assert_array_equal(pool.world_m[~moving], start[~moving])
@@ -310,8 +315,9 @@ def test_move_matches_reference(rng):
     # every 2nd frame, staggered by slot, an INSIDE particle asks for its status alone (listed
     # from the end), except inside the box (moving obstacles)
     box = np.array([0.0, 0.0, 5.0, 5.0])
-    _, n, n_status = ka.move_particles(pool.counters[2], pool.arrays, 0.25, surface, 1, 1, 2, box,
-                                      no_box, index, xy)
+    _, n, n_status = ka.move_particles(
+        pool.counters[2], pool.alive, pool.has_world, pool.world_m, pool.velocity_mps,
+        pool.status, 0.25, surface, 1, 1, 2, box, no_box, index, xy)
     slots = np.arange(pool.capacity)
     in_box = np.all((pool.world_m[:, :2] >= 0) & (pool.world_m[:, :2] <= 5), axis=1)
     quiet = asking & (pool.status == FlowStatus.INSIDE) & ((slots + 1) % 2 == 1) & ~in_box
@@ -320,7 +326,8 @@ def test_move_matches_reference(rng):
     npt.assert_array_equal(xy[300 - n_status:][::-1], pool.world_m[quiet, :2])
     assert n_status > 20 and n + n_status == asking.sum()
     pool.world_m[:, 2] = 0.0
-    ka.move_particles(pool.counters[2], pool.arrays, 0.25,
+    ka.move_particles(pool.counters[2], pool.alive, pool.has_world, pool.world_m,
+                      pool.velocity_mps, pool.status, 0.25,
                       one_tile_surface(flat + 1, water, -100.0, -100.0, 100.0), 1, 4, 1, no_box,
                       no_box, index, xy)
     looked_up = moving & ((np.arange(pool.capacity) + 1) % 4 == 0)
@@ -328,7 +335,8 @@ def test_move_matches_reference(rng):
     assert np.allclose(pool.world_m[moving & ~looked_up, 2], 0.0)
     # and every frame inside the altitude box (over a fall), whatever the slot
     pool.world_m[:, 2] = 0.0
-    ka.move_particles(pool.counters[2], pool.arrays, 0.25,
+    ka.move_particles(pool.counters[2], pool.alive, pool.has_world, pool.world_m,
+                      pool.velocity_mps, pool.status, 0.25,
                       one_tile_surface(flat + 1, water, -100.0, -100.0, 100.0), 1, 4, 1, no_box,
                       box, index, xy)
     z_box = np.all((pool.world_m[:, :2] >= 0) & (pool.world_m[:, :2] <= 5), axis=1)
@@ -348,21 +356,26 @@ def test_status_machine():
     answers = np.array([S.INSIDE, S.OUTSIDE, S.INSIDE, S.OUTSIDE, S.INSIDE, S.OUTSIDE], np.uint8)
     vel = np.full((6, 2), 2.0, np.float32)
     g = _grid(100, 100, 40, pool.capacity)
-    waiting = ka.apply_flow_status(pool.arrays, g, 6, np.arange(6, dtype=np.int32), answers, vel,
-                                   6, 40.0)
+    gw, gh, count, items = g.gw, g.gh, g.cell_count, g.cell_items
+    waiting = ka.apply_flow_status(pool.alive, pool.velocity_mps, pool.status, pool.first_query,
+                                   pool.screen_px, 6, np.arange(6, dtype=np.int32), answers, vel,
+                                   6, 40.0, gw, gh, count, items, 40.0)
     assert waiting == 0
     assert pool.status.tolist() == [S.INSIDE, S.OUTSIDE, S.INSIDE, S.LEAVING, S.INSIDE, S.OUTSIDE]
     assert pool.velocity_mps[:, 0].tolist() == [2, 0, 2, 1, 2, 0]  # LEAVING keeps its velocity
     assert not pool.first_query.any()
     unknown = np.array([S.UNKNOWN], np.uint8)
     pool.status[0] = S.INSIDE
-    assert ka.apply_flow_status(pool.arrays, g, 1, np.zeros(1, np.int32), unknown, vel, 1,
-                                40.0) == 1
+    assert ka.apply_flow_status(pool.alive, pool.velocity_mps, pool.status, pool.first_query,
+                                pool.screen_px, 1, np.zeros(1, np.int32), unknown, vel, 1, 40.0,
+                                gw, gh, count, items, 40.0) == 1
     # a status-only answer (from keep_velocity_from on) keeps the velocity, INSIDE or leaving
     pool.status[2:4] = S.INSIDE
     pool.velocity_mps[2:4] = 3.0
-    ka.apply_flow_status(pool.arrays, g, 2, np.array([2, 3], np.int32),
-                         np.array([S.INSIDE, S.OUTSIDE], np.uint8), vel, 0, 40.0)
+    ka.apply_flow_status(pool.alive, pool.velocity_mps, pool.status, pool.first_query,
+                         pool.screen_px, 2, np.array([2, 3], np.int32),
+                         np.array([S.INSIDE, S.OUTSIDE], np.uint8), vel, 0, 40.0, gw, gh, count,
+                         items, 40.0)
     assert pool.status[2:4].tolist() == [S.INSIDE, S.LEAVING]
     assert pool.velocity_mps[2:4, 0].tolist() == [3, 3]
 
