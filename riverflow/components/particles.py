@@ -17,6 +17,7 @@ from enum import IntEnum
 import numpy as np
 
 from riverflow.components.status import FlowStatus
+from riverflow.kernels.lifecycle import Pool
 
 
 class FadeReason(IntEnum):
@@ -73,6 +74,8 @@ class ParticlePool:
     tint: np.ndarray = field(init=False)         # (C, 4) float32 the spills' colour (r, g, b)
                                                  # and concentration [kg/m³] where it sampled
     tint_id: np.ndarray = field(init=False)      # (C,) int64 id whose tint the slot holds
+    arrays: Pool = field(init=False, repr=False)
+    """These columns as one tuple, for the kernels (the arrays are never replaced)."""
 
     def __post_init__(self) -> None:
         c = int(self.capacity)
@@ -101,6 +104,7 @@ class ParticlePool:
         self.foam_id = np.full(c, -1, np.int64)
         self.tint = np.zeros((c, 4), np.float32)
         self.tint_id = np.full(c, -1, np.int64)
+        self.arrays = Pool(**self.columns())
 
     @property
     def count(self) -> int:

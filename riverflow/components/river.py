@@ -6,6 +6,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from riverflow.kernels.poisson_cull import Grid
 from riverflow.kernels.surface_tiles import SurfaceTiles
 from riverflow.tiles.cache import TileCache
 from riverflow.tiles.scheduler import TileScheduler
@@ -94,6 +95,8 @@ class ScreenGrid:
     query_xy: np.ndarray = field(init=False)       # (C, 2) float64 [m]
     query_status: np.ndarray = field(init=False)   # (C,) uint8
     query_velocity: np.ndarray = field(init=False)  # (C, 2) float32 [m/s]
+    arrays: Grid = field(init=False, repr=False)
+    """The grid as the Poisson kernels take it (remade with the grid)."""
 
     def __post_init__(self) -> None:
         c = self.capacity
@@ -105,6 +108,7 @@ class ScreenGrid:
         self.query_velocity = np.zeros((c, 2), np.float32)
         self.acc_slot = np.zeros(c, np.int32)
         self.acc_xy = np.zeros((c, 2), np.float32)
+        self._remake_arrays()
 
     def fit(self, width_px: int, height_px: int, cell_px: float) -> bool:
         """Resize for a viewport; True if the grid was rebuilt (its contents are then empty)."""
@@ -120,7 +124,14 @@ class ScreenGrid:
         self.dirty = np.zeros(n, np.uint8)
         self.acc_start = np.zeros(n + 1, np.int32)
         self.carrier_cells = np.zeros(n, np.uint8)
+        self._remake_arrays()
         return True
+
+    def _remake_arrays(self) -> None:
+        self.arrays = Grid(self.width_px, self.height_px, self.cell_px, self.gw, self.gh,
+                           self.cell_count, self.cell_items, self.removed_cells, self.dirty,
+                           self.acc_start, self.acc_slot, self.acc_xy, self.carrier_cells,
+                           self.candidates, self.new_slots)
 
 
 @dataclass

@@ -277,12 +277,13 @@ def fill_discharges(scene: Landscape, field: FlowField) -> None:
     missing = [b for b in scene.branches if b.discharge_m2s is None]
     if not missing:
         return
-    scratch = TileBuilder(field).block_scratch()
+    builder = TileBuilder(field)
 
     def potential(xy):
         pts = np.ascontiguousarray(np.asarray(xy, np.float64).reshape(-1, 2))
         psi = np.empty(len(pts))
-        kf.evaluate_potential(pts, psi, *field.network.kernel_args(), field.slip, *scratch)
+        kf.evaluate_potential(pts, psi, field.network.arrays, field.slip, builder.blk,
+                              builder.gval)
         return psi
     for b in missing:
         b.discharge_m2s = float(section_discharge_m2s(potential, b.centerline_m, b.widths_m))

@@ -548,7 +548,7 @@ class FlowField:
         pts = self._points(xy)
         psi = np.empty(len(pts))
         b = self._builder
-        kf.evaluate_potential(pts, psi, *self.network.kernel_args(), self.slip, *b.block_scratch())
+        kf.evaluate_potential(pts, psi, self.network.arrays, self.slip, b.blk, b.gval)
         return psi
 
     def _solve_lakes(self, tolerance_m: float) -> list:
@@ -704,19 +704,13 @@ class TileBuilder:
         m = n + 1 + 2 * kf.LATTICE_RING
         self.psi_full = np.empty((m, m))
         self.inside_full = np.zeros((m, m), np.bool_)
-        self.cell_d2 = np.empty((n, n, kf.CELL_SEGMENTS))
-        self.blk_curve = np.empty(net.n_curves, np.int32)
-        self.blk_start = np.empty(net.n_curves, np.int32)
-        self.blk_count = np.empty(net.n_curves, np.int32)
-        self.blk_seg = np.empty(net.n_segments, np.int32)
-        self.blk_dmin2 = np.empty(net.n_curves)
-        self.tmp_d2 = np.empty(net.n_segments)
         self.gval = np.empty(2 * max(net.n_groups, 1))   # ψ-groups' distances, then leads
+        self.scratch = kf.TileScratch(self.gval, self.psi_full, self.inside_full,
+                                      np.empty((n, n, kf.CELL_SEGMENTS)))
+        self.blk = kf.BoxLists(np.empty(net.n_curves, np.int32), np.empty(net.n_curves, np.int32),
+                               np.empty(net.n_curves, np.int32), np.empty(net.n_segments, np.int32),
+                               np.empty(net.n_curves), np.empty(net.n_segments))
         self.lakes: list = list(getattr(field, "lakes", []))   # set by the field once solved
-
-    def block_scratch(self) -> tuple:
-        return (self.blk_curve, self.blk_start, self.blk_count, self.blk_seg, self.blk_dmin2,
-                self.tmp_d2, self.gval)
 
     def make(self, level: int, tx: int, ty: int) -> dict[str, np.ndarray]:
         """Tile (level, tx, ty) in fresh arrays, as the flow pool stores it."""
@@ -744,9 +738,9 @@ class TileBuilder:
         if bank is None:
             bank = np.empty((n + 3, n + 3), np.float32)
         inside = int(kf.build_flow_tile(
-            t.root_x_m, t.root_y_m, t.spacing_m(level), n, tx * n, ty * n,
-            *f.network.kernel_args(), f.slip, *self.block_scratch(), self.psi_full,
-            self.inside_full, self.cell_d2, psi, cell_status, cell_segments, shore, bank))
+            t.root_x_m, t.root_y_m, t.spacing_m(level), n, tx * n, ty * n, f.network.arrays,
+            f.slip, self.blk, self.scratch,
+            kf.TileOut(psi, cell_status, cell_segments, shore, bank)))
         if self.lakes:
             self._lake_lattice(level, tx, ty, psi)
         return inside

@@ -18,11 +18,12 @@ Re-does the curve selection of Proland's ``HydroFlowProducer::doCreateTile`` and
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
 from riverflow.hydro.graph import CurveType, GraphError, HydroGraph
-from riverflow.kernels.flow import KIND_AXIS, KIND_BANK, KIND_CAP, OPEN_BANK
+from riverflow.kernels.flow import KIND_AXIS, KIND_BANK, KIND_CAP, OPEN_BANK, Network
 
 
 @dataclass(eq=False)
@@ -92,9 +93,10 @@ class FlowNetwork:
             out[self.curve_seg0[c]:self.curve_seg1[c]] = self.group_psi[self.curve_group[c]]
         return out
 
-    def kernel_args(self) -> tuple:
-        """Segment and curve arrays in the argument order of ``build_flow_tile``."""
-        return (
+    @cached_property
+    def arrays(self) -> Network:
+        """The segment and curve arrays as the ψ kernels take them (made once)."""
+        return Network(
             self.seg_ax, self.seg_ay, self.seg_bx, self.seg_by,
             self.curve_kind, self.curve_comp, self.curve_group, self.curve_hw2,
             self.curve_seg0, self.curve_seg1, self.curve_bbox, self.curve_cutoff,

@@ -20,6 +20,7 @@ and a particle whose flow tile is not ready yet waits instead of being treated a
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -37,6 +38,16 @@ STATUS_OUTSIDE_DOMAIN = 6
 STATUS_ON_SKY = 7
 HIT_WATER = 2
 """riverflow.kernels.raycast.HIT_WATER"""
+
+
+class Probes(NamedTuple):
+    """Screen points whose rays were cast (:func:`place_at_seen_water`), P of them."""
+
+    xy: np.ndarray              # (P, 2) float32 [px]
+    hit: np.ndarray             # (P,) uint8 what the ray hit (HIT_WATER: water)
+    hit_xyz: np.ndarray         # (P, 3) float64 [m] where
+    flow_status: np.ndarray     # (P,) uint8 FlowStatus there
+    flow_velocity: np.ndarray   # (P, 2) float32 [m/s] the flow's velocity there
 
 
 @njit(inline="always", **JIT_OPTIONS)
@@ -268,20 +279,20 @@ def _carrier_near(x, y, radius2, inside_only, cell_px, gw, gh, acc_start, acc_sl
 
 
 @njit(**JIT_OPTIONS)
-def check_outside_near_water(
-    alive, ids, counters, status, screen_px, world_m, birth_s, water_hint_m, hint_id, now_s,
-    fade_at_s, cell_px, gw, gh, acc_start, acc_slot, acc_xy, carrier_cells, reach_px,
-    removed_cells, frame, probe_every, replace_every, cover_px, width_px, height_px,
-    clip_from_world, eye_x, eye_y, surface, out_xy, out_owner,
-):
+def check_outside_near_water(pool, grid, now_s, fade_at_s, reach_px, frame, probe_every,
+                             replace_every, cover_px, width_px, height_px, clip_from_world,
+                             eye_x, eye_y, surface, out_xy, out_owner):
     """Where should the river get particles that it has not? Proland's NEAR rule, plus probes
     guided by where the water is in the world.
 
-    The river's particles here are those the last Poisson pass accepted, by cell of
-    ``cell_px`` in a ``gw`` × ``gh`` grid (rows ``acc_start[c]`` … ``acc_start[c + 1]`` of
-    ``acc_slot`` and ``acc_xy``, their screen positions, which the screen positions still are),
-    with their status now; ``carrier_cells`` (bit 1: an INSIDE one, bit 2: an INSIDE or
-    LEAVING one, as that pass saw them) prunes the cells to look in.
+    The river's particles here (of ``pool``, :class:`~riverflow.kernels.lifecycle.Pool`) are
+    those the last Poisson pass accepted, by cell of ``grid``
+    (:class:`~riverflow.kernels.poisson_cull.Grid`: rows ``acc_start[c]`` …
+    ``acc_start[c + 1]`` of ``acc_slot`` and ``acc_xy``, their screen positions, which the
+    screen positions still are), with their status now; ``carrier_cells`` (bit 1: an INSIDE
+    one, bit 2: an INSIDE or LEAVING one, as that pass saw them) prunes the cells to look in.
+    The viewport is ``width_px`` × ``height_px`` (this frame's: the grid's may be the last
+    one's).
 
     Each steady (age below ``fade_at_s``) OUTSIDE particle is looked at once every
     ``probe_every`` frames, staggered by slot (slots ≡ −frame mod ``probe_every``;
@@ -304,6 +315,12 @@ def check_outside_near_water(
     Probes go to ``out_xy`` (P, 2) float32 and their particle's slot to ``out_owner`` (P,)
     int32. Returns (removed, probes).
     """
+    alive, ids, counters, status = pool.alive, pool.ids, pool.counters, pool.status
+    screen_px, world_m, birth_s = pool.screen_px, pool.world_m, pool.birth_s
+    water_hint_m, hint_id = pool.water_hint_m, pool.hint_id
+    cell_px, gw, gh = grid.cell_px, grid.gw, grid.gh
+    acc_start, acc_slot, acc_xy = grid.acc_start, grid.acc_slot, grid.acc_xy
+    carrier_cells, removed_cells = grid.carrier_cells, grid.removed_cells
     cap = min(counters[2], alive.shape[0])  # (no live slot beyond the pool's slot bound)
     reach2 = reach_px * reach_px
     cover2 = cover_px * cover_px
@@ -354,20 +371,25 @@ def check_outside_near_water(
 
 
 @njit(**JIT_OPTIONS)
-def place_at_seen_water(
-    alive, ids, counters, birth_s, intensity, screen_px, fade_reason, has_world, world_m,
-    velocity_mps, status, first_query, offset_m, now_s, fade_in_s, active_s, gap_px, cell_px,
-    gw, gh, cell_count, cell_items, n, probe_xy, hit, hit_xyz, flow_status, flow_velocity,
-    removed_cells, seed, off_lo_x, off_lo_y, off_hi_x, off_hi_y, new_slots,
-):
-    """A new particle at each probe ``probe_xy[:n]`` whose ray hit water (``hit`` HIT_WATER, at
-    ``hit_xyz``) inside the flow (``flow_status`` INSIDE, ``flow_velocity``): the steady
-    particles closer than ``gap_px`` to it give way (NEAR, removed, cells marked in
-    ``removed_cells``) unless one of them is in the water (INSIDE, LEAVING) or still waiting
-    for its flow tile (UNKNOWN), or a particle placed here this frame is that close; then the
-    probe is skipped. The new particle starts INSIDE with the flow's velocity, fading in, a
-    random sprite offset (seeded by ``seed``). Writes ``new_slots`` and returns
-    (placed, removed)."""
+def place_at_seen_water(pool, grid, probes, n, now_s, fade_in_s, active_s, gap_px, seed,
+                        off_lo_x, off_lo_y, off_hi_x, off_hi_y):
+    """A new particle of ``pool`` (:class:`~riverflow.kernels.lifecycle.Pool`) at each of the
+    first ``n`` ``probes`` (:class:`Probes`) whose ray hit water inside the flow: the steady
+    particles of ``grid``'s cells (:class:`~riverflow.kernels.poisson_cull.Grid`) closer than
+    ``gap_px`` to it give way (NEAR, removed, cells marked in ``removed_cells``) unless one of
+    them is in the water (INSIDE, LEAVING) or still waiting for its flow tile (UNKNOWN), or a
+    particle placed here this frame is that close; then the probe is skipped. The new particle
+    starts INSIDE with the flow's velocity, fading in, a random sprite offset in the box
+    ``off_lo`` … ``off_hi`` [m] (seeded by ``seed``). Writes the grid's ``new_slots`` and
+    returns (placed, removed)."""
+    alive, ids, counters, birth_s = pool.alive, pool.ids, pool.counters, pool.birth_s
+    intensity, screen_px, fade_reason = pool.intensity, pool.screen_px, pool.fade_reason
+    has_world, world_m, velocity_mps = pool.has_world, pool.world_m, pool.velocity_mps
+    status, first_query, offset_m = pool.status, pool.first_query, pool.offset_m
+    cell_px, gw, gh = grid.cell_px, grid.gw, grid.gh
+    cell_count, cell_items = grid.cell_count, grid.cell_items
+    removed_cells, new_slots = grid.removed_cells, grid.new_slots
+    probe_xy, hit, hit_xyz, flow_status, flow_velocity = probes
     np.random.seed(seed)
     gap2 = gap_px * gap_px
     fade_at = fade_in_s + active_s

@@ -14,8 +14,8 @@ Re-does Proland's ``HydroFlowTile`` (reference §2.3) with the corrections of SP
 * velocity = (−∂ψ/∂y, ∂ψ/∂x), the true curl of a Catmull-Rom bicubic interpolant of the ψ
   lattice: continuous (C⁰) everywhere, exactly divergence-free inside each lattice cell.
 
-Network arrays (built by :mod:`riverflow.hydro.flow_network`), S segments, C curves, G ψ-groups,
-K connected components:
+Network arrays (:class:`Network`, built by :mod:`riverflow.hydro.flow_network`), S segments,
+C curves, G ψ-groups, K connected components:
 
     seg_ax, seg_ay, seg_bx, seg_by   (S,) float64   segment ends [m]; banks and caps have the
                                                     water on their left (a → b)
@@ -32,7 +32,7 @@ K connected components:
     comp_group0/1   (K,) int32    the component's ψ-groups are group0 ≤ g < group1
     group_psi       (G,) float64  ψ of each group [m²/s]
 
-No kernel allocates: scratch arrays come from the caller (:class:`FlowScratch`).
+No kernel allocates: scratch arrays come from the caller (:class:`BoxLists`, :class:`TileScratch`).
 """
 from __future__ import annotations
 
@@ -103,6 +103,62 @@ the shore (:func:`potential_and_shore_at`: foam's shore closeness, the distance 
 count it; the distance to the flow's banks (foam's impinging water: the river runs along the
 mouth as along a bank, not into the basin's corner beyond it) does."""
 """How many river networks :func:`potential_and_shore_at` tries at a point behind a shore."""
+
+
+class Network(NamedTuple):
+    """The network arrays of the module docstring, as the ψ kernels read them (built once
+    per network: ``FlowNetwork.arrays``)."""
+
+    seg_ax: np.ndarray
+    seg_ay: np.ndarray
+    seg_bx: np.ndarray
+    seg_by: np.ndarray
+    curve_kind: np.ndarray
+    curve_comp: np.ndarray
+    curve_group: np.ndarray
+    curve_hw2: np.ndarray
+    curve_seg0: np.ndarray
+    curve_seg1: np.ndarray
+    curve_bbox: np.ndarray
+    curve_cutoff: np.ndarray
+    comp_radius: np.ndarray
+    comp_group0: np.ndarray
+    comp_group1: np.ndarray
+    group_psi: np.ndarray
+
+
+class BoxLists(NamedTuple):
+    """The pruned segment lists of one box (:func:`gather_box_segments`), C curves, S segments:
+    list k is curve ``curve[k]``'s segments ``seg[start[k]:start[k] + count[k]]``, at least
+    ``dmin2[k]`` [m²] (squared) from every point of the box; ``tmp_d2`` is scratch."""
+
+    curve: np.ndarray       # (C,) int32
+    start: np.ndarray       # (C,) int32
+    count: np.ndarray       # (C,) int32
+    seg: np.ndarray         # (S,) int32
+    dmin2: np.ndarray       # (C,) float64
+    tmp_d2: np.ndarray      # (S,) float64
+
+
+class TileScratch(NamedTuple):
+    """Scratch of :func:`build_flow_tile`: ``gval`` (2·G,) float64 (:func:`potential_at`),
+    ``psi_full`` (M, M) float64 and ``inside_full`` (M, M) bool, M = n + 1 + 2·LATTICE_RING,
+    ``cell_d2`` (n, n, CELL_SEGMENTS) float64."""
+
+    gval: np.ndarray
+    psi_full: np.ndarray
+    inside_full: np.ndarray
+    cell_d2: np.ndarray
+
+
+class TileOut(NamedTuple):
+    """What :func:`build_flow_tile` writes of one tile (shapes there)."""
+
+    psi: np.ndarray
+    cell_status: np.ndarray
+    cell_segments: np.ndarray
+    shore: np.ndarray
+    bank: np.ndarray
 
 
 # -- geometry helpers -------------------------------------------------------------------------
@@ -239,35 +295,28 @@ def _segment_box_maxdist2(ax, ay, bx, by, x0, y0, x1, y1):
 
 
 @njit(**JIT_OPTIONS)
-def gather_box_segments(
-    x0, y0, x1, y1,
-    seg_ax, seg_ay, seg_bx, seg_by,
-    curve_seg0, curve_seg1, curve_bbox, curve_cutoff,
-    blk_curve, blk_start, blk_count, blk_seg, blk_dmin2, tmp_d2,
-):
-    """Collect, per curve, the segments that can be that curve's nearest for some point of the box.
+def gather_box_segments(x0, y0, x1, y1, net, blk):
+    """Collect, per curve of ``net`` (:class:`Network`), the segments that can be that curve's
+    nearest for some point of the box, into ``blk`` (:class:`BoxLists`).
 
     A segment is kept when its distance to the box is at most the smallest "farthest distance"
     of the curve's segments (so each curve's nearest segment is kept for every box point) and at
-    most the curve's cutoff. Writes ``blk_curve[:n]``, ``blk_start``/``blk_count`` into
-    ``blk_seg`` and ``blk_dmin2``, the curve's smallest squared distance to the box (a lower
-    bound for every box point); ``tmp_d2`` is (S,) scratch. Returns n, the number of curves kept.
+    most the curve's cutoff. Writes ``blk.curve[:n]``, ``blk.start``/``blk.count`` into
+    ``blk.seg`` and ``blk.dmin2``, the curve's smallest squared distance to the box (a lower
+    bound for every box point). Returns n, the number of curves kept.
     """
-    return _gather_listed(x0, y0, x1, y1, seg_ax, seg_ay, seg_bx, seg_by, curve_seg0,
-                          curve_seg1, curve_seg0, False, curve_bbox, curve_cutoff, blk_curve,
-                          blk_start, blk_count, blk_seg, blk_dmin2, tmp_d2)
+    return _gather_listed(x0, y0, x1, y1, net, net.curve_seg0, net.curve_seg1, net.curve_seg0,
+                          False, blk)
 
 
 @njit(**JIT_OPTIONS)
-def _gather_listed(
-    x0, y0, x1, y1,
-    seg_ax, seg_ay, seg_bx, seg_by,
-    list_lo, list_hi, listed, indexed, curve_bbox, curve_cutoff,
-    blk_curve, blk_start, blk_count, blk_seg, blk_dmin2, tmp_d2,
-):
+def _gather_listed(x0, y0, x1, y1, net, list_lo, list_hi, listed, indexed, blk):
     """:func:`gather_box_segments` over the segments of each curve c at positions
     ``list_lo[c]`` … ``list_hi[c]``: the segments themselves (``indexed`` False: the curve's
     range) or ``listed[position]`` (True: a list from :func:`segments_near_box`)."""
+    seg_ax, seg_ay, seg_bx, seg_by = net.seg_ax, net.seg_ay, net.seg_bx, net.seg_by
+    curve_bbox, curve_cutoff = net.curve_bbox, net.curve_cutoff
+    blk_curve, blk_start, blk_count, blk_seg, blk_dmin2, tmp_d2 = blk
     nb = 0
     ns = 0
     for c in range(curve_bbox.shape[0]):
@@ -312,17 +361,15 @@ far above the rounding of the distances, so every segment a box inside it keeps 
 
 
 @njit(**JIT_OPTIONS)
-def segments_near_box(
-    x0, y0, x1, y1,
-    seg_ax, seg_ay, seg_bx, seg_by,
-    curve_seg0, curve_seg1, curve_bbox, curve_cutoff,
-    list_lo, list_hi, listed,
-):
+def segments_near_box(x0, y0, x1, y1, net, list_lo, list_hi, listed):
     """The segments of each curve c within (a hair more than) its cutoff of the box, in order,
     in ``listed[list_lo[c]:list_hi[c]]``; returns how many. For any box inside this one,
     :func:`_gather_listed` over these lists keeps what :func:`gather_box_segments` keeps, bit
     for bit (a segment left out is beyond the cutoff of every point of the box): a flow tile
     scans a long river's bank once, not once for every block of its lattice."""
+    seg_ax, seg_ay, seg_bx, seg_by = net.seg_ax, net.seg_ay, net.seg_bx, net.seg_by
+    curve_seg0, curve_seg1 = net.curve_seg0, net.curve_seg1
+    curve_bbox, curve_cutoff = net.curve_bbox, net.curve_cutoff
     n = 0
     for c in range(curve_bbox.shape[0]):
         list_lo[c] = n
@@ -350,21 +397,18 @@ def _fade(t):
 
 
 @njit(**JIT_OPTIONS)
-def potential_at(
-    px, py, nb, blk_curve, blk_start, blk_count, blk_seg, blk_dmin2,
-    seg_ax, seg_ay, seg_bx, seg_by,
-    curve_kind, curve_comp, curve_group, curve_hw2,
-    comp_radius, comp_group0, comp_group1, group_psi, slip, gval,
-):
-    """ψ at p [m²/s] from the pruned lists of a box containing p; NaN when p is not in the water.
+def potential_at(px, py, nb, blk, net, slip, gval):
+    """ψ at p [m²/s] from ``blk``'s first ``nb`` pruned lists (:class:`BoxLists`) of a box
+    containing p; NaN when p is not in the water.
 
     ``gval`` is (2·G,) scratch: the merged signed squared distance of each ψ-group, then
     the segment it is to (:func:`_nearer`).
     """
-    return potential_and_shore_at(px, py, nb, blk_curve, blk_start, blk_count, blk_seg,
-                                  blk_dmin2, seg_ax, seg_ay, seg_bx, seg_by, curve_kind,
-                                  curve_comp, curve_group, curve_hw2, comp_radius, comp_group0,
-                                  comp_group1, group_psi, slip, gval)[0]
+    return potential_and_shore_at(px, py, nb, blk.curve, blk.start, blk.count, blk.seg,
+                                  blk.dmin2, net.seg_ax, net.seg_ay, net.seg_bx, net.seg_by,
+                                  net.curve_kind, net.curve_comp, net.curve_group, net.curve_hw2,
+                                  net.comp_radius, net.comp_group0, net.comp_group1,
+                                  net.group_psi, slip, gval)[0]
 
 
 @njit(**JIT_OPTIONS)
@@ -387,7 +431,11 @@ def potential_and_shore_at(
     width), the next network is tried so, up to MAX_NETWORK_TRIES networks: where two
     networks' axes overlap across a shore they share (a basin's mouth beside its river), each
     point takes the one whose water it is in, and a river's water is never taken for a
-    basin's at the basin's corners (the vertex tie rule, :func:`_nearer`)."""
+    basin's at the basin's corners (the vertex tie rule, :func:`_nearer`).
+
+    It and :func:`_network_potential` take the arrays they read one by one, not the
+    :class:`Network` and :class:`BoxLists` tuples: they run once per lattice point, and passing
+    whole tuples (arrays they do not read) made :func:`build_flow_tile` 25 % slower."""
     tried0 = -1
     tried1 = -1
     for _ in range(MAX_NETWORK_TRIES):
@@ -534,39 +582,27 @@ def _network_potential(
 
 
 @njit(**JIT_OPTIONS)
-def evaluate_potential(
-    xy, out_psi,
-    seg_ax, seg_ay, seg_bx, seg_by,
-    curve_kind, curve_comp, curve_group, curve_hw2, curve_seg0, curve_seg1, curve_bbox,
-    curve_cutoff, comp_radius, comp_group0, comp_group1, group_psi, slip,
-    blk_curve, blk_start, blk_count, blk_seg, blk_dmin2, tmp_d2, gval,
-):
+def evaluate_potential(xy, out_psi, net, slip, blk, gval):
     """Exact (uncached) ψ at each point of ``xy`` (N, 2) float64 into ``out_psi`` (N,) float64.
 
-    Slow path for tests and tools: each point gets its own pruned segment list.
+    Slow path for tests and tools: each point gets its own pruned segment list (scratch
+    ``blk``, :class:`BoxLists`; ``gval`` as :func:`potential_at`).
     """
     for i in range(xy.shape[0]):
         px = xy[i, 0]
         py = xy[i, 1]
-        nb = gather_box_segments(px, py, px, py, seg_ax, seg_ay, seg_bx, seg_by,
-                                 curve_seg0, curve_seg1, curve_bbox, curve_cutoff,
-                                 blk_curve, blk_start, blk_count, blk_seg, blk_dmin2, tmp_d2)
-        out_psi[i] = potential_at(px, py, nb, blk_curve, blk_start, blk_count, blk_seg, blk_dmin2,
-                                  seg_ax, seg_ay, seg_bx, seg_by, curve_kind, curve_comp,
-                                  curve_group, curve_hw2, comp_radius, comp_group0, comp_group1,
-                                  group_psi, slip, gval)
+        nb = gather_box_segments(px, py, px, py, net, blk)
+        out_psi[i] = potential_at(px, py, nb, blk, net, slip, gval)
 
 
 @njit(**JIT_OPTIONS)
-def _mirrored_across_cap(
-    px, py, reach, seg_ax, seg_ay, seg_bx, seg_by, curve_kind, curve_comp, curve_group,
-    curve_hw2, curve_seg0, curve_seg1, curve_bbox, curve_cutoff, comp_radius, comp_group0,
-    comp_group1, group_psi, slip, blk_curve, blk_start, blk_count, blk_seg, blk_dmin2, tmp_d2,
-    gval,
-):
+def _mirrored_across_cap(px, py, reach, net, slip, blk, gval):
     """ψ at the mirror image of p (a dry point just beyond a cap) across its nearest cap
     segment's line, when that lies in the water and p within ``reach`` of the cap; else NaN.
     The ghosts of a river's open end: the water would go on, square to the cap."""
+    seg_ax, seg_ay, seg_bx, seg_by = net.seg_ax, net.seg_ay, net.seg_bx, net.seg_by
+    curve_kind, curve_seg0, curve_seg1, curve_bbox = (net.curve_kind, net.curve_seg0,
+                                                      net.curve_seg1, net.curve_bbox)
     best = np.inf
     seg = -1
     for c in range(curve_kind.shape[0]):
@@ -592,48 +628,44 @@ def _mirrored_across_cap(
     t = ((px - ax) * ex + (py - ay) * ey) / len2
     mx = 2.0 * (ax + t * ex) - px
     my = 2.0 * (ay + t * ey) - py
-    nb = gather_box_segments(mx, my, mx, my, seg_ax, seg_ay, seg_bx, seg_by, curve_seg0,
-                             curve_seg1, curve_bbox, curve_cutoff, blk_curve, blk_start,
-                             blk_count, blk_seg, blk_dmin2, tmp_d2)
+    nb = gather_box_segments(mx, my, mx, my, net, blk)
     if nb == 0:
         return np.nan
-    return potential_at(mx, my, nb, blk_curve, blk_start, blk_count, blk_seg, blk_dmin2,
-                        seg_ax, seg_ay, seg_bx, seg_by, curve_kind, curve_comp, curve_group,
-                        curve_hw2, comp_radius, comp_group0, comp_group1, group_psi, slip, gval)
+    return potential_at(mx, my, nb, blk, net, slip, gval)
 
 
 # -- flow tiles ---------------------------------------------------------------------------------
 
 
 @njit(**WORKER_JIT_OPTIONS)
-def build_flow_tile(
-    origin_x, origin_y, spacing_m, n_cells, gi0, gj0,
-    seg_ax, seg_ay, seg_bx, seg_by,
-    curve_kind, curve_comp, curve_group, curve_hw2, curve_seg0, curve_seg1, curve_bbox,
-    curve_cutoff, comp_radius, comp_group0, comp_group1, group_psi, slip,
-    blk_curve, blk_start, blk_count, blk_seg, blk_dmin2, tmp_d2, gval, psi_full, inside_full,
-    cell_d2,
-    out_psi, out_cell_status, out_cell_segments, out_shore, out_bank,
-):
+def build_flow_tile(origin_x, origin_y, spacing_m, n_cells, gi0, gj0, net, slip, blk, scratch,
+                    out):
     """Fill one flow tile: its ψ lattice (with extrapolated ghosts), per-cell inside data and
     the distance to the nearest bank or island shore at its lattice points.
 
     The tile has ``n_cells`` × ``n_cells`` lattice cells of ``spacing_m``; lattice point (a, b)
     lies at ``origin + ((gi0 + a)·h, (gj0 + b)·h)``, so neighbouring tiles compute bitwise
-    equal values at shared points. Scratch ``psi_full``/``inside_full`` are (M, M) with
-    M = n_cells + 1 + 2·LATTICE_RING; ``cell_d2`` (n, n, CELL_SEGMENTS) float64.
+    equal values at shared points. ``net``: the network (:class:`Network`), ``slip`` its
+    weighting exponent; scratch ``blk`` (:class:`BoxLists`) and ``scratch``
+    (:class:`TileScratch`).
 
-    Outputs: ``out_psi`` (n+3, n+3) float64, lattice points −1 … n+1 (NaN far from water;
+    Outputs (:class:`TileOut`): ``psi`` (n+3, n+3) float32, lattice points −1 … n+1 (NaN far
+    from water;
     outside points next to the water hold ψ extrapolated from the water side, those within
     three spacings beyond a cap ψ of their mirror image across it);
-    ``out_cell_status`` (n, n) uint8 CELL_* (BOUNDARY possibly with the CELL_CROWDED flag); ``out_cell_segments`` (n, n, CELL_SEGMENTS) int32,
-    for boundary cells the nearest bank / cap segments (−1 padded); ``out_shore`` (n+3, n+3)
+    ``cell_status`` (n, n) uint8 CELL_* (BOUNDARY possibly with the CELL_CROWDED flag); ``cell_segments`` (n, n, CELL_SEGMENTS) int32,
+    for boundary cells the nearest bank / cap segments (−1 padded); ``shore`` (n+3, n+3)
     float32, lattice points −1 … n+1: the distance [m] to the nearest bank or island shore
     (found by the ψ weighting anyway: :func:`potential_and_shore_at`), 0 at dry points, so
-    that a bilinear blend falls to about 0 at the bank; ``out_bank`` (n+3, n+3) float32 the
+    that a bilinear blend falls to about 0 at the bank; ``bank`` (n+3, n+3) float32 the
     same with open banks (a basin's mouth) counted: the distance to the flow's nearest bank.
     Returns the number of lattice points inside the water.
     """
+    (seg_ax, seg_ay, seg_bx, seg_by, curve_kind, curve_comp, curve_group, curve_hw2, _, _,
+     curve_bbox, _, comp_radius, comp_group0, comp_group1, group_psi) = net
+    blk_curve, blk_start, blk_count, blk_seg, blk_dmin2, _ = blk
+    gval, psi_full, inside_full, cell_d2 = scratch
+    out_psi, out_cell_status, out_cell_segments, out_shore, out_bank = out
     ring = LATTICE_RING
     m = n_cells + 1 + 2 * ring
     h = spacing_m
@@ -646,8 +678,7 @@ def build_flow_tile(
     listed = np.empty(seg_ax.shape[0], np.int32)
     segments_near_box(origin_x + (gi0 - ring) * h, origin_y + (gj0 - ring) * h,
                       origin_x + (gi0 + m - 1 - ring) * h, origin_y + (gj0 + m - 1 - ring) * h,
-                      seg_ax, seg_ay, seg_bx, seg_by, curve_seg0, curve_seg1, curve_bbox,
-                      curve_cutoff, list_lo, list_hi, listed)
+                      net, list_lo, list_hi, listed)
     for bj in range(0, m, BLOCK):
         for bi in range(0, m, BLOCK):
             i_hi = min(bi + BLOCK, m)
@@ -656,9 +687,7 @@ def build_flow_tile(
             y0 = origin_y + (gj0 + bj - ring) * h
             x1 = origin_x + (gi0 + min(i_hi, m - 1) - ring) * h
             y1 = origin_y + (gj0 + min(j_hi, m - 1) - ring) * h
-            nb = _gather_listed(x0, y0, x1, y1, seg_ax, seg_ay, seg_bx, seg_by, list_lo,
-                                list_hi, listed, True, curve_bbox, curve_cutoff, blk_curve,
-                                blk_start, blk_count, blk_seg, blk_dmin2, tmp_d2)
+            nb = _gather_listed(x0, y0, x1, y1, net, list_lo, list_hi, listed, True, blk)
             near_cap = False
             wet = False     # an axis within its half width of the block: else all is dry
             for k in range(nb):
@@ -707,22 +736,16 @@ def build_flow_tile(
                 continue
             psi_full[j, i] = _mirrored_across_cap(
                 origin_x + (gi0 + i - ring) * h, origin_y + (gj0 + j - ring) * h, 3.0 * h,
-                seg_ax, seg_ay, seg_bx, seg_by, curve_kind, curve_comp, curve_group,
-                curve_hw2, curve_seg0, curve_seg1, curve_bbox, curve_cutoff, comp_radius,
-                comp_group0, comp_group1, group_psi, slip, blk_curve, blk_start, blk_count,
-                blk_seg, blk_dmin2, tmp_d2, gval)
-    _mark_boundary_cells(origin_x + gi0 * h, origin_y + gj0 * h, h, n_cells, seg_ax, seg_ay,
-                         seg_bx, seg_by, curve_kind, curve_seg0, curve_seg1, curve_bbox,
-                         cell_d2, out_cell_status, out_cell_segments)
+                net, slip, blk, gval)
+    _mark_boundary_cells(origin_x + gi0 * h, origin_y + gj0 * h, h, n_cells, net, cell_d2,
+                         out_cell_status, out_cell_segments)
     _classify_plain_cells(inside_full, n_cells, out_cell_status)
     _extrapolate_ghosts(psi_full, inside_full, n_cells, out_psi)
     return n_inside
 
 
 @njit(**JIT_OPTIONS)
-def _mark_boundary_cells(x0, y0, h, n_cells, seg_ax, seg_ay, seg_bx, seg_by, curve_kind,
-                         curve_seg0, curve_seg1, curve_bbox, cell_d2, out_cell_status,
-                         out_cell_segments):
+def _mark_boundary_cells(x0, y0, h, n_cells, net, cell_d2, out_cell_status, out_cell_segments):
     """Rasterise bank and cap segments onto the tile's cells.
 
     A cell that a segment touches is BOUNDARY; every cell keeps (up to CELL_SEGMENTS) the
@@ -730,6 +753,9 @@ def _mark_boundary_cells(x0, y0, h, n_cells, seg_ax, seg_ay, seg_bx, seg_by, cur
     nearest boundary segment of each of its points is among those (it is within a diagonal),
     unless more than CELL_SEGMENTS were that near: the cell is then flagged CELL_CROWDED.
     """
+    seg_ax, seg_ay, seg_bx, seg_by = net.seg_ax, net.seg_ay, net.seg_bx, net.seg_by
+    curve_kind, curve_seg0, curve_seg1, curve_bbox = (net.curve_kind, net.curve_seg0,
+                                                      net.curve_seg1, net.curve_bbox)
     diag = math.sqrt(2.0) * h
     diag2 = 2.0 * h * h
     x1 = x0 + n_cells * h

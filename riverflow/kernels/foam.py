@@ -473,10 +473,10 @@ def _river_terms(i, params, flow, surface, patch, world_m, velocity_mps, foam_fl
 
 
 @njit(**JIT_OPTIONS)
-def update_foam(n_slots, alive, ids, has_world, world_m, velocity_mps, status, screen_px,
-                intensity, foam, foam_flow, foam_shore, foam_near, foam_id, params, flow,
-                surface, sources, grid, dt_s, frame, every, near_every, scratch):
-    """One frame of foam (module docstring): half the slots below ``n_slots`` are updated,
+def update_foam(n_slots, pool, params, flow, surface, sources, grid, dt_s, frame, every,
+                near_every, scratch):
+    """One frame of foam (module docstring) of the particles of ``pool``
+    (:class:`~riverflow.kernels.lifecycle.Pool`): half the slots below ``n_slots`` are updated,
     the lower half on even frames and the upper half on odd ones, each over two frames'
     time (2·``dt_s`` [s]): the foam's time constants are tenths of seconds, and a pass over
     half the pool costs half as much memory traffic.
@@ -492,6 +492,10 @@ def update_foam(n_slots, alive, ids, has_world, world_m, velocity_mps, status, s
     (:func:`inherit_foam`) and ``foam_id`` is set. ``scratch`` (C,) int32. Returns (river
     terms computed, hull terms computed, new particles).
     """
+    alive, ids, has_world, status = pool.alive, pool.ids, pool.has_world, pool.status
+    world_m, velocity_mps, screen_px = pool.world_m, pool.velocity_mps, pool.screen_px
+    intensity, foam, foam_flow = pool.intensity, pool.foam, pool.foam_flow
+    foam_shore, foam_near, foam_id = pool.foam_shore, pool.foam_near, pool.foam_id
     n = min(n_slots, alive.shape[0])
     half = (n + 1) // 2
     lo = 0 if frame % 2 == 0 else half

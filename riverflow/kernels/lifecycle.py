@@ -8,9 +8,40 @@ particle takes the lowest free slot.
 """
 from __future__ import annotations
 
+from typing import NamedTuple
+
+import numpy as np
 from numba import njit
 
 from riverflow.kernels._jit import JIT_OPTIONS
+
+
+class Pool(NamedTuple):
+    """The particle pool's columns as the particle kernels take them (made once per pool:
+    ``ParticlePool.arrays``; shapes and meaning there)."""
+
+    alive: np.ndarray
+    ids: np.ndarray
+    counters: np.ndarray
+    birth_s: np.ndarray
+    intensity: np.ndarray
+    screen_px: np.ndarray
+    fade_reason: np.ndarray
+    world_m: np.ndarray
+    has_world: np.ndarray
+    velocity_mps: np.ndarray
+    status: np.ndarray
+    first_query: np.ndarray
+    water_hint_m: np.ndarray
+    hint_id: np.ndarray
+    offset_m: np.ndarray
+    foam: np.ndarray
+    foam_flow: np.ndarray
+    foam_shore: np.ndarray
+    foam_near: np.ndarray
+    foam_id: np.ndarray
+    tint: np.ndarray
+    tint_id: np.ndarray
 
 
 @njit(**JIT_OPTIONS)

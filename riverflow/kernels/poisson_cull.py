@@ -17,6 +17,7 @@ too). That keeps the cost proportional to what changes (docs/deviations.md).
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -40,16 +41,38 @@ _FAR_PX = 1e18
 """Screen position of the padding rows: no particle is ever that close to one."""
 
 
-@njit(**JIT_OPTIONS)
-def cull_crowded_particles(
-    alive, screen_px, birth_s, fade_reason, status, now_s, dt_s, fade_in_s, active_s, fade_out_s,
-    cull_px, cell_px, gw, gh, cell_count, cell_items, acc_start, acc_slot, acc_xy,
-    removed_cells, dirty, carrier_cells, frame, sparse_below, n_slots,
-):
-    """Rebuild the neighbour grid with the accepted particles; fade out the crowded ones.
+class Grid(NamedTuple):
+    """The screen neighbour grid and the Poisson pass's scratch, as the cull and the fill
+    take them (``ScreenGrid.arrays``, remade when the grid is): ``gw`` × ``gh`` cells of
+    ``cell_px`` over ``width_px`` × ``height_px``; the arrays as
+    :func:`cull_crowded_particles` (which writes them) and
+    :func:`~riverflow.kernels.poisson_fill.fill_poisson_holes` describe them."""
 
-    ``cell_count`` (gw·gh,) int32 and ``cell_items`` (gw·gh, K) int32 are rebuilt, and the
-    same compactly for the fill's scans: the accepted particles of cell c are rows
+    width_px: int
+    height_px: int
+    cell_px: float
+    gw: int
+    gh: int
+    cell_count: np.ndarray
+    cell_items: np.ndarray
+    removed_cells: np.ndarray
+    dirty: np.ndarray
+    acc_start: np.ndarray
+    acc_slot: np.ndarray
+    acc_xy: np.ndarray
+    carrier_cells: np.ndarray
+    candidates: np.ndarray
+    new_slots: np.ndarray
+
+
+@njit(**JIT_OPTIONS)
+def cull_crowded_particles(pool, grid, now_s, dt_s, fade_in_s, active_s, fade_out_s, cull_px,
+                           frame, sparse_below):
+    """Rebuild the neighbour grid with the accepted particles of ``pool``
+    (:class:`~riverflow.kernels.lifecycle.Pool`); fade out the crowded ones.
+
+    Of ``grid`` (:class:`Grid`): ``cell_count`` (gw·gh,) int32 and ``cell_items`` (gw·gh, K)
+    int32 are rebuilt, and the same compactly for the fill's scans: the accepted particles of cell c are rows
     ``acc_start[c]`` … ``acc_start[c + 1]`` (gw·gh + 1,) int32 of ``acc_slot`` (C,) int32 and
     ``acc_xy`` (C, 2) float32 (their screen positions); ``removed_cells`` (gw·gh,) uint8 marks
     cells where other systems removed particles since the last pass (read, then cleared);
@@ -59,14 +82,19 @@ def cull_crowded_particles(
     rolling band; bit 4: the cell is empty, so its neighbours' particles are candidates too).
     ``carrier_cells`` (gw·gh,) uint8 is written: bit 1 when the cell's accepted particles
     include an INSIDE one (``status``), bit 2 an INSIDE or LEAVING one (the NEAR check's
-    pruning). Returns the number faded out. Slots from ``n_slots`` on are not alive (the
-    pool's slot bound).
+    pruning). Returns the number faded out.
 
     The result is the greedy pass in slot order (a particle is accepted when no accepted one
     is closer than ``cull_px``), found without visiting the particles in slot order: a
     counting sort by half cells, one scan of each pair of neighbours in that order to find
     the few that have a neighbour that close, and the greedy pass over those alone.
     """
+    alive, screen_px, status = pool.alive, pool.screen_px, pool.status
+    birth_s, n_slots = pool.birth_s, pool.counters[2]
+    cell_px, gw, gh = grid.cell_px, grid.gw, grid.gh
+    cell_count, cell_items, dirty = grid.cell_count, grid.cell_items, grid.dirty
+    acc_start, acc_slot, acc_xy = grid.acc_start, grid.acc_slot, grid.acc_xy
+    removed_cells, carrier_cells = grid.removed_cells, grid.carrier_cells
     n_cells = gw * gh
     k_max = cell_items.shape[1]
     cap = min(n_slots, alive.shape[0])  # the pool's slot bound: no live slot beyond it
@@ -130,9 +158,8 @@ def cull_crowded_particles(
             f = cell_of[i]
             if f >= 0:
                 cell_of[i] = ((f // fw) // sub) * gw + (f % fw) // sub
-        faded = _greedy_in_slot_order(
-            alive, screen_px, birth_s, fade_reason, now_s, fade_in_s, active_s, fade_out_s,
-            cull_px, cell_px, gw, gh, cell_count, cell_items, cell_of, dirty)
+        faded = _greedy_in_slot_order(pool, grid, now_s, fade_in_s, active_s, fade_out_s,
+                                      cull_px, cell_of)
         acc_start[0] = 0
         for c in range(n_cells):
             k = acc_start[c]
@@ -148,10 +175,8 @@ def cull_crowded_particles(
             acc_start[c + 1] = k
             carrier_cells[c] = flags
     else:
-        faded = _cull_sorted(birth_s, fade_reason, status, now_s, fade_in_s, active_s,
-                             fade_out_s, cull_px, half, sub, gw, gh, cell_count, cell_items,
-                             acc_start, acc_slot, acc_xy, carrier_cells, start, slot, xy, fine,
-                             dirty)
+        faded = _cull_sorted(pool, grid, now_s, fade_in_s, active_s, fade_out_s, cull_px, half,
+                             sub, start, slot, xy, fine)
     band = frame % ROLLING_BANDS
     for cy in range(gh):
         in_band = cy % ROLLING_BANDS == band
@@ -167,12 +192,16 @@ def cull_crowded_particles(
 
 
 @njit(**JIT_OPTIONS)
-def _cull_sorted(birth_s, fade_reason, status, now_s, fade_in_s, active_s, fade_out_s, cull_px,
-                 half, sub, gw, gh, cell_count, cell_items, acc_start, acc_slot, acc_xy,
-                 carrier_cells, start, slot, xy, fine, dirty):
+def _cull_sorted(pool, grid, now_s, fade_in_s, active_s, fade_out_s, cull_px, half, sub, start,
+                 slot, xy, fine):
     """Steps 3–5 of the cull on the particles sorted by fine cell (``start``, ``slot``,
     ``xy`` with far rows past the end, ``fine`` the cell of each; fine cells of ``half`` =
     cell_px / ``sub`` ≥ cull_px, sub·gw a row); the carrier flags of the cells too."""
+    birth_s, fade_reason, status = pool.birth_s, pool.fade_reason, pool.status
+    gw, gh, cell_count, cell_items = grid.gw, grid.gh, grid.cell_count, grid.cell_items
+    dirty = grid.dirty
+    acc_start, acc_slot, acc_xy = grid.acc_start, grid.acc_slot, grid.acc_xy
+    carrier_cells = grid.carrier_cells
     fade_at = fade_in_s + active_s
     cull2 = cull_px * cull_px
     fw = sub * gw
@@ -293,11 +322,12 @@ def _cull_sorted(birth_s, fade_reason, status, now_s, fade_in_s, active_s, fade_
 
 
 @njit(**JIT_OPTIONS)
-def _greedy_in_slot_order(alive, screen_px, birth_s, fade_reason, now_s, fade_in_s, active_s,
-                          fade_out_s, cull_px, cell_px, gw, gh, cell_count, cell_items, cell_of,
-                          dirty):
+def _greedy_in_slot_order(pool, grid, now_s, fade_in_s, active_s, fade_out_s, cull_px, cell_of):
     """The plain greedy cull in slot order (when a cell holds more steady particles than it
     can keep, which order they come in decides which are kept)."""
+    screen_px, birth_s, fade_reason = pool.screen_px, pool.birth_s, pool.fade_reason
+    cell_px, gw, gh = grid.cell_px, grid.gw, grid.gh
+    cell_count, cell_items, dirty = grid.cell_count, grid.cell_items, grid.dirty
     k_max = cell_items.shape[1]
     fade_at = fade_in_s + active_s
     cull2 = cull_px * cull_px

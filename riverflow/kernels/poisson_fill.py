@@ -14,6 +14,7 @@ candidates (where the disk is whole) without trigonometry.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numba import njit
@@ -97,16 +98,23 @@ def blocked_direction_table(radius_px, spawn_gap_px, cell_px, out, out_touched):
     return n
 
 
-def direction_table(radius_px: float,
-                    spawn_gap_px: float) -> tuple[np.ndarray, np.ndarray, float]:
-    """(blocked, touched, cell_px): :func:`blocked_direction_table` for a radius and a gap,
-    with cells of r/16 px, large enough for every neighbour within 2r + gap."""
+class DirectionTable(NamedTuple):
+    """:func:`blocked_direction_table`'s two tables (n, n) uint64 and their cells' side [px]."""
+
+    blocked: np.ndarray
+    touched: np.ndarray
+    cell_px: float
+
+
+def direction_table(radius_px: float, spawn_gap_px: float) -> DirectionTable:
+    """:func:`blocked_direction_table` for a radius and a gap, with cells of r/16 px, large
+    enough for every neighbour within 2r + gap."""
     cell = radius_px / TABLE_CELLS_PER_R
     n = 2 * int(math.ceil((2.0 * radius_px + spawn_gap_px) / cell)) + 2
     out = np.zeros((n, n), np.uint64)
     touched = np.zeros((n, n), np.uint64)
     blocked_direction_table(radius_px, spawn_gap_px, cell, out, touched)
-    return out, touched, cell
+    return DirectionTable(out, touched, cell)
 
 
 # _remove_arc and _remove_wrapped are ordinary calls, not inlined in numba's IR: inlined at
@@ -262,26 +270,33 @@ def _new_particle(alive, ids, counters, birth_s, intensity, screen_px, fade_reas
 
 
 @njit(**JIT_OPTIONS)
-def fill_poisson_holes(
-    alive, ids, counters, birth_s, intensity, screen_px, fade_reason, has_world, velocity_mps,
-    status, first_query, offset_m,
-    now_s, fade_in_s, active_s, radius_px, spawn_gap_px, width_px, height_px, cell_px, gw, gh,
-    cell_count, cell_items, acc_start, acc_slot, acc_xy, dirty, seed, off_lo_x, off_lo_y,
-    off_hi_x, off_hi_y, candidates, new_slots, blocked, touched, blocked_cell_px,
-):
-    """Fill the holes of the Poisson disk around dirty cells by boundary sampling.
+def fill_poisson_holes(pool, grid, table, now_s, radius_px, spawn_gap_px, seed, off_lo_x,
+                       off_lo_y, off_hi_x, off_hi_y):
+    """Fill the holes of the Poisson disk around dirty cells by boundary sampling, with new
+    particles of ``pool`` (:class:`~riverflow.kernels.lifecycle.Pool`) born at ``now_s`` [s],
+    their sprite offsets [m] uniform in the box ``off_lo`` … ``off_hi``.
 
-    ``acc_start``, ``acc_slot``, ``acc_xy`` are the accepted particles by cell, as
+    Of ``grid`` (:class:`~riverflow.kernels.poisson_cull.Grid`): ``acc_start``, ``acc_slot``,
+    ``acc_xy`` are the accepted particles by cell, as
     :func:`~riverflow.kernels.poisson_cull.cull_crowded_particles` wrote them (the new ones
-    go into the grid, ``cell_count``/``cell_items``, too). Writes the slots of the new particles into
-    ``new_slots`` (C,) int32 and returns their number (they still need a world position).
-    ``candidates`` is (C,) int32 scratch. ``blocked`` and ``touched`` (n, n) uint64 are
-    :func:`blocked_direction_table`'s for this radius and gap, with cells of
-    ``blocked_cell_px``: a candidate whose neighbours surely block every direction (most of
-    them, where the disk is whole) is rejected from ``blocked``, without trigonometry; for
-    the others the exact arcs start from the bins left free, and a neighbour whose
-    ``touched`` bins miss all of those is skipped.
+    go into the grid, ``cell_count``/``cell_items``, too). Writes the slots of the new
+    particles into ``new_slots`` (C,) int32 and returns their number (they still need a world
+    position). ``candidates`` is (C,) int32 scratch. ``table`` (:class:`DirectionTable`) is
+    :func:`direction_table`'s for this radius and gap: a candidate whose neighbours surely
+    block every direction (most of them, where the disk is whole) is rejected from its
+    ``blocked``, without trigonometry; for the others the exact arcs start from the bins left
+    free, and a neighbour whose ``touched`` bins miss all of those is skipped.
     """
+    alive, ids, counters, birth_s = pool.alive, pool.ids, pool.counters, pool.birth_s
+    intensity, screen_px, fade_reason = pool.intensity, pool.screen_px, pool.fade_reason
+    has_world, velocity_mps, status = pool.has_world, pool.velocity_mps, pool.status
+    first_query, offset_m = pool.first_query, pool.offset_m
+    width_px, height_px, cell_px, gw, gh = (grid.width_px, grid.height_px, grid.cell_px,
+                                            grid.gw, grid.gh)
+    cell_count, cell_items, dirty = grid.cell_count, grid.cell_items, grid.dirty
+    acc_start, acc_slot, acc_xy = grid.acc_start, grid.acc_slot, grid.acc_xy
+    candidates, new_slots = grid.candidates, grid.new_slots
+    blocked, touched, blocked_cell_px = table
     np.random.seed(seed)
     if width_px <= 0 or height_px <= 0:
         return 0

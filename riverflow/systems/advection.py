@@ -9,8 +9,9 @@ from riverflow.components.river import Clock, FrameView, RiverNode, ScreenGrid, 
 from riverflow.components.status import FlowStatus
 from riverflow.engine.system import System
 from riverflow.hydro.flow_field import FlowField
-from riverflow.kernels.advection import (HIT_WATER, apply_flow_status, check_outside_near_water,
-                                         move_particles, place_at_seen_water)
+from riverflow.kernels.advection import (HIT_WATER, Probes, apply_flow_status,
+                                         check_outside_near_water, move_particles,
+                                         place_at_seen_water)
 from riverflow.kernels.flow import query_velocity
 from riverflow.kernels.obstacles import OB_BEAM, OB_LENGTH, OB_REACH, OB_X, OB_Y
 from riverflow.kernels.placement import pixel_rays
@@ -110,12 +111,10 @@ class AdvectParticles(System):
             self._probe_xy = np.zeros((pool.capacity, 2), np.float32)
             self._owner = np.zeros(pool.capacity, np.int32)
         self.removed, n = check_outside_near_water(
-            pool.alive, pool.ids, pool.counters, pool.status, pool.screen_px, pool.world_m,
-            pool.birth_s, pool.water_hint_m, pool.hint_id, clock.now_s, c.fade_in_s + c.active_s,
-            grid.cell_px, grid.gw, grid.gh, grid.acc_start, grid.acc_slot, grid.acc_xy,
-            grid.carrier_cells, reach_px, grid.removed_cells, clock.frame, NEAR_CHECK_EVERY,
-            NEAR_REPLACE_EVERY, NEAR_COVER * r, view.width_px, view.height_px, forward,
-            view.eye_m[0], view.eye_m[1], surface, self._probe_xy, self._owner)
+            pool.arrays, grid.arrays, clock.now_s, c.fade_in_s + c.active_s, reach_px,
+            clock.frame, NEAR_CHECK_EVERY, NEAR_REPLACE_EVERY, NEAR_COVER * r, view.width_px,
+            view.height_px, forward, view.eye_m[0], view.eye_m[1], surface, self._probe_xy,
+            self._owner)
         self.probes = n
         self.placed = 0
         if n == 0:
@@ -141,14 +140,12 @@ class AdvectParticles(System):
         if not len(water):
             return
         lo, hi = c.random_offset_min_m, c.random_offset_max_m
+        probes = Probes(self._probe_xy[water], hit[water], hit_xyz[water], flow_status,
+                        velocity)
         self.placed, removed = place_at_seen_water(
-            pool.alive, pool.ids, pool.counters, pool.birth_s, pool.intensity, pool.screen_px,
-            pool.fade_reason, pool.has_world, pool.world_m, pool.velocity_mps, pool.status,
-            pool.first_query, pool.offset_m, clock.now_s, c.fade_in_s, c.active_s,
-            c.spawn_gap_factor * r, grid.cell_px, grid.gw, grid.gh, grid.cell_count,
-            grid.cell_items, len(water), self._probe_xy[water], hit[water], hit_xyz[water],
-            flow_status, velocity, grid.removed_cells, int(world.rng.integers(0, 2**31 - 1)),
-            lo[0], lo[1], hi[0], hi[1], grid.new_slots)
+            pool.arrays, grid.arrays, probes, len(water), clock.now_s, c.fade_in_s, c.active_s,
+            c.spawn_gap_factor * r, int(world.rng.integers(0, 2**31 - 1)), lo[0], lo[1], hi[0],
+            hi[1])
         self.removed += removed
 
 

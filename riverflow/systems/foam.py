@@ -81,12 +81,9 @@ class UpdateFoam(System):
             flow = FoamFlow(tiles.view(), tiles.shore, tiles.bank, level, level,
                             field.fall_table())
             self.computed, self.near_hulls, self.born = update_foam(
-                int(pool.counters[2]), pool.alive, pool.ids, pool.has_world, pool.world_m,
-                pool.velocity_mps, pool.status, pool.screen_px, pool.intensity, pool.foam,
-                pool.foam_flow, pool.foam_shore, pool.foam_near, pool.foam_id,
-                self._foam_params(settings), flow, surface, foam_sources(world, field),
-                screen_neighbours(grid, world.config.radius_px), float(dt_s), clock.frame,
-                RIVER_EVERY, NEAR_EVERY, self._scratch)
+                int(pool.counters[2]), pool.arrays, self._foam_params(settings), flow, surface,
+                foam_sources(world, field), screen_neighbours(grid, world.config.radius_px),
+                float(dt_s), clock.frame, RIVER_EVERY, NEAR_EVERY, self._scratch)
 
 
 def foam_params(s: FoamSettings) -> FoamParams:

@@ -44,17 +44,15 @@ def test_proland_potential_matches_reference(proland_graph_path, rng):
 def test_gather_box_segments_keeps_each_curves_nearest_segment(field, rng):
     net = field.network
     n = net.n_curves
-    blk = [np.empty(n, np.int32) for _ in range(3)]
-    seg = np.empty(net.n_segments, np.int32)
-    dmin = np.empty(n)
-    tmp = np.empty(net.n_segments)
+    blk = kf.BoxLists(*[np.empty(n, np.int32) for _ in range(3)],
+                      np.empty(net.n_segments, np.int32), np.empty(n), np.empty(net.n_segments))
+    seg = blk.seg
     a = np.c_[net.seg_ax, net.seg_ay]
     b = np.c_[net.seg_bx, net.seg_by]
     for p0 in _sample(field, rng, 30):
         box = (p0[0], p0[1], p0[0] + 15.0, p0[1] + 11.0)
-        nb = kf.gather_box_segments(*box, *net.geometry_args(), net.curve_seg0, net.curve_seg1,
-                                    net.curve_bbox, net.curve_cutoff, *blk, seg, dmin, tmp)
-        kept = {blk[0][k]: seg[blk[1][k]:blk[1][k] + blk[2][k]] for k in range(nb)}
+        nb = kf.gather_box_segments(*box, net.arrays, blk)
+        kept = {blk.curve[k]: seg[blk.start[k]:blk.start[k] + blk.count[k]] for k in range(nb)}
         for p in rng.uniform(box[:2], box[2:], (10, 2)):
             for c in range(n):
                 d = reference._dist2(p, a[net.curve_seg0[c]:net.curve_seg1[c]],
@@ -74,19 +72,17 @@ def test_a_tiles_segment_list_gives_each_block_what_a_full_scan_keeps(field, rng
     net = field.network
     n, m = net.n_curves, net.n_segments
     lo, hi, listed = np.empty(n, np.int32), np.empty(n, np.int32), np.empty(m, np.int32)
-    geometry = (*net.geometry_args(), net.curve_seg0, net.curve_seg1, net.curve_bbox,
-                net.curve_cutoff)
     segments = shapely.linestrings(np.stack([np.c_[net.seg_ax, net.seg_ay],
                                              np.c_[net.seg_bx, net.seg_by]], axis=1))
     curve_of = np.repeat(np.arange(n), net.curve_seg1 - net.curve_seg0)
-    full = [np.empty(n, np.int32) for _ in range(3)] + [np.empty(m, np.int32), np.empty(n),
-                                                        np.empty(m)]
-    part = [np.empty_like(a) for a in full]
+    full = kf.BoxLists(*[np.empty(n, np.int32) for _ in range(3)], np.empty(m, np.int32),
+                       np.empty(n), np.empty(m))
+    part = kf.BoxLists(*[np.empty_like(a) for a in full])
     checked = 0
     for p0 in _sample(field, rng, 12):
         size = rng.uniform(5.0, 120.0)
         tile = (p0[0], p0[1], p0[0] + size, p0[1] + size)
-        count = kf.segments_near_box(*tile, *geometry, lo, hi, listed)
+        count = kf.segments_near_box(*tile, net.arrays, lo, hi, listed)
         d2 = shapely.distance(shapely.box(*tile), segments) ** 2
         cut2 = net.curve_cutoff[curve_of] ** 2
         got = set(listed[:count].tolist())
@@ -103,15 +99,14 @@ def test_a_tiles_segment_list_gives_each_block_what_a_full_scan_keeps(field, rng
                 u[:, k] = k
             x0, x1 = tile[0] + u[0] * size
             y0, y1 = tile[1] + u[1] * size
-            a = kf.gather_box_segments(x0, y0, x1, y1, *geometry, *full)
-            b = kf._gather_listed(x0, y0, x1, y1, *net.geometry_args()[:4], lo, hi, listed,
-                                  True, net.curve_bbox, net.curve_cutoff, *part)
+            a = kf.gather_box_segments(x0, y0, x1, y1, net.arrays, full)
+            b = kf._gather_listed(x0, y0, x1, y1, net.arrays, lo, hi, listed, True, part)
             assert a == b
-            for x, y in zip(full[:3] + [full[4]], part[:3] + [part[4]]):
+            for x, y in zip((*full[:3], full.dmin2), (*part[:3], part.dmin2)):
                 npt.assert_array_equal(x[:a], y[:a])
-            used = full[1][:a] + full[2][:a]
+            used = full.start[:a] + full.count[:a]
             ns = int(used.max()) if a else 0
-            npt.assert_array_equal(full[3][:ns], part[3][:ns])
+            npt.assert_array_equal(full.seg[:ns], part.seg[:ns])
             checked += ns
     assert checked > 100
 

@@ -215,10 +215,7 @@ def test_a_frame_matches_the_twin(channel, frame):
 
     n = int(pool.counters[2])
     sources = kfoam.FoamSources(hulls, trails)
-    got = kfoam.update_foam(n, pool.alive, pool.ids, pool.has_world, pool.world_m,
-                            pool.velocity_mps, pool.status, pool.screen_px, pool.intensity,
-                            pool.foam, pool.foam_flow, pool.foam_shore, pool.foam_near,
-                            pool.foam_id, params, flow, surface, sources, grid, 1 / 60, frame,
+    got = kfoam.update_foam(n, pool.arrays, params, flow, surface, sources, grid, 1 / 60, frame,
                             4, 2, np.zeros(pool.capacity, np.int32))
     ref.update_foam(twin, n, river_terms, hulls, trails, params, grid.radius_px, 1 / 60, frame,
                     4, 2)
@@ -246,10 +243,7 @@ def test_foam_stays_in_the_unit_interval_and_is_never_nan(channel):
     flow = _flow(field)
     for settings in (FoamSettings(), FoamSettings(base=3.0), FoamSettings(distance=40.0)):
         for frame in range(8):
-            kfoam.update_foam(int(pool.counters[2]), pool.alive, pool.ids, pool.has_world,
-                              pool.world_m, pool.velocity_mps, pool.status, pool.screen_px,
-                              pool.intensity, pool.foam, pool.foam_flow, pool.foam_shore,
-                              pool.foam_near, pool.foam_id, foam_params(settings), flow,
+            kfoam.update_foam(int(pool.counters[2]), pool.arrays, foam_params(settings), flow,
                               surface, kfoam.FoamSources(hulls, trails), grid,
                               1 / 60 if frame else np.nan, frame, 2, 2,
                               np.zeros(pool.capacity, np.int32))
@@ -280,10 +274,7 @@ def test_a_new_particle_starts_with_its_neighbours_foam(channel):
     count = np.array([4], np.int32)
     items = np.array([[0, 1, 2, 3]], np.int32)
     grid = kfoam.ScreenNeighbours(100.0, 1, 1, count, items, 15.0)
-    kfoam.update_foam(4, pool.alive, pool.ids, pool.has_world, pool.world_m, pool.velocity_mps,
-                      pool.status, pool.screen_px, pool.intensity, pool.foam, pool.foam_flow,
-                      pool.foam_shore, pool.foam_near, pool.foam_id,
-                      foam_params(FoamSettings()), _flow(field), surface,
+    kfoam.update_foam(4, pool.arrays, foam_params(FoamSettings()), _flow(field), surface,
                       kfoam.FoamSources(np.zeros((0, 8)), np.zeros((0, 2, TR_FIELDS),
                                                                     np.float32)),
                       grid, 1 / 60, 0, 64, 4, np.zeros(8, np.int32))

@@ -118,10 +118,15 @@ def test_zero_viewport_kills_projected_particles_without_nan(rng):
     assert pool.count == 0 and np.isfinite(pool.screen_px).all()
 
 
-def _grid(w, h, cell):
+def _grid(w, h, cell, capacity, per_cell=32):
+    """A screen grid for the Poisson kernels (``ScreenGrid.arrays``), K = ``per_cell``."""
     gw, gh = math.ceil(w / cell), math.ceil(h / cell)
-    return (gw, gh, np.zeros(gw * gh, np.int32), np.zeros((gw * gh, 32), np.int32),
-            np.zeros(gw * gh, np.uint8), np.zeros(gw * gh, np.uint8))
+    n = gw * gh
+    return kc.Grid(w, h, float(cell), gw, gh, np.zeros(n, np.int32),
+                   np.zeros((n, per_cell), np.int32), np.zeros(n, np.uint8), np.zeros(n, np.uint8),
+                   np.zeros(n + 1, np.int32), np.zeros(capacity, np.int32),
+                   np.zeros((capacity, 2), np.float32), np.zeros(n, np.uint8),
+                   np.zeros(capacity, np.int32), np.zeros(capacity, np.int32))
 
 
 @pytest.mark.parametrize("cell_r", [4.0, 3.0, 1.5])  # half cells; whole cells; plain pass
@@ -130,21 +135,17 @@ def test_cull_matches_reference(rng, cell_r):
     pool = _pool(rng, 900)
     pool.birth_s[:] = 0.0
     pool.birth_s[::7] = -31.0  # some are fading out already
-    gw, gh, count, items, prev, dirty = _grid(320, 180, cell_r * r)
-    carriers = np.zeros(gw * gh, np.uint8)
+    grid = _grid(320, 180, cell_r * r, pool.capacity)
+    gw, gh, count, items = grid.gw, grid.gh, grid.cell_count, grid.cell_items
+    carriers = grid.carrier_cells
     keep = pool.alive & (1.0 - pool.birth_s < FI + AC)
     want = reference.cull_in_slot_order(pool.screen_px, keep, 1.96 * r)
     pool.status[:] = rng.choice(np.array([FlowStatus.INSIDE, FlowStatus.LEAVING,
                                           FlowStatus.OUTSIDE, FlowStatus.OUTSIDE,
                                           FlowStatus.OUTSIDE, FlowStatus.OUTSIDE], np.uint8),
                                 pool.capacity)
-    acc = (np.zeros(gw * gh + 1, np.int32), np.zeros(pool.capacity, np.int32),
-           np.zeros((pool.capacity, 2), np.float32))
-    faded = kc.cull_crowded_particles(pool.alive, pool.screen_px, pool.birth_s, pool.fade_reason,
-                                      pool.status, 1.0, 1 / 60, FI, AC, FO, 1.96 * r,
-                                      cell_r * r, gw, gh, count,
-                                      items, *acc, prev, dirty, carriers, 0, 2, pool.counters[2])
-    start, slots, xy = acc
+    faded = kc.cull_crowded_particles(pool.arrays, grid, 1.0, 1 / 60, FI, AC, FO, 1.96 * r, 0, 2)
+    start, slots, xy = grid.acc_start, grid.acc_slot, grid.acc_xy
     npt.assert_array_equal(np.sort(slots[:start[-1]]), want)  # the same, compact
     npt.assert_array_equal(xy[:start[-1]], pool.screen_px[slots[:start[-1]]])
     # the carrier flags of each cell's accepted particles: 1 INSIDE, 2 INSIDE or LEAVING
@@ -165,18 +166,13 @@ def test_cull_keeps_the_slot_order_when_cells_overflow(rng):
     r = 6.0
     pool = _pool(rng, 900)
     pool.birth_s[:] = 0.0
-    gw, gh, count, items, prev, dirty = _grid(320, 180, 4 * r)
-    carriers = np.zeros(gw * gh, np.uint8)
-    items = np.zeros((gw * gh, 3), np.int32)  # room for 3: some cells overflow
-    acc = (np.zeros(gw * gh + 1, np.int32), np.zeros(pool.capacity, np.int32),
-           np.zeros((pool.capacity, 2), np.float32))
+    grid = _grid(320, 180, 4 * r, pool.capacity, per_cell=3)  # room for 3: some cells overflow
     want = reference.cull_in_slot_order(pool.screen_px, pool.alive, 1.5 * r, 4 * r, 3)
-    kc.cull_crowded_particles(pool.alive, pool.screen_px, pool.birth_s, pool.fade_reason,
-                              pool.status, 1.0, 1 / 60, FI, AC, FO, 1.5 * r, 4 * r, gw, gh, count,
-                              items, *acc, prev, dirty, carriers, 0, 2, pool.counters[2])
-    got = np.concatenate([items[c, :count[c]] for c in range(gw * gh)])
+    kc.cull_crowded_particles(pool.arrays, grid, 1.0, 1 / 60, FI, AC, FO, 1.5 * r, 0, 2)
+    count, items = grid.cell_count, grid.cell_items
+    got = np.concatenate([items[c, :count[c]] for c in range(grid.gw * grid.gh)])
     npt.assert_array_equal(np.sort(got), want)
-    start, slots, xy = acc
+    start, slots, xy = grid.acc_start, grid.acc_slot, grid.acc_xy
     npt.assert_array_equal(slots[:start[-1]], got)  # the same rows, compact, with positions
     npt.assert_array_equal(xy[:start[-1]], pool.screen_px[got])
 
@@ -218,28 +214,16 @@ def test_fill_shortcuts_give_the_same_disk():
     pools = [ParticlePool(3000) for _ in range(2)]
     r, w, h, gap = 5.0, 240, 160, 1.92 * 5.0
     for pool, shortcuts in zip(pools, (True, False)):
-        gw, gh, count, items, prev, dirty = _grid(w, h, 4 * r)
-        carriers = np.zeros(gw * gh, np.uint8)
-        acc = (np.zeros(gw * gh + 1, np.int32), np.zeros(pool.capacity, np.int32),
-               np.zeros((pool.capacity, 2), np.float32))
-        table, touched, table_cell = kf.direction_table(r, gap)
+        grid = _grid(w, h, 4 * r, pool.capacity)
+        table = kf.direction_table(r, gap)
         if not shortcuts:
-            table[:] = 0
-            touched[:] = ~np.uint64(0)
-        new = np.zeros(pool.capacity, np.int32)
-        cand = np.zeros(pool.capacity, np.int32)
+            table.blocked[:] = 0
+            table.touched[:] = ~np.uint64(0)
         for f in range(12):
             pool.screen_px[pool.alive] *= 1.01  # stretch: holes open between frames
-            kc.cull_crowded_particles(pool.alive, pool.screen_px, pool.birth_s,
-                                      pool.fade_reason, pool.status, 1.0, 1 / 60, FI, AC, FO,
-                                      1.9 * r, 4 * r, gw, gh, count, items, *acc, prev, dirty,
-                                      carriers, f, 2, pool.counters[2])
-            kf.fill_poisson_holes(
-                pool.alive, pool.ids, pool.counters, pool.birth_s, pool.intensity,
-                pool.screen_px, pool.fade_reason, pool.has_world, pool.velocity_mps,
-                pool.status, pool.first_query, pool.offset_m, 1.0, FI, AC, r, gap, w, h,
-                4 * r, gw, gh, count, items, *acc, dirty, 5 + f, -1.0, -1.0, 1.0, 1.0, cand,
-                new, table, touched, table_cell)
+            kc.cull_crowded_particles(pool.arrays, grid, 1.0, 1 / 60, FI, AC, FO, 1.9 * r, f, 2)
+            kf.fill_poisson_holes(pool.arrays, grid, table, 1.0, r, gap, 5 + f, -1.0, -1.0, 1.0,
+                                  1.0)
         pts = pool.screen_px[pool.alive]
         new_pts = pool.screen_px[pool.alive & (pool.birth_s == 1.0)]
         d, _ = cKDTree(pts).query(new_pts, k=2)
@@ -252,25 +236,13 @@ def test_fill_shortcuts_give_the_same_disk():
 
 
 def _fill(pool, r, w, h, seed=3, frames=1):
-    gw, gh, count, items, prev, dirty = _grid(w, h, 4 * r)
-    carriers = np.zeros(gw * gh, np.uint8)
-    acc = (np.zeros(gw * gh + 1, np.int32), np.zeros(pool.capacity, np.int32),
-           np.zeros((pool.capacity, 2), np.float32))
-    table, touched, table_cell = kf.direction_table(r, 2.0 * r)
-    new = np.zeros(pool.capacity, np.int32)
-    cand = np.zeros(pool.capacity, np.int32)
+    grid = _grid(w, h, 4 * r, pool.capacity)
+    table = kf.direction_table(r, 2.0 * r)
     total = 0
     for f in range(frames):
-        kc.cull_crowded_particles(pool.alive, pool.screen_px, pool.birth_s, pool.fade_reason,
-                                  pool.status, 1.0, 1 / 60, FI, AC, FO, 1.96 * r, 4 * r, gw, gh,
-                                  count,
-                                  items, *acc, prev, dirty, carriers, f, 2, pool.counters[2])
-        total += kf.fill_poisson_holes(
-            pool.alive, pool.ids, pool.counters, pool.birth_s, pool.intensity, pool.screen_px,
-            pool.fade_reason, pool.has_world, pool.velocity_mps, pool.status, pool.first_query,
-            pool.offset_m, 1.0, FI, AC, r, 2.0 * r, w, h, 4 * r, gw, gh, count, items, *acc, dirty,
-            seed + f,
-            -1.0, -1.0, 1.0, 1.0, cand, new, table, touched, table_cell)
+        kc.cull_crowded_particles(pool.arrays, grid, 1.0, 1 / 60, FI, AC, FO, 1.96 * r, f, 2)
+        total += kf.fill_poisson_holes(pool.arrays, grid, table, 1.0, r, 2.0 * r, seed + f,
+                                       -1.0, -1.0, 1.0, 1.0)
     return total
 
 
@@ -383,7 +355,8 @@ def test_status_machine():
     pool.velocity_mps[:] = 1.0
     answers = np.array([S.INSIDE, S.OUTSIDE, S.INSIDE, S.OUTSIDE, S.INSIDE, S.OUTSIDE], np.uint8)
     vel = np.full((6, 2), 2.0, np.float32)
-    gw, gh, count, items, _, _ = _grid(100, 100, 40)
+    g = _grid(100, 100, 40, pool.capacity)
+    gw, gh, count, items = g.gw, g.gh, g.cell_count, g.cell_items
     waiting = ka.apply_flow_status(pool.alive, pool.velocity_mps, pool.status, pool.first_query,
                                    pool.screen_px, 6, np.arange(6, dtype=np.int32), answers, vel,
                                    6, 40.0, gw, gh, count, items, 40.0)
@@ -440,14 +413,15 @@ def _river_view(rng, r=5.0, w=320, h=180, n=700):
     ground = np.zeros((len(gx), len(gx)), np.float32)
     water = np.where(np.abs(gx)[None, :] < 40, 0.0, np.nan).astype(np.float32) + ground
     grids = one_tile_surface(ground, water, -400.0, -400.0, 10.0, _valley_hints())
-    gw, gh, count, items, removed, _ = _grid(w, h, 4 * r)
+    g = _grid(w, h, 4 * r, pool.capacity)
+    gw, gh, count, items = g.gw, g.gh, g.cell_count, g.cell_items
     cells = (np.floor(pool.screen_px[:n, 1] / (4 * r)) * gw
              + np.floor(pool.screen_px[:n, 0] / (4 * r))).astype(int)
     for i in np.argsort(cells, kind="stable"):
         items[cells[i], count[cells[i]]] = i
         count[cells[i]] += 1
     order = np.concatenate([items[c, :count[c]] for c in range(gw * gh)])
-    return pool, (fwd, inv), grids, (gw, gh, count, items, removed), order
+    return pool, (fwd, inv), grids, g, order
 
 
 def _valley_hints() -> np.ndarray:
@@ -478,20 +452,20 @@ def test_one_tile_surface_serves_the_kernels():
 
 
 def _near_args(pool, grid, r):
-    """The NEAR check's arguments up to ``removed_cells``: the grid's particles as the cull's
+    """The NEAR check's arguments up to ``reach_px``, the grid's particles as the cull's
     accepted ones (compact by cell) with their carrier flags."""
-    gw, gh, count, items, removed_cells = grid
+    gw, gh, count, items = grid.gw, grid.gh, grid.cell_count, grid.cell_items
     start = np.r_[0, np.cumsum(count)].astype(np.int32)
     slots = np.concatenate([items[c, :count[c]] for c in range(gw * gh)]).astype(np.int32)
+    grid.acc_start[:] = start
+    grid.acc_slot[:len(slots)] = slots
+    grid.acc_xy[:len(slots)] = pool.screen_px[slots]
     s = pool.status[slots]
-    flags = np.zeros(gw * gh, np.uint8)
     for c in range(gw * gh):
         cs = s[start[c]:start[c + 1]]
-        flags[c] = 3 if (cs == FlowStatus.INSIDE).any() else (
+        grid.carrier_cells[c] = 3 if (cs == FlowStatus.INSIDE).any() else (
             2 if (cs == FlowStatus.LEAVING).any() else 0)
-    return (pool.alive, pool.ids, pool.counters, pool.status, pool.screen_px, pool.world_m,
-            pool.birth_s, pool.water_hint_m, pool.hint_id, 1.0, FI + AC, 4 * r, gw, gh, start,
-            slots, pool.screen_px[slots].copy(), flags, 4 * r, removed_cells)
+    return pool.arrays, grid, 1.0, FI + AC, 4 * r
 
 
 def test_near_water_check_matches_reference(rng):
@@ -552,7 +526,7 @@ def test_near_water_probes_find_the_river_with_no_particle_on_it(rng):
 
 def test_place_at_seen_water_matches_reference(rng):
     r = 5.0
-    pool, _, _, (gw, gh, count, items, removed_cells), order = _river_view(rng, n=500)
+    pool, _, _, grid, order = _river_view(rng, n=500)
     pool.status[pool.status == FlowStatus.INSIDE] = FlowStatus.OUTSIDE  # a dry river to fill
     pool.status[:20] = FlowStatus.UNKNOWN
     pool.birth_s[:] = 0.0
@@ -566,14 +540,12 @@ def test_place_at_seen_water_matches_reference(rng):
         hit, flow, 1.92 * r)
     before = pool.alive.copy()
     ids = pool.ids.copy()
-    new = np.zeros(pool.capacity, np.int32)
     xyz = rng.uniform(-5, 5, (200, 3))
     vel = rng.uniform(-1, 1, (200, 2)).astype(np.float32)
     placed, removed = ka.place_at_seen_water(
-        pool.alive, pool.ids, pool.counters, pool.birth_s, pool.intensity, pool.screen_px,
-        pool.fade_reason, pool.has_world, pool.world_m, pool.velocity_mps, pool.status,
-        pool.first_query, pool.offset_m, 1.0, FI, AC, 1.92 * r, 4 * r, gw, gh, count, items,
-        200, probes, hit, xyz, flow, vel, removed_cells, 3, -1.0, -1.0, 1.0, 1.0, new)
+        pool.arrays, grid, ka.Probes(probes, hit, xyz, flow, vel), 200, 1.0, FI, AC, 1.92 * r, 3,
+        -1.0, -1.0, 1.0, 1.0)
+    new = grid.new_slots
     assert placed == len(want_rows) > 10 and removed == len(want_removed)
     gone = before & (~pool.alive | (pool.ids != ids))  # (a freed slot may take a new one)
     npt.assert_array_equal(np.flatnonzero(gone), np.sort(want_removed))
