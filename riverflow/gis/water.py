@@ -1034,8 +1034,10 @@ def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy
             # runs on beyond both, no pond)
             longest = math.inf
         if not net.channels or several and (speck or longest < MIN_CHANNEL_WIDTHS * widest):
-            if _join_open_water(builder, part, k, "beside open water, with no path along its "
-                                f"channels longer than {MIN_CHANNEL_WIDTHS:g} times its width"):
+            if _join_open_water(builder, part, k, "beside open water"
+                                + (" or a lake made of a knot" if builder._knot_lakes else "")
+                                + f", with no path along its channels longer than "
+                                f"{MIN_CHANNEL_WIDTHS:g} times its width"):
                 continue
             x, y = part.representative_point().coords[0]
             # a pond (not a piece a lake's cut left beside it): still water, as a lake
@@ -1454,9 +1456,10 @@ def _seas(water, frame, cell, report: RiverImport, tolerance_m: float):
 
 def _join_open_water(builder: WaterBuilder, part, k: int, why: str) -> bool:
     """Join water body ``k`` (``part``, ``why``: no channel of its own) to the open water
-    (builder.seas) it touches, still water (reported); False where it touches none."""
+    (builder.seas) or the lake made of a knot (:func:`_knot_lake`) it touches, still water
+    (reported); False where it touches none."""
     seas = builder.seas
-    near = [s for s in seas if s.distance(part) <= builder.tolerance_m]
+    near = [s for s in [*seas, *builder._knot_lakes] if s.distance(part) <= builder.tolerance_m]
     if not near:
         return False
     inside = near[0].representative_point()
@@ -1467,7 +1470,8 @@ def _join_open_water(builder: WaterBuilder, part, k: int, why: str) -> bool:
     x, y = part.representative_point().coords[0]
     builder.report.repair(f"water body {k}", None, None,
                           f"{part.area:.1f} m² of water near ({x:.1f}, {y:.1f}) {why}: joined to "
-                          f"the open water beside it (still water)")
+                          f"the {'open water' if any(near[0] is s for s in seas) else 'lake'} beside it (still "
+                          f"water)")
     return True
 
 
@@ -1858,6 +1862,10 @@ class _Network:
             self.inlets, self.outlets, self.hinted = set(), set(), False
             return ("the lines' ends gave no way in and out: "   # (every end one kind)
                     + self.orient(elevations))
+        if (not inlets or not outlets) and self.knotted:
+            self.inlets, self.outlets, self.knotted = set(), set(), False
+            return ("the ways the water ran before its knots were made lakes gave no way in "
+                    "and out: " + self.orient(elevations))
         if not inlets or not outlets:
             raise GraphError(f"the water near {_xy_text(self.nodes[0])} needs a free "
                              f"end where water comes in and another where it leaves")
@@ -3532,8 +3540,10 @@ def _discharges(networks: list[_Network], total_m3s, geometry: HydraulicGeometry
                                          f"{w:.1f} m)")
                 moved = True
         if waiting and not moved:
-            stuck = [c.name for n in networks for c in n.channels if c.discharge_m2s is None]
-            raise GraphError(f"{report.path}: channels {stuck[:6]} flow round a loop through "
-                             f"the lakes made of knots")
+            stuck = [c for n in networks for c in n.channels if c.discharge_m2s is None]
+            x, y = shapely.LineString(stuck[0].points).interpolate(0.5, normalized=True).coords[0]
+            raise GraphError(f"{report.path}: channels {[c.name for c in stuck[:6]]} flow "
+                             f"round a loop through the lakes made of knots, near ({x:.1f}, "
+                             f"{y:.1f})")
     report.derived["discharge"] = sorted({c.discharge_from.split(" (")[0]
                                           for n in networks for c in n.channels})
