@@ -559,7 +559,8 @@ def _knot_lake(builder: WaterBuilder, seeds: list, networks: list):
             centres.append(node)
     region = shapely.union_all(region)
     parts = [p for p in shapely.get_parts(shapely.intersection(rivers, region))
-             if p.geom_type == "Polygon" and any(p.distance(q) <= tol for q in centres)]
+             if p.geom_type == "Polygon" and (p.intersects(core)
+                                              or any(p.distance(q) <= tol for q in centres))]
     if not parts:
         return None
     knot = shapely.union_all(parts)
@@ -583,6 +584,12 @@ def _knot_lake(builder: WaterBuilder, seeds: list, networks: list):
     if not new:
         return None
     builder._knot_seeds.append((np.asarray(seeds[0], float), grow * r))
+    lake_area = shapely.union_all(new)
+    rivers = shapely.difference(rivers, lake_area)
+    rivers = shapely.union_all([p for p in shapely.get_parts(rivers) if p.geom_type == "Polygon"
+                                and p.area > (4.0 * tol) ** 2])
+    if rivers.is_empty:
+        return None         # (no river left: the knot is all of it)
     lakes = list(lakes)
     seas = list(builder.seas)
     made, joined = [], ""
@@ -606,14 +613,11 @@ def _knot_lake(builder: WaterBuilder, seeds: list, networks: list):
         builder._knot_lakes = [k for k in builder._knot_lakes
                                if not any(k is t for t in touching)] + ([] if sea else [whole])
         made.append(whole)
-    lake_area = shapely.union_all(new)
-    rivers = shapely.difference(rivers, lake_area)
-    rivers = shapely.union_all([p for p in shapely.get_parts(rivers) if p.geom_type == "Polygon"
-                                and p.area > (4.0 * tol) ** 2])
     if extent is None:
         extent = shapely.box(*builder._knot_state[0].bounds)
-    extent = shapely.difference(extent, lake_area)
-    builder._knot_state = (None if rivers.is_empty else rivers, lakes, extent)
+    extent = shapely.union_all([p for p in shapely.get_parts(shapely.difference(
+        extent, lake_area)) if p.geom_type == "Polygon"])
+    builder._knot_state = (rivers, lakes, extent)
     builder.seas = seas
     # the ways the channels crossed its shore, and the free ends' ways
     roles = []
