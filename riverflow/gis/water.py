@@ -944,6 +944,16 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
             _join_open_water(builder, getattr(water, "geoms", [water])[net.part], net.part,
                              "opens only into open water")
             networks.remove(net)
+    knots = [lk for lk in lakes if any(lk is k for k in builder._knot_lakes)]
+    for net in list(networks):
+        # (water whose every way in or out is one lake made of a knot: a channel from it
+        # back into it, which no order of the discharges allows, is the lake's)
+        ends = net.free_ends()
+        if ends and any(all(lk.exterior.distance(shapely.Point(net.nodes[n]))
+                            <= max(w, tolerance_m) for _, n, w in ends) for lk in knots):
+            _join_open_water(builder, getattr(water, "geoms", [water])[net.part], net.part,
+                             "opens only into a lake made of a knot")
+            networks.remove(net)
     if not networks and not builder._lakes:
         gone = [r for r in report.repairs if r.feature.startswith("water body")]
         raise GraphError(f"{where}: no water is left to build: its "
@@ -965,7 +975,6 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
     builder._networks = networks       # (for _hole_in_loop, when _discharges fails)
     builder.basin_axes = ([a for net in networks for a in net.basin_axes]
                           if builder.backwaters else [])
-    knots = [lk for lk in lakes if any(lk is k for k in builder._knot_lakes)]
     _discharges(networks, discharge_m3s, geometry, report, knots)
     kept = []
     for k, net in enumerate(networks):
