@@ -216,7 +216,9 @@ class WaterBuilder(RiverNetworkBuilder):
         all that fails and a channel's free end did not reach across the water, last with
         every reading back and the island beside such an end made free (``free_by_ends``:
         the channels on either side of an island just inside the data's edge run out to it
-        apart, with no junction between them)."""
+        apart, with no junction between them). Where every reading fails, the water round
+        the place the first one failed at is made a lake and the water read again, up to
+        MAX_KNOTS times (:meth:`_knots_made_lakes`)."""
         self._repairs_read = [r for r in self.report.repairs if not r.feature.startswith("knot ")]
         try:
             graph = self._readings()
@@ -623,7 +625,10 @@ def _knot_lake(builder: WaterBuilder, seeds: list, networks: list):
     roles = []
     shore = shapely.union_all([m.boundary for m in made])
     inside = shapely.union_all(made)
+    shapely.prepare(inside)
     for net in networks:
+        if not all(c.directed for c in net.channels):
+            continue        # (a reading that failed before its water was oriented)
         deg = net.degree()
         for c in net.channels:
             w = c.width
