@@ -143,7 +143,7 @@ OVERHANG_MARGIN = math.sin(math.radians(20.0))
 20° to its left (the builder reads the axis piece by piece: beside a piece's end its nearest
 point lies farther back)."""
 
-MAX_KNOTS = 12
+MAX_KNOTS = 16
 """How many knots of the skeleton :meth:`WaterBuilder.build` makes lakes of, at most, where
 every reading fails (each at the place the first reading failed at)."""
 KNOT_GROW = 1.5
@@ -198,7 +198,7 @@ class WaterBuilder(RiverNetworkBuilder):
     across the knots' shores in the readings the knots were made from."""
     _knot_repairs: list = []
     _knot_seeds: list = []
-    """[(point (2,) [m], reach [m])]: where knots were made, and how far their lakes reach."""
+    """[(the water made lake, its reach [m])] of every knot made."""
 
     @property
     def derived(self) -> dict[str, Any]:
@@ -523,9 +523,6 @@ def _knot_lake(builder: WaterBuilder, seeds: list, networks: list):
     chans = [c for net in networks for c in net.channels]
     if not chans:
         return None
-    # (a knot again where one was made: grown each time)
-    grow = KNOT_GROW * 1.5 ** sum(np.hypot(*(np.asarray(seeds[0]) - p)) <= reach
-                                  for p, reach in builder._knot_seeds)
     lines = [shapely.LineString(c.points) for c in chans]
     deg_of = {id(net): net.degree() for net in networks}
     junctions = []      # (point, inscribed radius) of every junction of the skeleton
@@ -537,7 +534,7 @@ def _knot_lake(builder: WaterBuilder, seeds: list, networks: list):
                 if deg[j] >= 3:
                     radius[j] = max(radius.get(j, 0.0), 0.5 * float(w))
         junctions += [(net.nodes[j], radius[j]) for j in sorted(radius)]
-    discs, centres = [], []
+    discs, centres, grow = [], [], KNOT_GROW
     for sx, sy in seeds:
         pt = shapely.Point(sx, sy)
         i = int(np.argmin([ln.distance(pt) for ln in lines]))
@@ -547,8 +544,13 @@ def _knot_lake(builder: WaterBuilder, seeds: list, networks: list):
         r = 0.5 * float(np.interp(at, s, c.widths))
         # (the junctions near the place: their water is the knot's scale)
         for q, rj in junctions:
-            if np.hypot(sx - q[0], sy - q[1]) <= 2.0 * grow * rj:
+            if np.hypot(sx - q[0], sy - q[1]) <= 2.0 * KNOT_GROW * rj:
                 r = max(r, rj)
+        # (a knot again at the lake of one made before: grown each time; its failure walked
+        # along the shore when it was not)
+        again = sum(lake.distance(pt) <= KNOT_GROW * max(r, reach)
+                    for lake, reach in builder._knot_seeds)
+        grow = max(grow, KNOT_GROW * 1.5 ** again)
         near = ln.interpolate(at)
         discs += [pt.buffer(grow * r), near.buffer(grow * r)]
         centres.append(near)
@@ -585,7 +587,7 @@ def _knot_lake(builder: WaterBuilder, seeds: list, networks: list):
             new.append(piece)
     if not new:
         return None
-    builder._knot_seeds.append((np.asarray(seeds[0], float), grow * r))
+    builder._knot_seeds.append((shapely.union_all(new), grow * r))
     lake_area = shapely.union_all(new)
     rivers = shapely.difference(rivers, lake_area)
     rivers = shapely.union_all([p for p in shapely.get_parts(rivers) if p.geom_type == "Polygon"
