@@ -645,7 +645,9 @@ def _knot_lake(builder: WaterBuilder, seeds: list, networks: list):
                 into, out_of = inside.contains(after), inside.contains(before)
                 if into != out_of:
                     roles.append((q, "out" if into else "in", w))
-    builder._roles = roles + builder._roles
+    # (one reading's ways, all of them: ways kept from readings before it, mixed with its
+    # own, let water run round a loop through the lakes)
+    builder._roles = roles if roles else builder._roles
     return lake_area, joined
 
 
