@@ -1492,8 +1492,8 @@ def _join_open_water(builder: WaterBuilder, part, k: int, why: str) -> bool:
     x, y = part.representative_point().coords[0]
     builder.report.repair(f"water body {k}", None, None,
                           f"{part.area:.1f} m² of water near ({x:.1f}, {y:.1f}) {why}: joined to "
-                          f"the {'open water' if any(near[0] is s for s in seas) else 'lake'} beside it (still "
-                          f"water)")
+                          f"the {'open water' if any(near[0] is s for s in seas) else 'lake'} "
+                          f"beside it (still water)")
     return True
 
 
