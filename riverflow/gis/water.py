@@ -1545,7 +1545,11 @@ def _without_spikes(poly, within: float):
                 i += 1
         return c
 
-    return shapely.Polygon(ring(poly.exterior), [ring(h) for h in poly.interiors])
+    outer = ring(poly.exterior)
+    if len(outer) < 3:
+        return poly
+    # (a hole that was all spike, a knot's lake cut into a sliver of one, is gone)
+    return shapely.Polygon(outer, [h for h in map(ring, poly.interiors) if len(h) >= 3])
 
 
 def _read_polygons(path: Path, layer):
