@@ -143,6 +143,14 @@ OVERHANG_MARGIN = math.sin(math.radians(20.0))
 20° to its left (the builder reads the axis piece by piece: beside a piece's end its nearest
 point lies farther back)."""
 
+MAX_KNOTS = 16
+"""How many knots of the skeleton :meth:`WaterBuilder.build` makes lakes of, at most, where
+every reading fails (each at the place the first reading failed at)."""
+KNOT_GROW = 1.5
+"""A knot's lake is the water within this many inscribed radii of the axis nearest the
+failure (and of the failure's place) and of the skeleton junctions whose inscribed circles
+reach that water."""
+
 
 RETRIED = {"short_reaches_join": "with no short reach joining its ends",
            "ends_beside": "with no dead end kept as part of the water's ends",
@@ -180,6 +188,17 @@ class WaterBuilder(RiverNetworkBuilder):
     once the lines do not make a network there and the water's skeleton gives its axes
     (:meth:`_read_by_line_ends`): inlets and outlets at the free ends they lie at."""
     _by_skeleton = None
+    _knot_state = None
+    """(the rivers' water, the lakes, the data's extent or None) the readings fill from:
+    read_water's, less the knots made lakes (:func:`_knot_lake`)."""
+    _knot_lakes: list = []
+    """The lakes made of knots (polygons [m]) that joined no other lake."""
+    _roles: list = []
+    """[(point (2,) [m], "in" | "out", width [m])]: the ways water ran at the free ends and
+    across the knots' shores in the readings the knots were made from."""
+    _knot_repairs: list = []
+    _knot_seeds: list = []
+    """[(the water made lake, its reach [m])] of every knot made."""
 
     @property
     def derived(self) -> dict[str, Any]:
@@ -197,7 +216,27 @@ class WaterBuilder(RiverNetworkBuilder):
         all that fails and a channel's free end did not reach across the water, last with
         every reading back and the island beside such an end made free (``free_by_ends``:
         the channels on either side of an island just inside the data's edge run out to it
-        apart, with no junction between them)."""
+        apart, with no junction between them). Where every reading fails, the water round
+        the place the first one failed at is made a lake and the water read again, up to
+        MAX_KNOTS times (:meth:`_knots_made_lakes`)."""
+        self._repairs_read = [r for r in self.report.repairs if not r.feature.startswith("knot ")]
+        try:
+            graph = self._readings()
+        except GraphError as exc:
+            graph = self._knots_made_lakes(exc)
+        graph.source = self.report.path
+        cut = sum(self.end_cuts_m2)
+        if cut > 0:
+            self.report.derived["ends_cut_m2"] = round(cut, 2)
+        if self.islands_cut:
+            self.report.notes.append(f"{len(self.islands_cut)} islands at the water's open "
+                                     f"ends, where it is cut across, left out")
+        return graph
+
+    def _readings(self):
+        """The graph of the water as read, else of each other reading (:meth:`build`); the
+        first reading's failure and the builder's branches and networks then are kept in
+        ``_first_failure`` (where :meth:`_knots_made_lakes` looks for the knot)."""
         # the islands read_water already made free stay free (else the loops they broke
         # come back and take the retries)
         forced: list[tuple[float, float]] = list(getattr(self, "_forced", ()))
@@ -206,6 +245,8 @@ class WaterBuilder(RiverNetworkBuilder):
         try:
             graph = self._build_retrying(list(forced))
         except GraphError as exc:
+            self._first_failure = (str(exc), list(self._branches),
+                                   list(getattr(self, "_networks", [])))
             graph, first, last, seen, tried = None, exc, None, [str(exc)], []
             # again without a reading that may have failed it (then without the next too):
             # short reaches joined, dead ends kept as parts of the water's ends, backwaters
@@ -241,7 +282,7 @@ class WaterBuilder(RiverNetworkBuilder):
                 self.free_by_ends = False
                 try:
                     self._read_by_line_ends(first)
-                    return self.build()
+                    return self._readings()
                 except GraphError as again:
                     last = again
             if graph is None:
@@ -249,14 +290,60 @@ class WaterBuilder(RiverNetworkBuilder):
         finally:
             self.short_reaches_join = self.ends_beside = self.backwaters = True
             self.free_by_ends = False
-        graph.source = self.report.path
-        cut = sum(self.end_cuts_m2)
-        if cut > 0:
-            self.report.derived["ends_cut_m2"] = round(cut, 2)
-        if self.islands_cut:
-            self.report.notes.append(f"{len(self.islands_cut)} islands at the water's open "
-                                     f"ends, where it is cut across, left out")
         return graph
+
+    def _knots_made_lakes(self, failed: GraphError):
+        """Where every reading fails (``failed``), the water round the place the first
+        reading failed at (a knot of the skeleton the builder cannot make into channels) is
+        made a lake (:func:`_knot_lake`) and the water read again; up to MAX_KNOTS times,
+        each knot reported. Raises ``failed`` where no knot is found (its error names no
+        place), else an error naming the knots made and the last reading's failure."""
+        state = getattr(self, "_knot_state", None)
+        made: list[str] = []
+        last = failed
+        while state is not None and len(made) < MAX_KNOTS:
+            text, branches, networks = self._first_failure
+            named = f"{self.report.path} (layer {self.report.layer!r}): "
+            text = text[len(named):] if text.startswith(named) else text
+            seeds = _knot_seeds(text, branches)
+            knot = _knot_lake(self, seeds, networks) if seeds else None
+            if knot is None:
+                break
+            knot, joined = knot
+            x, y = seeds[0]
+            made.append(f"({x:.1f}, {y:.1f})")
+            islands = sum(len(p.interiors) for p in shapely.get_parts(knot))
+            self._knot_repairs.append((f"knot {len(made)}", (
+                f"{knot.area:.1f} m² of water round ({x:.1f}, {y:.1f}), {islands} islands in "
+                f"it, where its skeleton could not be made into channels ({text[:160]}"
+                f"{'…' if len(text) > 160 else ''}): a lake (still water, slow: the potential "
+                f"flow from its inlets to its outlets)" + (f", {joined}" if joined else ""))))
+            self.report.repairs[:] = self._repairs_read
+            for where, what in self._knot_repairs:
+                self.report.repair(where, None, None, what)
+            try:
+                try:
+                    self._refill(list(getattr(self, "_forced", ())))
+                except GraphError as again:
+                    self._first_failure = (str(again), list(self._branches),
+                                           list(getattr(self, "_networks", [])))
+                    self._raise_named(again)
+                graph = self._readings()
+            except GraphError as again:
+                last = again
+                continue
+            self.report.derived["knots"] = (
+                f"{len(made)} (water round a knot of the skeleton the builder could not "
+                f"make into channels, every reading failing there): lakes")
+            return graph
+        if not made:
+            raise failed
+        named = f"{self.report.path} (layer {self.report.layer!r}): "
+        again = str(last)
+        again = again[len(named):] if again.startswith(named) else again
+        raise GraphError(f"{failed}; read again with the water round {len(made)} knots of its "
+                         f"skeleton made lakes (near {', '.join(made)}), it failed there too: "
+                         f"{again}") from None
 
     def _read_by_line_ends(self, failed: GraphError) -> None:
         """Find the channels again along the water's skeleton, the lines given only saying
@@ -389,6 +476,179 @@ class WaterBuilder(RiverNetworkBuilder):
                     "lines= that run into the bay, or smooth the outline there)")
         raise GraphError(f"{self.report.path} (layer {self.report.layer!r}): {exc}{hint}"
                          ) from None
+
+
+def _knot_seeds(text: str, branches: list) -> list[tuple[float, float]]:
+    """The place a reading's error names (the builder's ``text``, ``branches`` the builder's
+    then): its first point "(x, y)"; else the nearest ends of two branches that "do not
+    meet"; else the middle of the first branch it names (by name, or "branch k:"); else
+    none."""
+    import re
+
+    m = re.search(r"\((-?[0-9]+(?:\.[0-9]*)?), (-?[0-9]+(?:\.[0-9]*)?)\)", text)
+    if m:
+        return [(float(m.group(1)), float(m.group(2)))]
+    by = {b.name: b for b in branches}
+    two = re.search(r"branches '([^']+)' and '([^']+)' do not meet", text)
+    if two and two.group(1) in by and two.group(2) in by:
+        a, b = (by[two.group(k)].centerline_m for k in (1, 2))
+        pa, pb = min(((p, q) for p in (a[0], a[-1]) for q in (b[0], b[-1])),
+                     key=lambda pq: float(np.hypot(*(pq[0] - pq[1]))))
+        return [tuple(map(float, pa)), tuple(map(float, pb))]
+    k = re.search(r"branch (\d+): ", text)
+    branch = (branches[int(k.group(1))] if k and int(k.group(1)) < len(branches) else
+              next((by[n] for n in re.findall(r"'([^']+)'", text) if n in by), None))
+    if branch is None:
+        return []
+    mid = shapely.LineString(branch.centerline_m).interpolate(0.5, normalized=True)
+    return [mid.coords[0]]
+
+
+def _knot_lake(builder: WaterBuilder, seeds: list, networks: list):
+    """Make the water round ``seeds`` (a reading's failure, :func:`_knot_seeds`) a lake of
+    the builder's next readings (its ``_knot_state``: the rivers' water, the lakes, the
+    data's extent): the water within KNOT_GROW inscribed radii of the seeds, of the axis
+    nearest each and of the skeleton junctions (of ``networks``, the failed reading's) whose
+    inscribed circles reach it; with the pieces of water it cuts off that hold no free end
+    of those networks (a pocket, a loop of channels back into it), its mouths straight
+    (:func:`_straight_mouths`), joined to a lake it touches. The ways the failed reading's
+    channels crossed its shore (into it: the end there an outlet; out of it: an inlet) and
+    its free ends' ways are kept for the next readings (``_roles``: :func:`_find_networks`).
+    Returns (the water made lake, how it joined a lake it touches or ""), None where no
+    water lies there."""
+    rivers, lakes, extent = builder._knot_state
+    if rivers is None:
+        return None
+    tol = builder.tolerance_m
+    chans = [c for net in networks for c in net.channels]
+    if not chans:
+        return None
+    lines = [shapely.LineString(c.points) for c in chans]
+    deg_of = {id(net): net.degree() for net in networks}
+    junctions = []      # (point, inscribed radius) of every junction of the skeleton
+    for net in networks:
+        deg = deg_of[id(net)]
+        radius = {}
+        for c in net.channels:
+            for j, w in ((c.a, c.widths[0]), (c.b, c.widths[-1])):
+                if deg[j] >= 3:
+                    radius[j] = max(radius.get(j, 0.0), 0.5 * float(w))
+        junctions += [(net.nodes[j], radius[j]) for j in sorted(radius)]
+    discs, centres, grow = [], [], KNOT_GROW
+    for sx, sy in seeds:
+        pt = shapely.Point(sx, sy)
+        i = int(np.argmin([ln.distance(pt) for ln in lines]))
+        c, ln = chans[i], lines[i]
+        at = ln.project(pt)
+        s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(c.points, axis=0).T))])
+        r = 0.5 * float(np.interp(at, s, c.widths))
+        # (the junctions near the place: their water is the knot's scale)
+        for q, rj in junctions:
+            if np.hypot(sx - q[0], sy - q[1]) <= 2.0 * KNOT_GROW * rj:
+                r = max(r, rj)
+        # (a knot again at the lake of one made before: grown each time; its failure walked
+        # along the shore when it was not)
+        again = sum(lake.distance(pt) <= KNOT_GROW * max(r, reach)
+                    for lake, reach in builder._knot_seeds)
+        grow = max(grow, KNOT_GROW * 1.5 ** again)
+        near = ln.interpolate(at)
+        discs += [pt.buffer(grow * r), near.buffer(grow * r)]
+        centres.append(near)
+    core = shapely.union_all(discs).convex_hull
+    region = [core]
+    for q, rj in junctions:
+        node = shapely.Point(q)
+        if core.distance(node) <= rj:
+            region.append(node.buffer(grow * rj))
+            centres.append(node)
+    region = shapely.union_all(region)
+    parts = [p for p in shapely.get_parts(shapely.intersection(rivers, region))
+             if p.geom_type == "Polygon" and (p.intersects(core)
+                                              or any(p.distance(q) <= tol for q in centres))]
+    if not parts:
+        return None
+    knot = shapely.union_all(parts)
+    # the pieces it cuts off with no way in or out but the knot: the lake's
+    ends = [shapely.Point(net.nodes[n]) for net in networks for _, n, _ in net.free_ends()]
+    rest = shapely.difference(rivers, knot)
+    pockets = [q for q in shapely.get_parts(rest) if q.geom_type == "Polygon"
+               and q.distance(knot) <= tol
+               and not any(q.distance(e) <= max(4.0 * tol, 1e-3 * math.sqrt(q.area))
+                           for e in ends)]
+    if pockets:
+        knot = shapely.union_all([knot, *pockets])
+        rest = shapely.difference(rivers, knot)
+    new = []
+    for piece in shapely.get_parts(knot):
+        if piece.geom_type != "Polygon" or not piece.area > (4.0 * tol) ** 2:
+            continue
+        piece, rest = _straight_mouths(piece, rest, tol)
+        if piece.area > (4.0 * tol) ** 2:
+            new.append(piece)
+    if not new:
+        return None
+    builder._knot_seeds.append((shapely.union_all(new), grow * r))
+    lake_area = shapely.union_all(new)
+    rivers = shapely.difference(rivers, lake_area)
+    rivers = shapely.union_all([p for p in shapely.get_parts(rivers) if p.geom_type == "Polygon"
+                                and p.area > (4.0 * tol) ** 2])
+    if rivers.is_empty:
+        return None         # (no river left: the knot is all of it)
+    lakes = list(lakes)
+    seas = list(builder.seas)
+    made, joined = [], ""
+    for piece in new:
+        touching = [lk for lk in lakes if lk.distance(piece) <= tol]
+        if touching:
+            joined = ("joined to the open water beside it"
+                      if any(any(lk is sk for sk in seas) for lk in touching)
+                      else "joined to the lake beside it")
+        whole = shapely.union_all([piece, *touching])
+        if whole.geom_type != "Polygon":
+            whole = max((p for p in shapely.get_parts(whole.buffer(tol).buffer(-tol))
+                         if p.geom_type == "Polygon"), key=lambda p: p.area)
+        whole = shapely.make_valid(whole)
+        if whole.geom_type != "Polygon":
+            whole = max((p for p in shapely.get_parts(whole) if p.geom_type == "Polygon"),
+                        key=lambda p: p.area)
+        sea = any(any(lk is sk for sk in seas) for lk in touching)
+        lakes = [lk for lk in lakes if not any(lk is t for t in touching)] + [whole]
+        seas = [sk for sk in seas if not any(sk is t for t in touching)] + ([whole] if sea else [])
+        builder._knot_lakes = [k for k in builder._knot_lakes
+                               if not any(k is t for t in touching)] + ([] if sea else [whole])
+        made.append(whole)
+    if extent is None:
+        extent = shapely.box(*builder._knot_state[0].bounds)
+    extent = shapely.union_all([p for p in shapely.get_parts(shapely.difference(
+        extent, lake_area)) if p.geom_type == "Polygon"])
+    builder._knot_state = (rivers, lakes, extent)
+    builder.seas = seas
+    # the ways the channels crossed its shore, and the free ends' ways
+    roles = []
+    shore = shapely.union_all([m.boundary for m in made])
+    inside = shapely.union_all(made)
+    shapely.prepare(inside)
+    for net in networks:
+        if not all(c.directed for c in net.channels):
+            continue        # (a reading that failed before its water was oriented)
+        deg = net.degree()
+        for c in net.channels:
+            w = c.width
+            for n, role in ((c.a, "in"), (c.b, "out")):
+                if deg[n] == 1:
+                    roles.append((net.nodes[n], role, w))
+            line = shapely.LineString(c.points)
+            for q in shapely.get_coordinates(shapely.intersection(line, shore)):
+                at = line.project(shapely.Point(q))
+                before = line.interpolate(max(at - 0.25 * w, 0.0))
+                after = line.interpolate(min(at + 0.25 * w, line.length))
+                into, out_of = inside.contains(after), inside.contains(before)
+                if into != out_of:
+                    roles.append((q, "out" if into else "in", w))
+    # (one reading's ways, all of them: ways kept from readings before it, mixed with its
+    # own, let water run round a loop through the lakes)
+    builder._roles = roles if roles else builder._roles
+    return lake_area, joined
 
 
 def _shore_point(text: str):
@@ -575,9 +835,15 @@ def read_water(path, *, layer: str | int | None = None, lines=None, inlets=None,
     if lakes:   # the rivers' water is cut open where it meets a lake
         extent = shapely.difference(extent if extent is not None else shapely.box(*water.bounds),
                                     shapely.union_all(lakes))
+    # (the water round knots its readings cannot make into channels is made a lake there)
+    builder._knot_state = (rivers, lakes, extent)
+    builder._knot_lakes, builder._roles, builder._knot_repairs = [], [], []
+    builder._knot_seeds = []
+
     def fill(lines, forced):
-        _fill(builder, rivers, lines, inlet_xy, outlet_xy, dem, discharge_m3s, geometry,
-              tolerance_m, where, forced, extent, lakes)
+        water, lakes_now, extent_now = builder._knot_state
+        _fill(builder, water, lines, inlet_xy, outlet_xy, dem, discharge_m3s, geometry,
+              tolerance_m, where, forced, extent_now, lakes_now)
 
     builder._fill = lambda forced: fill(line_geoms, forced)
     if line_geoms:
@@ -640,7 +906,9 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
     builder._lakes.clear()
     for lake in lakes:
         builder.add_lake(lake)
-    shores = shapely.union_all([lk.exterior for lk in lakes]) if lakes else None
+    # (the lakes made of knots give their channels out the discharges _discharges finds)
+    shores = [lk.exterior for lk in lakes if not any(lk is k for k in builder._knot_lakes)]
+    shores = shapely.union_all(shores) if shores else None
     report.links.clear()
     report.attributes.clear()
     report.repairs[:] = [r for r in report.repairs if not r.feature.startswith("water body")]
@@ -685,6 +953,16 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
             _join_open_water(builder, getattr(water, "geoms", [water])[net.part], net.part,
                              "opens only into open water")
             networks.remove(net)
+    knots = [lk for lk in lakes if any(lk is k for k in builder._knot_lakes)]
+    for net in list(networks):
+        # (water whose every way in or out is one lake made of a knot: a channel from it
+        # back into it, which no order of the discharges allows, is the lake's)
+        ends = net.free_ends()
+        if ends and any(all(lk.exterior.distance(shapely.Point(net.nodes[n]))
+                            <= max(w, tolerance_m) for _, n, w in ends) for lk in knots):
+            _join_open_water(builder, getattr(water, "geoms", [water])[net.part], net.part,
+                             "opens only into a lake made of a knot")
+            networks.remove(net)
     if not networks and not builder._lakes:
         gone = [r for r in report.repairs if r.feature.startswith("water body")]
         raise GraphError(f"{where}: no water is left to build: its "
@@ -706,7 +984,7 @@ def _fill(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy, dem, di
     builder._networks = networks       # (for _hole_in_loop, when _discharges fails)
     builder.basin_axes = ([a for net in networks for a in net.basin_axes]
                           if builder.backwaters else [])
-    _discharges(networks, discharge_m3s, geometry, report)
+    _discharges(networks, discharge_m3s, geometry, report, knots)
     kept = []
     for k, net in enumerate(networks):
         net.water = _trim_overhangs(net, report, k)
@@ -778,8 +1056,10 @@ def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy
             # runs on beyond both, no pond)
             longest = math.inf
         if not net.channels or several and (speck or longest < MIN_CHANNEL_WIDTHS * widest):
-            if _join_open_water(builder, part, k, "beside open water, with no path along its "
-                                f"channels longer than {MIN_CHANNEL_WIDTHS:g} times its width"):
+            if _join_open_water(builder, part, k, "beside open water"
+                                + (" or a lake made of a knot" if builder._knot_lakes else "")
+                                + f", with no path along its channels longer than "
+                                f"{MIN_CHANNEL_WIDTHS:g} times its width"):
                 continue
             x, y = part.representative_point().coords[0]
             # a pond (not a piece a lake's cut left beside it): still water, as a lake
@@ -821,6 +1101,19 @@ def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy
         for net, n, w in ends:
             if seas.distance(shapely.Point(net.nodes[n])) <= max(w, tolerance_m):
                 net.outlets.add(n)
+    if builder._roles:
+        # knots made lakes: each free end runs the way the water ran there before (across
+        # the knot's shore, or at a free end of the water)
+        at = np.array([p for p, _, _ in builder._roles], float).reshape(-1, 2)
+        for net, n, w in ends:
+            if n in net.inlets or n in net.outlets:
+                continue
+            d = np.hypot(*(at - net.nodes[n]).T)
+            k = int(np.argmin(d))
+            _, role, wr = builder._roles[k]
+            if d[k] <= max(w, wr):
+                (net.inlets if role == "in" else net.outlets).add(n)
+                net.knotted = True
     heights = ((lambda xy: _dem_heights(dem, xy, report, where)) if dem is not None else None)
     builder.kept_beside = False
     for net in networks:
@@ -1174,9 +1467,10 @@ def _seas(water, frame, cell, report: RiverImport, tolerance_m: float):
 
 def _join_open_water(builder: WaterBuilder, part, k: int, why: str) -> bool:
     """Join water body ``k`` (``part``, ``why``: no channel of its own) to the open water
-    (builder.seas) it touches, still water (reported); False where it touches none."""
+    (builder.seas) or the lake made of a knot (:func:`_knot_lake`) it touches, still water
+    (reported); False where it touches none."""
     seas = builder.seas
-    near = [s for s in seas if s.distance(part) <= builder.tolerance_m]
+    near = [s for s in [*seas, *builder._knot_lakes] if s.distance(part) <= builder.tolerance_m]
     if not near:
         return False
     inside = near[0].representative_point()
@@ -1187,7 +1481,8 @@ def _join_open_water(builder: WaterBuilder, part, k: int, why: str) -> bool:
     x, y = part.representative_point().coords[0]
     builder.report.repair(f"water body {k}", None, None,
                           f"{part.area:.1f} m² of water near ({x:.1f}, {y:.1f}) {why}: joined to "
-                          f"the open water beside it (still water)")
+                          f"the {'open water' if any(near[0] is s for s in seas) else 'lake'} "
+                          f"beside it (still water)")
     return True
 
 
@@ -1239,7 +1534,11 @@ def _without_spikes(poly, within: float):
                 i += 1
         return c
 
-    return shapely.Polygon(ring(poly.exterior), [ring(h) for h in poly.interiors])
+    outer = ring(poly.exterior)
+    if len(outer) < 3:
+        return poly
+    # (a hole that was all spike, a knot's lake cut into a sliver of one, is gone)
+    return shapely.Polygon(outer, [h for h in map(ring, poly.interiors) if len(h) >= 3])
 
 
 def _read_polygons(path: Path, layer):
@@ -1599,6 +1898,9 @@ class _Network:
         self.outlets: set[int] = set()
         self.hinted = False
         """Whether inlets / outlets are the lines' ends (:attr:`WaterBuilder.by_line_ends`)."""
+        self.knotted = False
+        """Whether inlets / outlets are the ways the water ran before its knots were made
+        lakes (:func:`_knot_lake`)."""
         self.tributaries: set[int] = set()
         """Free ends of short dead-end channels kept as tributaries because the DEM rises
         towards them (:func:`_drop_basin_spurs`): inlets when the DEM orients the water."""
@@ -1651,6 +1953,7 @@ class _Network:
         flat = ""
         if inlets or outlets:
             rule = ("from where the lines enter and leave the water" if self.hinted
+                    else "as the water ran before its knots were made lakes" if self.knotted
                     else "from the inlets / outlets given")
         elif elevations is not None and len(leaves) >= 2:
             z = {k: elevations.get((id(self), k), math.nan) for k in leaves}
@@ -1685,6 +1988,7 @@ class _Network:
             rule = (f"{flat}the longest path along the axes, from its narrower end "
                     f"({min(wa, wb):.1f} m) to its wider ({max(wa, wb):.1f} m)")
         if rule not in ("from the inlets / outlets given",
+                        "as the water ran before its knots were made lakes",
                         "from where the lines enter and leave the water"):
             self._same_end(leaves, inlets, outlets)
         if not outlets:          # water enters where it is said to; it leaves by the rest
@@ -1695,6 +1999,10 @@ class _Network:
             self.inlets, self.outlets, self.hinted = set(), set(), False
             return ("the lines' ends gave no way in and out: "   # (every end one kind)
                     + self.orient(elevations))
+        if (not inlets or not outlets) and self.knotted:
+            self.inlets, self.outlets, self.knotted = set(), set(), False
+            return ("the ways the water ran before its knots were made lakes gave no way in "
+                    "and out: " + self.orient(elevations))
         if not inlets or not outlets:
             raise GraphError(f"the water near {_xy_text(self.nodes[0])} needs a free "
                              f"end where water comes in and another where it leaves")
@@ -3279,14 +3587,33 @@ def _dem_heights(dem, xy_m: np.ndarray, report: RiverImport, where: str) -> np.n
 
 
 def _discharges(networks: list[_Network], total_m3s, geometry: HydraulicGeometry,
-                report: RiverImport) -> None:
+                report: RiverImport, knots=()) -> None:
     """Discharge [m²/s] of every channel: sources from ``total_m3s`` split by width or from
-    their widths; summed at confluences, split by width at bifurcations."""
+    their widths; summed at confluences, split by width at bifurcations. ``knots``: lakes
+    made of knots (:func:`_knot_lake`), junctions of the channels ending and starting on
+    their shores (a knot with no channel flowing in: its channels out are sources)."""
+    def knot_of(net, node, c) -> int:
+        p = shapely.Point(net.nodes[node])
+        return next((k for k, lk in enumerate(knots)
+                     if lk.exterior.distance(p) <= 0.5 * float(c.widths[0 if node == c.a else -1])),
+                    -1)
+
+    into: dict[int, list] = {}      # knot: channels ending / starting on its shore
+    out_of: dict[int, list] = {}
+    for net in networks:
+        deg = net.degree()
+        for c in net.channels:
+            c.discharge_m2s = None
+            if knots and deg[c.b] == 1 and (k := knot_of(net, c.b, c)) >= 0:
+                into.setdefault(k, []).append(c)
+            if knots and deg[c.a] == 1 and (k := knot_of(net, c.a, c)) >= 0:
+                out_of.setdefault(k, []).append(c)
+    fed = {id(c) for k, cs in out_of.items() if k in into for c in cs}
     sources = []
     for net in networks:
         deg = net.degree()
         for c in net.channels:
-            if deg[c.a] == 1:
+            if deg[c.a] == 1 and id(c) not in fed:
                 sources.append(c)
     if not sources:
         raise GraphError(f"{report.path}: no channel starts at a free end (no water enters)")
@@ -3299,6 +3626,7 @@ def _discharges(networks: list[_Network], total_m3s, geometry: HydraulicGeometry
             q3 = geometry.discharge_of_width(c.width)
             c.discharge_from = f"hydraulic geometry of its width {c.width:.1f} m"
         c.discharge_m2s = geometry.psi(q3)
+    orders = []
     for net in networks:
         start = [c.a for c in net.channels]
         end = [c.b for c in net.channels]
@@ -3314,24 +3642,59 @@ def _discharges(networks: list[_Network], total_m3s, geometry: HydraulicGeometry
         for i, c in enumerate(net.channels):
             ins.setdefault(c.b, []).append(i)
             outs.setdefault(c.a, []).append(i)
-        for i in order:
-            c = net.channels[i]
-            if c.discharge_m2s is not None:
+        orders.append((net, order, ins, outs))
+    waiting = True
+    while waiting:      # (once without knots; with them, until the knots' inflow is known)
+        waiting = moved = False
+        for k, cs in out_of.items():
+            if k not in into or cs[0].discharge_m2s is not None:
                 continue
-            j = c.a
-            if not ins.get(j):
-                raise GraphError(f"{report.path}: the junction at ({net.nodes[j][0]:.1f}, "
-                                 f"{net.nodes[j][1]:.1f}) has no channel flowing in")
-            inflow = sum(net.channels[k].discharge_m2s for k in ins[j])
-            leaving = outs[j]
-            w = sum(net.channels[k].width for k in leaving)
+            if any(c.discharge_m2s is None for c in into[k]):
+                waiting = True
+                continue
+            inflow = sum(c.discharge_m2s for c in into[k])
+            w = sum(c.width for c in cs)
             given = 0.0
-            for m, k in enumerate(leaving):
-                ck = net.channels[k]
-                ck.discharge_m2s = (inflow - given if m == len(leaving) - 1
-                                    else inflow * ck.width / w)
-                given += ck.discharge_m2s
-                ck.discharge_from = ("the inflow" if len(leaving) == 1 else
-                                     f"the inflow split by width ({ck.width:.1f} of {w:.1f} m)")
+            for m, c in enumerate(cs):
+                c.discharge_m2s = inflow - given if m == len(cs) - 1 else inflow * c.width / w
+                given += c.discharge_m2s
+                c.discharge_from = ("the lake's outflow" if len(cs) == 1 else
+                                    f"the lake's outflow split by width ({c.width:.1f} of "
+                                    f"{w:.1f} m)")
+            moved = True
+        for net, order, ins, outs in orders:
+            for i in order:
+                c = net.channels[i]
+                if c.discharge_m2s is not None:
+                    continue
+                j = c.a
+                if not ins.get(j):
+                    if id(c) in fed:
+                        waiting = True
+                        continue
+                    raise GraphError(f"{report.path}: the junction at ({net.nodes[j][0]:.1f}, "
+                                     f"{net.nodes[j][1]:.1f}) has no channel flowing in")
+                if any(net.channels[k].discharge_m2s is None for k in ins[j]):
+                    waiting = True
+                    continue
+                inflow = sum(net.channels[k].discharge_m2s for k in ins[j])
+                leaving = outs[j]
+                w = sum(net.channels[k].width for k in leaving)
+                given = 0.0
+                for m, k in enumerate(leaving):
+                    ck = net.channels[k]
+                    ck.discharge_m2s = (inflow - given if m == len(leaving) - 1
+                                        else inflow * ck.width / w)
+                    given += ck.discharge_m2s
+                    ck.discharge_from = ("the inflow" if len(leaving) == 1 else
+                                         f"the inflow split by width ({ck.width:.1f} of "
+                                         f"{w:.1f} m)")
+                moved = True
+        if waiting and not moved:
+            stuck = [c for n in networks for c in n.channels if c.discharge_m2s is None]
+            x, y = shapely.LineString(stuck[0].points).interpolate(0.5, normalized=True).coords[0]
+            raise GraphError(f"{report.path}: channels {[c.name for c in stuck[:6]]} flow "
+                             f"round a loop through the lakes made of knots, near ({x:.1f}, "
+                             f"{y:.1f})")
     report.derived["discharge"] = sorted({c.discharge_from.split(" (")[0]
                                           for n in networks for c in n.channels})

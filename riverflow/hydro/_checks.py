@@ -304,8 +304,10 @@ def graph_problems(graph: HydroGraph, branches=None, *, rel_tol: float = 1e-6,
     for i in sorted(set(wrong_side) | set(on_right) | set(too_far), key=rank.__getitem__):
         c = curves[i]
         if i in wrong_side:
+            x, y = graph.vertices(i).mean(axis=0)
             problems.append(f"bank {i}: water is not on its left{' and right' if i in two_sided else ''}"
-                            f" at {wrong_side[i][0]} of {wrong_side[i][1]} segments")
+                            f" at {wrong_side[i][0]} of {wrong_side[i][1]} segments, near "
+                            f"({x:.1f}, {y:.1f})")
         if i in on_right:
             x, y = graph.vertices(i).mean(axis=0)
             problems.append(f"bank {i}: its axis {c.river} lies on its right at {on_right[i][0]} "

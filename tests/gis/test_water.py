@@ -1195,13 +1195,14 @@ def test_an_island_already_free_named_again_ends_the_retries(tmp_path, monkeypat
     again), there is no other island to try: the retries end there with a GraphError
     naming the file, the island made free once (it was made free again and again, 20
     times, each reported). Made to happen on the river above without reading banks from
-    the shores."""
+    the shores, and without knots made lakes (which build it)."""
     from riverflow.hydro import _network
 
     def no_shores(*args):
         raise GraphError("no shores")
 
     monkeypatch.setattr(_network, "_sides_by_shores", no_shores, raising=False)
+    monkeypatch.setattr("riverflow.gis.water.MAX_KNOTS", 0)
     water = survey_river(
         1251.43, 119.95, 38.65, 391.31, [(438.06, 50.38, 80.38, 5.07, -0.1664),
                                          (268.12, 11.68, 155.46, 7.84, -0.1129),
