@@ -1723,9 +1723,9 @@ BRIDGE_SPAN = (0.5, 1.5)
 """…where the land between the two pieces of water is (lo, hi) times that width across: it
 spans one channel, bank to bank (two ponds side by side along a dyke face each other along
 their length: not a bridge)."""
-BRIDGE_ELONGATION = 2.0
-"""…and both pieces are channels: at least this many times as long as they are wide (area
-over the width squared)."""
+BRIDGE_ELONGATION = 3.0
+"""…and both pieces are channels: each at least this many times as long as it is wide (its
+area over its width squared; two ponds of 40 × 20 m near a footbridge are not)."""
 
 
 def _bridged(parts: list, tolerance_m: float, report: RiverImport) -> list:
@@ -1764,7 +1764,8 @@ def _bridged(parts: list, tolerance_m: float, report: RiverImport) -> list:
         if gap > BRIDGE_MAX_M or root(i) == root(j):
             continue
         w = min(width(i), width(j))
-        if gap > BRIDGE_WIDTHS * w or min(pi.area, pj.area) < BRIDGE_ELONGATION * w * w:
+        if gap > BRIDGE_WIDTHS * w or pi.area < BRIDGE_ELONGATION * width(i) ** 2 \
+                or pj.area < BRIDGE_ELONGATION * width(j) ** 2:
             continue
         mid = shapely.shortest_line(pi, pj).interpolate(0.5, normalized=True)
         # a disc of twice the gap: the banks run on straight across it (within a 16th of
@@ -1787,6 +1788,12 @@ def _bridged(parts: list, tolerance_m: float, report: RiverImport) -> list:
             span = 0.5 * float(shapely.length(shapely.intersection(pi.exterior, edge))
                                + shapely.length(shapely.intersection(pj.exterior, edge)))
             if not BRIDGE_SPAN[0] * w <= span <= BRIDGE_SPAN[1] * w:
+                continue
+            # (a strip that closes a ring of water round land, touching one piece at two
+            # places, makes an island no data drew: not a bridge between two pieces)
+            joined = shapely.union_all([pi, pj, piece])
+            if joined.geom_type != "Polygon" or len(joined.interiors) > (
+                    len(pi.interiors) + len(pj.interiors)):
                 continue
             fills.append(piece)
             parent[root(j)] = root(i)
