@@ -16,32 +16,16 @@ require_gis()
 
 def survey_river(seed: int):
     """``benchmarks/survey_water.py``'s river polygon of ``seed`` (islands that may cross a
-    bank), relative to ORIGIN."""
-    from shapely.geometry import box
+    bank), relative to ORIGIN: the survey's own function, so the test's seed is the
+    survey's."""
+    import importlib.util
+    from pathlib import Path
 
-    rng = np.random.default_rng(seed)
-    w = rng.uniform(40, 250)
-    length = rng.uniform(600, 1500)
-    x = np.linspace(0, length, 40)
-    y = rng.uniform(0, 1) * w * np.sin(x / rng.uniform(150, 400))
-    water = shapely.LineString(np.c_[x, y]).buffer(w / 2, cap_style="flat")
-    islands = []
-    for _ in range(rng.integers(0, 8)):
-        cx = rng.uniform(0.1, 0.9) * length
-        cy = np.interp(cx, x, y) + rng.uniform(-0.3, 0.3) * w
-        size, width, a = (rng.uniform(0.3, 2.5) * w, rng.uniform(0.04, 0.15) * w,
-                          rng.uniform(-0.2, 0.2))
-        islands.append(shapely.LineString([(cx, cy), (cx + size * np.cos(a), cy + size * np.sin(a))]
-                                          ).buffer(width / 2, quad_segs=6))
-    if islands:
-        water = water.difference(shapely.union_all(islands))
-    slope = np.array([[2.0, 1.0], [-1.0, 2.0]]) / np.sqrt(5.0)
-    water = shapely.transform(water, lambda c: c @ slope + (0.0, 150.0))
-    if rng.uniform() < 0.7:
-        x0, _, x1, _ = water.bounds
-        water = shapely.intersection(water, box(x0 + rng.uniform(0, 0.3) * (x1 - x0), -1e5,
-                                                x1 - rng.uniform(0, 0.3) * (x1 - x0), 1e5))
-    return shapely.normalize(water)
+    path = Path(__file__).resolve().parents[2] / "benchmarks" / "survey_water.py"
+    spec = importlib.util.spec_from_file_location("survey_water", path)
+    survey = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(survey)
+    return survey.river(seed, inside=False)[0]
 
 
 def write(path, geom):
