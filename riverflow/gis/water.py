@@ -1735,6 +1735,8 @@ def _bridged(parts: list, tolerance_m: float, report: RiverImport) -> list:
     culvert's embankment that the data (a mask classified from images, riverbank polygons
     cut at a bridge's deck) left as land. The strip is what a closing of the two pieces
     (a disc of twice the gap) adds between them, within two widths of the gap. Reported."""
+    from scipy.cluster.hierarchy import DisjointSet
+
     if len(parts) < 2:
         return parts
     a, b = shapely.STRtree(parts).query(parts, predicate="dwithin", distance=BRIDGE_MAX_M)
@@ -1749,19 +1751,12 @@ def _bridged(parts: list, tolerance_m: float, report: RiverImport) -> list:
             radius[k] = float(shapely.length(circle))
         return 2.0 * radius[k]
 
-    parent = list(range(len(parts)))
-
-    def root(k: int) -> int:
-        while parent[k] != k:
-            parent[k] = parent[parent[k]]
-            k = parent[k]
-        return k
-
+    joined_to = DisjointSet(range(len(parts)))      # (two pieces joined once)
     fills = []
     for i, j in pairs:
         pi, pj = parts[i], parts[j]
         gap = float(shapely.distance(pi, pj))
-        if gap > BRIDGE_MAX_M or root(i) == root(j):
+        if gap > BRIDGE_MAX_M or joined_to.connected(i, j):
             continue
         w = min(width(i), width(j))
         if gap > BRIDGE_WIDTHS * w or pi.area < BRIDGE_ELONGATION * width(i) ** 2 \
@@ -1796,7 +1791,7 @@ def _bridged(parts: list, tolerance_m: float, report: RiverImport) -> list:
                     len(pi.interiors) + len(pj.interiors)):
                 continue
             fills.append(piece)
-            parent[root(j)] = root(i)
+            joined_to.merge(i, j)
             x, y = piece.representative_point().coords[0]
             report.repair("water", None, None,
                           f"two pieces of a channel {gap:.1f} m apart near ({x:.1f}, {y:.1f}), "

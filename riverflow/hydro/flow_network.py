@@ -96,12 +96,7 @@ class FlowNetwork:
     @cached_property
     def arrays(self) -> Network:
         """The segment and curve arrays as the ψ kernels take them (made once)."""
-        return Network(
-            self.seg_ax, self.seg_ay, self.seg_bx, self.seg_by,
-            self.curve_kind, self.curve_comp, self.curve_group, self.curve_hw2,
-            self.curve_seg0, self.curve_seg1, self.curve_bbox, self.curve_cutoff,
-            self.comp_radius, self.comp_group0, self.comp_group1, self.group_psi,
-        )
+        return Network(*(getattr(self, name) for name in Network._fields))
 
 
 MAX_PSI = 1e9
