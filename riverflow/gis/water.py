@@ -96,6 +96,15 @@ LAKE_FLAG = "_riverflow_lake"
 SPUR_WIDTHS = 1.0
 """Skeleton spurs shorter than this many local widths (2 × the inscribed radius where they
 branch off) are pruned."""
+RESTORED_END_RADII = 0.3
+"""Where pruning left a skeleton no free end (:func:`_restore_ends`), a pruned branch given
+back as an end of the water ends in an inscribed circle at least this share of the one where
+it leaves the skeleton: a river's end cut square across parts there into its corners (its
+circle as wide as the river, 0.45 of the junction's it leaves by an island); a spur into a
+corner of the outline (a square moat's round its island, 0.18) narrows to nothing, and is no
+end: the ring is still water. (With one free end left, a narrow one may be the other: a
+channel ending on an oblique cut of the data between two islands it cuts open parts into
+the cut's acute corners.)"""
 JOIN_WIDTHS = 1.0
 """Skeleton junctions closer than this × the sum of their inscribed radii are one junction
 (the builder's junctions must lie farther apart than half their widths' sum, and a channel's
@@ -1042,6 +1051,11 @@ def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy
     networks = []
     lake_area = shapely.union_all(lakes) if len(lakes) else None
     several = len(getattr(water, "geoms", [])) > 1
+    # a body's shape decides whether it is a pond where the data has others beside it, or
+    # says nothing of how water runs through it (no inlet, outlet or line given): a lone
+    # round lake from a mask is no river 400 m long and 480 m wide
+    shaped = several or not (len(inlet_xy) or len(outlet_xy) or line_geoms
+                             or builder.outlet_lines)
     for k, part in enumerate(getattr(water, "geoms", [water])):
         speck = part.area < SPECK_FRACTION * water.area
         # (a speck is left out or joins open water whatever its channels: none are looked
@@ -1060,18 +1074,19 @@ def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy
         # runs along the water; the skeleton's, its widest inscribed circle)
         widest = max((c.width if c.source == "lines" else float(c.widths.max())
                       for c in net.channels), default=0.0)
-        if several and net.channels and longest < MIN_CHANNEL_WIDTHS * widest:
+        if shaped and net.channels and longest < MIN_CHANNEL_WIDTHS * widest:
             # (a river's channels between its islands and points of land, each short: the
             # river itself was read as a pond)
             longest = net.longest_path()
-        if several and net.channels and longest < MIN_CHANNEL_WIDTHS * widest and sum(
+        if shaped and net.channels and longest < MIN_CHANNEL_WIDTHS * widest and sum(
                 frame.boundary.distance(shapely.Point(net.nodes[n])) <= max(4.0 * tolerance_m,
                                                                             0.05 * w)
                 for _, n, w in net.free_ends()) >= 2:
             # (a short river the data's edge cuts twice, obliquely, its ends there wide: it
             # runs on beyond both, no pond)
             longest = math.inf
-        if not net.channels or several and (speck or longest < MIN_CHANNEL_WIDTHS * widest):
+        if not net.channels or several and speck or shaped and (
+                longest < MIN_CHANNEL_WIDTHS * widest):
             if _join_open_water(builder, part, k, "beside open water"
                                 + (" or a lake made of a knot" if builder._knot_lakes else "")
                                 + f", with no path along its channels longer than "
@@ -3329,7 +3344,8 @@ def _restore_ends(nbr: list[dict[int, float]], gone: list[tuple[int, int, float]
     where a river's end cut square across parts into its two corners, or ends), the trunks
     whose ends' inscribed circles reach farthest from each other and from the free ends left
     (a river's end, wide, not a spur into a bend of its bank beside it, a little farther off
-    but narrow). ``pockets``: free ends of dead ends that are no ends of the water (neither
+    but narrow); with no free end left, a trunk that narrows to a corner is none
+    (RESTORED_END_RADII). ``pockets``: free ends of dead ends that are no ends of the water (neither
     counted nor carried on)."""
     pruned: dict[int, dict[int, float]] = {}
     for a, b, d in gone:
@@ -3348,6 +3364,8 @@ def _restore_ends(nbr: list[dict[int, float]], gone: list[tuple[int, int, float]
     leaves = [i for i in range(len(nbr)) if len(nbr[i]) == 1 and i not in pockets]
     chosen: list[list[int]] = []
     have = _end_groups(leaves, radius, xy)
+    if not have:       # a ring of water round its islands: only a wide end makes it a river
+        trunks = [p for p in trunks if radius[p[-1]] >= RESTORED_END_RADII * radius[p[0]]]
     while have + len(chosen) < 2 and len(chosen) < len(trunks):
         ends = xy[leaves + [p[-1] for p in chosen]]
         if len(ends):

@@ -267,3 +267,37 @@ def test_a_pond_on_a_free_island_is_water_again(tmp_path):
     status, v = flow_at(b, graph, [[600.0, 0.0], [600.0, 20.0], [600.0, 60.0]])
     assert status[0] == rf.FlowStatus.INSIDE and status[1] != rf.FlowStatus.INSIDE
     assert status[2] == rf.FlowStatus.INSIDE and np.abs(v[0]).max() < 1e-6 and v[2, 0] > 0.0
+
+
+def test_a_lone_pond_or_moat_with_nothing_said_of_how_it_flows_is_still_water(tmp_path):
+    """A file of one water body that no inlet, outlet or line says runs anywhere: a square
+    moat round its island (the skeleton's spurs into its corners were given back as a
+    river's two ends: refused, "no banks found across its middle") and a round lake from a
+    water mask (read as a river 300 m long and 480 m wide, from its narrower end to its
+    wider) are still water, lakes (reported); the lake with an inlet and an outlet given is a
+    river through it."""
+    from tests.gis.test_water import write_mask, write_polygons
+
+    moat = shapely.box(0, 0, 1000, 1000).difference(shapely.box(50, 50, 950, 950))
+    b = rf.read_water(write_polygons(tmp_path / "moat.geojson", [moat]))
+    graph = b.build()
+    (said,) = [r.what for r in b.report.repairs if "no way in and out" in r.what]
+    assert "a ring round 1 islands" in said and b.discharges_m2s == []
+    (k,) = graph.lakes()
+    assert abs(shapely.Polygon(area_ring(graph, k)).area - 1000.0 ** 2) < 1.0
+    t = np.linspace(0.0, 2.0 * np.pi, 90, endpoint=False)
+    r = 240.0 * (1.0 + 0.12 * np.cos(3.0 * t + 0.4) + 0.06 * np.sin(5.0 * t))
+    lake = shapely.Polygon(np.c_[600.0 + r * np.cos(t), 300.0 + 0.8 * r * np.sin(t)])
+    mask = write_mask(tmp_path / "lake.tif", lake, 5.0, bounds=(200.0, -100.0, 1000.0, 700.0))
+    b = rf.read_water(mask)
+    graph = b.build()
+    assert b.discharges_m2s == [] and len(graph.lakes()) == 1
+    assert any("a pond, read as still water" in r.what for r in b.report.repairs)
+    status, v = flow_at(b, graph, [[600.0, 300.0]])
+    assert status[0] == rf.FlowStatus.INSIDE and np.abs(v).max() < 1e-6
+    b = rf.read_water(mask, inlets=[tuple(ORIGIN + (600.0 - 1.12 * 240.0, 300.0))],
+                      outlets=[tuple(ORIGIN + (600.0 + 0.94 * 240.0, 300.0))])
+    graph = b.build()
+    assert graph.lakes() == [] and b.discharges_m2s
+    status, v = flow_at(b, graph, [[600.0, 300.0]])
+    assert status[0] == rf.FlowStatus.INSIDE and v[0, 0] > 0.0
