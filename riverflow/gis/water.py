@@ -143,6 +143,13 @@ maxima) and at least half as wide as the widest, that reach the data's edge, gro
 circles of this many times their median width that fit in the water."""
 SEA_GRID = 768
 """The most cells along the water's longer side on which open water is looked for."""
+SEA_CUT_RADII = 0.5
+"""Open water reaches the data's edge where its outline runs along that edge in one piece
+at least this many times its widest inscribed radius long: the edge cuts across it (a sea, a lake the
+map's border cuts; a bay cut by the data's edge: its width). A round reservoir on a river
+that only touches the water's bounding box, whose outline leaves the box at once (a tangent
+circle's contact, within the tolerance, is 0.1 – 0.2 of its radius; 0.28 in a mask of 4 m
+cells, 300 m across), is a lake inside the data, the river running through it."""
 OVERHANG_WIDTHS = 0.04
 """An edge of the outline at most this many widths of its channel long that faces away from
 the channel's axis (the far side of an island's round end where it crosses a bank, leaning
@@ -1435,7 +1442,7 @@ def _seas(water, frame, cell, report: RiverImport, tolerance_m: float):
     """(the open water (SEA_WIDTHS): polygons [m], each a lake, the channels' outlet; the
     rest of the water, None when nothing is left). The water is rasterized on cells of
     ``cell`` [m] (a mask's; at least 1/SEA_GRID of the longer side), ``frame`` the data's
-    extent; the open water's outline is that of its cells simplified and grown by 1.5 cells,
+    extent (cutting across the open water: SEA_CUT_RADII); the open water's outline is that of its cells simplified and grown by 1.5 cells,
     cut by the water's (its coast and islands are the data's), each channel's mouth then
     straight (:func:`_straight_mouths`)."""
     from affine import Affine
@@ -1444,6 +1451,7 @@ def _seas(water, frame, cell, report: RiverImport, tolerance_m: float):
 
     x0, y0, x1, y1 = water.bounds
     size = max(x1 - x0, y1 - y0)
+    along = max(cell or 0.0, tolerance_m)       # an outline on the edge: within a mask's cell
     cell = max(cell or 0.0, size / SEA_GRID, tolerance_m)
     shape = (int(math.ceil((y1 - y0) / cell)) + 2, int(math.ceil((x1 - x0) / cell)) + 2)
     tr = Affine(cell, 0.0, x0 - cell, 0.0, -cell, y1 + cell)
@@ -1477,6 +1485,11 @@ def _seas(water, frame, cell, report: RiverImport, tolerance_m: float):
         if not parts:
             continue
         sea = max(parts, key=lambda p: p.area)
+        on = shapely.line_merge(shapely.intersection(sea.boundary, shapely.buffer(frame_edge,
+                                                                                    along)))
+        cut = max((g.length for g in shapely.get_parts(on)), default=0.0)
+        if cut < SEA_CUT_RADII * float(d[labels == k].max()) * cell:
+            continue        # it touches the edge only: a lake inside the data
         sea, rest = _straight_mouths(sea, shapely.difference(rest, sea), cell)
         seas.append(sea)
     if not seas:

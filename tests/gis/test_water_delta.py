@@ -208,3 +208,22 @@ def test_a_seas_spike_of_no_width_is_no_edge():
     clean = _without_spikes(sea, 1e-9)
     assert clean.equals(shapely.box(0, 0, 4, 2)) and len(clean.exterior.coords) == 6
     assert _without_spikes(shapely.box(0, 0, 4, 2), 1e-9).equals(shapely.box(0, 0, 4, 2))
+
+
+def test_a_reservoir_that_only_touches_the_waters_box_is_no_sea(tmp_path):
+    """A 40 m river through a round reservoir 600 m across, the widest water, in a polygon
+    file of its own: the reservoir touches the water's bounding box above and below (its
+    outline leaves the box at once; a sea's runs along the data's edge, SEA_CUT_RADII) and was
+    read as open water, both rivers running into it. The river runs one way through it, in
+    a polygon file and in a mask whose border is empty."""
+    water = shapely.union(shapely.LineString([(0, 500), (2000, 500)]).buffer(20, cap_style="flat"),
+                          shapely.Point(1000, 500).buffer(300, quad_segs=32))
+    for path in (write_polygons(tmp_path / "reservoir.geojson", [water]),
+                 write_mask(tmp_path / "reservoir.tif", water, 4.0,
+                            bounds=(-40.0, 160.0, 2040.0, 840.0))):
+        b = rf.read_water(path)
+        graph = b.build()
+        assert "open water" not in b.report.derived, path
+        status, v = flow_at(b, graph, [(300, 500), (1000, 500), (1700, 500)])
+        assert (status == rf.FlowStatus.INSIDE).all()
+        assert len(set(np.sign(v[:, 0]))) == 1 and (np.abs(v[:, 0]) > 0.1).all(), v
