@@ -1301,16 +1301,21 @@ def _straight_run(v: np.ndarray, k: int, straight_m: float) -> np.ndarray:
     return v[np.arange(i, j + 1) % m].copy()
 
 
-def _trim_to_chord(line: np.ndarray, widths: np.ndarray, chord: np.ndarray, at_start: bool):
+def _trim_to_chord(line: np.ndarray, widths: np.ndarray, chord: np.ndarray, at_start: bool,
+                   outward: np.ndarray | None = None):
     """The centre line (K, 2) and widths (K,) ending on the chord's line: cut where it first
-    crosses it coming from the free end, or extended straight to it."""
+    crosses it coming from the free end, or extended straight to it. The channel lies on
+    the side of the chord's line ``outward`` (the end's tangent out of the channel) points
+    away from; without it, on its other end's side (a hairpin's other end may lie on the
+    line: both legs cut by one straight edge of the data)."""
     if not at_start:
-        line2, w2 = _trim_to_chord(line[::-1], widths[::-1], chord, True)
+        line2, w2 = _trim_to_chord(line[::-1], widths[::-1], chord, True, outward)
         return line2[::-1].copy(), w2[::-1].copy()
     a, b = chord[0], chord[-1]
     n = np.array([-(b - a)[1], (b - a)[0]])
     side = (line - a) @ n
-    sign = np.sign(side[-1]) or 1.0
+    out = float(outward @ n) if outward is not None else 0.0
+    sign = -np.sign(out) if abs(out) > 1e-6 * float(np.hypot(*n)) else (np.sign(side[-1]) or 1.0)
     keep = side * sign > 0
     k = int(np.argmax(keep)) if keep.any() else len(line) - 1
     p, q = (line[0], line[1]) if k == 0 else (line[k - 1], line[k])
@@ -1366,7 +1371,8 @@ def _given_water(geoms: list[BranchGeometry], water, islands: list[_Island], tol
                 cut_area.append(float(sum(p.area for p in beyond)))
             else:
                 cut_area.append(0.0)
-            g.centerline_m, g.widths_m = _trim_to_chord(g.centerline_m, g.widths_m, chord, at_start)
+            g.centerline_m, g.widths_m = _trim_to_chord(g.centerline_m, g.widths_m, chord, at_start,
+                                                        t)
             seg = np.hypot(*np.diff(g.centerline_m, axis=0).T)
             if len(g.centerline_m) < 2 or not seg.min() > 1e-9:
                 raise GraphError(f"branch {g.name!r}: nothing is left of it once the water is "

@@ -1776,3 +1776,20 @@ def test_holes_whose_loops_collapsed_are_free_when_the_channels_are_found_again(
     for a, b in zip(again.channels, fresh.channels):
         np.testing.assert_array_equal(a.points, b.points)
         np.testing.assert_array_equal(a.widths, b.widths)
+
+
+def test_a_hairpin_whose_two_ends_one_straight_edge_cuts_builds(tmp_path):
+    """A 30 m river bent back on itself (a hairpin, its legs 50 m apart), both ends cut by
+    the data's west edge: the cut across one end lies on the line of the other's, and the
+    end's centre line was cut on the wrong side of it ("nothing is left of it once the water
+    is cut across its free start"; two knots made lakes then). One channel, no lake, its
+    legs flowing opposite ways."""
+    water = shapely.LineString([(0, 0), (800, 0), (850, 40), (800, 80), (0, 80)]).buffer(
+        15.0, cap_style="flat")
+    b = rf.read_water(write_polygons(tmp_path / "hairpin.geojson", [water]), origin_m=ORIGIN)
+    graph = b.build()
+    assert b.report.derived["axes"] == {"skeleton": 1} and graph.lakes() == []
+    assert "knots" not in b.report.derived
+    status, v = rf.FlowField(graph).query(np.array([[400.0, 0.0], [400.0, 80.0], [835.0, 40.0]]))
+    assert (status == INSIDE).all()
+    assert v[0, 0] * v[1, 0] < 0.0 and min(abs(v[0, 0]), abs(v[1, 0])) > 0.3
