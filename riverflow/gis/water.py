@@ -1059,10 +1059,11 @@ def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy
     lake_area = shapely.union_all(lakes) if len(lakes) else None
     several = len(getattr(water, "geoms", [])) > 1
     # a body's shape decides whether it is a pond where the data has others beside it, or
-    # says nothing of how water runs through it (no inlet, outlet or line given): a lone
-    # round lake from a mask is no river 400 m long and 480 m wide
+    # says nothing of how water runs through it (no inlet, outlet or line given) and is
+    # about as wide as long (a lone round lake from a mask is no river 400 m long and 480 m
+    # wide; a long river whose skeleton the data's edge broke is no pond)
     shaped = several or not (len(inlet_xy) or len(outlet_xy) or line_geoms
-                             or builder.outlet_lines)
+                             or builder.outlet_lines) and _compact(water)
     for k, part in enumerate(getattr(water, "geoms", [water])):
         speck = part.area < SPECK_FRACTION * water.area
         # (a speck is left out or joins open water whatever its channels: none are looked
@@ -1161,6 +1162,16 @@ def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy
         _drop_stubs(net, report, seas)
         _lead_into_mouths(net, report, seas, tolerance_m)
     return networks
+
+
+def _compact(poly) -> bool:
+    """Whether ``poly``'s smallest rotated rectangle is less than MIN_CHANNEL_WIDTHS times
+    as long as it is wide."""
+    box = np.asarray(shapely.oriented_envelope(poly).exterior.coords)
+    if len(box) < 5:
+        return False
+    sides = np.hypot(*np.diff(box[:3], axis=0).T)
+    return bool(sides.max() < MIN_CHANNEL_WIDTHS * sides.min())
 
 
 def _still(builder: WaterBuilder, part, k: int, why: str) -> None:
