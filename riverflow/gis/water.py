@@ -782,18 +782,20 @@ def read_water(path, *, layer: str | int | None = None, lines=None, inlets=None,
     if path.is_file() and path.stat().st_size == 0:
         raise GraphError(f"{path}: the file is empty")
     if is_raster_path(path):
-        features, source_crs, layer_name, cell, extent = _read_mask(path)
+        features, source_crs, layer_name, cell, extent, values = _read_mask(path)
         if simplify_m is None:
             simplify_m = 0.5 * cell
     else:
         features, source_crs, layer_name = _read_polygons(path, layer)
-        cell = extent = None
+        cell = extent = values = None
         if simplify_m is None:
             simplify_m = DEFAULT_SIMPLIFY_M
     where = f"{path} (layer {layer_name!r})"
     if crs is not None:
         source_crs = crs
     report = RiverImport(str(path), layer_name, len(features), None, None)
+    if values:
+        report.notes.append(f"mask: {values}")
     line_geoms = _read_lines(path, lines, source_crs, where) if lines is not None else []
     for f in outlet_files:                  # (in the data's CRS, near its water)
         outlet_lines += _read_lines(path, f, source_crs, where)
@@ -1376,10 +1378,12 @@ def _read_mask(path: Path):
     mask = np.isfinite(data) & (data > 0)
     if not mask.any():
         raise GraphError(f"{path}: the mask has no water (no cell > 0 of {mask.size})")
+    values = _mask_values(data[mask])
     if mask.all() and mask.size > 1:
         raise GraphError(f"{path}: the mask is water in every one of its {mask.size} cells: "
                          f"no shore to read a river's banks from (a crop inside a lake or the "
-                         f"sea? give the water's shores, or a wider mask)")
+                         f"sea? give the water's shores, or a wider mask"
+                         + (f"; {values}" if values else "") + ")")
     shapes = rio_features.shapes(mask.astype(np.uint8), mask=mask, transform=transform,
                                  connectivity=4)
     cell = float(min(abs(transform.a), abs(transform.e)))
@@ -1387,7 +1391,24 @@ def _read_mask(path: Path):
     extent = shapely.segmentize(shapely.box(*rasterio.transform.array_bounds(
         *mask.shape, transform)), 0.5 * cell)
     return ([(k, p, {}) for k, p in enumerate(polys)], crs.to_wkt() if crs else None,
-            "band 1", cell, extent)
+            "band 1", cell, extent, values)
+
+
+MASK_VALUES_SAMPLE = 100_000
+"""How many of a mask's water cells :func:`_mask_values` looks at."""
+
+
+def _mask_values(wet: np.ndarray) -> str | None:
+    """Words on a mask's water values ``wet`` (the cells > 0) when they are more than two:
+    a probability or an index (NDWI, a classifier's score) read as water wherever above 0."""
+    sample = wet[::max(1, len(wet) // MASK_VALUES_SAMPLE)]
+    distinct = np.unique(sample)
+    if len(distinct) <= 2:
+        return None
+    return (f"its water cells hold {len(distinct)} different values from {wet.min():g} to "
+            f"{wet.max():g} (in a sample): every cell above 0 is water; a probability or "
+            f"an index (a classifier's score, NDWI) wants a threshold first, e.g. "
+            f"(band >= 0.5).astype('uint8') written as the mask")
 
 
 def _smooth_cells(poly, cell: float):

@@ -585,6 +585,30 @@ def test_a_mask_of_water_everywhere_or_of_specks_only_is_an_error(tmp_path):
         rf.read_water(checker)
 
 
+def test_a_probability_mask_is_read_and_named_as_one(tmp_path):
+    """A classifier's water probability (floats, 0.9 – 1 on the river, up to 0.1 on land)
+    read as a mask: every cell above 0 is water, so the mask is all water, and the error
+    says its values are a range to threshold; with land at exactly 0 it reads, and the
+    report notes the range. A 0/1 mask notes nothing."""
+    bounds = (-20.0, -160.0, 1220.0, 160.0)
+    rasterio = pytest.importorskip("rasterio")
+    river = write_mask(tmp_path / "river.tif", meander_with_islands()[0], 5.0, bounds)
+    with rasterio.open(river) as src:
+        wet, profile = src.read(1).astype(np.float32), src.profile
+    rng = np.random.default_rng(0)
+    profile.update(dtype="float32")
+    for name, land in (("score.tif", 0.1), ("zeros.tif", 0.0)):
+        with rasterio.open(tmp_path / name, "w", **profile) as dst:
+            dst.write(np.where(wet > 0, 0.9 + 0.1 * rng.random(wet.shape),
+                               land * rng.random(wet.shape)).astype(np.float32), 1)
+    with pytest.raises(GraphError, match=r"every one of its .* cells: no shore .* different "
+                                         r"values from .* a threshold first"):
+        rf.read_water(tmp_path / "score.tif")
+    (note,) = rf.read_water(tmp_path / "zeros.tif").report.notes
+    assert "different values from 0.9" in note and "every cell above 0 is water" in note
+    assert rf.read_water(river).report.notes == []
+
+
 def test_an_inlet_outside_the_water_is_an_error(tmp_path):
     poly = write_polygons(tmp_path / "y.geojson", [y_shape()])
     with pytest.raises(GraphError, match=r"inlet \(1500.0, 0.0\) lies outside every water "
