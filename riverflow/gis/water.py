@@ -1731,6 +1731,18 @@ def _repair(features, polygons, report: RiverImport, where: str, simplify_m: flo
         if g is None or g.is_empty:
             report.repair(label, fid, attrs, "no geometry: left out")
             continue
+        if g.geom_type == "GeometryCollection":
+            # (an export's collection of a polygon and the lines or points beside it)
+            polys = [p for p in shapely.get_parts(g) if p.geom_type in ("Polygon",
+                                                                         "MultiPolygon")]
+            if polys:
+                report.repair(label, fid, attrs, f"a GeometryCollection: its "
+                              f"{len(polys)} polygons kept, its {len(shapely.get_parts(g)) - len(polys)} "
+                              f"other geometries left out")
+                g = polys[0] if len(polys) == 1 else shapely.union_all([
+                    q for p in polys for q in shapely.get_parts(
+                        p if p.is_valid else shapely.make_valid(p))
+                    if q.geom_type in ("Polygon", "MultiPolygon")])
         if g.geom_type not in ("Polygon", "MultiPolygon"):
             report.repair(label, fid, attrs, f"a {g.geom_type}, not a polygon: left out")
             continue

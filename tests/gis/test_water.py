@@ -480,6 +480,21 @@ def test_no_geometry_in_degrees_is_said_plainly(tmp_path):
         rf.read_water(path)
 
 
+def test_a_geometry_collection_gives_its_polygons(tmp_path):
+    """A feature that is a GeometryCollection (a polygon and a stray point and line, as some
+    exports write): its polygons are the water (reported), where the whole feature was left
+    out ("no polygon with an area")."""
+    river = shapely.LineString([(0, 0), (500, 100), (1000, 0)]).buffer(30, cap_style="flat")
+    half = shapely.box(950, -30, 1400, 30)
+    gc = shapely.GeometryCollection([river, shapely.Point(0, 0), half,
+                                     shapely.LineString([(0, 0), (9, 9)])])
+    b = rf.read_water(write_polygons(tmp_path / "gc.gpkg", [gc]), origin_m=ORIGIN)
+    b.build()
+    (said,) = [r.what for r in b.report.repairs if "GeometryCollection" in r.what]
+    assert "its 2 polygons kept, its 2 other geometries left out" in said
+    assert abs(b.report.length_m - 1400.0) < 60.0
+
+
 def test_a_river_cut_by_a_bridge_is_joined_across_it(tmp_path):
     """A 1 km river's polygon in two features with a 12 m gap where a bridge's deck was left
     out (refused: its two channels' ends were snapped into a junction whose inflow was not
