@@ -555,7 +555,8 @@ class RiverNetworkBuilder:
                 f"({', '.join(lakes[k].name for k in self.source_lakes)}): still water, "
                 f"their outlets start on free ends at the shore")
         if branches:
-            start_j, end_j, junctions = _find_junctions(branches, self, shores)
+            start_j, end_j, junctions = _find_junctions(branches, self, shores,
+                                                        self._water_area)
         else:
             start_j, end_j, junctions = [], [], np.zeros((0, 2))
         n_junctions = len(junctions)
@@ -807,7 +808,16 @@ def _lakes_of_graph(geoms, lakes, lake_ends, polygon_lake, tolerance_m):
 # -- topology -----------------------------------------------------------------------------
 
 
-def _find_junctions(branches: list[_BranchInput], builder=None, shores=None):
+def _across_land(water, a: np.ndarray, b: np.ndarray, tol: float) -> bool:
+    """Whether the segment from ``a`` to ``b`` leaves ``water`` (prepared) by more than
+    ``tol`` twice [m] of its length."""
+    seg = shapely.LineString([a, b])
+    if water.covers(seg):
+        return False
+    return shapely.intersection(water, seg).length < seg.length - 2.0 * tol
+
+
+def _find_junctions(branches: list[_BranchInput], builder=None, shores=None, water=None):
     """Cluster branch end points into junctions and snap them together. Two ends nearer
     than half their widths together that do not join are an error, unless one of their
     branches joins them itself (a reach shorter than its junction is wide) and ``builder``'s
@@ -815,7 +825,9 @@ def _find_junctions(branches: list[_BranchInput], builder=None, shores=None):
     happened). Two ends on one lake's shore (``shores``: per branch the lakes its start and
     end lie on, -1: none, as :func:`_lakes.cut_branches` finds them; a terminal lake's
     inlets capped off its shore too) are never joined nor apart: the lake joins them (mouths
-    side by side, an island's tip between them or none).
+    side by side, an island's tip between them or none). Nor are two ends with land
+    between them (the line from one to the other leaves ``water``, the given water area:
+    two water bodies, ends of channels either side of a spit).
 
     Returns (start junction per branch, end junction per branch, junction points (J, 2));
     -1 marks a free end.
@@ -835,6 +847,9 @@ def _find_junctions(branches: list[_BranchInput], builder=None, shores=None):
     points = np.array([e[2] for e in ends])
     reach = max(float(e[3]) for e in ends)       # no pair farther apart than this matters
     pairs = sorted(cKDTree(points).query_pairs(reach, output_type="set"))
+    tol = getattr(builder, "tolerance_m", 0.0)
+    if water is not None:
+        shapely.prepare(water)
     apart = []
     for a, c in pairs:
         ia, ea, pa, wa = ends[a]
@@ -842,6 +857,8 @@ def _find_junctions(branches: list[_BranchInput], builder=None, shores=None):
         d = float(np.hypot(*(pa - pc)))
         if shores is not None and shores[ia][ea] == shores[ic][ec] >= 0:
             continue        # (both on one lake's shore: the lake joins them)
+        if water is not None and d > 2.0 * tol and _across_land(water, pa, pc, tol):
+            continue
         if d <= JOIN_FRACTION * min(wa, wc):
             if ia == ic:
                 raise GraphError(f"branch {branches[ia].name!r} starts and ends at the same point")

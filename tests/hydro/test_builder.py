@@ -438,3 +438,21 @@ def test_a_straight_bank_along_branches_end_to_end_links_to_each_axis():
                      discharge_m2s=5.0 if k == 0 else None)
     graph = b.build()
     assert [round(graph.curves[i].width_m, 1) for i in graph.axes()] == [12.0, 12.0, 12.0]
+
+
+def test_ends_with_land_between_them_are_separate_waters():
+    """Two rivers' ends 14 m apart across a 4 m strip of land (two water bodies of a given
+    water area, as a mask's canals cut by a road): neither joined nor refused ("branches
+    do not meet", which ends that near in one water still are)."""
+    apart = shapely.union(shapely.box(0, -20, 100, 20), shapely.box(104, -20, 200, 20))
+    for water, ok in ((apart, True), (shapely.box(0, -20, 200, 20), False)):
+        b = RiverNetworkBuilder()
+        b.add_branch([[0, 0], [93, 0]], 40.0, 50.0)
+        b.add_branch([[107, 0], [200, 0]], 40.0, 50.0)
+        b.set_water_area(water)
+        if ok:
+            g = b.build()
+            assert len(g.areas) == 2 and graph_problems(g) == []
+        else:
+            with pytest.raises(GraphError, match="do not meet"):
+                b.build()
