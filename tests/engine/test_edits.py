@@ -583,3 +583,57 @@ def _with_widths(scene, widths):
     out.branches = [copy.copy(b) for b in scene.branches]
     out.branches[0].widths_m = widths
     return out
+
+
+def _edited(scene, field, op, link=None, **args):
+    """``scene`` and its flow ``field`` after one edit (made as the world makes it, not
+    swapped in) and the edit's plan."""
+    from riverflow.engine.edits import edited_branches, edited_field, edited_scene, plan_edit
+
+    new_scene, graph = edited_scene(scene, edited_branches(scene, op, link, **args))
+    new_field = edited_field(field, graph)
+    return new_scene, new_field, plan_edit(scene, field, new_scene, new_field)
+
+
+def test_the_tiles_an_edit_keeps_are_the_new_networks_for_every_kind(world):
+    """A drag, a widening, a branch added and that branch removed: of every terrain kind,
+    each tile of the two finest levels that ``marked_tiles`` keeps is, bit for bit, what the
+    new network's producer makes (the heights within HEIGHT_CHANGE_M: deviation E2)."""
+    from riverflow.engine.edits import HEIGHT_CHANGE_M, marked_tiles
+    from riverflow.scenes.tile_kinds import HEIGHT, terrain_producers
+    from riverflow.tiles.table import code_key, tile_code
+
+    scene, field = world.original, world.field
+    q, cells = scene.quadtree, scene.terrain.tile_cells
+    every = np.array([tile_code(level, i, j) for level in (scene.terrain.max_level - 1,
+                                                           scene.terrain.max_level)
+                      for j in range(1 << level) for i in range(1 << level)], np.int64)
+    b = scene.branches[0]
+    widths = b.widths_m.copy()
+    widths[len(widths) // 2:] *= 1.25
+    line = np.c_[np.linspace(-150.0, 150.0, 16), np.full(16, 350.0)]
+    added = _edited(scene, field, "add", points=line, widths=16.0, discharge_m2s=8.0,
+                    name="new")
+    edits = [(scene, _edited(scene, field, "axis", 0, points=_bumped(b.centerline_m, 15.0))),
+             (scene, _edited(scene, field, "width", 0, widths=widths)),
+             (scene, added),
+             (added[0], _edited(added[0], added[1], "remove", "new"))]
+    for old, (new, _, plan) in edits:
+        made = [{p.kind: p for p in terrain_producers(s)} for s in (old, new)]
+        tiles: list[dict] = [{}, {}]
+
+        def tile(side, kind, key):
+            if (kind, key) not in tiles[side]:
+                producer = made[side][kind]
+                deps = {(k, d): tile(side, k, d) for k, d in producer.dependencies(key)}
+                tiles[side][kind, key] = producer.produce(key, deps)
+            return tiles[side][kind, key]
+        for kind in TERRAIN_KINDS:
+            near, _ = marked_tiles(plan, old, kind, every, cells)
+            for code in every[~near].tolist():
+                key = code_key(code)
+                was, now = tile(0, kind, key), tile(1, kind, key)
+                if kind == HEIGHT:
+                    assert np.abs(was["z"] - now["z"]).max() <= HEIGHT_CHANGE_M, key
+                else:
+                    assert tile_bytes(was) == tile_bytes(now), (kind, key, plan.changed)
