@@ -227,3 +227,26 @@ def test_a_reservoir_that_only_touches_the_waters_box_is_no_sea(tmp_path):
         status, v = flow_at(b, graph, [(300, 500), (1000, 500), (1700, 500)])
         assert (status == rf.FlowStatus.INSIDE).all()
         assert len(set(np.sign(v[:, 0]))) == 1 and (np.abs(v[:, 0]) > 0.1).all(), v
+
+
+def test_a_mouth_cut_obliquely_by_the_sea_ends_its_axis_at_its_middle():
+    """A 240 m channel of a delta (Wax Lake's, from a map's water colour) whose mouth the
+    sea cuts obliquely, 483 m along the cut: the spur of the skeleton into the mouth's
+    eastern corner, wide for want of outline points by the cut, was taken as the axis's end
+    (66 m short of the mouth, 146 m from its middle; "its free end does not reach across
+    the water to its banks"). The axis runs out to the mouth near its middle."""
+    from riverflow.gis.water import skeleton
+
+    water = shapely.Polygon([(886, 405), (964, 175), (969, 72), (494, 158), (544, 329),
+                             (351, 674), (286, 739), (216, 900), (434, 900), (441, 855),
+                             (536, 837), (695, 674), (817, 443)])
+    # the data's extent less the sea (its shore the mouth's cut), cut off at the top
+    frame = shapely.Polygon([(969, 62), (969, 72), (494, 158), (466, 62), (416, 45),
+                             (214, 126), (170, 196), (0, 15), (0, 900), (1100, 900),
+                             (1100, 0), (994, 0)])
+    chains, _, _ = skeleton(water, 9.5, frame)
+    mouth = shapely.LineString([(969, 72), (494, 158)])
+    end = min((p[i] for p, _, _, _ in chains for i in (0, -1)),
+              key=lambda e: mouth.distance(shapely.Point(e)))
+    assert mouth.distance(shapely.Point(end)) < 1.0
+    assert mouth.interpolate(0.5, normalized=True).distance(shapely.Point(end)) < 30.0
