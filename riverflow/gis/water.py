@@ -1120,8 +1120,8 @@ def _find_networks(builder: WaterBuilder, water, line_geoms, inlet_xy, outlet_xy
     if not networks:
         return networks
     ends = [e for net in networks for e in net.free_ends()]
-    _match_points(ends, inlet_xy, "inlet", where, water)
-    _match_points(ends, outlet_xy, "outlet", where, water)
+    _match_points(ends, inlet_xy, "inlet", where, water, frame=frame)
+    _match_points(ends, outlet_xy, "outlet", where, water, frame=frame)
     for line in builder.outlet_lines:
         _match_line(ends, line, where)
     if builder.by_line_ends is not None and not (len(inlet_xy) or len(outlet_xy)
@@ -3625,9 +3625,13 @@ def _line_ends(water, lines: list, tolerance_m: float) -> tuple[np.ndarray, np.n
 
 
 def _match_points(ends, pts: np.ndarray, what: str, where: str, water,
-                  strict: bool = True) -> None:
+                  strict: bool = True, frame=None) -> None:
     """Mark the free end nearest each point as an inlet / outlet; GraphError for a point far
-    from every free end (not ``strict``: such a point is passed over)."""
+    from every free end (not ``strict``: such a point is passed over), or whose nearest one
+    is a spur into a bank beside it (a channel from a junction shorter than SPUR_WIDTHS ×
+    its width there, not on the data's edge ``frame``: the skeleton keeps the free end
+    nearest a point given, and an inlet put on an island or an outlet in mid-river took a
+    spur into the bank as its end)."""
     if not len(pts) or not (ends or strict):
         return
     if not ends:
@@ -3647,7 +3651,33 @@ def _match_points(ends, pts: np.ndarray, what: str, where: str, water,
                              f"({xy[i, 0]:.1f}, {xy[i, 1]:.1f}), more than the channel's width "
                              f"there ({w:.1f} m): put it where a channel leaves the data "
                              f"(coordinates in the data's CRS)")
+        spur = _spur_at(net, n) if strict else None
+        if spur is not None and frame is not None:
+            # (an end where the data's edge cuts the water may be short: a junction by it)
+            edge = _open_edge(net.water, frame, 2.0 * net.water.area / max(
+                net.water.length, 1e-9), 0.0)
+            if edge is not None and edge.distance(shapely.Point(net.nodes[n])) <= max(w, 1.0):
+                spur = None
+        if spur is not None:
+            x, y = net.nodes[n]
+            raise GraphError(f"{where}: {what} ({p[0]:.1f}, {p[1]:.1f}) lies at no end of the "
+                             f"water: its nearest free end, ({x:.1f}, {y:.1f}), is a spur "
+                             f"{spur[0]:.1f} m long into the bank of a channel {spur[1]:.1f} m "
+                             f"wide: put it where a channel leaves the data (coordinates in the "
+                             f"data's CRS)")
         (net.inlets if what == "inlet" else net.outlets).add(n)
+
+
+def _spur_at(net: _Network, n: int):
+    """(length, width at its junction) [m] of the channel from free end ``n`` when it is a
+    spur (shorter than SPUR_WIDTHS × its width at a junction of three or more), else None."""
+    deg = net.degree()
+    for c in net.channels:
+        if n in (c.a, c.b) and c.a != c.b:
+            other, w = (c.b, float(c.widths[-1])) if c.a == n else (c.a, float(c.widths[0]))
+            if deg[other] >= 3 and c.length < SPUR_WIDTHS * w:
+                return c.length, w
+    return None
 
 
 def _dem_elevations(dem, ends, report: RiverImport, where: str) -> dict:

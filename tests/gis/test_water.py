@@ -631,6 +631,26 @@ def test_an_inlet_outside_the_water_is_an_error(tmp_path):
         rf.read_water(poly, inlets=[ORIGIN + (1500.0, 0.0)], origin_m=ORIGIN)
 
 
+def test_an_inlet_on_an_island_or_an_outlet_mid_river_is_an_error(tmp_path):
+    """An inlet given on an island and an outlet in the middle of the river: the skeleton
+    kept a spur into the bank beside each as the water's end, the water ran to it from both
+    sides, and two knots were made lakes round them. Each is a GraphError naming the spur;
+    at the river's ends they read."""
+    axis = shapely.LineString([(0, 0), (500, 100), (1000, 0), (1500, 200)])
+    water = axis.buffer(40, cap_style="flat").difference(shapely.Point(500, 100).buffer(15))
+    poly = write_polygons(tmp_path / "river.gpkg", [water])
+    for kw in ({"inlets": [ORIGIN + (500.0, 100.0)]}, {"outlets": [ORIGIN + (1000.0, 0.0)]}):
+        what = next(iter(kw))[:-1]
+        with pytest.raises(GraphError, match=rf"{what} \(.*\) lies at no end of the water: "
+                                             r"its nearest free end, .* is a spur .* into the "
+                                             r"bank"):
+            rf.read_water(poly, origin_m=ORIGIN, **kw)
+    b = rf.read_water(poly, inlets=[ORIGIN], outlets=[ORIGIN + (1500.0, 200.0)],
+                      origin_m=ORIGIN)
+    b.build()
+    assert "knots" not in b.report.derived
+
+
 @pytest.mark.parametrize("kwargs, match", [
     ({"inlets": [(0.0, float("nan"))]}, "inlets must be finite points"),
     ({"outlets": "here"}, "outlets must be points"),
