@@ -72,6 +72,8 @@ from riverflow.hydro.builder import MAX_TURN_DEG, RiverNetworkBuilder, upstream_
 from riverflow.hydro.graph import GraphError
 
 RASTER_SUFFIXES = (".tif", ".tiff", ".vrt", ".img", ".asc")
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".gif")
+"""Pictures a water mask may be drawn in, refused with the way to georeference them."""
 """Suffixes read as water masks (rasterio); anything else as polygons (pyogrio)."""
 VECTOR_SUFFIXES = (".shp", ".gpkg", ".geojson", ".json", ".osm", ".pbf")
 DEFAULT_SIMPLIFY_M = 0.02
@@ -705,8 +707,8 @@ def holds_water_areas(path, layer=None) -> bool:
     if not isinstance(path, (str, Path)):
         return False
     path = Path(path)
-    if is_raster_path(path):
-        return True
+    if is_raster_path(path) or path.suffix.lower() in IMAGE_SUFFIXES:
+        return True         # (a picture: read_water says how to make it a mask)
     if path.suffix.lower() not in VECTOR_SUFFIXES or not path.exists():
         return False
     if _is_osm(path):
@@ -781,6 +783,11 @@ def read_water(path, *, layer: str | int | None = None, lines=None, inlets=None,
         raise FileNotFoundError(f"GIS file not found: {path}")
     if path.is_file() and path.stat().st_size == 0:
         raise GraphError(f"{path}: the file is empty")
+    if path.suffix.lower() in IMAGE_SUFFIXES:
+        raise GraphError(f"{path}: a {path.suffix} picture says nothing of where its cells lie "
+                         f"or how large they are: write the water mask as a GeoTIFF with its "
+                         f"transform and CRS (rasterio: driver='GTiff', transform=, crs=), "
+                         f"cells > 0 water")
     if is_raster_path(path):
         features, source_crs, layer_name, cell, extent, values = _read_mask(path)
         if simplify_m is None:

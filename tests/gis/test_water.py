@@ -600,6 +600,20 @@ def test_a_mask_of_water_everywhere_or_of_specks_only_is_an_error(tmp_path):
         rf.read_water(checker)
 
 
+def test_a_picture_of_a_mask_says_how_to_georeference_it(tmp_path, capsys):
+    """A water mask painted as a PNG (no cell size, no place): read_water and the command
+    line say to write it as a GeoTIFF, where `check` read it as lines and `render` as a
+    graph file ("expected the magic number")."""
+    from riverflow.__main__ import main
+    png = pytest.importorskip("png")
+    path = tmp_path / "mask.png"
+    png.from_array([[0, 255, 0]] * 3, "L").save(str(path))
+    with pytest.raises(GraphError, match=r"mask.png: a .png picture .* as a GeoTIFF"):
+        rf.read_water(path)
+    assert main(["check", str(path)]) == 1
+    assert "as a GeoTIFF with its transform and CRS" in capsys.readouterr().err
+
+
 def test_a_probability_mask_is_read_and_named_as_one(tmp_path):
     """A classifier's water probability (floats, 0.9 – 1 on the river, up to 0.1 on land)
     read as a mask: every cell above 0 is water, so the mask is all water, and the error
