@@ -72,9 +72,9 @@ from riverflow.hydro.builder import MAX_TURN_DEG, RiverNetworkBuilder, upstream_
 from riverflow.hydro.graph import GraphError
 
 RASTER_SUFFIXES = (".tif", ".tiff", ".vrt", ".img", ".asc")
+"""Suffixes read as water masks (rasterio); anything else as polygons (pyogrio)."""
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".gif")
 """Pictures a water mask may be drawn in, refused with the way to georeference them."""
-"""Suffixes read as water masks (rasterio); anything else as polygons (pyogrio)."""
 VECTOR_SUFFIXES = (".shp", ".gpkg", ".geojson", ".json", ".osm", ".pbf")
 DEFAULT_SIMPLIFY_M = 0.02
 """How far [m] a polygon's outline may move when simplified, by default. A simplified chord
@@ -147,11 +147,11 @@ SEA_GRID = 768
 """The most cells along the water's longer side on which open water is looked for."""
 SEA_CUT_RADII = 0.5
 """Open water reaches the data's edge where its outline runs along that edge in one piece
-at least this many times its widest inscribed radius long: the edge cuts across it (a sea, a lake the
-map's border cuts; a bay cut by the data's edge: its width). A round reservoir on a river
-that only touches the water's bounding box, whose outline leaves the box at once (a tangent
-circle's contact, within the tolerance, is 0.1 – 0.2 of its radius; 0.28 in a mask of 4 m
-cells, 300 m across), is a lake inside the data, the river running through it."""
+at least this many times its widest inscribed radius long: the edge cuts across it (a sea,
+a lake the map's border cuts; a bay cut by the data's edge: its width). A round reservoir
+on a river that only touches the water's bounding box, whose outline leaves the box at once
+(a tangent circle's contact, within the tolerance, is 0.1 – 0.2 of its radius; 0.28 in a
+mask of 4 m cells, 300 m across), is a lake inside the data, the river running through it."""
 OVERHANG_WIDTHS = 0.04
 """An edge of the outline at most this many widths of its channel long that faces away from
 the channel's axis (the far side of an island's round end where it crosses a bank, leaning
@@ -1481,9 +1481,9 @@ def _seas(water, frame, cell, report: RiverImport, tolerance_m: float):
     """(the open water (SEA_WIDTHS): polygons [m], each a lake, the channels' outlet; the
     rest of the water, None when nothing is left). The water is rasterized on cells of
     ``cell`` [m] (a mask's; at least 1/SEA_GRID of the longer side), ``frame`` the data's
-    extent (cutting across the open water: SEA_CUT_RADII); the open water's outline is that of its cells simplified and grown by 1.5 cells,
-    cut by the water's (its coast and islands are the data's), each channel's mouth then
-    straight (:func:`_straight_mouths`)."""
+    extent (cutting across the open water: SEA_CUT_RADII); the open water's outline is that
+    of its cells simplified and grown by 1.5 cells, cut by the water's (its coast and islands
+    are the data's), each channel's mouth then straight (:func:`_straight_mouths`)."""
     from affine import Affine
     from rasterio import features as rio_features
     from scipy import ndimage
@@ -1743,9 +1743,9 @@ def _repair(features, polygons, report: RiverImport, where: str, simplify_m: flo
             polys = [p for p in shapely.get_parts(g) if p.geom_type in ("Polygon",
                                                                          "MultiPolygon")]
             if polys:
-                report.repair(label, fid, attrs, f"a GeometryCollection: its "
-                              f"{len(polys)} polygons kept, its {len(shapely.get_parts(g)) - len(polys)} "
-                              f"other geometries left out")
+                other = len(shapely.get_parts(g)) - len(polys)
+                report.repair(label, fid, attrs, f"a GeometryCollection: its {len(polys)} "
+                              f"polygons kept, its {other} other geometries left out")
                 g = polys[0] if len(polys) == 1 else shapely.union_all([
                     q for p in polys for q in shapely.get_parts(
                         p if p.is_valid else shapely.make_valid(p))
@@ -3416,8 +3416,8 @@ def _restore_ends(nbr: list[dict[int, float]], gone: list[tuple[int, int, float]
     whose ends' inscribed circles reach farthest from each other and from the free ends left
     (a river's end, wide, not a spur into a bend of its bank beside it, a little farther off
     but narrow); with no free end left, a trunk that narrows to a corner is none
-    (RESTORED_END_RADII). ``pockets``: free ends of dead ends that are no ends of the water (neither
-    counted nor carried on)."""
+    (RESTORED_END_RADII). ``pockets``: free ends of dead ends that are no ends of the water
+    (neither counted nor carried on)."""
     pruned: dict[int, dict[int, float]] = {}
     for a, b, d in gone:
         pruned.setdefault(a, {})[b] = d
