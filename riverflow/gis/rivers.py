@@ -1479,26 +1479,15 @@ def _topology(links: list[_Link], snap_m: float, report: RiverImport
         links = out
     links, crossings = _crossings(links, snap_m, report)
     ends = np.array([[lk.points[0], lk.points[-1]] for lk in links]).reshape(-1, 2)
-    parent = np.arange(len(ends))
+    from scipy.cluster.hierarchy import DisjointSet
 
-    def root(a: int) -> int:
-        while parent[a] != a:
-            parent[a] = parent[parent[a]]
-            a = parent[a]
-        return a
-
+    joined = DisjointSet(range(len(ends)))
     snapped = 0
     for a, b in cKDTree(ends).query_pairs(max(snap_m, 1e-9)):
-        ra, rb = root(a), root(b)
-        if ra != rb:
-            parent[max(ra, rb)] = min(ra, rb)
-            if np.any(ends[a] != ends[b]):
-                snapped += 1
-    groups: dict[int, list[int]] = {}
-    for e in range(len(ends)):
-        groups.setdefault(root(e), []).append(e)
+        if joined.merge(a, b) and np.any(ends[a] != ends[b]):
+            snapped += 1
     junction = 0
-    for members in groups.values():
+    for members in sorted(sorted(group) for group in joined.subsets()):
         if len(members) < 2:
             continue
         if len({m // 2 for m in members}) < len(members):

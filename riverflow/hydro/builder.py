@@ -836,14 +836,9 @@ def _find_junctions(branches: list[_BranchInput], builder=None, shores=None, wat
     for i, b in enumerate(branches):
         ends.append((i, False, b.centerline_m[0], b.widths_m[0]))
         ends.append((i, True, b.centerline_m[-1], b.widths_m[-1]))
-    parent = list(range(len(ends)))
+    from scipy.cluster.hierarchy import DisjointSet
 
-    def root(a: int) -> int:
-        while parent[a] != a:
-            parent[a] = parent[parent[a]]
-            a = parent[a]
-        return a
-
+    joined = DisjointSet(range(len(ends)))
     points = np.array([e[2] for e in ends])
     reach = max(float(e[3]) for e in ends)       # no pair farther apart than this matters
     pairs = sorted(cKDTree(points).query_pairs(reach, output_type="set"))
@@ -862,7 +857,7 @@ def _find_junctions(branches: list[_BranchInput], builder=None, shores=None, wat
         if d <= JOIN_FRACTION * min(wa, wc):
             if ia == ic:
                 raise GraphError(f"branch {branches[ia].name!r} starts and ends at the same point")
-            parent[root(a)] = root(c)
+            joined.merge(a, c)
         elif d < 0.5 * (wa + wc) and ia != ic:
             apart.append((a, c, d))
     short = getattr(builder, "short_reaches_join", False)
@@ -870,7 +865,7 @@ def _find_junctions(branches: list[_BranchInput], builder=None, shores=None, wat
         # ends[a ^ 1] is the other end of a's branch: one of the two branches joins the two
         # points itself (it is shorter than the junction at its other end is wide, as an
         # axis from a junction to where the data's edge cuts the water can be)
-        if short and (root(a ^ 1) == root(c) or root(c ^ 1) == root(a)):
+        if short and (joined.connected(a ^ 1, c) or joined.connected(c ^ 1, a)):
             if builder is not None:
                 builder.short_reach_joined = True
             continue
@@ -881,13 +876,10 @@ def _find_junctions(branches: list[_BranchInput], builder=None, shores=None, wat
             f"branches {branches[ia].name!r} and {branches[ic].name!r} do not meet: the "
             f"{which[ea]} of one is {d:.2f} m from the {which[ec]} of the other; end points "
             f"must coincide within {JOIN_FRACTION * min(wa, wc):.2f} m to join")
-    groups: dict[int, list[int]] = {}
-    for a in range(len(ends)):
-        groups.setdefault(root(a), []).append(a)
     start_j = [-1] * len(branches)
     end_j = [-1] * len(branches)
     points = []
-    for members in sorted(groups.values()):
+    for members in sorted(sorted(group) for group in joined.subsets()):
         if len(members) < 2:
             continue
         j = len(points)
