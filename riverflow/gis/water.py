@@ -3251,7 +3251,35 @@ def _open_edge(water, frame, width: float, tolerance_m: float):
     near = [shapely.distance(g.interpolate(0.5, normalized=True), rest) for g in pieces]
     pieces = [g for g, d in zip(pieces, near) if d >= 0.25 * g.length
               or d >= 0.25 * g.length * _leaving_sine(g, rest)]
+    box = shapely.get_coordinates(shapely.simplify(frame, tol))
+    if pieces and len(box) == 5 and (shapely.distance(shapely.points(box[:4])[:, None], np.array(
+            pieces)[None, :]) <= 2.0 * tol).any():
+        pieces = _open_sides(on, rest, box[:4], width, tol)    # (one turns a corner)
     return shapely.MultiLineString(pieces) if pieces else None
+
+
+def _open_sides(on, rest, corners: np.ndarray, width: float, tol: float) -> list:
+    """:func:`_open_edge`'s pieces where one of them turns a corner of a rectangular frame
+    (``corners`` (4, 2)): the outline on each side of the frame alone, a piece across the
+    water when the rest of the outline and the other sides' pieces lie at least a quarter of
+    its length from its middle (a river drawn along the axes in a file of its own, its banks
+    on the file's box and its ends across it: one piece round two corners, its middle on
+    the end, far from the rest, its banks read as the data's edge; a river the data cuts at
+    a corner: its two pieces, each across)."""
+    cut = shapely.difference(on, shapely.buffer(shapely.multipoints(corners), 2.0 * tol))
+    parts = [g for g in shapely.get_parts(shapely.line_merge(cut) if cut.geom_type in (
+        "MultiLineString", "LineString") else cut)
+        if g.geom_type == "LineString" and g.length > 4.0 * tol]
+    out = []
+    for i, g in enumerate(parts):
+        if g.length < OPEN_EDGE_WIDTHS * width:
+            continue
+        mid = g.interpolate(0.5, normalized=True)
+        d = min([shapely.distance(mid, rest)]
+                + [shapely.distance(mid, h) for j, h in enumerate(parts) if j != i])
+        if d >= 0.25 * g.length or d >= 0.25 * g.length * _leaving_sine(g, rest):
+            out.append(g)
+    return out
 
 
 def _leaving_sine(piece, rest) -> float:

@@ -276,9 +276,10 @@ def test_a_lone_pond_or_moat_with_nothing_said_of_how_it_flows_is_still_water(tm
     river's two ends: refused, "no banks found across its middle") and a round lake from a
     water mask (read as a river 300 m long and 480 m wide, from its narrower end to its
     wider) are still water, lakes (reported); the lake with an inlet and an outlet given is a
-    river through it. A body longer than twice its width is no pond, whatever its skeleton:
-    a river 1 km long and 80 m wide, necked to 8 m, whose banks lie on the data's box (its
-    skeleton broken, 250 m long, as wide) is refused, naming the channel, as it was."""
+    river through it. A body longer than twice its width is no pond: a river 1 km long and
+    80 m wide, necked to 8 m, whose banks lie on its file's box (read as the data's edge
+    with its ends, one piece round each corner, its skeleton was broken, 250 m long, as
+    wide: refused, then a pond) is a river through its neck."""
     from tests.gis.test_water import write_mask, write_polygons
 
     moat = shapely.box(0, 0, 1000, 1000).difference(shapely.box(50, 50, 950, 950))
@@ -306,5 +307,9 @@ def test_a_lone_pond_or_moat_with_nothing_said_of_how_it_flows_is_still_water(tm
     assert status[0] == rf.FlowStatus.INSIDE and v[0, 0] > 0.0
     necked = shapely.union_all([shapely.box(0, 0, 480, 80), shapely.box(480, 36, 520, 44),
                                 shapely.box(520, 0, 1000, 80)])
-    with pytest.raises(rf.GraphError, match="channel 0"):
-        rf.read_water(write_polygons(tmp_path / "necked.geojson", [necked])).build()
+    b = rf.read_water(write_polygons(tmp_path / "necked.geojson", [necked]))
+    graph = b.build()
+    assert b.report.derived["axes"] == {"skeleton": 1} and graph.lakes() == []
+    status, v = flow_at(b, graph, [[200.0, 40.0], [500.0, 40.0], [800.0, 40.0]])
+    assert (status == rf.FlowStatus.INSIDE).all() and len(set(np.sign(v[:, 0]))) == 1
+    assert abs(v[1, 0]) > 5.0 * abs(v[0, 0])                 # faster through the neck
