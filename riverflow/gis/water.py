@@ -3249,8 +3249,8 @@ def _open_edge(water, frame, width: float, tolerance_m: float):
         "MultiLineString", "LineString") else on)
         if g.geom_type == "LineString" and g.length >= OPEN_EDGE_WIDTHS * width]
     near = [shapely.distance(g.interpolate(0.5, normalized=True), rest) for g in pieces]
-    pieces = [g for g, d in zip(pieces, near) if d >= 0.25 * g.length
-              or d >= 0.25 * g.length * _leaving_sine(g, rest)]
+    pieces = [g for g, d in zip(pieces, near) if (d >= 0.25 * g.length
+              or d >= 0.25 * g.length * _leaving_sine(g, rest)) and not _slices_along(g, rest)]
     box = shapely.get_coordinates(shapely.simplify(frame, tol))
     if pieces and len(box) == 5 and (shapely.distance(shapely.points(box[:4])[:, None], np.array(
             pieces)[None, :]) <= 2.0 * tol).any():
@@ -3277,44 +3277,70 @@ def _open_sides(on, rest, corners: np.ndarray, width: float, tol: float) -> list
         mid = g.interpolate(0.5, normalized=True)
         d = min([shapely.distance(mid, rest)]
                 + [shapely.distance(mid, h) for j, h in enumerate(parts) if j != i])
-        if d >= 0.25 * g.length or d >= 0.25 * g.length * _leaving_sine(g, rest):
+        if (d >= 0.25 * g.length or d >= 0.25 * g.length * _leaving_sine(g, rest)) \
+                and not _slices_along(g, rest):
             out.append(g)
     return out
 
 
 def _leaving_sine(piece, rest) -> float:
     """The sine of the sharpest acute angle at which the outline ``rest`` leaves an end of
-    ``piece`` (the water's side of the angle, between the piece's way from that end over a
-    hundredth of its length and the way from the end to the outline's point half the
-    piece's length along it), or 1 where both are right or obtuse."""
+    ``piece`` (:func:`_leaving_angles`), or 1 where both are right or obtuse."""
+    sine = 1.0
+    for angle in _leaving_angles(piece, rest):
+        if angle is not None and angle < 0.5 * math.pi:
+            sine = min(sine, math.sin(angle))
+    return sine
+
+
+SLICE_ANGLES_DEG = 270.0
+"""A piece of the data's edge whose outline leaves its two ends at angles (the water's
+side) summing to this much or more [°] runs along the water, not across it: the edge slices
+a bend's outer bank, which goes on nearly straight through it at each end (a cut across a
+channel has its banks leave its ends about parallel: 180°, 90° and 90°, or 14° and 166°)."""
+
+
+def _leaving_angles(piece, rest) -> list:
+    """At each end of ``piece``, the angle [rad] between the piece's way from that end over a
+    hundredth of its length and the way from the end to the outline ``rest``'s point half
+    the piece's length along it (the water's side of the angle), None where no part of the
+    outline leaves that end."""
     parts = [g for g in shapely.get_parts(shapely.line_merge(rest) if rest.geom_type
                                            == "MultiLineString" else rest)
              if g.geom_type == "LineString" and g.length > 0]
     c = np.asarray(piece.coords)
     if not piece.length > 0:
-        return 1.0
+        return [None, None]
     # (a piece round a corner of the frame runs along the edge at each end, not along its
     # chord; the band's cut leaves slivers of edges at its ends)
     near = shapely.get_coordinates(shapely.line_interpolate_point(
         piece, [0.01 * piece.length, 0.99 * piece.length]))
-    sine = 1.0
+    out = []
     for a, b in ((c[0], near[0]), (c[-1], near[1])):
         # (the outline leaving the end: the part whose end is nearest it; a bank at an
         # angle θ leaves the band round the frame tol / sin θ from the end)
         if not parts:
-            break
+            out.append(None)
+            continue
         d = [np.hypot(*(np.asarray(g.coords)[[0, -1]] - a).T) for g in parts]
         k = int(np.argmin([x.min() for x in d]))
         g, d = parts[k], d[k]
         if d.min() > 0.01 * piece.length:
+            out.append(None)
             continue
         at = min(0.5 * piece.length, g.length)
         q = np.asarray(g.interpolate(at if d[0] <= d[1] else g.length - at).coords[0])
         u, v = b - a, q - a
         cos = float(u @ v) / max(float(np.hypot(*u) * np.hypot(*v)), 1e-300)
-        if cos > 0.0:
-            sine = min(sine, math.sqrt(max(0.0, 1.0 - cos * cos)))
-    return sine
+        out.append(math.acos(min(1.0, max(-1.0, cos))))
+    return out
+
+
+def _slices_along(piece, rest) -> bool:
+    """Whether the outline leaves both ends of ``piece`` of the data's edge at angles summing
+    to SLICE_ANGLES_DEG or more (:func:`_leaving_angles`): a bend's bank the edge slices."""
+    angles = _leaving_angles(piece, rest)
+    return None not in angles and math.degrees(sum(angles)) >= SLICE_ANGLES_DEG
 
 
 def _open_ends(nbr, xy: np.ndarray, radius: np.ndarray, open_edge, ends, spacing: float,

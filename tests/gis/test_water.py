@@ -1882,3 +1882,22 @@ def test_a_reading_does_not_depend_on_the_readings_before_it(tmp_path):
     first = curves(braid)
     curves(other)
     assert curves(braid) == first
+
+
+def test_a_bend_the_datas_edge_slices_along_is_no_end(tmp_path):
+    """A 60 m river whose bend reaches 100 m out, the data's box slicing its outer bank flat
+    for some 200 m (the river goes on beyond the edge there, along it): that stretch of the
+    edge was read as an end cut across the water, an outlet the river ran into from both
+    sides. Its bank leaves the slice's ends going on nearly straight (SLICE_ANGLES_DEG): no
+    end; the river runs one way past it."""
+    x = np.linspace(-100.0, 1100.0, 241)
+    line = shapely.LineString(np.c_[x, 100.0 * np.exp(-((x - 500.0) / 120.0) ** 2)])
+    water = shapely.clip_by_rect(line.buffer(30.0, cap_style="flat", quad_segs=8),
+                                 0.0, -60.0, 1000.0, 115.0)
+    b = rf.read_water(write_polygons(tmp_path / "slice.geojson", [water]), origin_m=ORIGIN)
+    graph = b.build()
+    assert b.report.derived["axes"] == {"skeleton": 1} and graph.lakes() == []
+    status, v = rf.FlowField(graph).query(np.array([[200.0, 1.0], [500.0, 100.0],
+                                                    [800.0, 1.0]]))
+    assert (status == INSIDE).all()
+    assert (v[:, 0] > 0.3).all() or (v[:, 0] < -0.3).all()
