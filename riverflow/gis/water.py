@@ -3230,7 +3230,7 @@ def _open_edge(water, frame, width: float, tolerance_m: float):
     ``width`` long and runs across the water, not along it: the rest of the outline lies at
     least a quarter of its length from its middle (a straight bank on the frame's edge has
     the other bank much nearer), times the sine of the acute angle a bank leaves one of its
-    ends at (:func:`_leaving_sine`: the edge cutting a river obliquely, the water a wedge
+    ends at (:func:`_runs_across`: the edge cutting a river obliquely, the water a wedge
     between it and that bank, whose middle lies nearer the bank by that sine)."""
     if frame is None:
         return None
@@ -3249,8 +3249,7 @@ def _open_edge(water, frame, width: float, tolerance_m: float):
         "MultiLineString", "LineString") else on)
         if g.geom_type == "LineString" and g.length >= OPEN_EDGE_WIDTHS * width]
     near = [shapely.distance(g.interpolate(0.5, normalized=True), rest) for g in pieces]
-    pieces = [g for g, d in zip(pieces, near) if (d >= 0.25 * g.length
-              or d >= 0.25 * g.length * _leaving_sine(g, rest)) and not _slices_along(g, rest)]
+    pieces = [g for g, d in zip(pieces, near) if _runs_across(g, d, rest)]
     box = shapely.get_coordinates(shapely.simplify(frame, tol))
     if pieces and len(box) == 5 and (shapely.distance(shapely.points(box[:4])[:, None], np.array(
             pieces)[None, :]) <= 2.0 * tol).any():
@@ -3277,20 +3276,9 @@ def _open_sides(on, rest, corners: np.ndarray, width: float, tol: float) -> list
         mid = g.interpolate(0.5, normalized=True)
         d = min([shapely.distance(mid, rest)]
                 + [shapely.distance(mid, h) for j, h in enumerate(parts) if j != i])
-        if (d >= 0.25 * g.length or d >= 0.25 * g.length * _leaving_sine(g, rest)) \
-                and not _slices_along(g, rest):
+        if _runs_across(g, d, rest):
             out.append(g)
     return out
-
-
-def _leaving_sine(piece, rest) -> float:
-    """The sine of the sharpest acute angle at which the outline ``rest`` leaves an end of
-    ``piece`` (:func:`_leaving_angles`), or 1 where both are right or obtuse."""
-    sine = 1.0
-    for angle in _leaving_angles(piece, rest):
-        if angle is not None and angle < 0.5 * math.pi:
-            sine = min(sine, math.sin(angle))
-    return sine
 
 
 SLICE_ANGLES_DEG = 270.0
@@ -3336,11 +3324,17 @@ def _leaving_angles(piece, rest) -> list:
     return out
 
 
-def _slices_along(piece, rest) -> bool:
-    """Whether the outline leaves both ends of ``piece`` of the data's edge at angles summing
-    to SLICE_ANGLES_DEG or more (:func:`_leaving_angles`): a bend's bank the edge slices."""
+def _runs_across(piece, d: float, rest) -> bool:
+    """Whether ``piece`` of the data's edge runs across the water, the rest of the outline
+    ``d`` [m] from its middle: at least a quarter of its length, times the sine of the
+    sharpest acute angle at which the outline leaves one of its ends (the edge cutting a
+    river obliquely, the water a wedge between it and that bank); and not leaving its two
+    ends at angles summing to SLICE_ANGLES_DEG or more (a bend's bank the edge slices)."""
     angles = _leaving_angles(piece, rest)
-    return None not in angles and math.degrees(sum(angles)) >= SLICE_ANGLES_DEG
+    sine = min([1.0] + [math.sin(a) for a in angles if a is not None and a < 0.5 * math.pi])
+    if None not in angles and math.degrees(sum(angles)) >= SLICE_ANGLES_DEG:
+        return False
+    return d >= 0.25 * piece.length * sine
 
 
 def _open_ends(nbr, xy: np.ndarray, radius: np.ndarray, open_edge, ends, spacing: float,
